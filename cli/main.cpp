@@ -1,0 +1,24 @@
+// guideway: the command-line client of guidewayd and the offline analysis tool.
+#include <iostream>
+
+#include "cli/commands.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"guideway: client of guidewayd and offline analysis of metrology recordings"};
+  app.require_subcommand(1);
+  guideway::cli::CliContext ctx;
+  app.add_option("-s,--socket", ctx.socket,
+                 "daemon address: a Unix socket path or tcp:HOST:PORT (default: $GUIDEWAY_SOCKET, the per-user "
+                 "socket, then /run/guideway/guideway.sock)");
+  app.set_version_flag("-V,--version", "guideway " GUIDEWAY_VERSION);
+  guideway::cli::add_daemon_commands(app, ctx);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "guideway: " << e.what() << "\n";
+    return 1;
+  }
+  return ctx.exit_code;
+}

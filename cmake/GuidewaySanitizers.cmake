@@ -1,0 +1,10 @@
+# Sanitizers apply to every target of the build tree, so a sanitizer build is a separate build directory.
+if(GUIDEWAY_SANITIZE STREQUAL "address")
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+elseif(GUIDEWAY_SANITIZE STREQUAL "thread")
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
+elseif(NOT GUIDEWAY_SANITIZE STREQUAL "")
+  message(FATAL_ERROR "GUIDEWAY_SANITIZE must be empty, 'address' or 'thread', not '${GUIDEWAY_SANITIZE}'")
+endif()

@@ -1,0 +1,104 @@
+#include "daemon/config.hpp"
+
+#include <bit>
+#include <set>
+
+#include "core/runtime_paths.hpp"
+
+namespace guideway::daemon {
+
+namespace {
+
+constexpr std::string_view embedded_default =
+#include "default_config.inc"
+    ;
+
+void parse_listen(const TableReader& t, DaemonConfig& c) {
+  const std::string listen = t.get_string("tcp_listen", "");
+  if (listen.empty()) return;
+  const auto colon = listen.rfind(':');
+  if (colon == std::string::npos || colon == 0) t.fail("tcp_listen", "expected HOST:PORT, e.g. \"127.0.0.1:2947\"");
+  c.tcp_host = listen.substr(0, colon);
+  try {
+    std::size_t used = 0;
+    const int port = std::stoi(listen.substr(colon + 1), &used);
+    if (used != listen.size() - colon - 1 || port < 0 || port > 65535) throw std::out_of_range("port");
+    c.tcp_port = port;
+  } catch (const std::exception&) {
+    t.fail("tcp_listen", "port must be a number from 0 to 65535");
+  }
+  if (c.tcp_port == 0) c.tcp_port = -1;  // "any free port" (tests); 0 in the struct means off
+}
+
+mode_t parse_mode(const TableReader& t) {
+  const std::string text = t.get_string("socket_mode", "0660");
+  std::size_t used = 0;
+  unsigned long v = 0;
+  try {
+    v = std::stoul(text, &used, 8);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || v > 0777) t.fail("socket_mode", "expected an octal mode such as \"0660\"");
+  return static_cast<mode_t>(v);
+}
+
+std::size_t ring_capacity(const TableReader& t, std::size_t fallback) {
+  const auto v = static_cast<std::size_t>(t.get_int("ring_capacity", static_cast<std::int64_t>(fallback), 2, 1 << 26));
+  if (!std::has_single_bit(v)) t.fail("ring_capacity", "must be a power of two");
+  return v;
+}
+
+DaemonConfig from_table(toml::table table, const std::string& file_name) {
+  DaemonConfig c;
+  c.source = file_name;
+  c.root = std::make_shared<toml::table>(std::move(table));
+  TableReader top(*c.root, file_name, "");
+  if (auto d = top.table("daemon")) {
+    c.socket_path = d->get_string("socket", "");
+    c.socket_mode = parse_mode(*d);
+    c.socket_group = d->get_string("socket_group", "");
+    parse_listen(*d, c);
+    c.state_dir = d->get_string("state_dir", "");
+    c.plugin_dir = d->get_string("plugin_dir", "");
+    c.log_level = d->get_choice("log_level", "info", {"trace", "debug", "info", "warn", "error", "critical", "off"});
+    c.status_period_s = d->get_double("status_period_s", 1.0, 0.05, 3600.0);
+    c.sample_publish_hz = d->get_double("sample_publish_hz", 10.0, 0.0, 100000.0);
+    c.ring_capacity = ring_capacity(*d, c.ring_capacity);
+    c.max_clients = static_cast<std::size_t>(d->get_int("max_clients", 256, 1, 65536));
+    c.client_queue_bytes = static_cast<std::size_t>(d->get_int("client_queue_bytes", 4 << 20, 4096, 1LL << 32));
+    c.max_request_bytes = static_cast<std::size_t>(d->get_int("max_request_bytes", 16384, 256, 1 << 24));
+    d->reject_unknown_keys();
+  }
+  std::set<std::string> names;
+  for (const TableReader& dev : top.tables("device")) {
+    DaemonConfig::Device d;
+    d.name = dev.require_string("name");
+    if (d.name.empty()) dev.fail("name", "must not be empty");
+    if (!names.insert(d.name).second) dev.fail("name", "duplicate device name \"" + d.name + "\"");
+    d.driver = dev.require_string("driver");
+    d.ring_capacity = ring_capacity(dev, c.ring_capacity);
+    if (!dev.get_bool("enabled", true)) continue;
+    d.table = std::make_shared<TableReader>(dev);
+    c.devices.push_back(std::move(d));
+  }
+  top.reject_unknown_keys();
+  if (c.socket_path.empty()) c.socket_path = default_socket_path();
+  if (c.state_dir.empty()) c.state_dir = default_state_dir();
+  if (c.plugin_dir.empty()) c.plugin_dir = GUIDEWAY_PLUGIN_DIR;
+  return c;
+}
+
+}  // namespace
+
+DaemonConfig parse_config(std::string_view text, const std::string& file_name) {
+  return from_table(parse_toml(text, file_name), file_name);
+}
+
+DaemonConfig load_config_file(const std::string& path) { return from_table(parse_toml_file(path), path); }
+
+std::string_view default_config_text() { return embedded_default; }
+
+DaemonConfig default_config() { return parse_config(embedded_default, "<embedded default>"); }
+
+}  // namespace guideway::daemon

@@ -1,0 +1,49 @@
+#pragma once
+// guidewayd configuration: [daemon] settings and the [[device]] tables, validated with file, line and
+// key in every error. Device tables are validated by their driver factories when drivers are created.
+
+#include <sys/types.h>
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/toml_access.hpp"
+
+namespace guideway::daemon {
+
+struct DaemonConfig {
+  std::string source;  // file name, or "<embedded default>"
+  std::string socket_path;
+  mode_t socket_mode = 0660;
+  std::string socket_group;
+  std::string tcp_host;  // empty: no TCP listener
+  int tcp_port = 0;
+  std::string state_dir;
+  std::string plugin_dir;
+  std::string log_level = "info";
+  double status_period_s = 1.0;
+  double sample_publish_hz = 10.0;  // rate of decimated SAMPLE messages per device
+  std::size_t ring_capacity = 65536;
+  std::size_t max_clients = 256;
+  std::size_t client_queue_bytes = 4 * 1024 * 1024;
+  std::size_t max_request_bytes = 16 * 1024;
+
+  struct Device {
+    std::string name;
+    std::string driver;
+    std::size_t ring_capacity;
+    std::shared_ptr<TableReader> table;  // the [[device]] table, for the driver factory
+  };
+  std::vector<Device> devices;
+
+  std::shared_ptr<toml::table> root;  // keeps the parsed document alive for the device readers
+};
+
+DaemonConfig parse_config(std::string_view text, const std::string& file_name);
+DaemonConfig load_config_file(const std::string& path);
+DaemonConfig default_config();
+std::string_view default_config_text();
+
+}  // namespace guideway::daemon

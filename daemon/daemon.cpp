@@ -1,0 +1,234 @@
+#include "daemon/daemon.hpp"
+
+#include <signal.h>
+#include <sys/eventfd.h>
+#include <sys/signalfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <ctime>
+#include <system_error>
+
+#include "core/mono_clock.hpp"
+
+namespace guideway::daemon {
+
+namespace {
+
+std::string utc_now_iso() {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t t = std::chrono::system_clock::to_time_t(now);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+}  // namespace
+
+Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, std::shared_ptr<spdlog::logger> logger,
+               DaemonOptions options)
+    : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
+  for (const auto& dev : config_.devices) {
+    devices_.push_back(registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table}));
+  }
+  for (const auto& dev : config_.devices) dev.table->reject_unknown_keys();
+  std::vector<drivers::Driver*> raw;
+  for (auto& d : devices_) raw.push_back(d.get());
+  last_states_.assign(devices_.size(), drivers::DeviceState::stopped);
+  pipeline_ = std::make_unique<Pipeline>(raw, outbox_, config_.sample_publish_hz);
+
+  SocketServerOptions so;
+  so.unix_path = config_.socket_path;
+  so.unix_mode = config_.socket_mode;
+  so.unix_group = config_.socket_group;
+  so.tcp_host = config_.tcp_host;
+  so.tcp_port = config_.tcp_port;
+  so.max_request_bytes = config_.max_request_bytes;
+  so.max_queue_bytes = config_.client_queue_bytes;
+  so.max_clients = config_.max_clients;
+  server_ = std::make_unique<SocketServer>(loop_, so);
+  server_->on_connect([this](ClientId id) {
+    subscriptions_[id] = {};
+    server_->send(id, version_message().dump());
+  });
+  server_->on_disconnect([this](ClientId id, const std::string& reason) {
+    subscriptions_.erase(id);
+    if (reason != "closed by peer" && reason != "server shutting down") {
+      log_->warn("client {} dropped: {}", id, reason);
+    } else {
+      log_->debug("client {} gone: {}", id, reason);
+    }
+  });
+  server_->on_request([this](ClientId id, const std::string& line) { handle_request(id, line); });
+  server_->on_oversize([this](ClientId id, std::size_t bytes) {
+    server_->send(id, error_message("request of " + std::to_string(bytes) + " bytes exceeds the limit of " +
+                                    std::to_string(config_.max_request_bytes) + " bytes")
+                          .dump());
+  });
+
+  stop_fd_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (stop_fd_ < 0) throw std::system_error(errno, std::generic_category(), "eventfd");
+  loop_.add(stop_fd_, EPOLLIN, [this](std::uint32_t) { loop_.stop(); });
+  if (options_.handle_signals) {
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGINT);
+    signal_fd_ = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
+    if (signal_fd_ < 0) throw std::system_error(errno, std::generic_category(), "signalfd");
+    loop_.add(signal_fd_, EPOLLIN, [this](std::uint32_t) {
+      signalfd_siginfo info{};
+      if (read(signal_fd_, &info, sizeof(info)) == sizeof(info)) {
+        log_->info("received {}, shutting down", strsignal(static_cast<int>(info.ssi_signo)));
+      }
+      loop_.stop();
+    });
+  }
+  loop_.add(outbox_.fd(), EPOLLIN, [this](std::uint32_t) {
+    for (const Message& m : outbox_.take()) broadcast(m);
+  });
+}
+
+Daemon::~Daemon() {
+  pipeline_->stop();
+  for (auto& d : devices_) d->stop();
+  server_.reset();
+  if (stop_fd_ >= 0) close(stop_fd_);
+  if (signal_fd_ >= 0) close(signal_fd_);
+}
+
+void Daemon::request_stop() noexcept {
+  const std::uint64_t one = 1;
+  [[maybe_unused]] auto ignored = write(stop_fd_, &one, sizeof(one));
+}
+
+int Daemon::run() {
+  started_ns_ = mono_now_ns();
+  for (auto& d : devices_) d->start();
+  pipeline_->start();
+  log_->info("guidewayd {} listening on {}{}; {} device(s); config {}", GUIDEWAY_VERSION, config_.socket_path,
+             server_->tcp_port() ? " and " + config_.tcp_host + ":" + std::to_string(server_->tcp_port()) : "",
+             devices_.size(), config_.source);
+  notifier_.ready(status_line());
+  loop_.run(50, [this] { periodic(mono_now_ns()); });
+  notifier_.stopping();
+  log_->info("stopping");
+  pipeline_->stop();
+  for (auto& d : devices_) d->stop();
+  return 0;
+}
+
+void Daemon::periodic(std::int64_t now_ns) {
+  notifier_.watchdog(pipeline_->progress(), now_ns);
+  check_device_events();
+  if (now_ns - last_status_ns_ >= static_cast<std::int64_t>(config_.status_period_s * 1e9)) {
+    last_status_ns_ = now_ns;
+    last_stats_ = pipeline_->take_stats();
+    nlohmann::json status = status_json();
+    broadcast({"STATUS", "", status.dump()});
+    notifier_.status(status_line());
+  }
+}
+
+void Daemon::check_device_events() {
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    const drivers::DriverStatus s = devices_[i]->status();
+    if (s.state == last_states_[i]) continue;
+    last_states_[i] = s.state;
+    nlohmann::json ev = {{"class", "EVENT"}, {"time", utc_now_iso()}, {"device", s.name},
+                         {"event", std::string(drivers::to_string(s.state))}};
+    if (!s.reason.empty()) ev["reason"] = s.reason;
+    if (s.state == drivers::DeviceState::lost || s.state == drivers::DeviceState::error) {
+      log_->warn("device {}: {}{}", s.name, drivers::to_string(s.state), s.reason.empty() ? "" : ": " + s.reason);
+    } else {
+      log_->info("device {}: {}", s.name, drivers::to_string(s.state));
+    }
+    broadcast({"EVENT", s.name, ev.dump()});
+  }
+}
+
+std::string Daemon::status_line() const {
+  std::size_t streaming = 0;
+  for (const auto& d : devices_) streaming += d->status().state == drivers::DeviceState::streaming ? 1 : 0;
+  return std::to_string(streaming) + "/" + std::to_string(devices_.size()) + " devices streaming, " +
+         std::to_string(server_->client_count()) + " clients";
+}
+
+nlohmann::json Daemon::status_json() {
+  nlohmann::json devices = nlohmann::json::array();
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    const drivers::DriverStatus s = devices_[i]->status();
+    nlohmann::json d = {{"name", s.name}, {"driver", s.driver}, {"state", std::string(drivers::to_string(s.state))}};
+    if (!s.reason.empty()) d["reason"] = s.reason;
+    d["counters"] = {{"samples", s.counters.samples}, {"frames", s.counters.frames},
+                     {"bad_frames", s.counters.bad_frames}, {"timeouts", s.counters.timeouts},
+                     {"reconnects", s.counters.reconnects}, {"overruns", s.counters.overruns}};
+    d["ring"] = {{"capacity", s.ring.capacity}, {"depth", s.ring.depth}, {"free", s.ring.free}, {"drops", s.ring.drops}};
+    nlohmann::json channels = nlohmann::json::array();
+    for (const auto& c : devices_[i]->channels()) channels.push_back({{"name", c.name}, {"unit", c.unit}});
+    d["channels"] = std::move(channels);
+    if (i < last_stats_.devices.size()) {
+      d["consumed"] = last_stats_.devices[i].consumed;
+      d["seq_gaps"] = last_stats_.devices[i].seq_gaps;
+    }
+    devices.push_back(std::move(d));
+  }
+  return {{"class", "STATUS"},
+          {"time", utc_now_iso()},
+          {"release", GUIDEWAY_VERSION},
+          {"uptime_s", static_cast<double>(mono_now_ns() - started_ns_) * 1e-9},
+          {"config", config_.source},
+          {"socket", config_.socket_path},
+          {"state_dir", config_.state_dir},
+          {"pipeline",
+           {{"iterations", last_stats_.iterations},
+            {"samples", last_stats_.samples},
+            {"latency_mean_us", last_stats_.latency_mean_us},
+            {"latency_max_us", last_stats_.latency_max_us},
+            {"outbox_dropped", outbox_.dropped()}}},
+          {"clients", {{"connected", server_->client_count()}, {"dropped_slow", server_->dropped_clients()}}},
+          {"devices", std::move(devices)}};
+}
+
+void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<nlohmann::json>& id) {
+  if (id) message["id"] = *id;
+  server_->send(client, message.dump());
+}
+
+void Daemon::handle_request(ClientId client, const std::string& line) {
+  std::string error;
+  std::optional<Request> req = parse_request(line, error);
+  if (!req) {
+    server_->send(client, error_message(error).dump());
+    return;
+  }
+  if (req->cls == "version") {
+    reply(client, version_message(), req->id);
+  } else if (req->cls == "status" || req->cls == "poll") {
+    last_stats_.devices.resize(devices_.size());
+    reply(client, status_json(), req->id);
+  } else if (req->cls == "watch") {
+    try {
+      reply(client, apply_watch(req->body, subscriptions_[client]), req->id);
+    } catch (const std::invalid_argument& e) {
+      reply(client, error_message(e.what(), req->cls), req->id);
+    }
+  } else {
+    reply(client,
+          error_message("unknown request class \"" + req->cls + "\" (known: version, status, poll, watch)", req->cls),
+          req->id);
+  }
+}
+
+void Daemon::broadcast(const Message& message) {
+  std::vector<ClientId> targets;
+  for (const auto& [id, sub] : subscriptions_) {
+    if (sub.wants(message.cls, message.channel)) targets.push_back(id);
+  }
+  for (ClientId id : targets) server_->send(id, message.json);  // may drop a slow client
+}
+
+}  // namespace guideway::daemon

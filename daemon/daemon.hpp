@@ -1,0 +1,72 @@
+#pragma once
+// guidewayd wired together: drivers from the configuration, the pipeline, the socket server and the
+// systemd glue, on one event loop. run() blocks until request_stop() (thread safe) or, when
+// handle_signals is set, SIGTERM/SIGINT (which the caller must have blocked before starting threads).
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <spdlog/logger.h>
+
+#include "daemon/config.hpp"
+#include "daemon/event_loop.hpp"
+#include "daemon/outbox.hpp"
+#include "daemon/pipeline.hpp"
+#include "daemon/protocol.hpp"
+#include "daemon/socket_server.hpp"
+#include "daemon/systemd_notify.hpp"
+#include "drivers/driver.hpp"
+
+namespace guideway::daemon {
+
+struct DaemonOptions {
+  bool handle_signals = false;
+};
+
+class Daemon {
+ public:
+  // Creates the drivers (throws ConfigError on a bad [[device]] table) and binds the sockets
+  // (throws std::runtime_error/std::system_error naming the path on failure). Nothing runs yet.
+  Daemon(DaemonConfig config, drivers::DriverRegistry& registry, std::shared_ptr<spdlog::logger> logger,
+         DaemonOptions options = {});
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  int run();
+  void request_stop() noexcept;
+  [[nodiscard]] const SocketServer& server() const { return *server_; }
+  [[nodiscard]] nlohmann::json status_json();
+
+ private:
+  void handle_request(ClientId client, const std::string& line);
+  void reply(ClientId client, nlohmann::json message, const std::optional<nlohmann::json>& id);
+  void broadcast(const Message& message);
+  void periodic(std::int64_t now_ns);
+  void check_device_events();
+  std::string status_line() const;
+
+  DaemonConfig config_;
+  std::shared_ptr<spdlog::logger> log_;
+  DaemonOptions options_;
+  std::vector<std::unique_ptr<drivers::Driver>> devices_;
+  EventLoop loop_;
+  Outbox outbox_;
+  std::unique_ptr<Pipeline> pipeline_;
+  std::unique_ptr<SocketServer> server_;
+  SystemdNotifier notifier_;
+  std::unordered_map<ClientId, Subscription> subscriptions_;
+  std::vector<drivers::DeviceState> last_states_;
+  int stop_fd_ = -1;
+  int signal_fd_ = -1;
+  std::int64_t started_ns_ = 0;
+  std::int64_t last_status_ns_ = 0;
+  PipelineStats last_stats_;
+};
+
+}  // namespace guideway::daemon

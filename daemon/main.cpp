@@ -1,0 +1,96 @@
+// guidewayd: the Guideway acquisition daemon.
+#include <signal.h>
+
+#include <cstdio>
+#include <exception>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "daemon/config.hpp"
+#include "daemon/daemon.hpp"
+#include "daemon/logging.hpp"
+#include "drivers/builtin.hpp"
+
+using namespace guideway;
+
+int main(int argc, char** argv) {
+  CLI::App app{"guidewayd: real-time metrology acquisition daemon for machine tools"};
+  std::string config_path;
+  std::string socket_override;
+  std::string log_level;
+  bool check_only = false;
+  bool print_default = false;
+  bool list_drivers = false;
+  bool show_version = false;
+  app.add_option("-c,--config", config_path, "TOML configuration file (default: the embedded default, emulated instruments)");
+  app.add_option("-s,--socket", socket_override, "Unix socket path (overrides [daemon] socket)");
+  app.add_option("-l,--log-level", log_level, "trace, debug, info, warn, error (overrides [daemon] log_level)");
+  app.add_flag("--check-config", check_only, "validate the configuration (and create the drivers) and exit");
+  app.add_flag("--print-default-config", print_default, "print the embedded default configuration and exit");
+  app.add_flag("--list-drivers", list_drivers, "list the available drivers (built-in and plugins) and exit");
+  app.add_flag("-V,--version", show_version, "print the version and exit");
+  CLI11_PARSE(app, argc, argv);
+
+  if (show_version) {
+    std::cout << "guidewayd " << GUIDEWAY_VERSION << "\n";
+    return 0;
+  }
+  if (print_default) {
+    std::cout << daemon::default_config_text();
+    return 0;
+  }
+
+  // Block the signals before any thread starts, so only the event loop's signalfd sees them.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+
+  daemon::DaemonConfig config;
+  try {
+    config = config_path.empty() ? daemon::default_config() : daemon::load_config_file(config_path);
+  } catch (const ConfigError& e) {
+    std::cerr << "guidewayd: configuration error: " << e.what() << "\n";
+    return 2;
+  }
+  if (!socket_override.empty()) config.socket_path = socket_override;
+  if (!log_level.empty()) config.log_level = log_level;
+
+  std::shared_ptr<spdlog::logger> log;
+  try {
+    log = daemon::make_logger(config.log_level);
+  } catch (const std::exception& e) {
+    std::cerr << "guidewayd: " << e.what() << "\n";
+    return 2;
+  }
+
+  drivers::DriverRegistry registry;
+  drivers::register_builtin_drivers(registry);
+  for (const std::string& err : registry.load_plugins(config.plugin_dir)) log->warn("plugin: {}", err);
+  if (list_drivers) {
+    for (const auto& [name, description] : registry.list()) std::cout << name << "\t" << description << "\n";
+    return 0;
+  }
+
+  try {
+    if (check_only) {
+      for (const auto& dev : config.devices) {
+        auto driver = registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table});
+        dev.table->reject_unknown_keys();
+      }
+      std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
+      return 0;
+    }
+    daemon::Daemon d(std::move(config), registry, log, {.handle_signals = true});
+    return d.run();
+  } catch (const ConfigError& e) {
+    log->error("configuration error: {}", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    log->error("{}", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,78 @@
+#pragma once
+// The pipeline thread: the single consumer of every driver ring. It drains the rings in bulk, checks
+// sequence gaps, measures sample-to-processing latency, feeds the stages (sessions, identification,
+// later issues) and posts decimated SAMPLE messages to the outbox.
+// Thread safety: start/stop from the owner; progress() and stats() from any thread.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <stop_token>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/sample.hpp"
+#include "daemon/outbox.hpp"
+#include "drivers/driver.hpp"
+
+namespace guideway::daemon {
+
+// A processing stage fed by the pipeline thread (called only on that thread).
+class PipelineStage {
+ public:
+  virtual ~PipelineStage() = default;
+  virtual void on_samples(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) = 0;
+  virtual void on_tick(std::int64_t now_mono_ns) { (void)now_mono_ns; }
+};
+
+struct DeviceFlowStats {
+  std::uint64_t consumed = 0;     // samples taken from the ring
+  std::uint64_t seq_gaps = 0;     // samples missing by sequence number (ring overruns seen by the consumer)
+  std::int64_t last_t_mono_ns = 0;
+  std::uint64_t non_monotonic = 0;  // samples whose timestamp went backwards
+};
+
+struct PipelineStats {
+  std::uint64_t iterations = 0;
+  std::uint64_t samples = 0;
+  double latency_mean_us = 0.0;  // sample timestamp to pipeline, over the last status period
+  double latency_max_us = 0.0;
+  std::vector<DeviceFlowStats> devices;
+};
+
+class Pipeline {
+ public:
+  Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double sample_publish_hz);
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  void add_stage(std::unique_ptr<PipelineStage> stage);  // before start()
+  void start();
+  void stop();
+  // Advances on every loop of the pipeline thread, idle or not: the watchdog's proof of life.
+  [[nodiscard]] std::uint64_t progress() const noexcept { return progress_.load(std::memory_order_relaxed); }
+  // Returns the statistics and restarts the latency window.
+  PipelineStats take_stats();
+
+ private:
+  void run(const std::stop_token& stop);
+  void publish_sample(std::size_t index, const Sample& s, std::int64_t now_ns);
+
+  std::vector<drivers::Driver*> devices_;
+  Outbox& outbox_;
+  std::int64_t publish_period_ns_;
+  std::vector<std::int64_t> last_publish_ns_;
+  std::vector<std::unique_ptr<PipelineStage>> stages_;
+  std::atomic<std::uint64_t> progress_{0};
+  std::mutex stats_mutex_;
+  PipelineStats stats_;
+  double latency_sum_us_ = 0.0;
+  std::uint64_t latency_count_ = 0;
+  std::jthread thread_;
+};
+
+}  // namespace guideway::daemon

@@ -1,0 +1,88 @@
+#include "daemon/protocol.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <stdexcept>
+
+namespace guideway::daemon {
+
+nlohmann::json version_message() {
+  return {{"class", "VERSION"},
+          {"release", GUIDEWAY_VERSION},
+          {"proto_major", protocol_major},
+          {"proto_minor", protocol_minor}};
+}
+
+nlohmann::json error_message(std::string_view message, std::string_view request_class) {
+  nlohmann::json j = {{"class", "ERROR"}, {"message", message}};
+  if (!request_class.empty()) j["request"] = request_class;
+  return j;
+}
+
+std::optional<Request> parse_request(std::string_view line, std::string& error) {
+  nlohmann::json body = nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
+  if (body.is_discarded()) {
+    error = "malformed JSON";
+    return std::nullopt;
+  }
+  if (!body.is_object()) {
+    error = "a request must be a JSON object";
+    return std::nullopt;
+  }
+  auto cls = body.find("class");
+  if (cls == body.end() || !cls->is_string()) {
+    error = "a request needs a string \"class\" (e.g. {\"class\":\"status\"})";
+    return std::nullopt;
+  }
+  Request r;
+  r.cls = cls->get<std::string>();
+  std::transform(r.cls.begin(), r.cls.end(), r.cls.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (auto id = body.find("id"); id != body.end()) r.id = *id;
+  r.body = std::move(body);
+  return r;
+}
+
+bool Subscription::wants(std::string_view cls, std::string_view channel) const {
+  if (!enabled) return false;
+  if (classes.empty() ? cls == "SAMPLE" : !classes.contains(cls)) return false;
+  return channels.empty() || channel.empty() || channels.contains(channel);
+}
+
+namespace {
+
+std::set<std::string, std::less<>> string_set(const nlohmann::json& body, const char* key, bool upper) {
+  std::set<std::string, std::less<>> out;
+  auto it = body.find(key);
+  if (it == body.end()) return out;
+  if (!it->is_array()) throw std::invalid_argument(std::string("\"") + key + "\" must be an array of strings");
+  for (const auto& v : *it) {
+    if (!v.is_string()) throw std::invalid_argument(std::string("\"") + key + "\" must be an array of strings");
+    std::string s = v.get<std::string>();
+    if (upper) std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::toupper(c); });
+    out.insert(std::move(s));
+  }
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json apply_watch(const nlohmann::json& body, Subscription& sub) {
+  auto enable = body.find("enable");
+  if (enable != body.end() && !enable->is_boolean()) throw std::invalid_argument("\"enable\" must be true or false");
+  Subscription next;
+  next.enabled = enable == body.end() ? true : enable->get<bool>();
+  next.classes = string_set(body, "classes", true);
+  for (const auto& c : next.classes) {
+    if (!published_classes.contains(c)) {
+      throw std::invalid_argument("unknown class \"" + c + "\" (published: STATUS, SAMPLE, PARAMS, EXPLAIN, EVENT)");
+    }
+  }
+  next.channels = string_set(body, "channels", false);
+  sub = std::move(next);
+  nlohmann::json reply = {{"class", "WATCH"}, {"enable", sub.enabled}};
+  if (!sub.classes.empty()) reply["classes"] = sub.classes;
+  if (!sub.channels.empty()) reply["channels"] = sub.channels;
+  return reply;
+}
+
+}  // namespace guideway::daemon

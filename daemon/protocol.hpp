@@ -1,0 +1,44 @@
+#pragma once
+// The JSON Lines protocol of guidewayd (docs/protocol.md): one JSON object per line, every object
+// carries "class". Requests use lower-case classes ("status"), replies and published messages
+// upper-case ("STATUS"). Fields that are unknown are left out, never null.
+
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+namespace guideway::daemon {
+
+inline constexpr int protocol_major = 1;
+inline constexpr int protocol_minor = 0;
+
+// The classes a client can be sent as published (not reply-only) messages.
+inline const std::set<std::string, std::less<>> published_classes = {"STATUS", "SAMPLE", "PARAMS", "EXPLAIN", "EVENT"};
+
+nlohmann::json version_message();
+nlohmann::json error_message(std::string_view message, std::string_view request_class = {});
+
+struct Request {
+  std::string cls;  // lower-cased
+  nlohmann::json body;
+  std::optional<nlohmann::json> id;  // echoed in the reply when given
+};
+
+// Parses one request line; on failure returns nullopt and sets `error`.
+std::optional<Request> parse_request(std::string_view line, std::string& error);
+
+// What a client asked to receive with `watch`.
+struct Subscription {
+  bool enabled = false;
+  std::set<std::string, std::less<>> classes;   // empty = every published class except SAMPLE
+  std::set<std::string, std::less<>> channels;  // empty = every device/session
+  [[nodiscard]] bool wants(std::string_view cls, std::string_view channel) const;
+};
+
+// Applies a watch request; returns the reply (WATCH) or throws std::invalid_argument with the reason.
+nlohmann::json apply_watch(const nlohmann::json& body, Subscription& sub);
+
+}  // namespace guideway::daemon

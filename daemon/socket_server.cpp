@@ -1,0 +1,238 @@
+#include "daemon/socket_server.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <grp.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+namespace guideway::daemon {
+
+namespace {
+
+[[noreturn]] void throw_errno(const std::string& what) { throw std::system_error(errno, std::generic_category(), what); }
+
+}  // namespace
+
+SocketServer::SocketServer(EventLoop& loop, SocketServerOptions options) : loop_(loop), options_(std::move(options)) {
+  if (!options_.unix_path.empty()) listen_unix();
+  if (options_.tcp_port != 0) listen_tcp();
+}
+
+SocketServer::~SocketServer() {
+  while (!clients_.empty()) close_client(clients_.begin()->first, "server shutting down");
+  if (unix_fd_ >= 0) {
+    loop_.remove(unix_fd_);
+    close(unix_fd_);
+    ::unlink(options_.unix_path.c_str());
+  }
+  if (tcp_fd_ >= 0) {
+    loop_.remove(tcp_fd_);
+    close(tcp_fd_);
+  }
+}
+
+void SocketServer::listen_unix() {
+  const std::string& path = options_.unix_path;
+  sockaddr_un addr{};
+  if (path.size() >= sizeof(addr.sun_path)) throw std::runtime_error("socket path too long: " + path);
+  std::error_code ec;
+  std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (!parent.empty()) {
+    if (std::filesystem::create_directories(parent, ec); ec) {
+      throw std::runtime_error("cannot create socket directory " + parent.string() + ": " + ec.message());
+    }
+  }
+  // A socket file left by a daemon that died: remove it only if nobody answers on it.
+  if (std::filesystem::exists(path, ec)) {
+    int probe = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    addr.sun_family = AF_UNIX;
+    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+    const bool alive = connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0;
+    close(probe);
+    if (alive) throw std::runtime_error("another daemon is already listening on " + path);
+    ::unlink(path.c_str());
+  }
+  unix_fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (unix_fd_ < 0) throw_errno("socket(AF_UNIX)");
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  if (bind(unix_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) throw_errno("bind " + path);
+  if (chmod(path.c_str(), options_.unix_mode) != 0) throw_errno("chmod " + path);
+  if (!options_.unix_group.empty()) {
+    const group* g = getgrnam(options_.unix_group.c_str());
+    if (!g) throw std::runtime_error("socket_group: no group named " + options_.unix_group);
+    if (chown(path.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) throw_errno("chown " + path);
+  }
+  if (listen(unix_fd_, 64) != 0) throw_errno("listen " + path);
+  loop_.add(unix_fd_, EPOLLIN, [this](std::uint32_t) { accept_on(unix_fd_); });
+}
+
+void SocketServer::listen_tcp() {
+  tcp_fd_ = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (tcp_fd_ < 0) throw_errno("socket(AF_INET)");
+  int one = 1;
+  setsockopt(tcp_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(options_.tcp_port < 0 ? 0 : options_.tcp_port));
+  if (inet_pton(AF_INET, options_.tcp_host.c_str(), &addr.sin_addr) != 1) {
+    throw std::runtime_error("tcp_listen: not an IPv4 address: " + options_.tcp_host);
+  }
+  if (bind(tcp_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
+    throw_errno("bind " + options_.tcp_host + ":" + std::to_string(options_.tcp_port));
+  }
+  if (listen(tcp_fd_, 64) != 0) throw_errno("listen tcp");
+  socklen_t len = sizeof(addr);
+  getsockname(tcp_fd_, reinterpret_cast<sockaddr*>(&addr), &len);
+  bound_tcp_port_ = ntohs(addr.sin_port);
+  loop_.add(tcp_fd_, EPOLLIN, [this](std::uint32_t) { accept_on(tcp_fd_); });
+}
+
+void SocketServer::accept_on(int listen_fd) {
+  for (;;) {
+    const int fd = accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) return;  // EAGAIN, or a transient error: nothing to do until the next readiness
+    if (clients_.size() >= options_.max_clients) {
+      static constexpr char busy[] =
+          "{\"class\":\"ERROR\",\"message\":\"too many clients\"}\n";
+      [[maybe_unused]] auto ignored = write(fd, busy, sizeof(busy) - 1);
+      close(fd);
+      continue;
+    }
+    const ClientId id = next_id_++;
+    clients_[id].fd = fd;
+    loop_.add(fd, EPOLLIN | EPOLLRDHUP, [this, id](std::uint32_t events) {
+      if (events & (EPOLLERR | EPOLLHUP)) {
+        close_client(id, "connection error");
+        return;
+      }
+      if (events & EPOLLOUT) flush(id);
+      if (events & (EPOLLIN | EPOLLRDHUP)) read_from(id);
+    });
+    if (on_connect_) on_connect_(id);
+  }
+}
+
+void SocketServer::read_from(ClientId id) {
+  std::array<char, 8192> buf{};
+  for (;;) {
+    auto it = clients_.find(id);
+    if (it == clients_.end()) return;
+    const ssize_t n = read(it->second.fd, buf.data(), buf.size());
+    if (n == 0) {
+      close_client(id, "closed by peer");
+      return;
+    }
+    if (n < 0) {
+      if (errno == EAGAIN || errno == EWOULDBLOCK) return;
+      if (errno == EINTR) continue;
+      close_client(id, std::string("read error: ") + std::strerror(errno));
+      return;
+    }
+    std::size_t start = 0;
+    const auto len = static_cast<std::size_t>(n);
+    while (start < len) {
+      Client& c = clients_.at(id);
+      const char* nl = static_cast<const char*>(std::memchr(buf.data() + start, '\n', len - start));
+      const std::size_t end = nl ? static_cast<std::size_t>(nl - buf.data()) : len;
+      if (c.discarding) {
+        c.discarded += end - start;
+        if (nl) {
+          c.discarding = false;
+          const std::size_t bytes = c.discarded;
+          c.discarded = 0;
+          if (on_oversize_) on_oversize_(id, bytes);
+        }
+      } else {
+        c.inbox.append(buf.data() + start, end - start);
+        if (c.inbox.size() > options_.max_request_bytes) {
+          c.discarded = c.inbox.size();
+          c.inbox.clear();
+          c.discarding = !nl;
+          if (nl && on_oversize_) {
+            on_oversize_(id, c.discarded);
+            c.discarded = 0;
+          }
+        } else if (nl) {
+          std::string line;
+          line.swap(c.inbox);
+          if (!line.empty() && line.back() == '\r') line.pop_back();
+          if (!line.empty() && on_request_) on_request_(id, line);
+        }
+      }
+      if (!clients_.contains(id)) return;  // a handler disconnected it
+      start = end + 1;
+    }
+  }
+}
+
+bool SocketServer::send(ClientId id, std::string line) {
+  auto it = clients_.find(id);
+  if (it == clients_.end()) return false;
+  Client& c = it->second;
+  line.push_back('\n');
+  if (c.queued + line.size() > options_.max_queue_bytes) {
+    ++dropped_clients_;
+    close_client(id, "queue overflow (" + std::to_string(c.queued) + " bytes unread): client too slow");
+    return false;
+  }
+  c.queued += line.size();
+  c.outbox.push_back(std::move(line));
+  flush(id);
+  return clients_.contains(id);
+}
+
+void SocketServer::flush(ClientId id) {
+  auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  Client& c = it->second;
+  while (!c.outbox.empty()) {
+    const std::string& front = c.outbox.front();
+    const ssize_t n = ::send(c.fd, front.data() + c.out_offset, front.size() - c.out_offset, MSG_NOSIGNAL);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EAGAIN || errno == EWOULDBLOCK) break;
+      close_client(id, std::string("write error: ") + std::strerror(errno));
+      return;
+    }
+    c.out_offset += static_cast<std::size_t>(n);
+    if (c.out_offset == front.size()) {
+      c.queued -= front.size();
+      c.outbox.pop_front();
+      c.out_offset = 0;
+    }
+  }
+  const bool want_write = !c.outbox.empty();
+  if (want_write != c.want_write) {
+    c.want_write = want_write;
+    loop_.modify(c.fd, EPOLLIN | EPOLLRDHUP | (want_write ? EPOLLOUT : 0u));
+  }
+}
+
+std::size_t SocketServer::queued_bytes(ClientId id) const {
+  auto it = clients_.find(id);
+  return it == clients_.end() ? 0 : it->second.queued;
+}
+
+void SocketServer::disconnect(ClientId id, const std::string& reason) { close_client(id, reason); }
+
+void SocketServer::close_client(ClientId id, const std::string& reason) {
+  auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  loop_.remove(it->second.fd);
+  close(it->second.fd);
+  clients_.erase(it);
+  if (on_disconnect_) on_disconnect_(id, reason);
+}
+
+}  // namespace guideway::daemon

@@ -1,0 +1,95 @@
+#pragma once
+// JSON Lines server over a Unix socket and optionally TCP. Reads newline-terminated requests
+// (capped in length), hands each line to the request handler, and writes replies through a bounded
+// per-client queue: a client that stops reading is dropped when its queue overflows, never waited for.
+// Single-threaded: runs on the daemon's EventLoop.
+
+#include <sys/types.h>
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <string>
+#include <unordered_map>
+
+#include "daemon/event_loop.hpp"
+
+namespace guideway::daemon {
+
+struct SocketServerOptions {
+  std::string unix_path;           // empty: no Unix socket
+  mode_t unix_mode = 0660;
+  std::string unix_group;          // empty: the daemon's group
+  std::string tcp_host = "127.0.0.1";
+  int tcp_port = 0;                // 0: no TCP listener
+  std::size_t max_request_bytes = 16 * 1024;
+  std::size_t max_queue_bytes = 4 * 1024 * 1024;
+  std::size_t max_clients = 256;
+};
+
+using ClientId = std::uint64_t;
+
+class SocketServer {
+ public:
+  // Called for every complete request line (without the newline).
+  using RequestHandler = std::function<void(ClientId, const std::string& line)>;
+  using ConnectHandler = std::function<void(ClientId)>;
+  // Called when a client goes, with why ("closed by peer", "queue overflow (...)", ...).
+  using DisconnectHandler = std::function<void(ClientId, const std::string& reason)>;
+  // Called for a request line that was too long (the server discards it and answers via this).
+  using OversizeHandler = std::function<void(ClientId, std::size_t bytes)>;
+
+  SocketServer(EventLoop& loop, SocketServerOptions options);
+  ~SocketServer();
+  SocketServer(const SocketServer&) = delete;
+  SocketServer& operator=(const SocketServer&) = delete;
+
+  void on_request(RequestHandler h) { on_request_ = std::move(h); }
+  void on_connect(ConnectHandler h) { on_connect_ = std::move(h); }
+  void on_disconnect(DisconnectHandler h) { on_disconnect_ = std::move(h); }
+  void on_oversize(OversizeHandler h) { on_oversize_ = std::move(h); }
+
+  // Queues one line (a newline is appended). Returns false if the client is gone or was dropped.
+  bool send(ClientId client, std::string line);
+  void disconnect(ClientId client, const std::string& reason);
+  [[nodiscard]] std::size_t client_count() const noexcept { return clients_.size(); }
+  [[nodiscard]] std::size_t queued_bytes(ClientId client) const;
+  [[nodiscard]] const std::string& unix_path() const noexcept { return options_.unix_path; }
+  [[nodiscard]] int tcp_port() const noexcept { return bound_tcp_port_; }  // the real port (for port 0 = any)
+  [[nodiscard]] std::uint64_t dropped_clients() const noexcept { return dropped_clients_; }
+
+ private:
+  struct Client {
+    int fd = -1;
+    std::string inbox;
+    bool discarding = false;  // inside an oversize line: skip to the next newline
+    std::size_t discarded = 0;
+    std::deque<std::string> outbox;
+    std::size_t out_offset = 0;  // bytes of outbox.front() already written
+    std::size_t queued = 0;
+    bool want_write = false;
+  };
+
+  void listen_unix();
+  void listen_tcp();
+  void accept_on(int listen_fd);
+  void read_from(ClientId id);
+  void flush(ClientId id);
+  void close_client(ClientId id, const std::string& reason);
+
+  EventLoop& loop_;
+  SocketServerOptions options_;
+  int unix_fd_ = -1;
+  int tcp_fd_ = -1;
+  int bound_tcp_port_ = 0;
+  ClientId next_id_ = 1;
+  std::unordered_map<ClientId, Client> clients_;
+  std::uint64_t dropped_clients_ = 0;
+  RequestHandler on_request_;
+  ConnectHandler on_connect_;
+  DisconnectHandler on_disconnect_;
+  OversizeHandler on_oversize_;
+};
+
+}  // namespace guideway::daemon

@@ -1,0 +1,143 @@
+#include "drivers/driver.hpp"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <condition_variable>
+#include <filesystem>
+
+namespace guideway::drivers {
+
+std::string_view to_string(DeviceState state) noexcept {
+  switch (state) {
+    case DeviceState::stopped: return "stopped";
+    case DeviceState::connecting: return "connecting";
+    case DeviceState::streaming: return "streaming";
+    case DeviceState::lost: return "lost";
+    case DeviceState::error: return "error";
+  }
+  return "unknown";
+}
+
+Driver::Driver(std::string name, std::string driver, std::vector<ChannelInfo> channels, std::size_t ring_capacity)
+    : name_(std::move(name)), driver_(std::move(driver)), channels_(std::move(channels)), ring_(ring_capacity) {}
+
+Driver::~Driver() = default;  // derived classes call stop() in their destructors, before their members go
+
+void Driver::start() {
+  if (thread_.joinable()) return;
+  set_state(DeviceState::connecting);
+  thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
+}
+
+void Driver::stop() {
+  if (!thread_.joinable()) return;
+  thread_.request_stop();
+  interrupt();
+  thread_.join();
+  set_state(DeviceState::stopped);
+}
+
+DriverStatus Driver::status() const {
+  DriverStatus s;
+  s.name = name_;
+  s.driver = driver_;
+  {
+    std::lock_guard lock(state_mutex_);
+    s.state = state_;
+    s.reason = reason_;
+  }
+  s.counters.samples = samples_.load(std::memory_order_relaxed);
+  s.counters.frames = frames_.load(std::memory_order_relaxed);
+  s.counters.bad_frames = bad_frames_.load(std::memory_order_relaxed);
+  s.counters.timeouts = timeouts_.load(std::memory_order_relaxed);
+  s.counters.reconnects = reconnects_.load(std::memory_order_relaxed);
+  s.counters.overruns = ring_.drops();
+  s.ring = {ring_.capacity(), ring_.depth(), ring_.free_slots(), ring_.drops()};
+  return s;
+}
+
+void Driver::set_state(DeviceState state, std::string reason) {
+  std::lock_guard lock(state_mutex_);
+  state_ = state;
+  reason_ = std::move(reason);
+}
+
+void Driver::publish(Sample sample) noexcept {
+  sample.seq = next_seq_++;
+  samples_.store(next_seq_, std::memory_order_relaxed);
+  ring_.try_push(sample);
+}
+
+bool Driver::sleep_for(const std::stop_token& stop, std::chrono::nanoseconds d) {
+  std::mutex m;
+  std::condition_variable_any cv;
+  std::unique_lock lock(m);
+  return !cv.wait_for(lock, stop, d, [] { return false; }) && !stop.stop_requested();
+}
+
+void DriverRegistry::add(std::string driver, std::string description, DriverFactory factory) {
+  auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& e) { return e.driver == driver; });
+  if (it != entries_.end()) {
+    it->description = std::move(description);
+    it->factory = std::move(factory);
+    return;
+  }
+  entries_.push_back({std::move(driver), std::move(description), std::move(factory)});
+}
+
+bool DriverRegistry::contains(std::string_view driver) const {
+  return std::any_of(entries_.begin(), entries_.end(), [&](const Entry& e) { return e.driver == driver; });
+}
+
+std::unique_ptr<Driver> DriverRegistry::create(const DeviceConfig& config) const {
+  for (const Entry& e : entries_) {
+    if (e.driver == config.driver) return e.factory(config);
+  }
+  std::string known;
+  for (const Entry& e : entries_) known += (known.empty() ? "" : ", ") + e.driver;
+  config.table.fail("driver", "unknown driver \"" + config.driver + "\" (known: " +
+                                  (known.empty() ? std::string("none") : known) + ")");
+}
+
+std::vector<std::pair<std::string, std::string>> DriverRegistry::list() const {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const Entry& e : entries_) out.emplace_back(e.driver, e.description);
+  return out;
+}
+
+std::vector<std::string> DriverRegistry::load_plugins(const std::string& dir) {
+  std::vector<std::string> errors;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return errors;
+  std::vector<std::filesystem::path> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+    if (entry.path().extension() == ".so") files.push_back(entry.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const auto& file : files) {
+    void* handle = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (!handle) {
+      errors.push_back(file.string() + ": " + dlerror());
+      continue;
+    }
+    auto abi = reinterpret_cast<PluginAbiVersionFn>(dlsym(handle, "guideway_plugin_abi_version"));
+    auto reg = reinterpret_cast<RegisterDriversFn>(dlsym(handle, "guideway_register_drivers"));
+    if (!abi || !reg) {
+      errors.push_back(file.string() + ": not a guideway driver plugin (no guideway_register_drivers)");
+      dlclose(handle);
+      continue;
+    }
+    if (abi() != plugin_abi_version) {
+      errors.push_back(file.string() + ": plugin ABI " + std::to_string(abi()) + ", daemon expects " +
+                       std::to_string(plugin_abi_version));
+      dlclose(handle);
+      continue;
+    }
+    reg(*this);
+    plugin_handles_.push_back(handle);  // never closed: factories point into it
+  }
+  return errors;
+}
+
+}  // namespace guideway::drivers

@@ -1,0 +1,148 @@
+#pragma once
+// Driver plugin API. A driver owns one device: its thread reads the transport, parses frames with a
+// pure parser, timestamps samples with CLOCK_MONOTONIC and pushes them into its SPSC ring (it is
+// the ring's only producer). Faults are states of the driver, never exceptions out of its thread.
+// Thread safety: start/stop from the owning thread; status() and ring observers from any thread;
+// ring().try_pop/pop_bulk from the single consumer (the pipeline).
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <stop_token>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+#include "core/sample.hpp"
+#include "core/spsc_ring.hpp"
+#include "core/toml_access.hpp"
+
+namespace guideway::drivers {
+
+enum class DeviceState { stopped, connecting, streaming, lost, error };
+std::string_view to_string(DeviceState state) noexcept;
+
+struct ChannelInfo {
+  std::string name;  // e.g. "bar_length", "x", "pitch"
+  std::string unit;  // SI unit of the ring values: "m", "rad", "s"
+};
+
+struct DriverCounters {
+  std::uint64_t samples = 0;     // samples produced (pushed or dropped)
+  std::uint64_t frames = 0;      // frames/lines/responses received and parsed
+  std::uint64_t bad_frames = 0;  // garbage, CRC errors, truncated or unparseable input
+  std::uint64_t timeouts = 0;    // requests that got no answer in time
+  std::uint64_t reconnects = 0;  // successful connections after the first
+  std::uint64_t overruns = 0;    // samples dropped because the ring was full
+};
+
+struct RingStatus {
+  std::size_t capacity = 0;
+  std::size_t depth = 0;
+  std::size_t free = 0;
+  std::uint64_t drops = 0;
+};
+
+struct DriverStatus {
+  std::string name;
+  std::string driver;
+  DeviceState state = DeviceState::stopped;
+  std::string reason;  // why the state is what it is ("", "connection refused", ...)
+  DriverCounters counters;
+  RingStatus ring;
+};
+
+class Driver {
+ public:
+  Driver(std::string name, std::string driver, std::vector<ChannelInfo> channels, std::size_t ring_capacity);
+  virtual ~Driver();
+  Driver(const Driver&) = delete;
+  Driver& operator=(const Driver&) = delete;
+
+  void start();
+  void stop();  // requests stop, wakes the thread (interrupt()), joins
+  [[nodiscard]] DriverStatus status() const;
+  [[nodiscard]] const std::string& name() const noexcept { return name_; }
+  [[nodiscard]] const std::string& driver() const noexcept { return driver_; }
+  [[nodiscard]] const std::vector<ChannelInfo>& channels() const noexcept { return channels_; }
+  SpscRing<Sample>& ring() noexcept { return ring_; }
+
+ protected:
+  // The driver thread: connect, read, parse, publish; on a fault set_state(lost/error), back off, reconnect.
+  // Must return promptly once stop is requested.
+  virtual void run(std::stop_token stop) = 0;
+  // Called from stop() on the owning thread to unblock a run() waiting on I/O (e.g. write an eventfd).
+  virtual void interrupt() {}
+
+  void set_state(DeviceState state, std::string reason = {});
+  // Assigns the sequence number and pushes; a full ring counts an overrun (the sample is dropped).
+  void publish(Sample sample) noexcept;
+  // Sleeps for d unless stop is requested first; returns false when stopping.
+  static bool sleep_for(const std::stop_token& stop, std::chrono::nanoseconds d);
+
+  std::atomic<std::uint64_t> frames_{0};
+  std::atomic<std::uint64_t> bad_frames_{0};
+  std::atomic<std::uint64_t> timeouts_{0};
+  std::atomic<std::uint64_t> reconnects_{0};
+
+ private:
+  std::string name_;
+  std::string driver_;
+  std::vector<ChannelInfo> channels_;
+  SpscRing<Sample> ring_;
+  std::uint64_t next_seq_ = 0;  // producer thread only
+  std::atomic<std::uint64_t> samples_{0};
+  mutable std::mutex state_mutex_;
+  DeviceState state_ = DeviceState::stopped;
+  std::string reason_;
+  std::jthread thread_;
+};
+
+// A [[device]] table of the configuration. The factory reads its own keys from `table` (and must read
+// every key it accepts, so unknown keys are rejected with file and line).
+struct DeviceConfig {
+  std::string name;
+  std::string driver;
+  std::size_t ring_capacity;
+  const TableReader& table;
+};
+
+using DriverFactory = std::function<std::unique_ptr<Driver>(const DeviceConfig&)>;
+
+class DriverRegistry {
+ public:
+  void add(std::string driver, std::string description, DriverFactory factory);
+  [[nodiscard]] bool contains(std::string_view driver) const;
+  // Throws ConfigError (naming the known drivers) when the driver is unknown.
+  std::unique_ptr<Driver> create(const DeviceConfig& config) const;
+  [[nodiscard]] std::vector<std::pair<std::string, std::string>> list() const;  // (driver, description)
+
+  // Loads every *.so in dir that exports guideway_register_drivers; returns one message per file
+  // that failed (the caller logs them). A missing dir is not an error.
+  std::vector<std::string> load_plugins(const std::string& dir);
+
+ private:
+  struct Entry {
+    std::string driver;
+    std::string description;
+    DriverFactory factory;
+  };
+  std::vector<Entry> entries_;
+  std::vector<void*> plugin_handles_;
+};
+
+// Plugins export this (extern "C") and must match the ABI version.
+inline constexpr int plugin_abi_version = 1;
+using RegisterDriversFn = void (*)(DriverRegistry&);
+using PluginAbiVersionFn = int (*)();
+
+}  // namespace guideway::drivers
+
+// Declare in a plugin with GUIDEWAY_DRIVER_PLUGIN(registry) { registry.add(...); }
+#define GUIDEWAY_DRIVER_PLUGIN(registry_param)                                                   \
+  extern "C" int guideway_plugin_abi_version() { return ::guideway::drivers::plugin_abi_version; } \
+  extern "C" void guideway_register_drivers(::guideway::drivers::DriverRegistry& registry_param)

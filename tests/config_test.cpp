@@ -1,0 +1,80 @@
+#include <gtest/gtest.h>
+
+#include "core/toml_access.hpp"
+#include "daemon/config.hpp"
+
+using guideway::ConfigError;
+using guideway::daemon::parse_config;
+
+namespace {
+
+// Returns the error text of parsing `text`, or "" if it parsed.
+std::string error_of(const std::string& text) {
+  try {
+    parse_config(text, "test.toml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Config, EmbeddedDefaultParsesAndFillsPaths) {
+  const auto c = guideway::daemon::default_config();
+  EXPECT_EQ(c.source, "<embedded default>");
+  EXPECT_FALSE(c.socket_path.empty());
+  EXPECT_FALSE(c.state_dir.empty());
+  EXPECT_EQ(c.socket_mode, 0660u);
+}
+
+TEST(Config, ReadsDaemonSettings) {
+  const auto c = parse_config(R"(
+[daemon]
+socket = "/tmp/x.sock"
+socket_mode = "0600"
+tcp_listen = "127.0.0.1:2947"
+ring_capacity = 1024
+log_level = "debug"
+)",
+                              "t.toml");
+  EXPECT_EQ(c.socket_path, "/tmp/x.sock");
+  EXPECT_EQ(c.socket_mode, 0600u);
+  EXPECT_EQ(c.tcp_host, "127.0.0.1");
+  EXPECT_EQ(c.tcp_port, 2947);
+  EXPECT_EQ(c.ring_capacity, 1024u);
+  EXPECT_EQ(c.log_level, "debug");
+}
+
+TEST(Config, SyntaxErrorNamesFileAndLine) {
+  const std::string e = error_of("[daemon]\nlog_level = \"info\"\nsocket = \n");
+  EXPECT_NE(e.find("test.toml:3:"), std::string::npos) << e;
+}
+
+TEST(Config, WrongTypeNamesLineAndKey) {
+  const std::string e = error_of("[daemon]\n\nstatus_period_s = \"fast\"\n");
+  EXPECT_NE(e.find("test.toml:3: daemon.status_period_s: expected a number, got a string"), std::string::npos) << e;
+}
+
+TEST(Config, UnknownKeyIsRejectedWithItsLine) {
+  const std::string e = error_of("[daemon]\nlog_level = \"info\"\nlog_levle = \"debug\"\n");
+  EXPECT_NE(e.find("test.toml:3: daemon.log_levle: unknown key"), std::string::npos) << e;
+}
+
+TEST(Config, OutOfRangeAndBadChoiceAreExplained) {
+  EXPECT_NE(error_of("[daemon]\nring_capacity = 1000\n").find("power of two"), std::string::npos);
+  EXPECT_NE(error_of("[daemon]\nlog_level = \"loud\"\n").find("is not one of"), std::string::npos);
+  EXPECT_NE(error_of("[daemon]\ntcp_listen = \"localhost\"\n").find("HOST:PORT"), std::string::npos);
+  EXPECT_NE(error_of("[daemon]\nsocket_mode = \"rw\"\n").find("octal"), std::string::npos);
+}
+
+TEST(Config, DevicesNeedUniqueNamesAndADriver) {
+  EXPECT_NE(error_of("[[device]]\nname = \"a\"\n").find("device[0].driver: required key is missing"), std::string::npos);
+  const std::string dup = error_of("[[device]]\nname = \"a\"\ndriver = \"x\"\n[[device]]\nname = \"a\"\ndriver = \"y\"\n");
+  EXPECT_NE(dup.find("test.toml:5: device[1].name: duplicate device name"), std::string::npos) << dup;
+}
+
+TEST(Config, DisabledDevicesAreSkipped) {
+  const auto c = parse_config("[[device]]\nname = \"a\"\ndriver = \"x\"\nenabled = false\n", "t.toml");
+  EXPECT_TRUE(c.devices.empty());
+}

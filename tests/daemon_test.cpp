@@ -1,0 +1,204 @@
+// The daemon in-process: real sockets, real pipeline thread, a real driver thread (a counting
+// source), talking JSON Lines through the same client the CLI uses.
+#include "daemon/daemon.hpp"
+
+#include <gtest/gtest.h>
+#include <spdlog/sinks/null_sink.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+
+#include <cstring>
+#include <thread>
+
+#include "cli/daemon_client.hpp"
+#include "core/mono_clock.hpp"
+#include "test_support.hpp"
+
+using namespace guideway;
+using guideway::cli::DaemonClient;
+
+namespace {
+
+// Produces `rate_hz` samples per second carrying their own sequence number: a real driver thread
+// with no transport, so the pipeline and publishing can be checked exactly.
+class CountingDriver : public drivers::Driver {
+ public:
+  CountingDriver(const drivers::DeviceConfig& c)
+      : Driver(c.name, c.driver, {{"count", "1"}}, c.ring_capacity),
+        rate_hz_(c.table.get_double("rate_hz", 1000.0, 1.0, 1e7)) {}
+  ~CountingDriver() override { stop(); }
+
+ protected:
+  void run(std::stop_token stop) override {
+    set_state(drivers::DeviceState::streaming);
+    const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / rate_hz_));
+    auto next = std::chrono::steady_clock::now();
+    double n = 0;
+    while (!stop.stop_requested()) {
+      Sample s;
+      s.t_mono_ns = mono_now_ns();
+      s.value_count = 1;
+      s.value[0] = n++;
+      publish(s);
+      frames_.fetch_add(1, std::memory_order_relaxed);
+      next += period;
+      std::this_thread::sleep_until(next);
+    }
+  }
+
+ private:
+  double rate_hz_;
+};
+
+struct RunningDaemon {
+  explicit RunningDaemon(const std::string& extra_toml = "") {
+    registry.add("counting", "test source", [](const drivers::DeviceConfig& c) {
+      return std::make_unique<CountingDriver>(c);
+    });
+    socket = dir.file("d.sock");
+    auto config = daemon::parse_config("[daemon]\nsocket = \"" + socket +
+                                           "\"\nstatus_period_s = 0.1\nclient_queue_bytes = 65536\n" + extra_toml,
+                                       "test.toml");
+    auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
+    d = std::make_unique<daemon::Daemon>(std::move(config), registry, log);
+    thread = std::thread([this] { d->run(); });
+  }
+  ~RunningDaemon() {
+    d->request_stop();
+    thread.join();
+  }
+  test::TempDir dir;
+  drivers::DriverRegistry registry;
+  std::string socket;
+  std::unique_ptr<daemon::Daemon> d;
+  std::thread thread;
+};
+
+}  // namespace
+
+TEST(Daemon, GreetsWithVersionAndAnswersStatus) {
+  RunningDaemon rd;
+  DaemonClient c(rd.socket);
+  EXPECT_EQ(c.banner()["class"], "VERSION");
+  EXPECT_EQ(c.banner()["proto_major"], 1);
+  auto s = c.request({{"class", "status"}, {"id", "abc"}}, "STATUS");
+  EXPECT_EQ(s["class"], "STATUS");
+  EXPECT_EQ(s["id"], "abc");
+  EXPECT_TRUE(s["devices"].empty());
+  EXPECT_EQ(s["socket"], rd.socket);
+}
+
+TEST(Daemon, SurvivesMalformedUnknownAndOversizedRequests) {
+  RunningDaemon rd;
+  DaemonClient c(rd.socket);
+  c.send_line("{this is not json");
+  auto e1 = c.request({{"class", "version"}}, "ERROR");
+  EXPECT_EQ(e1["message"], "malformed JSON");
+  auto e2 = c.request({{"class", "frobnicate"}}, "ERROR");
+  EXPECT_NE(e2["message"].get<std::string>().find("unknown request class"), std::string::npos);
+  c.send_line(std::string(100000, 'x'));  // 100 kB in one line, limit is 16 kB
+  auto e3 = c.request({{"class", "version"}}, "ERROR");
+  EXPECT_NE(e3["message"].get<std::string>().find("exceeds the limit"), std::string::npos);
+  // The connection is still usable and answers normally.
+  auto v = c.request({{"class", "version"}}, "VERSION");
+  EXPECT_EQ(v["class"], "VERSION");
+}
+
+TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
+  RunningDaemon rd(
+      "sample_publish_hz = 50.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n");
+  DaemonClient c(rd.socket);
+  auto ack = c.request({{"class", "watch"}, {"classes", {"SAMPLE", "STATUS"}}}, "WATCH");
+  ASSERT_EQ(ack["class"], "WATCH");
+  int samples = 0;
+  double last = -1;
+  bool saw_status_with_flow = false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while ((samples < 10 || !saw_status_with_flow) && std::chrono::steady_clock::now() < deadline) {
+    auto line = c.read_line(std::chrono::milliseconds(500));
+    if (!line) continue;
+    auto j = nlohmann::json::parse(*line);
+    if (j["class"] == "SAMPLE") {
+      EXPECT_EQ(j["device"], "counter");
+      const double v = j["values"]["count"];
+      EXPECT_GT(v, last);  // decimated, but in order
+      last = v;
+      ++samples;
+    } else if (j["class"] == "STATUS") {
+      const auto& dev = j["devices"][0];
+      EXPECT_EQ(dev["state"], "streaming");
+      EXPECT_EQ(dev["counters"]["overruns"], 0);
+      EXPECT_EQ(dev["seq_gaps"], 0);
+      if (dev["consumed"].get<std::uint64_t>() > 100) saw_status_with_flow = true;
+    }
+  }
+  EXPECT_GE(samples, 10);
+  EXPECT_TRUE(saw_status_with_flow);
+}
+
+TEST(Daemon, DropsAClientThatNeverReadsAndKeepsServingOthers) {
+  RunningDaemon rd(
+      "sample_publish_hz = 100000.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 50000.0\n");
+  // A raw client that subscribes to SAMPLE and then never reads.
+  const int silent = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strcpy(addr.sun_path, rd.socket.c_str());
+  ASSERT_EQ(connect(silent, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  const std::string watch = "{\"class\":\"watch\",\"classes\":[\"SAMPLE\"]}\n";
+  ASSERT_EQ(write(silent, watch.data(), watch.size()), static_cast<ssize_t>(watch.size()));
+
+  DaemonClient good(rd.socket);
+  EXPECT_TRUE(test::eventually([&] {
+    auto s = good.request({{"class", "status"}}, "STATUS");
+    return s["clients"]["dropped_slow"].get<int>() >= 1;
+  }, std::chrono::seconds(20)));
+  auto s = good.request({{"class", "status"}}, "STATUS");
+  EXPECT_EQ(s["clients"]["connected"], 1);
+  EXPECT_EQ(s["devices"][0]["state"], "streaming");
+  close(silent);
+}
+
+TEST(Daemon, UnknownDriverIsAConfigErrorNamingTheKnownOnes) {
+  test::TempDir dir;
+  drivers::DriverRegistry registry;
+  registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<CountingDriver>(c); });
+  auto config = daemon::parse_config("[daemon]\nsocket = \"" + dir.file("s") +
+                                         "\"\n[[device]]\nname = \"x\"\ndriver = \"nope\"\n",
+                                     "bad.toml");
+  auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
+  try {
+    daemon::Daemon d(std::move(config), registry, log);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.toml:5: device[0].driver: unknown driver \"nope\" (known: counting)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(Daemon, UnknownKeyInADeviceTableIsRejected) {
+  test::TempDir dir;
+  drivers::DriverRegistry registry;
+  registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<CountingDriver>(c); });
+  auto config = daemon::parse_config("[daemon]\nsocket = \"" + dir.file("s") +
+                                         "\"\n[[device]]\nname = \"x\"\ndriver = \"counting\"\nrate_hx = 5.0\n",
+                                     "bad.toml");
+  auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
+  EXPECT_THROW(daemon::Daemon(std::move(config), registry, log), ConfigError);
+}
+
+TEST(Daemon, RefusesToStealTheSocketOfALiveDaemon) {
+  RunningDaemon rd;
+  auto config = daemon::parse_config("[daemon]\nsocket = \"" + rd.socket + "\"\n", "t.toml");
+  drivers::DriverRegistry registry;
+  auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
+  try {
+    daemon::Daemon second(std::move(config), registry, log);
+    FAIL() << "a second daemon bound the same socket";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("already listening"), std::string::npos);
+  }
+  DaemonClient c(rd.socket);  // the first one still answers
+  EXPECT_EQ(c.banner()["class"], "VERSION");
+}

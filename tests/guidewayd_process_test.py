@@ -1,0 +1,109 @@
+#!/usr/bin/python3
+"""guidewayd as a process: the CLI talks to it, systemd's notify protocol is spoken on a real
+datagram socket (READY=1, WATCHDOG=1 driven by pipeline progress, STOPPING=1), SIGTERM ends it
+cleanly and removes the socket, and a broken configuration is refused with file, line and key.
+Usage: guidewayd_process_test.py BUILD_DIR"""
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
+GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
+GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+
+
+def wait_for(predicate, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return predicate()
+
+
+class GuidewaydProcess(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(prefix="gwp-")
+        self.sock = os.path.join(self.tmp.name, "g.sock")
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def start(self, *args, env=None):
+        e = dict(os.environ)
+        e.pop("NOTIFY_SOCKET", None)
+        e.update(env or {})
+        p = subprocess.Popen([GUIDEWAYD, "--socket", self.sock, *args], env=e,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.addCleanup(lambda: p.poll() is None and p.kill())
+        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not create its socket")
+        return p
+
+    def test_default_config_runs_and_cli_reports_status(self):
+        p = self.start()
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, "status"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertIn("guidewayd", out.stdout)
+        self.assertIn("<embedded default>", out.stdout)
+        js = subprocess.run([GUIDEWAY, "--socket", self.sock, "status", "--json"], capture_output=True, text=True,
+                            timeout=20)
+        self.assertIn('"class":"STATUS"', js.stdout)
+        p.send_signal(signal.SIGTERM)
+        self.assertEqual(p.wait(timeout=10), 0)
+        self.assertFalse(os.path.exists(self.sock), "socket left behind after SIGTERM")
+
+    def test_cli_explains_when_no_daemon_runs(self):
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, "status"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 1)
+        self.assertIn("guideway:", out.stderr)
+        self.assertIn(self.sock, out.stderr)
+
+    def test_broken_config_is_refused_with_file_line_and_key(self):
+        cfg = os.path.join(self.tmp.name, "bad.toml")
+        with open(cfg, "w") as f:
+            f.write("[daemon]\nlog_level = \"info\"\nstatus_period_s = -4\n")
+        out = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 2)
+        self.assertIn(cfg + ":3: daemon.status_period_s", out.stderr)
+        ok = os.path.join(self.tmp.name, "ok.toml")
+        with open(ok, "w") as f:
+            f.write("[daemon]\nlog_level = \"debug\"\n")
+        out = subprocess.run([GUIDEWAYD, "--config", ok, "--check-config"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 0, out.stderr)
+
+    def test_sd_notify_ready_watchdog_stopping(self):
+        notify_path = os.path.join(self.tmp.name, "notify")
+        ns = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        ns.bind(notify_path)
+        ns.settimeout(10)
+        self.addCleanup(ns.close)
+        # WATCHDOG_PID must name the daemon: start it through a shell that execs, so the pid is known.
+        cmd = f'WATCHDOG_PID=$$ exec "{GUIDEWAYD}" --socket "{self.sock}"'
+        p = subprocess.Popen(["/bin/sh", "-c", cmd], env={**os.environ, "NOTIFY_SOCKET": notify_path,
+                                                          "WATCHDOG_USEC": "200000"},
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.addCleanup(lambda: p.poll() is None and p.kill())
+        seen = []
+        deadline = time.monotonic() + 10
+        watchdogs = 0
+        while time.monotonic() < deadline and watchdogs < 3:
+            msg = ns.recv(4096).decode()
+            seen.append(msg)
+            watchdogs += msg.count("WATCHDOG=1")
+        self.assertTrue(any("READY=1" in m for m in seen), seen)
+        self.assertGreaterEqual(watchdogs, 3, seen)
+        p.send_signal(signal.SIGTERM)
+        stopping = False
+        while not stopping:
+            msg = ns.recv(4096).decode()
+            stopping = "STOPPING=1" in msg
+        self.assertEqual(p.wait(timeout=10), 0)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
