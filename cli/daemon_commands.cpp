@@ -60,6 +60,8 @@ volatile std::sig_atomic_t interrupted = 0;
 
 }  // namespace
 
+namespace {
+
 void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   auto* version = app.add_subcommand("version", "Show the daemon's release and protocol version");
   auto json = std::make_shared<bool>(false);
@@ -122,5 +124,9 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     }
   });
 }
+
+const CommandGroup daemon_commands(&add_daemon_commands);
+
+}  // namespace
 
 }  // namespace guideway::cli

@@ -3,6 +3,17 @@
 
 #include "cli/commands.hpp"
 
+namespace guideway::cli {
+
+CommandGroup::CommandGroup(AddCommandsFn fn) { all().push_back(fn); }
+
+std::vector<AddCommandsFn>& CommandGroup::all() {
+  static std::vector<AddCommandsFn> groups;
+  return groups;
+}
+
+}  // namespace guideway::cli
+
 int main(int argc, char** argv) {
   CLI::App app{"guideway: client of guidewayd and offline analysis of metrology recordings"};
   app.require_subcommand(1);
@@ -11,7 +22,7 @@ int main(int argc, char** argv) {
                  "daemon address: a Unix socket path or tcp:HOST:PORT (default: $GUIDEWAY_SOCKET, the per-user "
                  "socket, then /run/guideway/guideway.sock)");
   app.set_version_flag("-V,--version", "guideway " GUIDEWAY_VERSION);
-  guideway::cli::add_daemon_commands(app, ctx);
+  for (auto add : guideway::cli::CommandGroup::all()) add(app, ctx);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

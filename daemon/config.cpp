@@ -4,6 +4,7 @@
 #include <set>
 
 #include "core/runtime_paths.hpp"
+#include "drivers/driver.hpp"
 
 namespace guideway::daemon {
 
@@ -85,7 +86,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
   top.reject_unknown_keys();
   if (c.socket_path.empty()) c.socket_path = default_socket_path();
   if (c.state_dir.empty()) c.state_dir = default_state_dir();
-  if (c.plugin_dir.empty()) c.plugin_dir = GUIDEWAY_PLUGIN_DIR;
+  if (c.plugin_dir.empty()) c.plugin_dir = drivers::default_plugin_dir();
   return c;
 }
 

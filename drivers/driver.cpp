@@ -106,6 +106,16 @@ std::vector<std::pair<std::string, std::string>> DriverRegistry::list() const {
   return out;
 }
 
+std::string default_plugin_dir() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const auto beside = exe.parent_path().parent_path() / "lib" / "guideway" / "plugins";
+    if (std::filesystem::is_directory(beside, ec)) return beside.string();
+  }
+  return GUIDEWAY_PLUGIN_DIR;
+}
+
 std::vector<std::string> DriverRegistry::load_plugins(const std::string& dir) {
   std::vector<std::string> errors;
   std::error_code ec;

@@ -135,6 +135,10 @@ class DriverRegistry {
   std::vector<void*> plugin_handles_;
 };
 
+// The plugin directory next to the running executable (<exe>/../lib/guideway/plugins, which is
+// where both the build tree and an installation put them), else the compiled-in install path.
+std::string default_plugin_dir();
+
 // Plugins export this (extern "C") and must match the ABI version.
 inline constexpr int plugin_abi_version = 1;
 using RegisterDriversFn = void (*)(DriverRegistry&);
