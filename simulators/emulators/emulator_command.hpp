@@ -1,7 +1,7 @@
 #pragma once
 // Each emulated instrument registers a `guideway-emulate <instrument>` subcommand through a static
-// EmulatorCommand in its own source file. Because the sources live in a static library, the
-// executable references every group's anchor (see emulate_main.cpp) so the linker keeps them.
+// EmulatorCommand in its own source file (guideway_emulators is an OBJECT library, so the linker
+// keeps every registration object).
 
 #include <vector>
 
