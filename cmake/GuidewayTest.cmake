@@ -1,6 +1,8 @@
 # guideway_add_test(NAME SOURCES src... [LIBS lib...] [LABELS label...] [TIMEOUT s] [ARGS arg...])
 # One GoogleTest executable registered as one ctest test with labels (unit, integration, slow, tsan...).
 find_package(GTest REQUIRED)
+# The tests labelled tsan, so the TSan build compiles only what it runs.
+add_custom_target(guideway_tsan_tests)
 function(guideway_add_test name)
   cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS;ARGS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
@@ -17,4 +19,7 @@ function(guideway_add_test name)
     set(T_TIMEOUT 120)
   endif()
   set_tests_properties(${name} PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT})
+  if("tsan" IN_LIST T_LABELS)
+    add_dependencies(guideway_tsan_tests ${name})
+  endif()
 endfunction()

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# The main job: builds Guideway, starts guidewayd on its embedded default (emulated instruments, no
+# hardware, socket in a per-user location), and shows it working through the `guideway` client.
+# --keep leaves the daemon running afterwards (stop it with: kill $(cat "$state/guidewayd.pid")).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+keep=0
+[ "${1:-}" = "--keep" ] && keep=1
+./scripts/setup.sh
+echo "== building (first time: a few minutes)"
+scripts/build.sh build -DCMAKE_BUILD_TYPE=RelWithDebInfo -- guideway_runtime
+
+bin=build
+run_dir=${XDG_RUNTIME_DIR:-/tmp/guideway-$(id -u)}
+mkdir -p "$run_dir"
+log="$run_dir/guidewayd-demo.log"
+echo "== starting guidewayd (log: $log)"
+"$bin/daemon/guidewayd" >"$log" 2>&1 &
+pid=$!
+echo "$pid" >"$run_dir/guidewayd.pid"
+cleanup() { if [ $keep -eq 0 ] && kill -0 "$pid" 2>/dev/null; then kill -TERM "$pid"; wait "$pid" || true; fi; }
+trap cleanup EXIT
+
+for _ in $(seq 1 100); do
+  "$bin/cli/guideway" version >/dev/null 2>&1 && break
+  if ! kill -0 "$pid" 2>/dev/null; then cat "$log"; echo "guidewayd exited" >&2; exit 1; fi
+  sleep 0.1
+done
+"$bin/cli/guideway" version
+echo
+echo "== guideway status"
+"$bin/cli/guideway" status
+if [ $keep -eq 1 ]; then
+  echo
+  echo "guidewayd keeps running (pid $pid). Try: $bin/cli/guideway watch    Stop: kill $pid"
+fi

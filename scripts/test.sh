@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# The whole test suite, as CI runs it: installs what is missing, then
+#   1. a RelWithDebInfo build: every test except the `slow` label;
+#   2. an ASan+UBSan build: every test except `slow`;
+#   3. a TSan build of the threaded code: the tests labelled `tsan` (ring stress, daemon threads).
+# GUIDEWAY_TEST_STAGES="main asan tsan" selects stages; GUIDEWAY_TEST_LABEL=slow adds the long variants.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/setup.sh
+stages=${GUIDEWAY_TEST_STAGES:-main asan tsan}
+jobs=$(nproc)
+passed=0
+failed=0
+start=$(date +%s)
+
+run_ctest() {  # dir, ctest args...
+  local dir=$1; shift
+  local out
+  set +e
+  out=$(ctest --test-dir "$dir" --output-on-failure -j "$jobs" "$@" 2>&1)
+  local rc=$?
+  set -e
+  echo "$out" | grep -vE '^\s*(Start|Test project)' || true
+  local line
+  line=$(echo "$out" | grep -E 'tests passed, [0-9]+ tests? failed out of [0-9]+' | tail -1)
+  if [ -n "$line" ]; then
+    local total fail
+    total=$(echo "$line" | grep -oE 'out of [0-9]+' | grep -oE '[0-9]+')
+    fail=$(echo "$line" | grep -oE '[0-9]+ tests? failed' | grep -oE '^[0-9]+')
+    passed=$((passed + total - fail)); failed=$((failed + fail))
+  elif [ $rc -ne 0 ]; then
+    failed=$((failed + 1))
+  fi
+  return 0
+}
+
+label_args=(-LE slow)
+[ "${GUIDEWAY_TEST_LABEL:-}" = "slow" ] && label_args=()
+
+for stage in $stages; do
+  t0=$(date +%s)
+  case $stage in
+    main)
+      echo "== main build (RelWithDebInfo): all tests but 'slow'"
+      scripts/build.sh build -DCMAKE_BUILD_TYPE=RelWithDebInfo
+      run_ctest build "${label_args[@]}" ;;
+    asan)
+      echo "== ASan+UBSan build: all tests but 'slow'"
+      scripts/build.sh build-asan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=address -DGUIDEWAY_BUILD_BENCH=OFF \
+        -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g"
+      ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+        run_ctest build-asan "${label_args[@]}" ;;
+    tsan)
+      echo "== TSan build: tests labelled 'tsan'"
+      scripts/build.sh build-tsan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=thread -DGUIDEWAY_BUILD_BENCH=OFF \
+        -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" -- guideway_tsan_tests
+      TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 run_ctest build-tsan -L tsan ;;
+    *) echo "unknown stage $stage" >&2; exit 2 ;;
+  esac
+  echo "== $stage stage took $(( $(date +%s) - t0 )) s"
+done
+echo "== all stages took $(( $(date +%s) - start )) s"
+echo "Total: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
