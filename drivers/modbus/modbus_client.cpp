@@ -1,0 +1,112 @@
+#include "drivers/modbus/modbus_client.hpp"
+
+#include <modbus/modbus.h>
+
+#include <cerrno>
+
+namespace guideway::modbus {
+
+std::string ModbusEndpoint::describe() const {
+  if (kind == Kind::tcp) return "tcp " + host + ":" + std::to_string(port) + " unit " + std::to_string(unit_id);
+  return "rtu " + device + " " + std::to_string(baud) + " " + std::to_string(data_bits) + parity +
+         std::to_string(stop_bits) + " unit " + std::to_string(unit_id);
+}
+
+ModbusEndpoint parse_endpoint(const TableReader& t) {
+  ModbusEndpoint e;
+  e.kind = t.get_choice("transport", "tcp", {"tcp", "rtu"}) == "rtu" ? ModbusEndpoint::Kind::rtu
+                                                                     : ModbusEndpoint::Kind::tcp;
+  if (e.kind == ModbusEndpoint::Kind::tcp) {
+    e.host = t.get_string("host", "127.0.0.1");
+    e.port = static_cast<int>(t.get_int("port", 502, 1, 65535));
+  } else {
+    e.device = t.require_string("device");
+    if (e.device.empty()) t.fail("device", "must name a serial device, e.g. \"/dev/ttyUSB0\"");
+    e.baud = static_cast<int>(t.get_int("baud", 19200, 50, 4000000));
+    e.parity = t.get_choice("parity", "E", {"N", "E", "O"})[0];
+    e.data_bits = static_cast<int>(t.get_int("data_bits", 8, 5, 8));
+    e.stop_bits = static_cast<int>(t.get_int("stop_bits", 1, 1, 2));
+  }
+  e.unit_id = static_cast<int>(t.get_int("unit_id", 1, 1, 247));
+  e.response_timeout = std::chrono::milliseconds(t.get_int("response_timeout_ms", 200, 1, 60000));
+  return e;
+}
+
+std::string_view to_string(ReadStatus s) noexcept {
+  switch (s) {
+    case ReadStatus::ok: return "ok";
+    case ReadStatus::timeout: return "timeout";
+    case ReadStatus::bad_frame: return "bad frame";
+    case ReadStatus::exception: return "exception response";
+    case ReadStatus::disconnected: return "disconnected";
+  }
+  return "?";
+}
+
+ModbusClient::ModbusClient(ModbusEndpoint endpoint) : endpoint_(std::move(endpoint)) {}
+
+ModbusClient::~ModbusClient() { close(); }
+
+bool ModbusClient::connect(std::string& error) {
+  close();
+  modbus_t* ctx = endpoint_.kind == ModbusEndpoint::Kind::tcp
+                      ? modbus_new_tcp(endpoint_.host.c_str(), endpoint_.port)
+                      : modbus_new_rtu(endpoint_.device.c_str(), endpoint_.baud, endpoint_.parity,
+                                       endpoint_.data_bits, endpoint_.stop_bits);
+  if (!ctx) {
+    error = std::string("cannot create Modbus context: ") + modbus_strerror(errno);
+    return false;
+  }
+  modbus_set_slave(ctx, endpoint_.unit_id);
+  const auto to = endpoint_.response_timeout.count();
+  modbus_set_response_timeout(ctx, static_cast<std::uint32_t>(to / 1000), static_cast<std::uint32_t>(to % 1000) * 1000);
+  const auto byte_to = to / 2 + 1;  // a frame that stops half way counts as a timeout too
+  modbus_set_byte_timeout(ctx, static_cast<std::uint32_t>(byte_to / 1000),
+                          static_cast<std::uint32_t>(byte_to % 1000) * 1000);
+  modbus_set_error_recovery(ctx, MODBUS_ERROR_RECOVERY_NONE);  // we classify and recover ourselves
+  if (modbus_connect(ctx) != 0) {
+    error = endpoint_.describe() + ": " + modbus_strerror(errno);
+    modbus_free(ctx);
+    return false;
+  }
+  ctx_ = ctx;
+  return true;
+}
+
+void ModbusClient::close() noexcept {
+  if (!ctx_) return;
+  modbus_close(ctx_);
+  modbus_free(ctx_);
+  ctx_ = nullptr;
+}
+
+ReadResult ModbusClient::read(RegisterFunction function, std::uint16_t address, std::uint16_t count,
+                              std::span<std::uint16_t> out) noexcept {
+  if (!ctx_) return {ReadStatus::disconnected, 0, "not connected"};
+  if (out.size() < count) return {ReadStatus::bad_frame, 0, "output buffer too small"};
+  const int rc = function == RegisterFunction::holding ? modbus_read_registers(ctx_, address, count, out.data())
+                                                       : modbus_read_input_registers(ctx_, address, count, out.data());
+  if (rc == count) return {};
+  if (rc >= 0) return {ReadStatus::bad_frame, 0, "short answer: " + std::to_string(rc) + " registers"};
+  const int err = errno;
+  ReadResult r;
+  r.message = modbus_strerror(err);
+  if (err == ETIMEDOUT) {
+    r.status = ReadStatus::timeout;
+  } else if (err >= EMBXILFUN && err <= EMBXGTAR) {
+    r.status = ReadStatus::exception;
+    r.exception_code = err - MODBUS_ENOBASE;
+  } else if (err == EMBBADCRC || err == EMBBADDATA || err == EMBBADEXC || err == EMBUNKEXC || err == EMBMDATA ||
+             err == EMBBADSLAVE || err == EINVAL) {
+    r.status = ReadStatus::bad_frame;
+  } else {
+    r.status = ReadStatus::disconnected;  // ECONNRESET, EPIPE, EIO, EBADF: the link is gone
+  }
+  return r;
+}
+
+void ModbusClient::flush() noexcept {
+  if (ctx_) modbus_flush(ctx_);
+}
+
+}  // namespace guideway::modbus

@@ -1,0 +1,68 @@
+#pragma once
+// A Modbus master (client) over TCP or RTU through libmodbus, reduced to what a polling driver
+// needs: connect, read one register block, classify every failure. Not thread safe: one owner thread.
+
+#include <chrono>
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "core/toml_access.hpp"
+#include "drivers/modbus/register_map.hpp"
+
+struct _modbus;
+
+namespace guideway::modbus {
+
+struct ModbusEndpoint {
+  enum class Kind { tcp, rtu };
+  Kind kind = Kind::tcp;
+  std::string host = "127.0.0.1";  // tcp
+  int port = 502;                  // tcp
+  std::string device;              // rtu: /dev/ttyUSB0, /dev/pts/N
+  int baud = 19200;                // rtu
+  char parity = 'E';               // rtu: 'N', 'E' or 'O'
+  int data_bits = 8;               // rtu
+  int stop_bits = 1;               // rtu
+  int unit_id = 1;                 // slave/unit address
+  std::chrono::milliseconds response_timeout{200};
+
+  [[nodiscard]] std::string describe() const;  // "tcp 127.0.0.1:1502 unit 1", "rtu /dev/pts/3 19200 8E1 unit 1"
+};
+
+// Reads transport = "tcp" | "rtu" and its keys from a [[device]] table (see docs/protocols.md).
+ModbusEndpoint parse_endpoint(const TableReader& table);
+
+enum class ReadStatus { ok, timeout, bad_frame, exception, disconnected };
+std::string_view to_string(ReadStatus s) noexcept;
+
+struct ReadResult {
+  ReadStatus status = ReadStatus::ok;
+  int exception_code = 0;  // Modbus exception code when status == exception
+  std::string message;     // libmodbus's words for the failure
+};
+
+class ModbusClient {
+ public:
+  explicit ModbusClient(ModbusEndpoint endpoint);
+  ~ModbusClient();
+  ModbusClient(const ModbusClient&) = delete;
+  ModbusClient& operator=(const ModbusClient&) = delete;
+
+  // Opens the socket or serial line; on failure returns false and sets error.
+  bool connect(std::string& error);
+  void close() noexcept;
+  [[nodiscard]] bool connected() const noexcept { return ctx_ != nullptr; }
+  // Reads count registers at address with FC 3/4 into out (out.size() >= count).
+  ReadResult read(RegisterFunction function, std::uint16_t address, std::uint16_t count,
+                  std::span<std::uint16_t> out) noexcept;
+  // Discards whatever is pending on the line (after a bad frame, so the next answer is in step).
+  void flush() noexcept;
+  [[nodiscard]] const ModbusEndpoint& endpoint() const noexcept { return endpoint_; }
+
+ private:
+  ModbusEndpoint endpoint_;
+  _modbus* ctx_ = nullptr;
+};
+
+}  // namespace guideway::modbus
