@@ -1,0 +1,203 @@
+#include "drivers/can/can_io.hpp"
+
+#include <fcntl.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace guideway::can {
+
+namespace {
+
+std::string errno_text(const char* what, int err) { return std::string(what) + ": " + std::strerror(err); }
+
+bool fill_unix_address(const std::string& path, sockaddr_un& addr, std::string& error) {
+  std::memset(&addr, 0, sizeof addr);
+  addr.sun_family = AF_UNIX;
+  if (path.empty() || path.size() >= sizeof addr.sun_path) {
+    error = "unix socket path \"" + path + "\" is empty or too long";
+    return false;
+  }
+  std::memcpy(addr.sun_path, path.data(), path.size());
+  return true;
+}
+
+}  // namespace
+
+void CanSocket::reset(int fd) noexcept {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = fd;
+}
+
+bool parse_can_endpoint(std::string_view text, CanEndpoint& out, std::string& error) {
+  CanEndpoint e;
+  if (text.starts_with("unix:")) {
+    e.kind = CanEndpoint::Kind::unix_gateway;
+    e.name = std::string(text.substr(5));
+  } else if (text.starts_with("can:")) {
+    e.name = std::string(text.substr(4));
+  } else {
+    e.name = std::string(text);
+  }
+  if (e.name.empty()) {
+    error = "empty CAN endpoint (expected can:IFNAME or unix:PATH)";
+    return false;
+  }
+  if (e.kind == CanEndpoint::Kind::socketcan && e.name.size() >= IFNAMSIZ) {
+    error = "CAN interface name \"" + e.name + "\" is too long";
+    return false;
+  }
+  out = std::move(e);
+  return true;
+}
+
+std::string to_string(const CanEndpoint& endpoint) {
+  return (endpoint.kind == CanEndpoint::Kind::unix_gateway ? "unix:" : "can:") + endpoint.name;
+}
+
+CanSocket open_socketcan(const std::string& ifname, std::string& error) {
+  CanSocket s(::socket(AF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW));
+  if (!s.valid()) {
+    error = errno_text("socket(AF_CAN)", errno);
+    return {};
+  }
+  ifreq ifr{};
+  if (ifname.size() >= sizeof ifr.ifr_name) {
+    error = "CAN interface name too long";
+    return {};
+  }
+  std::memcpy(ifr.ifr_name, ifname.data(), ifname.size());
+  if (::ioctl(s.fd(), SIOCGIFINDEX, &ifr) < 0) {
+    error = errno_text(("interface " + ifname).c_str(), errno);
+    return {};
+  }
+  const can_err_mask_t err_mask = CAN_ERR_MASK;
+  if (::setsockopt(s.fd(), SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask) < 0) {
+    error = errno_text("setsockopt(CAN_RAW_ERR_FILTER)", errno);
+    return {};
+  }
+  sockaddr_can addr{};
+  addr.can_family = AF_CAN;
+  addr.can_ifindex = ifr.ifr_ifindex;
+  if (::bind(s.fd(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) {
+    error = errno_text(("bind " + ifname).c_str(), errno);
+    return {};
+  }
+  return s;
+}
+
+bool socketcan_available(std::string& reason) {
+  const int fd = ::socket(AF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
+  if (fd < 0) {
+    reason = errno_text("socket(AF_CAN)", errno);
+    return false;
+  }
+  ::close(fd);
+  return true;
+}
+
+CanSocket connect_can_gateway(const std::string& path, std::string& error) {
+  sockaddr_un addr{};
+  if (!fill_unix_address(path, addr, error)) return {};
+  CanSocket s(::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0));
+  if (!s.valid()) {
+    error = errno_text("socket(AF_UNIX)", errno);
+    return {};
+  }
+  if (::connect(s.fd(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) {
+    error = errno_text(("connect " + path).c_str(), errno);
+    return {};
+  }
+  return s;
+}
+
+CanSocket listen_can_gateway(const std::string& path, std::string& error) {
+  sockaddr_un addr{};
+  if (!fill_unix_address(path, addr, error)) return {};
+  CanSocket s(::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0));
+  if (!s.valid()) {
+    error = errno_text("socket(AF_UNIX)", errno);
+    return {};
+  }
+  ::unlink(path.c_str());
+  if (::bind(s.fd(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) {
+    error = errno_text(("bind " + path).c_str(), errno);
+    return {};
+  }
+  if (::listen(s.fd(), 4) < 0) {
+    error = errno_text("listen", errno);
+    return {};
+  }
+  return s;
+}
+
+CanSocket open_can_endpoint(const CanEndpoint& endpoint, std::string& error) {
+  if (endpoint.kind == CanEndpoint::Kind::unix_gateway) return connect_can_gateway(endpoint.name, error);
+  return open_socketcan(endpoint.name, error);
+}
+
+ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd, std::string& error) {
+  pollfd fds[2] = {{fd, POLLIN, 0}, {wake_fd, POLLIN, 0}};
+  const nfds_t n = wake_fd >= 0 ? 2 : 1;
+  for (;;) {
+    const int r = ::poll(fds, n, timeout_ms);
+    if (r < 0) {
+      if (errno == EINTR) continue;
+      error = errno_text("poll", errno);
+      return ReadResult::error;
+    }
+    if (r == 0) return ReadResult::timeout;
+    break;
+  }
+  if (n == 2 && (fds[1].revents & POLLIN)) return ReadResult::woken;
+  if (fds[0].revents & POLLNVAL) {
+    error = "poll: invalid descriptor";
+    return ReadResult::error;
+  }
+  // One record: a larger buffer than can_frame so an oversized record is seen as such (MSG_TRUNC).
+  alignas(can_frame) unsigned char buf[sizeof(can_frame) + 64];
+  for (;;) {
+    const ssize_t got = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT | MSG_TRUNC);
+    if (got < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EAGAIN || errno == EWOULDBLOCK) return ReadResult::timeout;
+      if (errno == ECONNRESET) return ReadResult::closed;
+      error = errno_text("recv", errno);
+      return ReadResult::error;
+    }
+    if (got == 0) return ReadResult::closed;  // SEQPACKET: EOF (we never send zero-length records)
+    if (static_cast<std::size_t>(got) != sizeof(can_frame)) return ReadResult::truncated;
+    std::memcpy(&frame, buf, sizeof frame);
+    return ReadResult::frame;
+  }
+}
+
+bool write_can_record(int fd, const void* data, std::size_t size, std::string& error) {
+  for (;;) {
+    const ssize_t put = ::send(fd, data, size, MSG_NOSIGNAL);
+    if (put < 0) {
+      if (errno == EINTR) continue;
+      error = errno_text("send", errno);
+      return false;
+    }
+    if (static_cast<std::size_t>(put) != size) {
+      error = "short write of a CAN frame";
+      return false;
+    }
+    return true;
+  }
+}
+
+bool write_can_frame(int fd, const can_frame& frame, std::string& error) {
+  return write_can_record(fd, &frame, sizeof frame, error);
+}
+
+}  // namespace guideway::can

@@ -1,0 +1,90 @@
+#pragma once
+// CAN frame I/O over any file descriptor that carries whole `struct can_frame` records: a SocketCAN
+// raw socket (AF_CAN), or an AF_UNIX SOCK_SEQPACKET socket (socketpair, or the Unix "CAN gateway"
+// socket the emulator serves, for kernels without AF_CAN). Free functions are thread safe; a
+// CanSocket is owned by one thread. Nothing here prints or throws: errors go back to the caller.
+
+#include <linux/can.h>
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace guideway::can {
+
+// An owned file descriptor (closed on destruction). Move-only.
+class CanSocket {
+ public:
+  CanSocket() = default;
+  explicit CanSocket(int fd) noexcept : fd_(fd) {}
+  ~CanSocket() { reset(); }
+  CanSocket(CanSocket&& o) noexcept : fd_(o.release()) {}
+  CanSocket& operator=(CanSocket&& o) noexcept {
+    if (this != &o) reset(o.release());
+    return *this;
+  }
+  CanSocket(const CanSocket&) = delete;
+  CanSocket& operator=(const CanSocket&) = delete;
+
+  [[nodiscard]] int fd() const noexcept { return fd_; }
+  [[nodiscard]] bool valid() const noexcept { return fd_ >= 0; }
+  int release() noexcept {
+    const int fd = fd_;
+    fd_ = -1;
+    return fd;
+  }
+  void reset(int fd = -1) noexcept;
+
+ private:
+  int fd_ = -1;
+};
+
+// Where a CAN bus is reached. `can:IFNAME` (or a bare interface name) is a SocketCAN interface;
+// `unix:PATH` is a SOCK_SEQPACKET Unix socket carrying can_frame records (the emulator's gateway).
+struct CanEndpoint {
+  enum class Kind { socketcan, unix_gateway };
+  Kind kind = Kind::socketcan;
+  std::string name;  // interface name or socket path
+};
+// Parses "can:vcan0", "vcan0", "unix:/run/x.sock"; returns false with a reason on an empty name.
+bool parse_can_endpoint(std::string_view text, CanEndpoint& out, std::string& error);
+std::string to_string(const CanEndpoint& endpoint);
+
+// Opens a raw SocketCAN socket bound to `ifname` with error frames enabled. Returns an invalid
+// socket and sets `error` (e.g. "socket(AF_CAN): Address family not supported by protocol").
+CanSocket open_socketcan(const std::string& ifname, std::string& error);
+// True when this kernel supports AF_CAN sockets; otherwise `reason` says why (errno text).
+bool socketcan_available(std::string& reason);
+
+// Connects to a Unix SOCK_SEQPACKET CAN gateway at `path`.
+CanSocket connect_can_gateway(const std::string& path, std::string& error);
+// Listens on a Unix SOCK_SEQPACKET socket at `path` (an existing socket file is replaced).
+CanSocket listen_can_gateway(const std::string& path, std::string& error);
+
+CanSocket open_can_endpoint(const CanEndpoint& endpoint, std::string& error);
+
+enum class ReadResult {
+  frame,      // one complete frame in `frame`
+  timeout,    // nothing within the timeout
+  woken,      // the wake fd became readable (the caller is being stopped)
+  truncated,  // a record shorter than struct can_frame (the bytes are discarded)
+  closed,     // the peer closed the connection (EOF)
+  error,      // read/poll failed; errno text in `error`
+};
+
+// Waits up to timeout_ms (-1: forever) for one frame on fd, or for wake_fd (-1: none) to become
+// readable. Records longer than can_frame (CAN FD) are reported as truncated too.
+ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd, std::string& error);
+
+// Writes one frame; false with `error` on failure (EAGAIN counts as failure: the bus is congested).
+bool write_can_frame(int fd, const can_frame& frame, std::string& error);
+// Writes `size` raw bytes as one record (fault injection: truncated frames).
+bool write_can_record(int fd, const void* data, std::size_t size, std::string& error);
+
+// The standard (11-bit) identifier of a data frame, without flag bits.
+inline std::uint32_t can_std_id(const can_frame& f) noexcept { return f.can_id & CAN_SFF_MASK; }
+inline bool is_error_frame(const can_frame& f) noexcept { return (f.can_id & CAN_ERR_FLAG) != 0; }
+inline bool is_rtr_frame(const can_frame& f) noexcept { return (f.can_id & CAN_RTR_FLAG) != 0; }
+inline bool is_extended_frame(const can_frame& f) noexcept { return (f.can_id & CAN_EFF_FLAG) != 0; }
+
+}  // namespace guideway::can

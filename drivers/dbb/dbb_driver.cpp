@@ -1,0 +1,195 @@
+#include "drivers/dbb/dbb_driver.hpp"
+
+#include <linux/can/error.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/mono_clock.hpp"
+
+namespace guideway::dbb {
+
+namespace {
+
+std::vector<drivers::ChannelInfo> channels_of(const DbbSettings& s) {
+  std::vector<drivers::ChannelInfo> out;
+  for (const auto& e : s.encoders) out.push_back({e.channel, "m"});
+  return out;
+}
+
+}  // namespace
+
+DbbSettings parse_dbb_settings(const TableReader& t) {
+  DbbSettings s;
+  const std::string endpoint = t.require_string("bus");
+  std::string err;
+  if (!parse_can_endpoint(endpoint, s.endpoint, err)) t.fail("bus", err);
+  s.produce_sync = t.get_choice("sync", "produce", {"produce", "listen"}) == "produce";
+  s.sync_rate_hz = t.get_double("sync_rate_hz", 100.0, 0.1, 10000.0);
+  s.timeout_ms = t.get_int("timeout_ms", 500, 1, 600000);
+  s.reconnect_min_ms = t.get_int("reconnect_min_ms", 50, 1, 600000);
+  s.reconnect_max_ms = t.get_int("reconnect_max_ms", 5000, s.reconnect_min_ms, 3600000);
+  for (const TableReader& e : t.tables("encoder")) {
+    EncoderScale sc;
+    sc.channel = e.require_string("channel");
+    sc.node_id = static_cast<std::uint8_t>(e.require_int("node_id", 1, 127));
+    sc.resolution_m = e.require_double("resolution_nm", 1e-6, 1e9) * 1e-9;
+    sc.direction = e.get_choice("direction", "positive", {"positive", "negative"}) == "positive" ? 1 : -1;
+    sc.zero_count = e.get_int("zero_count", 0, -(std::int64_t{1} << 40), std::int64_t{1} << 40);
+    sc.offset_m = e.get_double("offset_mm", 0.0, -1e6, 1e6) * 1e-3;
+    for (const auto& other : s.encoders) {
+      if (other.node_id == sc.node_id) e.fail("node_id", "node " + std::to_string(sc.node_id) + " is used twice");
+      if (other.channel == sc.channel) e.fail("channel", "channel \"" + sc.channel + "\" is used twice");
+    }
+    e.reject_unknown_keys();
+    s.encoders.push_back(std::move(sc));
+  }
+  if (s.encoders.empty()) t.fail("encoder", "at least one [[device.encoder]] table is required");
+  if (s.encoders.size() > max_encoders) {
+    t.fail("encoder", "at most " + std::to_string(max_encoders) + " encoders per bus");
+  }
+  return s;
+}
+
+DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector)
+    : Driver(std::move(name), "dbb-can", channels_of(settings), ring_capacity),
+      settings_(std::move(settings)),
+      connector_(std::move(connector)),
+      wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {
+  if (!connector_) {
+    connector_ = [endpoint = settings_.endpoint](std::string& error) { return can::open_can_endpoint(endpoint, error); };
+  }
+}
+
+DbbDriver::~DbbDriver() {
+  stop();
+  if (wake_fd_ >= 0) ::close(wake_fd_);
+}
+
+void DbbDriver::interrupt() {
+  const std::uint64_t one = 1;
+  if (wake_fd_ >= 0) (void)!::write(wake_fd_, &one, sizeof one);
+}
+
+void DbbDriver::publish_cycle(const DbbCycle& c) {
+  Sample s;
+  s.t_mono_ns = c.t_sync_ns;
+  s.flags = c.flags;
+  s.value_count = static_cast<std::uint32_t>(c.count);
+  std::copy_n(c.position_m.begin(), c.count, s.value.begin());
+  if (c.flags & sample_partial) partial_cycles_.fetch_add(1, std::memory_order_relaxed);
+  publish(s);
+}
+
+std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& decoder) {
+  using std::chrono::nanoseconds;
+  const std::int64_t period_ns =
+      settings_.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)) : 0;
+  const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
+  std::int64_t next_sync = mono_now_ns();
+  std::int64_t last_rx = mono_now_ns();
+  bool silent = false;
+  std::string error;
+  while (!stop.stop_requested()) {
+    std::int64_t now = mono_now_ns();
+    if (settings_.produce_sync && now >= next_sync) {
+      const can_frame sync = make_sync_frame();
+      if (!can::write_can_frame(fd, sync, error)) return "SYNC write failed: " + error;
+      DbbCycle cycle;
+      if (decoder.feed(sync, now, cycle).cycle_ready) publish_cycle(cycle);
+      next_sync += period_ns;
+      if (next_sync < now) next_sync = now + period_ns;  // we fell behind: skip, don't burst
+    }
+    now = mono_now_ns();
+    std::int64_t wait_ns = last_rx + timeout_ns - now;
+    if (settings_.produce_sync) wait_ns = std::min(wait_ns, next_sync - now);
+    const int wait_ms = static_cast<int>(std::clamp<std::int64_t>((wait_ns + 999'999) / 1'000'000, 0, 1000));
+    can_frame f{};
+    const can::ReadResult r = can::read_can_frame(fd, f, wait_ms, wake_fd_, error);
+    now = mono_now_ns();
+    switch (r) {
+      case can::ReadResult::frame: {
+        frames_.fetch_add(1, std::memory_order_relaxed);
+        last_rx = now;
+        DbbCycle cycle;
+        const auto res = decoder.feed(f, now, cycle);
+        if (res.info.kind == FrameInfo::Kind::bad) bad_frames_.fetch_add(1, std::memory_order_relaxed);
+        if (res.info.kind == FrameInfo::Kind::error_frame) {
+          error_frames_.fetch_add(1, std::memory_order_relaxed);
+          bad_frames_.fetch_add(1, std::memory_order_relaxed);
+          if (res.info.error_class & CAN_ERR_BUSOFF) {
+            set_state(drivers::DeviceState::error, "CAN bus off");
+            silent = true;
+          }
+        }
+        if (res.cycle_ready) {
+          publish_cycle(cycle);
+          if (silent) {
+            set_state(drivers::DeviceState::streaming);
+            silent = false;
+          }
+        }
+        break;
+      }
+      case can::ReadResult::truncated:
+        bad_frames_.fetch_add(1, std::memory_order_relaxed);
+        last_rx = now;
+        break;
+      case can::ReadResult::timeout:
+        if (now - last_rx >= timeout_ns) {
+          timeouts_.fetch_add(1, std::memory_order_relaxed);
+          set_state(drivers::DeviceState::lost,
+                    "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
+          silent = true;
+          last_rx = now;       // count one timeout per silent period
+          decoder.resync();    // what comes next follows a gap
+        }
+        break;
+      case can::ReadResult::woken:
+        return {};
+      case can::ReadResult::closed:
+        return "connection closed by the bus";
+      case can::ReadResult::error:
+        return error;
+    }
+  }
+  return {};
+}
+
+void DbbDriver::run(std::stop_token stop) {
+  DbbDecoder decoder(settings_.encoders);
+  std::int64_t backoff_ms = settings_.reconnect_min_ms;
+  bool connected_once = false;
+  while (!stop.stop_requested()) {
+    std::string error;
+    can::CanSocket sock = connector_(error);
+    if (!sock.valid()) {
+      set_state(connected_once ? drivers::DeviceState::lost : drivers::DeviceState::error,
+                to_string(settings_.endpoint) + ": " + error);
+      if (!sleep_for(stop, std::chrono::milliseconds(backoff_ms))) break;
+      backoff_ms = std::min(backoff_ms * 2, settings_.reconnect_max_ms);
+      continue;
+    }
+    if (connected_once) reconnects_.fetch_add(1, std::memory_order_relaxed);
+    connected_once = true;
+    backoff_ms = settings_.reconnect_min_ms;
+    set_state(drivers::DeviceState::streaming);
+    const std::string why = serve(stop, sock.fd(), decoder);
+    sock.reset();
+    if (stop.stop_requested()) break;
+    decoder.resync();
+    set_state(drivers::DeviceState::lost, why);
+    if (!sleep_for(stop, std::chrono::milliseconds(backoff_ms))) break;
+  }
+}
+
+void register_dbb_driver(drivers::DriverRegistry& registry) {
+  registry.add("dbb-can", "double ball bar + axis encoders on CAN (CiA 406 style TPDOs on SYNC; SocketCAN or unix: gateway)",
+               [](const drivers::DeviceConfig& c) {
+                 return std::make_unique<DbbDriver>(c.name, c.ring_capacity, parse_dbb_settings(c.table));
+               });
+}
+
+}  // namespace guideway::dbb

@@ -1,0 +1,61 @@
+#pragma once
+// "dbb-can": the double ball bar's length encoder plus two axis encoders on one CAN bus (CiA 406
+// style, see dbb_protocol.hpp). One Sample per SYNC: values in the order of the configured encoders,
+// in metres, timestamped at the SYNC. Thread safety: as drivers::Driver.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "drivers/can/can_io.hpp"
+#include "drivers/dbb/dbb_protocol.hpp"
+#include "drivers/driver.hpp"
+
+namespace guideway::dbb {
+
+struct DbbSettings {
+  can::CanEndpoint endpoint;           // can:IFNAME or unix:PATH
+  bool produce_sync = true;            // true: we are the SYNC producer; false: listen only
+  double sync_rate_hz = 100.0;         // when producing SYNC
+  std::int64_t timeout_ms = 500;       // silence after which the device is "lost" (one timeout counted per period)
+  std::int64_t reconnect_min_ms = 50;  // backoff doubles from min to max between failed connects
+  std::int64_t reconnect_max_ms = 5000;
+  std::vector<EncoderScale> encoders;
+};
+
+// Reads the settings from a [[device]] table (every accepted key; errors carry file:line:key).
+DbbSettings parse_dbb_settings(const TableReader& table);
+
+// Opens the bus; tests substitute one that hands out socketpair ends.
+using CanConnector = std::function<can::CanSocket(std::string& error)>;
+
+class DbbDriver : public drivers::Driver {
+ public:
+  DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector = {});
+  ~DbbDriver() override;
+
+  [[nodiscard]] std::uint64_t error_frames() const noexcept { return error_frames_.load(std::memory_order_relaxed); }
+  [[nodiscard]] std::uint64_t partial_cycles() const noexcept {
+    return partial_cycles_.load(std::memory_order_relaxed);
+  }
+  [[nodiscard]] const DbbSettings& settings() const noexcept { return settings_; }
+
+ protected:
+  void run(std::stop_token stop) override;
+  void interrupt() override;
+
+ private:
+  // Serves one connection until it fails or stop is requested; returns the reason it ended.
+  std::string serve(const std::stop_token& stop, int fd, DbbDecoder& decoder);
+  void publish_cycle(const DbbCycle& cycle);
+
+  DbbSettings settings_;
+  CanConnector connector_;
+  int wake_fd_ = -1;
+  std::atomic<std::uint64_t> error_frames_{0};
+  std::atomic<std::uint64_t> partial_cycles_{0};
+};
+
+void register_dbb_driver(drivers::DriverRegistry& registry);
+
+}  // namespace guideway::dbb

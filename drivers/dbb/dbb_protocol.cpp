@@ -1,0 +1,184 @@
+#include "drivers/dbb/dbb_protocol.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace guideway::dbb {
+
+std::uint32_t position_to_count(const EncoderScale& scale, double position_m) noexcept {
+  const double counts = (position_m - scale.offset_m) / (scale.resolution_m * scale.direction);
+  if (!std::isfinite(counts)) return 0;
+  const auto rel = static_cast<std::int64_t>(std::llround(counts));
+  // Two's complement wrap to 32 bits, as the encoder's counter does.
+  return static_cast<std::uint32_t>(static_cast<std::uint64_t>(scale.zero_count + rel) & 0xFFFFFFFFu);
+}
+
+double count_to_position(const EncoderScale& scale, std::int64_t unwrapped_count) noexcept {
+  return scale.offset_m +
+         scale.direction * scale.resolution_m * static_cast<double>(unwrapped_count - scale.zero_count);
+}
+
+can_frame make_sync_frame() noexcept {
+  can_frame f{};
+  f.can_id = sync_cob_id;
+  f.can_dlc = 0;
+  return f;
+}
+
+can_frame make_position_pdo(std::uint8_t node_id, std::uint32_t count) noexcept {
+  can_frame f{};
+  f.can_id = tpdo1_cob_base + node_id;
+  f.can_dlc = 4;
+  for (int i = 0; i < 4; ++i) f.data[i] = static_cast<std::uint8_t>(count >> (8 * i));
+  return f;
+}
+
+FrameInfo classify_frame(const can_frame& frame) noexcept {
+  FrameInfo info;
+  if (frame.can_id & CAN_ERR_FLAG) {
+    info.kind = FrameInfo::Kind::error_frame;
+    info.error_class = frame.can_id & CAN_ERR_MASK;
+    return info;
+  }
+  if (frame.can_dlc > CAN_MAX_DLEN) {
+    info.kind = FrameInfo::Kind::bad;
+    info.why = "DLC greater than 8";
+    return info;
+  }
+  if ((frame.can_id & CAN_EFF_FLAG) || (frame.can_id & CAN_RTR_FLAG)) return info;  // other
+  const std::uint32_t id = frame.can_id & CAN_SFF_MASK;
+  if (id == sync_cob_id) {
+    if (frame.can_dlc > 1) {
+      info.kind = FrameInfo::Kind::bad;
+      info.why = "SYNC longer than 1 byte";
+      return info;
+    }
+    info.kind = FrameInfo::Kind::sync;
+    return info;
+  }
+  if (id > emcy_cob_base && id < emcy_cob_base + 0x80) {
+    info.kind = FrameInfo::Kind::emergency;
+    info.node = static_cast<std::uint8_t>(id - emcy_cob_base);
+    return info;
+  }
+  if (id > tpdo1_cob_base && id < tpdo1_cob_base + 0x80) {
+    info.node = static_cast<std::uint8_t>(id - tpdo1_cob_base);
+    if (frame.can_dlc != 4) {
+      info.kind = FrameInfo::Kind::bad;
+      info.why = "TPDO1 length is not 4 bytes";
+      return info;
+    }
+    info.kind = FrameInfo::Kind::position;
+    info.count = static_cast<std::uint32_t>(frame.data[0]) | static_cast<std::uint32_t>(frame.data[1]) << 8 |
+                 static_cast<std::uint32_t>(frame.data[2]) << 16 | static_cast<std::uint32_t>(frame.data[3]) << 24;
+    return info;
+  }
+  return info;
+}
+
+DbbDecoder::DbbDecoder(std::vector<EncoderScale> encoders) : encoders_(std::move(encoders)) {
+  if (encoders_.size() > max_encoders) encoders_.resize(max_encoders);
+  all_mask_ = (1u << encoders_.size()) - 1u;
+  last_m_.fill(std::numeric_limits<double>::quiet_NaN());
+}
+
+int DbbDecoder::index_of(std::uint8_t node) const noexcept {
+  for (std::size_t i = 0; i < encoders_.size(); ++i) {
+    if (encoders_[i].node_id == node) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+void DbbDecoder::resync(bool reset_counts) {
+  open_ = false;
+  emitted_ = false;
+  gap_ = true;
+  if (reset_counts) {
+    have_count_.fill(false);
+    last_m_.fill(std::numeric_limits<double>::quiet_NaN());
+  }
+}
+
+void DbbDecoder::open_cycle(std::int64_t t_ns, std::uint32_t flags) {
+  open_ = true;
+  emitted_ = false;
+  cur_ = DbbCycle{};
+  cur_.t_sync_ns = t_ns;
+  cur_.count = encoders_.size();
+  cur_.flags = flags | (gap_ ? sample_after_gap : 0u);
+  gap_ = false;
+}
+
+void DbbDecoder::close_cycle(DbbCycle& out) {
+  if (cur_.present != all_mask_) {
+    cur_.flags |= sample_partial;
+    for (std::size_t i = 0; i < encoders_.size(); ++i) {
+      if (!(cur_.present & (1u << i))) {
+        cur_.position_m[i] = last_m_[i];  // hold
+        ++missed_pdos_;
+      }
+    }
+  }
+  out = cur_;
+  emitted_ = true;
+}
+
+std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
+  if (!have_count_[i]) {
+    have_count_[i] = true;
+    unwrapped_[i] = static_cast<std::int32_t>(count);
+  } else {
+    const auto delta = static_cast<std::int32_t>(count - prev_count_[i]);
+    unwrapped_[i] += delta;
+  }
+  prev_count_[i] = count;
+  return unwrapped_[i];
+}
+
+DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, DbbCycle& cycle) {
+  Result r;
+  r.info = classify_frame(frame);
+  switch (r.info.kind) {
+    case FrameInfo::Kind::sync:
+      if (open_ && !emitted_) {
+        if (cur_.present != 0) {
+          close_cycle(cycle);
+          r.cycle_ready = true;
+        } else {
+          ++empty_cycles_;  // no node answered this SYNC: no sample (the silence is a timeout)
+        }
+      }
+      open_cycle(t_ns, 0);
+      break;
+    case FrameInfo::Kind::position: {
+      const int idx = index_of(r.info.node);
+      if (idx < 0 || !open_) break;  // not ours, or before the first SYNC
+      const auto i = static_cast<std::size_t>(idx);
+      if (cur_.present & (1u << i)) {
+        // A second PDO from this node in one cycle: the SYNC between them was missed.
+        ++missed_syncs_;
+        if (!emitted_) {
+          close_cycle(cycle);
+          r.cycle_ready = true;
+        }
+        gap_ = true;
+        open_cycle(t_ns, 0);
+      }
+      const double pos = count_to_position(encoders_[i], unwrap(i, r.info.count));
+      cur_.position_m[i] = pos;
+      last_m_[i] = pos;
+      cur_.present |= 1u << i;
+      if (cur_.present == all_mask_ && !r.cycle_ready) {
+        close_cycle(cycle);
+        r.cycle_ready = true;
+      }
+      break;
+    }
+    default:
+      break;
+  }
+  return r;
+}
+
+}  // namespace guideway::dbb

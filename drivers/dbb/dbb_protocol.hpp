@@ -1,0 +1,117 @@
+#pragma once
+// The DBB bus protocol, CANopen encoder profile style (CiA 406): every SYNC (COB-ID 0x080) makes each
+// encoder node transmit TPDO1 (COB-ID 0x180 + node) carrying its position value, object 0x6004,
+// as a 32-bit little-endian count. Pure functions and a frame-by-frame decoder with no I/O, so the
+// same code serves the driver, the emulator and the fuzz tests. Not thread safe (one decoder per bus).
+
+#include <linux/can.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/sample.hpp"
+
+namespace guideway::dbb {
+
+inline constexpr std::uint32_t sync_cob_id = 0x080;
+inline constexpr std::uint32_t emcy_cob_base = 0x080;   // EMCY: 0x080 + node (0x081..0x0FF)
+inline constexpr std::uint32_t tpdo1_cob_base = 0x180;  // TPDO1: 0x180 + node
+inline constexpr std::uint16_t position_value_index = 0x6004;
+inline constexpr std::size_t max_encoders = max_sample_values;
+
+// Scaling of one encoder node: position_m = offset_m + direction * resolution_m * (count - zero_count),
+// where count is the 32-bit position value unwrapped to 64 bits (the first count is read as a
+// signed 32-bit number, later ones continue across the 2^32 wrap).
+struct EncoderScale {
+  std::string channel;         // "bar_length", "x", "y", "z"
+  std::uint8_t node_id = 1;    // 1..127
+  double resolution_m = 1e-7;  // metres per count
+  int direction = +1;          // +1 or -1
+  std::int64_t zero_count = 0;
+  double offset_m = 0.0;       // position at zero_count (the bar's nominal length for the bar encoder)
+};
+
+// Converts metres to the 32-bit count an encoder with this scale would send (the emulator's side).
+std::uint32_t position_to_count(const EncoderScale& scale, double position_m) noexcept;
+double count_to_position(const EncoderScale& scale, std::int64_t unwrapped_count) noexcept;
+
+can_frame make_sync_frame() noexcept;
+can_frame make_position_pdo(std::uint8_t node_id, std::uint32_t count) noexcept;
+
+// What one frame is, independent of any state.
+struct FrameInfo {
+  enum class Kind {
+    sync,         // SYNC (DLC 0, or 1 with a counter)
+    position,     // TPDO1 with a 32-bit position value; node and count set
+    error_frame,  // CAN_ERR_FLAG set; error_class = can_id & CAN_ERR_MASK
+    emergency,    // EMCY from a node
+    other,        // valid frame that is not ours (other COB-IDs, extended IDs, RTR)
+    bad,          // malformed: a SYNC or TPDO1 with the wrong length, DLC > 8
+  };
+  Kind kind = Kind::other;
+  std::uint8_t node = 0;
+  std::uint32_t count = 0;
+  std::uint32_t error_class = 0;
+  const char* why = "";  // for bad frames
+};
+FrameInfo classify_frame(const can_frame& frame) noexcept;
+
+// One SYNC cycle: the positions sampled at one SYNC, in the order of the configured encoders.
+struct DbbCycle {
+  std::int64_t t_sync_ns = 0;  // when the SYNC was seen (received, or sent by us)
+  std::uint32_t flags = 0;     // SampleFlag bits: sample_partial, sample_after_gap
+  std::uint32_t present = 0;   // bit i: encoder i's PDO arrived in this cycle
+  std::size_t count = 0;       // number of encoders
+  std::array<double, max_encoders> position_m{};
+};
+
+// Assembles SYNC cycles from frames. A cycle opens at a SYNC and is emitted as soon as every
+// configured node has sent its PDO. Missing PDOs: when the next SYNC arrives before the cycle is
+// complete, the cycle is emitted with sample_partial and the missing channels HOLD their previous
+// value (NaN if the node never answered); a cycle in which no node answered emits nothing. A second PDO from a node within one cycle means a SYNC was
+// missed: the open cycle is emitted (partial if incomplete) and a new cycle opens at that PDO's
+// time, flagged sample_after_gap. PDOs before the first SYNC and from unconfigured nodes are ignored.
+class DbbDecoder {
+ public:
+  struct Result {
+    bool cycle_ready = false;  // `cycle` holds an emitted cycle
+    FrameInfo info;
+  };
+
+  explicit DbbDecoder(std::vector<EncoderScale> encoders);
+
+  // Feeds one frame seen at t_ns. At most one cycle is emitted per frame.
+  Result feed(const can_frame& frame, std::int64_t t_ns, DbbCycle& cycle);
+  // Forget the open cycle (after a reconnect); the next emitted cycle carries sample_after_gap.
+  // Unwrapping continues (the encoders kept counting) unless reset_counts is set.
+  void resync(bool reset_counts = false);
+
+  [[nodiscard]] const std::vector<EncoderScale>& encoders() const noexcept { return encoders_; }
+  [[nodiscard]] std::uint64_t missed_pdos() const noexcept { return missed_pdos_; }
+  [[nodiscard]] std::uint64_t missed_syncs() const noexcept { return missed_syncs_; }
+  [[nodiscard]] std::uint64_t empty_cycles() const noexcept { return empty_cycles_; }
+
+ private:
+  int index_of(std::uint8_t node) const noexcept;
+  void open_cycle(std::int64_t t_ns, std::uint32_t flags);
+  void close_cycle(DbbCycle& out);
+  std::int64_t unwrap(std::size_t i, std::uint32_t count) noexcept;
+
+  std::vector<EncoderScale> encoders_;
+  std::uint32_t all_mask_ = 0;
+  bool open_ = false;
+  bool emitted_ = false;  // the open cycle was already emitted (complete)
+  bool gap_ = false;      // next cycle carries sample_after_gap
+  DbbCycle cur_;
+  std::array<double, max_encoders> last_m_{};
+  std::array<bool, max_encoders> have_count_{};
+  std::array<std::uint32_t, max_encoders> prev_count_{};
+  std::array<std::int64_t, max_encoders> unwrapped_{};
+  std::uint64_t missed_pdos_ = 0;
+  std::uint64_t missed_syncs_ = 0;
+  std::uint64_t empty_cycles_ = 0;
+};
+
+}  // namespace guideway::dbb
