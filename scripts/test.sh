@@ -42,7 +42,7 @@ for stage in $stages; do
   case $stage in
     main)
       echo "== main build (RelWithDebInfo): all tests but 'slow'"
-      scripts/build.sh build -DCMAKE_BUILD_TYPE=RelWithDebInfo
+      scripts/build.sh build -DCMAKE_BUILD_TYPE=RelWithDebInfo -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON
       run_ctest build "${label_args[@]}" ;;
     asan)
       echo "== ASan+UBSan build: all tests but 'slow'"
