@@ -1,0 +1,466 @@
+#include "simulators/machine/machine.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Dense>
+
+#include "simulators/machine/noise.hpp"
+
+namespace guideway::sim {
+
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+Vector3d v(const Vec3& a) { return {a[0], a[1], a[2]}; }
+Vec3 a3(const Vector3d& x) { return {x.x(), x.y(), x.z()}; }
+
+Matrix3d rot_x(double a) {
+  Matrix3d r;
+  const double c = std::cos(a), s = std::sin(a);
+  r << 1, 0, 0, 0, c, -s, 0, s, c;
+  return r;
+}
+Matrix3d rot_y(double b) {
+  Matrix3d r;
+  const double c = std::cos(b), s = std::sin(b);
+  r << c, 0, s, 0, 1, 0, -s, 0, c;
+  return r;
+}
+Matrix3d rot_z(double g) {
+  Matrix3d r;
+  const double c = std::cos(g), s = std::sin(g);
+  r << c, -s, 0, s, c, 0, 0, 0, 1;
+  return r;
+}
+
+// Nominal (squareness-affected) travel direction of each axis in the frame of the carriage below.
+Vector3d travel_direction(const MachineConfig& m, int j) {
+  switch (j) {
+    case 0: return Vector3d::UnitX();
+    case 1: return rot_z(-m.squareness.xy) * Vector3d::UnitY();
+    default: return rot_y(m.squareness.xz) * rot_x(-m.squareness.yz) * Vector3d::UnitZ();
+  }
+}
+
+// Rotation error motion of axis j at position u (Mu Eq. 2 order: Rx * Ry * Rz).
+Matrix3d axis_rotation(const AxisErrors& e, int j, double u) {
+  double ang[3] = {e.rotation[0](u), e.rotation[1](u), e.rotation[2](u)};
+  if (e.bending) {
+    const auto slope = [&](int i) { return std::atan(e.translation[static_cast<std::size_t>(i)].derivative(u)); };
+    if (j == 0) {
+      ang[2] += slope(1);
+      ang[1] -= slope(2);
+    } else if (j == 1) {
+      ang[2] -= slope(0);
+      ang[0] += slope(2);
+    } else {
+      ang[1] += slope(0);
+      ang[0] -= slope(1);
+    }
+  }
+  return rot_x(ang[0]) * rot_y(ang[1]) * rot_z(ang[2]);
+}
+
+// Index of the direction in which an axis' lateral play shifts it (X->y, Y->x, Z->x).
+int lateral_direction(int j) { return j == 0 ? 1 : 0; }
+
+struct Chain {
+  Vector3d tool;
+  Matrix3d rot[3];  // cumulative orientation of carriage Y, X, Z (indexed by Axis)
+};
+
+// Exact HTM chain bed -> Y -> X -> Z -> tool. `lateral` is the lateral-play offset of each axis.
+Chain chain(const MachineConfig& m, const Vec3& u, const Vec3& lateral, double t) {
+  Vector3d d[3];
+  Matrix3d r[3];
+  for (int j = 0; j < 3; ++j) {
+    const auto& e = m.axis[static_cast<std::size_t>(j)];
+    const double uj = u[static_cast<std::size_t>(j)];
+    const double scale = e.scale + e.scale_drift_per_s * t;
+    double along = uj * (1.0 + scale) + e.drift_m_per_s * t;
+    Vector3d off = Vector3d::Zero();
+    for (int i = 0; i < 3; ++i) {
+      const double val = e.translation[static_cast<std::size_t>(i)](uj);
+      if (i == j) {
+        along += val;
+      } else {
+        off[i] += val;
+      }
+    }
+    off[lateral_direction(j)] += lateral[static_cast<std::size_t>(j)];
+    d[j] = travel_direction(m, j) * along + off;
+    r[j] = axis_rotation(e, j, uj);
+  }
+  Chain c;
+  // P = dY + RY (dX + RX (dZ + RZ tool))
+  c.tool = d[1] + r[1] * (d[0] + r[0] * (d[2] + r[2] * v(m.tool_offset)));
+  c.rot[1] = r[1];
+  c.rot[0] = r[1] * r[0];
+  c.rot[2] = r[1] * r[0] * r[2];
+  return c;
+}
+
+int sign_of(double x) { return x > 0 ? 1 : (x < 0 ? -1 : 0); }
+
+constexpr double two_pi = 2.0 * std::numbers::pi;
+
+}  // namespace
+
+double Polynomial::operator()(double u) const noexcept {
+  double acc = 0.0;
+  for (auto it = c.rbegin(); it != c.rend(); ++it) acc = acc * u + *it;
+  return acc;
+}
+
+double Polynomial::derivative(double u) const noexcept {
+  double acc = 0.0;
+  for (std::size_t k = c.size(); k-- > 1;) acc = acc * u + static_cast<double>(k) * c[k];
+  return acc;
+}
+
+Machine::Machine(MachineConfig config) : config_(std::move(config)) {}
+
+Vec3 Machine::tool_point(const Vec3& axis_position, double t_s) const {
+  return a3(chain(config_, axis_position, Vec3{}, t_s).tool);
+}
+
+std::array<double, 9> Machine::carriage_rotation(Axis axis, const Vec3& axis_position) const {
+  const Matrix3d r = chain(config_, axis_position, Vec3{}, 0.0).rot[static_cast<int>(axis)];
+  std::array<double, 9> out{};
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) out[static_cast<std::size_t>(3 * i + k)] = r(i, k);
+  return out;
+}
+
+std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const {
+  std::vector<MotionSample> out;
+  if (!spec.path || !(spec.duration_s >= 0.0) || !(spec.sample_rate_hz > 0.0)) return out;
+  Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
+  const double dt_out = 1.0 / spec.sample_rate_hz;
+  const int sub = std::max(1, static_cast<int>(std::ceil(dt_out / 2e-4)));
+  const double dt = dt_out / sub;
+  const auto n_out = static_cast<std::size_t>(std::floor(spec.duration_s * spec.sample_rate_hz + 1e-9)) + 1;
+  out.reserve(n_out);
+
+  Vec3 cmd = spec.path(0.0);
+  Vec3 servo = cmd;
+  Vec3 bl = cmd;  // position after the backlash deadband
+  int dir[3] = {0, 0, 0};
+  double t_rev[3] = {-1e30, -1e30, -1e30};
+  int spike_sign[3] = {0, 0, 0};
+
+  const auto emit = [&](double t_rel) {
+    MotionSample s;
+    const double t = spec.t0_s + t_rel;
+    s.t_s = t;
+    s.commanded = cmd;
+    Vec3 lateral{};
+    for (std::size_t j = 0; j < 3; ++j) {
+      const auto& e = config_.axis[j];
+      double enc = servo[j];
+      if (e.encoder_noise_m > 0) enc += e.encoder_noise_m * rng.normal();
+      if (e.encoder_resolution_m > 0) enc = std::round(enc / e.encoder_resolution_m) * e.encoder_resolution_m;
+      s.encoder[j] = enc;
+      double act = bl[j];
+      if (e.cyclic_amplitude_m != 0 && e.cyclic_period_m > 0)
+        act += e.cyclic_amplitude_m * std::sin(two_pi * servo[j] / e.cyclic_period_m + e.cyclic_phase_rad);
+      if (e.reversal_spike_m != 0 && spike_sign[j] != 0 && e.reversal_spike_decay_s > 0)
+        act -= spike_sign[j] * e.reversal_spike_m * std::exp(-(t_rel - t_rev[j]) / e.reversal_spike_decay_s);
+      if (e.vibration_amplitude_m != 0)
+        act += e.vibration_amplitude_m * std::sin(two_pi * e.vibration_frequency_hz * t);
+      s.axis_actual[j] = act;
+      lateral[j] = 0.5 * e.lateral_play_m * dir[j];
+    }
+    Vector3d tool = chain(config_, s.axis_actual, lateral, t).tool;
+    if (config_.noise.position_m > 0)
+      for (int i = 0; i < 3; ++i) tool[i] += config_.noise.position_m * rng.normal();
+    s.tool = a3(tool);
+    out.push_back(s);
+  };
+
+  emit(0.0);
+  for (std::size_t k = 1; k < n_out; ++k) {
+    for (int q = 1; q <= sub; ++q) {
+      const double t_rel = (static_cast<double>(k - 1) * sub + q) * dt;
+      const Vec3 next = spec.path(t_rel);
+      for (std::size_t j = 0; j < 3; ++j) {
+        const auto& e = config_.axis[j];
+        const double before = servo[j];
+        if (e.servo_lag_s > 0) {
+          // Exact response of a first-order lag to a ramp input over the step.
+          const double tau = e.servo_lag_s;
+          const double m = (next[j] - cmd[j]) / dt;
+          servo[j] = next[j] - tau * m + (servo[j] - cmd[j] + tau * m) * std::exp(-dt / tau);
+        } else {
+          servo[j] = next[j];
+        }
+        const double half = 0.5 * e.backlash_m;
+        if (servo[j] - bl[j] > half) bl[j] = servo[j] - half;
+        if (servo[j] - bl[j] < -half) bl[j] = servo[j] + half;
+        const double step = servo[j] - before;
+        const int sgn = std::abs(step) > 1e-13 ? sign_of(step) : 0;
+        if (sgn != 0 && sgn != dir[j]) {
+          if (dir[j] != 0) {
+            t_rev[j] = t_rel;
+            spike_sign[j] = sgn;
+          }
+          dir[j] = sgn;
+        }
+      }
+      cmd = next;
+    }
+    emit(static_cast<double>(k) * dt_out);
+  }
+  return out;
+}
+
+namespace {
+
+std::array<int, 2> plane_axes(Plane p) {
+  switch (p) {
+    case Plane::xy: return {0, 1};
+    case Plane::xz: return {0, 2};
+    default: return {1, 2};
+  }
+}
+
+}  // namespace
+
+DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
+  DbbRun run;
+  run.spec = spec;
+  const double r = spec.radius_m;
+  const double h = spec.height_m;
+  run.nominal_length_m = std::sqrt(r * r + h * h);
+  if (!(r > 0) || !(spec.feed_m_per_s > 0) || !(spec.overshoot_rad >= 0)) return run;
+  const auto [a, b] = plane_axes(spec.plane);
+  Vector3d e1 = Vector3d::Zero(), e2 = Vector3d::Zero();
+  e1[a] = 1;
+  e2[b] = 1;
+  const Vector3d normal = e1.cross(e2);
+  const double omega = spec.feed_m_per_s / r;
+  const double sweep = two_pi + 2.0 * spec.overshoot_rad;
+  const double duration = sweep / omega;
+  const double sgn = spec.direction == Direction::ccw ? 1.0 : -1.0;
+  const double zeta0 = spec.start_angle_rad - sgn * spec.overshoot_rad;
+  const Vector3d center = v(spec.center);
+  const double rate = spec.sample_rate_hz > 0 ? spec.sample_rate_hz : omega * 180.0 / std::numbers::pi * 10.0;
+
+  MotionSpec ms;
+  ms.path = [=](double t) {
+    const double z = zeta0 + sgn * omega * t;
+    return a3(center + r * (std::cos(z) * e1 + std::sin(z) * e2));
+  };
+  ms.duration_s = duration;
+  ms.sample_rate_hz = rate;
+  ms.t0_s = spec.t0_s;
+  ms.seed = spec.seed != 0 ? spec.seed : config_.noise.seed;
+  const auto motion = simulate_motion(ms);
+
+  Vector3d fixed = center - v(config_.dbb.center_offset) - h * normal;
+  // Only the in-plane components of the centre offset move the fixed ball sideways; an offset along
+  // the normal changes the height and is applied as well (exact geometry).
+  Rng rng(ms.seed ^ 0x9e3779b97f4a7c15ULL);
+  run.samples.reserve(motion.size());
+  for (const auto& s : motion) {
+    DbbSample d;
+    d.t_s = s.t_s;
+    const double t_rel = s.t_s - spec.t0_s;
+    d.angle_rad = zeta0 + sgn * omega * t_rel;
+    const double progressed = omega * t_rel;
+    d.in_data_arc = progressed >= spec.overshoot_rad - 1e-12 && progressed <= spec.overshoot_rad + two_pi + 1e-12;
+    d.tool = s.tool;
+    d.encoder = s.encoder;
+    d.commanded = s.commanded;
+    double len = (v(s.tool) - fixed).norm();
+    len += config_.dbb.bar_length_error_m + config_.dbb.bar_drift_m_per_s * s.t_s;
+    if (config_.dbb.noise_m > 0) len += config_.dbb.noise_m * rng.normal();
+    d.bar_length_m = len;
+    d.dL_m = len - run.nominal_length_m;
+    run.samples.push_back(d);
+  }
+  return run;
+}
+
+namespace {
+
+// Static position of an axis approached in direction `dir`: backlash, cyclic error, no lag.
+double static_actual(const AxisErrors& e, double u, int dir) {
+  double act = u - 0.5 * e.backlash_m * dir;
+  if (e.cyclic_amplitude_m != 0 && e.cyclic_period_m > 0)
+    act += e.cyclic_amplitude_m * std::sin(two_pi * u / e.cyclic_period_m + e.cyclic_phase_rad);
+  return act;
+}
+
+}  // namespace
+
+std::vector<TraverseStation> Machine::autocollimator_traverse(const TraverseSpec& spec) const {
+  std::vector<TraverseStation> out;
+  if (!(spec.step_m > 0)) return out;
+  const int j = static_cast<int>(spec.axis);
+  const double span = spec.end_m - spec.start_m;
+  const int dir = sign_of(span);
+  const auto n = static_cast<std::size_t>(std::floor(std::abs(span) / spec.step_m + 1e-9)) + 1;
+  Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double u = spec.start_m + dir * static_cast<double>(k) * spec.step_m;
+    Vec3 pos = spec.other;
+    pos[static_cast<std::size_t>(j)] = u;
+    Vec3 act = pos;
+    Vec3 lateral{};
+    for (std::size_t i = 0; i < 3; ++i) {
+      const int d = static_cast<int>(i) == j ? dir : 0;
+      act[i] = static_actual(config_.axis[i], pos[i], d);
+      lateral[i] = 0.5 * config_.axis[i].lateral_play_m * d;
+    }
+    const double t = spec.t0_s + static_cast<double>(k) * spec.dwell_s;
+    const Chain c = chain(config_, act, lateral, t);
+    const Vector3d n_mirror = c.rot[j].col(j);
+    TraverseStation st;
+    st.t_s = t;
+    st.position_m = u;
+    st.tool = a3(c.tool);
+    if (j == 0) {
+      st.pitch_rad = std::atan2(-n_mirror.z(), n_mirror.x());
+      st.yaw_rad = std::atan2(n_mirror.y(), n_mirror.x());
+    } else if (j == 1) {
+      st.pitch_rad = std::atan2(n_mirror.z(), n_mirror.y());
+      st.yaw_rad = std::atan2(-n_mirror.x(), n_mirror.y());
+    } else {
+      st.pitch_rad = std::atan2(n_mirror.x(), n_mirror.z());
+      st.yaw_rad = std::atan2(-n_mirror.y(), n_mirror.z());
+    }
+    if (config_.noise.autocollimator_rad > 0) {
+      st.pitch_rad += config_.noise.autocollimator_rad * rng.normal();
+      st.yaw_rad += config_.noise.autocollimator_rad * rng.normal();
+    }
+    out.push_back(st);
+  }
+  return out;
+}
+
+namespace {
+
+Vector3d spindle_axis(const SpindleErrors& s) { return rot_y(s.tilt_x_rad) * rot_x(-s.tilt_y_rad) * Vector3d::UnitZ(); }
+Matrix3d spindle_frame(const SpindleErrors& s) { return rot_y(s.tilt_x_rad) * rot_x(-s.tilt_y_rad); }
+
+}  // namespace
+
+std::vector<RunoutSample> Machine::runout_revolution(const RunoutSpec& spec) const {
+  std::vector<RunoutSample> out;
+  if (spec.samples_per_rev == 0 || !(spec.rpm > 0)) return out;
+  const auto& sp = config_.spindle;
+  Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
+  const double omega = spec.rpm / 60.0 * two_pi;
+  const std::size_t n = spec.samples_per_rev * std::max<std::size_t>(1, spec.revolutions);
+  const double total_tilt = sp.wobble_rad + sp.plate_parallelism_rad;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double theta = two_pi * static_cast<double>(k) / static_cast<double>(spec.samples_per_rev);
+    // Rotor: spindle frame, then rotation about its axis, then the once-per-rev tilt of the face
+    // (wobble + plate parallelism) fixed in the rotor at `wobble_phase`.
+    const Matrix3d rotor = spindle_frame(sp) * rot_z(theta) * rot_z(sp.wobble_phase_rad) * rot_y(total_tilt) *
+                           rot_z(-sp.wobble_phase_rad);
+    const Vector3d normal = rotor * Vector3d::UnitZ();
+    const Vector3d center = spindle_axis(sp) * (sp.axial_runout_m * std::cos(2.0 * theta));
+    // Plate plane through `center` with `normal`; the probe looks along z at (probe_radius, 0).
+    const double x = spec.probe_radius_m;
+    double z = center.z() - (normal.x() * (x - center.x()) + normal.y() * (0.0 - center.y())) / normal.z();
+    if (config_.noise.micrometer_m > 0) z += config_.noise.micrometer_m * rng.normal();
+    RunoutSample s;
+    s.t_s = spec.t0_s + theta / omega;
+    s.angle_rad = theta;
+    s.displacement_m = z;
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::vector<ProfilePoint> Machine::facing_profile(const FacingSpec& spec) const {
+  std::vector<ProfilePoint> out;
+  if (!(spec.feed_m_per_s > 0) || !(spec.spindle_rpm > 0) || !(spec.profile_step_m > 0)) return out;
+  const double span = spec.x_end_m - spec.x_start_m;
+  const int dir = sign_of(span);
+  if (dir == 0) return out;
+  const auto& sp = config_.spindle;
+  const Vector3d axis = spindle_axis(sp);
+  const double feed_per_rev = spec.feed_m_per_s / (spec.spindle_rpm / 60.0);
+  const double nose = spec.tool_nose_radius_m;
+  Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
+  const auto& ez = config_.axis[2];
+  const auto n = static_cast<std::size_t>(std::floor(std::abs(span) / spec.profile_step_m + 1e-9)) + 1;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double rho = spec.x_start_m + dir * static_cast<double>(k) * spec.profile_step_m;
+    // Find the commanded x at which the actual tool point is at radius rho (two fixed-point steps).
+    double x_cmd = rho;
+    Vector3d p;
+    double t = spec.t0_s;
+    for (int it = 0; it < 3; ++it) {
+      t = spec.t0_s + std::abs(x_cmd - spec.x_start_m) / spec.feed_m_per_s;
+      Vec3 act{static_actual(config_.axis[0], x_cmd, dir), 0.0, static_actual(ez, spec.z_m, 0)};
+      if (ez.vibration_amplitude_m != 0) act[2] += ez.vibration_amplitude_m * std::sin(two_pi * ez.vibration_frequency_hz * t);
+      Vec3 lateral{0.5 * config_.axis[0].lateral_play_m * dir, 0.0, 0.0};
+      p = chain(config_, act, lateral, t).tool;
+      const double radial = (p - axis * axis.dot(p)).norm();
+      x_cmd += dir * (std::abs(rho) - radial) * (rho >= 0 ? 1.0 : -1.0);
+    }
+    double z = axis.dot(p);
+    if (nose > 0 && feed_per_rev > 0) {
+      const double phase = std::fmod(std::abs(rho - spec.x_start_m), feed_per_rev);
+      const double d = std::min(phase, feed_per_rev - phase);
+      const double dd = std::min(d, nose);
+      z += nose - std::sqrt(nose * nose - dd * dd);
+    }
+    if (config_.noise.profilometer_m > 0) z += config_.noise.profilometer_m * rng.normal();
+    out.push_back({rho, z, t});
+  }
+  return out;
+}
+
+std::vector<ArtifactTarget> Machine::artifact_measurement(const ArtifactSpec& spec) const {
+  std::vector<ArtifactTarget> out;
+  const auto j = static_cast<std::size_t>(spec.axis);
+  Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
+  for (std::size_t k = 0; k < spec.targets; ++k) {
+    Vec3 pos = spec.other;
+    pos[j] = spec.start_m + static_cast<double>(k) * spec.pitch_m;
+    Vec3 act = pos;
+    Vec3 lateral{};
+    for (std::size_t i = 0; i < 3; ++i) {
+      const int d = i == j ? 1 : 0;
+      act[i] = static_actual(config_.axis[i], pos[i], d);
+      lateral[i] = 0.5 * config_.axis[i].lateral_play_m * d;
+    }
+    const Chain c = chain(config_, act, lateral, spec.t0_s);
+    ArtifactTarget tgt;
+    tgt.nominal_m = pos[j];
+    const Vector3d nominal = v(pos) + v(config_.tool_offset);
+    tgt.displacement_m = a3(c.tool - nominal);
+    const Matrix3d& r = c.rot[j];
+    // R = Rx(a) Ry(b) Rz(c)
+    tgt.rotation_rad = {std::atan2(-r(1, 2), r(2, 2)), std::asin(std::clamp(r(0, 2), -1.0, 1.0)),
+                        std::atan2(-r(0, 1), r(0, 0))};
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (config_.noise.position_m > 0) tgt.displacement_m[i] += config_.noise.position_m * rng.normal();
+      if (config_.noise.autocollimator_rad > 0) tgt.rotation_rad[i] += config_.noise.autocollimator_rad * rng.normal();
+    }
+    out.push_back(tgt);
+  }
+  return out;
+}
+
+CommandedPath linear_move(const Vec3& from, const Vec3& to, double feed_m_per_s) {
+  const Vector3d a = v(from), b = v(to);
+  const double len = (b - a).norm();
+  const double dur = feed_m_per_s > 0 ? len / feed_m_per_s : 0.0;
+  return [a, b, dur](double t) {
+    if (dur <= 0 || t >= dur) return a3(b);
+    if (t <= 0) return a3(a);
+    return a3(a + (b - a) * (t / dur));
+  };
+}
+
+}  // namespace guideway::sim

@@ -1,0 +1,285 @@
+#pragma once
+// The virtual machine tool: one 3-axis machine with configurable geometric, servo, mechanical,
+// thermal and noise errors. Every emulated instrument asks it what it would see, so a DBB circle, an
+// autocollimator traverse, a micrometer run-out revolution and a faced profile from one machine are
+// mutually consistent. Instrument readings are computed from exact homogeneous transforms of the
+// kinematic chain (bed -> Y carriage -> X carriage -> Z carriage -> tool point; no small-angle
+// truncation) and exact bar geometry, never from the linearised signatures used by identification.
+//
+// Units: SI everywhere in this API (metres, radians, seconds); the TOML file uses units in key names
+// (docs/machine.md). Thread safety: a Machine is immutable after construction; all queries are const
+// and may run concurrently. Each query draws its noise from its own RNG seeded from `seed` (0 = the
+// machine's [noise] seed), so a query with the same arguments returns bit-identical results.
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace guideway::sim {
+
+using Vec3 = std::array<double, 3>;  // x, y, z in metres (machine coordinates)
+
+enum class Axis : int { x = 0, y = 1, z = 2 };
+
+// Polynomial in the axis position u (metres from machine zero): sum_k c[k] u^k.
+struct Polynomial {
+  std::vector<double> c;
+  [[nodiscard]] double operator()(double u) const noexcept;
+  [[nodiscard]] double derivative(double u) const noexcept;
+  [[nodiscard]] bool empty() const noexcept { return c.empty(); }
+};
+
+// The errors of one linear axis (ISO 230-1 style: for axis j the translation error motions
+// E_Xj, E_Yj, E_Zj and the rotation error motions E_Aj, E_Bj, E_Cj about x, y, z), plus its servo,
+// mechanical, thermal and sensor effects. All fields default to a perfect axis.
+struct AxisErrors {
+  // Geometric, functions of the axis position u (m).
+  double scale = 0.0;                    // relative: actual travel = (1 + scale) * commanded (from machine zero)
+  std::array<Polynomial, 3> translation;  // E_Xj(u), E_Yj(u), E_Zj(u) in m (the one along j adds to positioning)
+  std::array<Polynomial, 3> rotation;     // E_Aj(u), E_Bj(u), E_Cj(u) in rad, right-handed about +x, +y, +z
+  // When true the two rotations perpendicular to j also follow the slope of the straightness curves
+  // (guideway bending, Lai Eqs. 1-9): e.g. for X, E_CX += atan(dE_YX/dx), E_BX -= atan(dE_ZX/dx).
+  bool bending = false;
+
+  // Servo and mechanical.
+  double servo_lag_s = 0.0;        // first-order position loop time constant (1/Kv); mismatch = lag_x - lag_y
+  double backlash_m = 0.0;         // lost motion: actual = servo - (b/2) sign(velocity), deadband model
+  double reversal_spike_m = 0.0;   // at a reversal the axis sticks: error -sign(v_new) * A * exp(-dt/decay)
+  double reversal_spike_decay_s = 0.02;
+  double lateral_play_m = 0.0;     // carriage shifts sideways by (p/2) sign(velocity) (X->y, Y->x, Z->x)
+  double cyclic_amplitude_m = 0.0;  // lead-screw error: + A sin(2 pi u / period + phase)
+  double cyclic_period_m = 0.005;
+  double cyclic_phase_rad = 0.0;
+
+  // Thermal (t = machine time in s since the start of the warm-up, see the queries' t0_s).
+  double scale_drift_per_s = 0.0;  // d(scale)/dt
+  double drift_m_per_s = 0.0;      // position drift along the axis
+
+  // Vibration of the carriage along its own axis and the controller's encoder.
+  double vibration_amplitude_m = 0.0;
+  double vibration_frequency_hz = 0.0;
+  double encoder_resolution_m = 0.0;  // quantisation of the encoder reading (0 = none)
+  double encoder_noise_m = 0.0;       // standard deviation of white noise on the encoder reading
+};
+
+// Squareness between axes (rad). xy: the actual Y travel direction leans towards +x, so actual
+// (x, y) = (x + q y, y) to first order; xz: Z leans towards +x (x += q z); yz: Z leans towards +y.
+struct Squareness {
+  double xy = 0.0;
+  double xz = 0.0;
+  double yz = 0.0;
+};
+
+// DBB set-up errors and the bar as a sensor.
+struct DbbErrors {
+  std::array<double, 3> center_offset{};  // centre of the traced circle minus fixed-ball projection (m)
+  double bar_length_error_m = 0.0;        // calibration error of the bar's nominal length
+  double bar_drift_m_per_s = 0.0;         // thermal growth of the reading (positive = reads longer)
+  double noise_m = 0.0;                   // standard deviation of the bar reading
+};
+
+struct SpindleErrors {
+  double tilt_x_rad = 0.0;     // spindle axis leans towards +x (squareness to the X travel, Mu's Delta beta_xz)
+  double tilt_y_rad = 0.0;     // towards +y
+  double wobble_rad = 0.0;     // once-per-revolution tilt of the rotating face (run-out of a thrust plate)
+  double wobble_phase_rad = 0.0;
+  double axial_runout_m = 0.0;   // twice-per-revolution axial motion amplitude
+  double plate_parallelism_rad = 0.0;  // thrust plate not parallel to the spindle face (fixed in the rotor)
+};
+
+struct SensorNoise {
+  std::uint64_t seed = 1;
+  double autocollimator_rad = 0.0;  // standard deviation per reading
+  double micrometer_m = 0.0;
+  double profilometer_m = 0.0;
+  double position_m = 0.0;          // white vibration of the tool point (all three directions)
+};
+
+struct MachineConfig {
+  std::string name = "virtual";
+  std::array<AxisErrors, 3> axis;  // indexed by Axis
+  Squareness squareness;
+  DbbErrors dbb;
+  SpindleErrors spindle;
+  SensorNoise noise;
+  Vec3 tool_offset{};  // tool point in the Z carriage frame at zero (m); non-zero gives Abbe arms
+};
+
+// Parses a machine file (docs/machine.md). Errors are guideway::ConfigError "file:line: key: message";
+// unknown keys are rejected.
+MachineConfig load_machine_config(const std::string& path);
+MachineConfig parse_machine_config(std::string_view toml_text, const std::string& file_name);
+
+// One instant of a motion.
+struct MotionSample {
+  double t_s = 0.0;       // machine time
+  Vec3 commanded{};       // what the controller commands (m)
+  Vec3 encoder{};         // what the controller reads from its axis encoders (lagging servo position, quantised)
+  Vec3 axis_actual{};     // axis positions after backlash, cyclic error, spikes, vibration (before geometry;
+                          // scale, thermal drift and the error motions are applied by the chain)
+  Vec3 tool{};            // actual tool point in machine coordinates, through the exact HTM chain
+};
+
+// A commanded path: position (m) as a function of the time since the start of the motion (s).
+using CommandedPath = std::function<Vec3(double)>;
+
+struct MotionSpec {
+  CommandedPath path;
+  double duration_s = 0.0;
+  double sample_rate_hz = 1000.0;
+  double t0_s = 0.0;         // machine time at the start (thermal drift)
+  std::uint64_t seed = 0;    // 0 = the machine's noise seed
+};
+
+enum class Plane { xy, xz, yz };
+enum class Direction { ccw, cw };
+
+// A DBB circular test: the tool ball runs a circle of `radius` about `center` in `plane`; the fixed
+// ball sits `height` below it along the plane normal (Lai's h) and off by the configured centre
+// offset. The commanded angle runs from start - overshoot to start + 360 deg + overshoot (ccw) or
+// the mirror image (cw); samples inside the 360 deg data arc are flagged.
+struct DbbCircleSpec {
+  double radius_m = 0.1;
+  double height_m = 0.0;
+  Direction direction = Direction::ccw;
+  Plane plane = Plane::xy;
+  double feed_m_per_s = 1000.0 / 60000.0;  // 1000 mm/min
+  double start_angle_rad = 0.0;
+  double overshoot_rad = 0.7853981633974483;  // 45 deg feed-in and feed-out arcs
+  double sample_rate_hz = 0.0;                 // 0 = 10 samples per degree of arc
+  Vec3 center{};                               // commanded circle centre (machine coordinates)
+  double t0_s = 0.0;
+  std::uint64_t seed = 0;
+};
+
+struct DbbSample {
+  double t_s = 0.0;
+  double angle_rad = 0.0;       // commanded angle zeta, from the first plane axis towards the second
+  bool in_data_arc = false;
+  Vec3 tool{};                  // actual tool-ball centre
+  Vec3 encoder{};               // controller's axis encoder readings
+  Vec3 commanded{};
+  double bar_length_m = 0.0;    // reading of the bar (with noise and drift)
+  double dL_m = 0.0;            // bar_length - nominal length sqrt(r^2 + h^2)
+};
+
+struct DbbRun {
+  DbbCircleSpec spec;
+  double nominal_length_m = 0.0;
+  std::vector<DbbSample> samples;  // the whole motion, overshoot arcs included
+};
+
+// Autocollimator traverse: the machine stops every `step` along `axis`; the mirror is on the moving
+// carriage (for X and Y on the tool side, so it sees the rotations of all carriages below), the
+// autocollimator beam is along the axis. Angles are the mirror's exact rotations about the two
+// axes perpendicular to the beam.
+struct TraverseSpec {
+  Axis axis = Axis::x;
+  double start_m = 0.0;
+  double end_m = 0.6;
+  double step_m = 0.01;
+  Vec3 other{};              // position of the other axes
+  double dwell_s = 1.0;      // time per station (thermal drift)
+  double t0_s = 0.0;
+  std::uint64_t seed = 0;
+};
+
+struct TraverseStation {
+  double t_s = 0.0;
+  double position_m = 0.0;      // commanded position along the axis
+  double pitch_rad = 0.0;       // X: about y; Y: about x; Z: about y
+  double yaw_rad = 0.0;         // X and Y: about z; Z: about x
+  Vec3 tool{};                  // actual tool point at the station
+};
+
+// Inductance micrometer on a thrust plate fixed to the spindle face: probe at radius `probe_radius`
+// on the +x side, axial displacement versus spindle angle.
+struct RunoutSpec {
+  double probe_radius_m = 0.5;
+  std::size_t samples_per_rev = 360;
+  double rpm = 10.0;
+  std::size_t revolutions = 1;
+  double t0_s = 0.0;
+  std::uint64_t seed = 0;
+};
+
+struct RunoutSample {
+  double t_s = 0.0;
+  double angle_rad = 0.0;
+  double displacement_m = 0.0;   // height of the plate surface under the probe along +z (positive = pushes the probe)
+};
+
+// Facing cut on a lathe (Mu's experiment): the tool traverses X from x_start to x_end at constant
+// feed with the spindle turning; the faced surface height along the radius is the tool's axial
+// position through the exact chain plus the feed marks of a round-nosed tool; the profile is then
+// measured along +x every `profile_step`.
+struct FacingSpec {
+  double x_start_m = 0.0;
+  double x_end_m = 0.6;
+  double z_m = 0.0;                       // commanded Z during the cut
+  double feed_m_per_s = 2.0 / 60000.0;    // 2 mm/min
+  double spindle_rpm = 100.0;
+  double tool_nose_radius_m = 0.0008;
+  double profile_step_m = 0.0005;
+  double t0_s = 0.0;
+  std::uint64_t seed = 0;
+};
+
+struct ProfilePoint {
+  double x_m = 0.0;    // radial position along the profile
+  double z_m = 0.0;    // surface height along the spindle axis (profilometer reading, with noise)
+  double t_s = 0.0;    // machine time when the tool cut this radius
+};
+
+// Wei's 1-D artifact: targets every `pitch` along `axis`, measured with the probe carried by the
+// machine: deviation of each target's measured position and angles from their calibration.
+struct ArtifactSpec {
+  Axis axis = Axis::x;
+  double start_m = 0.0;
+  double pitch_m = 0.05;
+  std::size_t targets = 9;
+  Vec3 other{};
+  double t0_s = 0.0;
+  std::uint64_t seed = 0;
+};
+
+struct ArtifactTarget {
+  double nominal_m = 0.0;
+  Vec3 displacement_m{};     // tool point actual minus commanded (the six error functions' translations)
+  Vec3 rotation_rad{};       // rotations of the carriage about x, y, z
+};
+
+class Machine {
+ public:
+  explicit Machine(MachineConfig config);
+  static Machine from_file(const std::string& path) { return Machine(load_machine_config(path)); }
+
+  [[nodiscard]] const MachineConfig& config() const noexcept { return config_; }
+
+  // Exact geometry, no servo: actual tool point for the given (post-servo) axis positions at time t.
+  [[nodiscard]] Vec3 tool_point(const Vec3& axis_position, double t_s = 0.0) const;
+  // Orientation of the carriage of `axis` (and everything it carries) in machine coordinates,
+  // row-major 3x3 rotation.
+  [[nodiscard]] std::array<double, 9> carriage_rotation(Axis axis, const Vec3& axis_position) const;
+
+  // Any commanded motion sampled in time: servo lag, backlash, spikes, lateral play, cyclic error,
+  // drift, vibration, encoder quantisation and the exact chain.
+  [[nodiscard]] std::vector<MotionSample> simulate_motion(const MotionSpec& spec) const;
+
+  [[nodiscard]] DbbRun dbb_circle(const DbbCircleSpec& spec) const;
+  [[nodiscard]] std::vector<TraverseStation> autocollimator_traverse(const TraverseSpec& spec) const;
+  [[nodiscard]] std::vector<RunoutSample> runout_revolution(const RunoutSpec& spec) const;
+  [[nodiscard]] std::vector<ProfilePoint> facing_profile(const FacingSpec& spec) const;
+  [[nodiscard]] std::vector<ArtifactTarget> artifact_measurement(const ArtifactSpec& spec) const;
+
+ private:
+  MachineConfig config_;
+};
+
+// Helpers for commanded paths.
+CommandedPath linear_move(const Vec3& from, const Vec3& to, double feed_m_per_s);
+
+}  // namespace guideway::sim
