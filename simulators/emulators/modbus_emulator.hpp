@@ -1,0 +1,106 @@
+#pragma once
+// An emulated inductance-micrometer gauge amplifier: a real libmodbus server (Modbus TCP on a
+// socket, or Modbus RTU on a pseudo-terminal joined to the client's pseudo-terminal by a byte
+// bridge) whose registers follow a reading source, with switchable fault injection.
+// Thread safe: start/stop from the owning thread; inject/disconnect_for/served from any thread.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "drivers/modbus/register_map.hpp"
+
+namespace guideway::emulators {
+
+// What the probe sees at time t_s (seconds since the emulator started).
+struct MicrometerPoint {
+  double value_m = 0.0;
+  bool out_of_range = false;
+  bool probe_missing = false;
+};
+using MicrometerSource = std::function<MicrometerPoint(double t_s)>;
+
+// A spindle run-out revolution seen by a probe on a thrust plate: eccentricity plus a 2nd harmonic.
+MicrometerSource runout_source(double rpm = 60.0, double eccentricity_m = 2e-6, double second_harmonic_m = 0.3e-6);
+
+enum class ModbusFault {
+  exception,  // answer with exception 6 (server busy)
+  stall,      // no answer at all (the client times out)
+  garbage,    // random bytes instead of the answer
+  truncate,   // the first half of the answer only
+  bad_crc,    // RTU: answer with a wrong CRC; TCP (no CRC): a damaged transaction id
+  burst,      // the answer three times in a row (frames faster than the poll rate)
+};
+std::string_view to_string(ModbusFault f) noexcept;
+bool modbus_fault_from_string(std::string_view s, ModbusFault& out) noexcept;
+
+// One reading the server answered normally (the driver should have received it).
+struct ServedReading {
+  std::uint64_t request = 0;  // 0-based index of the request among all requests received
+  double value_m = 0.0;       // as encoded in the registers, i.e. quantized like the driver decodes it
+  std::uint32_t flags = 0;    // SampleFlag bits the driver should report
+};
+
+class MicrometerEmulator {
+ public:
+  struct Options {
+    modbus::RegisterMap map;
+    int unit_id = 1;
+    MicrometerSource source = runout_source();
+  };
+  explicit MicrometerEmulator(Options options);
+  ~MicrometerEmulator();
+  MicrometerEmulator(const MicrometerEmulator&) = delete;
+  MicrometerEmulator& operator=(const MicrometerEmulator&) = delete;
+
+  // Modbus TCP server on host:port (port 0: any free port). Returns the port, or -1 with error set.
+  int start_tcp(const std::string& host, int port, std::string& error);
+  // Modbus RTU server behind a pseudo-terminal pair; returns the client's pty path ("" with error set).
+  std::string start_rtu(int baud, char parity, int data_bits, int stop_bits, std::string& error);
+  void stop();
+
+  // The next `count` requests get fault f (queued after faults already pending).
+  void inject(ModbusFault f, int count = 1);
+  // The line goes dead for d: TCP closes the connection and refuses new ones; RTU drops all bytes.
+  void disconnect_for(std::chrono::milliseconds d);
+  [[nodiscard]] std::vector<ServedReading> served() const;
+  [[nodiscard]] std::uint64_t requests() const noexcept { return requests_.load(); }
+  [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
+
+ private:
+  void tcp_loop(int port);
+  void rtu_loop();
+  void bridge_loop();
+  void handle(const std::uint8_t* query, int length, int fd, bool rtu);
+  bool line_down() const;
+
+  Options options_;
+  std::string host_;
+  void* ctx_ = nullptr;      // modbus_t*
+  void* mapping_ = nullptr;  // modbus_mapping_t*
+  int listen_fd_ = -1;
+  int pty_server_master_ = -1, pty_client_master_ = -1, pty_server_slave_ = -1, pty_client_slave_ = -1;
+  std::atomic<bool> running_{false};
+  std::thread server_thread_, bridge_thread_;
+  std::chrono::steady_clock::time_point t0_;
+  mutable std::mutex mutex_;
+  std::deque<ModbusFault> pending_;
+  std::chrono::steady_clock::time_point down_until_{};
+  bool drop_connection_ = false;
+  std::vector<ServedReading> served_;
+  std::atomic<std::uint64_t> requests_{0};
+  std::atomic<std::uint64_t> connections_{0};
+  std::uint32_t rng_ = 0x9e3779b9u;
+};
+
+// Runs `command` lines against an emulator (used by guideway-emulate on stdin):
+// "fault <name> [count]", "disconnect <ms>". Returns false with a message for an unknown command.
+bool apply_micrometer_command(MicrometerEmulator& emulator, const std::string& line, std::string& message);
+
+}  // namespace guideway::emulators

@@ -1,0 +1,4 @@
+# Micrometer (Modbus TCP/RTU) and profilometer (TCP stream, profile files): parsers, drivers, emulators.
+guideway_add_test(modbus_register_map_test SOURCES modbus_register_map_test.cpp LIBS guideway_modbus)
+guideway_add_test(micrometer_modbus_test SOURCES micrometer_modbus_test.cpp
+  LIBS guideway_micrometer guideway_micrometer_emulator LABELS integration TIMEOUT 180)
