@@ -164,11 +164,18 @@ ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd,
   }
   // One record: a larger buffer than can_frame so an oversized record is seen as such (MSG_TRUNC).
   alignas(can_frame) unsigned char buf[sizeof(can_frame) + 64];
+  bool reset = false;
   for (;;) {
     const ssize_t got = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT | MSG_TRUNC);
     if (got < 0) {
       if (errno == EINTR) continue;
-      if (errno == EAGAIN || errno == EWOULDBLOCK) return ReadResult::timeout;
+      if (errno == EAGAIN || errno == EWOULDBLOCK) return reset ? ReadResult::closed : ReadResult::timeout;
+      if (errno == ECONNRESET && !reset) {
+        // The peer closed with our frames unread. The kernel reports that before the frames still
+        // queued for us, and only once: read on so nothing received is lost.
+        reset = true;
+        continue;
+      }
       if (errno == ECONNRESET) return ReadResult::closed;
       error = errno_text("recv", errno);
       return ReadResult::error;

@@ -83,6 +83,16 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
   publish(s);
 }
 
+void DbbDriver::drain(int fd, DbbDecoder& decoder) {
+  can_frame f{};
+  std::string error;
+  while (can::read_can_frame(fd, f, 0, -1, error) == can::ReadResult::frame) {
+    frames_.fetch_add(1, std::memory_order_relaxed);
+    DbbCycle cycle;
+    if (decoder.feed(f, mono_now_ns(), cycle).cycle_ready) publish_cycle(cycle);
+  }
+}
+
 std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& decoder) {
   using std::chrono::nanoseconds;
   const std::int64_t period_ns =
@@ -96,7 +106,10 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
     std::int64_t now = mono_now_ns();
     if (settings_.produce_sync && now >= next_sync) {
       const can_frame sync = make_sync_frame();
-      if (!can::write_can_frame(fd, sync, error)) return "SYNC write failed: " + error;
+      if (!can::write_can_frame(fd, sync, error)) {
+        drain(fd, decoder);
+        return "SYNC write failed: " + error;
+      }
       DbbCycle cycle;
       if (decoder.feed(sync, now, cycle).cycle_ready) publish_cycle(cycle);
       next_sync += period_ns;
@@ -150,7 +163,7 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       case can::ReadResult::woken:
         return {};
       case can::ReadResult::closed:
-        return "connection closed by the bus";
+        return "connection closed by the bus";  // EOF comes after every queued frame was read
       case can::ReadResult::error:
         return error;
     }
@@ -178,6 +191,8 @@ void DbbDriver::run(std::stop_token stop) {
     set_state(drivers::DeviceState::streaming);
     const std::string why = serve(stop, sock.fd(), decoder);
     sock.reset();
+    DbbCycle rest;
+    if (decoder.flush(rest)) publish_cycle(rest);  // nothing received is lost
     if (stop.stop_requested()) break;
     decoder.resync();
     set_state(drivers::DeviceState::lost, why);

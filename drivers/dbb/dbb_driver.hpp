@@ -48,6 +48,7 @@ class DbbDriver : public drivers::Driver {
   // Serves one connection until it fails or stop is requested; returns the reason it ended.
   std::string serve(const std::stop_token& stop, int fd, DbbDecoder& decoder);
   void publish_cycle(const DbbCycle& cycle);
+  void drain(int fd, DbbDecoder& decoder);  // reads what is still queued (after a failed write)
 
   DbbSettings settings_;
   CanConnector connector_;

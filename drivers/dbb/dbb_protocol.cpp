@@ -90,6 +90,12 @@ int DbbDecoder::index_of(std::uint8_t node) const noexcept {
   return -1;
 }
 
+bool DbbDecoder::flush(DbbCycle& cycle) {
+  if (!open_ || emitted_ || cur_.present == 0) return false;
+  close_cycle(cycle);
+  return true;
+}
+
 void DbbDecoder::resync(bool reset_counts) {
   open_ = false;
   emitted_ = false;
@@ -147,6 +153,7 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
           r.cycle_ready = true;
         } else {
           ++empty_cycles_;  // no node answered this SYNC: no sample (the silence is a timeout)
+          if (cur_.flags & sample_after_gap) gap_ = true;  // the gap mark moves on to the next cycle
         }
       }
       open_cycle(t_ns, 0);

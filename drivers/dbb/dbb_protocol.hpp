@@ -84,6 +84,9 @@ class DbbDecoder {
 
   // Feeds one frame seen at t_ns. At most one cycle is emitted per frame.
   Result feed(const can_frame& frame, std::int64_t t_ns, DbbCycle& cycle);
+  // Emits the open cycle if it has data that was not emitted yet (partial); call before resync()
+  // when a connection ends so nothing received is lost.
+  bool flush(DbbCycle& cycle);
   // Forget the open cycle (after a reconnect); the next emitted cycle carries sample_after_gap.
   // Unwrapping continues (the encoders kept counting) unless reset_counts is set.
   void resync(bool reset_counts = false);

@@ -1,0 +1,223 @@
+#include "simulators/emulators/dbb_emulator.hpp"
+
+#include <linux/can/error.h>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "core/mono_clock.hpp"
+
+namespace guideway::emulators {
+
+DbbEmulator::DbbEmulator(DbbEmulatorSettings settings, DbbSource source)
+    : settings_(std::move(settings)),
+      source_(std::move(source)),
+      wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)),
+      drop_cycles_(settings_.encoders.size(), 0) {}
+
+DbbEmulator::~DbbEmulator() {
+  stop();
+  if (wake_fd_ >= 0) ::close(wake_fd_);
+}
+
+void DbbEmulator::start(can::CanSocket listener) {
+  if (running_.exchange(true)) return;
+  listener_ = std::move(listener);
+  t0_ns_ = mono_now_ns();
+  thread_ = std::jthread([this] { loop(); });
+}
+
+void DbbEmulator::stop() {
+  if (!running_.exchange(false)) return;
+  wake();
+  thread_.join();
+  close_conn();
+  listener_.reset();
+}
+
+void DbbEmulator::wake() {
+  const std::uint64_t one = 1;
+  (void)!::write(wake_fd_, &one, sizeof one);
+}
+
+void DbbEmulator::attach(can::CanSocket fd) {
+  {
+    std::lock_guard lock(pending_mutex_);
+    pending_ = std::move(fd);
+    has_pending_ = true;
+  }
+  wake();
+}
+
+void DbbEmulator::inject_disconnect() {
+  disconnect_ = true;
+  wake();
+}
+void DbbEmulator::inject_garbage(int frames) { garbage_ += frames; }
+void DbbEmulator::inject_truncated(int frames) { truncated_ += frames; }
+void DbbEmulator::inject_bad_frames(int frames) { bad_ += frames; }
+void DbbEmulator::inject_error_frames(int frames, bool bus_off) {
+  bus_off_ = bus_off;
+  error_frames_ += frames;
+}
+void DbbEmulator::inject_drop_pdo(std::size_t encoder, int cycles) {
+  std::lock_guard lock(drop_mutex_);
+  if (encoder < drop_cycles_.size()) drop_cycles_[encoder] += cycles;
+}
+void DbbEmulator::inject_stall(double seconds) {
+  stall_until_ns_ = mono_now_ns() + static_cast<std::int64_t>(seconds * 1e9);
+}
+void DbbEmulator::inject_burst(int cycles) {
+  burst_ += cycles;
+  wake();
+}
+
+std::vector<DbbSentCycle> DbbEmulator::log() const {
+  std::lock_guard lock(log_mutex_);
+  return log_;
+}
+
+void DbbEmulator::close_conn() {
+  conn_.reset();
+  connected_ = false;
+}
+
+void DbbEmulator::send_faults(int fd) {
+  std::string err;
+  auto next = [this] {
+    rng_ = rng_ * 1664525u + 1013904223u;
+    return rng_;
+  };
+  for (int n = garbage_.exchange(0); n > 0; --n) {
+    can_frame f{};
+    f.can_id = 0x700 + (next() % 0x100);  // NMT heartbeat / foreign range: never ours
+    f.can_dlc = static_cast<std::uint8_t>(next() % 9);
+    for (auto& b : f.data) b = static_cast<std::uint8_t>(next());
+    can::write_can_frame(fd, f, err);
+  }
+  for (int n = truncated_.exchange(0); n > 0; --n) {
+    const can_frame f = dbb::make_position_pdo(settings_.encoders.empty() ? 1 : settings_.encoders[0].node_id, next());
+    can::write_can_record(fd, &f, 1 + next() % (sizeof f - 1), err);
+  }
+  for (int n = bad_.exchange(0); n > 0; --n) {
+    can_frame f = dbb::make_position_pdo(settings_.encoders.empty() ? 1 : settings_.encoders[0].node_id, next());
+    if (n % 2 == 0) {
+      f.can_dlc = static_cast<std::uint8_t>(5 + next() % 4);
+    } else {
+      f.can_dlc = 2;
+    }
+    can::write_can_frame(fd, f, err);
+  }
+  for (int n = error_frames_.exchange(0); n > 0; --n) {
+    can_frame f{};
+    f.can_id = CAN_ERR_FLAG | (bus_off_ ? CAN_ERR_BUSOFF : (CAN_ERR_PROT | CAN_ERR_CRTL));
+    f.can_dlc = CAN_ERR_DLC;
+    can::write_can_frame(fd, f, err);
+  }
+}
+
+void DbbEmulator::send_cycle(int fd, bool with_sync) {
+  const std::int64_t now = mono_now_ns();
+  std::string err;
+  if (with_sync && !can::write_can_frame(fd, dbb::make_sync_frame(), err)) return;
+  send_faults(fd);
+  DbbSentCycle c;
+  c.t_s = static_cast<double>(now - t0_ns_) * 1e-9;
+  c.truth_m.assign(settings_.encoders.size(), 0.0);
+  c.counts.assign(settings_.encoders.size(), 0);
+  source_(c.t_s, c.truth_m);
+  {
+    std::lock_guard lock(drop_mutex_);
+    for (std::size_t i = 0; i < settings_.encoders.size(); ++i) {
+      c.counts[i] = dbb::position_to_count(settings_.encoders[i], c.truth_m[i]);
+      if (drop_cycles_[i] > 0) {
+        --drop_cycles_[i];
+        continue;
+      }
+      if (!can::write_can_frame(fd, dbb::make_position_pdo(settings_.encoders[i].node_id, c.counts[i]), err)) return;
+      c.sent_mask |= 1u << i;
+    }
+  }
+  cycles_.fetch_add(1);
+  std::lock_guard lock(log_mutex_);
+  log_.push_back(std::move(c));
+}
+
+void DbbEmulator::loop() {
+  const auto period_ns = static_cast<std::int64_t>(1e9 / settings_.sync_rate_hz);
+  std::int64_t next_sync = mono_now_ns() + period_ns;
+  while (running_) {
+    {
+      std::lock_guard lock(pending_mutex_);
+      if (has_pending_) {
+        conn_ = std::move(pending_);
+        has_pending_ = false;
+        connected_ = conn_.valid();
+        if (connected_) connections_.fetch_add(1);
+      }
+    }
+    if (disconnect_.exchange(false)) close_conn();
+    const std::int64_t now = mono_now_ns();
+    const bool stalled = now < stall_until_ns_.load();
+    if (conn_.valid() && !stalled) {
+      for (int n = burst_.exchange(0); n > 0; --n) send_cycle(conn_.fd(), true);
+      if (settings_.produce_sync && now >= next_sync) {
+        send_cycle(conn_.fd(), true);
+        next_sync += period_ns;
+        if (next_sync < now) next_sync = now + period_ns;
+      }
+    }
+    int timeout_ms = 50;
+    if (settings_.produce_sync) {
+      timeout_ms = static_cast<int>(std::max<std::int64_t>(0, (next_sync - mono_now_ns()) / 1'000'000));
+    }
+    pollfd fds[3] = {{wake_fd_, POLLIN, 0}, {conn_.fd(), POLLIN, 0}, {listener_.fd(), POLLIN, 0}};
+    const int r = ::poll(fds, 3, timeout_ms);
+    if (r <= 0) continue;
+    if (fds[0].revents & POLLIN) {
+      std::uint64_t v;
+      (void)!::read(wake_fd_, &v, sizeof v);
+    }
+    if (fds[2].revents & POLLIN) {
+      const int fd = ::accept4(listener_.fd(), nullptr, nullptr, SOCK_CLOEXEC);
+      if (fd >= 0) {
+        conn_.reset(fd);  // one client at a time: a new one replaces the old
+        connected_ = true;
+        connections_.fetch_add(1);
+        continue;
+      }
+    }
+    if (conn_.valid() && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
+      can_frame f{};
+      std::string err;
+      const auto rr = can::read_can_frame(conn_.fd(), f, 0, -1, err);
+      if (rr == can::ReadResult::closed || rr == can::ReadResult::error) {
+        close_conn();
+        continue;
+      }
+      if (rr == can::ReadResult::frame && !settings_.produce_sync &&
+          dbb::classify_frame(f).kind == dbb::FrameInfo::Kind::sync) {
+        if (mono_now_ns() < stall_until_ns_.load()) continue;
+        send_cycle(conn_.fd(), false);
+      }
+    }
+  }
+}
+
+DbbSource ideal_circle_source(double radius_m, double feed_m_s, int direction, double bar_error_m) {
+  return [=](double t_s, std::span<double> out) {
+    const double phi = direction * feed_m_s / radius_m * t_s;
+    const double a = radius_m * std::cos(phi);
+    const double b = radius_m * std::sin(phi);
+    if (!out.empty()) out[0] = std::hypot(a, b) + bar_error_m;
+    if (out.size() > 1) out[1] = a;
+    if (out.size() > 2) out[2] = b;
+    for (std::size_t i = 3; i < out.size(); ++i) out[i] = 0.0;
+  };
+}
+
+}  // namespace guideway::emulators

@@ -1,0 +1,110 @@
+#pragma once
+// An emulated DBB bus: the bar's length encoder and two axis encoders answering SYNC with TPDO1
+// position values (or producing SYNC themselves, like a CNC controller would), over any fd carrying
+// can_frame records: a socketpair end handed in by a test, a Unix SEQPACKET gateway socket, or a
+// SocketCAN interface. Values come from a DbbSource (the virtual machine tool). Faults are injected
+// from any thread; everything the emulator sent is logged so tests can compare the driver's samples.
+// Thread safe: start/stop from one thread; inject_*, attach, log() from any thread.
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "drivers/can/can_io.hpp"
+#include "drivers/dbb/dbb_protocol.hpp"
+
+namespace guideway::emulators {
+
+// What the encoders see at time t_s (seconds since the emulator started): one position in metres per
+// configured encoder, in encoder order.
+using DbbSource = std::function<void(double t_s, std::span<double> positions_m)>;
+
+struct DbbEmulatorSettings {
+  std::vector<dbb::EncoderScale> encoders;
+  bool produce_sync = false;  // false: answer the driver's SYNC; true: we send SYNC at sync_rate_hz
+  double sync_rate_hz = 100.0;
+};
+
+// One cycle the emulator put on the bus.
+struct DbbSentCycle {
+  double t_s = 0;
+  std::uint32_t sent_mask = 0;      // bit i: encoder i's PDO was sent
+  std::vector<double> truth_m;      // the source's positions
+  std::vector<std::uint32_t> counts;  // the counts sent
+};
+
+class DbbEmulator {
+ public:
+  DbbEmulator(DbbEmulatorSettings settings, DbbSource source);
+  ~DbbEmulator();
+  DbbEmulator(const DbbEmulator&) = delete;
+  DbbEmulator& operator=(const DbbEmulator&) = delete;
+
+  // Serve connections accepted on `listener` (a listening Unix SEQPACKET socket), one at a time,
+  // and/or fds handed in with attach(). Starts the emulator thread.
+  void start(can::CanSocket listener = {});
+  void stop();
+  // Serves `fd` from now on (the previous connection is closed). Takes ownership.
+  void attach(can::CanSocket fd);
+
+  // Fault injection: applied at the next cycle (before its PDOs) unless said otherwise.
+  void inject_disconnect();                       // close the connection now
+  void inject_garbage(int frames);                // frames with foreign COB-IDs and random payloads
+  void inject_truncated(int frames);              // records shorter than a can_frame
+  void inject_bad_frames(int frames);             // TPDO1s with a wrong length, SYNC with a payload
+  void inject_error_frames(int frames, bool bus_off = false);  // CAN_ERR_FLAG frames
+  void inject_drop_pdo(std::size_t encoder, int cycles);  // that encoder skips its PDO in the next cycles
+  void inject_stall(double seconds);              // answer/produce nothing for a while
+  void inject_burst(int cycles);                  // that many extra SYNC+PDO cycles, back to back
+
+  [[nodiscard]] std::vector<DbbSentCycle> log() const;
+  [[nodiscard]] std::uint64_t cycles_sent() const noexcept { return cycles_.load(); }
+  [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
+  [[nodiscard]] bool connected() const noexcept { return connected_.load(); }
+
+ private:
+  void loop();
+  void wake();
+  void send_cycle(int fd, bool with_sync);
+  void send_faults(int fd);
+  void close_conn();
+
+  DbbEmulatorSettings settings_;
+  DbbSource source_;
+  std::int64_t t0_ns_ = 0;
+  can::CanSocket listener_;
+  can::CanSocket conn_;
+  int wake_fd_ = -1;
+  std::jthread thread_;
+  std::atomic<bool> running_{false};
+
+  std::mutex pending_mutex_;
+  can::CanSocket pending_;
+  bool has_pending_ = false;
+
+  std::atomic<bool> disconnect_{false};
+  std::atomic<int> garbage_{0}, truncated_{0}, bad_{0}, error_frames_{0}, burst_{0};
+  std::atomic<bool> bus_off_{false};
+  std::atomic<std::int64_t> stall_until_ns_{0};
+  std::mutex drop_mutex_;
+  std::vector<int> drop_cycles_;  // per encoder
+  std::uint32_t rng_ = 12345;
+
+  mutable std::mutex log_mutex_;
+  std::vector<DbbSentCycle> log_;
+  std::atomic<std::uint64_t> cycles_{0};
+  std::atomic<std::uint64_t> connections_{0};
+  std::atomic<bool> connected_{false};
+};
+
+// A DBB circle without a machine model: the tool runs a circle of `radius_m` around the centre pivot
+// at `feed_m_s` (ccw when direction > 0); the bar reads the exact pivot distance plus `bar_error_m`.
+// Encoder order: bar_length, first axis, second axis.
+DbbSource ideal_circle_source(double radius_m, double feed_m_s, int direction, double bar_error_m = 0.0);
+
+}  // namespace guideway::emulators

@@ -1,0 +1,290 @@
+// dbb-can driver against the DBB emulator through the real CAN transport: can_frame records over
+// socketpair(AF_UNIX, SOCK_SEQPACKET) and over the emulator's Unix gateway socket; every fault the
+// emulator can inject, with the driver surviving and nothing received before the fault lost.
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+
+#include <cmath>
+#include <deque>
+
+#include "core/mono_clock.hpp"
+#include "drivers/dbb/dbb_driver.hpp"
+#include "simulators/emulators/dbb_emulator.hpp"
+#include "test_support.hpp"
+
+using namespace guideway;
+using namespace std::chrono_literals;
+using drivers::DeviceState;
+
+namespace {
+
+std::vector<dbb::EncoderScale> three_encoders() {
+  std::vector<dbb::EncoderScale> e(3);
+  e[0] = {"bar_length", 1, 1e-7, +1, 0, 0.100};
+  e[1] = {"x", 2, 1e-7, +1, 0, 0.0};
+  e[2] = {"y", 3, 5e-8, -1, 1000, 0.0};
+  return e;
+}
+
+struct Bench {
+  explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
+                 emulators::DbbSource source = emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6))
+      : emu({three_encoders(), !driver_produces_sync, rate_hz}, std::move(source)) {
+    dbb::DbbSettings s;
+    s.produce_sync = driver_produces_sync;
+    s.sync_rate_hz = rate_hz;
+    s.timeout_ms = timeout_ms;
+    s.reconnect_min_ms = 10;
+    s.reconnect_max_ms = 100;
+    s.encoders = three_encoders();
+    emu.start();
+    driver = std::make_unique<dbb::DbbDriver>("dbb", 1 << 14, s, [this](std::string& err) {
+      int sv[2];
+      if (::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) < 0) {
+        err = "socketpair failed";
+        return can::CanSocket{};
+      }
+      ++connects;
+      emu.attach(can::CanSocket(sv[1]));
+      return can::CanSocket(sv[0]);
+    });
+    driver->start();
+  }
+  ~Bench() {
+    driver->stop();
+    emu.stop();
+  }
+  void drain() {
+    Sample s;
+    while (driver->ring().try_pop(s)) samples.push_back(s);
+  }
+  bool wait_samples(std::size_t n, std::chrono::milliseconds timeout = 10s) {
+    return test::eventually(
+        [&] {
+          drain();
+          return samples.size() >= n;
+        },
+        timeout);
+  }
+  // Stops both ends, then checks every cycle the emulator sent against the samples, in order.
+  void stop_and_check_all(std::size_t partial_expected_at_least = 0) {
+    // The emulator goes first: the driver then reads everything still queued before it sees EOF.
+    emu.stop();
+    const auto log = emu.log();
+    std::vector<emulators::DbbSentCycle> sent;
+    for (const auto& c : log) {
+      if (c.sent_mask != 0) sent.push_back(c);
+    }
+    test::eventually([&] {
+      drain();
+      return samples.size() >= sent.size();
+    });
+    driver->stop();
+    drain();
+    ASSERT_EQ(samples.size(), sent.size()) << "every cycle put on the bus becomes exactly one sample";
+    std::size_t partial = 0;
+    std::vector<double> last(3, NAN);
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const Sample& s = samples[i];
+      EXPECT_EQ(s.seq, i);
+      ASSERT_EQ(s.value_count, 3u);
+      if (i > 0) {
+        EXPECT_GE(s.t_mono_ns, samples[i - 1].t_mono_ns) << i;
+      }
+      const bool is_partial = sent[i].sent_mask != 0b111;
+      EXPECT_EQ((s.flags & sample_partial) != 0, is_partial) << i;
+      partial += is_partial;
+      for (std::size_t k = 0; k < 3; ++k) {
+        const double tol = three_encoders()[k].resolution_m * 0.51;
+        if (sent[i].sent_mask & (1u << k)) {
+          EXPECT_NEAR(s.value[k], sent[i].truth_m[k], tol) << "sample " << i << " channel " << k;
+          last[k] = sent[i].truth_m[k];
+        } else if (!std::isnan(last[k])) {
+          EXPECT_NEAR(s.value[k], last[k], tol) << "held value, sample " << i << " channel " << k;
+        }
+      }
+    }
+    EXPECT_GE(partial, partial_expected_at_least);
+  }
+
+  emulators::DbbEmulator emu;
+  std::unique_ptr<dbb::DbbDriver> driver;
+  std::atomic<int> connects{0};
+  std::vector<Sample> samples;
+};
+
+}  // namespace
+
+TEST(DbbDriver, DriverProducesSyncAndEverySampleMatchesTheEmulator) {
+  Bench b(true);
+  ASSERT_TRUE(b.wait_samples(100));
+  const auto st = b.driver->status();
+  EXPECT_EQ(st.state, DeviceState::streaming);
+  EXPECT_EQ(st.counters.bad_frames, 0u);
+  EXPECT_EQ(b.driver->channels().size(), 3u);
+  EXPECT_EQ(b.driver->channels()[0].name, "bar_length");
+  EXPECT_EQ(b.driver->channels()[0].unit, "m");
+  b.stop_and_check_all();
+  // The bar reads radius + 3 um.
+  EXPECT_NEAR(b.samples.back().value[0], 0.100003, 1e-7);
+  // Samples come at the SYNC rate (200 Hz): spacing near 5 ms on average.
+  const double span_s = static_cast<double>(b.samples.back().t_mono_ns - b.samples.front().t_mono_ns) * 1e-9;
+  const double mean_period_s = span_s / static_cast<double>(b.samples.size() - 1);
+  EXPECT_GT(mean_period_s, 0.0045);  // never faster than the rate (late SYNCs are skipped, not bunched)
+  EXPECT_LT(mean_period_s, 0.010);   // and not much slower, even on a loaded machine
+}
+
+TEST(DbbDriver, ListenOnlyFollowsTheControllersSync) {
+  Bench b(false, 250.0);
+  ASSERT_TRUE(b.wait_samples(100));
+  b.stop_and_check_all();
+}
+
+TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
+  Bench b(true);
+  ASSERT_TRUE(b.wait_samples(20));
+  b.emu.inject_garbage(25);
+  b.emu.inject_truncated(7);
+  b.emu.inject_bad_frames(6);
+  b.emu.inject_error_frames(4);
+  ASSERT_TRUE(test::eventually([&] {
+    const auto c = b.driver->status().counters;
+    return c.bad_frames >= 7 + 6 + 4;
+  }));
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 20));
+  const auto st = b.driver->status();
+  EXPECT_EQ(st.counters.bad_frames, 7u + 6u + 4u) << "garbage with foreign COB-IDs is not bad, just not ours";
+  EXPECT_EQ(b.driver->error_frames(), 4u);
+  EXPECT_EQ(st.state, DeviceState::streaming);
+  EXPECT_EQ(st.counters.reconnects, 0u);
+  b.stop_and_check_all();
+}
+
+TEST(DbbDriver, MissingPdoGivesAPartialSampleHoldingTheLastValue) {
+  Bench b(true);
+  ASSERT_TRUE(b.wait_samples(10));
+  b.emu.inject_drop_pdo(1, 3);
+  b.emu.inject_drop_pdo(2, 1);
+  ASSERT_TRUE(test::eventually([&] { return b.driver->partial_cycles() >= 3; }));
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
+  b.stop_and_check_all(3);
+}
+
+TEST(DbbDriver, StallIsATimeoutThenStreamingResumes) {
+  Bench b(true, 200.0, 100);
+  ASSERT_TRUE(b.wait_samples(10));
+  b.emu.inject_stall(0.5);
+  ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::lost; }, 3s));
+  EXPECT_NE(b.driver->status().reason.find("no frames"), std::string::npos) << b.driver->status().reason;
+  ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::streaming; }, 5s));
+  const std::size_t before = b.samples.size();
+  ASSERT_TRUE(b.wait_samples(before + 20));
+  const auto st = b.driver->status();
+  EXPECT_GE(st.counters.timeouts, 2u);
+  EXPECT_EQ(st.counters.reconnects, 0u);
+  // The first sample after the stall says so.
+  bool saw_gap = false;
+  for (std::size_t i = before > 5 ? before - 5 : 0; i < b.samples.size(); ++i) {
+    saw_gap |= (b.samples[i].flags & sample_after_gap) != 0;
+  }
+  EXPECT_TRUE(saw_gap);
+  b.stop_and_check_all();
+}
+
+TEST(DbbDriver, DisconnectReconnectsWithBackoffAndKeepsCounting) {
+  Bench b(true);
+  ASSERT_TRUE(b.wait_samples(20));
+  for (int round = 1; round <= 3; ++round) {
+    b.emu.inject_disconnect();
+    ASSERT_TRUE(test::eventually([&] { return b.driver->status().counters.reconnects >= static_cast<unsigned>(round); }));
+    ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
+  }
+  EXPECT_EQ(b.driver->status().state, DeviceState::streaming);
+  EXPECT_EQ(b.connects.load(), 4);
+  b.stop_and_check_all();
+}
+
+TEST(DbbDriver, BurstFasterThanTheSyncRateIsReceivedCompletely) {
+  Bench b(false, 50.0);
+  ASSERT_TRUE(b.wait_samples(5));
+  b.emu.inject_burst(300);
+  ASSERT_TRUE(b.wait_samples(310));
+  EXPECT_EQ(b.driver->status().counters.bad_frames, 0u);
+  b.stop_and_check_all();
+}
+
+TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart) {
+  test::TempDir dir;
+  const std::string path = dir.file("can.sock");
+  emulators::DbbEmulator emu({three_encoders(), false, 100.0}, emulators::ideal_circle_source(0.1, 0.01, -1));
+  std::string err;
+  auto listener = can::listen_can_gateway(path, err);
+  ASSERT_TRUE(listener.valid()) << err;
+  emu.start(std::move(listener));
+
+  const std::string toml = "[[device]]\nname = \"dbb\"\ndriver = \"dbb-can\"\nbus = \"unix:" + path +
+                           "\"\nsync = \"produce\"\nsync_rate_hz = 200\nreconnect_min_ms = 10\n"
+                           "[[device.encoder]]\nchannel = \"bar_length\"\nnode_id = 1\nresolution_nm = 100\n"
+                           "offset_mm = 100\n"
+                           "[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 100\n"
+                           "[[device.encoder]]\nchannel = \"y\"\nnode_id = 3\nresolution_nm = 50\n"
+                           "direction = \"negative\"\nzero_count = 1000\n";
+  const toml::table root = parse_toml(toml, "dbb.toml");
+  const TableReader top(root, "dbb.toml", "");
+  const auto devices = top.tables("device");
+  ASSERT_EQ(devices.size(), 1u);
+  drivers::DriverRegistry registry;
+  dbb::register_dbb_driver(registry);
+  (void)devices[0].require_string("name");
+  (void)devices[0].require_string("driver");
+  auto driver = registry.create({"dbb", "dbb-can", 4096, devices[0]});
+  devices[0].reject_unknown_keys();
+  driver->start();
+  ASSERT_TRUE(test::eventually([&] { return driver->ring().depth() >= 20; }));
+  // The emulator process goes away and comes back: the driver reconnects.
+  emu.stop();
+  ASSERT_TRUE(test::eventually([&] { return driver->status().state != DeviceState::streaming; }));
+  emulators::DbbEmulator emu2({three_encoders(), false, 100.0}, emulators::ideal_circle_source(0.1, 0.01, -1));
+  listener = can::listen_can_gateway(path, err);
+  ASSERT_TRUE(listener.valid()) << err;
+  emu2.start(std::move(listener));
+  ASSERT_TRUE(test::eventually([&] { return driver->status().counters.reconnects >= 1 && emu2.cycles_sent() >= 10; }));
+  emu2.stop();
+  const std::size_t sent = emu.log().size() + emu2.log().size();
+  test::eventually([&] { return driver->ring().depth() >= sent; });
+  driver->stop();
+  std::vector<Sample> got(driver->ring().depth());
+  got.resize(driver->ring().pop_bulk(got));
+  EXPECT_EQ(got.size(), sent);
+  for (std::size_t i = 1; i < got.size(); ++i) EXPECT_EQ(got[i].seq, got[i - 1].seq + 1);
+}
+
+TEST(DbbDriver, ConfigErrorsNameFileLineAndKey) {
+  auto create = [](const std::string& body) {
+    const toml::table root = parse_toml("[[device]]\nname = \"d\"\ndriver = \"dbb-can\"\n" + body, "bad.toml");
+    const TableReader top(root, "bad.toml", "");
+    const auto devices = top.tables("device");
+    drivers::DriverRegistry registry;
+    dbb::register_dbb_driver(registry);
+    return registry.create({"d", "dbb-can", 1024, devices[0]});
+  };
+  try {
+    create("bus = \"unix:/x\"\n");
+    FAIL() << "no encoders accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("encoder"), std::string::npos) << e.what();
+  }
+  try {
+    create("bus = \"unix:/x\"\n[[device.encoder]]\nchannel = \"x\"\nnode_id = 200\nresolution_nm = 1\n");
+    FAIL() << "node 200 accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.toml:7"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("node_id"), std::string::npos) << e.what();
+  }
+  try {
+    create("bus = \"unix:/x\"\nsync = \"sometimes\"\n[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 1\n");
+    FAIL() << "bad sync accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("sync"), std::string::npos) << e.what();
+  }
+}
