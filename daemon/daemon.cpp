@@ -5,7 +5,9 @@
 #include <sys/signalfd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <filesystem>
 #include <chrono>
 #include <ctime>
 #include <system_error>
@@ -28,8 +30,8 @@ std::string utc_now_iso() {
 
 }  // namespace
 
-Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, std::shared_ptr<spdlog::logger> logger,
-               DaemonOptions options)
+Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
+               std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
   for (const auto& dev : config_.devices) {
     devices_.push_back(registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table}));
@@ -39,6 +41,9 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, std::shar
   for (auto& d : devices_) raw.push_back(d.get());
   last_states_.assign(devices_.size(), drivers::DeviceState::stopped);
   pipeline_ = std::make_unique<Pipeline>(raw, outbox_, config_.sample_publish_hz);
+  auto manager = std::make_unique<SessionManager>(sessions, raw, config_.state_dir, outbox_);
+  sessions_ = manager.get();
+  pipeline_->add_stage(std::move(manager));
 
   SocketServerOptions so;
   so.unix_path = config_.socket_path;
@@ -88,7 +93,20 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, std::shar
     });
   }
   loop_.add(outbox_.fd(), EPOLLIN, [this](std::uint32_t) {
-    for (const Message& m : outbox_.take()) broadcast(m);
+    for (const Message& m : outbox_.take()) {
+      if (m.cls == "PARAMS") {
+        nlohmann::json j = nlohmann::json::parse(m.json);
+        std::erase_if(latest_params_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
+        latest_params_.push_back(std::move(j));
+        log_->info("session {}: parameters identified", latest_params_.back().value("session", "?"));
+      } else if (m.cls == "EVENT") {
+        const auto j = nlohmann::json::parse(m.json);
+        if (j.contains("session")) {
+          log_->warn("session {}: {}: {}", j.value("session", "?"), j.value("event", "?"), j.value("reason", ""));
+        }
+      }
+      broadcast(m);
+    }
   });
 }
 
@@ -190,7 +208,8 @@ nlohmann::json Daemon::status_json() {
             {"latency_max_us", last_stats_.latency_max_us},
             {"outbox_dropped", outbox_.dropped()}}},
           {"clients", {{"connected", server_->client_count()}, {"dropped_slow", server_->dropped_clients()}}},
-          {"devices", std::move(devices)}};
+          {"devices", std::move(devices)},
+          {"sessions", sessions_json()}};
 }
 
 void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<nlohmann::json>& id) {
@@ -216,9 +235,21 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
     } catch (const std::invalid_argument& e) {
       reply(client, error_message(e.what(), req->cls), req->id);
     }
+  } else if (req->cls == "start" || req->cls == "stop" || req->cls == "params" || req->cls == "recordings") {
+    try {
+      nlohmann::json out = req->cls == "start"  ? handle_start(*req)
+                           : req->cls == "stop" ? handle_stop(*req)
+                           : req->cls == "params" ? handle_params(*req)
+                                                  : handle_recordings();
+      reply(client, std::move(out), req->id);
+    } catch (const std::exception& e) {
+      reply(client, error_message(e.what(), req->cls), req->id);
+    }
   } else {
     reply(client,
-          error_message("unknown request class \"" + req->cls + "\" (known: version, status, poll, watch)", req->cls),
+          error_message("unknown request class \"" + req->cls +
+                            "\" (known: version, status, poll, watch, start, stop, params, recordings)",
+                        req->cls),
           req->id);
   }
 }
@@ -229,6 +260,81 @@ void Daemon::broadcast(const Message& message) {
     if (sub.wants(message.cls, message.channel)) targets.push_back(id);
   }
   for (ClientId id : targets) server_->send(id, message.json);  // may drop a slow client
+}
+
+}  // namespace guideway::daemon
+
+namespace guideway::daemon {
+
+namespace {
+
+std::string string_field(const nlohmann::json& body, const char* key) {
+  auto it = body.find(key);
+  if (it == body.end()) return {};
+  if (!it->is_string()) throw std::invalid_argument(std::string("\"") + key + "\" must be a string");
+  return it->get<std::string>();
+}
+
+}  // namespace
+
+nlohmann::json Daemon::handle_start(const Request& req) {
+  SessionRequest sr;
+  sr.kind = string_field(req.body, "kind");
+  if (sr.kind.empty()) throw std::invalid_argument("start needs \"kind\" (e.g. {\"class\":\"start\",\"kind\":\"dbb\"})");
+  sr.device = string_field(req.body, "device");
+  if (auto it = req.body.find("options"); it != req.body.end()) {
+    if (!it->is_object()) throw std::invalid_argument("\"options\" must be an object");
+    sr.options = *it;
+  }
+  const std::string name = sessions_->start(sr);
+  log_->info("session {} started", name);
+  return {{"class", "SESSION"}, {"session", name}, {"state", "running"}};
+}
+
+nlohmann::json Daemon::handle_stop(const Request& req) {
+  const auto names = sessions_->stop(string_field(req.body, "session"));
+  return {{"class", "SESSION"}, {"sessions", names}, {"state", "finishing"}};
+}
+
+nlohmann::json Daemon::handle_params(const Request& req) const {
+  const std::string kind = string_field(req.body, "kind");
+  const std::string session = string_field(req.body, "session");
+  for (auto it = latest_params_.rbegin(); it != latest_params_.rend(); ++it) {
+    if ((kind.empty() || (*it)["kind"] == kind) && (session.empty() || (*it)["session"] == session)) return *it;
+  }
+  throw std::invalid_argument("no parameters identified yet" + (kind.empty() ? std::string() : " for " + kind) +
+                              " (start a session with the start request, e.g. guideway start dbb)");
+}
+
+nlohmann::json Daemon::handle_recordings() const {
+  nlohmann::json list = nlohmann::json::array();
+  std::error_code ec;
+  std::vector<std::filesystem::directory_entry> entries;
+  for (const auto& e : std::filesystem::directory_iterator(config_.state_dir, ec)) {
+    const std::string n = e.path().filename().string();
+    if (n.ends_with(".csv") || n.ends_with(".csv.part")) entries.push_back(e);
+  }
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.path() < b.path(); });
+  for (const auto& e : entries) {
+    const std::string n = e.path().filename().string();
+    list.push_back({{"file", e.path().string()},
+                    {"bytes", e.file_size(ec)},
+                    {"complete", !n.ends_with(".part")}});
+  }
+  return {{"class", "RECORDINGS"}, {"dir", config_.state_dir}, {"recordings", std::move(list)}};
+}
+
+nlohmann::json Daemon::sessions_json() const {
+  nlohmann::json out = nlohmann::json::array();
+  for (const SessionInfo& s : sessions_->snapshot()) {
+    nlohmann::json j = {{"session", s.name}, {"kind", s.kind}, {"device", s.device}, {"state", s.state},
+                        {"samples", s.samples}};
+    if (!s.progress.empty()) j["progress"] = s.progress;
+    if (!s.recording.empty()) j["recording"] = s.recording;
+    if (!s.recording_error.empty()) j["recording_error"] = s.recording_error;
+    out.push_back(std::move(j));
+  }
+  return out;
 }
 
 }  // namespace guideway::daemon

@@ -18,6 +18,7 @@
 #include "daemon/outbox.hpp"
 #include "daemon/pipeline.hpp"
 #include "daemon/protocol.hpp"
+#include "daemon/session_manager.hpp"
 #include "daemon/socket_server.hpp"
 #include "daemon/systemd_notify.hpp"
 #include "drivers/driver.hpp"
@@ -32,8 +33,8 @@ class Daemon {
  public:
   // Creates the drivers (throws ConfigError on a bad [[device]] table) and binds the sockets
   // (throws std::runtime_error/std::system_error naming the path on failure). Nothing runs yet.
-  Daemon(DaemonConfig config, drivers::DriverRegistry& registry, std::shared_ptr<spdlog::logger> logger,
-         DaemonOptions options = {});
+  Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
+         std::shared_ptr<spdlog::logger> logger, DaemonOptions options = {});
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -49,6 +50,11 @@ class Daemon {
   void broadcast(const Message& message);
   void periodic(std::int64_t now_ns);
   void check_device_events();
+  nlohmann::json handle_start(const Request& req);
+  nlohmann::json handle_stop(const Request& req);
+  nlohmann::json handle_params(const Request& req) const;
+  nlohmann::json handle_recordings() const;
+  nlohmann::json sessions_json() const;
   std::string status_line() const;
 
   DaemonConfig config_;
@@ -58,6 +64,8 @@ class Daemon {
   EventLoop loop_;
   Outbox outbox_;
   std::unique_ptr<Pipeline> pipeline_;
+  SessionManager* sessions_ = nullptr;  // owned by pipeline_ (a stage)
+  std::vector<nlohmann::json> latest_params_;  // newest PARAMS per session kind
   std::unique_ptr<SocketServer> server_;
   SystemdNotifier notifier_;
   std::unordered_map<ClientId, Subscription> subscriptions_;

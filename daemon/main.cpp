@@ -10,6 +10,7 @@
 #include "daemon/config.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
+#include "daemon/session_kinds.hpp"
 #include "drivers/builtin.hpp"
 
 using namespace guideway;
@@ -84,7 +85,9 @@ int main(int argc, char** argv) {
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
       return 0;
     }
-    daemon::Daemon d(std::move(config), registry, log, {.handle_signals = true});
+    daemon::SessionRegistry sessions;
+    daemon::register_builtin_sessions(sessions);
+    daemon::Daemon d(std::move(config), registry, sessions, log, {.handle_signals = true});
     return d.run();
   } catch (const ConfigError& e) {
     log->error("configuration error: {}", e.what());

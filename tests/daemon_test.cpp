@@ -60,7 +60,7 @@ struct RunningDaemon {
                                            "\"\nstatus_period_s = 0.1\nclient_queue_bytes = 65536\n" + extra_toml,
                                        "test.toml");
     auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
-    d = std::make_unique<daemon::Daemon>(std::move(config), registry, log);
+    d = std::make_unique<daemon::Daemon>(std::move(config), registry, sessions, log);
     thread = std::thread([this] { d->run(); });
   }
   ~RunningDaemon() {
@@ -69,6 +69,7 @@ struct RunningDaemon {
   }
   test::TempDir dir;
   drivers::DriverRegistry registry;
+  daemon::SessionRegistry sessions;
   std::string socket;
   std::unique_ptr<daemon::Daemon> d;
   std::thread thread;
@@ -168,7 +169,8 @@ TEST(Daemon, UnknownDriverIsAConfigErrorNamingTheKnownOnes) {
                                      "bad.toml");
   auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
   try {
-    daemon::Daemon d(std::move(config), registry, log);
+    daemon::SessionRegistry sessions;
+    daemon::Daemon d(std::move(config), registry, sessions, log);
     FAIL() << "expected a ConfigError";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("bad.toml:5: device[0].driver: unknown driver \"nope\" (known: counting)"),
@@ -185,7 +187,8 @@ TEST(Daemon, UnknownKeyInADeviceTableIsRejected) {
                                          "\"\n[[device]]\nname = \"x\"\ndriver = \"counting\"\nrate_hx = 5.0\n",
                                      "bad.toml");
   auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
-  EXPECT_THROW(daemon::Daemon(std::move(config), registry, log), ConfigError);
+  daemon::SessionRegistry sessions;
+  EXPECT_THROW(daemon::Daemon(std::move(config), registry, sessions, log), ConfigError);
 }
 
 TEST(Daemon, RefusesToStealTheSocketOfALiveDaemon) {
@@ -194,7 +197,8 @@ TEST(Daemon, RefusesToStealTheSocketOfALiveDaemon) {
   drivers::DriverRegistry registry;
   auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
   try {
-    daemon::Daemon second(std::move(config), registry, log);
+    daemon::SessionRegistry sessions;
+    daemon::Daemon second(std::move(config), registry, sessions, log);
     FAIL() << "a second daemon bound the same socket";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("already listening"), std::string::npos);

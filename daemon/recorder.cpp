@@ -1,0 +1,190 @@
+#include "daemon/recorder.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <stdexcept>
+
+#include "core/mono_clock.hpp"
+
+namespace guideway::daemon {
+
+void append_double(std::string& out, double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+  out.append(buf, r.ptr);
+}
+
+std::string utc_now_iso_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  std::tm tm{};
+  gmtime_r(&ts.tv_sec, &tm);
+  char buf[40];
+  const std::size_t n = std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S", &tm);
+  std::snprintf(buf + n, sizeof(buf) - n, ".%03ldZ", ts.tv_nsec / 1'000'000);
+  return buf;
+}
+
+namespace {
+
+// Metadata values are one line each: a newline would end the header.
+std::string one_line(std::string s) {
+  for (char& c : s) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  return s;
+}
+
+std::string column_name(const drivers::ChannelInfo& c) { return c.name + "_" + c.unit; }
+
+}  // namespace
+
+RawRecorder::RawRecorder(const std::string& dir, const std::string& name, const drivers::Driver& device,
+                         const std::map<std::string, std::string>& metadata, RecorderOptions options)
+    : part_path_(dir + "/" + name + ".csv.part"),
+      final_path_(dir + "/" + name + ".csv"),
+      channel_count_(device.channels().size()),
+      options_(options),
+      ring_(options.ring_capacity),
+      batch_(1024) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw std::runtime_error("cannot create recording directory " + dir + ": " + ec.message());
+  fd_ = ::open(part_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+  if (fd_ < 0) throw std::runtime_error("cannot create recording " + part_path_ + ": " + std::strerror(errno));
+  std::string header = "# format = guideway/raw/1\n";
+  header += "# device = " + one_line(device.name()) + "\n";
+  header += "# driver = " + one_line(device.driver()) + "\n";
+  header += "# started_utc = " + utc_now_iso_ms() + "\n";
+  header += "# started_mono_ns = " + std::to_string(mono_now_ns()) + "\n";
+  for (const auto& [k, v] : metadata) header += "# " + one_line(k) + " = " + one_line(v) + "\n";
+  header += "t_mono_ns,seq,flags";
+  for (const auto& c : device.channels()) header += "," + column_name(c);
+  header += "\n";
+  pending_ = std::move(header);
+  write_pending();  // the header is on disk before the first sample
+  thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
+}
+
+RawRecorder::~RawRecorder() {
+  try {
+    close(false);
+  } catch (...) {  // a destructor reports nothing; close() explicitly to learn the outcome
+  }
+}
+
+void RawRecorder::push(std::span<const Sample> samples) noexcept {
+  const std::size_t n = ring_.push_bulk(samples);
+  pushed_.fetch_add(n, std::memory_order_relaxed);
+}
+
+void RawRecorder::run(const std::stop_token& stop) {
+  while (!stop.stop_requested()) {
+    std::this_thread::sleep_for(options_.flush_period);
+    drain_and_write();
+  }
+}
+
+void RawRecorder::drain_and_write() {
+  for (;;) {
+    const std::size_t n = ring_.pop_bulk(batch_);
+    if (n == 0) break;
+    if (pending_.size() > options_.max_pending_bytes) {
+      std::lock_guard lock(stats_mutex_);
+      stats_.samples_lost += n;  // the disk has refused writes for long: memory is bounded
+      continue;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      const Sample& s = batch_[i];
+      pending_ += std::to_string(s.t_mono_ns);
+      pending_ += ',';
+      pending_ += std::to_string(s.seq);
+      pending_ += ',';
+      pending_ += std::to_string(s.flags);
+      for (std::size_t c = 0; c < channel_count_; ++c) {
+        pending_ += ',';
+        if (c < s.value_count) append_double(pending_, s.value[c]);
+      }
+      pending_ += '\n';
+    }
+    std::lock_guard lock(stats_mutex_);
+    stats_.samples_written += n;
+  }
+  write_pending();
+}
+
+void RawRecorder::write_pending() {
+  std::size_t off = 0;
+  while (off < pending_.size()) {
+    const ssize_t w = ::write(fd_, pending_.data() + off, pending_.size() - off);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      std::lock_guard lock(stats_mutex_);
+      ++stats_.write_errors;
+      error_ = "writing " + part_path_ + ": " + std::strerror(errno);
+      break;
+    }
+    off += static_cast<std::size_t>(w);
+  }
+  pending_.erase(0, off);
+  std::lock_guard lock(stats_mutex_);
+  stats_.bytes_written += off;
+  if (off != 0 && pending_.empty()) error_.clear();
+}
+
+std::string RawRecorder::close(bool complete, const std::map<std::string, std::string>& trailer) {
+  if (closed_) return complete ? final_path_ : part_path_;
+  closed_ = true;
+  thread_.request_stop();
+  if (thread_.joinable()) thread_.join();
+  drain_and_write();
+  const RecorderStats s = stats();
+  pending_ += "# end = " + std::string(complete ? "complete" : "aborted") + "\n";
+  pending_ += "# ended_utc = " + utc_now_iso_ms() + "\n";
+  pending_ += "# samples = " + std::to_string(s.samples_written) + "\n";
+  pending_ += "# samples_lost = " + std::to_string(s.samples_lost + ring_.drops()) + "\n";
+  for (const auto& [k, v] : trailer) pending_ += "# " + one_line(k) + " = " + one_line(v) + "\n";
+  write_pending();
+  const bool written = pending_.empty();
+  const bool synced = ::fsync(fd_) == 0;
+  ::close(fd_);
+  fd_ = -1;
+  if (!written || !synced) {
+    std::lock_guard lock(stats_mutex_);
+    if (error_.empty()) error_ = "syncing " + part_path_ + ": " + std::strerror(errno);
+    return part_path_;  // left as .part: incomplete on disk
+  }
+  if (std::rename(part_path_.c_str(), final_path_.c_str()) != 0) {
+    std::lock_guard lock(stats_mutex_);
+    error_ = "renaming " + part_path_ + ": " + std::strerror(errno);
+    return part_path_;
+  }
+  // Make the rename itself durable.
+  const std::string dir = std::filesystem::path(final_path_).parent_path().string();
+  if (const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+  return final_path_;
+}
+
+RecorderStats RawRecorder::stats() const {
+  std::lock_guard lock(stats_mutex_);
+  RecorderStats s = stats_;
+  s.samples_lost += ring_.drops();
+  return s;
+}
+
+std::string RawRecorder::error() const {
+  std::lock_guard lock(stats_mutex_);
+  return error_;
+}
+
+}  // namespace guideway::daemon

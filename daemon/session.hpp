@@ -1,0 +1,70 @@
+#pragma once
+// Test sessions: a DBB circle set, a straightness traverse, a run-out revolution, a profile. A
+// session is created from a start request on the event-loop thread (so bad options are answered at
+// once), then fed on the pipeline thread with its device's samples, and identified on a worker
+// thread when it completes or is stopped.
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/sample.hpp"
+#include "drivers/driver.hpp"
+
+namespace guideway::daemon {
+
+struct SessionRequest {
+  std::string kind;      // "dbb", "straightness", "runout", "profile", ...
+  std::string device;    // device name; empty = the first device the kind accepts
+  nlohmann::json options = nlohmann::json::object();
+};
+
+// One running test. on_samples() and complete() are called on the pipeline thread; identify() on
+// the worker thread after the last on_samples(). Not otherwise thread safe.
+class Session {
+ public:
+  virtual ~Session() = default;
+  virtual void on_samples(std::span<const Sample> samples) = 0;
+  // True once the session has all it needs (e.g. every pattern of a DBB test): it then finishes
+  // without a stop request.
+  [[nodiscard]] virtual bool complete() const { return false; }
+  // Human-readable progress for STATUS, e.g. "pattern 2/3, 210 of 360 deg".
+  [[nodiscard]] virtual std::string progress() const { return {}; }
+  // Identified parameters: the body of the PARAMS message (model, parameters with "value" and "u",
+  // fit quality). Throws std::runtime_error with the reason when identification is impossible.
+  virtual nlohmann::json identify() = 0;
+  // Metadata for the recording header (options, geometry), written as "# key = value".
+  [[nodiscard]] virtual std::map<std::string, std::string> metadata() const { return {}; }
+  // Derived files (e.g. DBB run files) written next to the raw recording at the end; returns paths.
+  virtual std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) {
+    (void)dir;
+    (void)base_name;
+    return {};
+  }
+};
+
+struct SessionKind {
+  std::string kind;
+  std::string description;
+  std::vector<std::string> drivers;  // drivers whose devices this kind accepts
+  // Throws std::invalid_argument naming the bad option.
+  std::function<std::unique_ptr<Session>(const SessionRequest&, const drivers::Driver& device)> create;
+};
+
+class SessionRegistry {
+ public:
+  void add(SessionKind kind);
+  [[nodiscard]] const SessionKind* find(std::string_view kind) const;
+  [[nodiscard]] std::vector<std::string> kinds() const;
+
+ private:
+  std::vector<SessionKind> kinds_;
+};
+
+}  // namespace guideway::daemon

@@ -1,0 +1,11 @@
+#pragma once
+// The test-session kinds guidewayd offers (dbb, straightness, runout, profile), each implemented next
+// to its model and registered here.
+
+#include "daemon/session.hpp"
+
+namespace guideway::daemon {
+
+void register_builtin_sessions(SessionRegistry& registry);
+
+}  // namespace guideway::daemon

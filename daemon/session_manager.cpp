@@ -1,0 +1,228 @@
+#include "daemon/session_manager.hpp"
+
+#include <algorithm>
+#include <ctime>
+
+namespace guideway::daemon {
+
+namespace {
+
+std::string utc_stamp() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[20];
+  std::strftime(buf, sizeof(buf), "%Y%m%dT%H%M%SZ", &tm);
+  return buf;
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string out;
+  for (const auto& s : v) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
+}  // namespace
+
+SessionManager::SessionManager(const SessionRegistry& registry, std::vector<drivers::Driver*> devices,
+                               std::string state_dir, Outbox& outbox)
+    : registry_(registry), devices_(std::move(devices)), state_dir_(std::move(state_dir)), outbox_(outbox) {
+  worker_ = std::jthread([this](std::stop_token stop) { finish_loop(stop); });
+}
+
+SessionManager::~SessionManager() {
+  worker_.request_stop();
+  finish_cv_.notify_all();
+  worker_.join();
+}
+
+std::string SessionManager::start(const SessionRequest& request) {
+  const SessionKind* kind = registry_.find(request.kind);
+  if (!kind) {
+    throw std::invalid_argument("unknown session kind \"" + request.kind + "\" (known: " + join(registry_.kinds()) + ")");
+  }
+  std::size_t index = devices_.size();
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    const bool accepted = std::find(kind->drivers.begin(), kind->drivers.end(), devices_[i]->driver()) != kind->drivers.end();
+    if (request.device.empty() ? accepted : devices_[i]->name() == request.device) {
+      if (!accepted) {
+        throw std::invalid_argument("device \"" + request.device + "\" (driver " + devices_[i]->driver() +
+                                    ") cannot run a " + request.kind + " session (needs: " + join(kind->drivers) + ")");
+      }
+      index = i;
+      break;
+    }
+  }
+  if (index == devices_.size()) {
+    throw std::invalid_argument(request.device.empty()
+                                    ? "no configured device can run a " + request.kind + " session (needs a driver among: " +
+                                          join(kind->drivers) + ")"
+                                    : "no device named \"" + request.device + "\"");
+  }
+  auto r = std::make_unique<Running>();
+  r->device_index = index;
+  r->session = kind->create(request, *devices_[index]);  // throws std::invalid_argument on bad options
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& info : infos_) {
+      if (info.device == devices_[index]->name() && (info.state == "running" || info.state == "finishing")) {
+        throw std::invalid_argument("device \"" + info.device + "\" is busy with session " + info.name);
+      }
+    }
+    std::string name = request.kind + "-" + devices_[index]->name() + "-" + utc_stamp();
+    int suffix = 1;
+    const std::string base = name;
+    while (std::any_of(infos_.begin(), infos_.end(), [&](const SessionInfo& i) { return i.name == name; })) {
+      name = base + "-" + std::to_string(++suffix);
+    }
+    r->info = {name, request.kind, devices_[index]->name(), "running", "", "", "", 0};
+    auto meta = r->session->metadata();
+    meta["session"] = name;
+    meta["kind"] = request.kind;
+    meta["options"] = request.options.dump();
+    try {
+      r->recorder = std::make_unique<RawRecorder>(state_dir_, name, *devices_[index], meta);
+      r->info.recording = r->recorder->part_path();
+    } catch (const std::exception& e) {
+      r->info.recording_error = e.what();  // acquisition and identification go on without a recording
+      outbox_.post({"EVENT", r->info.device,
+                    nlohmann::json{{"class", "EVENT"}, {"device", r->info.device}, {"session", name},
+                                   {"event", "recording_failed"}, {"reason", e.what()}}
+                        .dump()});
+    }
+    infos_.push_back(r->info);
+    incoming_.push_back(std::move(r));
+    return name;
+  }
+}
+
+std::vector<std::string> SessionManager::stop(const std::string& name) {
+  std::lock_guard lock(mutex_);
+  std::vector<std::string> out;
+  for (auto& info : infos_) {
+    if (info.state == "running" && (name.empty() || info.name == name)) {
+      stops_.push_back(info.name);
+      out.push_back(info.name);
+    }
+  }
+  if (out.empty()) {
+    throw std::invalid_argument(name.empty() ? "no session is running" : "no running session named \"" + name + "\"");
+  }
+  return out;
+}
+
+std::vector<SessionInfo> SessionManager::snapshot() const {
+  std::lock_guard lock(mutex_);
+  return infos_;
+}
+
+void SessionManager::on_samples(std::size_t device_index, const drivers::Driver&, std::span<const Sample> samples) {
+  for (auto& r : running_) {
+    if (r->device_index != device_index) continue;
+    r->session->on_samples(samples);
+    if (r->recorder) r->recorder->push(samples);
+    r->info.samples += samples.size();
+  }
+}
+
+void SessionManager::on_tick(std::int64_t) {
+  std::vector<std::string> stops;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& r : incoming_) running_.push_back(std::move(r));
+    incoming_.clear();
+    stops.swap(stops_);
+    // Progress for STATUS.
+    for (const auto& r : running_) {
+      for (auto& info : infos_) {
+        if (info.name == r->info.name) {
+          info.progress = r->session->progress();
+          info.samples = r->info.samples;
+        }
+      }
+    }
+  }
+  for (auto it = running_.begin(); it != running_.end();) {
+    Running& r = **it;
+    r.stop_requested = r.stop_requested || std::find(stops.begin(), stops.end(), r.info.name) != stops.end();
+    if (r.stop_requested || r.session->complete()) {
+      {
+        std::lock_guard lock(mutex_);
+        for (auto& info : infos_) {
+          if (info.name == r.info.name) info.state = "finishing";
+        }
+      }
+      {
+        std::lock_guard lock(finish_mutex_);
+        finishing_.push_back(std::move(*it));
+      }
+      finish_cv_.notify_one();
+      it = running_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+void SessionManager::finish_loop(const std::stop_token& stop) {
+  for (;;) {
+    std::unique_ptr<Running> r;
+    {
+      std::unique_lock lock(finish_mutex_);
+      finish_cv_.wait(lock, stop, [this] { return !finishing_.empty(); });
+      if (finishing_.empty()) return;  // stop requested and nothing left
+      r = std::move(finishing_.front());
+      finishing_.pop_front();
+    }
+    finish(std::move(r));
+  }
+}
+
+void SessionManager::finish(std::unique_ptr<Running> r) {
+  SessionInfo& info = r->info;
+  nlohmann::json params;
+  std::string failure;
+  try {
+    params = r->session->identify();
+  } catch (const std::exception& e) {
+    failure = e.what();
+  }
+  std::vector<std::string> derived;
+  if (r->recorder) {
+    std::map<std::string, std::string> trailer;
+    if (!failure.empty()) trailer["identification_error"] = failure;
+    info.recording = r->recorder->close(failure.empty(), trailer);
+    if (!r->recorder->error().empty()) info.recording_error = r->recorder->error();
+    try {
+      const std::string base = info.name;
+      derived = r->session->write_derived(state_dir_, base);
+    } catch (const std::exception& e) {
+      info.recording_error = e.what();
+    }
+  }
+  info.state = failure.empty() ? "done" : "failed";
+  if (failure.empty()) {
+    params["class"] = "PARAMS";
+    params["session"] = info.name;
+    params["kind"] = info.kind;
+    params["device"] = info.device;
+    params["samples"] = info.samples;
+    if (!info.recording.empty()) params["recording"] = info.recording;
+    if (!derived.empty()) params["derived"] = derived;
+    outbox_.post({"PARAMS", info.device, params.dump()});
+  } else {
+    outbox_.post({"EVENT", info.device,
+                  nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},
+                                 {"event", "session_failed"}, {"reason", failure}}
+                      .dump()});
+  }
+  std::lock_guard lock(mutex_);
+  for (auto& i : infos_) {
+    if (i.name == info.name) {
+      i = info;
+      if (!failure.empty()) i.progress = failure;
+    }
+  }
+}
+
+}  // namespace guideway::daemon

@@ -1,0 +1,81 @@
+#pragma once
+// Runs test sessions: a PipelineStage that feeds each running session (and its raw recorder) with its
+// device's samples, and a worker thread that finishes sessions (closes the recording, identifies,
+// publishes PARAMS or a session_failed EVENT) so identification never stalls the pipeline.
+// Thread safety: start/stop/snapshot from the event-loop thread; on_samples/on_tick from the pipeline.
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "daemon/outbox.hpp"
+#include "daemon/pipeline.hpp"
+#include "daemon/recorder.hpp"
+#include "daemon/session.hpp"
+
+namespace guideway::daemon {
+
+struct SessionInfo {
+  std::string name;
+  std::string kind;
+  std::string device;
+  std::string state;  // running, finishing, done, failed
+  std::string progress;
+  std::string recording;  // path of the raw recording ("" if not recorded)
+  std::string recording_error;
+  std::uint64_t samples = 0;
+};
+
+class SessionManager : public PipelineStage {
+ public:
+  SessionManager(const SessionRegistry& registry, std::vector<drivers::Driver*> devices, std::string state_dir,
+                 Outbox& outbox);
+  ~SessionManager() override;
+
+  // Creates and queues a session; returns its name. Throws std::invalid_argument with the reason.
+  std::string start(const SessionRequest& request);
+  // Requests the end of a session (or of all when name is empty); returns the names affected.
+  std::vector<std::string> stop(const std::string& name);
+  [[nodiscard]] std::vector<SessionInfo> snapshot() const;
+
+  void on_samples(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) override;
+  void on_tick(std::int64_t now_mono_ns) override;
+
+ private:
+  struct Running {
+    SessionInfo info;
+    std::size_t device_index = 0;
+    std::unique_ptr<Session> session;
+    std::unique_ptr<RawRecorder> recorder;
+    bool stop_requested = false;
+  };
+  void finish_loop(const std::stop_token& stop);
+  void finish(std::unique_ptr<Running> r);
+
+  const SessionRegistry& registry_;
+  std::vector<drivers::Driver*> devices_;
+  std::string state_dir_;
+  Outbox& outbox_;
+
+  mutable std::mutex mutex_;  // guards incoming_, stops_, infos_
+  std::vector<std::unique_ptr<Running>> incoming_;
+  std::vector<std::string> stops_;
+  std::vector<SessionInfo> infos_;  // every session this run, newest last
+
+  std::vector<std::unique_ptr<Running>> running_;  // pipeline thread only
+
+  std::mutex finish_mutex_;
+  std::condition_variable_any finish_cv_;
+  std::deque<std::unique_ptr<Running>> finishing_;
+  std::jthread worker_;
+};
+
+}  // namespace guideway::daemon

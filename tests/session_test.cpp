@@ -1,0 +1,250 @@
+// Sessions end to end in-process: start over the socket, samples from a real driver thread through
+// the pipeline into the session and its raw recording, identification on the worker thread, PARAMS
+// published and cached for `params`, the recording fsynced and renamed with its end marker.
+#include <gtest/gtest.h>
+#include <spdlog/sinks/null_sink.h>
+#include <sys/stat.h>
+
+#include <cmath>
+#include <fstream>
+#include <thread>
+
+#include "cli/daemon_client.hpp"
+#include "core/mono_clock.hpp"
+#include "daemon/daemon.hpp"
+#include "test_support.hpp"
+
+using namespace guideway;
+using guideway::cli::DaemonClient;
+
+namespace {
+
+// A source that counts: value = sequence number, so every statistic is known exactly.
+class CountingDriver : public drivers::Driver {
+ public:
+  explicit CountingDriver(const drivers::DeviceConfig& c) : Driver(c.name, c.driver, {{"count", "1"}}, c.ring_capacity) {}
+  ~CountingDriver() override { stop(); }
+
+ protected:
+  void run(std::stop_token stop) override {
+    set_state(drivers::DeviceState::streaming);
+    double n = 0;
+    auto next = std::chrono::steady_clock::now();
+    while (!stop.stop_requested()) {
+      Sample s;
+      s.t_mono_ns = mono_now_ns();
+      s.value_count = 1;
+      s.value[0] = n++;
+      publish(s);
+      next += std::chrono::microseconds(500);
+      std::this_thread::sleep_until(next);
+    }
+  }
+};
+
+// Collects N samples (or until stopped) and identifies their mean and count; refuses fewer than 2.
+class MeanSession : public daemon::Session {
+ public:
+  explicit MeanSession(std::size_t wanted) : wanted_(wanted) {}
+  void on_samples(std::span<const Sample> samples) override {
+    for (const Sample& s : samples) {
+      if (wanted_ == 0 || values_.size() < wanted_) values_.push_back(s.value[0]);
+    }
+  }
+  [[nodiscard]] bool complete() const override { return wanted_ != 0 && values_.size() >= wanted_; }
+  [[nodiscard]] std::string progress() const override { return std::to_string(values_.size()) + " samples"; }
+  nlohmann::json identify() override {
+    if (values_.size() < 2) throw std::runtime_error("too few samples (" + std::to_string(values_.size()) + ")");
+    double sum = 0;
+    for (double v : values_) sum += v;
+    return {{"model", "mean"},
+            {"parameters", {{"mean", {{"value", sum / static_cast<double>(values_.size())}}}}},
+            {"first", values_.front()},
+            {"last", values_.back()},
+            {"n", values_.size()}};
+  }
+  [[nodiscard]] std::map<std::string, std::string> metadata() const override {
+    return {{"wanted", std::to_string(wanted_)}};
+  }
+
+ private:
+  std::size_t wanted_;
+  std::vector<double> values_;
+};
+
+struct Fixture {
+  explicit Fixture(const std::string& state_dir = "") {
+    registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<CountingDriver>(c); });
+    sessions.add({"mean", "test mean", {"counting"}, [](const daemon::SessionRequest& r, const drivers::Driver&) {
+                    const auto n = r.options.value("samples", 0);
+                    if (n < 0) throw std::invalid_argument("samples must be >= 0");
+                    return std::make_unique<MeanSession>(static_cast<std::size_t>(n));
+                  }});
+    socket = dir.file("s.sock");
+    state = state_dir.empty() ? dir.file("state") : state_dir;
+    auto config = daemon::parse_config("[daemon]\nsocket = \"" + socket + "\"\nstate_dir = \"" + state +
+                                           "\"\nstatus_period_s = 0.1\n[[device]]\nname = \"c\"\ndriver = \"counting\"\n",
+                                       "t.toml");
+    auto log = std::make_shared<spdlog::logger>("t", std::make_shared<spdlog::sinks::null_sink_mt>());
+    d = std::make_unique<daemon::Daemon>(std::move(config), registry, sessions, log);
+    thread = std::thread([this] { d->run(); });
+  }
+  ~Fixture() {
+    d->request_stop();
+    thread.join();
+  }
+  // Waits for the next published message of class cls.
+  static nlohmann::json next(DaemonClient& c, const std::string& cls) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (std::chrono::steady_clock::now() < deadline) {
+      auto line = c.read_line(std::chrono::milliseconds(200));
+      if (!line) continue;
+      auto j = nlohmann::json::parse(*line);
+      if (j["class"] == cls) return j;
+    }
+    return {};
+  }
+  test::TempDir dir;
+  drivers::DriverRegistry registry;
+  daemon::SessionRegistry sessions;
+  std::string socket;
+  std::string state;
+  std::unique_ptr<daemon::Daemon> d;
+  std::thread thread;
+};
+
+std::vector<std::string> read_lines(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> out;
+  for (std::string line; std::getline(in, line);) out.push_back(line);
+  return out;
+}
+
+}  // namespace
+
+TEST(Session, CompletesIdentifiesPublishesAndRecordsEverySample) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
+  auto started = c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 400}}}}, "SESSION");
+  ASSERT_EQ(started["class"], "SESSION") << started.dump();
+  const std::string name = started["session"];
+  EXPECT_EQ(name.rfind("mean-c-", 0), 0u);
+
+  const auto params = Fixture::next(c, "PARAMS");
+  ASSERT_FALSE(params.is_null());
+  EXPECT_EQ(params["session"], name);
+  EXPECT_EQ(params["n"], 400);
+  const double first = params["first"], last = params["last"];
+  EXPECT_DOUBLE_EQ(last - first, 399.0);  // consecutive: nothing lost between ring and session
+  EXPECT_DOUBLE_EQ(params["parameters"]["mean"]["value"].get<double>(), (first + last) / 2);
+
+  // The recording: renamed into place, header, every sample in order, end marker.
+  const std::string path = params["recording"];
+  EXPECT_EQ(path, f.state + "/" + name + ".csv");
+  const auto lines = read_lines(path);
+  ASSERT_GT(lines.size(), 10u);
+  EXPECT_EQ(lines[0], "# format = guideway/raw/1");
+  auto header = std::find(lines.begin(), lines.end(), "t_mono_ns,seq,flags,count_1");
+  ASSERT_NE(header, lines.end());
+  std::vector<double> counts;
+  std::int64_t last_t = 0;
+  for (auto it = header + 1; it != lines.end() && (*it)[0] != '#'; ++it) {
+    const auto c1 = it->find(','), c2 = it->find(',', c1 + 1), c3 = it->find(',', c2 + 1);
+    const std::int64_t t = std::stoll(it->substr(0, c1));
+    EXPECT_GE(t, last_t);
+    last_t = t;
+    counts.push_back(std::stod(it->substr(c3 + 1)));
+  }
+  ASSERT_GE(counts.size(), 400u);
+  EXPECT_DOUBLE_EQ(counts.front(), first);
+  for (std::size_t i = 1; i < counts.size(); ++i) ASSERT_DOUBLE_EQ(counts[i], counts[i - 1] + 1) << "row " << i;
+  EXPECT_NE(std::find(lines.begin(), lines.end(), "# end = complete"), lines.end());
+  EXPECT_NE(std::find(lines.begin(), lines.end(), "# wanted = 400"), lines.end());
+
+  // params returns the cached result; recordings lists the file.
+  auto cached = c.request({{"class", "params"}, {"kind", "mean"}}, "PARAMS");
+  EXPECT_EQ(cached["session"], name);
+  auto recs = c.request({{"class", "recordings"}}, "RECORDINGS");
+  ASSERT_EQ(recs["recordings"].size(), 1u);
+  EXPECT_EQ(recs["recordings"][0]["complete"], true);
+}
+
+TEST(Session, StopEndsAnOpenEndedSessionAndStatusShowsIt) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  c.request({{"class", "watch"}, {"classes", {"PARAMS"}}}, "WATCH");
+  const std::string name = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION")["session"];
+  EXPECT_TRUE(test::eventually([&] {
+    auto s = c.request({{"class", "status"}}, "STATUS");
+    return s["sessions"].size() == 1 && s["sessions"][0]["state"] == "running" && s["sessions"][0]["samples"] > 50;
+  }));
+  // The device is busy: a second session on it is refused.
+  auto busy = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION");
+  EXPECT_EQ(busy["class"], "ERROR");
+  auto stopped = c.request({{"class", "stop"}, {"session", name}}, "SESSION");
+  EXPECT_EQ(stopped["state"], "finishing");
+  const auto params = Fixture::next(c, "PARAMS");
+  EXPECT_EQ(params["session"], name);
+  EXPECT_GT(params["n"].get<int>(), 50);
+}
+
+TEST(Session, BadRequestsGetErrorsAndTheDaemonGoesOn) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  EXPECT_NE(c.request({{"class", "start"}}, "SESSION")["message"].get<std::string>().find("needs \"kind\""),
+            std::string::npos);
+  EXPECT_NE(c.request({{"class", "start"}, {"kind", "nope"}}, "SESSION")["message"].get<std::string>().find(
+                "unknown session kind \"nope\" (known: mean)"),
+            std::string::npos);
+  EXPECT_NE(c.request({{"class", "start"}, {"kind", "mean"}, {"device", "zz"}}, "SESSION")["message"]
+                .get<std::string>()
+                .find("no device named"),
+            std::string::npos);
+  EXPECT_EQ(c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", -3}}}}, "SESSION")["message"],
+            "samples must be >= 0");
+  EXPECT_EQ(c.request({{"class", "stop"}}, "SESSION")["message"], "no session is running");
+  EXPECT_NE(c.request({{"class", "params"}}, "PARAMS")["message"].get<std::string>().find("no parameters"),
+            std::string::npos);
+  EXPECT_EQ(c.request({{"class", "status"}}, "STATUS")["devices"][0]["state"], "streaming");
+}
+
+TEST(Session, UnwritableStateDirIsReportedAndIdentificationGoesOn) {
+  test::TempDir blocker;
+  const std::string file_not_dir = blocker.file("plain-file");
+  std::ofstream(file_not_dir) << "x";
+  Fixture f(file_not_dir + "/state");  // a directory below a regular file cannot be created
+  DaemonClient c(f.socket);
+  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
+  c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 100}}}}, "SESSION");
+  bool saw_failure_event = false;
+  nlohmann::json params;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (params.is_null() && std::chrono::steady_clock::now() < deadline) {
+    auto line = c.read_line(std::chrono::milliseconds(200));
+    if (!line) continue;
+    auto j = nlohmann::json::parse(*line);
+    if (j["class"] == "EVENT" && j["event"] == "recording_failed") saw_failure_event = true;
+    if (j["class"] == "PARAMS") params = j;
+  }
+  EXPECT_TRUE(saw_failure_event);
+  ASSERT_FALSE(params.is_null());
+  EXPECT_EQ(params["n"], 100);
+  EXPECT_FALSE(params.contains("recording"));
+}
+
+TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  c.request({{"class", "watch"}, {"classes", {"EVENT"}}}, "WATCH");
+  c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 1}}}}, "SESSION");
+  nlohmann::json ev;
+  EXPECT_TRUE(test::eventually([&] {
+    auto line = c.read_line(std::chrono::milliseconds(100));
+    if (!line) return false;
+    auto j = nlohmann::json::parse(*line);
+    if (j["class"] == "EVENT" && j["event"] == "session_failed") ev = j;
+    return !ev.is_null();
+  }));
+  EXPECT_EQ(ev["reason"], "too few samples (1)");
+}
