@@ -58,6 +58,41 @@ void print_status(const nlohmann::json& s) {
 
 volatile std::sig_atomic_t interrupted = 0;
 
+// A KEY=VALUE option: VALUE is read as JSON when it parses (numbers, true/false), else as a string.
+std::pair<std::string, nlohmann::json> parse_setting(const std::string& kv) {
+  const auto eq = kv.find('=');
+  if (eq == std::string::npos || eq == 0) throw std::runtime_error("--set expects KEY=VALUE, got \"" + kv + "\"");
+  const std::string value = kv.substr(eq + 1);
+  nlohmann::json v = nlohmann::json::parse(value, nullptr, false);
+  if (v.is_discarded() || v.is_object() || v.is_array()) v = value;
+  return {kv.substr(0, eq), v};
+}
+
+// Prints every group of {"name":{"value":..,"u":..}} in a PARAMS message as an aligned table.
+void print_params(const nlohmann::json& p) {
+  std::cout << "session " << p.value("session", "?") << " (" << p.value("kind", "?") << " on " << p.value("device", "?")
+            << "), model " << p.value("model", "?") << "\n";
+  for (const auto& [group, items] : p.items()) {
+    if (!items.is_object() || items.empty()) continue;
+    bool is_param_group = true;
+    for (const auto& [name, v] : items.items()) is_param_group = is_param_group && v.is_object() && v.contains("value");
+    if (!is_param_group) continue;
+    std::cout << group << ":\n";
+    for (const auto& [name, v] : items.items()) {
+      std::cout << "  " << std::left << std::setw(28) << name << std::right << std::setw(14) << std::setprecision(6)
+                << std::defaultfloat << v["value"].get<double>();
+      if (v.contains("u")) std::cout << " +/- " << std::setw(10) << v["u"].get<double>();
+      std::cout << "\n";
+    }
+  }
+  if (p.contains("fit") && p["fit"].is_object()) {
+    std::cout << "fit:";
+    for (const auto& [k, v] : p["fit"].items()) std::cout << " " << k << "=" << v.dump();
+    std::cout << "\n";
+  }
+  if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
+}
+
 }  // namespace
 
 namespace {
@@ -91,6 +126,112 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     }
   });
 
+  struct StartOptions {
+    std::string kind;
+    std::string device;
+    std::vector<std::string> settings;
+    bool wait = false;
+    double timeout_s = 600;
+  };
+  auto so = std::make_shared<StartOptions>();
+  auto* start = app.add_subcommand("start", "Start a test session (dbb, straightness, runout, profile) on the daemon");
+  start->add_option("kind", so->kind, "session kind: dbb, straightness, runout, profile")->required();
+  start->add_option("--device", so->device, "device name (default: the first device that can run this kind)");
+  start->add_option("--set", so->settings, "session option KEY=VALUE (repeatable); every option has a default");
+  start->add_flag("--wait", so->wait, "wait for the identified parameters and print them");
+  start->add_option("--timeout", so->timeout_s, "with --wait: give up after this many seconds (default 600)");
+  start->add_flag("--json", *json, "print the daemon's JSON unchanged");
+  start->callback([&ctx, so, json] {
+    DaemonClient c = connect(ctx);
+    nlohmann::json req = {{"class", "start"}, {"kind", so->kind}, {"options", nlohmann::json::object()}};
+    if (!so->device.empty()) req["device"] = so->device;
+    for (const auto& kv : so->settings) {
+      auto [k, v] = parse_setting(kv);
+      req["options"][k] = v;
+    }
+    if (so->wait) c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
+    const nlohmann::json r = c.request(req, "SESSION");
+    throw_if_error(r);
+    const std::string session = r.value("session", "");
+    if (*json) {
+      std::cout << r.dump() << "\n";
+    } else {
+      std::cout << "session " << session << " started\n";
+    }
+    if (!so->wait) return;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(so->timeout_s);
+    while (std::chrono::steady_clock::now() < deadline) {
+      auto line = c.read_line(std::chrono::milliseconds(500));
+      if (!line) continue;
+      const auto m = nlohmann::json::parse(*line, nullptr, false);
+      if (m.is_discarded() || m.value("session", "") != session) continue;
+      if (m.value("class", "") == "EVENT" && m.value("event", "") == "session_failed") {
+        if (*json) std::cout << m.dump() << "\n";
+        throw std::runtime_error("session " + session + " failed: " + m.value("reason", "?"));
+      }
+      if (m.value("class", "") == "PARAMS") {
+        if (*json) {
+          std::cout << m.dump() << "\n";
+        } else {
+          print_params(m);
+        }
+        return;
+      }
+    }
+    throw std::runtime_error("no parameters for session " + session + " within " + std::to_string(so->timeout_s) + " s");
+  });
+
+  auto stop_session = std::make_shared<std::string>();
+  auto* stop = app.add_subcommand("stop", "End a running session (all running sessions when none is named)");
+  stop->add_option("session", *stop_session, "session name (see guideway status)");
+  stop->add_flag("--json", *json, "print the daemon's JSON unchanged");
+  stop->callback([&ctx, stop_session, json] {
+    DaemonClient c = connect(ctx);
+    nlohmann::json req = {{"class", "stop"}};
+    if (!stop_session->empty()) req["session"] = *stop_session;
+    const nlohmann::json r = c.request(req, "SESSION");
+    throw_if_error(r);
+    if (*json) {
+      std::cout << r.dump() << "\n";
+    } else {
+      for (const auto& n : r["sessions"]) std::cout << "session " << n.get<std::string>() << " finishing\n";
+    }
+  });
+
+  auto params_kind = std::make_shared<std::string>();
+  auto* params = app.add_subcommand("params", "Show the latest identified parameters (with standard uncertainties)");
+  params->add_option("kind", *params_kind, "session kind (default: the most recent of any kind)");
+  params->add_flag("--json", *json, "print the daemon's JSON unchanged");
+  params->callback([&ctx, params_kind, json] {
+    DaemonClient c = connect(ctx);
+    nlohmann::json req = {{"class", "params"}};
+    if (!params_kind->empty()) req["kind"] = *params_kind;
+    const nlohmann::json r = c.request(req, "PARAMS");
+    throw_if_error(r);
+    if (*json) {
+      std::cout << r.dump() << "\n";
+    } else {
+      print_params(r);
+    }
+  });
+
+  auto* recordings = app.add_subcommand("recordings", "List the daemon's recordings");
+  recordings->add_flag("--json", *json, "print the daemon's JSON unchanged");
+  recordings->callback([&ctx, json] {
+    DaemonClient c = connect(ctx);
+    const nlohmann::json r = c.request({{"class", "recordings"}}, "RECORDINGS");
+    throw_if_error(r);
+    if (*json) {
+      std::cout << r.dump() << "\n";
+      return;
+    }
+    std::cout << "recordings in " << r.value("dir", "?") << ":\n";
+    for (const auto& rec : r["recordings"]) {
+      std::cout << "  " << std::left << std::setw(70) << rec.value("file", "?") << std::right << std::setw(12)
+                << rec.value("bytes", 0) << (rec.value("complete", false) ? "" : "  (incomplete)") << "\n";
+    }
+  });
+
   auto* watch = app.add_subcommand("watch", "Print the daemon's published messages as they arrive (Ctrl-C ends)");
   struct WatchOptions {
     std::vector<std::string> classes;
@@ -113,10 +254,10 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     const nlohmann::json ack = c.request(req, "WATCH");
     throw_if_error(ack);
     std::signal(SIGINT, [](int) { interrupted = 1; });
-    const auto start = std::chrono::steady_clock::now();
+    const auto began = std::chrono::steady_clock::now();
     std::size_t seen = 0;
     while (!interrupted) {
-      if (seconds > 0 && std::chrono::steady_clock::now() - start > std::chrono::duration<double>(seconds)) break;
+      if (seconds > 0 && std::chrono::steady_clock::now() - began > std::chrono::duration<double>(seconds)) break;
       auto line = c.read_line(std::chrono::milliseconds(200));
       if (!line) continue;
       std::cout << *line << "\n" << std::flush;
