@@ -1,0 +1,6 @@
+# Emulated profilometer (PGI 1240-style profile stream on TCP): `guideway-emulate profilometer`.
+add_library(guideway_profilometer_emulator STATIC ${CMAKE_CURRENT_LIST_DIR}/profilometer_emulator.cpp)
+target_link_libraries(guideway_profilometer_emulator PUBLIC guideway_profilometer guideway_core
+                      PRIVATE guideway_warnings)
+target_sources(guideway_emulators PRIVATE ${CMAKE_CURRENT_LIST_DIR}/profilometer_command.cpp)
+target_link_libraries(guideway_emulators PUBLIC guideway_profilometer_emulator)

@@ -1,0 +1,68 @@
+// `guideway-emulate profilometer`: an emulated PGI 1240-style profilometer streaming traverses on TCP.
+// Fault injection from stdin, one command per line: "fault <name> [count]", "disconnect <ms>", "stall <ms>".
+#include <signal.h>
+
+#include <iostream>
+#include <thread>
+
+#include "simulators/emulators/emulator_command.hpp"
+#include "simulators/emulators/profilometer_emulator.hpp"
+
+namespace guideway::emulators {
+namespace {
+
+struct ProfilometerArgs {
+  std::string host = "127.0.0.1";
+  int port = 4001;
+  double points_per_s = 5000.0;
+  std::size_t points = 1000;
+  double spacing_um = 2.0;
+};
+
+int run_profilometer(const ProfilometerArgs& a) {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  ProfilometerEmulator::Options options;
+  options.points_per_s = a.points_per_s;
+  options.source = faced_profile_source(a.points, a.spacing_um * 1e-6);
+  ProfilometerEmulator emulator(options);
+  std::string error;
+  const int port = emulator.start(a.host, a.port, error);
+  if (port < 0) {
+    std::cerr << "guideway-emulate profilometer: " << error << "\n";
+    return 1;
+  }
+  std::cout << a.host << ":" << port << std::endl;
+  std::thread control([&emulator] {
+    std::string line, message;
+    while (std::getline(std::cin, line)) {
+      if (line.empty()) continue;
+      apply_profilometer_command(emulator, line, message);
+      std::cerr << message << std::endl;
+    }
+  });
+  control.detach();
+  int sig = 0;
+  sigwait(&set, &sig);
+  emulator.stop();
+  return 0;
+}
+
+void add_profilometer(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<ProfilometerArgs>();
+  CLI::App* sub = app.add_subcommand("profilometer", "PGI 1240-style profilometer streaming profiles on TCP");
+  sub->add_option("--host", args->host, "IPv4 address to listen on")->capture_default_str();
+  sub->add_option("--port", args->port, "TCP port (0: any free port; the address is printed)")->capture_default_str();
+  sub->add_option("--points-per-s", args->points_per_s, "stream rate")->capture_default_str();
+  sub->add_option("--points", args->points, "points per traverse")->capture_default_str();
+  sub->add_option("--spacing-um", args->spacing_um, "point spacing")->capture_default_str();
+  sub->callback([args, &exit_code] { exit_code = run_profilometer(*args); });
+}
+
+const EmulatorCommand registered{add_profilometer};
+
+}  // namespace
+}  // namespace guideway::emulators

@@ -1,0 +1,178 @@
+// The profilometer-tcp driver against the emulated profilometer on a real loopback TCP socket:
+// traverses arrive complete and in order with start/end marks; every fault is survived and nothing
+// sent intact is lost.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/sample.hpp"
+#include "drivers/profilometer/profilometer_driver.hpp"
+#include "simulators/emulators/profilometer_emulator.hpp"
+#include "test_support.hpp"
+
+using namespace guideway;
+using namespace std::chrono_literals;
+using emulators::ProfileFault;
+using emulators::ProfilometerEmulator;
+
+namespace {
+
+struct Harness {
+  explicit Harness(std::size_t points = 200, double rate = 4000.0) {
+    ProfilometerEmulator::Options o;
+    o.source = emulators::faced_profile_source(points, 2e-6);
+    o.points_per_s = rate;
+    o.return_s = 0.02;
+    emulator = std::make_unique<ProfilometerEmulator>(o);
+    std::string error;
+    const int port = emulator->start("127.0.0.1", 0, error);
+    if (port < 0) throw std::runtime_error(error);
+    table = parse_toml("host = \"127.0.0.1\"\nport = " + std::to_string(port) +
+                           "\nstall_timeout_ms = 300\nbackoff_initial_ms = 50\nbackoff_max_ms = 400\n",
+                       "test.toml");
+    TableReader reader(table, "test.toml", "device[0]");
+    driver = std::make_unique<profilometer::ProfilometerDriver>(
+        "prof", profilometer::parse_profilometer_config(reader), 1 << 16);
+    reader.reject_unknown_keys();
+  }
+  ~Harness() {
+    driver->stop();
+    emulator->stop();
+  }
+  void drain() {
+    Sample s;
+    while (driver->ring().try_pop(s)) samples.push_back(s);
+  }
+  bool wait_samples(std::size_t n, std::chrono::milliseconds t = 10s) {
+    return test::eventually(
+        [&] {
+          drain();
+          return samples.size() >= n;
+        },
+        t);
+  }
+  void expect_matches_served() {
+    driver->stop();
+    drain();
+    const auto served = emulator->served();
+    ASSERT_EQ(samples.size(), served.size());
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      const Sample& s = samples[i];
+      ASSERT_EQ(s.value_count, 4u);
+      EXPECT_EQ(s.seq, i);
+      EXPECT_EQ(s.value[2], static_cast<double>(served[i].profile_id)) << i;
+      EXPECT_EQ(s.value[3], static_cast<double>(served[i].index)) << i;
+      EXPECT_EQ(s.value[0], served[i].x_m) << i;
+      if (served[i].over_range) {
+        EXPECT_TRUE(std::isnan(s.value[1]));
+      } else {
+        EXPECT_EQ(s.value[1], served[i].z_m) << i;
+      }
+      if (i > 0) {
+        EXPECT_GE(s.t_mono_ns, samples[i - 1].t_mono_ns);  // points of one TCP read share a timestamp
+      }
+    }
+  }
+
+  toml::table table;
+  std::unique_ptr<ProfilometerEmulator> emulator;
+  std::unique_ptr<profilometer::ProfilometerDriver> driver;
+  std::vector<Sample> samples;
+};
+
+}  // namespace
+
+TEST(ProfilometerTcp, AssemblesTraversesWithHeaderAndBoundaries) {
+  Harness h(200);
+  h.driver->start();
+  ASSERT_TRUE(test::eventually([&] { return h.driver->profiles_completed() >= 3; }));
+  EXPECT_EQ(h.driver->status().state, drivers::DeviceState::streaming);
+  const auto header = h.driver->last_header();
+  ASSERT_TRUE(header);
+  EXPECT_EQ(header->points, 200u);
+  EXPECT_NEAR(header->spacing_m, 2e-6, 1e-12);
+  EXPECT_NEAR(header->length_m, 398e-6, 1e-12);
+  EXPECT_EQ(header->stylus, "112/2009-2um");
+  h.expect_matches_served();
+  // Every complete traverse: index 0 carries start, index 199 carries end, nothing in between.
+  std::size_t starts = 0, ends = 0;
+  for (const Sample& s : h.samples) {
+    const bool first = s.value[3] == 0.0, last = s.value[3] == 199.0;
+    EXPECT_EQ((s.flags & profilometer::sample_profile_start) != 0, first);
+    if (s.flags & profilometer::sample_profile_end) {
+      EXPECT_TRUE(last);
+      ++ends;
+    }
+    starts += first ? 1 : 0;
+    EXPECT_EQ(s.flags & sample_after_gap, 0u);
+  }
+  EXPECT_GE(ends, 3u);
+  EXPECT_GE(starts, ends);
+  EXPECT_EQ(h.driver->status().counters.bad_frames, 0u);
+}
+
+TEST(ProfilometerTcp, SurvivesEveryFaultAndLosesNothing) {
+  Harness h(300, 3000.0);
+  h.driver->start();
+  ASSERT_TRUE(h.wait_samples(100));
+  auto counters = [&] { return h.driver->status().counters; };
+
+  for (ProfileFault f : {ProfileFault::garbage, ProfileFault::truncate, ProfileFault::bad_checksum}) {
+    SCOPED_TRACE(std::string(emulators::to_string(f)));
+    const auto before = counters();
+    const std::size_t have = h.samples.size();
+    h.emulator->inject(f, 1);
+    ASSERT_TRUE(h.wait_samples(have + 100));
+    EXPECT_GE(counters().bad_frames, before.bad_frames + 1);
+    EXPECT_EQ(h.driver->status().state, drivers::DeviceState::streaming);
+  }
+
+  // A burst of 2000 points at once (far above the 3000/s pacing) arrives whole.
+  {
+    const std::size_t have = h.samples.size();
+    const auto before = counters();
+    h.emulator->inject(ProfileFault::burst, 2000);
+    ASSERT_TRUE(h.wait_samples(have + 2000, 5s));
+    EXPECT_EQ(counters().bad_frames, before.bad_frames);
+    EXPECT_EQ(counters().overruns, 0u);
+  }
+
+  // A stall longer than stall_timeout_ms: timeout counted, link lost, reconnected.
+  {
+    const auto before = counters();
+    h.emulator->stall_for(900ms);
+    ASSERT_TRUE(test::eventually([&] { return counters().timeouts > before.timeouts; }, 3s));
+    ASSERT_TRUE(test::eventually([&] { return counters().reconnects > before.reconnects; }, 5s));
+    const std::size_t have = h.samples.size();
+    ASSERT_TRUE(h.wait_samples(have + 100));
+  }
+
+  // Unplugged: lost with a reason, backoff, reconnect, the stream goes on with new traverses.
+  {
+    const auto before = counters();
+    h.emulator->disconnect_for(500ms);
+    ASSERT_TRUE(test::eventually([&] { return h.driver->status().state == drivers::DeviceState::lost; }, 3s));
+    EXPECT_FALSE(h.driver->status().reason.empty());
+    ASSERT_TRUE(test::eventually([&] { return counters().reconnects > before.reconnects; }, 5s));
+    const std::size_t have = h.samples.size();
+    ASSERT_TRUE(h.wait_samples(have + 100));
+    EXPECT_EQ(h.driver->status().state, drivers::DeviceState::streaming);
+  }
+  h.expect_matches_served();
+  std::size_t gaps = 0;
+  for (const Sample& s : h.samples) gaps += (s.flags & sample_after_gap) ? 1 : 0;
+  EXPECT_GE(gaps, 2u);  // after the lost points and after each reconnect
+}
+
+TEST(ProfilometerTcp, RegistryCreatesItAndRejectsBadConfig) {
+  drivers::DriverRegistry registry;
+  profilometer::register_profilometer_driver(registry);
+  auto table = parse_toml("host = \"localhost\"\nport = 4001\n", "t.toml");
+  TableReader reader(table, "t.toml", "device[0]");
+  auto d = registry.create({"prof", "profilometer-tcp", 64, reader});
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->channels().size(), 4u);
+  auto bad = parse_toml("host = \"localhost\"\n", "t.toml");
+  TableReader bad_reader(bad, "t.toml", "device[0]");
+  EXPECT_THROW(registry.create({"prof", "profilometer-tcp", 64, bad_reader}), ConfigError);  // port required
+}
