@@ -1,0 +1,281 @@
+#include "models/dbb/dbb_run.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <numbers>
+#include <sstream>
+
+namespace guideway::models::dbb {
+
+namespace {
+
+constexpr double deg = std::numbers::pi / 180.0;
+
+std::string trim(std::string_view s) {
+  const auto b = s.find_first_not_of(" \t\r");
+  if (b == std::string_view::npos) return {};
+  const auto e = s.find_last_not_of(" \t\r");
+  return std::string(s.substr(b, e - b + 1));
+}
+
+[[noreturn]] void fail(const std::string& source, std::size_t line, const std::string& msg) {
+  std::string where = source;
+  if (line != 0) where += ":" + std::to_string(line);
+  throw RunFormatError(where + ": " + msg);
+}
+
+bool parse_double(const std::string& s, double& out) {
+  const char* b = s.data();
+  const char* e = s.data() + s.size();
+  auto [p, ec] = std::from_chars(b, e, out);
+  if (ec == std::errc() && p == e) return true;
+  // from_chars rejects "nan"/"inf" spellings on some libraries; accept them so we can say "not finite".
+  std::string low;
+  for (char c : s) low += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (low == "nan" || low == "-nan" || low == "+nan") {
+    out = std::numeric_limits<double>::quiet_NaN();
+    return true;
+  }
+  if (low == "inf" || low == "+inf" || low == "-inf" || low == "infinity" || low == "-infinity") {
+    out = low[0] == '-' ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+    return true;
+  }
+  return false;
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(trim(cur));
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  out.push_back(trim(cur));
+  return out;
+}
+
+double meta_number(const Run& run, const std::map<std::string, std::size_t>& lines, const std::string& key,
+                   bool required, double fallback) {
+  const auto it = run.metadata.find(key);
+  if (it == run.metadata.end()) {
+    if (required) fail(run.source, 0, "missing metadata line `# " + key + " = ...`");
+    return fallback;
+  }
+  double v = 0;
+  if (!parse_double(it->second, v) || !std::isfinite(v)) {
+    fail(run.source, lines.at(key), key + ": expected a finite number, got \"" + it->second + "\"");
+  }
+  return v;
+}
+
+}  // namespace
+
+double Run::nominal_length_m() const { return std::sqrt(radius_m * radius_m + height_m * height_m); }
+
+void validate_run(const Run& run) {
+  const std::string& src = run.source;
+  if (!(run.radius_m > 0) || !std::isfinite(run.radius_m)) fail(src, 0, "radius_mm must be a positive number");
+  if (!(run.height_m >= 0) || !std::isfinite(run.height_m)) fail(src, 0, "height_mm must be zero or positive");
+  if (!(run.feed_m_per_s > 0) || !std::isfinite(run.feed_m_per_s)) fail(src, 0, "feed_mm_per_min must be positive");
+  if (run.plane != "xy" && run.plane != "xz" && run.plane != "yz")
+    fail(src, 0, "plane must be xy, xz or yz, got \"" + run.plane + "\"");
+  const std::size_t n = run.angle_rad.size();
+  if (run.t_s.size() != n || run.dL_m.size() != n) fail(src, 0, "columns t_s, angle_deg and dL_um differ in length");
+  constexpr std::size_t min_points = 72;
+  if (n < min_points)
+    fail(src, 0, "too few points: " + std::to_string(n) + " samples, need at least " + std::to_string(min_points) +
+                     " over the full circle");
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(run.t_s[i]) || !std::isfinite(run.angle_rad[i]) || !std::isfinite(run.dL_m[i]))
+      fail(src, 0, "sample " + std::to_string(i) + " is not a finite number (NaN or infinity)");
+  }
+  const double span = run.angle_rad.back() - run.angle_rad.front();
+  const int dir = run.dir();
+  if (span * dir <= 0)
+    fail(src, 0, std::string("angles run ") + (span > 0 ? "counter-clockwise" : "clockwise") +
+                     " but the metadata says direction = " + (dir > 0 ? "ccw" : "cw"));
+  double max_step = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double step = (run.angle_rad[i] - run.angle_rad[i - 1]) * dir;
+    if (step < 0)
+      fail(src, 0, "angle goes backwards at sample " + std::to_string(i) + " (direction " + (dir > 0 ? "ccw" : "cw") +
+                       ")");
+    max_step = std::max(max_step, step);
+    if (run.t_s[i] < run.t_s[i - 1]) fail(src, 0, "time goes backwards at sample " + std::to_string(i));
+  }
+  if (max_step > 10 * deg) {
+    std::ostringstream m;
+    m << "gap of " << max_step / deg << " deg between samples; at most 10 deg allowed";
+    fail(src, 0, m.str());
+  }
+  if (std::abs(span) + max_step < 359.0 * deg) {
+    std::ostringstream m;
+    m << "partial arc: the samples cover " << std::fixed << std::setprecision(1) << std::abs(span) / deg
+      << " deg, a DBB run needs the full 360 deg circle";
+    fail(src, 0, m.str());
+  }
+  double max_dl = 0;
+  for (double d : run.dL_m) max_dl = std::max(max_dl, std::abs(d));
+  if (max_dl > 1e-3) {
+    std::ostringstream m;
+    m << "dL reaches " << std::fixed << std::setprecision(1) << max_dl * 1e6
+      << " um: the bar length does not match the metadata (radius_mm = " << run.radius_m * 1e3
+      << ", height_mm = " << run.height_m * 1e3 << ", nominal length " << run.nominal_length_m() * 1e3 << " mm)";
+    fail(src, 0, m.str());
+  }
+}
+
+Run parse_run(const std::string& text, const std::string& source) {
+  Run run;
+  run.source = source;
+  std::map<std::string, std::size_t> meta_line;
+  std::istringstream in(text);
+  std::string line;
+  std::size_t lineno = 0;
+  std::vector<std::string> header;
+  std::size_t header_line = 0;
+  int col_t = -1, col_a = -1, col_d = -1;
+  std::vector<double> angle_deg;
+  while (std::getline(in, line)) {
+    ++lineno;
+    const std::string tl = trim(line);
+    if (tl.empty()) continue;
+    if (tl[0] == '#') {
+      const std::string body = trim(std::string_view(tl).substr(1));
+      const auto eq = body.find('=');
+      if (eq == std::string::npos) continue;  // a plain comment
+      const std::string key = trim(std::string_view(body).substr(0, eq));
+      const std::string value = trim(std::string_view(body).substr(eq + 1));
+      if (key.empty()) fail(source, lineno, "metadata line without a key");
+      if (run.metadata.count(key)) {
+        if (!header.empty()) continue;  // trailer lines may not redefine the header's keys
+        fail(source, lineno, "metadata key \"" + key + "\" given twice");
+      }
+      run.metadata[key] = value;
+      meta_line[key] = lineno;
+      continue;
+    }
+    if (header.empty()) {
+      header = split(tl);
+      header_line = lineno;
+      for (std::size_t i = 0; i < header.size(); ++i) {
+        if (header[i] == "t_s") col_t = static_cast<int>(i);
+        if (header[i] == "angle_deg") col_a = static_cast<int>(i);
+        if (header[i] == "dL_um") col_d = static_cast<int>(i);
+      }
+      if (col_t < 0 || col_a < 0 || col_d < 0)
+        fail(source, lineno, "header row must name the columns t_s, angle_deg and dL_um, got \"" + tl + "\"");
+      continue;
+    }
+    const auto f = split(tl);
+    if (f.size() != header.size())
+      fail(source, lineno, "expected " + std::to_string(header.size()) + " fields, got " + std::to_string(f.size()));
+    double vals[3];
+    const int cols[3] = {col_t, col_a, col_d};
+    for (int k = 0; k < 3; ++k) {
+      const auto& cell = f[static_cast<std::size_t>(cols[k])];
+      if (!parse_double(cell, vals[k])) fail(source, lineno, header[static_cast<std::size_t>(cols[k])] + ": \"" + cell + "\" is not a number");
+      if (!std::isfinite(vals[k]))
+        fail(source, lineno, header[static_cast<std::size_t>(cols[k])] + " is not a finite number (" + cell + ")");
+    }
+    run.t_s.push_back(vals[0]);
+    angle_deg.push_back(vals[1]);
+    run.dL_m.push_back(vals[2] * 1e-6);
+  }
+  if (header.empty()) fail(source, lineno, "no header row `t_s,angle_deg,dL_um` found");
+  (void)header_line;
+  const auto fmt = run.metadata.find("format");
+  if (fmt == run.metadata.end()) fail(source, 0, "missing metadata line `# format = " + std::string(run_format_id) + "`");
+  if (fmt->second != run_format_id)
+    fail(source, meta_line["format"], "format is \"" + fmt->second + "\", expected \"" + run_format_id + "\"");
+  run.radius_m = meta_number(run, meta_line, "radius_mm", true, 0) * 1e-3;
+  run.height_m = meta_number(run, meta_line, "height_mm", true, 0) * 1e-3;
+  run.feed_m_per_s = meta_number(run, meta_line, "feed_mm_per_min", true, 0) * 1e-3 / 60.0;
+  run.center_a_m = meta_number(run, meta_line, "center_a_mm", false, 0) * 1e-3;
+  run.center_b_m = meta_number(run, meta_line, "center_b_mm", false, 0) * 1e-3;
+  const auto d = run.metadata.find("direction");
+  if (d == run.metadata.end()) fail(source, 0, "missing metadata line `# direction = ccw|cw`");
+  if (d->second == "ccw") {
+    run.direction = Direction::ccw;
+  } else if (d->second == "cw") {
+    run.direction = Direction::cw;
+  } else {
+    fail(source, meta_line["direction"], "direction must be ccw or cw, got \"" + d->second + "\"");
+  }
+  const auto p = run.metadata.find("plane");
+  if (p == run.metadata.end()) fail(source, 0, "missing metadata line `# plane = xy|xz|yz`");
+  run.plane = p->second;
+  if (const auto nl = run.metadata.find("nominal_length_mm"); nl != run.metadata.end()) {
+    const double given = meta_number(run, meta_line, "nominal_length_mm", false, 0) * 1e-3;
+    if (std::abs(given - run.nominal_length_m()) > 1e-6) {
+      std::ostringstream m;
+      m << "nominal_length_mm = " << given * 1e3 << " does not match sqrt(radius_mm^2 + height_mm^2) = "
+        << run.nominal_length_m() * 1e3;
+      fail(source, meta_line["nominal_length_mm"], m.str());
+    }
+  }
+  // Unwrap angles written modulo 360.
+  run.angle_rad.reserve(angle_deg.size());
+  double offset = 0;
+  for (std::size_t i = 0; i < angle_deg.size(); ++i) {
+    if (i > 0) {
+      const double jump = angle_deg[i] + offset - (run.angle_rad.back() / deg);
+      if (jump > 180.0) offset -= 360.0;
+      if (jump < -180.0) offset += 360.0;
+    }
+    run.angle_rad.push_back((angle_deg[i] + offset) * deg);
+  }
+  validate_run(run);
+  return run;
+}
+
+Run read_run(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw RunFormatError(path + ": cannot open file");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return parse_run(s.str(), path);
+}
+
+std::string format_run(const Run& run) {
+  std::ostringstream o;
+  o << std::setprecision(10);
+  auto meta = run.metadata;
+  meta.erase("format");
+  o << "# format = " << run_format_id << "\n";
+  o << "# radius_mm = " << run.radius_m * 1e3 << "\n";
+  o << "# height_mm = " << run.height_m * 1e3 << "\n";
+  o << "# direction = " << (run.direction == Direction::ccw ? "ccw" : "cw") << "\n";
+  o << "# feed_mm_per_min = " << run.feed_m_per_s * 60e3 << "\n";
+  o << "# plane = " << run.plane << "\n";
+  for (const char* k : {"radius_mm", "height_mm", "direction", "feed_mm_per_min", "plane"}) meta.erase(k);
+  if (run.center_a_m != 0 || run.center_b_m != 0) {
+    o << "# center_a_mm = " << run.center_a_m * 1e3 << "\n# center_b_mm = " << run.center_b_m * 1e3 << "\n";
+    meta.erase("center_a_mm");
+    meta.erase("center_b_mm");
+  }
+  for (const auto& [k, v] : meta) o << "# " << k << " = " << v << "\n";
+  o << "t_s,angle_deg,dL_um\n";
+  for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
+    o << std::setprecision(9) << run.t_s[i] << "," << std::setprecision(9) << run.angle_rad[i] / deg << ","
+      << std::setprecision(7) << run.dL_m[i] * 1e6 << "\n";
+  }
+  return o.str();
+}
+
+void write_run(const Run& run, const std::string& path) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) throw RunFormatError(path + ": cannot open for writing");
+  out << format_run(run);
+  out.flush();
+  if (!out) throw RunFormatError(path + ": write failed");
+}
+
+}  // namespace guideway::models::dbb

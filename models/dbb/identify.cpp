@@ -1,0 +1,576 @@
+#include "models/dbb/identify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <functional>
+#include <numbers>
+
+#include <Eigen/Core>
+#include <Eigen/QR>
+
+namespace guideway::models::dbb {
+
+namespace {
+
+constexpr double pi = std::numbers::pi;
+constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+constexpr double um = 1e-6;
+
+double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
+
+// Per-sample geometry shared by both models.
+struct Point {
+  std::size_t run = 0;
+  double zeta = 0, c = 0, s = 0;
+  double lambda = 0, hl = 0, r = 0, h = 0;
+  double dir = 1, v = 0, omega = 0;
+  double sgn_a = 0, sgn_b = 0;    // sign of the axis velocities
+  double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
+  double a_m = 0, b_m = 0;        // machine coordinates of the commanded point (cyclic phase)
+  double y_um = 0;
+  double w = 1;
+};
+
+std::vector<Point> points_of(const std::vector<Run>& runs) {
+  std::vector<Point> pts;
+  std::size_t total = 0;
+  for (const auto& r : runs) total += r.angle_rad.size();
+  pts.reserve(total);
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const Run& run = runs[k];
+    const double l0 = run.nominal_length_m();
+    const double w = static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
+    for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
+      Point p;
+      p.run = k;
+      p.zeta = run.angle_rad[i];
+      p.c = std::cos(p.zeta);
+      p.s = std::sin(p.zeta);
+      p.r = run.radius_m;
+      p.h = run.height_m;
+      p.lambda = run.radius_m / l0;
+      p.hl = run.height_m / l0;
+      p.dir = run.dir();
+      p.v = run.feed_m_per_s;
+      p.omega = run.feed_m_per_s / run.radius_m;
+      p.sgn_a = -p.dir * sgn(p.s);
+      p.sgn_b = p.dir * sgn(p.c);
+      // Most recent reversal angle of a (multiples of pi) and b (pi/2 + multiples of pi).
+      const auto since = [&](double phase) {
+        const double q = (p.zeta - phase) / pi;
+        const double last = p.dir > 0 ? std::floor(q) : std::ceil(q);
+        return std::abs(p.zeta - phase - last * pi) / p.omega;
+      };
+      p.since_a = since(0.0);
+      p.since_b = since(pi / 2);
+      p.a_m = run.center_a_m + run.radius_m * p.c;
+      p.b_m = run.center_b_m + run.radius_m * p.s;
+      p.y_um = run.dL_m[i] * 1e6;
+      p.w = w;
+      pts.push_back(p);
+    }
+  }
+  return pts;
+}
+
+std::string axis_letters(const std::string& plane, int which) {
+  if (plane == "xz") return which == 0 ? "x" : "z";
+  if (plane == "yz") return which == 0 ? "y" : "z";
+  return which == 0 ? "x" : "y";
+}
+
+FitSummary summary_of(const LsqResult& res) {
+  FitSummary f;
+  f.rms_um = res.rms;
+  f.n = res.n;
+  f.condition_number = res.condition_number;
+  f.unidentifiable = res.unidentifiable;
+  f.combinations = res.combinations;
+  f.message = res.message;
+  return f;
+}
+
+// ---- Lai third-order model -------------------------------------------------------------------
+
+struct LaiColumn {
+  const char* name;
+  double si_per_reported;  // SI value of one reported unit
+};
+
+// Order matters: lai3_characteristics returns the basis in this order.
+constexpr LaiColumn lai_columns[] = {
+    {"e_x_um", 1e-6},          {"e_y_um", 1e-6},          {"S_x", 1.0},           {"S_y", 1.0},
+    {"a1_rad", 1.0},           {"a2_per_mm", 1e3},        {"a3_per_mm2", 1e6},    {"b2_per_mm", 1e3},
+    {"b3_per_mm2", 1e6},       {"c0_plus_d1_rad", 1.0},   {"c1_per_mm", 1e3},     {"c2_per_mm2", 1e6},
+    {"d2_per_mm", 1e3},        {"d3_per_mm2", 1e6},       {"e1_rad", 1.0},        {"e2_per_mm", 1e3},
+    {"e3_per_mm2", 1e6},       {"backlash_x_um", 1e-6},   {"backlash_y_um", 1e-6}, {"servo_mismatch_ms", 1e-3},
+};
+constexpr std::size_t lai_count = std::size(lai_columns);
+
+void lai_basis(const Point& p, double* out) {
+  const double c = p.c, s = p.s, r = p.r, lam = p.lambda, hl = p.hl;
+  out[0] = -lam * c;
+  out[1] = -lam * s;
+  out[2] = lam * r * c * c;
+  out[3] = lam * r * s * s;
+  out[4] = lam * r * s * c;
+  out[5] = lam * r * r * c * c * s;
+  out[6] = lam * r * r * r * c * c * c * s;
+  out[7] = lam * r * r * s * s * c;
+  out[8] = lam * r * r * r * s * s * s * c;
+  out[9] = hl * r * c;
+  out[10] = hl * r * r * c * s;
+  out[11] = hl * r * r * r * c * s * s;
+  out[12] = hl * r * r * c * c;
+  out[13] = hl * r * r * r * c * c * c;
+  out[14] = hl * r * s;
+  out[15] = hl * r * r * s * s;
+  out[16] = hl * r * r * r * s * s * s;
+  out[17] = lam * (-0.5 * p.sgn_a) * c;
+  out[18] = lam * (-0.5 * p.sgn_b) * s;
+  out[19] = lam * p.dir * p.v * s * c;
+}
+
+// ---- Ballbar diagnostics -------------------------------------------------------------------------
+
+struct DiagLayout {
+  std::size_t runs = 0;
+  bool spikes = false;
+  bool cyclic_a = false, cyclic_b = false;
+  double tau = 0.02, period_a = 0, period_b = 0;
+  [[nodiscard]] std::size_t global0() const { return 2 * runs; }
+  // global parameters after the per-run centre offsets
+  enum G { scale_a, scale_b, squareness, backlash_a, backlash_b, play_a, play_b, servo, bow_a, bow_b, n_base };
+  [[nodiscard]] std::size_t count() const {
+    return global0() + n_base + (spikes ? 2 : 0) + (cyclic_a ? 2 : 0) + (cyclic_b ? 2 : 0);
+  }
+  [[nodiscard]] std::size_t spike0() const { return global0() + n_base; }
+  [[nodiscard]] std::size_t cyc_a0() const { return spike0() + (spikes ? 2 : 0); }
+  [[nodiscard]] std::size_t cyc_b0() const { return cyc_a0() + (cyclic_a ? 2 : 0); }
+};
+
+// Column values in um per reported unit (um, ppm, urad, ms).
+void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
+  row.setZero();
+  const double c = p.c, s = p.s, lam = p.lambda, r = p.r;
+  row[static_cast<Eigen::Index>(2 * p.run)] = lam * c;
+  row[static_cast<Eigen::Index>(2 * p.run + 1)] = lam * s;
+  const auto g = static_cast<Eigen::Index>(L.global0());
+  row[g + DiagLayout::scale_a] = lam * r * c * c;           // 1 ppm = 1e-6 * r m = r um
+  row[g + DiagLayout::scale_b] = lam * r * s * s;
+  row[g + DiagLayout::squareness] = lam * r * s * c;
+  row[g + DiagLayout::backlash_a] = lam * (-0.5 * p.sgn_a) * c;
+  row[g + DiagLayout::backlash_b] = lam * (-0.5 * p.sgn_b) * s;
+  row[g + DiagLayout::play_a] = lam * 0.5 * p.sgn_a * s;
+  row[g + DiagLayout::play_b] = lam * 0.5 * p.sgn_b * c;
+  row[g + DiagLayout::servo] = lam * p.dir * p.v * s * c * 1e3;  // 1 ms = 1e-3 s; v m/s -> um: *1e6*1e-3
+  row[g + DiagLayout::bow_a] = lam * s * c * c;
+  row[g + DiagLayout::bow_b] = lam * c * s * s;
+  if (L.spikes) {
+    const auto k = static_cast<Eigen::Index>(L.spike0());
+    row[k] = lam * c * (-p.sgn_a) * std::exp(-p.since_a / L.tau);
+    row[k + 1] = lam * s * (-p.sgn_b) * std::exp(-p.since_b / L.tau);
+  }
+  if (L.cyclic_a) {
+    const auto k = static_cast<Eigen::Index>(L.cyc_a0());
+    const double th = 2 * pi * p.a_m / L.period_a;
+    row[k] = lam * c * std::sin(th);
+    row[k + 1] = lam * c * std::cos(th);
+  }
+  if (L.cyclic_b) {
+    const auto k = static_cast<Eigen::Index>(L.cyc_b0());
+    const double th = 2 * pi * p.b_m / L.period_b;
+    row[k] = lam * s * std::sin(th);
+    row[k + 1] = lam * s * std::cos(th);
+  }
+}
+
+std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>& runs, const std::string& plane) {
+  const std::string A = axis_letters(plane, 0), B = axis_letters(plane, 1);
+  std::vector<std::string> n;
+  for (std::size_t k = 0; k < L.runs; ++k) {
+    const std::string pre = L.runs > 1 ? "run" + std::to_string(k + 1) + "." : "";
+    (void)runs;
+    n.push_back(pre + "center_offset_" + A + "_um");
+    n.push_back(pre + "center_offset_" + B + "_um");
+  }
+  for (const auto& s : {"scale_" + A + "_ppm", "scale_" + B + "_ppm", std::string("squareness_urad"),
+                        "backlash_" + A + "_um", "backlash_" + B + "_um", "lateral_play_" + A + "_um",
+                        "lateral_play_" + B + "_um", std::string("servo_mismatch_ms"), "straightness_" + A + "_um",
+                        "straightness_" + B + "_um"})
+    n.push_back(s);
+  if (L.spikes) {
+    n.push_back("reversal_spike_" + A + "_um");
+    n.push_back("reversal_spike_" + B + "_um");
+  }
+  if (L.cyclic_a) {
+    n.push_back("cyclic_sin_" + A + "_um");
+    n.push_back("cyclic_cos_" + A + "_um");
+  }
+  if (L.cyclic_b) {
+    n.push_back("cyclic_sin_" + B + "_um");
+    n.push_back("cyclic_cos_" + B + "_um");
+  }
+  return n;
+}
+
+LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<Run>& runs,
+                   const std::string& plane) {
+  const auto n = static_cast<Eigen::Index>(pts.size());
+  Eigen::MatrixXd j(n, static_cast<Eigen::Index>(L.count()));
+  Eigen::VectorXd y(n), w(n);
+  Eigen::RowVectorXd row(j.cols());
+  for (Eigen::Index i = 0; i < n; ++i) {
+    diag_row(L, pts[static_cast<std::size_t>(i)], row);
+    j.row(i) = row;
+    y[i] = pts[static_cast<std::size_t>(i)].y_um;
+    w[i] = pts[static_cast<std::size_t>(i)].w;
+  }
+  return solve_lsq(j, y, w, diag_names(L, runs, plane));
+}
+
+// Weighted sum of squares explained by fitting two extra columns to a residual.
+double explained(const std::vector<Point>& pts, const Eigen::VectorXd& res,
+                 const std::function<void(const Point&, double&, double&)>& cols) {
+  double s11 = 0, s12 = 0, s22 = 0, b1 = 0, b2 = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    double u1 = 0, u2 = 0;
+    cols(pts[i], u1, u2);
+    const double w = pts[i].w;
+    s11 += w * u1 * u1;
+    s12 += w * u1 * u2;
+    s22 += w * u2 * u2;
+    b1 += w * u1 * res[static_cast<Eigen::Index>(i)];
+    b2 += w * u2 * res[static_cast<Eigen::Index>(i)];
+  }
+  const double det = s11 * s22 - s12 * s12;
+  if (!(det > 1e-300)) return 0.0;
+  const double x1 = (s22 * b1 - s12 * b2) / det;
+  const double x2 = (s11 * b2 - s12 * b1) / det;
+  return x1 * b1 + x2 * b2;
+}
+
+// ISO 230-4 circular deviation of one run about its least-squares circle; returns the residuals.
+std::pair<double, std::vector<double>> circular_deviation(const Run& run) {
+  const auto n = static_cast<Eigen::Index>(run.angle_rad.size());
+  Eigen::MatrixXd a(n, 3);
+  Eigen::VectorXd y(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double z = run.angle_rad[static_cast<std::size_t>(i)];
+    a(i, 0) = 1;
+    a(i, 1) = std::cos(z);
+    a(i, 2) = std::sin(z);
+    y[i] = run.dL_m[static_cast<std::size_t>(i)] * 1e6;
+  }
+  const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
+  const Eigen::VectorXd res = y - a * x;
+  std::vector<double> out(res.data(), res.data() + res.size());
+  return {res.maxCoeff() - res.minCoeff(), out};
+}
+
+// ISO 230-4 circular hysteresis of a ccw/cw pair about their common least-squares circle.
+double circular_hysteresis(const Run& r1, const Run& r2) {
+  const auto n1 = static_cast<Eigen::Index>(r1.angle_rad.size());
+  const auto n2 = static_cast<Eigen::Index>(r2.angle_rad.size());
+  Eigen::MatrixXd a(n1 + n2, 3);
+  Eigen::VectorXd y(n1 + n2);
+  const auto fill = [&](const Run& r, Eigen::Index off) {
+    for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
+      const auto row = off + static_cast<Eigen::Index>(i);
+      a(row, 0) = 1;
+      a(row, 1) = std::cos(r.angle_rad[i]);
+      a(row, 2) = std::sin(r.angle_rad[i]);
+      y[row] = r.dL_m[i] * 1e6;
+    }
+  };
+  fill(r1, 0);
+  fill(r2, n1);
+  const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
+  const Eigen::VectorXd res = y - a * x;
+  // Residual of each run on a 0.5 deg grid (linear interpolation in the wrapped angle).
+  const auto on_grid = [&](const Run& r, Eigen::Index off) {
+    std::vector<std::pair<double, double>> v;
+    for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
+      double z = std::fmod(r.angle_rad[i], 2 * pi);
+      if (z < 0) z += 2 * pi;
+      v.emplace_back(z, res[off + static_cast<Eigen::Index>(i)]);
+    }
+    std::sort(v.begin(), v.end());
+    std::vector<double> g(720, nan);
+    for (std::size_t k = 0; k < g.size(); ++k) {
+      const double z = static_cast<double>(k) * pi / 360.0;
+      auto it = std::lower_bound(v.begin(), v.end(), std::make_pair(z, -1e300));
+      if (it == v.end() || it == v.begin()) {
+        g[k] = (it == v.end() ? v.back() : v.front()).second;
+        continue;
+      }
+      const auto& hi = *it;
+      const auto& lo = *(it - 1);
+      const double f = hi.first > lo.first ? (z - lo.first) / (hi.first - lo.first) : 0.0;
+      g[k] = lo.second + f * (hi.second - lo.second);
+    }
+    return g;
+  };
+  const auto g1 = on_grid(r1, 0);
+  const auto g2 = on_grid(r2, n1);
+  double h = 0;
+  for (std::size_t k = 0; k < g1.size(); ++k) h = std::max(h, std::abs(g1[k] - g2[k]));
+  return h;
+}
+
+Estimate est(const std::string& name, double value, double u, bool fitted = true) { return {name, value, u, fitted}; }
+
+}  // namespace
+
+std::vector<std::string> lai3_parameter_names() {
+  std::vector<std::string> n;
+  for (const auto& c : lai_columns) n.emplace_back(c.name);
+  return n;
+}
+
+std::vector<double> lai3_characteristics(double radius_m, double height_m, int direction, double feed_m_per_s,
+                                         double zeta) {
+  Point p;
+  p.zeta = zeta;
+  p.c = std::cos(zeta);
+  p.s = std::sin(zeta);
+  p.r = radius_m;
+  p.h = height_m;
+  const double l0 = std::sqrt(radius_m * radius_m + height_m * height_m);
+  p.lambda = radius_m / l0;
+  p.hl = height_m / l0;
+  p.dir = direction;
+  p.v = feed_m_per_s;
+  p.sgn_a = -p.dir * sgn(p.s);
+  p.sgn_b = p.dir * sgn(p.c);
+  std::vector<double> out(lai_count);
+  lai_basis(p, out.data());
+  return out;
+}
+
+double lai3_exact_dL(const Lai3Params& q, double radius_m, double height_m, int direction, double feed_m_per_s,
+                     double zeta) {
+  const double r = radius_m, h = height_m;
+  const double c = std::cos(zeta), s = std::sin(zeta);
+  const double a = r * c, b = r * s;  // commanded position about the circle centre
+  const double sgn_a = -direction * sgn(s), sgn_b = direction * sgn(c);
+  const double omega = feed_m_per_s / r;
+  // Servo lag difference: x lags by the whole mismatch relative to y (only the difference matters).
+  const double lag = direction * omega * q.servo_mismatch_s;
+  const double a_servo = r * std::cos(zeta - lag);
+  double xa = q.s_x * a_servo - 0.5 * q.backlash_x * sgn_a + q.b2 * b * b + q.b3 * b * b * b;
+  double xb = q.s_y * b - 0.5 * q.backlash_y * sgn_b + q.a1 * a + q.a2 * a * a + q.a3 * a * a * a;
+  const double xn = q.d1 * a + q.d2 * a * a + q.d3 * a * a * a + q.e1 * b + q.e2 * b * b + q.e3 * b * b * b +
+                    a * (q.c0 + q.c1 * b + q.c2 * b * b);
+  // Moving ball relative to the fixed ball at (e_x, e_y, -h).
+  xa -= q.e_x;
+  xb -= q.e_y;
+  const double len = std::sqrt(xa * xa + xb * xb + (xn + h) * (xn + h));
+  return len - std::sqrt(r * r + h * h);
+}
+
+Identification identify(const std::vector<Run>& runs, const IdentifyOptions& options) {
+  if (runs.empty()) throw RunFormatError("identify: no runs given");
+  for (const auto& r : runs) validate_run(r);
+  const std::string plane = runs.front().plane;
+  for (const auto& r : runs)
+    if (r.plane != plane)
+      throw RunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
+                           "); runs identified together must share the plane");
+
+  Identification out;
+  const std::vector<Point> pts = points_of(runs);
+  const auto n = static_cast<Eigen::Index>(pts.size());
+  Eigen::VectorXd y(n), w(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    y[i] = pts[static_cast<std::size_t>(i)].y_um;
+    w[i] = pts[static_cast<std::size_t>(i)].w;
+  }
+
+  // ---- Lai third-order fit ----
+  {
+    const bool shared = options.lai_shared_center || runs.size() == 1;
+    const std::size_t n_center = shared ? 2 : 2 * runs.size();
+    const std::size_t m = lai_count - 2 + n_center;
+    std::vector<std::string> names;
+    if (shared) {
+      names = lai3_parameter_names();
+    } else {
+      for (std::size_t k = 0; k < runs.size(); ++k) {
+        names.push_back("run" + std::to_string(k + 1) + ".e_x_um");
+        names.push_back("run" + std::to_string(k + 1) + ".e_y_um");
+      }
+      for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
+    }
+    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(m));
+    double basis[lai_count];
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Point& p = pts[static_cast<std::size_t>(i)];
+      lai_basis(p, basis);
+      const std::size_t off = shared ? 0 : 2 * p.run;
+      j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
+      j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
+      for (std::size_t c = 2; c < lai_count; ++c)
+        j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+    }
+    const LsqResult res = solve_lsq(j, y, w, names);
+    if (!res.ok) throw RunFormatError("identify: " + res.message);
+    out.fit = summary_of(res);
+    const double omega0 = runs.front().feed_m_per_s / runs.front().radius_m;
+    for (std::size_t c = 0; c < m; ++c) {
+      if (!res.identified[c]) continue;
+      const auto ci = static_cast<Eigen::Index>(c);
+      std::string name = names[c];
+      double value = res.x[ci], u = res.u[ci];
+      if (name == "S_x" || name == "S_y") value += 1.0;
+      if (name == "servo_mismatch_ms") {
+        // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
+        out.lai3.push_back(est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
+      }
+      out.lai3.push_back(est(name, value, u));
+    }
+  }
+
+  // ---- Ballbar diagnostics ----
+  DiagLayout L;
+  L.runs = runs.size();
+  LsqResult base = fit_diag(L, pts, runs, plane);
+  if (!base.ok) throw RunFormatError("identify: " + base.message);
+  // Reversal spikes: choose the decay time that explains most of the residual.
+  {
+    double best = 0, best_tau = 0;
+    for (double tau : {0.003, 0.006, 0.012, 0.025, 0.05, 0.1}) {
+      const double e = explained(pts, base.residual, [tau](const Point& p, double& u1, double& u2) {
+        u1 = p.lambda * p.c * (-p.sgn_a) * std::exp(-p.since_a / tau);
+        u2 = p.lambda * p.s * (-p.sgn_b) * std::exp(-p.since_b / tau);
+      });
+      if (e > best) {
+        best = e;
+        best_tau = tau;
+      }
+    }
+    L.spikes = true;
+    L.tau = best_tau > 0 ? best_tau : 0.02;
+  }
+  // Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4).
+  {
+    const double rmin = std::min_element(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
+                          return a.radius_m < b.radius_m;
+                        })->radius_m;
+    const std::vector<double> leads = {1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40};
+    const auto pick = [&](double given, bool axis_a) {
+      if (given > 0) return given;
+      double best = 0, best_p = 0;
+      for (double lead_mm : leads) {
+        const double p = lead_mm * 1e-3;
+        if (p > rmin / 4) break;
+        const double e = explained(pts, base.residual, [p, axis_a](const Point& q, double& u1, double& u2) {
+          const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
+          const double f = q.lambda * (axis_a ? q.c : q.s);
+          u1 = f * std::sin(th);
+          u2 = f * std::cos(th);
+        });
+        if (e > best) {
+          best = e;
+          best_p = p;
+        }
+      }
+      // Keep the term only when it explains clearly more than noise (2 dof, about p < 1e-6).
+      return best > 30.0 * base.s2 ? best_p : 0.0;
+    };
+    L.period_a = pick(options.cyclic_period_a_m, true);
+    L.period_b = pick(options.cyclic_period_b_m, false);
+    L.cyclic_a = L.period_a > 0;
+    L.cyclic_b = L.period_b > 0;
+  }
+  const LsqResult res = fit_diag(L, pts, runs, plane);
+  if (!res.ok) throw RunFormatError("identify: " + res.message);
+  out.diagnostics_fit = summary_of(res);
+  const auto names = diag_names(L, runs, plane);
+  const auto get = [&](std::size_t idx) -> std::pair<double, double> {
+    return {res.x[static_cast<Eigen::Index>(idx)], res.u[static_cast<Eigen::Index>(idx)]};
+  };
+  const auto add = [&](std::size_t idx) {
+    if (!res.identified[idx]) return;
+    const auto [v, u] = get(idx);
+    out.diagnostics.push_back(est(names[idx], v, u));
+  };
+  const std::string A = axis_letters(plane, 0), B = axis_letters(plane, 1);
+  for (std::size_t k = 0; k < 2 * L.runs; ++k) add(k);
+  const std::size_t g = L.global0();
+  add(g + DiagLayout::scale_a);
+  add(g + DiagLayout::scale_b);
+  if (res.identified[g + DiagLayout::scale_a] && res.identified[g + DiagLayout::scale_b]) {
+    const auto ia = static_cast<Eigen::Index>(g + DiagLayout::scale_a);
+    const auto ib = static_cast<Eigen::Index>(g + DiagLayout::scale_b);
+    const double var = res.covariance(ia, ia) + res.covariance(ib, ib) - 2 * res.covariance(ia, ib);
+    out.diagnostics.push_back(est("scale_mismatch_ppm", res.x[ia] - res.x[ib], std::sqrt(std::max(var, 0.0))));
+  }
+  for (auto k : {DiagLayout::squareness, DiagLayout::backlash_a, DiagLayout::backlash_b, DiagLayout::play_a,
+                 DiagLayout::play_b, DiagLayout::servo, DiagLayout::bow_a, DiagLayout::bow_b})
+    add(g + k);
+  add(L.spike0());
+  add(L.spike0() + 1);
+  const auto cyclic = [&](bool on, std::size_t k0, double period, const std::string& ax) {
+    if (!on) {
+      out.diagnostics.push_back(est("cyclic_error_" + ax + "_um", 0.0, nan, false));
+      return;
+    }
+    if (!res.identified[k0] || !res.identified[k0 + 1]) return;
+    const auto i0 = static_cast<Eigen::Index>(k0);
+    const double as = res.x[i0], ac = res.x[i0 + 1];
+    const double amp = std::hypot(as, ac);
+    double u = nan;
+    if (amp > 0) {
+      const double ga = as / amp, gc = ac / amp;
+      u = std::sqrt(std::max(0.0, ga * ga * res.covariance(i0, i0) + gc * gc * res.covariance(i0 + 1, i0 + 1) +
+                                      2 * ga * gc * res.covariance(i0, i0 + 1)));
+    }
+    out.diagnostics.push_back(est("cyclic_error_" + ax + "_um", amp, u));
+    out.diagnostics.push_back(est("cyclic_period_" + ax + "_mm", period * 1e3, nan, false));
+    out.diagnostics.push_back(est("cyclic_phase_" + ax + "_deg", std::atan2(ac, as) * 180 / pi, nan, false));
+  };
+  cyclic(L.cyclic_a, L.cyc_a0(), L.period_a, A);
+  cyclic(L.cyclic_b, L.cyc_b0(), L.period_b, B);
+  out.diagnostics.push_back(est("reversal_spike_decay_ms", L.tau * 1e3, nan, false));
+
+  // ISO 230-4 circular deviation per run and hysteresis of the first ccw/cw pair of one set-up.
+  double g_max = 0;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const Run& r = runs[k];
+    RunSummary s;
+    s.source = r.source;
+    s.radius_mm = r.radius_m * 1e3;
+    s.height_mm = r.height_m * 1e3;
+    s.direction = r.direction == Direction::ccw ? "ccw" : "cw";
+    s.feed_mm_per_min = r.feed_m_per_s * 60e3;
+    s.n = r.angle_rad.size();
+    s.circular_deviation_um = circular_deviation(r).first;
+    double ss = 0;
+    std::size_t cnt = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      if (pts[i].run == k) {
+        ss += res.residual[static_cast<Eigen::Index>(i)] * res.residual[static_cast<Eigen::Index>(i)];
+        ++cnt;
+      }
+    s.residual_rms_um = cnt ? std::sqrt(ss / static_cast<double>(cnt)) : 0.0;
+    g_max = std::max(g_max, s.circular_deviation_um);
+    out.runs.push_back(s);
+  }
+  out.diagnostics.push_back(est("circular_deviation_um", g_max, nan, false));
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    bool done = false;
+    for (std::size_t k = i + 1; k < runs.size() && !done; ++k) {
+      if (runs[i].direction != runs[k].direction && std::abs(runs[i].radius_m - runs[k].radius_m) < 1e-6 &&
+          std::abs(runs[i].height_m - runs[k].height_m) < 1e-6) {
+        out.diagnostics.push_back(est("circular_hysteresis_um", circular_hysteresis(runs[i], runs[k]), nan, false));
+        done = true;
+      }
+    }
+    if (done) break;
+  }
+  return out;
+}
+
+}  // namespace guideway::models::dbb

@@ -1,0 +1,95 @@
+#pragma once
+// DBB identification: Lai, Liao and Chieng's third-order guideway model (multi-pattern weighted least
+// squares, parameters named as in their Table 3) and the ballbar diagnostics a user expects
+// (centre offset, scale, squareness, backlash, lateral play, reversal spikes, cyclic error, servo
+// mismatch, straightness, ISO 230-4 circular deviation and hysteresis). Every fitted value comes with
+// its standard uncertainty; parameters the given runs cannot separate are named and refused.
+// Conventions: docs/conventions.md. Pure functions; thread safe.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "models/common/least_squares.hpp"
+#include "models/dbb/dbb_run.hpp"
+
+namespace guideway::models::dbb {
+
+// A reported quantity in boundary units (named in `name`, e.g. "_um", "_ppm").
+struct Estimate {
+  std::string name;
+  double value = 0.0;
+  double u = 0.0;          // standard uncertainty; NaN when not a fitted value
+  bool fitted = true;
+};
+
+struct FitSummary {
+  double rms_um = 0.0;
+  std::size_t n = 0;
+  double condition_number = 0.0;
+  std::vector<std::string> unidentifiable;
+  std::vector<LsqCombination> combinations;  // in the reported units
+  std::string message;
+};
+
+struct RunSummary {
+  std::string source;
+  double radius_mm = 0.0;
+  double height_mm = 0.0;
+  std::string direction;
+  double feed_mm_per_min = 0.0;
+  std::size_t n = 0;
+  double circular_deviation_um = 0.0;  // ISO 230-4 G, about the run's least-squares circle
+  double residual_rms_um = 0.0;        // of the diagnostics fit
+};
+
+struct IdentifyOptions {
+  // Known lead-screw periods; 0 = search the usual ball-screw leads.
+  double cyclic_period_a_m = 0.0;
+  double cyclic_period_b_m = 0.0;
+  // Lai's model assumes the fixed ball stays put between patterns (one shared centre offset).
+  bool lai_shared_center = true;
+};
+
+struct Identification {
+  std::string model = "lai3+ballbar";
+  std::vector<RunSummary> runs;
+  std::vector<Estimate> diagnostics;
+  std::vector<Estimate> lai3;       // only the identified parameters
+  FitSummary fit;                   // the Lai third-order fit
+  FitSummary diagnostics_fit;
+};
+
+// Throws RunFormatError for unusable input (no runs, mixed planes, invalid runs).
+Identification identify(const std::vector<Run>& runs, const IdentifyOptions& options = {});
+
+// Lai third-order parameters in SI (straightness coefficients in m^(1-k), angles in rad).
+// Definitions (docs/conventions.md): about the circle centre, in the test plane (a, b) with normal n,
+//   X straightness in b:  a1 a + a2 a^2 + a3 a^3       Y straightness in a:  b2 b^2 + b3 b^3
+//   X straightness in n:  d1 a + d2 a^2 + d3 a^3       Y straightness in n:  e1 b + e2 b^2 + e3 b^3
+//   Y roll (n displacement = a * (c0 + c1 b + c2 b^2))
+//   fixed ball at circle centre + (e_x, e_y); scale S_x, S_y; backlash; servo lag difference.
+struct Lai3Params {
+  double e_x = 0, e_y = 0;
+  double s_x = 1, s_y = 1;
+  double a1 = 0, a2 = 0, a3 = 0;
+  double b2 = 0, b3 = 0;
+  double c0 = 0, c1 = 0, c2 = 0;
+  double d1 = 0, d2 = 0, d3 = 0;
+  double e1 = 0, e2 = 0, e3 = 0;
+  double backlash_x = 0, backlash_y = 0;
+  double servo_mismatch_s = 0;
+};
+
+// Exact bar-length change (m) of Lai's deformed geometry at commanded angle zeta (no linearisation):
+// the moving ball is displaced by the parameters above and |r1 - r0*| - L0 is evaluated exactly.
+double lai3_exact_dL(const Lai3Params& p, double radius_m, double height_m, int direction, double feed_m_per_s,
+                     double zeta);
+
+// The linearised characteristic functions (Lai Eq. 28 / Table 1 in our conventions), one column per
+// Lai parameter, in the order of lai3_parameter_names(); SI units.
+std::vector<std::string> lai3_parameter_names();
+std::vector<double> lai3_characteristics(double radius_m, double height_m, int direction, double feed_m_per_s,
+                                         double zeta);
+
+}  // namespace guideway::models::dbb

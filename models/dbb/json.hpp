@@ -1,0 +1,16 @@
+#pragma once
+// JSON and text renderings of a DBB identification (the shape of `guideway identify dbb --json` and
+// of the daemon's PARAMS message). Unknown or non-fitted uncertainties are left out, never null.
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "models/dbb/identify.hpp"
+
+namespace guideway::models::dbb {
+
+nlohmann::json to_json(const Identification& id);
+std::string to_text(const Identification& id);
+
+}  // namespace guideway::models::dbb

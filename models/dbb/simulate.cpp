@@ -1,0 +1,36 @@
+#include "models/dbb/simulate.hpp"
+
+#include <sstream>
+
+namespace guideway::models::dbb {
+
+Run simulate_run(const sim::Machine& machine, const sim::DbbCircleSpec& spec, const std::string& source) {
+  const sim::DbbRun raw = machine.dbb_circle(spec);
+  Run run;
+  run.source = source;
+  run.radius_m = spec.radius_m;
+  run.height_m = spec.height_m;
+  run.direction = spec.direction == sim::Direction::ccw ? Direction::ccw : Direction::cw;
+  run.feed_m_per_s = spec.feed_m_per_s;
+  run.plane = spec.plane == sim::Plane::xy ? "xy" : (spec.plane == sim::Plane::xz ? "xz" : "yz");
+  const int a = spec.plane == sim::Plane::yz ? 1 : 0;
+  const int b = spec.plane == sim::Plane::xy ? 1 : 2;
+  run.center_a_m = spec.center[static_cast<std::size_t>(a)];
+  run.center_b_m = spec.center[static_cast<std::size_t>(b)];
+  run.metadata["machine"] = machine.config().name;
+  std::ostringstream seed;
+  seed << spec.seed;
+  run.metadata["seed"] = seed.str();
+  run.metadata["source"] = "guideway simulate dbb (virtual machine tool)";
+  double t_start = -1;
+  for (const auto& s : raw.samples) {
+    if (!s.in_data_arc) continue;
+    if (t_start < 0) t_start = s.t_s;
+    run.t_s.push_back(s.t_s - t_start);
+    run.angle_rad.push_back(s.angle_rad);
+    run.dL_m.push_back(s.dL_m);
+  }
+  return run;
+}
+
+}  // namespace guideway::models::dbb

@@ -1,0 +1,12 @@
+#pragma once
+// DBB runs from the virtual machine tool, in the run-file form the identification reads (only the
+// 360 deg data arc; overshoot arcs are dropped). Thread safe.
+
+#include "models/dbb/dbb_run.hpp"
+#include "simulators/machine/machine.hpp"
+
+namespace guideway::models::dbb {
+
+Run simulate_run(const sim::Machine& machine, const sim::DbbCircleSpec& spec, const std::string& source = "simulated");
+
+}  // namespace guideway::models::dbb
