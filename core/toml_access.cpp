@@ -143,6 +143,19 @@ std::vector<double> TableReader::get_doubles(std::string_view key, std::vector<d
   return out;
 }
 
+std::vector<std::string> TableReader::get_strings(std::string_view key, std::vector<std::string> fallback) const {
+  const toml::node* node = lookup(key);
+  if (!node) return fallback;
+  const toml::array* arr = node->as_array();
+  if (!arr) fail_at(node, key, "expected an array of strings, got " + type_word(*node));
+  std::vector<std::string> out;
+  for (const toml::node& item : *arr) {
+    if (!item.is_string()) fail_at(&item, key, "expected an array of strings, found " + type_word(item));
+    out.push_back(*item.value<std::string>());
+  }
+  return out;
+}
+
 std::string TableReader::get_choice(std::string_view key, std::string fallback,
                                     const std::vector<std::string>& allowed) const {
   std::string v = get_string(key, std::move(fallback));

@@ -52,6 +52,7 @@ class TableReader {
                         double max = std::numeric_limits<double>::infinity()) const;
   bool get_bool(std::string_view key, bool fallback) const;
   std::vector<double> get_doubles(std::string_view key, std::vector<double> fallback) const;
+  std::vector<std::string> get_strings(std::string_view key, std::vector<std::string> fallback) const;
   // One of the allowed words, e.g. direction = "ccw" | "cw".
   std::string get_choice(std::string_view key, std::string fallback, const std::vector<std::string>& allowed) const;
 

@@ -69,6 +69,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     c.max_clients = static_cast<std::size_t>(d->get_int("max_clients", 256, 1, 65536));
     c.client_queue_bytes = static_cast<std::size_t>(d->get_int("client_queue_bytes", 4 << 20, 4096, 1LL << 32));
     c.max_request_bytes = static_cast<std::size_t>(d->get_int("max_request_bytes", 16384, 256, 1 << 24));
+    c.emulator_executable = d->get_string("emulator_executable", "");
     d->reject_unknown_keys();
   }
   std::set<std::string> names;
@@ -82,6 +83,16 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     if (!dev.get_bool("enabled", true)) continue;
     d.table = std::make_shared<TableReader>(dev);
     c.devices.push_back(std::move(d));
+  }
+  std::set<std::string> emulator_names;
+  for (const TableReader& em : top.tables("emulator")) {
+    EmulatorSpec spec;
+    spec.name = em.require_string("name");
+    if (!emulator_names.insert(spec.name).second) em.fail("name", "duplicate emulator name \"" + spec.name + "\"");
+    spec.instrument = em.require_string("instrument");
+    spec.args = em.get_strings("args", {});
+    if (em.get_bool("enabled", true)) c.emulators.push_back(std::move(spec));
+    em.reject_unknown_keys();
   }
   top.reject_unknown_keys();
   if (c.socket_path.empty()) c.socket_path = default_socket_path();
@@ -97,6 +108,31 @@ DaemonConfig parse_config(std::string_view text, const std::string& file_name) {
 }
 
 DaemonConfig load_config_file(const std::string& path) { return from_table(parse_toml_file(path), path); }
+
+std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& config) {
+  std::vector<std::unique_ptr<EmulatorProcess>> out;
+  const std::string exe =
+      config.emulator_executable.empty() ? default_emulator_executable() : config.emulator_executable;
+  std::vector<const EmulatorProcess*> raw;
+  for (const EmulatorSpec& spec : config.emulators) {
+    out.push_back(std::make_unique<EmulatorProcess>(exe, spec));
+    raw.push_back(out.back().get());
+  }
+  if (toml::array* devices = config.root->get_as<toml::array>("device")) {
+    std::size_t i = 0;
+    for (toml::node& node : *devices) {
+      if (toml::table* t = node.as_table()) {
+        try {
+          substitute_emulator_endpoints(*t, raw);
+        } catch (const std::invalid_argument& e) {
+          throw ConfigError(config.source, t->source().begin.line, "device[" + std::to_string(i) + "]", e.what());
+        }
+      }
+      ++i;
+    }
+  }
+  return out;
+}
 
 std::string_view default_config_text() { return embedded_default; }
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/toml_access.hpp"
+#include "daemon/emulator_launcher.hpp"
 
 namespace guideway::daemon {
 
@@ -37,11 +38,16 @@ struct DaemonConfig {
     std::shared_ptr<TableReader> table;  // the [[device]] table, for the driver factory
   };
   std::vector<Device> devices;
+  std::vector<EmulatorSpec> emulators;  // [[emulator]]: started before the devices
+  std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
 
   std::shared_ptr<toml::table> root;  // keeps the parsed document alive for the device readers
 };
 
 DaemonConfig parse_config(std::string_view text, const std::string& file_name);
+// Starts the [[emulator]] processes and puts their endpoints into the device tables ("emulator:NAME").
+// Throws ConfigError for an unknown NAME, std::runtime_error when an emulator does not come up.
+std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& config);
 DaemonConfig load_config_file(const std::string& path);
 DaemonConfig default_config();
 std::string_view default_config_text();

@@ -33,6 +33,8 @@ std::string utc_now_iso() {
 Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
+  emulators_ = launch_emulators(config_);
+  for (const auto& e : emulators_) log_->info("emulator {} (pid {}) serves {}", e->name(), e->pid(), e->endpoint());
   for (const auto& dev : config_.devices) {
     devices_.push_back(registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table}));
   }

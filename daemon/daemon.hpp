@@ -60,6 +60,7 @@ class Daemon {
   DaemonConfig config_;
   std::shared_ptr<spdlog::logger> log_;
   DaemonOptions options_;
+  std::vector<std::unique_ptr<EmulatorProcess>> emulators_;  // before devices_: outlives the drivers
   std::vector<std::unique_ptr<drivers::Driver>> devices_;
   EventLoop loop_;
   Outbox outbox_;

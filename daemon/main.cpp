@@ -78,6 +78,7 @@ int main(int argc, char** argv) {
 
   try {
     if (check_only) {
+      const auto emulators = daemon::launch_emulators(config);
       for (const auto& dev : config.devices) {
         auto driver = registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table});
         dev.table->reject_unknown_keys();

@@ -1,0 +1,53 @@
+#pragma once
+// Starts device emulators (`guideway-emulate <instrument> ...`) as child processes for the
+// configuration's [[emulator]] tables, so the daemon runs with no hardware. Each emulator prints
+// `endpoint: <address>` on stdout once it serves; device tables then refer to it as "emulator:NAME"
+// in any string value, which is replaced by that address before the drivers are created.
+// The children die with the daemon (PR_SET_PDEATHSIG) and are terminated by the destructor.
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include <toml++/toml.h>
+
+namespace guideway::daemon {
+
+struct EmulatorSpec {
+  std::string name;
+  std::string instrument;
+  std::vector<std::string> args;
+};
+
+class EmulatorProcess {
+ public:
+  // Starts the emulator and waits for its endpoint line. Throws std::runtime_error with the
+  // emulator's own output when it exits or stays silent past the timeout.
+  EmulatorProcess(const std::string& executable, const EmulatorSpec& spec,
+                  std::chrono::milliseconds timeout = std::chrono::seconds(10));
+  ~EmulatorProcess();
+  EmulatorProcess(const EmulatorProcess&) = delete;
+  EmulatorProcess& operator=(const EmulatorProcess&) = delete;
+
+  [[nodiscard]] const std::string& name() const noexcept { return name_; }
+  [[nodiscard]] const std::string& endpoint() const noexcept { return endpoint_; }
+  [[nodiscard]] pid_t pid() const noexcept { return pid_; }
+  [[nodiscard]] bool alive() const;
+
+ private:
+  std::string name_;
+  std::string endpoint_;
+  pid_t pid_ = -1;
+  int stdout_fd_ = -1;
+};
+
+// guideway-emulate next to the running executable (installed layout or build tree), else on PATH.
+std::string default_emulator_executable();
+
+// Replaces every string value "emulator:NAME" in `table` (recursively) by NAME's endpoint. Throws
+// std::invalid_argument for a NAME that no emulator has.
+void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators);
+
+}  // namespace guideway::daemon

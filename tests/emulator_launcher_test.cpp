@@ -1,0 +1,76 @@
+// The daemon's emulator launcher with real child processes (small shell scripts standing in for
+// guideway-emulate): endpoint hand-over into device tables, failures reported with the child's output,
+// children terminated with the launcher.
+#include "daemon/emulator_launcher.hpp"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/stat.h>
+
+#include <fstream>
+
+#include "daemon/config.hpp"
+#include "test_support.hpp"
+
+using namespace guideway;
+
+namespace {
+
+std::string write_script(const test::TempDir& dir, const std::string& name, const std::string& body) {
+  const std::string path = dir.file(name);
+  std::ofstream(path) << "#!/bin/sh\n" << body;
+  chmod(path.c_str(), 0755);
+  return path;
+}
+
+}  // namespace
+
+TEST(EmulatorLauncher, PassesArgumentsAndHandsTheEndpointToDeviceTables) {
+  test::TempDir dir;
+  // Echoes its arguments into the endpoint so the test sees what it was given.
+  const std::string exe = write_script(dir, "emu", "echo starting\necho \"endpoint: tcp:127.0.0.1:$2$3\"\nexec sleep 30\n");
+  auto config = daemon::parse_config("[daemon]\nemulator_executable = \"" + exe +
+                                         "\"\n[[emulator]]\nname = \"gauge\"\ninstrument = \"micrometer\"\nargs = "
+                                         "[\"15\", \"02\"]\n[[device]]\nname = \"g\"\ndriver = \"x\"\naddress = "
+                                         "\"emulator:gauge\"\nother = \"emulator-like but not\"\n",
+                                     "t.toml");
+  auto emulators = daemon::launch_emulators(config);
+  ASSERT_EQ(emulators.size(), 1u);
+  EXPECT_EQ(emulators[0]->endpoint(), "tcp:127.0.0.1:1502");
+  EXPECT_TRUE(emulators[0]->alive());
+  EXPECT_EQ(config.devices[0].table->get_string("address", ""), "tcp:127.0.0.1:1502");
+  EXPECT_EQ(config.devices[0].table->get_string("other", ""), "emulator-like but not");
+  const pid_t pid = emulators[0]->pid();
+  emulators.clear();
+  EXPECT_NE(kill(pid, 0), 0);  // terminated and reaped
+}
+
+TEST(EmulatorLauncher, AnEmulatorThatDiesIsReportedWithItsOutput) {
+  test::TempDir dir;
+  const std::string exe = write_script(dir, "emu", "echo 'no such instrument: frobnicator' >&2\nexit 3\n");
+  daemon::EmulatorSpec spec{"f", "frobnicator", {}};
+  try {
+    daemon::EmulatorProcess p(exe, spec);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("exited"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no such instrument: frobnicator"), std::string::npos) << e.what();
+  }
+}
+
+TEST(EmulatorLauncher, ASilentEmulatorTimesOut) {
+  test::TempDir dir;
+  const std::string exe = write_script(dir, "emu", "exec sleep 30\n");
+  daemon::EmulatorSpec spec{"s", "dbb", {}};
+  EXPECT_THROW(daemon::EmulatorProcess(exe, spec, std::chrono::milliseconds(300)), std::runtime_error);
+}
+
+TEST(EmulatorLauncher, AnUnknownEmulatorNameIsAConfigError) {
+  auto config = daemon::parse_config("[[device]]\nname = \"g\"\ndriver = \"x\"\naddress = \"emulator:nope\"\n", "t.toml");
+  try {
+    daemon::launch_emulators(config);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("\"emulator:nope\" names no [[emulator]]"), std::string::npos) << e.what();
+  }
+}
