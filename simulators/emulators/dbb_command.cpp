@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "simulators/emulators/can_serial_control.hpp"
+#include "simulators/emulators/can_serial_machine_sources.hpp"
 #include "simulators/emulators/dbb_emulator.hpp"
 #include "simulators/emulators/emulator_command.hpp"
 
@@ -19,11 +20,13 @@ struct DbbOptions {
   double sync_rate_hz = 100.0;
   std::vector<int> nodes{1, 2, 3};
   double resolution_nm = 100.0;
-  double bar_length_mm = 100.0;
   double radius_mm = 100.0;
+  double height_mm = 0.0;
   double feed_mm_min = 1000.0;
   std::string direction = "ccw";
-  double bar_error_um = 0.0;
+  std::string plane = "xy";
+  double overshoot_deg = 45.0;
+  std::string machine_file;
   double duration_s = 0.0;
 };
 
@@ -66,20 +69,26 @@ int run_dbb(const DbbOptions& o) {
   DbbEmulatorSettings settings;
   settings.produce_sync = o.sync == "produce";
   settings.sync_rate_hz = o.sync_rate_hz;
-  const char* names[] = {"bar_length", "x", "y"};
+  const sim::Machine machine(o.machine_file.empty() ? demo_machine_config() : sim::load_machine_config(o.machine_file));
+  sim::DbbCircleSpec spec;
+  spec.radius_m = o.radius_mm * 1e-3;
+  spec.height_m = o.height_mm * 1e-3;
+  spec.feed_m_per_s = o.feed_mm_min / 60e3;
+  spec.direction = o.direction == "ccw" ? sim::Direction::ccw : sim::Direction::cw;
+  spec.plane = o.plane == "xz" ? sim::Plane::xz : o.plane == "yz" ? sim::Plane::yz : sim::Plane::xy;
+  spec.overshoot_rad = o.overshoot_deg * 3.14159265358979323846 / 180.0;
+  spec.sample_rate_hz = 1000.0;
+  auto motion = make_dbb_motion(machine, spec);
+  const char* names[] = {"bar_length", o.plane == "yz" ? "y" : "x", o.plane == "xy" ? "y" : "z"};
   for (std::size_t i = 0; i < 3; ++i) {
     dbb::EncoderScale e;
     e.channel = names[i];
     e.node_id = static_cast<std::uint8_t>(o.nodes[i]);
     e.resolution_m = o.resolution_nm * 1e-9;
-    if (i == 0) e.offset_m = o.bar_length_mm * 1e-3;
+    if (i == 0) e.offset_m = std::round(motion->run.nominal_length_m * 1e6) * 1e-6;  // the bar's nominal, in um
     settings.encoders.push_back(e);
   }
-  const double radius_m = o.radius_mm * 1e-3;
-  DbbSource circle = ideal_circle_source(radius_m, o.feed_mm_min / 60e3, o.direction == "ccw" ? 1 : -1,
-                                         o.bar_error_um * 1e-6);
-  // The bar reads its length relative to the nominal: offset is the nominal length, so the
-  // source's bar value (radius) is reported as-is when radius == nominal length.
+  DbbSource circle = dbb_motion_source(motion);
   DbbEmulator emu(settings, circle);
   std::string error;
   can::CanSocket listener;
@@ -118,11 +127,13 @@ void add_dbb(CLI::App& app, int& exit_code) {
   cmd->add_option("--sync-rate-hz", o->sync_rate_hz, "SYNC rate when producing")->capture_default_str();
   cmd->add_option("--nodes", o->nodes, "node IDs of bar, first axis, second axis")->expected(3)->capture_default_str();
   cmd->add_option("--resolution-nm", o->resolution_nm, "encoder resolution")->capture_default_str();
-  cmd->add_option("--bar-length-mm", o->bar_length_mm, "nominal bar length (bar encoder zero)")->capture_default_str();
+  cmd->add_option("--machine", o->machine_file, "virtual machine tool file (default: a demo machine)");
   cmd->add_option("--radius-mm", o->radius_mm, "circle radius")->capture_default_str();
+  cmd->add_option("--height-mm", o->height_mm, "tool ball above the centre ball (Lai's h)")->capture_default_str();
   cmd->add_option("--feed-mm-min", o->feed_mm_min, "feed rate")->capture_default_str();
   cmd->add_option("--direction", o->direction, "ccw or cw")->check(CLI::IsMember({"ccw", "cw"}))->capture_default_str();
-  cmd->add_option("--bar-error-um", o->bar_error_um, "constant bar length error")->capture_default_str();
+  cmd->add_option("--plane", o->plane, "circle plane")->check(CLI::IsMember({"xy", "xz", "yz"}))->capture_default_str();
+  cmd->add_option("--overshoot-deg", o->overshoot_deg, "feed-in/feed-out arcs")->capture_default_str();
   cmd->add_option("--duration-s", o->duration_s, "stop after this long (0: until quit/SIGTERM)")->capture_default_str();
   cmd->callback([o, &exit_code] { exit_code = run_dbb(*o); });
 }

@@ -1,0 +1,88 @@
+#include "simulators/emulators/can_serial_machine_sources.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace guideway::emulators {
+
+namespace {
+
+std::pair<int, int> plane_axes(sim::Plane p) {
+  switch (p) {
+    case sim::Plane::xy: return {0, 1};
+    case sim::Plane::xz: return {0, 2};
+    case sim::Plane::yz: return {1, 2};
+  }
+  return {0, 1};
+}
+
+constexpr double rad_to_arcsec = 180.0 * 3600.0 / 3.14159265358979323846;
+
+}  // namespace
+
+void DbbMotion::at(double t_s, std::span<double> out) const {
+  const auto& s = run.samples;
+  if (s.empty()) return;
+  double t = s.front().t_s + std::fmod(std::max(t_s, 0.0), duration_s > 0 ? duration_s : 1.0);
+  auto hi = std::lower_bound(s.begin(), s.end(), t, [](const sim::DbbSample& a, double v) { return a.t_s < v; });
+  if (hi == s.begin()) hi = s.begin() + 1;
+  if (hi == s.end()) hi = s.end() - 1;
+  const auto lo = hi - 1;
+  const double span = hi->t_s - lo->t_s;
+  const double w = span > 0 ? std::clamp((t - lo->t_s) / span, 0.0, 1.0) : 0.0;
+  const auto [a, b] = plane_axes(plane);
+  const double v[3] = {lo->bar_length_m + w * (hi->bar_length_m - lo->bar_length_m),
+                       lo->encoder[a] + w * (hi->encoder[a] - lo->encoder[a]),
+                       lo->encoder[b] + w * (hi->encoder[b] - lo->encoder[b])};
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = i < 3 ? v[i] : 0.0;
+}
+
+std::shared_ptr<const DbbMotion> make_dbb_motion(const sim::Machine& machine, const sim::DbbCircleSpec& spec) {
+  auto m = std::make_shared<DbbMotion>();
+  m->run = machine.dbb_circle(spec);
+  m->plane = spec.plane;
+  if (m->run.samples.size() >= 2) m->duration_s = m->run.samples.back().t_s - m->run.samples.front().t_s;
+  return m;
+}
+
+DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion) {
+  return [motion](double t_s, std::span<double> out) { motion->at(t_s, out); };
+}
+
+const sim::TraverseStation& TraverseMotion::at(double t_s) const {
+  const double total = dwell_s * static_cast<double>(stations.size());
+  const double t = std::fmod(std::max(t_s, 0.0), total > 0 ? total : 1.0);
+  const auto k = std::min(static_cast<std::size_t>(t / dwell_s), stations.size() - 1);
+  return stations[k];
+}
+
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec) {
+  auto m = std::make_shared<TraverseMotion>();
+  m->stations = machine.autocollimator_traverse(spec);
+  m->dwell_s = spec.dwell_s > 0 ? spec.dwell_s : 1.0;
+  if (m->stations.empty()) m->stations.push_back({});
+  return m;
+}
+
+AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motion) {
+  return [motion](double t_s) {
+    const auto& st = motion->at(t_s);
+    return AutocollimatorView{st.yaw_rad * rad_to_arcsec, st.pitch_rad * rad_to_arcsec, true};
+  };
+}
+
+sim::MachineConfig demo_machine_config() {
+  sim::MachineConfig c;
+  c.name = "demo";
+  c.squareness.xy = 20e-6;
+  c.axis[0].servo_lag_s = 0.010;
+  c.axis[1].servo_lag_s = 0.011;
+  c.axis[0].backlash_m = 2e-6;
+  c.axis[0].rotation[1].c = {0.0, 30e-6, -40e-6};  // E_BX: pitch of X, rad
+  c.axis[0].rotation[2].c = {0.0, -15e-6, 25e-6};  // E_CX: yaw of X, rad
+  c.dbb.noise_m = 0.1e-6;
+  c.noise.autocollimator_rad = 0.05e-6;
+  return c;
+}
+
+}  // namespace guideway::emulators

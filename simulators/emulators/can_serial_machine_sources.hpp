@@ -1,0 +1,41 @@
+#pragma once
+// Sources that feed the CAN and serial emulators from the virtual machine tool: a DBB circle run
+// (bar length and the two plane axes' encoders) and an autocollimator traverse with stops. The
+// motion is computed once by guideway::sim::Machine and replayed in emulator time, repeating when
+// it ends. Thread safe (the sources only read an immutable run).
+
+#include <memory>
+
+#include "simulators/emulators/autocollimator_emulator.hpp"
+#include "simulators/emulators/dbb_emulator.hpp"
+#include "simulators/machine/machine.hpp"
+
+namespace guideway::emulators {
+
+// The computed DBB run shared by the source and tests.
+struct DbbMotion {
+  sim::DbbRun run;
+  sim::Plane plane = sim::Plane::xy;
+  double duration_s = 0.0;
+  // Bar length, first and second plane axis encoder at motion time t (linear interpolation,
+  // t wraps around the motion's duration).
+  void at(double t_s, std::span<double> out_m) const;
+};
+std::shared_ptr<const DbbMotion> make_dbb_motion(const sim::Machine& machine, const sim::DbbCircleSpec& spec);
+DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion);
+
+// The traverse: the station's angles hold while the carriage dwells there; t wraps around.
+struct TraverseMotion {
+  std::vector<sim::TraverseStation> stations;
+  double dwell_s = 1.0;
+  [[nodiscard]] const sim::TraverseStation& at(double t_s) const;
+};
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec);
+// x: yaw, y: pitch (arc-seconds), reflection always (block the beam with fault injection).
+AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motion);
+
+// A machine with a few typical errors (squareness, servo mismatch, pitch/yaw of X, backlash) for the
+// emulators when no machine file is given.
+sim::MachineConfig demo_machine_config();
+
+}  // namespace guideway::emulators
