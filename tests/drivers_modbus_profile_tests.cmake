@@ -5,3 +5,4 @@ guideway_add_test(micrometer_modbus_test SOURCES micrometer_modbus_test.cpp
 guideway_add_test(profilometer_stream_test SOURCES profilometer_stream_test.cpp LIBS guideway_profilometer)
 guideway_add_test(profilometer_tcp_test SOURCES profilometer_tcp_test.cpp
   LIBS guideway_profilometer guideway_profilometer_emulator LABELS integration TIMEOUT 180)
+guideway_add_test(x3p_profile_files_test SOURCES x3p_profile_files_test.cpp LIBS guideway_profile_files)
