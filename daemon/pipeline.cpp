@@ -61,6 +61,7 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, std::int64_t n
 
 void Pipeline::run(const std::stop_token& stop) {
   std::array<Sample, 512> batch{};
+  std::int64_t idle_since = mono_now_ns();
   while (!stop.stop_requested()) {
     std::size_t total = 0;
     for (std::size_t i = 0; i < devices_.size(); ++i) {
@@ -95,8 +96,15 @@ void Pipeline::run(const std::stop_token& stop) {
       ++stats_.iterations;
     }
     progress_.fetch_add(1, std::memory_order_relaxed);
-    // Idle: poll again soon. 200 µs keeps latency well under a millisecond at a few % of a core.
-    if (total == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    // Polling keeps syscalls off the drivers' hot path. While data flows, a short sleep keeps the
+    // sample-to-pipeline latency well under a millisecond; after a second of silence the poll slows
+    // down so an idle daemon costs next to nothing (the first sample then waits up to 2 ms).
+    if (total != 0) {
+      idle_since = now;
+    } else {
+      const bool long_idle = now - idle_since > 1'000'000'000;
+      std::this_thread::sleep_for(long_idle ? std::chrono::microseconds(2000) : std::chrono::microseconds(250));
+    }
   }
 }
 
