@@ -1,0 +1,152 @@
+// CAN frame I/O: can_frame records over socketpair(AF_UNIX, SOCK_SEQPACKET) and the Unix gateway
+// socket; truncated and oversized records, EOF, wake-ups; a real SocketCAN (vcan) round trip where
+// this kernel has AF_CAN, skipped with the errno text where it does not.
+#include <gtest/gtest.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <thread>
+
+#include "drivers/can/can_io.hpp"
+#include "test_support.hpp"
+
+using namespace guideway::can;
+
+namespace {
+
+struct Pair {
+  Pair() {
+    int sv[2];
+    if (::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) < 0) throw std::runtime_error("socketpair");
+    a.reset(sv[0]);
+    b.reset(sv[1]);
+  }
+  CanSocket a, b;
+};
+
+can_frame frame(canid_t id, std::uint8_t dlc, std::uint8_t fill) {
+  can_frame f{};
+  f.can_id = id;
+  f.can_dlc = dlc;
+  std::memset(f.data, fill, sizeof f.data);
+  return f;
+}
+
+}  // namespace
+
+TEST(CanIo, FramesCrossASocketpairWholeAndInOrder) {
+  Pair p;
+  std::string err;
+  for (std::uint8_t i = 0; i < 50; ++i) ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x180 + i, 4, i), err)) << err;
+  for (std::uint8_t i = 0; i < 50; ++i) {
+    can_frame f{};
+    ASSERT_EQ(read_can_frame(p.b.fd(), f, 1000, -1, err), ReadResult::frame);
+    EXPECT_EQ(f.can_id, 0x180u + i);
+    EXPECT_EQ(f.can_dlc, 4);
+    EXPECT_EQ(f.data[3], i);
+  }
+  can_frame f{};
+  EXPECT_EQ(read_can_frame(p.b.fd(), f, 10, -1, err), ReadResult::timeout);
+}
+
+TEST(CanIo, TruncatedAndOversizedRecordsAreReportedAndSkipped) {
+  Pair p;
+  std::string err;
+  const can_frame good = frame(0x181, 4, 7);
+  ASSERT_TRUE(write_can_record(p.a.fd(), &good, 9, err));
+  unsigned char big[sizeof(can_frame) + 8] = {};
+  ASSERT_TRUE(write_can_record(p.a.fd(), big, sizeof big, err));
+  ASSERT_TRUE(write_can_frame(p.a.fd(), good, err));
+  can_frame f{};
+  EXPECT_EQ(read_can_frame(p.b.fd(), f, 1000, -1, err), ReadResult::truncated);
+  EXPECT_EQ(read_can_frame(p.b.fd(), f, 1000, -1, err), ReadResult::truncated);
+  ASSERT_EQ(read_can_frame(p.b.fd(), f, 1000, -1, err), ReadResult::frame);
+  EXPECT_EQ(f.can_id, 0x181u);
+}
+
+TEST(CanIo, EofComesAfterEveryQueuedFrameEvenWhenThePeerLeftOurFramesUnread) {
+  Pair p;
+  std::string err;
+  ASSERT_TRUE(write_can_frame(p.b.fd(), frame(0x080, 0, 0), err));  // unread by a: close gives ECONNRESET
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x181, 4, 1), err));
+  p.a.reset();
+  can_frame f{};
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(read_can_frame(p.b.fd(), f, 1000, -1, err), ReadResult::frame) << i;
+  EXPECT_EQ(read_can_frame(p.b.fd(), f, 1000, -1, err), ReadResult::closed);
+  EXPECT_FALSE(write_can_frame(p.b.fd(), frame(0x080, 0, 0), err));
+  EXPECT_NE(err.find("send"), std::string::npos);
+}
+
+TEST(CanIo, AWakeFdInterruptsAWait) {
+  Pair p;
+  const int wake = ::eventfd(0, EFD_CLOEXEC);
+  std::thread t([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const std::uint64_t one = 1;
+    (void)!::write(wake, &one, sizeof one);
+  });
+  can_frame f{};
+  std::string err;
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(read_can_frame(p.b.fd(), f, 5000, wake, err), ReadResult::woken);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
+  t.join();
+  ::close(wake);
+}
+
+TEST(CanIo, EndpointsParseAndTheGatewayConnects) {
+  CanEndpoint e;
+  std::string err;
+  ASSERT_TRUE(parse_can_endpoint("vcan0", e, err));
+  EXPECT_EQ(e.kind, CanEndpoint::Kind::socketcan);
+  EXPECT_EQ(to_string(e), "can:vcan0");
+  ASSERT_TRUE(parse_can_endpoint("unix:/tmp/x.sock", e, err));
+  EXPECT_EQ(e.kind, CanEndpoint::Kind::unix_gateway);
+  EXPECT_EQ(e.name, "/tmp/x.sock");
+  EXPECT_FALSE(parse_can_endpoint("unix:", e, err));
+  EXPECT_FALSE(parse_can_endpoint("can:averyveryverylongname", e, err));
+
+  guideway::test::TempDir dir;
+  const std::string path = dir.file("gw.sock");
+  EXPECT_FALSE(connect_can_gateway(path, err).valid());
+  EXPECT_NE(err.find("connect"), std::string::npos);
+  CanSocket listener = listen_can_gateway(path, err);
+  ASSERT_TRUE(listener.valid()) << err;
+  ASSERT_TRUE(parse_can_endpoint("unix:" + path, e, err));
+  CanSocket client = open_can_endpoint(e, err);
+  ASSERT_TRUE(client.valid()) << err;
+  CanSocket server(::accept(listener.fd(), nullptr, nullptr));
+  ASSERT_TRUE(server.valid());
+  ASSERT_TRUE(write_can_frame(server.fd(), frame(0x183, 4, 9), err));
+  can_frame f{};
+  ASSERT_EQ(read_can_frame(client.fd(), f, 1000, -1, err), ReadResult::frame);
+  EXPECT_EQ(f.can_id, 0x183u);
+}
+
+TEST(CanIo, RealVcanRoundTripWhereTheKernelHasAfCan) {
+  std::string reason;
+  if (!socketcan_available(reason)) GTEST_SKIP() << "no SocketCAN in this kernel: " << reason;
+  const char* ifname = std::getenv("GUIDEWAY_VCAN");
+  const std::string name = ifname ? ifname : "vcan0";
+  std::string err;
+  CanSocket a = open_socketcan(name, err);
+  if (!a.valid()) GTEST_SKIP() << "AF_CAN works but " << name << " is not usable (create it with `ip link add dev "
+                               << name << " type vcan && ip link set up " << name << "`): " << err;
+  CanSocket b = open_socketcan(name, err);
+  ASSERT_TRUE(b.valid()) << err;
+  ASSERT_TRUE(write_can_frame(a.fd(), frame(0x185, 4, 3), err)) << err;
+  can_frame f{};
+  ASSERT_EQ(read_can_frame(b.fd(), f, 1000, -1, err), ReadResult::frame) << err;
+  EXPECT_EQ(f.can_id, 0x185u);
+  EXPECT_EQ(f.data[0], 3);
+}
+
+TEST(CanIo, OpeningSocketCanWithoutAfCanSaysWhy) {
+  std::string reason;
+  if (socketcan_available(reason)) GTEST_SKIP() << "this kernel has AF_CAN";
+  std::string err;
+  EXPECT_FALSE(open_socketcan("vcan0", err).valid());
+  EXPECT_NE(err.find("socket(AF_CAN)"), std::string::npos) << err;
+}
