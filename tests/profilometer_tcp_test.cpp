@@ -8,6 +8,7 @@
 #include "core/sample.hpp"
 #include "drivers/profilometer/profilometer_driver.hpp"
 #include "simulators/emulators/profilometer_emulator.hpp"
+#include "simulators/emulators/profilometer_machine_source.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
@@ -18,9 +19,9 @@ using emulators::ProfilometerEmulator;
 namespace {
 
 struct Harness {
-  explicit Harness(std::size_t points = 200, double rate = 4000.0) {
+  explicit Harness(std::size_t points = 200, double rate = 4000.0, emulators::ProfileSource source = {}) {
     ProfilometerEmulator::Options o;
-    o.source = emulators::faced_profile_source(points, 2e-6);
+    o.source = source ? std::move(source) : emulators::faced_profile_source(points, 2e-6);
     o.points_per_s = rate;
     o.return_s = 0.02;
     emulator = std::make_unique<ProfilometerEmulator>(o);
@@ -162,6 +163,33 @@ TEST(ProfilometerTcp, SurvivesEveryFaultAndLosesNothing) {
   std::size_t gaps = 0;
   for (const Sample& s : h.samples) gaps += (s.flags & sample_after_gap) ? 1 : 0;
   EXPECT_GE(gaps, 2u);  // after the lost points and after each reconnect
+}
+
+TEST(ProfilometerTcp, StreamsTheVirtualMachineToolsFacedProfile) {
+  auto machine = std::make_shared<const sim::Machine>(emulators::spindle_demo_machine_config());
+  sim::FacingSpec spec = emulators::demo_facing_spec();
+  spec.x_end_m = spec.x_start_m + 300e-6;  // 301 points at 1 um
+  Harness h(0, 6000.0, emulators::facing_profile_source(machine, spec));
+  h.driver->start();
+  ASSERT_TRUE(test::eventually([&] { return h.driver->profiles_completed() >= 2; }));
+  h.expect_matches_served();
+  std::size_t compared = 0;
+  for (std::uint64_t id = 1; id <= 2; ++id) {
+    sim::FacingSpec s = spec;
+    s.seed = id;  // traverse n draws its noise with seed n + 1; ids start at 1
+    const auto model = machine->facing_profile(s);
+    ASSERT_EQ(model.size(), 301u);
+    for (const Sample& smp : h.samples) {
+      if (smp.value[2] != static_cast<double>(id)) continue;
+      const auto& m = model[static_cast<std::size_t>(smp.value[3])];
+      EXPECT_NEAR(smp.value[0], m.x_m, 0.5e-9 + 1e-15);   // x sent in mm with 6 decimals
+      EXPECT_NEAR(smp.value[1], m.z_m, 0.05e-9 + 1e-15);  // z sent in um with 4 decimals
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 602u);
+  ASSERT_TRUE(h.driver->last_header());
+  EXPECT_NEAR(h.driver->last_header()->spacing_m, 1e-6, 1e-12);
 }
 
 TEST(ProfilometerTcp, RegistryCreatesItAndRejectsBadConfig) {

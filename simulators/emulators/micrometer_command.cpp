@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "simulators/emulators/emulator_command.hpp"
+#include "simulators/emulators/micrometer_machine_source.hpp"
 #include "simulators/emulators/modbus_emulator.hpp"
 
 namespace guideway::emulators {
@@ -17,8 +18,11 @@ struct MicrometerArgs {
   int baud = 19200;
   std::string parity = "E";
   int unit_id = 1;
-  double rpm = 60.0;
-  double eccentricity_um = 2.0;
+  std::string machine_file;
+  double rpm = 10.0;
+  double probe_radius_mm = 50.0;
+  std::size_t samples_per_rev = 360;
+  std::size_t revolutions = 10;
 };
 
 int run_micrometer(const MicrometerArgs& a) {
@@ -30,9 +34,21 @@ int run_micrometer(const MicrometerArgs& a) {
 
   MicrometerEmulator::Options options;
   options.unit_id = a.unit_id;
-  options.source = runout_source(a.rpm, a.eccentricity_um * 1e-6);
-  MicrometerEmulator emulator(options);
   std::string error;
+  try {
+    const sim::Machine machine(a.machine_file.empty() ? spindle_demo_machine_config()
+                                                      : sim::load_machine_config(a.machine_file));
+    sim::RunoutSpec spec;
+    spec.rpm = a.rpm;
+    spec.probe_radius_m = a.probe_radius_mm * 1e-3;
+    spec.samples_per_rev = a.samples_per_rev;
+    spec.revolutions = a.revolutions;
+    options.source = runout_motion_source(make_runout_motion(machine, spec));
+  } catch (const std::exception& e) {
+    std::cerr << "guideway-emulate micrometer: " << e.what() << "\n";
+    return 2;
+  }
+  MicrometerEmulator emulator(options);
   if (a.rtu) {
     const std::string path = emulator.start_rtu(a.baud, a.parity[0], 8, 1, error);
     if (path.empty()) {
@@ -77,9 +93,11 @@ void add_micrometer(CLI::App& app, int& exit_code) {
   sub->add_option("--baud", args->baud, "RTU baud rate")->capture_default_str();
   sub->add_option("--parity", args->parity, "RTU parity N, E or O")->check(CLI::IsMember({"N", "E", "O"}));
   sub->add_option("--unit-id", args->unit_id, "Modbus unit (slave) id")->capture_default_str();
-  sub->add_option("--rpm", args->rpm, "spindle speed of the run-out revolution")->capture_default_str();
-  sub->add_option("--eccentricity-um", args->eccentricity_um, "spindle eccentricity seen by the probe")
-      ->capture_default_str();
+  sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: a built-in spindle demo)");
+  sub->add_option("--rpm", args->rpm, "spindle speed of the run-out revolutions")->capture_default_str();
+  sub->add_option("--probe-radius-mm", args->probe_radius_mm, "probe radius on the thrust plate")->capture_default_str();
+  sub->add_option("--samples-per-rev", args->samples_per_rev, "model samples per revolution")->capture_default_str();
+  sub->add_option("--revolutions", args->revolutions, "revolutions computed (then repeated)")->capture_default_str();
   sub->callback([args, sub, &exit_code] {
     if (args->tcp.empty() && !args->rtu) throw CLI::RequiredError("--tcp HOST:PORT or --rtu");
     (void)sub;

@@ -7,6 +7,7 @@
 
 #include "simulators/emulators/emulator_command.hpp"
 #include "simulators/emulators/profilometer_emulator.hpp"
+#include "simulators/emulators/profilometer_machine_source.hpp"
 
 namespace guideway::emulators {
 namespace {
@@ -15,6 +16,8 @@ struct ProfilometerArgs {
   std::string host = "127.0.0.1";
   int port = 4001;
   double points_per_s = 5000.0;
+  std::string machine_file;
+  bool synthetic = false;
   std::size_t points = 1000;
   double spacing_um = 2.0;
 };
@@ -27,7 +30,18 @@ int run_profilometer(const ProfilometerArgs& a) {
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   ProfilometerEmulator::Options options;
   options.points_per_s = a.points_per_s;
-  options.source = faced_profile_source(a.points, a.spacing_um * 1e-6);
+  if (a.synthetic) {
+    options.source = faced_profile_source(a.points, a.spacing_um * 1e-6);
+  } else {
+    try {
+      auto machine = std::make_shared<const sim::Machine>(
+          a.machine_file.empty() ? spindle_demo_machine_config() : sim::load_machine_config(a.machine_file));
+      options.source = facing_profile_source(machine, demo_facing_spec());
+    } catch (const std::exception& e) {
+      std::cerr << "guideway-emulate profilometer: " << e.what() << "\n";
+      return 2;
+    }
+  }
   ProfilometerEmulator emulator(options);
   std::string error;
   const int port = emulator.start(a.host, a.port, error);
@@ -57,8 +71,10 @@ void add_profilometer(CLI::App& app, int& exit_code) {
   sub->add_option("--host", args->host, "IPv4 address to listen on")->capture_default_str();
   sub->add_option("--port", args->port, "TCP port (0: any free port; the address is printed)")->capture_default_str();
   sub->add_option("--points-per-s", args->points_per_s, "stream rate")->capture_default_str();
-  sub->add_option("--points", args->points, "points per traverse")->capture_default_str();
-  sub->add_option("--spacing-um", args->spacing_um, "point spacing")->capture_default_str();
+  sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: a built-in spindle demo)");
+  sub->add_flag("--synthetic", args->synthetic, "stream synthetic feed-mark profiles instead of the machine's faced profile");
+  sub->add_option("--points", args->points, "--synthetic: points per traverse")->capture_default_str();
+  sub->add_option("--spacing-um", args->spacing_um, "--synthetic: point spacing")->capture_default_str();
   sub->callback([args, &exit_code] { exit_code = run_profilometer(*args); });
 }
 

@@ -1,0 +1,38 @@
+#include "simulators/emulators/micrometer_machine_source.hpp"
+
+#include <cmath>
+
+namespace guideway::emulators {
+
+const sim::RunoutSample& RunoutMotion::at(double t_s) const {
+  const auto k = static_cast<std::size_t>(std::floor(std::max(0.0, t_s) / sample_period_s));
+  return samples[k % samples.size()];
+}
+
+std::shared_ptr<const RunoutMotion> make_runout_motion(const sim::Machine& machine, const sim::RunoutSpec& spec) {
+  auto m = std::make_shared<RunoutMotion>();
+  m->samples = machine.runout_revolution(spec);
+  m->sample_period_s = 60.0 / spec.rpm / static_cast<double>(std::max<std::size_t>(1, spec.samples_per_rev));
+  if (m->samples.empty()) m->samples.push_back({});
+  return m;
+}
+
+MicrometerSource runout_motion_source(std::shared_ptr<const RunoutMotion> motion) {
+  return [motion](double t_s) { return MicrometerPoint{motion->at(t_s).displacement_m}; };
+}
+
+sim::MachineConfig spindle_demo_machine_config() {
+  sim::MachineConfig c;
+  c.name = "spindle-demo";
+  c.spindle.tilt_x_rad = 2.8e-6;
+  c.spindle.wobble_rad = 3e-6;
+  c.spindle.plate_parallelism_rad = 2.5e-6;
+  c.spindle.axial_runout_m = 0.05e-6;
+  c.axis[0].translation[2].c = {0.0, 0.0, 6e-4, -1.1e-2};  // E_ZX(x), metres: straightness in z of X
+  c.noise.seed = 42;
+  c.noise.micrometer_m = 0.01e-6;
+  c.noise.profilometer_m = 0.02e-6;
+  return c;
+}
+
+}  // namespace guideway::emulators
