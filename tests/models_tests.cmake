@@ -1,2 +1,4 @@
 # Tests of the virtual machine tool and the identification models (DBB).
 guideway_add_test(machine_test SOURCES machine_test.cpp LIBS guideway_machine)
+guideway_add_test(dbb_lai_test SOURCES dbb_lai_test.cpp LIBS guideway_model_dbb_sim)
+guideway_add_test(dbb_diagnostics_test SOURCES dbb_diagnostics_test.cpp LIBS guideway_model_dbb_sim)

@@ -17,7 +17,8 @@ constexpr double pi = std::numbers::pi;
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double um = 1e-6;
 
-double sgn(double x) { return x > 0 ? 1.0 : (x < 0 ? -1.0 : 0.0); }
+// Sign with a dead zone: sin(pi) is 1.2e-16 and an angle read back from a file is not exactly k*90 deg.
+double sgn(double x) { return x > 1e-9 ? 1.0 : (x < -1e-9 ? -1.0 : 0.0); }
 
 // Per-sample geometry shared by both models.
 struct Point {
@@ -26,6 +27,8 @@ struct Point {
   double lambda = 0, hl = 0, r = 0, h = 0;
   double dir = 1, v = 0, omega = 0;
   double sgn_a = 0, sgn_b = 0;    // sign of the axis velocities
+  double bl_a = 0, bl_b = 0;      // lost motion per unit backlash: -sgn/2 for an ideal step, or the
+                                  // deadband response at the current backlash estimate
   double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
   double a_m = 0, b_m = 0;        // machine coordinates of the commanded point (cyclic phase)
   double y_um = 0;
@@ -56,6 +59,8 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
       p.omega = run.feed_m_per_s / run.radius_m;
       p.sgn_a = -p.dir * sgn(p.s);
       p.sgn_b = p.dir * sgn(p.c);
+      p.bl_a = -0.5 * p.sgn_a;
+      p.bl_b = -0.5 * p.sgn_b;
       // Most recent reversal angle of a (multiples of pi) and b (pi/2 + multiples of pi).
       const auto since = [&](double phase) {
         const double q = (p.zeta - phase) / pi;
@@ -72,6 +77,42 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
     }
   }
   return pts;
+}
+
+// Replaces the step-shaped backlash basis by the response of a deadband of width `b` (m) to the
+// commanded circle: the axis stands still at a reversal until the drive has taken up the play, which
+// an ideal step does not describe. Simulated from half a turn before the first sample.
+void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, double b_a, double b_b) {
+  std::size_t i0 = 0;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const Run& run = runs[k];
+    const double r = run.radius_m;
+    const double dir = run.dir();
+    for (int axis = 0; axis < 2; ++axis) {
+      const double b = axis == 0 ? b_a : b_b;
+      const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z) : r * std::sin(z); };
+      if (!(b > 0)) continue;
+      const double half = 0.5 * b;
+      double z = run.angle_rad.front() - dir * pi;
+      double act = cmd(z);
+      const auto advance = [&](double to) {
+        const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
+        const double dz = (to - z) / steps;
+        for (int q = 1; q <= steps; ++q) {
+          const double c = cmd(z + dz * q);
+          if (c - act > half) act = c - half;
+          if (c - act < -half) act = c + half;
+        }
+        z = to;
+      };
+      for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
+        advance(run.angle_rad[i]);
+        Point& p = pts[i0 + i];
+        (axis == 0 ? p.bl_a : p.bl_b) = (act - cmd(z)) / b;
+      }
+    }
+    i0 += run.angle_rad.size();
+  }
 }
 
 std::string axis_letters(const std::string& plane, int which) {
@@ -127,18 +168,21 @@ void lai_basis(const Point& p, double* out) {
   out[14] = hl * r * s;
   out[15] = hl * r * r * s * s;
   out[16] = hl * r * r * r * s * s * s;
-  out[17] = lam * (-0.5 * p.sgn_a) * c;
-  out[18] = lam * (-0.5 * p.sgn_b) * s;
+  out[17] = lam * p.bl_a * c;
+  out[18] = lam * p.bl_b * s;
   out[19] = lam * p.dir * p.v * s * c;
 }
 
 // ---- Ballbar diagnostics -------------------------------------------------------------------------
 
+// Decay of a reversal spike `t` seconds after it starts (0 before it starts and once negligible).
+double spike_shape(double t, double tau) { return (t < 0 || t > 30 * tau) ? 0.0 : std::exp(-t / tau); }
+
 struct DiagLayout {
   std::size_t runs = 0;
   bool spikes = false;
   bool cyclic_a = false, cyclic_b = false;
-  double tau = 0.02, period_a = 0, period_b = 0;
+  double tau_a = 0.02, tau_b = 0.02, delay_a = 0, delay_b = 0, period_a = 0, period_b = 0;
   [[nodiscard]] std::size_t global0() const { return 2 * runs; }
   // global parameters after the per-run centre offsets
   enum G { scale_a, scale_b, squareness, backlash_a, backlash_b, play_a, play_b, servo, bow_a, bow_b, n_base };
@@ -160,8 +204,8 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   row[g + DiagLayout::scale_a] = lam * r * c * c;           // 1 ppm = 1e-6 * r m = r um
   row[g + DiagLayout::scale_b] = lam * r * s * s;
   row[g + DiagLayout::squareness] = lam * r * s * c;
-  row[g + DiagLayout::backlash_a] = lam * (-0.5 * p.sgn_a) * c;
-  row[g + DiagLayout::backlash_b] = lam * (-0.5 * p.sgn_b) * s;
+  row[g + DiagLayout::backlash_a] = lam * p.bl_a * c;
+  row[g + DiagLayout::backlash_b] = lam * p.bl_b * s;
   row[g + DiagLayout::play_a] = lam * 0.5 * p.sgn_a * s;
   row[g + DiagLayout::play_b] = lam * 0.5 * p.sgn_b * c;
   row[g + DiagLayout::servo] = lam * p.dir * p.v * s * c * 1e3;  // 1 ms = 1e-3 s; v m/s -> um: *1e6*1e-3
@@ -169,8 +213,8 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   row[g + DiagLayout::bow_b] = lam * c * s * s;
   if (L.spikes) {
     const auto k = static_cast<Eigen::Index>(L.spike0());
-    row[k] = lam * c * (-p.sgn_a) * std::exp(-p.since_a / L.tau);
-    row[k + 1] = lam * s * (-p.sgn_b) * std::exp(-p.since_b / L.tau);
+    row[k] = lam * c * (-p.sgn_a) * spike_shape(p.since_a - L.delay_a, L.tau_a);
+    row[k + 1] = lam * s * (-p.sgn_b) * spike_shape(p.since_b - L.delay_b, L.tau_b);
   }
   if (L.cyclic_a) {
     const auto k = static_cast<Eigen::Index>(L.cyc_a0());
@@ -344,6 +388,8 @@ std::vector<double> lai3_characteristics(double radius_m, double height_m, int d
   p.v = feed_m_per_s;
   p.sgn_a = -p.dir * sgn(p.s);
   p.sgn_b = p.dir * sgn(p.c);
+  p.bl_a = -0.5 * p.sgn_a;
+  p.bl_b = -0.5 * p.sgn_b;
   std::vector<double> out(lai_count);
   lai_basis(p, out.data());
   return out;
@@ -380,7 +426,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
                            "); runs identified together must share the plane");
 
   Identification out;
-  const std::vector<Point> pts = points_of(runs);
+  std::vector<Point> pts = points_of(runs);
   const auto n = static_cast<Eigen::Index>(pts.size());
   Eigen::VectorXd y(n), w(n);
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -403,19 +449,31 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
       }
       for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
     }
-    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(m));
-    double basis[lai_count];
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Point& p = pts[static_cast<std::size_t>(i)];
-      lai_basis(p, basis);
-      const std::size_t off = shared ? 0 : 2 * p.run;
-      j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
-      j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
-      for (std::size_t c = 2; c < lai_count; ++c)
-        j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+    const auto fit = [&] {
+      Eigen::MatrixXd j = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(m));
+      double basis[lai_count];
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const Point& p = pts[static_cast<std::size_t>(i)];
+        lai_basis(p, basis);
+        const std::size_t off = shared ? 0 : 2 * p.run;
+        j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
+        j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
+        for (std::size_t c = 2; c < lai_count; ++c)
+          j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+      }
+      LsqResult r = solve_lsq(j, y, w, names);
+      if (!r.ok) throw RunFormatError("identify: " + r.message);
+      return r;
+    };
+    LsqResult res = fit();
+    // Second pass with the deadband shape of the estimated backlash.
+    const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
+    const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
+    const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
+    if (b_a > 0 || b_b > 0) {
+      apply_deadband(pts, runs, b_a, b_b);
+      res = fit();
     }
-    const LsqResult res = solve_lsq(j, y, w, names);
-    if (!res.ok) throw RunFormatError("identify: " + res.message);
     out.fit = summary_of(res);
     const double omega0 = runs.front().feed_m_per_s / runs.front().radius_m;
     for (std::size_t c = 0; c < m; ++c) {
@@ -439,19 +497,70 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   if (!base.ok) throw RunFormatError("identify: " + base.message);
   // Reversal spikes: choose the decay time that explains most of the residual.
   {
-    double best = 0, best_tau = 0;
-    for (double tau : {0.003, 0.006, 0.012, 0.025, 0.05, 0.1}) {
-      const double e = explained(pts, base.residual, [tau](const Point& p, double& u1, double& u2) {
-        u1 = p.lambda * p.c * (-p.sgn_a) * std::exp(-p.since_a / tau);
-        u2 = p.lambda * p.s * (-p.sgn_b) * std::exp(-p.since_b / tau);
-      });
-      if (e > best) {
-        best = e;
-        best_tau = tau;
+    // Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike
+    // after the commanded reversal (the axis' servo lag, 0..20 ms) that explain most of the residual.
+    const auto search = [&](bool axis_a, double& tau_out, double& delay_out) {
+      const auto score = [&](double tau, double delay) {
+        double sur = 0, suu = 0;
+        for (std::size_t i = 0; i < pts.size(); ++i) {
+          const Point& p = pts[i];
+          const double f = spike_shape((axis_a ? p.since_a : p.since_b) - delay, tau);
+          if (f == 0.0) continue;
+          const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b) * f;
+          sur += p.w * u * base.residual[static_cast<Eigen::Index>(i)];
+          suu += p.w * u * u;
+        }
+        return suu > 0 ? sur * sur / suu : 0.0;
+      };
+      double best = 0, best_tau = 0.02, best_delay = 0;
+      constexpr int grid = 16;
+      for (int d = 0; d <= 10; ++d) {
+        for (int q = 0; q < grid; ++q) {
+          const double tau = 0.002 * std::pow(100.0, static_cast<double>(q) / (grid - 1));
+          const double e = score(tau, 0.002 * d);
+          if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
+            best = e;
+            best_tau = tau;
+            best_delay = 0.002 * d;
+          }
+        }
       }
-    }
+      // Refine the delay (1 ms steps) and the decay (golden section in log tau).
+      for (double d = std::max(0.0, best_delay - 0.002); d <= best_delay + 0.002 + 1e-12; d += 0.0005) {
+        const double e = score(best_tau, d);
+        if (e > best * (1 + 1e-9)) {
+          best = e;
+          best_delay = d;
+        }
+      }
+      const double ratio = std::pow(100.0, 1.0 / (grid - 1));
+      double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
+      const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+      double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
+      double f1 = score(std::exp(x1), best_delay), f2 = score(std::exp(x2), best_delay);
+      for (int it = 0; it < 14; ++it) {
+        if (f1 > f2) {
+          hi = x2;
+          x2 = x1;
+          f2 = f1;
+          x1 = hi - gr * (hi - lo);
+          f1 = score(std::exp(x1), best_delay);
+        } else {
+          lo = x1;
+          x1 = x2;
+          f1 = f2;
+          x2 = lo + gr * (hi - lo);
+          f2 = score(std::exp(x2), best_delay);
+        }
+      }
+      const double xm = 0.5 * (lo + hi);
+      if (score(std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
+      tau_out = best_tau;
+      delay_out = best_delay;
+    };
+    search(true, L.tau_a, L.delay_a);
+    search(false, L.tau_b, L.delay_b);
     L.spikes = true;
-    L.tau = best_tau > 0 ? best_tau : 0.02;
   }
   // Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4).
   {
@@ -484,8 +593,23 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     L.cyclic_a = L.period_a > 0;
     L.cyclic_b = L.period_b > 0;
   }
-  const LsqResult res = fit_diag(L, pts, runs, plane);
+  LsqResult res = fit_diag(L, pts, runs, plane);
   if (!res.ok) throw RunFormatError("identify: " + res.message);
+  {
+    // Backlash shape from this fit's own estimate (the Lai fit's may differ), then the final fit.
+    const std::size_t ga = L.global0() + DiagLayout::backlash_a;
+    const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
+    const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
+    for (auto& p : pts) {
+      p.bl_a = -0.5 * p.sgn_a;
+      p.bl_b = -0.5 * p.sgn_b;
+    }
+    if (b_a > 0 || b_b > 0) {
+      apply_deadband(pts, runs, b_a, b_b);
+      res = fit_diag(L, pts, runs, plane);
+      if (!res.ok) throw RunFormatError("identify: " + res.message);
+    }
+  }
   out.diagnostics_fit = summary_of(res);
   const auto names = diag_names(L, runs, plane);
   const auto get = [&](std::size_t idx) -> std::pair<double, double> {
@@ -533,7 +657,10 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   };
   cyclic(L.cyclic_a, L.cyc_a0(), L.period_a, A);
   cyclic(L.cyclic_b, L.cyc_b0(), L.period_b, B);
-  out.diagnostics.push_back(est("reversal_spike_decay_ms", L.tau * 1e3, nan, false));
+  out.diagnostics.push_back(est("reversal_spike_decay_" + A + "_ms", L.tau_a * 1e3, nan, false));
+  out.diagnostics.push_back(est("reversal_spike_decay_" + B + "_ms", L.tau_b * 1e3, nan, false));
+  out.diagnostics.push_back(est("reversal_spike_delay_" + A + "_ms", L.delay_a * 1e3, nan, false));
+  out.diagnostics.push_back(est("reversal_spike_delay_" + B + "_ms", L.delay_b * 1e3, nan, false));
 
   // ISO 230-4 circular deviation per run and hysteresis of the first ccw/cw pair of one set-up.
   double g_max = 0;
