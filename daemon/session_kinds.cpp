@@ -1,9 +1,11 @@
 #include "daemon/session_kinds.hpp"
 
+#include "daemon/dbb_session.hpp"
+
 namespace guideway::daemon {
 
 void register_builtin_sessions(SessionRegistry& registry) {
-  (void)registry;  // session kinds register here as their models land (one line each)
+  registry.add(dbb_session_kind());
 }
 
 }  // namespace guideway::daemon
