@@ -10,6 +10,8 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <optional>
+#include <variant>
 #include <stdexcept>
 
 #include "core/mono_clock.hpp"
@@ -120,30 +122,70 @@ bool EmulatorProcess::alive() const {
   return waitpid(pid_, nullptr, WNOHANG) == 0;
 }
 
+namespace {
+
+// "tcp:HOST:PORT", "unix:PATH", "pty:PATH" (or a bare path) -> the requested field as a TOML value.
+std::variant<std::string, std::int64_t> endpoint_field(const std::string& endpoint, const std::string& field,
+                                                      const std::string& ref) {
+  if (field.empty()) return endpoint;
+  const auto colon = endpoint.find(':');
+  const std::string scheme = colon == std::string::npos ? "" : endpoint.substr(0, colon);
+  const std::string rest = colon == std::string::npos ? endpoint : endpoint.substr(colon + 1);
+  if (scheme == "tcp" || scheme == "udp") {
+    const auto last = rest.rfind(':');
+    if (field == "host") return rest.substr(0, last);
+    if (field == "port") {
+      try {
+        return static_cast<std::int64_t>(std::stoll(rest.substr(last + 1)));
+      } catch (const std::exception&) {
+        throw std::invalid_argument("\"" + ref + "\": endpoint " + endpoint + " has no port");
+      }
+    }
+  }
+  if (field == "path") return rest;
+  throw std::invalid_argument("\"" + ref + "\": no field \"" + field + "\" in endpoint " + endpoint +
+                              " (fields: host, port for tcp:HOST:PORT; path for unix:PATH, pty:PATH)");
+}
+
+}  // namespace
+
 void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators) {
-  auto visit = [&](auto& self, toml::node& node) -> void {
-    if (auto* s = node.as_string()) {
-      const std::string& v = s->get();
-      if (v.rfind("emulator:", 0) != 0) return;
-      const std::string name = v.substr(9);
-      for (const auto* e : emulators) {
-        if (e->name() == name) {
-          *s = e->endpoint();
-          return;
+  // Returns the replacement for a string value "emulator:NAME[:FIELD]", or nothing.
+  auto replacement = [&](const std::string& v) -> std::optional<std::variant<std::string, std::int64_t>> {
+    if (v.rfind("emulator:", 0) != 0) return std::nullopt;
+    const std::string ref = v.substr(9);
+    const auto colon = ref.find(':');
+    const std::string name = ref.substr(0, colon);
+    const std::string field = colon == std::string::npos ? "" : ref.substr(colon + 1);
+    for (const auto* e : emulators) {
+      if (e->name() == name) return endpoint_field(e->endpoint(), field, v);
+    }
+    std::string known;
+    for (const auto* e : emulators) known += (known.empty() ? "" : ", ") + e->name();
+    throw std::invalid_argument("\"" + v + "\" names no [[emulator]] (known: " + (known.empty() ? "none" : known) + ")");
+  };
+  auto visit_table = [&](auto& self, toml::table& t) -> void {
+    std::vector<std::pair<std::string, std::int64_t>> integers;  // re-typed after the walk
+    for (auto&& [k, child] : t) {
+      if (auto* str = child.as_string()) {
+        if (auto r = replacement(str->get())) {
+          if (std::holds_alternative<std::string>(*r)) {
+            *str = std::get<std::string>(*r);
+          } else {
+            integers.emplace_back(std::string(k.str()), std::get<std::int64_t>(*r));
+          }
+        }
+      } else if (auto* sub = child.as_table()) {
+        self(self, *sub);
+      } else if (auto* arr = child.as_array()) {
+        for (auto& item : *arr) {
+          if (auto* st = item.as_table()) self(self, *st);
         }
       }
-      throw std::invalid_argument("\"" + v + "\" names no [[emulator]] (known: " + [&] {
-        std::string known;
-        for (const auto* e : emulators) known += (known.empty() ? "" : ", ") + e->name();
-        return known.empty() ? std::string("none") : known;
-      }() + ")");
-    } else if (auto* t = node.as_table()) {
-      for (auto&& [k, child] : *t) self(self, child);
-    } else if (auto* a = node.as_array()) {
-      for (auto& child : *a) self(self, child);
     }
+    for (const auto& [k, v] : integers) t.insert_or_assign(k, v);
   };
-  for (auto&& [k, child] : table) visit(visit, child);
+  visit_table(visit_table, table);
 }
 
 }  // namespace guideway::daemon

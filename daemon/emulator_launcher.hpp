@@ -1,8 +1,9 @@
 #pragma once
 // Starts device emulators (`guideway-emulate <instrument> ...`) as child processes for the
 // configuration's [[emulator]] tables, so the daemon runs with no hardware. Each emulator prints
-// `endpoint: <address>` on stdout once it serves; device tables then refer to it as "emulator:NAME"
-// in any string value, which is replaced by that address before the drivers are created.
+// `endpoint: <address>` on stdout once it serves (tcp:HOST:PORT, unix:PATH, pty:PATH); device tables
+// then refer to it in any string value: "emulator:NAME" is replaced by the whole address,
+// "emulator:NAME:host" / ":path" by that part (a string), "emulator:NAME:port" by the port (an integer).
 // The children die with the daemon (PR_SET_PDEATHSIG) and are terminated by the destructor.
 
 #include <sys/types.h>
@@ -46,8 +47,8 @@ class EmulatorProcess {
 // guideway-emulate next to the running executable (installed layout or build tree), else on PATH.
 std::string default_emulator_executable();
 
-// Replaces every string value "emulator:NAME" in `table` (recursively) by NAME's endpoint. Throws
-// std::invalid_argument for a NAME that no emulator has.
+// Replaces every string value "emulator:NAME[:FIELD]" in `table` (recursively) as described above.
+// Throws std::invalid_argument for a NAME that no emulator has, or a FIELD its endpoint lacks.
 void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators);
 
 }  // namespace guideway::daemon

@@ -32,7 +32,8 @@ TEST(EmulatorLauncher, PassesArgumentsAndHandsTheEndpointToDeviceTables) {
   auto config = daemon::parse_config("[daemon]\nemulator_executable = \"" + exe +
                                          "\"\n[[emulator]]\nname = \"gauge\"\ninstrument = \"micrometer\"\nargs = "
                                          "[\"15\", \"02\"]\n[[device]]\nname = \"g\"\ndriver = \"x\"\naddress = "
-                                         "\"emulator:gauge\"\nother = \"emulator-like but not\"\n",
+                                         "\"emulator:gauge\"\nother = \"emulator-like but not\"\nhost = \"emulator:gauge:host\"\n"
+                                         "port = \"emulator:gauge:port\"\n[device.sub]\nwhere = \"emulator:gauge\"\n",
                                      "t.toml");
   auto emulators = daemon::launch_emulators(config);
   ASSERT_EQ(emulators.size(), 1u);
@@ -40,6 +41,9 @@ TEST(EmulatorLauncher, PassesArgumentsAndHandsTheEndpointToDeviceTables) {
   EXPECT_TRUE(emulators[0]->alive());
   EXPECT_EQ(config.devices[0].table->get_string("address", ""), "tcp:127.0.0.1:1502");
   EXPECT_EQ(config.devices[0].table->get_string("other", ""), "emulator-like but not");
+  EXPECT_EQ(config.devices[0].table->get_string("host", ""), "127.0.0.1");
+  EXPECT_EQ(config.devices[0].table->get_int("port", 0), 1502);  // an integer, as the driver expects
+  EXPECT_EQ(config.devices[0].table->table("sub")->get_string("where", ""), "tcp:127.0.0.1:1502");
   const pid_t pid = emulators[0]->pid();
   emulators.clear();
   EXPECT_NE(kill(pid, 0), 0);  // terminated and reaped
