@@ -1,0 +1,195 @@
+// `guideway identify straightness|unionjack|runout`: offline evaluation of an autocollimator
+// traverse, a Union Jack surface-plate set and a spindle run-out revolution (models/flatness).
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <sstream>
+
+#include "cli/commands.hpp"
+#include "models/flatness/json.hpp"
+#include "models/flatness/runout.hpp"
+#include "models/flatness/straightness.hpp"
+#include "models/flatness/table_reader.hpp"
+#include "models/flatness/union_jack.hpp"
+
+namespace guideway::cli {
+
+namespace {
+
+namespace gm = guideway::models;
+
+// The `identify` subcommand is shared with other groups (e.g. dbb): reuse it when another group
+// already added it, whatever the static-initialisation order.
+CLI::App* identify_command(CLI::App& app) {
+  try {
+    return app.get_subcommand("identify");
+  } catch (const CLI::OptionNotFound&) {
+  }
+  auto* id = app.add_subcommand("identify", "identify model parameters from a recording or measurement file");
+  id->require_subcommand(1);
+  return id;
+}
+
+template <class F>
+void run_reporting(F&& f) {
+  try {
+    f();
+  } catch (const gm::InputError& e) {
+    throw std::runtime_error(e.what());
+  }
+}
+
+void print_line(const char* name, const gm::ReferenceLine& r) {
+  std::cout << "  " << std::left << std::setw(15) << name << std::right << std::fixed << std::setprecision(3)
+            << std::setw(9) << r.straightness_m * 1e6 << " um  (u " << std::setprecision(3) << r.u_straightness_m * 1e6
+            << " um), max at station " << r.max_index << ", min at " << r.min_index << "\n";
+}
+
+void print_profile(const gm::StraightnessProfile& p) {
+  std::cout << p.plane << " straightness (u per reading " << std::setprecision(3) << p.u_angle_rad / gm::rad_per_arcsec
+            << " arcsec, u at the end of the integration " << p.u_height_m.back() * 1e6 << " um):\n";
+  print_line("end-point line", p.end_point);
+  print_line("least squares", p.least_squares);
+  print_line("minimum zone", p.minimum_zone);
+  const auto& f = p.polynomial;
+  std::cout << "  polynomial (Mu Eq. 10, x in mm from the first station, height in mm), order " << f.order
+            << " by BIC:\n    Ez =";
+  std::cout << std::scientific << std::setprecision(4);
+  for (std::size_t k = f.b.size(); k-- > 0;) {
+    const double b_mm = f.b[k] * 1e3 / std::pow(1e3, static_cast<double>(k));
+    std::cout << (b_mm < 0 ? " - " : " + ") << std::abs(b_mm);
+    if (k > 0) std::cout << " x" << (k > 1 ? "^" + std::to_string(k) : "");
+  }
+  std::cout << std::fixed << std::setprecision(4) << "\n    fit residual rms " << f.residual_rms_m * 1e6
+            << " um, max " << f.residual_max_m * 1e6 << " um; angle residual rms "
+            << f.angle_residual_rms_rad / gm::rad_per_arcsec << " arcsec\n";
+  std::cout << "  " << std::setw(9) << "x_mm" << std::setw(12) << "height_um" << std::setw(10) << "u_um" << std::setw(12)
+            << "endpt_um" << std::setw(12) << "lsq_um" << "\n";
+  for (std::size_t k = 0; k < p.x_m.size(); ++k)
+    std::cout << "  " << std::setw(9) << std::setprecision(2) << p.x_m[k] * 1e3 << std::setprecision(4) << std::setw(12)
+              << p.height_m[k] * 1e6 << std::setw(10) << p.u_height_m[k] * 1e6 << std::setw(12)
+              << p.end_point.deviation_m[k] * 1e6 << std::setw(12) << p.least_squares.deviation_m[k] * 1e6 << "\n";
+}
+
+void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
+  CLI::App* id = identify_command(app);
+
+  {
+    auto* cmd = id->add_subcommand("straightness", "straightness from an autocollimator traverse (x_mm,pitch_arcsec[,yaw_arcsec])");
+    auto file = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    auto u_arcsec = std::make_shared<double>(0.0);
+    auto max_order = std::make_shared<int>(8);
+    cmd->add_option("ANGLES.csv", *file, "traverse file (docs/formats.md, Straightness traverse)")->required();
+    cmd->add_flag("--json", *json, "print the result as one JSON object");
+    cmd->add_option("--angle-u-arcsec", *u_arcsec,
+                    "standard uncertainty per reading (default: TA80, sqrt(0.01^2/12 + 0.5^2/3) = 0.289 arcsec)");
+    cmd->add_option("--max-order", *max_order, "highest polynomial order tried by the BIC selection")->check(CLI::Range(1, 12));
+    cmd->callback([=] {
+      run_reporting([&] {
+        gm::StraightnessOptions opt;
+        if (*u_arcsec > 0) opt.instrument.u_override_rad = *u_arcsec * gm::rad_per_arcsec;
+        opt.max_order = *max_order;
+        const auto tr = gm::read_angle_traverse(*file, opt.instrument);
+        const auto r = gm::identify_straightness(tr, opt);
+        if (*json) {
+          std::cout << gm::to_json(r).dump() << "\n";
+          return;
+        }
+        std::cout << r.source << ": " << r.readings << " readings, step " << r.step_m * 1e3 << " mm\n";
+        print_profile(r.vertical);
+        if (r.horizontal) print_profile(*r.horizontal);
+      });
+    });
+  }
+
+  {
+    auto* cmd = id->add_subcommand("unionjack", "surface-plate flatness by the Union Jack (Moody) method");
+    auto dir = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    auto lsq = std::make_shared<bool>(false);
+    auto foot_mm = std::make_shared<double>(0.0);
+    cmd->add_option("DIR", *dir, "directory with NW_SE.txt ... N_S.txt and Config.txt")->required();
+    cmd->add_flag("--json", *json, "print the result as one JSON object");
+    cmd->add_flag("--least-squares", *lsq, "also evaluate all eight lines together by least squares");
+    cmd->add_option("--foot-spacing-mm", *foot_mm, "reflector foot spacing (overrides Config.txt)");
+    cmd->callback([=] {
+      run_reporting([&] {
+        const auto set = gm::read_union_jack(*dir, *foot_mm * 1e-3);
+        gm::UnionJackOptions opt;
+        opt.least_squares = *lsq;
+        const auto r = gm::evaluate_union_jack(set, opt);
+        const bool inch = set.inch_units && !(*foot_mm > 0);
+        if (*json) {
+          std::cout << gm::to_json(r, inch).dump() << "\n";
+          return;
+        }
+        const double unit = inch ? 0.0254e-5 : 1e-6;
+        const char* uname = inch ? "x10 uin" : "um";
+        std::cout << *dir << ": foot spacing " << std::setprecision(4) << r.foot_spacing_m * 1e3 << " mm, "
+                  << r.long_steps << " x " << r.short_steps << " steps, diagonals " << r.diagonal_steps << "\n";
+        for (const auto& w : r.warnings) std::cout << "warning: " << w << "\n";
+        std::cout << std::fixed << std::setprecision(3);
+        std::cout << "flatness (Moody datum): " << r.flatness_m * 1e6 << " um";
+        if (inch) std::cout << " = " << r.flatness_m / unit << " " << uname;
+        std::cout << "\nflatness about the least-squares plane of the Moody heights: " << r.flatness_lsq_plane_m * 1e6
+                  << " um\n";
+        for (const auto& l : r.lines)
+          if (l.closure_m)
+            std::cout << "closure of " << l.name << ": " << *l.closure_m * 1e6 << " um = " << *l.closure_m / unit << " "
+                      << uname << "\n";
+        for (const auto& l : r.lines) {
+          std::cout << l.name << " (x, y in station units; height " << uname << "):";
+          for (std::size_t k = 0; k < l.stations.size(); ++k)
+            std::cout << (k % 6 == 0 ? "\n  " : "  ") << std::setprecision(2) << "(" << l.stations[k].x_steps << ","
+                      << l.stations[k].y_steps << ") " << std::setprecision(3) << l.stations[k].height_m / unit;
+          std::cout << "\n";
+        }
+        if (r.lsq)
+          std::cout << "least squares (all lines, one angular offset per line): flatness about the plane "
+                    << r.lsq->flatness_m * 1e6 << " um, residual rms " << r.lsq->residual_rms_rad / gm::rad_per_arcsec
+                    << " arcsec, redundancy " << r.lsq->redundancy << "\n";
+      });
+    });
+  }
+
+  {
+    auto* cmd = id->add_subcommand("runout", "squareness from a spindle run-out revolution (Mu Eq. 21)");
+    auto file = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    cmd->add_option("RUNOUT.csv", *file, "revolution file (angle_deg,runout_um; docs/formats.md)")->required();
+    cmd->add_flag("--json", *json, "print the result as one JSON object");
+    cmd->callback([=] {
+      run_reporting([&] {
+        const auto rev = gm::read_runout_revolution(*file);
+        const auto r = gm::identify_runout(rev);
+        if (*json) {
+          std::cout << gm::to_json(r).dump() << "\n";
+          return;
+        }
+        std::cout << std::fixed << std::setprecision(4);
+        std::cout << *file << ": " << r.samples << " samples\n"
+                  << "once per revolution: amplitude " << r.amplitude_m * 1e6 << " um (u " << r.u_amplitude_m * 1e6
+                  << "), maximum at " << std::setprecision(2) << r.phase_rad * 180 / std::numbers::pi << " deg (u "
+                  << r.u_phase_rad * 180 / std::numbers::pi << ")\n"
+                  << std::setprecision(4) << "run-out r = 2A = " << r.runout_m * 1e6 << " um (u " << r.u_runout_m * 1e6
+                  << "), parallelism p = " << r.parallelism_m * 1e6 << " um, plate diameter L = "
+                  << r.plate_diameter_m * 1e3 << " mm\n"
+                  << "deflection angle = squareness (r + p) / L = " << std::setprecision(3) << r.deflection_rad * 1e6
+                  << " urad (u " << r.u_deflection_rad * 1e6 << ")\n";
+        if (r.travel_m)
+          std::cout << "squareness amplitude over " << std::setprecision(1) << *r.travel_m * 1e3
+                    << " mm travel: " << std::setprecision(3) << *r.squareness_amplitude_m * 1e6 << " um (u "
+                    << *r.u_squareness_amplitude_m * 1e6 << ")\n";
+      });
+    });
+  }
+}
+
+const CommandGroup group(&add_flatness_commands);
+
+}  // namespace
+
+}  // namespace guideway::cli

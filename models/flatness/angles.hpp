@@ -1,0 +1,27 @@
+#pragma once
+// Angle units and the TA80-style autocollimator as an uncertainty source (Mu 2012, Sec. 4.1:
+// range +-600", resolution 0.01", accuracy 0.5").
+
+#include <cmath>
+#include <numbers>
+
+namespace guideway::models {
+
+inline constexpr double rad_per_arcsec = std::numbers::pi / (180.0 * 3600.0);
+inline constexpr double metres_per_inch = 0.0254;
+
+// The instrument: per-reading standard uncertainty u = sqrt(resolution^2/12 + accuracy^2/3), i.e.
+// rectangular distributions of half-width resolution/2 and accuracy, independent between readings.
+struct Autocollimator {
+  double range_rad = 600.0 * rad_per_arcsec;
+  double resolution_rad = 0.01 * rad_per_arcsec;
+  double accuracy_rad = 0.5 * rad_per_arcsec;
+  double u_override_rad = 0.0;  // > 0: use this per-reading standard uncertainty instead
+
+  [[nodiscard]] double reading_u_rad() const {
+    if (u_override_rad > 0) return u_override_rad;
+    return std::sqrt(resolution_rad * resolution_rad / 12.0 + accuracy_rad * accuracy_rad / 3.0);
+  }
+};
+
+}  // namespace guideway::models

@@ -1,0 +1,112 @@
+#include "models/flatness/runout.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include <Eigen/Dense>
+
+#include "models/flatness/table_reader.hpp"
+
+namespace guideway::models {
+
+namespace {
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+RunoutRevolution parse_runout_revolution(std::string_view text, const std::string& source) {
+  const TableFile t = parse_table(text, source);
+  RunoutRevolution rev;
+  rev.source = source;
+  const double d_mm = t.metadata_number("plate_diameter_mm");
+  if (!(d_mm > 0)) throw InputError(source + ": plate_diameter_mm = " + fmt(d_mm) + " must be positive");
+  rev.plate_diameter_m = d_mm * 1e-3;
+  rev.parallelism_m = t.metadata_number("parallelism_um") * 1e-6;
+  rev.u_parallelism_m = t.optional_metadata_number("parallelism_u_um").value_or(0.0) * 1e-6;
+  if (rev.u_parallelism_m < 0) throw InputError(source + ": parallelism_u_um must not be negative");
+  if (auto travel = t.optional_metadata_number("travel_mm")) {
+    if (!(*travel > 0)) throw InputError(source + ": travel_mm = " + fmt(*travel) + " must be positive");
+    rev.travel_m = *travel * 1e-3;
+  }
+  const std::size_t ca = t.column("angle_deg");
+  const std::size_t cr = t.column("runout_um");
+  for (const auto& row : t.rows) {
+    rev.angle_rad.push_back(t.number(row, ca) * std::numbers::pi / 180.0);
+    rev.runout_m.push_back(t.number(row, cr) * 1e-6);
+    rev.line.push_back(row.line);
+  }
+  if (rev.angle_rad.size() < 8)
+    throw InputError(source + ": " + std::to_string(rev.angle_rad.size()) +
+                     " samples; a run-out revolution needs at least 8");
+  return rev;
+}
+
+RunoutRevolution read_runout_revolution(const std::string& path) {
+  return parse_runout_revolution(read_text_file(path), path);
+}
+
+RunoutResult identify_runout(const RunoutRevolution& rev) {
+  const auto n = static_cast<Eigen::Index>(rev.angle_rad.size());
+  if (n < 8) throw InputError(rev.source + ": a run-out revolution needs at least 8 samples");
+  // z = c + a1 cos + b1 sin + a2 cos 2 + b2 sin 2, columns scaled alike (all O(1)).
+  Eigen::MatrixXd j(n, 5);
+  Eigen::VectorXd y(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double phi = rev.angle_rad[static_cast<std::size_t>(k)];
+    j.row(k) << 1.0, std::cos(phi), std::sin(phi), std::cos(2 * phi), std::sin(2 * phi);
+    y(k) = rev.runout_m[static_cast<std::size_t>(k)];
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(j);
+  const auto& sv = svd.singularValues();
+  RunoutResult r;
+  r.samples = static_cast<std::size_t>(n);
+  r.condition_number = sv(4) > 0 ? sv(0) / sv(4) : std::numeric_limits<double>::infinity();
+  if (!(r.condition_number < 1e6))
+    throw InputError(rev.source + ": the angles (" + std::to_string(n) +
+                     " samples) do not determine a once- and twice-per-revolution sine (condition number " +
+                     fmt(r.condition_number) + "); record a full revolution");
+  const Eigen::VectorXd p = j.colPivHouseholderQr().solve(y);
+  const Eigen::VectorXd res = y - j * p;
+  const double s2 = res.squaredNorm() / static_cast<double>(n - 5);
+  const Eigen::MatrixXd cov = s2 * (j.transpose() * j).inverse();
+  r.offset_m = p(0);
+  const double a = p(1), b = p(2);
+  r.amplitude_m = std::hypot(a, b);
+  r.phase_rad = std::atan2(b, a);
+  if (r.phase_rad < 0) r.phase_rad += 2 * std::numbers::pi;
+  // First-order propagation through A = hypot(a, b), phase = atan2(b, a).
+  if (r.amplitude_m > 0) {
+    const Eigen::Vector2d ga(a / r.amplitude_m, b / r.amplitude_m);
+    const Eigen::Vector2d gp(-b / (r.amplitude_m * r.amplitude_m), a / (r.amplitude_m * r.amplitude_m));
+    const Eigen::Matrix2d c = cov.block<2, 2>(1, 1);
+    r.u_amplitude_m = std::sqrt(ga.dot(c * ga));
+    r.u_phase_rad = std::sqrt(gp.dot(c * gp));
+  } else {
+    r.u_amplitude_m = std::sqrt(0.5 * (cov(1, 1) + cov(2, 2)));
+    r.u_phase_rad = std::numbers::pi;
+  }
+  r.second_harmonic_m = std::hypot(p(3), p(4));
+  r.residual_rms_m = std::sqrt(res.squaredNorm() / static_cast<double>(n));
+  r.runout_m = 2 * r.amplitude_m;
+  r.u_runout_m = 2 * r.u_amplitude_m;
+  r.parallelism_m = rev.parallelism_m;
+  r.plate_diameter_m = rev.plate_diameter_m;
+  r.deflection_rad = (r.runout_m + rev.parallelism_m) / rev.plate_diameter_m;
+  r.u_deflection_rad = std::hypot(r.u_runout_m, rev.u_parallelism_m) / rev.plate_diameter_m;
+  if (rev.travel_m) {
+    r.travel_m = rev.travel_m;
+    r.squareness_amplitude_m = r.deflection_rad * *rev.travel_m;
+    r.u_squareness_amplitude_m = r.u_deflection_rad * *rev.travel_m;
+  }
+  return r;
+}
+
+}  // namespace guideway::models

@@ -1,0 +1,351 @@
+#include "models/flatness/straightness.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+
+#include "models/flatness/table_reader.hpp"
+
+namespace guideway::models {
+
+namespace {
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
+std::string where(const std::string& source, std::size_t line) { return source + ":" + std::to_string(line) + ": "; }
+
+double checked_angle(const TableFile& t, const TableFile::Row& row, std::size_t col, const Autocollimator& ac) {
+  const double arcsec = t.number(row, col);
+  const double range_arcsec = ac.range_rad / rad_per_arcsec;
+  if (std::abs(arcsec) > range_arcsec)
+    throw InputError(where(t.source, row.line) + t.columns[col] + " = " + fmt(arcsec) +
+                     " is outside the autocollimator range +-" + fmt(range_arcsec) + " arcsec");
+  return arcsec * rad_per_arcsec;
+}
+
+// Sum of squares of sensitivities of a quantity to the readings; the quantity's standard uncertainty
+// is step * u_theta * sqrt(sum). `row(j)` is d quantity / d (step * theta_j).
+template <class Row>
+double row_norm2(std::size_t n, Row&& row) {
+  double s = 0.0;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double r = row(j);
+    s += r * r;
+  }
+  return s;
+}
+
+// Cumulative-sum sensitivity: height of station k depends on readings j < k.
+double c_row(std::size_t k, std::size_t j) { return j < k ? 1.0 : 0.0; }
+
+void fill_range(ReferenceLine& r) {
+  const auto [mn, mx] = std::minmax_element(r.deviation_m.begin(), r.deviation_m.end());
+  r.min_index = static_cast<std::size_t>(mn - r.deviation_m.begin());
+  r.max_index = static_cast<std::size_t>(mx - r.deviation_m.begin());
+  r.straightness_m = *mx - *mn;
+}
+
+PolynomialFit fit_polynomial(double step_m, const std::vector<double>& angle_rad, const std::vector<double>& height_m,
+                             double u_angle_rad, int max_order) {
+  const std::size_t n = angle_rad.size();
+  const double span = step_m * static_cast<double>(n);
+  const double sigma = step_m / span;  // step in the scaled coordinate xi = (x - x0) / span
+  Eigen::VectorXd y(static_cast<Eigen::Index>(n));
+  for (std::size_t j = 0; j < n; ++j) y(static_cast<Eigen::Index>(j)) = std::tan(angle_rad[j]);
+  const int highest = std::max(1, std::min(max_order, static_cast<int>(n) - 2));
+  const double rss_floor = static_cast<double>(n) * std::pow(1e-6 * u_angle_rad, 2);
+  const double dn = static_cast<double>(n);
+
+  auto design = [&](int order) {
+    Eigen::MatrixXd j(static_cast<Eigen::Index>(n), order);
+    for (std::size_t r = 0; r < n; ++r) {
+      const double xi = static_cast<double>(r) * sigma;
+      for (int k = 1; k <= order; ++k)
+        j(static_cast<Eigen::Index>(r), k - 1) = (std::pow(xi + sigma, k) - std::pow(xi, k)) / sigma;
+    }
+    return j;
+  };
+
+  PolynomialFit fit;
+  int best = 1;
+  double best_bic = std::numeric_limits<double>::infinity();
+  for (int order = 1; order <= highest; ++order) {
+    const Eigen::MatrixXd j = design(order);
+    const Eigen::VectorXd c = j.colPivHouseholderQr().solve(y);
+    const double rss = (y - j * c).squaredNorm();
+    const double bic = dn * std::log(std::max(rss, rss_floor) / dn) + order * std::log(dn);
+    fit.bic.push_back(bic);
+    if (bic < best_bic - 1e-9) {
+      best_bic = bic;
+      best = order;
+    }
+  }
+  const Eigen::MatrixXd j = design(best);
+  const Eigen::VectorXd c = j.colPivHouseholderQr().solve(y);
+  const Eigen::VectorXd res = y - j * c;
+  const double dof = dn - best;
+  const double s2 = dof > 0 ? res.squaredNorm() / dof : u_angle_rad * u_angle_rad;
+  const Eigen::MatrixXd cov = s2 * (j.transpose() * j).inverse();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(j);
+  const auto& sv = svd.singularValues();
+  fit.condition_number = sv(sv.size() - 1) > 0 ? sv(0) / sv(sv.size() - 1) : std::numeric_limits<double>::infinity();
+  fit.order = best;
+  fit.b.assign(static_cast<std::size_t>(best) + 1, 0.0);
+  fit.u_b.assign(static_cast<std::size_t>(best) + 1, 0.0);
+  for (int k = 1; k <= best; ++k) {
+    const double scale = std::pow(span, k - 1);
+    fit.b[static_cast<std::size_t>(k)] = c(k - 1) / scale;
+    fit.u_b[static_cast<std::size_t>(k)] = std::sqrt(cov(k - 1, k - 1)) / scale;
+  }
+  fit.angle_residual_rms_rad = std::sqrt(res.squaredNorm() / dn);
+  fit.residual_m.resize(height_m.size());
+  double ss = 0.0;
+  for (std::size_t k = 0; k < height_m.size(); ++k) {
+    fit.residual_m[k] = height_m[k] - fit(step_m * static_cast<double>(k));
+    ss += fit.residual_m[k] * fit.residual_m[k];
+    fit.residual_max_m = std::max(fit.residual_max_m, std::abs(fit.residual_m[k]));
+  }
+  fit.residual_rms_m = std::sqrt(ss / static_cast<double>(height_m.size()));
+  return fit;
+}
+
+}  // namespace
+
+double PolynomialFit::operator()(double x) const {
+  double v = 0.0;
+  for (std::size_t k = b.size(); k-- > 0;) v = v * x + b[k];
+  return v;
+}
+
+double PolynomialFit::slope(double x) const {
+  double v = 0.0;
+  for (std::size_t k = b.size(); k-- > 1;) v = v * x + static_cast<double>(k) * b[k];
+  return v;
+}
+
+AngleTraverse parse_angle_traverse(std::string_view text, const std::string& source, const Autocollimator& ac) {
+  const TableFile t = parse_table(text, source);
+  AngleTraverse tr;
+  tr.source = source;
+  const double step_mm = t.metadata_number("step_mm");
+  if (!(step_mm > 0)) throw InputError(source + ": step_mm = " + fmt(step_mm) + " must be positive");
+  tr.step_m = step_mm * 1e-3;
+  const std::size_t cx = t.column("x_mm");
+  const std::size_t cp = t.column("pitch_arcsec");
+  const auto cy = t.find_column("yaw_arcsec");
+  if (t.rows.size() < 2)
+    throw InputError(source + ": " + std::to_string(t.rows.size()) + " readings; a traverse needs at least 2");
+  double prev_x = 0.0;
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const auto& row = t.rows[i];
+    const double x = t.number(row, cx);
+    if (i > 0) {
+      const double dx = x - prev_x;
+      const double tol = 1e-3 * step_mm;
+      if (dx <= tol)
+        throw InputError(where(source, row.line) + "x_mm = " + fmt(x) + " does not increase (previous station " +
+                         fmt(prev_x) + ")");
+      if (std::abs(dx - step_mm) > tol) {
+        const double steps = dx / step_mm;
+        if (std::abs(steps - std::round(steps)) <= 1e-3 * steps)
+          throw InputError(where(source, row.line) + "missing station: x_mm jumps from " + fmt(prev_x) + " to " +
+                           fmt(x) + " (step_mm = " + fmt(step_mm) + ", " + fmt(std::round(steps) - 1) +
+                           " station(s) missing, first at x_mm = " + fmt(prev_x + step_mm) + ")");
+        throw InputError(where(source, row.line) + "x_mm spacing " + fmt(dx) + " does not match step_mm = " +
+                         fmt(step_mm));
+      }
+    }
+    prev_x = x;
+    tr.x_m.push_back(x * 1e-3);
+    tr.pitch_rad.push_back(checked_angle(t, row, cp, ac));
+    if (cy) tr.yaw_rad.push_back(checked_angle(t, row, *cy, ac));
+    tr.line.push_back(row.line);
+  }
+  return tr;
+}
+
+AngleTraverse read_angle_traverse(const std::string& path, const Autocollimator& ac) {
+  return parse_angle_traverse(read_text_file(path), path, ac);
+}
+
+MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>& y) {
+  MinimumZone best;
+  const std::size_t n = x.size();
+  if (n == 0 || y.size() != n) throw std::invalid_argument("minimum_zone: need matching, non-empty x and y");
+  if (n == 1) return {0.0, 0.0, y[0]};
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return x[a] < x[b] || (x[a] == x[b] && y[a] < y[b]); });
+  auto cross = [&](std::size_t o, std::size_t a, std::size_t b) {
+    return (x[a] - x[o]) * (y[b] - y[o]) - (y[a] - y[o]) * (x[b] - x[o]);
+  };
+  // Andrew's monotone chain: lower hull (counter-clockwise turns) and upper hull.
+  std::vector<std::size_t> lower, upper;
+  for (std::size_t i : order) {
+    while (lower.size() >= 2 && cross(lower[lower.size() - 2], lower.back(), i) <= 0) lower.pop_back();
+    lower.push_back(i);
+  }
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    while (upper.size() >= 2 && cross(upper[upper.size() - 2], upper.back(), *it) <= 0) upper.pop_back();
+    upper.push_back(*it);
+  }
+  best.width = std::numeric_limits<double>::infinity();
+  auto try_edge = [&](std::size_t a, std::size_t b, bool on_lower) {
+    if (x[a] == x[b]) return;  // vertical edge: not a candidate direction for a vertical zone
+    const double m = (y[b] - y[a]) / (x[b] - x[a]);
+    const double c_edge = y[a] - m * x[a];
+    double extreme = c_edge;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double c = y[i] - m * x[i];
+      extreme = on_lower ? std::max(extreme, c) : std::min(extreme, c);
+    }
+    const double w = std::abs(extreme - c_edge);
+    if (w < best.width) best = {w, m, on_lower ? c_edge : extreme};
+  };
+  for (std::size_t i = 0; i + 1 < lower.size(); ++i) try_edge(lower[i], lower[i + 1], true);
+  for (std::size_t i = 0; i + 1 < upper.size(); ++i) try_edge(upper[i], upper[i + 1], false);
+  if (!std::isfinite(best.width)) best = {*std::max_element(y.begin(), y.end()) - *std::min_element(y.begin(), y.end()), 0.0,
+                                          *std::min_element(y.begin(), y.end())};
+  return best;
+}
+
+StraightnessProfile straightness_from_angles(double x0_m, double step_m, const std::vector<double>& angle_rad,
+                                             const StraightnessOptions& options, const std::string& plane) {
+  const std::size_t n = angle_rad.size();
+  if (n < 2) throw std::invalid_argument("straightness: need at least 2 readings");
+  if (!(step_m > 0)) throw std::invalid_argument("straightness: step must be positive");
+  StraightnessProfile p;
+  p.plane = plane;
+  p.u_angle_rad = options.instrument.reading_u_rad();
+  const double s = step_m;
+  const double su = s * p.u_angle_rad;
+  const std::size_t N = n + 1;
+  p.x_m.resize(N);
+  p.height_m.resize(N);
+  p.u_height_m.resize(N);
+  for (std::size_t k = 0; k < N; ++k) {
+    p.x_m[k] = x0_m + s * static_cast<double>(k);
+    p.height_m[k] = k == 0 ? 0.0 : p.height_m[k - 1] + s * std::tan(angle_rad[k - 1]);
+    p.u_height_m[k] = su * std::sqrt(static_cast<double>(k));
+  }
+  const double dn = static_cast<double>(n);
+
+  // End-point line: d_k = h_k - (k/n) h_n. Brownian bridge: var d_k = (s u)^2 k (n-k)/n,
+  // var(d_a - d_b) = (s u)^2 m (n-m)/n with m = |a - b|.
+  {
+    auto& r = p.end_point;
+    r.slope = (p.height_m[n] - p.height_m[0]) / (s * dn);
+    r.intercept_m = 0.0;
+    r.deviation_m.resize(N);
+    r.u_deviation_m.resize(N);
+    for (std::size_t k = 0; k < N; ++k) {
+      const double dk = static_cast<double>(k);
+      r.deviation_m[k] = p.height_m[k] - dk / dn * p.height_m[n];
+      r.u_deviation_m[k] = su * std::sqrt(dk * (dn - dk) / dn);
+    }
+    fill_range(r);
+    const double m = std::abs(static_cast<double>(r.max_index) - static_cast<double>(r.min_index));
+    r.u_straightness_m = su * std::sqrt(m * (dn - m) / dn);
+  }
+
+  // Least-squares line through the N stations (t_k = k): d = (I - H) C theta s, with the hat matrix
+  // H_km = 1/N + (t_k - tbar)(t_m - tbar)/Sxx and C_kj = [j < k]. Row k, column j:
+  // [j < k] - (n - j)/N - (k - tbar) S_j / Sxx, where S_j = sum_{m>j} (m - tbar).
+  {
+    auto& r = p.least_squares;
+    const double dN = static_cast<double>(N);
+    const double tbar = dn / 2.0;
+    double sxx = 0.0, sxy = 0.0, ybar = 0.0;
+    for (std::size_t k = 0; k < N; ++k) ybar += p.height_m[k] / dN;
+    for (std::size_t k = 0; k < N; ++k) {
+      const double dt = static_cast<double>(k) - tbar;
+      sxx += dt * dt;
+      sxy += dt * (p.height_m[k] - ybar);
+    }
+    const double beta = sxy / sxx;  // per station index
+    r.slope = beta / s;
+    r.intercept_m = ybar - beta * tbar;
+    std::vector<double> big_s(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      // sum_{m=j+1}^{n} (m - tbar)
+      const double cnt = dn - static_cast<double>(j);
+      const double sum_m = (dn * (dn + 1) - static_cast<double>(j) * static_cast<double>(j + 1)) / 2.0;
+      big_s[j] = sum_m - cnt * tbar;
+    }
+    auto ls_row = [&](std::size_t k, std::size_t j) {
+      return c_row(k, j) - (dn - static_cast<double>(j)) / dN - (static_cast<double>(k) - tbar) * big_s[j] / sxx;
+    };
+    r.deviation_m.resize(N);
+    r.u_deviation_m.resize(N);
+    for (std::size_t k = 0; k < N; ++k) {
+      r.deviation_m[k] = p.height_m[k] - (r.intercept_m + beta * static_cast<double>(k));
+      r.u_deviation_m[k] = su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(k, j); }));
+    }
+    fill_range(r);
+    r.u_straightness_m =
+        su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(r.max_index, j) - ls_row(r.min_index, j); }));
+  }
+
+  // Minimum zone: exact from the convex hull. Its value is max - min of the deviations from the zone
+  // lines; first-order uncertainty through the stations that bound it (the extreme deviations from
+  // the lower line and the two stations of the hull edge, found as the points on the lower/upper line).
+  {
+    auto& r = p.minimum_zone;
+    std::vector<double> t(N);
+    for (std::size_t k = 0; k < N; ++k) t[k] = static_cast<double>(k);
+    const MinimumZone mz = minimum_zone(t, p.height_m);
+    r.slope = mz.slope / s;
+    r.intercept_m = mz.lower_intercept;
+    r.deviation_m.resize(N);
+    r.u_deviation_m.assign(N, 0.0);
+    for (std::size_t k = 0; k < N; ++k) r.deviation_m[k] = p.height_m[k] - (mz.lower_intercept + mz.slope * t[k]);
+    fill_range(r);
+    r.straightness_m = mz.width;
+    // Contact stations: those within a tolerance of the lower and upper lines.
+    const double tol = 1e-9 * std::max(mz.width, 1e-12) + 1e-15;
+    std::vector<std::size_t> low, high;
+    for (std::size_t k = 0; k < N; ++k) {
+      if (r.deviation_m[k] <= tol) low.push_back(k);
+      if (r.deviation_m[k] >= mz.width - tol) high.push_back(k);
+    }
+    // The line with two contacts carries the edge (a, b); the other contact c sets the width:
+    // w = +-(h_c - h_a - (h_b - h_a)(c - a)/(b - a)).
+    std::vector<std::size_t>& edge = low.size() >= 2 ? low : high;
+    std::vector<std::size_t>& apex = low.size() >= 2 ? high : low;
+    if (edge.size() >= 2 && !apex.empty()) {
+      const std::size_t a = edge.front(), b = edge.back(), c = apex.front();
+      const double lam = (static_cast<double>(c) - static_cast<double>(a)) / (static_cast<double>(b) - static_cast<double>(a));
+      r.u_straightness_m = su * std::sqrt(row_norm2(
+                                    n, [&](std::size_t j) { return c_row(c, j) - (1 - lam) * c_row(a, j) - lam * c_row(b, j); }));
+    } else {
+      r.u_straightness_m = p.least_squares.u_straightness_m;
+    }
+    for (std::size_t k = 0; k < N; ++k) r.u_deviation_m[k] = p.least_squares.u_deviation_m[k];
+  }
+
+  p.polynomial = fit_polynomial(s, angle_rad, p.height_m, p.u_angle_rad, options.max_order);
+  return p;
+}
+
+StraightnessResult identify_straightness(const AngleTraverse& traverse, const StraightnessOptions& options) {
+  StraightnessResult r;
+  r.source = traverse.source;
+  r.step_m = traverse.step_m;
+  r.readings = traverse.pitch_rad.size();
+  if (traverse.x_m.empty()) throw InputError(traverse.source + ": empty traverse");
+  r.vertical = straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.pitch_rad, options, "vertical");
+  if (!traverse.yaw_rad.empty())
+    r.horizontal = straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.yaw_rad, options, "horizontal");
+  return r;
+}
+
+}  // namespace guideway::models

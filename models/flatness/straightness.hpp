@@ -1,0 +1,106 @@
+#pragma once
+// Straightness from an autocollimator traverse (docs/formats.md, "Straightness traverse"): the
+// reflector, on feet `step` apart, is moved one step at a time; each reading is the slope angle of
+// the chord between its two feet. Heights: h_0 = 0, h_{k+1} = h_k + step * tan(theta_k) (theta > 0:
+// the surface rises towards +x). Evaluated per ISO 230-1 against the end-point line, the
+// least-squares line and the minimum zone (exact, from the convex hull), fitted with the polynomial of
+// Mu 2012 Eqs. 10-12 (order by BIC), with uncertainties from the random walk of the angle noise.
+// Pure functions; thread safe. SI units inside (m, rad).
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "models/flatness/angles.hpp"
+
+namespace guideway::models {
+
+// A traverse as read from a file (SI). Reading k rests on x_m[k] (rear foot) and x_m[k] + step_m.
+struct AngleTraverse {
+  std::string source;
+  double step_m = 0.0;
+  std::vector<double> x_m;
+  std::vector<double> pitch_rad;  // vertical plane: slope angle, > 0 rising towards +x
+  std::vector<double> yaw_rad;    // horizontal plane (optional): > 0 turning towards +y
+  std::vector<std::size_t> line;  // file line of each reading
+};
+
+// Validates and converts: `# step_mm`, columns x_mm,pitch_arcsec[,yaw_arcsec], stations exactly one
+// step apart (a gap = "missing station"), angles finite and inside +-range. Throws InputError
+// "file:line: message".
+AngleTraverse parse_angle_traverse(std::string_view text, const std::string& source, const Autocollimator& ac = {});
+AngleTraverse read_angle_traverse(const std::string& path, const Autocollimator& ac = {});
+
+// Deviations from one reference line, with the straightness (max - min) and its standard uncertainty.
+struct ReferenceLine {
+  double slope = 0.0;           // of the line (dimensionless)
+  double intercept_m = 0.0;     // line value at the first station
+  std::vector<double> deviation_m;  // height - line, per station
+  std::vector<double> u_deviation_m;  // standard uncertainty of each deviation
+  double straightness_m = 0.0;  // max - min of deviation_m
+  double u_straightness_m = 0.0;
+  std::size_t max_index = 0;
+  std::size_t min_index = 0;
+};
+
+struct PolynomialFit {
+  int order = 0;                 // n of Eq. 10
+  std::vector<double> b;         // b_0..b_n of Eq. 10 in m / m^k, x measured from the first station; b_0 = 0
+  std::vector<double> u_b;       // standard uncertainties (from s^2 (J^T J)^-1 of the slope fit)
+  std::vector<double> bic;       // BIC of orders 1..max tried (index order-1)
+  std::vector<double> residual_m;  // height - polynomial, per station
+  double residual_rms_m = 0.0;
+  double residual_max_m = 0.0;   // max |residual|
+  double angle_residual_rms_rad = 0.0;
+  double condition_number = 0.0;
+  [[nodiscard]] double operator()(double x_from_start_m) const;
+  [[nodiscard]] double slope(double x_from_start_m) const;  // Eq. 12: sum k b_k x^(k-1)
+};
+
+// One plane (vertical from pitch, horizontal from yaw).
+struct StraightnessProfile {
+  std::string plane;               // "vertical" | "horizontal"
+  std::vector<double> x_m;         // stations (readings + 1)
+  std::vector<double> height_m;    // integrated, h_0 = 0
+  std::vector<double> u_height_m;  // random walk: u_theta * step * sqrt(k)
+  double u_angle_rad = 0.0;        // per-reading standard uncertainty used
+  ReferenceLine end_point;
+  ReferenceLine least_squares;
+  ReferenceLine minimum_zone;      // u: that of the least-squares evaluation at the zone's extreme stations
+  PolynomialFit polynomial;
+};
+
+struct StraightnessOptions {
+  Autocollimator instrument;
+  int max_order = 8;  // highest polynomial order tried by the BIC selection
+};
+
+struct StraightnessResult {
+  std::string source;
+  double step_m = 0.0;
+  std::size_t readings = 0;
+  StraightnessProfile vertical;
+  std::optional<StraightnessProfile> horizontal;
+};
+
+// One plane from equally spaced chord-slope angles. Throws std::invalid_argument on < 2 readings or
+// a non-positive step.
+StraightnessProfile straightness_from_angles(double x0_m, double step_m, const std::vector<double>& angle_rad,
+                                             const StraightnessOptions& options = {},
+                                             const std::string& plane = "vertical");
+
+StraightnessResult identify_straightness(const AngleTraverse& traverse, const StraightnessOptions& options = {});
+
+// Minimum-zone straightness of points (x, y): the smallest vertical distance between two parallel
+// lines enclosing all points (exact: one line carries an edge of the convex hull). Returns the zone
+// width, the slope of the lines, and the intercept of the lower line at x = 0.
+struct MinimumZone {
+  double width = 0.0;
+  double slope = 0.0;
+  double lower_intercept = 0.0;
+};
+MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>& y);
+
+}  // namespace guideway::models

@@ -1,0 +1,202 @@
+#!/usr/bin/python3
+"""`guideway identify straightness|unionjack|runout` end to end, with numpy as the oracle.
+
+Usage: flatness_cli_test.py GUIDEWAY_BINARY MOODY_DIR
+
+- unionjack: Moody 1955 reproduced (reference_heights.dat, tolerance 2e-5 tens of micro-inch), and a
+  single-precision emulation of the worksheet (the reference's arithmetic: float32, pi = 3.141592)
+  shown to reach the printed precision (5e-7), so the remaining double-vs-reference difference is the
+  reference's rounding; --least-squares against numpy.linalg.lstsq (1e-9 um).
+- straightness and runout: against numpy integrations and fits; bad files give "file:line" errors.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+GUIDEWAY, MOODY = sys.argv[1], sys.argv[2]
+NAMES = ["NW_SE", "NE_SW", "NE_NW", "NE_SE", "SE_SW", "NW_SW", "E_W", "N_S"]
+failures = []
+
+
+def check(cond, what):
+    print(("ok   " if cond else "FAIL ") + what)
+    if not cond:
+        failures.append(what)
+
+
+def run(*args):
+    p = subprocess.run([GUIDEWAY, "identify", *args], capture_output=True, text=True, timeout=60)
+    return p.returncode, p.stdout, p.stderr
+
+
+def readings(name, d=MOODY):
+    with open(os.path.join(d, name + ".txt")) as f:
+        return np.array([float(l) for l in f if l.strip() and not l.startswith("#")])
+
+
+def reference():
+    ref, cur = {}, None
+    for line in open(os.path.join(MOODY, "reference_heights.dat")):
+        if line.startswith("# ") and line.strip().endswith(".txt"):
+            cur = line.strip()[2:-4]
+            ref[cur] = []
+        elif line.strip() and not line.startswith("#"):
+            ref[cur].append([float(v) for v in line.split()])
+    return {k: np.array(v) for k, v in ref.items()}
+
+
+def worksheet_float32():
+    """Moody's worksheet columns in single precision (independent re-statement of the procedure)."""
+    f32 = np.float32
+    arc = f32(2.0 * 3.141592 / (360.0 * 3600))
+
+    def column4(r):  # sum of (reading - first reading), station 0 and 1 at zero
+        r = r.astype(f32)
+        c = np.zeros(len(r) + 1, f32)
+        for j in range(2, len(r) + 1):
+            c[j] = f32(c[j - 1] + f32(r[j - 1] - r[0]))
+        return c
+
+    def diagonal(r):
+        c, n = column4(r), len(r)
+        a, b = f32(-c[n] / f32(n)), f32(f32(0.5) * c[n] - c[n // 2])
+        return np.array([f32(c[j] + f32(a * f32(j) + b)) for j in range(n + 1)], f32)
+
+    def between(r, h0, h1):
+        c, n = column4(r), len(r)
+        corr, h = np.zeros(n + 1, f32), np.zeros(n + 1, f32)
+        corr[0] = h[0] = h0
+        h[n] = h1
+        corr[n] = f32(h1 - c[n])
+        step = f32((corr[0] - corr[n]) / f32(n))
+        for j in range(n - 1, 0, -1):
+            corr[j] = f32(corr[j + 1] + step)
+            h[j] = f32(corr[j] + c[j])
+        return h
+
+    H = {"NW_SE": diagonal(readings("NW_SE")), "NE_SW": diagonal(readings("NE_SW"))}
+    nw, se, ne, sw = H["NW_SE"][0], H["NW_SE"][-1], H["NE_SW"][0], H["NE_SW"][-1]
+    H["NE_NW"] = between(readings("NE_NW"), ne, nw)
+    H["NE_SE"] = between(readings("NE_SE"), ne, se)
+    H["SE_SW"] = between(readings("SE_SW"), se, sw)
+    H["NW_SW"] = between(readings("NW_SW"), nw, sw)
+    for name, a, b in (("E_W", "NE_SE", "NW_SW"), ("N_S", "NE_NW", "SE_SW")):
+        h = between(readings(name), H[a][len(H[a]) // 2], H[b][len(H[b]) // 2])
+        H[name] = (h - h[len(h) // 2]).astype(f32)
+    lo = min(v.min() for v in H.values())
+    scale = f32(4.0 * 100000.0)
+    return {k: np.array([f32(f32(f32(v - lo) * arc) * scale) for v in h]) for k, h in H.items()}
+
+
+# --- Union Jack -------------------------------------------------------------------------------------
+ref = reference()
+rc, out, err = run("unionjack", MOODY, "--json", "--least-squares")
+check(rc == 0, "unionjack exits 0 " + err.strip())
+uj = json.loads(out)
+worst = 0.0
+for line in uj["lines"]:
+    h = np.array([s["height_10uin"] for s in line["stations"]])
+    xy = np.array([[s["x_steps"], s["y_steps"]] for s in line["stations"]])
+    check(np.allclose(xy, ref[line["name"]][:, :2], atol=1e-6), line["name"] + " station coordinates")
+    worst = max(worst, np.abs(h - ref[line["name"]][:, 2]).max())
+check(worst <= 2e-5, "Moody 1955 reproduced in double precision: max |dev| %.3g (<= 2e-5) tens of micro-inch" % worst)
+ws = worksheet_float32()
+w32 = max(np.abs(ws[k] - ref[k][:, 2]).max() for k in NAMES)
+check(w32 <= 5e-7, "single-precision worksheet reaches the printed precision: max |dev| %.3g (<= 5e-7)" % w32)
+check(abs(uj["closure"]["E_W_10uin"] + 1.357478) < 2e-5, "E_W closure -1.357478 tens of micro-inch")
+
+# Least squares: numpy.linalg.lstsq on the same observation equations, built here from the readings.
+s_m = uj["foot_spacing_mm"] * 1e-3
+key = lambda x, y: (round(x * 1e6), round(y * 1e6))
+index, rows, rhs = {}, [], []
+for line in uj["lines"]:
+    for st in line["stations"]:
+        index.setdefault(key(st["x_steps"], st["y_steps"]), len(index))
+U = len(index)
+for i, line in enumerate(uj["lines"]):
+    r = readings(line["name"])
+    st = line["stations"]
+    for j, a in enumerate(r):
+        row = np.zeros(U + 8)
+        row[index[key(st[j + 1]["x_steps"], st[j + 1]["y_steps"])]] += 1
+        row[index[key(st[j]["x_steps"], st[j]["y_steps"])]] -= 1
+        row[U + i] = -1
+        rows.append(row)
+        rhs.append(s_m * np.tan(np.radians(a / 3600.0)))
+A, y = np.array(rows), np.array(rhs)
+sol, _, rank, _ = np.linalg.lstsq(A, y, rcond=None)
+coords = np.zeros((U, 2))
+for k, i in index.items():
+    coords[i] = np.array(k) / 1e6
+P = np.column_stack([np.ones(U), coords])
+h = sol[:U] - P @ np.linalg.lstsq(P, sol[:U], rcond=None)[0]
+lsq = uj["least_squares"]
+ours = np.array([s["height_um"] for s in lsq["stations"]])
+ours_idx = [index[key(s["x_steps"], s["y_steps"])] for s in lsq["stations"]]
+dev = np.abs(ours - h[ours_idx] * 1e6).max()
+check(len(ours) == U and dev < 1e-9, "--least-squares equals numpy lstsq: max |dev| %.2g um over %d stations" % (dev, U))
+check(lsq["redundancy"] == len(y) - rank, "redundancy %d = readings - rank" % lsq["redundancy"])
+
+# --- Straightness -----------------------------------------------------------------------------------
+tmp = tempfile.mkdtemp(prefix="gw-flat-")
+rng = np.random.default_rng(5)
+x = np.arange(0, 600, 10.0)
+pitch = 2.0 + 1.5 * np.sin(x / 95.0) + rng.normal(0, 0.3, x.size)
+yaw = -1.0 + 0.002 * x + rng.normal(0, 0.3, x.size)
+path = os.path.join(tmp, "angles.csv")
+with open(path, "w") as f:
+    f.write("# step_mm = 10\nx_mm,pitch_arcsec,yaw_arcsec\n")
+    for row in zip(x, pitch, yaw):
+        f.write("%.17g,%.17g,%.17g\n" % row)
+rc, out, err = run("straightness", path, "--json")
+check(rc == 0, "straightness exits 0 " + err.strip())
+st = json.loads(out)
+for plane, ang in (("vertical", pitch), ("horizontal", yaw)):
+    hh = np.concatenate([[0], np.cumsum(10e-3 * np.tan(np.radians(ang / 3600)))]) * 1e6
+    got = np.array([s["height_um"] for s in st[plane]["stations"]])
+    check(np.abs(got - hh).max() < 1e-9, plane + " heights equal numpy cumsum(step*tan)")
+    xs = np.arange(hh.size) * 10.0
+    res = hh - np.polyval(np.polyfit(xs, hh, 1), xs)
+    check(abs(st[plane]["least_squares"]["straightness_um"] - np.ptp(res)) < 1e-9, plane + " least-squares straightness equals numpy polyfit")
+    check(st[plane]["minimum_zone"]["straightness_um"] <= np.ptp(res) + 1e-12, plane + " minimum zone <= least squares")
+
+bad = {
+    "missing.csv": ("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n30,3\n", "missing.csv:5: missing station"),
+    "text.csv": ("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,n/a\n", "text.csv:4: column 'pitch_arcsec': 'n/a' is not a number"),
+    "range.csv": ("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,650\n", "range.csv:4: pitch_arcsec = 650 is outside the autocollimator range"),
+}
+for name, (text, msg) in bad.items():
+    p = os.path.join(tmp, name)
+    open(p, "w").write(text)
+    rc, out, err = run("straightness", p)
+    check(rc == 1 and msg in err, "bad traverse %s -> %s" % (name, err.strip()))
+
+# --- Run-out ----------------------------------------------------------------------------------------
+ang = np.arange(0, 360, 2.0)
+z = 0.7 + 0.15 * np.cos(np.radians(ang - 75)) + rng.normal(0, 0.01, ang.size)
+path = os.path.join(tmp, "runout.csv")
+with open(path, "w") as f:
+    f.write("# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n# travel_mm = 600\nangle_deg,runout_um\n")
+    for row in zip(ang, z):
+        f.write("%.17g,%.17g\n" % row)
+rc, out, err = run("runout", path, "--json")
+check(rc == 0, "runout exits 0 " + err.strip())
+ro = json.loads(out)
+phi = np.radians(ang)
+J = np.column_stack([np.ones_like(phi), np.cos(phi), np.sin(phi), np.cos(2 * phi), np.sin(2 * phi)])
+c = np.linalg.lstsq(J, z, rcond=None)[0]
+amp = np.hypot(c[1], c[2])
+check(abs(ro["once_per_rev"]["amplitude_um"] - amp) < 1e-12, "run-out amplitude equals numpy lstsq (%.4f um)" % amp)
+check(abs(ro["deflection_urad"] - (2 * amp + 2.5) / 1000 * 1e3) < 1e-9, "deflection (r + p) / L")
+check(abs(ro["squareness_amplitude_um"] - ro["deflection_urad"] * 0.6) < 1e-9, "squareness amplitude over 600 mm")
+
+shutil.rmtree(tmp, ignore_errors=True)
+if failures:
+    print("%d failure(s)" % len(failures))
+    sys.exit(1)
+print("all passed")
