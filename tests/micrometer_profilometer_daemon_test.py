@@ -1,0 +1,162 @@
+#!/usr/bin/python3
+"""guidewayd as a process with the micrometer-modbus and profilometer-tcp plugins, reading
+`guideway-emulate micrometer --rtu` (a pseudo-terminal), `guideway-emulate micrometer --tcp` and
+`guideway-emulate profilometer` processes. Faults are injected through the emulators' stdin; the
+daemon must report them (counters, lost state with a reason), reconnect and keep every device running.
+Usage: micrometer_profilometer_daemon_test.py BUILD_DIR"""
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
+GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
+EMULATE = os.path.join(BUILD, "simulators", "emulators", "guideway-emulate")
+
+
+def wait_for(predicate, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.05)
+    return predicate()
+
+
+class Emulator:
+    def __init__(self, *args):
+        self.p = subprocess.Popen([EMULATE, *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                  stderr=subprocess.DEVNULL, text=True)
+        self.address = self.p.stdout.readline().strip()  # HOST:PORT or the pty path, flushed at start
+
+    def command(self, line):
+        self.p.stdin.write(line + "\n")
+        self.p.stdin.flush()
+
+    def stop(self):
+        if self.p.poll() is None:
+            self.p.send_signal(signal.SIGTERM)
+            self.p.wait(timeout=10)
+        self.p.stdin.close()
+        self.p.stdout.close()
+
+
+class Client:
+    def __init__(self, path):
+        self.s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.s.connect(path)
+        self.f = self.s.makefile("r")
+        self.f.readline()  # VERSION banner
+
+    def close(self):
+        self.f.close()
+        self.s.close()
+
+    def status(self):
+        self.s.sendall(b'{"class":"status"}\n')
+        while True:
+            msg = json.loads(self.f.readline())
+            if msg.get("class") == "STATUS":
+                return {d["name"]: d for d in msg["devices"]}
+
+
+class MicrometerProfilometerDaemon(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(prefix="gwmp-")
+        self.addCleanup(self.tmp.cleanup)
+        self.rtu = Emulator("micrometer", "--rtu", "--rpm", "30")
+        self.tcp = Emulator("micrometer", "--tcp", "127.0.0.1:0")
+        self.prof = Emulator("profilometer", "--port", "0", "--synthetic", "--points", "500",
+                             "--points-per-s", "5000")
+        for e in (self.rtu, self.tcp, self.prof):
+            self.addCleanup(e.stop)
+        self.assertTrue(self.rtu.address.startswith("/dev/"), self.rtu.address)
+        host, port = self.tcp.address.rsplit(":", 1)
+        phost, pport = self.prof.address.rsplit(":", 1)
+        self.sock = os.path.join(self.tmp.name, "g.sock")
+        config = os.path.join(self.tmp.name, "g.toml")
+        with open(config, "w") as f:
+            f.write(f"""[daemon]
+status_period_s = 0.2
+[[device]]
+name = "mic-rtu"
+driver = "micrometer-modbus"
+transport = "rtu"
+device = "{self.rtu.address}"
+poll_hz = 50
+response_timeout_ms = 100
+backoff_initial_ms = 50
+backoff_max_ms = 400
+[[device]]
+name = "mic-tcp"
+driver = "micrometer-modbus"
+transport = "tcp"
+host = "{host}"
+port = {port}
+poll_hz = 50
+response_timeout_ms = 100
+backoff_initial_ms = 50
+backoff_max_ms = 400
+[device.registers]
+value_type = "int32"
+[[device]]
+name = "prof"
+driver = "profilometer-tcp"
+host = "{phost}"
+port = {pport}
+stall_timeout_ms = 300
+backoff_initial_ms = 50
+backoff_max_ms = 400
+""")
+        self.d = subprocess.Popen([GUIDEWAYD, "--config", config, "--socket", self.sock],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.addCleanup(lambda: self.d.poll() is None and self.d.kill())
+        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not start")
+        self.c = Client(self.sock)
+        self.addCleanup(self.c.close)
+
+    def streaming_with(self, name, samples):
+        d = self.c.status()[name]
+        return d["state"] == "streaming" and d["counters"]["samples"] >= samples
+
+    def test_all_three_stream_survive_faults_and_reconnect(self):
+        for name in ("mic-rtu", "mic-tcp", "prof"):
+            self.assertTrue(wait_for(lambda: self.streaming_with(name, 20)), self.c.status()[name])
+        before = self.c.status()
+        self.rtu.command("fault bad_crc 2")
+        self.rtu.command("fault exception 1")
+        self.tcp.command("fault stall 1")
+        self.tcp.command("fault garbage 1")
+        self.prof.command("fault bad_checksum 3")
+        self.assertTrue(wait_for(lambda: self.c.status()["mic-rtu"]["counters"]["bad_frames"]
+                                 >= before["mic-rtu"]["counters"]["bad_frames"] + 3))
+        self.assertTrue(wait_for(lambda: self.c.status()["mic-tcp"]["counters"]["timeouts"]
+                                 >= before["mic-tcp"]["counters"]["timeouts"] + 1))
+        self.assertTrue(wait_for(lambda: self.c.status()["prof"]["counters"]["bad_frames"]
+                                 >= before["prof"]["counters"]["bad_frames"] + 3))
+        # Unplug two instruments: they go lost with a reason and come back; the third keeps streaming.
+        self.tcp.command("disconnect 800")
+        self.prof.command("disconnect 800")
+        self.assertTrue(wait_for(lambda: self.c.status()["mic-tcp"]["state"] == "lost", 3))
+        self.assertTrue(wait_for(lambda: self.c.status()["prof"]["state"] == "lost", 3))
+        lost = self.c.status()
+        self.assertNotEqual(lost["mic-tcp"]["reason"], "")
+        self.assertEqual(lost["mic-rtu"]["state"], "streaming")
+        n = lost["mic-rtu"]["counters"]["samples"]
+        self.assertTrue(wait_for(lambda: self.c.status()["mic-rtu"]["counters"]["samples"] > n + 10))
+        for name in ("mic-tcp", "prof"):
+            self.assertTrue(wait_for(lambda: self.c.status()[name]["state"] == "streaming"
+                                     and self.c.status()[name]["counters"]["reconnects"] >= 1, 8),
+                            self.c.status()[name])
+        self.assertIsNone(self.d.poll(), "daemon died")
+        self.d.send_signal(signal.SIGTERM)
+        self.assertEqual(self.d.wait(timeout=10), 0)
+
+
+if __name__ == "__main__":
+    unittest.main()
