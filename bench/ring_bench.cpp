@@ -31,12 +31,7 @@ struct GuidewayQueue {
   guideway::SpscRing<T> q{capacity};
   bool push(const T& v) { return q.try_push(v); }
   bool pop(T& v) { return q.try_pop(v); }
-  std::size_t push_bulk(const T* p, std::size_t n) {
-    // push_bulk counts what did not fit as drops; a benchmark producer retries instead, so offer
-    // only what fits.
-    const std::size_t room = q.free_slots();
-    return q.push_bulk(std::span<const T>(p, n < room ? n : room));
-  }
+  std::size_t push_bulk(const T* p, std::size_t n) { return q.try_push_bulk(std::span<const T>(p, n)); }
   std::size_t pop_bulk(T* p, std::size_t n) { return q.pop_bulk(std::span<T>(p, n)); }
 };
 

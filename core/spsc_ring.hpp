@@ -50,6 +50,14 @@ class SpscRing {
   // Producer: pushes as many leading items as fit, counts the rest as drops, returns how many
   // were pushed. One release store publishes the whole span.
   std::size_t push_bulk(std::span<const T> items) noexcept {
+    const std::size_t n = try_push_bulk(items);
+    if (n < items.size()) count_drops(items.size() - n);
+    return n;
+  }
+
+  // Producer: like push_bulk, but what does not fit is left to the caller (not counted as dropped),
+  // for a producer that can hold data back and retry.
+  std::size_t try_push_bulk(std::span<const T> items) noexcept {
     const std::uint64_t head = producer_.head.load(std::memory_order_relaxed);
     std::size_t room = capacity_ - static_cast<std::size_t>(head - producer_.cached_tail);
     if (room < items.size()) {
@@ -59,7 +67,6 @@ class SpscRing {
     const std::size_t n = items.size() < room ? items.size() : room;
     copy_in(head, items.first(n));
     if (n != 0) producer_.head.store(head + n, std::memory_order_release);
-    if (n < items.size()) count_drops(items.size() - n);
     return n;
   }
 

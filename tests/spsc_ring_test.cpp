@@ -91,3 +91,18 @@ TEST(SpscRing, PopBulkReturnsOnlyWhatIsAvailable) {
   EXPECT_EQ(r.pop_bulk(out), 1u);
   EXPECT_EQ(out[0].seq, 7u);
 }
+
+TEST(SpscRing, TryPushBulkLeavesTheRestToTheCallerWithoutCountingDrops) {
+  SpscRing<int> r(4);
+  std::vector<int> in{1, 2, 3, 4, 5, 6};
+  EXPECT_EQ(r.try_push_bulk(in), 4u);
+  EXPECT_EQ(r.drops(), 0u);
+  int v = 0;
+  ASSERT_TRUE(r.try_pop(v));
+  EXPECT_EQ(r.try_push_bulk(std::span<const int>(in).subspan(4)), 1u);
+  EXPECT_EQ(r.drops(), 0u);
+  std::vector<int> out(8);
+  ASSERT_EQ(r.pop_bulk(out), 4u);
+  EXPECT_EQ(out[0], 2);
+  EXPECT_EQ(out[3], 5);
+}
