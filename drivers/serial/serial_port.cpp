@@ -263,7 +263,9 @@ std::unique_ptr<SerialLine> open_serial(const SerialSettings& s, std::string& er
     case Backend::libserialport: return open_libserialport(s, error);
     case Backend::automatic: break;
   }
-  if (is_pseudo_terminal(s.port)) return open_termios(s, error);
+  std::error_code ec;
+  // Pseudo-terminals, and paths that do not exist (the clearest error comes from open()).
+  if (is_pseudo_terminal(s.port) || !std::filesystem::exists(s.port, ec)) return open_termios(s, error);
   std::string sp_error;
   auto line = open_libserialport(s, sp_error);
   if (line) return line;
