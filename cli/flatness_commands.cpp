@@ -175,7 +175,7 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
                   << "), maximum at " << std::setprecision(2) << r.phase_rad * 180 / std::numbers::pi << " deg (u "
                   << r.u_phase_rad * 180 / std::numbers::pi << ")\n"
                   << std::setprecision(4) << "run-out r = 2A = " << r.runout_m * 1e6 << " um (u " << r.u_runout_m * 1e6
-                  << "), parallelism p = " << r.parallelism_m * 1e6 << " um, plate diameter L = "
+                  << "), parallelism p = " << r.parallelism_m * 1e6 << " um, plate diameter L = " << std::setprecision(1)
                   << r.plate_diameter_m * 1e3 << " mm\n"
                   << "deflection angle = squareness (r + p) / L = " << std::setprecision(3) << r.deflection_rad * 1e6
                   << " urad (u " << r.u_deflection_rad * 1e6 << ")\n";
