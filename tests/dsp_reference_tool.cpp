@@ -51,6 +51,17 @@ json run_case(const json& c) {
     r["coeffs"] = gd::wavedec(c.at("x").get<std::vector<double>>(), w, mode, level);
   } else if (op == "waverec") {
     r["x"] = gd::waverec(c.at("coeffs").get<gd::Coefficients>(), w, mode);
+  } else if (op == "roundtrip") {
+    // waverec(wavedec(x)) trimmed to N, and the sum of the MRA components.
+    const auto x = c.at("x").get<std::vector<double>>();
+    auto rec = gd::waverec(gd::wavedec(x, w, mode, level), w, mode);
+    rec.resize(x.size());
+    std::vector<double> sum(x.size(), 0.0);
+    for (const auto& comp : gd::mra(x, w, mode, level)) {
+      for (std::size_t i = 0; i < x.size(); ++i) sum[i] += comp[i];
+    }
+    r["rec"] = rec;
+    r["mra_sum"] = sum;
   } else if (op == "mra") {
     r["components"] = gd::mra(c.at("x").get<std::vector<double>>(), w, mode, level);
   } else if (op == "dwt") {

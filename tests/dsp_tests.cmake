@@ -5,3 +5,11 @@ target_compile_options(dsp_reference_tool PRIVATE -ffp-contract=off)
 add_test(NAME dsp_reference_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/dsp_reference_test.py $<TARGET_FILE:dsp_reference_tool>)
 set_tests_properties(dsp_reference_test PROPERTIES LABELS unit TIMEOUT 300)
+guideway_add_test(dsp_streaming_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_streaming_test.cpp LIBS guideway_dsp LABELS unit)
+target_compile_options(dsp_streaming_test PRIVATE -ffp-contract=off)
+guideway_add_test(dsp_wavelet_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_wavelet_test.cpp LIBS guideway_dsp LABELS unit)
+guideway_add_test(dsp_correlation_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_correlation_test.cpp LIBS guideway_dsp LABELS unit)
+add_test(NAME dsp_x3p_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/dsp_x3p_test.py $<TARGET_FILE:dsp_reference_tool>
+          ${PROJECT_SOURCE_DIR}/../shared/data/x3p/sample-land.x3p)
+set_tests_properties(dsp_x3p_test PROPERTIES LABELS unit TIMEOUT 120)
