@@ -135,7 +135,7 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
         std::cout << "flatness (Moody datum): " << r.flatness_m * 1e6 << " um";
         if (inch) std::cout << " = " << r.flatness_m / unit << " " << uname;
         std::cout << "\nflatness about the least-squares plane of the Moody heights: " << r.flatness_lsq_plane_m * 1e6
-                  << " um\n";
+                  << " um\nflatness (minimum zone of the Moody heights): " << r.flatness_min_zone_m * 1e6 << " um\n";
         for (const auto& l : r.lines)
           if (l.closure_m)
             std::cout << "closure of " << l.name << ": " << *l.closure_m * 1e6 << " um = " << *l.closure_m / unit << " "
@@ -149,7 +149,7 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
         }
         if (r.lsq)
           std::cout << "least squares (all lines, one angular offset per line): flatness about the plane "
-                    << r.lsq->flatness_m * 1e6 << " um, residual rms " << r.lsq->residual_rms_rad / gm::rad_per_arcsec
+                    << r.lsq->flatness_m * 1e6 << " um, minimum zone " << r.lsq->flatness_min_zone_m * 1e6 << " um, residual rms " << r.lsq->residual_rms_rad / gm::rad_per_arcsec
                     << " arcsec, redundancy " << r.lsq->redundancy << "\n";
       });
     });

@@ -142,6 +142,27 @@ dev = np.abs(ours - h[ours_idx] * 1e6).max()
 check(len(ours) == U and dev < 1e-9, "--least-squares equals numpy lstsq: max |dev| %.2g um over %d stations" % (dev, U))
 check(lsq["redundancy"] == len(y) - rank, "redundancy %d = readings - rank" % lsq["redundancy"])
 
+# Minimum zone against scipy's linprog: min w s.t. a x + b y + c <= z <= a x + b y + c + w.
+from scipy.optimize import linprog
+
+
+def zone(pts):
+    pts = np.asarray(pts)
+    n = len(pts)
+    X = np.column_stack([pts[:, 0], pts[:, 1], np.ones(n)])
+    A = np.vstack([np.column_stack([X, np.zeros(n)]), np.column_stack([-X, -np.ones(n)])])
+    b = np.concatenate([pts[:, 2], -pts[:, 2]])
+    res = linprog([0, 0, 0, 1], A_ub=A, b_ub=b, bounds=[(None, None)] * 4, method="highs")
+    return res.fun
+
+
+moody_pts = [(s["x_steps"], s["y_steps"], s["height_um"]) for line in uj["lines"] for s in line["stations"]]
+z_ref = zone(moody_pts)
+check(abs(uj["flatness_min_zone_um"] - z_ref) < 1e-7, "Moody minimum zone %.6f um equals scipy linprog %.6f" % (uj["flatness_min_zone_um"], z_ref))
+lsq_pts = [(s["x_steps"], s["y_steps"], s["height_um"]) for s in lsq["stations"]]
+z_ref = zone(lsq_pts)
+check(abs(lsq["flatness_min_zone_um"] - z_ref) < 1e-7, "least-squares minimum zone %.6f um equals scipy linprog %.6f" % (lsq["flatness_min_zone_um"], z_ref))
+
 # --- Straightness -----------------------------------------------------------------------------------
 tmp = tempfile.mkdtemp(prefix="gw-flat-")
 rng = np.random.default_rng(5)

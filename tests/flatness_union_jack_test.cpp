@@ -7,8 +7,10 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <sstream>
 
+#include "models/flatness/minimum_zone.hpp"
 #include "models/flatness/table_reader.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "test_support.hpp"
@@ -76,6 +78,8 @@ TEST(FlatnessUnionJack, ReproducesMoody1955) {
   EXPECT_NEAR(*r.lines[7].closure_m / tens_of_microinch, 0.0, 2e-5);
   // Flatness: highest station over the datum (the lowest station is at 0).
   EXPECT_NEAR(r.flatness_m / tens_of_microinch, 17.841145, 2e-5);
+  EXPECT_LE(r.flatness_min_zone_m, r.flatness_lsq_plane_m);
+  EXPECT_GT(r.flatness_min_zone_m, 0.5 * r.flatness_lsq_plane_m);
   std::printf("Moody 1955: %zu station heights, max |deviation| %.3g tens of micro-inch (%.3g pm); flatness %.6f "
               "(x10 uin) = %.4f um; closure E_W %.4f um, N_S %.2g um\n",
               compared, worst, worst * tens_of_microinch * 1e12, r.flatness_m / tens_of_microinch, r.flatness_m * 1e6,
@@ -171,6 +175,57 @@ TEST(FlatnessUnionJack, RecoversAKnownSurface) {
   for (const auto& l : r.lines) all.insert(all.end(), l.stations.begin(), l.stations.end());
   EXPECT_LT(plane_residual_range(all), 1e-13);
   EXPECT_LT(plane_residual_range(r.lsq->stations), 1e-13);
+}
+
+// Minimum-zone flatness (linear programme) against brute force: the optimum of the vertical zone is
+// parallel to a plane through 3 points or to two point-pair directions (2-2 contact).
+double brute_force_zone(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z) {
+  const std::size_t n = x.size();
+  double best = 1e300;
+  auto width = [&](double nx, double ny, double nz) {
+    if (std::abs(nz) < 1e-12) return;
+    const double a = -nx / nz, b = -ny / nz;
+    double lo = 1e300, hi = -1e300;
+    for (std::size_t k = 0; k < n; ++k) lo = std::min(lo, z[k] - a * x[k] - b * y[k]), hi = std::max(hi, z[k] - a * x[k] - b * y[k]);
+    best = std::min(best, hi - lo);
+  };
+  auto cross = [&](double ax, double ay, double az, double bx, double by, double bz) {
+    width(ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx);
+  };
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = 0; j < n; ++j)
+      for (std::size_t k = 0; k < n; ++k)
+        for (std::size_t l = 0; l < n; ++l) {
+          if (j <= i || l <= k) continue;
+          // pair (i, j) and pair (k, l) directions; with k == i this is the plane through i, j, l.
+          cross(x[j] - x[i], y[j] - y[i], z[j] - z[i], x[l] - x[k], y[l] - y[k], z[l] - z[k]);
+        }
+  return best;
+}
+
+TEST(FlatnessUnionJack, MinimumZoneMatchesBruteForce) {
+  std::mt19937_64 rng(99);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> uni(0.0, 10.0);
+  for (int trial = 0; trial < 40; ++trial) {
+    const std::size_t n = 6 + static_cast<std::size_t>(trial % 7);
+    std::vector<double> x(n), y(n), z(n);
+    for (std::size_t k = 0; k < n; ++k) x[k] = uni(rng), y[k] = uni(rng), z[k] = 1e-6 * (g(rng) + 0.3 * x[k] - 0.2 * y[k]);
+    const auto mz = minimum_zone_flatness(x, y, z);
+    EXPECT_NEAR(mz.width, brute_force_zone(x, y, z), 1e-15) << trial;
+    for (std::size_t k = 0; k < n; ++k) {
+      const double d = z[k] - (mz.a * x[k] + mz.b * y[k] + mz.c);
+      EXPECT_GE(d, -1e-15);
+      EXPECT_LE(d, mz.width + 1e-15);
+    }
+  }
+  // A tilted plane is flat; a saddle on a grid has its known zone.
+  std::vector<double> x, y, z;
+  for (int i = 0; i <= 4; ++i)
+    for (int j = 0; j <= 4; ++j) x.push_back(i), y.push_back(j), z.push_back(2.0 + 0.1 * i - 0.3 * j);
+  EXPECT_NEAR(minimum_zone_flatness(x, y, z).width, 0.0, 1e-12);
+  for (std::size_t k = 0; k < z.size(); ++k) z[k] = (x[k] - 2) * (y[k] - 2);
+  EXPECT_NEAR(minimum_zone_flatness(x, y, z).width, brute_force_zone(x, y, z), 1e-12);
 }
 
 class BadSet : public ::testing::Test {

@@ -99,6 +99,7 @@ nlohmann::json to_json(const UnionJackResult& r, bool inch) {
   j["steps"] = {{"long", r.long_steps}, {"short", r.short_steps}, {"diagonal", r.diagonal_steps}};
   j["flatness_um"] = r.flatness_m * um;
   j["flatness_lsq_plane_um"] = r.flatness_lsq_plane_m * um;
+  j["flatness_min_zone_um"] = r.flatness_min_zone_m * um;
   if (inch) j["flatness_10uin"] = r.flatness_m * tens_of_microinch_per_m;
   nlohmann::json closure;
   nlohmann::json lines = nlohmann::json::array();
@@ -119,6 +120,7 @@ nlohmann::json to_json(const UnionJackResult& r, bool inch) {
     nlohmann::json offsets;
     for (std::size_t i = 0; i < 8; ++i) offsets[union_jack_names[i]] = l.offset_rad[i] / rad_per_arcsec;
     j["least_squares"] = {{"flatness_um", l.flatness_m * um},
+                          {"flatness_min_zone_um", l.flatness_min_zone_m * um},
                           {"residual_rms_arcsec", l.residual_rms_rad / rad_per_arcsec},
                           {"readings", l.readings},
                           {"unknowns", l.unknowns},

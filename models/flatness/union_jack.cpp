@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include "models/flatness/minimum_zone.hpp"
 #include "models/flatness/table_reader.hpp"
 
 namespace guideway::models {
@@ -203,6 +204,9 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
     }
     const Eigen::VectorXd res = y - a * a.colPivHouseholderQr().solve(y);
     r.flatness_lsq_plane_m = res.maxCoeff() - res.minCoeff();
+    std::vector<double> xs, ys, zs;
+    for (const auto& st : all) xs.push_back(st.x_steps), ys.push_back(st.y_steps), zs.push_back(st.height_m);
+    r.flatness_min_zone_m = minimum_zone_flatness(xs, ys, zs).width;
   }
 
   if (options.least_squares) {
@@ -260,6 +264,11 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
     lsq.unknowns = u + 8;
     lsq.redundancy = m - static_cast<std::size_t>(cod.rank());
     lsq.flatness_m = heights.maxCoeff() - heights.minCoeff();
+    {
+      std::vector<double> xs, ys, zs;
+      for (const auto& st : lsq.stations) xs.push_back(st.x_steps), ys.push_back(st.y_steps), zs.push_back(st.height_m);
+      lsq.flatness_min_zone_m = minimum_zone_flatness(xs, ys, zs).width;
+    }
     r.lsq = std::move(lsq);
   }
   return r;

@@ -59,6 +59,7 @@ struct UnionJackLsq {
   std::size_t unknowns = 0;
   std::size_t redundancy = 0;              // readings - rank
   double flatness_m = 0.0;                 // max - min over the unique stations
+  double flatness_min_zone_m = 0.0;        // minimum zone of the unique stations
 };
 
 struct UnionJackResult {
@@ -67,6 +68,7 @@ struct UnionJackResult {
   std::array<UnionJackLineResult, 8> lines;
   double flatness_m = 0.0;     // Moody: highest minus lowest station over the datum plane
   double flatness_lsq_plane_m = 0.0;  // Moody heights, peak to valley about their least-squares plane
+  double flatness_min_zone_m = 0.0;   // Moody heights, minimum zone (ISO 12781 flatness)
   std::vector<std::string> warnings;  // e.g. station counts far from Pythagoras
   std::optional<UnionJackLsq> lsq;
 };
