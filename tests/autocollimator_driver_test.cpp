@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <thread>
 
 #include "drivers/autocollimator/autocollimator_driver.hpp"
 #include "simulators/emulators/autocollimator_emulator.hpp"
@@ -69,16 +70,19 @@ struct Bench {
         },
         timeout);
   }
-  // Stops the emulator first (everything it wrote is read by then), then checks every reading sent.
+  // Silences the emulator first and lets the driver read everything it wrote, then checks every
+  // reading sent against the samples.
   void stop_and_check_all() {
+    emu.inject_stall(1e6);
+    std::this_thread::sleep_for(50ms);  // a reading being written when the stall began is logged by now
+    const auto log = emu.log();
     test::eventually([&] {
       drain();
-      return samples.size() >= emu.log().size();
-    }, 2s);
+      return samples.size() >= log.size();
+    });
     driver->stop();
     emu.stop();
     drain();
-    const auto log = emu.log();
     ASSERT_EQ(samples.size(), log.size()) << "every reading put on the line becomes exactly one sample";
     for (std::size_t i = 0; i < samples.size(); ++i) {
       const Sample& s = samples[i];

@@ -59,6 +59,28 @@ TEST(DbbProtocol, ClassifiesTheFramesOfTheProfile) {
   EXPECT_EQ(classify_frame(f).kind, FrameInfo::Kind::other);
 }
 
+TEST(DbbProtocol, TheExampleOfTheProtocolDocumentDecodesAsDocumented) {
+  // docs/protocols.md: 080#, 181#E8030000, 182#40420F00, 183#C0BDF0FF -> [0.1001, 0.1, -0.1] m.
+  DbbDecoder d({{"bar_length", 1, 1e-7, +1, 0, 0.1}, {"x", 2, 1e-7, +1, 0, 0.0}, {"y", 3, 1e-7, +1, 0, 0.0}});
+  auto pdo = [](canid_t id, std::array<std::uint8_t, 4> b) {
+    can_frame f{};
+    f.can_id = id;
+    f.can_dlc = 4;
+    std::copy(b.begin(), b.end(), f.data);
+    return f;
+  };
+  DbbCycle c;
+  d.feed(make_sync_frame(), 1, c);
+  d.feed(pdo(0x181, {0xE8, 0x03, 0x00, 0x00}), 2, c);
+  d.feed(pdo(0x182, {0x40, 0x42, 0x0F, 0x00}), 3, c);
+  ASSERT_TRUE(d.feed(pdo(0x183, {0xC0, 0xBD, 0xF0, 0xFF}), 4, c).cycle_ready);
+  EXPECT_NEAR(c.position_m[0], 0.1001, 1e-12);
+  EXPECT_NEAR(c.position_m[1], 0.1, 1e-12);
+  EXPECT_NEAR(c.position_m[2], -0.1, 1e-12);
+  EXPECT_EQ(c.flags, 0u);
+  EXPECT_EQ(c.t_sync_ns, 1);
+}
+
 TEST(DbbProtocol, UnwrapsAcrossThe32BitWrapExactly) {
   std::mt19937_64 rng(42);
   DbbDecoder d(encoders());

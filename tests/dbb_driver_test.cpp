@@ -9,6 +9,7 @@
 
 #include "core/mono_clock.hpp"
 #include "drivers/dbb/dbb_driver.hpp"
+#include "simulators/emulators/can_serial_machine_sources.hpp"
 #include "simulators/emulators/dbb_emulator.hpp"
 #include "test_support.hpp"
 
@@ -132,6 +133,38 @@ TEST(DbbDriver, DriverProducesSyncAndEverySampleMatchesTheEmulator) {
   const double mean_period_s = span_s / static_cast<double>(b.samples.size() - 1);
   EXPECT_GT(mean_period_s, 0.0045);  // never faster than the rate (late SYNCs are skipped, not bunched)
   EXPECT_LT(mean_period_s, 0.010);   // and not much slower, even on a loaded machine
+}
+
+TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircle) {
+  // The demo machine (squareness, servo mismatch, backlash, bar noise) runs a 100 mm circle at a
+  // fast feed so the test sees a good part of it; the samples must equal the machine's bar length
+  // and axis encoders at the emulator's times, to the encoder resolution.
+  const sim::Machine machine(emulators::demo_machine_config());
+  sim::DbbCircleSpec spec;
+  spec.radius_m = 0.1;
+  spec.feed_m_per_s = 0.5;
+  spec.sample_rate_hz = 2000.0;
+  auto motion = emulators::make_dbb_motion(machine, spec);
+  ASSERT_GT(motion->duration_s, 1.0);
+  Bench b(true, 200.0, 150, emulators::dbb_motion_source(motion));
+  ASSERT_TRUE(b.wait_samples(150));
+  b.stop_and_check_all();
+  const auto log = b.emu.log();
+  double min_dl = 1, max_dl = -1;
+  for (std::size_t i = 0; i < b.samples.size(); ++i) {
+    double truth[3];
+    motion->at(log[i].t_s, truth);
+    // Encoder scales differ per node (y: 50 nm, counting negative, zero at 1000).
+    EXPECT_NEAR(b.samples[i].value[0] - 0.1, truth[0] - 0.1, 0.51e-7) << i;
+    EXPECT_NEAR(b.samples[i].value[1], truth[1], 0.51e-7) << i;
+    EXPECT_NEAR(b.samples[i].value[2], truth[2], 0.26e-7) << i;
+    const double dl = b.samples[i].value[0] - motion->run.nominal_length_m;
+    min_dl = std::min(min_dl, dl);
+    max_dl = std::max(max_dl, dl);
+  }
+  // The machine's errors show in the bar.
+  EXPECT_GT(max_dl - min_dl, 0.2e-6);
+  EXPECT_LT(max_dl - min_dl, 2e-3);  // 30 m/min with a 1 ms servo mismatch: large, but not absurd
 }
 
 TEST(DbbDriver, ListenOnlyFollowsTheControllersSync) {

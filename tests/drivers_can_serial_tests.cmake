@@ -1,5 +1,5 @@
 # CAN (dbb-can) and serial (autocollimator-serial) drivers, their transports, parsers and emulators.
-guideway_add_test(dbb_driver_test SOURCES dbb_driver_test.cpp LIBS guideway_dbb guideway_emu_dbb
+guideway_add_test(dbb_driver_test SOURCES dbb_driver_test.cpp LIBS guideway_dbb guideway_emu_can_serial_sources
                   LABELS integration tsan TIMEOUT 180)
 guideway_add_test(autocollimator_driver_test SOURCES autocollimator_driver_test.cpp
                   LIBS guideway_autocollimator guideway_emu_can_serial_sources LABELS integration tsan TIMEOUT 180)

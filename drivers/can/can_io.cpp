@@ -203,6 +203,31 @@ bool write_can_record(int fd, const void* data, std::size_t size, std::string& e
   }
 }
 
+bool write_can_frames(int fd, const can_frame* frames, std::size_t count, std::string& error) {
+  constexpr std::size_t batch = 64;
+  while (count > 0) {
+    const std::size_t n = count < batch ? count : batch;
+    iovec iov[batch];
+    mmsghdr msgs[batch];
+    std::memset(msgs, 0, sizeof msgs);
+    for (std::size_t i = 0; i < n; ++i) {
+      iov[i].iov_base = const_cast<can_frame*>(&frames[i]);
+      iov[i].iov_len = sizeof(can_frame);
+      msgs[i].msg_hdr.msg_iov = &iov[i];
+      msgs[i].msg_hdr.msg_iovlen = 1;
+    }
+    const int sent = ::sendmmsg(fd, msgs, static_cast<unsigned>(n), MSG_NOSIGNAL);
+    if (sent < 0) {
+      if (errno == EINTR) continue;
+      error = errno_text("sendmmsg", errno);
+      return false;
+    }
+    frames += sent;
+    count -= static_cast<std::size_t>(sent);
+  }
+  return true;
+}
+
 bool write_can_frame(int fd, const can_frame& frame, std::string& error) {
   return write_can_record(fd, &frame, sizeof frame, error);
 }

@@ -78,6 +78,9 @@ ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd,
 
 // Writes one frame; false with `error` on failure (EAGAIN counts as failure: the bus is congested).
 bool write_can_frame(int fd, const can_frame& frame, std::string& error);
+// Writes several frames with one system call (sendmmsg), so a peer never sees half of a batch
+// because the writer was descheduled; false with `error` unless all were written.
+bool write_can_frames(int fd, const can_frame* frames, std::size_t count, std::string& error);
 // Writes `size` raw bytes as one record (fault injection: truncated frames).
 bool write_can_record(int fd, const void* data, std::size_t size, std::string& error);
 

@@ -86,10 +86,36 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
 void DbbDriver::drain(int fd, DbbDecoder& decoder) {
   can_frame f{};
   std::string error;
-  while (can::read_can_frame(fd, f, 0, -1, error) == can::ReadResult::frame) {
-    frames_.fetch_add(1, std::memory_order_relaxed);
-    DbbCycle cycle;
-    if (decoder.feed(f, mono_now_ns(), cycle).cycle_ready) publish_cycle(cycle);
+  for (;;) {
+    const can::ReadResult r = can::read_can_frame(fd, f, 0, -1, error);
+    if (r == can::ReadResult::truncated) {
+      bad_frames_.fetch_add(1, std::memory_order_relaxed);
+      continue;
+    }
+    if (r != can::ReadResult::frame) return;  // EOF and errors are seen again by serve()
+    handle_frame(f, mono_now_ns(), decoder);
+  }
+}
+
+void DbbDriver::handle_frame(const can_frame& f, std::int64_t now, DbbDecoder& decoder) {
+  frames_.fetch_add(1, std::memory_order_relaxed);
+  DbbCycle cycle;
+  const auto res = decoder.feed(f, now, cycle);
+  if (res.info.kind == FrameInfo::Kind::bad) bad_frames_.fetch_add(1, std::memory_order_relaxed);
+  if (res.info.kind == FrameInfo::Kind::error_frame) {
+    error_frames_.fetch_add(1, std::memory_order_relaxed);
+    bad_frames_.fetch_add(1, std::memory_order_relaxed);
+    if (res.info.error_class & CAN_ERR_BUSOFF) {
+      set_state(drivers::DeviceState::error, "CAN bus off");
+      silent_ = true;
+    }
+  }
+  if (res.cycle_ready) {
+    publish_cycle(cycle);
+    if (silent_) {
+      set_state(drivers::DeviceState::streaming);
+      silent_ = false;
+    }
   }
 }
 
@@ -100,11 +126,15 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
   const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
   std::int64_t next_sync = mono_now_ns();
   std::int64_t last_rx = mono_now_ns();
-  bool silent = false;
+  silent_ = false;
   std::string error;
   while (!stop.stop_requested()) {
     std::int64_t now = mono_now_ns();
     if (settings_.produce_sync && now >= next_sync) {
+      // Frames already queued were on the bus before this SYNC: consume them first, so a cycle's
+      // last PDO waiting in the socket is not cut off by our own next SYNC.
+      drain(fd, decoder);
+      now = mono_now_ns();
       const can_frame sync = make_sync_frame();
       if (!can::write_can_frame(fd, sync, error)) {
         drain(fd, decoder);
@@ -123,29 +153,10 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
     const can::ReadResult r = can::read_can_frame(fd, f, wait_ms, wake_fd_, error);
     now = mono_now_ns();
     switch (r) {
-      case can::ReadResult::frame: {
-        frames_.fetch_add(1, std::memory_order_relaxed);
+      case can::ReadResult::frame:
         last_rx = now;
-        DbbCycle cycle;
-        const auto res = decoder.feed(f, now, cycle);
-        if (res.info.kind == FrameInfo::Kind::bad) bad_frames_.fetch_add(1, std::memory_order_relaxed);
-        if (res.info.kind == FrameInfo::Kind::error_frame) {
-          error_frames_.fetch_add(1, std::memory_order_relaxed);
-          bad_frames_.fetch_add(1, std::memory_order_relaxed);
-          if (res.info.error_class & CAN_ERR_BUSOFF) {
-            set_state(drivers::DeviceState::error, "CAN bus off");
-            silent = true;
-          }
-        }
-        if (res.cycle_ready) {
-          publish_cycle(cycle);
-          if (silent) {
-            set_state(drivers::DeviceState::streaming);
-            silent = false;
-          }
-        }
+        handle_frame(f, now, decoder);
         break;
-      }
       case can::ReadResult::truncated:
         bad_frames_.fetch_add(1, std::memory_order_relaxed);
         last_rx = now;
@@ -155,9 +166,9 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
           timeouts_.fetch_add(1, std::memory_order_relaxed);
           set_state(drivers::DeviceState::lost,
                     "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
-          silent = true;
+          silent_ = true;
           last_rx = now;       // count one timeout per silent period
-          decoder.resync();    // what comes next follows a gap
+          decoder.mark_gap();  // what comes next follows a gap
         }
         break;
       case can::ReadResult::woken:

@@ -48,11 +48,13 @@ class DbbDriver : public drivers::Driver {
   // Serves one connection until it fails or stop is requested; returns the reason it ended.
   std::string serve(const std::stop_token& stop, int fd, DbbDecoder& decoder);
   void publish_cycle(const DbbCycle& cycle);
-  void drain(int fd, DbbDecoder& decoder);  // reads what is still queued (after a failed write)
+  void drain(int fd, DbbDecoder& decoder);  // consumes every frame already queued, without waiting
+  void handle_frame(const can_frame& frame, std::int64_t t_ns, DbbDecoder& decoder);
 
   DbbSettings settings_;
   CanConnector connector_;
   int wake_fd_ = -1;
+  bool silent_ = false;  // driver thread: lost/bus-off until the next sample
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> partial_cycles_{0};
 };

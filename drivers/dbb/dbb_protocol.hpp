@@ -87,6 +87,9 @@ class DbbDecoder {
   // Emits the open cycle if it has data that was not emitted yet (partial); call before resync()
   // when a connection ends so nothing received is lost.
   bool flush(DbbCycle& cycle);
+  // The next cycle that opens carries sample_after_gap (after a silence); the open cycle stays, so
+  // late PDOs still complete it.
+  void mark_gap() noexcept { gap_ = true; }
   // Forget the open cycle (after a reconnect); the next emitted cycle carries sample_after_gap.
   // Unwrapping continues (the encoders kept counting) unless reset_counts is set.
   void resync(bool reset_counts = false);

@@ -86,45 +86,51 @@ void DbbEmulator::close_conn() {
   connected_ = false;
 }
 
-void DbbEmulator::send_faults(int fd) {
+bool DbbEmulator::send_faults(int fd, std::vector<can_frame>& batch) {
   std::string err;
   auto next = [this] {
     rng_ = rng_ * 1664525u + 1013904223u;
-    return rng_;
+    return rng_ >> 8;
   };
+  const std::uint8_t node0 = settings_.encoders.empty() ? 1 : settings_.encoders[0].node_id;
   for (int n = garbage_.exchange(0); n > 0; --n) {
     can_frame f{};
     f.can_id = 0x700 + (next() % 0x100);  // NMT heartbeat / foreign range: never ours
     f.can_dlc = static_cast<std::uint8_t>(next() % 9);
     for (auto& b : f.data) b = static_cast<std::uint8_t>(next());
-    can::write_can_frame(fd, f, err);
-  }
-  for (int n = truncated_.exchange(0); n > 0; --n) {
-    const can_frame f = dbb::make_position_pdo(settings_.encoders.empty() ? 1 : settings_.encoders[0].node_id, next());
-    can::write_can_record(fd, &f, 1 + next() % (sizeof f - 1), err);
+    batch.push_back(f);
   }
   for (int n = bad_.exchange(0); n > 0; --n) {
-    can_frame f = dbb::make_position_pdo(settings_.encoders.empty() ? 1 : settings_.encoders[0].node_id, next());
-    if (n % 2 == 0) {
-      f.can_dlc = static_cast<std::uint8_t>(5 + next() % 4);
-    } else {
-      f.can_dlc = 2;
-    }
-    can::write_can_frame(fd, f, err);
+    can_frame f = dbb::make_position_pdo(node0, next());
+    f.can_dlc = n % 2 == 0 ? static_cast<std::uint8_t>(5 + next() % 4) : 2;
+    batch.push_back(f);
   }
   for (int n = error_frames_.exchange(0); n > 0; --n) {
     can_frame f{};
     f.can_id = CAN_ERR_FLAG | (bus_off_ ? CAN_ERR_BUSOFF : (CAN_ERR_PROT | CAN_ERR_CRTL));
     f.can_dlc = CAN_ERR_DLC;
-    can::write_can_frame(fd, f, err);
+    batch.push_back(f);
   }
+  // Truncated records cannot be batched as can_frames: flush the batch, then write them short.
+  const int truncated = truncated_.exchange(0);
+  if (truncated > 0) {
+    if (!can::write_can_frames(fd, batch.data(), batch.size(), err)) return false;
+    batch.clear();
+    for (int n = truncated; n > 0; --n) {
+      const can_frame f = dbb::make_position_pdo(node0, next());
+      can::write_can_record(fd, &f, 1 + next() % (sizeof f - 1), err);
+    }
+  }
+  return true;
 }
 
 void DbbEmulator::send_cycle(int fd, bool with_sync) {
   const std::int64_t now = mono_now_ns();
   std::string err;
-  if (with_sync && !can::write_can_frame(fd, dbb::make_sync_frame(), err)) return;
-  send_faults(fd);
+  // A cycle goes out as one batch (like a node's TPDOs right after SYNC): SYNC, injected faults, PDOs.
+  std::vector<can_frame> batch;
+  if (with_sync) batch.push_back(dbb::make_sync_frame());
+  if (!send_faults(fd, batch)) return;
   DbbSentCycle c;
   c.t_s = static_cast<double>(now - t0_ns_) * 1e-9;
   c.truth_m.assign(settings_.encoders.size(), 0.0);
@@ -138,10 +144,11 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
         --drop_cycles_[i];
         continue;
       }
-      if (!can::write_can_frame(fd, dbb::make_position_pdo(settings_.encoders[i].node_id, c.counts[i]), err)) return;
+      batch.push_back(dbb::make_position_pdo(settings_.encoders[i].node_id, c.counts[i]));
       c.sent_mask |= 1u << i;
     }
   }
+  if (!can::write_can_frames(fd, batch.data(), batch.size(), err)) return;
   cycles_.fetch_add(1);
   std::lock_guard lock(log_mutex_);
   log_.push_back(std::move(c));

@@ -71,7 +71,7 @@ class DbbEmulator {
   void loop();
   void wake();
   void send_cycle(int fd, bool with_sync);
-  void send_faults(int fd);
+  bool send_faults(int fd, std::vector<can_frame>& batch);
   void close_conn();
 
   DbbEmulatorSettings settings_;
