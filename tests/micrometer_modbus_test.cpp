@@ -40,7 +40,8 @@ struct Harness {
                            "backoff_initial_ms = 50\nbackoff_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
-    driver = std::make_unique<micrometer::MicrometerDriver>("mic", micrometer::parse_micrometer_config(reader), 1 << 14);
+    driver =
+        std::make_unique<micrometer::MicrometerDriver>("mic", micrometer::parse_micrometer_config(reader), 1 << 14);
     reader.reject_unknown_keys();
   }
   ~Harness() {
@@ -138,9 +139,10 @@ TEST_P(MicrometerTransport, SurvivesEveryFaultAndLosesNothing) {
     bool counts_bad;  // else counts a timeout
   };
   const bool rtu = GetParam();
-  for (const Step step : {Step{ModbusFault::burst, true}, Step{ModbusFault::exception, true}, Step{ModbusFault::stall, false},
-                          Step{ModbusFault::bad_crc, true}, Step{ModbusFault::truncate, false},
-                          Step{ModbusFault::garbage, true}, Step{ModbusFault::burst, true}}) {
+  for (const Step step :
+       {Step{ModbusFault::burst, true}, Step{ModbusFault::exception, true}, Step{ModbusFault::stall, false},
+        Step{ModbusFault::bad_crc, true}, Step{ModbusFault::truncate, false}, Step{ModbusFault::garbage, true},
+        Step{ModbusFault::burst, true}}) {
     SCOPED_TRACE(std::string(emulators::to_string(step.fault)));
     const auto before = counters();
     const std::size_t have = h.samples.size();

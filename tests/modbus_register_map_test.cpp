@@ -62,7 +62,7 @@ TEST(RegisterMap, RejectsBadConfigWithFileLineAndKey) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("test.toml:1: device[0].registers.value_type"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(map_from("value_address = 0\nstatus_address = 1\n"), ConfigError);  // overlaps the int32 value
+  EXPECT_THROW(map_from("value_address = 0\nstatus_address = 1\n"), ConfigError);    // overlaps the int32 value
   EXPECT_THROW(map_from("value_address = 0\nstatus_address = 300\n"), ConfigError);  // > 125 registers apart
   EXPECT_THROW(map_from("scale_um = 0\n"), ConfigError);
   EXPECT_THROW(map_from("wordorder = \"big\"\n"), ConfigError);  // typo caught by reject_unknown_keys
@@ -80,7 +80,8 @@ TEST(RegisterMap, RandomizedDecodeNeverFailsAndRoundTrips) {
     m.value_type = types[pick(5)];
     m.word_order = pick(2) ? WordOrder::big : WordOrder::little;
     m.value_address = static_cast<std::uint16_t>(pick(4) == 0 ? 65535 - pick(3) : pick(200));
-    m.status_address = pick(3) == 0 ? std::nullopt : std::optional<std::uint16_t>(static_cast<std::uint16_t>(pick(260)));
+    m.status_address =
+        pick(3) == 0 ? std::nullopt : std::optional<std::uint16_t>(static_cast<std::uint16_t>(pick(260)));
     m.scale_um = pick(50) == 0 ? 0.0 : std::ldexp(1.0 + pick(1000) / 1000.0, pick(20) - 12);
     m.offset_um = pick(4) == 0 ? (pick(1000) - 500) * 0.37 : 0.0;
     m.out_of_range_mask = static_cast<std::uint16_t>(rng());

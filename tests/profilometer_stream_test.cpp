@@ -148,9 +148,15 @@ TEST(ProfileStream, RandomAndMutatedStreamsKeepTheInvariants) {
         for (int e = 0; e < edits && !s.empty(); ++e) {
           const std::size_t at = rng() % s.size();
           switch (rng() % 3) {
-            case 0: s[at] = static_cast<char>(rng()); break;
-            case 1: s.erase(at, 1 + rng() % 20); break;
-            default: s.insert(at, std::string(1 + rng() % 5, static_cast<char>(rng()))); break;
+            case 0:
+              s[at] = static_cast<char>(rng());
+              break;
+            case 1:
+              s.erase(at, 1 + rng() % 20);
+              break;
+            default:
+              s.insert(at, std::string(1 + rng() % 5, static_cast<char>(rng())));
+              break;
           }
         }
       }

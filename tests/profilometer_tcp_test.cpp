@@ -32,8 +32,8 @@ struct Harness {
                            "\nstall_timeout_ms = 300\nbackoff_initial_ms = 50\nbackoff_max_ms = 400\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
-    driver = std::make_unique<profilometer::ProfilometerDriver>(
-        "prof", profilometer::parse_profilometer_config(reader), 1 << 16);
+    driver = std::make_unique<profilometer::ProfilometerDriver>("prof", profilometer::parse_profilometer_config(reader),
+                                                                1 << 16);
     reader.reject_unknown_keys();
   }
   ~Harness() {

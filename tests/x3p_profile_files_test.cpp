@@ -49,15 +49,16 @@ X3pSurface small_surface(std::size_t sx, std::size_t sy) {
   s.increment_x_m = 0.5e-6;
   s.increment_y_m = 10e-6;
   s.offset_x_m = 1e-3;
-  for (std::size_t i = 0; i < sx * sy; ++i) s.z_m.push_back(i % 7 == 3 ? std::nan("") : 1e-7 * std::sin(0.1 * static_cast<double>(i)));
+  for (std::size_t i = 0; i < sx * sy; ++i)
+    s.z_m.push_back(i % 7 == 3 ? std::nan("") : 1e-7 * std::sin(0.1 * static_cast<double>(i)));
   return s;
 }
 
 }  // namespace
 
 TEST(X3p, RealSampleMatchesAnIndependentRead) {
-  const std::string oracle = run("/usr/bin/python3 " + std::string(GUIDEWAY_SOURCE_DIR) + "/tests/x3p_oracle.py " +
-                                 sample_x3p + " 2>&1");
+  const std::string oracle =
+      run("/usr/bin/python3 " + std::string(GUIDEWAY_SOURCE_DIR) + "/tests/x3p_oracle.py " + sample_x3p + " 2>&1");
   ASSERT_NE(oracle.find("size_x"), std::string::npos) << oracle;
   const X3pSurface s = read_x3p(sample_x3p);
   EXPECT_EQ(s.feature_type, "SUR");
@@ -163,7 +164,8 @@ TEST(ProfileCsv, ErrorsNameFileAndLine) {
     }
     return std::string("accepted");
   };
-  EXPECT_EQ(message("# a = b\nx,z\n1,2\n"), "bad.csv:2: expected a header row naming x and z with units, e.g. x_mm,z_um");
+  EXPECT_EQ(message("# a = b\nx,z\n1,2\n"),
+            "bad.csv:2: expected a header row naming x and z with units, e.g. x_mm,z_um");
   EXPECT_EQ(message("x_mm,z_um\n1,2\n3,oops\n"), "bad.csv:3: z is not a number");
   EXPECT_EQ(message("x_mm,z_um\n1,2,3\n"), "bad.csv:2: expected 2 columns, got 3");
   EXPECT_NE(message("x_mm,z_um\n").find("no data rows"), std::string::npos);
@@ -205,10 +207,18 @@ TEST(ProfileFiles, RandomizedMutationsEitherReadOrThrowProfileFileError) {
     for (int e = 0; e < edits && !s.empty(); ++e) {
       const std::size_t at = rng() % s.size();
       switch (rng() % 4) {
-        case 0: s[at] = static_cast<char>(rng()); break;
-        case 1: s[at] = static_cast<char>(s[at] ^ (1 << (rng() % 8))); break;
-        case 2: s.erase(at, 1 + rng() % 16); break;
-        default: s.resize(at); break;  // truncated file
+        case 0:
+          s[at] = static_cast<char>(rng());
+          break;
+        case 1:
+          s[at] = static_cast<char>(s[at] ^ (1 << (rng() % 8)));
+          break;
+        case 2:
+          s.erase(at, 1 + rng() % 16);
+          break;
+        default:
+          s.resize(at);
+          break;  // truncated file
       }
     }
     ++inputs;

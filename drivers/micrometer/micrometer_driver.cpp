@@ -103,8 +103,7 @@ void MicrometerDriver::run(std::stop_token stop) {
 void register_micrometer_driver(drivers::DriverRegistry& registry) {
   registry.add("micrometer-modbus", "inductance micrometer (gauge amplifier) over Modbus TCP or RTU, libmodbus",
                [](const drivers::DeviceConfig& c) -> std::unique_ptr<drivers::Driver> {
-                 return std::make_unique<MicrometerDriver>(c.name, parse_micrometer_config(c.table),
-                                                           c.ring_capacity);
+                 return std::make_unique<MicrometerDriver>(c.name, parse_micrometer_config(c.table), c.ring_capacity);
                });
 }
 

@@ -14,8 +14,8 @@ std::string ModbusEndpoint::describe() const {
 
 ModbusEndpoint parse_endpoint(const TableReader& t) {
   ModbusEndpoint e;
-  e.kind = t.get_choice("transport", "tcp", {"tcp", "rtu"}) == "rtu" ? ModbusEndpoint::Kind::rtu
-                                                                     : ModbusEndpoint::Kind::tcp;
+  e.kind =
+      t.get_choice("transport", "tcp", {"tcp", "rtu"}) == "rtu" ? ModbusEndpoint::Kind::rtu : ModbusEndpoint::Kind::tcp;
   if (e.kind == ModbusEndpoint::Kind::tcp) {
     e.host = t.get_string("host", "127.0.0.1");
     e.port = static_cast<int>(t.get_int("port", 502, 1, 65535));
@@ -34,11 +34,16 @@ ModbusEndpoint parse_endpoint(const TableReader& t) {
 
 std::string_view to_string(ReadStatus s) noexcept {
   switch (s) {
-    case ReadStatus::ok: return "ok";
-    case ReadStatus::timeout: return "timeout";
-    case ReadStatus::bad_frame: return "bad frame";
-    case ReadStatus::exception: return "exception response";
-    case ReadStatus::disconnected: return "disconnected";
+    case ReadStatus::ok:
+      return "ok";
+    case ReadStatus::timeout:
+      return "timeout";
+    case ReadStatus::bad_frame:
+      return "bad frame";
+    case ReadStatus::exception:
+      return "exception response";
+    case ReadStatus::disconnected:
+      return "disconnected";
   }
   return "?";
 }
@@ -51,8 +56,8 @@ bool ModbusClient::connect(std::string& error) {
   close();
   modbus_t* ctx = endpoint_.kind == ModbusEndpoint::Kind::tcp
                       ? modbus_new_tcp(endpoint_.host.c_str(), endpoint_.port)
-                      : modbus_new_rtu(endpoint_.device.c_str(), endpoint_.baud, endpoint_.parity,
-                                       endpoint_.data_bits, endpoint_.stop_bits);
+                      : modbus_new_rtu(endpoint_.device.c_str(), endpoint_.baud, endpoint_.parity, endpoint_.data_bits,
+                                       endpoint_.stop_bits);
   if (!ctx) {
     error = std::string("cannot create Modbus context: ") + modbus_strerror(errno);
     return false;

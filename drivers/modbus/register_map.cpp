@@ -11,11 +11,16 @@ namespace guideway::modbus {
 
 std::string_view to_string(ValueType t) noexcept {
   switch (t) {
-    case ValueType::int16: return "int16";
-    case ValueType::uint16: return "uint16";
-    case ValueType::int32: return "int32";
-    case ValueType::uint32: return "uint32";
-    case ValueType::float32: return "float32";
+    case ValueType::int16:
+      return "int16";
+    case ValueType::uint16:
+      return "uint16";
+    case ValueType::int32:
+      return "int32";
+    case ValueType::uint32:
+      return "uint32";
+    case ValueType::float32:
+      return "float32";
   }
   return "?";
 }
@@ -54,8 +59,8 @@ RegisterMap parse_register_map(const TableReader& t) {
   m.function = t.get_choice("function", "input", {"input", "holding"}) == "holding" ? RegisterFunction::holding
                                                                                     : RegisterFunction::input;
   m.value_address = static_cast<std::uint16_t>(t.get_int("value_address", 0, 0, 65535));
-  m.value_type = *value_type_from_string(
-      t.get_choice("value_type", "int32", {"int16", "uint16", "int32", "uint32", "float32"}));
+  m.value_type =
+      *value_type_from_string(t.get_choice("value_type", "int32", {"int16", "uint16", "int32", "uint32", "float32"}));
   m.word_order = t.get_choice("word_order", "big", {"big", "little"}) == "little" ? WordOrder::little : WordOrder::big;
   m.scale_um = t.get_double("scale_um", 0.01);
   m.offset_um = t.get_double("offset_um", 0.0);
@@ -81,11 +86,21 @@ Reading decode_registers(const RegisterMap& map, std::span<const std::uint16_t> 
   if (!map.validate().empty() || block.size() < map.block_count()) return r;
   const std::size_t v = map.value_address - map.block_start();
   switch (map.value_type) {
-    case ValueType::int16: r.raw = static_cast<std::int16_t>(block[v]); break;
-    case ValueType::uint16: r.raw = block[v]; break;
-    case ValueType::int32: r.raw = static_cast<std::int32_t>(join_words(map, block[v], block[v + 1])); break;
-    case ValueType::uint32: r.raw = join_words(map, block[v], block[v + 1]); break;
-    case ValueType::float32: r.raw = std::bit_cast<float>(join_words(map, block[v], block[v + 1])); break;
+    case ValueType::int16:
+      r.raw = static_cast<std::int16_t>(block[v]);
+      break;
+    case ValueType::uint16:
+      r.raw = block[v];
+      break;
+    case ValueType::int32:
+      r.raw = static_cast<std::int32_t>(join_words(map, block[v], block[v + 1]));
+      break;
+    case ValueType::uint32:
+      r.raw = join_words(map, block[v], block[v + 1]);
+      break;
+    case ValueType::float32:
+      r.raw = std::bit_cast<float>(join_words(map, block[v], block[v + 1]));
+      break;
   }
   r.valid = true;
   if (map.status_address) {
@@ -117,12 +132,18 @@ std::vector<std::uint16_t> encode_registers(const RegisterMap& map, double value
     case ValueType::int16:
       block[v] = static_cast<std::uint16_t>(static_cast<std::int16_t>(saturate(-32768.0, 32767.0)));
       break;
-    case ValueType::uint16: block[v] = static_cast<std::uint16_t>(saturate(0.0, 65535.0)); break;
+    case ValueType::uint16:
+      block[v] = static_cast<std::uint16_t>(saturate(0.0, 65535.0));
+      break;
     case ValueType::int32:
       put32(static_cast<std::uint32_t>(static_cast<std::int32_t>(saturate(-2147483648.0, 2147483647.0))));
       break;
-    case ValueType::uint32: put32(static_cast<std::uint32_t>(saturate(0.0, 4294967295.0))); break;
-    case ValueType::float32: put32(std::bit_cast<std::uint32_t>(static_cast<float>(counts))); break;
+    case ValueType::uint32:
+      put32(static_cast<std::uint32_t>(saturate(0.0, 4294967295.0)));
+      break;
+    case ValueType::float32:
+      put32(std::bit_cast<std::uint32_t>(static_cast<float>(counts)));
+      break;
   }
   if (map.status_address) block[*map.status_address - map.block_start()] = status;
   return block;

@@ -29,11 +29,11 @@ struct RegisterMap {
   std::uint16_t value_address = 0;
   ValueType value_type = ValueType::int32;
   WordOrder word_order = WordOrder::big;
-  double scale_um = 0.01;  // micrometres per count (float32: per unit of the register value)
-  double offset_um = 0.0;  // added after scaling
+  double scale_um = 0.01;                           // micrometres per count (float32: per unit of the register value)
+  double offset_um = 0.0;                           // added after scaling
   std::optional<std::uint16_t> status_address = 2;  // a 16-bit status word, if the amplifier has one
-  std::uint16_t out_of_range_mask = 0x0001;        // status bits meaning "over/under range"
-  std::uint16_t probe_missing_mask = 0x0002;       // status bits meaning "probe unplugged / no signal"
+  std::uint16_t out_of_range_mask = 0x0001;         // status bits meaning "over/under range"
+  std::uint16_t probe_missing_mask = 0x0002;        // status bits meaning "probe unplugged / no signal"
 
   // The contiguous block read in one request: [block_start, block_start + block_count).
   [[nodiscard]] std::uint16_t block_start() const noexcept;
@@ -47,10 +47,10 @@ struct RegisterMap {
 RegisterMap parse_register_map(const TableReader& table);
 
 struct Reading {
-  bool valid = false;     // false: block too short or map invalid; nothing else is meaningful
-  double value_m = 0.0;   // displacement in metres; NaN when flagged
+  bool valid = false;       // false: block too short or map invalid; nothing else is meaningful
+  double value_m = 0.0;     // displacement in metres; NaN when flagged
   std::uint32_t flags = 0;  // guideway::SampleFlag bits (out_of_range, no_signal)
-  double raw = 0.0;       // the register value before scaling (counts or float32)
+  double raw = 0.0;         // the register value before scaling (counts or float32)
 };
 
 // Decodes one block read with map.block_start()/block_count(). Never throws.

@@ -17,8 +17,10 @@ namespace guideway::profilometer {
 namespace {
 
 std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r' || s.front() == '\n')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r' || s.back() == '\n')) s.remove_suffix(1);
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r' || s.front() == '\n'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r' || s.back() == '\n'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -153,7 +155,8 @@ std::string format_profile_csv(const Profile& profile) {
   out += "x_mm,z_um\n";
   const std::size_t n = std::min(profile.x_m.size(), profile.z_m.size());
   for (std::size_t i = 0; i < n; ++i) {
-    out += shortest(profile.x_m[i] * 1e3) + "," + (std::isnan(profile.z_m[i]) ? "" : shortest(profile.z_m[i] * 1e6)) + "\n";
+    out += shortest(profile.x_m[i] * 1e3) + "," + (std::isnan(profile.z_m[i]) ? "" : shortest(profile.z_m[i] * 1e6)) +
+           "\n";
   }
   return out;
 }
@@ -230,7 +233,8 @@ X3pSurface parse_x3p(std::string_view archive, const std::string& name) {
     };
     X3pSurface s;
     s.feature_type = std::string(text({"Record1", "FeatureType"}).value_or(""));
-    if (s.feature_type != "SUR" && s.feature_type != "PRF") throw fail("FeatureType \"" + s.feature_type + "\": expected SUR or PRF");
+    if (s.feature_type != "SUR" && s.feature_type != "PRF")
+      throw fail("FeatureType \"" + s.feature_type + "\": expected SUR or PRF");
     for (const char* axis : {"CX", "CY"}) {
       if (text({"Record1", "Axes", axis, "AxisType"}).value_or("") != "I") {
         throw fail(std::string(axis) + ": only incremental (AxisType I) X and Y axes are supported");
@@ -275,10 +279,18 @@ X3pSurface parse_x3p(std::string_view archive, const std::string& name) {
       for (std::size_t b = width; b-- > 0;) u = (u << 8) | static_cast<std::uint8_t>(data[i * width + b]);
       double v = 0;
       switch (s.data_type) {
-        case 'D': v = std::bit_cast<double>(u); break;
-        case 'F': v = std::bit_cast<float>(static_cast<std::uint32_t>(u)); break;
-        case 'L': v = static_cast<std::int32_t>(static_cast<std::uint32_t>(u)) * z_increment; break;
-        default: v = static_cast<std::int16_t>(static_cast<std::uint16_t>(u)) * z_increment; break;
+        case 'D':
+          v = std::bit_cast<double>(u);
+          break;
+        case 'F':
+          v = std::bit_cast<float>(static_cast<std::uint32_t>(u));
+          break;
+        case 'L':
+          v = static_cast<std::int32_t>(static_cast<std::uint32_t>(u)) * z_increment;
+          break;
+        default:
+          v = static_cast<std::int16_t>(static_cast<std::uint16_t>(u)) * z_increment;
+          break;
       }
       s.z_m[i] = std::isfinite(v) ? v + z_offset : std::numeric_limits<double>::quiet_NaN();
     }
@@ -303,7 +315,8 @@ X3pSurface parse_x3p(std::string_view archive, const std::string& name) {
 X3pSurface read_x3p(const std::string& path) { return parse_x3p(read_file(path), path); }
 
 Profile x3p_row(const X3pSurface& s, std::size_t iy, const std::string& source) {
-  if (iy >= s.size_y) throw ProfileFileError("row " + std::to_string(iy) + " beyond the surface's " + std::to_string(s.size_y));
+  if (iy >= s.size_y)
+    throw ProfileFileError("row " + std::to_string(iy) + " beyond the surface's " + std::to_string(s.size_y));
   Profile p;
   if (!source.empty()) p.metadata.emplace_back("source", source);
   p.metadata.emplace_back("row", std::to_string(iy));
@@ -330,16 +343,21 @@ std::string build_x3p(const X3pSurface& s, bool deflate) {
   auto num = [](double v) { return shortest(v); };
   std::string xml =
       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<p:ISO5436_2 xmlns:p=\"http://www.opengps.eu/2008/ISO5436_2\">\n"
-      "<Record1>\n<Revision>ISO5436 - 2000</Revision>\n<FeatureType>" + (s.size_y == 1 ? std::string("PRF") : std::string("SUR")) +
+      "<Record1>\n<Revision>ISO5436 - 2000</Revision>\n<FeatureType>" +
+      (s.size_y == 1 ? std::string("PRF") : std::string("SUR")) +
       "</FeatureType>\n<Axes>\n"
-      "<CX><AxisType>I</AxisType><DataType>D</DataType><Increment>" + num(s.increment_x_m) + "</Increment><Offset>" +
-      num(s.offset_x_m) + "</Offset></CX>\n"
-      "<CY><AxisType>I</AxisType><DataType>D</DataType><Increment>" + num(s.increment_y_m) + "</Increment><Offset>" +
-      num(s.offset_y_m) + "</Offset></CY>\n"
+      "<CX><AxisType>I</AxisType><DataType>D</DataType><Increment>" +
+      num(s.increment_x_m) + "</Increment><Offset>" + num(s.offset_x_m) +
+      "</Offset></CX>\n"
+      "<CY><AxisType>I</AxisType><DataType>D</DataType><Increment>" +
+      num(s.increment_y_m) + "</Increment><Offset>" + num(s.offset_y_m) +
+      "</Offset></CY>\n"
       "<CZ><AxisType>A</AxisType><DataType>D</DataType><Increment>1</Increment><Offset/></CZ>\n</Axes>\n</Record1>\n"
       "<Record2>\n<Creator>guideway</Creator>\n</Record2>\n"
-      "<Record3>\n<MatrixDimension><SizeX>" + std::to_string(s.size_x) + "</SizeX><SizeY>" + std::to_string(s.size_y) +
-      "</SizeY><SizeZ>1</SizeZ></MatrixDimension>\n<DataLink><PointDataLink>bindata/data.bin</PointDataLink></DataLink>\n"
+      "<Record3>\n<MatrixDimension><SizeX>" +
+      std::to_string(s.size_x) + "</SizeX><SizeY>" + std::to_string(s.size_y) +
+      "</SizeY><SizeZ>1</SizeZ></MatrixDimension>\n<DataLink><PointDataLink>bindata/data.bin</PointDataLink></"
+      "DataLink>\n"
       "</Record3>\n</p:ISO5436_2>\n";
   std::string bin;
   bin.reserve(s.z_m.size() * 8);
@@ -352,7 +370,8 @@ std::string build_x3p(const X3pSurface& s, bool deflate) {
 
 std::vector<Profile> read_profiles(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (ext == ".x3p") return x3p_profiles(read_x3p(path), path);
   if (ext == ".csv") {
     Profile p = read_profile_csv(path);

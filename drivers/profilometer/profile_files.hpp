@@ -43,7 +43,7 @@ struct X3pSurface {
   std::size_t size_x = 0, size_y = 0, size_z = 0;
   double increment_x_m = 0.0, increment_y_m = 0.0;
   double offset_x_m = 0.0, offset_y_m = 0.0;
-  char data_type = 'D';  // CZ: D float64, F float32, L int32, I int16
+  char data_type = 'D';     // CZ: D float64, F float32, L int32, I int16
   std::vector<double> z_m;  // size_x * size_y (first layer), x fastest; NaN = invalid point
   std::vector<std::pair<std::string, std::string>> metadata;  // creator, date, instrument, ...
   [[nodiscard]] double at(std::size_t ix, std::size_t iy) const { return z_m[iy * size_x + ix]; }

@@ -255,7 +255,8 @@ void ProfileAssembler::on_line(std::string_view line, std::int64_t t_ns, std::ve
     case LineKind::banner:
       out.push_back({StreamEvent::Type::banner, 0, 0, 0, 0, 0, t_ns, p->instrument});
       return;
-    case LineKind::idle: return;
+    case LineKind::idle:
+      return;
     case LineKind::header:
       release(out);  // a previous traverse without END stays without an end mark: incomplete
       header_ = p->header;

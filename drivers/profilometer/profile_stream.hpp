@@ -23,14 +23,14 @@ inline constexpr std::size_t max_line_bytes = 256;  // longer lines are garbage
 struct ProfileHeader {
   std::uint64_t id = 0;
   std::uint64_t points = 0;
-  double length_m = 0.0;       // traverse length
-  double spacing_m = 0.0;      // point spacing along x
-  double tip_radius_m = 0.0;   // stylus tip radius (0: not given)
-  double z_range_m = 0.0;      // gauge range (0: not given)
-  double speed_m_per_s = 0.0;  // traverse speed (0: not given)
-  std::string stylus;          // stylus name, no spaces
-  std::string x_unit = "mm";   // "m", "mm" or "um"
-  std::string z_unit = "um";   // "mm", "um" or "nm"
+  double length_m = 0.0;                          // traverse length
+  double spacing_m = 0.0;                         // point spacing along x
+  double tip_radius_m = 0.0;                      // stylus tip radius (0: not given)
+  double z_range_m = 0.0;                         // gauge range (0: not given)
+  double speed_m_per_s = 0.0;                     // traverse speed (0: not given)
+  std::string stylus;                             // stylus name, no spaces
+  std::string x_unit = "mm";                      // "m", "mm" or "um"
+  std::string z_unit = "um";                      // "mm", "um" or "nm"
   [[nodiscard]] double x_scale() const noexcept;  // metres per x unit
   [[nodiscard]] double z_scale() const noexcept;  // metres per z unit
 };

@@ -48,13 +48,19 @@ void ProfilometerDriver::publish_events(std::vector<StreamEvent>& events) {
         frames_.fetch_add(1, std::memory_order_relaxed);
         break;
       }
-      case StreamEvent::Type::bad_line: bad_frames_.fetch_add(1, std::memory_order_relaxed); break;
+      case StreamEvent::Type::bad_line:
+        bad_frames_.fetch_add(1, std::memory_order_relaxed);
+        break;
       case StreamEvent::Type::end:
         profiles_.fetch_add(1, std::memory_order_relaxed);
         frames_.fetch_add(1, std::memory_order_relaxed);
         break;
-      case StreamEvent::Type::header: frames_.fetch_add(1, std::memory_order_relaxed); break;
-      case StreamEvent::Type::banner: frames_.fetch_add(1, std::memory_order_relaxed); break;
+      case StreamEvent::Type::header:
+        frames_.fetch_add(1, std::memory_order_relaxed);
+        break;
+      case StreamEvent::Type::banner:
+        frames_.fetch_add(1, std::memory_order_relaxed);
+        break;
     }
   }
   events.clear();

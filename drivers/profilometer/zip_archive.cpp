@@ -79,7 +79,8 @@ std::string zip_extract(std::string_view a, const ZipEntry& e, std::uint64_t max
   const std::size_t h = e.local_header_offset;
   if (le(a, h, 4) != local_signature) throw ZipError(e.name + ": bad local header");
   const std::size_t data_at = h + 30 + le(a, h + 26, 2) + le(a, h + 28, 2);
-  if (data_at > a.size() || a.size() - data_at < e.compressed_size) throw ZipError(e.name + ": data beyond the archive");
+  if (data_at > a.size() || a.size() - data_at < e.compressed_size)
+    throw ZipError(e.name + ": data beyond the archive");
   if (e.size > max_size) throw ZipError(e.name + ": member too large");
   const std::string_view packed = a.substr(data_at, e.compressed_size);
   std::string out;
@@ -131,11 +132,11 @@ std::string zip_build(const std::vector<ZipMember>& members, bool deflate) {
     auto header = [&](std::string& s, bool is_central) {
       put(s, is_central ? central_signature : local_signature, 4);
       if (is_central) put(s, 20, 2);  // version made by
-      put(s, 20, 2);                   // version needed
-      put(s, 0, 2);                    // flags
+      put(s, 20, 2);                  // version needed
+      put(s, 0, 2);                   // flags
       put(s, method, 2);
-      put(s, 0, 2);       // time
-      put(s, 0x21, 2);    // date: 1980-01-01
+      put(s, 0, 2);     // time
+      put(s, 0x21, 2);  // date: 1980-01-01
       put(s, crc, 4);
       put(s, static_cast<std::uint32_t>(packed.size()), 4);
       put(s, static_cast<std::uint32_t>(m.data.size()), 4);

@@ -95,7 +95,8 @@ void add_micrometer(CLI::App& app, int& exit_code) {
   sub->add_option("--unit-id", args->unit_id, "Modbus unit (slave) id")->capture_default_str();
   sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: a built-in spindle demo)");
   sub->add_option("--rpm", args->rpm, "spindle speed of the run-out revolutions")->capture_default_str();
-  sub->add_option("--probe-radius-mm", args->probe_radius_mm, "probe radius on the thrust plate")->capture_default_str();
+  sub->add_option("--probe-radius-mm", args->probe_radius_mm, "probe radius on the thrust plate")
+      ->capture_default_str();
   sub->add_option("--samples-per-rev", args->samples_per_rev, "model samples per revolution")->capture_default_str();
   sub->add_option("--revolutions", args->revolutions, "revolutions computed (then repeated)")->capture_default_str();
   sub->callback([args, sub, &exit_code] {

@@ -83,12 +83,18 @@ MicrometerSource runout_source(double rpm, double eccentricity_m, double second_
 
 std::string_view to_string(ModbusFault f) noexcept {
   switch (f) {
-    case ModbusFault::exception: return "exception";
-    case ModbusFault::stall: return "stall";
-    case ModbusFault::garbage: return "garbage";
-    case ModbusFault::truncate: return "truncate";
-    case ModbusFault::bad_crc: return "bad_crc";
-    case ModbusFault::burst: return "burst";
+    case ModbusFault::exception:
+      return "exception";
+    case ModbusFault::stall:
+      return "stall";
+    case ModbusFault::garbage:
+      return "garbage";
+    case ModbusFault::truncate:
+      return "truncate";
+    case ModbusFault::bad_crc:
+      return "bad_crc";
+    case ModbusFault::burst:
+      return "burst";
   }
   return "?";
 }
@@ -106,8 +112,8 @@ bool modbus_fault_from_string(std::string_view s, ModbusFault& out) noexcept {
 
 MicrometerEmulator::MicrometerEmulator(Options options) : options_(std::move(options)) {
   const modbus::RegisterMap& m = options_.map;
-  mapping_ = modbus_mapping_new_start_address(0, 0, 0, 0, m.block_start(), m.block_count(), m.block_start(),
-                                              m.block_count());
+  mapping_ =
+      modbus_mapping_new_start_address(0, 0, 0, 0, m.block_start(), m.block_count(), m.block_start(), m.block_count());
 }
 
 MicrometerEmulator::~MicrometerEmulator() {
@@ -353,8 +359,10 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
     case ModbusFault::exception:
       modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY);
       return;
-    case ModbusFault::stall: return;
-    default: break;
+    case ModbusFault::stall:
+      return;
+    default:
+      break;
   }
   // Build the answer by hand, so it can be damaged byte by byte.
   const std::uint16_t start = static_cast<std::uint16_t>((query[hl + 1] << 8) | query[hl + 2]);
@@ -398,7 +406,9 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
       }
       write_all(fd, frame.data(), frame.size());
       break;
-    case ModbusFault::truncate: write_all(fd, frame.data(), frame.size() / 2); break;
+    case ModbusFault::truncate:
+      write_all(fd, frame.data(), frame.size() / 2);
+      break;
     case ModbusFault::bad_crc:
       if (rtu) {
         frame.back() ^= 0x5a;
@@ -411,7 +421,8 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
       for (int i = 0; i < 3; ++i) write_all(fd, frame.data(), frame.size());
       record();
       break;
-    default: break;
+    default:
+      break;
   }
 }
 

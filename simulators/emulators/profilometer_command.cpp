@@ -72,7 +72,8 @@ void add_profilometer(CLI::App& app, int& exit_code) {
   sub->add_option("--port", args->port, "TCP port (0: any free port; the address is printed)")->capture_default_str();
   sub->add_option("--points-per-s", args->points_per_s, "stream rate")->capture_default_str();
   sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: a built-in spindle demo)");
-  sub->add_flag("--synthetic", args->synthetic, "stream synthetic feed-mark profiles instead of the machine's faced profile");
+  sub->add_flag("--synthetic", args->synthetic,
+                "stream synthetic feed-mark profiles instead of the machine's faced profile");
   sub->add_option("--points", args->points, "--synthetic: points per traverse")->capture_default_str();
   sub->add_option("--spacing-um", args->spacing_um, "--synthetic: point spacing")->capture_default_str();
   sub->callback([args, &exit_code] { exit_code = run_profilometer(*args); });

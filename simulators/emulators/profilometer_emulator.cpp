@@ -61,17 +61,21 @@ ProfileSource faced_profile_source(std::size_t points, double spacing_m, double 
 
 std::string_view to_string(ProfileFault f) noexcept {
   switch (f) {
-    case ProfileFault::garbage: return "garbage";
-    case ProfileFault::truncate: return "truncate";
-    case ProfileFault::bad_checksum: return "bad_checksum";
-    case ProfileFault::burst: return "burst";
+    case ProfileFault::garbage:
+      return "garbage";
+    case ProfileFault::truncate:
+      return "truncate";
+    case ProfileFault::bad_checksum:
+      return "bad_checksum";
+    case ProfileFault::burst:
+      return "burst";
   }
   return "?";
 }
 
 bool profile_fault_from_string(std::string_view s, ProfileFault& out) noexcept {
-  for (ProfileFault f : {ProfileFault::garbage, ProfileFault::truncate, ProfileFault::bad_checksum,
-                         ProfileFault::burst}) {
+  for (ProfileFault f :
+       {ProfileFault::garbage, ProfileFault::truncate, ProfileFault::bad_checksum, ProfileFault::burst}) {
     if (to_string(f) == s) {
       out = f;
       return true;
@@ -93,7 +97,8 @@ bool ProfilometerEmulator::listen_now(std::string& error) {
   addr.sin_port = htons(static_cast<std::uint16_t>(port_));
   if (inet_pton(AF_INET, host_.c_str(), &addr.sin_addr) != 1) {
     error = "not an IPv4 address: " + host_;
-  } else if (::bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0 && ::listen(listen_fd_, 4) == 0) {
+  } else if (::bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0 &&
+             ::listen(listen_fd_, 4) == 0) {
     socklen_t len = sizeof(addr);
     getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&addr), &len);
     port_ = ntohs(addr.sin_port);
@@ -211,7 +216,8 @@ bool ProfilometerEmulator::serve_client(int fd) {
     unsent.clear();
     return true;
   };
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options_.points_per_s));
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options_.points_per_s));
   while (running_) {
     std::uint64_t id;
     {
@@ -288,8 +294,8 @@ bool ProfilometerEmulator::serve_client(int fd) {
         // What a correct parser reads from this line: the values the driver must publish.
         const auto parsed = profilometer::parse_line(std::string_view(line).substr(0, line.size() - 1));
         if (parsed) {
-          unsent.push_back({id, i, parsed->x * h.x_scale(),
-                            parsed->over_range ? std::nan("") : parsed->z * h.z_scale(), parsed->over_range});
+          unsent.push_back({id, i, parsed->x * h.x_scale(), parsed->over_range ? std::nan("") : parsed->z * h.z_scale(),
+                            parsed->over_range});
         }
       }
       if (out.size() > 8192 && !flush()) return false;
@@ -298,7 +304,8 @@ bool ProfilometerEmulator::serve_client(int fd) {
     if (!flush()) return false;
     profiles_sent_.fetch_add(1);
     // Return stroke: the stylus lifts and travels back; IDLE keeps the link alive.
-    const auto back = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.return_s));
+    const auto back =
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.return_s));
     while (Clock::now() < back) {
       if (!wait_until(std::min(back, Clock::now() + std::chrono::milliseconds(200)))) return false;
       out += profilometer::format_idle();
