@@ -57,15 +57,17 @@ LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, c
   }
   Eigen::VectorXd sw = Eigen::VectorXd::Ones(n);
   if (weights.size() != 0) sw = weights.cwiseMax(0.0).cwiseSqrt();
-  Eigen::MatrixXd a = sw.asDiagonal() * jacobian;
+  Eigen::MatrixXd a = jacobian;
+  a.array().colwise() *= sw.array();
   const Eigen::VectorXd b = sw.cwiseProduct(y);
   Eigen::VectorXd scale = a.colwise().norm().transpose();
-  for (Eigen::Index j = 0; j < m; ++j)
+  for (Eigen::Index j = 0; j < m; ++j) {
     if (!(scale[j] > 0)) scale[j] = 1.0;
-  a = a * scale.cwiseInverse().asDiagonal();
+    a.col(j) /= scale[j];
+  }
 
-  // Compress: A = Q R, then everything happens on the m x m triangle.
-  Eigen::HouseholderQR<Eigen::MatrixXd> qr(a);
+  // Compress: A = Q R (in place), then everything happens on the m x m triangle.
+  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(a);
   const Eigen::MatrixXd r = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
   const Eigen::VectorXd qtb = (qr.householderQ().transpose() * b).head(m);
 

@@ -95,8 +95,11 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, doubl
       const double half = 0.5 * b;
       double z = run.angle_rad.front() - dir * pi;
       double act = cmd(z);
+      // Fine substeps only near the reversals, where the deadband is being taken up.
+      const double near = 4.0 * std::sqrt(b / r) + 0.01;
       const auto advance = [&](double to) {
-        const int steps = std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
+        const double rev = axis == 0 ? std::abs(std::sin(to)) : std::abs(std::cos(to));
+        const int steps = rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
         const double dz = (to - z) / steps;
         for (int q = 1; q <= steps; ++q) {
           const double c = cmd(z + dz * q);
@@ -176,7 +179,7 @@ void lai_basis(const Point& p, double* out) {
 // ---- Ballbar diagnostics -------------------------------------------------------------------------
 
 // Decay of a reversal spike `t` seconds after it starts (0 before it starts and once negligible).
-double spike_shape(double t, double tau) { return (t < 0 || t > 30 * tau) ? 0.0 : std::exp(-t / tau); }
+double spike_shape(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::exp(-t / tau); }
 
 struct DiagLayout {
   std::size_t runs = 0;
@@ -275,10 +278,11 @@ LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std
 }
 
 // Weighted sum of squares explained by fitting two extra columns to a residual.
-double explained(const std::vector<Point>& pts, const Eigen::VectorXd& res,
-                 const std::function<void(const Point&, double&, double&)>& cols) {
+// With stride > 1 only every stride-th point is used and the result scaled back.
+template <typename Cols>
+double explained(const std::vector<Point>& pts, const Eigen::VectorXd& res, const Cols& cols, std::size_t stride = 1) {
   double s11 = 0, s12 = 0, s22 = 0, b1 = 0, b2 = 0;
-  for (std::size_t i = 0; i < pts.size(); ++i) {
+  for (std::size_t i = 0; i < pts.size(); i += stride) {
     double u1 = 0, u2 = 0;
     cols(pts[i], u1, u2);
     const double w = pts[i].w;
@@ -292,7 +296,7 @@ double explained(const std::vector<Point>& pts, const Eigen::VectorXd& res,
   if (!(det > 1e-300)) return 0.0;
   const double x1 = (s22 * b1 - s12 * b2) / det;
   const double x2 = (s11 * b2 - s12 * b1) / det;
-  return x1 * b1 + x2 * b2;
+  return (x1 * b1 + x2 * b2) * static_cast<double>(stride);
 }
 
 // ISO 230-4 circular deviation of one run about its least-squares circle; returns the residuals.
@@ -434,6 +438,9 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     w[i] = pts[static_cast<std::size_t>(i)].w;
   }
 
+  // Backlash widths the points' deadband shapes were computed for (0 = ideal steps).
+  double shaped_b_a = 0, shaped_b_b = 0;
+
   // ---- Lai third-order fit ----
   {
     const bool shared = options.lai_shared_center || runs.size() == 1;
@@ -471,7 +478,9 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
     const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
     if (b_a > 0 || b_b > 0) {
-      apply_deadband(pts, runs, b_a, b_b);
+      apply_deadband(pts, runs, std::max(b_a, 0.0), std::max(b_b, 0.0));
+      shaped_b_a = std::max(b_a, 0.0);
+      shaped_b_b = std::max(b_b, 0.0);
       res = fit();
     }
     out.fit = summary_of(res);
@@ -499,41 +508,60 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   {
     // Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike
     // after the commanded reversal (the axis' servo lag, 0..20 ms) that explain most of the residual.
+    // Sample spacing: delays shorter than it cannot be told apart (ties keep the shortest).
+    double dt = 1e9;
+    for (const auto& run : runs)
+      for (std::size_t i = 1; i < run.t_s.size(); ++i) dt = std::min(dt, std::max(run.t_s[i] - run.t_s[i - 1], 1e-4));
+    const double delay_step = std::max(0.002, dt);
+    constexpr double tau_max = 0.1, delay_max = 0.02;
     const auto search = [&](bool axis_a, double& tau_out, double& delay_out) {
+      // Only the points shortly after a reversal matter: (time since, column value, weighted residual).
+      struct Near {
+        double since, u, w, r;
+      };
+      std::vector<Near> near;
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        const Point& p = pts[i];
+        const double since = axis_a ? p.since_a : p.since_b;
+        if (since > 8 * tau_max + delay_max) continue;
+        const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b);
+        if (u == 0.0) continue;
+        near.push_back({since, u, p.w, base.residual[static_cast<Eigen::Index>(i)]});
+      }
       const auto score = [&](double tau, double delay) {
         double sur = 0, suu = 0;
-        for (std::size_t i = 0; i < pts.size(); ++i) {
-          const Point& p = pts[i];
-          const double f = spike_shape((axis_a ? p.since_a : p.since_b) - delay, tau);
-          if (f == 0.0) continue;
-          const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b) * f;
-          sur += p.w * u * base.residual[static_cast<Eigen::Index>(i)];
-          suu += p.w * u * u;
+        for (const auto& q : near) {
+          const double t = q.since - delay;
+          if (t < 0 || t > 8 * tau) continue;
+          const double u = q.u * std::exp(-t / tau);
+          sur += q.w * u * q.r;
+          suu += q.w * u * u;
         }
         return suu > 0 ? sur * sur / suu : 0.0;
       };
       double best = 0, best_tau = 0.02, best_delay = 0;
-      constexpr int grid = 16;
-      for (int d = 0; d <= 10; ++d) {
+      constexpr int grid = 12;
+      for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
         for (int q = 0; q < grid; ++q) {
-          const double tau = 0.002 * std::pow(100.0, static_cast<double>(q) / (grid - 1));
-          const double e = score(tau, 0.002 * d);
+          const double tau = 0.002 * std::pow(50.0, static_cast<double>(q) / (grid - 1));
+          const double e = score(tau, d);
           if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
             best = e;
             best_tau = tau;
-            best_delay = 0.002 * d;
+            best_delay = d;
           }
         }
       }
-      // Refine the delay (1 ms steps) and the decay (golden section in log tau).
-      for (double d = std::max(0.0, best_delay - 0.002); d <= best_delay + 0.002 + 1e-12; d += 0.0005) {
+      // Refine the delay (when the sampling resolves it) and the decay (golden section in log tau).
+      for (double d = std::max(0.0, best_delay - delay_step); delay_step < 0.004 && d <= best_delay + delay_step + 1e-12;
+           d += 0.25 * delay_step) {
         const double e = score(best_tau, d);
         if (e > best * (1 + 1e-9)) {
           best = e;
           best_delay = d;
         }
       }
-      const double ratio = std::pow(100.0, 1.0 / (grid - 1));
+      const double ratio = std::pow(50.0, 1.0 / (grid - 1));
       double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
       const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
       double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
@@ -568,6 +596,14 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
                           return a.radius_m < b.radius_m;
                         })->radius_m;
     const std::vector<double> leads = {1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40};
+    // Largest arc length between samples: a lead p is sampled at least 4 times per period when only
+    // every stride-th point is used, stride = p / (4 * step).
+    double step = 0;
+    for (std::size_t i = 1; i < pts.size(); ++i)
+      if (pts[i].run == pts[i - 1].run) step = std::max(step, pts[i].r * std::abs(pts[i].zeta - pts[i - 1].zeta));
+    const auto stride_for = [step](double p) {
+      return step > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(p / (4 * step))) : std::size_t{1};
+    };
     const auto pick = [&](double given, bool axis_a) {
       if (given > 0) return given;
       double best = 0, best_p = 0;
@@ -577,9 +613,11 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         const double e = explained(pts, base.residual, [p, axis_a](const Point& q, double& u1, double& u2) {
           const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
           const double f = q.lambda * (axis_a ? q.c : q.s);
-          u1 = f * std::sin(th);
-          u2 = f * std::cos(th);
-        });
+          double sn, cs;
+          ::sincos(th, &sn, &cs);
+          u1 = f * sn;
+          u2 = f * cs;
+        }, stride_for(p));
         if (e > best) {
           best = e;
           best_p = p;
@@ -600,12 +638,17 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     const std::size_t ga = L.global0() + DiagLayout::backlash_a;
     const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
     const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
-    for (auto& p : pts) {
-      p.bl_a = -0.5 * p.sgn_a;
-      p.bl_b = -0.5 * p.sgn_b;
-    }
-    if (b_a > 0 || b_b > 0) {
-      apply_deadband(pts, runs, b_a, b_b);
+    // The points carry the deadband shape of the Lai fit's backlash; refit only when this fit's
+    // estimate differs noticeably.
+    const auto differs = [](double now, double shaped) {
+      return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
+    };
+    if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
+      for (auto& p : pts) {
+        p.bl_a = -0.5 * p.sgn_a;
+        p.bl_b = -0.5 * p.sgn_b;
+      }
+      if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, std::max(b_a, 0.0), std::max(b_b, 0.0));
       res = fit_diag(L, pts, runs, plane);
       if (!res.ok) throw RunFormatError("identify: " + res.message);
     }

@@ -1,0 +1,59 @@
+// DBB identification speed: Lai's three patterns (Table 4), 3600 points each, from the virtual
+// machine tool; the full identification (Lai third-order fit with its backlash refinement, the
+// ballbar diagnostics with the spike and cyclic searches, ISO 230-4 figures).
+#include <benchmark/benchmark.h>
+
+#include "models/dbb/identify.hpp"
+#include "models/dbb/simulate.hpp"
+
+namespace {
+
+using namespace guideway;
+
+std::vector<models::dbb::Run> patterns() {
+  sim::MachineConfig c;
+  c.dbb.center_offset = {2e-6, 3e-6, 0};
+  c.dbb.noise_m = 0.1e-6;
+  c.axis[0].scale = -10e-6;
+  c.axis[1].scale = 10e-6;
+  c.axis[0].backlash_m = 1e-6;
+  c.axis[1].backlash_m = 2e-6;
+  c.axis[0].translation[1].c = {0, 3e-4, 2.25e-4, -5e-3};  // Lai's a_k in SI units
+  c.axis[1].translation[2].c = {0, 1e-4, 1.5e-3, -1.5e-2};
+  const sim::Machine m{c};
+  std::vector<models::dbb::Run> runs;
+  const struct {
+    double r, h;
+    sim::Direction d;
+  } spec[] = {{0.095, 0.031225, sim::Direction::ccw}, {0.095, 0.031225, sim::Direction::cw}, {0.1, 0.0, sim::Direction::ccw}};
+  std::uint64_t seed = 1;
+  for (const auto& p : spec) {
+    sim::DbbCircleSpec s;
+    s.radius_m = p.r;
+    s.height_m = p.h;
+    s.direction = p.d;
+    s.overshoot_rad = 0.5;
+    s.seed = seed++;
+    auto run = models::dbb::simulate_run(m, s);
+    // exactly 3600 points: drop the closing sample of the 360 deg arc
+    run.t_s.resize(3600);
+    run.angle_rad.resize(3600);
+    run.dL_m.resize(3600);
+    runs.push_back(std::move(run));
+  }
+  return runs;
+}
+
+void BM_DbbIdentifyThreePatterns(benchmark::State& state) {
+  const auto runs = patterns();
+  for (auto _ : state) {
+    auto id = models::dbb::identify(runs);
+    benchmark::DoNotOptimize(id);
+  }
+  state.SetItemsProcessed(state.iterations() * 3 * 3600);
+}
+BENCHMARK(BM_DbbIdentifyThreePatterns)->Unit(benchmark::kMillisecond)->Repetitions(9)->ReportAggregatesOnly(true);
+
+}  // namespace
+
+BENCHMARK_MAIN();
