@@ -32,7 +32,8 @@ class Emulator:
     def __init__(self, *args):
         self.p = subprocess.Popen([EMULATE, *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                   stderr=subprocess.DEVNULL, text=True)
-        self.address = self.p.stdout.readline().strip()  # HOST:PORT or the pty path, flushed at start
+        line = self.p.stdout.readline().strip()  # "endpoint: tcp:HOST:PORT" or "endpoint: pty:PATH", flushed
+        self.address = line.split(":", 2)[2] if line.startswith("endpoint: ") else line
 
     def command(self, line):
         self.p.stdin.write(line + "\n")

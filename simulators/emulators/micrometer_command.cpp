@@ -1,4 +1,5 @@
 // `guideway-emulate micrometer`: an emulated gauge amplifier on Modbus TCP or RTU (pseudo-terminal).
+// Prints "endpoint: tcp:HOST:PORT" or "endpoint: pty:PATH" once it serves.
 // Fault injection from stdin, one command per line: "fault <name> [count]", "disconnect <ms>".
 #include <signal.h>
 
@@ -31,6 +32,7 @@ int run_micrometer(const MicrometerArgs& a) {
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGINT);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  signal(SIGPIPE, SIG_IGN);  // a reader of our stdout/stderr that went away must not kill the emulator
 
   MicrometerEmulator::Options options;
   options.unit_id = a.unit_id;
@@ -55,7 +57,7 @@ int run_micrometer(const MicrometerArgs& a) {
       std::cerr << "guideway-emulate micrometer: " << error << "\n";
       return 1;
     }
-    std::cout << path << std::endl;
+    std::cout << "endpoint: pty:" << path << std::endl;  // the daemon's emulator launcher reads this line
   } else {
     const auto colon = a.tcp.rfind(':');
     if (colon == std::string::npos) {
@@ -67,7 +69,7 @@ int run_micrometer(const MicrometerArgs& a) {
       std::cerr << "guideway-emulate micrometer: " << error << "\n";
       return 1;
     }
-    std::cout << a.tcp.substr(0, colon) << ":" << port << std::endl;
+    std::cout << "endpoint: tcp:" << a.tcp.substr(0, colon) << ":" << port << std::endl;
   }
   std::thread control([&emulator] {
     std::string line, message;

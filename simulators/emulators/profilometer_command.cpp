@@ -1,4 +1,5 @@
 // `guideway-emulate profilometer`: an emulated PGI 1240-style profilometer streaming traverses on TCP.
+// Prints "endpoint: tcp:HOST:PORT" once it serves.
 // Fault injection from stdin, one command per line: "fault <name> [count]", "disconnect <ms>", "stall <ms>".
 #include <signal.h>
 
@@ -28,6 +29,7 @@ int run_profilometer(const ProfilometerArgs& a) {
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGINT);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  signal(SIGPIPE, SIG_IGN);  // a reader of our stdout/stderr that went away must not kill the emulator
   ProfilometerEmulator::Options options;
   options.points_per_s = a.points_per_s;
   if (a.synthetic) {
@@ -49,7 +51,7 @@ int run_profilometer(const ProfilometerArgs& a) {
     std::cerr << "guideway-emulate profilometer: " << error << "\n";
     return 1;
   }
-  std::cout << a.host << ":" << port << std::endl;
+  std::cout << "endpoint: tcp:" << a.host << ":" << port << std::endl;  // read by the daemon's emulator launcher
   std::thread control([&emulator] {
     std::string line, message;
     while (std::getline(std::cin, line)) {
