@@ -8,3 +8,8 @@ guideway_add_test(autocollimator_protocol_fuzz_test SOURCES autocollimator_proto
                   LIBS guideway_autocollimator)
 guideway_add_test(can_io_test SOURCES can_io_test.cpp LIBS guideway_can)
 guideway_add_test(serial_port_test SOURCES serial_port_test.cpp LIBS guideway_serial)
+# The emulators and guidewayd as processes, plugins loaded from <build>/lib/guideway/plugins.
+add_test(NAME can_serial_process_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/can_serial_process_test.py ${PROJECT_BINARY_DIR}
+          ${PROJECT_SOURCE_DIR})
+set_tests_properties(can_serial_process_test PROPERTIES LABELS integration TIMEOUT 120)

@@ -1,0 +1,148 @@
+#!/usr/bin/python3
+"""The CAN and serial instruments end to end, as processes: `guideway-emulate dbb` (Unix CAN gateway)
+and `guideway-emulate autocollimator` (pseudo-terminal, path printed on stdout) run beside guidewayd,
+which loads the dbb-can and autocollimator-serial plugins from its plugin directory; faults are
+injected through the emulators' stdin and `guideway status --json` must show them counted while both
+devices keep streaming (and the daemon keeps running).
+Usage: can_serial_process_test.py BUILD_DIR SOURCE_DIR"""
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
+SOURCE = sys.argv.pop(1) if len(sys.argv) > 1 else "."
+GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
+GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+EMULATE = os.path.join(BUILD, "simulators", "emulators", "guideway-emulate")
+
+
+def wait_for(predicate, timeout=15.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.05)
+    return predicate()
+
+
+class CanSerialProcesses(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(prefix="gwcs-")
+        self.addCleanup(self.tmp.cleanup)
+        self.sock = os.path.join(self.tmp.name, "g.sock")
+        self.can = os.path.join(self.tmp.name, "can.sock")
+        self.tty = os.path.join(self.tmp.name, "ttyAC0")
+
+    def spawn(self, *args):
+        p = subprocess.Popen(list(args), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, bufsize=1)
+
+        def cleanup():
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+            for stream in (p.stdin, p.stdout, p.stderr):
+                try:
+                    stream.close()
+                except OSError:
+                    pass
+        self.addCleanup(cleanup)
+        return p
+
+    def control(self, emulator, command):
+        emulator.stdin.write(command + "\n")
+        emulator.stdin.flush()
+        reply = emulator.stdout.readline().strip()
+        self.assertTrue(reply.startswith("ok"), reply)
+
+    def status(self):
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, "status", "--json"], capture_output=True, text=True,
+                             timeout=20)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        return {d["name"]: d for d in json.loads(out.stdout)["devices"]}
+
+    def test_emulators_daemon_and_faults(self):
+        listed = subprocess.run([GUIDEWAYD, "--list-drivers"], capture_output=True, text=True, timeout=20).stdout
+        self.assertIn("dbb-can", listed)
+        self.assertIn("autocollimator-serial", listed)
+
+        dbb = self.spawn(EMULATE, "dbb", "--bus", "unix:" + self.can, "--feed-mm-min", "2000")
+        self.assertEqual(dbb.stdout.readline().strip(), "bus: unix:" + self.can)
+        ac = self.spawn(EMULATE, "autocollimator", "--link", self.tty, "--dwell-s", "0.2", "--step-mm", "25")
+        first = ac.stdout.readline().strip()
+        self.assertTrue(first.startswith("pty: /dev/pts/"), first)
+        self.assertEqual(ac.stdout.readline().strip(), "link: " + self.tty)
+        self.assertEqual(os.path.realpath(self.tty), first[len("pty: "):])
+
+        with open(os.path.join(SOURCE, "config", "devices-can-serial.example.toml")) as f:
+            text = f.read()
+        text = text.replace("/tmp/guideway-can.sock", self.can).replace("/tmp/guideway-ac0", self.tty)
+        text = text.replace('mode = "poll"', 'mode = "stream"')
+        text = text.replace("[daemon]\n", "[daemon]\nstatus_period_s = 0.2\n", 1).replace(
+            "status_period_s = 1.0\n", "", 1)
+        cfg = os.path.join(self.tmp.name, "g.toml")
+        with open(cfg, "w") as f:
+            f.write(text)
+        check = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True,
+                               timeout=20)
+        self.assertEqual(check.returncode, 0, check.stderr)
+        d = self.spawn(GUIDEWAYD, "--config", cfg, "--socket", self.sock)
+        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not create its socket")
+
+        def streaming_with(n):
+            s = self.status()
+            ok = all(s[k]["state"] == "streaming" and s[k]["counters"]["samples"] >= n for k in ("dbb", "autocollimator"))
+            return s if ok else None
+
+        s = wait_for(lambda: streaming_with(50))
+        self.assertTrue(s, self.status())
+        self.assertEqual([c["name"] for c in s["dbb"]["channels"]], ["bar_length", "x", "y"])
+        self.assertEqual([c["unit"] for c in s["autocollimator"]["channels"]], ["rad", "rad"])
+
+        # Faults on both buses, while the daemon keeps running.
+        self.control(dbb, "truncated 3")
+        self.control(dbb, "bad 2")
+        self.control(dbb, "error-frames 2")
+        self.control(ac, "garbage 100")
+        self.control(ac, "bad-checksum 2")
+        s = wait_for(lambda: (lambda s: s if s["dbb"]["counters"]["bad_frames"] >= 7 and
+                              s["autocollimator"]["counters"]["bad_frames"] >= 3 else None)(self.status()))
+        self.assertTrue(s, self.status())
+
+        before = self.status()
+        self.control(dbb, "disconnect")
+        self.control(ac, "disconnect 0.3")
+        s = wait_for(lambda: (lambda s: s if s["dbb"]["counters"]["reconnects"] >= 1 and
+                              s["autocollimator"]["counters"]["reconnects"] >= 1 and
+                              s["dbb"]["state"] == "streaming" and s["autocollimator"]["state"] == "streaming"
+                              else None)(self.status()))
+        self.assertTrue(s, self.status())
+        self.assertTrue(ac.stdout.readline().strip().startswith("pty: /dev/pts/"))
+        after = wait_for(lambda: (lambda s: s if all(
+            s[k]["counters"]["samples"] > before[k]["counters"]["samples"] + 20 for k in ("dbb", "autocollimator"))
+            else None)(self.status()))
+        self.assertTrue(after, "samples keep coming after the reconnects")
+
+        # The DBB emulator goes away for good: its device is lost, the autocollimator is unaffected.
+        self.control(dbb, "quit")
+        dbb.wait(timeout=10)
+        s = wait_for(lambda: (lambda s: s if s["dbb"]["state"] != "streaming" else None)(self.status()))
+        self.assertTrue(s)
+        n = s["autocollimator"]["counters"]["samples"]
+        self.assertTrue(wait_for(lambda: self.status()["autocollimator"]["counters"]["samples"] > n + 10))
+        self.assertEqual(self.status()["autocollimator"]["state"], "streaming")
+
+        d.send_signal(signal.SIGTERM)
+        self.assertEqual(d.wait(timeout=10), 0)
+        self.control(ac, "quit")
+        self.assertEqual(ac.wait(timeout=10), 0)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
