@@ -36,7 +36,7 @@ struct Harness {
       transport = "transport = \"tcp\"\nhost = \"127.0.0.1\"\nport = " + std::to_string(port) + "\n";
     }
     table = parse_toml(transport +
-                           "poll_hz = 100\nresponse_timeout_ms = 100\nlost_after_failures = 3\n"
+                           "poll_hz = 100\nresponse_timeout_ms = 400\nlost_after_failures = 3\n"
                            "backoff_initial_ms = 50\nbackoff_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
@@ -169,10 +169,10 @@ TEST_P(MicrometerTransport, SurvivesEveryFaultAndLosesNothing) {
 
   // Unplug the line: the driver goes lost with a reason, backs off, reconnects and keeps counting.
   const std::size_t have = h.samples.size();
-  h.emulator->disconnect_for(600ms);
+  h.emulator->disconnect_for(2000ms);  // RTU notices only by 3 timeouts of 400 ms
   ASSERT_TRUE(test::eventually([&] { return h.driver->status().state == drivers::DeviceState::lost; }, 3s));
   EXPECT_FALSE(h.driver->status().reason.empty());
-  ASSERT_TRUE(test::eventually([&] { return h.driver->status().counters.reconnects >= 1; }, 5s));
+  ASSERT_TRUE(test::eventually([&] { return h.driver->status().counters.reconnects >= 1; }, 8s));
   ASSERT_TRUE(h.wait_samples(have + 20));
   EXPECT_EQ(h.driver->status().state, drivers::DeviceState::streaming);
   bool gap_flagged = false;

@@ -90,7 +90,7 @@ driver = "micrometer-modbus"
 transport = "rtu"
 device = "{self.rtu.address}"
 poll_hz = 50
-response_timeout_ms = 100
+response_timeout_ms = 300
 backoff_initial_ms = 50
 backoff_max_ms = 400
 [[device]]
@@ -100,7 +100,7 @@ transport = "tcp"
 host = "{host}"
 port = {port}
 poll_hz = 50
-response_timeout_ms = 100
+response_timeout_ms = 300
 backoff_initial_ms = 50
 backoff_max_ms = 400
 [device.registers]
@@ -110,7 +110,7 @@ name = "prof"
 driver = "profilometer-tcp"
 host = "{phost}"
 port = {pport}
-stall_timeout_ms = 300
+stall_timeout_ms = 1000
 backoff_initial_ms = 50
 backoff_max_ms = 400
 """)

@@ -417,10 +417,14 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
       }
       write_all(fd, frame.data(), frame.size());
       break;
-    case ModbusFault::burst:
-      for (int i = 0; i < 3; ++i) write_all(fd, frame.data(), frame.size());
+    case ModbusFault::burst: {
+      // Back to back in one write, as on the wire: the copies arrive together with the answer.
+      std::vector<std::uint8_t> three;
+      for (int i = 0; i < 3; ++i) three.insert(three.end(), frame.begin(), frame.end());
+      write_all(fd, three.data(), three.size());
       record();
       break;
+    }
     default:
       break;
   }
