@@ -62,7 +62,8 @@ void add_ports_commands(CLI::App& app, CliContext& ctx) {
       }
       if (shown == 1) {
         std::cout << std::left << std::setw(16) << "PORT" << std::setw(11) << "TRANSPORT" << std::setw(11) << "VID:PID"
-                  << std::setw(18) << "SERIAL" << "DESCRIPTION\n";
+                  << std::setw(18) << "SERIAL"
+                  << "DESCRIPTION\n";
       }
       const std::string vidpid = p.usb_vid >= 0 ? hex4(p.usb_vid) + ":" + hex4(p.usb_pid) : "-";
       std::cout << std::left << std::setw(16) << p.name << std::setw(11) << p.transport << std::setw(11) << vidpid

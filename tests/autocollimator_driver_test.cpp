@@ -183,8 +183,8 @@ TEST(AutocollimatorDriver, DisconnectReopensThePortWithBackoffAndLosesNothing) {
     for (int round = 1; round <= 2; ++round) {
       b.emu.inject_disconnect(0.15);
       ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::lost; }, 3s));
-      ASSERT_TRUE(test::eventually(
-          [&] { return b.driver->status().counters.reconnects >= static_cast<unsigned>(round); }, 5s));
+      ASSERT_TRUE(
+          test::eventually([&] { return b.driver->status().counters.reconnects >= static_cast<unsigned>(round); }, 5s));
       ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
     }
     EXPECT_EQ(b.emu.opens(), 3u);
@@ -204,7 +204,12 @@ TEST(AutocollimatorDriver, BurstFasterThanThePollRateIsReceivedCompletely) {
 
 TEST(AutocollimatorDriver, NoReflectionAndOutOfRangeAreFlagsNotNumbers) {
   // A mirror tilting slowly through the 600" range on X.
-  Bench b(false, false, [](double t) { return emulators::AutocollimatorView{-700.0 + 4000.0 * t, 12.5, true}; }, 600.0);
+  Bench b(
+      false, false,
+      [](double t) {
+        return emulators::AutocollimatorView{-700.0 + 4000.0 * t, 12.5, true};
+      },
+      600.0);
   ASSERT_TRUE(b.wait_samples(30));
   b.emu.inject_block(0.1);
   ASSERT_TRUE(test::eventually([&] {

@@ -91,9 +91,15 @@ TEST(AutocollimatorProtocol, FuzzRandomAndMutatedLines) {
       line = format_reply(random_reading(rng), max_reported_arcsec, k % 3 == 2);
       const std::string original = line;
       switch (rng() % 3) {
-        case 0: line[rng() % line.size()] = static_cast<char>(rng() % 256); break;
-        case 1: line.erase(rng() % line.size(), 1); break;
-        default: line.insert(rng() % (line.size() + 1), 1, static_cast<char>(rng() % 256)); break;
+        case 0:
+          line[rng() % line.size()] = static_cast<char>(rng() % 256);
+          break;
+        case 1:
+          line.erase(rng() % line.size(), 1);
+          break;
+        default:
+          line.insert(rng() % (line.size() + 1), 1, static_cast<char>(rng() % 256));
+          break;
       }
       if (k % 3 == 2 && line != original) {
         Reading r;

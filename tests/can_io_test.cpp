@@ -132,8 +132,9 @@ TEST(CanIo, RealVcanRoundTripWhereTheKernelHasAfCan) {
   const std::string name = ifname ? ifname : "vcan0";
   std::string err;
   CanSocket a = open_socketcan(name, err);
-  if (!a.valid()) GTEST_SKIP() << "AF_CAN works but " << name << " is not usable (create it with `ip link add dev "
-                               << name << " type vcan && ip link set up " << name << "`): " << err;
+  if (!a.valid())
+    GTEST_SKIP() << "AF_CAN works but " << name << " is not usable (create it with `ip link add dev " << name
+                 << " type vcan && ip link set up " << name << "`): " << err;
   CanSocket b = open_socketcan(name, err);
   ASSERT_TRUE(b.valid()) << err;
   ASSERT_TRUE(write_can_frame(a.fd(), frame(0x185, 4, 3), err)) << err;

@@ -238,7 +238,8 @@ TEST(DbbDriver, DisconnectReconnectsWithBackoffAndKeepsCounting) {
   ASSERT_TRUE(b.wait_samples(20));
   for (int round = 1; round <= 3; ++round) {
     b.emu.inject_disconnect();
-    ASSERT_TRUE(test::eventually([&] { return b.driver->status().counters.reconnects >= static_cast<unsigned>(round); }));
+    ASSERT_TRUE(
+        test::eventually([&] { return b.driver->status().counters.reconnects >= static_cast<unsigned>(round); }));
     ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
   }
   EXPECT_EQ(b.driver->status().state, DeviceState::streaming);
@@ -324,7 +325,9 @@ TEST(DbbDriver, ConfigErrorsNameFileLineAndKey) {
     EXPECT_NE(std::string(e.what()).find("node_id"), std::string::npos) << e.what();
   }
   try {
-    create("bus = \"unix:/x\"\nsync = \"sometimes\"\n[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 1\n");
+    create(
+        "bus = \"unix:/x\"\nsync = \"sometimes\"\n[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = "
+        "1\n");
     FAIL() << "bad sync accepted";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("sync"), std::string::npos) << e.what();

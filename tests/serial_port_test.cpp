@@ -1,8 +1,8 @@
 // The serial line: the termios backend on a real pseudo-terminal (framing applied, bytes both ways,
 // hang-up seen as "closed"), the automatic backend choosing termios for ptys, libserialport's
 // refusal of ptys (the platform fact the design works around), and port discovery.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <stdlib.h>
 #include <termios.h>
 #include <unistd.h>

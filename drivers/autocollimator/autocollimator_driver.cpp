@@ -59,10 +59,9 @@ void reading_to_sample(const Reading& r, double range_arcsec, Sample& s) noexcep
   }
 }
 
-AutocollimatorDriver::AutocollimatorDriver(std::string name, std::size_t ring_capacity,
-                                           AutocollimatorSettings settings)
-    : Driver(std::move(name), "autocollimator-serial",
-             {{settings.x_channel, "rad"}, {settings.y_channel, "rad"}}, ring_capacity),
+AutocollimatorDriver::AutocollimatorDriver(std::string name, std::size_t ring_capacity, AutocollimatorSettings settings)
+    : Driver(std::move(name), "autocollimator-serial", {{settings.x_channel, "rad"}, {settings.y_channel, "rad"}},
+             ring_capacity),
       settings_(std::move(settings)),
       wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
 
@@ -101,8 +100,8 @@ std::string AutocollimatorDriver::serve(const std::stop_token& stop, serial::Ser
   const std::int64_t timeout_ns = settings_.reply_timeout_ms * 1'000'000;
   const std::int64_t poll_ns = settings_.poll_period_ms * 1'000'000;
   int consecutive_timeouts = 0;
-  bool awaiting = false;          // poll: a request is outstanding
-  std::int64_t deadline = 0;      // poll: reply deadline; stream: silence deadline
+  bool awaiting = false;      // poll: a request is outstanding
+  std::int64_t deadline = 0;  // poll: reply deadline; stream: silence deadline
   std::int64_t next_poll = mono_now_ns();
   const std::string request = format_request(settings_.relative ? Request::relative : Request::absolute);
 

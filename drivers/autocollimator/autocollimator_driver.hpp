@@ -15,14 +15,14 @@ namespace guideway::autocollimator {
 
 struct AutocollimatorSettings {
   serial::SerialSettings serial;
-  bool stream = false;              // false: poll; true: continuous output ("c <ms>")
-  bool relative = false;            // "r" instead of "a" (poll mode)
+  bool stream = false;    // false: poll; true: continuous output ("c <ms>")
+  bool relative = false;  // "r" instead of "a" (poll mode)
   std::int64_t poll_period_ms = 50;
   std::int64_t stream_period_ms = 20;
   std::int64_t reply_timeout_ms = 300;  // poll: per request; stream: silence before a timeout
   int lost_after_timeouts = 3;          // consecutive timeouts before the state becomes "lost"
   bool require_checksum = false;
-  double range_arcsec = 1000.0;         // readings beyond are flagged out of range
+  double range_arcsec = 1000.0;  // readings beyond are flagged out of range
   std::int64_t reconnect_min_ms = 50;
   std::int64_t reconnect_max_ms = 5000;
   std::string x_channel = "angle_x";

@@ -66,27 +66,42 @@ void format_axis(std::string& out, AxisState state, double v) {
 
 std::string format_request(Request request, int period_ms) {
   switch (request) {
-    case Request::absolute: return "a\r";
-    case Request::relative: return "r\r";
-    case Request::set_zero: return "z\r";
-    case Request::stream_start: return "c " + std::to_string(period_ms) + "\r";
-    case Request::stream_stop: return "s\r";
+    case Request::absolute:
+      return "a\r";
+    case Request::relative:
+      return "r\r";
+    case Request::set_zero:
+      return "z\r";
+    case Request::stream_start:
+      return "c " + std::to_string(period_ms) + "\r";
+    case Request::stream_stop:
+      return "s\r";
   }
   return "\r";
 }
 
 std::string_view to_string(ParseError error) noexcept {
   switch (error) {
-    case ParseError::none: return "ok";
-    case ParseError::too_long: return "line too long";
-    case ParseError::not_ascii: return "control or non-ASCII bytes";
-    case ParseError::bad_checksum: return "wrong checksum";
-    case ParseError::no_checksum: return "checksum missing";
-    case ParseError::field_count: return "not four fields";
-    case ParseError::bad_type: return "unknown reading type";
-    case ParseError::bad_status: return "malformed status code";
-    case ParseError::bad_value: return "malformed angle";
-    case ParseError::inconsistent: return "status code disagrees with the values";
+    case ParseError::none:
+      return "ok";
+    case ParseError::too_long:
+      return "line too long";
+    case ParseError::not_ascii:
+      return "control or non-ASCII bytes";
+    case ParseError::bad_checksum:
+      return "wrong checksum";
+    case ParseError::no_checksum:
+      return "checksum missing";
+    case ParseError::field_count:
+      return "not four fields";
+    case ParseError::bad_type:
+      return "unknown reading type";
+    case ParseError::bad_status:
+      return "malformed status code";
+    case ParseError::bad_value:
+      return "malformed angle";
+    case ParseError::inconsistent:
+      return "status code disagrees with the values";
   }
   return "?";
 }

@@ -31,14 +31,14 @@ struct Reading {
 enum class ParseError {
   none,
   too_long,
-  not_ascii,      // control or non-ASCII bytes
-  bad_checksum,   // "*HH" present and wrong, or malformed
-  no_checksum,    // checksum required but absent
-  field_count,    // not four fields
-  bad_type,       // first field not 4 or 2
-  bad_status,     // not three digits, or digits out of range
-  bad_value,      // an angle field that is neither a number with two decimals, OVER nor ----
-  inconsistent,   // status code disagrees with the type or the value fields
+  not_ascii,     // control or non-ASCII bytes
+  bad_checksum,  // "*HH" present and wrong, or malformed
+  no_checksum,   // checksum required but absent
+  field_count,   // not four fields
+  bad_type,      // first field not 4 or 2
+  bad_status,    // not three digits, or digits out of range
+  bad_value,     // an angle field that is neither a number with two decimals, OVER nor ----
+  inconsistent,  // status code disagrees with the type or the value fields
 };
 std::string_view to_string(ParseError error) noexcept;
 

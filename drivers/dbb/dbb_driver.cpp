@@ -59,7 +59,9 @@ DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings se
       connector_(std::move(connector)),
       wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {
   if (!connector_) {
-    connector_ = [endpoint = settings_.endpoint](std::string& error) { return can::open_can_endpoint(endpoint, error); };
+    connector_ = [endpoint = settings_.endpoint](std::string& error) {
+      return can::open_can_endpoint(endpoint, error);
+    };
   }
 }
 
@@ -164,8 +166,7 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       case can::ReadResult::timeout:
         if (now - last_rx >= timeout_ns) {
           timeouts_.fetch_add(1, std::memory_order_relaxed);
-          set_state(drivers::DeviceState::lost,
-                    "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
+          set_state(drivers::DeviceState::lost, "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
           silent_ = true;
           last_rx = now;       // count one timeout per silent period
           decoder.mark_gap();  // what comes next follows a gap
@@ -212,7 +213,8 @@ void DbbDriver::run(std::stop_token stop) {
 }
 
 void register_dbb_driver(drivers::DriverRegistry& registry) {
-  registry.add("dbb-can", "double ball bar + axis encoders on CAN (CiA 406 style TPDOs on SYNC; SocketCAN or unix: gateway)",
+  registry.add("dbb-can",
+               "double ball bar + axis encoders on CAN (CiA 406 style TPDOs on SYNC; SocketCAN or unix: gateway)",
                [](const drivers::DeviceConfig& c) {
                  return std::make_unique<DbbDriver>(c.name, c.ring_capacity, parse_dbb_settings(c.table));
                });

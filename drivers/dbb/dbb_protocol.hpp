@@ -30,7 +30,7 @@ struct EncoderScale {
   double resolution_m = 1e-7;  // metres per count
   int direction = +1;          // +1 or -1
   std::int64_t zero_count = 0;
-  double offset_m = 0.0;       // position at zero_count (the bar's nominal length for the bar encoder)
+  double offset_m = 0.0;  // position at zero_count (the bar's nominal length for the bar encoder)
 };
 
 // Converts metres to the 32-bit count an encoder with this scale would send (the emulator's side).
@@ -70,9 +70,9 @@ struct DbbCycle {
 // Assembles SYNC cycles from frames. A cycle opens at a SYNC and is emitted as soon as every
 // configured node has sent its PDO. Missing PDOs: when the next SYNC arrives before the cycle is
 // complete, the cycle is emitted with sample_partial and the missing channels HOLD their previous
-// value (NaN if the node never answered); a cycle in which no node answered emits nothing. A second PDO from a node within one cycle means a SYNC was
-// missed: the open cycle is emitted (partial if incomplete) and a new cycle opens at that PDO's
-// time, flagged sample_after_gap. PDOs before the first SYNC and from unconfigured nodes are ignored.
+// value (NaN if the node never answered); a cycle in which no node answered emits nothing. A second PDO from a node
+// within one cycle means a SYNC was missed: the open cycle is emitted (partial if incomplete) and a new cycle opens at
+// that PDO's time, flagged sample_after_gap. PDOs before the first SYNC and from unconfigured nodes are ignored.
 class DbbDecoder {
  public:
   struct Result {

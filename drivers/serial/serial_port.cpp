@@ -23,9 +23,8 @@ struct BaudEntry {
   speed_t speed;
 };
 constexpr BaudEntry baud_table[] = {
-    {1200, B1200},     {2400, B2400},     {4800, B4800},     {9600, B9600},     {19200, B19200},
-    {38400, B38400},   {57600, B57600},   {115200, B115200}, {230400, B230400}, {460800, B460800},
-    {921600, B921600},
+    {1200, B1200},   {2400, B2400},     {4800, B4800},     {9600, B9600},     {19200, B19200},   {38400, B38400},
+    {57600, B57600}, {115200, B115200}, {230400, B230400}, {460800, B460800}, {921600, B921600},
 };
 
 // termios backend: any tty, in particular pseudo-terminals.
@@ -112,10 +111,18 @@ std::unique_ptr<SerialLine> open_termios(const SerialSettings& s, std::string& e
   tio.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS);
   tio.c_cflag |= CLOCAL | CREAD;
   switch (s.data_bits) {
-    case 5: tio.c_cflag |= CS5; break;
-    case 6: tio.c_cflag |= CS6; break;
-    case 7: tio.c_cflag |= CS7; break;
-    default: tio.c_cflag |= CS8; break;
+    case 5:
+      tio.c_cflag |= CS5;
+      break;
+    case 6:
+      tio.c_cflag |= CS6;
+      break;
+    case 7:
+      tio.c_cflag |= CS7;
+      break;
+    default:
+      tio.c_cflag |= CS8;
+      break;
   }
   if (s.parity == 'E') tio.c_cflag |= PARENB;
   if (s.parity == 'O') tio.c_cflag |= PARENB | PARODD;
@@ -227,9 +234,12 @@ bool is_pseudo_terminal(const std::string& port) {
 
 std::string_view to_string(Backend backend) noexcept {
   switch (backend) {
-    case Backend::automatic: return "auto";
-    case Backend::termios: return "termios";
-    case Backend::libserialport: return "libserialport";
+    case Backend::automatic:
+      return "auto";
+    case Backend::termios:
+      return "termios";
+    case Backend::libserialport:
+      return "libserialport";
   }
   return "?";
 }
@@ -259,9 +269,12 @@ bool is_supported_baud_rate(int baud_rate) noexcept {
 
 std::unique_ptr<SerialLine> open_serial(const SerialSettings& s, std::string& error) {
   switch (s.backend) {
-    case Backend::termios: return open_termios(s, error);
-    case Backend::libserialport: return open_libserialport(s, error);
-    case Backend::automatic: break;
+    case Backend::termios:
+      return open_termios(s, error);
+    case Backend::libserialport:
+      return open_libserialport(s, error);
+    case Backend::automatic:
+      break;
   }
   std::error_code ec;
   // Pseudo-terminals, and paths that do not exist (the clearest error comes from open()).
@@ -342,9 +355,15 @@ bool list_serial_ports(std::vector<SerialPortInfo>& ports, std::string& error) {
         info.usb_serial = sn ? sn : "";
         break;
       }
-      case SP_TRANSPORT_BLUETOOTH: info.transport = "bluetooth"; break;
-      case SP_TRANSPORT_NATIVE: info.transport = "native"; break;
-      default: info.transport = "unknown"; break;
+      case SP_TRANSPORT_BLUETOOTH:
+        info.transport = "bluetooth";
+        break;
+      case SP_TRANSPORT_NATIVE:
+        info.transport = "native";
+        break;
+      default:
+        info.transport = "unknown";
+        break;
     }
     ports.push_back(std::move(info));
   }

@@ -18,9 +18,9 @@ std::string_view to_string(Backend backend) noexcept;
 struct SerialSettings {
   std::string port;  // /dev/ttyUSB0, /dev/serial/by-id/..., /dev/pts/7 or a symlink to one
   int baud_rate = 9600;
-  int data_bits = 8;     // 5..8
-  char parity = 'N';     // 'N', 'E', 'O'
-  int stop_bits = 1;     // 1 or 2
+  int data_bits = 8;                     // 5..8
+  char parity = 'N';                     // 'N', 'E', 'O'
+  int stop_bits = 1;                     // 1 or 2
   Backend backend = Backend::automatic;  // automatic: termios for pseudo-terminals, else libserialport
 };
 

@@ -48,8 +48,9 @@ bool handle_fault(AutocollimatorEmulator& emu, const std::vector<std::string>& w
     msg = emu.pty_path() + ", " + std::to_string(emu.requests()) + " requests, " + std::to_string(emu.log().size()) +
           " readings";
   } else {
-    msg = "commands: disconnect [DOWN_S] | garbage BYTES | truncated N | bad-checksum N | stall S | burst N | block S"
-          " | status | quit";
+    msg =
+        "commands: disconnect [DOWN_S] | garbage BYTES | truncated N | bad-checksum N | stall S | burst N | block S"
+        " | status | quit";
     return false;
   }
   return true;
@@ -64,7 +65,8 @@ int run_autocollimator(const AutocollimatorOptions& o) {
   spec.end_m = o.end_mm * 1e-3;
   spec.step_m = o.step_mm * 1e-3;
   spec.dwell_s = o.dwell_s;
-  AutocollimatorEmulator emu({o.range_arcsec, o.checksum, o.link}, traverse_source(make_traverse_motion(machine, spec)));
+  AutocollimatorEmulator emu({o.range_arcsec, o.checksum, o.link},
+                             traverse_source(make_traverse_motion(machine, spec)));
   emu.on_reopen([](const std::string& path) {
     std::printf("pty: %s\n", path.c_str());
     std::fflush(stdout);
@@ -75,8 +77,7 @@ int run_autocollimator(const AutocollimatorOptions& o) {
     std::printf("link: %s\n", o.link.c_str());
     std::fflush(stdout);
   }
-  const int rc =
-      run_control_loop([&](const auto& w, std::string& m) { return handle_fault(emu, w, m); }, o.duration_s);
+  const int rc = run_control_loop([&](const auto& w, std::string& m) { return handle_fault(emu, w, m); }, o.duration_s);
   emu.stop();
   return rc;
 }

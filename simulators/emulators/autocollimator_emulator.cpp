@@ -159,8 +159,8 @@ void AutocollimatorEmulator::send_faults() {
     write_raw(g + "\r");
   }
   for (int n = truncated_.exchange(0); n > 0; --n) {
-    const std::string full = autocollimator::format_reply(Reading{false, AxisState::valid, AxisState::valid, 12.34, -5.67},
-                                                          settings_.range_arcsec, settings_.checksum);
+    const std::string full = autocollimator::format_reply(
+        Reading{false, AxisState::valid, AxisState::valid, 12.34, -5.67}, settings_.range_arcsec, settings_.checksum);
     write_raw(full.substr(0, 1 + next() % (full.size() - 2)) + "\r");
   }
   for (int n = bad_checksum_.exchange(0); n > 0; --n) {

@@ -55,7 +55,8 @@ int run_control_loop(const ControlHandler& handle, double duration_s) {
   for (;;) {
     int timeout_ms = -1;
     if (duration_s > 0) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
       if (left.count() <= 0) break;
       timeout_ms = static_cast<int>(left.count());
     }

@@ -9,9 +9,12 @@ namespace {
 
 std::pair<int, int> plane_axes(sim::Plane p) {
   switch (p) {
-    case sim::Plane::xy: return {0, 1};
-    case sim::Plane::xz: return {0, 2};
-    case sim::Plane::yz: return {1, 2};
+    case sim::Plane::xy:
+      return {0, 1};
+    case sim::Plane::xz:
+      return {0, 2};
+    case sim::Plane::yz:
+      return {1, 2};
   }
   return {0, 1};
 }

@@ -57,8 +57,9 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
   } else if (c == "status") {
     msg = std::to_string(emu.cycles_sent()) + " cycles, " + std::to_string(emu.connections()) + " connections";
   } else {
-    msg = "commands: disconnect | garbage N | truncated N | bad N | error-frames N | bus-off | drop-pdo ENCODER [CYCLES]"
-          " | stall SECONDS | burst N | status | quit";
+    msg =
+        "commands: disconnect | garbage N | truncated N | bad N | error-frames N | bus-off | drop-pdo ENCODER [CYCLES]"
+        " | stall SECONDS | burst N | status | quit";
     return false;
   }
   return true;

@@ -33,8 +33,8 @@ struct DbbEmulatorSettings {
 // One cycle the emulator put on the bus.
 struct DbbSentCycle {
   double t_s = 0;
-  std::uint32_t sent_mask = 0;      // bit i: encoder i's PDO was sent
-  std::vector<double> truth_m;      // the source's positions
+  std::uint32_t sent_mask = 0;        // bit i: encoder i's PDO was sent
+  std::vector<double> truth_m;        // the source's positions
   std::vector<std::uint32_t> counts;  // the counts sent
 };
 
@@ -53,14 +53,14 @@ class DbbEmulator {
   void attach(can::CanSocket fd);
 
   // Fault injection: applied at the next cycle (before its PDOs) unless said otherwise.
-  void inject_disconnect();                       // close the connection now
-  void inject_garbage(int frames);                // frames with foreign COB-IDs and random payloads
-  void inject_truncated(int frames);              // records shorter than a can_frame
-  void inject_bad_frames(int frames);             // TPDO1s with a wrong length, SYNC with a payload
+  void inject_disconnect();                                    // close the connection now
+  void inject_garbage(int frames);                             // frames with foreign COB-IDs and random payloads
+  void inject_truncated(int frames);                           // records shorter than a can_frame
+  void inject_bad_frames(int frames);                          // TPDO1s with a wrong length, SYNC with a payload
   void inject_error_frames(int frames, bool bus_off = false);  // CAN_ERR_FLAG frames
-  void inject_drop_pdo(std::size_t encoder, int cycles);  // that encoder skips its PDO in the next cycles
-  void inject_stall(double seconds);              // answer/produce nothing for a while
-  void inject_burst(int cycles);                  // that many extra SYNC+PDO cycles, back to back
+  void inject_drop_pdo(std::size_t encoder, int cycles);       // that encoder skips its PDO in the next cycles
+  void inject_stall(double seconds);                           // answer/produce nothing for a while
+  void inject_burst(int cycles);                               // that many extra SYNC+PDO cycles, back to back
 
   [[nodiscard]] std::vector<DbbSentCycle> log() const;
   [[nodiscard]] std::uint64_t cycles_sent() const noexcept { return cycles_.load(); }
