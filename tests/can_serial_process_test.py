@@ -144,5 +144,19 @@ class CanSerialProcesses(unittest.TestCase):
         self.assertEqual(ac.wait(timeout=10), 0)
 
 
+    def test_ports_lists_serial_ports(self):
+        out = subprocess.run([GUIDEWAY, "ports", "--json"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        for line in out.stdout.splitlines():
+            port = json.loads(line)
+            self.assertEqual(port["class"], "PORT")
+            self.assertTrue(port["name"].startswith("/dev/"), port)
+            if port["transport"] == "usb":
+                self.assertRegex(port["usb_vid"], "^[0-9a-f]{4}$")
+        table = subprocess.run([GUIDEWAY, "ports"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(table.returncode, 0, table.stderr)
+        self.assertTrue(table.stdout.startswith("PORT") or table.stdout.startswith("no serial ports"), table.stdout)
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)
