@@ -203,6 +203,20 @@ TEST(ProfilometerTcp, StreamsTheVirtualMachineToolsFacedProfile) {
   EXPECT_NEAR(h.driver->last_header()->spacing_m, 1e-6, 1e-12);
 }
 
+TEST(ProfilometerTcp, StopsPromptlyAndStartsAgain) {
+  Harness h(200);
+  h.driver->start();
+  ASSERT_TRUE(h.wait_samples(50));
+  const auto t0 = std::chrono::steady_clock::now();
+  h.driver->stop();  // the read is interrupted, not waited out (stall_timeout_ms is 1.5 s)
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 500ms);
+  EXPECT_EQ(h.driver->status().state, drivers::DeviceState::stopped);
+  h.driver->start();
+  const std::size_t have = h.samples.size();
+  ASSERT_TRUE(h.wait_samples(have + 50));
+  EXPECT_EQ(h.driver->status().state, drivers::DeviceState::streaming);
+}
+
 TEST(ProfilometerTcp, RegistryCreatesItAndRejectsBadConfig) {
   drivers::DriverRegistry registry;
   profilometer::register_profilometer_driver(registry);

@@ -67,6 +67,7 @@ void ProfilometerDriver::publish_events(std::vector<StreamEvent>& events) {
 }
 
 void ProfilometerDriver::run(std::stop_token stop) {
+  client_.clear_interrupt();  // left set by a previous stop(): this run starts afresh
   ProfileAssembler assembler;
   std::vector<StreamEvent> events;
   events.reserve(1024);
