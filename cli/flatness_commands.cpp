@@ -62,11 +62,12 @@ void print_profile(const gm::StraightnessProfile& p) {
     std::cout << (b_mm < 0 ? " - " : " + ") << std::abs(b_mm);
     if (k > 0) std::cout << " x" << (k > 1 ? "^" + std::to_string(k) : "");
   }
-  std::cout << std::fixed << std::setprecision(4) << "\n    fit residual rms " << f.residual_rms_m * 1e6
-            << " um, max " << f.residual_max_m * 1e6 << " um; angle residual rms "
-            << f.angle_residual_rms_rad / gm::rad_per_arcsec << " arcsec\n";
-  std::cout << "  " << std::setw(9) << "x_mm" << std::setw(12) << "height_um" << std::setw(10) << "u_um" << std::setw(12)
-            << "endpt_um" << std::setw(12) << "lsq_um" << "\n";
+  std::cout << std::fixed << std::setprecision(4) << "\n    fit residual rms " << f.residual_rms_m * 1e6 << " um, max "
+            << f.residual_max_m * 1e6 << " um; angle residual rms " << f.angle_residual_rms_rad / gm::rad_per_arcsec
+            << " arcsec\n";
+  std::cout << "  " << std::setw(9) << "x_mm" << std::setw(12) << "height_um" << std::setw(10) << "u_um"
+            << std::setw(12) << "endpt_um" << std::setw(12) << "lsq_um"
+            << "\n";
   for (std::size_t k = 0; k < p.x_m.size(); ++k)
     std::cout << "  " << std::setw(9) << std::setprecision(2) << p.x_m[k] * 1e3 << std::setprecision(4) << std::setw(12)
               << p.height_m[k] * 1e6 << std::setw(10) << p.u_height_m[k] * 1e6 << std::setw(12)
@@ -77,7 +78,8 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
   CLI::App* id = identify_command(app);
 
   {
-    auto* cmd = id->add_subcommand("straightness", "straightness from an autocollimator traverse (x_mm,pitch_arcsec[,yaw_arcsec])");
+    auto* cmd = id->add_subcommand("straightness",
+                                   "straightness from an autocollimator traverse (x_mm,pitch_arcsec[,yaw_arcsec])");
     auto file = std::make_shared<std::string>();
     auto json = std::make_shared<bool>(false);
     auto u_arcsec = std::make_shared<double>(0.0);
@@ -86,7 +88,8 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
     cmd->add_flag("--json", *json, "print the result as one JSON object");
     cmd->add_option("--angle-u-arcsec", *u_arcsec,
                     "standard uncertainty per reading (default: TA80, sqrt(0.01^2/12 + 0.5^2/3) = 0.289 arcsec)");
-    cmd->add_option("--max-order", *max_order, "highest polynomial order tried by the BIC selection")->check(CLI::Range(1, 12));
+    cmd->add_option("--max-order", *max_order, "highest polynomial order tried by the BIC selection")
+        ->check(CLI::Range(1, 12));
     cmd->callback([=] {
       run_reporting([&] {
         gm::StraightnessOptions opt;
@@ -149,8 +152,9 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
         }
         if (r.lsq)
           std::cout << "least squares (all lines, one angular offset per line): flatness about the plane "
-                    << r.lsq->flatness_m * 1e6 << " um, minimum zone " << r.lsq->flatness_min_zone_m * 1e6 << " um, residual rms " << r.lsq->residual_rms_rad / gm::rad_per_arcsec
-                    << " arcsec, redundancy " << r.lsq->redundancy << "\n";
+                    << r.lsq->flatness_m * 1e6 << " um, minimum zone " << r.lsq->flatness_min_zone_m * 1e6
+                    << " um, residual rms " << r.lsq->residual_rms_rad / gm::rad_per_arcsec << " arcsec, redundancy "
+                    << r.lsq->redundancy << "\n";
       });
     });
   }
@@ -175,8 +179,8 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
                   << "), maximum at " << std::setprecision(2) << r.phase_rad * 180 / std::numbers::pi << " deg (u "
                   << r.u_phase_rad * 180 / std::numbers::pi << ")\n"
                   << std::setprecision(4) << "run-out r = 2A = " << r.runout_m * 1e6 << " um (u " << r.u_runout_m * 1e6
-                  << "), parallelism p = " << r.parallelism_m * 1e6 << " um, plate diameter L = " << std::setprecision(1)
-                  << r.plate_diameter_m * 1e3 << " mm\n"
+                  << "), parallelism p = " << r.parallelism_m * 1e6
+                  << " um, plate diameter L = " << std::setprecision(1) << r.plate_diameter_m * 1e3 << " mm\n"
                   << "deflection angle = squareness (r + p) / L = " << std::setprecision(3) << r.deflection_rad * 1e6
                   << " urad (u " << r.u_deflection_rad * 1e6 << ")\n";
         if (r.travel_m)

@@ -28,7 +28,8 @@ std::string revolution_csv(double amplitude_um, double phase_deg, double noise_u
   out << "# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n" << extra_meta << "angle_deg,runout_um\n";
   for (int k = 0; k < 360; ++k) {
     const double phi = k * pi / 180.0;
-    out << k << "," << 1.2 + amplitude_um * std::cos(phi - phase_deg * pi / 180.0) + 0.04 * std::cos(2 * phi + 0.3) + g(rng)
+    out << k << ","
+        << 1.2 + amplitude_um * std::cos(phi - phase_deg * pi / 180.0) + 0.04 * std::cos(2 * phi + 0.3) + g(rng)
         << "\n";
   }
   return out.str();
@@ -51,17 +52,19 @@ TEST(FlatnessRunout, ReproducesMuEquation21) {
   EXPECT_NEAR(exact.runout_m, 0.3e-6, 1e-15);
   EXPECT_NEAR(exact.deflection_rad, 2.8e-6, 1e-15);
   EXPECT_NEAR(*exact.squareness_amplitude_m, 1.68e-6, 1e-15);
-  std::printf("Eq. 21: r = %.4f um (u %.4f), theta0 = %.4f urad (u %.4f), over 600 mm %.4f um (paper: 0.3 um, 2.8 urad, "
-              "1.7 um)\n",
-              r.runout_m * 1e6, r.u_runout_m * 1e6, r.deflection_rad * 1e6, r.u_deflection_rad * 1e6,
-              *r.squareness_amplitude_m * 1e6);
+  std::printf(
+      "Eq. 21: r = %.4f um (u %.4f), theta0 = %.4f urad (u %.4f), over 600 mm %.4f um (paper: 0.3 um, 2.8 urad, "
+      "1.7 um)\n",
+      r.runout_m * 1e6, r.u_runout_m * 1e6, r.deflection_rad * 1e6, r.u_deflection_rad * 1e6,
+      *r.squareness_amplitude_m * 1e6);
 }
 
 TEST(FlatnessRunout, UncertaintyCoversTheTruthInRepeatedTrials) {
   int amp = 0, phase = 0;
   const int trials = 1000;
   for (int i = 0; i < trials; ++i) {
-    const auto r = identify_runout(parse_runout_revolution(revolution_csv(0.15, 200.0, 0.05, 1000 + static_cast<std::uint64_t>(i)), "t.csv"));
+    const auto r = identify_runout(
+        parse_runout_revolution(revolution_csv(0.15, 200.0, 0.05, 1000 + static_cast<std::uint64_t>(i)), "t.csv"));
     amp += std::abs(r.amplitude_m - 0.15e-6) <= 2 * r.u_amplitude_m;
     double dp = std::remainder(r.phase_rad - 200.0 * pi / 180.0, 2 * pi);
     phase += std::abs(dp) <= 2 * r.u_phase_rad;

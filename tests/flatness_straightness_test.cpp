@@ -158,9 +158,10 @@ TEST(FlatnessStraightness, UncertaintyCoversTheTruthInRepeatedTrials) {
     }
   }
   const auto rate = [&](int c) { return static_cast<double>(c) / trials; };
-  std::printf("coverage within 2u over %d trials: end-point %.3f, least-squares %.3f, minimum zone %.3f, "
-              "h(mid) %.3f, h(end) %.3f, end-point deviations %.3f\n",
-              trials, rate(ep), rate(ls), rate(mz), rate(mid), rate(end), static_cast<double>(dev) / static_cast<double>(devs));
+  std::printf(
+      "coverage within 2u over %d trials: end-point %.3f, least-squares %.3f, minimum zone %.3f, "
+      "h(mid) %.3f, h(end) %.3f, end-point deviations %.3f\n",
+      trials, rate(ep), rate(ls), rate(mz), rate(mid), rate(end), static_cast<double>(dev) / static_cast<double>(devs));
   for (int c : {ep, ls, mz, mid, end}) {
     EXPECT_GE(rate(c), 0.90);
     EXPECT_LE(rate(c), 0.99);
@@ -177,7 +178,7 @@ TEST(FlatnessStraightness, RecoversTheVirtualMachineStraightness) {
   MachineConfig c;
   auto& ax = c.axis[0];
   ax.bending = true;
-  ax.translation[2].c = {0.0, 0.0, 6e-6, -8e-6};   // E_ZX(x): vertical straightness, about 0.4 um over 600 mm
+  ax.translation[2].c = {0.0, 0.0, 6e-6, -8e-6};        // E_ZX(x): vertical straightness, about 0.4 um over 600 mm
   ax.translation[1].c = {0.0, 0.0, -4e-6, 0.0, 10e-6};  // E_YX(x): horizontal
   c.noise.autocollimator_rad = 0.2 * arcsec;
   c.noise.seed = 11;
@@ -222,13 +223,15 @@ TEST(FlatnessStraightness, RecoversTheVirtualMachineStraightness) {
       worst = std::max(worst, err);
     }
     const Truth t = evaluate_truth(x, y);
-    EXPECT_NEAR(prof->end_point.straightness_m, t.end_point, 3 * prof->end_point.u_straightness_m + 2e-9) << prof->plane;
+    EXPECT_NEAR(prof->end_point.straightness_m, t.end_point, 3 * prof->end_point.u_straightness_m + 2e-9)
+        << prof->plane;
     EXPECT_NEAR(prof->minimum_zone.straightness_m, t.minimum_zone, 3 * prof->minimum_zone.u_straightness_m + 2e-9);
-    std::printf("%s: straightness end-point %.4f um (truth %.4f, u %.4f), min zone %.4f um (truth %.4f), "
-                "worst deviation error %.4f um, polynomial order %d\n",
-                prof->plane.c_str(), prof->end_point.straightness_m * 1e6, t.end_point * 1e6,
-                prof->end_point.u_straightness_m * 1e6, prof->minimum_zone.straightness_m * 1e6, t.minimum_zone * 1e6,
-                worst * 1e6, prof->polynomial.order);
+    std::printf(
+        "%s: straightness end-point %.4f um (truth %.4f, u %.4f), min zone %.4f um (truth %.4f), "
+        "worst deviation error %.4f um, polynomial order %d\n",
+        prof->plane.c_str(), prof->end_point.straightness_m * 1e6, t.end_point * 1e6,
+        prof->end_point.u_straightness_m * 1e6, prof->minimum_zone.straightness_m * 1e6, t.minimum_zone * 1e6,
+        worst * 1e6, prof->polynomial.order);
   }
 }
 
@@ -242,8 +245,9 @@ std::string error_of(const std::string& text) {
 }
 
 TEST(FlatnessStraightness, BadInputNamesFileAndLine) {
-  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n30,3\n"),
-            "t.csv:5: missing station: x_mm jumps from 10 to 30 (step_mm = 10, 1 station(s) missing, first at x_mm = 20)");
+  EXPECT_EQ(
+      error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n30,3\n"),
+      "t.csv:5: missing station: x_mm jumps from 10 to 30 (step_mm = 10, 1 station(s) missing, first at x_mm = 20)");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,abc\n"),
             "t.csv:4: column 'pitch_arcsec': 'abc' is not a number");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec,yaw_arcsec\n0,1,0\n10,2,-600.5\n"),

@@ -80,10 +80,11 @@ TEST(FlatnessUnionJack, ReproducesMoody1955) {
   EXPECT_NEAR(r.flatness_m / tens_of_microinch, 17.841145, 2e-5);
   EXPECT_LE(r.flatness_min_zone_m, r.flatness_lsq_plane_m);
   EXPECT_GT(r.flatness_min_zone_m, 0.5 * r.flatness_lsq_plane_m);
-  std::printf("Moody 1955: %zu station heights, max |deviation| %.3g tens of micro-inch (%.3g pm); flatness %.6f "
-              "(x10 uin) = %.4f um; closure E_W %.4f um, N_S %.2g um\n",
-              compared, worst, worst * tens_of_microinch * 1e12, r.flatness_m / tens_of_microinch, r.flatness_m * 1e6,
-              *r.lines[6].closure_m * 1e6, *r.lines[7].closure_m * 1e6);
+  std::printf(
+      "Moody 1955: %zu station heights, max |deviation| %.3g tens of micro-inch (%.3g pm); flatness %.6f "
+      "(x10 uin) = %.4f um; closure E_W %.4f um, N_S %.2g um\n",
+      compared, worst, worst * tens_of_microinch * 1e12, r.flatness_m / tens_of_microinch, r.flatness_m * 1e6,
+      *r.lines[6].closure_m * 1e6, *r.lines[7].closure_m * 1e6);
 }
 
 TEST(FlatnessUnionJack, LeastSquaresOnMoodyData) {
@@ -155,7 +156,8 @@ TEST(FlatnessUnionJack, RecoversAKnownSurface) {
   // surface minus its least-squares plane over the same stations.
   auto plane_residual_range = [&](const std::vector<UnionJackStation>& st) {
     double sx = 0, sy = 0, sh = 0, n = static_cast<double>(st.size());
-    for (const auto& s : st) sx += s.x_steps / n, sy += s.y_steps / n, sh += (s.height_m - surface(s.x_steps, s.y_steps)) / n;
+    for (const auto& s : st)
+      sx += s.x_steps / n, sy += s.y_steps / n, sh += (s.height_m - surface(s.x_steps, s.y_steps)) / n;
     // Fit d = a + b (x - sx) + c (y - sy) by normal equations (2x2 after centring).
     double sxx = 0, sxy = 0, syy = 0, sxd = 0, syd = 0;
     for (const auto& s : st) {
@@ -186,7 +188,8 @@ double brute_force_zone(const std::vector<double>& x, const std::vector<double>&
     if (std::abs(nz) < 1e-12) return;
     const double a = -nx / nz, b = -ny / nz;
     double lo = 1e300, hi = -1e300;
-    for (std::size_t k = 0; k < n; ++k) lo = std::min(lo, z[k] - a * x[k] - b * y[k]), hi = std::max(hi, z[k] - a * x[k] - b * y[k]);
+    for (std::size_t k = 0; k < n; ++k)
+      lo = std::min(lo, z[k] - a * x[k] - b * y[k]), hi = std::max(hi, z[k] - a * x[k] - b * y[k]);
     best = std::min(best, hi - lo);
   };
   auto cross = [&](double ax, double ay, double az, double bx, double by, double bz) {
@@ -210,7 +213,8 @@ TEST(FlatnessUnionJack, MinimumZoneMatchesBruteForce) {
   for (int trial = 0; trial < 40; ++trial) {
     const std::size_t n = 6 + static_cast<std::size_t>(trial % 7);
     std::vector<double> x(n), y(n), z(n);
-    for (std::size_t k = 0; k < n; ++k) x[k] = uni(rng), y[k] = uni(rng), z[k] = 1e-6 * (g(rng) + 0.3 * x[k] - 0.2 * y[k]);
+    for (std::size_t k = 0; k < n; ++k)
+      x[k] = uni(rng), y[k] = uni(rng), z[k] = 1e-6 * (g(rng) + 0.3 * x[k] - 0.2 * y[k]);
     const auto mz = minimum_zone_flatness(x, y, z);
     EXPECT_NEAR(mz.width, brute_force_zone(x, y, z), 1e-15) << trial;
     for (std::size_t k = 0; k < n; ++k) {
@@ -231,8 +235,7 @@ TEST(FlatnessUnionJack, MinimumZoneMatchesBruteForce) {
 class BadSet : public ::testing::Test {
  protected:
   void SetUp() override {
-    for (const auto& e : fs::directory_iterator(moody_dir))
-      fs::copy_file(e.path(), dir.path() / e.path().filename());
+    for (const auto& e : fs::directory_iterator(moody_dir)) fs::copy_file(e.path(), dir.path() / e.path().filename());
     for (const auto& e : fs::directory_iterator(dir.path()))
       fs::permissions(e.path(), fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::add);
   }

@@ -50,8 +50,8 @@ std::vector<std::size_t> simplex_max(const Eigen::MatrixXd& a, const Eigen::Vect
       for (Eigen::Index i = 0; i < m; ++i) {
         if (t(i, enter) > eps) {
           const double ratio = t(i, n + m) / t(i, enter);
-          if (ratio < best - eps ||
-              (ratio <= best + eps && leave >= 0 && basis[static_cast<std::size_t>(i)] < basis[static_cast<std::size_t>(leave)])) {
+          if (ratio < best - eps || (ratio <= best + eps && leave >= 0 &&
+                                     basis[static_cast<std::size_t>(i)] < basis[static_cast<std::size_t>(leave)])) {
             best = ratio;
             leave = i;
           }

@@ -20,8 +20,8 @@ struct RunoutRevolution {
   std::string source;
   double plate_diameter_m = 0.0;
   double parallelism_m = 0.0;
-  double u_parallelism_m = 0.0;          // optional `parallelism_u_um`
-  std::optional<double> travel_m;        // optional `travel_mm`
+  double u_parallelism_m = 0.0;    // optional `parallelism_u_um`
+  std::optional<double> travel_m;  // optional `travel_mm`
   std::vector<double> angle_rad;
   std::vector<double> runout_m;
   std::vector<std::size_t> line;
@@ -35,14 +35,14 @@ RunoutRevolution read_runout_revolution(const std::string& path);
 struct RunoutResult {
   std::size_t samples = 0;
   double offset_m = 0.0;
-  double amplitude_m = 0.0;   // A of the once-per-revolution term
+  double amplitude_m = 0.0;  // A of the once-per-revolution term
   double u_amplitude_m = 0.0;
-  double phase_rad = 0.0;     // angle of the maximum, in [0, 2 pi)
+  double phase_rad = 0.0;  // angle of the maximum, in [0, 2 pi)
   double u_phase_rad = 0.0;
   double second_harmonic_m = 0.0;  // amplitude of the twice-per-revolution term
   double residual_rms_m = 0.0;
   double condition_number = 0.0;
-  double runout_m = 0.0;      // r = 2 A
+  double runout_m = 0.0;  // r = 2 A
   double u_runout_m = 0.0;
   double parallelism_m = 0.0;
   double plate_diameter_m = 0.0;

@@ -160,8 +160,8 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
           throw InputError(where(source, row.line) + "missing station: x_mm jumps from " + fmt(prev_x) + " to " +
                            fmt(x) + " (step_mm = " + fmt(step_mm) + ", " + fmt(std::round(steps) - 1) +
                            " station(s) missing, first at x_mm = " + fmt(prev_x + step_mm) + ")");
-        throw InputError(where(source, row.line) + "x_mm spacing " + fmt(dx) + " does not match step_mm = " +
-                         fmt(step_mm));
+        throw InputError(where(source, row.line) + "x_mm spacing " + fmt(dx) +
+                         " does not match step_mm = " + fmt(step_mm));
       }
     }
     prev_x = x;
@@ -184,7 +184,8 @@ MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>
   if (n == 1) return {0.0, 0.0, y[0]};
   std::vector<std::size_t> order(n);
   for (std::size_t i = 0; i < n; ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return x[a] < x[b] || (x[a] == x[b] && y[a] < y[b]); });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return x[a] < x[b] || (x[a] == x[b] && y[a] < y[b]); });
   auto cross = [&](std::size_t o, std::size_t a, std::size_t b) {
     return (x[a] - x[o]) * (y[b] - y[o]) - (y[a] - y[o]) * (x[b] - x[o]);
   };
@@ -213,8 +214,9 @@ MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>
   };
   for (std::size_t i = 0; i + 1 < lower.size(); ++i) try_edge(lower[i], lower[i + 1], true);
   for (std::size_t i = 0; i + 1 < upper.size(); ++i) try_edge(upper[i], upper[i + 1], false);
-  if (!std::isfinite(best.width)) best = {*std::max_element(y.begin(), y.end()) - *std::min_element(y.begin(), y.end()), 0.0,
-                                          *std::min_element(y.begin(), y.end())};
+  if (!std::isfinite(best.width))
+    best = {*std::max_element(y.begin(), y.end()) - *std::min_element(y.begin(), y.end()), 0.0,
+            *std::min_element(y.begin(), y.end())};
   return best;
 }
 
@@ -323,9 +325,11 @@ StraightnessProfile straightness_from_angles(double x0_m, double step_m, const s
     std::vector<std::size_t>& apex = low.size() >= 2 ? high : low;
     if (edge.size() >= 2 && !apex.empty()) {
       const std::size_t a = edge.front(), b = edge.back(), c = apex.front();
-      const double lam = (static_cast<double>(c) - static_cast<double>(a)) / (static_cast<double>(b) - static_cast<double>(a));
-      r.u_straightness_m = su * std::sqrt(row_norm2(
-                                    n, [&](std::size_t j) { return c_row(c, j) - (1 - lam) * c_row(a, j) - lam * c_row(b, j); }));
+      const double lam =
+          (static_cast<double>(c) - static_cast<double>(a)) / (static_cast<double>(b) - static_cast<double>(a));
+      r.u_straightness_m = su * std::sqrt(row_norm2(n, [&](std::size_t j) {
+                             return c_row(c, j) - (1 - lam) * c_row(a, j) - lam * c_row(b, j);
+                           }));
     } else {
       r.u_straightness_m = p.least_squares.u_straightness_m;
     }
@@ -344,7 +348,8 @@ StraightnessResult identify_straightness(const AngleTraverse& traverse, const St
   if (traverse.x_m.empty()) throw InputError(traverse.source + ": empty traverse");
   r.vertical = straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.pitch_rad, options, "vertical");
   if (!traverse.yaw_rad.empty())
-    r.horizontal = straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.yaw_rad, options, "horizontal");
+    r.horizontal =
+        straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.yaw_rad, options, "horizontal");
   return r;
 }
 

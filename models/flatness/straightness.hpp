@@ -35,24 +35,24 @@ AngleTraverse read_angle_traverse(const std::string& path, const Autocollimator&
 
 // Deviations from one reference line, with the straightness (max - min) and its standard uncertainty.
 struct ReferenceLine {
-  double slope = 0.0;           // of the line (dimensionless)
-  double intercept_m = 0.0;     // line value at the first station
-  std::vector<double> deviation_m;  // height - line, per station
+  double slope = 0.0;                 // of the line (dimensionless)
+  double intercept_m = 0.0;           // line value at the first station
+  std::vector<double> deviation_m;    // height - line, per station
   std::vector<double> u_deviation_m;  // standard uncertainty of each deviation
-  double straightness_m = 0.0;  // max - min of deviation_m
+  double straightness_m = 0.0;        // max - min of deviation_m
   double u_straightness_m = 0.0;
   std::size_t max_index = 0;
   std::size_t min_index = 0;
 };
 
 struct PolynomialFit {
-  int order = 0;                 // n of Eq. 10
-  std::vector<double> b;         // b_0..b_n of Eq. 10 in m / m^k, x measured from the first station; b_0 = 0
-  std::vector<double> u_b;       // standard uncertainties (from s^2 (J^T J)^-1 of the slope fit)
-  std::vector<double> bic;       // BIC of orders 1..max tried (index order-1)
+  int order = 0;                   // n of Eq. 10
+  std::vector<double> b;           // b_0..b_n of Eq. 10 in m / m^k, x measured from the first station; b_0 = 0
+  std::vector<double> u_b;         // standard uncertainties (from s^2 (J^T J)^-1 of the slope fit)
+  std::vector<double> bic;         // BIC of orders 1..max tried (index order-1)
   std::vector<double> residual_m;  // height - polynomial, per station
   double residual_rms_m = 0.0;
-  double residual_max_m = 0.0;   // max |residual|
+  double residual_max_m = 0.0;  // max |residual|
   double angle_residual_rms_rad = 0.0;
   double condition_number = 0.0;
   [[nodiscard]] double operator()(double x_from_start_m) const;
@@ -68,7 +68,7 @@ struct StraightnessProfile {
   double u_angle_rad = 0.0;        // per-reading standard uncertainty used
   ReferenceLine end_point;
   ReferenceLine least_squares;
-  ReferenceLine minimum_zone;      // u: that of the least-squares evaluation at the zone's extreme stations
+  ReferenceLine minimum_zone;  // u: that of the least-squares evaluation at the zone's extreme stations
   PolynomialFit polynomial;
 };
 

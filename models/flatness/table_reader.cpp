@@ -23,7 +23,8 @@ std::vector<std::string> split_cells(std::string_view line) {
   std::size_t start = 0;
   while (true) {
     const auto comma = line.find(',', start);
-    cells.emplace_back(trim(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start)));
+    cells.emplace_back(
+        trim(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start)));
     if (comma == std::string_view::npos) break;
     start = comma + 1;
   }
@@ -96,7 +97,8 @@ TableFile parse_table(std::string_view text, const std::string& source) {
       const auto eq = body.find('=');
       if (eq != std::string_view::npos) {
         const std::string key(trim(body.substr(0, eq)));
-        if (!key.empty() && key.find(' ') == std::string::npos) t.metadata[key] = std::string(trim(body.substr(eq + 1)));
+        if (!key.empty() && key.find(' ') == std::string::npos)
+          t.metadata[key] = std::string(trim(body.substr(eq + 1)));
       }
       continue;
     }

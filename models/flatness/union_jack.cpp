@@ -114,7 +114,8 @@ UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_overrid
   // the diagonals cross at middle stations).
   const std::array<std::array<int, 3>, 3> groups = {{{2, 4, 6}, {3, 5, 7}, {0, 1, -1}}};
   const std::array<const char*, 3> what = {"the east-west lines NE_NW, SE_SW and E_W",
-                                           "the north-south lines NE_SE, NW_SW and N_S", "the diagonals NW_SE and NE_SW"};
+                                           "the north-south lines NE_SE, NW_SW and N_S",
+                                           "the diagonals NW_SE and NE_SW"};
   for (std::size_t g = 0; g < groups.size(); ++g) {
     const auto first = static_cast<std::size_t>(groups[g][0]);
     const std::size_t n = set.angle_rad[first].size();
@@ -148,13 +149,13 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
     r.warnings.push_back("the diagonals have " + std::to_string(nd) + " readings, far from sqrt(" + std::to_string(nl) +
                          "^2 + " + std::to_string(ns) + "^2) = " + fmt(std::hypot(dl, ds)));
   // Start and end of each line in station units (SW corner at 0, 0; x east, y north).
-  const std::array<Geometry, 8> geo = {{{0, ds, dl, 0},            // NW_SE
-                                        {dl, ds, 0, 0},            // NE_SW
-                                        {dl, ds, 0, ds},           // NE_NW
-                                        {dl, ds, dl, 0},           // NE_SE
-                                        {dl, 0, 0, 0},             // SE_SW
-                                        {0, ds, 0, 0},             // NW_SW
-                                        {dl, ds / 2, 0, ds / 2},   // E_W
+  const std::array<Geometry, 8> geo = {{{0, ds, dl, 0},             // NW_SE
+                                        {dl, ds, 0, 0},             // NE_SW
+                                        {dl, ds, 0, ds},            // NE_NW
+                                        {dl, ds, dl, 0},            // NE_SE
+                                        {dl, 0, 0, 0},              // SE_SW
+                                        {0, ds, 0, 0},              // NW_SW
+                                        {dl, ds / 2, 0, ds / 2},    // E_W
                                         {dl / 2, ds, dl / 2, 0}}};  // N_S
 
   std::array<std::vector<double>, 8> h;
@@ -188,7 +189,8 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
     const std::size_t n = h[i].size() - 1;
     for (std::size_t j = 0; j <= n; ++j) {
       const double f = static_cast<double>(j) / static_cast<double>(n);
-      UnionJackStation st{geo[i].x0 + (geo[i].x1 - geo[i].x0) * f, geo[i].y0 + (geo[i].y1 - geo[i].y0) * f, h[i][j] - lo};
+      UnionJackStation st{geo[i].x0 + (geo[i].x1 - geo[i].x0) * f, geo[i].y0 + (geo[i].y1 - geo[i].y0) * f,
+                          h[i][j] - lo};
       out.stations.push_back(st);
       all.push_back(st);
     }

@@ -26,7 +26,7 @@ inline constexpr std::array<const char*, 8> union_jack_names = {"NW_SE", "NE_SW"
 struct UnionJackSet {
   std::string dir;
   double foot_spacing_m = 0.0;
-  bool inch_units = false;  // Config.txt said I (inches): reports may add micro-inches
+  bool inch_units = false;                            // Config.txt said I (inches): reports may add micro-inches
   std::array<std::vector<double>, 8> angle_rad;       // readings per line, in the order above
   std::array<std::vector<std::size_t>, 8> file_line;  // file line of each reading
 };
@@ -36,7 +36,8 @@ struct UnionJackSet {
 // comments, blank lines skipped). Checks every reading (number, inside the instrument range) and the
 // geometry (opposite perimeter lines and the parallel centre line have the same number of readings,
 // both diagonals too, all even). Throws InputError "file:line: message".
-UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_override_m = 0.0, const Autocollimator& ac = {});
+UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_override_m = 0.0,
+                             const Autocollimator& ac = {});
 
 struct UnionJackStation {
   double x_steps = 0.0;  // plate coordinates in perimeter-station units (x east, y north; SW corner = 0, 0)
@@ -47,7 +48,8 @@ struct UnionJackStation {
 struct UnionJackLineResult {
   std::string name;
   std::vector<UnionJackStation> stations;
-  std::optional<double> closure_m;  // centre lines: height of the line's middle before it is shifted onto the plate centre
+  std::optional<double>
+      closure_m;  // centre lines: height of the line's middle before it is shifted onto the plate centre
 };
 
 struct UnionJackLsq {
@@ -57,16 +59,16 @@ struct UnionJackLsq {
   double residual_rms_rad = 0.0;           // of the reading equations
   std::size_t readings = 0;
   std::size_t unknowns = 0;
-  std::size_t redundancy = 0;              // readings - rank
-  double flatness_m = 0.0;                 // max - min over the unique stations
-  double flatness_min_zone_m = 0.0;        // minimum zone of the unique stations
+  std::size_t redundancy = 0;        // readings - rank
+  double flatness_m = 0.0;           // max - min over the unique stations
+  double flatness_min_zone_m = 0.0;  // minimum zone of the unique stations
 };
 
 struct UnionJackResult {
   double foot_spacing_m = 0.0;
   std::size_t long_steps = 0, short_steps = 0, diagonal_steps = 0;
   std::array<UnionJackLineResult, 8> lines;
-  double flatness_m = 0.0;     // Moody: highest minus lowest station over the datum plane
+  double flatness_m = 0.0;            // Moody: highest minus lowest station over the datum plane
   double flatness_lsq_plane_m = 0.0;  // Moody heights, peak to valley about their least-squares plane
   double flatness_min_zone_m = 0.0;   // Moody heights, minimum zone (ISO 12781 flatness)
   std::vector<std::string> warnings;  // e.g. station counts far from Pythagoras
