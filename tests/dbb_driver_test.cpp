@@ -333,3 +333,14 @@ TEST(DbbDriver, ConfigErrorsNameFileLineAndKey) {
     EXPECT_NE(std::string(e.what()).find("sync"), std::string::npos) << e.what();
   }
 }
+
+TEST(DbbDriver, StartsAgainAfterStop) {
+  Bench b(true);
+  ASSERT_TRUE(b.wait_samples(10));
+  b.driver->stop();
+  EXPECT_EQ(b.driver->status().state, DeviceState::stopped);
+  b.driver->start();
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
+  EXPECT_EQ(b.driver->status().state, DeviceState::streaming);
+  for (std::size_t i = 1; i < b.samples.size(); ++i) EXPECT_EQ(b.samples[i].seq, b.samples[i - 1].seq + 1);
+}

@@ -173,6 +173,8 @@ std::string AutocollimatorDriver::serve(const std::stop_token& stop, serial::Ser
 }
 
 void AutocollimatorDriver::run(std::stop_token stop) {
+  std::uint64_t stale = 0;
+  (void)!::read(wake_fd_, &stale, sizeof stale);  // a wake-up left over from an earlier stop()
   std::int64_t backoff_ms = settings_.reconnect_min_ms;
   bool connected_once = false;
   while (!stop.stop_requested()) {

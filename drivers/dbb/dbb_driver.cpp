@@ -184,6 +184,8 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
 }
 
 void DbbDriver::run(std::stop_token stop) {
+  std::uint64_t stale = 0;
+  (void)!::read(wake_fd_, &stale, sizeof stale);  // a wake-up left over from an earlier stop()
   DbbDecoder decoder(settings_.encoders);
   std::int64_t backoff_ms = settings_.reconnect_min_ms;
   bool connected_once = false;
