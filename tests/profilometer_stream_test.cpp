@@ -131,7 +131,7 @@ TEST(ProfileStream, ALostPointFlagsTheNextAndAMissingEndLeavesNoEndMark) {
 
 TEST(ProfileStream, RandomAndMutatedStreamsKeepTheInvariants) {
   std::mt19937_64 rng(1240);
-  const std::string valid = format_banner("fuzz") + traverse(1, 30) + format_idle() + traverse(2, 12);
+  const std::string valid = format_banner("fuzz") + traverse(1, 16) + format_idle() + traverse(2, 6);
   std::size_t inputs = 0, points_seen = 0;
   for (int iter = 0; iter < 120000; ++iter) {
     std::string s;
@@ -187,5 +187,5 @@ TEST(ProfileStream, RandomAndMutatedStreamsKeepTheInvariants) {
     }
   }
   EXPECT_GE(inputs, 100000u);
-  EXPECT_GT(points_seen, 100000u);
+  EXPECT_GT(points_seen, 50000u);
 }
