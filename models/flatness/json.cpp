@@ -11,23 +11,24 @@ constexpr double um = 1e6;
 constexpr double urad = 1e6;
 constexpr double tens_of_microinch_per_m = 1.0 / (0.0254 * 1e-5);
 
-nlohmann::json line_json(const ReferenceLine& r, double step_m) {
-  (void)step_m;
+nlohmann::json line_json(const ReferenceLine& r) {
   return {{"straightness_um", r.straightness_m * um},
           {"u_straightness_um", r.u_straightness_m * um},
+          {"u_first_order_um", r.u_first_order_m * um},
+          {"selection_bias_um", r.selection_bias_m * um},
           {"slope_urad", r.slope * urad},
           {"max_station", r.max_index},
           {"min_station", r.min_index}};
 }
 
-nlohmann::json profile_json(const StraightnessProfile& p, double step_m) {
+nlohmann::json profile_json(const StraightnessProfile& p) {
   nlohmann::json j;
   j["plane"] = p.plane;
   j["u_angle_arcsec"] = p.u_angle_rad / rad_per_arcsec;
   j["u_end_height_um"] = p.u_height_m.back() * um;
-  j["end_point"] = line_json(p.end_point, step_m);
-  j["least_squares"] = line_json(p.least_squares, step_m);
-  j["minimum_zone"] = line_json(p.minimum_zone, step_m);
+  j["end_point"] = line_json(p.end_point);
+  j["least_squares"] = line_json(p.least_squares);
+  j["minimum_zone"] = line_json(p.minimum_zone);
   const auto& f = p.polynomial;
   nlohmann::json poly;
   poly["criterion"] = "BIC on the chord-slope fit";
@@ -87,8 +88,8 @@ nlohmann::json to_json(const StraightnessResult& r) {
   j["source"] = r.source;
   j["step_mm"] = r.step_m * 1e3;
   j["readings"] = r.readings;
-  j["vertical"] = profile_json(r.vertical, r.step_m);
-  if (r.horizontal) j["horizontal"] = profile_json(*r.horizontal, r.step_m);
+  j["vertical"] = profile_json(r.vertical);
+  if (r.horizontal) j["horizontal"] = profile_json(*r.horizontal);
   return j;
 }
 

@@ -1,8 +1,10 @@
 #include "models/flatness/straightness.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -116,6 +118,30 @@ PolynomialFit fit_polynomial(double step_m, const std::vector<double>& angle_rad
   }
   fit.residual_rms_m = std::sqrt(ss / static_cast<double>(height_m.size()));
   return fit;
+}
+
+// The three straightness values of chord-slope angles (no uncertainties): for the bootstrap.
+std::array<double, 3> straightness_values(const std::vector<double>& angle_rad, double s, std::vector<double>& h,
+                                          std::vector<double>& t) {
+  const std::size_t n = angle_rad.size();
+  h.assign(n + 1, 0.0);
+  t.resize(n + 1);
+  for (std::size_t k = 0; k <= n; ++k) t[k] = static_cast<double>(k);
+  for (std::size_t k = 0; k < n; ++k) h[k + 1] = h[k] + s * std::tan(angle_rad[k]);
+  const double dn = static_cast<double>(n), dN = dn + 1, tbar = dn / 2;
+  double lo_e = 0, hi_e = 0, ybar = 0, sxx = 0, sxy = 0;
+  for (std::size_t k = 0; k <= n; ++k) {
+    const double d = h[k] - t[k] / dn * h[n];
+    lo_e = std::min(lo_e, d), hi_e = std::max(hi_e, d);
+    ybar += h[k] / dN;
+  }
+  for (std::size_t k = 0; k <= n; ++k) sxx += (t[k] - tbar) * (t[k] - tbar), sxy += (t[k] - tbar) * (h[k] - ybar);
+  double lo_l = std::numeric_limits<double>::infinity(), hi_l = -lo_l;
+  for (std::size_t k = 0; k <= n; ++k) {
+    const double d = h[k] - ybar - sxy / sxx * (t[k] - tbar);
+    lo_l = std::min(lo_l, d), hi_l = std::max(hi_l, d);
+  }
+  return {hi_e - lo_e, hi_l - lo_l, minimum_zone(t, h).width};
 }
 
 }  // namespace
@@ -337,6 +363,31 @@ StraightnessProfile straightness_from_angles(double x0_m, double step_m, const s
   }
 
   p.polynomial = fit_polynomial(s, angle_rad, p.height_m, p.u_angle_rad, options.max_order);
+
+  // Selection bias of the three max - min values: simulate the traverse of the fitted polynomial with
+  // the angle noise, many times; bias = mean(simulated value) - value of the polynomial itself.
+  std::array<ReferenceLine*, 3> lines = {&p.end_point, &p.least_squares, &p.minimum_zone};
+  for (auto* r : lines) r->u_first_order_m = r->u_straightness_m;
+  if (options.bootstrap > 0 && p.u_angle_rad > 0) {
+    std::vector<double> proxy(n), noisy(n), h, t;
+    for (std::size_t j = 0; j < n; ++j) {
+      const double xj = s * static_cast<double>(j);
+      proxy[j] = std::atan((p.polynomial(xj + s) - p.polynomial(xj)) / s);
+    }
+    const auto reference = straightness_values(proxy, s, h, t);
+    std::mt19937_64 rng(0x5eed5eedULL + n);
+    std::normal_distribution<double> noise(0.0, p.u_angle_rad);
+    std::array<double, 3> bias{};
+    for (int i = 0; i < options.bootstrap; ++i) {
+      for (std::size_t j = 0; j < n; ++j) noisy[j] = proxy[j] + noise(rng);
+      const auto v = straightness_values(noisy, s, h, t);
+      for (std::size_t q = 0; q < 3; ++q) bias[q] += (v[q] - reference[q]) / options.bootstrap;
+    }
+    for (std::size_t q = 0; q < 3; ++q) {
+      lines[q]->selection_bias_m = bias[q];
+      lines[q]->u_straightness_m = std::hypot(lines[q]->u_first_order_m, bias[q]);
+    }
+  }
   return p;
 }
 

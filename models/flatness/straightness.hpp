@@ -40,7 +40,13 @@ struct ReferenceLine {
   std::vector<double> deviation_m;    // height - line, per station
   std::vector<double> u_deviation_m;  // standard uncertainty of each deviation
   double straightness_m = 0.0;        // max - min of deviation_m
+  // Standard uncertainty: the first-order (random-walk) propagation combined with the selection bias
+  // of a max - min statistic, u = sqrt(u_first_order^2 + selection_bias^2).
   double u_straightness_m = 0.0;
+  double u_first_order_m = 0.0;
+  // Expected excess of the measured value over the true one because noise favours the extremes:
+  // parametric bootstrap around the fitted polynomial (StraightnessOptions::bootstrap replicates).
+  double selection_bias_m = 0.0;
   std::size_t max_index = 0;
   std::size_t min_index = 0;
 };
@@ -74,7 +80,8 @@ struct StraightnessProfile {
 
 struct StraightnessOptions {
   Autocollimator instrument;
-  int max_order = 8;  // highest polynomial order tried by the BIC selection
+  int max_order = 8;    // highest polynomial order tried by the BIC selection
+  int bootstrap = 200;  // replicates for the selection bias (0: none); fixed seed, reproducible
 };
 
 struct StraightnessResult {
