@@ -125,6 +125,7 @@ LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, c
   Eigen::VectorXd x_all = Eigen::VectorXd::Zero(m);
   for (Eigen::Index i = 0; i < k; ++i) x_all[kept[static_cast<std::size_t>(i)]] = xs[i] / scale[kept[static_cast<std::size_t>(i)]];
   res.residual = y - jacobian * x_all;
+  res.fitted = x_all;
   const Eigen::VectorXd wr = sw.cwiseProduct(res.residual);
   res.rank = static_cast<std::size_t>(k);
   res.s2 = wr.squaredNorm() / static_cast<double>(n - k);

@@ -38,7 +38,9 @@ struct LsqResult {
   std::vector<bool> identified;
   std::vector<std::string> unidentifiable;  // names, in parameter order
   std::vector<LsqCombination> combinations; // what the data says about the unidentifiable ones
-  Eigen::VectorXd residual;               // y - J x (unweighted)
+  Eigen::VectorXd residual;               // y - J fitted (unweighted)
+  Eigen::VectorXd fitted;                 // the solution behind `residual`: like x, but parameters kept
+                                          // to stand for a combination carry their combined value
   double s2 = 0.0;                        // weighted residual variance r^T W r / (n - rank)
   double rms = 0.0;                       // unweighted residual rms
   double condition_number = 0.0;          // of the column-scaled weighted Jacobian (all parameters)

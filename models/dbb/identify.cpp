@@ -262,8 +262,28 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>&
   return n;
 }
 
+// Least squares on every stride-th row only (a preliminary fit whose estimates steer a search or a
+// basis shape); the residual is then evaluated on all rows.
+LsqResult solve_strided(const Eigen::MatrixXd& j, const Eigen::VectorXd& y, const Eigen::VectorXd& w,
+                        const std::vector<std::string>& names, Eigen::Index stride) {
+  if (stride <= 1 || j.rows() / stride <= 4 * j.cols()) return solve_lsq(j, y, w, names);
+  const Eigen::Index m = (j.rows() + stride - 1) / stride;
+  Eigen::MatrixXd js(m, j.cols());
+  Eigen::VectorXd ys(m), ws(m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    js.row(i) = j.row(i * stride);
+    ys[i] = y[i * stride];
+    ws[i] = w[i * stride];
+  }
+  LsqResult r = solve_lsq(js, ys, ws, names);
+  if (!r.ok) return r;
+  r.residual = y - j * r.fitted;
+  r.rms = std::sqrt(r.residual.squaredNorm() / static_cast<double>(j.rows()));
+  return r;
+}
+
 LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<Run>& runs,
-                   const std::string& plane) {
+                   const std::string& plane, Eigen::Index stride = 1) {
   const auto n = static_cast<Eigen::Index>(pts.size());
   Eigen::MatrixXd j(n, static_cast<Eigen::Index>(L.count()));
   Eigen::VectorXd y(n), w(n);
@@ -274,7 +294,7 @@ LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std
     y[i] = pts[static_cast<std::size_t>(i)].y_um;
     w[i] = pts[static_cast<std::size_t>(i)].w;
   }
-  return solve_lsq(j, y, w, diag_names(L, runs, plane));
+  return solve_strided(j, y, w, diag_names(L, runs, plane), stride);
 }
 
 // Weighted sum of squares explained by fitting two extra columns to a residual.
@@ -456,7 +476,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
       }
       for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
     }
-    const auto fit = [&] {
+    const auto fit = [&](Eigen::Index stride) {
       Eigen::MatrixXd j = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(m));
       double basis[lai_count];
       for (Eigen::Index i = 0; i < n; ++i) {
@@ -468,11 +488,12 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         for (std::size_t c = 2; c < lai_count; ++c)
           j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
       }
-      LsqResult r = solve_lsq(j, y, w, names);
+      LsqResult r = solve_strided(j, y, w, names, stride);
       if (!r.ok) throw RunFormatError("identify: " + r.message);
       return r;
     };
-    LsqResult res = fit();
+    // First pass on a third of the points: only its backlash estimate is used (deadband shape).
+    LsqResult res = fit(3);
     // Second pass with the deadband shape of the estimated backlash.
     const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
     const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
@@ -481,8 +502,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
       apply_deadband(pts, runs, std::max(b_a, 0.0), std::max(b_b, 0.0));
       shaped_b_a = std::max(b_a, 0.0);
       shaped_b_b = std::max(b_b, 0.0);
-      res = fit();
     }
+    res = fit(1);
     out.fit = summary_of(res);
     const double omega0 = runs.front().feed_m_per_s / runs.front().radius_m;
     for (std::size_t c = 0; c < m; ++c) {
@@ -502,7 +523,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   // ---- Ballbar diagnostics ----
   DiagLayout L;
   L.runs = runs.size();
-  LsqResult base = fit_diag(L, pts, runs, plane);
+  // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
+  LsqResult base = fit_diag(L, pts, runs, plane, 3);
   if (!base.ok) throw RunFormatError("identify: " + base.message);
   // Reversal spikes: choose the decay time that explains most of the residual.
   {
