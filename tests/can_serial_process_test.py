@@ -74,10 +74,12 @@ class CanSerialProcesses(unittest.TestCase):
 
         dbb = self.spawn(EMULATE, "dbb", "--bus", "unix:" + self.can, "--feed-mm-min", "2000")
         self.assertEqual(dbb.stdout.readline().strip(), "bus: unix:" + self.can)
+        self.assertEqual(dbb.stdout.readline().strip(), "endpoint: unix:" + self.can)
         ac = self.spawn(EMULATE, "autocollimator", "--link", self.tty, "--dwell-s", "0.2", "--step-mm", "25")
         first = ac.stdout.readline().strip()
         self.assertTrue(first.startswith("pty: /dev/pts/"), first)
         self.assertEqual(ac.stdout.readline().strip(), "link: " + self.tty)
+        self.assertEqual(ac.stdout.readline().strip(), "endpoint: pty:" + self.tty)
         self.assertEqual(os.path.realpath(self.tty), first[len("pty: "):])
 
         with open(os.path.join(SOURCE, "config", "devices-can-serial.example.toml")) as f:

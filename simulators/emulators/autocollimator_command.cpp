@@ -1,5 +1,6 @@
 // `guideway-emulate autocollimator`: a TA80-style autocollimator on a pseudo-terminal watching a
 // mirror on a carriage that traverses an axis of the virtual machine tool with stops every step.
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 
@@ -58,6 +59,7 @@ bool handle_fault(AutocollimatorEmulator& emu, const std::vector<std::string>& w
 
 int run_autocollimator(const AutocollimatorOptions& o) {
   block_stop_signals();
+  std::signal(SIGPIPE, SIG_IGN);  // a reader of our stdout that went away must not kill the emulator
   const sim::Machine machine(o.machine_file.empty() ? demo_machine_config() : sim::load_machine_config(o.machine_file));
   sim::TraverseSpec spec;
   spec.axis = o.axis == "y" ? sim::Axis::y : o.axis == "z" ? sim::Axis::z : sim::Axis::x;
@@ -73,10 +75,11 @@ int run_autocollimator(const AutocollimatorOptions& o) {
   });
   std::string error;
   if (!emu.start(error)) throw std::runtime_error(error);
-  if (!o.link.empty()) {
-    std::printf("link: %s\n", o.link.c_str());
-    std::fflush(stdout);
-  }
+  if (!o.link.empty()) std::printf("link: %s\n", o.link.c_str());
+  // Read by the daemon's emulator launcher: the stable link when there is one (it survives
+  // disconnect faults), else the pty.
+  std::printf("endpoint: pty:%s\n", emu.path().c_str());
+  std::fflush(stdout);
   const int rc = run_control_loop([&](const auto& w, std::string& m) { return handle_fault(emu, w, m); }, o.duration_s);
   emu.stop();
   return rc;

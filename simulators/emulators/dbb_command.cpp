@@ -1,6 +1,7 @@
 // `guideway-emulate dbb`: the DBB bar and two axis encoders on a CAN bus (Unix gateway socket,
 // SocketCAN interface, or an inherited fd), following a DBB circle.
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 
@@ -67,6 +68,7 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
 
 int run_dbb(const DbbOptions& o) {
   block_stop_signals();
+  std::signal(SIGPIPE, SIG_IGN);  // a reader of our stdout that went away must not kill the emulator
   DbbEmulatorSettings settings;
   settings.produce_sync = o.sync == "produce";
   settings.sync_rate_hz = o.sync_rate_hz;
@@ -95,7 +97,7 @@ int run_dbb(const DbbOptions& o) {
   can::CanSocket listener;
   if (o.fd >= 0) {
     emu.attach(can::CanSocket(o.fd));
-    std::printf("bus: fd %d\n", o.fd);
+    std::printf("bus: fd %d\nendpoint: fd:%d\n", o.fd, o.fd);
   } else {
     can::CanEndpoint ep;
     if (!can::parse_can_endpoint(o.bus, ep, error)) throw std::runtime_error(error);
@@ -107,7 +109,8 @@ int run_dbb(const DbbOptions& o) {
       if (!s.valid()) throw std::runtime_error(error);
       emu.attach(std::move(s));
     }
-    std::printf("bus: %s\n", can::to_string(ep).c_str());
+    // "endpoint:" is read by the daemon's emulator launcher; the address is what the driver's `bus` takes.
+    std::printf("bus: %s\nendpoint: %s\n", can::to_string(ep).c_str(), can::to_string(ep).c_str());
   }
   std::fflush(stdout);
   emu.start(std::move(listener));
