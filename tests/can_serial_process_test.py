@@ -7,6 +7,8 @@ devices keep streaming (and the daemon keeps running).
 Usage: can_serial_process_test.py BUILD_DIR SOURCE_DIR"""
 import json
 import os
+import socket
+import struct
 import signal
 import subprocess
 import sys
@@ -145,6 +147,37 @@ class CanSerialProcesses(unittest.TestCase):
         self.control(ac, "quit")
         self.assertEqual(ac.wait(timeout=10), 0)
 
+
+    def test_dbb_emulator_on_an_inherited_fd_speaks_the_documented_frames(self):
+        # Python packs struct can_frame itself (id u32, dlc u8, 3 pad, 8 data): an independent check
+        # of the wire format of docs/protocols.md.
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        self.addCleanup(ours.close)
+        p = subprocess.Popen([EMULATE, "dbb", "--fd", str(theirs.fileno()), "--nodes", "4", "5", "6",
+                              "--resolution-nm", "50"], pass_fds=[theirs.fileno()], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        theirs.close()
+        self.addCleanup(lambda: (p.poll() is None and p.kill(), p.wait(), p.stdin.close(), p.stdout.close(),
+                                 p.stderr.close()))
+        self.assertTrue(p.stdout.readline().startswith("bus: fd "))
+        self.assertTrue(p.stdout.readline().startswith("endpoint: fd:"))
+        ours.settimeout(5)
+        previous = None
+        for cycle in range(20):
+            ours.send(struct.pack("<IB3x8s", 0x080, 0, bytes(8)))
+            frames = [struct.unpack("<IB3x8s", ours.recv(64)) for _ in range(3)]
+            self.assertEqual([f[0] for f in frames], [0x184, 0x185, 0x186])
+            self.assertEqual([f[1] for f in frames], [4, 4, 4])
+            counts = [struct.unpack("<i", f[2][:4])[0] for f in frames]
+            bar_m = 0.1 + counts[0] * 50e-9  # nominal 100 mm + counts * resolution
+            self.assertAlmostEqual(bar_m, 0.1, delta=1e-3)  # the demo machine's errors are micrometres
+            if previous is not None:
+                self.assertLess(abs(counts[1] - previous[1]), 200000)  # 10 mm between cycles at most
+            previous = counts
+            time.sleep(0.01)
+        p.stdin.write("quit\n")
+        p.stdin.flush()
+        self.assertEqual(p.wait(timeout=10), 0)
 
     def test_ports_lists_serial_ports(self):
         out = subprocess.run([GUIDEWAY, "ports", "--json"], capture_output=True, text=True, timeout=20)
