@@ -108,6 +108,9 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, doubl
         }
         z = to;
       };
+      // Pre-roll in 0.1 deg steps (each refined only near a reversal).
+      const double z0 = run.angle_rad.front();
+      for (int q = 1; q < 1800; ++q) advance(z0 - dir * pi + dir * q * (pi / 1800));
       for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
         advance(run.angle_rad[i]);
         Point& p = pts[i0 + i];
