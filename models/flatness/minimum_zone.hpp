@@ -9,6 +9,7 @@
 
 namespace guideway::models {
 
+// The zone found: its width and the lower plane.
 struct MinimumZonePlane {
   double width = 0.0;  // zone width along z
   double a = 0.0;      // zone planes: z = a x + b y + c (lower) and + width (upper)

@@ -16,6 +16,7 @@
 
 namespace guideway::models {
 
+// One run-out recording with its set-up metadata (SI).
 struct RunoutRevolution {
   std::string source;
   double plate_diameter_m = 0.0;
@@ -32,6 +33,7 @@ struct RunoutRevolution {
 RunoutRevolution parse_runout_revolution(std::string_view text, const std::string& source);
 RunoutRevolution read_runout_revolution(const std::string& path);
 
+// The sine fit and Eq. 21; a value type.
 struct RunoutResult {
   std::size_t samples = 0;
   double offset_m = 0.0;

@@ -51,6 +51,7 @@ struct ReferenceLine {
   std::size_t min_index = 0;
 };
 
+// Mu Eq. 10 fitted through the chord slopes (Eq. 12), order by BIC; a value type.
 struct PolynomialFit {
   int order = 0;                   // n of Eq. 10
   std::vector<double> b;           // b_0..b_n of Eq. 10 in m / m^k, x measured from the first station; b_0 = 0
@@ -78,12 +79,14 @@ struct StraightnessProfile {
   PolynomialFit polynomial;
 };
 
+// Instrument and fit settings of an evaluation.
 struct StraightnessOptions {
   Autocollimator instrument;
   int max_order = 8;    // highest polynomial order tried by the BIC selection
   int bootstrap = 200;  // replicates for the selection bias (0: none); fixed seed, reproducible
 };
 
+// Both planes of one traverse (horizontal only when the file has yaw readings).
 struct StraightnessResult {
   std::string source;
   double step_m = 0.0;

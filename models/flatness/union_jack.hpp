@@ -23,6 +23,7 @@ enum class UnionJackLine : int { nw_se = 0, ne_sw, ne_nw, ne_se, se_sw, nw_sw, e
 inline constexpr std::array<const char*, 8> union_jack_names = {"NW_SE", "NE_SW", "NE_NW", "NE_SE",
                                                                 "SE_SW", "NW_SW", "E_W",   "N_S"};
 
+// The eight lines of readings and the foot spacing, as read from a directory (SI).
 struct UnionJackSet {
   std::string dir;
   double foot_spacing_m = 0.0;
@@ -39,12 +40,14 @@ struct UnionJackSet {
 UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_override_m = 0.0,
                              const Autocollimator& ac = {});
 
+// One station: plate coordinates and height.
 struct UnionJackStation {
   double x_steps = 0.0;  // plate coordinates in perimeter-station units (x east, y north; SW corner = 0, 0)
   double y_steps = 0.0;
   double height_m = 0.0;
 };
 
+// The stations of one line after Moody's evaluation.
 struct UnionJackLineResult {
   std::string name;
   std::vector<UnionJackStation> stations;
@@ -52,6 +55,7 @@ struct UnionJackLineResult {
       closure_m;  // centre lines: height of the line's middle before it is shifted onto the plate centre
 };
 
+// The least-squares evaluation of all lines at once (heights relative to their least-squares plane).
 struct UnionJackLsq {
   std::vector<UnionJackStation> stations;  // unique stations, heights relative to their least-squares plane
   std::vector<double> u_height_m;          // from the per-reading angle uncertainty (a priori)
@@ -64,6 +68,7 @@ struct UnionJackLsq {
   double flatness_min_zone_m = 0.0;  // minimum zone of the unique stations
 };
 
+// Moody's evaluation of a set (and optionally the least-squares one).
 struct UnionJackResult {
   double foot_spacing_m = 0.0;
   std::size_t long_steps = 0, short_steps = 0, diagonal_steps = 0;
@@ -75,6 +80,7 @@ struct UnionJackResult {
   std::optional<UnionJackLsq> lsq;
 };
 
+// Evaluation settings.
 struct UnionJackOptions {
   bool least_squares = false;
   Autocollimator instrument;
