@@ -43,8 +43,9 @@ void run_reporting(F&& f) {
 
 void print_line(const char* name, const gm::ReferenceLine& r) {
   std::cout << "  " << std::left << std::setw(15) << name << std::right << std::fixed << std::setprecision(3)
-            << std::setw(9) << r.straightness_m * 1e6 << " um  (u " << std::setprecision(3) << r.u_straightness_m * 1e6
-            << " um), max at station " << r.max_index << ", min at " << r.min_index << "\n";
+            << std::setw(9) << r.straightness_m * 1e6 << " um  (u " << r.u_straightness_m * 1e6 << " um: first order "
+            << r.u_first_order_m * 1e6 << ", selection bias " << r.selection_bias_m * 1e6 << "), max at station "
+            << r.max_index << ", min at " << r.min_index << "\n";
 }
 
 void print_profile(const gm::StraightnessProfile& p) {
