@@ -82,7 +82,9 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
 // Replaces the step-shaped backlash basis by the response of a deadband of width `b` (m) to the
 // commanded circle: the axis stands still at a reversal until the drive has taken up the play, which
 // an ideal step does not describe. Simulated from half a turn before the first sample.
-void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, double b_a, double b_b) {
+// `delay_*` (s) lets each drive follow the command late by its servo lag.
+void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, double b_a, double b_b,
+                    double delay_a = 0.0, double delay_b = 0.0) {
   std::size_t i0 = 0;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const Run& run = runs[k];
@@ -90,7 +92,8 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, doubl
     const double dir = run.dir();
     for (int axis = 0; axis < 2; ++axis) {
       const double b = axis == 0 ? b_a : b_b;
-      const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z) : r * std::sin(z); };
+      const double lag = dir * run.feed_m_per_s / r * (axis == 0 ? delay_a : delay_b);
+      const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z - lag) : r * std::sin(z - lag); };
       if (!(b > 0)) continue;
       const double half = 0.5 * b;
       double z = run.angle_rad.front() - dir * pi;
@@ -187,16 +190,23 @@ double spike_shape(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 :
 struct DiagLayout {
   std::size_t runs = 0;
   bool spikes = false;
+  // Gauss-Newton columns for the decay times, when a spike is clearly present (amp_* = its height
+  // from the search, um): the decay and the height are then fitted together with their covariance.
+  bool decay_a = false, decay_b = false;
+  double amp_a = 0, amp_b = 0;
   bool cyclic_a = false, cyclic_b = false;
   double tau_a = 0.02, tau_b = 0.02, delay_a = 0, delay_b = 0, period_a = 0, period_b = 0;
   [[nodiscard]] std::size_t global0() const { return 2 * runs; }
   // global parameters after the per-run centre offsets
   enum G { scale_a, scale_b, squareness, backlash_a, backlash_b, play_a, play_b, servo, bow_a, bow_b, n_base };
   [[nodiscard]] std::size_t count() const {
-    return global0() + n_base + (spikes ? 2 : 0) + (cyclic_a ? 2 : 0) + (cyclic_b ? 2 : 0);
+    return global0() + n_base + (spikes ? 2 : 0) + (decay_a ? 1 : 0) + (decay_b ? 1 : 0) + (cyclic_a ? 2 : 0) +
+           (cyclic_b ? 2 : 0);
   }
   [[nodiscard]] std::size_t spike0() const { return global0() + n_base; }
-  [[nodiscard]] std::size_t cyc_a0() const { return spike0() + (spikes ? 2 : 0); }
+  [[nodiscard]] std::size_t decay_a0() const { return spike0() + (spikes ? 2 : 0); }
+  [[nodiscard]] std::size_t decay_b0() const { return decay_a0() + (decay_a ? 1 : 0); }
+  [[nodiscard]] std::size_t cyc_a0() const { return decay_b0() + (decay_b ? 1 : 0); }
   [[nodiscard]] std::size_t cyc_b0() const { return cyc_a0() + (cyclic_a ? 2 : 0); }
 };
 
@@ -222,6 +232,17 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
     row[k] = lam * c * (-p.sgn_a) * spike_shape(p.since_a - L.delay_a, L.tau_a);
     row[k + 1] = lam * s * (-p.sgn_b) * spike_shape(p.since_b - L.delay_b, L.tau_b);
   }
+  // d/dtau of A exp(-t/tau) = A t / tau^2 exp(-t/tau), per ms of tau.
+  if (L.decay_a) {
+    const double t = p.since_a - L.delay_a;
+    row[static_cast<Eigen::Index>(L.decay_a0())] =
+        lam * c * (-p.sgn_a) * L.amp_a * t / (L.tau_a * L.tau_a) * spike_shape(t, L.tau_a) * 1e-3;
+  }
+  if (L.decay_b) {
+    const double t = p.since_b - L.delay_b;
+    row[static_cast<Eigen::Index>(L.decay_b0())] =
+        lam * s * (-p.sgn_b) * L.amp_b * t / (L.tau_b * L.tau_b) * spike_shape(t, L.tau_b) * 1e-3;
+  }
   if (L.cyclic_a) {
     const auto k = static_cast<Eigen::Index>(L.cyc_a0());
     const double th = 2 * pi * p.a_m / L.period_a;
@@ -240,7 +261,8 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>&
   const std::string A = axis_letters(plane, 0), B = axis_letters(plane, 1);
   std::vector<std::string> n;
   for (std::size_t k = 0; k < L.runs; ++k) {
-    const std::string pre = L.runs > 1 ? "run" + std::to_string(k + 1) + "." : "";
+    // The first run's centre offset under the plain name, the others as runK.center_offset_*.
+    const std::string pre = k > 0 ? "run" + std::to_string(k + 1) + "." : "";
     (void)runs;
     n.push_back(pre + "center_offset_" + A + "_um");
     n.push_back(pre + "center_offset_" + B + "_um");
@@ -254,6 +276,8 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>&
     n.push_back("reversal_spike_" + A + "_um");
     n.push_back("reversal_spike_" + B + "_um");
   }
+  if (L.decay_a) n.push_back("reversal_spike_decay_" + A + "_ms");
+  if (L.decay_b) n.push_back("reversal_spike_decay_" + B + "_ms");
   if (L.cyclic_a) {
     n.push_back("cyclic_sin_" + A + "_um");
     n.push_back("cyclic_cos_" + A + "_um");
@@ -537,9 +561,11 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     double dt = 1e9;
     for (const auto& run : runs)
       for (std::size_t i = 1; i < run.t_s.size(); ++i) dt = std::min(dt, std::max(run.t_s[i] - run.t_s[i - 1], 1e-4));
+    // With samples further apart than 2 ms a delay only trades off against the height: not searched.
     const double delay_step = std::max(0.002, dt);
-    constexpr double tau_max = 0.1, delay_max = 0.02;
-    const auto search = [&](bool axis_a, double& tau_out, double& delay_out) {
+    constexpr double tau_max = 0.1;
+    const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
+    const auto search = [&](bool axis_a, double& tau_out, double& delay_out, double& amp_out, bool& significant) {
       // Only the points shortly after a reversal matter: (time since, column value, weighted residual).
       struct Near {
         double since, u, w, r;
@@ -563,6 +589,17 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
           suu += q.w * u * u;
         }
         return suu > 0 ? sur * sur / suu : 0.0;
+      };
+      const auto amplitude = [&](double tau, double delay) {
+        double sur = 0, suu = 0;
+        for (const auto& q : near) {
+          const double t = q.since - delay;
+          if (t < 0 || t > 8 * tau) continue;
+          const double u = q.u * std::exp(-t / tau);
+          sur += q.w * u * q.r;
+          suu += q.w * u * u;
+        }
+        return suu > 0 ? sur / suu : 0.0;
       };
       double best = 0, best_tau = 0.02, best_delay = 0;
       constexpr int grid = 12;
@@ -610,9 +647,11 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
       if (score(std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
       tau_out = best_tau;
       delay_out = best_delay;
+      amp_out = amplitude(best_tau, best_delay);
+      significant = score(best_tau, best_delay) > 30.0 * base.s2;
     };
-    search(true, L.tau_a, L.delay_a);
-    search(false, L.tau_b, L.delay_b);
+    search(true, L.tau_a, L.delay_a, L.amp_a, L.decay_a);
+    search(false, L.tau_b, L.delay_b, L.amp_b, L.decay_b);
     L.spikes = true;
   }
   // Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4).
@@ -656,6 +695,10 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     L.cyclic_a = L.period_a > 0;
     L.cyclic_b = L.period_b > 0;
   }
+  // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
+  // take-up is late by as much.
+  if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
+    apply_deadband(pts, runs, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
   LsqResult res = fit_diag(L, pts, runs, plane);
   if (!res.ok) throw RunFormatError("identify: " + res.message);
   {
@@ -673,10 +716,27 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         p.bl_a = -0.5 * p.sgn_a;
         p.bl_b = -0.5 * p.sgn_b;
       }
-      if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, std::max(b_a, 0.0), std::max(b_b, 0.0));
+      if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
       res = fit_diag(L, pts, runs, plane);
       if (!res.ok) throw RunFormatError("identify: " + res.message);
     }
+  }
+  // Gauss-Newton iterations on the spike decay times (linear in everything else).
+  for (int it = 0; it < 4 && (L.decay_a || L.decay_b); ++it) {
+    bool moved = false;
+    const auto step = [&](bool on, std::size_t k_decay, std::size_t k_amp, double& tau, double& amp) {
+      if (!on || !res.identified[k_decay]) return;
+      const double d = res.x[static_cast<Eigen::Index>(k_decay)] * 1e-3;
+      const double next = std::clamp(tau + d, 0.5 * tau, 2.0 * tau);
+      if (std::abs(next - tau) > 0.002 * tau) moved = true;
+      tau = next;
+      amp = res.x[static_cast<Eigen::Index>(k_amp)];
+    };
+    step(L.decay_a, L.decay_a0(), L.spike0(), L.tau_a, L.amp_a);
+    step(L.decay_b, L.decay_b0(), L.spike0() + 1, L.tau_b, L.amp_b);
+    if (!moved) break;
+    res = fit_diag(L, pts, runs, plane);
+    if (!res.ok) throw RunFormatError("identify: " + res.message);
   }
   out.diagnostics_fit = summary_of(res);
   const auto names = diag_names(L, runs, plane);
@@ -725,8 +785,16 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   };
   cyclic(L.cyclic_a, L.cyc_a0(), L.period_a, A);
   cyclic(L.cyclic_b, L.cyc_b0(), L.period_b, B);
-  out.diagnostics.push_back(est("reversal_spike_decay_" + A + "_ms", L.tau_a * 1e3, nan, false));
-  out.diagnostics.push_back(est("reversal_spike_decay_" + B + "_ms", L.tau_b * 1e3, nan, false));
+  const auto decay = [&](bool fitted, std::size_t k, double tau, const std::string& ax) {
+    const std::string name = "reversal_spike_decay_" + ax + "_ms";
+    if (fitted && res.identified[k]) {
+      out.diagnostics.push_back(est(name, tau * 1e3 + res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
+    } else {
+      out.diagnostics.push_back(est(name, tau * 1e3, nan, false));
+    }
+  };
+  decay(L.decay_a, L.decay_a0(), L.tau_a, A);
+  decay(L.decay_b, L.decay_b0(), L.tau_b, B);
   out.diagnostics.push_back(est("reversal_spike_delay_" + A + "_ms", L.delay_a * 1e3, nan, false));
   out.diagnostics.push_back(est("reversal_spike_delay_" + B + "_ms", L.delay_b * 1e3, nan, false));
 
