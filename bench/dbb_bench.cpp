@@ -25,7 +25,8 @@ std::vector<models::dbb::Run> patterns() {
   const struct {
     double r, h;
     sim::Direction d;
-  } spec[] = {{0.095, 0.031225, sim::Direction::ccw}, {0.095, 0.031225, sim::Direction::cw}, {0.1, 0.0, sim::Direction::ccw}};
+  } spec[] = {
+      {0.095, 0.031225, sim::Direction::ccw}, {0.095, 0.031225, sim::Direction::cw}, {0.1, 0.0, sim::Direction::ccw}};
   std::uint64_t seed = 1;
   for (const auto& p : spec) {
     sim::DbbCircleSpec s;

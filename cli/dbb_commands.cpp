@@ -65,14 +65,18 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
     std::uint64_t seed = 0;
   };
   auto so = std::make_shared<SimOpts>();
-  sd->add_option("--machine", so->machine, "machine file (TOML, see docs/machine.md)")->required()->check(CLI::ExistingFile);
+  sd->add_option("--machine", so->machine, "machine file (TOML, see docs/machine.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
   sd->add_option("--radius-mm", so->radius_mm, "circle radius")->required()->check(CLI::PositiveNumber);
-  sd->add_option("--height-mm", so->height_mm, "socket height h (Lai), 0 for an in-plane bar")->check(CLI::NonNegativeNumber);
+  sd->add_option("--height-mm", so->height_mm, "socket height h (Lai), 0 for an in-plane bar")
+      ->check(CLI::NonNegativeNumber);
   sd->add_option("--direction", so->direction, "ccw or cw")->check(CLI::IsMember({"ccw", "cw"}));
   sd->add_option("--feed-mm-per-min", so->feed, "feed rate (default 1000)")->check(CLI::PositiveNumber);
   sd->add_option("--plane", so->plane, "xy, xz or yz (default xy)")->check(CLI::IsMember({"xy", "xz", "yz"}));
   sd->add_option("--start-deg", so->start_deg, "start angle of the data arc (default 0)");
-  sd->add_option("--overshoot-deg", so->overshoot_deg, "feed-in/feed-out arcs (default 45)")->check(CLI::NonNegativeNumber);
+  sd->add_option("--overshoot-deg", so->overshoot_deg, "feed-in/feed-out arcs (default 45)")
+      ->check(CLI::NonNegativeNumber);
   sd->add_option("--sample-rate-hz", so->rate, "bar sampling rate (default: 10 samples per degree)");
   sd->add_option("--center-mm", so->center_mm, "circle centre in machine coordinates: X Y Z")->expected(3);
   sd->add_option("--t0-s", so->t0, "machine time at the start (thermal drift)");
@@ -90,7 +94,8 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
     spec.start_angle_rad = so->start_deg * deg;
     spec.overshoot_rad = so->overshoot_deg * deg;
     spec.sample_rate_hz = so->rate;
-    if (so->center_mm.size() == 3) spec.center = {so->center_mm[0] * 1e-3, so->center_mm[1] * 1e-3, so->center_mm[2] * 1e-3};
+    if (so->center_mm.size() == 3)
+      spec.center = {so->center_mm[0] * 1e-3, so->center_mm[1] * 1e-3, so->center_mm[2] * 1e-3};
     spec.t0_s = so->t0;
     spec.seed = so->seed;
     const auto run = models::dbb::simulate_run(machine, spec, so->out);

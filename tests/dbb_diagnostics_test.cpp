@@ -54,14 +54,29 @@ struct Case {
 
 std::vector<Case> single_cases() {
   return {
-      {"center offset", [](sim::MachineConfig& c) { c.dbb.center_offset = {5e-6, -3e-6, 0}; },
+      {"center offset",
+       [](sim::MachineConfig& c) {
+         c.dbb.center_offset = {5e-6, -3e-6, 0};
+       },
        {{"center_offset_x_um", 5.0}, {"center_offset_y_um", -3.0}, {"run2.center_offset_x_um", 5.0}}},
-      {"scale", [](sim::MachineConfig& c) { c.axis[0].scale = 20e-6; c.axis[1].scale = -15e-6; },
+      {"scale",
+       [](sim::MachineConfig& c) {
+         c.axis[0].scale = 20e-6;
+         c.axis[1].scale = -15e-6;
+       },
        {{"scale_x_ppm", 20.0}, {"scale_y_ppm", -15.0}, {"scale_mismatch_ppm", 35.0}}},
       {"squareness", [](sim::MachineConfig& c) { c.squareness.xy = 50e-6; }, {{"squareness_urad", 50.0}}},
-      {"backlash", [](sim::MachineConfig& c) { c.axis[0].backlash_m = 4e-6; c.axis[1].backlash_m = 6e-6; },
+      {"backlash",
+       [](sim::MachineConfig& c) {
+         c.axis[0].backlash_m = 4e-6;
+         c.axis[1].backlash_m = 6e-6;
+       },
        {{"backlash_x_um", 4.0}, {"backlash_y_um", 6.0}}},
-      {"lateral play", [](sim::MachineConfig& c) { c.axis[0].lateral_play_m = 3e-6; c.axis[1].lateral_play_m = 2e-6; },
+      {"lateral play",
+       [](sim::MachineConfig& c) {
+         c.axis[0].lateral_play_m = 3e-6;
+         c.axis[1].lateral_play_m = 2e-6;
+       },
        {{"lateral_play_x_um", 3.0}, {"lateral_play_y_um", 2.0}}},
       {"reversal spikes",
        [](sim::MachineConfig& c) {
@@ -83,8 +98,11 @@ std::vector<Case> single_cases() {
          c.axis[1].cyclic_amplitude_m = 1.0e-6;
          c.axis[1].cyclic_period_m = 0.010;
        },
-       {{"cyclic_error_x_um", 1.5}, {"cyclic_period_x_mm", 5.0}, {"cyclic_phase_x_deg", 0.7 * 180 / std::numbers::pi},
-        {"cyclic_error_y_um", 1.0}, {"cyclic_period_y_mm", 10.0}}},
+       {{"cyclic_error_x_um", 1.5},
+        {"cyclic_period_x_mm", 5.0},
+        {"cyclic_phase_x_deg", 0.7 * 180 / std::numbers::pi},
+        {"cyclic_error_y_um", 1.0},
+        {"cyclic_period_y_mm", 10.0}}},
       {"straightness",
        [](sim::MachineConfig& c) {
          c.axis[0].translation[1].c = {0, 0, 3e-4};   // 3 um bow over +/-100 mm
@@ -201,7 +219,7 @@ TEST(DbbConventionsTest, CenterOffsetIsTheCircleCentreRelativeToTheFixedBall) {
   sim::MachineConfig c;
   c.dbb.center_offset = {5e-6, 0, 0};  // circle centre 5 um towards +x of the fixed ball
   const auto r = one(c, true);
-  EXPECT_NEAR(dl_at(r, 0), 5e-6, 1e-8);     // longest at zeta = 0
+  EXPECT_NEAR(dl_at(r, 0), 5e-6, 1e-8);  // longest at zeta = 0
   EXPECT_NEAR(dl_at(r, 180), -5e-6, 1e-8);
 }
 

@@ -15,19 +15,33 @@ using models::dbb::Estimate;
 
 // Given value of each identifiable Lai parameter, in the reported units.
 std::map<std::string, double> given_values(const test::LaiGiven& g) {
-  return {{"e_x_um", g.e_x_um},      {"e_y_um", g.e_y_um},          {"S_x", g.s_x},
-          {"S_y", g.s_y},            {"a1_rad", g.a1},              {"a2_per_mm", g.a2},
-          {"a3_per_mm2", g.a3},      {"b2_per_mm", g.b2},           {"b3_per_mm2", g.b3},
-          {"c0_plus_d1_rad", g.c0 + g.d1}, {"c1_per_mm", g.c1},     {"c2_per_mm2", g.c2},
-          {"d2_per_mm", g.d2},       {"d3_per_mm2", g.d3},          {"e1_rad", g.e1},
-          {"e2_per_mm", g.e2},       {"e3_per_mm2", g.e3},          {"backlash_x_um", g.backlash_x_um},
-          {"backlash_y_um", g.backlash_y_um}, {"servo_mismatch_ms", 0.0}, {"mismatch_phase_angle_deg", 0.0}};
+  return {{"e_x_um", g.e_x_um},
+          {"e_y_um", g.e_y_um},
+          {"S_x", g.s_x},
+          {"S_y", g.s_y},
+          {"a1_rad", g.a1},
+          {"a2_per_mm", g.a2},
+          {"a3_per_mm2", g.a3},
+          {"b2_per_mm", g.b2},
+          {"b3_per_mm2", g.b3},
+          {"c0_plus_d1_rad", g.c0 + g.d1},
+          {"c1_per_mm", g.c1},
+          {"c2_per_mm2", g.c2},
+          {"d2_per_mm", g.d2},
+          {"d3_per_mm2", g.d3},
+          {"e1_rad", g.e1},
+          {"e2_per_mm", g.e2},
+          {"e3_per_mm2", g.e3},
+          {"backlash_x_um", g.backlash_x_um},
+          {"backlash_y_um", g.backlash_y_um},
+          {"servo_mismatch_ms", 0.0},
+          {"mismatch_phase_angle_deg", 0.0}};
 }
 
 // Paper's Table 5 "nonlinear model" column (three patterns).
 const std::map<std::string, double> paper_table5 = {
-    {"e_x_um", -2.01348},  {"e_y_um", -2.99455},   {"backlash_x_um", 1.01230}, {"backlash_y_um", 1.95340},
-    {"a2_per_mm", 2.2346e-7}, {"b2_per_mm", 2.5108e-7}, {"d2_per_mm", 6.5281e-7}, {"e1_rad", 1.056e-4},
+    {"e_x_um", -2.01348},      {"e_y_um", -2.99455},     {"backlash_x_um", 1.01230}, {"backlash_y_um", 1.95340},
+    {"a2_per_mm", 2.2346e-7},  {"b2_per_mm", 2.5108e-7}, {"d2_per_mm", 6.5281e-7},   {"e1_rad", 1.056e-4},
     {"e2_per_mm", 1.44459e-6}, {"e3_per_mm2", -1.445e-8}};
 
 void check_identified(const models::dbb::Identification& id, const test::LaiGiven& g, const char* label) {
@@ -37,8 +51,8 @@ void check_identified(const models::dbb::Identification& id, const test::LaiGive
     ASSERT_NE(it, given.end()) << e.name;
     std::cout << label << " " << e.name << ": given " << it->second << " identified " << e.value << " u " << e.u
               << "\n";
-    EXPECT_LE(std::abs(e.value - it->second), 3.0 * e.u) << label << " " << e.name << " = " << e.value << " +/- "
-                                                         << e.u << ", given " << it->second;
+    EXPECT_LE(std::abs(e.value - it->second), 3.0 * e.u)
+        << label << " " << e.name << " = " << e.value << " +/- " << e.u << ", given " << it->second;
   }
 }
 
@@ -59,8 +73,8 @@ TEST(DbbLaiTest, ThreePatternsOfTable4RecoverTable5WithinUncertainty) {
   check_identified(id, g, "table5");
   // The patterns of Table 4 cannot separate these (on one circle cos^3 sin + sin^3 cos = sin cos and
   // cos sin^2 = cos - cos^3, and every h > 0 pattern has the same radius): refused, by name.
-  const std::vector<std::string> expected = {"a1_rad",     "a3_per_mm2", "b3_per_mm2", "c0_plus_d1_rad",
-                                             "c1_per_mm",  "c2_per_mm2", "d3_per_mm2"};
+  const std::vector<std::string> expected = {"a1_rad",    "a3_per_mm2", "b3_per_mm2", "c0_plus_d1_rad",
+                                             "c1_per_mm", "c2_per_mm2", "d3_per_mm2"};
   EXPECT_EQ(id.fit.unidentifiable, expected);
   // What the data does determine about them agrees with the given values.
   const auto names = models::dbb::lai3_parameter_names();
@@ -157,8 +171,9 @@ TEST(DbbLaiTest, CharacteristicFunctionsAreTheDerivativesOfTheExactGeometry) {
   const auto names = models::dbb::lai3_parameter_names();
   // Perturb each parameter (SI) and compare the exact change with the characteristic function.
   const auto setter = [](models::dbb::Lai3Params& p, std::size_t k, double d) {
-    double* f[] = {&p.e_x, &p.e_y, &p.s_x, &p.s_y, &p.a1, &p.a2, &p.a3, &p.b2, &p.b3, &p.d1,
-                   &p.c1,  &p.c2,  &p.d2,  &p.d3,  &p.e1, &p.e2, &p.e3, &p.backlash_x, &p.backlash_y, &p.servo_mismatch_s};
+    double* f[] = {
+        &p.e_x, &p.e_y, &p.s_x, &p.s_y, &p.a1, &p.a2, &p.a3, &p.b2,         &p.b3,         &p.d1,
+        &p.c1,  &p.c2,  &p.d2,  &p.d3,  &p.e1, &p.e2, &p.e3, &p.backlash_x, &p.backlash_y, &p.servo_mismatch_s};
     *f[k] += d;
   };
   for (double z : {0.3, 1.1, 2.0, 2.9, 3.7, 4.4, 5.2, 6.0}) {

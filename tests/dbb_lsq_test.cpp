@@ -66,7 +66,8 @@ TEST(DbbLsqTest, RandomWeightedProblemMatchesNumpy) {
   Eigen::VectorXd y(n), w(n), truth(m);
   for (Eigen::Index c = 0; c < m; ++c) truth[c] = nd(rng) * std::pow(10.0, static_cast<double>(c) - 3);
   for (Eigen::Index i = 0; i < n; ++i) {
-    for (Eigen::Index c = 0; c < m; ++c) j(i, c) = nd(rng) * std::pow(10.0, 3.0 - static_cast<double>(c));  // badly scaled columns
+    for (Eigen::Index c = 0; c < m; ++c)
+      j(i, c) = nd(rng) * std::pow(10.0, 3.0 - static_cast<double>(c));  // badly scaled columns
     w[i] = 0.5 + std::abs(nd(rng));
     y[i] = j.row(i).dot(truth) + 0.01 * nd(rng);
   }
@@ -76,8 +77,9 @@ TEST(DbbLsqTest, RandomWeightedProblemMatchesNumpy) {
   ASSERT_EQ(o.x.size(), static_cast<std::size_t>(m));
   EXPECT_EQ(o.rank, r.rank);
   for (Eigen::Index c = 0; c < m; ++c) {
-    EXPECT_NEAR(r.x[c], o.x[static_cast<std::size_t>(c)], 1e-9 * std::abs(o.x[static_cast<std::size_t>(c)]) + 1e-15);  // relative 1e-9
-    EXPECT_NEAR(r.u[c], o.u[static_cast<std::size_t>(c)], 1e-7 * o.u[static_cast<std::size_t>(c)]);                    // relative 1e-7
+    EXPECT_NEAR(r.x[c], o.x[static_cast<std::size_t>(c)],
+                1e-9 * std::abs(o.x[static_cast<std::size_t>(c)]) + 1e-15);                          // relative 1e-9
+    EXPECT_NEAR(r.u[c], o.u[static_cast<std::size_t>(c)], 1e-7 * o.u[static_cast<std::size_t>(c)]);  // relative 1e-7
   }
   EXPECT_NEAR(r.rms, o.rms, 1e-10 * o.rms);
   EXPECT_NEAR(r.condition_number, o.cond, 1e-8 * o.cond);
@@ -112,7 +114,8 @@ TEST(DbbLsqTest, LaiDesignMatricesMatchNumpy) {
   Eigen::VectorXd y, w;
   const auto n = guideway::models::dbb::lai3_parameter_names();
   {
-    const Eigen::MatrixXd j = lai_design({{0.095, 0.031225, 1}, {0.095, 0.031225, -1}, {0.1, 0, 1}, {0.07, 0.031225, 1}}, 720, y, w);
+    const Eigen::MatrixXd j =
+        lai_design({{0.095, 0.031225, 1}, {0.095, 0.031225, -1}, {0.1, 0, 1}, {0.07, 0.031225, 1}}, 720, y, w);
     const LsqResult r = solve_lsq(j, y, w, n);
     const Oracle o = run_oracle(j, y, w);
     ASSERT_EQ(r.rank, o.rank);
@@ -126,7 +129,7 @@ TEST(DbbLsqTest, LaiDesignMatricesMatchNumpy) {
     const Eigen::MatrixXd j = lai_design({{0.095, 0.031225, 1}, {0.095, 0.031225, -1}, {0.1, 0, 1}}, 720, y, w);
     const LsqResult r = solve_lsq(j, y, w, n);
     const Oracle o = run_oracle(j, y, w);
-    EXPECT_EQ(r.rank, o.rank);            // 20 parameters, rank 16
+    EXPECT_EQ(r.rank, o.rank);  // 20 parameters, rank 16
     EXPECT_EQ(r.unidentifiable.size(), 7u);
     EXPECT_NEAR(r.rms, o.rms, 1e-9 * o.rms);  // the projection is unique even when the parameters are not
   }

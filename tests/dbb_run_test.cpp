@@ -70,7 +70,8 @@ TEST(DbbRunTest, AcceptsWrappedAnglesExtraColumnsAndTrailer) {
 }
 
 TEST(DbbRunTest, TooFewPoints) {
-  EXPECT_NE(error_of(header() + rows(20)).find("too few points: 20 samples"), std::string::npos) << error_of(header() + rows(20));
+  EXPECT_NE(error_of(header() + rows(20)).find("too few points: 20 samples"), std::string::npos)
+      << error_of(header() + rows(20));
 }
 
 TEST(DbbRunTest, PartialArc) {

@@ -171,14 +171,14 @@ TEST(MachineTest, RunoutOfATiltedThrustPlate) {
     lo = std::min(lo, x.displacement_m);
     hi = std::max(hi, x.displacement_m);
   }
-  EXPECT_NEAR(hi - lo, 2 * 0.5 * std::tan(0.5e-6), 1e-12);  // once per revolution, amplitude R * tilt
+  EXPECT_NEAR(hi - lo, 2 * 0.5 * std::tan(0.5e-6), 1e-12);             // once per revolution, amplitude R * tilt
   EXPECT_NEAR(rev[0].displacement_m, -0.5 * std::tan(0.5e-6), 1e-12);  // tilt about +y lowers +x
 }
 
 TEST(MachineTest, FacedProfileCarriesSquarenessStraightnessFeedMarksAndDrift) {
   MachineConfig c;
-  c.spindle.tilt_x_rad = 2.8e-6;                 // Mu: squareness of the cross slide to the spindle
-  c.axis[0].translation[2].c = {0, 0, 1e-6};    // X straightness in z: 1e-6 x^2 (0.36 um at 600 mm)
+  c.spindle.tilt_x_rad = 2.8e-6;              // Mu: squareness of the cross slide to the spindle
+  c.axis[0].translation[2].c = {0, 0, 1e-6};  // X straightness in z: 1e-6 x^2 (0.36 um at 600 mm)
   Machine m{c};
   FacingSpec f;
   f.x_end_m = 0.6;
@@ -218,7 +218,7 @@ TEST(MachineTest, ArtifactSeesTheSixErrorFunctions) {
   MachineConfig c;
   c.axis[0].translation[0].c = {0, 2e-6};  // positioning: 2 um/m
   c.axis[0].translation[1].c = {1e-6};
-  c.axis[0].rotation[0].c = {3e-6};        // roll
+  c.axis[0].rotation[0].c = {3e-6};  // roll
   Machine m{c};
   ArtifactSpec a;
   const auto t = m.artifact_measurement(a);

@@ -123,7 +123,8 @@ LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, c
   res.covariance = Eigen::MatrixXd::Zero(m, m);
   res.identified.assign(static_cast<std::size_t>(m), false);
   Eigen::VectorXd x_all = Eigen::VectorXd::Zero(m);
-  for (Eigen::Index i = 0; i < k; ++i) x_all[kept[static_cast<std::size_t>(i)]] = xs[i] / scale[kept[static_cast<std::size_t>(i)]];
+  for (Eigen::Index i = 0; i < k; ++i)
+    x_all[kept[static_cast<std::size_t>(i)]] = xs[i] / scale[kept[static_cast<std::size_t>(i)]];
   res.residual = y - jacobian * x_all;
   res.fitted = x_all;
   const Eigen::VectorXd wr = sw.cwiseProduct(res.residual);
@@ -162,8 +163,8 @@ LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, c
         const Eigen::Index pd = dropped[d];
         const double coef = beta(i, static_cast<Eigen::Index>(d)) * scale[pd] / scale[pi];
         if (std::abs(beta(i, static_cast<Eigen::Index>(d))) < 1e-9) continue;
-        comb.expression += (coef < 0 ? " - " : " + ") + format_coefficient(std::abs(coef)) + "*" +
-                           names[static_cast<std::size_t>(pd)];
+        comb.expression +=
+            (coef < 0 ? " - " : " + ") + format_coefficient(std::abs(coef)) + "*" + names[static_cast<std::size_t>(pd)];
         comb.index.push_back(static_cast<std::size_t>(pd));
         comb.coefficient.push_back(coef);
       }

@@ -30,20 +30,20 @@ struct LsqCombination {
 };
 
 struct LsqResult {
-  bool ok = false;                        // false: message says why (too few points, non-finite input)
+  bool ok = false;  // false: message says why (too few points, non-finite input)
   std::string message;
-  Eigen::VectorXd x;                      // estimates; 0 for unidentifiable parameters
-  Eigen::VectorXd u;                      // standard uncertainties; NaN for unidentifiable parameters
-  Eigen::MatrixXd covariance;             // of the identified parameters (zero rows/cols for the others)
+  Eigen::VectorXd x;           // estimates; 0 for unidentifiable parameters
+  Eigen::VectorXd u;           // standard uncertainties; NaN for unidentifiable parameters
+  Eigen::MatrixXd covariance;  // of the identified parameters (zero rows/cols for the others)
   std::vector<bool> identified;
-  std::vector<std::string> unidentifiable;  // names, in parameter order
-  std::vector<LsqCombination> combinations; // what the data says about the unidentifiable ones
-  Eigen::VectorXd residual;               // y - J fitted (unweighted)
-  Eigen::VectorXd fitted;                 // the solution behind `residual`: like x, but parameters kept
-                                          // to stand for a combination carry their combined value
-  double s2 = 0.0;                        // weighted residual variance r^T W r / (n - rank)
-  double rms = 0.0;                       // unweighted residual rms
-  double condition_number = 0.0;          // of the column-scaled weighted Jacobian (all parameters)
+  std::vector<std::string> unidentifiable;   // names, in parameter order
+  std::vector<LsqCombination> combinations;  // what the data says about the unidentifiable ones
+  Eigen::VectorXd residual;                  // y - J fitted (unweighted)
+  Eigen::VectorXd fitted;                    // the solution behind `residual`: like x, but parameters kept
+                                             // to stand for a combination carry their combined value
+  double s2 = 0.0;                           // weighted residual variance r^T W r / (n - rank)
+  double rms = 0.0;                          // unweighted residual rms
+  double condition_number = 0.0;             // of the column-scaled weighted Jacobian (all parameters)
   std::size_t n = 0;
   std::size_t rank = 0;
 };

@@ -90,8 +90,9 @@ void validate_run(const Run& run) {
   if (run.t_s.size() != n || run.dL_m.size() != n) fail(src, 0, "columns t_s, angle_deg and dL_um differ in length");
   constexpr std::size_t min_points = 72;
   if (n < min_points)
-    fail(src, 0, "too few points: " + std::to_string(n) + " samples, need at least " + std::to_string(min_points) +
-                     " over the full circle");
+    fail(src, 0,
+         "too few points: " + std::to_string(n) + " samples, need at least " + std::to_string(min_points) +
+             " over the full circle");
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(run.t_s[i]) || !std::isfinite(run.angle_rad[i]) || !std::isfinite(run.dL_m[i]))
       fail(src, 0, "sample " + std::to_string(i) + " is not a finite number (NaN or infinity)");
@@ -99,14 +100,15 @@ void validate_run(const Run& run) {
   const double span = run.angle_rad.back() - run.angle_rad.front();
   const int dir = run.dir();
   if (span * dir <= 0)
-    fail(src, 0, std::string("angles run ") + (span > 0 ? "counter-clockwise" : "clockwise") +
-                     " but the metadata says direction = " + (dir > 0 ? "ccw" : "cw"));
+    fail(src, 0,
+         std::string("angles run ") + (span > 0 ? "counter-clockwise" : "clockwise") +
+             " but the metadata says direction = " + (dir > 0 ? "ccw" : "cw"));
   double max_step = 0;
   for (std::size_t i = 1; i < n; ++i) {
     const double step = (run.angle_rad[i] - run.angle_rad[i - 1]) * dir;
     if (step < 0)
-      fail(src, 0, "angle goes backwards at sample " + std::to_string(i) + " (direction " + (dir > 0 ? "ccw" : "cw") +
-                       ")");
+      fail(src, 0,
+           "angle goes backwards at sample " + std::to_string(i) + " (direction " + (dir > 0 ? "ccw" : "cw") + ")");
     max_step = std::max(max_step, step);
     if (run.t_s[i] < run.t_s[i - 1]) fail(src, 0, "time goes backwards at sample " + std::to_string(i));
   }
@@ -181,7 +183,8 @@ Run parse_run(const std::string& text, const std::string& source) {
     const int cols[3] = {col_t, col_a, col_d};
     for (int k = 0; k < 3; ++k) {
       const auto& cell = f[static_cast<std::size_t>(cols[k])];
-      if (!parse_double(cell, vals[k])) fail(source, lineno, header[static_cast<std::size_t>(cols[k])] + ": \"" + cell + "\" is not a number");
+      if (!parse_double(cell, vals[k]))
+        fail(source, lineno, header[static_cast<std::size_t>(cols[k])] + ": \"" + cell + "\" is not a number");
       if (!std::isfinite(vals[k]))
         fail(source, lineno, header[static_cast<std::size_t>(cols[k])] + " is not a finite number (" + cell + ")");
     }
@@ -192,7 +195,8 @@ Run parse_run(const std::string& text, const std::string& source) {
   if (header.empty()) fail(source, lineno, "no header row `t_s,angle_deg,dL_um` found");
   (void)header_line;
   const auto fmt = run.metadata.find("format");
-  if (fmt == run.metadata.end()) fail(source, 0, "missing metadata line `# format = " + std::string(run_format_id) + "`");
+  if (fmt == run.metadata.end())
+    fail(source, 0, "missing metadata line `# format = " + std::string(run_format_id) + "`");
   if (fmt->second != run_format_id)
     fail(source, meta_line["format"], "format is \"" + fmt->second + "\", expected \"" + run_format_id + "\"");
   run.radius_m = meta_number(run, meta_line, "radius_mm", true, 0) * 1e-3;
@@ -216,8 +220,8 @@ Run parse_run(const std::string& text, const std::string& source) {
     const double given = meta_number(run, meta_line, "nominal_length_mm", false, 0) * 1e-3;
     if (std::abs(given - run.nominal_length_m()) > 1e-6) {
       std::ostringstream m;
-      m << "nominal_length_mm = " << given * 1e3 << " does not match sqrt(radius_mm^2 + height_mm^2) = "
-        << run.nominal_length_m() * 1e3;
+      m << "nominal_length_mm = " << given * 1e3
+        << " does not match sqrt(radius_mm^2 + height_mm^2) = " << run.nominal_length_m() * 1e3;
       fail(source, meta_line["nominal_length_mm"], m.str());
     }
   }

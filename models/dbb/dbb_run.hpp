@@ -25,17 +25,17 @@ enum class Direction { ccw = 1, cw = -1 };
 
 // One DBB run in SI units.
 struct Run {
-  std::string source;              // file name (for messages)
+  std::string source;  // file name (for messages)
   double radius_m = 0.0;
   double height_m = 0.0;
   Direction direction = Direction::ccw;
   double feed_m_per_s = 0.0;
-  std::string plane = "xy";        // xy | xz | yz
-  double center_a_m = 0.0;         // optional: circle centre in machine coordinates (cyclic error phase)
+  std::string plane = "xy";  // xy | xz | yz
+  double center_a_m = 0.0;   // optional: circle centre in machine coordinates (cyclic error phase)
   double center_b_m = 0.0;
   std::map<std::string, std::string> metadata;  // every `# key = value` line, verbatim
   std::vector<double> t_s;
-  std::vector<double> angle_rad;   // commanded angle zeta, unwrapped (monotonic)
+  std::vector<double> angle_rad;  // commanded angle zeta, unwrapped (monotonic)
   std::vector<double> dL_m;
   [[nodiscard]] int dir() const { return static_cast<int>(direction); }
   [[nodiscard]] double nominal_length_m() const;

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <functional>
+#include <limits>
 #include <numbers>
 
 #include <Eigen/Core>
@@ -26,11 +26,11 @@ struct Point {
   double zeta = 0, c = 0, s = 0;
   double lambda = 0, hl = 0, r = 0, h = 0;
   double dir = 1, v = 0, omega = 0;
-  double sgn_a = 0, sgn_b = 0;    // sign of the axis velocities
-  double bl_a = 0, bl_b = 0;      // lost motion per unit backlash: -sgn/2 for an ideal step, or the
-                                  // deadband response at the current backlash estimate
+  double sgn_a = 0, sgn_b = 0;      // sign of the axis velocities
+  double bl_a = 0, bl_b = 0;        // lost motion per unit backlash: -sgn/2 for an ideal step, or the
+                                    // deadband response at the current backlash estimate
   double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
-  double a_m = 0, b_m = 0;        // machine coordinates of the commanded point (cyclic phase)
+  double a_m = 0, b_m = 0;          // machine coordinates of the commanded point (cyclic phase)
   double y_um = 0;
   double w = 1;
 };
@@ -43,7 +43,8 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const Run& run = runs[k];
     const double l0 = run.nominal_length_m();
-    const double w = static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
+    const double w =
+        static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Point p;
       p.run = k;
@@ -83,8 +84,8 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
 // commanded circle: the axis stands still at a reversal until the drive has taken up the play, which
 // an ideal step does not describe. Simulated from half a turn before the first sample.
 // `delay_*` (s) lets each drive follow the command late by its servo lag.
-void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, double b_a, double b_b,
-                    double delay_a = 0.0, double delay_b = 0.0) {
+void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, double b_a, double b_b, double delay_a = 0.0,
+                    double delay_b = 0.0) {
   std::size_t i0 = 0;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const Run& run = runs[k];
@@ -102,7 +103,8 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, doubl
       const double near = 4.0 * std::sqrt(b / r) + 0.01;
       const auto advance = [&](double to) {
         const double rev = axis == 0 ? std::abs(std::sin(to)) : std::abs(std::cos(to));
-        const int steps = rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
+        const int steps =
+            rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
         const double dz = (to - z) / steps;
         for (int q = 1; q <= steps; ++q) {
           const double c = cmd(z + dz * q);
@@ -150,11 +152,26 @@ struct LaiColumn {
 
 // Order matters: lai3_characteristics returns the basis in this order.
 constexpr LaiColumn lai_columns[] = {
-    {"e_x_um", 1e-6},          {"e_y_um", 1e-6},          {"S_x", 1.0},           {"S_y", 1.0},
-    {"a1_rad", 1.0},           {"a2_per_mm", 1e3},        {"a3_per_mm2", 1e6},    {"b2_per_mm", 1e3},
-    {"b3_per_mm2", 1e6},       {"c0_plus_d1_rad", 1.0},   {"c1_per_mm", 1e3},     {"c2_per_mm2", 1e6},
-    {"d2_per_mm", 1e3},        {"d3_per_mm2", 1e6},       {"e1_rad", 1.0},        {"e2_per_mm", 1e3},
-    {"e3_per_mm2", 1e6},       {"backlash_x_um", 1e-6},   {"backlash_y_um", 1e-6}, {"servo_mismatch_ms", 1e-3},
+    {"e_x_um", 1e-6},
+    {"e_y_um", 1e-6},
+    {"S_x", 1.0},
+    {"S_y", 1.0},
+    {"a1_rad", 1.0},
+    {"a2_per_mm", 1e3},
+    {"a3_per_mm2", 1e6},
+    {"b2_per_mm", 1e3},
+    {"b3_per_mm2", 1e6},
+    {"c0_plus_d1_rad", 1.0},
+    {"c1_per_mm", 1e3},
+    {"c2_per_mm2", 1e6},
+    {"d2_per_mm", 1e3},
+    {"d3_per_mm2", 1e6},
+    {"e1_rad", 1.0},
+    {"e2_per_mm", 1e3},
+    {"e3_per_mm2", 1e6},
+    {"backlash_x_um", 1e-6},
+    {"backlash_y_um", 1e-6},
+    {"servo_mismatch_ms", 1e-3},
 };
 constexpr std::size_t lai_count = std::size(lai_columns);
 
@@ -217,7 +234,7 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   row[static_cast<Eigen::Index>(2 * p.run)] = lam * c;
   row[static_cast<Eigen::Index>(2 * p.run + 1)] = lam * s;
   const auto g = static_cast<Eigen::Index>(L.global0());
-  row[g + DiagLayout::scale_a] = lam * r * c * c;           // 1 ppm = 1e-6 * r m = r um
+  row[g + DiagLayout::scale_a] = lam * r * c * c;  // 1 ppm = 1e-6 * r m = r um
   row[g + DiagLayout::scale_b] = lam * r * s * s;
   row[g + DiagLayout::squareness] = lam * r * s * c;
   row[g + DiagLayout::backlash_a] = lam * p.bl_a * c;
@@ -267,10 +284,10 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>&
     n.push_back(pre + "center_offset_" + A + "_um");
     n.push_back(pre + "center_offset_" + B + "_um");
   }
-  for (const auto& s : {"scale_" + A + "_ppm", "scale_" + B + "_ppm", std::string("squareness_urad"),
-                        "backlash_" + A + "_um", "backlash_" + B + "_um", "lateral_play_" + A + "_um",
-                        "lateral_play_" + B + "_um", std::string("servo_mismatch_ms"), "straightness_" + A + "_um",
-                        "straightness_" + B + "_um"})
+  for (const auto& s :
+       {"scale_" + A + "_ppm", "scale_" + B + "_ppm", std::string("squareness_urad"), "backlash_" + A + "_um",
+        "backlash_" + B + "_um", "lateral_play_" + A + "_um", "lateral_play_" + B + "_um",
+        std::string("servo_mismatch_ms"), "straightness_" + A + "_um", "straightness_" + B + "_um"})
     n.push_back(s);
   if (L.spikes) {
     n.push_back("reversal_spike_" + A + "_um");
@@ -541,7 +558,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
       if (name == "S_x" || name == "S_y") value += 1.0;
       if (name == "servo_mismatch_ms") {
         // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
-        out.lai3.push_back(est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
+        out.lai3.push_back(
+            est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
       }
       out.lai3.push_back(est(name, value, u));
     }
@@ -615,8 +633,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         }
       }
       // Refine the delay (when the sampling resolves it) and the decay (golden section in log tau).
-      for (double d = std::max(0.0, best_delay - delay_step); delay_step < 0.004 && d <= best_delay + delay_step + 1e-12;
-           d += 0.25 * delay_step) {
+      for (double d = std::max(0.0, best_delay - delay_step);
+           delay_step < 0.004 && d <= best_delay + delay_step + 1e-12; d += 0.25 * delay_step) {
         const double e = score(best_tau, d);
         if (e > best * (1 + 1e-9)) {
           best = e;
@@ -674,14 +692,17 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
       for (double lead_mm : leads) {
         const double p = lead_mm * 1e-3;
         if (p > rmin / 4) break;
-        const double e = explained(pts, base.residual, [p, axis_a](const Point& q, double& u1, double& u2) {
-          const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
-          const double f = q.lambda * (axis_a ? q.c : q.s);
-          double sn, cs;
-          ::sincos(th, &sn, &cs);
-          u1 = f * sn;
-          u2 = f * cs;
-        }, stride_for(p));
+        const double e = explained(
+            pts, base.residual,
+            [p, axis_a](const Point& q, double& u1, double& u2) {
+              const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
+              const double f = q.lambda * (axis_a ? q.c : q.s);
+              double sn, cs;
+              ::sincos(th, &sn, &cs);
+              u1 = f * sn;
+              u2 = f * cs;
+            },
+            stride_for(p));
         if (e > best) {
           best = e;
           best_p = p;
@@ -788,7 +809,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   const auto decay = [&](bool fitted, std::size_t k, double tau, const std::string& ax) {
     const std::string name = "reversal_spike_decay_" + ax + "_ms";
     if (fitted && res.identified[k]) {
-      out.diagnostics.push_back(est(name, tau * 1e3 + res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
+      out.diagnostics.push_back(
+          est(name, tau * 1e3 + res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
     } else {
       out.diagnostics.push_back(est(name, tau * 1e3, nan, false));
     }

@@ -19,7 +19,7 @@ namespace guideway::models::dbb {
 struct Estimate {
   std::string name;
   double value = 0.0;
-  double u = 0.0;          // standard uncertainty; NaN when not a fitted value
+  double u = 0.0;  // standard uncertainty; NaN when not a fitted value
   bool fitted = true;
 };
 
@@ -55,8 +55,8 @@ struct Identification {
   std::string model = "lai3+ballbar";
   std::vector<RunSummary> runs;
   std::vector<Estimate> diagnostics;
-  std::vector<Estimate> lai3;       // only the identified parameters
-  FitSummary fit;                   // the Lai third-order fit
+  std::vector<Estimate> lai3;  // only the identified parameters
+  FitSummary fit;              // the Lai third-order fit
   FitSummary diagnostics_fit;
 };
 

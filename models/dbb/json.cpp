@@ -16,8 +16,10 @@ nlohmann::json value_json(const Estimate& e) {
 
 nlohmann::json fit_json(const FitSummary& f) {
   nlohmann::json j = {{"rms_um", f.rms_um}, {"n", f.n}, {"unidentifiable", f.unidentifiable}};
-  if (std::isfinite(f.condition_number)) j["condition_number"] = f.condition_number;
-  else j["condition_number"] = "inf";
+  if (std::isfinite(f.condition_number))
+    j["condition_number"] = f.condition_number;
+  else
+    j["condition_number"] = "inf";
   if (!f.combinations.empty()) {
     auto& c = j["combinations"] = nlohmann::json::array();
     for (const auto& k : f.combinations) c.push_back({{"expression", k.expression}, {"value", k.value}, {"u", k.u}});
@@ -28,8 +30,7 @@ nlohmann::json fit_json(const FitSummary& f) {
 
 void table(std::ostringstream& o, const std::vector<Estimate>& list) {
   for (const auto& e : list) {
-    o << "  " << std::left << std::setw(30) << e.name << std::right << std::setw(14) << std::setprecision(6)
-      << e.value;
+    o << "  " << std::left << std::setw(30) << e.name << std::right << std::setw(14) << std::setprecision(6) << e.value;
     if (e.fitted && std::isfinite(e.u)) o << "  +/- " << std::setprecision(3) << e.u;
     o << "\n";
   }

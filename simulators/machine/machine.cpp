@@ -40,9 +40,12 @@ Matrix3d rot_z(double g) {
 // Nominal (squareness-affected) travel direction of each axis in the frame of the carriage below.
 Vector3d travel_direction(const MachineConfig& m, int j) {
   switch (j) {
-    case 0: return Vector3d::UnitX();
-    case 1: return rot_z(-m.squareness.xy) * Vector3d::UnitY();
-    default: return rot_y(m.squareness.xz) * rot_x(-m.squareness.yz) * Vector3d::UnitZ();
+    case 0:
+      return Vector3d::UnitX();
+    case 1:
+      return rot_z(-m.squareness.xy) * Vector3d::UnitY();
+    default:
+      return rot_y(m.squareness.xz) * rot_x(-m.squareness.yz) * Vector3d::UnitZ();
   }
 }
 
@@ -222,9 +225,12 @@ namespace {
 
 std::array<int, 2> plane_axes(Plane p) {
   switch (p) {
-    case Plane::xy: return {0, 1};
-    case Plane::xz: return {0, 2};
-    default: return {1, 2};
+    case Plane::xy:
+      return {0, 1};
+    case Plane::xz:
+      return {0, 2};
+    default:
+      return {1, 2};
   }
 }
 
@@ -362,8 +368,8 @@ std::vector<RunoutSample> Machine::runout_revolution(const RunoutSpec& spec) con
     const double theta = two_pi * static_cast<double>(k) / static_cast<double>(spec.samples_per_rev);
     // Rotor: spindle frame, then rotation about its axis, then the once-per-rev tilt of the face
     // (wobble + plate parallelism) fixed in the rotor at `wobble_phase`.
-    const Matrix3d rotor = spindle_frame(sp) * rot_z(theta) * rot_z(sp.wobble_phase_rad) * rot_y(total_tilt) *
-                           rot_z(-sp.wobble_phase_rad);
+    const Matrix3d rotor =
+        spindle_frame(sp) * rot_z(theta) * rot_z(sp.wobble_phase_rad) * rot_y(total_tilt) * rot_z(-sp.wobble_phase_rad);
     const Vector3d normal = rotor * Vector3d::UnitZ();
     const Vector3d center = spindle_axis(sp) * (sp.axial_runout_m * std::cos(2.0 * theta));
     // Plate plane through `center` with `normal`; the probe looks along z at (probe_radius, 0).
@@ -401,7 +407,8 @@ std::vector<ProfilePoint> Machine::facing_profile(const FacingSpec& spec) const 
     for (int it = 0; it < 3; ++it) {
       t = spec.t0_s + std::abs(x_cmd - spec.x_start_m) / spec.feed_m_per_s;
       Vec3 act{static_actual(config_.axis[0], x_cmd, dir), 0.0, static_actual(ez, spec.z_m, 0)};
-      if (ez.vibration_amplitude_m != 0) act[2] += ez.vibration_amplitude_m * std::sin(two_pi * ez.vibration_frequency_hz * t);
+      if (ez.vibration_amplitude_m != 0)
+        act[2] += ez.vibration_amplitude_m * std::sin(two_pi * ez.vibration_frequency_hz * t);
       Vec3 lateral{0.5 * config_.axis[0].lateral_play_m * dir, 0.0, 0.0};
       p = chain(config_, act, lateral, t).tool;
       const double radial = (p - axis * axis.dot(p)).norm();

@@ -37,7 +37,7 @@ struct Polynomial {
 // mechanical, thermal and sensor effects. All fields default to a perfect axis.
 struct AxisErrors {
   // Geometric, functions of the axis position u (m).
-  double scale = 0.0;                    // relative: actual travel = (1 + scale) * commanded (from machine zero)
+  double scale = 0.0;                     // relative: actual travel = (1 + scale) * commanded (from machine zero)
   std::array<Polynomial, 3> translation;  // E_Xj(u), E_Yj(u), E_Zj(u) in m (the one along j adds to positioning)
   std::array<Polynomial, 3> rotation;     // E_Aj(u), E_Bj(u), E_Cj(u) in rad, right-handed about +x, +y, +z
   // When true the two rotations perpendicular to j also follow the slope of the straightness curves
@@ -45,11 +45,11 @@ struct AxisErrors {
   bool bending = false;
 
   // Servo and mechanical.
-  double servo_lag_s = 0.0;        // first-order position loop time constant (1/Kv); mismatch = lag_x - lag_y
-  double backlash_m = 0.0;         // lost motion: actual = servo - (b/2) sign(velocity), deadband model
-  double reversal_spike_m = 0.0;   // at a reversal the axis sticks: error -sign(v_new) * A * exp(-dt/decay)
+  double servo_lag_s = 0.0;       // first-order position loop time constant (1/Kv); mismatch = lag_x - lag_y
+  double backlash_m = 0.0;        // lost motion: actual = servo - (b/2) sign(velocity), deadband model
+  double reversal_spike_m = 0.0;  // at a reversal the axis sticks: error -sign(v_new) * A * exp(-dt/decay)
   double reversal_spike_decay_s = 0.02;
-  double lateral_play_m = 0.0;     // carriage shifts sideways by (p/2) sign(velocity) (X->y, Y->x, Z->x)
+  double lateral_play_m = 0.0;      // carriage shifts sideways by (p/2) sign(velocity) (X->y, Y->x, Z->x)
   double cyclic_amplitude_m = 0.0;  // lead-screw error: + A sin(2 pi u / period + phase)
   double cyclic_period_m = 0.005;
   double cyclic_phase_rad = 0.0;
@@ -82,11 +82,11 @@ struct DbbErrors {
 };
 
 struct SpindleErrors {
-  double tilt_x_rad = 0.0;     // spindle axis leans towards +x (squareness to the X travel, Mu's Delta beta_xz)
-  double tilt_y_rad = 0.0;     // towards +y
-  double wobble_rad = 0.0;     // once-per-revolution tilt of the rotating face (run-out of a thrust plate)
+  double tilt_x_rad = 0.0;  // spindle axis leans towards +x (squareness to the X travel, Mu's Delta beta_xz)
+  double tilt_y_rad = 0.0;  // towards +y
+  double wobble_rad = 0.0;  // once-per-revolution tilt of the rotating face (run-out of a thrust plate)
   double wobble_phase_rad = 0.0;
-  double axial_runout_m = 0.0;   // twice-per-revolution axial motion amplitude
+  double axial_runout_m = 0.0;         // twice-per-revolution axial motion amplitude
   double plate_parallelism_rad = 0.0;  // thrust plate not parallel to the spindle face (fixed in the rotor)
 };
 
@@ -95,7 +95,7 @@ struct SensorNoise {
   double autocollimator_rad = 0.0;  // standard deviation per reading
   double micrometer_m = 0.0;
   double profilometer_m = 0.0;
-  double position_m = 0.0;          // white vibration of the tool point (all three directions)
+  double position_m = 0.0;  // white vibration of the tool point (all three directions)
 };
 
 struct MachineConfig {
@@ -115,12 +115,12 @@ MachineConfig parse_machine_config(std::string_view toml_text, const std::string
 
 // One instant of a motion.
 struct MotionSample {
-  double t_s = 0.0;       // machine time
-  Vec3 commanded{};       // what the controller commands (m)
-  Vec3 encoder{};         // what the controller reads from its axis encoders (lagging servo position, quantised)
-  Vec3 axis_actual{};     // axis positions after backlash, cyclic error, spikes, vibration (before geometry;
-                          // scale, thermal drift and the error motions are applied by the chain)
-  Vec3 tool{};            // actual tool point in machine coordinates, through the exact HTM chain
+  double t_s = 0.0;    // machine time
+  Vec3 commanded{};    // what the controller commands (m)
+  Vec3 encoder{};      // what the controller reads from its axis encoders (lagging servo position, quantised)
+  Vec3 axis_actual{};  // axis positions after backlash, cyclic error, spikes, vibration (before geometry;
+                       // scale, thermal drift and the error motions are applied by the chain)
+  Vec3 tool{};         // actual tool point in machine coordinates, through the exact HTM chain
 };
 
 // A commanded path: position (m) as a function of the time since the start of the motion (s).
@@ -130,8 +130,8 @@ struct MotionSpec {
   CommandedPath path;
   double duration_s = 0.0;
   double sample_rate_hz = 1000.0;
-  double t0_s = 0.0;         // machine time at the start (thermal drift)
-  std::uint64_t seed = 0;    // 0 = the machine's noise seed
+  double t0_s = 0.0;       // machine time at the start (thermal drift)
+  std::uint64_t seed = 0;  // 0 = the machine's noise seed
 };
 
 enum class Plane { xy, xz, yz };
@@ -149,21 +149,21 @@ struct DbbCircleSpec {
   double feed_m_per_s = 1000.0 / 60000.0;  // 1000 mm/min
   double start_angle_rad = 0.0;
   double overshoot_rad = 0.7853981633974483;  // 45 deg feed-in and feed-out arcs
-  double sample_rate_hz = 0.0;                 // 0 = 10 samples per degree of arc
-  Vec3 center{};                               // commanded circle centre (machine coordinates)
+  double sample_rate_hz = 0.0;                // 0 = 10 samples per degree of arc
+  Vec3 center{};                              // commanded circle centre (machine coordinates)
   double t0_s = 0.0;
   std::uint64_t seed = 0;
 };
 
 struct DbbSample {
   double t_s = 0.0;
-  double angle_rad = 0.0;       // commanded angle zeta, from the first plane axis towards the second
+  double angle_rad = 0.0;  // commanded angle zeta, from the first plane axis towards the second
   bool in_data_arc = false;
-  Vec3 tool{};                  // actual tool-ball centre
-  Vec3 encoder{};               // controller's axis encoder readings
+  Vec3 tool{};     // actual tool-ball centre
+  Vec3 encoder{};  // controller's axis encoder readings
   Vec3 commanded{};
-  double bar_length_m = 0.0;    // reading of the bar (with noise and drift)
-  double dL_m = 0.0;            // bar_length - nominal length sqrt(r^2 + h^2)
+  double bar_length_m = 0.0;  // reading of the bar (with noise and drift)
+  double dL_m = 0.0;          // bar_length - nominal length sqrt(r^2 + h^2)
 };
 
 struct DbbRun {
@@ -181,18 +181,18 @@ struct TraverseSpec {
   double start_m = 0.0;
   double end_m = 0.6;
   double step_m = 0.01;
-  Vec3 other{};              // position of the other axes
-  double dwell_s = 1.0;      // time per station (thermal drift)
+  Vec3 other{};          // position of the other axes
+  double dwell_s = 1.0;  // time per station (thermal drift)
   double t0_s = 0.0;
   std::uint64_t seed = 0;
 };
 
 struct TraverseStation {
   double t_s = 0.0;
-  double position_m = 0.0;      // commanded position along the axis
-  double pitch_rad = 0.0;       // X: about y; Y: about x; Z: about y
-  double yaw_rad = 0.0;         // X and Y: about z; Z: about x
-  Vec3 tool{};                  // actual tool point at the station
+  double position_m = 0.0;  // commanded position along the axis
+  double pitch_rad = 0.0;   // X: about y; Y: about x; Z: about y
+  double yaw_rad = 0.0;     // X and Y: about z; Z: about x
+  Vec3 tool{};              // actual tool point at the station
 };
 
 // Inductance micrometer on a thrust plate fixed to the spindle face: probe at radius `probe_radius`
@@ -209,7 +209,7 @@ struct RunoutSpec {
 struct RunoutSample {
   double t_s = 0.0;
   double angle_rad = 0.0;
-  double displacement_m = 0.0;   // height of the plate surface under the probe along +z (positive = pushes the probe)
+  double displacement_m = 0.0;  // height of the plate surface under the probe along +z (positive = pushes the probe)
 };
 
 // Facing cut on a lathe (Mu's experiment): the tool traverses X from x_start to x_end at constant
@@ -219,8 +219,8 @@ struct RunoutSample {
 struct FacingSpec {
   double x_start_m = 0.0;
   double x_end_m = 0.6;
-  double z_m = 0.0;                       // commanded Z during the cut
-  double feed_m_per_s = 2.0 / 60000.0;    // 2 mm/min
+  double z_m = 0.0;                     // commanded Z during the cut
+  double feed_m_per_s = 2.0 / 60000.0;  // 2 mm/min
   double spindle_rpm = 100.0;
   double tool_nose_radius_m = 0.0008;
   double profile_step_m = 0.0005;
@@ -229,9 +229,9 @@ struct FacingSpec {
 };
 
 struct ProfilePoint {
-  double x_m = 0.0;    // radial position along the profile
-  double z_m = 0.0;    // surface height along the spindle axis (profilometer reading, with noise)
-  double t_s = 0.0;    // machine time when the tool cut this radius
+  double x_m = 0.0;  // radial position along the profile
+  double z_m = 0.0;  // surface height along the spindle axis (profilometer reading, with noise)
+  double t_s = 0.0;  // machine time when the tool cut this radius
 };
 
 // Wei's 1-D artifact: targets every `pitch` along `axis`, measured with the probe carried by the
@@ -248,8 +248,8 @@ struct ArtifactSpec {
 
 struct ArtifactTarget {
   double nominal_m = 0.0;
-  Vec3 displacement_m{};     // tool point actual minus commanded (the six error functions' translations)
-  Vec3 rotation_rad{};       // rotations of the carriage about x, y, z
+  Vec3 displacement_m{};  // tool point actual minus commanded (the six error functions' translations)
+  Vec3 rotation_rad{};    // rotations of the carriage about x, y, z
 };
 
 class Machine {

@@ -14,9 +14,7 @@ class Rng {
  public:
   explicit Rng(std::uint64_t seed) : engine_(seed) {}
   // Uniform in (0, 1).
-  double uniform() {
-    return (static_cast<double>(engine_() >> 11) + 0.5) * (1.0 / 9007199254740992.0);
-  }
+  double uniform() { return (static_cast<double>(engine_() >> 11) + 0.5) * (1.0 / 9007199254740992.0); }
   // Standard normal.
   double normal() {
     if (has_spare_) {
