@@ -66,10 +66,30 @@ LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, c
     a.col(j) /= scale[j];
   }
 
-  // Compress: A = Q R (in place), then everything happens on the m x m triangle.
-  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(a);
-  const Eigen::MatrixXd r = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
-  const Eigen::VectorXd qtb = (qr.householderQ().transpose() * b).head(m);
+  // Compress [A b] = Q [R c; 0 d] by Householder QR in row blocks that fit the cache (a tall-skinny
+  // QR: each block's triangle is stacked and reduced again), then everything happens on the
+  // m x m triangle R with c = Q^T b. Q itself is never formed.
+  const Eigen::MatrixXd raug = [&] {
+    constexpr Eigen::Index block_rows = 1024;
+    const Eigen::Index w1 = m + 1;
+    const Eigen::Index blocks = (n + block_rows - 1) / block_rows;
+    Eigen::MatrixXd stacked = Eigen::MatrixXd::Zero(blocks * w1, w1);
+    Eigen::MatrixXd blk;
+    for (Eigen::Index k = 0; k < blocks; ++k) {
+      const Eigen::Index r0 = k * block_rows;
+      const Eigen::Index rows = std::min(block_rows, n - r0);
+      blk.resize(rows, w1);
+      blk.leftCols(m) = a.middleRows(r0, rows);
+      blk.col(m) = b.segment(r0, rows);
+      Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qrb(blk);
+      const Eigen::Index top = std::min(rows, w1);
+      stacked.block(k * w1, 0, top, w1) = blk.topRows(top).triangularView<Eigen::Upper>();
+    }
+    Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qrs(stacked);
+    return Eigen::MatrixXd(stacked.topRows(w1).triangularView<Eigen::Upper>());
+  }();
+  const Eigen::MatrixXd r = raug.topLeftCorner(m, m);
+  const Eigen::VectorXd qtb = raug.col(m).head(m);
 
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(r, Eigen::ComputeFullV);
   const auto& sv = svd.singularValues();
