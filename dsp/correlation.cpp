@@ -11,10 +11,13 @@ void check_pair(std::span<const double> x, std::span<const double> y, const char
     throw CorrelationError(std::string(what) + ": signals of unequal length (" + std::to_string(x.size()) + " and " +
                            std::to_string(y.size()) + " samples)");
   }
-  if (x.size() < 2) throw CorrelationError(std::string(what) + ": need at least 2 samples, got " + std::to_string(x.size()));
+  if (x.size() < 2)
+    throw CorrelationError(std::string(what) + ": need at least 2 samples, got " + std::to_string(x.size()));
   for (std::size_t i = 0; i < x.size(); ++i) {
-    if (!std::isfinite(x[i])) throw CorrelationError(std::string(what) + ": x[" + std::to_string(i) + "] is not a finite number");
-    if (!std::isfinite(y[i])) throw CorrelationError(std::string(what) + ": y[" + std::to_string(i) + "] is not a finite number");
+    if (!std::isfinite(x[i]))
+      throw CorrelationError(std::string(what) + ": x[" + std::to_string(i) + "] is not a finite number");
+    if (!std::isfinite(y[i]))
+      throw CorrelationError(std::string(what) + ": y[" + std::to_string(i) + "] is not a finite number");
   }
 }
 
@@ -41,7 +44,8 @@ double centred_energy(std::span<const double> v, double m, const char* what, con
     peak = std::fmax(peak, std::fabs(a));
   }
   // Deviations at the level of rounding of the mean are a constant signal, not a shape to correlate.
-  const double floor = static_cast<double>(v.size()) * (8.0 * 2.220446049250313e-16 * peak) * (8.0 * 2.220446049250313e-16 * peak);
+  const double floor =
+      static_cast<double>(v.size()) * (8.0 * 2.220446049250313e-16 * peak) * (8.0 * 2.220446049250313e-16 * peak);
   if (!(s > floor)) throw CorrelationError(std::string(what) + ": signal " + name + " is constant (zero variance)");
   return s;
 }
@@ -61,8 +65,9 @@ double pearson(std::span<const double> x, std::span<const double> y) {
   return clamp_unit(sxy / (std::sqrt(sxx) * std::sqrt(syy)));
 }
 
-WaveletCorrelation wavelet_correlation(std::span<const double> x, const std::vector<std::span<const double>>& components,
-                                       const Wavelet& wavelet, Mode mode, int approx_level) {
+WaveletCorrelation wavelet_correlation(std::span<const double> x,
+                                       const std::vector<std::span<const double>>& components, const Wavelet& wavelet,
+                                       Mode mode, int approx_level) {
   if (approx_level < 1) throw CorrelationError("wavelet correlation: approximation level must be >= 1");
   if (components.empty()) throw CorrelationError("wavelet correlation: no simulated components given");
   for (std::size_t m = 0; m < components.size(); ++m) {

@@ -196,7 +196,8 @@ struct StreamingWavelet::Impl {
         auto& c = chains[b];
         c.stage_in.resize(start);
         for (auto& f : c.stage_in) f.init(cap);
-        for (std::size_t s = 0; s < start; ++s) c.filt.push_back(s == 0 && b != 0 ? w.rec_hi().data() : w.rec_lo().data());
+        for (std::size_t s = 0; s < start; ++s)
+          c.filt.push_back(s == 0 && b != 0 ? w.rec_hi().data() : w.rec_lo().data());
         c.out.init(2 * (L + burst) + 64);
       }
       comp_ptrs.assign(chains.size(), nullptr);

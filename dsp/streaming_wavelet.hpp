@@ -34,7 +34,8 @@ class WaveletSink {
  public:
   virtual ~WaveletSink() = default;
   // Coefficients [first_index, first_index + values.size()) of one band.
-  virtual void on_coefficients(std::size_t /*band*/, std::uint64_t /*first_index*/, std::span<const double> /*values*/) {}
+  virtual void on_coefficients(std::size_t /*band*/, std::uint64_t /*first_index*/,
+                               std::span<const double> /*values*/) {}
   // Signal-domain components for samples [first_sample, first_sample + count): components[b][i].
   virtual void on_components(std::uint64_t /*first_sample*/, std::size_t /*count*/,
                              std::span<const double* const> /*components*/) {}
@@ -55,12 +56,12 @@ struct StreamingDenoiseOptions {
 };
 
 struct StreamingOptions {
-  int levels = 5;                // 1..16
-  bool coefficients = true;      // deliver on_coefficients
-  bool components = false;       // compute and deliver on_components (MRA)
-  bool denoise = false;          // compute and deliver on_denoised
+  int levels = 5;            // 1..16
+  bool coefficients = true;  // deliver on_coefficients
+  bool components = false;   // compute and deliver on_components (MRA)
+  bool denoise = false;      // compute and deliver on_denoised
   StreamingDenoiseOptions denoise_options;
-  std::size_t block = 1024;      // internal processing block (samples); bounds the buffers, not the push size
+  std::size_t block = 1024;  // internal processing block (samples); bounds the buffers, not the push size
 };
 
 // See the file comment. Usage: construct per channel, push() chunks of any size, flush() at the end of a

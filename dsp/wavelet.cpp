@@ -22,7 +22,8 @@ std::ptrdiff_t floor_mod(std::ptrdiff_t k, std::ptrdiff_t p) {
 
 const detail::Kernels& kernels_checked(const Wavelet& w) {
   const auto& k = detail::kernels_for(w.filter_length());
-  if (k.analysis == nullptr) throw std::invalid_argument("wavelet " + std::string(w.name()) + ": unsupported filter length");
+  if (k.analysis == nullptr)
+    throw std::invalid_argument("wavelet " + std::string(w.name()) + ": unsupported filter length");
   return k;
 }
 
@@ -72,7 +73,7 @@ void analysis_level(std::span<const double> x, const Wavelet& w, Mode mode, doub
   const std::ptrdiff_t shift = mode == Mode::periodization ? 1 - F / 2 : 2 - F;
   const auto no = static_cast<std::ptrdiff_t>(n_out);
   const std::ptrdiff_t o_lo = std::min<std::ptrdiff_t>((-shift + 1) / 2, no);  // first interior output
-  const std::ptrdiff_t last = N - F - shift;  // interior needs 2o <= last
+  const std::ptrdiff_t last = N - F - shift;                                   // interior needs 2o <= last
   std::ptrdiff_t o_hi = last >= 0 ? std::min<std::ptrdiff_t>(last / 2 + 1, no) : 0;
   o_hi = std::max(o_hi, o_lo);
   const double* lo = w.dec_lo().data();
@@ -82,7 +83,8 @@ void analysis_level(std::span<const double> x, const Wavelet& w, Mode mode, doub
     while (o0 < o1) {
       const std::ptrdiff_t cnt = std::min<std::ptrdiff_t>(o1 - o0, kEdgeChunk);
       const std::ptrdiff_t start = 2 * o0 + shift;
-      for (std::ptrdiff_t i = 0; i < 2 * cnt + F - 2; ++i) buf[static_cast<std::size_t>(i)] = extended_value(x, start + i, mode);
+      for (std::ptrdiff_t i = 0; i < 2 * cnt + F - 2; ++i)
+        buf[static_cast<std::size_t>(i)] = extended_value(x, start + i, mode);
       kern.analysis(buf.data(), static_cast<std::size_t>(cnt), lo, hi, a + o0, d + o0);
       o0 += cnt;
     }
@@ -102,8 +104,10 @@ static void synth_periodized(const double* ca, const double* cd, std::size_t n, 
   const std::ptrdiff_t q = (H % 2 == 1) ? (H - 1) / 2 : H / 2 - 1;
   const auto nn = static_cast<std::ptrdiff_t>(n);
   // Interior: k - q in [0, n) for k in [m, m + H - 1].
-  const std::ptrdiff_t i_lo = std::clamp<std::ptrdiff_t>(q, static_cast<std::ptrdiff_t>(m0), static_cast<std::ptrdiff_t>(m1));
-  std::ptrdiff_t i_hi = std::clamp<std::ptrdiff_t>(nn - H + q + 1, static_cast<std::ptrdiff_t>(m0), static_cast<std::ptrdiff_t>(m1));
+  const std::ptrdiff_t i_lo =
+      std::clamp<std::ptrdiff_t>(q, static_cast<std::ptrdiff_t>(m0), static_cast<std::ptrdiff_t>(m1));
+  std::ptrdiff_t i_hi =
+      std::clamp<std::ptrdiff_t>(nn - H + q + 1, static_cast<std::ptrdiff_t>(m0), static_cast<std::ptrdiff_t>(m1));
   i_hi = std::max(i_hi, i_lo);
   std::array<double, kEdgeBuffer> ba{};
   std::array<double, kEdgeBuffer> bd{};
@@ -187,7 +191,8 @@ Wavelet::Wavelet(std::string_view name) : data_(nullptr) {
       return;
     }
   }
-  throw std::invalid_argument("unknown wavelet '" + std::string(name) + "' (known: db1..db20, haar, sym2..sym20, coif1..coif5)");
+  throw std::invalid_argument("unknown wavelet '" + std::string(name) +
+                              "' (known: db1..db20, haar, sym2..sym20, coif1..coif5)");
 }
 
 std::vector<std::string> Wavelet::names() {
@@ -198,11 +203,11 @@ std::vector<std::string> Wavelet::names() {
 
 namespace {
 constexpr std::array<std::pair<Mode, std::string_view>, 6> kModes{{{Mode::zero, "zero"},
-                                                                     {Mode::constant, "constant"},
-                                                                     {Mode::symmetric, "symmetric"},
-                                                                     {Mode::periodic, "periodic"},
-                                                                     {Mode::reflect, "reflect"},
-                                                                     {Mode::periodization, "periodization"}}};
+                                                                   {Mode::constant, "constant"},
+                                                                   {Mode::symmetric, "symmetric"},
+                                                                   {Mode::periodic, "periodic"},
+                                                                   {Mode::reflect, "reflect"},
+                                                                   {Mode::periodization, "periodization"}}};
 }  // namespace
 
 Mode parse_mode(std::string_view name) {

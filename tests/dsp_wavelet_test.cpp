@@ -6,6 +6,7 @@
 #include <random>
 
 #include "dsp/denoise.hpp"
+#include "dsp/detail/kernels.hpp"
 #include "dsp/wavelet.hpp"
 
 namespace guideway::dsp {
@@ -49,6 +50,30 @@ TEST(WaveletFilters, UnknownNamesAndModesSayWhat) {
   }
   EXPECT_THROW((void)parse_mode("smooth"), std::invalid_argument);
   for (const auto& m : mode_names()) EXPECT_EQ(mode_name(parse_mode(m)), m);
+}
+
+// The AVX2 and baseline kernels must give the same bits (no fused multiply-add, same order per output).
+TEST(WaveletKernels, VariantsAgreeBitForBit) {
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> g;
+  std::vector<double> x(700), y1(700), y2(700), a1(300), a2(300), d1(300), d2(300);
+  for (auto& v : x) v = g(rng);
+  for (std::size_t F = 2; F <= 40; F += 2) {
+    const auto& base = detail::kernels_variant(F, false);
+    const auto& fast = detail::kernels_variant(F, true);
+    const Wavelet w(F == 2 ? "db1" : "db" + std::to_string(F / 2));
+    for (std::size_t n : {1u, 7u, 8u, 64u, 65u, 200u}) {
+      base.analysis(x.data(), n, w.dec_lo().data(), w.dec_hi().data(), a1.data(), d1.data());
+      fast.analysis(x.data(), n, w.dec_lo().data(), w.dec_hi().data(), a2.data(), d2.data());
+      for (std::size_t i = 0; i < n; ++i) ASSERT_TRUE(a1[i] == a2[i] && d1[i] == d2[i]) << F << " " << n << " " << i;
+      base.synthesis2(x.data(), x.data() + 300, n, w.rec_lo().data(), w.rec_hi().data(), y1.data());
+      fast.synthesis2(x.data(), x.data() + 300, n, w.rec_lo().data(), w.rec_hi().data(), y2.data());
+      for (std::size_t i = 0; i < 2 * n; ++i) ASSERT_EQ(y1[i], y2[i]) << F << " " << n << " " << i;
+      base.synthesis1(x.data(), n, w.rec_hi().data(), y1.data());
+      fast.synthesis1(x.data(), n, w.rec_hi().data(), y2.data());
+      for (std::size_t i = 0; i < 2 * n; ++i) ASSERT_EQ(y1[i], y2[i]) << F << " " << n << " " << i;
+    }
+  }
 }
 
 TEST(WaveletLengths, FollowPyWavelets) {

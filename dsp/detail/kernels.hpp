@@ -27,7 +27,11 @@ struct Kernels {
   Synthesis2Fn synthesis2;
 };
 
-// Kernels specialised for an even filter length in [2, 40]; nullptr members for other lengths.
+// Kernels specialised for an even filter length in [2, 40]; nullptr members for other lengths. The variant
+// (AVX2 or baseline) is chosen once per process from the CPU; both give identical bits.
 const Kernels& kernels_for(std::size_t filter_length);
+// One variant explicitly (for the test that they agree): avx2 = false is the baseline build; with avx2 = true
+// and a CPU without AVX2 the result is the baseline too.
+const Kernels& kernels_variant(std::size_t filter_length, bool avx2);
 
 }  // namespace guideway::dsp::detail
