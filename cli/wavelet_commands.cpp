@@ -106,8 +106,9 @@ void write_file(const std::string& path, const std::string& text) {
 }
 
 void add_wavelet_commands(CLI::App& app, CliContext& /*ctx*/) {
-  auto* wavelet = app.add_subcommand("wavelet", "Wavelet decomposition, multiresolution analysis and denoising of a "
-                                                "signal column (PyWavelets-compatible)");
+  auto* wavelet = app.add_subcommand("wavelet",
+                                     "Wavelet decomposition, multiresolution analysis and denoising of a "
+                                     "signal column (PyWavelets-compatible)");
   wavelet->require_subcommand(1);
 
   auto dec = std::make_shared<WaveletArgs>();
@@ -135,8 +136,9 @@ void add_wavelet_commands(CLI::App& app, CliContext& /*ctx*/) {
     j["components"] = comps;
     if (!mra_out->empty()) {
       std::ostringstream csv;
-      csv << "# source = " << p.signal.file << "\n# column = " << p.signal.column << "\n# wavelet = "
-          << p.wavelet.name() << "\n# mode = " << dsp::mode_name(p.mode) << "\n# level = " << p.level << "\n";
+      csv << "# source = " << p.signal.file << "\n# column = " << p.signal.column
+          << "\n# wavelet = " << p.wavelet.name() << "\n# mode = " << dsp::mode_name(p.mode)
+          << "\n# level = " << p.level << "\n";
       for (std::size_t b = 0; b < names.size(); ++b) csv << (b ? "," : "") << names[b];
       csv << "\n";
       for (std::size_t i = 0; i < p.signal.values.size(); ++i) {
@@ -171,11 +173,12 @@ void add_wavelet_commands(CLI::App& app, CliContext& /*ctx*/) {
     const auto r = dsp::denoise(p.signal.values, p.wavelet, p.mode, p.level, o);
     std::ostringstream text;
     if (!d->out.empty()) {
-      text << "# source = " << p.signal.file << "\n# column = " << p.signal.column << "\n# wavelet = "
-           << p.wavelet.name() << "\n# mode = " << dsp::mode_name(p.mode) << "\n# level = " << p.level
-           << "\n# rule = " << d->rule << "\n# level_dependent = " << (d->level_dependent ? "true" : "false")
-           << "\n# sigma = " << number_text(r.sigma) << "\n# thresholds = " << nlohmann::ordered_json(r.thresholds).dump()
-           << "\n"
+      text << "# source = " << p.signal.file << "\n# column = " << p.signal.column
+           << "\n# wavelet = " << p.wavelet.name() << "\n# mode = " << dsp::mode_name(p.mode)
+           << "\n# level = " << p.level << "\n# rule = " << d->rule
+           << "\n# level_dependent = " << (d->level_dependent ? "true" : "false")
+           << "\n# sigma = " << number_text(r.sigma)
+           << "\n# thresholds = " << nlohmann::ordered_json(r.thresholds).dump() << "\n"
            << p.signal.column << "_denoised\n";
     }
     for (double v : r.signal) text << number_text(v) << "\n";
@@ -202,8 +205,9 @@ void add_wavelet_commands(CLI::App& app, CliContext& /*ctx*/) {
     int lowpass_level = 0;
   };
   auto c = std::make_shared<CorrelateArgs>();
-  auto* corr = app.add_subcommand("correlate", "Pearson coefficient and normalised cross-correlation peak of two "
-                                               "signals (Mu et al. Eq. 6; Eq. 20 with --lowpass-level)");
+  auto* corr = app.add_subcommand("correlate",
+                                  "Pearson coefficient and normalised cross-correlation peak of two "
+                                  "signals (Mu et al. Eq. 6; Eq. 20 with --lowpass-level)");
   corr->add_option("FILE_A", c->file_a, "first signal (CSV or one number per line)")->required();
   corr->add_option("FILE_B", c->file_b, "second signal, same length")->required();
   corr->add_option("--column", c->column, "column of FILE_A (and of FILE_B unless --column-b)");
@@ -218,7 +222,8 @@ void add_wavelet_commands(CLI::App& app, CliContext& /*ctx*/) {
     const Signal b = load_signal(c->file_b, c->column_b ? c->column_b : c->column);
     if (a.values.size() != b.values.size()) {
       throw std::runtime_error("correlate: " + a.file + " has " + std::to_string(a.values.size()) + " samples, " +
-                               b.file + " has " + std::to_string(b.values.size()) + ": the signals must be equally long");
+                               b.file + " has " + std::to_string(b.values.size()) +
+                               ": the signals must be equally long");
     }
     auto named = [&](const dsp::CorrelationError& e) {
       return std::runtime_error("correlate " + a.file + " (" + a.column + ") with " + b.file + " (" + b.column +

@@ -105,7 +105,8 @@ CsvTable parse_csv_table(std::string_view text, const std::string& source) {
       }
       continue;
     }
-    if (line.find('\0') != std::string_view::npos) throw CsvError(at(source, line_no) + "binary data, not a text table");
+    if (line.find('\0') != std::string_view::npos)
+      throw CsvError(at(source, line_no) + "binary data, not a text table");
     if (delim == 0) {
       delim = pick_delimiter(line);
       auto cells = split(line, delim);
@@ -113,9 +114,11 @@ CsvTable parse_csv_table(std::string_view text, const std::string& source) {
       for (const auto& c : cells) all_numbers = all_numbers && parse_double(c).has_value();
       if (!all_numbers) {
         for (std::size_t i = 0; i < cells.size(); ++i) {
-          if (cells[i].empty()) throw CsvError(at(source, line_no) + "header column " + std::to_string(i + 1) + " has no name");
+          if (cells[i].empty())
+            throw CsvError(at(source, line_no) + "header column " + std::to_string(i + 1) + " has no name");
           for (std::size_t j = 0; j < i; ++j) {
-            if (cells[j] == cells[i]) throw CsvError(at(source, line_no) + "column '" + cells[i] + "' appears twice in the header");
+            if (cells[j] == cells[i])
+              throw CsvError(at(source, line_no) + "column '" + cells[i] + "' appears twice in the header");
           }
         }
         t.columns = std::move(cells);
@@ -131,7 +134,8 @@ CsvTable parse_csv_table(std::string_view text, const std::string& source) {
     auto cells = split(line, delim);
     if (cells.size() != t.columns.size()) {
       throw CsvError(at(source, line_no) + std::to_string(cells.size()) + " cells, expected " +
-                     std::to_string(t.columns.size()) + (t.header_line != 0 ? " (the header's columns)" : " (as the first row)"));
+                     std::to_string(t.columns.size()) +
+                     (t.header_line != 0 ? " (the header's columns)" : " (as the first row)"));
     }
     t.rows.push_back({line_no, std::move(cells)});
   }

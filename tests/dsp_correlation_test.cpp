@@ -45,8 +45,8 @@ TEST(WaveletCorrelation, LowFrequencyPartCorrelatesBetter) {
   const auto e = noise(n, 0.4, 3);
   for (std::size_t i = 0; i < n; ++i) {
     const double t = static_cast<double>(i) / n;
-    y1[i] = 2.0 * t;                        // squareness: linear in the travel
-    y2[i] = 0.3 * std::sin(2 * M_PI * t);   // straightness
+    y1[i] = 2.0 * t;                       // squareness: linear in the travel
+    y2[i] = 0.3 * std::sin(2 * M_PI * t);  // straightness
     x[i] = y1[i] + y2[i] + e[i];
   }
   const auto r = wavelet_correlation(x, {y1, y2}, Wavelet("db1"), Mode::symmetric, 5);

@@ -54,7 +54,8 @@ TEST(CsvTable, NumberPerLineAndOtherDelimiters) {
 TEST(CsvTable, ErrorsNameFileAndLine) {
   EXPECT_EQ(error_of([] { (void)parse_csv_table("a,b\n1,2\n3\n", "f.csv"); }),
             "f.csv:3: 1 cells, expected 2 (the header's columns)");
-  EXPECT_EQ(error_of([] { (void)parse_csv_table("a,a\n1,2\n", "f.csv"); }), "f.csv:1: column 'a' appears twice in the header");
+  EXPECT_EQ(error_of([] { (void)parse_csv_table("a,a\n1,2\n", "f.csv"); }),
+            "f.csv:1: column 'a' appears twice in the header");
   EXPECT_EQ(error_of([] { (void)parse_csv_table("# only = metadata\n", "f.csv"); }), "f.csv: no header and no data");
   const auto t = parse_csv_table("1\nnan\n", "f.csv");
   EXPECT_EQ(error_of([&] { (void)t.numbers(0); }), "f.csv:2: column 'value': 'nan' is not a finite number");
