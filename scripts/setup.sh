@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libeigen3-dev libmodbus-dev libserialport-dev libspdlog-dev libfmt-dev
+  libeigen3-dev libmodbus-dev libserialport-dev libspdlog-dev libfmt-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libsystemd-dev
   libboost-dev libreaderwriterqueue-dev
