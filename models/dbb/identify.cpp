@@ -278,8 +278,8 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>&
   const std::string A = axis_letters(plane, 0), B = axis_letters(plane, 1);
   std::vector<std::string> n;
   for (std::size_t k = 0; k < L.runs; ++k) {
-    // The first run's centre offset under the plain name, the others as runK.center_offset_*.
-    const std::string pre = k > 0 ? "run" + std::to_string(k + 1) + "." : "";
+    // One run: plain names; several: run1.center_offset_*, run2.center_offset_*, ...
+    const std::string pre = L.runs > 1 ? "run" + std::to_string(k + 1) + "." : "";
     (void)runs;
     n.push_back(pre + "center_offset_" + A + "_um");
     n.push_back(pre + "center_offset_" + B + "_um");
