@@ -166,6 +166,16 @@ TEST(DbbLaiTest, ExactLaiGeometryMatchesTheHtmChain) {
   EXPECT_LT(worst, 5e-9);  // m; the chain's exact rotations differ from Lai's by second-order terms
 }
 
+TEST(DbbLaiTest, TheLaiMachineFileIsTheGivenMachine) {
+  // tests/dbb_lai1997_machine.toml (for the command line) describes the machine of these tests.
+  const sim::Machine file = sim::Machine::from_file(GUIDEWAY_SOURCE_DIR "/tests/dbb_lai1997_machine.toml");
+  const sim::Machine given{test::lai_machine(test::LaiGiven{}, 0.1)};
+  const auto a = test::lai_pattern(file, 95.0, 31.225, true, 5);
+  const auto b = test::lai_pattern(given, 95.0, 31.225, true, 5);
+  ASSERT_EQ(a.dL_m.size(), b.dL_m.size());
+  for (std::size_t i = 0; i < a.dL_m.size(); ++i) EXPECT_NEAR(a.dL_m[i], b.dL_m[i], 1e-12);
+}
+
 TEST(DbbLaiTest, CharacteristicFunctionsAreTheDerivativesOfTheExactGeometry) {
   const double r = 0.095, h = 0.031225, v = 1000.0 / 60000.0;
   const auto names = models::dbb::lai3_parameter_names();
