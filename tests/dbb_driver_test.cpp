@@ -344,3 +344,14 @@ TEST(DbbDriver, StartsAgainAfterStop) {
   EXPECT_EQ(b.driver->status().state, DeviceState::streaming);
   for (std::size_t i = 1; i < b.samples.size(); ++i) EXPECT_EQ(b.samples[i].seq, b.samples[i - 1].seq + 1);
 }
+
+TEST(DbbDriver, BusOffIsCountedAndStreamingResumesWithTheNextCycle) {
+  Bench b(false, 100.0);
+  ASSERT_TRUE(b.wait_samples(10));
+  b.emu.inject_error_frames(1, true);
+  ASSERT_TRUE(test::eventually([&] { return b.driver->error_frames() == 1; }));
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
+  EXPECT_EQ(b.driver->status().state, DeviceState::streaming);
+  EXPECT_EQ(b.driver->status().counters.bad_frames, 1u);
+  b.stop_and_check_all();
+}
