@@ -97,9 +97,10 @@ def main():
                 ok = "met" if g / p >= targets[kind] else "MISSED"
                 print(f"| {kind} | {w} | {n:.0e} | {g / 1e6:.0f} | {p / 1e6:.0f} | {g / p:.1f}x | "
                       f">= {targets[kind]:.0f}x {ok} | {g * nbytes[kind] / BANDWIDTH:.0%} |")
-    for (kind, w, chunk, comps), g in sorted(cpp.items(), key=lambda kv: str(kv[0])):
-        if kind != "streaming":
+    for key, g in sorted(cpp.items(), key=lambda kv: str(kv[0])):
+        if key[0] != "streaming":
             continue
+        _, w, chunk, comps = key
         p = py[("wavedec", w, 1_000_000)]
         what = "streaming decomposition" + (" + MRA" if comps else "")
         ok = "met" if g >= p else "MISSED"
