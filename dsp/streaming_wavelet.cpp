@@ -134,6 +134,7 @@ struct Chain {
 }  // namespace
 
 struct StreamingWavelet::Impl {
+  static constexpr std::size_t kMaxBufferDoubles = std::size_t{32} << 20;  // 256 MiB
   Wavelet w;
   StreamingOptions opt;
   const detail::Kernels* kern = nullptr;
@@ -182,6 +183,15 @@ struct StreamingWavelet::Impl {
     const std::size_t burst = B + two_j + 2 * F + 8;
     const std::size_t lag = (F - 1) * two_j + F;
     const std::size_t cap = 2 * (burst + lag) + 64;
+    const std::size_t out_cap = 2 * (L + burst) + 64;
+    const auto Ju = static_cast<std::size_t>(J);
+    const std::size_t doubles = (opt.components ? (Ju + Ju * (Ju + 1) / 2) * cap + (Ju + 1) * out_cap : 0) +
+                                (opt.denoise ? 2 * Ju * cap + out_cap : 0);
+    if (doubles > kMaxBufferDoubles) {
+      throw std::invalid_argument("streaming wavelet: " + std::to_string(J) + " levels of a " + std::to_string(F) +
+                                  "-tap filter need " + std::to_string(doubles * sizeof(double) >> 20) +
+                                  " MiB of buffers (limit 256 MiB): use fewer levels");
+    }
     ain.resize(static_cast<std::size_t>(J));
     for (auto& f : ain) f.init(2 * (B + 2 * F) + 64);
     received.assign(static_cast<std::size_t>(J), 0);
@@ -198,7 +208,7 @@ struct StreamingWavelet::Impl {
         for (auto& f : c.stage_in) f.init(cap);
         for (std::size_t s = 0; s < start; ++s)
           c.filt.push_back(s == 0 && b != 0 ? w.rec_hi().data() : w.rec_lo().data());
-        c.out.init(2 * (L + burst) + 64);
+        c.out.init(out_cap);
       }
       comp_ptrs.assign(chains.size(), nullptr);
     }
@@ -208,7 +218,7 @@ struct StreamingWavelet::Impl {
       den_d.resize(static_cast<std::size_t>(J));
       for (auto& f : den_a) f.init(cap);
       for (auto& f : den_d) f.init(cap);
-      den_out.init(2 * (L + burst) + 64);
+      den_out.init(out_cap);
       if (d.threshold) {
         if (!(*d.threshold >= 0.0)) throw std::invalid_argument("streaming denoise: threshold must be >= 0");
         fixed_lambda = *d.threshold;

@@ -243,6 +243,9 @@ TEST(Streaming, RejectsBadConfiguration) {
   EXPECT_THROW(StreamingWavelet(w, opt), std::invalid_argument);
   opt.levels = 17;
   EXPECT_THROW(StreamingWavelet(w, opt), std::invalid_argument);
+  opt.levels = 16;
+  opt.components = true;  // 2^16 x 39 taps of history in ~150 FIFOs: refused, with the size in the message
+  EXPECT_THROW(StreamingWavelet(Wavelet("db20"), opt), std::invalid_argument);
 }
 
 }  // namespace
