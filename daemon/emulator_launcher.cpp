@@ -56,6 +56,8 @@ EmulatorProcess::EmulatorProcess(const std::string& executable, const EmulatorSp
     sigset_t none;
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, nullptr);  // the daemon blocks SIGTERM for its signalfd
+    // Emulators take fault commands on stdin; launched ones get none (not the daemon's terminal).
+    if (const int null_fd = open("/dev/null", O_RDONLY | O_CLOEXEC); null_fd >= 0) dup2(null_fd, STDIN_FILENO);
     dup2(out[1], STDOUT_FILENO);
     dup2(out[1], STDERR_FILENO);
     execvp(argv[0], argv.data());
