@@ -1,4 +1,5 @@
 // `guideway version|status|watch`: client commands that talk to a running guidewayd.
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <iomanip>
@@ -36,19 +37,29 @@ void print_status(const nlohmann::json& s) {
             << " us\n";
   std::cout << "clients: " << s["clients"].value("connected", 0) << " connected, "
             << s["clients"].value("dropped_slow", 0) << " dropped as too slow\n";
+  for (const auto& ses : s.value("sessions", nlohmann::json::array())) {
+    std::cout << "session " << ses.value("session", "?") << ": " << ses.value("state", "?") << ", "
+              << ses.value("samples", 0) << " samples" << (ses.contains("progress") ? ", " + ses["progress"].get<std::string>() : "")
+              << "\n";
+  }
   const auto& devices = s["devices"];
   if (devices.empty()) {
     std::cout << "devices: none configured\n";
     return;
   }
-  std::cout << std::left << std::setw(14) << "DEVICE" << std::setw(18) << "DRIVER" << std::setw(11) << "STATE"
+  int name_w = 7, driver_w = 7;
+  for (const auto& d : devices) {
+    name_w = std::max(name_w, static_cast<int>(d.value("name", "").size()) + 2);
+    driver_w = std::max(driver_w, static_cast<int>(d.value("driver", "").size()) + 2);
+  }
+  std::cout << std::left << std::setw(name_w) << "DEVICE" << std::setw(driver_w) << "DRIVER" << std::setw(11) << "STATE"
             << std::right << std::setw(10) << "SAMPLES" << std::setw(9) << "BAD" << std::setw(9) << "TIMEOUT"
             << std::setw(7) << "RECON" << std::setw(9) << "OVERRUN" << std::setw(12) << "RING" << "  REASON\n";
   for (const auto& d : devices) {
     const auto& c = d["counters"];
     std::ostringstream ring;
     ring << d["ring"].value("depth", 0) << "/" << d["ring"].value("capacity", 0);
-    std::cout << std::left << std::setw(14) << d.value("name", "?") << std::setw(18) << d.value("driver", "?")
+    std::cout << std::left << std::setw(name_w) << d.value("name", "?") << std::setw(driver_w) << d.value("driver", "?")
               << std::setw(11) << d.value("state", "?") << std::right << std::setw(10) << fmt_count(c, "samples")
               << std::setw(9) << fmt_count(c, "bad_frames") << std::setw(9) << fmt_count(c, "timeouts")
               << std::setw(7) << fmt_count(c, "reconnects") << std::setw(9) << fmt_count(c, "overruns")
@@ -85,10 +96,18 @@ void print_params(const nlohmann::json& p) {
       std::cout << "\n";
     }
   }
-  if (p.contains("fit") && p["fit"].is_object()) {
-    std::cout << "fit:";
-    for (const auto& [k, v] : p["fit"].items()) std::cout << " " << k << "=" << v.dump();
+  for (const char* group : {"fit", "diagnostics_fit"}) {
+    if (!p.contains(group) || !p[group].is_object()) continue;
+    std::cout << group << ":";
+    for (const auto& [k, v] : p[group].items()) {
+      if (v.is_primitive()) std::cout << " " << k << "=" << v.dump();
+    }
     std::cout << "\n";
+    if (p[group].contains("unidentifiable") && !p[group]["unidentifiable"].empty()) {
+      std::cout << "  not separable by these patterns:";
+      for (const auto& n : p[group]["unidentifiable"]) std::cout << " " << n.get<std::string>();
+      std::cout << "\n";
+    }
   }
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
 }

@@ -1,6 +1,7 @@
 #include "daemon/config.hpp"
 
 #include <bit>
+#include <filesystem>
 #include <set>
 
 #include "core/runtime_paths.hpp"
@@ -113,8 +114,20 @@ std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& con
   std::vector<std::unique_ptr<EmulatorProcess>> out;
   const std::string exe =
       config.emulator_executable.empty() ? default_emulator_executable() : config.emulator_executable;
+  // "{runtime_dir}" in emulator arguments and device values: the directory of the daemon's socket.
+  const std::string runtime_dir = std::filesystem::path(config.socket_path).parent_path().string();
+  auto expand = [&](std::string s) {
+    for (auto pos = s.find("{runtime_dir}"); pos != std::string::npos; pos = s.find("{runtime_dir}", pos)) {
+      s.replace(pos, 13, runtime_dir);
+      pos += runtime_dir.size();
+    }
+    return s;
+  };
+  std::error_code ec;
+  std::filesystem::create_directories(runtime_dir, ec);
   std::vector<const EmulatorProcess*> raw;
-  for (const EmulatorSpec& spec : config.emulators) {
+  for (EmulatorSpec spec : config.emulators) {
+    for (auto& a : spec.args) a = expand(a);
     out.push_back(std::make_unique<EmulatorProcess>(exe, spec));
     raw.push_back(out.back().get());
   }
@@ -123,6 +136,11 @@ std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& con
     for (toml::node& node : *devices) {
       if (toml::table* t = node.as_table()) {
         try {
+          t->for_each([&](auto& value) {
+            if constexpr (toml::is_string<decltype(value)>) {
+              if (value.get().find("{runtime_dir}") != std::string::npos) value = expand(value.get());
+            }
+          });
           substitute_emulator_endpoints(*t, raw);
         } catch (const std::invalid_argument& e) {
           throw ConfigError(config.source, t->source().begin.line, "device[" + std::to_string(i) + "]", e.what());

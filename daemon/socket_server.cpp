@@ -112,12 +112,13 @@ void SocketServer::accept_on(int listen_fd) {
     const ClientId id = next_id_++;
     clients_[id].fd = fd;
     loop_.add(fd, EPOLLIN | EPOLLRDHUP, [this, id](std::uint32_t events) {
-      if (events & (EPOLLERR | EPOLLHUP)) {
+      if (events & EPOLLERR) {
         close_client(id, "connection error");
         return;
       }
       if (events & EPOLLOUT) flush(id);
-      if (events & (EPOLLIN | EPOLLRDHUP)) read_from(id);
+      // A hang-up is read like data: what the peer sent last is served, then read() returns 0.
+      if (events & (EPOLLIN | EPOLLRDHUP | EPOLLHUP)) read_from(id);
     });
     if (on_connect_) on_connect_(id);
   }

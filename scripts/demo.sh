@@ -27,9 +27,20 @@ for _ in $(seq 1 100); do
   sleep 0.1
 done
 "$bin/cli/guideway" version
+# The emulated instruments connect within a second or two.
+for _ in $(seq 1 50); do
+  "$bin/cli/guideway" status --json | grep -q '"state":"connecting"' || break
+  sleep 0.2
+done
 echo
 echo "== guideway status"
 "$bin/cli/guideway" status
+echo
+echo "== guideway start dbb --wait   (Lai's three DBB patterns on the emulated machine, about 35 s)"
+"$bin/cli/guideway" start dbb --wait --timeout 300
+echo
+echo "== guideway recordings"
+"$bin/cli/guideway" recordings
 if [ $keep -eq 1 ]; then
   echo
   echo "guidewayd keeps running (pid $pid). Try: $bin/cli/guideway watch    Stop: kill $pid"

@@ -60,7 +60,7 @@ bool handle_fault(AutocollimatorEmulator& emu, const std::vector<std::string>& w
 int run_autocollimator(const AutocollimatorOptions& o) {
   block_stop_signals();
   std::signal(SIGPIPE, SIG_IGN);  // a reader of our stdout that went away must not kill the emulator
-  const sim::Machine machine(o.machine_file.empty() ? demo_machine_config() : sim::load_machine_config(o.machine_file));
+  const sim::Machine machine(o.machine_file.empty() ? sim::default_machine_config() : sim::load_machine_config(o.machine_file));
   sim::TraverseSpec spec;
   spec.axis = o.axis == "y" ? sim::Axis::y : o.axis == "z" ? sim::Axis::z : sim::Axis::x;
   spec.start_m = o.start_mm * 1e-3;
@@ -91,7 +91,7 @@ void add_autocollimator(CLI::App& app, int& exit_code) {
                                  "TA80-style autocollimator on a pseudo-terminal (prints \"pty: /dev/pts/N\"), "
                                  "watching a traverse with stops");
   cmd->add_option("--link", o->link, "keep a symlink to the current pty here (survives disconnect faults)");
-  cmd->add_option("--machine", o->machine_file, "virtual machine tool file (default: a demo machine)");
+  cmd->add_option("--machine", o->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
   cmd->add_option("--axis", o->axis, "traversed axis")->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str();
   cmd->add_option("--start-mm", o->start_mm, "first station")->capture_default_str();
   cmd->add_option("--end-mm", o->end_mm, "last station")->capture_default_str();

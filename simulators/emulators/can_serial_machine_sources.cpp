@@ -48,6 +48,54 @@ std::shared_ptr<const DbbMotion> make_dbb_motion(const sim::Machine& machine, co
   return m;
 }
 
+void DbbProgram::at(double t_s, std::span<double> out) const {
+  double t = std::fmod(std::max(t_s, 0.0), duration_s > 0 ? duration_s : 1.0);
+  for (const sim::DbbRun& run : runs) {
+    if (run.samples.empty()) continue;
+    const double length = run.samples.back().t_s - run.samples.front().t_s;
+    if (t <= length + pause_s) {
+      // Interpolation within the circle; during the pause the last sample holds.
+      const auto& s = run.samples;
+      const double tt = std::min(t, length);
+      auto hi = std::lower_bound(s.begin(), s.end(), s.front().t_s + tt,
+                                 [](const sim::DbbSample& a, double v) { return a.t_s < v; });
+      if (hi == s.begin()) hi = s.begin() + 1;
+      if (hi == s.end()) hi = s.end() - 1;
+      const auto lo = hi - 1;
+      const double span = hi->t_s - lo->t_s;
+      const double w = span > 0 ? std::clamp((s.front().t_s + tt - lo->t_s) / span, 0.0, 1.0) : 0.0;
+      const auto [a, b] = plane_axes(plane);
+      const double v[3] = {lo->bar_length_m + w * (hi->bar_length_m - lo->bar_length_m),
+                           lo->encoder[a] + w * (hi->encoder[a] - lo->encoder[a]),
+                           lo->encoder[b] + w * (hi->encoder[b] - lo->encoder[b])};
+      for (std::size_t i = 0; i < out.size(); ++i) out[i] = i < 3 ? v[i] : 0.0;
+      return;
+    }
+    t -= length + pause_s;
+  }
+}
+
+std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs,
+                                                   double pause_s) {
+  auto p = std::make_shared<DbbProgram>();
+  p->pause_s = pause_s;
+  double t0 = 0.0;
+  for (auto& spec : specs) {
+    spec.t0_s = t0;
+    p->plane = spec.plane;
+    p->runs.push_back(machine.dbb_circle(spec));
+    const auto& s = p->runs.back().samples;
+    const double length = s.empty() ? 0.0 : s.back().t_s - s.front().t_s;
+    t0 += length + pause_s;
+  }
+  p->duration_s = t0;
+  return p;
+}
+
+DbbSource dbb_program_source(std::shared_ptr<const DbbProgram> program) {
+  return [program](double t_s, std::span<double> out) { program->at(t_s, out); };
+}
+
 DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion) {
   return [motion](double t_s, std::span<double> out) { motion->at(t_s, out); };
 }

@@ -24,6 +24,20 @@ struct DbbMotion {
 std::shared_ptr<const DbbMotion> make_dbb_motion(const sim::Machine& machine, const sim::DbbCircleSpec& spec);
 DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion);
 
+// A DBB test program: several circles one after the other, the machine standing still for `pause_s`
+// after each (the operator changes the socket height), then the program repeats. Each circle starts
+// at the machine time the previous one ended, so thermal drift carries on across patterns.
+struct DbbProgram {
+  std::vector<sim::DbbRun> runs;
+  sim::Plane plane = sim::Plane::xy;
+  double pause_s = 1.0;
+  double duration_s = 0.0;  // of one pass through the program, pauses included
+  void at(double t_s, std::span<double> out_m) const;
+};
+std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs,
+                                                   double pause_s);
+DbbSource dbb_program_source(std::shared_ptr<const DbbProgram> program);
+
 // The traverse: the station's angles hold while the carriage dwells there; t wraps around.
 struct TraverseMotion {
   std::vector<sim::TraverseStation> stations;

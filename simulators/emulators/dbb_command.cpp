@@ -4,6 +4,7 @@
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <tuple>
 
 #include "simulators/emulators/can_serial_control.hpp"
 #include "simulators/emulators/can_serial_machine_sources.hpp"
@@ -29,6 +30,8 @@ struct DbbOptions {
   double overshoot_deg = 45.0;
   std::string machine_file;
   double duration_s = 0.0;
+  std::string program = "single";
+  double pause_s = 1.0;
 };
 
 bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::string& msg) {
@@ -72,7 +75,7 @@ int run_dbb(const DbbOptions& o) {
   DbbEmulatorSettings settings;
   settings.produce_sync = o.sync == "produce";
   settings.sync_rate_hz = o.sync_rate_hz;
-  const sim::Machine machine(o.machine_file.empty() ? demo_machine_config() : sim::load_machine_config(o.machine_file));
+  const sim::Machine machine(o.machine_file.empty() ? sim::default_machine_config() : sim::load_machine_config(o.machine_file));
   sim::DbbCircleSpec spec;
   spec.radius_m = o.radius_mm * 1e-3;
   spec.height_m = o.height_mm * 1e-3;
@@ -81,17 +84,33 @@ int run_dbb(const DbbOptions& o) {
   spec.plane = o.plane == "xz" ? sim::Plane::xz : o.plane == "yz" ? sim::Plane::yz : sim::Plane::xy;
   spec.overshoot_rad = o.overshoot_deg * 3.14159265358979323846 / 180.0;
   spec.sample_rate_hz = 1000.0;
-  auto motion = make_dbb_motion(machine, spec);
+  // "lai": Lai's three patterns with one 100 mm bar (h = 31.225 mm at r = 95 mm cw and ccw, then
+  // h = 0 at r = 100 mm ccw), a pause after each, repeated; "single": the one circle of the options.
+  std::vector<sim::DbbCircleSpec> specs;
+  if (o.program == "lai") {
+    for (auto [r_mm, h_mm, dir] : {std::tuple{95.0, 31.225, sim::Direction::cw}, std::tuple{95.0, 31.225, sim::Direction::ccw},
+                                   std::tuple{100.0, 0.0, sim::Direction::ccw}}) {
+      sim::DbbCircleSpec p = spec;
+      p.radius_m = r_mm * 1e-3;
+      p.height_m = h_mm * 1e-3;
+      p.direction = dir;
+      specs.push_back(p);
+    }
+  } else {
+    specs.push_back(spec);
+  }
+  auto program = make_dbb_program(machine, specs, o.pause_s);
+  const double nominal_length_m = program->runs.front().nominal_length_m;
   const char* names[] = {"bar_length", o.plane == "yz" ? "y" : "x", o.plane == "xy" ? "y" : "z"};
   for (std::size_t i = 0; i < 3; ++i) {
     dbb::EncoderScale e;
     e.channel = names[i];
     e.node_id = static_cast<std::uint8_t>(o.nodes[i]);
     e.resolution_m = o.resolution_nm * 1e-9;
-    if (i == 0) e.offset_m = std::round(motion->run.nominal_length_m * 1e6) * 1e-6;  // the bar's nominal, in um
+    if (i == 0) e.offset_m = std::round(nominal_length_m * 1e6) * 1e-6;  // the bar's nominal, in um
     settings.encoders.push_back(e);
   }
-  DbbSource circle = dbb_motion_source(motion);
+  DbbSource circle = dbb_program_source(program);
   DbbEmulator emu(settings, circle);
   std::string error;
   can::CanSocket listener;
@@ -131,13 +150,17 @@ void add_dbb(CLI::App& app, int& exit_code) {
   cmd->add_option("--sync-rate-hz", o->sync_rate_hz, "SYNC rate when producing")->capture_default_str();
   cmd->add_option("--nodes", o->nodes, "node IDs of bar, first axis, second axis")->expected(3)->capture_default_str();
   cmd->add_option("--resolution-nm", o->resolution_nm, "encoder resolution")->capture_default_str();
-  cmd->add_option("--machine", o->machine_file, "virtual machine tool file (default: a demo machine)");
+  cmd->add_option("--machine", o->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
   cmd->add_option("--radius-mm", o->radius_mm, "circle radius")->capture_default_str();
   cmd->add_option("--height-mm", o->height_mm, "tool ball above the centre ball (Lai's h)")->capture_default_str();
   cmd->add_option("--feed-mm-min", o->feed_mm_min, "feed rate")->capture_default_str();
   cmd->add_option("--direction", o->direction, "ccw or cw")->check(CLI::IsMember({"ccw", "cw"}))->capture_default_str();
   cmd->add_option("--plane", o->plane, "circle plane")->check(CLI::IsMember({"xy", "xz", "yz"}))->capture_default_str();
   cmd->add_option("--overshoot-deg", o->overshoot_deg, "feed-in/feed-out arcs")->capture_default_str();
+  cmd->add_option("--program", o->program, "single: the circle of the options; lai: Lai's three patterns in turn")
+      ->check(CLI::IsMember({"single", "lai"}))
+      ->capture_default_str();
+  cmd->add_option("--pause-s", o->pause_s, "standing still after each circle")->capture_default_str();
   cmd->add_option("--duration-s", o->duration_s, "stop after this long (0: until quit/SIGTERM)")->capture_default_str();
   cmd->callback([o, &exit_code] { exit_code = run_dbb(*o); });
 }

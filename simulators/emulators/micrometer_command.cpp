@@ -38,7 +38,7 @@ int run_micrometer(const MicrometerArgs& a) {
   options.unit_id = a.unit_id;
   std::string error;
   try {
-    const sim::Machine machine(a.machine_file.empty() ? spindle_demo_machine_config()
+    const sim::Machine machine(a.machine_file.empty() ? sim::default_machine_config()
                                                       : sim::load_machine_config(a.machine_file));
     sim::RunoutSpec spec;
     spec.rpm = a.rpm;
@@ -95,7 +95,7 @@ void add_micrometer(CLI::App& app, int& exit_code) {
   sub->add_option("--baud", args->baud, "RTU baud rate")->capture_default_str();
   sub->add_option("--parity", args->parity, "RTU parity N, E or O")->check(CLI::IsMember({"N", "E", "O"}));
   sub->add_option("--unit-id", args->unit_id, "Modbus unit (slave) id")->capture_default_str();
-  sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: a built-in spindle demo)");
+  sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
   sub->add_option("--rpm", args->rpm, "spindle speed of the run-out revolutions")->capture_default_str();
   sub->add_option("--probe-radius-mm", args->probe_radius_mm, "probe radius on the thrust plate")
       ->capture_default_str();

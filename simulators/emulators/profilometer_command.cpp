@@ -37,7 +37,7 @@ int run_profilometer(const ProfilometerArgs& a) {
   } else {
     try {
       auto machine = std::make_shared<const sim::Machine>(
-          a.machine_file.empty() ? spindle_demo_machine_config() : sim::load_machine_config(a.machine_file));
+          a.machine_file.empty() ? sim::default_machine_config() : sim::load_machine_config(a.machine_file));
       options.source = facing_profile_source(machine, demo_facing_spec());
     } catch (const std::exception& e) {
       std::cerr << "guideway-emulate profilometer: " << e.what() << "\n";
@@ -73,7 +73,7 @@ void add_profilometer(CLI::App& app, int& exit_code) {
   sub->add_option("--host", args->host, "IPv4 address to listen on")->capture_default_str();
   sub->add_option("--port", args->port, "TCP port (0: any free port; the address is printed)")->capture_default_str();
   sub->add_option("--points-per-s", args->points_per_s, "stream rate")->capture_default_str();
-  sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: a built-in spindle demo)");
+  sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
   sub->add_flag("--synthetic", args->synthetic,
                 "stream synthetic feed-mark profiles instead of the machine's faced profile");
   sub->add_option("--points", args->points, "--synthetic: points per traverse")->capture_default_str();

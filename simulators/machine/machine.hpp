@@ -112,6 +112,9 @@ struct MachineConfig {
 // unknown keys are rejected.
 MachineConfig load_machine_config(const std::string& path);
 MachineConfig parse_machine_config(std::string_view toml_text, const std::string& file_name);
+// config/machine-example.toml, compiled in: the machine every emulator uses unless given --machine,
+// so emulated instruments started separately still agree with each other.
+MachineConfig default_machine_config();
 
 // One instant of a motion.
 struct MotionSample {

@@ -119,4 +119,16 @@ MachineConfig load_machine_config(const std::string& path) {
   return read(root, path);
 }
 
+namespace {
+
+constexpr std::string_view machine_example_toml =
+#include "machine_example.inc"
+    ;
+
+}  // namespace
+
+MachineConfig default_machine_config() {
+  return parse_machine_config(machine_example_toml, "<embedded config/machine-example.toml>");
+}
+
 }  // namespace guideway::sim

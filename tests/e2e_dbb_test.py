@@ -1,0 +1,88 @@
+#!/usr/bin/python3
+"""End to end: guidewayd on its embedded default (four emulator processes on their real transports,
+one virtual machine tool: config/machine-example.toml), a DBB session through the `guideway` client,
+parameters checked against the machine's configured errors, zero overruns, and the recorded run files
+identified offline by `guideway identify dbb` to the same parameters.
+Usage: e2e_dbb_test.py BUILD_DIR"""
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
+GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
+GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+
+
+class EndToEndDbb(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(prefix="gwe-")
+        self.sock = os.path.join(self.tmp.name, "g.sock")
+        env = {**os.environ, "XDG_STATE_HOME": os.path.join(self.tmp.name, "state")}
+        env.pop("NOTIFY_SOCKET", None)
+        self.log = open(os.path.join(self.tmp.name, "guidewayd.log"), "w+")
+        self.daemon = subprocess.Popen([GUIDEWAYD, "--socket", self.sock], env=env, stdout=self.log,
+                                       stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        deadline = time.monotonic() + 30
+        while not os.path.exists(self.sock):
+            if self.daemon.poll() is not None or time.monotonic() > deadline:
+                self.log.seek(0)
+                self.fail("guidewayd did not start:\n" + self.log.read())
+            time.sleep(0.05)
+
+    def tearDown(self):
+        if self.daemon.poll() is None:
+            self.daemon.send_signal(signal.SIGTERM)
+            self.assertEqual(self.daemon.wait(timeout=20), 0)
+        self.log.close()
+        self.tmp.cleanup()
+
+    def cli(self, *args, timeout=30):
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, *args], capture_output=True, text=True, timeout=timeout)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        return out.stdout
+
+    def test_dbb_session_identifies_the_virtual_machine(self):
+        # All four emulated instruments come up streaming.
+        deadline = time.monotonic() + 20
+        while True:
+            status = json.loads(self.cli("status", "--json"))
+            states = {d["name"]: d["state"] for d in status["devices"]}
+            if set(states.values()) == {"streaming"} or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        self.assertEqual(states, {"dbb": "streaming", "autocollimator": "streaming", "micrometer": "streaming",
+                                  "profilometer": "streaming"})
+
+        lines = self.cli("start", "dbb", "--wait", "--json", "--timeout", "240", timeout=300).splitlines()
+        params = json.loads(lines[-1])
+        self.assertEqual(params["class"], "PARAMS")
+        lai = {k: v["value"] for k, v in params["lai3"].items()}
+        # config/machine-example.toml: centre offset (2, -3) um (Lai's e is the fixed ball relative to
+        # the circle centre), backlash 1 um on X and 2 um on Y.
+        self.assertAlmostEqual(lai["e_x_um"], -2.0, delta=0.1)
+        self.assertAlmostEqual(lai["e_y_um"], 3.0, delta=0.1)
+        self.assertAlmostEqual(lai["backlash_x_um"], 1.0, delta=0.1)
+        self.assertAlmostEqual(lai["backlash_y_um"], 2.0, delta=0.1)
+        self.assertEqual(len(params["runs"]), 3)
+
+        status = json.loads(self.cli("status", "--json"))
+        for d in status["devices"]:
+            self.assertEqual(d["counters"]["overruns"], 0, d)
+        # The raw recording is complete; the run files reproduce the parameters offline.
+        with open(params["recording"]) as f:
+            text = f.read()
+        self.assertIn("# format = guideway/raw/1", text)
+        self.assertIn("# end = complete", text)
+        self.assertEqual(len(params["derived"]), 3)
+        offline = json.loads(self.cli("identify", "dbb", *params["derived"], "--json"))
+        for name, value in lai.items():
+            self.assertAlmostEqual(offline["lai3"][name]["value"], value, delta=1e-9 + 1e-6 * abs(value), msg=name)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
