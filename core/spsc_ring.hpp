@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <new>
 #include <span>
 #include <stdexcept>
 #include <type_traits>
@@ -24,10 +25,12 @@ class SpscRing {
  public:
   // capacity must be a power of two >= 2 (so index & mask replaces modulo).
   explicit SpscRing(std::size_t capacity)
-      : capacity_(capacity), mask_(capacity - 1), slots_(std::make_unique<T[]>(capacity)) {
+      : capacity_(capacity), mask_(capacity - 1) {
     if (capacity < 2 || !std::has_single_bit(capacity)) {
       throw std::invalid_argument("SpscRing capacity must be a power of two >= 2");
     }
+    // Cache-line aligned slots: a 64-byte Sample then occupies exactly one line, never two.
+    slots_.reset(new (std::align_val_t{slot_alignment}) T[capacity]());
   }
   SpscRing(const SpscRing&) = delete;
   SpscRing& operator=(const SpscRing&) = delete;
@@ -139,9 +142,14 @@ class SpscRing {
     std::uint64_t cached_head = 0;
   };
 
+  static constexpr std::size_t slot_alignment = alignof(T) > cache_line_bytes ? alignof(T) : cache_line_bytes;
+  struct AlignedDelete {
+    void operator()(T* p) const noexcept { ::operator delete[](p, std::align_val_t{slot_alignment}); }
+  };
+
   const std::size_t capacity_;
   const std::size_t mask_;
-  std::unique_ptr<T[]> slots_;
+  std::unique_ptr<T[], AlignedDelete> slots_;
   ProducerSide producer_;
   ConsumerSide consumer_;
 };
