@@ -12,6 +12,7 @@
 
 #include "cli/daemon_client.hpp"
 #include "core/mono_clock.hpp"
+#include "counting_driver.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
@@ -19,41 +20,10 @@ using guideway::cli::DaemonClient;
 
 namespace {
 
-// Produces `rate_hz` samples per second carrying their own sequence number: a real driver thread
-// with no transport, so the pipeline and publishing can be checked exactly.
-class CountingDriver : public drivers::Driver {
- public:
-  CountingDriver(const drivers::DeviceConfig& c)
-      : Driver(c.name, c.driver, {{"count", "1"}}, c.ring_capacity),
-        rate_hz_(c.table.get_double("rate_hz", 1000.0, 1.0, 1e7)) {}
-  ~CountingDriver() override { stop(); }
-
- protected:
-  void run(std::stop_token stop) override {
-    set_state(drivers::DeviceState::streaming);
-    const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / rate_hz_));
-    auto next = std::chrono::steady_clock::now();
-    double n = 0;
-    while (!stop.stop_requested()) {
-      Sample s;
-      s.t_mono_ns = mono_now_ns();
-      s.value_count = 1;
-      s.value[0] = n++;
-      publish(s);
-      frames_.fetch_add(1, std::memory_order_relaxed);
-      next += period;
-      std::this_thread::sleep_until(next);
-    }
-  }
-
- private:
-  double rate_hz_;
-};
-
 struct RunningDaemon {
   explicit RunningDaemon(const std::string& extra_toml = "") {
     registry.add("counting", "test source", [](const drivers::DeviceConfig& c) {
-      return std::make_unique<CountingDriver>(c);
+      return std::make_unique<test::CountingDriver>(c);
     });
     socket = dir.file("d.sock");
     auto config = daemon::parse_config("[daemon]\nsocket = \"" + socket +
@@ -163,7 +133,7 @@ TEST(Daemon, DropsAClientThatNeverReadsAndKeepsServingOthers) {
 TEST(Daemon, UnknownDriverIsAConfigErrorNamingTheKnownOnes) {
   test::TempDir dir;
   drivers::DriverRegistry registry;
-  registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<CountingDriver>(c); });
+  registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<test::CountingDriver>(c); });
   auto config = daemon::parse_config("[daemon]\nsocket = \"" + dir.file("s") +
                                          "\"\n[[device]]\nname = \"x\"\ndriver = \"nope\"\n",
                                      "bad.toml");
@@ -182,7 +152,7 @@ TEST(Daemon, UnknownDriverIsAConfigErrorNamingTheKnownOnes) {
 TEST(Daemon, UnknownKeyInADeviceTableIsRejected) {
   test::TempDir dir;
   drivers::DriverRegistry registry;
-  registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<CountingDriver>(c); });
+  registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<test::CountingDriver>(c); });
   auto config = daemon::parse_config("[daemon]\nsocket = \"" + dir.file("s") +
                                          "\"\n[[device]]\nname = \"x\"\ndriver = \"counting\"\nrate_hx = 5.0\n",
                                      "bad.toml");

@@ -12,35 +12,13 @@
 #include "cli/daemon_client.hpp"
 #include "core/mono_clock.hpp"
 #include "daemon/daemon.hpp"
+#include "counting_driver.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
 using guideway::cli::DaemonClient;
 
 namespace {
-
-// A source that counts: value = sequence number, so every statistic is known exactly.
-class CountingDriver : public drivers::Driver {
- public:
-  explicit CountingDriver(const drivers::DeviceConfig& c) : Driver(c.name, c.driver, {{"count", "1"}}, c.ring_capacity) {}
-  ~CountingDriver() override { stop(); }
-
- protected:
-  void run(std::stop_token stop) override {
-    set_state(drivers::DeviceState::streaming);
-    double n = 0;
-    auto next = std::chrono::steady_clock::now();
-    while (!stop.stop_requested()) {
-      Sample s;
-      s.t_mono_ns = mono_now_ns();
-      s.value_count = 1;
-      s.value[0] = n++;
-      publish(s);
-      next += std::chrono::microseconds(500);
-      std::this_thread::sleep_until(next);
-    }
-  }
-};
 
 // Collects N samples (or until stopped) and identifies their mean and count; refuses fewer than 2.
 class MeanSession : public daemon::Session {
@@ -74,7 +52,7 @@ class MeanSession : public daemon::Session {
 
 struct Fixture {
   explicit Fixture(const std::string& state_dir = "") {
-    registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<CountingDriver>(c); });
+    registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<test::CountingDriver>(c); });
     sessions.add({"mean", "test mean", {"counting"}, [](const daemon::SessionRequest& r, const drivers::Driver&) {
                     const auto n = r.options.value("samples", 0);
                     if (n < 0) throw std::invalid_argument("samples must be >= 0");
