@@ -30,15 +30,22 @@ std::string utc_now_iso() {
 
 }  // namespace
 
+std::vector<std::unique_ptr<drivers::Driver>> create_devices(const DaemonConfig& config,
+                                                             const drivers::DriverRegistry& registry) {
+  std::vector<std::unique_ptr<drivers::Driver>> devices;
+  for (const auto& dev : config.devices) {
+    devices.push_back(registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table}));
+    dev.table->reject_unknown_keys();
+  }
+  return devices;
+}
+
 Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
   emulators_ = launch_emulators(config_);
   for (const auto& e : emulators_) log_->info("emulator {} (pid {}) serves {}", e->name(), e->pid(), e->endpoint());
-  for (const auto& dev : config_.devices) {
-    devices_.push_back(registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table}));
-  }
-  for (const auto& dev : config_.devices) dev.table->reject_unknown_keys();
+  devices_ = create_devices(config_, registry);
   std::vector<drivers::Driver*> raw;
   for (auto& d : devices_) raw.push_back(d.get());
   last_states_.assign(devices_.size(), drivers::DeviceState::stopped);

@@ -29,6 +29,11 @@ struct DaemonOptions {
   bool handle_signals = false;
 };
 
+// Creates a driver for every [[device]] table (not started); throws ConfigError naming the file, line
+// and key for an unknown driver, a bad value or a key the driver does not read.
+std::vector<std::unique_ptr<drivers::Driver>> create_devices(const DaemonConfig& config,
+                                                             const drivers::DriverRegistry& registry);
+
 class Daemon {
  public:
   // Creates the drivers (throws ConfigError on a bad [[device]] table) and binds the sockets

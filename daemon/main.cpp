@@ -79,10 +79,7 @@ int main(int argc, char** argv) {
   try {
     if (check_only) {
       const auto emulators = daemon::launch_emulators(config);
-      for (const auto& dev : config.devices) {
-        auto driver = registry.create({dev.name, dev.driver, dev.ring_capacity, *dev.table});
-        dev.table->reject_unknown_keys();
-      }
+      const auto devices = daemon::create_devices(config, registry);
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
       return 0;
     }
