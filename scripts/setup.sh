@@ -10,6 +10,7 @@ packages=(
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libsystemd-dev
   libboost-dev libreaderwriterqueue-dev
   python3 python3-numpy python3-scipy python3-pywt
+  chromium  # headless: the report tests and docs/reports.md screenshots
   systemd
 )
 
