@@ -1,0 +1,138 @@
+// DBB runs: Lai third-order + ballbar diagnostics (models/dbb), polar plots per set-up.
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <tuple>
+
+#include "models/dbb/dbb_run.hpp"
+#include "models/dbb/identify.hpp"
+#include "report/html.hpp"
+#include "report/sections.hpp"
+#include "report/svg.hpp"
+
+namespace guideway::report {
+
+namespace {
+
+namespace dbb = models::dbb;
+
+std::string estimate_cell(const dbb::Estimate& e) {
+  return html_escape(e.fitted ? format_with_u(e.value, e.u) : format_number(e.value, 4));
+}
+
+Table estimates_table(const std::string& caption, const std::vector<dbb::Estimate>& list) {
+  Table t{caption, {"quantity", "value \u00b1 standard uncertainty", "unit"}, {}};
+  for (const auto& e : list) {
+    const auto [name, unit] = split_unit(e.name);
+    t.rows.push_back({html_escape(e.name), estimate_cell(e), html_escape(unit)});
+  }
+  return t;
+}
+
+}  // namespace
+
+std::string dbb_section(const std::vector<std::string>& paths, const std::string& id) {
+  std::vector<dbb::Run> runs;
+  for (const auto& p : paths) {
+    try {
+      runs.push_back(dbb::read_run(p));
+    } catch (const std::exception& e) {
+      throw ReportError(e.what());
+    }
+  }
+  std::ostringstream body;
+  body << "<p>" << runs.size() << " circular test run(s): ";
+  for (std::size_t i = 0; i < runs.size(); ++i) body << (i ? ", " : "") << "<code>" << html_escape(base_name(paths[i])) << "</code>";
+  body << ". Identified together (Lai, Liao and Chieng 1997 third-order model and the ballbar diagnostics; sign "
+          "conventions in docs/conventions.md).</p>";
+
+  dbb::Identification id_result;
+  bool identified = false;
+  std::string refusal;
+  try {
+    id_result = dbb::identify(runs);
+    identified = true;
+  } catch (const std::exception& e) {
+    refusal = e.what();
+  }
+
+  // One polar plot per set-up (radius, height, plane), its runs overlaid: CCW blue, CW orange.
+  std::map<std::tuple<double, double, std::string>, std::vector<std::size_t>> setups;
+  for (std::size_t i = 0; i < runs.size(); ++i)
+    setups[{std::round(runs[i].radius_m * 1e6) / 1e3, std::round(runs[i].height_m * 1e6) / 1e3, runs[i].plane}]
+        .push_back(i);
+  for (const auto& [key, members] : setups) {
+    const auto& [radius_mm, height_mm, plane] = key;
+    PolarPlot plot;
+    plot.title = "DBB r = " + format_number(radius_mm, 4) + " mm, h = " + format_number(height_mm, 4) + " mm, " +
+                 plane + " plane";
+    plot.axis_a = std::string(1, static_cast<char>(std::toupper(plane[0])));
+    plot.axis_b = std::string(1, static_cast<char>(std::toupper(plane[1])));
+    bool have_ccw = false, have_cw = false;
+    std::size_t extra = 2;  // further runs of one direction take the next palette colours
+    for (std::size_t i : members) {
+      const auto& r = runs[i];
+      PolarSeries s;
+      const bool is_ccw = r.direction == dbb::Direction::ccw;
+      s.label = std::string(is_ccw ? "CCW" : "CW") + " " + format_number(r.feed_m_per_s * 60000, 4) + " mm/min";
+      if (identified && i < id_result.runs.size())
+        s.label += ", G = " + format_number(id_result.runs[i].circular_deviation_um, 3) + " \u00b5m";
+      bool& have = is_ccw ? have_ccw : have_cw;
+      s.color = palette(have ? extra++ : (is_ccw ? 0 : 1));
+      have = true;
+      s.angle_rad = r.angle_rad;
+      s.deviation_um.reserve(r.dL_m.size());
+      for (double d : r.dL_m) s.deviation_um.push_back(d * 1e6);
+      plot.series.push_back(std::move(s));
+    }
+    std::ostringstream cap;
+    cap << "Measured bar length change \u0394L (positive = longer) against the commanded angle, magnified: "
+        << format_number(polar_um_per_div(plot), 3) << " \u00b5m per division around the nominal circle (bold). "
+        << "G: ISO 230-4 circular deviation about each run's least-squares circle.";
+    body << html_figure(render(plot), html_escape(cap.str()));
+  }
+
+  if (!identified) {
+    body << html_note("Identification refused: " + refusal);
+  } else {
+    Table runs_t{"Runs", {"file", "r / mm", "h / mm", "direction", "feed / (mm/min)", "points",
+                          "G (ISO 230-4) / \u00b5m", "residual rms / \u00b5m"}, {}};
+    for (const auto& r : id_result.runs)
+      runs_t.rows.push_back({html_escape(base_name(r.source)), format_number(r.radius_mm, 5),
+                             format_number(r.height_mm, 5), html_escape(r.direction),
+                             format_number(r.feed_mm_per_min, 5), std::to_string(r.n),
+                             format_fixed(r.circular_deviation_um, 3), format_fixed(r.residual_rms_um, 3)});
+    body << html_table(runs_t);
+
+    std::vector<dbb::Estimate> iso, diag;
+    for (const auto& e : id_result.diagnostics)
+      (e.name.rfind("circular_", 0) == 0 ? iso : diag).push_back(e);
+    Table iso_t{"ISO 230-4 circular test figures", {"quantity", "value", "unit"}, {}};
+    for (const auto& e : iso) {
+      const auto [name, unit] = split_unit(e.name);
+      iso_t.rows.push_back({html_escape(e.name), format_fixed(e.value, 3), html_escape(unit)});
+    }
+    if (iso.size() < 2)
+      iso_t.rows.push_back({"circular_hysteresis_um", "&ndash;", "needs a CCW and a CW run of one set-up"});
+    body << html_table(iso_t);
+    body << html_table(estimates_table("Ballbar diagnostics", diag));
+    const auto& df = id_result.diagnostics_fit;
+    body << "<p>Diagnostics fit: rms " << format_fixed(df.rms_um, 4) << " \u00b5m over " << df.n
+         << " points, condition number " << format_number(df.condition_number, 3) << ".</p>";
+    if (!df.unidentifiable.empty()) body << html_note("Diagnostics not separable by these runs: " + df.message);
+    body << html_table(estimates_table("Lai third-order model (Table 3 names)", id_result.lai3));
+    const auto& f = id_result.fit;
+    std::ostringstream fit;
+    fit << "Lai fit: rms " << format_fixed(f.rms_um, 4) << " \u00b5m over " << f.n << " points, condition number "
+        << format_number(f.condition_number, 3) << ".";
+    body << "<p>" << html_escape(fit.str()) << "</p>";
+    if (!f.unidentifiable.empty()) {
+      std::string names;
+      for (const auto& n : f.unidentifiable) names += (names.empty() ? "" : ", ") + n;
+      body << html_note("Not separable by these patterns (refused, not reported): " + names);
+    }
+  }
+  return html_section("dbb", id, "Double ball bar: circular tests", body.str());
+}
+
+}  // namespace guideway::report

@@ -1,0 +1,148 @@
+// Explanations of a model/recording mismatch: rendered from the JSON of `guideway explain --json`
+// (issue 7's shape; docs/reports.md lists the fields used and the optional residual curves).
+#include <cmath>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "core/csv_table.hpp"
+#include "report/html.hpp"
+#include "report/sections.hpp"
+#include "report/svg.hpp"
+
+namespace guideway::report {
+
+namespace {
+
+using nlohmann::json;
+
+double num(const json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return NAN;
+  return j[key].get<double>();
+}
+
+std::string text(const json& j, const char* key) {
+  if (!j.is_object() || !j.contains(key)) return {};
+  if (j[key].is_string()) return j[key].get<std::string>();
+  if (j[key].is_null()) return {};
+  return j[key].dump();
+}
+
+std::string cell(double v, int sig = 4) { return std::isfinite(v) ? format_number(v, sig) : "&ndash;"; }
+
+// "angle_deg" -> "angle / deg": the unit suffix of a domain name as an axis label.
+std::string axis_label(const std::string& name) {
+  const auto [q, unit] = split_unit(name);
+  return unit.empty() ? name : q + " / " + unit;
+}
+
+}  // namespace
+
+std::string explain_section(const std::string& path, const std::string& id) {
+  json j;
+  try {
+    j = json::parse(read_text_file(path));
+  } catch (const json::parse_error& e) {
+    throw ReportError(path + ": not valid JSON (" + e.what() + ")");
+  } catch (const CsvError& e) {
+    throw ReportError(e.what());
+  }
+  if (!j.is_object() || !j.contains("baseline") || !j.contains("findings") || !j["findings"].is_array())
+    throw ReportError(path + ": not an explanation (needs \"baseline\" and a \"findings\" array, as written by "
+                             "guideway explain --json)");
+  const json& base = j["baseline"];
+  const json& findings = j["findings"];
+  const bool unexplained = j.value("unexplained", false);
+
+  std::ostringstream body;
+  body << "<p><code>" << html_escape(base_name(path)) << "</code>: model <b>" << html_escape(text(j, "model"))
+       << "</b>, " << findings.size() << " finding(s)";
+  if (findings.empty()) body << " (nothing significant beyond the base model)";
+  body << "; residual " << (unexplained ? "<b>not explained</b> by the effects Guideway knows" : "explained")
+       << ".</p>";
+
+  // RMS after each step, in sample and held out.
+  BarChart chart;
+  chart.title = "Residual RMS after each finding";
+  chart.x_label = "base model, then + each finding (forward selection)";
+  chart.y_label = "residual rms / \u00b5m";
+  BarSeries in{"fitted data", {}, palette(0)};
+  BarSeries out{"held-out data", {}, palette(1)};
+  chart.categories.push_back("base model");
+  in.values.push_back(num(base, "rms_um"));
+  out.values.push_back(num(base, "heldout_rms_um"));
+  for (const auto& f : findings) {
+    chart.categories.push_back("+ " + text(f, "effect"));
+    in.values.push_back(num(f, "rms_um_after"));
+    out.values.push_back(num(f, "heldout_rms_um_after"));
+  }
+  chart.series = {in, out};
+  body << html_figure(render(chart), "Residual RMS of the base model and after adding each finding in turn (greedy "
+                                     "forward selection); held-out: data the fit did not see.");
+
+  // Residual curves, when the explanation carries them.
+  if (j.contains("residuals") && j["residuals"].is_object()) {
+    const json& r = j["residuals"];
+    LinePlot plot;
+    plot.title = "Residual before and after the findings";
+    plot.x_label = axis_label(r.value("domain", std::string("sample")));
+    plot.y_label = "residual / \u00b5m";
+    std::vector<double> x;
+    if (r.contains("x") && r["x"].is_array())
+      for (const auto& v : r["x"]) x.push_back(v.is_number() ? v.get<double>() : NAN);
+    std::size_t i = 0;
+    if (r.contains("series") && r["series"].is_array())
+      for (const auto& s : r["series"]) {
+        Series line{s.value("label", std::string("series")), x, {}, palette(i == 0 ? 7 : i - 1), Style::line, 1.2};
+        if (s.contains("residual_um") && s["residual_um"].is_array())
+          for (const auto& v : s["residual_um"]) line.y.push_back(v.is_number() ? v.get<double>() : NAN);
+        if (line.y.size() != x.size())
+          throw ReportError(path + ": residuals: series '" + line.label + "' has " + std::to_string(line.y.size()) +
+                            " values for " + std::to_string(x.size()) + " x values");
+        plot.series.push_back(std::move(line));
+        ++i;
+      }
+    if (!plot.series.empty())
+      body << html_figure(render(plot), "Residual (recording minus model) against " + html_escape(plot.x_label) +
+                                            " for the base model and after each finding.");
+  } else {
+    body << html_note("This explanation carries no residual curves (optional \"residuals\" field, docs/reports.md); "
+                      "only the RMS values are shown.");
+  }
+
+  Table ft{"Findings (in the order selected)",
+           {"effect", "parameters (value \u00b1 u)", "\u0394BIC", "p", "rms after / \u00b5m", "held-out rms after / \u00b5m",
+            "why"},
+           {},
+           "text"};
+  for (const auto& f : findings) {
+    std::string params;
+    if (f.contains("parameters") && f["parameters"].is_object())
+      for (const auto& [name, v] : f["parameters"].items()) {
+        const double value = num(v, "value"), u = num(v, "u");
+        params += (params.empty() ? "" : "<br>") + html_escape(name) + " = " + html_escape(format_with_u(value, u));
+      }
+    ft.rows.push_back({html_escape(text(f, "effect")), params, cell(num(f, "delta_bic")), cell(num(f, "p_value"), 3),
+                       cell(num(f, "rms_um_after")), cell(num(f, "heldout_rms_um_after")),
+                       "<span class=\"why\">" + html_escape(text(f, "why")) + "</span>"});
+  }
+  if (!findings.empty()) body << html_table(ft);
+
+  Table st{"Fit summary", {"", "rms / \u00b5m", "held-out rms / \u00b5m", "BIC"}, {}};
+  st.rows.push_back({"base model", cell(num(base, "rms_um")), cell(num(base, "heldout_rms_um")), cell(num(base, "bic"), 6)});
+  if (j.contains("final"))
+    st.rows.push_back({"final", cell(num(j["final"], "rms_um")), cell(num(j["final"], "heldout_rms_um")),
+                       cell(num(j["final"], "bic"), 6)});
+  body << html_table(st);
+
+  if (j.contains("mismatch") && j["mismatch"].is_array() && !j["mismatch"].empty()) {
+    Table mt{"Where the residual is structured", {"domain", "where", "band", "evidence"}, {}, "text"};
+    for (const auto& m : j["mismatch"])
+      mt.rows.push_back({html_escape(text(m, "domain")), html_escape(text(m, "where")), html_escape(text(m, "band")),
+                         html_escape(text(m, "evidence"))});
+    body << html_table(mt);
+  }
+  return html_section("explain", id, "Explanation of the mismatch: " + base_name(path), body.str());
+}
+
+}  // namespace guideway::report

@@ -1,0 +1,49 @@
+#pragma once
+// HTML building blocks of the report: one self-contained page (inline CSS, inline SVG, no scripts,
+// nothing fetched), tables, figures, notes, and number formatting with uncertainties. Pure; thread safe.
+
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace guideway::report {
+
+// Text content for HTML (the same escaping as XML).
+[[nodiscard]] std::string html_escape(std::string_view text);
+
+// "value ± u" with u to 2 significant digits and the value to the same decimal place; without a finite
+// u, the value to `significant` digits.
+[[nodiscard]] std::string format_with_u(double value, double u, int significant = 5);
+
+// A table; cells are HTML (escape text first). The first column is left-aligned (names), the rest right.
+struct Table {
+  Table(std::string caption_html, std::vector<std::string> header_html,
+        std::vector<std::vector<std::string>> rows_html = {}, std::string css_class = {})
+      : caption(std::move(caption_html)), header(std::move(header_html)), rows(std::move(rows_html)),
+        cls(std::move(css_class)) {}
+  std::string caption;
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  std::string cls;  // CSS class: "text" left-aligns every column
+};
+[[nodiscard]] std::string html_table(const Table& table);
+
+// A figure with its caption (svg: one rendered plot).
+[[nodiscard]] std::string html_figure(const std::string& svg, const std::string& caption_html);
+// A highlighted remark (limitations, refusals) — text is escaped.
+[[nodiscard]] std::string html_note(std::string_view text);
+
+// One analysis: <section class="analysis" data-kind=KIND id=ID> with its heading.
+[[nodiscard]] std::string html_section(std::string_view kind, std::string_view id, std::string_view heading,
+                                       const std::string& body_html);
+
+// The whole page: title, an optional line under it, a table of contents of the sections, and the sections.
+struct TocEntry {
+  std::string id;
+  std::string heading;
+};
+[[nodiscard]] std::string html_document(std::string_view title, std::string_view subtitle,
+                                        const std::vector<TocEntry>& toc, const std::string& body_html);
+
+}  // namespace guideway::report

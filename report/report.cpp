@@ -1,0 +1,147 @@
+#include "report/report.hpp"
+
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "core/csv_table.hpp"
+#include "report/html.hpp"
+#include "report/sections.hpp"
+
+namespace guideway::report {
+
+namespace fs = std::filesystem;
+
+std::string_view kind_name(InputKind kind) {
+  switch (kind) {
+    case InputKind::dbb_run: return "dbb";
+    case InputKind::straightness: return "straightness";
+    case InputKind::union_jack: return "unionjack";
+    case InputKind::runout: return "runout";
+    case InputKind::profile: return "profile";
+    case InputKind::explain: return "explain";
+  }
+  return "unknown";
+}
+
+std::pair<std::string, std::string> split_unit(const std::string& name) {
+  static const std::vector<std::pair<std::string, std::string>> units = {
+      {"_per_mm2", "1/mm\u00b2"}, {"_per_mm", "1/mm"}, {"_um", "\u00b5m"},   {"_ppm", "ppm"}, {"_urad", "\u00b5rad"},
+      {"_ms", "ms"},              {"_mm", "mm"},       {"_deg", "deg"},       {"_rad", "rad"}, {"_s", "s"},
+      {"_arcsec", "\u2033"},      {"_nm", "nm"},       {"_m", "m"},           {"_hz", "Hz"}};
+  for (const auto& [suffix, unit] : units)
+    if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      return {name.substr(0, name.size() - suffix.size()), unit};
+  return {name, ""};
+}
+
+std::string base_name(const std::string& path) {
+  const auto name = fs::path(path).filename().string();
+  return name.empty() ? path : name;
+}
+
+InputKind detect_input(const std::string& path) {
+  std::error_code ec;
+  const auto status = fs::status(path, ec);
+  if (ec || !fs::exists(status)) throw ReportError(path + ": no such file or directory");
+  if (fs::is_directory(status)) {
+    if (fs::exists(fs::path(path) / "Config.txt")) return InputKind::union_jack;
+    throw ReportError(path + ": a directory is read as a Union Jack set, but it has no Config.txt");
+  }
+  const auto ext = fs::path(path).extension().string();
+  if (ext == ".x3p") return InputKind::profile;
+  if (ext == ".json") {
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(read_text_file(path));
+    } catch (const nlohmann::json::parse_error& e) {
+      throw ReportError(path + ": not valid JSON (" + e.what() + ")");
+    } catch (const CsvError& e) {
+      throw ReportError(e.what());
+    }
+    if (j.is_object() && (j.contains("findings") || j.contains("baseline"))) return InputKind::explain;
+    throw ReportError(path + ": a JSON input must be an explanation (guideway explain --json: \"baseline\", "
+                             "\"findings\")");
+  }
+  CsvTable t;
+  try {
+    t = read_csv_table(path);
+  } catch (const CsvError& e) {
+    throw ReportError(e.what());
+  }
+  if (const auto f = t.metadata.find("format"); f != t.metadata.end()) {
+    if (f->second == "guideway/dbb-run/1") return InputKind::dbb_run;
+    if (f->second == "guideway/profile/1") return InputKind::profile;
+    // Other formats fall through to the columns (e.g. a run-out written with its own format name).
+  }
+  const auto has = [&](std::string_view c) { return t.find_column(c).has_value(); };
+  if (has("angle_deg") && has("dL_um")) return InputKind::dbb_run;
+  if (has("x_mm") && has("pitch_arcsec")) return InputKind::straightness;
+  if (has("angle_deg") && has("runout_um")) return InputKind::runout;
+  for (const char* x : {"x_mm", "x_um", "x_m"})
+    for (const char* z : {"z_um", "z_nm", "z_mm", "z_m"})
+      if (has(x) && has(z)) return InputKind::profile;
+  std::string cols;
+  for (const auto& c : t.columns) cols += (cols.empty() ? "" : ",") + c;
+  throw ReportError(path + ": not a recognised input (columns " + cols +
+                    "); expected a DBB run (format = guideway/dbb-run/1), a straightness traverse (x_mm,pitch_arcsec), "
+                    "a run-out revolution (angle_deg,runout_um), a profile (x_mm,z_um), a Union Jack directory or an "
+                    "explanation JSON");
+}
+
+std::string render_report(const std::vector<std::string>& inputs, const ReportOptions& options) {
+  if (inputs.empty()) throw ReportError("report: no inputs");
+  std::vector<std::pair<std::string, InputKind>> items;
+  for (const auto& p : inputs) items.emplace_back(p, detect_input(p));
+
+  std::ostringstream body;
+  std::vector<TocEntry> toc;
+  std::map<std::string, int> counts;
+  const auto next_id = [&](std::string_view kind) {
+    const std::string k(kind);
+    return k + "-" + std::to_string(++counts[k]);
+  };
+  bool dbb_done = false;
+  for (const auto& [path, kind] : items) {
+    std::string id = next_id(kind_name(kind));
+    std::string html;
+    switch (kind) {
+      case InputKind::dbb_run: {
+        if (dbb_done) continue;  // all runs go into the first DBB section
+        std::vector<std::string> runs;
+        for (const auto& [p, k] : items)
+          if (k == InputKind::dbb_run) runs.push_back(p);
+        html = dbb_section(runs, id);
+        dbb_done = true;
+        toc.push_back({id, "Double ball bar (" + std::to_string(runs.size()) + " runs)"});
+        break;
+      }
+      case InputKind::straightness:
+        html = straightness_section(path, id);
+        toc.push_back({id, "Straightness: " + base_name(path)});
+        break;
+      case InputKind::union_jack:
+        html = union_jack_section(path, id);
+        toc.push_back({id, "Union Jack: " + base_name(path)});
+        break;
+      case InputKind::runout:
+        html = runout_section(path, id);
+        toc.push_back({id, "Run-out: " + base_name(path)});
+        break;
+      case InputKind::profile:
+        html = profile_section(path, id, options);
+        toc.push_back({id, "Profile: " + base_name(path)});
+        break;
+      case InputKind::explain:
+        html = explain_section(path, id);
+        toc.push_back({id, "Explanation: " + base_name(path)});
+        break;
+    }
+    body << html;
+  }
+  return html_document(options.title, options.subtitle, toc, body.str());
+}
+
+}  // namespace guideway::report

@@ -1,0 +1,54 @@
+#pragma once
+// Reports a metrologist would rather look at than read (docs/reports.md): one self-contained HTML page
+// (inline SVG and CSS, no scripts, nothing fetched; printable on A4) with one section per analysis:
+//   - DBB runs (`guideway/dbb-run/1`): identified together (Lai's third-order model + ballbar
+//     diagnostics, models/dbb); a polar plot per set-up with CW/CCW overlaid on a magnified scale
+//     (its um/division stated), the diagnostics with uncertainties, the ISO 230-4 figures.
+//   - Straightness traverses (`x_mm,pitch_arcsec[,yaw_arcsec]`): the profile with its end-point and
+//     least-squares lines and the polynomial fit (models/flatness).
+//   - Union Jack sets (a directory with Config.txt): the plate as a height map.
+//   - Run-out revolutions (`angle_deg,runout_um`): the revolution and its once-per-revolution fit.
+//   - Profiles (`guideway/profile/1`, `x_mm,z_um`): the profile and its wavelet MRA panels
+//     a1..a5, d1..d5 (Mu 2012 Figure 7; db1, dsp/wavelet).
+//   - Explanations (the JSON of `guideway explain --json`, issue 7): residual RMS before/after each
+//     finding, in-sample and held out, the finding and mismatch tables, residual curves when present.
+// Inputs are recognised by their `# format =` metadata or their columns (detect_input). Pure apart from
+// reading the inputs; thread safe. Errors are ReportError with the file (and line) in the message.
+
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace guideway::report {
+
+class ReportError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class InputKind { dbb_run, straightness, union_jack, runout, profile, explain };
+
+[[nodiscard]] std::string_view kind_name(InputKind kind);  // "dbb", "straightness", ...
+
+// What a path holds: a directory with Config.txt is a Union Jack set; a .json file with "findings" or
+// "baseline" an explanation; a CSV by its `format` metadata, else by its columns. Throws ReportError
+// "PATH: ..." naming what was expected when the input is none of these.
+[[nodiscard]] InputKind detect_input(const std::string& path);
+
+struct ReportOptions {
+  std::string title = "Guideway report";
+  std::string subtitle;       // e.g. the time it was generated (the page itself has no clock)
+  std::string wavelet = "db1";  // MRA of profiles (Mu 2012 use db1, 5 levels)
+  int wavelet_level = 5;
+};
+
+// The report for these inputs (files or Union Jack directories), in the order given; all DBB runs are
+// identified together as one multi-pattern test. Returns the HTML page. Throws ReportError for an
+// unreadable or unrecognised input (the message names the file and, for bad rows, the line); an
+// identification that refuses the data is shown in the report as a note, not thrown.
+//
+// For the daemon's `report` request: call render_report(recorded_files) and send the string.
+[[nodiscard]] std::string render_report(const std::vector<std::string>& inputs, const ReportOptions& options = {});
+
+}  // namespace guideway::report

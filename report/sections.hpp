@@ -1,0 +1,25 @@
+#pragma once
+// One report section per analysis (report.hpp lists them). Each reads its input(s), runs the project's
+// own model, and returns the <section> HTML. Readers' errors come out as ReportError with their
+// "file:line: message"; a model that refuses the data becomes a note in the section.
+
+#include <string>
+#include <vector>
+
+#include "report/report.hpp"
+
+namespace guideway::report {
+
+std::string dbb_section(const std::vector<std::string>& paths, const std::string& id);
+std::string straightness_section(const std::string& path, const std::string& id);
+std::string union_jack_section(const std::string& path, const std::string& id);
+std::string runout_section(const std::string& path, const std::string& id);
+std::string profile_section(const std::string& path, const std::string& id, const ReportOptions& options);
+std::string explain_section(const std::string& path, const std::string& id);
+
+// "name_um" -> ("name", "µm"): the unit suffix of a reported quantity, for table columns.
+std::pair<std::string, std::string> split_unit(const std::string& name);
+// The file name without its directories.
+std::string base_name(const std::string& path);
+
+}  // namespace guideway::report

@@ -1,0 +1,143 @@
+#pragma once
+// A small SVG writer for the report's plots: line plots, polar (ball-bar) plots, height maps, grouped
+// bar charts and stacked panels (wavelet MRA). Every plot is one self-contained <svg> element with a
+// fixed structure the tests and the report rely on:
+//   <svg class="plot" data-plot="KIND" viewBox=...>
+//     <text class="title">, <g class="axis x|y|polar|colorbar"> (ticks and tick labels),
+//     <text class="axis-label"> (quantity / unit), <path class="data" data-series="LABEL"> (one per
+//     series, bar or line; points outside the axes' range are clipped), <g class="legend">.
+// Numbers are plotted in the units the caller passes (the labels say which). Pure functions; thread safe.
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace guideway::report {
+
+// Text for XML content and attribute values (& < > " ').
+[[nodiscard]] std::string xml_escape(std::string_view text);
+
+// A number with `decimals` digits after the point ("-0" is printed as "0").
+[[nodiscard]] std::string format_fixed(double value, int decimals);
+// A number with about `significant` digits, without exponent for everyday magnitudes.
+[[nodiscard]] std::string format_number(double value, int significant = 4);
+
+// Tick positions for the range [lo, hi]: multiples of a 1-2-5 step, about `target` of them, covering
+// the range (the first tick <= lo, the last >= hi). lo == hi gives a unit-wide range around it.
+struct Ticks {
+  double step = 1.0;
+  std::vector<double> values;
+  int decimals = 0;  // digits needed to print every tick distinctly
+};
+[[nodiscard]] Ticks nice_ticks(double lo, double hi, int target = 6);
+// The smallest 1-2-5 number >= x (x > 0).
+[[nodiscard]] double nice_ceil(double x);
+
+// Linear map from data [d0, d1] to pixels [p0, p1] (p1 < p0 for a y axis pointing up).
+struct Scale {
+  double d0 = 0.0, d1 = 1.0, p0 = 0.0, p1 = 1.0;
+  [[nodiscard]] double operator()(double v) const { return p0 + (v - d0) * (p1 - p0) / (d1 - d0); }
+};
+
+enum class Style { line, dashed, markers, line_markers };
+
+// One data series; NaN values break the line.
+struct Series {
+  std::string label;
+  std::vector<double> x;
+  std::vector<double> y;
+  std::string color;  // CSS colour; empty = the palette colour of the series' index
+  Style style = Style::line;
+  double width = 1.4;
+};
+
+struct Range {
+  double lo = 0.0;
+  double hi = 1.0;
+};
+
+struct LinePlot {
+  std::string title;
+  std::string x_label;  // "quantity / unit"
+  std::string y_label;
+  std::vector<Series> series;
+  std::optional<Range> x_range;  // default: the data's extent
+  std::optional<Range> y_range;  // default: the data's extent, rounded out to ticks
+  double width = 760;
+  double height = 300;
+};
+[[nodiscard]] std::string render(const LinePlot& plot);
+
+// Several panels sharing the x axis (Mu's Figure 7: s, a5, d5..d1); one series per panel, each with
+// its own y axis; the x tick labels and the x label are on the bottom panel.
+struct StackedPanels {
+  std::string title;
+  std::string x_label;
+  std::vector<Series> panels;  // the series label is the panel's y label
+  std::string y_unit;          // appended to each panel label: "a5 / um"
+  double width = 760;
+  double panel_height = 78;
+};
+[[nodiscard]] std::string render(const StackedPanels& plot);
+
+// A ball-bar polar plot: the deviation d(theta) is drawn at radius nominal + d * (division / um_per_div),
+// rings every division from -divisions to +divisions around the nominal circle.
+struct PolarSeries {
+  std::string label;
+  std::vector<double> angle_rad;
+  std::vector<double> deviation_um;
+  std::string color;
+};
+struct PolarPlot {
+  std::string title;
+  std::vector<PolarSeries> series;
+  double um_per_div = 0.0;  // 0: the smallest 1-2-5 value that keeps every point inside the rings
+  int divisions = 4;
+  std::string axis_a = "X";  // labels of the first and second plane axis (0 deg and 90 deg)
+  std::string axis_b = "Y";
+  std::string quantity = "\u0394L";  // what is plotted radially
+  double size = 520;
+};
+// The scale auto-chosen for these series (um per division).
+[[nodiscard]] double polar_um_per_div(const PolarPlot& plot);
+[[nodiscard]] std::string render(const PolarPlot& plot);
+
+// Scattered heights (e.g. the stations of a Union Jack set) shown as a colour map interpolated by
+// inverse distance weighting over their bounding box, with the stations and the measuring lines on
+// top and a colour bar with the height scale.
+struct HeightMap {
+  std::string title;
+  std::string x_label;
+  std::string y_label;
+  std::string z_label;  // colour bar: "height / um"
+  std::vector<double> x, y, z;
+  std::vector<std::vector<std::size_t>> lines;  // polylines through station indices
+  std::vector<std::string> line_labels;         // one per line (data-series attribute)
+  double width = 760;
+};
+[[nodiscard]] std::string render(const HeightMap& map);
+
+// Grouped bars: one group per category, one bar per series in each group.
+struct BarSeries {
+  std::string label;
+  std::vector<double> values;  // one per category; NaN = no bar
+  std::string color;
+};
+struct BarChart {
+  std::string title;
+  std::string x_label;  // what the categories are
+  std::string y_label;
+  std::vector<std::string> categories;
+  std::vector<BarSeries> series;
+  std::optional<Range> y_range;  // default: from min(0, data) to max(0, data)
+  double width = 760;
+  double height = 300;
+};
+[[nodiscard]] std::string render(const BarChart& chart);
+
+// The palette (colour-blind safe, distinct in greyscale print order).
+[[nodiscard]] const std::string& palette(std::size_t index);
+
+}  // namespace guideway::report

@@ -1,0 +1,197 @@
+#!/usr/bin/python3
+"""guideway report end to end in headless Chromium: the example inputs are produced by the project's own
+tools (guideway simulate dbb, guideway-report-examples from the virtual machine tool, Moody's 1955 plate,
+an explanation in issue 7's shape), one report per analysis and one with all of them is rendered, loaded in
+Chromium, and checked: no console errors, no failed or external loads, no scripts, and every plot's SVG has
+its axes, axis labels with units, legend (where there are several series) and data paths with points.
+Screenshots (PNG), A4 print-outs (PDF) and the HTML files are kept in ARTEFACTS as test artefacts.
+
+usage: report_chromium_test.py GUIDEWAY EXAMPLES_TOOL SOURCE_DIR MOODY_DIR ARTEFACTS
+Chromium missing is a failure (./scripts/setup.sh installs it), never a skip.
+"""
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+GUIDEWAY, EXAMPLES, SRC, MOODY, ART = sys.argv[1:6]
+sys.path.insert(0, os.path.join(SRC, "report", "tools"))
+import cdp  # noqa: E402
+import example_inputs  # noqa: E402
+
+failures = []
+
+
+def check(cond, msg):
+    if not cond:
+        failures.append(msg)
+        print("FAIL:", msg)
+
+
+def run(*args):
+    r = subprocess.run(args, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit("command failed (%d): %s\n%s%s" % (r.returncode, " ".join(args), r.stdout, r.stderr))
+    return r
+
+
+# Per analysis: the plot kinds expected (kind -> minimum count) and data paths per plot kind.
+EXPECTED = {
+    "dbb": {"polar": 1},
+    "straightness": {"line": 2},
+    "unionjack": {"heightmap": 1},
+    "runout": {"line": 1},
+    "profile": {"line": 1, "panels": 2},
+    "explain": {"bar": 1, "line": 1},
+}
+
+PLOTS_JS = r"""
+[...document.querySelectorAll('section.analysis')].map(sec => ({
+  kind: sec.dataset.kind,
+  tables: sec.querySelectorAll('table').length,
+  plots: [...sec.querySelectorAll('svg.plot')].map(svg => {
+    const box = svg.getBoundingClientRect();
+    return {
+      kind: svg.dataset.plot,
+      width: box.width, height: box.height,
+      title: (svg.querySelector('text.title') || {}).textContent || '',
+      axes: [...svg.querySelectorAll('g.axis')].map(g => ({cls: g.getAttribute('class'),
+                                                          ticks: g.querySelectorAll('.tick, .ring, .spoke').length,
+                                                          labels: [...g.querySelectorAll('text.tick-label')].map(t => t.textContent)})),
+      axis_labels: [...svg.querySelectorAll('text.axis-label')].map(t => t.textContent),
+      legend: [...svg.querySelectorAll('g.legend text')].map(t => t.textContent),
+      data: [...svg.querySelectorAll('path.data')].map(p => {
+        const b = p.getBBox();
+        return {series: p.dataset.series, points: Number(p.dataset.points), d: (p.getAttribute('d') || '').length,
+                segs: ((p.getAttribute('d') || '').match(/[MLHVZ]/g) || []).length, w: b.width, h: b.height};
+      }),
+      panels: svg.querySelectorAll('g.panel').length,
+    };
+  }),
+}))
+"""
+
+UNIT = re.compile(r" / |\u00b5m|/div|deg")
+
+
+def check_report(browser, html, kinds):
+    text = open(html, encoding="utf-8").read()
+    check("<script" not in text.lower(), "%s: has a <script>" % html)
+    check(not re.search(r"(src|href)\s*=\s*\"(https?:|//)", text), "%s: refers to a network resource" % html)
+    browser.open("file://" + os.path.abspath(html))
+    check(browser.problems() == [], "%s: console/load problems: %s" % (html, browser.problems()))
+    reqs = browser.requests()
+    check(len(reqs) == 1, "%s: loads more than itself: %s" % (html, reqs))
+    sections = browser.evaluate(PLOTS_JS)
+    check(sorted({s["kind"] for s in sections}) == sorted(kinds), "%s: sections %s, expected %s"
+          % (html, [s["kind"] for s in sections], kinds))
+    for sec in sections:
+        where = "%s [%s]" % (os.path.basename(html), sec["kind"])
+        check(sec["tables"] >= 1 or sec["kind"] == "profile", where + ": no table")
+        counts = {}
+        for p in sec["plots"]:
+            counts[p["kind"]] = counts.get(p["kind"], 0) + 1
+            w = "%s plot '%s' (%s)" % (where, p["title"], p["kind"])
+            check(p["width"] > 200 and p["height"] > 100, w + ": not laid out (%sx%s)" % (p["width"], p["height"]))
+            axis_classes = " ".join(a["cls"] for a in p["axes"])
+            if p["kind"] == "polar":
+                check("polar" in axis_classes, w + ": no polar grid")
+                check(any("\u00b5m/div" in l for l in p["axis_labels"]), w + ": no um/division scale")
+            else:
+                check(" x" in " " + axis_classes and " y" in axis_classes, w + ": missing x or y axis: " + axis_classes)
+            for a in p["axes"]:
+                check(a["ticks"] >= 2, w + ": axis %s has %d ticks" % (a["cls"], a["ticks"]))
+                # Stacked panels share one labelled x axis (the bottom one).
+                shared_x = p["kind"] == "panels" and a["cls"] == "axis x"
+                check(len(a["labels"]) >= 2 or "categorical" in a["cls"] or shared_x,
+                      w + ": axis %s tick labels %s" % (a["cls"], a["labels"]))
+            if p["kind"] == "panels":
+                check(sum(1 for a in p["axes"] if a["cls"] == "axis x" and len(a["labels"]) >= 2) == 1,
+                      w + ": the shared x axis has no tick labels")
+            # Every axis label names its unit; a bar chart's category axis has none.
+            with_unit = [bool(UNIT.search(l) or "angle" in l) for l in p["axis_labels"]]
+            check(len(p["axis_labels"]) >= (1 if p["kind"] == "polar" else 2)
+                  and (all(with_unit) if p["kind"] != "bar" else any(with_unit)),
+                  w + ": axis labels without units: %s" % p["axis_labels"])
+            check(len(p["data"]) >= 1, w + ": no data path")
+            for dpath in p["data"]:
+                check(dpath["d"] > 10 and dpath["segs"] >= 2 and dpath["points"] >= 2,
+                      w + ": empty data path %s" % dpath)
+                check(dpath["w"] > 1 or dpath["h"] > 1, w + ": data path has no extent %s" % dpath)
+            if len(p["data"]) > 1 and p["kind"] in ("line", "polar", "bar"):
+                check(len(p["legend"]) >= len([d for d in p["data"] if d["series"]]),
+                      w + ": legend %s for series %s" % (p["legend"], [d["series"] for d in p["data"]]))
+        for k, n in EXPECTED[sec["kind"]].items():
+            check(counts.get(k, 0) >= n, "%s: %d %s plot(s), expected >= %d" % (where, counts.get(k, 0), k, n))
+        # Analysis-specific content.
+        plots = sec["plots"]
+        if sec["kind"] == "dbb":
+            polar = [p for p in plots if p["kind"] == "polar"][0]
+            check(sorted(d["series"].split()[0] for d in polar["data"]) == ["CCW", "CW"],
+                  where + ": CW and CCW not overlaid: %s" % [d["series"] for d in polar["data"]])
+            check(all(d["points"] >= 3000 for d in polar["data"]), where + ": runs not plotted whole")
+        if sec["kind"] == "unionjack":
+            hm = [p for p in plots if p["kind"] == "heightmap"][0]
+            check(len(hm["data"]) == 8, where + ": %d Union Jack lines, expected 8" % len(hm["data"]))
+            check(any("colorbar" in a["cls"] for a in hm["axes"]), where + ": no colour bar scale")
+        if sec["kind"] == "profile":
+            panels = [p for p in plots if p["kind"] == "panels"]
+            names = sorted(n for p in panels for n in [d["series"] for d in p["data"]])
+            check(names == sorted(["s", "a1", "a2", "a3", "a4", "a5", "d1", "d2", "d3", "d4", "d5"]),
+                  where + ": MRA panels %s" % names)
+            for p in panels:
+                check(len([a for a in p["axes"] if " y" in a["cls"]]) == p["panels"], where + ": a panel without y axis")
+
+
+def main():
+    try:
+        cdp.find_chromium()
+    except cdp.ChromiumMissing as e:
+        print("FAIL:", e)
+        return 1
+    shutil.rmtree(ART, ignore_errors=True)
+    os.makedirs(ART)
+    inputs, note = example_inputs.make_inputs(GUIDEWAY, EXAMPLES, SRC, MOODY, os.path.join(ART, "inputs"))
+    print("explanation input:", note)
+    with cdp.Browser() as b:
+        for kind, files in inputs.items():
+            html = os.path.join(ART, "report_%s.html" % kind)
+            run(GUIDEWAY, "report", *files, "--out", html, "--no-date", "--title", "Guideway report: " + kind)
+            check_report(b, html, [kind])
+            b.screenshot(os.path.join(ART, "report_%s.png" % kind))
+        everything = os.path.join(ART, "report_all.html")
+        run(GUIDEWAY, "report", *[f for files in inputs.values() for f in files], "--out", everything)
+        check_report(b, everything, list(inputs))
+        pages = b.print_pdf(os.path.join(ART, "report_all.pdf"))
+        # Print CSS: each analysis starts on its own A4 page.
+        check(pages >= len(inputs), "A4 print-out has %d pages for %d analyses" % (pages, len(inputs)))
+        print("A4 print-out: %d pages" % pages)
+
+    # Bad input is an error naming the file (and line), not a report.
+    bad = os.path.join(ART, "inputs", "bad_run.csv")
+    with open(inputs["dbb"][0]) as f:
+        lines = f.read().splitlines()
+    idx = next(i for i, l in enumerate(lines) if l and l[0].isdigit()) + 5
+    lines[idx] = lines[idx].rsplit(",", 1)[0] + ",abc"
+    with open(bad, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    r = subprocess.run([GUIDEWAY, "report", bad, "--out", os.path.join(ART, "bad.html")], capture_output=True, text=True)
+    check(r.returncode == 1 and ("bad_run.csv:%d" % (idx + 1)) in r.stderr,
+          "bad run: exit %d, stderr %r (expected the file and line %d)" % (r.returncode, r.stderr, idx + 1))
+    check(not os.path.exists(os.path.join(ART, "bad.html")), "bad run: a report was written anyway")
+    r = subprocess.run([GUIDEWAY, "report", os.path.join(SRC, "README.md"), "--out", os.path.join(ART, "x.html")],
+                       capture_output=True, text=True)
+    check(r.returncode == 1 and "README.md" in r.stderr,
+          "unrecognised input: exit %d, %r" % (r.returncode, r.stderr))
+
+    print("artefacts in", ART)
+    if failures:
+        print("%d check(s) failed" % len(failures))
+        return 1
+    print("all report checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,274 @@
+// report/: the SVG writer's building blocks (ticks, scales, number formatting, escaping), the structure of
+// each plot kind, input recognition and the report's errors. The XML itself and the axis mapping are also
+// checked from outside by report_svg_xml_test.py; the whole page in Chromium by report_chromium_test.py.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <numbers>
+#include <unistd.h>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <regex>
+
+#include "models/dbb/dbb_run.hpp"
+#include "models/dbb/simulate.hpp"
+#include "report/html.hpp"
+#include "report/report.hpp"
+#include "report/svg.hpp"
+#include "simulators/machine/machine.hpp"
+
+namespace gr = guideway::report;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::size_t count(const std::string& s, const std::string& what) {
+  std::size_t n = 0;
+  for (auto p = s.find(what); p != std::string::npos; p = s.find(what, p + 1)) ++n;
+  return n;
+}
+
+// Tags balance (a cheap well-formedness check; the Python test uses a real XML parser).
+bool tags_balance(const std::string& svg) {
+  std::vector<std::string> stack;
+  const std::regex tag(R"(<(/?)([a-zA-Z]+)[^>]*?(/?)>)");
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), tag); it != std::sregex_iterator(); ++it) {
+    const auto& m = *it;
+    if (m[3].length() > 0) continue;  // self-closing
+    if (m[1].length() == 0) {
+      stack.push_back(m[2]);
+    } else {
+      if (stack.empty() || stack.back() != m[2]) return false;
+      stack.pop_back();
+    }
+  }
+  return stack.empty();
+}
+
+double mantissa(double step) { return step / std::pow(10.0, std::floor(std::log10(step) + 1e-9)); }
+
+// The shared data (Moody 1955); GUIDEWAY_SHARED_DIR in the environment overrides the build's path.
+std::string shared_dir() {
+  const char* env = std::getenv("GUIDEWAY_SHARED_DIR");
+  return env && *env ? env : GUIDEWAY_SHARED_DIR;
+}
+
+fs::path temp_dir(const std::string& name) {
+  const auto d = fs::temp_directory_path() / ("guideway_report_test_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+}  // namespace
+
+TEST(ReportSvg, NiceTicksCoverTheRangeWithOneTwoFiveSteps) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> e(-6, 6), u(-1, 1);
+  for (int i = 0; i < 2000; ++i) {
+    const double scale = std::pow(10.0, e(rng));
+    const double a = u(rng) * scale * 10, b = a + std::abs(u(rng)) * scale;
+    const auto t = gr::nice_ticks(a, b, 6);
+    ASSERT_GE(t.values.size(), 2u);
+    EXPECT_LE(t.values.front(), a + 1e-12 * std::abs(a));
+    EXPECT_GE(t.values.back(), b - 1e-12 * std::abs(b));
+    EXPECT_LE(t.values.size(), 14u) << a << " " << b;
+    const double m = mantissa(t.step);
+    EXPECT_TRUE(std::abs(m - 1) < 1e-9 || std::abs(m - 2) < 1e-9 || std::abs(m - 5) < 1e-9) << t.step;
+    // Every tick prints distinctly with the stated decimals.
+    for (std::size_t k = 1; k < t.values.size(); ++k)
+      EXPECT_NE(gr::format_fixed(t.values[k - 1], t.decimals), gr::format_fixed(t.values[k], t.decimals));
+  }
+  EXPECT_EQ(gr::nice_ticks(0, 0).values.size() >= 2, true);
+  EXPECT_THROW((void)gr::nice_ticks(0, NAN), std::invalid_argument);
+}
+
+TEST(ReportSvg, NiceCeilAndScale) {
+  EXPECT_DOUBLE_EQ(gr::nice_ceil(0.7), 1.0);
+  EXPECT_DOUBLE_EQ(gr::nice_ceil(1.0), 1.0);
+  EXPECT_DOUBLE_EQ(gr::nice_ceil(1.01), 2.0);
+  EXPECT_DOUBLE_EQ(gr::nice_ceil(3), 5.0);
+  EXPECT_NEAR(gr::nice_ceil(0.0031), 0.005, 1e-15);
+  EXPECT_THROW((void)gr::nice_ceil(0), std::invalid_argument);
+  const gr::Scale s{-2, 3, 400, 100};  // y up: data -2 at the bottom pixel 400
+  EXPECT_DOUBLE_EQ(s(-2), 400);
+  EXPECT_DOUBLE_EQ(s(3), 100);
+  EXPECT_DOUBLE_EQ(s(0.5), 250);
+}
+
+TEST(ReportSvg, NumberFormattingAndEscaping) {
+  EXPECT_EQ(gr::format_fixed(-0.0001, 2), "0.00");
+  EXPECT_EQ(gr::format_fixed(-1.5, 1), "-1.5");
+  EXPECT_EQ(gr::format_number(0.0123456, 3), "0.0123");
+  EXPECT_EQ(gr::format_number(1234.6, 4), "1235");  // no exponent
+  EXPECT_EQ(gr::format_with_u(1.23456, 0.0123), "1.235 \u00b1 0.012");
+  EXPECT_EQ(gr::format_with_u(2.5, NAN), "2.5000");
+  EXPECT_EQ(gr::format_with_u(2.2519e-7, 8.5e-10), "(2.2519 \u00b1 0.0085)e-7");
+  EXPECT_EQ(gr::xml_escape("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
+}
+
+TEST(ReportSvg, LinePlotStructure) {
+  gr::LinePlot p;
+  p.title = "t <1>";
+  p.x_label = "x / mm";
+  p.y_label = "y / um";
+  for (int s = 0; s < 3; ++s) {
+    gr::Series ser;
+    ser.label = "s" + std::to_string(s);
+    for (int i = 0; i < 50; ++i) {
+      ser.x.push_back(i);
+      ser.y.push_back(s * std::sin(i * 0.1) + (i == 20 ? NAN : 0.0));
+    }
+    ser.style = s == 2 ? gr::Style::line_markers : gr::Style::line;
+    p.series.push_back(ser);
+  }
+  const auto svg = gr::render(p);
+  EXPECT_TRUE(tags_balance(svg));
+  EXPECT_EQ(count(svg, "class=\"data\""), 3u);
+  EXPECT_EQ(count(svg, "class=\"axis x\""), 1u);
+  EXPECT_EQ(count(svg, "class=\"axis y\""), 1u);
+  EXPECT_EQ(count(svg, "class=\"axis-label"), 2u);
+  EXPECT_EQ(count(svg, "class=\"legend-item\""), 3u);
+  EXPECT_NE(svg.find("t &lt;1&gt;"), std::string::npos);
+  // The NaN at i = 20 breaks the line: a second move-to in each series path.
+  const auto first = svg.find("data-series=\"s1\"");
+  const auto d = svg.substr(svg.find(" d=\"", first), svg.find("\" fill", first) - svg.find(" d=\"", first));
+  EXPECT_EQ(count(d, "M"), 2u);
+}
+
+TEST(ReportSvg, LongSeriesAreDecimatedKeepingExtremes) {
+  gr::LinePlot p;
+  p.x_label = "x / mm";
+  p.y_label = "y / um";
+  gr::Series s;
+  s.label = "long";
+  for (int i = 0; i < 100000; ++i) {
+    s.x.push_back(i);
+    s.y.push_back(i == 51234 ? 50.0 : std::sin(i * 0.01));
+  }
+  p.series = {s};
+  const auto svg = gr::render(p);
+  EXPECT_LT(svg.size(), 200000u);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(svg, m, std::regex("data-points=\"(\\d+)\"")));
+  EXPECT_LT(std::stoul(m[1]), 4000u);
+  // The spike survives: the y axis reaches 50 and a point sits at the top tick's pixel row.
+  EXPECT_NE(svg.find(">50</text>"), std::string::npos);
+}
+
+TEST(ReportSvg, PolarScaleIsTheSmallestFittingOneTwoFiveValue) {
+  for (double amp : {0.03, 0.7, 1.0, 3.9, 4.0, 17.0, 250.0}) {
+    gr::PolarPlot p;
+    gr::PolarSeries s;
+    for (int i = 0; i < 360; ++i) {
+      s.angle_rad.push_back(i * std::numbers::pi / 180);
+      s.deviation_um.push_back(amp * std::cos(2 * i * std::numbers::pi / 180));
+    }
+    p.series = {s};
+    const double per = gr::polar_um_per_div(p);
+    EXPECT_LE(amp, (p.divisions - 0.2) * per * (1 + 1e-12)) << amp;
+    const double m = mantissa(per);
+    const double smaller = per * (std::abs(m - 5) < 1e-9 ? 0.4 : 0.5);
+    EXPECT_GT(amp, (p.divisions - 0.2) * smaller) << amp;
+    const auto svg = gr::render(p);
+    EXPECT_TRUE(tags_balance(svg));
+    EXPECT_EQ(count(svg, "class=\"ring\""), 2u * p.divisions);
+    EXPECT_NE(svg.find(gr::format_number(per, 3) + " \u00b5m/div"), std::string::npos);
+  }
+}
+
+TEST(ReportSvg, HeightMapAndBarsAndPanels) {
+  gr::HeightMap h;
+  h.x_label = "x / mm";
+  h.y_label = "y / mm";
+  h.z_label = "height / um";
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 3; ++j) {
+      h.x.push_back(i * 100.0);
+      h.y.push_back(j * 100.0);
+      h.z.push_back(i * 0.5 - j);
+    }
+  h.lines = {{0, 1, 2}, {0, 4, 8, 12}};
+  const auto hs = gr::render(h);
+  EXPECT_TRUE(tags_balance(hs));
+  EXPECT_EQ(count(hs, "class=\"data\""), 2u);
+  EXPECT_EQ(count(hs, "class=\"axis colorbar\""), 1u);
+  EXPECT_EQ(count(hs, "<circle"), 15u);
+
+  gr::BarChart b;
+  b.y_label = "rms / um";
+  b.categories = {"a", "b", "c"};
+  b.series = {{"in", {1.0, 0.5, 0.25}, ""}, {"out", {1.2, NAN, 0.3}, ""}};
+  const auto bs = gr::render(b);
+  EXPECT_TRUE(tags_balance(bs));
+  EXPECT_EQ(count(bs, "class=\"data\""), 2u);
+  EXPECT_EQ(count(bs, "data-points=\"2\""), 1u);  // the NaN bar is left out
+
+  gr::StackedPanels sp;
+  sp.x_label = "x / mm";
+  sp.y_unit = "um";
+  for (const char* n : {"s", "a1", "d1"}) sp.panels.push_back({n, {0, 1, 2, 3}, {0, 1, 0, 1}, "", gr::Style::line, 1});
+  const auto ps = gr::render(sp);
+  EXPECT_TRUE(tags_balance(ps));
+  EXPECT_EQ(count(ps, "class=\"panel\""), 3u);
+  EXPECT_EQ(count(ps, "class=\"axis y\""), 3u);
+  EXPECT_EQ(count(ps, "class=\"axis-label x\""), 1u);  // only under the bottom panel
+}
+
+TEST(Report, RecognisesInputsAndRendersSections) {
+  const auto dir = temp_dir("render");
+  const guideway::sim::Machine machine(guideway::sim::default_machine_config());
+  guideway::sim::DbbCircleSpec spec;
+  spec.radius_m = 0.1;
+  std::vector<std::string> inputs;
+  for (auto d : {guideway::sim::Direction::ccw, guideway::sim::Direction::cw}) {
+    spec.direction = d;
+    const auto path = (dir / (d == guideway::sim::Direction::ccw ? "ccw.csv" : "cw.csv")).string();
+    guideway::models::dbb::write_run(guideway::models::dbb::simulate_run(machine, spec, path), path);
+    inputs.push_back(path);
+  }
+  inputs.push_back(shared_dir() + "/data/moody1955");
+  inputs.push_back(std::string(GUIDEWAY_SOURCE_DIR) + "/tests/report_explain_example.json");
+  EXPECT_EQ(gr::detect_input(inputs[0]), gr::InputKind::dbb_run);
+  EXPECT_EQ(gr::detect_input(inputs[2]), gr::InputKind::union_jack);
+  EXPECT_EQ(gr::detect_input(inputs[3]), gr::InputKind::explain);
+
+  const auto html = gr::render_report(inputs);
+  EXPECT_EQ(count(html, "<section class=\"analysis\""), 3u);  // both runs in one DBB section
+  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"polar\""), 1u);          // one set-up, CW and CCW overlaid
+  EXPECT_NE(html.find("circular_hysteresis_um"), std::string::npos);
+  EXPECT_NE(html.find("backlash_x_um"), std::string::npos);
+  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"heightmap\""), 1u);
+  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"bar\""), 1u);
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(Report, BadInputIsAnErrorNamingTheFileAndLine) {
+  const auto dir = temp_dir("errors");
+  const auto unknown = (dir / "mystery.csv").string();
+  std::ofstream(unknown) << "a,b\n1,2\n";
+  try {
+    (void)gr::render_report({unknown});
+    FAIL() << "no error";
+  } catch (const gr::ReportError& e) {
+    EXPECT_NE(std::string(e.what()).find("mystery.csv: not a recognised input"), std::string::npos) << e.what();
+  }
+  const auto bad = (dir / "bad.csv").string();
+  std::ofstream(bad) << "# format = guideway/dbb-run/1\n# radius_mm = 100\n# height_mm = 0\n# direction = ccw\n"
+                        "# feed_mm_per_min = 1000\n# plane = xy\nt_s,angle_deg,dL_um\n0,0,1\n0.1,1,x\n";
+  try {
+    (void)gr::render_report({bad});
+    FAIL() << "no error";
+  } catch (const gr::ReportError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.csv:9"), std::string::npos) << e.what();
+  }
+  const auto json = (dir / "e.json").string();
+  std::ofstream(json) << "{\"model\": \"dbb\"";
+  EXPECT_THROW((void)gr::render_report({json}), gr::ReportError);
+  EXPECT_THROW((void)gr::render_report({(dir / "missing.csv").string()}), gr::ReportError);
+  EXPECT_THROW((void)gr::render_report({}), gr::ReportError);
+  fs::remove_all(dir);
+}
