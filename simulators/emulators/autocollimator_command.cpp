@@ -1,5 +1,7 @@
 // `guideway-emulate autocollimator`: a TA80-style autocollimator on a pseudo-terminal watching a
-// mirror on a carriage that traverses an axis of the virtual machine tool with stops every step.
+// mirror on a carriage that traverses an axis of the virtual machine tool with stops every step; the
+// reflector is lifted between stops and carried back after the last (no reflection meanwhile), then
+// the traverse repeats.
 #include <csignal>
 #include <cstdio>
 #include <iostream>
@@ -20,7 +22,9 @@ struct AutocollimatorOptions {
   double start_mm = 0.0;
   double end_mm = 600.0;
   double step_mm = 50.0;
-  double dwell_s = 1.0;
+  double dwell_s = 0.5;
+  double move_s = 0.2;
+  double return_s = 1.5;
   double range_arcsec = 1000.0;
   bool checksum = false;
   double duration_s = 0.0;
@@ -68,7 +72,7 @@ int run_autocollimator(const AutocollimatorOptions& o) {
   spec.step_m = o.step_mm * 1e-3;
   spec.dwell_s = o.dwell_s;
   AutocollimatorEmulator emu({o.range_arcsec, o.checksum, o.link},
-                             traverse_source(make_traverse_motion(machine, spec)));
+                             traverse_source(make_traverse_motion(machine, spec, o.move_s, o.return_s)));
   emu.on_reopen([](const std::string& path) {
     std::printf("pty: %s\n", path.c_str());
     std::fflush(stdout);
@@ -97,6 +101,9 @@ void add_autocollimator(CLI::App& app, int& exit_code) {
   cmd->add_option("--end-mm", o->end_mm, "last station")->capture_default_str();
   cmd->add_option("--step-mm", o->step_mm, "distance between stops")->capture_default_str();
   cmd->add_option("--dwell-s", o->dwell_s, "time at each stop")->capture_default_str();
+  cmd->add_option("--move-s", o->move_s, "reflector lifted between stops (no reflection)")->capture_default_str();
+  cmd->add_option("--return-s", o->return_s, "reflector carried back to the start after the last stop (no reflection)")
+      ->capture_default_str();
   cmd->add_option("--range-arcsec", o->range_arcsec, "measuring range (beyond: OVER)")->capture_default_str();
   cmd->add_flag("--checksum", o->checksum, "append *HH checksums to replies");
   cmd->add_option("--duration-s", o->duration_s, "stop after this long (0: until quit/SIGTERM)")->capture_default_str();

@@ -100,17 +100,36 @@ DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion) {
   return [motion](double t_s, std::span<double> out) { motion->at(t_s, out); };
 }
 
-const sim::TraverseStation& TraverseMotion::at(double t_s) const {
-  const double total = dwell_s * static_cast<double>(stations.size());
-  const double t = std::fmod(std::max(t_s, 0.0), total > 0 ? total : 1.0);
-  const auto k = std::min(static_cast<std::size_t>(t / dwell_s), stations.size() - 1);
-  return stations[k];
+double TraverseMotion::duration_s() const {
+  const double n = static_cast<double>(stations.size());
+  return n * dwell_s + (n - 1) * move_s + return_s;
 }
 
-std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec) {
+namespace {
+
+// Index of the station at time t within one pass, and whether the reflector sits on it.
+std::pair<std::size_t, bool> traverse_phase(const TraverseMotion& m, double t_s) {
+  const double total = m.duration_s();
+  double t = std::fmod(std::max(t_s, 0.0), total > 0 ? total : 1.0);
+  const double period = m.dwell_s + m.move_s;
+  const auto k = std::min(static_cast<std::size_t>(t / period), m.stations.size() - 1);
+  t -= static_cast<double>(k) * period;
+  return {k, t < m.dwell_s};
+}
+
+}  // namespace
+
+const sim::TraverseStation& TraverseMotion::at(double t_s) const { return stations[traverse_phase(*this, t_s).first]; }
+
+bool TraverseMotion::reflecting(double t_s) const { return traverse_phase(*this, t_s).second; }
+
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec,
+                                                           double move_s, double return_s) {
   auto m = std::make_shared<TraverseMotion>();
   m->stations = machine.autocollimator_traverse(spec);
   m->dwell_s = spec.dwell_s > 0 ? spec.dwell_s : 1.0;
+  m->move_s = std::max(0.0, move_s);
+  m->return_s = std::max(0.0, return_s);
   if (m->stations.empty()) m->stations.push_back({});
   return m;
 }
@@ -118,7 +137,7 @@ std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& m
 AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motion) {
   return [motion](double t_s) {
     const auto& st = motion->at(t_s);
-    return AutocollimatorView{st.yaw_rad * rad_to_arcsec, st.pitch_rad * rad_to_arcsec, true};
+    return AutocollimatorView{st.yaw_rad * rad_to_arcsec, st.pitch_rad * rad_to_arcsec, motion->reflecting(t_s)};
   };
 }
 

@@ -38,14 +38,25 @@ std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, 
                                                    double pause_s);
 DbbSource dbb_program_source(std::shared_ptr<const DbbProgram> program);
 
-// The traverse: the station's angles hold while the carriage dwells there; t wraps around.
+// The traverse: the station's angles hold while the carriage dwells there; t wraps around. Between
+// stations the reflector is lifted and set down one step on (`move_s`, no reflection), and after the
+// last station it is carried back to the start (`return_s`, no reflection): that is how a session
+// tells consecutive stations with equal angles apart and finds the start of a traverse.
 struct TraverseMotion {
   std::vector<sim::TraverseStation> stations;
   double dwell_s = 1.0;
+  double move_s = 0.0;
+  double return_s = 0.0;
+  [[nodiscard]] double duration_s() const;
+  // The station shown at t (during a move or the return: the station just left).
   [[nodiscard]] const sim::TraverseStation& at(double t_s) const;
+  // False while the reflector is moved or carried back.
+  [[nodiscard]] bool reflecting(double t_s) const;
 };
-std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec);
-// x: yaw, y: pitch (arc-seconds), reflection always (block the beam with fault injection).
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec,
+                                                           double move_s = 0.0, double return_s = 0.0);
+// x: yaw, y: pitch (arc-seconds); no reflection during moves and the return (and when the beam is
+// blocked by fault injection).
 AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motion);
 
 // A machine with a few typical errors (squareness, servo mismatch, pitch/yaw of X, backlash) for the
