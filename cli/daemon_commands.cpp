@@ -109,7 +109,19 @@ void print_params(const nlohmann::json& p) {
       std::cout << "\n";
     }
   }
+  if (p.contains("wavelet") && p["wavelet"].contains("bands")) {  // the profile session's summary
+    const auto& w = p["wavelet"];
+    std::cout << "wavelet " << w.value("wavelet", "?") << ", " << w.value("level", 0) << " levels (dominant detail "
+              << w.value("dominant_detail", "?") << "):";
+    for (const auto& b : w["bands"]) {
+      std::cout << " " << b.value("band", "?") << "=" << std::setprecision(4)
+                << (b.contains("rms_um") ? b["rms_um"].get<double>() : b.value("form_um", 0.0)) << "um";
+    }
+    std::cout << "\n";
+  }
+  if (p.contains("incomplete")) std::cout << "incomplete: " << p["incomplete"].get<std::string>() << "\n";
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
+  for (const auto& f : p.value("derived", nlohmann::json::array())) std::cout << "derived: " << f.get<std::string>() << "\n";
 }
 
 }  // namespace
@@ -156,7 +168,11 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   auto* start = app.add_subcommand("start", "Start a test session (dbb, straightness, runout, profile) on the daemon");
   start->add_option("kind", so->kind, "session kind: dbb, straightness, runout, profile")->required();
   start->add_option("--device", so->device, "device name (default: the first device that can run this kind)");
-  start->add_option("--set", so->settings, "session option KEY=VALUE (repeatable); every option has a default");
+  start->add_option("--set", so->settings,
+                    "session option KEY=VALUE (repeatable); every option has a default. dbb: patterns, "
+                    "radius_tolerance_mm, min_speed_mm_per_min, plane; straightness: step_mm=50, stations=0 (until the "
+                    "return), start=return|now, ...; runout: plate_diameter_mm=1000, parallelism_um=2.5, travel_mm=600, "
+                    "rpm=10, revolutions=1; profile: wavelet=db1, level=5, mode=symmetric (all: docs/protocol.md)");
   start->add_flag("--wait", so->wait, "wait for the identified parameters and print them");
   start->add_option("--timeout", so->timeout_s, "with --wait: give up after this many seconds (default 600)");
   start->add_flag("--json", *json, "print the daemon's JSON unchanged");

@@ -1,0 +1,304 @@
+#include "daemon/profile_session.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "daemon/recorder.hpp"
+#include "daemon/session_support.hpp"
+#include "drivers/profilometer/profile_stream.hpp"
+#include "dsp/denoise.hpp"
+#include "dsp/wavelet.hpp"
+#include "models/flatness/straightness.hpp"
+
+namespace guideway::daemon {
+
+namespace {
+
+std::string num(double v) {
+  std::string s;
+  append_double(s, v);
+  return s;
+}
+
+// Least-squares line through the valid points; returns the deviations (NaN where z is NaN).
+std::vector<double> line_deviations(const std::vector<double>& x, const std::vector<double>& z) {
+  double n = 0, sx = 0, sz = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (std::isnan(z[i])) continue;
+    n += 1;
+    sx += x[i];
+    sz += z[i];
+  }
+  const double mx = sx / n, mz = sz / n;
+  double sxx = 0, sxz = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (std::isnan(z[i])) continue;
+    sxx += (x[i] - mx) * (x[i] - mx);
+    sxz += (x[i] - mx) * (z[i] - mz);
+  }
+  const double slope = sxx > 0 ? sxz / sxx : 0.0;
+  std::vector<double> d(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) d[i] = z[i] - (mz + slope * (x[i] - mx));
+  return d;
+}
+
+double peak_to_valley(const std::vector<double>& v) {
+  double lo = INFINITY, hi = -INFINITY;
+  for (double e : v) {
+    if (std::isnan(e)) continue;
+    lo = std::min(lo, e);
+    hi = std::max(hi, e);
+  }
+  return hi - lo;
+}
+
+double rms(const std::vector<double>& v) {
+  double s = 0;
+  for (double e : v) s += e * e;
+  return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
+}
+
+}  // namespace
+
+nlohmann::json evaluate_profile(const profilometer::Profile& profile, const ProfileEvaluationOptions& options) {
+  const std::size_t n = profile.x_m.size();
+  const dsp::Wavelet wavelet(options.wavelet);
+  const dsp::Mode mode = dsp::parse_mode(options.mode);
+  if (options.level < 1) throw std::invalid_argument("wavelet level must be at least 1");
+  if (n < (std::size_t{1} << options.level) || n < 3) {
+    throw std::invalid_argument("a profile of " + std::to_string(n) + " points is too short for " +
+                                std::to_string(options.level) + " wavelet levels");
+  }
+  const auto spacing = profile.spacing_m();
+  if (!spacing) throw std::invalid_argument("the profile's points are not equally spaced");
+  // Work in the file's units (mm, um) so the numbers are those a reader of the derived file sees.
+  std::vector<double> x_mm(n), z_um(n);
+  std::size_t invalid = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    x_mm[i] = profile.x_m[i] * 1e3;
+    z_um[i] = profile.z_m[i] * 1e6;
+    invalid += std::isnan(z_um[i]) ? 1 : 0;
+  }
+  if (invalid * 100 > n) {
+    throw std::invalid_argument(std::to_string(invalid) + " of " + std::to_string(n) + " points are invalid (over 1 %)");
+  }
+  // The wavelet transform needs every point: invalid ones are interpolated linearly between their
+  // valid neighbours (held at the ends).
+  std::vector<double> filled = z_um;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!std::isnan(filled[i])) continue;
+    std::size_t j = i;
+    while (j < n && std::isnan(z_um[j])) ++j;
+    const double left = i > 0 ? filled[i - 1] : (j < n ? z_um[j] : 0.0);
+    const double right = j < n ? z_um[j] : left;
+    for (std::size_t k = i; k < j; ++k) {
+      const double w = static_cast<double>(k - i + 1) / static_cast<double>(j - i + 1);
+      filled[k] = left + w * (right - left);
+    }
+    i = j;
+  }
+
+  const std::vector<double> dev = line_deviations(x_mm, z_um);
+  std::vector<double> vx, vz;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isnan(z_um[i])) continue;
+    vx.push_back(x_mm[i]);
+    vz.push_back(z_um[i]);
+  }
+  const double min_zone_um = models::minimum_zone(vx, vz).width;
+  const auto coeffs = dsp::wavedec(filled, wavelet, mode, options.level);
+  const double sigma_um = dsp::mad_sigma(coeffs.back());
+  const auto components = dsp::mra(filled, wavelet, mode, options.level);  // [A_J, D_J, ..., D_1]
+  const double form_um = peak_to_valley(line_deviations(x_mm, components[0]));
+
+  // Uncertainties from the white noise sigma (first order): a peak to valley is the difference of two
+  // points; the approximation A_J keeps 1 / 2^J of the noise variance. The extremes of noisy points
+  // are selected, so the peak-to-valley values are biased upwards by the noise (not corrected here).
+  const double level_scale = std::pow(2.0, -0.5 * options.level);
+  const double n1 = static_cast<double>(coeffs.back().size());
+  nlohmann::json j;
+  j["model"] = "profile/straightness+wavelet";
+  j["profile"] = {
+      {"straightness_lsq_um", {{"value", peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
+      {"straightness_min_zone_um", {{"value", min_zone_um}, {"u", std::sqrt(2.0) * sigma_um}}},
+      {"form_straightness_um", {{"value", form_um}, {"u", std::sqrt(2.0) * sigma_um * level_scale}}},
+      {"noise_um", {{"value", sigma_um}, {"u", sigma_um * std::sqrt(1.36 / n1)}}},  // MAD: var ~ 1.36 s^2 / n
+  };
+  // Per band: the rms of its signal-domain component, the part white noise of level sigma explains
+  // (an orthogonal transform spreads the noise energy over the coefficients: n_b sigma^2 in band b),
+  // and the rest, the band's signal. The dominant detail band is the one with the most signal.
+  nlohmann::json bands = nlohmann::json::array();
+  const double dx_mm = *spacing * 1e3;
+  std::size_t dominant = 1;
+  double best = -1;
+  for (std::size_t b = 0; b < components.size(); ++b) {
+    // Band b: the approximation A_J, then details D_J .. D_1 (PyWavelets' order).
+    const int lev = b == 0 ? options.level : options.level + 1 - static_cast<int>(b);
+    nlohmann::json band = {{"band", b == 0 ? "a" + std::to_string(lev) : "d" + std::to_string(lev)},
+                           {"coefficients", coeffs[b].size()}};
+    if (b == 0) {
+      band["form_um"] = form_um;
+      band["wavelength_min_mm"] = dx_mm * std::pow(2.0, lev + 1);
+    } else {
+      const double r = rms(components[b]);
+      const double noise = sigma_um * std::sqrt(static_cast<double>(coeffs[b].size()) / static_cast<double>(n));
+      const double signal = std::sqrt(std::max(0.0, r * r - noise * noise));
+      band["rms_um"] = r;
+      band["noise_rms_um"] = noise;
+      band["signal_rms_um"] = signal;
+      band["wavelength_min_mm"] = dx_mm * std::pow(2.0, lev);
+      band["wavelength_max_mm"] = dx_mm * std::pow(2.0, lev + 1);
+      if (signal > best) {
+        best = signal;
+        dominant = b;
+      }
+    }
+    bands.push_back(band);
+  }
+  j["wavelet"] = {{"wavelet", options.wavelet},
+                  {"mode", options.mode},
+                  {"level", options.level},
+                  {"bands", bands},
+                  {"dominant_detail", bands[dominant]["band"]}};
+  j["points"] = {{"count", n},
+                 {"invalid", invalid},
+                 {"spacing_um", *spacing * 1e6},
+                 {"length_mm", x_mm.back() - x_mm.front()}};
+  return j;
+}
+
+namespace {
+
+struct ProfileOptions {
+  ProfileEvaluationOptions eval;
+  double feed_mm_per_min = 0;  // 0: not given
+  double spindle_rpm = 0;
+};
+
+ProfileOptions parse_options(const nlohmann::json& o) {
+  check_option_names(o, "profile", {"wavelet", "mode", "level", "feed_mm_per_min", "spindle_rpm"});
+  ProfileOptions p;
+  p.eval.wavelet = string_option(o, "wavelet", "db1");
+  p.eval.mode = string_option(o, "mode", "symmetric");
+  p.eval.level = static_cast<int>(integer_option(o, "level", 5, 1, 20));
+  try {
+    (void)dsp::Wavelet(p.eval.wavelet);
+    (void)dsp::parse_mode(p.eval.mode);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("option wavelet/mode: ") + e.what());
+  }
+  p.feed_mm_per_min = number_option(o, "feed_mm_per_min", 0.0, 0.0, 1e6);
+  p.spindle_rpm = number_option(o, "spindle_rpm", 0.0, 0.0, 1e6);
+  return p;
+}
+
+class ProfileSession : public Session {
+ public:
+  ProfileSession(ProfileOptions options, const drivers::Driver& device) : o_(std::move(options)), device_(device.name()) {
+    const auto& ch = device.channels();
+    for (std::size_t i = 0; i < ch.size(); ++i) {
+      if (ch[i].name == "x") x_ = static_cast<int>(i);
+      if (ch[i].name == "z") z_ = static_cast<int>(i);
+      if (ch[i].name == "profile") id_ = static_cast<int>(i);
+    }
+    if (x_ < 0 || z_ < 0 || id_ < 0) {
+      throw std::invalid_argument("device " + device.name() + " needs x, z and profile channels");
+    }
+  }
+
+  void on_samples(std::span<const Sample> samples) override {
+    const auto needed = static_cast<std::uint32_t>(std::max({x_, z_, id_}) + 1);
+    for (const Sample& s : samples) {
+      if (done_) return;
+      if (s.value_count < needed) continue;
+      const double id = s.value[static_cast<std::size_t>(id_)];
+      if (s.flags & profilometer::sample_profile_start) {
+        if (collecting_ && !x_m_.empty()) note_ = "profile " + num(profile_id_) + " was cut short; took the next";
+        collecting_ = true;
+        profile_id_ = id;
+        x_m_.clear();
+        z_m_.clear();
+      } else if (!collecting_) {
+        continue;
+      } else if ((s.flags & sample_after_gap) || id != profile_id_) {
+        note_ = "profile " + num(profile_id_) + " was interrupted; waiting for the next";
+        collecting_ = false;
+        continue;
+      }
+      x_m_.push_back(s.value[static_cast<std::size_t>(x_)]);
+      // Over-range points arrive as NaN with sample_out_of_range: kept as invalid points.
+      z_m_.push_back(s.flags & sample_out_of_range ? std::nan("") : s.value[static_cast<std::size_t>(z_)]);
+      if (s.flags & profilometer::sample_profile_end) done_ = true;
+    }
+  }
+
+  [[nodiscard]] bool complete() const override { return done_; }
+
+  [[nodiscard]] std::string progress() const override {
+    std::ostringstream p;
+    if (!collecting_) {
+      p << "waiting for the start of a profile";
+    } else {
+      p << "profile " << profile_id_ << ": " << x_m_.size() << " points" << (done_ ? ", complete" : "");
+    }
+    if (!note_.empty()) p << "; " << note_;
+    return p.str();
+  }
+
+  nlohmann::json identify() override {
+    if (!done_) {
+      throw std::runtime_error(collecting_ ? "stopped before the end of profile " + num(profile_id_) + " (" +
+                                                 std::to_string(x_m_.size()) + " points)"
+                                           : "no profile was started" + (note_.empty() ? "" : " (" + note_ + ")"));
+    }
+    profilometer::Profile p;
+    p.x_m = x_m_;
+    p.z_m = z_m_;
+    p.metadata = {{"source", "guidewayd profile session"}, {"device", device_}, {"profile", num(profile_id_)}};
+    if (o_.feed_mm_per_min > 0) p.metadata.emplace_back("feed_mm_per_min", num(o_.feed_mm_per_min));
+    if (o_.spindle_rpm > 0) p.metadata.emplace_back("spindle_rpm", num(o_.spindle_rpm));
+    text_ = profilometer::format_profile_csv(p);
+    const profilometer::Profile read = profilometer::parse_profile_csv(text_, "profile");
+    try {
+      nlohmann::json j = evaluate_profile(read, o_.eval);
+      j["profile_id"] = profile_id_;
+      return j;
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(e.what());
+    }
+  }
+
+  [[nodiscard]] std::map<std::string, std::string> metadata() const override {
+    return {{"wavelet", o_.eval.wavelet}, {"level", std::to_string(o_.eval.level)}, {"mode", o_.eval.mode}};
+  }
+
+  std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
+    return write_derived_text(dir, base_name, "profile.csv", text_);
+  }
+
+ private:
+  ProfileOptions o_;
+  std::string device_;
+  int x_ = -1, z_ = -1, id_ = -1;
+  bool collecting_ = false;
+  bool done_ = false;
+  double profile_id_ = 0;
+  std::vector<double> x_m_, z_m_;
+  std::string note_;
+  std::string text_;
+};
+
+}  // namespace
+
+SessionKind profile_session_kind() {
+  return {"profile",
+          "one profilometer traverse: straightness of the profile and its wavelet decomposition (options: wavelet=db1, "
+          "level=5, mode=symmetric, feed_mm_per_min, spindle_rpm)",
+          {"profilometer-tcp"},
+          [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
+            return std::make_unique<ProfileSession>(parse_options(r.options), device);
+          }};
+}
+
+}  // namespace guideway::daemon

@@ -1,0 +1,159 @@
+#include "daemon/runout_session.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "daemon/recorder.hpp"
+#include "daemon/session_support.hpp"
+#include "models/flatness/json.hpp"
+#include "models/flatness/runout.hpp"
+
+namespace guideway::daemon {
+
+namespace {
+
+namespace gm = guideway::models;
+
+struct RunoutOptions {
+  double plate_diameter_mm = 1000.0;
+  double parallelism_um = 2.5;
+  double parallelism_u_um = 0.0;
+  double travel_mm = 600.0;
+  double rpm = 10.0;
+  double revolutions = 1.0;
+  std::string channel = "displacement";
+};
+
+RunoutOptions parse_options(const nlohmann::json& o) {
+  check_option_names(o, "runout",
+                     {"plate_diameter_mm", "parallelism_um", "parallelism_u_um", "travel_mm", "rpm", "revolutions",
+                      "channel"});
+  RunoutOptions r;
+  r.plate_diameter_mm = number_option(o, "plate_diameter_mm", 1000.0, 1.0, 1e5);
+  r.parallelism_um = number_option(o, "parallelism_um", 2.5, -1e4, 1e4);
+  r.parallelism_u_um = number_option(o, "parallelism_u_um", 0.0, 0.0, 1e4);
+  r.travel_mm = number_option(o, "travel_mm", 600.0, 0.0, 1e5);
+  r.rpm = number_option(o, "rpm", 10.0, 0.01, 1e5);
+  r.revolutions = number_option(o, "revolutions", 1.0, 1.0, 1000.0);
+  r.channel = string_option(o, "channel", "displacement");
+  return r;
+}
+
+std::string num(double v) {
+  std::string s;
+  append_double(s, v);
+  return s;
+}
+
+class RunoutSession : public Session {
+ public:
+  RunoutSession(RunoutOptions options, const drivers::Driver& device) : o_(std::move(options)), device_(device.name()) {
+    const auto& ch = device.channels();
+    for (std::size_t i = 0; i < ch.size(); ++i) {
+      if (ch[i].name == o_.channel) channel_ = static_cast<int>(i);
+    }
+    if (channel_ < 0) throw std::invalid_argument("device " + device.name() + " has no channel \"" + o_.channel + "\"");
+    duration_s_ = o_.revolutions * 60.0 / o_.rpm;
+  }
+
+  void on_samples(std::span<const Sample> samples) override {
+    for (const Sample& s : samples) {
+      if (done_) return;
+      if (s.flags & (sample_out_of_range | sample_no_signal) || s.value_count <= static_cast<std::uint32_t>(channel_)) {
+        ++skipped_;
+        continue;
+      }
+      const double z = s.value[static_cast<std::size_t>(channel_)];
+      if (!std::isfinite(z)) {
+        ++skipped_;
+        continue;
+      }
+      if (t0_ns_ < 0) t0_ns_ = s.t_mono_ns;
+      const double t = static_cast<double>(s.t_mono_ns - t0_ns_) * 1e-9;
+      if (t >= duration_s_) {
+        done_ = true;  // every turn is in: the next sample starts a new revolution
+        return;
+      }
+      angle_deg_.push_back(t * o_.rpm * 6.0);
+      runout_um_.push_back(z * 1e6);
+    }
+  }
+
+  [[nodiscard]] bool complete() const override { return done_; }
+
+  [[nodiscard]] std::string progress() const override {
+    std::ostringstream p;
+    const double deg = angle_deg_.empty() ? 0.0 : angle_deg_.back();
+    p << static_cast<int>(deg) << " of " << static_cast<int>(o_.revolutions * 360.0) << " deg, " << angle_deg_.size()
+      << " samples";
+    if (skipped_) p << " (" << skipped_ << " invalid readings skipped)";
+    return p.str();
+  }
+
+  nlohmann::json identify() override {
+    if (angle_deg_.empty()) throw std::runtime_error("no valid micrometer reading was received");
+    text_ = revolution_text();
+    const gm::RunoutRevolution rev = gm::parse_runout_revolution(text_, "revolution");
+    const gm::RunoutResult r = gm::identify_runout(rev);
+    nlohmann::json result = gm::to_json(r);
+    nlohmann::json j;
+    j["model"] = result["model"];
+    nlohmann::json g;
+    g["runout_um"] = {{"value", r.runout_m * 1e6}, {"u", r.u_runout_m * 1e6}};
+    g["once_per_rev_amplitude_um"] = {{"value", r.amplitude_m * 1e6}, {"u", r.u_amplitude_m * 1e6}};
+    g["squareness_urad"] = {{"value", r.deflection_rad * 1e6}, {"u", r.u_deflection_rad * 1e6}};
+    if (r.squareness_amplitude_m) {
+      g["squareness_amplitude_um"] = {{"value", *r.squareness_amplitude_m * 1e6}, {"u", *r.u_squareness_amplitude_m * 1e6}};
+    }
+    j["squareness"] = g;
+    j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
+    if (!done_) j["incomplete"] = num(angle_deg_.back()) + " of " + num(o_.revolutions * 360.0) + " deg";
+    j["result"] = result;
+    return j;
+  }
+
+  [[nodiscard]] std::map<std::string, std::string> metadata() const override {
+    return {{"plate_diameter_mm", num(o_.plate_diameter_mm)}, {"parallelism_um", num(o_.parallelism_um)},
+            {"travel_mm", num(o_.travel_mm)}, {"rpm", num(o_.rpm)}, {"revolutions", num(o_.revolutions)}};
+  }
+
+  std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
+    return write_derived_text(dir, base_name, "runout.csv", text_);
+  }
+
+ private:
+  // The run-out file of docs/formats.md, written so it reads back exactly.
+  [[nodiscard]] std::string revolution_text() const {
+    std::string t = "# plate_diameter_mm = " + num(o_.plate_diameter_mm) + "\n# parallelism_um = " +
+                    num(o_.parallelism_um) + "\n# parallelism_u_um = " + num(o_.parallelism_u_um) + "\n";
+    if (o_.travel_mm > 0) t += "# travel_mm = " + num(o_.travel_mm) + "\n";
+    t += "# rpm = " + num(o_.rpm) + "\n# device = " + device_ + "\n# source = guidewayd runout session\n";
+    t += "angle_deg,runout_um\n";
+    for (std::size_t i = 0; i < angle_deg_.size(); ++i) t += num(angle_deg_[i]) + "," + num(runout_um_[i]) + "\n";
+    return t;
+  }
+
+  RunoutOptions o_;
+  std::string device_;
+  int channel_ = -1;
+  double duration_s_ = 0.0;
+  std::int64_t t0_ns_ = -1;
+  bool done_ = false;
+  std::size_t skipped_ = 0;
+  std::vector<double> angle_deg_, runout_um_;
+  std::string text_;
+};
+
+}  // namespace
+
+SessionKind runout_session_kind() {
+  return {"runout",
+          "spindle run-out revolution on a thrust plate: squareness by Mu's Eq. 21 (options: plate_diameter_mm=1000, "
+          "parallelism_um=2.5, parallelism_u_um=0, travel_mm=600, rpm=10, revolutions=1, channel=displacement)",
+          {"micrometer-modbus"},
+          [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
+            return std::make_unique<RunoutSession>(parse_options(r.options), device);
+          }};
+}
+
+}  // namespace guideway::daemon

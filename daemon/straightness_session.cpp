@@ -1,0 +1,256 @@
+#include "daemon/straightness_session.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "daemon/recorder.hpp"
+#include "daemon/session_support.hpp"
+#include "models/flatness/json.hpp"
+#include "models/flatness/straightness.hpp"
+#include "models/flatness/table_reader.hpp"
+
+namespace guideway::daemon {
+
+namespace {
+
+namespace gm = guideway::models;
+
+struct StraightnessOptions {
+  double step_m = 0.05;
+  double start_m = 0.0;
+  std::size_t stations = 0;  // 0: until the reflector is carried back
+  bool wait_for_return = true;
+  double return_gap_s = 1.0;
+  double min_dwell_s = 0.3;
+  double settle_rad = 0.5 * gm::rad_per_arcsec;
+  double pitch_sign = -1.0;
+  double yaw_sign = 1.0;
+  std::string pitch_channel = "angle_y";
+  std::string yaw_channel = "angle_x";  // "" = no yaw
+  gm::StraightnessOptions model;
+};
+
+StraightnessOptions parse_options(const nlohmann::json& o) {
+  check_option_names(o, "straightness",
+                     {"step_mm", "start_mm", "stations", "start", "return_gap_s", "min_dwell_s", "settle_arcsec",
+                      "pitch_channel", "yaw_channel", "pitch_sign", "yaw_sign", "angle_u_arcsec", "max_order"});
+  StraightnessOptions s;
+  s.step_m = number_option(o, "step_mm", 50.0, 0.1, 10000.0) * 1e-3;
+  s.start_m = number_option(o, "start_mm", 0.0, -1e5, 1e5) * 1e-3;
+  s.stations = static_cast<std::size_t>(integer_option(o, "stations", 0, 0, 100000));
+  if (s.stations == 1) throw std::invalid_argument("option stations = 1: a traverse needs at least 2 (0 = until the return)");
+  s.wait_for_return = string_option(o, "start", "return", {"return", "now"}) == "return";
+  s.return_gap_s = number_option(o, "return_gap_s", 1.0, 0.05, 600.0);
+  s.min_dwell_s = number_option(o, "min_dwell_s", 0.3, 0.0, 600.0);
+  s.settle_rad = number_option(o, "settle_arcsec", 0.5, 0.001, 1000.0) * gm::rad_per_arcsec;
+  s.pitch_channel = string_option(o, "pitch_channel", "angle_y");
+  s.yaw_channel = string_option(o, "yaw_channel", "angle_x");
+  for (const char* key : {"pitch_sign", "yaw_sign"}) {
+    const double v = number_option(o, key, key[0] == 'p' ? -1.0 : 1.0, -1.0, 1.0);
+    if (v != 1.0 && v != -1.0) throw std::invalid_argument(std::string("option ") + key + " must be 1 or -1");
+    (key[0] == 'p' ? s.pitch_sign : s.yaw_sign) = v;
+  }
+  s.model.instrument.u_override_rad = number_option(o, "angle_u_arcsec", 0.0, 0.0, 100.0) * gm::rad_per_arcsec;
+  s.model.max_order = static_cast<int>(integer_option(o, "max_order", 8, 1, 8));
+  return s;
+}
+
+int channel_index(const drivers::Driver& device, const std::string& name) {
+  const auto& ch = device.channels();
+  for (std::size_t i = 0; i < ch.size(); ++i) {
+    if (ch[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::string num(double v) {
+  std::string s;
+  append_double(s, v);
+  return s;
+}
+
+class StraightnessSession : public Session {
+ public:
+  StraightnessSession(StraightnessOptions options, const drivers::Driver& device)
+      : o_(std::move(options)), device_(device.name()) {
+    pitch_ = channel_index(device, o_.pitch_channel);
+    if (pitch_ < 0) throw std::invalid_argument("device " + device.name() + " has no channel \"" + o_.pitch_channel + "\"");
+    if (!o_.yaw_channel.empty()) {
+      yaw_ = channel_index(device, o_.yaw_channel);
+      if (yaw_ < 0) throw std::invalid_argument("device " + device.name() + " has no channel \"" + o_.yaw_channel + "\"");
+    }
+    collecting_ = !o_.wait_for_return;
+  }
+
+  void on_samples(std::span<const Sample> samples) override {
+    for (const Sample& s : samples) {
+      if (done_) return;
+      const double t = static_cast<double>(s.t_mono_ns) * 1e-9;
+      const bool valid = !(s.flags & (sample_out_of_range | sample_no_signal)) &&
+                         s.value_count > static_cast<std::uint32_t>(std::max(pitch_, yaw_)) &&
+                         std::isfinite(s.value[static_cast<std::size_t>(pitch_)]) &&
+                         (yaw_ < 0 || std::isfinite(s.value[static_cast<std::size_t>(yaw_)]));
+      if (!valid) {
+        if (!in_gap_) {
+          in_gap_ = true;
+          gap_from_ = have_valid_ ? last_valid_t_ : t;
+          close_dwell();
+        }
+        // The reflector is being carried back: a traverse of open length ends here already.
+        if (collecting_ && o_.stations == 0 && pitch_rad_.size() >= 2 && t - gap_from_ >= o_.return_gap_s) done_ = true;
+        continue;
+      }
+      if (in_gap_) {
+        in_gap_ = false;
+        if (t - gap_from_ >= o_.return_gap_s) on_return();
+        if (done_) return;
+      }
+      const double pitch = s.value[static_cast<std::size_t>(pitch_)];
+      const double yaw = yaw_ >= 0 ? s.value[static_cast<std::size_t>(yaw_)] : 0.0;
+      const auto n = static_cast<double>(dwell_n_);
+      if (dwell_n_ > 0 && (std::abs(pitch - dwell_pitch_ / n) > o_.settle_rad ||
+                           std::abs(yaw - dwell_yaw_ / n) > o_.settle_rad)) {
+        close_dwell();  // the reflector moved without losing the beam
+      }
+      if (dwell_n_ == 0) dwell_t0_ = t;
+      dwell_t1_ = t;
+      dwell_pitch_ += pitch;
+      dwell_yaw_ += yaw;
+      ++dwell_n_;
+      last_valid_t_ = t;
+      have_valid_ = true;
+    }
+  }
+
+  [[nodiscard]] bool complete() const override { return done_; }
+
+  [[nodiscard]] std::string progress() const override {
+    std::ostringstream p;
+    if (!collecting_) {
+      p << "waiting for the reflector to be carried back to the start (beam break of " << o_.return_gap_s << " s)";
+    } else {
+      p << pitch_rad_.size();
+      if (o_.stations > 0) p << "/" << o_.stations;
+      p << " stations";
+    }
+    if (!note_.empty()) p << "; " << note_;
+    return p.str();
+  }
+
+  nlohmann::json identify() override {
+    if (!done_) close_dwell();  // stopped: the stations measured so far
+    if (pitch_rad_.size() < 2) {
+      throw std::runtime_error("traverse of " + std::to_string(pitch_rad_.size()) + " station(s); at least 2 are needed" +
+                               (collecting_ ? "" : " (no return of the reflector was seen: option start=now starts at once)"));
+    }
+    text_ = traverse_text();
+    const gm::AngleTraverse tr = gm::parse_angle_traverse(text_, "traverse", o_.model.instrument);
+    const gm::StraightnessResult r = gm::identify_straightness(tr, o_.model);
+    nlohmann::json result = gm::to_json(r);
+    result.erase("source");
+    nlohmann::json group;
+    auto add = [&](const std::string& plane, const gm::StraightnessProfile& p) {
+      for (const auto& [name, line] : {std::pair{"end_point", &p.end_point}, std::pair{"least_squares", &p.least_squares},
+                                       std::pair{"minimum_zone", &p.minimum_zone}}) {
+        group[plane + "_" + name + "_um"] = {{"value", line->straightness_m * 1e6}, {"u", line->u_straightness_m * 1e6}};
+      }
+    };
+    add("vertical", r.vertical);
+    if (r.horizontal) add("horizontal", *r.horizontal);
+    nlohmann::json j;
+    j["model"] = result["model"];
+    j["straightness"] = group;
+    j["traverse"] = {{"stations", r.readings}, {"step_mm", r.step_m * 1e3}, {"start_mm", o_.start_m * 1e3}};
+    if (o_.stations > 0 && r.readings < o_.stations) {
+      j["incomplete"] = std::to_string(r.readings) + " of " + std::to_string(o_.stations) + " stations";
+    }
+    j["result"] = result;
+    return j;
+  }
+
+  [[nodiscard]] std::map<std::string, std::string> metadata() const override {
+    return {{"step_mm", num(o_.step_m * 1e3)},
+            {"start_mm", num(o_.start_m * 1e3)},
+            {"pitch_channel", o_.pitch_channel + (o_.pitch_sign < 0 ? " (negated)" : "")},
+            {"yaw_channel", o_.yaw_channel.empty() ? "none" : o_.yaw_channel + (o_.yaw_sign < 0 ? " (negated)" : "")}};
+  }
+
+  std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
+    return write_derived_text(dir, base_name, "angles.csv", text_);
+  }
+
+ private:
+  void close_dwell() {
+    const std::size_t n = dwell_n_;
+    const double t0 = dwell_t0_, t1 = dwell_t1_;
+    const double pitch = n ? dwell_pitch_ / static_cast<double>(n) : 0.0, yaw = n ? dwell_yaw_ / static_cast<double>(n) : 0.0;
+    dwell_n_ = 0;
+    dwell_pitch_ = dwell_yaw_ = 0.0;
+    if (n == 0 || !collecting_ || done_) return;
+    if (t1 - t0 < o_.min_dwell_s) return;  // passing through, not resting on a station
+    pitch_rad_.push_back(o_.pitch_sign * pitch);
+    yaw_rad_.push_back(o_.yaw_sign * yaw);
+    if (o_.stations > 0 && pitch_rad_.size() >= o_.stations) done_ = true;
+  }
+
+  // The reflector went back to the start.
+  void on_return() {
+    if (!collecting_) {
+      collecting_ = true;
+      note_.clear();
+      return;
+    }
+    if (o_.stations == 0 && pitch_rad_.size() >= 2) {
+      done_ = true;
+      return;
+    }
+    if (!pitch_rad_.empty()) {
+      note_ = "a traverse of " + std::to_string(pitch_rad_.size()) + " station(s) ended early; starting again";
+    }
+    pitch_rad_.clear();
+    yaw_rad_.clear();
+  }
+
+  // The traverse file of docs/formats.md: angles in arc-seconds, written so they read back exactly.
+  [[nodiscard]] std::string traverse_text() const {
+    std::string t = "# step_mm = " + num(o_.step_m * 1e3) + "\n# device = " + device_ +
+                    "\n# source = guidewayd straightness session\n";
+    t += yaw_ >= 0 ? "x_mm,pitch_arcsec,yaw_arcsec\n" : "x_mm,pitch_arcsec\n";
+    for (std::size_t k = 0; k < pitch_rad_.size(); ++k) {
+      t += num((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," + num(pitch_rad_[k] / gm::rad_per_arcsec);
+      if (yaw_ >= 0) t += "," + num(yaw_rad_[k] / gm::rad_per_arcsec);
+      t += "\n";
+    }
+    return t;
+  }
+
+  StraightnessOptions o_;
+  std::string device_;
+  int pitch_ = -1, yaw_ = -1;
+  bool collecting_ = false;
+  bool done_ = false;
+  bool in_gap_ = false;
+  double gap_from_ = 0.0;
+  double last_valid_t_ = 0.0;
+  bool have_valid_ = false;
+  std::size_t dwell_n_ = 0;
+  double dwell_t0_ = 0.0, dwell_t1_ = 0.0, dwell_pitch_ = 0.0, dwell_yaw_ = 0.0;
+  std::vector<double> pitch_rad_, yaw_rad_;
+  std::string note_;
+  std::string text_;
+};
+
+}  // namespace
+
+SessionKind straightness_session_kind() {
+  return {"straightness",
+          "autocollimator traverse: straightness from the station angles (options: step_mm=50, start_mm=0, "
+          "stations=0 (until the return), start=return|now, return_gap_s=1, min_dwell_s=0.3, settle_arcsec=0.5, "
+          "pitch_channel=angle_y, yaw_channel=angle_x, pitch_sign=-1, yaw_sign=1, angle_u_arcsec, max_order=8)",
+          {"autocollimator-serial"},
+          [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
+            return std::make_unique<StraightnessSession>(parse_options(r.options), device);
+          }};
+}
+
+}  // namespace guideway::daemon

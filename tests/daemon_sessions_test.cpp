@@ -1,0 +1,286 @@
+// The daemon's straightness, runout and profile sessions fed with what their drivers deliver (the
+// autocollimator's angle pairs with no-reflection gaps between stations, the micrometer's
+// displacements, the profilometer's points with start/end flags), the data coming from the virtual
+// machine tool: each session finds its measurement in the stream by itself, identifies the machine's
+// configured errors, and its derived file identifies offline to the very same result.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "daemon/profile_session.hpp"
+#include "daemon/runout_session.hpp"
+#include "daemon/straightness_session.hpp"
+#include "drivers/profilometer/profile_stream.hpp"
+#include "models/flatness/json.hpp"
+#include "models/flatness/runout.hpp"
+#include "models/flatness/straightness.hpp"
+#include "simulators/machine/machine.hpp"
+#include "test_support.hpp"
+
+using namespace guideway;
+
+namespace {
+
+class Channels : public drivers::Driver {  // a driver's channel layout; never started
+ public:
+  Channels(std::string driver, std::vector<drivers::ChannelInfo> ch) : Driver("dev", std::move(driver), std::move(ch), 2) {}
+
+ protected:
+  void run(std::stop_token) override {}
+};
+
+Channels autocollimator_device() { return Channels("autocollimator-serial", {{"angle_x", "rad"}, {"angle_y", "rad"}}); }
+Channels micrometer_device() { return Channels("micrometer-modbus", {{"displacement", "m"}}); }
+Channels profilometer_device() {
+  return Channels("profilometer-tcp", {{"x", "m"}, {"z", "m"}, {"profile", "1"}, {"index", "1"}});
+}
+
+Sample sample(double t_s, std::initializer_list<double> values, std::uint32_t flags = 0) {
+  Sample s;
+  s.t_mono_ns = static_cast<std::int64_t>(std::llround(t_s * 1e9));
+  s.flags = flags;
+  s.value_count = static_cast<std::uint32_t>(values.size());
+  std::size_t i = 0;
+  for (double v : values) s.value[i++] = v;
+  return s;
+}
+
+// The autocollimator polled every 50 ms: `dwell_s` on each station, the beam lost for `move_s` between
+// stations and `return_s` after the last (as guideway-emulate autocollimator does).
+void feed_traverse(daemon::Session& s, const std::vector<sim::TraverseStation>& st, double& t, double dwell_s = 0.5,
+                   double move_s = 0.2, double return_s = 1.5, std::size_t first = 0) {
+  std::vector<Sample> out;
+  const double nan = std::nan("");
+  for (std::size_t k = first; k < st.size(); ++k) {
+    for (double e = 0; e < dwell_s; e += 0.05, t += 0.05) out.push_back(sample(t, {st[k].yaw_rad, st[k].pitch_rad}));
+    const double gap = k + 1 == st.size() ? return_s : move_s;
+    for (double e = 0; e < gap; e += 0.05, t += 0.05) out.push_back(sample(t, {nan, nan}, sample_no_signal));
+  }
+  s.on_samples(out);
+}
+
+sim::MachineConfig straightness_machine() {
+  sim::MachineConfig m;
+  m.axis[0].rotation[1].c = {0.0, 30e-6, -80e-6};  // E_BX: pitch of X, rad (u in m)
+  m.axis[0].rotation[2].c = {5e-6, -20e-6};        // E_CX: yaw of X
+  return m;
+}
+
+std::vector<sim::TraverseStation> traverse(const sim::Machine& machine) {
+  sim::TraverseSpec spec;
+  spec.start_m = 0.0;
+  spec.end_m = 0.6;
+  spec.step_m = 0.05;
+  return machine.autocollimator_traverse(spec);
+}
+
+double value(const nlohmann::json& group, const char* name) { return group.at(name).at("value").get<double>(); }
+
+}  // namespace
+
+TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
+  const sim::Machine machine(straightness_machine());
+  const auto st = traverse(machine);
+  ASSERT_EQ(st.size(), 13u);
+  auto device = autocollimator_device();
+  auto session = daemon::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
+  double t = 100.0;
+  feed_traverse(*session, st, t, 0.5, 0.2, 1.5, 7);  // started in the middle of a traverse: ignored
+  EXPECT_FALSE(session->complete());
+  feed_traverse(*session, st, t);
+  ASSERT_TRUE(session->complete()) << session->progress();
+  const nlohmann::json p = session->identify();
+
+  // Reference: the model on the machine's own angles (slope = -rotation about +y; yaw = +rotation about z).
+  models::AngleTraverse tr;
+  tr.step_m = 0.05;
+  for (const auto& s : st) {
+    tr.x_m.push_back(s.position_m);
+    tr.pitch_rad.push_back(-s.pitch_rad);
+    tr.yaw_rad.push_back(s.yaw_rad);
+    tr.line.push_back(0);
+  }
+  const auto ref = models::identify_straightness(tr);
+  EXPECT_EQ(p["traverse"]["stations"], 13);
+  const auto& g = p["straightness"];
+  EXPECT_NEAR(value(g, "vertical_least_squares_um"), ref.vertical.least_squares.straightness_m * 1e6, 1e-6);
+  EXPECT_NEAR(value(g, "horizontal_minimum_zone_um"), ref.horizontal->minimum_zone.straightness_m * 1e6, 1e-6);
+  // The machine's truth: heights are the integral of -E_BX (a quadratic plus a cubic): clearly not straight.
+  EXPECT_GT(value(g, "vertical_least_squares_um"), 1.0);
+  EXPECT_GT(g["vertical_least_squares_um"]["u"].get<double>(), 0.0);
+
+  // The derived file, identified offline, gives the same numbers.
+  test::TempDir dir;
+  const auto files = session->write_derived(dir.path().string(), "s");
+  ASSERT_EQ(files.size(), 1u);
+  nlohmann::json offline = models::to_json(models::identify_straightness(models::read_angle_traverse(files[0])));
+  offline.erase("source");
+  EXPECT_EQ(offline, p["result"]);
+}
+
+TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStations) {
+  const sim::Machine perfect{sim::MachineConfig{}};  // every station reads the same angles
+  const auto st = traverse(perfect);
+  auto device = autocollimator_device();
+  auto session = daemon::straightness_session_kind().create(
+      {"straightness", "", {{"start", "now"}, {"stations", 5}, {"step_mm", 50}}}, device);
+  double t = 0;
+  feed_traverse(*session, st, t);
+  ASSERT_TRUE(session->complete());
+  const auto p = session->identify();
+  EXPECT_EQ(p["traverse"]["stations"], 5);
+  EXPECT_NEAR(value(p["straightness"], "vertical_end_point_um"), 0.0, 1e-9);
+}
+
+TEST(StraightnessSession, ReadingsThatJumpWithoutABeamBreakStartANewStation) {
+  auto device = autocollimator_device();
+  auto session = daemon::straightness_session_kind().create({"straightness", "", {{"start", "now"}}}, device);
+  std::vector<Sample> out;
+  const double a = models::rad_per_arcsec;
+  double t = 0;
+  for (double pitch : {1.0, 3.0, 2.0}) {  // slid from station to station with the beam on
+    for (int i = 0; i < 10; ++i, t += 0.05) out.push_back(sample(t, {0.0, pitch * a}));
+  }
+  session->on_samples(out);
+  const auto p = session->identify();  // stopped: the stations so far
+  EXPECT_EQ(p["traverse"]["stations"], 3);
+  const auto& stations = p["result"]["vertical"]["stations"];
+  // Heights: 0, -1", -4" (the sign: a positive rotation about +y is a falling surface) times 50 mm.
+  EXPECT_NEAR(stations[2]["height_um"].get<double>(), -4.0 * a * 0.05 * 1e6, 1e-9);
+}
+
+TEST(StraightnessSession, TooFewStationsFailWithTheReason) {
+  auto device = autocollimator_device();
+  auto session = daemon::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
+  try {
+    session->identify();
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("no return of the reflector"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
+  sim::MachineConfig cfg;
+  cfg.spindle.wobble_rad = 1.0e-6;
+  cfg.spindle.plate_parallelism_rad = 2.0e-6;
+  cfg.noise.micrometer_m = 0.01e-6;
+  const sim::Machine machine(cfg);
+  sim::RunoutSpec spec;
+  spec.probe_radius_m = 0.05;
+  spec.samples_per_rev = 300;  // 50 Hz at 10 rpm
+  spec.revolutions = 2;
+  const auto rev = machine.runout_revolution(spec);
+  auto device = micrometer_device();
+  auto session = daemon::runout_session_kind().create(
+      {"runout", "", {{"plate_diameter_mm", 100}, {"parallelism_um", 0.25}}}, device);
+  std::vector<Sample> out;
+  for (const auto& r : rev) out.push_back(sample(50.0 + r.t_s, {r.displacement_m}));
+  session->on_samples(std::span(out).first(150));
+  EXPECT_FALSE(session->complete());
+  EXPECT_NE(session->progress().find("of 360 deg"), std::string::npos) << session->progress();
+  session->on_samples(std::span(out).subspan(150));
+  ASSERT_TRUE(session->complete());
+  const auto p = session->identify();
+  EXPECT_EQ(p["revolution"]["samples"], 300);  // one turn exactly: the second is not taken
+  // Truth: the plate's total tilt (wobble + parallelism) seen at the probe radius, peak to peak.
+  const double r_um = 2 * 0.05 * 3.0e-6 * 1e6;
+  const auto& g = p["squareness"];
+  EXPECT_NEAR(value(g, "runout_um"), r_um, 0.01);
+  EXPECT_NEAR(value(g, "squareness_urad"), (value(g, "runout_um") + 0.25) / 100.0 * 1e3, 1e-9);  // Eq. 21
+  EXPECT_NEAR(value(g, "squareness_amplitude_um"), value(g, "squareness_urad") * 600e-3, 1e-9);   // travel 600 mm
+  EXPECT_LT(g["runout_um"]["u"].get<double>(), 0.01);
+
+  test::TempDir dir;
+  const auto files = session->write_derived(dir.path().string(), "r");
+  ASSERT_EQ(files.size(), 1u);
+  EXPECT_EQ(models::to_json(models::identify_runout(models::read_runout_revolution(files[0]))), p["result"]);
+}
+
+TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
+  sim::MachineConfig cfg;
+  cfg.noise.profilometer_m = 0.02e-6;
+  const sim::Machine machine(cfg);
+  sim::FacingSpec spec;
+  spec.x_start_m = 0.050;
+  spec.x_end_m = 0.060;
+  spec.feed_m_per_s = 2.0 / 60000.0;  // 20 um per revolution at 100 rpm
+  spec.spindle_rpm = 100.0;
+  spec.profile_step_m = 1e-6;
+  const auto points = machine.facing_profile(spec);
+  auto device = profilometer_device();
+  auto session = daemon::profile_session_kind().create({"profile", "", nlohmann::json::object()}, device);
+  std::vector<Sample> out;
+  double t = 0;
+  auto emit = [&](double id, std::size_t from) {
+    for (std::size_t i = from; i < points.size(); ++i, t += 2e-4) {
+      std::uint32_t f = i == 0 ? profilometer::sample_profile_start : 0;
+      if (i + 1 == points.size()) f |= profilometer::sample_profile_end;
+      out.push_back(sample(t, {points[i].x_m, points[i].z_m, id, static_cast<double>(i)}, f));
+    }
+  };
+  emit(1, 9000);  // the end of a profile already under way: not taken
+  session->on_samples(out);
+  EXPECT_FALSE(session->complete());
+  out.clear();
+  emit(2, 0);
+  emit(3, 0);
+  session->on_samples(out);
+  ASSERT_TRUE(session->complete());
+  const auto p = session->identify();
+  EXPECT_EQ(p["profile_id"], 2);
+  EXPECT_EQ(p["points"]["count"], points.size());
+  // 20 um feed marks at 1 um spacing: periods of 16-32 points, Haar level 4 (or 5, the next band).
+  const std::string dominant = p["wavelet"]["dominant_detail"];
+  EXPECT_TRUE(dominant == "d4" || dominant == "d5") << p["wavelet"].dump();
+  // The noise estimate from the finest details finds the configured 0.02 um (the feed marks' slope adds a bit).
+  EXPECT_NEAR(value(p["profile"], "noise_um"), 0.02, 0.01);
+  // Mark depth f^2 / (8 R) = 62.5 nm plus noise: the profile's straightness is of that order; the
+  // form (approximation) has neither marks nor noise.
+  EXPECT_GT(value(p["profile"], "straightness_lsq_um"), 0.06);
+  EXPECT_LT(value(p["profile"], "straightness_lsq_um"), 0.3);
+  EXPECT_LT(value(p["profile"], "form_straightness_um"), value(p["profile"], "straightness_lsq_um"));
+
+  test::TempDir dir;
+  const auto files = session->write_derived(dir.path().string(), "p");
+  ASSERT_EQ(files.size(), 1u);
+  nlohmann::json offline = daemon::evaluate_profile(profilometer::read_profile_csv(files[0]));
+  offline["profile_id"] = p["profile_id"];
+  EXPECT_EQ(offline, p);
+}
+
+TEST(ProfileSession, StoppedBeforeTheEndFailsWithTheReason) {
+  auto device = profilometer_device();
+  auto session = daemon::profile_session_kind().create({"profile", "", nlohmann::json::object()}, device);
+  std::vector<Sample> out{sample(0, {0.0, 0.0, 7, 0}, profilometer::sample_profile_start), sample(1e-3, {1e-6, 0.0, 7, 1})};
+  session->on_samples(out);
+  EXPECT_FALSE(session->complete());
+  EXPECT_THROW(session->identify(), std::runtime_error);
+}
+
+TEST(SessionOptions, BadOptionsAreRefusedWithTheirName) {
+  auto ac = autocollimator_device();
+  auto mm = micrometer_device();
+  auto pf = profilometer_device();
+  auto expect_refused = [](const std::function<void()>& f, const std::string& name) {
+    try {
+      f();
+      ADD_FAILURE() << name << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  };
+  const auto s = daemon::straightness_session_kind();
+  const auto r = daemon::runout_session_kind();
+  const auto p = daemon::profile_session_kind();
+  expect_refused([&] { s.create({"straightness", "", {{"step_mm", -1}}}, ac); }, "step_mm");
+  expect_refused([&] { s.create({"straightness", "", {{"stations", 2.5}}}, ac); }, "stations");
+  expect_refused([&] { s.create({"straightness", "", {{"start", "later"}}}, ac); }, "start");
+  expect_refused([&] { s.create({"straightness", "", {{"pitch_channel", "nope"}}}, ac); }, "nope");
+  expect_refused([&] { s.create({"straightness", "", {{"stepmm", 1}}}, ac); }, "stepmm");
+  expect_refused([&] { r.create({"runout", "", {{"plate_diameter_mm", "big"}}}, mm); }, "plate_diameter_mm");
+  expect_refused([&] { r.create({"runout", "", {{"rpm", 0}}}, mm); }, "rpm");
+  expect_refused([&] { p.create({"profile", "", {{"wavelet", "db99"}}}, pf); }, "wavelet");
+  expect_refused([&] { p.create({"profile", "", {{"level", 0}}}, pf); }, "level");
+}

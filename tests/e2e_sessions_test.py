@@ -1,0 +1,237 @@
+#!/usr/bin/python3
+"""End to end: guidewayd with the embedded default's four emulator processes on their real transports,
+all driven by one virtual machine tool (tests/e2e_sessions_machine.toml: config/machine-example.toml
+plus pitch and yaw of X), runs a straightness traverse, a run-out revolution and a profile at once
+through the `guideway` client with default options. The published parameters are checked against the
+machine's configured errors (independent numpy references), the derived files identify offline to
+the same numbers (`guideway identify straightness|runout`, PyWavelets for the profile), and `status`
+shows zero overruns. Then a daemon killed with SIGKILL in the middle of a session leaves a readable
+.part recording, marked incomplete, whose data ends at most 100 ms before the kill.
+Usage: e2e_sessions_test.py BUILD_DIR"""
+import glob
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+import numpy as np
+import pywt
+
+BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
+GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
+GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+MACHINE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "e2e_sessions_machine.toml")
+ARCSEC = np.pi / (180 * 3600)
+
+
+def lsq_straightness(x, h):
+    d = h - np.polyval(np.polyfit(x, h, 1), x)
+    return d.max() - d.min()
+
+
+class Daemon:
+    """guidewayd on a config (None: the embedded default) with its state in `state`."""
+
+    def __init__(self, tmp, config=None):
+        self.sock = os.path.join(tmp, "g.sock")
+        env = {**os.environ, "XDG_STATE_HOME": os.path.join(tmp, "state")}
+        env.pop("NOTIFY_SOCKET", None)
+        self.log = open(os.path.join(tmp, "guidewayd.log"), "a+")
+        args = [GUIDEWAYD, "--socket", self.sock] + (["--config", config] if config else [])
+        self.proc = subprocess.Popen(args, env=env, stdout=self.log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        deadline = time.monotonic() + 30
+        while not os.path.exists(self.sock):
+            if self.proc.poll() is not None or time.monotonic() > deadline:
+                self.log.seek(0)
+                raise AssertionError("guidewayd did not start:\n" + self.log.read())
+            time.sleep(0.05)
+
+    def cli(self, *args, timeout=30):
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, *args], capture_output=True, text=True, timeout=timeout)
+        if out.returncode != 0:
+            raise AssertionError(f"guideway {' '.join(args)}: {out.stderr}")
+        return out.stdout
+
+    def wait_streaming(self):
+        deadline = time.monotonic() + 20
+        while True:
+            status = json.loads(self.cli("status", "--json"))
+            states = {d["name"]: d["state"] for d in status["devices"]}
+            if set(states.values()) == {"streaming"} or time.monotonic() > deadline:
+                return states
+            time.sleep(0.2)
+
+    def close(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            rc = self.proc.wait(timeout=20)
+            if rc != 0:
+                raise AssertionError(f"guidewayd exited {rc}")
+        if os.path.exists(self.sock):  # after a SIGKILL
+            os.unlink(self.sock)
+        self.log.close()
+
+
+def machine_config(tmp):
+    """The embedded default with every emulator on tests/e2e_sessions_machine.toml."""
+    text = subprocess.run([GUIDEWAYD, "--print-default-config"], capture_output=True, text=True, check=True).stdout
+    text = text.replace("args = [", f'args = ["--machine", "{MACHINE}", ')
+    path = os.path.join(tmp, "e2e.toml")
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+class EndToEndSessions(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(prefix="gws-")
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def test_straightness_runout_and_profile_identify_the_virtual_machine(self):
+        d = Daemon(self.tmp.name, machine_config(self.tmp.name))
+        try:
+            self.assertEqual(set(d.wait_streaming().values()), {"streaming"})
+            began = time.monotonic()
+            # The three sessions run at once (one device each), every option at its default.
+            procs = {kind: subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", kind, "--wait", "--json",
+                                             "--timeout", "60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                            text=True)
+                     for kind in ("straightness", "runout", "profile")}
+            params = {}
+            for kind, p in procs.items():
+                out, err = p.communicate(timeout=90)
+                self.assertEqual(p.returncode, 0, f"{kind}: {err}")
+                params[kind] = json.loads(out.splitlines()[-1])
+                self.assertEqual(params[kind]["class"], "PARAMS", out)
+            print(f"three sessions took {time.monotonic() - began:.1f} s", file=sys.stderr)
+            status = json.loads(d.cli("status", "--json"))
+            for dev in status["devices"]:
+                self.assertEqual(dev["counters"]["overruns"], 0, dev)
+            self.check_straightness(d, params["straightness"])
+            self.check_runout(d, params["runout"])
+            self.check_profile(params["profile"])
+        finally:
+            d.close()
+
+    def check_straightness(self, d, p):
+        # Truth: the reflector's slope is -(E_BX(x) + E_BY(0)) (pitch of X plus the roll of Y at y = 0,
+        # -200 urad) and its yaw E_CX(x), read at x = 0, 50, ..., 600 mm (the emulator's traverse).
+        self.assertEqual(p["traverse"]["stations"], 13)
+        x = np.arange(13) * 50.0
+        truth = {"vertical": -(0.05 * x - 1e-4 * x ** 2 - 200) * 1e-6, "horizontal": -0.03 * x * 1e-6}
+        for plane, slope in truth.items():
+            h = np.concatenate([[0], np.cumsum(50 * np.tan(slope))]) * 1e3  # um
+            expected = lsq_straightness(np.arange(14) * 50.0, h)
+            got = p["straightness"][f"{plane}_least_squares_um"]
+            print(f"straightness {plane}: {got['value']:.4f} +/- {got['u']:.4f} um, machine {expected:.4f} um",
+                  file=sys.stderr)
+            self.assertLess(abs(got["value"] - expected), 2 * got["u"], plane)
+            self.assertLess(got["u"], 0.3, plane)
+        self.assert_recording(p)
+        angles = [f for f in p["derived"] if f.endswith(".angles.csv")]
+        self.assertEqual(len(angles), 1)
+        offline = json.loads(d.cli("identify", "straightness", angles[0], "--json"))
+        offline.pop("source")
+        self.assertEqual(offline, p["result"])
+
+    def check_runout(self, d, p):
+        # Truth: the plate's once-per-revolution tilt (wobble 0.3 + parallelism 2.5 urad) seen by the
+        # probe at 50 mm (the emulator's radius), peak to peak; Eq. 21 with the default options
+        # (L = 1000 mm, p = 2.5 um, travel 600 mm).
+        r_um = 2 * 50e-3 * (0.3 + 2.5)
+        g = p["squareness"]
+        print(f"runout: {g['runout_um']['value']:.4f} +/- {g['runout_um']['u']:.4f} um, machine {r_um:.4f} um; "
+              f"squareness {g['squareness_urad']['value']:.4f} urad", file=sys.stderr)
+        self.assertLess(abs(g["runout_um"]["value"] - r_um), max(3 * g["runout_um"]["u"], 0.01))
+        self.assertAlmostEqual(g["squareness_urad"]["value"], (g["runout_um"]["value"] + 2.5) / 1000 * 1e3, delta=1e-9)
+        self.assertAlmostEqual(g["squareness_amplitude_um"]["value"], g["squareness_urad"]["value"] * 0.6, delta=1e-9)
+        self.assertGreaterEqual(p["revolution"]["samples"], 200)  # 50 Hz polling over 6 s
+        self.assert_recording(p)
+        runout = [f for f in p["derived"] if f.endswith(".runout.csv")]
+        offline = json.loads(d.cli("identify", "runout", runout[0], "--json"))
+        self.assertEqual(offline, p["result"])
+
+    def check_profile(self, p):
+        # Independent reference: numpy and PyWavelets on the derived profile file.
+        path = [f for f in p["derived"] if f.endswith(".profile.csv")][0]
+        with open(path) as f:
+            rows = [l.strip() for l in f if l.strip() and not l.startswith("#")]
+        self.assertEqual(rows[0], "x_mm,z_um")
+        x, z = np.array([[float(c) for c in r.split(",")] for r in rows[1:]]).T
+        self.assertEqual(len(z), p["points"]["count"])
+        self.assertEqual(len(z), 10001)  # the emulator's 10 mm at 1 um
+        self.assertAlmostEqual(p["profile"]["straightness_lsq_um"]["value"], lsq_straightness(x, z), delta=1e-9)
+        coeffs = pywt.wavedec(z, "db1", mode="symmetric", level=5)
+        sigma = np.median(np.abs(coeffs[-1])) / 0.6745
+        self.assertAlmostEqual(p["profile"]["noise_um"]["value"], sigma, delta=1e-12)
+        for b, band in enumerate(p["wavelet"]["bands"]):
+            only = [c if i == b else np.zeros_like(c) for i, c in enumerate(coeffs)]
+            comp = pywt.waverec(only, "db1", mode="symmetric")[:len(z)]
+            if b == 0:
+                self.assertAlmostEqual(band["form_um"], lsq_straightness(x, comp), delta=1e-9)
+            else:
+                self.assertAlmostEqual(band["rms_um"], np.sqrt(np.mean(comp ** 2)), delta=1e-9, msg=band["band"])
+        # The machine: 2 mm/min at 100 rpm leaves 20 um feed marks (Haar band d4: 16-32 um at 1 um spacing).
+        print(f"profile: dominant {p['wavelet']['dominant_detail']}, straightness "
+              f"{p['profile']['straightness_lsq_um']['value']:.4f} um, form {p['profile']['form_straightness_um']['value']:.4f} um",
+              file=sys.stderr)
+        self.assertIn(p["wavelet"]["dominant_detail"], ("d4", "d5"))
+        self.assertAlmostEqual(sigma, 0.02, delta=0.01)  # [noise] profilometer_um
+        self.assert_recording(p)
+
+    def assert_recording(self, p):
+        with open(p["recording"]) as f:
+            text = f.read()
+        self.assertIn("# format = guideway/raw/1", text)
+        self.assertIn(f"# kind = {p['kind']}", text)
+        self.assertIn("# end = complete", text)
+
+    def test_sigkill_leaves_a_readable_incomplete_recording(self):
+        d = Daemon(self.tmp.name)
+        try:
+            d.wait_streaming()
+            d.cli("start", "dbb")  # the 250 Hz ball bar: the densest recording
+            time.sleep(1.5)
+            kill_ns = time.monotonic_ns()
+            d.proc.send_signal(signal.SIGKILL)
+            d.proc.wait(timeout=10)
+        finally:
+            d.close()
+        parts = glob.glob(os.path.join(self.tmp.name, "state", "guideway", "*.csv.part"))
+        self.assertEqual(len(parts), 1, os.listdir(os.path.join(self.tmp.name, "state", "guideway")))
+        with open(parts[0]) as f:
+            text = f.read()
+        lines = text.split("\n")
+        self.assertEqual(lines[0], "# format = guideway/raw/1")
+        header = next(i for i, l in enumerate(lines) if not l.startswith("#"))
+        self.assertEqual(lines[header], "t_mono_ns,seq,flags,bar_length_m,x_m,y_m")
+        # A kill in the middle of a write() may leave a last line without its newline: readers drop it.
+        rows = lines[header + 1:-1]
+        self.assertFalse(any(l.startswith("# end") for l in lines), "a killed recording has no end marker")
+        self.assertGreater(len(rows), 100)
+        t = [int(r.split(",")[0]) for r in rows]
+        seq = [int(r.split(",")[1]) for r in rows]
+        self.assertTrue(all(b > a for a, b in zip(t, t[1:])))
+        self.assertEqual(seq, list(range(seq[0], seq[0] + len(seq))), "no sample lost before the kill")
+        age_ms = (kill_ns - t[-1]) / 1e6
+        print(f"SIGKILL: {len(rows)} rows, the last sample {age_ms:.1f} ms before the kill", file=sys.stderr)
+        self.assertLessEqual(age_ms, 100.0)
+        # A daemon started afterwards lists it as incomplete.
+        d2 = Daemon(self.tmp.name)
+        try:
+            recs = json.loads(d2.cli("recordings", "--json"))["recordings"]
+            rec = [r for r in recs if r["file"] == parts[0]]
+            self.assertEqual(len(rec), 1, recs)
+            self.assertFalse(rec[0]["complete"])
+        finally:
+            d2.close()
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
