@@ -1,11 +1,14 @@
-// `guideway identify straightness|unionjack|runout`: offline evaluation of an autocollimator
-// traverse, a Union Jack surface-plate set and a spindle run-out revolution (models/flatness).
+// `guideway identify straightness|unionjack|runout|flatness`: offline evaluation of an autocollimator
+// traverse, a Union Jack surface-plate set, a spindle run-out revolution and the profiles of a faced
+// workpiece (models/flatness).
 #include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <sstream>
+#include <vector>
 
 #include "cli/commands.hpp"
 #include "models/flatness/json.hpp"
@@ -13,6 +16,8 @@
 #include "models/flatness/straightness.hpp"
 #include "models/flatness/table_reader.hpp"
 #include "models/flatness/union_jack.hpp"
+#include "models/flatness/workpiece_flatness.hpp"
+#include "models/flatness/workpiece_flatness_json.hpp"
 
 namespace guideway::cli {
 
@@ -37,6 +42,8 @@ void run_reporting(F&& f) {
   try {
     f();
   } catch (const gm::InputError& e) {
+    throw std::runtime_error(e.what());
+  } catch (const std::invalid_argument& e) {
     throw std::runtime_error(e.what());
   }
 }
@@ -188,6 +195,76 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
           std::cout << "squareness amplitude over " << std::setprecision(1) << *r.travel_m * 1e3
                     << " mm travel: " << std::setprecision(3) << *r.squareness_amplitude_m * 1e6 << " um (u "
                     << *r.u_squareness_amplitude_m * 1e6 << ")\n";
+      });
+    });
+  }
+  {
+    auto* cmd = id->add_subcommand(
+        "flatness", "which carriage error shows on a faced workpiece: wavelet step and correlation (Mu 2012)");
+    auto profiles = std::make_shared<std::vector<std::string>>();
+    auto straightness = std::make_shared<std::string>();
+    auto runout = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    auto wavelet = std::make_shared<std::string>("db1");
+    auto levels = std::make_shared<int>(5);
+    auto u_arcsec = std::make_shared<double>(0.0);
+    cmd->add_option("--profile", *profiles, "faced-workpiece profile, x_mm,z_um (repeatable; docs/formats.md)")
+        ->required();
+    cmd->add_option("--straightness", *straightness, "autocollimator traverse of the X carriage (x_mm,pitch_arcsec)")
+        ->required();
+    cmd->add_option("--runout", *runout, "run-out revolution for the Eq. 21 cross-check (angle_deg,runout_um)");
+    cmd->add_option("--wavelet", *wavelet, "Daubechies wavelet of the decomposition (Mu: db1)");
+    cmd->add_option("--levels", *levels, "decomposition levels; s1 = the approximation at the deepest")
+        ->check(CLI::Range(1, 20));
+    cmd->add_option("--angle-u-arcsec", *u_arcsec, "standard uncertainty per traverse reading (default: TA80)");
+    cmd->add_flag("--json", *json, "print the result as one JSON object");
+    cmd->callback([=] {
+      run_reporting([&] {
+        gm::StraightnessOptions sopt;
+        if (*u_arcsec > 0) sopt.instrument.u_override_rad = *u_arcsec * gm::rad_per_arcsec;
+        std::vector<gm::WorkpieceProfile> ps;
+        for (const auto& f : *profiles) ps.push_back(gm::read_workpiece_profile(f));
+        const auto tr = gm::read_angle_traverse(*straightness, sopt.instrument);
+        std::optional<gm::RunoutRevolution> rev;
+        if (!runout->empty()) rev = gm::read_runout_revolution(*runout);
+        gm::WorkpieceFlatnessOptions opt;
+        opt.wavelet = *wavelet;
+        opt.levels = *levels;
+        const auto r = gm::analyse_workpiece_flatness(ps, tr, rev, opt, sopt);
+        if (*json) {
+          std::cout << gm::to_json(r).dump() << "\n";
+          return;
+        }
+        std::cout << std::fixed << std::setprecision(3);
+        std::cout << "straightness y2 (Eq. 10, " << r.straightness_source << "): order " << r.straightness.order
+                  << ", fit residual rms " << r.straightness.residual_rms_m * 1e6 << " um\n"
+                  << "wavelet " << r.wavelet << ", " << r.levels << " levels; s1 = A" << r.levels << "\n";
+        for (const auto& p : r.profiles) {
+          std::cout << p.source << ": " << p.points << " points, " << std::setprecision(1) << p.x_start_m * 1e3
+                    << ".." << p.x_end_m * 1e3 << " mm, feed " << p.feed_m_per_s * 60e3 << " mm/min, "
+                    << p.spindle_rpm << " rpm; p-v " << std::setprecision(3) << p.peak_to_valley_m * 1e6
+                    << " um (low frequency " << p.low_frequency_peak_to_valley_m * 1e6 << " um)\n";
+          for (const auto& c : p.correlations)
+            std::cout << "  " << std::left << std::setw(13) << c.name << std::right
+                      << " gamma before wavelet (Eq. 19) " << std::setw(7) << c.gamma_before
+                      << ", after (Eq. 20) " << std::setw(7) << c.gamma_after << "\n";
+          std::cout << "  dominant: " << p.dominant << " (impact factor " << p.impact_factor << ")\n"
+                    << "  squareness " << p.squareness_rad * 1e6 << " urad (u " << p.u_squareness_rad * 1e6
+                    << "), amplitude " << p.squareness_amplitude_m * 1e6 << " um (u "
+                    << p.u_squareness_amplitude_m * 1e6 << ")\n";
+        }
+        std::cout << "dominant error: " << r.dominant << " (impact factor " << r.impact_factor << ")\n"
+                  << "squareness (all profiles): " << r.squareness_rad * 1e6 << " urad (u "
+                  << r.u_squareness_rad * 1e6 << "), amplitude over " << std::setprecision(1) << r.travel_m * 1e3
+                  << " mm: " << std::setprecision(3) << r.squareness_amplitude_m * 1e6 << " um (u "
+                  << r.u_squareness_amplitude_m * 1e6 << ")\n";
+        if (r.runout_check) {
+          const auto& c = *r.runout_check;
+          std::cout << "Eq. 21 from " << *runout << ": " << c.runout.deflection_rad * 1e6 << " urad (u "
+                    << c.runout.u_deflection_rad * 1e6 << "); profile - Eq. 21 = " << c.difference_rad * 1e6
+                    << " urad (u " << c.u_difference_rad * 1e6 << "): "
+                    << (c.consistent ? "consistent" : "NOT consistent") << " within 2u\n";
+        }
       });
     });
   }
