@@ -27,6 +27,14 @@ std::string number(double v) {
   return std::string(buf, r.ptr);
 }
 
+// Set-up values for metadata lines: 15 significant digits hide the unit conversion's last bit.
+std::string setting(double v) {
+  std::ostringstream s;
+  s.precision(15);
+  s << v;
+  return s.str();
+}
+
 void write_file(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
   out << text;
@@ -69,7 +77,7 @@ std::string straightness_traverse_csv(const sim::Machine& machine, const Workpie
   t.step_m = spec.step_m;
   t.seed = seed_of(machine, spec.seed) + 1;
   std::ostringstream out;
-  out << "# step_mm = " << number(spec.step_m * 1e3) << "\n# machine = " << machine.config().name
+  out << "# step_mm = " << setting(spec.step_m * 1e3) << "\n# machine = " << machine.config().name
       << "\nx_mm,pitch_arcsec,yaw_arcsec\n";
   // Rotation about +y is minus the slope of the vertical path, rotation about +z plus the slope of the
   // horizontal one (docs/formats.md, Straightness traverse).
@@ -86,8 +94,8 @@ std::string runout_revolution_csv(const sim::Machine& machine, const WorkpieceFi
   r.rpm = spec.spindle_rpm;
   r.seed = seed_of(machine, spec.seed) + 2;
   std::ostringstream out;
-  out << "# plate_diameter_mm = " << number(2 * spec.probe_radius_m * 1e3)
-      << "\n# parallelism_um = " << number(spec.parallelism_m * 1e6) << "\n# travel_mm = " << number(spec.traverse_m * 1e3)
+  out << "# plate_diameter_mm = " << setting(2 * spec.probe_radius_m * 1e3)
+      << "\n# parallelism_um = " << setting(spec.parallelism_m * 1e6) << "\n# travel_mm = " << setting(spec.traverse_m * 1e3)
       << "\n# machine = " << machine.config().name << "\nangle_deg,runout_um\n";
   for (const auto& s : machine.runout_revolution(r))
     out << number(s.angle_rad * 180.0 / std::numbers::pi) << "," << number(s.displacement_m * 1e6) << "\n";
@@ -148,9 +156,9 @@ ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpe
     std::ostringstream out;
     out << "# format = guideway/artifact/1\n# placement = " << names[placement] << "\n# axis = x\n";
     if (placement == 0)
-      out << "# k_um_per_px = " << number(k * 1e6) << "\n# m_px_per_arcsec = " << number(m * arcsec) << "\n";
-    out << "# u_spot_px = " << number(spec.spot_noise_px) << "\n# u_position_um = "
-        << number(placement == 0 ? spec.laser_noise_m * 1e6 : 0.0) << "\n# machine = " << machine.config().name << "\n";
+      out << "# k_um_per_px = " << setting(k * 1e6) << "\n# m_px_per_arcsec = " << setting(m * arcsec) << "\n";
+    out << "# u_spot_px = " << setting(spec.spot_noise_px) << "\n# u_position_um = "
+        << setting(placement == 0 ? spec.laser_noise_m * 1e6 : 0.0) << "\n# machine = " << machine.config().name << "\n";
     out << "target,X_M_mm," << (placement == 2 ? "Z_M_mm" : "Y_M_mm") << ",x_M_px,y_M_px,x_F_px,y_F_px\n";
     for (std::size_t i = 0; i < n; ++i) {
       // Commanded measurement point over the nominal target; the sensor's actual error there.

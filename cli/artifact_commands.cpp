@@ -1,0 +1,87 @@
+// `guideway identify artifact`: six error motions of a linear axis from a 1-D artifact measured on
+// a reference (calibration) and by the machine, horizontal and vertical (models/artifact, Wei 2019).
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <sstream>
+
+#include "cli/commands.hpp"
+#include "core/csv_table.hpp"
+#include "models/artifact/artifact.hpp"
+#include "models/artifact/artifact_json.hpp"
+
+namespace guideway::cli {
+
+namespace {
+
+namespace gm = guideway::models;
+
+// The `identify` subcommand is shared with other groups: reuse it whatever the initialisation order.
+CLI::App* identify_command(CLI::App& app) {
+  try {
+    return app.get_subcommand("identify");
+  } catch (const CLI::OptionNotFound&) {
+  }
+  auto* id = app.add_subcommand("identify", "identify model parameters from a recording or measurement file");
+  id->require_subcommand(1);
+  return id;
+}
+
+void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
+  CLI::App* id = identify_command(app);
+  auto* cmd = id->add_subcommand("artifact", "six error motions of a linear axis from a 1-D artifact (Wei 2019)");
+  auto cal = std::make_shared<std::string>();
+  auto hor = std::make_shared<std::string>();
+  auto ver = std::make_shared<std::string>();
+  auto json = std::make_shared<bool>(false);
+  auto no_coupling = std::make_shared<bool>(false);
+  cmd->add_option("--calibration", *cal, "the artifact on the reference (docs/formats.md, 1-D artifact)")->required();
+  cmd->add_option("--horizontal", *hor, "the artifact measured by the machine, lying horizontally")->required();
+  cmd->add_option("--vertical", *ver, "the artifact measured by the machine, standing vertically")->required();
+  cmd->add_flag("--no-angle-coupling", *no_coupling, "leave out Wei's k m epsilon correction (to see its size)");
+  cmd->add_flag("--json", *json, "print the result as one JSON object");
+  cmd->callback([=] {
+    try {
+      const auto c = gm::read_artifact_readings(*cal, gm::ArtifactPlacement::calibration);
+      const auto h = gm::read_artifact_readings(*hor, gm::ArtifactPlacement::horizontal);
+      const auto v = gm::read_artifact_readings(*ver, gm::ArtifactPlacement::vertical);
+      gm::ArtifactOptions opt;
+      opt.angle_coupling = !*no_coupling;
+      const auto r = gm::identify_artifact(c, h, v, opt);
+      if (*json) {
+        std::cout << gm::to_json(r).dump() << "\n";
+        return;
+      }
+      constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
+      std::cout << std::fixed << std::setprecision(4) << "k = " << r.k_m_per_px * 1e6 << " um/px, m = "
+                << r.m_px_per_rad * arcsec << " px/arcsec, k m = " << r.coupling_m_per_rad * 1e6 * arcsec
+                << " um/arcsec" << (opt.angle_coupling ? "" : " (coupling correction OFF)") << "\n"
+                << "error motions of the tool relative to target 0 (value +/- standard uncertainty):\n"
+                << "target     x_mm        dx_um         dy_um         dz_um        ex_arcsec     ey_arcsec     "
+                   "ez_arcsec\n";
+      std::cout << std::setprecision(3);
+      for (const auto& e : r.targets) {
+        auto pm = [](double value, double u) {
+          std::ostringstream s;
+          s << std::fixed << std::setprecision(3) << std::setw(6) << value << "+/-" << std::setprecision(3) << u;
+          return s.str();
+        };
+        std::cout << std::setw(6) << e.target << std::setw(9) << std::setprecision(2) << e.x_m * 1e3 << "  "
+                  << std::setw(13) << pm(e.dx_m * 1e6, e.u_dx_m * 1e6) << " " << std::setw(13)
+                  << pm(e.dy_m * 1e6, e.u_dy_m * 1e6) << " " << std::setw(13) << pm(e.dz_m * 1e6, e.u_dz_m * 1e6)
+                  << " " << std::setw(13) << pm(e.ex_rad / arcsec, e.u_ex_rad / arcsec) << " " << std::setw(13)
+                  << pm(e.ey_rad / arcsec, e.u_ey_rad / arcsec) << " " << std::setw(13)
+                  << pm(e.ez_rad / arcsec, e.u_ez_rad / arcsec) << "\n";
+      }
+    } catch (const CsvError& e) {
+      throw std::runtime_error(e.what());
+    }
+  });
+}
+
+const CommandGroup group(&add_artifact_commands);
+
+}  // namespace
+
+}  // namespace guideway::cli

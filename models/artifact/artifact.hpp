@@ -1,0 +1,78 @@
+#pragma once
+// Six error motions of a linear axis from a 1-D artifact (Wei et al. 2019, Sec. 3): targets of a
+// plane mirror and a paraboloid, read by an angle sensor carried by the machine. Each placement
+// (calibration on a reference, the machine with the artifact horizontal, then vertical) gives per
+// target the relative mirror angles theta_x, theta_y and the relative feature-point positions
+// X_F, Y_F (Sec. 3.2's equations); the differences machine - calibration give, per target and
+// relative to the first target, roll and pitch (horizontal), yaw (vertical), and the positioning
+// and straightness errors after the angle-coupling correction k m epsilon. Pure functions (file
+// reading aside); thread safe. SI inside (m, rad); docs/formats.md "1-D artifact" has the files.
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace guideway::models {
+
+enum class ArtifactPlacement { calibration, horizontal, vertical };
+
+// One artifact file: per target, the machine (or laser) coordinates of the measurement point and
+// the four spot coordinates (px). Conversion coefficients only from the calibration file.
+struct ArtifactReadings {
+  std::string source;
+  ArtifactPlacement placement = ArtifactPlacement::calibration;
+  double k_m_per_px = 0.0;     // calibration only: spot displacement -> displacement
+  double m_px_per_rad = 0.0;   // calibration only: angle -> spot displacement
+  double u_k_m_per_px = 0.0;
+  double u_m_px_per_rad = 0.0;
+  double u_spot_px = 0.0;      // standard uncertainty of each spot coordinate
+  double u_position_m = 0.0;   // of each measurement-point coordinate (laser or machine feedback)
+  std::vector<int> target;
+  std::vector<double> along_m;   // X_M
+  std::vector<double> across_m;  // Y_M (calibration, horizontal) or Z_M (vertical)
+  std::vector<double> x_M_px, y_M_px, x_F_px, y_F_px;
+  std::vector<std::size_t> line;
+};
+
+// Throws CsvError "file:line: message": missing metadata or column, non-numeric cells, a placement
+// other than `expected`, targets not numbered 0, 1, 2, ... in order, fewer than 2 targets.
+ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source,
+                                         ArtifactPlacement expected);
+ArtifactReadings read_artifact_readings(const std::string& path, ArtifactPlacement expected);
+
+// Sec. 3.1-3.2 for one placement, relative to target 0: theta_x = (y_F,i - y_F,0)/m,
+// theta_y = (x_F,i - x_F,0)/m, X_F = k (x_M0 - x_F0) + (X_Mi - X_M0) + k (x_Fi - x_Mi), likewise Y_F.
+struct ArtifactPlacementValues {
+  std::vector<double> theta_x_rad, theta_y_rad, X_F_m, Y_F_m;
+};
+ArtifactPlacementValues placement_values(const ArtifactReadings& r, double k_m_per_px, double m_px_per_rad);
+
+// The error motions of the tool (sensor) relative to the table at one target, relative to target 0,
+// in ISO 230-1 signs (the virtual machine tool's): dx positioning, dy / dz straightness, ex roll,
+// ey pitch, ez yaw (right-handed about +x, +y, +z). Wei's delta = X'_F - X_F - k m epsilon is the
+// apparent shift of the targets, the opposite of the tool's error: d = -delta.
+struct ArtifactTargetErrors {
+  int target = 0;
+  double x_m = 0.0;  // machine X of the measurement point (horizontal placement)
+  double dx_m = 0, dy_m = 0, dz_m = 0, ex_rad = 0, ey_rad = 0, ez_rad = 0;
+  double u_dx_m = 0, u_dy_m = 0, u_dz_m = 0, u_ex_rad = 0, u_ey_rad = 0, u_ez_rad = 0;
+  double ex_vertical_rad = 0, u_ex_vertical_rad = 0;  // roll again from the vertical placement (a check)
+};
+
+struct ArtifactOptions {
+  bool angle_coupling = true;  // apply Wei's k m epsilon correction (off only to show its size)
+};
+
+struct ArtifactResult {
+  double k_m_per_px = 0, m_px_per_rad = 0, u_k_m_per_px = 0, u_m_px_per_rad = 0;
+  double coupling_m_per_rad = 0;  // k m
+  ArtifactPlacementValues calibration, horizontal, vertical;
+  std::vector<ArtifactTargetErrors> targets;
+};
+
+// Throws CsvError naming a file when the three do not have the same targets.
+ArtifactResult identify_artifact(const ArtifactReadings& calibration, const ArtifactReadings& horizontal,
+                                 const ArtifactReadings& vertical, const ArtifactOptions& options = {});
+
+}  // namespace guideway::models

@@ -1,0 +1,55 @@
+#include "models/artifact/artifact_json.hpp"
+
+#include <numbers>
+
+namespace guideway::models {
+
+namespace {
+
+constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
+
+nlohmann::json placement_json(const ArtifactPlacementValues& v) {
+  nlohmann::json j = nlohmann::json::array();
+  for (std::size_t i = 0; i < v.X_F_m.size(); ++i)
+    j.push_back({{"theta_x_arcsec", v.theta_x_rad[i] / arcsec},
+                 {"theta_y_arcsec", v.theta_y_rad[i] / arcsec},
+                 {"X_F_mm", v.X_F_m[i] * 1e3},
+                 {"Y_F_mm", v.Y_F_m[i] * 1e3}});
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json to_json(const ArtifactResult& r) {
+  nlohmann::json j;
+  j["k_um_per_px"] = r.k_m_per_px * 1e6;
+  j["u_k_um_per_px"] = r.u_k_m_per_px * 1e6;
+  j["m_px_per_arcsec"] = r.m_px_per_rad * arcsec;
+  j["u_m_px_per_arcsec"] = r.u_m_px_per_rad * arcsec;
+  j["coupling_um_per_arcsec"] = r.coupling_m_per_rad * 1e6 * arcsec;
+  j["calibration"] = placement_json(r.calibration);
+  j["horizontal"] = placement_json(r.horizontal);
+  j["vertical"] = placement_json(r.vertical);
+  nlohmann::json t = nlohmann::json::array();
+  for (const auto& e : r.targets)
+    t.push_back({{"target", e.target},
+                 {"x_mm", e.x_m * 1e3},
+                 {"dx_um", e.dx_m * 1e6},
+                 {"u_dx_um", e.u_dx_m * 1e6},
+                 {"dy_um", e.dy_m * 1e6},
+                 {"u_dy_um", e.u_dy_m * 1e6},
+                 {"dz_um", e.dz_m * 1e6},
+                 {"u_dz_um", e.u_dz_m * 1e6},
+                 {"ex_arcsec", e.ex_rad / arcsec},
+                 {"u_ex_arcsec", e.u_ex_rad / arcsec},
+                 {"ey_arcsec", e.ey_rad / arcsec},
+                 {"u_ey_arcsec", e.u_ey_rad / arcsec},
+                 {"ez_arcsec", e.ez_rad / arcsec},
+                 {"u_ez_arcsec", e.u_ez_rad / arcsec},
+                 {"ex_vertical_arcsec", e.ex_vertical_rad / arcsec},
+                 {"u_ex_vertical_arcsec", e.u_ex_vertical_rad / arcsec}});
+  j["targets"] = t;
+  return j;
+}
+
+}  // namespace guideway::models

@@ -1,0 +1,13 @@
+#pragma once
+// JSON form of the 1-D artifact identification (CLI --json): units in the key names, standard
+// uncertainties as "u_<name>" (docs/cli.md).
+
+#include <nlohmann/json.hpp>
+
+#include "models/artifact/artifact.hpp"
+
+namespace guideway::models {
+
+nlohmann::json to_json(const ArtifactResult& r);
+
+}  // namespace guideway::models
