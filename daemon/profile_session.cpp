@@ -262,7 +262,7 @@ class ProfileSession : public Session {
     const profilometer::Profile read = profilometer::parse_profile_csv(text_, "profile");
     try {
       nlohmann::json j = evaluate_profile(read, o_.eval);
-      j["profile_id"] = profile_id_;
+      j["profile_id"] = static_cast<std::uint64_t>(profile_id_);
       return j;
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());

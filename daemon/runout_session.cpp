@@ -84,8 +84,7 @@ class RunoutSession : public Session {
   [[nodiscard]] std::string progress() const override {
     std::ostringstream p;
     const double deg = angle_deg_.empty() ? 0.0 : angle_deg_.back();
-    p << static_cast<int>(deg) << " of " << static_cast<int>(o_.revolutions * 360.0) << " deg, " << angle_deg_.size()
-      << " samples";
+    p << static_cast<int>(deg) << " of " << static_cast<int>(o_.revolutions * 360.0) << " deg";
     if (skipped_) p << " (" << skipped_ << " invalid readings skipped)";
     return p.str();
   }
