@@ -36,9 +36,13 @@ void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
   auto ver = std::make_shared<std::string>();
   auto json = std::make_shared<bool>(false);
   auto no_coupling = std::make_shared<bool>(false);
+  auto k_scan = std::make_shared<std::string>();
+  auto m_scan = std::make_shared<std::string>();
   cmd->add_option("--calibration", *cal, "the artifact on the reference (docs/formats.md, 1-D artifact)")->required();
   cmd->add_option("--horizontal", *hor, "the artifact measured by the machine, lying horizontally")->required();
   cmd->add_option("--vertical", *ver, "the artifact measured by the machine, standing vertically")->required();
+  cmd->add_option("--k-scan", *k_scan, "displacement scan across one paraboloid (X_M_mm,x_M_px): k from a line fit");
+  cmd->add_option("--m-scan", *m_scan, "angle scan of one mirror (theta_arcsec,x_F_px): m from a line fit");
   cmd->add_flag("--no-angle-coupling", *no_coupling, "leave out Wei's k m epsilon correction (to see its size)");
   cmd->add_flag("--json", *json, "print the result as one JSON object");
   cmd->callback([=] {
@@ -48,6 +52,8 @@ void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
       const auto v = gm::read_artifact_readings(*ver, gm::ArtifactPlacement::vertical);
       gm::ArtifactOptions opt;
       opt.angle_coupling = !*no_coupling;
+      if (!k_scan->empty()) opt.k_scan = gm::read_k_scan(*k_scan);
+      if (!m_scan->empty()) opt.m_scan = gm::read_m_scan(*m_scan);
       const auto r = gm::identify_artifact(c, h, v, opt);
       if (*json) {
         std::cout << gm::to_json(r).dump() << "\n";
@@ -56,7 +62,16 @@ void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
       constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
       std::cout << std::fixed << std::setprecision(4) << "k = " << r.k_m_per_px * 1e6 << " um/px, m = "
                 << r.m_px_per_rad * arcsec << " px/arcsec, k m = " << r.coupling_m_per_rad * 1e6 * arcsec
-                << " um/arcsec" << (opt.angle_coupling ? "" : " (coupling correction OFF)") << "\n"
+                << " um/arcsec" << (opt.angle_coupling ? "" : " (coupling correction OFF)") << "\n";
+      if (r.k_scan)
+        std::cout << "k from " << r.k_scan->source << ": " << r.k_m_per_px * 1e6 << " um/px (u " << std::setprecision(6)
+                  << r.u_k_m_per_px * 1e6 << std::setprecision(4) << "), " << r.k_scan->points
+                  << " points, residual rms " << r.k_scan->residual_rms_px << " px\n";
+      if (r.m_scan)
+        std::cout << "m from " << r.m_scan->source << ": " << r.m_px_per_rad * arcsec << " px/arcsec (u "
+                  << std::setprecision(6) << r.u_m_px_per_rad * arcsec << std::setprecision(4) << "), "
+                  << r.m_scan->points << " points, residual rms " << r.m_scan->residual_rms_px << " px\n";
+      std::cout
                 << "error motions of the tool relative to target 0 (value +/- standard uncertainty):\n"
                 << "target     x_mm        dx_um         dy_um         dz_um        ex_arcsec     ey_arcsec     "
                    "ez_arcsec\n";

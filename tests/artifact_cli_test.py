@@ -95,6 +95,27 @@ with tempfile.TemporaryDirectory() as d:
     p = subprocess.run(args, capture_output=True, text=True, timeout=60)
     check(p.returncode == 0 and "dx_um" in p.stdout and len(p.stdout.splitlines()) == 3 + 9, "text table")
 
+    # k and m from the scans (Wei Sec. 3.2): line fits against numpy's lstsq.
+    ks, ms_ = os.path.join(d, "k_scan.csv"), os.path.join(d, "m_scan.csv")
+    p = subprocess.run(args + ["--k-scan", ks, "--m-scan", ms_, "--json"], capture_output=True, text=True, timeout=60)
+    check(p.returncode == 0, "identify artifact with scans runs: " + p.stderr.strip())
+    rs = json.loads(p.stdout)
+    for path, xcol, ycol, scale, key, conv in ((ks, "X_M_mm", "x_M_px", 1e-3, "k_um_per_px", "k"),
+                                               (ms_, "theta_arcsec", "x_F_px", ARCSEC, "m_px_per_arcsec", "m")):
+        _, sc = read(path)
+        x, y = sc[xcol] * scale, sc[ycol]
+        J = np.column_stack([np.ones_like(x), x])
+        sol, *_ = np.linalg.lstsq(J, y, rcond=None)
+        res = y - J @ sol
+        u_slope = np.sqrt(res @ res / (len(x) - 2) * np.linalg.inv(J.T @ J)[1, 1])
+        if conv == "k":
+            val, u = 1e6 / sol[1], 1e6 * u_slope / sol[1] ** 2
+        else:
+            val, u = sol[1] * ARCSEC, u_slope * ARCSEC
+        check(abs(rs[key] - val) < 1e-9 * val and abs(rs["u_" + key] - u) < 1e-6 * u,
+              "%s from the scan %.6f (u %.6f), numpy %.6f (u %.6f)" % (conv, rs[key], rs["u_" + key], val, u))
+    check(abs(rs["k_um_per_px"] - 1.6) < 3 * rs["u_k_um_per_px"], "k scan recovers the sensor's 1.6 um/px")
+
     # Bad input: a non-numeric spot, a vertical file given as the horizontal one, a short machine file.
     lines = open(hor).read().splitlines()
     hdr = next(i for i, l in enumerate(lines) if l.startswith("target"))

@@ -138,6 +138,47 @@ TEST(Artifact, UncertaintiesCoverTheTruthInRepeatedMeasurements) {
               static_cast<double>(all) / (6.0 * count));
 }
 
+TEST(Artifact, ScansCalibrateKAndM) {
+  // Wei Sec. 3.2: k and m from line fits of the spot against laser distances and known angles.
+  const sim::Machine m = sim::Machine::from_file(kMachine);
+  em::ArtifactFilesSpec s;
+  s.seed = 21;
+  const auto f = em::artifact_files(m, s);
+  const auto k = fit_k_scan(f.k_scan, "k_scan.csv");
+  const auto mm = fit_m_scan(f.m_scan, "m_scan.csv");
+  std::printf("k = %.5f um/px (u %.5f), m = %.5f px/arcsec (u %.5f); configured 1.6, %.5f\n", k.coefficient * 1e6,
+              k.u * 1e6, mm.coefficient * arcsec, mm.u * arcsec, s.m_px_per_rad * arcsec);
+  EXPECT_EQ(k.points, 21u);
+  EXPECT_NEAR(k.coefficient, s.k_m_per_px, 3 * k.u);
+  EXPECT_NEAR(mm.coefficient, s.m_px_per_rad, 3 * mm.u);
+  EXPECT_LT(k.u / k.coefficient, 0.01);
+  ArtifactOptions opt;
+  opt.k_scan = k;
+  opt.m_scan = mm;
+  const auto r = identify(f, opt);
+  EXPECT_EQ(r.k_m_per_px, k.coefficient);
+  EXPECT_EQ(r.u_m_px_per_rad, mm.u);
+  const auto t = truth(m, s);
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const auto v = values(r.targets[i]);
+    const auto u = uncertainties(r.targets[i]);
+    for (std::size_t q = 0; q < 6; ++q) EXPECT_LE(std::abs(v[q] - t[i][q]), 3 * u[q] + 1e-15) << kNames[q];
+  }
+  auto err = [](const std::string& text) {
+    try {
+      (void)fit_k_scan(text, "k.csv");
+    } catch (const CsvError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(err("# scan = displacement\nX_M_mm,x_M_px\n0,1\n0.01,2\n0.02,abc\n"),
+            "k.csv:5: column 'x_M_px': 'abc' is not a finite number");
+  EXPECT_EQ(err("# scan = angle\nX_M_mm,x_M_px\n0,1\n"), "k.csv: scan is 'angle', expected 'displacement'");
+  EXPECT_EQ(err("# scan = displacement\nX_M_mm,x_M_px\n0,1\n0.01,2\n"), "k.csv: 2 points; a scan needs at least 3");
+  EXPECT_EQ(err("# scan = displacement\nX_mm,x_M_px\n0,1\n0.01,2\n0.02,3\n"), "k.csv:2: missing column 'X_M_mm'");
+}
+
 std::string error_of(const std::string& text, ArtifactPlacement p = ArtifactPlacement::calibration) {
   try {
     (void)parse_artifact_readings(text, "a.csv", p);
@@ -161,8 +202,20 @@ TEST(Artifact, BadInputNamesFileAndLine) {
   EXPECT_NE(error_of(kMeta + kHeader + "0,50,0,1,2,3,4\n1,100,0,1,2,3\n").find("a.csv:6:"), std::string::npos);
   EXPECT_NE(error_of(kMeta + kHeader + "0,50,0,1,2,3,4\n2,100,0,1,2,3,4\n").find("a.csv:6: target 2, expected 1"),
             std::string::npos);
-  EXPECT_EQ(error_of("# placement = calibration\n# m_px_per_arcsec = 0.44\n" + kHeader + rows),
-            "a.csv: metadata 'k_um_per_px' missing");
+  // k and m may come from scans instead; without either, identification says which is missing.
+  const auto no_k = parse_artifact_readings("# placement = calibration\n# m_px_per_arcsec = 0.44\n" + kHeader + rows,
+                                            "nok.csv", ArtifactPlacement::calibration);
+  const auto hh = parse_artifact_readings("# placement = horizontal\n" + kHeader + rows, "h.csv",
+                                          ArtifactPlacement::horizontal);
+  const auto vv = parse_artifact_readings(
+      "# placement = vertical\ntarget,X_M_mm,Z_M_mm,x_M_px,y_M_px,x_F_px,y_F_px\n" + rows, "v.csv",
+      ArtifactPlacement::vertical);
+  try {
+    (void)identify_artifact(no_k, hh, vv);
+    ADD_FAILURE() << "no error";
+  } catch (const CsvError& e) {
+    EXPECT_EQ(std::string(e.what()), "nok.csv: missing metadata line '# k_um_per_px = <number>' (or give a k scan)");
+  }
   EXPECT_EQ(error_of(kMeta + kHeader + rows, ArtifactPlacement::vertical),
             "a.csv: placement is 'calibration', expected 'vertical'");
   // Vertical files give Z_M_mm.

@@ -89,8 +89,8 @@ ArtifactReadings parse_artifact_readings(std::string_view text, const std::strin
     throw CsvError(source + ": placement is '" + p->second + "', expected '" + placement_name(expected) + "'");
   r.placement = expected;
   if (expected == ArtifactPlacement::calibration) {
-    r.k_m_per_px = positive_meta(t, "k_um_per_px") * 1e-6;
-    r.m_px_per_rad = positive_meta(t, "m_px_per_arcsec") / rad_per_arcsec;
+    if (t.metadata.count("k_um_per_px") != 0) r.k_m_per_px = positive_meta(t, "k_um_per_px") * 1e-6;
+    if (t.metadata.count("m_px_per_arcsec") != 0) r.m_px_per_rad = positive_meta(t, "m_px_per_arcsec") / rad_per_arcsec;
     r.u_k_m_per_px = optional_non_negative(t, "u_k_um_per_px", 0.0) * 1e-6;
     r.u_m_px_per_rad = optional_non_negative(t, "u_m_px_per_arcsec", 0.0) / rad_per_arcsec;
   }
@@ -123,6 +123,70 @@ ArtifactReadings parse_artifact_readings(std::string_view text, const std::strin
   return r;
 }
 
+namespace {
+
+// Straight line spot = c + slope * reference through a scan file; returns the fit with slope's u.
+ConversionFit fit_scan(std::string_view text, const std::string& source, const char* kind, const char* ref_col,
+                       const char* spot_col, double ref_scale) {
+  const CsvTable t = parse_csv_table(text, source);
+  const auto s = t.metadata.find("scan");
+  if (s == t.metadata.end()) throw CsvError(source + ": missing metadata line '# scan = " + kind + "'");
+  if (s->second != kind) throw CsvError(source + ": scan is '" + s->second + "', expected '" + kind + "'");
+  const std::size_t cr = required_column(t, ref_col);
+  const std::size_t cs = required_column(t, spot_col);
+  const std::size_t n = t.rows.size();
+  if (n < 3) throw CsvError(source + ": " + std::to_string(n) + " points; a scan needs at least 3");
+  std::vector<double> x(n), y(n);
+  double xm = 0, ym = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] = t.number(t.rows[i], cr) * ref_scale;
+    y[i] = t.number(t.rows[i], cs);
+    xm += x[i];
+    ym += y[i];
+  }
+  xm /= static_cast<double>(n);
+  ym /= static_cast<double>(n);
+  double sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sxx += (x[i] - xm) * (x[i] - xm);
+    sxy += (x[i] - xm) * (y[i] - ym);
+  }
+  if (!(sxx > 0)) throw CsvError(source + ": column '" + ref_col + "' does not change; nothing to fit");
+  ConversionFit f;
+  f.source = source;
+  f.points = n;
+  f.slope = sxy / sxx;
+  f.intercept_px = ym - f.slope * xm;
+  double rss = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double r = y[i] - f.intercept_px - f.slope * x[i];
+    rss += r * r;
+  }
+  f.residual_rms_px = std::sqrt(rss / static_cast<double>(n));
+  f.u_slope = std::sqrt(rss / static_cast<double>(n - 2) / sxx);
+  if (!(f.slope != 0)) throw CsvError(source + ": the spot does not move with '" + ref_col + "'");
+  return f;
+}
+
+}  // namespace
+
+ConversionFit fit_k_scan(std::string_view text, const std::string& source) {
+  ConversionFit f = fit_scan(text, source, "displacement", "X_M_mm", "x_M_px", 1e-3);
+  f.coefficient = 1.0 / f.slope;  // x_M = c + X_M / k
+  f.u = f.u_slope / (f.slope * f.slope);
+  return f;
+}
+
+ConversionFit fit_m_scan(std::string_view text, const std::string& source) {
+  ConversionFit f = fit_scan(text, source, "angle", "theta_arcsec", "x_F_px", rad_per_arcsec);
+  f.coefficient = f.slope;  // x_F = c + m theta
+  f.u = f.u_slope;
+  return f;
+}
+
+ConversionFit read_k_scan(const std::string& path) { return fit_k_scan(read_text_file(path), path); }
+ConversionFit read_m_scan(const std::string& path) { return fit_m_scan(read_text_file(path), path); }
+
 ArtifactReadings read_artifact_readings(const std::string& path, ArtifactPlacement expected) {
   return parse_artifact_readings(read_text_file(path), path, expected);
 }
@@ -147,15 +211,19 @@ ArtifactResult identify_artifact(const ArtifactReadings& calibration, const Arti
     if (r->target.size() != n)
       throw CsvError(r->source + ": " + std::to_string(r->target.size()) + " targets, but the calibration " +
                      calibration.source + " has " + std::to_string(n));
-  const double k = calibration.k_m_per_px;
-  const double m = calibration.m_px_per_rad;
-  if (!(k > 0) || !(m > 0)) throw CsvError(calibration.source + ": k and m must be positive");
-
   ArtifactResult res;
-  res.k_m_per_px = k;
-  res.m_px_per_rad = m;
-  res.u_k_m_per_px = calibration.u_k_m_per_px;
-  res.u_m_px_per_rad = calibration.u_m_px_per_rad;
+  res.k_scan = options.k_scan;
+  res.m_scan = options.m_scan;
+  res.k_m_per_px = options.k_scan ? options.k_scan->coefficient : calibration.k_m_per_px;
+  res.u_k_m_per_px = options.k_scan ? options.k_scan->u : calibration.u_k_m_per_px;
+  res.m_px_per_rad = options.m_scan ? options.m_scan->coefficient : calibration.m_px_per_rad;
+  res.u_m_px_per_rad = options.m_scan ? options.m_scan->u : calibration.u_m_px_per_rad;
+  const double k = res.k_m_per_px;
+  const double m = res.m_px_per_rad;
+  if (!(k > 0))
+    throw CsvError(calibration.source + ": missing metadata line '# k_um_per_px = <number>' (or give a k scan)");
+  if (!(m > 0))
+    throw CsvError(calibration.source + ": missing metadata line '# m_px_per_arcsec = <number>' (or give an m scan)");
   res.coupling_m_per_rad = k * m;
   Values base = compute(calibration, horizontal, vertical, k, m, options.angle_coupling);
   res.calibration = base.c;

@@ -9,6 +9,7 @@
 // reading aside); thread safe. SI inside (m, rad); docs/formats.md "1-D artifact" has the files.
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -22,8 +23,8 @@ enum class ArtifactPlacement { calibration, horizontal, vertical };
 struct ArtifactReadings {
   std::string source;
   ArtifactPlacement placement = ArtifactPlacement::calibration;
-  double k_m_per_px = 0.0;     // calibration only: spot displacement -> displacement
-  double m_px_per_rad = 0.0;   // calibration only: angle -> spot displacement
+  double k_m_per_px = 0.0;     // calibration only (0 = not given: a scan must give it)
+  double m_px_per_rad = 0.0;   // calibration only (0 = not given)
   double u_k_m_per_px = 0.0;
   double u_m_px_per_rad = 0.0;
   double u_spot_px = 0.0;      // standard uncertainty of each spot coordinate
@@ -35,7 +36,7 @@ struct ArtifactReadings {
   std::vector<std::size_t> line;
 };
 
-// Throws CsvError "file:line: message": missing metadata or column, non-numeric cells, a placement
+// Throws CsvError "file:line: message": missing placement or column, non-numeric cells, a placement
 // other than `expected`, targets not numbered 0, 1, 2, ... in order, fewer than 2 targets.
 ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source,
                                          ArtifactPlacement expected);
@@ -60,18 +61,43 @@ struct ArtifactTargetErrors {
   double ex_vertical_rad = 0, u_ex_vertical_rad = 0;  // roll again from the vertical placement (a check)
 };
 
+// Wei Sec. 3.2: k and m calibrated on the reference by moving the sensor across one paraboloid by
+// laser-measured distances (`# scan = displacement`, columns X_M_mm,x_M_px: x_M = c + X_M / k) and by
+// tilting a mirror by known angles (`# scan = angle`, columns theta_arcsec,x_F_px: x_F = c + m theta).
+// A straight-line least-squares fit of the spot against the reference; u from s^2 (J^T J)^-1.
+struct ConversionFit {
+  std::string source;
+  double coefficient = 0.0;  // k (m/px) or m (px/rad)
+  double u = 0.0;
+  double slope = 0.0;        // spot per reference unit (px/m or px/rad)
+  double u_slope = 0.0;
+  double intercept_px = 0.0;
+  double residual_rms_px = 0.0;
+  std::size_t points = 0;
+};
+// Throw CsvError "file:line: message" (missing column, non-numeric cell, wrong `scan`, < 3 points,
+// no spread in the reference).
+ConversionFit fit_k_scan(std::string_view text, const std::string& source);
+ConversionFit fit_m_scan(std::string_view text, const std::string& source);
+ConversionFit read_k_scan(const std::string& path);
+ConversionFit read_m_scan(const std::string& path);
+
 struct ArtifactOptions {
   bool angle_coupling = true;  // apply Wei's k m epsilon correction (off only to show its size)
+  std::optional<ConversionFit> k_scan;  // when given, k and u(k) come from it instead of the metadata
+  std::optional<ConversionFit> m_scan;
 };
 
 struct ArtifactResult {
   double k_m_per_px = 0, m_px_per_rad = 0, u_k_m_per_px = 0, u_m_px_per_rad = 0;
+  std::optional<ConversionFit> k_scan, m_scan;  // the fits used, when scans were given
   double coupling_m_per_rad = 0;  // k m
   ArtifactPlacementValues calibration, horizontal, vertical;
   std::vector<ArtifactTargetErrors> targets;
 };
 
-// Throws CsvError naming a file when the three do not have the same targets.
+// Throws CsvError naming a file when the three do not have the same targets, or when k or m is
+// neither in the calibration's metadata nor given by a scan.
 ArtifactResult identify_artifact(const ArtifactReadings& calibration, const ArtifactReadings& horizontal,
                                  const ArtifactReadings& vertical, const ArtifactOptions& options = {});
 

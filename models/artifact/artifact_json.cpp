@@ -18,6 +18,15 @@ nlohmann::json placement_json(const ArtifactPlacementValues& v) {
   return j;
 }
 
+nlohmann::json scan_json(const ConversionFit& f, double slope_scale, const char* slope_name) {
+  return {{"source", f.source},
+          {"points", f.points},
+          {slope_name, f.slope * slope_scale},
+          {std::string("u_") + slope_name, f.u_slope * slope_scale},
+          {"intercept_px", f.intercept_px},
+          {"residual_rms_px", f.residual_rms_px}};
+}
+
 }  // namespace
 
 nlohmann::json to_json(const ArtifactResult& r) {
@@ -27,6 +36,8 @@ nlohmann::json to_json(const ArtifactResult& r) {
   j["m_px_per_arcsec"] = r.m_px_per_rad * arcsec;
   j["u_m_px_per_arcsec"] = r.u_m_px_per_rad * arcsec;
   j["coupling_um_per_arcsec"] = r.coupling_m_per_rad * 1e6 * arcsec;
+  if (r.k_scan) j["k_scan"] = scan_json(*r.k_scan, 1e-6, "slope_px_per_um");
+  if (r.m_scan) j["m_scan"] = scan_json(*r.m_scan, arcsec, "slope_px_per_arcsec");
   j["calibration"] = placement_json(r.calibration);
   j["horizontal"] = placement_json(r.horizontal);
   j["vertical"] = placement_json(r.vertical);

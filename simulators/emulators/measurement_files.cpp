@@ -190,16 +190,32 @@ ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpe
     }
     return out.str();
   };
-  return {file(0), file(1), file(2)};
+  // Wei Sec. 3.2's calibration of k and m on the reference, at target 0.
+  std::mt19937_64 rng(seed * 7919 + 3 * 104729 + 17);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::ostringstream ks, ms;
+  ks << "# format = guideway/artifact-scan/1\n# scan = displacement\nX_M_mm,x_M_px\n";
+  ms << "# format = guideway/artifact-scan/1\n# scan = angle\ntheta_arcsec,x_F_px\n";
+  for (int j = -10; j <= 10; ++j) {
+    const double X = spec.start_m + 5e-6 * j;  // beam position across the paraboloid
+    const double xM = m * ty[0] - (a[0] - X) / k + spec.spot_noise_px * g(rng);
+    ks << number((X + spec.laser_noise_m * g(rng)) * 1e3) << "," << number(xM) << "\n";
+    const double theta = 2.0 * arcsec * j;
+    ms << number(theta / arcsec) << "," << number(m * (ty[0] + theta) + spec.spot_noise_px * g(rng)) << "\n";
+  }
+  return {file(0), file(1), file(2), ks.str(), ms.str()};
 }
 
 std::vector<std::string> write_artifact_files(const sim::Machine& machine, const ArtifactFilesSpec& spec,
                                               const std::string& dir) {
   const auto f = artifact_files(machine, spec);
-  std::vector<std::string> paths{dir + "/calibration.csv", dir + "/horizontal.csv", dir + "/vertical.csv"};
+  std::vector<std::string> paths{dir + "/calibration.csv", dir + "/horizontal.csv", dir + "/vertical.csv",
+                                 dir + "/k_scan.csv", dir + "/m_scan.csv"};
   write_file(paths[0], f.calibration);
   write_file(paths[1], f.horizontal);
   write_file(paths[2], f.vertical);
+  write_file(paths[3], f.k_scan);
+  write_file(paths[4], f.m_scan);
   return paths;
 }
 

@@ -63,9 +63,11 @@ struct ArtifactFiles {
   std::string calibration;
   std::string horizontal;
   std::string vertical;
+  std::string k_scan;  // the reference sensor moved across target 0's paraboloid, +-50 um in 21 steps
+  std::string m_scan;  // target 0's mirror tilted on the reference, +-20 arcsec in 21 steps
 };
 ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpec& spec);
-// calibration.csv, horizontal.csv, vertical.csv into `dir`; returns the paths.
+// calibration.csv, horizontal.csv, vertical.csv, k_scan.csv, m_scan.csv into `dir`; returns the paths.
 std::vector<std::string> write_artifact_files(const sim::Machine& machine, const ArtifactFilesSpec& spec,
                                               const std::string& dir);
 
