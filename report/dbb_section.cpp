@@ -130,6 +130,12 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
       std::string names;
       for (const auto& n : f.unidentifiable) names += (names.empty() ? "" : ", ") + n;
       body << html_note("Not separable by these patterns (refused, not reported): " + names);
+      if (!f.combinations.empty()) {
+        Table c{"Combinations these patterns do determine", {"combination", "value \u00b1 u"}};
+        for (const auto& k : f.combinations)
+          c.rows.push_back({html_escape(k.expression), html_escape(format_with_u(k.value, k.u))});
+        body << html_table(c);
+      }
     }
   }
   return html_section("dbb", id, "Double ball bar: circular tests", body.str());

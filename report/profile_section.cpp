@@ -10,7 +10,8 @@
 
 namespace guideway::report {
 
-std::string profile_section(const std::string& path, const std::string& id, const ReportOptions& options) {
+std::string profile_section(const std::string& path, const std::string& id, const ReportOptions& options,
+                            const std::string& correlation_html) {
   profilometer::Profile p;
   try {
     auto all = profilometer::read_profiles(path);
@@ -101,9 +102,12 @@ std::string profile_section(const std::string& path, const std::string& id, cons
                                  "approximations; each panel has its own height scale.");
   body << html_figure(render(d), "Multiresolution analysis (Mu 2012, Figure 7, right): the details; "
                                  "s = a" + std::to_string(level) + " + d" + std::to_string(level) + " + ... + d1.");
-  body << html_note(
-      "Correlation with the simulated squareness and straightness before and after the wavelet step (Mu's "
-      "Figures 8-9) needs the workpiece-flatness model (guideway identify flatness); it is not in this report yet.");
+  if (!correlation_html.empty())
+    body << correlation_html;
+  else
+    body << html_note(
+        "The correlation with the simulated squareness and straightness before and after the wavelet step (Mu's "
+        "Figures 8-9) needs the X carriage's straightness traverse (x_mm,pitch_arcsec) among the report's inputs.");
   return html_section("profile", id, "Workpiece profile and wavelet MRA: " + base_name(path), body.str());
 }
 

@@ -103,8 +103,25 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
     const std::string k(kind);
     return k + "-" + std::to_string(++counts[k]);
   };
+  // Profiles (CSV) with the carriage's traverse: Mu's correlation, shown under the last profile.
+  std::vector<std::string> profile_csvs;
+  std::string traverse, runout, correlation;
+  std::size_t last_profile = items.size();
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const auto& [p, k] = items[i];
+    if (k == InputKind::profile) {
+      last_profile = i;
+      if (fs::path(p).extension() != ".x3p") profile_csvs.push_back(p);
+    }
+    if (k == InputKind::straightness && traverse.empty()) traverse = p;
+    if (k == InputKind::runout && runout.empty()) runout = p;
+  }
+  if (!profile_csvs.empty() && !traverse.empty())
+    correlation = workpiece_correlation_html(profile_csvs, traverse, runout, options);
+
   bool dbb_done = false;
-  for (const auto& [path, kind] : items) {
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const auto& [path, kind] = items[i];
     std::string id = next_id(kind_name(kind));
     std::string html;
     switch (kind) {
@@ -131,7 +148,10 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
         toc.push_back({id, "Run-out: " + base_name(path)});
         break;
       case InputKind::profile:
-        html = profile_section(path, id, options);
+        html = profile_section(path, id, options,
+                               i == last_profile || correlation.empty()
+                                   ? correlation
+                                   : "<p>The correlation with the carriage errors is under the last profile.</p>");
         toc.push_back({id, "Profile: " + base_name(path)});
         break;
       case InputKind::explain:

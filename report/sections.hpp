@@ -14,7 +14,16 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
 std::string straightness_section(const std::string& path, const std::string& id);
 std::string union_jack_section(const std::string& path, const std::string& id);
 std::string runout_section(const std::string& path, const std::string& id);
-std::string profile_section(const std::string& path, const std::string& id, const ReportOptions& options);
+// correlation_html: the workpiece correlation of the report's profiles (workpiece_correlation_html), shown in
+// the last profile's section; empty: a note says what it needs.
+std::string profile_section(const std::string& path, const std::string& id, const ReportOptions& options,
+                            const std::string& correlation_html);
+// Mu 2012 Figures 8-9 as bars, from models/flatness/workpiece_flatness: the profiles (CSV, with feed and
+// spindle speed) against the simulated squareness and the straightness of the X traverse, before and after
+// the wavelet step, the squareness identified from them and, with a run-out file, Eq. 21's check. The
+// model refusing the data gives a note.
+std::string workpiece_correlation_html(const std::vector<std::string>& profiles, const std::string& traverse,
+                                       const std::string& runout, const ReportOptions& options);
 std::string explain_section(const std::string& path, const std::string& id);
 
 // "name_um" -> ("name", "µm"): the unit suffix of a reported quantity, for table columns.

@@ -1,12 +1,12 @@
 #!/usr/bin/python3
 """guideway report end to end in headless Chromium: the example inputs are produced by the project's own
-tools (guideway simulate dbb, guideway-report-examples from the virtual machine tool, Moody's 1955 plate,
-an explanation in issue 7's shape), one report per analysis and one with all of them is rendered, loaded in
+tools (report/tools/example_inputs.py: guideway simulate dbb, guideway-emulate workpiece, Moody's 1955 plate,
+an explanation), one report per analysis and one with all of them is rendered, loaded in
 Chromium, and checked: no console errors, no failed or external loads, no scripts, and every plot's SVG has
 its axes, axis labels with units, legend (where there are several series) and data paths with points.
 Screenshots (PNG), A4 print-outs (PDF) and the HTML files are kept in ARTEFACTS as test artefacts.
 
-usage: report_chromium_test.py GUIDEWAY EXAMPLES_TOOL SOURCE_DIR MOODY_DIR ARTEFACTS
+usage: report_chromium_test.py GUIDEWAY GUIDEWAY_EMULATE SOURCE_DIR MOODY_DIR ARTEFACTS
 Chromium missing is a failure (./scripts/setup.sh installs it), never a skip.
 """
 import os
@@ -15,7 +15,7 @@ import shutil
 import subprocess
 import sys
 
-GUIDEWAY, EXAMPLES, SRC, MOODY, ART = sys.argv[1:6]
+GUIDEWAY, EMULATE, SRC, MOODY, ART = sys.argv[1:6]
 sys.path.insert(0, os.path.join(SRC, "report", "tools"))
 import cdp  # noqa: E402
 import example_inputs  # noqa: E402
@@ -36,13 +36,16 @@ def run(*args):
     return r
 
 
+# The profile report also gets the traverse and the run-out (for the correlation): their sections by file name.
+KIND_OF = {"strai": "straightness", "runou": "runout"}
+
 # Per analysis: the plot kinds expected (kind -> minimum count) and data paths per plot kind.
 EXPECTED = {
     "dbb": {"polar": 1},
     "straightness": {"line": 2},
     "unionjack": {"heightmap": 1},
     "runout": {"line": 1},
-    "profile": {"line": 1, "panels": 2},
+    "profile": {"line": 1, "panels": 2},  # and under the last profile: the correlation bars
     "explain": {"bar": 1, "line": 1},
 }
 
@@ -76,6 +79,7 @@ UNIT = re.compile(r" / |\u00b5m|/div|deg")
 
 
 def check_report(browser, html, kinds):
+    kinds = sorted(set(kinds))
     text = open(html, encoding="utf-8").read()
     check("<script" not in text.lower(), "%s: has a <script>" % html)
     check(not re.search(r"(src|href)\s*=\s*\"(https?:|//)", text), "%s: refers to a network resource" % html)
@@ -84,6 +88,7 @@ def check_report(browser, html, kinds):
     reqs = browser.requests()
     check(len(reqs) == 1, "%s: loads more than itself: %s" % (html, reqs))
     sections = browser.evaluate(PLOTS_JS)
+    correlation_bars = []
     check(sorted({s["kind"] for s in sections}) == sorted(kinds), "%s: sections %s, expected %s"
           % (html, [s["kind"] for s in sections], kinds))
     for sec in sections:
@@ -136,12 +141,21 @@ def check_report(browser, html, kinds):
             check(len(hm["data"]) == 8, where + ": %d Union Jack lines, expected 8" % len(hm["data"]))
             check(any("colorbar" in a["cls"] for a in hm["axes"]), where + ": no colour bar scale")
         if sec["kind"] == "profile":
+            bars = [p for p in plots if p["kind"] == "bar"]
+            correlation_bars.extend(bars)
+            for b in bars:
+                check(sorted(d["series"] for d in b["data"]) == sorted(
+                      ["squareness y1, before (x)", "squareness y1, after (s1)", "straightness y2, before (x)",
+                       "straightness y2, after (s1)"]), where + ": correlation bars %s" % [d["series"] for d in b["data"]])
             panels = [p for p in plots if p["kind"] == "panels"]
             names = sorted(n for p in panels for n in [d["series"] for d in p["data"]])
             check(names == sorted(["s", "a1", "a2", "a3", "a4", "a5", "d1", "d2", "d3", "d4", "d5"]),
                   where + ": MRA panels %s" % names)
             for p in panels:
                 check(len([a for a in p["axes"] if " y" in a["cls"]]) == p["panels"], where + ": a panel without y axis")
+    if "profile" in kinds and "straightness" in kinds:
+        check(len(correlation_bars) == 1, "%s: %d correlation charts for the profiles, expected 1"
+              % (html, len(correlation_bars)))
 
 
 def main():
@@ -152,16 +166,18 @@ def main():
         return 1
     shutil.rmtree(ART, ignore_errors=True)
     os.makedirs(ART)
-    inputs, note = example_inputs.make_inputs(GUIDEWAY, EXAMPLES, SRC, MOODY, os.path.join(ART, "inputs"))
+    inputs, note = example_inputs.make_inputs(GUIDEWAY, EMULATE, SRC, MOODY, os.path.join(ART, "inputs"))
     print("explanation input:", note)
     with cdp.Browser() as b:
         for kind, files in inputs.items():
             html = os.path.join(ART, "report_%s.html" % kind)
             run(GUIDEWAY, "report", *files, "--out", html, "--no-date", "--title", "Guideway report: " + kind)
-            check_report(b, html, [kind])
+            check_report(b, html, [KIND_OF[os.path.basename(f)[:5]] if os.path.basename(f)[:5] in KIND_OF else kind
+                                   for f in files])
             b.screenshot(os.path.join(ART, "report_%s.png" % kind))
         everything = os.path.join(ART, "report_all.html")
-        run(GUIDEWAY, "report", *[f for files in inputs.values() for f in files], "--out", everything)
+        all_files = list(dict.fromkeys(f for files in inputs.values() for f in files))
+        run(GUIDEWAY, "report", *all_files, "--out", everything)
         check_report(b, everything, list(inputs))
         pages = b.print_pdf(os.path.join(ART, "report_all.pdf"))
         # Print CSS: each analysis starts on its own A4 page.

@@ -1,7 +1,8 @@
 """The example inputs of the report's tests and documentation, made by the project's own tools: DBB runs
-(`guideway simulate dbb`, CCW and CW on config/machine-example.toml), an autocollimator traverse, a run-out
-revolution and a faced profile (`guideway-report-examples`, the virtual machine tool), Moody's 1955 surface
-plate (real data) and an explanation (`guideway explain` when the build has it, else the shape example
+(`guideway simulate dbb`, CCW and CW on config/machine-example.toml), Mu's workpiece experiment
+(`guideway-emulate workpiece` on tests/workpiece_flatness_mu2012_machine.toml: faced profiles at 2 and
+8 mm/min, the X carriage's autocollimator traverse, a run-out revolution), Moody's 1955 surface plate (real
+data) and an explanation (`guideway explain` when the build has it, else the shape example
 tests/report_explain_example.json with residual curves computed here from the CCW run).
 """
 import json
@@ -27,10 +28,16 @@ def _read_run(path):
     return angle, dl
 
 
-def make_inputs(guideway, examples_tool, src, moody, out):
-    """Writes the inputs into out; returns {analysis kind: [paths]} and a note on the explanation's origin."""
+def make_inputs(guideway, emulate, src, moody, out):
+    """Writes the inputs into out; returns ({analysis kind: [paths]}, a note on the explanation's origin)."""
     os.makedirs(out, exist_ok=True)
-    _run(examples_tool, out)
+    written = _run(emulate, "workpiece", "--machine", os.path.join(src, "tests", "workpiece_flatness_mu2012_machine.toml"),
+                   "--profile-step-mm", "0.1", "--out-dir", out).stdout.split()
+    profiles = sorted(p for p in written if os.path.basename(p).startswith("profile"))
+    traverse = [p for p in written if os.path.basename(p).startswith("straightness")]
+    runout = [p for p in written if os.path.basename(p).startswith("runout")]
+    if len(profiles) < 1 or len(traverse) != 1 or len(runout) != 1:
+        raise RuntimeError("guideway-emulate workpiece wrote %s" % written)
     machine = os.path.join(src, "config", "machine-example.toml")
     for direction in ("ccw", "cw"):
         _run(guideway, "simulate", "dbb", "--machine", machine, "--radius-mm", "100", "--direction", direction,
@@ -59,9 +66,10 @@ def make_inputs(guideway, examples_tool, src, moody, out):
                 "CCW run" % ((r.stderr.strip().splitlines() or ["no output"])[-1]))
     return {
         "dbb": [os.path.join(out, "dbb_ccw.csv"), os.path.join(out, "dbb_cw.csv")],
-        "straightness": [os.path.join(out, "straightness_x.csv")],
+        "straightness": traverse,
         "unionjack": [moody],
-        "runout": [os.path.join(out, "runout.csv")],
-        "profile": [os.path.join(out, "profile.csv")],
+        "runout": runout,
+        # The profiles with the traverse and the run-out: the MRA panels and Mu's correlation bars.
+        "profile": profiles + traverse + runout,
         "explain": [explain],
     }, note

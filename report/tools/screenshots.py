@@ -2,7 +2,7 @@
 """Regenerates the screenshots of docs/reports.md: renders the example inputs (example_inputs.py) into one
 report, loads it in headless Chromium and saves one PNG per plot type into docs/img/.
 
-usage: screenshots.py GUIDEWAY EXAMPLES_TOOL [OUT_DIR]   (run by report/tools/docs_screenshots.sh)
+usage: screenshots.py GUIDEWAY GUIDEWAY_EMULATE [OUT_DIR]   (run by report/tools/docs_screenshots.sh)
 """
 import os
 import sys
@@ -21,20 +21,22 @@ SHOTS = [
     ("report_unionjack.png", 'section[data-kind="unionjack"] svg.plot[data-plot="heightmap"]', "Union Jack"),
     ("report_runout.png", 'section[data-kind="runout"] svg.plot[data-plot="line"]', "run-out"),
     ("report_profile_mra.png", 'section[data-kind="profile"] svg.plot[data-plot="panels"]', "MRA panels"),
+    ("report_profile_correlation.png", 'section[data-kind="profile"] svg.plot[data-plot="bar"]',
+     "correlation before/after the wavelet step"),
     ("report_explain.png", 'section[data-kind="explain"] svg.plot[data-plot="bar"]', "explanation"),
     ("report_page.png", None, "the top of the page"),
 ]
 
 
 def main():
-    guideway, examples = sys.argv[1:3]
+    guideway, emulate = sys.argv[1:3]
     out = sys.argv[3] if len(sys.argv) > 3 else os.path.join(SRC, "docs", "img")
     moody = os.path.normpath(os.path.join(SRC, "..", "shared", "data", "moody1955"))
     os.makedirs(out, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="guideway-report-docs-") as tmp:
-        inputs, note = example_inputs.make_inputs(guideway, examples, SRC, moody, os.path.join(tmp, "inputs"))
+        inputs, note = example_inputs.make_inputs(guideway, emulate, SRC, moody, os.path.join(tmp, "inputs"))
         html = os.path.join(tmp, "report.html")
-        files = [f for fs in inputs.values() for f in fs]
+        files = list(dict.fromkeys(f for fs in inputs.values() for f in fs))
         example_inputs._run(guideway, "report", *files, "--out", html, "--no-date", "--title", "Guideway report (examples)")
         with cdp.Browser(width=860, height=1000) as b:
             b.open("file://" + html)
