@@ -95,6 +95,10 @@ Chain chain(const MachineConfig& m, const Vec3& u, const Vec3& lateral, double t
       }
     }
     off[lateral_direction(j)] += lateral[static_cast<std::size_t>(j)];
+    if (e.bump_amplitude_m != 0.0 && e.bump_direction != j && e.bump_direction >= 0 && e.bump_direction < 3) {
+      const double z = (uj - e.bump_center_m) / e.bump_width_m;
+      off[e.bump_direction] += e.bump_amplitude_m * std::exp(-0.5 * z * z);
+    }
     d[j] = travel_direction(m, j) * along + off;
     r[j] = axis_rotation(e, j, uj);
   }

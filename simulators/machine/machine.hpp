@@ -58,6 +58,14 @@ struct AxisErrors {
   double scale_drift_per_s = 0.0;  // d(scale)/dt
   double drift_m_per_s = 0.0;      // position drift along the axis
 
+  // A local bump on the guideway (a dent, a chip under the rail): the carriage is displaced along
+  // `bump_direction` (0 = x, 1 = y, 2 = z; not the axis itself) by A exp(-(u - c)^2 / (2 w^2)).
+  // Nothing in the identification models describes it (the explain scenarios' out-of-library cause).
+  double bump_amplitude_m = 0.0;
+  double bump_center_m = 0.0;
+  double bump_width_m = 0.005;
+  int bump_direction = 1;
+
   // Vibration of the carriage along its own axis and the controller's encoder.
   double vibration_amplitude_m = 0.0;
   double vibration_frequency_hz = 0.0;

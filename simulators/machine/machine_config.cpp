@@ -46,6 +46,13 @@ AxisErrors read_axis(const TableReader& t) {
   e.cyclic_phase_rad = t.get_double("cyclic_phase_deg", 0.0, -360.0, 360.0) * deg;
   e.scale_drift_per_s = t.get_double("scale_drift_ppm_per_h", 0.0, -1e5, 1e5) * 1e-6 / 3600.0;
   e.drift_m_per_s = t.get_double("drift_um_per_h", 0.0, -1e6, 1e6) * um / 3600.0;
+  e.bump_amplitude_m = t.get_double("bump_um", 0.0, -1e5, 1e5) * um;
+  e.bump_center_m = t.get_double("bump_center_mm", 0.0, -1e5, 1e5) * 1e-3;
+  e.bump_width_m = t.get_double("bump_width_mm", 5.0, 1e-3, 1e5) * 1e-3;
+  {
+    const std::string d = t.get_choice("bump_direction", "y", {"x", "y", "z"});
+    e.bump_direction = d == "x" ? 0 : (d == "y" ? 1 : 2);
+  }
   e.vibration_amplitude_m = t.get_double("vibration_um", 0.0, 0.0, 1e5) * um;
   e.vibration_frequency_hz = t.get_double("vibration_hz", 0.0, 0.0, 1e6);
   e.encoder_resolution_m = t.get_double("encoder_resolution_um", 0.0, 0.0, 1e4) * um;
