@@ -1,0 +1,431 @@
+#include "models/explain/dbb_explain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <numbers>
+#include <stdexcept>
+
+#include "models/common/least_squares.hpp"
+#include "models/dbb/identify.hpp"
+
+namespace guideway::models::explain {
+
+namespace {
+
+constexpr double pi = std::numbers::pi;
+
+double sgn(double x) { return x > 1e-9 ? 1.0 : (x < -1e-9 ? -1.0 : 0.0); }
+
+// Per-sample geometry (as in models/dbb/identify.cpp, docs/conventions.md).
+struct Geo {
+  std::size_t run = 0;
+  double zeta = 0, c = 0, s = 0, lam = 0, r = 0, h = 0, dir = 1, v = 0, omega = 0;
+  double sgn_a = 0, sgn_b = 0;      // signs of the axis velocities
+  double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
+  double a_m = 0, b_m = 0;          // machine coordinates of the commanded point
+  double t_s = 0;                   // machine time (or run time when not all runs have start_time_s)
+  double y_um = 0;
+};
+
+std::string fmt(const char* f, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, a);
+  return buf;
+}
+
+std::string axis_letter(const std::string& plane, int which) {
+  if (plane == "xz") return which == 0 ? "x" : "z";
+  if (plane == "yz") return which == 0 ? "y" : "z";
+  return which == 0 ? "x" : "y";
+}
+
+bool all_have_start_time(const std::vector<dbb::Run>& runs) {
+  return std::all_of(runs.begin(), runs.end(), [](const dbb::Run& r) { return r.metadata.count("start_time_s") > 0; });
+}
+
+double start_time_of(const dbb::Run& r) {
+  const std::string& s = r.metadata.at("start_time_s");
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(s, &used);
+    if (used != s.size() || !std::isfinite(v)) throw std::invalid_argument(s);
+    return v;
+  } catch (const std::exception&) {
+    throw dbb::RunFormatError(r.source + ": start_time_s: not a number: '" + s + "'");
+  }
+}
+
+std::vector<Geo> geometry(const std::vector<dbb::Run>& runs, bool machine_time) {
+  std::vector<Geo> g;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const dbb::Run& run = runs[k];
+    dbb::validate_run(run);
+    const double l0 = run.nominal_length_m();
+    const double t0 = machine_time ? start_time_of(run) : 0.0;
+    for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
+      Geo p;
+      p.run = k;
+      p.zeta = run.angle_rad[i];
+      p.c = std::cos(p.zeta);
+      p.s = std::sin(p.zeta);
+      p.r = run.radius_m;
+      p.h = run.height_m;
+      p.lam = run.radius_m / l0;
+      p.dir = run.dir();
+      p.v = run.feed_m_per_s;
+      p.omega = run.feed_m_per_s / run.radius_m;
+      p.sgn_a = -p.dir * sgn(p.s);
+      p.sgn_b = p.dir * sgn(p.c);
+      const auto since = [&](double phase) {
+        const double q = (p.zeta - phase) / pi;
+        const double last = p.dir > 0 ? std::floor(q) : std::ceil(q);
+        return std::abs(p.zeta - phase - last * pi) / p.omega;
+      };
+      p.since_a = since(0.0);
+      p.since_b = since(pi / 2);
+      p.a_m = run.center_a_m + run.radius_m * p.c;
+      p.b_m = run.center_b_m + run.radius_m * p.s;
+      p.t_s = t0 + run.t_s[i];
+      p.y_um = run.dL_m[i] * 1e6;
+      g.push_back(p);
+    }
+  }
+  return g;
+}
+
+// Lai's geometric terms: the first 17 characteristic functions (backlash and servo mismatch are
+// candidates here, not base), in um per reported unit.
+constexpr double lai_si_per_reported[] = {1e-6, 1e-6, 1.0, 1.0, 1.0, 1e3, 1e6, 1e3, 1e6,
+                                          1.0,  1e3,  1e6, 1e3, 1e6, 1.0, 1e3, 1e6};
+constexpr std::size_t lai_geometric = std::size(lai_si_per_reported);
+
+Block lai_base(const std::vector<Geo>& g) {
+  Block b;
+  const auto names = dbb::lai3_parameter_names();
+  b.names.assign(names.begin(), names.begin() + lai_geometric);
+  b.columns.resize(static_cast<Eigen::Index>(g.size()), static_cast<Eigen::Index>(lai_geometric));
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    const auto ch = dbb::lai3_characteristics(g[i].r, g[i].h, static_cast<int>(g[i].dir), g[i].v, g[i].zeta);
+    for (std::size_t k = 0; k < lai_geometric; ++k)
+      b.columns(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) = ch[k] * lai_si_per_reported[k] * 1e6;
+  }
+  return b;
+}
+
+using Row = std::function<void(const Geo&, double*)>;
+
+Variant make_variant(const std::vector<Geo>& g, std::vector<std::string> names, const Row& row) {
+  Variant v;
+  v.block.names = std::move(names);
+  const auto q = static_cast<Eigen::Index>(v.block.names.size());
+  v.block.columns.resize(static_cast<Eigen::Index>(g.size()), q);
+  std::vector<double> buf(static_cast<std::size_t>(q));
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    std::fill(buf.begin(), buf.end(), 0.0);
+    row(g[i], buf.data());
+    for (Eigen::Index k = 0; k < q; ++k) v.block.columns(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
+  }
+  return v;
+}
+
+// Amplitude and phase of A sin(theta + phi) = (A cos phi) sin theta + (A sin phi) cos theta from the
+// coefficients (sin, cos) and their covariance, with first-order uncertainties.
+std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
+                                  const Eigen::MatrixXd& cov) {
+  const double cs = x[0], cc = x[1];
+  const double a = std::hypot(cs, cc);
+  double ua = std::numeric_limits<double>::quiet_NaN(), up = ua;
+  if (a > 0) {
+    Eigen::Vector2d ga(cs / a, cc / a), gp(-cc / (a * a), cs / (a * a));
+    ua = std::sqrt(std::max(0.0, ga.dot(cov.topLeftCorner(2, 2) * ga)));
+    up = std::sqrt(std::max(0.0, gp.dot(cov.topLeftCorner(2, 2) * gp))) * 180 / pi;
+  }
+  return {{amp_name, a, ua}, {phase_name, std::atan2(cc, cs) * 180 / pi, up}};
+}
+
+double spike(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::exp(-t / tau); }
+
+// `reading_um`: the reading the model predicts per sample (the sensor's operating point; taking the
+// measured value would let the candidate fit the very effects in it).
+std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vector<dbb::Run>& runs, bool machine_time,
+                                      const std::vector<double>& reading_um) {
+  const std::string A = axis_letter(runs.front().plane, 0), B = axis_letter(runs.front().plane, 1);
+  std::vector<Candidate> out;
+  {
+    Candidate c{"servo_mismatch",
+                "the two axes' position loops lag by different times, so the circle is stretched along a diagonal by "
+                "an amount that grows with feed and flips with direction",
+                {}, {}, 0};
+    c.variants.push_back(make_variant(g, {"servo_mismatch_ms"}, [](const Geo& p, double* o) {
+      o[0] = p.lam * p.dir * p.v * p.s * p.c * 1e3;  // 1 ms of lag difference; v in m/s -> um
+    }));
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"backlash",
+                "lost motion in the drives: at each reversal an axis stays behind the command by half its play",
+                {}, {}, 0};
+    c.variants.push_back(make_variant(g, {"backlash_" + A + "_um", "backlash_" + B + "_um"}, [](const Geo& p, double* o) {
+      o[0] = -p.lam * 0.5 * p.sgn_a * p.c;  // actual a = commanded a - (b/2) sign(da/dt)
+      o[1] = -p.lam * 0.5 * p.sgn_b * p.s;
+    }));
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"reversal_spike",
+                "stiction at the axis reversals: the axis sticks and the servo catches up with a short decay",
+                {}, {}, 0};
+    for (double tau_ms : {2.0, 5.0, 10.0, 20.0, 50.0, 100.0}) {
+      const double tau = tau_ms * 1e-3;
+      Variant v = make_variant(g, {"reversal_spike_" + A + "_um", "reversal_spike_" + B + "_um"},
+                               [tau](const Geo& p, double* o) {
+                                 o[0] = p.lam * p.c * (-p.sgn_a) * spike(p.since_a, tau);
+                                 o[1] = p.lam * p.s * (-p.sgn_b) * spike(p.since_b, tau);
+                               });
+      v.fixed.push_back({"reversal_spike_decay_ms", tau_ms, std::numeric_limits<double>::quiet_NaN()});
+      v.searched = 1;
+      c.variants.push_back(std::move(v));
+    }
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"lateral_play",
+                "the carriages shift sideways in their guideways when their direction of travel changes", {}, {}, 0};
+    c.variants.push_back(make_variant(g, {"lateral_play_" + A + "_um", "lateral_play_" + B + "_um"},
+                                      [](const Geo& p, double* o) {
+                                        o[0] = p.lam * 0.5 * p.sgn_a * p.s;
+                                        o[1] = p.lam * 0.5 * p.sgn_b * p.c;
+                                      }));
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"cyclic_error",
+                "a lead-screw (or scale) pitch error repeats every lead along the axis, at the same position in every run",
+                {}, {}, 0};
+    for (int axis = 0; axis < 2; ++axis) {
+      const std::string L = axis == 0 ? A : B;
+      for (double p_mm : {1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 12.5, 15.0, 16.0, 20.0, 25.0, 32.0, 40.0}) {
+        const double period = p_mm * 1e-3;
+        Variant v = make_variant(g, {"cyclic_sin_" + L, "cyclic_cos_" + L}, [=](const Geo& p, double* o) {
+          const double th = 2 * pi * (axis == 0 ? p.a_m : p.b_m) / period;
+          const double proj = p.lam * (axis == 0 ? p.c : p.s);
+          o[0] = proj * std::sin(th);
+          o[1] = proj * std::cos(th);
+        });
+        v.fixed.push_back({"cyclic_period_" + L + "_mm", p_mm, std::numeric_limits<double>::quiet_NaN()});
+        v.searched = 1;
+        v.report = [L](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+          return amp_phase("cyclic_error_" + L + "_um", "cyclic_phase_" + L + "_deg", x, cov);
+        };
+        c.variants.push_back(std::move(v));
+      }
+    }
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"thermal_drift",
+                "the machine or the bar grows as it warms up, a trend in time that the geometric terms only partly absorb",
+                {}, {}, 0};
+    const std::size_t nr = runs.size();
+    // Without a common time axis each run after the first gets its own offset.
+    const std::size_t offsets = machine_time ? 0 : nr - 1;
+    for (int which = 0; which < 3; ++which) {
+      std::vector<std::string> names{which == 0 ? "bar_drift_um_per_min"
+                                                : "drift_" + (which == 1 ? A : B) + "_um_per_min"};
+      for (std::size_t k = 1; k <= offsets; ++k) names.push_back("drift_offset_run" + std::to_string(k + 1) + "_um");
+      c.variants.push_back(make_variant(g, names, [=](const Geo& p, double* o) {
+        const double proj = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
+        o[0] = proj * p.t_s / 60.0;
+        if (offsets && p.run >= 1) o[p.run] = 1.0;
+      }));
+    }
+    out.push_back(std::move(c));
+  }
+  {
+    // Vibration: the strongest lines of the residual's periodogram in time, along each axis.
+    Candidate c{"vibration", "a structural or drive vibration at a fixed frequency, a sinusoid in time unrelated to the position",
+                {}, {}, 0};
+    double t_span = 0, dt = 1e300;
+    for (std::size_t i = 1; i < g.size(); ++i)
+      if (g[i].run == g[i - 1].run && g[i].t_s > g[i - 1].t_s) dt = std::min(dt, g[i].t_s - g[i - 1].t_s);
+    for (const auto& r : runs) t_span = std::max(t_span, r.t_s.back() - r.t_s.front());
+    if (dt < 1e300 && t_span > 0) {
+      const double f_lo = 4.0 / t_span, f_hi = 0.4 / dt, df = 0.25 / t_span;
+      const auto grid = static_cast<std::size_t>(std::max(0.0, (f_hi - f_lo) / df));
+      c.search_size = 3 * grid;
+      auto geo = std::make_shared<const std::vector<Geo>>(g);
+      c.generate = [geo, f_lo, df, grid, A, B](const Eigen::VectorXd& r) {
+        const auto& gg = *geo;
+        std::vector<std::pair<double, double>> power;  // (power, f)
+        for (std::size_t q = 0; q < grid; ++q) {
+          const double f = f_lo + df * static_cast<double>(q);
+          std::complex<double> acc = 0;
+          double pw = 0;
+          for (std::size_t i = 0; i < gg.size(); ++i) {
+            if (i > 0 && gg[i].run != gg[i - 1].run) {
+              pw += std::norm(acc);
+              acc = 0;
+            }
+            acc += r[static_cast<Eigen::Index>(i)] * std::polar(1.0, -2 * pi * f * gg[i].t_s);
+          }
+          pw += std::norm(acc);
+          power.emplace_back(pw, f);
+        }
+        std::sort(power.rbegin(), power.rend());
+        std::vector<Variant> vs;
+        for (std::size_t k = 0; k < std::min<std::size_t>(2, power.size()); ++k) {
+          const double f = power[k].second;
+          for (int which = 0; which < 3; ++which) {
+            const std::string L = which == 0 ? "bar" : (which == 1 ? A : B);
+            Variant v = make_variant(gg, {"vibration_sin", "vibration_cos"}, [=](const Geo& p, double* o) {
+              const double proj = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
+              o[0] = proj * std::sin(2 * pi * f * p.t_s);
+              o[1] = proj * std::cos(2 * pi * f * p.t_s);
+            });
+            v.fixed.push_back({"vibration_hz", f, std::numeric_limits<double>::quiet_NaN()});
+            v.searched = 1;
+            v.report = [L](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+              return amp_phase("vibration_" + L + "_um", "vibration_phase_" + L + "_deg", x, cov);
+            };
+            vs.push_back(std::move(v));
+          }
+        }
+        return vs;
+      };
+    }
+    out.push_back(std::move(c));
+  }
+  {
+    // Stick-slip: a decaying oscillation of the axis after it reverses (low speed near the reversal).
+    Candidate c{"stick_slip",
+                "friction at low speed makes an axis move in jerks just after it reverses, a decaying oscillation",
+                {}, {}, 0};
+    for (double f_hz : {5.0, 10.0, 20.0}) {
+      for (double tau_ms : {50.0, 200.0}) {
+        const double tau = tau_ms * 1e-3;
+        Variant v = make_variant(g, {"stick_slip_" + A + "_um", "stick_slip_" + B + "_um"}, [=](const Geo& p, double* o) {
+          o[0] = p.lam * p.c * spike(p.since_a, tau) * std::sin(2 * pi * f_hz * p.since_a);
+          o[1] = p.lam * p.s * spike(p.since_b, tau) * std::sin(2 * pi * f_hz * p.since_b);
+        });
+        v.fixed.push_back({"stick_slip_hz", f_hz, std::numeric_limits<double>::quiet_NaN()});
+        v.fixed.push_back({"stick_slip_decay_ms", tau_ms, std::numeric_limits<double>::quiet_NaN()});
+        v.searched = 2;
+        c.variants.push_back(std::move(v));
+      }
+    }
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"sensor_nonlinearity",
+                "the bar's transducer is not linear over its range, an error that is a polynomial in the reading itself",
+                {}, {}, 0};
+    double mean = 0;
+    for (double v : reading_um) mean += v;
+    mean /= static_cast<double>(reading_um.size());
+    Variant v;
+    v.block.names = {"sensor_quadratic_per_um", "sensor_cubic_per_um2"};
+    v.block.columns.resize(static_cast<Eigen::Index>(g.size()), 2);
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      const double d = reading_um[i] - mean;
+      v.block.columns(static_cast<Eigen::Index>(i), 0) = d * d;
+      v.block.columns(static_cast<Eigen::Index>(i), 1) = d * d * d;
+    }
+    c.variants.push_back(std::move(v));
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+std::vector<RunInfo> run_infos(const std::vector<dbb::Run>& runs) {
+  std::vector<RunInfo> out;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const auto& r = runs[k];
+    RunInfo ri;
+    ri.label = "run" + std::to_string(k + 1) + " (" + (r.dir() > 0 ? "ccw" : "cw") + ")";
+    ri.direction = r.dir();
+    ri.feed_mm_per_min = std::round(r.feed_m_per_s * 60000.0 * 1e6) / 1e6;
+    ri.geometry = fmt("r%.6g", r.radius_m * 1e3) + fmt("h%.6g", r.height_m * 1e3) + r.plane;
+    out.push_back(ri);
+  }
+  return out;
+}
+
+void check_runs(const std::vector<dbb::Run>& runs) {
+  if (runs.empty()) throw std::invalid_argument("explain: no runs");
+  for (const auto& r : runs)
+    if (r.plane != runs.front().plane)
+      throw dbb::RunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" +
+                                runs.front().plane + ")");
+}
+
+Problem assemble_problem(const std::vector<dbb::Run>& runs, const std::vector<Geo>& g, bool machine_time,
+                         const std::vector<double>& reading_um) {
+  Problem p;
+  p.model = "dbb";
+  p.domain = "angle_deg";
+  p.runs = run_infos(runs);
+  for (const auto& q : g) {
+    double deg = std::fmod(q.zeta * 180 / pi, 360.0);
+    if (deg < 0) deg += 360;
+    p.samples.push_back({q.run, q.y_um, deg, q.t_s});
+  }
+  p.candidates = dbb_candidates(g, runs, machine_time, reading_um);
+  if (!machine_time && runs.size() > 1)
+    p.notes.push_back("runs have no start_time_s metadata: a drift is fitted with its own offset per run");
+  bool ccw = false, cw = false;
+  for (const auto& r : runs) (r.dir() > 0 ? ccw : cw) = true;
+  if (!(ccw && cw))
+    p.notes.push_back("one direction only: servo_mismatch has the signature of squareness and cannot be told apart");
+  return p;
+}
+
+}  // namespace
+
+Problem dbb_problem(const std::vector<dbb::Run>& runs) {
+  check_runs(runs);
+  const bool machine_time = all_have_start_time(runs);
+  const auto g = geometry(runs, machine_time);
+  Block base = lai_base(g);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(g.size()));
+  for (std::size_t i = 0; i < g.size(); ++i) y[static_cast<Eigen::Index>(i)] = g[i].y_um;
+  const LsqResult fit = solve_lsq(base.columns, y, Eigen::VectorXd(), base.names);
+  if (!fit.ok) throw std::invalid_argument("explain: Lai base fit failed: " + fit.message);
+  std::vector<double> reading(g.size());
+  for (std::size_t i = 0; i < g.size(); ++i) reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
+  Problem p = assemble_problem(runs, g, machine_time, reading);
+  p.base = std::move(base);
+  return p;
+}
+
+Problem dbb_compare_problem(const dbb::Run& simulated, const dbb::Run& measured) {
+  if (simulated.angle_rad.size() != measured.angle_rad.size())
+    throw std::invalid_argument("explain: " + simulated.source + " has " + std::to_string(simulated.angle_rad.size()) +
+                                " samples, " + measured.source + " has " + std::to_string(measured.angle_rad.size()));
+  for (std::size_t i = 0; i < simulated.angle_rad.size(); ++i)
+    if (std::abs(simulated.angle_rad[i] - measured.angle_rad[i]) > 1e-6 * pi / 180)
+      throw std::invalid_argument("explain: " + simulated.source + " and " + measured.source +
+                                  " differ in angle at sample " + std::to_string(i + 1));
+  dbb::Run diff = measured;
+  for (std::size_t i = 0; i < diff.dL_m.size(); ++i) diff.dL_m[i] -= simulated.dL_m[i];
+  const std::vector<dbb::Run> runs{diff};
+  const bool machine_time = all_have_start_time(runs);
+  const auto g = geometry(runs, machine_time);
+  std::vector<double> reading(simulated.dL_m.size());
+  for (std::size_t i = 0; i < reading.size(); ++i) reading[i] = simulated.dL_m[i] * 1e6;
+  Problem p = assemble_problem(runs, g, machine_time, reading);
+  p.model = "dbb (simulated vs measured)";
+  p.notes.push_back("no base refit: the residual is " + measured.source + " - " + simulated.source);
+  return p;
+}
+
+Report explain_dbb_report(const std::vector<dbb::Run>& runs, const ExplainOptions& options) {
+  return explain(dbb_problem(runs), options);
+}
+
+nlohmann::json explain_dbb(const std::vector<dbb::Run>& runs, const ExplainOptions& options) {
+  return to_json(explain_dbb_report(runs, options));
+}
+
+}  // namespace guideway::models::explain

@@ -1,0 +1,32 @@
+#pragma once
+// EXPLAIN for DBB runs. Base: Lai's geometric guideway terms (models/dbb: centre offset, scale,
+// squareness, straightness and angular polynomials; shared by all runs, as the fixed socket is not
+// moved). Candidates: servo_mismatch, backlash, reversal_spike, lateral_play, cyclic_error,
+// thermal_drift, vibration, stick_slip, sensor_nonlinearity (docs/explain.md, docs/conventions.md for
+// the signs). Runs are placed on one machine-time axis when every run has the metadata key
+// `start_time_s` (machine time of its first sample); otherwise each run's drift has its own offset.
+//
+// The daemon's entry point is explain_dbb(): runs in, the report as JSON out (EXPLAIN message body).
+// Pure functions; thread safe; throw std::invalid_argument / dbb::RunFormatError for unusable input.
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "models/dbb/dbb_run.hpp"
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain {
+
+// Base + candidates for `guideway explain --model dbb`.
+Problem dbb_problem(const std::vector<dbb::Run>& runs);
+Report explain_dbb_report(const std::vector<dbb::Run>& runs, const ExplainOptions& options = {});
+// The report in the JSON shape of to_json() (issue 7).
+nlohmann::json explain_dbb(const std::vector<dbb::Run>& runs, const ExplainOptions& options = {});
+
+// A given simulation against a recording (same sample grid: equal length, equal angles within 1e-6
+// deg): the difference measured - simulated is explained with the same candidates and no base refit.
+Problem dbb_compare_problem(const dbb::Run& simulated, const dbb::Run& measured);
+
+}  // namespace guideway::models::explain

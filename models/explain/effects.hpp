@@ -1,0 +1,26 @@
+#pragma once
+// The library of physical effects the explanation can name: each entry says what the effect is, the
+// domain it lives in, its signature in the data, and which base models already contain it (those are
+// not candidates for that model). The parametric terms themselves are built per model
+// (dbb_explain.cpp, profile_explain.cpp); `terms` names the models that have one. Thread safe.
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace guideway::models::explain {
+
+struct EffectInfo {
+  std::string name;       // as reported (e.g. "servo_mismatch")
+  std::string meaning;    // the physics, one sentence
+  std::string domain;     // where it lives: angle/position, time, direction, feed, reversal
+  std::string signature;  // what it looks like in the residual
+  std::vector<std::string> in_base_of;  // models whose base already contains it
+  std::vector<std::string> terms;       // models with a candidate term for it
+};
+
+const std::vector<EffectInfo>& effect_library();
+// Throws std::out_of_range for an unknown name.
+const EffectInfo& effect_info(std::string_view name);
+
+}  // namespace guideway::models::explain

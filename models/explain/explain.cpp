@@ -1,0 +1,415 @@
+#include "models/explain/explain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/QR>
+
+#include "models/common/least_squares.hpp"
+#include "models/explain/locate.hpp"
+#include "models/explain/stats.hpp"
+
+namespace guideway::models::explain {
+
+namespace {
+
+constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+
+struct Fit {
+  LsqResult res;
+  double rss = 0;
+  std::size_t k = 0;  // rank + searched nonlinear parameters
+  double bic = 0;
+  Eigen::VectorXd residual;
+};
+
+// The columns of the base, the effects found so far and one trial variant.
+struct Design {
+  Eigen::MatrixXd j;
+  std::vector<std::string> names;
+  std::size_t searched = 0;
+};
+
+Design assemble(const Block& base, const std::vector<const Variant*>& blocks) {
+  Design d;
+  Eigen::Index cols = base.columns.cols();
+  for (const auto* v : blocks) cols += v->block.columns.cols();
+  const Eigen::Index n = base.columns.rows() > 0 ? base.columns.rows()
+                                                 : (blocks.empty() ? 0 : blocks.front()->block.columns.rows());
+  d.j.resize(n, cols);
+  Eigen::Index at = 0;
+  if (base.columns.cols() > 0) {
+    d.j.leftCols(base.columns.cols()) = base.columns;
+    at = base.columns.cols();
+  }
+  d.names = base.names;
+  for (const auto* v : blocks) {
+    d.j.middleCols(at, v->block.columns.cols()) = v->block.columns;
+    at += v->block.columns.cols();
+    d.names.insert(d.names.end(), v->block.names.begin(), v->block.names.end());
+    d.searched += v->searched;
+  }
+  return d;
+}
+
+Fit fit(const Design& d, const Eigen::VectorXd& y) {
+  Fit f;
+  const auto n = static_cast<double>(y.size());
+  if (d.j.cols() == 0) {
+    f.residual = y;
+    f.res.ok = true;
+    f.res.fitted = Eigen::VectorXd();
+  } else {
+    f.res = solve_lsq(d.j, y, Eigen::VectorXd(), d.names);
+    if (!f.res.ok) throw std::invalid_argument("explain: least squares failed: " + f.res.message);
+    f.residual = f.res.residual;
+  }
+  f.rss = f.residual.squaredNorm();
+  f.k = f.res.rank + d.searched;
+  f.bic = n * std::log(std::max(f.rss, 1e-300) / n) + static_cast<double>(f.k) * std::log(n);
+  return f;
+}
+
+// Held-out prediction: fold_of[i] = the fold that holds sample i out.
+double heldout_rms(const Design& d, const Eigen::VectorXd& y, const std::vector<int>& fold_of, int folds) {
+  if (d.j.cols() == 0) return std::sqrt(y.squaredNorm() / static_cast<double>(y.size()));
+  double sse = 0;
+  std::size_t count = 0;
+  for (int f = 0; f < folds; ++f) {
+    std::vector<Eigen::Index> train, test;
+    for (std::size_t i = 0; i < fold_of.size(); ++i) (fold_of[i] == f ? test : train).push_back(static_cast<Eigen::Index>(i));
+    if (test.empty() || train.size() < static_cast<std::size_t>(d.j.cols()) + 2) continue;
+    const Eigen::MatrixXd jt = d.j(train, Eigen::all);
+    const Eigen::VectorXd yt = y(train);
+    const LsqResult r = solve_lsq(jt, yt, Eigen::VectorXd(), d.names);
+    if (!r.ok) continue;
+    const Eigen::VectorXd pred = d.j(test, Eigen::all) * r.fitted;
+    sse += (y(test) - pred).squaredNorm();
+    count += test.size();
+  }
+  return count ? std::sqrt(sse / static_cast<double>(count)) : nan;
+}
+
+std::string fmt(const char* f, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, a);
+  return buf;
+}
+
+std::vector<ParamValue> params_of(const Variant& v, const Fit& f, Eigen::Index offset) {
+  const auto q = v.block.columns.cols();
+  Eigen::VectorXd x = f.res.x.segment(offset, q);
+  Eigen::MatrixXd cov = f.res.covariance.block(offset, offset, q, q);
+  std::vector<ParamValue> out;
+  if (v.report) {
+    out = v.report(x, cov);
+  } else {
+    for (Eigen::Index i = 0; i < q; ++i)
+      out.push_back({v.block.names[static_cast<std::size_t>(i)], x[i], f.res.u[offset + i]});
+  }
+  out.insert(out.end(), v.fixed.begin(), v.fixed.end());
+  return out;
+}
+
+}  // namespace
+
+Report explain(const Problem& problem, const ExplainOptions& options) {
+  const std::size_t n = problem.samples.size();
+  if (n < 32) throw std::invalid_argument("explain: too few samples (" + std::to_string(n) + ", need 32)");
+  if (problem.base.columns.cols() > 0 && static_cast<std::size_t>(problem.base.columns.rows()) != n)
+    throw std::invalid_argument("explain: base design has the wrong number of rows");
+  Eigen::VectorXd y(static_cast<Eigen::Index>(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    y[static_cast<Eigen::Index>(i)] = problem.samples[i].y_um;
+    if (!std::isfinite(problem.samples[i].y_um)) throw std::invalid_argument("explain: non-finite sample");
+  }
+  for (const auto& c : problem.candidates)
+    for (const auto& v : c.variants)
+      if (static_cast<std::size_t>(v.block.columns.rows()) != n)
+        throw std::invalid_argument("explain: candidate " + c.effect + " has the wrong number of rows");
+  const auto ranges = run_ranges(problem);
+
+  Report rep;
+  rep.model = problem.model;
+  rep.n = n;
+  rep.notes = problem.notes;
+
+  // Held-out scheme: whole runs when there are at least three and the base is still determined
+  // without any one of them; otherwise contiguous blocks of every run (staggered between runs).
+  std::vector<int> fold_of(n, 0);
+  int folds = static_cast<int>(std::max<std::size_t>(options.folds, 2));
+  bool loro = false;
+  const Design base_design = assemble(problem.base, {});
+  if (problem.runs.size() >= 3) {
+    const std::size_t full_rank = base_design.j.cols() ? fit(base_design, y).res.rank : 0;
+    loro = true;
+    for (std::size_t k = 0; k < ranges.size() && loro; ++k) {
+      if (base_design.j.cols() == 0) break;
+      std::vector<Eigen::Index> train;
+      for (std::size_t i = 0; i < n; ++i)
+        if (problem.samples[i].run != k) train.push_back(static_cast<Eigen::Index>(i));
+      const Eigen::MatrixXd jt = base_design.j(train, Eigen::all);
+      const LsqResult r = solve_lsq(jt, y(train), Eigen::VectorXd(), base_design.names);
+      loro = r.ok && r.rank == full_rank;
+    }
+  }
+  if (loro) {
+    folds = static_cast<int>(problem.runs.size());
+    for (std::size_t i = 0; i < n; ++i) fold_of[i] = static_cast<int>(problem.samples[i].run);
+    rep.heldout_scheme = "leave-one-run-out (" + std::to_string(folds) + " runs)";
+  } else {
+    for (std::size_t k = 0; k < ranges.size(); ++k) {
+      const auto [a, b] = ranges[k];
+      const std::size_t len = b - a;
+      for (std::size_t i = a; i < b; ++i) {
+        const auto block = static_cast<int>((i - a) * static_cast<std::size_t>(folds) / std::max<std::size_t>(len, 1));
+        fold_of[i] = (block + static_cast<int>(k)) % folds;
+      }
+    }
+    rep.heldout_scheme = "blocked " + std::to_string(folds) + "-fold cross-validation (contiguous blocks of every run)";
+  }
+
+  std::vector<const Variant*> chosen;
+  std::vector<std::shared_ptr<const std::vector<Variant>>> keep;  // generated variants that were chosen
+  std::vector<std::size_t> chosen_candidate;
+  Design design = base_design;
+  Fit current = fit(design, y);
+  double current_heldout = heldout_rms(design, y, fold_of, folds);
+  rep.baseline = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
+  const Located base_loc = locate(problem, current.residual, options.alpha);
+  rep.noise_um = base_loc.sigma_um;
+  rep.mismatch = base_loc.places;
+  const double sigma = base_loc.sigma_um;
+  // Energy a denoised pure-noise residual keeps is tiny; below this nothing is "visible".
+  const double visible_floor = 1e-3 * sigma * sigma * static_cast<double>(n);
+
+  std::vector<bool> used(problem.candidates.size(), false);
+  while (chosen.size() < options.max_effects) {
+    struct Trial {
+      std::size_t cand = 0;
+      std::shared_ptr<const std::vector<Variant>> generated;
+      const Variant* variant = nullptr;
+      Fit fit;
+      double delta_bic = 0, p = 1;
+    };
+    std::vector<Trial> trials;
+    std::size_t live = 0;
+    for (std::size_t c = 0; c < problem.candidates.size(); ++c)
+      if (!used[c] && (!problem.candidates[c].variants.empty() || problem.candidates[c].generate)) ++live;
+    if (live == 0) break;
+    for (std::size_t c = 0; c < problem.candidates.size(); ++c) {
+      const Candidate& cand = problem.candidates[c];
+      if (used[c] || (cand.variants.empty() && !cand.generate)) continue;
+      std::shared_ptr<const std::vector<Variant>> generated;
+      if (cand.generate) {
+        generated = std::make_shared<const std::vector<Variant>>(cand.generate(current.residual));
+        for (const auto& v : *generated)
+          if (static_cast<std::size_t>(v.block.columns.rows()) != n)
+            throw std::invalid_argument("explain: candidate " + cand.effect + " has the wrong number of rows");
+      }
+      const std::vector<Variant>& variants = generated ? *generated : cand.variants;
+      if (variants.empty()) continue;
+      // Prescreen the variants by how much of the current residual each explains alone.
+      std::vector<std::pair<double, std::size_t>> score;
+      for (std::size_t v = 0; v < variants.size(); ++v) {
+        const auto& x = variants[v].block.columns;
+        const Eigen::VectorXd b = x.colPivHouseholderQr().solve(current.residual);
+        score.emplace_back(-(current.residual.squaredNorm() - (current.residual - x * b).squaredNorm()), v);
+      }
+      std::sort(score.begin(), score.end());
+      Trial best;
+      best.cand = c;
+      best.generated = generated;
+      bool have = false;
+      for (std::size_t s = 0; s < std::min(options.prescreen, score.size()); ++s) {
+        const Variant* v = &variants[score[s].second];
+        auto blocks = chosen;
+        blocks.push_back(v);
+        Fit f = fit(assemble(problem.base, blocks), y);
+        if (!have || f.rss < best.fit.rss) {
+          best.variant = v;
+          best.fit = std::move(f);
+          have = true;
+        }
+      }
+      const double q = static_cast<double>(best.fit.res.rank) - static_cast<double>(current.res.rank);
+      const double dof2 = static_cast<double>(n) - static_cast<double>(best.fit.res.rank);
+      best.delta_bic = best.fit.bic - current.bic;
+      if (q > 0 && dof2 > 0 && best.fit.rss > 0) {
+        const double f = ((current.rss - best.fit.rss) / q) / (best.fit.rss / dof2);
+        const double searched =
+            static_cast<double>(cand.search_size ? cand.search_size : std::max<std::size_t>(variants.size(), 1));
+        best.p = std::min(1.0, f_sf(f, q, dof2) * static_cast<double>(live) * searched);
+      }
+      trials.push_back(std::move(best));
+    }
+    std::sort(trials.begin(), trials.end(), [](const Trial& a, const Trial& b) { return a.delta_bic < b.delta_bic; });
+    rep.considered.clear();
+    bool accepted = false;
+    // The structure still located in the current residual, by band (the share test's yardstick).
+    const Located here = locate(problem, current.residual, options.alpha, sigma);
+    const double vis_before = visible_energy(problem, current.residual, sigma, here.flagged);
+    for (auto& t : trials) {
+      const Candidate& cand = problem.candidates[t.cand];
+      Considered con{cand.effect, t.delta_bic, t.p, ""};
+      if (accepted) {
+        con.verdict = "not tried after a better candidate was taken";
+      } else if (!(t.p < options.alpha)) {
+        con.verdict = "not significant (p=" + fmt("%.2g", t.p) + ")";
+      } else if (!(t.delta_bic < 0)) {
+        con.verdict = "does not lower the BIC";
+      } else {
+        auto blocks = chosen;
+        blocks.push_back(t.variant);
+        const Design d = assemble(problem.base, blocks);
+        const double ho = heldout_rms(d, y, fold_of, folds);
+        double share = nan;
+        if (here.structured && vis_before > visible_floor)
+          share = 1.0 - visible_energy(problem, t.fit.residual, sigma, here.flagged) / vis_before;
+        if (!(ho < current_heldout)) {
+          con.verdict = "held-out RMS not improved (" + fmt("%.4g", ho) + " um)";
+        } else if (std::isfinite(share) && share < options.min_share) {
+          con.verdict = "removes only " + fmt("%.0f", 100 * share) + " % of the visible structure";
+        } else {
+          con.verdict = "selected";
+          accepted = true;
+          used[t.cand] = true;
+          chosen.push_back(t.variant);
+          if (t.generated) keep.push_back(t.generated);
+          chosen_candidate.push_back(t.cand);
+          Finding fd;
+          fd.effect = cand.effect;
+          fd.delta_bic = t.delta_bic;
+          fd.p_value = t.p;
+          fd.rms_um_after = std::sqrt(t.fit.rss / static_cast<double>(n));
+          fd.heldout_rms_um_after = ho;
+          fd.share = share;
+          fd.why = cand.why;
+          rep.findings.push_back(fd);
+          design = d;
+          current = std::move(t.fit);
+          current_heldout = ho;
+        }
+      }
+      rep.considered.push_back(con);
+    }
+    if (!accepted) break;
+  }
+  // Parameters from the final joint fit.
+  Eigen::Index offset = problem.base.columns.cols();
+  for (std::size_t k = 0; k < chosen.size(); ++k) {
+    rep.findings[k].parameters = params_of(*chosen[k], current, offset);
+    offset += chosen[k]->block.columns.cols();
+  }
+  rep.final_fit = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
+  const Located fin = locate(problem, current.residual, options.alpha);
+  rep.remaining = fin.places;
+  rep.unexplained = fin.structured;
+  return rep;
+}
+
+nlohmann::json to_json(const Report& r) {
+  using nlohmann::json;
+  const auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  const auto stats = [&](const FitStats& f) {
+    return json{{"rms_um", num(f.rms_um)},
+                {"bic", num(f.bic)},
+                {"heldout_rms_um", num(f.heldout_rms_um)},
+                {"parameters", f.parameters}};
+  };
+  const auto places = [](const std::vector<Mismatch>& v) {
+    json a = json::array();
+    for (const auto& m : v) {
+      json ranges = json::array();
+      for (const auto& [lo, hi] : m.ranges) ranges.push_back({lo, hi});
+      a.push_back({{"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}});
+    }
+    return a;
+  };
+  json j;
+  j["model"] = r.model;
+  j["n"] = r.n;
+  j["noise_um"] = num(r.noise_um);
+  j["heldout_scheme"] = r.heldout_scheme;
+  j["baseline"] = stats(r.baseline);
+  j["mismatch"] = places(r.mismatch);
+  json f = json::array();
+  for (const auto& fd : r.findings) {
+    json p = json::object();
+    for (const auto& q : fd.parameters) p[q.name] = {{"value", num(q.value)}, {"u", num(q.u)}};
+    f.push_back({{"effect", fd.effect},
+                 {"parameters", p},
+                 {"delta_bic", num(fd.delta_bic)},
+                 {"p_value", num(fd.p_value)},
+                 {"rms_um_after", num(fd.rms_um_after)},
+                 {"heldout_rms_um_after", num(fd.heldout_rms_um_after)},
+                 {"structure_removed", num(fd.share)},
+                 {"why", fd.why}});
+  }
+  j["findings"] = f;
+  j["final"] = stats(r.final_fit);
+  j["unexplained"] = r.unexplained;
+  j["remaining"] = places(r.remaining);
+  json c = json::array();
+  for (const auto& k : r.considered)
+    c.push_back({{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
+  j["considered"] = c;
+  j["notes"] = r.notes;
+  return j;
+}
+
+std::string to_text(const Report& r) {
+  std::ostringstream o;
+  const auto g = [](double v, const char* f = "%.4g") { return fmt(f, v); };
+  o << "model " << r.model << ": " << r.n << " samples, noise " << g(r.noise_um, "%.3g") << " um (finest wavelet details)\n";
+  o << "baseline: rms " << g(r.baseline.rms_um) << " um, held-out rms " << g(r.baseline.heldout_rms_um) << " um, BIC "
+    << g(r.baseline.bic, "%.1f") << "  [" << r.heldout_scheme << "]\n";
+  if (r.mismatch.empty()) {
+    o << "\nwhere: the baseline residual is indistinguishable from noise (band energies, runs test, Ljung-Box).\n";
+  } else {
+    o << "\nwhere the residual is not noise:\n";
+    for (const auto& m : r.mismatch)
+      o << "  - " << m.domain << ": " << m.where << "\n      band " << m.band << "\n      " << m.evidence << "\n";
+  }
+  if (r.findings.empty()) {
+    o << "\nfindings: none of the candidate effects is significant.\n";
+  } else {
+    o << "\nfindings (in the order they were taken):\n";
+    int k = 1;
+    for (const auto& f : r.findings) {
+      o << "  " << k++ << ". " << f.effect << ": " << f.why << "\n";
+      for (const auto& p : f.parameters) {
+        o << "       " << p.name << " = " << g(p.value, "%.4g");
+        if (std::isfinite(p.u)) o << " +/- " << g(p.u, "%.2g");
+        else o << " (searched)";
+        o << "\n";
+      }
+      o << "       BIC " << g(f.delta_bic, "%+.1f") << ", p = " << g(f.p_value, "%.2g") << ", rms -> " << g(f.rms_um_after)
+        << " um, held-out rms -> " << g(f.heldout_rms_um_after) << " um";
+      if (std::isfinite(f.share)) o << ", removes " << g(100 * f.share, "%.0f") << " % of the visible structure";
+      o << "\n";
+    }
+  }
+  if (!r.considered.empty()) {
+    o << "\nlast round:\n";
+    for (const auto& c : r.considered) o << "  " << c.effect << ": " << c.verdict << "\n";
+  }
+  o << "\nfinal: rms " << g(r.final_fit.rms_um) << " um, held-out rms " << g(r.final_fit.heldout_rms_um) << " um, BIC "
+    << g(r.final_fit.bic, "%.1f") << "\n";
+  if (r.unexplained) {
+    o << "UNEXPLAINED: the residual is still structured and no effect in the library accounts for it:\n";
+    for (const auto& m : r.remaining) o << "  - " << m.domain << ": " << m.where << " (" << m.evidence << ")\n";
+  } else {
+    o << "the remaining residual is consistent with noise.\n";
+  }
+  for (const auto& n : r.notes) o << "note: " << n << "\n";
+  return o.str();
+}
+
+}  // namespace guideway::models::explain

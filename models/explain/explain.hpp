@@ -1,0 +1,144 @@
+#pragma once
+// Explaining a mismatch between a model and a recording (issue 7): locate where the residual of the
+// base model is structured rather than noise, then try the candidate effects of the library
+// (effects.hpp) by greedy forward selection -- each candidate fitted jointly with the base and the
+// effects already found, accepted only when it lowers the BIC, passes an F-test (Bonferroni over the
+// candidates and the variants searched), improves the held-out RMS and removes most of the visible
+// structure -- and stop when nothing is significant. What remains structured is reported as
+// `unexplained`. The model-specific front ends (dbb_explain.hpp, profile_explain.hpp) build the
+// Problem; this engine knows no physics. Pure functions; thread safe; throws std::invalid_argument.
+
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+namespace guideway::models::explain {
+
+// One observation with the coordinates the locate step reports in.
+struct Sample {
+  std::size_t run = 0;  // index into Problem::runs; samples of a run are contiguous and in time order
+  double y_um = 0.0;    // what is explained: the measurement (base refitted) or measured - simulated
+  double where = 0.0;   // position in the problem's domain (angle_deg or position_mm)
+  double t_s = 0.0;     // machine time
+};
+
+struct RunInfo {
+  std::string label;
+  int direction = 1;             // +1 / -1 (ccw / cw, or +x / -x)
+  double feed_mm_per_min = 0.0;
+  std::string geometry;          // runs with equal geometry are compared across direction and feed
+};
+
+// Design columns in um per reported unit, one row per sample.
+struct Block {
+  std::vector<std::string> names;  // reported names with units (e.g. "servo_mismatch_ms")
+  Eigen::MatrixXd columns;         // N x names.size()
+};
+
+struct ParamValue {
+  std::string name;
+  double value = 0.0;
+  double u = 0.0;  // standard uncertainty; NaN for a value found by search on a grid
+};
+
+// One concrete form of a candidate; nonlinear parameters (a period, a decay time, a frequency) are
+// searched on a grid, each grid point a variant.
+struct Variant {
+  Block block;
+  std::vector<ParamValue> fixed;  // the searched values, reported with u = NaN
+  std::size_t searched = 0;       // nonlinear parameters searched (counted in the BIC)
+  // Reported parameters from the block's coefficients and their covariance; empty = the coefficients.
+  std::function<std::vector<ParamValue>(const Eigen::VectorXd&, const Eigen::MatrixXd&)> report;
+};
+
+struct Candidate {
+  std::string effect;  // a name of effect_library()
+  std::string why;     // one sentence of physics, for the report
+  std::vector<Variant> variants;
+  // Variants made from the current residual (e.g. the peaks of a periodogram) instead of a fixed list.
+  std::function<std::vector<Variant>(const Eigen::VectorXd& residual_um)> generate;
+  std::size_t search_size = 0;  // grid points searched, for the Bonferroni factor; 0 = variants.size()
+};
+
+struct Problem {
+  std::string model;   // "dbb", "flatness", "straightness", "simulated"
+  std::string domain;  // "angle_deg" or "position_mm"
+  std::vector<Sample> samples;
+  std::vector<RunInfo> runs;
+  Block base;  // may have no columns (a given simulation: nothing is refitted)
+  std::vector<Candidate> candidates;
+  std::vector<std::string> notes;  // passed through to the report
+};
+
+struct ExplainOptions {
+  double alpha = 1e-3;            // family-wise significance level of each selection step
+  std::size_t max_effects = 4;    // at most this many findings
+  std::size_t folds = 8;          // blocked cross-validation folds (when runs are not held out)
+  double min_share = 0.8;         // share of the located structure a finding must remove (a partial fit
+                                  // of a cause it is not leaves its shape behind)
+  std::size_t prescreen = 3;      // variants per candidate fitted jointly (best by projection)
+};
+
+struct Mismatch {
+  std::string domain;
+  std::string where;
+  std::string band;
+  std::string evidence;
+  std::vector<std::pair<double, double>> ranges;  // the places in domain units (empty: throughout / n.a.)
+};
+
+struct Finding {
+  std::string effect;
+  std::vector<ParamValue> parameters;
+  double delta_bic = 0.0;
+  double p_value = 1.0;  // Bonferroni-adjusted F-test
+  double rms_um_after = 0.0;
+  double heldout_rms_um_after = 0.0;
+  double share = 0.0;    // of the visible structure removed (NaN when none was visible)
+  std::string why;
+};
+
+// A candidate's test in the last selection round (why it was not taken).
+struct Considered {
+  std::string effect;
+  double delta_bic = 0.0;
+  double p_value = 1.0;
+  std::string verdict;
+};
+
+struct FitStats {
+  double rms_um = 0.0;
+  double bic = 0.0;
+  double heldout_rms_um = 0.0;
+  std::size_t parameters = 0;
+};
+
+struct Report {
+  std::string model;
+  std::size_t n = 0;
+  double noise_um = 0.0;           // from the finest wavelet details of the baseline residual
+  std::string heldout_scheme;      // "leave-one-run-out" or "blocked k-fold (k=8)"
+  FitStats baseline;
+  std::vector<Mismatch> mismatch;  // where the baseline residual is structured
+  std::vector<Finding> findings;
+  std::vector<Considered> considered;
+  FitStats final_fit;
+  std::vector<Mismatch> remaining;  // where the final residual is still structured
+  bool unexplained = false;
+  std::vector<std::string> notes;
+};
+
+Report explain(const Problem& problem, const ExplainOptions& options = {});
+
+// The issue's JSON shape ({"model", "baseline", "mismatch", "findings", "final", "unexplained"}) plus
+// "n", "noise_um", "heldout_scheme", "considered", "remaining", "notes".
+nlohmann::json to_json(const Report& report);
+// A readable explanation for a metrologist.
+std::string to_text(const Report& report);
+
+}  // namespace guideway::models::explain

@@ -1,0 +1,374 @@
+#include "models/explain/locate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "dsp/denoise.hpp"
+#include <span>
+#include "dsp/wavelet.hpp"
+#include "models/explain/stats.hpp"
+
+namespace guideway::models::explain {
+
+namespace {
+
+constexpr std::size_t min_run_samples = 32;  // shorter runs are not decomposed
+
+std::string fmt(const char* f, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, a);
+  return buf;
+}
+
+std::string pfmt(double p) { return p < 1e-300 ? std::string("<1e-300") : fmt("%.2g", p); }
+
+int wavelet_level(std::size_t n) { return std::clamp(dsp::dwt_max_level(n, 8), 1, 10); }
+
+const dsp::Wavelet& db4() {
+  static const dsp::Wavelet w("db4");
+  return w;
+}
+
+std::vector<double> slice(const Eigen::VectorXd& r, std::pair<std::size_t, std::size_t> range) {
+  return {r.data() + range.first, r.data() + range.second};
+}
+
+// Median spacing of `where` within runs (domain units per sample).
+double spacing(const Problem& p) {
+  std::vector<double> d;
+  for (std::size_t i = 1; i < p.samples.size(); ++i) {
+    if (p.samples[i].run != p.samples[i - 1].run) continue;
+    double s = std::abs(p.samples[i].where - p.samples[i - 1].where);
+    if (p.domain == "angle_deg") s = std::min(s, std::abs(360.0 - s));
+    if (s > 0) d.push_back(s);
+  }
+  if (d.empty()) return 1.0;
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+  return d[d.size() / 2];
+}
+
+std::string unit_of(const Problem& p) { return p.domain == "angle_deg" ? "deg" : "mm"; }
+
+std::string band_label(int level, int deepest, bool approx, double step, const std::string& unit) {
+  // Detail level j passes periods of about 2^j .. 2^(j+1) samples; the approximation the longer ones.
+  if (approx)
+    return "A" + std::to_string(deepest) + " (periods > " + fmt("%.3g", std::ldexp(step, deepest + 1)) + " " + unit + ")";
+  return "D" + std::to_string(level) + " (periods " + fmt("%.3g", std::ldexp(step, level)) + "-" +
+         fmt("%.3g", std::ldexp(step, level + 1)) + " " + unit + ")";
+}
+
+double wrap_where(const Problem& p, double w) {
+  if (p.domain != "angle_deg") return w;
+  double a = std::fmod(w, 360.0);
+  return a < 0 ? a + 360.0 : a;
+}
+
+// Linear interpolation of (x, y) sorted by x at xq (clamped at the ends).
+double interp(const std::vector<std::pair<double, double>>& xy, double xq) {
+  auto it = std::lower_bound(xy.begin(), xy.end(), std::make_pair(xq, -1e300));
+  if (it == xy.begin()) return xy.front().second;
+  if (it == xy.end()) return xy.back().second;
+  const auto& hi = *it;
+  const auto& lo = *(it - 1);
+  if (hi.first == lo.first) return hi.second;
+  return lo.second + (hi.second - lo.second) * (xq - lo.first) / (hi.first - lo.first);
+}
+
+struct Interval {
+  double lo, hi, peak;
+};
+
+}  // namespace
+
+std::vector<std::pair<std::size_t, std::size_t>> run_ranges(const Problem& problem) {
+  std::vector<std::pair<std::size_t, std::size_t>> out(problem.runs.size(), {0, 0});
+  std::vector<bool> seen(problem.runs.size(), false);
+  for (std::size_t i = 0; i < problem.samples.size(); ++i) {
+    const std::size_t r = problem.samples[i].run;
+    if (r >= out.size()) throw std::invalid_argument("explain: sample refers to run " + std::to_string(r) + " of " +
+                                                     std::to_string(out.size()));
+    if (!seen[r]) {
+      out[r] = {i, i + 1};
+      seen[r] = true;
+    } else {
+      if (out[r].second != i) throw std::invalid_argument("explain: samples of a run must be contiguous");
+      out[r].second = i + 1;
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// The flagged bands of x (hard-thresholded details, approximation as is), back in the signal domain.
+std::vector<double> band_signal(std::span<const double> x, double sigma, const std::vector<int>& flagged) {
+  const int level = wavelet_level(x.size());
+  auto c = dsp::wavedec(x, db4(), dsp::Mode::periodization, level);
+  const double lambda = dsp::universal_threshold(sigma, x.size());
+  for (std::size_t b = 0; b < c.size(); ++b) {
+    const int slot = b == 0 ? 0 : level + 1 - static_cast<int>(b);
+    const bool keep = std::find(flagged.begin(), flagged.end(), slot) != flagged.end();
+    for (double& v : c[b]) {
+      if (!keep) v = 0.0;
+      else if (b > 0) v = dsp::apply_threshold(v, lambda, dsp::ThresholdRule::hard);
+    }
+  }
+  auto y = dsp::waverec(c, db4(), dsp::Mode::periodization);
+  y.resize(x.size());
+  return y;
+}
+
+}  // namespace
+
+double visible_energy(const Problem& problem, const Eigen::VectorXd& residual_um, double sigma_um,
+                      const std::vector<int>& flagged) {
+  if (flagged.empty() || !(sigma_um > 0)) return 0.0;
+  double e = 0;
+  for (const auto& range : run_ranges(problem)) {
+    const auto x = slice(residual_um, range);
+    if (x.size() < min_run_samples) continue;
+    for (double v : band_signal(x, sigma_um, flagged)) e += v * v;
+  }
+  return e;
+}
+
+Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, double alpha, double sigma_um) {
+  Located out;
+  const auto ranges = run_ranges(problem);
+  const std::size_t n = problem.samples.size();
+  out.smooth.assign(n, 0.0);
+  // Bands of every run; the noise from the pooled finest details.
+  std::vector<dsp::Coefficients> coeffs(ranges.size());
+  std::vector<double> finest;
+  int deepest = 0;
+  for (std::size_t k = 0; k < ranges.size(); ++k) {
+    const auto x = slice(residual_um, ranges[k]);
+    if (x.size() < min_run_samples) continue;
+    const int level = wavelet_level(x.size());
+    deepest = std::max(deepest, level);
+    coeffs[k] = dsp::wavedec(x, db4(), dsp::Mode::periodization, level);
+    finest.insert(finest.end(), coeffs[k].back().begin(), coeffs[k].back().end());
+  }
+  if (finest.empty()) throw std::invalid_argument("explain: every run is shorter than 32 samples");
+  const double sigma = sigma_um > 0 ? sigma_um : dsp::mad_sigma(finest);
+  out.sigma_um = sigma;
+  if (!(sigma > 0)) return out;  // an exact fit: nothing to locate
+  const double step = spacing(problem);
+  const std::string unit = unit_of(problem);
+
+  // Band energy per level (level 0 = approximation), chi-square against the noise.
+  struct Band {
+    double energy = 0, dof = 0;
+  };
+  std::vector<Band> bands(static_cast<std::size_t>(deepest) + 1);
+  for (const auto& c : coeffs) {
+    if (c.empty()) continue;
+    const int level = static_cast<int>(c.size()) - 1;
+    for (std::size_t b = 0; b < c.size(); ++b) {
+      // b = 0: approximation of `level`; b >= 1: detail of level (level + 1 - b).
+      const std::size_t slot = b == 0 ? 0 : static_cast<std::size_t>(level + 1) - b;
+      for (double v : c[b]) bands[slot].energy += v * v;
+      bands[slot].dof += static_cast<double>(c[b].size());
+    }
+  }
+  // Each band against the finest one (F-test: the noise level is itself estimated from the finest
+  // details, so a chi-square with sigma taken as known would be too eager).
+  const Band& finest_band = bands[1];  // slot 1 = D1
+  const double ref = finest_band.dof > 0 ? finest_band.energy / finest_band.dof : sigma * sigma;
+  double best_excess = 0, merge_gap = 0;
+  std::string dominant;
+  double band_p = 1.0;
+  std::string band_evidence;
+  for (std::size_t b = 0; b < bands.size(); ++b) {
+    if (b == 1 || bands[b].dof <= 0 || !(ref > 0)) continue;
+    const double ratio = bands[b].energy / bands[b].dof / ref;
+    const double p =
+        std::min(1.0, f_sf(ratio, bands[b].dof, finest_band.dof) * static_cast<double>(bands.size() - 1));
+    const double excess = bands[b].energy - bands[b].dof * ref;
+    if (p < alpha / 3) out.flagged.push_back(static_cast<int>(b));
+    if (p < alpha / 3 && excess > best_excess) {
+      best_excess = excess;
+      dominant = band_label(static_cast<int>(b), deepest, b == 0, step, unit);
+      merge_gap = std::ldexp(step, b == 0 ? deepest : static_cast<int>(b));
+      band_p = p;
+      band_evidence = (b == 0 ? "A" + std::to_string(deepest) : "D" + std::to_string(b)) + " energy " +
+                      fmt("%.3g", ratio) + " x the finest details' (F p=" + pfmt(p) + ")";
+    }
+  }
+  // Whiteness per run, pooled: runs test z summed, Ljung-Box Q summed.
+  double z_sum = 0, q_sum = 0, q_dof = 0;
+  std::size_t z_count = 0;
+  for (const auto& range : ranges) {
+    const auto x = slice(residual_um, range);
+    if (x.size() < min_run_samples) continue;
+    z_sum += runs_test(x).statistic;
+    ++z_count;
+    const auto lb = ljung_box(x, std::min<std::size_t>(20, x.size() / 10));
+    q_sum += lb.statistic;
+    q_dof += lb.dof;
+  }
+  const double z_runs = z_count ? z_sum / std::sqrt(static_cast<double>(z_count)) : 0.0;
+  const double p_runs = normal_two_sided(z_runs);
+  const double p_lb = q_dof > 0 ? chi2_sf(q_sum, q_dof) : 1.0;
+  out.structured = band_p < alpha / 3 || p_runs < alpha / 3 || p_lb < alpha / 3;
+
+  // The places: the flagged bands (hard-thresholded) where they reach half their largest magnitude.
+  double peak = 0;
+  for (const auto& range : ranges) {
+    const auto x = slice(residual_um, range);
+    if (x.size() < min_run_samples || out.flagged.empty()) continue;
+    const auto d = band_signal(x, sigma, out.flagged);
+    for (std::size_t i = 0; i < d.size(); ++i) {
+      out.smooth[range.first + i] = d[i];
+      out.visible_energy += d[i] * d[i];
+      peak = std::max(peak, std::abs(d[i]));
+    }
+  }
+  if (!out.structured) return out;
+
+  std::string where;
+  std::vector<std::pair<double, double>> place_ranges;
+  if (peak > 0) {
+    std::vector<Interval> iv;
+    for (std::size_t i = 0; i < n;) {
+      if (std::abs(out.smooth[i]) < 0.5 * peak) {
+        ++i;
+        continue;
+      }
+      const double sign = out.smooth[i] > 0 ? 1 : -1;
+      Interval cur{wrap_where(problem, problem.samples[i].where), wrap_where(problem, problem.samples[i].where), 0};
+      std::size_t j = i;
+      for (; j < n && problem.samples[j].run == problem.samples[i].run && out.smooth[j] * sign >= 0.5 * peak; ++j) {
+        const double w = wrap_where(problem, problem.samples[j].where);
+        cur.lo = std::min(cur.lo, w);
+        cur.hi = std::max(cur.hi, w);
+        if (std::abs(out.smooth[j]) > std::abs(cur.peak)) cur.peak = out.smooth[j];
+      }
+      iv.push_back(cur);
+      i = j;
+    }
+    std::sort(iv.begin(), iv.end(), [](const Interval& a, const Interval& b) { return a.lo < b.lo; });
+    std::vector<Interval> merged;
+    for (const auto& v : iv) {
+      // Lobes closer than the dominant band's shortest period are one feature (band-pass ringing).
+      if (!merged.empty() && v.lo <= merged.back().hi + std::max(2 * step, merge_gap)) {
+        merged.back().hi = std::max(merged.back().hi, v.hi);
+        if (std::abs(v.peak) > std::abs(merged.back().peak)) merged.back().peak = v.peak;
+      } else {
+        merged.push_back(v);
+      }
+    }
+    double lo = 1e300, hi = -1e300, covered = 0;
+    for (const auto& s : problem.samples) {
+      lo = std::min(lo, wrap_where(problem, s.where));
+      hi = std::max(hi, wrap_where(problem, s.where));
+    }
+    for (const auto& v : merged) covered += v.hi - v.lo + step;
+    if (covered > 0.6 * (hi - lo) || merged.size() > 8) {
+      where = "throughout " + fmt("%.4g", lo) + ".." + fmt("%.4g", hi) + " " + unit + " (peak " + fmt("%+.3g", peak) +
+              " um)";
+    } else {
+      // Strongest first.
+      std::sort(merged.begin(), merged.end(),
+                [](const Interval& a, const Interval& b) { return std::abs(a.peak) > std::abs(b.peak); });
+      for (const auto& v : merged) {
+        place_ranges.emplace_back(v.lo, v.hi);
+        if (!where.empty()) where += ", ";
+        where += fmt("%.4g", v.lo) + ".." + fmt("%.4g", v.hi) + " " + unit + " (" + fmt("%+.3g", v.peak) + " um)";
+      }
+    }
+  } else {
+    where = "below the noise everywhere (no single place stands out)";
+  }
+  std::string evidence = band_evidence;
+  const auto add = [&](const std::string& s) { evidence += (evidence.empty() ? "" : "; ") + s; };
+  add("runs test z=" + fmt("%.3g", z_runs) + " (p=" + pfmt(p_runs) + ")");
+  add("Ljung-Box Q=" + fmt("%.4g", q_sum) + " on " + fmt("%g", q_dof) + " dof (p=" + pfmt(p_lb) + ")");
+  add("noise " + fmt("%.3g", sigma) + " um from the finest details");
+  out.places.push_back({problem.domain, where, dominant.empty() ? "broadband" : dominant, evidence, place_ranges});
+
+  // Direction and feed: runs of one geometry compared at the same place.
+  for (std::size_t i = 0; i < problem.runs.size(); ++i) {
+    for (std::size_t j = i + 1; j < problem.runs.size(); ++j) {
+      const auto& ri = problem.runs[i];
+      const auto& rj = problem.runs[j];
+      if (ri.geometry != rj.geometry) continue;
+      const bool dir_pair = ri.direction != rj.direction && ri.feed_mm_per_min == rj.feed_mm_per_min;
+      const bool feed_pair = ri.direction == rj.direction && ri.feed_mm_per_min != rj.feed_mm_per_min;
+      if (!dir_pair && !feed_pair) continue;
+      if (ranges[i].second - ranges[i].first < min_run_samples ||
+          ranges[j].second - ranges[j].first < min_run_samples)
+        continue;
+      std::vector<std::pair<double, double>> xy;
+      for (std::size_t q = ranges[j].first; q < ranges[j].second; ++q)
+        xy.emplace_back(wrap_where(problem, problem.samples[q].where), residual_um[static_cast<Eigen::Index>(q)]);
+      std::sort(xy.begin(), xy.end());
+      double sxx = 0, syy = 0, sxy = 0;
+      std::size_t m = 0;
+      for (std::size_t q = ranges[i].first; q < ranges[i].second; ++q) {
+        const double a = residual_um[static_cast<Eigen::Index>(q)];
+        const double b = interp(xy, wrap_where(problem, problem.samples[q].where));
+        sxx += a * a;
+        syy += b * b;
+        sxy += a * b;
+        ++m;
+      }
+      if (!(sxx > 0 && syy > 0) || m < 4) continue;
+      const double rho = sxy / std::sqrt(sxx * syy);
+      const double z = std::atanh(std::clamp(rho, -0.999999, 0.999999)) * std::sqrt(static_cast<double>(m) - 3);
+      if (std::abs(z) < 4) continue;
+      const std::string pair = ri.label + " vs " + rj.label;
+      if (dir_pair) {
+        out.places.push_back(
+            {"direction", pair, dominant.empty() ? "broadband" : dominant,
+             "residuals at the same place correlate " + fmt("%+.2f", rho) + " (z=" + fmt("%.3g", z) + "): " +
+                 (rho < 0 ? "the mismatch flips sign with the direction of motion (velocity-dependent)"
+                          : "the mismatch repeats at the same place in both directions (position-dependent)"),
+             {}});
+      } else {
+        const double slope = sxy / sxx;  // r_j = slope * r_i
+        out.places.push_back({"feed", pair + " (" + fmt("%g", ri.feed_mm_per_min) + " vs " +
+                                          fmt("%g", rj.feed_mm_per_min) + " mm/min)",
+                              dominant.empty() ? "broadband" : dominant,
+                              "residuals at the same place correlate " + fmt("%+.2f", rho) + "; the second is " +
+                                  fmt("%.3g", slope) + " x the first (feed ratio " +
+                                  fmt("%.3g", rj.feed_mm_per_min / ri.feed_mm_per_min) + ")",
+                              {}});
+      }
+    }
+  }
+  // Time: trend of the residual within each run.
+  double best_z = 0, best_slope = 0;
+  std::string best_run;
+  for (std::size_t k = 0; k < ranges.size(); ++k) {
+    const auto [a, b] = ranges[k];
+    if (b - a < min_run_samples) continue;
+    double tm = 0;
+    for (std::size_t q = a; q < b; ++q) tm += problem.samples[q].t_s;
+    tm /= static_cast<double>(b - a);
+    double stt = 0, sty = 0;
+    for (std::size_t q = a; q < b; ++q) {
+      const double dt = problem.samples[q].t_s - tm;
+      stt += dt * dt;
+      sty += dt * residual_um[static_cast<Eigen::Index>(q)];
+    }
+    if (!(stt > 0)) continue;
+    const double slope = sty / stt;
+    const double z = slope / (sigma / std::sqrt(stt));
+    if (std::abs(z) > std::abs(best_z)) {
+      best_z = z;
+      best_slope = slope;
+      best_run = problem.runs[k].label;
+    }
+  }
+  if (std::abs(best_z) > 5)
+    out.places.push_back({"time_s", best_run, dominant.empty() ? "broadband" : dominant,
+                          "the residual trends " + fmt("%+.3g", best_slope * 60) + " um/min within the run (z=" +
+                              fmt("%.3g", best_z) + ")",
+                          {}});
+  return out;
+}
+
+}  // namespace guideway::models::explain

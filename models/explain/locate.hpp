@@ -1,0 +1,36 @@
+#pragma once
+// The locate step: is a residual noise, and if not, where is it structured? Per run, a Daubechies
+// (db4) decomposition gives the energy per band, tested against the noise level from the finest
+// details (chi-square); the runs test and Ljung-Box test whiteness; the wavelet-denoised residual
+// (universal threshold) shows the places; runs of equal geometry are compared across direction and
+// feed, and the residual is regressed on time. Pure functions; thread safe.
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain {
+
+struct Located {
+  double sigma_um = 0.0;           // noise level (MAD of the finest details)
+  bool structured = false;         // any test significant at alpha
+  std::vector<Mismatch> places;    // empty when not structured
+  std::vector<int> flagged;        // bands with significant energy: 0 = approximation, j = detail level j
+  std::vector<double> smooth;      // the flagged bands of the residual, hard-thresholded, per sample
+  double visible_energy = 0.0;     // sum of smooth^2 (um^2)
+};
+
+// sigma_um > 0 imposes the noise level (e.g. the baseline's) instead of estimating it.
+Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, double alpha, double sigma_um = 0.0);
+
+// Energy of the flagged bands of a residual after hard thresholding at the universal threshold (for
+// the share of the located structure a candidate removes); 0 when nothing is flagged.
+double visible_energy(const Problem& problem, const Eigen::VectorXd& residual_um, double sigma_um,
+                      const std::vector<int>& flagged);
+
+// [first, last) sample index of each run.
+std::vector<std::pair<std::size_t, std::size_t>> run_ranges(const Problem& problem);
+
+}  // namespace guideway::models::explain

@@ -1,0 +1,110 @@
+// The EXPLAIN engine on synthetic problems with a known answer: a base (offset + first harmonic), a
+// step effect and a sinusoid as candidates, white noise. Checks the selection, the parameter against
+// the truth, the held-out improvement, the null case and an out-of-library bump.
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "models/explain/explain.hpp"
+
+namespace ex = guideway::models::explain;
+
+namespace {
+
+constexpr double pi = std::numbers::pi;
+constexpr int n = 2000;
+
+double step_of(int i) { return (i % 500) < 250 ? 0.5 : -0.5; }
+
+// y = 3 + 2 cos + 1 sin + extra(i) + N(0, 0.4^2).
+ex::Problem make_problem(const std::function<double(int)>& extra, unsigned seed) {
+  ex::Problem p;
+  p.model = "synthetic";
+  p.domain = "angle_deg";
+  p.runs.push_back({"run1", 1, 1000, "g"});
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.4);
+  p.base.names = {"offset_um", "cos_um", "sin_um"};
+  p.base.columns.resize(n, 3);
+  ex::Candidate step{"backlash", "a step", {}, {}, 0};
+  ex::Candidate sine{"vibration", "a sinusoid", {}, {}, 0};
+  step.variants.resize(1);
+  step.variants[0].block.names = {"step_um"};
+  step.variants[0].block.columns.resize(n, 1);
+  sine.variants.resize(1);
+  sine.variants[0].block.names = {"vib_sin_um", "vib_cos_um"};
+  sine.variants[0].block.columns.resize(n, 2);
+  for (int i = 0; i < n; ++i) {
+    const double z = 2 * pi * i / n;
+    p.base.columns.row(i) << 1.0, std::cos(z), std::sin(z);
+    step.variants[0].block.columns(i, 0) = step_of(i);
+    sine.variants[0].block.columns.row(i) << std::sin(37 * z), std::cos(37 * z);
+    const double y = 3 + 2 * std::cos(z) + std::sin(z) + extra(i) + noise(rng);
+    p.samples.push_back({0, y, z * 180 / pi, i * 0.01});
+  }
+  p.candidates = {sine, step};
+  return p;
+}
+
+}  // namespace
+
+TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
+  const auto rep = ex::explain(make_problem([](int i) { return 0.3 * step_of(i) / 0.5 * 0.5; }, 1));
+  ASSERT_EQ(rep.findings.size(), 1u);
+  EXPECT_EQ(rep.findings[0].effect, "backlash");
+  ASSERT_EQ(rep.findings[0].parameters.size(), 1u);
+  const auto& par = rep.findings[0].parameters[0];
+  EXPECT_EQ(par.name, "step_um");
+  EXPECT_NEAR(par.value, 0.3, 4 * par.u);
+  EXPECT_LT(par.u, 0.02);
+  EXPECT_LT(rep.final_fit.heldout_rms_um, rep.baseline.heldout_rms_um);
+  EXPECT_LT(rep.findings[0].delta_bic, 0);
+  EXPECT_LT(rep.findings[0].p_value, 1e-3);
+  EXPECT_FALSE(rep.unexplained);
+  EXPECT_FALSE(rep.mismatch.empty());
+  EXPECT_NEAR(rep.noise_um, 0.4, 0.04);
+  const auto j = ex::to_json(rep);
+  for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"}) EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_TRUE(j["findings"][0]["parameters"]["step_um"].contains("u"));
+  EXPECT_NE(ex::to_text(rep).find("backlash"), std::string::npos);
+}
+
+TEST(ExplainEngine, NoiseOnlyGivesNoFinding) {
+  for (unsigned seed : {2u, 3u, 4u}) {
+    const auto rep = ex::explain(make_problem([](int) { return 0.0; }, seed));
+    EXPECT_TRUE(rep.findings.empty()) << seed;
+    EXPECT_FALSE(rep.unexplained) << seed;
+    EXPECT_TRUE(rep.mismatch.empty()) << seed;
+  }
+}
+
+TEST(ExplainEngine, BumpOutsideTheLibraryIsLocatedNotAttributed) {
+  // A 2 um Gaussian bump at sample 700 (126 deg), 15 samples wide.
+  const auto rep = ex::explain(make_problem(
+      [](int i) {
+        const double d = (i - 700) / 15.0;
+        return 2.0 * std::exp(-0.5 * d * d);
+      },
+      5));
+  EXPECT_TRUE(rep.findings.empty());
+  EXPECT_TRUE(rep.unexplained);
+  ASSERT_FALSE(rep.mismatch.empty());
+  bool located = false;
+  for (const auto& [lo, hi] : rep.mismatch[0].ranges) located |= lo <= 127 && 125 <= hi;
+  EXPECT_TRUE(located) << rep.mismatch[0].where;
+}
+
+TEST(ExplainEngine, RejectsUnusableProblems) {
+  auto p = make_problem([](int) { return 0.0; }, 6);
+  auto few = p;
+  few.samples.resize(10);
+  EXPECT_THROW((void)ex::explain(few), std::invalid_argument);
+  auto rows = p;
+  rows.candidates[0].variants[0].block.columns.conservativeResize(n - 1, Eigen::NoChange);
+  EXPECT_THROW((void)ex::explain(rows), std::invalid_argument);
+  auto nanp = p;
+  nanp.samples[5].y_um = std::nan("");
+  EXPECT_THROW((void)ex::explain(nanp), std::invalid_argument);
+}

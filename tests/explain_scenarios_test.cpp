@@ -1,0 +1,48 @@
+// The EXPLAIN scenario suite (models/explain/scenarios.cpp) at quick sample density: every scenario
+// must meet its own expectation (right effect first, parameter within tolerance of the truth,
+// held-out RMS improved; nothing found on noise; an out-of-library bump located, not attributed).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "models/explain/scenarios.hpp"
+#include "simulators/machine/machine.hpp"
+
+namespace ex = guideway::models::explain;
+
+class ExplainScenario : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ExplainScenario, MeetsItsExpectation) {
+  const auto r = ex::run_scenario(GetParam());
+  EXPECT_TRUE(r.pass) << r.name << ": " << r.failure << "\n" << ex::to_text(r.report);
+  if (!r.effect.empty()) {
+    ASSERT_FALSE(r.report.findings.empty());
+    EXPECT_EQ(r.report.findings.front().effect, r.effect);
+    EXPECT_LT(r.report.final_fit.heldout_rms_um, r.report.baseline.heldout_rms_um);
+  } else {
+    EXPECT_TRUE(r.report.findings.empty()) << r.found;
+  }
+  EXPECT_EQ(r.report.unexplained, r.expect_unexplained);
+}
+
+std::string scenario_name(const ::testing::TestParamInfo<std::string>& p) { return p.param; }
+
+INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(ex::scenario_names()), scenario_name);
+
+TEST(ExplainScenarios, UnknownNameIsAnError) { EXPECT_THROW((void)ex::run_scenario("nope"), std::invalid_argument); }
+
+// The out-of-library scenario's cause: the machine's local guideway bump (simulators/machine).
+TEST(ExplainScenarios, MachineBumpIsLocalAndReadFromToml) {
+  namespace sim = guideway::sim;
+  const auto cfg = sim::parse_machine_config(
+      "[axis.x]\nbump_um = 2.0\nbump_center_mm = 60\nbump_width_mm = 5\nbump_direction = \"y\"\n", "bump.toml");
+  EXPECT_DOUBLE_EQ(cfg.axis[0].bump_amplitude_m, 2e-6);
+  EXPECT_EQ(cfg.axis[0].bump_direction, 1);
+  const sim::Machine m(cfg);
+  const auto at = [&](double x_m) { return m.tool_point({x_m, 0.0, 0.0}); };
+  EXPECT_NEAR(at(0.060)[1], 2e-6, 1e-12);
+  EXPECT_NEAR(at(0.065)[1], 2e-6 * std::exp(-0.5), 1e-12);
+  EXPECT_NEAR(at(0.0)[1], 0.0, 1e-15);
+  EXPECT_NEAR(at(0.060)[0], 0.060, 1e-12);  // not along the axis itself
+  EXPECT_THROW((void)sim::parse_machine_config("[axis.x]\nbump_direction = \"w\"\n", "bad.toml"), std::exception);
+}

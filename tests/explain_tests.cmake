@@ -1,0 +1,12 @@
+# Tests of models/explain: statistics against scipy, the engine on synthetic problems, the scenario
+# suite on the virtual machine tool (quick density; the full-density table is `slow`), and the CLI.
+guideway_add_test(explain_stats_test SOURCES explain_stats_test.cpp LIBS guideway_explain_model LABELS unit)
+guideway_add_test(explain_engine_test SOURCES explain_engine_test.cpp LIBS guideway_explain_model LABELS unit)
+guideway_add_test(explain_scenarios_test SOURCES explain_scenarios_test.cpp LIBS guideway_explain_scenarios
+  LABELS unit TIMEOUT 300)
+add_test(NAME explain_cli_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/explain_cli_test.py $<TARGET_FILE:guideway> ${PROJECT_SOURCE_DIR})
+set_tests_properties(explain_cli_test PROPERTIES LABELS integration TIMEOUT 300)
+# The whole suite at the instrument's full sample density, as for docs/explain.md's table.
+add_test(NAME explain_scenarios_full COMMAND $<TARGET_FILE:guideway> explain --scenarios --full)
+set_tests_properties(explain_scenarios_full PROPERTIES LABELS slow TIMEOUT 1200)
