@@ -4,6 +4,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "daemon/session_support.hpp"
 #include "models/dbb/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
@@ -28,19 +29,6 @@ struct DbbOptions {
   std::string plane = "xy";
 };
 
-double number_option(const nlohmann::json& o, const char* key, double fallback, double min, double max) {
-  auto it = o.find(key);
-  if (it == o.end()) return fallback;
-  if (!it->is_number()) throw std::invalid_argument(std::string("option ") + key + " must be a number");
-  const double v = it->get<double>();
-  if (!(v >= min && v <= max)) {
-    std::ostringstream m;
-    m << "option " << key << " = " << v << " is outside [" << min << ", " << max << "]";
-    throw std::invalid_argument(m.str());
-  }
-  return v;
-}
-
 // Lai's three patterns (Tables 2 and 4): one 100 mm bar, socket height 31.225 mm at r = 95 mm in
 // both directions, and h = 0 at r = 100 mm counter-clockwise.
 std::vector<Pattern> lai_patterns() {
@@ -49,12 +37,7 @@ std::vector<Pattern> lai_patterns() {
 }
 
 DbbOptions parse_options(const nlohmann::json& o) {
-  for (const auto& [k, v] : o.items()) {
-    if (k != "patterns" && k != "radius_tolerance_mm" && k != "plane" && k != "min_speed_mm_per_min") {
-      throw std::invalid_argument("unknown dbb option \"" + k +
-                                  "\" (known: patterns, radius_tolerance_mm, min_speed_mm_per_min, plane)");
-    }
-  }
+  check_option_names(o, "dbb", {"patterns", "radius_tolerance_mm", "min_speed_mm_per_min", "plane"});
   DbbOptions d;
   d.radius_tolerance_m = number_option(o, "radius_tolerance_mm", 1.0, 0.001, 50.0) * 1e-3;
   d.min_speed_m_per_s = number_option(o, "min_speed_mm_per_min", 30.0, 0.1, 1e5) / 60e3;

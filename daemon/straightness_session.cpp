@@ -161,8 +161,9 @@ class StraightnessSession : public Session {
     j["model"] = result["model"];
     j["straightness"] = group;
     j["traverse"] = {{"stations", r.readings}, {"step_mm", r.step_m * 1e3}, {"start_mm", o_.start_m * 1e3}};
-    if (o_.stations > 0 && r.readings < o_.stations) {
-      j["incomplete"] = std::to_string(r.readings) + " of " + std::to_string(o_.stations) + " stations";
+    if (!done_) {  // stopped before the count or the return
+      j["incomplete"] = "stopped after " + std::to_string(r.readings) +
+                        (o_.stations > 0 ? " of " + std::to_string(o_.stations) : std::string()) + " stations";
     }
     j["result"] = result;
     return j;

@@ -103,6 +103,7 @@ TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
   }
   const auto ref = models::identify_straightness(tr);
   EXPECT_EQ(p["traverse"]["stations"], 13);
+  EXPECT_FALSE(p.contains("incomplete"));
   const auto& g = p["straightness"];
   EXPECT_NEAR(value(g, "vertical_least_squares_um"), ref.vertical.least_squares.straightness_m * 1e6, 1e-6);
   EXPECT_NEAR(value(g, "horizontal_minimum_zone_um"), ref.horizontal->minimum_zone.straightness_m * 1e6, 1e-6);
@@ -145,6 +146,7 @@ TEST(StraightnessSession, ReadingsThatJumpWithoutABeamBreakStartANewStation) {
   session->on_samples(out);
   const auto p = session->identify();  // stopped: the stations so far
   EXPECT_EQ(p["traverse"]["stations"], 3);
+  EXPECT_EQ(p["incomplete"], "stopped after 3 stations");
   const auto& stations = p["result"]["vertical"]["stations"];
   // Heights: 0, -1", -4" (the sign: a positive rotation about +y is a falling surface) times 50 mm.
   EXPECT_NEAR(stations[2]["height_um"].get<double>(), -4.0 * a * 0.05 * 1e6, 1e-9);
