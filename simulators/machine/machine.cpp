@@ -419,6 +419,8 @@ std::vector<ProfilePoint> Machine::facing_profile(const FacingSpec& spec) const 
       x_cmd += dir * (std::abs(rho) - radial) * (rho >= 0 ? 1.0 : -1.0);
     }
     double z = axis.dot(p);
+    if (spec.runout_along_path && sp.axial_runout_m != 0.0)
+      z += sp.axial_runout_m * std::cos(2.0 * two_pi * spec.spindle_rpm / 60.0 * t);
     if (nose > 0 && feed_per_rev > 0) {
       const double phase = std::fmod(std::abs(rho - spec.x_start_m), feed_per_rev);
       const double d = std::min(phase, feed_per_rev - phase);

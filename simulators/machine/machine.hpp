@@ -237,6 +237,10 @@ struct FacingSpec {
   double profile_step_m = 0.0005;
   double t0_s = 0.0;
   std::uint64_t seed = 0;
+  // true: the profile is taken along the tool's path while cutting (an in-process probe), so each point
+  // also carries the spindle's axial motion at that moment, SpindleErrors::axial_runout_m cos(2 theta),
+  // theta = 2 pi rpm / 60 t. false (default): a radial line of the finished face.
+  bool runout_along_path = false;
 };
 
 struct ProfilePoint {
