@@ -11,6 +11,7 @@
 #include "models/dbb/dbb_run.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
+#include "models/explain/profile_explain.hpp"
 #include "models/explain/scenarios.hpp"
 
 namespace guideway::cli {
@@ -40,6 +41,26 @@ void write_table(const std::string& path, const std::string& table) {
   out.close();
   if (!out) throw std::runtime_error(path + ".tmp: cannot write");
   if (std::rename((path + ".tmp").c_str(), path.c_str()) != 0) throw std::runtime_error(path + ": cannot replace");
+}
+
+// The `# format = ...` of a file ("" when it has none).
+std::string format_of(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] != '#') break;
+    const auto eq = line.find('=');
+    if (eq == std::string::npos) continue;
+    std::string key = line.substr(1, eq - 1), value = line.substr(eq + 1);
+    const auto trim = [](std::string& x) {
+      x.erase(0, x.find_first_not_of(" \t"));
+      x.erase(x.find_last_not_of(" \t\r") + 1);
+    };
+    trim(key);
+    trim(value);
+    if (key == "format") return value;
+  }
+  return "";
 }
 
 struct Opts {
@@ -123,7 +144,9 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
   auto* cmd = app.add_subcommand("explain", "Locate where a model and a recording differ and name the physics left out");
   auto o = std::make_shared<Opts>();
   cmd->add_option("files", o->files, "run or profile files for --model")->check(CLI::ExistingFile);
-  cmd->add_option("--model", o->model, "base model refitted to FILES: dbb")->check(CLI::IsMember({"dbb"}));
+  cmd->add_option("--model", o->model,
+                  "base model refitted to FILES: dbb (DBB runs), flatness or straightness (faced profiles)")
+      ->check(CLI::IsMember({"dbb", "flatness", "straightness"}));
   cmd->add_option("--simulated", o->simulated, "a prediction (same format and sample grid as --measured)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--measured", o->measured, "the recording compared with --simulated")->check(CLI::ExistingFile);
@@ -155,15 +178,34 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
         throw std::runtime_error("explain: --simulated and --measured go together");
       if (!o->model.empty() || !o->files.empty())
         throw std::runtime_error("explain: --simulated/--measured take no --model and no files");
-      const auto sim = models::dbb::read_run(o->simulated);
-      const auto rec = models::dbb::read_run(o->measured);
-      report = ex::explain(ex::dbb_compare_problem(sim, rec), eo);
+      const std::string fs = format_of(o->simulated), fm = format_of(o->measured);
+      if (fs != fm)
+        throw std::runtime_error("explain: " + o->simulated + " (" + fs + ") and " + o->measured + " (" + fm +
+                                 ") are not of one format");
+      if (fs == models::dbb::run_format_id) {
+        report = ex::explain(ex::dbb_compare_problem(models::dbb::read_run(o->simulated),
+                                                     models::dbb::read_run(o->measured)),
+                             eo);
+      } else if (fs == "guideway/profile/1") {
+        report = ex::explain(ex::profile_compare_problem(ex::read_profile_run(o->simulated),
+                                                         ex::read_profile_run(o->measured)),
+                             eo);
+      } else {
+        throw std::runtime_error("explain: " + o->simulated + ": format '" + fs +
+                                 "' is neither guideway/dbb-run/1 nor guideway/profile/1");
+      }
     } else {
       if (o->model.empty()) throw std::runtime_error("explain: give --model MODEL FILES..., or --simulated and --measured");
       if (o->files.empty()) throw std::runtime_error("explain: --model " + o->model + " needs at least one file");
-      std::vector<models::dbb::Run> runs;
-      for (const auto& f : o->files) runs.push_back(models::dbb::read_run(f));
-      report = ex::explain_dbb_report(runs, eo);
+      if (o->model == "dbb") {
+        std::vector<models::dbb::Run> runs;
+        for (const auto& f : o->files) runs.push_back(models::dbb::read_run(f));
+        report = ex::explain_dbb_report(runs, eo);
+      } else {
+        std::vector<ex::ProfileRun> runs;
+        for (const auto& f : o->files) runs.push_back(ex::read_profile_run(f));
+        report = ex::explain(ex::profile_problem(runs, o->model), eo);
+      }
     }
     if (o->json) {
       std::cout << ex::to_json(report).dump() << "\n";

@@ -7,6 +7,7 @@ usage: explain_cli_test.py GUIDEWAY_EXE SOURCE_DIR
 """
 import json
 import os
+import random
 import subprocess
 import sys
 import tempfile
@@ -82,6 +83,36 @@ def main():
             "--sample-rate-hz", "30", "--out", sim)
         j = json.loads(run(exe, "explain", "--simulated", sim, "--measured", files[0], "--json").stdout)
         assert j["findings"] and j["findings"][0]["effect"] == "backlash", j["findings"]
+
+        # faced profiles at two feeds with a thermal drift (0.2 um/min) and squareness: --model flatness
+        rnd = random.Random(5)
+        profiles = []
+        for k, feed in enumerate([2.0, 8.0]):
+            out = os.path.join(d, f"face{k}.csv")
+            t0 = 0.0 if k == 0 else 700.0
+            rows = []
+            for i in range(300):
+                x = i * 0.05
+                t = t0 + x / feed * 60.0
+                z = 0.005 * x + 0.2 * t / 60.0 + rnd.gauss(0.0, 0.03)
+                rows.append(f"{x:.4f},{z:.6f}")
+            open(out, "w").write("# format = guideway/profile/1\n# feed_mm_per_min = %g\n# spindle_rpm = 107\n"
+                                 "# start_time_s = %g\nx_mm,z_um\n%s\n" % (feed, t0, "\n".join(rows)))
+            profiles.append(out)
+        j = json.loads(run(exe, "explain", "--model", "flatness", *profiles, "--json").stdout)
+        assert j["model"] == "flatness"
+        assert j["findings"] and j["findings"][0]["effect"] == "thermal_drift", j["findings"]
+        rate = j["findings"][0]["parameters"]["thermal_drift_um_per_min"]
+        assert abs(rate["value"] - 0.2) < 0.01, rate
+        assert j["unexplained"] is False
+        # one feed only: the drift is squareness to the base; the note says so and nothing is found
+        j = json.loads(run(exe, "explain", "--model", "flatness", profiles[0], "--json").stdout)
+        assert not j["findings"], j["findings"]
+        assert any("two feed" in n for n in j["notes"]), j["notes"]
+        j = json.loads(run(exe, "explain", "--model", "straightness", *profiles, "--json").stdout)
+        assert j["findings"] and j["findings"][0]["effect"] == "thermal_drift", j["findings"]
+        r = run(exe, "explain", "--simulated", sim, "--measured", profiles[0], check=False)
+        assert r.returncode != 0 and "format" in r.stderr, r.stderr
 
         # errors: a broken file names file and line; missing arguments are explained
         bad = os.path.join(d, "bad.csv")

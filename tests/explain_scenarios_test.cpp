@@ -3,7 +3,9 @@
 // held-out RMS improved; nothing found on noise; an out-of-library bump located, not attributed).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "models/explain/scenarios.hpp"
 #include "simulators/machine/machine.hpp"
@@ -45,4 +47,29 @@ TEST(ExplainScenarios, MachineBumpIsLocalAndReadFromToml) {
   EXPECT_NEAR(at(0.0)[1], 0.0, 1e-15);
   EXPECT_NEAR(at(0.060)[0], 0.060, 1e-12);  // not along the axis itself
   EXPECT_THROW((void)sim::parse_machine_config("[axis.x]\nbump_direction = \"w\"\n", "bad.toml"), std::exception);
+}
+
+// The spindle run-out scenario's cause: FacingSpec::runout_along_path adds the spindle's axial motion
+// at the moment of the cut; off, the profile is unchanged.
+TEST(ExplainScenarios, FacingRunoutAlongPathIsOptIn) {
+  namespace sim = guideway::sim;
+  sim::MachineConfig cfg;
+  cfg.spindle.axial_runout_m = 0.2e-6;
+  const sim::Machine m(cfg);
+  sim::FacingSpec spec;
+  spec.x_end_m = 0.01;
+  spec.profile_step_m = 1e-4;
+  spec.spindle_rpm = 107;
+  spec.tool_nose_radius_m = 0;
+  const auto plain = m.facing_profile(spec);
+  spec.runout_along_path = true;
+  const auto path = m.facing_profile(spec);
+  ASSERT_EQ(plain.size(), path.size());
+  double max_dev = 0;
+  for (std::size_t i = 0; i < plain.size(); ++i) {
+    const double theta = 2 * std::numbers::pi * 107.0 / 60.0 * path[i].t_s;
+    EXPECT_NEAR(path[i].z_m - plain[i].z_m, 0.2e-6 * std::cos(2 * theta), 1e-12);
+    max_dev = std::max(max_dev, std::abs(plain[i].z_m));
+  }
+  EXPECT_LT(max_dev, 1e-12);  // a perfect machine faces flat without the option
 }

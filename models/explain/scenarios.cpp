@@ -9,6 +9,7 @@
 
 #include "models/dbb/simulate.hpp"
 #include "models/explain/dbb_explain.hpp"
+#include "models/explain/profile_explain.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::models::explain {
@@ -177,14 +178,100 @@ ScenarioResult dbb_scenario(const std::string& name, const ScenarioOptions& o) {
   return s;
 }
 
+// A faced part (Mu's set-up, scaled: a 20 mm radius at 107 rpm, a sharp tool so that no feed marks
+// form): the spindle leans 5 urad towards +x (squareness, in both profile bases); for the straightness
+// model the X carriage is also bowed along z (its polynomial base); 0.03 um of profilometer noise.
+sim::MachineConfig facing_machine(std::uint64_t seed, bool bowed) {
+  sim::MachineConfig m;
+  m.name = "explain-facing";
+  m.spindle.tilt_x_rad = 5e-6;
+  if (bowed) m.axis[0].translation[2].c = {0, 0, 2e-3};  // E_ZX: 0.8 um at 20 mm
+  m.noise.profilometer_m = 0.03 * um;
+  m.noise.seed = seed;
+  return m;
+}
+
+std::vector<ProfileRun> facing_runs(const sim::MachineConfig& cfg, const std::vector<double>& feeds_mm_per_min,
+                                    bool runout_along_path, const ScenarioOptions& o) {
+  const sim::Machine machine(cfg);
+  std::vector<ProfileRun> runs;
+  double t0 = 0;
+  for (std::size_t k = 0; k < feeds_mm_per_min.size(); ++k) {
+    sim::FacingSpec spec;
+    spec.x_start_m = 0.0;
+    spec.x_end_m = 0.02;
+    spec.feed_m_per_s = feeds_mm_per_min[k] / 60000.0;
+    spec.spindle_rpm = 107;  // not commensurate with the sampling (110 rpm aliases 2/rev exactly to 0 Hz)
+    spec.profile_step_m = o.quick ? 1e-4 : 5e-5;
+    spec.t0_s = t0;
+    spec.seed = o.seed * 1000 + 100 + k;
+    spec.runout_along_path = runout_along_path;
+    spec.tool_nose_radius_m = 0.0;
+    ProfileRun r;
+    r.source = "scenario-profile" + std::to_string(k + 1);
+    r.feed_mm_per_min = feeds_mm_per_min[k];
+    r.spindle_rpm = spec.spindle_rpm;
+    for (const auto& p : machine.facing_profile(spec)) {
+      r.x_m.push_back(p.x_m);
+      r.z_m.push_back(p.z_m);
+      r.t_s.push_back(p.t_s);
+    }
+    runs.push_back(std::move(r));
+    t0 += 0.02 / spec.feed_m_per_s + 60.0;
+  }
+  return runs;
+}
+
+ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& o) {
+  ScenarioResult s;
+  s.name = name;
+  s.model = name.rfind("flatness_", 0) == 0 ? "flatness" : "straightness";
+  sim::MachineConfig m = facing_machine(o.seed, s.model == "straightness");
+  std::vector<double> feeds{2.0, 8.0};
+  bool along_path = false;
+  if (name == "flatness_thermal_two_feeds" || name == "straightness_thermal_two_feeds") {
+    m.axis[2].drift_m_per_s = 0.2 * um / 60.0;
+    s.effect = "thermal_drift";
+    s.parameter = "thermal_drift_um_per_min";
+    s.truth = 0.2;
+    s.tolerance = 0.02;
+    s.concealment = s.model == "flatness"
+                        ? "Z drift at constant feed: a line in x exactly like squareness; only the 2 and 8 mm/min cuts "
+                          "differ"
+                        : "Z drift at constant feed: a line in x inside the polynomial base; only the two feeds differ";
+  } else if (name == "flatness_spindle_runout") {
+    m.spindle.axial_runout_m = 0.1 * um;
+    feeds = {2.0};
+    along_path = true;
+    s.effect = "spindle_axial_runout";
+    s.parameter = "spindle_axial_runout_um";
+    s.truth = 0.1;
+    s.tolerance = 0.02;
+    s.concealment = "0.1 um twice per revolution (3.6 Hz) sampled every 1.5-3 s along the tool path: aliased into "
+                    "slow waviness";
+  } else if (name == "flatness_null" || name == "straightness_null") {
+    s.concealment = s.model == "flatness" ? "nothing left out: squareness and 0.03 um noise only, two feeds"
+                                          : "nothing left out: squareness, a bowed X carriage and 0.03 um noise, two feeds";
+  } else {
+    throw std::invalid_argument("unknown scenario: " + name);
+  }
+  s.report = explain(profile_problem(facing_runs(m, feeds, along_path, o), s.model));
+  evaluate(s);
+  return s;
+}
+
 }  // namespace
 
 std::vector<std::string> scenario_names() {
-  return {"dbb_thermal_bar", "dbb_servo_mismatch", "dbb_backlash", "dbb_cyclic", "dbb_null", "dbb_bump"};
+  return {"dbb_thermal_bar",         "dbb_servo_mismatch", "dbb_backlash",
+          "dbb_cyclic",              "dbb_null",           "dbb_bump",
+          "flatness_thermal_two_feeds", "flatness_spindle_runout", "flatness_null",
+          "straightness_thermal_two_feeds", "straightness_null"};
 }
 
 ScenarioResult run_scenario(const std::string& name, const ScenarioOptions& options) {
   if (name.rfind("dbb_", 0) == 0) return dbb_scenario(name, options);
+  if (name.rfind("flatness_", 0) == 0 || name.rfind("straightness_", 0) == 0) return profile_scenario(name, options);
   throw std::invalid_argument("unknown scenario: " + name);
 }
 

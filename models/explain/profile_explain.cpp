@@ -1,0 +1,294 @@
+#include "models/explain/profile_explain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+#include "drivers/profilometer/profile_files.hpp"
+#include "models/common/least_squares.hpp"
+
+namespace guideway::models::explain {
+
+namespace {
+
+constexpr double pi = std::numbers::pi;
+constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+
+std::string fmt(const char* f, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, a);
+  return buf;
+}
+
+double meta_number(const profilometer::Profile& p, const std::string& path, const std::string& key, double fallback,
+                   bool required) {
+  const auto v = p.meta(key);
+  if (!v) {
+    if (required) throw std::invalid_argument(path + ": metadata '" + key + "' is missing");
+    return fallback;
+  }
+  try {
+    std::size_t used = 0;
+    const double d = std::stod(*v, &used);
+    if (used != v->size() || !std::isfinite(d)) throw std::invalid_argument(*v);
+    return d;
+  } catch (const std::exception&) {
+    throw std::invalid_argument(path + ": metadata '" + key + "': not a number: '" + *v + "'");
+  }
+}
+
+struct Pt {
+  std::size_t run;
+  double x_mm, t_s, y_um, feed_mm_per_min, rpm;
+};
+
+std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
+  std::vector<Pt> pts;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const auto& r = runs[k];
+    if (r.x_m.size() != r.z_m.size() || r.x_m.size() != r.t_s.size())
+      throw std::invalid_argument(r.source + ": x, z and t differ in length");
+    if (r.x_m.size() < 32) throw std::invalid_argument(r.source + ": too few points (" + std::to_string(r.x_m.size()) + ", need 32)");
+    if (!(r.feed_mm_per_min > 0) || !(r.spindle_rpm > 0))
+      throw std::invalid_argument(r.source + ": feed and spindle speed must be positive");
+    for (std::size_t i = 0; i < r.x_m.size(); ++i) {
+      if (!std::isfinite(r.x_m[i]) || !std::isfinite(r.z_m[i]) || !std::isfinite(r.t_s[i]))
+        throw std::invalid_argument(r.source + ": point " + std::to_string(i + 1) + " is not finite");
+      pts.push_back({k, r.x_m[i] * 1e3, r.t_s[i], r.z_m[i] * 1e6, r.feed_mm_per_min, r.spindle_rpm});
+    }
+  }
+  return pts;
+}
+
+using Row = std::function<void(const Pt&, double*)>;
+
+Variant make_variant(const std::vector<Pt>& g, std::vector<std::string> names, const Row& row) {
+  Variant v;
+  v.block.names = std::move(names);
+  const auto q = static_cast<Eigen::Index>(v.block.names.size());
+  v.block.columns.resize(static_cast<Eigen::Index>(g.size()), q);
+  std::vector<double> buf(static_cast<std::size_t>(q));
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    std::fill(buf.begin(), buf.end(), 0.0);
+    row(g[i], buf.data());
+    for (Eigen::Index k = 0; k < q; ++k) v.block.columns(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
+  }
+  return v;
+}
+
+std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
+                                  const Eigen::MatrixXd& cov) {
+  const double cs = x[0], cc = x[1];
+  const double a = std::hypot(cs, cc);
+  double ua = nan, up = nan;
+  if (a > 0) {
+    Eigen::Vector2d ga(cs / a, cc / a), gp(-cc / (a * a), cs / (a * a));
+    ua = std::sqrt(std::max(0.0, ga.dot(cov.topLeftCorner(2, 2) * ga)));
+    up = std::sqrt(std::max(0.0, gp.dot(cov.topLeftCorner(2, 2) * gp))) * 180 / pi;
+  }
+  return {{amp_name, a, ua}, {phase_name, std::atan2(cc, cs) * 180 / pi, up}};
+}
+
+std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::vector<double>& reading_um,
+                                          const std::vector<ProfileRun>& runs) {
+  std::vector<Candidate> out;
+  {
+    Candidate c{"thermal_drift",
+                "the machine grows as it warms up during the cut: a trend in time, which at one constant feed is a "
+                "straight line in x like squareness, but with another slope at another feed",
+                {}, {}, 0};
+    c.variants.push_back(make_variant(g, {"thermal_drift_um_per_min"}, [](const Pt& p, double* o) { o[0] = p.t_s / 60.0; }));
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"spindle_axial_runout",
+                "the spindle moves axially with its rotation (bearing waviness), a sinusoid at a multiple of the "
+                "spindle frequency in the time of the cut",
+                {}, {}, 0};
+    for (int harmonic : {1, 2}) {
+      Variant v = make_variant(g, {"runout_sin", "runout_cos"}, [harmonic](const Pt& p, double* o) {
+        const double th = harmonic * 2 * pi * p.rpm / 60.0 * p.t_s;
+        o[0] = std::sin(th);
+        o[1] = std::cos(th);
+      });
+      v.fixed.push_back({"spindle_axial_runout_per_rev", static_cast<double>(harmonic), nan});
+      v.searched = 1;
+      v.report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+        return amp_phase("spindle_axial_runout_um", "spindle_axial_runout_phase_deg", x, cov);
+      };
+      c.variants.push_back(std::move(v));
+    }
+    out.push_back(std::move(c));
+  }
+  {
+    // Length cut so far on a face: the spiral from the cut start, pi |x^2 - x0^2| / feed per rev.
+    Candidate c{"tool_wear", "the tool wears with the length it has cut, so the depth of cut falls along the spiral", {}, {}, 0};
+    std::vector<double> x0(runs.size(), nan);
+    for (const auto& p : g)
+      if (std::isnan(x0[p.run])) x0[p.run] = p.x_mm;
+    c.variants.push_back(make_variant(g, {"tool_wear_um_per_m"}, [x0](const Pt& p, double* o) {
+      const double fpr_mm = p.feed_mm_per_min / p.rpm;
+      o[0] = pi * std::abs(p.x_mm * p.x_mm - x0[p.run] * x0[p.run]) / fpr_mm * 1e-3;  // metres cut
+    }));
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"feed_marks", "the round tool nose leaves a cusp every feed per revolution", {}, {}, 0};
+    c.variants.push_back(make_variant(g, {"feed_marks_sin", "feed_marks_cos"}, [](const Pt& p, double* o) {
+      const double fpr_mm = p.feed_mm_per_min / p.rpm;
+      o[0] = std::sin(2 * pi * p.x_mm / fpr_mm);
+      o[1] = std::cos(2 * pi * p.x_mm / fpr_mm);
+    }));
+    c.variants.back().report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+      return amp_phase("feed_marks_um", "feed_marks_phase_deg", x, cov);
+    };
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"cyclic_error", "a lead-screw pitch error of the X drive repeats every lead along x", {}, {}, 0};
+    for (double p_mm : {1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0}) {
+      Variant v = make_variant(g, {"cyclic_sin", "cyclic_cos"}, [p_mm](const Pt& p, double* o) {
+        o[0] = std::sin(2 * pi * p.x_mm / p_mm);
+        o[1] = std::cos(2 * pi * p.x_mm / p_mm);
+      });
+      v.fixed.push_back({"cyclic_period_x_mm", p_mm, nan});
+      v.searched = 1;
+      v.report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+        return amp_phase("cyclic_error_x_um", "cyclic_phase_x_deg", x, cov);
+      };
+      c.variants.push_back(std::move(v));
+    }
+    out.push_back(std::move(c));
+  }
+  {
+    Candidate c{"sensor_nonlinearity", "the profilometer is not linear over its range: an error polynomial in the reading",
+                {}, {}, 0};
+    double mean = 0;
+    for (double v : reading_um) mean += v;
+    mean /= static_cast<double>(reading_um.size());
+    Variant v;
+    v.block.names = {"sensor_quadratic_per_um", "sensor_cubic_per_um2"};
+    v.block.columns.resize(static_cast<Eigen::Index>(g.size()), 2);
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      const double d = reading_um[i] - mean;
+      v.block.columns(static_cast<Eigen::Index>(i), 0) = d * d;
+      v.block.columns(static_cast<Eigen::Index>(i), 1) = d * d * d;
+    }
+    c.variants.push_back(std::move(v));
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
+  std::vector<RunInfo> out;
+  for (std::size_t k = 0; k < runs.size(); ++k)
+    out.push_back({"profile" + std::to_string(k + 1) + " (" + fmt("%g", runs[k].feed_mm_per_min) + " mm/min)", 1,
+                   runs[k].feed_mm_per_min, "face"});
+  return out;
+}
+
+Problem assemble(const std::vector<ProfileRun>& runs, const std::vector<Pt>& g, const std::string& model,
+                 const std::vector<double>& reading) {
+  Problem p;
+  p.model = model;
+  p.domain = "position_mm";
+  p.runs = infos(runs);
+  for (const auto& q : g) p.samples.push_back({q.run, q.y_um, q.x_mm, q.t_s});
+  p.candidates = profile_candidates(g, reading, runs);
+  bool two_feeds = false;
+  for (const auto& r : runs) two_feeds |= r.feed_mm_per_min != runs.front().feed_mm_per_min;
+  if (!two_feeds)
+    p.notes.push_back("one feed rate only: a thermal drift at constant feed is a straight line in x, the signature of "
+                      "squareness; compare two feed rates to tell them apart");
+  return p;
+}
+
+}  // namespace
+
+ProfileRun read_profile_run(const std::string& path) {
+  const profilometer::Profile prof = profilometer::read_profile_csv(path);
+  ProfileRun r;
+  r.source = path;
+  r.feed_mm_per_min = meta_number(prof, path, "feed_mm_per_min", 0, true);
+  r.spindle_rpm = meta_number(prof, path, "spindle_rpm", 0, true);
+  if (!(r.feed_mm_per_min > 0)) throw std::invalid_argument(path + ": feed_mm_per_min must be positive");
+  if (!(r.spindle_rpm > 0)) throw std::invalid_argument(path + ": spindle_rpm must be positive");
+  const double t0 = meta_number(prof, path, "start_time_s", 0, false);
+  if (prof.x_m.empty()) throw std::invalid_argument(path + ": no points");
+  const double x0 = meta_number(prof, path, "cut_start_mm", prof.x_m.front() * 1e3, false) * 1e-3;
+  for (std::size_t i = 0; i < prof.x_m.size(); ++i) {
+    if (!std::isfinite(prof.z_m[i])) throw std::invalid_argument(path + ": point " + std::to_string(i + 1) + " is invalid (NaN)");
+    r.x_m.push_back(prof.x_m[i]);
+    r.z_m.push_back(prof.z_m[i]);
+    r.t_s.push_back(t0 + std::abs(prof.x_m[i] - x0) / (r.feed_mm_per_min / 60000.0));
+  }
+  return r;
+}
+
+Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model) {
+  if (runs.empty()) throw std::invalid_argument("explain: no profiles");
+  if (model != "flatness" && model != "straightness")
+    throw std::invalid_argument("explain: unknown profile model '" + model + "'");
+  const auto g = points_of(runs);
+  Block base;
+  const std::size_t nr = runs.size();
+  for (std::size_t k = 0; k < nr; ++k) base.names.push_back("offset_profile" + std::to_string(k + 1) + "_um");
+  if (model == "flatness") {
+    base.names.push_back("squareness_urad");
+  } else {
+    for (const char* n : {"slope_urad", "quadratic_um_per_mm2", "cubic_um_per_mm3"}) base.names.push_back(n);
+  }
+  base.columns = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(g.size()), static_cast<Eigen::Index>(base.names.size()));
+  // Polynomials about the middle of the x range (conditioning).
+  double lo = 1e300, hi = -1e300;
+  for (const auto& p : g) {
+    lo = std::min(lo, p.x_mm);
+    hi = std::max(hi, p.x_mm);
+  }
+  const double mid = 0.5 * (lo + hi);
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    base.columns(r, static_cast<Eigen::Index>(g[i].run)) = 1.0;
+    const double u = g[i].x_mm - mid;
+    const auto c0 = static_cast<Eigen::Index>(nr);
+    base.columns(r, c0) = u * 1e-3;  // 1 urad over 1 mm = 1e-3 um
+    if (model == "straightness") {
+      base.columns(r, c0 + 1) = u * u;
+      base.columns(r, c0 + 2) = u * u * u;
+    }
+  }
+  Eigen::VectorXd y(static_cast<Eigen::Index>(g.size()));
+  for (std::size_t i = 0; i < g.size(); ++i) y[static_cast<Eigen::Index>(i)] = g[i].y_um;
+  const LsqResult fit = solve_lsq(base.columns, y, Eigen::VectorXd(), base.names);
+  if (!fit.ok) throw std::invalid_argument("explain: base fit failed: " + fit.message);
+  std::vector<double> reading(g.size());
+  for (std::size_t i = 0; i < g.size(); ++i) reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
+  Problem p = assemble(runs, g, model, reading);
+  p.base = std::move(base);
+  return p;
+}
+
+Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& measured) {
+  if (simulated.x_m.size() != measured.x_m.size())
+    throw std::invalid_argument("explain: " + simulated.source + " has " + std::to_string(simulated.x_m.size()) +
+                                " points, " + measured.source + " has " + std::to_string(measured.x_m.size()));
+  for (std::size_t i = 0; i < simulated.x_m.size(); ++i)
+    if (std::abs(simulated.x_m[i] - measured.x_m[i]) > 1e-9)
+      throw std::invalid_argument("explain: " + simulated.source + " and " + measured.source + " differ in x at point " +
+                                  std::to_string(i + 1));
+  ProfileRun diff = measured;
+  for (std::size_t i = 0; i < diff.z_m.size(); ++i) diff.z_m[i] -= simulated.z_m[i];
+  const std::vector<ProfileRun> runs{diff};
+  const auto g = points_of(runs);
+  std::vector<double> reading(simulated.z_m.size());
+  for (std::size_t i = 0; i < reading.size(); ++i) reading[i] = simulated.z_m[i] * 1e6;
+  Problem p = assemble(runs, g, "profile (simulated vs measured)", reading);
+  p.notes.push_back("no base refit: the residual is " + measured.source + " - " + simulated.source);
+  return p;
+}
+
+}  // namespace guideway::models::explain

@@ -1,0 +1,41 @@
+#pragma once
+// EXPLAIN for profiles of a faced workpiece (x = machine X along the radius, z = surface height).
+//   --model flatness:     base = Mu 2012 Eq. 16 without the measured straightness (which the caller
+//                         subtracts, see docs/explain.md): one offset per profile + one squareness
+//                         slope shared by all profiles (a property of the machine, not of the cut).
+//   --model straightness: base = one offset per profile + a cubic polynomial in x shared by all
+//                         profiles (the carriage's straightness is the same in every cut).
+// Candidates: thermal_drift (a rate in machine time, shared), spindle_axial_runout (once and twice per
+// spindle revolution in time), tool_wear (in the length cut so far), feed_marks (period = feed per
+// revolution), cyclic_error (lead-screw periods in x), sensor_nonlinearity. The look-alike pair: a
+// drift at constant feed is a straight line in x, exactly squareness, unless two feeds are compared
+// (the slope of the drift scales with 1/feed, squareness does not).
+// Time of each point: start_time_s + |x - cut_start| / feed (metadata `start_time_s`, default 0, and
+// `cut_start_mm`, default the first point). Pure functions; thread safe; throw std::invalid_argument.
+
+#include <string>
+#include <vector>
+
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain {
+
+struct ProfileRun {
+  std::string source;
+  double feed_mm_per_min = 0.0;
+  double spindle_rpm = 0.0;
+  std::vector<double> x_m;
+  std::vector<double> z_m;
+  std::vector<double> t_s;  // machine time of each point
+};
+
+// Reads a guideway/profile/1 CSV (docs/formats.md) with feed_mm_per_min and spindle_rpm metadata and
+// every point valid; errors name the file (and line).
+ProfileRun read_profile_run(const std::string& path);
+
+// model: "flatness" or "straightness".
+Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model);
+// A given prediction against a profile (equal x within 1e-9 m), no base refit.
+Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& measured);
+
+}  // namespace guideway::models::explain
