@@ -69,6 +69,18 @@ TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
   for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"}) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_TRUE(j["findings"][0]["parameters"]["step_um"].contains("u"));
   EXPECT_NE(ex::to_text(rep).find("backlash"), std::string::npos);
+  // Residual curves for plots: one grid, a baseline and a final series per run, the final one whiter.
+  const auto& res = j["residuals"];
+  ASSERT_EQ(res["series"].size(), 2u);
+  EXPECT_EQ(res["domain"], "angle_deg");
+  EXPECT_LE(res["x"].size(), 720u);
+  double base2 = 0, fin2 = 0;
+  for (std::size_t i = 0; i < res["x"].size(); ++i) {
+    base2 += std::pow(res["series"][0]["residual_um"][i].get<double>(), 2);
+    fin2 += std::pow(res["series"][1]["residual_um"][i].get<double>(), 2);
+  }
+  EXPECT_EQ(res["series"][0]["residual_um"].size(), res["x"].size());
+  EXPECT_LT(fin2, base2);
 }
 
 TEST(ExplainEngine, NoiseOnlyGivesNoFinding) {

@@ -117,6 +117,47 @@ std::vector<ParamValue> params_of(const Variant& v, const Fit& f, Eigen::Index o
   return out;
 }
 
+// Residual curves on the first run's grid (sorted, decimated); other runs interpolated onto it.
+void add_curves(Report& rep, const Problem& problem, const Eigen::VectorXd& base_res, const Eigen::VectorXd& final_res,
+                std::size_t max_points) {
+  if (max_points == 0) return;
+  const auto ranges = run_ranges(problem);
+  const auto sorted_run = [&](std::size_t k, const Eigen::VectorXd& r) {
+    std::vector<std::pair<double, double>> xy;
+    for (std::size_t i = ranges[k].first; i < ranges[k].second; ++i) {
+      double w = problem.samples[i].where;
+      if (problem.domain == "angle_deg") w = std::fmod(std::fmod(w, 360.0) + 360.0, 360.0);
+      xy.emplace_back(w, r[static_cast<Eigen::Index>(i)]);
+    }
+    std::sort(xy.begin(), xy.end());
+    return xy;
+  };
+  const auto at = [](const std::vector<std::pair<double, double>>& xy, double x) {
+    auto it = std::lower_bound(xy.begin(), xy.end(), std::make_pair(x, -1e300));
+    if (it == xy.begin()) return xy.front().second;
+    if (it == xy.end()) return xy.back().second;
+    const auto& hi = *it;
+    const auto& lo = *(it - 1);
+    return hi.first == lo.first ? hi.second
+                                : lo.second + (hi.second - lo.second) * (x - lo.first) / (hi.first - lo.first);
+  };
+  const auto grid_src = sorted_run(0, base_res);
+  if (grid_src.empty()) return;
+  const std::size_t stride = (grid_src.size() + max_points - 1) / max_points;
+  for (std::size_t i = 0; i < grid_src.size(); i += stride) rep.curve_x.push_back(grid_src[i].first);
+  rep.curve_domain = problem.domain;
+  for (std::size_t k = 0; k < ranges.size(); ++k) {
+    if (ranges[k].second == ranges[k].first) continue;
+    for (int stage = 0; stage < 2; ++stage) {
+      const auto xy = sorted_run(k, stage == 0 ? base_res : final_res);
+      std::vector<double> v;
+      v.reserve(rep.curve_x.size());
+      for (double x : rep.curve_x) v.push_back(at(xy, x));
+      rep.curves.emplace_back(problem.runs[k].label + (stage == 0 ? " baseline" : " final"), std::move(v));
+    }
+  }
+}
+
 }  // namespace
 
 Report explain(const Problem& problem, const ExplainOptions& options) {
@@ -182,6 +223,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   Fit current = fit(design, y);
   double current_heldout = heldout_rms(design, y, fold_of, folds);
   rep.baseline = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
+  const Eigen::VectorXd base_residual = current.residual;
   const Located base_loc = locate(problem, current.residual, options.alpha);
   rep.noise_um = base_loc.sigma_um;
   rep.mismatch = base_loc.places;
@@ -308,6 +350,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     offset += chosen[k]->block.columns.cols();
   }
   rep.final_fit = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
+  add_curves(rep, problem, base_residual, current.residual, options.curve_points);
   const Located fin = locate(problem, current.residual, options.alpha);
   rep.remaining = fin.places;
   rep.unexplained = fin.structured;
@@ -361,6 +404,11 @@ nlohmann::json to_json(const Report& r) {
     c.push_back({{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
   j["considered"] = c;
   j["notes"] = r.notes;
+  if (!r.curve_x.empty()) {
+    json series = json::array();
+    for (const auto& [label, v] : r.curves) series.push_back({{"label", label}, {"residual_um", v}});
+    j["residuals"] = {{"domain", r.curve_domain}, {"x", r.curve_x}, {"series", series}};
+  }
   return j;
 }
 

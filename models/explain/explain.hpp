@@ -82,6 +82,7 @@ struct ExplainOptions {
   double min_share = 0.8;         // share of the located structure a finding must remove (a partial fit
                                   // of a cause it is not leaves its shape behind)
   std::size_t prescreen = 3;      // variants per candidate fitted jointly (best by projection)
+  std::size_t curve_points = 720; // residual curves in the report (0 = none)
 };
 
 struct Mismatch {
@@ -131,6 +132,12 @@ struct Report {
   std::vector<Mismatch> remaining;  // where the final residual is still structured
   bool unexplained = false;
   std::vector<std::string> notes;
+  // Residual curves for plots (docs/formats.md "Reports"): one x grid (the first run's, in the
+  // problem's domain, increasing, at most ExplainOptions::curve_points) and per run the baseline and
+  // final residual interpolated onto it.
+  std::string curve_domain;
+  std::vector<double> curve_x;
+  std::vector<std::pair<std::string, std::vector<double>>> curves;
 };
 
 Report explain(const Problem& problem, const ExplainOptions& options = {});
