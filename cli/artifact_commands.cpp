@@ -60,9 +60,10 @@ void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
         return;
       }
       constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
-      std::cout << std::fixed << std::setprecision(4) << "k = " << r.k_m_per_px * 1e6 << " um/px, m = "
-                << r.m_px_per_rad * arcsec << " px/arcsec, k m = " << r.coupling_m_per_rad * 1e6 * arcsec
-                << " um/arcsec" << (opt.angle_coupling ? "" : " (coupling correction OFF)") << "\n";
+      std::cout << std::fixed << std::setprecision(4) << "k = " << r.k_m_per_px * 1e6
+                << " um/px, m = " << r.m_px_per_rad * arcsec
+                << " px/arcsec, k m = " << r.coupling_m_per_rad * 1e6 * arcsec << " um/arcsec"
+                << (opt.angle_coupling ? "" : " (coupling correction OFF)") << "\n";
       if (r.k_scan)
         std::cout << "k from " << r.k_scan->source << ": " << r.k_m_per_px * 1e6 << " um/px (u " << std::setprecision(6)
                   << r.u_k_m_per_px * 1e6 << std::setprecision(4) << "), " << r.k_scan->points
@@ -71,8 +72,7 @@ void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
         std::cout << "m from " << r.m_scan->source << ": " << r.m_px_per_rad * arcsec << " px/arcsec (u "
                   << std::setprecision(6) << r.u_m_px_per_rad * arcsec << std::setprecision(4) << "), "
                   << r.m_scan->points << " points, residual rms " << r.m_scan->residual_rms_px << " px\n";
-      std::cout
-                << "error motions of the tool relative to target 0 (value +/- standard uncertainty):\n"
+      std::cout << "error motions of the tool relative to target 0 (value +/- standard uncertainty):\n"
                 << "target     x_mm        dx_um         dy_um         dz_um        ex_arcsec     ey_arcsec     "
                    "ez_arcsec\n";
       std::cout << std::setprecision(3);
@@ -84,8 +84,8 @@ void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
         };
         std::cout << std::setw(6) << e.target << std::setw(9) << std::setprecision(2) << e.x_m * 1e3 << "  "
                   << std::setw(13) << pm(e.dx_m * 1e6, e.u_dx_m * 1e6) << " " << std::setw(13)
-                  << pm(e.dy_m * 1e6, e.u_dy_m * 1e6) << " " << std::setw(13) << pm(e.dz_m * 1e6, e.u_dz_m * 1e6)
-                  << " " << std::setw(13) << pm(e.ex_rad / arcsec, e.u_ex_rad / arcsec) << " " << std::setw(13)
+                  << pm(e.dy_m * 1e6, e.u_dy_m * 1e6) << " " << std::setw(13) << pm(e.dz_m * 1e6, e.u_dz_m * 1e6) << " "
+                  << std::setw(13) << pm(e.ex_rad / arcsec, e.u_ex_rad / arcsec) << " " << std::setw(13)
                   << pm(e.ey_rad / arcsec, e.u_ey_rad / arcsec) << " " << std::setw(13)
                   << pm(e.ez_rad / arcsec, e.u_ez_rad / arcsec) << "\n";
       }

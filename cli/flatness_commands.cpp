@@ -240,30 +240,28 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
                   << ", fit residual rms " << r.straightness.residual_rms_m * 1e6 << " um\n"
                   << "wavelet " << r.wavelet << ", " << r.levels << " levels; s1 = A" << r.levels << "\n";
         for (const auto& p : r.profiles) {
-          std::cout << p.source << ": " << p.points << " points, " << std::setprecision(1) << p.x_start_m * 1e3
-                    << ".." << p.x_end_m * 1e3 << " mm, feed " << p.feed_m_per_s * 60e3 << " mm/min, "
-                    << p.spindle_rpm << " rpm; p-v " << std::setprecision(3) << p.peak_to_valley_m * 1e6
-                    << " um (low frequency " << p.low_frequency_peak_to_valley_m * 1e6 << " um)\n";
+          std::cout << p.source << ": " << p.points << " points, " << std::setprecision(1) << p.x_start_m * 1e3 << ".."
+                    << p.x_end_m * 1e3 << " mm, feed " << p.feed_m_per_s * 60e3 << " mm/min, " << p.spindle_rpm
+                    << " rpm; p-v " << std::setprecision(3) << p.peak_to_valley_m * 1e6 << " um (low frequency "
+                    << p.low_frequency_peak_to_valley_m * 1e6 << " um)\n";
           for (const auto& c : p.correlations)
-            std::cout << "  " << std::left << std::setw(13) << c.name << std::right
-                      << " gamma before wavelet (Eq. 19) " << std::setw(7) << c.gamma_before
-                      << ", after (Eq. 20) " << std::setw(7) << c.gamma_after << "\n";
+            std::cout << "  " << std::left << std::setw(13) << c.name << std::right << " gamma before wavelet (Eq. 19) "
+                      << std::setw(7) << c.gamma_before << ", after (Eq. 20) " << std::setw(7) << c.gamma_after << "\n";
           std::cout << "  dominant: " << p.dominant << " (impact factor " << p.impact_factor << ")\n"
                     << "  squareness " << p.squareness_rad * 1e6 << " urad (u " << p.u_squareness_rad * 1e6
                     << "), amplitude " << p.squareness_amplitude_m * 1e6 << " um (u "
                     << p.u_squareness_amplitude_m * 1e6 << ")\n";
         }
         std::cout << "dominant error: " << r.dominant << " (impact factor " << r.impact_factor << ")\n"
-                  << "squareness (all profiles): " << r.squareness_rad * 1e6 << " urad (u "
-                  << r.u_squareness_rad * 1e6 << "), amplitude over " << std::setprecision(1) << r.travel_m * 1e3
-                  << " mm: " << std::setprecision(3) << r.squareness_amplitude_m * 1e6 << " um (u "
-                  << r.u_squareness_amplitude_m * 1e6 << ")\n";
+                  << "squareness (all profiles): " << r.squareness_rad * 1e6 << " urad (u " << r.u_squareness_rad * 1e6
+                  << "), amplitude over " << std::setprecision(1) << r.travel_m * 1e3 << " mm: " << std::setprecision(3)
+                  << r.squareness_amplitude_m * 1e6 << " um (u " << r.u_squareness_amplitude_m * 1e6 << ")\n";
         if (r.runout_check) {
           const auto& c = *r.runout_check;
           std::cout << "Eq. 21 from " << *runout << ": " << c.runout.deflection_rad * 1e6 << " urad (u "
                     << c.runout.u_deflection_rad * 1e6 << "); profile - Eq. 21 = " << c.difference_rad * 1e6
-                    << " urad (u " << c.u_difference_rad * 1e6 << "): "
-                    << (c.consistent ? "consistent" : "NOT consistent") << " within 2u\n";
+                    << " urad (u " << c.u_difference_rad * 1e6
+                    << "): " << (c.consistent ? "consistent" : "NOT consistent") << " within 2u\n";
         }
       });
     });

@@ -84,11 +84,11 @@ TEST(Artifact, RecoversTheErrorsWithNoiseAndTheCouplingCorrectionMatters) {
   for (std::size_t i = 0; i < t.size(); ++i) {
     const auto v = values(r.targets[i]);
     const auto u = uncertainties(r.targets[i]);
-    std::printf("target %zu x %.0f mm: dx %7.3f (%6.3f) dy %7.3f (%6.3f) dz %7.3f (%6.3f) um; ex %6.3f (%6.3f) "
-                "ey %6.3f (%6.3f) ez %6.3f (%6.3f) arcsec  [measured (truth)]\n",
-                i, r.targets[i].x_m * 1e3, v[0] * 1e6, t[i][0] * 1e6, v[1] * 1e6, t[i][1] * 1e6, v[2] * 1e6,
-                t[i][2] * 1e6, v[3] / arcsec, t[i][3] / arcsec, v[4] / arcsec, t[i][4] / arcsec, v[5] / arcsec,
-                t[i][5] / arcsec);
+    std::printf(
+        "target %zu x %.0f mm: dx %7.3f (%6.3f) dy %7.3f (%6.3f) dz %7.3f (%6.3f) um; ex %6.3f (%6.3f) "
+        "ey %6.3f (%6.3f) ez %6.3f (%6.3f) arcsec  [measured (truth)]\n",
+        i, r.targets[i].x_m * 1e3, v[0] * 1e6, t[i][0] * 1e6, v[1] * 1e6, t[i][1] * 1e6, v[2] * 1e6, t[i][2] * 1e6,
+        v[3] / arcsec, t[i][3] / arcsec, v[4] / arcsec, t[i][4] / arcsec, v[5] / arcsec, t[i][5] / arcsec);
     for (std::size_t q = 0; q < 6; ++q) {
       // Stated tolerance: within 3u, and u at Wei's level (0.33 um, 0.46 arcsec).
       EXPECT_LE(std::abs(v[q] - t[i][q]), 3 * u[q] + 1e-15) << kNames[q] << " at target " << i;
@@ -205,11 +205,11 @@ TEST(Artifact, BadInputNamesFileAndLine) {
   // k and m may come from scans instead; without either, identification says which is missing.
   const auto no_k = parse_artifact_readings("# placement = calibration\n# m_px_per_arcsec = 0.44\n" + kHeader + rows,
                                             "nok.csv", ArtifactPlacement::calibration);
-  const auto hh = parse_artifact_readings("# placement = horizontal\n" + kHeader + rows, "h.csv",
-                                          ArtifactPlacement::horizontal);
-  const auto vv = parse_artifact_readings(
-      "# placement = vertical\ntarget,X_M_mm,Z_M_mm,x_M_px,y_M_px,x_F_px,y_F_px\n" + rows, "v.csv",
-      ArtifactPlacement::vertical);
+  const auto hh =
+      parse_artifact_readings("# placement = horizontal\n" + kHeader + rows, "h.csv", ArtifactPlacement::horizontal);
+  const auto vv =
+      parse_artifact_readings("# placement = vertical\ntarget,X_M_mm,Z_M_mm,x_M_px,y_M_px,x_F_px,y_F_px\n" + rows,
+                              "v.csv", ArtifactPlacement::vertical);
   try {
     (void)identify_artifact(no_k, hh, vv);
     ADD_FAILURE() << "no error";
@@ -225,9 +225,9 @@ TEST(Artifact, BadInputNamesFileAndLine) {
   const auto c = parse_artifact_readings(kMeta + kHeader + rows, "cal.csv", ArtifactPlacement::calibration);
   const auto h = parse_artifact_readings("# placement = horizontal\n" + kHeader + "0,50,0,1,2,3,4\n1,100,0,1,2,3,4\n",
                                          "h.csv", ArtifactPlacement::horizontal);
-  const auto v = parse_artifact_readings(
-      "# placement = vertical\ntarget,X_M_mm,Z_M_mm,x_M_px,y_M_px,x_F_px,y_F_px\n" + rows, "v.csv",
-      ArtifactPlacement::vertical);
+  const auto v =
+      parse_artifact_readings("# placement = vertical\ntarget,X_M_mm,Z_M_mm,x_M_px,y_M_px,x_F_px,y_F_px\n" + rows,
+                              "v.csv", ArtifactPlacement::vertical);
   try {
     (void)identify_artifact(c, h, v);
     ADD_FAILURE() << "no error";

@@ -44,17 +44,18 @@ TEST(WorkpieceFlatness, ReproducesMuExperimentOnTheEmulatedLathe) {
   for (const auto& p : r.profiles) {
     const auto& sq = p.correlations[0];
     const auto& st = p.correlations[1];
-    std::printf("%s: %zu points, p-v %.3f um; squareness gamma before %.3f after %.3f; straightness before %.3f "
-                "after %.3f; q = %.4f urad (u %.4f: fit %.4f, straightness %.4f, rho %.2f)\n",
-                p.source.c_str(), p.points, p.peak_to_valley_m * 1e6, sq.gamma_before, sq.gamma_after,
-                st.gamma_before, st.gamma_after, p.squareness_rad * 1e6, p.u_squareness_rad * 1e6,
-                p.u_fit_rad * 1e6, p.u_straightness_rad * 1e6, p.residual_lag1_correlation);
+    std::printf(
+        "%s: %zu points, p-v %.3f um; squareness gamma before %.3f after %.3f; straightness before %.3f "
+        "after %.3f; q = %.4f urad (u %.4f: fit %.4f, straightness %.4f, rho %.2f)\n",
+        p.source.c_str(), p.points, p.peak_to_valley_m * 1e6, sq.gamma_before, sq.gamma_after, st.gamma_before,
+        st.gamma_after, p.squareness_rad * 1e6, p.u_squareness_rad * 1e6, p.u_fit_rad * 1e6, p.u_straightness_rad * 1e6,
+        p.residual_lag1_correlation);
     EXPECT_EQ(p.points, 12001u);
     EXPECT_EQ(p.dominant, "squareness");
-    EXPECT_GT(sq.gamma_after, 0.93);                    // "close to 1" (Fig. 9)
-    EXPECT_LT(sq.gamma_before, 0.90);                   // Fig. 8: 0.6-0.83
+    EXPECT_GT(sq.gamma_after, 0.93);   // "close to 1" (Fig. 9)
+    EXPECT_LT(sq.gamma_before, 0.90);  // Fig. 8: 0.6-0.83
     EXPECT_GT(sq.gamma_before, 0.5);
-    EXPECT_GT(sq.gamma_after - sq.gamma_before, 0.1);   // the wavelet step matters
+    EXPECT_GT(sq.gamma_after - sq.gamma_before, 0.1);  // the wavelet step matters
     EXPECT_LT(std::abs(st.gamma_after), sq.gamma_after - 0.3);
     EXPECT_NEAR(p.squareness_rad, kTilt, 3 * p.u_squareness_rad);
     EXPECT_LT(p.u_squareness_rad, 0.1e-6);
@@ -68,10 +69,11 @@ TEST(WorkpieceFlatness, ReproducesMuExperimentOnTheEmulatedLathe) {
   ASSERT_TRUE(r.runout_check.has_value());
   EXPECT_NEAR(r.runout_check->runout.deflection_rad, 2.8e-6, 0.02e-6);
   EXPECT_TRUE(r.runout_check->consistent);
-  std::printf("combined q = %.4f urad (u %.4f), amplitude %.3f um over %.0f mm; Eq. 21: %.4f urad; impact factor "
-              "%.3f\n",
-              r.squareness_rad * 1e6, r.u_squareness_rad * 1e6, r.squareness_amplitude_m * 1e6, r.travel_m * 1e3,
-              r.runout_check->runout.deflection_rad * 1e6, r.impact_factor);
+  std::printf(
+      "combined q = %.4f urad (u %.4f), amplitude %.3f um over %.0f mm; Eq. 21: %.4f urad; impact factor "
+      "%.3f\n",
+      r.squareness_rad * 1e6, r.u_squareness_rad * 1e6, r.squareness_amplitude_m * 1e6, r.travel_m * 1e3,
+      r.runout_check->runout.deflection_rad * 1e6, r.impact_factor);
 }
 
 TEST(WorkpieceFlatness, StraightnessDominatesWhenTheSpindleIsSquare) {

@@ -14,9 +14,12 @@ constexpr double rad_per_arcsec = std::numbers::pi / (180.0 * 3600.0);
 
 const char* placement_name(ArtifactPlacement p) {
   switch (p) {
-    case ArtifactPlacement::calibration: return "calibration";
-    case ArtifactPlacement::horizontal: return "horizontal";
-    case ArtifactPlacement::vertical: return "vertical";
+    case ArtifactPlacement::calibration:
+      return "calibration";
+    case ArtifactPlacement::horizontal:
+      return "horizontal";
+    case ArtifactPlacement::vertical:
+      return "vertical";
   }
   return "?";
 }
@@ -77,8 +80,7 @@ std::array<double, 7> outputs(const ArtifactTargetErrors& e) {
 
 }  // namespace
 
-ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source,
-                                         ArtifactPlacement expected) {
+ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source, ArtifactPlacement expected) {
   const CsvTable t = parse_csv_table(text, source);
   ArtifactReadings r;
   r.source = source;
@@ -108,7 +110,8 @@ ArtifactReadings parse_artifact_readings(std::string_view text, const std::strin
     const auto want = static_cast<double>(r.target.size());
     if (id != want)
       throw CsvError(at_line(source, row.line) + "target " + row.cells[c_target] + ", expected " +
-                     std::to_string(r.target.size()) + " (targets are numbered 0, 1, 2, ... in order; 0 is the "
+                     std::to_string(r.target.size()) +
+                     " (targets are numbered 0, 1, 2, ... in order; 0 is the "
                      "reference)");
     r.target.push_back(static_cast<int>(id));
     r.along_m.push_back(t.number(row, c_along) * 1e-3);
@@ -119,7 +122,8 @@ ArtifactReadings parse_artifact_readings(std::string_view text, const std::strin
     r.y_F_px.push_back(t.number(row, c_yf));
     r.line.push_back(row.line);
   }
-  if (r.target.size() < 2) throw CsvError(source + ": " + std::to_string(r.target.size()) + " targets; need at least 2");
+  if (r.target.size() < 2)
+    throw CsvError(source + ": " + std::to_string(r.target.size()) + " targets; need at least 2");
   return r;
 }
 
@@ -197,7 +201,8 @@ ArtifactPlacementValues placement_values(const ArtifactReadings& r, double k, do
   for (std::size_t i = 0; i < n; ++i) {
     v.theta_x_rad.push_back((r.y_F_px[i] - r.y_F_px[0]) / m);
     v.theta_y_rad.push_back((r.x_F_px[i] - r.x_F_px[0]) / m);
-    v.X_F_m.push_back(k * (r.x_M_px[0] - r.x_F_px[0]) + (r.along_m[i] - r.along_m[0]) + k * (r.x_F_px[i] - r.x_M_px[i]));
+    v.X_F_m.push_back(k * (r.x_M_px[0] - r.x_F_px[0]) + (r.along_m[i] - r.along_m[0]) +
+                      k * (r.x_F_px[i] - r.x_M_px[i]));
     v.Y_F_m.push_back(k * (r.y_M_px[0] - r.y_F_px[0]) + (r.across_m[i] - r.across_m[0]) +
                       k * (r.y_F_px[i] - r.y_M_px[i]));
   }
@@ -247,7 +252,7 @@ ArtifactResult identify_artifact(const ArtifactReadings& calibration, const Arti
       double u;
     };
     const Field fields[] = {{&f.along_m, f.u_position_m}, {&f.across_m, f.u_position_m}, {&f.x_M_px, f.u_spot_px},
-                            {&f.y_M_px, f.u_spot_px},     {&f.x_F_px, f.u_spot_px},     {&f.y_F_px, f.u_spot_px}};
+                            {&f.y_M_px, f.u_spot_px},     {&f.x_F_px, f.u_spot_px},      {&f.y_F_px, f.u_spot_px}};
     for (const auto& field : fields) {
       if (!(field.u > 0)) continue;
       for (std::size_t i = 0; i < n; ++i) {

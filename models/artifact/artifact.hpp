@@ -23,12 +23,12 @@ enum class ArtifactPlacement { calibration, horizontal, vertical };
 struct ArtifactReadings {
   std::string source;
   ArtifactPlacement placement = ArtifactPlacement::calibration;
-  double k_m_per_px = 0.0;     // calibration only (0 = not given: a scan must give it)
-  double m_px_per_rad = 0.0;   // calibration only (0 = not given)
+  double k_m_per_px = 0.0;    // calibration only (0 = not given: a scan must give it)
+  double m_px_per_rad = 0.0;  // calibration only (0 = not given)
   double u_k_m_per_px = 0.0;
   double u_m_px_per_rad = 0.0;
-  double u_spot_px = 0.0;      // standard uncertainty of each spot coordinate
-  double u_position_m = 0.0;   // of each measurement-point coordinate (laser or machine feedback)
+  double u_spot_px = 0.0;     // standard uncertainty of each spot coordinate
+  double u_position_m = 0.0;  // of each measurement-point coordinate (laser or machine feedback)
   std::vector<int> target;
   std::vector<double> along_m;   // X_M
   std::vector<double> across_m;  // Y_M (calibration, horizontal) or Z_M (vertical)
@@ -38,8 +38,7 @@ struct ArtifactReadings {
 
 // Throws CsvError "file:line: message": missing placement or column, non-numeric cells, a placement
 // other than `expected`, targets not numbered 0, 1, 2, ... in order, fewer than 2 targets.
-ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source,
-                                         ArtifactPlacement expected);
+ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source, ArtifactPlacement expected);
 ArtifactReadings read_artifact_readings(const std::string& path, ArtifactPlacement expected);
 
 // Sec. 3.1-3.2 for one placement, relative to target 0: theta_x = (y_F,i - y_F,0)/m,
@@ -69,7 +68,7 @@ struct ConversionFit {
   std::string source;
   double coefficient = 0.0;  // k (m/px) or m (px/rad)
   double u = 0.0;
-  double slope = 0.0;        // spot per reference unit (px/m or px/rad)
+  double slope = 0.0;  // spot per reference unit (px/m or px/rad)
   double u_slope = 0.0;
   double intercept_px = 0.0;
   double residual_rms_px = 0.0;
@@ -83,7 +82,7 @@ ConversionFit read_k_scan(const std::string& path);
 ConversionFit read_m_scan(const std::string& path);
 
 struct ArtifactOptions {
-  bool angle_coupling = true;  // apply Wei's k m epsilon correction (off only to show its size)
+  bool angle_coupling = true;           // apply Wei's k m epsilon correction (off only to show its size)
   std::optional<ConversionFit> k_scan;  // when given, k and u(k) come from it instead of the metadata
   std::optional<ConversionFit> m_scan;
 };
@@ -91,7 +90,7 @@ struct ArtifactOptions {
 struct ArtifactResult {
   double k_m_per_px = 0, m_px_per_rad = 0, u_k_m_per_px = 0, u_m_px_per_rad = 0;
   std::optional<ConversionFit> k_scan, m_scan;  // the fits used, when scans were given
-  double coupling_m_per_rad = 0;  // k m
+  double coupling_m_per_rad = 0;                // k m
   ArtifactPlacementValues calibration, horizontal, vertical;
   std::vector<ArtifactTargetErrors> targets;
 };

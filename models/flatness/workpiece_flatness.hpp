@@ -57,21 +57,21 @@ struct ProfileFlatness {
   double spacing_m = 0.0;
   double x_start_m = 0.0;
   double x_end_m = 0.0;
-  double peak_to_valley_m = 0.0;           // of the measured profile (the out-of-flatness)
-  double low_frequency_peak_to_valley_m = 0.0;  // of s1
-  std::vector<double> band_rms_m;          // rms of each MRA component, [A_J, D_J, ..., D_1]
+  double peak_to_valley_m = 0.0;                   // of the measured profile (the out-of-flatness)
+  double low_frequency_peak_to_valley_m = 0.0;     // of s1
+  std::vector<double> band_rms_m;                  // rms of each MRA component, [A_J, D_J, ..., D_1]
   std::vector<ComponentCorrelation> correlations;  // y1 then y2
-  std::string dominant;                    // name of the component with the largest |gamma_after|
-  double impact_factor = 0.0;              // its gamma_after
+  std::string dominant;                            // name of the component with the largest |gamma_after|
+  double impact_factor = 0.0;                      // its gamma_after
   // Squareness from the profile: z - y2 = c + q (x - x_start), least squares. q > 0: the surface
   // rises towards +x (the spindle leans towards +x, sim::SpindleErrors::tilt_x_rad).
   double squareness_rad = 0.0;
-  double u_squareness_rad = 0.0;            // sqrt(u_fit^2 + u_straightness^2)
-  double u_fit_rad = 0.0;                   // profile noise, inflated for residual autocorrelation
-  double u_straightness_rad = 0.0;          // from the traverse (Monte Carlo over its angle noise)
+  double u_squareness_rad = 0.0;    // sqrt(u_fit^2 + u_straightness^2)
+  double u_fit_rad = 0.0;           // profile noise, inflated for residual autocorrelation
+  double u_straightness_rad = 0.0;  // from the traverse (Monte Carlo over its angle noise)
   double residual_rms_m = 0.0;
-  double residual_lag1_correlation = 0.0;   // rho used for the inflation sqrt((1 + rho) / (1 - rho))
-  double squareness_amplitude_m = 0.0;      // |q| * (x_end - x_start), Eq. 15 over the profile
+  double residual_lag1_correlation = 0.0;  // rho used for the inflation sqrt((1 + rho) / (1 - rho))
+  double squareness_amplitude_m = 0.0;     // |q| * (x_end - x_start), Eq. 15 over the profile
   double u_squareness_amplitude_m = 0.0;
 };
 
@@ -80,9 +80,9 @@ struct RunoutCrossCheck {
   RunoutResult runout;
   double profile_squareness_rad = 0.0;  // |q| (Eq. 21 gives a magnitude)
   double u_profile_squareness_rad = 0.0;
-  double difference_rad = 0.0;          // |q| - theta_0
+  double difference_rad = 0.0;  // |q| - theta_0
   double u_difference_rad = 0.0;
-  bool consistent = false;              // |difference| <= 2 u_difference
+  bool consistent = false;  // |difference| <= 2 u_difference
 };
 
 struct WorkpieceFlatnessResult {
@@ -100,7 +100,7 @@ struct WorkpieceFlatnessResult {
   double travel_m = 0.0;  // longest profile span
   double squareness_amplitude_m = 0.0;
   double u_squareness_amplitude_m = 0.0;
-  std::string dominant;    // over all profiles: the component with the largest mean |gamma_after|
+  std::string dominant;  // over all profiles: the component with the largest mean |gamma_after|
   double impact_factor = 0.0;
   std::optional<RunoutCrossCheck> runout_check;
 };

@@ -95,8 +95,9 @@ std::string runout_revolution_csv(const sim::Machine& machine, const WorkpieceFi
   r.seed = seed_of(machine, spec.seed) + 2;
   std::ostringstream out;
   out << "# plate_diameter_mm = " << setting(2 * spec.probe_radius_m * 1e3)
-      << "\n# parallelism_um = " << setting(spec.parallelism_m * 1e6) << "\n# travel_mm = " << setting(spec.traverse_m * 1e3)
-      << "\n# machine = " << machine.config().name << "\nangle_deg,runout_um\n";
+      << "\n# parallelism_um = " << setting(spec.parallelism_m * 1e6)
+      << "\n# travel_mm = " << setting(spec.traverse_m * 1e3) << "\n# machine = " << machine.config().name
+      << "\nangle_deg,runout_um\n";
   for (const auto& s : machine.runout_revolution(r))
     out << number(s.angle_rad * 180.0 / std::numbers::pi) << "," << number(s.displacement_m * 1e6) << "\n";
   return out.str();
@@ -157,8 +158,9 @@ ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpe
     out << "# format = guideway/artifact/1\n# placement = " << names[placement] << "\n# axis = x\n";
     if (placement == 0)
       out << "# k_um_per_px = " << setting(k * 1e6) << "\n# m_px_per_arcsec = " << setting(m * arcsec) << "\n";
-    out << "# u_spot_px = " << setting(spec.spot_noise_px) << "\n# u_position_um = "
-        << setting(placement == 0 ? spec.laser_noise_m * 1e6 : 0.0) << "\n# machine = " << machine.config().name << "\n";
+    out << "# u_spot_px = " << setting(spec.spot_noise_px)
+        << "\n# u_position_um = " << setting(placement == 0 ? spec.laser_noise_m * 1e6 : 0.0)
+        << "\n# machine = " << machine.config().name << "\n";
     out << "target,X_M_mm," << (placement == 2 ? "Z_M_mm" : "Y_M_mm") << ",x_M_px,y_M_px,x_F_px,y_F_px\n";
     for (std::size_t i = 0; i < n; ++i) {
       // Commanded measurement point over the nominal target; the sensor's actual error there.
@@ -169,7 +171,7 @@ ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpe
         d_along = t[i].displacement_m[0];
         d_across = placement == 1 ? t[i].displacement_m[1] : t[i].displacement_m[2];
         tilt_x_img = placement == 1 ? t[i].rotation_rad[1] : t[i].rotation_rad[2];  // about the image's y axis
-        tilt_y_img = t[i].rotation_rad[0];                                         // about x (roll)
+        tilt_y_img = t[i].rotation_rad[0];                                          // about x (roll)
       }
       const double xF = m * (ty[i] + tilt_x_img);
       const double yF = m * (tx[i] + tilt_y_img);

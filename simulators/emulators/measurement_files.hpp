@@ -22,10 +22,10 @@ struct WorkpieceFilesSpec {
   double traverse_m = 0.6;
   double spindle_rpm = 110.0;
   double profile_step_m = 0.05e-3;
-  double step_m = 0.01;            // autocollimator foot spacing
-  double probe_radius_m = 0.5;     // run-out probe at the rim of a 1000 mm plate (Mu: L = 1000 mm)
-  double parallelism_m = 2.5e-6;   // p of Eq. 21 written into the run-out file (a set-up value)
-  std::uint64_t seed = 0;          // 0 = the machine's noise seed
+  double step_m = 0.01;           // autocollimator foot spacing
+  double probe_radius_m = 0.5;    // run-out probe at the rim of a 1000 mm plate (Mu: L = 1000 mm)
+  double parallelism_m = 2.5e-6;  // p of Eq. 21 written into the run-out file (a set-up value)
+  std::uint64_t seed = 0;         // 0 = the machine's noise seed
 };
 
 std::string workpiece_profile_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec, double feed_mm_per_min);
@@ -49,9 +49,9 @@ struct ArtifactFilesSpec {
   double pitch_m = 0.05;
   std::size_t targets = 9;
   sim::Vec3 other{};
-  double k_m_per_px = 1.6e-6;                          // Wei: 1 px = 1.6 um
+  double k_m_per_px = 1.6e-6;                                // Wei: 1 px = 1.6 um
   double m_px_per_rad = 1.0 / (2.27 * 4.84813681109536e-6);  // Wei: 1 px = 2.27 arcsec
-  double spot_noise_px = 0.1;                          // Wei: sub-pixel extraction, ~0.2 arcsec
+  double spot_noise_px = 0.1;                                // Wei: sub-pixel extraction, ~0.2 arcsec
   double laser_noise_m = 0.05e-6;
   double position_scatter_m = 20e-6;
   double tilt_scatter_rad = 10 * 4.84813681109536e-6;
