@@ -30,6 +30,9 @@ std::string text(const json& j, const char* key) {
 
 std::string cell(double v, int sig = 4) { return std::isfinite(v) ? format_number(v, sig) : "&ndash;"; }
 
+// A p-value of 0 is one below the smallest double the test could print.
+std::string p_cell(double p) { return p == 0 ? "&lt;1e-300" : cell(p, 3); }
+
 // "angle_deg" -> "angle / deg": the unit suffix of a domain name as an axis label.
 std::string axis_label(const std::string& name) {
   const auto [q, unit] = split_unit(name);
@@ -59,7 +62,11 @@ std::string explain_section(const std::string& path, const std::string& id) {
        << "</b>, " << findings.size() << " finding(s)";
   if (findings.empty()) body << " (nothing significant beyond the base model)";
   body << "; residual " << (unexplained ? "<b>not explained</b> by the effects Guideway knows" : "explained")
-       << ".</p>";
+       << ".";
+  if (j.contains("n") && j["n"].is_number()) body << " " << j["n"].get<double>() << " samples.";
+  if (std::isfinite(num(j, "noise_um"))) body << " Noise " << format_number(num(j, "noise_um"), 3) << " \u00b5m.";
+  if (!text(j, "heldout_scheme").empty()) body << " Held out: " << html_escape(text(j, "heldout_scheme")) << ".";
+  body << "</p>";
 
   // RMS after each step, in sample and held out.
   BarChart chart;
@@ -122,7 +129,7 @@ std::string explain_section(const std::string& path, const std::string& id) {
         const double value = num(v, "value"), u = num(v, "u");
         params += (params.empty() ? "" : "<br>") + html_escape(name) + " = " + html_escape(format_with_u(value, u));
       }
-    ft.rows.push_back({html_escape(text(f, "effect")), params, cell(num(f, "delta_bic")), cell(num(f, "p_value"), 3),
+    ft.rows.push_back({html_escape(text(f, "effect")), params, cell(num(f, "delta_bic")), p_cell(num(f, "p_value")),
                        cell(num(f, "rms_um_after")), cell(num(f, "heldout_rms_um_after")),
                        "<span class=\"why\">" + html_escape(text(f, "why")) + "</span>"});
   }
@@ -135,13 +142,26 @@ std::string explain_section(const std::string& path, const std::string& id) {
                        cell(num(j["final"], "bic"), 6)});
   body << html_table(st);
 
-  if (j.contains("mismatch") && j["mismatch"].is_array() && !j["mismatch"].empty()) {
-    Table mt{"Where the residual is structured", {"domain", "where", "band", "evidence"}, {}, "text"};
-    for (const auto& m : j["mismatch"])
+  const auto places = [&](const char* key, const char* caption) {
+    if (!j.contains(key) || !j[key].is_array() || j[key].empty()) return;
+    Table mt{caption, {"domain", "where", "band", "evidence"}, {}, "text"};
+    for (const auto& m : j[key])
       mt.rows.push_back({html_escape(text(m, "domain")), html_escape(text(m, "where")), html_escape(text(m, "band")),
                          html_escape(text(m, "evidence"))});
     body << html_table(mt);
+  };
+  places("mismatch", "Where the base model's residual is structured");
+  places("remaining", "Still structured after the findings");
+  if (j.contains("considered") && j["considered"].is_array() && !j["considered"].empty()) {
+    Table ct{"Effects considered", {"effect", "\u0394BIC", "p", "verdict"}, {}, "text"};
+    for (const auto& c : j["considered"])
+      ct.rows.push_back({html_escape(text(c, "effect")), cell(num(c, "delta_bic")), p_cell(num(c, "p_value")),
+                         html_escape(text(c, "verdict"))});
+    body << html_table(ct);
   }
+  if (j.contains("notes") && j["notes"].is_array())
+    for (const auto& n : j["notes"])
+      if (n.is_string()) body << html_note(n.get<std::string>());
   return html_section("explain", id, "Explanation of the mismatch: " + base_name(path), body.str());
 }
 
