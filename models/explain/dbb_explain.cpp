@@ -1,11 +1,15 @@
 #include "models/explain/dbb_explain.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <memory>
 #include <numbers>
 #include <stdexcept>
+
+#include <Eigen/QR>
 
 #include "models/common/least_squares.hpp"
 #include "models/dbb/identify.hpp"
@@ -145,6 +149,48 @@ std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string
   return {{amp_name, a, ua}, {phase_name, std::atan2(cc, cs) * 180 / pi, up}};
 }
 
+// Lost motion per unit backlash of a deadband of width b_a / b_b (m) driven by the commanded circle
+// (as models/dbb/identify.cpp): the axis stands still at a reversal until the drive has taken up the
+// play, which an ideal step does not describe. out[i] = {a, b}; simulated from half a turn before.
+std::vector<std::array<double, 2>> deadband(const std::vector<Geo>& g, const std::vector<dbb::Run>& runs, double b_a,
+                                            double b_b) {
+  std::vector<std::array<double, 2>> out(g.size());
+  for (std::size_t i = 0; i < g.size(); ++i) out[i] = {-0.5 * g[i].sgn_a, -0.5 * g[i].sgn_b};
+  std::size_t i0 = 0;
+  for (const auto& run : runs) {
+    const double r = run.radius_m, dir = run.dir();
+    for (int axis = 0; axis < 2; ++axis) {
+      const double b = axis == 0 ? b_a : b_b;
+      if (!(b > 0)) continue;
+      const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z) : r * std::sin(z); };
+      const double half = 0.5 * b;
+      double z = run.angle_rad.front() - dir * pi;
+      double act = cmd(z);
+      const double near = 4.0 * std::sqrt(b / r) + 0.01;
+      const auto advance = [&](double to) {
+        const double rev = axis == 0 ? std::abs(std::sin(to)) : std::abs(std::cos(to));
+        const int steps =
+            rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
+        const double dz = (to - z) / steps;
+        for (int q = 1; q <= steps; ++q) {
+          const double c = cmd(z + dz * q);
+          if (c - act > half) act = c - half;
+          if (c - act < -half) act = c + half;
+        }
+        z = to;
+      };
+      const double z0 = run.angle_rad.front();
+      for (int q = 1; q < 1800; ++q) advance(z0 - dir * pi + dir * q * (pi / 1800));
+      for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
+        advance(run.angle_rad[i]);
+        out[i0 + i][static_cast<std::size_t>(axis)] = (act - cmd(z)) / b;
+      }
+    }
+    i0 += run.angle_rad.size();
+  }
+  return out;
+}
+
 double spike(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::exp(-t / tau); }
 
 // `reading_um`: the reading the model predicts per sample (the sensor's operating point; taking the
@@ -167,10 +213,35 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     Candidate c{"backlash",
                 "lost motion in the drives: at each reversal an axis stays behind the command by half its play",
                 {}, {}, 0};
-    c.variants.push_back(make_variant(g, {"backlash_" + A + "_um", "backlash_" + B + "_um"}, [](const Geo& p, double* o) {
-      o[0] = -p.lam * 0.5 * p.sgn_a * p.c;  // actual a = commanded a - (b/2) sign(da/dt)
-      o[1] = -p.lam * 0.5 * p.sgn_b * p.s;
-    }));
+    const std::vector<std::string> names{"backlash_" + A + "_um", "backlash_" + B + "_um"};
+    // Ideal step first (actual a = commanded a - (b/2) sign(da/dt)); then, from the current residual,
+    // the deadband response at the width the step suggests (the step alone biases it and leaves an
+    // inward spike at every reversal that another candidate would otherwise claim).
+    const auto geo = std::make_shared<const std::vector<Geo>>(g);
+    const auto rs = std::make_shared<const std::vector<dbb::Run>>(runs);
+    c.generate = [geo, rs, names](const Eigen::VectorXd& r) {
+      const auto& gg = *geo;
+      std::vector<Variant> vs;
+      vs.push_back(make_variant(gg, names, [](const Geo& p, double* o) {
+        o[0] = -p.lam * 0.5 * p.sgn_a * p.c;
+        o[1] = -p.lam * 0.5 * p.sgn_b * p.s;
+      }));
+      const Eigen::Vector2d b = vs.front().block.columns.colPivHouseholderQr().solve(r);
+      const double ba = std::max(0.0, b[0]) * 1e-6, bb = std::max(0.0, b[1]) * 1e-6;
+      if (ba > 0 || bb > 0) {
+        const auto db = deadband(gg, *rs, ba, bb);
+        Variant v;
+        v.block.names = names;
+        v.block.columns.resize(static_cast<Eigen::Index>(gg.size()), 2);
+        for (std::size_t i = 0; i < gg.size(); ++i) {
+          v.block.columns(static_cast<Eigen::Index>(i), 0) = gg[i].lam * db[i][0] * gg[i].c;
+          v.block.columns(static_cast<Eigen::Index>(i), 1) = gg[i].lam * db[i][1] * gg[i].s;
+        }
+        vs.push_back(std::move(v));
+      }
+      return vs;
+    };
+    c.search_size = 1;
     out.push_back(std::move(c));
   }
   {
