@@ -1,5 +1,6 @@
 // Explanations of a model/recording mismatch: rendered from the JSON of `guideway explain --json`
 // (issue 7's shape; docs/reports.md lists the fields used and the optional residual curves).
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -97,10 +98,28 @@ std::string explain_section(const std::string& path, const std::string& id) {
     std::vector<double> x;
     if (r.contains("x") && r["x"].is_array())
       for (const auto& v : r["x"]) x.push_back(v.is_number() ? v.get<double>() : NAN);
+    // "<run> baseline" / "<run> final" (guideway explain): one colour per run, light before, strong after.
+    static const char* light[] = {"#9ecae1", "#fdae6b", "#a1d99b", "#fbb4d9"};
+    std::vector<std::string> runs;
+    const auto colour = [&](const std::string& label, std::size_t i) -> std::pair<std::string, double> {
+      for (const char* suffix : {" baseline", " final"}) {
+        const std::string sfx(suffix);
+        if (label.size() > sfx.size() && label.compare(label.size() - sfx.size(), sfx.size(), sfx) == 0) {
+          const auto run = label.substr(0, label.size() - sfx.size());
+          auto it = std::find(runs.begin(), runs.end(), run);
+          if (it == runs.end()) it = runs.insert(runs.end(), run);
+          const auto k = static_cast<std::size_t>(it - runs.begin());
+          return sfx == " baseline" ? std::make_pair(std::string(light[k % 4]), 1.0) : std::make_pair(palette(k), 1.4);
+        }
+      }
+      return {palette(i), 1.2};
+    };
     std::size_t i = 0;
     if (r.contains("series") && r["series"].is_array())
       for (const auto& s : r["series"]) {
-        Series line{s.value("label", std::string("series")), x, {}, palette(i == 0 ? 7 : i - 1), Style::line, 1.2};
+        const std::string label = s.value("label", std::string("series"));
+        const auto [color, width] = colour(label, i);
+        Series line{label, x, {}, color, Style::line, width};
         if (s.contains("residual_um") && s["residual_um"].is_array())
           for (const auto& v : s["residual_um"]) line.y.push_back(v.is_number() ? v.get<double>() : NAN);
         if (line.y.size() != x.size())
@@ -111,7 +130,7 @@ std::string explain_section(const std::string& path, const std::string& id) {
       }
     if (!plot.series.empty())
       body << html_figure(render(plot), "Residual (recording minus model) against " + html_escape(plot.x_label) +
-                                            " for the base model and after each finding.");
+                                            ": light, the base model; strong, after the findings.");
   } else {
     body << html_note("This explanation carries no residual curves (optional \"residuals\" field, docs/reports.md); "
                       "only the RMS values are shown.");
