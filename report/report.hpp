@@ -9,9 +9,10 @@
 //   - Union Jack sets (a directory with Config.txt): the plate as a height map.
 //   - Run-out revolutions (`angle_deg,runout_um`): the revolution and its once-per-revolution fit.
 //   - Profiles (`guideway/profile/1`, `x_mm,z_um`): the profile and its wavelet MRA panels
-//     a1..a5, d1..d5 (Mu 2012 Figure 7; db1, dsp/wavelet).
-//   - Explanations (the JSON of `guideway explain --json`, issue 7): residual RMS before/after each
-//     finding, in-sample and held out, the finding and mismatch tables, residual curves when present.
+//     a1..a5, d1..d5 (Mu 2012 Figure 7; db1, dsp/wavelet); with a straightness traverse among the
+//     inputs, the correlation bars before/after the wavelet step (Figures 8-9, workpiece_flatness).
+//   - Explanations (the JSON of `guideway explain --json`): residual RMS before/after each finding,
+//     in-sample and held out, the finding and mismatch tables, the residual curves it carries.
 // Inputs are recognised by their `# format =` metadata or their columns (detect_input). Pure apart from
 // reading the inputs; thread safe. Errors are ReportError with the file (and line) in the message.
 
