@@ -22,6 +22,7 @@ struct StraightnessOptions {
   bool wait_for_return = true;
   double return_gap_s = 1.0;
   double min_dwell_s = 0.3;
+  double max_hole_s = 0.45;
   double settle_rad = 0.5 * gm::rad_per_arcsec;
   double pitch_sign = -1.0;
   double yaw_sign = 1.0;
@@ -31,17 +32,20 @@ struct StraightnessOptions {
 };
 
 StraightnessOptions parse_options(const nlohmann::json& o) {
-  check_option_names(o, "straightness",
-                     {"step_mm", "start_mm", "stations", "start", "return_gap_s", "min_dwell_s", "settle_arcsec",
-                      "pitch_channel", "yaw_channel", "pitch_sign", "yaw_sign", "angle_u_arcsec", "max_order"});
+  check_option_names(
+      o, "straightness",
+      {"step_mm", "start_mm", "stations", "start", "return_gap_s", "min_dwell_s", "max_hole_s", "settle_arcsec",
+       "pitch_channel", "yaw_channel", "pitch_sign", "yaw_sign", "angle_u_arcsec", "max_order"});
   StraightnessOptions s;
   s.step_m = number_option(o, "step_mm", 50.0, 0.1, 10000.0) * 1e-3;
   s.start_m = number_option(o, "start_mm", 0.0, -1e5, 1e5) * 1e-3;
   s.stations = static_cast<std::size_t>(integer_option(o, "stations", 0, 0, 100000));
-  if (s.stations == 1) throw std::invalid_argument("option stations = 1: a traverse needs at least 2 (0 = until the return)");
+  if (s.stations == 1)
+    throw std::invalid_argument("option stations = 1: a traverse needs at least 2 (0 = until the return)");
   s.wait_for_return = string_option(o, "start", "return", {"return", "now"}) == "return";
   s.return_gap_s = number_option(o, "return_gap_s", 1.0, 0.05, 600.0);
   s.min_dwell_s = number_option(o, "min_dwell_s", 0.3, 0.0, 600.0);
+  s.max_hole_s = number_option(o, "max_hole_s", 0.45, 0.01, 600.0);
   s.settle_rad = number_option(o, "settle_arcsec", 0.5, 0.001, 1000.0) * gm::rad_per_arcsec;
   s.pitch_channel = string_option(o, "pitch_channel", "angle_y");
   s.yaw_channel = string_option(o, "yaw_channel", "angle_x");
@@ -74,10 +78,12 @@ class StraightnessSession : public Session {
   StraightnessSession(StraightnessOptions options, const drivers::Driver& device)
       : o_(std::move(options)), device_(device.name()) {
     pitch_ = channel_index(device, o_.pitch_channel);
-    if (pitch_ < 0) throw std::invalid_argument("device " + device.name() + " has no channel \"" + o_.pitch_channel + "\"");
+    if (pitch_ < 0)
+      throw std::invalid_argument("device " + device.name() + " has no channel \"" + o_.pitch_channel + "\"");
     if (!o_.yaw_channel.empty()) {
       yaw_ = channel_index(device, o_.yaw_channel);
-      if (yaw_ < 0) throw std::invalid_argument("device " + device.name() + " has no channel \"" + o_.yaw_channel + "\"");
+      if (yaw_ < 0)
+        throw std::invalid_argument("device " + device.name() + " has no channel \"" + o_.yaw_channel + "\"");
     }
     collecting_ = !o_.wait_for_return;
   }
@@ -86,6 +92,12 @@ class StraightnessSession : public Session {
     for (const Sample& s : samples) {
       if (done_) return;
       const double t = static_cast<double>(s.t_mono_ns) * 1e-9;
+      // Readings missing for longer than max_hole_s (link timeouts, a reconnect) could hide a move or
+      // a whole station: what was measured can no longer be placed, so the traverse starts again.
+      const bool hole = (have_last_ && t - last_t_ > o_.max_hole_s) || (s.flags & sample_after_gap);
+      last_t_ = t;
+      have_last_ = true;
+      if (hole) on_hole(t);
       const bool valid = !(s.flags & (sample_out_of_range | sample_no_signal)) &&
                          s.value_count > static_cast<std::uint32_t>(std::max(pitch_, yaw_)) &&
                          std::isfinite(s.value[static_cast<std::size_t>(pitch_)]) &&
@@ -93,6 +105,7 @@ class StraightnessSession : public Session {
       if (!valid) {
         if (!in_gap_) {
           in_gap_ = true;
+          gap_tainted_ = hole;
           gap_from_ = have_valid_ ? last_valid_t_ : t;
           close_dwell();
         }
@@ -102,14 +115,14 @@ class StraightnessSession : public Session {
       }
       if (in_gap_) {
         in_gap_ = false;
-        if (t - gap_from_ >= o_.return_gap_s) on_return();
+        if (t - gap_from_ >= o_.return_gap_s && !gap_tainted_) on_return();
         if (done_) return;
       }
       const double pitch = s.value[static_cast<std::size_t>(pitch_)];
       const double yaw = yaw_ >= 0 ? s.value[static_cast<std::size_t>(yaw_)] : 0.0;
       const auto n = static_cast<double>(dwell_n_);
-      if (dwell_n_ > 0 && (std::abs(pitch - dwell_pitch_ / n) > o_.settle_rad ||
-                           std::abs(yaw - dwell_yaw_ / n) > o_.settle_rad)) {
+      if (dwell_n_ > 0 &&
+          (std::abs(pitch - dwell_pitch_ / n) > o_.settle_rad || std::abs(yaw - dwell_yaw_ / n) > o_.settle_rad)) {
         close_dwell();  // the reflector moved without losing the beam
       }
       if (dwell_n_ == 0) dwell_t0_ = t;
@@ -140,8 +153,9 @@ class StraightnessSession : public Session {
   nlohmann::json identify() override {
     if (!done_) close_dwell();  // stopped: the stations measured so far
     if (pitch_rad_.size() < 2) {
-      throw std::runtime_error("traverse of " + std::to_string(pitch_rad_.size()) + " station(s); at least 2 are needed" +
-                               (collecting_ ? "" : " (no return of the reflector was seen: option start=now starts at once)"));
+      throw std::runtime_error(
+          "traverse of " + std::to_string(pitch_rad_.size()) + " station(s); at least 2 are needed" +
+          (collecting_ ? "" : " (no return of the reflector was seen: option start=now starts at once)"));
     }
     text_ = traverse_text();
     const gm::AngleTraverse tr = gm::parse_angle_traverse(text_, "traverse", o_.model.instrument);
@@ -150,9 +164,11 @@ class StraightnessSession : public Session {
     result.erase("source");
     nlohmann::json group;
     auto add = [&](const std::string& plane, const gm::StraightnessProfile& p) {
-      for (const auto& [name, line] : {std::pair{"end_point", &p.end_point}, std::pair{"least_squares", &p.least_squares},
-                                       std::pair{"minimum_zone", &p.minimum_zone}}) {
-        group[plane + "_" + name + "_um"] = {{"value", line->straightness_m * 1e6}, {"u", line->u_straightness_m * 1e6}};
+      for (const auto& [name, line] :
+           {std::pair{"end_point", &p.end_point}, std::pair{"least_squares", &p.least_squares},
+            std::pair{"minimum_zone", &p.minimum_zone}}) {
+        group[plane + "_" + name + "_um"] = {{"value", line->straightness_m * 1e6},
+                                             {"u", line->u_straightness_m * 1e6}};
       }
     };
     add("vertical", r.vertical);
@@ -184,7 +200,8 @@ class StraightnessSession : public Session {
   void close_dwell() {
     const std::size_t n = dwell_n_;
     const double t0 = dwell_t0_, t1 = dwell_t1_;
-    const double pitch = n ? dwell_pitch_ / static_cast<double>(n) : 0.0, yaw = n ? dwell_yaw_ / static_cast<double>(n) : 0.0;
+    const double pitch = n ? dwell_pitch_ / static_cast<double>(n) : 0.0,
+                 yaw = n ? dwell_yaw_ / static_cast<double>(n) : 0.0;
     dwell_n_ = 0;
     dwell_pitch_ = dwell_yaw_ = 0.0;
     if (n == 0 || !collecting_ || done_) return;
@@ -192,6 +209,20 @@ class StraightnessSession : public Session {
     pitch_rad_.push_back(o_.pitch_sign * pitch);
     yaw_rad_.push_back(o_.yaw_sign * yaw);
     if (o_.stations > 0 && pitch_rad_.size() >= o_.stations) done_ = true;
+  }
+
+  void on_hole(double t) {
+    if (in_gap_) gap_tainted_ = true;  // not provably a return
+    dwell_n_ = 0;                      // the dwell under way may merge two stations
+    dwell_pitch_ = dwell_yaw_ = 0.0;
+    if (!collecting_ || done_) return;
+    std::ostringstream m;
+    m << "no reading for " << t - last_valid_t_ << " s after station " << pitch_rad_.size()
+      << ": waiting for the next traverse";
+    note_ = m.str();
+    collecting_ = false;
+    pitch_rad_.clear();
+    yaw_rad_.clear();
   }
 
   // The reflector went back to the start.
@@ -231,6 +262,9 @@ class StraightnessSession : public Session {
   bool collecting_ = false;
   bool done_ = false;
   bool in_gap_ = false;
+  bool gap_tainted_ = false;  // a hole inside the gap: its length proves nothing
+  double last_t_ = 0.0;
+  bool have_last_ = false;
   double gap_from_ = 0.0;
   double last_valid_t_ = 0.0;
   bool have_valid_ = false;
@@ -246,7 +280,8 @@ class StraightnessSession : public Session {
 SessionKind straightness_session_kind() {
   return {"straightness",
           "autocollimator traverse: straightness from the station angles (options: step_mm=50, start_mm=0, "
-          "stations=0 (until the return), start=return|now, return_gap_s=1, min_dwell_s=0.3, settle_arcsec=0.5, "
+          "stations=0 (until the return), start=return|now, return_gap_s=1, min_dwell_s=0.3, max_hole_s=0.45, "
+          "settle_arcsec=0.5, "
           "pitch_channel=angle_y, yaw_channel=angle_x, pitch_sign=-1, yaw_sign=1, angle_u_arcsec, max_order=8)",
           {"autocollimator-serial"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {

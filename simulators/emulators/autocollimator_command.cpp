@@ -22,8 +22,8 @@ struct AutocollimatorOptions {
   double start_mm = 0.0;
   double end_mm = 600.0;
   double step_mm = 50.0;
-  double dwell_s = 0.5;
-  double move_s = 0.2;
+  double dwell_s = 0.8;
+  double move_s = 0.5;
   double return_s = 1.5;
   double range_arcsec = 1000.0;
   bool checksum = false;
