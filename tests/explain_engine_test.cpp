@@ -1,6 +1,7 @@
 // The EXPLAIN engine on synthetic problems with a known answer: a base (offset + first harmonic), a
 // step effect and a sinusoid as candidates, white noise. Checks the selection, the parameter against
 // the truth, the held-out improvement, the null case and an out-of-library bump.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -119,4 +120,18 @@ TEST(ExplainEngine, RejectsUnusableProblems) {
   auto nanp = p;
   nanp.samples[5].y_um = std::nan("");
   EXPECT_THROW((void)ex::explain(nanp), std::invalid_argument);
+}
+
+TEST(ExplainEngine, HoldsOutWholeRunsWhenThereAreThree) {
+  auto p = make_problem([](int i) { return 0.3 * step_of(i); }, 7);
+  p.runs = {{"a", 1, 1000, "g"}, {"b", 1, 1000, "g"}, {"c", 1, 1000, "g"}};
+  for (int i = 0; i < n; ++i) p.samples[static_cast<std::size_t>(i)].run = static_cast<std::size_t>(std::min(i * 3 / n, 2));
+  const auto rep = ex::explain(p);
+  EXPECT_EQ(rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << rep.heldout_scheme;
+  ASSERT_FALSE(rep.findings.empty());
+  EXPECT_EQ(rep.findings[0].effect, "backlash");
+  EXPECT_LT(rep.final_fit.heldout_rms_um, rep.baseline.heldout_rms_um);
+  // Runs must be contiguous.
+  p.samples[10].run = 2;
+  EXPECT_THROW((void)ex::explain(p), std::invalid_argument);
 }
