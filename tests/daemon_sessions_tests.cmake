@@ -4,4 +4,4 @@
 guideway_add_test(daemon_sessions_test SOURCES daemon_sessions_test.cpp
   LIBS guideway_daemon guideway_machine guideway_flatness_models guideway_profile_files)
 add_test(NAME e2e_sessions_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/e2e_sessions_test.py ${PROJECT_BINARY_DIR})
-set_tests_properties(e2e_sessions_test PROPERTIES LABELS integration TIMEOUT 240)
+set_tests_properties(e2e_sessions_test PROPERTIES LABELS integration TIMEOUT 400)
