@@ -81,7 +81,8 @@ nlohmann::json evaluate_profile(const profilometer::Profile& profile, const Prof
     invalid += std::isnan(z_um[i]) ? 1 : 0;
   }
   if (invalid * 100 > n) {
-    throw std::invalid_argument(std::to_string(invalid) + " of " + std::to_string(n) + " points are invalid (over 1 %)");
+    throw std::invalid_argument(std::to_string(invalid) + " of " + std::to_string(n) +
+                                " points are invalid (over 1 %)");
   }
   // The wavelet transform needs every point: invalid ones are interpolated linearly between their
   // valid neighbours (held at the ends).
@@ -161,10 +162,8 @@ nlohmann::json evaluate_profile(const profilometer::Profile& profile, const Prof
                   {"level", options.level},
                   {"bands", bands},
                   {"dominant_detail", bands[dominant]["band"]}};
-  j["points"] = {{"count", n},
-                 {"invalid", invalid},
-                 {"spacing_um", *spacing * 1e6},
-                 {"length_mm", x_mm.back() - x_mm.front()}};
+  j["points"] = {
+      {"count", n}, {"invalid", invalid}, {"spacing_um", *spacing * 1e6}, {"length_mm", x_mm.back() - x_mm.front()}};
   return j;
 }
 
@@ -195,7 +194,8 @@ ProfileOptions parse_options(const nlohmann::json& o) {
 
 class ProfileSession : public Session {
  public:
-  ProfileSession(ProfileOptions options, const drivers::Driver& device) : o_(std::move(options)), device_(device.name()) {
+  ProfileSession(ProfileOptions options, const drivers::Driver& device)
+      : o_(std::move(options)), device_(device.name()) {
     const auto& ch = device.channels();
     for (std::size_t i = 0; i < ch.size(); ++i) {
       if (ch[i].name == "x") x_ = static_cast<int>(i);

@@ -25,9 +25,9 @@ struct RunoutOptions {
 };
 
 RunoutOptions parse_options(const nlohmann::json& o) {
-  check_option_names(o, "runout",
-                     {"plate_diameter_mm", "parallelism_um", "parallelism_u_um", "travel_mm", "rpm", "revolutions",
-                      "channel"});
+  check_option_names(
+      o, "runout",
+      {"plate_diameter_mm", "parallelism_um", "parallelism_u_um", "travel_mm", "rpm", "revolutions", "channel"});
   RunoutOptions r;
   r.plate_diameter_mm = number_option(o, "plate_diameter_mm", 1000.0, 1.0, 1e5);
   r.parallelism_um = number_option(o, "parallelism_um", 2.5, -1e4, 1e4);
@@ -102,7 +102,8 @@ class RunoutSession : public Session {
     g["once_per_rev_amplitude_um"] = {{"value", r.amplitude_m * 1e6}, {"u", r.u_amplitude_m * 1e6}};
     g["squareness_urad"] = {{"value", r.deflection_rad * 1e6}, {"u", r.u_deflection_rad * 1e6}};
     if (r.squareness_amplitude_m) {
-      g["squareness_amplitude_um"] = {{"value", *r.squareness_amplitude_m * 1e6}, {"u", *r.u_squareness_amplitude_m * 1e6}};
+      g["squareness_amplitude_um"] = {{"value", *r.squareness_amplitude_m * 1e6},
+                                      {"u", *r.u_squareness_amplitude_m * 1e6}};
     }
     j["squareness"] = g;
     j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
@@ -112,8 +113,11 @@ class RunoutSession : public Session {
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
-    return {{"plate_diameter_mm", num(o_.plate_diameter_mm)}, {"parallelism_um", num(o_.parallelism_um)},
-            {"travel_mm", num(o_.travel_mm)}, {"rpm", num(o_.rpm)}, {"revolutions", num(o_.revolutions)}};
+    return {{"plate_diameter_mm", num(o_.plate_diameter_mm)},
+            {"parallelism_um", num(o_.parallelism_um)},
+            {"travel_mm", num(o_.travel_mm)},
+            {"rpm", num(o_.rpm)},
+            {"revolutions", num(o_.revolutions)}};
   }
 
   std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
@@ -123,8 +127,9 @@ class RunoutSession : public Session {
  private:
   // The run-out file of docs/formats.md, written so it reads back exactly.
   [[nodiscard]] std::string revolution_text() const {
-    std::string t = "# plate_diameter_mm = " + num(o_.plate_diameter_mm) + "\n# parallelism_um = " +
-                    num(o_.parallelism_um) + "\n# parallelism_u_um = " + num(o_.parallelism_u_um) + "\n";
+    std::string t = "# plate_diameter_mm = " + num(o_.plate_diameter_mm) +
+                    "\n# parallelism_um = " + num(o_.parallelism_um) +
+                    "\n# parallelism_u_um = " + num(o_.parallelism_u_um) + "\n";
     if (o_.travel_mm > 0) t += "# travel_mm = " + num(o_.travel_mm) + "\n";
     t += "# rpm = " + num(o_.rpm) + "\n# device = " + device_ + "\n# source = guidewayd runout session\n";
     t += "angle_deg,runout_um\n";

@@ -17,7 +17,8 @@ std::string list(std::initializer_list<const char*> names) {
 
 }  // namespace
 
-void check_option_names(const nlohmann::json& options, const std::string& kind, std::initializer_list<const char*> known) {
+void check_option_names(const nlohmann::json& options, const std::string& kind,
+                        std::initializer_list<const char*> known) {
   if (!options.is_object()) throw std::invalid_argument(kind + " options must be a JSON object");
   for (const auto& [k, v] : options.items()) {
     bool found = false;
@@ -68,8 +69,8 @@ std::string string_option(const nlohmann::json& options, const char* key, const 
   throw std::invalid_argument(std::string("option ") + key + " = \"" + v + "\" must be one of: " + list(allowed));
 }
 
-std::vector<std::string> write_derived_text(const std::string& dir, const std::string& base_name, const std::string& suffix,
-                                            const std::string& text) {
+std::vector<std::string> write_derived_text(const std::string& dir, const std::string& base_name,
+                                            const std::string& suffix, const std::string& text) {
   if (text.empty()) return {};
   const std::string path = dir + "/" + base_name + "." + suffix;
   std::ofstream f(path, std::ios::binary | std::ios::trunc);

@@ -12,18 +12,20 @@
 namespace guideway::daemon {
 
 // Throws when `options` is not an object or has a key outside `known` (the message lists them).
-void check_option_names(const nlohmann::json& options, const std::string& kind, std::initializer_list<const char*> known);
+void check_option_names(const nlohmann::json& options, const std::string& kind,
+                        std::initializer_list<const char*> known);
 // The number at `key`, `fallback` when absent; it must lie in [min, max].
 double number_option(const nlohmann::json& options, const char* key, double fallback, double min, double max);
 // A whole number in [min, max].
-long long integer_option(const nlohmann::json& options, const char* key, long long fallback, long long min, long long max);
+long long integer_option(const nlohmann::json& options, const char* key, long long fallback, long long min,
+                         long long max);
 // A string among `allowed` (any string when `allowed` is empty).
 std::string string_option(const nlohmann::json& options, const char* key, const std::string& fallback,
                           std::initializer_list<const char*> allowed = {});
 
 // Writes `text` to DIR/BASE.SUFFIX and returns the path ({} when text is empty). Throws
 // std::runtime_error naming the path when it cannot be written.
-std::vector<std::string> write_derived_text(const std::string& dir, const std::string& base_name, const std::string& suffix,
-                                            const std::string& text);
+std::vector<std::string> write_derived_text(const std::string& dir, const std::string& base_name,
+                                            const std::string& suffix, const std::string& text);
 
 }  // namespace guideway::daemon
