@@ -166,9 +166,10 @@ class DbbSession : public Session {
 
   nlohmann::json identify() override {
     if (!segment_.empty()) close_segment();  // a stop in the middle of a circle keeps what is complete
+    // Identified from exactly what the run files hold, so `guideway identify dbb` on them agrees.
     std::vector<mdbb::Run> runs;
     for (const auto& r : runs_) {
-      if (r) runs.push_back(*r);
+      if (r) runs.push_back(mdbb::parse_run(mdbb::format_run(*r), r->source));
     }
     if (runs.empty()) {
       throw std::runtime_error("no complete DBB circle was traced" + (last_note_.empty() ? "" : " (" + last_note_ + ")"));

@@ -8,6 +8,8 @@
 #include <numbers>
 #include <sstream>
 
+#include "core/number_format.hpp"
+
 namespace guideway::models::dbb {
 
 namespace {
@@ -267,11 +269,19 @@ std::string format_run(const Run& run) {
   }
   for (const auto& [k, v] : meta) o << "# " << k << " = " << v << "\n";
   o << "t_s,angle_deg,dL_um\n";
+  // Data rows with the fewest digits that read back to the same values: a run file identified
+  // offline gives exactly the result the daemon computed from it.
+  std::string rows;
+  rows.reserve(run.angle_rad.size() * 48);
   for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
-    o << std::setprecision(9) << run.t_s[i] << "," << std::setprecision(9) << run.angle_rad[i] / deg << ","
-      << std::setprecision(7) << run.dL_m[i] * 1e6 << "\n";
+    append_shortest(rows, run.t_s[i]);
+    rows += ',';
+    append_shortest(rows, run.angle_rad[i] / deg);
+    rows += ',';
+    append_shortest(rows, run.dL_m[i] * 1e6);
+    rows += '\n';
   }
-  return o.str();
+  return o.str() + rows;
 }
 
 void write_run(const Run& run, const std::string& path) {
