@@ -1,11 +1,13 @@
 #include "daemon/config.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <filesystem>
 #include <set>
 
 #include "core/runtime_paths.hpp"
 #include "drivers/driver.hpp"
+#include "dsp/wavelet.hpp"
 
 namespace guideway::daemon {
 
@@ -84,6 +86,27 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     if (!dev.get_bool("enabled", true)) continue;
     d.table = std::make_shared<TableReader>(dev);
     c.devices.push_back(std::move(d));
+  }
+  for (const TableReader& pt : top.tables("processing")) {
+    DaemonConfig::Processing p;
+    p.device = pt.require_string("device");
+    const auto enabled_device = [&](const DaemonConfig::Device& d) { return d.name == p.device; };
+    if (std::none_of(c.devices.begin(), c.devices.end(), enabled_device)) pt.fail("device", "no enabled [[device]] is named \"" + p.device + "\"");
+    p.channel = pt.require_string("channel");
+    p.wavelet = pt.get_string("wavelet", p.wavelet);
+    try {
+      (void)dsp::Wavelet(p.wavelet);
+    } catch (const std::invalid_argument& e) {
+      pt.fail("wavelet", e.what());
+    }
+    p.levels = static_cast<int>(pt.get_int("levels", p.levels, 1, 12));
+    p.threshold = pt.get_choice("threshold", p.threshold, {"soft", "hard"});
+    p.level_dependent = pt.get_bool("level_dependent", p.level_dependent);
+    p.noise_window = static_cast<std::size_t>(pt.get_int("noise_window", 1024, 64, 1 << 20));
+    const bool enabled = pt.get_bool("enabled", true);
+    pt.reject_unknown_keys();
+    p.table = std::make_shared<TableReader>(pt);
+    if (enabled) c.processing.push_back(std::move(p));
   }
   std::set<std::string> emulator_names;
   for (const TableReader& em : top.tables("emulator")) {

@@ -38,6 +38,18 @@ struct DaemonConfig {
     std::shared_ptr<TableReader> table;  // the [[device]] table, for the driver factory
   };
   std::vector<Device> devices;
+  // [[processing]]: online wavelet denoising of one channel of a device (daemon/channel_denoiser.hpp).
+  struct Processing {
+    std::string device;
+    std::string channel;
+    std::string wavelet = "db4";
+    int levels = 4;
+    std::string threshold = "soft";  // "soft" | "hard"
+    bool level_dependent = false;
+    std::size_t noise_window = 1024;  // detail coefficients in the running noise estimate
+    std::shared_ptr<TableReader> table;  // to name file and line when the channel turns out unknown
+  };
+  std::vector<Processing> processing;
   std::vector<EmulatorSpec> emulators;  // [[emulator]]: started before the devices
   std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
 

@@ -40,6 +40,31 @@ std::vector<std::unique_ptr<drivers::Driver>> create_devices(const DaemonConfig&
   return devices;
 }
 
+std::vector<DeviceProcessor> create_processors(const DaemonConfig& config,
+                                               const std::vector<std::unique_ptr<drivers::Driver>>& devices) {
+  std::vector<DeviceProcessor> out;
+  for (const auto& p : config.processing) {
+    const auto device = std::find_if(devices.begin(), devices.end(), [&](const auto& d) { return d->name() == p.device; });
+    if (device == devices.end()) p.table->fail("device", "no device is named \"" + p.device + "\"");
+    const auto& channels = (*device)->channels();
+    const auto channel = std::find_if(channels.begin(), channels.end(), [&](const auto& c) { return c.name == p.channel; });
+    if (channel == channels.end()) {
+      std::string known;
+      for (const auto& c : channels) known += (known.empty() ? "" : ", ") + c.name;
+      p.table->fail("channel", "device \"" + p.device + "\" has no channel \"" + p.channel + "\" (it has: " + known + ")");
+    }
+    dsp::StreamingOptions options;
+    options.levels = p.levels;
+    options.denoise_options.rule = dsp::parse_threshold_rule(p.threshold);
+    options.denoise_options.level_dependent = p.level_dependent;
+    options.denoise_options.window = p.noise_window;
+    out.push_back({static_cast<std::size_t>(device - devices.begin()),
+                   std::make_unique<ChannelDenoiser>(static_cast<std::size_t>(channel - channels.begin()),
+                                                     dsp::Wavelet(p.wavelet), options, Pipeline::max_batch)});
+  }
+  return out;
+}
+
 Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
@@ -50,6 +75,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
   for (auto& d : devices_) raw.push_back(d.get());
   last_states_.assign(devices_.size(), drivers::DeviceState::stopped);
   pipeline_ = std::make_unique<Pipeline>(raw, outbox_, config_.sample_publish_hz);
+  for (auto& p : create_processors(config_, devices_)) pipeline_->add_processor(p.device_index, std::move(p.processor));
   auto manager = std::make_unique<SessionManager>(sessions, raw, config_.state_dir, outbox_);
   sessions_ = manager.get();
   pipeline_->add_stage(std::move(manager));
@@ -197,6 +223,17 @@ nlohmann::json Daemon::status_json() {
     nlohmann::json channels = nlohmann::json::array();
     for (const auto& c : devices_[i]->channels()) channels.push_back({{"name", c.name}, {"unit", c.unit}});
     d["channels"] = std::move(channels);
+    nlohmann::json processing = nlohmann::json::array();
+    for (const ChannelDenoiser* p : pipeline_->processors(i)) {
+      processing.push_back({{"channel", devices_[i]->channels().at(p->channel()).name},
+                            {"step", "wavelet_denoise"},
+                            {"wavelet", p->wavelet().name()},
+                            {"levels", p->levels()},
+                            {"latency_samples", p->latency_samples()},
+                            {"passed_through", p->passed_through()},
+                            {"restarts", p->restarts()}});
+    }
+    if (!processing.empty()) d["processing"] = std::move(processing);
     if (i < last_stats_.devices.size()) {
       d["consumed"] = last_stats_.devices[i].consumed;
       d["seq_gaps"] = last_stats_.devices[i].seq_gaps;

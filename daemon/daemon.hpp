@@ -13,6 +13,7 @@
 
 #include <spdlog/logger.h>
 
+#include "daemon/channel_denoiser.hpp"
 #include "daemon/config.hpp"
 #include "daemon/event_loop.hpp"
 #include "daemon/outbox.hpp"
@@ -33,6 +34,16 @@ struct DaemonOptions {
 // and key for an unknown driver, a bad value or a key the driver does not read.
 std::vector<std::unique_ptr<drivers::Driver>> create_devices(const DaemonConfig& config,
                                                              const drivers::DriverRegistry& registry);
+
+// One [[processing]] step bound to its device.
+struct DeviceProcessor {
+  std::size_t device_index = 0;
+  std::unique_ptr<ChannelDenoiser> processor;
+};
+// Creates the [[processing]] steps for the created devices; throws ConfigError naming the file, line
+// and key when a channel is not one of the device's.
+std::vector<DeviceProcessor> create_processors(const DaemonConfig& config,
+                                               const std::vector<std::unique_ptr<drivers::Driver>>& devices);
 
 class Daemon {
  public:

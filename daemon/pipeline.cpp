@@ -1,6 +1,7 @@
 #include "daemon/pipeline.hpp"
 
 #include <array>
+#include <algorithm>
 #include <chrono>
 
 #include <nlohmann/json.hpp>
@@ -13,13 +14,45 @@ Pipeline::Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double
     : devices_(std::move(devices)),
       outbox_(outbox),
       publish_period_ns_(sample_publish_hz > 0 ? static_cast<std::int64_t>(1e9 / sample_publish_hz) : -1),
-      last_publish_ns_(devices_.size(), 0) {
+      last_publish_ns_(devices_.size(), 0),
+      processors_(devices_.size()) {
   stats_.devices.resize(devices_.size());
 }
 
 Pipeline::~Pipeline() { stop(); }
 
 void Pipeline::add_stage(std::unique_ptr<PipelineStage> stage) { stages_.push_back(std::move(stage)); }
+
+void Pipeline::add_processor(std::size_t device_index, std::unique_ptr<ChannelDenoiser> processor) {
+  // Reserved once here so that process() never allocates on the pipeline thread.
+  for (auto& buffer : process_buffers_) {
+    if (buffer.capacity() < processor->output_bound()) buffer.reserve(processor->output_bound());
+  }
+  processors_.at(device_index).push_back(std::move(processor));
+}
+
+std::vector<const ChannelDenoiser*> Pipeline::processors(std::size_t device_index) const {
+  std::vector<const ChannelDenoiser*> out;
+  for (const auto& p : processors_.at(device_index)) out.push_back(p.get());
+  return out;
+}
+
+std::span<const Sample> Pipeline::process(std::size_t index, std::span<const Sample> raw) {
+  std::span<const Sample> current = raw;
+  std::size_t which = 0;
+  for (auto& processor : processors_[index]) {
+    std::vector<Sample>& out = process_buffers_[which];
+    out.clear();
+    // A processor releases at most what it holds plus the batch: an earlier one can release a large
+    // backlog at once (a restart), so feed in max_batch pieces.
+    for (std::size_t offset = 0; offset < current.size(); offset += max_batch) {
+      processor->process(current.subspan(offset, std::min(max_batch, current.size() - offset)), out);
+    }
+    current = out;
+    which ^= 1;
+  }
+  return current;
+}
 
 void Pipeline::start() {
   if (!thread_.joinable()) thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
@@ -41,7 +74,7 @@ PipelineStats Pipeline::take_stats() {
   return out;
 }
 
-void Pipeline::publish_sample(std::size_t index, const Sample& s, std::int64_t now_ns) {
+void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* processed, std::int64_t now_ns) {
   if (publish_period_ns_ < 0 || now_ns - last_publish_ns_[index] < publish_period_ns_) return;
   last_publish_ns_[index] = now_ns;
   const drivers::Driver& dev = *devices_[index];
@@ -56,11 +89,21 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, std::int64_t n
     values[dev.channels()[c].name] = s.value[c];
   }
   j["values"] = std::move(values);
+  if (processed != nullptr) {
+    // The newest denoised values (older than `seq` by the processors' latency): their own seq.
+    nlohmann::json denoised = nlohmann::json::object();
+    for (const auto& p : processors_[index]) {
+      if (p->channel() < processed->value_count && p->channel() < dev.channels().size()) {
+        denoised[dev.channels()[p->channel()].name] = processed->value[p->channel()];
+      }
+    }
+    j["denoised"] = {{"seq", processed->seq}, {"values", std::move(denoised)}};
+  }
   outbox_.post({"SAMPLE", dev.name(), j.dump()});
 }
 
 void Pipeline::run(const std::stop_token& stop) {
-  std::array<Sample, 512> batch{};
+  std::array<Sample, max_batch> batch{};
   std::int64_t idle_since = mono_now_ns();
   while (!stop.stop_requested()) {
     std::size_t total = 0;
@@ -87,7 +130,12 @@ void Pipeline::run(const std::stop_token& stop) {
         stats_.samples += n;
       }
       for (auto& stage : stages_) stage->on_samples(i, *devices_[i], samples);
-      publish_sample(i, samples.back(), now);
+      const std::span<const Sample> processed = processors_[i].empty() ? samples : process(i, samples);
+      if (!processed.empty()) {
+        for (auto& stage : stages_) stage->on_processed(i, *devices_[i], processed);
+      }
+      const Sample* newest_processed = processors_[i].empty() || processed.empty() ? nullptr : &processed.back();
+      publish_sample(i, samples.back(), newest_processed, now);
     }
     const std::int64_t now = mono_now_ns();
     for (auto& stage : stages_) stage->on_tick(now);

@@ -119,9 +119,14 @@ std::vector<SessionInfo> SessionManager::snapshot() const {
 void SessionManager::on_samples(std::size_t device_index, const drivers::Driver&, std::span<const Sample> samples) {
   for (auto& r : running_) {
     if (r->device_index != device_index) continue;
-    r->session->on_samples(samples);
     if (r->recorder) r->recorder->push(samples);
     r->info.samples += samples.size();
+  }
+}
+
+void SessionManager::on_processed(std::size_t device_index, const drivers::Driver&, std::span<const Sample> samples) {
+  for (auto& r : running_) {
+    if (r->device_index == device_index) r->session->on_samples(samples);
   }
 }
 

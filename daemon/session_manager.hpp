@@ -46,7 +46,10 @@ class SessionManager : public PipelineStage {
   std::vector<std::string> stop(const std::string& name);
   [[nodiscard]] std::vector<SessionInfo> snapshot() const;
 
+  // Raw samples go to the recordings, processed ones (the same when a device has no processing) to
+  // the sessions.
   void on_samples(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) override;
+  void on_processed(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) override;
   void on_tick(std::int64_t now_mono_ns) override;
 
  private:

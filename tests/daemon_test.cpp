@@ -107,6 +107,54 @@ TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
   EXPECT_TRUE(saw_status_with_flow);
 }
 
+TEST(Daemon, DenoisesAConfiguredChannelAndPublishesItBesideTheRawValue) {
+  // The counting driver's value is its sample count: a straight line, which a db4 wavelet (four vanishing
+  // moments) leaves unchanged away from the stream's start, so the denoised value must equal its own seq.
+  RunningDaemon rd(
+      "sample_publish_hz = 50.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n"
+      "[[processing]]\ndevice = \"counter\"\nchannel = \"count\"\nwavelet = \"db4\"\nlevels = 4\n");
+  DaemonClient c(rd.socket);
+  c.request({{"class", "watch"}, {"classes", {"SAMPLE"}}}, "WATCH");
+  int checked = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (checked < 5 && std::chrono::steady_clock::now() < deadline) {
+    auto line = c.read_line(std::chrono::milliseconds(500));
+    if (!line) continue;
+    auto j = nlohmann::json::parse(*line);
+    if (j["class"] != "SAMPLE" || !j.contains("denoised")) continue;
+    const auto seq = j["denoised"]["seq"].get<std::uint64_t>();
+    if (seq < 1000) continue;  // past the start-up edge
+    EXPECT_LE(seq + 105, j["seq"].get<std::uint64_t>());  // at least the latency (F-1)(2^J-1) behind
+    EXPECT_NEAR(j["denoised"]["values"]["count"].get<double>(), static_cast<double>(seq), 1e-6);
+    ++checked;
+  }
+  EXPECT_EQ(checked, 5);
+  auto s = c.request({{"class", "status"}}, "STATUS");
+  const auto& p = s["devices"][0]["processing"][0];
+  EXPECT_EQ(p["channel"], "count");
+  EXPECT_EQ(p["wavelet"], "db4");
+  EXPECT_EQ(p["latency_samples"], 105);
+}
+
+TEST(Daemon, ProcessingOfAnUnknownChannelIsAConfigErrorNamingTheDevicesChannels) {
+  test::TempDir dir;
+  drivers::DriverRegistry registry;
+  registry.add("counting", "test source", [](const drivers::DeviceConfig& c) {
+    return std::make_unique<test::CountingDriver>(c);
+  });
+  auto config = daemon::parse_config("[[device]]\nname = \"counter\"\ndriver = \"counting\"\n"
+                                     "[[processing]]\ndevice = \"counter\"\nchannel = \"bar\"\n",
+                                     "bad.toml");
+  const auto devices = daemon::create_devices(config, registry);
+  try {
+    (void)daemon::create_processors(config, devices);
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.toml:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("has no channel \"bar\" (it has: count)"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Daemon, DropsAClientThatNeverReadsAndKeepsServingOthers) {
   RunningDaemon rd(
       "sample_publish_hz = 100000.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 50000.0\n");
