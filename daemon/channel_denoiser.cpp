@@ -1,5 +1,6 @@
 #include "daemon/channel_denoiser.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <stdexcept>
@@ -30,17 +31,53 @@ dsp::StreamingOptions denoise_only(dsp::StreamingOptions options) {
 
 }  // namespace
 
-ChannelDenoiser::ChannelDenoiser(std::size_t channel, const dsp::Wavelet& wavelet,
-                                 const dsp::StreamingOptions& options, std::size_t max_batch)
-    : channel_(channel),
+nlohmann::json DenoiserSpec::to_json() const {
+  const auto& d = options.denoise_options;
+  return {{"step", "wavelet_denoise"},
+          {"channel", channel_name},
+          {"wavelet", wavelet},
+          {"levels", options.levels},
+          {"threshold", d.rule == dsp::ThresholdRule::soft ? "soft" : "hard"},
+          {"level_dependent", d.level_dependent},
+          {"noise_window", d.window}};
+}
+
+DenoiserSpec DenoiserSpec::from_json(const nlohmann::json& j, const std::vector<drivers::ChannelInfo>& channels) {
+  try {
+    DenoiserSpec spec;
+    if (j.value("step", std::string("wavelet_denoise")) != "wavelet_denoise") {
+      throw std::invalid_argument("unknown processing step \"" + j.value("step", std::string()) + "\"");
+    }
+    spec.channel_name = j.at("channel").get<std::string>();
+    const auto it = std::find_if(channels.begin(), channels.end(),
+                                 [&](const drivers::ChannelInfo& c) { return c.name == spec.channel_name; });
+    if (it == channels.end()) throw std::invalid_argument("no channel \"" + spec.channel_name + "\"");
+    spec.channel = static_cast<std::size_t>(it - channels.begin());
+    spec.wavelet = j.at("wavelet").get<std::string>();
+    (void)dsp::Wavelet(spec.wavelet);  // throws for an unknown name
+    spec.options.levels = j.at("levels").get<int>();
+    if (spec.options.levels < 1 || spec.options.levels > 12) throw std::invalid_argument("levels must be 1..12");
+    spec.options.denoise_options.rule = dsp::parse_threshold_rule(j.at("threshold").get<std::string>());
+    spec.options.denoise_options.level_dependent = j.at("level_dependent").get<bool>();
+    spec.options.denoise_options.window = j.at("noise_window").get<std::size_t>();
+    if (spec.options.denoise_options.window < 64) throw std::invalid_argument("noise_window must be >= 64");
+    return spec;
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument(std::string("processing step: ") + e.what());
+  }
+}
+
+ChannelDenoiser::ChannelDenoiser(const DenoiserSpec& spec, std::size_t max_batch)
+    : spec_(spec),
+      channel_(spec.channel),
       max_batch_(max_batch),
-      wavelet_(wavelet, denoise_only(options)),
+      wavelet_(dsp::Wavelet(spec.wavelet), denoise_only(spec.options)),
       // Valid samples wait at most the latency; room beyond that absorbs unusable samples queued behind them.
       pending_capacity_(std::bit_ceil(wavelet_.latency() + 2 * max_batch + 4096)),
       pending_(pending_capacity_),
       pending_index_(pending_capacity_, -1),
       denoised_(pending_capacity_, 0.0) {
-  if (channel >= max_sample_values) throw std::invalid_argument("channel index beyond the sample's values");
+  if (channel_ >= max_sample_values) throw std::invalid_argument("channel index beyond the sample's values");
   if (max_batch == 0) throw std::invalid_argument("max_batch must be positive");
   scratch_.reserve(max_batch);
 }
@@ -83,6 +120,11 @@ void ChannelDenoiser::release(std::vector<Sample>& out) {
     out.push_back(pending_[slot]);
     ++pending_head_;
   }
+}
+
+void ChannelDenoiser::flush(std::vector<Sample>& out) {
+  flush_and_restart(out);
+  restarts_.fetch_sub(1, std::memory_order_relaxed);  // an ordered end, not a restart
 }
 
 void ChannelDenoiser::flush_and_restart(std::vector<Sample>& out) {

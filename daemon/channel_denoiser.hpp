@@ -13,24 +13,43 @@
 #include <span>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/sample.hpp"
+#include "drivers/driver.hpp"
 #include "dsp/streaming_wavelet.hpp"
 
 namespace guideway::daemon {
 
+// What a [[processing]] step does, as recorded in a session's raw recording (`processing` header) so
+// that a replay repeats it exactly.
+struct DenoiserSpec {
+  std::size_t channel = 0;  // index into the device's channels
+  std::string channel_name;
+  std::string wavelet = "db4";
+  dsp::StreamingOptions options;  // levels and denoising options (coefficient/component outputs unused)
+
+  [[nodiscard]] nlohmann::json to_json() const;
+  // Throws std::invalid_argument naming the problem (unknown channel or wavelet, bad value).
+  static DenoiserSpec from_json(const nlohmann::json& j, const std::vector<drivers::ChannelInfo>& channels);
+};
+
 class ChannelDenoiser {
  public:
   // max_batch: the largest span process() is given (the pipeline's pop_bulk size).
-  ChannelDenoiser(std::size_t channel, const dsp::Wavelet& wavelet, const dsp::StreamingOptions& options,
-                  std::size_t max_batch);
+  ChannelDenoiser(const DenoiserSpec& spec, std::size_t max_batch);
 
   // Appends to `out` every sample that is ready, in order. `out` must have room reserved for
   // output_bound() more samples (the pipeline reserves it once), so this never allocates.
   void process(std::span<const Sample> in, std::vector<Sample>& out);
+  // Ends the stream: appends every sample still held (the denoised tail, PyWavelets' zero-mode right
+  // edge) and starts afresh. At most output_bound() samples.
+  void flush(std::vector<Sample>& out);
   // Most samples one process() call can append.
   [[nodiscard]] std::size_t output_bound() const noexcept { return pending_capacity_ + max_batch_; }
 
   [[nodiscard]] std::size_t channel() const noexcept { return channel_; }
+  [[nodiscard]] const DenoiserSpec& spec() const noexcept { return spec_; }
   [[nodiscard]] std::size_t latency_samples() const noexcept { return wavelet_.latency(); }
   [[nodiscard]] const dsp::Wavelet& wavelet() const { return wavelet_.wavelet(); }
   [[nodiscard]] int levels() const { return wavelet_.levels(); }
@@ -46,6 +65,7 @@ class ChannelDenoiser {
   void release(std::vector<Sample>& out);
   void flush_and_restart(std::vector<Sample>& out);
 
+  DenoiserSpec spec_;
   std::size_t channel_;
   std::size_t max_batch_;
   dsp::StreamingWavelet wavelet_;

@@ -40,9 +40,9 @@ std::vector<std::unique_ptr<drivers::Driver>> create_devices(const DaemonConfig&
   return devices;
 }
 
-std::vector<DeviceProcessor> create_processors(const DaemonConfig& config,
-                                               const std::vector<std::unique_ptr<drivers::Driver>>& devices) {
-  std::vector<DeviceProcessor> out;
+std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& config,
+                                                        const std::vector<std::unique_ptr<drivers::Driver>>& devices) {
+  std::vector<std::vector<DenoiserSpec>> out(devices.size());
   for (const auto& p : config.processing) {
     const auto device = std::find_if(devices.begin(), devices.end(), [&](const auto& d) { return d->name() == p.device; });
     if (device == devices.end()) p.table->fail("device", "no device is named \"" + p.device + "\"");
@@ -53,14 +53,15 @@ std::vector<DeviceProcessor> create_processors(const DaemonConfig& config,
       for (const auto& c : channels) known += (known.empty() ? "" : ", ") + c.name;
       p.table->fail("channel", "device \"" + p.device + "\" has no channel \"" + p.channel + "\" (it has: " + known + ")");
     }
-    dsp::StreamingOptions options;
-    options.levels = p.levels;
-    options.denoise_options.rule = dsp::parse_threshold_rule(p.threshold);
-    options.denoise_options.level_dependent = p.level_dependent;
-    options.denoise_options.window = p.noise_window;
-    out.push_back({static_cast<std::size_t>(device - devices.begin()),
-                   std::make_unique<ChannelDenoiser>(static_cast<std::size_t>(channel - channels.begin()),
-                                                     dsp::Wavelet(p.wavelet), options, Pipeline::max_batch)});
+    DenoiserSpec spec;
+    spec.channel = static_cast<std::size_t>(channel - channels.begin());
+    spec.channel_name = p.channel;
+    spec.wavelet = p.wavelet;
+    spec.options.levels = p.levels;
+    spec.options.denoise_options.rule = dsp::parse_threshold_rule(p.threshold);
+    spec.options.denoise_options.level_dependent = p.level_dependent;
+    spec.options.denoise_options.window = p.noise_window;
+    out[static_cast<std::size_t>(device - devices.begin())].push_back(std::move(spec));
   }
   return out;
 }
@@ -75,9 +76,13 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
   for (auto& d : devices_) raw.push_back(d.get());
   last_states_.assign(devices_.size(), drivers::DeviceState::stopped);
   pipeline_ = std::make_unique<Pipeline>(raw, outbox_, config_.sample_publish_hz);
-  for (auto& p : create_processors(config_, devices_)) pipeline_->add_processor(p.device_index, std::move(p.processor));
+  const auto steps = processing_steps(config_, devices_);
   auto manager = std::make_unique<SessionManager>(sessions, raw, config_.state_dir, outbox_);
   sessions_ = manager.get();
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    pipeline_->set_processing(i, steps[i]);
+    manager->set_processing(i, steps[i]);
+  }
   pipeline_->add_stage(std::move(manager));
 
   SocketServerOptions so;
@@ -224,7 +229,7 @@ nlohmann::json Daemon::status_json() {
     for (const auto& c : devices_[i]->channels()) channels.push_back({{"name", c.name}, {"unit", c.unit}});
     d["channels"] = std::move(channels);
     nlohmann::json processing = nlohmann::json::array();
-    for (const ChannelDenoiser* p : pipeline_->processors(i)) {
+    for (const auto& p : pipeline_->processing(i).steps()) {
       processing.push_back({{"channel", devices_[i]->channels().at(p->channel()).name},
                             {"step", "wavelet_denoise"},
                             {"wavelet", p->wavelet().name()},

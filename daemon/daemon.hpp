@@ -35,15 +35,10 @@ struct DaemonOptions {
 std::vector<std::unique_ptr<drivers::Driver>> create_devices(const DaemonConfig& config,
                                                              const drivers::DriverRegistry& registry);
 
-// One [[processing]] step bound to its device.
-struct DeviceProcessor {
-  std::size_t device_index = 0;
-  std::unique_ptr<ChannelDenoiser> processor;
-};
-// Creates the [[processing]] steps for the created devices; throws ConfigError naming the file, line
-// and key when a channel is not one of the device's.
-std::vector<DeviceProcessor> create_processors(const DaemonConfig& config,
-                                               const std::vector<std::unique_ptr<drivers::Driver>>& devices);
+// The [[processing]] steps of each created device (indexed like `devices`); throws ConfigError naming
+// the file, line and key when a channel is not one of the device's.
+std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& config,
+                                                        const std::vector<std::unique_ptr<drivers::Driver>>& devices);
 
 class Daemon {
  public:

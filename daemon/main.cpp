@@ -80,7 +80,7 @@ int main(int argc, char** argv) {
     if (check_only) {
       const auto emulators = daemon::launch_emulators(config);
       const auto devices = daemon::create_devices(config, registry);
-      const auto processors = daemon::create_processors(config, devices);
+      (void)daemon::processing_steps(config, devices);
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
       return 0;
     }

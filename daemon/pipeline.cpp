@@ -15,7 +15,7 @@ Pipeline::Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double
       outbox_(outbox),
       publish_period_ns_(sample_publish_hz > 0 ? static_cast<std::int64_t>(1e9 / sample_publish_hz) : -1),
       last_publish_ns_(devices_.size(), 0),
-      processors_(devices_.size()) {
+      chains_(devices_.size()) {
   stats_.devices.resize(devices_.size());
 }
 
@@ -23,35 +23,8 @@ Pipeline::~Pipeline() { stop(); }
 
 void Pipeline::add_stage(std::unique_ptr<PipelineStage> stage) { stages_.push_back(std::move(stage)); }
 
-void Pipeline::add_processor(std::size_t device_index, std::unique_ptr<ChannelDenoiser> processor) {
-  // Reserved once here so that process() never allocates on the pipeline thread.
-  for (auto& buffer : process_buffers_) {
-    if (buffer.capacity() < processor->output_bound()) buffer.reserve(processor->output_bound());
-  }
-  processors_.at(device_index).push_back(std::move(processor));
-}
-
-std::vector<const ChannelDenoiser*> Pipeline::processors(std::size_t device_index) const {
-  std::vector<const ChannelDenoiser*> out;
-  for (const auto& p : processors_.at(device_index)) out.push_back(p.get());
-  return out;
-}
-
-std::span<const Sample> Pipeline::process(std::size_t index, std::span<const Sample> raw) {
-  std::span<const Sample> current = raw;
-  std::size_t which = 0;
-  for (auto& processor : processors_[index]) {
-    std::vector<Sample>& out = process_buffers_[which];
-    out.clear();
-    // A processor releases at most what it holds plus the batch: an earlier one can release a large
-    // backlog at once (a restart), so feed in max_batch pieces.
-    for (std::size_t offset = 0; offset < current.size(); offset += max_batch) {
-      processor->process(current.subspan(offset, std::min(max_batch, current.size() - offset)), out);
-    }
-    current = out;
-    which ^= 1;
-  }
-  return current;
+void Pipeline::set_processing(std::size_t device_index, const std::vector<DenoiserSpec>& steps) {
+  chains_.at(device_index) = ProcessingChain(steps, max_batch);
 }
 
 void Pipeline::start() {
@@ -92,7 +65,7 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
   if (processed != nullptr) {
     // The newest denoised values (older than `seq` by the processors' latency): their own seq.
     nlohmann::json denoised = nlohmann::json::object();
-    for (const auto& p : processors_[index]) {
+    for (const auto& p : chains_[index].steps()) {
       if (p->channel() < processed->value_count && p->channel() < dev.channels().size()) {
         denoised[dev.channels()[p->channel()].name] = processed->value[p->channel()];
       }
@@ -130,11 +103,11 @@ void Pipeline::run(const std::stop_token& stop) {
         stats_.samples += n;
       }
       for (auto& stage : stages_) stage->on_samples(i, *devices_[i], samples);
-      const std::span<const Sample> processed = processors_[i].empty() ? samples : process(i, samples);
-      if (!processed.empty()) {
-        for (auto& stage : stages_) stage->on_processed(i, *devices_[i], processed);
+      const Sample* newest_processed = nullptr;
+      if (!chains_[i].empty()) {
+        const std::span<const Sample> processed = chains_[i].process(samples);
+        if (!processed.empty()) newest_processed = &processed.back();
       }
-      const Sample* newest_processed = processors_[i].empty() || processed.empty() ? nullptr : &processed.back();
       publish_sample(i, samples.back(), newest_processed, now);
     }
     const std::int64_t now = mono_now_ns();

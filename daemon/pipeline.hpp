@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "core/sample.hpp"
-#include "daemon/channel_denoiser.hpp"
+#include "daemon/processing_chain.hpp"
 #include "daemon/outbox.hpp"
 #include "drivers/driver.hpp"
 
@@ -26,16 +26,8 @@ namespace guideway::daemon {
 class PipelineStage {
  public:
   virtual ~PipelineStage() = default;
-  // Every sample as it left the device's ring (what recordings keep).
+  // Every sample as it left the device's ring.
   virtual void on_samples(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) = 0;
-  // The same stream after the device's processing steps ([[processing]]: denoised channels, delayed by
-  // their latency); the raw samples again for a device without processing. What sessions assemble.
-  virtual void on_processed(std::size_t device_index, const drivers::Driver& device,
-                            std::span<const Sample> samples) {
-    (void)device_index;
-    (void)device;
-    (void)samples;
-  }
   virtual void on_tick(std::int64_t now_mono_ns) { (void)now_mono_ns; }
 };
 
@@ -62,11 +54,12 @@ class Pipeline {
   Pipeline& operator=(const Pipeline&) = delete;
 
   void add_stage(std::unique_ptr<PipelineStage> stage);  // before start()
-  // A processing step on one device's stream, applied in the order added (before start()).
-  void add_processor(std::size_t device_index, std::unique_ptr<ChannelDenoiser> processor);
-  // The processors of a device, for STATUS (their counters are thread safe).
-  [[nodiscard]] std::vector<const ChannelDenoiser*> processors(std::size_t device_index) const;
-  // Most samples the pipeline takes from a ring at once (the processors' max_batch).
+  // The [[processing]] steps of a device for the live SAMPLE stream (before start()). Sessions run
+  // their own copy (SessionManager).
+  void set_processing(std::size_t device_index, const std::vector<DenoiserSpec>& steps);
+  // For STATUS (the steps' counters are thread safe).
+  [[nodiscard]] const ProcessingChain& processing(std::size_t device_index) const { return chains_.at(device_index); }
+  // Most samples the pipeline takes from a ring at once (the processing steps' max_batch).
   static constexpr std::size_t max_batch = 512;
   void start();
   void stop();
@@ -78,15 +71,13 @@ class Pipeline {
  private:
   void run(const std::stop_token& stop);
   void publish_sample(std::size_t index, const Sample& raw, const Sample* processed, std::int64_t now_ns);
-  std::span<const Sample> process(std::size_t index, std::span<const Sample> raw);
 
   std::vector<drivers::Driver*> devices_;
   Outbox& outbox_;
   std::int64_t publish_period_ns_;
   std::vector<std::int64_t> last_publish_ns_;
   std::vector<std::unique_ptr<PipelineStage>> stages_;
-  std::vector<std::vector<std::unique_ptr<ChannelDenoiser>>> processors_;  // per device
-  std::array<std::vector<Sample>, 2> process_buffers_;                     // ping-pong between processors
+  std::vector<ProcessingChain> chains_;  // per device
   std::atomic<std::uint64_t> progress_{0};
   std::mutex stats_mutex_;
   PipelineStats stats_;

@@ -18,6 +18,7 @@
 
 #include "daemon/outbox.hpp"
 #include "daemon/pipeline.hpp"
+#include "daemon/processing_chain.hpp"
 #include "daemon/recorder.hpp"
 #include "daemon/session.hpp"
 
@@ -46,10 +47,12 @@ class SessionManager : public PipelineStage {
   std::vector<std::string> stop(const std::string& name);
   [[nodiscard]] std::vector<SessionInfo> snapshot() const;
 
-  // Raw samples go to the recordings, processed ones (the same when a device has no processing) to
-  // the sessions.
+  // The [[processing]] steps of a device (before the pipeline starts): each session on it runs a fresh
+  // copy, recorded in its raw recording's header, so a replay repeats it exactly.
+  void set_processing(std::size_t device_index, std::vector<DenoiserSpec> steps);
+
+  // Raw samples go to the recordings, processed ones to the sessions.
   void on_samples(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) override;
-  void on_processed(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) override;
   void on_tick(std::int64_t now_mono_ns) override;
 
  private:
@@ -58,6 +61,7 @@ class SessionManager : public PipelineStage {
     std::size_t device_index = 0;
     std::unique_ptr<Session> session;
     std::unique_ptr<RawRecorder> recorder;
+    ProcessingChain processing;
     bool stop_requested = false;
   };
   void finish_loop(const std::stop_token& stop);
@@ -65,6 +69,7 @@ class SessionManager : public PipelineStage {
 
   const SessionRegistry& registry_;
   std::vector<drivers::Driver*> devices_;
+  std::vector<std::vector<DenoiserSpec>> processing_;  // per device
   std::string state_dir_;
   Outbox& outbox_;
 

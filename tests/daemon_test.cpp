@@ -147,7 +147,7 @@ TEST(Daemon, ProcessingOfAnUnknownChannelIsAConfigErrorNamingTheDevicesChannels)
                                      "bad.toml");
   const auto devices = daemon::create_devices(config, registry);
   try {
-    (void)daemon::create_processors(config, devices);
+    (void)daemon::processing_steps(config, devices);
     FAIL() << "no error";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("bad.toml:"), std::string::npos) << e.what();

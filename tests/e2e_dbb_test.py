@@ -2,7 +2,8 @@
 """End to end: guidewayd on its embedded default (four emulator processes on their real transports,
 one virtual machine tool: config/machine-example.toml), a DBB session through the `guideway` client,
 parameters checked against the machine's configured errors, zero overruns, and the recorded run files
-identified offline by `guideway identify dbb` to the same parameters.
+identified offline by `guideway identify dbb` to the same parameters, and the raw recording replayed by
+`guideway replay` to the same PARAMS.
 Usage: e2e_dbb_test.py BUILD_DIR"""
 import json
 import os
@@ -82,6 +83,12 @@ class EndToEndDbb(unittest.TestCase):
         offline = json.loads(self.cli("identify", "dbb", *params["derived"], "--json"))
         for name, value in lai.items():
             self.assertAlmostEqual(offline["lai3"][name]["value"], value, delta=1e-9 + 1e-6 * abs(value), msg=name)
+        # The raw recording replays (with the denoising steps its header records) to the same PARAMS.
+        self.assertIn("# processing = ", text)
+        replayed = json.loads(self.cli("replay", "--json", params["recording"], timeout=120).splitlines()[-1])
+        for group in ("lai3", "diagnostics"):
+            for name, v in params[group].items():
+                self.assertEqual(replayed[group][name]["value"], v["value"], msg=f"{group}.{name}")
 
 
 if __name__ == "__main__":

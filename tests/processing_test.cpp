@@ -10,6 +10,7 @@
 
 #include "core/toml_access.hpp"
 #include "daemon/config.hpp"
+#include "daemon/processing_chain.hpp"
 
 using namespace guideway;
 
@@ -31,6 +32,15 @@ dsp::StreamingOptions options() {
   o.coefficients = false;
   o.denoise_options.window = 256;
   return o;
+}
+
+daemon::DenoiserSpec spec(std::size_t channel, const std::string& wavelet) {
+  daemon::DenoiserSpec s;
+  s.channel = channel;
+  s.channel_name = "c" + std::to_string(channel);
+  s.wavelet = wavelet;
+  s.options = options();
+  return s;
 }
 
 Sample make_sample(std::uint64_t seq, double v0, double v1) {
@@ -77,7 +87,7 @@ TEST(ChannelDenoiser, ValidStreamEqualsTheStreamingWaveletAfterItsLatencyInAnyCh
   Collect expected;
   reference.push(values, expected);
 
-  daemon::ChannelDenoiser d(1, w, options(), 64);
+  daemon::ChannelDenoiser d(spec(1, "db4"), 64);
   EXPECT_EQ(d.latency_samples(), 7u * 15u);  // (F-1)(2^J-1) for db4, 4 levels
   const auto out = run(d, in, 64, rng);
   ASSERT_EQ(out.size(), in.size() - d.latency_samples());
@@ -112,7 +122,7 @@ TEST(ChannelDenoiser, UnusableSamplesPassThroughInTheirPlaceAndDoNotDisturbTheFi
   Collect expected;
   reference.push(valid_values, expected);
 
-  daemon::ChannelDenoiser d(0, w, options(), 100);
+  daemon::ChannelDenoiser d(spec(0, "db2"), 100);
   const auto out = run(d, in, 100, rng);
   std::size_t k = 0;
   for (std::size_t i = 0; i < out.size(); ++i) {
@@ -134,8 +144,7 @@ TEST(ChannelDenoiser, UnusableSamplesPassThroughInTheirPlaceAndDoNotDisturbTheFi
 }
 
 TEST(ChannelDenoiser, ALongLossOfSignalRestartsTheFilterWithoutLosingASample) {
-  const dsp::Wavelet w("db4");
-  daemon::ChannelDenoiser d(0, w, options(), 512);
+  daemon::ChannelDenoiser d(spec(0, "db4"), 512);
   std::vector<Sample> in;
   std::uint64_t seq = 0;
   for (int i = 0; i < 50; ++i) in.push_back(make_sample(seq++, 1.0, 0.0));  // fewer than the latency
@@ -152,6 +161,51 @@ TEST(ChannelDenoiser, ALongLossOfSignalRestartsTheFilterWithoutLosingASample) {
   for (std::size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out[i].seq, i);
   // The 50 early samples came out (flushed at the restart) with finite values.
   for (std::size_t i = 0; i < 50; ++i) EXPECT_TRUE(std::isfinite(out[i].value[0]));
+}
+
+TEST(ProcessingChain, ProcessThenFlushDeliversEverySampleOnceThroughTwoSteps) {
+  // Two steps on two channels: every sample comes out once, in order, each channel equal to its own
+  // streaming wavelet's output, the tails included.
+  const auto s0 = spec(0, "db4");
+  const auto s1 = spec(1, "db2");
+  daemon::ProcessingChain chain({s0, s1}, 128);
+  std::vector<Sample> in;
+  std::vector<double> v0, v1;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (std::uint64_t i = 0; i < 4000; ++i) {
+    in.push_back(make_sample(i, std::sin(0.01 * static_cast<double>(i)) + noise(rng), noise(rng)));
+    v0.push_back(in.back().value[0]);
+    v1.push_back(in.back().value[1]);
+  }
+  Collect e0, e1;
+  dsp::StreamingWavelet r0(dsp::Wavelet("db4"), options()), r1(dsp::Wavelet("db2"), options());
+  r0.push(v0, e0);
+  r0.flush(e0);
+  r1.push(v1, e1);
+  r1.flush(e1);
+  std::vector<Sample> out;
+  for (std::size_t i = 0; i < in.size(); i += 100) {
+    const auto part = chain.process(std::span<const Sample>(in).subspan(i, std::min<std::size_t>(100, in.size() - i)));
+    out.insert(out.end(), part.begin(), part.end());
+  }
+  const auto tail = chain.flush();
+  out.insert(out.end(), tail.begin(), tail.end());
+  ASSERT_EQ(out.size(), in.size());
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    ASSERT_EQ(out[i].seq, i);
+    EXPECT_EQ(out[i].value[0], e0.values[i]);
+    EXPECT_EQ(out[i].value[1], e1.values[i]);
+  }
+  // The recorded description reads back to the same steps.
+  const auto j = chain.to_json();
+  const std::vector<drivers::ChannelInfo> channels = {{"c0", "m"}, {"c1", "m"}};
+  const auto back = daemon::DenoiserSpec::from_json(j[1], channels);
+  EXPECT_EQ(back.channel, 1u);
+  EXPECT_EQ(back.wavelet, "db2");
+  EXPECT_EQ(back.options.levels, 4);
+  EXPECT_EQ(back.to_json(), j[1]);
+  EXPECT_THROW((void)daemon::DenoiserSpec::from_json(j[1], {{"other", "m"}}), std::invalid_argument);
 }
 
 TEST(ProcessingConfig, ParsesDefaultsAndRejectsBadTablesWithFileAndLine) {

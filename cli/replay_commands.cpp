@@ -1,0 +1,61 @@
+// `guideway replay RECORDING...`: a session's raw recording through the same session kind, processing
+// steps and identification the daemon ran live (daemon/replay.hpp); prints the PARAMS it published.
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli/commands.hpp"
+#include "cli/params_print.hpp"
+#include "daemon/replay.hpp"
+#include "daemon/session_kinds.hpp"
+
+namespace guideway::cli {
+
+namespace {
+
+void add_replay_commands(CLI::App& app, CliContext& ctx) {
+  struct Options {
+    std::vector<std::string> recordings;
+    bool json = false;
+  };
+  auto o = std::make_shared<Options>();
+  auto* replay = app.add_subcommand(
+      "replay", "Replay raw session recordings (guideway/raw/1) through the daemon's session code and print their PARAMS");
+  replay->add_option("recording", o->recordings, "raw recording files (NAME.csv or an interrupted NAME.csv.part)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  replay->add_flag("--json", o->json, "one PARAMS JSON line per recording, as the daemon published it");
+  replay->callback([&ctx, o] {
+    daemon::SessionRegistry registry;
+    daemon::register_builtin_sessions(registry);
+    for (const auto& path : o->recordings) {
+      const daemon::ReplayResult r = daemon::replay_recording(path, registry);
+      if (!r.failure.empty()) {
+        ctx.exit_code = 1;
+        if (o->json) {
+          std::cout << nlohmann::json{{"class", "EVENT"}, {"event", "session_failed"}, {"reason", r.failure},
+                                      {"replayed_from", path}}
+                           .dump()
+                    << "\n";
+        } else {
+          std::cerr << "guideway: " << path << ": identification failed: " << r.failure << "\n";
+        }
+        continue;
+      }
+      if (o->json) {
+        std::cout << r.params.dump() << "\n";
+        continue;
+      }
+      std::cout << "replayed " << path << ": " << r.samples << " samples"
+                << (r.complete ? "" : " (incomplete recording: the session was interrupted)") << "\n";
+      print_params(r.params);
+    }
+  });
+}
+
+const CommandGroup group(&add_replay_commands);
+
+}  // namespace
+
+}  // namespace guideway::cli

@@ -1,0 +1,30 @@
+#pragma once
+// Replay of a session's raw recording (guideway/raw/1, docs/formats.md): the samples go through the
+// session kind that made the recording, with the processing steps its header records, exactly as the
+// daemon fed them live (the same SessionKind, ProcessingChain and identification code), so the result
+// is the PARAMS the live session published. Like gpsd's gpsfake, it makes every live result
+// reproducible and regression-testable offline.
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "daemon/session.hpp"
+
+namespace guideway::daemon {
+
+struct ReplayResult {
+  // The PARAMS message (identified parameters, plus class, session, kind, device, samples and
+  // `replayed_from`); empty when identification failed.
+  nlohmann::json params;
+  std::string failure;          // why identification failed (the live session's session_failed reason)
+  std::size_t samples = 0;      // samples replayed
+  bool complete = true;         // false: the recording is a .part or has no `# end =` trailer
+  std::size_t dropped_partial_line = 0;  // 1 when a last line without its newline was ignored (a kill)
+};
+
+// Throws std::runtime_error "file:line: message" for a file that is not a raw recording, a session
+// kind this build does not know, or options the kind refuses.
+ReplayResult replay_recording(const std::string& path, const SessionRegistry& registry);
+
+}  // namespace guideway::daemon
