@@ -318,12 +318,20 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     // Vibration: the strongest lines of the residual's periodogram in time, along each axis.
     Candidate c{"vibration", "a structural or drive vibration at a fixed frequency, a sinusoid in time unrelated to the position",
                 {}, {}, 0};
+    // The typical sample interval is the median step: live timestamps jitter, and the smallest step
+    // of a real recording can be microseconds, which would put the Nyquist limit absurdly high.
     double t_span = 0, dt = 1e300;
+    std::vector<double> steps;
     for (std::size_t i = 1; i < g.size(); ++i)
-      if (g[i].run == g[i - 1].run && g[i].t_s > g[i - 1].t_s) dt = std::min(dt, g[i].t_s - g[i - 1].t_s);
+      if (g[i].run == g[i - 1].run && g[i].t_s > g[i - 1].t_s) steps.push_back(g[i].t_s - g[i - 1].t_s);
+    if (!steps.empty()) {
+      std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+      dt = steps[steps.size() / 2];
+    }
     for (const auto& r : runs) t_span = std::max(t_span, r.t_s.back() - r.t_s.front());
     if (dt < 1e300 && t_span > 0) {
-      const double f_lo = 4.0 / t_span, f_hi = 0.4 / dt, df = 0.25 / t_span;
+      constexpr std::size_t max_grid = 8192;  // bounds the direct periodogram's cost
+      const double f_lo = 4.0 / t_span, f_hi = 0.4 / dt, df = std::max(0.25 / t_span, (f_hi - f_lo) / max_grid);
       const auto grid = static_cast<std::size_t>(std::max(0.0, (f_hi - f_lo) / df));
       c.search_size = 3 * grid;
       auto geo = std::make_shared<const std::vector<Geo>>(g);
