@@ -139,6 +139,12 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
         std::erase_if(latest_params_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
         latest_params_.push_back(std::move(j));
         log_->info("session {}: parameters identified", latest_params_.back().value("session", "?"));
+      } else if (m.cls == "EXPLAIN") {
+        nlohmann::json j = nlohmann::json::parse(m.json);
+        std::erase_if(latest_explain_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
+        log_->info("session {}: {} finding(s){}", j.value("session", "?"), j.value("findings", nlohmann::json::array()).size(),
+                   j.value("unexplained", false) ? ", a structured residual is left unexplained" : "");
+        latest_explain_.push_back(std::move(j));
       } else if (m.cls == "EVENT") {
         const auto j = nlohmann::json::parse(m.json);
         if (j.contains("session")) {
@@ -286,12 +292,14 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
     } catch (const std::invalid_argument& e) {
       reply(client, error_message(e.what(), req->cls), req->id);
     }
-  } else if (req->cls == "start" || req->cls == "stop" || req->cls == "params" || req->cls == "recordings") {
+  } else if (req->cls == "start" || req->cls == "stop" || req->cls == "params" || req->cls == "explain" ||
+             req->cls == "recordings") {
     try {
-      nlohmann::json out = req->cls == "start"  ? handle_start(*req)
-                           : req->cls == "stop" ? handle_stop(*req)
-                           : req->cls == "params" ? handle_params(*req)
-                                                  : handle_recordings();
+      nlohmann::json out = req->cls == "start"     ? handle_start(*req)
+                           : req->cls == "stop"    ? handle_stop(*req)
+                           : req->cls == "params"  ? latest_of(latest_params_, *req, "parameters identified")
+                           : req->cls == "explain" ? latest_of(latest_explain_, *req, "explanation")
+                                                   : handle_recordings();
       reply(client, std::move(out), req->id);
     } catch (const std::exception& e) {
       reply(client, error_message(e.what(), req->cls), req->id);
@@ -299,7 +307,7 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
   } else {
     reply(client,
           error_message("unknown request class \"" + req->cls +
-                            "\" (known: version, status, poll, watch, start, stop, params, recordings)",
+                            "\" (known: version, status, poll, watch, start, stop, params, explain, recordings)",
                         req->cls),
           req->id);
   }
@@ -347,13 +355,13 @@ nlohmann::json Daemon::handle_stop(const Request& req) {
   return {{"class", "SESSION"}, {"sessions", names}, {"state", "finishing"}};
 }
 
-nlohmann::json Daemon::handle_params(const Request& req) const {
+nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what) {
   const std::string kind = string_field(req.body, "kind");
   const std::string session = string_field(req.body, "session");
-  for (auto it = latest_params_.rbegin(); it != latest_params_.rend(); ++it) {
+  for (auto it = latest.rbegin(); it != latest.rend(); ++it) {
     if ((kind.empty() || (*it)["kind"] == kind) && (session.empty() || (*it)["session"] == session)) return *it;
   }
-  throw std::invalid_argument("no parameters identified yet" + (kind.empty() ? std::string() : " for " + kind) +
+  throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
                               " (start a session with the start request, e.g. guideway start dbb)");
 }
 

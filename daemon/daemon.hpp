@@ -63,7 +63,8 @@ class Daemon {
   void check_device_events();
   nlohmann::json handle_start(const Request& req);
   nlohmann::json handle_stop(const Request& req);
-  nlohmann::json handle_params(const Request& req) const;
+  // The newest message of `latest` matching the request's optional kind/session; throws naming `what`.
+  static nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what);
   nlohmann::json handle_recordings() const;
   nlohmann::json sessions_json() const;
   std::string status_line() const;
@@ -77,7 +78,8 @@ class Daemon {
   Outbox outbox_;
   std::unique_ptr<Pipeline> pipeline_;
   SessionManager* sessions_ = nullptr;  // owned by pipeline_ (a stage)
-  std::vector<nlohmann::json> latest_params_;  // newest PARAMS per session kind
+  std::vector<nlohmann::json> latest_params_;   // newest PARAMS per session kind
+  std::vector<nlohmann::json> latest_explain_;  // newest EXPLAIN per session kind
   std::unique_ptr<SocketServer> server_;
   SystemdNotifier notifier_;
   std::unordered_map<ClientId, Subscription> subscriptions_;

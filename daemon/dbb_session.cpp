@@ -2,12 +2,14 @@
 
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "daemon/session_support.hpp"
 #include "models/dbb/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
+#include "models/explain/dbb_explain.hpp"
 
 namespace guideway::daemon {
 
@@ -175,11 +177,21 @@ class DbbSession : public Session {
       throw std::runtime_error("no complete DBB circle was traced" + (last_note_.empty() ? "" : " (" + last_note_ + ")"));
     }
     const mdbb::Identification id = mdbb::identify(runs);
+    identified_ = runs;
     nlohmann::json j = mdbb::to_json(id);
     if (runs.size() < runs_.size()) {
       j["incomplete"] = std::to_string(runs.size()) + " of " + std::to_string(runs_.size()) + " patterns traced";
     }
     return j;
+  }
+
+  std::optional<nlohmann::json> explain() override {
+    if (identified_.empty()) return std::nullopt;
+    try {
+      return models::explain::explain_dbb(identified_);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(e.what());
+    }
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
@@ -286,7 +298,10 @@ class DbbSession : public Session {
                     {"direction", dir == mdbb::Direction::ccw ? "ccw" : "cw"},
                     {"feed_mm_per_min", feed.str()},
                     {"plane", options_.plane},
-                    {"measured_radius_mm", std::to_string(r * 1e3)}};
+                    {"measured_radius_mm", std::to_string(r * 1e3)},
+                    // t_s of every run is on the session's clock: one machine-time axis for EXPLAIN's
+                    // time-dependent effects (thermal drift), see docs/explain.md.
+                    {"start_time_s", "0"}};
     try {
       mdbb::validate_run(run);
     } catch (const mdbb::RunFormatError& e) {
@@ -298,6 +313,7 @@ class DbbSession : public Session {
   }
 
   DbbOptions options_;
+  std::vector<mdbb::Run> identified_;  // what identify() fitted, for explain()
   int bar_ = -1, axis_a_ = -1, axis_b_ = -1;
   double t0_ = -1;
   Point last_{};

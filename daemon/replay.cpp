@@ -140,6 +140,18 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   result.params["device"] = device.name();
   result.params["samples"] = result.samples;
   result.params["replayed_from"] = path;
+  try {
+    if (auto report = session->explain()) {
+      result.explain = std::move(*report);
+      result.explain["class"] = "EXPLAIN";
+      result.explain["session"] = result.params["session"];
+      result.explain["kind"] = kind_name;
+      result.explain["device"] = device.name();
+      result.explain["replayed_from"] = path;
+    }
+  } catch (const std::exception& e) {
+    result.explain_failure = e.what();
+  }
   return result;
 }
 

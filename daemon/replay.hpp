@@ -17,6 +17,8 @@ struct ReplayResult {
   // The PARAMS message (identified parameters, plus class, session, kind, device, samples and
   // `replayed_from`); empty when identification failed.
   nlohmann::json params;
+  nlohmann::json explain;       // the EXPLAIN message, null when the kind has none or it failed
+  std::string explain_failure;  // why the explanation failed (the live explain_failed reason)
   std::string failure;          // why identification failed (the live session's session_failed reason)
   std::size_t samples = 0;      // samples replayed
   bool complete = true;         // false: the recording is a .part or has no `# end =` trailer

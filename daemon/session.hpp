@@ -7,6 +7,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -39,6 +40,10 @@ class Session {
   // Identified parameters: the body of the PARAMS message (model, parameters with "value" and "u",
   // fit quality). Throws std::runtime_error with the reason when identification is impossible.
   virtual nlohmann::json identify() = 0;
+  // After a successful identify(), on the worker thread: where the recording and the identified model
+  // still differ and which left-out physics explains it (models/explain; the body of the EXPLAIN
+  // message), or nullopt for a kind without an explanation model. Throws std::runtime_error.
+  virtual std::optional<nlohmann::json> explain() { return std::nullopt; }
   // Metadata for the recording header (options, geometry), written as "# key = value".
   [[nodiscard]] virtual std::map<std::string, std::string> metadata() const { return {}; }
   // Derived files (e.g. DBB run files) written next to the raw recording at the end; returns paths.

@@ -192,6 +192,24 @@ void SessionManager::finish_loop(const std::stop_token& stop) {
   }
 }
 
+void SessionManager::post_explanation(Running& r) {
+  const SessionInfo& info = r.info;
+  try {
+    std::optional<nlohmann::json> report = r.session->explain();
+    if (!report) return;
+    (*report)["class"] = "EXPLAIN";
+    (*report)["session"] = info.name;
+    (*report)["kind"] = info.kind;
+    (*report)["device"] = info.device;
+    outbox_.post({"EXPLAIN", info.device, report->dump()});
+  } catch (const std::exception& e) {
+    outbox_.post({"EVENT", info.device,
+                  nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},
+                                 {"event", "explain_failed"}, {"reason", e.what()}}
+                      .dump()});
+  }
+}
+
 void SessionManager::finish(std::unique_ptr<Running> r) {
   SessionInfo& info = r->info;
   nlohmann::json params;
@@ -224,6 +242,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     if (!info.recording.empty()) params["recording"] = info.recording;
     if (!derived.empty()) params["derived"] = derived;
     outbox_.post({"PARAMS", info.device, params.dump()});
+    post_explanation(*r);
   } else {
     outbox_.post({"EVENT", info.device,
                   nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},

@@ -66,6 +66,7 @@ class SessionManager : public PipelineStage {
   };
   void finish_loop(const std::stop_token& stop);
   void finish(std::unique_ptr<Running> r);
+  void post_explanation(Running& r);
 
   const SessionRegistry& registry_;
   std::vector<drivers::Driver*> devices_;

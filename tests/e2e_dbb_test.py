@@ -85,10 +85,43 @@ class EndToEndDbb(unittest.TestCase):
             self.assertAlmostEqual(offline["lai3"][name]["value"], value, delta=1e-9 + 1e-6 * abs(value), msg=name)
         # The raw recording replays (with the denoising steps its header records) to the same PARAMS.
         self.assertIn("# processing = ", text)
-        replayed = json.loads(self.cli("replay", "--json", params["recording"], timeout=120).splitlines()[-1])
+        replayed = json.loads(self.cli("replay", "--json", params["recording"], timeout=120).splitlines()[0])
         for group in ("lai3", "diagnostics"):
             for name, v in params[group].items():
                 self.assertEqual(replayed[group][name]["value"], v["value"], msg=f"{group}.{name}")
+
+        # The daemon explained the residual after identifying, and keeps it for the explain request.
+        deadline = time.monotonic() + 120  # explained on the worker thread after PARAMS
+        while True:
+            explanation = self.request({"class": "explain", "kind": "dbb"}, "EXPLAIN", allow_error=True)
+            if explanation["class"] == "EXPLAIN" or time.monotonic() > deadline:
+                break
+            time.sleep(0.5)
+        self.assertEqual(explanation["class"], "EXPLAIN", explanation)
+        self.assertEqual(explanation["session"], params["session"])
+        self.assertEqual(explanation["model"], "dbb")
+        for key in ("baseline", "final", "mismatch", "findings", "unexplained"):
+            self.assertIn(key, explanation)
+        self.assertLessEqual(explanation["final"]["heldout_rms_um"], explanation["baseline"]["heldout_rms_um"])
+        for f in explanation["findings"]:
+            self.assertLess(f["heldout_rms_um_after"], explanation["baseline"]["heldout_rms_um"], f)
+
+    def request(self, message, reply_class, allow_error=False):
+        """One request on a raw Unix-socket connection (the protocol, not the CLI)."""
+        import socket
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+            s.settimeout(10)
+            s.connect(self.sock)
+            f = s.makefile("rwb")
+            f.write((json.dumps(message) + "\n").encode())
+            f.flush()
+            for line in f:
+                m = json.loads(line)
+                if m["class"] in (reply_class, "ERROR") and m["class"] != "VERSION":
+                    if not allow_error:
+                        self.assertEqual(m["class"], reply_class, m)
+                    return m
+        self.fail("no reply")
 
 
 if __name__ == "__main__":

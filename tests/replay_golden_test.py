@@ -21,7 +21,8 @@ def replay(guideway, recording):
     out = subprocess.run([guideway, "replay", "--json", str(recording)], capture_output=True, text=True, timeout=120)
     if out.returncode != 0:
         raise AssertionError(f"{recording}: guideway replay exited {out.returncode}: {out.stderr}{out.stdout}")
-    params = json.loads(out.stdout.strip().splitlines()[-1])
+    messages = [json.loads(line) for line in out.stdout.splitlines() if line.strip()]
+    params = next(m for m in messages if m["class"] == "PARAMS")
     return {k: v for k, v in params.items() if k not in IGNORED}
 
 
