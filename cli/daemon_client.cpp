@@ -1,5 +1,7 @@
 #include "cli/daemon_client.hpp"
 
+#include "core/runtime_paths.hpp"
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -139,6 +141,15 @@ nlohmann::json DaemonClient::request(const nlohmann::json& req, const std::strin
     if (cls == reply_class || cls == "ERROR") return j;
   }
   throw std::runtime_error(address_ + ": no " + reply_class + " reply within " + std::to_string(timeout.count()) + " ms");
+}
+
+DaemonClient connect_daemon(const std::string& address) {
+  if (!address.empty()) return DaemonClient(address);
+  return DaemonClient::connect_first(client_socket_candidates());
+}
+
+void throw_if_error(const nlohmann::json& reply) {
+  if (reply.value("class", "") == "ERROR") throw std::runtime_error("daemon: " + reply.value("message", "error"));
 }
 
 }  // namespace guideway::cli

@@ -40,4 +40,10 @@ class DaemonClient {
   nlohmann::json banner_;
 };
 
+// The daemon at `address` (a path or tcp:HOST:PORT), or when it is empty the first default
+// candidate that answers (client_socket_candidates). Throws std::runtime_error naming every failure.
+DaemonClient connect_daemon(const std::string& address);
+// Throws std::runtime_error "daemon: MESSAGE" when `reply` is an ERROR message.
+void throw_if_error(const nlohmann::json& reply);
+
 }  // namespace guideway::cli

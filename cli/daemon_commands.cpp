@@ -15,14 +15,7 @@ namespace guideway::cli {
 
 namespace {
 
-DaemonClient connect(const CliContext& ctx) {
-  if (!ctx.socket.empty()) return DaemonClient(ctx.socket);
-  return DaemonClient::connect_first(client_socket_candidates());
-}
-
-void throw_if_error(const nlohmann::json& reply) {
-  if (reply.value("class", "") == "ERROR") throw std::runtime_error("daemon: " + reply.value("message", "error"));
-}
+DaemonClient connect(const CliContext& ctx) { return connect_daemon(ctx.socket); }
 
 std::string fmt_count(const nlohmann::json& j, const char* key) {
   return j.contains(key) ? std::to_string(j[key].get<std::uint64_t>()) : "-";

@@ -9,6 +9,8 @@
 
 #include "cli/commands.hpp"
 #include "models/dbb/dbb_run.hpp"
+#include "cli/daemon_client.hpp"
+#include "cli/params_print.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/profile_explain.hpp"
@@ -68,7 +70,8 @@ struct Opts {
   std::vector<std::string> files;
   std::string simulated, measured;
   bool json = false;
-  bool scenarios = false, full = false, effects = false;
+  bool scenarios = false, full = false, effects = false, latest = false;
+  std::string kind;
   std::vector<std::string> only;
   std::uint64_t seed = 1;
   std::string table_out;
@@ -162,8 +165,25 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
   cmd->add_option("--table-out", o->table_out,
                   "with --scenarios: replace the generated table in this Markdown file (docs/explain.md)");
   cmd->add_flag("--effects", o->effects, "list the effect library");
+  cmd->add_flag("--latest", o->latest, "the daemon's latest explanation (EXPLAIN) instead of files");
+  cmd->add_option("--kind", o->kind, "with --latest: of this session kind (default: any)");
   cmd->callback([o, &ctx] {
     if (o->effects) return print_effects(o->json);
+    if (o->latest) {
+      DaemonClient c = connect_daemon(ctx.socket);
+      nlohmann::json req = {{"class", "explain"}};
+      if (!o->kind.empty()) req["kind"] = o->kind;
+      const nlohmann::json r = c.request(req, "EXPLAIN");
+      throw_if_error(r);
+      if (o->json) {
+        std::cout << r.dump() << "\n";
+      } else {
+        std::cout << "session " << r.value("session", "?") << " (" << r.value("kind", "?") << " on " << r.value("device", "?")
+                  << ")\n";
+        print_explanation(r);
+      }
+      return;
+    }
     if (o->scenarios) {
       ctx.exit_code = run_scenarios(*o);
       return;

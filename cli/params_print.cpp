@@ -1,5 +1,6 @@
 #include "cli/params_print.hpp"
 
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 
@@ -49,5 +50,22 @@ void print_params(const nlohmann::json& p) {
   for (const auto& f : p.value("derived", nlohmann::json::array())) std::cout << "derived: " << f.get<std::string>() << "\n";
 }
 
+
+void print_explanation(const nlohmann::json& e) {
+  const auto rms = [](const nlohmann::json& j, const char* k) { return j.contains(k) && j[k].is_number() ? j[k].get<double>() : NAN; };
+  std::cout << "explanation (" << e.value("model", "?") << " model): held-out rms " << rms(e["baseline"], "heldout_rms_um")
+            << " um -> " << rms(e["final"], "heldout_rms_um") << " um\n";
+  for (const auto& f : e.value("findings", nlohmann::json::array())) {
+    std::cout << "  " << f.value("effect", "?");
+    for (const auto& [name, v] : f.value("parameters", nlohmann::json::object()).items()) {
+      if (v.contains("value") && v["value"].is_number()) {
+        std::cout << "  " << name << " = " << v["value"].get<double>();
+        if (v.contains("u") && v["u"].is_number()) std::cout << " +/- " << v["u"].get<double>();
+      }
+    }
+    std::cout << "\n    " << f.value("why", "") << "\n";
+  }
+  if (e.value("unexplained", false)) std::cout << "  a structured residual is left that no effect of the library explains\n";
+}
 
 }  // namespace guideway::cli

@@ -8,5 +8,8 @@ namespace guideway::cli {
 // Prints every group of {"name":{"value":..,"u":..}} as an aligned table, then the fit summaries, the
 // wavelet summary of a profile session, and the files involved.
 void print_params(const nlohmann::json& p);
+// An EXPLAIN message in a few lines: held-out RMS before and after, each finding with its physics,
+// whether a structured residual is left (`guideway explain` offline prints the full report).
+void print_explanation(const nlohmann::json& e);
 
 }  // namespace guideway::cli

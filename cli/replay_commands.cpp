@@ -1,6 +1,5 @@
 // `guideway replay RECORDING...`: a session's raw recording through the same session kind, processing
 // steps and identification the daemon ran live (daemon/replay.hpp); prints the PARAMS it published.
-#include <cmath>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -14,17 +13,6 @@
 namespace guideway::cli {
 
 namespace {
-
-// The EXPLAIN message in a few lines (`guideway explain` prints the full report offline).
-void print_explanation(const nlohmann::json& e) {
-  const auto rms = [](const nlohmann::json& j, const char* k) { return j.contains(k) && j[k].is_number() ? j[k].get<double>() : NAN; };
-  std::cout << "explanation (" << e.value("model", "?") << "): held-out rms " << rms(e["baseline"], "heldout_rms_um")
-            << " um -> " << rms(e["final"], "heldout_rms_um") << " um\n";
-  for (const auto& f : e.value("findings", nlohmann::json::array())) {
-    std::cout << "  " << f.value("effect", "?") << ": " << f.value("why", "") << "\n";
-  }
-  if (e.value("unexplained", false)) std::cout << "  a structured residual is left that no effect of the library explains\n";
-}
 
 void add_replay_commands(CLI::App& app, CliContext& ctx) {
   struct Options {

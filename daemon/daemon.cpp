@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cerrno>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <chrono>
 #include <ctime>
 #include <system_error>
@@ -293,12 +295,13 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
       reply(client, error_message(e.what(), req->cls), req->id);
     }
   } else if (req->cls == "start" || req->cls == "stop" || req->cls == "params" || req->cls == "explain" ||
-             req->cls == "recordings") {
+             req->cls == "report" || req->cls == "recordings") {
     try {
       nlohmann::json out = req->cls == "start"     ? handle_start(*req)
                            : req->cls == "stop"    ? handle_stop(*req)
                            : req->cls == "params"  ? latest_of(latest_params_, *req, "parameters identified")
                            : req->cls == "explain" ? latest_of(latest_explain_, *req, "explanation")
+                           : req->cls == "report"  ? handle_report(*req)
                                                    : handle_recordings();
       reply(client, std::move(out), req->id);
     } catch (const std::exception& e) {
@@ -307,7 +310,7 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
   } else {
     reply(client,
           error_message("unknown request class \"" + req->cls +
-                            "\" (known: version, status, poll, watch, start, stop, params, explain, recordings)",
+                            "\" (known: version, status, poll, watch, start, stop, params, explain, report, recordings)",
                         req->cls),
           req->id);
   }
@@ -363,6 +366,18 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
   }
   throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
                               " (start a session with the start request, e.g. guideway start dbb)");
+}
+
+nlohmann::json Daemon::handle_report(const Request& req) const {
+  const nlohmann::json params = latest_of(latest_params_, req, "session finished");
+  const std::string session = params.value("session", "");
+  const std::string path = report_path(config_.state_dir, session);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
+  std::ostringstream html;
+  html << in.rdbuf();
+  return {{"class", "REPORT"}, {"session", session}, {"kind", params.value("kind", "")}, {"file", path},
+          {"html", html.str()}};
 }
 
 nlohmann::json Daemon::handle_recordings() const {

@@ -1,11 +1,28 @@
 #include "daemon/session_manager.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <ctime>
+#include <fstream>
+
+#include "report/report.hpp"
 
 namespace guideway::daemon {
 
 namespace {
+
+// Written as NAME.part, then renamed: a reader never sees half a file.
+void write_file_atomically(const std::string& path, const std::string& content) {
+  const std::string part = path + ".part";
+  {
+    std::ofstream out(part, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(part + ": cannot open for writing");
+    out << content;
+    out.flush();
+    if (!out) throw std::runtime_error(part + ": write failed");
+  }
+  if (std::rename(part.c_str(), path.c_str()) != 0) throw std::runtime_error(path + ": rename failed");
+}
 
 std::string utc_stamp() {
   const std::time_t t = std::time(nullptr);
@@ -192,22 +209,52 @@ void SessionManager::finish_loop(const std::stop_token& stop) {
   }
 }
 
-void SessionManager::post_explanation(Running& r) {
+void SessionManager::post_event(const SessionInfo& info, const std::string& event, const std::string& reason) {
+  outbox_.post({"EVENT", info.device,
+                nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name}, {"event", event},
+                               {"reason", reason}}
+                    .dump()});
+}
+
+std::optional<std::string> SessionManager::post_explanation(Running& r) {
   const SessionInfo& info = r.info;
   try {
     std::optional<nlohmann::json> report = r.session->explain();
-    if (!report) return;
+    if (!report) return std::nullopt;
     (*report)["class"] = "EXPLAIN";
     (*report)["session"] = info.name;
     (*report)["kind"] = info.kind;
     (*report)["device"] = info.device;
     outbox_.post({"EXPLAIN", info.device, report->dump()});
+    // Kept beside the recording for the session's report (guideway report reads it too).
+    const std::string path = state_dir_ + "/" + info.name + ".explain.json";
+    write_file_atomically(path, report->dump(1) + "\n");
+    return path;
   } catch (const std::exception& e) {
-    outbox_.post({"EVENT", info.device,
-                  nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},
-                                 {"event", "explain_failed"}, {"reason", e.what()}}
-                      .dump()});
+    post_event(info, "explain_failed", e.what());
+    return std::nullopt;
   }
+}
+
+void SessionManager::write_session_report(const Running& r, std::vector<std::string> inputs) {
+  if (inputs.empty()) return;
+  try {
+    report::ReportOptions options;
+    options.title = "Guideway " + r.info.kind + " session " + r.info.name;
+    options.subtitle = "device " + r.info.device + ", recording " + r.info.recording;
+    const std::string path = report_path(state_dir_, r.info.name);
+    write_file_atomically(path, report::render_report(inputs, options));
+    outbox_.post({"EVENT", r.info.device,
+                  nlohmann::json{{"class", "EVENT"}, {"device", r.info.device}, {"session", r.info.name},
+                                 {"event", "report_ready"}, {"file", path}}
+                      .dump()});
+  } catch (const std::exception& e) {
+    post_event(r.info, "report_failed", e.what());
+  }
+}
+
+std::string report_path(const std::string& state_dir, const std::string& session) {
+  return state_dir + "/" + session + ".report.html";
 }
 
 void SessionManager::finish(std::unique_ptr<Running> r) {
@@ -242,7 +289,8 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     if (!info.recording.empty()) params["recording"] = info.recording;
     if (!derived.empty()) params["derived"] = derived;
     outbox_.post({"PARAMS", info.device, params.dump()});
-    post_explanation(*r);
+    if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
+    write_session_report(*r, derived);
   } else {
     outbox_.post({"EVENT", info.device,
                   nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},

@@ -35,6 +35,9 @@ struct SessionInfo {
   std::uint64_t samples = 0;
 };
 
+// Where a finished session's HTML report is kept (the `report` request serves it).
+std::string report_path(const std::string& state_dir, const std::string& session);
+
 class SessionManager : public PipelineStage {
  public:
   SessionManager(const SessionRegistry& registry, std::vector<drivers::Driver*> devices, std::string state_dir,
@@ -66,7 +69,11 @@ class SessionManager : public PipelineStage {
   };
   void finish_loop(const std::stop_token& stop);
   void finish(std::unique_ptr<Running> r);
-  void post_explanation(Running& r);
+  // Posts EXPLAIN (or an explain_failed EVENT); returns the file the explanation was saved to.
+  std::optional<std::string> post_explanation(Running& r);
+  // Renders NAME.report.html from the session's files (report/); a failure is an EVENT.
+  void write_session_report(const Running& r, std::vector<std::string> inputs);
+  void post_event(const SessionInfo& info, const std::string& event, const std::string& reason);
 
   const SessionRegistry& registry_;
   std::vector<drivers::Driver*> devices_;

@@ -39,8 +39,20 @@ echo
 echo "== guideway start dbb --wait   (Lai's three DBB patterns on the emulated machine, about 35 s)"
 "$bin/cli/guideway" start dbb --wait --timeout 300
 echo
+echo "== guideway explain --latest   (what the model left out, fitted and checked on held-out runs)"
+for _ in $(seq 1 100); do
+  "$bin/cli/guideway" explain --latest --kind dbb >/dev/null 2>&1 && break
+  sleep 0.3
+done
+"$bin/cli/guideway" explain --latest --kind dbb || true
+echo
 echo "== guideway recordings"
 "$bin/cli/guideway" recordings
+report_file=$(ls -t "${XDG_STATE_HOME:-$HOME/.local/state}"/guideway/*.report.html 2>/dev/null | head -1 || true)
+if [ -n "$report_file" ]; then
+  echo
+  echo "== the session's report (plots): open $report_file in a browser"
+fi
 if [ $keep -eq 1 ]; then
   echo
   echo "guidewayd keeps running (pid $pid). Try: $bin/cli/guideway watch    Stop: kill $pid"

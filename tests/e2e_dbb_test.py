@@ -106,6 +106,20 @@ class EndToEndDbb(unittest.TestCase):
         for f in explanation["findings"]:
             self.assertLess(f["heldout_rms_um_after"], explanation["baseline"]["heldout_rms_um"], f)
 
+        # The session's HTML report (report/): rendered on the worker thread, served by the report request.
+        deadline = time.monotonic() + 120
+        while True:
+            report = self.request({"class": "report", "kind": "dbb"}, "REPORT", allow_error=True)
+            if report["class"] == "REPORT" or time.monotonic() > deadline:
+                break
+            time.sleep(0.5)
+        self.assertEqual(report["class"], "REPORT", report)
+        self.assertEqual(report["session"], params["session"])
+        self.assertTrue(report["html"].startswith("<!DOCTYPE html>"), report["html"][:80])
+        self.assertIn("<svg", report["html"])
+        self.assertIn("Explanation of the mismatch", report["html"])  # the EXPLAIN section is there
+        self.assertIn("Residual RMS after each finding", report["html"])
+
     def request(self, message, reply_class, allow_error=False):
         """One request on a raw Unix-socket connection (the protocol, not the CLI)."""
         import socket
