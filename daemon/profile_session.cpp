@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/number_format.hpp"
 #include "daemon/recorder.hpp"
 #include "daemon/session_support.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
@@ -15,11 +16,6 @@ namespace guideway::daemon {
 
 namespace {
 
-std::string num(double v) {
-  std::string s;
-  append_double(s, v);
-  return s;
-}
 
 // Least-squares line through the valid points; returns the deviations (NaN where z is NaN).
 std::vector<double> line_deviations(const std::vector<double>& x, const std::vector<double>& z) {
@@ -214,7 +210,7 @@ class ProfileSession : public Session {
       if (s.value_count < needed) continue;
       const double id = s.value[static_cast<std::size_t>(id_)];
       if (s.flags & profilometer::sample_profile_start) {
-        if (collecting_ && !x_m_.empty()) note_ = "profile " + num(profile_id_) + " was cut short; took the next";
+        if (collecting_ && !x_m_.empty()) note_ = "profile " + shortest(profile_id_) + " was cut short; took the next";
         collecting_ = true;
         profile_id_ = id;
         x_m_.clear();
@@ -222,7 +218,7 @@ class ProfileSession : public Session {
       } else if (!collecting_) {
         continue;
       } else if ((s.flags & sample_after_gap) || id != profile_id_) {
-        note_ = "profile " + num(profile_id_) + " was interrupted; waiting for the next";
+        note_ = "profile " + shortest(profile_id_) + " was interrupted; waiting for the next";
         collecting_ = false;
         continue;
       }
@@ -248,16 +244,16 @@ class ProfileSession : public Session {
 
   nlohmann::json identify() override {
     if (!done_) {
-      throw std::runtime_error(collecting_ ? "stopped before the end of profile " + num(profile_id_) + " (" +
+      throw std::runtime_error(collecting_ ? "stopped before the end of profile " + shortest(profile_id_) + " (" +
                                                  std::to_string(x_m_.size()) + " points)"
                                            : "no profile was started" + (note_.empty() ? "" : " (" + note_ + ")"));
     }
     profilometer::Profile p;
     p.x_m = x_m_;
     p.z_m = z_m_;
-    p.metadata = {{"source", "guidewayd profile session"}, {"device", device_}, {"profile", num(profile_id_)}};
-    if (o_.feed_mm_per_min > 0) p.metadata.emplace_back("feed_mm_per_min", num(o_.feed_mm_per_min));
-    if (o_.spindle_rpm > 0) p.metadata.emplace_back("spindle_rpm", num(o_.spindle_rpm));
+    p.metadata = {{"source", "guidewayd profile session"}, {"device", device_}, {"profile", shortest(profile_id_)}};
+    if (o_.feed_mm_per_min > 0) p.metadata.emplace_back("feed_mm_per_min", shortest(o_.feed_mm_per_min));
+    if (o_.spindle_rpm > 0) p.metadata.emplace_back("spindle_rpm", shortest(o_.spindle_rpm));
     text_ = profilometer::format_profile_csv(p);
     const profilometer::Profile read = profilometer::parse_profile_csv(text_, "profile");
     try {

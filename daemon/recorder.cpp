@@ -12,14 +12,9 @@
 #include <stdexcept>
 
 #include "core/mono_clock.hpp"
+#include "core/number_format.hpp"
 
 namespace guideway::daemon {
-
-void append_double(std::string& out, double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
-  out.append(buf, r.ptr);
-}
 
 std::string utc_now_iso_ms() {
   timespec ts{};
@@ -110,7 +105,7 @@ void RawRecorder::drain_and_write() {
       pending_ += std::to_string(s.flags);
       for (std::size_t c = 0; c < channel_count_; ++c) {
         pending_ += ',';
-        if (c < s.value_count) append_double(pending_, s.value[c]);
+        if (c < s.value_count) append_shortest(pending_, s.value[c]);
       }
       pending_ += '\n';
     }

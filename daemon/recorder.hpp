@@ -78,8 +78,7 @@ class RawRecorder {
   std::jthread thread_;
 };
 
-// Formats a double with the fewest digits that read back to the same value.
-void append_double(std::string& out, double v);
+// Wall-clock time, ISO 8601 UTC with milliseconds (recording headers and trailers).
 std::string utc_now_iso_ms();
 
 }  // namespace guideway::daemon

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/number_format.hpp"
 #include "daemon/recorder.hpp"
 #include "daemon/session_support.hpp"
 #include "models/flatness/json.hpp"
@@ -39,11 +40,6 @@ RunoutOptions parse_options(const nlohmann::json& o) {
   return r;
 }
 
-std::string num(double v) {
-  std::string s;
-  append_double(s, v);
-  return s;
-}
 
 class RunoutSession : public Session {
  public:
@@ -107,17 +103,17 @@ class RunoutSession : public Session {
     }
     j["squareness"] = g;
     j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
-    if (!done_) j["incomplete"] = num(angle_deg_.back()) + " of " + num(o_.revolutions * 360.0) + " deg";
+    if (!done_) j["incomplete"] = shortest(angle_deg_.back()) + " of " + shortest(o_.revolutions * 360.0) + " deg";
     j["result"] = result;
     return j;
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
-    return {{"plate_diameter_mm", num(o_.plate_diameter_mm)},
-            {"parallelism_um", num(o_.parallelism_um)},
-            {"travel_mm", num(o_.travel_mm)},
-            {"rpm", num(o_.rpm)},
-            {"revolutions", num(o_.revolutions)}};
+    return {{"plate_diameter_mm", shortest(o_.plate_diameter_mm)},
+            {"parallelism_um", shortest(o_.parallelism_um)},
+            {"travel_mm", shortest(o_.travel_mm)},
+            {"rpm", shortest(o_.rpm)},
+            {"revolutions", shortest(o_.revolutions)}};
   }
 
   std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
@@ -127,13 +123,13 @@ class RunoutSession : public Session {
  private:
   // The run-out file of docs/formats.md, written so it reads back exactly.
   [[nodiscard]] std::string revolution_text() const {
-    std::string t = "# plate_diameter_mm = " + num(o_.plate_diameter_mm) +
-                    "\n# parallelism_um = " + num(o_.parallelism_um) +
-                    "\n# parallelism_u_um = " + num(o_.parallelism_u_um) + "\n";
-    if (o_.travel_mm > 0) t += "# travel_mm = " + num(o_.travel_mm) + "\n";
-    t += "# rpm = " + num(o_.rpm) + "\n# device = " + device_ + "\n# source = guidewayd runout session\n";
+    std::string t = "# plate_diameter_mm = " + shortest(o_.plate_diameter_mm) +
+                    "\n# parallelism_um = " + shortest(o_.parallelism_um) +
+                    "\n# parallelism_u_um = " + shortest(o_.parallelism_u_um) + "\n";
+    if (o_.travel_mm > 0) t += "# travel_mm = " + shortest(o_.travel_mm) + "\n";
+    t += "# rpm = " + shortest(o_.rpm) + "\n# device = " + device_ + "\n# source = guidewayd runout session\n";
     t += "angle_deg,runout_um\n";
-    for (std::size_t i = 0; i < angle_deg_.size(); ++i) t += num(angle_deg_[i]) + "," + num(runout_um_[i]) + "\n";
+    for (std::size_t i = 0; i < angle_deg_.size(); ++i) t += shortest(angle_deg_[i]) + "," + shortest(runout_um_[i]) + "\n";
     return t;
   }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/number_format.hpp"
 #include "daemon/recorder.hpp"
 #include "daemon/session_support.hpp"
 #include "models/flatness/json.hpp"
@@ -67,11 +68,6 @@ int channel_index(const drivers::Driver& device, const std::string& name) {
   return -1;
 }
 
-std::string num(double v) {
-  std::string s;
-  append_double(s, v);
-  return s;
-}
 
 class StraightnessSession : public Session {
  public:
@@ -186,8 +182,8 @@ class StraightnessSession : public Session {
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
-    return {{"step_mm", num(o_.step_m * 1e3)},
-            {"start_mm", num(o_.start_m * 1e3)},
+    return {{"step_mm", shortest(o_.step_m * 1e3)},
+            {"start_mm", shortest(o_.start_m * 1e3)},
             {"pitch_channel", o_.pitch_channel + (o_.pitch_sign < 0 ? " (negated)" : "")},
             {"yaw_channel", o_.yaw_channel.empty() ? "none" : o_.yaw_channel + (o_.yaw_sign < 0 ? " (negated)" : "")}};
   }
@@ -245,12 +241,12 @@ class StraightnessSession : public Session {
 
   // The traverse file of docs/formats.md: angles in arc-seconds, written so they read back exactly.
   [[nodiscard]] std::string traverse_text() const {
-    std::string t = "# step_mm = " + num(o_.step_m * 1e3) + "\n# device = " + device_ +
+    std::string t = "# step_mm = " + shortest(o_.step_m * 1e3) + "\n# device = " + device_ +
                     "\n# source = guidewayd straightness session\n";
     t += yaw_ >= 0 ? "x_mm,pitch_arcsec,yaw_arcsec\n" : "x_mm,pitch_arcsec\n";
     for (std::size_t k = 0; k < pitch_rad_.size(); ++k) {
-      t += num((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," + num(pitch_rad_[k] / gm::rad_per_arcsec);
-      if (yaw_ >= 0) t += "," + num(yaw_rad_[k] / gm::rad_per_arcsec);
+      t += shortest((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," + shortest(pitch_rad_[k] / gm::rad_per_arcsec);
+      if (yaw_ >= 0) t += "," + shortest(yaw_rad_[k] / gm::rad_per_arcsec);
       t += "\n";
     }
     return t;

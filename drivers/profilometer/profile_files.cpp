@@ -10,6 +10,7 @@
 #include <limits>
 #include <sstream>
 
+#include "core/number_format.hpp"
 #include "drivers/profilometer/zip_archive.hpp"
 
 namespace guideway::profilometer {
@@ -42,12 +43,6 @@ std::vector<std::string_view> split(std::string_view s, char sep) {
     }
   }
   return out;
-}
-
-std::string shortest(double v) {
-  char buf[64];
-  const auto [p, ec] = std::to_chars(buf, buf + sizeof(buf), v);
-  return ec == std::errc() ? std::string(buf, p) : std::string();
 }
 
 std::string read_file(const std::string& path) {
