@@ -50,18 +50,26 @@ void print_params(const nlohmann::json& p) {
   for (const auto& f : p.value("derived", nlohmann::json::array())) std::cout << "derived: " << f.get<std::string>() << "\n";
 }
 
-
 void print_explanation(const nlohmann::json& e) {
-  const auto rms = [](const nlohmann::json& j, const char* k) { return j.contains(k) && j[k].is_number() ? j[k].get<double>() : NAN; };
-  std::cout << "explanation (" << e.value("model", "?") << " model): held-out rms " << rms(e["baseline"], "heldout_rms_um")
-            << " um -> " << rms(e["final"], "heldout_rms_um") << " um\n";
-  for (const auto& f : e.value("findings", nlohmann::json::array())) {
+  // Every lookup by value with a default: a missing key never reaches const operator[] (undefined
+  // behaviour), and loops run over named locals, not over items() of a temporary.
+  const auto rms = [&e](const char* group) {
+    const nlohmann::json g = e.value(group, nlohmann::json::object());
+    const nlohmann::json v = g.value("heldout_rms_um", nlohmann::json());
+    return v.is_number() ? v.get<double>() : NAN;
+  };
+  std::cout << "explanation (" << e.value("model", "?") << " model): held-out rms " << rms("baseline") << " um -> "
+            << rms("final") << " um\n";
+  const nlohmann::json findings = e.value("findings", nlohmann::json::array());
+  for (const auto& f : findings) {
     std::cout << "  " << f.value("effect", "?");
-    for (const auto& [name, v] : f.value("parameters", nlohmann::json::object()).items()) {
-      if (v.contains("value") && v["value"].is_number()) {
-        std::cout << "  " << name << " = " << v["value"].get<double>();
-        if (v.contains("u") && v["u"].is_number()) std::cout << " +/- " << v["u"].get<double>();
-      }
+    const nlohmann::json parameters = f.value("parameters", nlohmann::json::object());
+    for (const auto& [name, v] : parameters.items()) {
+      const nlohmann::json value = v.value("value", nlohmann::json());
+      const nlohmann::json u = v.value("u", nlohmann::json());
+      if (!value.is_number()) continue;
+      std::cout << "  " << name << " = " << value.get<double>();
+      if (u.is_number()) std::cout << " +/- " << u.get<double>();
     }
     std::cout << "\n    " << f.value("why", "") << "\n";
   }

@@ -106,6 +106,11 @@ class EndToEndDbb(unittest.TestCase):
         for f in explanation["findings"]:
             self.assertLess(f["heldout_rms_um_after"], explanation["baseline"]["heldout_rms_um"], f)
 
+        # The same through the client, in text (and the replay's text form).
+        text = self.cli("explain", "--latest", "--kind", "dbb")
+        self.assertIn("explanation (dbb model): held-out rms", text)
+        self.assertIn("explanation (dbb model)", self.cli("replay", params["recording"], timeout=120))
+
         # The session's HTML report (report/): rendered on the worker thread, served by the report request.
         deadline = time.monotonic() + 120
         while True:
