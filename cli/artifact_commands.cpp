@@ -17,17 +17,6 @@ namespace {
 
 namespace gm = guideway::models;
 
-// The `identify` subcommand is shared with other groups: reuse it whatever the initialisation order.
-CLI::App* identify_command(CLI::App& app) {
-  try {
-    return app.get_subcommand("identify");
-  } catch (const CLI::OptionNotFound&) {
-  }
-  auto* id = app.add_subcommand("identify", "identify model parameters from a recording or measurement file");
-  id->require_subcommand(1);
-  return id;
-}
-
 void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
   CLI::App* id = identify_command(app);
   auto* cmd = id->add_subcommand("artifact", "six error motions of a linear axis from a 1-D artifact (Wei 2019)");

@@ -24,4 +24,12 @@ struct CommandGroup {
   static std::vector<AddCommandsFn>& all();
 };
 
+// A parent subcommand several groups add children to (`identify`, `simulate`): created by the first
+// group that asks, whatever the static-initialisation order, and returned to the others.
+CLI::App* shared_subcommand(CLI::App& app, const std::string& name, const std::string& description);
+// `guideway identify`, the parent of every offline identification.
+inline CLI::App* identify_command(CLI::App& app) {
+  return shared_subcommand(app, "identify", "identify model parameters from a recording or measurement file");
+}
+
 }  // namespace guideway::cli

@@ -14,19 +14,8 @@ namespace guideway::cli {
 
 namespace {
 
-// The `identify` and `simulate` parents are shared with other model groups: create them once.
-CLI::App* parent(CLI::App& app, const std::string& name, const std::string& description) {
-  try {
-    return app.get_subcommand(name);
-  } catch (const CLI::OptionNotFound&) {
-    auto* p = app.add_subcommand(name, description);
-    p->require_subcommand(1);
-    return p;
-  }
-}
-
 void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
-  auto* identify = parent(app, "identify", "Identify error models from recorded or simulated runs");
+  auto* identify = identify_command(app);
   auto* id = identify->add_subcommand("dbb", "DBB circular tests: Lai third-order model and ballbar diagnostics");
   struct IdOpts {
     std::vector<std::string> files;
@@ -56,7 +45,7 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
     }
   });
 
-  auto* simulate = parent(app, "simulate", "Produce runs from the virtual machine tool");
+  auto* simulate = shared_subcommand(app, "simulate", "Produce runs from the virtual machine tool");
   auto* sd = simulate->add_subcommand("dbb", "Write a DBB run traced by the virtual machine tool");
   struct SimOpts {
     std::string machine, out, direction = "ccw", plane = "xy";

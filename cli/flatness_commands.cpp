@@ -25,17 +25,6 @@ namespace {
 
 namespace gm = guideway::models;
 
-// The `identify` subcommand is shared with other groups (e.g. dbb): reuse it when another group
-// already added it, whatever the static-initialisation order.
-CLI::App* identify_command(CLI::App& app) {
-  try {
-    return app.get_subcommand("identify");
-  } catch (const CLI::OptionNotFound&) {
-  }
-  auto* id = app.add_subcommand("identify", "identify model parameters from a recording or measurement file");
-  id->require_subcommand(1);
-  return id;
-}
 
 template <class F>
 void run_reporting(F&& f) {

@@ -12,6 +12,16 @@ std::vector<AddCommandsFn>& CommandGroup::all() {
   return groups;
 }
 
+CLI::App* shared_subcommand(CLI::App& app, const std::string& name, const std::string& description) {
+  try {
+    return app.get_subcommand(name);
+  } catch (const CLI::OptionNotFound&) {
+    auto* p = app.add_subcommand(name, description);
+    p->require_subcommand(1);
+    return p;
+  }
+}
+
 }  // namespace guideway::cli
 
 int main(int argc, char** argv) {
