@@ -118,36 +118,6 @@ Block lai_base(const std::vector<Geo>& g) {
   return b;
 }
 
-using Row = std::function<void(const Geo&, double*)>;
-
-Variant make_variant(const std::vector<Geo>& g, std::vector<std::string> names, const Row& row) {
-  Variant v;
-  v.block.names = std::move(names);
-  const auto q = static_cast<Eigen::Index>(v.block.names.size());
-  v.block.columns.resize(static_cast<Eigen::Index>(g.size()), q);
-  std::vector<double> buf(static_cast<std::size_t>(q));
-  for (std::size_t i = 0; i < g.size(); ++i) {
-    std::fill(buf.begin(), buf.end(), 0.0);
-    row(g[i], buf.data());
-    for (Eigen::Index k = 0; k < q; ++k) v.block.columns(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
-  }
-  return v;
-}
-
-// Amplitude and phase of A sin(theta + phi) = (A cos phi) sin theta + (A sin phi) cos theta from the
-// coefficients (sin, cos) and their covariance, with first-order uncertainties.
-std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
-                                  const Eigen::MatrixXd& cov) {
-  const double cs = x[0], cc = x[1];
-  const double a = std::hypot(cs, cc);
-  double ua = std::numeric_limits<double>::quiet_NaN(), up = ua;
-  if (a > 0) {
-    Eigen::Vector2d ga(cs / a, cc / a), gp(-cc / (a * a), cs / (a * a));
-    ua = std::sqrt(std::max(0.0, ga.dot(cov.topLeftCorner(2, 2) * ga)));
-    up = std::sqrt(std::max(0.0, gp.dot(cov.topLeftCorner(2, 2) * gp))) * 180 / pi;
-  }
-  return {{amp_name, a, ua}, {phase_name, std::atan2(cc, cs) * 180 / pi, up}};
-}
 
 // Lost motion per unit backlash of a deadband of width b_a / b_b (m) driven by the commanded circle
 // (as models/dbb/identify.cpp): the axis stands still at a reversal until the drive has taken up the

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <cstdio>
 #include <limits>
 #include <memory>
@@ -458,6 +459,19 @@ std::string to_text(const Report& r) {
   }
   for (const auto& n : r.notes) o << "note: " << n << "\n";
   return o.str();
+}
+
+std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
+                                  const Eigen::MatrixXd& cov) {
+  const double cs = x[0], cc = x[1];
+  const double a = std::hypot(cs, cc);
+  double ua = std::numeric_limits<double>::quiet_NaN(), up = ua;
+  if (a > 0) {
+    Eigen::Vector2d ga(cs / a, cc / a), gp(-cc / (a * a), cs / (a * a));
+    ua = std::sqrt(std::max(0.0, ga.dot(cov.topLeftCorner(2, 2) * ga)));
+    up = std::sqrt(std::max(0.0, gp.dot(cov.topLeftCorner(2, 2) * gp))) * 180 / std::numbers::pi;
+  }
+  return {{amp_name, a, ua}, {phase_name, std::atan2(cc, cs) * 180 / std::numbers::pi, up}};
 }
 
 }  // namespace guideway::models::explain

@@ -8,6 +8,7 @@
 // `unexplained`. The model-specific front ends (dbb_explain.hpp, profile_explain.hpp) build the
 // Problem; this engine knows no physics. Pure functions; thread safe; throws std::invalid_argument.
 
+#include <algorithm>
 #include <cstddef>
 #include <functional>
 #include <string>
@@ -139,6 +140,27 @@ struct Report {
   std::vector<double> curve_x;
   std::vector<std::pair<std::string, std::vector<double>>> curves;
 };
+
+// Helpers for the model front ends (dbb_explain, profile_explain).
+// A variant whose block has one row per point, filled by row(point, out) into zeroed storage.
+template <class Point, class RowFn>
+Variant make_variant(const std::vector<Point>& points, std::vector<std::string> names, const RowFn& row) {
+  Variant v;
+  v.block.names = std::move(names);
+  const auto q = static_cast<Eigen::Index>(v.block.names.size());
+  v.block.columns.resize(static_cast<Eigen::Index>(points.size()), q);
+  std::vector<double> buf(static_cast<std::size_t>(q));
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    std::fill(buf.begin(), buf.end(), 0.0);
+    row(points[i], buf.data());
+    for (Eigen::Index k = 0; k < q; ++k) v.block.columns(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
+  }
+  return v;
+}
+// Amplitude and phase (deg) of A sin(theta + phi) = (A cos phi) sin theta + (A sin phi) cos theta from the
+// coefficients (sin, cos) and their covariance, with first-order uncertainties.
+std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
+                                  const Eigen::MatrixXd& cov);
 
 Report explain(const Problem& problem, const ExplainOptions& options = {});
 
