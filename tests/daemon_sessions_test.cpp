@@ -186,8 +186,8 @@ TEST(StraightnessSession, TooFewStationsFailWithTheReason) {
 
 TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   sim::MachineConfig cfg;
-  cfg.spindle.wobble_rad = 1.0e-6;
-  cfg.spindle.plate_parallelism_rad = 2.0e-6;
+  cfg.spindle.tilt_x_rad = 5.0e-6;
+  cfg.spindle.plate_parallelism_rad = 2.5e-6;  // p = 2.5 urad * 100 mm = 0.25 um
   cfg.noise.micrometer_m = 0.01e-6;
   const sim::Machine machine(cfg);
   sim::RunoutSpec spec;
@@ -207,11 +207,13 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   ASSERT_TRUE(session->complete());
   const auto p = session->identify();
   EXPECT_EQ(p["revolution"]["samples"], 300);  // one turn exactly: the second is not taken
-  // Truth: the plate's total tilt (wobble + parallelism) seen at the probe radius, peak to peak.
-  const double r_um = 2 * 0.05 * 3.0e-6 * 1e6;
+  // Truth: the spindle's lean relative to the plate across the 100 mm plate, peak to peak; Eq. 21
+  // adds p back and gives the lean itself.
+  const double r_um = 100e-3 * (5.0e-6 - 2.5e-6) * 1e6;
   const auto& g = p["squareness"];
   EXPECT_NEAR(value(g, "runout_um"), r_um, 0.01);
   EXPECT_NEAR(value(g, "squareness_urad"), (value(g, "runout_um") + 0.25) / 100.0 * 1e3, 1e-9);  // Eq. 21
+  EXPECT_NEAR(value(g, "squareness_urad"), 5.0, 0.1);
   EXPECT_NEAR(value(g, "squareness_amplitude_um"), value(g, "squareness_urad") * 600e-3, 1e-9);  // travel 600 mm
   EXPECT_LT(g["runout_um"]["u"].get<double>(), 0.01);
 

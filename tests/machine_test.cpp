@@ -157,9 +157,9 @@ TEST(MachineTest, ThermalDriftGrowsWithTime) {
   EXPECT_NEAR(p[0], 0.1 * (1 + 10e-6), 1e-15);
 }
 
-TEST(MachineTest, RunoutOfATiltedThrustPlate) {
+TEST(MachineTest, RunoutSeesTheSpindleLeanRelativeToThePlate) {
   MachineConfig c;
-  c.spindle.wobble_rad = 0.3e-6;
+  c.spindle.tilt_x_rad = 0.5e-6;
   c.spindle.plate_parallelism_rad = 0.2e-6;
   Machine m{c};
   RunoutSpec s;
@@ -171,8 +171,18 @@ TEST(MachineTest, RunoutOfATiltedThrustPlate) {
     lo = std::min(lo, x.displacement_m);
     hi = std::max(hi, x.displacement_m);
   }
-  EXPECT_NEAR(hi - lo, 2 * 0.5 * std::tan(0.5e-6), 1e-12);             // once per revolution, amplitude R * tilt
-  EXPECT_NEAR(rev[0].displacement_m, -0.5 * std::tan(0.5e-6), 1e-12);  // tilt about +y lowers +x
+  // The probe circles perpendicular to the leaning axis; the plate leans the same way by less.
+  EXPECT_NEAR(hi - lo, 2 * 0.5 * std::tan(0.3e-6), 1e-12);
+  EXPECT_NEAR(rev[0].displacement_m, 0.5 * std::tan(0.3e-6), 1e-12);  // widest gap with the probe at +x
+  // A lean towards +y peaks a quarter turn later; a plate leaning exactly like the spindle shows nothing.
+  c.spindle.tilt_x_rad = 0;
+  c.spindle.tilt_y_rad = 0.5e-6;
+  c.spindle.plate_parallelism_direction_rad = std::numbers::pi / 2;
+  const auto rev_y = Machine{c}.runout_revolution(s);
+  EXPECT_NEAR(rev_y[90].displacement_m, 0.5 * std::tan(0.3e-6), 1e-12);
+  EXPECT_NEAR(rev_y[0].displacement_m, 0.0, 1e-15);
+  c.spindle.plate_parallelism_rad = 0.5e-6;
+  for (const auto& x : Machine{c}.runout_revolution(s)) EXPECT_NEAR(x.displacement_m, 0.0, 1e-15);
 }
 
 TEST(MachineTest, FacedProfileCarriesSquarenessStraightnessFeedMarksAndDrift) {

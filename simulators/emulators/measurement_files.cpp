@@ -93,9 +93,11 @@ std::string runout_revolution_csv(const sim::Machine& machine, const WorkpieceFi
   r.samples_per_rev = 360;
   r.rpm = spec.spindle_rpm;
   r.seed = seed_of(machine, spec.seed) + 2;
+  const double parallelism_m =
+      spec.parallelism_m.value_or(machine.config().spindle.plate_parallelism_rad * 2 * spec.probe_radius_m);
   std::ostringstream out;
   out << "# plate_diameter_mm = " << setting(2 * spec.probe_radius_m * 1e3)
-      << "\n# parallelism_um = " << setting(spec.parallelism_m * 1e6)
+      << "\n# parallelism_um = " << setting(parallelism_m * 1e6)
       << "\n# travel_mm = " << setting(spec.traverse_m * 1e3) << "\n# machine = " << machine.config().name
       << "\nangle_deg,runout_um\n";
   for (const auto& s : machine.runout_revolution(r))

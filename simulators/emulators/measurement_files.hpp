@@ -7,6 +7,7 @@
 // spec (seeded noise); thread safe.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,9 @@ struct WorkpieceFilesSpec {
   double profile_step_m = 0.05e-3;
   double step_m = 0.01;           // autocollimator foot spacing
   double probe_radius_m = 0.5;    // run-out probe at the rim of a 1000 mm plate (Mu: L = 1000 mm)
-  double parallelism_m = 2.5e-6;  // p of Eq. 21 written into the run-out file (a set-up value)
+  // p of Eq. 21 written into the run-out file (a set-up value measured apart); unset: the machine's
+  // plate parallelism times the plate diameter, i.e. measured without error.
+  std::optional<double> parallelism_m;
   std::uint64_t seed = 0;         // 0 = the machine's noise seed
 };
 

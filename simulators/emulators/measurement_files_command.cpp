@@ -3,6 +3,7 @@
 // transport). Prints the paths written.
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "simulators/emulators/emulator_command.hpp"
 #include "simulators/emulators/measurement_files.hpp"
@@ -30,7 +31,8 @@ void add_workpiece(CLI::App& app, int& exit_code) {
     std::string machine, out_dir;
     std::vector<double> feeds{2.0, 8.0};
     double rpm = 110, traverse_mm = 600, x_start_mm = 0, profile_step_mm = 0.05, step_mm = 10;
-    double probe_radius_mm = 500, parallelism_um = 2.5;
+    double probe_radius_mm = 500;
+    std::optional<double> parallelism_um;
     std::uint64_t seed = 0;
   };
   auto a = std::make_shared<Args>();
@@ -46,8 +48,9 @@ void add_workpiece(CLI::App& app, int& exit_code) {
   sub->add_option("--step-mm", a->step_mm, "autocollimator foot spacing")->capture_default_str();
   sub->add_option("--probe-radius-mm", a->probe_radius_mm, "run-out probe radius (plate diameter / 2)")
       ->capture_default_str();
-  sub->add_option("--parallelism-um", a->parallelism_um, "plate-to-carriage parallelism p written for Eq. 21")
-      ->capture_default_str();
+  sub->add_option("--parallelism-um", a->parallelism_um,
+                  "plate-to-carriage parallelism p written for Eq. 21 (default: the machine's "
+                  "plate_parallelism_urad times the plate diameter)");
   sub->add_option("--seed", a->seed, "noise seed (0: the machine's)")->capture_default_str();
   sub->callback([a, &exit_code] {
     exit_code = report_errors("workpiece", [&] {
@@ -58,7 +61,7 @@ void add_workpiece(CLI::App& app, int& exit_code) {
       s.profile_step_m = a->profile_step_mm * 1e-3;
       s.step_m = a->step_mm * 1e-3;
       s.probe_radius_m = a->probe_radius_mm * 1e-3;
-      s.parallelism_m = a->parallelism_um * 1e-6;
+      if (a->parallelism_um) s.parallelism_m = *a->parallelism_um * 1e-6;
       s.seed = a->seed;
       for (const auto& p : write_workpiece_files(machine_from(a->machine), s, a->feeds, a->out_dir))
         std::cout << p << "\n";

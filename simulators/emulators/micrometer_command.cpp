@@ -21,7 +21,7 @@ struct MicrometerArgs {
   int unit_id = 1;
   std::string machine_file;
   double rpm = 10.0;
-  double probe_radius_mm = 50.0;
+  double probe_radius_mm = 500.0;  // rim of a 1000 mm plate: the runout session's default plate_diameter_mm
   std::size_t samples_per_rev = 360;
   std::size_t revolutions = 10;
 };

@@ -25,8 +25,7 @@ sim::MachineConfig spindle_demo_machine_config() {
   sim::MachineConfig c;
   c.name = "spindle-demo";
   c.spindle.tilt_x_rad = 2.8e-6;
-  c.spindle.wobble_rad = 3e-6;
-  c.spindle.plate_parallelism_rad = 2.5e-6;
+  c.spindle.plate_parallelism_rad = 2.5e-6;  // Mu: r = 0.3 um on a 1000 mm plate, p = 2.5 um
   c.spindle.axial_runout_m = 0.05e-6;
   c.axis[0].translation[2].c = {0.0, 0.0, 6e-4, -1.1e-2};  // E_ZX(x), metres: straightness in z of X
   c.noise.seed = 42;

@@ -20,8 +20,8 @@ struct RunoutMotion {
 std::shared_ptr<const RunoutMotion> make_runout_motion(const sim::Machine& machine, const sim::RunoutSpec& spec);
 MicrometerSource runout_motion_source(std::shared_ptr<const RunoutMotion> motion);
 
-// A machine whose spindle has the errors a run-out test shows (face wobble, plate parallelism,
-// axial run-out, tilt) and an X axis with straightness in z, for a faced profile; used when no
+// A machine whose spindle has the errors a run-out test shows (spindle lean, run-out plate
+// parallelism, axial run-out) and an X axis with straightness in z, for a faced profile; used when no
 // machine file is given.
 sim::MachineConfig spindle_demo_machine_config();
 

@@ -367,18 +367,17 @@ std::vector<RunoutSample> Machine::runout_revolution(const RunoutSpec& spec) con
   Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
   const double omega = spec.rpm / 60.0 * two_pi;
   const std::size_t n = spec.samples_per_rev * std::max<std::size_t>(1, spec.revolutions);
-  const double total_tilt = sp.wobble_rad + sp.plate_parallelism_rad;
+  // Stationary plate through the origin, its normal leaning like a spindle axis would.
+  const Vector3d plate_normal = rot_z(sp.plate_parallelism_direction_rad) * rot_y(sp.plate_parallelism_rad) *
+                                rot_z(-sp.plate_parallelism_direction_rad) * Vector3d::UnitZ();
+  const Vector3d axis = spindle_axis(sp);
   for (std::size_t k = 0; k < n; ++k) {
     const double theta = two_pi * static_cast<double>(k) / static_cast<double>(spec.samples_per_rev);
-    // Rotor: spindle frame, then rotation about its axis, then the once-per-rev tilt of the face
-    // (wobble + plate parallelism) fixed in the rotor at `wobble_phase`.
-    const Matrix3d rotor =
-        spindle_frame(sp) * rot_z(theta) * rot_z(sp.wobble_phase_rad) * rot_y(total_tilt) * rot_z(-sp.wobble_phase_rad);
-    const Vector3d normal = rotor * Vector3d::UnitZ();
-    const Vector3d center = spindle_axis(sp) * (sp.axial_runout_m * std::cos(2.0 * theta));
-    // Plate plane through `center` with `normal`; the probe looks along z at (probe_radius, 0).
-    const double x = spec.probe_radius_m;
-    double z = center.z() - (normal.x() * (x - center.x()) + normal.y() * (0.0 - center.y())) / normal.z();
+    // Probe tip: on the circle of radius R perpendicular to the (leaning) spindle axis, moved along
+    // the axis by the axial run-out; the reading is the exact gap to the plate along the axis.
+    const Vector3d tip = spindle_frame(sp) * rot_z(theta) * Vector3d(spec.probe_radius_m, 0.0, 0.0) +
+                         axis * (sp.axial_runout_m * std::cos(2.0 * theta));
+    double z = -plate_normal.dot(tip) / plate_normal.dot(axis);
     if (config_.noise.micrometer_m > 0) z += config_.noise.micrometer_m * rng.normal();
     RunoutSample s;
     s.t_s = spec.t0_s + theta / omega;

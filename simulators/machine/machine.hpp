@@ -92,10 +92,12 @@ struct DbbErrors {
 struct SpindleErrors {
   double tilt_x_rad = 0.0;  // spindle axis leans towards +x (squareness to the X travel, Mu's Delta beta_xz)
   double tilt_y_rad = 0.0;  // towards +y
-  double wobble_rad = 0.0;  // once-per-revolution tilt of the rotating face (run-out of a thrust plate)
-  double wobble_phase_rad = 0.0;
-  double axial_runout_m = 0.0;         // twice-per-revolution axial motion amplitude
-  double plate_parallelism_rad = 0.0;  // thrust plate not parallel to the spindle face (fixed in the rotor)
+  double axial_runout_m = 0.0;  // twice-per-revolution axial motion amplitude
+  // The run-out test's thrust plate (stationary, on the table) is not parallel to the X/Y travel: its
+  // normal leans by this angle towards the azimuth `plate_parallelism_direction` (0 = towards +x, as
+  // tilt_x). Mu's p of Eq. 21 is this angle times the plate diameter.
+  double plate_parallelism_rad = 0.0;
+  double plate_parallelism_direction_rad = 0.0;
 };
 
 struct SensorNoise {
@@ -206,8 +208,10 @@ struct TraverseStation {
   Vec3 tool{};              // actual tool point at the station
 };
 
-// Inductance micrometer on a thrust plate fixed to the spindle face: probe at radius `probe_radius`
-// on the +x side, axial displacement versus spindle angle.
+// Mu's run-out test (Sec. 4, Fig. 10): an inductance micrometer carried by the spindle at radius
+// `probe_radius` touches a stationary thrust plate; reading = gap along the spindle axis versus spindle
+// angle (0 = probe on the +x side). It sees the spindle's lean relative to the plate, so Eq. 21 adds
+// the plate's own parallelism p back to recover the lean against the travel.
 struct RunoutSpec {
   double probe_radius_m = 0.5;
   std::size_t samples_per_rev = 360;

@@ -97,10 +97,10 @@ MachineConfig read(const toml::table& root, const std::string& file) {
   if (auto t = top.table("spindle")) {
     m.spindle.tilt_x_rad = t->get_double("tilt_x_urad", 0.0, -1e5, 1e5) * um;
     m.spindle.tilt_y_rad = t->get_double("tilt_y_urad", 0.0, -1e5, 1e5) * um;
-    m.spindle.wobble_rad = t->get_double("wobble_urad", 0.0, -1e5, 1e5) * um;
-    m.spindle.wobble_phase_rad = t->get_double("wobble_phase_deg", 0.0, -360.0, 360.0) * deg;
     m.spindle.axial_runout_m = t->get_double("axial_runout_um", 0.0, -1e5, 1e5) * um;
     m.spindle.plate_parallelism_rad = t->get_double("plate_parallelism_urad", 0.0, -1e5, 1e5) * um;
+    m.spindle.plate_parallelism_direction_rad =
+        t->get_double("plate_parallelism_direction_deg", 0.0, -360.0, 360.0) * deg;
     t->reject_unknown_keys();
   }
   if (auto t = top.table("axis")) {
