@@ -23,11 +23,19 @@ std::uint32_t line_of(const toml::node* node) { return node ? node->source().beg
 
 std::string format_message(const std::string& file, std::uint32_t line, const std::string& key,
                            const std::string& message) {
+  // Appended piece by piece: GCC 12 at -O3 reports a false -Wrestrict on `":" + std::to_string(line)`.
   std::string out = file;
-  if (line != 0) out += ":" + std::to_string(line);
+  if (line != 0) {
+    out += ':';
+    out += std::to_string(line);
+  }
   out += ": ";
-  if (!key.empty()) out += key + ": ";
-  return out + message;
+  if (!key.empty()) {
+    out += key;
+    out += ": ";
+  }
+  out += message;
+  return out;
 }
 
 }  // namespace
