@@ -9,6 +9,8 @@
 #include <Eigen/Core>
 #include <Eigen/QR>
 
+#include "models/dbb/fast_sincos.hpp"
+
 namespace guideway::models::dbb {
 
 namespace {
@@ -31,6 +33,8 @@ struct Point {
                                     // deadband response at the current backlash estimate
   double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
   double a_m = 0, b_m = 0;          // machine coordinates of the commanded point (cyclic phase)
+  double cyc_sa = 0, cyc_ca = 0;    // sin and cos of the cyclic phase 2 pi a_m / period_a (and b),
+  double cyc_sb = 0, cyc_cb = 0;    // once the periods are chosen (set_cyclic_phases)
   double y_um = 0;
   double w = 1;
 };
@@ -80,12 +84,36 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
   return pts;
 }
 
+// cos and sin of the pre-roll angles of apply_deadband (half a turn before each run's first sample,
+// 0.1 deg apart): the same for every backlash estimate, so computed once per identification.
+struct PrerollTable {
+  std::vector<std::vector<double>> c, s;  // per run, index q = 1..1799 at [q - 1]
+};
+
+double preroll_angle(const Run& run, int q) {
+  const double dir = run.dir();
+  return run.angle_rad.front() - dir * pi + dir * q * (pi / 1800);
+}
+
 // Replaces the step-shaped backlash basis by the response of a deadband of width `b` (m) to the
 // commanded circle: the axis stands still at a reversal until the drive has taken up the play, which
 // an ideal step does not describe. Simulated from half a turn before the first sample.
 // `delay_*` (s) lets each drive follow the command late by its servo lag.
-void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, double b_a, double b_b, double delay_a = 0.0,
-                    double delay_b = 0.0) {
+// Without a delay the command at a sample or pre-roll angle is the points' (or the table's) own
+// cos/sin of that very angle, so only the substeps near the reversals need trigonometry.
+void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, PrerollTable& table, double b_a, double b_b,
+                    double delay_a = 0.0, double delay_b = 0.0) {
+  if (table.c.empty()) {
+    for (const Run& run : runs) {
+      auto& c = table.c.emplace_back(1799);
+      auto& s = table.s.emplace_back(1799);
+      for (int q = 1; q < 1800; ++q) {
+        const double z = preroll_angle(run, q);
+        c[static_cast<std::size_t>(q - 1)] = std::cos(z);
+        s[static_cast<std::size_t>(q - 1)] = std::sin(z);
+      }
+    }
+  }
   std::size_t i0 = 0;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const Run& run = runs[k];
@@ -101,25 +129,32 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, doubl
       double act = cmd(z);
       // Fine substeps only near the reversals, where the deadband is being taken up.
       const double near = 4.0 * std::sqrt(b / r) + 0.01;
-      const auto advance = [&](double to) {
-        const double rev = axis == 0 ? std::abs(std::sin(to)) : std::abs(std::cos(to));
+      // Moves to angle `to`, whose cos and sin are `c_to` and `s_to`.
+      const auto advance = [&](double to, double c_to, double s_to) {
+        const double rev = axis == 0 ? std::abs(s_to) : std::abs(c_to);
         const int steps =
             rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
         const double dz = (to - z) / steps;
         for (int q = 1; q <= steps; ++q) {
-          const double c = cmd(z + dz * q);
+          const double zq = z + dz * q;
+          const double c = (zq == to && lag == 0.0) ? r * (axis == 0 ? c_to : s_to) : cmd(zq);
           if (c - act > half) act = c - half;
           if (c - act < -half) act = c + half;
         }
         z = to;
       };
       // Pre-roll in 0.1 deg steps (each refined only near a reversal).
-      const double z0 = run.angle_rad.front();
-      for (int q = 1; q < 1800; ++q) advance(z0 - dir * pi + dir * q * (pi / 1800));
+      const auto& tc = table.c[k];
+      const auto& ts = table.s[k];
+      for (int q = 1; q < 1800; ++q) {
+        const auto t = static_cast<std::size_t>(q - 1);
+        advance(preroll_angle(run, q), tc[t], ts[t]);
+      }
       for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
-        advance(run.angle_rad[i]);
         Point& p = pts[i0 + i];
-        (axis == 0 ? p.bl_a : p.bl_b) = (act - cmd(z)) / b;
+        advance(run.angle_rad[i], p.c, p.s);
+        const double now = lag == 0.0 ? r * (axis == 0 ? p.c : p.s) : cmd(z);
+        (axis == 0 ? p.bl_a : p.bl_b) = (act - now) / b;
       }
     }
     i0 += run.angle_rad.size();
@@ -262,15 +297,29 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   }
   if (L.cyclic_a) {
     const auto k = static_cast<Eigen::Index>(L.cyc_a0());
-    const double th = 2 * pi * p.a_m / L.period_a;
-    row[k] = lam * c * std::sin(th);
-    row[k + 1] = lam * c * std::cos(th);
+    row[k] = lam * c * p.cyc_sa;
+    row[k + 1] = lam * c * p.cyc_ca;
   }
   if (L.cyclic_b) {
     const auto k = static_cast<Eigen::Index>(L.cyc_b0());
-    const double th = 2 * pi * p.b_m / L.period_b;
-    row[k] = lam * s * std::sin(th);
-    row[k + 1] = lam * s * std::cos(th);
+    row[k] = lam * s * p.cyc_sb;
+    row[k + 1] = lam * s * p.cyc_cb;
+  }
+}
+
+// The cyclic-error phases of the chosen lead-screw periods, computed once for every later fit.
+void set_cyclic_phases(const DiagLayout& L, std::vector<Point>& pts) {
+  for (auto& p : pts) {
+    if (L.cyclic_a) {
+      const double th = 2 * pi * p.a_m / L.period_a;
+      p.cyc_sa = std::sin(th);
+      p.cyc_ca = std::cos(th);
+    }
+    if (L.cyclic_b) {
+      const double th = 2 * pi * p.b_m / L.period_b;
+      p.cyc_sb = std::sin(th);
+      p.cyc_cb = std::cos(th);
+    }
   }
 }
 
@@ -306,12 +355,18 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>&
   return n;
 }
 
+// Rows a preliminary fit on every stride-th point uses: all n when that would leave too few for
+// `cols` parameters.
+Eigen::Index strided_rows(Eigen::Index n, Eigen::Index cols, Eigen::Index stride) {
+  return (stride <= 1 || n / stride <= 4 * cols) ? n : (n + stride - 1) / stride;
+}
+
 // Least squares on every stride-th row only (a preliminary fit whose estimates steer a search or a
 // basis shape); the residual is then evaluated on all rows.
 LsqResult solve_strided(const Eigen::MatrixXd& j, const Eigen::VectorXd& y, const Eigen::VectorXd& w,
                         const std::vector<std::string>& names, Eigen::Index stride) {
-  if (stride <= 1 || j.rows() / stride <= 4 * j.cols()) return solve_lsq(j, y, w, names);
-  const Eigen::Index m = (j.rows() + stride - 1) / stride;
+  const Eigen::Index m = strided_rows(j.rows(), j.cols(), stride);
+  if (m == j.rows()) return solve_lsq(j, y, w, names);
   Eigen::MatrixXd js(m, j.cols());
   Eigen::VectorXd ys(m), ws(m);
   for (Eigen::Index i = 0; i < m; ++i) {
@@ -326,19 +381,32 @@ LsqResult solve_strided(const Eigen::MatrixXd& j, const Eigen::VectorXd& y, cons
   return r;
 }
 
+// The design matrix and data of the diagnostics fits, kept between the fits of one identification
+// (the same size every time, so not reallocated).
+struct DiagWork {
+  Eigen::MatrixXd j;
+  Eigen::VectorXd y, w;
+};
+
 LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<Run>& runs,
-                   const std::string& plane, Eigen::Index stride = 1) {
+                   const std::string& plane, DiagWork& work, Eigen::Index stride = 1) {
   const auto n = static_cast<Eigen::Index>(pts.size());
-  Eigen::MatrixXd j(n, static_cast<Eigen::Index>(L.count()));
-  Eigen::VectorXd y(n), w(n);
+  Eigen::MatrixXd& j = work.j;
+  j.resize(n, static_cast<Eigen::Index>(L.count()));
+  if (work.y.size() != n) {
+    work.y.resize(n);
+    work.w.resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      work.y[i] = pts[static_cast<std::size_t>(i)].y_um;
+      work.w[i] = pts[static_cast<std::size_t>(i)].w;
+    }
+  }
   Eigen::RowVectorXd row(j.cols());
   for (Eigen::Index i = 0; i < n; ++i) {
     diag_row(L, pts[static_cast<std::size_t>(i)], row);
     j.row(i) = row;
-    y[i] = pts[static_cast<std::size_t>(i)].y_um;
-    w[i] = pts[static_cast<std::size_t>(i)].w;
   }
-  return solve_strided(j, y, w, diag_names(L, runs, plane), stride);
+  return solve_strided(j, work.y, work.w, diag_names(L, runs, plane), stride);
 }
 
 // Weighted sum of squares explained by fitting two extra columns to a residual.
@@ -363,41 +431,42 @@ double explained(const std::vector<Point>& pts, const Eigen::VectorXd& res, cons
   return (x1 * b1 + x2 * b2) * static_cast<double>(stride);
 }
 
-// ISO 230-4 circular deviation of one run about its least-squares circle; returns the residuals.
-std::pair<double, std::vector<double>> circular_deviation(const Run& run) {
-  const auto n = static_cast<Eigen::Index>(run.angle_rad.size());
+// ISO 230-4 circular deviation of one run (its points start at `p`, n of them) about its
+// least-squares circle.
+double circular_deviation(const Point* p, std::size_t n_points) {
+  const auto n = static_cast<Eigen::Index>(n_points);
   Eigen::MatrixXd a(n, 3);
   Eigen::VectorXd y(n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const double z = run.angle_rad[static_cast<std::size_t>(i)];
+    const Point& q = p[i];
     a(i, 0) = 1;
-    a(i, 1) = std::cos(z);
-    a(i, 2) = std::sin(z);
-    y[i] = run.dL_m[static_cast<std::size_t>(i)] * 1e6;
+    a(i, 1) = q.c;
+    a(i, 2) = q.s;
+    y[i] = q.y_um;
   }
   const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
   const Eigen::VectorXd res = y - a * x;
-  std::vector<double> out(res.data(), res.data() + res.size());
-  return {res.maxCoeff() - res.minCoeff(), out};
+  return res.maxCoeff() - res.minCoeff();
 }
 
-// ISO 230-4 circular hysteresis of a ccw/cw pair about their common least-squares circle.
-double circular_hysteresis(const Run& r1, const Run& r2) {
+// ISO 230-4 circular hysteresis of a ccw/cw pair (points from p1 and p2) about their common
+// least-squares circle.
+double circular_hysteresis(const Run& r1, const Point* p1, const Run& r2, const Point* p2) {
   const auto n1 = static_cast<Eigen::Index>(r1.angle_rad.size());
   const auto n2 = static_cast<Eigen::Index>(r2.angle_rad.size());
   Eigen::MatrixXd a(n1 + n2, 3);
   Eigen::VectorXd y(n1 + n2);
-  const auto fill = [&](const Run& r, Eigen::Index off) {
-    for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
-      const auto row = off + static_cast<Eigen::Index>(i);
+  const auto fill = [&](const Point* p, Eigen::Index n, Eigen::Index off) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const auto row = off + i;
       a(row, 0) = 1;
-      a(row, 1) = std::cos(r.angle_rad[i]);
-      a(row, 2) = std::sin(r.angle_rad[i]);
-      y[row] = r.dL_m[i] * 1e6;
+      a(row, 1) = p[i].c;
+      a(row, 2) = p[i].s;
+      y[row] = p[i].y_um;
     }
   };
-  fill(r1, 0);
-  fill(r2, n1);
+  fill(p1, n1, 0);
+  fill(p2, n2, n1);
   const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
   const Eigen::VectorXd res = y - a * x;
   // Residual of each run on a 0.5 deg grid (linear interpolation in the wrapped angle).
@@ -496,12 +565,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   Identification out;
   std::vector<Point> pts = points_of(runs);
   const auto n = static_cast<Eigen::Index>(pts.size());
-  Eigen::VectorXd y(n), w(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    y[i] = pts[static_cast<std::size_t>(i)].y_um;
-    w[i] = pts[static_cast<std::size_t>(i)].w;
-  }
-
+  PrerollTable preroll;
   // Backlash widths the points' deadband shapes were computed for (0 = ideal steps).
   double shaped_b_a = 0, shaped_b_b = 0;
 
@@ -520,19 +584,26 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
       }
       for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
     }
+    // With stride > 1 only every stride-th point enters (its residual is not needed).
     const auto fit = [&](Eigen::Index stride) {
-      Eigen::MatrixXd j = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(m));
+      const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
+      if (rows == n) stride = 1;
+      Eigen::MatrixXd j(rows, static_cast<Eigen::Index>(m));
+      if (!shared) j.setZero();
+      Eigen::VectorXd ys(rows), ws(rows);
       double basis[lai_count];
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const Point& p = pts[static_cast<std::size_t>(i)];
+      for (Eigen::Index i = 0; i < rows; ++i) {
+        const Point& p = pts[static_cast<std::size_t>(i * stride)];
         lai_basis(p, basis);
         const std::size_t off = shared ? 0 : 2 * p.run;
         j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
         j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
         for (std::size_t c = 2; c < lai_count; ++c)
           j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+        ys[i] = p.y_um;
+        ws[i] = p.w;
       }
-      LsqResult r = solve_strided(j, y, w, names, stride);
+      LsqResult r = solve_lsq(j, ys, ws, names);
       if (!r.ok) throw RunFormatError("identify: " + r.message);
       return r;
     };
@@ -543,7 +614,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
     const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
     if (b_a > 0 || b_b > 0) {
-      apply_deadband(pts, runs, std::max(b_a, 0.0), std::max(b_b, 0.0));
+      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0));
       shaped_b_a = std::max(b_a, 0.0);
       shaped_b_b = std::max(b_b, 0.0);
     }
@@ -568,8 +639,9 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   // ---- Ballbar diagnostics ----
   DiagLayout L;
   L.runs = runs.size();
+  DiagWork work;
   // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
-  LsqResult base = fit_diag(L, pts, runs, plane, 3);
+  LsqResult base = fit_diag(L, pts, runs, plane, work, 3);
   if (!base.ok) throw RunFormatError("identify: " + base.message);
   // Reversal spikes: choose the decay time that explains most of the residual.
   {
@@ -698,7 +770,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
               const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
               const double f = q.lambda * (axis_a ? q.c : q.s);
               double sn, cs;
-              ::sincos(th, &sn, &cs);
+              fast_sincos(th, sn, cs);  // only compared between leads: libm's last bit is not needed
               u1 = f * sn;
               u2 = f * cs;
             },
@@ -715,12 +787,13 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     L.period_b = pick(options.cyclic_period_b_m, false);
     L.cyclic_a = L.period_a > 0;
     L.cyclic_b = L.period_b > 0;
+    set_cyclic_phases(L, pts);
   }
   // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
   // take-up is late by as much.
   if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
-    apply_deadband(pts, runs, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
-  LsqResult res = fit_diag(L, pts, runs, plane);
+    apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
+  LsqResult res = fit_diag(L, pts, runs, plane, work);
   if (!res.ok) throw RunFormatError("identify: " + res.message);
   {
     // Backlash shape from this fit's own estimate (the Lai fit's may differ), then the final fit.
@@ -737,8 +810,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         p.bl_a = -0.5 * p.sgn_a;
         p.bl_b = -0.5 * p.sgn_b;
       }
-      if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
-      res = fit_diag(L, pts, runs, plane);
+      if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
+      res = fit_diag(L, pts, runs, plane, work);
       if (!res.ok) throw RunFormatError("identify: " + res.message);
     }
   }
@@ -756,7 +829,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     step(L.decay_a, L.decay_a0(), L.spike0(), L.tau_a, L.amp_a);
     step(L.decay_b, L.decay_b0(), L.spike0() + 1, L.tau_b, L.amp_b);
     if (!moved) break;
-    res = fit_diag(L, pts, runs, plane);
+    res = fit_diag(L, pts, runs, plane, work);
     if (!res.ok) throw RunFormatError("identify: " + res.message);
   }
   out.diagnostics_fit = summary_of(res);
@@ -821,6 +894,9 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   out.diagnostics.push_back(est("reversal_spike_delay_" + B + "_ms", L.delay_b * 1e3, nan, false));
 
   // ISO 230-4 circular deviation per run and hysteresis of the first ccw/cw pair of one set-up.
+  // First point of each run (the points are in run order).
+  std::vector<const Point*> first(runs.size());
+  for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k) first[k] = pts.data() + i;
   double g_max = 0;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const Run& r = runs[k];
@@ -831,7 +907,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     s.direction = r.direction == Direction::ccw ? "ccw" : "cw";
     s.feed_mm_per_min = r.feed_m_per_s * 60e3;
     s.n = r.angle_rad.size();
-    s.circular_deviation_um = circular_deviation(r).first;
+    s.circular_deviation_um = circular_deviation(first[k], r.angle_rad.size());
     double ss = 0;
     std::size_t cnt = 0;
     for (std::size_t i = 0; i < pts.size(); ++i)
@@ -849,7 +925,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     for (std::size_t k = i + 1; k < runs.size() && !done; ++k) {
       if (runs[i].direction != runs[k].direction && std::abs(runs[i].radius_m - runs[k].radius_m) < 1e-6 &&
           std::abs(runs[i].height_m - runs[k].height_m) < 1e-6) {
-        out.diagnostics.push_back(est("circular_hysteresis_um", circular_hysteresis(runs[i], runs[k]), nan, false));
+        out.diagnostics.push_back(est("circular_hysteresis_um", circular_hysteresis(runs[i], first[i], runs[k], first[k]), nan, false));
         done = true;
       }
     }

@@ -1,0 +1,2 @@
+# DBB identification helpers (the model's own tests are in models_tests.cmake).
+guideway_add_test(dbb_fast_sincos_test SOURCES dbb_fast_sincos_test.cpp LIBS guideway_model_dbb)
