@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -69,6 +70,7 @@ struct Opts {
   std::string model;
   std::vector<std::string> files;
   std::string simulated, measured;
+  std::string straightness;  // --model flatness: the X carriage's autocollimator traverse (Eq. 16)
   bool json = false;
   bool scenarios = false, full = false, effects = false, latest = false;
   std::string kind;
@@ -150,6 +152,10 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
   cmd->add_option("--model", o->model,
                   "base model refitted to FILES: dbb (DBB runs), flatness or straightness (faced profiles)")
       ->check(CLI::IsMember({"dbb", "flatness", "straightness"}));
+  cmd->add_option("--straightness", o->straightness,
+                  "with --model flatness: autocollimator traverse of the X carriage (docs/formats.md, Straightness "
+                  "traverse), Mu Eq. 16's measured straightness in the base")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--simulated", o->simulated, "a prediction (same format and sample grid as --measured)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--measured", o->measured, "the recording compared with --simulated")->check(CLI::ExistingFile);
@@ -193,6 +199,8 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
     eo.max_effects = o->max_effects;
     eo.folds = o->folds;
     ex::Report report;
+    if (!o->straightness.empty() && o->model != "flatness")
+      throw std::runtime_error("explain: --straightness belongs to --model flatness (Mu Eq. 16)");
     if (!o->simulated.empty() || !o->measured.empty()) {
       if (o->simulated.empty() || o->measured.empty())
         throw std::runtime_error("explain: --simulated and --measured go together");
@@ -224,7 +232,9 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
       } else {
         std::vector<ex::ProfileRun> runs;
         for (const auto& f : o->files) runs.push_back(ex::read_profile_run(f));
-        report = ex::explain(ex::profile_problem(runs, o->model), eo);
+        std::optional<models::AngleTraverse> traverse;
+        if (!o->straightness.empty()) traverse = models::read_angle_traverse(o->straightness);
+        report = ex::explain(ex::profile_problem(runs, o->model, traverse ? &*traverse : nullptr), eo);
       }
     }
     if (o->json) {

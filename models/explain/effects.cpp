@@ -42,9 +42,14 @@ const std::vector<EffectInfo>& effect_library() {
        {"flatness", "straightness"}},
       {"feed_marks", "the round tool nose leaves a cusp every feed per revolution", "position",
        "a periodic profile with the feed per revolution as period", {}, {"flatness", "straightness"}},
+      // Only where an angle is measured: without one, an angle curve times a constant offset is just
+      // another translation curve, which the straightness polynomials of the dbb and straightness bases
+      // (and Lai's roll term c0..c2) already absorb -- naming it there would be a guess.
       {"abbe_offset", "an angular error acts through an offset between the measuring line and the point of interest",
-       "axis position", "the angular error curve times the offset; on a DBB circle a term in the socket height",
-       {}, {}},
+       "axis position", "the measured angle curve times the offset: on a faced part the X carriage's pitch (traverse, "
+       "--straightness) times the tool's x offset, Mu Eq. 14; only the pitch's curvature separates it from "
+       "squareness. No term without a measured angle (dbb, straightness: it is part of their straightness base)",
+       {}, {"flatness"}},
       {"cosine_error", "the measuring line is tilted to the motion, so the reading is shortened by the cosine",
        "axis position", "a length error proportional to the travel (DBB: part of the scale)", {"dbb"}, {}},
       {"sensor_nonlinearity", "the transducer's characteristic is not linear over its range",

@@ -43,6 +43,7 @@ double meta_number(const profilometer::Profile& p, const std::string& path, cons
 struct Pt {
   std::size_t run;
   double x_mm, t_s, y_um, feed_mm_per_min, rpm;
+  double pitch_rad = 0.0;  // measured pitch of the X carriage at x (Eq. 12), when a traverse is given
 };
 
 std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
@@ -64,8 +65,21 @@ std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
 }
 
 std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::vector<double>& reading_um,
-                                          const std::vector<ProfileRun>& runs) {
+                                          const std::vector<ProfileRun>& runs, bool measured_pitch) {
   std::vector<Candidate> out;
+  if (measured_pitch) {
+    // Mu Eq. 14's -(sum k b_k x^(k-1)) p_x: the carriage's pitch acting through the x offset between the
+    // point whose path the traverse measured and the tool. Linear in the offset; only the curvature of
+    // the pitch separates it from squareness (a pitch linear in x makes it a line in x).
+    Candidate c{"abbe_offset",
+                "the X carriage pitches as it travels, and the tool sits at an offset along x from the point whose "
+                "straightness the autocollimator measured, so the measured pitch times that offset adds to the height",
+                {}, {}, 0};
+    c.variants.push_back(make_variant(g, {"abbe_offset_x_mm"}, [](const Pt& p, double* o) {
+      o[0] = p.pitch_rad * 1e3;  // 1 rad over 1 mm = 1e3 um
+    }));
+    out.push_back(std::move(c));
+  }
   {
     Candidate c{"thermal_drift",
                 "the machine grows as it warms up during the cut: a trend in time, which at one constant feed is a "
@@ -163,13 +177,13 @@ std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
 }
 
 Problem assemble(const std::vector<ProfileRun>& runs, const std::vector<Pt>& g, const std::string& model,
-                 const std::vector<double>& reading) {
+                 const std::vector<double>& reading, bool measured_pitch = false) {
   Problem p;
   p.model = model;
   p.domain = "position_mm";
   p.runs = infos(runs);
   for (const auto& q : g) p.samples.push_back({q.run, q.y_um, q.x_mm, q.t_s});
-  p.candidates = profile_candidates(g, reading, runs);
+  p.candidates = profile_candidates(g, reading, runs, measured_pitch);
   bool two_feeds = false;
   for (const auto& r : runs) two_feeds |= r.feed_mm_per_min != runs.front().feed_mm_per_min;
   if (!two_feeds)
@@ -200,11 +214,45 @@ ProfileRun read_profile_run(const std::string& path) {
   return r;
 }
 
-Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model) {
+Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model, const AngleTraverse* straightness) {
   if (runs.empty()) throw std::invalid_argument("explain: no profiles");
   if (model != "flatness" && model != "straightness")
     throw std::invalid_argument("explain: unknown profile model '" + model + "'");
-  const auto g = points_of(runs);
+  if (straightness && model != "flatness")
+    throw std::invalid_argument("explain: a measured straightness traverse (" + straightness->source +
+                                ") belongs to the flatness model (Mu Eq. 16); the straightness model fits its own polynomial");
+  auto g = points_of(runs);
+  // Eq. 16's measured straightness y2: the traverse's Eq. 10 polynomial (as `guideway identify flatness`
+  // evaluates it), a known curve subtracted from every profile; its slope is the pitch (Eq. 12).
+  std::vector<double> y2_um(g.size(), 0.0);
+  std::string straightness_note;
+  if (straightness) {
+    const AngleTraverse& tr = *straightness;
+    if (tr.pitch_rad.size() < 2 || tr.x_m.empty())
+      throw std::invalid_argument("explain: " + tr.source + ": too few traverse readings (need 2)");
+    StraightnessOptions so;
+    so.bootstrap = 0;  // only the polynomial is used
+    const auto prof = straightness_from_angles(tr.x_m.front(), tr.step_m, tr.pitch_rad, so, "vertical");
+    const double x0_mm = tr.x_m.front() * 1e3, x1_mm = prof.x_m.back() * 1e3, tol_mm = 1e-6;
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      auto& p = g[i];
+      if (p.x_mm < x0_mm - tol_mm || p.x_mm > x1_mm + tol_mm)
+        throw std::invalid_argument("explain: " + runs[p.run].source + ": x = " + fmt("%g", p.x_mm) +
+                                    " mm leaves the straightness traverse of " + tr.source + " (" + fmt("%g", x0_mm) +
+                                    " to " + fmt("%g", x1_mm) + " mm)");
+      const double u = (p.x_mm - x0_mm) * 1e-3;
+      y2_um[i] = prof.polynomial(u) * 1e6;
+      p.pitch_rad = prof.polynomial.slope(u);
+      p.y_um -= y2_um[i];
+    }
+    straightness_note = "base: Mu Eq. 16 with the measured straightness of " + tr.source + " (Eq. 10 polynomial of order " +
+                        std::to_string(prof.polynomial.order) + ", " + fmt("%g", x0_mm) + " to " + fmt("%g", x1_mm) +
+                        " mm) subtracted from every profile";
+  } else if (model == "flatness") {
+    straightness_note = "measured straightness not supplied (--straightness): the base is Eq. 16's squareness only, so the "
+                        "X carriage's straightness stays in the residual (and abbe_offset, which needs the measured pitch, "
+                        "is not tried)";
+  }
   Block base;
   const std::size_t nr = runs.size();
   for (std::size_t k = 0; k < nr; ++k) base.names.push_back("offset_profile" + std::to_string(k + 1) + "_um");
@@ -236,9 +284,12 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
   for (std::size_t i = 0; i < g.size(); ++i) y[static_cast<Eigen::Index>(i)] = g[i].y_um;
   const LsqResult fit = solve_lsq(base.columns, y, Eigen::VectorXd(), base.names);
   if (!fit.ok) throw std::invalid_argument("explain: base fit failed: " + fit.message);
+  // The reading the base predicts (the measured straightness included).
   std::vector<double> reading(g.size());
-  for (std::size_t i = 0; i < g.size(); ++i) reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
-  Problem p = assemble(runs, g, model, reading);
+  for (std::size_t i = 0; i < g.size(); ++i)
+    reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)] + y2_um[i];
+  Problem p = assemble(runs, g, model, reading, straightness != nullptr);
+  if (!straightness_note.empty()) p.notes.insert(p.notes.begin(), straightness_note);
   p.base = std::move(base);
   return p;
 }

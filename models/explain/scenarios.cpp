@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -179,21 +180,55 @@ ScenarioResult dbb_scenario(const std::string& name, const ScenarioOptions& o) {
 }
 
 // A faced part (Mu's set-up, scaled: a 20 mm radius at 107 rpm, a sharp tool so that no feed marks
-// form): the spindle leans 5 urad towards +x (squareness, in both profile bases); for the straightness
-// model the X carriage is also bowed along z (its polynomial base); 0.03 um of profilometer noise.
-sim::MachineConfig facing_machine(std::uint64_t seed, bool bowed) {
+// form): the spindle leans 5 urad towards +x (squareness, in both profile bases) and the X carriage is
+// not straight along z (in both bases: flatness through the measured traverse, Eq. 16; straightness
+// through its polynomial); 0.03 um of profilometer noise.
+//   flatness: a bow and an S (1.6 um at 20 mm), the carriage pitching with its guideway's slope, as
+//             an autocollimator on it sees it (0.2 arcsec noise per reading).
+//   straightness: a bow, 0.8 um at 20 mm.
+sim::MachineConfig facing_machine(std::uint64_t seed, bool flatness) {
   sim::MachineConfig m;
   m.name = "explain-facing";
   m.spindle.tilt_x_rad = 5e-6;
-  if (bowed) m.axis[0].translation[2].c = {0, 0, 2e-3};  // E_ZX: 0.8 um at 20 mm
+  if (flatness) {
+    m.axis[0].translation[2].c = {0, 0, 2e-3, 0.1};  // E_ZX = 2e-3 x^2 + 0.1 x^3 (m)
+    m.axis[0].bending = true;                          // pitch E_BX = -dE_ZX/dx
+    m.noise.autocollimator_rad = 0.2 * pi / 648000;
+  } else {
+    m.axis[0].translation[2].c = {0, 0, 2e-3};  // E_ZX: 0.8 um at 20 mm
+  }
   m.noise.profilometer_m = 0.03 * um;
   m.noise.seed = seed;
   return m;
 }
 
-std::vector<ProfileRun> facing_runs(const sim::MachineConfig& cfg, const std::vector<double>& feeds_mm_per_min,
+// The X carriage's autocollimator traverse over the faced radius (1 mm feet, mirror midway between
+// them), as the format stores it: x = the rear foot, pitch = the chord slope, > 0 rising towards +x
+// (minus the rotation about +y). The stations are logged against the machine's displayed X, which
+// includes the tool offset (the tool's radius), so with an Abbe arm the carriage sits tool_offset
+// behind the label.
+AngleTraverse facing_traverse(const sim::Machine& machine, std::uint64_t seed) {
+  constexpr double step = 1e-3;
+  const double arm = machine.config().tool_offset[0];
+  sim::TraverseSpec t;
+  t.axis = sim::Axis::x;
+  t.start_m = step / 2 - arm;
+  t.end_m = 0.02 - step / 2 - arm;
+  t.step_m = step;
+  t.seed = seed * 1000 + 90;
+  AngleTraverse tr;
+  tr.source = "scenario-traverse";
+  tr.step_m = step;
+  for (const auto& st : machine.autocollimator_traverse(t)) {
+    tr.x_m.push_back(st.position_m - step / 2 + arm);
+    tr.pitch_rad.push_back(-st.pitch_rad);
+    tr.line.push_back(tr.x_m.size());
+  }
+  return tr;
+}
+
+std::vector<ProfileRun> facing_runs(const sim::Machine& machine, const std::vector<double>& feeds_mm_per_min,
                                     bool runout_along_path, const ScenarioOptions& o) {
-  const sim::Machine machine(cfg);
   std::vector<ProfileRun> runs;
   double t0 = 0;
   for (std::size_t k = 0; k < feeds_mm_per_min.size(); ++k) {
@@ -226,7 +261,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
   ScenarioResult s;
   s.name = name;
   s.model = name.rfind("flatness_", 0) == 0 ? "flatness" : "straightness";
-  sim::MachineConfig m = facing_machine(o.seed, s.model == "straightness");
+  sim::MachineConfig m = facing_machine(o.seed, s.model == "flatness");
   std::vector<double> feeds{2.0, 8.0};
   bool along_path = false;
   if (name == "flatness_thermal_two_feeds" || name == "straightness_thermal_two_feeds") {
@@ -237,7 +272,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
     s.tolerance = 0.02;
     s.concealment = s.model == "flatness"
                         ? "Z drift at constant feed: a line in x exactly like squareness; only the 2 and 8 mm/min cuts "
-                          "differ"
+                          "differ (X carriage 1.6 um out of straight, its traverse in the base)"
                         : "Z drift at constant feed: a line in x inside the polynomial base; only the two feeds differ";
   } else if (name == "flatness_spindle_runout") {
     m.spindle.axial_runout_m = 0.1 * um;
@@ -249,13 +284,27 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
     s.tolerance = 0.02;
     s.concealment = "0.1 um twice per revolution (3.6 Hz) sampled every 1.5-3 s along the tool path: aliased into "
                     "slow waviness";
+  } else if (name == "flatness_abbe_offset") {
+    m.tool_offset = {3e-3, 0, 0};
+    s.effect = "abbe_offset";
+    s.parameter = "abbe_offset_x_mm";
+    s.truth = 3.0;
+    s.tolerance = 0.5;  // u is 0.12-0.17 mm from the profiles alone; the traverse's noise (common to both
+                        // cuts, not in u) adds about as much again
+    s.concealment = "the tool 3 mm along x from the carriage point the traverse measured: pitch x 3 mm adds up to "
+                    "0.6 um, all but its curvature a line in x like squareness; what is left is the size of the 0.03 um "
+                    "noise";
   } else if (name == "flatness_null" || name == "straightness_null") {
-    s.concealment = s.model == "flatness" ? "nothing left out: squareness and 0.03 um noise only, two feeds"
+    s.concealment = s.model == "flatness" ? "nothing left out: squareness, the X carriage's straightness (its traverse "
+                                            "in the base, abbe_offset tried) and 0.03 um noise, two feeds"
                                           : "nothing left out: squareness, a bowed X carriage and 0.03 um noise, two feeds";
   } else {
     throw std::invalid_argument("unknown scenario: " + name);
   }
-  s.report = explain(profile_problem(facing_runs(m, feeds, along_path, o), s.model));
+  const sim::Machine machine(m);
+  std::optional<AngleTraverse> traverse;
+  if (s.model == "flatness") traverse = facing_traverse(machine, o.seed);
+  s.report = explain(profile_problem(facing_runs(machine, feeds, along_path, o), s.model, traverse ? &*traverse : nullptr));
   evaluate(s);
   return s;
 }
@@ -265,7 +314,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
 std::vector<std::string> scenario_names() {
   return {"dbb_thermal_bar",         "dbb_servo_mismatch", "dbb_backlash",
           "dbb_cyclic",              "dbb_null",           "dbb_bump",
-          "flatness_thermal_two_feeds", "flatness_spindle_runout", "flatness_null",
+          "flatness_thermal_two_feeds", "flatness_spindle_runout", "flatness_abbe_offset", "flatness_null",
           "straightness_thermal_two_feeds", "straightness_null"};
 }
 

@@ -1,0 +1,126 @@
+// The flatness front end of EXPLAIN with Mu 2012 Eq. 16's measured straightness (profile_explain.cpp):
+// the traverse's polynomial is subtracted from every profile, its slope is the abbe_offset column,
+// abbe_offset is a candidate only when a traverse is given, and a traverse that does not cover the
+// profiles (or one given to the straightness model) is refused with the files named. Synthetic profiles
+// from a known carriage curve h(x) = 2e-3 x^2 + 0.1 x^3 (m), checked against that curve directly.
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "models/explain/profile_explain.hpp"
+
+namespace ex = guideway::models::explain;
+namespace gm = guideway::models;
+
+namespace {
+
+double h_m(double x_m) { return 2e-3 * x_m * x_m + 0.1 * x_m * x_m * x_m; }
+double slope(double x_m) { return 4e-3 * x_m + 0.3 * x_m * x_m; }
+
+// Noise-free chord slopes of h over [x0, x0 + 20 mm], 1 mm feet.
+gm::AngleTraverse traverse(double x0_m = 0.0) {
+  gm::AngleTraverse t;
+  t.source = "t.csv";
+  t.step_m = 1e-3;
+  for (int k = 0; k < 20; ++k) {
+    const double x = x0_m + k * 1e-3;
+    t.x_m.push_back(x);
+    t.pitch_rad.push_back(std::atan((h_m(x + 1e-3) - h_m(x)) / 1e-3));
+    t.line.push_back(static_cast<std::size_t>(k + 3));
+  }
+  return t;
+}
+
+// Two cuts (2 and 8 mm/min): h + 5 urad squareness + abbe_mm * slope + 0.03 um noise.
+std::vector<ex::ProfileRun> profiles(double abbe_mm, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.03e-6);
+  std::vector<ex::ProfileRun> runs;
+  double t0 = 0;
+  for (double feed : {2.0, 8.0}) {
+    ex::ProfileRun r;
+    r.source = "p" + std::to_string(runs.size() + 1) + ".csv";
+    r.feed_mm_per_min = feed;
+    r.spindle_rpm = 107;
+    for (int i = 0; i <= 200; ++i) {
+      const double x = i * 1e-4;
+      r.x_m.push_back(x);
+      r.z_m.push_back(h_m(x) + 5e-6 * x + abbe_mm * 1e-3 * slope(x) + noise(rng));
+      r.t_s.push_back(t0 + x / (feed / 60000.0));
+    }
+    t0 = r.t_s.back() + 60;
+    runs.push_back(std::move(r));
+  }
+  return runs;
+}
+
+bool has_candidate(const ex::Problem& p, const std::string& name) {
+  return std::any_of(p.candidates.begin(), p.candidates.end(), [&](const auto& c) { return c.effect == name; });
+}
+
+}  // namespace
+
+TEST(ExplainProfile, MeasuredStraightnessIsInTheBase) {
+  const auto runs = profiles(0.0, 1);
+  const auto tr = traverse();
+  const ex::Problem with = ex::profile_problem(runs, "flatness", &tr);
+  // The samples are the profile minus the traverse's curve: h is gone, only line + noise remain.
+  double worst = 0;
+  for (std::size_t i = 0; i < with.samples.size(); ++i) {
+    const auto& s = with.samples[i];
+    const std::size_t k = i % 201;  // 201 points per profile, in order
+    worst = std::max(worst, std::abs(s.y_um - (runs[s.run].z_m[k] - h_m(runs[s.run].x_m[k])) * 1e6));
+  }
+  EXPECT_LT(worst, 1e-6);  // um: the polynomial of noise-free chord slopes is the curve itself
+  ASSERT_FALSE(with.notes.empty());
+  EXPECT_NE(with.notes.front().find("Eq. 16"), std::string::npos) << with.notes.front();
+  EXPECT_TRUE(has_candidate(with, "abbe_offset"));
+  const ex::Report r = ex::explain(with);
+  EXPECT_TRUE(r.findings.empty());
+  EXPECT_FALSE(r.unexplained);
+  EXPECT_NEAR(r.baseline.rms_um, 0.03, 0.005);
+
+  // Without the traverse: the bow stays in the residual and the output says why.
+  const ex::Problem without = ex::profile_problem(runs, "flatness");
+  EXPECT_FALSE(has_candidate(without, "abbe_offset"));
+  ASSERT_FALSE(without.notes.empty());
+  EXPECT_NE(without.notes.front().find("not supplied"), std::string::npos) << without.notes.front();
+  EXPECT_GT(ex::explain(without).baseline.rms_um, 0.1);
+}
+
+TEST(ExplainProfile, AbbeColumnIsThePitchAndItsOffsetIsFound) {
+  const auto tr = traverse();
+  const ex::Problem p = ex::profile_problem(profiles(3.0, 2), "flatness", &tr);
+  const auto c = std::find_if(p.candidates.begin(), p.candidates.end(), [](const auto& k) { return k.effect == "abbe_offset"; });
+  ASSERT_NE(c, p.candidates.end());
+  ASSERT_EQ(c->variants.size(), 1u);
+  const auto& col = c->variants[0].block.columns;
+  for (std::size_t i = 0; i < p.samples.size(); i += 37)
+    EXPECT_NEAR(col(static_cast<Eigen::Index>(i), 0), slope(p.samples[i].where * 1e-3) * 1e3, 1e-6);
+  const ex::Report r = ex::explain(p);
+  ASSERT_FALSE(r.findings.empty());
+  EXPECT_EQ(r.findings.front().effect, "abbe_offset");
+  const auto& offset = r.findings.front().parameters.front();
+  EXPECT_EQ(offset.name, "abbe_offset_x_mm");
+  EXPECT_LT(offset.u, 0.3);
+  EXPECT_NEAR(offset.value, 3.0, 3 * offset.u) << ex::to_text(r);  // only the pitch's curvature carries it
+  EXPECT_LT(r.final_fit.heldout_rms_um, r.baseline.heldout_rms_um);
+}
+
+TEST(ExplainProfile, RefusesATraverseThatDoesNotFit) {
+  const auto runs = profiles(0.0, 3);
+  const auto shifted = traverse(5e-3);  // 5..25 mm: the profiles start at 0
+  try {
+    (void)ex::profile_problem(runs, "flatness", &shifted);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("t.csv"), std::string::npos) << m;
+    EXPECT_NE(m.find("p1.csv"), std::string::npos) << m;
+  }
+  const auto tr = traverse();
+  EXPECT_THROW((void)ex::profile_problem(runs, "straightness", &tr), std::invalid_argument);
+}
