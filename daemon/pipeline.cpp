@@ -17,9 +17,13 @@ Pipeline::Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double
       last_publish_ns_(devices_.size(), 0),
       chains_(devices_.size()) {
   stats_.devices.resize(devices_.size());
+  for (drivers::Driver* d : devices_) d->set_doorbell(&doorbell_);
 }
 
-Pipeline::~Pipeline() { stop(); }
+Pipeline::~Pipeline() {
+  stop();
+  for (drivers::Driver* d : devices_) d->set_doorbell(nullptr);
+}
 
 void Pipeline::add_stage(std::unique_ptr<PipelineStage> stage) { stages_.push_back(std::move(stage)); }
 
@@ -75,41 +79,47 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
   outbox_.post({"SAMPLE", dev.name(), j.dump()});
 }
 
+std::size_t Pipeline::drain_once(std::span<Sample> batch) {
+  std::size_t total = 0;
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    const std::size_t n = devices_[i]->ring().pop_bulk(batch);
+    if (n == 0) continue;
+    total += n;
+    const std::int64_t now = mono_now_ns();
+    const std::span<const Sample> samples(batch.data(), n);
+    {
+      std::lock_guard lock(stats_mutex_);
+      DeviceFlowStats& d = stats_.devices[i];
+      for (const Sample& s : samples) {
+        const std::uint64_t expected = d.consumed + d.seq_gaps;  // next sequence number if nothing was lost
+        if (s.seq > expected) d.seq_gaps += s.seq - expected;
+        if (s.t_mono_ns < d.last_t_mono_ns) ++d.non_monotonic;
+        d.last_t_mono_ns = s.t_mono_ns;
+        ++d.consumed;
+        const double latency_us = static_cast<double>(now - s.t_mono_ns) * 1e-3;
+        latency_sum_us_ += latency_us;
+        ++latency_count_;
+        if (latency_us > stats_.latency_max_us) stats_.latency_max_us = latency_us;
+      }
+      stats_.samples += n;
+    }
+    for (auto& stage : stages_) stage->on_samples(i, *devices_[i], samples);
+    const Sample* newest_processed = nullptr;
+    if (!chains_[i].empty()) {
+      const std::span<const Sample> processed = chains_[i].process(samples);
+      if (!processed.empty()) newest_processed = &processed.back();
+    }
+    publish_sample(i, samples.back(), newest_processed, now);
+  }
+  return total;
+}
+
 void Pipeline::run(const std::stop_token& stop) {
   std::array<Sample, max_batch> batch{};
-  std::int64_t idle_since = mono_now_ns();
+  // stop() must not wait for a doorbell timeout.
+  const std::stop_callback wake_on_stop(stop, [this] { doorbell_.ring(); });
   while (!stop.stop_requested()) {
-    std::size_t total = 0;
-    for (std::size_t i = 0; i < devices_.size(); ++i) {
-      const std::size_t n = devices_[i]->ring().pop_bulk(batch);
-      if (n == 0) continue;
-      total += n;
-      const std::int64_t now = mono_now_ns();
-      const std::span<const Sample> samples(batch.data(), n);
-      {
-        std::lock_guard lock(stats_mutex_);
-        DeviceFlowStats& d = stats_.devices[i];
-        for (const Sample& s : samples) {
-          const std::uint64_t expected = d.consumed + d.seq_gaps;  // next sequence number if nothing was lost
-          if (s.seq > expected) d.seq_gaps += s.seq - expected;
-          if (s.t_mono_ns < d.last_t_mono_ns) ++d.non_monotonic;
-          d.last_t_mono_ns = s.t_mono_ns;
-          ++d.consumed;
-          const double latency_us = static_cast<double>(now - s.t_mono_ns) * 1e-3;
-          latency_sum_us_ += latency_us;
-          ++latency_count_;
-          if (latency_us > stats_.latency_max_us) stats_.latency_max_us = latency_us;
-        }
-        stats_.samples += n;
-      }
-      for (auto& stage : stages_) stage->on_samples(i, *devices_[i], samples);
-      const Sample* newest_processed = nullptr;
-      if (!chains_[i].empty()) {
-        const std::span<const Sample> processed = chains_[i].process(samples);
-        if (!processed.empty()) newest_processed = &processed.back();
-      }
-      publish_sample(i, samples.back(), newest_processed, now);
-    }
+    const std::size_t total = drain_once(batch);
     const std::int64_t now = mono_now_ns();
     for (auto& stage : stages_) stage->on_tick(now);
     {
@@ -117,15 +127,22 @@ void Pipeline::run(const std::stop_token& stop) {
       ++stats_.iterations;
     }
     progress_.fetch_add(1, std::memory_order_relaxed);
-    // Polling keeps syscalls off the drivers' hot path. While data flows, a short sleep keeps the
-    // sample-to-pipeline latency well under a millisecond; after a second of silence the poll slows
-    // down so an idle daemon costs next to nothing (the first sample then waits up to 2 ms).
     if (total != 0) {
-      idle_since = now;
-    } else {
-      const bool long_idle = now - idle_since > 1'000'000'000;
-      std::this_thread::sleep_for(long_idle ? std::chrono::microseconds(2000) : std::chrono::microseconds(250));
+      // Data flows: let the next batch gather instead of waking per sample (one wake-up costs as much
+      // as processing tens of samples).
+      std::this_thread::sleep_for(std::chrono::nanoseconds(coalesce_ns));
+      continue;
     }
+    // Nothing came: sleep until a driver rings. Arm first, then look once more, so a sample
+    // published in between is either seen here or rings the bell.
+    doorbell_.arm();
+    bool any = false;
+    for (drivers::Driver* d : devices_) any = any || d->ring().depth() != 0;
+    if (any || stop.stop_requested()) {
+      doorbell_.disarm();
+      continue;
+    }
+    doorbell_.wait_for(idle_tick_ns);
   }
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 // The pipeline thread: the single consumer of every driver ring. It drains the rings in bulk, checks
 // sequence gaps, measures sample-to-processing latency, feeds the stages (sessions, identification,
-// later issues) and posts decimated SAMPLE messages to the outbox.
+// later issues) and posts decimated SAMPLE messages to the outbox. It sleeps on the drivers' doorbell
+// when the rings are empty (drivers/doorbell.hpp) and in fixed coalescing steps while data flows.
 // Thread safety: start/stop from the owner; progress() and stats() from any thread.
 
 #include <array>
@@ -68,8 +69,16 @@ class Pipeline {
   // Returns the statistics and restarts the latency window.
   PipelineStats take_stats();
 
+  // While samples flow the thread drains the rings, then sleeps this long before looking again, so
+  // a wake-up carries a batch (bounds the added sample-to-pipeline latency). When a look finds
+  // nothing it sleeps on the drivers' doorbell instead: the next sample wakes it at once.
+  static constexpr std::int64_t coalesce_ns = 400'000;
+  // Longest sleep on the doorbell: the stages' on_tick (session start/stop) runs at least this often.
+  static constexpr std::int64_t idle_tick_ns = 5'000'000;
+
  private:
   void run(const std::stop_token& stop);
+  std::size_t drain_once(std::span<Sample> batch);  // one pass over every ring; returns samples taken
   void publish_sample(std::size_t index, const Sample& raw, const Sample* processed, std::int64_t now_ns);
 
   std::vector<drivers::Driver*> devices_;
@@ -83,6 +92,7 @@ class Pipeline {
   PipelineStats stats_;
   double latency_sum_us_ = 0.0;
   std::uint64_t latency_count_ = 0;
+  drivers::Doorbell doorbell_;
   std::jthread thread_;
 };
 

@@ -67,6 +67,7 @@ void Driver::publish(Sample sample) noexcept {
   sample.seq = next_seq_++;
   samples_.store(next_seq_, std::memory_order_relaxed);
   ring_.try_push(sample);
+  if (Doorbell* bell = doorbell_.load(std::memory_order_acquire)) bell->ring();
 }
 
 bool Driver::sleep_for(const std::stop_token& stop, std::chrono::nanoseconds d) {

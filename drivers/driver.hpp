@@ -20,6 +20,7 @@
 #include "core/sample.hpp"
 #include "core/spsc_ring.hpp"
 #include "core/toml_access.hpp"
+#include "drivers/doorbell.hpp"
 
 namespace guideway::drivers {
 
@@ -70,6 +71,9 @@ class Driver {
   [[nodiscard]] const std::string& driver() const noexcept { return driver_; }
   [[nodiscard]] const std::vector<ChannelInfo>& channels() const noexcept { return channels_; }
   SpscRing<Sample>& ring() noexcept { return ring_; }
+  // The consumer's bell, rung after every publish (nullptr: none). The bell must outlive the
+  // driver's publishing: clear it, or stop the driver, before destroying it.
+  void set_doorbell(Doorbell* bell) noexcept { doorbell_.store(bell, std::memory_order_release); }
 
  protected:
   // The driver thread: connect, read, parse, publish; on a fault set_state(lost/error), back off, reconnect.
@@ -94,6 +98,7 @@ class Driver {
   std::string driver_;
   std::vector<ChannelInfo> channels_;
   SpscRing<Sample> ring_;
+  std::atomic<Doorbell*> doorbell_{nullptr};
   std::uint64_t next_seq_ = 0;  // producer thread only
   std::atomic<std::uint64_t> samples_{0};
   mutable std::mutex state_mutex_;
@@ -140,7 +145,7 @@ class DriverRegistry {
 std::string default_plugin_dir();
 
 // Plugins export this (extern "C") and must match the ABI version.
-inline constexpr int plugin_abi_version = 1;
+inline constexpr int plugin_abi_version = 2;  // 2: Driver gained the doorbell
 using RegisterDriversFn = void (*)(DriverRegistry&);
 using PluginAbiVersionFn = int (*)();
 
