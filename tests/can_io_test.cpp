@@ -6,8 +6,10 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <cstring>
 #include <thread>
+#include <vector>
 
 #include "drivers/can/can_io.hpp"
 #include "test_support.hpp"
@@ -150,4 +152,51 @@ TEST(CanIo, OpeningSocketCanWithoutAfCanSaysWhy) {
   std::string err;
   EXPECT_FALSE(open_socketcan("vcan0", err).valid());
   EXPECT_NE(err.find("socket(AF_CAN)"), std::string::npos) << err;
+}
+
+TEST(CanIo, ABatchReadTakesEveryQueuedFrameInOrderAndCountsBadRecords) {
+  Pair p;
+  std::string err;
+  std::array<can_frame, 8> frames{};
+  FrameBatch batch;
+  EXPECT_EQ(read_can_frames(p.b.fd(), frames, batch, err), ReadResult::timeout);  // nothing queued: no wait
+  EXPECT_EQ(batch.count, 0u);
+  for (std::uint8_t i = 0; i < 3; ++i) ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x181 + i, 4, i), err));
+  const can_frame good = frame(0x1A0, 4, 9);
+  ASSERT_TRUE(write_can_record(p.a.fd(), &good, 9, err));  // truncated
+  unsigned char big[sizeof(can_frame) + 8] = {};
+  ASSERT_TRUE(write_can_record(p.a.fd(), big, sizeof big, err));  // oversized (CAN FD)
+  for (std::uint8_t i = 0; i < 7; ++i) ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x200 + i, 4, i), err));
+  // 12 records, 8 slots: two reads, whole frames in arrival order, the bad records counted.
+  ASSERT_EQ(read_can_frames(p.b.fd(), frames, batch, err), ReadResult::frame);
+  EXPECT_EQ(batch.count + batch.truncated, 8u);
+  EXPECT_EQ(batch.truncated, 2u);
+  std::vector<canid_t> ids;
+  for (std::size_t i = 0; i < batch.count; ++i) ids.push_back(frames[i].can_id);
+  ASSERT_EQ(read_can_frames(p.b.fd(), frames, batch, err), ReadResult::frame);
+  EXPECT_EQ(batch.count, 4u);
+  EXPECT_EQ(batch.truncated, 0u);
+  for (std::size_t i = 0; i < batch.count; ++i) ids.push_back(frames[i].can_id);
+  const std::vector<canid_t> want = {0x181, 0x182, 0x183, 0x200, 0x201, 0x202, 0x203, 0x204, 0x205, 0x206};
+  EXPECT_EQ(ids, want);
+  EXPECT_EQ(read_can_frames(p.b.fd(), frames, batch, err), ReadResult::timeout);
+}
+
+TEST(CanIo, ABatchReadSeesEofOnlyAfterEveryQueuedFrameAlsoAfterAReset) {
+  Pair p;
+  std::string err;
+  ASSERT_TRUE(write_can_frame(p.b.fd(), frame(0x080, 0, 0), err));  // unread by a: close gives ECONNRESET
+  for (int i = 0; i < 5; ++i) ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x181, 4, static_cast<std::uint8_t>(i)), err));
+  p.a.reset();
+  std::array<can_frame, 4> frames{};
+  std::size_t got = 0;
+  ReadResult r = ReadResult::frame;
+  for (int reads = 0; reads < 10 && r == ReadResult::frame; ++reads) {
+    FrameBatch batch;
+    r = read_can_frames(p.b.fd(), frames, batch, err);
+    for (std::size_t i = 0; i < batch.count; ++i) EXPECT_EQ(frames[i].data[0], got + i);
+    got += batch.count;
+  }
+  EXPECT_EQ(got, 5u);
+  EXPECT_EQ(r, ReadResult::closed) << err;
 }

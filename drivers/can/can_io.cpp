@@ -10,6 +10,8 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cstring>
 
@@ -185,6 +187,53 @@ ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd,
     std::memcpy(&frame, buf, sizeof frame);
     return ReadResult::frame;
   }
+}
+
+ReadResult read_can_frames(int fd, std::span<can_frame> frames, FrameBatch& batch, std::string& error) {
+  batch = {};
+  constexpr std::size_t max_records = 64;
+  const std::size_t want = std::min(frames.size(), max_records);
+  if (want == 0) return ReadResult::timeout;
+  // Buffers larger than can_frame so an oversized record is seen as such (MSG_TRUNC), as in read_can_frame.
+  struct Slot {
+    alignas(can_frame) unsigned char data[sizeof(can_frame) + 64];
+  };
+  std::array<Slot, max_records> slots;
+  std::array<iovec, max_records> iov{};
+  std::array<mmsghdr, max_records> msgs{};
+  for (std::size_t i = 0; i < want; ++i) {
+    iov[i] = {slots[i].data, sizeof slots[i].data};
+    msgs[i].msg_hdr.msg_iov = &iov[i];
+    msgs[i].msg_hdr.msg_iovlen = 1;
+  }
+  int got = -1;
+  do {
+    got = ::recvmmsg(fd, msgs.data(), static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
+  } while (got < 0 && errno == EINTR);
+  if (got < 0) {
+    if (errno == EAGAIN || errno == EWOULDBLOCK) return ReadResult::timeout;
+    // ECONNRESET and friends: the one-frame path knows how to read what is still queued.
+    can_frame f{};
+    const ReadResult r = read_can_frame(fd, f, 0, -1, error);
+    if (r == ReadResult::frame) frames[batch.count++] = f;
+    if (r == ReadResult::truncated) ++batch.truncated;
+    return r == ReadResult::truncated ? ReadResult::frame : r;
+  }
+  bool eof = got == 0;
+  for (int i = 0; i < got; ++i) {
+    const std::size_t len = msgs[static_cast<std::size_t>(i)].msg_len;
+    if (len == 0) {  // SEQPACKET EOF (we never send zero-length records)
+      eof = true;
+      break;
+    }
+    if (len != sizeof(can_frame) || (msgs[static_cast<std::size_t>(i)].msg_hdr.msg_flags & MSG_TRUNC)) {
+      ++batch.truncated;
+      continue;
+    }
+    std::memcpy(&frames[batch.count++], slots[static_cast<std::size_t>(i)].data, sizeof(can_frame));
+  }
+  if (batch.count + batch.truncated > 0) return ReadResult::frame;  // EOF, if any, is seen on the next read
+  return eof ? ReadResult::closed : ReadResult::timeout;
 }
 
 bool write_can_record(int fd, const void* data, std::size_t size, std::string& error) {

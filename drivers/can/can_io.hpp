@@ -7,6 +7,7 @@
 #include <linux/can.h>
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -75,6 +76,16 @@ enum class ReadResult {
 // Waits up to timeout_ms (-1: forever) for one frame on fd, or for wake_fd (-1: none) to become
 // readable. Records longer than can_frame (CAN FD) are reported as truncated too.
 ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd, std::string& error);
+
+// Reads every record already queued on fd, up to frames.size(), with one recvmmsg; never waits.
+// Whole frames go to frames[0..count) in arrival order; records of another size are discarded and
+// counted in `truncated`. Returns frame when any record was read, timeout when none was queued,
+// closed at EOF (after every queued frame) and error (errno text in `error`) as read_can_frame.
+struct FrameBatch {
+  std::size_t count = 0;
+  std::size_t truncated = 0;
+};
+ReadResult read_can_frames(int fd, std::span<can_frame> frames, FrameBatch& batch, std::string& error);
 
 // Writes one frame; false with `error` on failure (EAGAIN counts as failure: the bus is congested).
 bool write_can_frame(int fd, const can_frame& frame, std::string& error);

@@ -8,6 +8,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -245,12 +246,12 @@ void AutocollimatorEmulator::loop() {
         next_stream = std::max(next_stream + period * 1'000'000, now);
       }
     }
-    int timeout_ms = 20;
-    if (stream_period_ms_.load() > 0) {
-      timeout_ms = static_cast<int>(std::clamp<std::int64_t>((next_stream - mono_now_ns()) / 1'000'000, 0, 20));
-    }
+    // Nanosecond timeout (ppoll): a millisecond one rounds down to 0 and spins before each reading.
+    std::int64_t timeout_ns = 20'000'000;
+    if (stream_period_ms_.load() > 0) timeout_ns = std::clamp<std::int64_t>(next_stream - mono_now_ns(), 0, timeout_ns);
+    const timespec ts{0, static_cast<long>(timeout_ns)};
     pollfd fds[2] = {{wake_fd_, POLLIN, 0}, {master_, POLLIN, 0}};
-    if (::poll(fds, 2, timeout_ms) <= 0) continue;
+    if (::ppoll(fds, 2, &ts, nullptr) <= 0) continue;
     if (fds[0].revents & POLLIN) {
       std::uint64_t v;
       (void)!::read(wake_fd_, &v, sizeof v);

@@ -6,6 +6,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -178,12 +179,12 @@ void DbbEmulator::loop() {
         if (next_sync < now) next_sync = now + period_ns;
       }
     }
-    int timeout_ms = 50;
-    if (settings_.produce_sync) {
-      timeout_ms = static_cast<int>(std::max<std::int64_t>(0, (next_sync - mono_now_ns()) / 1'000'000));
-    }
+    // Nanosecond timeout (ppoll): a millisecond poll() would spin for sub-millisecond periods.
+    std::int64_t timeout_ns = 50'000'000;
+    if (settings_.produce_sync) timeout_ns = std::clamp<std::int64_t>(next_sync - mono_now_ns(), 0, timeout_ns);
+    const timespec ts{0, static_cast<long>(timeout_ns)};
     pollfd fds[3] = {{wake_fd_, POLLIN, 0}, {conn_.fd(), POLLIN, 0}, {listener_.fd(), POLLIN, 0}};
-    const int r = ::poll(fds, 3, timeout_ms);
+    const int r = ::ppoll(fds, 3, &ts, nullptr);
     if (r <= 0) continue;
     if (fds[0].revents & POLLIN) {
       std::uint64_t v;
