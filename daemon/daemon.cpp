@@ -135,6 +135,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
     });
   }
   loop_.add(outbox_.fd(), EPOLLIN, [this](std::uint32_t) {
+    const SocketServer::Batch batch(*server_);  // one write per client for the whole outbox batch
     for (const Message& m : outbox_.take()) {
       if (m.cls == "PARAMS") {
         nlohmann::json j = nlohmann::json::parse(m.json);

@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 #include "daemon/event_loop.hpp"
 
@@ -50,8 +51,23 @@ class SocketServer {
   void on_disconnect(DisconnectHandler h) { on_disconnect_ = std::move(h); }
   void on_oversize(OversizeHandler h) { on_oversize_ = std::move(h); }
 
-  // Queues one line (a newline is appended). Returns false if the client is gone or was dropped.
+  // Queues one line (a newline is appended) and writes it at once, or when the current batch ends.
+  // Returns false if the client is gone or was dropped.
   bool send(ClientId client, std::string line);
+  // While a Batch lives, send() only queues; its end writes each client's queue with one sendmsg()
+  // (the fan-out of an outbox batch: one system call per client instead of one per message).
+  class Batch {
+   public:
+    explicit Batch(SocketServer& server) : server_(server) { ++server_.batch_depth_; }
+    ~Batch() {
+      if (--server_.batch_depth_ == 0) server_.flush_batched();
+    }
+    Batch(const Batch&) = delete;
+    Batch& operator=(const Batch&) = delete;
+
+   private:
+    SocketServer& server_;
+  };
   void disconnect(ClientId client, const std::string& reason);
   [[nodiscard]] std::size_t client_count() const noexcept { return clients_.size(); }
   [[nodiscard]] std::size_t queued_bytes(ClientId client) const;
@@ -69,6 +85,7 @@ class SocketServer {
     std::size_t out_offset = 0;  // bytes of outbox.front() already written
     std::size_t queued = 0;
     bool want_write = false;
+    bool flush_pending = false;  // queued during a Batch, not written yet
   };
 
   void listen_unix();
@@ -76,6 +93,7 @@ class SocketServer {
   void accept_on(int listen_fd);
   void read_from(ClientId id);
   void flush(ClientId id);
+  void flush_batched();
   void close_client(ClientId id, const std::string& reason);
 
   EventLoop& loop_;
@@ -86,6 +104,8 @@ class SocketServer {
   ClientId next_id_ = 1;
   std::unordered_map<ClientId, Client> clients_;
   std::uint64_t dropped_clients_ = 0;
+  int batch_depth_ = 0;
+  std::vector<ClientId> batched_;  // clients with flush_pending, in order
   RequestHandler on_request_;
   ConnectHandler on_connect_;
   DisconnectHandler on_disconnect_;
