@@ -15,7 +15,7 @@ Per rate step (a fresh daemon each, from a temporary TOML config):
 Then the client phase: 99 reading clients alone, then the same 99 plus one that subscribes and never
 reads; their SAMPLE counts and latencies with and without it, and when the daemon drops it.
 
-Usage: bench/daemon_load.py BUILD_DIR [--rates 1000,2000,5000,10000] [--step-s 10] [--json OUT]
+Usage: bench/daemon_load.py BUILD_DIR [--rates 1000,2000,5000,10000] [--step-s 10] [--json OUT] [--syscalls]
 """
 
 import argparse
@@ -315,6 +315,7 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
         thread0 = {t: proc_cpu_s(f"{pid}/task/{t}") for t in tids}
         t0, cpu0, main0 = time.monotonic(), proc_cpu_s(pid), proc_cpu_s(f"{pid}/task/{pid}")
         ecpu0 = {p: proc_cpu_s(p) for p in emus}
+        perf = start_perf(pid, step_s) if COUNT_SYSCALLS and publish_hz <= 10 else None
         recording[0] = True
         end = time.monotonic() + step_s
         while time.monotonic() < end:
@@ -337,7 +338,10 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
         all_lat = [x for v in lat.values() for x in v]
         cpu_pct = 100.0 * (cpu1 - cpu0) / dt
         conn.close()
+        per_thread = finish_perf(perf, tids) if perf else None
         return {
+            "syscalls_per_s_threads": per_thread and [round(v["syscalls"] / dt) for v in per_thread],
+            "cswitches_per_s_threads": per_thread and [round(v["cswitches"] / dt) for v in per_thread],
             "publish_hz": publish_hz, "duration_s": dt, "devices": devs, "total_rate_hz": total_hz,
             "cpu_pct": cpu_pct, "cpu_pct_main_thread": 100.0 * (main1 - main0) / dt,
             "cpu_pct_threads": threads,
@@ -353,6 +357,31 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
         }
     finally:
         daemon.stop()
+
+
+COUNT_SYSCALLS = False  # --syscalls
+
+
+def start_perf(pid, seconds):
+    """perf stat over the measured window: system calls and context switches per guidewayd thread."""
+    return subprocess.Popen(["perf", "stat", "-x,", "--per-thread", "-e", "raw_syscalls:sys_enter,context-switches",
+                             "-p", str(pid), "--", "sleep", f"{seconds:.2f}"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+def finish_perf(proc, tids):
+    """Per thread in creation order (as cpu_pct_threads): {"syscalls": n, "cswitches": n}."""
+    _, err = proc.communicate(timeout=60)
+    counts = {t: {"syscalls": 0, "cswitches": 0} for t in tids}
+    for line in err.splitlines():  # "guidewayd-1234,5678,,raw_syscalls:sys_enter,..."
+        f = line.split(",")
+        if len(f) < 4 or "-" not in f[0] or not f[1].isdigit():
+            continue
+        tid = int(f[0].rsplit("-", 1)[1])
+        key = "syscalls" if f[3].startswith("raw_syscalls") else "cswitches" if f[3] == "context-switches" else None
+        if tid in counts and key:
+            counts[tid][key] = int(f[1])
+    return [counts[t] for t in tids]
 
 
 def step_rates(nominal_hz):
@@ -416,6 +445,8 @@ def run_clients(build, nominal_hz, publish_hz, phase_s, readers, queue_bytes):
 
         def phase(seconds):
             lat = []
+            main_cpu0 = proc_cpu_s(f"{pid}/task/{pid}")
+            perf = start_perf(pid, seconds) if COUNT_SYSCALLS else None
             cpu0, t0, n0 = proc_cpu_s(pid), time.monotonic(), mono_ns()
             end = t0 + seconds
             while time.monotonic() < end:
@@ -425,7 +456,11 @@ def run_clients(build, nominal_hz, publish_hz, phase_s, readers, queue_bytes):
                     if m:
                         lat.append((now - int(m.group(1))) / 1000.0)
             dt = time.monotonic() - t0
+            # The event loop (main thread) does the fan-out: its system calls show the send batching.
+            main_syscalls = finish_perf(perf, [pid])[0]["syscalls"] / dt if perf else None
             return {"duration_s": dt, "cpu_pct": 100.0 * (proc_cpu_s(pid) - cpu0) / dt, "window_ns": (n0, mono_ns()),
+                    "event_loop_cpu_pct": 100.0 * (proc_cpu_s(f"{pid}/task/{pid}") - main_cpu0) / dt,
+                    "event_loop_syscalls_per_s": main_syscalls,
                     "probe_msgs_per_s": len(lat) / dt,
                     "latency_us": {"median": pct(lat, 0.5), "p99": pct(lat, 0.99), "max": max(lat, default=0.0)}}
 
@@ -536,6 +571,18 @@ def print_tables(res):
                 row += f" {pct_k} ({pct_k / (rate / 1000.0):.2f}) |" if rate else " n/a |"
             row += f" {th[-1]} |"
         print(row)
+    if any(s["default"].get("syscalls_per_s_threads") for s in res["steps"]):
+        print()
+        print("| step | samples/s | system calls per sample | per thread: system calls/s (context switches/s), creation order |")
+        print("|---|---:|---:|---|")
+        for s in res["steps"]:
+            d = s["default"]
+            sc, cs = d.get("syscalls_per_s_threads"), d.get("cswitches_per_s_threads")
+            if not sc:
+                continue
+            per = sum(sc) / d["total_rate_hz"] if d["total_rate_hz"] else float("nan")
+            print(f"| {s['nominal_hz']:g} | {d['total_rate_hz']:.0f} | {per:.2f} | "
+                  + " / ".join(f"{a} ({b})" for a, b in zip(sc, cs)) + " |")
     print()
     print("| step | " + " | ".join(f"{k} median / p99 us" for k in CEILING_HZ) + " |")
     print("|---|" + "---:|" * len(CEILING_HZ))
@@ -548,13 +595,14 @@ def print_tables(res):
         print(f"\nClients: {c['readers']} reading clients at step {c['nominal_hz']:g} Hz, sample_publish_hz "
               f"{c['publish_hz']:g}, client_queue_bytes {c['client_queue_bytes']}\n")
         print("| phase | SAMPLE/s per reader (min / median / max) | probe latency median us | p99 us | max us |"
-              " guidewayd CPU % | clients dropped |")
-        print("|---|---:|---:|---:|---:|---:|---:|")
+              " guidewayd CPU % | event loop CPU % | event loop system calls/s | clients dropped |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
         for label, p in ((f"{c['readers']} readers", c["without_silent"]),
                          (f"{c['readers']} readers + 1 silent", c["with_silent"])):
             r = p["reader_msgs_per_s"]
             print(f"| {label} | {r['min']:.0f} / {r['median']:.0f} / {r['max']:.0f} | {fmt(p['latency_us']['median'])} | "
                   f"{fmt(p['latency_us']['p99'])} | {fmt(p['latency_us']['max'])} | {p['cpu_pct']:.1f} | "
+                  f"{fmt(p.get('event_loop_cpu_pct'), 1)} | {fmt(p.get('event_loop_syscalls_per_s'))} | "
                   f"{p['dropped_slow']} |")
         w = c["with_silent"]
         print(f"\nSilent client: dropped {fmt(w['silent_dropped_after_s'], 1)} s after it subscribed "
@@ -591,7 +639,12 @@ def main():
     ap.add_argument("--clients-queue-bytes", type=int, default=65536, help="client_queue_bytes in the client phase")
     ap.add_argument("--readers", type=int, default=99, help="reading clients (the silent one makes 100)")
     ap.add_argument("--json", help="write the raw results here")
+    ap.add_argument("--syscalls", action="store_true",
+                    help="also count system calls and context switches per guidewayd thread (perf stat; root or "
+                         "perf_event_paranoid <= 1) in the publish-10-Hz run")
     args = ap.parse_args()
+    global COUNT_SYSCALLS
+    COUNT_SYSCALLS = args.syscalls and shutil.which("perf") is not None
     if not os.access(f"{args.build}/daemon/guidewayd", os.X_OK):
         sys.exit(f"daemon_load: {args.build}/daemon/guidewayd not found (build the guideway_runtime target)")
     res = {"machine": machine(), "load_before": loadavg(), "steps": []}
