@@ -202,6 +202,32 @@ TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
   b.stop_and_check_all();
 }
 
+// Above 2 kHz the driver wakes once per cycle (the PDOs are read just before the next SYNC): the
+// same samples, the SYNC period kept with sub-millisecond resolution, faults still seen.
+TEST(DbbDriver, At5kHzOneWakeUpPerCycleKeepsTheRateAndEverySample) {
+  Bench b(true, 5000.0);
+  ASSERT_TRUE(b.wait_samples(1000));
+  EXPECT_EQ(b.driver->status().counters.bad_frames, 0u);
+  b.stop_and_check_all();
+  const double span_s = static_cast<double>(b.samples.back().t_mono_ns - b.samples.front().t_mono_ns) * 1e-9;
+  const double mean_period_s = span_s / static_cast<double>(b.samples.size() - 1);
+  EXPECT_GT(mean_period_s, 0.00019);  // never faster than 5 kHz
+  EXPECT_LT(mean_period_s, 0.0009);   // and well above the ~1 kHz that millisecond waits allowed
+}
+
+TEST(DbbDriver, At5kHzStallsAndDisconnectsAreStillSeen) {
+  Bench b(true, 5000.0, 100);
+  ASSERT_TRUE(b.wait_samples(100));
+  b.emu.inject_stall(0.5);
+  ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::lost; }, 3s));
+  ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::streaming; }, 5s));
+  EXPECT_GE(b.driver->status().counters.timeouts, 1u);
+  b.emu.inject_disconnect();
+  ASSERT_TRUE(test::eventually([&] { return b.driver->status().counters.reconnects >= 1u; }));
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 100));
+  b.stop_and_check_all();
+}
+
 TEST(DbbDriver, MissingPdoGivesAPartialSampleHoldingTheLastValue) {
   Bench b(true);
   ASSERT_TRUE(b.wait_samples(10));

@@ -90,16 +90,18 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
   publish(s);
 }
 
-void DbbDriver::drain(int fd, DbbDecoder& decoder) {
+bool DbbDriver::drain(int fd, DbbDecoder& decoder) {
   std::array<can_frame, 32> frames{};
   std::string error;
+  bool any = false;
   for (;;) {
     can::FrameBatch batch;
-    if (can::read_can_frames(fd, frames, batch, error) != can::ReadResult::frame) return;  // EOF, errors: serve()
+    if (can::read_can_frames(fd, frames, batch, error) != can::ReadResult::frame) return any;  // EOF, errors: serve()
+    any = true;
     bad_frames_.fetch_add(batch.truncated, std::memory_order_relaxed);
     const std::int64_t now = mono_now_ns();
     for (std::size_t i = 0; i < batch.count; ++i) handle_frame(frames[i], now, decoder);
-    if (batch.count + batch.truncated < frames.size()) return;  // the queue is empty
+    if (batch.count + batch.truncated < frames.size()) return any;  // the queue is empty
   }
 }
 
@@ -134,12 +136,16 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
   silent_ = false;
   std::string error;
   std::array<can_frame, 32> frames{};
+  // Short SYNC periods: wake once per cycle, at the SYNC, and read the previous cycle's PDOs then
+  // (the sample is published up to one period later, <= 500 us). Longer periods also wake for the
+  // PDOs, so a sample never waits a long period. A wake-up costs far more than the system calls.
+  const bool one_wake_per_cycle = settings_.produce_sync && period_ns <= max_batched_sync_period_ns;
   while (!stop.stop_requested()) {
     std::int64_t now = mono_now_ns();
     if (settings_.produce_sync && now >= next_sync) {
       // Frames already queued were on the bus before this SYNC: consume them first, so a cycle's
       // last PDO waiting in the socket is not cut off by our own next SYNC.
-      drain(fd, decoder);
+      if (drain(fd, decoder)) last_rx = mono_now_ns();
       now = mono_now_ns();
       const can_frame sync = make_sync_frame();
       if (!can::write_can_frame(fd, sync, error)) {
@@ -157,7 +163,8 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
     if (settings_.produce_sync) wait_ns = std::min(wait_ns, next_sync - now);
     wait_ns = std::clamp<std::int64_t>(wait_ns, 0, 1'000'000'000);
     const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000), static_cast<long>(wait_ns % 1'000'000'000)};
-    pollfd fds[2] = {{fd, POLLIN, 0}, {wake_fd_, POLLIN, 0}};
+    // With events 0 the bus still reports hang-up and errors, so a lost connection ends the wait.
+    pollfd fds[2] = {{fd, static_cast<short>(one_wake_per_cycle ? 0 : POLLIN), 0}, {wake_fd_, POLLIN, 0}};
     const int pr = ::ppoll(fds, 2, &ts, nullptr);
     if (pr < 0 && errno != EINTR) return std::string("ppoll: ") + std::strerror(errno);
     if (fds[1].revents & POLLIN) return {};

@@ -31,6 +31,9 @@ using CanConnector = std::function<can::CanSocket(std::string& error)>;
 
 class DbbDriver : public drivers::Driver {
  public:
+  // SYNC periods up to this (sync_rate_hz >= 2000) are served with one wake-up per cycle: the PDOs
+  // are read just before the next SYNC instead of as they arrive.
+  static constexpr std::int64_t max_batched_sync_period_ns = 500'000;
   DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector = {});
   ~DbbDriver() override;
 
@@ -48,7 +51,7 @@ class DbbDriver : public drivers::Driver {
   // Serves one connection until it fails or stop is requested; returns the reason it ended.
   std::string serve(const std::stop_token& stop, int fd, DbbDecoder& decoder);
   void publish_cycle(const DbbCycle& cycle);
-  void drain(int fd, DbbDecoder& decoder);  // consumes every frame already queued, without waiting
+  bool drain(int fd, DbbDecoder& decoder);  // consumes every frame already queued, without waiting; true if any
   void handle_frame(const can_frame& frame, std::int64_t t_ns, DbbDecoder& decoder);
 
   DbbSettings settings_;
