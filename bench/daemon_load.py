@@ -644,7 +644,9 @@ def main():
                          "perf_event_paranoid <= 1) in the publish-10-Hz run")
     args = ap.parse_args()
     global COUNT_SYSCALLS
-    COUNT_SYSCALLS = args.syscalls and shutil.which("perf") is not None
+    if args.syscalls and shutil.which("perf") is None:
+        sys.exit("daemon_load: --syscalls needs perf (Debian package linux-perf; scripts/setup.sh installs it)")
+    COUNT_SYSCALLS = args.syscalls
     if not os.access(f"{args.build}/daemon/guidewayd", os.X_OK):
         sys.exit(f"daemon_load: {args.build}/daemon/guidewayd not found (build the guideway_runtime target)")
     res = {"machine": machine(), "load_before": loadavg(), "steps": []}

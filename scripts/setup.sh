@@ -11,6 +11,7 @@ packages=(
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libsystemd-dev
   libboost-dev libreaderwriterqueue-dev
   python3 python3-numpy python3-scipy python3-pywt
+  linux-perf  # bench/daemon_load.py --syscalls
   chromium  # headless: the report tests and docs/reports.md screenshots
   systemd
 )
