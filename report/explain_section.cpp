@@ -51,6 +51,12 @@ std::string explain_section(const std::string& path, const std::string& id) {
   } catch (const CsvError& e) {
     throw ReportError(e.what());
   }
+  // A session whose data no explanation model can use (the daemon's EXPLAIN says why, docs/protocol.md).
+  if (j.is_object() && j.contains("not_analysed") && j["not_analysed"].is_string())
+    return html_section("explain", id, "Explanation of the mismatch: " + base_name(path),
+                        "<p><code>" + html_escape(base_name(path)) + "</code>: model <b>" +
+                            html_escape(text(j, "model")) + "</b>: not analysed.</p>" +
+                            html_note("Not analysed: " + j["not_analysed"].get<std::string>()));
   if (!j.is_object() || !j.contains("baseline") || !j.contains("findings") || !j["findings"].is_array())
     throw ReportError(path + ": not an explanation (needs \"baseline\" and a \"findings\" array, as written by "
                              "guideway explain --json)");
@@ -88,52 +94,78 @@ std::string explain_section(const std::string& path, const std::string& id) {
   body << html_figure(render(chart), "Residual RMS of the base model and after adding each finding in turn (greedy "
                                      "forward selection); held-out: data the fit did not see.");
 
-  // Residual curves, when the explanation carries them.
-  if (j.contains("residuals") && j["residuals"].is_object()) {
-    const json& r = j["residuals"];
-    LinePlot plot;
-    plot.title = "Residual before and after the findings";
-    plot.x_label = axis_label(r.value("domain", std::string("sample")));
-    plot.y_label = "residual / \u00b5m";
-    std::vector<double> x;
-    if (r.contains("x") && r["x"].is_array())
-      for (const auto& v : r["x"]) x.push_back(v.is_number() ? v.get<double>() : NAN);
-    // "<run> baseline" / "<run> final" (guideway explain): one colour per run, light before, strong after.
-    static const char* light[] = {"#9ecae1", "#fdae6b", "#a1d99b", "#fbb4d9"};
-    std::vector<std::string> runs;
-    const auto colour = [&](const std::string& label, std::size_t i) -> std::pair<std::string, double> {
-      for (const char* suffix : {" baseline", " final"}) {
-        const std::string sfx(suffix);
-        if (label.size() > sfx.size() && label.compare(label.size() - sfx.size(), sfx.size(), sfx) == 0) {
-          const auto run = label.substr(0, label.size() - sfx.size());
-          auto it = std::find(runs.begin(), runs.end(), run);
-          if (it == runs.end()) it = runs.insert(runs.end(), run);
-          const auto k = static_cast<std::size_t>(it - runs.begin());
-          return sfx == " baseline" ? std::make_pair(std::string(light[k % 4]), 1.0) : std::make_pair(palette(k), 1.4);
-        }
-      }
-      return {palette(i), 1.2};
+  // Residual curves, when the explanation carries them: one panel per step (the base model, then after
+  // each finding in turn), the runs overlaid, every panel on the same y scale so the steps compare.
+  const json* curves = j.contains("residuals") && j["residuals"].is_object() && j["residuals"].contains("steps")
+                           ? &j["residuals"]
+                           : nullptr;
+  if (curves && (*curves)["steps"].is_array() && !(*curves)["steps"].empty()) {
+    const json& r = *curves;
+    const auto numbers = [&](const json& a, const std::string& what) {
+      if (!a.is_array()) throw ReportError(path + ": residuals: " + what + " is not an array");
+      std::vector<double> v;
+      for (const auto& e : a) v.push_back(e.is_number() ? e.get<double>() : NAN);
+      return v;
     };
-    std::size_t i = 0;
-    if (r.contains("series") && r["series"].is_array())
-      for (const auto& s : r["series"]) {
-        const std::string label = s.value("label", std::string("series"));
-        const auto [color, width] = colour(label, i);
-        Series line{label, x, {}, color, Style::line, width};
-        if (s.contains("residual_um") && s["residual_um"].is_array())
-          for (const auto& v : s["residual_um"]) line.y.push_back(v.is_number() ? v.get<double>() : NAN);
-        if (line.y.size() != x.size())
-          throw ReportError(path + ": residuals: series '" + line.label + "' has " + std::to_string(line.y.size()) +
-                            " values for " + std::to_string(x.size()) + " x values");
-        plot.series.push_back(std::move(line));
-        ++i;
+    const std::vector<double> x = numbers(r.value("x", json()), "x");
+    std::vector<std::string> runs;
+    for (const auto& n : r.value("runs", json::array())) runs.push_back(n.is_string() ? n.get<std::string>() : n.dump());
+    if (runs.empty()) throw ReportError(path + ": residuals: no \"runs\"");
+    struct Step {
+      std::string label;
+      std::vector<std::vector<double>> y;
+    };
+    std::vector<Step> steps;
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& st : r["steps"]) {
+      Step step{text(st, "label"), {}};
+      const json curves_of_runs = st.is_object() ? st.value("residual_um", json()) : json();
+      if (!curves_of_runs.is_array() || curves_of_runs.size() != runs.size())
+        throw ReportError(path + ": residuals: step '" + step.label + "' needs one curve per run (" +
+                          std::to_string(runs.size()) + ")");
+      for (const auto& c : curves_of_runs) {
+        step.y.push_back(numbers(c, "a curve of step '" + step.label + "'"));
+        if (step.y.back().size() != x.size())
+          throw ReportError(path + ": residuals: step '" + step.label + "' has a curve of " +
+                            std::to_string(step.y.back().size()) + " values for " + std::to_string(x.size()) + " x values");
+        for (double v : step.y.back())
+          if (std::isfinite(v)) {
+            lo = std::min(lo, v);
+            hi = std::max(hi, v);
+          }
       }
-    if (!plot.series.empty())
-      body << html_figure(render(plot), "Residual (recording minus model) against " + html_escape(plot.x_label) +
-                                            ": light, the base model; strong, after the findings.");
+      steps.push_back(std::move(step));
+    }
+    const Ticks yt = nice_ticks(std::isfinite(lo) ? lo : 0.0, std::isfinite(hi) ? hi : 1.0);
+    const std::string x_label = axis_label(r.value("domain", std::string("sample")));
+    body << "<p>The residual (recording minus model) against " << html_escape(x_label)
+         << " before and after each finding: the base model, then the base refitted jointly with the findings taken so "
+            "far, one panel per step on one scale.</p><div class=\"residual-steps\">";
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      const json& fit = k == 0 ? base : (k - 1 < findings.size() ? findings[k - 1] : json());
+      const double rms = num(fit, k == 0 ? "rms_um" : "rms_um_after");
+      const double heldout = num(fit, k == 0 ? "heldout_rms_um" : "heldout_rms_um_after");
+      const auto value = [](double v) { return std::isfinite(v) ? format_number(v, 3) : std::string("\u2013"); };
+      std::string effect = steps[k].label;
+      if (effect.rfind("+ ", 0) == 0) effect = effect.substr(2);
+      LinePlot plot;
+      plot.title = (k == 0 ? "Residual of the base model" : "Residual after + " + effect + " (finding " + std::to_string(k) + ")") +
+                   ": rms " + value(rms) + " \u00b5m, held out " + value(heldout) + " \u00b5m";
+      plot.x_label = x_label;
+      plot.y_label = "residual / \u00b5m";
+      plot.y_range = Range{yt.values.front(), yt.values.back()};
+      plot.height = 220;
+      for (std::size_t run = 0; run < runs.size(); ++run)
+        plot.series.push_back({runs[run], x, steps[k].y[run], palette(run), Style::line, 1.1});
+      body << html_figure(render(plot), k == 0 ? std::string("Before: the base model's residual, per run.")
+                                               : "After adding " + html_escape(effect) +
+                                                     (k > 1 ? " to the base and the findings before it" : " to the base") +
+                                                     ", fitted jointly; per run.");
+    }
+    body << "</div>";
   } else {
-    body << html_note("This explanation carries no residual curves (optional \"residuals\" field, docs/reports.md); "
-                      "only the RMS values are shown.");
+    body << html_note("This explanation carries no residual curves per step (optional \"residuals\" field with "
+                      "\"steps\", docs/explain.md); only the RMS values are shown.");
   }
 
   Table ft{"Findings (in the order selected)",

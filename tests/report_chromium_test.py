@@ -22,6 +22,7 @@ import cdp  # noqa: E402
 import example_inputs  # noqa: E402
 
 failures = []
+EXPLANATION = {}  # the explanation input (its findings and residual curves)
 
 
 def check(cond, msg):
@@ -137,6 +138,26 @@ def check_report(browser, html, kinds):
             check(sorted(d["series"].split()[0] for d in polar["data"]) == ["CCW", "CW"],
                   where + ": CW and CCW not overlaid: %s" % [d["series"] for d in polar["data"]])
             check(all(d["points"] >= 3000 for d in polar["data"]), where + ": runs not plotted whole")
+        if sec["kind"] == "explain" and "residuals" in EXPLANATION:
+            # The residual before and after each finding: one panel per step, in the order selected, every
+            # run drawn in each, all on one y scale.
+            steps = [p for p in plots if p["kind"] == "line"]
+            effects = [f["effect"] for f in EXPLANATION["findings"]]
+            check(len(steps) == 1 + len(effects), where + ": %d residual panels for %d findings" % (len(steps), len(effects)))
+            check(len(steps) >= 1 and steps[0]["title"].startswith("Residual of the base model"),
+                  where + ": no base-model residual panel: %s" % [p["title"] for p in steps])
+            for k, e in enumerate(effects):
+                if k + 1 < len(steps):
+                    check(("after + %s (finding %d)" % (e, k + 1)) in steps[k + 1]["title"],
+                          where + ": panel %d is '%s', expected finding %d (%s)" % (k + 1, steps[k + 1]["title"], k + 1, e))
+            runs = EXPLANATION["residuals"]["runs"]
+            for p in steps:
+                check(sorted(d["series"] for d in p["data"]) == sorted(runs),
+                      where + ": panel '%s' draws %s, expected the runs %s" % (p["title"], [d["series"] for d in p["data"]], runs))
+                check(all(d["points"] == len(EXPLANATION["residuals"]["x"]) for d in p["data"]),
+                      where + ": panel '%s' does not draw the whole curve" % p["title"])
+            yticks = {tuple(a["labels"]) for p in steps for a in p["axes"] if a["cls"] == "axis y"}
+            check(len(yticks) == 1, where + ": the residual panels are not on one y scale: %s" % yticks)
         if sec["kind"] == "unionjack":
             hm = [p for p in plots if p["kind"] == "heightmap"][0]
             check(len(hm["data"]) == 8, where + ": %d Union Jack lines, expected 8" % len(hm["data"]))
@@ -169,9 +190,15 @@ def main():
     os.makedirs(ART)
     inputs, note = example_inputs.make_inputs(GUIDEWAY, EMULATE, SRC, MOODY, os.path.join(ART, "inputs"))
     print("explanation input:", note)
+    global EXPLANATION
     with open(inputs["explain"][0]) as f:
-        if "residuals" in json.load(f):
-            EXPECTED["explain"]["line"] = 1
+        EXPLANATION = json.load(f)
+    # guideway explain writes the residual after each step: the panels below must then be there.
+    check(not note.startswith("guideway explain") or len(EXPLANATION.get("residuals", {}).get("steps", [])) ==
+          1 + len(EXPLANATION["findings"]), "guideway explain --json has no residual per step")
+    if "residuals" in EXPLANATION:
+        # One residual panel per step: the base model, then after each finding.
+        EXPECTED["explain"]["line"] = 1 + len(EXPLANATION["findings"])
     with cdp.Browser() as b:
         for kind, files in inputs.items():
             html = os.path.join(ART, "report_%s.html" % kind)

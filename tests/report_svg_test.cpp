@@ -11,8 +11,11 @@
 #include <fstream>
 #include <random>
 
+#include <nlohmann/json.hpp>
+
 #include "models/dbb/dbb_run.hpp"
 #include "models/dbb/simulate.hpp"
+#include "models/explain/scenarios.hpp"
 #include "report/html.hpp"
 #include "report/report.hpp"
 #include "report/svg.hpp"
@@ -248,6 +251,77 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"heightmap\""), 1u);
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"bar\""), 1u);
   EXPECT_EQ(html.find("<script"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+// The residual before and after each finding (issue 9): the engine keeps one residual per step (base, then
+// base + findings 1..k), the JSON carries them on one abscissa, and the report draws one panel per step.
+TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
+  namespace ex = guideway::models::explain;
+  const ex::ScenarioResult sc = ex::run_scenario("dbb_backlash");
+  const ex::Report& rep = sc.report;
+  ASSERT_GE(rep.findings.size(), 1u) << sc.failure;
+  ASSERT_EQ(rep.curve_steps.size(), rep.findings.size() + 1);
+  ASSERT_FALSE(rep.curve_runs.empty());
+  const auto rms_of = [&](const ex::ResidualStep& st) {
+    double s2 = 0;
+    std::size_t n = 0;
+    for (const auto& curve : st.residual_um) {
+      EXPECT_EQ(curve.size(), rep.curve_x.size()) << st.label;
+      for (double v : curve) {
+        s2 += v * v;
+        ++n;
+      }
+    }
+    return std::sqrt(s2 / static_cast<double>(n));
+  };
+  // The curves are the fit's residuals resampled on one grid: their rms is the step's rms.
+  EXPECT_EQ(rep.curve_steps[0].label, "base model");
+  EXPECT_NEAR(rms_of(rep.curve_steps[0]), rep.baseline.rms_um, 0.1 * rep.baseline.rms_um);
+  for (std::size_t k = 0; k < rep.findings.size(); ++k) {
+    EXPECT_EQ(rep.curve_steps[k + 1].label, "+ " + rep.findings[k].effect);
+    EXPECT_NEAR(rms_of(rep.curve_steps[k + 1]), rep.findings[k].rms_um_after, 0.1 * rep.findings[k].rms_um_after);
+  }
+  // A concealed effect hardly changes the rms; the curves still differ by what the finding took out.
+  double moved = 0;
+  for (std::size_t i = 0; i < rep.curve_x.size(); ++i)
+    moved = std::max(moved, std::abs(rep.curve_steps[1].residual_um[0][i] - rep.curve_steps[0].residual_um[0][i]));
+  EXPECT_GT(moved, 0.2);  // um: the 0.5 um backlash steps
+
+  nlohmann::json j = ex::to_json(rep);
+  const auto& r = j.at("residuals");
+  ASSERT_EQ(r.at("steps").size(), rep.findings.size() + 1);
+  EXPECT_EQ(r.at("runs").size(), rep.curve_runs.size());
+  for (const auto& st : r.at("steps"))
+    for (const auto& curve : st.at("residual_um")) {
+      ASSERT_EQ(curve.size(), r.at("x").size());
+      for (const auto& v : curve) EXPECT_NEAR(v.get<double>() * 1e4, std::round(v.get<double>() * 1e4), 1e-6);
+    }
+
+  const auto dir = temp_dir("explain_steps");
+  const auto path = (dir / "explain.json").string();
+  std::ofstream(path) << j.dump();
+  const auto html = gr::render_report({path});
+  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"line\""), rep.findings.size() + 1);
+  EXPECT_NE(html.find(">Residual of the base model: rms "), std::string::npos);
+  EXPECT_NE(html.find(">Residual after + " + rep.findings[0].effect + " (finding 1): rms "), std::string::npos);
+  // Every run in every panel.
+  EXPECT_EQ(count(html, "data-series=\"" + rep.curve_runs[0] + "\""), rep.findings.size() + 1);
+
+  // A step without a curve for every run is an error naming the file.
+  j["residuals"]["steps"][1]["residual_um"].erase(0);
+  std::ofstream(path) << j.dump();
+  try {
+    (void)gr::render_report({path});
+    ADD_FAILURE() << "no error";
+  } catch (const gr::ReportError& e) {
+    EXPECT_NE(std::string(e.what()).find("explain.json: residuals: step '+ "), std::string::npos) << e.what();
+  }
+  // An EXPLAIN that says why nothing was analysed (a daemon session without an explanation model).
+  std::ofstream(path) << R"({"model":"straightness traverse","not_analysed":"too few stations","findings":[],"unexplained":true})";
+  const auto na = gr::render_report({path});
+  EXPECT_NE(na.find("Not analysed: too few stations"), std::string::npos);
+  EXPECT_EQ(count(na, "class=\"plot\""), 0u);
   fs::remove_all(dir);
 }
 

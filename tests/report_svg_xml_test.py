@@ -5,13 +5,18 @@ alone (their printed values against their pixel positions, a least-squares line)
 through that mapping must give the input data. Polar plots: the ring labels give the radial scale, the
 nominal circle the centre; the path's radius and angle must give the input deviations and angles, and the
 stated um/division must equal the ring spacing. Ticks must be 1-2-5 multiples covering the data.
+An explanation's residual before and after each finding (random curves in the JSON of guideway explain): one
+panel per step, titled by the step, every run's curve read back through the panel's axes, one y scale for all.
 
 usage: report_svg_xml_test.py REPORT_SVG_TOOL
 """
 import math
+import json
+import os
 import re
 import subprocess
 import sys
+import tempfile
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -141,6 +146,52 @@ for trial in range(15):
     dth = np.abs((th - ang + 180) % 360 - 180)
     if dth.max() > 0.05:
         fail("polar %d: angles read back differ by %g deg" % (trial, dth.max()))
+
+for trial in range(5):
+    n = int(rng.integers(50, 720))
+    xs = np.round(np.sort(rng.uniform(0, 360, n)), 4)
+    runs = ["run1 (ccw)", "run2 (cw)"][: int(rng.integers(1, 3))]
+    effects = ["backlash", "cyclic_error", "thermal_drift"][: int(rng.integers(1, 4))]
+    steps, amp = [], 10 ** rng.uniform(-1, 1)
+    for k in range(len(effects) + 1):
+        curves = [np.round(amp * (0.3 ** k) * rng.normal(size=n), 4) for _ in runs]
+        steps.append({"label": "base model" if k == 0 else "+ " + effects[k - 1],
+                      "residual_um": [c.tolist() for c in curves]})
+    ex = {"model": "dbb", "baseline": {"rms_um": 1.0, "heldout_rms_um": 1.1},
+          "findings": [{"effect": e, "rms_um_after": 0.5, "heldout_rms_um_after": 0.6} for e in effects],
+          "final": {"rms_um": 0.5}, "unexplained": False,
+          "residuals": {"domain": "angle_deg", "x": xs.tolist(), "runs": runs, "steps": steps}}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "explain.json")
+        with open(path, "w") as f:
+            json.dump(ex, f)
+        html = subprocess.run([TOOL, "report", path], capture_output=True, text=True, check=True).stdout
+    panels = [ET.fromstring(m) for m in re.findall(r'<svg [^>]*data-plot="line".*?</svg>', html, re.S)]
+    if len(panels) != len(steps):
+        fail("explain %d: %d residual panels for %d steps" % (trial, len(panels), len(steps)))
+        continue
+    yticks = set()
+    for k, (root, step) in enumerate(zip(panels, steps)):
+        title = root.find("s:title", NS).text
+        want = "Residual of the base model" if k == 0 else "Residual after %s (finding %d)" % (step["label"], k)
+        if not title.startswith(want):
+            fail("explain %d: panel %d titled %r, expected %r" % (trial, k, title, want))
+        bx, by = axis_map(root, "x")[1], axis_map(root, "y")[1]
+        yticks.add(tuple(axis_map(root, "y")[0]))
+        paths = {p.get("data-series"): p for p in find_class(root, "path", "data")}
+        if sorted(paths) != sorted(runs):
+            fail("explain %d: panel %d draws %s, expected %s" % (trial, k, sorted(paths), runs))
+            continue
+        for run, curve in zip(runs, step["residual_um"]):
+            pts = np.array(path_points(paths[run].get("d")))
+            if len(pts) != n:
+                fail("explain %d: panel %d run %s: %d points for %d" % (trial, k, run, len(pts), n))
+                continue
+            xr, yr = (pts[:, 0] - bx[0]) / bx[1], (pts[:, 1] - by[0]) / by[1]
+            if np.abs(xr - xs).max() > 0.08 / abs(bx[1]) or np.abs(yr - curve).max() > 0.08 / abs(by[1]):
+                fail("explain %d: panel %d run %s: the curve read back differs" % (trial, k, run))
+    if len(yticks) != 1:
+        fail("explain %d: the panels are not on one y scale: %s" % (trial, yticks))
 
 print("failures:", failures)
 sys.exit(1 if failures else 0)

@@ -118,10 +118,11 @@ std::vector<ParamValue> params_of(const Variant& v, const Fit& f, Eigen::Index o
   return out;
 }
 
-// Residual curves on the first run's grid (sorted, decimated); other runs interpolated onto it.
-void add_curves(Report& rep, const Problem& problem, const Eigen::VectorXd& base_res, const Eigen::VectorXd& final_res,
+// Residual curves on the first run's grid (sorted, decimated); other runs interpolated onto it. One step
+// per entry of `steps` (the base model, then after each finding).
+void add_curves(Report& rep, const Problem& problem, const std::vector<std::pair<std::string, Eigen::VectorXd>>& steps,
                 std::size_t max_points) {
-  if (max_points == 0) return;
+  if (max_points == 0 || steps.empty()) return;
   const auto ranges = run_ranges(problem);
   const auto sorted_run = [&](std::size_t k, const Eigen::VectorXd& r) {
     std::vector<std::pair<double, double>> xy;
@@ -142,22 +143,30 @@ void add_curves(Report& rep, const Problem& problem, const Eigen::VectorXd& base
     return hi.first == lo.first ? hi.second
                                 : lo.second + (hi.second - lo.second) * (x - lo.first) / (hi.first - lo.first);
   };
-  const auto grid_src = sorted_run(0, base_res);
+  const auto grid_src = sorted_run(0, steps.front().second);
   if (grid_src.empty()) return;
   const std::size_t stride = (grid_src.size() + max_points - 1) / max_points;
   for (std::size_t i = 0; i < grid_src.size(); i += stride) rep.curve_x.push_back(grid_src[i].first);
   rep.curve_domain = problem.domain;
-  for (std::size_t k = 0; k < ranges.size(); ++k) {
-    if (ranges[k].second == ranges[k].first) continue;
-    for (int stage = 0; stage < 2; ++stage) {
-      const auto xy = sorted_run(k, stage == 0 ? base_res : final_res);
+  for (std::size_t k = 0; k < ranges.size(); ++k)
+    if (ranges[k].second > ranges[k].first) rep.curve_runs.push_back(problem.runs[k].label);
+  for (const auto& [label, residual] : steps) {
+    ResidualStep step{label, {}};
+    for (std::size_t k = 0; k < ranges.size(); ++k) {
+      if (ranges[k].second == ranges[k].first) continue;
+      const auto xy = sorted_run(k, residual);
       std::vector<double> v;
       v.reserve(rep.curve_x.size());
       for (double x : rep.curve_x) v.push_back(at(xy, x));
-      rep.curves.emplace_back(problem.runs[k].label + (stage == 0 ? " baseline" : " final"), std::move(v));
+      step.residual_um.push_back(std::move(v));
     }
+    rep.curve_steps.push_back(std::move(step));
   }
 }
+
+// Rounded for the JSON: curves for plots need no more than 4 decimals (0.1 nm; 1e-4 deg or mm), and stay
+// compact. Divided by an exact power of ten, so the shortest decimal form is printed.
+double rounded4(double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; }
 
 }  // namespace
 
@@ -224,7 +233,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   Fit current = fit(design, y);
   double current_heldout = heldout_rms(design, y, fold_of, folds);
   rep.baseline = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
-  const Eigen::VectorXd base_residual = current.residual;
+  std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", current.residual}};  // for the curves
   const Located base_loc = locate(problem, current.residual, options.alpha);
   rep.noise_um = base_loc.sigma_um;
   rep.mismatch = base_loc.places;
@@ -338,6 +347,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
           design = d;
           current = std::move(t.fit);
           current_heldout = ho;
+          steps.emplace_back("+ " + cand.effect, current.residual);
         }
       }
       rep.considered.push_back(con);
@@ -351,7 +361,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     offset += chosen[k]->block.columns.cols();
   }
   rep.final_fit = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
-  add_curves(rep, problem, base_residual, current.residual, options.curve_points);
+  add_curves(rep, problem, steps, options.curve_points);
   const Located fin = locate(problem, current.residual, options.alpha);
   rep.remaining = fin.places;
   rep.unexplained = fin.structured;
@@ -406,9 +416,18 @@ nlohmann::json to_json(const Report& r) {
   j["considered"] = c;
   j["notes"] = r.notes;
   if (!r.curve_x.empty()) {
-    json series = json::array();
-    for (const auto& [label, v] : r.curves) series.push_back({{"label", label}, {"residual_um", v}});
-    j["residuals"] = {{"domain", r.curve_domain}, {"x", r.curve_x}, {"series", series}};
+    const auto round_all = [](const std::vector<double>& v) {
+      json a = json::array();
+      for (double e : v) a.push_back(rounded4(e));
+      return a;
+    };
+    json steps = json::array();
+    for (const auto& st : r.curve_steps) {
+      json runs = json::array();
+      for (const auto& v : st.residual_um) runs.push_back(round_all(v));
+      steps.push_back({{"label", st.label}, {"residual_um", runs}});
+    }
+    j["residuals"] = {{"domain", r.curve_domain}, {"x", round_all(r.curve_x)}, {"runs", r.curve_runs}, {"steps", steps}};
   }
   return j;
 }

@@ -120,6 +120,11 @@ struct FitStats {
   std::size_t parameters = 0;
 };
 
+struct ResidualStep {
+  std::string label;                          // "base model", "+ backlash", ...
+  std::vector<std::vector<double>> residual_um;  // one curve per run of Report::curve_runs
+};
+
 struct Report {
   std::string model;
   std::size_t n = 0;
@@ -133,12 +138,14 @@ struct Report {
   std::vector<Mismatch> remaining;  // where the final residual is still structured
   bool unexplained = false;
   std::vector<std::string> notes;
-  // Residual curves for plots (docs/formats.md "Reports"): one x grid (the first run's, in the
-  // problem's domain, increasing, at most ExplainOptions::curve_points) and per run the baseline and
-  // final residual interpolated onto it.
+  // Residual curves for plots (docs/explain.md "residuals"): one x grid (the first run's, in the
+  // problem's domain, increasing, at most ExplainOptions::curve_points), the runs drawn, and per step --
+  // the base model, then after each finding in turn (base + findings 1..k fitted jointly) -- every
+  // run's residual interpolated onto the grid.
   std::string curve_domain;
   std::vector<double> curve_x;
-  std::vector<std::pair<std::string, std::vector<double>>> curves;
+  std::vector<std::string> curve_runs;
+  std::vector<ResidualStep> curve_steps;
 };
 
 // Helpers for the model front ends (dbb_explain, profile_explain).

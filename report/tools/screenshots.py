@@ -24,8 +24,8 @@ SHOTS = [
     ("report_profile_correlation.png", 'section[data-kind="profile"] svg.plot[data-plot="bar"]',
      "correlation before/after the wavelet step"),
     ("report_explain.png", 'section[data-kind="explain"] svg.plot[data-plot="bar"]', "explanation"),
-    ("report_explain_residuals.png", 'section[data-kind="explain"] svg.plot[data-plot="line"]',
-     "explanation: residual before and after"),
+    ("report_explain_residuals.png", 'section[data-kind="explain"] div.residual-steps',
+     "explanation: residual before and after each finding"),
     ("report_page.png", None, "the top of the page"),
 ]
 
