@@ -58,6 +58,11 @@ void print_explanation(const nlohmann::json& e) {
     const nlohmann::json v = g.value("heldout_rms_um", nlohmann::json());
     return v.is_number() ? v.get<double>() : NAN;
   };
+  if (e.contains("not_analysed") && e["not_analysed"].is_string()) {
+    std::cout << "explanation (" << e.value("model", "?") << " model): not analysed: "
+              << e["not_analysed"].get<std::string>() << "\n";
+    return;
+  }
   std::cout << "explanation (" << e.value("model", "?") << " model): held-out rms " << rms("baseline") << " um -> "
             << rms("final") << " um\n";
   const nlohmann::json findings = e.value("findings", nlohmann::json::array());

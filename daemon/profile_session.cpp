@@ -7,9 +7,11 @@
 #include "core/number_format.hpp"
 #include "daemon/recorder.hpp"
 #include "daemon/session_support.hpp"
+#include "drivers/profilometer/profile_files.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
 #include "dsp/denoise.hpp"
 #include "dsp/wavelet.hpp"
+#include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
 
 namespace guideway::daemon {
@@ -273,6 +275,22 @@ class ProfileSession : public Session {
     return write_derived_text(dir, base_name, "profile.csv", text_);
   }
 
+  // `guideway explain --model straightness` of the profile file's text, as offline on the derived file: base =
+  // offset + cubic in x; the candidates (feed marks, spindle axial run-out, thermal drift, tool wear, ...) need
+  // the time of each point and the feed per revolution, so feed and spindle speed must be given.
+  std::optional<nlohmann::json> explain() override {
+    namespace ex = models::explain;
+    if (!(o_.feed_mm_per_min > 0) || !(o_.spindle_rpm > 0))
+      return explain_not_analysed("straightness", "the session was started without feed_mm_per_min and spindle_rpm, "
+                                                  "which place each point in time and give the feed per revolution");
+    try {
+      const ex::ProfileRun run = ex::profile_run(profilometer::parse_profile_csv(text_, "profile"), "profile");
+      return ex::to_json(ex::explain(ex::profile_problem({run}, "straightness")));
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(e.what());
+    }
+  }
+
  private:
   ProfileOptions o_;
   std::string device_;
@@ -290,7 +308,7 @@ class ProfileSession : public Session {
 SessionKind profile_session_kind() {
   return {"profile",
           "one profilometer traverse: straightness of the profile and its wavelet decomposition (options: wavelet=db1, "
-          "level=5, mode=symmetric, feed_mm_per_min, spindle_rpm)",
+          "level=5, mode=symmetric, feed_mm_per_min, spindle_rpm; the last two give the EXPLAIN of the cut)",
           {"profilometer-tcp"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<ProfileSession>(parse_options(r.options), device);

@@ -102,9 +102,12 @@ class EndToEndSessions(unittest.TestCase):
             self.assertEqual(set(d.wait_streaming().values()), {"streaming"})
             began = time.monotonic()
             # The three sessions run at once (one device each), every option at its default.
-            procs = {kind: subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", kind, "--wait", "--json",
-                                             "--timeout", "150"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                            text=True)
+            # The profile session is told the cut's feed and spindle speed (the emulator's 2 mm/min at 100 rpm)
+            # so that it can explain the profile.
+            extra = {"profile": ["--set", "feed_mm_per_min=2", "--set", "spindle_rpm=100"]}
+            procs = {kind: subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", kind, *extra.get(kind, []), "--wait",
+                                             "--json", "--timeout", "150"], stdout=subprocess.PIPE,
+                                            stderr=subprocess.PIPE, text=True)
                      for kind in ("straightness", "runout", "profile")}
             params = {}
             for kind, p in procs.items():
@@ -119,8 +122,68 @@ class EndToEndSessions(unittest.TestCase):
             self.check_straightness(d, params["straightness"])
             self.check_runout(d, params["runout"])
             self.check_profile(params["profile"])
+            self.check_explanations(d, params)
         finally:
             d.close()
+
+    def latest_explain(self, d, p):
+        """The EXPLAIN of session p (published after its PARAMS, on the worker thread)."""
+        deadline = time.monotonic() + 60
+        while True:
+            r = subprocess.run([GUIDEWAY, "--socket", d.sock, "explain", "--latest", "--kind", p["kind"], "--json"],
+                               capture_output=True, text=True, timeout=30)
+            if r.returncode == 0 and json.loads(r.stdout).get("session") == p["session"]:
+                return json.loads(r.stdout)
+            self.assertLess(time.monotonic(), deadline, f"no EXPLAIN for {p['session']}: {r.stdout}{r.stderr}")
+            time.sleep(0.3)
+
+    def check_explanations(self, d, params):
+        # Profile: guideway explain --model straightness of the derived file, live. The emulated cut leaves
+        # feed marks of a 0.8 mm tool nose every 20 um; their fundamental has the amplitude f^2 / (2 pi^2 R).
+        p = params["profile"]
+        e = self.latest_explain(d, p)
+        self.assertEqual(e["model"], "straightness")
+        self.assertNotIn("not_analysed", e)
+        effects = [f["effect"] for f in e["findings"]]
+        print(f"profile EXPLAIN: {[(f['effect'], f['parameters']) for f in e['findings']]}, held-out rms {e['baseline']['heldout_rms_um']:.4f} -> "
+              f"{e['final']['heldout_rms_um']:.4f} um, unexplained {e['unexplained']}", file=sys.stderr)
+        self.assertEqual(effects[:1], ["feed_marks"])
+        marks = e["findings"][0]["parameters"]["feed_marks_um"]
+        self.assertAlmostEqual(marks["value"], (20e-6) ** 2 / (2 * np.pi ** 2 * 0.8e-3) * 1e6, delta=max(3 * marks["u"], 0.002))
+        self.assertLess(e["final"]["heldout_rms_um"], e["baseline"]["heldout_rms_um"])
+        # The residual before and after each finding, over the profile's x range.
+        r = e["residuals"]
+        self.assertEqual([s["label"] for s in r["steps"]], ["base model"] + ["+ " + f for f in effects])
+        self.assertTrue(50.0 <= min(r["x"]) and max(r["x"]) <= 60.0, (min(r["x"]), max(r["x"])))
+        self.assertTrue(all(len(c) == len(r["x"]) for s in r["steps"] for c in s["residual_um"]))
+        # The same as offline, and kept beside the recording with the session's report.
+        profile = [f for f in p["derived"] if f.endswith(".profile.csv")][0]
+        offline = json.loads(d.cli("explain", "--model", "straightness", profile, "--json", timeout=120))
+        self.assertEqual([f["effect"] for f in offline["findings"]], effects)
+        self.assertAlmostEqual(offline["final"]["rms_um"], e["final"]["rms_um"], delta=1e-12)
+        state = os.path.dirname(profile)
+        with open(os.path.join(state, p["session"] + ".explain.json")) as f:
+            self.assertEqual(json.load(f)["findings"], e["findings"])
+        html = self.session_report(d, p)
+        self.assertIn('data-kind="explain"', html)
+        self.assertIn("Residual after + feed_marks (finding 1)", html)
+        # Straightness traverse: no explanation model; the EXPLAIN says why and claims nothing.
+        t = params["straightness"]
+        e = self.latest_explain(d, t)
+        self.assertEqual(e["findings"], [])
+        self.assertIn("13 stations", e["not_analysed"])
+        self.assertIn("not analysed: ", d.cli("explain", "--latest", "--kind", "straightness"))
+        self.assertIn("Not analysed: ", self.session_report(d, t))
+
+    def session_report(self, d, p):
+        """NAME.report.html beside the recording (written atomically after the EXPLAIN)."""
+        path = os.path.join(os.path.dirname(p["recording"]), p["session"] + ".report.html")
+        deadline = time.monotonic() + 60
+        while not os.path.exists(path):
+            self.assertLess(time.monotonic(), deadline, "no " + path)
+            time.sleep(0.3)
+        with open(path, encoding="utf-8") as f:
+            return f.read()
 
     def check_straightness(self, d, p):
         # Truth: the reflector's slope is -(E_BX(x) + E_BY(0)) (pitch of X plus the roll of Y at y = 0,

@@ -194,8 +194,9 @@ Problem assemble(const std::vector<ProfileRun>& runs, const std::vector<Pt>& g, 
 
 }  // namespace
 
-ProfileRun read_profile_run(const std::string& path) {
-  const profilometer::Profile prof = profilometer::read_profile_csv(path);
+ProfileRun read_profile_run(const std::string& path) { return profile_run(profilometer::read_profile_csv(path), path); }
+
+ProfileRun profile_run(const profilometer::Profile& prof, const std::string& path) {
   ProfileRun r;
   r.source = path;
   r.feed_mm_per_min = meta_number(prof, path, "feed_mm_per_min", 0, true);

@@ -23,6 +23,10 @@
 #include "models/explain/explain.hpp"
 #include "models/flatness/straightness.hpp"
 
+namespace guideway::profilometer {
+struct Profile;
+}
+
 namespace guideway::models::explain {
 
 struct ProfileRun {
@@ -37,6 +41,8 @@ struct ProfileRun {
 // Reads a guideway/profile/1 CSV (docs/formats.md) with feed_mm_per_min and spindle_rpm metadata and
 // every point valid; errors name the file (and line).
 ProfileRun read_profile_run(const std::string& path);
+// The same from a parsed profile (e.g. the daemon's profile session); errors name `source`.
+ProfileRun profile_run(const profilometer::Profile& profile, const std::string& source);
 
 // model: "flatness" or "straightness". straightness: the autocollimator traverse of the X carriage
 // (models::read_angle_traverse), flatness only; its x must cover every profile (throws naming both).
