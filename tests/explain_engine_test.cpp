@@ -70,17 +70,26 @@ TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
   for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"}) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_TRUE(j["findings"][0]["parameters"]["step_um"].contains("u"));
   EXPECT_NE(ex::to_text(rep).find("backlash"), std::string::npos);
-  // Residual curves for plots: one grid, a baseline and a final series per run, the final one whiter.
+  // Residual curves for plots: one grid, then per step (base model, + each finding) one curve per run,
+  // each step whiter than the one before.
   const auto& res = j["residuals"];
-  ASSERT_EQ(res["series"].size(), 2u);
+  ASSERT_EQ(res["steps"].size(), 2u);
+  EXPECT_EQ(res["steps"][0]["label"], "base model");
+  EXPECT_EQ(res["steps"][1]["label"], "+ backlash");
   EXPECT_EQ(res["domain"], "angle_deg");
   EXPECT_LE(res["x"].size(), 720u);
   double base2 = 0, fin2 = 0;
-  for (std::size_t i = 0; i < res["x"].size(); ++i) {
-    base2 += std::pow(res["series"][0]["residual_um"][i].get<double>(), 2);
-    fin2 += std::pow(res["series"][1]["residual_um"][i].get<double>(), 2);
+  for (const auto& step : res["steps"]) ASSERT_EQ(step["residual_um"].size(), res["runs"].size());
+  for (std::size_t r = 0; r < res["runs"].size(); ++r) {
+    const auto& base = res["steps"][0]["residual_um"][r];
+    const auto& fin = res["steps"][1]["residual_um"][r];
+    ASSERT_EQ(base.size(), res["x"].size());
+    ASSERT_EQ(fin.size(), res["x"].size());
+    for (std::size_t i = 0; i < base.size(); ++i) {
+      if (base[i].is_number()) base2 += std::pow(base[i].get<double>(), 2);
+      if (fin[i].is_number()) fin2 += std::pow(fin[i].get<double>(), 2);
+    }
   }
-  EXPECT_EQ(res["series"][0]["residual_um"].size(), res["x"].size());
   EXPECT_LT(fin2, base2);
 }
 
