@@ -150,6 +150,10 @@ class EndToEndSessions(unittest.TestCase):
         self.assertEqual(effects[:1], ["feed_marks"])
         marks = e["findings"][0]["parameters"]["feed_marks_um"]
         self.assertAlmostEqual(marks["value"], (20e-6) ** 2 / (2 * np.pi ** 2 * 0.8e-3) * 1e6, delta=max(3 * marks["u"], 0.002))
+        nose = e["findings"][0]["parameters"]["tool_nose_radius_mm"]
+        self.assertAlmostEqual(nose["value"], 0.8, delta=max(3 * nose["u"], 0.01))
+        # The scallop's second harmonic is the feed marks', not a twice-per-rev spindle run-out (none configured).
+        self.assertNotIn("spindle_axial_runout", effects)
         self.assertLess(e["final"]["heldout_rms_um"], e["baseline"]["heldout_rms_um"])
         # The residual before and after each finding, over the profile's x range.
         r = e["residuals"]

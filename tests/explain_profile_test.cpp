@@ -5,12 +5,15 @@
 // from a known carriage curve h(x) = 2e-3 x^2 + 0.1 x^3 (m), checked against that curve directly.
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <random>
+#include <stdexcept>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "models/explain/profile_explain.hpp"
+#include "simulators/machine/machine.hpp"
 
 namespace ex = guideway::models::explain;
 namespace gm = guideway::models;
@@ -123,4 +126,67 @@ TEST(ExplainProfile, RefusesATraverseThatDoesNotFit) {
   }
   const auto tr = traverse();
   EXPECT_THROW((void)ex::profile_problem(runs, "straightness", &tr), std::invalid_argument);
+}
+
+// A faced profile from the virtual machine tool (0.8 mm nose, 20 um per revolution, 1 um profile steps,
+// 0.02 um noise): the feed marks are a scallop with all its harmonics, so they are found with the nose
+// radius, and their second harmonic is not taken for a twice-per-revolution spindle_axial_runout, which
+// at constant feed falls at the same period. A real axial run-out in the path is found beside them.
+namespace {
+
+ex::Report explain_faced_cut(double axial_runout_m) {
+  guideway::sim::MachineConfig c;
+  c.noise.profilometer_m = 0.02e-6;
+  c.spindle.axial_runout_m = axial_runout_m;
+  const guideway::sim::Machine m{c};
+  guideway::sim::FacingSpec f;
+  f.x_start_m = 0.050;
+  f.x_end_m = 0.054;
+  f.feed_m_per_s = 2.0 / 60000.0;
+  f.spindle_rpm = 100.0;
+  f.tool_nose_radius_m = 0.8e-3;
+  f.profile_step_m = 1e-6;
+  f.runout_along_path = true;
+  ex::ProfileRun r;
+  r.source = "cut.csv";
+  r.feed_mm_per_min = 2.0;
+  r.spindle_rpm = 100.0;
+  for (const auto& p : m.facing_profile(f)) {
+    r.x_m.push_back(p.x_m);
+    r.z_m.push_back(p.z_m);
+    r.t_s.push_back(p.t_s);
+  }
+  return ex::explain(ex::profile_problem({r}, "straightness"));
+}
+
+const ex::ParamValue& param(const ex::Finding& f, const std::string& name) {
+  for (const auto& p : f.parameters)
+    if (p.name == name) return p;
+  throw std::runtime_error("no parameter " + name);
+}
+
+}  // namespace
+
+TEST(ExplainProfile, FeedMarksAreAScallopNotSpindleRunout) {
+  const auto rep = explain_faced_cut(0.0);
+  ASSERT_EQ(rep.findings.size(), 1u) << ex::to_text(rep);
+  EXPECT_EQ(rep.findings[0].effect, "feed_marks");
+  const auto& radius = param(rep.findings[0], "tool_nose_radius_mm");
+  EXPECT_NEAR(radius.value, 0.8, std::max(3 * radius.u, 0.01)) << radius.u;
+  const auto& a1 = param(rep.findings[0], "feed_marks_um");
+  EXPECT_NEAR(a1.value, 0.020 * 0.020 / (2 * std::numbers::pi * std::numbers::pi * 0.8) * 1e3, 3 * a1.u);
+  EXPECT_LT(rep.final_fit.heldout_rms_um, rep.baseline.heldout_rms_um);
+}
+
+TEST(ExplainProfile, AxialRunoutBesideTheFeedMarksIsFound) {
+  const auto rep = explain_faced_cut(0.03e-6);
+  std::vector<std::string> effects;
+  for (const auto& f : rep.findings) effects.push_back(f.effect);
+  ASSERT_NE(std::find(effects.begin(), effects.end(), "spindle_axial_runout"), effects.end()) << ex::to_text(rep);
+  ASSERT_NE(std::find(effects.begin(), effects.end(), "feed_marks"), effects.end()) << ex::to_text(rep);
+  for (const auto& f : rep.findings) {
+    if (f.effect != "spindle_axial_runout") continue;
+    const auto& a = param(f, "spindle_axial_runout_um");
+    EXPECT_NEAR(a.value, 0.03, std::max(3 * a.u, 0.003));
+  }
 }

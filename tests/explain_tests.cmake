@@ -11,4 +11,4 @@ set_tests_properties(explain_cli_test PROPERTIES LABELS integration TIMEOUT 300)
 add_test(NAME explain_scenarios_full COMMAND $<TARGET_FILE:guideway> explain --scenarios --full)
 set_tests_properties(explain_scenarios_full PROPERTIES LABELS slow TIMEOUT 1200)
 # The flatness front end with Mu Eq. 16's measured straightness and the abbe_offset term.
-guideway_add_test(explain_profile_test SOURCES explain_profile_test.cpp LIBS guideway_explain_model LABELS unit)
+guideway_add_test(explain_profile_test SOURCES explain_profile_test.cpp LIBS guideway_explain_model guideway_machine LABELS unit)

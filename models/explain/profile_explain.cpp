@@ -121,15 +121,50 @@ std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::v
     out.push_back(std::move(c));
   }
   {
-    Candidate c{"feed_marks", "the round tool nose leaves a cusp every feed per revolution", {}, {}, 0};
-    c.variants.push_back(make_variant(g, {"feed_marks_sin", "feed_marks_cos"}, [](const Pt& p, double* o) {
-      const double fpr_mm = p.feed_mm_per_min / p.rpm;
-      o[0] = std::sin(2 * pi * p.x_mm / fpr_mm);
-      o[1] = std::cos(2 * pi * p.x_mm / fpr_mm);
-    }));
-    c.variants.back().report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-      return amp_phase("feed_marks_um", "feed_marks_phase_deg", x, cov);
+    // The round nose leaves a scallop between passes one feed per revolution f apart: height d^2 / (2R) at
+    // distance d from the nearest pass, i.e. all harmonics of x / f with fixed ratios ((-1)^(k+1) / k^2).
+    // One sinusoid would leave the second harmonic (1/4 of the first) to be claimed by a twice-per-rev
+    // spindle_axial_runout, which at constant feed falls at exactly that period. The passes' position is
+    // each cut's own: taken per run from the residual's fundamental; the nose curvature 1/R is common.
+    Candidate c{"feed_marks",
+                "the round tool nose leaves a scallop of height d^2/(2R) between passes one feed per revolution apart",
+                {}, {}, 0};
+    const auto pts = std::make_shared<const std::vector<Pt>>(g);
+    const std::size_t n_runs = runs.size();
+    const double f1_mm = runs.empty() || !(runs.front().spindle_rpm > 0)
+                             ? nan
+                             : runs.front().feed_mm_per_min / runs.front().spindle_rpm;
+    c.generate = [pts, n_runs, f1_mm](const Eigen::VectorXd& r) {
+      const auto& gg = *pts;
+      std::vector<double> sc(n_runs, 0.0), ss(n_runs, 0.0);
+      for (std::size_t i = 0; i < gg.size(); ++i) {
+        const double u = 2 * pi * gg[i].x_mm * gg[i].rpm / gg[i].feed_mm_per_min;
+        sc[gg[i].run] += r[static_cast<Eigen::Index>(i)] * std::cos(u);
+        ss[gg[i].run] += r[static_cast<Eigen::Index>(i)] * std::sin(u);
+      }
+      // The scallop's fundamental is -cos(2 pi (x - pass) / f): lowest at a pass, so a pass sits at the
+      // fundamental's phase + pi.
+      std::vector<double> phase(n_runs);
+      for (std::size_t k = 0; k < n_runs; ++k) phase[k] = std::atan2(ss[k], sc[k]) + pi;
+      std::vector<Variant> vs;
+      vs.push_back(make_variant(gg, {"nose_curvature_per_mm"}, [phase](const Pt& p, double* o) {
+        const double f = p.feed_mm_per_min / p.rpm;
+        const double u = p.x_mm - phase[p.run] / (2 * pi) * f;  // from a pass
+        const double d = u - f * std::round(u / f);
+        o[0] = (d * d - f * f / 12.0) / 2.0 * 1e3;  // zero mean over a feed; mm^2 / 2 x (1/mm) = mm -> um
+      }));
+      vs.back().searched = 1;  // the passes' position
+      vs.back().report = [f1_mm](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+        const double kappa = x[0], uk = std::sqrt(std::max(0.0, cov(0, 0)));
+        // The fundamental's amplitude f^2 / (2 pi^2 R) at the first cut's feed, as a ballbar-style figure.
+        const double a1 = kappa * f1_mm * f1_mm / (2 * pi * pi) * 1e3;
+        const double ua1 = uk * f1_mm * f1_mm / (2 * pi * pi) * 1e3;
+        return std::vector<ParamValue>{{"feed_marks_um", a1, ua1},
+                                       {"tool_nose_radius_mm", 1.0 / kappa, uk / (kappa * kappa)}};
+      };
+      return vs;
     };
+    c.search_size = 1;
     out.push_back(std::move(c));
   }
   {
