@@ -212,7 +212,13 @@ ReadResult read_can_frames(int fd, std::span<can_frame> frames, FrameBatch& batc
   } while (got < 0 && errno == EINTR);
   if (got < 0) {
     if (errno == EAGAIN || errno == EWOULDBLOCK) return ReadResult::timeout;
-    // ECONNRESET and friends: the one-frame path knows how to read what is still queued.
+    // recvmmsg has consumed the socket's error: report it (ENODEV, ENETDOWN: the caller reconnects).
+    if (errno != ECONNRESET) {
+      error = errno_text("recvmmsg", errno);
+      return ReadResult::error;
+    }
+    // ECONNRESET: the peer closed with our frames unread; the one-frame path reads what is still queued
+    // (then EOF).
     can_frame f{};
     const ReadResult r = read_can_frame(fd, f, 0, -1, error);
     if (r == ReadResult::frame) frames[batch.count++] = f;

@@ -90,13 +90,16 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
   publish(s);
 }
 
-bool DbbDriver::drain(int fd, DbbDecoder& decoder) {
+bool DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
   std::array<can_frame, 32> frames{};
   std::string error;
   bool any = false;
   for (;;) {
     can::FrameBatch batch;
-    if (can::read_can_frames(fd, frames, batch, error) != can::ReadResult::frame) return any;  // EOF, errors: serve()
+    const can::ReadResult r = can::read_can_frames(fd, frames, batch, error);
+    if (r == can::ReadResult::closed) ended = "connection closed by the bus";
+    if (r == can::ReadResult::error) ended = error;
+    if (r != can::ReadResult::frame) return any;
     any = true;
     bad_frames_.fetch_add(batch.truncated, std::memory_order_relaxed);
     const std::int64_t now = mono_now_ns();
@@ -145,11 +148,13 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
     if (settings_.produce_sync && now >= next_sync) {
       // Frames already queued were on the bus before this SYNC: consume them first, so a cycle's
       // last PDO waiting in the socket is not cut off by our own next SYNC.
-      if (drain(fd, decoder)) last_rx = mono_now_ns();
+      std::string ended;
+      if (drain(fd, decoder, ended)) last_rx = mono_now_ns();
+      if (!ended.empty()) return ended;  // EOF comes after every queued frame was read
       now = mono_now_ns();
       const can_frame sync = make_sync_frame();
       if (!can::write_can_frame(fd, sync, error)) {
-        drain(fd, decoder);
+        drain(fd, decoder, ended);
         return "SYNC write failed: " + error;
       }
       DbbCycle cycle;

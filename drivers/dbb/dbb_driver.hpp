@@ -51,7 +51,9 @@ class DbbDriver : public drivers::Driver {
   // Serves one connection until it fails or stop is requested; returns the reason it ended.
   std::string serve(const std::stop_token& stop, int fd, DbbDecoder& decoder);
   void publish_cycle(const DbbCycle& cycle);
-  bool drain(int fd, DbbDecoder& decoder);  // consumes every frame already queued, without waiting; true if any
+  // Consumes every frame already queued, without waiting; true if any. `ended` gets the reason when the
+  // bus closed or failed meanwhile (in one-wake-per-cycle mode this is where EOF and errors are seen).
+  bool drain(int fd, DbbDecoder& decoder, std::string& ended);
   void handle_frame(const can_frame& frame, std::int64_t t_ns, DbbDecoder& decoder);
 
   DbbSettings settings_;
