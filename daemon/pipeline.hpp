@@ -92,7 +92,7 @@ class Pipeline {
   PipelineStats stats_;
   double latency_sum_us_ = 0.0;
   std::uint64_t latency_count_ = 0;
-  drivers::Doorbell doorbell_;
+  alignas(64) drivers::Doorbell doorbell_;  // every driver's publish touches it: its own cache line
   std::jthread thread_;
 };
 

@@ -34,8 +34,10 @@ class Doorbell {
     futex(FUTEX_WAIT_PRIVATE, 1, &ts);  // returns at once if a producer already disarmed it
     disarm();
   }
-  void disarm() noexcept { armed_.store(0, std::memory_order_relaxed); }
-  // Wake-ups delivered by a system call (for STATUS and the benchmark).
+  // An exchange, not a store: it keeps the release sequence of the producers' exchanges unbroken, so
+  // the next arm() synchronises with every ring() before it (C++ model; x86 and ARMv8 would not need it).
+  void disarm() noexcept { (void)armed_.exchange(0, std::memory_order_acq_rel); }
+  // Wake-ups delivered by a system call (for tests and debugging).
   [[nodiscard]] std::uint64_t wakes() const noexcept { return wakes_.load(std::memory_order_relaxed); }
 
  private:

@@ -72,7 +72,8 @@ class Driver {
   [[nodiscard]] const std::vector<ChannelInfo>& channels() const noexcept { return channels_; }
   SpscRing<Sample>& ring() noexcept { return ring_; }
   // The consumer's bell, rung after every publish (nullptr: none). The bell must outlive the
-  // driver's publishing: clear it, or stop the driver, before destroying it.
+  // driver's publishing: stop the driver before destroying it (clearing it is not enough: a publish
+  // in flight may already hold the pointer).
   void set_doorbell(Doorbell* bell) noexcept { doorbell_.store(bell, std::memory_order_release); }
 
  protected:
