@@ -146,20 +146,27 @@ std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::v
       // fundamental's phase + pi.
       std::vector<double> phase(n_runs);
       for (std::size_t k = 0; k < n_runs; ++k) phase[k] = std::atan2(ss[k], sc[k]) + pi;
-      std::vector<Variant> vs;
-      vs.push_back(make_variant(gg, {"nose_curvature_per_mm"}, [phase](const Pt& p, double* o) {
+      // The scallop at those passes and a quarter feed on: their fundamentals are in quadrature, so the
+      // pair follows any pass position near the estimate linearly, and the F-test counts the two degrees
+      // of freedom a free phase has (as a sine/cosine pair would), not one.
+      const auto scallop = [phase](const Pt& p, double shift) {
         const double f = p.feed_mm_per_min / p.rpm;
-        const double u = p.x_mm - phase[p.run] / (2 * pi) * f;  // from a pass
+        const double u = p.x_mm - (phase[p.run] / (2 * pi) + shift) * f;  // from a pass
         const double d = u - f * std::round(u / f);
-        o[0] = (d * d - f * f / 12.0) / 2.0 * 1e3;  // zero mean over a feed; mm^2 / 2 x (1/mm) = mm -> um
-      }));
-      vs.back().searched = 1;  // the passes' position
+        return (d * d - f * f / 12.0) / 2.0 * 1e3;  // zero mean over a feed; mm^2 / 2 x (1/mm) = mm -> um
+      };
+      std::vector<Variant> vs;
+      vs.push_back(make_variant(gg, {"nose_curvature_per_mm", "nose_curvature_quadrature_per_mm"},
+                                [scallop](const Pt& p, double* o) {
+                                  o[0] = scallop(p, 0.0);
+                                  o[1] = scallop(p, 0.25);
+                                }));
       vs.back().report = [f1_mm](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-        const double kappa = x[0], uk = std::sqrt(std::max(0.0, cov(0, 0)));
-        // The fundamental's amplitude f^2 / (2 pi^2 R) at the first cut's feed, as a ballbar-style figure.
-        const double a1 = kappa * f1_mm * f1_mm / (2 * pi * pi) * 1e3;
-        const double ua1 = uk * f1_mm * f1_mm / (2 * pi * pi) * 1e3;
-        return std::vector<ParamValue>{{"feed_marks_um", a1, ua1},
+        // Curvature 1/R = the pair's amplitude; the fundamental f^2 / (2 pi^2 R) at the first cut's feed.
+        const auto ap = amp_phase("k", "phase", x, cov);
+        const double kappa = ap[0].value, uk = ap[0].u;
+        const double to_a1 = f1_mm * f1_mm / (2 * pi * pi) * 1e3;
+        return std::vector<ParamValue>{{"feed_marks_um", kappa * to_a1, uk * to_a1},
                                        {"tool_nose_radius_mm", 1.0 / kappa, uk / (kappa * kappa)}};
       };
       return vs;
