@@ -120,6 +120,14 @@ class RunoutSession : public Session {
     return write_derived_text(dir, base_name, "runout.csv", text_);
   }
 
+  // The revolution's fit already holds the once- and twice-per-revolution terms, and no effect of the
+  // library is a candidate for what one revolution leaves; said in the EXPLAIN rather than left silent.
+  std::optional<nlohmann::json> explain() override {
+    return explain_not_analysed("runout",
+                                "no explanation model for a run-out revolution yet (its fit already holds the once- "
+                                "and twice-per-revolution terms)");
+  }
+
  private:
   // The run-out file of docs/formats.md, written so it reads back exactly.
   [[nodiscard]] std::string revolution_text() const {

@@ -178,6 +178,10 @@ class EndToEndSessions(unittest.TestCase):
         self.assertIn("13 stations", e["not_analysed"])
         self.assertIn("not analysed: ", d.cli("explain", "--latest", "--kind", "straightness"))
         self.assertIn("Not analysed: ", self.session_report(d, t))
+        # Run-out: likewise, so that every session's PARAMS is followed by an EXPLAIN.
+        e = self.latest_explain(d, params["runout"])
+        self.assertEqual(e["findings"], [])
+        self.assertIn("run-out revolution", e["not_analysed"])
 
     def session_report(self, d, p):
         """NAME.report.html beside the recording (written atomically after the EXPLAIN)."""
