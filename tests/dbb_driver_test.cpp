@@ -205,6 +205,10 @@ TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
 // Above 2 kHz the driver wakes once per cycle (the PDOs are read just before the next SYNC): the
 // same samples, the SYNC period kept with sub-millisecond resolution, faults still seen.
 TEST(DbbDriver, At5kHzOneWakeUpPerCycleKeepsTheRateAndEverySample) {
+#if defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "under ThreadSanitizer the emulator answers a SYNC later than the 200 us period, so its PDOs "
+                  "fall into the next cycle; the 5 kHz path is tested in the main and ASan builds";
+#endif
   Bench b(true, 5000.0);
   ASSERT_TRUE(b.wait_samples(1000));
   EXPECT_EQ(b.driver->status().counters.bad_frames, 0u);
@@ -216,6 +220,10 @@ TEST(DbbDriver, At5kHzOneWakeUpPerCycleKeepsTheRateAndEverySample) {
 }
 
 TEST(DbbDriver, At5kHzStallsAndDisconnectsAreStillSeen) {
+#if defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "under ThreadSanitizer the emulator answers a SYNC later than the 200 us period, so its PDOs "
+                  "fall into the next cycle; the 5 kHz path is tested in the main and ASan builds";
+#endif
   Bench b(true, 5000.0, 100);
   ASSERT_TRUE(b.wait_samples(100));
   b.emu.inject_stall(0.5);
