@@ -87,19 +87,25 @@ def main():
 
         # faced profiles at two feeds with a thermal drift (0.2 um/min) and squareness: --model flatness
         rnd = random.Random(5)
-        profiles = []
-        for k, feed in enumerate([2.0, 8.0]):
-            out = os.path.join(d, f"face{k}.csv")
-            t0 = 0.0 if k == 0 else 700.0
-            rows = []
-            for i in range(300):
-                x = i * 0.05
-                t = t0 + x / feed * 60.0
-                z = 0.005 * x + 0.2 * t / 60.0 + rnd.gauss(0.0, 0.03)
-                rows.append(f"{x:.4f},{z:.6f}")
-            open(out, "w").write("# format = guideway/profile/1\n# feed_mm_per_min = %g\n# spindle_rpm = 107\n"
-                                 "# start_time_s = %g\nx_mm,z_um\n%s\n" % (feed, t0, "\n".join(rows)))
-            profiles.append(out)
+
+        def faces(name, carriage_um):
+            """Two cuts (2 and 8 mm/min): carriage_um(x) + squareness + 0.2 um/min drift + 0.03 um noise."""
+            out_files = []
+            for k, feed in enumerate([2.0, 8.0]):
+                out = os.path.join(d, f"{name}{k}.csv")
+                t0 = 0.0 if k == 0 else 700.0
+                rows = []
+                for i in range(300):
+                    x = i * 0.05
+                    t = t0 + x / feed * 60.0
+                    z = carriage_um(x) + 0.005 * x + 0.2 * t / 60.0 + rnd.gauss(0.0, 0.03)
+                    rows.append(f"{x:.4f},{z:.6f}")
+                open(out, "w").write("# format = guideway/profile/1\n# feed_mm_per_min = %g\n# spindle_rpm = 107\n"
+                                     "# start_time_s = %g\nx_mm,z_um\n%s\n" % (feed, t0, "\n".join(rows)))
+                out_files.append(out)
+            return out_files
+
+        profiles = faces("face", lambda x: 0.0)
         j = json.loads(run(exe, "explain", "--model", "flatness", *profiles, "--json").stdout)
         assert j["model"] == "flatness"
         assert j["findings"] and j["findings"][0]["effect"] == "thermal_drift", j["findings"]
@@ -129,23 +135,7 @@ def main():
         open(trav, "w").write("# step_mm = 1\nx_mm,pitch_arcsec\n" + "".join(
             "%d,%.4f\n" % (k, (h_um(k + 1) - h_um(k)) * 1e-3 / arcsec + rnd.gauss(0.0, 0.2)) for k in range(20)))
 
-        def faces(name, abbe_mm):
-            out_files = []
-            for k, feed in enumerate([2.0, 8.0]):
-                out = os.path.join(d, f"{name}{k}.csv")
-                t0 = 0.0 if k == 0 else 700.0
-                rows = []
-                for i in range(300):
-                    x = i * 0.05
-                    t = t0 + x / feed * 60.0
-                    z = h_um(x) + abbe_mm * pitch_rad(x) * 1e3 + 0.005 * x + 0.2 * t / 60.0 + rnd.gauss(0.0, 0.03)
-                    rows.append(f"{x:.4f},{z:.6f}")
-                open(out, "w").write("# format = guideway/profile/1\n# feed_mm_per_min = %g\n# spindle_rpm = 107\n"
-                                     "# start_time_s = %g\nx_mm,z_um\n%s\n" % (feed, t0, "\n".join(rows)))
-                out_files.append(out)
-            return out_files
-
-        bowed = faces("bowed", 0.0)
+        bowed = faces("bowed", h_um)
         j = json.loads(run(exe, "explain", "--model", "flatness", *bowed, "--straightness", trav, "--json").stdout)
         assert [f["effect"] for f in j["findings"]] == ["thermal_drift"], j["findings"]
         assert abs(j["findings"][0]["parameters"]["thermal_drift_um_per_min"]["value"] - 0.2) < 0.01, j["findings"]
@@ -154,8 +144,8 @@ def main():
         text = run(exe, "explain", "--model", "flatness", *bowed).stdout
         assert "straightness not supplied" in text, text
         # an Abbe arm of 3 mm: the pitch times the offset, found as abbe_offset after the drift
-        j = json.loads(run(exe, "explain", "--model", "flatness", *faces("abbe", 3.0), "--straightness", trav,
-                           "--json").stdout)
+        abbe = faces("abbe", lambda x: h_um(x) + 3.0 * pitch_rad(x) * 1e3)
+        j = json.loads(run(exe, "explain", "--model", "flatness", *abbe, "--straightness", trav, "--json").stdout)
         found = {f["effect"]: f for f in j["findings"]}
         assert "abbe_offset" in found and "thermal_drift" in found, j["findings"]
         off = found["abbe_offset"]["parameters"]["abbe_offset_x_mm"]
