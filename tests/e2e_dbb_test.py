@@ -91,12 +91,7 @@ class EndToEndDbb(unittest.TestCase):
                 self.assertEqual(replayed[group][name]["value"], v["value"], msg=f"{group}.{name}")
 
         # The daemon explained the residual after identifying, and keeps it for the explain request.
-        deadline = time.monotonic() + 120  # explained on the worker thread after PARAMS
-        while True:
-            explanation = self.request({"class": "explain", "kind": "dbb"}, "EXPLAIN", allow_error=True)
-            if explanation["class"] == "EXPLAIN" or time.monotonic() > deadline:
-                break
-            time.sleep(0.5)
+        explanation = self.request_when_ready("explain", "EXPLAIN")  # explained on the worker thread after PARAMS
         self.assertEqual(explanation["class"], "EXPLAIN", explanation)
         self.assertEqual(explanation["session"], params["session"])
         self.assertEqual(explanation["model"], "dbb")
@@ -112,12 +107,7 @@ class EndToEndDbb(unittest.TestCase):
         self.assertIn("explanation (dbb model)", self.cli("replay", params["recording"], timeout=120))
 
         # The session's HTML report (report/): rendered on the worker thread, served by the report request.
-        deadline = time.monotonic() + 120
-        while True:
-            report = self.request({"class": "report", "kind": "dbb"}, "REPORT", allow_error=True)
-            if report["class"] == "REPORT" or time.monotonic() > deadline:
-                break
-            time.sleep(0.5)
+        report = self.request_when_ready("report", "REPORT")
         self.assertEqual(report["class"], "REPORT", report)
         self.assertEqual(report["session"], params["session"])
         self.assertTrue(report["html"].startswith("<!DOCTYPE html>"), report["html"][:80])
@@ -141,6 +131,15 @@ class EndToEndDbb(unittest.TestCase):
                         self.assertEqual(m["class"], reply_class, m)
                     return m
         self.fail("no reply")
+
+    def request_when_ready(self, request_class, reply_class, timeout_s=120):
+        """The latest DBB `request_class` reply, asked again until the worker thread has it (ERROR until then)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            m = self.request({"class": request_class, "kind": "dbb"}, reply_class, allow_error=True)
+            if m["class"] == reply_class or time.monotonic() > deadline:
+                return m
+            time.sleep(0.5)
 
 
 if __name__ == "__main__":
