@@ -7,6 +7,7 @@ function(guideway_add_test name)
   cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS;ARGS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_LIBS} GTest::gtest GTest::gtest_main guideway_warnings)
+  target_compile_options(${name} PRIVATE ${GUIDEWAY_THIN_PROGRAM_OPTIONS})
   target_compile_definitions(${name} PRIVATE
     GUIDEWAY_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     GUIDEWAY_BINARY_DIR="${PROJECT_BINARY_DIR}"
