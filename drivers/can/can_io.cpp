@@ -190,13 +190,24 @@ ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd,
 }
 
 ReadResult read_can_frames(int fd, std::span<can_frame> frames, FrameBatch& batch, std::string& error) {
+  return read_can_frames(fd, frames, {}, batch, error);
+}
+
+ReadResult read_can_frames(int fd, std::span<can_frame> frames, std::span<std::int64_t> rx_realtime_ns,
+                           FrameBatch& batch, std::string& error) {
   batch = {};
   constexpr std::size_t max_records = 64;
   const std::size_t want = std::min(frames.size(), max_records);
   if (want == 0) return ReadResult::timeout;
+  const bool timed = !rx_realtime_ns.empty();
+  if (timed && rx_realtime_ns.size() < want) {
+    error = "read_can_frames: fewer timestamp slots than frames";
+    return ReadResult::error;
+  }
   // Buffers larger than can_frame so an oversized record is seen as such (MSG_TRUNC), as in read_can_frame.
   struct Slot {
     alignas(can_frame) unsigned char data[sizeof(can_frame) + 64];
+    alignas(cmsghdr) unsigned char control[CMSG_SPACE(sizeof(timespec)) + 32];
   };
   std::array<Slot, max_records> slots;
   std::array<iovec, max_records> iov{};
@@ -205,41 +216,71 @@ ReadResult read_can_frames(int fd, std::span<can_frame> frames, FrameBatch& batc
     iov[i] = {slots[i].data, sizeof slots[i].data};
     msgs[i].msg_hdr.msg_iov = &iov[i];
     msgs[i].msg_hdr.msg_iovlen = 1;
+    if (timed) {
+      msgs[i].msg_hdr.msg_control = slots[i].control;
+      msgs[i].msg_hdr.msg_controllen = sizeof slots[i].control;
+    }
   }
   int got = -1;
-  do {
+  bool reset = false;
+  for (;;) {
     got = ::recvmmsg(fd, msgs.data(), static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
-  } while (got < 0 && errno == EINTR);
-  if (got < 0) {
-    if (errno == EAGAIN || errno == EWOULDBLOCK) return ReadResult::timeout;
-    // recvmmsg has consumed the socket's error: report it (ENODEV, ENETDOWN: the caller reconnects).
-    if (errno != ECONNRESET) {
-      error = errno_text("recvmmsg", errno);
-      return ReadResult::error;
+    if (got >= 0) break;
+    if (errno == EINTR) continue;
+    if (errno == ECONNRESET && !reset) {
+      // The peer closed with our frames unread. The kernel reports that before the frames still
+      // queued for us, and only once: read on so nothing received is lost.
+      reset = true;
+      continue;
     }
-    // ECONNRESET: the peer closed with our frames unread; the one-frame path reads what is still queued
-    // (then EOF).
-    can_frame f{};
-    const ReadResult r = read_can_frame(fd, f, 0, -1, error);
-    if (r == ReadResult::frame) frames[batch.count++] = f;
-    if (r == ReadResult::truncated) ++batch.truncated;
-    return r == ReadResult::truncated ? ReadResult::frame : r;
+    if (errno == EAGAIN || errno == EWOULDBLOCK) return reset ? ReadResult::closed : ReadResult::timeout;
+    if (errno == ECONNRESET) return ReadResult::closed;
+    // recvmmsg has consumed the socket's error: report it (ENODEV, ENETDOWN: the caller reconnects).
+    error = errno_text("recvmmsg", errno);
+    return ReadResult::error;
   }
   bool eof = got == 0;
   for (int i = 0; i < got; ++i) {
-    const std::size_t len = msgs[static_cast<std::size_t>(i)].msg_len;
-    if (len == 0) {  // SEQPACKET EOF (we never send zero-length records)
+    const mmsghdr& m = msgs[static_cast<std::size_t>(i)];
+    if (m.msg_len == 0) {  // SEQPACKET EOF (we never send zero-length records)
       eof = true;
       break;
     }
-    if (len != sizeof(can_frame) || (msgs[static_cast<std::size_t>(i)].msg_hdr.msg_flags & MSG_TRUNC)) {
+    if (m.msg_len != sizeof(can_frame) || (m.msg_hdr.msg_flags & MSG_TRUNC)) {
       ++batch.truncated;
       continue;
+    }
+    if (timed) {
+      const std::int64_t t = rx_timestamp_ns(m.msg_hdr);
+      rx_realtime_ns[batch.count] = t;
+      if (t == no_rx_timestamp) ++batch.untimed;
     }
     std::memcpy(&frames[batch.count++], slots[static_cast<std::size_t>(i)].data, sizeof(can_frame));
   }
   if (batch.count + batch.truncated > 0) return ReadResult::frame;  // EOF, if any, is seen on the next read
-  return eof ? ReadResult::closed : ReadResult::timeout;
+  return eof || reset ? ReadResult::closed : ReadResult::timeout;
+}
+
+bool enable_rx_timestamps(int fd, std::string& error) {
+  const int on = 1;
+  if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) < 0) {
+    error = errno_text("setsockopt(SO_TIMESTAMPNS)", errno);
+    return false;
+  }
+  return true;
+}
+
+std::int64_t rx_timestamp_ns(const msghdr& message) noexcept {
+  if (message.msg_control == nullptr || (message.msg_flags & MSG_CTRUNC)) return no_rx_timestamp;
+  for (const cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr;
+       c = CMSG_NXTHDR(const_cast<msghdr*>(&message), const_cast<cmsghdr*>(c))) {
+    if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SCM_TIMESTAMPNS) continue;
+    if (c->cmsg_len < CMSG_LEN(sizeof(timespec))) continue;
+    timespec ts{};
+    std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+  }
+  return no_rx_timestamp;
 }
 
 bool write_can_record(int fd, const void* data, std::size_t size, std::string& error) {

@@ -5,6 +5,7 @@
 // CanSocket is owned by one thread. Nothing here prints or throws: errors go back to the caller.
 
 #include <linux/can.h>
+#include <sys/socket.h>
 
 #include <cstdint>
 #include <span>
@@ -84,8 +85,22 @@ ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd,
 struct FrameBatch {
   std::size_t count = 0;
   std::size_t truncated = 0;
+  std::size_t untimed = 0;  // frames that came without a kernel timestamp (when rx times were asked for)
 };
 ReadResult read_can_frames(int fd, std::span<can_frame> frames, FrameBatch& batch, std::string& error);
+// The same, and rx_realtime_ns[i] (rx_realtime_ns.size() >= frames.size()) gets frame i's kernel
+// receive time (see enable_rx_timestamps), or no_rx_timestamp when its message carried none.
+ReadResult read_can_frames(int fd, std::span<can_frame> frames, std::span<std::int64_t> rx_realtime_ns,
+                           FrameBatch& batch, std::string& error);
+
+// Asks the kernel to timestamp every frame fd receives (SO_TIMESTAMPNS, CLOCK_REALTIME): SocketCAN
+// stamps a frame when the interface receives it, an AF_UNIX socket when the peer sends it. The time
+// then comes as an SCM_TIMESTAMPNS control message with each message. False with `error` on failure.
+bool enable_rx_timestamps(int fd, std::string& error);
+inline constexpr std::int64_t no_rx_timestamp = INT64_MIN;
+// The SCM_TIMESTAMPNS time carried by a received message, in CLOCK_REALTIME nanoseconds, or
+// no_rx_timestamp when it has none (or its control data was truncated).
+std::int64_t rx_timestamp_ns(const msghdr& message) noexcept;
 
 // Writes one frame; false with `error` on failure (EAGAIN counts as failure: the bus is congested).
 bool write_can_frame(int fd, const can_frame& frame, std::string& error);

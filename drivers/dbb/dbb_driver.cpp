@@ -34,6 +34,13 @@ DbbSettings parse_dbb_settings(const TableReader& t) {
   s.produce_sync = t.get_choice("sync", "produce", {"produce", "listen"}) == "produce";
   s.sync_rate_hz = t.get_double("sync_rate_hz", 100.0, 0.1, 10000.0);
   s.timeout_ms = t.get_int("timeout_ms", 500, 1, 600000);
+  if (s.produce_sync && t.has("read_period_us")) {
+    t.fail("read_period_us", "applies to sync = \"listen\" only (a SYNC producer reads at its own SYNCs)");
+  }
+  s.read_period_us = t.get_int("read_period_us", default_read_period_us, 0, 100'000);
+  if (s.read_period_us * 1000 >= s.timeout_ms * 1'000'000) {
+    t.fail("read_period_us", "must be shorter than timeout_ms (" + std::to_string(s.timeout_ms) + " ms)");
+  }
   s.reconnect_min_ms = t.get_int("reconnect_min_ms", 50, 1, 600000);
   s.reconnect_max_ms = t.get_int("reconnect_max_ms", 5000, s.reconnect_min_ms, 3600000);
   for (const TableReader& e : t.tables("encoder")) {
@@ -90,21 +97,44 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
   publish(s);
 }
 
-bool DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
+std::int64_t DbbDriver::frame_time_ns(std::int64_t rx_realtime_ns, std::int64_t read_ns,
+                                      std::int64_t realtime_offset_ns) {
+  // A frame read now was queued after the previous drain found the socket empty, and before now; the
+  // kernel stamps it just before queuing it. Outside that window (with 1 ms of slack) the stamp is not
+  // this frame's on our clock: the real-time clock was stepped between stamp and read.
+  constexpr std::int64_t slack_ns = 1'000'000;
+  if (rx_realtime_ns != can::no_rx_timestamp) {
+    const std::int64_t t = rx_realtime_ns - realtime_offset_ns;
+    if (t >= prev_read_ns_ - slack_ns && t <= read_ns + slack_ns) return std::min(t, read_ns);
+  }
+  untimed_frames_.fetch_add(1, std::memory_order_relaxed);
+  return read_ns;
+}
+
+std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
   std::array<can_frame, 32> frames{};
+  std::array<std::int64_t, 32> rx_realtime_ns{};
   std::string error;
-  bool any = false;
+  std::size_t records = 0;
   for (;;) {
+    const std::int64_t read_start = mono_now_ns();
     can::FrameBatch batch;
-    const can::ReadResult r = can::read_can_frames(fd, frames, batch, error);
+    const can::ReadResult r = can::read_can_frames(fd, frames, rx_realtime_ns, batch, error);
     if (r == can::ReadResult::closed) ended = "connection closed by the bus";
     if (r == can::ReadResult::error) ended = error;
-    if (r != can::ReadResult::frame) return any;
-    any = true;
+    if (r != can::ReadResult::frame) {
+      prev_read_ns_ = read_start;
+      return records;
+    }
+    const std::int64_t read_ns = mono_now_ns();
+    const std::int64_t offset_ns = realtime_minus_mono_ns();
+    records += batch.count + batch.truncated;
     bad_frames_.fetch_add(batch.truncated, std::memory_order_relaxed);
-    const std::int64_t now = mono_now_ns();
-    for (std::size_t i = 0; i < batch.count; ++i) handle_frame(frames[i], now, decoder);
-    if (batch.count + batch.truncated < frames.size()) return any;  // the queue is empty
+    for (std::size_t i = 0; i < batch.count; ++i) {
+      handle_frame(frames[i], frame_time_ns(rx_realtime_ns[i], read_ns, offset_ns), decoder);
+    }
+    prev_read_ns_ = read_start;
+    if (batch.count + batch.truncated < frames.size()) return records;  // the queue is empty
   }
 }
 
@@ -130,15 +160,66 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t now, DbbDecoder& d
   }
 }
 
+void DbbDriver::note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder& decoder) {
+  timeouts_.fetch_add(1, std::memory_order_relaxed);
+  set_state(drivers::DeviceState::lost, "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
+  silent_ = true;
+  last_rx = now;       // count one timeout per silent period
+  decoder.mark_gap();  // what comes next follows a gap
+}
+
+std::string DbbDriver::serve_batched(const std::stop_token& stop, int fd, DbbDecoder& decoder) {
+  // Read, then rest for read_period_us while frames queue up in the socket (each keeps its kernel
+  // receive time, so the SYNC's time is exact however late it is read), then read again. A read that
+  // finds nothing waits for the next frame instead, so a slow or silent bus costs no periodic
+  // wake-ups: at high SYNC rates one wake-up per period, at low rates about two per cycle, and a frame
+  // waits at most read_period_us in the socket.
+  const std::int64_t period_ns = settings_.read_period_us * 1000;
+  const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
+  std::int64_t last_rx = mono_now_ns();
+  std::int64_t read_at = last_rx;  // next read
+  while (!stop.stop_requested()) {
+    std::int64_t now = mono_now_ns();
+    if (now >= read_at) {
+      std::string ended;
+      const std::size_t got = drain(fd, decoder, ended);
+      if (!ended.empty()) return ended;  // EOF comes after every queued frame was read
+      now = mono_now_ns();
+      if (got > 0) {
+        last_rx = now;
+        read_at = now + period_ns;
+      } else if (now - last_rx >= timeout_ns) {
+        note_silence(now, last_rx, decoder);
+      }
+    }
+    const bool resting = now < read_at;
+    const std::int64_t wait_ns =
+        std::clamp<std::int64_t>(resting ? read_at - now : last_rx + timeout_ns - now, 0, 1'000'000'000);
+    const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000), static_cast<long>(wait_ns % 1'000'000'000)};
+    // Resting: events 0, so only hang-up and errors end the wait early (and are read at once).
+    pollfd fds[2] = {{fd, static_cast<short>(resting ? 0 : POLLIN), 0}, {wake_fd_, POLLIN, 0}};
+    const int pr = ::ppoll(fds, 2, &ts, nullptr);
+    if (pr < 0 && errno != EINTR) return std::string("ppoll: ") + std::strerror(errno);
+    if (fds[1].revents & POLLIN) return {};
+    if (fds[0].revents & POLLNVAL) return "poll: invalid descriptor";
+    if (pr > 0 && (fds[0].revents & (POLLIN | POLLHUP | POLLERR))) read_at = mono_now_ns();
+  }
+  return {};
+}
+
 std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& decoder) {
+  silent_ = false;
+  prev_read_ns_ = mono_now_ns();
+  std::string error;
+  // Kernel receive times for every frame (SocketCAN and AF_UNIX sockets support them); should a
+  // socket refuse, every frame gets the time it is read, counted in untimed_frames.
+  (void)can::enable_rx_timestamps(fd, error);
+  if (!settings_.produce_sync && settings_.read_period_us > 0) return serve_batched(stop, fd, decoder);
   const std::int64_t period_ns =
       settings_.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)) : 0;
   const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
   std::int64_t next_sync = mono_now_ns();
   std::int64_t last_rx = mono_now_ns();
-  silent_ = false;
-  std::string error;
-  std::array<can_frame, 32> frames{};
   // Short SYNC periods: wake once per cycle, at the SYNC, and read the previous cycle's PDOs then
   // (the sample is published up to one period later, <= 500 us). Longer periods also wake for the
   // PDOs, so a sample never waits a long period. A wake-up costs far more than the system calls.
@@ -149,7 +230,7 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       // Frames already queued were on the bus before this SYNC: consume them first, so a cycle's
       // last PDO waiting in the socket is not cut off by our own next SYNC.
       std::string ended;
-      if (drain(fd, decoder, ended)) last_rx = mono_now_ns();
+      if (drain(fd, decoder, ended) > 0) last_rx = mono_now_ns();
       if (!ended.empty()) return ended;  // EOF comes after every queued frame was read
       now = mono_now_ns();
       const can_frame sync = make_sync_frame();
@@ -175,35 +256,14 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
     if (fds[1].revents & POLLIN) return {};
     if (pr <= 0) {
       now = mono_now_ns();
-      if (now - last_rx >= timeout_ns) {
-        timeouts_.fetch_add(1, std::memory_order_relaxed);
-        set_state(drivers::DeviceState::lost, "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
-        silent_ = true;
-        last_rx = now;       // count one timeout per silent period
-        decoder.mark_gap();  // what comes next follows a gap
-      }
+      if (now - last_rx >= timeout_ns) note_silence(now, last_rx, decoder);
       continue;
     }
     if (fds[0].revents & POLLNVAL) return "poll: invalid descriptor";
     // Every frame queued (a whole cycle's PDOs usually arrive together): one recvmmsg, one wake-up.
-    can::FrameBatch batch;
-    const can::ReadResult r = can::read_can_frames(fd, frames, batch, error);
-    now = mono_now_ns();
-    switch (r) {
-      case can::ReadResult::frame:
-        last_rx = now;
-        bad_frames_.fetch_add(batch.truncated, std::memory_order_relaxed);
-        for (std::size_t i = 0; i < batch.count; ++i) handle_frame(frames[i], now, decoder);
-        break;
-      case can::ReadResult::closed:
-        return "connection closed by the bus";  // EOF comes after every queued frame was read
-      case can::ReadResult::error:
-        return error;
-      case can::ReadResult::timeout:    // readable, yet nothing queued (spurious): wait again
-      case can::ReadResult::woken:      // not asked for
-      case can::ReadResult::truncated:  // counted in the batch
-        break;
-    }
+    std::string ended;
+    if (drain(fd, decoder, ended) > 0) last_rx = mono_now_ns();
+    if (!ended.empty()) return ended;  // EOF comes after every queued frame was read
   }
   return {};
 }

@@ -13,10 +13,17 @@
 
 namespace guideway::dbb {
 
+// Listen mode's read period: a sample waits at most this in the socket, then at most the pipeline's
+// 400 us coalescing step, so p99 sample-to-publish stays under 1 ms with ~300 us left for scheduling.
+inline constexpr std::int64_t default_read_period_us = 300;
+
 struct DbbSettings {
   can::CanEndpoint endpoint;           // can:IFNAME or unix:PATH
   bool produce_sync = true;            // true: we are the SYNC producer; false: listen only
   double sync_rate_hz = 100.0;         // when producing SYNC
+  // sync = "listen": read the bus at most once per read_period_us (frames keep their kernel receive
+  // times); 0: wake for every frame arrival. See docs/protocols.md for the default.
+  std::int64_t read_period_us = default_read_period_us;
   std::int64_t timeout_ms = 500;       // silence after which the device is "lost" (one timeout counted per period)
   std::int64_t reconnect_min_ms = 50;  // backoff doubles from min to max between failed connects
   std::int64_t reconnect_max_ms = 5000;
@@ -41,6 +48,11 @@ class DbbDriver : public drivers::Driver {
   [[nodiscard]] std::uint64_t partial_cycles() const noexcept {
     return partial_cycles_.load(std::memory_order_relaxed);
   }
+  // Frames whose kernel receive timestamp was missing or implausible (a clock step): they got the
+  // time they were read instead.
+  [[nodiscard]] std::uint64_t untimed_frames() const noexcept {
+    return untimed_frames_.load(std::memory_order_relaxed);
+  }
   [[nodiscard]] const DbbSettings& settings() const noexcept { return settings_; }
 
  protected:
@@ -50,18 +62,27 @@ class DbbDriver : public drivers::Driver {
  private:
   // Serves one connection until it fails or stop is requested; returns the reason it ended.
   std::string serve(const std::stop_token& stop, int fd, DbbDecoder& decoder);
+  // serve() for sync = "listen" with read_period_us > 0: reads in batches, at most once per period.
+  std::string serve_batched(const std::stop_token& stop, int fd, DbbDecoder& decoder);
   void publish_cycle(const DbbCycle& cycle);
-  // Consumes every frame already queued, without waiting; true if any. `ended` gets the reason when the
-  // bus closed or failed meanwhile (in one-wake-per-cycle mode this is where EOF and errors are seen).
-  bool drain(int fd, DbbDecoder& decoder, std::string& ended);
+  // No frame for timeout_ms: one timeout, state lost, the next cycle flagged after a gap.
+  void note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder& decoder);
+  // Consumes every frame already queued, without waiting, each at its kernel receive time; returns the
+  // number of records read. `ended` gets the reason when the bus closed or failed meanwhile.
+  std::size_t drain(int fd, DbbDecoder& decoder, std::string& ended);
+  // A frame's kernel receive time (CLOCK_REALTIME) on the monotonic clock, or `read_ns` when it has
+  // none or it lies outside what the read could have seen (counted in untimed_frames).
+  std::int64_t frame_time_ns(std::int64_t rx_realtime_ns, std::int64_t read_ns, std::int64_t realtime_offset_ns);
   void handle_frame(const can_frame& frame, std::int64_t t_ns, DbbDecoder& decoder);
 
   DbbSettings settings_;
   CanConnector connector_;
   int wake_fd_ = -1;
   bool silent_ = false;  // driver thread: lost/bus-off until the next sample
+  std::int64_t prev_read_ns_ = 0;  // driver thread: when the previous drain() started
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> partial_cycles_{0};
+  std::atomic<std::uint64_t> untimed_frames_{0};
 };
 
 void register_dbb_driver(drivers::DriverRegistry& registry);
