@@ -28,6 +28,12 @@ struct Pair {
   CanSocket a, b;
 };
 
+std::int64_t realtime_ns() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
 can_frame frame(canid_t id, std::uint8_t dlc, std::uint8_t fill) {
   can_frame f{};
   f.can_id = id;
@@ -139,11 +145,25 @@ TEST(CanIo, RealVcanRoundTripWhereTheKernelHasAfCan) {
                  << " type vcan && ip link set up " << name << "`): " << err;
   CanSocket b = open_socketcan(name, err);
   ASSERT_TRUE(b.valid()) << err;
+  ASSERT_TRUE(enable_rx_timestamps(b.fd(), err)) << err;
+  const std::int64_t before = realtime_ns();
   ASSERT_TRUE(write_can_frame(a.fd(), frame(0x185, 4, 3), err)) << err;
   can_frame f{};
   ASSERT_EQ(read_can_frame(b.fd(), f, 1000, -1, err), ReadResult::frame) << err;
   EXPECT_EQ(f.can_id, 0x185u);
   EXPECT_EQ(f.data[0], 3);
+  // SocketCAN stamps at reception: the batch read gets the time with the frame.
+  ASSERT_TRUE(write_can_frame(a.fd(), frame(0x186, 4, 4), err)) << err;
+  std::array<can_frame, 4> frames{};
+  std::array<std::int64_t, 4> rx{};
+  FrameBatch batch;
+  ASSERT_TRUE(guideway::test::eventually([&] {
+    return read_can_frames(b.fd(), frames, rx, batch, err) == ReadResult::frame;
+  }));
+  ASSERT_EQ(batch.count, 1u);
+  EXPECT_EQ(batch.untimed, 0u);
+  EXPECT_GE(rx[0], before);
+  EXPECT_LE(rx[0], realtime_ns());
 }
 
 TEST(CanIo, OpeningSocketCanWithoutAfCanSaysWhy) {
@@ -199,4 +219,92 @@ TEST(CanIo, ABatchReadSeesEofOnlyAfterEveryQueuedFrameAlsoAfterAReset) {
   }
   EXPECT_EQ(got, 5u);
   EXPECT_EQ(r, ReadResult::closed) << err;
+}
+
+// SO_TIMESTAMPNS on an AF_UNIX SEQPACKET socket: the kernel stamps each frame when the peer sends it,
+// so frames read together keep the times they were sent apart.
+TEST(CanIo, ABatchReadGivesEachFrameItsKernelReceiveTime) {
+  Pair p;
+  std::string err;
+  ASSERT_TRUE(enable_rx_timestamps(p.b.fd(), err)) << err;
+  std::array<std::int64_t, 3> before{}, after{};
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (i > 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    before[i] = realtime_ns();
+    ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x181, 4, static_cast<std::uint8_t>(i)), err)) << err;
+    after[i] = realtime_ns();
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  std::array<can_frame, 8> frames{};
+  std::array<std::int64_t, 8> rx{};
+  FrameBatch batch;
+  ASSERT_EQ(read_can_frames(p.b.fd(), frames, rx, batch, err), ReadResult::frame);
+  ASSERT_EQ(batch.count, 3u);
+  EXPECT_EQ(batch.untimed, 0u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(frames[i].data[0], i);
+    EXPECT_GE(rx[i], before[i]) << i;
+    EXPECT_LE(rx[i], after[i]) << i << ": stamped at the send, not at the read";
+  }
+  EXPECT_GE(rx[2] - rx[1], 5'000'000);
+  // Truncated records are counted as before and take no timestamp slot.
+  const can_frame good = frame(0x182, 4, 1);
+  ASSERT_TRUE(write_can_record(p.a.fd(), &good, 9, err));
+  ASSERT_TRUE(write_can_frame(p.a.fd(), good, err));
+  ASSERT_EQ(read_can_frames(p.b.fd(), frames, rx, batch, err), ReadResult::frame);
+  EXPECT_EQ(batch.truncated, 1u);
+  ASSERT_EQ(batch.count, 1u);
+  EXPECT_NE(rx[0], no_rx_timestamp);
+  // Too few timestamp slots is a caller's error, not an overflow.
+  std::array<std::int64_t, 2> few{};
+  EXPECT_EQ(read_can_frames(p.b.fd(), frames, few, batch, err), ReadResult::error);
+  EXPECT_NE(err.find("timestamp"), std::string::npos) << err;
+}
+
+TEST(CanIo, WithoutKernelTimestampsFramesAreReadAndCountedUntimed) {
+  Pair p;
+  std::string err;
+  for (std::uint8_t i = 0; i < 4; ++i) ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x181, 4, i), err));
+  std::array<can_frame, 8> frames{};
+  std::array<std::int64_t, 8> rx{};
+  FrameBatch batch;
+  ASSERT_EQ(read_can_frames(p.b.fd(), frames, rx, batch, err), ReadResult::frame);
+  ASSERT_EQ(batch.count, 4u);
+  EXPECT_EQ(batch.untimed, 4u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_EQ(rx[i], no_rx_timestamp) << i;
+  // Without timestamp slots nothing is asked for, so nothing is counted.
+  ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x181, 4, 9), err));
+  ASSERT_EQ(read_can_frames(p.b.fd(), frames, batch, err), ReadResult::frame);
+  EXPECT_EQ(batch.count, 1u);
+  EXPECT_EQ(batch.untimed, 0u);
+}
+
+TEST(CanIo, TheTimestampControlMessageIsFoundAmongOthersAndOnlyWhenWhole) {
+  alignas(cmsghdr) unsigned char control[CMSG_SPACE(sizeof(ucred)) + CMSG_SPACE(sizeof(timespec))] = {};
+  msghdr m{};
+  EXPECT_EQ(rx_timestamp_ns(m), no_rx_timestamp) << "no control data";
+  m.msg_control = control;
+  m.msg_controllen = sizeof control;
+  // First a credentials message (another SOL_SOCKET type), then the timestamp.
+  cmsghdr* c = CMSG_FIRSTHDR(&m);
+  c->cmsg_level = SOL_SOCKET;
+  c->cmsg_type = SCM_CREDENTIALS;
+  c->cmsg_len = CMSG_LEN(sizeof(ucred));
+  EXPECT_EQ(rx_timestamp_ns(m), no_rx_timestamp) << "only credentials";
+  c = CMSG_NXTHDR(&m, c);
+  ASSERT_NE(c, nullptr);
+  c->cmsg_level = SOL_SOCKET;
+  c->cmsg_type = SCM_TIMESTAMPNS;
+  c->cmsg_len = CMSG_LEN(sizeof(timespec));
+  const timespec ts{1'763'700'000, 123'456'789};
+  std::memcpy(CMSG_DATA(c), &ts, sizeof ts);
+  EXPECT_EQ(rx_timestamp_ns(m), 1'763'700'000'123'456'789);
+  m.msg_flags = MSG_CTRUNC;
+  EXPECT_EQ(rx_timestamp_ns(m), no_rx_timestamp) << "truncated control data is not trusted";
+  m.msg_flags = 0;
+  c->cmsg_len = CMSG_LEN(sizeof(timespec) - 4);
+  EXPECT_EQ(rx_timestamp_ns(m), no_rx_timestamp) << "a short timestamp message";
+  c->cmsg_len = CMSG_LEN(sizeof(timespec));
+  c->cmsg_level = SOL_SOCKET + 1;
+  EXPECT_EQ(rx_timestamp_ns(m), no_rx_timestamp) << "same type, other level";
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <cmath>
 #include <deque>
 
@@ -27,13 +28,17 @@ std::vector<dbb::EncoderScale> three_encoders() {
   return e;
 }
 
+emulators::DbbSource circle_source() { return emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6); }
+
 struct Bench {
   explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
-                 emulators::DbbSource source = emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6))
+                 emulators::DbbSource source = circle_source(),
+                 std::int64_t read_period_us = dbb::default_read_period_us)
       : emu({three_encoders(), !driver_produces_sync, rate_hz}, std::move(source)) {
     dbb::DbbSettings s;
     s.produce_sync = driver_produces_sync;
     s.sync_rate_hz = rate_hz;
+    s.read_period_us = read_period_us;
     s.timeout_ms = timeout_ms;
     s.reconnect_min_ms = 10;
     s.reconnect_max_ms = 100;
@@ -177,9 +182,85 @@ TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircles) {
 }
 
 TEST(DbbDriver, ListenOnlyFollowsTheControllersSync) {
-  Bench b(false, 250.0);
-  ASSERT_TRUE(b.wait_samples(100));
+  for (const std::int64_t read_period_us : {std::int64_t{0}, dbb::default_read_period_us}) {
+    SCOPED_TRACE(read_period_us == 0 ? "a wake-up per frame" : "batched reads");
+    Bench b(false, 250.0, 150, circle_source(), read_period_us);
+    ASSERT_TRUE(b.wait_samples(100));
+    b.stop_and_check_all();
+    EXPECT_EQ(b.driver->untimed_frames(), 0u) << "every frame carries its kernel receive time";
+  }
+}
+
+// Listen mode reading in batches (the default read period) at 1 kHz and 10 kHz emulated SYNC: every
+// cycle the emulator sent is one sample, none lost, none merged, in order, at its own SYNC time.
+TEST(DbbDriver, ListenBatchedDeliversEveryCycleAt1kAnd10kHz) {
+  for (const double rate_hz : {1000.0, 10000.0}) {
+    SCOPED_TRACE(rate_hz);
+    Bench b(false, rate_hz);
+    ASSERT_TRUE(b.wait_samples(rate_hz > 5000 ? 3000 : 500));
+    b.stop_and_check_all();
+    EXPECT_EQ(b.driver->status().counters.bad_frames, 0u);
+    EXPECT_EQ(b.driver->untimed_frames(), 0u);
+    // A batch holds several cycles, yet each sample has its own SYNC's time: strictly increasing.
+    for (std::size_t i = 1; i < b.samples.size(); ++i) {
+      ASSERT_GT(b.samples[i].t_mono_ns, b.samples[i - 1].t_mono_ns) << i;
+    }
+  }
+}
+
+// The proof that samples carry the kernel's receive time of their SYNC, not the read time: reads every
+// 20 ms at 1 kHz SYNC (~20 cycles per read). With read-time stamps the median error would be ~10 ms
+// and a read's cycles would share one time.
+TEST(DbbDriver, ListenBatchedSamplesCarryTheSyncsKernelReceiveTime) {
+  constexpr std::int64_t read_period_us = 20'000;
+  Bench b(false, 1000.0, 150, circle_source(), read_period_us);
+  ASSERT_TRUE(b.wait_samples(300));
   b.stop_and_check_all();
+  const auto log = b.emu.log();
+  std::vector<emulators::DbbSentCycle> sent;
+  for (const auto& c : log) {
+    if (c.sent_mask != 0) sent.push_back(c);
+  }
+  ASSERT_EQ(sent.size(), b.samples.size());
+  std::vector<std::int64_t> error_ns;
+  for (std::size_t i = 0; i < sent.size(); ++i) error_ns.push_back(b.samples[i].t_mono_ns - sent[i].t_mono_ns);
+  std::vector<std::int64_t> sorted = error_ns;
+  std::sort(sorted.begin(), sorted.end());
+  const std::int64_t median = sorted[sorted.size() / 2];
+  const std::int64_t p90 = sorted[sorted.size() * 9 / 10];
+  // The emulator takes its time just before the write; the kernel stamps at the write.
+  EXPECT_GE(sorted.front(), -50'000) << "a sample time before the SYNC was sent";
+  EXPECT_LT(median, 200'000) << "median sample time - SYNC send time, ns";
+  EXPECT_LT(p90, 2'000'000) << "90th percentile, ns (read period " << read_period_us << " us)";
+  EXPECT_EQ(b.driver->untimed_frames(), 0u);
+}
+
+TEST(DbbDriver, FrameTimeIsTheKernelStampOnTheMonotonicClockOrTheReadTime) {
+  const std::int64_t offset = 1'700'000'000'000'000'000;  // realtime - monotonic
+  const std::int64_t earliest = 5'000'000'000, read = 5'020'000'000;
+  // A stamp inside the window: converted.
+  auto t = dbb::frame_time(offset + 5'010'000'000, offset, earliest, read);
+  EXPECT_TRUE(t.from_kernel);
+  EXPECT_EQ(t.t_ns, 5'010'000'000);
+  // No control message: the read time, flagged.
+  t = dbb::frame_time(can::no_rx_timestamp, offset, earliest, read);
+  EXPECT_FALSE(t.from_kernel);
+  EXPECT_EQ(t.t_ns, read);
+  // The real-time clock was stepped by +2 s between stamp and read (the offset sampled at the read
+  // is 2 s larger): the stamp lands before the window, so the read time is used.
+  t = dbb::frame_time(offset + 5'010'000'000, offset + 2'000'000'000, earliest, read);
+  EXPECT_FALSE(t.from_kernel);
+  EXPECT_EQ(t.t_ns, read);
+  // Stepped back by 2 s: after the read, likewise.
+  t = dbb::frame_time(offset + 5'010'000'000, offset - 2'000'000'000, earliest, read);
+  EXPECT_FALSE(t.from_kernel);
+  // Within the 1 ms slack: accepted, never later than the read.
+  t = dbb::frame_time(offset + read + 300'000, offset, earliest, read);
+  EXPECT_TRUE(t.from_kernel);
+  EXPECT_EQ(t.t_ns, read);
+  t = dbb::frame_time(offset + earliest - 300'000, offset, earliest, read);
+  EXPECT_TRUE(t.from_kernel);
+  EXPECT_EQ(t.t_ns, earliest - 300'000);
 }
 
 TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
@@ -366,6 +447,34 @@ TEST(DbbDriver, ConfigErrorsNameFileLineAndKey) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("sync"), std::string::npos) << e.what();
   }
+  const std::string encoder = "[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 1\n";
+  const struct {
+    std::string body;
+    std::string line;
+    std::string why;
+  } bad_periods[] = {
+      {"bus = \"unix:/x\"\nsync = \"listen\"\nread_period_us = -5\n", "bad.toml:6", "outside"},
+      {"bus = \"unix:/x\"\nsync = \"listen\"\nread_period_us = 1000000\n", "bad.toml:6", "outside"},
+      {"bus = \"unix:/x\"\nsync = \"listen\"\nread_period_us = 2.5\n", "bad.toml:6", "read_period_us"},
+      {"bus = \"unix:/x\"\nsync = \"listen\"\ntimeout_ms = 10\nread_period_us = 10000\n", "bad.toml:7",
+       "shorter than timeout_ms"},
+      {"bus = \"unix:/x\"\nsync = \"produce\"\nread_period_us = 300\n", "bad.toml:6", "listen"},
+  };
+  for (const auto& bad : bad_periods) {
+    try {
+      create(bad.body + encoder);
+      ADD_FAILURE() << "accepted: " << bad.body;
+    } catch (const ConfigError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(bad.line), std::string::npos) << what;
+      EXPECT_NE(what.find("read_period_us"), std::string::npos) << what;
+      EXPECT_NE(what.find(bad.why), std::string::npos) << what;
+    }
+  }
+  // Accepted: 0 (a wake-up per frame) and the largest period below the timeout.
+  EXPECT_NO_THROW(create("bus = \"unix:/x\"\nsync = \"listen\"\nread_period_us = 0\n" + encoder));
+  EXPECT_NO_THROW(
+      create("bus = \"unix:/x\"\nsync = \"listen\"\ntimeout_ms = 10\nread_period_us = 9999\n" + encoder));
 }
 
 TEST(DbbDriver, StartsAgainAfterStop) {

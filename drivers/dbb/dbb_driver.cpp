@@ -65,6 +65,17 @@ DbbSettings parse_dbb_settings(const TableReader& t) {
   return s;
 }
 
+FrameTime frame_time(std::int64_t rx_realtime_ns, std::int64_t realtime_offset_ns, std::int64_t earliest_ns,
+                     std::int64_t read_ns) noexcept {
+  // The kernel stamps a frame just before queuing it; 1 ms of slack covers a sender descheduled
+  // between the two and the conversion's own jitter.
+  constexpr std::int64_t slack_ns = 1'000'000;
+  if (rx_realtime_ns == can::no_rx_timestamp) return {read_ns, false};
+  const std::int64_t t = rx_realtime_ns - realtime_offset_ns;
+  if (t < earliest_ns - slack_ns || t > read_ns + slack_ns) return {read_ns, false};
+  return {std::min(t, read_ns), true};
+}
+
 DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector)
     : Driver(std::move(name), "dbb-can", channels_of(settings), ring_capacity),
       settings_(std::move(settings)),
@@ -97,20 +108,6 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
   publish(s);
 }
 
-std::int64_t DbbDriver::frame_time_ns(std::int64_t rx_realtime_ns, std::int64_t read_ns,
-                                      std::int64_t realtime_offset_ns) {
-  // A frame read now was queued after the previous drain found the socket empty, and before now; the
-  // kernel stamps it just before queuing it. Outside that window (with 1 ms of slack) the stamp is not
-  // this frame's on our clock: the real-time clock was stepped between stamp and read.
-  constexpr std::int64_t slack_ns = 1'000'000;
-  if (rx_realtime_ns != can::no_rx_timestamp) {
-    const std::int64_t t = rx_realtime_ns - realtime_offset_ns;
-    if (t >= prev_read_ns_ - slack_ns && t <= read_ns + slack_ns) return std::min(t, read_ns);
-  }
-  untimed_frames_.fetch_add(1, std::memory_order_relaxed);
-  return read_ns;
-}
-
 std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
   std::array<can_frame, 32> frames{};
   std::array<std::int64_t, 32> rx_realtime_ns{};
@@ -131,10 +128,14 @@ std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
     records += batch.count + batch.truncated;
     bad_frames_.fetch_add(batch.truncated, std::memory_order_relaxed);
     for (std::size_t i = 0; i < batch.count; ++i) {
-      handle_frame(frames[i], frame_time_ns(rx_realtime_ns[i], read_ns, offset_ns), decoder);
+      const FrameTime t = frame_time(rx_realtime_ns[i], offset_ns, prev_read_ns_, read_ns);
+      if (!t.from_kernel) untimed_frames_.fetch_add(1, std::memory_order_relaxed);
+      handle_frame(frames[i], t.t_ns, decoder);
     }
-    prev_read_ns_ = read_start;
-    if (batch.count + batch.truncated < frames.size()) return records;  // the queue is empty
+    if (batch.count + batch.truncated < frames.size()) {  // the queue is empty
+      prev_read_ns_ = read_start;
+      return records;
+    }
   }
 }
 
@@ -209,7 +210,6 @@ std::string DbbDriver::serve_batched(const std::stop_token& stop, int fd, DbbDec
 
 std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& decoder) {
   silent_ = false;
-  prev_read_ns_ = mono_now_ns();
   std::string error;
   // Kernel receive times for every frame (SocketCAN and AF_UNIX sockets support them); should a
   // socket refuse, every frame gets the time it is read, counted in untimed_frames.
@@ -279,6 +279,7 @@ void DbbDriver::run(std::stop_token stop) {
   bool connected_once = false;
   while (!stop.stop_requested()) {
     std::string error;
+    prev_read_ns_ = mono_now_ns();  // no frame on this connection was received before it was opened
     can::CanSocket sock = connector_(error);
     if (!sock.valid()) {
       set_state(connected_once ? drivers::DeviceState::lost : drivers::DeviceState::error,

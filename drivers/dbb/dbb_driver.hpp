@@ -33,6 +33,19 @@ struct DbbSettings {
 // Reads the settings from a [[device]] table (every accepted key; errors carry file:line:key).
 DbbSettings parse_dbb_settings(const TableReader& table);
 
+// When a frame was received, on the monotonic clock: its kernel receive time `rx_realtime_ns`
+// (CLOCK_REALTIME, can::no_rx_timestamp if none) minus `realtime_offset_ns` (realtime_minus_mono_ns()
+// sampled at the read). A frame read at `read_ns` was queued after `earliest_ns` (the previous read
+// found the socket empty); a stamp outside [earliest_ns, read_ns] by more than 1 ms is not this
+// frame's time on our clock (the real-time clock was stepped between stamp and read), and a frame
+// without one gets `read_ns` too, with from_kernel false.
+struct FrameTime {
+  std::int64_t t_ns = 0;
+  bool from_kernel = false;
+};
+FrameTime frame_time(std::int64_t rx_realtime_ns, std::int64_t realtime_offset_ns, std::int64_t earliest_ns,
+                     std::int64_t read_ns) noexcept;
+
 // Opens the bus; tests substitute one that hands out socketpair ends.
 using CanConnector = std::function<can::CanSocket(std::string& error)>;
 
@@ -70,16 +83,13 @@ class DbbDriver : public drivers::Driver {
   // Consumes every frame already queued, without waiting, each at its kernel receive time; returns the
   // number of records read. `ended` gets the reason when the bus closed or failed meanwhile.
   std::size_t drain(int fd, DbbDecoder& decoder, std::string& ended);
-  // A frame's kernel receive time (CLOCK_REALTIME) on the monotonic clock, or `read_ns` when it has
-  // none or it lies outside what the read could have seen (counted in untimed_frames).
-  std::int64_t frame_time_ns(std::int64_t rx_realtime_ns, std::int64_t read_ns, std::int64_t realtime_offset_ns);
   void handle_frame(const can_frame& frame, std::int64_t t_ns, DbbDecoder& decoder);
 
   DbbSettings settings_;
   CanConnector connector_;
   int wake_fd_ = -1;
   bool silent_ = false;  // driver thread: lost/bus-off until the next sample
-  std::int64_t prev_read_ns_ = 0;  // driver thread: when the previous drain() started
+  std::int64_t prev_read_ns_ = 0;  // driver thread: when a read last found the socket empty
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};

@@ -134,6 +134,7 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
   if (!send_faults(fd, batch)) return;
   DbbSentCycle c;
   c.t_s = static_cast<double>(now - t0_ns_) * 1e-9;
+  c.t_mono_ns = now;
   c.truth_m.assign(settings_.encoders.size(), 0.0);
   c.counts.assign(settings_.encoders.size(), 0);
   source_(c.t_s, c.truth_m);

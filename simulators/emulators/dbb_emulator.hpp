@@ -33,6 +33,7 @@ struct DbbEmulatorSettings {
 // One cycle the emulator put on the bus.
 struct DbbSentCycle {
   double t_s = 0;
+  std::int64_t t_mono_ns = 0;         // CLOCK_MONOTONIC just before the cycle was written
   std::uint32_t sent_mask = 0;        // bit i: encoder i's PDO was sent
   std::vector<double> truth_m;        // the source's positions
   std::vector<std::uint32_t> counts;  // the counts sent
