@@ -50,9 +50,25 @@ def mono_ns():
     return time.clock_gettime_ns(time.CLOCK_MONOTONIC)
 
 
+# Who produces the DBB's SYNC (--dbb-sync): "produce" = guidewayd at sync_rate_hz; "listen" = the
+# emulator, like a CNC controller, and the driver reads in batches every DBB_READ_PERIOD_US (None:
+# the driver's default).
+DBB_SYNC = "listen"
+DBB_READ_PERIOD_US = None
+
+
+def dbb_toml(rate_hz):
+    """The DBB emulator's arguments and the device's SYNC keys for DBB_SYNC."""
+    if DBB_SYNC == "produce":
+        return "", f'sync = "produce"\nsync_rate_hz = {rate_hz}'
+    keys = 'sync = "listen"' + ("" if DBB_READ_PERIOD_US is None else f"\nread_period_us = {DBB_READ_PERIOD_US}")
+    return f', "--sync", "produce", "--sync-rate-hz", "{rate_hz}"', keys
+
+
 def config_toml(rt, state, rates, publish_hz, client_queue_bytes):
     """A guidewayd config with the four emulators at the given per-instrument rates (Hz)."""
     ac_period_ms = max(1, round(1000.0 / rates["autocollimator"]))
+    dbb_args, dbb_sync = dbb_toml(rates["dbb"])
     return f"""
 [daemon]
 socket = "{rt}/guideway.sock"
@@ -65,14 +81,13 @@ client_queue_bytes = {client_queue_bytes}
 [[emulator]]
 name = "can"
 instrument = "dbb"
-args = ["--bus", "unix:{{runtime_dir}}/can-bus.sock", "--program", "lai", "--feed-mm-min", "5000", "--pause-s", "1"]
+args = ["--bus", "unix:{{runtime_dir}}/can-bus.sock", "--program", "lai", "--feed-mm-min", "5000", "--pause-s", "1"{dbb_args}]
 
 [[device]]
 name = "dbb"
 driver = "dbb-can"
 bus = "emulator:can"
-sync = "produce"
-sync_rate_hz = {rates["dbb"]}
+{dbb_sync}
   [[device.encoder]]
   channel = "bar_length"
   node_id = 1
@@ -391,7 +406,7 @@ def step_rates(nominal_hz):
 def run_step(build, nominal_hz, step_s, warmup_s):
     """A rate step twice: publishing every pipeline batch (latency), and at the default 10 Hz (CPU)."""
     rates = step_rates(nominal_hz)
-    return {"nominal_hz": nominal_hz, "rates_hz": rates,
+    return {"nominal_hz": nominal_hz, "rates_hz": rates, "dbb_sync": DBB_SYNC, "dbb_read_period_us": DBB_READ_PERIOD_US,
             "all": measure(build, rates, 100000, step_s, warmup_s),
             "default": measure(build, rates, 10, step_s, warmup_s)}
 
@@ -528,6 +543,11 @@ def fmt(x, digits=0):
     return "n/a" if x is None or x != x else f"{x:.{digits}f}"
 
 
+def step_label(s):
+    """A step's rate, with the DBB's SYNC mode when both modes ran."""
+    return f"{s['nominal_hz']:g}" + (f" {s['dbb_sync']}" if s.get("both_dbb_sync") else "")
+
+
 def print_tables(res):
     m = res["machine"]
     print(f"Machine: {m['cpus']} CPUs, {m['model']}, kernel {m['kernel']}, {m['time']}")
@@ -538,7 +558,7 @@ def print_tables(res):
     for s in res["steps"]:
         for name, d in s["default"]["devices"].items():
             a = s["all"]["devices"][name]
-            print(f"| {s['nominal_hz']:g} | {name} | {s['rates_hz'][name]:g} | {d['rate_hz']:.0f} | "
+            print(f"| {step_label(s)} | {name} | {s['rates_hz'][name]:g} | {d['rate_hz']:.0f} | "
                   + " | ".join(str(d[k] + a[k]) for k in ("overruns", "ring_drops", "seq_gaps", "bad_frames", "timeouts"))
                   + " |")
     for f in res.get("failed_steps", []):
@@ -551,7 +571,7 @@ def print_tables(res):
         d, a = s["default"], s["all"]
         mem = d["mem_kib"]
         emus = ", ".join(f"{k[:4]} {v:.0f}" for k, v in d["emulators_cpu_pct"].items())
-        print(f"| {s['nominal_hz']:g} | {d['total_rate_hz']:.0f} | {d['cpu_pct']:.1f} | {d['cpu_pct_per_khz']:.2f} | "
+        print(f"| {step_label(s)} | {d['total_rate_hz']:.0f} | {d['cpu_pct']:.1f} | {d['cpu_pct_per_khz']:.2f} | "
               f"{a['cpu_pct']:.1f} | {a['published'] / a['duration_s']:.0f} | {fmt(a['latency_us']['median'])} | "
               f"{fmt(a['latency_us']['p99'])} | {fmt(a['latency_us']['max'])} | {fmt(a['pipeline_latency_max_us'])} | "
               f"{mem.get('VmRSS', 0) / 1024:.1f} ({mem.get('VmHWM', 0) / 1024:.1f}) | {emus} | {a['loadavg_1min']:.1f} |")
@@ -562,7 +582,7 @@ def print_tables(res):
     print("|---|---|" + "---:|" * (len(names) + 1))
     for s in res["steps"]:
         th = s["default"]["cpu_pct_threads"]
-        row = f"| {s['nominal_hz']:g} | {' / '.join(str(x) for x in th)} |"
+        row = f"| {step_label(s)} | {' / '.join(str(x) for x in th)} |"
         if len(th) == len(names) + 3:  # main, helper, the devices in config order, pipeline
             order = ["dbb", "autocollimator", "micrometer", "profilometer"]
             for k in names:
@@ -581,15 +601,44 @@ def print_tables(res):
             if not sc:
                 continue
             per = sum(sc) / d["total_rate_hz"] if d["total_rate_hz"] else float("nan")
-            print(f"| {s['nominal_hz']:g} | {d['total_rate_hz']:.0f} | {per:.2f} | "
+            print(f"| {step_label(s)} | {d['total_rate_hz']:.0f} | {per:.2f} | "
                   + " / ".join(f"{a} ({b})" for a, b in zip(sc, cs)) + " |")
     print()
     print("| step | " + " | ".join(f"{k} median / p99 us" for k in CEILING_HZ) + " |")
     print("|---|" + "---:|" * len(CEILING_HZ))
     for s in res["steps"]:
         by = s["all"]["latency_us_by_device"]
-        print(f"| {s['nominal_hz']:g} | " + " | ".join(f"{fmt(by[k]['median'])} / {fmt(by[k]['p99'])}"
+        print(f"| {step_label(s)} | " + " | ".join(f"{fmt(by[k]['median'])} / {fmt(by[k]['p99'])}"
                                                    for k in CEILING_HZ) + " |")
+    modes = {}
+    for s in res["steps"]:
+        modes.setdefault(s["nominal_hz"], {})[s.get("dbb_sync", "produce")] = s
+    pairs = [(hz, m["listen"], m["produce"]) for hz, m in modes.items() if "listen" in m and "produce" in m]
+    if pairs:
+        print("\nDBB: SYNC produced by the emulator (driver listens, batched reads) against produced by guidewayd, "
+              "same run; ratio = listen / produce\n")
+        print("| step | dbb Hz listen / produce | dbb thread % listen / produce (ratio) | % per 1 k/s listen / produce |"
+              " context switches/s listen / produce (ratio) | system calls/s listen / produce |"
+              " guidewayd CPU % listen / produce | dbb latency median us listen / produce | dbb p99 us listen / produce |"
+              " all-device p99 us listen / produce |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for hz, ls, ps in pairs:
+            def dbb(s):
+                d = s["default"]
+                th, sc, cs = d["cpu_pct_threads"], d.get("syscalls_per_s_threads"), d.get("cswitches_per_s_threads")
+                rate = d["devices"]["dbb"]["rate_hz"]
+                pct = th[2] if len(th) == len(CEILING_HZ) + 3 else float("nan")
+                return {"rate": rate, "pct": pct, "per_k": pct / (rate / 1000.0) if rate else float("nan"),
+                        "cs": cs[2] if cs else float("nan"), "sc": sc[2] if sc else float("nan"),
+                        "cpu": d["cpu_pct"], "lat": s["all"]["latency_us_by_device"]["dbb"],
+                        "p99_all": s["all"]["latency_us"]["p99"]}
+            a, b = dbb(ls), dbb(ps)
+            ratio = lambda x, y: fmt(x / y, 2) if y else "n/a"  # noqa: E731
+            print(f"| {hz:g} | {a['rate']:.0f} / {b['rate']:.0f} | {fmt(a['pct'], 1)} / {fmt(b['pct'], 1)} "
+                  f"({ratio(a['pct'], b['pct'])}) | {fmt(a['per_k'], 2)} / {fmt(b['per_k'], 2)} | "
+                  f"{fmt(a['cs'])} / {fmt(b['cs'])} ({ratio(a['cs'], b['cs'])}) | {fmt(a['sc'])} / {fmt(b['sc'])} | "
+                  f"{a['cpu']:.1f} / {b['cpu']:.1f} | {fmt(a['lat']['median'])} / {fmt(b['lat']['median'])} | "
+                  f"{fmt(a['lat']['p99'])} / {fmt(b['lat']['p99'])} | {fmt(a['p99_all'])} / {fmt(b['p99_all'])} |")
     if res.get("clients"):
         c = res["clients"]
         print(f"\nClients: {c['readers']} reading clients at step {c['nominal_hz']:g} Hz, sample_publish_hz "
@@ -638,12 +687,17 @@ def main():
     ap.add_argument("--clients-s", type=float, default=10.0, help="seconds per client phase")
     ap.add_argument("--clients-queue-bytes", type=int, default=65536, help="client_queue_bytes in the client phase")
     ap.add_argument("--readers", type=int, default=99, help="reading clients (the silent one makes 100)")
+    ap.add_argument("--dbb-sync", choices=("listen", "produce", "both"), default="listen",
+                    help="who produces the DBB's SYNC: the emulator (the driver listens, reading in batches), "
+                         "guidewayd, or each step once per mode")
+    ap.add_argument("--dbb-read-period-us", type=int, help="dbb-can read_period_us in listen mode (default: the driver's)")
     ap.add_argument("--json", help="write the raw results here")
     ap.add_argument("--syscalls", action="store_true",
                     help="also count system calls and context switches per guidewayd thread (perf stat; root or "
                          "perf_event_paranoid <= 1) in the publish-10-Hz run")
     args = ap.parse_args()
-    global COUNT_SYSCALLS
+    global COUNT_SYSCALLS, DBB_SYNC, DBB_READ_PERIOD_US
+    DBB_READ_PERIOD_US = args.dbb_read_period_us
     if args.syscalls and shutil.which("perf") is None:
         sys.exit("daemon_load: --syscalls needs perf (Debian package linux-perf; scripts/setup.sh installs it)")
     COUNT_SYSCALLS = args.syscalls
@@ -651,12 +705,15 @@ def main():
         sys.exit(f"daemon_load: {args.build}/daemon/guidewayd not found (build the guideway_runtime target)")
     res = {"machine": machine(), "load_before": loadavg(), "steps": []}
     for r in (float(x) for x in args.rates.split(",")):
-        print(f"step {r:g} Hz ...", file=sys.stderr, flush=True)
-        try:
-            res["steps"].append(run_step(args.build, r, args.step_s, args.warmup_s))
-        except (RuntimeError, OSError, TimeoutError) as e:  # report the step, go on with the next
-            print(f"  step {r:g} Hz failed: {e}", file=sys.stderr)
-            res.setdefault("failed_steps", []).append({"nominal_hz": r, "error": str(e)})
+        for DBB_SYNC in (("listen", "produce") if args.dbb_sync == "both" else (args.dbb_sync,)):
+            print(f"step {r:g} Hz (dbb sync {DBB_SYNC}) ...", file=sys.stderr, flush=True)
+            try:
+                res["steps"].append(run_step(args.build, r, args.step_s, args.warmup_s))
+                res["steps"][-1]["both_dbb_sync"] = args.dbb_sync == "both"
+            except (RuntimeError, OSError, TimeoutError) as e:  # report the step, go on with the next
+                print(f"  step {r:g} Hz failed: {e}", file=sys.stderr)
+                res.setdefault("failed_steps", []).append({"nominal_hz": r, "dbb_sync": DBB_SYNC, "error": str(e)})
+    DBB_SYNC = "listen" if args.dbb_sync == "both" else args.dbb_sync  # the client phase
     if args.clients_hz > 0:
         print("clients ...", file=sys.stderr, flush=True)
         res["clients"] = run_clients(args.build, args.clients_hz, args.clients_publish_hz, args.clients_s,
