@@ -113,6 +113,7 @@ std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
   std::array<std::int64_t, 32> rx_realtime_ns{};
   std::string error;
   std::size_t records = 0;
+  bus_reads_.fetch_add(1, std::memory_order_relaxed);
   for (;;) {
     const std::int64_t read_start = mono_now_ns();
     can::FrameBatch batch;
@@ -139,11 +140,15 @@ std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
   }
 }
 
-void DbbDriver::handle_frame(const can_frame& f, std::int64_t now, DbbDecoder& decoder) {
+void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& decoder) {
   frames_.fetch_add(1, std::memory_order_relaxed);
   DbbCycle cycle;
-  const auto res = decoder.feed(f, now, cycle);
+  const auto res = decoder.feed(f, t_ns, cycle);
   if (res.info.kind == FrameInfo::Kind::bad) bad_frames_.fetch_add(1, std::memory_order_relaxed);
+  if (res.info.kind == FrameInfo::Kind::sync) {
+    if (last_sync_ns_ != 0) sync_period_ns_ = t_ns - last_sync_ns_;
+    last_sync_ns_ = t_ns;
+  }
   if (res.info.kind == FrameInfo::Kind::error_frame) {
     error_frames_.fetch_add(1, std::memory_order_relaxed);
     bad_frames_.fetch_add(1, std::memory_order_relaxed);
@@ -172,9 +177,11 @@ void DbbDriver::note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder
 std::string DbbDriver::serve_batched(const std::stop_token& stop, int fd, DbbDecoder& decoder) {
   // Read, then rest for read_period_us while frames queue up in the socket (each keeps its kernel
   // receive time, so the SYNC's time is exact however late it is read), then read again. A read that
-  // finds nothing waits for the next frame instead, so a slow or silent bus costs no periodic
-  // wake-ups: at high SYNC rates one wake-up per period, at low rates about two per cycle, and a frame
-  // waits at most read_period_us in the socket.
+  // finds nothing waits for the next frame instead, so a silent bus costs no periodic wake-ups. When
+  // SYNCs come further apart than the period and the read completed its cycle, there is nothing to
+  // batch: wait for the next SYNC at once. So at high SYNC rates one wake-up per period, at low rates
+  // about one per cycle (more if a cycle's PDOs trickle in), and a frame waits at most
+  // read_period_us in the socket.
   const std::int64_t period_ns = settings_.read_period_us * 1000;
   const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
   std::int64_t last_rx = mono_now_ns();
@@ -188,7 +195,8 @@ std::string DbbDriver::serve_batched(const std::stop_token& stop, int fd, DbbDec
       now = mono_now_ns();
       if (got > 0) {
         last_rx = now;
-        read_at = now + period_ns;
+        const bool slow_bus = sync_period_ns_ > period_ns && !decoder.cycle_pending();
+        read_at = slow_bus ? now : now + period_ns;
       } else if (now - last_rx >= timeout_ns) {
         note_silence(now, last_rx, decoder);
       }
@@ -210,6 +218,8 @@ std::string DbbDriver::serve_batched(const std::stop_token& stop, int fd, DbbDec
 
 std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& decoder) {
   silent_ = false;
+  last_sync_ns_ = 0;
+  sync_period_ns_ = 0;
   std::string error;
   // Kernel receive times for every frame (SocketCAN and AF_UNIX sockets support them); should a
   // socket refuse, every frame gets the time it is read, counted in untimed_frames.

@@ -66,6 +66,9 @@ class DbbDriver : public drivers::Driver {
   [[nodiscard]] std::uint64_t untimed_frames() const noexcept {
     return untimed_frames_.load(std::memory_order_relaxed);
   }
+  // Reads of the bus (each takes every queued frame): in listen mode with read_period_us > 0 about
+  // one per wake-up.
+  [[nodiscard]] std::uint64_t bus_reads() const noexcept { return bus_reads_.load(std::memory_order_relaxed); }
   [[nodiscard]] const DbbSettings& settings() const noexcept { return settings_; }
 
  protected:
@@ -93,6 +96,9 @@ class DbbDriver : public drivers::Driver {
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
+  std::atomic<std::uint64_t> bus_reads_{0};
+  std::int64_t last_sync_ns_ = 0;    // driver thread: receive time of the newest SYNC (0: none yet)
+  std::int64_t sync_period_ns_ = 0;  // driver thread: between the last two SYNCs received
 };
 
 void register_dbb_driver(drivers::DriverRegistry& registry);

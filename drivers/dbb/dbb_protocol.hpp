@@ -94,6 +94,8 @@ class DbbDecoder {
   // Unwrapping continues (the encoders kept counting) unless reset_counts is set.
   void resync(bool reset_counts = false);
 
+  // A cycle is open and still waits for PDOs (it was not emitted yet).
+  [[nodiscard]] bool cycle_pending() const noexcept { return open_ && !emitted_; }
   [[nodiscard]] const std::vector<EncoderScale>& encoders() const noexcept { return encoders_; }
   [[nodiscard]] std::uint64_t missed_pdos() const noexcept { return missed_pdos_; }
   [[nodiscard]] std::uint64_t missed_syncs() const noexcept { return missed_syncs_; }
