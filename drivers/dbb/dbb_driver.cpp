@@ -122,6 +122,7 @@ std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
     if (r == can::ReadResult::error) ended = error;
     if (r != can::ReadResult::frame) {
       prev_read_ns_ = read_start;
+      if (records == 0) empty_reads_.fetch_add(1, std::memory_order_relaxed);
       return records;
     }
     const std::int64_t read_ns = mono_now_ns();

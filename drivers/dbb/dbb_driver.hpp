@@ -69,6 +69,8 @@ class DbbDriver : public drivers::Driver {
   // Reads of the bus (each takes every queued frame): in listen mode with read_period_us > 0 about
   // one per wake-up.
   [[nodiscard]] std::uint64_t bus_reads() const noexcept { return bus_reads_.load(std::memory_order_relaxed); }
+  // Reads that found the socket empty (a rest that ended with nothing queued, a spurious wake-up).
+  [[nodiscard]] std::uint64_t empty_reads() const noexcept { return empty_reads_.load(std::memory_order_relaxed); }
   [[nodiscard]] const DbbSettings& settings() const noexcept { return settings_; }
 
  protected:
@@ -97,6 +99,7 @@ class DbbDriver : public drivers::Driver {
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
   std::atomic<std::uint64_t> bus_reads_{0};
+  std::atomic<std::uint64_t> empty_reads_{0};
   std::int64_t last_sync_ns_ = 0;    // driver thread: receive time of the newest SYNC (0: none yet)
   std::int64_t sync_period_ns_ = 0;  // driver thread: between the last two SYNCs received
 };
