@@ -70,6 +70,11 @@ void Driver::publish(Sample sample) noexcept {
   if (Doorbell* bell = doorbell_.load(std::memory_order_acquire)) bell->ring();
 }
 
+void Driver::skip_samples(std::uint64_t n) noexcept {
+  next_seq_ += n;
+  samples_.store(next_seq_, std::memory_order_relaxed);
+}
+
 bool Driver::sleep_for(const std::stop_token& stop, std::chrono::nanoseconds d) {
   std::mutex m;
   std::condition_variable_any cv;

@@ -86,6 +86,9 @@ class Driver {
   void set_state(DeviceState state, std::string reason = {});
   // Assigns the sequence number and pushes; a full ring counts an overrun (the sample is dropped).
   void publish(Sample sample) noexcept;
+  // n samples the instrument took that never reached the driver (its own buffer lapped): their
+  // sequence numbers are skipped, so the pipeline counts them in seq_gaps and `samples` includes them.
+  void skip_samples(std::uint64_t n) noexcept;
   // Sleeps for d unless stop is requested first; returns false when stopping.
   static bool sleep_for(const std::stop_token& stop, std::chrono::nanoseconds d);
 

@@ -1,5 +1,6 @@
 # Micrometer (Modbus TCP/RTU) and profilometer (TCP stream, profile files): parsers, drivers, emulators.
 guideway_add_test(modbus_register_map_test SOURCES modbus_register_map_test.cpp LIBS guideway_modbus)
+guideway_add_test(modbus_sample_ring_test SOURCES modbus_sample_ring_test.cpp LIBS guideway_modbus)
 guideway_add_test(micrometer_modbus_test SOURCES micrometer_modbus_test.cpp
   LIBS guideway_micrometer guideway_micrometer_emulator LABELS integration TIMEOUT 180)
 guideway_add_test(profilometer_stream_test SOURCES profilometer_stream_test.cpp LIBS guideway_profilometer)

@@ -1,6 +1,7 @@
 #include "drivers/micrometer/micrometer_driver.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "core/mono_clock.hpp"
@@ -10,17 +11,46 @@ namespace guideway::micrometer {
 MicrometerConfig parse_micrometer_config(const TableReader& t) {
   MicrometerConfig c;
   c.endpoint = modbus::parse_endpoint(t);
-  if (auto regs = t.table("registers")) {
-    c.map = modbus::parse_register_map(*regs);
-    regs->reject_unknown_keys();
+  if (auto buffer = t.table("buffer")) {
+    if (t.has("registers")) {
+      t.fail("buffer", "[device.buffer] (buffered mode) and [device.registers] (polled mode) exclude each other");
+    }
+    if (t.has("poll_hz")) t.fail("poll_hz", "buffered mode ([device.buffer]) polls every poll_period_ms, not poll_hz");
+    c.buffer = modbus::parse_sample_ring(*buffer);
+    buffer->reject_unknown_keys();
+    c.poll_period_ms = t.get_double("poll_period_ms", default_buffer_poll_period_ms, 0.1, 60000.0);
+    // Half the ring is left for a late poll (a retried request, a busy machine) before samples are lost.
+    const double per_poll = c.poll_period_ms * 1e-3 * c.buffer->sample_rate_hz;
+    if (per_poll > c.buffer->ring_samples / 2.0) {
+      t.fail("poll_period_ms", "the amplifier takes " + std::to_string(per_poll) + " samples per poll, more than half its ring (" +
+                                   std::to_string(c.buffer->ring_samples) + " samples): poll faster");
+    }
+  } else {
+    if (auto regs = t.table("registers")) {
+      c.map = modbus::parse_register_map(*regs);
+      regs->reject_unknown_keys();
+    }
+    if (t.has("poll_period_ms")) t.fail("poll_period_ms", "only in buffered mode ([device.buffer]); polled mode uses poll_hz");
+    c.poll_hz = t.get_double("poll_hz", 50.0, 0.01, 10000.0);
   }
-  c.poll_hz = t.get_double("poll_hz", 50.0, 0.01, 10000.0);
   c.lost_after_failures = static_cast<int>(t.get_int("lost_after_failures", 3, 1, 1000));
   c.backoff_initial = std::chrono::milliseconds(t.get_int("backoff_initial_ms", 100, 1, 600000));
   c.backoff_max = std::chrono::milliseconds(t.get_int("backoff_max_ms", 5000, 1, 3600000));
   if (c.backoff_max < c.backoff_initial) t.fail("backoff_max_ms", "must not be less than backoff_initial_ms");
   return c;
 }
+
+// Where buffered mode stands; kept across reconnects, so samples taken during a short outage are
+// fetched from the amplifier's ring afterwards.
+struct MicrometerDriver::RingCursor {
+  explicit RingCursor(double rate_hz) : anchor(rate_hz, 1'000'000'000) {}
+  modbus::CounterTracker counter;
+  modbus::TimeAnchor anchor;   // sample number -> CLOCK_MONOTONIC, from the last second of counter reads
+  std::uint64_t next = 0;      // the next sample number to publish
+  std::int64_t last_query_ns = 0;  // when the last good counter read was sent
+  std::int64_t last_t_ns = std::numeric_limits<std::int64_t>::min();  // published timestamps only increase
+  bool gap = false;            // the next published sample follows lost ones
+};
 
 MicrometerDriver::MicrometerDriver(std::string name, MicrometerConfig config, std::size_t ring_capacity)
     : Driver(std::move(name), "micrometer-modbus", {{"displacement", "m"}}, ring_capacity),
@@ -30,13 +60,10 @@ MicrometerDriver::~MicrometerDriver() { stop(); }
 
 void MicrometerDriver::run(std::stop_token stop) {
   modbus::ModbusClient client(config_.endpoint);
-  const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / config_.poll_hz));
-  const std::uint16_t start = config_.map.block_start();
-  const std::uint16_t count = config_.map.block_count();
-  std::vector<std::uint16_t> block(count);
   auto backoff = config_.backoff_initial;
   bool ever_connected = false;
-  bool gap = false;  // the next sample follows a reconnect or a failed poll
+  bool gap = false;  // polled mode: the next sample follows a reconnect or a failed poll
+  RingCursor cursor(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
 
   while (!stop.stop_requested()) {
     set_state(drivers::DeviceState::connecting);
@@ -53,51 +80,188 @@ void MicrometerDriver::run(std::stop_token stop) {
     }
     ever_connected = true;
     set_state(drivers::DeviceState::streaming);
-    int failures = 0;
-    std::string last_failure;
-    auto next = std::chrono::steady_clock::now();
-    while (!stop.stop_requested()) {
-      client.flush();  // stray or duplicated answers must not be taken for the next one
-      const modbus::ReadResult r = client.read(config_.map.function, start, count, block);
-      const std::int64_t t = mono_now_ns();
-      if (r.status == modbus::ReadStatus::ok) {
-        frames_.fetch_add(1, std::memory_order_relaxed);
-        const modbus::Reading reading = modbus::decode_registers(config_.map, block);
-        Sample s;
-        s.t_mono_ns = t;
-        s.value_count = 1;
-        s.value[0] = reading.value_m;
-        s.flags = reading.flags | (gap ? sample_after_gap : 0u);
-        publish(s);
-        gap = false;
-        failures = 0;
-        backoff = config_.backoff_initial;
-      } else if (r.status == modbus::ReadStatus::disconnected) {
-        last_failure = "disconnected: " + r.message;
-        failures = config_.lost_after_failures;
-      } else {
-        if (r.status == modbus::ReadStatus::timeout) {
-          timeouts_.fetch_add(1, std::memory_order_relaxed);
-        } else {
-          bad_frames_.fetch_add(1, std::memory_order_relaxed);
-          if (r.status == modbus::ReadStatus::exception) exceptions_.fetch_add(1, std::memory_order_relaxed);
-        }
-        last_failure = std::string(modbus::to_string(r.status)) + ": " + r.message;
-        ++failures;
-        gap = true;
-      }
-      if (failures >= config_.lost_after_failures) break;
-      next += period;
-      const auto now = std::chrono::steady_clock::now();
-      if (next < now) next = now;  // late (a timeout ate the period): poll again at once, no catch-up burst
-      if (!sleep_for(stop, next - now)) break;
-    }
+    const std::string last_failure = config_.buffer ? stream_buffered(stop, client, backoff, cursor)
+                                                    : stream_polled(stop, client, backoff, gap);
     client.close();
     if (stop.stop_requested()) break;
     set_state(drivers::DeviceState::lost, last_failure);
     if (!sleep_for(stop, backoff)) break;
     backoff = std::min(backoff * 2, config_.backoff_max);
   }
+}
+
+std::string MicrometerDriver::stream_polled(const std::stop_token& stop, modbus::ModbusClient& client,
+                                            std::chrono::milliseconds& backoff, bool& gap) {
+  const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / config_.poll_hz));
+  const std::uint16_t start = config_.map.block_start();
+  const std::uint16_t count = config_.map.block_count();
+  std::vector<std::uint16_t> block(count);
+  int failures = 0;
+  std::string last_failure;
+  auto next = std::chrono::steady_clock::now();
+  while (!stop.stop_requested()) {
+    client.flush();  // stray or duplicated answers must not be taken for the next one
+    const modbus::ReadResult r = client.read(config_.map.function, start, count, block);
+    const std::int64_t t = mono_now_ns();
+    if (r.status == modbus::ReadStatus::ok) {
+      frames_.fetch_add(1, std::memory_order_relaxed);
+      const modbus::Reading reading = modbus::decode_registers(config_.map, block);
+      Sample s;
+      s.t_mono_ns = t;
+      s.value_count = 1;
+      s.value[0] = reading.value_m;
+      s.flags = reading.flags | (gap ? sample_after_gap : 0u);
+      publish(s);
+      gap = false;
+      failures = 0;
+      backoff = config_.backoff_initial;
+    } else if (r.status == modbus::ReadStatus::disconnected) {
+      last_failure = "disconnected: " + r.message;
+      failures = config_.lost_after_failures;
+    } else {
+      if (r.status == modbus::ReadStatus::timeout) {
+        timeouts_.fetch_add(1, std::memory_order_relaxed);
+      } else {
+        bad_frames_.fetch_add(1, std::memory_order_relaxed);
+        if (r.status == modbus::ReadStatus::exception) exceptions_.fetch_add(1, std::memory_order_relaxed);
+      }
+      last_failure = std::string(modbus::to_string(r.status)) + ": " + r.message;
+      ++failures;
+      gap = true;
+    }
+    if (failures >= config_.lost_after_failures) break;
+    next += period;
+    const auto now = std::chrono::steady_clock::now();
+    if (next < now) next = now;  // late (a timeout ate the period): poll again at once, no catch-up burst
+    if (!sleep_for(stop, next - now)) break;
+  }
+  return last_failure;
+}
+
+void MicrometerDriver::lose(RingCursor& cursor, std::uint64_t n) noexcept {
+  if (n == 0) return;
+  ring_overruns_.fetch_add(1, std::memory_order_relaxed);
+  lost_samples_.fetch_add(n, std::memory_order_relaxed);
+  skip_samples(n);
+  cursor.gap = true;
+}
+
+std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbus::ModbusClient& client,
+                                              std::chrono::milliseconds& backoff, RingCursor& cursor) {
+  const modbus::SampleRingMap& ring = *config_.buffer;
+  const double rate = ring.sample_rate_hz;
+  const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(config_.poll_period_ms * 1e6));
+  std::vector<std::uint16_t> block(125);
+  std::vector<modbus::Reading> readings(ring.samples_per_request());
+  int failures = 0;
+  std::string last_failure;
+  bool link_gone = false;
+  // One failed request: counted, and the poll ends (the next poll asks again: reads are idempotent).
+  auto failed = [&](const modbus::ReadResult& r) {
+    if (r.status == modbus::ReadStatus::disconnected) {
+      last_failure = "disconnected: " + r.message;
+      link_gone = true;
+      return;
+    }
+    if (r.status == modbus::ReadStatus::timeout) {
+      timeouts_.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      bad_frames_.fetch_add(1, std::memory_order_relaxed);
+      if (r.status == modbus::ReadStatus::exception) exceptions_.fetch_add(1, std::memory_order_relaxed);
+    }
+    last_failure = std::string(modbus::to_string(r.status)) + ": " + r.message;
+    ++failures;
+  };
+  // Reads the counter; false when the request failed. Handles the first read and device restarts.
+  auto read_counter = [&]() -> bool {
+    const std::int64_t t_query = mono_now_ns();
+    const modbus::ReadResult r = client.read(ring.function, ring.counter_address, 2, block);
+    const std::int64_t t_answer = mono_now_ns();
+    if (r.status != modbus::ReadStatus::ok) {
+      failed(r);
+      return false;
+    }
+    frames_.fetch_add(1, std::memory_order_relaxed);
+    const double elapsed_s = static_cast<double>(t_answer - cursor.last_query_ns) * 1e-9;
+    const auto step = cursor.counter.update(modbus::decode_counter(ring, block[0], block[1]), elapsed_s, rate);
+    cursor.last_query_ns = t_query;
+    const std::uint64_t count = cursor.counter.count();
+    if (step != modbus::CounterTracker::Step::advanced) {
+      // Start at the newest sample (first read), or after a restart of the amplifier: what it took
+      // before is not in this count, so it cannot be fetched or numbered; the next sample says so.
+      if (step == modbus::CounterTracker::Step::reset) {
+        counter_resets_.fetch_add(1, std::memory_order_relaxed);
+        cursor.gap = true;
+      }
+      cursor.next = count;
+      cursor.anchor.reset(count > 0 ? count - 1 : 0);
+    }
+    cursor.anchor.observe(t_answer, count);
+    return true;
+  };
+
+  auto wake = std::chrono::steady_clock::now();
+  while (!stop.stop_requested()) {
+    client.flush();  // a late answer to a failed request must not be taken for this one
+    bool ok = read_counter();
+    if (ok) {
+      const std::uint64_t count = cursor.counter.count();
+      if (const std::uint64_t oldest = modbus::oldest_intact(ring, count); cursor.next < oldest) {
+        lose(cursor, oldest - cursor.next);  // the ring lapped since the last poll
+        cursor.next = oldest;
+      }
+      const std::int64_t t_counter = cursor.last_query_ns;
+      for (const modbus::RingRead& rr : modbus::plan_ring_reads(ring, cursor.next, count)) {
+        const modbus::ReadResult r = client.read(ring.function, rr.address, rr.count, block);
+        if (r.status != modbus::ReadStatus::ok) {
+          failed(r);
+          ok = false;
+          break;
+        }
+        frames_.fetch_add(1, std::memory_order_relaxed);
+        modbus::decode_ring_block(ring, rr, block, readings);
+        // Samples near the ring's tail may have been overwritten while the requests were under way:
+        // bound how far the amplifier can have got, and when that reaches them, ask it.
+        std::uint64_t first = rr.first;
+        const double since_s = static_cast<double>(mono_now_ns() - t_counter) * 1e-9;
+        const auto could = count + static_cast<std::uint64_t>(rate * since_s * 1.05 + 2.0);
+        if (modbus::oldest_intact(ring, could) > first) {
+          if (!read_counter()) {
+            ok = false;
+            break;
+          }
+          const std::uint64_t intact = modbus::oldest_intact(ring, cursor.counter.count());
+          if (cursor.next != rr.first) break;  // the amplifier restarted: start again at the next poll
+          if (intact > first) {
+            lose(cursor, std::min<std::uint64_t>(intact, rr.first + rr.samples) - first);
+            first = std::min<std::uint64_t>(intact, rr.first + rr.samples);
+          }
+        }
+        for (std::uint64_t k = first; k < rr.first + rr.samples; ++k) {
+          const modbus::Reading& reading = readings[k - rr.first];
+          Sample s;
+          s.t_mono_ns = std::max(cursor.anchor.time_ns(k), cursor.last_t_ns + 1);
+          cursor.last_t_ns = s.t_mono_ns;
+          s.value_count = 1;
+          s.value[0] = reading.value_m;
+          s.flags = reading.flags | (cursor.gap ? sample_after_gap : 0u);
+          cursor.gap = false;
+          publish(s);
+        }
+        cursor.next = rr.first + rr.samples;
+      }
+    }
+    if (link_gone || failures >= config_.lost_after_failures) break;
+    if (ok) {
+      failures = 0;
+      backoff = config_.backoff_initial;
+    }
+    wake += period;
+    const auto now = std::chrono::steady_clock::now();
+    if (wake < now) wake = now;  // late: poll again at once (the ring holds what arrived meanwhile)
+    if (!sleep_for(stop, wake - now)) break;
+  }
+  return last_failure;
 }
 
 void register_micrometer_driver(drivers::DriverRegistry& registry) {

@@ -24,6 +24,9 @@ struct MicrometerArgs {
   double probe_radius_mm = 500.0;  // rim of a 1000 mm plate: the runout session's default plate_diameter_mm
   std::size_t samples_per_rev = 360;
   std::size_t revolutions = 10;
+  double ring_rate_hz = 10000.0;  // the sample ring (docs/protocols.md, "Buffered acquisition")
+  std::uint32_t ring_samples = 4096;
+  std::uint32_t ring_counter_start = 0;
 };
 
 int run_micrometer(const MicrometerArgs& a) {
@@ -36,6 +39,17 @@ int run_micrometer(const MicrometerArgs& a) {
 
   MicrometerEmulator::Options options;
   options.unit_id = a.unit_id;
+  if (a.ring_rate_hz > 0.0) {
+    modbus::SampleRingMap ring;  // counter at 100-101, slots of int32 + status from 200
+    ring.sample_rate_hz = a.ring_rate_hz;
+    ring.ring_samples = a.ring_samples;
+    if (const std::string why = ring.validate(); !why.empty()) {
+      std::cerr << "guideway-emulate micrometer: sample ring: " << why << "\n";
+      return 2;
+    }
+    options.ring = ring;
+    options.ring_counter_start = a.ring_counter_start;
+  }
   std::string error;
   try {
     const sim::Machine machine(a.machine_file.empty() ? sim::default_machine_config()
@@ -101,6 +115,17 @@ void add_micrometer(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   sub->add_option("--samples-per-rev", args->samples_per_rev, "model samples per revolution")->capture_default_str();
   sub->add_option("--revolutions", args->revolutions, "revolutions computed (then repeated)")->capture_default_str();
+  sub->add_option("--ring-rate-hz", args->ring_rate_hz,
+                  "sample rate of the sample ring (counter at input/holding registers 100-101, int32 + status "
+                  "slots from 200; 0: no ring)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
+  sub->add_option("--ring-samples", args->ring_samples, "slots in the sample ring")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 21778));
+  sub->add_option("--ring-counter-start", args->ring_counter_start,
+                  "the counter's first value (e.g. 4294967000 to see it wrap)")
+      ->capture_default_str();
   sub->callback([args, sub, &exit_code] {
     if (args->tcp.empty() && !args->rtu) throw CLI::RequiredError("--tcp HOST:PORT or --rtu");
     (void)sub;

@@ -10,6 +10,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -112,8 +113,45 @@ bool modbus_fault_from_string(std::string_view s, ModbusFault& out) noexcept {
 
 MicrometerEmulator::MicrometerEmulator(Options options) : options_(std::move(options)) {
   const modbus::RegisterMap& m = options_.map;
-  mapping_ =
-      modbus_mapping_new_start_address(0, 0, 0, 0, m.block_start(), m.block_count(), m.block_start(), m.block_count());
+  std::uint32_t start = m.block_start();
+  std::uint32_t end = start + m.block_count();
+  if (const auto& ring = options_.ring) {
+    start = std::min({start, std::uint32_t{ring->counter_address}, std::uint32_t{ring->ring_address}});
+    end = std::max({end, ring->counter_address + 2u, ring->ring_address + ring->ring_registers()});
+  }
+  mapping_start_ = start;
+  mapping_ = modbus_mapping_new_start_address(0, 0, 0, 0, start, end - start, start, end - start);
+}
+
+std::int64_t MicrometerEmulator::ring_start_ns() const noexcept {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(t0_.time_since_epoch()).count();
+}
+
+void MicrometerEmulator::set_register(std::uint32_t address, std::uint16_t value) {
+  modbus_mapping_t* mapping = as_mapping(mapping_);
+  mapping->tab_registers[address - mapping_start_] = value;
+  mapping->tab_input_registers[address - mapping_start_] = value;
+}
+
+void MicrometerEmulator::fill_ring(double t_s) {
+  const modbus::SampleRingMap& ring = *options_.ring;
+  // Filled when asked, not on a timer: what a request sees is what a device sampling all along shows.
+  const auto taken = static_cast<std::uint64_t>(std::floor(std::max(0.0, t_s) * ring.sample_rate_hz));
+  const std::uint64_t from = std::max(ring_taken_, taken > ring.ring_samples ? taken - ring.ring_samples : 0);
+  const std::uint32_t rec = ring.record_registers();
+  for (std::uint64_t k = from; k < taken; ++k) {
+    const MicrometerPoint p = options_.source(static_cast<double>(k) / ring.sample_rate_hz);
+    std::uint16_t status = 0;
+    if (p.out_of_range) status |= ring.record.out_of_range_mask;
+    if (p.probe_missing) status |= ring.record.probe_missing_mask;
+    const std::vector<std::uint16_t> regs = modbus::encode_registers(ring.record, p.value_m, status);
+    const std::uint32_t slot = modbus::ring_slot(ring, options_.ring_counter_start + k);
+    for (std::uint32_t i = 0; i < rec; ++i) set_register(ring.ring_address + slot * rec + i, regs[i]);
+  }
+  ring_taken_ = std::max(ring_taken_, taken);
+  const auto counter = modbus::encode_counter(ring, static_cast<std::uint32_t>(options_.ring_counter_start + ring_taken_));
+  set_register(ring.counter_address, counter[0]);
+  set_register(ring.counter_address + 1u, counter[1]);
 }
 
 MicrometerEmulator::~MicrometerEmulator() {
@@ -328,10 +366,8 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
   if (point.out_of_range) status |= map.out_of_range_mask;
   if (point.probe_missing) status |= map.probe_missing_mask;
   const std::vector<std::uint16_t> block = modbus::encode_registers(map, point.value_m, status);
-  for (std::size_t i = 0; i < block.size(); ++i) {
-    mapping->tab_registers[i] = block[i];
-    mapping->tab_input_registers[i] = block[i];
-  }
+  for (std::uint32_t i = 0; i < block.size(); ++i) set_register(map.block_start() + i, block[i]);
+  if (options_.ring && options_.source) fill_ring(t_s);
   std::optional<ModbusFault> fault;
   if (line_down()) return;  // RTU: the bridge drops the answer anyway; TCP closes before reaching here
   {

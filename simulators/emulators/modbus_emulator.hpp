@@ -1,7 +1,9 @@
 #pragma once
 // An emulated inductance-micrometer gauge amplifier: a real libmodbus server (Modbus TCP on a
 // socket, or Modbus RTU on a pseudo-terminal joined to the client's pseudo-terminal by a byte
-// bridge) whose registers follow a reading source, with switchable fault injection.
+// bridge) whose registers follow a reading source, with switchable fault injection. Optionally it
+// also buffers samples taken at a fixed rate in a ring of registers with a sample counter
+// (modbus::SampleRingMap), as amplifiers and data loggers that sample faster than a master polls do.
 // Thread safe: start/stop from the owning thread; inject/disconnect_for/served from any thread.
 
 #include <atomic>
@@ -10,11 +12,13 @@
 #include <deque>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "drivers/modbus/register_map.hpp"
+#include "drivers/modbus/sample_ring.hpp"
 
 namespace guideway::emulators {
 
@@ -53,6 +57,10 @@ class MicrometerEmulator {
     modbus::RegisterMap map;
     int unit_id = 1;
     MicrometerSource source = runout_source();
+    // The sample ring: sample k (k = 0, 1, ... since start) is source(k / sample_rate_hz), taken at
+    // start + k / rate, numbered ring_counter_start + k (mod 2^32) in the counter.
+    std::optional<modbus::SampleRingMap> ring;
+    std::uint32_t ring_counter_start = 0;
   };
   explicit MicrometerEmulator(Options options);
   ~MicrometerEmulator();
@@ -72,6 +80,8 @@ class MicrometerEmulator {
   [[nodiscard]] std::vector<ServedReading> served() const;
   [[nodiscard]] std::uint64_t requests() const noexcept { return requests_.load(); }
   [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
+  // CLOCK_MONOTONIC (ns) of the start: ring sample k was taken at ring_start_ns() + k / rate.
+  [[nodiscard]] std::int64_t ring_start_ns() const noexcept;
 
  private:
   void tcp_loop(int port);
@@ -79,11 +89,15 @@ class MicrometerEmulator {
   void bridge_loop();
   void handle(const std::uint8_t* query, int length, int fd, bool rtu);
   bool line_down() const;
+  void fill_ring(double t_s);  // the ring and counter as the amplifier shows them at t_s
+  void set_register(std::uint32_t address, std::uint16_t value);
 
   Options options_;
   std::string host_;
   void* ctx_ = nullptr;      // modbus_t*
   void* mapping_ = nullptr;  // modbus_mapping_t*
+  std::uint32_t mapping_start_ = 0;
+  std::uint64_t ring_taken_ = 0;  // samples written into the ring so far (server thread)
   int listen_fd_ = -1;
   int pty_server_master_ = -1, pty_client_master_ = -1, pty_server_slave_ = -1, pty_client_slave_ = -1;
   std::atomic<bool> running_{false};
