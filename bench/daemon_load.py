@@ -15,7 +15,12 @@ Per rate step (a fresh daemon each, from a temporary TOML config):
 Then the client phase: 99 reading clients alone, then the same 99 plus one that subscribes and never
 reads; their SAMPLE counts and latencies with and without it, and when the daemon drops it.
 
+The micrometer runs in the driver's polled mode (one Modbus request per sample) or its buffered mode
+(the emulated amplifier samples at the step's rate into its register ring; the driver reads the new
+part every poll_period_ms); --micrometer polled,buffered runs every step in both, side by side.
+
 Usage: bench/daemon_load.py BUILD_DIR [--rates 1000,2000,5000,10000] [--step-s 10] [--json OUT] [--syscalls]
+       [--micrometer polled|buffered|polled,buffered] [--micrometer-poll-ms MS]
 """
 
 import argparse
@@ -63,6 +68,48 @@ def dbb_toml(rate_hz):
         return "", f'sync = "produce"\nsync_rate_hz = {rate_hz}'
     keys = 'sync = "listen"' + ("" if DBB_READ_PERIOD_US is None else f"\nread_period_us = {DBB_READ_PERIOD_US}")
     return f', "--sync", "produce", "--sync-rate-hz", "{rate_hz}"', keys
+
+
+# The micrometer's driver mode for the next daemon (--micrometer); poll_ms None = the driver's default.
+MICROMETER = {"mode": "polled", "poll_ms": None}
+
+
+def micrometer_toml(rate_hz):
+    """The micrometer's emulator and device tables in MICROMETER's mode."""
+    if MICROMETER["mode"] == "polled":
+        return f"""
+[[emulator]]
+name = "gauge"
+instrument = "micrometer"
+args = ["--tcp", "127.0.0.1:0"]
+
+[[device]]
+name = "micrometer"
+driver = "micrometer-modbus"
+transport = "tcp"
+host = "emulator:gauge:host"
+port = "emulator:gauge:port"
+poll_hz = {rate_hz}
+"""
+    poll = "" if MICROMETER["poll_ms"] is None else f"poll_period_ms = {MICROMETER['poll_ms']}\n"
+    return f"""
+[[emulator]]
+name = "gauge"
+instrument = "micrometer"
+args = ["--tcp", "127.0.0.1:0", "--ring-rate-hz", "{rate_hz}", "--ring-samples", "16384"]
+
+[[device]]
+name = "micrometer"
+driver = "micrometer-modbus"
+transport = "tcp"
+host = "emulator:gauge:host"
+port = "emulator:gauge:port"
+{poll}  [device.buffer]
+  counter_address = 100
+  ring_address = 200
+  ring_samples = 16384
+  sample_rate_hz = {rate_hz}
+"""
 
 
 def config_toml(rt, state, rates, publish_hz, client_queue_bytes):
@@ -114,19 +161,7 @@ port = "{{runtime_dir}}/autocollimator.pty"
 mode = "stream"
 stream_period_ms = {ac_period_ms}
 
-[[emulator]]
-name = "gauge"
-instrument = "micrometer"
-args = ["--tcp", "127.0.0.1:0"]
-
-[[device]]
-name = "micrometer"
-driver = "micrometer-modbus"
-transport = "tcp"
-host = "emulator:gauge:host"
-port = "emulator:gauge:port"
-poll_hz = {rates["micrometer"]}
-
+{micrometer_toml(rates["micrometer"])}
 [[emulator]]
 name = "profiler"
 instrument = "profilometer"
@@ -407,6 +442,7 @@ def run_step(build, nominal_hz, step_s, warmup_s):
     """A rate step twice: publishing every pipeline batch (latency), and at the default 10 Hz (CPU)."""
     rates = step_rates(nominal_hz)
     return {"nominal_hz": nominal_hz, "rates_hz": rates, "dbb_sync": DBB_SYNC, "dbb_read_period_us": DBB_READ_PERIOD_US,
+            "micrometer": dict(MICROMETER),
             "all": measure(build, rates, 100000, step_s, warmup_s),
             "default": measure(build, rates, 10, step_s, warmup_s)}
 
@@ -544,8 +580,51 @@ def fmt(x, digits=0):
 
 
 def step_label(s):
-    """A step's rate, with the DBB's SYNC mode when both modes ran."""
-    return f"{s['nominal_hz']:g}" + (f" {s['dbb_sync']}" if s.get("both_dbb_sync") else "")
+    """A step's rate, with the DBB's SYNC mode when both modes ran and the micrometer's mode when buffered."""
+    m = s.get("micrometer", {"mode": "polled"})
+    return (f"{s['nominal_hz']:g}" + (f" {s['dbb_sync']}" if s.get("both_dbb_sync") else "")
+            + ("" if m["mode"] == "polled" else " buffered"))
+
+
+MIC_THREAD = 4  # creation order: main, helper, dbb, autocollimator, micrometer, profilometer, pipeline
+
+
+def print_micrometer_modes(res):
+    """Polled against buffered micrometer at the same step of the same run, with ratios."""
+    pairs = {}
+    for s in res["steps"]:
+        pairs.setdefault(s["nominal_hz"], {})[s.get("micrometer", {"mode": "polled"})["mode"]] = s
+    rows = [(hz, p["polled"], p["buffered"]) for hz, p in pairs.items() if "polled" in p and "buffered" in p]
+    if not rows:
+        return
+    print("\nMicrometer polled vs buffered (same run; ratio = polled / buffered):\n")
+    print("| step | mode | micrometer Hz delivered | micrometer thread CPU % | % per 1 k/s | system calls/s | "
+          "context switches/s | guidewayd CPU % | micrometer latency median / p99 us | all devices p99 us |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+
+    def figures(s):
+        d, a = s["default"], s["all"]
+        th = d["cpu_pct_threads"]
+        sc, cs = d.get("syscalls_per_s_threads"), d.get("cswitches_per_s_threads")
+        rate = d["devices"]["micrometer"]["rate_hz"]
+        cpu = th[MIC_THREAD] if len(th) == 7 else float("nan")
+        lat = a["latency_us_by_device"]["micrometer"]
+        return {"rate": rate, "cpu": cpu, "per_k": cpu / (rate / 1000.0) if rate else float("nan"),
+                "sc": sc[MIC_THREAD] if sc and len(sc) == 7 else None,
+                "cs": cs[MIC_THREAD] if cs and len(cs) == 7 else None, "total": d["cpu_pct"],
+                "med": lat["median"], "p99": lat["p99"], "all_p99": a["latency_us"]["p99"]}
+
+    def ratio(x, y):
+        return "n/a" if x is None or y is None or not y or x != x or y != y else f"{x / y:.1f}x"
+
+    for hz, p, b in rows:
+        fp, fb = figures(p), figures(b)
+        for label, f in (("polled", fp), ("buffered", fb)):
+            print(f"| {hz:g} | {label} | {f['rate']:.0f} | {f['cpu']:.1f} | {fmt(f['per_k'], 2)} | {fmt(f['sc'])} | "
+                  f"{fmt(f['cs'])} | {f['total']:.1f} | {fmt(f['med'])} / {fmt(f['p99'])} | {fmt(f['all_p99'])} |")
+        print(f"| {hz:g} | ratio | | {ratio(fp['cpu'], fb['cpu'])} | {ratio(fp['per_k'], fb['per_k'])} | "
+              f"{ratio(fp['sc'], fb['sc'])} | {ratio(fp['cs'], fb['cs'])} | {ratio(fp['total'], fb['total'])} | "
+              f"{ratio(fp['med'], fb['med'])} / {ratio(fp['p99'], fb['p99'])} | {ratio(fp['all_p99'], fb['all_p99'])} |")
 
 
 def print_tables(res):
@@ -639,6 +718,7 @@ def print_tables(res):
                   f"{fmt(a['cs'])} / {fmt(b['cs'])} ({ratio(a['cs'], b['cs'])}) | {fmt(a['sc'])} / {fmt(b['sc'])} | "
                   f"{a['cpu']:.1f} / {b['cpu']:.1f} | {fmt(a['lat']['median'])} / {fmt(b['lat']['median'])} | "
                   f"{fmt(a['lat']['p99'])} / {fmt(b['lat']['p99'])} | {fmt(a['p99_all'])} / {fmt(b['p99_all'])} |")
+    print_micrometer_modes(res)
     if res.get("clients"):
         c = res["clients"]
         print(f"\nClients: {c['readers']} reading clients at step {c['nominal_hz']:g} Hz, sample_publish_hz "
@@ -691,6 +771,9 @@ def main():
                     help="who produces the DBB's SYNC: the emulator (the driver listens, reading in batches), "
                          "guidewayd, or each step once per mode")
     ap.add_argument("--dbb-read-period-us", type=int, help="dbb-can read_period_us in listen mode (default: the driver's)")
+    ap.add_argument("--micrometer", default="polled",
+                    help="micrometer driver mode(s) per step: polled, buffered, or polled,buffered (both, side by side)")
+    ap.add_argument("--micrometer-poll-ms", type=float, help="buffered mode's poll_period_ms (default: the driver's)")
     ap.add_argument("--json", help="write the raw results here")
     ap.add_argument("--syscalls", action="store_true",
                     help="also count system calls and context switches per guidewayd thread (perf stat; root or "
@@ -704,16 +787,24 @@ def main():
     if not os.access(f"{args.build}/daemon/guidewayd", os.X_OK):
         sys.exit(f"daemon_load: {args.build}/daemon/guidewayd not found (build the guideway_runtime target)")
     res = {"machine": machine(), "load_before": loadavg(), "steps": []}
+    modes = args.micrometer.split(",")
+    if any(m not in ("polled", "buffered") for m in modes):
+        sys.exit("daemon_load: --micrometer takes polled, buffered or polled,buffered")
+    MICROMETER["poll_ms"] = args.micrometer_poll_ms
     for r in (float(x) for x in args.rates.split(",")):
         for DBB_SYNC in (("listen", "produce") if args.dbb_sync == "both" else (args.dbb_sync,)):
-            print(f"step {r:g} Hz (dbb sync {DBB_SYNC}) ...", file=sys.stderr, flush=True)
-            try:
-                res["steps"].append(run_step(args.build, r, args.step_s, args.warmup_s))
-                res["steps"][-1]["both_dbb_sync"] = args.dbb_sync == "both"
-            except (RuntimeError, OSError, TimeoutError) as e:  # report the step, go on with the next
-                print(f"  step {r:g} Hz failed: {e}", file=sys.stderr)
-                res.setdefault("failed_steps", []).append({"nominal_hz": r, "dbb_sync": DBB_SYNC, "error": str(e)})
+            for mode in modes:
+                MICROMETER["mode"] = mode
+                print(f"step {r:g} Hz (dbb sync {DBB_SYNC}, micrometer {mode}) ...", file=sys.stderr, flush=True)
+                try:
+                    res["steps"].append(run_step(args.build, r, args.step_s, args.warmup_s))
+                    res["steps"][-1]["both_dbb_sync"] = args.dbb_sync == "both"
+                except (RuntimeError, OSError, TimeoutError) as e:  # report the step, go on with the next
+                    print(f"  step {r:g} Hz failed: {e}", file=sys.stderr)
+                    res.setdefault("failed_steps", []).append(
+                        {"nominal_hz": r, "dbb_sync": DBB_SYNC, "micrometer": mode, "error": str(e)})
     DBB_SYNC = "listen" if args.dbb_sync == "both" else args.dbb_sync  # the client phase
+    MICROMETER["mode"] = modes[0]
     if args.clients_hz > 0:
         print("clients ...", file=sys.stderr, flush=True)
         res["clients"] = run_clients(args.build, args.clients_hz, args.clients_publish_hz, args.clients_s,

@@ -340,12 +340,12 @@ class MicrometerBuffered : public ::testing::TestWithParam<BufferedCase> {};
 }  // namespace
 
 // 10 kHz on the amplifier, polled every 5 ms: every sample arrives once, 100 us apart, across a wrap
-// of the 32-bit counter (at about 0.3 s), with a power-of-two ring and one of 3000 slots (whose slot
+// of the 32-bit counter (at 0.1 s), with a power-of-two ring and one of 3000 slots (whose slot
 // sequence jumps where the counter wraps).
 TEST_P(MicrometerBuffered, DeliversEverySampleAt10kHzAcrossACounterWrap) {
-  BufferedHarness h(GetParam().rtu, GetParam().ring_samples, 0xffffffffu - 3000u, "poll_period_ms = 5\n");
+  BufferedHarness h(GetParam().rtu, GetParam().ring_samples, 0xffffffffu - 1000u, "poll_period_ms = 5\n");
   h.driver->start();
-  ASSERT_TRUE(h.wait_samples(12000));
+  ASSERT_TRUE(h.wait_samples(6000));
   h.driver->stop();
   h.drain();
   EXPECT_EQ(h.driver->lost_samples(), 0u);
@@ -355,7 +355,8 @@ TEST_P(MicrometerBuffered, DeliversEverySampleAt10kHzAcrossACounterWrap) {
   EXPECT_EQ(st.counters.timeouts + st.counters.bad_frames, 0u);
   EXPECT_LT(st.counters.frames, h.samples.size() / 10);  // tens of samples per request, not one
   EXPECT_EQ(h.samples.front().seq, 0u);
-  EXPECT_GT(BufferedHarness::number(h.samples.back()), 3000);  // the counter wrapped on the way
+  EXPECT_LT(BufferedHarness::number(h.samples.front()), 1000);  // streaming before the counter wrapped...
+  EXPECT_GT(BufferedHarness::number(h.samples.back()), 1100);   // ...and after
   h.expect_consistent(20'000'000);
   // Late by at most a poll period plus the answers' delay, here; the p99 is what the benchmark shows.
   std::vector<std::int64_t> late;
@@ -364,26 +365,26 @@ TEST_P(MicrometerBuffered, DeliversEverySampleAt10kHzAcrossACounterWrap) {
   EXPECT_LT(late[late.size() / 2], 2'000'000) << "median lateness of the timestamps";
 }
 
-// Two requests stall (100 ms each): the 256- (or 250-) sample ring, 25 ms, laps. The loss is counted,
-// its sequence numbers skipped, the next sample flagged; then streaming goes on with nothing else lost.
+// Two requests stall (250 ms each): the 2048- (or 2000-) sample ring, 0.2 s, laps. The loss is
+// counted, its sequence numbers skipped, the next sample flagged; streaming goes on.
 TEST_P(MicrometerBuffered, CountsAndFlagsALappedRing) {
-  BufferedHarness h(GetParam().rtu, GetParam().ring_samples == 4096 ? 256 : 250, 0,
-                    "poll_period_ms = 5\nresponse_timeout_ms = 100\n");
+  BufferedHarness h(GetParam().rtu, GetParam().ring_samples == 4096 ? 2048 : 2000, 0,
+                    "poll_period_ms = 5\nresponse_timeout_ms = 250\n");
   h.driver->start();
-  ASSERT_TRUE(h.wait_samples(2000));
+  ASSERT_TRUE(h.wait_samples(1000));
   h.emulator->inject(ModbusFault::stall, 2);
   const std::size_t have = h.samples.size();
-  ASSERT_TRUE(h.wait_samples(have + 4000));
+  ASSERT_TRUE(h.wait_samples(have + 3000));
   EXPECT_EQ(h.driver->status().state, drivers::DeviceState::streaming);
   h.driver->stop();
   h.drain();
-  EXPECT_EQ(h.driver->status().counters.timeouts, 2u);
-  // Once, or twice when the second stall hit a ring read after the first lap was counted.
+  EXPECT_GE(h.driver->status().counters.timeouts, 2u);
+  // Once, or twice when the second stall hit a ring read after the first lap was counted (more only
+  // if this machine stalls the driver thread for 0.2 s: counted just the same).
   EXPECT_GE(h.driver->ring_overruns(), 1u);
-  EXPECT_LE(h.driver->ring_overruns(), 2u);
-  EXPECT_GT(h.driver->lost_samples(), 1000u);  // ~2000 taken during the stall, 256 kept
-  EXPECT_LT(h.driver->lost_samples(), 2300u);
-  h.expect_consistent(300'000'000);
+  EXPECT_GE(h.driver->lost_samples(), 2900u);  // >= 5000 taken while the two requests stalled, 2000-2048 kept
+  EXPECT_LT(h.driver->lost_samples(), 20000u);
+  h.expect_consistent(1'000'000'000);
 }
 
 // The link drops for 150 ms: the driver reconnects and fetches what the amplifier took meanwhile

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/mono_clock.hpp"
+#include "core/number_format.hpp"
 
 namespace guideway::micrometer {
 
@@ -22,7 +23,9 @@ MicrometerConfig parse_micrometer_config(const TableReader& t) {
     // Half the ring is left for a late poll (a retried request, a busy machine) before samples are lost.
     const double per_poll = c.poll_period_ms * 1e-3 * c.buffer->sample_rate_hz;
     if (per_poll > c.buffer->ring_samples / 2.0) {
-      t.fail("poll_period_ms", "the amplifier takes " + std::to_string(per_poll) + " samples per poll, more than half its ring (" +
+      std::string why = "the amplifier takes ";
+      append_shortest(why, per_poll);
+      t.fail("poll_period_ms", why + " samples per poll, more than half its ring (" +
                                    std::to_string(c.buffer->ring_samples) + " samples): poll faster");
     }
   } else {
