@@ -3,6 +3,7 @@
 `guideway-emulate micrometer --rtu` (a pseudo-terminal), `guideway-emulate micrometer --tcp` and
 `guideway-emulate profilometer` processes. Faults are injected through the emulators' stdin; the
 daemon must report them (counters, lost state with a reason), reconnect and keep every device running.
+Then the micrometer's buffered mode (an amplifier's sample ring at 10 kHz) through the daemon.
 Usage: micrometer_profilometer_daemon_test.py BUILD_DIR"""
 import json
 import os
@@ -155,6 +156,66 @@ backoff_max_ms = 400
                                      and self.c.status()[name]["counters"]["reconnects"] >= 1, 8),
                             self.c.status()[name])
         self.assertIsNone(self.d.poll(), "daemon died")
+        self.d.send_signal(signal.SIGTERM)
+        self.assertEqual(self.d.wait(timeout=10), 0)
+
+
+class MicrometerBufferedDaemon(unittest.TestCase):
+    """The daemon reading an amplifier's sample ring (buffered mode) at 10 kHz over Modbus TCP: the
+    plugin keeps the rate with no sequence gap, and a ring lapped by a stalled link shows in STATUS as
+    seq_gaps while the device keeps streaming."""
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(prefix="gwmb-")
+        self.addCleanup(self.tmp.cleanup)
+        self.em = Emulator("micrometer", "--tcp", "127.0.0.1:0", "--ring-rate-hz", "10000", "--ring-samples", "4096")
+        self.addCleanup(self.em.stop)
+        host, port = self.em.address.rsplit(":", 1)
+        self.sock = os.path.join(self.tmp.name, "g.sock")
+        config = os.path.join(self.tmp.name, "g.toml")
+        with open(config, "w") as f:
+            f.write(f"""[daemon]
+status_period_s = 0.2
+[[device]]
+name = "mic"
+driver = "micrometer-modbus"
+host = "{host}"
+port = {port}
+poll_period_ms = 5
+response_timeout_ms = 400
+[device.buffer]
+counter_address = 100
+ring_address = 200
+ring_samples = 4096
+sample_rate_hz = 10000
+""")
+        self.d = subprocess.Popen([GUIDEWAYD, "--config", config, "--socket", self.sock],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.addCleanup(lambda: self.d.poll() is None and self.d.kill())
+        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not start")
+        self.c = Client(self.sock)
+        self.addCleanup(self.c.close)
+
+    def test_keeps_the_rate_and_reports_a_lapped_ring(self):
+        self.assertTrue(wait_for(lambda: self.c.status()["mic"]["counters"]["samples"] > 1000), self.c.status())
+        a, t0 = self.c.status()["mic"], time.monotonic()
+        time.sleep(1.0)
+        b, t1 = self.c.status()["mic"], time.monotonic()
+        rate = (b["counters"]["samples"] - a["counters"]["samples"]) / (t1 - t0)
+        self.assertGreater(rate, 8500, b)  # 10 kHz; the status replies' own timing blurs the window
+        self.assertLess(rate, 11500, b)
+        self.assertEqual(b.get("seq_gaps"), 0, b)
+        self.assertLess(b["counters"]["frames"], b["counters"]["samples"] / 10)  # many samples per request
+        # Two requests unanswered for 400 ms each: the 0.41 s ring laps, ~4000 samples are lost.
+        self.em.command("fault stall 2")
+        self.assertTrue(wait_for(lambda: self.c.status()["mic"].get("seq_gaps", 0) > 0, 5), self.c.status())
+        c = self.c.status()["mic"]
+        self.assertGreater(c["seq_gaps"], 2000, c)
+        self.assertEqual(c["counters"]["timeouts"], 2, c)
+        self.assertEqual(c["state"], "streaming", c)
+        n = c["counters"]["samples"]
+        self.assertTrue(wait_for(lambda: self.c.status()["mic"]["counters"]["samples"] > n + 2000))
+        self.assertEqual(self.c.status()["mic"]["seq_gaps"], c["seq_gaps"])  # nothing lost since
         self.d.send_signal(signal.SIGTERM)
         self.assertEqual(self.d.wait(timeout=10), 0)
 
