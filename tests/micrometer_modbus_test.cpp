@@ -411,6 +411,30 @@ INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerBuffered,
                            return std::string(p.param.rtu ? "Rtu" : "Tcp") + std::to_string(p.param.ring_samples);
                          });
 
+// The amplifier samples at 10 kHz but the table says 2 kHz: every counter read looks like a restart.
+// The device must not sit silently "streaming" with nothing published: it reports an error saying why.
+TEST(MicrometerDriver, BufferedCounterFasterThanTheConfiguredRateIsAnError) {
+  MicrometerEmulator::Options o;
+  o.source = numbered_source();
+  o.ring = modbus::SampleRingMap{};
+  MicrometerEmulator emulator(o);
+  std::string error;
+  const int port = emulator.start_tcp("127.0.0.1", 0, error);
+  ASSERT_GT(port, 0) << error;
+  auto table = parse_toml("port = " + std::to_string(port) +
+                              "\npoll_period_ms = 5\n[buffer]\ncounter_address = 100\nring_address = 200\n"
+                              "ring_samples = 4096\nsample_rate_hz = 2000\n",
+                          "t.toml");
+  TableReader reader(table, "t.toml", "device[0]");
+  micrometer::MicrometerDriver d("mic", micrometer::parse_micrometer_config(reader), 1 << 12);
+  d.start();
+  ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::error; }, 3s));
+  EXPECT_NE(d.status().reason.find("sample_rate_hz = 2000"), std::string::npos) << d.status().reason;
+  EXPECT_GE(d.counter_resets(), 3u);
+  d.stop();
+  emulator.stop();
+}
+
 TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
   auto error = [](const std::string& text) {
     auto table = parse_toml(text, "mic.toml");

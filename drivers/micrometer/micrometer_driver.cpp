@@ -53,6 +53,7 @@ struct MicrometerDriver::RingCursor {
   std::int64_t last_query_ns = 0;  // when the last good counter read was sent
   std::int64_t last_t_ns = std::numeric_limits<std::int64_t>::min();  // published timestamps only increase
   bool gap = false;            // the next published sample follows lost ones
+  int resets_in_row = 0;       // counter reads in a row that looked like an amplifier restart
 };
 
 MicrometerDriver::MicrometerDriver(std::string name, MicrometerConfig config, std::size_t ring_capacity)
@@ -189,12 +190,23 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
     const auto step = cursor.counter.update(modbus::decode_counter(ring, block[0], block[1]), elapsed_s, rate);
     cursor.last_query_ns = t_query;
     const std::uint64_t count = cursor.counter.count();
+    if (step == modbus::CounterTracker::Step::advanced && cursor.resets_in_row > 0) {
+      if (cursor.resets_in_row >= 3) set_state(drivers::DeviceState::streaming);
+      cursor.resets_in_row = 0;
+    }
     if (step != modbus::CounterTracker::Step::advanced) {
       // Start at the newest sample (first read), or after a restart of the amplifier: what it took
       // before is not in this count, so it cannot be fetched or numbered; the next sample says so.
       if (step == modbus::CounterTracker::Step::reset) {
         counter_resets_.fetch_add(1, std::memory_order_relaxed);
         cursor.gap = true;
+        // A restart now and then is an amplifier; one at every poll is a counter running faster
+        // than the configured rate, and nothing would ever be published: say so.
+        if (++cursor.resets_in_row == 3) {
+          std::string why = "the sample counter runs faster than sample_rate_hz = ";
+          append_shortest(why, rate);
+          set_state(drivers::DeviceState::error, why + " (or the amplifier keeps restarting): check [device.buffer]");
+        }
       }
       cursor.next = count;
       cursor.anchor.reset(count > 0 ? count - 1 : 0);
