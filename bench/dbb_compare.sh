@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# dbb_bench of the working tree against the same benchmark with models/dbb/identify.cpp as it was at
-# an older commit (everything else, including models/common, from the working tree), run alternately
-# in one session so that both see the same machine load. Prints the medians of wall and CPU time.
+# dbb_bench of the working tree against the same benchmark with the identification sources as they
+# were at an older commit (models/dbb/identify.cpp and models/common/least_squares.cpp, or the files
+# listed in $DBB_COMPARE_FILES; everything else from the working tree), run alternately in one
+# session so that both see the same machine load. Prints the medians of wall and CPU time.
 # Usage: bench/dbb_compare.sh BUILD_DIR [COMMIT (default a50fd25)] [ROUNDS (default 3)]
 # BUILD_DIR: a Release build with -DGUIDEWAY_BUILD_BENCH=ON where dbb_bench has been built.
 set -euo pipefail
@@ -11,10 +12,16 @@ rounds=${3:-3}
 src=$(cd "$(dirname "$0")/.." && pwd)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-git -C "$src" show "$commit:models/dbb/identify.cpp" >"$tmp/identify_old.cpp"
-c++ -std=c++20 -O3 -DNDEBUG -I"$src" -isystem /usr/include/eigen3 -c "$tmp/identify_old.cpp" -o "$tmp/identify_old.o"
-# The old object comes first, so the archive's identify.o is never pulled in.
-c++ -O3 "$build/bench/CMakeFiles/dbb_bench.dir/dbb_bench.cpp.o" "$tmp/identify_old.o" -o "$tmp/dbb_bench_old" \
+files=${DBB_COMPARE_FILES:-models/dbb/identify.cpp models/common/least_squares.cpp}
+old_objects=()
+for f in $files; do
+  o="$tmp/old_$(basename "$f" .cpp)"
+  git -C "$src" show "$commit:$f" >"$o.cpp"
+  c++ -std=c++20 -O3 -DNDEBUG -I"$src" -isystem /usr/include/eigen3 -c "$o.cpp" -o "$o.o"
+  old_objects+=("$o.o")
+done
+# The old objects come first, so the archives' versions of them are never pulled in.
+c++ -O3 "$build/bench/CMakeFiles/dbb_bench.dir/dbb_bench.cpp.o" "${old_objects[@]}" -o "$tmp/dbb_bench_old" \
   "$build/models/dbb/libguideway_model_dbb_sim.a" "$build/models/dbb/libguideway_model_dbb.a" \
   "$build/models/common/libguideway_models_common.a" "$build/simulators/machine/libguideway_machine.a" \
   "$build/core/libguideway_core.a" -lbenchmark -ltomlplusplus
@@ -26,7 +33,7 @@ echo "load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)"
 /usr/bin/python3 - "$tmp" "$commit" <<'EOF'
 import glob, json, statistics, sys
 tmp, commit = sys.argv[1], sys.argv[2]
-for tag, label in (("old", f"identify.cpp at {commit}"), ("new", "working tree")):
+for tag, label in (("old", f"sources at {commit}"), ("new", "working tree")):
     wall, cpu = [], []
     for f in sorted(glob.glob(f"{tmp}/{tag}_*.json")):
         for b in json.load(open(f))["benchmarks"]:

@@ -8,6 +8,8 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
+#include "models/common/householder_triangle.hpp"
+
 namespace guideway::models {
 
 namespace {
@@ -57,38 +59,19 @@ LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, c
   }
   Eigen::VectorXd sw = Eigen::VectorXd::Ones(n);
   if (weights.size() != 0) sw = weights.cwiseMax(0.0).cwiseSqrt();
-  Eigen::MatrixXd a = jacobian;
-  a.array().colwise() *= sw.array();
-  const Eigen::VectorXd b = sw.cwiseProduct(y);
-  Eigen::VectorXd scale = a.colwise().norm().transpose();
-  for (Eigen::Index j = 0; j < m; ++j) {
-    if (!(scale[j] > 0)) scale[j] = 1.0;
-    a.col(j) /= scale[j];
-  }
 
-  // Compress [A b] = Q [R c; 0 d] by Householder QR in row blocks that fit the cache (a tall-skinny
-  // QR: each block's triangle is stacked and reduced again), then everything happens on the
-  // m x m triangle R with c = Q^T b. Q itself is never formed.
-  const Eigen::MatrixXd raug = [&] {
-    constexpr Eigen::Index block_rows = 1024;
-    const Eigen::Index w1 = m + 1;
-    const Eigen::Index blocks = (n + block_rows - 1) / block_rows;
-    Eigen::MatrixXd stacked = Eigen::MatrixXd::Zero(blocks * w1, w1);
-    Eigen::MatrixXd blk;
-    for (Eigen::Index k = 0; k < blocks; ++k) {
-      const Eigen::Index r0 = k * block_rows;
-      const Eigen::Index rows = std::min(block_rows, n - r0);
-      blk.resize(rows, w1);
-      blk.leftCols(m) = a.middleRows(r0, rows);
-      blk.col(m) = b.segment(r0, rows);
-      Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qrb(blk);
-      const Eigen::Index top = std::min(rows, w1);
-      stacked.block(k * w1, 0, top, w1) = blk.topRows(top).triangularView<Eigen::Upper>();
-    }
-    Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qrs(stacked);
-    return Eigen::MatrixXd(stacked.topRows(w1).triangularView<Eigen::Upper>());
-  }();
-  const Eigen::MatrixXd r = raug.topLeftCorner(m, m);
+  // [W^1/2 J, W^1/2 y] = Q [R c; 0 d], Householder QR in one pass over J (Q is never formed); then
+  // everything happens on the m x m triangle with c = Q^T W^1/2 y. The columns are scaled to unit
+  // norm for the rank analysis: Householder QR is column-scale invariant, so R's columns are scaled
+  // afterwards (the norm of a column of W^1/2 J is that of its column of R).
+  const Eigen::MatrixXd raug = weighted_triangle(jacobian, y, sw);
+  Eigen::VectorXd scale(m);
+  Eigen::MatrixXd r = raug.topLeftCorner(m, m);
+  for (Eigen::Index j = 0; j < m; ++j) {
+    scale[j] = r.col(j).head(j + 1).norm();
+    if (!(scale[j] > 0)) scale[j] = 1.0;
+    r.col(j) /= scale[j];
+  }
   const Eigen::VectorXd qtb = raug.col(m).head(m);
 
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(r, Eigen::ComputeFullV);

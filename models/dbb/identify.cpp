@@ -84,6 +84,9 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
   return pts;
 }
 
+// Narrowest backlash (m) that apply_deadband shapes.
+constexpr double min_deadband_m = 1e-12;
+
 // cos and sin of the pre-roll angles of apply_deadband (half a turn before each run's first sample,
 // 0.1 deg apart): the same for every backlash estimate, so computed once per identification.
 struct PrerollTable {
@@ -123,7 +126,10 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, Prero
       const double b = axis == 0 ? b_a : b_b;
       const double lag = dir * run.feed_m_per_s / r * (axis == 0 ? delay_a : delay_b);
       const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z - lag) : r * std::sin(z - lag); };
-      if (!(b > 0)) continue;
+      // A deadband narrower than a picometre keeps the ideal step: (act - now) / b would divide the
+      // positions' rounding (r * eps, about 2e-17 m) by b, a noise column (a backlash estimate of
+      // noise-free data is of that order and its sign a coin toss).
+      if (!(b > min_deadband_m)) continue;
       const double half = 0.5 * b;
       double z = run.angle_rad.front() - dir * pi;
       double act = cmd(z);

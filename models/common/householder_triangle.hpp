@@ -1,0 +1,17 @@
+#pragma once
+// The triangle R of a Householder QR of a tall weighted least-squares problem, computed in one pass
+// over the data: rows are weighted and reduced chunk by chunk into a running (m+1) x (m+1) triangle
+// (a sequential tall-skinny QR), so the chunk being reduced stays in the L1 cache and no weighted
+// copy of the n x m matrix is ever made. Q is never formed. Pure function; thread safe.
+
+#include <Eigen/Core>
+
+namespace guideway::models {
+
+// R, upper triangular (m+1) x (m+1), with [diag(sw) A, diag(sw) y] = Q [R; 0] for A n x m and Q
+// orthogonal: R^T R = [A y]^T diag(sw)^2 [A y]. R(0:m, m) is then Q^T (sw y) and |R(m, m)| the norm of
+// the weighted residual of the least-squares solution. Row signs are those of LAPACK's dgeqrf
+// (the diagonal may be negative). Sizes are the caller's to check (sw.size() == y.size() == A.rows()).
+Eigen::MatrixXd weighted_triangle(const Eigen::MatrixXd& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw);
+
+}  // namespace guideway::models
