@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # dbb_bench of the working tree against the same benchmark with the identification sources as they
-# were at an older commit (models/dbb/identify.cpp and models/common/least_squares.cpp, or the files
+# were at an older commit (models/dbb/identify.cpp and models/common/*.cpp, or the files
 # listed in $DBB_COMPARE_FILES; everything else from the working tree), run alternately in one
 # session so that both see the same machine load. Prints the medians of wall and CPU time.
 # Usage: bench/dbb_compare.sh BUILD_DIR [COMMIT (default a50fd25)] [ROUNDS (default 3)]
@@ -12,12 +12,15 @@ rounds=${3:-3}
 src=$(cd "$(dirname "$0")/.." && pwd)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-files=${DBB_COMPARE_FILES:-models/dbb/identify.cpp models/common/least_squares.cpp}
+files=${DBB_COMPARE_FILES:-models/dbb/identify.cpp $(git -C "$src" ls-tree --name-only "$commit" models/common/ | grep '\.cpp$')}
+# The old files are compiled against the old tree's headers (a changed signature must not send the
+# old code to the new definition).
+mkdir "$tmp/old_tree"
+git -C "$src" archive "$commit" | tar -x -C "$tmp/old_tree"
 old_objects=()
 for f in $files; do
   o="$tmp/old_$(basename "$f" .cpp)"
-  git -C "$src" show "$commit:$f" >"$o.cpp"
-  c++ -std=c++20 -O3 -DNDEBUG -I"$src" -isystem /usr/include/eigen3 -c "$o.cpp" -o "$o.o"
+  c++ -std=c++20 -O3 -DNDEBUG -I"$tmp/old_tree" -isystem /usr/include/eigen3 -c "$tmp/old_tree/$f" -o "$o.o"
   old_objects+=("$o.o")
 done
 # The old objects come first, so the archives' versions of them are never pulled in.

@@ -12,6 +12,14 @@ namespace guideway::models {
 // orthogonal: R^T R = [A y]^T diag(sw)^2 [A y]. R(0:m, m) is then Q^T (sw y) and |R(m, m)| the norm of
 // the weighted residual of the least-squares solution. Row signs are those of LAPACK's dgeqrf
 // (the diagonal may be negative). Sizes are the caller's to check (sw.size() == y.size() == A.rows()).
-Eigen::MatrixXd weighted_triangle(const Eigen::MatrixXd& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw);
+// The vector width of the kernel: `automatic` takes AVX2 where the CPU has it. Every kernel gives
+// the same bits (the sums are formed in one fixed order, without FMA); the choice is for tests.
+enum class TriangleKernel { automatic, portable, avx2 };
+Eigen::MatrixXd weighted_triangle(const Eigen::MatrixXd& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
+                                  TriangleKernel kernel = TriangleKernel::automatic);
+
+// Whether TriangleKernel::avx2 runs here (x86-64 GCC build and an AVX2 CPU); asking for it elsewhere
+// throws std::invalid_argument.
+bool householder_avx2_available();
 
 }  // namespace guideway::models

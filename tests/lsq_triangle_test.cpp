@@ -1,0 +1,135 @@
+// models/common/householder_triangle (the QR behind solve_lsq): the triangle against numpy's
+// LAPACK QR (/usr/bin/python3, tests/lsq_triangle_oracle.py) and Eigen's Householder QR, and the
+// SSE2 and AVX2 kernels against each other bit for bit.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <random>
+
+#include <Eigen/QR>
+
+#include "models/common/householder_triangle.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using guideway::models::householder_avx2_available;
+using guideway::models::TriangleKernel;
+using guideway::models::weighted_triangle;
+
+struct Problem {
+  Eigen::MatrixXd a;
+  Eigen::VectorXd y, w;
+};
+
+// Badly scaled columns (1e3 .. 1e-3 and beyond), positive weights, a zero weight and a zero column.
+Problem random_problem(Eigen::Index n, Eigen::Index m, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> nd;
+  Problem p{Eigen::MatrixXd(n, m), Eigen::VectorXd(n), Eigen::VectorXd(n)};
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index c = 0; c < m; ++c) p.a(i, c) = nd(rng) * std::pow(10.0, 3.0 - 0.5 * static_cast<double>(c));
+    p.y[i] = nd(rng);
+    p.w[i] = 0.25 + std::abs(nd(rng));
+  }
+  if (n > 3) p.w[2] = 0.0;
+  return p;
+}
+
+// R with its rows' signs chosen so that the diagonal is non-negative (R is unique up to them).
+Eigen::MatrixXd positive_diagonal(Eigen::MatrixXd r) {
+  for (Eigen::Index i = 0; i < r.rows(); ++i)
+    if (r(i, i) < 0) r.row(i) *= -1.0;
+  return r;
+}
+
+// Each column of `r` against `ref`, relative to the column's norm (the scale QR's rounding has).
+void expect_same_triangle(const Eigen::MatrixXd& r, const Eigen::MatrixXd& ref, double tol, const char* what) {
+  ASSERT_EQ(r.rows(), ref.rows());
+  ASSERT_EQ(r.cols(), ref.cols());
+  for (Eigen::Index c = 0; c < r.cols(); ++c) {
+    const double norm = ref.col(c).norm();
+    for (Eigen::Index i = 0; i < r.rows(); ++i)
+      EXPECT_NEAR(r(i, c), ref(i, c), tol * norm) << what << " R(" << i << "," << c << ")";
+  }
+}
+
+bool have_numpy() { return std::system("/usr/bin/python3 -c 'import numpy' >/dev/null 2>&1") == 0; }
+
+TEST(LsqTriangleTest, MatchesNumpyAndEigenQr) {
+  // 5003 rows: several chunks and a last one that is not a multiple of 4.
+  const Problem p = random_problem(5003, 20, 3);
+  const Eigen::MatrixXd r = positive_diagonal(weighted_triangle(p.a, p.y, p.w.cwiseSqrt()));
+  // R^T R = [A y]^T W [A y], whatever the signs.
+  Eigen::MatrixXd ay(p.a.rows(), p.a.cols() + 1);
+  ay << p.a, p.y;
+  const Eigen::MatrixXd wa = p.w.cwiseSqrt().asDiagonal() * ay;
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr(wa);
+  const Eigen::MatrixXd eig = positive_diagonal(qr.matrixQR().topRows(ay.cols()).triangularView<Eigen::Upper>());
+  expect_same_triangle(r, eig, 1e-12, "Eigen");
+  if (!have_numpy()) GTEST_SKIP() << "/usr/bin/python3 with numpy is not available";
+  guideway::test::TempDir dir;
+  {
+    std::ofstream in(dir.file("in.csv"));
+    in.precision(17);
+    for (Eigen::Index i = 0; i < p.a.rows(); ++i) {
+      in << p.w[i] << "," << p.y[i];
+      for (Eigen::Index c = 0; c < p.a.cols(); ++c) in << "," << p.a(i, c);
+      in << "\n";
+    }
+  }
+  const std::string cmd = "/usr/bin/python3 " GUIDEWAY_SOURCE_DIR "/tests/lsq_triangle_oracle.py " + dir.file("in.csv") +
+                          " " + dir.file("out.txt");
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream out(dir.file("out.txt"));
+  Eigen::MatrixXd np(r.rows(), r.cols());
+  for (Eigen::Index i = 0; i < np.rows(); ++i)
+    for (Eigen::Index c = 0; c < np.cols(); ++c) ASSERT_TRUE(out >> np(i, c)) << "numpy triangle too short";
+  expect_same_triangle(r, np, 1e-12, "numpy");
+}
+
+TEST(LsqTriangleTest, DegenerateShapes) {
+  // A zero column stays zero (its reflector is the identity) and the rest is unaffected.
+  Problem p = random_problem(41, 4, 5);
+  p.a.col(1).setZero();
+  const Eigen::MatrixXd r = weighted_triangle(p.a, p.y, p.w.cwiseSqrt());
+  EXPECT_EQ(r.col(1).norm(), 0.0);
+  EXPECT_EQ(r.row(1).norm(), 0.0);
+  Eigen::MatrixXd ay(41, 5);
+  ay << p.a, p.y;
+  const Eigen::MatrixXd wa = p.w.cwiseSqrt().asDiagonal() * ay;
+  EXPECT_LT((r.transpose() * r - wa.transpose() * wa).norm(), 1e-12 * (wa.transpose() * wa).norm());
+  // Fewer rows than columns: R^T R still equals the Gram matrix.
+  const Problem q = random_problem(3, 6, 6);
+  const Eigen::MatrixXd rq = weighted_triangle(q.a, q.y, q.w.cwiseSqrt());
+  Eigen::MatrixXd qy(3, 7);
+  qy << q.a, q.y;
+  const Eigen::MatrixXd wq = q.w.cwiseSqrt().asDiagonal() * qy;
+  EXPECT_LT((rq.transpose() * rq - wq.transpose() * wq).norm(), 1e-12 * (wq.transpose() * wq).norm());
+  EXPECT_TRUE(rq.isUpperTriangular(0.0));
+}
+
+TEST(LsqTriangleTest, KernelsGiveTheSameBits) {
+  if (!householder_avx2_available()) {
+    EXPECT_THROW((void)weighted_triangle(Eigen::MatrixXd::Ones(8, 2), Eigen::VectorXd::Ones(8),
+                                         Eigen::VectorXd::Ones(8), TriangleKernel::avx2),
+                 std::invalid_argument);
+    GTEST_SKIP() << "no AVX2 on this CPU (or not an x86-64 GCC build): only the portable kernel runs";
+  }
+  const Eigen::Index shapes[][2] = {{1, 1}, {3, 5}, {7, 3}, {1000, 1}, {4099, 21}, {300, 40}, {10800, 20}};
+  unsigned seed = 10;
+  for (const auto& s : shapes) {
+    const Problem p = random_problem(s[0], s[1], seed++);
+    const Eigen::VectorXd sw = p.w.cwiseSqrt();
+    const Eigen::MatrixXd a = weighted_triangle(p.a, p.y, sw, TriangleKernel::portable);
+    const Eigen::MatrixXd b = weighted_triangle(p.a, p.y, sw, TriangleKernel::avx2);
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())), 0)
+        << s[0] << " x " << s[1] << ": max difference " << (a - b).cwiseAbs().maxCoeff();
+  }
+}
+
+}  // namespace
