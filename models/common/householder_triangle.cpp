@@ -51,7 +51,7 @@ bool avx2_usable() {
 
 bool householder_avx2_available() { return avx2_usable(); }
 
-Eigen::MatrixXd weighted_triangle(const Eigen::MatrixXd& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
+Eigen::MatrixXd weighted_triangle(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
                                   TriangleKernel kernel) {
   if (kernel == TriangleKernel::avx2 && !avx2_usable())
     throw std::invalid_argument("weighted_triangle: the AVX2 kernel is not available on this CPU");
@@ -68,7 +68,7 @@ Eigen::MatrixXd weighted_triangle(const Eigen::MatrixXd& a, const Eigen::VectorX
     double* c = buf.data();
     const double* s = sw.data() + i0;
     for (Eigen::Index j = 0; j < m; ++j) {
-      const double* src = a.data() + j * n + i0;
+      const double* src = a.data() + j * a.outerStride() + i0;
       double* dst = c + j * rows;
       for (Eigen::Index i = 0; i < used; ++i) dst[i] = src[i] * s[i];
       for (Eigen::Index i = used; i < rows; ++i) dst[i] = 0.0;

@@ -15,7 +15,7 @@ namespace guideway::models {
 // The vector width of the kernel: `automatic` takes AVX2 where the CPU has it. Every kernel gives
 // the same bits (the sums are formed in one fixed order, without FMA); the choice is for tests.
 enum class TriangleKernel { automatic, portable, avx2 };
-Eigen::MatrixXd weighted_triangle(const Eigen::MatrixXd& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
+Eigen::MatrixXd weighted_triangle(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
                                   TriangleKernel kernel = TriangleKernel::automatic);
 
 // Whether TriangleKernel::avx2 runs here (x86-64 GCC build and an AVX2 CPU); asking for it elsewhere

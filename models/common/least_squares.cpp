@@ -34,7 +34,7 @@ std::string format_coefficient(double c) {
 
 }  // namespace
 
-LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
+LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
                     const std::vector<std::string>& names, const LsqOptions& options) {
   LsqResult res;
   const Eigen::Index n = jacobian.rows();

@@ -49,7 +49,8 @@ struct LsqResult {
 };
 
 // Minimises sum w_i (y_i - J_i x)^2. `weights` may be empty (all 1). `names` labels the columns.
-LsqResult solve_lsq(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
+// `jacobian` may be a block of a larger matrix (a caller's reused buffer): it is not copied.
+LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
                     const std::vector<std::string>& names, const LsqOptions& options = {});
 
 }  // namespace guideway::models

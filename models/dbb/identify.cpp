@@ -369,7 +369,7 @@ Eigen::Index strided_rows(Eigen::Index n, Eigen::Index cols, Eigen::Index stride
 
 // Least squares on every stride-th row only (a preliminary fit whose estimates steer a search or a
 // basis shape); the residual is then evaluated on all rows.
-LsqResult solve_strided(const Eigen::MatrixXd& j, const Eigen::VectorXd& y, const Eigen::VectorXd& w,
+LsqResult solve_strided(const Eigen::Ref<const Eigen::MatrixXd>& j, const Eigen::VectorXd& y, const Eigen::VectorXd& w,
                         const std::vector<std::string>& names, Eigen::Index stride) {
   const Eigen::Index m = strided_rows(j.rows(), j.cols(), stride);
   if (m == j.rows()) return solve_lsq(j, y, w, names);
@@ -387,8 +387,8 @@ LsqResult solve_strided(const Eigen::MatrixXd& j, const Eigen::VectorXd& y, cons
   return r;
 }
 
-// The design matrix and data of the diagnostics fits, kept between the fits of one identification
-// (the same size every time, so not reallocated).
+// The design matrix buffer of all fits of one identification (n rows, as many columns as the widest
+// fit: one allocation, its pages touched once) and the data of the diagnostics fits.
 struct DiagWork {
   Eigen::MatrixXd j;
   Eigen::VectorXd y, w;
@@ -397,8 +397,9 @@ struct DiagWork {
 LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<Run>& runs,
                    const std::string& plane, DiagWork& work, Eigen::Index stride = 1) {
   const auto n = static_cast<Eigen::Index>(pts.size());
-  Eigen::MatrixXd& j = work.j;
-  j.resize(n, static_cast<Eigen::Index>(L.count()));
+  if (work.j.rows() != n || work.j.cols() < static_cast<Eigen::Index>(L.count()))
+    work.j.resize(n, static_cast<Eigen::Index>(L.count()));
+  auto j = work.j.leftCols(static_cast<Eigen::Index>(L.count()));
   if (work.y.size() != n) {
     work.y.resize(n);
     work.w.resize(n);
@@ -572,6 +573,11 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   std::vector<Point> pts = points_of(runs);
   const auto n = static_cast<Eigen::Index>(pts.size());
   PrerollTable preroll;
+  DiagWork work;
+  // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
+  // (spikes 2, decays 2, cyclic 4).
+  work.j.resize(n, static_cast<Eigen::Index>(2 * runs.size() +
+                                             std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
   // Backlash widths the points' deadband shapes were computed for (0 = ideal steps).
   double shaped_b_a = 0, shaped_b_b = 0;
 
@@ -594,7 +600,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     const auto fit = [&](Eigen::Index stride) {
       const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
       if (rows == n) stride = 1;
-      Eigen::MatrixXd j(rows, static_cast<Eigen::Index>(m));
+      auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(m));
       if (!shared) j.setZero();
       Eigen::VectorXd ys(rows), ws(rows);
       double basis[lai_count];
@@ -645,7 +651,6 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   // ---- Ballbar diagnostics ----
   DiagLayout L;
   L.runs = runs.size();
-  DiagWork work;
   // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
   LsqResult base = fit_diag(L, pts, runs, plane, work, 3);
   if (!base.ok) throw RunFormatError("identify: " + base.message);
