@@ -7,11 +7,13 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include <Eigen/QR>
 
 #include "models/common/householder_triangle.hpp"
+#include "models/common/least_squares.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -130,6 +132,32 @@ TEST(LsqTriangleTest, KernelsGiveTheSameBits) {
     EXPECT_EQ(std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())), 0)
         << s[0] << " x " << s[1] << ": max difference " << (a - b).cwiseAbs().maxCoeff();
   }
+}
+
+// solve_lsq scans J for NaN and infinity only when the triangle is not finite: a non-finite value
+// anywhere must still be refused, wherever it sits (first or last row, a padded last chunk, a row of
+// zero weight, a column that is otherwise zero, behind a zero first column).
+TEST(LsqTriangleTest, NonFiniteJacobianIsRefusedWherever) {
+  const double bad_values[] = {std::nan(""), std::numeric_limits<double>::infinity(),
+                               -std::numeric_limits<double>::infinity()};
+  const Eigen::Index n = 1001, m = 6;
+  const std::vector<std::string> names = {"a", "b", "c", "d", "e", "f"};
+  const Eigen::Index cells[][2] = {{0, 0}, {n - 1, m - 1}, {n - 1, 0}, {500, 3}, {2, 4}, {700, 2}, {10, 1}};
+  for (const double bad : bad_values) {
+    for (const auto& cell : cells) {
+      Problem p = random_problem(n, m, 9);
+      p.a.col(2).setZero();  // cell (700, 2): the only non-zero of its column
+      p.a.col(0).setZero();  // the first reflector is the identity
+      p.a(0, 0) = cell[0] == 0 && cell[1] == 0 ? 0.0 : 1.0;
+      p.a(cell[0], cell[1]) = bad;  // row 2 has weight 0
+      const auto r = guideway::models::solve_lsq(p.a, p.y, p.w, names);
+      EXPECT_FALSE(r.ok) << bad << " at (" << cell[0] << ", " << cell[1] << ")";
+      EXPECT_NE(r.message.find("non-finite"), std::string::npos) << r.message;
+    }
+  }
+  // Finite data of the same shapes are solved.
+  const Problem p = random_problem(n, m, 9);
+  EXPECT_TRUE(guideway::models::solve_lsq(p.a, p.y, p.w, names).ok);
 }
 
 }  // namespace

@@ -53,10 +53,11 @@ LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eig
                   " parameters; need more points than parameters";
     return res;
   }
-  if (!jacobian.allFinite() || !y.allFinite() || (weights.size() != 0 && !weights.allFinite())) {
+  const auto non_finite = [&res] {
     res.message = "least squares: non-finite value (NaN or infinity) in the data";
     return res;
-  }
+  };
+  if (!y.allFinite() || (weights.size() != 0 && !weights.allFinite())) return non_finite();
   Eigen::VectorXd sw = Eigen::VectorXd::Ones(n);
   if (weights.size() != 0) sw = weights.cwiseMax(0.0).cwiseSqrt();
 
@@ -65,6 +66,10 @@ LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eig
   // norm for the rank analysis: Householder QR is column-scale invariant, so R's columns are scaled
   // afterwards (the norm of a column of W^1/2 J is that of its column of R).
   const Eigen::MatrixXd raug = weighted_triangle(jacobian, y, sw);
+  // A NaN or infinity anywhere in J reaches the diagonal of its column's R (every reflector that
+  // touches it spreads it over the column, and its own reflector puts it on the diagonal), and finite
+  // data give a finite R: J is scanned only when R says so, not before every fit.
+  if (!raug.allFinite() && !jacobian.allFinite()) return non_finite();
   Eigen::VectorXd scale(m);
   Eigen::MatrixXd r = raug.topLeftCorner(m, m);
   for (Eigen::Index j = 0; j < m; ++j) {
