@@ -3,6 +3,7 @@
 // ballbar diagnostics with the spike and cyclic searches, ISO 230-4 figures).
 #include <benchmark/benchmark.h>
 
+#include "core/memory_policy.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/simulate.hpp"
 
@@ -45,7 +46,7 @@ std::vector<models::dbb::Run> patterns() {
   return runs;
 }
 
-void BM_DbbIdentifyThreePatterns(benchmark::State& state) {
+void identify_loop(benchmark::State& state) {
   const auto runs = patterns();
   for (auto _ : state) {
     auto id = models::dbb::identify(runs);
@@ -53,7 +54,21 @@ void BM_DbbIdentifyThreePatterns(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations() * 3 * 3600);
 }
+
+// glibc's default policy: the MBs each identification frees go back to the kernel.
+void BM_DbbIdentifyThreePatterns(benchmark::State& state) { identify_loop(state); }
 BENCHMARK(BM_DbbIdentifyThreePatterns)->Unit(benchmark::kMillisecond)->Repetitions(9)->ReportAggregatesOnly(true);
+
+// As guidewayd and guideway run it (core/memory_policy.hpp). Registered last: the policy is
+// process-wide and stays set for whatever runs after it.
+void BM_DbbIdentifyThreePatternsKeepFreedMemory(benchmark::State& state) {
+  keep_freed_memory();
+  identify_loop(state);
+}
+BENCHMARK(BM_DbbIdentifyThreePatternsKeepFreedMemory)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(9)
+    ->ReportAggregatesOnly(true);
 
 }  // namespace
 

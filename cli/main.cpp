@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
+#include "core/memory_policy.hpp"
 
 namespace guideway::cli {
 
@@ -25,6 +26,7 @@ CLI::App* shared_subcommand(CLI::App& app, const std::string& name, const std::s
 }  // namespace guideway::cli
 
 int main(int argc, char** argv) {
+  guideway::keep_freed_memory();
   CLI::App app{"guideway: client of guidewayd and offline analysis of metrology recordings"};
   app.require_subcommand(1);
   guideway::cli::CliContext ctx;

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/memory_policy.hpp"
 #include "daemon/config.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
@@ -16,6 +17,7 @@
 using namespace guideway;
 
 int main(int argc, char** argv) {
+  keep_freed_memory();
   CLI::App app{"guidewayd: real-time metrology acquisition daemon for machine tools"};
   std::string config_path;
   std::string socket_override;
