@@ -133,6 +133,32 @@ TEST(CanIo, EndpointsParseAndTheGatewayConnects) {
   EXPECT_EQ(f.can_id, 0x183u);
 }
 
+// A frame the gateway sends the moment it accepts, before the client could have asked for
+// timestamps, still carries its send time: the connection asks before connecting.
+TEST(CanIo, TheGatewayConnectionIsTimestampedFromItsFirstFrame) {
+  guideway::test::TempDir dir;
+  const std::string path = dir.file("gw.sock");
+  std::string err;
+  CanSocket listener = listen_can_gateway(path, err);
+  ASSERT_TRUE(listener.valid()) << err;
+  CanSocket client = connect_can_gateway(path, err);
+  ASSERT_TRUE(client.valid()) << err;
+  CanSocket server(::accept(listener.fd(), nullptr, nullptr));
+  ASSERT_TRUE(server.valid());
+  const std::int64_t before = realtime_ns();
+  ASSERT_TRUE(write_can_frame(server.fd(), frame(0x080, 0, 0), err)) << err;
+  const std::int64_t after = realtime_ns();
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  std::array<can_frame, 4> frames{};
+  std::array<std::int64_t, 4> rx{};
+  FrameBatch batch;
+  ASSERT_EQ(read_can_frames(client.fd(), frames, rx, batch, err), ReadResult::frame);
+  ASSERT_EQ(batch.count, 1u);
+  EXPECT_EQ(batch.untimed, 0u);
+  EXPECT_GE(rx[0], before);
+  EXPECT_LE(rx[0], after) << "stamped at the read, 20 ms late";
+}
+
 TEST(CanIo, RealVcanRoundTripWhereTheKernelHasAfCan) {
   std::string reason;
   if (!socketcan_available(reason)) GTEST_SKIP() << "no SocketCAN in this kernel: " << reason;

@@ -81,6 +81,8 @@ CanSocket open_socketcan(const std::string& ifname, std::string& error) {
     error = errno_text(("interface " + ifname).c_str(), errno);
     return {};
   }
+  // Before bind, so no frame is queued unstamped (it would be stamped when read, as if on arrival).
+  if (!enable_rx_timestamps(s.fd(), error)) return {};
   const can_err_mask_t err_mask = CAN_ERR_MASK;
   if (::setsockopt(s.fd(), SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask) < 0) {
     error = errno_text("setsockopt(CAN_RAW_ERR_FILTER)", errno);
@@ -114,6 +116,9 @@ CanSocket connect_can_gateway(const std::string& path, std::string& error) {
     error = errno_text("socket(AF_UNIX)", errno);
     return {};
   }
+  // Before connect: the peer stamps a frame at send time only if we asked by then; a frame sent
+  // earlier would be stamped when read, as if on arrival.
+  if (!enable_rx_timestamps(s.fd(), error)) return {};
   if (::connect(s.fd(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0) {
     error = errno_text(("connect " + path).c_str(), errno);
     return {};

@@ -52,13 +52,13 @@ struct CanEndpoint {
 bool parse_can_endpoint(std::string_view text, CanEndpoint& out, std::string& error);
 std::string to_string(const CanEndpoint& endpoint);
 
-// Opens a raw SocketCAN socket bound to `ifname` with error frames enabled. Returns an invalid
+// Opens a raw SocketCAN socket bound to `ifname` with error frames and receive timestamps enabled. Returns an invalid
 // socket and sets `error` (e.g. "socket(AF_CAN): Address family not supported by protocol").
 CanSocket open_socketcan(const std::string& ifname, std::string& error);
 // True when this kernel supports AF_CAN sockets; otherwise `reason` says why (errno text).
 bool socketcan_available(std::string& reason);
 
-// Connects to a Unix SOCK_SEQPACKET CAN gateway at `path`.
+// Connects to a Unix SOCK_SEQPACKET CAN gateway at `path`, receive timestamps enabled.
 CanSocket connect_can_gateway(const std::string& path, std::string& error);
 // Listens on a Unix SOCK_SEQPACKET socket at `path` (an existing socket file is replaced).
 CanSocket listen_can_gateway(const std::string& path, std::string& error);
