@@ -205,16 +205,15 @@ TEST(DbbDriver, ListenBatchedDeliversEveryCycleAt1kAnd10kHz) {
     for (std::size_t i = 1; i < b.samples.size(); ++i) {
       ASSERT_GT(b.samples[i].t_mono_ns, b.samples[i - 1].t_mono_ns) << i;
     }
-    // Reads (~wake-ups): at 10 kHz one per 300 us period holds ~3 cycles. At 1 kHz SYNCs are further
-    // apart than the period, so a read that completed its cycle waits for the next SYNC instead of
-    // resting and reading an empty socket (about one empty read per cycle if it rested).
+    // Reads (~wake-ups): at 10 kHz one per 300 us period holds ~3 cycles (asserted where the test runs
+    // alone: DbbDriverAlone below). At 1 kHz SYNCs are further apart than the period, so a read that
+    // completed its cycle waits for the next SYNC instead of resting and reading an empty socket
+    // (about one empty read per cycle if it rested).
     const auto n = static_cast<double>(b.samples.size());
     const double reads_per_sample = static_cast<double>(b.driver->bus_reads()) / n;
     const double empty_reads_per_sample = static_cast<double>(b.driver->empty_reads()) / n;
 #if !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)  // a slowed emulator changes the ratio
-    if (rate_hz > 5000) {
-      EXPECT_LT(reads_per_sample, 0.6);
-    } else {
+    if (rate_hz < 5000) {
       EXPECT_LT(empty_reads_per_sample, 0.3);
     }
 #endif
@@ -222,6 +221,20 @@ TEST(DbbDriver, ListenBatchedDeliversEveryCycleAt1kAnd10kHz) {
     RecordProperty("reads_per_sample" + k, std::to_string(reads_per_sample));
     RecordProperty("empty_reads_per_sample" + k, std::to_string(empty_reads_per_sample));
   }
+}
+
+// At 10 kHz SYNC one read per 300 us period takes ~3 cycles. Timing-sensitive (an emulator slowed by
+// a competing build answers late and the ratio rises): ctest runs DbbDriverAlone.* on its own.
+TEST(DbbDriverAlone, ListenBatchedAt10kHzReadsAboutOncePerPeriod) {
+  Bench b(false, 10000.0);
+  ASSERT_TRUE(b.wait_samples(3000));
+  b.stop_and_check_all();
+  const double reads_per_sample =
+      static_cast<double>(b.driver->bus_reads()) / static_cast<double>(b.samples.size());
+  RecordProperty("reads_per_sample_10k_alone", std::to_string(reads_per_sample));
+#if !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)  // a slowed emulator changes the ratio
+  EXPECT_LT(reads_per_sample, 0.6);
+#endif
 }
 
 // The proof that samples carry the kernel's receive time of their SYNC, not the read time: reads every
@@ -277,6 +290,41 @@ TEST(DbbDriver, FrameTimeIsTheKernelStampOnTheMonotonicClockOrTheReadTime) {
   t = dbb::frame_time(offset + earliest - 300'000, offset, earliest, read);
   EXPECT_TRUE(t.from_kernel);
   EXPECT_EQ(t.t_ns, earliest - 300'000);
+}
+
+// The real-time clock stepped back by 2 s in the middle of a batch: the frames stamped before the
+// step fall outside the window and the later ones keep their true times. Times never go backwards.
+TEST(DbbDriver, FrameTimesNeverGoBackwardsAcrossAClockStep) {
+  const std::int64_t offset = 1'700'000'000'000'000'000;  // realtime - monotonic, sampled at the read
+  const std::int64_t earliest = 5'000'000'000, read = 5'000'300'000;
+  const std::int64_t true_ns[4] = {5'000'050'000, 5'000'100'000, 5'000'150'000, 5'000'200'000};
+  std::vector<dbb::FrameTime> times;
+  for (int i = 0; i < 4; ++i) {
+    const std::int64_t step = i < 2 ? 2'000'000'000 : 0;  // the first two were stamped before the step
+    times.push_back(dbb::frame_time(offset + true_ns[i] + step, offset, earliest, read));
+  }
+  ASSERT_FALSE(times[0].from_kernel);
+  ASSERT_FALSE(times[1].from_kernel);
+  std::int64_t last = earliest - 1'000;
+  dbb::order_frame_times(times, last);
+  // Before the step: the first kernel time after them (not the read time, which would put them after it).
+  EXPECT_EQ(times[0].t_ns, true_ns[2]);
+  EXPECT_EQ(times[1].t_ns, true_ns[2]);
+  EXPECT_EQ(times[2].t_ns, true_ns[2]);
+  EXPECT_EQ(times[3].t_ns, true_ns[3]);
+  EXPECT_EQ(last, true_ns[3]);
+  // A batch whose frames all lack a kernel time: the read time.
+  std::vector<dbb::FrameTime> untimed = {dbb::frame_time(can::no_rx_timestamp, offset, earliest, read)};
+  dbb::order_frame_times(untimed, last);
+  EXPECT_EQ(untimed[0].t_ns, read);
+  // The next read's kernel times earlier than the last time emitted (here: the read time above) are
+  // raised to it.
+  std::vector<dbb::FrameTime> next = {dbb::frame_time(offset + read - 100'000, offset, read - 200'000, read + 300'000),
+                                      dbb::frame_time(offset + read + 100'000, offset, read - 200'000, read + 300'000)};
+  ASSERT_TRUE(next[0].from_kernel);
+  dbb::order_frame_times(next, last);
+  EXPECT_EQ(next[0].t_ns, read);
+  EXPECT_EQ(next[1].t_ns, read + 100'000);
 }
 
 TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
@@ -470,7 +518,8 @@ TEST(DbbDriver, ListensThroughTheUnixGatewayWithKernelTimesFromAConfigTable) {
   for (const auto& c : log) {
     if (c.sent_mask != 0) sent.push_back(c);
   }
-  test::eventually([&] { return driver->ring().depth() >= sent.size(); });
+  // Every cycle sent on the connection is read; a sample still missing would shift the match below.
+  ASSERT_TRUE(test::eventually([&] { return driver->ring().depth() >= sent.size(); }));
   driver->stop();
   std::vector<Sample> got(driver->ring().depth());
   got.resize(driver->ring().pop_bulk(got));

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cstdint>
 #include <cmath>
 #include <cstring>
 
@@ -76,6 +77,21 @@ FrameTime frame_time(std::int64_t rx_realtime_ns, std::int64_t realtime_offset_n
   return {std::min(t, read_ns), true};
 }
 
+void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexcept {
+  std::int64_t next_kernel_ns = INT64_MAX;  // the kernel time of the next frame that has one
+  for (std::size_t i = times.size(); i-- > 0;) {
+    if (times[i].from_kernel) {
+      next_kernel_ns = times[i].t_ns;
+    } else {
+      times[i].t_ns = std::min(times[i].t_ns, next_kernel_ns);
+    }
+  }
+  for (FrameTime& t : times) {
+    t.t_ns = std::max(t.t_ns, last_ns);
+    last_ns = t.t_ns;
+  }
+}
+
 DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector)
     : Driver(std::move(name), "dbb-can", channels_of(settings), ring_capacity),
       settings_(std::move(settings)),
@@ -129,11 +145,13 @@ std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
     const std::int64_t offset_ns = realtime_minus_mono_ns();
     records += batch.count + batch.truncated;
     bad_frames_.fetch_add(batch.truncated, std::memory_order_relaxed);
+    std::array<FrameTime, frames.size()> times{};
     for (std::size_t i = 0; i < batch.count; ++i) {
-      const FrameTime t = frame_time(rx_realtime_ns[i], offset_ns, prev_read_ns_, read_ns);
-      if (!t.from_kernel) untimed_frames_.fetch_add(1, std::memory_order_relaxed);
-      handle_frame(frames[i], t.t_ns, decoder);
+      times[i] = frame_time(rx_realtime_ns[i], offset_ns, prev_read_ns_, read_ns);
+      if (!times[i].from_kernel) untimed_frames_.fetch_add(1, std::memory_order_relaxed);
     }
+    order_frame_times(std::span(times.data(), batch.count), last_frame_ns_);
+    for (std::size_t i = 0; i < batch.count; ++i) handle_frame(frames[i], times[i].t_ns, decoder);
     if (batch.count + batch.truncated < frames.size()) {  // the queue is empty
       prev_read_ns_ = read_start;
       return records;
@@ -222,8 +240,10 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
   last_sync_ns_ = 0;
   sync_period_ns_ = 0;
   std::string error;
-  // Kernel receive times for every frame (SocketCAN and AF_UNIX sockets support them); should a
-  // socket refuse, every frame gets the time it is read, counted in untimed_frames.
+  // Kernel receive times for every frame (SocketCAN and AF_UNIX sockets support them). The standard
+  // endpoints enable them before bind/connect (else frames queued meanwhile would be stamped at the
+  // read); this covers other connectors. Should a socket refuse, frames get the time they are read,
+  // counted in untimed_frames.
   (void)can::enable_rx_timestamps(fd, error);
   if (!settings_.produce_sync && settings_.read_period_us > 0) return serve_batched(stop, fd, decoder);
   const std::int64_t period_ns =

@@ -4,6 +4,7 @@
 // in metres, timestamped at the SYNC. Thread safety: as drivers::Driver.
 
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,14 @@ struct FrameTime {
 };
 FrameTime frame_time(std::int64_t rx_realtime_ns, std::int64_t realtime_offset_ns, std::int64_t earliest_ns,
                      std::int64_t read_ns) noexcept;
+// Makes the times of one read's frames (in arrival order) never go backwards, on this connection too:
+// a frame without a kernel time (none, or a clock step put it outside the window) gets the next
+// kernel time of the batch instead of the read time where there is one (it was received before that
+// frame), and every time is raised to at least `last_ns`, the last time emitted, which it updates.
+// A step that happens between two reads is caught only if it is larger than the window plus the 1 ms
+// slack: a smaller one shifts that read's frames by the size of the step, undetected. The window is
+// normally one read period, but after the bus was silent up to timeout_ms (at most 1 s).
+void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexcept;
 
 // Opens the bus; tests substitute one that hands out socketpair ends.
 using CanConnector = std::function<can::CanSocket(std::string& error)>;
@@ -95,6 +104,7 @@ class DbbDriver : public drivers::Driver {
   int wake_fd_ = -1;
   bool silent_ = false;  // driver thread: lost/bus-off until the next sample
   std::int64_t prev_read_ns_ = 0;  // driver thread: when a read last found the socket empty
+  std::int64_t last_frame_ns_ = 0;  // driver thread: the time given to the last frame received (never decreases)
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
