@@ -334,3 +334,46 @@ TEST(CanIo, TheTimestampControlMessageIsFoundAmongOthersAndOnlyWhenWhole) {
   c->cmsg_level = SOL_SOCKET + 1;
   EXPECT_EQ(rx_timestamp_ns(m), no_rx_timestamp) << "same type, other level";
 }
+
+TEST(CanIo, TheKernelsDropCountIsReadBesideTheTimestamp) {
+  alignas(cmsghdr) unsigned char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t))] = {};
+  msghdr m{};
+  EXPECT_EQ(rx_drop_count(m), 0u) << "no control data";
+  m.msg_control = control;
+  m.msg_controllen = sizeof control;
+  cmsghdr* c = CMSG_FIRSTHDR(&m);
+  c->cmsg_level = SOL_SOCKET;
+  c->cmsg_type = SCM_TIMESTAMPNS;
+  c->cmsg_len = CMSG_LEN(sizeof(timespec));
+  const timespec ts{1'763'700'000, 5};
+  std::memcpy(CMSG_DATA(c), &ts, sizeof ts);
+  EXPECT_EQ(rx_drop_count(m), 0u) << "only a timestamp";
+  c = CMSG_NXTHDR(&m, c);
+  ASSERT_NE(c, nullptr);
+  c->cmsg_level = SOL_SOCKET;
+  c->cmsg_type = SO_RXQ_OVFL;
+  c->cmsg_len = CMSG_LEN(sizeof(std::uint32_t));
+  const std::uint32_t drops = 17;
+  std::memcpy(CMSG_DATA(c), &drops, sizeof drops);
+  EXPECT_EQ(rx_drop_count(m), 17u);
+  EXPECT_EQ(rx_timestamp_ns(m), 1'763'700'000'000'000'005);
+  c->cmsg_len = CMSG_LEN(2);
+  EXPECT_EQ(rx_drop_count(m), 0u) << "a short drop count";
+}
+
+// A Unix socket accepts SO_RXQ_OVFL and never reports drops (its sender waits instead); frames and
+// their timestamps come as before.
+TEST(CanIo, AskingForDropCountsOnAUnixSocketChangesNothingElse) {
+  Pair p;
+  std::string err;
+  ASSERT_TRUE(enable_rx_timestamps(p.b.fd(), err)) << err;
+  ASSERT_TRUE(enable_rx_drop_count(p.b.fd(), err)) << err;
+  for (std::uint8_t i = 0; i < 3; ++i) ASSERT_TRUE(write_can_frame(p.a.fd(), frame(0x181, 4, i), err));
+  std::array<can_frame, 8> frames{};
+  std::array<std::int64_t, 8> rx{};
+  FrameBatch batch;
+  ASSERT_EQ(read_can_frames(p.b.fd(), frames, rx, batch, err), ReadResult::frame);
+  EXPECT_EQ(batch.count, 3u);
+  EXPECT_EQ(batch.untimed, 0u);
+  EXPECT_EQ(batch.kernel_drops, 0u);
+}

@@ -83,6 +83,8 @@ CanSocket open_socketcan(const std::string& ifname, std::string& error) {
   }
   // Before bind, so no frame is queued unstamped (it would be stamped when read, as if on arrival).
   if (!enable_rx_timestamps(s.fd(), error)) return {};
+  std::string ignored;  // without drop reports frames still flow; the loss shows as partial cycles
+  (void)enable_rx_drop_count(s.fd(), ignored);
   const can_err_mask_t err_mask = CAN_ERR_MASK;
   if (::setsockopt(s.fd(), SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask) < 0) {
     error = errno_text("setsockopt(CAN_RAW_ERR_FILTER)", errno);
@@ -212,7 +214,7 @@ ReadResult read_can_frames(int fd, std::span<can_frame> frames, std::span<std::i
   // Buffers larger than can_frame so an oversized record is seen as such (MSG_TRUNC), as in read_can_frame.
   struct Slot {
     alignas(can_frame) unsigned char data[sizeof(can_frame) + 64];
-    alignas(cmsghdr) unsigned char control[CMSG_SPACE(sizeof(timespec)) + 32];
+    alignas(cmsghdr) unsigned char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t)) + 32];
   };
   std::array<Slot, max_records> slots;
   std::array<iovec, max_records> iov{};
@@ -259,6 +261,7 @@ ReadResult read_can_frames(int fd, std::span<can_frame> frames, std::span<std::i
       const std::int64_t t = rx_timestamp_ns(m.msg_hdr);
       rx_realtime_ns[batch.count] = t;
       if (t == no_rx_timestamp) ++batch.untimed;
+      batch.kernel_drops = std::max(batch.kernel_drops, rx_drop_count(m.msg_hdr));
     }
     std::memcpy(&frames[batch.count++], slots[static_cast<std::size_t>(i)].data, sizeof(can_frame));
   }
@@ -286,6 +289,28 @@ std::int64_t rx_timestamp_ns(const msghdr& message) noexcept {
     return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
   }
   return no_rx_timestamp;
+}
+
+bool enable_rx_drop_count(int fd, std::string& error) {
+  const int on = 1;
+  if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) {
+    error = errno_text("setsockopt(SO_RXQ_OVFL)", errno);
+    return false;
+  }
+  return true;
+}
+
+std::uint32_t rx_drop_count(const msghdr& message) noexcept {
+  if (message.msg_control == nullptr) return 0;
+  for (const cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr;
+       c = CMSG_NXTHDR(const_cast<msghdr*>(&message), const_cast<cmsghdr*>(c))) {
+    if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SO_RXQ_OVFL) continue;
+    if (c->cmsg_len < CMSG_LEN(sizeof(std::uint32_t))) continue;
+    std::uint32_t drops = 0;
+    std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
+    return drops;
+  }
+  return 0;
 }
 
 bool write_can_record(int fd, const void* data, std::size_t size, std::string& error) {

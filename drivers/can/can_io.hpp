@@ -86,6 +86,9 @@ struct FrameBatch {
   std::size_t count = 0;
   std::size_t truncated = 0;
   std::size_t untimed = 0;  // frames that came without a kernel timestamp (when rx times were asked for)
+  // The highest total of frames the kernel dropped on this socket (receive queue full) that the
+  // batch's messages reported (see enable_rx_drop_count; when rx times were asked for), 0 if none did.
+  std::uint32_t kernel_drops = 0;
 };
 ReadResult read_can_frames(int fd, std::span<can_frame> frames, FrameBatch& batch, std::string& error);
 // The same, and rx_realtime_ns[i] (rx_realtime_ns.size() >= frames.size()) gets frame i's kernel
@@ -101,6 +104,13 @@ inline constexpr std::int64_t no_rx_timestamp = INT64_MIN;
 // The SCM_TIMESTAMPNS time carried by a received message, in CLOCK_REALTIME nanoseconds, or
 // no_rx_timestamp when it has none (or its control data was truncated).
 std::int64_t rx_timestamp_ns(const msghdr& message) noexcept;
+
+// Asks the kernel to report frames it dropped because fd's receive queue was full (SO_RXQ_OVFL): each
+// message queued after a drop carries the socket's total drops so far (SocketCAN). AF_UNIX accepts
+// the option and never reports: a full SEQPACKET queue makes the sender wait instead of dropping.
+bool enable_rx_drop_count(int fd, std::string& error);
+// The socket's total drops carried by a received message (SO_RXQ_OVFL), 0 when it carries none.
+std::uint32_t rx_drop_count(const msghdr& message) noexcept;
 
 // Writes one frame; false with `error` on failure (EAGAIN counts as failure: the bus is congested).
 bool write_can_frame(int fd, const can_frame& frame, std::string& error);

@@ -145,6 +145,12 @@ std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
     const std::int64_t offset_ns = realtime_minus_mono_ns();
     records += batch.count + batch.truncated;
     bad_frames_.fetch_add(batch.truncated, std::memory_order_relaxed);
+    if (batch.kernel_drops > kernel_drops_) {  // a total for the socket: count what is new
+      const std::uint32_t dropped = batch.kernel_drops - kernel_drops_;
+      kernel_drops_ = batch.kernel_drops;
+      dropped_frames_.fetch_add(dropped, std::memory_order_relaxed);
+      bad_frames_.fetch_add(dropped, std::memory_order_relaxed);
+    }
     std::array<FrameTime, frames.size()> times{};
     for (std::size_t i = 0; i < batch.count; ++i) {
       times[i] = frame_time(rx_realtime_ns[i], offset_ns, prev_read_ns_, read_ns);
@@ -198,9 +204,10 @@ std::string DbbDriver::serve_batched(const std::stop_token& stop, int fd, DbbDec
   // receive time, so the SYNC's time is exact however late it is read), then read again. A read that
   // finds nothing waits for the next frame instead, so a silent bus costs no periodic wake-ups. When
   // SYNCs come further apart than the period and the read completed its cycle, there is nothing to
-  // batch: wait for the next SYNC at once. So at high SYNC rates one wake-up per period, at low rates
-  // about one per cycle (more if a cycle's PDOs trickle in), and a frame waits at most
-  // read_period_us in the socket.
+  // batch: wait for the next SYNC at once. So at high SYNC rates one wake-up per period; at low rates
+  // one per cycle when a cycle's frames arrive together (the emulator), two on a real bus (the SYNC
+  // precedes the PDOs by at least a frame time: it wakes us, we rest, then read the PDOs). A frame
+  // waits at most read_period_us in the socket.
   const std::int64_t period_ns = settings_.read_period_us * 1000;
   const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
   std::int64_t last_rx = mono_now_ns();
@@ -245,6 +252,7 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
   // read); this covers other connectors. Should a socket refuse, frames get the time they are read,
   // counted in untimed_frames.
   (void)can::enable_rx_timestamps(fd, error);
+  (void)can::enable_rx_drop_count(fd, error);  // where unsupported, drops show as partial cycles only
   if (!settings_.produce_sync && settings_.read_period_us > 0) return serve_batched(stop, fd, decoder);
   const std::int64_t period_ns =
       settings_.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)) : 0;
@@ -311,6 +319,7 @@ void DbbDriver::run(std::stop_token stop) {
   while (!stop.stop_requested()) {
     std::string error;
     prev_read_ns_ = mono_now_ns();  // no frame on this connection was received before it was opened
+    kernel_drops_ = 0;
     can::CanSocket sock = connector_(error);
     if (!sock.valid()) {
       set_state(connected_once ? drivers::DeviceState::lost : drivers::DeviceState::error,

@@ -75,6 +75,11 @@ class DbbDriver : public drivers::Driver {
   [[nodiscard]] std::uint64_t untimed_frames() const noexcept {
     return untimed_frames_.load(std::memory_order_relaxed);
   }
+  // Frames the kernel dropped because the socket's receive queue was full (SO_RXQ_OVFL; SocketCAN
+  // reports them, a Unix gateway never drops): also counted in bad_frames, so STATUS shows the loss.
+  [[nodiscard]] std::uint64_t dropped_frames() const noexcept {
+    return dropped_frames_.load(std::memory_order_relaxed);
+  }
   // Reads of the bus (each takes every queued frame): in listen mode with read_period_us > 0 about
   // one per wake-up.
   [[nodiscard]] std::uint64_t bus_reads() const noexcept { return bus_reads_.load(std::memory_order_relaxed); }
@@ -104,10 +109,12 @@ class DbbDriver : public drivers::Driver {
   int wake_fd_ = -1;
   bool silent_ = false;  // driver thread: lost/bus-off until the next sample
   std::int64_t prev_read_ns_ = 0;  // driver thread: when a read last found the socket empty
+  std::uint32_t kernel_drops_ = 0;  // driver thread: the socket's total drops reported so far
   std::int64_t last_frame_ns_ = 0;  // driver thread: the time given to the last frame received (never decreases)
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
+  std::atomic<std::uint64_t> dropped_frames_{0};
   std::atomic<std::uint64_t> bus_reads_{0};
   std::atomic<std::uint64_t> empty_reads_{0};
   std::int64_t last_sync_ns_ = 0;    // driver thread: receive time of the newest SYNC (0: none yet)
