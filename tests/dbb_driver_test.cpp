@@ -292,6 +292,29 @@ TEST(DbbDriver, FrameTimeIsTheKernelStampOnTheMonotonicClockOrTheReadTime) {
   EXPECT_EQ(t.t_ns, earliest - 300'000);
 }
 
+// The kernel filter a SocketCAN bus gets (not exercised here without AF_CAN): SYNC and our nodes'
+// TPDO1 exactly, nothing else, checked frame by frame the way the kernel matches.
+TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesTpdo1Only) {
+  dbb::DbbSettings s;
+  s.encoders = three_encoders();
+  const auto filters = dbb::dbb_can_filters(s);
+  ASSERT_EQ(filters.size(), 1 + s.encoders.size());
+  const auto passes = [&](canid_t id) {
+    return std::any_of(filters.begin(), filters.end(),
+                       [&](const can_filter& f) { return (id & f.can_mask) == (f.can_id & f.can_mask); });
+  };
+  EXPECT_TRUE(passes(0x080));
+  for (const auto& e : s.encoders) {
+    EXPECT_TRUE(passes(0x180u + e.node_id)) << int(e.node_id);
+    EXPECT_FALSE(passes((0x180u + e.node_id) | CAN_RTR_FLAG)) << "a remote request";
+    EXPECT_FALSE(passes((0x180u + e.node_id) | CAN_EFF_FLAG)) << "an extended frame";
+    EXPECT_FALSE(passes(0x280u + e.node_id)) << "TPDO2";
+  }
+  EXPECT_FALSE(passes(0x180u + 100)) << "another node's TPDO1";
+  EXPECT_FALSE(passes(0x700u + s.encoders[0].node_id)) << "heartbeat";
+  EXPECT_FALSE(passes(0x000)) << "NMT";
+}
+
 // The real-time clock stepped back by 2 s in the middle of a batch: the frames stamped before the
 // step fall outside the window and the later ones keep their true times. Times never go backwards.
 TEST(DbbDriver, FrameTimesNeverGoBackwardsAcrossAClockStep) {

@@ -65,7 +65,7 @@ std::string to_string(const CanEndpoint& endpoint) {
   return (endpoint.kind == CanEndpoint::Kind::unix_gateway ? "unix:" : "can:") + endpoint.name;
 }
 
-CanSocket open_socketcan(const std::string& ifname, std::string& error) {
+CanSocket open_socketcan(const std::string& ifname, std::string& error, std::span<const can_filter> filters) {
   CanSocket s(::socket(AF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW));
   if (!s.valid()) {
     error = errno_text("socket(AF_CAN)", errno);
@@ -88,6 +88,11 @@ CanSocket open_socketcan(const std::string& ifname, std::string& error) {
   const can_err_mask_t err_mask = CAN_ERR_MASK;
   if (::setsockopt(s.fd(), SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask) < 0) {
     error = errno_text("setsockopt(CAN_RAW_ERR_FILTER)", errno);
+    return {};
+  }
+  if (!filters.empty() && ::setsockopt(s.fd(), SOL_CAN_RAW, CAN_RAW_FILTER, filters.data(),
+                                      static_cast<socklen_t>(filters.size_bytes())) < 0) {
+    error = errno_text("setsockopt(CAN_RAW_FILTER)", errno);
     return {};
   }
   sockaddr_can addr{};
@@ -148,9 +153,9 @@ CanSocket listen_can_gateway(const std::string& path, std::string& error) {
   return s;
 }
 
-CanSocket open_can_endpoint(const CanEndpoint& endpoint, std::string& error) {
+CanSocket open_can_endpoint(const CanEndpoint& endpoint, std::string& error, std::span<const can_filter> filters) {
   if (endpoint.kind == CanEndpoint::Kind::unix_gateway) return connect_can_gateway(endpoint.name, error);
-  return open_socketcan(endpoint.name, error);
+  return open_socketcan(endpoint.name, error, filters);
 }
 
 ReadResult read_can_frame(int fd, can_frame& frame, int timeout_ms, int wake_fd, std::string& error) {

@@ -54,7 +54,9 @@ std::string to_string(const CanEndpoint& endpoint);
 
 // Opens a raw SocketCAN socket bound to `ifname` with error frames and receive timestamps enabled. Returns an invalid
 // socket and sets `error` (e.g. "socket(AF_CAN): Address family not supported by protocol").
-CanSocket open_socketcan(const std::string& ifname, std::string& error);
+// `filters` (CAN_RAW_FILTER), if any, are installed before bind: only matching data frames (and error
+// frames) are received, so other traffic on the bus never wakes the reader. Empty: every frame.
+CanSocket open_socketcan(const std::string& ifname, std::string& error, std::span<const can_filter> filters = {});
 // True when this kernel supports AF_CAN sockets; otherwise `reason` says why (errno text).
 bool socketcan_available(std::string& reason);
 
@@ -63,7 +65,9 @@ CanSocket connect_can_gateway(const std::string& path, std::string& error);
 // Listens on a Unix SOCK_SEQPACKET socket at `path` (an existing socket file is replaced).
 CanSocket listen_can_gateway(const std::string& path, std::string& error);
 
-CanSocket open_can_endpoint(const CanEndpoint& endpoint, std::string& error);
+// `filters` apply to SocketCAN only (a Unix gateway carries one device's traffic).
+CanSocket open_can_endpoint(const CanEndpoint& endpoint, std::string& error,
+                            std::span<const can_filter> filters = {});
 
 enum class ReadResult {
   frame,      // one complete frame in `frame`

@@ -77,6 +77,14 @@ FrameTime frame_time(std::int64_t rx_realtime_ns, std::int64_t realtime_offset_n
   return {std::min(t, read_ns), true};
 }
 
+std::vector<can_filter> dbb_can_filters(const DbbSettings& settings) {
+  // Exact standard identifier; a remote request or an extended frame with the same bits does not match.
+  constexpr canid_t exact = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
+  std::vector<can_filter> out{{sync_cob_id, exact}};
+  for (const auto& e : settings.encoders) out.push_back({tpdo1_cob_base + e.node_id, exact});
+  return out;
+}
+
 void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexcept {
   std::int64_t next_kernel_ns = INT64_MAX;  // the kernel time of the next frame that has one
   for (std::size_t i = times.size(); i-- > 0;) {
@@ -98,8 +106,9 @@ DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings se
       connector_(std::move(connector)),
       wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {
   if (!connector_) {
-    connector_ = [endpoint = settings_.endpoint](std::string& error) {
-      return can::open_can_endpoint(endpoint, error);
+    // Foreign traffic on a shared bus is filtered out in the kernel, so it never wakes the driver.
+    connector_ = [endpoint = settings_.endpoint, filters = dbb_can_filters(settings_)](std::string& error) {
+      return can::open_can_endpoint(endpoint, error, filters);
     };
   }
 }

@@ -55,6 +55,10 @@ FrameTime frame_time(std::int64_t rx_realtime_ns, std::int64_t realtime_offset_n
 // normally one read period, but after the bus was silent up to timeout_ms (at most 1 s).
 void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexcept;
 
+// The CAN_RAW_FILTER set a dbb-can SocketCAN socket gets: the SYNC (0x080) and each configured node's
+// TPDO1 (0x180 + node), standard data frames only; error frames come through CAN_RAW_ERR_FILTER.
+std::vector<can_filter> dbb_can_filters(const DbbSettings& settings);
+
 // Opens the bus; tests substitute one that hands out socketpair ends.
 using CanConnector = std::function<can::CanSocket(std::string& error)>;
 
