@@ -431,6 +431,15 @@ TEST(MicrometerDriver, BufferedCounterFasterThanTheConfiguredRateIsAnError) {
   ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::error; }, 3s));
   EXPECT_NE(d.status().reason.find("sample_rate_hz = 2000"), std::string::npos) << d.status().reason;
   EXPECT_GE(d.counter_resets(), 3u);
+  // A network blip in between: after the reconnect the state must come back to error, not stay
+  // "streaming" with nothing published.
+  emulator.disconnect_for(100ms);
+  ASSERT_TRUE(test::eventually([&] { return d.status().counters.reconnects >= 1; }, 5s));
+  int streaming = 0;  // over 0.4 s; at most the instant between a connect and its first poll
+  for (int i = 0; i < 20; ++i, std::this_thread::sleep_for(20ms)) {
+    streaming += d.status().state == drivers::DeviceState::streaming ? 1 : 0;
+  }
+  EXPECT_LE(streaming, 1) << "the error must hold after the reconnect";
   d.stop();
   emulator.stop();
 }

@@ -201,8 +201,9 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
         counter_resets_.fetch_add(1, std::memory_order_relaxed);
         cursor.gap = true;
         // A restart now and then is an amplifier; one at every poll is a counter running faster
-        // than the configured rate, and nothing would ever be published: say so.
-        if (++cursor.resets_in_row == 3) {
+        // than the configured rate, and nothing would ever be published: say so, again after every
+        // further one (a reconnect sets the state to streaming; the count survives it).
+        if (++cursor.resets_in_row >= 3) {
           std::string why = "the sample counter runs faster than sample_rate_hz = ";
           append_shortest(why, rate);
           set_state(drivers::DeviceState::error, why + " (or the amplifier keeps restarting): check [device.buffer]");
