@@ -444,6 +444,33 @@ TEST(MicrometerDriver, BufferedCounterFasterThanTheConfiguredRateIsAnError) {
   emulator.stop();
 }
 
+// The amplifier samples 1 % slower than the table says (9900 Hz for 10000): timestamps would drift
+// early unnoticed. The driver measures the real rate over 2 s and reports an error saying so.
+TEST(MicrometerDriver, BufferedCounterSlowerThanTheConfiguredRateIsAnError) {
+  MicrometerEmulator::Options o;
+  o.source = numbered_source();
+  o.ring = modbus::SampleRingMap{};
+  o.ring->sample_rate_hz = 9900.0;
+  MicrometerEmulator emulator(o);
+  std::string error;
+  const int port = emulator.start_tcp("127.0.0.1", 0, error);
+  ASSERT_GT(port, 0) << error;
+  auto table = parse_toml("port = " + std::to_string(port) +
+                              "\npoll_period_ms = 5\n[buffer]\ncounter_address = 100\nring_address = 200\n"
+                              "ring_samples = 4096\nsample_rate_hz = 10000\n",
+                          "t.toml");
+  TableReader reader(table, "t.toml", "device[0]");
+  micrometer::MicrometerDriver d("mic", micrometer::parse_micrometer_config(reader), 1 << 16);
+  d.start();
+  ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::error; }, 5s));
+  const std::string reason = d.status().reason;
+  EXPECT_NE(reason.find("% slower than sample_rate_hz = 10000 (measured 99"), std::string::npos) << reason;
+  EXPECT_EQ(d.counter_resets(), 0u);
+  EXPECT_GT(d.status().counters.samples, 10000u) << "still published";
+  d.stop();
+  emulator.stop();
+}
+
 TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
   auto error = [](const std::string& text) {
     auto table = parse_toml(text, "mic.toml");

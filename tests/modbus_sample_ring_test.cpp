@@ -254,3 +254,34 @@ TEST(SampleRing, TimeAnchorIsLateByTheQuickestAnswerInItsWindow) {
     ASSERT_NEAR(error, expected, 1.0);
   }
 }
+
+// A device whose real rate is off the configured one: rate_error() measures it (to 1e-4 with answer
+// delays up to 1 ms), and with a 0.2 s window a device 0.5 % slow gets stamps early by at most
+// 0.2 s x 0.5 % = 1 ms (with a 1 s window, 5 ms).
+TEST(SampleRing, TimeAnchorMeasuresTheDevicesRealRate) {
+  for (const double real : {1.0, 0.995, 0.99, 1.004}) {
+    std::mt19937_64 rng(7);
+    const double rate = 10000.0, true_rate = rate * real;
+    const double a0 = 5e9;
+    TimeAnchor anchor(rate, 200'000'000);
+    anchor.reset(0);
+    double t_query = a0 + 1e6, most_early = 0.0;
+    for (int i = 0; i < 700; ++i) {  // 3.5 s of polls every 5 ms
+      t_query += 5e6;
+      const auto count = static_cast<std::uint64_t>(std::floor((t_query - a0) * true_rate / 1e9)) + 1;
+      const auto t_answer = static_cast<std::int64_t>(t_query + 30e3 + static_cast<double>(rng() % 1000000));
+      anchor.observe(t_answer, count);
+      const std::uint64_t k = count - 1 - rng() % 50;
+      const double error = static_cast<double>(anchor.time_ns(k)) - (a0 + static_cast<double>(k) * 1e9 / true_rate);
+      most_early = std::min(most_early, error);
+    }
+    const auto e = anchor.rate_error();
+    ASSERT_TRUE(e) << real;
+    EXPECT_NEAR(*e, real - 1.0, 1e-4) << real;
+    EXPECT_GE(most_early, -0.2e9 * std::max(0.0, 1.0 / real - 1.0) - 1.0) << real;
+  }
+  TimeAnchor anchor(10000.0, 200'000'000);  // nothing before rate_span_ns of reads
+  anchor.reset(0);
+  for (int i = 1; i <= 300; ++i) anchor.observe(i * 5'000'000, static_cast<std::uint64_t>(i) * 50);
+  EXPECT_FALSE(anchor.rate_error());
+}

@@ -1,6 +1,7 @@
 #include "drivers/micrometer/micrometer_driver.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <vector>
 
@@ -46,15 +47,23 @@ MicrometerConfig parse_micrometer_config(const TableReader& t) {
 // Where buffered mode stands; kept across reconnects, so samples taken during a short outage are
 // fetched from the amplifier's ring afterwards.
 struct MicrometerDriver::RingCursor {
-  explicit RingCursor(double rate_hz) : anchor(rate_hz, 1'000'000'000) {}
+  // A 0.2 s anchor window: a device slow by up to the rate tolerance makes stamps early by at most
+  // 0.2 s x 0.5 % = 1 ms; beyond it the state says so.
+  explicit RingCursor(double rate_hz) : anchor(rate_hz, 200'000'000) {}
   modbus::CounterTracker counter;
-  modbus::TimeAnchor anchor;   // sample number -> CLOCK_MONOTONIC, from the last second of counter reads
+  modbus::TimeAnchor anchor;   // sample number -> CLOCK_MONOTONIC, from the last 0.2 s of counter reads
   std::uint64_t next = 0;      // the next sample number to publish
   std::int64_t last_query_ns = 0;  // when the last good counter read was sent
   std::int64_t last_t_ns = std::numeric_limits<std::int64_t>::min();  // published timestamps only increase
   bool gap = false;            // the next published sample follows lost ones
   int resets_in_row = 0;       // counter reads in a row that looked like an amplifier restart
+  bool rate_flagged = false;   // the measured rate is off sample_rate_hz by more than the tolerance
 };
+
+namespace {
+// How far the amplifier's measured rate may be off sample_rate_hz before the state says so.
+constexpr double rate_tolerance = 0.005;
+}  // namespace
 
 MicrometerDriver::MicrometerDriver(std::string name, MicrometerConfig config, std::size_t ring_capacity)
     : Driver(std::move(name), "micrometer-modbus", {{"displacement", "m"}}, ring_capacity),
@@ -213,6 +222,22 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
       cursor.anchor.reset(count > 0 ? count - 1 : 0);
     }
     cursor.anchor.observe(t_answer, count);
+    if (const auto e = cursor.anchor.rate_error()) {
+      if (std::abs(*e) > rate_tolerance) {  // asserted at every poll: a reconnect sets streaming
+        std::string why = "the sample counter runs ";
+        append_shortest(why, std::round(std::abs(*e) * 1e4) / 100.0);
+        why += *e < 0 ? " % slower" : " % faster";
+        why += " than sample_rate_hz = ";
+        append_shortest(why, rate);
+        why += " (measured ";
+        append_shortest(why, std::round(rate * (1.0 + *e)));
+        set_state(drivers::DeviceState::error, why + " Hz): timestamps are off; check [device.buffer]");
+        cursor.rate_flagged = true;
+      } else if (cursor.rate_flagged) {
+        cursor.rate_flagged = false;
+        set_state(drivers::DeviceState::streaming);
+      }
+    }
     return true;
   };
 

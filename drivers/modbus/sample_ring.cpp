@@ -131,14 +131,30 @@ CounterTracker::Step CounterTracker::update(std::uint32_t counter, double elapse
 void TimeAnchor::reset(std::uint64_t base) noexcept {
   base_ = base;
   bounds_.clear();
+  first_.reset();
 }
 
 void TimeAnchor::observe(std::int64_t t_answer_ns, std::uint64_t count) {
   if (count <= base_) return;  // no sample taken since the base: nothing bounds the anchor yet
-  const double anchor = static_cast<double>(t_answer_ns) - static_cast<double>(count - 1 - base_) * 1e9 / rate_hz_;
+  const auto samples = static_cast<double>(count - 1 - base_);
+  const double anchor = static_cast<double>(t_answer_ns) - samples * 1e9 / rate_hz_;
   while (!bounds_.empty() && bounds_.back().anchor_ns >= anchor) bounds_.pop_back();
-  bounds_.push_back({t_answer_ns, anchor});
+  bounds_.push_back({t_answer_ns, anchor, samples});
   while (bounds_.front().t_ns < t_answer_ns - window_ns_) bounds_.pop_front();
+  if (!first_) t_first_ns_ = t_answer_ns;
+  if (t_answer_ns - t_first_ns_ <= window_ns_ && (!first_ || anchor < first_->anchor_ns)) {
+    first_ = Bound{t_answer_ns, anchor, samples};
+  }
+  t_last_ns_ = t_answer_ns;
+}
+
+std::optional<double> TimeAnchor::rate_error() const noexcept {
+  if (!first_ || bounds_.empty() || t_last_ns_ - t_first_ns_ < rate_span_ns) return std::nullopt;
+  const Bound& now = bounds_.front();
+  if (now.samples <= first_->samples) return std::nullopt;
+  // anchor(c) = t0 + c (1/true - 1/nominal) + delay: the slope gives nominal/true - 1.
+  const double slope = (now.anchor_ns - first_->anchor_ns) * 1e-9 * rate_hz_ / (now.samples - first_->samples);
+  return 1.0 / (1.0 + slope) - 1.0;
 }
 
 std::int64_t TimeAnchor::time_ns(std::uint64_t k) const noexcept {

@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -92,8 +93,9 @@ class CounterTracker {
 // Maps sample numbers to CLOCK_MONOTONIC. Each counter read tells that sample count-1 was taken no
 // later than the answer arrived: anchor <= t_answer - (count - 1) / rate. The anchor is the smallest
 // such bound over the polls of the last window_ns, so it is late by the quickest answer's delay in
-// the window (the time from the newest sample to its answer), plus the device clock's drift over the
-// window; it never makes a sample earlier than it was taken when the rate is exact.
+// the window (the time from the newest sample to its answer). A device slower than rate_hz by a
+// fraction e makes the bounds rise, and the oldest (smallest) one in the window makes stamps EARLY by
+// up to e x window (faster: late by about as much): keep the window short, and watch rate_error().
 class TimeAnchor {
  public:
   TimeAnchor(double rate_hz, std::int64_t window_ns) : rate_hz_(rate_hz), window_ns_(window_ns) {}
@@ -103,6 +105,11 @@ class TimeAnchor {
   [[nodiscard]] bool ready() const noexcept { return !bounds_.empty(); }
   // When sample k was taken (ready() must be true).
   [[nodiscard]] std::int64_t time_ns(std::uint64_t k) const noexcept;
+  // The device's real rate relative to rate_hz, minus 1 (-0.01: 1 % slow), from the drift of the
+  // quickest answer's bound between the first window after reset() and the current one; nothing
+  // until the two are rate_span_ns apart (then the answer-delay noise is below 1e-3 for delays < 1 ms).
+  [[nodiscard]] std::optional<double> rate_error() const noexcept;
+  static constexpr std::int64_t rate_span_ns = 2'000'000'000;
 
  private:
   double rate_hz_;
@@ -111,8 +118,12 @@ class TimeAnchor {
   struct Bound {
     std::int64_t t_ns;
     double anchor_ns;  // t_answer - (count - 1 - base) / rate
+    double samples;    // count - 1 - base
   };
   std::deque<Bound> bounds_;  // a sliding-window minimum: anchors increasing from front to back
+  std::optional<Bound> first_;  // the smallest bound in the first window after reset()
+  std::int64_t t_first_ns_ = 0;
+  std::int64_t t_last_ns_ = 0;
 };
 
 }  // namespace guideway::modbus
