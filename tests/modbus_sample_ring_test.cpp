@@ -109,7 +109,7 @@ TEST(SampleRing, CounterUnwrapsAcrossTheWrapAndSpotsResets) {
   EXPECT_EQ(c.update(0xcdu + 107u, 0.1, 1000.0), CounterTracker::Step::advanced);  // 107 <= 105 + 2
 }
 
-// Against a model amplifier: a slot array that remembers which sample wrote it last.
+// Against a model amplifier: a slot array that remembers which sample wrote it last (or is writing it).
 TEST(SampleRing, OldestIntactMatchesAModelAmplifierAcrossCounterWraps) {
   std::mt19937_64 rng(8);
   for (int iter = 0; iter < 3000; ++iter) {
@@ -118,8 +118,10 @@ TEST(SampleRing, OldestIntactMatchesAModelAmplifierAcrossCounterWraps) {
     const std::uint64_t start = (std::uint64_t{1} << 32) * (rng() % 3) + 0xffffffffu - rng() % 200;
     const std::uint64_t taken = 1 + rng() % 400;
     std::vector<std::int64_t> owner(m.ring_samples, -1);
-    for (std::uint64_t u = start; u < start + taken; ++u) owner[ring_slot(m, u)] = static_cast<std::int64_t>(u);
     const std::uint64_t count = start + taken;
+    // Write-then-increment: with the counter at `count` the amplifier may be writing sample `count`
+    // into its slot right now, so that slot holds nothing stable.
+    for (std::uint64_t u = start; u <= count; ++u) owner[ring_slot(m, u)] = static_cast<std::int64_t>(u);
     const std::uint64_t oldest = std::max(oldest_intact(m, count), start);  // the model knows nothing before start
     ASSERT_LE(oldest, count);
     for (std::uint64_t u = oldest; u < count; ++u) {

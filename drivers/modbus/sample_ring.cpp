@@ -73,17 +73,20 @@ std::array<std::uint16_t, 2> encode_counter(const SampleRingMap& map, std::uint3
                                                   : std::array<std::uint16_t, 2>{lo, hi};
 }
 
-std::uint64_t oldest_intact(const SampleRingMap& map, std::uint64_t count) noexcept {
+std::uint64_t oldest_intact(const SampleRingMap& map, std::uint64_t count_read) noexcept {
+  // The amplifier may be writing sample count_read into its slot (write, then increment): treat it
+  // as taken, so the ring holds ring_samples - 1 stable samples.
+  const std::uint64_t count = count_read + 1;
   const std::uint64_t n = map.ring_samples;
   const std::uint64_t lo = count > n ? count - n : 0;
   const std::uint64_t wrap = count & ~(two32 - 1);  // where the 32-bit counter last wrapped
-  if (wrap <= lo || std::has_single_bit(n)) return lo;
+  if (wrap <= lo || std::has_single_bit(n)) return std::min(lo, count_read);
   // The m samples after the wrap went to slots 0..m-1: a sample before it in one of those is gone.
   const std::uint64_t m = count - wrap;
   for (std::uint64_t u = wrap; u > lo; --u) {
-    if (ring_slot(map, u - 1) < m) return u;
+    if (ring_slot(map, u - 1) < m) return std::min(u, count_read);
   }
-  return lo;
+  return std::min(lo, count_read);
 }
 
 std::vector<RingRead> plan_ring_reads(const SampleRingMap& map, std::uint64_t first, std::uint64_t end) {

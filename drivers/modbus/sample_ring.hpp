@@ -55,7 +55,8 @@ SampleRingMap parse_sample_ring(const TableReader& table);
 }
 
 // Samples [first, end) still intact in the ring when the device has taken `count` samples (count >=
-// end): the first of them not yet overwritten. Handles the slot discontinuity a non-power-of-two
+// end): the first of them not yet overwritten, nor being overwritten by sample `count` (the ring
+// holds ring_samples - 1 stable samples). Handles the slot discontinuity a non-power-of-two
 // ring has where the 32-bit counter wraps.
 [[nodiscard]] std::uint64_t oldest_intact(const SampleRingMap& map, std::uint64_t count) noexcept;
 
