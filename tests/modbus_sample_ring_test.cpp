@@ -287,3 +287,28 @@ TEST(SampleRing, TimeAnchorMeasuresTheDevicesRealRate) {
   for (int i = 1; i <= 300; ++i) anchor.observe(i * 5'000'000, static_cast<std::uint64_t>(i) * 50);
   EXPECT_FALSE(anchor.rate_error());
 }
+
+// The anchor drops 5 ms (a quicker answer): stamps never go below the anchor's times, stay at least
+// half a period apart, and meet the anchor again after 100 samples (5 ms / 50 us), not 1 ns apart.
+TEST(SampleRing, StampSequencerApproachesADroppedAnchorByHalfAPeriodPerSample) {
+  const double rate = 10000.0;
+  StampSequencer seq(rate);
+  std::int64_t last = 0;
+  for (std::uint64_t k = 0; k < 400; ++k) {
+    const std::int64_t anchor = 1'000'000'000 + static_cast<std::int64_t>(k) * 100'000 - (k >= 200 ? 5'000'000 : 0);
+    const std::int64_t t = seq.stamp(k, anchor);
+    ASSERT_GE(t, anchor) << k;
+    if (k > 0) {
+      ASSERT_GE(t - last, 50'000) << k;
+    }
+    if (k < 200 || k >= 300) {
+      ASSERT_EQ(t, anchor) << k;
+    }
+    last = t;
+  }
+  // A lap (k jumps): the bound grows with the jump; a restart: numbers jump by 2^32, only +1 is kept.
+  EXPECT_EQ(seq.stamp(1399, last - 1), last + 1000 * 50'000);
+  seq.restart();
+  const std::int64_t before = last + 1000 * 50'000;
+  EXPECT_EQ(seq.stamp((std::uint64_t{1} << 32) + 5, 0), before + 1);
+}

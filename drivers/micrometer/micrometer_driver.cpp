@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <vector>
 
 #include "core/mono_clock.hpp"
@@ -49,12 +48,12 @@ MicrometerConfig parse_micrometer_config(const TableReader& t) {
 struct MicrometerDriver::RingCursor {
   // A 0.2 s anchor window: a device slow by up to the rate tolerance makes stamps early by at most
   // 0.2 s x 0.5 % = 1 ms; beyond it the state says so.
-  explicit RingCursor(double rate_hz) : anchor(rate_hz, 200'000'000) {}
+  explicit RingCursor(double rate_hz) : anchor(rate_hz, 200'000'000), stamps(rate_hz) {}
   modbus::CounterTracker counter;
   modbus::TimeAnchor anchor;   // sample number -> CLOCK_MONOTONIC, from the last 0.2 s of counter reads
   std::uint64_t next = 0;      // the next sample number to publish
   std::int64_t last_query_ns = 0;  // when the last good counter read was sent
-  std::int64_t last_t_ns = std::numeric_limits<std::int64_t>::min();  // published timestamps only increase
+  modbus::StampSequencer stamps;  // published timestamps only increase, by >= half a period a sample
   bool gap = false;            // the next published sample follows lost ones
   int resets_in_row = 0;       // counter reads in a row that looked like an amplifier restart
   bool rate_flagged = false;   // the measured rate is off sample_rate_hz by more than the tolerance
@@ -220,6 +219,7 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
       }
       cursor.next = count;
       cursor.anchor.reset(count > 0 ? count - 1 : 0);
+      cursor.stamps.restart();
     }
     cursor.anchor.observe(t_answer, count);
     if (const auto e = cursor.anchor.rate_error()) {
@@ -281,8 +281,7 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
         for (std::uint64_t k = first; k < rr.first + rr.samples; ++k) {
           const modbus::Reading& reading = readings[k - rr.first];
           Sample s;
-          s.t_mono_ns = std::max(cursor.anchor.time_ns(k), cursor.last_t_ns + 1);
-          cursor.last_t_ns = s.t_mono_ns;
+          s.t_mono_ns = cursor.stamps.stamp(k, cursor.anchor.time_ns(k));
           s.value_count = 1;
           s.value[0] = reading.value_m;
           s.flags = reading.flags | (cursor.gap ? sample_after_gap : 0u);

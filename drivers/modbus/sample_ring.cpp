@@ -165,4 +165,19 @@ std::int64_t TimeAnchor::time_ns(std::uint64_t k) const noexcept {
   return std::llround(bounds_.front().anchor_ns + offset);
 }
 
+std::int64_t StampSequencer::stamp(std::uint64_t k, std::int64_t anchor_time_ns) noexcept {
+  std::int64_t t = anchor_time_ns;
+  if (last_t_ns_ != std::numeric_limits<std::int64_t>::min()) {
+    std::int64_t least = last_t_ns_ + 1;
+    if (have_k_ && k > last_k_ && k - last_k_ < (std::uint64_t{1} << 32)) {
+      least = std::max<std::int64_t>(least, last_t_ns_ + std::llround(static_cast<double>(k - last_k_) * half_period_ns_));
+    }
+    t = std::max(t, least);
+  }
+  have_k_ = true;
+  last_k_ = k;
+  last_t_ns_ = t;
+  return t;
+}
+
 }  // namespace guideway::modbus

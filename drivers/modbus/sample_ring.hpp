@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <optional>
 #include <span>
 #include <string>
@@ -125,6 +126,23 @@ class TimeAnchor {
   std::optional<Bound> first_;  // the smallest bound in the first window after reset()
   std::int64_t t_first_ns_ = 0;
   std::int64_t t_last_ns_ = 0;
+};
+
+// Published timestamps from anchor times: strictly increasing, and when the anchor drops (a quicker
+// answer) they approach it by at most half a period per sample instead of piling up 1 ns apart. Never
+// earlier than the anchor's time, so never earlier than the anchor allows.
+class StampSequencer {
+ public:
+  explicit StampSequencer(double rate_hz) : half_period_ns_(0.5e9 / rate_hz) {}
+  // After a counter restart sample numbers jump: the next stamp only has to follow the last one.
+  void restart() noexcept { have_k_ = false; }
+  std::int64_t stamp(std::uint64_t k, std::int64_t anchor_time_ns) noexcept;
+
+ private:
+  double half_period_ns_;
+  bool have_k_ = false;
+  std::uint64_t last_k_ = 0;
+  std::int64_t last_t_ns_ = std::numeric_limits<std::int64_t>::min();
 };
 
 }  // namespace guideway::modbus
