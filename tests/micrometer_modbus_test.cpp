@@ -404,6 +404,33 @@ TEST_P(MicrometerBuffered, ShortOutageLosesNothing) {
   for (const Sample& s : h.samples) ASSERT_EQ(s.flags, 0u);
 }
 
+// The amplifier restarts (its counter back to 0) 20 ms before a poll: the 200 samples its ring took
+// since are fetched, from sample 0 of the new run, the first flagged after_gap; none is dropped.
+TEST_P(MicrometerBuffered, ResumesAtTheStartOfARestartedAmplifiersRun) {
+  if (GetParam().rtu) GTEST_SKIP() << "one transport is enough";
+  BufferedHarness h(false, GetParam().ring_samples, 0, "poll_period_ms = 5\n");
+  h.driver->start();
+  ASSERT_TRUE(h.wait_samples(1000));
+  h.emulator->restart_ring(20ms);
+  ASSERT_TRUE(test::eventually([&] { return h.driver->counter_resets() >= 1; }, 3s));
+  const std::size_t have = (h.drain(), h.samples.size());
+  ASSERT_TRUE(h.wait_samples(have + 1000));
+  h.driver->stop();
+  h.drain();
+  EXPECT_EQ(h.driver->counter_resets(), 1u);
+  std::size_t restart = 0;
+  for (std::size_t i = 1; i < h.samples.size(); ++i) {
+    if (BufferedHarness::number(h.samples[i]) < BufferedHarness::number(h.samples[i - 1])) restart = i;
+  }
+  ASSERT_GT(restart, 0u);
+  EXPECT_EQ(BufferedHarness::number(h.samples[restart]), 0) << "the new run's samples before the first read";
+  EXPECT_NE(h.samples[restart].flags & sample_after_gap, 0u);
+  for (std::size_t i = restart + 1; i < h.samples.size(); ++i) {
+    ASSERT_EQ(BufferedHarness::number(h.samples[i]), BufferedHarness::number(h.samples[i - 1]) + 1) << i;
+    ASSERT_GT(h.samples[i].t_mono_ns, h.samples[i - 1].t_mono_ns);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerBuffered,
                          ::testing::Values(BufferedCase{false, 4096}, BufferedCase{true, 4096},
                                            BufferedCase{false, 3000}, BufferedCase{true, 3000}),

@@ -195,7 +195,10 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
     }
     frames_.fetch_add(1, std::memory_order_relaxed);
     const double elapsed_s = static_cast<double>(t_answer - cursor.last_query_ns) * 1e-9;
-    const auto step = cursor.counter.update(modbus::decode_counter(ring, block[0], block[1]), elapsed_s, rate);
+    const std::uint32_t counter = modbus::decode_counter(ring, block[0], block[1]);
+    const bool backwards = cursor.counter.started() &&
+                           counter - static_cast<std::uint32_t>(cursor.counter.count()) >= 0x80000000u;
+    const auto step = cursor.counter.update(counter, elapsed_s, rate);
     cursor.last_query_ns = t_query;
     const std::uint64_t count = cursor.counter.count();
     if (step == modbus::CounterTracker::Step::advanced && cursor.resets_in_row > 0) {
@@ -204,7 +207,7 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
     }
     if (step != modbus::CounterTracker::Step::advanced) {
       // Start at the newest sample (first read), or after a restart of the amplifier: what it took
-      // before is not in this count, so it cannot be fetched or numbered; the next sample says so.
+      // before the restart is not in this count, so it cannot be fetched or numbered; the next sample says so.
       if (step == modbus::CounterTracker::Step::reset) {
         counter_resets_.fetch_add(1, std::memory_order_relaxed);
         cursor.gap = true;
@@ -218,6 +221,9 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
         }
       }
       cursor.next = count;
+      // A counter that went backwards is an amplifier that restarted (from 0): what its ring took
+      // since then is in this epoch, [epoch start, count): resume at its oldest intact sample.
+      if (backwards) cursor.next = std::max(count & ~((std::uint64_t{1} << 32) - 1), modbus::oldest_intact(ring, count));
       cursor.anchor.reset(count > 0 ? count - 1 : 0);
       cursor.stamps.restart();
     }

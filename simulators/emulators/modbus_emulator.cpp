@@ -123,8 +123,11 @@ MicrometerEmulator::MicrometerEmulator(Options options) : options_(std::move(opt
   mapping_ = modbus_mapping_new_start_address(0, 0, 0, 0, start, end - start, start, end - start);
 }
 
+void MicrometerEmulator::restart_ring(std::chrono::milliseconds ago) { ring_restart_ago_ns_ = ago.count() * 1'000'000; }
+
 std::int64_t MicrometerEmulator::ring_start_ns() const noexcept {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(t0_.time_since_epoch()).count();
+  std::lock_guard lock(mutex_);
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(ring_t0_.time_since_epoch()).count();
 }
 
 void MicrometerEmulator::set_register(std::uint32_t address, std::uint16_t value) {
@@ -190,6 +193,7 @@ int MicrometerEmulator::start_tcp(const std::string& host, int port, std::string
   getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&addr), &len);
   const int actual = ntohs(addr.sin_port);
   t0_ = std::chrono::steady_clock::now();
+  ring_t0_ = t0_;
   running_ = true;
   server_thread_ = std::thread([this, actual] { tcp_loop(actual); });
   return actual;
@@ -221,6 +225,7 @@ std::string MicrometerEmulator::start_rtu(int baud, char parity, int data_bits, 
     return {};
   }
   t0_ = std::chrono::steady_clock::now();
+  ring_t0_ = t0_;
   running_ = true;
   server_thread_ = std::thread([this] { rtu_loop(); });
   bridge_thread_ = std::thread([this] { bridge_loop(); });
@@ -367,7 +372,21 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
   if (point.probe_missing) status |= map.probe_missing_mask;
   const std::vector<std::uint16_t> block = modbus::encode_registers(map, point.value_m, status);
   for (std::uint32_t i = 0; i < block.size(); ++i) set_register(map.block_start() + i, block[i]);
-  if (options_.ring && options_.source) fill_ring(t_s);
+  if (options_.ring && options_.source) {
+    const auto now = std::chrono::steady_clock::now();
+    if (const std::int64_t ago = ring_restart_ago_ns_.exchange(-1); ago >= 0) {
+      std::lock_guard lock(mutex_);
+      ring_t0_ = now - std::chrono::nanoseconds(ago);  // the amplifier restarted: counter from 0, old slots stale
+      ring_taken_ = 0;
+      options_.ring_counter_start = 0;
+    }
+    std::chrono::steady_clock::time_point ring_t0;
+    {
+      std::lock_guard lock(mutex_);
+      ring_t0 = ring_t0_;
+    }
+    fill_ring(std::chrono::duration<double>(now - ring_t0).count());
+  }
   std::optional<ModbusFault> fault;
   if (line_down()) return;  // RTU: the bridge drops the answer anyway; TCP closes before reaching here
   {

@@ -80,7 +80,10 @@ class MicrometerEmulator {
   [[nodiscard]] std::vector<ServedReading> served() const;
   [[nodiscard]] std::uint64_t requests() const noexcept { return requests_.load(); }
   [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
-  // CLOCK_MONOTONIC (ns) of the start: ring sample k was taken at ring_start_ns() + k / rate.
+  // The amplifier restarted `ago` before the next request: its counter starts again at 0 (sample k of
+  // the new run is source(k / rate)); slots not yet rewritten keep the old run's samples.
+  void restart_ring(std::chrono::milliseconds ago);
+  // CLOCK_MONOTONIC (ns) of the (re)start: ring sample k was taken at ring_start_ns() + k / rate.
   [[nodiscard]] std::int64_t ring_start_ns() const noexcept;
 
  private:
@@ -98,6 +101,8 @@ class MicrometerEmulator {
   void* mapping_ = nullptr;  // modbus_mapping_t*
   std::uint32_t mapping_start_ = 0;
   std::uint64_t ring_taken_ = 0;  // samples written into the ring so far (server thread)
+  std::chrono::steady_clock::time_point ring_t0_;  // the ring's (re)start (mutex_)
+  std::atomic<std::int64_t> ring_restart_ago_ns_{-1};
   int listen_fd_ = -1;
   int pty_server_master_ = -1, pty_client_master_ = -1, pty_server_slave_ = -1, pty_client_slave_ = -1;
   std::atomic<bool> running_{false};
