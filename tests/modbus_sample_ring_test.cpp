@@ -90,6 +90,19 @@ TEST(SampleRing, RejectsBadConfigWithFileLineAndKey) {
                 .find("device[0].buffer.sample_rate_hz"),
             std::string::npos);
   EXPECT_NE(config_error(minimal + "scale_um = 0\n").find("scale_um"), std::string::npos);
+  // The parser and validate() agree on the range, [0.001, 1e6] Hz (docs/protocols.md says the same).
+  SampleRingMap m;
+  for (const double hz : {1e-3, 1e6}) {
+    m.sample_rate_hz = hz;
+    EXPECT_EQ(m.validate(), "") << hz;
+    EXPECT_EQ(config_error("counter_address = 100\nring_address = 200\nring_samples = 10\nsample_rate_hz = " +
+                           std::to_string(hz) + "\n"),
+              "accepted") << hz;
+  }
+  for (const double hz : {5e-4, 1.000001e6}) {
+    m.sample_rate_hz = hz;
+    EXPECT_NE(m.validate(), "") << hz;
+  }
 }
 
 TEST(SampleRing, CounterUnwrapsAcrossTheWrapAndSpotsResets) {

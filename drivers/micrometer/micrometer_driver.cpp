@@ -152,7 +152,6 @@ std::string MicrometerDriver::stream_polled(const std::stop_token& stop, modbus:
 
 void MicrometerDriver::lose(RingCursor& cursor, std::uint64_t n) noexcept {
   if (n == 0) return;
-  ring_overruns_.fetch_add(1, std::memory_order_relaxed);
   lost_samples_.fetch_add(n, std::memory_order_relaxed);
   skip_samples(n);
   cursor.gap = true;
@@ -250,6 +249,7 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
   auto wake = std::chrono::steady_clock::now();
   while (!stop.stop_requested()) {
     client.flush();  // a late answer to a failed request must not be taken for this one
+    const std::uint64_t lost_before = lost_samples_.load(std::memory_order_relaxed);
     bool ok = read_counter();
     if (ok) {
       const std::uint64_t count = cursor.counter.count();
@@ -297,6 +297,8 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
         cursor.next = rr.first + rr.samples;
       }
     }
+    // One overrun per poll that found samples overwritten, however many of its reads saw it.
+    if (lost_samples_.load(std::memory_order_relaxed) != lost_before) ring_overruns_.fetch_add(1, std::memory_order_relaxed);
     if (link_gone || failures >= config_.lost_after_failures) break;
     if (ok) {
       failures = 0;

@@ -42,7 +42,8 @@ class MicrometerDriver : public drivers::Driver {
   [[nodiscard]] const MicrometerConfig& config() const noexcept { return config_; }
   // Failed polls answered with a Modbus exception (also counted in bad_frames).
   [[nodiscard]] std::uint64_t exceptions() const noexcept { return exceptions_.load(std::memory_order_relaxed); }
-  // Buffered mode: times the amplifier's ring lapped between two reads, and the samples lost so
+  // Buffered mode: polls that found samples overwritten by the amplifier's ring (once per poll, however
+  // many of its reads saw it), and the samples lost so
   // (also skipped sequence numbers: the pipeline's seq_gaps); counter resets (amplifier restarted).
   [[nodiscard]] std::uint64_t ring_overruns() const noexcept { return ring_overruns_.load(std::memory_order_relaxed); }
   [[nodiscard]] std::uint64_t lost_samples() const noexcept { return lost_samples_.load(std::memory_order_relaxed); }

@@ -25,8 +25,8 @@ std::string SampleRingMap::validate() const {
   if (std::uint32_t{counter_address} + 2 > ring_address && counter_address < ring_end) {
     return "counter registers overlap the ring";
   }
-  if (!std::isfinite(sample_rate_hz) || sample_rate_hz <= 0.0 || sample_rate_hz > 1e6) {
-    return "sample_rate_hz must be in (0, 1e6]";
+  if (!std::isfinite(sample_rate_hz) || sample_rate_hz < 1e-3 || sample_rate_hz > 1e6) {
+    return "sample_rate_hz must be in [0.001, 1e6]";
   }
   return {};
 }
