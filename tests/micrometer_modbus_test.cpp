@@ -392,6 +392,7 @@ TEST_P(MicrometerBuffered, CountsAndFlagsALappedRing) {
 // The link drops for 150 ms: the driver reconnects and fetches what the amplifier took meanwhile
 // from its ring (1.6 s long): reads are idempotent, so nothing is lost or flagged.
 TEST_P(MicrometerBuffered, ShortOutageLosesNothing) {
+  if (GetParam().ring_samples != 4096) GTEST_SKIP() << "the ring is 16384 slots in every case";
   BufferedHarness h(GetParam().rtu, 16384, 0, "poll_period_ms = 5\nresponse_timeout_ms = 60\n");
   h.driver->start();
   ASSERT_TRUE(h.wait_samples(1000));
@@ -474,7 +475,7 @@ TEST(MicrometerDriver, BufferedCounterFasterThanTheConfiguredRateIsAnError) {
 }
 
 // The amplifier samples 1 % slower than the table says (9900 Hz for 10000): timestamps would drift
-// early unnoticed. The driver measures the real rate over 2 s and reports an error saying so.
+// early unnoticed. The driver measures the real rate over 1 s and reports an error saying so.
 TEST(MicrometerDriver, BufferedCounterSlowerThanTheConfiguredRateIsAnError) {
   MicrometerEmulator::Options o;
   o.source = numbered_source();
@@ -495,7 +496,7 @@ TEST(MicrometerDriver, BufferedCounterSlowerThanTheConfiguredRateIsAnError) {
   const std::string reason = d.status().reason;
   EXPECT_NE(reason.find("% slower than sample_rate_hz = 10000 (measured 99"), std::string::npos) << reason;
   EXPECT_EQ(d.counter_resets(), 0u);
-  EXPECT_GT(d.status().counters.samples, 10000u) << "still published";
+  EXPECT_GT(d.status().counters.samples, 5000u) << "still published";
   d.stop();
   emulator.stop();
 }

@@ -109,9 +109,9 @@ class TimeAnchor {
   [[nodiscard]] std::int64_t time_ns(std::uint64_t k) const noexcept;
   // The device's real rate relative to rate_hz, minus 1 (-0.01: 1 % slow), from the drift of the
   // quickest answer's bound between the first window after reset() and the current one; nothing
-  // until the two are rate_span_ns apart (then the answer-delay noise is below 1e-3 for delays < 1 ms).
+  // until the two are rate_span_ns apart (then answer delays jittering by 1 ms err by 1e-3 at most).
   [[nodiscard]] std::optional<double> rate_error() const noexcept;
-  static constexpr std::int64_t rate_span_ns = 2'000'000'000;
+  static constexpr std::int64_t rate_span_ns = 1'000'000'000;
 
  private:
   double rate_hz_;
