@@ -97,7 +97,8 @@ class CounterTracker {
 // such bound over the polls of the last window_ns, so it is late by the quickest answer's delay in
 // the window (the time from the newest sample to its answer). A device slower than rate_hz by a
 // fraction e makes the bounds rise, and the oldest (smallest) one in the window makes stamps EARLY by
-// up to e x window (faster: late by about as much): keep the window short, and watch rate_error().
+// up to e x window (faster: the newest bound is the smallest, early by e x the sample's age at that
+// read, about e x a poll period): keep the window short, and watch rate_error().
 class TimeAnchor {
  public:
   TimeAnchor(double rate_hz, std::int64_t window_ns) : rate_hz_(rate_hz), window_ns_(window_ns) {}
