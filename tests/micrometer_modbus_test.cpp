@@ -248,11 +248,13 @@ emulators::MicrometerSource numbered_source() {
 }
 
 struct BufferedHarness {
-  BufferedHarness(bool rtu, std::uint32_t ring_samples, std::uint32_t counter_start, const std::string& extra_keys) {
+  // The emulated amplifier samples at emulator_rate_hz; the device table says configured_rate_hz.
+  BufferedHarness(bool rtu, std::uint32_t ring_samples, std::uint32_t counter_start, const std::string& extra_keys,
+                  double emulator_rate_hz = ring_rate_hz, double configured_rate_hz = ring_rate_hz) {
     MicrometerEmulator::Options o;
     o.source = numbered_source();
     modbus::SampleRingMap ring;
-    ring.sample_rate_hz = ring_rate_hz;
+    ring.sample_rate_hz = emulator_rate_hz;
     ring.ring_samples = ring_samples;
     o.ring = ring;
     o.ring_counter_start = counter_start;
@@ -268,7 +270,8 @@ struct BufferedHarness {
       transport = "transport = \"tcp\"\nport = " + std::to_string(port) + "\n";
     }
     table = parse_toml(transport + extra_keys + "backoff_initial_ms = 50\nbackoff_max_ms = 200\n[buffer]\n" +
-                           "counter_address = 100\nring_address = 200\nsample_rate_hz = 10000\nring_samples = " +
+                           "counter_address = 100\nring_address = 200\nsample_rate_hz = " + std::to_string(configured_rate_hz) +
+                           "\nring_samples = " +
                            std::to_string(ring_samples) + "\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
@@ -444,61 +447,34 @@ INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerBuffered,
 // The amplifier samples at 10 kHz but the table says 2 kHz: every counter read looks like a restart.
 // The device must not sit silently "streaming" with nothing published: it reports an error saying why.
 TEST(MicrometerDriver, BufferedCounterFasterThanTheConfiguredRateIsAnError) {
-  MicrometerEmulator::Options o;
-  o.source = numbered_source();
-  o.ring = modbus::SampleRingMap{};
-  MicrometerEmulator emulator(o);
-  std::string error;
-  const int port = emulator.start_tcp("127.0.0.1", 0, error);
-  ASSERT_GT(port, 0) << error;
-  auto table = parse_toml("port = " + std::to_string(port) +
-                              "\npoll_period_ms = 5\n[buffer]\ncounter_address = 100\nring_address = 200\n"
-                              "ring_samples = 4096\nsample_rate_hz = 2000\n",
-                          "t.toml");
-  TableReader reader(table, "t.toml", "device[0]");
-  micrometer::MicrometerDriver d("mic", micrometer::parse_micrometer_config(reader), 1 << 12);
+  BufferedHarness h(false, 4096, 0, "poll_period_ms = 5\n", ring_rate_hz, 2000.0);
+  micrometer::MicrometerDriver& d = *h.driver;
   d.start();
   ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::error; }, 3s));
   EXPECT_NE(d.status().reason.find("sample_rate_hz = 2000"), std::string::npos) << d.status().reason;
   EXPECT_GE(d.counter_resets(), 3u);
   // A network blip in between: after the reconnect the state must come back to error, not stay
   // "streaming" with nothing published.
-  emulator.disconnect_for(100ms);
+  h.emulator->disconnect_for(100ms);
   ASSERT_TRUE(test::eventually([&] { return d.status().counters.reconnects >= 1; }, 5s));
   int streaming = 0;  // over 0.4 s; at most the instant between a connect and its first poll
   for (int i = 0; i < 20; ++i, std::this_thread::sleep_for(20ms)) {
     streaming += d.status().state == drivers::DeviceState::streaming ? 1 : 0;
   }
   EXPECT_LE(streaming, 1) << "the error must hold after the reconnect";
-  d.stop();
-  emulator.stop();
 }
 
 // The amplifier samples 1 % slower than the table says (9900 Hz for 10000): timestamps would drift
 // early unnoticed. The driver measures the real rate over 1 s and reports an error saying so.
 TEST(MicrometerDriver, BufferedCounterSlowerThanTheConfiguredRateIsAnError) {
-  MicrometerEmulator::Options o;
-  o.source = numbered_source();
-  o.ring = modbus::SampleRingMap{};
-  o.ring->sample_rate_hz = 9900.0;
-  MicrometerEmulator emulator(o);
-  std::string error;
-  const int port = emulator.start_tcp("127.0.0.1", 0, error);
-  ASSERT_GT(port, 0) << error;
-  auto table = parse_toml("port = " + std::to_string(port) +
-                              "\npoll_period_ms = 5\n[buffer]\ncounter_address = 100\nring_address = 200\n"
-                              "ring_samples = 4096\nsample_rate_hz = 10000\n",
-                          "t.toml");
-  TableReader reader(table, "t.toml", "device[0]");
-  micrometer::MicrometerDriver d("mic", micrometer::parse_micrometer_config(reader), 1 << 16);
+  BufferedHarness h(false, 4096, 0, "poll_period_ms = 5\n", 9900.0, ring_rate_hz);
+  micrometer::MicrometerDriver& d = *h.driver;
   d.start();
   ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::error; }, 5s));
   const std::string reason = d.status().reason;
   EXPECT_NE(reason.find("% slower than sample_rate_hz = 10000 (measured 99"), std::string::npos) << reason;
   EXPECT_EQ(d.counter_resets(), 0u);
   EXPECT_GT(d.status().counters.samples, 5000u) << "still published";
-  d.stop();
-  emulator.stop();
 }
 
 TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
