@@ -478,7 +478,7 @@ TEST(MicrometerDriver, BufferedCounterSlowerThanTheConfiguredRateIsAnError) {
   const auto at = reason.find("% slower than sample_rate_hz = 10000 (measured ");
   ASSERT_NE(at, std::string::npos) << reason;
   const double measured_hz = std::stod(reason.substr(at + std::string("% slower than sample_rate_hz = 10000 (measured ").size()));
-  EXPECT_NEAR(measured_hz, 9900.0, 20.0) << reason;
+  EXPECT_NEAR(measured_hz, 9900.0, 50.0) << reason;  // loose: the estimate rests on the quickest answers of a loaded machine
   EXPECT_EQ(d.counter_resets(), 0u);
   EXPECT_GT(d.status().counters.samples, 5000u) << "still published";
 }
