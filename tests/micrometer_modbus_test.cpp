@@ -20,21 +20,25 @@ using emulators::ModbusFault;
 
 namespace {
 
+// Starts the emulator on Modbus RTU (a pty) or TCP; returns the device keys that reach it.
+std::string start_transport(MicrometerEmulator& emulator, bool rtu) {
+  std::string error;
+  if (rtu) {
+    const std::string path = emulator.start_rtu(19200, 'E', 8, 1, error);
+    if (path.empty()) throw std::runtime_error(error);
+    return "transport = \"rtu\"\ndevice = \"" + path + "\"\n";
+  }
+  const int port = emulator.start_tcp("127.0.0.1", 0, error);
+  if (port < 0) throw std::runtime_error(error);
+  return "transport = \"tcp\"\nhost = \"127.0.0.1\"\nport = " + std::to_string(port) + "\n";
+}
+
 struct Harness {
   explicit Harness(bool rtu, emulators::MicrometerSource source = emulators::runout_source(120.0)) {
     MicrometerEmulator::Options o;
     o.source = std::move(source);
     emulator = std::make_unique<MicrometerEmulator>(o);
-    std::string error, transport;
-    if (rtu) {
-      const std::string path = emulator->start_rtu(19200, 'E', 8, 1, error);
-      if (path.empty()) throw std::runtime_error(error);
-      transport = "transport = \"rtu\"\ndevice = \"" + path + "\"\n";
-    } else {
-      const int port = emulator->start_tcp("127.0.0.1", 0, error);
-      if (port < 0) throw std::runtime_error(error);
-      transport = "transport = \"tcp\"\nhost = \"127.0.0.1\"\nport = " + std::to_string(port) + "\n";
-    }
+    const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(transport +
                            "poll_hz = 100\nresponse_timeout_ms = 400\nlost_after_failures = 3\n"
                            "backoff_initial_ms = 50\nbackoff_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
@@ -259,16 +263,7 @@ struct BufferedHarness {
     o.ring = ring;
     o.ring_counter_start = counter_start;
     emulator = std::make_unique<MicrometerEmulator>(o);
-    std::string error, transport;
-    if (rtu) {
-      const std::string path = emulator->start_rtu(19200, 'E', 8, 1, error);
-      if (path.empty()) throw std::runtime_error(error);
-      transport = "transport = \"rtu\"\ndevice = \"" + path + "\"\n";
-    } else {
-      const int port = emulator->start_tcp("127.0.0.1", 0, error);
-      if (port < 0) throw std::runtime_error(error);
-      transport = "transport = \"tcp\"\nport = " + std::to_string(port) + "\n";
-    }
+    const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(transport + extra_keys + "backoff_initial_ms = 50\nbackoff_max_ms = 200\n[buffer]\n" +
                            "counter_address = 100\nring_address = 200\nsample_rate_hz = " + std::to_string(configured_rate_hz) +
                            "\nring_samples = " +
