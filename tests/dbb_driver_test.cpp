@@ -119,6 +119,28 @@ struct Bench {
   std::vector<Sample> samples;
 };
 
+// A dbb-can device made by the driver registry from a [[device]] table, as guidewayd makes it: the
+// bus is the Unix gateway at `path`, the encoders those of three_encoders(), plus `keys`.
+std::unique_ptr<drivers::Driver> driver_from_config(const std::string& path, const std::string& keys) {
+  const std::string toml = "[[device]]\nname = \"dbb\"\ndriver = \"dbb-can\"\nbus = \"unix:" + path + "\"\n" + keys +
+                           "[[device.encoder]]\nchannel = \"bar_length\"\nnode_id = 1\nresolution_nm = 100\n"
+                           "offset_mm = 100\n"
+                           "[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 100\n"
+                           "[[device.encoder]]\nchannel = \"y\"\nnode_id = 3\nresolution_nm = 50\n"
+                           "direction = \"negative\"\nzero_count = 1000\n";
+  const toml::table root = parse_toml(toml, "dbb.toml");
+  const TableReader top(root, "dbb.toml", "");
+  const auto devices = top.tables("device");
+  if (devices.size() != 1) throw std::runtime_error("dbb.toml: expected one [[device]]");
+  drivers::DriverRegistry registry;
+  dbb::register_dbb_driver(registry);
+  (void)devices[0].require_string("name");
+  (void)devices[0].require_string("driver");
+  auto driver = registry.create({"dbb", "dbb-can", 4096, devices[0]});
+  devices[0].reject_unknown_keys();
+  return driver;
+}
+
 }  // namespace
 
 TEST(DbbDriver, DriverProducesSyncAndEverySampleMatchesTheEmulator) {
@@ -467,23 +489,7 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
   ASSERT_TRUE(listener.valid()) << err;
   emu.start(std::move(listener));
 
-  const std::string toml = "[[device]]\nname = \"dbb\"\ndriver = \"dbb-can\"\nbus = \"unix:" + path +
-                           "\"\nsync = \"produce\"\nsync_rate_hz = 200\nreconnect_min_ms = 10\n"
-                           "[[device.encoder]]\nchannel = \"bar_length\"\nnode_id = 1\nresolution_nm = 100\n"
-                           "offset_mm = 100\n"
-                           "[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 100\n"
-                           "[[device.encoder]]\nchannel = \"y\"\nnode_id = 3\nresolution_nm = 50\n"
-                           "direction = \"negative\"\nzero_count = 1000\n";
-  const toml::table root = parse_toml(toml, "dbb.toml");
-  const TableReader top(root, "dbb.toml", "");
-  const auto devices = top.tables("device");
-  ASSERT_EQ(devices.size(), 1u);
-  drivers::DriverRegistry registry;
-  dbb::register_dbb_driver(registry);
-  (void)devices[0].require_string("name");
-  (void)devices[0].require_string("driver");
-  auto driver = registry.create({"dbb", "dbb-can", 4096, devices[0]});
-  devices[0].reject_unknown_keys();
+  auto driver = driver_from_config(path, "sync = \"produce\"\nsync_rate_hz = 200\nreconnect_min_ms = 10\n");
   driver->start();
   ASSERT_TRUE(test::eventually([&] { return driver->ring().depth() >= 20; }));
   // The emulator process goes away and comes back: the driver reconnects.
@@ -514,22 +520,7 @@ TEST(DbbDriver, ListensThroughTheUnixGatewayWithKernelTimesFromAConfigTable) {
   auto listener = can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
   emu.start(std::move(listener));
-  const std::string toml = "[[device]]\nname = \"dbb\"\ndriver = \"dbb-can\"\nbus = \"unix:" + path +
-                           "\"\nsync = \"listen\"\nread_period_us = 5000\n"
-                           "[[device.encoder]]\nchannel = \"bar_length\"\nnode_id = 1\nresolution_nm = 100\n"
-                           "offset_mm = 100\n"
-                           "[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 100\n"
-                           "[[device.encoder]]\nchannel = \"y\"\nnode_id = 3\nresolution_nm = 50\n"
-                           "direction = \"negative\"\nzero_count = 1000\n";
-  const toml::table root = parse_toml(toml, "dbb.toml");
-  const TableReader top(root, "dbb.toml", "");
-  const auto devices = top.tables("device");
-  drivers::DriverRegistry registry;
-  dbb::register_dbb_driver(registry);
-  (void)devices[0].require_string("name");
-  (void)devices[0].require_string("driver");
-  auto driver = registry.create({"dbb", "dbb-can", 4096, devices[0]});
-  devices[0].reject_unknown_keys();
+  auto driver = driver_from_config(path, "sync = \"listen\"\nread_period_us = 5000\n");
   auto* dbb_driver = dynamic_cast<dbb::DbbDriver*>(driver.get());
   ASSERT_NE(dbb_driver, nullptr);
   EXPECT_EQ(dbb_driver->settings().read_period_us, 5000);
