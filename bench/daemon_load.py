@@ -77,26 +77,17 @@ MICROMETER = {"mode": "polled", "poll_ms": None}
 def micrometer_toml(rate_hz):
     """The micrometer's emulator and device tables in MICROMETER's mode."""
     if MICROMETER["mode"] == "polled":
-        return f"""
-[[emulator]]
-name = "gauge"
-instrument = "micrometer"
-args = ["--tcp", "127.0.0.1:0"]
-
-[[device]]
-name = "micrometer"
-driver = "micrometer-modbus"
-transport = "tcp"
-host = "emulator:gauge:host"
-port = "emulator:gauge:port"
-poll_hz = {rate_hz}
-"""
-    poll = "" if MICROMETER["poll_ms"] is None else f"poll_period_ms = {MICROMETER['poll_ms']}\n"
+        emulator_args, device_keys = "", f"poll_hz = {rate_hz}\n"
+    else:
+        emulator_args = f', "--ring-rate-hz", "{rate_hz}", "--ring-samples", "16384"'
+        poll = "" if MICROMETER["poll_ms"] is None else f"poll_period_ms = {MICROMETER['poll_ms']}\n"
+        device_keys = (f"{poll}  [device.buffer]\n  counter_address = 100\n  ring_address = 200\n"
+                       f"  ring_samples = 16384\n  sample_rate_hz = {rate_hz}\n")
     return f"""
 [[emulator]]
 name = "gauge"
 instrument = "micrometer"
-args = ["--tcp", "127.0.0.1:0", "--ring-rate-hz", "{rate_hz}", "--ring-samples", "16384"]
+args = ["--tcp", "127.0.0.1:0"{emulator_args}]
 
 [[device]]
 name = "micrometer"
@@ -104,12 +95,7 @@ driver = "micrometer-modbus"
 transport = "tcp"
 host = "emulator:gauge:host"
 port = "emulator:gauge:port"
-{poll}  [device.buffer]
-  counter_address = 100
-  ring_address = 200
-  ring_samples = 16384
-  sample_rate_hz = {rate_hz}
-"""
+{device_keys}"""
 
 
 def config_toml(rt, state, rates, publish_hz, client_queue_bytes):
