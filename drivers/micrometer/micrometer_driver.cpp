@@ -128,16 +128,10 @@ std::string MicrometerDriver::stream_polled(const std::stop_token& stop, modbus:
       failures = 0;
       backoff = config_.backoff_initial;
     } else if (r.status == modbus::ReadStatus::disconnected) {
-      last_failure = "disconnected: " + r.message;
+      last_failure = count_failure(r);
       failures = config_.lost_after_failures;
     } else {
-      if (r.status == modbus::ReadStatus::timeout) {
-        timeouts_.fetch_add(1, std::memory_order_relaxed);
-      } else {
-        bad_frames_.fetch_add(1, std::memory_order_relaxed);
-        if (r.status == modbus::ReadStatus::exception) exceptions_.fetch_add(1, std::memory_order_relaxed);
-      }
-      last_failure = std::string(modbus::to_string(r.status)) + ": " + r.message;
+      last_failure = count_failure(r);
       ++failures;
       gap = true;
     }
@@ -148,6 +142,17 @@ std::string MicrometerDriver::stream_polled(const std::stop_token& stop, modbus:
     if (!sleep_for(stop, next - now)) break;
   }
   return last_failure;
+}
+
+std::string MicrometerDriver::count_failure(const modbus::ReadResult& r) {
+  if (r.status == modbus::ReadStatus::disconnected) return "disconnected: " + r.message;
+  if (r.status == modbus::ReadStatus::timeout) {
+    timeouts_.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    bad_frames_.fetch_add(1, std::memory_order_relaxed);
+    if (r.status == modbus::ReadStatus::exception) exceptions_.fetch_add(1, std::memory_order_relaxed);
+  }
+  return std::string(modbus::to_string(r.status)) + ": " + r.message;
 }
 
 void MicrometerDriver::lose(RingCursor& cursor, std::uint64_t n) noexcept {
@@ -169,19 +174,12 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
   bool link_gone = false;
   // One failed request: counted, and the poll ends (the next poll asks again: reads are idempotent).
   auto failed = [&](const modbus::ReadResult& r) {
+    last_failure = count_failure(r);
     if (r.status == modbus::ReadStatus::disconnected) {
-      last_failure = "disconnected: " + r.message;
       link_gone = true;
-      return;
-    }
-    if (r.status == modbus::ReadStatus::timeout) {
-      timeouts_.fetch_add(1, std::memory_order_relaxed);
     } else {
-      bad_frames_.fetch_add(1, std::memory_order_relaxed);
-      if (r.status == modbus::ReadStatus::exception) exceptions_.fetch_add(1, std::memory_order_relaxed);
+      ++failures;
     }
-    last_failure = std::string(modbus::to_string(r.status)) + ": " + r.message;
-    ++failures;
   };
   // Reads the counter; false when the request failed. Handles the first read and device restarts.
   auto read_counter = [&]() -> bool {

@@ -61,6 +61,9 @@ class MicrometerDriver : public drivers::Driver {
                             std::chrono::milliseconds& backoff, bool& gap);
   std::string stream_buffered(const std::stop_token& stop, modbus::ModbusClient& client,
                               std::chrono::milliseconds& backoff, RingCursor& cursor);
+  // A failed request of either mode: counted (timeout, bad frame, exception; a lost link is not a
+  // frame), and the reason to report.
+  std::string count_failure(const modbus::ReadResult& r);
   void lose(RingCursor& cursor, std::uint64_t n) noexcept;
 
   MicrometerConfig config_;
