@@ -67,6 +67,20 @@ class Client:
                 return {d["name"]: d for d in msg["devices"]}
 
 
+def start_daemon(test, config_text):
+    """guidewayd with this config in test.tmp, its socket in test.sock and a Client in test.c; stopped at cleanup."""
+    test.sock = os.path.join(test.tmp.name, "g.sock")
+    config = os.path.join(test.tmp.name, "g.toml")
+    with open(config, "w") as f:
+        f.write(config_text)
+    test.d = subprocess.Popen([GUIDEWAYD, "--config", config, "--socket", test.sock],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    test.addCleanup(lambda: test.d.poll() is None and test.d.kill())
+    test.assertTrue(wait_for(lambda: os.path.exists(test.sock)), "daemon did not start")
+    test.c = Client(test.sock)
+    test.addCleanup(test.c.close)
+
+
 class MicrometerProfilometerDaemon(unittest.TestCase):
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory(prefix="gwmp-")
@@ -80,10 +94,7 @@ class MicrometerProfilometerDaemon(unittest.TestCase):
         self.assertTrue(self.rtu.address.startswith("/dev/"), self.rtu.address)
         host, port = self.tcp.address.rsplit(":", 1)
         phost, pport = self.prof.address.rsplit(":", 1)
-        self.sock = os.path.join(self.tmp.name, "g.sock")
-        config = os.path.join(self.tmp.name, "g.toml")
-        with open(config, "w") as f:
-            f.write(f"""[daemon]
+        start_daemon(self, f"""[daemon]
 status_period_s = 0.2
 [[device]]
 name = "mic-rtu"
@@ -115,12 +126,6 @@ stall_timeout_ms = 1000
 backoff_initial_ms = 50
 backoff_max_ms = 400
 """)
-        self.d = subprocess.Popen([GUIDEWAYD, "--config", config, "--socket", self.sock],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        self.addCleanup(lambda: self.d.poll() is None and self.d.kill())
-        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not start")
-        self.c = Client(self.sock)
-        self.addCleanup(self.c.close)
 
     def streaming_with(self, name, samples):
         d = self.c.status()[name]
@@ -171,10 +176,7 @@ class MicrometerBufferedDaemon(unittest.TestCase):
         self.em = Emulator("micrometer", "--tcp", "127.0.0.1:0", "--ring-rate-hz", "10000", "--ring-samples", "4096")
         self.addCleanup(self.em.stop)
         host, port = self.em.address.rsplit(":", 1)
-        self.sock = os.path.join(self.tmp.name, "g.sock")
-        config = os.path.join(self.tmp.name, "g.toml")
-        with open(config, "w") as f:
-            f.write(f"""[daemon]
+        start_daemon(self, f"""[daemon]
 status_period_s = 0.2
 [[device]]
 name = "mic"
@@ -189,12 +191,6 @@ ring_address = 200
 ring_samples = 4096
 sample_rate_hz = 10000
 """)
-        self.d = subprocess.Popen([GUIDEWAYD, "--config", config, "--socket", self.sock],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        self.addCleanup(lambda: self.d.poll() is None and self.d.kill())
-        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not start")
-        self.c = Client(self.sock)
-        self.addCleanup(self.c.close)
 
     def test_keeps_the_rate_and_reports_a_lapped_ring(self):
         self.assertTrue(wait_for(lambda: self.c.status()["mic"]["counters"]["samples"] > 1000), self.c.status())
