@@ -183,7 +183,10 @@ bool SocketServer::send(ClientId id, std::string line) {
   if (it == clients_.end()) return false;
   Client& c = it->second;
   line.push_back('\n');
-  if (c.queued + line.size() > options_.max_queue_bytes) {
+  // An unread backlog marks a slow client, not one long line: a client that has read everything
+  // takes any line, even one longer than the whole queue (an EXPLAIN can be ~100 KB), so the queue
+  // holds at most max_queue_bytes plus one line.
+  if (c.queued > 0 && c.queued + line.size() > options_.max_queue_bytes) {
     ++dropped_clients_;
     close_client(id, "queue overflow (" + std::to_string(c.queued) + " bytes unread): client too slow");
     return false;

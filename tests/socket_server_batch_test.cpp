@@ -1,6 +1,7 @@
 // SocketServer's batched fan-out: lines queued in a Batch reach each client whole and in order when
 // the batch ends, also when the client's socket buffer takes only part of them (partial writes across
-// lines, the rest on EPOLLOUT), and a client that does not read is still dropped on overflow.
+// lines, the rest on EPOLLOUT), a client that does not read is still dropped on overflow, and a
+// line longer than the whole queue reaches a client that keeps up.
 #include "daemon/socket_server.hpp"
 
 #include <gtest/gtest.h>
@@ -130,6 +131,55 @@ TEST(SocketServerBatch, AClientThatDoesNotReadIsDroppedAndTheOthersStillGetEvery
   EXPECT_EQ(server.dropped_clients(), 1u);
   ASSERT_EQ(reasons.size(), 1u);
   EXPECT_NE(reasons[0].find("queue overflow"), std::string::npos);
+  ::close(silent);
+  ::close(reading);
+}
+
+TEST(SocketServerBatch, ALineLongerThanTheQueueReachesAClientThatKeepsUpAndASecondOneDropsASilentClient) {
+  guideway::test::TempDir dir;
+  EventLoop loop;
+  SocketServerOptions o;
+  o.unix_path = dir.file("s.sock");
+  o.max_queue_bytes = 4096;  // the configuration's smallest
+  std::vector<ClientId> ids;
+  std::vector<std::string> reasons;
+  SocketServer server(loop, o);
+  server.on_connect([&](ClientId id) { ids.push_back(id); });
+  server.on_disconnect([&](ClientId, const std::string& why) { reasons.push_back(why); });
+  const int reading = connect_unix(o.unix_path);
+  const int silent = connect_unix(o.unix_path);
+  const int small = 4096;  // so that the long lines cannot all vanish into the silent one's socket buffer
+  ::setsockopt(silent, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
+  const std::string big = "{\"class\":\"EXPLAIN\",\"pad\":\"" + std::string(100'000, 'x') + "\"}";
+  constexpr int lines = 5;
+  const std::size_t bytes = lines * (big.size() + 1);
+  std::string received;
+  std::atomic<bool> done{false};
+  std::thread reader([&] {
+    char buf[65536];
+    while (received.size() < bytes) {
+      const ssize_t n = ::read(reading, buf, sizeof buf);
+      if (n <= 0) break;
+      received.append(buf, static_cast<std::size_t>(n));
+    }
+    done = true;
+  });
+  int sent = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  loop.run(1, [&] {
+    // The next line once the reading client has taken the last one.
+    if (ids.size() == 2 && sent < lines && server.queued_bytes(ids[0]) == 0) {
+      for (ClientId id : ids) server.send(id, big);
+      ++sent;
+    }
+    if (done || std::chrono::steady_clock::now() > deadline) loop.stop();
+  });
+  reader.join();
+  ASSERT_EQ(received.size(), bytes);
+  for (int i = 0; i < lines; ++i) EXPECT_EQ(received.compare(i * (big.size() + 1), big.size() + 1, big + "\n"), 0) << i;
+  ASSERT_EQ(reasons.size(), 1u);  // the silent one, at its second line: it had not read the first
+  EXPECT_NE(reasons[0].find("queue overflow"), std::string::npos);
+  EXPECT_EQ(server.dropped_clients(), 1u);
   ::close(silent);
   ::close(reading);
 }
