@@ -33,6 +33,19 @@ int connect_unix(const std::string& path) {
 
 std::string line_of(int i) { return "{\"n\":" + std::to_string(i) + ",\"pad\":\"" + std::string(i % 97, 'x') + "\"}"; }
 
+// Reads fd in reads of at most `chunk` bytes until `bytes` arrived or the connection ends, then sets done.
+std::thread read_in_background(int fd, std::size_t bytes, std::size_t chunk, std::string& received, std::atomic<bool>& done) {
+  return std::thread([fd, bytes, chunk, &received, &done] {
+    std::vector<char> buf(chunk);
+    while (received.size() < bytes) {
+      const ssize_t n = ::read(fd, buf.data(), buf.size());
+      if (n <= 0) break;
+      received.append(buf.data(), static_cast<std::size_t>(n));
+    }
+    done = true;
+  });
+}
+
 }  // namespace
 
 TEST(SocketServerBatch, ABatchArrivesWholeAndInOrderThroughPartialWrites) {
@@ -53,15 +66,7 @@ TEST(SocketServerBatch, ABatchArrivesWholeAndInOrderThroughPartialWrites) {
   ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof small);
   std::string received;
   std::atomic<bool> done{false};
-  std::thread reader([&] {
-    char buf[1000];  // small reads, slower than the writer
-    while (received.size() < bytes) {
-      const ssize_t n = ::read(fd, buf, sizeof buf);
-      if (n <= 0) break;
-      received.append(buf, static_cast<std::size_t>(n));
-    }
-    done = true;
-  });
+  std::thread reader = read_in_background(fd, bytes, 1000, received, done);  // small reads, slower than the writer
   bool sent = false;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   loop.run(5, [&] {
@@ -102,15 +107,7 @@ TEST(SocketServerBatch, AClientThatDoesNotReadIsDroppedAndTheOthersStillGetEvery
   constexpr int rounds = 1000, per_round = 20;  // ~1.3 MB: more than the silent one's socket buffer + queue
   std::size_t bytes = 0;
   for (int i = 0; i < rounds * per_round; ++i) bytes += line_of(i).size() + 1;
-  std::thread reader([&] {
-    char buf[65536];
-    while (received.size() < bytes) {
-      const ssize_t n = ::read(reading, buf, sizeof buf);
-      if (n <= 0) break;
-      received.append(buf, static_cast<std::size_t>(n));
-    }
-    done = true;
-  });
+  std::thread reader = read_in_background(reading, bytes, 65536, received, done);
   int round = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   loop.run(1, [&] {
@@ -155,15 +152,7 @@ TEST(SocketServerBatch, ALineLongerThanTheQueueReachesAClientThatKeepsUpAndASeco
   const std::size_t bytes = lines * (big.size() + 1);
   std::string received;
   std::atomic<bool> done{false};
-  std::thread reader([&] {
-    char buf[65536];
-    while (received.size() < bytes) {
-      const ssize_t n = ::read(reading, buf, sizeof buf);
-      if (n <= 0) break;
-      received.append(buf, static_cast<std::size_t>(n));
-    }
-    done = true;
-  });
+  std::thread reader = read_in_background(reading, bytes, 65536, received, done);
   int sent = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   loop.run(1, [&] {
