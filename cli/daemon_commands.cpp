@@ -58,6 +58,15 @@ void print_status(const nlohmann::json& s) {
               << std::setw(9) << fmt_count(c, "bad_frames") << std::setw(9) << fmt_count(c, "timeouts")
               << std::setw(7) << fmt_count(c, "reconnects") << std::setw(9) << fmt_count(c, "overruns")
               << std::setw(12) << ring.str() << "  " << d.value("reason", "") << "\n";
+    // The driver's own counters under its row, only those that counted something (zeros are the norm).
+    std::string own;
+    const nlohmann::json counters = d.value("driver_counters", nlohmann::json::object());  // absent before protocol 1.1
+    for (const auto& [name, value] : counters.items()) {
+      if (value.is_number_unsigned() && value.get<std::uint64_t>() != 0) {
+        own += (own.empty() ? "" : ", ") + name + "=" + value.dump();
+      }
+    }
+    if (!own.empty()) std::cout << std::string(static_cast<std::size_t>(name_w), ' ') << "driver counters: " << own << "\n";
   }
 }
 

@@ -233,6 +233,9 @@ nlohmann::json Daemon::status_json() {
     d["counters"] = {{"samples", s.counters.samples}, {"frames", s.counters.frames},
                      {"bad_frames", s.counters.bad_frames}, {"timeouts", s.counters.timeouts},
                      {"reconnects", s.counters.reconnects}, {"overruns", s.counters.overruns}};
+    nlohmann::json own = nlohmann::json::object();  // the driver's own counters: always an object, maybe empty
+    for (const auto& c : s.driver_counters) own[c.name] = c.value;
+    d["driver_counters"] = std::move(own);
     d["ring"] = {{"capacity", s.ring.capacity}, {"depth", s.ring.depth}, {"free", s.ring.free}, {"drops", s.ring.drops}};
     nlohmann::json channels = nlohmann::json::array();
     for (const auto& c : devices_[i]->channels()) channels.push_back({{"name", c.name}, {"unit", c.unit}});

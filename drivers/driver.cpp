@@ -53,6 +53,7 @@ DriverStatus Driver::status() const {
   s.counters.timeouts = timeouts_.load(std::memory_order_relaxed);
   s.counters.reconnects = reconnects_.load(std::memory_order_relaxed);
   s.counters.overruns = ring_.drops();
+  s.driver_counters = driver_counters();
   s.ring = {ring_.capacity(), ring_.depth(), ring_.free_slots(), ring_.drops()};
   return s;
 }

@@ -41,6 +41,13 @@ struct DriverCounters {
   std::uint64_t overruns = 0;    // samples dropped because the ring was full
 };
 
+// A count a driver keeps beyond DriverCounters, e.g. the micrometer's lost_samples: `name` is
+// snake_case, says what it counts and never changes (docs/protocol.md lists every one).
+struct NamedCounter {
+  std::string name;
+  std::uint64_t value = 0;
+};
+
 struct RingStatus {
   std::size_t capacity = 0;
   std::size_t depth = 0;
@@ -54,6 +61,7 @@ struct DriverStatus {
   DeviceState state = DeviceState::stopped;
   std::string reason;  // why the state is what it is ("", "connection refused", ...)
   DriverCounters counters;
+  std::vector<NamedCounter> driver_counters;  // Driver::driver_counters(), in the driver's order
   RingStatus ring;
 };
 
@@ -67,6 +75,9 @@ class Driver {
   void start();
   void stop();  // requests stop, wakes the thread (interrupt()), joins
   [[nodiscard]] DriverStatus status() const;
+  // The driver's own counters (STATUS "driver_counters"), the same names every time; default none.
+  // Called from any thread while run() goes on: read atomics only.
+  [[nodiscard]] virtual std::vector<NamedCounter> driver_counters() const { return {}; }
   [[nodiscard]] const std::string& name() const noexcept { return name_; }
   [[nodiscard]] const std::string& driver() const noexcept { return driver_; }
   [[nodiscard]] const std::vector<ChannelInfo>& channels() const noexcept { return channels_; }
@@ -149,7 +160,9 @@ class DriverRegistry {
 std::string default_plugin_dir();
 
 // Plugins export this (extern "C") and must match the ABI version.
-inline constexpr int plugin_abi_version = 2;  // 2: Driver gained the doorbell
+// 2: Driver gained the doorbell. 3: Driver gained the virtual driver_counters() (its vtable changed)
+// and DriverStatus its driver_counters.
+inline constexpr int plugin_abi_version = 3;
 using RegisterDriversFn = void (*)(DriverRegistry&);
 using PluginAbiVersionFn = int (*)();
 

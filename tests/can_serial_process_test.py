@@ -118,6 +118,12 @@ class CanSerialProcesses(unittest.TestCase):
         s = wait_for(lambda: (lambda s: s if s["dbb"]["counters"]["bad_frames"] >= 7 and
                               s["autocollimator"]["counters"]["bad_frames"] >= 3 else None)(self.status()))
         self.assertTrue(s, self.status())
+        # The two CAN error frames are bad frames and, by name, the dbb driver's error_frames; a Unix
+        # gateway never drops a frame. The autocollimator driver keeps no counters of its own.
+        s = wait_for(lambda: (lambda s: s if s["dbb"]["driver_counters"]["error_frames"] == 2 else None)(self.status()))
+        self.assertTrue(s, self.status()["dbb"])
+        self.assertEqual(s["dbb"]["driver_counters"]["dropped_frames"], 0, s["dbb"])
+        self.assertEqual(s["autocollimator"]["driver_counters"], {}, s["autocollimator"])
 
         before = self.status()
         self.control(dbb, "disconnect")

@@ -100,6 +100,7 @@ TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
       EXPECT_EQ(dev["state"], "streaming");
       EXPECT_EQ(dev["counters"]["overruns"], 0);
       EXPECT_EQ(dev["seq_gaps"], 0);
+      EXPECT_EQ(dev["driver_counters"], nlohmann::json::object()) << "a driver with no counters of its own";
       if (dev["consumed"].get<std::uint64_t>() > 100) saw_status_with_flow = true;
     }
   }

@@ -12,6 +12,7 @@
 #include "drivers/dbb/dbb_driver.hpp"
 #include "simulators/emulators/can_serial_machine_sources.hpp"
 #include "simulators/emulators/dbb_emulator.hpp"
+#include "driver_counters_support.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
@@ -387,6 +388,13 @@ TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
   const auto st = b.driver->status();
   EXPECT_EQ(st.counters.bad_frames, 7u + 6u + 4u) << "garbage with foreign COB-IDs is not bad, just not ours";
   EXPECT_EQ(b.driver->error_frames(), 4u);
+  // The driver's own counters reach STATUS through status(), by name; bus_reads/empty_reads do not.
+  const auto own = test::driver_counters_by_name(st);
+  EXPECT_EQ(own.size(), 4u);
+  EXPECT_EQ(own.at("error_frames"), 4u);
+  EXPECT_LE(own.at("partial_cycles"), b.driver->partial_cycles());  // still running: may have grown since
+  EXPECT_EQ(own.at("untimed_frames"), 0u) << "a socketpair bus stamps every frame";
+  EXPECT_EQ(own.at("dropped_frames"), 0u);
   EXPECT_EQ(st.state, DeviceState::streaming);
   EXPECT_EQ(st.counters.reconnects, 0u);
   b.stop_and_check_all();

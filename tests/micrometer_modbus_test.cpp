@@ -11,6 +11,7 @@
 #include "drivers/micrometer/micrometer_driver.hpp"
 #include "simulators/emulators/micrometer_machine_source.hpp"
 #include "simulators/emulators/modbus_emulator.hpp"
+#include "driver_counters_support.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
@@ -384,6 +385,12 @@ TEST_P(MicrometerBuffered, CountsAndFlagsALappedRing) {
   EXPECT_GE(h.driver->ring_overruns(), 1u);
   EXPECT_GE(h.driver->lost_samples(), 2900u);  // >= 5000 taken while the two requests stalled, 1999-2047 kept
   EXPECT_LT(h.driver->lost_samples(), 20000u);
+  // The same counts reach STATUS by name (a user sees the loss explained, not only seq_gaps).
+  const auto own = test::driver_counters_by_name(h.driver->status());
+  EXPECT_EQ(own, (std::map<std::string, std::uint64_t>{{"exceptions", h.driver->exceptions()},
+                                                       {"ring_overruns", h.driver->ring_overruns()},
+                                                       {"lost_samples", h.driver->lost_samples()},
+                                                       {"counter_resets", 0}}));
   h.expect_consistent(1'000'000'000);
 }
 
@@ -419,6 +426,7 @@ TEST_P(MicrometerBuffered, ResumesAtTheStartOfARestartedAmplifiersRun) {
   h.driver->stop();
   h.drain();
   EXPECT_EQ(h.driver->counter_resets(), 1u);
+  EXPECT_EQ(test::driver_counters_by_name(h.driver->status()).at("counter_resets"), 1u);
   std::size_t restart = 0;
   for (std::size_t i = 1; i < h.samples.size(); ++i) {
     if (BufferedHarness::number(h.samples[i]) < BufferedHarness::number(h.samples[i - 1])) restart = i;

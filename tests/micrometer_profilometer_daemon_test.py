@@ -18,6 +18,7 @@ import unittest
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 EMULATE = os.path.join(BUILD, "simulators", "emulators", "guideway-emulate")
+GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
 
 
 def wait_for(predicate, timeout=10.0):
@@ -146,6 +147,17 @@ backoff_max_ms = 400
                                  >= before["mic-tcp"]["counters"]["timeouts"] + 1))
         self.assertTrue(wait_for(lambda: self.c.status()["prof"]["counters"]["bad_frames"]
                                  >= before["prof"]["counters"]["bad_frames"] + 3))
+        # The Modbus exception answer is a bad frame and, by name, the driver's own exceptions counter.
+        self.assertTrue(wait_for(lambda: self.c.status()["mic-rtu"]["driver_counters"]["exceptions"]
+                                 >= before["mic-rtu"]["driver_counters"]["exceptions"] + 1),
+                        self.c.status()["mic-rtu"])
+        self.assertEqual(self.c.status()["mic-tcp"]["driver_counters"]["exceptions"], 0)
+        # Polled mode has no amplifier ring: nothing can be lost in it.
+        for name in ("mic-rtu", "mic-tcp"):
+            own = self.c.status()[name]["driver_counters"]
+            self.assertEqual((own["ring_overruns"], own["lost_samples"], own["counter_resets"]), (0, 0, 0), own)
+        self.assertTrue(wait_for(lambda: self.c.status()["prof"]["driver_counters"]["profiles_completed"] >= 2),
+                        self.c.status()["prof"])
         # Unplug two instruments: they go lost with a reason and come back; the third keeps streaming.
         self.tcp.command("disconnect 800")
         self.prof.command("disconnect 800")
@@ -201,6 +213,8 @@ sample_rate_hz = 10000
         self.assertGreater(rate, 8500, b)  # 10 kHz; the status replies' own timing blurs the window
         self.assertLess(rate, 11500, b)
         self.assertEqual(b.get("seq_gaps"), 0, b)
+        self.assertEqual(b["driver_counters"], {"exceptions": 0, "ring_overruns": 0, "lost_samples": 0,
+                                                "counter_resets": 0}, b)
         self.assertLess(b["counters"]["frames"], b["counters"]["samples"] / 10)  # many samples per request
         # Two requests unanswered for 400 ms each: the 0.41 s ring laps, ~4000 samples are lost.
         self.em.command("fault stall 2")
@@ -212,6 +226,23 @@ sample_rate_hz = 10000
         n = c["counters"]["samples"]
         self.assertTrue(wait_for(lambda: self.c.status()["mic"]["counters"]["samples"] > n + 2000))
         self.assertEqual(self.c.status()["mic"]["seq_gaps"], c["seq_gaps"])  # nothing lost since
+        # STATUS names the loss: the amplifier's ring lapped (at least one poll found samples overwritten),
+        # and the samples it lost are exactly the sequence numbers the pipeline never saw.
+        e = self.c.status()["mic"]
+        own = e["driver_counters"]
+        self.assertGreaterEqual(own["ring_overruns"], 1, e)
+        self.assertLessEqual(own["ring_overruns"], 2, e)  # one per poll that found a lap: two stalls at most
+        self.assertGreater(own["lost_samples"], 2000, e)
+        self.assertEqual(own["lost_samples"], e["seq_gaps"], e)
+        self.assertEqual(e["counters"]["overruns"], 0, e)  # so no gap came from the daemon's own ring
+        self.assertEqual(own["counter_resets"], 0, e)
+        # The client's table shows the non-zero ones under the device's row.
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, "status"], capture_output=True, text=True, timeout=10)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        lines = out.stdout.splitlines()
+        row = next(i for i, l in enumerate(lines) if l.startswith("mic "))
+        self.assertRegex(lines[row + 1], r"^\s+driver counters: lost_samples=\d+, ring_overruns=\d+$")
+        self.assertIn(f"lost_samples={own['lost_samples']}", lines[row + 1])
         self.d.send_signal(signal.SIGTERM)
         self.assertEqual(self.d.wait(timeout=10), 0)
 

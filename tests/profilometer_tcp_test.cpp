@@ -9,6 +9,7 @@
 #include "drivers/profilometer/profilometer_driver.hpp"
 #include "simulators/emulators/profilometer_emulator.hpp"
 #include "simulators/emulators/profilometer_machine_source.hpp"
+#include "driver_counters_support.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
@@ -97,6 +98,7 @@ TEST(ProfilometerTcp, AssemblesTraversesWithHeaderAndBoundaries) {
   h.driver->start();
   ASSERT_TRUE(test::eventually([&] { return h.driver->profiles_completed() >= 3; }));
   EXPECT_EQ(h.driver->status().state, drivers::DeviceState::streaming);
+  EXPECT_GE(test::driver_counters_by_name(h.driver->status()).at("profiles_completed"), 3u);
   const auto header = h.driver->last_header();
   ASSERT_TRUE(header);
   EXPECT_EQ(header->points, 200u);

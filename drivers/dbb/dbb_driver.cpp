@@ -123,6 +123,13 @@ void DbbDriver::interrupt() {
   if (wake_fd_ >= 0) (void)!::write(wake_fd_, &one, sizeof one);
 }
 
+std::vector<drivers::NamedCounter> DbbDriver::driver_counters() const {
+  return {{"error_frames", error_frames()},
+          {"partial_cycles", partial_cycles()},
+          {"untimed_frames", untimed_frames()},
+          {"dropped_frames", dropped_frames()}};
+}
+
 void DbbDriver::publish_cycle(const DbbCycle& c) {
   Sample s;
   s.t_mono_ns = c.t_sync_ns;

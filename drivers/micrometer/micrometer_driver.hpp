@@ -50,6 +50,13 @@ class MicrometerDriver : public drivers::Driver {
   [[nodiscard]] std::uint64_t counter_resets() const noexcept {
     return counter_resets_.load(std::memory_order_relaxed);
   }
+  // exceptions, ring_overruns, lost_samples, counter_resets (the last three stay 0 in polled mode).
+  [[nodiscard]] std::vector<drivers::NamedCounter> driver_counters() const override {
+    return {{"exceptions", exceptions()},
+            {"ring_overruns", ring_overruns()},
+            {"lost_samples", lost_samples()},
+            {"counter_resets", counter_resets()}};
+  }
 
  protected:
   void run(std::stop_token stop) override;

@@ -31,7 +31,11 @@ class ProfilometerDriver : public drivers::Driver {
   ProfilometerDriver(std::string name, ProfilometerConfig config, std::size_t ring_capacity);
   ~ProfilometerDriver() override;
   [[nodiscard]] std::optional<ProfileHeader> last_header() const;
+  // Traverses whose END line arrived (partial ones too: points lost inside are flagged, not counted here).
   [[nodiscard]] std::uint64_t profiles_completed() const noexcept { return profiles_.load(); }
+  [[nodiscard]] std::vector<drivers::NamedCounter> driver_counters() const override {
+    return {{"profiles_completed", profiles_completed()}};
+  }
 
  protected:
   void run(std::stop_token stop) override;
