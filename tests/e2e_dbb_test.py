@@ -74,6 +74,8 @@ class EndToEndDbb(unittest.TestCase):
         status = json.loads(self.cli("status", "--json"))
         for d in status["devices"]:
             self.assertEqual(d["counters"]["overruns"], 0, d)
+            for lost in ("lost_samples", "dropped_frames"):  # the drivers' own losses (absent: not that driver)
+                self.assertEqual(d["driver_counters"].get(lost, 0), 0, d)
         # The raw recording is complete; the run files reproduce the parameters offline.
         with open(params["recording"]) as f:
             text = f.read()

@@ -119,6 +119,8 @@ class EndToEndSessions(unittest.TestCase):
             status = json.loads(d.cli("status", "--json"))
             for dev in status["devices"]:
                 self.assertEqual(dev["counters"]["overruns"], 0, dev)
+                for lost in ("lost_samples", "dropped_frames"):  # the drivers' own losses (absent: not that driver)
+                    self.assertEqual(dev["driver_counters"].get(lost, 0), 0, dev)
             self.check_straightness(d, params["straightness"])
             self.check_runout(d, params["runout"])
             self.check_profile(params["profile"])

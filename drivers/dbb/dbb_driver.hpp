@@ -90,8 +90,8 @@ class DbbDriver : public drivers::Driver {
   // Reads that found the socket empty (a rest that ended with nothing queued, a spurious wake-up).
   [[nodiscard]] std::uint64_t empty_reads() const noexcept { return empty_reads_.load(std::memory_order_relaxed); }
   [[nodiscard]] const DbbSettings& settings() const noexcept { return settings_; }
-  // error_frames, partial_cycles, untimed_frames, dropped_frames (not bus_reads/empty_reads: they
-  // measure the reader's wake-ups, not the data; bench/ reads them).
+  // error_frames, partial_cycles, untimed_frames, dropped_frames. Not bus_reads/empty_reads: they
+  // count the reader's wake-ups (a CPU cost), not what happened to the data.
   [[nodiscard]] std::vector<drivers::NamedCounter> driver_counters() const override;
 
  protected:
