@@ -56,6 +56,8 @@ struct Harness {
   void expect_matches_served() {
     driver->stop();
     drain();
+    // The emulator logs points after sending them: the driver may already have published them.
+    (void)test::eventually([&] { return emulator->served().size() >= samples.size(); });
     const auto served = emulator->served();
     std::size_t first_difference = 0;
     while (first_difference < std::min(samples.size(), served.size()) &&
