@@ -307,21 +307,34 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       auto geo = std::make_shared<const std::vector<Geo>>(g);
       c.generate = [geo, f_lo, df, grid, A, B](const Eigen::VectorXd& r) {
         const auto& gg = *geo;
-        std::vector<std::pair<double, double>> power;  // (power, f)
-        for (std::size_t q = 0; q < grid; ++q) {
-          const double f = f_lo + df * static_cast<double>(q);
-          std::complex<double> acc = 0;
-          double pw = 0;
-          for (std::size_t i = 0; i < gg.size(); ++i) {
-            if (i > 0 && gg[i].run != gg[i - 1].run) {
-              pw += std::norm(acc);
-              acc = 0;
+        // Power summed over runs: sum over runs of |sum_i r_i exp(-2 pi i f_q t_i)|^2. Per sample, successive
+        // grid frequencies turn the phasor by exp(-2 pi i df t) (re-anchored every 64 points against
+        // rounding): a complex multiply instead of a sine and cosine per sample and frequency.
+        std::vector<double> pw(grid, 0.0), re(grid), im(grid);
+        constexpr std::size_t anchor = 64;
+        for (std::size_t i = 0; i < gg.size();) {
+          std::fill(re.begin(), re.end(), 0.0);
+          std::fill(im.begin(), im.end(), 0.0);
+          for (const std::size_t run = gg[i].run; i < gg.size() && gg[i].run == run; ++i) {
+            const double ri = r[static_cast<Eigen::Index>(i)];
+            const double t = gg[i].t_s;
+            const double sr = std::cos(-2 * pi * df * t), si = std::sin(-2 * pi * df * t);
+            for (std::size_t q0 = 0; q0 < grid; q0 += anchor) {
+              const std::complex<double> z0 = ri * std::polar(1.0, -2 * pi * (f_lo + df * static_cast<double>(q0)) * t);
+              double zr = z0.real(), zi = z0.imag();
+              for (std::size_t q = q0; q < std::min(grid, q0 + anchor); ++q) {
+                re[q] += zr;
+                im[q] += zi;
+                const double nr = zr * sr - zi * si;
+                zi = zr * si + zi * sr;
+                zr = nr;
+              }
             }
-            acc += r[static_cast<Eigen::Index>(i)] * std::polar(1.0, -2 * pi * f * gg[i].t_s);
           }
-          pw += std::norm(acc);
-          power.emplace_back(pw, f);
+          for (std::size_t q = 0; q < grid; ++q) pw[q] += re[q] * re[q] + im[q] * im[q];
         }
+        std::vector<std::pair<double, double>> power;  // (power, f)
+        for (std::size_t q = 0; q < grid; ++q) power.emplace_back(pw[q], f_lo + df * static_cast<double>(q));
         std::sort(power.rbegin(), power.rend());
         std::vector<Variant> vs;
         for (std::size_t k = 0; k < std::min<std::size_t>(2, power.size()); ++k) {
