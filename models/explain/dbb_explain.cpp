@@ -189,14 +189,19 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     // inward spike at every reversal that another candidate would otherwise claim).
     const auto geo = std::make_shared<const std::vector<Geo>>(g);
     const auto rs = std::make_shared<const std::vector<dbb::Run>>(runs);
-    c.generate = [geo, rs, names](const Eigen::VectorXd& r) {
+    c.generate = [geo, rs, names](const Eigen::VectorXd& r, const std::vector<bool>& use) {
       const auto& gg = *geo;
       std::vector<Variant> vs;
       vs.push_back(make_variant(gg, names, [](const Geo& p, double* o) {
         o[0] = -p.lam * 0.5 * p.sgn_a * p.c;
         o[1] = -p.lam * 0.5 * p.sgn_b * p.s;
       }));
-      const Eigen::Vector2d b = vs.front().block.columns.colPivHouseholderQr().solve(r);
+      // The step's size from the rows in use only (a held-out row's zero residual would shrink it).
+      std::vector<Eigen::Index> rows;
+      for (std::size_t i = 0; i < use.size(); ++i)
+        if (use[i]) rows.push_back(static_cast<Eigen::Index>(i));
+      const Eigen::MatrixXd step = vs.front().block.columns(rows, Eigen::all);
+      const Eigen::Vector2d b = step.colPivHouseholderQr().solve(Eigen::VectorXd(r(rows)));
       const double ba = std::max(0.0, b[0]) * 1e-6, bb = std::max(0.0, b[1]) * 1e-6;
       if (ba > 0 || bb > 0) {
         const auto db = deadband(gg, *rs, ba, bb);
@@ -305,7 +310,8 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       const auto grid = static_cast<std::size_t>(std::max(0.0, (f_hi - f_lo) / df));
       c.search_size = 3 * grid;
       auto geo = std::make_shared<const std::vector<Geo>>(g);
-      c.generate = [geo, f_lo, df, grid, A, B](const Eigen::VectorXd& r) {
+      // Held-out rows have residual 0: the periodogram is that of the rows in use.
+      c.generate = [geo, f_lo, df, grid, A, B](const Eigen::VectorXd& r, const std::vector<bool>&) {
         const auto& gg = *geo;
         // Power summed over runs: sum over runs of |sum_i r_i exp(-2 pi i f_q t_i)|^2. Per sample, successive
         // grid frequencies turn the phasor by exp(-2 pi i df t) (re-anchored every 64 points against
@@ -317,6 +323,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
           std::fill(im.begin(), im.end(), 0.0);
           for (const std::size_t run = gg[i].run; i < gg.size() && gg[i].run == run; ++i) {
             const double ri = r[static_cast<Eigen::Index>(i)];
+            if (ri == 0.0) continue;  // a held-out row
             const double t = gg[i].t_s;
             const double sr = std::cos(-2 * pi * df * t), si = std::sin(-2 * pi * df * t);
             for (std::size_t q0 = 0; q0 < grid; q0 += anchor) {

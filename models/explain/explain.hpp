@@ -62,7 +62,8 @@ struct Candidate {
   std::string why;     // one sentence of physics, for the report
   std::vector<Variant> variants;
   // Variants made from the current residual (e.g. the peaks of a periodogram) instead of a fixed list.
-  std::function<std::vector<Variant>(const Eigen::VectorXd& residual_um)> generate;
+  // use[i] false: sample i is held out (its residual is 0); a generator must estimate from the others.
+  std::function<std::vector<Variant>(const Eigen::VectorXd& residual_um, const std::vector<bool>& use)> generate;
   std::size_t search_size = 0;  // grid points searched, for the Bonferroni factor; 0 = variants.size()
 };
 
@@ -84,6 +85,8 @@ struct ExplainOptions {
                                   // of a cause it is not leaves its shape behind)
   std::size_t prescreen = 3;      // variants per candidate fitted jointly (best by projection)
   std::size_t curve_points = 720; // residual curves in the report (0 = none)
+  bool heldout_reselect = true;   // held-out RMS re-chooses every effect's variant in each fold from its
+                                  // training rows; false: the variants chosen on all data (optimistic)
 };
 
 struct Mismatch {

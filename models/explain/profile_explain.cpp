@@ -134,7 +134,8 @@ std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::v
     const double f1_mm = runs.empty() || !(runs.front().spindle_rpm > 0)
                              ? nan
                              : runs.front().feed_mm_per_min / runs.front().spindle_rpm;
-    c.generate = [pts, n_runs, f1_mm](const Eigen::VectorXd& r) {
+    // Held-out rows have residual 0: the fundamental's phase is that of the rows in use.
+    c.generate = [pts, n_runs, f1_mm](const Eigen::VectorXd& r, const std::vector<bool>&) {
       const auto& gg = *pts;
       std::vector<double> sc(n_runs, 0.0), ss(n_runs, 0.0);
       for (std::size_t i = 0; i < gg.size(); ++i) {

@@ -152,7 +152,7 @@ ScenarioResult dbb_scenario(const std::string& name, const ScenarioOptions& o) {
   } else {
     throw std::invalid_argument("unknown scenario: " + name);
   }
-  s.report = explain(dbb_problem(dbb_runs(m, plan, o)));
+  s.report = explain(dbb_problem(dbb_runs(m, plan, o)), o.explain);
   evaluate(s);
   if (name == "dbb_bump") {
     // x = 60 mm on a 100 mm circle about the origin: zeta = +-acos(0.6).
@@ -304,7 +304,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
   const sim::Machine machine(m);
   std::optional<AngleTraverse> traverse;
   if (s.model == "flatness") traverse = facing_traverse(machine, o.seed);
-  s.report = explain(profile_problem(facing_runs(machine, feeds, along_path, o), s.model, traverse ? &*traverse : nullptr));
+  s.report = explain(profile_problem(facing_runs(machine, feeds, along_path, o), s.model, traverse ? &*traverse : nullptr), o.explain);
   evaluate(s);
   return s;
 }

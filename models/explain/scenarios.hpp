@@ -17,6 +17,7 @@ namespace guideway::models::explain {
 struct ScenarioOptions {
   bool quick = true;      // fewer samples (unit tests); false: the instrument's full density
   std::uint64_t seed = 1;  // noise seed
+  ExplainOptions explain;  // the engine's options (the defaults unless a bench compares settings)
 };
 
 struct ScenarioResult {

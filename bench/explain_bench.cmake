@@ -1,0 +1,4 @@
+# EXPLAIN's held-out RMS with the variants re-chosen in every fold (nested) against the variants chosen
+# on all the data kept: size of the optimism and the CPU cost (docs/explain.md "Held out").
+add_executable(explain_heldout_bench ${CMAKE_CURRENT_LIST_DIR}/explain_heldout_bench.cpp)
+target_link_libraries(explain_heldout_bench PRIVATE guideway_explain_scenarios guideway_warnings)
