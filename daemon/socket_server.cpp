@@ -181,12 +181,22 @@ void SocketServer::read_from(ClientId id) {
 bool SocketServer::send(ClientId id, std::string line) {
   auto it = clients_.find(id);
   if (it == clients_.end()) return false;
-  Client& c = it->second;
   line.push_back('\n');
-  // An unread backlog marks a slow client, not one long line: a client that has read everything
-  // takes any line, even one longer than the whole queue (an EXPLAIN can be ~100 KB), so the queue
-  // holds at most max_queue_bytes plus one line.
-  if (c.queued > 0 && c.queued + line.size() > options_.max_queue_bytes) {
+  // A backlog marks a slow client, not one long line: what waits behind the line being written is
+  // the backlog, so a client that keeps up takes any line, even one longer than the whole queue (an
+  // EXPLAIN can be ~100 KB). The queue holds at most max_queue_bytes plus two lines.
+  const auto overflows = [this, &line](const Client& c) {
+    const std::size_t behind = c.queued - (c.outbox.empty() ? 0 : c.outbox.front().size());
+    return behind > 0 && behind + line.size() > options_.max_queue_bytes;
+  };
+  if (overflows(it->second) && !it->second.want_write) {
+    // Lines a Batch only deferred are no backlog until the kernel refuses them: hand them over first.
+    flush(id);
+    it = clients_.find(id);
+    if (it == clients_.end()) return false;
+  }
+  Client& c = it->second;
+  if (overflows(c)) {
     ++dropped_clients_;
     close_client(id, "queue overflow (" + std::to_string(c.queued) + " bytes unread): client too slow");
     return false;

@@ -61,7 +61,7 @@ struct DriverStatus {
   DeviceState state = DeviceState::stopped;
   std::string reason;  // why the state is what it is ("", "connection refused", ...)
   DriverCounters counters;
-  std::vector<NamedCounter> driver_counters;  // Driver::driver_counters(), in the driver's order
+  std::vector<NamedCounter> driver_counters;  // Driver::driver_counters(), in the driver's order (STATUS's JSON object sorts them by name)
   RingStatus ring;
 };
 
