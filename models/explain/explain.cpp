@@ -135,63 +135,91 @@ std::ptrdiff_t choose_variant(const std::vector<Variant>& variants, const std::v
   return best;
 }
 
-// Held-out RMS: every fold's held-out rows predicted from a fit to its training rows. With
-// ExplainOptions::heldout_reselect (the default; docs/explain.md "Held out") the variant of every effect
-// taken (cands, in the order taken: a searched period, a generated backlash or vibration term) is chosen
-// again in each fold from the training rows alone -- generators get the training residual, zero on the
-// held-out rows, and the mask of the training rows. Otherwise the variants chosen on all the data
-// (`fixed`) are kept and only the coefficients refitted: the held-out rows then took part in the choice,
-// which is optimistic (measured by bench/explain_heldout_bench.cpp).
-double heldout_rms(const Problem& problem, const std::vector<std::size_t>& cands, const std::vector<const Variant*>& fixed,
-                   const Eigen::VectorXd& y, const std::vector<FoldRows>& folds, const ExplainOptions& options) {
-  const Design all = assemble(problem.base, fixed);
-  if (all.j.cols() == 0) return std::sqrt(y.squaredNorm() / static_cast<double>(y.size()));
+// One fold's held-out design: the columns of the base and the effects taken so far (each effect's variant
+// chosen again on the fold's training rows, see heldout()) on its training and its held-out rows, and the
+// training residual of their fit. explain() keeps one per fold for the effects accepted and extends it only
+// when a candidate is accepted, so a trial re-chooses only its own effect in each fold.
+struct FoldFit {
+  Eigen::MatrixXd jt, jh;
+  Eigen::VectorXd rt;
+  bool ok = false;  // false: the fold is skipped (no held-out rows, too few training rows, a fit failed)
+};
+
+struct HeldOut {
+  double rms = nan;
+  std::vector<FoldFit> folds;  // the prefix extended by the trial (explain() keeps it when accepted)
+};
+
+// Held-out RMS: every fold's held-out rows predicted from a fit to its training rows, the columns of the
+// fold's prefix (`prefix`, one per fold; empty = the base only) and of the trial, if any. With
+// ExplainOptions::heldout_reselect (the default; docs/explain.md "Held out") the trial's variant is chosen
+// again in each fold from the training rows alone, as every effect of the prefix was -- a generator gets
+// the training residual, zero on the held-out rows, and the mask of the training rows. Otherwise the
+// variant chosen on all the data (`fixed`) is taken and only the coefficients refitted: the held-out rows
+// then took part in the choice, which is optimistic (measured by bench/explain_heldout_bench.cpp).
+// `columns` = base + all effects' columns as chosen on all the data (too few training rows: fold skipped).
+HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, const Candidate* trial, const Variant* fixed,
+                Eigen::Index columns, const Eigen::VectorXd& y, const std::vector<FoldRows>& folds,
+                const ExplainOptions& options) {
+  HeldOut out;
+  if (columns == 0) {
+    out.rms = std::sqrt(y.squaredNorm() / static_cast<double>(y.size()));
+    return out;
+  }
+  out.folds.resize(folds.size());
   double sse = 0;
   std::size_t count = 0;
-  for (const auto& fold : folds) {
-    if (fold.test.empty() || fold.train.size() < static_cast<std::size_t>(all.j.cols()) + 2) continue;
+  for (std::size_t k = 0; k < folds.size(); ++k) {
+    const auto& fold = folds[k];
+    FoldFit& ff = out.folds[k];
+    if (fold.test.empty() || fold.train.size() < static_cast<std::size_t>(columns) + 2) continue;
+    if (!prefix.empty() && !prefix[k].ok) continue;
     const Eigen::VectorXd yt = y(fold.train);
-    Eigen::MatrixXd jt, jh;
-    if (!options.heldout_reselect) {
-      jt = all.j(fold.train, Eigen::all);
-      jh = all.j(fold.test, Eigen::all);
-    } else {
+    if (prefix.empty()) {
       const bool has_base = problem.base.columns.cols() > 0;
-      jt = has_base ? Eigen::MatrixXd(problem.base.columns(fold.train, Eigen::all))
-                    : Eigen::MatrixXd(static_cast<Eigen::Index>(fold.train.size()), 0);
-      jh = has_base ? Eigen::MatrixXd(problem.base.columns(fold.test, Eigen::all))
-                    : Eigen::MatrixXd(static_cast<Eigen::Index>(fold.test.size()), 0);
-      bool ok = true;
-      for (std::size_t c : cands) {
-        const Candidate& cand = problem.candidates[c];
-        // The training residual of the effects chosen so far in this fold.
-        Eigen::VectorXd rt = yt;
-        if (jt.cols() > 0) {
-          const LsqResult res = lsq(jt, yt);
-          if (!res.ok) { ok = false; break; }
-          rt = res.residual;
+      ff.jt = has_base ? Eigen::MatrixXd(problem.base.columns(fold.train, Eigen::all))
+                       : Eigen::MatrixXd(static_cast<Eigen::Index>(fold.train.size()), 0);
+      ff.jh = has_base ? Eigen::MatrixXd(problem.base.columns(fold.test, Eigen::all))
+                       : Eigen::MatrixXd(static_cast<Eigen::Index>(fold.test.size()), 0);
+      if (trial && options.heldout_reselect) {
+        // The training residual of the base (the prefix's is kept in rt).
+        ff.rt = yt;
+        if (ff.jt.cols() > 0) {
+          const LsqResult res = lsq(ff.jt, yt);
+          if (!res.ok) continue;
+          ff.rt = res.residual;
         }
-        std::vector<Variant> generated;
-        if (cand.generate) {
-          Eigen::VectorXd r = Eigen::VectorXd::Zero(y.size());
-          r(fold.train) = rt;
-          generated = cand.generate(r, fold.use);
-        }
-        const std::vector<Variant>& variants = cand.generate ? generated : cand.variants;
-        const std::ptrdiff_t v = variants.empty() ? -1 : choose_variant(variants, fold.train, rt, jt, yt, options.prescreen);
-        if (v < 0) { ok = false; break; }
-        const auto& cols = variants[static_cast<std::size_t>(v)].block.columns;
-        jt = hcat(jt, cols(fold.train, Eigen::all));
-        jh = hcat(jh, cols(fold.test, Eigen::all));
       }
-      if (!ok) continue;
+    } else {
+      ff = prefix[k];
     }
-    const LsqResult r = lsq(jt, yt);
+    if (trial) {
+      const Variant* chosen = fixed;
+      std::vector<Variant> generated;
+      if (options.heldout_reselect) {
+        if (trial->generate) {
+          Eigen::VectorXd r = Eigen::VectorXd::Zero(y.size());
+          r(fold.train) = ff.rt;
+          generated = trial->generate(r, fold.use);
+        }
+        const std::vector<Variant>& variants = trial->generate ? generated : trial->variants;
+        const std::ptrdiff_t v =
+            variants.empty() ? -1 : choose_variant(variants, fold.train, ff.rt, ff.jt, yt, options.prescreen);
+        if (v < 0) continue;
+        chosen = &variants[static_cast<std::size_t>(v)];
+      }
+      ff.jt = hcat(ff.jt, chosen->block.columns(fold.train, Eigen::all));
+      ff.jh = hcat(ff.jh, chosen->block.columns(fold.test, Eigen::all));
+    }
+    const LsqResult r = lsq(ff.jt, yt);
     if (!r.ok) continue;
-    sse += (y(fold.test) - jh * r.fitted).squaredNorm();
+    ff.rt = r.residual;
+    ff.ok = true;
+    sse += (y(fold.test) - ff.jh * r.fitted).squaredNorm();
     count += fold.test.size();
   }
-  return count ? std::sqrt(sse / static_cast<double>(count)) : nan;
+  out.rms = count ? std::sqrt(sse / static_cast<double>(count)) : nan;
+  return out;
 }
 
 std::string fmt(const char* f, double a) {
@@ -325,10 +353,12 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
 
   std::vector<const Variant*> chosen;
   std::vector<std::shared_ptr<const std::vector<Variant>>> keep;  // generated variants that were chosen
-  std::vector<std::size_t> chosen_candidate;
   Fit current = fit(base_design, y);
   const std::vector<FoldRows> fold_sets = fold_rows(fold_of, folds);
-  double current_heldout = heldout_rms(problem, {}, {}, y, fold_sets, options);
+  // The held-out fits of the effects taken so far, one per fold (the base's to begin with).
+  HeldOut current_ho = heldout(problem, {}, nullptr, nullptr, base_design.j.cols(), y, fold_sets, options);
+  Eigen::Index current_columns = base_design.j.cols();
+  double current_heldout = current_ho.rms;
   rep.baseline = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
   std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", current.residual}};  // for the curves
   const Located base_loc = locate(problem, current.residual, options.alpha);
@@ -415,11 +445,9 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
       } else if (!(t.delta_bic < 0)) {
         con.verdict = "does not lower the BIC";
       } else {
-        auto blocks = chosen;
-        blocks.push_back(t.variant);
-        auto cands = chosen_candidate;
-        cands.push_back(t.cand);
-        const double ho = heldout_rms(problem, cands, blocks, y, fold_sets, options);
+        HeldOut trial_ho = heldout(problem, current_ho.folds, &cand, t.variant,
+                                   current_columns + t.variant->block.columns.cols(), y, fold_sets, options);
+        const double ho = trial_ho.rms;
         double share = nan;
         if (here.structured && vis_before > visible_floor)
           share = 1.0 - visible_energy(problem, t.fit.residual, sigma, here.flagged) / vis_before;
@@ -433,7 +461,6 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
           used[t.cand] = true;
           chosen.push_back(t.variant);
           if (t.generated) keep.push_back(t.generated);
-          chosen_candidate.push_back(t.cand);
           Finding fd;
           fd.effect = cand.effect;
           fd.delta_bic = t.delta_bic;
@@ -445,6 +472,8 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
           rep.findings.push_back(fd);
           current = std::move(t.fit);
           current_heldout = ho;
+          current_ho = std::move(trial_ho);
+          current_columns += t.variant->block.columns.cols();
           steps.emplace_back("+ " + cand.effect, current.residual);
         }
       }
