@@ -19,6 +19,14 @@ constexpr int n = 2000;
 
 double step_of(int i) { return (i % 500) < 250 ? 0.5 : -0.5; }
 
+// N(0, 1) by Box-Muller from the raw 64-bit draws: the same numbers with every standard library
+// (std::normal_distribution's algorithm is implementation-defined, and the counts below depend on them).
+double gauss(std::mt19937_64& rng) {
+  const double u1 = (static_cast<double>(rng() >> 11) + 0.5) * 0x1p-53;  // (0, 1)
+  const double u2 = static_cast<double>(rng() >> 11) * 0x1p-53;          // [0, 1)
+  return std::sqrt(-2 * std::log(u1)) * std::cos(2 * pi * u2);
+}
+
 // y = 3 + 2 cos + 1 sin + extra(i) + N(0, 0.4^2).
 ex::Problem make_problem(const std::function<double(int)>& extra, unsigned seed) {
   ex::Problem p;
@@ -26,7 +34,6 @@ ex::Problem make_problem(const std::function<double(int)>& extra, unsigned seed)
   p.domain = "angle_deg";
   p.runs.push_back({"run1", 1, 1000, "g"});
   std::mt19937_64 rng(seed);
-  std::normal_distribution<double> noise(0.0, 0.4);
   p.base.names = {"offset_um", "cos_um", "sin_um"};
   p.base.columns.resize(n, 3);
   ex::Candidate step{"backlash", "a step", {}, {}, 0};
@@ -42,7 +49,7 @@ ex::Problem make_problem(const std::function<double(int)>& extra, unsigned seed)
     p.base.columns.row(i) << 1.0, std::cos(z), std::sin(z);
     step.variants[0].block.columns(i, 0) = step_of(i);
     sine.variants[0].block.columns.row(i) << std::sin(37 * z), std::cos(37 * z);
-    const double y = 3 + 2 * std::cos(z) + std::sin(z) + extra(i) + noise(rng);
+    const double y = 3 + 2 * std::cos(z) + std::sin(z) + extra(i) + 0.4 * gauss(rng);
     p.samples.push_back({0, y, z * 180 / pi, i * 0.01});
   }
   p.candidates = {sine, step};
@@ -158,11 +165,10 @@ ex::Problem peak_problem(double amplitude, unsigned seed) {
   p.domain = "angle_deg";
   p.runs.push_back({"run1", 1, 1000, "g"});
   std::mt19937_64 rng(seed);
-  std::normal_distribution<double> noise(0.0, 1.0);
   p.base.names = {"offset_um"};
   p.base.columns = Eigen::MatrixXd::Ones(m, 1);
   for (int i = 0; i < m; ++i)
-    p.samples.push_back({0, amplitude * std::sin(2 * pi * 17.3 * i / m) + noise(rng), i * 360.0 / m, i * 0.01});
+    p.samples.push_back({0, amplitude * std::sin(2 * pi * 17.3 * i / m) + gauss(rng), i * 360.0 / m, i * 0.01});
   ex::Candidate peak{"vibration", "the periodogram's highest peak", {}, {}, 1};
   peak.generate = [](const Eigen::VectorXd& r, const std::vector<bool>& use) {
     double best = -1, best_f = 0, best_phase = 0;
@@ -189,6 +195,15 @@ ex::Problem peak_problem(double amplitude, unsigned seed) {
   return p;
 }
 
+// The held-out RMS after the one trial of a single-round report: the finding's, or the one its verdict
+// quotes when the held-out test refused it; NaN when another gate refused it first.
+double trial_heldout(const ex::Report& r) {
+  if (!r.findings.empty()) return r.findings[0].heldout_rms_um_after;
+  const std::string lead = "held-out RMS not improved (";
+  if (r.considered.size() != 1 || r.considered[0].verdict.rfind(lead, 0) != 0) return std::nan("");
+  return std::stod(r.considered[0].verdict.substr(lead.size()));
+}
+
 }  // namespace
 
 // The held-out RMS re-chooses generated variants inside each fold (docs/explain.md "Held out"). On pure
@@ -204,6 +219,7 @@ TEST(ExplainEngine, HeldOutRechoosesGeneratedVariantsInEachFold) {
   fixed.heldout_reselect = false;
   int taken_fixed = 0, taken_nested = 0;
   constexpr int trials = 40;
+  int compared = 0, higher = 0;  // draws where the nested held-out figure of the trial is above the fixed one
   for (unsigned seed = 1; seed <= trials; ++seed) {
     const auto p = peak_problem(0.0, seed);
     const auto a = ex::explain(p, fixed), b = ex::explain(p, loose);
@@ -215,12 +231,19 @@ TEST(ExplainEngine, HeldOutRechoosesGeneratedVariantsInEachFold) {
     if (!a.findings.empty() && b.findings.empty()) {
       EXPECT_EQ(b.considered[0].verdict.rfind("held-out RMS not improved", 0), 0u) << b.considered[0].verdict;
     }
-    EXPECT_DOUBLE_EQ(a.considered[0].delta_bic, b.considered[0].delta_bic);
-    EXPECT_DOUBLE_EQ(a.baseline.heldout_rms_um, b.baseline.heldout_rms_um);
+    // The trial's held-out figure: nested above fixed (the fixed one saw the held-out rows in the choice).
+    const double ho_fixed = trial_heldout(a), ho_nested = trial_heldout(b);
+    if (std::isfinite(ho_fixed) && std::isfinite(ho_nested)) {  // else the BIC refused it first (both ways)
+      ++compared;
+      higher += ho_nested > ho_fixed;
+    }
   }
+  EXPECT_GE(compared, trials * 3 / 4);
+  EXPECT_GE(higher, compared * 9 / 10) << "nested above fixed in " << higher << " of " << compared;
   EXPECT_GE(taken_fixed, trials * 3 / 4) << "fixed variants: noise taken in " << taken_fixed << " of " << trials;
   EXPECT_LE(taken_nested, trials / 5) << "nested: noise taken in " << taken_nested << " of " << trials;
-  // (Measured: 39 of 40 fixed, 6 of 40 nested -- a held-out block can favour a spurious term by chance.)
+  // (Measured with these draws: 37 of 40 fixed, 1 of 40 nested; the nested figure above the fixed one in
+  // 37 of the 37 draws the held-out test judged. A held-out block can favour a spurious term by chance.)
   // A real sinusoid (amplitude 1 x the noise's sigma) improves the held-out RMS both ways; the nested
   // figure is the less flattering one (measured 0.003-0.04 um above the fixed one).
   for (unsigned seed = 1; seed <= 5; ++seed) {
@@ -231,4 +254,99 @@ TEST(ExplainEngine, HeldOutRechoosesGeneratedVariantsInEachFold) {
     EXPECT_LT(b.final_fit.heldout_rms_um, b.baseline.heldout_rms_um - 0.1) << seed;
     EXPECT_GE(b.final_fit.heldout_rms_um, a.final_fit.heldout_rms_um - 1e-3) << seed;
   }
+}
+
+namespace {
+
+// Pure noise with an offset base and three candidates: the generated peak above (with a probe that records
+// whether any row held out, use[i] false, carries a nonzero residual, and counts its calls on part of the
+// rows), a step and a slope, both with a fixed single variant and planted so that all three are taken.
+struct Probe {
+  int masked_calls = 0;     // calls with some row held out
+  bool leaked = false;      // a held-out row had a nonzero residual
+};
+ex::Problem probe_problem(const std::shared_ptr<Probe>& probe) {
+  constexpr int m = 256;
+  ex::Problem p = peak_problem(2.0, 11);
+  ex::Candidate step{"backlash", "a step", {}, {}, 0}, slope{"thermal_drift", "a slope", {}, {}, 0};
+  step.variants.resize(1);
+  step.variants[0].block.names = {"step_um"};
+  step.variants[0].block.columns.resize(m, 1);
+  slope.variants.resize(1);
+  slope.variants[0].block.names = {"slope_um"};
+  slope.variants[0].block.columns.resize(m, 1);
+  for (int i = 0; i < m; ++i) {
+    step.variants[0].block.columns(i, 0) = (i % 64) < 32 ? 0.5 : -0.5;
+    slope.variants[0].block.columns(i, 0) = (i - m / 2.0) / m;
+    p.samples[static_cast<std::size_t>(i)].y_um += 1.5 * step.variants[0].block.columns(i, 0) +
+                                                   3.0 * slope.variants[0].block.columns(i, 0);
+  }
+  auto gen = p.candidates[0].generate;
+  p.candidates[0].generate = [gen, probe](const Eigen::VectorXd& r, const std::vector<bool>& use) {
+    bool masked = false;
+    for (std::size_t i = 0; i < use.size(); ++i) {
+      masked |= !use[i];
+      probe->leaked |= !use[i] && r[static_cast<Eigen::Index>(i)] != 0.0;
+    }
+    probe->masked_calls += masked;
+    return gen(r, use);
+  };
+  p.candidates.push_back(step);
+  p.candidates.push_back(slope);
+  return p;
+}
+
+}  // namespace
+
+// A generator never sees a held-out row's residual, and each fold re-chooses an accepted effect once:
+// the later trials extend each fold's kept prefix instead of running the generator again.
+TEST(ExplainEngine, GeneratorsSeeNoHeldOutRowAndRunOncePerFold) {
+  auto probe = std::make_shared<Probe>();
+  const auto p = probe_problem(probe);
+  ex::ExplainOptions opt;
+  opt.min_share = 0.0;  // the step and the slope each leave the others' structure
+  const auto rep = ex::explain(p, opt);
+  ASSERT_EQ(rep.findings.size(), 3u) << ex::to_text(rep);
+  EXPECT_EQ(rep.findings[0].effect, "vibration") << ex::to_text(rep);
+  EXPECT_FALSE(probe->leaked);
+  // The peak is tried in round 1 only, once per fold (8); the two later trials re-use the folds' choice
+  // (re-choosing the prefix per trial would make it 8 + 2 x 8).
+  EXPECT_EQ(probe->masked_calls, 8);
+  // Leave-one-run-out (three runs) holds out whole runs: the probe still sees zeros only.
+  auto loro = probe_problem(probe = std::make_shared<Probe>());
+  loro.runs = {{"a", 1, 1000, "g"}, {"b", 1, 1000, "g"}, {"c", 1, 1000, "g"}};
+  for (std::size_t i = 0; i < loro.samples.size(); ++i) loro.samples[i].run = std::min<std::size_t>(i * 3 / loro.samples.size(), 2);
+  (void)ex::explain(loro, opt);
+  EXPECT_GT(probe->masked_calls, 0);
+  EXPECT_FALSE(probe->leaked);
+}
+
+// Fixed variants (no generator) are re-chosen in each fold too: ~250 sinusoids on a list, declared as one
+// search, on pure noise -- kept fixed, the best of them "predicts" the rows it was picked on.
+TEST(ExplainEngine, HeldOutRechoosesFixedVariantsInEachFold) {
+  constexpr int m = 256;
+  ex::ExplainOptions loose;
+  loose.alpha = 1.0;
+  loose.min_share = 0.0;
+  loose.max_effects = 1;
+  ex::ExplainOptions fixed = loose;
+  fixed.heldout_reselect = false;
+  int taken_fixed = 0, taken_nested = 0;
+  constexpr int trials = 20;
+  for (unsigned seed = 1; seed <= trials; ++seed) {
+    ex::Problem p = peak_problem(0.0, seed + 100);
+    ex::Candidate lines{"cyclic_error", "a listed sinusoid", {}, {}, 1};
+    for (double f = 1; f < m / 2; f += 0.5) {
+      ex::Variant v;
+      v.block.names = {"s_um", "c_um"};
+      v.block.columns.resize(m, 2);
+      for (int i = 0; i < m; ++i) v.block.columns.row(i) << std::sin(2 * pi * f * i / m), std::cos(2 * pi * f * i / m);
+      lines.variants.push_back(std::move(v));
+    }
+    p.candidates = {lines};
+    taken_fixed += !ex::explain(p, fixed).findings.empty();
+    taken_nested += !ex::explain(p, loose).findings.empty();
+  }
+  EXPECT_GE(taken_fixed, trials / 2) << taken_fixed;
+  EXPECT_LE(taken_nested, trials / 5) << taken_nested;
 }
