@@ -350,3 +350,19 @@ TEST(ExplainEngine, HeldOutRechoosesFixedVariantsInEachFold) {
   EXPECT_GE(taken_fixed, trials / 2) << taken_fixed;
   EXPECT_LE(taken_nested, trials / 5) << taken_nested;
 }
+
+// A fold that cannot be fitted is not skipped (the trial and the model so far would be averaged over
+// different rows): the held-out figure is NaN and the effect refused, saying which fold.
+TEST(ExplainEngine, AFoldThatCannotBeFittedRefusesTheEffect) {
+  ex::Problem p = peak_problem(3.0, 5);
+  auto gen = p.candidates[0].generate;
+  p.candidates[0].generate = [gen](const Eigen::VectorXd& r, const std::vector<bool>& use) {
+    return use[0] ? gen(r, use) : std::vector<ex::Variant>{};  // nothing when the first block is held out
+  };
+  const auto rep = ex::explain(p);
+  EXPECT_TRUE(rep.findings.empty());
+  ASSERT_EQ(rep.considered.size(), 1u);
+  EXPECT_EQ(rep.considered[0].verdict,
+            "held-out RMS not computable (fold 1 of 8: vibration has no variant that can be fitted on the training rows)");
+  EXPECT_FALSE(ex::explain(peak_problem(3.0, 5)).findings.empty());  // found when every fold has its variant
+}

@@ -142,11 +142,13 @@ std::ptrdiff_t choose_variant(const std::vector<Variant>& variants, const std::v
 struct FoldFit {
   Eigen::MatrixXd jt, jh;
   Eigen::VectorXd rt;
-  bool ok = false;  // false: the fold is skipped (no held-out rows, too few training rows, a fit failed)
+  bool ok = false;  // false: the fold has no held-out rows
 };
 
 struct HeldOut {
   double rms = nan;
+  std::string failure;  // why rms is NaN: a fold could not be fitted (not skipped: every figure compared
+                        // must average the same rows)
   std::vector<FoldFit> folds;  // the prefix extended by the trial (explain() keeps it when accepted)
 };
 
@@ -157,7 +159,8 @@ struct HeldOut {
 // the training residual, zero on the held-out rows, and the mask of the training rows. Otherwise the
 // variant chosen on all the data (`fixed`) is taken and only the coefficients refitted: the held-out rows
 // then took part in the choice, which is optimistic (measured by bench/explain_heldout_bench.cpp).
-// `columns` = base + all effects' columns as chosen on all the data (too few training rows: fold skipped).
+// `columns` = base + all effects' columns as chosen on all the data. A fold that cannot be fitted (too few
+// training rows, no variant, a failed fit) makes the figure NaN with HeldOut::failure saying why.
 HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, const Candidate* trial, const Variant* fixed,
                 Eigen::Index columns, const Eigen::VectorXd& y, const std::vector<FoldRows>& folds,
                 const ExplainOptions& options) {
@@ -172,8 +175,14 @@ HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, cons
   for (std::size_t k = 0; k < folds.size(); ++k) {
     const auto& fold = folds[k];
     FoldFit& ff = out.folds[k];
-    if (fold.test.empty() || fold.train.size() < static_cast<std::size_t>(columns) + 2) continue;
-    if (!prefix.empty() && !prefix[k].ok) continue;
+    if (fold.test.empty() || (!prefix.empty() && !prefix[k].ok)) continue;
+    const auto fail = [&](const std::string& why) {
+      out.rms = nan;
+      out.failure = "fold " + std::to_string(k + 1) + " of " + std::to_string(folds.size()) + ": " + why;
+      return out;
+    };
+    if (fold.train.size() < static_cast<std::size_t>(columns) + 2)
+      return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(columns) + " columns");
     const Eigen::VectorXd yt = y(fold.train);
     if (prefix.empty()) {
       const bool has_base = problem.base.columns.cols() > 0;
@@ -186,7 +195,7 @@ HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, cons
         ff.rt = yt;
         if (ff.jt.cols() > 0) {
           const LsqResult res = lsq(ff.jt, yt);
-          if (!res.ok) continue;
+          if (!res.ok) return fail("the base fit failed: " + res.message);
           ff.rt = res.residual;
         }
       }
@@ -205,14 +214,14 @@ HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, cons
         const std::vector<Variant>& variants = trial->generate ? generated : trial->variants;
         const std::ptrdiff_t v =
             variants.empty() ? -1 : choose_variant(variants, fold.train, ff.rt, ff.jt, yt, options.prescreen);
-        if (v < 0) continue;
+        if (v < 0) return fail(trial->effect + " has no variant that can be fitted on the training rows");
         chosen = &variants[static_cast<std::size_t>(v)];
       }
       ff.jt = hcat(ff.jt, chosen->block.columns(fold.train, Eigen::all));
       ff.jh = hcat(ff.jh, chosen->block.columns(fold.test, Eigen::all));
     }
     const LsqResult r = lsq(ff.jt, yt);
-    if (!r.ok) continue;
+    if (!r.ok) return fail("the fit failed: " + r.message);
     ff.rt = r.residual;
     ff.ok = true;
     sse += (y(fold.test) - ff.jh * r.fitted).squaredNorm();
@@ -451,7 +460,11 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
         double share = nan;
         if (here.structured && vis_before > visible_floor)
           share = 1.0 - visible_energy(problem, t.fit.residual, sigma, here.flagged) / vis_before;
-        if (!(ho < current_heldout)) {
+        if (!std::isfinite(current_heldout)) {
+          con.verdict = "held-out RMS of the model so far not computable (" + current_ho.failure + ")";
+        } else if (!std::isfinite(ho)) {
+          con.verdict = "held-out RMS not computable (" + trial_ho.failure + ")";
+        } else if (!(ho < current_heldout)) {
           con.verdict = "held-out RMS not improved (" + fmt("%.4g", ho) + " um)";
         } else if (std::isfinite(share) && share < options.min_share) {
           con.verdict = "removes only " + fmt("%.0f", 100 * share) + " % of the visible structure";
