@@ -6,6 +6,7 @@
 #include <numbers>
 #include <random>
 
+#include <Eigen/QR>
 #include <gtest/gtest.h>
 
 #include "models/explain/explain.hpp"
@@ -365,4 +366,35 @@ TEST(ExplainEngine, AFoldThatCannotBeFittedRefusesTheEffect) {
   EXPECT_EQ(rep.considered[0].verdict,
             "held-out RMS not computable (fold 1 of 8: vibration has no variant that can be fitted on the training rows)");
   EXPECT_FALSE(ex::explain(peak_problem(3.0, 5)).findings.empty());  // found when every fold has its variant
+}
+
+// sensor_nonlinearity's columns from the base refitted to the rows in use: on all rows they are those of
+// the base fitted to all samples; with rows held out, the held-out y does not change them.
+TEST(ExplainEngine, SensorNonlinearityColumnsSeeNoHeldOutY) {
+  const auto p = make_problem([](int i) { return 0.3 * step_of(i); }, 3);
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) y[i] = p.samples[static_cast<std::size_t>(i)].y_um;
+  const std::vector<double> offset(n, 0.25);
+  const auto gen = ex::sensor_nonlinearity_generator(p.base, y, offset);
+  // All rows: the reading is the base's full fit (+ offset), computed independently here.
+  const Eigen::VectorXd x = p.base.columns.colPivHouseholderQr().solve(y);
+  std::vector<double> reading(n);
+  for (int i = 0; i < n; ++i) reading[static_cast<std::size_t>(i)] = p.base.columns.row(i).dot(x) + 0.25;
+  const auto all = gen(Eigen::VectorXd::Zero(n), std::vector<bool>(n, true));
+  ASSERT_EQ(all.size(), 1u);
+  const auto ref = ex::sensor_nonlinearity_variant(reading);
+  EXPECT_LT((all[0].block.columns - ref.block.columns).cwiseAbs().maxCoeff(), 1e-9 * ref.block.columns.cwiseAbs().maxCoeff());
+  // Rows 0..249 held out: a large change of their y leaves the columns as they were.
+  std::vector<bool> use(n, true);
+  for (int i = 0; i < 250; ++i) use[static_cast<std::size_t>(i)] = false;
+  Eigen::VectorXd y2 = y;
+  y2.head(250).array() += 50.0;
+  const auto a = gen(Eigen::VectorXd::Zero(n), use);
+  const auto b = ex::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n), use);
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_EQ(a[0].block.columns, b[0].block.columns);
+  // ... while on all rows it moves them (the leak the mask removes).
+  const auto c = ex::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n), std::vector<bool>(n, true));
+  EXPECT_GT((c[0].block.columns - all[0].block.columns).cwiseAbs().maxCoeff(), 1e-3);
 }

@@ -390,21 +390,21 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     Candidate c{"sensor_nonlinearity",
                 "the bar's transducer is not linear over its range, an error that is a polynomial in the reading itself",
                 {}, {}, 0};
-    double mean = 0;
-    for (double v : reading_um) mean += v;
-    mean /= static_cast<double>(reading_um.size());
-    Variant v;
-    v.block.names = {"sensor_quadratic_per_um", "sensor_cubic_per_um2"};
-    v.block.columns.resize(static_cast<Eigen::Index>(g.size()), 2);
-    for (std::size_t i = 0; i < g.size(); ++i) {
-      const double d = reading_um[i] - mean;
-      v.block.columns(static_cast<Eigen::Index>(i), 0) = d * d;
-      v.block.columns(static_cast<Eigen::Index>(i), 1) = d * d * d;
-    }
-    c.variants.push_back(std::move(v));
+    c.variants.push_back(sensor_nonlinearity_variant(reading_um));
     out.push_back(std::move(c));
   }
   return out;
+}
+
+// sensor_nonlinearity from the base refitted to the rows in use (a held-out fold's training rows), not
+// the base fitted once to all samples (its reading would carry the held-out y into the columns).
+void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y, std::vector<double> offset_um) {
+  for (auto& c : p.candidates)
+    if (c.effect == "sensor_nonlinearity") {
+      c.variants.clear();
+      c.generate = sensor_nonlinearity_generator(base, y, std::move(offset_um));
+      return;
+    }
 }
 
 std::vector<RunInfo> run_infos(const std::vector<dbb::Run>& runs) {
@@ -464,6 +464,7 @@ Problem dbb_problem(const std::vector<dbb::Run>& runs) {
   std::vector<double> reading(g.size());
   for (std::size_t i = 0; i < g.size(); ++i) reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
   Problem p = assemble_problem(runs, g, machine_time, reading);
+  refit_sensor_nonlinearity(p, base, y, {});
   p.base = std::move(base);
   return p;
 }

@@ -9,6 +9,7 @@
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include <Eigen/QR>
 
@@ -618,6 +619,45 @@ std::string to_text(const Report& r) {
   }
   for (const auto& n : r.notes) o << "note: " << n << "\n";
   return o.str();
+}
+
+Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
+  double mean = 0;
+  for (double v : reading_um) mean += v;
+  mean /= static_cast<double>(reading_um.size());
+  Variant v;
+  v.block.names = {"sensor_quadratic_per_um", "sensor_cubic_per_um2"};
+  v.block.columns.resize(static_cast<Eigen::Index>(reading_um.size()), 2);
+  for (std::size_t i = 0; i < reading_um.size(); ++i) {
+    const double d = reading_um[i] - mean;
+    v.block.columns(static_cast<Eigen::Index>(i), 0) = d * d;
+    v.block.columns(static_cast<Eigen::Index>(i), 1) = d * d * d;
+  }
+  return v;
+}
+
+std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)>
+sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um) {
+  if (static_cast<std::size_t>(base.columns.rows()) != static_cast<std::size_t>(y_um.size()) ||
+      (!offset_um.empty() && offset_um.size() != static_cast<std::size_t>(y_um.size())))
+    throw std::invalid_argument("explain: sensor_nonlinearity: base, samples and offsets differ in length");
+  auto data = std::make_shared<const std::tuple<Block, Eigen::VectorXd, std::vector<double>>>(base, y_um, std::move(offset_um));
+  return [data](const Eigen::VectorXd&, const std::vector<bool>& use) {
+    const auto& [b, y, offset] = *data;
+    std::vector<Eigen::Index> rows;
+    for (std::size_t i = 0; i < use.size(); ++i)
+      if (use[i]) rows.push_back(static_cast<Eigen::Index>(i));
+    const LsqResult fit = solve_lsq(b.columns(rows, Eigen::all), y(rows), Eigen::VectorXd(), b.names);
+    if (!fit.ok) return std::vector<Variant>{};
+    // The prediction; on the rows in use as y - residual, the very numbers of the base fit's reading.
+    const Eigen::VectorXd predicted = b.columns * fit.fitted;
+    std::vector<double> reading(static_cast<std::size_t>(y.size()));
+    for (std::size_t i = 0; i < reading.size(); ++i) {
+      const auto r = static_cast<Eigen::Index>(i);
+      reading[i] = (use[i] ? y[r] - (y[r] - predicted[r]) : predicted[r]) + (offset.empty() ? 0.0 : offset[i]);
+    }
+    return std::vector<Variant>{sensor_nonlinearity_variant(reading)};
+  };
 }
 
 std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,

@@ -172,6 +172,15 @@ Variant make_variant(const std::vector<Point>& points, std::vector<std::string> 
 std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
                                   const Eigen::MatrixXd& cov);
 
+// sensor_nonlinearity's block: (reading - mean)^2 and (reading - mean)^3 per sample, the reading being
+// the sensor's operating point.
+Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um);
+// The same block with the reading the base predicts (plus offset_um per sample, e.g. a measured
+// straightness; empty = none), the base fitted to the rows in use only: held-out y does not reach the
+// columns. With every row in use it equals sensor_nonlinearity_variant(y - base fit residual + offset).
+std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)>
+sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um);
+
 Report explain(const Problem& problem, const ExplainOptions& options = {});
 
 // The JSON shape ({"model", "baseline", "mismatch", "findings", "final", "unexplained"}) plus

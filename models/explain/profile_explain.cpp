@@ -194,21 +194,21 @@ std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::v
   {
     Candidate c{"sensor_nonlinearity", "the profilometer is not linear over its range: an error polynomial in the reading",
                 {}, {}, 0};
-    double mean = 0;
-    for (double v : reading_um) mean += v;
-    mean /= static_cast<double>(reading_um.size());
-    Variant v;
-    v.block.names = {"sensor_quadratic_per_um", "sensor_cubic_per_um2"};
-    v.block.columns.resize(static_cast<Eigen::Index>(g.size()), 2);
-    for (std::size_t i = 0; i < g.size(); ++i) {
-      const double d = reading_um[i] - mean;
-      v.block.columns(static_cast<Eigen::Index>(i), 0) = d * d;
-      v.block.columns(static_cast<Eigen::Index>(i), 1) = d * d * d;
-    }
-    c.variants.push_back(std::move(v));
+    c.variants.push_back(sensor_nonlinearity_variant(reading_um));
     out.push_back(std::move(c));
   }
   return out;
+}
+
+// sensor_nonlinearity from the base refitted to the rows in use (a held-out fold's training rows), not
+// the base fitted once to all samples (its reading would carry the held-out y into the columns).
+void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y, std::vector<double> offset_um) {
+  for (auto& c : p.candidates)
+    if (c.effect == "sensor_nonlinearity") {
+      c.variants.clear();
+      c.generate = sensor_nonlinearity_generator(base, y, std::move(offset_um));
+      return;
+    }
 }
 
 std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
@@ -333,6 +333,7 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
   for (std::size_t i = 0; i < g.size(); ++i)
     reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)] + y2_um[i];
   Problem p = assemble(runs, g, model, reading, straightness != nullptr);
+  refit_sensor_nonlinearity(p, base, y, y2_um);
   if (!straightness_note.empty()) p.notes.insert(p.notes.begin(), straightness_note);
   p.base = std::move(base);
   return p;
