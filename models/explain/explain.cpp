@@ -178,9 +178,9 @@ HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, cons
     FoldFit& ff = out.folds[k];
     if (fold.test.empty() || (!prefix.empty() && !prefix[k].ok)) continue;
     const auto fail = [&](const std::string& why) {
-      out.rms = nan;
-      out.failure = "fold " + std::to_string(k + 1) + " of " + std::to_string(folds.size()) + ": " + why;
-      return out;
+      HeldOut failed;
+      failed.failure = "fold " + std::to_string(k + 1) + " of " + std::to_string(folds.size()) + ": " + why;
+      return failed;
     };
     if (fold.train.size() < static_cast<std::size_t>(columns) + 2)
       return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(columns) + " columns");
@@ -211,6 +211,9 @@ HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, cons
           Eigen::VectorXd r = Eigen::VectorXd::Zero(y.size());
           r(fold.train) = ff.rt;
           generated = trial->generate(r, fold.use);
+          for (const auto& v : generated)
+            if (v.block.columns.rows() != y.size())
+              throw std::invalid_argument("explain: candidate " + trial->effect + " has the wrong number of rows");
         }
         const std::vector<Variant>& variants = trial->generate ? generated : trial->variants;
         const std::ptrdiff_t v =
