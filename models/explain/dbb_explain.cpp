@@ -396,17 +396,6 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
   return out;
 }
 
-// sensor_nonlinearity from the base refitted to the rows in use (a held-out fold's training rows), not
-// the base fitted once to all samples (its reading would carry the held-out y into the columns).
-void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y, std::vector<double> offset_um) {
-  for (auto& c : p.candidates)
-    if (c.effect == "sensor_nonlinearity") {
-      c.variants.clear();
-      c.generate = sensor_nonlinearity_generator(base, y, std::move(offset_um));
-      return;
-    }
-}
-
 std::vector<RunInfo> run_infos(const std::vector<dbb::Run>& runs) {
   std::vector<RunInfo> out;
   for (std::size_t k = 0; k < runs.size(); ++k) {

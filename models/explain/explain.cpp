@@ -663,6 +663,15 @@ sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, st
   };
 }
 
+void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um) {
+  for (auto& c : p.candidates)
+    if (c.effect == "sensor_nonlinearity") {
+      c.variants.clear();
+      c.generate = sensor_nonlinearity_generator(base, y_um, std::move(offset_um));
+      return;
+    }
+}
+
 std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
                                   const Eigen::MatrixXd& cov) {
   const double cs = x[0], cc = x[1];

@@ -180,6 +180,9 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um);
 // columns. With every row in use it equals sensor_nonlinearity_variant(y - base fit residual + offset).
 std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)>
 sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um);
+// Replaces p's sensor_nonlinearity candidate (if any) by that generator: its columns from the base
+// refitted to the rows in use, not from the base fitted once to all samples.
+void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um);
 
 Report explain(const Problem& problem, const ExplainOptions& options = {});
 

@@ -200,17 +200,6 @@ std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::v
   return out;
 }
 
-// sensor_nonlinearity from the base refitted to the rows in use (a held-out fold's training rows), not
-// the base fitted once to all samples (its reading would carry the held-out y into the columns).
-void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y, std::vector<double> offset_um) {
-  for (auto& c : p.candidates)
-    if (c.effect == "sensor_nonlinearity") {
-      c.variants.clear();
-      c.generate = sensor_nonlinearity_generator(base, y, std::move(offset_um));
-      return;
-    }
-}
-
 std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
   std::vector<RunInfo> out;
   for (std::size_t k = 0; k < runs.size(); ++k)
