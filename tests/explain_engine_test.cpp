@@ -317,7 +317,8 @@ TEST(ExplainEngine, GeneratorsSeeNoHeldOutRowAndRunOncePerFold) {
   auto loro = probe_problem(probe = std::make_shared<Probe>());
   loro.runs = {{"a", 1, 1000, "g"}, {"b", 1, 1000, "g"}, {"c", 1, 1000, "g"}};
   for (std::size_t i = 0; i < loro.samples.size(); ++i) loro.samples[i].run = std::min<std::size_t>(i * 3 / loro.samples.size(), 2);
-  (void)ex::explain(loro, opt);
+  const ex::Report loro_rep = ex::explain(loro, opt);
+  EXPECT_EQ(loro_rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << loro_rep.heldout_scheme;
   EXPECT_GT(probe->masked_calls, 0);
   EXPECT_FALSE(probe->leaked);
 }

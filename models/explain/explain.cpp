@@ -372,6 +372,8 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   HeldOut current_ho = heldout(problem, {}, nullptr, nullptr, base_design.j.cols(), y, fold_sets, options);
   Eigen::Index current_columns = base_design.j.cols();
   double current_heldout = current_ho.rms;
+  // Every effect will be refused for it: say why once, whether or not a candidate gets that far.
+  if (!current_ho.failure.empty()) rep.notes.push_back("held-out RMS of the base not computable (" + current_ho.failure + ")");
   rep.baseline = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
   std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", current.residual}};  // for the curves
   const Located base_loc = locate(problem, current.residual, options.alpha);
@@ -457,6 +459,8 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
         con.verdict = "not significant (p=" + fmt("%.2g", t.p) + ")";
       } else if (!(t.delta_bic < 0)) {
         con.verdict = "does not lower the BIC";
+      } else if (!std::isfinite(current_heldout)) {  // no figure to beat: the trial's is not computed
+        con.verdict = "held-out RMS of the model so far not computable (" + current_ho.failure + ")";
       } else {
         HeldOut trial_ho = heldout(problem, current_ho.folds, &cand, t.variant,
                                    current_columns + t.variant->block.columns.cols(), y, fold_sets, options);
@@ -464,9 +468,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
         double share = nan;
         if (here.structured && vis_before > visible_floor)
           share = 1.0 - visible_energy(problem, t.fit.residual, sigma, here.flagged) / vis_before;
-        if (!std::isfinite(current_heldout)) {
-          con.verdict = "held-out RMS of the model so far not computable (" + current_ho.failure + ")";
-        } else if (!std::isfinite(ho)) {
+        if (!std::isfinite(ho)) {
           con.verdict = "held-out RMS not computable (" + trial_ho.failure + ")";
         } else if (!(ho < current_heldout)) {
           con.verdict = "held-out RMS not improved (" + fmt("%.4g", ho) + " um)";
@@ -647,6 +649,8 @@ sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, st
   auto data = std::make_shared<const std::tuple<Block, Eigen::VectorXd, std::vector<double>>>(base, y_um, std::move(offset_um));
   return [data](const Eigen::VectorXd&, const std::vector<bool>& use) {
     const auto& [b, y, offset] = *data;
+    if (use.size() != static_cast<std::size_t>(y.size()))
+      throw std::invalid_argument("explain: sensor_nonlinearity: the row mask and the samples differ in length");
     std::vector<Eigen::Index> rows;
     for (std::size_t i = 0; i < use.size(); ++i)
       if (use[i]) rows.push_back(static_cast<Eigen::Index>(i));
