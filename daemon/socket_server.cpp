@@ -182,12 +182,13 @@ bool SocketServer::send(ClientId id, std::string line) {
   auto it = clients_.find(id);
   if (it == clients_.end()) return false;
   line.push_back('\n');
-  // A backlog marks a slow client, not one long line: what waits behind the line being written is
-  // the backlog, so a client that keeps up takes any line, even one longer than the whole queue (an
-  // EXPLAIN can be ~100 KB). The queue holds at most max_queue_bytes plus two lines.
-  const auto overflows = [this, &line](const Client& c) {
+  // A backlog marks a slow client, not one long line: the backlog is what already waits behind the
+  // line being written, judged before this line joins it, so a client that keeps up takes any line,
+  // even one longer than the whole queue (an EXPLAIN can be ~100 KB), also while its socket buffer is
+  // still full of the last. The queue holds at most max_queue_bytes plus two lines.
+  const auto overflows = [this](const Client& c) {
     const std::size_t behind = c.queued - (c.outbox.empty() ? 0 : c.outbox.front().size());
-    return behind > 0 && behind + line.size() > options_.max_queue_bytes;
+    return behind > options_.max_queue_bytes;
   };
   if (overflows(it->second) && !it->second.want_write) {
     // Lines a Batch only deferred are no backlog until the kernel refuses them: hand them over first.

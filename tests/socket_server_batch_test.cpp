@@ -197,3 +197,41 @@ TEST(SocketServerBatch, LinesLongerThanTheQueueReachAClientThatKeepsUpWhileASile
   ::close(silent);
   ::close(reading);
 }
+
+// The race the test above can meet (a round starting while the reader's socket buffer is still full),
+// made certain: nobody reads, so whatever is queued stays queued.
+TEST(SocketServerBatch, OneLongLineIsNeverHeldAgainstAClientButABacklogBehindItIs) {
+  guideway::test::TempDir dir;
+  EventLoop loop;
+  SocketServerOptions o;
+  o.unix_path = dir.file("s.sock");
+  o.max_queue_bytes = 4096;
+  std::vector<ClientId> ids;
+  std::vector<std::string> reasons;
+  SocketServer server(loop, o);
+  server.on_connect([&](ClientId id) { ids.push_back(id); });
+  server.on_disconnect([&](ClientId, const std::string& why) { reasons.push_back(why); });
+  const int fd = connect_unix(o.unix_path);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  loop.run(1, [&] {
+    if (!ids.empty() || std::chrono::steady_clock::now() > deadline) loop.stop();
+  });
+  ASSERT_EQ(ids.size(), 1u);
+  const std::string huge(4'000'000, 'y');  // more than any socket buffer: stays in flight
+  const std::string small(18, 's');
+  const std::string big(100'000, 'x');
+  ASSERT_TRUE(server.send(ids[0], huge));
+  ASSERT_GT(server.queued_bytes(ids[0]), 0u);
+  {
+    const SocketServer::Batch batch(server);
+    EXPECT_TRUE(server.send(ids[0], small));
+    EXPECT_TRUE(server.send(ids[0], small));
+    EXPECT_TRUE(server.send(ids[0], big)) << "38 bytes wait behind the line in flight: no backlog yet";
+  }
+  EXPECT_TRUE(reasons.empty());
+  EXPECT_FALSE(server.send(ids[0], small)) << "100 KB wait behind the line in flight";
+  ASSERT_EQ(reasons.size(), 1u);
+  EXPECT_NE(reasons[0].find("queue overflow"), std::string::npos);
+  EXPECT_EQ(server.dropped_clients(), 1u);
+  ::close(fd);
+}
