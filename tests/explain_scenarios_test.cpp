@@ -73,3 +73,30 @@ TEST(ExplainScenarios, FacingRunoutAlongPathIsOptIn) {
   }
   EXPECT_LT(max_dev, 1e-12);  // a perfect machine faces flat without the option
 }
+
+// A real recording's start_time_s may be Unix-epoch seconds (~1.8e9): time-dependent terms (drift,
+// vibration, spindle run-out phase) must come out as on a clock that starts at 0, to the 1e-16 relative
+// (0.2 us) such a clock keeps of each time stamp.
+TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
+  for (const char* name : {"dbb_thermal_bar", "dbb_cyclic", "flatness_spindle_runout", "flatness_thermal_two_feeds"}) {
+    ex::ScenarioOptions epoch;
+    epoch.clock_origin_s = 1.8e9;
+    const auto a = ex::run_scenario(name);
+    const auto b = ex::run_scenario(name, epoch);
+    EXPECT_TRUE(b.pass) << name << ": " << b.failure;
+    ASSERT_EQ(a.report.findings.size(), b.report.findings.size()) << name;
+    for (std::size_t k = 0; k < a.report.findings.size(); ++k) {
+      const auto& fa = a.report.findings[k];
+      const auto& fb = b.report.findings[k];
+      EXPECT_EQ(fa.effect, fb.effect) << name;
+      EXPECT_NEAR(fa.heldout_rms_um_after, fb.heldout_rms_um_after, 1e-6 * std::abs(fa.heldout_rms_um_after)) << name;
+      ASSERT_EQ(fa.parameters.size(), fb.parameters.size()) << name;
+      for (std::size_t j = 0; j < fa.parameters.size(); ++j)
+        EXPECT_NEAR(fa.parameters[j].value, fb.parameters[j].value,
+                    1e-6 * std::max(std::abs(fa.parameters[j].value), fa.parameters[j].u))
+            << name << " " << fa.effect << " " << fa.parameters[j].name;
+    }
+    EXPECT_NEAR(a.report.final_fit.heldout_rms_um, b.report.final_fit.heldout_rms_um,
+                1e-6 * a.report.final_fit.heldout_rms_um) << name;
+  }
+}

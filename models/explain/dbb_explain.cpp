@@ -29,7 +29,7 @@ struct Geo {
   double sgn_a = 0, sgn_b = 0;      // signs of the axis velocities
   double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
   double a_m = 0, b_m = 0;          // machine coordinates of the commanded point
-  double t_s = 0;                   // machine time (or run time when not all runs have start_time_s)
+  double t_s = 0;                   // machine time since the earliest run's start (or run time when not all runs have start_time_s)
   double y_um = 0;
 };
 
@@ -62,12 +62,19 @@ double start_time_of(const dbb::Run& r) {
 }
 
 std::vector<Geo> geometry(const std::vector<dbb::Run>& runs, bool machine_time) {
+  // Time counts from the earliest run's start: a Unix-epoch clock (~1.8e9 s) would make a drift
+  // column nearly constant and cost a sinusoid's phase its digits.
+  double origin_s = 0.0;
+  if (machine_time) {
+    origin_s = start_time_of(runs.front());
+    for (const auto& run : runs) origin_s = std::min(origin_s, start_time_of(run));
+  }
   std::vector<Geo> g;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const dbb::Run& run = runs[k];
     dbb::validate_run(run);
     const double l0 = run.nominal_length_m();
-    const double t0 = machine_time ? start_time_of(run) : 0.0;
+    const double t0 = machine_time ? start_time_of(run) - origin_s : 0.0;
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Geo p;
       p.run = k;

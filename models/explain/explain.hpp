@@ -25,7 +25,7 @@ struct Sample {
   std::size_t run = 0;  // index into Problem::runs; samples of a run are contiguous and in time order
   double y_um = 0.0;    // what is explained: the measurement (base refitted) or measured - simulated
   double where = 0.0;   // position in the problem's domain (angle_deg or position_mm)
-  double t_s = 0.0;     // machine time
+  double t_s = 0.0;     // machine time, from the problem's earliest sample or run start
 };
 
 struct RunInfo {

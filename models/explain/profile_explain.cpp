@@ -47,6 +47,11 @@ struct Pt {
 };
 
 std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
+  // Time counts from the earliest point: a Unix-epoch clock (~1.8e9 s) would make a drift column
+  // nearly constant and cost the run-out's phase its digits.
+  double origin_s = std::numeric_limits<double>::infinity();
+  for (const auto& r : runs)
+    for (double t : r.t_s) origin_s = std::min(origin_s, t);
   std::vector<Pt> pts;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const auto& r = runs[k];
@@ -58,7 +63,7 @@ std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
     for (std::size_t i = 0; i < r.x_m.size(); ++i) {
       if (!std::isfinite(r.x_m[i]) || !std::isfinite(r.z_m[i]) || !std::isfinite(r.t_s[i]))
         throw std::invalid_argument(r.source + ": point " + std::to_string(i + 1) + " is not finite");
-      pts.push_back({k, r.x_m[i] * 1e3, r.t_s[i], r.z_m[i] * 1e6, r.feed_mm_per_min, r.spindle_rpm});
+      pts.push_back({k, r.x_m[i] * 1e3, r.t_s[i] - origin_s, r.z_m[i] * 1e6, r.feed_mm_per_min, r.spindle_rpm});
     }
   }
   return pts;

@@ -63,7 +63,7 @@ std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbPlan& pla
     dbb::Run run = dbb::simulate_run(machine, spec, "scenario-run" + std::to_string(k + 1));
     // Machine time of the first data sample: the first sample at or after the feed-in arc.
     const double first = std::ceil(spec.overshoot_rad / omega * spec.sample_rate_hz - 1e-9) / spec.sample_rate_hz;
-    run.metadata["start_time_s"] = fmt("%.9g", t0 + first);
+    run.metadata["start_time_s"] = fmt("%.17g", o.clock_origin_s + t0 + first);
     runs.push_back(std::move(run));
     t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + 10.0;
   }
@@ -249,7 +249,7 @@ std::vector<ProfileRun> facing_runs(const sim::Machine& machine, const std::vect
     for (const auto& p : machine.facing_profile(spec)) {
       r.x_m.push_back(p.x_m);
       r.z_m.push_back(p.z_m);
-      r.t_s.push_back(p.t_s);
+      r.t_s.push_back(o.clock_origin_s + p.t_s);
     }
     runs.push_back(std::move(r));
     t0 += 0.02 / spec.feed_m_per_s + 60.0;

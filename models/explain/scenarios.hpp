@@ -17,6 +17,9 @@ namespace guideway::models::explain {
 struct ScenarioOptions {
   bool quick = true;      // fewer samples (unit tests); false: the instrument's full density
   std::uint64_t seed = 1;  // noise seed
+  // Added to every run's machine time, as a recording on a Unix-epoch clock would carry it: the
+  // findings must not depend on where the clock starts.
+  double clock_origin_s = 0.0;
   ExplainOptions explain;  // the engine's options (the defaults unless a bench compares settings)
 };
 
