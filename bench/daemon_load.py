@@ -6,7 +6,8 @@ rising sample rates, then with 100 watching clients of which one never reads. St
 
 Per rate step (a fresh daemon each, from a temporary TOML config):
   - per device: sustained rate (driver `samples` counter over the step) and losses (`overruns`,
-    ring `drops`, `seq_gaps`, `bad_frames`, `timeouts`, `reconnects`);
+    ring `drops`, `seq_gaps`, `bad_frames`, `timeouts`, `reconnects`, and the driver's own loss
+    counters from `driver_counters`: lost_samples, dropped_frames, ...);
   - sample-to-publish latency: every SAMPLE message carries t_mono_ns (CLOCK_MONOTONIC when the
     sample was taken); this client reads CLOCK_MONOTONIC when the line arrives. sample_publish_hz
     is set to 100000, so the pipeline publishes the newest sample of every batch it pops;
@@ -304,9 +305,22 @@ def device_deltas(st0, st1, dt):
             "bad_frames": c1["bad_frames"] - c0["bad_frames"],
             "timeouts": c1["timeouts"] - c0["timeouts"],
             "reconnects": c1["reconnects"] - c0["reconnects"],
+            "driver_losses": driver_losses(a, d),
             "state": d["state"],
         }
     return out
+
+
+# The drivers' own counters that count data lost or damaged (docs/protocol.md, driver_counters);
+# profiles_completed and the like count progress, not loss.
+LOSS_COUNTERS = ("lost_samples", "ring_overruns", "dropped_frames", "partial_cycles", "error_frames",
+                 "untimed_frames", "exceptions", "counter_resets")
+
+
+def driver_losses(d0, d1):
+    """Increase of each loss counter over the step (a daemon before protocol 1.1 sends none)."""
+    c0, c1 = d0.get("driver_counters", {}), d1.get("driver_counters", {})
+    return {k: c1[k] - c0.get(k, 0) for k in LOSS_COUNTERS if k in c1 and c1[k] != c0.get(k, 0)}
 
 
 def emulator_name(pid):
@@ -618,14 +632,17 @@ def print_tables(res):
     print(f"Machine: {m['cpus']} CPUs, {m['model']}, kernel {m['kernel']}, {m['time']}")
     print(f"Load average (1, 5, 15 min): before {res['load_before']}, after {res['load_after']}\n")
     print("Per device (sample_publish_hz 10 run; losses summed over both runs of the step):\n")
-    print("| step | device | set Hz | sustained Hz | overruns | ring drops | seq gaps | bad frames | timeouts |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| step | device | set Hz | sustained Hz | overruns | ring drops | seq gaps | bad frames | timeouts | driver losses |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|")
     for s in res["steps"]:
         for name, d in s["default"]["devices"].items():
             a = s["all"]["devices"][name]
+            losses = {k: d.get("driver_losses", {}).get(k, 0) + a.get("driver_losses", {}).get(k, 0)
+                      for k in LOSS_COUNTERS}
+            losses_text = ", ".join(f"{k}={v}" for k, v in losses.items() if v) or "0"
             print(f"| {step_label(s)} | {name} | {s['rates_hz'][name]:g} | {d['rate_hz']:.0f} | "
                   + " | ".join(str(d[k] + a[k]) for k in ("overruns", "ring_drops", "seq_gaps", "bad_frames", "timeouts"))
-                  + " |")
+                  + f" | {losses_text} |")
     for f in res.get("failed_steps", []):
         print(f"step {f['nominal_hz']:g} Hz failed: {f['error']}")
     print()
