@@ -314,7 +314,7 @@ def device_deltas(st0, st1, dt):
 # The drivers' own counters that count data lost or damaged (docs/protocol.md, driver_counters);
 # profiles_completed and the like count progress, not loss.
 LOSS_COUNTERS = ("lost_samples", "ring_overruns", "dropped_frames", "partial_cycles", "error_frames",
-                 "untimed_frames", "exceptions", "counter_resets")
+                 "untimed_frames", "exceptions", "counter_resets", "profiles_partial", "points_lost")
 
 
 def driver_losses(d0, d1):

@@ -120,6 +120,20 @@ TEST(ProfileStream, ALostPointFlagsTheNextAndAMissingEndLeavesNoEndMark) {
   ASSERT_EQ(points.size(), 5u);
   EXPECT_EQ(points[2].index, 3u);
   EXPECT_TRUE(points[2].flags & sample_after_gap);
+  // A point lost inside makes the traverse partial as much as one lost at its tail.
+  EXPECT_EQ(points[4].flags & (sample_profile_end | sample_partial), sample_profile_end | sample_partial);
+  ASSERT_EQ(events.back().type, StreamEvent::Type::end);
+  EXPECT_EQ(events.back().points_lost, 1u);
+  std::string tail = traverse(2, 6);
+  tail.erase(tail.find("P 5"), format_point(5, 2.5e-6, 0.0, header(2, 6)).size());
+  events = assemble(tail);
+  ASSERT_EQ(events.back().type, StreamEvent::Type::end);
+  EXPECT_EQ(events.back().points_lost, 1u);
+  EXPECT_TRUE(events[events.size() - 2].flags & sample_partial);
+  events = assemble(traverse(3, 6));
+  ASSERT_EQ(events.back().type, StreamEvent::Type::end);
+  EXPECT_EQ(events.back().points_lost, 0u);
+  EXPECT_FALSE(events[events.size() - 2].flags & sample_partial);
   // Connection ends mid-traverse: the held point is released without an end mark.
   const std::string partial = traverse(9, 6);
   events = assemble(partial.substr(0, partial.rfind("END")));

@@ -261,16 +261,17 @@ void ProfileAssembler::on_line(std::string_view line, std::int64_t t_ns, std::ve
       release(out);  // a previous traverse without END stays without an end mark: incomplete
       header_ = p->header;
       expected_index_ = 0;
+      received_ = 0;
       next_start_ = true;
       out.push_back({StreamEvent::Type::header, p->header.id, 0, 0, 0, 0, t_ns, {}});
       return;
     case LineKind::end:
       if (!header_ || p->id != header_->id) return bad("END for a traverse that was not announced");
-      if (held_) {  // the traverse is over; points missing at its tail make it partial
-        held_->flags |= sample_profile_end | (p->count != expected_index_ ? std::uint32_t{sample_partial} : 0u);
+      if (held_) {  // the traverse is over; fewer points than the END counts make it partial
+        held_->flags |= sample_profile_end | (received_ < p->count ? std::uint32_t{sample_partial} : 0u);
       }
       release(out);
-      out.push_back({StreamEvent::Type::end, p->id, p->count, 0, 0, 0, t_ns, {}});
+      out.push_back({StreamEvent::Type::end, p->id, p->count, 0, 0, 0, t_ns, {}, p->count > received_ ? p->count - received_ : 0});
       header_.reset();
       return;
     case LineKind::point: {
@@ -292,6 +293,7 @@ void ProfileAssembler::on_line(std::string_view line, std::int64_t t_ns, std::ve
       next_start_ = false;
       gap_ = false;
       expected_index_ = p->index + 1;
+      ++received_;
       return;
     }
   }

@@ -71,6 +71,7 @@ struct StreamEvent {
   std::uint32_t flags = 0;      // point: SampleFlag bits + sample_profile_start/end
   std::int64_t t_ns = 0;        // point: the time passed to feed() with the bytes that carried it
   std::string message;          // bad_line: why
+  std::uint64_t points_lost = 0;  // end: points the END counts that did not arrive whole
 };
 
 // Splits bytes into lines, parses them and assembles traverses. A point is held back until the next
@@ -93,6 +94,7 @@ class ProfileAssembler {
   std::optional<ProfileHeader> header_;
   std::optional<StreamEvent> held_;
   std::uint64_t expected_index_ = 0;
+  std::uint64_t received_ = 0;  // points of this traverse taken
   bool next_start_ = false;
   bool gap_ = false;
 };

@@ -53,6 +53,10 @@ void ProfilometerDriver::publish_events(std::vector<StreamEvent>& events) {
         break;
       case StreamEvent::Type::end:
         profiles_.fetch_add(1, std::memory_order_relaxed);
+        if (e.points_lost > 0) {
+          profiles_partial_.fetch_add(1, std::memory_order_relaxed);
+          points_lost_.fetch_add(e.points_lost, std::memory_order_relaxed);
+        }
         frames_.fetch_add(1, std::memory_order_relaxed);
         break;
       case StreamEvent::Type::header:

@@ -31,10 +31,12 @@ class ProfilometerDriver : public drivers::Driver {
   ProfilometerDriver(std::string name, ProfilometerConfig config, std::size_t ring_capacity);
   ~ProfilometerDriver() override;
   [[nodiscard]] std::optional<ProfileHeader> last_header() const;
-  // Traverses whose END line arrived (partial ones too: points lost inside are flagged, not counted here).
+  // Traverses whose END line arrived (partial ones too).
   [[nodiscard]] std::uint64_t profiles_completed() const noexcept { return profiles_.load(); }
   [[nodiscard]] std::vector<drivers::NamedCounter> driver_counters() const override {
-    return {{"profiles_completed", profiles_completed()}};
+    return {{"profiles_completed", profiles_completed()},
+            {"profiles_partial", profiles_partial_.load()},
+            {"points_lost", points_lost_.load()}};
   }
 
  protected:
@@ -49,6 +51,8 @@ class ProfilometerDriver : public drivers::Driver {
   mutable std::mutex header_mutex_;
   std::optional<ProfileHeader> last_header_;
   std::atomic<std::uint64_t> profiles_{0};
+  std::atomic<std::uint64_t> profiles_partial_{0};  // traverses whose END counts points that never arrived whole
+  std::atomic<std::uint64_t> points_lost_{0};       // those points
 };
 
 void register_profilometer_driver(drivers::DriverRegistry& registry);
