@@ -5,6 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <numbers>
 #include <stdexcept>
@@ -320,10 +321,15 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       // Held-out rows have residual 0: the periodogram is that of the rows in use.
       c.generate = [geo, f_lo, df, grid, A, B](const Eigen::VectorXd& r, const std::vector<bool>&) {
         const auto& gg = *geo;
-        // Power summed over runs: sum over runs of |sum_i r_i exp(-2 pi i f_q t_i)|^2. Per sample, successive
-        // grid frequencies turn the phasor by exp(-2 pi i df t) (re-anchored every 64 points against
-        // rounding): a complex multiply instead of a sine and cosine per sample and frequency.
-        std::vector<double> pw(grid, 0.0), re(grid), im(grid);
+        // One periodogram per direction the vibration may have (the bar, axis A, axis B), each of the
+        // residual weighted by that direction's projection on the bar: a vibration of axis A at f reads
+        // as lam cos(zeta) sin(2 pi f t), whose plain periodogram peaks at f +- the circling frequency,
+        // not at f. Power summed over runs: sum over runs of |sum_i w_i r_i exp(-2 pi i f_q t_i)|^2.
+        // Per sample, successive grid frequencies turn the phasor by exp(-2 pi i df t) (re-anchored
+        // every 64 points against rounding): a complex multiply instead of a sine and cosine per sample
+        // and frequency, shared by the three directions.
+        constexpr std::size_t dirs = 3;
+        std::vector<double> pw(dirs * grid, 0.0), re(dirs * grid), im(dirs * grid);
         constexpr std::size_t anchor = 64;
         for (std::size_t i = 0; i < gg.size();) {
           std::fill(re.begin(), re.end(), 0.0);
@@ -332,28 +338,45 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
             const double ri = r[static_cast<Eigen::Index>(i)];
             if (ri == 0.0) continue;  // a held-out row
             const double t = gg[i].t_s;
+            const double wa = gg[i].lam * gg[i].c, wb = gg[i].lam * gg[i].s;
             const double sr = std::cos(-2 * pi * df * t), si = std::sin(-2 * pi * df * t);
             for (std::size_t q0 = 0; q0 < grid; q0 += anchor) {
               const std::complex<double> z0 = ri * std::polar(1.0, -2 * pi * (f_lo + df * static_cast<double>(q0)) * t);
               double zr = z0.real(), zi = z0.imag();
               for (std::size_t q = q0; q < std::min(grid, q0 + anchor); ++q) {
-                re[q] += zr;
-                im[q] += zi;
+                double* qr = &re[dirs * q];
+                double* qi = &im[dirs * q];
+                qr[0] += zr;
+                qi[0] += zi;
+                qr[1] += wa * zr;
+                qi[1] += wa * zi;
+                qr[2] += wb * zr;
+                qi[2] += wb * zi;
                 const double nr = zr * sr - zi * si;
                 zi = zr * si + zi * sr;
                 zr = nr;
               }
             }
           }
-          for (std::size_t q = 0; q < grid; ++q) pw[q] += re[q] * re[q] + im[q] * im[q];
+          for (std::size_t k = 0; k < dirs * grid; ++k) pw[k] += re[k] * re[k] + im[k] * im[k];
         }
-        std::vector<std::pair<double, double>> power;  // (power, f)
-        for (std::size_t q = 0; q < grid; ++q) power.emplace_back(pw[q], f_lo + df * static_cast<double>(q));
-        std::sort(power.rbegin(), power.rend());
         std::vector<Variant> vs;
-        for (std::size_t k = 0; k < std::min<std::size_t>(2, power.size()); ++k) {
-          const double f = power[k].second;
-          for (int which = 0; which < 3; ++which) {
+        for (int which = 0; which < 3; ++which) {
+          const auto at = [&](std::size_t q) { return pw[dirs * q + static_cast<std::size_t>(which)]; };
+          std::vector<std::pair<double, std::size_t>> power;  // (power, grid index)
+          for (std::size_t q = 0; q < grid; ++q) power.emplace_back(at(q), q);
+          const std::size_t top = std::min<std::size_t>(2, power.size());
+          std::partial_sort(power.begin(), power.begin() + static_cast<std::ptrdiff_t>(top), power.end(), std::greater<>());
+          for (std::size_t k = 0; k < top; ++k) {
+            // Between grid points by the parabola through the peak and its neighbours: a coherent fit
+            // over runs a minute apart loses much of a line that is a fraction of a grid step off.
+            const std::size_t q = power[k].second;
+            double offset = 0.0;
+            if (q > 0 && q + 1 < grid) {
+              const double curvature = at(q - 1) - 2 * at(q) + at(q + 1);
+              if (curvature < 0) offset = std::clamp(0.5 * (at(q - 1) - at(q + 1)) / curvature, -0.5, 0.5);
+            }
+            const double f = f_lo + df * (static_cast<double>(q) + offset);
             const std::string L = which == 0 ? "bar" : (which == 1 ? A : B);
             Variant v = make_variant(gg, {"vibration_sin", "vibration_cos"}, [=](const Geo& p, double* o) {
               const double proj = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
