@@ -76,9 +76,9 @@ TEST(ExplainScenarios, FacingRunoutAlongPathIsOptIn) {
 
 // A real recording's start_time_s may be Unix-epoch seconds (~1.8e9): time-dependent terms (drift,
 // vibration, spindle run-out phase) must come out as on a clock that starts at 0, to the 1e-16 relative
-// (0.2 us) such a clock keeps of each time stamp.
+// (0.2 us) such a clock keeps of each time stamp: 1e-6 relative, or 1 % of the uncertainty.
 TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
-  for (const char* name : {"dbb_thermal_bar", "dbb_cyclic", "flatness_spindle_runout", "flatness_thermal_two_feeds"}) {
+  for (const char* name : {"dbb_thermal_bar", "dbb_cyclic", "dbb_vibration", "flatness_spindle_runout", "flatness_thermal_two_feeds"}) {
     ex::ScenarioOptions epoch;
     epoch.clock_origin_s = 1.8e9;
     const auto a = ex::run_scenario(name);
@@ -93,7 +93,7 @@ TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
       ASSERT_EQ(fa.parameters.size(), fb.parameters.size()) << name;
       for (std::size_t j = 0; j < fa.parameters.size(); ++j)
         EXPECT_NEAR(fa.parameters[j].value, fb.parameters[j].value,
-                    1e-6 * std::max(std::abs(fa.parameters[j].value), fa.parameters[j].u))
+                    std::max(1e-6 * std::abs(fa.parameters[j].value), 0.01 * fa.parameters[j].u))
             << name << " " << fa.effect << " " << fa.parameters[j].name;
     }
     EXPECT_NEAR(a.report.final_fit.heldout_rms_um, b.report.final_fit.heldout_rms_um,
