@@ -5,8 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 
+#include "models/dbb/simulate.hpp"
+#include "models/explain/dbb_explain.hpp"
 #include "models/explain/scenarios.hpp"
 #include "simulators/machine/machine.hpp"
 
@@ -99,4 +102,40 @@ TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
     EXPECT_NEAR(a.report.final_fit.heldout_rms_um, b.report.final_fit.heldout_rms_um,
                 1e-6 * a.report.final_fit.heldout_rms_um) << name;
   }
+}
+
+// Runs without start_time_s have a clock each: a vibration keeps its frequency and amplitude from run
+// to run but not its phase, so each run gets its own; the two phases differ by 2 pi f times the runs'
+// true offset (60.05 s apart here, not a whole number of periods).
+TEST(ExplainScenarios, AVibrationIsFoundInRunsWithoutACommonClock) {
+  namespace sim = guideway::sim;
+  namespace dbb = guideway::models::dbb;
+  constexpr double f_hz = 7.3, apart_s = 60.05;
+  sim::MachineConfig cfg;
+  cfg.axis[0].vibration_amplitude_m = 0.5e-6;
+  cfg.axis[0].vibration_frequency_hz = f_hz;
+  const sim::Machine m(cfg);
+  std::vector<dbb::Run> runs;
+  for (int k = 0; k < 2; ++k) {
+    sim::DbbCircleSpec spec;
+    spec.direction = k == 0 ? sim::Direction::ccw : sim::Direction::cw;
+    spec.t0_s = k * apart_s;
+    spec.sample_rate_hz = 30.0;  // 3 samples per degree: Nyquist 15 Hz
+    spec.seed = 7 + static_cast<std::uint64_t>(k);
+    runs.push_back(dbb::simulate_run(m, spec, "run" + std::to_string(k + 1)));
+    ASSERT_EQ(runs.back().metadata.count("start_time_s"), 0u);
+  }
+  const ex::Report r = ex::explain_dbb_report(runs);
+  ASSERT_FALSE(r.findings.empty()) << ex::to_text(r);
+  EXPECT_EQ(r.findings.front().effect, "vibration");
+  std::map<std::string, double> v;
+  for (const auto& p : r.findings.front().parameters) v[p.name] = p.value;
+  ASSERT_TRUE(v.contains("vibration_x_um") && v.contains("vibration_phase_x_deg_run1") &&
+              v.contains("vibration_phase_x_deg_run2"))
+      << ex::to_text(r);
+  EXPECT_NEAR(v["vibration_x_um"], 0.5, 0.01);
+  EXPECT_NEAR(v["vibration_hz"], f_hz, 0.002);
+  const double turn = std::remainder(v["vibration_phase_x_deg_run2"] - v["vibration_phase_x_deg_run1"] - 360 * f_hz * apart_s, 360.0);
+  EXPECT_NEAR(turn, 0.0, 5.0) << "phase difference against 2 pi f dt";
+  EXPECT_LT(r.final_fit.heldout_rms_um, 0.5 * r.baseline.heldout_rms_um);
 }

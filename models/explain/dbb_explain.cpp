@@ -319,7 +319,10 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       c.search_size = 3 * grid;
       auto geo = std::make_shared<const std::vector<Geo>>(g);
       // Held-out rows have residual 0: the periodogram is that of the rows in use.
-      c.generate = [geo, f_lo, df, grid, A, B](const Eigen::VectorXd& r, const std::vector<bool>&) {
+      // Without a common clock a line keeps its frequency and amplitude from run to run but not its
+      // phase: each run gets its own sine and cosine (the periodogram already sums runs' powers).
+      const std::size_t phases = machine_time ? 1 : runs.size();
+      c.generate = [geo, f_lo, df, grid, A, B, phases](const Eigen::VectorXd& r, const std::vector<bool>&) {
         const auto& gg = *geo;
         // One periodogram per direction the vibration may have (the bar, axis A, axis B), each of the
         // residual weighted by that direction's projection on the bar: a vibration of axis A at f reads
@@ -378,15 +381,36 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
             }
             const double f = f_lo + df * (static_cast<double>(q) + offset);
             const std::string L = which == 0 ? "bar" : (which == 1 ? A : B);
-            Variant v = make_variant(gg, {"vibration_sin", "vibration_cos"}, [=](const Geo& p, double* o) {
+            std::vector<std::string> names;
+            for (std::size_t run_k = 0; run_k < phases; ++run_k) {
+              const std::string run = phases > 1 ? "_run" + std::to_string(run_k + 1) : "";
+              names.push_back("vibration_sin" + run);
+              names.push_back("vibration_cos" + run);
+            }
+            Variant v = make_variant(gg, names, [=](const Geo& p, double* o) {
               const double proj = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
-              o[0] = proj * std::sin(2 * pi * f * p.t_s);
-              o[1] = proj * std::cos(2 * pi * f * p.t_s);
+              const std::size_t col = phases > 1 ? 2 * p.run : 0;
+              o[col] = proj * std::sin(2 * pi * f * p.t_s);
+              o[col + 1] = proj * std::cos(2 * pi * f * p.t_s);
             });
             v.fixed.push_back({"vibration_hz", f, std::numeric_limits<double>::quiet_NaN()});
             v.searched = 1;
-            v.report = [L](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-              return amp_phase("vibration_" + L + "_um", "vibration_phase_" + L + "_deg", x, cov);
+            v.report = [L, phases](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+              const std::string amp = "vibration_" + L + "_um", phase = "vibration_phase_" + L + "_deg";
+              if (phases == 1) return amp_phase(amp, phase, x, cov);
+              // One amplitude: the mean of the runs'; a phase per run, on that run's own clock.
+              std::vector<ParamValue> values{{amp, 0.0, 0.0}};
+              double var = 0.0;
+              for (std::size_t run_k = 0; run_k < phases; ++run_k) {
+                const auto j = static_cast<Eigen::Index>(2 * run_k);
+                const auto ap = amp_phase(amp, phase + "_run" + std::to_string(run_k + 1), x.segment(j, 2),
+                                          cov.block(j, j, 2, 2));
+                values[0].value += ap[0].value / static_cast<double>(phases);
+                var += ap[0].u * ap[0].u;
+                values.push_back(ap[1]);
+              }
+              values[0].u = std::sqrt(var) / static_cast<double>(phases);
+              return values;
             };
             vs.push_back(std::move(v));
           }
