@@ -57,6 +57,7 @@ struct MicrometerDriver::RingCursor {
   bool gap = false;            // the next published sample follows lost ones
   int resets_in_row = 0;       // counter reads in a row that looked like an amplifier restart
   bool rate_flagged = false;   // the measured rate is off sample_rate_hz by more than the tolerance
+  bool overrun_counted = false;  // this poll already counted its ring overrun
 };
 
 namespace {
@@ -157,7 +158,14 @@ std::string MicrometerDriver::count_failure(const modbus::ReadResult& r) {
 
 void MicrometerDriver::lose(RingCursor& cursor, std::uint64_t n) noexcept {
   if (n == 0) return;
-  lost_samples_.fetch_add(n, std::memory_order_relaxed);
+  // One overrun per poll that found samples overwritten, however many of its reads saw it; counted
+  // before the samples (release), so that a reader of lost_samples (acquire) then ring_overruns never
+  // sees samples lost without an overrun.
+  if (!cursor.overrun_counted) {
+    ring_overruns_.fetch_add(1, std::memory_order_relaxed);
+    cursor.overrun_counted = true;
+  }
+  lost_samples_.fetch_add(n, std::memory_order_release);
   skip_samples(n);
   cursor.gap = true;
 }
@@ -247,7 +255,7 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
   auto wake = std::chrono::steady_clock::now();
   while (!stop.stop_requested()) {
     client.flush();  // a late answer to a failed request must not be taken for this one
-    const std::uint64_t lost_before = lost_samples_.load(std::memory_order_relaxed);
+    cursor.overrun_counted = false;
     bool ok = read_counter();
     if (ok) {
       const std::uint64_t count = cursor.counter.count();
@@ -295,8 +303,6 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
         cursor.next = rr.first + rr.samples;
       }
     }
-    // One overrun per poll that found samples overwritten, however many of its reads saw it.
-    if (lost_samples_.load(std::memory_order_relaxed) != lost_before) ring_overruns_.fetch_add(1, std::memory_order_relaxed);
     if (link_gone || failures >= config_.lost_after_failures) break;
     if (ok) {
       failures = 0;

@@ -52,9 +52,10 @@ class MicrometerDriver : public drivers::Driver {
   }
   // exceptions, ring_overruns, lost_samples, counter_resets (the last three stay 0 in polled mode).
   [[nodiscard]] std::vector<drivers::NamedCounter> driver_counters() const override {
+    const std::uint64_t lost = lost_samples_.load(std::memory_order_acquire);  // before the overruns: see lose()
     return {{"exceptions", exceptions()},
             {"ring_overruns", ring_overruns()},
-            {"lost_samples", lost_samples()},
+            {"lost_samples", lost},
             {"counter_resets", counter_resets()}};
   }
 
