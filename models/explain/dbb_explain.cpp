@@ -484,8 +484,10 @@ Problem assemble_problem(const std::vector<dbb::Run>& runs, const std::vector<Ge
     p.samples.push_back({q.run, q.y_um, deg, q.t_s});
   }
   p.candidates = dbb_candidates(g, runs, machine_time, reading_um);
-  if (!machine_time && runs.size() > 1)
-    p.notes.push_back("runs have no start_time_s metadata: a drift is fitted with its own offset per run");
+  if (!machine_time && runs.size() > 1) {
+    p.notes.push_back("runs have no start_time_s metadata: a drift is fitted with its own offset per run, a vibration with its own phase");
+    p.terms_per_run = true;
+  }
   bool ccw = false, cw = false;
   for (const auto& r : runs) (r.dir() > 0 ? ccw : cw) = true;
   if (!(ccw && cw))

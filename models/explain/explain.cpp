@@ -329,13 +329,14 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   rep.n = n;
   rep.notes = problem.notes;
 
-  // Held-out scheme: whole runs when there are at least three and the base is still determined
-  // without any one of them; otherwise contiguous blocks of every run (staggered between runs).
+  // Held-out scheme: whole runs when there are at least three, the base is still determined without
+  // any one of them and no candidate has terms of one run alone; otherwise contiguous blocks of every
+  // run (staggered between runs).
   std::vector<int> fold_of(n, 0);
   int folds = static_cast<int>(std::max<std::size_t>(options.folds, 2));
   bool loro = false;
   const Design base_design = assemble(problem.base, {});
-  if (problem.runs.size() >= 3) {
+  if (problem.runs.size() >= 3 && !problem.terms_per_run) {
     const std::size_t full_rank = base_design.j.cols() ? fit(base_design, y).res.rank : 0;
     loro = true;
     for (std::size_t k = 0; k < ranges.size() && loro; ++k) {

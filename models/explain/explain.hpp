@@ -75,6 +75,10 @@ struct Problem {
   Block base;  // may have no columns (a given simulation: nothing is refitted)
   std::vector<Candidate> candidates;
   std::vector<std::string> notes;  // passed through to the report
+  // Some candidates have terms of one run alone (a drift offset or a vibration phase per run, when
+  // runs share no clock): such a term cannot predict a run held out whole, so held-out rows are then
+  // blocks of every run, whatever the number of runs.
+  bool terms_per_run = false;
 };
 
 struct ExplainOptions {
