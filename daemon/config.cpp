@@ -1,5 +1,7 @@
 #include "daemon/config.hpp"
 
+#include <grp.h>
+
 #include <algorithm>
 #include <bit>
 #include <filesystem>
@@ -62,6 +64,10 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     c.socket_path = d->get_string("socket", "");
     c.socket_mode = parse_mode(*d);
     c.socket_group = d->get_string("socket_group", "");
+    // Checked here, not first at bind time: --check-config catches it, and the error names the line.
+    if (!c.socket_group.empty() && getgrnam(c.socket_group.c_str()) == nullptr) {
+      d->fail("socket_group", "no group named \"" + c.socket_group + "\" on this system");
+    }
     parse_listen(*d, c);
     c.state_dir = d->get_string("state_dir", "");
     c.plugin_dir = d->get_string("plugin_dir", "");

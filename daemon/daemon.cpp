@@ -362,14 +362,19 @@ nlohmann::json Daemon::handle_stop(const Request& req) {
   return {{"class", "SESSION"}, {"sessions", names}, {"state", "finishing"}};
 }
 
-nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what) {
+nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
+                                 const std::string& what) const {
   const std::string kind = string_field(req.body, "kind");
   const std::string session = string_field(req.body, "session");
   for (auto it = latest.rbegin(); it != latest.rend(); ++it) {
     if ((kind.empty() || (*it)["kind"] == kind) && (session.empty() || (*it)["session"] == session)) return *it;
   }
+  if (!kind.empty() && !sessions_->known_kind(kind)) {
+    throw std::invalid_argument("unknown session kind \"" + kind + "\" (known: " + sessions_->kinds() + ")");
+  }
+  if (!session.empty()) throw std::invalid_argument("no " + what + " for session \"" + session + "\"");
   throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
-                              " (start a session with the start request, e.g. guideway start dbb)");
+                              " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
 }
 
 nlohmann::json Daemon::handle_report(const Request& req) const {
@@ -390,7 +395,12 @@ nlohmann::json Daemon::handle_recordings() const {
   std::vector<std::filesystem::directory_entry> entries;
   for (const auto& e : std::filesystem::directory_iterator(config_.state_dir, ec)) {
     const std::string n = e.path().filename().string();
-    if (n.ends_with(".csv") || n.ends_with(".csv.part")) entries.push_back(e);
+    if (!n.ends_with(".csv") && !n.ends_with(".csv.part")) continue;
+    // Raw recordings only (what `guideway replay` reads): a session's derived files (DBB runs, the
+    // traverse, ...) are CSV too, and are named in its PARAMS.
+    std::ifstream in(e.path());
+    std::string first;
+    if (std::getline(in, first) && first == "# format = guideway/raw/1") entries.push_back(e);
   }
   std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.path() < b.path(); });
   for (const auto& e : entries) {
