@@ -35,6 +35,8 @@ void print_status(const nlohmann::json& s) {
     std::cout << "session " << ses.value("session", "?") << ": " << ses.value("state", "?") << ", "
               << ses.value("samples", 0) << " samples" << (ses.contains("progress") ? ", " + ses["progress"].get<std::string>() : "")
               << "\n";
+    // A disk error loses data: never only in the JSON.
+    if (ses.contains("recording_error")) std::cout << "  recording error: " << ses.value("recording_error", "") << "\n";
   }
   const auto& devices = s["devices"];
   if (devices.empty()) {
@@ -93,7 +95,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   version->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
     const nlohmann::json v = c.request({{"class", "version"}}, "VERSION");
-    throw_if_error(v);
+    throw_if_error_reply(v, *json);
     if (*json) {
       std::cout << v.dump() << "\n";
     } else {
@@ -107,7 +109,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   status->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
     const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
-    throw_if_error(s);
+    throw_if_error_reply(s, *json);
     if (*json) {
       std::cout << s.dump() << "\n";
     } else {
@@ -135,6 +137,9 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   start->add_option("--timeout", so->timeout_s, "with --wait: give up after this many seconds (default 600)");
   start->add_flag("--json", *json, "print the daemon's JSON unchanged");
   start->callback([&ctx, so, json] {
+    // Checked before the session starts: a session must not be left running by a bad option.
+    if (!(so->timeout_s > 0)) throw std::runtime_error("--timeout must be a positive number of seconds");
+    for (const auto& kv : so->settings) parse_setting(kv);
     DaemonClient c = connect(ctx);
     nlohmann::json req = {{"class", "start"}, {"kind", so->kind}, {"options", nlohmann::json::object()}};
     if (!so->device.empty()) req["device"] = so->device;
@@ -144,7 +149,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     }
     if (so->wait) c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
     const nlohmann::json r = c.request(req, "SESSION");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     const std::string session = r.value("session", "");
     if (*json) {
       std::cout << r.dump() << "\n";
@@ -171,7 +176,10 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
         return;
       }
     }
-    throw std::runtime_error("no parameters for session " + session + " within " + std::to_string(so->timeout_s) + " s");
+    std::ostringstream why;
+    why << "no parameters for session " << session << " within " << so->timeout_s << " s (it goes on: guideway stop "
+        << session << " ends it)";
+    throw std::runtime_error(why.str());
   });
 
   auto stop_session = std::make_shared<std::string>();
@@ -183,7 +191,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     nlohmann::json req = {{"class", "stop"}};
     if (!stop_session->empty()) req["session"] = *stop_session;
     const nlohmann::json r = c.request(req, "SESSION");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
     } else {
@@ -200,7 +208,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     nlohmann::json req = {{"class", "params"}};
     if (!params_kind->empty()) req["kind"] = *params_kind;
     const nlohmann::json r = c.request(req, "PARAMS");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
     } else {
@@ -213,7 +221,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   recordings->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
     const nlohmann::json r = c.request({{"class", "recordings"}}, "RECORDINGS");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
       return;
@@ -245,7 +253,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     if (!classes.empty()) req["classes"] = classes;
     if (!channels.empty()) req["channels"] = channels;
     const nlohmann::json ack = c.request(req, "WATCH");
-    throw_if_error(ack);
+    throw_if_error_reply(ack, true);  // watch prints the daemon's JSON lines, an ERROR too
     std::signal(SIGINT, [](int) { interrupted = 1; });
     const auto began = std::chrono::steady_clock::now();
     std::size_t seen = 0;

@@ -1,5 +1,7 @@
 #include "cli/params_print.hpp"
 
+#include "cli/daemon_client.hpp"
+
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -47,6 +49,7 @@ void print_params(const nlohmann::json& p) {
   }
   if (p.contains("incomplete")) std::cout << "incomplete: " << p["incomplete"].get<std::string>() << "\n";
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
+  if (p.contains("recording_error")) std::cout << "recording error: " << p["recording_error"].get<std::string>() << "\n";
   for (const auto& f : p.value("derived", nlohmann::json::array())) std::cout << "derived: " << f.get<std::string>() << "\n";
 }
 
@@ -79,6 +82,15 @@ void print_explanation(const nlohmann::json& e) {
     std::cout << "\n    " << f.value("why", "") << "\n";
   }
   if (e.value("unexplained", false)) std::cout << "  a structured residual is left that no effect of the library explains\n";
+}
+
+}  // namespace guideway::cli
+
+namespace guideway::cli {
+
+void throw_if_error_reply(const nlohmann::json& reply, bool json) {
+  if (json && reply.value("class", "") == "ERROR") std::cout << reply.dump() << "\n" << std::flush;
+  throw_if_error(reply);
 }
 
 }  // namespace guideway::cli

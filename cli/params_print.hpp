@@ -12,4 +12,8 @@ void print_params(const nlohmann::json& p);
 // whether a structured residual is left (`guideway explain` offline prints the full report).
 void print_explanation(const nlohmann::json& e);
 
+// A daemon reply that is an ERROR: with `json` (the command's --json) it is printed to standard output
+// unchanged, like every other daemon message, then thrown as "daemon: MESSAGE" (stderr, exit 1).
+void throw_if_error_reply(const nlohmann::json& reply, bool json);
+
 }  // namespace guideway::cli

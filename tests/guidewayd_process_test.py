@@ -76,6 +76,53 @@ class GuidewaydProcess(unittest.TestCase):
         out = subprocess.run([GUIDEWAYD, "--config", ok, "--check-config"], capture_output=True, text=True, timeout=20)
         self.assertEqual(out.returncode, 0, out.stderr)
 
+    def guideway(self, *args):
+        return subprocess.run([GUIDEWAY, *args], capture_output=True, text=True, timeout=30)
+
+    def test_client_options_and_errors(self):
+        """--socket after the command (README: every client command takes it), --json prints an ERROR
+        reply unchanged on stdout, bad tcp: addresses and a bad --timeout are named before anything
+        starts."""
+        p = self.start()
+        out = self.guideway("status", "--socket", self.sock)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertIn("guidewayd", out.stdout)
+        out = self.guideway("version", "-s", self.sock, "--json")
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertIn('"class":"VERSION"', out.stdout)
+        out = self.guideway("params", "nosuch", "--json", "--socket", self.sock)
+        self.assertEqual(out.returncode, 1)
+        self.assertIn('"class":"ERROR"', out.stdout)
+        self.assertIn('unknown session kind \\"nosuch\\"', out.stdout)
+        self.assertIn("guideway: daemon: unknown session kind", out.stderr)
+        out = self.guideway("params", "runout", "--socket", self.sock)
+        self.assertEqual(out.returncode, 1)
+        self.assertEqual(out.stdout, "")
+        self.assertIn("guideway start runout", out.stderr)
+        for address, why in (("tcp:127.0.0.1:abc", "port must be a number"), ("tcp:127.0.0.1:99999", "port must be"),
+                             ("tcp:127.0.0.1", "expected tcp:HOST:PORT"), ("tcp::2947", "expected tcp:HOST:PORT")):
+            out = self.guideway("--socket", address, "status")
+            self.assertEqual(out.returncode, 1, address)
+            self.assertIn(address + ": ", out.stderr)
+            self.assertIn(why, out.stderr)
+        out = self.guideway("start", "runout", "--wait", "--timeout", "-1", "--socket", self.sock)
+        self.assertEqual(out.returncode, 1)
+        self.assertIn("--timeout must be a positive number", out.stderr)
+        out = self.guideway("start", "runout", "--set", "rpm", "--socket", self.sock)
+        self.assertIn("--set expects KEY=VALUE", out.stderr)
+        status = self.guideway("status", "--json", "--socket", self.sock)
+        self.assertIn('"sessions":[]', status.stdout, "a refused start must not leave a session running")
+        p.send_signal(signal.SIGTERM)
+        self.assertEqual(p.wait(timeout=10), 0)
+
+    def test_unknown_socket_group_is_a_config_error(self):
+        cfg = os.path.join(self.tmp.name, "group.toml")
+        with open(cfg, "w") as f:
+            f.write("[daemon]\nlog_level = \"info\"\nsocket_group = \"no-such-group-gw\"\n")
+        out = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(cfg + ':3: daemon.socket_group: no group named "no-such-group-gw"', out.stderr)
+
     def test_sd_notify_ready_watchdog_stopping(self):
         notify_path = os.path.join(self.tmp.name, "notify")
         ns = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
