@@ -115,6 +115,25 @@ class GuidewaydProcess(unittest.TestCase):
         p.send_signal(signal.SIGTERM)
         self.assertEqual(p.wait(timeout=10), 0)
 
+    def test_replay_says_when_a_recording_is_not_a_whole_session(self):
+        golden = os.path.join(os.path.dirname(os.path.abspath(__file__)), "golden", "runout.csv")
+        with open(golden) as f:
+            text = f.read()
+        whole = self.guideway("replay", golden)
+        self.assertEqual(whole.returncode, 0, whole.stderr)
+        self.assertNotIn("incomplete", whole.stdout)
+        self.assertNotIn("aborted", whole.stdout)
+        aborted = os.path.join(self.tmp.name, "aborted.csv")  # what SIGTERM mid-session leaves
+        with open(aborted, "w") as f:
+            f.write(text.replace("# end = complete", "# end = aborted"))
+        out = self.guideway("replay", aborted)
+        self.assertIn("recording marked aborted", out.stdout)
+        cut = os.path.join(self.tmp.name, "cut.csv.part")  # what SIGKILL leaves
+        with open(cut, "w") as f:
+            f.write(text[:text.index("# end =")])
+        out = self.guideway("replay", cut)
+        self.assertIn("incomplete recording", out.stdout + out.stderr)
+
     def test_unknown_socket_group_is_a_config_error(self):
         cfg = os.path.join(self.tmp.name, "group.toml")
         with open(cfg, "w") as f:
