@@ -134,6 +134,29 @@ class GuidewaydProcess(unittest.TestCase):
         out = self.guideway("replay", cut)
         self.assertIn("incomplete recording", out.stdout + out.stderr)
 
+    def test_docs_example_client_prints_published_params(self):
+        """docs/example_client.py, as the docs run it, against the default (emulated) daemon."""
+        example = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "example_client.py")
+        p = self.start()
+        client = subprocess.Popen(["/usr/bin/python3", example, self.sock], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True)
+        self.addCleanup(lambda: client.poll() is None and client.kill())
+        self.assertIn("connected to guidewayd", client.stdout.readline())
+        started = self.guideway("start", "profile", "--socket", self.sock)  # the next whole profile, < 5 s
+        self.assertEqual(started.returncode, 0, started.stderr)
+        session = started.stdout.split()[1]
+        lines = []
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any("profile.straightness_lsq_um" in l for l in lines):
+            lines.append(client.stdout.readline())
+        self.assertIn(f"{session} (profile, model", "".join(lines))
+        self.assertTrue(any(l.strip().startswith("profile.straightness_lsq_um = ") and "+/-" in l for l in lines), lines)
+        client.kill()
+        p.send_signal(signal.SIGTERM)
+        self.assertEqual(p.wait(timeout=10), 0)
+        client.wait(timeout=10)
+        self.assertEqual(client.stderr.read(), "")
+
     def test_unknown_socket_group_is_a_config_error(self):
         cfg = os.path.join(self.tmp.name, "group.toml")
         with open(cfg, "w") as f:
