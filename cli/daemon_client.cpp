@@ -75,7 +75,10 @@ DaemonClient::DaemonClient(const std::string& address) : address_(address) {
   auto line = read_line(std::chrono::seconds(5));
   if (!line) throw std::runtime_error(address + ": no VERSION banner from the daemon");
   banner_ = nlohmann::json::parse(*line, nullptr, false);
-  if (banner_.is_discarded() || banner_.value("class", "") != "VERSION") {
+  if (!banner_.is_discarded() && banner_.is_object() && banner_.value("class", "") == "ERROR") {  // "too many clients"
+    throw std::runtime_error(address + ": the daemon refused the connection: " + banner_.value("message", "?"));
+  }
+  if (banner_.is_discarded() || !banner_.is_object() || banner_.value("class", "") != "VERSION") {
     throw std::runtime_error(address + ": not a guidewayd socket (first line: " + *line + ")");
   }
 }

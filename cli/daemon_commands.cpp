@@ -245,15 +245,26 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   watch->add_option("--channel", w->channels, "devices or sessions to receive (default: all)");
   watch->add_option("--seconds", w->seconds, "stop after this many seconds (default: run until interrupted)");
   watch->add_option("--count", w->count, "stop after this many messages");
-  watch->add_flag("--json", *json, "print one JSON message per line (the default; kept for symmetry)");
-  watch->callback([&ctx, w] {
+  watch->add_flag("--json", *json, "print the daemon's JSON messages unchanged, one per line");
+  watch->callback([&ctx, w, json] {
     const auto& [classes, channels, seconds, count] = *w;
     DaemonClient c = connect(ctx);
+    ChannelUnits units;  // for the readable lines: SAMPLE values carry no unit, STATUS names them
+    if (!*json) {
+      const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
+      const nlohmann::json devices = s.value("devices", nlohmann::json::array());
+      for (const auto& d : devices) {
+        const nlohmann::json device_channels = d.value("channels", nlohmann::json::array());
+        for (const auto& ch : device_channels) {
+          units[d.value("name", "") + "/" + ch.value("name", "")] = ch.value("unit", "");
+        }
+      }
+    }
     nlohmann::json req = {{"class", "watch"}, {"enable", true}};
     if (!classes.empty()) req["classes"] = classes;
     if (!channels.empty()) req["channels"] = channels;
     const nlohmann::json ack = c.request(req, "WATCH");
-    throw_if_error_reply(ack, true);  // watch prints the daemon's JSON lines, an ERROR too
+    throw_if_error_reply(ack, *json);
     std::signal(SIGINT, [](int) { interrupted = 1; });
     const auto began = std::chrono::steady_clock::now();
     std::size_t seen = 0;
@@ -261,7 +272,12 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
       if (seconds > 0 && std::chrono::steady_clock::now() - began > std::chrono::duration<double>(seconds)) break;
       auto line = c.read_line(std::chrono::milliseconds(200));
       if (!line) continue;
-      std::cout << *line << "\n" << std::flush;
+      if (*json) {
+        std::cout << *line << "\n" << std::flush;
+      } else {
+        const auto m = nlohmann::json::parse(*line, nullptr, false);
+        std::cout << (m.is_object() ? watch_line(m, units) : *line) << "\n" << std::flush;
+      }
       if (count != 0 && ++seen >= count) break;
     }
   });
