@@ -71,6 +71,11 @@ std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& conf
 Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
+  // Before the emulators start: theirs would replace the running daemon's endpoints (CAN socket,
+  // pty link) in the same runtime directory, and its devices could not reconnect.
+  if (unix_socket_answers(config_.socket_path)) {
+    throw std::runtime_error("another daemon is already listening on " + config_.socket_path);
+  }
   emulators_ = launch_emulators(config_);
   for (const auto& e : emulators_) log_->info("emulator {} (pid {}) serves {}", e->name(), e->pid(), e->endpoint());
   devices_ = create_devices(config_, registry);

@@ -169,6 +169,36 @@ class GuidewaydProcess(unittest.TestCase):
         client.wait(timeout=10)
         self.assertEqual(client.stderr.read(), "")
 
+    def test_a_second_daemon_or_check_config_leaves_the_running_ones_endpoints_alone(self):
+        """The emulators' endpoints live in the socket's directory: a second guidewayd on the same socket
+        (refused) and --check-config must not replace the running daemon's CAN socket and pty link,
+        which its devices reconnect to."""
+        p = self.start()
+        can = os.path.join(self.tmp.name, "can-bus.sock")
+        pty = os.path.join(self.tmp.name, "autocollimator.pty")
+        self.assertTrue(wait_for(lambda: os.path.exists(can) and os.path.islink(pty)))
+        before = (os.stat(can).st_ino, os.readlink(pty))
+        second = subprocess.run([GUIDEWAYD, "--socket", self.sock], capture_output=True, text=True, timeout=30)
+        self.assertEqual(second.returncode, 1)
+        self.assertIn("another daemon is already listening on " + self.sock, second.stderr)
+        self.assertNotIn("emulator", second.stderr)
+        check = subprocess.run([GUIDEWAYD, "--socket", self.sock, "--check-config"], capture_output=True, text=True,
+                               timeout=30)
+        self.assertEqual(check.returncode, 0, check.stderr)
+        self.assertIn("<embedded default>: OK (4 device(s))", check.stdout)
+        self.assertEqual((os.stat(can).st_ino, os.readlink(pty)), before)
+        out = self.guideway("status", "--socket", self.sock)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        p.send_signal(signal.SIGTERM)
+        self.assertEqual(p.wait(timeout=10), 0)
+
+    def test_unknown_log_level_is_refused(self):
+        out = subprocess.run([GUIDEWAYD, "--log-level", "loud", "--socket", self.sock], capture_output=True,
+                             text=True, timeout=20)
+        self.assertNotEqual(out.returncode, 0)
+        self.assertIn("--log-level", out.stderr)
+        self.assertFalse(os.path.exists(self.sock))
+
     def test_unknown_socket_group_is_a_config_error(self):
         cfg = os.path.join(self.tmp.name, "group.toml")
         with open(cfg, "w") as f:
