@@ -378,6 +378,14 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
     throw std::invalid_argument("unknown session kind \"" + kind + "\" (known: " + sessions_->kinds() + ")");
   }
   if (!session.empty()) throw std::invalid_argument("no " + what + " for session \"" + session + "\"");
+  // A session that ran and failed is the likely reason: say which and why (else "start one").
+  const auto infos = sessions_->snapshot();
+  for (auto it = infos.rbegin(); it != infos.rend(); ++it) {
+    if ((kind.empty() || it->kind == kind) && it->state == "failed") {
+      throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
+                                  ": session " + it->name + " failed: " + it->progress);
+    }
+  }
   throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
                               " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
 }

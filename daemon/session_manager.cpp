@@ -338,18 +338,22 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     outbox_.post({"PARAMS", info.device, params.dump()});
     if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
     write_session_report(*r, derived);
-  } else {
+  }
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& i : infos_) {
+      if (i.name == info.name) {
+        i = info;
+        if (!failure.empty()) i.progress = failure;
+      }
+    }
+  }
+  // After STATUS shows the failure: a client that hears of it and asks (params) is told why.
+  if (!failure.empty()) {
     outbox_.post({"EVENT", info.device,
                   nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},
                                  {"event", "session_failed"}, {"reason", failure}}
                       .dump()});
-  }
-  std::lock_guard lock(mutex_);
-  for (auto& i : infos_) {
-    if (i.name == info.name) {
-      i = info;
-      if (!failure.empty()) i.progress = failure;
-    }
   }
 }
 

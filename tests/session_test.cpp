@@ -276,4 +276,9 @@ TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
     return !ev.is_null();
   }));
   EXPECT_EQ(ev["reason"], "too few samples (1)");
+  // params names the failed session and why, rather than "start a session".
+  const std::string message = c.request({{"class", "params"}, {"kind", "mean"}}, "PARAMS")["message"];
+  EXPECT_NE(message.find("session " + ev["session"].get<std::string>() + " failed: too few samples (1)"),
+            std::string::npos)
+      << message;
 }
