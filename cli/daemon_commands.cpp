@@ -74,13 +74,14 @@ void print_status(const nlohmann::json& s) {
 
 volatile std::sig_atomic_t interrupted = 0;
 
-// A KEY=VALUE option: VALUE is read as JSON when it parses (numbers, true/false), else as a string.
+// A KEY=VALUE option: VALUE is read as JSON when it parses (numbers, true/false, arrays and objects
+// such as dbb's patterns=[{...}]), else as a string.
 std::pair<std::string, nlohmann::json> parse_setting(const std::string& kv) {
   const auto eq = kv.find('=');
   if (eq == std::string::npos || eq == 0) throw std::runtime_error("--set expects KEY=VALUE, got \"" + kv + "\"");
   const std::string value = kv.substr(eq + 1);
   nlohmann::json v = nlohmann::json::parse(value, nullptr, false);
-  if (v.is_discarded() || v.is_object() || v.is_array()) v = value;
+  if (v.is_discarded() || v.is_null()) v = value;
   return {kv.substr(0, eq), v};
 }
 

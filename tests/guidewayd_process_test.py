@@ -113,17 +113,24 @@ class GuidewaydProcess(unittest.TestCase):
         status = self.guideway("status", "--json", "--socket", self.sock)
         self.assertIn('"sessions":[]', status.stdout, "a refused start must not leave a session running")
         # watch: one readable line per message, or the daemon's JSON with --json.
-        out = self.guideway("watch", "--count", "1", "--seconds", "20", "--socket", self.sock)
+        out = self.guideway("watch", "--class", "STATUS", "--count", "1", "--seconds", "20", "--socket", self.sock)
         self.assertEqual(out.returncode, 0, out.stderr)
         self.assertRegex(out.stdout, r"^\d\d:\d\d:\d\d\.\d{3} STATUS  dbb:\w+ autocollimator:\w+")
         out = self.guideway("watch", "--class", "SAMPLE", "--channel", "dbb", "--count", "1", "--seconds", "20",
                             "--socket", self.sock)
         self.assertRegex(out.stdout, r"SAMPLE  dbb seq \d+  bar_length=[-0-9.e]+ m  x=[-0-9.e]+ m")
-        out = self.guideway("watch", "--count", "1", "--seconds", "20", "--json", "--socket", self.sock)
+        out = self.guideway("watch", "--class", "STATUS", "--count", "1", "--seconds", "20", "--json", "--socket",
+                            self.sock)
         self.assertTrue(out.stdout.startswith('{"class":"STATUS"'), out.stdout[:200])
         out = self.guideway("watch", "--class", "NOPE", "--json", "--socket", self.sock)
         self.assertEqual(out.returncode, 1)
         self.assertIn('"class":"ERROR"', out.stdout)
+        # An array option (dbb's patterns) passes through --set as JSON.
+        out = self.guideway("start", "dbb", "--set", 'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]',
+                            "--socket", self.sock)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertTrue(wait_for(lambda: "/1 patterns traced" in self.guideway("status", "--socket", self.sock).stdout))
+        self.assertEqual(self.guideway("stop", "--socket", self.sock).returncode, 0)
         p.send_signal(signal.SIGTERM)
         self.assertEqual(p.wait(timeout=10), 0)
 
