@@ -184,6 +184,11 @@ int Daemon::run() {
   log_->info("guidewayd {} listening on {}{}; {} device(s); config {}", GUIDEWAY_VERSION, config_.socket_path,
              server_->tcp_port() ? " and " + config_.tcp_host + ":" + std::to_string(server_->tcp_port()) : "",
              devices_.size(), config_.source);
+  if (server_->tcp_port() != 0 && !config_.tcp_host.starts_with("127.")) {
+    // Configured deliberately (tcp_listen), but worth a line: the socket has no authentication.
+    log_->warn("TCP on {}:{} is reachable from other hosts: anyone who can connect can start and stop sessions",
+               config_.tcp_host, server_->tcp_port());
+  }
   notifier_.ready(status_line());
   loop_.run(50, [this] { periodic(mono_now_ns()); });
   notifier_.stopping();
