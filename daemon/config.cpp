@@ -1,5 +1,6 @@
 #include "daemon/config.hpp"
 
+#include <arpa/inet.h>
 #include <grp.h>
 
 #include <algorithm>
@@ -25,6 +26,10 @@ void parse_listen(const TableReader& t, DaemonConfig& c) {
   const auto colon = listen.rfind(':');
   if (colon == std::string::npos || colon == 0) t.fail("tcp_listen", "expected HOST:PORT, e.g. \"127.0.0.1:2947\"");
   c.tcp_host = listen.substr(0, colon);
+  in_addr address{};
+  if (inet_pton(AF_INET, c.tcp_host.c_str(), &address) != 1) {  // checked here: --check-config, file:line
+    t.fail("tcp_listen", "HOST must be an IPv4 address such as 127.0.0.1, got \"" + c.tcp_host + "\"");
+  }
   try {
     std::size_t used = 0;
     const int port = std::stoi(listen.substr(colon + 1), &used);

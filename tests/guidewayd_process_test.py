@@ -206,13 +206,18 @@ class GuidewaydProcess(unittest.TestCase):
         self.assertIn("--log-level", out.stderr)
         self.assertFalse(os.path.exists(self.sock))
 
-    def test_unknown_socket_group_is_a_config_error(self):
+    def test_socket_group_and_tcp_host_are_checked_with_the_config(self):
         cfg = os.path.join(self.tmp.name, "group.toml")
         with open(cfg, "w") as f:
             f.write("[daemon]\nlog_level = \"info\"\nsocket_group = \"no-such-group-gw\"\n")
         out = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True, timeout=20)
         self.assertEqual(out.returncode, 2, out.stdout)
         self.assertIn(cfg + ':3: daemon.socket_group: no group named "no-such-group-gw"', out.stderr)
+        with open(cfg, "w") as f:
+            f.write("[daemon]\ntcp_listen = \"localhost:2947\"\n")
+        out = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(cfg + ':2: daemon.tcp_listen: HOST must be an IPv4 address', out.stderr)
 
     def test_sd_notify_ready_watchdog_stopping(self):
         notify_path = os.path.join(self.tmp.name, "notify")
