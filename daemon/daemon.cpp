@@ -331,9 +331,16 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
 }
 
 void Daemon::broadcast(const Message& message) {
+  // Messages about a session (PARAMS, EXPLAIN, a session's EVENT: rare) also reach whoever watches the
+  // session by name; SAMPLE and STATUS are never about one and are not parsed.
+  std::string session;
+  if (message.cls == "PARAMS" || message.cls == "EXPLAIN" || message.cls == "EVENT") {
+    const auto j = nlohmann::json::parse(message.json, nullptr, false);
+    if (j.is_object()) session = j.value("session", "");
+  }
   std::vector<ClientId> targets;
   for (const auto& [id, sub] : subscriptions_) {
-    if (sub.wants(message.cls, message.channel)) targets.push_back(id);
+    if (sub.wants(message.cls, message.channel, session)) targets.push_back(id);
   }
   for (ClientId id : targets) server_->send(id, message.json);  // may drop a slow client
 }

@@ -173,6 +173,25 @@ TEST(Session, StopEndsAnOpenEndedSessionAndStatusShowsIt) {
   EXPECT_GT(params["n"].get<int>(), 50);
 }
 
+// protocol.md: watch "channels: device or session names". A session's PARAMS and EVENTs reach a client
+// that watches the session by name (they are published about the device too).
+TEST(Session, WatchingASessionByNameGetsItsParams) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  const std::string name = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION")["session"];
+  DaemonClient by_session(f.socket), other(f.socket);
+  by_session.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {name}}}, "WATCH");
+  other.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {"mean-c-other"}}}, "WATCH");
+  EXPECT_TRUE(test::eventually([&] {
+    return c.request({{"class", "status"}}, "STATUS")["sessions"][0]["samples"].get<std::uint64_t>() > 10;
+  }));
+  c.request({{"class", "stop"}}, "SESSION");
+  const auto params = Fixture::next(by_session, "PARAMS");
+  ASSERT_FALSE(params.is_null());
+  EXPECT_EQ(params["session"], name);
+  EXPECT_FALSE(other.read_line(std::chrono::milliseconds(300)).has_value());  // another session's name: nothing
+}
+
 TEST(Session, BadRequestsGetErrorsAndTheDaemonGoesOn) {
   Fixture f;
   DaemonClient c(f.socket);
