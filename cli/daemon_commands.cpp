@@ -227,7 +227,9 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
       std::cout << r.dump() << "\n";
       return;
     }
-    std::cout << "recordings in " << r.value("dir", "?") << ":\n";
+    const bool none = r.value("recordings", nlohmann::json::array()).empty();
+    std::cout << "recordings in " << r.value("dir", "?") << ":" << (none ? " none yet (every session records one)" : "")
+              << "\n";
     for (const auto& rec : r["recordings"]) {
       std::cout << "  " << std::left << std::setw(70) << rec.value("file", "?") << std::right << std::setw(12)
                 << rec.value("bytes", 0) << (rec.value("complete", false) ? "" : "  (incomplete)") << "\n";
