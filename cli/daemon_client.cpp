@@ -2,7 +2,7 @@
 
 #include "core/runtime_paths.hpp"
 
-#include <arpa/inet.h>
+#include <netdb.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 #include <stdexcept>
 
@@ -23,6 +24,7 @@ int connect_unix(const std::string& path) {
   sockaddr_un addr{};
   if (path.size() >= sizeof(addr.sun_path)) throw std::runtime_error(path + ": socket path too long");
   const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw std::runtime_error(path + ": socket: " + std::strerror(errno));
   addr.sun_family = AF_UNIX;
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
   if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
@@ -34,21 +36,36 @@ int connect_unix(const std::string& path) {
 }
 
 int connect_tcp(const std::string& host_port) {
+  const std::string where = "tcp:" + host_port;
   const auto colon = host_port.rfind(':');
-  if (colon == std::string::npos) throw std::runtime_error("tcp:" + host_port + ": expected tcp:HOST:PORT");
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(std::stoi(host_port.substr(colon + 1))));
-  if (inet_pton(AF_INET, host_port.substr(0, colon).c_str(), &addr.sin_addr) != 1) {
-    throw std::runtime_error("tcp:" + host_port + ": not an IPv4 address");
+  if (colon == std::string::npos || colon == 0) throw std::runtime_error(where + ": expected tcp:HOST:PORT");
+  std::string host = host_port.substr(0, colon);
+  const std::string port = host_port.substr(colon + 1);
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);  // [::1]
+  unsigned port_number = 0;
+  const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), port_number);
+  if (port.empty() || ec != std::errc() || end != port.data() + port.size() || port_number == 0 || port_number > 65535) {
+    throw std::runtime_error(where + ": the port must be a number from 1 to 65535");
   }
-  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
-    const int err = errno;
-    close(fd);
-    throw std::runtime_error("tcp:" + host_port + ": " + std::strerror(err));
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;  // a name (localhost) or an IPv4/IPv6 address
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* found = nullptr;
+  if (const int r = getaddrinfo(host.c_str(), port.c_str(), &hints, &found); r != 0) {
+    throw std::runtime_error(where + ": " + gai_strerror(r));
   }
-  return fd;
+  std::string error = "no address";
+  for (const addrinfo* a = found; a; a = a->ai_next) {
+    const int fd = socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
+    if (fd >= 0 && connect(fd, a->ai_addr, a->ai_addrlen) == 0) {
+      freeaddrinfo(found);
+      return fd;
+    }
+    error = std::strerror(errno);
+    if (fd >= 0) close(fd);
+  }
+  freeaddrinfo(found);
+  throw std::runtime_error(where + ": " + error);
 }
 
 }  // namespace
@@ -58,7 +75,10 @@ DaemonClient::DaemonClient(const std::string& address) : address_(address) {
   auto line = read_line(std::chrono::seconds(5));
   if (!line) throw std::runtime_error(address + ": no VERSION banner from the daemon");
   banner_ = nlohmann::json::parse(*line, nullptr, false);
-  if (banner_.is_discarded() || banner_.value("class", "") != "VERSION") {
+  if (!banner_.is_discarded() && banner_.is_object() && banner_.value("class", "") == "ERROR") {  // "too many clients"
+    throw std::runtime_error(address + ": the daemon refused the connection: " + banner_.value("message", "?"));
+  }
+  if (banner_.is_discarded() || !banner_.is_object() || banner_.value("class", "") != "VERSION") {
     throw std::runtime_error(address + ": not a guidewayd socket (first line: " + *line + ")");
   }
 }

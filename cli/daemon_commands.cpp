@@ -35,6 +35,8 @@ void print_status(const nlohmann::json& s) {
     std::cout << "session " << ses.value("session", "?") << ": " << ses.value("state", "?") << ", "
               << ses.value("samples", 0) << " samples" << (ses.contains("progress") ? ", " + ses["progress"].get<std::string>() : "")
               << "\n";
+    // A disk error loses data: never only in the JSON.
+    if (ses.contains("recording_error")) std::cout << "  recording error: " << ses.value("recording_error", "") << "\n";
   }
   const auto& devices = s["devices"];
   if (devices.empty()) {
@@ -72,13 +74,14 @@ void print_status(const nlohmann::json& s) {
 
 volatile std::sig_atomic_t interrupted = 0;
 
-// A KEY=VALUE option: VALUE is read as JSON when it parses (numbers, true/false), else as a string.
+// A KEY=VALUE option: VALUE is read as JSON when it parses (numbers, true/false, arrays and objects
+// such as dbb's patterns=[{...}]), else as a string.
 std::pair<std::string, nlohmann::json> parse_setting(const std::string& kv) {
   const auto eq = kv.find('=');
   if (eq == std::string::npos || eq == 0) throw std::runtime_error("--set expects KEY=VALUE, got \"" + kv + "\"");
   const std::string value = kv.substr(eq + 1);
   nlohmann::json v = nlohmann::json::parse(value, nullptr, false);
-  if (v.is_discarded() || v.is_object() || v.is_array()) v = value;
+  if (v.is_discarded() || v.is_null()) v = value;
   return {kv.substr(0, eq), v};
 }
 
@@ -93,7 +96,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   version->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
     const nlohmann::json v = c.request({{"class", "version"}}, "VERSION");
-    throw_if_error(v);
+    throw_if_error_reply(v, *json);
     if (*json) {
       std::cout << v.dump() << "\n";
     } else {
@@ -107,7 +110,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   status->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
     const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
-    throw_if_error(s);
+    throw_if_error_reply(s, *json);
     if (*json) {
       std::cout << s.dump() << "\n";
     } else {
@@ -135,6 +138,9 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   start->add_option("--timeout", so->timeout_s, "with --wait: give up after this many seconds (default 600)");
   start->add_flag("--json", *json, "print the daemon's JSON unchanged");
   start->callback([&ctx, so, json] {
+    // Checked before the session starts: a session must not be left running by a bad option.
+    if (!(so->timeout_s > 0)) throw std::runtime_error("--timeout must be a positive number of seconds");
+    for (const auto& kv : so->settings) parse_setting(kv);
     DaemonClient c = connect(ctx);
     nlohmann::json req = {{"class", "start"}, {"kind", so->kind}, {"options", nlohmann::json::object()}};
     if (!so->device.empty()) req["device"] = so->device;
@@ -144,7 +150,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     }
     if (so->wait) c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
     const nlohmann::json r = c.request(req, "SESSION");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     const std::string session = r.value("session", "");
     if (*json) {
       std::cout << r.dump() << "\n";
@@ -171,7 +177,10 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
         return;
       }
     }
-    throw std::runtime_error("no parameters for session " + session + " within " + std::to_string(so->timeout_s) + " s");
+    std::ostringstream why;
+    why << "no parameters for session " << session << " within " << so->timeout_s << " s (it goes on: guideway stop "
+        << session << " ends it)";
+    throw std::runtime_error(why.str());
   });
 
   auto stop_session = std::make_shared<std::string>();
@@ -183,7 +192,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     nlohmann::json req = {{"class", "stop"}};
     if (!stop_session->empty()) req["session"] = *stop_session;
     const nlohmann::json r = c.request(req, "SESSION");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
     } else {
@@ -200,7 +209,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     nlohmann::json req = {{"class", "params"}};
     if (!params_kind->empty()) req["kind"] = *params_kind;
     const nlohmann::json r = c.request(req, "PARAMS");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
     } else {
@@ -213,12 +222,14 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   recordings->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
     const nlohmann::json r = c.request({{"class", "recordings"}}, "RECORDINGS");
-    throw_if_error(r);
+    throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
       return;
     }
-    std::cout << "recordings in " << r.value("dir", "?") << ":\n";
+    const bool none = r.value("recordings", nlohmann::json::array()).empty();
+    std::cout << "recordings in " << r.value("dir", "?") << ":" << (none ? " none yet (every session records one)" : "")
+              << "\n";
     for (const auto& rec : r["recordings"]) {
       std::cout << "  " << std::left << std::setw(70) << rec.value("file", "?") << std::right << std::setw(12)
                 << rec.value("bytes", 0) << (rec.value("complete", false) ? "" : "  (incomplete)") << "\n";
@@ -237,15 +248,26 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   watch->add_option("--channel", w->channels, "devices or sessions to receive (default: all)");
   watch->add_option("--seconds", w->seconds, "stop after this many seconds (default: run until interrupted)");
   watch->add_option("--count", w->count, "stop after this many messages");
-  watch->add_flag("--json", *json, "print one JSON message per line (the default; kept for symmetry)");
-  watch->callback([&ctx, w] {
+  watch->add_flag("--json", *json, "print the daemon's JSON messages unchanged, one per line");
+  watch->callback([&ctx, w, json] {
     const auto& [classes, channels, seconds, count] = *w;
     DaemonClient c = connect(ctx);
+    ChannelUnits units;  // for the readable lines: SAMPLE values carry no unit, STATUS names them
+    if (!*json) {
+      const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
+      const nlohmann::json devices = s.value("devices", nlohmann::json::array());
+      for (const auto& d : devices) {
+        const nlohmann::json device_channels = d.value("channels", nlohmann::json::array());
+        for (const auto& ch : device_channels) {
+          units[d.value("name", "") + "/" + ch.value("name", "")] = ch.value("unit", "");
+        }
+      }
+    }
     nlohmann::json req = {{"class", "watch"}, {"enable", true}};
     if (!classes.empty()) req["classes"] = classes;
     if (!channels.empty()) req["channels"] = channels;
     const nlohmann::json ack = c.request(req, "WATCH");
-    throw_if_error(ack);
+    throw_if_error_reply(ack, *json);
     std::signal(SIGINT, [](int) { interrupted = 1; });
     const auto began = std::chrono::steady_clock::now();
     std::size_t seen = 0;
@@ -253,7 +275,12 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
       if (seconds > 0 && std::chrono::steady_clock::now() - began > std::chrono::duration<double>(seconds)) break;
       auto line = c.read_line(std::chrono::milliseconds(200));
       if (!line) continue;
-      std::cout << *line << "\n" << std::flush;
+      if (*json) {
+        std::cout << *line << "\n" << std::flush;
+      } else {
+        const auto m = nlohmann::json::parse(*line, nullptr, false);
+        std::cout << (m.is_object() ? watch_line(m, units) : *line) << "\n" << std::flush;
+      }
       if (count != 0 && ++seen >= count) break;
     }
   });

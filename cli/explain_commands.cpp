@@ -180,7 +180,7 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
       nlohmann::json req = {{"class", "explain"}};
       if (!o->kind.empty()) req["kind"] = o->kind;
       const nlohmann::json r = c.request(req, "EXPLAIN");
-      throw_if_error(r);
+      throw_if_error_reply(r, o->json);
       if (o->json) {
         std::cout << r.dump() << "\n";
       } else {

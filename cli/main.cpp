@@ -34,6 +34,9 @@ int main(int argc, char** argv) {
                  "daemon address: a Unix socket path or tcp:HOST:PORT (default: $GUIDEWAY_SOCKET, the per-user "
                  "socket, then /run/guideway/guideway.sock)");
   app.set_version_flag("-V,--version", "guideway " GUIDEWAY_VERSION);
+  // `guideway status --socket P` as well as `guideway --socket P status`: a subcommand hands the
+  // options it does not know to the app (subcommands inherit this setting when they are added).
+  app.fallthrough();
   for (auto add : guideway::cli::CommandGroup::all()) add(app, ctx);
   try {
     app.parse(argc, argv);

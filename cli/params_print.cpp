@@ -1,8 +1,13 @@
 #include "cli/params_print.hpp"
 
+#include "cli/daemon_client.hpp"
+
 #include <cmath>
+#include <cstdio>
+#include <ctime>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 
 namespace guideway::cli {
 
@@ -47,6 +52,7 @@ void print_params(const nlohmann::json& p) {
   }
   if (p.contains("incomplete")) std::cout << "incomplete: " << p["incomplete"].get<std::string>() << "\n";
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
+  if (p.contains("recording_error")) std::cout << "recording error: " << p["recording_error"].get<std::string>() << "\n";
   for (const auto& f : p.value("derived", nlohmann::json::array())) std::cout << "derived: " << f.get<std::string>() << "\n";
 }
 
@@ -79,6 +85,115 @@ void print_explanation(const nlohmann::json& e) {
     std::cout << "\n    " << f.value("why", "") << "\n";
   }
   if (e.value("unexplained", false)) std::cout << "  a structured residual is left that no effect of the library explains\n";
+}
+
+}  // namespace guideway::cli
+
+namespace guideway::cli {
+
+void throw_if_error_reply(const nlohmann::json& reply, bool json) {
+  if (json && reply.value("class", "") == "ERROR") std::cout << reply.dump() << "\n" << std::flush;
+  throw_if_error(reply);
+}
+
+}  // namespace guideway::cli
+
+namespace guideway::cli {
+
+namespace {
+
+std::string number(const nlohmann::json& v) {
+  if (!v.is_number()) return v.is_string() ? v.get<std::string>() : v.dump();
+  std::ostringstream s;
+  s << std::setprecision(6) << v.get<double>();
+  return s.str();
+}
+
+std::string wall_clock_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  std::tm tm{};
+  localtime_r(&ts.tv_sec, &tm);
+  char buf[32];
+  const std::size_t n = std::strftime(buf, sizeof(buf), "%H:%M:%S", &tm);
+  std::snprintf(buf + n, sizeof(buf) - n, ".%03ld", ts.tv_nsec / 1'000'000);
+  return buf;
+}
+
+}  // namespace
+
+std::string watch_line(const nlohmann::json& m, const ChannelUnits& units) {
+  const std::string cls = m.value("class", "?");
+  std::ostringstream out;
+  out << wall_clock_now() << " " << std::left << std::setw(7) << cls << std::right;
+  const auto unit_of = [&](const std::string& device, const std::string& channel) {
+    const auto it = units.find(device + "/" + channel);
+    return it == units.end() || it->second == "1" ? std::string() : " " + it->second;
+  };
+  if (cls == "SAMPLE") {
+    const std::string device = m.value("device", "?");
+    out << " " << device << " seq " << m.value("seq", nlohmann::json(0)).dump();
+    const nlohmann::json values = m.value("values", nlohmann::json::object());
+    for (const auto& [name, v] : values.items()) {
+      out << "  " << name << "=" << number(v) << unit_of(device, name);
+    }
+    const nlohmann::json denoised = m.value("denoised", nlohmann::json::object());
+    const nlohmann::json denoised_values = denoised.value("values", nlohmann::json::object());
+    for (const auto& [name, v] : denoised_values.items()) {
+      out << "  " << name << "(denoised, seq " << denoised.value("seq", nlohmann::json(0)).dump() << ")=" << number(v)
+          << unit_of(device, name);
+    }
+    if (m.contains("flags")) out << "  flags=" << m["flags"].dump();
+  } else if (cls == "STATUS") {
+    const nlohmann::json devices = m.value("devices", nlohmann::json::array());
+    for (const auto& d : devices) {
+      out << " " << d.value("name", "?") << ":" << d.value("state", "?");
+      const nlohmann::json c = d.value("counters", nlohmann::json::object());
+      const std::uint64_t overruns = c.value("overruns", std::uint64_t{0});
+      if (overruns != 0) out << "(overruns " << overruns << ")";
+    }
+    const nlohmann::json sessions = m.value("sessions", nlohmann::json::array());
+    for (const auto& s : sessions) {
+      if (s.value("state", "") != "running" && s.value("state", "") != "finishing") continue;
+      out << "  session " << s.value("session", "?") << " " << s.value("progress", s.value("state", "?"));
+      if (s.contains("recording_error")) out << " [recording error: " << s.value("recording_error", "") << "]";
+    }
+  } else if (cls == "PARAMS") {
+    out << " " << m.value("session", "?") << " (" << m.value("model", "?") << ")";
+    for (const auto& [group, items] : m.items()) {
+      if (!items.is_object() || items.empty()) continue;
+      for (const auto& [name, v] : items.items()) {
+        if (!v.is_object() || !v.contains("value")) continue;
+        out << "  " << name << "=" << number(v["value"]);
+        if (v.contains("u")) out << "+/-" << number(v["u"]);
+      }
+    }
+    if (m.contains("recording_error")) out << "  [recording error: " << m.value("recording_error", "") << "]";
+  } else if (cls == "EXPLAIN") {
+    out << " " << m.value("session", "?") << " (" << m.value("model", "?") << ")";
+    if (m.contains("not_analysed")) {
+      out << " not analysed: " << m.value("not_analysed", "");
+    } else {
+      const auto rms = [&m](const char* group) {
+        return number(m.value(group, nlohmann::json::object()).value("heldout_rms_um", nlohmann::json("?")));
+      };
+      out << " held-out rms " << rms("baseline") << " um -> " << rms("final") << " um; findings:";
+      const nlohmann::json findings = m.value("findings", nlohmann::json::array());
+      if (findings.empty()) out << " none";
+      for (const auto& f : findings) out << " " << f.value("effect", "?");
+      if (m.value("unexplained", false)) out << "; a structured residual is left";
+    }
+  } else if (cls == "EVENT") {
+    out << " " << m.value("device", "") << " " << m.value("event", "?");
+    if (m.contains("session")) out << " " << m.value("session", "");
+    if (m.contains("reason")) out << ": " << m.value("reason", "");
+    if (m.contains("file")) out << ": " << m.value("file", "");
+  } else if (cls == "ERROR") {
+    out << " " << m.value("message", "?");
+  } else {
+    out << " " << m.dump();  // a class of a later protocol minor version
+  }
+  return out.str();
 }
 
 }  // namespace guideway::cli

@@ -14,6 +14,15 @@ namespace guideway::cli {
 
 namespace {
 
+// Why a replayed result may differ from a whole session's (the live daemon published none for it).
+std::string incomplete_note(const daemon::ReplayResult& r) {
+  if (r.complete) return "";
+  if (r.end_marker == "aborted") {
+    return " (recording marked aborted: the daemon stopped mid-session, or the live identification failed)";
+  }
+  return " (incomplete recording: the session was interrupted)";
+}
+
 void add_replay_commands(CLI::App& app, CliContext& ctx) {
   struct Options {
     std::vector<std::string> recordings;
@@ -39,7 +48,8 @@ void add_replay_commands(CLI::App& app, CliContext& ctx) {
                            .dump()
                     << "\n";
         } else {
-          std::cerr << "guideway: " << path << ": identification failed: " << r.failure << "\n";
+          std::cerr << "guideway: " << path << ": identification failed: " << r.failure
+                    << incomplete_note(r) << "\n";
         }
         continue;
       }
@@ -49,7 +59,7 @@ void add_replay_commands(CLI::App& app, CliContext& ctx) {
         continue;
       }
       std::cout << "replayed " << path << ": " << r.samples << " samples"
-                << (r.complete ? "" : " (incomplete recording: the session was interrupted)") << "\n";
+                << incomplete_note(r) << "\n";
       print_params(r.params);
       if (!r.explain.is_null()) print_explanation(r.explain);
       if (!r.explain_failure.empty()) std::cout << "explanation failed: " << r.explain_failure << "\n";

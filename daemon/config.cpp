@@ -1,5 +1,8 @@
 #include "daemon/config.hpp"
 
+#include <arpa/inet.h>
+#include <grp.h>
+
 #include <algorithm>
 #include <bit>
 #include <filesystem>
@@ -23,6 +26,10 @@ void parse_listen(const TableReader& t, DaemonConfig& c) {
   const auto colon = listen.rfind(':');
   if (colon == std::string::npos || colon == 0) t.fail("tcp_listen", "expected HOST:PORT, e.g. \"127.0.0.1:2947\"");
   c.tcp_host = listen.substr(0, colon);
+  in_addr address{};
+  if (inet_pton(AF_INET, c.tcp_host.c_str(), &address) != 1) {  // checked here: --check-config, file:line
+    t.fail("tcp_listen", "HOST must be an IPv4 address such as 127.0.0.1, got \"" + c.tcp_host + "\"");
+  }
   try {
     std::size_t used = 0;
     const int port = std::stoi(listen.substr(colon + 1), &used);
@@ -62,6 +69,10 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     c.socket_path = d->get_string("socket", "");
     c.socket_mode = parse_mode(*d);
     c.socket_group = d->get_string("socket_group", "");
+    // Checked here, not first at bind time: --check-config catches it, and the error names the line.
+    if (!c.socket_group.empty() && getgrnam(c.socket_group.c_str()) == nullptr) {
+      d->fail("socket_group", "no group named \"" + c.socket_group + "\" on this system");
+    }
     parse_listen(*d, c);
     c.state_dir = d->get_string("state_dir", "");
     c.plugin_dir = d->get_string("plugin_dir", "");

@@ -71,6 +71,11 @@ std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& conf
 Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
+  // Before the emulators start: theirs would replace the running daemon's endpoints (CAN socket,
+  // pty link) in the same runtime directory, and its devices could not reconnect.
+  if (unix_socket_answers(config_.socket_path)) {
+    throw std::runtime_error("another daemon is already listening on " + config_.socket_path);
+  }
   emulators_ = launch_emulators(config_);
   for (const auto& e : emulators_) log_->info("emulator {} (pid {}) serves {}", e->name(), e->pid(), e->endpoint());
   devices_ = create_devices(config_, registry);
@@ -179,6 +184,11 @@ int Daemon::run() {
   log_->info("guidewayd {} listening on {}{}; {} device(s); config {}", GUIDEWAY_VERSION, config_.socket_path,
              server_->tcp_port() ? " and " + config_.tcp_host + ":" + std::to_string(server_->tcp_port()) : "",
              devices_.size(), config_.source);
+  if (server_->tcp_port() != 0 && !config_.tcp_host.starts_with("127.")) {
+    // Configured deliberately (tcp_listen), but worth a line: the socket has no authentication.
+    log_->warn("TCP on {}:{} is reachable from other hosts: anyone who can connect can start and stop sessions",
+               config_.tcp_host, server_->tcp_port());
+  }
   notifier_.ready(status_line());
   loop_.run(50, [this] { periodic(mono_now_ns()); });
   notifier_.stopping();
@@ -321,9 +331,16 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
 }
 
 void Daemon::broadcast(const Message& message) {
+  // Messages about a session (PARAMS, EXPLAIN, a session's EVENT: rare) also reach whoever watches the
+  // session by name; SAMPLE and STATUS are never about one and are not parsed.
+  std::string session;
+  if (message.cls == "PARAMS" || message.cls == "EXPLAIN" || message.cls == "EVENT") {
+    const auto j = nlohmann::json::parse(message.json, nullptr, false);
+    if (j.is_object()) session = j.value("session", "");
+  }
   std::vector<ClientId> targets;
   for (const auto& [id, sub] : subscriptions_) {
-    if (sub.wants(message.cls, message.channel)) targets.push_back(id);
+    if (sub.wants(message.cls, message.channel, session)) targets.push_back(id);
   }
   for (ClientId id : targets) server_->send(id, message.json);  // may drop a slow client
 }
@@ -362,14 +379,27 @@ nlohmann::json Daemon::handle_stop(const Request& req) {
   return {{"class", "SESSION"}, {"sessions", names}, {"state", "finishing"}};
 }
 
-nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what) {
+nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
+                                 const std::string& what) const {
   const std::string kind = string_field(req.body, "kind");
   const std::string session = string_field(req.body, "session");
   for (auto it = latest.rbegin(); it != latest.rend(); ++it) {
     if ((kind.empty() || (*it)["kind"] == kind) && (session.empty() || (*it)["session"] == session)) return *it;
   }
+  if (!kind.empty() && !sessions_->known_kind(kind)) {
+    throw std::invalid_argument("unknown session kind \"" + kind + "\" (known: " + sessions_->kinds() + ")");
+  }
+  if (!session.empty()) throw std::invalid_argument("no " + what + " for session \"" + session + "\"");
+  // A session that ran and failed is the likely reason: say which and why (else "start one").
+  const auto infos = sessions_->snapshot();
+  for (auto it = infos.rbegin(); it != infos.rend(); ++it) {
+    if ((kind.empty() || it->kind == kind) && it->state == "failed") {
+      throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
+                                  ": session " + it->name + " failed: " + it->progress);
+    }
+  }
   throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
-                              " (start a session with the start request, e.g. guideway start dbb)");
+                              " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
 }
 
 nlohmann::json Daemon::handle_report(const Request& req) const {
@@ -390,7 +420,12 @@ nlohmann::json Daemon::handle_recordings() const {
   std::vector<std::filesystem::directory_entry> entries;
   for (const auto& e : std::filesystem::directory_iterator(config_.state_dir, ec)) {
     const std::string n = e.path().filename().string();
-    if (n.ends_with(".csv") || n.ends_with(".csv.part")) entries.push_back(e);
+    if (!n.ends_with(".csv") && !n.ends_with(".csv.part")) continue;
+    // Raw recordings only (what `guideway replay` reads): a session's derived files (DBB runs, the
+    // traverse, ...) are CSV too, and are named in its PARAMS.
+    std::ifstream in(e.path());
+    std::string first;
+    if (std::getline(in, first) && first == "# format = guideway/raw/1") entries.push_back(e);
   }
   std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.path() < b.path(); });
   for (const auto& e : entries) {

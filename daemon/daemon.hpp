@@ -64,7 +64,7 @@ class Daemon {
   nlohmann::json handle_start(const Request& req);
   nlohmann::json handle_stop(const Request& req);
   // The newest message of `latest` matching the request's optional kind/session; throws naming `what`.
-  static nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what);
+  nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what) const;
   nlohmann::json handle_recordings() const;
   nlohmann::json handle_report(const Request& req) const;
   nlohmann::json sessions_json() const;

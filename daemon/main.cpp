@@ -1,8 +1,12 @@
 // guidewayd: the Guideway acquisition daemon.
 #include <signal.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -28,7 +32,9 @@ int main(int argc, char** argv) {
   bool show_version = false;
   app.add_option("-c,--config", config_path, "TOML configuration file (default: the embedded default, emulated instruments)");
   app.add_option("-s,--socket", socket_override, "Unix socket path (overrides [daemon] socket)");
-  app.add_option("-l,--log-level", log_level, "trace, debug, info, warn, error (overrides [daemon] log_level)");
+  // Checked: spdlog reads an unknown level name as "off", which would silence the daemon.
+  app.add_option("-l,--log-level", log_level, "trace, debug, info, warn, error (overrides [daemon] log_level)")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
   app.add_flag("--check-config", check_only, "validate the configuration (and create the drivers) and exit");
   app.add_flag("--print-default-config", print_default, "print the embedded default configuration and exit");
   app.add_flag("--list-drivers", list_drivers, "list the available drivers (built-in and plugins) and exit");
@@ -80,9 +86,23 @@ int main(int argc, char** argv) {
 
   try {
     if (check_only) {
-      const auto emulators = daemon::launch_emulators(config);
-      const auto devices = daemon::create_devices(config, registry);
-      (void)daemon::processing_steps(config, devices);
+      // The emulators (started to resolve "emulator:" addresses) get a private runtime directory:
+      // in the socket's they would replace a running daemon's endpoints.
+      char scratch[] = "/tmp/guidewayd-check-XXXXXX";
+      if (mkdtemp(scratch) == nullptr) throw std::runtime_error(std::string("mkdtemp: ") + std::strerror(errno));
+      struct RemoveScratch {
+        std::string dir;
+        ~RemoveScratch() {
+          std::error_code ec;
+          std::filesystem::remove_all(dir, ec);
+        }
+      } remove_scratch{scratch};
+      config.socket_path = std::string(scratch) + "/guideway.sock";
+      {
+        const auto emulators = daemon::launch_emulators(config);
+        const auto devices = daemon::create_devices(config, registry);
+        (void)daemon::processing_steps(config, devices);
+      }
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
       return 0;
     }

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 
 #include <nlohmann/json.hpp>
@@ -61,16 +62,19 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
   j["seq"] = s.seq;
   j["t_mono_ns"] = s.t_mono_ns;
   if (s.flags != 0) j["flags"] = s.flags;
+  // A value that is not a number (no signal, over range) is left out, never null (protocol.md): the
+  // flags say why it is missing.
   nlohmann::json values = nlohmann::json::object();
   for (std::size_t c = 0; c < s.value_count && c < dev.channels().size(); ++c) {
-    values[dev.channels()[c].name] = s.value[c];
+    if (std::isfinite(s.value[c])) values[dev.channels()[c].name] = s.value[c];
   }
   j["values"] = std::move(values);
   if (processed != nullptr) {
     // The newest denoised values (older than `seq` by the processors' latency): their own seq.
     nlohmann::json denoised = nlohmann::json::object();
     for (const auto& p : chains_[index].steps()) {
-      if (p->channel() < processed->value_count && p->channel() < dev.channels().size()) {
+      if (p->channel() < processed->value_count && p->channel() < dev.channels().size() &&
+          std::isfinite(processed->value[p->channel()])) {
         denoised[dev.channels()[p->channel()].name] = processed->value[p->channel()];
       }
     }

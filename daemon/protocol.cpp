@@ -42,10 +42,11 @@ std::optional<Request> parse_request(std::string_view line, std::string& error) 
   return r;
 }
 
-bool Subscription::wants(std::string_view cls, std::string_view channel) const {
+bool Subscription::wants(std::string_view cls, std::string_view channel, std::string_view session) const {
   if (!enabled) return false;
   if (classes.empty() ? cls == "SAMPLE" : !classes.contains(cls)) return false;
-  return channels.empty() || channel.empty() || channels.contains(channel);
+  return channels.empty() || channel.empty() || channels.contains(channel) ||
+         (!session.empty() && channels.contains(session));
 }
 
 namespace {

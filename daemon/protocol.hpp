@@ -36,7 +36,9 @@ struct Subscription {
   bool enabled = false;
   std::set<std::string, std::less<>> classes;   // empty = every published class except SAMPLE
   std::set<std::string, std::less<>> channels;  // empty = every device/session
-  [[nodiscard]] bool wants(std::string_view cls, std::string_view channel) const;
+  // `channel`: the device a message is about; `session`: the session it is about ("" = none). Either
+  // name in `channels` lets it through.
+  [[nodiscard]] bool wants(std::string_view cls, std::string_view channel, std::string_view session = {}) const;
 };
 
 // Applies a watch request; returns the reply (WATCH) or throws std::invalid_argument with the reason.

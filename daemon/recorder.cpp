@@ -124,6 +124,7 @@ void RawRecorder::write_pending() {
       std::lock_guard lock(stats_mutex_);
       ++stats_.write_errors;
       error_ = "writing " + part_path_ + ": " + std::strerror(errno);
+      error_count_.fetch_add(1, std::memory_order_relaxed);
       break;
     }
     off += static_cast<std::size_t>(w);
@@ -149,16 +150,19 @@ std::string RawRecorder::close(bool complete, const std::map<std::string, std::s
   write_pending();
   const bool written = pending_.empty();
   const bool synced = ::fsync(fd_) == 0;
+  const int sync_errno = errno;
   ::close(fd_);
   fd_ = -1;
   if (!written || !synced) {
     std::lock_guard lock(stats_mutex_);
-    if (error_.empty()) error_ = "syncing " + part_path_ + ": " + std::strerror(errno);
+    if (error_.empty()) error_ = "syncing " + part_path_ + ": " + std::strerror(sync_errno);
+    error_count_.fetch_add(1, std::memory_order_relaxed);
     return part_path_;  // left as .part: incomplete on disk
   }
   if (std::rename(part_path_.c_str(), final_path_.c_str()) != 0) {
     std::lock_guard lock(stats_mutex_);
     error_ = "renaming " + part_path_ + ": " + std::strerror(errno);
+    error_count_.fetch_add(1, std::memory_order_relaxed);
     return part_path_;
   }
   // Make the rename itself durable.

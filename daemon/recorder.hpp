@@ -54,6 +54,8 @@ class RawRecorder {
 
   [[nodiscard]] RecorderStats stats() const;
   [[nodiscard]] std::string error() const;  // last disk error, "" if none
+  // Disk errors so far: cheap to poll from the pipeline (error() takes a lock) to report one at once.
+  [[nodiscard]] std::uint64_t error_count() const noexcept { return error_count_.load(std::memory_order_relaxed); }
   [[nodiscard]] const std::string& part_path() const noexcept { return part_path_; }
   [[nodiscard]] const std::string& final_path() const noexcept { return final_path_; }
 
@@ -74,6 +76,7 @@ class RawRecorder {
   RecorderStats stats_;
   std::string error_;
   std::atomic<std::uint64_t> pushed_{0};
+  std::atomic<std::uint64_t> error_count_{0};
   bool closed_ = false;
   std::jthread thread_;
 };

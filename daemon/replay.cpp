@@ -61,7 +61,10 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   if (meta(t, "format") != "guideway/raw/1") {
     throw std::runtime_error(path + ": format \"" + meta(t, "format") + "\" is not a raw recording (guideway/raw/1)");
   }
-  result.complete = t.metadata.count("end") != 0 && !path.ends_with(".part");
+  // `end = aborted`: the daemon stopped mid-session (or identification failed): not a whole session.
+  const auto end = t.metadata.find("end");
+  result.complete = end != t.metadata.end() && end->second == "complete" && !path.ends_with(".part");
+  if (end != t.metadata.end()) result.end_marker = end->second;
 
   // Columns t_mono_ns, seq, flags, then <channel>_<unit>.
   const std::size_t t_col = t.column("t_mono_ns");

@@ -21,7 +21,8 @@ struct ReplayResult {
   std::string explain_failure;  // why the explanation failed (the live explain_failed reason)
   std::string failure;          // why identification failed (the live session's session_failed reason)
   std::size_t samples = 0;      // samples replayed
-  bool complete = true;         // false: the recording is a .part or has no `# end =` trailer
+  bool complete = true;         // false: a .part, no `# end =` trailer, or `end = aborted`
+  std::string end_marker;       // the trailer's `end` (complete, aborted), "" when there is none
   std::size_t dropped_partial_line = 0;  // 1 when a last line without its newline was ignored (a kill)
 };
 

@@ -1,6 +1,8 @@
 #include "daemon/session_manager.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -14,14 +16,19 @@ namespace {
 // Written as NAME.part, then renamed: a reader never sees half a file.
 void write_file_atomically(const std::string& path, const std::string& content) {
   const std::string part = path + ".part";
+  const auto fail = [&](const std::string& what) {
+    const int err = errno;
+    std::remove(part.c_str());  // no empty or truncated leftovers in the state directory
+    throw std::runtime_error(part + ": " + what + ": " + std::strerror(err));
+  };
   {
     std::ofstream out(part, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(part + ": cannot open for writing");
+    if (!out) fail("cannot open for writing");
     out << content;
     out.flush();
-    if (!out) throw std::runtime_error(part + ": write failed");
+    if (!out) fail("write failed");
   }
-  if (std::rename(part.c_str(), path.c_str()) != 0) throw std::runtime_error(path + ": rename failed");
+  if (std::rename(part.c_str(), path.c_str()) != 0) fail("rename failed");
 }
 
 std::string utc_stamp() {
@@ -123,6 +130,8 @@ std::string SessionManager::start(const SessionRequest& request) {
   }
 }
 
+std::string SessionManager::kinds() const { return join(registry_.kinds()); }
+
 std::vector<std::string> SessionManager::stop(const std::string& name) {
   std::lock_guard lock(mutex_);
   std::vector<std::string> out;
@@ -170,6 +179,13 @@ void SessionManager::on_tick(std::int64_t) {
       }
     }
   }
+  // A disk error is reported while the session runs, not only at its end (the writer thread retries
+  // every flush period; the same reason is posted once).
+  for (auto& r : running_) {
+    if (!r->recorder || r->recorder->error_count() == r->recorder_errors_seen) continue;
+    r->recorder_errors_seen = r->recorder->error_count();
+    if (std::string e = r->recorder->error(); !e.empty()) report_recording_error(*r, e);
+  }
   for (auto it = running_.begin(); it != running_.end();) {
     Running& r = **it;
     r.stop_requested = r.stop_requested || std::find(stops.begin(), stops.end(), r.info.name) != stops.end();
@@ -209,6 +225,19 @@ void SessionManager::finish_loop(const std::stop_token& stop) {
   }
 }
 
+void SessionManager::report_recording_error(Running& r, const std::string& reason) {
+  r.info.recording_error = reason;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& info : infos_) {
+      if (info.name == r.info.name) info.recording_error = reason;
+    }
+  }
+  if (reason == r.reported_error) return;
+  r.reported_error = reason;
+  post_event(r.info, "recording_failed", reason);
+}
+
 void SessionManager::post_event(const SessionInfo& info, const std::string& event, const std::string& reason) {
   outbox_.post({"EVENT", info.device,
                 nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name}, {"event", event},
@@ -226,9 +255,15 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
     (*report)["kind"] = info.kind;
     (*report)["device"] = info.device;
     outbox_.post({"EXPLAIN", info.device, report->dump()});
-    // Kept beside the recording for the session's report (guideway report reads it too).
+    // Kept beside the recording for the session's report (guideway report reads it too). The
+    // explanation was published: a disk that refuses the copy is a recording error, not a failed one.
     const std::string path = state_dir_ + "/" + info.name + ".explain.json";
-    write_file_atomically(path, report->dump(1) + "\n");
+    try {
+      write_file_atomically(path, report->dump(1) + "\n");
+    } catch (const std::exception& e) {
+      report_recording_error(r, r.info.recording_error.empty() ? e.what() : r.info.recording_error + "; " + e.what());
+      return std::nullopt;
+    }
     return path;
   } catch (const std::exception& e) {
     post_event(info, "explain_failed", e.what());
@@ -271,12 +306,23 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     std::map<std::string, std::string> trailer;
     if (!failure.empty()) trailer["identification_error"] = failure;
     info.recording = r->recorder->close(failure.empty(), trailer);
-    if (!r->recorder->error().empty()) info.recording_error = r->recorder->error();
+    // close() leaves NAME.csv.part when the disk refused the rest. A disk that recovered in time
+    // (the recorder kept the data in memory) leaves a whole recording: no error stays then.
+    const RecorderStats written = r->recorder->stats();
+    if (std::string e = r->recorder->error(); !e.empty()) {
+      report_recording_error(*r, e);
+    } else if (written.samples_lost != 0) {
+      report_recording_error(*r, info.recording + ": " + std::to_string(written.samples_lost) +
+                                     " samples lost (the recorder fell behind or the disk refused writes too long)");
+    } else {
+      info.recording_error.clear();
+    }
     try {
       const std::string base = info.name;
       derived = r->session->write_derived(state_dir_, base);
     } catch (const std::exception& e) {
-      info.recording_error = e.what();
+      // Both are kept: the raw recording's error is the one that loses data.
+      report_recording_error(*r, info.recording_error.empty() ? e.what() : info.recording_error + "; " + e.what());
     }
   }
   info.state = failure.empty() ? "done" : "failed";
@@ -287,22 +333,27 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     params["device"] = info.device;
     params["samples"] = info.samples;
     if (!info.recording.empty()) params["recording"] = info.recording;
+    if (!info.recording_error.empty()) params["recording_error"] = info.recording_error;
     if (!derived.empty()) params["derived"] = derived;
     outbox_.post({"PARAMS", info.device, params.dump()});
     if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
     write_session_report(*r, derived);
-  } else {
+  }
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& i : infos_) {
+      if (i.name == info.name) {
+        i = info;
+        if (!failure.empty()) i.progress = failure;
+      }
+    }
+  }
+  // After STATUS shows the failure: a client that hears of it and asks (params) is told why.
+  if (!failure.empty()) {
     outbox_.post({"EVENT", info.device,
                   nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},
                                  {"event", "session_failed"}, {"reason", failure}}
                       .dump()});
-  }
-  std::lock_guard lock(mutex_);
-  for (auto& i : infos_) {
-    if (i.name == info.name) {
-      i = info;
-      if (!failure.empty()) i.progress = failure;
-    }
   }
 }
 

@@ -49,6 +49,8 @@ class SessionManager : public PipelineStage {
   // Requests the end of a session (or of all when name is empty); returns the names affected.
   std::vector<std::string> stop(const std::string& name);
   [[nodiscard]] std::vector<SessionInfo> snapshot() const;
+  [[nodiscard]] bool known_kind(const std::string& kind) const { return registry_.find(kind) != nullptr; }
+  [[nodiscard]] std::string kinds() const;  // "dbb, straightness, ..."
 
   // The [[processing]] steps of a device (before the pipeline starts): each session on it runs a fresh
   // copy, recorded in its raw recording's header, so a replay repeats it exactly.
@@ -66,6 +68,8 @@ class SessionManager : public PipelineStage {
     std::unique_ptr<RawRecorder> recorder;
     ProcessingChain processing;
     bool stop_requested = false;
+    std::uint64_t recorder_errors_seen = 0;  // recorder->error_count() when last looked at
+    std::string reported_error;              // the last recording_failed reason posted
   };
   void finish_loop(const std::stop_token& stop);
   void finish(std::unique_ptr<Running> r);
@@ -74,6 +78,9 @@ class SessionManager : public PipelineStage {
   // Renders NAME.report.html from the session's files (report/); a failure is an EVENT.
   void write_session_report(const Running& r, std::vector<std::string> inputs);
   void post_event(const SessionInfo& info, const std::string& event, const std::string& reason);
+  // A disk error of the session's files: kept for STATUS and PARAMS (`recording_error`), and an
+  // EVENT recording_failed (logged by the daemon) unless this very reason was posted already.
+  void report_recording_error(Running& r, const std::string& reason);
 
   const SessionRegistry& registry_;
   std::vector<drivers::Driver*> devices_;

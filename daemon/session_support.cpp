@@ -1,6 +1,9 @@
 #include "daemon/session_support.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -76,7 +79,11 @@ std::vector<std::string> write_derived_text(const std::string& dir, const std::s
   std::ofstream f(path, std::ios::binary | std::ios::trunc);
   f << text;
   f.close();
-  if (!f) throw std::runtime_error("cannot write " + path);
+  if (!f) {
+    const int err = errno;
+    std::remove(path.c_str());  // a truncated derived file would read as a (wrong) shorter one
+    throw std::runtime_error("cannot write " + path + ": " + std::strerror(err));
+  }
   return {path};
 }
 

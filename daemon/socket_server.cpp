@@ -24,6 +24,18 @@ namespace {
 
 }  // namespace
 
+bool unix_socket_answers(const std::string& path) {
+  sockaddr_un addr{};
+  if (path.size() >= sizeof(addr.sun_path)) return false;
+  const int probe = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (probe < 0) return false;
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  const bool alive = connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0;
+  close(probe);
+  return alive;
+}
+
 SocketServer::SocketServer(EventLoop& loop, SocketServerOptions options) : loop_(loop), options_(std::move(options)) {
   if (!options_.unix_path.empty()) listen_unix();
   if (options_.tcp_port != 0) listen_tcp();
@@ -55,12 +67,7 @@ void SocketServer::listen_unix() {
   }
   // A socket file left by a daemon that died: remove it only if nobody answers on it.
   if (std::filesystem::exists(path, ec)) {
-    int probe = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    addr.sun_family = AF_UNIX;
-    std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-    const bool alive = connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0;
-    close(probe);
-    if (alive) throw std::runtime_error("another daemon is already listening on " + path);
+    if (unix_socket_answers(path)) throw std::runtime_error("another daemon is already listening on " + path);
     ::unlink(path.c_str());
   }
   unix_fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);

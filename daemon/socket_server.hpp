@@ -31,6 +31,10 @@ struct SocketServerOptions {
 
 using ClientId = std::uint64_t;
 
+// True when something accepts connections on the Unix socket `path` (a running daemon); false for
+// no file or a socket file a dead daemon left.
+bool unix_socket_answers(const std::string& path);
+
 class SocketServer {
  public:
   // Called for every complete request line (without the newline).

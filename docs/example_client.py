@@ -31,7 +31,11 @@ def connect(address):
 
 def main():
     address = sys.argv[1] if len(sys.argv) > 1 else default_socket()
-    with connect(address) as sock, sock.makefile("rw", encoding="utf-8", newline="\n") as stream:
+    try:
+        sock = connect(address)
+    except (OSError, ValueError) as e:
+        sys.exit(f"example_client: {address}: {e} (is guidewayd running? pass its socket or tcp:HOST:PORT)")
+    with sock, sock.makefile("rw", encoding="utf-8", newline="\n") as stream:
         banner = json.loads(stream.readline())
         if banner.get("class") != "VERSION" or banner.get("proto_major") != 1:
             sys.exit(f"not a guidewayd protocol 1 socket: {banner}")

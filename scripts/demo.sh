@@ -17,7 +17,6 @@ log="$run_dir/guidewayd-demo.log"
 echo "== starting guidewayd (log: $log)"
 "$bin/daemon/guidewayd" >"$log" 2>&1 &
 pid=$!
-echo "$pid" >"$run_dir/guidewayd.pid"
 cleanup() { if [ $keep -eq 0 ] && kill -0 "$pid" 2>/dev/null; then kill -TERM "$pid"; wait "$pid" || true; fi; }
 trap cleanup EXIT
 
@@ -26,6 +25,12 @@ for _ in $(seq 1 100); do
   if ! kill -0 "$pid" 2>/dev/null; then cat "$log"; echo "guidewayd exited" >&2; exit 1; fi
   sleep 0.1
 done
+# Another daemon (a previous --keep) can answer while ours refuses its socket and exits: not ours.
+sleep 0.3
+if ! kill -0 "$pid" 2>/dev/null; then
+  cat "$log"; echo "guidewayd exited (is one already running? its pid: $run_dir/guidewayd.pid)" >&2; exit 1
+fi
+echo "$pid" >"$run_dir/guidewayd.pid"
 "$bin/cli/guideway" version
 # The emulated instruments connect within a second or two.
 for _ in $(seq 1 50); do

@@ -1,9 +1,10 @@
 #pragma once
 // A real driver thread with no transport: it publishes `rate_hz` samples per second (config key,
 // default 2000) whose one value is its own count, so pipeline, sessions and recordings can be
-// checked exactly.
+// checked exactly; with `nan_every = N` every Nth value is NaN flagged "no signal" (a lost beam).
 
 #include <chrono>
+#include <limits>
 #include <thread>
 
 #include "core/mono_clock.hpp"
@@ -15,7 +16,8 @@ class CountingDriver : public drivers::Driver {
  public:
   explicit CountingDriver(const drivers::DeviceConfig& c)
       : Driver(c.name, c.driver, {{"count", "1"}}, c.ring_capacity),
-        rate_hz_(c.table.get_double("rate_hz", 2000.0, 1.0, 1e7)) {}
+        rate_hz_(c.table.get_double("rate_hz", 2000.0, 1.0, 1e7)),
+        nan_every_(c.table.get_int("nan_every", 0, 0, 1 << 20)) {}
   ~CountingDriver() override { stop(); }
 
  protected:
@@ -29,6 +31,10 @@ class CountingDriver : public drivers::Driver {
       s.t_mono_ns = mono_now_ns();
       s.value_count = 1;
       s.value[0] = n++;
+      if (nan_every_ != 0 && static_cast<std::int64_t>(s.value[0]) % nan_every_ == 0) {
+        s.value[0] = std::numeric_limits<double>::quiet_NaN();
+        s.flags = sample_no_signal;
+      }
       publish(s);
       frames_.fetch_add(1, std::memory_order_relaxed);
       next += period;
@@ -38,6 +44,7 @@ class CountingDriver : public drivers::Driver {
 
  private:
   double rate_hz_;
+  std::int64_t nan_every_;
 };
 
 }  // namespace guideway::test

@@ -108,6 +108,35 @@ TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
   EXPECT_TRUE(saw_status_with_flow);
 }
 
+// protocol.md: "Fields whose value is unknown are left out, never null". A NaN reading (a lost beam)
+// is not a number JSON can carry: nlohmann would write null.
+TEST(Daemon, ASampleWithoutAValueLeavesTheChannelOutNeverNull) {
+  RunningDaemon rd(
+      "sample_publish_hz = 200.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n"
+      "nan_every = 2\n");
+  DaemonClient c(rd.socket);
+  c.request({{"class", "watch"}, {"classes", {"SAMPLE"}}}, "WATCH");
+  int with_value = 0, without_value = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while ((with_value < 5 || without_value < 5) && std::chrono::steady_clock::now() < deadline) {
+    auto line = c.read_line(std::chrono::milliseconds(500));
+    if (!line) continue;
+    auto j = nlohmann::json::parse(*line);
+    if (j["class"] != "SAMPLE") continue;
+    ASSERT_EQ(line->find("null"), std::string::npos) << *line;
+    if (j["values"].contains("count")) {
+      EXPECT_TRUE(j["values"]["count"].is_number()) << *line;
+      EXPECT_FALSE(j.contains("flags")) << *line;
+      ++with_value;
+    } else {
+      EXPECT_EQ(j["flags"], 2) << *line;  // no signal: the flag says why the value is missing
+      ++without_value;
+    }
+  }
+  EXPECT_GE(with_value, 5);
+  EXPECT_GE(without_value, 5);
+}
+
 TEST(Daemon, DenoisesAConfiguredChannelAndPublishesItBesideTheRawValue) {
   // The counting driver's value is its sample count: a straight line, which a db4 wavelet (four vanishing
   // moments) leaves unchanged away from the stream's start, so the denoised value must equal its own seq.

@@ -87,7 +87,8 @@ class EndToEndDbb(unittest.TestCase):
             self.assertAlmostEqual(offline["lai3"][name]["value"], value, delta=1e-9 + 1e-6 * abs(value), msg=name)
         # The raw recording replays (with the denoising steps its header records) to the same PARAMS.
         self.assertIn("# processing = ", text)
-        replayed = json.loads(self.cli("replay", "--json", params["recording"], timeout=120).splitlines()[0])
+        replay_lines = self.cli("replay", "--json", params["recording"], timeout=120).splitlines()
+        replayed = json.loads(replay_lines[0])
         for group in ("lai3", "diagnostics"):
             for name, v in params[group].items():
                 self.assertEqual(replayed[group][name]["value"], v["value"], msg=f"{group}.{name}")
@@ -102,6 +103,10 @@ class EndToEndDbb(unittest.TestCase):
         self.assertLessEqual(explanation["final"]["heldout_rms_um"], explanation["baseline"]["heldout_rms_um"])
         for f in explanation["findings"]:
             self.assertLess(f["heldout_rms_um_after"], explanation["baseline"]["heldout_rms_um"], f)
+        # The replay publishes the same EXPLAIN (what makes tests/golden/KIND.explain.json a live result).
+        replayed_explain = json.loads(replay_lines[1])
+        self.assertEqual(replayed_explain.pop("replayed_from"), params["recording"])
+        self.assertEqual(replayed_explain, explanation)
 
         # The same through the client, in text (and the replay's text form).
         text = self.cli("explain", "--latest", "--kind", "dbb")

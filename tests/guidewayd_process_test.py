@@ -76,6 +76,149 @@ class GuidewaydProcess(unittest.TestCase):
         out = subprocess.run([GUIDEWAYD, "--config", ok, "--check-config"], capture_output=True, text=True, timeout=20)
         self.assertEqual(out.returncode, 0, out.stderr)
 
+    def guideway(self, *args):
+        return subprocess.run([GUIDEWAY, *args], capture_output=True, text=True, timeout=30)
+
+    def test_client_options_and_errors(self):
+        """--socket after the command (README: every client command takes it), --json prints an ERROR
+        reply unchanged on stdout, bad tcp: addresses and a bad --timeout are named before anything
+        starts."""
+        p = self.start()
+        out = self.guideway("status", "--socket", self.sock)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertIn("guidewayd", out.stdout)
+        out = self.guideway("version", "-s", self.sock, "--json")
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertIn('"class":"VERSION"', out.stdout)
+        out = self.guideway("params", "nosuch", "--json", "--socket", self.sock)
+        self.assertEqual(out.returncode, 1)
+        self.assertIn('"class":"ERROR"', out.stdout)
+        self.assertIn('unknown session kind \\"nosuch\\"', out.stdout)
+        self.assertIn("guideway: daemon: unknown session kind", out.stderr)
+        out = self.guideway("params", "runout", "--socket", self.sock)
+        self.assertEqual(out.returncode, 1)
+        self.assertEqual(out.stdout, "")
+        self.assertIn("guideway start runout", out.stderr)
+        for address, why in (("tcp:127.0.0.1:abc", "port must be a number"), ("tcp:127.0.0.1:99999", "port must be"),
+                             ("tcp:127.0.0.1", "expected tcp:HOST:PORT"), ("tcp::2947", "expected tcp:HOST:PORT")):
+            out = self.guideway("--socket", address, "status")
+            self.assertEqual(out.returncode, 1, address)
+            self.assertIn(address + ": ", out.stderr)
+            self.assertIn(why, out.stderr)
+        out = self.guideway("start", "runout", "--wait", "--timeout", "-1", "--socket", self.sock)
+        self.assertEqual(out.returncode, 1)
+        self.assertIn("--timeout must be a positive number", out.stderr)
+        out = self.guideway("start", "runout", "--set", "rpm", "--socket", self.sock)
+        self.assertIn("--set expects KEY=VALUE", out.stderr)
+        status = self.guideway("status", "--json", "--socket", self.sock)
+        self.assertIn('"sessions":[]', status.stdout, "a refused start must not leave a session running")
+        # watch: one readable line per message, or the daemon's JSON with --json.
+        out = self.guideway("watch", "--class", "STATUS", "--count", "1", "--seconds", "20", "--socket", self.sock)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertRegex(out.stdout, r"^\d\d:\d\d:\d\d\.\d{3} STATUS  dbb:\w+ autocollimator:\w+")
+        out = self.guideway("watch", "--class", "SAMPLE", "--channel", "dbb", "--count", "1", "--seconds", "20",
+                            "--socket", self.sock)
+        self.assertRegex(out.stdout, r"SAMPLE  dbb seq \d+  bar_length=[-0-9.e]+ m  x=[-0-9.e]+ m")
+        out = self.guideway("watch", "--class", "STATUS", "--count", "1", "--seconds", "20", "--json", "--socket",
+                            self.sock)
+        self.assertTrue(out.stdout.startswith('{"class":"STATUS"'), out.stdout[:200])
+        out = self.guideway("watch", "--class", "NOPE", "--json", "--socket", self.sock)
+        self.assertEqual(out.returncode, 1)
+        self.assertIn('"class":"ERROR"', out.stdout)
+        # An array option (dbb's patterns) passes through --set as JSON.
+        out = self.guideway("start", "dbb", "--set", 'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]',
+                            "--socket", self.sock)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertTrue(wait_for(lambda: "/1 patterns traced" in self.guideway("status", "--socket", self.sock).stdout))
+        self.assertEqual(self.guideway("stop", "--socket", self.sock).returncode, 0)
+        p.send_signal(signal.SIGTERM)
+        self.assertEqual(p.wait(timeout=10), 0)
+
+    def test_replay_says_when_a_recording_is_not_a_whole_session(self):
+        golden = os.path.join(os.path.dirname(os.path.abspath(__file__)), "golden", "runout.csv")
+        with open(golden) as f:
+            text = f.read()
+        whole = self.guideway("replay", golden)
+        self.assertEqual(whole.returncode, 0, whole.stderr)
+        self.assertNotIn("incomplete", whole.stdout)
+        self.assertNotIn("aborted", whole.stdout)
+        aborted = os.path.join(self.tmp.name, "aborted.csv")  # what SIGTERM mid-session leaves
+        with open(aborted, "w") as f:
+            f.write(text.replace("# end = complete", "# end = aborted"))
+        out = self.guideway("replay", aborted)
+        self.assertIn("recording marked aborted", out.stdout)
+        cut = os.path.join(self.tmp.name, "cut.csv.part")  # what SIGKILL leaves
+        with open(cut, "w") as f:
+            f.write(text[:text.index("# end =")])
+        out = self.guideway("replay", cut)
+        self.assertIn("incomplete recording", out.stdout + out.stderr)
+
+    def test_docs_example_client_prints_published_params(self):
+        """docs/example_client.py, as the docs run it, against the default (emulated) daemon."""
+        example = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "example_client.py")
+        p = self.start()
+        client = subprocess.Popen(["/usr/bin/python3", example, self.sock], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True)
+        self.addCleanup(lambda: client.poll() is None and client.kill())
+        self.assertIn("connected to guidewayd", client.stdout.readline())
+        started = self.guideway("start", "profile", "--socket", self.sock)  # the next whole profile, < 5 s
+        self.assertEqual(started.returncode, 0, started.stderr)
+        session = started.stdout.split()[1]
+        lines = []
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any("profile.straightness_lsq_um" in l for l in lines):
+            lines.append(client.stdout.readline())
+        self.assertIn(f"{session} (profile, model", "".join(lines))
+        self.assertTrue(any(l.strip().startswith("profile.straightness_lsq_um = ") and "+/-" in l for l in lines), lines)
+        client.kill()
+        p.send_signal(signal.SIGTERM)
+        self.assertEqual(p.wait(timeout=10), 0)
+        client.wait(timeout=10)
+        self.assertEqual(client.stderr.read(), "")
+
+    def test_a_second_daemon_or_check_config_leaves_the_running_ones_endpoints_alone(self):
+        """The emulators' endpoints live in the socket's directory: a second guidewayd on the same socket
+        (refused) and --check-config must not replace the running daemon's CAN socket and pty link,
+        which its devices reconnect to."""
+        p = self.start()
+        can = os.path.join(self.tmp.name, "can-bus.sock")
+        pty = os.path.join(self.tmp.name, "autocollimator.pty")
+        self.assertTrue(wait_for(lambda: os.path.exists(can) and os.path.islink(pty)))
+        before = (os.stat(can).st_ino, os.readlink(pty))
+        second = subprocess.run([GUIDEWAYD, "--socket", self.sock], capture_output=True, text=True, timeout=30)
+        self.assertEqual(second.returncode, 1)
+        self.assertIn("another daemon is already listening on " + self.sock, second.stderr)
+        self.assertNotIn("emulator", second.stderr)
+        check = subprocess.run([GUIDEWAYD, "--socket", self.sock, "--check-config"], capture_output=True, text=True,
+                               timeout=30)
+        self.assertEqual(check.returncode, 0, check.stderr)
+        self.assertIn("<embedded default>: OK (4 device(s))", check.stdout)
+        self.assertEqual((os.stat(can).st_ino, os.readlink(pty)), before)
+        out = self.guideway("status", "--socket", self.sock)
+        self.assertEqual(out.returncode, 0, out.stderr)
+        p.send_signal(signal.SIGTERM)
+        self.assertEqual(p.wait(timeout=10), 0)
+
+    def test_unknown_log_level_is_refused(self):
+        out = subprocess.run([GUIDEWAYD, "--log-level", "loud", "--socket", self.sock], capture_output=True,
+                             text=True, timeout=20)
+        self.assertNotEqual(out.returncode, 0)
+        self.assertIn("--log-level", out.stderr)
+        self.assertFalse(os.path.exists(self.sock))
+
+    def test_socket_group_and_tcp_host_are_checked_with_the_config(self):
+        cfg = os.path.join(self.tmp.name, "group.toml")
+        with open(cfg, "w") as f:
+            f.write("[daemon]\nlog_level = \"info\"\nsocket_group = \"no-such-group-gw\"\n")
+        out = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(cfg + ':3: daemon.socket_group: no group named "no-such-group-gw"', out.stderr)
+        with open(cfg, "w") as f:
+            f.write("[daemon]\ntcp_listen = \"localhost:2947\"\n")
+        out = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True, timeout=20)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(cfg + ':2: daemon.tcp_listen: HOST must be an IPv4 address', out.stderr)
+
     def test_sd_notify_ready_watchdog_stopping(self):
         notify_path = os.path.join(self.tmp.name, "notify")
         ns = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)

@@ -43,6 +43,10 @@ TEST(Protocol, WatchSelectsClassesAndChannels) {
   EXPECT_TRUE(sub.wants("SAMPLE", "dbb"));
   EXPECT_FALSE(sub.wants("SAMPLE", "autocollimator"));
   EXPECT_FALSE(sub.wants("STATUS", ""));
+  apply_watch(nlohmann::json{{"classes", {"PARAMS"}}, {"channels", {"dbb-dbb-20261121T063102Z"}}}, sub);
+  EXPECT_TRUE(sub.wants("PARAMS", "dbb", "dbb-dbb-20261121T063102Z"));  // a session by name
+  EXPECT_FALSE(sub.wants("PARAMS", "dbb", "dbb-dbb-20261121T070000Z"));
+  EXPECT_FALSE(sub.wants("PARAMS", "dbb"));
   apply_watch(nlohmann::json{{"enable", false}}, sub);
   EXPECT_FALSE(sub.wants("STATUS", ""));
 }

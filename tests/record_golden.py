@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Records the golden files of tests/replay_golden_test.py from a live daemon: starts guidewayd on its
 embedded default (four emulated instruments), runs one session of each KIND through the client, and
-stores its raw recording as GOLDEN_DIR/KIND.csv and the PARAMS it published as KIND.params.json.
+stores its raw recording as GOLDEN_DIR/KIND.csv, the PARAMS it published as KIND.params.json and the
+EXPLAIN as KIND.explain.json.
 
     tests/record_golden.py BUILD_DIR GOLDEN_DIR [KIND ...]   (default kinds: dbb straightness runout profile)
 """
@@ -47,6 +48,20 @@ def main():
                     shutil.copyfile(params["recording"], os.path.join(golden, kind + ".csv"))
                     with open(os.path.join(golden, kind + ".params.json"), "w") as f:
                         json.dump({k: v for k, v in params.items() if k not in IGNORED}, f, indent=1, sort_keys=True)
+                        f.write("\n")
+                    # The EXPLAIN follows the PARAMS (computed on the daemon's worker thread).
+                    deadline = time.monotonic() + 120
+                    while True:
+                        ex = subprocess.run([guideway, "--socket", sock, "explain", "--latest", "--kind", kind, "--json"],
+                                            capture_output=True, text=True, timeout=60)
+                        explain = json.loads(ex.stdout.splitlines()[-1]) if ex.stdout.strip() else {}
+                        if explain.get("session") == params["session"]:
+                            break
+                        if time.monotonic() > deadline:
+                            sys.exit(f"{kind}: no EXPLAIN for {params['session']}: {ex.stderr}{ex.stdout}")
+                        time.sleep(0.3)
+                    with open(os.path.join(golden, kind + ".explain.json"), "w") as f:
+                        json.dump({k: v for k, v in explain.items() if k not in IGNORED}, f, indent=1, sort_keys=True)
                         f.write("\n")
                     print(f"recorded {kind}: {params['samples']} samples")
             finally:

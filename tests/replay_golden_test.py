@@ -3,7 +3,9 @@
 
 Every raw recording tests/golden/NAME.csv (recorded live by guidewayd from the emulators) is replayed
 through the daemon's session code and its PARAMS compared with tests/golden/NAME.params.json, which
-holds what the live session published. Numbers agree to 1e-9 relative; any other difference fails.
+holds what the live session published, and its EXPLAIN with NAME.explain.json (the live EXPLAIN when
+record_golden.py recorded it, else the reviewed output of --regenerate). Numbers agree to 1e-9
+relative; any other difference fails.
 
     replay_golden_test.py GUIDEWAY GOLDEN_DIR              # check
     replay_golden_test.py GUIDEWAY GOLDEN_DIR --regenerate # rewrite the .params.json files from the replay
@@ -18,12 +20,15 @@ IGNORED = {"replayed_from", "recording", "derived"}  # where the files were, not
 
 
 def replay(guideway, recording):
+    """The replay's PARAMS and EXPLAIN (None when the kind publishes none), without the file names."""
     out = subprocess.run([guideway, "replay", "--json", str(recording)], capture_output=True, text=True, timeout=120)
     if out.returncode != 0:
         raise AssertionError(f"{recording}: guideway replay exited {out.returncode}: {out.stderr}{out.stdout}")
     messages = [json.loads(line) for line in out.stdout.splitlines() if line.strip()]
     params = next(m for m in messages if m["class"] == "PARAMS")
-    return {k: v for k, v in params.items() if k not in IGNORED}
+    explain = next((m for m in messages if m["class"] == "EXPLAIN"), None)
+    strip = lambda m: None if m is None else {k: v for k, v in m.items() if k not in IGNORED}
+    return strip(params), strip(explain)
 
 
 def differences(expected, actual, where=""):
@@ -58,24 +63,33 @@ def main():
         return 1
     failures = 0
     for rec in recordings:
-        expected_path = rec.with_suffix(".params.json")
-        actual = replay(guideway, rec)
-        if regenerate:
-            expected_path.write_text(json.dumps(actual, indent=1, sort_keys=True) + "\n")
-            print(f"regenerated {expected_path.name}")
-            continue
-        if not expected_path.exists():
-            print(f"FAIL {rec.name}: no {expected_path.name} (run with --regenerate)")
-            failures += 1
-            continue
-        diffs = list(differences(json.loads(expected_path.read_text()), actual))
-        if diffs:
-            failures += 1
-            print(f"FAIL {rec.name}:")
-            for d in diffs[:20]:
-                print("   ", d)
-        else:
-            print(f"ok   {rec.name} ({actual.get('kind')}, {actual.get('samples')} samples)")
+        params, explain = replay(guideway, rec)
+        # KIND.params.json: what the live session published; KIND.explain.json: its EXPLAIN.
+        for suffix, actual in ((".params.json", params), (".explain.json", explain)):
+            expected_path = rec.with_suffix(suffix)
+            if regenerate:
+                if actual is not None:
+                    expected_path.write_text(json.dumps(actual, indent=1, sort_keys=True) + "\n")
+                    print(f"regenerated {expected_path.name}")
+                continue
+            if actual is None and not expected_path.exists():
+                continue
+            if not expected_path.exists():
+                print(f"FAIL {rec.name}: no {expected_path.name} (run with --regenerate)")
+                failures += 1
+                continue
+            if actual is None:
+                print(f"FAIL {rec.name}: the replay published no {suffix[1:-5].upper()}, {expected_path.name} expects one")
+                failures += 1
+                continue
+            diffs = list(differences(json.loads(expected_path.read_text()), actual))
+            if diffs:
+                failures += 1
+                print(f"FAIL {rec.name} ({expected_path.name}):")
+                for d in diffs[:20]:
+                    print("   ", d)
+            else:
+                print(f"ok   {rec.name} {suffix[1:-5]} ({params.get('kind')}, {params.get('samples')} samples)")
     return 1 if failures else 0
 
 

@@ -3,7 +3,10 @@
 // published and cached for `params`, the recording fsynced and renamed with its end marker.
 #include <gtest/gtest.h>
 #include <spdlog/sinks/null_sink.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+
+#include <csignal>
 
 #include <cmath>
 #include <fstream>
@@ -143,8 +146,11 @@ TEST(Session, CompletesIdentifiesPublishesAndRecordsEverySample) {
   // params returns the cached result; recordings lists the file.
   auto cached = c.request({{"class", "params"}, {"kind", "mean"}}, "PARAMS");
   EXPECT_EQ(cached["session"], name);
+  // A session's derived files are CSV beside the recording, but they are not raw recordings.
+  std::ofstream(f.state + "/" + name + ".run1.csv") << "# format = guideway/dbb-run/1\nangle_deg,dr_um\n";
   auto recs = c.request({{"class", "recordings"}}, "RECORDINGS");
-  ASSERT_EQ(recs["recordings"].size(), 1u);
+  ASSERT_EQ(recs["recordings"].size(), 1u) << recs.dump();
+  EXPECT_EQ(recs["recordings"][0]["file"], path);
   EXPECT_EQ(recs["recordings"][0]["complete"], true);
 }
 
@@ -165,6 +171,25 @@ TEST(Session, StopEndsAnOpenEndedSessionAndStatusShowsIt) {
   const auto params = Fixture::next(c, "PARAMS");
   EXPECT_EQ(params["session"], name);
   EXPECT_GT(params["n"].get<int>(), 50);
+}
+
+// protocol.md: watch "channels: device or session names". A session's PARAMS and EVENTs reach a client
+// that watches the session by name (they are published about the device too).
+TEST(Session, WatchingASessionByNameGetsItsParams) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  const std::string name = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION")["session"];
+  DaemonClient by_session(f.socket), other(f.socket);
+  by_session.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {name}}}, "WATCH");
+  other.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {"mean-c-other"}}}, "WATCH");
+  EXPECT_TRUE(test::eventually([&] {
+    return c.request({{"class", "status"}}, "STATUS")["sessions"][0]["samples"].get<std::uint64_t>() > 10;
+  }));
+  c.request({{"class", "stop"}}, "SESSION");
+  const auto params = Fixture::next(by_session, "PARAMS");
+  ASSERT_FALSE(params.is_null());
+  EXPECT_EQ(params["session"], name);
+  EXPECT_FALSE(other.read_line(std::chrono::milliseconds(300)).has_value());  // another session's name: nothing
 }
 
 TEST(Session, BadRequestsGetErrorsAndTheDaemonGoesOn) {
@@ -211,6 +236,51 @@ TEST(Session, UnwritableStateDirIsReportedAndIdentificationGoesOn) {
   EXPECT_FALSE(params.contains("recording"));
 }
 
+// A disk that fills up mid-session (here: a file size limit, EFBIG, as ENOSPC would) is reported while
+// the session runs: an EVENT, STATUS sessions[].recording_error; the session goes on, identifies
+// every sample, and its PARAMS say the recording failed.
+TEST(Session, DiskFullMidSessionIsReportedWhileTheSessionRuns) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
+  std::signal(SIGXFSZ, SIG_IGN);  // a write past the limit fails with EFBIG instead of killing the test
+  rlimit old{};
+  getrlimit(RLIMIT_FSIZE, &old);
+  rlimit small = old;
+  small.rlim_cur = 16384;  // the counting driver's 2 kHz fill this in well under a second
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  struct Restore {
+    rlimit r;
+    ~Restore() { setrlimit(RLIMIT_FSIZE, &r); }
+  } restore{old};
+  const std::string name = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION")["session"];
+  nlohmann::json event;
+  EXPECT_TRUE(test::eventually([&] {
+    auto line = c.read_line(std::chrono::milliseconds(100));
+    if (!line) return false;
+    auto j = nlohmann::json::parse(*line);
+    if (j["class"] == "EVENT" && j["event"] == "recording_failed") event = j;
+    return !event.is_null();
+  }));
+  EXPECT_EQ(event["session"], name);
+  EXPECT_NE(event.value("reason", "").find(name + ".csv.part"), std::string::npos) << event.dump();
+  // Reported while the session still runs, and the session still gets samples.
+  auto status = c.request({{"class", "status"}}, "STATUS");
+  ASSERT_EQ(status["sessions"].size(), 1u);
+  EXPECT_EQ(status["sessions"][0]["state"], "running");
+  EXPECT_NE(status["sessions"][0].value("recording_error", "").find(".csv.part"), std::string::npos) << status.dump();
+  const std::uint64_t before = status["sessions"][0]["samples"];
+  EXPECT_TRUE(test::eventually([&] {
+    return c.request({{"class", "status"}}, "STATUS")["sessions"][0]["samples"].get<std::uint64_t>() > before + 200;
+  }));
+  c.request({{"class", "stop"}}, "SESSION");
+  const auto params = Fixture::next(c, "PARAMS");
+  ASSERT_FALSE(params.is_null());
+  EXPECT_GT(params["n"].get<std::uint64_t>(), before + 200);
+  EXPECT_NE(params.value("recording_error", "").find(".csv.part"), std::string::npos) << params.dump();
+  EXPECT_EQ(params.value("recording", ""), f.state + "/" + name + ".csv.part");  // left incomplete
+}
+
 TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
   Fixture f;
   DaemonClient c(f.socket);
@@ -225,4 +295,9 @@ TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
     return !ev.is_null();
   }));
   EXPECT_EQ(ev["reason"], "too few samples (1)");
+  // params names the failed session and why, rather than "start a session".
+  const std::string message = c.request({{"class", "params"}, {"kind", "mean"}}, "PARAMS")["message"];
+  EXPECT_NE(message.find("session " + ev["session"].get<std::string>() + " failed: too few samples (1)"),
+            std::string::npos)
+      << message;
 }

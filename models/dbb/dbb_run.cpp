@@ -1,8 +1,11 @@
 #include "models/dbb/dbb_run.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <numbers>
@@ -286,10 +289,15 @@ std::string format_run(const Run& run) {
 
 void write_run(const Run& run, const std::string& path) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw RunFormatError(path + ": cannot open for writing");
+  if (!out) throw RunFormatError(path + ": cannot open for writing: " + std::strerror(errno));
   out << format_run(run);
   out.flush();
-  if (!out) throw RunFormatError(path + ": write failed");
+  if (!out) {
+    const int err = errno;
+    out.close();
+    std::remove(path.c_str());  // a truncated run would read as a shorter, wrong one
+    throw RunFormatError(path + ": write failed: " + std::strerror(err));
+  }
 }
 
 }  // namespace guideway::models::dbb
