@@ -322,7 +322,10 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       // Without a common clock a line keeps its frequency and amplitude from run to run but not its
       // phase: each run gets its own sine and cosine (the periodogram already sums runs' powers).
       const std::size_t phases = machine_time ? 1 : runs.size();
-      c.generate = [geo, f_lo, df, grid, A, B, phases](const Eigen::VectorXd& r, const std::vector<bool>&) {
+      // Two lines closer than the Fourier resolution 1/t_span are one line: the second strongest is
+      // sought at least that far from the first (the grid oversamples it 4x).
+      const auto apart = static_cast<std::size_t>(std::ceil(1.0 / (t_span * df) - 1e-9));
+      c.generate = [geo, f_lo, df, grid, apart, A, B, phases](const Eigen::VectorXd& r, const std::vector<bool>&) {
         const auto& gg = *geo;
         // One periodogram per direction the vibration may have (the bar, axis A, axis B), each of the
         // residual weighted by that direction's projection on the bar: a vibration of axis A at f reads
@@ -368,18 +371,37 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
           const auto at = [&](std::size_t q) { return pw[dirs * q + static_cast<std::size_t>(which)]; };
           std::vector<std::pair<double, std::size_t>> power;  // (power, grid index)
           for (std::size_t q = 0; q < grid; ++q) power.emplace_back(at(q), q);
-          const std::size_t top = std::min<std::size_t>(2, power.size());
-          std::partial_sort(power.begin(), power.begin() + static_cast<std::ptrdiff_t>(top), power.end(), std::greater<>());
-          for (std::size_t k = 0; k < top; ++k) {
+          std::sort(power.begin(), power.end(), std::greater<>());
+          std::vector<std::size_t> lines;
+          for (const auto& [pw_q, q] : power) {
+            if (lines.size() == 2) break;
+            if (lines.empty() || (q > lines[0] ? q - lines[0] : lines[0] - q) >= apart) lines.push_back(q);
+          }
+          for (const std::size_t q : lines) {
             // Between grid points by the parabola through the peak and its neighbours: a coherent fit
             // over runs a minute apart loses much of a line that is a fraction of a grid step off.
-            const std::size_t q = power[k].second;
             double offset = 0.0;
             if (q > 0 && q + 1 < grid) {
               const double curvature = at(q - 1) - 2 * at(q) + at(q + 1);
               if (curvature < 0) offset = std::clamp(0.5 * (at(q - 1) - at(q + 1)) / curvature, -0.5, 0.5);
             }
             const double f = f_lo + df * (static_cast<double>(q) + offset);
+            // Time moments of the squared weights per run: the frequency's uncertainty (Cramer-Rao,
+            // from the spread of t about each run's centroid: the periodogram that chose it sums runs'
+            // powers, so it knows f from within runs only) and, per phase group, the part of it that
+            // reaches a phase counted from t = 0.
+            struct Moments {
+              double w2 = 0, w2t = 0, w2t2 = 0;
+            };
+            std::vector<Moments> mom;
+            for (const Geo& p : gg) {
+              const double w = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
+              if (mom.size() <= p.run) mom.resize(p.run + 1);
+              Moments& m = mom[p.run];
+              m.w2 += w * w;
+              m.w2t += w * w * p.t_s;
+              m.w2t2 += w * w * p.t_s * p.t_s;
+            }
             const std::string L = which == 0 ? "bar" : (which == 1 ? A : B);
             std::vector<std::string> names;
             for (std::size_t run_k = 0; run_k < phases; ++run_k) {
@@ -393,23 +415,55 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
               o[col] = proj * std::sin(2 * pi * f * p.t_s);
               o[col + 1] = proj * std::cos(2 * pi * f * p.t_s);
             });
-            v.fixed.push_back({"vibration_hz", f, std::numeric_limits<double>::quiet_NaN()});
             v.searched = 1;
-            v.report = [L, phases](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+            v.report = [L, phases, f, mom](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
               const std::string amp = "vibration_" + L + "_um", phase = "vibration_phase_" + L + "_deg";
-              if (phases == 1) return amp_phase(amp, phase, x, cov);
-              // One amplitude: the mean of the runs'; a phase per run, on that run's own clock.
-              std::vector<ParamValue> values{{amp, 0.0, 0.0}};
-              double var = 0.0;
-              for (std::size_t run_k = 0; run_k < phases; ++run_k) {
-                const auto j = static_cast<Eigen::Index>(2 * run_k);
-                const auto ap = amp_phase(amp, phase + "_run" + std::to_string(run_k + 1), x.segment(j, 2),
-                                          cov.block(j, j, 2, 2));
-                values[0].value += ap[0].value / static_cast<double>(phases);
-                var += ap[0].u * ap[0].u;
-                values.push_back(ap[1]);
+              // Per group: amplitude and phase with the frequency held; then u(f) from the Fisher
+              // information of all groups, sigma^2 read back from the sine coefficient's variance
+              // (about 2 sigma^2 / sum w^2), and each phase's u widened by 2 pi t_centroid u(f).
+              std::vector<std::vector<ParamValue>> ap(phases);
+              std::vector<Moments> group(phases);  // a phase group's moments: its runs' summed
+              for (std::size_t run = 0; run < mom.size(); ++run) {
+                Moments& m = group[phases > 1 ? run : 0];
+                m.w2 += mom[run].w2;
+                m.w2t += mom[run].w2t;
+                m.w2t2 += mom[run].w2t2;
               }
-              values[0].u = std::sqrt(var) / static_cast<double>(phases);
+              double info = 0.0, sigma2 = 0.0;
+              for (std::size_t k = 0; k < phases; ++k) {
+                const auto j = static_cast<Eigen::Index>(2 * k);
+                ap[k] = amp_phase(amp, phases > 1 ? phase + "_run" + std::to_string(k + 1) : phase, x.segment(j, 2),
+                                  cov.block(j, j, 2, 2));
+                sigma2 += 0.25 * (cov(j, j) + cov(j + 1, j + 1)) * group[k].w2 / static_cast<double>(phases);
+              }
+              for (std::size_t run = 0; run < mom.size(); ++run) {
+                const Moments& m = mom[run];
+                const double spread = m.w2 > 0 ? m.w2t2 - m.w2t * m.w2t / m.w2 : 0.0;
+                const double a = ap[phases > 1 ? run : 0][0].value;
+                info += 2 * pi * pi * a * a * spread;
+              }
+              const double u_f = sigma2 > 0 && info > 0 ? std::sqrt(sigma2 / info) : std::numeric_limits<double>::quiet_NaN();
+              std::vector<ParamValue> values;
+              if (phases == 1) {
+                values.push_back(ap[0][0]);
+              } else {
+                // One amplitude: the runs' weighted by their inverse variances.
+                double sw = 0, swa = 0;
+                for (const auto& a : ap)
+                  if (a[0].u > 0) {
+                    sw += 1 / (a[0].u * a[0].u);
+                    swa += a[0].value / (a[0].u * a[0].u);
+                  }
+                values.push_back({amp, sw > 0 ? swa / sw : ap[0][0].value, sw > 0 ? 1 / std::sqrt(sw) : std::numeric_limits<double>::quiet_NaN()});
+              }
+              for (std::size_t k = 0; k < phases; ++k) {
+                ParamValue ph = ap[k][1];
+                const double centroid = group[k].w2 > 0 ? group[k].w2t / group[k].w2 : 0.0;
+                const double from_f = 360.0 * centroid * u_f;  // deg
+                ph.u = std::sqrt(ph.u * ph.u + from_f * from_f);
+                values.push_back(ph);
+              }
+              values.push_back({"vibration_hz", f, u_f});
               return values;
             };
             vs.push_back(std::move(v));
