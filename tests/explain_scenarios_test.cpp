@@ -165,3 +165,29 @@ TEST(ExplainScenarios, PerRunTermsKeepHeldOutRowsInEveryRun) {
   EXPECT_EQ(r.findings.front().effect, "vibration");
   EXPECT_LT(r.final_fit.heldout_rms_um, r.baseline.heldout_rms_um);
 }
+
+// The vibration's reported uncertainties describe its scatter over noise draws (frequency and phase
+// searched, amplitude fitted): sd over 10 seeds within a factor 2 of the mean reported u.
+TEST(ExplainScenarios, VibrationUncertaintiesMatchTheScatterOverSeeds) {
+  std::map<std::string, std::vector<double>> values, us;
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+    ex::ScenarioOptions o;
+    o.seed = seed;
+    const auto r = ex::run_scenario("dbb_vibration", o);
+    ASSERT_FALSE(r.report.findings.empty()) << seed;
+    for (const auto& p : r.report.findings.front().parameters) {
+      values[p.name].push_back(p.value);
+      us[p.name].push_back(p.u);
+    }
+  }
+  for (const char* name : {"vibration_hz", "vibration_phase_x_deg", "vibration_x_um"}) {
+    const auto& v = values[name];
+    ASSERT_EQ(v.size(), 10u) << name;
+    double mean = 0, var = 0, u = 0;
+    for (double x : v) mean += x / 10;
+    for (double x : v) var += (x - mean) * (x - mean) / 9;
+    for (double x : us[name]) u += x / 10;
+    EXPECT_GT(std::sqrt(var), 0.5 * u) << name;
+    EXPECT_LT(std::sqrt(var), 2.0 * u) << name;
+  }
+}
