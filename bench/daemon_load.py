@@ -311,10 +311,11 @@ def device_deltas(st0, st1, dt):
     return out
 
 
-# The drivers' own counters that count data lost or damaged (docs/protocol.md, driver_counters);
-# profiles_completed and the like count progress, not loss.
-LOSS_COUNTERS = ("lost_samples", "ring_overruns", "dropped_frames", "partial_cycles", "error_frames",
-                 "untimed_frames", "exceptions", "counter_resets", "profiles_partial", "points_lost")
+# The drivers' own counters that say samples were lost (docs/protocol.md, driver_counters, for each
+# one's unit: samples, frames, cycles, polls, events, traverses, points). Left out: error_frames and
+# exceptions (already in bad_frames), untimed_frames (published), profiles_completed (progress).
+LOSS_COUNTERS = ("lost_samples", "ring_overruns", "counter_resets", "dropped_frames", "partial_cycles",
+                 "profiles_partial", "points_lost")
 
 
 def driver_losses(d0, d1):
