@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <thread>
 
@@ -193,6 +194,21 @@ TEST(AutocollimatorDriver, DisconnectReopensThePortWithBackoffAndLosesNothing) {
     EXPECT_EQ(b.driver->status().state, DeviceState::streaming);
     b.stop_and_check_all();
   }
+}
+
+// Unplugged, the stable name disappears (as a by-id link does): left pointing at the freed
+// /dev/pts/N, it would lead the reconnecting driver to whichever pty the kernel hands N next.
+TEST(AutocollimatorDriver, WhileUnpluggedTheLinkIsGoneAndTheDriverSaysSo) {
+  Bench b(false);
+  ASSERT_TRUE(b.wait_samples(5));
+  const std::string link = b.dir.file("ac0");
+  ASSERT_TRUE(std::filesystem::is_symlink(link));
+  b.emu.inject_disconnect(1e6);
+  ASSERT_TRUE(test::eventually([&] { return !std::filesystem::exists(std::filesystem::symlink_status(link)); }));
+  ASSERT_TRUE(test::eventually([&] {
+    const auto st = b.driver->status();
+    return st.state == DeviceState::lost && st.reason.find("No such file") != std::string::npos;
+  })) << b.driver->status().reason;
 }
 
 TEST(AutocollimatorDriver, BurstFasterThanThePollRateIsReceivedCompletely) {
