@@ -163,9 +163,12 @@ TEST(AutocollimatorDriver, StallCountsTimeoutsGoesLostAndRecovers) {
     SCOPED_TRACE(stream ? "stream" : "poll");
     Bench b(stream);
     ASSERT_TRUE(b.wait_samples(10));
-    b.emu.inject_stall(0.6);
+    // Silent until the driver has said it is lost (two 100 ms timeouts), however late this machine
+    // lets its thread see them; then answering again.
+    b.emu.inject_stall(1e6);
     ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::lost; }, 3s));
     EXPECT_NE(b.driver->status().reason.find("no reply"), std::string::npos);
+    b.emu.inject_stall(0.0);
     ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::streaming; }, 5s));
     const std::size_t before = b.samples.size();
     ASSERT_TRUE(b.wait_samples(before + 10));

@@ -384,6 +384,7 @@ void delivers_every_sample_across_a_counter_wrap(BufferedHarness& h) {
 }
 
 TEST_P(MicrometerBuffered, DeliversEverySampleAt10kHzAcrossACounterWrap) {
+  if (GetParam().ring_samples == 4096) GTEST_SKIP() << "MicrometerBufferedAlone runs this ring, with the timing checks";
   BufferedHarness h(GetParam().rtu, GetParam().ring_samples == 4096 ? 16384 : 15208, 0xffffffffu - 5000u,
                     "poll_period_ms = 5\n");
   delivers_every_sample_across_a_counter_wrap(h);
