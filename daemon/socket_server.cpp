@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <system_error>
@@ -72,16 +73,23 @@ void SocketServer::listen_unix() {
   }
   unix_fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (unix_fd_ < 0) throw_errno("socket(AF_UNIX)");
+  // Bound under a temporary name, given its mode and group, listening, and only then renamed into
+  // place: a client that sees the path can connect at once (between bind and listen a connect is
+  // refused: clients that wait for the path to appear met that) and never finds the umask's mode.
+  std::string bound = path + ".new";
+  if (bound.size() >= sizeof(addr.sun_path)) bound = path;  // no room for the suffix: bound in place
+  if (bound != path) ::unlink(bound.c_str());
   addr.sun_family = AF_UNIX;
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  if (bind(unix_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) throw_errno("bind " + path);
-  if (chmod(path.c_str(), options_.unix_mode) != 0) throw_errno("chmod " + path);
+  std::memcpy(addr.sun_path, bound.c_str(), bound.size() + 1);
+  if (bind(unix_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) throw_errno("bind " + bound);
+  if (chmod(bound.c_str(), options_.unix_mode) != 0) throw_errno("chmod " + bound);
   if (!options_.unix_group.empty()) {
     const group* g = getgrnam(options_.unix_group.c_str());
     if (!g) throw std::runtime_error("socket_group: no group named " + options_.unix_group);
-    if (chown(path.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) throw_errno("chown " + path);
+    if (chown(bound.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) throw_errno("chown " + bound);
   }
-  if (listen(unix_fd_, 64) != 0) throw_errno("listen " + path);
+  if (listen(unix_fd_, 64) != 0) throw_errno("listen " + bound);
+  if (bound != path && std::rename(bound.c_str(), path.c_str()) != 0) throw_errno("rename " + bound + " to " + path);
   loop_.add(unix_fd_, EPOLLIN, [this](std::uint32_t) { accept_on(unix_fd_); });
 }
 

@@ -3,7 +3,10 @@
 // fault the emulator can inject, with the driver surviving and nothing delivered lost.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <filesystem>
+#include <memory>
 #include <thread>
 
 #include "drivers/autocollimator/autocollimator_driver.hpp"
@@ -74,7 +77,7 @@ struct Bench {
   // reading sent against the samples.
   void stop_and_check_all() {
     emu.inject_stall(1e6);
-    std::this_thread::sleep_for(50ms);  // a reading being written when the stall began is logged by now
+    ASSERT_TRUE(emu.settle()) << "the emulator thread made no progress";  // a reading under way is logged
     const auto log = emu.log();
     test::eventually([&] {
       drain();
@@ -160,9 +163,12 @@ TEST(AutocollimatorDriver, StallCountsTimeoutsGoesLostAndRecovers) {
     SCOPED_TRACE(stream ? "stream" : "poll");
     Bench b(stream);
     ASSERT_TRUE(b.wait_samples(10));
-    b.emu.inject_stall(0.6);
+    // Silent until the driver has said it is lost (two 100 ms timeouts), however late this machine
+    // lets its thread see them; then answering again.
+    b.emu.inject_stall(1e6);
     ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::lost; }, 3s));
     EXPECT_NE(b.driver->status().reason.find("no reply"), std::string::npos);
+    b.emu.inject_stall(0.0);
     ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::streaming; }, 5s));
     const std::size_t before = b.samples.size();
     ASSERT_TRUE(b.wait_samples(before + 10));
@@ -193,6 +199,21 @@ TEST(AutocollimatorDriver, DisconnectReopensThePortWithBackoffAndLosesNothing) {
   }
 }
 
+// Unplugged, the stable name disappears (as a by-id link does): left pointing at the freed
+// /dev/pts/N, it would lead the reconnecting driver to whichever pty the kernel hands N next.
+TEST(AutocollimatorDriver, WhileUnpluggedTheLinkIsGoneAndTheDriverSaysSo) {
+  Bench b(false);
+  ASSERT_TRUE(b.wait_samples(5));
+  const std::string link = b.dir.file("ac0");
+  ASSERT_TRUE(std::filesystem::is_symlink(link));
+  b.emu.inject_disconnect(1e6);
+  ASSERT_TRUE(test::eventually([&] { return !std::filesystem::exists(std::filesystem::symlink_status(link)); }));
+  ASSERT_TRUE(test::eventually([&] {
+    const auto st = b.driver->status();
+    return st.state == DeviceState::lost && st.reason.find("No such file") != std::string::npos;
+  })) << b.driver->status().reason;
+}
+
 TEST(AutocollimatorDriver, BurstFasterThanThePollRateIsReceivedCompletely) {
   Bench b(false);
   ASSERT_TRUE(b.wait_samples(5));
@@ -203,15 +224,18 @@ TEST(AutocollimatorDriver, BurstFasterThanThePollRateIsReceivedCompletely) {
 }
 
 TEST(AutocollimatorDriver, NoReflectionAndOutOfRangeAreFlagsNotNumbers) {
-  // A mirror tilting slowly through the 600" range on X.
+  // A mirror tilting through the 600" range on X, 20" per reading: readings 0-4 over the range, 5-65
+  // within it, then over again. Stepped per reading, not per second, so that a slow start or a late
+  // reply on a loaded machine cannot carry it through the range unread.
+  auto readings = std::make_shared<std::atomic<int>>(0);
   Bench b(
       false, false,
-      [](double t) {
-        return emulators::AutocollimatorView{-700.0 + 4000.0 * t, 12.5, true};
+      [readings](double) {
+        return emulators::AutocollimatorView{-700.0 + 20.0 * (*readings)++, 12.5, true};
       },
       600.0);
   ASSERT_TRUE(b.wait_samples(30));
-  b.emu.inject_block(0.1);
+  b.emu.inject_block(1e6);  // the beam blocked until a blind reading was seen, however late it comes
   ASSERT_TRUE(test::eventually([&] {
     b.drain();
     for (const auto& s : b.samples) {
@@ -219,6 +243,7 @@ TEST(AutocollimatorDriver, NoReflectionAndOutOfRangeAreFlagsNotNumbers) {
     }
     return false;
   }));
+  b.emu.inject_block(0.0);
   ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
   std::size_t over = 0, blind = 0, valid = 0;
   for (const auto& s : b.samples) {

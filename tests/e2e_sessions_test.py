@@ -7,9 +7,10 @@ machine's configured errors (independent numpy references), the derived files id
 the same numbers (`guideway identify straightness|runout`, PyWavelets for the profile), and `status`
 shows zero overruns. Then a daemon killed with SIGKILL in the middle of a session leaves a readable
 .part recording, marked incomplete, whose data ends at most 100 ms before the kill.
-About 40 s on a quiet machine; on a heavily loaded one (load average 13 on 2 cores) the autocollimator
-link drops replies for over 0.45 s every few seconds, the straightness session rightly drops those
-traverses, and the test can take 2 minutes (measured 106 s).
+About 40 s on a quiet machine. The autocollimator's traverse is timed so that its pty, held up for up
+to a second on a heavily loaded machine, does not make the straightness session drop every traverse
+(TRAVERSE_ARGS below); at load 20 on 2 cores some still are (holes of 1.1-1.2 s seen), and the
+sessions took 85-90 s.
 Usage: e2e_sessions_test.py BUILD_DIR"""
 import glob
 import json
@@ -79,9 +80,27 @@ class Daemon:
         self.log.close()
 
 
+# The autocollimator's traverse, timed for a loaded machine. Its replies come through a pty, which a
+# loaded machine holds up for up to a second (measured: p99 0.68 s, max 0.97 s at load 24 on 2 cores,
+# a socketpair 0.8 ms); a gap in the readings longer than max_hole_s rightly makes the session drop
+# the traverse (it could hide a move), and with the default timing (0.45 s < 0.5 s moves) no traverse
+# got through in 150 s. So: holes up to 1 s, moves longer than that, dwells longer than a hole plus
+# min_dwell_s, return_gap_s longer than a move plus a hole (a late first reading lengthens a gap) and
+# the return longer still, replies waited for 0.4 s (lost after three, 1.2 s); 7 stations 100 mm
+# apart keep the cycle as short as the default's 13 (18.7 s against 18.4 s).
+TRAVERSE_ARGS = ["--step-mm", "100", "--dwell-s", "1.2", "--move-s", "1.1", "--return-s", "2.6"]
+TRAVERSE_OPTIONS = ["--set", "step_mm=100", "--set", "max_hole_s=1", "--set", "min_dwell_s=0.2",
+                    "--set", "return_gap_s=2.2"]
+STATIONS = 7
+
+
 def machine_config(tmp):
-    """The embedded default with every emulator on tests/e2e_sessions_machine.toml."""
+    """The embedded default with every emulator on tests/e2e_sessions_machine.toml (and the traverse above)."""
     text = subprocess.run([GUIDEWAYD, "--print-default-config"], capture_output=True, text=True, check=True).stdout
+    ac = 'args = ["--link", "{runtime_dir}/autocollimator.pty"]'
+    assert ac in text and "poll_period_ms = 50\n" in text, "the default config's autocollimator changed"
+    text = text.replace(ac, ac[:-1] + ", " + ", ".join(f'"{a}"' for a in TRAVERSE_ARGS) + "]")
+    text = text.replace("poll_period_ms = 50\n", "poll_period_ms = 50\nreply_timeout_ms = 400\n", 1)
     text = text.replace("args = [", f'args = ["--machine", "{MACHINE}", ')
     path = os.path.join(tmp, "e2e.toml")
     with open(path, "w") as f:
@@ -104,7 +123,8 @@ class EndToEndSessions(unittest.TestCase):
             # The three sessions run at once (one device each), every option at its default.
             # The profile session is told the cut's feed and spindle speed (the emulator's 2 mm/min at 100 rpm)
             # so that it can explain the profile.
-            extra = {"profile": ["--set", "feed_mm_per_min=2", "--set", "spindle_rpm=100"]}
+            extra = {"profile": ["--set", "feed_mm_per_min=2", "--set", "spindle_rpm=100"],
+                     "straightness": TRAVERSE_OPTIONS}
             procs = {kind: subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", kind, *extra.get(kind, []), "--wait",
                                              "--json", "--timeout", "150"], stdout=subprocess.PIPE,
                                             stderr=subprocess.PIPE, text=True)
@@ -177,7 +197,7 @@ class EndToEndSessions(unittest.TestCase):
         t = params["straightness"]
         e = self.latest_explain(d, t)
         self.assertEqual(e["findings"], [])
-        self.assertIn("13 stations", e["not_analysed"])
+        self.assertIn(f"{STATIONS} stations", e["not_analysed"])
         self.assertIn("not analysed: ", d.cli("explain", "--latest", "--kind", "straightness"))
         self.assertIn("Not analysed: ", self.session_report(d, t))
         # Run-out: likewise, so that every session's PARAMS is followed by an EXPLAIN.
@@ -197,13 +217,14 @@ class EndToEndSessions(unittest.TestCase):
 
     def check_straightness(self, d, p):
         # Truth: the reflector's slope is -(E_BX(x) + E_BY(0)) (pitch of X plus the roll of Y at y = 0,
-        # -200 urad) and its yaw E_CX(x), read at x = 0, 50, ..., 600 mm (the emulator's traverse).
-        self.assertEqual(p["traverse"]["stations"], 13)
-        x = np.arange(13) * 50.0
+        # -200 urad) and its yaw E_CX(x), read at x = 0, 100, ..., 600 mm (the emulator's traverse).
+        self.assertEqual(p["traverse"]["stations"], STATIONS)
+        step = 600.0 / (STATIONS - 1)
+        x = np.arange(STATIONS) * step
         truth = {"vertical": -(0.05 * x - 1e-4 * x ** 2 - 200) * 1e-6, "horizontal": -0.03 * x * 1e-6}
         for plane, slope in truth.items():
-            h = np.concatenate([[0], np.cumsum(50 * np.tan(slope))]) * 1e3  # um
-            expected = lsq_straightness(np.arange(14) * 50.0, h)
+            h = np.concatenate([[0], np.cumsum(step * np.tan(slope))]) * 1e3  # um
+            expected = lsq_straightness(np.arange(STATIONS + 1) * step, h)
             got = p["straightness"][f"{plane}_least_squares_um"]
             print(f"straightness {plane}: {got['value']:.4f} +/- {got['u']:.4f} um, machine {expected:.4f} um",
                   file=sys.stderr)

@@ -172,9 +172,10 @@ backoff_max_ms = 400
         self.assertTrue(wait_for(lambda: self.c.status()["prof"]["state"] == "lost", 3))
         lost = self.c.status()
         self.assertNotEqual(lost["mic-tcp"]["reason"], "")
-        self.assertEqual(lost["mic-rtu"]["state"], "streaming")
+        # The third keeps streaming. Waited for, not sampled once: its answers come through a pty, which
+        # a loaded machine can hold up past the 300 ms timeout long enough for a moment of "lost".
         n = lost["mic-rtu"]["counters"]["samples"]
-        self.assertTrue(wait_for(lambda: self.c.status()["mic-rtu"]["counters"]["samples"] > n + 10))
+        self.assertTrue(wait_for(lambda: self.streaming_with("mic-rtu", n + 10)), self.c.status()["mic-rtu"])
         for name in ("mic-tcp", "prof"):
             self.assertTrue(wait_for(lambda: self.c.status()[name]["state"] == "streaming"
                                      and self.c.status()[name]["counters"]["reconnects"] >= 1, 8),

@@ -209,7 +209,11 @@ TEST(Session, BadRequestsGetErrorsAndTheDaemonGoesOn) {
   EXPECT_EQ(c.request({{"class", "stop"}}, "SESSION")["message"], "no session is running");
   EXPECT_NE(c.request({{"class", "params"}}, "PARAMS")["message"].get<std::string>().find("no parameters"),
             std::string::npos);
-  EXPECT_EQ(c.request({{"class", "status"}}, "STATUS")["devices"][0]["state"], "streaming");
+  // The device still streams. Its driver thread may not have run yet when these requests are answered
+  // (the state is "connecting" until it does): waited for, not assumed.
+  EXPECT_TRUE(test::eventually([&] {
+    return c.request({{"class", "status"}}, "STATUS")["devices"][0]["state"] == "streaming";
+  }));
 }
 
 TEST(Session, UnwritableStateDirIsReportedAndIdentificationGoesOn) {

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -233,5 +234,23 @@ TEST(SocketServerBatch, OneLongLineIsNeverHeldAgainstAClientButABacklogBehindItI
   ASSERT_EQ(reasons.size(), 1u);
   EXPECT_NE(reasons[0].find("queue overflow"), std::string::npos);
   EXPECT_EQ(server.dropped_clients(), 1u);
+  ::close(fd);
+}
+
+// The socket's path appears only once the server listens, with its mode: a client that waits for
+// the path and connects at once is not refused (bound under a temporary name, renamed into place).
+TEST(SocketServerListen, ThePathAppearsListeningWithItsModeAndNoTemporaryNameIsLeft) {
+  guideway::test::TempDir dir;
+  EventLoop loop;
+  SocketServerOptions o;
+  o.unix_path = dir.file("s.sock");
+  o.unix_mode = 0600;
+  const SocketServer server(loop, o);
+  struct stat st {};
+  ASSERT_EQ(::stat(o.unix_path.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISSOCK(st.st_mode));
+  EXPECT_EQ(st.st_mode & 0777, 0600u);
+  EXPECT_FALSE(std::filesystem::exists(o.unix_path + ".new"));
+  const int fd = connect_unix(o.unix_path);  // before the loop ever ran: queued in the backlog
   ::close(fd);
 }

@@ -75,6 +75,13 @@ bool AutocollimatorEmulator::open_pty(std::string& error) {
 }
 
 void AutocollimatorEmulator::close_pty() {
+  // Unplugged, the link goes first (as udev removes /dev/serial/by-id/...): left in place it would
+  // name /dev/pts/N after N is freed, and the kernel gives the lowest free N to the next pty opened
+  // anywhere, so a driver reconnecting through it would talk to some other program's terminal.
+  if (!settings_.link.empty() && master_ >= 0) {
+    std::error_code ec;
+    if (std::filesystem::read_symlink(settings_.link, ec) == pty_path()) std::filesystem::remove(settings_.link, ec);
+  }
   if (master_ >= 0) ::close(master_);
   if (slave_keep_ >= 0) ::close(slave_keep_);
   master_ = slave_keep_ = -1;
@@ -119,6 +126,19 @@ void AutocollimatorEmulator::inject_stall(double seconds) {
 void AutocollimatorEmulator::inject_burst(int readings) { burst_ += readings; }
 void AutocollimatorEmulator::inject_block(double seconds) {
   block_until_ns_ = mono_now_ns() + static_cast<std::int64_t>(seconds * 1e9);
+}
+
+bool AutocollimatorEmulator::settle(std::chrono::milliseconds timeout) {
+  // The pass under way at the call ends before the next one begins: one more begun is enough.
+  const std::uint64_t target = passes_.load() + 1;
+  const std::uint64_t one = 1;
+  (void)!::write(wake_fd_, &one, sizeof one);  // no need to sit out the loop's poll timeout
+  const std::int64_t deadline = mono_now_ns() + std::chrono::nanoseconds(timeout).count();
+  while (passes_.load() < target) {
+    if (!running_ || mono_now_ns() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
 }
 
 std::vector<AutocollimatorSentReading> AutocollimatorEmulator::log() const {
@@ -215,6 +235,7 @@ void AutocollimatorEmulator::loop() {
   std::int64_t next_stream = mono_now_ns();
   std::int64_t reopen_at = -1;
   while (running_) {
+    passes_.fetch_add(1);
     const std::int64_t now = mono_now_ns();
     if (const double down = disconnect_down_s_.exchange(-1.0); down >= 0) {
       // Unplugged after the last line went through: wait (briefly) until the reader has taken

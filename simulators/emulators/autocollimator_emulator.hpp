@@ -2,11 +2,13 @@
 // An emulated TA80-style autocollimator on a pseudo-terminal: answers "a"/"r"/"z"/"c"/"s" requests
 // with the replies of autocollimator_protocol.hpp, its readings taken from an AutocollimatorSource
 // (the virtual machine tool). A disconnect closes the pty and opens a new one; `link` (a symlink
-// path, like /dev/serial/by-id/...) is re-pointed to the current pty so a driver can reopen it.
+// path, like /dev/serial/by-id/...) is removed while unplugged and then points to the new pty, so a
+// driver can reopen it.
 // Faults are injected from any thread; every reading sent is logged for the tests.
 // Thread safe: start/stop from one thread; the rest from any thread.
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <mutex>
@@ -62,6 +64,11 @@ class AutocollimatorEmulator {
   void inject_burst(int readings);                    // that many extra readings, back to back
   void inject_block(double seconds);                  // beam blocked: "----" (no reflection) for a while
 
+  // Returns once the emulator thread has finished what it was doing at the call (a reading being
+  // written then is in log() by now), so that after inject_stall() the log is final; false if the
+  // thread made no pass within the timeout.
+  bool settle(std::chrono::milliseconds timeout = std::chrono::seconds(10));
+
   [[nodiscard]] std::vector<AutocollimatorSentReading> log() const;
   [[nodiscard]] std::uint64_t requests() const noexcept { return requests_.load(); }
   [[nodiscard]] std::uint64_t opens() const noexcept { return opens_.load(); }
@@ -100,6 +107,7 @@ class AutocollimatorEmulator {
   std::vector<AutocollimatorSentReading> log_;
   std::atomic<std::uint64_t> requests_{0};
   std::atomic<std::uint64_t> opens_{0};
+  std::atomic<std::uint64_t> passes_{0};  // loop passes begun (settle())
 };
 
 }  // namespace guideway::emulators
