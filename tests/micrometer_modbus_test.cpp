@@ -427,7 +427,8 @@ TEST_P(MicrometerBuffered, CountsAndFlagsALappedRing) {
   EXPECT_EQ(own, (std::map<std::string, std::uint64_t>{{"exceptions", h.driver->exceptions()},
                                                        {"ring_overruns", h.driver->ring_overruns()},
                                                        {"lost_samples", h.driver->lost_samples()},
-                                                       {"counter_resets", 0}}));
+                                                       {"counter_resets", 0},
+                                                       {"stale_answers", 0}}));
   h.expect_consistent(1'000'000'000);
 }
 
@@ -549,4 +550,23 @@ TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
             std::string::npos);
   EXPECT_NE(error("port = 1502\n" + buffer + "ring_size = 4\n").find("mic.toml:7: device[0].buffer.ring_size"),
             std::string::npos);
+}
+
+// An answer that comes after the driver gave up on it (500 ms, timeout 400 ms) is never taken for the
+// next request's: RTU has no transaction id, so the driver first brings the line back in step; TCP's
+// transaction id does it. Every published reading is one the emulator answered in time, in order.
+TEST_P(MicrometerTransport, ALateAnswerIsNeverTakenForTheNextRequest) {
+  Harness h(GetParam());
+  h.driver->start();
+  ASSERT_TRUE(h.wait_samples(10));
+  const auto before = h.driver->status().counters;
+  h.emulator->inject(ModbusFault::late, 2);
+  const std::size_t have = h.samples.size();
+  ASSERT_TRUE(h.wait_samples(have + 30));
+  EXPECT_GE(h.driver->status().counters.timeouts, before.timeouts + 2);
+  if (GetParam()) {
+    EXPECT_GE(test::driver_counters_by_name(h.driver->status()).at("stale_answers"), 1u)
+        << "the late answers were discarded, not merely missed";
+  }
+  h.expect_matches_served();
 }

@@ -73,6 +73,7 @@ MicrometerDriver::~MicrometerDriver() { stop(); }
 
 void MicrometerDriver::run(std::stop_token stop) {
   modbus::ModbusClient client(config_.endpoint);
+  stale_seen_ = 0;  // a new client counts from 0
   auto backoff = config_.backoff_initial;
   bool ever_connected = false;
   bool gap = false;  // polled mode: the next sample follows a reconnect or a failed poll
@@ -115,6 +116,7 @@ std::string MicrometerDriver::stream_polled(const std::stop_token& stop, modbus:
   while (!stop.stop_requested()) {
     client.flush();  // stray or duplicated answers must not be taken for the next one
     const modbus::ReadResult r = client.read(config_.map.function, start, count, block);
+    count_stale(client);
     const std::int64_t t = mono_now_ns();
     if (r.status == modbus::ReadStatus::ok) {
       frames_.fetch_add(1, std::memory_order_relaxed);
@@ -156,6 +158,14 @@ std::string MicrometerDriver::count_failure(const modbus::ReadResult& r) {
   return std::string(modbus::to_string(r.status)) + ": " + r.message;
 }
 
+void MicrometerDriver::count_stale(const modbus::ModbusClient& client) noexcept {
+  const std::uint64_t n = client.stale_answers();
+  if (n == stale_seen_) return;
+  bad_frames_.fetch_add(n - stale_seen_, std::memory_order_relaxed);
+  stale_answers_.fetch_add(n - stale_seen_, std::memory_order_relaxed);
+  stale_seen_ = n;
+}
+
 void MicrometerDriver::lose(RingCursor& cursor, std::uint64_t n) noexcept {
   if (n == 0) return;
   // One overrun per poll that found samples overwritten, however many of its reads saw it; counted
@@ -193,6 +203,7 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
   auto read_counter = [&]() -> bool {
     const std::int64_t t_query = mono_now_ns();
     const modbus::ReadResult r = client.read(ring.function, ring.counter_address, 2, block);
+    count_stale(client);
     const std::int64_t t_answer = mono_now_ns();
     if (r.status != modbus::ReadStatus::ok) {
       failed(r);
@@ -266,6 +277,7 @@ std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbu
       const std::int64_t t_counter = cursor.last_query_ns;
       for (const modbus::RingRead& rr : modbus::plan_ring_reads(ring, cursor.next, count)) {
         const modbus::ReadResult r = client.read(ring.function, rr.address, rr.count, block);
+        count_stale(client);
         if (r.status != modbus::ReadStatus::ok) {
           failed(r);
           ok = false;

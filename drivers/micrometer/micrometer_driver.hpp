@@ -56,7 +56,8 @@ class MicrometerDriver : public drivers::Driver {
     return {{"exceptions", exceptions()},
             {"ring_overruns", ring_overruns()},
             {"lost_samples", lost},
-            {"counter_resets", counter_resets()}};
+            {"counter_resets", counter_resets()},
+            {"stale_answers", stale_answers_.load(std::memory_order_relaxed)}};
   }
 
  protected:
@@ -73,12 +74,16 @@ class MicrometerDriver : public drivers::Driver {
   // frame), and the reason to report.
   std::string count_failure(const modbus::ReadResult& r);
   void lose(RingCursor& cursor, std::uint64_t n) noexcept;
+  // Takes the late answers the client discarded since the last call into the counters.
+  void count_stale(const modbus::ModbusClient& client) noexcept;
 
   MicrometerConfig config_;
   std::atomic<std::uint64_t> exceptions_{0};
   std::atomic<std::uint64_t> ring_overruns_{0};
   std::atomic<std::uint64_t> lost_samples_{0};
   std::atomic<std::uint64_t> counter_resets_{0};
+  std::atomic<std::uint64_t> stale_answers_{0};  // RTU: late answers discarded before a read (also bad frames)
+  std::uint64_t stale_seen_ = 0;                 // the client's count already taken (driver thread only)
 };
 
 void register_micrometer_driver(drivers::DriverRegistry& registry);

@@ -85,15 +85,9 @@ void ModbusClient::close() noexcept {
   ctx_ = nullptr;
 }
 
-ReadResult ModbusClient::read(RegisterFunction function, std::uint16_t address, std::uint16_t count,
-                              std::span<std::uint16_t> out) noexcept {
-  if (!ctx_) return {ReadStatus::disconnected, 0, "not connected"};
-  if (out.size() < count) return {ReadStatus::bad_frame, 0, "output buffer too small"};
-  const int rc = function == RegisterFunction::holding ? modbus_read_registers(ctx_, address, count, out.data())
-                                                       : modbus_read_input_registers(ctx_, address, count, out.data());
-  if (rc == count) return {};
-  if (rc >= 0) return {ReadStatus::bad_frame, 0, "short answer: " + std::to_string(rc) + " registers"};
-  const int err = errno;
+namespace {
+
+ReadResult classify(int err) {
   ReadResult r;
   r.message = modbus_strerror(err);
   if (err == ETIMEDOUT) {
@@ -108,6 +102,74 @@ ReadResult ModbusClient::read(RegisterFunction function, std::uint16_t address, 
     r.status = ReadStatus::disconnected;  // ECONNRESET, EPIPE, EIO, EBADF: the link is gone
   }
   return r;
+}
+
+}  // namespace
+
+ReadResult ModbusClient::read(RegisterFunction function, std::uint16_t address, std::uint16_t count,
+                              std::span<std::uint16_t> out) noexcept {
+  if (!ctx_) return {ReadStatus::disconnected, 0, "not connected"};
+  if (out.size() < count) return {ReadStatus::bad_frame, 0, "output buffer too small"};
+  if (resync_needed_) {
+    ReadResult failure;
+    if (!resync(failure)) return failure;
+  }
+  const int rc = function == RegisterFunction::holding ? modbus_read_registers(ctx_, address, count, out.data())
+                                                       : modbus_read_input_registers(ctx_, address, count, out.data());
+  if (rc == count) return {};
+  resync_needed_ = endpoint_.kind == ModbusEndpoint::Kind::rtu;
+  if (rc >= 0) return {ReadStatus::bad_frame, 0, "short answer: " + std::to_string(rc) + " registers"};
+  const ReadResult r = classify(errno);
+  if (r.status == ReadStatus::exception) resync_needed_ = false;  // an answer: the line is in step
+  return r;
+}
+
+bool ModbusClient::resync(ReadResult& failure) noexcept {
+  constexpr std::uint8_t report_server_id = 0x11;
+  const std::uint8_t probe[] = {static_cast<std::uint8_t>(endpoint_.unit_id), report_server_id};
+  modbus_flush(ctx_);
+  if (modbus_send_raw_request(ctx_, probe, sizeof probe) < 0) {
+    failure = classify(errno);
+    return false;
+  }
+  // Frames come in order: the failed requests' late answers first, then the probe's (which can
+  // never pass for a register read, however late). Stale frames, then a whole response timeout of
+  // silence: in step. Silence from the start is a failed read (a server gone away is declared lost as
+  // soon as without the probe) and the next read probes again; after two silent probes the server is
+  // taken to ignore FC 17 against the standard, and reads go on without (a late answer would then have
+  // to be three timeouts late to be mistaken).
+  std::uint8_t frame[MODBUS_MAX_ADU_LENGTH];
+  bool heard = false;
+  for (int frames = 0; frames < 64; ++frames) {
+    const int n = modbus_receive_confirmation(ctx_, frame);
+    if (n > 1 && (frame[1] & 0x7f) == report_server_id) break;
+    if (n > 0) {
+      heard = true;
+      ++stale_answers_;
+      continue;
+    }
+    const int err = errno;
+    if (err == ETIMEDOUT) {
+      if (heard) break;
+      if (++silent_probes_ >= 2) {
+        silent_probes_ = 0;
+        resync_needed_ = false;
+      }
+      failure = classify(err);
+      return false;
+    }
+    heard = true;
+    const ReadResult r = classify(err);
+    if (r.status == ReadStatus::disconnected) {
+      failure = r;
+      return false;
+    }
+    ++stale_answers_;  // a damaged frame: drop what is left of it and go on
+    modbus_flush(ctx_);
+  }
+  resync_needed_ = false;
+  silent_probes_ = 0;
+  return true;
 }
 
 void ModbusClient::flush() noexcept {

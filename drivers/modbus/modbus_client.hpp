@@ -58,11 +58,22 @@ class ModbusClient {
                   std::span<std::uint16_t> out) noexcept;
   // Discards whatever is pending on the line (after a bad frame, so the next answer is in step).
   void flush() noexcept;
+  // RTU answers carry no transaction id: after a timeout or a bad frame the failed request's answer
+  // may still come, and would be taken for the next request of the same size. So the next read first
+  // asks for the server id (FC 17, answered with it or an exception, never like a register read) and
+  // discards every frame before that answer. Counts the frames so discarded.
+  [[nodiscard]] std::uint64_t stale_answers() const noexcept { return stale_answers_; }
   [[nodiscard]] const ModbusEndpoint& endpoint() const noexcept { return endpoint_; }
 
  private:
+  // False when the line could not be brought back in step (nothing answered, or the link is gone).
+  bool resync(ReadResult& failure) noexcept;
+
   ModbusEndpoint endpoint_;
   _modbus* ctx_ = nullptr;
+  bool resync_needed_ = false;  // RTU: the last read failed, its answer may still be on the way
+  int silent_probes_ = 0;       // probes in a row that nothing answered
+  std::uint64_t stale_answers_ = 0;
 };
 
 }  // namespace guideway::modbus

@@ -17,6 +17,7 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <thread>
 
 #include "core/sample.hpp"
 
@@ -96,13 +97,15 @@ std::string_view to_string(ModbusFault f) noexcept {
       return "bad_crc";
     case ModbusFault::burst:
       return "burst";
+    case ModbusFault::late:
+      return "late";
   }
   return "?";
 }
 
 bool modbus_fault_from_string(std::string_view s, ModbusFault& out) noexcept {
   for (ModbusFault f : {ModbusFault::exception, ModbusFault::stall, ModbusFault::garbage, ModbusFault::truncate,
-                        ModbusFault::bad_crc, ModbusFault::burst}) {
+                        ModbusFault::bad_crc, ModbusFault::burst, ModbusFault::late}) {
     if (to_string(f) == s) {
       out = f;
       return true;
@@ -389,15 +392,15 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
   }
   std::optional<ModbusFault> fault;
   if (line_down()) return;  // RTU: the bridge drops the answer anyway; TCP closes before reaching here
-  {
+  const int fc = length > hl ? query[hl] : 0;
+  const bool register_read = (fc == 3 || fc == 4) && length >= hl + 5;
+  if (register_read) {  // faults are for register reads: other requests (a master's FC 17) pass by them
     std::lock_guard lock(mutex_);
     if (!pending_.empty()) {
       fault = pending_.front();
       pending_.pop_front();
     }
   }
-  const int fc = length > hl ? query[hl] : 0;
-  const bool register_read = (fc == 3 || fc == 4) && length >= hl + 5;
   auto record = [&] {
     const modbus::Reading r = modbus::decode_registers(map, block);
     const std::uint16_t start = static_cast<std::uint16_t>((query[hl + 1] << 8) | query[hl + 2]);
@@ -415,6 +418,11 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
       modbus_reply_exception(ctx, query, MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY);
       return;
     case ModbusFault::stall:
+      return;
+    case ModbusFault::late:
+      // The right answer after the client gave up on it: not served (the driver must not take it).
+      std::this_thread::sleep_for(options_.late_answer_ms);
+      modbus_reply(ctx, query, length, mapping);
       return;
     default:
       break;
@@ -495,7 +503,7 @@ bool apply_micrometer_command(MicrometerEmulator& emulator, const std::string& l
     if (!(in >> count)) count = 1;
     ModbusFault f{};
     if (!modbus_fault_from_string(name, f) || count < 1) {
-      message = "unknown fault \"" + name + "\" (exception, stall, garbage, truncate, bad_crc, burst)";
+      message = "unknown fault \"" + name + "\" (exception, stall, garbage, truncate, bad_crc, burst, late)";
       return false;
     }
     emulator.inject(f, count);

@@ -40,6 +40,7 @@ enum class ModbusFault {
   truncate,   // the first half of the answer only
   bad_crc,    // RTU: answer with a wrong CRC; TCP (no CRC): a damaged transaction id
   burst,      // the answer three times in a row (frames faster than the poll rate)
+  late,       // the right answer, but late_answer_ms late (after the client gave up on it)
 };
 std::string_view to_string(ModbusFault f) noexcept;
 bool modbus_fault_from_string(std::string_view s, ModbusFault& out) noexcept;
@@ -61,6 +62,8 @@ class MicrometerEmulator {
     // start + k / rate, numbered ring_counter_start + k (mod 2^32) in the counter.
     std::optional<modbus::SampleRingMap> ring;
     std::uint32_t ring_counter_start = 0;
+    // How late a `late` answer comes; the server answers nothing else meanwhile, like a slow device.
+    std::chrono::milliseconds late_answer_ms{500};
   };
   explicit MicrometerEmulator(Options options);
   ~MicrometerEmulator();
@@ -73,7 +76,7 @@ class MicrometerEmulator {
   std::string start_rtu(int baud, char parity, int data_bits, int stop_bits, std::string& error);
   void stop();
 
-  // The next `count` requests get fault f (queued after faults already pending).
+  // The next `count` register reads get fault f (queued after faults already pending).
   void inject(ModbusFault f, int count = 1);
   // The line goes dead for d: TCP closes the connection and refuses new ones; RTU drops all bytes.
   void disconnect_for(std::chrono::milliseconds d);
