@@ -17,6 +17,10 @@ namespace {
 // Why a replayed result may differ from a whole session's (the live daemon published none for it).
 std::string incomplete_note(const daemon::ReplayResult& r) {
   if (r.complete) return "";
+  if (r.samples_lost > 0) {
+    return " (the recording lost " + std::to_string(r.samples_lost) +
+           " samples the disk refused: the live session saw them, so its result may differ)";
+  }
   if (r.end_marker == "aborted") {
     return " (recording marked aborted: the daemon stopped mid-session, or the live identification failed)";
   }

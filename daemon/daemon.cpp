@@ -1,7 +1,9 @@
 #include "daemon/daemon.hpp"
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/eventfd.h>
+#include <sys/file.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
 
@@ -68,9 +70,34 @@ std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& conf
   return out;
 }
 
+Daemon::InstanceLock::InstanceLock(const std::string& socket_path) {
+  if (socket_path.empty()) return;  // no Unix socket: nothing shared to guard
+  const std::string path = socket_path + ".lock";
+  std::error_code ec;
+  if (const auto parent = std::filesystem::path(path).parent_path(); !parent.empty())
+    std::filesystem::create_directories(parent, ec);  // the socket's own creation reports a failure
+  fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+  if (fd < 0) throw std::system_error(errno, std::generic_category(), "open " + path);
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(fd);
+    if (err == EWOULDBLOCK)
+      throw std::runtime_error("another daemon is already listening on " + socket_path + " (it holds " + path + ")");
+    throw std::system_error(err, std::generic_category(), "flock " + path);
+  }
+}
+
+Daemon::InstanceLock::~InstanceLock() {
+  if (fd >= 0) ::close(fd);
+}
+
 Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
-    : config_(std::move(config)), log_(std::move(logger)), options_(options), outbox_(65536) {
+    : config_(std::move(config)),
+      log_(std::move(logger)),
+      options_(options),
+      instance_lock_(config_.socket_path),
+      outbox_(65536) {
   // Before the emulators start: theirs would replace the running daemon's endpoints (CAN socket,
   // pty link) in the same runtime directory, and its devices could not reconnect.
   if (unix_socket_answers(config_.socket_path)) {

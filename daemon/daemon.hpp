@@ -70,9 +70,20 @@ class Daemon {
   nlohmann::json sessions_json() const;
   std::string status_line() const;
 
+  // An exclusive flock on SOCKET_PATH.lock held for the daemon's life, taken before anything starts:
+  // two daemons started at once on one path cannot both pass the "nobody answers" check.
+  struct InstanceLock {
+    int fd = -1;
+    explicit InstanceLock(const std::string& socket_path);
+    ~InstanceLock();
+    InstanceLock(const InstanceLock&) = delete;
+    InstanceLock& operator=(const InstanceLock&) = delete;
+  };
+
   DaemonConfig config_;
   std::shared_ptr<spdlog::logger> log_;
   DaemonOptions options_;
+  InstanceLock instance_lock_;  // before the emulators, the devices and the socket: released last
   std::vector<std::unique_ptr<EmulatorProcess>> emulators_;  // before devices_: outlives the drivers
   std::vector<std::unique_ptr<drivers::Driver>> devices_;
   EventLoop loop_;

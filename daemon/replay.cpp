@@ -65,6 +65,16 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   const auto end = t.metadata.find("end");
   result.complete = end != t.metadata.end() && end->second == "complete" && !path.ends_with(".part");
   if (end != t.metadata.end()) result.end_marker = end->second;
+  // Rows the recorder dropped (a disk that refused them for long): the live session saw them, the
+  // replay cannot, so its result is not the live one.
+  if (const auto lost = t.metadata.find("samples_lost"); lost != t.metadata.end()) {
+    try {
+      result.samples_lost = std::stoull(lost->second);
+    } catch (const std::exception&) {
+      throw std::runtime_error(path + ": samples_lost: not a count: '" + lost->second + "'");
+    }
+    if (result.samples_lost > 0) result.complete = false;
+  }
 
   // Columns t_mono_ns, seq, flags, then <channel>_<unit>.
   const std::size_t t_col = t.column("t_mono_ns");

@@ -5,6 +5,7 @@
 // is the PARAMS the live session published. Like gpsd's gpsfake, it makes every live result
 // reproducible and regression-testable offline.
 
+#include <cstdint>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -21,8 +22,9 @@ struct ReplayResult {
   std::string explain_failure;  // why the explanation failed (the live explain_failed reason)
   std::string failure;          // why identification failed (the live session's session_failed reason)
   std::size_t samples = 0;      // samples replayed
-  bool complete = true;         // false: a .part, no `# end =` trailer, or `end = aborted`
+  bool complete = true;         // false: a .part, no `# end =` trailer, `end = aborted`, or samples lost
   std::string end_marker;       // the trailer's `end` (complete, aborted), "" when there is none
+  std::uint64_t samples_lost = 0;  // the trailer's `samples_lost`: rows the recorder could not write
   std::size_t dropped_partial_line = 0;  // 1 when a last line without its newline was ignored (a kill)
 };
 

@@ -28,13 +28,16 @@ namespace {
 bool unix_socket_answers(const std::string& path) {
   sockaddr_un addr{};
   if (path.size() >= sizeof(addr.sun_path)) return false;
-  const int probe = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  const int probe = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (probe < 0) return false;
   addr.sun_family = AF_UNIX;
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  const bool alive = connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0;
+  // Dead only when the kernel says nobody listens (ECONNREFUSED) or there is no file (ENOENT): a full
+  // backlog (EAGAIN; never waited on) or a socket this user may not open (EACCES) is a live daemon.
+  const bool dead = connect(probe, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 &&
+                    (errno == ECONNREFUSED || errno == ENOENT);
   close(probe);
-  return alive;
+  return !dead;
 }
 
 SocketServer::SocketServer(EventLoop& loop, SocketServerOptions options) : loop_(loop), options_(std::move(options)) {

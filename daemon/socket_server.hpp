@@ -31,8 +31,9 @@ struct SocketServerOptions {
 
 using ClientId = std::uint64_t;
 
-// True when something accepts connections on the Unix socket `path` (a running daemon); false for
-// no file or a socket file a dead daemon left.
+// True when something accepts connections on the Unix socket `path` (a running daemon), or may (a
+// full backlog, a socket this user may not connect to); false for no file or a socket file a dead
+// daemon left.
 bool unix_socket_answers(const std::string& path);
 
 class SocketServer {

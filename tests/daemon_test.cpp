@@ -257,3 +257,24 @@ TEST(Daemon, RefusesToStealTheSocketOfALiveDaemon) {
   DaemonClient c(rd.socket);  // the first one still answers
   EXPECT_EQ(c.banner()["class"], "VERSION");
 }
+
+// Two daemons starting at once can both find nobody answering on the path (the first has not bound
+// it yet): the instance lock, taken before anything starts, keeps the second out all the same.
+TEST(Daemon, TheInstanceLockKeepsASecondDaemonOutBeforeTheSocketAnswers) {
+  RunningDaemon rd;
+  const std::string moved = rd.socket + ".moved";
+  ASSERT_EQ(std::rename(rd.socket.c_str(), moved.c_str()), 0);  // nobody answers on the path now
+  auto config = daemon::parse_config("[daemon]\nsocket = \"" + rd.socket + "\"\n", "t.toml");
+  drivers::DriverRegistry registry;
+  auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
+  try {
+    daemon::SessionRegistry sessions;
+    daemon::Daemon second(std::move(config), registry, sessions, log);
+    FAIL() << "a second daemon started while the first held the lock";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(".lock"), std::string::npos) << e.what();
+  }
+  ASSERT_EQ(std::rename(moved.c_str(), rd.socket.c_str()), 0);
+  DaemonClient c(rd.socket);
+  EXPECT_EQ(c.banner()["class"], "VERSION");
+}

@@ -152,6 +152,11 @@ class GuidewaydProcess(unittest.TestCase):
             f.write(text[:text.index("# end =")])
         out = self.guideway("replay", cut)
         self.assertIn("incomplete recording", out.stdout + out.stderr)
+        holed = os.path.join(self.tmp.name, "holed.csv")  # a disk that refused rows for long
+        with open(holed, "w") as f:
+            f.write(text.replace("# samples_lost = 0", "# samples_lost = 12"))
+        out = self.guideway("replay", holed)
+        self.assertIn("lost 12 samples", out.stdout)
 
     def test_docs_example_client_prints_published_params(self):
         """docs/example_client.py, as the docs run it, against the default (emulated) daemon."""

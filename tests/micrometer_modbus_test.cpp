@@ -35,9 +35,11 @@ std::string start_transport(MicrometerEmulator& emulator, bool rtu) {
 }
 
 struct Harness {
-  explicit Harness(bool rtu, emulators::MicrometerSource source = emulators::runout_source(120.0)) {
+  explicit Harness(bool rtu, emulators::MicrometerSource source = emulators::runout_source(120.0),
+                   bool answers_report_server_id = true) {
     MicrometerEmulator::Options o;
     o.source = std::move(source);
+    o.answers_report_server_id = answers_report_server_id;
     emulator = std::make_unique<MicrometerEmulator>(o);
     const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(transport +
@@ -552,7 +554,7 @@ TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
             std::string::npos);
 }
 
-// An answer that comes after the driver gave up on it (500 ms, timeout 400 ms) is never taken for the
+// An answer that comes after the driver gave up on it (700 ms, timeout 400 ms) is never taken for the
 // next request's: RTU has no transaction id, so the driver first brings the line back in step; TCP's
 // transaction id does it. Every published reading is one the emulator answered in time, in order.
 TEST_P(MicrometerTransport, ALateAnswerIsNeverTakenForTheNextRequest) {
@@ -568,5 +570,24 @@ TEST_P(MicrometerTransport, ALateAnswerIsNeverTakenForTheNextRequest) {
     EXPECT_GE(test::driver_counters_by_name(h.driver->status()).at("stale_answers"), 1u)
         << "the late answers were discarded, not merely missed";
   }
+  h.expect_matches_served();
+}
+
+// A server that ignores Report Server ID (no exception answer, against the standard): one timeout
+// costs the read and the silent probe, two failures of the three that declare the link lost; the next
+// read is answered, so the server is not probed again and the link never drops.
+TEST(MicrometerRtu, AServerIgnoringTheProbeIsReadOnWithoutIt) {
+  Harness h(true, emulators::runout_source(120.0), false);
+  h.driver->start();
+  ASSERT_TRUE(h.wait_samples(10));
+  for (int round = 0; round < 2; ++round) {
+    h.emulator->inject(ModbusFault::stall, 1);
+    const std::size_t have = h.samples.size();
+    ASSERT_TRUE(h.wait_samples(have + 20));
+  }
+  const auto st = h.driver->status();
+  EXPECT_EQ(st.counters.reconnects, 0u);
+  EXPECT_EQ(st.state, drivers::DeviceState::streaming);
+  EXPECT_GE(st.counters.timeouts, 3u) << "the first stall and its silent probe, then the second stall alone";
   h.expect_matches_served();
 }

@@ -54,6 +54,8 @@ ModbusClient::~ModbusClient() { close(); }
 
 bool ModbusClient::connect(std::string& error) {
   close();
+  in_step();  // a new line: nothing outstanding, and what the server supports is learnt again
+  probe_ignored_ = false;
   modbus_t* ctx = endpoint_.kind == ModbusEndpoint::Kind::tcp
                       ? modbus_new_tcp(endpoint_.host.c_str(), endpoint_.port)
                       : modbus_new_rtu(endpoint_.device.c_str(), endpoint_.baud, endpoint_.parity, endpoint_.data_bits,
@@ -110,13 +112,19 @@ ReadResult ModbusClient::read(RegisterFunction function, std::uint16_t address, 
                               std::span<std::uint16_t> out) noexcept {
   if (!ctx_) return {ReadStatus::disconnected, 0, "not connected"};
   if (out.size() < count) return {ReadStatus::bad_frame, 0, "output buffer too small"};
-  if (resync_needed_) {
+  if (resync_needed_ && !probe_ignored_) {
     ReadResult failure;
     if (!resync(failure)) return failure;
   }
   const int rc = function == RegisterFunction::holding ? modbus_read_registers(ctx_, address, count, out.data())
                                                        : modbus_read_input_registers(ctx_, address, count, out.data());
-  if (rc == count) return {};
+  if (rc == count) {
+    // Answered in step right after a probe nothing answered: the server ignores FC 17 (against the
+    // standard, which asks for an exception); from now on no probe, flushing only.
+    if (silent_probe_) probe_ignored_ = true;
+    silent_probe_ = false;
+    return {};
+  }
   resync_needed_ = endpoint_.kind == ModbusEndpoint::Kind::rtu;
   if (rc >= 0) return {ReadStatus::bad_frame, 0, "short answer: " + std::to_string(rc) + " registers"};
   const ReadResult r = classify(errno);
@@ -132,44 +140,56 @@ bool ModbusClient::resync(ReadResult& failure) noexcept {
     failure = classify(errno);
     return false;
   }
-  // Frames come in order: the failed requests' late answers first, then the probe's (which can
-  // never pass for a register read, however late). Stale frames, then a whole response timeout of
-  // silence: in step. Silence from the start is a failed read (a server gone away is declared lost as
-  // soon as without the probe) and the next read probes again; after two silent probes the server is
-  // taken to ignore FC 17 against the standard, and reads go on without (a late answer would then have
-  // to be three timeouts late to be mistaken).
+  ++probes_unanswered_;
+  // Frames come in order: the failed requests' late answers first, then the probes' answers (which
+  // can never pass for a register read, however late: a wrong function code). In step once every
+  // probe sent since the line was last in step is answered, or once stale frames are followed by a
+  // whole response timeout of silence (a probe's answer that was taken by a failed read).
   std::uint8_t frame[MODBUS_MAX_ADU_LENGTH];
   bool heard = false;
   for (int frames = 0; frames < 64; ++frames) {
     const int n = modbus_receive_confirmation(ctx_, frame);
-    if (n > 1 && (frame[1] & 0x7f) == report_server_id) break;
-    if (n > 0) {
+    if (n > 1 && (frame[1] & 0x7f) == report_server_id) {
+      if (--probes_unanswered_ > 0) continue;
+      in_step();
+      return true;
+    }
+    if (n >= 0) {  // a register answer, or (0) a frame for another unit or a cut tail: stale
       heard = true;
       ++stale_answers_;
       continue;
     }
     const int err = errno;
     if (err == ETIMEDOUT) {
-      if (heard) break;
-      if (++silent_probes_ >= 2) {
-        silent_probes_ = 0;
-        resync_needed_ = false;
+      if (heard) {
+        in_step();
+        return true;
       }
+      // Nothing at all: a failed read (a server gone away is declared lost as soon as without the
+      // probe). The next read goes without a probe; answered, it shows the server ignores FC 17.
+      silent_probe_ = true;
+      resync_needed_ = false;
+      probes_unanswered_ = 0;
       failure = classify(err);
       return false;
     }
-    heard = true;
     const ReadResult r = classify(err);
     if (r.status == ReadStatus::disconnected) {
       failure = r;
       return false;
     }
+    heard = true;
     ++stale_answers_;  // a damaged frame: drop what is left of it and go on
     modbus_flush(ctx_);
   }
+  failure = {ReadStatus::bad_frame, 0, "64 frames while waiting for the answer to Report Server ID"};
+  return false;  // still out of step: the next read probes again
+}
+
+void ModbusClient::in_step() noexcept {
   resync_needed_ = false;
-  silent_probes_ = 0;
-  return true;
+  silent_probe_ = false;
+  probes_unanswered_ = 0;
 }
 
 void ModbusClient::flush() noexcept {

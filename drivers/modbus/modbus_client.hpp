@@ -61,18 +61,24 @@ class ModbusClient {
   // RTU answers carry no transaction id: after a timeout or a bad frame the failed request's answer
   // may still come, and would be taken for the next request of the same size. So the next read first
   // asks for the server id (FC 17, answered with it or an exception, never like a register read) and
-  // discards every frame before that answer. Counts the frames so discarded.
+  // discards every frame before that answer. Counts the frames so discarded (late answers, damaged
+  // frames, frames for another unit).
   [[nodiscard]] std::uint64_t stale_answers() const noexcept { return stale_answers_; }
+  // The server answered a read right after ignoring a probe: it ignores FC 17, and is not probed again.
+  [[nodiscard]] bool probe_ignored() const noexcept { return probe_ignored_; }
   [[nodiscard]] const ModbusEndpoint& endpoint() const noexcept { return endpoint_; }
 
  private:
   // False when the line could not be brought back in step (nothing answered, or the link is gone).
   bool resync(ReadResult& failure) noexcept;
+  void in_step() noexcept;
 
   ModbusEndpoint endpoint_;
   _modbus* ctx_ = nullptr;
   bool resync_needed_ = false;  // RTU: the last read failed, its answer may still be on the way
-  int silent_probes_ = 0;       // probes in a row that nothing answered
+  int probes_unanswered_ = 0;   // probes sent since the line was last in step, not yet answered
+  bool silent_probe_ = false;   // the last probe heard nothing at all
+  bool probe_ignored_ = false;  // sticky: the server ignores FC 17
   std::uint64_t stale_answers_ = 0;
 };
 

@@ -394,6 +394,7 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
   if (line_down()) return;  // RTU: the bridge drops the answer anyway; TCP closes before reaching here
   const int fc = length > hl ? query[hl] : 0;
   const bool register_read = (fc == 3 || fc == 4) && length >= hl + 5;
+  if (fc == 0x11 && !options_.answers_report_server_id) return;
   if (register_read) {  // faults are for register reads: other requests (a master's FC 17) pass by them
     std::lock_guard lock(mutex_);
     if (!pending_.empty()) {

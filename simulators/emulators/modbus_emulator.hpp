@@ -63,7 +63,10 @@ class MicrometerEmulator {
     std::optional<modbus::SampleRingMap> ring;
     std::uint32_t ring_counter_start = 0;
     // How late a `late` answer comes; the server answers nothing else meanwhile, like a slow device.
-    std::chrono::milliseconds late_answer_ms{500};
+    std::chrono::milliseconds late_answer_ms{700};
+    // false: Report Server ID (FC 17) goes unanswered, like a server that ignores what it does not
+    // implement instead of answering an exception as the standard asks.
+    bool answers_report_server_id = true;
   };
   explicit MicrometerEmulator(Options options);
   ~MicrometerEmulator();
