@@ -34,8 +34,16 @@ class GuidewaydProcess(unittest.TestCase):
     def tearDown(self):
         self.tmp.cleanup()
 
-    def start(self, *args, env=None):
+    def isolated_env(self):
+        """The environment with the state directory in the test's own tree: sessions these tests run
+        must not add recordings to the user's (`guideway recordings` of a real daemon lists them)."""
         e = dict(os.environ)
+        e.pop("STATE_DIRECTORY", None)
+        e["XDG_STATE_HOME"] = os.path.join(self.tmp.name, "state")
+        return e
+
+    def start(self, *args, env=None):
+        e = self.isolated_env()
         e.pop("NOTIFY_SOCKET", None)
         e.update(env or {})
         p = subprocess.Popen([GUIDEWAYD, "--socket", self.sock, *args], env=e,
@@ -232,7 +240,7 @@ class GuidewaydProcess(unittest.TestCase):
         self.addCleanup(ns.close)
         # WATCHDOG_PID must name the daemon: start it through a shell that execs, so the pid is known.
         cmd = f'WATCHDOG_PID=$$ exec "{GUIDEWAYD}" --socket "{self.sock}"'
-        p = subprocess.Popen(["/bin/sh", "-c", cmd], env={**os.environ, "NOTIFY_SOCKET": notify_path,
+        p = subprocess.Popen(["/bin/sh", "-c", cmd], env={**self.isolated_env(), "NOTIFY_SOCKET": notify_path,
                                                           "WATCHDOG_USEC": "200000"},
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self.addCleanup(lambda: p.poll() is None and p.kill())
