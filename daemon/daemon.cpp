@@ -232,7 +232,7 @@ void Daemon::periodic(std::int64_t now_ns) {
     last_status_ns_ = now_ns;
     last_stats_ = pipeline_->take_stats();
     nlohmann::json status = status_json();
-    broadcast({"STATUS", "", status.dump()});
+    broadcast({"STATUS", "", status.dump(), ""});
     notifier_.status(status_line());
   }
 }
@@ -250,7 +250,7 @@ void Daemon::check_device_events() {
     } else {
       log_->info("device {}: {}", s.name, drivers::to_string(s.state));
     }
-    broadcast({"EVENT", s.name, ev.dump()});
+    broadcast({"EVENT", s.name, ev.dump(), ""});
   }
 }
 
@@ -358,16 +358,10 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
 }
 
 void Daemon::broadcast(const Message& message) {
-  // Messages about a session (PARAMS, EXPLAIN, a session's EVENT: rare) also reach whoever watches the
-  // session by name; SAMPLE and STATUS are never about one and are not parsed.
-  std::string session;
-  if (message.cls == "PARAMS" || message.cls == "EXPLAIN" || message.cls == "EVENT") {
-    const auto j = nlohmann::json::parse(message.json, nullptr, false);
-    if (j.is_object()) session = j.value("session", "");
-  }
+  // Messages about a session (PARAMS, EXPLAIN, a session's EVENT) also reach whoever watches it by name.
   std::vector<ClientId> targets;
   for (const auto& [id, sub] : subscriptions_) {
-    if (sub.wants(message.cls, message.channel, session)) targets.push_back(id);
+    if (sub.wants(message.cls, message.channel, message.session)) targets.push_back(id);
   }
   for (ClientId id : targets) server_->send(id, message.json);  // may drop a slow client
 }

@@ -80,7 +80,7 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
     }
     j["denoised"] = {{"seq", processed->seq}, {"values", std::move(denoised)}};
   }
-  outbox_.post({"SAMPLE", dev.name(), j.dump()});
+  outbox_.post({"SAMPLE", dev.name(), j.dump(), ""});
 }
 
 std::size_t Pipeline::drain_once(std::span<Sample> batch) {

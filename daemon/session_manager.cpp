@@ -119,10 +119,7 @@ std::string SessionManager::start(const SessionRequest& request) {
       r->info.recording = r->recorder->part_path();
     } catch (const std::exception& e) {
       r->info.recording_error = e.what();  // acquisition and identification go on without a recording
-      outbox_.post({"EVENT", r->info.device,
-                    nlohmann::json{{"class", "EVENT"}, {"device", r->info.device}, {"session", name},
-                                   {"event", "recording_failed"}, {"reason", e.what()}}
-                        .dump()});
+      post_event(r->info, "recording_failed", e.what());
     }
     infos_.push_back(r->info);
     incoming_.push_back(std::move(r));
@@ -242,7 +239,8 @@ void SessionManager::post_event(const SessionInfo& info, const std::string& even
   outbox_.post({"EVENT", info.device,
                 nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name}, {"event", event},
                                {"reason", reason}}
-                    .dump()});
+                    .dump(),
+                info.name});
 }
 
 std::optional<std::string> SessionManager::post_explanation(Running& r) {
@@ -254,7 +252,7 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
     (*report)["session"] = info.name;
     (*report)["kind"] = info.kind;
     (*report)["device"] = info.device;
-    outbox_.post({"EXPLAIN", info.device, report->dump()});
+    outbox_.post({"EXPLAIN", info.device, report->dump(), info.name});
     // Kept beside the recording for the session's report (guideway report reads it too). The
     // explanation was published: a disk that refuses the copy is a recording error, not a failed one.
     const std::string path = state_dir_ + "/" + info.name + ".explain.json";
@@ -282,7 +280,8 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
     outbox_.post({"EVENT", r.info.device,
                   nlohmann::json{{"class", "EVENT"}, {"device", r.info.device}, {"session", r.info.name},
                                  {"event", "report_ready"}, {"file", path}}
-                      .dump()});
+                      .dump(),
+                  r.info.name});
   } catch (const std::exception& e) {
     post_event(r.info, "report_failed", e.what());
   }
@@ -335,7 +334,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     if (!info.recording.empty()) params["recording"] = info.recording;
     if (!info.recording_error.empty()) params["recording_error"] = info.recording_error;
     if (!derived.empty()) params["derived"] = derived;
-    outbox_.post({"PARAMS", info.device, params.dump()});
+    outbox_.post({"PARAMS", info.device, params.dump(), info.name});
     if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
     write_session_report(*r, derived);
   }
@@ -350,10 +349,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
   }
   // After STATUS shows the failure: a client that hears of it and asks (params) is told why.
   if (!failure.empty()) {
-    outbox_.post({"EVENT", info.device,
-                  nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name},
-                                 {"event", "session_failed"}, {"reason", failure}}
-                      .dump()});
+    post_event(info, "session_failed", failure);
   }
 }
 
