@@ -122,7 +122,7 @@ ReadResult ModbusClient::read(RegisterFunction function, std::uint16_t address, 
     // Answered in step right after a probe nothing answered: the server ignores FC 17 (against the
     // standard, which asks for an exception); from now on no probe, flushing only.
     if (silent_probe_) probe_ignored_ = true;
-    silent_probe_ = false;
+    in_step();
     return {};
   }
   resync_needed_ = endpoint_.kind == ModbusEndpoint::Kind::rtu;
