@@ -34,6 +34,11 @@ struct Geo {
   double y_um = 0;
 };
 
+// Sums of w^2, w^2 t and w^2 t^2 over a run's samples (w a projection on the bar, t in s).
+struct Moments {
+  double w2 = 0, w2t = 0, w2t2 = 0;
+};
+
 std::string fmt(const char* f, double a) {
   char buf[64];
   std::snprintf(buf, sizeof buf, f, a);
@@ -325,7 +330,24 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       // Two lines closer than the Fourier resolution 1/t_span are one line: the second strongest is
       // sought at least that far from the first (the grid oversamples it 4x).
       const auto apart = static_cast<std::size_t>(std::ceil(1.0 / (t_span * df) - 1e-9));
-      c.generate = [geo, f_lo, df, grid, apart, A, B, phases](const Eigen::VectorXd& r, const std::vector<bool>&) {
+      // Time moments of the squared projection per direction and run, for a line's report: the
+      // frequency's uncertainty (Cramer-Rao, from the spread of t about each run's centroid: the
+      // periodogram that chose it sums runs' powers, so it knows f from within runs only) and, per
+      // phase group, the part of it that reaches a phase counted from t = 0.
+      std::array<std::vector<Moments>, 3> moments;
+      for (int which = 0; which < 3; ++which) {
+        auto& mom = moments[static_cast<std::size_t>(which)];
+        mom.resize(runs.size());
+        for (const Geo& p : g) {
+          const double w = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
+          Moments& m = mom[p.run];
+          m.w2 += w * w;
+          m.w2t += w * w * p.t_s;
+          m.w2t2 += w * w * p.t_s * p.t_s;
+        }
+      }
+      c.generate = [geo, f_lo, df, grid, apart, A, B, phases, moments](const Eigen::VectorXd& r,
+                                                                       const std::vector<bool>&) {
         const auto& gg = *geo;
         // One periodogram per direction the vibration may have (the bar, axis A, axis B), each of the
         // residual weighted by that direction's projection on the bar: a vibration of axis A at f reads
@@ -386,22 +408,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
               if (curvature < 0) offset = std::clamp(0.5 * (at(q - 1) - at(q + 1)) / curvature, -0.5, 0.5);
             }
             const double f = f_lo + df * (static_cast<double>(q) + offset);
-            // Time moments of the squared weights per run: the frequency's uncertainty (Cramer-Rao,
-            // from the spread of t about each run's centroid: the periodogram that chose it sums runs'
-            // powers, so it knows f from within runs only) and, per phase group, the part of it that
-            // reaches a phase counted from t = 0.
-            struct Moments {
-              double w2 = 0, w2t = 0, w2t2 = 0;
-            };
-            std::vector<Moments> mom;
-            for (const Geo& p : gg) {
-              const double w = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
-              if (mom.size() <= p.run) mom.resize(p.run + 1);
-              Moments& m = mom[p.run];
-              m.w2 += w * w;
-              m.w2t += w * w * p.t_s;
-              m.w2t2 += w * w * p.t_s * p.t_s;
-            }
+            const std::vector<Moments>& mom = moments[static_cast<std::size_t>(which)];
             const std::string L = which == 0 ? "bar" : (which == 1 ? A : B);
             std::vector<std::string> names;
             for (std::size_t run_k = 0; run_k < phases; ++run_k) {
