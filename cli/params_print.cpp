@@ -87,18 +87,10 @@ void print_explanation(const nlohmann::json& e) {
   if (e.value("unexplained", false)) std::cout << "  a structured residual is left that no effect of the library explains\n";
 }
 
-}  // namespace guideway::cli
-
-namespace guideway::cli {
-
 void throw_if_error_reply(const nlohmann::json& reply, bool json) {
   if (json && reply.value("class", "") == "ERROR") std::cout << reply.dump() << "\n" << std::flush;
   throw_if_error(reply);
 }
-
-}  // namespace guideway::cli
-
-namespace guideway::cli {
 
 namespace {
 
