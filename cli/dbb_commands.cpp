@@ -68,10 +68,12 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
       ->check(CLI::NonNegativeNumber);
   sd->add_option("--sample-rate-hz", so->rate, "bar sampling rate (default: 10 samples per degree)");
   sd->add_option("--center-mm", so->center_mm, "circle centre in machine coordinates: X Y Z")->expected(3);
-  sd->add_option("--t0-s", so->t0, "machine time at the start (thermal drift)");
+  auto* t0_option = sd->add_option("--t0-s", so->t0,
+                 "machine time at the start (thermal drift); the run file then carries start_time_s, so runs simulated "
+                 "with --t0-s share one machine clock");
   sd->add_option("--seed", so->seed, "noise seed (default: the machine file's)");
   sd->add_option("--out", so->out, "run file to write")->required();
-  sd->callback([so] {
+  sd->callback([so, t0_option] {
     const sim::Machine machine = sim::Machine::from_file(so->machine);
     constexpr double deg = std::numbers::pi / 180.0;
     sim::DbbCircleSpec spec;
@@ -87,7 +89,9 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
       spec.center = {so->center_mm[0] * 1e-3, so->center_mm[1] * 1e-3, so->center_mm[2] * 1e-3};
     spec.t0_s = so->t0;
     spec.seed = so->seed;
-    const auto run = models::dbb::simulate_run(machine, spec, so->out);
+    auto run = models::dbb::simulate_run(machine, spec, so->out);
+    // Without --t0-s every run would start at machine time 0: no common clock is claimed.
+    if (t0_option->count() == 0) run.metadata.erase("start_time_s");
     models::dbb::write_run(run, so->out);
     std::cout << "wrote " << so->out << ": " << run.angle_rad.size() << " samples, r " << so->radius_mm << " mm, h "
               << so->height_mm << " mm, " << so->direction << "\n";

@@ -44,6 +44,7 @@ void add_replay_commands(CLI::App& app, CliContext& ctx) {
     daemon::register_builtin_sessions(registry);
     for (const auto& path : o->recordings) {
       const daemon::ReplayResult r = daemon::replay_recording(path, registry);
+      if (!r.note.empty()) std::cerr << "guideway: " << path << ": note: " << r.note << "\n";
       if (!r.failure.empty()) {
         ctx.exit_code = 1;
         if (o->json) {

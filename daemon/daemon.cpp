@@ -115,7 +115,6 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
   sessions_ = manager.get();
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     pipeline_->set_processing(i, steps[i]);
-    manager->set_processing(i, steps[i]);
   }
   pipeline_->add_stage(std::move(manager));
 

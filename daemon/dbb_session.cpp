@@ -301,7 +301,10 @@ class DbbSession : public Session {
                     {"measured_radius_mm", std::to_string(r * 1e3)},
                     // t_s of every run is on the session's clock: one machine-time axis for EXPLAIN's
                     // time-dependent effects (thermal drift), see docs/explain.md.
-                    {"start_time_s", "0"}};
+                    {"start_time_s", "0"},
+                    // The angles are the axis encoders' (the drives' positions), not the commanded ones:
+                    // EXPLAIN then needs no drive delay (docs/explain.md).
+                    {"angle_source", "encoders"}};
     try {
       mdbb::validate_run(run);
     } catch (const mdbb::RunFormatError& e) {

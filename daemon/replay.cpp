@@ -6,7 +6,6 @@
 
 #include "core/csv_table.hpp"
 #include "daemon/pipeline.hpp"
-#include "daemon/processing_chain.hpp"
 
 namespace guideway::daemon {
 
@@ -105,22 +104,16 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(path + ": the recorded options are refused: " + e.what());
   }
-  std::vector<DenoiserSpec> steps;
-  for (const auto& j : json_meta(t, "processing", nlohmann::json::array())) {
-    try {
-      steps.push_back(DenoiserSpec::from_json(j, channels));
-    } catch (const std::invalid_argument& e) {
-      throw std::runtime_error(path + ": header \"processing\": " + e.what());
-    }
-  }
-  ProcessingChain chain(steps, Pipeline::max_batch);
+  // Sessions see the raw samples (a recording made before they did has a `processing` header: its live
+  // session assembled the denoised stream, so its published result may differ from this one).
+  if (t.metadata.count("processing") > 0)
+    result.note = "recorded when sessions assembled the processed stream; replayed from the raw samples";
 
-  // The samples in the pipeline's batch size (sessions and processing do not depend on it).
+  // The samples in the pipeline's batch size (sessions do not depend on it).
   std::vector<Sample> batch;
   batch.reserve(Pipeline::max_batch);
   const auto feed = [&] {
-    const auto processed = chain.process(batch);
-    if (!processed.empty()) session->on_samples(processed);
+    session->on_samples(batch);
     result.samples += batch.size();
     batch.clear();
   };
@@ -138,8 +131,6 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
     if (batch.size() == Pipeline::max_batch) feed();
   }
   if (!batch.empty()) feed();
-  const auto tail = chain.flush();
-  if (!tail.empty()) session->on_samples(tail);
 
   try {
     result.params = session->identify();

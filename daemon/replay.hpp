@@ -1,8 +1,7 @@
 #pragma once
 // Replay of a session's raw recording (guideway/raw/1, docs/formats.md): the samples go through the
-// session kind that made the recording, with the processing steps its header records, exactly as the
-// daemon fed them live (the same SessionKind, ProcessingChain and identification code), so the result
-// is the PARAMS the live session published. Like gpsd's gpsfake, it makes every live result
+// session kind that made the recording exactly as the daemon fed them live (the same SessionKind and
+// identification code, the raw samples), so the result is the PARAMS the live session published. Like gpsd's gpsfake, it makes every live result
 // reproducible and regression-testable offline.
 
 #include <cstdint>
@@ -26,6 +25,7 @@ struct ReplayResult {
   std::string end_marker;       // the trailer's `end` (complete, aborted), "" when there is none
   std::uint64_t samples_lost = 0;  // the trailer's `samples_lost`: rows the recorder could not write
   std::size_t dropped_partial_line = 0;  // 1 when a last line without its newline was ignored (a kill)
+  std::string note;  // why the result may differ from the live one (a recording of an older release)
 };
 
 // Throws std::runtime_error "file:line: message" for a file that is not a raw recording, a session

@@ -52,14 +52,9 @@ SessionManager::SessionManager(const SessionRegistry& registry, std::vector<driv
                                std::string state_dir, Outbox& outbox)
     : registry_(registry),
       devices_(std::move(devices)),
-      processing_(devices_.size()),
       state_dir_(std::move(state_dir)),
       outbox_(outbox) {
   worker_ = std::jthread([this](std::stop_token stop) { finish_loop(stop); });
-}
-
-void SessionManager::set_processing(std::size_t device_index, std::vector<DenoiserSpec> steps) {
-  processing_.at(device_index) = std::move(steps);
 }
 
 SessionManager::~SessionManager() {
@@ -94,7 +89,6 @@ std::string SessionManager::start(const SessionRequest& request) {
   auto r = std::make_unique<Running>();
   r->device_index = index;
   r->session = kind->create(request, *devices_[index]);  // throws std::invalid_argument on bad options
-  r->processing = ProcessingChain(processing_[index], Pipeline::max_batch);
   {
     std::lock_guard lock(mutex_);
     for (const auto& info : infos_) {
@@ -113,7 +107,6 @@ std::string SessionManager::start(const SessionRequest& request) {
     meta["session"] = name;
     meta["kind"] = request.kind;
     meta["options"] = request.options.dump();
-    if (!r->processing.empty()) meta["processing"] = r->processing.to_json().dump();
     try {
       r->recorder = std::make_unique<RawRecorder>(state_dir_, name, *devices_[index], meta);
       r->info.recording = r->recorder->part_path();
@@ -154,8 +147,7 @@ void SessionManager::on_samples(std::size_t device_index, const drivers::Driver&
     if (r->device_index != device_index) continue;
     if (r->recorder) r->recorder->push(samples);
     r->info.samples += samples.size();
-    const auto processed = r->processing.process(samples);
-    if (!processed.empty()) r->session->on_samples(processed);
+    r->session->on_samples(samples);
   }
 }
 
@@ -187,9 +179,6 @@ void SessionManager::on_tick(std::int64_t) {
     Running& r = **it;
     r.stop_requested = r.stop_requested || std::find(stops.begin(), stops.end(), r.info.name) != stops.end();
     if (r.stop_requested || r.session->complete()) {
-      // The processing steps' tail (their latency) belongs to the session too: a replay sees it.
-      const auto tail = r.processing.flush();
-      if (!tail.empty()) r.session->on_samples(tail);
       {
         std::lock_guard lock(mutex_);
         for (auto& info : infos_) {

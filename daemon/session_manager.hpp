@@ -18,7 +18,6 @@
 
 #include "daemon/outbox.hpp"
 #include "daemon/pipeline.hpp"
-#include "daemon/processing_chain.hpp"
 #include "daemon/recorder.hpp"
 #include "daemon/session.hpp"
 
@@ -52,11 +51,8 @@ class SessionManager : public PipelineStage {
   [[nodiscard]] bool known_kind(const std::string& kind) const { return registry_.find(kind) != nullptr; }
   [[nodiscard]] std::string kinds() const;  // "dbb, straightness, ..."
 
-  // The [[processing]] steps of a device (before the pipeline starts): each session on it runs a fresh
-  // copy, recorded in its raw recording's header, so a replay repeats it exactly.
-  void set_processing(std::size_t device_index, std::vector<DenoiserSpec> steps);
-
-  // Raw samples go to the recordings, processed ones to the sessions.
+  // Raw samples go to the recordings and to the sessions: identification, uncertainties and EXPLAIN
+  // come from what was measured ([[processing]] is for the live display, SAMPLE's `denoised`).
   void on_samples(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) override;
   void on_tick(std::int64_t now_mono_ns) override;
 
@@ -66,7 +62,6 @@ class SessionManager : public PipelineStage {
     std::size_t device_index = 0;
     std::unique_ptr<Session> session;
     std::unique_ptr<RawRecorder> recorder;
-    ProcessingChain processing;
     bool stop_requested = false;
     std::uint64_t recorder_errors_seen = 0;  // recorder->error_count() when last looked at
     std::string reported_error;              // the last recording_failed reason posted
@@ -84,7 +79,6 @@ class SessionManager : public PipelineStage {
 
   const SessionRegistry& registry_;
   std::vector<drivers::Driver*> devices_;
-  std::vector<std::vector<DenoiserSpec>> processing_;  // per device
   std::string state_dir_;
   Outbox& outbox_;
 

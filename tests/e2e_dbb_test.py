@@ -85,8 +85,9 @@ class EndToEndDbb(unittest.TestCase):
         offline = json.loads(self.cli("identify", "dbb", *params["derived"], "--json"))
         for name, value in lai.items():
             self.assertAlmostEqual(offline["lai3"][name]["value"], value, delta=1e-9 + 1e-6 * abs(value), msg=name)
-        # The raw recording replays (with the denoising steps its header records) to the same PARAMS.
-        self.assertIn("# processing = ", text)
+        # Sessions assemble the raw stream ([[processing]] of the default config is for the live display):
+        # the recording has no processing header and replays to the same PARAMS.
+        self.assertNotIn("# processing = ", text)
         replay_lines = self.cli("replay", "--json", params["recording"], timeout=120).splitlines()
         replayed = json.loads(replay_lines[0])
         for group in ("lai3", "diagnostics"):
@@ -101,6 +102,20 @@ class EndToEndDbb(unittest.TestCase):
         for key in ("baseline", "final", "mismatch", "findings", "unexplained"):
             self.assertIn(key, explanation)
         self.assertLessEqual(explanation["final"]["heldout_rms_um"], explanation["baseline"]["heldout_rms_um"])
+        # Statistics from what was measured: the noise EXPLAIN works with is the bar's as recorded (the
+        # emulated bar: 0.1 um and 0.1 um steps), estimated here independently from the raw recording's
+        # bar column (MAD of successive differences), not what the default config's denoiser leaves
+        # (about a thousandth of it).
+        raw_noise = self.raw_bar_noise_um(text)
+        self.assertGreater(raw_noise, 0.05)
+        self.assertLess(abs(explanation["noise_um"] / raw_noise - 1), 0.35, (explanation["noise_um"], raw_noise))
+        # The example machine's DBB-visible effect beyond Lai's geometry is its backlash (1 / 2 um): found
+        # with its size, and nothing is left unexplained.
+        found = {f["effect"]: f for f in explanation["findings"]}
+        self.assertIn("backlash", found, explanation["findings"])
+        self.assertAlmostEqual(found["backlash"]["parameters"]["backlash_x_um"]["value"], 1.0, delta=0.1)
+        self.assertAlmostEqual(found["backlash"]["parameters"]["backlash_y_um"]["value"], 2.0, delta=0.1)
+        self.assertFalse(explanation["unexplained"], [m["where"] for m in explanation["remaining"]])
         for f in explanation["findings"]:
             self.assertLess(f["heldout_rms_um_after"], explanation["baseline"]["heldout_rms_um"], f)
         # The replay publishes the same EXPLAIN (what makes tests/golden/KIND.explain.json a live result).
@@ -121,6 +136,15 @@ class EndToEndDbb(unittest.TestCase):
         self.assertIn("<svg", report["html"])
         self.assertIn("Explanation of the mismatch", report["html"])  # the EXPLAIN section is there
         self.assertIn("Residual RMS after each finding", report["html"])
+
+    @staticmethod
+    def raw_bar_noise_um(text):
+        """Noise of the bar channel of a raw recording: 1.4826 MAD of successive differences / sqrt(2)."""
+        rows = [l for l in text.splitlines() if l and not l.startswith("#")]
+        col = rows[0].split(",").index("bar_length_m")
+        bar = [float(r.split(",")[col]) for r in rows[1:]]
+        d = sorted(abs(b - a) for a, b in zip(bar, bar[1:]))
+        return 1.4826 * d[len(d) // 2] / 2 ** 0.5 * 1e6
 
     def request(self, message, reply_class, allow_error=False):
         """One request on a raw Unix-socket connection (the protocol, not the CLI)."""

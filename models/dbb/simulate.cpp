@@ -30,6 +30,11 @@ Run simulate_run(const sim::Machine& machine, const sim::DbbCircleSpec& spec, co
     run.angle_rad.push_back(s.angle_rad);
     run.dL_m.push_back(s.dL_m);
   }
+  // Machine time of the first data sample: runs simulated on one machine clock (their spec.t0_s) share it.
+  std::ostringstream start;
+  start.precision(17);
+  start << t_start;
+  run.metadata["start_time_s"] = start.str();
   return run;
 }
 

@@ -11,8 +11,10 @@
 #include <stdexcept>
 
 #include <Eigen/QR>
+#include <unsupported/Eigen/FFT>
 
 #include "models/common/least_squares.hpp"
+#include "models/dbb/fast_sincos.hpp"
 #include "models/dbb/identify.hpp"
 
 namespace guideway::models::explain {
@@ -30,6 +32,7 @@ struct Geo {
   double sgn_a = 0, sgn_b = 0;      // signs of the axis velocities
   double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
   double a_m = 0, b_m = 0;          // machine coordinates of the commanded point
+  double ca_m = 0, cb_m = 0;        // the circle's centre
   double t_s = 0;                   // machine time since the earliest run's start (or run time when not all runs have start_time_s)
   double y_um = 0;
 };
@@ -102,6 +105,8 @@ std::vector<Geo> geometry(const std::vector<dbb::Run>& runs, bool machine_time) 
       };
       p.since_a = since(0.0);
       p.since_b = since(pi / 2);
+      p.ca_m = run.center_a_m;
+      p.cb_m = run.center_b_m;
       p.a_m = run.center_a_m + run.radius_m * p.c;
       p.b_m = run.center_b_m + run.radius_m * p.s;
       p.t_s = t0 + run.t_s[i];
@@ -132,46 +137,90 @@ Block lai_base(const std::vector<Geo>& g) {
 }
 
 
-// Lost motion per unit backlash of a deadband of width b_a / b_b (m) driven by the commanded circle
-// (as models/dbb/identify.cpp): the axis stands still at a reversal until the drive has taken up the
-// play, which an ideal step does not describe. out[i] = {a, b}; simulated from half a turn before.
-std::vector<std::array<double, 2>> deadband(const std::vector<Geo>& g, const std::vector<dbb::Run>& runs, double b_a,
-                                            double b_b) {
-  std::vector<std::array<double, 2>> out(g.size());
-  for (std::size_t i = 0; i < g.size(); ++i) out[i] = {-0.5 * g[i].sgn_a, -0.5 * g[i].sgn_b};
-  std::size_t i0 = 0;
-  for (const auto& run : runs) {
-    const double r = run.radius_m, dir = run.dir();
-    for (int axis = 0; axis < 2; ++axis) {
-      const double b = axis == 0 ? b_a : b_b;
-      if (!(b > 0)) continue;
-      const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z) : r * std::sin(z); };
-      const double half = 0.5 * b;
-      double z = run.angle_rad.front() - dir * pi;
-      double act = cmd(z);
-      const double near = 4.0 * std::sqrt(b / r) + 0.01;
-      const auto advance = [&](double to) {
-        const double rev = axis == 0 ? std::abs(std::sin(to)) : std::abs(std::cos(to));
-        const int steps =
-            rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
-        const double dz = (to - z) / steps;
-        for (int q = 1; q <= steps; ++q) {
-          const double c = cmd(z + dz * q);
-          if (c - act > half) act = c - half;
-          if (c - act < -half) act = c + half;
-        }
-        z = to;
+// The delays (s) by which the drives may follow the commanded angle of the runs, for the terms that live
+// on the drives' positions (backlash, cyclic error): none when every run's angles were read from the axis
+// encoders (metadata angle_source = encoders, as a live session writes), else a grid up to a slow position
+// loop's 1/Kv (commanded angles, or angles from time and feed as a ballbar's software computes them).
+std::vector<double> drive_delays_s(const std::vector<dbb::Run>& runs) {
+  const bool encoders = std::all_of(runs.begin(), runs.end(), [](const dbb::Run& r) {
+    const auto it = r.metadata.find("angle_source");
+    return it != r.metadata.end() && it->second == "encoders";
+  });
+  if (encoders) return {0.0};
+  return {0.0, 5e-3, 10e-3, 15e-3, 20e-3, 25e-3, 30e-3, 40e-3, 50e-3, 60e-3, 80e-3, 100e-3};
+}
+
+// The drives' motion on the circle when they follow the command `delay_s` late, per sample: their
+// positions, the signs of their velocities and how far each has moved from its last extreme (the last
+// reversal). Computed once per problem for every delay searched (the backlash and cyclic terms live on
+// the drives' positions, and their generators run many times).
+struct DriveTrack {
+  double delay_s = 0;
+  std::vector<double> pos_a, pos_b;    // m
+  std::vector<double> vel_a, vel_b;    // sign of the velocity, -1 / 0 / +1
+  std::vector<double> rise_a, rise_b;  // r (1 - cos phi), phi the angle past the axis's last reversal (m)
+};
+std::shared_ptr<const std::vector<DriveTrack>> drive_tracks(const std::vector<Geo>& g, const std::vector<double>& delays) {
+  auto out = std::make_shared<std::vector<DriveTrack>>();
+  for (const double d : delays) {
+    DriveTrack t;
+    t.delay_s = d;
+    for (const Geo& p : g) {
+      const double z = p.zeta - p.dir * p.omega * d;
+      double s = 0, c = 0;
+      dbb::fast_sincos(z, s, c);
+      const auto rise = [&](double phase) {
+        const double q = (z - phase) / pi;
+        const double last = p.dir > 0 ? std::floor(q) : std::ceil(q);
+        const double half = std::sin(0.5 * std::abs(z - phase - last * pi));
+        return 2 * p.r * half * half;
       };
-      const double z0 = run.angle_rad.front();
-      for (int q = 1; q < 1800; ++q) advance(z0 - dir * pi + dir * q * (pi / 1800));
-      for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
-        advance(run.angle_rad[i]);
-        out[i0 + i][static_cast<std::size_t>(axis)] = (act - cmd(z)) / b;
-      }
+      t.pos_a.push_back(p.ca_m + p.r * c);
+      t.pos_b.push_back(p.cb_m + p.r * s);
+      t.vel_a.push_back(-p.dir * sgn(s));
+      t.vel_b.push_back(p.dir * sgn(c));
+      t.rise_a.push_back(rise(0.0));
+      t.rise_b.push_back(rise(pi / 2));
     }
-    i0 += run.angle_rad.size();
+    out->push_back(std::move(t));
   }
   return out;
+}
+
+// Lost motion per unit backlash of a deadband of width b_a / b_b (m) on the circle, as the bar sees it
+// along each axis ({a, b}), at sample i of the track. An ideal step says -1/2 sign(velocity); a deadband
+// also stands still after each reversal until the drive has moved b away from its extreme, r (1 - cos
+// phi) = b at phi past the reversal, lagging meanwhile by r (1 - cos phi) / b - 1/2 of b.
+std::array<double, 2> lost_motion(const DriveTrack& t, std::size_t i, double b_a, double b_b) {
+  const auto take_up = [](double b, double rise) { return b > 0 ? std::clamp(rise / b - 0.5, -0.5, 0.5) : 0.5; };
+  return {-t.vel_a[i] * take_up(b_a, t.rise_a[i]), -t.vel_b[i] * take_up(b_b, t.rise_b[i])};
+}
+
+// servo_lag's block: the base's prediction seen where the drives were, lag behind the command,
+// -dir omega dy/dzeta per ms of lag (the reading at the drive's angle zeta - dir omega lag, to first
+// order). The base is refitted to the rows in use, so a held-out row's y does not reach the column.
+std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> servo_lag_generator(
+    const Block& base, const Eigen::VectorXd& y_um, std::shared_ptr<const std::vector<Geo>> geo) {
+  auto data = std::make_shared<const std::pair<Block, Eigen::VectorXd>>(base, y_um);
+  return [data, geo](const Eigen::VectorXd&, const std::vector<bool>& use) {
+    const auto& [b, y] = *data;
+    const auto& gg = *geo;
+    const Eigen::VectorXd predicted = base_prediction(b, y, use);
+    if (predicted.size() == 0) return std::vector<Variant>{};
+    Variant v;
+    v.block.names = {"servo_lag_ms"};
+    v.block.columns = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(gg.size()), 1);
+    for (std::size_t i = 0; i < gg.size(); ++i) {
+      // Central differences along the run (one-sided at its ends).
+      const std::size_t lo = i > 0 && gg[i - 1].run == gg[i].run ? i - 1 : i;
+      const std::size_t hi = i + 1 < gg.size() && gg[i + 1].run == gg[i].run ? i + 1 : i;
+      const double dz = gg[hi].zeta - gg[lo].zeta;
+      if (hi == lo || dz == 0.0) continue;
+      const double slope = (predicted[static_cast<Eigen::Index>(hi)] - predicted[static_cast<Eigen::Index>(lo)]) / dz;
+      v.block.columns(static_cast<Eigen::Index>(i), 0) = -gg[i].dir * gg[i].omega * slope * 1e-3;
+    }
+    return std::vector<Variant>{v};
+  };
 }
 
 double spike(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::exp(-t / tau); }
@@ -180,6 +229,7 @@ double spike(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::
 // measured value would let the candidate fit the very effects in it).
 std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vector<dbb::Run>& runs, bool machine_time,
                                       const std::vector<double>& reading_um) {
+  const auto tracks = drive_tracks(g, drive_delays_s(runs));
   const std::string A = axis_letter(runs.front().plane, 0), B = axis_letter(runs.front().plane, 1);
   std::vector<Candidate> out;
   {
@@ -199,37 +249,51 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     const std::vector<std::string> names{"backlash_" + A + "_um", "backlash_" + B + "_um"};
     // Ideal step first (actual a = commanded a - (b/2) sign(da/dt)); then, from the current residual,
     // the deadband response at the width the step suggests (the step alone biases it and leaves an
-    // inward spike at every reversal that another candidate would otherwise claim).
+    // inward spike at every reversal that another candidate would otherwise claim), the width refined
+    // once by a fit of that response, for each drive delay of the grid.
     const auto geo = std::make_shared<const std::vector<Geo>>(g);
-    const auto rs = std::make_shared<const std::vector<dbb::Run>>(runs);
-    c.generate = [geo, rs, names](const Eigen::VectorXd& r, const std::vector<bool>& use) {
+    c.generate = [geo, names, tracks](const Eigen::VectorXd& r, const std::vector<bool>& use) {
       const auto& gg = *geo;
       std::vector<Variant> vs;
       vs.push_back(make_variant(gg, names, [](const Geo& p, double* o) {
         o[0] = -p.lam * 0.5 * p.sgn_a * p.c;
         o[1] = -p.lam * 0.5 * p.sgn_b * p.s;
       }));
-      // The step's size from the rows in use only (a held-out row's zero residual would shrink it).
-      std::vector<Eigen::Index> rows;
-      for (std::size_t i = 0; i < use.size(); ++i)
-        if (use[i]) rows.push_back(static_cast<Eigen::Index>(i));
-      const Eigen::MatrixXd step = vs.front().block.columns(rows, Eigen::all);
-      const Eigen::Vector2d b = step.colPivHouseholderQr().solve(Eigen::VectorXd(r(rows)));
-      const double ba = std::max(0.0, b[0]) * 1e-6, bb = std::max(0.0, b[1]) * 1e-6;
-      if (ba > 0 || bb > 0) {
-        const auto db = deadband(gg, *rs, ba, bb);
+      // Sizes from the rows in use only (a held-out row's zero residual would shrink them).
+      const std::vector<Eigen::Index> rows = rows_in_use(use);
+      const Eigen::VectorXd rr = r(rows);
+      const auto sizes = [&](const Variant& v) {
+        const Eigen::MatrixXd x = v.block.columns(rows, Eigen::all);
+        const Eigen::Vector2d b = x.colPivHouseholderQr().solve(rr);
+        return std::array<double, 2>{std::max(0.0, b[0]) * 1e-6, std::max(0.0, b[1]) * 1e-6};
+      };
+      const auto response = [&](std::array<double, 2> b, const DriveTrack& t) {
         Variant v;
         v.block.names = names;
         v.block.columns.resize(static_cast<Eigen::Index>(gg.size()), 2);
         for (std::size_t i = 0; i < gg.size(); ++i) {
-          v.block.columns(static_cast<Eigen::Index>(i), 0) = gg[i].lam * db[i][0] * gg[i].c;
-          v.block.columns(static_cast<Eigen::Index>(i), 1) = gg[i].lam * db[i][1] * gg[i].s;
+          const auto m = lost_motion(t, i, b[0], b[1]);
+          v.block.columns(static_cast<Eigen::Index>(i), 0) = gg[i].lam * m[0] * gg[i].c;
+          v.block.columns(static_cast<Eigen::Index>(i), 1) = gg[i].lam * m[1] * gg[i].s;
         }
-        vs.push_back(std::move(v));
+        if (tracks->size() > 1) {
+          v.fixed.push_back({"backlash_delay_ms", t.delay_s * 1e3, std::numeric_limits<double>::quiet_NaN()});
+          v.searched = 1;
+        }
+        return v;
+      };
+      const auto step = sizes(vs.front());
+      if (step[0] > 0 || step[1] > 0) {
+        for (const DriveTrack& t : *tracks) {
+          // The width the step suggests, then once more from a fit of the response at that width.
+          Variant first = response(step, t);
+          const auto refined = sizes(first);
+          vs.push_back(refined[0] > 0 || refined[1] > 0 ? response(refined, t) : std::move(first));
+        }
       }
       return vs;
     };
-    c.search_size = 1;
+    c.search_size = 1 + tracks->size();
     out.push_back(std::move(c));
   }
   {
@@ -263,23 +327,65 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     Candidate c{"cyclic_error",
                 "a lead-screw (or scale) pitch error repeats every lead along the axis, at the same position in every run",
                 {}, {}, 0};
-    for (int axis = 0; axis < 2; ++axis) {
+    static constexpr double periods_mm[] = {1.0,  2.0,  2.5,  3.0,  4.0,  5.0,  6.0,  8.0, 10.0,
+                                            12.0, 12.5, 15.0, 16.0, 20.0, 25.0, 32.0, 40.0};
+    // Along axis `axis` with period p_mm, on the positions of drive track t.
+    const auto cyclic = [A, B](const std::vector<Geo>& gg, int axis, double p_mm, const DriveTrack& t, bool delay_searched) {
       const std::string L = axis == 0 ? A : B;
-      for (double p_mm : {1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 12.5, 15.0, 16.0, 20.0, 25.0, 32.0, 40.0}) {
-        const double period = p_mm * 1e-3;
-        Variant v = make_variant(g, {"cyclic_sin_" + L, "cyclic_cos_" + L}, [=](const Geo& p, double* o) {
-          const double th = 2 * pi * (axis == 0 ? p.a_m : p.b_m) / period;
-          const double proj = p.lam * (axis == 0 ? p.c : p.s);
-          o[0] = proj * std::sin(th);
-          o[1] = proj * std::cos(th);
-        });
-        v.fixed.push_back({"cyclic_period_" + L + "_mm", p_mm, std::numeric_limits<double>::quiet_NaN()});
-        v.searched = 1;
-        v.report = [L](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-          return amp_phase("cyclic_error_" + L + "_um", "cyclic_phase_" + L + "_deg", x, cov);
-        };
-        c.variants.push_back(std::move(v));
+      const double k = 2 * pi / (p_mm * 1e-3);
+      const std::vector<double>& pos = axis == 0 ? t.pos_a : t.pos_b;
+      Variant v;
+      v.block.names = {"cyclic_sin_" + L, "cyclic_cos_" + L};
+      v.block.columns.resize(static_cast<Eigen::Index>(gg.size()), 2);
+      for (std::size_t i = 0; i < gg.size(); ++i) {
+        double sn = 0, cs = 0;
+        dbb::fast_sincos(k * pos[i], sn, cs);
+        const double proj = gg[i].lam * (axis == 0 ? gg[i].c : gg[i].s);
+        v.block.columns(static_cast<Eigen::Index>(i), 0) = proj * sn;
+        v.block.columns(static_cast<Eigen::Index>(i), 1) = proj * cs;
       }
+      v.fixed.push_back({"cyclic_period_" + L + "_mm", p_mm, std::numeric_limits<double>::quiet_NaN()});
+      v.searched = 1;
+      if (delay_searched) {
+        v.fixed.push_back({"cyclic_delay_" + L + "_ms", t.delay_s * 1e3, std::numeric_limits<double>::quiet_NaN()});
+        v.searched = 2;
+      }
+      v.group = L;
+      v.report = [L](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+        return amp_phase("cyclic_error_" + L + "_um", "cyclic_phase_" + L + "_deg", x, cov);
+      };
+      return v;
+    };
+    std::vector<Variant> undelayed;  // the command's positions (the drives' when read from the encoders)
+    for (int axis = 0; axis < 2; ++axis)
+      for (double p_mm : periods_mm) undelayed.push_back(cyclic(g, axis, p_mm, tracks->front(), false));
+    if (tracks->size() == 1) {
+      c.variants = std::move(undelayed);
+    } else {
+      // Periods and delays: the two periods per axis whose undelayed terms explain most of the residual,
+      // each then tried at every delay.
+      const auto geo = std::make_shared<const std::vector<Geo>>(g);
+      const auto base = std::make_shared<const std::vector<Variant>>(std::move(undelayed));
+      c.generate = [geo, cyclic, tracks, base](const Eigen::VectorXd& r, const std::vector<bool>& use) {
+        const std::vector<Eigen::Index> rows = rows_in_use(use);
+        const Eigen::VectorXd rr = r(rows);
+        std::vector<Variant> vs;
+        const std::size_t per_axis = std::size(periods_mm);
+        for (int axis = 0; axis < 2; ++axis) {
+          std::vector<std::pair<double, double>> score;  // (-explained, period)
+          for (std::size_t k = 0; k < per_axis; ++k) {
+            const Eigen::MatrixXd x = (*base)[static_cast<std::size_t>(axis) * per_axis + k].block.columns(rows, Eigen::all);
+            const Eigen::Matrix2d xtx = x.transpose() * x;
+            const Eigen::Vector2d xtr = x.transpose() * rr;
+            score.emplace_back(-xtr.dot(xtx.ldlt().solve(xtr)), periods_mm[k]);
+          }
+          std::sort(score.begin(), score.end());
+          for (std::size_t k = 0; k < 2 && k < score.size(); ++k)
+            for (const DriveTrack& t : *tracks) vs.push_back(cyclic(*geo, axis, score[k].second, t, true));
+        }
+        return vs;
+      };
+      c.search_size = 2 * std::size(periods_mm) * tracks->size();
     }
     out.push_back(std::move(c));
   }
@@ -288,17 +394,30 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
                 "the machine or the bar grows as it warms up, a trend in time that the geometric terms only partly absorb",
                 {}, {}, 0};
     const std::size_t nr = runs.size();
-    // Without a common time axis each run after the first gets its own offset.
+    // Without a common time axis each run after the first gets its own offset, in the drift's own
+    // direction(s): the bar's reading, or the circle's centre along an axis (a projection on the bar).
     const std::size_t offsets = machine_time ? 0 : nr - 1;
-    for (int which = 0; which < 3; ++which) {
-      std::vector<std::string> names{which == 0 ? "bar_drift_um_per_min"
-                                                : "drift_" + (which == 1 ? A : B) + "_um_per_min"};
-      for (std::size_t k = 1; k <= offsets; ++k) names.push_back("drift_offset_run" + std::to_string(k + 1) + "_um");
-      c.variants.push_back(make_variant(g, names, [=](const Geo& p, double* o) {
-        const double proj = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
-        o[0] = proj * p.t_s / 60.0;
-        if (offsets && p.run >= 1) o[p.run] = 1.0;
-      }));
+    // Directions: 0 the bar; 1 axis A, 2 axis B; 3 the centre in the plane (A and B, each its own rate).
+    for (int which = 0; which < 4; ++which) {
+      std::vector<int> axes;  // 0 bar, 1 A, 2 B
+      if (which == 3) axes = {1, 2};
+      else axes = {which};
+      std::vector<std::string> names;
+      for (int a : axes) names.push_back(a == 0 ? "bar_drift_um_per_min" : "drift_" + (a == 1 ? A : B) + "_um_per_min");
+      for (int a : axes)
+        for (std::size_t k = 1; k <= offsets; ++k)
+          names.push_back((a == 0 ? std::string("bar_drift") : "drift_" + (a == 1 ? A : B)) + "_offset_run" +
+                          std::to_string(k + 1) + "_um");
+      Variant v = make_variant(g, names, [=](const Geo& p, double* o) {
+        for (std::size_t j = 0; j < axes.size(); ++j) {
+          const int a = axes[j];
+          const double proj = a == 0 ? 1.0 : p.lam * (a == 1 ? p.c : p.s);
+          o[j] = proj * p.t_s / 60.0;
+          if (offsets && p.run >= 1) o[axes.size() + j * offsets + p.run - 1] = proj;
+        }
+      });
+      v.group = which == 0 ? "bar" : "centre";
+      c.variants.push_back(std::move(v));
     }
     out.push_back(std::move(c));
   }
@@ -318,9 +437,18 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     }
     for (const auto& r : runs) t_span = std::max(t_span, r.t_s.back() - r.t_s.front());
     if (dt < 1e300 && t_span > 0) {
-      constexpr std::size_t max_grid = 8192;  // bounds the direct periodogram's cost
-      const double f_lo = 4.0 / t_span, f_hi = 0.4 / dt, df = std::max(0.25 / t_span, (f_hi - f_lo) / max_grid);
-      const auto grid = static_cast<std::size_t>(std::max(0.0, (f_hi - f_lo) / df));
+      // The periodogram by FFT: each run's weighted residual binned on a uniform grid of step dt (live
+      // time stamps jitter; the bins only choose the candidate lines, fitted on the exact times) and
+      // zero-padded to m >= 4 t_span / dt points (a power of two, at most 2^20), so the grid q / (m dt)
+      // oversamples the Fourier resolution 1/t_span about 4x; each line is then placed between grid
+      // points on the exact periodogram.
+      std::size_t fft_size = 1;
+      while (static_cast<double>(fft_size) < 4.0 * t_span / dt + 1 && fft_size < (std::size_t{1} << 20)) fft_size *= 2;
+      const double df = 1.0 / (static_cast<double>(fft_size) * dt);
+      const double f_lo = 4.0 / t_span, f_hi = 0.4 / dt;
+      const auto q_lo = static_cast<std::size_t>(std::ceil(f_lo / df));
+      const auto q_hi = std::min(static_cast<std::size_t>(std::floor(f_hi / df)), fft_size / 2 - 1);
+      const std::size_t grid = q_hi >= q_lo ? q_hi - q_lo + 1 : 0;
       c.search_size = 3 * grid;
       auto geo = std::make_shared<const std::vector<Geo>>(g);
       // Held-out rows have residual 0: the periodogram is that of the rows in use.
@@ -328,7 +456,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       // phase: each run gets its own sine and cosine (the periodogram already sums runs' powers).
       const std::size_t phases = machine_time ? 1 : runs.size();
       // Two lines closer than the Fourier resolution 1/t_span are one line: the second strongest is
-      // sought at least that far from the first (the grid oversamples it 4x).
+      // sought at least that far from the first.
       const auto apart = static_cast<std::size_t>(std::ceil(1.0 / (t_span * df) - 1e-9));
       // Time moments of the squared projection per direction and run, for a line's report: the
       // frequency's uncertainty (Cramer-Rao, from the spread of t about each run's centroid: the
@@ -340,74 +468,79 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
         mom.resize(runs.size());
         for (const Geo& p : g) {
           const double w = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
-          Moments& m = mom[p.run];
-          m.w2 += w * w;
-          m.w2t += w * w * p.t_s;
-          m.w2t2 += w * w * p.t_s * p.t_s;
+          Moments& mo = mom[p.run];
+          mo.w2 += w * w;
+          mo.w2t += w * w * p.t_s;
+          mo.w2t2 += w * w * p.t_s * p.t_s;
         }
       }
-      c.generate = [geo, f_lo, df, grid, apart, A, B, phases, moments](const Eigen::VectorXd& r,
-                                                                       const std::vector<bool>&) {
+      c.generate = [geo, fft_size, dt, df, q_lo, grid, apart, A, B, phases, moments](const Eigen::VectorXd& r,
+                                                                             const std::vector<bool>&) {
         const auto& gg = *geo;
         // One periodogram per direction the vibration may have (the bar, axis A, axis B), each of the
         // residual weighted by that direction's projection on the bar: a vibration of axis A at f reads
         // as lam cos(zeta) sin(2 pi f t), whose plain periodogram peaks at f +- the circling frequency,
-        // not at f. Power summed over runs: sum over runs of |sum_i w_i r_i exp(-2 pi i f_q t_i)|^2.
-        // Per sample, successive grid frequencies turn the phasor by exp(-2 pi i df t) (re-anchored
-        // every 64 points against rounding): a complex multiply instead of a sine and cosine per sample
-        // and frequency, shared by the three directions.
-        constexpr std::size_t dirs = 3;
-        std::vector<double> pw(dirs * grid, 0.0), re(dirs * grid), im(dirs * grid);
-        constexpr std::size_t anchor = 64;
+        // not at f. Power summed over runs: sum over runs of |sum_i w_i r_i exp(-2 pi i f t_i)|^2.
+        const auto weight = [&](const Geo& p, int which) { return which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s); };
+        std::array<std::vector<double>, 3> pw;
+        for (auto& v : pw) v.assign(grid, 0.0);
+        Eigen::FFT<double> fft;
+        std::vector<double> binned(fft_size);
+        std::vector<std::complex<double>> spectrum;
         for (std::size_t i = 0; i < gg.size();) {
-          std::fill(re.begin(), re.end(), 0.0);
-          std::fill(im.begin(), im.end(), 0.0);
-          for (const std::size_t run = gg[i].run; i < gg.size() && gg[i].run == run; ++i) {
-            const double ri = r[static_cast<Eigen::Index>(i)];
-            if (ri == 0.0) continue;  // a held-out row
-            const double t = gg[i].t_s;
-            const double wa = gg[i].lam * gg[i].c, wb = gg[i].lam * gg[i].s;
-            const double sr = std::cos(-2 * pi * df * t), si = std::sin(-2 * pi * df * t);
-            for (std::size_t q0 = 0; q0 < grid; q0 += anchor) {
-              const std::complex<double> z0 = ri * std::polar(1.0, -2 * pi * (f_lo + df * static_cast<double>(q0)) * t);
-              double zr = z0.real(), zi = z0.imag();
-              for (std::size_t q = q0; q < std::min(grid, q0 + anchor); ++q) {
-                double* qr = &re[dirs * q];
-                double* qi = &im[dirs * q];
-                qr[0] += zr;
-                qi[0] += zi;
-                qr[1] += wa * zr;
-                qi[1] += wa * zi;
-                qr[2] += wb * zr;
-                qi[2] += wb * zi;
-                const double nr = zr * sr - zi * si;
-                zi = zr * si + zi * sr;
-                zr = nr;
-              }
+          const std::size_t first = i;
+          while (i < gg.size() && gg[i].run == gg[first].run) ++i;
+          for (int which = 0; which < 3; ++which) {
+            std::fill(binned.begin(), binned.end(), 0.0);
+            for (std::size_t j = first; j < i; ++j) {
+              const auto bin = static_cast<std::size_t>(std::max(0.0, std::round((gg[j].t_s - gg[first].t_s) / dt)));
+              if (bin < fft_size) binned[bin] += weight(gg[j], which) * r[static_cast<Eigen::Index>(j)];
             }
+            fft.fwd(spectrum, binned);
+            auto& acc = pw[static_cast<std::size_t>(which)];
+            for (std::size_t q = 0; q < grid; ++q) acc[q] += std::norm(spectrum[q_lo + q]);
           }
-          for (std::size_t k = 0; k < dirs * grid; ++k) pw[k] += re[k] * re[k] + im[k] * im[k];
         }
+        // The exact periodogram at f (direction `which`).
+        const auto power = [&](double f, int which) {
+          double total = 0, re = 0, im = 0;
+          for (std::size_t j = 0; j < gg.size(); ++j) {
+            if (j > 0 && gg[j].run != gg[j - 1].run) {
+              total += re * re + im * im;
+              re = im = 0;
+            }
+            const double v = weight(gg[j], which) * r[static_cast<Eigen::Index>(j)];
+            if (v == 0.0) continue;
+            re += v * std::cos(2 * pi * f * gg[j].t_s);
+            im -= v * std::sin(2 * pi * f * gg[j].t_s);
+          }
+          return total + re * re + im * im;
+        };
         std::vector<Variant> vs;
         for (int which = 0; which < 3; ++which) {
-          const auto at = [&](std::size_t q) { return pw[dirs * q + static_cast<std::size_t>(which)]; };
-          std::vector<std::pair<double, std::size_t>> power;  // (power, grid index)
-          for (std::size_t q = 0; q < grid; ++q) power.emplace_back(at(q), q);
-          std::sort(power.begin(), power.end(), std::greater<>());
+          const auto& at = pw[static_cast<std::size_t>(which)];
+          std::vector<std::pair<double, std::size_t>> strongest;  // (power, grid index)
+          for (std::size_t q = 0; q < grid; ++q) strongest.emplace_back(at[q], q);
+          std::sort(strongest.begin(), strongest.end(), std::greater<>());
           std::vector<std::size_t> lines;
-          for (const auto& [pw_q, q] : power) {
+          for (const auto& [pw_q, q] : strongest) {
             if (lines.size() == 2) break;
             if (lines.empty() || (q > lines[0] ? q - lines[0] : lines[0] - q) >= apart) lines.push_back(q);
           }
           for (const std::size_t q : lines) {
-            // Between grid points by the parabola through the peak and its neighbours: a coherent fit
-            // over runs a minute apart loses much of a line that is a fraction of a grid step off.
+            // Between grid points on the exact periodogram: five points half a grid step apart around
+            // the peak, then the parabola through the highest and its neighbours (a coherent fit over
+            // runs a minute apart loses much of a line that is a fraction of a grid step off).
+            const double f0 = df * static_cast<double>(q_lo + q), h = 0.5 * df;
+            std::array<double, 5> pk{};
+            for (int k = 0; k < 5; ++k) pk[static_cast<std::size_t>(k)] = power(f0 + (k - 2) * h, which);
+            const auto top = static_cast<std::size_t>(std::max_element(pk.begin(), pk.end()) - pk.begin());
             double offset = 0.0;
-            if (q > 0 && q + 1 < grid) {
-              const double curvature = at(q - 1) - 2 * at(q) + at(q + 1);
-              if (curvature < 0) offset = std::clamp(0.5 * (at(q - 1) - at(q + 1)) / curvature, -0.5, 0.5);
+            if (top > 0 && top < 4) {
+              const double curvature = pk[top - 1] - 2 * pk[top] + pk[top + 1];
+              if (curvature < 0) offset = std::clamp(0.5 * (pk[top - 1] - pk[top + 1]) / curvature, -0.5, 0.5);
             }
-            const double f = f_lo + df * (static_cast<double>(q) + offset);
+            const double f = f0 + (static_cast<double>(top) - 2.0 + offset) * h;
             const std::vector<Moments>& mom = moments[static_cast<std::size_t>(which)];
             const std::string L = which == 0 ? "bar" : (which == 1 ? A : B);
             std::vector<std::string> names;
@@ -423,6 +556,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
               o[col + 1] = proj * std::cos(2 * pi * f * p.t_s);
             });
             v.searched = 1;
+            v.group = L;
             v.report = [L, phases, f, mom](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
               const std::string amp = "vibration_" + L + "_um", phase = "vibration_phase_" + L + "_deg";
               // Per group: amplitude and phase with the frequency held; then u(f) from the Fisher
@@ -571,6 +705,14 @@ Problem dbb_problem(const std::vector<dbb::Run>& runs) {
   for (std::size_t i = 0; i < g.size(); ++i) reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
   Problem p = assemble_problem(runs, g, machine_time, reading);
   refit_sensor_nonlinearity(p, base, y, {});
+  if (drive_delays_s(runs).size() > 1) {
+    Candidate c{"servo_lag",
+                "the drives follow the command late (the position loops' 1/Kv), so with the commanded angles every "
+                "position-dependent error is seen a little earlier along the path, opposite in the two directions",
+                {}, {}, 0};
+    c.generate = servo_lag_generator(base, y, std::make_shared<const std::vector<Geo>>(g));
+    p.candidates.push_back(std::move(c));
+  }
   p.base = std::move(base);
   return p;
 }

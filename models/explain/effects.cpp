@@ -17,6 +17,12 @@ const std::vector<EffectInfo>& effect_library() {
       {"servo_mismatch", "the two axes' position loops lag by different times (different gains)",
        "direction and feed", "an oval along a diagonal that flips sign with direction and grows with feed", {},
        {"dbb"}},
+      {"servo_lag", "both drives follow the command late by their position loop's time constant (1/Kv)",
+       "direction and feed",
+       "where a run's angles are the commanded ones, every position-dependent error is seen where the drives were, "
+       "a lag times the feed earlier along the path: the base's shape shifted by an angle that flips with direction "
+       "and grows with feed",
+       {}, {"dbb"}},
       {"cyclic_error", "lead-screw or encoder pitch error repeating every lead of the screw",
        "axis position", "a sinusoid in axis position with the screw lead as period, the same in every run", {},
        {"dbb", "flatness", "straightness"}},

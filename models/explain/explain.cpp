@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <cstdio>
 #include <limits>
 #include <memory>
-#include <numeric>
-#include <sstream>
+#include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <tuple>
 
@@ -22,63 +21,101 @@ namespace guideway::models::explain {
 namespace {
 
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+constexpr std::size_t none = static_cast<std::size_t>(-1);
 
-struct Fit {
-  LsqResult res;
-  double rss = 0;
-  std::size_t k = 0;  // rank + searched nonlinear parameters
-  double bic = 0;
+std::string fmt(const char* f, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, a);
+  return buf;
+}
+
+// The finest residual level the tests resolve (um RMS): below it a residual counts as this level, so that
+// noise-free data (a simulation, an exact fit) is not explained down to its rounding error.
+constexpr double resolution_um = 1e-3;
+double floored(double rss, double m) { return std::max(rss, m * resolution_um * resolution_um); }
+
+double bic_of(double rss, double k, double m) { return m * std::log(floored(rss, m) / m) + k * std::log(m); }
+
+// F-test of the columns that take a model's RSS from rss0 to rss1 (q more rank, dof1 residual degrees of
+// freedom left): the survival probability.
+double f_test(double rss0, double rss1, double q, double dof1, double m) {
+  if (!(q > 0 && dof1 > 0)) return 1.0;
+  const double a = floored(rss0, m), b = floored(rss1, m);
+  return f_sf(((a - b) / q) / (b / dof1), q, dof1);
+}
+
+// Least squares without names or uncertainties wanted (the held-out fits).
+LsqResult lsq(const Eigen::MatrixXd& j, const Eigen::VectorXd& y) {
+  return solve_lsq(j, y, Eigen::VectorXd(), std::vector<std::string>(static_cast<std::size_t>(j.cols()), "p"));
+}
+Eigen::MatrixXd hcat(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  Eigen::MatrixXd out(a.rows(), a.cols() + b.cols());
+  out.leftCols(a.cols()) = a;
+  out.rightCols(b.cols()) = b;
+  return out;
+}
+
+// A direction whose pivot is below this fraction of the largest (columns scaled to unit norm, as
+// solve_lsq's rank analysis) adds no rank.
+constexpr double rank_tolerance = 1e-9;
+
+// An orthonormal basis of the span of a's columns (each scaled to unit norm first: the base mixes units).
+Eigen::MatrixXd span_basis(const Eigen::MatrixXd& a) {
+  if (a.cols() == 0) return Eigen::MatrixXd(a.rows(), 0);
+  Eigen::MatrixXd s = a;
+  for (Eigen::Index c = 0; c < s.cols(); ++c)
+    if (const double norm = s.col(c).norm(); norm > 0) s.col(c) /= norm;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s);
+  qr.setThreshold(rank_tolerance);
+  return qr.householderQ() * Eigen::MatrixXd::Identity(a.rows(), qr.rank());
+}
+
+// The least squares of a model on some rows, kept as an orthonormal basis of its columns and its residual,
+// so that a variant can be tried against it exactly and cheaply (extend()).
+struct Model {
+  Eigen::MatrixXd q;
   Eigen::VectorXd residual;
+  double rss = 0;
+  std::size_t rank = 0;
+  std::size_t searched = 0;  // nonlinear parameters found by search (counted in the BIC)
+  double bic = 0;
 };
-
-// The columns of the base, the effects found so far and one trial variant.
-struct Design {
-  Eigen::MatrixXd j;
-  std::vector<std::string> names;
-  std::size_t searched = 0;
-};
-
-Design assemble(const Block& base, const std::vector<const Variant*>& blocks) {
-  Design d;
-  Eigen::Index cols = base.columns.cols();
-  for (const auto* v : blocks) cols += v->block.columns.cols();
-  const Eigen::Index n = base.columns.rows() > 0 ? base.columns.rows()
-                                                 : (blocks.empty() ? 0 : blocks.front()->block.columns.rows());
-  d.j.resize(n, cols);
-  Eigen::Index at = 0;
-  if (base.columns.cols() > 0) {
-    d.j.leftCols(base.columns.cols()) = base.columns;
-    at = base.columns.cols();
-  }
-  d.names = base.names;
-  for (const auto* v : blocks) {
-    d.j.middleCols(at, v->block.columns.cols()) = v->block.columns;
-    at += v->block.columns.cols();
-    d.names.insert(d.names.end(), v->block.names.begin(), v->block.names.end());
-    d.searched += v->searched;
-  }
-  return d;
+Model model_of(const Eigen::MatrixXd& j, std::size_t searched, const Eigen::VectorXd& y) {
+  Model m;
+  m.q = span_basis(j);
+  m.residual = y - m.q * (m.q.transpose() * y);
+  m.rss = m.residual.squaredNorm();
+  m.rank = static_cast<std::size_t>(m.q.cols());
+  m.searched = searched;
+  m.bic = bic_of(m.rss, static_cast<double>(m.rank + searched), static_cast<double>(y.size()));
+  return m;
 }
 
-Fit fit(const Design& d, const Eigen::VectorXd& y) {
-  Fit f;
-  const auto n = static_cast<double>(y.size());
-  if (d.j.cols() == 0) {
-    f.residual = y;
-    f.res.ok = true;
-    f.res.fitted = Eigen::VectorXd();
-  } else {
-    f.res = solve_lsq(d.j, y, Eigen::VectorXd(), d.names);
-    if (!f.res.ok) throw std::invalid_argument("explain: least squares failed: " + f.res.message);
-    f.residual = f.res.residual;
+// The joint least squares of a model and the columns x (same rows), from the model's basis and residual:
+// x is projected off the model's span, and what is left of the residual in the span of the rest is removed.
+struct Extension {
+  double rss = 0;
+  std::size_t rank = 0;  // added to the model's
+};
+Extension extend(const Model& m, const Eigen::MatrixXd& x) {
+  Eigen::MatrixXd xp = x - m.q * (m.q.transpose() * x);
+  // Relative to each column's own size before the projection: a column in the model's span adds nothing.
+  for (Eigen::Index c = 0; c < xp.cols(); ++c) {
+    const double norm = x.col(c).norm();
+    xp.col(c) = norm > 0 ? Eigen::VectorXd(xp.col(c) / norm) : Eigen::VectorXd::Zero(xp.rows());
   }
-  f.rss = f.residual.squaredNorm();
-  f.k = f.res.rank + d.searched;
-  f.bic = n * std::log(std::max(f.rss, 1e-300) / n) + static_cast<double>(f.k) * std::log(n);
-  return f;
+  Extension e{m.rss, 0};
+  if (xp.cols() == 0 || xp.cwiseAbs().maxCoeff() < 1e-7) return e;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(xp);
+  qr.setThreshold(rank_tolerance);
+  if (std::abs(qr.matrixQR()(0, 0)) < 1e-7) return e;  // what is left of every column is rounding
+  e.rank = static_cast<std::size_t>(qr.rank());
+  const Eigen::VectorXd qtr = qr.householderQ().transpose() * m.residual;
+  e.rss = std::max(0.0, m.rss - qtr.head(static_cast<Eigen::Index>(e.rank)).squaredNorm());
+  return e;
 }
 
-// The rows of each fold: fold_of[i] = the fold that holds sample i out.
+// The rows of each fold.
 struct FoldRows {
   std::vector<Eigen::Index> train, test;
   std::vector<bool> use;  // use[i]: sample i is a training row of this fold
@@ -97,160 +134,341 @@ std::vector<FoldRows> fold_rows(const std::vector<int>& fold_of, int folds) {
   return out;
 }
 
-// Least squares without names or uncertainties wanted (the held-out fits).
-LsqResult lsq(const Eigen::MatrixXd& j, const Eigen::VectorXd& y) {
-  return solve_lsq(j, y, Eigen::VectorXd(), std::vector<std::string>(static_cast<std::size_t>(j.cols()), "p"));
+// A term's columns in one fold: of the variant chosen on that fold's training rows.
+struct FoldBlock {
+  Eigen::MatrixXd train, test;
+};
+
+// An effect in the model: its candidate, the variant chosen on all the data and, per fold, the columns
+// of the variant chosen again on the fold's training rows (docs/explain.md "Held out").
+struct Term {
+  std::size_t cand = 0;
+  std::shared_ptr<const std::vector<Variant>> pool;  // generated variants (null: the candidate's list)
+  std::size_t index = 0;                             // the variant in the list
+  double bonferroni = 1.0;                           // candidates x variants searched when it was taken
+  std::size_t taken = 0;                             // when it was taken (findings are in this order)
+  std::vector<FoldBlock> folds;
+};
+
+const std::vector<Variant>& listed(const Candidate& c, const std::shared_ptr<const std::vector<Variant>>& pool) {
+  return pool ? *pool : c.variants;
 }
-Eigen::MatrixXd hcat(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-  Eigen::MatrixXd out(a.rows(), a.cols() + b.cols());
-  out.leftCols(a.cols()) = a;
-  out.rightCols(b.cols()) = b;
-  return out;
+const Variant& variant_of(const Problem& p, const Term& t) { return listed(p.candidates[t.cand], t.pool)[t.index]; }
+
+// A variant may join the model when its candidate has no term yet (skip aside), or when every term of its
+// candidate is of another, named group (a cyclic error on the other axis, a vibration along another direction).
+bool group_free(const Problem& p, const Variant& v, std::size_t cand, const std::vector<Term>& terms, std::size_t skip) {
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    if (k == skip || terms[k].cand != cand) continue;
+    if (v.group.empty() || variant_of(p, terms[k]).group == v.group) return false;
+  }
+  return true;
 }
 
-// The variant choice of a selection round on the given rows, as explain() makes it on all of them:
-// prescreen every variant by how much of the residual r (on those rows) it explains alone, fit the best
-// `prescreen` jointly with j_rows (base + effects taken, same rows) and keep the smallest RSS. -1: none.
-std::ptrdiff_t choose_variant(const std::vector<Variant>& variants, const std::vector<Eigen::Index>& rows,
-                              const Eigen::VectorXd& r, const Eigen::MatrixXd& j_rows, const Eigen::VectorXd& y_rows,
-                              std::size_t prescreen) {
-  if (variants.size() == 1) return 0;
-  std::vector<std::pair<double, std::size_t>> score;
+// A candidate's best variant against a model on some rows: the exact joint fit of each allowed variant,
+// lowest BIC (n ln RSS + (rank + searched) ln n). rows = null: all rows. none: no variant can be fitted.
+struct Choice {
+  std::size_t index = none;
+  Extension ext;
+};
+Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& allowed, const std::vector<Eigen::Index>* rows,
+              const Model& m) {
+  Choice best;
+  double best_bic = 0;
+  const auto count = static_cast<double>(m.residual.size());
   for (std::size_t v = 0; v < variants.size(); ++v) {
-    const Eigen::MatrixXd x = variants[v].block.columns(rows, Eigen::all);
-    const Eigen::VectorXd b = x.colPivHouseholderQr().solve(r);
-    score.emplace_back(-(r.squaredNorm() - (r - x * b).squaredNorm()), v);
-  }
-  std::sort(score.begin(), score.end());
-  std::ptrdiff_t best = -1;
-  double best_rss = 0;
-  for (std::size_t s = 0; s < std::min(prescreen, score.size()); ++s) {
-    const LsqResult res = lsq(hcat(j_rows, variants[score[s].second].block.columns(rows, Eigen::all)), y_rows);
-    if (!res.ok) continue;
-    const double rss = res.residual.squaredNorm();
-    if (best < 0 || rss < best_rss) {
-      best = static_cast<std::ptrdiff_t>(score[s].second);
-      best_rss = rss;
+    if (!allowed[v]) continue;
+    const Extension e = rows ? extend(m, variants[v].block.columns(*rows, Eigen::all)) : extend(m, variants[v].block.columns);
+    if (e.rank == 0) continue;
+    const double b = bic_of(e.rss, static_cast<double>(e.rank + variants[v].searched), count);
+    if (best.index == none || b < best_bic) {
+      best = {v, e};
+      best_bic = b;
     }
   }
   return best;
 }
 
-// One fold's held-out design: the columns of the base and the effects taken so far (each effect's variant
-// chosen again on the fold's training rows, see heldout()) on its training and its held-out rows, and the
-// training residual of their fit. explain() keeps one per fold for the effects accepted and extends it only
-// when a candidate is accepted, so a trial re-chooses only its own effect in each fold.
-struct FoldFit {
-  Eigen::MatrixXd jt, jh;
-  Eigen::VectorXd rt;
-  bool ok = false;  // false: the fold has no held-out rows
-};
-
 struct HeldOut {
   double rms = nan;
-  std::string failure;  // why rms is NaN: a fold could not be fitted (not skipped: every figure compared
-                        // must average the same rows)
-  std::vector<FoldFit> folds;  // the prefix extended by the trial (explain() keeps it when accepted)
+  std::string failure;           // why rms is NaN: a fold could not be fitted (not skipped: every figure
+                                 // compared must average the same rows)
+  std::vector<FoldBlock> trial;  // the trial's columns per fold (its term's when it is taken)
 };
 
-// Held-out RMS: every fold's held-out rows predicted from a fit to its training rows, the columns of the
-// fold's prefix (`prefix`, one per fold; empty = the base only) and of the trial, if any. With
-// ExplainOptions::heldout_reselect (the default; docs/explain.md "Held out") the trial's variant is chosen
-// again in each fold from the training rows alone, as every effect of the prefix was -- a generator gets
-// the training residual, zero on the held-out rows, and the mask of the training rows. Otherwise the
-// variant chosen on all the data (`fixed`) is taken and only the coefficients refitted: the held-out rows
-// then took part in the choice, which is optimistic (measured by bench/explain_heldout_bench.cpp).
-// `columns` = base + all effects' columns as chosen on all the data. A fold that cannot be fitted (too few
-// training rows, no variant, a failed fit) makes the figure NaN with HeldOut::failure saying why.
-HeldOut heldout(const Problem& problem, const std::vector<FoldFit>& prefix, const Candidate* trial, const Variant* fixed,
-                Eigen::Index columns, const Eigen::VectorXd& y, const std::vector<FoldRows>& folds,
-                const ExplainOptions& options) {
-  HeldOut out;
-  if (columns == 0) {
-    out.rms = std::sqrt(y.squaredNorm() / static_cast<double>(y.size()));
+// A candidate tried against the model: its best variant, the joint fit and the tests of explain().
+struct Trial {
+  std::size_t cand = 0;
+  std::shared_ptr<const std::vector<Variant>> pool;
+  std::size_t index = none;
+  Extension ext;
+  double delta_bic = 0, p = 1, bonferroni = 1;
+};
+
+// Whether a term still earns its place in the model: the F-test, BIC and held-out RMS of the model
+// without it against the model with it.
+struct DropTest {
+  double p = 1, delta_bic = 0, heldout_without = nan;
+  bool earns = false;
+  std::string why;  // when it does not
+};
+
+class Selection {
+ public:
+  Selection(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y, std::vector<FoldRows> folds)
+      : p_(problem), o_(options), y_(y), n_(static_cast<std::size_t>(y.size())), folds_(std::move(folds)) {
+    const bool has_base = p_.base.columns.cols() > 0;
+    for (const auto& f : folds_) {
+      const auto rows = [&](const std::vector<Eigen::Index>& r) {
+        return has_base ? Eigen::MatrixXd(p_.base.columns(r, Eigen::all))
+                        : Eigen::MatrixXd(static_cast<Eigen::Index>(r.size()), 0);
+      };
+      base_train_.push_back(rows(f.train));
+      base_test_.push_back(rows(f.test));
+      y_train_.push_back(y_(f.train));
+    }
+  }
+
+  // The columns of the base and the terms (but `skip`), on all rows.
+  [[nodiscard]] Eigen::MatrixXd design(const std::vector<Term>& terms, std::size_t skip = none) const {
+    Eigen::Index cols = p_.base.columns.cols();
+    for (std::size_t k = 0; k < terms.size(); ++k)
+      if (k != skip) cols += variant_of(p_, terms[k]).block.columns.cols();
+    Eigen::MatrixXd j(static_cast<Eigen::Index>(n_), cols);
+    Eigen::Index at = 0;
+    if (p_.base.columns.cols() > 0) {
+      j.leftCols(p_.base.columns.cols()) = p_.base.columns;
+      at = p_.base.columns.cols();
+    }
+    for (std::size_t k = 0; k < terms.size(); ++k) {
+      if (k == skip) continue;
+      const auto& c = variant_of(p_, terms[k]).block.columns;
+      j.middleCols(at, c.cols()) = c;
+      at += c.cols();
+    }
+    return j;
+  }
+  [[nodiscard]] std::vector<std::string> names(const std::vector<Term>& terms) const {
+    std::vector<std::string> out = p_.base.names;
+    for (const auto& t : terms) {
+      const auto& v = variant_of(p_, t).block.names;
+      out.insert(out.end(), v.begin(), v.end());
+    }
     return out;
   }
-  out.folds.resize(folds.size());
-  double sse = 0;
-  std::size_t count = 0;
-  for (std::size_t k = 0; k < folds.size(); ++k) {
-    const auto& fold = folds[k];
-    FoldFit& ff = out.folds[k];
-    if (fold.test.empty() || (!prefix.empty() && !prefix[k].ok)) continue;
-    const auto fail = [&](const std::string& why) {
-      HeldOut failed;
-      failed.failure = "fold " + std::to_string(k + 1) + " of " + std::to_string(folds.size()) + ": " + why;
-      return failed;
-    };
-    if (fold.train.size() < static_cast<std::size_t>(columns) + 2)
-      return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(columns) + " columns");
-    const Eigen::VectorXd yt = y(fold.train);
-    if (prefix.empty()) {
-      const bool has_base = problem.base.columns.cols() > 0;
-      ff.jt = has_base ? Eigen::MatrixXd(problem.base.columns(fold.train, Eigen::all))
-                       : Eigen::MatrixXd(static_cast<Eigen::Index>(fold.train.size()), 0);
-      ff.jh = has_base ? Eigen::MatrixXd(problem.base.columns(fold.test, Eigen::all))
-                       : Eigen::MatrixXd(static_cast<Eigen::Index>(fold.test.size()), 0);
-      if (trial && options.heldout_reselect) {
-        // The training residual of the base (the prefix's is kept in rt).
-        ff.rt = yt;
-        if (ff.jt.cols() > 0) {
-          const LsqResult res = lsq(ff.jt, yt);
-          if (!res.ok) return fail("the base fit failed: " + res.message);
-          ff.rt = res.residual;
-        }
-      }
-    } else {
-      ff = prefix[k];
-    }
-    if (trial) {
-      const Variant* chosen = fixed;
-      std::vector<Variant> generated;
-      if (options.heldout_reselect) {
-        if (trial->generate) {
-          Eigen::VectorXd r = Eigen::VectorXd::Zero(y.size());
-          r(fold.train) = ff.rt;
-          generated = trial->generate(r, fold.use);
-          for (const auto& v : generated)
-            if (v.block.columns.rows() != y.size())
-              throw std::invalid_argument("explain: candidate " + trial->effect + " has the wrong number of rows");
-        }
-        const std::vector<Variant>& variants = trial->generate ? generated : trial->variants;
-        const std::ptrdiff_t v =
-            variants.empty() ? -1 : choose_variant(variants, fold.train, ff.rt, ff.jt, yt, options.prescreen);
-        if (v < 0) return fail(trial->effect + " has no variant that can be fitted on the training rows");
-        chosen = &variants[static_cast<std::size_t>(v)];
-      }
-      ff.jt = hcat(ff.jt, chosen->block.columns(fold.train, Eigen::all));
-      ff.jh = hcat(ff.jh, chosen->block.columns(fold.test, Eigen::all));
-    }
-    const LsqResult r = lsq(ff.jt, yt);
-    if (!r.ok) return fail("the fit failed: " + r.message);
-    ff.rt = r.residual;
-    ff.ok = true;
-    sse += (y(fold.test) - ff.jh * r.fitted).squaredNorm();
-    count += fold.test.size();
+  [[nodiscard]] Model model(const std::vector<Term>& terms, std::size_t skip = none) const {
+    std::size_t searched = 0;
+    for (std::size_t k = 0; k < terms.size(); ++k)
+      if (k != skip) searched += variant_of(p_, terms[k]).searched;
+    return model_of(design(terms, skip), searched, y_);
   }
-  out.rms = count ? std::sqrt(sse / static_cast<double>(count)) : nan;
-  return out;
-}
 
-std::string fmt(const char* f, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
+  // The candidate's variants for a residual (zero on the rows not in use) and which may join the terms.
+  std::shared_ptr<const std::vector<Variant>> generate(const Candidate& c, const Eigen::VectorXd& r,
+                                                       const std::vector<bool>& use) const {
+    if (!c.generate) return nullptr;
+    auto pool = std::make_shared<const std::vector<Variant>>(c.generate(r, use));
+    for (const auto& v : *pool)
+      if (static_cast<std::size_t>(v.block.columns.rows()) != n_)
+        throw std::invalid_argument("explain: candidate " + c.effect + " has the wrong number of rows");
+    return pool;
+  }
+  [[nodiscard]] std::vector<bool> allowed(std::size_t cand, const std::vector<Variant>& variants, const std::vector<Term>& terms,
+                                          std::size_t skip) const {
+    std::vector<bool> a(variants.size());
+    for (std::size_t v = 0; v < variants.size(); ++v) a[v] = group_free(p_, variants[v], cand, terms, skip);
+    return a;
+  }
 
-std::vector<ParamValue> params_of(const Variant& v, const Fit& f, Eigen::Index offset) {
+  // Candidate c tried against the model `cur` of the terms: its best variant on all the data and the
+  // F-test (Bonferroni over `live` candidates and the grid points searched) and BIC against cur.
+  [[nodiscard]] Trial trial(std::size_t c, const std::vector<Term>& terms, const Model& cur) const {
+    const Candidate& cand = p_.candidates[c];
+    Trial t;
+    t.cand = c;
+    t.pool = generate(cand, cur.residual, std::vector<bool>(n_, true));
+    const auto& variants = listed(cand, t.pool);
+    const Choice ch = choose(variants, allowed(c, variants, terms, none), nullptr, cur);
+    if (ch.index == none) return t;
+    t.index = ch.index;
+    t.ext = ch.ext;
+    const auto m = static_cast<double>(n_);
+    const auto& v = variants[t.index];
+    t.delta_bic = bic_of(ch.ext.rss, static_cast<double>(cur.rank + ch.ext.rank + cur.searched + v.searched), m) - cur.bic;
+    t.bonferroni = static_cast<double>(cand.search_size ? cand.search_size : std::max<std::size_t>(variants.size(), 1));
+    const double q = static_cast<double>(ch.ext.rank), dof2 = m - static_cast<double>(cur.rank + ch.ext.rank);
+    t.p = f_test(cur.rss, ch.ext.rss, q, dof2, m);
+    return t;
+  }
+
+  // Held-out RMS: every fold's held-out rows predicted from a fit to its training rows of the base, the
+  // terms (but `skip`, each with the variant chosen on that fold's training rows) and the trial candidate,
+  // if any. With ExplainOptions::heldout_reselect (the default) the trial's variant is chosen again in each
+  // fold from the training rows alone, as every term's was -- a generator gets the training residual, zero
+  // on the held-out rows, and the mask of the training rows; otherwise the variant chosen on all the data
+  // (`fixed`) is taken and only the coefficients are refitted, which is optimistic (the held-out rows took
+  // part in the choice; bench/explain_heldout_bench.cpp). A fold that cannot be fitted makes it NaN.
+  [[nodiscard]] HeldOut heldout(const std::vector<Term>& terms, std::size_t skip, std::size_t trial = none,
+                                const Variant* fixed = nullptr) const {
+    HeldOut out;
+    Eigen::Index columns = p_.base.columns.cols();
+    for (std::size_t k = 0; k < terms.size(); ++k)
+      if (k != skip) columns += variant_of(p_, terms[k]).block.columns.cols();
+    if (columns == 0 && trial == none) {
+      out.rms = std::sqrt(y_.squaredNorm() / static_cast<double>(n_));
+      return out;
+    }
+    out.trial.resize(folds_.size());
+    double sse = 0;
+    std::size_t count = 0;
+    for (std::size_t f = 0; f < folds_.size(); ++f) {
+      const FoldRows& fold = folds_[f];
+      if (fold.test.empty()) continue;
+      const auto fail = [&](const std::string& why) {
+        HeldOut failed;
+        failed.failure = "fold " + std::to_string(f + 1) + " of " + std::to_string(folds_.size()) + ": " + why;
+        return failed;
+      };
+      Eigen::MatrixXd jt = base_train_[f], jh = base_test_[f];
+      for (std::size_t k = 0; k < terms.size(); ++k) {
+        if (k == skip) continue;
+        jt = hcat(jt, terms[k].folds[f].train);
+        jh = hcat(jh, terms[k].folds[f].test);
+      }
+      const Eigen::VectorXd& yt = y_train_[f];
+      if (trial != none) {
+        const Candidate& cand = p_.candidates[trial];
+        const Variant* chosen = fixed;
+        std::shared_ptr<const std::vector<Variant>> pool;
+        if (o_.heldout_reselect) {
+          const Model m = model_of(jt, 0, yt);
+          Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
+          r(fold.train) = m.residual;
+          pool = generate(cand, r, fold.use);
+          const auto& variants = listed(cand, pool);
+          const Choice ch = choose(variants, allowed(trial, variants, terms, skip), &fold.train, m);
+          if (ch.index == none) return fail(cand.effect + " has no variant that can be fitted on the training rows");
+          chosen = &variants[ch.index];
+        }
+        out.trial[f] = {chosen->block.columns(fold.train, Eigen::all), chosen->block.columns(fold.test, Eigen::all)};
+        jt = hcat(jt, out.trial[f].train);
+        jh = hcat(jh, out.trial[f].test);
+      }
+      if (fold.train.size() < static_cast<std::size_t>(jt.cols()) + 2)
+        return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(jt.cols()) + " columns");
+      const LsqResult r = lsq(jt, yt);
+      if (!r.ok) return fail("the fit failed: " + r.message);
+      sse += (y_(fold.test) - jh * r.fitted).squaredNorm();
+      count += fold.test.size();
+    }
+    out.rms = count ? std::sqrt(sse / static_cast<double>(count)) : nan;
+    return out;
+  }
+
+  // Term k's variant chosen again with the others in the model (on all the data and in every fold):
+  // chosen before a later effect was taken, it may have absorbed part of that effect. True if it changed.
+  bool rechoose(std::vector<Term>& terms, std::size_t k) const {
+    Term& t = terms[k];
+    const Candidate& cand = p_.candidates[t.cand];
+    if (!cand.generate && cand.variants.size() < 2) return false;
+    const Model without = model(terms, k);
+    auto pool = generate(cand, without.residual, std::vector<bool>(n_, true));
+    const auto& variants = listed(cand, pool);
+    const Choice ch = choose(variants, allowed(t.cand, variants, terms, k), nullptr, without);
+    if (ch.index == none) return false;
+    const Variant& now = variants[ch.index];
+    const Variant& before = variant_of(p_, t);
+    if (now.block.columns.cols() == before.block.columns.cols() &&
+        (now.block.columns - before.block.columns).cwiseAbs().maxCoeff() <= 1e-12 * (1 + before.block.columns.cwiseAbs().maxCoeff()))
+      return false;
+    t.pool = pool;
+    t.index = ch.index;
+    for (std::size_t f = 0; f < folds_.size(); ++f) {
+      const FoldRows& fold = folds_[f];
+      if (fold.test.empty()) continue;
+      if (!o_.heldout_reselect) {
+        t.folds[f] = {now.block.columns(fold.train, Eigen::all), now.block.columns(fold.test, Eigen::all)};
+        continue;
+      }
+      Eigen::MatrixXd jt = base_train_[f];
+      for (std::size_t j = 0; j < terms.size(); ++j)
+        if (j != k) jt = hcat(jt, terms[j].folds[f].train);
+      const Model m = model_of(jt, 0, y_train_[f]);
+      Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
+      r(fold.train) = m.residual;
+      auto fpool = generate(cand, r, fold.use);
+      const auto& fv = listed(cand, fpool);
+      const Choice fc = choose(fv, allowed(t.cand, fv, terms, k), &fold.train, m);
+      if (fc.index == none) continue;  // the fold keeps its earlier choice, made on its training rows too
+      t.folds[f] = {fv[fc.index].block.columns(fold.train, Eigen::all), fv[fc.index].block.columns(fold.test, Eigen::all)};
+    }
+    return true;
+  }
+
+  // Term k against the model without it: the F-test (Bonferroni as when it was taken) and the BIC.
+  [[nodiscard]] DropTest significance(const std::vector<Term>& terms, std::size_t k, const Model& cur) const {
+    DropTest d;
+    const Model without = model(terms, k);
+    const auto m = static_cast<double>(n_);
+    const double q = static_cast<double>(cur.rank) - static_cast<double>(without.rank);
+    const double dof2 = m - static_cast<double>(cur.rank);
+    d.p = std::min(1.0, f_test(without.rss, cur.rss, q, dof2, m) * terms[k].bonferroni);
+    d.delta_bic = cur.bic - without.bic;
+    return d;
+  }
+
+  // Does term k still earn its place with the others in the model (`cur`, held-out cur_heldout)?
+  [[nodiscard]] DropTest drop_test(const std::vector<Term>& terms, std::size_t k, const Model& cur, double cur_heldout) const {
+    DropTest d = significance(terms, k, cur);
+    if (!(d.p < o_.alpha)) {
+      d.why = "not significant with the others in the model (p=" + fmt("%.2g", d.p) + ")";
+      return d;
+    }
+    if (!(d.delta_bic < 0)) {
+      d.why = "does not lower the BIC with the others in the model";
+      return d;
+    }
+    d.heldout_without = heldout(terms, k).rms;
+    if (std::isfinite(cur_heldout) && std::isfinite(d.heldout_without) && !(cur_heldout < d.heldout_without)) {
+      d.why = "the held-out RMS is no worse without it (" + fmt("%.4g", d.heldout_without) + " um)";
+      return d;
+    }
+    d.earns = true;
+    return d;
+  }
+
+  // Share of the structure left without term k that the model with it removes: visible energy of the
+  // bands located in the residual without it, against that of the residual with it. NaN when nothing is
+  // structured without it (a term below visibility is judged by the tests alone).
+  [[nodiscard]] double share(const std::vector<Term>& terms, std::size_t k, const Model& cur, double sigma,
+                             double floor) const {
+    const Model without = model(terms, k);
+    const Located here = locate(p_, without.residual, o_.alpha, sigma);
+    if (!here.structured) return nan;
+    const double before = visible_energy(p_, without.residual, sigma, here.flagged);
+    if (!(before > floor)) return nan;
+    return 1.0 - visible_energy(p_, cur.residual, sigma, here.flagged) / before;
+  }
+
+ private:
+  const Problem& p_;
+  const ExplainOptions& o_;
+  const Eigen::VectorXd& y_;
+  std::size_t n_;
+  std::vector<FoldRows> folds_;
+  std::vector<Eigen::MatrixXd> base_train_, base_test_;
+  std::vector<Eigen::VectorXd> y_train_;
+};
+
+std::vector<ParamValue> params_of(const Variant& v, const LsqResult& f, Eigen::Index offset) {
   const auto q = v.block.columns.cols();
-  Eigen::VectorXd x = f.res.x.segment(offset, q);
-  Eigen::MatrixXd cov = f.res.covariance.block(offset, offset, q, q);
+  Eigen::VectorXd x = f.x.segment(offset, q);
+  Eigen::MatrixXd cov = f.covariance.block(offset, offset, q, q);
   std::vector<ParamValue> out;
   if (v.report) {
     out = v.report(x, cov);
   } else {
-    for (Eigen::Index i = 0; i < q; ++i)
-      out.push_back({v.block.names[static_cast<std::size_t>(i)], x[i], f.res.u[offset + i]});
+    for (Eigen::Index i = 0; i < q; ++i) out.push_back({v.block.names[static_cast<std::size_t>(i)], x[i], f.u[offset + i]});
   }
   out.insert(out.end(), v.fixed.begin(), v.fixed.end());
   return out;
@@ -302,10 +520,6 @@ void add_curves(Report& rep, const Problem& problem, const std::vector<std::pair
   }
 }
 
-// Rounded for the JSON: curves for plots need no more than 4 decimals (0.1 nm; 1e-4 deg or mm), and stay
-// compact. Divided by an exact power of ten, so the shortest decimal form is printed.
-double rounded4(double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; }
-
 }  // namespace
 
 Report explain(const Problem& problem, const ExplainOptions& options) {
@@ -335,18 +549,14 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   std::vector<int> fold_of(n, 0);
   int folds = static_cast<int>(std::max<std::size_t>(options.folds, 2));
   bool loro = false;
-  const Design base_design = assemble(problem.base, {});
-  if (problem.runs.size() >= 3 && !problem.terms_per_run) {
-    const std::size_t full_rank = base_design.j.cols() ? fit(base_design, y).res.rank : 0;
+  if (problem.runs.size() >= 3 && !problem.terms_per_run && problem.base.columns.cols() > 0) {
+    const std::size_t full_rank = static_cast<std::size_t>(span_basis(problem.base.columns).cols());
     loro = true;
     for (std::size_t k = 0; k < ranges.size() && loro; ++k) {
-      if (base_design.j.cols() == 0) break;
       std::vector<Eigen::Index> train;
       for (std::size_t i = 0; i < n; ++i)
         if (problem.samples[i].run != k) train.push_back(static_cast<Eigen::Index>(i));
-      const Eigen::MatrixXd jt = base_design.j(train, Eigen::all);
-      const LsqResult r = solve_lsq(jt, y(train), Eigen::VectorXd(), base_design.names);
-      loro = r.ok && r.rank == full_rank;
+      loro = static_cast<std::size_t>(span_basis(problem.base.columns(train, Eigen::all)).cols()) == full_rank;
     }
   }
   if (loro) {
@@ -365,266 +575,185 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     rep.heldout_scheme = "blocked " + std::to_string(folds) + "-fold cross-validation (contiguous blocks of every run)";
   }
 
-  std::vector<const Variant*> chosen;
-  std::vector<std::shared_ptr<const std::vector<Variant>>> keep;  // generated variants that were chosen
-  Fit current = fit(base_design, y);
-  const std::vector<FoldRows> fold_sets = fold_rows(fold_of, folds);
-  // The held-out fits of the effects taken so far, one per fold (the base's to begin with).
-  HeldOut current_ho = heldout(problem, {}, nullptr, nullptr, base_design.j.cols(), y, fold_sets, options);
-  Eigen::Index current_columns = base_design.j.cols();
-  double current_heldout = current_ho.rms;
+  const Selection sel(problem, options, y, fold_rows(fold_of, folds));
+  std::vector<Term> terms;
+  Model cur = sel.model(terms);
+  HeldOut cur_ho = sel.heldout(terms, none);
+  double cur_heldout = cur_ho.rms;
   // Every effect will be refused for it: say why once, whether or not a candidate gets that far.
-  if (!current_ho.failure.empty()) rep.notes.push_back("held-out RMS of the base not computable (" + current_ho.failure + ")");
-  rep.baseline = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
-  std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", current.residual}};  // for the curves
-  const Located base_loc = locate(problem, current.residual, options.alpha);
+  if (!cur_ho.failure.empty()) rep.notes.push_back("held-out RMS of the base not computable (" + cur_ho.failure + ")");
+  rep.baseline = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, cur_heldout, cur.rank + cur.searched};
+  const Located base_loc = locate(problem, cur.residual, options.alpha);
   rep.noise_um = base_loc.sigma_um;
   rep.mismatch = base_loc.places;
   const double sigma = base_loc.sigma_um;
   // Energy a denoised pure-noise residual keeps is tiny; below this nothing is "visible".
   const double visible_floor = 1e-3 * sigma * sigma * static_cast<double>(n);
 
-  std::vector<bool> used(problem.candidates.size(), false);
-  const std::vector<bool> all_rows(n, true);
-  while (chosen.size() < options.max_effects) {
-    struct Trial {
-      std::size_t cand = 0;
-      std::shared_ptr<const std::vector<Variant>> generated;
-      const Variant* variant = nullptr;
-      Fit fit;
-      double delta_bic = 0, p = 1;
-    };
-    std::vector<Trial> trials;
-    std::size_t live = 0;
-    for (std::size_t c = 0; c < problem.candidates.size(); ++c)
-      if (!used[c] && (!problem.candidates[c].variants.empty() || problem.candidates[c].generate)) ++live;
-    if (live == 0) break;
-    for (std::size_t c = 0; c < problem.candidates.size(); ++c) {
-      const Candidate& cand = problem.candidates[c];
-      if (used[c] || (cand.variants.empty() && !cand.generate)) continue;
-      std::shared_ptr<const std::vector<Variant>> generated;
-      if (cand.generate) {
-        generated = std::make_shared<const std::vector<Variant>>(cand.generate(current.residual, all_rows));
-        for (const auto& v : *generated)
-          if (static_cast<std::size_t>(v.block.columns.rows()) != n)
-            throw std::invalid_argument("explain: candidate " + cand.effect + " has the wrong number of rows");
-      }
-      const std::vector<Variant>& variants = generated ? *generated : cand.variants;
-      if (variants.empty()) continue;
-      // Prescreen the variants by how much of the current residual each explains alone.
-      std::vector<std::pair<double, std::size_t>> score;
-      for (std::size_t v = 0; v < variants.size(); ++v) {
-        const auto& x = variants[v].block.columns;
-        const Eigen::VectorXd b = x.colPivHouseholderQr().solve(current.residual);
-        score.emplace_back(-(current.residual.squaredNorm() - (current.residual - x * b).squaredNorm()), v);
-      }
-      std::sort(score.begin(), score.end());
-      Trial best;
-      best.cand = c;
-      best.generated = generated;
-      bool have = false;
-      for (std::size_t s = 0; s < std::min(options.prescreen, score.size()); ++s) {
-        const Variant* v = &variants[score[s].second];
-        auto blocks = chosen;
-        blocks.push_back(v);
-        Fit f = fit(assemble(problem.base, blocks), y);
-        if (!have || f.rss < best.fit.rss) {
-          best.variant = v;
-          best.fit = std::move(f);
-          have = true;
+  // The set of effects (docs/explain.md "Name and fit"): forward selection on the tests, each earlier
+  // choice re-decided and re-tested whenever an effect joins, then every effect's share of the structure
+  // left without it; what is dropped is not tried again.
+  const std::size_t nc = problem.candidates.size();
+  std::vector<bool> banned(nc, false);
+  std::vector<std::optional<Considered>> verdict(nc);  // the latest, for candidates without a term
+  std::size_t taken = 0;
+  const auto refresh = [&] {
+    cur = sel.model(terms);
+    cur_ho = sel.heldout(terms, none);
+    cur_heldout = cur_ho.rms;
+  };
+  const auto has_term = [&](std::size_t c) {
+    return std::any_of(terms.begin(), terms.end(), [&](const Term& t) { return t.cand == c; });
+  };
+  const auto drop = [&](std::size_t k, Considered why) {
+    const std::size_t c = terms[k].cand;
+    terms.erase(terms.begin() + static_cast<std::ptrdiff_t>(k));
+    banned[c] = true;
+    if (!has_term(c)) verdict[c] = std::move(why);
+    refresh();
+  };
+  // Drop-one: every effect kept must still pass the tests with the others in the model.
+  const auto prune = [&](const std::string& after) {
+    while (!terms.empty()) {
+      std::size_t worst = none;
+      DropTest wd;
+      for (std::size_t k = 0; k < terms.size(); ++k) {
+        DropTest d = sel.drop_test(terms, k, cur, cur_heldout);
+        if (!d.earns && (worst == none || d.p > wd.p)) {
+          worst = k;
+          wd = std::move(d);
         }
       }
-      const double q = static_cast<double>(best.fit.res.rank) - static_cast<double>(current.res.rank);
-      const double dof2 = static_cast<double>(n) - static_cast<double>(best.fit.res.rank);
-      best.delta_bic = best.fit.bic - current.bic;
-      if (q > 0 && dof2 > 0 && best.fit.rss > 0) {
-        const double f = ((current.rss - best.fit.rss) / q) / (best.fit.rss / dof2);
-        const double searched =
-            static_cast<double>(cand.search_size ? cand.search_size : std::max<std::size_t>(variants.size(), 1));
-        best.p = std::min(1.0, f_sf(f, q, dof2) * static_cast<double>(live) * searched);
-      }
-      trials.push_back(std::move(best));
+      if (worst == none) return;
+      drop(worst, {problem.candidates[terms[worst].cand].effect, wd.delta_bic, wd.p, "dropped after " + after + ": " + wd.why});
     }
-    std::sort(trials.begin(), trials.end(), [](const Trial& a, const Trial& b) { return a.delta_bic < b.delta_bic; });
-    rep.considered.clear();
-    bool accepted = false;
-    // The structure still located in the current residual, by band (the share test's yardstick).
-    const Located here = locate(problem, current.residual, options.alpha, sigma);
-    const double vis_before = visible_energy(problem, current.residual, sigma, here.flagged);
-    for (auto& t : trials) {
-      const Candidate& cand = problem.candidates[t.cand];
-      Considered con{cand.effect, t.delta_bic, t.p, ""};
-      if (accepted) {
-        con.verdict = "not tried after a better candidate was taken";
-      } else if (!(t.p < options.alpha)) {
-        con.verdict = "not significant (p=" + fmt("%.2g", t.p) + ")";
-      } else if (!(t.delta_bic < 0)) {
-        con.verdict = "does not lower the BIC";
-      } else if (!std::isfinite(current_heldout)) {  // no figure to beat: the trial's is not computed
-        con.verdict = "held-out RMS of the model so far not computable (" + current_ho.failure + ")";
-      } else {
-        HeldOut trial_ho = heldout(problem, current_ho.folds, &cand, t.variant,
-                                   current_columns + t.variant->block.columns.cols(), y, fold_sets, options);
-        const double ho = trial_ho.rms;
-        double share = nan;
-        if (here.structured && vis_before > visible_floor)
-          share = 1.0 - visible_energy(problem, t.fit.residual, sigma, here.flagged) / vis_before;
-        if (!std::isfinite(ho)) {
-          con.verdict = "held-out RMS not computable (" + trial_ho.failure + ")";
-        } else if (!(ho < current_heldout)) {
-          con.verdict = "held-out RMS not improved (" + fmt("%.4g", ho) + " um)";
-        } else if (std::isfinite(share) && share < options.min_share) {
-          con.verdict = "removes only " + fmt("%.0f", 100 * share) + " % of the visible structure";
+  };
+
+  bool changed = true;
+  for (std::size_t guard = 0; changed && guard < 4 * nc + 4; ++guard) {
+    changed = false;
+    while (terms.size() < options.max_effects) {
+      std::vector<Trial> trials;
+      for (std::size_t c = 0; c < nc; ++c) {
+        const Candidate& cand = problem.candidates[c];
+        if (banned[c] || (cand.variants.empty() && !cand.generate)) continue;
+        Trial t = sel.trial(c, terms, cur);
+        if (t.index != none) trials.push_back(std::move(t));
+      }
+      if (trials.empty()) break;
+      for (auto& t : trials) {
+        t.bonferroni *= static_cast<double>(trials.size());
+        t.p = std::min(1.0, t.p * t.bonferroni);
+      }
+      std::sort(trials.begin(), trials.end(), [](const Trial& a, const Trial& b) { return a.delta_bic < b.delta_bic; });
+      std::string accepted;
+      for (auto& t : trials) {
+        const Candidate& cand = problem.candidates[t.cand];
+        Considered con{cand.effect, t.delta_bic, t.p, ""};
+        if (!accepted.empty()) {
+          con.verdict = "not tried after a better candidate was taken";
+        } else if (!(t.p < options.alpha)) {
+          con.verdict = "not significant (p=" + fmt("%.2g", t.p) + ")";
+        } else if (!(t.delta_bic < 0)) {
+          con.verdict = "does not lower the BIC";
+        } else if (!std::isfinite(cur_heldout)) {  // no figure to beat: the trial's is not computed
+          con.verdict = "held-out RMS of the model so far not computable (" + cur_ho.failure + ")";
         } else {
-          con.verdict = "selected";
-          accepted = true;
-          used[t.cand] = true;
-          chosen.push_back(t.variant);
-          if (t.generated) keep.push_back(t.generated);
-          Finding fd;
-          fd.effect = cand.effect;
-          fd.delta_bic = t.delta_bic;
-          fd.p_value = t.p;
-          fd.rms_um_after = std::sqrt(t.fit.rss / static_cast<double>(n));
-          fd.heldout_rms_um_after = ho;
-          fd.share = share;
-          fd.why = cand.why;
-          rep.findings.push_back(fd);
-          current = std::move(t.fit);
-          current_heldout = ho;
-          current_ho = std::move(trial_ho);
-          current_columns += t.variant->block.columns.cols();
-          steps.emplace_back("+ " + cand.effect, current.residual);
+          const Variant& v = listed(cand, t.pool)[t.index];
+          HeldOut ho = sel.heldout(terms, none, t.cand, &v);
+          if (!std::isfinite(ho.rms)) {
+            con.verdict = "held-out RMS not computable (" + ho.failure + ")";
+          } else if (!(ho.rms < cur_heldout)) {
+            con.verdict = "held-out RMS not improved (" + fmt("%.4g", ho.rms) + " um)";
+          } else {
+            con.verdict = "selected";
+            accepted = cand.effect;
+            terms.push_back({t.cand, t.pool, t.index, t.bonferroni, taken++, std::move(ho.trial)});
+            verdict[t.cand].reset();
+            continue;
+          }
+        }
+        if (!has_term(t.cand)) verdict[t.cand] = std::move(con);
+      }
+      if (accepted.empty()) break;
+      changed = true;
+      // Earlier choices re-decided with the new effect in the model (a deadband sized, a line picked,
+      // while this effect was still in the residual), then re-tested.
+      for (std::size_t k = 0; k + 1 < terms.size(); ++k) sel.rechoose(terms, k);
+      refresh();
+      prune(accepted);
+    }
+    // Each effect must remove most of the structure left without it: a partial fit of a cause it is not
+    // leaves that cause's shape behind.
+    while (!terms.empty()) {
+      std::size_t worst = none;
+      double worst_share = 1.0;
+      for (std::size_t k = 0; k < terms.size(); ++k) {
+        const double s = sel.share(terms, k, cur, sigma, visible_floor);
+        if (std::isfinite(s) && s < options.min_share && (worst == none || s < worst_share)) {
+          worst = k;
+          worst_share = s;
         }
       }
-      rep.considered.push_back(con);
+      if (worst == none) break;
+      const std::string effect = problem.candidates[terms[worst].cand].effect;
+      const DropTest d = sel.significance(terms, worst, cur);
+      drop(worst, {effect, d.delta_bic, d.p, "removes only " + fmt("%.0f", 100 * worst_share) + " % of the structure left without it"});
+      prune("dropping " + effect);
+      changed = true;
     }
-    if (!accepted) break;
   }
-  // Parameters from the final joint fit.
+
+  // The findings in the order taken: parameters from the final joint fit; the BIC, p-value and share of
+  // each against the final model without it; RMS and held-out RMS after each in turn.
+  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) { return a.taken < b.taken; });
+  const LsqResult final_fit = solve_lsq(sel.design(terms), y, Eigen::VectorXd(), sel.names(terms));
+  if (!final_fit.ok) throw std::invalid_argument("explain: least squares failed: " + final_fit.message);
+  std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
   Eigen::Index offset = problem.base.columns.cols();
-  for (std::size_t k = 0; k < chosen.size(); ++k) {
-    rep.findings[k].parameters = params_of(*chosen[k], current, offset);
-    offset += chosen[k]->block.columns.cols();
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    const Candidate& cand = problem.candidates[terms[k].cand];
+    const Variant& v = variant_of(problem, terms[k]);
+    const std::vector<Term> prefix(terms.begin(), terms.begin() + static_cast<std::ptrdiff_t>(k + 1));
+    const Model pm = sel.model(prefix);
+    const DropTest d = sel.significance(terms, k, cur);
+    Finding fd;
+    fd.effect = cand.effect;
+    fd.parameters = params_of(v, final_fit, offset);
+    fd.delta_bic = d.delta_bic;
+    fd.p_value = d.p;
+    fd.rms_um_after = std::sqrt(pm.rss / static_cast<double>(n));
+    fd.heldout_rms_um_after = k + 1 == terms.size() ? cur_heldout : sel.heldout(prefix, none).rms;
+    fd.share = sel.share(terms, k, cur, sigma, visible_floor);
+    fd.why = cand.why;
+    rep.findings.push_back(std::move(fd));
+    steps.emplace_back("+ " + cand.effect, pm.residual);
+    offset += v.block.columns.cols();
   }
-  rep.final_fit = {std::sqrt(current.rss / static_cast<double>(n)), current.bic, current_heldout, current.k};
+  for (std::size_t c = 0; c < nc; ++c)
+    if (verdict[c] && !has_term(c)) rep.considered.push_back(*verdict[c]);
+  std::stable_sort(rep.considered.begin(), rep.considered.end(),
+                   [](const Considered& a, const Considered& b) { return a.delta_bic < b.delta_bic; });
+  rep.final_fit = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, cur_heldout, cur.rank + cur.searched};
   add_curves(rep, problem, steps, options.curve_points);
-  const Located fin = locate(problem, current.residual, options.alpha);
+  const Located fin = locate(problem, cur.residual, options.alpha);
   rep.remaining = fin.places;
   rep.unexplained = fin.structured;
   return rep;
 }
 
-nlohmann::json to_json(const Report& r) {
-  using nlohmann::json;
-  const auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
-  const auto stats = [&](const FitStats& f) {
-    return json{{"rms_um", num(f.rms_um)},
-                {"bic", num(f.bic)},
-                {"heldout_rms_um", num(f.heldout_rms_um)},
-                {"parameters", f.parameters}};
-  };
-  const auto places = [](const std::vector<Mismatch>& v) {
-    json a = json::array();
-    for (const auto& m : v) {
-      json ranges = json::array();
-      for (const auto& [lo, hi] : m.ranges) ranges.push_back({lo, hi});
-      a.push_back({{"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}});
-    }
-    return a;
-  };
-  json j;
-  j["model"] = r.model;
-  j["n"] = r.n;
-  j["noise_um"] = num(r.noise_um);
-  j["heldout_scheme"] = r.heldout_scheme;
-  j["baseline"] = stats(r.baseline);
-  j["mismatch"] = places(r.mismatch);
-  json f = json::array();
-  for (const auto& fd : r.findings) {
-    json p = json::object();
-    for (const auto& q : fd.parameters) p[q.name] = {{"value", num(q.value)}, {"u", num(q.u)}};
-    f.push_back({{"effect", fd.effect},
-                 {"parameters", p},
-                 {"delta_bic", num(fd.delta_bic)},
-                 {"p_value", num(fd.p_value)},
-                 {"rms_um_after", num(fd.rms_um_after)},
-                 {"heldout_rms_um_after", num(fd.heldout_rms_um_after)},
-                 {"structure_removed", num(fd.share)},
-                 {"why", fd.why}});
-  }
-  j["findings"] = f;
-  j["final"] = stats(r.final_fit);
-  j["unexplained"] = r.unexplained;
-  j["remaining"] = places(r.remaining);
-  json c = json::array();
-  for (const auto& k : r.considered)
-    c.push_back({{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
-  j["considered"] = c;
-  j["notes"] = r.notes;
-  if (!r.curve_x.empty()) {
-    const auto round_all = [](const std::vector<double>& v) {
-      json a = json::array();
-      for (double e : v) a.push_back(rounded4(e));
-      return a;
-    };
-    json steps = json::array();
-    for (const auto& st : r.curve_steps) {
-      json runs = json::array();
-      for (const auto& v : st.residual_um) runs.push_back(round_all(v));
-      steps.push_back({{"label", st.label}, {"residual_um", runs}});
-    }
-    j["residuals"] = {{"domain", r.curve_domain}, {"x", round_all(r.curve_x)}, {"runs", r.curve_runs}, {"steps", steps}};
-  }
-  return j;
+std::vector<Eigen::Index> rows_in_use(const std::vector<bool>& use) {
+  std::vector<Eigen::Index> rows;
+  for (std::size_t i = 0; i < use.size(); ++i)
+    if (use[i]) rows.push_back(static_cast<Eigen::Index>(i));
+  return rows;
 }
 
-std::string to_text(const Report& r) {
-  std::ostringstream o;
-  const auto g = [](double v, const char* f = "%.4g") { return fmt(f, v); };
-  o << "model " << r.model << ": " << r.n << " samples, noise " << g(r.noise_um, "%.3g") << " um (finest wavelet details)\n";
-  o << "baseline: rms " << g(r.baseline.rms_um) << " um, held-out rms " << g(r.baseline.heldout_rms_um) << " um, BIC "
-    << g(r.baseline.bic, "%.1f") << "  [" << r.heldout_scheme << "]\n";
-  if (r.mismatch.empty()) {
-    o << "\nwhere: the baseline residual is indistinguishable from noise (band energies, runs test, Ljung-Box).\n";
-  } else {
-    o << "\nwhere the residual is not noise:\n";
-    for (const auto& m : r.mismatch)
-      o << "  - " << m.domain << ": " << m.where << "\n      band " << m.band << "\n      " << m.evidence << "\n";
-  }
-  if (r.findings.empty()) {
-    o << "\nfindings: none of the candidate effects is significant.\n";
-  } else {
-    o << "\nfindings (in the order they were taken):\n";
-    int k = 1;
-    for (const auto& f : r.findings) {
-      o << "  " << k++ << ". " << f.effect << ": " << f.why << "\n";
-      for (const auto& p : f.parameters) {
-        o << "       " << p.name << " = " << g(p.value, "%.4g");
-        if (std::isfinite(p.u)) o << " +/- " << g(p.u, "%.2g");
-        else o << " (searched)";
-        o << "\n";
-      }
-      o << "       BIC " << g(f.delta_bic, "%+.1f") << ", p = " << g(f.p_value, "%.2g") << ", rms -> " << g(f.rms_um_after)
-        << " um, held-out rms -> " << g(f.heldout_rms_um_after) << " um";
-      if (std::isfinite(f.share)) o << ", removes " << g(100 * f.share, "%.0f") << " % of the visible structure";
-      o << "\n";
-    }
-  }
-  if (!r.considered.empty()) {
-    o << "\nlast round:\n";
-    for (const auto& c : r.considered) o << "  " << c.effect << ": " << c.verdict << "\n";
-  }
-  o << "\nfinal: rms " << g(r.final_fit.rms_um) << " um, held-out rms " << g(r.final_fit.heldout_rms_um) << " um, BIC "
-    << g(r.final_fit.bic, "%.1f") << "\n";
-  if (r.unexplained) {
-    o << "UNEXPLAINED: the residual is still structured and no effect in the library accounts for it:\n";
-    for (const auto& m : r.remaining) o << "  - " << m.domain << ": " << m.where << " (" << m.evidence << ")\n";
-  } else {
-    o << "the remaining residual is consistent with noise.\n";
-  }
-  for (const auto& n : r.notes) o << "note: " << n << "\n";
-  return o.str();
+Eigen::VectorXd base_prediction(const Block& base, const Eigen::VectorXd& y_um, const std::vector<bool>& use) {
+  const auto rows = rows_in_use(use);
+  const LsqResult fit = solve_lsq(base.columns(rows, Eigen::all), y_um(rows), Eigen::VectorXd(), base.names);
+  if (!fit.ok) return {};
+  return base.columns * fit.fitted;
 }
 
 Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
@@ -652,13 +781,8 @@ sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, st
     const auto& [b, y, offset] = *data;
     if (use.size() != static_cast<std::size_t>(y.size()))
       throw std::invalid_argument("explain: sensor_nonlinearity: the row mask and the samples differ in length");
-    std::vector<Eigen::Index> rows;
-    for (std::size_t i = 0; i < use.size(); ++i)
-      if (use[i]) rows.push_back(static_cast<Eigen::Index>(i));
-    const LsqResult fit = solve_lsq(b.columns(rows, Eigen::all), y(rows), Eigen::VectorXd(), b.names);
-    if (!fit.ok) return std::vector<Variant>{};
-    // The prediction; on the rows in use as y - residual, the very numbers of the base fit's reading.
-    const Eigen::VectorXd predicted = b.columns * fit.fitted;
+    const Eigen::VectorXd predicted = base_prediction(b, y, use);
+    if (predicted.size() == 0) return std::vector<Variant>{};
     std::vector<double> reading(static_cast<std::size_t>(y.size()));
     for (std::size_t i = 0; i < reading.size(); ++i) {
       const auto r = static_cast<Eigen::Index>(i);

@@ -1,12 +1,14 @@
 #pragma once
 // Explaining a mismatch between a model and a recording (issue 7): locate where the residual of the
-// base model is structured rather than noise, then try the candidate effects of the library
-// (effects.hpp) by greedy forward selection -- each candidate fitted jointly with the base and the
-// effects already found, accepted only when it lowers the BIC, passes an F-test (Bonferroni over the
-// candidates and the variants searched), improves the held-out RMS and removes most of the visible
-// structure -- and stop when nothing is significant. What remains structured is reported as
-// `unexplained`. The model-specific front ends (dbb_explain.hpp, profile_explain.hpp) build the
-// Problem; this engine knows no physics. Pure functions; thread safe; throws std::invalid_argument.
+// base model is structured rather than noise, then find the set of candidate effects of the library
+// (effects.hpp) that together explain it -- forward selection, each candidate fitted jointly with the
+// base and the effects already taken and accepted when it passes an F-test (Bonferroni over the
+// candidates and the variants searched), lowers the BIC and improves the held-out RMS; whenever an
+// effect joins, the earlier ones have their variants re-chosen and must still pass the tests without
+// it (drop-one); in the end every effect must remove most of the structure left without it -- and
+// stop when nothing more is significant. What remains structured is reported as `unexplained`. The
+// model-specific front ends (dbb_explain.hpp, profile_explain.hpp) build the Problem; this engine
+// knows no physics. Pure functions; thread safe; throws std::invalid_argument.
 
 #include <algorithm>
 #include <cstddef>
@@ -53,6 +55,9 @@ struct Variant {
   Block block;
   std::vector<ParamValue> fixed;  // the searched values, reported with u = NaN
   std::size_t searched = 0;       // nonlinear parameters searched (counted in the BIC)
+  // A candidate is taken at most once, unless its variants name groups: then once per group (a cyclic
+  // error along each axis, a vibration along each direction).
+  std::string group;
   // Reported parameters from the block's coefficients and their covariance; empty = the coefficients.
   std::function<std::vector<ParamValue>(const Eigen::VectorXd&, const Eigen::MatrixXd&)> report;
 };
@@ -83,11 +88,10 @@ struct Problem {
 
 struct ExplainOptions {
   double alpha = 1e-3;            // family-wise significance level of each selection step
-  std::size_t max_effects = 4;    // at most this many findings
+  std::size_t max_effects = 6;    // at most this many findings
   std::size_t folds = 8;          // blocked cross-validation folds (when runs are not held out)
-  double min_share = 0.8;         // share of the located structure a finding must remove (a partial fit
-                                  // of a cause it is not leaves its shape behind)
-  std::size_t prescreen = 3;      // variants per candidate fitted jointly (best by projection)
+  double min_share = 0.8;         // share of the structure left without it that a finding must remove (a
+                                  // partial fit of a cause it is not leaves that cause's shape behind)
   std::size_t curve_points = 720; // residual curves in the report (0 = none)
   bool heldout_reselect = true;   // held-out RMS re-chooses every effect's variant in each fold from its
                                   // training rows; false: the variants chosen on all data (optimistic)
@@ -175,6 +179,12 @@ Variant make_variant(const std::vector<Point>& points, std::vector<std::string> 
 // coefficients (sin, cos) and their covariance, with first-order uncertainties.
 std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
                                   const Eigen::MatrixXd& cov);
+
+// The indices of the rows in use (a generator's mask).
+std::vector<Eigen::Index> rows_in_use(const std::vector<bool>& use);
+// The base fitted to the rows in use only, predicted on every row (so a held-out row's y does not reach
+// what is built from it); empty when the fit fails.
+Eigen::VectorXd base_prediction(const Block& base, const Eigen::VectorXd& y_um, const std::vector<bool>& use);
 
 // sensor_nonlinearity's block: (reading - mean)^2 and (reading - mean)^3 per sample, the reading being
 // the sensor's operating point.

@@ -61,9 +61,7 @@ std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbPlan& pla
     spec.t0_s = t0;
     spec.seed = o.seed * 1000 + k + 1;
     dbb::Run run = dbb::simulate_run(machine, spec, "scenario-run" + std::to_string(k + 1));
-    // Machine time of the first data sample: the first sample at or after the feed-in arc.
-    const double first = std::ceil(spec.overshoot_rad / omega * spec.sample_rate_hz - 1e-9) / spec.sample_rate_hz;
-    run.metadata["start_time_s"] = fmt("%.17g", o.clock_origin_s + t0 + first);
+    run.metadata["start_time_s"] = fmt("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
     runs.push_back(std::move(run));
     t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + 10.0;
   }

@@ -1,0 +1,135 @@
+#include "models/explain/explain.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace guideway::models::explain {
+
+namespace {
+
+std::string fmt(const char* f, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, a);
+  return buf;
+}
+
+// Rounded for the JSON: curves for plots need no more than 4 decimals (0.1 nm; 1e-4 deg or mm), and stay
+// compact. Divided by an exact power of ten, so the shortest decimal form is printed.
+double rounded4(double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; }
+
+}  // namespace
+
+nlohmann::json to_json(const Report& r) {
+  using nlohmann::json;
+  const auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  const auto stats = [&](const FitStats& f) {
+    return json{{"rms_um", num(f.rms_um)},
+                {"bic", num(f.bic)},
+                {"heldout_rms_um", num(f.heldout_rms_um)},
+                {"parameters", f.parameters}};
+  };
+  const auto places = [](const std::vector<Mismatch>& v) {
+    json a = json::array();
+    for (const auto& m : v) {
+      json ranges = json::array();
+      for (const auto& [lo, hi] : m.ranges) ranges.push_back({lo, hi});
+      a.push_back({{"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}});
+    }
+    return a;
+  };
+  json j;
+  j["model"] = r.model;
+  j["n"] = r.n;
+  j["noise_um"] = num(r.noise_um);
+  j["heldout_scheme"] = r.heldout_scheme;
+  j["baseline"] = stats(r.baseline);
+  j["mismatch"] = places(r.mismatch);
+  json f = json::array();
+  for (const auto& fd : r.findings) {
+    json p = json::object();
+    for (const auto& q : fd.parameters) p[q.name] = {{"value", num(q.value)}, {"u", num(q.u)}};
+    f.push_back({{"effect", fd.effect},
+                 {"parameters", p},
+                 {"delta_bic", num(fd.delta_bic)},
+                 {"p_value", num(fd.p_value)},
+                 {"rms_um_after", num(fd.rms_um_after)},
+                 {"heldout_rms_um_after", num(fd.heldout_rms_um_after)},
+                 {"structure_removed", num(fd.share)},
+                 {"why", fd.why}});
+  }
+  j["findings"] = f;
+  j["final"] = stats(r.final_fit);
+  j["unexplained"] = r.unexplained;
+  j["remaining"] = places(r.remaining);
+  json c = json::array();
+  for (const auto& k : r.considered)
+    c.push_back({{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
+  j["considered"] = c;
+  j["notes"] = r.notes;
+  if (!r.curve_x.empty()) {
+    const auto round_all = [](const std::vector<double>& v) {
+      json a = json::array();
+      for (double e : v) a.push_back(rounded4(e));
+      return a;
+    };
+    json steps = json::array();
+    for (const auto& st : r.curve_steps) {
+      json runs = json::array();
+      for (const auto& v : st.residual_um) runs.push_back(round_all(v));
+      steps.push_back({{"label", st.label}, {"residual_um", runs}});
+    }
+    j["residuals"] = {{"domain", r.curve_domain}, {"x", round_all(r.curve_x)}, {"runs", r.curve_runs}, {"steps", steps}};
+  }
+  return j;
+}
+
+std::string to_text(const Report& r) {
+  std::ostringstream o;
+  const auto g = [](double v, const char* f = "%.4g") { return fmt(f, v); };
+  o << "model " << r.model << ": " << r.n << " samples, noise " << g(r.noise_um, "%.3g") << " um (finest wavelet details)\n";
+  o << "baseline: rms " << g(r.baseline.rms_um) << " um, held-out rms " << g(r.baseline.heldout_rms_um) << " um, BIC "
+    << g(r.baseline.bic, "%.1f") << "  [" << r.heldout_scheme << "]\n";
+  if (r.mismatch.empty()) {
+    o << "\nwhere: the baseline residual is indistinguishable from noise (band energies, runs test, Ljung-Box).\n";
+  } else {
+    o << "\nwhere the residual is not noise:\n";
+    for (const auto& m : r.mismatch)
+      o << "  - " << m.domain << ": " << m.where << "\n      band " << m.band << "\n      " << m.evidence << "\n";
+  }
+  if (r.findings.empty()) {
+    o << "\nfindings: none of the candidate effects is significant.\n";
+  } else {
+    o << "\nfindings (in the order they were taken):\n";
+    int k = 1;
+    for (const auto& f : r.findings) {
+      o << "  " << k++ << ". " << f.effect << ": " << f.why << "\n";
+      for (const auto& p : f.parameters) {
+        o << "       " << p.name << " = " << g(p.value, "%.4g");
+        if (std::isfinite(p.u)) o << " +/- " << g(p.u, "%.2g");
+        else o << " (searched)";
+        o << "\n";
+      }
+      o << "       BIC " << g(f.delta_bic, "%+.1f") << ", p = " << g(f.p_value, "%.2g") << ", rms -> " << g(f.rms_um_after)
+        << " um, held-out rms -> " << g(f.heldout_rms_um_after) << " um";
+      if (std::isfinite(f.share)) o << ", removes " << g(100 * f.share, "%.0f") << " % of the visible structure";
+      o << "\n";
+    }
+  }
+  if (!r.considered.empty()) {
+    o << "\nlast round:\n";
+    for (const auto& c : r.considered) o << "  " << c.effect << ": " << c.verdict << "\n";
+  }
+  o << "\nfinal: rms " << g(r.final_fit.rms_um) << " um, held-out rms " << g(r.final_fit.heldout_rms_um) << " um, BIC "
+    << g(r.final_fit.bic, "%.1f") << "\n";
+  if (r.unexplained) {
+    o << "UNEXPLAINED: the residual is still structured and no effect in the library accounts for it:\n";
+    for (const auto& m : r.remaining) o << "  - " << m.domain << ": " << m.where << " (" << m.evidence << ")\n";
+  } else {
+    o << "the remaining residual is consistent with noise.\n";
+  }
+  for (const auto& n : r.notes) o << "note: " << n << "\n";
+  return o.str();
+}
+
+}  // namespace guideway::models::explain
