@@ -78,49 +78,75 @@ struct Opts {
   std::uint64_t seed = 1;
   std::string table_out;
   double alpha = 1e-3;
-  std::size_t max_effects = 4, folds = 8;
+  std::size_t max_effects = ex::ExplainOptions{}.max_effects, folds = ex::ExplainOptions{}.folds;
+  std::uint64_t seeds = 0;
 };
 
 int run_scenarios(const Opts& o) {
   ex::ScenarioOptions so;
   so.quick = !o.full;
-  so.seed = o.seed;
-  std::vector<ex::ScenarioResult> results;
-  for (const auto& name : o.only.empty() ? ex::scenario_names() : o.only) {
-    results.push_back(ex::run_scenario(name, so));
+  std::vector<std::uint64_t> seeds;
+  if (o.seeds > 0) {
+    for (std::uint64_t k = 1; k <= o.seeds; ++k) seeds.push_back(k);
+  } else {
+    seeds.push_back(o.seed);
+  }
+  std::vector<ex::ScenarioSummary> results;
+  const auto names = o.only.empty() ? ex::scenario_names() : o.only;
+  for (const auto& name : names) {
+    results.push_back(ex::summarize_scenario(name, seeds, so));
+    const auto& r = results.back();
     if (!o.json && o.table_out.empty()) {
-      const auto& r = results.back();
-      std::cout << "== " << r.name << ": " << (r.pass ? "PASS" : "FAIL: " + r.failure) << "\n";
+      std::cout << "== " << r.name << ": " << r.passed << "/" << r.runs.size() << " pass";
+      for (const auto& run : r.runs)
+        if (!run.pass) std::cout << "\n   FAIL: " << run.failure;
+      std::cout << "\n";
+    } else {
+      std::cerr << "scenario " << r.name << " (" << results.size() << " of " << names.size() << "): " << r.passed << "/"
+                << r.runs.size() << " pass\n";
     }
   }
-  int failed = 0;
-  for (const auto& r : results) failed += r.pass ? 0 : 1;
+  std::size_t runs = 0, failed = 0;
+  for (const auto& r : results) {
+    runs += r.runs.size();
+    failed += r.runs.size() - r.passed;
+  }
   if (o.json) {
     nlohmann::json a = nlohmann::json::array();
-    for (const auto& r : results)
-      a.push_back({{"name", r.name},
-                   {"model", r.model},
-                   {"effect", r.effect},
-                   {"concealment", r.concealment},
-                   {"parameter", r.parameter},
-                   {"truth", r.truth},
-                   {"tolerance", r.tolerance},
-                   {"found", r.found},
-                   {"found_value", std::isfinite(r.found_value) ? nlohmann::json(r.found_value) : nlohmann::json()},
-                   {"pass", r.pass},
-                   {"failure", r.failure},
-                   {"report", ex::to_json(r.report)}});
+    for (const auto& s : results)
+      for (const auto& r : s.runs) {
+        nlohmann::json checks = nlohmann::json::array();
+        const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+        for (const auto& c : r.checks)
+          checks.push_back({{"effect", c.expected.effect},
+                            {"parameter", c.expected.parameter},
+                            {"truth", c.expected.truth},
+                            {"tolerance", c.expected.tolerance},
+                            {"found", c.found},
+                            {"value", num(c.value)},
+                            {"u", num(c.u)},
+                            {"within", c.within}});
+        a.push_back({{"name", r.name},
+                     {"model", r.model},
+                     {"concealment", r.concealment},
+                     {"checks", checks},
+                     {"extra", r.extra},
+                     {"expect_unexplained", r.expect_unexplained},
+                     {"pass", r.pass},
+                     {"failure", r.failure},
+                     {"report", ex::to_json(r.report)}});
+      }
     std::cout << a.dump() << "\n";
   } else {
     const std::string table = ex::scenario_table_markdown(results);
+    std::string seed_text = seeds.size() > 1 ? "seeds 1-" + std::to_string(seeds.size()) : "seed " + std::to_string(seeds.front());
     if (!o.table_out.empty()) {
-      write_table(o.table_out, table + "\n" + std::to_string(results.size() - static_cast<std::size_t>(failed)) + " of " +
-                                   std::to_string(results.size()) + " scenarios pass (" +
-                                   (o.full ? "full sample density" : "quick sample density") + ", seed " +
-                                   std::to_string(o.seed) + ").\n");
+      write_table(o.table_out, table + "\n" + std::to_string(runs - failed) + " of " + std::to_string(runs) +
+                                   " scenario runs pass (" + std::to_string(results.size()) + " scenarios, " +
+                                   (o.full ? "full sample density" : "quick sample density") + ", " + seed_text + ").\n");
       std::cout << "wrote the scenario table into " << o.table_out << "\n";
     }
-    std::cout << table;
+    std::cout << table << runs - failed << " of " << runs << " scenario runs pass (" << seed_text << ")\n";
   }
   return failed ? 1 : 0;
 }
@@ -162,12 +188,14 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
   cmd->add_flag("--json", o->json, "print the report as one JSON object");
   cmd->add_option("--alpha", o->alpha, "family-wise significance of each selection step (default 1e-3)")
       ->check(CLI::Range(1e-12, 0.5));
-  cmd->add_option("--max-effects", o->max_effects, "at most this many findings (default 4)")->check(CLI::Range(1, 20));
+  cmd->add_option("--max-effects", o->max_effects, "at most this many findings (default 6)")->check(CLI::Range(1, 20));
   cmd->add_option("--folds", o->folds, "blocked cross-validation folds (default 8)")->check(CLI::Range(2, 50));
   cmd->add_flag("--scenarios", o->scenarios, "run the scenario suite (virtual machine tool) and print its table");
   cmd->add_option("--scenario", o->only, "with --scenarios: only these (repeatable)");
   cmd->add_flag("--full", o->full, "with --scenarios: full sample density (slower)");
   cmd->add_option("--seed", o->seed, "with --scenarios: noise seed (default 1)");
+  cmd->add_option("--seeds", o->seeds, "with --scenarios: every scenario with the seeds 1..N (the table's scatter)")
+      ->check(CLI::Range(1, 100));
   cmd->add_option("--table-out", o->table_out,
                   "with --scenarios: replace the generated table in this Markdown file (docs/explain.md)");
   cmd->add_flag("--effects", o->effects, "list the effect library");

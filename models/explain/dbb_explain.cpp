@@ -511,21 +511,25 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
             }
             const double v = weight(gg[j], which) * r[static_cast<Eigen::Index>(j)];
             if (v == 0.0) continue;
-            re += v * std::cos(2 * pi * f * gg[j].t_s);
-            im -= v * std::sin(2 * pi * f * gg[j].t_s);
+            double sn = 0, cs = 0;
+            dbb::fast_sincos(2 * pi * f * gg[j].t_s, sn, cs);
+            re += v * cs;
+            im -= v * sn;
           }
           return total + re * re + im * im;
         };
         std::vector<Variant> vs;
         for (int which = 0; which < 3; ++which) {
           const auto& at = pw[static_cast<std::size_t>(which)];
-          std::vector<std::pair<double, std::size_t>> strongest;  // (power, grid index)
-          for (std::size_t q = 0; q < grid; ++q) strongest.emplace_back(at[q], q);
-          std::sort(strongest.begin(), strongest.end(), std::greater<>());
+          // The strongest grid point, then the strongest at least `apart` from it.
           std::vector<std::size_t> lines;
-          for (const auto& [pw_q, q] : strongest) {
-            if (lines.size() == 2) break;
-            if (lines.empty() || (q > lines[0] ? q - lines[0] : lines[0] - q) >= apart) lines.push_back(q);
+          for (int pass = 0; pass < 2; ++pass) {
+            std::size_t best = grid;
+            for (std::size_t q = 0; q < grid; ++q) {
+              if (!lines.empty() && (q > lines[0] ? q - lines[0] : lines[0] - q) < apart) continue;
+              if (best == grid || at[q] > at[best]) best = q;
+            }
+            if (best < grid) lines.push_back(best);
           }
           for (const std::size_t q : lines) {
             // Between grid points on the exact periodogram: five points half a grid step apart around
@@ -552,8 +556,10 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
             Variant v = make_variant(gg, names, [=](const Geo& p, double* o) {
               const double proj = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
               const std::size_t col = phases > 1 ? 2 * p.run : 0;
-              o[col] = proj * std::sin(2 * pi * f * p.t_s);
-              o[col + 1] = proj * std::cos(2 * pi * f * p.t_s);
+              double sn = 0, cs = 0;
+              dbb::fast_sincos(2 * pi * f * p.t_s, sn, cs);
+              o[col] = proj * sn;
+              o[col + 1] = proj * cs;
             });
             v.searched = 1;
             v.group = L;
@@ -616,7 +622,8 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     out.push_back(std::move(c));
   }
   {
-    // Stick-slip: a decaying oscillation of the axis after it reverses (low speed near the reversal).
+    // Stick-slip: a decaying oscillation of the axis after it reverses (low speed near the reversal),
+    // starting against the new direction of motion as the reversal spike does.
     Candidate c{"stick_slip",
                 "friction at low speed makes an axis move in jerks just after it reverses, a decaying oscillation",
                 {}, {}, 0};
@@ -624,8 +631,8 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       for (double tau_ms : {50.0, 200.0}) {
         const double tau = tau_ms * 1e-3;
         Variant v = make_variant(g, {"stick_slip_" + A + "_um", "stick_slip_" + B + "_um"}, [=](const Geo& p, double* o) {
-          o[0] = p.lam * p.c * spike(p.since_a, tau) * std::sin(2 * pi * f_hz * p.since_a);
-          o[1] = p.lam * p.s * spike(p.since_b, tau) * std::sin(2 * pi * f_hz * p.since_b);
+          o[0] = p.lam * p.c * (-p.sgn_a) * spike(p.since_a, tau) * std::sin(2 * pi * f_hz * p.since_a);
+          o[1] = p.lam * p.s * (-p.sgn_b) * spike(p.since_b, tau) * std::sin(2 * pi * f_hz * p.since_b);
         });
         v.fixed.push_back({"stick_slip_hz", f_hz, std::numeric_limits<double>::quiet_NaN()});
         v.fixed.push_back({"stick_slip_decay_ms", tau_ms, std::numeric_limits<double>::quiet_NaN()});

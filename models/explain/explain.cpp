@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -44,9 +45,28 @@ double f_test(double rss0, double rss1, double q, double dof1, double m) {
   return f_sf(((a - b) / q) / (b / dof1), q, dof1);
 }
 
-// Least squares without names or uncertainties wanted (the held-out fits).
-LsqResult lsq(const Eigen::MatrixXd& j, const Eigen::VectorXd& y) {
-  return solve_lsq(j, y, Eigen::VectorXd(), std::vector<std::string>(static_cast<std::size_t>(j.cols()), "p"));
+// A direction whose pivot is below this fraction of the largest (columns scaled to unit norm, as
+// solve_lsq's rank analysis) adds no rank.
+constexpr double rank_tolerance = 1e-9;
+
+// The held-out rows' prediction from a least-squares fit to the training rows (jt, yt): no uncertainties
+// wanted, so the minimum-norm solution of the column-scaled problem by a complete orthogonal
+// decomposition (rank as span_basis decides it). Minimum norm, not a basic solution: with columns the
+// training rows cannot separate (Lai's unidentifiable terms) a basic solution's held-out prediction would
+// depend on which column round-off pivots out. False when the fit fails.
+bool predict(const Eigen::MatrixXd& jt, const Eigen::VectorXd& yt, const Eigen::MatrixXd& jh, Eigen::VectorXd& out) {
+  Eigen::VectorXd scale(jt.cols());
+  for (Eigen::Index c = 0; c < jt.cols(); ++c) {
+    const double norm = jt.col(c).norm();
+    scale[c] = norm > 0 ? 1.0 / norm : 1.0;
+  }
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
+  cod.setThreshold(rank_tolerance);
+  cod.compute(jt * scale.asDiagonal());
+  const Eigen::VectorXd b = cod.solve(yt);
+  if (!b.allFinite()) return false;
+  out = jh * (scale.asDiagonal() * b);
+  return true;
 }
 Eigen::MatrixXd hcat(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   Eigen::MatrixXd out(a.rows(), a.cols() + b.cols());
@@ -55,9 +75,6 @@ Eigen::MatrixXd hcat(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return out;
 }
 
-// A direction whose pivot is below this fraction of the largest (columns scaled to unit norm, as
-// solve_lsq's rank analysis) adds no rank.
-constexpr double rank_tolerance = 1e-9;
 
 // An orthonormal basis of the span of a's columns (each scaled to unit norm first: the base mixes units).
 Eigen::MatrixXd span_basis(const Eigen::MatrixXd& a) {
@@ -213,6 +230,20 @@ struct DropTest {
   std::string why;  // when it does not
 };
 
+std::vector<ParamValue> params_of(const Variant& v, const LsqResult& f, Eigen::Index offset) {
+  const auto q = v.block.columns.cols();
+  Eigen::VectorXd x = f.x.segment(offset, q);
+  Eigen::MatrixXd cov = f.covariance.block(offset, offset, q, q);
+  std::vector<ParamValue> out;
+  if (v.report) {
+    out = v.report(x, cov);
+  } else {
+    for (Eigen::Index i = 0; i < q; ++i) out.push_back({v.block.names[static_cast<std::size_t>(i)], x[i], f.u[offset + i]});
+  }
+  out.insert(out.end(), v.fixed.begin(), v.fixed.end());
+  return out;
+}
+
 class Selection {
  public:
   Selection(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y, std::vector<FoldRows> folds)
@@ -257,10 +288,14 @@ class Selection {
     return out;
   }
   [[nodiscard]] Model model(const std::vector<Term>& terms, std::size_t skip = none) const {
+    const Key key = key_of(terms, skip);
+    if (const auto it = models_.find(key); it != models_.end()) return it->second.value;
     std::size_t searched = 0;
     for (std::size_t k = 0; k < terms.size(); ++k)
       if (k != skip) searched += variant_of(p_, terms[k]).searched;
-    return model_of(design(terms, skip), searched, y_);
+    Model m = model_of(design(terms, skip), searched, y_);
+    remember(models_, key, terms, m);
+    return m;
   }
 
   // The candidate's variants for a residual (zero on the rows not in use) and which may join the terms.
@@ -310,6 +345,17 @@ class Selection {
   // part in the choice; bench/explain_heldout_bench.cpp). A fold that cannot be fitted makes it NaN.
   [[nodiscard]] HeldOut heldout(const std::vector<Term>& terms, std::size_t skip, std::size_t trial = none,
                                 const Variant* fixed = nullptr) const {
+    if (trial == none) {
+      const Key key = key_of(terms, skip);
+      if (const auto it = heldouts_.find(key); it != heldouts_.end()) return it->second.value;
+      HeldOut h = heldout_uncached(terms, skip, none, nullptr);
+      remember(heldouts_, key, terms, h);
+      return h;
+    }
+    return heldout_uncached(terms, skip, trial, fixed);
+  }
+  [[nodiscard]] HeldOut heldout_uncached(const std::vector<Term>& terms, std::size_t skip, std::size_t trial,
+                                         const Variant* fixed) const {
     HeldOut out;
     Eigen::Index columns = p_.base.columns.cols();
     for (std::size_t k = 0; k < terms.size(); ++k)
@@ -329,12 +375,7 @@ class Selection {
         failed.failure = "fold " + std::to_string(f + 1) + " of " + std::to_string(folds_.size()) + ": " + why;
         return failed;
       };
-      Eigen::MatrixXd jt = base_train_[f], jh = base_test_[f];
-      for (std::size_t k = 0; k < terms.size(); ++k) {
-        if (k == skip) continue;
-        jt = hcat(jt, terms[k].folds[f].train);
-        jh = hcat(jh, terms[k].folds[f].test);
-      }
+      Eigen::MatrixXd jt = fold_columns(f, terms, skip, true), jh = fold_columns(f, terms, skip, false);
       const Eigen::VectorXd& yt = y_train_[f];
       if (trial != none) {
         const Candidate& cand = p_.candidates[trial];
@@ -356,9 +397,9 @@ class Selection {
       }
       if (fold.train.size() < static_cast<std::size_t>(jt.cols()) + 2)
         return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(jt.cols()) + " columns");
-      const LsqResult r = lsq(jt, yt);
-      if (!r.ok) return fail("the fit failed: " + r.message);
-      sse += (y_(fold.test) - jh * r.fitted).squaredNorm();
+      Eigen::VectorXd predicted;
+      if (!predict(jt, yt, jh, predicted)) return fail("the fit failed (not finite)");
+      sse += (y_(fold.test) - predicted).squaredNorm();
       count += fold.test.size();
     }
     out.rms = count ? std::sqrt(sse / static_cast<double>(count)) : nan;
@@ -390,9 +431,7 @@ class Selection {
         t.folds[f] = {now.block.columns(fold.train, Eigen::all), now.block.columns(fold.test, Eigen::all)};
         continue;
       }
-      Eigen::MatrixXd jt = base_train_[f];
-      for (std::size_t j = 0; j < terms.size(); ++j)
-        if (j != k) jt = hcat(jt, terms[j].folds[f].train);
+      const Eigen::MatrixXd jt = fold_columns(f, terms, k, true);
       const Model m = model_of(jt, 0, y_train_[f]);
       Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
       r(fold.train) = m.residual;
@@ -437,6 +476,39 @@ class Selection {
     return d;
   }
 
+  // Term k's parameters, their u widened by the searched parameters' uncertainty: over every other variant
+  // of its list that the data leave plausible -- the joint RSS within s^2 of the chosen one, the 1-sigma
+  // region of the profile likelihood -- the largest change of each parameter is added in quadrature.
+  // (u from the covariance alone is conditional on the searched value: a spike's decay one grid step off
+  // halves its amplitude.)
+  [[nodiscard]] std::vector<ParamValue> widened(const std::vector<Term>& terms, std::size_t k, const Model& cur,
+                                               const std::vector<ParamValue>& chosen) const {
+    const Term& t = terms[k];
+    const auto& variants = listed(p_.candidates[t.cand], t.pool);
+    if (variants.size() < 2) return chosen;
+    const double s2 = cur.rss / std::max(1.0, static_cast<double>(n_) - static_cast<double>(cur.rank));
+    const Model without = model(terms, k);
+    const auto ok = allowed(t.cand, variants, terms, k);
+    std::vector<ParamValue> out = chosen;
+    std::vector<double> spread(out.size(), 0.0);
+    for (std::size_t v = 0; v < variants.size(); ++v) {
+      if (v == t.index || !ok[v]) continue;
+      const Extension e = extend(without, variants[v].block.columns);
+      if (e.rank == 0 || !(e.rss - cur.rss < s2)) continue;
+      std::vector<Term> alt = terms;
+      alt[k].index = v;
+      const LsqResult fit = solve_lsq(design(alt), y_, Eigen::VectorXd(), names(alt));
+      if (!fit.ok) continue;
+      Eigen::Index offset = p_.base.columns.cols();
+      for (std::size_t j = 0; j < k; ++j) offset += variant_of(p_, terms[j]).block.columns.cols();
+      for (const ParamValue& q : params_of(variants[v], fit, offset))
+        for (std::size_t i = 0; i < out.size(); ++i)
+          if (out[i].name == q.name && std::isfinite(out[i].u)) spread[i] = std::max(spread[i], std::abs(q.value - out[i].value));
+    }
+    for (std::size_t i = 0; i < out.size(); ++i) out[i].u = std::hypot(out[i].u, spread[i]);
+    return out;
+  }
+
   // Share of the structure left without term k that the model with it removes: visible energy of the
   // bands located in the residual without it, against that of the residual with it. NaN when nothing is
   // structured without it (a term below visibility is judged by the tests alone).
@@ -451,6 +523,52 @@ class Selection {
   }
 
  private:
+  // Models and held-out figures of the same set of terms are asked for again and again (drop-one tests,
+  // shares, re-choices): kept by the set of variants. A variant's address identifies it while its list
+  // lives, and an entry keeps the generated lists of its terms alive, so an address is never reused
+  // for another variant while its entry exists.
+  using Key = std::vector<const Variant*>;
+  [[nodiscard]] Key key_of(const std::vector<Term>& terms, std::size_t skip) const {
+    Key k;
+    for (std::size_t j = 0; j < terms.size(); ++j)
+      if (j != skip) k.push_back(&variant_of(p_, terms[j]));
+    std::sort(k.begin(), k.end());
+    return k;
+  }
+  template <class V>
+  struct Entry {
+    V value;
+    std::vector<std::shared_ptr<const std::vector<Variant>>> pools;
+  };
+  template <class V>
+  static void remember(std::map<Key, Entry<V>>& cache, const Key& key, const std::vector<Term>& terms, const V& value) {
+    if (cache.size() >= 64) cache.clear();  // bounds the memory (each model holds an n x rank basis)
+    Entry<V> e{value, {}};
+    for (const auto& t : terms)
+      if (t.pool) e.pools.push_back(t.pool);
+    cache.emplace(key, std::move(e));
+  }
+  mutable std::map<Key, Entry<Model>> models_;
+  mutable std::map<Key, Entry<HeldOut>> heldouts_;
+
+  // Fold f's columns of the base and the terms (but `skip`) on its training or held-out rows.
+  [[nodiscard]] Eigen::MatrixXd fold_columns(std::size_t f, const std::vector<Term>& terms, std::size_t skip, bool train) const {
+    const Eigen::MatrixXd& base = train ? base_train_[f] : base_test_[f];
+    Eigen::Index cols = base.cols();
+    for (std::size_t k = 0; k < terms.size(); ++k)
+      if (k != skip) cols += (train ? terms[k].folds[f].train : terms[k].folds[f].test).cols();
+    Eigen::MatrixXd j(base.rows(), cols);
+    j.leftCols(base.cols()) = base;
+    Eigen::Index at = base.cols();
+    for (std::size_t k = 0; k < terms.size(); ++k) {
+      if (k == skip) continue;
+      const Eigen::MatrixXd& b = train ? terms[k].folds[f].train : terms[k].folds[f].test;
+      j.middleCols(at, b.cols()) = b;
+      at += b.cols();
+    }
+    return j;
+  }
+
   const Problem& p_;
   const ExplainOptions& o_;
   const Eigen::VectorXd& y_;
@@ -460,19 +578,6 @@ class Selection {
   std::vector<Eigen::VectorXd> y_train_;
 };
 
-std::vector<ParamValue> params_of(const Variant& v, const LsqResult& f, Eigen::Index offset) {
-  const auto q = v.block.columns.cols();
-  Eigen::VectorXd x = f.x.segment(offset, q);
-  Eigen::MatrixXd cov = f.covariance.block(offset, offset, q, q);
-  std::vector<ParamValue> out;
-  if (v.report) {
-    out = v.report(x, cov);
-  } else {
-    for (Eigen::Index i = 0; i < q; ++i) out.push_back({v.block.names[static_cast<std::size_t>(i)], x[i], f.u[offset + i]});
-  }
-  out.insert(out.end(), v.fixed.begin(), v.fixed.end());
-  return out;
-}
 
 // Residual curves on the first run's grid (sorted, decimated); other runs interpolated onto it. One step
 // per entry of `steps` (the base model, then after each finding).
@@ -719,7 +824,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     const DropTest d = sel.significance(terms, k, cur);
     Finding fd;
     fd.effect = cand.effect;
-    fd.parameters = params_of(v, final_fit, offset);
+    fd.parameters = sel.widened(terms, k, cur, params_of(v, final_fit, offset));
     fd.delta_bic = d.delta_bic;
     fd.p_value = d.p;
     fd.rms_um_after = std::sqrt(pm.rss / static_cast<double>(n));

@@ -1,7 +1,9 @@
 #include "models/explain/scenarios.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -41,144 +43,356 @@ sim::MachineConfig dbb_machine(std::uint64_t seed) {
   return m;
 }
 
-struct DbbPlan {
-  std::vector<sim::Direction> directions{sim::Direction::ccw, sim::Direction::cw};
-  std::vector<double> feeds_mm_per_min{1000.0, 1000.0};
+struct DbbRunPlan {
+  sim::Direction direction = sim::Direction::ccw;
+  double feed_mm_per_min = 1000.0;
+  double radius_mm = 100.0;
 };
 
-// Runs one after another on one machine clock (start_time_s metadata), 10 s apart.
-std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbPlan& plan, const ScenarioOptions& o) {
+// A DBB scenario: what the machine has beyond dbb_machine(), the runs, and what must be found.
+struct DbbScenario {
+  std::string name;
+  std::string concealment;
+  std::function<void(sim::MachineConfig&)> inject;
+  std::vector<Expectation> expected;
+  std::vector<DbbRunPlan> runs{{sim::Direction::ccw}, {sim::Direction::cw}};
+  double gap_s = 10.0;  // machine time between one run's end and the next one's start
+  // Effects that live on a few samples (50 ms spikes, jerks), on a few hundredths of a um (the servo lag)
+  // or on the difference between two radii (the bar's non-linearity) need the instrument's sample
+  // density: quick mode keeps it for them.
+  bool full_density = false;
+  bool expect_unexplained = false;
+  std::vector<double> where_deg;  // an out-of-library cause: the angles it must be located at
+  // ... and the arcs the located places may span (empty: only those angles)
+  std::vector<std::pair<double, double>> region_deg;
+};
+
+DbbScenario sc(std::string name, std::string concealment, std::function<void(sim::MachineConfig&)> inject,
+               std::vector<Expectation> expected, std::vector<DbbRunPlan> runs = {{sim::Direction::ccw}, {sim::Direction::cw}},
+               double gap_s = 10.0) {
+  DbbScenario s;
+  s.name = std::move(name);
+  s.concealment = std::move(concealment);
+  s.inject = std::move(inject);
+  s.expected = std::move(expected);
+  s.runs = std::move(runs);
+  s.gap_s = gap_s;
+  return s;
+}
+
+// Runs one after another on one machine clock (start_time_s metadata), gap_s apart.
+std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbScenario& sc, const ScenarioOptions& o) {
   const sim::Machine machine(cfg);
   std::vector<dbb::Run> runs;
   double t0 = 0;
-  for (std::size_t k = 0; k < plan.directions.size(); ++k) {
+  for (std::size_t k = 0; k < sc.runs.size(); ++k) {
     sim::DbbCircleSpec spec;
-    spec.radius_m = 0.1;
-    spec.direction = plan.directions[k];
-    spec.feed_m_per_s = plan.feeds_mm_per_min[k] / 60000.0;
+    spec.radius_m = sc.runs[k].radius_mm * 1e-3;
+    spec.direction = sc.runs[k].direction;
+    spec.feed_m_per_s = sc.runs[k].feed_mm_per_min / 60000.0;
     const double omega = spec.feed_m_per_s / spec.radius_m;
-    spec.sample_rate_hz = omega * 180 / pi * (o.quick ? 3.0 : 10.0);
+    spec.sample_rate_hz = omega * 180 / pi * (o.quick && !sc.full_density ? 3.0 : 10.0);
     spec.t0_s = t0;
     spec.seed = o.seed * 1000 + k + 1;
     dbb::Run run = dbb::simulate_run(machine, spec, "scenario-run" + std::to_string(k + 1));
     run.metadata["start_time_s"] = fmt("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
     runs.push_back(std::move(run));
-    t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + 10.0;
+    t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + sc.gap_s;
   }
   return runs;
 }
 
-const ParamValue* find_param(const Report& r, const std::string& effect, const std::string& name) {
-  for (const auto& f : r.findings)
-    if (f.effect == effect)
-      for (const auto& p : f.parameters)
-        if (p.name == name) return &p;
+// Machine time at which run 1 (ccw from 0 deg, 45 deg feed-in) passes `deg`.
+double run1_time_at_deg(const DbbScenario& sc, double deg) {
+  const double omega = sc.runs.front().feed_mm_per_min / 60000.0 / (sc.runs.front().radius_mm * 1e-3);
+  return (45.0 + deg) * pi / 180 / omega;
+}
+
+Expectation expect(std::string effect, std::string parameter, double truth, double tolerance) {
+  return {std::move(effect), std::move(parameter), truth, tolerance};
+}
+
+// Sizes of the injected effects (each visible above the 0.4 um noise at these feeds; the concealment
+// column says what hides it).
+void backlash(sim::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].backlash_m = um_ * um; }
+void vibration(sim::MachineConfig& m, int axis, double um_, double hz) {
+  m.axis[static_cast<std::size_t>(axis)].vibration_amplitude_m = um_ * um;
+  m.axis[static_cast<std::size_t>(axis)].vibration_frequency_hz = hz;
+}
+void cyclic(sim::MachineConfig& m, int axis, double um_, double period_mm) {
+  m.axis[static_cast<std::size_t>(axis)].cyclic_amplitude_m = um_ * um;
+  m.axis[static_cast<std::size_t>(axis)].cyclic_period_m = period_mm * 1e-3;
+}
+void spike(sim::MachineConfig& m, int axis, double um_, double decay_ms) {
+  m.axis[static_cast<std::size_t>(axis)].reversal_spike_m = um_ * um;
+  m.axis[static_cast<std::size_t>(axis)].reversal_spike_decay_s = decay_ms * 1e-3;
+}
+void stick_slip(sim::MachineConfig& m, int axis, double um_, double hz, double decay_ms) {
+  auto& a = m.axis[static_cast<std::size_t>(axis)];
+  a.stick_slip_m = um_ * um;
+  a.stick_slip_hz = hz;
+  a.stick_slip_decay_s = decay_ms * 1e-3;
+}
+void lateral(sim::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].lateral_play_m = um_ * um; }
+void centre_drift(sim::MachineConfig& m, double x_um_per_min, double y_um_per_min) {
+  m.axis[0].drift_m_per_s = x_um_per_min * um / 60.0;
+  m.axis[1].drift_m_per_s = y_um_per_min * um / 60.0;
+}
+void lags(sim::MachineConfig& m, double x_ms, double y_ms) {
+  m.axis[0].servo_lag_s = x_ms * 1e-3;
+  m.axis[1].servo_lag_s = y_ms * 1e-3;
+}
+
+// Two radii in both directions: a transducer's non-linearity of a centred circle's reading has the
+// shapes of Lai's base (harmonics of the centre offset); at two radii the base's terms scale with the
+// radius and the non-linearity does not.
+// The bar set up 15/-12 um off the circle's centre (a usual set-up error) reads over +-19 um, where
+// 0.001 dL^2 + 2e-5 dL^3 (um) adds up to 0.5 um; the gain it changes by over the reading (+-4 %) scales
+// every other effect's reading with it.
+void nonlinear_bar(sim::MachineConfig& m) {
+  m.dbb.center_offset = {15 * um, -12 * um, 0};
+  m.dbb.nonlinearity_quadratic_per_m = 0.001 / um;
+  m.dbb.nonlinearity_cubic_per_m2 = 2e-5 / (um * um);
+}
+const std::vector<DbbRunPlan> two_radii{{sim::Direction::ccw, 1000, 100}, {sim::Direction::cw, 1000, 100},
+                                        {sim::Direction::ccw, 1000, 50}, {sim::Direction::cw, 1000, 50}};
+std::vector<DbbRunPlan> both_at(double feed) { return {{sim::Direction::ccw, feed, 100}, {sim::Direction::cw, feed, 100}}; }
+
+const std::vector<DbbScenario>& dbb_scenarios() {
+  using sim::MachineConfig;
+  static const std::vector<DbbScenario> all = [] {
+    std::vector<DbbScenario> v;
+    // One effect at a time.
+    v.push_back(sc("dbb_thermal_bar", "bar growth over the test, partly absorbed by the centre offset and scale terms",
+                 [](MachineConfig& m) { m.dbb.bar_drift_m_per_s = 1.5 * um / 60.0; },
+                 {expect("thermal_drift", "bar_drift_um_per_min", 1.5, 0.15)}));
+    v.push_back(sc("dbb_servo_mismatch", "in each direction exactly the signature of squareness (the base has squareness)",
+                 [](MachineConfig& m) { lags(m, 0.06, 0.0); }, {expect("servo_mismatch", "servo_mismatch_ms", 0.06, 0.01)}));
+    v.push_back(sc("dbb_backlash", "0.5 um steps under 0.4 um noise", [](MachineConfig& m) { backlash(m, 0, 0.5); },
+                 {expect("backlash", "backlash_x_um", 0.5, 0.1)}));
+    v.push_back(sc("dbb_cyclic", "0.15 um lead-screw error (5 mm lead), below the 0.4 um noise in the raw residual",
+                 [](MachineConfig& m) { cyclic(m, 0, 0.15, 5); }, {expect("cyclic_error", "cyclic_error_x_um", 0.15, 0.04)}));
+    v.push_back(sc("dbb_vibration",
+                 "0.3 um X-axis vibration at 7.3 Hz under 0.4 um noise, read through cos(angle): in the bar's own spectrum "
+                 "two lines at 7.3 Hz +- the circling frequency",
+                 [](MachineConfig& m) { vibration(m, 0, 0.3, 7.3); }, {expect("vibration", "vibration_x_um", 0.3, 0.05)}));
+    v.push_back(sc("dbb_servo_lag",
+                 "both drives 50 ms late at 2000 mm/min, the angles being the commanded ones: the base's shape seen "
+                 "0.95 deg early, opposite in the two directions (a few hundredths of a um)",
+                 [](MachineConfig& m) { lags(m, 50, 50); }, {expect("servo_lag", "servo_lag_ms", 50, 15)}, both_at(2000)));
+    v.push_back(sc("dbb_reversal_spike", "1.5 um stiction spikes decaying in 50 ms, a few samples per reversal",
+                 [](MachineConfig& m) { spike(m, 0, 1.5, 50); },
+                 {expect("reversal_spike", "reversal_spike_x_um", 1.5, 0.45)}));
+    v.push_back(sc("dbb_lateral_play", "Y carriage shifts 1 um sideways with its direction: a step along x where Y reverses",
+                 [](MachineConfig& m) { lateral(m, 1, 1.0); }, {expect("lateral_play", "lateral_play_y_um", 1.0, 0.1)}));
+    v.push_back(sc("dbb_stick_slip", "2 um jerks at 10 Hz decaying in 200 ms after each X reversal",
+                 [](MachineConfig& m) { stick_slip(m, 0, 2.0, 10, 200); },
+                 {expect("stick_slip", "stick_slip_x_um", 2.0, 0.4)}));
+    v.push_back(sc("dbb_sensor_nonlinearity",
+                 "the bar reads dL + 0.001 dL^2 + 2e-5 dL^3 (um), set up 19 um off centre: on one circle the harmonics "
+                 "of Lai's base; separable at two radii",
+                 nonlinear_bar, {expect("sensor_nonlinearity", "sensor_quadratic_per_um", 0.001, 0.0003)}, two_radii));
+    v.push_back(sc("dbb_centre_drift",
+                 "the circle's centre drifts in the plane, X +1.0 and Y -0.67 um/min, the second run 90 s later at 600 "
+                 "mm/min: along one axis each drift is half explained",
+                 [](MachineConfig& m) { centre_drift(m, 1.0, -0.67); },
+                 {expect("thermal_drift", "drift_x_um_per_min", 1.0, 0.1), expect("thermal_drift", "drift_y_um_per_min", -0.67, 0.1)},
+                 both_at(600), 90.0));
+    // Pairs: every effect of the DBB library in at least two, on either axis.
+    v.push_back(sc("dbb_pair_backlash_vibration", "X backlash 0.8 um and a 0.4 um Y vibration at 9.1 Hz",
+                 [](MachineConfig& m) { backlash(m, 0, 0.8); vibration(m, 1, 0.4, 9.1); },
+                 {expect("backlash", "backlash_x_um", 0.8, 0.1), expect("vibration", "vibration_y_um", 0.4, 0.05)}));
+    v.push_back(sc("dbb_pair_backlash_cyclic", "Y backlash 0.8 um and a 0.3 um X cyclic error of 5 mm lead",
+                 [](MachineConfig& m) { backlash(m, 1, 0.8); cyclic(m, 0, 0.3, 5); },
+                 {expect("backlash", "backlash_y_um", 0.8, 0.1), expect("cyclic_error", "cyclic_error_x_um", 0.3, 0.05)}));
+    v.push_back(sc("dbb_pair_mismatch_spike", "0.06 ms servo mismatch and 1.5 um X reversal spikes (50 ms)",
+                 [](MachineConfig& m) { lags(m, 0.06, 0); spike(m, 0, 1.5, 50); },
+                 {expect("servo_mismatch", "servo_mismatch_ms", 0.06, 0.01),
+                  expect("reversal_spike", "reversal_spike_x_um", 1.5, 0.45)}));
+    v.push_back(sc("dbb_pair_mismatch_drift", "0.06 ms servo mismatch and the centre drifting X +1.0, Y -0.6 um/min",
+                 [](MachineConfig& m) { lags(m, 0.06, 0); centre_drift(m, 1.0, -0.6); },
+                 {expect("servo_mismatch", "servo_mismatch_ms", 0.06, 0.01),
+                  expect("thermal_drift", "drift_x_um_per_min", 1.0, 0.15), expect("thermal_drift", "drift_y_um_per_min", -0.6, 0.15)}));
+    v.push_back(sc("dbb_pair_lag_cyclic", "drives 50 ms late (2000 mm/min) and a 0.3 um Y cyclic error of 8 mm lead, at the drives' positions",
+                 [](MachineConfig& m) { lags(m, 50, 50); cyclic(m, 1, 0.3, 8); },
+                 {expect("servo_lag", "servo_lag_ms", 50, 15), expect("cyclic_error", "cyclic_error_y_um", 0.3, 0.05)},
+                 both_at(2000)));
+    v.push_back(sc("dbb_pair_lag_lateral", "drives 50 ms late (2000 mm/min) and 1 um lateral play of Y",
+                 [](MachineConfig& m) { lags(m, 50, 50); lateral(m, 1, 1.0); },
+                 {expect("servo_lag", "servo_lag_ms", 50, 15), expect("lateral_play", "lateral_play_y_um", 1.0, 0.15)},
+                 both_at(2000)));
+    v.push_back(sc("dbb_pair_lateral_bar_drift", "1 um lateral play of X and the bar growing 1.5 um/min",
+                 [](MachineConfig& m) { lateral(m, 0, 1.0); m.dbb.bar_drift_m_per_s = 1.5 * um / 60.0; },
+                 {expect("lateral_play", "lateral_play_x_um", 1.0, 0.1), expect("thermal_drift", "bar_drift_um_per_min", 1.5, 0.15)}));
+    v.push_back(sc("dbb_pair_spike_stick_slip", "1.5 um Y reversal spikes (50 ms) and 2 um X stick-slip (10 Hz, 200 ms): both at reversals",
+                 [](MachineConfig& m) { spike(m, 1, 1.5, 50); stick_slip(m, 0, 2.0, 10, 200); },
+                 {expect("reversal_spike", "reversal_spike_y_um", 1.5, 0.45), expect("stick_slip", "stick_slip_x_um", 2.0, 0.4)}));
+    v.push_back(sc("dbb_pair_stick_slip_nonlinearity", "2 um Y stick-slip (10 Hz, 200 ms) and the bar's non-linearity (two radii)",
+                 [](MachineConfig& m) {
+                   stick_slip(m, 1, 2.0, 10, 200);
+                   nonlinear_bar(m);
+                 },
+                 {expect("stick_slip", "stick_slip_y_um", 2.0, 0.4), expect("sensor_nonlinearity", "sensor_quadratic_per_um", 0.001, 0.0003)},
+                 two_radii));
+    v.push_back(sc("dbb_pair_nonlinearity_vibration", "the bar's non-linearity and a 0.4 um X vibration at 7.3 Hz (two radii)",
+                 [](MachineConfig& m) {
+                   nonlinear_bar(m);
+                   vibration(m, 0, 0.4, 7.3);
+                 },
+                 {expect("sensor_nonlinearity", "sensor_quadratic_per_um", 0.001, 0.0003), expect("vibration", "vibration_x_um", 0.4, 0.05)},
+                 two_radii));
+    // Three at once.
+    v.push_back(sc("dbb_three_backlash_mismatch_cyclic",
+                 "X/Y backlash 1.2/0.6 um, 0.08 ms servo mismatch (Y lags), a 0.5 um Y cyclic error of 4 mm lead",
+                 [](MachineConfig& m) { backlash(m, 0, 1.2); backlash(m, 1, 0.6); lags(m, 0, 0.08); cyclic(m, 1, 0.5, 4); },
+                 {expect("backlash", "backlash_x_um", 1.2, 0.1), expect("backlash", "backlash_y_um", 0.6, 0.1),
+                  expect("servo_mismatch", "servo_mismatch_ms", -0.08, 0.01), expect("cyclic_error", "cyclic_error_y_um", 0.5, 0.05)}));
+    v.push_back(sc("dbb_three_backlash_vibration_drift",
+                 "X backlash 0.8 um, a 0.4 um X vibration at 6.1 Hz and the centre drifting X +1.0, Y -0.6 um/min",
+                 [](MachineConfig& m) { backlash(m, 0, 0.8); vibration(m, 0, 0.4, 6.1); centre_drift(m, 1.0, -0.6); },
+                 {expect("backlash", "backlash_x_um", 0.8, 0.1), expect("vibration", "vibration_x_um", 0.4, 0.05),
+                  expect("thermal_drift", "drift_x_um_per_min", 1.0, 0.15), expect("thermal_drift", "drift_y_um_per_min", -0.6, 0.15)}));
+    v.push_back(sc("dbb_three_lateral_cyclic_vibration",
+                 "1 um lateral play of Y, a 0.3 um X cyclic error of 5 mm lead and a 0.4 um Y vibration at 9.1 Hz",
+                 [](MachineConfig& m) { lateral(m, 1, 1.0); cyclic(m, 0, 0.3, 5); vibration(m, 1, 0.4, 9.1); },
+                 {expect("lateral_play", "lateral_play_y_um", 1.0, 0.1), expect("cyclic_error", "cyclic_error_x_um", 0.3, 0.05),
+                  expect("vibration", "vibration_y_um", 0.4, 0.05)}));
+    // Nothing left out.
+    v.push_back(sc("dbb_null", "nothing left out: geometric errors of the base and 0.4 um noise only", [](MachineConfig&) {}, {}));
+    v.push_back(sc("dbb_null_feeds", "nothing left out; four runs, both directions at 500 and 2000 mm/min", [](MachineConfig&) {},
+                 {},
+                 {{sim::Direction::ccw, 500, 100}, {sim::Direction::cw, 500, 100}, {sim::Direction::ccw, 2000, 100},
+                  {sim::Direction::cw, 2000, 100}}));
+    v.push_back(sc("dbb_null_three_runs", "nothing left out; three runs (ccw, cw, ccw): whole runs held out",
+                 [](MachineConfig&) {}, {},
+                 {{sim::Direction::ccw}, {sim::Direction::cw}, {sim::Direction::ccw}}));
+    v.push_back(sc("dbb_null_noisy", "nothing left out; 1.5 um of bar noise", [](MachineConfig& m) { m.dbb.noise_m = 1.5 * um; }, {}));
+    // Causes outside the library.
+    {
+      DbbScenario bump = sc("dbb_bump", "1.5 um local bump (5 mm wide) on the X guideway at x = 60 mm, outside the library",
+                            [](MachineConfig& m) {
+                              m.axis[0].bump_amplitude_m = 1.5 * um;
+                              m.axis[0].bump_center_m = 0.06;
+                              m.axis[0].bump_width_m = 0.005;
+                              m.axis[0].bump_direction = 1;
+                            },
+                            {});
+      bump.expect_unexplained = true;
+      // x = 60 mm on a 100 mm circle about the origin: zeta = +-acos(0.6).
+      bump.where_deg = {std::acos(0.6) * 180 / pi, 360 - std::acos(0.6) * 180 / pi};
+      v.push_back(bump);
+    }
+    {
+      DbbScenario slip = sc("dbb_ball_slip",
+                            "an instrument failure: the ball slips 1 um in its socket at 100 deg of the first run and "
+                            "stays there, a step of the reading outside the library",
+                            {}, {});
+      slip.expect_unexplained = true;
+      slip.where_deg = {100};
+      // A step's mismatch is the stretch before it (the base fits the run's mean): from the run's start
+      // (0 deg, 360 across the wrap) to the slip.
+      slip.region_deg = {{0, 100}};
+      const double t = run1_time_at_deg(slip, 100);
+      slip.inject = [t](MachineConfig& m) {
+        m.dbb.slip_m = 1.0 * um;
+        m.dbb.slip_time_s = t;
+      };
+      v.push_back(slip);
+    }
+    for (auto& s : v)
+      for (const auto& e : s.expected)
+        if (e.effect == "reversal_spike" || e.effect == "stick_slip" || e.effect == "servo_lag" ||
+            e.effect == "sensor_nonlinearity")
+          s.full_density = true;
+    return v;
+  }();
+  return all;
+}
+
+const DbbScenario* find_dbb(const std::string& name) {
+  for (const auto& s : dbb_scenarios())
+    if (s.name == name) return &s;
   return nullptr;
 }
 
+// Every expectation against the findings, and the common checks.
 void evaluate(ScenarioResult& s) {
   const Report& r = s.report;
-  s.found = r.findings.empty() ? "none" : r.findings.front().effect;
   std::string why;
-  if (s.effect.empty()) {
-    if (!r.findings.empty()) why += "expected no finding, got " + s.found + "; ";
-  } else {
-    if (s.found != s.effect) why += "expected " + s.effect + " first, got " + s.found + "; ";
-    const ParamValue* p = find_param(r, s.effect, s.parameter);
-    s.found_value = p ? p->value : nan;
-    s.found_u = p ? p->u : nan;
-    if (!p) {
-      why += "parameter " + s.parameter + " not reported; ";
-    } else if (!(std::abs(p->value - s.truth) <= s.tolerance)) {
-      why += s.parameter + " = " + fmt("%.4g", p->value) + ", truth " + fmt("%.4g", s.truth) + " +/- " +
-             fmt("%.3g", s.tolerance) + "; ";
-    }
-    if (!(r.final_fit.heldout_rms_um < r.baseline.heldout_rms_um)) why += "held-out RMS not improved; ";
+  s.checks.clear();
+  s.extra.clear();
+  for (const auto& e : s.expected) {
+    Check c{e, false, nan, nan, false};
+    for (const auto& f : r.findings)
+      if (f.effect == e.effect)
+        for (const auto& p : f.parameters)
+          if (p.name == e.parameter) {
+            c.found = true;
+            c.value = p.value;
+            c.u = p.u;
+          }
+    c.within = c.found && std::abs(c.value - e.truth) <= e.tolerance;
+    if (!c.found) why += e.effect + " (" + e.parameter + ") not found; ";
+    else if (!c.within)
+      why += e.parameter + " = " + fmt("%.4g", c.value) + ", truth " + fmt("%.4g", e.truth) + " +/- " + fmt("%.3g", e.tolerance) + "; ";
+    s.checks.push_back(c);
   }
-  if (r.unexplained != s.expect_unexplained)
-    why += std::string("unexplained is ") + (r.unexplained ? "true" : "false") + "; ";
+  for (const auto& f : r.findings) {
+    const bool expected = std::any_of(s.expected.begin(), s.expected.end(), [&](const Expectation& e) {
+      if (e.effect != f.effect) return false;
+      return std::any_of(f.parameters.begin(), f.parameters.end(), [&](const ParamValue& p) { return p.name == e.parameter; });
+    });
+    if (!expected) {
+      s.extra.push_back(f.effect);
+      why += "unexpected finding " + f.effect + "; ";
+    }
+  }
+  if (!s.expected.empty() && !(r.final_fit.heldout_rms_um < r.baseline.heldout_rms_um)) why += "held-out RMS not improved; ";
+  if (r.unexplained != s.expect_unexplained) why += std::string("unexplained is ") + (r.unexplained ? "true" : "false") + "; ";
   s.pass = why.empty();
   s.failure = why;
 }
 
-ScenarioResult dbb_scenario(const std::string& name, const ScenarioOptions& o) {
+ScenarioResult dbb_scenario(const DbbScenario& sc, const ScenarioOptions& o) {
   ScenarioResult s;
-  s.name = name;
+  s.name = sc.name;
   s.model = "dbb";
+  s.concealment = sc.concealment;
+  s.expected = sc.expected;
+  s.expect_unexplained = sc.expect_unexplained;
   sim::MachineConfig m = dbb_machine(o.seed);
-  DbbPlan plan;
-  if (name == "dbb_thermal_bar") {
-    m.dbb.bar_drift_m_per_s = 1.5 * um / 60.0;
-    s.effect = "thermal_drift";
-    s.parameter = "bar_drift_um_per_min";
-    s.truth = 1.5;
-    s.tolerance = 0.15;
-    s.concealment = "bar growth over the test, partly absorbed by the centre offset and scale terms";
-  } else if (name == "dbb_servo_mismatch") {
-    m.axis[0].servo_lag_s = 20.06e-3;
-    m.axis[1].servo_lag_s = 20.0e-3;
-    s.effect = "servo_mismatch";
-    s.parameter = "servo_mismatch_ms";
-    s.truth = 0.06;
-    s.tolerance = 0.01;
-    s.concealment = "in each direction exactly the signature of squareness (the base has squareness)";
-  } else if (name == "dbb_backlash") {
-    m.axis[0].backlash_m = 0.5 * um;
-    s.effect = "backlash";
-    s.parameter = "backlash_x_um";
-    s.truth = 0.5;
-    s.tolerance = 0.1;
-    s.concealment = "0.5 um steps under 0.4 um noise";
-  } else if (name == "dbb_cyclic") {
-    m.axis[0].cyclic_amplitude_m = 0.15 * um;
-    m.axis[0].cyclic_period_m = 5e-3;
-    s.effect = "cyclic_error";
-    s.parameter = "cyclic_error_x_um";
-    s.truth = 0.15;
-    s.tolerance = 0.04;
-    s.concealment = "0.15 um lead-screw error (5 mm lead), below the 0.4 um noise in the raw residual";
-  } else if (name == "dbb_vibration") {
-    m.axis[0].vibration_amplitude_m = 0.3 * um;
-    m.axis[0].vibration_frequency_hz = 7.3;
-    s.effect = "vibration";
-    s.parameter = "vibration_x_um";
-    s.truth = 0.3;
-    s.tolerance = 0.05;
-    s.concealment = "0.3 um X-axis vibration at 7.3 Hz under 0.4 um noise, read through cos(angle): in the "
-                    "bar's own spectrum two lines at 7.3 Hz +- the circling frequency";
-  } else if (name == "dbb_null") {
-    s.concealment = "nothing left out: geometric errors of the base and 0.4 um noise only";
-  } else if (name == "dbb_bump") {
-    m.axis[0].bump_amplitude_m = 1.5 * um;
-    m.axis[0].bump_center_m = 0.06;
-    m.axis[0].bump_width_m = 0.005;
-    m.axis[0].bump_direction = 1;
-    s.expect_unexplained = true;
-    s.expect_where = "53.1, 306.9";
-    s.concealment = "1.5 um local bump (5 mm wide) on the X guideway at x = 60 mm, outside the library";
-  } else {
-    throw std::invalid_argument("unknown scenario: " + name);
-  }
-  s.report = explain(dbb_problem(dbb_runs(m, plan, o)), o.explain);
+  sc.inject(m);
+  s.report = explain(dbb_problem(dbb_runs(m, sc, o)), o.explain);
   evaluate(s);
-  if (name == "dbb_bump") {
-    // x = 60 mm on a 100 mm circle about the origin: zeta = +-acos(0.6).
-    const double z1 = std::acos(0.6) * 180 / pi, z2 = 360 - z1;
-    bool hit1 = false, hit2 = false, extra = false;
+  if (!sc.where_deg.empty()) {
+    // Located at each expected angle (within 3 deg of a range) and nowhere else: every range reaches an
+    // expected angle or lies within an expected arc (3 deg of slack, 360 deg being 0).
+    const auto inside = [&](double lo, double hi) {
+      for (double d : sc.where_deg)
+        if (lo - 3 <= d && d <= hi + 3) return true;
+      for (const auto& [a, b] : sc.region_deg)
+        for (double shift : {-360.0, 0.0, 360.0})
+          if (lo + shift >= a - 3 && hi + shift <= b + 3) return true;
+      return false;
+    };
+    std::vector<bool> hit(sc.where_deg.size(), false);
+    bool elsewhere = false;
     for (const auto& mm : s.report.mismatch) {
       if (mm.domain != "angle_deg") continue;
       for (const auto& [lo, hi] : mm.ranges) {
-        const bool a = lo - 3 <= z1 && z1 <= hi + 3, b = lo - 3 <= z2 && z2 <= hi + 3;
-        hit1 |= a;
-        hit2 |= b;
-        extra |= !a && !b;
+        for (std::size_t k = 0; k < sc.where_deg.size(); ++k)
+          hit[k] = hit[k] || (lo - 3 <= sc.where_deg[k] && sc.where_deg[k] <= hi + 3);
+        elsewhere = elsewhere || !inside(lo, hi);
       }
     }
-    if (!hit1 || !hit2) {
+    std::string where;
+    for (double d : sc.where_deg) where += (where.empty() ? "" : ", ") + fmt("%.1f", d);
+    s.expect_where = where;
+    if (std::find(hit.begin(), hit.end(), false) != hit.end()) {
       s.pass = false;
-      s.failure += "bump not located at " + fmt("%.1f", z1) + " and " + fmt("%.1f", z2) + " deg; ";
+      s.failure += "not located at " + where + " deg; ";
     }
-    if (extra) {
+    if (elsewhere) {
       s.pass = false;
       s.failure += "mismatch located elsewhere as well; ";
     }
@@ -273,10 +487,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
   bool along_path = false;
   if (name == "flatness_thermal_two_feeds" || name == "straightness_thermal_two_feeds") {
     m.axis[2].drift_m_per_s = 0.2 * um / 60.0;
-    s.effect = "thermal_drift";
-    s.parameter = "thermal_drift_um_per_min";
-    s.truth = 0.2;
-    s.tolerance = 0.02;
+    s.expected = {expect("thermal_drift", "thermal_drift_um_per_min", 0.2, 0.02)};
     s.concealment = s.model == "flatness"
                         ? "Z drift at constant feed: a line in x exactly like squareness; only the 2 and 8 mm/min cuts "
                           "differ (X carriage 1.6 um out of straight, its traverse in the base)"
@@ -285,19 +496,14 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
     m.spindle.axial_runout_m = 0.1 * um;
     feeds = {2.0};
     along_path = true;
-    s.effect = "spindle_axial_runout";
-    s.parameter = "spindle_axial_runout_um";
-    s.truth = 0.1;
-    s.tolerance = 0.02;
+    s.expected = {expect("spindle_axial_runout", "spindle_axial_runout_um", 0.1, 0.02)};
     s.concealment = "0.1 um twice per revolution (3.6 Hz) sampled every 1.5-3 s along the tool path: aliased into "
                     "slow waviness";
   } else if (name == "flatness_abbe_offset") {
     m.tool_offset = {3e-3, 0, 0};
-    s.effect = "abbe_offset";
-    s.parameter = "abbe_offset_x_mm";
-    s.truth = 3.0;
-    s.tolerance = 0.5;  // u is 0.12-0.17 mm from the profiles alone; the traverse's noise (common to both
-                        // cuts, not in u) adds about as much again
+    // u is 0.12-0.17 mm from the profiles alone; the traverse's noise (common to both cuts, not in u) adds
+    // about as much again: hence 0.5 mm.
+    s.expected = {expect("abbe_offset", "abbe_offset_x_mm", 3.0, 0.5)};
     s.concealment = "the tool 3 mm along x from the carriage point the traverse measured: pitch x 3 mm adds up to "
                     "0.6 um, all but its curvature a line in x like squareness; what is left is the size of the 0.03 um "
                     "noise";
@@ -319,46 +525,134 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
 }  // namespace
 
 std::vector<std::string> scenario_names() {
-  return {"dbb_thermal_bar",         "dbb_servo_mismatch", "dbb_backlash",
-          "dbb_cyclic",              "dbb_vibration",      "dbb_null",           "dbb_bump",
-          "flatness_thermal_two_feeds", "flatness_spindle_runout", "flatness_abbe_offset", "flatness_null",
-          "straightness_thermal_two_feeds", "straightness_null"};
+  std::vector<std::string> out;
+  for (const auto& s : dbb_scenarios()) out.push_back(s.name);
+  for (const char* p : {"flatness_thermal_two_feeds", "flatness_spindle_runout", "flatness_abbe_offset", "flatness_null",
+                        "straightness_thermal_two_feeds", "straightness_null"})
+    out.emplace_back(p);
+  return out;
 }
 
 ScenarioResult run_scenario(const std::string& name, const ScenarioOptions& options) {
-  if (name.rfind("dbb_", 0) == 0) return dbb_scenario(name, options);
+  if (const DbbScenario* d = find_dbb(name)) return dbb_scenario(*d, options);
   if (name.rfind("flatness_", 0) == 0 || name.rfind("straightness_", 0) == 0) return profile_scenario(name, options);
   throw std::invalid_argument("unknown scenario: " + name);
 }
 
-std::string scenario_table_markdown(const std::vector<ScenarioResult>& results) {
-  std::ostringstream o;
-  o << "| scenario | effect | concealment | truth | found | held-out RMS before / after (um) | unexplained | pass |\n";
-  o << "|---|---|---|---|---|---|---|---|\n";
-  for (const auto& s : results) {
-    std::string truth = s.effect.empty() ? (s.expect_unexplained ? "outside the library" : "none") : s.effect + ": " +
-                                                                                                   s.parameter + " = " +
-                                                                                                   fmt("%.4g", s.truth) +
-                                                                                                   " +/- " +
-                                                                                                   fmt("%.3g", s.tolerance);
-    std::string found = s.found;
-    if (!s.effect.empty() && std::isfinite(s.found_value))
-      found += ": " + fmt("%.4g", s.found_value) + (std::isfinite(s.found_u) ? " +/- " + fmt("%.2g", s.found_u) : "");
-    if (!s.expect_where.empty()) {
-      found += "; located at ";
-      bool first = true;
-      for (const auto& mm : s.report.mismatch)
-        for (const auto& [lo, hi] : mm.ranges) {
-          found += (first ? "" : ", ") + fmt("%.4g", lo) + ".." + fmt("%.4g", hi);
-          first = false;
-        }
-      found += " deg (expected " + s.expect_where + ")";
-    }
-    o << "| " << s.name << " | " << (s.effect.empty() ? "-" : s.effect) << " | " << s.concealment << " | " << truth
-      << " | " << found << " | " << fmt("%.4f", s.report.baseline.heldout_rms_um) << " / "
-      << fmt("%.4f", s.report.final_fit.heldout_rms_um) << " | " << (s.report.unexplained ? "true" : "false") << " | "
-      << (s.pass ? "yes" : "NO: " + s.failure) << " |\n";
+ScenarioSummary summarize_scenario(const std::string& name, const std::vector<std::uint64_t>& seeds,
+                                   const ScenarioOptions& options) {
+  ScenarioSummary out;
+  out.name = name;
+  out.seeds = seeds;
+  for (const std::uint64_t seed : seeds) {
+    ScenarioOptions o = options;
+    o.seed = seed;
+    out.runs.push_back(run_scenario(name, o));
+    out.passed += out.runs.back().pass ? 1 : 0;
   }
+  if (!out.runs.empty()) {
+    out.model = out.runs.front().model;
+    out.concealment = out.runs.front().concealment;
+    out.expected = out.runs.front().expected;
+    out.expect_unexplained = out.runs.front().expect_unexplained;
+  }
+  return out;
+}
+
+Coverage uncertainty_coverage(const std::vector<ScenarioSummary>& summaries) {
+  Coverage c;
+  std::size_t one = 0, two = 0;
+  for (const auto& s : summaries)
+    for (const auto& r : s.runs)
+      for (const auto& k : r.checks) {
+        if (!k.found || !std::isfinite(k.u) || !(k.u > 0)) continue;
+        const double z = std::abs(k.value - k.expected.truth) / k.u;
+        ++c.n;
+        one += z <= 1 ? 1 : 0;
+        two += z <= 2 ? 1 : 0;
+      }
+  if (c.n > 0) {
+    c.within_1u = static_cast<double>(one) / static_cast<double>(c.n);
+    c.within_2u = static_cast<double>(two) / static_cast<double>(c.n);
+  }
+  return c;
+}
+
+std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summaries) {
+  std::ostringstream o;
+  o << "| scenario | injected (how it hides) | parameter: truth | found (seeds) | mean +/- sd over seeds | mean u | "
+       "max abs(error)/u | held-out RMS before / after (um, mean) | unexplained (seeds) | pass |\n";
+  o << "|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& s : summaries) {
+    const double k = static_cast<double>(s.runs.size());
+    double before = 0, after = 0;
+    std::size_t unexplained = 0;
+    std::vector<std::string> extras;
+    for (const auto& r : s.runs) {
+      before += r.report.baseline.heldout_rms_um / k;
+      after += r.report.final_fit.heldout_rms_um / k;
+      unexplained += r.report.unexplained ? 1 : 0;
+      for (const auto& e : r.extra)
+        if (std::find(extras.begin(), extras.end(), e) == extras.end()) extras.push_back(e);
+    }
+    const std::string seeds = std::to_string(s.runs.size());
+    const std::string common = fmt("%.4f", before) + " / " + fmt("%.4f", after) + " | " + std::to_string(unexplained) + "/" +
+                               seeds + (s.expect_unexplained ? " (expected)" : "") + " | " + std::to_string(s.passed) + "/" +
+                               seeds + " |";
+    std::string extra_note;
+    for (const auto& e : extras) extra_note += (extra_note.empty() ? "; also found: " : ", ") + e;
+    if (s.expected.empty()) {
+      std::string found = s.expect_unexplained ? "outside the library" : "none";
+      std::size_t with = 0;
+      for (const auto& r : s.runs) with += r.report.findings.empty() ? 0 : 1;
+      o << "| " << s.name << " | " << s.concealment << " | " << found << " | findings in " << with << "/" << seeds
+        << extra_note;
+      if (!s.runs.empty() && !s.runs.front().expect_where.empty()) {
+        o << "; located at ";
+        bool first = true;
+        for (const auto& mm : s.runs.front().report.mismatch)
+          for (const auto& [lo, hi] : mm.ranges) {
+            o << (first ? "" : ", ") << fmt("%.4g", lo) << ".." << fmt("%.4g", hi);
+            first = false;
+          }
+        o << " deg (seed " << s.seeds.front() << "; expected " << s.runs.front().expect_where << ")";
+      }
+      o << " | - | - | - | " << common << "\n";
+      continue;
+    }
+    for (std::size_t e = 0; e < s.expected.size(); ++e) {
+      const Expectation& x = s.expected[e];
+      std::size_t found = 0;
+      double mean = 0, u_mean = 0, zmax = 0;
+      std::size_t with_u = 0;
+      std::vector<double> values;
+      for (const auto& r : s.runs) {
+        const Check& c = r.checks[e];
+        if (!c.found) continue;
+        ++found;
+        values.push_back(c.value);
+        if (std::isfinite(c.u) && c.u > 0) {
+          u_mean += c.u;
+          ++with_u;
+          zmax = std::max(zmax, std::abs(c.value - x.truth) / c.u);
+        }
+      }
+      for (double v : values) mean += v / static_cast<double>(values.size());
+      double sd = 0;
+      for (double v : values) sd += (v - mean) * (v - mean);
+      sd = values.size() > 1 ? std::sqrt(sd / static_cast<double>(values.size() - 1)) : nan;
+      const std::string stat = values.empty() ? "-" : fmt("%.4g", mean) + (std::isfinite(sd) ? " +/- " + fmt("%.2g", sd) : "");
+      const std::string u = with_u ? fmt("%.2g", u_mean / static_cast<double>(with_u)) : "-";
+      const std::string z = with_u ? fmt("%.2g", zmax) : "-";
+      o << "| " << (e == 0 ? s.name : "") << " | " << (e == 0 ? s.concealment : "") << " | " << x.effect << ": " << x.parameter
+        << " = " << fmt("%.4g", x.truth) << " (+/- " << fmt("%.3g", x.tolerance) << ") | " << found << "/" << seeds
+        << (e == 0 ? extra_note : "") << " | " << stat << " | " << u << " | " << z << " | "
+        << (e == 0 ? common : " | | |") << "\n";
+    }
+  }
+  const Coverage c = uncertainty_coverage(summaries);
+  o << "\nUncertainty coverage: of " << c.n << " fitted parameters, " << fmt("%.0f", 100 * c.within_1u) << " % within 1 u and "
+    << fmt("%.0f", 100 * c.within_2u) << " % within 2 u of the truth (68 % and 95 % for honest standard uncertainties).\n";
   return o.str();
 }
 

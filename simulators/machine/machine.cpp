@@ -177,6 +177,11 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
         act += e.cyclic_amplitude_m * std::sin(two_pi * servo[j] / e.cyclic_period_m + e.cyclic_phase_rad);
       if (e.reversal_spike_m != 0 && spike_sign[j] != 0 && e.reversal_spike_decay_s > 0)
         act -= spike_sign[j] * e.reversal_spike_m * std::exp(-(t_rel - t_rev[j]) / e.reversal_spike_decay_s);
+      if (e.stick_slip_m != 0 && spike_sign[j] != 0 && e.stick_slip_decay_s > 0) {
+        const double since = t_rel - t_rev[j];
+        act -= spike_sign[j] * e.stick_slip_m * std::exp(-since / e.stick_slip_decay_s) *
+               std::sin(two_pi * e.stick_slip_hz * since);
+      }
       if (e.vibration_amplitude_m != 0)
         act += e.vibration_amplitude_m * std::sin(two_pi * e.vibration_frequency_hz * t);
       s.axis_actual[j] = act;
@@ -287,7 +292,11 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
     d.encoder = s.encoder;
     d.commanded = s.commanded;
     double len = (v(s.tool) - fixed).norm();
-    len += config_.dbb.bar_length_error_m + config_.dbb.bar_drift_m_per_s * s.t_s;
+    const auto& bar = config_.dbb;
+    const double change = len - run.nominal_length_m;
+    len += bar.nonlinearity_quadratic_per_m * change * change + bar.nonlinearity_cubic_per_m2 * change * change * change;
+    len += bar.bar_length_error_m + bar.bar_drift_m_per_s * s.t_s;
+    if (bar.slip_m != 0 && s.t_s >= bar.slip_time_s) len += bar.slip_m;
     if (config_.dbb.noise_m > 0) len += config_.dbb.noise_m * rng.normal();
     d.bar_length_m = len;
     d.dL_m = len - run.nominal_length_m;

@@ -49,6 +49,10 @@ struct AxisErrors {
   double backlash_m = 0.0;        // lost motion: actual = servo - (b/2) sign(velocity), deadband model
   double reversal_spike_m = 0.0;  // at a reversal the axis sticks: error -sign(v_new) * A * exp(-dt/decay)
   double reversal_spike_decay_s = 0.02;
+  // Stick-slip: after a reversal the axis jerks, -sign(v_new) * A * exp(-dt/decay) * sin(2 pi f dt).
+  double stick_slip_m = 0.0;
+  double stick_slip_hz = 10.0;
+  double stick_slip_decay_s = 0.1;
   double lateral_play_m = 0.0;      // carriage shifts sideways by (p/2) sign(velocity) (X->y, Y->x, Z->x)
   double cyclic_amplitude_m = 0.0;  // lead-screw error: + A sin(2 pi u / period + phase)
   double cyclic_period_m = 0.005;
@@ -87,6 +91,13 @@ struct DbbErrors {
   double bar_length_error_m = 0.0;        // calibration error of the bar's nominal length
   double bar_drift_m_per_s = 0.0;         // thermal growth of the reading (positive = reads longer)
   double noise_m = 0.0;                   // standard deviation of the bar reading
+  // The transducer is not linear: it reads dL + q dL^2 + c dL^3 (dL from the nominal length, in m).
+  double nonlinearity_quadratic_per_m = 0.0;
+  double nonlinearity_cubic_per_m2 = 0.0;
+  // A mounting failure: at machine time slip_time_s the ball slips in its socket and the reading steps
+  // by slip_m from then on (0 = none).
+  double slip_m = 0.0;
+  double slip_time_s = 0.0;
 };
 
 struct SpindleErrors {

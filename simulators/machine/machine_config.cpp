@@ -40,6 +40,9 @@ AxisErrors read_axis(const TableReader& t) {
   e.backlash_m = t.get_double("backlash_um", 0.0, 0.0, 1e5) * um;
   e.reversal_spike_m = t.get_double("reversal_spike_um", 0.0, -1e5, 1e5) * um;
   e.reversal_spike_decay_s = t.get_double("reversal_spike_decay_ms", 20.0, 1e-3, 1e5) * 1e-3;
+  e.stick_slip_m = t.get_double("stick_slip_um", 0.0, -1e5, 1e5) * um;
+  e.stick_slip_hz = t.get_double("stick_slip_hz", 10.0, 1e-3, 1e5);
+  e.stick_slip_decay_s = t.get_double("stick_slip_decay_ms", 100.0, 1e-3, 1e5) * 1e-3;
   e.lateral_play_m = t.get_double("lateral_play_um", 0.0, -1e5, 1e5) * um;
   e.cyclic_amplitude_m = t.get_double("cyclic_amplitude_um", 0.0, -1e5, 1e5) * um;
   e.cyclic_period_m = t.get_double("cyclic_period_mm", 5.0, 1e-3, 1e4) * 1e-3;
@@ -92,6 +95,11 @@ MachineConfig read(const toml::table& root, const std::string& file) {
     m.dbb.bar_length_error_m = t->get_double("bar_length_error_um", 0.0, -1e5, 1e5) * um;
     m.dbb.bar_drift_m_per_s = t->get_double("bar_drift_um_per_h", 0.0, -1e6, 1e6) * um / 3600.0;
     m.dbb.noise_m = t->get_double("noise_um", 0.0, 0.0, 1e4) * um;
+    // dL in um in the file: q / um and c / um^2.
+    m.dbb.nonlinearity_quadratic_per_m = t->get_double("nonlinearity_quadratic_per_um", 0.0, -1e3, 1e3) / um;
+    m.dbb.nonlinearity_cubic_per_m2 = t->get_double("nonlinearity_cubic_per_um2", 0.0, -1e3, 1e3) / (um * um);
+    m.dbb.slip_m = t->get_double("slip_um", 0.0, -1e5, 1e5) * um;
+    m.dbb.slip_time_s = t->get_double("slip_time_s", 0.0, 0.0, 1e9);
     t->reject_unknown_keys();
   }
   if (auto t = top.table("spindle")) {
