@@ -1,7 +1,10 @@
 // `guideway explain`: locate where a model and a recording differ, name the physics left out, fit
 // it and show the held-out improvement (models/explain, docs/explain.md). Also runs the scenario suite
 // and writes its results table into docs/explain.md.
+#include <algorithm>
 #include <fstream>
+#include <iomanip>
+#include <numbers>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -15,7 +18,9 @@
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "models/explain/machine_truth.hpp"
 #include "models/explain/scenarios.hpp"
+#include "simulators/machine/machine.hpp"
 
 namespace guideway::cli {
 
@@ -80,6 +85,7 @@ struct Opts {
   double alpha = 1e-3;
   std::size_t max_effects = ex::ExplainOptions{}.max_effects, folds = ex::ExplainOptions{}.folds;
   std::uint64_t seeds = 0;
+  std::string machine;
 };
 
 int run_scenarios(const Opts& o) {
@@ -151,6 +157,67 @@ int run_scenarios(const Opts& o) {
   return failed ? 1 : 0;
 }
 
+// The findings beside what the machine file holds (models/explain/machine_truth.hpp).
+nlohmann::json against_machine(const nlohmann::json& report, const ex::DbbTruth& truth, const std::string& file) {
+  nlohmann::json j = {{"machine_file", file}, {"findable", nlohmann::json::array()}, {"unobservable", nlohmann::json::array()},
+                      {"not_in_machine", nlohmann::json::array()}, {"note", truth.note}};
+  const auto found = [&](const std::string& parameter) -> const nlohmann::json* {
+    for (const auto& f : report.at("findings"))
+      if (f.at("parameters").contains(parameter)) return &f.at("parameters").at(parameter);
+    return nullptr;
+  };
+  for (const auto& item : truth.findable) {
+    nlohmann::json e = {{"effect", item.effect}, {"parameter", item.parameter}, {"machine", item.value}, {"note", item.note}};
+    if (const auto* p = found(item.parameter)) {
+      e["found"] = p->at("value");
+      e["u"] = p->at("u");
+    } else {
+      e["found"] = nullptr;
+    }
+    j["findable"].push_back(e);
+  }
+  for (const auto& f : report.at("findings")) {
+    const std::string effect = f.at("effect");
+    const bool known = std::any_of(truth.findable.begin(), truth.findable.end(), [&](const ex::TruthItem& i) {
+      return i.effect == effect && f.at("parameters").contains(i.parameter);
+    });
+    if (!known) j["not_in_machine"].push_back(effect);
+  }
+  for (const auto& u : truth.unobservable) j["unobservable"].push_back({{"what", u.what}, {"why", u.why}});
+  return j;
+}
+
+void print_against_machine(const nlohmann::json& c) {
+  std::cout << "\nwhat the machine file holds (" << c.at("machine_file").get<std::string>()
+            << "; our own virtual machine tool, which the emulators and guideway simulate run: its errors are known):\n";
+  if (c.at("findable").empty()) std::cout << "  nothing the explanation's library names\n";
+  const auto fmt_value = [](double v, int digits = 4) {
+    std::ostringstream o;
+    o << std::setprecision(digits) << v;
+    return o.str();
+  };
+  for (const auto& e : c.at("findable")) {
+    char line[256];
+    std::string got = "not found";
+    if (!e.at("found").is_null()) {
+      got = fmt_value(e.at("found").get<double>());
+      if (e.at("u").is_number()) got += " +/- " + fmt_value(e.at("u").get<double>(), 2);
+    }
+    std::snprintf(line, sizeof line, "  %-16s %-26s found %-24s machine file %s", e.at("effect").get<std::string>().c_str(),
+                  e.at("parameter").get<std::string>().c_str(), got.c_str(), fmt_value(e.at("machine").get<double>()).c_str());
+    std::cout << line;
+    if (!e.at("note").get<std::string>().empty()) std::cout << "  (" << e.at("note").get<std::string>() << ")";
+    std::cout << "\n";
+  }
+  for (const auto& n : c.at("not_in_machine")) std::cout << "  found but not in the machine file: " << n.get<std::string>() << "\n";
+  if (!c.at("unobservable").empty()) {
+    std::cout << "not observable in this test:\n";
+    for (const auto& u : c.at("unobservable"))
+      std::cout << "  - " << u.at("what").get<std::string>() << ": " << u.at("why").get<std::string>() << "\n";
+  }
+  std::cout << "note: " << c.at("note").get<std::string>() << "\n";
+}
+
 void print_effects(bool json) {
   if (json) {
     nlohmann::json a = nlohmann::json::array();
@@ -201,20 +268,46 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
   cmd->add_flag("--effects", o->effects, "list the effect library");
   cmd->add_flag("--latest", o->latest, "the daemon's latest explanation (EXPLAIN) instead of files");
   cmd->add_option("--kind", o->kind, "with --latest: of this session kind (default: any)");
+  cmd->add_option("--machine", o->machine,
+                  "DBB: the virtual machine tool file the runs come from (the emulators' or guideway simulate's): "
+                  "print what it holds beside each finding, and what the test cannot observe and why")
+      ->check(CLI::ExistingFile);
   cmd->callback([o, &ctx] {
     if (o->effects) return print_effects(o->json);
     if (o->latest) {
       DaemonClient c = connect_daemon(ctx.socket);
       nlohmann::json req = {{"class", "explain"}};
       if (!o->kind.empty()) req["kind"] = o->kind;
-      const nlohmann::json r = c.request(req, "EXPLAIN");
+      nlohmann::json r = c.request(req, "EXPLAIN");
       throw_if_error_reply(r, o->json);
+      nlohmann::json comparison;
+      if (!o->machine.empty()) {
+        if (r.value("kind", "") != "dbb") throw std::runtime_error("explain: --machine compares DBB sessions only");
+        // The runs' geometry from the session's PARAMS; a live session's angles are its encoders'.
+        nlohmann::json params = c.request({{"class", "params"}, {"kind", "dbb"}}, "PARAMS");
+        throw_if_error_reply(params, o->json);
+        std::vector<ex::TruthRun> runs;
+        for (const auto& run : params.at("runs")) {
+          ex::TruthRun t;
+          t.radius_m = run.at("radius_mm").get<double>() * 1e-3;
+          t.height_m = run.at("height_mm").get<double>() * 1e-3;
+          t.direction = run.at("direction") == "cw" ? -1 : 1;
+          t.feed_m_per_s = run.at("feed_mm_per_min").get<double>() / 60000.0;
+          const double seconds = t.feed_m_per_s > 0 ? 2 * std::numbers::pi * t.radius_m / t.feed_m_per_s : 0.0;
+          t.sample_rate_hz = seconds > 0 ? run.at("n").get<double>() / seconds : 0.0;
+          runs.push_back(t);
+        }
+        comparison = against_machine(r, ex::dbb_truth(sim::load_machine_config(o->machine), params.value("plane", "xy"), runs, true),
+                                     o->machine);
+      }
       if (o->json) {
+        if (!comparison.is_null()) r["against_machine"] = comparison;
         std::cout << r.dump() << "\n";
       } else {
         std::cout << "session " << r.value("session", "?") << " (" << r.value("kind", "?") << " on " << r.value("device", "?")
                   << ")\n";
         print_explanation(r);
+        if (!comparison.is_null()) print_against_machine(comparison);
       }
       return;
     }
@@ -227,6 +320,7 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
     eo.max_effects = o->max_effects;
     eo.folds = o->folds;
     ex::Report report;
+    nlohmann::json machine_comparison;
     if (!o->straightness.empty() && o->model != "flatness")
       throw std::runtime_error("explain: --straightness belongs to --model flatness (Mu Eq. 16)");
     if (!o->simulated.empty() || !o->measured.empty()) {
@@ -257,6 +351,20 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
         std::vector<models::dbb::Run> runs;
         for (const auto& f : o->files) runs.push_back(models::dbb::read_run(f));
         report = ex::explain_dbb_report(runs, eo);
+        if (!o->machine.empty()) {
+          std::vector<ex::TruthRun> truth_runs;
+          bool encoders = true;
+          for (const auto& run : runs) {
+            const double seconds = run.t_s.size() > 1 ? run.t_s.back() - run.t_s.front() : 0.0;
+            truth_runs.push_back({run.radius_m, run.height_m, run.dir(), run.feed_m_per_s,
+                                  seconds > 0 ? static_cast<double>(run.t_s.size() - 1) / seconds : 0.0});
+            const auto it = run.metadata.find("angle_source");
+            encoders = encoders && it != run.metadata.end() && it->second == "encoders";
+          }
+          machine_comparison = against_machine(
+              ex::to_json(report), ex::dbb_truth(sim::load_machine_config(o->machine), runs.front().plane, truth_runs, encoders),
+              o->machine);
+        }
       } else {
         std::vector<ex::ProfileRun> runs;
         for (const auto& f : o->files) runs.push_back(ex::read_profile_run(f));
@@ -265,10 +373,15 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
         report = ex::explain(ex::profile_problem(runs, o->model, traverse ? &*traverse : nullptr), eo);
       }
     }
+    if (!o->machine.empty() && machine_comparison.is_null())
+      throw std::runtime_error("explain: --machine compares DBB runs only (--model dbb or --latest)");
     if (o->json) {
-      std::cout << ex::to_json(report).dump() << "\n";
+      nlohmann::json j = ex::to_json(report);
+      if (!machine_comparison.is_null()) j["against_machine"] = machine_comparison;
+      std::cout << j.dump() << "\n";
     } else {
       std::cout << ex::to_text(report);
+      if (!machine_comparison.is_null()) print_against_machine(machine_comparison);
     }
   });
 }

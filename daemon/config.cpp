@@ -84,6 +84,15 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     c.client_queue_bytes = static_cast<std::size_t>(d->get_int("client_queue_bytes", 4 << 20, 4096, 1LL << 32));
     c.max_request_bytes = static_cast<std::size_t>(d->get_int("max_request_bytes", 16384, 256, 1 << 24));
     c.emulator_executable = d->get_string("emulator_executable", "");
+    if (const std::string m = d->get_string("emulator_machine", ""); !m.empty()) {
+      // Relative to the configuration file, as a user reads it.
+      std::filesystem::path path(m);
+      if (path.is_relative() && file_name.find('<') == std::string::npos)
+        path = std::filesystem::path(file_name).parent_path() / path;
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(path, ec)) d->fail("emulator_machine", "no such file: " + path.string());
+      c.emulator_machine = std::filesystem::absolute(path, ec).lexically_normal().string();
+    }
     d->reject_unknown_keys();
   }
   std::set<std::string> names;
@@ -162,6 +171,11 @@ std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& con
   std::vector<const EmulatorProcess*> raw;
   for (EmulatorSpec spec : config.emulators) {
     for (auto& a : spec.args) a = expand(a);
+    const bool has_machine = std::find(spec.args.begin(), spec.args.end(), "--machine") != spec.args.end();
+    if (!config.emulator_machine.empty() && !has_machine) {
+      spec.args.push_back("--machine");
+      spec.args.push_back(config.emulator_machine);
+    }
     out.push_back(std::make_unique<EmulatorProcess>(exe, spec));
     raw.push_back(out.back().get());
   }

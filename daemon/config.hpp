@@ -52,6 +52,7 @@ struct DaemonConfig {
   std::vector<Processing> processing;
   std::vector<EmulatorSpec> emulators;  // [[emulator]]: started before the devices
   std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
+  std::string emulator_machine;         // the virtual machine every emulator runs (absolute; "" = its compiled-in default)
 
   std::shared_ptr<toml::table> root;  // keeps the parsed document alive for the device readers
 };

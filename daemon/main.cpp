@@ -35,6 +35,10 @@ int main(int argc, char** argv) {
   // Checked: spdlog reads an unknown level name as "off", which would silence the daemon.
   app.add_option("-l,--log-level", log_level, "trace, debug, info, warn, error (overrides [daemon] log_level)")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+  std::string emulator_machine;
+  app.add_option("--emulator-machine", emulator_machine,
+                 "the virtual machine tool file every emulator runs (overrides [daemon] emulator_machine)")
+      ->check(CLI::ExistingFile);
   app.add_flag("--check-config", check_only, "validate the configuration (and create the drivers) and exit");
   app.add_flag("--print-default-config", print_default, "print the embedded default configuration and exit");
   app.add_flag("--list-drivers", list_drivers, "list the available drivers (built-in and plugins) and exit");
@@ -67,6 +71,7 @@ int main(int argc, char** argv) {
   }
   if (!socket_override.empty()) config.socket_path = socket_override;
   if (!log_level.empty()) config.log_level = log_level;
+  if (!emulator_machine.empty()) config.emulator_machine = std::filesystem::absolute(emulator_machine).lexically_normal().string();
 
   std::shared_ptr<spdlog::logger> log;
   try {

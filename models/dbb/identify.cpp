@@ -569,6 +569,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
                            "); runs identified together must share the plane");
 
   Identification out;
+  out.plane = plane;
   std::vector<Point> pts = points_of(runs);
   const auto n = static_cast<Eigen::Index>(pts.size());
   PrerollTable preroll;

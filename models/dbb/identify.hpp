@@ -53,6 +53,7 @@ struct IdentifyOptions {
 
 struct Identification {
   std::string model = "lai3+ballbar";
+  std::string plane = "xy";  // of the runs
   std::vector<RunSummary> runs;
   std::vector<Estimate> diagnostics;
   std::vector<Estimate> lai3;  // only the identified parameters

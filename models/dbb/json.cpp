@@ -41,6 +41,7 @@ void table(std::ostringstream& o, const std::vector<Estimate>& list) {
 nlohmann::json to_json(const Identification& id) {
   nlohmann::json j;
   j["model"] = id.model;
+  j["plane"] = id.plane;
   j["runs"] = nlohmann::json::array();
   for (const auto& r : id.runs) {
     j["runs"].push_back({{"source", r.source},

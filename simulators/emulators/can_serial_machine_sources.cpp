@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 
 namespace guideway::emulators {
 
@@ -76,10 +77,10 @@ void DbbProgram::at(double t_s, std::span<double> out) const {
 }
 
 std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs,
-                                                   double pause_s) {
+                                                   double pause_s, double t0_s) {
   auto p = std::make_shared<DbbProgram>();
   p->pause_s = pause_s;
-  double t0 = 0.0;
+  double t0 = t0_s;
   for (auto& spec : specs) {
     spec.t0_s = t0;
     p->plane = spec.plane;
@@ -88,12 +89,43 @@ std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, 
     const double length = s.empty() ? 0.0 : s.back().t_s - s.front().t_s;
     t0 += length + pause_s;
   }
-  p->duration_s = t0;
+  p->duration_s = t0 - t0_s;
   return p;
 }
 
-DbbSource dbb_program_source(std::shared_ptr<const DbbProgram> program) {
-  return [program](double t_s, std::span<double> out) { program->at(t_s, out); };
+DbbSource dbb_program_source(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs, double pause_s) {
+  struct Player {
+    Player(const sim::Machine& m, std::vector<sim::DbbCircleSpec> s, double pause) : machine(m), specs(std::move(s)), pause_s(pause) {}
+    sim::Machine machine;
+    std::vector<sim::DbbCircleSpec> specs;
+    double pause_s = 0;
+    double duration_s = 0;
+    std::mutex mutex;
+    long long pass = -1;
+    std::shared_ptr<const DbbProgram> current;
+  };
+  auto player = std::make_shared<Player>(machine, std::move(specs), pause_s);
+  player->current = make_dbb_program(player->machine, player->specs, pause_s);
+  player->pass = 0;
+  player->duration_s = player->current->duration_s;
+  return [player](double t_s, std::span<double> out) {
+    std::shared_ptr<const DbbProgram> program;
+    const double d = player->duration_s > 0 ? player->duration_s : 1.0;
+    const auto pass = static_cast<long long>(std::floor(std::max(t_s, 0.0) / d));
+    {
+      std::lock_guard lock(player->mutex);
+      if (pass != player->pass) {
+        std::vector<sim::DbbCircleSpec> pass_specs = player->specs;
+        const std::uint64_t base = player->machine.config().noise.seed;
+        for (std::size_t k = 0; k < pass_specs.size(); ++k)
+          pass_specs[k].seed = (pass_specs[k].seed != 0 ? pass_specs[k].seed : base) + static_cast<std::uint64_t>(pass) * 7919u + k;
+        player->current = make_dbb_program(player->machine, pass_specs, player->pause_s, static_cast<double>(pass) * d);
+        player->pass = pass;
+      }
+      program = player->current;
+    }
+    program->at(std::max(t_s, 0.0) - static_cast<double>(pass) * d, out);
+  };
 }
 
 DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion) {

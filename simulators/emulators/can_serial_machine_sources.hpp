@@ -26,7 +26,9 @@ DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion);
 
 // A DBB test program: several circles one after the other, the machine standing still for `pause_s`
 // after each (the operator changes the socket height), then the program repeats. Each circle starts
-// at the machine time the previous one ended, so thermal drift carries on across patterns.
+// at the machine time the previous one ended, so thermal drift carries on across patterns; a pass
+// starting at machine time t0_s (the source below simulates each pass at its own time, with noise of
+// its own, so that drift and vibration carry on across passes too).
 struct DbbProgram {
   std::vector<sim::DbbRun> runs;
   sim::Plane plane = sim::Plane::xy;
@@ -35,8 +37,10 @@ struct DbbProgram {
   void at(double t_s, std::span<double> out_m) const;
 };
 std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs,
-                                                   double pause_s);
-DbbSource dbb_program_source(std::shared_ptr<const DbbProgram> program);
+                                                   double pause_s, double t0_s = 0.0);
+// The program played in emulator time = machine time: pass k is simulated (when the time reaches it) at
+// machine time k x the pass's duration, its noise seeded with k. Thread safe.
+DbbSource dbb_program_source(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs, double pause_s);
 
 // The traverse: the station's angles hold while the carriage dwells there; t wraps around. Between
 // stations the reflector is lifted and set down one step on (`move_s`, no reflection), and after the

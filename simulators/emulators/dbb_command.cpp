@@ -110,7 +110,7 @@ int run_dbb(const DbbOptions& o) {
     if (i == 0) e.offset_m = std::round(nominal_length_m * 1e6) * 1e-6;  // the bar's nominal, in um
     settings.encoders.push_back(e);
   }
-  DbbSource circle = dbb_program_source(program);
+  DbbSource circle = dbb_program_source(machine, specs, o.pause_s);
   DbbEmulator emu(settings, circle);
   std::string error;
   can::CanSocket listener;
