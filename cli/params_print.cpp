@@ -2,6 +2,7 @@
 
 #include "cli/daemon_client.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -40,6 +41,19 @@ void print_params(const nlohmann::json& p) {
       std::cout << "\n";
     }
   }
+  const nlohmann::json ranking = p.value("ranking", nlohmann::json::array());
+  if (!ranking.empty()) {
+    std::cout << "what to fix first (each error's part of the circular deviation G, from the "
+              << p.value("ranking_model", std::string("?")) << "):\n";
+    for (const auto& c : ranking) {
+      const nlohmann::json percent = c.value("percent_of_circular_deviation", nlohmann::json());
+      std::cout << "  " << std::left << std::setw(28) << c.value("name", std::string("?")) << std::right << std::setw(10)
+                << std::setprecision(3) << c.value("contribution_um", 0.0) << " um";
+      if (percent.is_number()) std::cout << std::setw(7) << std::setprecision(3) << percent.get<double>() << " % of G";
+      std::cout << "\n";
+    }
+  }
+  for (const auto& n : p.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
   if (p.contains("wavelet") && p["wavelet"].contains("bands")) {  // the profile session's summary
     const auto& w = p["wavelet"];
     std::cout << "wavelet " << w.value("wavelet", "?") << ", " << w.value("level", 0) << " levels (dominant detail "
@@ -83,6 +97,28 @@ void print_explanation(const nlohmann::json& e) {
       if (u.is_number()) std::cout << " +/- " << u.get<double>();
     }
     std::cout << "\n    " << f.value("why", "") << "\n";
+  }
+  // Largest first, against the yardstick (a DBB run's circular deviation G).
+  std::vector<std::pair<double, std::string>> ranked;
+  for (const auto& f : findings) {
+    const nlohmann::json c = f.value("contribution_um", nlohmann::json());
+    const nlohmann::json pc = f.value("percent_of_deviation", nlohmann::json());
+    if (!c.is_number()) continue;
+    std::ostringstream line;
+    line << f.value("effect", "?") << " " << std::setprecision(3) << c.get<double>() << " um";
+    if (pc.is_number()) line << " (" << std::setprecision(2) << pc.get<double>() << " %)";
+    ranked.emplace_back(c.get<double>(), line.str());
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  if (!ranked.empty()) {
+    const nlohmann::json dev = e.value("deviation", nlohmann::json::object());
+    std::cout << "  largest first";
+    if (dev.is_object() && dev.contains("value_um"))
+      std::cout << " (of " << dev.value("name", std::string("the deviation")) << " " << std::setprecision(3)
+                << dev.value("value_um", 0.0) << " um)";
+    std::cout << ":";
+    for (const auto& [v, line] : ranked) std::cout << "  " << line << ";";
+    std::cout << "\n";
   }
   if (e.value("unexplained", false)) std::cout << "  a structured residual is left that no effect of the library explains\n";
 }

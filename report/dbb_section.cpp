@@ -1,5 +1,6 @@
 // DBB runs: Lai third-order + ballbar diagnostics (models/dbb), polar plots per set-up.
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <sstream>
 #include <tuple>
@@ -56,7 +57,9 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
     refusal = e.what();
   }
 
-  // One polar plot per set-up (radius, height, plane), its runs overlaid: CCW blue, CW orange.
+  // One polar plot per set-up (radius, height, plane), its runs overlaid: CCW blue, CW orange; beside
+  // them, the errors ranked by their part of the circular deviation ("what to fix first").
+  body << "<div class=\"side-by-side\">";
   std::map<std::tuple<double, double, std::string>, std::vector<std::size_t>> setups;
   for (std::size_t i = 0; i < runs.size(); ++i)
     setups[{std::round(runs[i].radius_m * 1e6) / 1e3, std::round(runs[i].height_m * 1e6) / 1e3, runs[i].plane}]
@@ -91,6 +94,31 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
         << "G: ISO 230-4 circular deviation about each run's least-squares circle.";
     body << html_figure(render(plot), html_escape(cap.str()));
   }
+  if (identified && !id_result.ranking.empty()) {
+    BarChart chart;
+    chart.title = "What to fix first";
+    chart.x_label = "error (" + id_result.ranking_model + ")";
+    chart.y_label = "part of G / \u00b5m";
+    chart.width = 520;
+    chart.height = 360;
+    BarSeries part{"range about the least-squares circle", {}, palette(2)};
+    // The five largest (all of them in the table below), named without their unit.
+    for (std::size_t k = 0; k < id_result.ranking.size() && k < 5; ++k) {
+      std::string name = id_result.ranking[k].name;
+      for (const char* unit : {"_um", "_ppm", "_urad", "_ms"})
+        if (name.size() > std::strlen(unit) && name.ends_with(unit)) name.resize(name.size() - std::strlen(unit));
+      chart.categories.push_back(name);
+      part.values.push_back(id_result.ranking[k].contribution_um);
+    }
+    chart.series = {part};
+    std::ostringstream cap;
+    cap << "The five identified errors with the largest part of the circular deviation: the range of each one's fitted term about "
+           "the least-squares circle of a run (as G is the reading's), from the "
+        << (id_result.ranking_model == "diagnostics" ? "ballbar diagnostics" : "Lai model's grouped terms")
+        << "; the set-up's centre offset is not ranked. Terms partly cancel, so the parts need not add up to G.";
+    body << html_figure(render(chart), html_escape(cap.str()));
+  }
+  body << "</div>";
 
   if (!identified) {
     body << html_note("Identification refused: " + refusal);
@@ -103,6 +131,15 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
                              format_number(r.feed_mm_per_min, 5), std::to_string(r.n),
                              format_fixed(r.circular_deviation_um, 3), format_fixed(r.residual_rms_um, 3)});
     body << html_table(runs_t);
+    if (!id_result.ranking.empty()) {
+      Table rank_t{"What to fix first (each error's part of the circular deviation G)",
+                   {"error", "part of G / \u00b5m", "% of G"}, {}};
+      for (const auto& c : id_result.ranking)
+        rank_t.rows.push_back({html_escape(c.name), format_fixed(c.contribution_um, 3),
+                               std::isfinite(c.percent) ? format_fixed(c.percent, 1) : "&ndash;"});
+      body << html_table(rank_t);
+    }
+    for (const auto& n : id_result.notes) body << html_note(n);
 
     std::vector<dbb::Estimate> iso, diag;
     for (const auto& e : id_result.diagnostics)

@@ -94,6 +94,32 @@ std::string explain_section(const std::string& path, const std::string& id) {
   body << html_figure(render(chart), "Residual RMS of the base model and after adding each finding in turn (greedy "
                                      "forward selection); held-out: data the fit did not see.");
 
+  // The findings by their part of the yardstick (a DBB run's circular deviation G), largest first.
+  {
+    std::vector<std::pair<double, std::string>> parts;
+    for (const auto& f : findings)
+      if (std::isfinite(num(f, "contribution_um"))) parts.emplace_back(num(f, "contribution_um"), text(f, "effect"));
+    std::stable_sort(parts.begin(), parts.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    if (!parts.empty()) {
+      BarChart rank;
+      rank.title = "Findings, largest first";
+      rank.x_label = "finding";
+      rank.y_label = "size of its term / \u00b5m";
+      BarSeries sizes{"range of the fitted term", {}, palette(2)};
+      for (const auto& [v, name] : parts) {
+        rank.categories.push_back(name);
+        sizes.values.push_back(v);
+      }
+      rank.series = {sizes};
+      std::string cap = "Each finding's fitted term: its range";
+      if (j.contains("deviation") && j["deviation"].is_object())
+        cap += " about the least-squares circle, against " + text(j["deviation"], "name") + " " +
+               format_number(num(j["deviation"], "value_um"), 3) + " \u00b5m";
+      cap += " (what to fix first).";
+      body << html_figure(render(rank), html_escape(cap));
+    }
+  }
+
   // Residual curves, when the explanation carries them: one panel per step (the base model, then after
   // each finding in turn), the runs overlaid, every panel on the same y scale so the steps compare.
   const json* curves = j.contains("residuals") && j["residuals"].is_object() && j["residuals"].contains("steps")

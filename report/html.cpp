@@ -24,6 +24,8 @@ figure { margin: 12px 0 18px; break-inside: avoid; page-break-inside: avoid; }
 figcaption { font-size: 12px; color: #333; margin-top: 4px; }
 svg.plot { width: 100%; height: auto; display: block; }
 svg.plot[data-plot="polar"] { max-width: 520px; margin: 0 auto; }
+div.side-by-side { display: flex; flex-wrap: wrap; gap: 12px; align-items: flex-start; }
+div.side-by-side > figure { flex: 1 1 380px; min-width: 0; }
 table { border-collapse: collapse; font-size: 12px; margin: 8px 0 14px; break-inside: avoid;
         page-break-inside: avoid; }
 caption { text-align: left; font-weight: bold; font-size: 13px; padding-bottom: 4px; }

@@ -1,9 +1,12 @@
-// docs/conventions.md, "Why the daemon's default session reports squareness 86 urad": with patterns
-// at h > 0 the roll of Y (Lai's c1) has the squareness signature, (h / L0) c1 r^2 sin cos, so the
-// in-plane ballbar diagnostics report a least-squares compromise of squareness and servo mismatch.
-// Checked against that compromise computed independently from the run geometry, and against the
-// configured squareness from an h = 0 ccw/cw pair.
+// docs/conventions.md, "Why the in-plane diagnostics are not fitted to Lai's patterns": with patterns at
+// h > 0 the roll of Y (Lai's c1) has the squareness signature, (h / L0) c1 r^2 sin cos, so in-plane
+// ballbar diagnostics fitted to them would report a least-squares compromise of squareness and servo
+// mismatch (86 urad for the default machine's 30). identify() therefore fits the diagnostics only to
+// h = 0 runs that go both ways, says so, and ranks Lai's terms instead; an h = 0 ccw/cw pair reports the
+// configured squareness.
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include <Eigen/Dense>
 
@@ -36,10 +39,11 @@ TEST(DbbHAliasing, SquarenessIsTheCompromiseOfTheTable4Patterns) {
   std::vector<models::dbb::Run> runs;
   std::uint64_t seed = 1;
   for (const auto& p : table4) runs.push_back(test::lai_pattern(m, p.r_mm, p.h_mm, p.ccw, seed++));
-  const auto d = test::by_name(models::dbb::identify(runs).diagnostics);
+  const auto id = models::dbb::identify(runs);
 
   // Per run the sin-cos amplitude (m) is lambda r q + (h / L0) c1 r^2 (+ lambda dir v dtau); one q and
-  // one dtau fitted to the three amplitudes with equal weight (equal point counts).
+  // one dtau fitted to the three amplitudes with equal weight (equal point counts): what in-plane
+  // diagnostics of these runs would say.
   Eigen::MatrixXd a(3, 2);
   Eigen::VectorXd b(3);
   for (int k = 0; k < 3; ++k) {
@@ -50,10 +54,41 @@ TEST(DbbHAliasing, SquarenessIsTheCompromiseOfTheTable4Patterns) {
     b[k] = r / l0 * r * q_true + h / l0 * c1 * r * r;
   }
   const Eigen::Vector2d x = a.colPivHouseholderQr().solve(b);
-  const double q_expected_urad = x[0] * 1e6, dtau_expected_ms = x[1] * 1e3;
-  EXPECT_NEAR(q_expected_urad, 86.0, 0.5);  // the figure docs/conventions.md explains
-  EXPECT_NEAR(d.at("squareness_urad").value, q_expected_urad, 0.2 + 3 * d.at("squareness_urad").u);
-  EXPECT_NEAR(d.at("servo_mismatch_ms").value, dtau_expected_ms, 0.002 + 3 * d.at("servo_mismatch_ms").u);
+  EXPECT_NEAR(x[0] * 1e6, 86.0, 0.5);  // the compromise docs/conventions.md explains
+  // So none are fitted: the only h = 0 run goes one way. No squareness or backlash beside Lai's, a note
+  // saying why, and the ranking from Lai's terms.
+  const auto d = test::by_name(id.diagnostics);
+  EXPECT_EQ(d.count("squareness_urad"), 0u);
+  EXPECT_EQ(d.count("backlash_x_um"), 0u);
+  ASSERT_FALSE(id.notes.empty());
+  EXPECT_NE(id.notes.front().find("no ballbar diagnostics"), std::string::npos) << id.notes.front();
+  EXPECT_EQ(id.ranking_model, "lai3");
+  ASSERT_FALSE(id.ranking.empty());
+  // Largest first; the two scales (equal here: no mismatch) contribute nothing to G. (The roll itself
+  // is not separable by these patterns: Lai's fit names the combination, and its part of G shows
+  // through the terms it is confounded with.)
+  for (std::size_t k = 1; k < id.ranking.size(); ++k)
+    EXPECT_GE(id.ranking[k - 1].contribution_um, id.ranking[k].contribution_um);
+  for (const auto& c : id.ranking) {
+    EXPECT_TRUE(std::isfinite(c.percent)) << c.name;
+    if (c.name == "scale_mismatch") {
+      EXPECT_LT(c.percent, 1.0);
+    }
+  }
+}
+
+// With an h = 0 pair beside them, the diagnostics are that pair's: the configured squareness.
+TEST(DbbHAliasing, BesideAnInPlanePairTheDiagnosticsAreThePairs) {
+  const auto m = roll_machine();
+  std::vector<models::dbb::Run> runs{test::lai_pattern(m, 95, 31.225, true, 1), test::lai_pattern(m, 95, 31.225, false, 2),
+                                     test::lai_pattern(m, 100, 0, true, 3), test::lai_pattern(m, 100, 0, false, 4)};
+  const auto id = models::dbb::identify(runs);
+  const auto d = test::by_name(id.diagnostics);
+  ASSERT_TRUE(d.count("squareness_urad"));
+  EXPECT_NEAR(d.at("squareness_urad").value, q_true * 1e6, 3 * d.at("squareness_urad").u + 0.1);
+  ASSERT_FALSE(id.notes.empty());
+  EXPECT_NE(id.notes.front().find("from the h = 0 run(s) only"), std::string::npos) << id.notes.front();
+  EXPECT_EQ(id.ranking_model, "diagnostics");
 }
 
 TEST(DbbHAliasing, AnInPlanePairReportsTheConfiguredSquareness) {

@@ -74,15 +74,18 @@ TEST(DbbSession, FindsLaisThreePatternsAndIdentifiesTheMachine) {
   feed_circle(*session, machine, 100e-3, 0.0, sim::Direction::ccw, t);
   ASSERT_TRUE(session->complete()) << session->progress();
   const nlohmann::json p = session->identify();
-  ASSERT_TRUE(p.contains("diagnostics")) << p.dump();
-  const auto& d = p["diagnostics"];
-  for (const char* run : {"run1", "run2", "run3"}) {  // the fixed ball stays put between patterns
-    EXPECT_NEAR(value_of(d, std::string(run) + ".center_offset_x_um"), 3.0, 0.3) << d.dump();
-    EXPECT_NEAR(value_of(d, std::string(run) + ".center_offset_y_um"), -2.0, 0.3);
-  }
-  EXPECT_NEAR(value_of(d, "scale_x_ppm"), 20.0, 2.0);
-  EXPECT_NEAR(value_of(d, "scale_y_ppm"), -10.0, 2.0);
-  EXPECT_NEAR(value_of(d, "squareness_urad"), 15.0, 1.5);
+  // Lai's model covers the three patterns (the fixed ball at (-3, 2) um from the circle's centre, the
+  // scales); the in-plane diagnostics model none of them but the one h = 0 run, which goes one way:
+  // none are fitted, a note says why, and the errors are ranked from Lai's terms.
+  const auto& lai = p["lai3"];
+  EXPECT_NEAR(value_of(lai, "e_x_um"), -3.0, 0.3) << lai.dump();
+  EXPECT_NEAR(value_of(lai, "e_y_um"), 2.0, 0.3);
+  EXPECT_NEAR((value_of(lai, "S_x") - value_of(lai, "S_y")) * 1e6, 30.0, 2.0);  // scale mismatch 20 - (-10) ppm
+  EXPECT_FALSE(p["diagnostics"].contains("squareness_urad"));
+  ASSERT_FALSE(p["notes"].empty());
+  EXPECT_NE(p["notes"][0].get<std::string>().find("no ballbar diagnostics"), std::string::npos);
+  EXPECT_EQ(p["ranking_model"], "lai3");
+  EXPECT_FALSE(p["ranking"].empty());
   EXPECT_EQ(p["runs"].size(), 3u);
 }
 

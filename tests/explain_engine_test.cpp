@@ -74,6 +74,10 @@ TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
   EXPECT_FALSE(rep.unexplained);
   EXPECT_FALSE(rep.mismatch.empty());
   EXPECT_NEAR(rep.noise_um, 0.4, 0.04);
+  // Its size: the fitted term's peak-to-valley, the step column spanning 1 (+-0.5) times its coefficient;
+  // no yardstick in this problem, so no percentage.
+  EXPECT_NEAR(rep.findings[0].contribution_um, std::abs(par.value), 1e-12);
+  EXPECT_TRUE(std::isnan(rep.findings[0].contribution_percent));
   const auto j = ex::to_json(rep);
   for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"}) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_TRUE(j["findings"][0]["parameters"]["step_um"].contains("u"));

@@ -30,6 +30,23 @@ TEST_P(ExplainScenario, MeetsItsExpectation) {
     EXPECT_TRUE(r.report.findings.empty()) << r.name;
   }
   EXPECT_EQ(r.report.unexplained, r.expect_unexplained);
+  // DBB findings come ranked against the runs' circular deviation G: each one's part of it, in um and %.
+  if (r.model == "dbb") {
+    EXPECT_GT(r.report.deviation_um, 0.0);
+    for (const auto& f : r.report.findings) {
+      EXPECT_GT(f.contribution_um, 0.0) << f.effect;
+      EXPECT_NEAR(f.contribution_percent, 100 * f.contribution_um / r.report.deviation_um, 1e-9) << f.effect;
+    }
+  }
+}
+
+// A finding's part of G is the range of its term about the least-squares circle: a backlash of b on X
+// alone gives steps of b/2 at the X reversals, a range of about b about the circle (here 0.5 um).
+TEST(ExplainScenarios, BacklashPartOfTheCircularDeviationIsItsWidth) {
+  const auto r = ex::run_scenario("dbb_backlash");
+  ASSERT_EQ(r.report.findings.size(), 1u);
+  const auto& f = r.report.findings.front();
+  EXPECT_NEAR(f.contribution_um, r.checks.front().value, 0.1 * r.checks.front().value);
 }
 
 std::string scenario_name(const ::testing::TestParamInfo<std::string>& p) { return p.param; }

@@ -249,7 +249,11 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   EXPECT_NE(html.find("circular_hysteresis_um"), std::string::npos);
   EXPECT_NE(html.find("backlash_x_um"), std::string::npos);
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"heightmap\""), 1u);
-  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"bar\""), 1u);
+  // The DBB section's ranking ("what to fix first", beside the polar plot) and the explanation's RMS
+  // after each finding (the example explanation carries no contributions: no ranking of its findings).
+  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"bar\""), 2u);
+  EXPECT_NE(html.find("What to fix first"), std::string::npos);
+  EXPECT_NE(html.find("<div class=\"side-by-side\">"), std::string::npos);
   EXPECT_EQ(html.find("<script"), std::string::npos);
   fs::remove_all(dir);
 }

@@ -1,6 +1,7 @@
 #include "models/dbb/identify.hpp"
 
 #include <algorithm>
+#include <sstream>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -440,19 +441,27 @@ double explained(const std::vector<Point>& pts, const Eigen::VectorXd& res, cons
 // ISO 230-4 circular deviation of one run (its points start at `p`, n of them) about its
 // least-squares circle.
 double circular_deviation(const Point* p, std::size_t n_points) {
-  const auto n = static_cast<Eigen::Index>(n_points);
-  Eigen::MatrixXd a(n, 3);
-  Eigen::VectorXd y(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const Point& q = p[i];
-    a(i, 0) = 1;
-    a(i, 1) = q.c;
-    a(i, 2) = q.s;
-    y[i] = q.y_um;
+  std::vector<double> zeta(n_points), y(n_points);
+  for (std::size_t i = 0; i < n_points; ++i) {
+    zeta[i] = p[i].zeta;
+    y[i] = p[i].y_um;
   }
-  const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
-  const Eigen::VectorXd res = y - a * x;
-  return res.maxCoeff() - res.minCoeff();
+  return range_about_circle(zeta, y);
+}
+
+// A term's part of the circular deviation: per run, the range of its curve (values per point, in run
+// order) about the least-squares circle; the largest over the runs.
+double part_of_deviation(const std::vector<Point>& pts, const std::vector<double>& curve, std::size_t runs) {
+  double out = 0;
+  for (std::size_t k = 0, i0 = 0; k < runs; ++k) {
+    std::size_t i1 = i0;
+    while (i1 < pts.size() && pts[i1].run == k) ++i1;
+    std::vector<double> zeta;
+    for (std::size_t i = i0; i < i1; ++i) zeta.push_back(pts[i].zeta);
+    if (i1 > i0 + 3) out = std::max(out, range_about_circle(zeta, std::span<const double>(curve).subspan(i0, i1 - i0)));
+    i0 = i1;
+  }
+  return out;
 }
 
 // ISO 230-4 circular hysteresis of a ccw/cw pair (points from p1 and p2) about their common
@@ -559,96 +568,51 @@ double lai3_exact_dL(const Lai3Params& q, double radius_m, double height_m, int 
   return len - std::sqrt(r * r + h * h);
 }
 
-Identification identify(const std::vector<Run>& runs, const IdentifyOptions& options) {
-  if (runs.empty()) throw RunFormatError("identify: no runs given");
-  for (const auto& r : runs) validate_run(r);
-  const std::string plane = runs.front().plane;
-  for (const auto& r : runs)
-    if (r.plane != plane)
-      throw RunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
-                           "); runs identified together must share the plane");
-
-  Identification out;
-  out.plane = plane;
-  std::vector<Point> pts = points_of(runs);
-  const auto n = static_cast<Eigen::Index>(pts.size());
-  PrerollTable preroll;
-  DiagWork work;
-  // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
-  // (spikes 2, decays 2, cyclic 4).
-  work.j.resize(n, static_cast<Eigen::Index>(2 * runs.size() +
-                                             std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
-  // Backlash widths the points' deadband shapes were computed for (0 = ideal steps).
-  double shaped_b_a = 0, shaped_b_b = 0;
-
-  // ---- Lai third-order fit ----
-  {
-    const bool shared = options.lai_shared_center || runs.size() == 1;
-    const std::size_t n_center = shared ? 2 : 2 * runs.size();
-    const std::size_t m = lai_count - 2 + n_center;
-    std::vector<std::string> names;
-    if (shared) {
-      names = lai3_parameter_names();
-    } else {
-      for (std::size_t k = 0; k < runs.size(); ++k) {
-        names.push_back("run" + std::to_string(k + 1) + ".e_x_um");
-        names.push_back("run" + std::to_string(k + 1) + ".e_y_um");
-      }
-      for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
-    }
-    // With stride > 1 only every stride-th point enters (its residual is not needed).
-    const auto fit = [&](Eigen::Index stride) {
-      const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
-      if (rows == n) stride = 1;
-      auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(m));
-      if (!shared) j.setZero();
-      Eigen::VectorXd ys(rows), ws(rows);
-      double basis[lai_count];
-      for (Eigen::Index i = 0; i < rows; ++i) {
-        const Point& p = pts[static_cast<std::size_t>(i * stride)];
-        lai_basis(p, basis);
-        const std::size_t off = shared ? 0 : 2 * p.run;
-        j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
-        j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
-        for (std::size_t c = 2; c < lai_count; ++c)
-          j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
-        ys[i] = p.y_um;
-        ws[i] = p.w;
-      }
-      LsqResult r = solve_lsq(j, ys, ws, names);
-      if (!r.ok) throw RunFormatError("identify: " + r.message);
-      return r;
-    };
-    // First pass on a third of the points: only its backlash estimate is used (deadband shape).
-    LsqResult res = fit(3);
-    // Second pass with the deadband shape of the estimated backlash.
-    const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
-    const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
-    const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
-    if (b_a > 0 || b_b > 0) {
-      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0));
-      shaped_b_a = std::max(b_a, 0.0);
-      shaped_b_b = std::max(b_b, 0.0);
-    }
-    res = fit(1);
-    out.fit = summary_of(res);
-    const double omega0 = runs.front().feed_m_per_s / runs.front().radius_m;
-    for (std::size_t c = 0; c < m; ++c) {
-      if (!res.identified[c]) continue;
-      const auto ci = static_cast<Eigen::Index>(c);
-      std::string name = names[c];
-      double value = res.x[ci], u = res.u[ci];
-      if (name == "S_x" || name == "S_y") value += 1.0;
-      if (name == "servo_mismatch_ms") {
-        // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
-        out.lai3.push_back(
-            est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
-      }
-      out.lai3.push_back(est(name, value, u));
-    }
+// Each diagnosed error's part of the circular deviation, as a ballbar's software ranks them ("what to
+// fix first"): the range of its fitted term about the least-squares circle over a run (the largest over
+// the runs), as G is the reading's, and that as a percentage of the largest G. The centre offset is the
+// set-up's, not the machine's, and is not ranked. Terms partly cancel: the percentages need not add up
+// to 100.
+void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::vector<Point>& pts,
+                        const std::vector<Run>& runs, const std::vector<std::string>& names, Identification& out) {
+  const std::size_t g = L.global0();
+  std::vector<std::vector<std::size_t>> terms{{g + DiagLayout::scale_a, g + DiagLayout::scale_b}};  // scale mismatch
+  for (auto k : {DiagLayout::squareness, DiagLayout::backlash_a, DiagLayout::backlash_b, DiagLayout::play_a,
+                 DiagLayout::play_b, DiagLayout::servo, DiagLayout::bow_a, DiagLayout::bow_b})
+    terms.push_back({g + k});
+  if (L.spikes) {
+    terms.push_back({L.spike0()});
+    terms.push_back({L.spike0() + 1});
   }
+  if (L.cyclic_a) terms.push_back({L.cyc_a0(), L.cyc_a0() + 1});
+  if (L.cyclic_b) terms.push_back({L.cyc_b0(), L.cyc_b0() + 1});
+  double g_max = 0;
+  for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k)
+    g_max = std::max(g_max, circular_deviation(pts.data() + i, runs[k].angle_rad.size()));
+  Eigen::RowVectorXd row(static_cast<Eigen::Index>(L.count()));
+  for (const auto& cols : terms) {
+    if (std::any_of(cols.begin(), cols.end(), [&](std::size_t c) { return !res.identified[c]; })) continue;
+    std::vector<double> curve(pts.size(), 0.0);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      diag_row(L, pts[i], row);
+      for (const std::size_t c : cols) curve[i] += row[static_cast<Eigen::Index>(c)] * res.x[static_cast<Eigen::Index>(c)];
+    }
+    const double part = part_of_deviation(pts, curve, runs.size());
+    // Named as the diagnostic (the scales as their mismatch, the cyclic error's two columns after its axis).
+    std::string name = names[cols.front()];
+    if (cols.front() == g + DiagLayout::scale_a) name = "scale_mismatch_ppm";
+    else if (cols.size() == 2) name = "cyclic_error_" + name.substr(std::string("cyclic_sin_").size(), 1) + "_um";
+    out.ranking.push_back({name, part, g_max > 0 ? 100 * part / g_max : nan});
+  }
+  std::sort(out.ranking.begin(), out.ranking.end(),
+            [](const Contribution& a, const Contribution& b) { return a.contribution_um > b.contribution_um; });
+}
 
-  // ---- Ballbar diagnostics ----
+// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
+// out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
+LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const std::string& plane, DiagWork& work,
+                   PrerollTable& preroll, double shaped_b_a, double shaped_b_b, const IdentifyOptions& options,
+                   Identification& out) {
   DiagLayout L;
   L.runs = runs.size();
   // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
@@ -904,6 +868,231 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   out.diagnostics.push_back(est("reversal_spike_delay_" + A + "_ms", L.delay_a * 1e3, nan, false));
   out.diagnostics.push_back(est("reversal_spike_delay_" + B + "_ms", L.delay_b * 1e3, nan, false));
 
+  rank_contributions(L, res, pts, runs, names, out);
+  out.ranking_model = "diagnostics";
+  return res;
+}
+
+double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um) {
+  const auto n = static_cast<Eigen::Index>(reading_um.size());
+  if (n < 4 || angle_rad.size() != reading_um.size()) return 0.0;
+  Eigen::MatrixXd a(n, 3);
+  Eigen::VectorXd y(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    a.row(i) << 1.0, std::cos(angle_rad[static_cast<std::size_t>(i)]), std::sin(angle_rad[static_cast<std::size_t>(i)]);
+    y[i] = reading_um[static_cast<std::size_t>(i)];
+  }
+  const Eigen::VectorXd res = y - a * a.colPivHouseholderQr().solve(y);
+  return res.maxCoeff() - res.minCoeff();
+}
+
+Identification identify(const std::vector<Run>& runs, const IdentifyOptions& options) {
+  if (runs.empty()) throw RunFormatError("identify: no runs given");
+  for (const auto& r : runs) validate_run(r);
+  const std::string plane = runs.front().plane;
+  for (const auto& r : runs)
+    if (r.plane != plane)
+      throw RunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
+                           "); runs identified together must share the plane");
+
+  Identification out;
+  out.plane = plane;
+  std::vector<Point> pts = points_of(runs);
+  const auto n = static_cast<Eigen::Index>(pts.size());
+  PrerollTable preroll;
+  DiagWork work;
+  // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
+  // (spikes 2, decays 2, cyclic 4).
+  work.j.resize(n, static_cast<Eigen::Index>(2 * runs.size() +
+                                             std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
+  // Backlash widths the points' deadband shapes were computed for (0 = ideal steps).
+  double shaped_b_a = 0, shaped_b_b = 0;
+  std::vector<double> lai_residual_rms(runs.size(), 0.0);  // per run, of the Lai fit
+  std::vector<Contribution> lai_ranking;                    // its terms' parts of G
+  std::vector<std::size_t> lai_counts(runs.size(), 0);
+
+  // ---- Lai third-order fit ----
+  {
+    const bool shared = options.lai_shared_center || runs.size() == 1;
+    const std::size_t n_center = shared ? 2 : 2 * runs.size();
+    const std::size_t m = lai_count - 2 + n_center;
+    std::vector<std::string> names;
+    if (shared) {
+      names = lai3_parameter_names();
+    } else {
+      for (std::size_t k = 0; k < runs.size(); ++k) {
+        names.push_back("run" + std::to_string(k + 1) + ".e_x_um");
+        names.push_back("run" + std::to_string(k + 1) + ".e_y_um");
+      }
+      for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
+    }
+    // With stride > 1 only every stride-th point enters (its residual is not needed).
+    const auto fit = [&](Eigen::Index stride) {
+      const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
+      if (rows == n) stride = 1;
+      auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(m));
+      if (!shared) j.setZero();
+      Eigen::VectorXd ys(rows), ws(rows);
+      double basis[lai_count];
+      for (Eigen::Index i = 0; i < rows; ++i) {
+        const Point& p = pts[static_cast<std::size_t>(i * stride)];
+        lai_basis(p, basis);
+        const std::size_t off = shared ? 0 : 2 * p.run;
+        j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
+        j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
+        for (std::size_t c = 2; c < lai_count; ++c)
+          j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+        ys[i] = p.y_um;
+        ws[i] = p.w;
+      }
+      LsqResult r = solve_lsq(j, ys, ws, names);
+      if (!r.ok) throw RunFormatError("identify: " + r.message);
+      return r;
+    };
+    // First pass on a third of the points: only its backlash estimate is used (deadband shape).
+    LsqResult res = fit(3);
+    // Second pass with the deadband shape of the estimated backlash.
+    const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
+    const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
+    const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
+    if (b_a > 0 || b_b > 0) {
+      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0));
+      shaped_b_a = std::max(b_a, 0.0);
+      shaped_b_b = std::max(b_b, 0.0);
+    }
+    res = fit(1);
+    out.fit = summary_of(res);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const double e = res.residual[static_cast<Eigen::Index>(i)];
+      lai_residual_rms[pts[i].run] += e * e;
+      lai_counts[pts[i].run] += 1;
+    }
+    for (std::size_t k = 0; k < runs.size(); ++k)
+      lai_residual_rms[k] = lai_counts[k] ? std::sqrt(lai_residual_rms[k] / static_cast<double>(lai_counts[k])) : 0.0;
+    // Each error's part of the circular deviation, Lai's terms grouped as the errors they describe (the
+    // two scales together: what they share is a radius, which the circle absorbs; the centre offset is
+    // the set-up's).
+    double g_max = 0;
+    for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k)
+      g_max = std::max(g_max, circular_deviation(pts.data() + i, runs[k].angle_rad.size()));
+    const auto group_of = [](const std::string& name) -> std::string {
+      if (name == "S_x" || name == "S_y") return "scale_mismatch";
+      if (name == "backlash_x_um" || name == "backlash_y_um" || name == "servo_mismatch_ms")
+        return name.substr(0, name.rfind('_'));
+      if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
+      switch (name.front()) {
+        case 'a': return "x_straightness_in_y";  // with the squareness a1
+        case 'b': return "y_straightness_in_x";
+        case 'c': return "y_roll";
+        case 'd': return "x_straightness_in_z";
+        case 'e': return "y_straightness_in_z";
+        default: return name;
+      }
+    };
+    std::vector<std::string> groups;
+    for (std::size_t c = n_center; c < m; ++c) {
+      const std::string grp = group_of(names[c]);
+      if (res.identified[c] && std::find(groups.begin(), groups.end(), grp) == groups.end()) groups.push_back(grp);
+    }
+    double basis[lai_count];
+    for (const auto& grp : groups) {
+      std::vector<double> curve(pts.size(), 0.0);
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        lai_basis(pts[i], basis);
+        for (std::size_t c = n_center; c < m; ++c)
+          if (res.identified[c] && group_of(names[c]) == grp) {
+            const std::size_t col = c - n_center + 2;
+            curve[i] += basis[col] * lai_columns[col].si_per_reported * 1e6 * res.fitted[static_cast<Eigen::Index>(c)];
+          }
+      }
+      const double part = part_of_deviation(pts, curve, runs.size());
+      lai_ranking.push_back({grp, part, g_max > 0 ? 100 * part / g_max : nan});
+    }
+    std::sort(lai_ranking.begin(), lai_ranking.end(),
+              [](const Contribution& a, const Contribution& b) { return a.contribution_um > b.contribution_um; });
+    const double omega0 = runs.front().feed_m_per_s / runs.front().radius_m;
+    for (std::size_t c = 0; c < m; ++c) {
+      if (!res.identified[c]) continue;
+      const auto ci = static_cast<Eigen::Index>(c);
+      std::string name = names[c];
+      double value = res.x[ci], u = res.u[ci];
+      if (name == "S_x" || name == "S_y") value += 1.0;
+      if (name == "servo_mismatch_ms") {
+        // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
+        out.lai3.push_back(
+            est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
+      }
+      out.lai3.push_back(est(name, value, u));
+    }
+  }
+
+  // ---- Ballbar diagnostics: of the runs whose geometry they model, an in-plane bar (h = 0) ----
+  std::vector<Run> flat;
+  std::vector<std::size_t> flat_index;  // into runs
+  for (std::size_t k = 0; k < runs.size(); ++k)
+    if (std::abs(runs[k].height_m) < 1e-9) {
+      flat.push_back(runs[k]);
+      flat_index.push_back(k);
+    }
+  std::vector<double> residual_rms(runs.size(), nan);
+  // Among runs with a socket height, the h = 0 ones must also go both ways: in one direction backlash,
+  // play, spikes and servo mismatch trade off against errors the diagnostics do not model (a single
+  // in-plane test of one machine error at a time is separable; Lai's three patterns are not).
+  const bool both = std::any_of(flat.begin(), flat.end(), [](const Run& r) { return r.direction == Direction::ccw; }) &&
+                    std::any_of(flat.begin(), flat.end(), [](const Run& r) { return r.direction == Direction::cw; });
+  if (flat.empty()) {
+    out.notes.push_back("no ballbar diagnostics: they model an in-plane bar (h = 0) and every run has a socket height; "
+                        "Lai's model covers these runs (and ranks the errors)");
+  } else if (!both && flat.size() < runs.size()) {
+    out.notes.push_back("no ballbar diagnostics: they need an in-plane (h = 0) test in both directions (backlash, play, "
+                        "spikes and servo mismatch are told apart by the direction), and the h = 0 runs go one way; "
+                        "Lai's model covers every run (and ranks the errors)");
+  } else {
+    if (flat.size() < runs.size()) {
+      std::string which;
+      for (const auto& r : flat) which += (which.empty() ? "" : ", ") + r.source;
+      out.notes.push_back("ballbar diagnostics from the h = 0 run(s) only (" + which +
+                          "): they model an in-plane bar, not a socket height; Lai's model above uses every run");
+    }
+    std::vector<Point> flat_pts = points_of(flat);
+    PrerollTable flat_preroll;
+    if (shaped_b_a > 0 || shaped_b_b > 0) apply_deadband(flat_pts, flat, flat_preroll, shaped_b_a, shaped_b_b);
+    const LsqResult res = diagnose(flat, flat_pts, plane, work, flat_preroll, shaped_b_a, shaped_b_b, options, out);
+    // Absolute scales that agree are a radius change common to both axes, not the axes' scales.
+    const auto find = [&](const std::string& name) -> const Estimate* {
+      for (const auto& e : out.diagnostics)
+        if (e.name == name) return &e;
+      return nullptr;
+    };
+    const Estimate* sa = find("scale_" + axis_letters(plane, 0) + "_ppm");
+    const Estimate* sb = find("scale_" + axis_letters(plane, 1) + "_ppm");
+    if (sa && sb) {
+      const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
+      if (std::abs(common) > 50 && std::abs(common) > 3 * std::abs(mismatch)) {
+        std::ostringstream o;
+        o << "both axes' scales read about " << std::lround(common) << " ppm: a radius change common to both (a position "
+          << "loop's lag tau shrinks a circle by r (omega tau)^2 / 2 at high feed, 346 ppm for 30 ms at 5000 mm/min on "
+          << "95 mm; a bar calibration error) rather than the axes' own scales; scale_mismatch_ppm ("
+          << std::lround(mismatch) << " ppm) is the axes' difference";
+        out.notes.push_back(o.str());
+      }
+    }
+    for (std::size_t k = 0; k < flat.size(); ++k) {
+      double ss = 0;
+      std::size_t cnt = 0;
+      for (std::size_t i = 0; i < flat_pts.size(); ++i)
+        if (flat_pts[i].run == k) {
+          ss += res.residual[static_cast<Eigen::Index>(i)] * res.residual[static_cast<Eigen::Index>(i)];
+          ++cnt;
+        }
+      residual_rms[flat_index[k]] = cnt ? std::sqrt(ss / static_cast<double>(cnt)) : nan;
+    }
+  }
+  if (out.ranking.empty()) {
+    out.ranking = lai_ranking;
+    out.ranking_model = "lai3";
+  }
+
   // ISO 230-4 circular deviation per run and hysteresis of the first ccw/cw pair of one set-up.
   // First point of each run (the points are in run order).
   std::vector<const Point*> first(runs.size());
@@ -919,14 +1108,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
     s.feed_mm_per_min = r.feed_m_per_s * 60e3;
     s.n = r.angle_rad.size();
     s.circular_deviation_um = circular_deviation(first[k], r.angle_rad.size());
-    double ss = 0;
-    std::size_t cnt = 0;
-    for (std::size_t i = 0; i < pts.size(); ++i)
-      if (pts[i].run == k) {
-        ss += res.residual[static_cast<Eigen::Index>(i)] * res.residual[static_cast<Eigen::Index>(i)];
-        ++cnt;
-      }
-    s.residual_rms_um = cnt ? std::sqrt(ss / static_cast<double>(cnt)) : 0.0;
+    s.residual_rms_um = std::isfinite(residual_rms[k]) ? residual_rms[k] : lai_residual_rms[k];
     g_max = std::max(g_max, s.circular_deviation_um);
     out.runs.push_back(s);
   }

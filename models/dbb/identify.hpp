@@ -7,6 +7,7 @@
 // Conventions: docs/conventions.md. Pure functions; thread safe.
 
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -51,15 +52,32 @@ struct IdentifyOptions {
   bool lai_shared_center = true;
 };
 
+// One error's part of the circular deviation (the ranking a ballbar's software gives).
+struct Contribution {
+  std::string name;              // the diagnostic's name (e.g. "backlash_x_um")
+  double contribution_um = 0.0;  // range of its fitted term about the least-squares circle over a run (as
+                                 // G is the reading's), the largest over the runs
+  double percent = 0.0;          // of the largest circular deviation G of those runs
+};
+
 struct Identification {
   std::string model = "lai3+ballbar";
   std::string plane = "xy";  // of the runs
   std::vector<RunSummary> runs;
-  std::vector<Estimate> diagnostics;
+  std::vector<Estimate> diagnostics;  // from the runs they model (h = 0): see notes
+  std::vector<Contribution> ranking;  // the identified errors, largest part of G first: the diagnostics'
+                                      // when the runs are a ballbar test they model, else Lai's terms
+  std::string ranking_model;          // "diagnostics" or "lai3"
+  std::vector<std::string> notes;     // what the diagnostics were fitted to and why
   std::vector<Estimate> lai3;  // only the identified parameters
   FitSummary fit;              // the Lai third-order fit
   FitSummary diagnostics_fit;
 };
+
+// ISO 230-4's circular deviation of one run's reading (um) at its commanded angles: the range of the
+// reading about its least-squares circle, i.e. less its mean and first harmonic. An error term's
+// "part of G" is the same range of its fitted curve.
+double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um);
 
 // Throws RunFormatError for unusable input (no runs, mixed planes, invalid runs).
 Identification identify(const std::vector<Run>& runs, const IdentifyOptions& options = {});

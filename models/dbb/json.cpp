@@ -57,6 +57,12 @@ nlohmann::json to_json(const Identification& id) {
   for (const auto& e : id.diagnostics) j["diagnostics"][e.name] = value_json(e);
   j["lai3"] = nlohmann::json::object();
   for (const auto& e : id.lai3) j["lai3"][e.name] = value_json(e);
+  j["ranking"] = nlohmann::json::array();
+  for (const auto& c : id.ranking)
+    j["ranking"].push_back({{"name", c.name}, {"contribution_um", c.contribution_um},
+                            {"percent_of_circular_deviation", std::isfinite(c.percent) ? nlohmann::json(c.percent) : nlohmann::json()}});
+  j["ranking_model"] = id.ranking_model;
+  j["notes"] = id.notes;
   j["fit"] = fit_json(id.fit);
   j["diagnostics_fit"] = fit_json(id.diagnostics_fit);
   return j;
@@ -75,6 +81,13 @@ std::string to_text(const Identification& id) {
   o << "  fit: rms " << std::setprecision(4) << id.diagnostics_fit.rms_um << " um, n " << id.diagnostics_fit.n
     << ", condition " << std::setprecision(3) << id.diagnostics_fit.condition_number << "\n";
   if (!id.diagnostics_fit.unidentifiable.empty()) o << "  refused: " << id.diagnostics_fit.message << "\n";
+  if (!id.ranking.empty()) {
+    o << "\nWhat to fix first (each error's part of the circular deviation G, from the " << id.ranking_model << ")\n";
+    for (const auto& c : id.ranking)
+      o << "  " << std::left << std::setw(30) << c.name << std::right << std::setw(10) << std::setprecision(3)
+        << c.contribution_um << " um  " << std::setw(6) << std::setprecision(3) << c.percent << " % of G\n";
+  }
+  for (const auto& n : id.notes) o << "note: " << n << "\n";
   o << "\nLai third-order model\n";
   table(o, id.lai3);
   o << "  fit: rms " << std::setprecision(4) << id.fit.rms_um << " um, n " << id.fit.n << ", condition "

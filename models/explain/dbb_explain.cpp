@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <numbers>
+#include <span>
 #include <stdexcept>
 
 #include <Eigen/QR>
@@ -712,6 +713,25 @@ Problem dbb_problem(const std::vector<dbb::Run>& runs) {
   for (std::size_t i = 0; i < g.size(); ++i) reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
   Problem p = assemble_problem(runs, g, machine_time, reading);
   refit_sensor_nonlinearity(p, base, y, {});
+  // The yardstick of the contributions, as a ballbar's software ranks errors: the largest circular
+  // deviation G of a run (ISO 230-4: the range of the reading about the run's least-squares circle), and
+  // a finding's part of it the same range of its fitted term.
+  p.deviation_name = "circular deviation G";
+  auto spans = std::make_shared<std::vector<std::pair<std::size_t, std::vector<double>>>>();  // first sample, angles
+  for (std::size_t i0 = 0; i0 < g.size();) {
+    std::vector<double> zeta;
+    std::size_t i1 = i0;
+    for (; i1 < g.size() && g[i1].run == g[i0].run; ++i1) zeta.push_back(g[i1].zeta);
+    spans->emplace_back(i0, std::move(zeta));
+    i0 = i1;
+  }
+  p.contribution_of = [spans](const Eigen::VectorXd& term_um) {
+    double out = 0;
+    for (const auto& [first, zeta] : *spans)
+      out = std::max(out, dbb::range_about_circle(zeta, std::span<const double>(term_um.data() + first, zeta.size())));
+    return out;
+  };
+  p.deviation_um = p.contribution_of(y);
   if (drive_delays_s(runs).size() > 1) {
     Candidate c{"servo_lag",
                 "the drives follow the command late (the position loops' 1/Kv), so with the commanded angles every "

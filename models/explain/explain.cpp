@@ -830,6 +830,20 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     fd.rms_um_after = std::sqrt(pm.rss / static_cast<double>(n));
     fd.heldout_rms_um_after = k + 1 == terms.size() ? cur_heldout : sel.heldout(prefix, none).rms;
     fd.share = sel.share(terms, k, cur, sigma, visible_floor);
+    {
+      // Its fitted term's size: as the model measures it, else its peak-to-valley over each run.
+      const Eigen::VectorXd term = v.block.columns * final_fit.x.segment(offset, v.block.columns.cols());
+      if (problem.contribution_of) {
+        fd.contribution_um = problem.contribution_of(term);
+      } else {
+        for (const auto& [a, b] : ranges) {
+          if (b <= a) continue;
+          const auto seg = term.segment(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b - a));
+          fd.contribution_um = std::max(fd.contribution_um, seg.maxCoeff() - seg.minCoeff());
+        }
+      }
+      if (problem.deviation_um > 0) fd.contribution_percent = 100 * fd.contribution_um / problem.deviation_um;
+    }
     fd.why = cand.why;
     rep.findings.push_back(std::move(fd));
     steps.emplace_back("+ " + cand.effect, pm.residual);
@@ -840,6 +854,8 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   std::stable_sort(rep.considered.begin(), rep.considered.end(),
                    [](const Considered& a, const Considered& b) { return a.delta_bic < b.delta_bic; });
   rep.final_fit = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, cur_heldout, cur.rank + cur.searched};
+  rep.deviation_um = problem.deviation_um;
+  rep.deviation_name = problem.deviation_name;
   add_curves(rep, problem, steps, options.curve_points);
   const Located fin = locate(problem, cur.residual, options.alpha);
   rep.remaining = fin.places;

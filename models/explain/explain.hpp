@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -84,6 +85,13 @@ struct Problem {
   // runs share no clock): such a term cannot predict a run held out whole, so held-out rows are then
   // blocks of every run, whatever the number of runs.
   bool terms_per_run = false;
+  // The yardstick the findings' contributions are given against (um; NaN = none): for DBB runs the
+  // largest circular deviation G of a run, as a ballbar's software ranks errors.
+  double deviation_um = std::numeric_limits<double>::quiet_NaN();
+  std::string deviation_name;  // e.g. "circular deviation G"
+  // A finding's part of that yardstick from its fitted term (one value per sample); unset: the term's
+  // peak-to-valley over a run, the largest over the runs.
+  std::function<double(const Eigen::VectorXd& term_um)> contribution_of;
 };
 
 struct ExplainOptions {
@@ -113,6 +121,8 @@ struct Finding {
   double rms_um_after = 0.0;
   double heldout_rms_um_after = 0.0;
   double share = 0.0;    // of the visible structure removed (NaN when none was visible)
+  double contribution_um = 0.0;  // its fitted term's size: Problem::contribution_of, else its peak-to-valley
+  double contribution_percent = std::numeric_limits<double>::quiet_NaN();  // of Problem::deviation_um
   std::string why;
 };
 
@@ -148,6 +158,8 @@ struct Report {
   FitStats final_fit;
   std::vector<Mismatch> remaining;  // where the final residual is still structured
   bool unexplained = false;
+  double deviation_um = std::numeric_limits<double>::quiet_NaN();  // Problem::deviation_um
+  std::string deviation_name;
   std::vector<std::string> notes;
   // Residual curves for plots (docs/explain.md "residuals"): one x grid (the first run's, in the
   // problem's domain, increasing, at most ExplainOptions::curve_points), the runs drawn, and per step --

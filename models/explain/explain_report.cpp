@@ -1,5 +1,6 @@
 #include "models/explain/explain.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -56,11 +57,14 @@ nlohmann::json to_json(const Report& r) {
                  {"rms_um_after", num(fd.rms_um_after)},
                  {"heldout_rms_um_after", num(fd.heldout_rms_um_after)},
                  {"structure_removed", num(fd.share)},
+                 {"contribution_um", num(fd.contribution_um)},
+                 {"percent_of_deviation", num(fd.contribution_percent)},
                  {"why", fd.why}});
   }
   j["findings"] = f;
   j["final"] = stats(r.final_fit);
   j["unexplained"] = r.unexplained;
+  if (std::isfinite(r.deviation_um)) j["deviation"] = {{"name", r.deviation_name}, {"value_um", r.deviation_um}};
   j["remaining"] = places(r.remaining);
   json c = json::array();
   for (const auto& k : r.considered)
@@ -112,12 +116,25 @@ std::string to_text(const Report& r) {
       }
       o << "       BIC " << g(f.delta_bic, "%+.1f") << ", p = " << g(f.p_value, "%.2g") << ", rms -> " << g(f.rms_um_after)
         << " um, held-out rms -> " << g(f.heldout_rms_um_after) << " um";
-      if (std::isfinite(f.share)) o << ", removes " << g(100 * f.share, "%.0f") << " % of the visible structure";
+      if (std::isfinite(f.share)) o << ", removes " << g(100 * f.share, "%.0f") << " % of the structure left without it";
+      o << "\n";
+    }
+    // What to fix first: the findings by the size of their term in the readings.
+    std::vector<const Finding*> ranked;
+    for (const auto& f : r.findings) ranked.push_back(&f);
+    std::stable_sort(ranked.begin(), ranked.end(),
+                     [](const Finding* a, const Finding* b) { return a->contribution_um > b->contribution_um; });
+    o << "\nlargest first (peak-to-valley of each term";
+    if (std::isfinite(r.deviation_um)) o << "; " << r.deviation_name << " " << g(r.deviation_um, "%.3g") << " um";
+    o << "):\n";
+    for (const Finding* f : ranked) {
+      o << "  " << f->effect << ": " << g(f->contribution_um, "%.3g") << " um";
+      if (std::isfinite(f->contribution_percent)) o << " (" << g(f->contribution_percent, "%.0f") << " %)";
       o << "\n";
     }
   }
   if (!r.considered.empty()) {
-    o << "\nlast round:\n";
+    o << "\nnot taken:\n";
     for (const auto& c : r.considered) o << "  " << c.effect << ": " << c.verdict << "\n";
   }
   o << "\nfinal: rms " << g(r.final_fit.rms_um) << " um, held-out rms " << g(r.final_fit.heldout_rms_um) << " um, BIC "
