@@ -13,8 +13,9 @@
 namespace guideway::daemon {
 
 inline constexpr int protocol_major = 1;
-// Minor versions only add: 1 added STATUS devices[].driver_counters.
-inline constexpr int protocol_minor = 2;
+// Minor versions only add: 1 added STATUS devices[].driver_counters; 3 added the DBB ranking and notes
+// in PARAMS and the findings' contributions in EXPLAIN.
+inline constexpr int protocol_minor = 3;
 
 // The classes a client can be sent as published (not reply-only) messages.
 inline const std::set<std::string, std::less<>> published_classes = {"STATUS", "SAMPLE", "PARAMS", "EXPLAIN", "EVENT"};

@@ -22,6 +22,7 @@ Run simulate_run(const sim::Machine& machine, const sim::DbbCircleSpec& spec, co
   seed << spec.seed;
   run.metadata["seed"] = seed.str();
   run.metadata["source"] = "guideway simulate dbb (virtual machine tool)";
+  run.metadata["angle_source"] = "commanded";
   double t_start = -1;
   for (const auto& s : raw.samples) {
     if (!s.in_data_arc) continue;
