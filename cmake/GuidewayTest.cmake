@@ -11,7 +11,7 @@ function(guideway_add_test name)
   target_compile_definitions(${name} PRIVATE
     GUIDEWAY_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     GUIDEWAY_BINARY_DIR="${PROJECT_BINARY_DIR}"
-    GUIDEWAY_SHARED_DIR="${PROJECT_SOURCE_DIR}/../shared")
+    GUIDEWAY_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data")
   add_test(NAME ${name} COMMAND ${name} ${T_ARGS})
   if(NOT T_LABELS)
     set(T_LABELS unit)

@@ -11,7 +11,7 @@ guideway_add_test(dsp_wavelet_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_wavelet
 guideway_add_test(dsp_correlation_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_correlation_test.cpp LIBS guideway_dsp LABELS unit)
 add_test(NAME dsp_x3p_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/dsp_x3p_test.py $<TARGET_FILE:dsp_reference_tool>
-          ${PROJECT_SOURCE_DIR}/../shared/data/x3p/sample-land.x3p)
+          ${PROJECT_SOURCE_DIR}/tests/data/x3p/sample-land.x3p)
 set_tests_properties(dsp_x3p_test PROPERTIES LABELS unit TIMEOUT 120)
 add_test(NAME dsp_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/dsp_cli_test.py $<TARGET_FILE:guideway>)
 set_tests_properties(dsp_cli_test PROPERTIES LABELS unit TIMEOUT 120)

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Real signal: profiles of the X3P scan ../shared/data/x3p/sample-land.x3p (Sensofar S neox, 918 x 256 float64
-heights in metres; provenance in ../shared/data/README.md) through the dsp library.
+"""Real signal: profiles of the X3P scan tests/data/x3p/sample-land.x3p (Sensofar S neox, 918 x 256 float64
+heights in metres; provenance in tests/data/README.md) through the dsp library.
 
     dsp_x3p_test.py PATH/TO/dsp_reference_tool PATH/TO/sample-land.x3p
 

@@ -8,5 +8,5 @@ guideway_add_test(flatness_runout_test SOURCES flatness_runout_test.cpp
 # of the Moody reference (numpy exists only under /usr/bin/python3).
 add_test(NAME flatness_cli_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/flatness_cli_test.py $<TARGET_FILE:guideway>
-          ${PROJECT_SOURCE_DIR}/../shared/data/moody1955)
+          ${PROJECT_SOURCE_DIR}/tests/data/moody1955)
 set_tests_properties(flatness_cli_test PROPERTIES LABELS integration TIMEOUT 120)

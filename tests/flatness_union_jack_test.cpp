@@ -1,5 +1,5 @@
 // Union Jack (Moody) surface-plate flatness (models/flatness/union_jack): Moody's 1955 readings
-// reproduce the corrected worksheet heights (/work/shared/data/moody1955/reference_heights.dat), the
+// reproduce the corrected worksheet heights (tests/data/moody1955/reference_heights.dat), the
 // least-squares option agrees with the worksheet's geometry, and bad sets are rejected by file and line.
 #include <gtest/gtest.h>
 
@@ -20,7 +20,7 @@ namespace {
 using namespace guideway::models;
 namespace fs = std::filesystem;
 
-const std::string moody_dir = GUIDEWAY_SHARED_DIR "/data/moody1955";
+const std::string moody_dir = GUIDEWAY_TEST_DATA_DIR "/moody1955";
 constexpr double tens_of_microinch = 0.0254e-5;  // m
 
 struct RefStation {

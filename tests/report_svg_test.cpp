@@ -57,10 +57,9 @@ bool tags_balance(const std::string& svg) {
 
 double mantissa(double step) { return step / std::pow(10.0, std::floor(std::log10(step) + 1e-9)); }
 
-// The shared data (Moody 1955); GUIDEWAY_SHARED_DIR in the environment overrides the build's path.
-std::string shared_dir() {
-  const char* env = std::getenv("GUIDEWAY_SHARED_DIR");
-  return env && *env ? env : GUIDEWAY_SHARED_DIR;
+// The project's copy of the real data (tests/data: Moody 1955).
+std::string data_dir() {
+  return GUIDEWAY_TEST_DATA_DIR;
 }
 
 fs::path temp_dir(const std::string& name) {
@@ -237,7 +236,7 @@ TEST(Report, RecognisesInputsAndRendersSections) {
     guideway::models::dbb::write_run(guideway::models::dbb::simulate_run(machine, spec, path), path);
     inputs.push_back(path);
   }
-  inputs.push_back(shared_dir() + "/data/moody1955");
+  inputs.push_back(data_dir() + "/moody1955");
   inputs.push_back(std::string(GUIDEWAY_SOURCE_DIR) + "/tests/report_explain_example.json");
   EXPECT_EQ(gr::detect_input(inputs[0]), gr::InputKind::dbb_run);
   EXPECT_EQ(gr::detect_input(inputs[2]), gr::InputKind::union_jack);

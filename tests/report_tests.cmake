@@ -11,6 +11,6 @@ add_test(NAME report_svg_xml_test
 set_tests_properties(report_svg_xml_test PROPERTIES LABELS unit TIMEOUT 60)
 add_test(NAME report_chromium_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/report_chromium_test.py $<TARGET_FILE:guideway>
-          $<TARGET_FILE:guideway-emulate> ${PROJECT_SOURCE_DIR} ${PROJECT_SOURCE_DIR}/../shared/data/moody1955
+          $<TARGET_FILE:guideway-emulate> ${PROJECT_SOURCE_DIR} ${PROJECT_SOURCE_DIR}/tests/data/moody1955
           ${PROJECT_BINARY_DIR}/report_artifacts)
 set_tests_properties(report_chromium_test PROPERTIES LABELS integration TIMEOUT 180)

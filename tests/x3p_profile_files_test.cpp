@@ -16,7 +16,7 @@ using namespace guideway::profilometer;
 
 namespace {
 
-const std::string sample_x3p = std::string(GUIDEWAY_SHARED_DIR) + "/data/x3p/sample-land.x3p";
+const std::string sample_x3p = std::string(GUIDEWAY_TEST_DATA_DIR) + "/x3p/sample-land.x3p";
 
 std::string run(const std::string& command) {
   std::string out;

@@ -33,7 +33,7 @@ SHOTS = [
 def main():
     guideway, emulate = sys.argv[1:3]
     out = sys.argv[3] if len(sys.argv) > 3 else os.path.join(SRC, "docs", "img")
-    moody = os.path.normpath(os.path.join(SRC, "..", "shared", "data", "moody1955"))
+    moody = os.path.normpath(os.path.join(SRC, "tests", "data", "moody1955"))
     os.makedirs(out, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="guideway-report-docs-") as tmp:
         inputs, note = example_inputs.make_inputs(guideway, emulate, SRC, moody, os.path.join(tmp, "inputs"))
