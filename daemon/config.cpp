@@ -51,6 +51,9 @@ mode_t parse_mode(const TableReader& t) {
     used = 0;
   }
   if (used != text.size() || text.empty() || v > 0777) t.fail("socket_mode", "expected an octal mode such as \"0660\"");
+  if ((v & 0002) != 0)
+    t.fail("socket_mode", "world-writable (" + text + "): any local user could start and stop sessions; give the "
+                          "users a group (socket_group) and 0660");
   return static_cast<mode_t>(v);
 }
 

@@ -182,7 +182,12 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
       } else if (m.cls == "EVENT") {
         const auto j = nlohmann::json::parse(m.json);
         if (j.contains("session")) {
-          log_->warn("session {}: {}: {}", j.value("session", "?"), j.value("event", "?"), j.value("reason", ""));
+          // A failure carries its reason (a warning); news such as report_ready carries its file (info).
+          if (j.contains("reason"))
+            log_->warn("session {}: {}: {}", j.value("session", "?"), j.value("event", "?"), j.value("reason", ""));
+          else
+            log_->info("session {}: {}{}", j.value("session", "?"), j.value("event", "?"),
+                       j.contains("file") ? ": " + j.value("file", "") : "");
         }
       }
       broadcast(m);

@@ -61,6 +61,9 @@ int main(int argc, char** argv) {
   sigaddset(&set, SIGINT);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   signal(SIGPIPE, SIG_IGN);
+  // A file-size limit (ulimit -f) must make a write fail with EFBIG, reported like a full disk, not kill
+  // the daemon with every device and emulator (SIGXFSZ's default action).
+  signal(SIGXFSZ, SIG_IGN);
 
   daemon::DaemonConfig config;
   try {

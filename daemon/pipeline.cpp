@@ -46,9 +46,13 @@ PipelineStats Pipeline::take_stats() {
   std::lock_guard lock(stats_mutex_);
   PipelineStats out = stats_;
   out.latency_mean_us = latency_count_ ? latency_sum_us_ / static_cast<double>(latency_count_) : 0.0;
+  // Figures over the period since the last call (protocol.md STATUS `pipeline`); the devices' flow
+  // counts stay cumulative.
   latency_sum_us_ = 0.0;
   latency_count_ = 0;
   stats_.latency_max_us = 0.0;
+  stats_.iterations = 0;
+  stats_.samples = 0;
   return out;
 }
 

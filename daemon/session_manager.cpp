@@ -5,7 +5,9 @@
 #include <cstring>
 #include <cstdio>
 #include <ctime>
-#include <fstream>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "report/report.hpp"
 
@@ -13,22 +15,30 @@ namespace guideway::daemon {
 
 namespace {
 
-// Written as NAME.part, then renamed: a reader never sees half a file.
+// Written as NAME.part, then renamed: a reader never sees half a file. Mode 0640 as the raw recording
+// (rw for the daemon, r for its group), whatever the umask.
 void write_file_atomically(const std::string& path, const std::string& content) {
   const std::string part = path + ".part";
-  const auto fail = [&](const std::string& what) {
-    const int err = errno;
+  const auto fail = [&](const std::string& what, int err) {
     std::remove(part.c_str());  // no empty or truncated leftovers in the state directory
     throw std::runtime_error(part + ": " + what + ": " + std::strerror(err));
   };
-  {
-    std::ofstream out(part, std::ios::binary | std::ios::trunc);
-    if (!out) fail("cannot open for writing");
-    out << content;
-    out.flush();
-    if (!out) fail("write failed");
+  const int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
+  if (fd < 0) fail("cannot open for writing", errno);
+  ::fchmod(fd, 0640);  // an older part file keeps its mode through O_CREAT
+  std::size_t done = 0;
+  while (done < content.size()) {
+    const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : EIO;
+      ::close(fd);
+      fail("write failed", err);
+    }
+    done += static_cast<std::size_t>(n);
   }
-  if (std::rename(part.c_str(), path.c_str()) != 0) fail("rename failed");
+  if (::close(fd) != 0) fail("write failed", errno);
+  if (std::rename(part.c_str(), path.c_str()) != 0) fail("rename failed", errno);
 }
 
 std::string utc_stamp() {
@@ -259,7 +269,15 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
 }
 
 void SessionManager::write_session_report(const Running& r, std::vector<std::string> inputs) {
-  if (inputs.empty()) return;
+  // Every session ends with exactly one of report_ready and report_failed: a client waiting for one
+  // must not hang.
+  if (inputs.empty()) {
+    post_event(r.info, "report_failed",
+               r.info.recording_error.empty()
+                   ? "no report: the session wrote no files to report on"
+                   : "no report: the session's files could not be written (" + r.info.recording_error + ")");
+    return;
+  }
   try {
     report::ReportOptions options;
     options.title = "Guideway " + r.info.kind + " session " + r.info.name;
@@ -308,6 +326,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     try {
       const std::string base = info.name;
       derived = r->session->write_derived(state_dir_, base);
+      for (const auto& path : derived) ::chmod(path.c_str(), 0640);  // as the raw recording, whatever the umask
     } catch (const std::exception& e) {
       // Both are kept: the raw recording's error is the one that loses data.
       report_recording_error(*r, info.recording_error.empty() ? e.what() : info.recording_error + "; " + e.what());
@@ -339,6 +358,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
   // After STATUS shows the failure: a client that hears of it and asks (params) is told why.
   if (!failure.empty()) {
     post_event(info, "session_failed", failure);
+    post_event(info, "report_failed", "no report: identification failed: " + failure);  // one of the two, always
   }
 }
 

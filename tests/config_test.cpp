@@ -68,6 +68,17 @@ TEST(Config, OutOfRangeAndBadChoiceAreExplained) {
   EXPECT_NE(error_of("[daemon]\nsocket_mode = \"rw\"\n").find("octal"), std::string::npos);
 }
 
+// A world-writable socket lets any local user start and stop sessions: refused with file:line, not
+// accepted silently.
+TEST(Config, WorldWritableSocketModeIsRefused) {
+  for (const char* mode : {"0777", "0666", "0662"}) {
+    const std::string e = error_of(std::string("[daemon]\nsocket_mode = \"") + mode + "\"\n");
+    EXPECT_NE(e.find("test.toml:2"), std::string::npos) << e;
+    EXPECT_NE(e.find("world-writable"), std::string::npos) << e;
+  }
+  EXPECT_TRUE(error_of("[daemon]\nsocket_mode = \"0664\"\n").empty());
+}
+
 TEST(Config, DevicesNeedUniqueNamesAndADriver) {
   EXPECT_NE(error_of("[[device]]\nname = \"a\"\n").find("device[0].driver: required key is missing"), std::string::npos);
   const std::string dup = error_of("[[device]]\nname = \"a\"\ndriver = \"x\"\n[[device]]\nname = \"a\"\ndriver = \"y\"\n");

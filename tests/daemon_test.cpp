@@ -111,6 +111,39 @@ TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
   EXPECT_TRUE(saw_status_with_flow);
 }
 
+// protocol.md: STATUS `pipeline` gives figures over the last status period (0.1 s here). At 2000
+// samples/s a period takes about 200; counted since the start they grew without bound (the CLI printed
+// "241993 samples in the last period" 47 s after start).
+TEST(Daemon, StatusPipelineCountsTheLastPeriodOnly) {
+  RunningDaemon rd("[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n");
+  DaemonClient c(rd.socket);
+  c.request({{"class", "watch"}, {"classes", {"STATUS"}}}, "WATCH");
+  std::vector<std::uint64_t> per_period, iterations;
+  std::uint64_t consumed = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (per_period.size() < 20 && std::chrono::steady_clock::now() < deadline) {
+    auto line = c.read_line(std::chrono::milliseconds(500));
+    if (!line) continue;
+    auto j = nlohmann::json::parse(*line);
+    if (j["class"] != "STATUS") continue;
+    consumed = j["devices"][0]["consumed"].get<std::uint64_t>();
+    if (consumed < 400) continue;  // streaming for two periods at least
+    per_period.push_back(j["pipeline"]["samples"].get<std::uint64_t>());
+    iterations.push_back(j["pipeline"]["iterations"].get<std::uint64_t>());
+  }
+  ASSERT_EQ(per_period.size(), 20u);
+  std::uint64_t sum = 0;
+  for (auto v : per_period) sum += v;
+  // The periods' counts add up to no more than the device delivered, and each is one period's
+  // (0.1 s x 2000/s = 200, generous for a loaded machine), not the total so far.
+  EXPECT_LE(sum, consumed);
+  for (std::size_t k = 0; k < per_period.size(); ++k) {
+    EXPECT_LE(per_period[k], 2000u) << k;
+    EXPECT_LE(iterations[k], 100000u) << k;
+  }
+  EXPECT_LT(per_period.back(), consumed / 2);
+}
+
 // protocol.md: "Fields whose value is unknown are left out, never null". A NaN reading (a lost beam)
 // is not a number JSON can carry: nlohmann would write null.
 TEST(Daemon, ASampleWithoutAValueLeavesTheChannelOutNeverNull) {

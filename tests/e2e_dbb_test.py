@@ -121,6 +121,11 @@ class EndToEndDbb(DaemonCase):
             self.assertEqual(d["counters"]["overruns"], 0, d)
             for lost in ("lost_samples", "dropped_frames"):  # the drivers' own losses (absent: not that driver)
                 self.assertEqual(d["driver_counters"].get(lost, 0), 0, d)
+        # The session's files are the daemon's and its group's only, whatever the umask (0640, as the raw
+        # recording; derived files were 0644).
+        import stat
+        for path in [params["recording"], *params["derived"]]:
+            self.assertEqual(stat.S_IMODE(os.stat(path).st_mode), 0o640, path)
         # The raw recording is complete; the run files reproduce the parameters offline.
         with open(params["recording"]) as f:
             text = f.read()
@@ -181,6 +186,17 @@ class EndToEndDbb(DaemonCase):
         self.assertIn("<svg", report["html"])
         self.assertIn("Explanation of the mismatch", report["html"])  # the EXPLAIN section is there
         self.assertIn("Residual RMS after each finding", report["html"])
+        for suffix in (".explain.json", ".report.html"):
+            path = params["recording"][: -len(".csv")] + suffix
+            self.assertEqual(stat.S_IMODE(os.stat(path).st_mode), 0o640, path)
+        # Its news is logged as news with the file, not as a warning with an empty reason.
+        self.log.flush()
+        with open(self.log.name) as f:
+            lines = [l for l in f if "report_ready" in l]
+        self.assertTrue(lines, "no report_ready line in the log")
+        for line in lines:
+            self.assertIn(" info ", line)
+            self.assertIn(".report.html", line)
 
 
 # The DBB part of the embedded default (its emulator, device and bar denoising), with the emulator running

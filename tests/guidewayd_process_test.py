@@ -42,15 +42,45 @@ class GuidewaydProcess(unittest.TestCase):
         e["XDG_STATE_HOME"] = os.path.join(self.tmp.name, "state")
         return e
 
-    def start(self, *args, env=None):
+    def start(self, *args, env=None, preexec_fn=None):
         e = self.isolated_env()
         e.pop("NOTIFY_SOCKET", None)
         e.update(env or {})
         p = subprocess.Popen([GUIDEWAYD, "--socket", self.sock, *args], env=e,
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=preexec_fn)
         self.addCleanup(lambda: p.poll() is None and p.kill())
         self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not create its socket")
         return p
+
+    def test_a_file_size_limit_is_a_refused_write_not_a_death(self):
+        """Under `ulimit -f` a write past the limit raises SIGXFSZ, whose default action kills the process
+        (the daemon died at 102,400 bytes of recording with every device and emulator): ignored, the
+        write fails with EFBIG and is reported like a full disk; the daemon and the session go on."""
+        import json
+        import resource
+
+        def limit():
+            resource.setrlimit(resource.RLIMIT_FSIZE, (100 * 1024, 100 * 1024))
+
+        p = self.start(preexec_fn=limit)
+        cli = lambda *a: subprocess.run([GUIDEWAY, "--socket", self.sock, *a], capture_output=True, text=True,
+                                        timeout=30)
+        self.assertTrue(wait_for(lambda: '"streaming"' in cli("status", "--json").stdout, 20))
+        self.assertEqual(cli("start", "dbb").returncode, 0)
+
+        def refused():
+            st = json.loads(cli("status", "--json").stdout or "{}")
+            return any("recording_error" in s for s in st.get("sessions", []))
+        self.assertTrue(wait_for(refused, 40), "no recording_error while past the file-size limit")
+        time.sleep(1.0)
+        self.assertIsNone(p.poll(), "guidewayd died at the file-size limit")
+        st = json.loads(cli("status", "--json").stdout)
+        errors = [s["recording_error"] for s in st["sessions"] if "recording_error" in s]
+        self.assertIn("too large", errors[0].lower())
+        self.assertEqual({d["name"]: d["state"] for d in st["devices"]}["dbb"], "streaming")
+        cli("stop")
+        p.send_signal(signal.SIGTERM)
+        p.wait(timeout=30)
 
     def test_default_config_runs_and_cli_reports_status(self):
         p = self.start()

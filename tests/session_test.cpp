@@ -283,6 +283,13 @@ TEST(Session, DiskFullMidSessionIsReportedWhileTheSessionRuns) {
   EXPECT_GT(params["n"].get<std::uint64_t>(), before + 200);
   EXPECT_NE(params.value("recording_error", "").find(".csv.part"), std::string::npos) << params.dump();
   EXPECT_EQ(params.value("recording", ""), f.state + "/" + name + ".csv.part");  // left incomplete
+  // Its files could not be written: the session still ends with a report event, report_failed saying
+  // why (a client waiting for report_ready or report_failed hung before).
+  const auto report = Fixture::next(c, "EVENT");
+  ASSERT_FALSE(report.is_null());
+  EXPECT_EQ(report["event"], "report_failed") << report.dump();
+  EXPECT_EQ(report["session"], name);
+  EXPECT_NE(report.value("reason", "").find("no report"), std::string::npos) << report.dump();
 }
 
 TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
@@ -299,6 +306,11 @@ TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
     return !ev.is_null();
   }));
   EXPECT_EQ(ev["reason"], "too few samples (1)");
+  // ... and, as every session, one report event: report_failed with the reason.
+  const auto report = Fixture::next(c, "EVENT");
+  ASSERT_FALSE(report.is_null());
+  EXPECT_EQ(report["event"], "report_failed") << report.dump();
+  EXPECT_NE(report.value("reason", "").find("identification failed: too few samples (1)"), std::string::npos);
   // params names the failed session and why, rather than "start a session".
   const std::string message = c.request({{"class", "params"}, {"kind", "mean"}}, "PARAMS")["message"];
   EXPECT_NE(message.find("session " + ev["session"].get<std::string>() + " failed: too few samples (1)"),
