@@ -135,7 +135,10 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
   server_->on_disconnect([this](ClientId id, const std::string& reason) {
     subscriptions_.erase(id);
     if (reason != "closed by peer" && reason != "server shutting down") {
-      log_->warn("client {} dropped: {}", id, reason);
+      std::uint64_t more = 0;
+      if (dropped_log_.allow(reason, mono_now_ns(), more))
+        log_->warn("client {} dropped: {}{}", id, reason,
+                   more ? " (and " + std::to_string(more) + " more for this reason in the last minute, not logged)" : "");
     } else {
       log_->debug("client {} gone: {}", id, reason);
     }

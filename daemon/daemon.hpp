@@ -17,6 +17,7 @@
 #include "daemon/config.hpp"
 #include "daemon/event_loop.hpp"
 #include "daemon/outbox.hpp"
+#include "daemon/logging.hpp"
 #include "daemon/pipeline.hpp"
 #include "daemon/protocol.hpp"
 #include "daemon/session_manager.hpp"
@@ -101,6 +102,7 @@ class Daemon {
   std::int64_t started_ns_ = 0;
   std::int64_t last_status_ns_ = 0;
   PipelineStats last_stats_;
+  RepeatLimiter dropped_log_;  // clients dropped: one line per reason per minute
 };
 
 }  // namespace guideway::daemon

@@ -35,4 +35,21 @@ std::shared_ptr<spdlog::logger> make_logger(const std::string& level) {
   return logger;
 }
 
+bool RepeatLimiter::allow(const std::string& reason, std::int64_t now_ns, std::uint64_t& suppressed) {
+  auto it = seen_.find(reason);
+  if (it == seen_.end()) {
+    if (seen_.size() >= 256) seen_.clear();  // bounded: the reasons a client can cause are few
+    seen_[reason] = {now_ns, 0};
+    suppressed = 0;
+    return true;
+  }
+  if (now_ns - it->second.logged_ns < period_ns_) {
+    ++it->second.suppressed;
+    return false;
+  }
+  suppressed = it->second.suppressed;
+  it->second = {now_ns, 0};
+  return true;
+}
+
 }  // namespace guideway::daemon

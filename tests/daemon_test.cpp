@@ -2,6 +2,9 @@
 // source), talking JSON Lines through the same client the CLI uses.
 #include "daemon/daemon.hpp"
 
+#include <spdlog/sinks/ostream_sink.h>
+#include <unistd.h>
+#include <sstream>
 #include <gtest/gtest.h>
 #include <spdlog/sinks/null_sink.h>
 #include <sys/socket.h>
@@ -21,7 +24,7 @@ using guideway::cli::DaemonClient;
 namespace {
 
 struct RunningDaemon {
-  explicit RunningDaemon(const std::string& extra_toml = "") {
+  explicit RunningDaemon(const std::string& extra_toml = "", spdlog::sink_ptr sink = nullptr) {
     registry.add("counting", "test source", [](const drivers::DeviceConfig& c) {
       return std::make_unique<test::CountingDriver>(c);
     });
@@ -29,7 +32,8 @@ struct RunningDaemon {
     auto config = daemon::parse_config("[daemon]\nsocket = \"" + socket +
                                            "\"\nstatus_period_s = 0.1\nclient_queue_bytes = 65536\n" + extra_toml,
                                        "test.toml");
-    auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
+    auto log = std::make_shared<spdlog::logger>("test", sink ? sink : std::make_shared<spdlog::sinks::null_sink_mt>());
+    log->set_level(spdlog::level::info);
     d = std::make_unique<daemon::Daemon>(std::move(config), registry, sessions, log);
     thread = std::thread([this] { d->run(); });
   }
@@ -109,6 +113,34 @@ TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
   }
   EXPECT_GE(samples, 10);
   EXPECT_TRUE(saw_status_with_flow);
+}
+
+// A client that connects and resets the connection before reading the greeting was one warning each
+// time (5000 lines from a loop of 5000): the same reason is logged once, then counted.
+TEST(Daemon, ClientsDroppedForOneReasonAreLoggedOnceThenCounted) {
+  std::ostringstream out;
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(out);
+  {
+    RunningDaemon rd("", sink);
+    for (int i = 0; i < 300; ++i) {
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+      ASSERT_GE(fd, 0);
+      sockaddr_un addr{};
+      addr.sun_family = AF_UNIX;
+      std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", rd.socket.c_str());
+      if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) {
+        linger l{1, 0};  // close with a reset, before reading anything
+        ::setsockopt(fd, SOL_SOCKET, SO_LINGER, &l, sizeof l);
+      }
+      ::close(fd);
+    }
+    DaemonClient c(rd.socket);  // still answers
+    EXPECT_EQ(c.request({{"class", "version"}}, "VERSION")["class"], "VERSION");
+  }
+  std::istringstream in(out.str());
+  int dropped_lines = 0;
+  for (std::string line; std::getline(in, line);) dropped_lines += line.find("dropped") != std::string::npos;
+  EXPECT_LE(dropped_lines, 3) << out.str().substr(0, 2000);
 }
 
 // protocol.md: STATUS `pipeline` gives figures over the last status period (0.1 s here). At 2000
