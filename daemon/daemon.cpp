@@ -255,7 +255,7 @@ void Daemon::check_device_events() {
     if (s.state == drivers::DeviceState::lost || s.state == drivers::DeviceState::error) {
       log_->warn("device {}: {}{}", s.name, drivers::to_string(s.state), s.reason.empty() ? "" : ": " + s.reason);
     } else {
-      log_->info("device {}: {}", s.name, drivers::to_string(s.state));
+      log_->info("device {}: {}{}", s.name, drivers::to_string(s.state), s.reason.empty() ? "" : ": " + s.reason);
     }
     broadcast({"EVENT", s.name, ev.dump(), ""});
   }

@@ -14,7 +14,7 @@ namespace guideway::daemon {
 
 inline constexpr int protocol_major = 1;
 // Minor versions only add: 1 added STATUS devices[].driver_counters; 3 added the DBB ranking and notes
-// in PARAMS and the findings' contributions in EXPLAIN.
+// in PARAMS, the findings' contributions in EXPLAIN and dbb-can's bus_off counter.
 inline constexpr int protocol_minor = 3;
 
 // The classes a client can be sent as published (not reply-only) messages.

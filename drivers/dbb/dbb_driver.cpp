@@ -125,6 +125,7 @@ void DbbDriver::interrupt() {
 
 std::vector<drivers::NamedCounter> DbbDriver::driver_counters() const {
   return {{"error_frames", error_frames()},
+          {"bus_off", bus_offs_.load(std::memory_order_relaxed)},
           {"partial_cycles", partial_cycles()},
           {"untimed_frames", untimed_frames()},
           {"dropped_frames", dropped_frames()}};
@@ -191,16 +192,36 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& 
     last_sync_ns_ = t_ns;
   }
   if (res.info.kind == FrameInfo::Kind::error_frame) {
-    error_frames_.fetch_add(1, std::memory_order_relaxed);
-    bad_frames_.fetch_add(1, std::memory_order_relaxed);
+    // A controller's restart notice is news, not an error on the bus.
+    if ((res.info.error_class & ~static_cast<std::uint32_t>(CAN_ERR_RESTARTED)) != 0) {
+      error_frames_.fetch_add(1, std::memory_order_relaxed);
+      bad_frames_.fetch_add(1, std::memory_order_relaxed);
+    }
+    // Bus-off latches the error state until the controller says it restarted (or, without that
+    // notice, frames have flowed again for a second): cleared by the next cycle, it lasted ~4 ms and
+    // nobody saw it.
     if (res.info.error_class & CAN_ERR_BUSOFF) {
+      bus_offs_.fetch_add(1, std::memory_order_relaxed);
       set_state(drivers::DeviceState::error, "CAN bus off");
+      bus_off_since_ns_ = t_ns;
       silent_ = true;
+    } else if ((res.info.error_class & CAN_ERR_RESTARTED) && bus_off_since_ns_ != 0) {
+      set_state(drivers::DeviceState::streaming,
+                "CAN bus recovered from bus-off after " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
+                    " ms (controller restarted)");
+      bus_off_since_ns_ = 0;
+      silent_ = false;
     }
   }
   if (res.cycle_ready) {
     publish_cycle(cycle);
-    if (silent_) {
+    if (bus_off_since_ns_ != 0 && t_ns - bus_off_since_ns_ >= 1'000'000'000) {
+      set_state(drivers::DeviceState::streaming,
+                "CAN frames flow again " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
+                    " ms after bus-off (no restart notice)");
+      bus_off_since_ns_ = 0;
+      silent_ = false;
+    } else if (silent_ && bus_off_since_ns_ == 0) {
       set_state(drivers::DeviceState::streaming);
       silent_ = false;
     }
@@ -209,7 +230,9 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& 
 
 void DbbDriver::note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder& decoder) {
   timeouts_.fetch_add(1, std::memory_order_relaxed);
-  set_state(drivers::DeviceState::lost, "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
+  // A bus that is off is silent: its state stays the error that says why.
+  if (bus_off_since_ns_ == 0)
+    set_state(drivers::DeviceState::lost, "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
   silent_ = true;
   last_rx = now;       // count one timeout per silent period
   decoder.mark_gap();  // what comes next follows a gap

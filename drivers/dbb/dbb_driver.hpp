@@ -115,10 +115,12 @@ class DbbDriver : public drivers::Driver {
   CanConnector connector_;
   int wake_fd_ = -1;
   bool silent_ = false;  // driver thread: lost/bus-off until the next sample
+  std::int64_t bus_off_since_ns_ = 0;  // driver thread: bus off since then, until it recovers (0 = not)
   std::int64_t prev_read_ns_ = 0;  // driver thread: when a read last found the socket empty
   std::uint32_t kernel_drops_ = 0;  // driver thread: the socket's total drops reported so far
   std::int64_t last_frame_ns_ = 0;  // driver thread: the time given to the last frame received (never decreases)
   std::atomic<std::uint64_t> error_frames_{0};
+  std::atomic<std::uint64_t> bus_offs_{0};
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
   std::atomic<std::uint64_t> dropped_frames_{0};

@@ -49,7 +49,9 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
   } else if (c == "error-frames" && word_to_int(w, 1, n)) {
     emu.inject_error_frames(n);
   } else if (c == "bus-off") {
-    emu.inject_error_frames(1, true);
+    int restart_ms = 200;
+    if (w.size() > 1 && !word_to_int(w, 1, restart_ms)) return false;
+    emu.inject_bus_off(restart_ms);
   } else if (c == "drop-pdo" && word_to_int(w, 1, n)) {
     int cycles = 1;
     if (w.size() > 2 && !word_to_int(w, 2, cycles)) return false;
@@ -62,7 +64,7 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
     msg = std::to_string(emu.cycles_sent()) + " cycles, " + std::to_string(emu.connections()) + " connections";
   } else {
     msg =
-        "commands: disconnect | garbage N | truncated N | bad N | error-frames N | bus-off | drop-pdo ENCODER [CYCLES]"
+        "commands: disconnect | garbage N | truncated N | bad N | error-frames N | bus-off [RESTART_MS] | drop-pdo ENCODER [CYCLES]"
         " | stall SECONDS | burst N | status | quit";
     return false;
   }

@@ -61,9 +61,10 @@ void DbbEmulator::inject_disconnect() {
 void DbbEmulator::inject_garbage(int frames) { garbage_ += frames; }
 void DbbEmulator::inject_truncated(int frames) { truncated_ += frames; }
 void DbbEmulator::inject_bad_frames(int frames) { bad_ += frames; }
-void DbbEmulator::inject_error_frames(int frames, bool bus_off) {
-  bus_off_ = bus_off;
-  error_frames_ += frames;
+void DbbEmulator::inject_error_frames(int frames) { error_frames_ += frames; }
+void DbbEmulator::inject_bus_off(int restart_ms) {
+  bus_off_until_ns_ = mono_now_ns() + static_cast<std::int64_t>(restart_ms) * 1'000'000;
+  bus_off_ = true;
 }
 void DbbEmulator::inject_drop_pdo(std::size_t encoder, int cycles) {
   std::lock_guard lock(drop_mutex_);
@@ -106,12 +107,14 @@ bool DbbEmulator::send_faults(int fd, std::vector<can_frame>& batch) {
     f.can_dlc = n % 2 == 0 ? static_cast<std::uint8_t>(5 + next() % 4) : 2;
     batch.push_back(f);
   }
-  for (int n = error_frames_.exchange(0); n > 0; --n) {
+  const auto error_frame = [&](canid_t cls) {
     can_frame f{};
-    f.can_id = CAN_ERR_FLAG | (bus_off_ ? CAN_ERR_BUSOFF : (CAN_ERR_PROT | CAN_ERR_CRTL));
+    f.can_id = CAN_ERR_FLAG | cls;
     f.can_dlc = CAN_ERR_DLC;
     batch.push_back(f);
-  }
+  };
+  for (int n = error_frames_.exchange(0); n > 0; --n) error_frame(CAN_ERR_PROT | CAN_ERR_CRTL);
+  if (restarted_.exchange(false)) error_frame(CAN_ERR_RESTARTED);
   // Truncated records cannot be batched as can_frames: flush the batch, then write them short.
   const int truncated = truncated_.exchange(0);
   if (truncated > 0) {
@@ -128,6 +131,16 @@ bool DbbEmulator::send_faults(int fd, std::vector<can_frame>& batch) {
 void DbbEmulator::send_cycle(int fd, bool with_sync) {
   const std::int64_t now = mono_now_ns();
   std::string err;
+  // Bus-off: the error frame, then nothing until the controller restarts, then its notice.
+  if (bus_off_.exchange(false)) {
+    can_frame f{};
+    f.can_id = CAN_ERR_FLAG | CAN_ERR_BUSOFF;
+    f.can_dlc = CAN_ERR_DLC;
+    (void)can::write_can_frames(fd, &f, 1, err);
+    restarted_ = true;
+    return;
+  }
+  if (now < bus_off_until_ns_.load()) return;
   // A cycle goes out as one batch (like a node's TPDOs right after SYNC): SYNC, injected faults, PDOs.
   std::vector<can_frame> batch;
   if (with_sync) batch.push_back(dbb::make_sync_frame());

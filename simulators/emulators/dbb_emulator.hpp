@@ -58,7 +58,10 @@ class DbbEmulator {
   void inject_garbage(int frames);                             // frames with foreign COB-IDs and random payloads
   void inject_truncated(int frames);                           // records shorter than a can_frame
   void inject_bad_frames(int frames);                          // TPDO1s with a wrong length, SYNC with a payload
-  void inject_error_frames(int frames, bool bus_off = false);  // CAN_ERR_FLAG frames
+  void inject_error_frames(int frames);  // CAN_ERR_FLAG frames (protocol or controller errors)
+  // The controller goes bus-off: a CAN_ERR_BUSOFF error frame, nothing on the bus for restart_ms (the
+  // controller's restart-ms), then a CAN_ERR_RESTARTED error frame and the cycles again.
+  void inject_bus_off(int restart_ms = 200);
   void inject_drop_pdo(std::size_t encoder, int cycles);       // that encoder skips its PDO in the next cycles
   void inject_stall(double seconds);                           // answer/produce nothing for a while
   void inject_burst(int cycles);                               // that many extra SYNC+PDO cycles, back to back
@@ -90,7 +93,9 @@ class DbbEmulator {
 
   std::atomic<bool> disconnect_{false};
   std::atomic<int> garbage_{0}, truncated_{0}, bad_{0}, error_frames_{0}, burst_{0};
-  std::atomic<bool> bus_off_{false};
+  std::atomic<bool> bus_off_{false};              // a BUSOFF frame to send
+  std::atomic<std::int64_t> bus_off_until_ns_{0};  // silent until then, then RESTARTED
+  std::atomic<bool> restarted_{false};             // a RESTARTED frame to send
   std::atomic<std::int64_t> stall_until_ns_{0};
   std::mutex drop_mutex_;
   std::vector<int> drop_cycles_;  // per encoder
