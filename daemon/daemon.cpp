@@ -104,6 +104,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
     throw std::runtime_error("another daemon is already listening on " + config_.socket_path);
   }
   emulators_ = launch_emulators(config_);
+  emulator_watch_.resize(emulators_.size());
   for (const auto& e : emulators_) log_->info("emulator {} (pid {}) serves {}", e->name(), e->pid(), e->endpoint());
   devices_ = create_devices(config_, registry);
   std::vector<drivers::Driver*> raw;
@@ -235,6 +236,7 @@ int Daemon::run() {
 void Daemon::periodic(std::int64_t now_ns) {
   notifier_.watchdog(pipeline_->progress(), now_ns);
   check_device_events();
+  check_emulators(now_ns);
   if (now_ns - last_status_ns_ >= static_cast<std::int64_t>(config_.status_period_s * 1e9)) {
     last_status_ns_ = now_ns;
     last_stats_ = pipeline_->take_stats();
@@ -242,6 +244,59 @@ void Daemon::periodic(std::int64_t now_ns) {
     broadcast({"STATUS", "", status.dump(), ""});
     notifier_.status(status_line());
   }
+}
+
+void Daemon::check_emulators(std::int64_t now_ns) {
+  for (std::size_t i = 0; i < emulators_.size(); ++i) {
+    EmulatorProcess& e = *emulators_[i];  // replaced on a restart: nothing below uses it after that
+    const std::string name = e.name();
+    EmulatorWatch& w = emulator_watch_[i];
+    const auto event = [&](const std::string& what, const std::string& reason) {
+      nlohmann::json ev = {{"class", "EVENT"}, {"time", utc_now_iso()}, {"emulator", name}, {"event", what}};
+      if (!reason.empty()) ev["reason"] = reason;
+      broadcast({"EVENT", "", ev.dump(), ""});
+    };
+    if (w.state == "running") {
+      const std::string how = e.reap();  // no zombie under guidewayd
+      if (how.empty()) continue;
+      w.state = "exited";
+      w.last_exit = how;
+      w.restart_at_ns = now_ns + static_cast<std::int64_t>(w.backoff_s * 1e9);
+      log_->warn("emulator {} exited ({}); restarting it in {} s", e.name(), how, w.backoff_s);
+      event("emulator_exited", how);
+      continue;
+    }
+    if (now_ns < w.restart_at_ns) continue;
+    try {
+      // At the endpoint it served, so the devices configured with it find it again; a short wait for
+      // its endpoint line (this is the event loop).
+      emulators_[i] = std::make_unique<EmulatorProcess>(e.executable(), e.restart_spec(), std::chrono::seconds(2));
+      ++w.restarts;
+      w.state = "running";
+      w.backoff_s = 1.0;
+      log_->info("emulator {} restarted (pid {}) at {}", emulators_[i]->name(), emulators_[i]->pid(), emulators_[i]->endpoint());
+      event("emulator_restarted", "");
+    } catch (const std::exception& ex) {
+      w.backoff_s = std::min(60.0, 2 * w.backoff_s);
+      w.restart_at_ns = now_ns + static_cast<std::int64_t>(w.backoff_s * 1e9);
+      log_->warn("emulator {}: restart failed ({}); next try in {} s", name, ex.what(), w.backoff_s);
+      event("emulator_restart_failed", ex.what());
+    }
+  }
+}
+
+nlohmann::json Daemon::emulators_json() const {
+  nlohmann::json a = nlohmann::json::array();
+  for (std::size_t i = 0; i < emulators_.size(); ++i) {
+    const auto& e = *emulators_[i];
+    const auto& w = emulator_watch_[i];
+    nlohmann::json j = {{"name", e.name()}, {"instrument", e.spec().instrument}, {"endpoint", e.endpoint()},
+                        {"state", w.state}, {"restarts", w.restarts}};
+    if (w.state == "running") j["pid"] = e.pid();
+    if (!w.last_exit.empty()) j["last_exit"] = w.last_exit;
+    a.push_back(std::move(j));
+  }
+  return a;
 }
 
 void Daemon::check_device_events() {
@@ -316,6 +371,7 @@ nlohmann::json Daemon::status_json() {
             {"outbox_dropped", outbox_.dropped()}}},
           {"clients", {{"connected", server_->client_count()}, {"dropped_slow", server_->dropped_clients()}}},
           {"devices", std::move(devices)},
+          {"emulators", emulators_json()},
           {"sessions", sessions_json()}};
 }
 

@@ -62,6 +62,9 @@ class Daemon {
   void broadcast(const Message& message);
   void periodic(std::int64_t now_ns);
   void check_device_events();
+  // Emulator children that exited: reaped, logged, an EVENT, restarted with back-off.
+  void check_emulators(std::int64_t now_ns);
+  [[nodiscard]] nlohmann::json emulators_json() const;
   nlohmann::json handle_start(const Request& req);
   nlohmann::json handle_stop(const Request& req);
   // The newest message of `latest` matching the request's optional kind/session; throws naming `what`.
@@ -86,6 +89,14 @@ class Daemon {
   DaemonOptions options_;
   InstanceLock instance_lock_;  // before the emulators, the devices and the socket: released last
   std::vector<std::unique_ptr<EmulatorProcess>> emulators_;  // before devices_: outlives the drivers
+  struct EmulatorWatch {
+    std::string state = "running";  // running | exited (restart pending)
+    std::string last_exit;           // how it last ended
+    std::uint64_t restarts = 0;
+    std::int64_t restart_at_ns = 0;
+    double backoff_s = 1.0;          // doubles per failed restart, at most 60 s; back to 1 once it runs
+  };
+  std::vector<EmulatorWatch> emulator_watch_;
   std::vector<std::unique_ptr<drivers::Driver>> devices_;
   EventLoop loop_;
   Outbox outbox_;

@@ -39,7 +39,7 @@ std::string default_emulator_executable() {
 
 EmulatorProcess::EmulatorProcess(const std::string& executable, const EmulatorSpec& spec,
                                  std::chrono::milliseconds timeout)
-    : name_(spec.name) {
+    : name_(spec.name), executable_(executable), spec_(spec) {
   int out[2];
   if (pipe2(out, O_CLOEXEC) != 0) throw std::runtime_error("pipe: " + std::string(std::strerror(errno)));
   std::vector<std::string> argv_s = {executable, spec.instrument};
@@ -114,6 +114,33 @@ EmulatorProcess::~EmulatorProcess() {
     }
   }
   if (stdout_fd_ >= 0) close(stdout_fd_);
+}
+
+std::string EmulatorProcess::reap() {
+  if (pid_ <= 0) return "";
+  char buf[4096];
+  while (read(stdout_fd_, buf, sizeof(buf)) > 0) {
+  }
+  int status = 0;
+  if (waitpid(pid_, &status, WNOHANG) != pid_) return "";
+  pid_ = -1;
+  if (WIFEXITED(status)) return "exit status " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) return "killed by signal " + std::to_string(WTERMSIG(status));
+  return "ended";
+}
+
+EmulatorSpec EmulatorProcess::restart_spec() const {
+  EmulatorSpec s = spec_;
+  // tcp:HOST:PORT: a listening port asked for as 0 ("HOST:0", or "--port 0") is the one it got, so the
+  // devices configured with that endpoint find it again.
+  if (endpoint_.rfind("tcp:", 0) != 0) return s;
+  const auto colon = endpoint_.rfind(':');
+  const std::string host = endpoint_.substr(4, colon - 4), port = endpoint_.substr(colon + 1);
+  for (std::size_t i = 0; i < s.args.size(); ++i) {
+    if (s.args[i] == host + ":0") s.args[i] = host + ":" + port;
+    if (s.args[i] == "0" && i > 0 && s.args[i - 1] == "--port") s.args[i] = port;
+  }
+  return s;
 }
 
 bool EmulatorProcess::alive() const {

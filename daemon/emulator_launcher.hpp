@@ -35,10 +35,19 @@ class EmulatorProcess {
   [[nodiscard]] const std::string& name() const noexcept { return name_; }
   [[nodiscard]] const std::string& endpoint() const noexcept { return endpoint_; }
   [[nodiscard]] pid_t pid() const noexcept { return pid_; }
+  [[nodiscard]] const std::string& executable() const noexcept { return executable_; }
+  [[nodiscard]] const EmulatorSpec& spec() const noexcept { return spec_; }
   [[nodiscard]] bool alive() const;
+  // Reaps the child if it has exited (no zombie is left): how it ended ("exit status 1", "killed by
+  // signal 9"), or "" while it runs.
+  std::string reap();
+  // The spec that starts it again at the endpoint it serves (a port it was given as 0 made fixed).
+  [[nodiscard]] EmulatorSpec restart_spec() const;
 
  private:
   std::string name_;
+  std::string executable_;
+  EmulatorSpec spec_;
   std::string endpoint_;
   pid_t pid_ = -1;
   int stdout_fd_ = -1;

@@ -82,6 +82,51 @@ class GuidewaydProcess(unittest.TestCase):
         p.send_signal(signal.SIGTERM)
         p.wait(timeout=30)
 
+    def test_an_emulator_that_exits_is_reaped_reported_and_restarted(self):
+        """An emulator child that dies was left a zombie, nothing logged, its device lost for good: now it
+        is reaped, an EVENT and a log line say how it ended, and it is started again at the endpoint it
+        served (the micrometer's Modbus TCP port, asked for as 0), so its device streams again."""
+        import json
+        p = self.start()
+        cli = lambda *a: subprocess.run([GUIDEWAY, "--socket", self.sock, *a], capture_output=True, text=True,
+                                        timeout=30)
+        status = lambda: json.loads(cli("status", "--json").stdout or "{}")
+        self.assertTrue(wait_for(lambda: all(d["state"] == "streaming" for d in status().get("devices", [{}])), 30))
+        st = status()
+        self.assertIn("emulators", st, st)
+        gauge = next(e for e in st["emulators"] if e["name"] == "gauge")
+        self.assertEqual(gauge["state"], "running")
+        watcher = subprocess.Popen([GUIDEWAY, "--socket", self.sock, "watch", "--class", "EVENT", "--seconds", "20",
+                                    "--json"], stdout=subprocess.PIPE, text=True)
+        time.sleep(0.5)
+        os.kill(gauge["pid"], signal.SIGKILL)
+
+        def restarted():
+            e = next(x for x in status()["emulators"] if x["name"] == "gauge")
+            return e["restarts"] == 1 and e["state"] == "running"
+        self.assertTrue(wait_for(restarted, 20), status()["emulators"])
+        e = next(x for x in status()["emulators"] if x["name"] == "gauge")
+        self.assertEqual(e["last_exit"], "killed by signal 9")
+        self.assertEqual(e["endpoint"], gauge["endpoint"])  # the same port
+        self.assertNotEqual(e["pid"], gauge["pid"])
+        # No zombie under the daemon.
+        with open(f"/proc/{p.pid}/task/{p.pid}/children") as f:
+            children = [int(c) for c in f.read().split()]
+        for c in children:
+            with open(f"/proc/{c}/stat") as f:
+                self.assertNotEqual(f.read().split(") ")[1][0], "Z", f"child {c} is a zombie")
+        self.assertTrue(wait_for(lambda: {d["name"]: d["state"] for d in status()["devices"]}["micrometer"] == "streaming",
+                                 20), status()["devices"])
+        watcher.terminate()
+        events = [json.loads(l) for l in watcher.communicate(timeout=10)[0].splitlines() if l.strip()]
+        kinds = [(ev.get("emulator"), ev.get("event")) for ev in events]
+        self.assertIn(("gauge", "emulator_exited"), kinds)
+        self.assertIn(("gauge", "emulator_restarted"), kinds)
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=30)
+        self.assertIn("emulator gauge exited (killed by signal 9)", err)
+        self.assertIn("emulator gauge restarted", err)
+
     def test_default_config_runs_and_cli_reports_status(self):
         p = self.start()
         out = subprocess.run([GUIDEWAY, "--socket", self.sock, "status"], capture_output=True, text=True, timeout=20)
