@@ -27,6 +27,12 @@ int connect_unix(const std::string& path) {
   if (fd < 0) throw std::runtime_error(path + ": socket: " + std::strerror(errno));
   addr.sun_family = AF_UNIX;
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  try {
+    check_socket_owner(path);  // not a fake daemon another user put in our place
+  } catch (...) {
+    close(fd);
+    throw;
+  }
   if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
     const int err = errno;
     close(fd);

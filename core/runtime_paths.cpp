@@ -1,8 +1,14 @@
 #include "core/runtime_paths.hpp"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
 
 namespace guideway {
 
@@ -47,6 +53,41 @@ std::vector<std::string> client_socket_candidates() {
   out.push_back(per_user_runtime_dir() + "/guideway.sock");
   out.emplace_back(system_socket_path);
   return out;
+}
+
+void secure_socket_directory(const std::string& dir) {
+  if (dir.empty()) return;
+  struct stat st {};
+  if (::lstat(dir.c_str(), &st) != 0) {
+    if (errno != ENOENT) throw std::runtime_error(dir + ": " + std::strerror(errno));
+    std::error_code ec;
+    const auto parent = std::filesystem::path(dir).parent_path();
+    if (!parent.empty()) std::filesystem::create_directories(parent, ec);
+    if (::mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST)
+      throw std::runtime_error("cannot create socket directory " + dir + ": " + std::strerror(errno));
+    if (::lstat(dir.c_str(), &st) != 0) throw std::runtime_error(dir + ": " + std::strerror(errno));
+  }
+  const auto refuse = [&](const std::string& why) {
+    throw std::runtime_error("refusing socket directory " + dir + ": " + why +
+                             "; another local user could serve a fake daemon there or replace the socket. Remove it, "
+                             "or give a directory of your own (XDG_RUNTIME_DIR, --socket)");
+  };
+  if (S_ISLNK(st.st_mode)) refuse("it is a symbolic link");
+  if (!S_ISDIR(st.st_mode)) refuse("it is not a directory");
+  if (st.st_uid != ::getuid() && st.st_uid != 0) refuse("it belongs to uid " + std::to_string(st.st_uid) + ", not you");
+  if ((st.st_mode & S_IWOTH) != 0 && (st.st_mode & S_ISVTX) == 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    refuse(std::string("anyone can write to it (mode ") + mode + ")");
+  }
+}
+
+void check_socket_owner(const std::string& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return;  // connect() says what is missing
+  if (st.st_uid != ::getuid() && st.st_uid != 0)
+    throw std::runtime_error(path + ": refusing a socket owned by uid " + std::to_string(st.st_uid) +
+                             " (neither you nor root): it may not be your daemon");
 }
 
 }  // namespace guideway

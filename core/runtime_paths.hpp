@@ -16,4 +16,13 @@ std::string default_state_dir();
 // The paths a client tries, in order: $GUIDEWAY_SOCKET, the per-user path, the system path.
 std::vector<std::string> client_socket_candidates();
 
+// The directory that holds the daemon's socket and lock: created 0700 when missing; an existing one must
+// be a real directory (not a symlink) owned by this user (or root), and not writable by others unless
+// sticky (as /tmp): otherwise another local user could have made it to serve a fake daemon or to swap
+// the socket. Throws std::runtime_error saying what is wrong and what to do.
+void secure_socket_directory(const std::string& dir);
+// A socket a client is about to trust: owned by this user or root (the system daemon). Throws
+// std::runtime_error naming the owner.
+void check_socket_owner(const std::string& path);
+
 }  // namespace guideway

@@ -1,5 +1,7 @@
 #include "daemon/daemon.hpp"
 
+#include "core/runtime_paths.hpp"
+
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/eventfd.h>
@@ -73,10 +75,9 @@ std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& conf
 Daemon::InstanceLock::InstanceLock(const std::string& socket_path) {
   if (socket_path.empty()) return;  // no Unix socket: nothing shared to guard
   const std::string path = socket_path + ".lock";
-  std::error_code ec;
-  if (const auto parent = std::filesystem::path(path).parent_path(); !parent.empty())
-    std::filesystem::create_directories(parent, ec);  // the socket's own creation reports a failure
-  fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+  secure_socket_directory(std::filesystem::path(path).parent_path().string());
+  // O_NOFOLLOW: a symlink planted as the lock would make us create or lock a file elsewhere.
+  fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0600);
   if (fd < 0) throw std::system_error(errno, std::generic_category(), "open " + path);
   if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;

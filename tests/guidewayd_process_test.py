@@ -127,6 +127,71 @@ class GuidewaydProcess(unittest.TestCase):
         self.assertIn("emulator gauge exited (killed by signal 9)", err)
         self.assertIn("emulator gauge restarted", err)
 
+    def test_a_socket_directory_another_user_could_control_is_refused(self):
+        """With XDG_RUNTIME_DIR unset the daemon used /tmp/guideway-$UID whoever had made it: another user
+        could create it first (0777) and serve a fake daemon, or plant the lock as a symlink. The default
+        directory is created 0700; one that is world-writable, someone else's or a symlink is refused,
+        the lock is not followed through a symlink, and the client refuses a socket another user owns."""
+        import stat
+        base = self.tmp.name
+
+        def daemon_in(xdg, *extra):
+            env = self.isolated_env()
+            env.pop("NOTIFY_SOCKET", None)
+            env["XDG_RUNTIME_DIR"] = xdg
+            return subprocess.run([GUIDEWAYD, *extra], env=env, capture_output=True, text=True, timeout=30)
+
+        # Created by the daemon: 0700.
+        fresh = os.path.join(base, "fresh")
+        os.makedirs(fresh)
+        env = self.isolated_env()
+        env.pop("NOTIFY_SOCKET", None)
+        env["XDG_RUNTIME_DIR"] = fresh
+        p = subprocess.Popen([GUIDEWAYD], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.addCleanup(lambda: p.poll() is None and p.kill())
+        self.assertTrue(wait_for(lambda: os.path.exists(os.path.join(fresh, "guideway", "guideway.sock")), 20))
+        self.assertEqual(stat.S_IMODE(os.stat(os.path.join(fresh, "guideway")).st_mode), 0o700)
+        p.send_signal(signal.SIGTERM)
+        p.communicate(timeout=30)
+
+        # World-writable (as another user's mkdir with 0777 would leave it): refused.
+        open_dir = os.path.join(base, "open")
+        os.makedirs(os.path.join(open_dir, "guideway"))
+        os.chmod(os.path.join(open_dir, "guideway"), 0o777)
+        r = daemon_in(open_dir)
+        self.assertNotEqual(r.returncode, 0)
+        self.assertIn("refusing socket directory", r.stderr)
+        self.assertIn("anyone can write to it", r.stderr)
+
+        # A lock planted as a symlink is not followed.
+        planted = os.path.join(base, "planted")
+        os.makedirs(os.path.join(planted, "guideway"), mode=0o700)
+        target = os.path.join(base, "victim-file")
+        os.symlink(target, os.path.join(planted, "guideway", "guideway.sock.lock"))
+        r = daemon_in(planted)
+        self.assertNotEqual(r.returncode, 0)
+        self.assertFalse(os.path.exists(target), "the daemon created a file through the planted symlink")
+
+        if os.geteuid() != 0:
+            self.skipTest("directories and sockets of another uid need root to create (the rest was checked)")
+        # Another user's directory: refused.
+        theirs = os.path.join(base, "theirs")
+        os.makedirs(os.path.join(theirs, "guideway"), mode=0o700)
+        os.chown(os.path.join(theirs, "guideway"), 12345, 12345)
+        r = daemon_in(theirs)
+        self.assertNotEqual(r.returncode, 0)
+        self.assertIn("belongs to uid 12345", r.stderr)
+        # The client refuses a socket another user owns (a fake daemon).
+        fake = os.path.join(base, "fake.sock")
+        server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        server.bind(fake)
+        server.listen(1)
+        os.chown(fake, 12345, 12345)
+        c = subprocess.run([GUIDEWAY, "--socket", fake, "status"], capture_output=True, text=True, timeout=10)
+        server.close()
+        self.assertNotEqual(c.returncode, 0)
+        self.assertIn("refusing a socket owned by uid 12345", c.stderr)
+
     def test_default_config_runs_and_cli_reports_status(self):
         p = self.start()
         out = subprocess.run([GUIDEWAY, "--socket", self.sock, "status"], capture_output=True, text=True, timeout=20)
