@@ -84,6 +84,9 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     c.sample_publish_hz = d->get_double("sample_publish_hz", 10.0, 0.0, 100000.0);
     c.ring_capacity = ring_capacity(*d, c.ring_capacity);
     c.max_clients = static_cast<std::size_t>(d->get_int("max_clients", 256, 1, 65536));
+    c.reserved_clients = static_cast<std::size_t>(d->get_int("reserved_clients", 8, 0, 65536));
+    if (c.reserved_clients >= c.max_clients) d->fail("reserved_clients", "must be below max_clients");
+    c.idle_timeout_s = d->get_double("idle_timeout_s", 30.0, 0.0, 86400.0);
     c.client_queue_bytes = static_cast<std::size_t>(d->get_int("client_queue_bytes", 4 << 20, 4096, 1LL << 32));
     c.max_request_bytes = static_cast<std::size_t>(d->get_int("max_request_bytes", 16384, 256, 1 << 24));
     c.emulator_executable = d->get_string("emulator_executable", "");

@@ -28,6 +28,8 @@ struct DaemonConfig {
   double sample_publish_hz = 10.0;  // rate of decimated SAMPLE messages per device
   std::size_t ring_capacity = 65536;
   std::size_t max_clients = 256;
+  std::size_t reserved_clients = 8;  // of max_clients, kept for root and the daemon's own user/group
+  double idle_timeout_s = 30.0;      // a connection with no complete request by then is closed; 0 = never
   std::size_t client_queue_bytes = 4 * 1024 * 1024;
   std::size_t max_request_bytes = 16 * 1024;
 

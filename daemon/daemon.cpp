@@ -129,6 +129,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
   so.max_request_bytes = config_.max_request_bytes;
   so.max_queue_bytes = config_.client_queue_bytes;
   so.max_clients = config_.max_clients;
+  so.reserved_clients = config_.reserved_clients;
   server_ = std::make_unique<SocketServer>(loop_, so);
   server_->on_connect([this](ClientId id) {
     subscriptions_[id] = {};
@@ -238,6 +239,7 @@ void Daemon::periodic(std::int64_t now_ns) {
   notifier_.watchdog(pipeline_->progress(), now_ns);
   check_device_events();
   check_emulators(now_ns);
+  server_->close_idle(now_ns, static_cast<std::int64_t>(config_.idle_timeout_s * 1e9));
   if (now_ns - last_status_ns_ >= static_cast<std::int64_t>(config_.status_period_s * 1e9)) {
     last_status_ns_ = now_ns;
     last_stats_ = pipeline_->take_stats();

@@ -1,5 +1,7 @@
 #include "daemon/socket_server.hpp"
 
+#include "core/mono_clock.hpp"
+
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <grp.h>
@@ -121,7 +123,15 @@ void SocketServer::accept_on(int listen_fd) {
   for (;;) {
     const int fd = accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) return;  // EAGAIN, or a transient error: nothing to do until the next readiness
-    if (clients_.size() >= options_.max_clients) {
+    bool trusted = false;
+    if (listen_fd == unix_fd_) {
+      ucred cred{};
+      socklen_t len = sizeof cred;
+      if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0)
+        trusted = cred.uid == 0 || cred.uid == geteuid() || cred.gid == getegid();
+    }
+    const std::size_t open_to_all = options_.max_clients - std::min(options_.reserved_clients, options_.max_clients);
+    if (clients_.size() >= options_.max_clients || (!trusted && clients_.size() >= open_to_all)) {
       static constexpr char busy[] =
           "{\"class\":\"ERROR\",\"message\":\"too many clients\"}\n";
       [[maybe_unused]] auto ignored = write(fd, busy, sizeof(busy) - 1);
@@ -129,7 +139,10 @@ void SocketServer::accept_on(int listen_fd) {
       continue;
     }
     const ClientId id = next_id_++;
-    clients_[id].fd = fd;
+    Client& client = clients_[id];
+    client.fd = fd;
+    client.connected_ns = mono_now_ns();
+    client.trusted = trusted;
     loop_.add(fd, EPOLLIN | EPOLLRDHUP, [this, id](std::uint32_t events) {
       if (events & EPOLLERR) {
         close_client(id, "connection error");
@@ -141,6 +154,15 @@ void SocketServer::accept_on(int listen_fd) {
     });
     if (on_connect_) on_connect_(id);
   }
+}
+
+void SocketServer::close_idle(std::int64_t now_ns, std::int64_t timeout_ns) {
+  if (timeout_ns <= 0) return;
+  std::vector<ClientId> idle;
+  for (const auto& [id, c] : clients_)
+    if (!c.served && now_ns - c.connected_ns > timeout_ns) idle.push_back(id);
+  for (const ClientId id : idle)
+    close_client(id, "no request within " + std::to_string(timeout_ns / 1'000'000'000) + " s of connecting");
 }
 
 void SocketServer::read_from(ClientId id) {
@@ -180,10 +202,12 @@ void SocketServer::read_from(ClientId id) {
           c.inbox.clear();
           c.discarding = !nl;
           if (nl && on_oversize_) {
+            c.served = true;
             on_oversize_(id, c.discarded);
             c.discarded = 0;
           }
         } else if (nl) {
+          c.served = true;
           std::string line;
           line.swap(c.inbox);
           if (!line.empty() && line.back() == '\r') line.pop_back();

@@ -27,6 +27,9 @@ struct SocketServerOptions {
   std::size_t max_request_bytes = 16 * 1024;
   std::size_t max_queue_bytes = 4 * 1024 * 1024;
   std::size_t max_clients = 256;
+  // The last `reserved_clients` places are kept for connections from root and from the daemon's own
+  // user or group (on the Unix socket), so idle or hostile clients cannot lock the operator out.
+  std::size_t reserved_clients = 8;
 };
 
 using ClientId = std::uint64_t;
@@ -79,6 +82,8 @@ class SocketServer {
   [[nodiscard]] const std::string& unix_path() const noexcept { return options_.unix_path; }
   [[nodiscard]] int tcp_port() const noexcept { return bound_tcp_port_; }  // the real port (for port 0 = any)
   [[nodiscard]] std::uint64_t dropped_clients() const noexcept { return dropped_clients_; }
+  // Closes every client that has not completed a request within `timeout_ns` of connecting.
+  void close_idle(std::int64_t now_ns, std::int64_t timeout_ns);
 
  private:
   struct Client {
@@ -91,6 +96,9 @@ class SocketServer {
     std::size_t queued = 0;
     bool want_write = false;
     bool flush_pending = false;  // queued during a Batch, not written yet
+    std::int64_t connected_ns = 0;
+    bool served = false;   // completed a request line
+    bool trusted = false;  // root, or the daemon's user or group (SO_PEERCRED)
   };
 
   void listen_unix();

@@ -5,6 +5,9 @@
 #include <spdlog/sinks/ostream_sink.h>
 #include <unistd.h>
 #include <sstream>
+#include <sys/wait.h>
+#include <sys/stat.h>
+#include <csignal>
 #include <gtest/gtest.h>
 #include <spdlog/sinks/null_sink.h>
 #include <sys/socket.h>
@@ -141,6 +144,91 @@ TEST(Daemon, ClientsDroppedForOneReasonAreLoggedOnceThenCounted) {
   int dropped_lines = 0;
   for (std::string line; std::getline(in, line);) dropped_lines += line.find("dropped") != std::string::npos;
   EXPECT_LE(dropped_lines, 3) << out.str().substr(0, 2000);
+}
+
+namespace {
+int raw_connect(const std::string& path) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path.c_str());
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+// The first line the server sends on fd (the greeting, or "too many clients"), "" when it closes first.
+std::string first_line(int fd) {
+  std::string s;
+  char c = 0;
+  timeval tv{2, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  while (::read(fd, &c, 1) == 1 && c != '\n') s += c;
+  return s;
+}
+}  // namespace
+
+// 256 idle connections locked everyone out for good: a connection that has not completed a request
+// within idle_timeout_s is closed, and one that asked something stays.
+TEST(Daemon, IdleConnectionsAreClosedAndDoNotLockOthersOut) {
+  RunningDaemon rd("max_clients = 3\nreserved_clients = 0\nidle_timeout_s = 0.5\n");
+  DaemonClient watcher(rd.socket);
+  watcher.request({{"class", "watch"}, {"classes", {"STATUS"}}}, "WATCH");  // served: stays
+  std::vector<int> idle;
+  for (int i = 0; i < 2; ++i) idle.push_back(raw_connect(rd.socket));
+  const int refused = raw_connect(rd.socket);
+  EXPECT_NE(first_line(refused).find("too many clients"), std::string::npos);
+  ::close(refused);
+  // After the timeout the idle ones are gone and a newcomer is served.
+  std::this_thread::sleep_for(std::chrono::milliseconds(900));
+  for (int fd : idle) {
+    first_line(fd);  // the greeting, then end of file
+    char c = 0;
+    EXPECT_EQ(::read(fd, &c, 1), 0) << "an idle connection was kept";
+    ::close(fd);
+  }
+  DaemonClient late(rd.socket);
+  EXPECT_EQ(late.request({{"class", "version"}}, "VERSION")["class"], "VERSION");
+  EXPECT_EQ(watcher.request({{"class", "version"}}, "VERSION")["class"], "VERSION");  // the watcher stayed
+}
+
+// The last reserved_clients places are for root and the daemon's own user or group: connections from
+// another uid fill the rest and are refused, root still gets in.
+TEST(Daemon, ReservedPlacesKeepTheOperatorIn) {
+  if (::geteuid() != 0) GTEST_SKIP() << "connecting as another uid needs root";
+  RunningDaemon rd("max_clients = 4\nreserved_clients = 2\nidle_timeout_s = 0\n");
+  ::chmod(rd.dir.path().c_str(), 0755);
+  ::chmod(rd.socket.c_str(), 0666);  // let uid 12345 reach it (the test's doing, not the daemon's)
+  int pipe_fds[2];
+  ASSERT_EQ(::pipe(pipe_fds), 0);
+  sockaddr_un addr{};  // prepared here: the forked child of this multithreaded test must not allocate
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", rd.socket.c_str());
+  const pid_t child = ::fork();
+  if (child == 0) {  // another user: fills what is open to all, the third is refused
+    if (::setgid(12345) != 0 || ::setuid(12345) != 0) ::_exit(2);
+    const auto line_has = [&](const char* what) {  // connects; the first line holds `what`
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+      if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) return false;
+      char buf[512] = {};
+      std::size_t n = 0;
+      while (n + 1 < sizeof buf && ::read(fd, buf + n, 1) == 1 && buf[n] != '\n') ++n;
+      return std::strstr(buf, what) != nullptr;
+    };
+    const bool ok = line_has("VERSION") && line_has("VERSION") && line_has("too many clients");
+    char done = ok ? 'y' : 'n';
+    [[maybe_unused]] auto w = ::write(pipe_fds[1], &done, 1);
+    ::pause();  // keeps its two connections until killed
+    ::_exit(0);
+  }
+  char verdict = 0;
+  ASSERT_EQ(::read(pipe_fds[0], &verdict, 1), 1);
+  EXPECT_EQ(verdict, 'y');
+  DaemonClient root(rd.socket);  // a reserved place
+  EXPECT_EQ(root.request({{"class", "version"}}, "VERSION")["class"], "VERSION");
+  ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
 }
 
 // protocol.md: STATUS `pipeline` gives figures over the last status period (0.1 s here). At 2000
