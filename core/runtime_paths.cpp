@@ -1,6 +1,7 @@
 #include "core/runtime_paths.hpp"
 
 #include <sys/stat.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -88,6 +89,15 @@ void check_socket_owner(const std::string& path) {
   if (st.st_uid != ::getuid() && st.st_uid != 0)
     throw std::runtime_error(path + ": refusing a socket owned by uid " + std::to_string(st.st_uid) +
                              " (neither you nor root): it may not be your daemon");
+}
+
+std::string socket_path_problem(const std::string& path) {
+  constexpr std::size_t room = sizeof(sockaddr_un{}.sun_path) - 1;
+  if (path.empty()) return "empty socket path";
+  if (path.size() > room)
+    return "socket path is " + std::to_string(path.size()) + " bytes; a Unix socket's address holds at most " +
+           std::to_string(room) + ": choose a shorter path";
+  return "";
 }
 
 }  // namespace guideway

@@ -24,5 +24,7 @@ void secure_socket_directory(const std::string& dir);
 // A socket a client is about to trust: owned by this user or root (the system daemon). Throws
 // std::runtime_error naming the owner.
 void check_socket_owner(const std::string& path);
+// Why `path` cannot be a Unix socket's address (sun_path holds 107 bytes and a NUL), or "" when it can.
+std::string socket_path_problem(const std::string& path);
 
 }  // namespace guideway

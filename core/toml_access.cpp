@@ -1,5 +1,8 @@
 #include "core/toml_access.hpp"
 
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -55,10 +58,14 @@ toml::table parse_toml(std::string_view text, const std::string& file_name) {
 }
 
 toml::table parse_toml_file(const std::string& path) {
+  // A directory opens as a stream on Linux and reads as nothing: an empty configuration, silently.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw ConfigError(path, 0, "", "is a directory, not a configuration file");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path, 0, "", "cannot open file");
+  if (!in) throw ConfigError(path, 0, "", std::string("cannot open file (") + std::strerror(errno) + ")");
   std::ostringstream text;
   text << in.rdbuf();
+  if (in.bad()) throw ConfigError(path, 0, "", "read error");
   return parse_toml(text.str(), path);
 }
 

@@ -140,12 +140,18 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     spec.name = em.require_string("name");
     if (!emulator_names.insert(spec.name).second) em.fail("name", "duplicate emulator name \"" + spec.name + "\"");
     spec.instrument = em.require_string("instrument");
+    spec.line = em.raw().get("name")->source().begin.line;  // the table's own position is not always kept
     spec.args = em.get_strings("args", {});
     if (em.get_bool("enabled", true)) c.emulators.push_back(std::move(spec));
     em.reject_unknown_keys();
   }
   top.reject_unknown_keys();
   if (c.socket_path.empty()) c.socket_path = default_socket_path();
+  // Checked here, not first at bind time, so that --check-config catches it.
+  if (const std::string problem = socket_path_problem(c.socket_path); !problem.empty()) {
+    if (const auto d = top.table("daemon"); d && d->has("socket")) d->fail("socket", problem);
+    throw ConfigError(file_name, 0, "daemon.socket", "default " + c.socket_path + ": " + problem);
+  }
   if (c.state_dir.empty()) c.state_dir = default_state_dir();
   if (c.plugin_dir.empty()) c.plugin_dir = drivers::default_plugin_dir();
   return c;
@@ -182,23 +188,24 @@ std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& con
       spec.args.push_back("--machine");
       spec.args.push_back(config.emulator_machine);
     }
-    out.push_back(std::make_unique<EmulatorProcess>(exe, spec));
+    try {
+      out.push_back(std::make_unique<EmulatorProcess>(exe, spec));
+    } catch (const std::runtime_error& e) {
+      // Its arguments come from the configuration: a configuration error (exit 2), at its table's line.
+      throw ConfigError(config.source, spec.line, "emulator \"" + spec.name + "\"", e.what());
+    }
     raw.push_back(out.back().get());
   }
   if (toml::array* devices = config.root->get_as<toml::array>("device")) {
     std::size_t i = 0;
     for (toml::node& node : *devices) {
       if (toml::table* t = node.as_table()) {
-        try {
-          t->for_each([&](auto& value) {
-            if constexpr (toml::is_string<decltype(value)>) {
-              if (value.get().find("{runtime_dir}") != std::string::npos) value = expand(value.get());
-            }
-          });
-          substitute_emulator_endpoints(*t, raw);
-        } catch (const std::invalid_argument& e) {
-          throw ConfigError(config.source, t->source().begin.line, "device[" + std::to_string(i) + "]", e.what());
-        }
+        t->for_each([&](auto& value) {
+          if constexpr (toml::is_string<decltype(value)>) {
+            if (value.get().find("{runtime_dir}") != std::string::npos) value = expand(value.get());
+          }
+        });
+        substitute_emulator_endpoints(*t, raw, config.source, "device[" + std::to_string(i) + "]");
       }
       ++i;
     }

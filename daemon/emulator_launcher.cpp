@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 #include "core/mono_clock.hpp"
+#include "core/toml_access.hpp"
 
 namespace guideway::daemon {
 
@@ -178,7 +179,8 @@ std::variant<std::string, std::int64_t> endpoint_field(const std::string& endpoi
 
 }  // namespace
 
-void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators) {
+void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators,
+                                   const std::string& file, const std::string& key_prefix) {
   // Returns the replacement for a string value "emulator:NAME[:FIELD]", or nothing.
   auto replacement = [&](const std::string& v) -> std::optional<std::variant<std::string, std::int64_t>> {
     if (v.rfind("emulator:", 0) != 0) return std::nullopt;
@@ -193,11 +195,18 @@ void substitute_emulator_endpoints(toml::table& table, const std::vector<const E
     for (const auto* e : emulators) known += (known.empty() ? "" : ", ") + e->name();
     throw std::invalid_argument("\"" + v + "\" names no [[emulator]] (known: " + (known.empty() ? "none" : known) + ")");
   };
-  auto visit_table = [&](auto& self, toml::table& t) -> void {
+  auto visit_table = [&](auto& self, toml::table& t, const std::string& prefix) -> void {
     std::vector<std::pair<std::string, std::int64_t>> integers;  // re-typed after the walk
     for (auto&& [k, child] : t) {
+      const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
       if (auto* str = child.as_string()) {
-        if (auto r = replacement(str->get())) {
+        std::optional<std::variant<std::string, std::int64_t>> r;
+        try {
+          r = replacement(str->get());
+        } catch (const std::invalid_argument& e) {
+          throw ConfigError(file, str->source().begin.line, key, e.what());  // the line of the reference itself
+        }
+        if (r) {
           if (std::holds_alternative<std::string>(*r)) {
             *str = std::get<std::string>(*r);
           } else {
@@ -205,16 +214,18 @@ void substitute_emulator_endpoints(toml::table& table, const std::vector<const E
           }
         }
       } else if (auto* sub = child.as_table()) {
-        self(self, *sub);
+        self(self, *sub, key);
       } else if (auto* arr = child.as_array()) {
+        std::size_t i = 0;
         for (auto& item : *arr) {
-          if (auto* st = item.as_table()) self(self, *st);
+          if (auto* st = item.as_table()) self(self, *st, key + "[" + std::to_string(i) + "]");
+          ++i;
         }
       }
     }
     for (const auto& [k, v] : integers) t.insert_or_assign(k, v);
   };
-  visit_table(visit_table, table);
+  visit_table(visit_table, table, key_prefix);
 }
 
 }  // namespace guideway::daemon

@@ -9,6 +9,7 @@
 #include <sys/types.h>
 
 #include <chrono>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,7 @@ struct EmulatorSpec {
   std::string name;
   std::string instrument;
   std::vector<std::string> args;
+  std::uint32_t line = 0;  // of its [[emulator]] table, for errors
 };
 
 class EmulatorProcess {
@@ -57,7 +59,9 @@ class EmulatorProcess {
 std::string default_emulator_executable();
 
 // Replaces every string value "emulator:NAME[:FIELD]" in `table` (recursively) as described above.
-// Throws std::invalid_argument for a NAME that no emulator has, or a FIELD its endpoint lacks.
-void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators);
+// Throws ConfigError at the reference's own line (in `file`, key `key_prefix`.KEY) for a NAME that no
+// emulator has, or a FIELD its endpoint lacks.
+void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators,
+                                   const std::string& file = "<config>", const std::string& key_prefix = "");
 
 }  // namespace guideway::daemon

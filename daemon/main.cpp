@@ -12,6 +12,7 @@
 #include <CLI/CLI.hpp>
 
 #include "core/memory_policy.hpp"
+#include "core/runtime_paths.hpp"
 #include "daemon/config.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
@@ -72,7 +73,13 @@ int main(int argc, char** argv) {
     std::cerr << "guidewayd: configuration error: " << e.what() << "\n";
     return 2;
   }
-  if (!socket_override.empty()) config.socket_path = socket_override;
+  if (!socket_override.empty()) {
+    if (const std::string problem = socket_path_problem(socket_override); !problem.empty()) {
+      std::cerr << "guidewayd: --socket " << socket_override << ": " << problem << "\n";
+      return 2;
+    }
+    config.socket_path = socket_override;
+  }
   if (!log_level.empty()) config.log_level = log_level;
   if (!emulator_machine.empty()) config.emulator_machine = std::filesystem::absolute(emulator_machine).lexically_normal().string();
 

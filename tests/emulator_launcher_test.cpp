@@ -76,5 +76,7 @@ TEST(EmulatorLauncher, AnUnknownEmulatorNameIsAConfigError) {
     FAIL() << "expected a ConfigError";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("\"emulator:nope\" names no [[emulator]]"), std::string::npos) << e.what();
+    EXPECT_EQ(e.line(), 4u) << "the reference's own line, not its table's";
+    EXPECT_EQ(e.key(), "device[0].address");
   }
 }

@@ -372,6 +372,53 @@ class GuidewaydProcess(unittest.TestCase):
         self.assertEqual(out.returncode, 2, out.stdout)
         self.assertIn(cfg + ':2: daemon.tcp_listen: HOST must be an IPv4 address', out.stderr)
 
+    def check_config(self, *args):
+        return subprocess.run([GUIDEWAYD, "--check-config", *args], capture_output=True, text=True, timeout=30)
+
+    def test_check_config_refuses_what_the_daemon_would_fail_on(self):
+        # A directory reads as an empty configuration: the daemon would run with no device, silently.
+        out = self.check_config("--config", self.tmp.name)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(self.tmp.name + ": is a directory, not a configuration file", out.stderr)
+        out = subprocess.run([GUIDEWAYD, "--config", self.tmp.name, "--socket", self.sock], capture_output=True,
+                             text=True, timeout=20)
+        self.assertEqual(out.returncode, 2, "the daemon itself refuses it too")
+        self.assertFalse(os.path.exists(self.sock))
+
+        # A Unix socket's address holds 107 bytes: too long a path is refused with its line, not at bind.
+        long_path = "/tmp/" + "s" * 110 + ".sock"
+        cfg = os.path.join(self.tmp.name, "long.toml")
+        with open(cfg, "w") as f:
+            f.write('[daemon]\nlog_level = "warn"\nsocket = "%s"\n' % long_path)
+        out = self.check_config("--config", cfg)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(cfg + ":3: daemon.socket: socket path is 120 bytes; a Unix socket's address holds at most 107",
+                      out.stderr)
+        out = self.check_config("--socket", long_path)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn("--socket " + long_path + ": socket path is 120 bytes", out.stderr)
+
+        # An emulator that will not start on its arguments is a configuration error (2), at its table.
+        cfg = os.path.join(self.tmp.name, "emu.toml")
+        with open(cfg, "w") as f:
+            f.write('[daemon]\nlog_level = "warn"\n\n[[emulator]]\nname = "gauge"\ninstrument = "micrometer"\n'
+                    'args = ["--no-such-option"]\n')
+        out = self.check_config("--config", cfg)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(cfg + ':5: emulator "gauge": ', out.stderr)
+        self.assertIn("--no-such-option", out.stderr, "the emulator's own words are passed on")
+
+        # A reference to an emulator no table names is reported at the reference's own line.
+        with open(cfg, "w") as f:
+            f.write('[daemon]\nlog_level = "warn"\n\n[[emulator]]\nname = "gauge"\ninstrument = "micrometer"\n'
+                    'args = ["--tcp", "127.0.0.1:0"]\n\n[[device]]\nname = "micrometer"\n'
+                    'driver = "micrometer-modbus"\ntransport = "tcp"\nhost = "emulator:gauge:host"\n'
+                    'port = "emulator:nope:port"\n')
+        out = self.check_config("--config", cfg)
+        self.assertEqual(out.returncode, 2, out.stdout)
+        self.assertIn(cfg + ':14: device[0].port: "emulator:nope:port" names no [[emulator]] (known: gauge)',
+                      out.stderr)
+
     def test_sd_notify_ready_watchdog_stopping(self):
         notify_path = os.path.join(self.tmp.name, "notify")
         ns = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
