@@ -384,10 +384,10 @@ void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<
 }
 
 void Daemon::handle_request(ClientId client, const std::string& line) {
-  std::string error;
+  RequestError error;
   std::optional<Request> req = parse_request(line, error);
   if (!req) {
-    server_->send(client, error_message(error).dump());
+    reply(client, error_message(error.message), error.id);
     return;
   }
   if (req->cls == "version") {

@@ -19,25 +19,36 @@ nlohmann::json error_message(std::string_view message, std::string_view request_
   return j;
 }
 
-std::optional<Request> parse_request(std::string_view line, std::string& error) {
+std::optional<Request> parse_request(std::string_view line, RequestError& error) {
+  error = {};
+  if (line.find_first_not_of(" \t\r") == std::string_view::npos) {
+    error.message = "empty request (one JSON object per line, e.g. {\"class\":\"status\"})";
+    return std::nullopt;
+  }
+  // Refused rather than cut there: what follows a NUL would otherwise pass unseen.
+  if (line.find('\0') != std::string_view::npos) {
+    error.message = "a request must not contain a NUL byte";
+    return std::nullopt;
+  }
   nlohmann::json body = nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
   if (body.is_discarded()) {
-    error = "malformed JSON";
+    error.message = "malformed JSON";
     return std::nullopt;
   }
   if (!body.is_object()) {
-    error = "a request must be a JSON object";
-    return std::nullopt;
-  }
-  auto cls = body.find("class");
-  if (cls == body.end() || !cls->is_string()) {
-    error = "a request needs a string \"class\" (e.g. {\"class\":\"status\"})";
+    error.message = "a request must be a JSON object";
     return std::nullopt;
   }
   Request r;
+  if (auto id = body.find("id"); id != body.end()) r.id = *id;
+  auto cls = body.find("class");
+  if (cls == body.end() || !cls->is_string()) {
+    error.message = "a request needs a string \"class\" (e.g. {\"class\":\"status\"})";
+    error.id = r.id;
+    return std::nullopt;
+  }
   r.cls = cls->get<std::string>();
   std::transform(r.cls.begin(), r.cls.end(), r.cls.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (auto id = body.find("id"); id != body.end()) r.id = *id;
   r.body = std::move(body);
   return r;
 }

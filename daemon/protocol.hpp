@@ -29,8 +29,15 @@ struct Request {
   std::optional<nlohmann::json> id;  // echoed in the reply when given
 };
 
-// Parses one request line; on failure returns nullopt and sets `error`.
-std::optional<Request> parse_request(std::string_view line, std::string& error);
+// Why a request line was refused, and its "id" when it had one (echoed in the ERROR).
+struct RequestError {
+  std::string message;
+  std::optional<nlohmann::json> id;
+};
+
+// Parses one request line (without its newline); on failure returns nullopt and sets `error`. An empty
+// or blank line and a line with a NUL byte are refused like any other that is not one JSON object.
+std::optional<Request> parse_request(std::string_view line, RequestError& error);
 
 // What a client asked to receive with `watch`.
 struct Subscription {

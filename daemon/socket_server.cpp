@@ -211,7 +211,7 @@ void SocketServer::read_from(ClientId id) {
           std::string line;
           line.swap(c.inbox);
           if (!line.empty() && line.back() == '\r') line.pop_back();
-          if (!line.empty() && on_request_) on_request_(id, line);
+          if (on_request_) on_request_(id, line);  // an empty line too: every line gets one reply
         }
       }
       if (!clients_.contains(id)) return;  // a handler disconnected it

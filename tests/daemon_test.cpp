@@ -82,6 +82,33 @@ TEST(Daemon, SurvivesMalformedUnknownAndOversizedRequests) {
   EXPECT_EQ(v["class"], "VERSION");
 }
 
+TEST(Daemon, EveryLineGetsOneReplyAndARefusedOneKeepsItsId) {
+  RunningDaemon rd;
+  DaemonClient c(rd.socket);
+  // Each line below gets exactly one reply, in order: the status request after them is answered next.
+  c.send_line(R"({"id":5})");
+  c.send_line(std::string(R"({"class":"version","id":6})") + std::string(1, '\0') + "junk");
+  c.send_line("");
+  c.send_line("   ");
+  c.send({{"class", "status"}, {"id", 9}});
+  std::vector<nlohmann::json> replies;
+  while (replies.size() < 5) {
+    const auto line = c.read_line(std::chrono::seconds(5));
+    ASSERT_TRUE(line) << "a line got no reply; replies so far: " << replies.size();
+    replies.push_back(nlohmann::json::parse(*line));
+  }
+  EXPECT_EQ(replies[0]["class"], "ERROR");
+  EXPECT_EQ(replies[0]["id"], 5) << replies[0];
+  EXPECT_EQ(replies[1]["class"], "ERROR") << "bytes after a NUL are not ignored";
+  EXPECT_EQ(replies[1]["message"], "a request must not contain a NUL byte");
+  for (int i : {2, 3}) {
+    EXPECT_EQ(replies[i]["class"], "ERROR") << replies[i];
+    EXPECT_NE(replies[i]["message"].get<std::string>().find("empty request"), std::string::npos) << replies[i];
+  }
+  EXPECT_EQ(replies[4]["class"], "STATUS");
+  EXPECT_EQ(replies[4]["id"], 9);
+}
+
 TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
   RunningDaemon rd(
       "sample_publish_hz = 50.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n");

@@ -3,11 +3,13 @@
 one virtual machine tool: config/machine-example.toml), a DBB session through the `guideway` client,
 parameters checked against the machine's configured errors, zero overruns, and the recorded run files
 identified offline by `guideway identify dbb` to the same parameters, and the raw recording replayed by
-`guideway replay` to the same PARAMS; and the second example machine (config/machine-several-effects.toml,
+`guideway replay` to the same PARAMS; every request example of docs/protocol.md sent as written and
+answered with the reply class the docs name; and the second example machine (config/machine-several-effects.toml,
 several effects at once) through the live session, every effect named with its size.
 Usage: e2e_dbb_test.py BUILD_DIR"""
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -19,6 +21,38 @@ BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 SOURCE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+PROTOCOL_DOC = os.path.join(SOURCE, "docs", "protocol.md")
+DOC_SESSION = "dbb-dbb-20261121T063102Z"  # the session name docs/protocol.md's examples use
+
+
+def protocol_doc_examples():
+    """docs/protocol.md's examples: every JSON object of its ```json blocks (all must parse) and every
+    inline `{"class":"...}` in its text, as (object, reply class the docs name) in the order they appear.
+    The reply class of a block is the first upper-case class named after it (in a `→` line or the next
+    block); of an inline request, its own class upper-cased."""
+    with open(PROTOCOL_DOC) as f:
+        lines = f.read().split("\n")
+    decoder = json.JSONDecoder()
+    out, i = [], 0
+    while i < len(lines):
+        if lines[i].strip() != "```json":
+            for m in re.finditer(r"`(\{\"class\":\"[a-z]+\"[^`]*\})`", lines[i]):
+                o = json.loads(m.group(1))
+                out.append((o, o["class"].upper()))
+            i += 1
+            continue
+        end = lines.index("```", i + 1)
+        block, objects, pos = "\n".join(lines[i + 1:end]), [], 0
+        while block[pos:].strip():
+            pos += len(block[pos:]) - len(block[pos:].lstrip())
+            o, pos = decoder.raw_decode(block, pos)
+            objects.append(o)
+        after = "\n".join(lines[end + 1:end + 12])
+        named = re.search(r'"class":"([A-Z]+)"|`([A-Z]{4,})`', after)
+        for o in objects:
+            out.append((o, named and (named.group(1) or named.group(2))))
+        i = end + 1
+    return out
 
 
 class DaemonCase(unittest.TestCase):
@@ -76,6 +110,38 @@ class DaemonCase(unittest.TestCase):
                         self.assertEqual(m["class"], reply_class, m)
                     return m
         self.fail("no reply")
+
+    def check_protocol_doc_examples(self, finished_session):
+        """Sends every request example of docs/protocol.md as written, on one connection, in the docs'
+        order; each must get the reply class the docs name. The docs' session name stands for the session
+        their `start` example started (for `stop`) or else `finished_session`."""
+        import socket
+        examples = protocol_doc_examples()
+        requests = [(o, reply) for o, reply in examples if o["class"].islower()]
+        self.assertGreaterEqual(len(requests), 10, "docs/protocol.md lost its request examples")
+        banner = [o for o, _ in examples if o["class"] == "VERSION"][0]
+        started = None
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+            s.settimeout(20)
+            s.connect(self.sock)
+            f = s.makefile("rwb")
+            real_banner = json.loads(f.readline())
+            for key in ("proto_major", "proto_minor"):
+                self.assertEqual(banner[key], real_banner[key], "docs/protocol.md's VERSION example")
+            for n, (example, reply_class) in enumerate(requests):
+                self.assertTrue(reply_class, f"docs/protocol.md names no reply for {example}")
+                request = json.loads(json.dumps(example).replace(DOC_SESSION, started or finished_session))
+                request["id"] = f"doc-{n}"  # replies are told from published messages (after watch) by id
+                f.write((json.dumps(request) + "\n").encode())
+                f.flush()
+                while True:
+                    m = json.loads(f.readline())
+                    if m.get("id") == request["id"]:
+                        break
+                self.assertEqual(m["class"], reply_class, f"docs/protocol.md's example {example} got {m}")
+                if example["class"] == "start":
+                    started = m["session"]
+            self.assertIsNotNone(started, "docs/protocol.md has no start example")
 
     def request_when_ready(self, request_class, reply_class, timeout_s=120):
         """The latest DBB `request_class` reply, asked again until the worker thread has it (ERROR until then)."""
@@ -197,6 +263,9 @@ class EndToEndDbb(DaemonCase):
         for line in lines:
             self.assertIn(" info ", line)
             self.assertIn(".report.html", line)
+
+        # What docs/protocol.md shows a client send is answered as it says (its start example, too).
+        self.check_protocol_doc_examples(params["session"])
 
 
 # The DBB part of the embedded default (its emulator, device and bar denoising), with the emulator running

@@ -12,7 +12,7 @@ TEST(Protocol, VersionBannerCarriesClassAndProtocolVersion) {
 }
 
 TEST(Protocol, ParsesRequestsCaseInsensitivelyAndKeepsId) {
-  std::string err;
+  RequestError err;
   auto r = parse_request(R"({"class":"STATUS","id":7})", err);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->cls, "status");
@@ -21,14 +21,38 @@ TEST(Protocol, ParsesRequestsCaseInsensitivelyAndKeepsId) {
 }
 
 TEST(Protocol, RejectsMalformedRequestsWithAReason) {
-  std::string err;
+  RequestError err;
   EXPECT_FALSE(parse_request("{not json", err));
-  EXPECT_EQ(err, "malformed JSON");
+  EXPECT_EQ(err.message, "malformed JSON");
   EXPECT_FALSE(parse_request("[1,2]", err));
-  EXPECT_NE(err.find("object"), std::string::npos);
+  EXPECT_NE(err.message.find("object"), std::string::npos);
   EXPECT_FALSE(parse_request(R"({"cls":"status"})", err));
-  EXPECT_NE(err.find("class"), std::string::npos);
+  EXPECT_NE(err.message.find("class"), std::string::npos);
   EXPECT_FALSE(parse_request(R"({"class":3})", err));
+}
+
+TEST(Protocol, ARefusedRequestKeepsItsIdForTheError) {
+  RequestError err;
+  EXPECT_FALSE(parse_request(R"({"id":5})", err));
+  ASSERT_TRUE(err.id);
+  EXPECT_EQ(*err.id, 5);
+  EXPECT_FALSE(parse_request(R"({"class":3,"id":"a"})", err));
+  ASSERT_TRUE(err.id);
+  EXPECT_EQ(*err.id, "a");
+  EXPECT_FALSE(parse_request("{not json", err));
+  EXPECT_FALSE(err.id) << "the id of an earlier request must not leak into this one";
+}
+
+TEST(Protocol, ANulByteOrAnEmptyLineIsRefusedNotCut) {
+  RequestError err;
+  using namespace std::string_view_literals;
+  EXPECT_FALSE(parse_request("{\"class\":\"version\"}\0junk"sv, err));
+  EXPECT_EQ(err.message, "a request must not contain a NUL byte");
+  EXPECT_FALSE(parse_request("\0"sv, err));
+  for (const std::string_view blank : {""sv, " "sv, "\t \r"sv}) {
+    EXPECT_FALSE(parse_request(blank, err));
+    EXPECT_NE(err.message.find("empty request"), std::string::npos) << err.message;
+  }
 }
 
 TEST(Protocol, WatchSelectsClassesAndChannels) {
