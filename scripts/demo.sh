@@ -19,7 +19,7 @@ done
 [ -f "$machine" ] || { echo "demo: no such machine file: $machine" >&2; exit 2; }
 ./scripts/setup.sh
 echo "== building (first time: a few minutes)"
-scripts/build.sh build -DCMAKE_BUILD_TYPE=RelWithDebInfo -- guideway_runtime
+scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -- guideway_runtime
 
 bin=build
 run_dir=${XDG_RUNTIME_DIR:-/tmp/guideway-$(id -u)}

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it: installs what is missing, then
-#   1. a RelWithDebInfo build: every test except the `slow` label;
+#   1. a Release build (as packagers build): every test except the `slow` label;
 #   2. an ASan+UBSan build: every test except `slow`;
 #   3. a TSan build of the threaded code: the tests labelled `tsan` (ring stress, daemon threads).
 # GUIDEWAY_TEST_STAGES="main asan tsan" selects stages; GUIDEWAY_TEST_LABEL=slow adds the long variants.
@@ -41,12 +41,12 @@ for stage in $stages; do
   t0=$(date +%s)
   case $stage in
     main)
-      echo "== main build (RelWithDebInfo): all tests but 'slow'"
-      scripts/build.sh build -DCMAKE_BUILD_TYPE=RelWithDebInfo -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON
+      echo "== main build (Release): all tests but 'slow'"
+      scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON
       run_ctest build "${label_args[@]}" ;;
     asan)
       echo "== ASan+UBSan build: all tests but 'slow'"
-      # -g1 (line tables) as in CMakeLists.txt's RelWithDebInfo default: sanitizer reports need only file:line.
+      # -g1 (line tables), as CMakeLists.txt's RelWithDebInfo default: sanitizer reports need only file:line.
       # Test programs and the CLI at -O0 (GUIDEWAY_THIN_PROGRAM_FLAGS): half their compile time, and the
       # libraries under test keep -O1.
       scripts/build.sh build-asan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=address -DGUIDEWAY_BUILD_BENCH=OFF \

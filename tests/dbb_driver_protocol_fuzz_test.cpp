@@ -163,6 +163,109 @@ TEST(DbbProtocol, PartialCyclesHoldAndMissedSyncsAreInferred) {
   EXPECT_EQ(c.flags, static_cast<std::uint32_t>(sample_after_gap));
 }
 
+// As the SYNC producer the decoder knows every SYNC: a node's second answer within a cycle is a late one
+// and replaces the first, an answer that straddles our SYNC is split at the SYNC's time, and no SYNC
+// becomes two samples.
+TEST(DbbProtocol, AsSyncProducerLateAnswersReplaceAndNoSyncBecomesTwoSamples) {
+  DbbDecoder d(encoders(), true);
+  DbbCycle c;
+  EXPECT_FALSE(d.sync_sent(100, c));
+  EXPECT_FALSE(d.feed(make_position_pdo(1, 10), 110, c).cycle_ready);
+  EXPECT_FALSE(d.feed(make_position_pdo(5, 20), 110, c).cycle_ready);
+  ASSERT_TRUE(d.feed(make_position_pdo(127, 30), 120, c).cycle_ready) << "in time: published when complete";
+  EXPECT_EQ(c.t_sync_ns, 100);
+  const double x_100 = c.position_m[1];
+  // Node 127 answers SYNC 200 in time on the bus, but it is read after our SYNC 300: still cycle 200's.
+  EXPECT_FALSE(d.sync_sent(200, c));
+  d.feed(make_position_pdo(1, 11), 210, c);
+  d.feed(make_position_pdo(5, 21), 210, c);
+  EXPECT_FALSE(d.sync_sent(300, c)) << "incomplete at the SYNC: held, not yet published";
+  ASSERT_TRUE(d.feed(make_position_pdo(127, 31), 290, c).cycle_ready);
+  EXPECT_EQ(c.t_sync_ns, 200);
+  EXPECT_EQ(c.present, 0b111u);
+  EXPECT_EQ(c.flags, 0u);
+  // The nodes are behind: the complete cycle 300 waits for SYNC 400, and a second answer replaces the first.
+  d.feed(make_position_pdo(1, 12), 310, c);
+  d.feed(make_position_pdo(5, 22), 310, c);
+  EXPECT_FALSE(d.feed(make_position_pdo(127, 32), 320, c).cycle_ready);
+  EXPECT_FALSE(d.feed(make_position_pdo(127, 40), 330, c).cycle_ready);
+  EXPECT_EQ(d.late_pdos(), 1u);
+  ASSERT_TRUE(d.sync_sent(400, c));
+  EXPECT_EQ(c.t_sync_ns, 300);
+  EXPECT_EQ(c.flags, 0u);
+  DbbDecoder reference(encoders(), true);  // the value of count 40 alone
+  DbbCycle r;
+  reference.sync_sent(0, r);
+  reference.feed(make_position_pdo(1, 0), 1, r);
+  reference.feed(make_position_pdo(5, 0), 1, r);
+  ASSERT_TRUE(reference.feed(make_position_pdo(127, 40), 1, r).cycle_ready);
+  EXPECT_DOUBLE_EQ(c.position_m[2], r.position_m[2]);
+  // Complete in time again: published at once.
+  d.feed(make_position_pdo(1, 13), 410, c);
+  d.feed(make_position_pdo(5, 23), 410, c);
+  ASSERT_TRUE(d.feed(make_position_pdo(127, 33), 410, c).cycle_ready);
+  EXPECT_EQ(c.t_sync_ns, 400);
+  const double x_400 = c.position_m[1];
+  EXPECT_NE(x_400, x_100);
+  // An answer straddling our SYNC: what came before it is cycle 500's (the rest held), the rest 600's.
+  EXPECT_FALSE(d.sync_sent(500, c));
+  d.feed(make_position_pdo(1, 14), 510, c);
+  EXPECT_FALSE(d.sync_sent(600, c));
+  ASSERT_TRUE(d.feed(make_position_pdo(5, 24), 610, c).cycle_ready);
+  EXPECT_EQ(c.t_sync_ns, 500);
+  EXPECT_EQ(c.present, 0b001u);
+  EXPECT_EQ(c.flags, static_cast<std::uint32_t>(sample_partial));
+  EXPECT_EQ(c.position_m[1], x_400) << "the missing channel holds its last value";
+  d.feed(make_position_pdo(127, 34), 615, c);
+  EXPECT_FALSE(d.feed(make_position_pdo(1, 15), 620, c).cycle_ready) << "behind: waits for the next SYNC";
+  ASSERT_TRUE(d.sync_sent(700, c));
+  EXPECT_EQ(c.t_sync_ns, 600);
+  EXPECT_EQ(c.present, 0b111u);
+  // No answer: no sample. A held cycle is not lost when the connection ends.
+  EXPECT_FALSE(d.sync_sent(800, c));
+  d.feed(make_position_pdo(1, 16), 810, c);
+  EXPECT_FALSE(d.sync_sent(900, c));
+  ASSERT_TRUE(d.flush(c));
+  EXPECT_EQ(c.t_sync_ns, 800);
+  EXPECT_EQ(c.present, 0b001u);
+  EXPECT_FALSE(d.flush(c));
+  EXPECT_EQ(d.empty_cycles(), 1u);
+}
+
+// Random answers (late, early, missing, repeated) to a producer's SYNCs: never more samples than SYNCs,
+// times strictly increasing, every sample well formed.
+TEST(DbbProtocol, AsSyncProducerRandomAnswersNeverGiveMoreSamplesThanSyncs) {
+  std::mt19937 rng(20261125);
+  DbbDecoder d(encoders(), true);
+  std::size_t syncs = 0, samples = 0;
+  std::int64_t t = 0, last_sample_t = -1;
+  const auto take = [&](const DbbCycle& c) {
+    ++samples;
+    check_cycle(c);
+    ASSERT_GT(c.t_sync_ns, last_sample_t);
+    last_sample_t = c.t_sync_ns;
+  };
+  for (int step = 0; step < 200000; ++step) {
+    DbbCycle c;
+    t += 1 + static_cast<std::int64_t>(rng() % 50);
+    if (rng() % 5 == 0) {
+      ++syncs;
+      if (d.sync_sent(t, c)) take(c);
+    } else {
+      // Stamped up to 100 ns before it is read: possibly before the last SYNC.
+      const std::int64_t stamp = t - static_cast<std::int64_t>(rng() % 100);
+      const std::uint8_t node = encoders()[rng() % 3].node_id;
+      if (d.feed(make_position_pdo(node, static_cast<std::uint32_t>(rng() % 1000)), stamp, c).cycle_ready) take(c);
+    }
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  DbbCycle c;
+  if (d.flush(c)) take(c);
+  EXPECT_LE(samples, syncs);
+  EXPECT_GT(samples, syncs / 2);
+  EXPECT_GT(d.late_pdos(), 1000u);
+}
+
 TEST(DbbProtocol, FuzzRandomAndMutatedFramesKeepTheInvariants) {
   std::mt19937 rng(20261121);
   DbbDecoder d(encoders());

@@ -73,45 +73,83 @@ struct Bench {
         },
         timeout);
   }
-  // Stops both ends, then checks every cycle the emulator sent against the samples, in order.
+  // Stops both ends, then checks every cycle the emulator sent against the samples, in order. Every cycle
+  // is exactly one sample, equal to what was sent (a channel not sent holds the previous sample's value),
+  // except an answer the emulator logged as late (a loaded machine held it up until the driver's next SYNC
+  // was there): on the bus it may be partly after that SYNC, and the driver then makes it a sample of
+  // what came before the SYNC (the rest held), or, all of it after, no sample of its own (the next
+  // answer replaces it). Which of the two each late answer became is not known, and positions of a
+  // slow machine repeat, so the check searches for an assignment of samples to cycles that explains
+  // every sample (a set of reachable sample indices per cycle).
   void stop_and_check_all(std::size_t partial_expected_at_least = 0) {
-    // The emulator goes first: the driver then reads everything still queued before it sees EOF.
+    // The emulator goes first: the driver then reads everything still queued, publishes what it holds
+    // when it sees the end of the connection, and only then reports the loss.
+    const int connects_before = connects.load();
     emu.stop();
     const auto log = emu.log();
     std::vector<emulators::DbbSentCycle> sent;
+    std::size_t late = 0;
     for (const auto& c : log) {
       if (c.sent_mask != 0) sent.push_back(c);
+      late += c.late;
     }
-    test::eventually([&] {
-      drain();
-      return samples.size() >= sent.size();
-    });
+    EXPECT_TRUE(test::eventually([&] {
+      return connects.load() > connects_before || driver->status().state != DeviceState::streaming;
+    })) << "the driver did not see the emulator go";
     driver->stop();
     drain();
-    ASSERT_EQ(samples.size(), sent.size()) << "every cycle put on the bus becomes exactly one sample";
-    std::size_t partial = 0;
-    std::vector<double> last(3, NAN);
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      const Sample& s = samples[i];
-      EXPECT_EQ(s.seq, i);
-      ASSERT_EQ(s.value_count, 3u);
-      if (i > 0) {
-        EXPECT_GE(s.t_mono_ns, samples[i - 1].t_mono_ns) << i;
-      }
-      const bool is_partial = sent[i].sent_mask != 0b111;
-      EXPECT_EQ((s.flags & sample_partial) != 0, is_partial) << i;
-      partial += is_partial;
+    ASSERT_LE(samples.size(), sent.size()) << "a cycle put on the bus became more than one sample";
+    ASSERT_GE(samples.size() + late, sent.size()) << "a cycle put on the bus (and not late) became no sample";
+    const auto near = [](double a, double b, std::size_t k) {
+      return std::abs(a - b) <= three_encoders()[k].resolution_m * 0.51;
+    };
+    const auto held = [&](std::size_t j, std::size_t k) {
+      const double before = j > 0 ? samples[j - 1].value[k] : NAN;
+      const double v = samples[j].value[k];
+      return std::isnan(before) ? std::isnan(v) : near(v, before, k);
+    };
+    // Whether samples[j] can be sent[i]'s; `why` says why not.
+    const auto is_sample_of = [&](std::size_t i, std::size_t j, std::string& why) {
+      const Sample& s = samples[j];
+      const bool complete = sent[i].sent_mask == 0b111;
+      if (s.value_count != 3) return why = "value_count " + std::to_string(s.value_count), false;
+      if (j > 0 && s.t_mono_ns < samples[j - 1].t_mono_ns) return why = "time goes backwards", false;
+      if (!sent[i].late && ((s.flags & sample_partial) != 0) == complete) return why = "partial flag wrong", false;
       for (std::size_t k = 0; k < 3; ++k) {
-        const double tol = three_encoders()[k].resolution_m * 0.51;
-        if (sent[i].sent_mask & (1u << k)) {
-          EXPECT_NEAR(s.value[k], sent[i].truth_m[k], tol) << "sample " << i << " channel " << k;
-          last[k] = sent[i].truth_m[k];
-        } else if (!std::isnan(last[k])) {
-          EXPECT_NEAR(s.value[k], last[k], tol) << "held value, sample " << i << " channel " << k;
+        const bool was_sent = (sent[i].sent_mask & (1u << k)) != 0;
+        const bool exact = was_sent && near(s.value[k], sent[i].truth_m[k], k);
+        const bool ok = sent[i].late ? exact || held(j, k) : was_sent ? exact : held(j, k);
+        if (!ok) {
+          why = "channel " + std::to_string(k) + " is " + std::to_string(s.value[k]) +
+                (was_sent ? ", sent " + std::to_string(sent[i].truth_m[k]) : std::string(", not sent, not held"));
+          return false;
         }
       }
+      return true;
+    };
+    std::vector<std::size_t> reach{0};  // sample indices at which cycle i can start
+    for (std::size_t i = 0; i < sent.size(); ++i) {
+      std::vector<std::size_t> next;
+      std::string why;
+      for (const std::size_t j : reach) {
+        if (sent[i].late) next.push_back(j);  // no sample of its own
+        std::string w;
+        if (j < samples.size() && is_sample_of(i, j, w)) next.push_back(j + 1);
+        else if (why.empty()) why = j < samples.size() ? "sample " + std::to_string(j) + ": " + w : "no sample left";
+      }
+      std::sort(next.begin(), next.end());
+      next.erase(std::unique(next.begin(), next.end()), next.end());
+      ASSERT_FALSE(next.empty()) << "sent cycle " << i << (sent[i].late ? " (late)" : "") << " matches no sample: "
+                                 << why;
+      reach = std::move(next);
     }
-    EXPECT_GE(partial, partial_expected_at_least);
+    EXPECT_TRUE(std::find(reach.begin(), reach.end(), samples.size()) != reach.end())
+        << "samples left over (" << samples.size() - reach.back() << "): a cycle became more than one sample";
+    for (std::size_t j = 0; j < samples.size(); ++j) EXPECT_EQ(samples[j].seq, j);
+    const auto partial = std::count_if(samples.begin(), samples.end(),
+                                       [](const Sample& s) { return (s.flags & sample_partial) != 0; });
+    EXPECT_GE(static_cast<std::size_t>(partial), partial_expected_at_least);
+    ::testing::Test::RecordProperty("late_answers", std::to_string(late));
   }
 
   emulators::DbbEmulator emu;
@@ -391,8 +429,10 @@ TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
   EXPECT_EQ(b.driver->error_frames(), 4u);
   // The driver's own counters reach STATUS through status(), by name; bus_reads/empty_reads do not.
   const auto own = test::driver_counters_by_name(st);
-  EXPECT_EQ(own.size(), 5u);
+  EXPECT_EQ(own.size(), 7u);
   EXPECT_EQ(own.at("bus_off"), 0u);  // protocol or controller errors, not bus-off
+  EXPECT_TRUE(own.contains("late_pdos"));
+  EXPECT_EQ(own.at("syncs_not_sent"), 0u);
   EXPECT_EQ(own.at("error_frames"), 4u);
   EXPECT_EQ(own.at("untimed_frames"), 0u) << "a socketpair bus stamps every frame";
   EXPECT_EQ(own.at("dropped_frames"), 0u);
@@ -406,10 +446,6 @@ TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
 // Above 2 kHz the driver wakes once per cycle (the PDOs are read just before the next SYNC): the
 // same samples, the SYNC period kept with sub-millisecond resolution, faults still seen.
 TEST(DbbDriver, At5kHzOneWakeUpPerCycleKeepsTheRateAndEverySample) {
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "under a sanitizer the emulator sometimes answers a SYNC later than the 200 us period, so its "
-                  "PDOs fall into the next cycle (one sample too many); the 5 kHz path is tested in the main build";
-#endif
   Bench b(true, 5000.0);
   ASSERT_TRUE(b.wait_samples(1000));
   EXPECT_EQ(b.driver->status().counters.bad_frames, 0u);
@@ -417,14 +453,12 @@ TEST(DbbDriver, At5kHzOneWakeUpPerCycleKeepsTheRateAndEverySample) {
   const double span_s = static_cast<double>(b.samples.back().t_mono_ns - b.samples.front().t_mono_ns) * 1e-9;
   const double mean_period_s = span_s / static_cast<double>(b.samples.size() - 1);
   EXPECT_GT(mean_period_s, 0.00019);  // never faster than 5 kHz
-  EXPECT_LT(mean_period_s, 0.0009);   // and well above the ~1 kHz that millisecond waits allowed
+#if !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)  // a slowed emulator answers fewer SYNCs
+  EXPECT_LT(mean_period_s, 0.0009);  // and well above the ~1 kHz that millisecond waits allowed
+#endif
 }
 
 TEST(DbbDriver, At5kHzStallsAndDisconnectsAreStillSeen) {
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "under a sanitizer the emulator sometimes answers a SYNC later than the 200 us period, so its "
-                  "PDOs fall into the next cycle (one sample too many); the 5 kHz path is tested in the main build";
-#endif
   Bench b(true, 5000.0, 100);
   ASSERT_TRUE(b.wait_samples(100));
   b.emu.inject_stall(0.5);
@@ -466,6 +500,41 @@ TEST(DbbDriver, StallIsATimeoutThenStreamingResumes) {
   }
   EXPECT_TRUE(saw_gap);
   b.stop_and_check_all();
+}
+
+// A bus that takes no more frames (SocketCAN: nobody acknowledges, the transmit queue fills; the gateway:
+// a peer that does not read) must not hold up the SYNC producer: it counts the SYNCs it could not send,
+// reports the silence, and stops at once.
+TEST(DbbDriver, AFullTransmitQueueNeverBlocksTheSyncProducer) {
+  int sv[2];
+  ASSERT_EQ(::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv), 0);
+  can::CanSocket deaf(sv[1]);  // never read
+  bool handed = false;
+  dbb::DbbSettings s;
+  s.produce_sync = true;
+  s.sync_rate_hz = 5000.0;
+  s.timeout_ms = 100;
+  s.encoders = three_encoders();
+  dbb::DbbDriver driver("dbb", 1024, s, [&](std::string& err) {
+    if (handed) {
+      err = "only one connection in this test";
+      return can::CanSocket{};
+    }
+    handed = true;
+    return can::CanSocket(sv[0]);
+  });
+  driver.start();
+  const auto refused = [&] {
+    for (const auto& c : driver.driver_counters())
+      if (c.name == "syncs_not_sent") return c.value;
+    return std::uint64_t{0};
+  };
+  ASSERT_TRUE(test::eventually([&] { return refused() > 0; }, 5s)) << "the queue never filled";
+  ASSERT_TRUE(test::eventually([&] { return driver.status().state == DeviceState::lost; }, 3s));
+  EXPECT_EQ(driver.status().counters.reconnects, 0u) << "a full queue is not a lost connection";
+  const auto t0 = std::chrono::steady_clock::now();
+  driver.stop();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 1s) << "stop() waited for the bus";
 }
 
 TEST(DbbDriver, DisconnectReconnectsWithBackoffAndKeepsCounting) {

@@ -363,4 +363,16 @@ bool write_can_frame(int fd, const can_frame& frame, std::string& error) {
   return write_can_record(fd, &frame, sizeof frame, error);
 }
 
+WriteResult try_write_can_frame(int fd, const can_frame& frame, std::string& error) {
+  for (;;) {
+    const ssize_t put = ::send(fd, &frame, sizeof frame, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (put == static_cast<ssize_t>(sizeof frame)) return WriteResult::written;
+    if (put < 0 && errno == EINTR) continue;
+    // SocketCAN answers a full transmit queue with ENOBUFS, a socket buffer with EAGAIN.
+    if (put < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == ENOBUFS)) return WriteResult::queue_full;
+    error = put < 0 ? errno_text("send", errno) : "short write of a CAN frame";
+    return WriteResult::failed;
+  }
+}
+
 }  // namespace guideway::can

@@ -118,6 +118,13 @@ std::uint32_t rx_drop_count(const msghdr& message) noexcept;
 
 // Writes one frame; false with `error` on failure (EAGAIN counts as failure: the bus is congested).
 bool write_can_frame(int fd, const can_frame& frame, std::string& error);
+enum class WriteResult {
+  written,
+  queue_full,  // the transmit queue is full (SocketCAN: no node acknowledges; gateway: the peer does not read)
+  failed,      // the connection is gone; `error` says why
+};
+// Writes one frame without ever waiting, whether or not fd is non-blocking.
+WriteResult try_write_can_frame(int fd, const can_frame& frame, std::string& error);
 // Writes several frames with one system call (sendmmsg), so a peer never sees half of a batch
 // because the writer was descheduled; false with `error` unless all were written.
 bool write_can_frames(int fd, const can_frame* frames, std::size_t count, std::string& error);

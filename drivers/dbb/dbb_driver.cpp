@@ -127,6 +127,8 @@ std::vector<drivers::NamedCounter> DbbDriver::driver_counters() const {
   return {{"error_frames", error_frames()},
           {"bus_off", bus_offs_.load(std::memory_order_relaxed)},
           {"partial_cycles", partial_cycles()},
+          {"late_pdos", late_pdos_.load(std::memory_order_relaxed)},
+          {"syncs_not_sent", syncs_not_sent_.load(std::memory_order_relaxed)},
           {"untimed_frames", untimed_frames()},
           {"dropped_frames", dropped_frames()}};
 }
@@ -139,6 +141,18 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
   std::copy_n(c.position_m.begin(), c.count, s.value.begin());
   if (c.flags & sample_partial) partial_cycles_.fetch_add(1, std::memory_order_relaxed);
   publish(s);
+  // A cycle after a silence or a bus-off: streaming again.
+  const std::int64_t t_ns = c.t_sync_ns;
+  if (bus_off_since_ns_ != 0 && t_ns - bus_off_since_ns_ >= 1'000'000'000) {
+    set_state(drivers::DeviceState::streaming,
+              "CAN frames flow again " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
+                  " ms after bus-off (no restart notice)");
+    bus_off_since_ns_ = 0;
+    silent_ = false;
+  } else if (silent_ && bus_off_since_ns_ == 0) {
+    set_state(drivers::DeviceState::streaming);
+    silent_ = false;
+  }
 }
 
 std::size_t DbbDriver::drain(int fd, DbbDecoder& decoder, std::string& ended) {
@@ -186,6 +200,7 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& 
   frames_.fetch_add(1, std::memory_order_relaxed);
   DbbCycle cycle;
   const auto res = decoder.feed(f, t_ns, cycle);
+  late_pdos_.store(decoder.late_pdos(), std::memory_order_relaxed);
   if (res.info.kind == FrameInfo::Kind::bad) bad_frames_.fetch_add(1, std::memory_order_relaxed);
   if (res.info.kind == FrameInfo::Kind::sync) {
     if (last_sync_ns_ != 0) sync_period_ns_ = t_ns - last_sync_ns_;
@@ -213,19 +228,7 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& 
       silent_ = false;
     }
   }
-  if (res.cycle_ready) {
-    publish_cycle(cycle);
-    if (bus_off_since_ns_ != 0 && t_ns - bus_off_since_ns_ >= 1'000'000'000) {
-      set_state(drivers::DeviceState::streaming,
-                "CAN frames flow again " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
-                    " ms after bus-off (no restart notice)");
-      bus_off_since_ns_ = 0;
-      silent_ = false;
-    } else if (silent_ && bus_off_since_ns_ == 0) {
-      set_state(drivers::DeviceState::streaming);
-      silent_ = false;
-    }
-  }
+  if (res.cycle_ready) publish_cycle(cycle);
 }
 
 void DbbDriver::note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder& decoder) {
@@ -310,16 +313,26 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       std::string ended;
       if (drain(fd, decoder, ended) > 0) last_rx = mono_now_ns();
       if (!ended.empty()) return ended;  // EOF comes after every queued frame was read
-      now = mono_now_ns();
       const can_frame sync = make_sync_frame();
-      if (!can::write_can_frame(fd, sync, error)) {
+      // Never wait for the bus: a full transmit queue (nobody acknowledges, or the gateway's peer does
+      // not read) costs this SYNC, counted; the silence that follows is a timeout as usual.
+      const auto wrote = can::try_write_can_frame(fd, sync, error);
+      // The SYNC's time is taken once it is written: a PDO stamped before then answers an earlier SYNC.
+      now = mono_now_ns();
+      if (wrote == can::WriteResult::failed) {
         drain(fd, decoder, ended);
         return "SYNC write failed: " + error;
       }
       DbbCycle cycle;
-      if (decoder.feed(sync, now, cycle).cycle_ready) publish_cycle(cycle);
+      if (wrote == can::WriteResult::queue_full) {
+        syncs_not_sent_.fetch_add(1, std::memory_order_relaxed);
+      } else if (decoder.sync_sent(now, cycle)) {
+        publish_cycle(cycle);
+      }
+      // The phase is kept, but a late SYNC never brings the next one closer than half a period: the
+      // nodes need that time to answer, and a PDO that comes after our next SYNC is a late one.
       next_sync += period_ns;
-      if (next_sync < now) next_sync = now + period_ns;  // we fell behind: skip, don't burst
+      if (next_sync < now + period_ns / 2) next_sync = now + period_ns;
     }
     // Wait with nanosecond resolution (ppoll), so SYNC periods under a millisecond are kept.
     now = mono_now_ns();
@@ -352,7 +365,7 @@ void DbbDriver::run(std::stop_token stop) {
   (void)::prctl(PR_SET_TIMERSLACK, 10'000UL, 0UL, 0UL, 0UL);
   std::uint64_t stale = 0;
   (void)!::read(wake_fd_, &stale, sizeof stale);  // a wake-up left over from an earlier stop()
-  DbbDecoder decoder(settings_.encoders);
+  DbbDecoder decoder(settings_.encoders, settings_.produce_sync);
   std::int64_t backoff_ms = settings_.reconnect_min_ms;
   bool connected_once = false;
   while (!stop.stop_requested()) {

@@ -121,6 +121,8 @@ class DbbDriver : public drivers::Driver {
   std::int64_t last_frame_ns_ = 0;  // driver thread: the time given to the last frame received (never decreases)
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> bus_offs_{0};
+  std::atomic<std::uint64_t> late_pdos_{0};  // the decoder's, for status()
+  std::atomic<std::uint64_t> syncs_not_sent_{0};  // produce mode: SYNCs the full transmit queue refused
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
   std::atomic<std::uint64_t> dropped_frames_{0};

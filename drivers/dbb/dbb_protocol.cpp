@@ -77,7 +77,8 @@ FrameInfo classify_frame(const can_frame& frame) noexcept {
   return info;
 }
 
-DbbDecoder::DbbDecoder(std::vector<EncoderScale> encoders) : encoders_(std::move(encoders)) {
+DbbDecoder::DbbDecoder(std::vector<EncoderScale> encoders, bool sync_producer)
+    : encoders_(std::move(encoders)), producer_(sync_producer) {
   if (encoders_.size() > max_encoders) encoders_.resize(max_encoders);
   all_mask_ = (1u << encoders_.size()) - 1u;
   last_m_.fill(std::numeric_limits<double>::quiet_NaN());
@@ -91,6 +92,10 @@ int DbbDecoder::index_of(std::uint8_t node) const noexcept {
 }
 
 bool DbbDecoder::flush(DbbCycle& cycle) {
+  if (held_open_) {  // then the open cycle has nothing yet (its first PDO closes the held one)
+    emit_held(cycle);
+    return true;
+  }
   if (!open_ || emitted_ || cur_.present == 0) return false;
   close_cycle(cycle);
   return true;
@@ -98,6 +103,8 @@ bool DbbDecoder::flush(DbbCycle& cycle) {
 
 void DbbDecoder::resync(bool reset_counts) {
   open_ = false;
+  held_open_ = false;
+  behind_ = true;  // answers to the SYNCs of the old connection may still come
   emitted_ = false;
   gap_ = true;
   if (reset_counts) {
@@ -130,6 +137,15 @@ void DbbDecoder::close_cycle(DbbCycle& out) {
   emitted_ = true;
 }
 
+void DbbDecoder::emit_held(DbbCycle& out) {
+  held_open_ = false;
+  const bool emitted = emitted_;  // close_cycle marks the open cycle; this one is not it
+  std::swap(cur_, held_);
+  close_cycle(out);
+  std::swap(cur_, held_);
+  emitted_ = emitted;
+}
+
 std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
   if (!have_count_[i]) {
     have_count_[i] = true;
@@ -142,12 +158,72 @@ std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
   return unwrapped_[i];
 }
 
+bool DbbDecoder::sync_sent(std::int64_t t_ns, DbbCycle& cycle) {
+  bool ready = false;
+  if (held_open_) {
+    // Nothing stamped before the last SYNC came since: the held cycle is final (the open one is empty).
+    emit_held(cycle);
+    ready = true;
+    behind_ = true;
+  } else if (open_ && !emitted_ && cur_.present == all_mask_) {
+    close_cycle(cycle);
+    ready = true;
+    behind_ = false;
+  } else if (open_ && !emitted_ && cur_.present != 0) {
+    held_ = cur_;
+    held_open_ = true;
+    behind_ = true;
+  } else if (open_ && !emitted_) {
+    ++empty_cycles_;  // no node answered this SYNC: no sample (the silence is a timeout)
+    if (cur_.flags & sample_after_gap) gap_ = true;  // the gap mark moves on to the next cycle
+    behind_ = true;
+  } else if (open_) {
+    behind_ = false;  // emitted complete before this SYNC: the nodes keep up
+  }
+  open_cycle(t_ns, 0);
+  return ready;
+}
+
+void DbbDecoder::store(std::size_t i, std::uint32_t count, DbbCycle& into) {
+  const double pos = count_to_position(encoders_[i], unwrap(i, count));
+  into.position_m[i] = pos;
+  last_m_[i] = pos;
+  into.present |= 1u << i;
+}
+
+void DbbDecoder::feed_position_as_producer(std::size_t i, std::uint32_t count, std::int64_t t_ns, Result& r,
+                                           DbbCycle& cycle) {
+  const std::uint32_t bit = 1u << i;
+  if (held_open_) {
+    if (t_ns < cur_.t_sync_ns && !(held_.present & bit)) {  // sent before our SYNC, read after it
+      store(i, count, held_);
+      if (held_.present == all_mask_) {
+        emit_held(cycle);
+        r.cycle_ready = true;
+      }
+      return;
+    }
+    emit_held(cycle);  // stamped after our SYNC: nothing more of the held cycle can come
+    r.cycle_ready = true;
+  }
+  if (cur_.present & bit) ++late_pdos_;  // we sent every SYNC: the first was a late answer to the one before
+  store(i, count, cur_);
+  // While the nodes keep up a complete cycle is final at once; behind, a late answer may still be replaced.
+  if (!behind_ && !emitted_ && cur_.present == all_mask_) {
+    close_cycle(cycle);
+    r.cycle_ready = true;
+  }
+}
+
 DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, DbbCycle& cycle) {
   Result r;
   r.info = classify_frame(frame);
   switch (r.info.kind) {
     case FrameInfo::Kind::sync:
-      if (open_ && !emitted_) {
+      if (held_open_) {
+        emit_held(cycle);
+        r.cycle_ready = true;
+      } else if (open_ && !emitted_) {
         if (cur_.present != 0) {
           close_cycle(cycle);
           r.cycle_ready = true;
@@ -162,6 +238,10 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
       const int idx = index_of(r.info.node);
       if (idx < 0 || !open_) break;  // not ours, or before the first SYNC
       const auto i = static_cast<std::size_t>(idx);
+      if (producer_) {
+        feed_position_as_producer(i, r.info.count, t_ns, r, cycle);
+        break;
+      }
       if (cur_.present & (1u << i)) {
         // A second PDO from this node in one cycle: the SYNC between them was missed.
         ++missed_syncs_;
@@ -172,11 +252,8 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
         gap_ = true;
         open_cycle(t_ns, 0);
       }
-      const double pos = count_to_position(encoders_[i], unwrap(i, r.info.count));
-      cur_.position_m[i] = pos;
-      last_m_[i] = pos;
-      cur_.present |= 1u << i;
-      if (cur_.present == all_mask_ && !r.cycle_ready) {
+      store(i, r.info.count, cur_);
+      if (cur_.present == all_mask_) {
         close_cycle(cycle);
         r.cycle_ready = true;
       }

@@ -73,6 +73,13 @@ struct DbbCycle {
 // value (NaN if the node never answered); a cycle in which no node answered emits nothing. A second PDO from a node
 // within one cycle means a SYNC was missed: the open cycle is emitted (partial if incomplete) and a new cycle opens at
 // that PDO's time, flagged sample_after_gap. PDOs before the first SYNC and from unconfigured nodes are ignored.
+// A SYNC producer (sync_producer, SYNCs given by sync_sent) misses no SYNC, and its SYNC is not read
+// from the socket with the PDOs. So a second PDO from a node within one cycle means the first was a
+// late answer to the SYNC before, and the newer value replaces it (late_pdos). Replacing needs the
+// cycle still open: once a cycle was incomplete at its SYNC (the nodes are behind), cycles are emitted
+// at the next SYNC instead of as soon as they are complete, until one is complete in time again. And
+// a PDO stamped before our SYNC can still be read after it: an incomplete cycle stays open past our
+// SYNC until a PDO stamped after that SYNC (or the next SYNC) shows nothing more of it can come.
 class DbbDecoder {
  public:
   struct Result {
@@ -80,10 +87,13 @@ class DbbDecoder {
     FrameInfo info;
   };
 
-  explicit DbbDecoder(std::vector<EncoderScale> encoders);
+  explicit DbbDecoder(std::vector<EncoderScale> encoders, bool sync_producer = false);
 
   // Feeds one frame seen at t_ns. At most one cycle is emitted per frame.
   Result feed(const can_frame& frame, std::int64_t t_ns, DbbCycle& cycle);
+  // The SYNC this side (a sync_producer) put on the bus at t_ns. Returns whether a cycle was emitted
+  // into `cycle`.
+  bool sync_sent(std::int64_t t_ns, DbbCycle& cycle);
   // Emits the open cycle if it has data that was not emitted yet (partial); call before resync()
   // when a connection ends so nothing received is lost.
   bool flush(DbbCycle& cycle);
@@ -95,24 +105,32 @@ class DbbDecoder {
   void resync(bool reset_counts = false);
 
   // A cycle is open and still waits for PDOs (it was not emitted yet).
-  [[nodiscard]] bool cycle_pending() const noexcept { return open_ && !emitted_; }
+  [[nodiscard]] bool cycle_pending() const noexcept { return (open_ && !emitted_) || held_open_; }
   [[nodiscard]] const std::vector<EncoderScale>& encoders() const noexcept { return encoders_; }
   [[nodiscard]] std::uint64_t missed_pdos() const noexcept { return missed_pdos_; }
   [[nodiscard]] std::uint64_t missed_syncs() const noexcept { return missed_syncs_; }
   [[nodiscard]] std::uint64_t empty_cycles() const noexcept { return empty_cycles_; }
+  [[nodiscard]] std::uint64_t late_pdos() const noexcept { return late_pdos_; }
 
  private:
   int index_of(std::uint8_t node) const noexcept;
   void open_cycle(std::int64_t t_ns, std::uint32_t flags);
   void close_cycle(DbbCycle& out);
+  void emit_held(DbbCycle& out);
+  void store(std::size_t i, std::uint32_t count, DbbCycle& into);
+  void feed_position_as_producer(std::size_t i, std::uint32_t count, std::int64_t t_ns, Result& r, DbbCycle& cycle);
   std::int64_t unwrap(std::size_t i, std::uint32_t count) noexcept;
 
   std::vector<EncoderScale> encoders_;
   std::uint32_t all_mask_ = 0;
+  bool producer_ = false;
   bool open_ = false;
   bool emitted_ = false;  // the open cycle was already emitted (complete)
   bool gap_ = false;      // next cycle carries sample_after_gap
   DbbCycle cur_;
+  bool held_open_ = false;  // `held_` is the incomplete cycle before our own SYNC, not yet emitted
+  bool behind_ = false;     // producer: a cycle was incomplete at its SYNC; emit at the next SYNC
+  DbbCycle held_;
   std::array<double, max_encoders> last_m_{};
   std::array<bool, max_encoders> have_count_{};
   std::array<std::uint32_t, max_encoders> prev_count_{};
@@ -120,6 +138,7 @@ class DbbDecoder {
   std::uint64_t missed_pdos_ = 0;
   std::uint64_t missed_syncs_ = 0;
   std::uint64_t empty_cycles_ = 0;
+  std::uint64_t late_pdos_ = 0;
 };
 
 }  // namespace guideway::dbb

@@ -27,12 +27,14 @@ DbbEmulator::~DbbEmulator() {
 
 void DbbEmulator::start(can::CanSocket listener) {
   if (running_.exchange(true)) return;
+  stopped_ = false;
   listener_ = std::move(listener);
   t0_ns_ = mono_now_ns();
   thread_ = std::jthread([this] { loop(); });
 }
 
 void DbbEmulator::stop() {
+  stopped_ = true;
   if (!running_.exchange(false)) return;
   wake();
   thread_.join();
@@ -46,6 +48,7 @@ void DbbEmulator::wake() {
 }
 
 void DbbEmulator::attach(can::CanSocket fd) {
+  if (stopped_.load()) return;  // a stopped emulator hangs up at once (fd closes here)
   {
     std::lock_guard lock(pending_mutex_);
     pending_ = std::move(fd);
@@ -224,7 +227,20 @@ void DbbEmulator::loop() {
       if (rr == can::ReadResult::frame && !settings_.produce_sync &&
           dbb::classify_frame(f).kind == dbb::FrameInfo::Kind::sync) {
         if (mono_now_ns() < stall_until_ns_.load()) continue;
+        // Nodes answer the SYNC on the bus now: when this thread was held up and several are queued,
+        // the older ones are past (a real node never answers a backlog).
+        can_frame more{};
+        while (can::read_can_frame(conn_.fd(), more, 0, -1, err) == can::ReadResult::frame) {
+          if (dbb::classify_frame(more).kind == dbb::FrameInfo::Kind::sync) syncs_skipped_.fetch_add(1);
+        }
+        const std::uint64_t before = cycles_.load();
         send_cycle(conn_.fd(), false);
+        can_frame next{};
+        if (cycles_.load() != before &&
+            ::recv(conn_.fd(), &next, sizeof next, MSG_PEEK | MSG_DONTWAIT) == static_cast<ssize_t>(sizeof next)) {
+          std::lock_guard lock(log_mutex_);
+          log_.back().late = true;
+        }
       }
     }
   }

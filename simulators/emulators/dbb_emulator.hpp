@@ -37,6 +37,9 @@ struct DbbSentCycle {
   std::uint32_t sent_mask = 0;        // bit i: encoder i's PDO was sent
   std::vector<double> truth_m;        // the source's positions
   std::vector<std::uint32_t> counts;  // the counts sent
+  // Answering a SYNC (listen mode): the next SYNC was already there when the PDOs had been written, so on
+  // the bus some of them may follow it (a late answer; a loaded machine delays this thread).
+  bool late = false;
 };
 
 class DbbEmulator {
@@ -68,6 +71,8 @@ class DbbEmulator {
 
   [[nodiscard]] std::vector<DbbSentCycle> log() const;
   [[nodiscard]] std::uint64_t cycles_sent() const noexcept { return cycles_.load(); }
+  // SYNCs not answered because a newer one was already queued (a node answers the SYNC on the bus).
+  [[nodiscard]] std::uint64_t syncs_skipped() const noexcept { return syncs_skipped_.load(); }
   [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
   [[nodiscard]] bool connected() const noexcept { return connected_.load(); }
 
@@ -86,6 +91,7 @@ class DbbEmulator {
   int wake_fd_ = -1;
   std::jthread thread_;
   std::atomic<bool> running_{false};
+  std::atomic<bool> stopped_{false};  // stop() was called: attach() hangs up
 
   std::mutex pending_mutex_;
   can::CanSocket pending_;
@@ -104,6 +110,7 @@ class DbbEmulator {
   mutable std::mutex log_mutex_;
   std::vector<DbbSentCycle> log_;
   std::atomic<std::uint64_t> cycles_{0};
+  std::atomic<std::uint64_t> syncs_skipped_{0};
   std::atomic<std::uint64_t> connections_{0};
   std::atomic<bool> connected_{false};
 };
