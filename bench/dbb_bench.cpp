@@ -5,7 +5,7 @@
 
 #include "core/memory_policy.hpp"
 #include "models/dbb/identify.hpp"
-#include "models/dbb/simulate.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 
 namespace {
 
@@ -36,7 +36,7 @@ std::vector<models::dbb::Run> patterns() {
     s.direction = p.d;
     s.overshoot_rad = 0.5;
     s.seed = seed++;
-    auto run = models::dbb::simulate_run(m, s);
+    auto run = sim::simulate_dbb_run(m, s);
     // exactly 3600 points: drop the closing sample of the 360 deg arc
     run.t_s.resize(3600);
     run.angle_rad.resize(3600);

@@ -25,7 +25,7 @@ for f in $files; do
 done
 # The old objects come first, so the archives' versions of them are never pulled in.
 c++ -O3 "$build/bench/CMakeFiles/dbb_bench.dir/dbb_bench.cpp.o" "${old_objects[@]}" -o "$tmp/dbb_bench_old" \
-  "$build/models/dbb/libguideway_model_dbb_sim.a" "$build/models/dbb/libguideway_model_dbb.a" \
+  "$build/simulators/machine/libguideway_dbb_sim.a" "$build/models/dbb/libguideway_model_dbb.a" \
   "$build/models/common/libguideway_models_common.a" "$build/simulators/machine/libguideway_machine.a" \
   "$build/core/libguideway_core.a" -lbenchmark -ltomlplusplus
 for i in $(seq 1 "$rounds"); do

@@ -11,9 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "models/explain/scenarios.hpp"
+#include "simulators/scenarios/scenarios.hpp"
 
 namespace ex = guideway::models::explain;
+namespace scenarios = guideway::sim::scenarios;
 
 namespace {
 
@@ -41,17 +42,17 @@ int main(int argc, char** argv) {
               "CPU fixed / nested (s) |\n|---|---|---|---|---|---|---|\n");
   double cpu[2] = {0, 0};
   int changed = 0, runs = 0;
-  for (const auto& name : ex::scenario_names()) {
+  for (const auto& name : scenarios::scenario_names()) {
     for (int seed = 1; seed <= seeds; ++seed) {
-      ex::ScenarioResult res[2];
+      scenarios::ScenarioResult res[2];
       double t[2];
       for (int k = 0; k < 2; ++k) {
-        ex::ScenarioOptions o;
+        scenarios::ScenarioOptions o;
         o.quick = !full;
         o.seed = static_cast<std::uint64_t>(seed);
         o.explain.heldout_reselect = k == 1;
         const std::clock_t c0 = std::clock();
-        res[k] = ex::run_scenario(name, o);
+        res[k] = scenarios::run_scenario(name, o);
         t[k] = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
         cpu[k] += t[k];
       }

@@ -8,7 +8,7 @@
 #include "cli/commands.hpp"
 #include "core/toml_access.hpp"
 #include "models/dbb/json.hpp"
-#include "models/dbb/simulate.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 
 namespace guideway::cli {
 
@@ -89,7 +89,7 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
       spec.center = {so->center_mm[0] * 1e-3, so->center_mm[1] * 1e-3, so->center_mm[2] * 1e-3};
     spec.t0_s = so->t0;
     spec.seed = so->seed;
-    auto run = models::dbb::simulate_run(machine, spec, so->out);
+    auto run = sim::simulate_dbb_run(machine, spec, so->out);
     // Without --t0-s every run would start at machine time 0: no common clock is claimed.
     if (t0_option->count() == 0) run.metadata.erase("start_time_s");
     models::dbb::write_run(run, so->out);

@@ -7,7 +7,7 @@
 #include "core/number_format.hpp"
 #include "daemon/recorder.hpp"
 #include "daemon/session_support.hpp"
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
 #include "dsp/denoise.hpp"
 #include "dsp/wavelet.hpp"
@@ -59,7 +59,7 @@ double rms(const std::vector<double>& v) {
 
 }  // namespace
 
-nlohmann::json evaluate_profile(const profilometer::Profile& profile, const ProfileEvaluationOptions& options) {
+nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEvaluationOptions& options) {
   const std::size_t n = profile.x_m.size();
   const dsp::Wavelet wavelet(options.wavelet);
   const dsp::Mode mode = dsp::parse_mode(options.mode);
@@ -250,14 +250,14 @@ class ProfileSession : public Session {
                                                  std::to_string(x_m_.size()) + " points)"
                                            : "no profile was started" + (note_.empty() ? "" : " (" + note_ + ")"));
     }
-    profilometer::Profile p;
+    formats::Profile p;
     p.x_m = x_m_;
     p.z_m = z_m_;
     p.metadata = {{"source", "guidewayd profile session"}, {"device", device_}, {"profile", shortest(profile_id_)}};
     if (o_.feed_mm_per_min > 0) p.metadata.emplace_back("feed_mm_per_min", shortest(o_.feed_mm_per_min));
     if (o_.spindle_rpm > 0) p.metadata.emplace_back("spindle_rpm", shortest(o_.spindle_rpm));
-    text_ = profilometer::format_profile_csv(p);
-    const profilometer::Profile read = profilometer::parse_profile_csv(text_, "profile");
+    text_ = formats::format_profile_csv(p);
+    const formats::Profile read = formats::parse_profile_csv(text_, "profile");
     try {
       nlohmann::json j = evaluate_profile(read, o_.eval);
       j["profile_id"] = static_cast<std::uint64_t>(profile_id_);
@@ -284,7 +284,7 @@ class ProfileSession : public Session {
       return explain_not_analysed("straightness", "the session was started without feed_mm_per_min and spindle_rpm, "
                                                   "which place each point in time and give the feed per revolution");
     try {
-      const ex::ProfileRun run = ex::profile_run(profilometer::parse_profile_csv(text_, "profile"), "profile");
+      const ex::ProfileRun run = ex::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
       return ex::to_json(ex::explain(ex::profile_problem({run}, "straightness")));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon/session.hpp"
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 
 namespace guideway::daemon {
 
@@ -24,7 +24,7 @@ struct ProfileEvaluationOptions {
 
 // The PARAMS body of a profile (pure; throws std::invalid_argument when the profile cannot be
 // evaluated: fewer than 2^level points, unequal spacing, too many invalid points).
-nlohmann::json evaluate_profile(const profilometer::Profile& profile, const ProfileEvaluationOptions& options = {});
+nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEvaluationOptions& options = {});
 
 SessionKind profile_session_kind();
 

@@ -2,7 +2,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 #include "dsp/wavelet.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
@@ -12,12 +12,12 @@ namespace guideway::report {
 
 std::string profile_section(const std::string& path, const std::string& id, const ReportOptions& options,
                             const std::string& correlation_html) {
-  profilometer::Profile p;
+  formats::Profile p;
   try {
-    auto all = profilometer::read_profiles(path);
+    auto all = formats::read_profiles(path);
     if (all.empty()) throw ReportError(path + ": no profile in the file");
     p = std::move(all.front());
-  } catch (const profilometer::ProfileFileError& e) {
+  } catch (const formats::ProfileFileError& e) {
     throw ReportError(e.what());
   }
   const std::size_t n = std::min(p.x_m.size(), p.z_m.size());

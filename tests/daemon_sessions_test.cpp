@@ -270,7 +270,7 @@ TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "p");
   ASSERT_EQ(files.size(), 1u);
-  nlohmann::json offline = daemon::evaluate_profile(profilometer::read_profile_csv(files[0]));
+  nlohmann::json offline = daemon::evaluate_profile(formats::read_profile_csv(files[0]));
   offline["profile_id"] = p["profile_id"];
   EXPECT_EQ(offline, p);
 }

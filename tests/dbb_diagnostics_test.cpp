@@ -30,7 +30,7 @@ models::dbb::Identification run_pair(const sim::MachineConfig& cfg, std::uint64_
     s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
     s.seed = seed + (ccw ? 0 : 1);
     s.sample_rate_hz = rate_hz;
-    runs.push_back(models::dbb::simulate_run(m, s, ccw ? "ccw" : "cw"));
+    runs.push_back(sim::simulate_dbb_run(m, s, ccw ? "ccw" : "cw"));
   }
   return models::dbb::identify(runs);
 }
@@ -150,7 +150,7 @@ TEST(DbbDiagnosticsTest, EachErrorAloneFromASingleRunInEitherDirection) {
       s.radius_m = 0.1;
       s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
       s.seed = ++seed;
-      const auto id = models::dbb::identify({models::dbb::simulate_run(m, s, label)});
+      const auto id = models::dbb::identify({sim::simulate_dbb_run(m, s, label)});
       std::vector<Expect> expect;
       for (const auto& e : c.expect)
         if (std::string(e.name).rfind("run2.", 0) == 0)
@@ -170,7 +170,7 @@ TEST(DbbDiagnosticsTest, SingleDirectionRefusesToSeparateSquarenessFromServoMism
   const sim::Machine m{cfg};
   sim::DbbCircleSpec s;
   s.radius_m = 0.1;
-  const auto id = models::dbb::identify({models::dbb::simulate_run(m, s, "ccw")});
+  const auto id = models::dbb::identify({sim::simulate_dbb_run(m, s, "ccw")});
   const auto& u = id.diagnostics_fit.unidentifiable;
   EXPECT_NE(std::find(u.begin(), u.end(), "squareness_urad"), u.end());
   EXPECT_NE(std::find(u.begin(), u.end(), "servo_mismatch_ms"), u.end());
@@ -204,7 +204,7 @@ models::dbb::Run one(const sim::MachineConfig& cfg, bool ccw) {
   sim::DbbCircleSpec s;
   s.radius_m = 0.1;
   s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
-  return models::dbb::simulate_run(m, s, "conv");
+  return sim::simulate_dbb_run(m, s, "conv");
 }
 
 double dl_at(const models::dbb::Run& r, double zeta_deg) {

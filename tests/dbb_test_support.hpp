@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "models/dbb/identify.hpp"
-#include "models/dbb/simulate.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::test {
@@ -72,7 +72,7 @@ inline models::dbb::Run lai_pattern(const sim::Machine& m, double radius_mm, dou
   s.height_m = height_mm * 1e-3;
   s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
   s.seed = seed;
-  return models::dbb::simulate_run(m, s, "r" + std::to_string(radius_mm) + (ccw ? "ccw" : "cw"));
+  return sim::simulate_dbb_run(m, s, "r" + std::to_string(radius_mm) + (ccw ? "ccw" : "cw"));
 }
 
 inline std::map<std::string, models::dbb::Estimate> by_name(const std::vector<models::dbb::Estimate>& list) {

@@ -1,4 +1,4 @@
-// The EXPLAIN scenario suite (models/explain/scenarios.cpp) at quick sample density: every scenario
+// The EXPLAIN scenario suite (simulators/scenarios/scenarios.cpp) at quick sample density: every scenario
 // must meet its own expectation (right effect first, parameter within tolerance of the truth,
 // held-out RMS improved; nothing found on noise; an out-of-library bump located, not attributed).
 #include <gtest/gtest.h>
@@ -8,17 +8,18 @@
 #include <map>
 #include <numbers>
 
-#include "models/dbb/simulate.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 #include "models/explain/dbb_explain.hpp"
-#include "models/explain/scenarios.hpp"
+#include "simulators/scenarios/scenarios.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace ex = guideway::models::explain;
+namespace scenarios = guideway::sim::scenarios;
 
 class ExplainScenario : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ExplainScenario, MeetsItsExpectation) {
-  const auto r = ex::run_scenario(GetParam());
+  const auto r = scenarios::run_scenario(GetParam());
   EXPECT_TRUE(r.pass) << r.name << ": " << r.failure << "\n" << ex::to_text(r.report);
   // Every injected effect is found, and nothing else.
   ASSERT_EQ(r.checks.size(), r.expected.size());
@@ -43,7 +44,7 @@ TEST_P(ExplainScenario, MeetsItsExpectation) {
 // A finding's part of G is the range of its term about the least-squares circle: a backlash of b on X
 // alone gives steps of b/2 at the X reversals, a range of about b about the circle (here 0.5 um).
 TEST(ExplainScenarios, BacklashPartOfTheCircularDeviationIsItsWidth) {
-  const auto r = ex::run_scenario("dbb_backlash");
+  const auto r = scenarios::run_scenario("dbb_backlash");
   ASSERT_EQ(r.report.findings.size(), 1u);
   const auto& f = r.report.findings.front();
   EXPECT_NEAR(f.contribution_um, r.checks.front().value, 0.1 * r.checks.front().value);
@@ -51,18 +52,18 @@ TEST(ExplainScenarios, BacklashPartOfTheCircularDeviationIsItsWidth) {
 
 std::string scenario_name(const ::testing::TestParamInfo<std::string>& p) { return p.param; }
 
-INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(ex::scenario_names()), scenario_name);
+INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(scenarios::scenario_names()), scenario_name);
 
 // The reported uncertainties are honest: over seeds 1-5 of the scenarios with several effects, the errors
 // against the truth fall within 1 u and 2 u about as often as a Gaussian's (68 %, 95 %): not too seldom
 // (u too small) nor always (u too large). (Full density, seeds 1-5, every scenario: 69 % and 93 % of 240,
 // the table in docs/explain.md.)
 TEST(ExplainScenarios, UncertaintiesCoverTheTruthOverSeeds) {
-  std::vector<ex::ScenarioSummary> sums;
-  for (const auto& name : ex::scenario_names())
+  std::vector<scenarios::ScenarioSummary> sums;
+  for (const auto& name : scenarios::scenario_names())
     if (name.rfind("dbb_pair_", 0) == 0 || name.rfind("dbb_three_", 0) == 0 || name == "dbb_centre_drift")
-      sums.push_back(ex::summarize_scenario(name, {1, 2, 3, 4, 5}));
-  const ex::Coverage c = ex::uncertainty_coverage(sums);
+      sums.push_back(scenarios::summarize_scenario(name, {1, 2, 3, 4, 5}));
+  const scenarios::Coverage c = scenarios::uncertainty_coverage(sums);
   EXPECT_GE(c.n, 100u);
   EXPECT_GE(c.within_1u, 0.55) << c.within_1u;
   EXPECT_LE(c.within_1u, 0.85) << c.within_1u;
@@ -70,7 +71,7 @@ TEST(ExplainScenarios, UncertaintiesCoverTheTruthOverSeeds) {
   for (const auto& s : sums) EXPECT_EQ(s.passed, s.runs.size()) << s.name;
 }
 
-TEST(ExplainScenarios, UnknownNameIsAnError) { EXPECT_THROW((void)ex::run_scenario("nope"), std::invalid_argument); }
+TEST(ExplainScenarios, UnknownNameIsAnError) { EXPECT_THROW((void)scenarios::run_scenario("nope"), std::invalid_argument); }
 
 // The out-of-library scenario's cause: the machine's local guideway bump (simulators/machine).
 TEST(ExplainScenarios, MachineBumpIsLocalAndReadFromToml) {
@@ -118,10 +119,10 @@ TEST(ExplainScenarios, FacingRunoutAlongPathIsOptIn) {
 // (0.2 us) such a clock keeps of each time stamp: 1e-6 relative, or 1 % of the uncertainty.
 TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
   for (const char* name : {"dbb_thermal_bar", "dbb_cyclic", "dbb_vibration", "flatness_spindle_runout", "flatness_thermal_two_feeds"}) {
-    ex::ScenarioOptions epoch;
+    scenarios::ScenarioOptions epoch;
     epoch.clock_origin_s = 1.8e9;
-    const auto a = ex::run_scenario(name);
-    const auto b = ex::run_scenario(name, epoch);
+    const auto a = scenarios::run_scenario(name);
+    const auto b = scenarios::run_scenario(name, epoch);
     EXPECT_TRUE(b.pass) << name << ": " << b.failure;
     ASSERT_EQ(a.report.findings.size(), b.report.findings.size()) << name;
     for (std::size_t k = 0; k < a.report.findings.size(); ++k) {
@@ -158,7 +159,7 @@ TEST(ExplainScenarios, AVibrationIsFoundInRunsWithoutACommonClock) {
     spec.t0_s = k * apart_s;
     spec.sample_rate_hz = 30.0;  // 3 samples per degree: Nyquist 15 Hz
     spec.seed = 7 + static_cast<std::uint64_t>(k);
-    runs.push_back(dbb::simulate_run(m, spec, "run" + std::to_string(k + 1)));
+    runs.push_back(guideway::sim::simulate_dbb_run(m, spec, "run" + std::to_string(k + 1)));
     runs.back().metadata.erase("start_time_s");  // recorded on clocks of their own
   }
   const ex::Report r = ex::explain_dbb_report(runs);
@@ -193,7 +194,7 @@ TEST(ExplainScenarios, PerRunTermsKeepHeldOutRowsInEveryRun) {
     spec.t0_s = k * 60.05;
     spec.sample_rate_hz = 30.0;
     spec.seed = 11 + static_cast<std::uint64_t>(k);
-    runs.push_back(dbb::simulate_run(m, spec, "run" + std::to_string(k + 1)));
+    runs.push_back(guideway::sim::simulate_dbb_run(m, spec, "run" + std::to_string(k + 1)));
     runs.back().metadata.erase("start_time_s");  // recorded on clocks of their own
   }
   const ex::Report r = ex::explain_dbb_report(runs);
@@ -208,9 +209,9 @@ TEST(ExplainScenarios, PerRunTermsKeepHeldOutRowsInEveryRun) {
 TEST(ExplainScenarios, VibrationUncertaintiesMatchTheScatterOverSeeds) {
   std::map<std::string, std::vector<double>> values, us;
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
-    ex::ScenarioOptions o;
+    scenarios::ScenarioOptions o;
     o.seed = seed;
-    const auto r = ex::run_scenario("dbb_vibration", o);
+    const auto r = scenarios::run_scenario("dbb_vibration", o);
     ASSERT_FALSE(r.report.findings.empty()) << seed;
     for (const auto& p : r.report.findings.front().parameters) {
       values[p.name].push_back(p.value);

@@ -14,8 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "models/dbb/dbb_run.hpp"
-#include "models/dbb/simulate.hpp"
-#include "models/explain/scenarios.hpp"
+#include "simulators/machine/dbb_runs.hpp"
+#include "simulators/scenarios/scenarios.hpp"
 #include "report/html.hpp"
 #include "report/report.hpp"
 #include "report/svg.hpp"
@@ -233,7 +233,7 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   for (auto d : {guideway::sim::Direction::ccw, guideway::sim::Direction::cw}) {
     spec.direction = d;
     const auto path = (dir / (d == guideway::sim::Direction::ccw ? "ccw.csv" : "cw.csv")).string();
-    guideway::models::dbb::write_run(guideway::models::dbb::simulate_run(machine, spec, path), path);
+    guideway::models::dbb::write_run(guideway::sim::simulate_dbb_run(machine, spec, path), path);
     inputs.push_back(path);
   }
   inputs.push_back(data_dir() + "/moody1955");
@@ -261,7 +261,8 @@ TEST(Report, RecognisesInputsAndRendersSections) {
 // base + findings 1..k), the JSON carries them on one abscissa, and the report draws one panel per step.
 TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
   namespace ex = guideway::models::explain;
-  const ex::ScenarioResult sc = ex::run_scenario("dbb_backlash");
+  namespace scenarios = guideway::sim::scenarios;
+  const scenarios::ScenarioResult sc = scenarios::run_scenario("dbb_backlash");
   const ex::Report& rep = sc.report;
   ASSERT_GE(rep.findings.size(), 1u) << sc.failure;
   ASSERT_EQ(rep.curve_steps.size(), rep.findings.size() + 1);

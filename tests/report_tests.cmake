@@ -3,7 +3,7 @@
 # whole report in headless Chromium (console errors, axes/labels/data paths of every plot, screenshots and an
 # A4 print-out kept in build/report_artifacts). Chromium missing is a failure: ./scripts/setup.sh installs it.
 guideway_add_test(report_svg_test SOURCES report_svg_test.cpp LIBS guideway_report guideway_machine
-  guideway_model_dbb_sim guideway_explain_scenarios LABELS unit)
+  guideway_dbb_sim guideway_explain_scenarios LABELS unit)
 add_executable(report_svg_tool report_svg_tool.cpp)
 target_link_libraries(report_svg_tool PRIVATE guideway_report guideway_warnings)
 add_test(NAME report_svg_xml_test

@@ -9,10 +9,10 @@
 #include <random>
 #include <sstream>
 
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 #include "test_support.hpp"
 
-using namespace guideway::profilometer;
+using namespace guideway::formats;
 
 namespace {
 

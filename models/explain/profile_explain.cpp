@@ -7,7 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 #include "models/common/least_squares.hpp"
 
 namespace guideway::models::explain {
@@ -23,7 +23,7 @@ std::string fmt(const char* f, double a) {
   return buf;
 }
 
-double meta_number(const profilometer::Profile& p, const std::string& path, const std::string& key, double fallback,
+double meta_number(const formats::Profile& p, const std::string& path, const std::string& key, double fallback,
                    bool required) {
   const auto v = p.meta(key);
   if (!v) {
@@ -231,9 +231,9 @@ Problem assemble(const std::vector<ProfileRun>& runs, const std::vector<Pt>& g, 
 
 }  // namespace
 
-ProfileRun read_profile_run(const std::string& path) { return profile_run(profilometer::read_profile_csv(path), path); }
+ProfileRun read_profile_run(const std::string& path) { return profile_run(formats::read_profile_csv(path), path); }
 
-ProfileRun profile_run(const profilometer::Profile& prof, const std::string& path) {
+ProfileRun profile_run(const formats::Profile& prof, const std::string& path) {
   ProfileRun r;
   r.source = path;
   r.feed_mm_per_min = meta_number(prof, path, "feed_mm_per_min", 0, true);

@@ -23,7 +23,7 @@
 #include "models/explain/explain.hpp"
 #include "models/flatness/straightness.hpp"
 
-namespace guideway::profilometer {
+namespace guideway::formats {
 struct Profile;
 }
 
@@ -42,7 +42,7 @@ struct ProfileRun {
 // every point valid; errors name the file (and line).
 ProfileRun read_profile_run(const std::string& path);
 // The same from a parsed profile (e.g. the daemon's profile session); errors name `source`.
-ProfileRun profile_run(const profilometer::Profile& profile, const std::string& source);
+ProfileRun profile_run(const formats::Profile& profile, const std::string& source);
 
 // model: "flatness" or "straightness". straightness: the autocollimator traverse of the X carriage
 // (models::read_angle_traverse), flatness only; its x must cover every profile (throws naming both).

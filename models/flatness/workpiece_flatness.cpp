@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 #include "dsp/correlation.hpp"
 #include "dsp/wavelet.hpp"
 #include "models/common/least_squares.hpp"
@@ -25,7 +25,7 @@ std::string mm(double m) {
   return s.str();
 }
 
-double required_meta(const profilometer::Profile& p, const std::string& source, const std::string& key) {
+double required_meta(const formats::Profile& p, const std::string& source, const std::string& key) {
   const auto v = p.meta(key);
   if (!v) throw InputError(source + ": missing metadata line '# " + key + " = <number>'");
   const auto d = parse_double(*v);
@@ -87,10 +87,10 @@ double std_dev(const std::vector<double>& v) {
 }  // namespace
 
 WorkpieceProfile parse_workpiece_profile(std::string_view text, const std::string& source) {
-  profilometer::Profile p;
+  formats::Profile p;
   try {
-    p = profilometer::parse_profile_csv(text, source);
-  } catch (const profilometer::ProfileFileError& e) {
+    p = formats::parse_profile_csv(text, source);
+  } catch (const formats::ProfileFileError& e) {
     throw InputError(e.what());
   }
   WorkpieceProfile w;

@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 
 namespace guideway::emulators {
 
@@ -57,7 +57,7 @@ std::string workpiece_profile_csv(const sim::Machine& machine, const WorkpieceFi
   f.spindle_rpm = spec.spindle_rpm;
   f.profile_step_m = spec.profile_step_m;
   f.seed = seed_of(machine, spec.seed) + static_cast<std::uint64_t>(std::llround(feed_mm_per_min * 1000));
-  profilometer::Profile p;
+  formats::Profile p;
   for (const auto& pt : machine.facing_profile(f)) {
     p.x_m.push_back(pt.x_m);
     p.z_m.push_back(pt.z_m);
@@ -66,7 +66,7 @@ std::string workpiece_profile_csv(const sim::Machine& machine, const WorkpieceFi
                 {"spindle_rpm", number(spec.spindle_rpm)},
                 {"machine", machine.config().name},
                 {"source", "guideway-emulate workpiece (sim::Machine::facing_profile)"}};
-  return profilometer::format_profile_csv(p);
+  return formats::format_profile_csv(p);
 }
 
 std::string straightness_traverse_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec) {

@@ -9,7 +9,7 @@
 #include <string_view>
 #include <vector>
 
-namespace guideway::profilometer {
+namespace guideway::formats {
 
 class ZipError : public std::runtime_error {
  public:
@@ -37,4 +37,4 @@ struct ZipMember {
 // Builds an archive; deflate = true compresses every member (zlib raw deflate).
 std::string zip_build(const std::vector<ZipMember>& members, bool deflate);
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::formats

@@ -5,8 +5,8 @@
 #include "models/dbb/dbb_run.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::models::dbb {
+namespace guideway::sim {
 
-Run simulate_run(const sim::Machine& machine, const sim::DbbCircleSpec& spec, const std::string& source = "simulated");
+models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source = "simulated");
 
-}  // namespace guideway::models::dbb
+}  // namespace guideway::sim

@@ -1,10 +1,12 @@
-#include "models/dbb/simulate.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 
 #include <sstream>
 
-namespace guideway::models::dbb {
+namespace guideway::sim {
 
-Run simulate_run(const sim::Machine& machine, const sim::DbbCircleSpec& spec, const std::string& source) {
+models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source) {
+  using models::dbb::Direction;
+  using models::dbb::Run;
   const sim::DbbRun raw = machine.dbb_circle(spec);
   Run run;
   run.source = source;
@@ -39,4 +41,4 @@ Run simulate_run(const sim::Machine& machine, const sim::DbbCircleSpec& spec, co
   return run;
 }
 
-}  // namespace guideway::models::dbb
+}  // namespace guideway::sim

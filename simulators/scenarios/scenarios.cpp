@@ -1,4 +1,4 @@
-#include "models/explain/scenarios.hpp"
+#include "simulators/scenarios/scenarios.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,12 +10,16 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "models/dbb/simulate.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::models::explain {
+namespace guideway::sim::scenarios {
+
+using namespace models;  // the flatness models
+using namespace models::explain;
+namespace dbb = models::dbb;
 
 namespace {
 
@@ -94,7 +98,7 @@ std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbScenario&
     spec.sample_rate_hz = omega * 180 / pi * (o.quick && !sc.full_density ? 3.0 : 10.0);
     spec.t0_s = t0;
     spec.seed = o.seed * 1000 + k + 1;
-    dbb::Run run = dbb::simulate_run(machine, spec, "scenario-run" + std::to_string(k + 1));
+    dbb::Run run = simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1));
     run.metadata["start_time_s"] = fmt("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
     runs.push_back(std::move(run));
     t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + sc.gap_s;
@@ -362,7 +366,7 @@ ScenarioResult dbb_scenario(const DbbScenario& sc, const ScenarioOptions& o) {
   s.expect_unexplained = sc.expect_unexplained;
   sim::MachineConfig m = dbb_machine(o.seed);
   sc.inject(m);
-  s.report = explain(dbb_problem(dbb_runs(m, sc, o)), o.explain);
+  s.report = models::explain::explain(dbb_problem(dbb_runs(m, sc, o)), o.explain);
   evaluate(s);
   if (!sc.where_deg.empty()) {
     // Located at each expected angle (within 3 deg of a range) and nowhere else: every range reaches an
@@ -517,7 +521,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
   const sim::Machine machine(m);
   std::optional<AngleTraverse> traverse;
   if (s.model == "flatness") traverse = facing_traverse(machine, o.seed);
-  s.report = explain(profile_problem(facing_runs(machine, feeds, along_path, o), s.model, traverse ? &*traverse : nullptr), o.explain);
+  s.report = models::explain::explain(profile_problem(facing_runs(machine, feeds, along_path, o), s.model, traverse ? &*traverse : nullptr), o.explain);
   evaluate(s);
   return s;
 }
@@ -656,4 +660,4 @@ std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summarie
   return o.str();
 }
 
-}  // namespace guideway::models::explain
+}  // namespace guideway::sim::scenarios

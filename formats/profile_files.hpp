@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-namespace guideway::profilometer {
+namespace guideway::formats {
 
 class ProfileFileError : public std::runtime_error {
  public:
@@ -64,4 +64,4 @@ std::vector<Profile> read_profiles(const std::string& path);
 // document; nullopt when absent; "" for an empty or self-closing element. Exposed for tests.
 std::optional<std::string_view> xml_text(std::string_view doc, std::initializer_list<std::string_view> path);
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::formats

@@ -1,11 +1,11 @@
-#include "drivers/profilometer/zip_archive.hpp"
+#include "formats/zip_archive.hpp"
 
 #include <zlib.h>
 
 #include <algorithm>
 #include <limits>
 
-namespace guideway::profilometer {
+namespace guideway::formats {
 
 namespace {
 
@@ -168,4 +168,4 @@ std::string zip_build(const std::vector<ZipMember>& members, bool deflate) {
   return archive;
 }
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::formats

@@ -10,7 +10,7 @@
 
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::models::explain {
+namespace guideway::sim::scenarios {
 
 // One DBB run of the test, as PARAMS (`runs`) or a run file describes it.
 struct TruthRun {
@@ -44,4 +44,4 @@ struct DbbTruth {
 DbbTruth dbb_truth(const sim::MachineConfig& machine, const std::string& plane, const std::vector<TruthRun>& runs,
                    bool angles_from_encoders);
 
-}  // namespace guideway::models::explain
+}  // namespace guideway::sim::scenarios

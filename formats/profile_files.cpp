@@ -1,4 +1,4 @@
-#include "drivers/profilometer/profile_files.hpp"
+#include "formats/profile_files.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -11,9 +11,9 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
-#include "drivers/profilometer/zip_archive.hpp"
+#include "formats/zip_archive.hpp"
 
-namespace guideway::profilometer {
+namespace guideway::formats {
 
 namespace {
 
@@ -376,4 +376,4 @@ std::vector<Profile> read_profiles(const std::string& path) {
   throw ProfileFileError(path + ": unknown profile file type (expected .csv or .x3p)");
 }
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::formats

@@ -14,7 +14,7 @@
 
 #include "models/explain/explain.hpp"
 
-namespace guideway::models::explain {
+namespace guideway::sim::scenarios {
 
 struct ScenarioOptions {
   bool quick = true;      // 3 samples per degree (unit tests) where an effect does not need the instrument's
@@ -23,7 +23,7 @@ struct ScenarioOptions {
   // Added to every run's machine time, as a recording on a Unix-epoch clock would carry it: the
   // findings must not depend on where the clock starts.
   double clock_origin_s = 0.0;
-  ExplainOptions explain;  // the engine's options (the defaults unless a bench compares settings)
+  models::explain::ExplainOptions explain;  // the engine's options (the defaults unless a bench compares settings)
 };
 
 // One injected effect the scenario's model can see, and how it is checked.
@@ -50,7 +50,7 @@ struct ScenarioResult {
   std::vector<Expectation> expected;  // every effect injected that the model can see; empty = none
   bool expect_unexplained = false;
   std::string expect_where;  // for a cause outside the library: the place that must be located
-  Report report;
+  models::explain::Report report;
   std::vector<Check> checks;        // one per expectation
   std::vector<std::string> extra;   // findings no expectation accounts for
   bool pass = false;
@@ -85,4 +85,4 @@ Coverage uncertainty_coverage(const std::vector<ScenarioSummary>& summaries);
 // The results table (Markdown) for docs/explain.md, with a line on the coverage.
 std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summaries);
 
-}  // namespace guideway::models::explain
+}  // namespace guideway::sim::scenarios

@@ -1,4 +1,4 @@
-#include "models/explain/machine_truth.hpp"
+#include "simulators/scenarios/machine_truth.hpp"
 
 #include <algorithm>
 #include <array>
@@ -7,7 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 
-namespace guideway::models::explain {
+namespace guideway::sim::scenarios {
 
 namespace {
 
@@ -165,4 +165,4 @@ DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const 
   return t;
 }
 
-}  // namespace guideway::models::explain
+}  // namespace guideway::sim::scenarios
