@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "cli/commands.hpp"
+#include "core/atomic_file.hpp"
 #include "models/dbb/dbb_run.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
@@ -45,11 +46,7 @@ void write_table(const std::string& path, const std::string& table) {
     throw std::runtime_error(path + ": no scenario table markers (" + table_begin + " ... " + table_end + ")");
   const auto from = a + std::string(table_begin).size();
   text = text.substr(0, from) + "\n" + table + text.substr(b);
-  std::ofstream out(path + ".tmp");
-  out << text;
-  out.close();
-  if (!out) throw std::runtime_error(path + ".tmp: cannot write");
-  if (std::rename((path + ".tmp").c_str(), path.c_str()) != 0) throw std::runtime_error(path + ": cannot replace");
+  write_file_atomically(path, text);
 }
 
 // The `# format = ...` of a file ("" when it has none).

@@ -9,20 +9,13 @@
 #include <memory>
 
 #include "cli/commands.hpp"
+#include "core/atomic_file.hpp"
+#include "core/utc_time.hpp"
 #include "report/report.hpp"
 
 namespace guideway::cli {
 
 namespace {
-
-std::string utc_now() {
-  const auto t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M UTC", &tm);
-  return buf;
-}
 
 void add_report_commands(CLI::App& app, CliContext& /*ctx*/) {
   struct Args {
@@ -51,7 +44,7 @@ void add_report_commands(CLI::App& app, CliContext& /*ctx*/) {
     opt.title = args->title;
     opt.wavelet = args->wavelet;
     opt.wavelet_level = args->level;
-    if (!args->no_date) opt.subtitle = "Generated " + utc_now() + " by guideway report";
+    if (!args->no_date) opt.subtitle = "Generated " + utc_now("%Y-%m-%d %H:%M UTC") + " by guideway report";
     std::string html;
     try {
       html = report::render_report(args->inputs, opt);
@@ -64,16 +57,7 @@ void add_report_commands(CLI::App& app, CliContext& /*ctx*/) {
       std::cout << html;
       return;
     }
-    // Written beside the target and renamed, so a viewer never sees half a report.
-    const std::string tmp = args->out + ".part";
-    {
-      std::ofstream f(tmp, std::ios::binary);
-      f << html;
-      if (!f.flush()) throw std::runtime_error(args->out + ": cannot write");
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, args->out, ec);
-    if (ec) throw std::runtime_error(args->out + ": cannot write (" + ec.message() + ")");
+    write_file_atomically(args->out, html);  // a viewer never sees half a report
     std::cerr << "report: " << args->inputs.size() << " input(s) -> " << args->out << " (" << html.size()
               << " bytes)\n";
   });

@@ -1,8 +1,10 @@
 #pragma once
-// Numbers in text files: the fewest digits that read back (strtod) to the same double, so a file
-// written by one tool and read by another loses nothing.
+// Numbers as text. In files: the fewest digits that read back (strtod) to the same double, so a file
+// written by one tool and read by another loses nothing. In messages and tables: as many as a reader
+// needs (a printf format, or significant digits).
 
 #include <charconv>
+#include <cstdio>
 #include <string>
 
 namespace guideway {
@@ -17,6 +19,23 @@ inline void append_shortest(std::string& out, double v) {
   std::string out;
   append_shortest(out, v);
   return out;
+}
+
+// One number in a printf conversion ("%.3f", "%+.2g um", ...), for messages and tables.
+[[nodiscard]] inline std::string printf_number(const char* printf_format, double v) {
+  char buf[128];
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+  std::snprintf(buf, sizeof buf, printf_format, v);
+#pragma GCC diagnostic pop
+  return buf;
+}
+
+// `digits` significant digits, as printf's %g (and an ostream's default notation) writes them.
+[[nodiscard]] inline std::string significant_digits(double v, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
 }
 
 }  // namespace guideway

@@ -19,22 +19,9 @@
 #include <system_error>
 
 #include "core/mono_clock.hpp"
+#include "core/utc_time.hpp"
 
 namespace guideway::daemon {
-
-namespace {
-
-std::string utc_now_iso() {
-  const auto now = std::chrono::system_clock::now();
-  const std::time_t t = std::chrono::system_clock::to_time_t(now);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
-}  // namespace
 
 std::vector<std::unique_ptr<drivers::Driver>> create_devices(const DaemonConfig& config,
                                                              const drivers::DriverRegistry& registry) {

@@ -10,6 +10,7 @@
 #include "formats/profile_files.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
 #include "dsp/denoise.hpp"
+#include "dsp/series.hpp"
 #include "dsp/wavelet.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
@@ -41,22 +42,6 @@ std::vector<double> line_deviations(const std::vector<double>& x, const std::vec
   return d;
 }
 
-double peak_to_valley(const std::vector<double>& v) {
-  double lo = INFINITY, hi = -INFINITY;
-  for (double e : v) {
-    if (std::isnan(e)) continue;
-    lo = std::min(lo, e);
-    hi = std::max(hi, e);
-  }
-  return hi - lo;
-}
-
-double rms(const std::vector<double>& v) {
-  double s = 0;
-  for (double e : v) s += e * e;
-  return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
-}
-
 }  // namespace
 
 nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEvaluationOptions& options) {
@@ -82,21 +67,7 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
     throw std::invalid_argument(std::to_string(invalid) + " of " + std::to_string(n) +
                                 " points are invalid (over 1 %)");
   }
-  // The wavelet transform needs every point: invalid ones are interpolated linearly between their
-  // valid neighbours (held at the ends).
-  std::vector<double> filled = z_um;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!std::isnan(filled[i])) continue;
-    std::size_t j = i;
-    while (j < n && std::isnan(z_um[j])) ++j;
-    const double left = i > 0 ? filled[i - 1] : (j < n ? z_um[j] : 0.0);
-    const double right = j < n ? z_um[j] : left;
-    for (std::size_t k = i; k < j; ++k) {
-      const double w = static_cast<double>(k - i + 1) / static_cast<double>(j - i + 1);
-      filled[k] = left + w * (right - left);
-    }
-    i = j;
-  }
+  const std::vector<double> filled = dsp::fill_gaps_linear(z_um);  // the wavelet transform needs every point
 
   const std::vector<double> dev = line_deviations(x_mm, z_um);
   std::vector<double> vx, vz;
@@ -109,7 +80,7 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
   const auto coeffs = dsp::wavedec(filled, wavelet, mode, options.level);
   const double sigma_um = dsp::mad_sigma(coeffs.back());
   const auto components = dsp::mra(filled, wavelet, mode, options.level);  // [A_J, D_J, ..., D_1]
-  const double form_um = peak_to_valley(line_deviations(x_mm, components[0]));
+  const double form_um = dsp::peak_to_valley(line_deviations(x_mm, components[0]));
 
   // Uncertainties from the white noise sigma (first order): a peak to valley is the difference of two
   // points; the approximation A_J keeps 1 / 2^J of the noise variance. The extremes of noisy points
@@ -119,7 +90,7 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
   nlohmann::json j;
   j["model"] = "profile/straightness+wavelet";
   j["profile"] = {
-      {"straightness_lsq_um", {{"value", peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
+      {"straightness_lsq_um", {{"value", dsp::peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
       {"straightness_min_zone_um", {{"value", min_zone_um}, {"u", std::sqrt(2.0) * sigma_um}}},
       {"form_straightness_um", {{"value", form_um}, {"u", std::sqrt(2.0) * sigma_um * level_scale}}},
       {"noise_um", {{"value", sigma_um}, {"u", sigma_um * std::sqrt(1.36 / n1)}}},  // MAD: var ~ 1.36 s^2 / n
@@ -140,7 +111,7 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
       band["form_um"] = form_um;
       band["wavelength_min_mm"] = dx_mm * std::pow(2.0, lev + 1);
     } else {
-      const double r = rms(components[b]);
+      const double r = dsp::rms(components[b]);
       const double noise = sigma_um * std::sqrt(static_cast<double>(coeffs[b].size()) / static_cast<double>(n));
       const double signal = std::sqrt(std::max(0.0, r * r - noise * noise));
       band["rms_um"] = r;

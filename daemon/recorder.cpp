@@ -13,19 +13,9 @@
 
 #include "core/mono_clock.hpp"
 #include "core/number_format.hpp"
+#include "core/utc_time.hpp"
 
 namespace guideway::daemon {
-
-std::string utc_now_iso_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  std::tm tm{};
-  gmtime_r(&ts.tv_sec, &tm);
-  char buf[40];
-  const std::size_t n = std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S", &tm);
-  std::snprintf(buf + n, sizeof(buf) - n, ".%03ldZ", ts.tv_nsec / 1'000'000);
-  return buf;
-}
 
 namespace {
 
@@ -52,7 +42,7 @@ RawRecorder::RawRecorder(const std::string& dir, const std::string& name, const 
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw std::runtime_error("cannot create recording directory " + dir + ": " + ec.message());
-  fd_ = ::open(part_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+  fd_ = ::open(part_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, recording_file_mode);
   if (fd_ < 0) throw std::runtime_error("cannot create recording " + part_path_ + ": " + std::strerror(errno));
   std::string header = "# format = guideway/raw/1\n";
   header += "# device = " + one_line(device.name()) + "\n";

@@ -24,6 +24,10 @@
 
 namespace guideway::daemon {
 
+// Every file a session leaves (raw recording, derived, explain, report): rw for the daemon, r for its
+// group, whatever the umask.
+inline constexpr unsigned recording_file_mode = 0640;
+
 struct RecorderOptions {
   std::chrono::milliseconds flush_period{50};
   std::size_t ring_capacity = 1 << 16;
@@ -80,8 +84,5 @@ class RawRecorder {
   bool closed_ = false;
   std::jthread thread_;
 };
-
-// Wall-clock time, ISO 8601 UTC with milliseconds (recording headers and trailers).
-std::string utc_now_iso_ms();
 
 }  // namespace guideway::daemon

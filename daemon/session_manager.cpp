@@ -9,46 +9,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "core/atomic_file.hpp"
+#include "core/utc_time.hpp"
 #include "report/report.hpp"
 
 namespace guideway::daemon {
 
 namespace {
-
-// Written as NAME.part, then renamed: a reader never sees half a file. Mode 0640 as the raw recording
-// (rw for the daemon, r for its group), whatever the umask.
-void write_file_atomically(const std::string& path, const std::string& content) {
-  const std::string part = path + ".part";
-  const auto fail = [&](const std::string& what, int err) {
-    std::remove(part.c_str());  // no empty or truncated leftovers in the state directory
-    throw std::runtime_error(part + ": " + what + ": " + std::strerror(err));
-  };
-  const int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
-  if (fd < 0) fail("cannot open for writing", errno);
-  ::fchmod(fd, 0640);  // an older part file keeps its mode through O_CREAT
-  std::size_t done = 0;
-  while (done < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int err = n < 0 ? errno : EIO;
-      ::close(fd);
-      fail("write failed", err);
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  if (::close(fd) != 0) fail("write failed", errno);
-  if (std::rename(part.c_str(), path.c_str()) != 0) fail("rename failed", errno);
-}
-
-std::string utc_stamp() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[20];
-  std::strftime(buf, sizeof(buf), "%Y%m%dT%H%M%SZ", &tm);
-  return buf;
-}
 
 std::string join(const std::vector<std::string>& v) {
   std::string out;
@@ -106,7 +73,7 @@ std::string SessionManager::start(const SessionRequest& request) {
         throw std::invalid_argument("device \"" + info.device + "\" is busy with session " + info.name);
       }
     }
-    std::string name = request.kind + "-" + devices_[index]->name() + "-" + utc_stamp();
+    std::string name = request.kind + "-" + devices_[index]->name() + "-" + utc_now("%Y%m%dT%H%M%SZ");
     int suffix = 1;
     const std::string base = name;
     while (std::any_of(infos_.begin(), infos_.end(), [&](const SessionInfo& i) { return i.name == name; })) {
@@ -256,7 +223,7 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
     // explanation was published: a disk that refuses the copy is a recording error, not a failed one.
     const std::string path = state_dir_ + "/" + info.name + ".explain.json";
     try {
-      write_file_atomically(path, report->dump(1) + "\n");
+      write_file_atomically(path, report->dump(1) + "\n", recording_file_mode);
     } catch (const std::exception& e) {
       report_recording_error(r, r.info.recording_error.empty() ? e.what() : r.info.recording_error + "; " + e.what());
       return std::nullopt;
@@ -283,7 +250,7 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
     options.title = "Guideway " + r.info.kind + " session " + r.info.name;
     options.subtitle = "device " + r.info.device + ", recording " + r.info.recording;
     const std::string path = report_path(state_dir_, r.info.name);
-    write_file_atomically(path, report::render_report(inputs, options));
+    write_file_atomically(path, report::render_report(inputs, options), recording_file_mode);
     outbox_.post({"EVENT", r.info.device,
                   nlohmann::json{{"class", "EVENT"}, {"device", r.info.device}, {"session", r.info.name},
                                  {"event", "report_ready"}, {"file", path}}
@@ -326,7 +293,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     try {
       const std::string base = info.name;
       derived = r->session->write_derived(state_dir_, base);
-      for (const auto& path : derived) ::chmod(path.c_str(), 0640);  // as the raw recording, whatever the umask
+      for (const auto& path : derived) ::chmod(path.c_str(), recording_file_mode);
     } catch (const std::exception& e) {
       // Both are kept: the raw recording's error is the one that loses data.
       report_recording_error(*r, info.recording_error.empty() ? e.what() : info.recording_error + "; " + e.what());

@@ -1,8 +1,10 @@
 // Profiles of a faced workpiece: the profile and its wavelet MRA (Mu 2012 Figure 7).
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "formats/profile_files.hpp"
+#include "dsp/series.hpp"
 #include "dsp/wavelet.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
@@ -22,34 +24,15 @@ std::string profile_section(const std::string& path, const std::string& id, cons
   }
   const std::size_t n = std::min(p.x_m.size(), p.z_m.size());
   if (n < 8) throw ReportError(path + ": a profile needs at least 8 points for the wavelet analysis");
-  // Invalid points (NaN) are bridged linearly for the transform, and counted.
-  std::vector<double> x_mm(n), z_um(n), filled(n);
-  std::size_t invalid = 0;
+  std::vector<double> x_mm(n), z_um(n);
   for (std::size_t i = 0; i < n; ++i) {
     x_mm[i] = p.x_m[i] * 1e3;
     z_um[i] = p.z_m[i] * 1e6;
   }
-  std::size_t first = n;
-  for (std::size_t i = 0; i < n; ++i)
-    if (std::isfinite(z_um[i])) {
-      first = i;
-      break;
-    }
-  if (first == n) throw ReportError(path + ": every point of the profile is invalid");
-  std::size_t last_valid = first;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (std::isfinite(z_um[i])) {
-      filled[i] = z_um[i];
-      if (i > last_valid + 1)
-        for (std::size_t k = last_valid + 1; k < i; ++k)
-          filled[k] = z_um[last_valid] + (z_um[i] - z_um[last_valid]) * static_cast<double>(k - last_valid) /
-                                             static_cast<double>(i - last_valid);
-      last_valid = i;
-    } else {
-      ++invalid;
-      filled[i] = z_um[i < first ? first : last_valid];  // edges: held (overwritten inside when bridged)
-    }
-  }
+  const auto invalid = static_cast<std::size_t>(std::count_if(z_um.begin(), z_um.end(), [](double z) { return std::isnan(z); }));
+  if (invalid == n) throw ReportError(path + ": every point of the profile is invalid");
+  // Bridged as the session bridges them, so the plot shows what the published figures came from.
+  const std::vector<double> filled = dsp::fill_gaps_linear(z_um);
 
   const dsp::Wavelet wavelet(options.wavelet);
   const int level = std::min(options.wavelet_level, dsp::dwt_max_level(n, wavelet.filter_length()));

@@ -9,6 +9,7 @@ guideway_add_test(dsp_streaming_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_strea
 target_compile_options(dsp_streaming_test PRIVATE -ffp-contract=off)
 guideway_add_test(dsp_wavelet_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_wavelet_test.cpp LIBS guideway_dsp LABELS unit)
 guideway_add_test(dsp_correlation_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_correlation_test.cpp LIBS guideway_dsp LABELS unit)
+guideway_add_test(dsp_series_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/dsp_series_test.cpp LIBS guideway_dsp LABELS unit)
 add_test(NAME dsp_x3p_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_LIST_DIR}/dsp_x3p_test.py $<TARGET_FILE:dsp_reference_tool>
           ${PROJECT_SOURCE_DIR}/tests/data/x3p/sample-land.x3p)

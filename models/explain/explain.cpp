@@ -13,6 +13,7 @@
 
 #include <Eigen/QR>
 
+#include "core/number_format.hpp"
 #include "models/common/least_squares.hpp"
 #include "models/explain/locate.hpp"
 #include "models/explain/stats.hpp"
@@ -23,12 +24,6 @@ namespace {
 
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr std::size_t none = static_cast<std::size_t>(-1);
-
-std::string fmt(const char* f, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
 
 // The finest residual level the tests resolve (um RMS): below it a residual counts as this level, so that
 // noise-free data (a simulation, an exact fit) is not explained down to its rounding error.
@@ -460,7 +455,7 @@ class Selection {
   [[nodiscard]] DropTest drop_test(const std::vector<Term>& terms, std::size_t k, const Model& cur, double cur_heldout) const {
     DropTest d = significance(terms, k, cur);
     if (!(d.p < o_.alpha)) {
-      d.why = "not significant with the others in the model (p=" + fmt("%.2g", d.p) + ")";
+      d.why = "not significant with the others in the model (p=" + printf_number("%.2g", d.p) + ")";
       return d;
     }
     if (!(d.delta_bic < 0)) {
@@ -469,7 +464,7 @@ class Selection {
     }
     d.heldout_without = heldout(terms, k).rms;
     if (std::isfinite(cur_heldout) && std::isfinite(d.heldout_without) && !(cur_heldout < d.heldout_without)) {
-      d.why = "the held-out RMS is no worse without it (" + fmt("%.4g", d.heldout_without) + " um)";
+      d.why = "the held-out RMS is no worse without it (" + printf_number("%.4g", d.heldout_without) + " um)";
       return d;
     }
     d.earns = true;
@@ -758,7 +753,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
         if (!accepted.empty()) {
           con.verdict = "not tried after a better candidate was taken";
         } else if (!(t.p < options.alpha)) {
-          con.verdict = "not significant (p=" + fmt("%.2g", t.p) + ")";
+          con.verdict = "not significant (p=" + printf_number("%.2g", t.p) + ")";
         } else if (!(t.delta_bic < 0)) {
           con.verdict = "does not lower the BIC";
         } else if (!std::isfinite(cur_heldout)) {  // no figure to beat: the trial's is not computed
@@ -769,7 +764,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
           if (!std::isfinite(ho.rms)) {
             con.verdict = "held-out RMS not computable (" + ho.failure + ")";
           } else if (!(ho.rms < cur_heldout)) {
-            con.verdict = "held-out RMS not improved (" + fmt("%.4g", ho.rms) + " um)";
+            con.verdict = "held-out RMS not improved (" + printf_number("%.4g", ho.rms) + " um)";
           } else {
             con.verdict = "selected";
             accepted = cand.effect;
@@ -803,7 +798,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
       if (worst == none) break;
       const std::string effect = problem.candidates[terms[worst].cand].effect;
       const DropTest d = sel.significance(terms, worst, cur);
-      drop(worst, {effect, d.delta_bic, d.p, "removes only " + fmt("%.0f", 100 * worst_share) + " % of the structure left without it"});
+      drop(worst, {effect, d.delta_bic, d.p, "removes only " + printf_number("%.0f", 100 * worst_share) + " % of the structure left without it"});
       prune("dropping " + effect);
       changed = true;
     }

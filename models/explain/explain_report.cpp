@@ -5,15 +5,11 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/number_format.hpp"
+
 namespace guideway::models::explain {
 
 namespace {
-
-std::string fmt(const char* f, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
 
 // Rounded for the JSON: curves for plots need no more than 4 decimals (0.1 nm; 1e-4 deg or mm), and stay
 // compact. Divided by an exact power of ten, so the shortest decimal form is printed.
@@ -90,7 +86,7 @@ nlohmann::json to_json(const Report& r) {
 
 std::string to_text(const Report& r) {
   std::ostringstream o;
-  const auto g = [](double v, const char* f = "%.4g") { return fmt(f, v); };
+  const auto g = [](double v, const char* f = "%.4g") { return printf_number(f, v); };
   o << "model " << r.model << ": " << r.n << " samples, noise " << g(r.noise_um, "%.3g") << " um (finest wavelet details)\n";
   o << "baseline: rms " << g(r.baseline.rms_um) << " um, held-out rms " << g(r.baseline.heldout_rms_um) << " um, BIC "
     << g(r.baseline.bic, "%.1f") << "  [" << r.heldout_scheme << "]\n";

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <string>
 
+#include "core/number_format.hpp"
 #include "dsp/denoise.hpp"
 #include <span>
 #include "dsp/wavelet.hpp"
@@ -16,13 +17,7 @@ namespace {
 
 constexpr std::size_t min_run_samples = 32;  // shorter runs are not decomposed
 
-std::string fmt(const char* f, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
-
-std::string pfmt(double p) { return p < 1e-300 ? std::string("<1e-300") : fmt("%.2g", p); }
+std::string pfmt(double p) { return p < 1e-300 ? std::string("<1e-300") : printf_number("%.2g", p); }
 
 int wavelet_level(std::size_t n) { return std::clamp(dsp::dwt_max_level(n, 8), 1, 10); }
 
@@ -54,9 +49,9 @@ std::string unit_of(const Problem& p) { return p.domain == "angle_deg" ? "deg" :
 std::string band_label(int level, int deepest, bool approx, double step, const std::string& unit) {
   // Detail level j passes periods of about 2^j .. 2^(j+1) samples; the approximation the longer ones.
   if (approx)
-    return "A" + std::to_string(deepest) + " (periods > " + fmt("%.3g", std::ldexp(step, deepest + 1)) + " " + unit + ")";
-  return "D" + std::to_string(level) + " (periods " + fmt("%.3g", std::ldexp(step, level)) + "-" +
-         fmt("%.3g", std::ldexp(step, level + 1)) + " " + unit + ")";
+    return "A" + std::to_string(deepest) + " (periods > " + printf_number("%.3g", std::ldexp(step, deepest + 1)) + " " + unit + ")";
+  return "D" + std::to_string(level) + " (periods " + printf_number("%.3g", std::ldexp(step, level)) + "-" +
+         printf_number("%.3g", std::ldexp(step, level + 1)) + " " + unit + ")";
 }
 
 double wrap_where(const Problem& p, double w) {
@@ -194,7 +189,7 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
       merge_gap = std::ldexp(step, b == 0 ? deepest : static_cast<int>(b));
       band_p = p;
       band_evidence = (b == 0 ? "A" + std::to_string(deepest) : "D" + std::to_string(b)) + " energy " +
-                      fmt("%.3g", ratio) + " x the finest details' (F p=" + pfmt(p) + ")";
+                      printf_number("%.3g", ratio) + " x the finest details' (F p=" + pfmt(p) + ")";
     }
   }
   // Whiteness per run, pooled: runs test z summed, Ljung-Box Q summed.
@@ -267,7 +262,7 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
     }
     for (const auto& v : merged) covered += v.hi - v.lo + step;
     if (covered > 0.6 * (hi - lo) || merged.size() > 8) {
-      where = "throughout " + fmt("%.4g", lo) + ".." + fmt("%.4g", hi) + " " + unit + " (peak " + fmt("%+.3g", peak) +
+      where = "throughout " + printf_number("%.4g", lo) + ".." + printf_number("%.4g", hi) + " " + unit + " (peak " + printf_number("%+.3g", peak) +
               " um)";
     } else {
       // Strongest first.
@@ -276,7 +271,7 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
       for (const auto& v : merged) {
         place_ranges.emplace_back(v.lo, v.hi);
         if (!where.empty()) where += ", ";
-        where += fmt("%.4g", v.lo) + ".." + fmt("%.4g", v.hi) + " " + unit + " (" + fmt("%+.3g", v.peak) + " um)";
+        where += printf_number("%.4g", v.lo) + ".." + printf_number("%.4g", v.hi) + " " + unit + " (" + printf_number("%+.3g", v.peak) + " um)";
       }
     }
   } else {
@@ -284,9 +279,9 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
   }
   std::string evidence = band_evidence;
   const auto add = [&](const std::string& s) { evidence += (evidence.empty() ? "" : "; ") + s; };
-  add("runs test z=" + fmt("%.3g", z_runs) + " (p=" + pfmt(p_runs) + ")");
-  add("Ljung-Box Q=" + fmt("%.4g", q_sum) + " on " + fmt("%g", q_dof) + " dof (p=" + pfmt(p_lb) + ")");
-  add("noise " + fmt("%.3g", sigma) + " um from the finest details");
+  add("runs test z=" + printf_number("%.3g", z_runs) + " (p=" + pfmt(p_runs) + ")");
+  add("Ljung-Box Q=" + printf_number("%.4g", q_sum) + " on " + printf_number("%g", q_dof) + " dof (p=" + pfmt(p_lb) + ")");
+  add("noise " + printf_number("%.3g", sigma) + " um from the finest details");
   out.places.push_back({problem.domain, where, dominant.empty() ? "broadband" : dominant, evidence, place_ranges});
 
   // Direction and feed: runs of one geometry compared at the same place.
@@ -323,18 +318,18 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
       if (dir_pair) {
         out.places.push_back(
             {"direction", pair, dominant.empty() ? "broadband" : dominant,
-             "residuals at the same place correlate " + fmt("%+.2f", rho) + " (z=" + fmt("%.3g", z) + "): " +
+             "residuals at the same place correlate " + printf_number("%+.2f", rho) + " (z=" + printf_number("%.3g", z) + "): " +
                  (rho < 0 ? "the mismatch flips sign with the direction of motion (velocity-dependent)"
                           : "the mismatch repeats at the same place in both directions (position-dependent)"),
              {}});
       } else {
         const double slope = sxy / sxx;  // r_j = slope * r_i
-        out.places.push_back({"feed", pair + " (" + fmt("%g", ri.feed_mm_per_min) + " vs " +
-                                          fmt("%g", rj.feed_mm_per_min) + " mm/min)",
+        out.places.push_back({"feed", pair + " (" + printf_number("%g", ri.feed_mm_per_min) + " vs " +
+                                          printf_number("%g", rj.feed_mm_per_min) + " mm/min)",
                               dominant.empty() ? "broadband" : dominant,
-                              "residuals at the same place correlate " + fmt("%+.2f", rho) + "; the second is " +
-                                  fmt("%.3g", slope) + " x the first (feed ratio " +
-                                  fmt("%.3g", rj.feed_mm_per_min / ri.feed_mm_per_min) + ")",
+                              "residuals at the same place correlate " + printf_number("%+.2f", rho) + "; the second is " +
+                                  printf_number("%.3g", slope) + " x the first (feed ratio " +
+                                  printf_number("%.3g", rj.feed_mm_per_min / ri.feed_mm_per_min) + ")",
                               {}});
       }
     }
@@ -365,8 +360,8 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
   }
   if (std::abs(best_z) > 5)
     out.places.push_back({"time_s", best_run, dominant.empty() ? "broadband" : dominant,
-                          "the residual trends " + fmt("%+.3g", best_slope * 60) + " um/min within the run (z=" +
-                              fmt("%.3g", best_z) + ")",
+                          "the residual trends " + printf_number("%+.3g", best_slope * 60) + " um/min within the run (z=" +
+                              printf_number("%.3g", best_z) + ")",
                           {}});
   return out;
 }

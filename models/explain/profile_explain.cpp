@@ -7,6 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "core/number_format.hpp"
 #include "formats/profile_files.hpp"
 #include "models/common/least_squares.hpp"
 
@@ -16,12 +17,6 @@ namespace {
 
 constexpr double pi = std::numbers::pi;
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-
-std::string fmt(const char* f, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
 
 double meta_number(const formats::Profile& p, const std::string& path, const std::string& key, double fallback,
                    bool required) {
@@ -208,7 +203,7 @@ std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::v
 std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
   std::vector<RunInfo> out;
   for (std::size_t k = 0; k < runs.size(); ++k)
-    out.push_back({"profile" + std::to_string(k + 1) + " (" + fmt("%g", runs[k].feed_mm_per_min) + " mm/min)", 1,
+    out.push_back({"profile" + std::to_string(k + 1) + " (" + printf_number("%g", runs[k].feed_mm_per_min) + " mm/min)", 1,
                    runs[k].feed_mm_per_min, "face"});
   return out;
 }
@@ -275,16 +270,16 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
     for (std::size_t i = 0; i < g.size(); ++i) {
       auto& p = g[i];
       if (p.x_mm < x0_mm - tol_mm || p.x_mm > x1_mm + tol_mm)
-        throw std::invalid_argument("explain: " + runs[p.run].source + ": x = " + fmt("%g", p.x_mm) +
-                                    " mm leaves the straightness traverse of " + tr.source + " (" + fmt("%g", x0_mm) +
-                                    " to " + fmt("%g", x1_mm) + " mm)");
+        throw std::invalid_argument("explain: " + runs[p.run].source + ": x = " + printf_number("%g", p.x_mm) +
+                                    " mm leaves the straightness traverse of " + tr.source + " (" + printf_number("%g", x0_mm) +
+                                    " to " + printf_number("%g", x1_mm) + " mm)");
       const double u = (p.x_mm - x0_mm) * 1e-3;
       y2_um[i] = prof.polynomial(u) * 1e6;
       p.pitch_rad = prof.polynomial.slope(u);
       p.y_um -= y2_um[i];
     }
     straightness_note = "base: Mu Eq. 16 with the measured straightness of " + tr.source + " (Eq. 10 polynomial of order " +
-                        std::to_string(prof.polynomial.order) + ", " + fmt("%g", x0_mm) + " to " + fmt("%g", x1_mm) +
+                        std::to_string(prof.polynomial.order) + ", " + printf_number("%g", x0_mm) + " to " + printf_number("%g", x1_mm) +
                         " mm) subtracted from every profile";
   } else if (model == "flatness") {
     straightness_note = "measured straightness not supplied (--straightness): the base is Eq. 16's squareness only, so the "

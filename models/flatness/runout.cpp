@@ -7,18 +7,12 @@
 
 #include <Eigen/Dense>
 
+#include "core/number_format.hpp"
 #include "models/flatness/table_reader.hpp"
 
 namespace guideway::models {
 
 namespace {
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
 
 }  // namespace
 
@@ -27,13 +21,13 @@ RunoutRevolution parse_runout_revolution(std::string_view text, const std::strin
   RunoutRevolution rev;
   rev.source = source;
   const double d_mm = t.metadata_number("plate_diameter_mm");
-  if (!(d_mm > 0)) throw InputError(source + ": plate_diameter_mm = " + fmt(d_mm) + " must be positive");
+  if (!(d_mm > 0)) throw InputError(source + ": plate_diameter_mm = " + significant_digits(d_mm, 10) + " must be positive");
   rev.plate_diameter_m = d_mm * 1e-3;
   rev.parallelism_m = t.metadata_number("parallelism_um") * 1e-6;
   rev.u_parallelism_m = t.optional_metadata_number("parallelism_u_um").value_or(0.0) * 1e-6;
   if (rev.u_parallelism_m < 0) throw InputError(source + ": parallelism_u_um must not be negative");
   if (auto travel = t.optional_metadata_number("travel_mm")) {
-    if (!(*travel > 0)) throw InputError(source + ": travel_mm = " + fmt(*travel) + " must be positive");
+    if (!(*travel > 0)) throw InputError(source + ": travel_mm = " + significant_digits(*travel, 10) + " must be positive");
     rev.travel_m = *travel * 1e-3;
   }
   const std::size_t ca = t.column("angle_deg");
@@ -72,7 +66,7 @@ RunoutResult identify_runout(const RunoutRevolution& rev) {
   if (!(r.condition_number < 1e6))
     throw InputError(rev.source + ": the angles (" + std::to_string(n) +
                      " samples) do not determine a once- and twice-per-revolution sine (condition number " +
-                     fmt(r.condition_number) + "); record a full revolution");
+                     significant_digits(r.condition_number, 10) + "); record a full revolution");
   const Eigen::VectorXd p = j.colPivHouseholderQr().solve(y);
   const Eigen::VectorXd res = y - j * p;
   const double s2 = res.squaredNorm() / static_cast<double>(n - 5);

@@ -10,18 +10,12 @@
 
 #include <Eigen/Dense>
 
+#include "core/number_format.hpp"
 #include "models/flatness/table_reader.hpp"
 
 namespace guideway::models {
 
 namespace {
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
 
 std::string where(const std::string& source, std::size_t line) { return source + ":" + std::to_string(line) + ": "; }
 
@@ -29,8 +23,8 @@ double checked_angle(const TableFile& t, const TableFile::Row& row, std::size_t 
   const double arcsec = t.number(row, col);
   const double range_arcsec = ac.range_rad / rad_per_arcsec;
   if (std::abs(arcsec) > range_arcsec)
-    throw InputError(where(t.source, row.line) + t.columns[col] + " = " + fmt(arcsec) +
-                     " is outside the autocollimator range +-" + fmt(range_arcsec) + " arcsec");
+    throw InputError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(arcsec, 10) +
+                     " is outside the autocollimator range +-" + significant_digits(range_arcsec, 10) + " arcsec");
   return arcsec * rad_per_arcsec;
 }
 
@@ -163,7 +157,7 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
   AngleTraverse tr;
   tr.source = source;
   const double step_mm = t.metadata_number("step_mm");
-  if (!(step_mm > 0)) throw InputError(source + ": step_mm = " + fmt(step_mm) + " must be positive");
+  if (!(step_mm > 0)) throw InputError(source + ": step_mm = " + significant_digits(step_mm, 10) + " must be positive");
   tr.step_m = step_mm * 1e-3;
   const std::size_t cx = t.column("x_mm");
   const std::size_t cp = t.column("pitch_arcsec");
@@ -178,16 +172,16 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
       const double dx = x - prev_x;
       const double tol = 1e-3 * step_mm;
       if (dx <= tol)
-        throw InputError(where(source, row.line) + "x_mm = " + fmt(x) + " does not increase (previous station " +
-                         fmt(prev_x) + ")");
+        throw InputError(where(source, row.line) + "x_mm = " + significant_digits(x, 10) + " does not increase (previous station " +
+                         significant_digits(prev_x, 10) + ")");
       if (std::abs(dx - step_mm) > tol) {
         const double steps = dx / step_mm;
         if (std::abs(steps - std::round(steps)) <= 1e-3 * steps)
-          throw InputError(where(source, row.line) + "missing station: x_mm jumps from " + fmt(prev_x) + " to " +
-                           fmt(x) + " (step_mm = " + fmt(step_mm) + ", " + fmt(std::round(steps) - 1) +
-                           " station(s) missing, first at x_mm = " + fmt(prev_x + step_mm) + ")");
-        throw InputError(where(source, row.line) + "x_mm spacing " + fmt(dx) +
-                         " does not match step_mm = " + fmt(step_mm));
+          throw InputError(where(source, row.line) + "missing station: x_mm jumps from " + significant_digits(prev_x, 10) + " to " +
+                           significant_digits(x, 10) + " (step_mm = " + significant_digits(step_mm, 10) + ", " + significant_digits(std::round(steps) - 1, 10) +
+                           " station(s) missing, first at x_mm = " + significant_digits(prev_x + step_mm, 10) + ")");
+        throw InputError(where(source, row.line) + "x_mm spacing " + significant_digits(dx, 10) +
+                         " does not match step_mm = " + significant_digits(step_mm, 10));
       }
     }
     prev_x = x;

@@ -9,19 +9,13 @@
 
 #include <Eigen/Dense>
 
+#include "core/number_format.hpp"
 #include "models/flatness/minimum_zone.hpp"
 #include "models/flatness/table_reader.hpp"
 
 namespace guideway::models {
 
 namespace {
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
 
 std::string trimmed(const std::string& s) {
   const auto a = s.find_first_not_of(" \t\r");
@@ -101,8 +95,8 @@ UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_overrid
       const auto v = parse_double(l);
       if (!v) throw InputError(where + "'" + l + "' is not a number (one reading in arc-seconds per line)");
       if (std::abs(*v) > range_arcsec)
-        throw InputError(where + "reading " + fmt(*v) + " arcsec is outside the autocollimator range +-" +
-                         fmt(range_arcsec) + " arcsec");
+        throw InputError(where + "reading " + significant_digits(*v, 10) + " arcsec is outside the autocollimator range +-" +
+                         significant_digits(range_arcsec, 10) + " arcsec");
       set.angle_rad[i].push_back(*v * rad_per_arcsec);
       set.file_line[i].push_back(k + 1);
       last_line[i] = k + 1;
@@ -147,7 +141,7 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
   const auto dl = static_cast<double>(nl), ds = static_cast<double>(ns), dd = static_cast<double>(nd);
   if (std::abs(std::hypot(dl, ds) - dd) > 1.5)
     r.warnings.push_back("the diagonals have " + std::to_string(nd) + " readings, far from sqrt(" + std::to_string(nl) +
-                         "^2 + " + std::to_string(ns) + "^2) = " + fmt(std::hypot(dl, ds)));
+                         "^2 + " + std::to_string(ns) + "^2) = " + significant_digits(std::hypot(dl, ds), 10));
   // Start and end of each line in station units (SW corner at 0, 0; x east, y north).
   const std::array<Geometry, 8> geo = {{{0, ds, dl, 0},             // NW_SE
                                         {dl, ds, 0, 0},             // NE_SW

@@ -10,6 +10,7 @@
 
 #include "formats/profile_files.hpp"
 #include "dsp/correlation.hpp"
+#include "dsp/series.hpp"
 #include "dsp/wavelet.hpp"
 #include "models/common/least_squares.hpp"
 #include "models/flatness/table_reader.hpp"
@@ -31,17 +32,6 @@ double required_meta(const formats::Profile& p, const std::string& source, const
   const auto d = parse_double(*v);
   if (!d || !(*d > 0)) throw InputError(source + ": metadata '" + key + " = " + *v + "' is not a positive number");
   return *d;
-}
-
-double rms(const std::vector<double>& v) {
-  double s = 0.0;
-  for (double e : v) s += e * e;
-  return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
-}
-
-double peak_to_valley(const std::vector<double>& v) {
-  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
-  return *hi - *lo;
 }
 
 // Pearson coefficient, 0 when a signal is constant (a perfectly straight carriage has no shape to
@@ -170,13 +160,13 @@ WorkpieceFlatnessResult analyse_workpiece_flatness(const std::vector<WorkpiecePr
     pf.x_start_m = p.x_m.front();
     pf.x_end_m = p.x_m.back();
     pf.spacing_m = (pf.x_end_m - pf.x_start_m) / static_cast<double>(n - 1);
-    pf.peak_to_valley_m = peak_to_valley(p.z_m);
+    pf.peak_to_valley_m = dsp::peak_to_valley(p.z_m);
 
     // Eq. 18: s1 = A_J of the multiresolution analysis.
     const auto bands = dsp::mra(p.z_m, wavelet, dsp::Mode::symmetric, options.levels);
-    for (const auto& b : bands) pf.band_rms_m.push_back(rms(b));
+    for (const auto& b : bands) pf.band_rms_m.push_back(dsp::rms(b));
     const std::vector<double>& x1 = bands.front();
-    pf.low_frequency_peak_to_valley_m = peak_to_valley(x1);
+    pf.low_frequency_peak_to_valley_m = dsp::peak_to_valley(x1);
 
     // Eq. 16's components at the profile's points: y1 (Eq. 15, the shape of a squareness: a line
     // rising towards +x; its size does not change a correlation) and y2 (Eq. 10 from the traverse).

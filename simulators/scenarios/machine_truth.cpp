@@ -7,17 +7,13 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "core/number_format.hpp"
+
 namespace guideway::sim::scenarios {
 
 namespace {
 
 constexpr double um = 1e-6;
-
-std::string fmt(const char* f, double a) {
-  char buf[96];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
 
 const char* letter(int axis) { return axis == 0 ? "x" : (axis == 1 ? "y" : "z"); }
 
@@ -53,7 +49,7 @@ DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const 
   const double floor_um = samples > 0 ? 7 * noise_um / std::sqrt(samples) : 0.0;
   const auto add = [&](std::string effect, std::string parameter, double value, double signal_um, std::string note) {
     if (signal_um > 0 && signal_um < floor_um)
-      note += (note.empty() ? "" : "; ") + fmt("%.3g", signal_um) + " um in the reading, below the " + fmt("%.2g", floor_um) +
+      note += (note.empty() ? "" : "; ") + printf_number("%.3g", signal_um) + " um in the reading, below the " + printf_number("%.2g", floor_um) +
               " um these samples resolve";
     t.findable.push_back({std::move(effect), std::move(parameter), value, std::move(note)});
   };
@@ -65,38 +61,38 @@ DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const 
     if (e.backlash_m != 0) add("backlash", "backlash_" + L + "_um", e.backlash_m / um, 0.5 * e.backlash_m / um, "");
     if (e.reversal_spike_m != 0)
       add("reversal_spike", "reversal_spike_" + L + "_um", e.reversal_spike_m / um, e.reversal_spike_m / um,
-          "decay " + fmt("%g", e.reversal_spike_decay_s * 1e3) + " ms");
+          "decay " + printf_number("%g", e.reversal_spike_decay_s * 1e3) + " ms");
     if (e.lateral_play_m != 0) add("lateral_play", "lateral_play_" + L + "_um", e.lateral_play_m / um, 0.5 * e.lateral_play_m / um, "");
     if (e.stick_slip_m != 0)
       add("stick_slip", "stick_slip_" + L + "_um", e.stick_slip_m / um, e.stick_slip_m / um,
-          fmt("%g Hz, ", e.stick_slip_hz) + fmt("decay %g ms", e.stick_slip_decay_s * 1e3));
+          printf_number("%g Hz, ", e.stick_slip_hz) + printf_number("decay %g ms", e.stick_slip_decay_s * 1e3));
     if (e.cyclic_amplitude_m != 0) {
       const double p_mm = e.cyclic_period_m * 1e3;
       if (p_mm < 1.0 || p_mm > 40.0)
-        cannot("cyclic error " + L + " " + fmt("%g um", e.cyclic_amplitude_m / um) + fmt(", lead %g mm", p_mm),
+        cannot("cyclic error " + L + " " + printf_number("%g um", e.cyclic_amplitude_m / um) + printf_number(", lead %g mm", p_mm),
                "outside the leads the explanation searches (1-40 mm)");
       else
         add("cyclic_error", "cyclic_error_" + L + "_um", e.cyclic_amplitude_m / um, e.cyclic_amplitude_m / um,
-            "lead " + fmt("%g mm", p_mm));
+            "lead " + printf_number("%g mm", p_mm));
     }
     if (e.vibration_amplitude_m != 0) {
       const double f = e.vibration_frequency_hz;
-      const std::string what = "vibration " + L + " " + fmt("%g um", e.vibration_amplitude_m / um) + fmt(" at %g Hz", f);
+      const std::string what = "vibration " + L + " " + printf_number("%g um", e.vibration_amplitude_m / um) + printf_number(" at %g Hz", f);
       if (slowest_rate < 1e300 && f > 0.4 * slowest_rate)
-        cannot(what, "above 0.4 x the bar's sample rate (" + fmt("%g Hz", slowest_rate) + "): aliased, not searched");
+        cannot(what, "above 0.4 x the bar's sample rate (" + printf_number("%g Hz", slowest_rate) + "): aliased, not searched");
       else if (longest_run_s > 0 && f < 4 / longest_run_s)
         cannot(what, "slower than 4 periods per run: a drift or Lai's base absorbs it");
       else
-        add("vibration", "vibration_" + L + "_um", e.vibration_amplitude_m / um, e.vibration_amplitude_m / um, fmt("%g Hz", f));
+        add("vibration", "vibration_" + L + "_um", e.vibration_amplitude_m / um, e.vibration_amplitude_m / um, printf_number("%g Hz", f));
     }
     if (e.drift_m_per_s != 0)
       add("thermal_drift", "drift_" + L + "_um_per_min", e.drift_m_per_s / um * 60, std::abs(e.drift_m_per_s) * duration_s / um,
-          fmt("%.3g um over the test", std::abs(e.drift_m_per_s) * duration_s / um));
+          printf_number("%.3g um over the test", std::abs(e.drift_m_per_s) * duration_s / um));
     if (e.scale_drift_per_s != 0)
-      cannot("scale drift " + L + " " + fmt("%g ppm/h", e.scale_drift_per_s * 3.6e9),
+      cannot("scale drift " + L + " " + printf_number("%g ppm/h", e.scale_drift_per_s * 3.6e9),
              "a scale growing with time is not in the effect library (EXPLAIN would leave it unexplained)");
     if (e.bump_amplitude_m != 0)
-      cannot("guideway bump on " + L + " " + fmt("%g um", e.bump_amplitude_m / um) + fmt(" at %g mm", e.bump_center_m * 1e3),
+      cannot("guideway bump on " + L + " " + printf_number("%g um", e.bump_amplitude_m / um) + printf_number(" at %g mm", e.bump_center_m * 1e3),
              "outside the effect library: EXPLAIN locates it (unexplained) where the carriage passes it");
   }
   {
@@ -108,12 +104,12 @@ DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const 
       if (ccw && cw)
         add("servo_mismatch", "servo_mismatch_ms", (la - lb) * 1e3, 0.5 * v_max * std::abs(la - lb) / um, "");
       else
-        cannot("servo mismatch " + fmt("%g ms", (la - lb) * 1e3), "one direction only: in each direction it is squareness");
+        cannot("servo mismatch " + printf_number("%g ms", (la - lb) * 1e3), "one direction only: in each direction it is squareness");
     }
     const double lag = 0.5 * (la + lb);
     if (lag > 0) {
       if (angles_from_encoders)
-        cannot("servo lag " + fmt("%g ms", lag * 1e3),
+        cannot("servo lag " + printf_number("%g ms", lag * 1e3),
                "the session's angles are read from the axis encoders, which follow the drives: angle and bar agree "
                "(it only shrinks the circle by r (omega tau)^2 / 2, part of Lai's scale)");
       else
@@ -126,14 +122,14 @@ DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const 
     const std::string off = "the " + N + " axis does not move in a " + plane + " test";
     if (e.drift_m_per_s != 0) {
       const double along = std::abs(e.drift_m_per_s) * duration_s / um;
-      cannot(N + " drift " + fmt("%g um/h", e.drift_m_per_s / um * 3600),
-             off + "; over the " + fmt("%.0f s", duration_s) + " of data it moves the socket " + fmt("%.2g um", along) +
-                 " along the plane's normal, which the bar reads times h/L (" + fmt("%.2g", max_lean) + "): " +
-                 fmt("%.2g um", along * max_lean));
+      cannot(N + " drift " + printf_number("%g um/h", e.drift_m_per_s / um * 3600),
+             off + "; over the " + printf_number("%.0f s", duration_s) + " of data it moves the socket " + printf_number("%.2g um", along) +
+                 " along the plane's normal, which the bar reads times h/L (" + printf_number("%.2g", max_lean) + "): " +
+                 printf_number("%.2g um", along * max_lean));
     }
     if (e.vibration_amplitude_m != 0)
-      cannot(N + " vibration " + fmt("%g um", e.vibration_amplitude_m / um),
-             off + "; it reaches the bar only through h/L (" + fmt("%.2g", max_lean) + ")");
+      cannot(N + " vibration " + printf_number("%g um", e.vibration_amplitude_m / um),
+             off + "; it reaches the bar only through h/L (" + printf_number("%.2g", max_lean) + ")");
     if (e.backlash_m != 0 || e.cyclic_amplitude_m != 0 || e.lateral_play_m != 0 || e.reversal_spike_m != 0)
       cannot(N + " backlash, cyclic error, play or spikes", off);
   }
@@ -144,24 +140,24 @@ DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const 
   if (m.dbb.nonlinearity_quadratic_per_m != 0) {
     const double q = m.dbb.nonlinearity_quadratic_per_m * um;
     if (radii.size() < 2)
-      cannot("bar non-linearity " + fmt("%g /um", q), "one radius: its harmonics of the centre offset are Lai's base's shapes");
+      cannot("bar non-linearity " + printf_number("%g /um", q), "one radius: its harmonics of the centre offset are Lai's base's shapes");
     else
       add("sensor_nonlinearity", "sensor_quadratic_per_um", q, 0.0, "");
   }
   if (m.dbb.slip_m != 0)
-    cannot("ball slip " + fmt("%g um", m.dbb.slip_m / um) + fmt(" at %g s", m.dbb.slip_time_s),
+    cannot("ball slip " + printf_number("%g um", m.dbb.slip_m / um) + printf_number(" at %g s", m.dbb.slip_time_s),
            "an instrument failure outside the effect library: EXPLAIN locates it (unexplained)");
   // The spindle.
   const auto& s = m.spindle;
   if (s.tilt_x_rad != 0 || s.tilt_y_rad != 0 || s.axial_runout_m != 0 || s.plate_parallelism_rad != 0) {
     std::string what = "spindle";
-    if (s.tilt_x_rad != 0 || s.tilt_y_rad != 0) what += fmt(" tilt %g", s.tilt_x_rad / um) + fmt("/%g urad", s.tilt_y_rad / um);
-    if (s.axial_runout_m != 0) what += fmt(", axial run-out %g um", s.axial_runout_m / um);
-    if (s.plate_parallelism_rad != 0) what += fmt(", thrust plate %g urad", s.plate_parallelism_rad / um);
+    if (s.tilt_x_rad != 0 || s.tilt_y_rad != 0) what += printf_number(" tilt %g", s.tilt_x_rad / um) + printf_number("/%g urad", s.tilt_y_rad / um);
+    if (s.axial_runout_m != 0) what += printf_number(", axial run-out %g um", s.axial_runout_m / um);
+    if (s.plate_parallelism_rad != 0) what += printf_number(", thrust plate %g urad", s.plate_parallelism_rad / um);
     cannot(what, "a DBB test does not turn the spindle (the run-out and profile sessions see these)");
   }
   t.note = "geometric errors (centre offset, scale, squareness, straightness, roll) are Lai's base: PARAMS lai3; "
-           "the bar's noise is " + fmt("%g um", noise_um) + " (EXPLAIN's noise_um)";
+           "the bar's noise is " + printf_number("%g um", noise_um) + " (EXPLAIN's noise_um)";
   return t;
 }
 

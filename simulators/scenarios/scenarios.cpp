@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/number_format.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/profile_explain.hpp"
@@ -26,12 +27,6 @@ namespace {
 constexpr double pi = std::numbers::pi;
 constexpr double um = 1e-6;
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-
-std::string fmt(const char* f, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
 
 // The machine every DBB scenario starts from: the geometric errors Lai's base describes (so the base
 // has work to do) and 0.4 um of bar noise; nothing the base leaves out.
@@ -99,7 +94,7 @@ std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbScenario&
     spec.t0_s = t0;
     spec.seed = o.seed * 1000 + k + 1;
     dbb::Run run = simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1));
-    run.metadata["start_time_s"] = fmt("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
+    run.metadata["start_time_s"] = printf_number("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
     runs.push_back(std::move(run));
     t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + sc.gap_s;
   }
@@ -338,7 +333,7 @@ void evaluate(ScenarioResult& s) {
     c.within = c.found && std::abs(c.value - e.truth) <= e.tolerance;
     if (!c.found) why += e.effect + " (" + e.parameter + ") not found; ";
     else if (!c.within)
-      why += e.parameter + " = " + fmt("%.4g", c.value) + ", truth " + fmt("%.4g", e.truth) + " +/- " + fmt("%.3g", e.tolerance) + "; ";
+      why += e.parameter + " = " + printf_number("%.4g", c.value) + ", truth " + printf_number("%.4g", e.truth) + " +/- " + printf_number("%.3g", e.tolerance) + "; ";
     s.checks.push_back(c);
   }
   for (const auto& f : r.findings) {
@@ -390,7 +385,7 @@ ScenarioResult dbb_scenario(const DbbScenario& sc, const ScenarioOptions& o) {
       }
     }
     std::string where;
-    for (double d : sc.where_deg) where += (where.empty() ? "" : ", ") + fmt("%.1f", d);
+    for (double d : sc.where_deg) where += (where.empty() ? "" : ", ") + printf_number("%.1f", d);
     s.expect_where = where;
     if (std::find(hit.begin(), hit.end(), false) != hit.end()) {
       s.pass = false;
@@ -600,7 +595,7 @@ std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summarie
         if (std::find(extras.begin(), extras.end(), e) == extras.end()) extras.push_back(e);
     }
     const std::string seeds = std::to_string(s.runs.size());
-    const std::string common = fmt("%.4f", before) + " / " + fmt("%.4f", after) + " | " + std::to_string(unexplained) + "/" +
+    const std::string common = printf_number("%.4f", before) + " / " + printf_number("%.4f", after) + " | " + std::to_string(unexplained) + "/" +
                                seeds + (s.expect_unexplained ? " (expected)" : "") + " | " + std::to_string(s.passed) + "/" +
                                seeds + " |";
     std::string extra_note;
@@ -616,7 +611,7 @@ std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summarie
         bool first = true;
         for (const auto& mm : s.runs.front().report.mismatch)
           for (const auto& [lo, hi] : mm.ranges) {
-            o << (first ? "" : ", ") << fmt("%.4g", lo) << ".." << fmt("%.4g", hi);
+            o << (first ? "" : ", ") << printf_number("%.4g", lo) << ".." << printf_number("%.4g", hi);
             first = false;
           }
         o << " deg (seed " << s.seeds.front() << "; expected " << s.runs.front().expect_where << ")";
@@ -645,18 +640,18 @@ std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summarie
       double sd = 0;
       for (double v : values) sd += (v - mean) * (v - mean);
       sd = values.size() > 1 ? std::sqrt(sd / static_cast<double>(values.size() - 1)) : nan;
-      const std::string stat = values.empty() ? "-" : fmt("%.4g", mean) + (std::isfinite(sd) ? " +/- " + fmt("%.2g", sd) : "");
-      const std::string u = with_u ? fmt("%.2g", u_mean / static_cast<double>(with_u)) : "-";
-      const std::string z = with_u ? fmt("%.2g", zmax) : "-";
+      const std::string stat = values.empty() ? "-" : printf_number("%.4g", mean) + (std::isfinite(sd) ? " +/- " + printf_number("%.2g", sd) : "");
+      const std::string u = with_u ? printf_number("%.2g", u_mean / static_cast<double>(with_u)) : "-";
+      const std::string z = with_u ? printf_number("%.2g", zmax) : "-";
       o << "| " << (e == 0 ? s.name : "") << " | " << (e == 0 ? s.concealment : "") << " | " << x.effect << ": " << x.parameter
-        << " = " << fmt("%.4g", x.truth) << " (+/- " << fmt("%.3g", x.tolerance) << ") | " << found << "/" << seeds
+        << " = " << printf_number("%.4g", x.truth) << " (+/- " << printf_number("%.3g", x.tolerance) << ") | " << found << "/" << seeds
         << (e == 0 ? extra_note : "") << " | " << stat << " | " << u << " | " << z << " | "
         << (e == 0 ? common : " | | |") << "\n";
     }
   }
   const Coverage c = uncertainty_coverage(summaries);
-  o << "\nUncertainty coverage: of " << c.n << " fitted parameters, " << fmt("%.0f", 100 * c.within_1u) << " % within 1 u and "
-    << fmt("%.0f", 100 * c.within_2u) << " % within 2 u of the truth (68 % and 95 % for honest standard uncertainties).\n";
+  o << "\nUncertainty coverage: of " << c.n << " fitted parameters, " << printf_number("%.0f", 100 * c.within_1u) << " % within 1 u and "
+    << printf_number("%.0f", 100 * c.within_2u) << " % within 2 u of the truth (68 % and 95 % for honest standard uncertainties).\n";
   return o.str();
 }
 
