@@ -7,5 +7,4 @@ add_custom_target(daemon_load_bench
           --json ${CMAKE_CURRENT_BINARY_DIR}/daemon_load.json
   USES_TERMINAL
   COMMENT "guidewayd load and latency benchmark")
-add_dependencies(daemon_load_bench guidewayd guideway-emulate guideway_driver_dbb guideway_driver_autocollimator
-                 guideway_driver_micrometer guideway_driver_profilometer)
+add_dependencies(daemon_load_bench guidewayd guideway-emulate)

@@ -22,8 +22,8 @@ std::string utc_now(const char* strftime_format) { return format_utc(std::time(n
 std::string utc_now_iso_ms() {
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);
-  char ms[8];
-  std::snprintf(ms, sizeof ms, ".%03ldZ", ts.tv_nsec / 1'000'000);
+  char ms[16];
+  std::snprintf(ms, sizeof ms, ".%03dZ", static_cast<int>(ts.tv_nsec / 1'000'000));
   return format_utc(ts.tv_sec, "%Y-%m-%dT%H:%M:%S") + ms;
 }
 

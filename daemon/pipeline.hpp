@@ -1,7 +1,7 @@
 #pragma once
 // The pipeline thread: the single consumer of every driver ring. It drains the rings in bulk, checks
-// sequence gaps, measures sample-to-processing latency, feeds the stages (sessions, identification,
-// later issues) and posts decimated SAMPLE messages to the outbox. It sleeps on the drivers' doorbell
+// sequence gaps, measures sample-to-processing latency, feeds the stages (sessions, identification)
+// and posts decimated SAMPLE messages to the outbox. It sleeps on the drivers' doorbell
 // when the rings are empty (drivers/doorbell.hpp) and in fixed coalescing steps while data flows.
 // Thread safety: start/stop from the owner; progress() and stats() from any thread.
 

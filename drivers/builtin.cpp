@@ -1,9 +1,26 @@
 #include "drivers/builtin.hpp"
 
+#include "drivers/autocollimator/autocollimator_driver.hpp"
+#include "drivers/dbb/dbb_driver.hpp"
+#include "drivers/micrometer/micrometer_driver.hpp"
+#include "drivers/profilometer/profilometer_driver.hpp"
+
 namespace guideway::drivers {
 
+namespace {
+
+// One line per instrument (its folder under drivers/ holds the rest), as chrony's refclock table.
+constexpr void (*builtin_drivers[])(DriverRegistry&) = {
+    &dbb::register_dbb_driver,
+    &autocollimator::register_autocollimator_driver,
+    &micrometer::register_micrometer_driver,
+    &profilometer::register_profilometer_driver,
+};
+
+}  // namespace
+
 void register_builtin_drivers(DriverRegistry& registry) {
-  (void)registry;  // instrument drivers register here as they land (one line each)
+  for (const auto register_driver : builtin_drivers) register_driver(registry);
 }
 
 }  // namespace guideway::drivers

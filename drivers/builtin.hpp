@@ -1,5 +1,6 @@
 #pragma once
-// The drivers compiled into guidewayd (plugins add more at run time).
+// The instrument drivers compiled into guidewayd: dbb-can, autocollimator-serial, micrometer-modbus,
+// profilometer-tcp. Plugins in plugin_dir add more at run time (a plugin may replace one by name).
 
 #include "drivers/driver.hpp"
 

@@ -159,9 +159,9 @@ class DriverRegistry {
 // where both the build tree and an installation put them), else the compiled-in install path.
 std::string default_plugin_dir();
 
-// Plugins export this (extern "C") and must match the ABI version.
-// 2: Driver gained the doorbell. 3: Driver gained the virtual driver_counters() (its vtable changed)
-// and DriverStatus its driver_counters.
+// Plugins export this (extern "C") and must match it: a plugin passes C++ objects, so any change of
+// Driver, DriverStatus, DeviceConfig or DriverRegistry's layout bumps it (the versions so far:
+// docs/architecture.md).
 inline constexpr int plugin_abi_version = 3;
 using RegisterDriversFn = void (*)(DriverRegistry&);
 using PluginAbiVersionFn = int (*)();

@@ -1,5 +1,5 @@
 // Explanations of a model/recording mismatch: rendered from the JSON of `guideway explain --json`
-// (issue 7's shape; docs/reports.md lists the fields used and the optional residual curves).
+// (docs/reports.md lists the fields used and the optional residual curves).
 #include <algorithm>
 #include <cmath>
 #include <sstream>

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The CAN and serial instruments end to end, as processes: `guideway-emulate dbb` (Unix CAN gateway)
 and `guideway-emulate autocollimator` (pseudo-terminal, path printed on stdout) run beside guidewayd,
-which loads the dbb-can and autocollimator-serial plugins from its plugin directory; faults are
+which has the dbb-can and autocollimator-serial drivers built in; faults are
 injected through the emulators' stdin and `guideway status --json` must show them counted while both
 devices keep streaming (and the daemon keeps running).
 Usage: can_serial_process_test.py BUILD_DIR SOURCE_DIR"""

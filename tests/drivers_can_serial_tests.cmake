@@ -13,7 +13,7 @@ guideway_add_test(autocollimator_protocol_fuzz_test SOURCES autocollimator_proto
                   LIBS guideway_autocollimator)
 guideway_add_test(can_io_test SOURCES can_io_test.cpp LIBS guideway_can)
 guideway_add_test(serial_port_test SOURCES serial_port_test.cpp LIBS guideway_serial)
-# The emulators and guidewayd as processes, plugins loaded from <build>/lib/guideway/plugins.
+# The emulators and guidewayd as processes; the drivers are built into guidewayd.
 add_test(NAME can_serial_process_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/can_serial_process_test.py ${PROJECT_BINARY_DIR}
           ${PROJECT_SOURCE_DIR})

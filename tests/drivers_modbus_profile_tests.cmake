@@ -12,7 +12,7 @@ guideway_add_test(profilometer_stream_test SOURCES profilometer_stream_test.cpp 
 guideway_add_test(profilometer_tcp_test SOURCES profilometer_tcp_test.cpp
   LIBS guideway_profilometer guideway_profilometer_emulator LABELS integration TIMEOUT 180)
 guideway_add_test(x3p_profile_files_test SOURCES x3p_profile_files_test.cpp LIBS guideway_formats)
-# The daemon as a process with both plugins, reading three emulator processes (RTU pty, TCP, stream).
+# The daemon as a process with both drivers (built in), reading three emulator processes (RTU pty, TCP, stream).
 add_test(NAME micrometer_profilometer_daemon_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/micrometer_profilometer_daemon_test.py ${PROJECT_BINARY_DIR})
 set_tests_properties(micrometer_profilometer_daemon_test PROPERTIES LABELS integration TIMEOUT 120)

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""guidewayd as a process with the micrometer-modbus and profilometer-tcp plugins, reading
+"""guidewayd as a process with the micrometer-modbus and profilometer-tcp drivers (built in), reading
 `guideway-emulate micrometer --rtu` (a pseudo-terminal), `guideway-emulate micrometer --tcp` and
 `guideway-emulate profilometer` processes. Faults are injected through the emulators' stdin; the
 daemon must report them (counters, lost state with a reason), reconnect and keep every device running.
@@ -187,7 +187,7 @@ backoff_max_ms = 400
 
 class MicrometerBufferedDaemon(unittest.TestCase):
     """The daemon reading an amplifier's sample ring (buffered mode) at 10 kHz over Modbus TCP: the
-    plugin keeps the rate with no sequence gap, and a ring lapped by a stalled link shows in STATUS as
+    driver keeps the rate with no sequence gap, and a ring lapped by a stalled link shows in STATUS as
     seq_gaps while the device keeps streaming."""
 
     def setUp(self):

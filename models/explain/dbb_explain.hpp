@@ -22,7 +22,7 @@ namespace guideway::models::explain {
 // Base + candidates for `guideway explain --model dbb`.
 Problem dbb_problem(const std::vector<dbb::Run>& runs);
 Report explain_dbb_report(const std::vector<dbb::Run>& runs, const ExplainOptions& options = {});
-// The report in the JSON shape of to_json() (issue 7).
+// The report in the JSON shape of to_json().
 nlohmann::json explain_dbb(const std::vector<dbb::Run>& runs, const ExplainOptions& options = {});
 
 // A given simulation against a recording (same sample grid: equal length, equal angles within 1e-6

@@ -1,5 +1,5 @@
 #pragma once
-// Explaining a mismatch between a model and a recording (issue 7): locate where the residual of the
+// Explaining a mismatch between a model and a recording (docs/explain.md): locate where the residual of the
 // base model is structured rather than noise, then find the set of candidate effects of the library
 // (effects.hpp) that together explain it -- forward selection, each candidate fitted jointly with the
 // base and the effects already taken and accepted when it passes an F-test (Bonferroni over the

@@ -1,5 +1,5 @@
 #pragma once
-// The EXPLAIN scenario suite (issues 7 and 17): recordings generated in-process by the virtual machine
+// The EXPLAIN scenario suite: recordings generated in-process by the virtual machine
 // tool with effects switched on that the analysis model leaves out -- one at a time, concealed (below
 // the noise, or looking like an error the model already has), and several at once (pairs across the
 // whole DBB library, sets of three, a centre drifting in the plane) -- plus null scenarios (noise only;
