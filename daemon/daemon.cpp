@@ -445,12 +445,12 @@ nlohmann::json Daemon::handle_start(const Request& req) {
   }
   const std::string name = sessions_->start(sr);
   log_->info("session {} started", name);
-  return {{"class", "SESSION"}, {"session", name}, {"state", "running"}};
+  return {{"class", "SESSION"}, {"session", name}, {"state", to_string(SessionState::running)}};
 }
 
 nlohmann::json Daemon::handle_stop(const Request& req) {
   const auto names = sessions_->stop(string_field(req.body, "session"));
-  return {{"class", "SESSION"}, {"sessions", names}, {"state", "finishing"}};
+  return {{"class", "SESSION"}, {"sessions", names}, {"state", to_string(SessionState::finishing)}};
 }
 
 nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
@@ -467,7 +467,7 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
   // A session that ran and failed is the likely reason: say which and why (else "start one").
   const auto infos = sessions_->snapshot();
   for (auto it = infos.rbegin(); it != infos.rend(); ++it) {
-    if ((kind.empty() || it->kind == kind) && it->state == "failed") {
+    if ((kind.empty() || it->kind == kind) && it->state == SessionState::failed) {
       throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
                                   ": session " + it->name + " failed: " + it->progress);
     }
@@ -514,7 +514,7 @@ nlohmann::json Daemon::handle_recordings() const {
 nlohmann::json Daemon::sessions_json() const {
   nlohmann::json out = nlohmann::json::array();
   for (const SessionInfo& s : sessions_->snapshot()) {
-    nlohmann::json j = {{"session", s.name}, {"kind", s.kind}, {"device", s.device}, {"state", s.state},
+    nlohmann::json j = {{"session", s.name}, {"kind", s.kind}, {"device", s.device}, {"state", to_string(s.state)},
                         {"samples", s.samples}};
     if (!s.progress.empty()) j["progress"] = s.progress;
     if (!s.recording.empty()) j["recording"] = s.recording;

@@ -15,6 +15,16 @@
 
 namespace guideway::daemon {
 
+std::string_view to_string(SessionState state) noexcept {
+  switch (state) {
+    case SessionState::running: return "running";
+    case SessionState::finishing: return "finishing";
+    case SessionState::done: return "done";
+    case SessionState::failed: return "failed";
+  }
+  return "unknown";
+}
+
 namespace {
 
 std::string join(const std::vector<std::string>& v) {
@@ -69,7 +79,7 @@ std::string SessionManager::start(const SessionRequest& request) {
   {
     std::lock_guard lock(mutex_);
     for (const auto& info : infos_) {
-      if (info.device == devices_[index]->name() && (info.state == "running" || info.state == "finishing")) {
+      if (info.device == devices_[index]->name() && (info.state == SessionState::running || info.state == SessionState::finishing)) {
         throw std::invalid_argument("device \"" + info.device + "\" is busy with session " + info.name);
       }
     }
@@ -79,7 +89,7 @@ std::string SessionManager::start(const SessionRequest& request) {
     while (std::any_of(infos_.begin(), infos_.end(), [&](const SessionInfo& i) { return i.name == name; })) {
       name = base + "-" + std::to_string(++suffix);
     }
-    r->info = {name, request.kind, devices_[index]->name(), "running", "", "", "", 0};
+    r->info = {name, request.kind, devices_[index]->name(), SessionState::running, "", "", "", 0};
     auto meta = r->session->metadata();
     meta["session"] = name;
     meta["kind"] = request.kind;
@@ -103,7 +113,7 @@ std::vector<std::string> SessionManager::stop(const std::string& name) {
   std::lock_guard lock(mutex_);
   std::vector<std::string> out;
   for (auto& info : infos_) {
-    if (info.state == "running" && (name.empty() || info.name == name)) {
+    if (info.state == SessionState::running && (name.empty() || info.name == name)) {
       stops_.push_back(info.name);
       out.push_back(info.name);
     }
@@ -159,7 +169,7 @@ void SessionManager::on_tick(std::int64_t) {
       {
         std::lock_guard lock(mutex_);
         for (auto& info : infos_) {
-          if (info.name == r.info.name) info.state = "finishing";
+          if (info.name == r.info.name) info.state = SessionState::finishing;
         }
       }
       {
@@ -299,7 +309,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
       report_recording_error(*r, info.recording_error.empty() ? e.what() : info.recording_error + "; " + e.what());
     }
   }
-  info.state = failure.empty() ? "done" : "failed";
+  info.state = failure.empty() ? SessionState::done : SessionState::failed;
   if (failure.empty()) {
     params["class"] = "PARAMS";
     params["session"] = info.name;

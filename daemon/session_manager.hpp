@@ -23,11 +23,16 @@
 
 namespace guideway::daemon {
 
+// A session's life: running until stopped or its end condition, finishing while its files are written,
+// then done or failed (with the reason in `progress`).
+enum class SessionState { running, finishing, done, failed };
+[[nodiscard]] std::string_view to_string(SessionState state) noexcept;
+
 struct SessionInfo {
   std::string name;
   std::string kind;
   std::string device;
-  std::string state;  // running, finishing, done, failed
+  SessionState state = SessionState::running;
   std::string progress;
   std::string recording;  // path of the raw recording ("" if not recorded)
   std::string recording_error;
