@@ -371,43 +371,57 @@ void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<
 }
 
 void Daemon::handle_request(ClientId client, const std::string& line) {
+  // Every request class, in the order docs/protocol.md lists them; an unknown class gets this list.
+  struct RequestEntry {
+    const char* cls;
+    nlohmann::json (Daemon::*handle)(ClientId, const Request&);
+  };
+  static constexpr RequestEntry request_table[] = {
+      {"version", &Daemon::handle_version}, {"status", &Daemon::handle_status},
+      {"poll", &Daemon::handle_status},     {"watch", &Daemon::handle_watch},
+      {"start", &Daemon::handle_start},     {"stop", &Daemon::handle_stop},
+      {"params", &Daemon::handle_params},   {"explain", &Daemon::handle_explain},
+      {"report", &Daemon::handle_report},   {"recordings", &Daemon::handle_recordings},
+  };
   RequestError error;
   std::optional<Request> req = parse_request(line, error);
   if (!req) {
     reply(client, error_message(error.message), error.id);
     return;
   }
-  if (req->cls == "version") {
-    reply(client, version_message(), req->id);
-  } else if (req->cls == "status" || req->cls == "poll") {
-    last_stats_.devices.resize(devices_.size());
-    reply(client, status_json(), req->id);
-  } else if (req->cls == "watch") {
-    try {
-      reply(client, apply_watch(req->body, subscriptions_[client]), req->id);
-    } catch (const std::invalid_argument& e) {
-      reply(client, error_message(e.what(), req->cls), req->id);
-    }
-  } else if (req->cls == "start" || req->cls == "stop" || req->cls == "params" || req->cls == "explain" ||
-             req->cls == "report" || req->cls == "recordings") {
-    try {
-      nlohmann::json out = req->cls == "start"     ? handle_start(*req)
-                           : req->cls == "stop"    ? handle_stop(*req)
-                           : req->cls == "params"  ? latest_of(latest_params_, *req, "parameters identified")
-                           : req->cls == "explain" ? latest_of(latest_explain_, *req, "explanation")
-                           : req->cls == "report"  ? handle_report(*req)
-                                                   : handle_recordings();
-      reply(client, std::move(out), req->id);
-    } catch (const std::exception& e) {
-      reply(client, error_message(e.what(), req->cls), req->id);
-    }
-  } else {
-    reply(client,
-          error_message("unknown request class \"" + req->cls +
-                            "\" (known: version, status, poll, watch, start, stop, params, explain, report, recordings)",
-                        req->cls),
+  const auto* entry = std::find_if(std::begin(request_table), std::end(request_table),
+                                   [&](const RequestEntry& e) { return req->cls == e.cls; });
+  if (entry == std::end(request_table)) {
+    std::string known;
+    for (const RequestEntry& e : request_table) known += (known.empty() ? "" : ", ") + std::string(e.cls);
+    reply(client, error_message("unknown request class \"" + req->cls + "\" (known: " + known + ")", req->cls),
           req->id);
+    return;
   }
+  try {
+    reply(client, (this->*entry->handle)(client, *req), req->id);
+  } catch (const std::exception& e) {
+    reply(client, error_message(e.what(), req->cls), req->id);
+  }
+}
+
+nlohmann::json Daemon::handle_version(ClientId, const Request&) { return version_message(); }
+
+nlohmann::json Daemon::handle_status(ClientId, const Request&) {
+  last_stats_.devices.resize(devices_.size());
+  return status_json();
+}
+
+nlohmann::json Daemon::handle_watch(ClientId client, const Request& req) {
+  return apply_watch(req.body, subscriptions_[client]);
+}
+
+nlohmann::json Daemon::handle_params(ClientId, const Request& req) {
+  return latest_of(latest_params_, req, "parameters identified");
+}
+
+nlohmann::json Daemon::handle_explain(ClientId, const Request& req) {
+  return latest_of(latest_explain_, req, "explanation");
 }
 
 void Daemon::broadcast(const Message& message) {
@@ -434,7 +448,7 @@ std::string string_field(const nlohmann::json& body, const char* key) {
 
 }  // namespace
 
-nlohmann::json Daemon::handle_start(const Request& req) {
+nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   SessionRequest sr;
   sr.kind = string_field(req.body, "kind");
   if (sr.kind.empty()) throw std::invalid_argument("start needs \"kind\" (e.g. {\"class\":\"start\",\"kind\":\"dbb\"})");
@@ -448,7 +462,7 @@ nlohmann::json Daemon::handle_start(const Request& req) {
   return {{"class", "SESSION"}, {"session", name}, {"state", to_string(SessionState::running)}};
 }
 
-nlohmann::json Daemon::handle_stop(const Request& req) {
+nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {
   const auto names = sessions_->stop(string_field(req.body, "session"));
   return {{"class", "SESSION"}, {"sessions", names}, {"state", to_string(SessionState::finishing)}};
 }
@@ -476,7 +490,7 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
                               " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
 }
 
-nlohmann::json Daemon::handle_report(const Request& req) const {
+nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
   const nlohmann::json params = latest_of(latest_params_, req, "session finished");
   const std::string session = params.value("session", "");
   const std::string path = report_path(config_.state_dir, session);
@@ -488,7 +502,7 @@ nlohmann::json Daemon::handle_report(const Request& req) const {
           {"html", html.str()}};
 }
 
-nlohmann::json Daemon::handle_recordings() const {
+nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
   nlohmann::json list = nlohmann::json::array();
   std::error_code ec;
   std::vector<std::filesystem::directory_entry> entries;

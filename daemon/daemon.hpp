@@ -65,12 +65,19 @@ class Daemon {
   // Emulator children that exited: reaped, logged, an EVENT, restarted with back-off.
   void check_emulators(std::int64_t now_ns);
   [[nodiscard]] nlohmann::json emulators_json() const;
-  nlohmann::json handle_start(const Request& req);
-  nlohmann::json handle_stop(const Request& req);
+  // One request class each (the table in daemon.cpp dispatches them and lists them); an exception is
+  // the ERROR's reason.
+  nlohmann::json handle_version(ClientId client, const Request& req);
+  nlohmann::json handle_status(ClientId client, const Request& req);
+  nlohmann::json handle_watch(ClientId client, const Request& req);
+  nlohmann::json handle_start(ClientId client, const Request& req);
+  nlohmann::json handle_stop(ClientId client, const Request& req);
+  nlohmann::json handle_params(ClientId client, const Request& req);
+  nlohmann::json handle_explain(ClientId client, const Request& req);
+  nlohmann::json handle_report(ClientId client, const Request& req);
+  nlohmann::json handle_recordings(ClientId client, const Request& req);
   // The newest message of `latest` matching the request's optional kind/session; throws naming `what`.
   nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what) const;
-  nlohmann::json handle_recordings() const;
-  nlohmann::json handle_report(const Request& req) const;
   nlohmann::json sessions_json() const;
   std::string status_line() const;
 
