@@ -11,6 +11,7 @@
 #include <Eigen/QR>
 
 #include "models/dbb/fast_sincos.hpp"
+#include "models/dbb/geometry.hpp"
 
 namespace guideway::models::dbb {
 
@@ -20,25 +21,20 @@ constexpr double pi = std::numbers::pi;
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double um = 1e-6;
 
-// Sign with a dead zone: sin(pi) is 1.2e-16 and an angle read back from a file is not exactly k*90 deg.
-double sgn(double x) { return x > 1e-9 ? 1.0 : (x < -1e-9 ? -1.0 : 0.0); }
-
-// Per-sample geometry shared by both models.
-struct Point {
-  std::size_t run = 0;
-  double zeta = 0, c = 0, s = 0;
-  double lambda = 0, hl = 0, r = 0, h = 0;
-  double dir = 1, v = 0, omega = 0;
-  double sgn_a = 0, sgn_b = 0;      // sign of the axis velocities
-  double bl_a = 0, bl_b = 0;        // lost motion per unit backlash: -sgn/2 for an ideal step, or the
-                                    // deadband response at the current backlash estimate
-  double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
-  double a_m = 0, b_m = 0;          // machine coordinates of the commanded point (cyclic phase)
-  double cyc_sa = 0, cyc_ca = 0;    // sin and cos of the cyclic phase 2 pi a_m / period_a (and b),
-  double cyc_sb = 0, cyc_cb = 0;    // once the periods are chosen (set_cyclic_phases)
-  double y_um = 0;
+// Per-sample geometry and what the fits add to it.
+struct Point : SampleGeometry {
+  double bl_a = 0, bl_b = 0;      // lost motion per unit backlash: -sgn/2 for an ideal step, or the
+                                  // deadband response at the current backlash estimate
+  double cyc_sa = 0, cyc_ca = 0;  // sin and cos of the cyclic phase 2 pi a_m / period_a (and b),
+  double cyc_sb = 0, cyc_cb = 0;  // once the periods are chosen (set_cyclic_phases)
   double w = 1;
 };
+
+// The ideal step: the axis trails the command by half the backlash, on the side it comes from.
+void set_step_backlash(Point& p) {
+  p.bl_a = -0.5 * p.sgn_a;
+  p.bl_b = -0.5 * p.sgn_b;
+}
 
 std::vector<Point> points_of(const std::vector<Run>& runs) {
   std::vector<Point> pts;
@@ -47,37 +43,12 @@ std::vector<Point> points_of(const std::vector<Run>& runs) {
   pts.reserve(total);
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const Run& run = runs[k];
-    const double l0 = run.nominal_length_m();
     const double w =
         static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
-      Point& p = pts.emplace_back();  // filled in place (10^4 points of 216 bytes)
-      p.run = k;
-      p.zeta = run.angle_rad[i];
-      p.c = std::cos(p.zeta);
-      p.s = std::sin(p.zeta);
-      p.r = run.radius_m;
-      p.h = run.height_m;
-      p.lambda = run.radius_m / l0;
-      p.hl = run.height_m / l0;
-      p.dir = run.dir();
-      p.v = run.feed_m_per_s;
-      p.omega = run.feed_m_per_s / run.radius_m;
-      p.sgn_a = -p.dir * sgn(p.s);
-      p.sgn_b = p.dir * sgn(p.c);
-      p.bl_a = -0.5 * p.sgn_a;
-      p.bl_b = -0.5 * p.sgn_b;
-      // Most recent reversal angle of a (multiples of pi) and b (pi/2 + multiples of pi).
-      const auto since = [&](double phase) {
-        const double q = (p.zeta - phase) / pi;
-        const double last = p.dir > 0 ? std::floor(q) : std::ceil(q);
-        return std::abs(p.zeta - phase - last * pi) / p.omega;
-      };
-      p.since_a = since(0.0);
-      p.since_b = since(pi / 2);
-      p.a_m = run.center_a_m + run.radius_m * p.c;
-      p.b_m = run.center_b_m + run.radius_m * p.s;
-      p.y_um = run.dL_m[i] * 1e6;
+      Point& p = pts.emplace_back();  // filled in place (10^4 points of 200 bytes)
+      fill_sample_geometry(run, k, i, p);
+      set_step_backlash(p);
       p.w = w;
     }
   }
@@ -167,12 +138,6 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, Prero
   }
 }
 
-std::string axis_letters(const std::string& plane, int which) {
-  if (plane == "xz") return which == 0 ? "x" : "z";
-  if (plane == "yz") return which == 0 ? "y" : "z";
-  return which == 0 ? "x" : "y";
-}
-
 FitSummary summary_of(const LsqResult& res) {
   FitSummary f;
   f.rms_um = res.rms;
@@ -217,7 +182,7 @@ constexpr LaiColumn lai_columns[] = {
 constexpr std::size_t lai_count = std::size(lai_columns);
 
 void lai_basis(const Point& p, double* out) {
-  const double c = p.c, s = p.s, r = p.r, lam = p.lambda, hl = p.hl;
+  const double c = p.c, s = p.s, r = p.radius_m, lam = p.lambda, hl = p.h_over_l0;
   out[0] = -lam * c;
   out[1] = -lam * s;
   out[2] = lam * r * c * c;
@@ -237,7 +202,7 @@ void lai_basis(const Point& p, double* out) {
   out[16] = hl * r * r * r * s * s * s;
   out[17] = lam * p.bl_a * c;
   out[18] = lam * p.bl_b * s;
-  out[19] = lam * p.dir * p.v * s * c;
+  out[19] = lam * p.dir * p.feed_m_per_s * s * c;
 }
 
 // ---- Ballbar diagnostics -------------------------------------------------------------------------
@@ -271,7 +236,7 @@ struct DiagLayout {
 // Column values in um per reported unit (um, ppm, urad, ms).
 void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   row.setZero();
-  const double c = p.c, s = p.s, lam = p.lambda, r = p.r;
+  const double c = p.c, s = p.s, lam = p.lambda, r = p.radius_m;
   row[static_cast<Eigen::Index>(2 * p.run)] = lam * c;
   row[static_cast<Eigen::Index>(2 * p.run + 1)] = lam * s;
   const auto g = static_cast<Eigen::Index>(L.global0());
@@ -282,22 +247,22 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   row[g + DiagLayout::backlash_b] = lam * p.bl_b * s;
   row[g + DiagLayout::play_a] = lam * 0.5 * p.sgn_a * s;
   row[g + DiagLayout::play_b] = lam * 0.5 * p.sgn_b * c;
-  row[g + DiagLayout::servo] = lam * p.dir * p.v * s * c * 1e3;  // 1 ms = 1e-3 s; v m/s -> um: *1e6*1e-3
+  row[g + DiagLayout::servo] = lam * p.dir * p.feed_m_per_s * s * c * 1e3;  // 1 ms = 1e-3 s; v m/s -> um: *1e6*1e-3
   row[g + DiagLayout::bow_a] = lam * s * c * c;
   row[g + DiagLayout::bow_b] = lam * c * s * s;
   if (L.spikes) {
     const auto k = static_cast<Eigen::Index>(L.spike0());
-    row[k] = lam * c * (-p.sgn_a) * spike_shape(p.since_a - L.delay_a, L.tau_a);
-    row[k + 1] = lam * s * (-p.sgn_b) * spike_shape(p.since_b - L.delay_b, L.tau_b);
+    row[k] = lam * c * (-p.sgn_a) * spike_shape(p.since_a_s - L.delay_a, L.tau_a);
+    row[k + 1] = lam * s * (-p.sgn_b) * spike_shape(p.since_b_s - L.delay_b, L.tau_b);
   }
   // d/dtau of A exp(-t/tau) = A t / tau^2 exp(-t/tau), per ms of tau.
   if (L.decay_a) {
-    const double t = p.since_a - L.delay_a;
+    const double t = p.since_a_s - L.delay_a;
     row[static_cast<Eigen::Index>(L.decay_a0())] =
         lam * c * (-p.sgn_a) * L.amp_a * t / (L.tau_a * L.tau_a) * spike_shape(t, L.tau_a) * 1e-3;
   }
   if (L.decay_b) {
-    const double t = p.since_b - L.delay_b;
+    const double t = p.since_b_s - L.delay_b;
     row[static_cast<Eigen::Index>(L.decay_b0())] =
         lam * s * (-p.sgn_b) * L.amp_b * t / (L.tau_b * L.tau_b) * spike_shape(t, L.tau_b) * 1e-3;
   }
@@ -330,7 +295,7 @@ void set_cyclic_phases(const DiagLayout& L, std::vector<Point>& pts) {
 }
 
 std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>& runs, const std::string& plane) {
-  const std::string A = axis_letters(plane, 0), B = axis_letters(plane, 1);
+  const std::string A = axis_letter(plane, 0), B = axis_letter(plane, 1);
   std::vector<std::string> n;
   for (std::size_t k = 0; k < L.runs; ++k) {
     // One run: plain names; several: run1.center_offset_*, run2.center_offset_*, ...
@@ -404,7 +369,7 @@ LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std
     work.y.resize(n);
     work.w.resize(n);
     for (Eigen::Index i = 0; i < n; ++i) {
-      work.y[i] = pts[static_cast<std::size_t>(i)].y_um;
+      work.y[i] = pts[static_cast<std::size_t>(i)].dL_um;
       work.w[i] = pts[static_cast<std::size_t>(i)].w;
     }
   }
@@ -443,8 +408,8 @@ double explained(const std::vector<Point>& pts, const Eigen::VectorXd& res, cons
 double circular_deviation(const Point* p, std::size_t n_points) {
   std::vector<double> zeta(n_points), y(n_points);
   for (std::size_t i = 0; i < n_points; ++i) {
-    zeta[i] = p[i].zeta;
-    y[i] = p[i].y_um;
+    zeta[i] = p[i].zeta_rad;
+    y[i] = p[i].dL_um;
   }
   return range_about_circle(zeta, y);
 }
@@ -457,7 +422,7 @@ double part_of_deviation(const std::vector<Point>& pts, const std::vector<double
     std::size_t i1 = i0;
     while (i1 < pts.size() && pts[i1].run == k) ++i1;
     std::vector<double> zeta;
-    for (std::size_t i = i0; i < i1; ++i) zeta.push_back(pts[i].zeta);
+    for (std::size_t i = i0; i < i1; ++i) zeta.push_back(pts[i].zeta_rad);
     if (i1 > i0 + 3) out = std::max(out, range_about_circle(zeta, std::span<const double>(curve).subspan(i0, i1 - i0)));
     i0 = i1;
   }
@@ -477,7 +442,7 @@ double circular_hysteresis(const Run& r1, const Point* p1, const Run& r2, const 
       a(row, 0) = 1;
       a(row, 1) = p[i].c;
       a(row, 2) = p[i].s;
-      y[row] = p[i].y_um;
+      y[row] = p[i].dL_um;
     }
   };
   fill(p1, n1, 0);
@@ -527,21 +492,8 @@ std::vector<std::string> lai3_parameter_names() {
 
 std::vector<double> lai3_characteristics(double radius_m, double height_m, int direction, double feed_m_per_s,
                                          double zeta) {
-  Point p;
-  p.zeta = zeta;
-  p.c = std::cos(zeta);
-  p.s = std::sin(zeta);
-  p.r = radius_m;
-  p.h = height_m;
-  const double l0 = std::sqrt(radius_m * radius_m + height_m * height_m);
-  p.lambda = radius_m / l0;
-  p.hl = height_m / l0;
-  p.dir = direction;
-  p.v = feed_m_per_s;
-  p.sgn_a = -p.dir * sgn(p.s);
-  p.sgn_b = p.dir * sgn(p.c);
-  p.bl_a = -0.5 * p.sgn_a;
-  p.bl_b = -0.5 * p.sgn_b;
+  Point p{circle_geometry(radius_m, height_m, direction, feed_m_per_s, zeta)};
+  set_step_backlash(p);
   std::vector<double> out(lai_count);
   lai_basis(p, out.data());
   return out;
@@ -552,7 +504,7 @@ double lai3_exact_dL(const Lai3Params& q, double radius_m, double height_m, int 
   const double r = radius_m, h = height_m;
   const double c = std::cos(zeta), s = std::sin(zeta);
   const double a = r * c, b = r * s;  // commanded position about the circle centre
-  const double sgn_a = -direction * sgn(s), sgn_b = direction * sgn(c);
+  const double sgn_a = velocity_sign_a(direction, s), sgn_b = velocity_sign_b(direction, c);
   const double omega = feed_m_per_s / r;
   // Servo lag difference: x lags by the whole mismatch relative to y (only the difference matters).
   const double lag = direction * omega * q.servo_mismatch_s;
@@ -638,7 +590,7 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
       std::vector<Near> near;
       for (std::size_t i = 0; i < pts.size(); ++i) {
         const Point& p = pts[i];
-        const double since = axis_a ? p.since_a : p.since_b;
+        const double since = axis_a ? p.since_a_s : p.since_b_s;
         if (since > 8 * tau_max + delay_max) continue;
         const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b);
         if (u == 0.0) continue;
@@ -729,7 +681,8 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
     // every stride-th point is used, stride = p / (4 * step).
     double step = 0;
     for (std::size_t i = 1; i < pts.size(); ++i)
-      if (pts[i].run == pts[i - 1].run) step = std::max(step, pts[i].r * std::abs(pts[i].zeta - pts[i - 1].zeta));
+      if (pts[i].run == pts[i - 1].run)
+        step = std::max(step, pts[i].radius_m * std::abs(pts[i].zeta_rad - pts[i - 1].zeta_rad));
     const auto stride_for = [step](double p) {
       return step > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(p / (4 * step))) : std::size_t{1};
     };
@@ -781,10 +734,7 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
       return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
     };
     if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
-      for (auto& p : pts) {
-        p.bl_a = -0.5 * p.sgn_a;
-        p.bl_b = -0.5 * p.sgn_b;
-      }
+      for (auto& p : pts) set_step_backlash(p);
       if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
       res = fit_diag(L, pts, runs, plane, work);
       if (!res.ok) throw RunFormatError("identify: " + res.message);
@@ -817,7 +767,7 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
     const auto [v, u] = get(idx);
     out.diagnostics.push_back(est(names[idx], v, u));
   };
-  const std::string A = axis_letters(plane, 0), B = axis_letters(plane, 1);
+  const std::string A = axis_letter(plane, 0), B = axis_letter(plane, 1);
   for (std::size_t k = 0; k < 2 * L.runs; ++k) add(k);
   const std::size_t g = L.global0();
   add(g + DiagLayout::scale_a);
@@ -942,7 +892,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
         for (std::size_t c = 2; c < lai_count; ++c)
           j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
-        ys[i] = p.y_um;
+        ys[i] = p.dL_um;
         ws[i] = p.w;
       }
       LsqResult r = solve_lsq(j, ys, ws, names);
@@ -1064,8 +1014,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         if (e.name == name) return &e;
       return nullptr;
     };
-    const Estimate* sa = find("scale_" + axis_letters(plane, 0) + "_ppm");
-    const Estimate* sb = find("scale_" + axis_letters(plane, 1) + "_ppm");
+    const Estimate* sa = find("scale_" + axis_letter(plane, 0) + "_ppm");
+    const Estimate* sb = find("scale_" + axis_letter(plane, 1) + "_ppm");
     if (sa && sb) {
       const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
       if (std::abs(common) > 50 && std::abs(common) > 3 * std::abs(mismatch)) {

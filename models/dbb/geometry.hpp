@@ -1,0 +1,50 @@
+#pragma once
+// The geometry of a DBB circular test per sample, as every DBB model sees it (identification and
+// EXPLAIN): where the commanded point is, how much of an axis' error the bar reads there, which way
+// each axis moves and how long since it last reversed.
+// Conventions (axes, signs, lambda): docs/conventions.md. Pure functions; thread safe.
+
+#include <cstddef>
+#include <string>
+
+#include "models/dbb/dbb_run.hpp"
+
+namespace guideway::models::dbb {
+
+struct SampleGeometry {
+  std::size_t run = 0;  // index of the sample's run in the list being modelled
+  double zeta_rad = 0;  // commanded angle, from +a towards +b
+  double c = 0, s = 0;  // cos and sin of zeta: dL = lambda (da c + db s) + h_over_l0 dn to first order
+  double radius_m = 0, height_m = 0;
+  double lambda = 0;     // r / L0: the part of an in-plane error the tilted bar reads
+  double h_over_l0 = 0;  // h / L0: the part of an error along the plane normal it reads
+  double dir = 1;        // +1 ccw (zeta increasing), -1 cw
+  double feed_m_per_s = 0, omega_rad_per_s = 0;
+  double sgn_a = 0, sgn_b = 0;          // signs of the axes' velocities, 0 at a reversal
+  double since_a_s = 0, since_b_s = 0;  // time since the last reversal of a / b (spikes decay from it)
+  double a_m = 0, b_m = 0;              // machine coordinates of the commanded point (cyclic error phase)
+  double dL_um = 0;                     // the bar's reading
+};
+
+// The geometry at commanded angle zeta of a circle of radius r and socket height h traced in direction
+// dir (+1 ccw, -1 cw) at the given feed; run index, position and reading are left 0.
+SampleGeometry circle_geometry(double radius_m, double height_m, int dir, double feed_m_per_s, double zeta_rad);
+
+// Sample i of `run`, which is run number run_index of the list being modelled. Fills `out` in place:
+// the models keep one larger struct per sample that starts with this one.
+void fill_sample_geometry(const Run& run, std::size_t run_index, std::size_t i, SampleGeometry& out);
+
+// Sign of da/dt (from sin zeta) and db/dt (from cos zeta) on a circle traced in direction dir:
+// da/dt = -dir r omega sin zeta, db/dt = dir r omega cos zeta. 0 within 1e-9 of a reversal: sin(pi) is
+// 1.2e-16, and an angle read back from a file is not exactly k * 90 deg.
+double velocity_sign_a(double dir, double sin_zeta);
+double velocity_sign_b(double dir, double cos_zeta);
+
+// Angle travelled since the axis last reversed, in [0, pi): a reverses at zeta = k pi (phase 0), b at
+// pi/2 + k pi (phase pi/2). zeta_rad is the axis' own angle (the commanded one less a servo lag).
+double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir);
+
+// Machine axis letter of the plane's first (which = 0) or second axis: xy -> x, y; xz -> x, z; yz -> y, z.
+std::string axis_letter(const std::string& plane, int which);
+
+}  // namespace guideway::models::dbb
