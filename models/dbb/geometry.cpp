@@ -1,5 +1,6 @@
 #include "models/dbb/geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -55,6 +56,16 @@ std::string axis_letter(const std::string& plane, int which) {
   if (plane == "xz") return which == 0 ? "x" : "z";
   if (plane == "yz") return which == 0 ? "y" : "z";
   return which == 0 ? "x" : "y";
+}
+
+double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad) {
+  const double half = std::sin(0.5 * angle_since_reversal_rad);
+  return 2 * radius_m * half * half;
+}
+
+double deadband_lost_motion(double velocity_sign, double rise_m, double backlash_m) {
+  const double taken_up = backlash_m > 0 ? std::clamp(rise_m / backlash_m - 0.5, -0.5, 0.5) : 0.5;
+  return -velocity_sign * taken_up;
 }
 
 }  // namespace guideway::models::dbb

@@ -1,7 +1,7 @@
 #pragma once
 // The geometry of a DBB circular test per sample, as every DBB model sees it (identification and
 // EXPLAIN): where the commanded point is, how much of an axis' error the bar reads there, which way
-// each axis moves and how long since it last reversed.
+// each axis moves and how long since it last reversed, and the lost motion of a backlash deadband.
 // Conventions (axes, signs, lambda): docs/conventions.md. Pure functions; thread safe.
 
 #include <cstddef>
@@ -46,5 +46,22 @@ double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir);
 
 // Machine axis letter of the plane's first (which = 0) or second axis: xy -> x, y; xz -> x, z; yz -> y, z.
 std::string axis_letter(const std::string& plane, int which);
+
+// ---- Backlash deadband ----
+// How far the axis has moved from its last extreme, r (1 - cos phi) at phi past its reversal; written
+// 2 r sin^2(phi / 2) so that it keeps its digits near the reversal, where the deadband is taken up.
+double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad);
+
+// Lost motion per unit backlash of a deadband of width backlash_m, along the axis (multiply by the
+// backlash and project on the bar). An ideal step is -sign(velocity) / 2; a deadband stands still after
+// a reversal until the drive has risen b from its extreme, lagging meanwhile by rise / b - 1/2 of b.
+// backlash_m <= 0 gives the ideal step.
+// identify.cpp's apply_deadband simulates the same deadband instead, and identify's published results
+// rest on that simulation. The two agree to 1e-11 but: at a sample exactly at a reversal (0 here, as the
+// velocity's sign is 0; the simulation keeps the approach's -1/2 sign, which is what a deadband does);
+// near the take-up, by up to r (1 - cos 0.005 deg) / b (4e-4 for 1 um on 100 mm), where the simulation's
+// 0.01 deg substeps miss the extreme; and by a whole sign at the first sample after a reversal when the
+// samples are more than about 2 (4 sqrt(b / r) + 0.01) rad apart, which the simulation steps over.
+double deadband_lost_motion(double velocity_sign, double rise_m, double backlash_m);
 
 }  // namespace guideway::models::dbb

@@ -75,6 +75,7 @@ double preroll_angle(const Run& run, int q) {
 // `delay_*` (s) lets each drive follow the command late by its servo lag.
 // Without a delay the command at a sample or pre-roll angle is the points' (or the table's) own
 // cos/sin of that very angle, so only the substeps near the reversals need trigonometry.
+// deadband_lost_motion (geometry.hpp) is the same deadband in closed form; it says where they differ.
 void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, PrerollTable& table, double b_a, double b_b,
                     double delay_a = 0.0, double delay_b = 0.0) {
   if (table.c.empty()) {

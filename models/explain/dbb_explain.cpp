@@ -16,6 +16,7 @@
 
 #include "models/common/least_squares.hpp"
 #include "models/dbb/fast_sincos.hpp"
+#include "models/dbb/geometry.hpp"
 #include "models/dbb/identify.hpp"
 
 namespace guideway::models::explain {
@@ -24,18 +25,10 @@ namespace {
 
 constexpr double pi = std::numbers::pi;
 
-double sgn(double x) { return x > 1e-9 ? 1.0 : (x < -1e-9 ? -1.0 : 0.0); }
-
-// Per-sample geometry (as in models/dbb/identify.cpp, docs/conventions.md).
-struct Geo {
-  std::size_t run = 0;
-  double zeta = 0, c = 0, s = 0, lam = 0, r = 0, h = 0, dir = 1, v = 0, omega = 0;
-  double sgn_a = 0, sgn_b = 0;      // signs of the axis velocities
-  double since_a = 0, since_b = 0;  // time since the last reversal of a / b (s)
-  double a_m = 0, b_m = 0;          // machine coordinates of the commanded point
-  double ca_m = 0, cb_m = 0;        // the circle's centre
-  double t_s = 0;                   // machine time since the earliest run's start (or run time when not all runs have start_time_s)
-  double y_um = 0;
+// Per-sample geometry and what EXPLAIN's effects add to it.
+struct Geo : dbb::SampleGeometry {
+  double center_a_m = 0, center_b_m = 0;  // the circle's centre, where a lagging drive's position is reckoned from
+  double t_s = 0;  // machine time since the earliest run's start (or run time when not all runs have start_time_s)
 };
 
 // Sums of w^2, w^2 t and w^2 t^2 over a run's samples (w a projection on the bar, t in s).
@@ -47,12 +40,6 @@ std::string fmt(const char* f, double a) {
   char buf[64];
   std::snprintf(buf, sizeof buf, f, a);
   return buf;
-}
-
-std::string axis_letter(const std::string& plane, int which) {
-  if (plane == "xz") return which == 0 ? "x" : "z";
-  if (plane == "yz") return which == 0 ? "y" : "z";
-  return which == 0 ? "x" : "y";
 }
 
 bool all_have_start_time(const std::vector<dbb::Run>& runs) {
@@ -83,35 +70,13 @@ std::vector<Geo> geometry(const std::vector<dbb::Run>& runs, bool machine_time) 
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const dbb::Run& run = runs[k];
     dbb::validate_run(run);
-    const double l0 = run.nominal_length_m();
     const double t0 = machine_time ? start_time_of(run) - origin_s : 0.0;
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Geo p;
-      p.run = k;
-      p.zeta = run.angle_rad[i];
-      p.c = std::cos(p.zeta);
-      p.s = std::sin(p.zeta);
-      p.r = run.radius_m;
-      p.h = run.height_m;
-      p.lam = run.radius_m / l0;
-      p.dir = run.dir();
-      p.v = run.feed_m_per_s;
-      p.omega = run.feed_m_per_s / run.radius_m;
-      p.sgn_a = -p.dir * sgn(p.s);
-      p.sgn_b = p.dir * sgn(p.c);
-      const auto since = [&](double phase) {
-        const double q = (p.zeta - phase) / pi;
-        const double last = p.dir > 0 ? std::floor(q) : std::ceil(q);
-        return std::abs(p.zeta - phase - last * pi) / p.omega;
-      };
-      p.since_a = since(0.0);
-      p.since_b = since(pi / 2);
-      p.ca_m = run.center_a_m;
-      p.cb_m = run.center_b_m;
-      p.a_m = run.center_a_m + run.radius_m * p.c;
-      p.b_m = run.center_b_m + run.radius_m * p.s;
+      dbb::fill_sample_geometry(run, k, i, p);
+      p.center_a_m = run.center_a_m;
+      p.center_b_m = run.center_b_m;
       p.t_s = t0 + run.t_s[i];
-      p.y_um = run.dL_m[i] * 1e6;
       g.push_back(p);
     }
   }
@@ -130,7 +95,8 @@ Block lai_base(const std::vector<Geo>& g) {
   b.names.assign(names.begin(), names.begin() + lai_geometric);
   b.columns.resize(static_cast<Eigen::Index>(g.size()), static_cast<Eigen::Index>(lai_geometric));
   for (std::size_t i = 0; i < g.size(); ++i) {
-    const auto ch = dbb::lai3_characteristics(g[i].r, g[i].h, static_cast<int>(g[i].dir), g[i].v, g[i].zeta);
+    const auto ch = dbb::lai3_characteristics(g[i].radius_m, g[i].height_m, static_cast<int>(g[i].dir),
+                                              g[i].feed_m_per_s, g[i].zeta_rad);
     for (std::size_t k = 0; k < lai_geometric; ++k)
       b.columns(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) = ch[k] * lai_si_per_reported[k] * 1e6;
   }
@@ -167,19 +133,16 @@ std::shared_ptr<const std::vector<DriveTrack>> drive_tracks(const std::vector<Ge
     DriveTrack t;
     t.delay_s = d;
     for (const Geo& p : g) {
-      const double z = p.zeta - p.dir * p.omega * d;
+      const double z = p.zeta_rad - p.dir * p.omega_rad_per_s * d;
       double s = 0, c = 0;
       dbb::fast_sincos(z, s, c);
       const auto rise = [&](double phase) {
-        const double q = (z - phase) / pi;
-        const double last = p.dir > 0 ? std::floor(q) : std::ceil(q);
-        const double half = std::sin(0.5 * std::abs(z - phase - last * pi));
-        return 2 * p.r * half * half;
+        return dbb::rise_since_reversal_m(p.radius_m, dbb::angle_since_reversal_rad(z, phase, p.dir));
       };
-      t.pos_a.push_back(p.ca_m + p.r * c);
-      t.pos_b.push_back(p.cb_m + p.r * s);
-      t.vel_a.push_back(-p.dir * sgn(s));
-      t.vel_b.push_back(p.dir * sgn(c));
+      t.pos_a.push_back(p.center_a_m + p.radius_m * c);
+      t.pos_b.push_back(p.center_b_m + p.radius_m * s);
+      t.vel_a.push_back(dbb::velocity_sign_a(p.dir, s));
+      t.vel_b.push_back(dbb::velocity_sign_b(p.dir, c));
       t.rise_a.push_back(rise(0.0));
       t.rise_b.push_back(rise(pi / 2));
     }
@@ -188,13 +151,11 @@ std::shared_ptr<const std::vector<DriveTrack>> drive_tracks(const std::vector<Ge
   return out;
 }
 
-// Lost motion per unit backlash of a deadband of width b_a / b_b (m) on the circle, as the bar sees it
-// along each axis ({a, b}), at sample i of the track. An ideal step says -1/2 sign(velocity); a deadband
-// also stands still after each reversal until the drive has moved b away from its extreme, r (1 - cos
-// phi) = b at phi past the reversal, lagging meanwhile by r (1 - cos phi) / b - 1/2 of b.
+// Lost motion per unit backlash of a deadband of width b_a / b_b (m) along each axis ({a, b}) at
+// sample i of the track.
 std::array<double, 2> lost_motion(const DriveTrack& t, std::size_t i, double b_a, double b_b) {
-  const auto take_up = [](double b, double rise) { return b > 0 ? std::clamp(rise / b - 0.5, -0.5, 0.5) : 0.5; };
-  return {-t.vel_a[i] * take_up(b_a, t.rise_a[i]), -t.vel_b[i] * take_up(b_b, t.rise_b[i])};
+  return {dbb::deadband_lost_motion(t.vel_a[i], t.rise_a[i], b_a),
+          dbb::deadband_lost_motion(t.vel_b[i], t.rise_b[i], b_b)};
 }
 
 // servo_lag's block: the base's prediction seen where the drives were, lag behind the command,
@@ -215,10 +176,10 @@ std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<boo
       // Central differences along the run (one-sided at its ends).
       const std::size_t lo = i > 0 && gg[i - 1].run == gg[i].run ? i - 1 : i;
       const std::size_t hi = i + 1 < gg.size() && gg[i + 1].run == gg[i].run ? i + 1 : i;
-      const double dz = gg[hi].zeta - gg[lo].zeta;
+      const double dz = gg[hi].zeta_rad - gg[lo].zeta_rad;
       if (hi == lo || dz == 0.0) continue;
       const double slope = (predicted[static_cast<Eigen::Index>(hi)] - predicted[static_cast<Eigen::Index>(lo)]) / dz;
-      v.block.columns(static_cast<Eigen::Index>(i), 0) = -gg[i].dir * gg[i].omega * slope * 1e-3;
+      v.block.columns(static_cast<Eigen::Index>(i), 0) = -gg[i].dir * gg[i].omega_rad_per_s * slope * 1e-3;
     }
     return std::vector<Variant>{v};
   };
@@ -231,7 +192,7 @@ double spike(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::
 std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vector<dbb::Run>& runs, bool machine_time,
                                       const std::vector<double>& reading_um) {
   const auto tracks = drive_tracks(g, drive_delays_s(runs));
-  const std::string A = axis_letter(runs.front().plane, 0), B = axis_letter(runs.front().plane, 1);
+  const std::string A = dbb::axis_letter(runs.front().plane, 0), B = dbb::axis_letter(runs.front().plane, 1);
   std::vector<Candidate> out;
   {
     Candidate c{"servo_mismatch",
@@ -239,7 +200,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
                 "an amount that grows with feed and flips with direction",
                 {}, {}, 0};
     c.variants.push_back(make_variant(g, {"servo_mismatch_ms"}, [](const Geo& p, double* o) {
-      o[0] = p.lam * p.dir * p.v * p.s * p.c * 1e3;  // 1 ms of lag difference; v in m/s -> um
+      o[0] = p.lambda * p.dir * p.feed_m_per_s * p.s * p.c * 1e3;  // 1 ms of lag difference; v in m/s -> um
     }));
     out.push_back(std::move(c));
   }
@@ -257,8 +218,8 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       const auto& gg = *geo;
       std::vector<Variant> vs;
       vs.push_back(make_variant(gg, names, [](const Geo& p, double* o) {
-        o[0] = -p.lam * 0.5 * p.sgn_a * p.c;
-        o[1] = -p.lam * 0.5 * p.sgn_b * p.s;
+        o[0] = -p.lambda * 0.5 * p.sgn_a * p.c;
+        o[1] = -p.lambda * 0.5 * p.sgn_b * p.s;
       }));
       // Sizes from the rows in use only (a held-out row's zero residual would shrink them).
       const std::vector<Eigen::Index> rows = rows_in_use(use);
@@ -274,8 +235,8 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
         v.block.columns.resize(static_cast<Eigen::Index>(gg.size()), 2);
         for (std::size_t i = 0; i < gg.size(); ++i) {
           const auto m = lost_motion(t, i, b[0], b[1]);
-          v.block.columns(static_cast<Eigen::Index>(i), 0) = gg[i].lam * m[0] * gg[i].c;
-          v.block.columns(static_cast<Eigen::Index>(i), 1) = gg[i].lam * m[1] * gg[i].s;
+          v.block.columns(static_cast<Eigen::Index>(i), 0) = gg[i].lambda * m[0] * gg[i].c;
+          v.block.columns(static_cast<Eigen::Index>(i), 1) = gg[i].lambda * m[1] * gg[i].s;
         }
         if (tracks->size() > 1) {
           v.fixed.push_back({"backlash_delay_ms", t.delay_s * 1e3, std::numeric_limits<double>::quiet_NaN()});
@@ -305,8 +266,8 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       const double tau = tau_ms * 1e-3;
       Variant v = make_variant(g, {"reversal_spike_" + A + "_um", "reversal_spike_" + B + "_um"},
                                [tau](const Geo& p, double* o) {
-                                 o[0] = p.lam * p.c * (-p.sgn_a) * spike(p.since_a, tau);
-                                 o[1] = p.lam * p.s * (-p.sgn_b) * spike(p.since_b, tau);
+                                 o[0] = p.lambda * p.c * (-p.sgn_a) * spike(p.since_a_s, tau);
+                                 o[1] = p.lambda * p.s * (-p.sgn_b) * spike(p.since_b_s, tau);
                                });
       v.fixed.push_back({"reversal_spike_decay_ms", tau_ms, std::numeric_limits<double>::quiet_NaN()});
       v.searched = 1;
@@ -317,11 +278,11 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
   {
     Candidate c{"lateral_play",
                 "the carriages shift sideways in their guideways when their direction of travel changes", {}, {}, 0};
-    c.variants.push_back(make_variant(g, {"lateral_play_" + A + "_um", "lateral_play_" + B + "_um"},
-                                      [](const Geo& p, double* o) {
-                                        o[0] = p.lam * 0.5 * p.sgn_a * p.s;
-                                        o[1] = p.lam * 0.5 * p.sgn_b * p.c;
-                                      }));
+    c.variants.push_back(
+        make_variant(g, {"lateral_play_" + A + "_um", "lateral_play_" + B + "_um"}, [](const Geo& p, double* o) {
+          o[0] = p.lambda * 0.5 * p.sgn_a * p.s;
+          o[1] = p.lambda * 0.5 * p.sgn_b * p.c;
+        }));
     out.push_back(std::move(c));
   }
   {
@@ -341,7 +302,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       for (std::size_t i = 0; i < gg.size(); ++i) {
         double sn = 0, cs = 0;
         dbb::fast_sincos(k * pos[i], sn, cs);
-        const double proj = gg[i].lam * (axis == 0 ? gg[i].c : gg[i].s);
+        const double proj = gg[i].lambda * (axis == 0 ? gg[i].c : gg[i].s);
         v.block.columns(static_cast<Eigen::Index>(i), 0) = proj * sn;
         v.block.columns(static_cast<Eigen::Index>(i), 1) = proj * cs;
       }
@@ -412,7 +373,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       Variant v = make_variant(g, names, [=](const Geo& p, double* o) {
         for (std::size_t j = 0; j < axes.size(); ++j) {
           const int a = axes[j];
-          const double proj = a == 0 ? 1.0 : p.lam * (a == 1 ? p.c : p.s);
+          const double proj = a == 0 ? 1.0 : p.lambda * (a == 1 ? p.c : p.s);
           o[j] = proj * p.t_s / 60.0;
           if (offsets && p.run >= 1) o[axes.size() + j * offsets + p.run - 1] = proj;
         }
@@ -468,7 +429,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
         auto& mom = moments[static_cast<std::size_t>(which)];
         mom.resize(runs.size());
         for (const Geo& p : g) {
-          const double w = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
+          const double w = which == 0 ? 1.0 : p.lambda * (which == 1 ? p.c : p.s);
           Moments& mo = mom[p.run];
           mo.w2 += w * w;
           mo.w2t += w * w * p.t_s;
@@ -482,7 +443,9 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
         // residual weighted by that direction's projection on the bar: a vibration of axis A at f reads
         // as lam cos(zeta) sin(2 pi f t), whose plain periodogram peaks at f +- the circling frequency,
         // not at f. Power summed over runs: sum over runs of |sum_i w_i r_i exp(-2 pi i f t_i)|^2.
-        const auto weight = [&](const Geo& p, int which) { return which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s); };
+        const auto weight = [&](const Geo& p, int which) {
+          return which == 0 ? 1.0 : p.lambda * (which == 1 ? p.c : p.s);
+        };
         std::array<std::vector<double>, 3> pw;
         for (auto& v : pw) v.assign(grid, 0.0);
         Eigen::FFT<double> fft;
@@ -555,7 +518,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
               names.push_back("vibration_cos" + run);
             }
             Variant v = make_variant(gg, names, [=](const Geo& p, double* o) {
-              const double proj = which == 0 ? 1.0 : p.lam * (which == 1 ? p.c : p.s);
+              const double proj = which == 0 ? 1.0 : p.lambda * (which == 1 ? p.c : p.s);
               const std::size_t col = phases > 1 ? 2 * p.run : 0;
               double sn = 0, cs = 0;
               dbb::fast_sincos(2 * pi * f * p.t_s, sn, cs);
@@ -631,10 +594,11 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
     for (double f_hz : {5.0, 10.0, 20.0}) {
       for (double tau_ms : {50.0, 200.0}) {
         const double tau = tau_ms * 1e-3;
-        Variant v = make_variant(g, {"stick_slip_" + A + "_um", "stick_slip_" + B + "_um"}, [=](const Geo& p, double* o) {
-          o[0] = p.lam * p.c * (-p.sgn_a) * spike(p.since_a, tau) * std::sin(2 * pi * f_hz * p.since_a);
-          o[1] = p.lam * p.s * (-p.sgn_b) * spike(p.since_b, tau) * std::sin(2 * pi * f_hz * p.since_b);
-        });
+        Variant v =
+            make_variant(g, {"stick_slip_" + A + "_um", "stick_slip_" + B + "_um"}, [=](const Geo& p, double* o) {
+              o[0] = p.lambda * p.c * (-p.sgn_a) * spike(p.since_a_s, tau) * std::sin(2 * pi * f_hz * p.since_a_s);
+              o[1] = p.lambda * p.s * (-p.sgn_b) * spike(p.since_b_s, tau) * std::sin(2 * pi * f_hz * p.since_b_s);
+            });
         v.fixed.push_back({"stick_slip_hz", f_hz, std::numeric_limits<double>::quiet_NaN()});
         v.fixed.push_back({"stick_slip_decay_ms", tau_ms, std::numeric_limits<double>::quiet_NaN()});
         v.searched = 2;
@@ -682,9 +646,9 @@ Problem assemble_problem(const std::vector<dbb::Run>& runs, const std::vector<Ge
   p.domain = "angle_deg";
   p.runs = run_infos(runs);
   for (const auto& q : g) {
-    double deg = std::fmod(q.zeta * 180 / pi, 360.0);
+    double deg = std::fmod(q.zeta_rad * 180 / pi, 360.0);
     if (deg < 0) deg += 360;
-    p.samples.push_back({q.run, q.y_um, deg, q.t_s});
+    p.samples.push_back({q.run, q.dL_um, deg, q.t_s});
   }
   p.candidates = dbb_candidates(g, runs, machine_time, reading_um);
   if (!machine_time && runs.size() > 1) {
@@ -706,7 +670,7 @@ Problem dbb_problem(const std::vector<dbb::Run>& runs) {
   const auto g = geometry(runs, machine_time);
   Block base = lai_base(g);
   Eigen::VectorXd y(static_cast<Eigen::Index>(g.size()));
-  for (std::size_t i = 0; i < g.size(); ++i) y[static_cast<Eigen::Index>(i)] = g[i].y_um;
+  for (std::size_t i = 0; i < g.size(); ++i) y[static_cast<Eigen::Index>(i)] = g[i].dL_um;
   const LsqResult fit = solve_lsq(base.columns, y, Eigen::VectorXd(), base.names);
   if (!fit.ok) throw std::invalid_argument("explain: Lai base fit failed: " + fit.message);
   std::vector<double> reading(g.size());
@@ -721,7 +685,7 @@ Problem dbb_problem(const std::vector<dbb::Run>& runs) {
   for (std::size_t i0 = 0; i0 < g.size();) {
     std::vector<double> zeta;
     std::size_t i1 = i0;
-    for (; i1 < g.size() && g[i1].run == g[i0].run; ++i1) zeta.push_back(g[i1].zeta);
+    for (; i1 < g.size() && g[i1].run == g[i0].run; ++i1) zeta.push_back(g[i1].zeta_rad);
     spans->emplace_back(i0, std::move(zeta));
     i0 = i1;
   }
