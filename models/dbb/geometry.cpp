@@ -58,6 +58,10 @@ std::string axis_letter(const std::string& plane, int which) {
   return which == 0 ? "x" : "y";
 }
 
+double reversal_spike_decay(double t_s, double tau_s) {
+  return (t_s < 0 || t_s > 8 * tau_s) ? 0.0 : std::exp(-t_s / tau_s);
+}
+
 double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad) {
   const double half = std::sin(0.5 * angle_since_reversal_rad);
   return 2 * radius_m * half * half;

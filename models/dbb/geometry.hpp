@@ -47,6 +47,10 @@ double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir);
 // Machine axis letter of the plane's first (which = 0) or second axis: xy -> x, y; xz -> x, z; yz -> y, z.
 std::string axis_letter(const std::string& plane, int which);
 
+// Decay of a reversal spike t_s after it starts, exp(-t / tau): 0 before it starts and from 8 tau on,
+// where it is below 3.4e-4 of its height.
+double reversal_spike_decay(double t_s, double tau_s);
+
 // ---- Backlash deadband ----
 // How far the axis has moved from its last extreme, r (1 - cos phi) at phi past its reversal; written
 // 2 r sin^2(phi / 2) so that it keeps its digits near the reversal, where the deadband is taken up.

@@ -208,9 +208,6 @@ void lai_basis(const Point& p, double* out) {
 
 // ---- Ballbar diagnostics -------------------------------------------------------------------------
 
-// Decay of a reversal spike `t` seconds after it starts (0 before it starts and once negligible).
-double spike_shape(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::exp(-t / tau); }
-
 struct DiagLayout {
   std::size_t runs = 0;
   bool spikes = false;
@@ -253,19 +250,19 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   row[g + DiagLayout::bow_b] = lam * c * s * s;
   if (L.spikes) {
     const auto k = static_cast<Eigen::Index>(L.spike0());
-    row[k] = lam * c * (-p.sgn_a) * spike_shape(p.since_a_s - L.delay_a, L.tau_a);
-    row[k + 1] = lam * s * (-p.sgn_b) * spike_shape(p.since_b_s - L.delay_b, L.tau_b);
+    row[k] = lam * c * (-p.sgn_a) * reversal_spike_decay(p.since_a_s - L.delay_a, L.tau_a);
+    row[k + 1] = lam * s * (-p.sgn_b) * reversal_spike_decay(p.since_b_s - L.delay_b, L.tau_b);
   }
   // d/dtau of A exp(-t/tau) = A t / tau^2 exp(-t/tau), per ms of tau.
   if (L.decay_a) {
     const double t = p.since_a_s - L.delay_a;
     row[static_cast<Eigen::Index>(L.decay_a0())] =
-        lam * c * (-p.sgn_a) * L.amp_a * t / (L.tau_a * L.tau_a) * spike_shape(t, L.tau_a) * 1e-3;
+        lam * c * (-p.sgn_a) * L.amp_a * t / (L.tau_a * L.tau_a) * reversal_spike_decay(t, L.tau_a) * 1e-3;
   }
   if (L.decay_b) {
     const double t = p.since_b_s - L.delay_b;
     row[static_cast<Eigen::Index>(L.decay_b0())] =
-        lam * s * (-p.sgn_b) * L.amp_b * t / (L.tau_b * L.tau_b) * spike_shape(t, L.tau_b) * 1e-3;
+        lam * s * (-p.sgn_b) * L.amp_b * t / (L.tau_b * L.tau_b) * reversal_spike_decay(t, L.tau_b) * 1e-3;
   }
   if (L.cyclic_a) {
     const auto k = static_cast<Eigen::Index>(L.cyc_a0());

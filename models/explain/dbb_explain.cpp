@@ -185,8 +185,6 @@ std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<boo
   };
 }
 
-double spike(double t, double tau) { return (t < 0 || t > 8 * tau) ? 0.0 : std::exp(-t / tau); }
-
 // `reading_um`: the reading the model predicts per sample (the sensor's operating point; taking the
 // measured value would let the candidate fit the very effects in it).
 std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vector<dbb::Run>& runs, bool machine_time,
@@ -266,8 +264,8 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
       const double tau = tau_ms * 1e-3;
       Variant v = make_variant(g, {"reversal_spike_" + A + "_um", "reversal_spike_" + B + "_um"},
                                [tau](const Geo& p, double* o) {
-                                 o[0] = p.lambda * p.c * (-p.sgn_a) * spike(p.since_a_s, tau);
-                                 o[1] = p.lambda * p.s * (-p.sgn_b) * spike(p.since_b_s, tau);
+                                 o[0] = p.lambda * p.c * (-p.sgn_a) * dbb::reversal_spike_decay(p.since_a_s, tau);
+                                 o[1] = p.lambda * p.s * (-p.sgn_b) * dbb::reversal_spike_decay(p.since_b_s, tau);
                                });
       v.fixed.push_back({"reversal_spike_decay_ms", tau_ms, std::numeric_limits<double>::quiet_NaN()});
       v.searched = 1;
@@ -596,8 +594,10 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
         const double tau = tau_ms * 1e-3;
         Variant v =
             make_variant(g, {"stick_slip_" + A + "_um", "stick_slip_" + B + "_um"}, [=](const Geo& p, double* o) {
-              o[0] = p.lambda * p.c * (-p.sgn_a) * spike(p.since_a_s, tau) * std::sin(2 * pi * f_hz * p.since_a_s);
-              o[1] = p.lambda * p.s * (-p.sgn_b) * spike(p.since_b_s, tau) * std::sin(2 * pi * f_hz * p.since_b_s);
+              o[0] = p.lambda * p.c * (-p.sgn_a) * dbb::reversal_spike_decay(p.since_a_s, tau) *
+                     std::sin(2 * pi * f_hz * p.since_a_s);
+              o[1] = p.lambda * p.s * (-p.sgn_b) * dbb::reversal_spike_decay(p.since_b_s, tau) *
+                     std::sin(2 * pi * f_hz * p.since_b_s);
             });
         v.fixed.push_back({"stick_slip_hz", f_hz, std::numeric_limits<double>::quiet_NaN()});
         v.fixed.push_back({"stick_slip_decay_ms", tau_ms, std::numeric_limits<double>::quiet_NaN()});
