@@ -14,6 +14,7 @@
 #include <Eigen/QR>
 #include <unsupported/Eigen/FFT>
 
+#include "core/number_format.hpp"
 #include "models/common/least_squares.hpp"
 #include "models/dbb/fast_sincos.hpp"
 #include "models/dbb/geometry.hpp"
@@ -35,12 +36,6 @@ struct Geo : dbb::SampleGeometry {
 struct Moments {
   double w2 = 0, w2t = 0, w2t2 = 0;
 };
-
-std::string fmt(const char* f, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
 
 bool all_have_start_time(const std::vector<dbb::Run>& runs) {
   return std::all_of(runs.begin(), runs.end(), [](const dbb::Run& r) { return r.metadata.count("start_time_s") > 0; });
@@ -625,7 +620,7 @@ std::vector<RunInfo> run_infos(const std::vector<dbb::Run>& runs) {
     ri.label = "run" + std::to_string(k + 1) + " (" + (r.dir() > 0 ? "ccw" : "cw") + ")";
     ri.direction = r.dir();
     ri.feed_mm_per_min = std::round(r.feed_m_per_s * 60000.0 * 1e6) / 1e6;
-    ri.geometry = fmt("r%.6g", r.radius_m * 1e3) + fmt("h%.6g", r.height_m * 1e3) + r.plane;
+    ri.geometry = printf_number("r%.6g", r.radius_m * 1e3) + printf_number("h%.6g", r.height_m * 1e3) + r.plane;
     out.push_back(ri);
   }
   return out;
