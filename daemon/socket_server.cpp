@@ -1,7 +1,5 @@
 #include "daemon/socket_server.hpp"
 
-#include "core/mono_clock.hpp"
-
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <grp.h>
@@ -18,6 +16,8 @@
 #include <cstring>
 #include <filesystem>
 #include <system_error>
+
+#include "core/mono_clock.hpp"
 
 namespace guideway::daemon {
 
@@ -142,7 +142,6 @@ void SocketServer::accept_on(int listen_fd) {
     Client& client = clients_[id];
     client.fd = fd;
     client.connected_ns = mono_now_ns();
-    client.trusted = trusted;
     loop_.add(fd, EPOLLIN | EPOLLRDHUP, [this, id](std::uint32_t events) {
       if (events & EPOLLERR) {
         close_client(id, "connection error");

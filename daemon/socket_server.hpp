@@ -98,7 +98,6 @@ class SocketServer {
     bool flush_pending = false;  // queued during a Batch, not written yet
     std::int64_t connected_ns = 0;
     bool served = false;   // completed a request line
-    bool trusted = false;  // root, or the daemon's user or group (SO_PEERCRED)
   };
 
   void listen_unix();

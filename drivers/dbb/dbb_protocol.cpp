@@ -253,7 +253,7 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
         open_cycle(t_ns, 0);
       }
       store(i, r.info.count, cur_);
-      if (cur_.present == all_mask_) {
+      if (cur_.present == all_mask_ && !r.cycle_ready) {  // at most one cycle per frame
         close_cycle(cycle);
         r.cycle_ready = true;
       }

@@ -231,7 +231,6 @@ void DbbEmulator::loop() {
         // the older ones are past (a real node never answers a backlog).
         can_frame more{};
         while (can::read_can_frame(conn_.fd(), more, 0, -1, err) == can::ReadResult::frame) {
-          if (dbb::classify_frame(more).kind == dbb::FrameInfo::Kind::sync) syncs_skipped_.fetch_add(1);
         }
         const std::uint64_t before = cycles_.load();
         send_cycle(conn_.fd(), false);

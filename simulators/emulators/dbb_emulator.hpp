@@ -71,8 +71,6 @@ class DbbEmulator {
 
   [[nodiscard]] std::vector<DbbSentCycle> log() const;
   [[nodiscard]] std::uint64_t cycles_sent() const noexcept { return cycles_.load(); }
-  // SYNCs not answered because a newer one was already queued (a node answers the SYNC on the bus).
-  [[nodiscard]] std::uint64_t syncs_skipped() const noexcept { return syncs_skipped_.load(); }
   [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
   [[nodiscard]] bool connected() const noexcept { return connected_.load(); }
 
@@ -110,7 +108,6 @@ class DbbEmulator {
   mutable std::mutex log_mutex_;
   std::vector<DbbSentCycle> log_;
   std::atomic<std::uint64_t> cycles_{0};
-  std::atomic<std::uint64_t> syncs_skipped_{0};
   std::atomic<std::uint64_t> connections_{0};
   std::atomic<bool> connected_{false};
 };
