@@ -1,7 +1,5 @@
 #include "daemon/daemon.hpp"
 
-#include "core/runtime_paths.hpp"
-
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/eventfd.h>
@@ -19,6 +17,7 @@
 #include <system_error>
 
 #include "core/mono_clock.hpp"
+#include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
 
 namespace guideway::daemon {

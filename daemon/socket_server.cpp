@@ -18,6 +18,7 @@
 #include <system_error>
 
 #include "core/mono_clock.hpp"
+#include "core/runtime_paths.hpp"
 
 namespace guideway::daemon {
 
@@ -63,14 +64,9 @@ SocketServer::~SocketServer() {
 void SocketServer::listen_unix() {
   const std::string& path = options_.unix_path;
   sockaddr_un addr{};
-  if (path.size() >= sizeof(addr.sun_path)) throw std::runtime_error("socket path too long: " + path);
+  if (const std::string problem = socket_path_problem(path); !problem.empty()) throw std::runtime_error(path + ": " + problem);
+  secure_socket_directory(std::filesystem::path(path).parent_path().string());
   std::error_code ec;
-  std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  if (!parent.empty()) {
-    if (std::filesystem::create_directories(parent, ec); ec) {
-      throw std::runtime_error("cannot create socket directory " + parent.string() + ": " + ec.message());
-    }
-  }
   // A socket file left by a daemon that died: remove it only if nobody answers on it.
   if (std::filesystem::exists(path, ec)) {
     if (unix_socket_answers(path)) throw std::runtime_error("another daemon is already listening on " + path);
