@@ -212,11 +212,7 @@ void SessionManager::report_recording_error(Running& r, const std::string& reaso
 }
 
 void SessionManager::post_event(const SessionInfo& info, const std::string& event, const std::string& reason) {
-  outbox_.post({"EVENT", info.device,
-                nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name}, {"event", event},
-                               {"reason", reason}}
-                    .dump(),
-                info.name});
+  outbox_.post(make_message(Event{.event = event, .device = info.device, .session = info.name, .reason = reason}));
 }
 
 std::optional<std::string> SessionManager::post_explanation(Running& r) {
@@ -224,16 +220,17 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
   try {
     std::optional<nlohmann::json> report = r.session->explain();
     if (!report) return std::nullopt;
-    (*report)["class"] = "EXPLAIN";
     (*report)["session"] = info.name;
     (*report)["kind"] = info.kind;
     (*report)["device"] = info.device;
-    outbox_.post({"EXPLAIN", info.device, report->dump(), info.name});
+    Message message = make_message(MessageClass::explain, std::move(*report), info.device, info.name);
+    const nlohmann::json& explanation = message.body;
+    outbox_.post(message);
     // Kept beside the recording for the session's report (guideway report reads it too). The
     // explanation was published: a disk that refuses the copy is a recording error, not a failed one.
     const std::string path = state_dir_ + "/" + info.name + ".explain.json";
     try {
-      write_file_atomically(path, report->dump(1) + "\n", recording_file_mode);
+      write_file_atomically(path, explanation.dump(1) + "\n", recording_file_mode);
     } catch (const std::exception& e) {
       report_recording_error(r, r.info.recording_error.empty() ? e.what() : r.info.recording_error + "; " + e.what());
       return std::nullopt;
@@ -261,11 +258,7 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
     options.subtitle = "device " + r.info.device + ", recording " + r.info.recording;
     const std::string path = report_path(state_dir_, r.info.name);
     write_file_atomically(path, report::render_report(inputs, options), recording_file_mode);
-    outbox_.post({"EVENT", r.info.device,
-                  nlohmann::json{{"class", "EVENT"}, {"device", r.info.device}, {"session", r.info.name},
-                                 {"event", "report_ready"}, {"file", path}}
-                      .dump(),
-                  r.info.name});
+    outbox_.post(make_message(Event{.event = "report_ready", .device = r.info.device, .session = r.info.name, .file = path}));
   } catch (const std::exception& e) {
     post_event(r.info, "report_failed", e.what());
   }
@@ -311,7 +304,6 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
   }
   info.state = failure.empty() ? SessionState::done : SessionState::failed;
   if (failure.empty()) {
-    params["class"] = "PARAMS";
     params["session"] = info.name;
     params["kind"] = info.kind;
     params["device"] = info.device;
@@ -319,7 +311,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     if (!info.recording.empty()) params["recording"] = info.recording;
     if (!info.recording_error.empty()) params["recording_error"] = info.recording_error;
     if (!derived.empty()) params["derived"] = derived;
-    outbox_.post({"PARAMS", info.device, params.dump(), info.name});
+    outbox_.post(make_message(MessageClass::params, std::move(params), info.device, info.name));
     if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
     write_session_report(*r, derived);
   }
