@@ -78,7 +78,7 @@ Daemon::InstanceLock::~InstanceLock() {
   if (fd >= 0) ::close(fd);
 }
 
-Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
+Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const sessions::SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)),
       log_(std::move(logger)),
@@ -444,7 +444,7 @@ std::string string_field(const nlohmann::json& body, const char* key) {
 }  // namespace
 
 nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
-  SessionRequest sr;
+  sessions::SessionRequest sr;
   sr.kind = string_field(req.body, "kind");
   if (sr.kind.empty()) throw std::invalid_argument("start needs \"kind\" (e.g. {\"class\":\"start\",\"kind\":\"dbb\"})");
   sr.device = string_field(req.body, "device");

@@ -1,17 +1,17 @@
-#include "daemon/dbb_session.hpp"
+#include "sessions/dbb_session.hpp"
 
 #include <cmath>
 #include <numbers>
 #include <optional>
 #include <sstream>
 
-#include "daemon/session_support.hpp"
+#include "sessions/session_support.hpp"
 #include "models/dbb/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
 #include "models/explain/dbb_explain.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -339,4 +339,4 @@ SessionKind dbb_session_kind() {
           }};
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,4 +1,4 @@
-#include "daemon/recorder.hpp"
+#include "sessions/recorder.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -15,7 +15,7 @@
 #include "core/number_format.hpp"
 #include "core/utc_time.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -176,4 +176,4 @@ std::string RawRecorder::error() const {
   return error_;
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

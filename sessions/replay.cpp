@@ -1,13 +1,12 @@
-#include "daemon/replay.hpp"
+#include "sessions/replay.hpp"
 
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
 #include "core/csv_table.hpp"
-#include "daemon/pipeline.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -109,9 +108,9 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   if (t.metadata.count("processing") > 0)
     result.note = "recorded when sessions assembled the processed stream; replayed from the raw samples";
 
-  // The samples in the pipeline's batch size (sessions do not depend on it).
+  // The samples in the pieces the pipeline feeds a live session in.
   std::vector<Sample> batch;
-  batch.reserve(Pipeline::max_batch);
+  batch.reserve(max_feed_batch);
   const auto feed = [&] {
     session->on_samples(batch);
     result.samples += batch.size();
@@ -128,7 +127,7 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
       s.value_count = static_cast<std::uint32_t>(c + 1);
     }
     batch.push_back(s);
-    if (batch.size() == Pipeline::max_batch) feed();
+    if (batch.size() == max_feed_batch) feed();
   }
   if (!batch.empty()) feed();
 
@@ -159,4 +158,4 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   return result;
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions
