@@ -19,6 +19,7 @@
 #include "core/mono_clock.hpp"
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
+#include "formats/raw_recording.hpp"
 
 namespace guideway::daemon {
 
@@ -498,24 +499,11 @@ nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
 }
 
 nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
+  // Raw recordings only (what `guideway replay` reads): a session's derived files (DBB runs, the
+  // traverse, ...) are CSV too, and are named in its PARAMS.
   nlohmann::json list = nlohmann::json::array();
-  std::error_code ec;
-  std::vector<std::filesystem::directory_entry> entries;
-  for (const auto& e : std::filesystem::directory_iterator(config_.state_dir, ec)) {
-    const std::string n = e.path().filename().string();
-    if (!n.ends_with(".csv") && !n.ends_with(".csv.part")) continue;
-    // Raw recordings only (what `guideway replay` reads): a session's derived files (DBB runs, the
-    // traverse, ...) are CSV too, and are named in its PARAMS.
-    std::ifstream in(e.path());
-    std::string first;
-    if (std::getline(in, first) && first == "# format = guideway/raw/1") entries.push_back(e);
-  }
-  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.path() < b.path(); });
-  for (const auto& e : entries) {
-    const std::string n = e.path().filename().string();
-    list.push_back({{"file", e.path().string()},
-                    {"bytes", e.file_size(ec)},
-                    {"complete", !n.ends_with(".part")}});
+  for (const auto& e : formats::list_raw_recordings(config_.state_dir)) {
+    list.push_back({{"file", e.path}, {"bytes", e.bytes}, {"complete", e.complete}});
   }
   return with_class(MessageClass::recordings, {{"dir", config_.state_dir}, {"recordings", std::move(list)}});
 }
