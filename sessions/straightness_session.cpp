@@ -7,7 +7,7 @@
 #include "sessions/session_support.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/straightness.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 
 namespace guideway::sessions {
 
