@@ -4,15 +4,13 @@
 
 namespace guideway::sim {
 
-models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source) {
-  using models::dbb::Direction;
-  using models::dbb::Run;
+formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source) {
   const sim::DbbRun raw = machine.dbb_circle(spec);
-  Run run;
+  formats::DbbRun run;
   run.source = source;
   run.radius_m = spec.radius_m;
   run.height_m = spec.height_m;
-  run.direction = spec.direction == sim::Direction::ccw ? Direction::ccw : Direction::cw;
+  run.direction = spec.direction;
   run.feed_m_per_s = spec.feed_m_per_s;
   run.plane = spec.plane == sim::Plane::xy ? "xy" : (spec.plane == sim::Plane::xz ? "xz" : "yz");
   const int a = spec.plane == sim::Plane::yz ? 1 : 0;

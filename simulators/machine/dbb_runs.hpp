@@ -2,11 +2,11 @@
 // DBB runs from the virtual machine tool, in the run-file form the identification reads (only the
 // 360 deg data arc; overshoot arcs are dropped). Thread safe.
 
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::sim {
 
-models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source = "simulated");
+formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source = "simulated");
 
 }  // namespace guideway::sim
