@@ -1,10 +1,20 @@
-# The built-in driver table and plugin loading, with an example plugin built into a test directory.
+# The built-in driver table and plugin loading: the example C plugin in a test plugin directory, and
+# two broken builds of it (another ABI version, no entry point) in a directory of their own.
 set(GUIDEWAY_TEST_PLUGIN_DIR ${CMAKE_CURRENT_BINARY_DIR}/test_plugins)
-add_library(example_driver_plugin MODULE ${CMAKE_CURRENT_LIST_DIR}/example_driver_plugin.cpp)
-target_link_libraries(example_driver_plugin PRIVATE guideway_drivers guideway_warnings)
-set_target_properties(example_driver_plugin PROPERTIES PREFIX "" LIBRARY_OUTPUT_DIRECTORY ${GUIDEWAY_TEST_PLUGIN_DIR}
-                                                       POSITION_INDEPENDENT_CODE ON)
+set(GUIDEWAY_BROKEN_PLUGIN_DIR ${CMAKE_CURRENT_BINARY_DIR}/broken_plugins)
 guideway_add_test(driver_plugin_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/driver_plugin_test.cpp
-  LIBS guideway_builtin_drivers LABELS unit)
-target_compile_definitions(driver_plugin_test PRIVATE GUIDEWAY_TEST_PLUGIN_DIR="${GUIDEWAY_TEST_PLUGIN_DIR}")
-add_dependencies(driver_plugin_test example_driver_plugin)
+  LIBS guideway_builtin_drivers LABELS unit tsan)
+target_compile_definitions(driver_plugin_test PRIVATE GUIDEWAY_TEST_PLUGIN_DIR="${GUIDEWAY_TEST_PLUGIN_DIR}"
+  GUIDEWAY_BROKEN_PLUGIN_DIR="${GUIDEWAY_BROKEN_PLUGIN_DIR}")
+
+function(guideway_add_example_plugin name dir)
+  add_library(${name} MODULE ${CMAKE_CURRENT_SOURCE_DIR}/example_driver_plugin.c)
+  target_link_libraries(${name} PRIVATE guideway_plugin_abi guideway_warnings)
+  target_compile_definitions(${name} PRIVATE ${ARGN})
+  set_target_properties(${name} PROPERTIES PREFIX "" LIBRARY_OUTPUT_DIRECTORY ${dir})
+  add_dependencies(driver_plugin_test ${name})
+endfunction()
+guideway_add_example_plugin(example_driver_plugin ${GUIDEWAY_TEST_PLUGIN_DIR})
+guideway_add_example_plugin(example_driver_plugin_other_abi ${GUIDEWAY_BROKEN_PLUGIN_DIR} EXAMPLE_PLUGIN_ABI_VERSION=99)
+guideway_add_example_plugin(example_driver_plugin_no_entry ${GUIDEWAY_BROKEN_PLUGIN_DIR}
+  EXAMPLE_PLUGIN_ENTRY=example_plugin_misnamed)
