@@ -18,3 +18,7 @@ guideway_add_example_plugin(example_driver_plugin ${GUIDEWAY_TEST_PLUGIN_DIR})
 guideway_add_example_plugin(example_driver_plugin_other_abi ${GUIDEWAY_BROKEN_PLUGIN_DIR} EXAMPLE_PLUGIN_ABI_VERSION=99)
 guideway_add_example_plugin(example_driver_plugin_no_entry ${GUIDEWAY_BROKEN_PLUGIN_DIR}
   EXAMPLE_PLUGIN_ENTRY=example_plugin_misnamed)
+add_test(NAME driver_plugin_daemon_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/driver_plugin_daemon_test.py
+  ${PROJECT_BINARY_DIR} ${GUIDEWAY_TEST_PLUGIN_DIR} ${GUIDEWAY_BROKEN_PLUGIN_DIR})
+set_tests_properties(driver_plugin_daemon_test PROPERTIES LABELS integration TIMEOUT 120)
