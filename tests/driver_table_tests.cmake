@@ -7,17 +7,17 @@ guideway_add_test(driver_plugin_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/driver_pl
 target_compile_definitions(driver_plugin_test PRIVATE GUIDEWAY_TEST_PLUGIN_DIR="${GUIDEWAY_TEST_PLUGIN_DIR}"
   GUIDEWAY_BROKEN_PLUGIN_DIR="${GUIDEWAY_BROKEN_PLUGIN_DIR}")
 
-function(guideway_add_example_plugin name dir)
-  add_library(${name} MODULE ${CMAKE_CURRENT_SOURCE_DIR}/example_driver_plugin.c)
-  target_link_libraries(${name} PRIVATE guideway_plugin_abi guideway_warnings)
-  target_compile_definitions(${name} PRIVATE ${ARGN})
-  set_target_properties(${name} PROPERTIES PREFIX "" LIBRARY_OUTPUT_DIRECTORY ${dir})
-  add_dependencies(driver_plugin_test ${name})
-endfunction()
-guideway_add_example_plugin(example_driver_plugin ${GUIDEWAY_TEST_PLUGIN_DIR})
-guideway_add_example_plugin(example_driver_plugin_other_abi ${GUIDEWAY_BROKEN_PLUGIN_DIR} EXAMPLE_PLUGIN_ABI_VERSION=99)
-guideway_add_example_plugin(example_driver_plugin_no_entry ${GUIDEWAY_BROKEN_PLUGIN_DIR}
-  EXAMPLE_PLUGIN_ENTRY=example_plugin_misnamed)
+# The example plugin (drivers/CMakeLists.txt, guideway_add_driver_plugin) and its two broken builds.
+set(example_plugin_source ${CMAKE_CURRENT_SOURCE_DIR}/example_driver_plugin.c)
+guideway_add_driver_plugin(example_driver_plugin SOURCES ${example_plugin_source} TEST_DIR ${GUIDEWAY_TEST_PLUGIN_DIR})
+guideway_add_driver_plugin(example_driver_plugin_other_abi SOURCES ${example_plugin_source}
+  TEST_DIR ${GUIDEWAY_BROKEN_PLUGIN_DIR}
+  DEFINITIONS EXAMPLE_PLUGIN_ABI_VERSION=99)
+guideway_add_driver_plugin(example_driver_plugin_no_entry SOURCES ${example_plugin_source}
+  TEST_DIR ${GUIDEWAY_BROKEN_PLUGIN_DIR}
+  DEFINITIONS EXAMPLE_PLUGIN_ENTRY=example_plugin_misnamed)
+add_dependencies(driver_plugin_test
+  example_driver_plugin example_driver_plugin_other_abi example_driver_plugin_no_entry)
 add_test(NAME driver_plugin_daemon_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/driver_plugin_daemon_test.py
   ${PROJECT_BINARY_DIR} ${GUIDEWAY_TEST_PLUGIN_DIR} ${GUIDEWAY_BROKEN_PLUGIN_DIR})
