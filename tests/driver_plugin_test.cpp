@@ -1,6 +1,7 @@
 // The driver table: the four instrument drivers are built in, and a driver that is not (a third party's)
 // comes from a plugin in plugin_dir through the C boundary (drivers/plugin_abi.h). The plugin here is
-// tests/example_driver_plugin.c, loaded with dlopen; broken builds of it are named, not fatal.
+// tests/example_driver_plugin.c, loaded with dlopen; broken builds of it are named, not fatal, and the
+// host holds a plugin that misbehaves (tests/faulty_driver_plugin.c) to its device's state and counters.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -79,8 +80,11 @@ TEST(DriverPlugin, ADriverNotBuiltInComesFromACPlugin) {
   EXPECT_TRUE(registry.load_plugins(GUIDEWAY_TEST_PLUGIN_DIR).empty());
   ASSERT_TRUE(registry.contains("example-ramp"));
   EXPECT_TRUE(registry.contains("dbb-can")) << "a plugin adds to the built-in drivers";
-  EXPECT_EQ(registry.list().back(),
+  const auto drivers = registry.list();
+  ASSERT_EQ(drivers.size(), 6u);
+  EXPECT_EQ(drivers[4],
             (std::pair<std::string, std::string>{"example-ramp", "example plugin (C): a ramp of `count` samples"}));
+  EXPECT_EQ(drivers[5].first, "example-faulty") << "plugins in file name order, after the built-in drivers";
 }
 
 TEST(DriverPlugin, SamplesStateAndCountersCrossTheBoundary) {
@@ -156,6 +160,34 @@ TEST(DriverPlugin, ConfigurationErrorsNameFileLineAndKey) {
   // A key the plugin does not list in config_keys.
   const std::string unknown = config_error_of("cuont = 3\n");
   EXPECT_NE(unknown.find("plugin.toml:4: device[0].cuont"), std::string::npos) << unknown;
+}
+
+TEST(DriverPlugin, TheHostHoldsAPluginThatBreaksTheRulesToItsStateAndCounters) {
+  // tests/faulty_driver_plugin.c: 3 samples into a ring of 2, one with more values than channels.
+  const drivers::DriverRegistry registry = registry_with_plugins();
+  const toml::table root = parse_toml(
+      "[[device]]\nname = \"a\"\ndriver = \"example-faulty\"\nfault = \"early_return\"\n"
+      "[[device]]\nname = \"b\"\ndriver = \"example-faulty\"\nfault = \"unknown_counter\"\n",
+      "faulty.toml");
+  const auto devices = TableReader(root, "faulty.toml", "").tables("device");
+  const auto early = registry.create({"a", "example-faulty", 2, devices[0]});
+  const auto unknown = registry.create({"b", "example-faulty", 2, devices[1]});
+  early->start();
+  unknown->start();
+  ASSERT_TRUE(test::eventually([&] { return early->status().state == drivers::DeviceState::error; }, 5s));
+  ASSERT_TRUE(test::eventually([&] { return unknown->status().state == drivers::DeviceState::error; }, 5s));
+  EXPECT_EQ(early->status().reason, "the plugin's run() returned before it was stopped");
+  EXPECT_EQ(unknown->status().reason, "the plugin counted an unknown counter 23");
+  for (const auto* d : {early.get(), unknown.get()}) {
+    const drivers::DriverStatus status = d->status();
+    EXPECT_EQ(status.counters.samples, 3u) << "the refused sample is not one";
+    EXPECT_EQ(status.counters.overruns, 1u);
+    EXPECT_EQ(status.ring.depth, 2u);
+    EXPECT_EQ(driver_counter(status, "dropped_pushes"), 1u) << "push_sample answered 1 for the dropped one";
+    EXPECT_EQ(driver_counter(status, "refused_pushes"), 1u) << "push_sample answered -1 for the refused one";
+  }
+  early->stop();
+  unknown->stop();
 }
 
 TEST(DriverPlugin, APluginOfAnotherAbiOrWithoutTheEntryPointIsNamedAndSkipped) {

@@ -1,5 +1,5 @@
-# The built-in driver table and plugin loading: the example C plugin in a test plugin directory, and
-# two broken builds of it (another ABI version, no entry point) in a directory of their own.
+# The built-in driver table and plugin loading: the example C plugin and a faulty one in a test plugin
+# directory, and two broken builds of the example (another ABI version, no entry point) in their own.
 set(GUIDEWAY_TEST_PLUGIN_DIR ${CMAKE_CURRENT_BINARY_DIR}/test_plugins)
 set(GUIDEWAY_BROKEN_PLUGIN_DIR ${CMAKE_CURRENT_BINARY_DIR}/broken_plugins)
 guideway_add_test(driver_plugin_test SOURCES ${CMAKE_CURRENT_LIST_DIR}/driver_plugin_test.cpp
@@ -16,8 +16,10 @@ guideway_add_driver_plugin(example_driver_plugin_other_abi SOURCES ${example_plu
 guideway_add_driver_plugin(example_driver_plugin_no_entry SOURCES ${example_plugin_source}
   TEST_DIR ${GUIDEWAY_BROKEN_PLUGIN_DIR}
   DEFINITIONS EXAMPLE_PLUGIN_ENTRY=example_plugin_misnamed)
+guideway_add_driver_plugin(faulty_driver_plugin SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/faulty_driver_plugin.c
+  TEST_DIR ${GUIDEWAY_TEST_PLUGIN_DIR})
 add_dependencies(driver_plugin_test
-  example_driver_plugin example_driver_plugin_other_abi example_driver_plugin_no_entry)
+  example_driver_plugin example_driver_plugin_other_abi example_driver_plugin_no_entry faulty_driver_plugin)
 add_test(NAME driver_plugin_daemon_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/driver_plugin_daemon_test.py
   ${PROJECT_BINARY_DIR} ${GUIDEWAY_TEST_PLUGIN_DIR} ${GUIDEWAY_BROKEN_PLUGIN_DIR})
