@@ -76,6 +76,12 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<dbb::Run>& r
   ErrorMap m;
   m.plane = id.plane;
   const std::string A = dbb::axis_letter(id.plane, 0), B = dbb::axis_letter(id.plane, 1);
+  const bool ccw = std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::ccw; });
+  const bool cw = std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::cw; });
+  if (!ccw || !cw)
+    throw CompensationError(
+        "the runs go one way only: in one direction backlash, lateral play and servo mismatch trade off against each "
+        "other and squareness is not separable (docs/conventions.md); measure the circle in both directions");
   if (!find(id, "scale_" + A + "_ppm") || !find(id, "backlash_" + A + "_um")) {
     std::string why = "the runs gave no ballbar diagnostics, which the compensation is built from";
     for (const auto& n : id.notes) why += "; " + n;

@@ -97,8 +97,9 @@ struct MapOptions {
 // state it; throws CompensationError when the runs state different centres.
 std::optional<std::array<double, 2>> runs_center_m(const std::vector<dbb::Run>& runs);
 
-// Throws CompensationError when the identification has no ballbar diagnostics (they need in-plane runs
-// in both directions), when the centre is unknown, or when the step gives more than 256 lines.
+// Throws CompensationError when the runs do not go both ways, when the identification has no ballbar
+// diagnostics (they need in-plane runs), when the centre is unknown, or when the step gives more than
+// 256 lines.
 ErrorMap error_map(const dbb::Identification& id, const std::vector<dbb::Run>& runs, const MapOptions& options = {});
 
 // Squareness as a user enters it: um of the first axis per metre of the second, and the correction
