@@ -15,7 +15,6 @@
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
 #include "models/compensation/compensation.hpp"
-#include "models/dbb/geometry.hpp"
 #include "models/dbb/identify.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 
@@ -243,7 +242,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
     terms.push_back({{"name", t.name},
                      {"value", t.value},
                      {"u", t.u},
-                     {"applied", t.significant && t.use != comp::Use::not_geometric},
+                     {"significant", t.significant},
                      {"use", t.use == comp::Use::table ? "table" : (t.use == comp::Use::map_only ? "errors.csv" : "none")},
                      {"why", t.why}});
   j["terms"] = terms;

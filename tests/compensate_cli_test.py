@@ -120,8 +120,10 @@ def main():
         for name in ("scale_x_ppm", "scale_y_ppm", "backlash_x_um", "backlash_y_um"):
             t = by_name[name]
             assert abs(t["after"]) < 3 * t["after_u"], t
-        applied = {t["name"] for t in j["terms"] if t["applied"]}
-        assert {"scale_x_ppm", "backlash_x_um", "cyclic_error_x_um", "squareness_urad"} <= applied, applied
+        in_tables = {t["name"] for t in j["terms"] if t["significant"] and t["use"] == "table"}
+        assert {"scale_x_ppm", "backlash_x_um", "cyclic_error_x_um", "scale_y_ppm", "backlash_y_um"} <= in_tables, in_tables
+        in_map = {t["name"] for t in j["terms"] if t["significant"] and t["use"] == "errors.csv"}
+        assert {"squareness_urad", "straightness_x_um"} <= in_map, in_map
 
         # The report shows the before and after runs in their own sections.
         html = os.path.join(d, "r.html")
