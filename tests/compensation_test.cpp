@@ -193,6 +193,7 @@ TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
       std::vector<double> s;
       for (std::size_t i = 0; i < am.nominal_m.size(); ++i) s.push_back(am.straightness_m[i] - across(am.nominal_m[i]));
       const double srms_um = rms_about_line(am.nominal_m, s) * 1e6;
+      RecordProperty(std::string("straightness_rms_um_") + am.axis, std::to_string(srms_um));
       EXPECT_LT(srms_um, 0.25) << GetParam().file << " straightness of " << am.axis;
     }
   }
