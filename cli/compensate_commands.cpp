@@ -137,17 +137,20 @@ std::string verification_text(const comp::ErrorMap& map, const Verification& v, 
     const double ratio = seen ? std::abs(after->value) / after->u : 0.0;
     std::string status;
     if (t && t->use == comp::Use::table && t->significant)
-      status = !seen ? "compensated (no longer detected)" : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
+      status = !seen ? "compensated (no longer detected)"
+                     : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
     else if (t && e.name == "squareness_urad")
       status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
     else if (t && t->significant)
-      status = t->use == comp::Use::map_only ? "no per-joint table can hold it (errors.csv)" : "servo/friction: no table";
+      status =
+          t->use == comp::Use::map_only ? "no per-joint table can hold it (errors.csv)" : "servo/friction: no table";
     else if (t)
       status = "not applied (not significant)";
     o << "  " << e.name << std::string(e.name.size() < 28 ? 28 - e.name.size() : 1, ' ')
       << printf_number("%9.4g", e.value) << printf_number(" +/- %-8.2g", e.u);
     if (seen)
-      o << printf_number("%9.4g", after->value) << printf_number(" +/- %-8.2g", after->u) << printf_number("%6.1f", ratio);
+      o << printf_number("%9.4g", after->value) << printf_number(" +/- %-8.2g", after->u)
+        << printf_number("%6.1f", ratio);
     else
       o << "   not detected                 ";
     o << "  " << status << "\n";
@@ -239,12 +242,13 @@ void run_compensate(const Opts& o, const std::string& socket) {
   j["files"] = written;
   nlohmann::json terms = nlohmann::json::array();
   for (const auto& t : map.terms)
-    terms.push_back({{"name", t.name},
-                     {"value", t.value},
-                     {"u", t.u},
-                     {"significant", t.significant},
-                     {"use", t.use == comp::Use::table ? "table" : (t.use == comp::Use::map_only ? "errors.csv" : "none")},
-                     {"why", t.why}});
+    terms.push_back(
+        {{"name", t.name},
+         {"value", t.value},
+         {"u", t.u},
+         {"significant", t.significant},
+         {"use", t.use == comp::Use::table ? "table" : (t.use == comp::Use::map_only ? "errors.csv" : "none")},
+         {"why", t.why}});
   j["terms"] = terms;
   if (map.squareness_known) {
     const auto adv = comp::squareness_advice(map.squareness_rad);
@@ -269,7 +273,8 @@ void run_compensate(const Opts& o, const std::string& socket) {
 }
 
 void add_compensate_commands(CLI::App& app, CliContext& ctx) {
-  auto* cmd = app.add_subcommand("compensate", "Compensation tables from identified machine errors (docs/compensation.md)");
+  auto* cmd =
+      app.add_subcommand("compensate", "Compensation tables from identified machine errors (docs/compensation.md)");
   auto* d = cmd->add_subcommand("dbb", "LinuxCNC per-joint tables, INI lines and errors.csv from DBB runs");
   auto o = std::make_shared<Opts>();
   d->add_option("runs", o->files, "DBB run files (guideway/dbb-run/1): in-plane circles in both directions")

@@ -15,7 +15,8 @@ namespace {
 }
 
 void check_table(const std::vector<CompTriplet>& table, const std::string& name) {
-  if (table.empty()) fail(name, "no compensation triplets (LinuxCNC reads `nominal forward reverse` lines from the top)");
+  if (table.empty())
+    fail(name, "no compensation triplets (LinuxCNC reads `nominal forward reverse` lines from the top)");
   if (table.size() > linuxcnc_comp_max_lines)
     fail(name, std::to_string(table.size()) + " lines; LinuxCNC keeps at most " +
                    std::to_string(linuxcnc_comp_max_lines) + " per joint (use a coarser step)");

@@ -43,9 +43,9 @@ std::vector<CompTriplet> read_linuxcnc_comp(const std::string& path);
 
 // The [JOINT_n] lines that load one table.
 struct IniJoint {
-  int joint = 0;             // LinuxCNC joint number (trivkins: x = 0, y = 1, z = 2)
-  std::string axis;          // "x", for the comment
-  std::string comp_file;     // as written in the INI (relative to the configuration directory)
+  int joint = 0;          // LinuxCNC joint number (trivkins: x = 0, y = 1, z = 2)
+  std::string axis;       // "x", for the comment
+  std::string comp_file;  // as written in the INI (relative to the configuration directory)
 };
 // ';' comment lines, then one [JOINT_n] section per joint with COMP_FILE, COMP_FILE_TYPE = 0 and
 // BACKLASH = 0 (the table's forward and reverse columns already hold the lost motion; LinuxCNC ignores
@@ -55,11 +55,11 @@ std::string format_linuxcnc_ini(const std::vector<IniJoint>& joints, const std::
 // errors.csv: one row per axis and position, every error component in um; `# key = value` metadata
 // (format = guideway/error-map/1) and `#` comment lines first.
 struct ErrorMapRow {
-  std::string axis;           // the moving axis: "x"
-  double position_mm = 0.0;   // nominal position in machine coordinates
-  double forward_um = 0.0;    // positioning error (actual - nominal) moving in +
-  double reverse_um = 0.0;    // moving in -
-  std::string across;         // the axis along which `straightness_um` is measured: "y"
+  std::string axis;          // the moving axis: "x"
+  double position_mm = 0.0;  // nominal position in machine coordinates
+  double forward_um = 0.0;   // positioning error (actual - nominal) moving in +
+  double reverse_um = 0.0;   // moving in -
+  std::string across;        // the axis along which `straightness_um` is measured: "y"
   double straightness_um = 0.0;
 };
 inline constexpr const char* error_map_format_id = "guideway/error-map/1";

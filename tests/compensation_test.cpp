@@ -69,7 +69,8 @@ TEST(CompensationFilesTest, RefusesWhatLinuxcncRefuses) {
   big.pop_back();
   EXPECT_NO_THROW((void)formats::format_linuxcnc_comp(big, {}));
   // A comment above the table: LinuxCNC's reader stops there and loads nothing.
-  EXPECT_THROW((void)formats::parse_linuxcnc_comp("# header\n0 0 0\n1 1 1\n", "c.comp"), formats::CompensationFileError);
+  EXPECT_THROW((void)formats::parse_linuxcnc_comp("# header\n0 0 0\n1 1 1\n", "c.comp"),
+               formats::CompensationFileError);
 }
 
 TEST(CompensationFilesTest, IniLinesLoadTheTablesWithBacklashZero) {
@@ -125,7 +126,8 @@ struct TruthAxis {
   int j;
   double positioning(double u, int d) const {
     double v = e->scale * u + e->translation[static_cast<std::size_t>(j)](u) - 0.5 * e->backlash_m * d;
-    if (e->cyclic_amplitude_m != 0) v += e->cyclic_amplitude_m * std::sin(2 * pi * u / e->cyclic_period_m + e->cyclic_phase_rad);
+    if (e->cyclic_amplitude_m != 0)
+      v += e->cyclic_amplitude_m * std::sin(2 * pi * u / e->cyclic_period_m + e->cyclic_phase_rad);
     return v;
   }
 };
@@ -207,7 +209,8 @@ TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
   const auto files = comp::compensation_files(map, "test runs");
   ASSERT_EQ(files.size(), 4u);
   for (int k = 0; k < 2; ++k) {
-    const auto back = formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content, files[static_cast<std::size_t>(k)].name);
+    const auto back = formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content,
+                                                   files[static_cast<std::size_t>(k)].name);
     const auto& am = map.axes[static_cast<std::size_t>(k)];
     ASSERT_EQ(back.size(), am.nominal_m.size());
     for (std::size_t i = 0; i < back.size(); ++i)
@@ -217,7 +220,8 @@ TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Machines, CompensationMapTest,
-                         ::testing::Values(MapCase{"machine-example.toml", false}, MapCase{"machine-leadscrew.toml", true}),
+                         ::testing::Values(MapCase{"machine-example.toml", false},
+                                           MapCase{"machine-leadscrew.toml", true}),
                          [](const auto& p) {
                            std::string n = p.param.file;
                            n = n.substr(0, n.find('.'));

@@ -76,8 +76,10 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<dbb::Run>& r
   ErrorMap m;
   m.plane = id.plane;
   const std::string A = dbb::axis_letter(id.plane, 0), B = dbb::axis_letter(id.plane, 1);
-  const bool ccw = std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::ccw; });
-  const bool cw = std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::cw; });
+  const bool ccw =
+      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::ccw; });
+  const bool cw =
+      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::cw; });
   if (!ccw || !cw)
     throw CompensationError(
         "the runs go one way only: in one direction backlash, lateral play and servo mismatch trade off against each "
@@ -125,9 +127,10 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<dbb::Run>& r
         at.cyclic_phase_rad = ph->value * pi / 180;
       }
     }
-    if (const auto* t = term("straightness_" + ax + "_um", Use::map_only,
-                             "a per-joint table moves " + ax + " along " + ax + " only; the straightness moves it along " +
-                                 other + " (errors.csv; a controller's cross compensation or a scraped guideway)");
+    if (const auto* t =
+            term("straightness_" + ax + "_um", Use::map_only,
+                 "a per-joint table moves " + ax + " along " + ax + " only; the straightness moves it along " + other +
+                     " (errors.csv; a controller's cross compensation or a scraped guideway)");
         t && t->significant)
       at.bow_m = t->value * 1e-6;
   }
@@ -157,7 +160,8 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<dbb::Run>& r
     if (lines_max(step) > formats::linuxcnc_comp_max_lines)
       throw CompensationError("a step of " + shortest(step * 1e3) + " mm gives " + std::to_string(lines_max(step)) +
                               " lines over the measured range; LinuxCNC reads at most " +
-                              std::to_string(formats::linuxcnc_comp_max_lines) + " per joint (use a coarser --step-mm)");
+                              std::to_string(formats::linuxcnc_comp_max_lines) +
+                              " per joint (use a coarser --step-mm)");
   } else {
     for (double s_mm : default_steps_mm) {
       step = s_mm * 1e-3;
@@ -244,7 +248,8 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
     std::vector<std::string> c;
     c.push_back("LinuxCNC compensation table of joint " + std::to_string(joint_of(am.axis)) + " (axis " +
                 letters_upper(am.axis) + "), COMP_FILE_TYPE = 0: nominal, actual moving +, actual moving - (mm)");
-    c.push_back("these comments follow the table because LinuxCNC stops reading at the first line that is not three numbers");
+    c.push_back(
+        "these comments follow the table because LinuxCNC stops reading at the first line that is not three numbers");
     c.insert(c.end(), head.begin(), head.end());
     c.push_back("in this table: scale, backlash and cyclic error of " + letters_upper(am.axis) +
                 " (those applied above); straightness and squareness are in errors.csv");
@@ -254,10 +259,12 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
         c.push_back("the cyclic part is multiplied by " + printf_number("%.4f", at.cyclic_table_gain) +
                     " = 1 / sinc^2(step / period): LinuxCNC's linear interpolation between lines " +
                     printf_number("%.3g", m.step_m * 1e3) + " mm apart attenuates a " +
-                    printf_number("%.3g", at.cyclic_period_m * 1e3) + " mm period by the inverse (errors.csv holds the error itself)");
+                    printf_number("%.3g", at.cyclic_period_m * 1e3) +
+                    " mm period by the inverse (errors.csv holds the error itself)");
       else
-        c.push_back("the cyclic error is NOT in this table: its period is shorter than two table steps (use a smaller "
-                    "circle or a finer --step-mm)");
+        c.push_back(
+            "the cyclic error is NOT in this table: its period is shorter than two table steps (use a smaller "
+            "circle or a finer --step-mm)");
     }
     out.push_back({am.axis + ".comp", formats::format_linuxcnc_comp(table, c)});
     joints.push_back({joint_of(am.axis), am.axis, am.axis + ".comp"});
@@ -306,22 +313,23 @@ std::string to_text(const ErrorMap& m) {
       use = "left out (not larger than 2 u)";
     else if (t.use == Use::table)
       use = t.name.find("_" + m.axes[0].axis + "_") != std::string::npos ? m.axes[0].axis + ".comp"
-                                                                            : m.axes[1].axis + ".comp";
+                                                                         : m.axes[1].axis + ".comp";
     else
       use = (t.use == Use::map_only ? "errors.csv only: " : "no table: ") + t.why;
     o << "  " << t.name << std::string(t.name.size() < 30 ? 30 - t.name.size() : 1, ' ')
       << printf_number("%10.4g", t.value) << printf_number("%8.2g", t.u) << "  " << use << "\n";
   }
   for (const auto& am : m.axes)
-    o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, " << printf_number("%.3f", am.nominal_m.front() * 1e3)
-      << " .. " << printf_number("%.3f", am.nominal_m.back() * 1e3) << " mm\n";
+    o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, "
+      << printf_number("%.3f", am.nominal_m.front() * 1e3) << " .. " << printf_number("%.3f", am.nominal_m.back() * 1e3)
+      << " mm\n";
   if (m.squareness_known) {
     const auto adv = squareness_advice(m.squareness_rad);
     const std::string a = m.axes[0].axis, b = m.axes[1].axis;
     o << "squareness " << a << b << ": " << printf_number("%.2f", adv.um_per_m) << " um/m (+/- "
-      << printf_number("%.2f", m.squareness_u_rad * 1e6) << "); correction " << printf_number("%+.3f", adv.correction_um_per_100mm)
-      << " um of " << letters_upper(a) << " per +100 mm of " << letters_upper(b)
-      << (m.squareness_significant ? "" : " (not significant: leave it)")
+      << printf_number("%.2f", m.squareness_u_rad * 1e6) << "); correction "
+      << printf_number("%+.3f", adv.correction_um_per_100mm) << " um of " << letters_upper(a) << " per +100 mm of "
+      << letters_upper(b) << (m.squareness_significant ? "" : " (not significant: leave it)")
       << ". A per-joint table cannot hold it: set your controller's axis-skew correction, or change the kinematics\n";
   }
   return o.str();

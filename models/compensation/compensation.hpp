@@ -44,12 +44,12 @@ struct Term {
 
 // The errors of one plane axis on the table's grid.
 struct AxisMap {
-  std::string axis;    // "x"
-  std::string across;  // the other plane axis (direction of the straightness)
-  std::vector<double> nominal_m;       // ascending, machine coordinates
-  std::vector<double> forward_m;       // positioning error (actual - nominal) moving in +
-  std::vector<double> reverse_m;       // moving in -
-  std::vector<double> straightness_m;  // displacement along `across` (ends relative to the middle)
+  std::string axis;                     // "x"
+  std::string across;                   // the other plane axis (direction of the straightness)
+  std::vector<double> nominal_m;        // ascending, machine coordinates
+  std::vector<double> forward_m;        // positioning error (actual - nominal) moving in +
+  std::vector<double> reverse_m;        // moving in -
+  std::vector<double> straightness_m;   // displacement along `across` (ends relative to the middle)
   std::vector<double> table_forward_m;  // what the table holds: forward_m with the cyclic part
   std::vector<double> table_reverse_m;  // scaled by cyclic_table_gain
 };
@@ -58,7 +58,7 @@ struct AxisMap {
 struct AxisTerms {
   double center_m = 0.0;  // circle centre along this axis (machine coordinates)
   double radius_m = 0.0;
-  double scale = 0.0;      // relative (not ppm)
+  double scale = 0.0;  // relative (not ppm)
   double backlash_m = 0.0;
   double cyclic_amplitude_m = 0.0, cyclic_period_m = 0.0, cyclic_phase_rad = 0.0;
   double bow_m = 0.0;  // straightness bow B: displacement across = B ((u - centre) / r)^2
@@ -81,8 +81,8 @@ struct ErrorMap {
   double squareness_u_rad = 0.0;
   bool squareness_significant = false;
   bool squareness_known = false;
-  std::vector<Term> terms;            // every identified term considered
-  std::vector<std::string> sources;   // run files
+  std::vector<Term> terms;           // every identified term considered
+  std::vector<std::string> sources;  // run files
   double step_m = 0.0;
 };
 

@@ -14,7 +14,8 @@ namespace guideway::sim {
 
 // The run carries the commanded circle centre as center_a_mm / center_b_mm metadata (also when it is 0),
 // so tools that need machine positions (compensation tables) find it.
-models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source = "simulated");
+models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec,
+                                  const std::string& source = "simulated");
 
 // The circle test a run file describes (radius, height, direction, feed, plane, start angle), about
 // `center` (machine coordinates, m), so the same test can be traced again on the virtual machine.

@@ -134,7 +134,8 @@ double JointCompensation::correction_m(double commanded_m, int direction) const 
   const auto& actual = direction < 0 ? reverse_m : forward_m;
   if (commanded_m <= nominal_m.front()) return nominal_m.front() - actual.front();
   if (commanded_m >= nominal_m.back()) return nominal_m.back() - actual.back();
-  const auto hi = static_cast<std::size_t>(std::upper_bound(nominal_m.begin(), nominal_m.end(), commanded_m) - nominal_m.begin());
+  const auto hi =
+      static_cast<std::size_t>(std::upper_bound(nominal_m.begin(), nominal_m.end(), commanded_m) - nominal_m.begin());
   const std::size_t lo = hi - 1;
   const double f = (commanded_m - nominal_m[lo]) / (nominal_m[hi] - nominal_m[lo]);
   const double trim_lo = nominal_m[lo] - actual[lo], trim_hi = nominal_m[hi] - actual[hi];
