@@ -23,10 +23,12 @@ namespace dbb = models::dbb;
 
 constexpr double pi = std::numbers::pi;
 
-std::vector<dbb::Run> pair_of(const sim::Machine& m, const sim::Vec3& center, double feed_mm_per_min) {
+std::vector<dbb::Run> pair_of(const sim::Machine& m, const sim::Vec3& center, double feed_mm_per_min,
+                              sim::Plane plane = sim::Plane::xy) {
   std::vector<dbb::Run> runs;
   for (bool ccw : {true, false}) {
     sim::DbbCircleSpec s;
+    s.plane = plane;
     s.radius_m = 0.1;
     s.center = center;
     s.feed_m_per_s = feed_mm_per_min / 60000.0;
@@ -321,5 +323,38 @@ INSTANTIATE_TEST_SUITE_P(Machines, CompensationVerifyTest,
                              if (c == '-') c = '_';
                            return n;
                          });
+
+// A lathe-like XZ test: the Z table is written for joint 2 and the skew goes to xz.
+TEST(CompensationVerifyTest, XzPlaneTablesForXAndZ) {
+  auto cfg = sim::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml");
+  cfg.axis[2].scale = 20e-6;
+  cfg.axis[2].backlash_m = 3e-6;
+  cfg.squareness.xz = 15e-6;
+  const sim::Vec3 center{0.05, 0.0, -0.02};
+  const auto runs = pair_of(sim::Machine(cfg), center, 250, sim::Plane::xz);
+  const auto id = dbb::identify(runs);
+  const auto map = comp::error_map(id, runs);
+  ASSERT_EQ(map.axes[1].axis, "z");
+  EXPECT_NEAR(map.terms_of[1].center_m, -0.02, 1e-12);
+  EXPECT_EQ(comp::joint_of("z"), 2);
+  const auto files = comp::compensation_files(map, "xz runs");
+  EXPECT_EQ(files[1].name, "z.comp");
+  EXPECT_NE(files[2].content.find("[JOINT_2]\n"), std::string::npos);
+  sim::ControllerCorrection c;
+  c.tables[0] = sim::joint_compensation(formats::parse_linuxcnc_comp(files[0].content, "x.comp"));
+  c.tables[2] = sim::joint_compensation(formats::parse_linuxcnc_comp(files[1].content, "z.comp"));
+  ASSERT_TRUE(map.squareness_significant);
+  c.skew.xz = map.squareness_rad;
+  const auto r = sim::remeasure_dbb(cfg, c, runs, center);
+  const auto before = dbb::identify(r.before), after = dbb::identify(r.after);
+  const double g0 = find(before, "circular_deviation_um")->value, g1 = find(after, "circular_deviation_um")->value;
+  std::cout << "xz: G " << g0 << " -> " << g1 << " um\n";
+  EXPECT_LE(g1, 0.35 * g0);
+  for (const char* name : {"scale_z_ppm", "backlash_z_um", "squareness_urad"}) {
+    const auto* a = find(after, name);
+    ASSERT_NE(a, nullptr) << name;
+    EXPECT_LT(std::abs(a->value), 3 * a->u) << name << " " << a->value << " +/- " << a->u;
+  }
+}
 
 }  // namespace
