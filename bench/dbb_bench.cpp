@@ -11,7 +11,7 @@ namespace {
 
 using namespace guideway;
 
-std::vector<models::dbb::Run> patterns() {
+std::vector<guideway::formats::DbbRun> patterns() {
   sim::MachineConfig c;
   c.dbb.center_offset = {2e-6, 3e-6, 0};
   c.dbb.noise_m = 0.1e-6;
@@ -22,12 +22,12 @@ std::vector<models::dbb::Run> patterns() {
   c.axis[0].translation[1].c = {0, 3e-4, 2.25e-4, -5e-3};  // Lai's a_k in SI units
   c.axis[1].translation[2].c = {0, 1e-4, 1.5e-3, -1.5e-2};
   const sim::Machine m{c};
-  std::vector<models::dbb::Run> runs;
+  std::vector<guideway::formats::DbbRun> runs;
   const struct {
     double r, h;
-    sim::Direction d;
+    guideway::formats::DbbDirection d;
   } spec[] = {
-      {0.095, 0.031225, sim::Direction::ccw}, {0.095, 0.031225, sim::Direction::cw}, {0.1, 0.0, sim::Direction::ccw}};
+      {0.095, 0.031225, guideway::formats::DbbDirection::ccw}, {0.095, 0.031225, guideway::formats::DbbDirection::cw}, {0.1, 0.0, guideway::formats::DbbDirection::ccw}};
   std::uint64_t seed = 1;
   for (const auto& p : spec) {
     sim::DbbCircleSpec s;

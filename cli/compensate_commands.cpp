@@ -72,8 +72,8 @@ struct Verification {
 // Traces every run's test on the virtual machine: as it is, with the tables written to `out_dir`
 // (read back from the files, as the controller would), and with the tables plus the squareness as the
 // axis-skew correction the user is told to enter. Writes the before/after runs to out_dir/verify/.
-Verification verify(const std::vector<dbb::Run>& runs, const comp::ErrorMap& map, const std::string& machine_file,
-                    const std::string& out_dir, const std::vector<std::string>& axes) {
+Verification verify(const std::vector<formats::DbbRun>& runs, const comp::ErrorMap& map,
+                    const std::string& machine_file, const std::string& out_dir, const std::vector<std::string>& axes) {
   const sim::MachineConfig config = sim::load_machine_config(machine_file);
   sim::ControllerCorrection tables;
   for (const auto& axis : axes)
@@ -103,7 +103,7 @@ Verification verify(const std::vector<dbb::Run>& runs, const comp::ErrorMap& map
   for (const auto* list : {&r.before, &r.after})
     for (const auto& run : *list) {
       const std::string path = (dir / (run.source + ".csv")).string();
-      dbb::write_run(run, path);
+      formats::write_dbb_run(run, path);
       v.written.push_back(path);
     }
   return v;
@@ -186,8 +186,8 @@ void run_compensate(const Opts& o, const std::string& socket) {
   if (files.empty()) throw std::runtime_error("compensate: no run files (give RUN.csv... or --latest)");
   if (o.verify && o.machine.empty())
     throw std::runtime_error("compensate: --verify traces the test on the virtual machine: give its --machine FILE");
-  std::vector<dbb::Run> runs;
-  for (const auto& f : files) runs.push_back(dbb::read_run(f));
+  std::vector<formats::DbbRun> runs;
+  for (const auto& f : files) runs.push_back(formats::read_dbb_run(f));
   if (source.empty()) {
     for (const auto& f : files) source += (source.empty() ? "" : ", ") + fs::path(f).filename().string();
   }

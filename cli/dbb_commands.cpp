@@ -31,8 +31,8 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
   id->add_flag("--per-run-center", io->per_run_center,
                "Lai model: one centre offset per run instead of Lai's fixed socket shared by all patterns");
   id->callback([io] {
-    std::vector<models::dbb::Run> runs;
-    for (const auto& f : io->files) runs.push_back(models::dbb::read_run(f));
+    std::vector<formats::DbbRun> runs;
+    for (const auto& f : io->files) runs.push_back(formats::read_dbb_run(f));
     models::dbb::IdentifyOptions opt;
     opt.cyclic_period_a_m = io->period_a_mm * 1e-3;
     opt.cyclic_period_b_m = io->period_b_mm * 1e-3;
@@ -79,7 +79,7 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
     sim::DbbCircleSpec spec;
     spec.radius_m = so->radius_mm * 1e-3;
     spec.height_m = so->height_mm * 1e-3;
-    spec.direction = so->direction == "cw" ? sim::Direction::cw : sim::Direction::ccw;
+    spec.direction = so->direction == "cw" ? formats::DbbDirection::cw : formats::DbbDirection::ccw;
     spec.plane = so->plane == "xz" ? sim::Plane::xz : (so->plane == "yz" ? sim::Plane::yz : sim::Plane::xy);
     spec.feed_m_per_s = so->feed * 1e-3 / 60.0;
     spec.start_angle_rad = so->start_deg * deg;
@@ -92,7 +92,7 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
     auto run = sim::simulate_dbb_run(machine, spec, so->out);
     // Without --t0-s every run would start at machine time 0: no common clock is claimed.
     if (t0_option->count() == 0) run.metadata.erase("start_time_s");
-    models::dbb::write_run(run, so->out);
+    formats::write_dbb_run(run, so->out);
     std::cout << "wrote " << so->out << ": " << run.angle_rad.size() << " samples, r " << so->radius_mm << " mm, h "
               << so->height_mm << " mm, " << so->direction << "\n";
   });

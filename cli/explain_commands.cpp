@@ -13,7 +13,7 @@
 
 #include "cli/commands.hpp"
 #include "core/atomic_file.hpp"
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
 #include "models/explain/dbb_explain.hpp"
@@ -330,9 +330,9 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
       if (fs != fm)
         throw std::runtime_error("explain: " + o->simulated + " (" + fs + ") and " + o->measured + " (" + fm +
                                  ") are not of one format");
-      if (fs == models::dbb::run_format_id) {
-        report = ex::explain(ex::dbb_compare_problem(models::dbb::read_run(o->simulated),
-                                                     models::dbb::read_run(o->measured)),
+      if (fs == formats::dbb_run_format_id) {
+        report = ex::explain(ex::dbb_compare_problem(formats::read_dbb_run(o->simulated),
+                                                     formats::read_dbb_run(o->measured)),
                              eo);
       } else if (fs == "guideway/profile/1") {
         report = ex::explain(ex::profile_compare_problem(ex::read_profile_run(o->simulated),
@@ -346,8 +346,8 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
       if (o->model.empty()) throw std::runtime_error("explain: give --model MODEL FILES..., or --simulated and --measured");
       if (o->files.empty()) throw std::runtime_error("explain: --model " + o->model + " needs at least one file");
       if (o->model == "dbb") {
-        std::vector<models::dbb::Run> runs;
-        for (const auto& f : o->files) runs.push_back(models::dbb::read_run(f));
+        std::vector<formats::DbbRun> runs;
+        for (const auto& f : o->files) runs.push_back(formats::read_dbb_run(f));
         report = ex::explain_dbb_report(runs, eo);
         if (!o->machine.empty()) {
           std::vector<scenarios::TruthRun> truth_runs;

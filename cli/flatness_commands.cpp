@@ -14,7 +14,7 @@
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "models/flatness/workpiece_flatness.hpp"
 #include "models/flatness/workpiece_flatness_json.hpp"
@@ -30,7 +30,7 @@ template <class F>
 void run_reporting(F&& f) {
   try {
     f();
-  } catch (const gm::InputError& e) {
+  } catch (const CsvError& e) {
     throw std::runtime_error(e.what());
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error(e.what());

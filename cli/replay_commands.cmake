@@ -1,3 +1,4 @@
-# `guideway replay`: links the daemon's session code so a replay runs exactly what guidewayd ran.
+# `guideway replay`: links the session code guidewayd runs (guideway_sessions), so a replay runs exactly
+# what the daemon ran.
 target_sources(guideway PRIVATE ${CMAKE_CURRENT_LIST_DIR}/replay_commands.cpp)
-target_link_libraries(guideway PRIVATE guideway_daemon)
+target_link_libraries(guideway PRIVATE guideway_sessions)

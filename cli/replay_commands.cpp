@@ -1,5 +1,5 @@
 // `guideway replay RECORDING...`: a session's raw recording through the same session kind, processing
-// steps and identification the daemon ran live (daemon/replay.hpp); prints the PARAMS it published.
+// steps and identification the daemon ran live (sessions/replay.hpp); prints the PARAMS it published.
 #include <iostream>
 #include <memory>
 #include <string>
@@ -7,15 +7,15 @@
 
 #include "cli/commands.hpp"
 #include "cli/params_print.hpp"
-#include "daemon/replay.hpp"
-#include "daemon/session_kinds.hpp"
+#include "sessions/replay.hpp"
+#include "sessions/session_kinds.hpp"
 
 namespace guideway::cli {
 
 namespace {
 
 // Why a replayed result may differ from a whole session's (the live daemon published none for it).
-std::string incomplete_note(const daemon::ReplayResult& r) {
+std::string incomplete_note(const sessions::ReplayResult& r) {
   if (r.complete) return "";
   if (r.samples_lost > 0) {
     return " (the recording lost " + std::to_string(r.samples_lost) +
@@ -40,10 +40,10 @@ void add_replay_commands(CLI::App& app, CliContext& ctx) {
       ->check(CLI::ExistingFile);
   replay->add_flag("--json", o->json, "one PARAMS JSON line per recording, as the daemon published it");
   replay->callback([&ctx, o] {
-    daemon::SessionRegistry registry;
-    daemon::register_builtin_sessions(registry);
+    sessions::SessionRegistry registry;
+    sessions::register_builtin_sessions(registry);
     for (const auto& path : o->recordings) {
-      const daemon::ReplayResult r = daemon::replay_recording(path, registry);
+      const sessions::ReplayResult r = sessions::replay_recording(path, registry);
       if (!r.note.empty()) std::cerr << "guideway: " << path << ": note: " << r.note << "\n";
       if (!r.failure.empty()) {
         ctx.exit_code = 1;

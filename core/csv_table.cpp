@@ -152,7 +152,9 @@ std::optional<std::size_t> CsvTable::find_column(std::string_view name) const {
 
 std::size_t CsvTable::column(std::string_view name) const {
   if (auto i = find_column(name)) return *i;
-  throw CsvError(source + ": no column '" + std::string(name) + "' (columns: " + join_columns(columns) + ")");
+  // At the header row, when there is one: that is the line to fix.
+  const std::string at = header_line != 0 ? source + ":" + std::to_string(header_line) : source;
+  throw CsvError(at + ": no column '" + std::string(name) + "' (columns: " + join_columns(columns) + ")");
 }
 
 double CsvTable::number(const Row& row, std::size_t col) const {
@@ -179,7 +181,7 @@ std::size_t CsvTable::select_column(const std::optional<std::string>& name) cons
 
 double CsvTable::metadata_number(const std::string& key) const {
   auto it = metadata.find(key);
-  if (it == metadata.end()) throw CsvError(source + ": metadata '" + key + "' missing");
+  if (it == metadata.end()) throw CsvError(source + ": missing metadata line '# " + key + " = <number>'");
   if (auto v = parse_double(it->second)) return *v;
   throw CsvError(source + ": metadata '" + key + "' = '" + it->second + "' is not a number");
 }

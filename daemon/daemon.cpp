@@ -19,6 +19,7 @@
 #include "core/mono_clock.hpp"
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
+#include "formats/raw_recording.hpp"
 
 namespace guideway::daemon {
 
@@ -78,7 +79,7 @@ Daemon::InstanceLock::~InstanceLock() {
   if (fd >= 0) ::close(fd);
 }
 
-Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
+Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const sessions::SessionRegistry& sessions,
                std::shared_ptr<spdlog::logger> logger, DaemonOptions options)
     : config_(std::move(config)),
       log_(std::move(logger)),
@@ -159,20 +160,20 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const Ses
   }
   loop_.add(outbox_.fd(), EPOLLIN, [this](std::uint32_t) {
     const SocketServer::Batch batch(*server_);  // one write per client for the whole outbox batch
-    for (const Message& m : outbox_.take()) {
-      if (m.cls == "PARAMS") {
-        nlohmann::json j = nlohmann::json::parse(m.json);
+    for (Message& m : outbox_.take()) {
+      if (m.cls == MessageClass::params) {
+        const nlohmann::json& j = m.body;
         std::erase_if(latest_params_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
-        latest_params_.push_back(std::move(j));
-        log_->info("session {}: parameters identified", latest_params_.back().value("session", "?"));
-      } else if (m.cls == "EXPLAIN") {
-        nlohmann::json j = nlohmann::json::parse(m.json);
+        latest_params_.push_back(j);
+        log_->info("session {}: parameters identified", j.value("session", "?"));
+      } else if (m.cls == MessageClass::explain) {
+        const nlohmann::json& j = m.body;
         std::erase_if(latest_explain_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
         log_->info("session {}: {} finding(s){}", j.value("session", "?"), j.value("findings", nlohmann::json::array()).size(),
                    j.value("unexplained", false) ? ", a structured residual is left unexplained" : "");
-        latest_explain_.push_back(std::move(j));
-      } else if (m.cls == "EVENT") {
-        const auto j = nlohmann::json::parse(m.json);
+        latest_explain_.push_back(j);
+      } else if (m.cls == MessageClass::event) {
+        const nlohmann::json& j = m.body;
         if (j.contains("session")) {
           // A failure carries its reason (a warning); news such as report_ready carries its file (info).
           if (j.contains("reason"))
@@ -230,7 +231,7 @@ void Daemon::periodic(std::int64_t now_ns) {
     last_status_ns_ = now_ns;
     last_stats_ = pipeline_->take_stats();
     nlohmann::json status = status_json();
-    broadcast({"STATUS", "", status.dump(), ""});
+    broadcast(make_message(MessageClass::status, std::move(status)));
     notifier_.status(status_line());
   }
 }
@@ -241,9 +242,7 @@ void Daemon::check_emulators(std::int64_t now_ns) {
     const std::string name = e.name();
     EmulatorWatch& w = emulator_watch_[i];
     const auto event = [&](const std::string& what, const std::string& reason) {
-      nlohmann::json ev = {{"class", "EVENT"}, {"time", utc_now_iso()}, {"emulator", name}, {"event", what}};
-      if (!reason.empty()) ev["reason"] = reason;
-      broadcast({"EVENT", "", ev.dump(), ""});
+      broadcast(make_message(Event{.event = what, .time = utc_now_iso(), .emulator = name, .reason = reason}));
     };
     if (w.state == "running") {
       const std::string how = e.reap();  // no zombie under guidewayd
@@ -293,15 +292,13 @@ void Daemon::check_device_events() {
     const drivers::DriverStatus s = devices_[i]->status();
     if (s.state == last_states_[i]) continue;
     last_states_[i] = s.state;
-    nlohmann::json ev = {{"class", "EVENT"}, {"time", utc_now_iso()}, {"device", s.name},
-                         {"event", std::string(drivers::to_string(s.state))}};
-    if (!s.reason.empty()) ev["reason"] = s.reason;
     if (s.state == drivers::DeviceState::lost || s.state == drivers::DeviceState::error) {
       log_->warn("device {}: {}{}", s.name, drivers::to_string(s.state), s.reason.empty() ? "" : ": " + s.reason);
     } else {
       log_->info("device {}: {}{}", s.name, drivers::to_string(s.state), s.reason.empty() ? "" : ": " + s.reason);
     }
-    broadcast({"EVENT", s.name, ev.dump(), ""});
+    broadcast(make_message(
+        Event{.event = std::string(drivers::to_string(s.state)), .time = utc_now_iso(), .device = s.name, .reason = s.reason}));
   }
 }
 
@@ -345,7 +342,7 @@ nlohmann::json Daemon::status_json() {
     }
     devices.push_back(std::move(d));
   }
-  return {{"class", "STATUS"},
+  return with_class(MessageClass::status, {
           {"time", utc_now_iso()},
           {"release", GUIDEWAY_VERSION},
           {"uptime_s", static_cast<double>(mono_now_ns() - started_ns_) * 1e-9},
@@ -361,7 +358,7 @@ nlohmann::json Daemon::status_json() {
           {"clients", {{"connected", server_->client_count()}, {"dropped_slow", server_->dropped_clients()}}},
           {"devices", std::move(devices)},
           {"emulators", emulators_json()},
-          {"sessions", sessions_json()}};
+          {"sessions", sessions_json()}});
 }
 
 void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<nlohmann::json>& id) {
@@ -429,7 +426,7 @@ void Daemon::broadcast(const Message& message) {
   for (const auto& [id, sub] : subscriptions_) {
     if (sub.wants(message.cls, message.channel, message.session)) targets.push_back(id);
   }
-  for (ClientId id : targets) server_->send(id, message.json);  // may drop a slow client
+  for (ClientId id : targets) server_->send(id, message.line);  // may drop a slow client
 }
 
 }  // namespace guideway::daemon
@@ -448,7 +445,7 @@ std::string string_field(const nlohmann::json& body, const char* key) {
 }  // namespace
 
 nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
-  SessionRequest sr;
+  sessions::SessionRequest sr;
   sr.kind = string_field(req.body, "kind");
   if (sr.kind.empty()) throw std::invalid_argument("start needs \"kind\" (e.g. {\"class\":\"start\",\"kind\":\"dbb\"})");
   sr.device = string_field(req.body, "device");
@@ -458,12 +455,12 @@ nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   }
   const std::string name = sessions_->start(sr);
   log_->info("session {} started", name);
-  return {{"class", "SESSION"}, {"session", name}, {"state", to_string(SessionState::running)}};
+  return with_class(MessageClass::session, {{"session", name}, {"state", to_string(SessionState::running)}});
 }
 
 nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {
   const auto names = sessions_->stop(string_field(req.body, "session"));
-  return {{"class", "SESSION"}, {"sessions", names}, {"state", to_string(SessionState::finishing)}};
+  return with_class(MessageClass::session, {{"sessions", names}, {"state", to_string(SessionState::finishing)}});
 }
 
 nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
@@ -497,31 +494,18 @@ nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
   if (!in) throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
   std::ostringstream html;
   html << in.rdbuf();
-  return {{"class", "REPORT"}, {"session", session}, {"kind", params.value("kind", "")}, {"file", path},
-          {"html", html.str()}};
+  return with_class(MessageClass::report, {{"session", session}, {"kind", params.value("kind", "")}, {"file", path},
+                                           {"html", html.str()}});
 }
 
 nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
+  // Raw recordings only (what `guideway replay` reads): a session's derived files (DBB runs, the
+  // traverse, ...) are CSV too, and are named in its PARAMS.
   nlohmann::json list = nlohmann::json::array();
-  std::error_code ec;
-  std::vector<std::filesystem::directory_entry> entries;
-  for (const auto& e : std::filesystem::directory_iterator(config_.state_dir, ec)) {
-    const std::string n = e.path().filename().string();
-    if (!n.ends_with(".csv") && !n.ends_with(".csv.part")) continue;
-    // Raw recordings only (what `guideway replay` reads): a session's derived files (DBB runs, the
-    // traverse, ...) are CSV too, and are named in its PARAMS.
-    std::ifstream in(e.path());
-    std::string first;
-    if (std::getline(in, first) && first == "# format = guideway/raw/1") entries.push_back(e);
+  for (const auto& e : formats::list_raw_recordings(config_.state_dir)) {
+    list.push_back({{"file", e.path}, {"bytes", e.bytes}, {"complete", e.complete}});
   }
-  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.path() < b.path(); });
-  for (const auto& e : entries) {
-    const std::string n = e.path().filename().string();
-    list.push_back({{"file", e.path().string()},
-                    {"bytes", e.file_size(ec)},
-                    {"complete", !n.ends_with(".part")}});
-  }
-  return {{"class", "RECORDINGS"}, {"dir", config_.state_dir}, {"recordings", std::move(list)}};
+  return with_class(MessageClass::recordings, {{"dir", config_.state_dir}, {"recordings", std::move(list)}});
 }
 
 nlohmann::json Daemon::sessions_json() const {

@@ -45,7 +45,7 @@ class Daemon {
  public:
   // Creates the drivers (throws ConfigError on a bad [[device]] table) and binds the sockets
   // (throws std::runtime_error/std::system_error naming the path on failure). Nothing runs yet.
-  Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const SessionRegistry& sessions,
+  Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const sessions::SessionRegistry& sessions,
          std::shared_ptr<spdlog::logger> logger, DaemonOptions options = {});
   ~Daemon();
   Daemon(const Daemon&) = delete;

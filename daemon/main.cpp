@@ -16,7 +16,7 @@
 #include "daemon/config.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
-#include "daemon/session_kinds.hpp"
+#include "sessions/session_kinds.hpp"
 #include "drivers/builtin.hpp"
 
 using namespace guideway;
@@ -121,8 +121,8 @@ int main(int argc, char** argv) {
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
       return 0;
     }
-    daemon::SessionRegistry sessions;
-    daemon::register_builtin_sessions(sessions);
+    sessions::SessionRegistry sessions;
+    sessions::register_builtin_sessions(sessions);
     daemon::Daemon d(std::move(config), registry, sessions, log, {.handle_signals = true});
     return d.run();
   } catch (const ConfigError& e) {

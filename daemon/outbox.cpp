@@ -20,10 +20,10 @@ void Outbox::post(Message message) {
   {
     std::lock_guard lock(mutex_);
     if (queue_.size() >= max_messages_) {
-      auto oldest_sample = std::find_if(queue_.begin(), queue_.end(), [](const Message& m) { return m.cls == "SAMPLE"; });
+      auto oldest_sample = std::find_if(queue_.begin(), queue_.end(), [](const Message& m) { return m.cls == MessageClass::sample; });
       if (oldest_sample != queue_.end()) {
         queue_.erase(oldest_sample);
-      } else if (message.cls == "SAMPLE") {
+      } else if (message.cls == MessageClass::sample) {
         ++dropped_;
         return;
       }

@@ -9,14 +9,9 @@
 #include <string>
 #include <vector>
 
-namespace guideway::daemon {
+#include "daemon/messages.hpp"
 
-struct Message {
-  std::string cls;      // "SAMPLE", "PARAMS", "EVENT", ...
-  std::string channel;  // device or session name the message is about ("" = none)
-  std::string json;     // one serialised JSON object, no newline
-  std::string session;  // the session it is about ("" = none): its watchers by name get it too
-};
+namespace guideway::daemon {
 
 class Outbox {
  public:

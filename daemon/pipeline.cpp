@@ -61,7 +61,6 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
   last_publish_ns_[index] = now_ns;
   const drivers::Driver& dev = *devices_[index];
   nlohmann::json j;
-  j["class"] = "SAMPLE";
   j["device"] = dev.name();
   j["seq"] = s.seq;
   j["t_mono_ns"] = s.t_mono_ns;
@@ -84,7 +83,7 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
     }
     j["denoised"] = {{"seq", processed->seq}, {"values", std::move(denoised)}};
   }
-  outbox_.post({"SAMPLE", dev.name(), j.dump(), ""});
+  outbox_.post(make_message(MessageClass::sample, std::move(j), dev.name()));
 }
 
 std::size_t Pipeline::drain_once(std::span<Sample> batch) {

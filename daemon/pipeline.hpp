@@ -20,6 +20,7 @@
 #include "daemon/processing_chain.hpp"
 #include "daemon/outbox.hpp"
 #include "drivers/driver.hpp"
+#include "sessions/session.hpp"
 
 namespace guideway::daemon {
 
@@ -60,8 +61,9 @@ class Pipeline {
   void set_processing(std::size_t device_index, const std::vector<DenoiserSpec>& steps);
   // For STATUS (the steps' counters are thread safe).
   [[nodiscard]] const ProcessingChain& processing(std::size_t device_index) const { return chains_.at(device_index); }
-  // Most samples the pipeline takes from a ring at once (the processing steps' max_batch).
-  static constexpr std::size_t max_batch = 512;
+  // Most samples the pipeline takes from a ring at once (the processing steps' max_batch): the batch
+  // sessions are fed in, live and in a replay.
+  static constexpr std::size_t max_batch = sessions::max_feed_batch;
   void start();
   void stop();
   // Advances on every loop of the pipeline thread, idle or not: the watchdog's proof of life.

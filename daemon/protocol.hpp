@@ -10,15 +10,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "daemon/messages.hpp"
+
 namespace guideway::daemon {
 
 inline constexpr int protocol_major = 1;
 // Minor versions only add: 1 added STATUS devices[].driver_counters; 3 added the DBB ranking and notes
 // in PARAMS, the findings' contributions in EXPLAIN and dbb-can's bus_off counter.
 inline constexpr int protocol_minor = 3;
-
-// The classes a client can be sent as published (not reply-only) messages.
-inline const std::set<std::string, std::less<>> published_classes = {"STATUS", "SAMPLE", "PARAMS", "EXPLAIN", "EVENT"};
 
 nlohmann::json version_message();
 nlohmann::json error_message(std::string_view message, std::string_view request_class = {});
@@ -42,11 +41,11 @@ std::optional<Request> parse_request(std::string_view line, RequestError& error)
 // What a client asked to receive with `watch`.
 struct Subscription {
   bool enabled = false;
-  std::set<std::string, std::less<>> classes;   // empty = every published class except SAMPLE
+  std::set<MessageClass> classes;               // empty = every published class except SAMPLE
   std::set<std::string, std::less<>> channels;  // empty = every device/session
   // `channel`: the device a message is about; `session`: the session it is about ("" = none). Either
   // name in `channels` lets it through.
-  [[nodiscard]] bool wants(std::string_view cls, std::string_view channel, std::string_view session = {}) const;
+  [[nodiscard]] bool wants(MessageClass cls, std::string_view channel, std::string_view session = {}) const;
 };
 
 // Applies a watch request; returns the reply (WATCH) or throws std::invalid_argument with the reason.

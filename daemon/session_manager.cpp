@@ -35,7 +35,7 @@ std::string join(const std::vector<std::string>& v) {
 
 }  // namespace
 
-SessionManager::SessionManager(const SessionRegistry& registry, std::vector<drivers::Driver*> devices,
+SessionManager::SessionManager(const sessions::SessionRegistry& registry, std::vector<drivers::Driver*> devices,
                                std::string state_dir, Outbox& outbox)
     : registry_(registry),
       devices_(std::move(devices)),
@@ -50,8 +50,8 @@ SessionManager::~SessionManager() {
   worker_.join();
 }
 
-std::string SessionManager::start(const SessionRequest& request) {
-  const SessionKind* kind = registry_.find(request.kind);
+std::string SessionManager::start(const sessions::SessionRequest& request) {
+  const sessions::SessionKind* kind = registry_.find(request.kind);
   if (!kind) {
     throw std::invalid_argument("unknown session kind \"" + request.kind + "\" (known: " + join(registry_.kinds()) + ")");
   }
@@ -95,7 +95,7 @@ std::string SessionManager::start(const SessionRequest& request) {
     meta["kind"] = request.kind;
     meta["options"] = request.options.dump();
     try {
-      r->recorder = std::make_unique<RawRecorder>(state_dir_, name, *devices_[index], meta);
+      r->recorder = std::make_unique<sessions::RawRecorder>(state_dir_, name, *devices_[index], meta);
       r->info.recording = r->recorder->part_path();
     } catch (const std::exception& e) {
       r->info.recording_error = e.what();  // acquisition and identification go on without a recording
@@ -212,11 +212,7 @@ void SessionManager::report_recording_error(Running& r, const std::string& reaso
 }
 
 void SessionManager::post_event(const SessionInfo& info, const std::string& event, const std::string& reason) {
-  outbox_.post({"EVENT", info.device,
-                nlohmann::json{{"class", "EVENT"}, {"device", info.device}, {"session", info.name}, {"event", event},
-                               {"reason", reason}}
-                    .dump(),
-                info.name});
+  outbox_.post(make_message(Event{.event = event, .device = info.device, .session = info.name, .reason = reason}));
 }
 
 std::optional<std::string> SessionManager::post_explanation(Running& r) {
@@ -224,16 +220,17 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
   try {
     std::optional<nlohmann::json> report = r.session->explain();
     if (!report) return std::nullopt;
-    (*report)["class"] = "EXPLAIN";
     (*report)["session"] = info.name;
     (*report)["kind"] = info.kind;
     (*report)["device"] = info.device;
-    outbox_.post({"EXPLAIN", info.device, report->dump(), info.name});
+    Message message = make_message(MessageClass::explain, std::move(*report), info.device, info.name);
+    const nlohmann::json& explanation = message.body;
+    outbox_.post(message);
     // Kept beside the recording for the session's report (guideway report reads it too). The
     // explanation was published: a disk that refuses the copy is a recording error, not a failed one.
     const std::string path = state_dir_ + "/" + info.name + ".explain.json";
     try {
-      write_file_atomically(path, report->dump(1) + "\n", recording_file_mode);
+      write_file_atomically(path, explanation.dump(1) + "\n", sessions::recording_file_mode);
     } catch (const std::exception& e) {
       report_recording_error(r, r.info.recording_error.empty() ? e.what() : r.info.recording_error + "; " + e.what());
       return std::nullopt;
@@ -260,12 +257,8 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
     options.title = "Guideway " + r.info.kind + " session " + r.info.name;
     options.subtitle = "device " + r.info.device + ", recording " + r.info.recording;
     const std::string path = report_path(state_dir_, r.info.name);
-    write_file_atomically(path, report::render_report(inputs, options), recording_file_mode);
-    outbox_.post({"EVENT", r.info.device,
-                  nlohmann::json{{"class", "EVENT"}, {"device", r.info.device}, {"session", r.info.name},
-                                 {"event", "report_ready"}, {"file", path}}
-                      .dump(),
-                  r.info.name});
+    write_file_atomically(path, report::render_report(inputs, options), sessions::recording_file_mode);
+    outbox_.post(make_message(Event{.event = "report_ready", .device = r.info.device, .session = r.info.name, .file = path}));
   } catch (const std::exception& e) {
     post_event(r.info, "report_failed", e.what());
   }
@@ -291,7 +284,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     info.recording = r->recorder->close(failure.empty(), trailer);
     // close() leaves NAME.csv.part when the disk refused the rest. A disk that recovered in time
     // (the recorder kept the data in memory) leaves a whole recording: no error stays then.
-    const RecorderStats written = r->recorder->stats();
+    const sessions::RecorderStats written = r->recorder->stats();
     if (std::string e = r->recorder->error(); !e.empty()) {
       report_recording_error(*r, e);
     } else if (written.samples_lost != 0) {
@@ -303,7 +296,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     try {
       const std::string base = info.name;
       derived = r->session->write_derived(state_dir_, base);
-      for (const auto& path : derived) ::chmod(path.c_str(), recording_file_mode);
+      for (const auto& path : derived) ::chmod(path.c_str(), sessions::recording_file_mode);
     } catch (const std::exception& e) {
       // Both are kept: the raw recording's error is the one that loses data.
       report_recording_error(*r, info.recording_error.empty() ? e.what() : info.recording_error + "; " + e.what());
@@ -311,7 +304,6 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
   }
   info.state = failure.empty() ? SessionState::done : SessionState::failed;
   if (failure.empty()) {
-    params["class"] = "PARAMS";
     params["session"] = info.name;
     params["kind"] = info.kind;
     params["device"] = info.device;
@@ -319,7 +311,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     if (!info.recording.empty()) params["recording"] = info.recording;
     if (!info.recording_error.empty()) params["recording_error"] = info.recording_error;
     if (!derived.empty()) params["derived"] = derived;
-    outbox_.post({"PARAMS", info.device, params.dump(), info.name});
+    outbox_.post(make_message(MessageClass::params, std::move(params), info.device, info.name));
     if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
     write_session_report(*r, derived);
   }

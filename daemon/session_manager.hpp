@@ -18,8 +18,8 @@
 
 #include "daemon/outbox.hpp"
 #include "daemon/pipeline.hpp"
-#include "daemon/recorder.hpp"
-#include "daemon/session.hpp"
+#include "sessions/recorder.hpp"
+#include "sessions/session.hpp"
 
 namespace guideway::daemon {
 
@@ -44,12 +44,12 @@ std::string report_path(const std::string& state_dir, const std::string& session
 
 class SessionManager : public PipelineStage {
  public:
-  SessionManager(const SessionRegistry& registry, std::vector<drivers::Driver*> devices, std::string state_dir,
+  SessionManager(const sessions::SessionRegistry& registry, std::vector<drivers::Driver*> devices, std::string state_dir,
                  Outbox& outbox);
   ~SessionManager() override;
 
   // Creates and queues a session; returns its name. Throws std::invalid_argument with the reason.
-  std::string start(const SessionRequest& request);
+  std::string start(const sessions::SessionRequest& request);
   // Requests the end of a session (or of all when name is empty); returns the names affected.
   std::vector<std::string> stop(const std::string& name);
   [[nodiscard]] std::vector<SessionInfo> snapshot() const;
@@ -65,8 +65,8 @@ class SessionManager : public PipelineStage {
   struct Running {
     SessionInfo info;
     std::size_t device_index = 0;
-    std::unique_ptr<Session> session;
-    std::unique_ptr<RawRecorder> recorder;
+    std::unique_ptr<sessions::Session> session;
+    std::unique_ptr<sessions::RawRecorder> recorder;
     bool stop_requested = false;
     std::uint64_t recorder_errors_seen = 0;  // recorder->error_count() when last looked at
     std::string reported_error;              // the last recording_failed reason posted
@@ -82,7 +82,7 @@ class SessionManager : public PipelineStage {
   // EVENT recording_failed (logged by the daemon) unless this very reason was posted already.
   void report_recording_error(Running& r, const std::string& reason);
 
-  const SessionRegistry& registry_;
+  const sessions::SessionRegistry& registry_;
   std::vector<drivers::Driver*> devices_;
   std::string state_dir_;
   Outbox& outbox_;

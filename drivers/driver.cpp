@@ -1,10 +1,7 @@
 #include "drivers/driver.hpp"
 
-#include <dlfcn.h>
-
 #include <algorithm>
 #include <condition_variable>
-#include <filesystem>
 
 namespace guideway::drivers {
 
@@ -111,50 +108,6 @@ std::vector<std::pair<std::string, std::string>> DriverRegistry::list() const {
   std::vector<std::pair<std::string, std::string>> out;
   for (const Entry& e : entries_) out.emplace_back(e.driver, e.description);
   return out;
-}
-
-std::string default_plugin_dir() {
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    const auto beside = exe.parent_path().parent_path() / "lib" / "guideway" / "plugins";
-    if (std::filesystem::is_directory(beside, ec)) return beside.string();
-  }
-  return GUIDEWAY_PLUGIN_DIR;
-}
-
-std::vector<std::string> DriverRegistry::load_plugins(const std::string& dir) {
-  std::vector<std::string> errors;
-  std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) return errors;
-  std::vector<std::filesystem::path> files;
-  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
-    if (entry.path().extension() == ".so") files.push_back(entry.path());
-  }
-  std::sort(files.begin(), files.end());
-  for (const auto& file : files) {
-    void* handle = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) {
-      errors.push_back(file.string() + ": " + dlerror());
-      continue;
-    }
-    auto abi = reinterpret_cast<PluginAbiVersionFn>(dlsym(handle, "guideway_plugin_abi_version"));
-    auto reg = reinterpret_cast<RegisterDriversFn>(dlsym(handle, "guideway_register_drivers"));
-    if (!abi || !reg) {
-      errors.push_back(file.string() + ": not a guideway driver plugin (no guideway_register_drivers)");
-      dlclose(handle);
-      continue;
-    }
-    if (abi() != plugin_abi_version) {
-      errors.push_back(file.string() + ": plugin ABI " + std::to_string(abi()) + ", daemon expects " +
-                       std::to_string(plugin_abi_version));
-      dlclose(handle);
-      continue;
-    }
-    reg(*this);
-    plugin_handles_.push_back(handle);  // never closed: factories point into it
-  }
-  return errors;
 }
 
 }  // namespace guideway::drivers

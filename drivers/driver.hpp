@@ -1,5 +1,5 @@
 #pragma once
-// Driver plugin API. A driver owns one device: its thread reads the transport, parses frames with a
+// The driver API. A driver owns one device: its thread reads the transport, parses frames with a
 // pure parser, timestamps samples with CLOCK_MONOTONIC and pushes them into its SPSC ring (it is
 // the ring's only producer). Faults are states of the driver, never exceptions out of its thread.
 // Thread safety: start/stop from the owning thread; status() and ring observers from any thread;
@@ -141,8 +141,8 @@ class DriverRegistry {
   std::unique_ptr<Driver> create(const DeviceConfig& config) const;
   [[nodiscard]] std::vector<std::pair<std::string, std::string>> list() const;  // (driver, description)
 
-  // Loads every *.so in dir that exports guideway_register_drivers; returns one message per file
-  // that failed (the caller logs them). A missing dir is not an error.
+  // Adds the driver of every *.so in dir that exports guideway_driver_plugin() (drivers/plugin_abi.h);
+  // returns one message per file refused, naming it (the caller logs them). A missing dir is not an error.
   std::vector<std::string> load_plugins(const std::string& dir);
 
  private:
@@ -159,16 +159,4 @@ class DriverRegistry {
 // where both the build tree and an installation put them), else the compiled-in install path.
 std::string default_plugin_dir();
 
-// Plugins export this (extern "C") and must match it: a plugin passes C++ objects, so any change of
-// Driver, DriverStatus, DeviceConfig or DriverRegistry's layout bumps it (the versions so far:
-// docs/architecture.md).
-inline constexpr int plugin_abi_version = 3;
-using RegisterDriversFn = void (*)(DriverRegistry&);
-using PluginAbiVersionFn = int (*)();
-
 }  // namespace guideway::drivers
-
-// Declare in a plugin with GUIDEWAY_DRIVER_PLUGIN(registry) { registry.add(...); }
-#define GUIDEWAY_DRIVER_PLUGIN(registry_param)                                                   \
-  extern "C" int guideway_plugin_abi_version() { return ::guideway::drivers::plugin_abi_version; } \
-  extern "C" void guideway_register_drivers(::guideway::drivers::DriverRegistry& registry_param)

@@ -5,7 +5,7 @@
 #include <sstream>
 #include <tuple>
 
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
@@ -33,10 +33,10 @@ Table estimates_table(const std::string& caption, const std::vector<dbb::Estimat
 }  // namespace
 
 std::string dbb_section(const std::vector<std::string>& paths, const std::string& id) {
-  std::vector<dbb::Run> runs;
+  std::vector<formats::DbbRun> runs;
   for (const auto& p : paths) {
     try {
-      runs.push_back(dbb::read_run(p));
+      runs.push_back(formats::read_dbb_run(p));
     } catch (const std::exception& e) {
       throw ReportError(e.what());
     }
@@ -76,7 +76,7 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
     for (std::size_t i : members) {
       const auto& r = runs[i];
       PolarSeries s;
-      const bool is_ccw = r.direction == dbb::Direction::ccw;
+      const bool is_ccw = r.direction == formats::DbbDirection::ccw;
       s.label = std::string(is_ccw ? "CCW" : "CW") + " " + format_number(r.feed_m_per_s * 60000, 4) + " mm/min";
       if (identified && i < id_result.runs.size())
         s.label += ", G = " + format_number(id_result.runs[i].circular_deviation_um, 3) + " \u00b5m";

@@ -6,7 +6,7 @@
 
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
@@ -102,7 +102,7 @@ std::string straightness_section(const std::string& path, const std::string& id)
   models::StraightnessResult r;
   try {
     r = models::identify_straightness(models::read_angle_traverse(path));
-  } catch (const models::InputError& e) {
+  } catch (const CsvError& e) {
     throw ReportError(e.what());
   } catch (const std::invalid_argument& e) {
     throw ReportError(path + ": " + e.what());
@@ -122,7 +122,7 @@ std::string union_jack_section(const std::string& path, const std::string& id) {
     const auto set = models::read_union_jack(path);
     inch = set.inch_units;
     r = models::evaluate_union_jack(set);
-  } catch (const models::InputError& e) {
+  } catch (const CsvError& e) {
     throw ReportError(e.what());
   } catch (const std::invalid_argument& e) {
     throw ReportError(path + ": " + e.what());
@@ -185,7 +185,7 @@ std::string runout_section(const std::string& path, const std::string& id) {
   try {
     rev = models::read_runout_revolution(path);
     r = models::identify_runout(rev);
-  } catch (const models::InputError& e) {
+  } catch (const CsvError& e) {
     throw ReportError(e.what());
   } catch (const std::invalid_argument& e) {
     throw ReportError(path + ": " + e.what());

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/csv_table.hpp"
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
 
@@ -136,7 +136,7 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
           if (k != InputKind::dbb_run) continue;
           std::string stage;
           try {
-            const auto run = models::dbb::read_run(p);
+            const auto run = formats::read_dbb_run(p);
             if (const auto f = run.metadata.find("compensation"); f != run.metadata.end()) stage = f->second;
           } catch (const std::exception&) {
             // dbb_section reports the file's error

@@ -8,7 +8,7 @@
 #include "models/flatness/runout.hpp"
 
 #include "models/flatness/straightness.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 #include "models/flatness/workpiece_flatness.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"

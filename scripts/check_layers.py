@@ -19,8 +19,9 @@ ALLOWED = {
     "drivers": {"core", "formats"},
     "report": {"core", "dsp", "formats", "models"},
     "simulators": {"core", "dsp", "formats", "models", "drivers"},
-    "daemon": {"core", "dsp", "formats", "models", "drivers", "report"},
-    "cli": {"core", "dsp", "formats", "models", "drivers", "report", "simulators", "daemon"},
+    "sessions": {"core", "dsp", "formats", "models", "drivers", "report"},
+    "daemon": {"core", "dsp", "formats", "models", "drivers", "report", "sessions"},
+    "cli": {"core", "dsp", "formats", "models", "drivers", "report", "simulators", "sessions"},
 }
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/')
 

@@ -23,16 +23,16 @@ namespace dbb = models::dbb;
 
 constexpr double pi = std::numbers::pi;
 
-std::vector<dbb::Run> pair_of(const sim::Machine& m, const sim::Vec3& center, double feed_mm_per_min,
-                              sim::Plane plane = sim::Plane::xy) {
-  std::vector<dbb::Run> runs;
+std::vector<formats::DbbRun> pair_of(const sim::Machine& m, const sim::Vec3& center, double feed_mm_per_min,
+                                     sim::Plane plane = sim::Plane::xy) {
+  std::vector<formats::DbbRun> runs;
   for (bool ccw : {true, false}) {
     sim::DbbCircleSpec s;
     s.plane = plane;
     s.radius_m = 0.1;
     s.center = center;
     s.feed_m_per_s = feed_mm_per_min / 60000.0;
-    s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
+    s.direction = ccw ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
     s.seed = ccw ? 11 : 12;
     runs.push_back(sim::simulate_dbb_run(m, s, ccw ? "ccw.csv" : "cw.csv"));
   }
@@ -251,7 +251,7 @@ TEST(CompensationMapTest, CentreMustBeKnownAndTheRunsMustGoBothWays) {
   EXPECT_NO_THROW((void)comp::error_map(id, runs, o));
   o.step_m = 0.0005;  // 401 lines
   EXPECT_THROW((void)comp::error_map(id, runs, o), comp::CompensationError);
-  const std::vector<dbb::Run> one{runs.front()};
+  const std::vector<formats::DbbRun> one{runs.front()};
   EXPECT_THROW((void)comp::error_map(dbb::identify(one), one), comp::CompensationError);
 }
 

@@ -8,9 +8,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "daemon/profile_session.hpp"
-#include "daemon/runout_session.hpp"
-#include "daemon/straightness_session.hpp"
+#include "sessions/profile_session.hpp"
+#include "sessions/runout_session.hpp"
+#include "sessions/straightness_session.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
@@ -49,7 +49,7 @@ Sample sample(double t_s, std::initializer_list<double> values, std::uint32_t fl
 
 // The autocollimator polled every 50 ms: `dwell_s` on each station, the beam lost for `move_s` between
 // stations and `return_s` after the last (as guideway-emulate autocollimator does).
-void feed_traverse(daemon::Session& s, const std::vector<sim::TraverseStation>& st, double& t, double dwell_s = 0.8,
+void feed_traverse(sessions::Session& s, const std::vector<sim::TraverseStation>& st, double& t, double dwell_s = 0.8,
                    double move_s = 0.5, double return_s = 1.5, std::size_t first = 0, double hole_at_s = -1) {
   std::vector<Sample> out;
   const double nan = std::nan("");
@@ -90,7 +90,7 @@ TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
   const auto st = traverse(machine);
   ASSERT_EQ(st.size(), 13u);
   auto device = autocollimator_device();
-  auto session = daemon::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
+  auto session = sessions::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
   double t = 100.0;
   feed_traverse(*session, st, t, 0.8, 0.5, 1.5, 7);  // started in the middle of a traverse: ignored
   EXPECT_FALSE(session->complete());
@@ -130,7 +130,7 @@ TEST(StraightnessSession, AnOutageOfTheLinkDropsTheTraverseAndTheNextIsTaken) {
   const sim::Machine machine(straightness_machine());
   const auto st = traverse(machine);
   auto device = autocollimator_device();
-  auto session = daemon::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
+  auto session = sessions::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
   double t = 0;
   feed_traverse(*session, st, t, 0.8, 0.5, 1.5, 10);
   feed_traverse(*session, st, t, 0.8, 0.5, 1.5, 0, 5.3);  // no readings for 0.6 s on the 5th station
@@ -145,7 +145,7 @@ TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStatio
   const sim::Machine perfect{sim::MachineConfig{}};  // every station reads the same angles
   const auto st = traverse(perfect);
   auto device = autocollimator_device();
-  auto session = daemon::straightness_session_kind().create(
+  auto session = sessions::straightness_session_kind().create(
       {"straightness", "", {{"start", "now"}, {"stations", 5}, {"step_mm", 50}}}, device);
   double t = 0;
   feed_traverse(*session, st, t);
@@ -157,7 +157,7 @@ TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStatio
 
 TEST(StraightnessSession, ReadingsThatJumpWithoutABeamBreakStartANewStation) {
   auto device = autocollimator_device();
-  auto session = daemon::straightness_session_kind().create({"straightness", "", {{"start", "now"}}}, device);
+  auto session = sessions::straightness_session_kind().create({"straightness", "", {{"start", "now"}}}, device);
   std::vector<Sample> out;
   const double a = models::rad_per_arcsec;
   double t = 0;
@@ -175,7 +175,7 @@ TEST(StraightnessSession, ReadingsThatJumpWithoutABeamBreakStartANewStation) {
 
 TEST(StraightnessSession, TooFewStationsFailWithTheReason) {
   auto device = autocollimator_device();
-  auto session = daemon::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
+  auto session = sessions::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
   try {
     session->identify();
     FAIL();
@@ -196,7 +196,7 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   spec.revolutions = 2;
   const auto rev = machine.runout_revolution(spec);
   auto device = micrometer_device();
-  auto session = daemon::runout_session_kind().create(
+  auto session = sessions::runout_session_kind().create(
       {"runout", "", {{"plate_diameter_mm", 100}, {"parallelism_um", 0.25}}}, device);
   std::vector<Sample> out;
   for (const auto& r : rev) out.push_back(sample(50.0 + r.t_s, {r.displacement_m}));
@@ -235,7 +235,7 @@ TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
   spec.profile_step_m = 1e-6;
   const auto points = machine.facing_profile(spec);
   auto device = profilometer_device();
-  auto session = daemon::profile_session_kind().create({"profile", "", nlohmann::json::object()}, device);
+  auto session = sessions::profile_session_kind().create({"profile", "", nlohmann::json::object()}, device);
   std::vector<Sample> out;
   double t = 0;
   auto emit = [&](double id, std::size_t from) {
@@ -270,14 +270,14 @@ TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "p");
   ASSERT_EQ(files.size(), 1u);
-  nlohmann::json offline = daemon::evaluate_profile(formats::read_profile_csv(files[0]));
+  nlohmann::json offline = sessions::evaluate_profile(formats::read_profile_csv(files[0]));
   offline["profile_id"] = p["profile_id"];
   EXPECT_EQ(offline, p);
 }
 
 TEST(ProfileSession, StoppedBeforeTheEndFailsWithTheReason) {
   auto device = profilometer_device();
-  auto session = daemon::profile_session_kind().create({"profile", "", nlohmann::json::object()}, device);
+  auto session = sessions::profile_session_kind().create({"profile", "", nlohmann::json::object()}, device);
   std::vector<Sample> out{sample(0, {0.0, 0.0, 7, 0}, profilometer::sample_profile_start),
                           sample(1e-3, {1e-6, 0.0, 7, 1})};
   session->on_samples(out);
@@ -297,9 +297,9 @@ TEST(SessionOptions, BadOptionsAreRefusedWithTheirName) {
       EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
     }
   };
-  const auto s = daemon::straightness_session_kind();
-  const auto r = daemon::runout_session_kind();
-  const auto p = daemon::profile_session_kind();
+  const auto s = sessions::straightness_session_kind();
+  const auto r = sessions::runout_session_kind();
+  const auto p = sessions::profile_session_kind();
   expect_refused([&] { s.create({"straightness", "", {{"step_mm", -1}}}, ac); }, "step_mm");
   expect_refused([&] { s.create({"straightness", "", {{"stations", 2.5}}}, ac); }, "stations");
   expect_refused([&] { s.create({"straightness", "", {{"start", "later"}}}, ac); }, "start");

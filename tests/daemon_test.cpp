@@ -46,7 +46,7 @@ struct RunningDaemon {
   }
   test::TempDir dir;
   drivers::DriverRegistry registry;
-  daemon::SessionRegistry sessions;
+  sessions::SessionRegistry sessions;
   std::string socket;
   std::unique_ptr<daemon::Daemon> d;
   std::thread thread;
@@ -400,7 +400,7 @@ TEST(Daemon, UnknownDriverIsAConfigErrorNamingTheKnownOnes) {
                                      "bad.toml");
   auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
   try {
-    daemon::SessionRegistry sessions;
+    sessions::SessionRegistry sessions;
     daemon::Daemon d(std::move(config), registry, sessions, log);
     FAIL() << "expected a ConfigError";
   } catch (const ConfigError& e) {
@@ -418,7 +418,7 @@ TEST(Daemon, UnknownKeyInADeviceTableIsRejected) {
                                          "\"\n[[device]]\nname = \"x\"\ndriver = \"counting\"\nrate_hx = 5.0\n",
                                      "bad.toml");
   auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
-  daemon::SessionRegistry sessions;
+  sessions::SessionRegistry sessions;
   EXPECT_THROW(daemon::Daemon(std::move(config), registry, sessions, log), ConfigError);
 }
 
@@ -428,7 +428,7 @@ TEST(Daemon, RefusesToStealTheSocketOfALiveDaemon) {
   drivers::DriverRegistry registry;
   auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
   try {
-    daemon::SessionRegistry sessions;
+    sessions::SessionRegistry sessions;
     daemon::Daemon second(std::move(config), registry, sessions, log);
     FAIL() << "a second daemon bound the same socket";
   } catch (const std::runtime_error& e) {
@@ -448,7 +448,7 @@ TEST(Daemon, TheInstanceLockKeepsASecondDaemonOutBeforeTheSocketAnswers) {
   drivers::DriverRegistry registry;
   auto log = std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::null_sink_mt>());
   try {
-    daemon::SessionRegistry sessions;
+    sessions::SessionRegistry sessions;
     daemon::Daemon second(std::move(config), registry, sessions, log);
     FAIL() << "a second daemon started while the first held the lock";
   } catch (const std::runtime_error& e) {

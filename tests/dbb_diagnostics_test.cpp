@@ -23,11 +23,11 @@ models::dbb::Identification run_pair(const sim::MachineConfig& cfg, std::uint64_
   sim::MachineConfig c = cfg;
   c.dbb.noise_m = noise_um * 1e-6;
   const sim::Machine m{c};
-  std::vector<models::dbb::Run> runs;
+  std::vector<guideway::formats::DbbRun> runs;
   for (bool ccw : {true, false}) {
     sim::DbbCircleSpec s;
     s.radius_m = 0.1;
-    s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
+    s.direction = ccw ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
     s.seed = seed + (ccw ? 0 : 1);
     s.sample_rate_hz = rate_hz;
     runs.push_back(sim::simulate_dbb_run(m, s, ccw ? "ccw" : "cw"));
@@ -148,7 +148,7 @@ TEST(DbbDiagnosticsTest, EachErrorAloneFromASingleRunInEitherDirection) {
       const sim::Machine m{cfg};
       sim::DbbCircleSpec s;
       s.radius_m = 0.1;
-      s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
+      s.direction = ccw ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
       s.seed = ++seed;
       const auto id = models::dbb::identify({sim::simulate_dbb_run(m, s, label)});
       std::vector<Expect> expect;
@@ -199,15 +199,15 @@ TEST(DbbDiagnosticsTest, CircularDeviationAndHysteresis) {
 
 // ---- sign conventions (docs/conventions.md), checked on the raw signal and on the estimate ----
 
-models::dbb::Run one(const sim::MachineConfig& cfg, bool ccw) {
+guideway::formats::DbbRun one(const sim::MachineConfig& cfg, bool ccw) {
   const sim::Machine m{cfg};
   sim::DbbCircleSpec s;
   s.radius_m = 0.1;
-  s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
+  s.direction = ccw ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
   return sim::simulate_dbb_run(m, s, "conv");
 }
 
-double dl_at(const models::dbb::Run& r, double zeta_deg) {
+double dl_at(const guideway::formats::DbbRun& r, double zeta_deg) {
   double best = 1e9, val = 0;
   for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
     double d = std::fmod(std::abs(r.angle_rad[i] * 180 / std::numbers::pi - zeta_deg), 360.0);

@@ -212,7 +212,7 @@ TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircles) {
   ccw_xy.feed_m_per_s = 0.5;
   ccw_xy.sample_rate_hz = 2000.0;
   sim::DbbCircleSpec cw_xz = ccw_xy;
-  cw_xz.direction = sim::Direction::cw;
+  cw_xz.direction = guideway::formats::DbbDirection::cw;
   cw_xz.plane = sim::Plane::xz;
   cw_xz.height_m = 0.03;
   cw_xz.overshoot_rad = 0.3;

@@ -36,7 +36,7 @@ struct Pattern {
 TEST(DbbHAliasing, SquarenessIsTheCompromiseOfTheTable4Patterns) {
   const auto m = roll_machine();
   const Pattern table4[] = {{95, 31.225, true}, {95, 31.225, false}, {100, 0, true}};
-  std::vector<models::dbb::Run> runs;
+  std::vector<guideway::formats::DbbRun> runs;
   std::uint64_t seed = 1;
   for (const auto& p : table4) runs.push_back(test::lai_pattern(m, p.r_mm, p.h_mm, p.ccw, seed++));
   const auto id = models::dbb::identify(runs);
@@ -80,7 +80,7 @@ TEST(DbbHAliasing, SquarenessIsTheCompromiseOfTheTable4Patterns) {
 // With an h = 0 pair beside them, the diagnostics are that pair's: the configured squareness.
 TEST(DbbHAliasing, BesideAnInPlanePairTheDiagnosticsAreThePairs) {
   const auto m = roll_machine();
-  std::vector<models::dbb::Run> runs{test::lai_pattern(m, 95, 31.225, true, 1), test::lai_pattern(m, 95, 31.225, false, 2),
+  std::vector<guideway::formats::DbbRun> runs{test::lai_pattern(m, 95, 31.225, true, 1), test::lai_pattern(m, 95, 31.225, false, 2),
                                      test::lai_pattern(m, 100, 0, true, 3), test::lai_pattern(m, 100, 0, false, 4)};
   const auto id = models::dbb::identify(runs);
   const auto d = test::by_name(id.diagnostics);
@@ -93,7 +93,7 @@ TEST(DbbHAliasing, BesideAnInPlanePairTheDiagnosticsAreThePairs) {
 
 TEST(DbbHAliasing, AnInPlanePairReportsTheConfiguredSquareness) {
   const auto m = roll_machine();
-  std::vector<models::dbb::Run> runs{test::lai_pattern(m, 100, 0, true, 11), test::lai_pattern(m, 100, 0, false, 12)};
+  std::vector<guideway::formats::DbbRun> runs{test::lai_pattern(m, 100, 0, true, 11), test::lai_pattern(m, 100, 0, false, 12)};
   const auto d = test::by_name(models::dbb::identify(runs).diagnostics);
   EXPECT_NEAR(d.at("squareness_urad").value, q_true * 1e6, 3 * d.at("squareness_urad").u + 0.1);
   EXPECT_NEAR(d.at("servo_mismatch_ms").value, 0.0, 3 * d.at("servo_mismatch_ms").u + 0.002);

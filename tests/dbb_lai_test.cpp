@@ -66,7 +66,7 @@ double combination_given(const models::LsqCombination& c, const std::vector<std:
 TEST(DbbLaiTest, ThreePatternsOfTable4RecoverTable5WithinUncertainty) {
   test::LaiGiven g;  // Table 5: e1 = 1e-4
   const sim::Machine m{test::lai_machine(g, 0.1)};
-  const std::vector<models::dbb::Run> runs = {test::lai_pattern(m, 95.0, 31.225, true, 11),
+  const std::vector<guideway::formats::DbbRun> runs = {test::lai_pattern(m, 95.0, 31.225, true, 11),
                                               test::lai_pattern(m, 95.0, 31.225, false, 12),
                                               test::lai_pattern(m, 100.0, 0.0, true, 13)};
   const auto id = models::dbb::identify(runs);
@@ -103,7 +103,7 @@ TEST(DbbLaiTest, TwoPatternsOfTable2RefuseWhatTheyCannotSeparate) {
   test::LaiGiven g;
   g.e1 = 1.0e-6;  // Table 3
   const sim::Machine m{test::lai_machine(g, 0.1)};
-  const std::vector<models::dbb::Run> runs = {test::lai_pattern(m, 95.0, 31.225, false, 21),
+  const std::vector<guideway::formats::DbbRun> runs = {test::lai_pattern(m, 95.0, 31.225, false, 21),
                                               test::lai_pattern(m, 100.0, 0.0, true, 22)};
   const auto id = models::dbb::identify(runs);
   check_identified(id, g, "table3");
@@ -118,7 +118,7 @@ TEST(DbbLaiTest, TwoPatternsOfTable2RefuseWhatTheyCannotSeparate) {
 TEST(DbbLaiTest, AFourthPatternAtAnotherRadiusSeparatesEveryParameter) {
   test::LaiGiven g;
   const sim::Machine m{test::lai_machine(g, 0.1)};
-  const std::vector<models::dbb::Run> runs = {
+  const std::vector<guideway::formats::DbbRun> runs = {
       test::lai_pattern(m, 95.0, 31.225, true, 31), test::lai_pattern(m, 95.0, 31.225, false, 32),
       test::lai_pattern(m, 100.0, 0.0, true, 33), test::lai_pattern(m, 70.0, 31.225, true, 34)};
   const auto id = models::dbb::identify(runs);

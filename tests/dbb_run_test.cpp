@@ -6,7 +6,7 @@
 #include <numbers>
 #include <sstream>
 
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
 #include "test_support.hpp"
@@ -14,7 +14,7 @@
 namespace {
 
 using namespace guideway::models::dbb;
-using DbbRun = guideway::models::dbb::Run;
+using DbbRun = guideway::formats::DbbRun;
 
 std::string header(const std::string& extra = "", const std::string& direction = "ccw") {
   return "# format = guideway/dbb-run/1\n# radius_mm = 100\n# height_mm = 0\n# direction = " + direction +
@@ -33,24 +33,24 @@ std::string rows(std::size_t n, double span_deg = 360.0, int dir = 1) {
 
 std::string error_of(const std::string& text) {
   try {
-    (void)parse_run(text, "run.csv");
-  } catch (const RunFormatError& e) {
+    (void)guideway::formats::parse_dbb_run(text, "run.csv");
+  } catch (const guideway::formats::DbbRunFormatError& e) {
     return e.what();
   }
   return "";
 }
 
 TEST(DbbRunTest, ParsesAndRoundTrips) {
-  const DbbRun r = parse_run(header("# machine = vmc-1\n") + rows(361), "run.csv");
+  const DbbRun r = guideway::formats::parse_dbb_run(header("# machine = vmc-1\n") + rows(361), "run.csv");
   EXPECT_EQ(r.angle_rad.size(), 361u);
   EXPECT_DOUBLE_EQ(r.radius_m, 0.1);
-  EXPECT_EQ(r.direction, Direction::ccw);
+  EXPECT_EQ(r.direction, guideway::formats::DbbDirection::ccw);
   EXPECT_NEAR(r.feed_m_per_s, 1.0 / 60.0, 1e-15);
   EXPECT_NEAR(r.dL_m[0], 2e-6, 1e-15);
   EXPECT_EQ(r.metadata.at("machine"), "vmc-1");
   guideway::test::TempDir dir;
-  write_run(r, dir.file("a.csv"));
-  const DbbRun back = read_run(dir.file("a.csv"));
+  guideway::formats::write_dbb_run(r, dir.file("a.csv"));
+  const DbbRun back = guideway::formats::read_dbb_run(dir.file("a.csv"));
   ASSERT_EQ(back.angle_rad.size(), r.angle_rad.size());
   for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
     EXPECT_NEAR(back.angle_rad[i], r.angle_rad[i], 1e-9);
@@ -65,7 +65,7 @@ TEST(DbbRunTest, AcceptsWrappedAnglesExtraColumnsAndTrailer) {
     << "t_s,angle_deg,dL_um,x_mm\n";
   for (int i = 0; i <= 360; ++i) o << i * 0.01 << "," << (i + 180) % 360 << ",0.5,1\n";
   o << "# end = complete\n";
-  const DbbRun r = parse_run(o.str(), "w.csv");
+  const DbbRun r = guideway::formats::parse_dbb_run(o.str(), "w.csv");
   EXPECT_NEAR(r.angle_rad.back() - r.angle_rad.front(), 2 * std::numbers::pi, 1e-12);
 }
 
@@ -112,24 +112,24 @@ TEST(DbbRunTest, MismatchedMetadata) {
 }
 
 TEST(DbbRunTest, IdentifyRefusesMixedPlanesAndEmptyInput) {
-  DbbRun a = parse_run(header() + rows(361), "a.csv");
+  DbbRun a = guideway::formats::parse_dbb_run(header() + rows(361), "a.csv");
   DbbRun b = a;
   b.plane = "xz";
   b.source = "b.csv";
   try {
     (void)identify({a, b});
     FAIL();
-  } catch (const RunFormatError& e) {
+  } catch (const guideway::formats::DbbRunFormatError& e) {
     EXPECT_NE(std::string(e.what()).find("b.csv: plane xz differs from a.csv"), std::string::npos) << e.what();
   }
-  EXPECT_THROW((void)identify({}), RunFormatError);
+  EXPECT_THROW((void)identify({}), guideway::formats::DbbRunFormatError);
   // A run edited in memory is validated as well.
   a.dL_m[5] = std::nan("");
-  EXPECT_THROW((void)identify({a}), RunFormatError);
+  EXPECT_THROW((void)identify({a}), guideway::formats::DbbRunFormatError);
 }
 
 TEST(DbbRunTest, JsonShape) {
-  const DbbRun a = parse_run(header() + rows(721), "a.csv");
+  const DbbRun a = guideway::formats::parse_dbb_run(header() + rows(721), "a.csv");
   const auto j = to_json(identify({a}));
   EXPECT_EQ(j["model"], "lai3+ballbar");
   EXPECT_EQ(j["runs"].size(), 1u);

@@ -1,7 +1,7 @@
 // The daemon's DBB session fed with what the dbb-can driver delivers (bar length and X/Y encoder
 // readings per SYNC) for Lai's three patterns traced by the virtual machine tool, with pauses between
 // patterns: the session finds the circles by itself and identifies the configured errors.
-#include "daemon/dbb_session.hpp"
+#include "sessions/dbb_session.hpp"
 
 #include <gtest/gtest.h>
 
@@ -32,7 +32,7 @@ sim::MachineConfig test_machine() {
 }
 
 // Samples as the driver would publish them: t, bar, encoder x, y; `pause_s` of standing still after.
-void feed_circle(daemon::Session& s, const sim::Machine& machine, double r, double h, sim::Direction dir, double& t0) {
+void feed_circle(sessions::Session& s, const sim::Machine& machine, double r, double h, guideway::formats::DbbDirection dir, double& t0) {
   sim::DbbCircleSpec spec;
   spec.radius_m = r;
   spec.height_m = h;
@@ -65,13 +65,13 @@ double value_of(const nlohmann::json& group, const std::string& name) {
 TEST(DbbSession, FindsLaisThreePatternsAndIdentifiesTheMachine) {
   const sim::Machine machine(test_machine());
   DbbChannels device;
-  auto session = daemon::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);
+  auto session = sessions::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);
   double t = 0;
-  feed_circle(*session, machine, 95e-3, 31.225e-3, sim::Direction::cw, t);
+  feed_circle(*session, machine, 95e-3, 31.225e-3, guideway::formats::DbbDirection::cw, t);
   EXPECT_FALSE(session->complete());
   EXPECT_NE(session->progress().find("1/3 patterns"), std::string::npos) << session->progress();
-  feed_circle(*session, machine, 95e-3, 31.225e-3, sim::Direction::ccw, t);
-  feed_circle(*session, machine, 100e-3, 0.0, sim::Direction::ccw, t);
+  feed_circle(*session, machine, 95e-3, 31.225e-3, guideway::formats::DbbDirection::ccw, t);
+  feed_circle(*session, machine, 100e-3, 0.0, guideway::formats::DbbDirection::ccw, t);
   ASSERT_TRUE(session->complete()) << session->progress();
   const nlohmann::json p = session->identify();
   // Lai's model covers the three patterns (the fixed ball at (-3, 2) um from the circle's centre, the
@@ -92,9 +92,9 @@ TEST(DbbSession, FindsLaisThreePatternsAndIdentifiesTheMachine) {
 TEST(DbbSession, ACircleMatchingNoPatternIsReportedNotUsed) {
   const sim::Machine machine(test_machine());
   DbbChannels device;
-  auto session = daemon::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);
+  auto session = sessions::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);
   double t = 0;
-  feed_circle(*session, machine, 150e-3, 0.0, sim::Direction::ccw, t);
+  feed_circle(*session, machine, 150e-3, 0.0, guideway::formats::DbbDirection::ccw, t);
   EXPECT_NE(session->progress().find("matches no pattern"), std::string::npos) << session->progress();
   EXPECT_THROW(session->identify(), std::runtime_error);
 }
@@ -104,9 +104,9 @@ TEST(DbbSession, StopAfterOnePatternIdentifiesWhatWasTraced) {
   DbbChannels device;
   nlohmann::json opts = {{"patterns", {{{"radius_mm", 100}, {"height_mm", 0}, {"direction", "ccw"}},
                                        {{"radius_mm", 100}, {"height_mm", 0}, {"direction", "cw"}}}}};
-  auto session = daemon::dbb_session_kind().create({"dbb", "", opts}, device);
+  auto session = sessions::dbb_session_kind().create({"dbb", "", opts}, device);
   double t = 0;
-  feed_circle(*session, machine, 100e-3, 0.0, sim::Direction::ccw, t);
+  feed_circle(*session, machine, 100e-3, 0.0, guideway::formats::DbbDirection::ccw, t);
   EXPECT_FALSE(session->complete());
   const nlohmann::json p = session->identify();
   EXPECT_EQ(p["incomplete"], "1 of 2 patterns traced");
@@ -115,7 +115,7 @@ TEST(DbbSession, StopAfterOnePatternIdentifiesWhatWasTraced) {
 
 TEST(DbbSession, BadOptionsAreRefusedWithTheirName) {
   DbbChannels device;
-  auto kind = daemon::dbb_session_kind();
+  auto kind = sessions::dbb_session_kind();
   EXPECT_THROW(kind.create({"dbb", "", {{"radius_mm", 100}}}, device), std::invalid_argument);
   try {
     kind.create({"dbb", "", {{"patterns", {{{"radius_mm", -5}}}}}}, device);

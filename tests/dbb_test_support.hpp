@@ -65,12 +65,12 @@ inline sim::MachineConfig lai_machine(const LaiGiven& g, double noise_um) {
   return m;
 }
 
-inline models::dbb::Run lai_pattern(const sim::Machine& m, double radius_mm, double height_mm, bool ccw,
+inline formats::DbbRun lai_pattern(const sim::Machine& m, double radius_mm, double height_mm, bool ccw,
                                     std::uint64_t seed) {
   sim::DbbCircleSpec s;
   s.radius_m = radius_mm * 1e-3;
   s.height_m = height_mm * 1e-3;
-  s.direction = ccw ? sim::Direction::ccw : sim::Direction::cw;
+  s.direction = ccw ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
   s.seed = seed;
   return sim::simulate_dbb_run(m, s, "r" + std::to_string(radius_mm) + (ccw ? "ccw" : "cw"));
 }

@@ -32,7 +32,7 @@ TEST(CsvTable, MetadataHeaderAndColumns) {
   EXPECT_EQ(t.rows[1].line, 7u);
   EXPECT_EQ(t.numbers("z_m"), (std::vector<double>{1.5, -2e-6}));
   EXPECT_EQ(error_of([&] { (void)t.numbers("flags"); }), "rec.csv:7: column 'flags': empty cell");
-  EXPECT_EQ(error_of([&] { (void)t.column("x"); }), "rec.csv: no column 'x' (columns: 't_s', 'z_m', 'flags')");
+  EXPECT_EQ(error_of([&] { (void)t.column("x"); }), "rec.csv:5: no column 'x' (columns: 't_s', 'z_m', 'flags')");
   EXPECT_EQ(t.select_column(std::string("z_m")), 1u);
   EXPECT_NE(error_of([&] { (void)t.select_column(std::nullopt); }).find("choose one with --column"), std::string::npos);
   EXPECT_THROW((void)t.metadata_number("device"), CsvError);

@@ -146,16 +146,15 @@ TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
 // true offset (60.05 s apart here, not a whole number of periods).
 TEST(ExplainScenarios, AVibrationIsFoundInRunsWithoutACommonClock) {
   namespace sim = guideway::sim;
-  namespace dbb = guideway::models::dbb;
   constexpr double f_hz = 7.3, apart_s = 60.05;
   sim::MachineConfig cfg;
   cfg.axis[0].vibration_amplitude_m = 0.5e-6;
   cfg.axis[0].vibration_frequency_hz = f_hz;
   const sim::Machine m(cfg);
-  std::vector<dbb::Run> runs;
+  std::vector<guideway::formats::DbbRun> runs;
   for (int k = 0; k < 2; ++k) {
     sim::DbbCircleSpec spec;
-    spec.direction = k == 0 ? sim::Direction::ccw : sim::Direction::cw;
+    spec.direction = k == 0 ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
     spec.t0_s = k * apart_s;
     spec.sample_rate_hz = 30.0;  // 3 samples per degree: Nyquist 15 Hz
     spec.seed = 7 + static_cast<std::uint64_t>(k);
@@ -181,16 +180,15 @@ TEST(ExplainScenarios, AVibrationIsFoundInRunsWithoutACommonClock) {
 // run it never saw, so the held-out rows are blocks of every run and the vibration is still found.
 TEST(ExplainScenarios, PerRunTermsKeepHeldOutRowsInEveryRun) {
   namespace sim = guideway::sim;
-  namespace dbb = guideway::models::dbb;
   sim::MachineConfig cfg;
   cfg.axis[0].vibration_amplitude_m = 0.5e-6;
   cfg.axis[0].vibration_frequency_hz = 7.3;
   cfg.dbb.noise_m = 0.4e-6;
   const sim::Machine m(cfg);
-  std::vector<dbb::Run> runs;
+  std::vector<guideway::formats::DbbRun> runs;
   for (int k = 0; k < 4; ++k) {
     sim::DbbCircleSpec spec;
-    spec.direction = k % 2 == 0 ? sim::Direction::ccw : sim::Direction::cw;
+    spec.direction = k % 2 == 0 ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
     spec.t0_s = k * 60.05;
     spec.sample_rate_hz = 30.0;
     spec.seed = 11 + static_cast<std::uint64_t>(k);

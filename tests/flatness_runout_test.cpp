@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "models/flatness/runout.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 #include "simulators/machine/machine.hpp"
 #include "test_support.hpp"
 
@@ -150,7 +150,7 @@ TEST(FlatnessRunout, VirtualMachineCoverageInRepeatedRevolutions) {
 std::string error_of(const std::string& text) {
   try {
     (void)identify_runout(parse_runout_revolution(text, "r.csv"));
-  } catch (const InputError& e) {
+  } catch (const guideway::CsvError& e) {
     return e.what();
   }
   return "no error";
@@ -162,7 +162,7 @@ TEST(FlatnessRunout, BadInputNamesFileAndLine) {
   bad.replace(bad.find("\n5,") + 3, 3, "x.y");
   const std::string msg = error_of(bad);
   EXPECT_EQ(msg.substr(0, 33), "r.csv:9: column 'runout_um': 'x.y") << msg;
-  EXPECT_EQ(msg.substr(msg.size() - 17), "' is not a number") << msg;
+  EXPECT_EQ(msg.substr(msg.size() - 24), "' is not a finite number") << msg;
   EXPECT_EQ(error_of("# parallelism_um = 2.5\nangle_deg,runout_um\n0,1\n"),
             "r.csv: missing metadata line '# plate_diameter_mm = <number>'");
   EXPECT_EQ(error_of("# plate_diameter_mm = 1000\n# parallelism_um = 2.5\nangle_deg,runout_um\n0,1\n1,2\n"),

@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "models/flatness/straightness.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 #include "simulators/machine/machine.hpp"
 #include "test_support.hpp"
 
@@ -279,7 +279,7 @@ TEST(FlatnessStraightness, VirtualMachineCoverageInRepeatedTraverses) {
 std::string error_of(const std::string& text) {
   try {
     (void)parse_angle_traverse(text, "t.csv");
-  } catch (const InputError& e) {
+  } catch (const guideway::CsvError& e) {
     return e.what();
   }
   return "no error";
@@ -290,12 +290,12 @@ TEST(FlatnessStraightness, BadInputNamesFileAndLine) {
       error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n30,3\n"),
       "t.csv:5: missing station: x_mm jumps from 10 to 30 (step_mm = 10, 1 station(s) missing, first at x_mm = 20)");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,abc\n"),
-            "t.csv:4: column 'pitch_arcsec': 'abc' is not a number");
+            "t.csv:4: column 'pitch_arcsec': 'abc' is not a finite number");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec,yaw_arcsec\n0,1,0\n10,2,-600.5\n"),
             "t.csv:4: yaw_arcsec = -600.5 is outside the autocollimator range +-600 arcsec");
   EXPECT_EQ(error_of("x_mm,pitch_arcsec\n0,1\n10,2\n"), "t.csv: missing metadata line '# step_mm = <number>'");
-  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,angle\n0,1\n10,2\n"), "t.csv:2: missing column 'pitch_arcsec'");
-  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10\n"), "t.csv:4: 1 cells, but the header has 2 columns");
+  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,angle\n0,1\n10,2\n"), "t.csv:2: no column 'pitch_arcsec' (columns: 'x_mm', 'angle')");
+  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10\n"), "t.csv:4: 1 cells, expected 2 (the header's columns)");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n17,2\n"),
             "t.csv:5: x_mm spacing 7 does not match step_mm = 10");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n"), "t.csv: 1 readings; a traverse needs at least 2");

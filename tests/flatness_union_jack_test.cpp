@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "models/flatness/minimum_zone.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "test_support.hpp"
 
@@ -249,7 +249,7 @@ class BadSet : public ::testing::Test {
   std::string error() {
     try {
       (void)read_union_jack(dir.path().string());
-    } catch (const InputError& e) {
+    } catch (const guideway::CsvError& e) {
       std::string m = e.what();
       const std::string prefix = dir.path().string() + "/";
       if (m.rfind(prefix, 0) == 0) m = m.substr(prefix.size());

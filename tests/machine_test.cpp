@@ -77,7 +77,7 @@ TEST(MachineTest, SameSeedSameRunOtherSeedOtherNoise) {
 TEST(MachineTest, DbbRunHasOvershootArcsAndAFullDataArc) {
   Machine m{MachineConfig{}};
   DbbCircleSpec s;
-  s.direction = Direction::cw;
+  s.direction = guideway::formats::DbbDirection::cw;
   s.sample_rate_hz = 200;
   const auto run = m.dbb_circle(s);
   double first = 0, last = 0;

@@ -13,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 #include "simulators/scenarios/scenarios.hpp"
 #include "report/html.hpp"
@@ -230,10 +230,10 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   guideway::sim::DbbCircleSpec spec;
   spec.radius_m = 0.1;
   std::vector<std::string> inputs;
-  for (auto d : {guideway::sim::Direction::ccw, guideway::sim::Direction::cw}) {
+  for (auto d : {guideway::formats::DbbDirection::ccw, guideway::formats::DbbDirection::cw}) {
     spec.direction = d;
-    const auto path = (dir / (d == guideway::sim::Direction::ccw ? "ccw.csv" : "cw.csv")).string();
-    guideway::models::dbb::write_run(guideway::sim::simulate_dbb_run(machine, spec, path), path);
+    const auto path = (dir / (d == guideway::formats::DbbDirection::ccw ? "ccw.csv" : "cw.csv")).string();
+    guideway::formats::write_dbb_run(guideway::sim::simulate_dbb_run(machine, spec, path), path);
     inputs.push_back(path);
   }
   inputs.push_back(data_dir() + "/moody1955");

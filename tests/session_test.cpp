@@ -24,7 +24,7 @@ using guideway::cli::DaemonClient;
 namespace {
 
 // Collects N samples (or until stopped) and identifies their mean and count; refuses fewer than 2.
-class MeanSession : public daemon::Session {
+class MeanSession : public sessions::Session {
  public:
   explicit MeanSession(std::size_t wanted) : wanted_(wanted) {}
   void on_samples(std::span<const Sample> samples) override {
@@ -56,7 +56,7 @@ class MeanSession : public daemon::Session {
 struct Fixture {
   explicit Fixture(const std::string& state_dir = "") {
     registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<test::CountingDriver>(c); });
-    sessions.add({"mean", "test mean", {"counting"}, [](const daemon::SessionRequest& r, const drivers::Driver&) {
+    sessions.add({"mean", "test mean", {"counting"}, [](const sessions::SessionRequest& r, const drivers::Driver&) {
                     const auto n = r.options.value("samples", 0);
                     if (n < 0) throw std::invalid_argument("samples must be >= 0");
                     return std::make_unique<MeanSession>(static_cast<std::size_t>(n));
@@ -87,7 +87,7 @@ struct Fixture {
   }
   test::TempDir dir;
   drivers::DriverRegistry registry;
-  daemon::SessionRegistry sessions;
+  sessions::SessionRegistry sessions;
   std::string socket;
   std::string state;
   std::unique_ptr<daemon::Daemon> d;

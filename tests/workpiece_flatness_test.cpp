@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 #include "models/flatness/workpiece_flatness.hpp"
 #include "simulators/emulators/measurement_files.hpp"
 #include "simulators/machine/machine.hpp"
@@ -126,7 +126,7 @@ TEST(WorkpieceFlatness, SquarenessUncertaintyCoversTheTruthInRepeatedCuts) {
 std::string error_of(const std::string& text) {
   try {
     (void)parse_workpiece_profile(text, "p.csv");
-  } catch (const InputError& e) {
+  } catch (const guideway::CsvError& e) {
     return e.what();
   }
   return "no error";
@@ -175,7 +175,7 @@ TEST(WorkpieceFlatness, BadInputNamesFileAndLine) {
   try {
     (void)analyse_workpiece_flatness({p}, traverse);
     ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
+  } catch (const guideway::CsvError& e) {
     EXPECT_EQ(std::string(e.what()),
               "long.csv: profile x from 0 to 649.5 mm leaves the straightness traverse of t.csv (0 to 600 mm)");
   }
@@ -186,7 +186,7 @@ TEST(WorkpieceFlatness, BadInputNamesFileAndLine) {
   try {
     (void)analyse_workpiece_flatness({shortp}, traverse, std::nullopt, opt);
     ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
+  } catch (const guideway::CsvError& e) {
     EXPECT_NE(std::string(e.what()).find("short.csv: 100 points are too few for 8 wavelet levels"), std::string::npos);
   }
 }

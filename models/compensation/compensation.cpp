@@ -57,7 +57,7 @@ double AxisTerms::straightness_m(double position_m) const {
 
 int joint_of(const std::string& axis) { return axis == "x" ? 0 : (axis == "y" ? 1 : 2); }
 
-std::optional<std::array<double, 2>> runs_center_m(const std::vector<dbb::Run>& runs) {
+std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs) {
   std::optional<std::array<double, 2>> c;
   for (const auto& r : runs) {
     if (!r.metadata.contains("center_a_mm") || !r.metadata.contains("center_b_mm")) return std::nullopt;
@@ -71,15 +71,15 @@ std::optional<std::array<double, 2>> runs_center_m(const std::vector<dbb::Run>& 
   return c;
 }
 
-ErrorMap error_map(const dbb::Identification& id, const std::vector<dbb::Run>& runs, const MapOptions& options) {
+ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
   if (runs.empty()) throw CompensationError("no runs");
   ErrorMap m;
   m.plane = id.plane;
   const std::string A = dbb::axis_letter(id.plane, 0), B = dbb::axis_letter(id.plane, 1);
   const bool ccw =
-      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::ccw; });
+      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == formats::DbbDirection::ccw; });
   const bool cw =
-      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == dbb::Direction::cw; });
+      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == formats::DbbDirection::cw; });
   if (!ccw || !cw)
     throw CompensationError(
         "the runs go one way only: in one direction backlash, lateral play and servo mismatch trade off against each "

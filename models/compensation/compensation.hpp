@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 
 namespace guideway::models::compensation {
@@ -95,12 +95,13 @@ struct MapOptions {
 
 // The circle centre of the runs' metadata (first, second plane axis), or nullopt when a run does not
 // state it; throws CompensationError when the runs state different centres.
-std::optional<std::array<double, 2>> runs_center_m(const std::vector<dbb::Run>& runs);
+std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs);
 
 // Throws CompensationError when the runs do not go both ways, when the identification has no ballbar
 // diagnostics (they need in-plane runs), when the centre is unknown, or when the step gives more than
 // 256 lines.
-ErrorMap error_map(const dbb::Identification& id, const std::vector<dbb::Run>& runs, const MapOptions& options = {});
+ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs,
+                   const MapOptions& options = {});
 
 // Squareness as a user enters it: um of the first axis per metre of the second, and the correction
 // (um) to add to the first axis per +100 mm of the second.

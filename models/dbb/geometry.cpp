@@ -34,7 +34,7 @@ SampleGeometry circle_geometry(double radius_m, double height_m, int dir, double
   return g;
 }
 
-void fill_sample_geometry(const Run& run, std::size_t run_index, std::size_t i, SampleGeometry& out) {
+void fill_sample_geometry(const formats::DbbRun& run, std::size_t run_index, std::size_t i, SampleGeometry& out) {
   out = circle_geometry(run.radius_m, run.height_m, run.dir(), run.feed_m_per_s, run.angle_rad[i]);
   out.run = run_index;
   out.a_m = run.center_a_m + run.radius_m * out.c;

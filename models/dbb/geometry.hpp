@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <string>
 
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 
 namespace guideway::models::dbb {
 
@@ -32,7 +32,7 @@ SampleGeometry circle_geometry(double radius_m, double height_m, int dir, double
 
 // Sample i of `run`, which is run number run_index of the list being modelled. Fills `out` in place:
 // the models keep one larger struct per sample that starts with this one.
-void fill_sample_geometry(const Run& run, std::size_t run_index, std::size_t i, SampleGeometry& out);
+void fill_sample_geometry(const formats::DbbRun& run, std::size_t run_index, std::size_t i, SampleGeometry& out);
 
 // Sign of da/dt (from sin zeta) and db/dt (from cos zeta) on a circle traced in direction dir:
 // da/dt = -dir r omega sin zeta, db/dt = dir r omega cos zeta. 0 within 1e-9 of a reversal: sin(pi) is

@@ -36,13 +36,13 @@ void set_step_backlash(Point& p) {
   p.bl_b = -0.5 * p.sgn_b;
 }
 
-std::vector<Point> points_of(const std::vector<Run>& runs) {
+std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs) {
   std::vector<Point> pts;
   std::size_t total = 0;
   for (const auto& r : runs) total += r.angle_rad.size();
   pts.reserve(total);
   for (std::size_t k = 0; k < runs.size(); ++k) {
-    const Run& run = runs[k];
+    const formats::DbbRun& run = runs[k];
     const double w =
         static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
@@ -64,7 +64,7 @@ struct PrerollTable {
   std::vector<std::vector<double>> c, s;  // per run, index q = 1..1799 at [q - 1]
 };
 
-double preroll_angle(const Run& run, int q) {
+double preroll_angle(const formats::DbbRun& run, int q) {
   const double dir = run.dir();
   return run.angle_rad.front() - dir * pi + dir * q * (pi / 1800);
 }
@@ -76,10 +76,10 @@ double preroll_angle(const Run& run, int q) {
 // Without a delay the command at a sample or pre-roll angle is the points' (or the table's) own
 // cos/sin of that very angle, so only the substeps near the reversals need trigonometry.
 // deadband_lost_motion (geometry.hpp) is the same deadband in closed form; it says where they differ.
-void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, PrerollTable& table, double b_a, double b_b,
+void apply_deadband(std::vector<Point>& pts, const std::vector<formats::DbbRun>& runs, PrerollTable& table, double b_a, double b_b,
                     double delay_a = 0.0, double delay_b = 0.0) {
   if (table.c.empty()) {
-    for (const Run& run : runs) {
+    for (const formats::DbbRun& run : runs) {
       auto& c = table.c.emplace_back(1799);
       auto& s = table.s.emplace_back(1799);
       for (int q = 1; q < 1800; ++q) {
@@ -91,7 +91,7 @@ void apply_deadband(std::vector<Point>& pts, const std::vector<Run>& runs, Prero
   }
   std::size_t i0 = 0;
   for (std::size_t k = 0; k < runs.size(); ++k) {
-    const Run& run = runs[k];
+    const formats::DbbRun& run = runs[k];
     const double r = run.radius_m;
     const double dir = run.dir();
     for (int axis = 0; axis < 2; ++axis) {
@@ -292,7 +292,7 @@ void set_cyclic_phases(const DiagLayout& L, std::vector<Point>& pts) {
   }
 }
 
-std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<Run>& runs, const std::string& plane) {
+std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<formats::DbbRun>& runs, const std::string& plane) {
   const std::string A = axis_letter(plane, 0), B = axis_letter(plane, 1);
   std::vector<std::string> n;
   for (std::size_t k = 0; k < L.runs; ++k) {
@@ -357,7 +357,7 @@ struct DiagWork {
   Eigen::VectorXd y, w;
 };
 
-LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<Run>& runs,
+LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<formats::DbbRun>& runs,
                    const std::string& plane, DiagWork& work, Eigen::Index stride = 1) {
   const auto n = static_cast<Eigen::Index>(pts.size());
   if (work.j.rows() != n || work.j.cols() < static_cast<Eigen::Index>(L.count()))
@@ -429,7 +429,7 @@ double part_of_deviation(const std::vector<Point>& pts, const std::vector<double
 
 // ISO 230-4 circular hysteresis of a ccw/cw pair (points from p1 and p2) about their common
 // least-squares circle.
-double circular_hysteresis(const Run& r1, const Point* p1, const Run& r2, const Point* p2) {
+double circular_hysteresis(const formats::DbbRun& r1, const Point* p1, const formats::DbbRun& r2, const Point* p2) {
   const auto n1 = static_cast<Eigen::Index>(r1.angle_rad.size());
   const auto n2 = static_cast<Eigen::Index>(r2.angle_rad.size());
   Eigen::MatrixXd a(n1 + n2, 3);
@@ -448,7 +448,7 @@ double circular_hysteresis(const Run& r1, const Point* p1, const Run& r2, const 
   const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
   const Eigen::VectorXd res = y - a * x;
   // Residual of each run on a 0.5 deg grid (linear interpolation in the wrapped angle).
-  const auto on_grid = [&](const Run& r, Eigen::Index off) {
+  const auto on_grid = [&](const formats::DbbRun& r, Eigen::Index off) {
     std::vector<std::pair<double, double>> v;
     for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
       double z = std::fmod(r.angle_rad[i], 2 * pi);
@@ -524,7 +524,7 @@ double lai3_exact_dL(const Lai3Params& q, double radius_m, double height_m, int 
 // set-up's, not the machine's, and is not ranked. Terms partly cancel: the percentages need not add up
 // to 100.
 void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::vector<Point>& pts,
-                        const std::vector<Run>& runs, const std::vector<std::string>& names, Identification& out) {
+                        const std::vector<formats::DbbRun>& runs, const std::vector<std::string>& names, Identification& out) {
   const std::size_t g = L.global0();
   std::vector<std::vector<std::size_t>> terms{{g + DiagLayout::scale_a, g + DiagLayout::scale_b}};  // scale mismatch
   for (auto k : {DiagLayout::squareness, DiagLayout::backlash_a, DiagLayout::backlash_b, DiagLayout::play_a,
@@ -560,14 +560,14 @@ void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::ve
 
 // The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
 // out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
-LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const std::string& plane, DiagWork& work,
+LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::string& plane, DiagWork& work,
                    PrerollTable& preroll, double shaped_b_a, double shaped_b_b, const IdentifyOptions& options,
                    Identification& out) {
   DiagLayout L;
   L.runs = runs.size();
   // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
   LsqResult base = fit_diag(L, pts, runs, plane, work, 3);
-  if (!base.ok) throw RunFormatError("identify: " + base.message);
+  if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
   // Reversal spikes: choose the decay time that explains most of the residual.
   {
     // Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike
@@ -671,7 +671,7 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
   }
   // Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4).
   {
-    const double rmin = std::min_element(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
+    const double rmin = std::min_element(runs.begin(), runs.end(), [](const formats::DbbRun& a, const formats::DbbRun& b) {
                           return a.radius_m < b.radius_m;
                         })->radius_m;
     const std::vector<double> leads = {1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40};
@@ -720,7 +720,7 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
   if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
     apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
   LsqResult res = fit_diag(L, pts, runs, plane, work);
-  if (!res.ok) throw RunFormatError("identify: " + res.message);
+  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
   {
     // Backlash shape from this fit's own estimate (the Lai fit's may differ), then the final fit.
     const std::size_t ga = L.global0() + DiagLayout::backlash_a;
@@ -735,7 +735,7 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
       for (auto& p : pts) set_step_backlash(p);
       if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
       res = fit_diag(L, pts, runs, plane, work);
-      if (!res.ok) throw RunFormatError("identify: " + res.message);
+      if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
     }
   }
   // Gauss-Newton iterations on the spike decay times (linear in everything else).
@@ -753,7 +753,7 @@ LsqResult diagnose(const std::vector<Run>& runs, std::vector<Point>& pts, const 
     step(L.decay_b, L.decay_b0(), L.spike0() + 1, L.tau_b, L.amp_b);
     if (!moved) break;
     res = fit_diag(L, pts, runs, plane, work);
-    if (!res.ok) throw RunFormatError("identify: " + res.message);
+    if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
   }
   out.diagnostics_fit = summary_of(res);
   const auto names = diag_names(L, runs, plane);
@@ -834,13 +834,13 @@ double range_about_circle(std::span<const double> angle_rad, std::span<const dou
   return res.maxCoeff() - res.minCoeff();
 }
 
-Identification identify(const std::vector<Run>& runs, const IdentifyOptions& options) {
-  if (runs.empty()) throw RunFormatError("identify: no runs given");
-  for (const auto& r : runs) validate_run(r);
+Identification identify(const std::vector<formats::DbbRun>& runs, const IdentifyOptions& options) {
+  if (runs.empty()) throw formats::DbbRunFormatError("identify: no runs given");
+  for (const auto& r : runs) formats::validate_dbb_run(r);
   const std::string plane = runs.front().plane;
   for (const auto& r : runs)
     if (r.plane != plane)
-      throw RunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
+      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
                            "); runs identified together must share the plane");
 
   Identification out;
@@ -894,7 +894,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
         ws[i] = p.w;
       }
       LsqResult r = solve_lsq(j, ys, ws, names);
-      if (!r.ok) throw RunFormatError("identify: " + r.message);
+      if (!r.ok) throw formats::DbbRunFormatError("identify: " + r.message);
       return r;
     };
     // First pass on a third of the points: only its backlash estimate is used (deadband shape).
@@ -975,7 +975,7 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   }
 
   // ---- Ballbar diagnostics: of the runs whose geometry they model, an in-plane bar (h = 0) ----
-  std::vector<Run> flat;
+  std::vector<formats::DbbRun> flat;
   std::vector<std::size_t> flat_index;  // into runs
   for (std::size_t k = 0; k < runs.size(); ++k)
     if (std::abs(runs[k].height_m) < 1e-9) {
@@ -986,8 +986,8 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   // Among runs with a socket height, the h = 0 ones must also go both ways: in one direction backlash,
   // play, spikes and servo mismatch trade off against errors the diagnostics do not model (a single
   // in-plane test of one machine error at a time is separable; Lai's three patterns are not).
-  const bool both = std::any_of(flat.begin(), flat.end(), [](const Run& r) { return r.direction == Direction::ccw; }) &&
-                    std::any_of(flat.begin(), flat.end(), [](const Run& r) { return r.direction == Direction::cw; });
+  const bool both = std::any_of(flat.begin(), flat.end(), [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::ccw; }) &&
+                    std::any_of(flat.begin(), flat.end(), [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::cw; });
   if (flat.empty()) {
     out.notes.push_back("no ballbar diagnostics: they model an in-plane bar (h = 0) and every run has a socket height; "
                         "Lai's model covers these runs (and ranks the errors)");
@@ -1047,12 +1047,12 @@ Identification identify(const std::vector<Run>& runs, const IdentifyOptions& opt
   for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k) first[k] = pts.data() + i;
   double g_max = 0;
   for (std::size_t k = 0; k < runs.size(); ++k) {
-    const Run& r = runs[k];
+    const formats::DbbRun& r = runs[k];
     RunSummary s;
     s.source = r.source;
     s.radius_mm = r.radius_m * 1e3;
     s.height_mm = r.height_m * 1e3;
-    s.direction = r.direction == Direction::ccw ? "ccw" : "cw";
+    s.direction = r.direction == formats::DbbDirection::ccw ? "ccw" : "cw";
     s.feed_mm_per_min = r.feed_m_per_s * 60e3;
     s.n = r.angle_rad.size();
     s.circular_deviation_um = circular_deviation(first[k], r.angle_rad.size());

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "models/common/least_squares.hpp"
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 
 namespace guideway::models::dbb {
 
@@ -80,7 +80,7 @@ struct Identification {
 double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um);
 
 // Throws RunFormatError for unusable input (no runs, mixed planes, invalid runs).
-Identification identify(const std::vector<Run>& runs, const IdentifyOptions& options = {});
+Identification identify(const std::vector<formats::DbbRun>& runs, const IdentifyOptions& options = {});
 
 // Lai third-order parameters in SI (straightness coefficients in m^(1-k), angles in rad).
 // Definitions (docs/conventions.md): about the circle centre, in the test plane (a, b) with normal n,

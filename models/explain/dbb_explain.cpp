@@ -37,11 +37,11 @@ struct Moments {
   double w2 = 0, w2t = 0, w2t2 = 0;
 };
 
-bool all_have_start_time(const std::vector<dbb::Run>& runs) {
-  return std::all_of(runs.begin(), runs.end(), [](const dbb::Run& r) { return r.metadata.count("start_time_s") > 0; });
+bool all_have_start_time(const std::vector<formats::DbbRun>& runs) {
+  return std::all_of(runs.begin(), runs.end(), [](const formats::DbbRun& r) { return r.metadata.count("start_time_s") > 0; });
 }
 
-double start_time_of(const dbb::Run& r) {
+double start_time_of(const formats::DbbRun& r) {
   const std::string& s = r.metadata.at("start_time_s");
   try {
     std::size_t used = 0;
@@ -49,11 +49,11 @@ double start_time_of(const dbb::Run& r) {
     if (used != s.size() || !std::isfinite(v)) throw std::invalid_argument(s);
     return v;
   } catch (const std::exception&) {
-    throw dbb::RunFormatError(r.source + ": start_time_s: not a number: '" + s + "'");
+    throw formats::DbbRunFormatError(r.source + ": start_time_s: not a number: '" + s + "'");
   }
 }
 
-std::vector<Geo> geometry(const std::vector<dbb::Run>& runs, bool machine_time) {
+std::vector<Geo> geometry(const std::vector<formats::DbbRun>& runs, bool machine_time) {
   // Time counts from the earliest run's start: a Unix-epoch clock (~1.8e9 s) would make a drift
   // column nearly constant and cost a sinusoid's phase its digits.
   double origin_s = 0.0;
@@ -63,8 +63,8 @@ std::vector<Geo> geometry(const std::vector<dbb::Run>& runs, bool machine_time) 
   }
   std::vector<Geo> g;
   for (std::size_t k = 0; k < runs.size(); ++k) {
-    const dbb::Run& run = runs[k];
-    dbb::validate_run(run);
+    const formats::DbbRun& run = runs[k];
+    formats::validate_dbb_run(run);
     const double t0 = machine_time ? start_time_of(run) - origin_s : 0.0;
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Geo p;
@@ -103,8 +103,8 @@ Block lai_base(const std::vector<Geo>& g) {
 // on the drives' positions (backlash, cyclic error): none when every run's angles were read from the axis
 // encoders (metadata angle_source = encoders, as a live session writes), else a grid up to a slow position
 // loop's 1/Kv (commanded angles, or angles from time and feed as a ballbar's software computes them).
-std::vector<double> drive_delays_s(const std::vector<dbb::Run>& runs) {
-  const bool encoders = std::all_of(runs.begin(), runs.end(), [](const dbb::Run& r) {
+std::vector<double> drive_delays_s(const std::vector<formats::DbbRun>& runs) {
+  const bool encoders = std::all_of(runs.begin(), runs.end(), [](const formats::DbbRun& r) {
     const auto it = r.metadata.find("angle_source");
     return it != r.metadata.end() && it->second == "encoders";
   });
@@ -182,7 +182,7 @@ std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<boo
 
 // `reading_um`: the reading the model predicts per sample (the sensor's operating point; taking the
 // measured value would let the candidate fit the very effects in it).
-std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vector<dbb::Run>& runs, bool machine_time,
+std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vector<formats::DbbRun>& runs, bool machine_time,
                                       const std::vector<double>& reading_um) {
   const auto tracks = drive_tracks(g, drive_delays_s(runs));
   const std::string A = dbb::axis_letter(runs.front().plane, 0), B = dbb::axis_letter(runs.front().plane, 1);
@@ -612,7 +612,7 @@ std::vector<Candidate> dbb_candidates(const std::vector<Geo>& g, const std::vect
   return out;
 }
 
-std::vector<RunInfo> run_infos(const std::vector<dbb::Run>& runs) {
+std::vector<RunInfo> run_infos(const std::vector<formats::DbbRun>& runs) {
   std::vector<RunInfo> out;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const auto& r = runs[k];
@@ -626,15 +626,15 @@ std::vector<RunInfo> run_infos(const std::vector<dbb::Run>& runs) {
   return out;
 }
 
-void check_runs(const std::vector<dbb::Run>& runs) {
+void check_runs(const std::vector<formats::DbbRun>& runs) {
   if (runs.empty()) throw std::invalid_argument("explain: no runs");
   for (const auto& r : runs)
     if (r.plane != runs.front().plane)
-      throw dbb::RunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" +
+      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" +
                                 runs.front().plane + ")");
 }
 
-Problem assemble_problem(const std::vector<dbb::Run>& runs, const std::vector<Geo>& g, bool machine_time,
+Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::vector<Geo>& g, bool machine_time,
                          const std::vector<double>& reading_um) {
   Problem p;
   p.model = "dbb";
@@ -659,7 +659,7 @@ Problem assemble_problem(const std::vector<dbb::Run>& runs, const std::vector<Ge
 
 }  // namespace
 
-Problem dbb_problem(const std::vector<dbb::Run>& runs) {
+Problem dbb_problem(const std::vector<formats::DbbRun>& runs) {
   check_runs(runs);
   const bool machine_time = all_have_start_time(runs);
   const auto g = geometry(runs, machine_time);
@@ -703,7 +703,7 @@ Problem dbb_problem(const std::vector<dbb::Run>& runs) {
   return p;
 }
 
-Problem dbb_compare_problem(const dbb::Run& simulated, const dbb::Run& measured) {
+Problem dbb_compare_problem(const formats::DbbRun& simulated, const formats::DbbRun& measured) {
   if (simulated.angle_rad.size() != measured.angle_rad.size())
     throw std::invalid_argument("explain: " + simulated.source + " has " + std::to_string(simulated.angle_rad.size()) +
                                 " samples, " + measured.source + " has " + std::to_string(measured.angle_rad.size()));
@@ -711,9 +711,9 @@ Problem dbb_compare_problem(const dbb::Run& simulated, const dbb::Run& measured)
     if (std::abs(simulated.angle_rad[i] - measured.angle_rad[i]) > 1e-6 * pi / 180)
       throw std::invalid_argument("explain: " + simulated.source + " and " + measured.source +
                                   " differ in angle at sample " + std::to_string(i + 1));
-  dbb::Run diff = measured;
+  formats::DbbRun diff = measured;
   for (std::size_t i = 0; i < diff.dL_m.size(); ++i) diff.dL_m[i] -= simulated.dL_m[i];
-  const std::vector<dbb::Run> runs{diff};
+  const std::vector<formats::DbbRun> runs{diff};
   const bool machine_time = all_have_start_time(runs);
   const auto g = geometry(runs, machine_time);
   std::vector<double> reading(simulated.dL_m.size());
@@ -724,11 +724,11 @@ Problem dbb_compare_problem(const dbb::Run& simulated, const dbb::Run& measured)
   return p;
 }
 
-Report explain_dbb_report(const std::vector<dbb::Run>& runs, const ExplainOptions& options) {
+Report explain_dbb_report(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options) {
   return explain(dbb_problem(runs), options);
 }
 
-nlohmann::json explain_dbb(const std::vector<dbb::Run>& runs, const ExplainOptions& options) {
+nlohmann::json explain_dbb(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options) {
   return to_json(explain_dbb_report(runs, options));
 }
 

@@ -14,19 +14,19 @@
 
 #include <nlohmann/json.hpp>
 
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "models/explain/explain.hpp"
 
 namespace guideway::models::explain {
 
 // Base + candidates for `guideway explain --model dbb`.
-Problem dbb_problem(const std::vector<dbb::Run>& runs);
-Report explain_dbb_report(const std::vector<dbb::Run>& runs, const ExplainOptions& options = {});
+Problem dbb_problem(const std::vector<formats::DbbRun>& runs);
+Report explain_dbb_report(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options = {});
 // The report in the JSON shape of to_json().
-nlohmann::json explain_dbb(const std::vector<dbb::Run>& runs, const ExplainOptions& options = {});
+nlohmann::json explain_dbb(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options = {});
 
 // A given simulation against a recording (same sample grid: equal length, equal angles within 1e-6
 // deg): the difference measured - simulated is explained with the same candidates and no base refit.
-Problem dbb_compare_problem(const dbb::Run& simulated, const dbb::Run& measured);
+Problem dbb_compare_problem(const formats::DbbRun& simulated, const formats::DbbRun& measured);
 
 }  // namespace guideway::models::explain

@@ -8,7 +8,7 @@
 #include <Eigen/Dense>
 
 #include "core/number_format.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 
 namespace guideway::models {
 
@@ -17,17 +17,17 @@ namespace {
 }  // namespace
 
 RunoutRevolution parse_runout_revolution(std::string_view text, const std::string& source) {
-  const TableFile t = parse_table(text, source);
+  const CsvTable t = parse_csv_table(text, source);
   RunoutRevolution rev;
   rev.source = source;
   const double d_mm = t.metadata_number("plate_diameter_mm");
-  if (!(d_mm > 0)) throw InputError(source + ": plate_diameter_mm = " + significant_digits(d_mm, 10) + " must be positive");
+  if (!(d_mm > 0)) throw CsvError(source + ": plate_diameter_mm = " + significant_digits(d_mm, 10) + " must be positive");
   rev.plate_diameter_m = d_mm * 1e-3;
   rev.parallelism_m = t.metadata_number("parallelism_um") * 1e-6;
   rev.u_parallelism_m = t.optional_metadata_number("parallelism_u_um").value_or(0.0) * 1e-6;
-  if (rev.u_parallelism_m < 0) throw InputError(source + ": parallelism_u_um must not be negative");
+  if (rev.u_parallelism_m < 0) throw CsvError(source + ": parallelism_u_um must not be negative");
   if (auto travel = t.optional_metadata_number("travel_mm")) {
-    if (!(*travel > 0)) throw InputError(source + ": travel_mm = " + significant_digits(*travel, 10) + " must be positive");
+    if (!(*travel > 0)) throw CsvError(source + ": travel_mm = " + significant_digits(*travel, 10) + " must be positive");
     rev.travel_m = *travel * 1e-3;
   }
   const std::size_t ca = t.column("angle_deg");
@@ -38,7 +38,7 @@ RunoutRevolution parse_runout_revolution(std::string_view text, const std::strin
     rev.line.push_back(row.line);
   }
   if (rev.angle_rad.size() < 8)
-    throw InputError(source + ": " + std::to_string(rev.angle_rad.size()) +
+    throw CsvError(source + ": " + std::to_string(rev.angle_rad.size()) +
                      " samples; a run-out revolution needs at least 8");
   return rev;
 }
@@ -49,7 +49,7 @@ RunoutRevolution read_runout_revolution(const std::string& path) {
 
 RunoutResult identify_runout(const RunoutRevolution& rev) {
   const auto n = static_cast<Eigen::Index>(rev.angle_rad.size());
-  if (n < 8) throw InputError(rev.source + ": a run-out revolution needs at least 8 samples");
+  if (n < 8) throw CsvError(rev.source + ": a run-out revolution needs at least 8 samples");
   // z = c + a1 cos + b1 sin + a2 cos 2 + b2 sin 2, columns scaled alike (all O(1)).
   Eigen::MatrixXd j(n, 5);
   Eigen::VectorXd y(n);
@@ -64,7 +64,7 @@ RunoutResult identify_runout(const RunoutRevolution& rev) {
   r.samples = static_cast<std::size_t>(n);
   r.condition_number = sv(4) > 0 ? sv(0) / sv(4) : std::numeric_limits<double>::infinity();
   if (!(r.condition_number < 1e6))
-    throw InputError(rev.source + ": the angles (" + std::to_string(n) +
+    throw CsvError(rev.source + ": the angles (" + std::to_string(n) +
                      " samples) do not determine a once- and twice-per-revolution sine (condition number " +
                      significant_digits(r.condition_number, 10) + "); record a full revolution");
   const Eigen::VectorXd p = j.colPivHouseholderQr().solve(y);

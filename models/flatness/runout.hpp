@@ -29,7 +29,7 @@ struct RunoutRevolution {
 };
 
 // Metadata plate_diameter_mm (> 0), parallelism_um, optional parallelism_u_um and travel_mm; columns
-// angle_deg,runout_um. At least 8 samples. Throws InputError "file:line: message".
+// angle_deg,runout_um. At least 8 samples. Throws CsvError "file:line: message".
 RunoutRevolution parse_runout_revolution(std::string_view text, const std::string& source);
 RunoutRevolution read_runout_revolution(const std::string& path);
 
@@ -55,7 +55,7 @@ struct RunoutResult {
   std::optional<double> u_squareness_amplitude_m;
 };
 
-// Throws InputError when the angles do not determine the sine (too few samples or too narrow an arc).
+// Throws CsvError when the angles do not determine the sine (too few samples or too narrow an arc).
 RunoutResult identify_runout(const RunoutRevolution& rev);
 
 }  // namespace guideway::models

@@ -11,7 +11,7 @@
 #include <Eigen/Dense>
 
 #include "core/number_format.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 
 namespace guideway::models {
 
@@ -19,11 +19,11 @@ namespace {
 
 std::string where(const std::string& source, std::size_t line) { return source + ":" + std::to_string(line) + ": "; }
 
-double checked_angle(const TableFile& t, const TableFile::Row& row, std::size_t col, const Autocollimator& ac) {
+double checked_angle(const CsvTable& t, const CsvTable::Row& row, std::size_t col, const Autocollimator& ac) {
   const double arcsec = t.number(row, col);
   const double range_arcsec = ac.range_rad / rad_per_arcsec;
   if (std::abs(arcsec) > range_arcsec)
-    throw InputError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(arcsec, 10) +
+    throw CsvError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(arcsec, 10) +
                      " is outside the autocollimator range +-" + significant_digits(range_arcsec, 10) + " arcsec");
   return arcsec * rad_per_arcsec;
 }
@@ -153,17 +153,17 @@ double PolynomialFit::slope(double x) const {
 }
 
 AngleTraverse parse_angle_traverse(std::string_view text, const std::string& source, const Autocollimator& ac) {
-  const TableFile t = parse_table(text, source);
+  const CsvTable t = parse_csv_table(text, source);
   AngleTraverse tr;
   tr.source = source;
   const double step_mm = t.metadata_number("step_mm");
-  if (!(step_mm > 0)) throw InputError(source + ": step_mm = " + significant_digits(step_mm, 10) + " must be positive");
+  if (!(step_mm > 0)) throw CsvError(source + ": step_mm = " + significant_digits(step_mm, 10) + " must be positive");
   tr.step_m = step_mm * 1e-3;
   const std::size_t cx = t.column("x_mm");
   const std::size_t cp = t.column("pitch_arcsec");
   const auto cy = t.find_column("yaw_arcsec");
   if (t.rows.size() < 2)
-    throw InputError(source + ": " + std::to_string(t.rows.size()) + " readings; a traverse needs at least 2");
+    throw CsvError(source + ": " + std::to_string(t.rows.size()) + " readings; a traverse needs at least 2");
   double prev_x = 0.0;
   for (std::size_t i = 0; i < t.rows.size(); ++i) {
     const auto& row = t.rows[i];
@@ -172,15 +172,15 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
       const double dx = x - prev_x;
       const double tol = 1e-3 * step_mm;
       if (dx <= tol)
-        throw InputError(where(source, row.line) + "x_mm = " + significant_digits(x, 10) + " does not increase (previous station " +
+        throw CsvError(where(source, row.line) + "x_mm = " + significant_digits(x, 10) + " does not increase (previous station " +
                          significant_digits(prev_x, 10) + ")");
       if (std::abs(dx - step_mm) > tol) {
         const double steps = dx / step_mm;
         if (std::abs(steps - std::round(steps)) <= 1e-3 * steps)
-          throw InputError(where(source, row.line) + "missing station: x_mm jumps from " + significant_digits(prev_x, 10) + " to " +
+          throw CsvError(where(source, row.line) + "missing station: x_mm jumps from " + significant_digits(prev_x, 10) + " to " +
                            significant_digits(x, 10) + " (step_mm = " + significant_digits(step_mm, 10) + ", " + significant_digits(std::round(steps) - 1, 10) +
                            " station(s) missing, first at x_mm = " + significant_digits(prev_x + step_mm, 10) + ")");
-        throw InputError(where(source, row.line) + "x_mm spacing " + significant_digits(dx, 10) +
+        throw CsvError(where(source, row.line) + "x_mm spacing " + significant_digits(dx, 10) +
                          " does not match step_mm = " + significant_digits(step_mm, 10));
       }
     }
@@ -390,7 +390,7 @@ StraightnessResult identify_straightness(const AngleTraverse& traverse, const St
   r.source = traverse.source;
   r.step_m = traverse.step_m;
   r.readings = traverse.pitch_rad.size();
-  if (traverse.x_m.empty()) throw InputError(traverse.source + ": empty traverse");
+  if (traverse.x_m.empty()) throw CsvError(traverse.source + ": empty traverse");
   r.vertical = straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.pitch_rad, options, "vertical");
   if (!traverse.yaw_rad.empty())
     r.horizontal =

@@ -28,7 +28,7 @@ struct AngleTraverse {
 };
 
 // Validates and converts: `# step_mm`, columns x_mm,pitch_arcsec[,yaw_arcsec], stations exactly one
-// step apart (a gap = "missing station"), angles finite and inside +-range. Throws InputError
+// step apart (a gap = "missing station"), angles finite and inside +-range. Throws CsvError
 // "file:line: message".
 AngleTraverse parse_angle_traverse(std::string_view text, const std::string& source, const Autocollimator& ac = {});
 AngleTraverse read_angle_traverse(const std::string& path, const Autocollimator& ac = {});

@@ -11,7 +11,7 @@
 
 #include "core/number_format.hpp"
 #include "models/flatness/minimum_zone.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 
 namespace guideway::models {
 
@@ -46,11 +46,11 @@ double read_foot_spacing(const std::string& dir, bool& inch) {
     const char unit = l.front();
     const auto value = l.size() > 1 ? parse_double(std::string_view(l).substr(1)) : std::nullopt;
     if ((unit != 'I' && unit != 'M') || !value || !(*value > 0))
-      throw InputError(where + "expected 'I <inches>' or 'M <mm>' (the reflector foot spacing), got '" + l + "'");
+      throw CsvError(where + "expected 'I <inches>' or 'M <mm>' (the reflector foot spacing), got '" + l + "'");
     inch = unit == 'I';
     return inch ? *value * metres_per_inch : *value * 1e-3;
   }
-  throw InputError(path + ": no foot spacing line ('I <inches>' or 'M <mm>')");
+  throw CsvError(path + ": no foot spacing line ('I <inches>' or 'M <mm>')");
 }
 
 // Heights along one line from its readings: c_0 = 0, c_{j+1} = c_j + s tan(theta_j).
@@ -93,16 +93,16 @@ UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_overrid
       if (l.empty() || l.front() == '#') continue;
       const std::string where = path + ":" + std::to_string(k + 1) + ": ";
       const auto v = parse_double(l);
-      if (!v) throw InputError(where + "'" + l + "' is not a number (one reading in arc-seconds per line)");
+      if (!v) throw CsvError(where + "'" + l + "' is not a number (one reading in arc-seconds per line)");
       if (std::abs(*v) > range_arcsec)
-        throw InputError(where + "reading " + significant_digits(*v, 10) + " arcsec is outside the autocollimator range +-" +
+        throw CsvError(where + "reading " + significant_digits(*v, 10) + " arcsec is outside the autocollimator range +-" +
                          significant_digits(range_arcsec, 10) + " arcsec");
       set.angle_rad[i].push_back(*v * rad_per_arcsec);
       set.file_line[i].push_back(k + 1);
       last_line[i] = k + 1;
     }
     if (set.angle_rad[i].size() < 2)
-      throw InputError(path + ": " + std::to_string(set.angle_rad[i].size()) + " readings; a line needs at least 2");
+      throw CsvError(path + ": " + std::to_string(set.angle_rad[i].size()) + " readings; a line needs at least 2");
   }
   // Geometry: lines that must have equal numbers of readings, and even counts (the centre lines and
   // the diagonals cross at middle stations).
@@ -118,11 +118,11 @@ UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_overrid
       const auto i = static_cast<std::size_t>(idx);
       const std::string path = join_path(dir, std::string(union_jack_names[i]) + ".txt");
       if (set.angle_rad[i].size() != n)
-        throw InputError(path + ":" + std::to_string(last_line[i]) + ": " + std::to_string(set.angle_rad[i].size()) +
+        throw CsvError(path + ":" + std::to_string(last_line[i]) + ": " + std::to_string(set.angle_rad[i].size()) +
                          " readings, but " + union_jack_names[first] + ".txt has " + std::to_string(n) + " (" +
                          what[g] + " must have the same number of readings)");
       if (n % 2 != 0)
-        throw InputError(path + ":" + std::to_string(last_line[i]) + ": " + std::to_string(n) +
+        throw CsvError(path + ":" + std::to_string(last_line[i]) + ": " + std::to_string(n) +
                          " readings: the Union Jack needs an even number on every line (the lines cross at their "
                          "middle stations)");
     }

@@ -36,7 +36,7 @@ struct UnionJackSet {
 // foot_spacing_override_m > 0) and DIR/<LINE>.txt (one reading in arc-seconds per line, `#`
 // comments, blank lines skipped). Checks every reading (number, inside the instrument range) and the
 // geometry (opposite perimeter lines and the parallel centre line have the same number of readings,
-// both diagonals too, all even). Throws InputError "file:line: message".
+// both diagonals too, all even). Throws CsvError "file:line: message".
 UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_override_m = 0.0,
                              const Autocollimator& ac = {});
 

@@ -13,7 +13,7 @@
 #include "dsp/series.hpp"
 #include "dsp/wavelet.hpp"
 #include "models/common/least_squares.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 
 namespace guideway::models {
 
@@ -28,9 +28,9 @@ std::string mm(double m) {
 
 double required_meta(const formats::Profile& p, const std::string& source, const std::string& key) {
   const auto v = p.meta(key);
-  if (!v) throw InputError(source + ": missing metadata line '# " + key + " = <number>'");
+  if (!v) throw CsvError(source + ": missing metadata line '# " + key + " = <number>'");
   const auto d = parse_double(*v);
-  if (!d || !(*d > 0)) throw InputError(source + ": metadata '" + key + " = " + *v + "' is not a positive number");
+  if (!d || !(*d > 0)) throw CsvError(source + ": metadata '" + key + " = " + *v + "' is not a positive number");
   return *d;
 }
 
@@ -81,20 +81,20 @@ WorkpieceProfile parse_workpiece_profile(std::string_view text, const std::strin
   try {
     p = formats::parse_profile_csv(text, source);
   } catch (const formats::ProfileFileError& e) {
-    throw InputError(e.what());
+    throw CsvError(e.what());
   }
   WorkpieceProfile w;
   w.source = source;
   w.feed_m_per_s = required_meta(p, source, "feed_mm_per_min") * 1e-3 / 60.0;
   w.spindle_rpm = required_meta(p, source, "spindle_rpm");
   if (p.x_m.size() < 64)
-    throw InputError(source + ": " + std::to_string(p.x_m.size()) + " points; a profile needs at least 64");
+    throw CsvError(source + ": " + std::to_string(p.x_m.size()) + " points; a profile needs at least 64");
   for (std::size_t i = 0; i < p.z_m.size(); ++i)
     if (!std::isfinite(p.z_m[i]))
-      throw InputError(source + ": point " + std::to_string(i + 1) + " (x = " + mm(p.x_m[i]) +
+      throw CsvError(source + ": point " + std::to_string(i + 1) + " (x = " + mm(p.x_m[i]) +
                        " mm) has no valid height; cut or fill the profile first");
   if (!p.spacing_m())
-    throw InputError(source + ": x is not equally spaced and increasing (the wavelet step needs a uniform grid)");
+    throw CsvError(source + ": x is not equally spaced and increasing (the wavelet step needs a uniform grid)");
   w.x_m = std::move(p.x_m);
   w.z_m = std::move(p.z_m);
   return w;
@@ -143,13 +143,13 @@ WorkpieceFlatnessResult analyse_workpiece_flatness(const std::vector<WorkpiecePr
   for (const auto& p : profiles) {
     const std::size_t n = p.x_m.size();
     if (n != p.z_m.size() || n < 2)
-      throw InputError(p.source + ": x and z have different lengths or fewer than 2 points");
+      throw CsvError(p.source + ": x and z have different lengths or fewer than 2 points");
     if (p.x_m.front() < x0 - tol || p.x_m.back() > r.straightness_x_end_m + tol)
-      throw InputError(p.source + ": profile x from " + mm(p.x_m.front()) + " to " + mm(p.x_m.back()) +
+      throw CsvError(p.source + ": profile x from " + mm(p.x_m.front()) + " to " + mm(p.x_m.back()) +
                        " mm leaves the straightness traverse of " + traverse.source + " (" + mm(x0) + " to " +
                        mm(r.straightness_x_end_m) + " mm)");
     if (n < (std::size_t{1} << options.levels))
-      throw InputError(p.source + ": " + std::to_string(n) + " points are too few for " +
+      throw CsvError(p.source + ": " + std::to_string(n) + " points are too few for " +
                        std::to_string(options.levels) + " wavelet levels (need at least " +
                        std::to_string(std::size_t{1} << options.levels) + ")");
     ProfileFlatness pf;
@@ -193,7 +193,7 @@ WorkpieceFlatnessResult analyse_workpiece_flatness(const std::vector<WorkpiecePr
       y(ii) = p.z_m[i] - y2[i];
     }
     const auto fit = solve_lsq(J, y, Eigen::VectorXd(), {"offset_m", "squareness_rad"});
-    if (!fit.ok) throw InputError(p.source + ": squareness fit failed: " + fit.message);
+    if (!fit.ok) throw CsvError(p.source + ": squareness fit failed: " + fit.message);
     pf.squareness_rad = fit.x(1);
     pf.residual_rms_m = fit.rms;
     // Waviness makes neighbouring residuals alike; an AR(1) view of them widens u accordingly.

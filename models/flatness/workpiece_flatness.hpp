@@ -31,7 +31,7 @@ struct WorkpieceProfile {
 
 // Reads a `guideway/profile/1` CSV (docs/formats.md): x_mm,z_um (other units as that format allows),
 // metadata feed_mm_per_min and spindle_rpm required; every point valid (no NaN), equally spaced
-// increasing x, at least 64 points. Throws InputError "file[:line]: message".
+// increasing x, at least 64 points. Throws CsvError "file[:line]: message".
 WorkpieceProfile parse_workpiece_profile(std::string_view text, const std::string& source);
 WorkpieceProfile read_workpiece_profile(const std::string& path);
 
@@ -105,7 +105,7 @@ struct WorkpieceFlatnessResult {
   std::optional<RunoutCrossCheck> runout_check;
 };
 
-// Throws InputError when a profile leaves the traverse's x range, std::invalid_argument for bad
+// Throws CsvError when a profile leaves the traverse's x range, std::invalid_argument for bad
 // options (unknown wavelet, levels < 1, too few points for the levels).
 WorkpieceFlatnessResult analyse_workpiece_flatness(const std::vector<WorkpieceProfile>& profiles,
                                                    const AngleTraverse& traverse,

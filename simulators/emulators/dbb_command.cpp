@@ -82,7 +82,7 @@ int run_dbb(const DbbOptions& o) {
   spec.radius_m = o.radius_mm * 1e-3;
   spec.height_m = o.height_mm * 1e-3;
   spec.feed_m_per_s = o.feed_mm_min / 60e3;
-  spec.direction = o.direction == "ccw" ? sim::Direction::ccw : sim::Direction::cw;
+  spec.direction = o.direction == "ccw" ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
   spec.plane = o.plane == "xz" ? sim::Plane::xz : o.plane == "yz" ? sim::Plane::yz : sim::Plane::xy;
   spec.overshoot_rad = o.overshoot_deg * 3.14159265358979323846 / 180.0;
   spec.sample_rate_hz = 1000.0;
@@ -90,8 +90,8 @@ int run_dbb(const DbbOptions& o) {
   // h = 0 at r = 100 mm ccw), a pause after each, repeated; "single": the one circle of the options.
   std::vector<sim::DbbCircleSpec> specs;
   if (o.program == "lai") {
-    for (auto [r_mm, h_mm, dir] : {std::tuple{95.0, 31.225, sim::Direction::cw}, std::tuple{95.0, 31.225, sim::Direction::ccw},
-                                   std::tuple{100.0, 0.0, sim::Direction::ccw}}) {
+    for (auto [r_mm, h_mm, dir] : {std::tuple{95.0, 31.225, formats::DbbDirection::cw}, std::tuple{95.0, 31.225, formats::DbbDirection::ccw},
+                                   std::tuple{100.0, 0.0, formats::DbbDirection::ccw}}) {
       sim::DbbCircleSpec p = spec;
       p.radius_m = r_mm * 1e-3;
       p.height_m = h_mm * 1e-3;

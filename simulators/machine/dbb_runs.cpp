@@ -7,15 +7,13 @@
 
 namespace guideway::sim {
 
-models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source) {
-  using models::dbb::Direction;
-  using models::dbb::Run;
+formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source) {
   const sim::DbbRun raw = machine.dbb_circle(spec);
-  Run run;
+  formats::DbbRun run;
   run.source = source;
   run.radius_m = spec.radius_m;
   run.height_m = spec.height_m;
-  run.direction = spec.direction == sim::Direction::ccw ? Direction::ccw : Direction::cw;
+  run.direction = spec.direction;
   run.feed_m_per_s = spec.feed_m_per_s;
   run.plane = spec.plane == sim::Plane::xy ? "xy" : (spec.plane == sim::Plane::xz ? "xz" : "yz");
   const int a = spec.plane == sim::Plane::yz ? 1 : 0;
@@ -46,11 +44,11 @@ models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& s
   return run;
 }
 
-DbbCircleSpec circle_spec_of(const models::dbb::Run& run, const Vec3& center) {
+DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center) {
   DbbCircleSpec spec;
   spec.radius_m = run.radius_m;
   spec.height_m = run.height_m;
-  spec.direction = run.direction == models::dbb::Direction::ccw ? Direction::ccw : Direction::cw;
+  spec.direction = run.direction;
   spec.plane = run.plane == "xz" ? Plane::xz : (run.plane == "yz" ? Plane::yz : Plane::xy);
   spec.feed_m_per_s = run.feed_m_per_s;
   if (!run.angle_rad.empty()) spec.start_angle_rad = std::remainder(run.angle_rad.front(), 2.0 * 3.141592653589793);
@@ -69,7 +67,7 @@ JointCompensation joint_compensation(const std::vector<formats::CompTriplet>& ta
 }
 
 RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
-                             const std::vector<models::dbb::Run>& runs, const Vec3& center) {
+                             const std::vector<formats::DbbRun>& runs, const Vec3& center) {
   MachineConfig with = machine;
   with.controller = correction;
   const Machine plain(machine), compensated(with);
@@ -83,10 +81,10 @@ RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorre
         spec.seed = 0;
       }
     }
-    const std::string tag = std::to_string(k + 1) + (runs[k].direction == models::dbb::Direction::ccw ? "_ccw" : "_cw");
+    const std::string tag = std::to_string(k + 1) + (runs[k].direction == formats::DbbDirection::ccw ? "_ccw" : "_cw");
     for (auto* m : {&plain, &compensated}) {
       const bool after = m == &compensated;
-      models::dbb::Run run = simulate_dbb_run(*m, spec, (after ? "after_" : "before_") + tag);
+      formats::DbbRun run = simulate_dbb_run(*m, spec, (after ? "after_" : "before_") + tag);
       run.metadata.erase("start_time_s");
       run.metadata["compensation"] = after ? "after" : "before";
       (after ? out.after : out.before).push_back(std::move(run));

@@ -7,19 +7,19 @@
 #include <vector>
 
 #include "formats/compensation_files.hpp"
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::sim {
 
 // The run carries the commanded circle centre as center_a_mm / center_b_mm metadata (also when it is 0),
 // so tools that need machine positions (compensation tables) find it.
-models::dbb::Run simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec,
-                                  const std::string& source = "simulated");
+formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec,
+                                 const std::string& source = "simulated");
 
 // The circle test a run file describes (radius, height, direction, feed, plane, start angle), about
 // `center` (machine coordinates, m), so the same test can be traced again on the virtual machine.
-DbbCircleSpec circle_spec_of(const models::dbb::Run& run, const Vec3& center);
+DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center);
 
 // A LinuxCNC COMP_FILE_TYPE = 0 table (mm) as the controller's compensation of one joint.
 JointCompensation joint_compensation(const std::vector<formats::CompTriplet>& table);
@@ -28,9 +28,9 @@ JointCompensation joint_compensation(const std::vector<formats::CompTriplet>& ta
 // corrections (`after`), about `center`; the runs' `seed` metadata is reused, so runs simulated from
 // the same machine file are reproduced exactly in `before`.
 struct RemeasuredRuns {
-  std::vector<models::dbb::Run> before, after;
+  std::vector<formats::DbbRun> before, after;
 };
 RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
-                             const std::vector<models::dbb::Run>& runs, const Vec3& center);
+                             const std::vector<formats::DbbRun>& runs, const Vec3& center);
 
 }  // namespace guideway::sim

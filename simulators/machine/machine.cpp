@@ -297,7 +297,7 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
   const double omega = spec.feed_m_per_s / r;
   const double sweep = two_pi + 2.0 * spec.overshoot_rad;
   const double duration = sweep / omega;
-  const double sgn = spec.direction == Direction::ccw ? 1.0 : -1.0;
+  const double sgn = spec.direction == formats::DbbDirection::ccw ? 1.0 : -1.0;
   const double zeta0 = spec.start_angle_rad - sgn * spec.overshoot_rad;
   const Vector3d center = v(spec.center);
   const double rate = spec.sample_rate_hz > 0 ? spec.sample_rate_hz : omega * 180.0 / std::numbers::pi * 10.0;

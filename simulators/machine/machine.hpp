@@ -18,6 +18,8 @@
 #include <string_view>
 #include <vector>
 
+#include "formats/dbb_run.hpp"
+
 namespace guideway::sim {
 
 using Vec3 = std::array<double, 3>;  // x, y, z in metres (machine coordinates)
@@ -184,7 +186,6 @@ struct MotionSpec {
 };
 
 enum class Plane { xy, xz, yz };
-enum class Direction { ccw, cw };
 
 // A DBB circular test: the tool ball runs a circle of `radius` about `center` in `plane`; the fixed
 // ball sits `height` below it along the plane normal (Lai's h) and off by the configured centre
@@ -193,7 +194,7 @@ enum class Direction { ccw, cw };
 struct DbbCircleSpec {
   double radius_m = 0.1;
   double height_m = 0.0;
-  Direction direction = Direction::ccw;
+  formats::DbbDirection direction = formats::DbbDirection::ccw;
   Plane plane = Plane::xy;
   double feed_m_per_s = 1000.0 / 60000.0;  // 1000 mm/min
   double start_angle_rad = 0.0;

@@ -20,7 +20,6 @@ namespace guideway::sim::scenarios {
 
 using namespace models;  // the flatness models
 using namespace models::explain;
-namespace dbb = models::dbb;
 
 namespace {
 
@@ -43,7 +42,7 @@ sim::MachineConfig dbb_machine(std::uint64_t seed) {
 }
 
 struct DbbRunPlan {
-  sim::Direction direction = sim::Direction::ccw;
+  formats::DbbDirection direction = formats::DbbDirection::ccw;
   double feed_mm_per_min = 1000.0;
   double radius_mm = 100.0;
 };
@@ -54,7 +53,7 @@ struct DbbScenario {
   std::string concealment;
   std::function<void(sim::MachineConfig&)> inject;
   std::vector<Expectation> expected;
-  std::vector<DbbRunPlan> runs{{sim::Direction::ccw}, {sim::Direction::cw}};
+  std::vector<DbbRunPlan> runs{{formats::DbbDirection::ccw}, {formats::DbbDirection::cw}};
   double gap_s = 10.0;  // machine time between one run's end and the next one's start
   // Effects that live on a few samples (50 ms spikes, jerks), on a few hundredths of a um (the servo lag)
   // or on the difference between two radii (the bar's non-linearity) need the instrument's sample
@@ -67,7 +66,7 @@ struct DbbScenario {
 };
 
 DbbScenario sc(std::string name, std::string concealment, std::function<void(sim::MachineConfig&)> inject,
-               std::vector<Expectation> expected, std::vector<DbbRunPlan> runs = {{sim::Direction::ccw}, {sim::Direction::cw}},
+               std::vector<Expectation> expected, std::vector<DbbRunPlan> runs = {{formats::DbbDirection::ccw}, {formats::DbbDirection::cw}},
                double gap_s = 10.0) {
   DbbScenario s;
   s.name = std::move(name);
@@ -80,9 +79,9 @@ DbbScenario sc(std::string name, std::string concealment, std::function<void(sim
 }
 
 // Runs one after another on one machine clock (start_time_s metadata), gap_s apart.
-std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbScenario& sc, const ScenarioOptions& o) {
+std::vector<formats::DbbRun> dbb_runs(const sim::MachineConfig& cfg, const DbbScenario& sc, const ScenarioOptions& o) {
   const sim::Machine machine(cfg);
-  std::vector<dbb::Run> runs;
+  std::vector<formats::DbbRun> runs;
   double t0 = 0;
   for (std::size_t k = 0; k < sc.runs.size(); ++k) {
     sim::DbbCircleSpec spec;
@@ -93,7 +92,7 @@ std::vector<dbb::Run> dbb_runs(const sim::MachineConfig& cfg, const DbbScenario&
     spec.sample_rate_hz = omega * 180 / pi * (o.quick && !sc.full_density ? 3.0 : 10.0);
     spec.t0_s = t0;
     spec.seed = o.seed * 1000 + k + 1;
-    dbb::Run run = simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1));
+    formats::DbbRun run = simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1));
     run.metadata["start_time_s"] = printf_number("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
     runs.push_back(std::move(run));
     t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + sc.gap_s;
@@ -153,9 +152,9 @@ void nonlinear_bar(sim::MachineConfig& m) {
   m.dbb.nonlinearity_quadratic_per_m = 0.001 / um;
   m.dbb.nonlinearity_cubic_per_m2 = 2e-5 / (um * um);
 }
-const std::vector<DbbRunPlan> two_radii{{sim::Direction::ccw, 1000, 100}, {sim::Direction::cw, 1000, 100},
-                                        {sim::Direction::ccw, 1000, 50}, {sim::Direction::cw, 1000, 50}};
-std::vector<DbbRunPlan> both_at(double feed) { return {{sim::Direction::ccw, feed, 100}, {sim::Direction::cw, feed, 100}}; }
+const std::vector<DbbRunPlan> two_radii{{formats::DbbDirection::ccw, 1000, 100}, {formats::DbbDirection::cw, 1000, 100},
+                                        {formats::DbbDirection::ccw, 1000, 50}, {formats::DbbDirection::cw, 1000, 50}};
+std::vector<DbbRunPlan> both_at(double feed) { return {{formats::DbbDirection::ccw, feed, 100}, {formats::DbbDirection::cw, feed, 100}}; }
 
 const std::vector<DbbScenario>& dbb_scenarios() {
   using sim::MachineConfig;
@@ -260,11 +259,11 @@ const std::vector<DbbScenario>& dbb_scenarios() {
     v.push_back(sc("dbb_null", "nothing left out: geometric errors of the base and 0.4 um noise only", [](MachineConfig&) {}, {}));
     v.push_back(sc("dbb_null_feeds", "nothing left out; four runs, both directions at 500 and 2000 mm/min", [](MachineConfig&) {},
                  {},
-                 {{sim::Direction::ccw, 500, 100}, {sim::Direction::cw, 500, 100}, {sim::Direction::ccw, 2000, 100},
-                  {sim::Direction::cw, 2000, 100}}));
+                 {{formats::DbbDirection::ccw, 500, 100}, {formats::DbbDirection::cw, 500, 100}, {formats::DbbDirection::ccw, 2000, 100},
+                  {formats::DbbDirection::cw, 2000, 100}}));
     v.push_back(sc("dbb_null_three_runs", "nothing left out; three runs (ccw, cw, ccw): whole runs held out",
                  [](MachineConfig&) {}, {},
-                 {{sim::Direction::ccw}, {sim::Direction::cw}, {sim::Direction::ccw}}));
+                 {{formats::DbbDirection::ccw}, {formats::DbbDirection::cw}, {formats::DbbDirection::ccw}}));
     v.push_back(sc("dbb_null_noisy", "nothing left out; 1.5 um of bar noise", [](MachineConfig& m) { m.dbb.noise_m = 1.5 * um; }, {}));
     // Causes outside the library.
     {

@@ -9,10 +9,10 @@
 // as a run-out file and identified from that very text, so `guideway identify runout` on the derived
 // file gives the same result.
 
-#include "daemon/session.hpp"
+#include "sessions/session.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 SessionKind runout_session_kind();
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,4 +1,4 @@
-#include "daemon/session_support.hpp"
+#include "sessions/session_support.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -92,4 +92,4 @@ nlohmann::json explain_not_analysed(const std::string& model, const std::string&
           {"notes", nlohmann::json::array({"not analysed: " + reason})}};
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

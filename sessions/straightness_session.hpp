@@ -12,10 +12,10 @@
 // The station readings are written as a traverse file and identified from that very text, so
 // `guideway identify straightness` on the derived file gives the same result.
 
-#include "daemon/session.hpp"
+#include "sessions/session.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 SessionKind straightness_session_kind();
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 // Throws when `options` is not an object or has a key outside `known` (the message lists them).
 void check_option_names(const nlohmann::json& options, const std::string& kind,
@@ -32,4 +32,4 @@ std::vector<std::string> write_derived_text(const std::string& dir, const std::s
 // no analysis was run, so nothing is found and nothing is claimed explained; `not_analysed` says why.
 nlohmann::json explain_not_analysed(const std::string& model, const std::string& reason);
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,4 +1,4 @@
-#include "models/dbb/dbb_run.hpp"
+#include "formats/dbb_run.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -13,7 +13,7 @@
 
 #include "core/number_format.hpp"
 
-namespace guideway::models::dbb {
+namespace guideway::formats {
 
 namespace {
 
@@ -29,7 +29,7 @@ std::string trim(std::string_view s) {
 [[noreturn]] void fail(const std::string& source, std::size_t line, const std::string& msg) {
   std::string where = source;
   if (line != 0) where += ":" + std::to_string(line);
-  throw RunFormatError(where + ": " + msg);
+  throw DbbRunFormatError(where + ": " + msg);
 }
 
 bool parse_double(const std::string& s, double& out) {
@@ -66,7 +66,7 @@ std::vector<std::string> split(const std::string& line) {
   return out;
 }
 
-double meta_number(const Run& run, const std::map<std::string, std::size_t>& lines, const std::string& key,
+double meta_number(const DbbRun& run, const std::map<std::string, std::size_t>& lines, const std::string& key,
                    bool required, double fallback) {
   const auto it = run.metadata.find(key);
   if (it == run.metadata.end()) {
@@ -82,9 +82,9 @@ double meta_number(const Run& run, const std::map<std::string, std::size_t>& lin
 
 }  // namespace
 
-double Run::nominal_length_m() const { return std::sqrt(radius_m * radius_m + height_m * height_m); }
+double DbbRun::nominal_length_m() const { return std::sqrt(radius_m * radius_m + height_m * height_m); }
 
-void validate_run(const Run& run) {
+void validate_dbb_run(const DbbRun& run) {
   const std::string& src = run.source;
   if (!(run.radius_m > 0) || !std::isfinite(run.radius_m)) fail(src, 0, "radius_mm must be a positive number");
   if (!(run.height_m >= 0) || !std::isfinite(run.height_m)) fail(src, 0, "height_mm must be zero or positive");
@@ -139,8 +139,8 @@ void validate_run(const Run& run) {
   }
 }
 
-Run parse_run(const std::string& text, const std::string& source) {
-  Run run;
+DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
+  DbbRun run;
   run.source = source;
   std::map<std::string, std::size_t> meta_line;
   std::istringstream in(text);
@@ -201,9 +201,9 @@ Run parse_run(const std::string& text, const std::string& source) {
   (void)header_line;
   const auto fmt = run.metadata.find("format");
   if (fmt == run.metadata.end())
-    fail(source, 0, "missing metadata line `# format = " + std::string(run_format_id) + "`");
-  if (fmt->second != run_format_id)
-    fail(source, meta_line["format"], "format is \"" + fmt->second + "\", expected \"" + run_format_id + "\"");
+    fail(source, 0, "missing metadata line `# format = " + std::string(dbb_run_format_id) + "`");
+  if (fmt->second != dbb_run_format_id)
+    fail(source, meta_line["format"], "format is \"" + fmt->second + "\", expected \"" + dbb_run_format_id + "\"");
   run.radius_m = meta_number(run, meta_line, "radius_mm", true, 0) * 1e-3;
   run.height_m = meta_number(run, meta_line, "height_mm", true, 0) * 1e-3;
   run.feed_m_per_s = meta_number(run, meta_line, "feed_mm_per_min", true, 0) * 1e-3 / 60.0;
@@ -212,9 +212,9 @@ Run parse_run(const std::string& text, const std::string& source) {
   const auto d = run.metadata.find("direction");
   if (d == run.metadata.end()) fail(source, 0, "missing metadata line `# direction = ccw|cw`");
   if (d->second == "ccw") {
-    run.direction = Direction::ccw;
+    run.direction = DbbDirection::ccw;
   } else if (d->second == "cw") {
-    run.direction = Direction::cw;
+    run.direction = DbbDirection::cw;
   } else {
     fail(source, meta_line["direction"], "direction must be ccw or cw, got \"" + d->second + "\"");
   }
@@ -241,27 +241,27 @@ Run parse_run(const std::string& text, const std::string& source) {
     }
     run.angle_rad.push_back((angle_deg[i] + offset) * deg);
   }
-  validate_run(run);
+  validate_dbb_run(run);
   return run;
 }
 
-Run read_run(const std::string& path) {
+DbbRun read_dbb_run(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw RunFormatError(path + ": cannot open file");
+  if (!in) throw DbbRunFormatError(path + ": cannot open file");
   std::ostringstream s;
   s << in.rdbuf();
-  return parse_run(s.str(), path);
+  return parse_dbb_run(s.str(), path);
 }
 
-std::string format_run(const Run& run) {
+std::string format_dbb_run(const DbbRun& run) {
   std::ostringstream o;
   o << std::setprecision(10);
   auto meta = run.metadata;
   meta.erase("format");
-  o << "# format = " << run_format_id << "\n";
+  o << "# format = " << dbb_run_format_id << "\n";
   o << "# radius_mm = " << run.radius_m * 1e3 << "\n";
   o << "# height_mm = " << run.height_m * 1e3 << "\n";
-  o << "# direction = " << (run.direction == Direction::ccw ? "ccw" : "cw") << "\n";
+  o << "# direction = " << (run.direction == DbbDirection::ccw ? "ccw" : "cw") << "\n";
   o << "# feed_mm_per_min = " << run.feed_m_per_s * 60e3 << "\n";
   o << "# plane = " << run.plane << "\n";
   for (const char* k : {"radius_mm", "height_mm", "direction", "feed_mm_per_min", "plane"}) meta.erase(k);
@@ -287,17 +287,17 @@ std::string format_run(const Run& run) {
   return o.str() + rows;
 }
 
-void write_run(const Run& run, const std::string& path) {
+void write_dbb_run(const DbbRun& run, const std::string& path) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw RunFormatError(path + ": cannot open for writing: " + std::strerror(errno));
-  out << format_run(run);
+  if (!out) throw DbbRunFormatError(path + ": cannot open for writing: " + std::strerror(errno));
+  out << format_dbb_run(run);
   out.flush();
   if (!out) {
     const int err = errno;
     out.close();
     std::remove(path.c_str());  // a truncated run would read as a shorter, wrong one
-    throw RunFormatError(path + ": write failed: " + std::strerror(err));
+    throw DbbRunFormatError(path + ": write failed: " + std::strerror(err));
   }
 }
 
-}  // namespace guideway::models::dbb
+}  // namespace guideway::formats

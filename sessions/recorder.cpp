@@ -1,4 +1,4 @@
-#include "daemon/recorder.hpp"
+#include "sessions/recorder.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -12,29 +12,15 @@
 #include <stdexcept>
 
 #include "core/mono_clock.hpp"
-#include "core/number_format.hpp"
 #include "core/utc_time.hpp"
+#include "formats/raw_recording.hpp"
 
-namespace guideway::daemon {
-
-namespace {
-
-// Metadata values are one line each: a newline would end the header.
-std::string one_line(std::string s) {
-  for (char& c : s) {
-    if (c == '\n' || c == '\r') c = ' ';
-  }
-  return s;
-}
-
-std::string column_name(const drivers::ChannelInfo& c) { return c.name + "_" + c.unit; }
-
-}  // namespace
+namespace guideway::sessions {
 
 RawRecorder::RawRecorder(const std::string& dir, const std::string& name, const drivers::Driver& device,
                          const std::map<std::string, std::string>& metadata, RecorderOptions options)
-    : part_path_(dir + "/" + name + ".csv.part"),
-      final_path_(dir + "/" + name + ".csv"),
+    : part_path_(formats::raw_recording_part_path(dir, name)),
+      final_path_(formats::raw_recording_path(dir, name)),
       channel_count_(device.channels().size()),
       options_(options),
       ring_(options.ring_capacity),
@@ -44,16 +30,14 @@ RawRecorder::RawRecorder(const std::string& dir, const std::string& name, const 
   if (ec) throw std::runtime_error("cannot create recording directory " + dir + ": " + ec.message());
   fd_ = ::open(part_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, recording_file_mode);
   if (fd_ < 0) throw std::runtime_error("cannot create recording " + part_path_ + ": " + std::strerror(errno));
-  std::string header = "# format = guideway/raw/1\n";
-  header += "# device = " + one_line(device.name()) + "\n";
-  header += "# driver = " + one_line(device.driver()) + "\n";
-  header += "# started_utc = " + utc_now_iso_ms() + "\n";
-  header += "# started_mono_ns = " + std::to_string(mono_now_ns()) + "\n";
-  for (const auto& [k, v] : metadata) header += "# " + one_line(k) + " = " + one_line(v) + "\n";
-  header += "t_mono_ns,seq,flags";
-  for (const auto& c : device.channels()) header += "," + column_name(c);
-  header += "\n";
-  pending_ = std::move(header);
+  formats::RawRecordingHeader header;
+  header.device = device.name();
+  header.driver = device.driver();
+  header.started_utc = utc_now_iso_ms();
+  header.started_mono_ns = mono_now_ns();
+  header.metadata = metadata;
+  for (const auto& c : device.channels()) header.channels.push_back({c.name, c.unit});
+  pending_ = formats::format_raw_header(header);
   write_pending();  // the header is on disk before the first sample
   thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
 }
@@ -86,19 +70,7 @@ void RawRecorder::drain_and_write() {
       stats_.samples_lost += n;  // the disk has refused writes for long: memory is bounded
       continue;
     }
-    for (std::size_t i = 0; i < n; ++i) {
-      const Sample& s = batch_[i];
-      pending_ += std::to_string(s.t_mono_ns);
-      pending_ += ',';
-      pending_ += std::to_string(s.seq);
-      pending_ += ',';
-      pending_ += std::to_string(s.flags);
-      for (std::size_t c = 0; c < channel_count_; ++c) {
-        pending_ += ',';
-        if (c < s.value_count) append_shortest(pending_, s.value[c]);
-      }
-      pending_ += '\n';
-    }
+    for (std::size_t i = 0; i < n; ++i) formats::append_raw_row(pending_, batch_[i], channel_count_);
     std::lock_guard lock(stats_mutex_);
     stats_.samples_written += n;
   }
@@ -132,11 +104,11 @@ std::string RawRecorder::close(bool complete, const std::map<std::string, std::s
   if (thread_.joinable()) thread_.join();
   drain_and_write();
   const RecorderStats s = stats();
-  pending_ += "# end = " + std::string(complete ? "complete" : "aborted") + "\n";
-  pending_ += "# ended_utc = " + utc_now_iso_ms() + "\n";
-  pending_ += "# samples = " + std::to_string(s.samples_written) + "\n";
-  pending_ += "# samples_lost = " + std::to_string(s.samples_lost + ring_.drops()) + "\n";
-  for (const auto& [k, v] : trailer) pending_ += "# " + one_line(k) + " = " + one_line(v) + "\n";
+  pending_ += formats::format_raw_trailer({.complete = complete,
+                                           .ended_utc = utc_now_iso_ms(),
+                                           .samples = s.samples_written,
+                                           .samples_lost = s.samples_lost + ring_.drops(),
+                                           .metadata = trailer});
   write_pending();
   const bool written = pending_.empty();
   const bool synced = ::fsync(fd_) == 0;
@@ -176,4 +148,4 @@ std::string RawRecorder::error() const {
   return error_;
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,12 +1,11 @@
-#include "daemon/profile_session.hpp"
+#include "sessions/profile_session.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "core/number_format.hpp"
-#include "daemon/recorder.hpp"
-#include "daemon/session_support.hpp"
+#include "sessions/session_support.hpp"
 #include "formats/profile_files.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
 #include "dsp/denoise.hpp"
@@ -15,7 +14,7 @@
 #include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -286,4 +285,4 @@ SessionKind profile_session_kind() {
           }};
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

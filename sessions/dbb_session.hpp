@@ -9,10 +9,10 @@
 // direction from the sign of the swept angle, and the central 360 deg of the swept arc is kept (the
 // feed-in/feed-out overshoot arcs are dropped). dL = bar reading - sqrt(r^2 + h^2).
 
-#include "daemon/session.hpp"
+#include "sessions/session.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 SessionKind dbb_session_kind();
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,17 +1,17 @@
-#include "daemon/dbb_session.hpp"
+#include "sessions/dbb_session.hpp"
 
 #include <cmath>
 #include <numbers>
 #include <optional>
 #include <sstream>
 
-#include "daemon/session_support.hpp"
-#include "models/dbb/dbb_run.hpp"
+#include "sessions/session_support.hpp"
+#include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
 #include "models/explain/dbb_explain.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -21,7 +21,7 @@ constexpr double pi = std::numbers::pi;
 struct Pattern {
   double radius_m;
   double height_m;
-  mdbb::Direction direction;
+  formats::DbbDirection direction;
 };
 
 struct DbbOptions {
@@ -34,8 +34,8 @@ struct DbbOptions {
 // Lai's three patterns (Tables 2 and 4): one 100 mm bar, socket height 31.225 mm at r = 95 mm in
 // both directions, and h = 0 at r = 100 mm counter-clockwise.
 std::vector<Pattern> lai_patterns() {
-  return {{95e-3, 31.225e-3, mdbb::Direction::cw}, {95e-3, 31.225e-3, mdbb::Direction::ccw},
-          {100e-3, 0.0, mdbb::Direction::ccw}};
+  return {{95e-3, 31.225e-3, formats::DbbDirection::cw}, {95e-3, 31.225e-3, formats::DbbDirection::ccw},
+          {100e-3, 0.0, formats::DbbDirection::ccw}};
 }
 
 DbbOptions parse_options(const nlohmann::json& o) {
@@ -60,10 +60,10 @@ DbbOptions parse_options(const nlohmann::json& o) {
   for (const auto& p : *it) {
     if (!p.is_object()) throw std::invalid_argument("each pattern must be an object {radius_mm, height_mm, direction}");
     Pattern pat{number_option(p, "radius_mm", 100.0, 1.0, 2000.0) * 1e-3,
-                number_option(p, "height_mm", 0.0, 0.0, 2000.0) * 1e-3, mdbb::Direction::ccw};
+                number_option(p, "height_mm", 0.0, 0.0, 2000.0) * 1e-3, formats::DbbDirection::ccw};
     const std::string dir = p.value("direction", "ccw");
     if (dir != "ccw" && dir != "cw") throw std::invalid_argument("pattern direction must be \"ccw\" or \"cw\"");
-    pat.direction = dir == "ccw" ? mdbb::Direction::ccw : mdbb::Direction::cw;
+    pat.direction = dir == "ccw" ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
     d.patterns.push_back(pat);
   }
   return d;
@@ -169,9 +169,9 @@ class DbbSession : public Session {
   nlohmann::json identify() override {
     if (!segment_.empty()) close_segment();  // a stop in the middle of a circle keeps what is complete
     // Identified from exactly what the run files hold, so `guideway identify dbb` on them agrees.
-    std::vector<mdbb::Run> runs;
+    std::vector<formats::DbbRun> runs;
     for (const auto& r : runs_) {
-      if (r) runs.push_back(mdbb::parse_run(mdbb::format_run(*r), r->source));
+      if (r) runs.push_back(formats::parse_dbb_run(formats::format_dbb_run(*r), r->source));
     }
     if (runs.empty()) {
       throw std::runtime_error("no complete DBB circle was traced" + (last_note_.empty() ? "" : " (" + last_note_ + ")"));
@@ -198,7 +198,7 @@ class DbbSession : public Session {
     std::ostringstream p;
     for (const auto& pat : options_.patterns) {
       p << (p.tellp() > 0 ? "; " : "") << "r=" << pat.radius_m * 1e3 << "mm h=" << pat.height_m * 1e3
-        << "mm " << (pat.direction == mdbb::Direction::ccw ? "ccw" : "cw");
+        << "mm " << (pat.direction == formats::DbbDirection::ccw ? "ccw" : "cw");
     }
     return {{"patterns", p.str()}, {"plane", options_.plane}};
   }
@@ -208,7 +208,7 @@ class DbbSession : public Session {
     for (std::size_t i = 0; i < runs_.size(); ++i) {
       if (!runs_[i]) continue;
       const std::string path = dir + "/" + base_name + ".run" + std::to_string(i + 1) + ".csv";
-      mdbb::write_run(*runs_[i], path);
+      formats::write_dbb_run(*runs_[i], path);
       out.push_back(path);
     }
     return out;
@@ -251,7 +251,7 @@ class DbbSession : public Session {
       last_note_ = o.str();
       return;
     }
-    const auto dir = span > 0 ? mdbb::Direction::ccw : mdbb::Direction::cw;
+    const auto dir = span > 0 ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
     std::size_t match = runs_.size();
     for (std::size_t i = 0; i < options_.patterns.size(); ++i) {
       const Pattern& pat = options_.patterns[i];
@@ -262,7 +262,7 @@ class DbbSession : public Session {
     }
     if (match == runs_.size()) {
       std::ostringstream o;
-      o << "a " << (dir == mdbb::Direction::ccw ? "ccw" : "cw") << " circle of r = " << r * 1e3
+      o << "a " << (dir == formats::DbbDirection::ccw ? "ccw" : "cw") << " circle of r = " << r * 1e3
         << " mm matches no pattern still to trace";
       last_note_ = o.str();
       return;
@@ -271,7 +271,7 @@ class DbbSession : public Session {
     const double mid = 0.5 * (angle.front() + angle.back());
     const double lo = mid - pi * static_cast<int>(dir), hi = mid + pi * static_cast<int>(dir);
     const Pattern& pat = options_.patterns[match];
-    mdbb::Run run;
+    formats::DbbRun run;
     run.source = "pattern " + std::to_string(match + 1);
     run.radius_m = pat.radius_m;
     run.height_m = pat.height_m;
@@ -292,10 +292,10 @@ class DbbSession : public Session {
     run.feed_m_per_s = duration > 0 ? 2 * pi * r / duration : 0.0;
     std::ostringstream feed;
     feed << run.feed_m_per_s * 60e3;
-    run.metadata = {{"format", mdbb::run_format_id},
+    run.metadata = {{"format", formats::dbb_run_format_id},
                     {"radius_mm", std::to_string(pat.radius_m * 1e3)},
                     {"height_mm", std::to_string(pat.height_m * 1e3)},
-                    {"direction", dir == mdbb::Direction::ccw ? "ccw" : "cw"},
+                    {"direction", dir == formats::DbbDirection::ccw ? "ccw" : "cw"},
                     {"feed_mm_per_min", feed.str()},
                     {"plane", options_.plane},
                     {"measured_radius_mm", std::to_string(r * 1e3)},
@@ -306,8 +306,8 @@ class DbbSession : public Session {
                     // EXPLAIN then needs no drive delay (docs/explain.md).
                     {"angle_source", "encoders"}};
     try {
-      mdbb::validate_run(run);
-    } catch (const mdbb::RunFormatError& e) {
+      formats::validate_dbb_run(run);
+    } catch (const formats::DbbRunFormatError& e) {
       last_note_ = std::string("pattern ") + std::to_string(match + 1) + " rejected: " + e.what();
       return;
     }
@@ -316,14 +316,14 @@ class DbbSession : public Session {
   }
 
   DbbOptions options_;
-  std::vector<mdbb::Run> identified_;  // what identify() fitted, for explain()
+  std::vector<formats::DbbRun> identified_;  // what identify() fitted, for explain()
   int bar_ = -1, axis_a_ = -1, axis_b_ = -1;
   double t0_ = -1;
   Point last_{};
   bool have_last_ = false;
   int still_ = 0;
   std::vector<Point> segment_;
-  std::vector<std::optional<mdbb::Run>> runs_;
+  std::vector<std::optional<formats::DbbRun>> runs_;
   std::string last_note_;
 };
 
@@ -339,4 +339,4 @@ SessionKind dbb_session_kind() {
           }};
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,16 +1,15 @@
-#include "daemon/straightness_session.hpp"
+#include "sessions/straightness_session.hpp"
 
 #include <cmath>
 #include <sstream>
 
 #include "core/number_format.hpp"
-#include "daemon/recorder.hpp"
-#include "daemon/session_support.hpp"
+#include "sessions/session_support.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/straightness.hpp"
-#include "models/flatness/table_reader.hpp"
+#include "core/csv_table.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -296,4 +295,4 @@ SessionKind straightness_session_kind() {
           }};
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

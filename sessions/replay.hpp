@@ -9,9 +9,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "daemon/session.hpp"
+#include "sessions/session.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 struct ReplayResult {
   // The PARAMS message (identified parameters, plus class, session, kind, device, samples and
@@ -32,4 +32,4 @@ struct ReplayResult {
 // kind this build does not know, or options the kind refuses.
 ReplayResult replay_recording(const std::string& path, const SessionRegistry& registry);
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -11,10 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "daemon/session.hpp"
+#include "sessions/session.hpp"
 #include "formats/profile_files.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 struct ProfileEvaluationOptions {
   std::string wavelet = "db1";
@@ -28,4 +28,4 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
 
 SessionKind profile_session_kind();
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

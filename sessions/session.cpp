@@ -1,8 +1,8 @@
-#include "daemon/session.hpp"
+#include "sessions/session.hpp"
 
 #include <algorithm>
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 void SessionRegistry::add(SessionKind kind) {
   auto it = std::find_if(kinds_.begin(), kinds_.end(), [&](const SessionKind& k) { return k.kind == kind.kind; });
@@ -24,4 +24,4 @@ std::vector<std::string> SessionRegistry::kinds() const {
   return out;
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

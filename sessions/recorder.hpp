@@ -22,7 +22,7 @@
 #include "core/spsc_ring.hpp"
 #include "drivers/driver.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 // Every file a session leaves (raw recording, derived, explain, report): rw for the daemon, r for its
 // group, whatever the umask.
@@ -85,4 +85,4 @@ class RawRecorder {
   std::jthread thread_;
 };
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -4,6 +4,7 @@
 // once), then fed on the pipeline thread with its device's samples, and identified on a worker
 // thread when it completes or is stopped.
 
+#include <cstddef>
 #include <functional>
 #include <map>
 #include <memory>
@@ -18,7 +19,11 @@
 #include "core/sample.hpp"
 #include "drivers/driver.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
+
+// Most samples a session is given in one on_samples() call: the daemon's pipeline takes this many from
+// a ring at once, and a replay feeds a recording in the same pieces, so both run the same calls.
+inline constexpr std::size_t max_feed_batch = 512;
 
 struct SessionRequest {
   std::string kind;      // "dbb", "straightness", "runout", "profile", ...
@@ -72,4 +77,4 @@ class SessionRegistry {
   std::vector<SessionKind> kinds_;
 };
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -2,10 +2,10 @@
 // The test-session kinds guidewayd offers (dbb, straightness, runout, profile), each implemented next
 // to its model and registered here.
 
-#include "daemon/session.hpp"
+#include "sessions/session.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 void register_builtin_sessions(SessionRegistry& registry);
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,15 +1,14 @@
-#include "daemon/runout_session.hpp"
+#include "sessions/runout_session.hpp"
 
 #include <cmath>
 #include <sstream>
 
 #include "core/number_format.hpp"
-#include "daemon/recorder.hpp"
-#include "daemon/session_support.hpp"
+#include "sessions/session_support.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 
-namespace guideway::daemon {
+namespace guideway::sessions {
 
 namespace {
 
@@ -164,4 +163,4 @@ SessionKind runout_session_kind() {
           }};
 }
 
-}  // namespace guideway::daemon
+}  // namespace guideway::sessions

@@ -1,0 +1,94 @@
+#include "sessions/replay.hpp"
+
+#include <algorithm>
+#include <span>
+#include <stdexcept>
+
+#include "formats/raw_recording.hpp"
+
+namespace guideway::sessions {
+
+namespace {
+
+// The device of a recording: its name, driver and channels, never started.
+class RecordedDevice : public drivers::Driver {
+ public:
+  RecordedDevice(std::string name, std::string driver, std::vector<drivers::ChannelInfo> channels)
+      : Driver(std::move(name), std::move(driver), std::move(channels), 2) {}
+
+ protected:
+  void run(std::stop_token) override {}
+};
+
+nlohmann::json json_meta(const formats::RawRecording& r, const std::string& key, nlohmann::json fallback) {
+  const auto it = r.metadata.find(key);
+  if (it == r.metadata.end()) return fallback;
+  auto j = nlohmann::json::parse(it->second, nullptr, false);
+  if (j.is_discarded()) throw std::runtime_error(r.path + ": header \"" + key + "\" is not valid JSON");
+  return j;
+}
+
+}  // namespace
+
+ReplayResult replay_recording(const std::string& path, const SessionRegistry& registry) {
+  const formats::RawRecording recording = formats::read_raw_recording(path);
+  ReplayResult result;
+  result.complete = recording.complete;
+  result.end_marker = recording.end_marker;
+  result.samples_lost = recording.samples_lost;
+  result.dropped_partial_line = recording.dropped_partial_line;
+
+  std::vector<drivers::ChannelInfo> channels;
+  for (const auto& c : recording.channels) channels.push_back({c.name, c.unit});
+  const RecordedDevice device(recording.device, recording.driver, channels);
+  const std::string kind_name = recording.required("kind");
+  const SessionKind* kind = registry.find(kind_name);
+  if (kind == nullptr) throw std::runtime_error(path + ": session kind \"" + kind_name + "\" is unknown to this build");
+  SessionRequest request{kind_name, device.name(), json_meta(recording, "options", nlohmann::json::object())};
+  std::unique_ptr<Session> session;
+  try {
+    session = kind->create(request, device);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(path + ": the recorded options are refused: " + e.what());
+  }
+  // Sessions see the raw samples (a recording made before they did has a `processing` header: its live
+  // session assembled the denoised stream, so its published result may differ from this one).
+  if (recording.metadata.count("processing") > 0)
+    result.note = "recorded when sessions assembled the processed stream; replayed from the raw samples";
+
+  // The samples in the pieces the pipeline feeds a live session in.
+  const std::span<const Sample> samples(recording.samples);
+  for (std::size_t offset = 0; offset < samples.size(); offset += max_feed_batch) {
+    const auto batch = samples.subspan(offset, std::min(max_feed_batch, samples.size() - offset));
+    session->on_samples(batch);
+    result.samples += batch.size();
+  }
+
+  try {
+    result.params = session->identify();
+  } catch (const std::exception& e) {
+    result.failure = e.what();
+    return result;
+  }
+  result.params["class"] = "PARAMS";
+  result.params["session"] = recording.required("session");
+  result.params["kind"] = kind_name;
+  result.params["device"] = device.name();
+  result.params["samples"] = result.samples;
+  result.params["replayed_from"] = path;
+  try {
+    if (auto report = session->explain()) {
+      result.explain = std::move(*report);
+      result.explain["class"] = "EXPLAIN";
+      result.explain["session"] = result.params["session"];
+      result.explain["kind"] = kind_name;
+      result.explain["device"] = device.name();
+      result.explain["replayed_from"] = path;
+    }
+  } catch (const std::exception& e) {
+    result.explain_failure = e.what();
+  }
+  return result;
+}
+
+}  // namespace guideway::sessions
