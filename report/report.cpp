@@ -1,5 +1,6 @@
 #include "report/report.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <sstream>
@@ -7,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/csv_table.hpp"
+#include "formats/dbb_run.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
 
@@ -126,13 +128,31 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
     std::string html;
     switch (kind) {
       case InputKind::dbb_run: {
-        if (dbb_done) continue;  // all runs go into the first DBB section
-        std::vector<std::string> runs;
-        for (const auto& [p, k] : items)
-          if (k == InputKind::dbb_run) runs.push_back(p);
-        html = dbb_section(runs, id);
+        if (dbb_done) continue;  // all runs go into the first DBB section(s)
+        // Runs are identified together, except runs of a compensation check (`compensation = before|after`
+        // metadata, guideway compensate --verify): one section per stage, so before and after sit side by side.
+        std::vector<std::pair<std::string, std::vector<std::string>>> groups;
+        for (const auto& [p, k] : items) {
+          if (k != InputKind::dbb_run) continue;
+          std::string stage;
+          try {
+            const auto run = formats::read_dbb_run(p);
+            if (const auto f = run.metadata.find("compensation"); f != run.metadata.end()) stage = f->second;
+          } catch (const std::exception&) {
+            // dbb_section reports the file's error
+          }
+          auto g = std::find_if(groups.begin(), groups.end(), [&](const auto& e) { return e.first == stage; });
+          if (g == groups.end()) g = groups.insert(groups.end(), {stage, {}});
+          g->second.push_back(p);
+        }
+        for (std::size_t n = 0; n < groups.size(); ++n) {
+          const auto& [stage, runs] = groups[n];
+          const std::string gid = n == 0 ? id : next_id(kind_name(kind));
+          body << dbb_section(runs, gid);
+          toc.push_back({gid, "Double ball bar (" + std::to_string(runs.size()) + " runs" +
+                                  (stage.empty() ? std::string() : ", " + stage + " compensation") + ")"});
+        }
         dbb_done = true;
-        toc.push_back({id, "Double ball bar (" + std::to_string(runs.size()) + " runs)"});
         break;
       }
       case InputKind::straightness:

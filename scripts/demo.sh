@@ -63,6 +63,19 @@ for _ in $(seq 1 100); do
 done
 "$bin/cli/guideway" explain --latest --kind dbb --machine "$machine" || true
 echo
+echo "== guideway compensate dbb --verify   (an in-plane CCW/CW circle at 250 mm/min on $machine,"
+echo "   LinuxCNC tables from it, then the same test on the machine with the tables loaded; docs/compensation.md)"
+comp_dir="$run_dir/compensation-demo"
+mkdir -p "$comp_dir"
+for direction in ccw cw; do
+  "$bin/cli/guideway" simulate dbb --machine "$machine" --radius-mm 100 --feed-mm-per-min 250 \
+    --direction "$direction" --out "$comp_dir/$direction.csv" >/dev/null
+done
+"$bin/cli/guideway" compensate dbb "$comp_dir/ccw.csv" "$comp_dir/cw.csv" --out-dir "$comp_dir/comp" \
+  --verify --machine "$machine"
+"$bin/cli/guideway" report "$comp_dir"/comp/verify/*.csv --out "$comp_dir/before-after.html"
+echo "== before/after polar plots: open $comp_dir/before-after.html in a browser"
+echo
 echo "== guideway recordings"
 "$bin/cli/guideway" recordings
 report_file=$(ls -t "${XDG_STATE_HOME:-$HOME/.local/state}"/guideway/*.report.html 2>/dev/null | head -1 || true)

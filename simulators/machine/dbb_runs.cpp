@@ -1,6 +1,9 @@
 #include "simulators/machine/dbb_runs.hpp"
 
+#include <cmath>
 #include <sstream>
+
+#include "core/number_format.hpp"
 
 namespace guideway::sim {
 
@@ -17,6 +20,8 @@ formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& sp
   const int b = spec.plane == sim::Plane::xy ? 1 : 2;
   run.center_a_m = spec.center[static_cast<std::size_t>(a)];
   run.center_b_m = spec.center[static_cast<std::size_t>(b)];
+  run.metadata["center_a_mm"] = shortest(run.center_a_m * 1e3);
+  run.metadata["center_b_mm"] = shortest(run.center_b_m * 1e3);
   run.metadata["machine"] = machine.config().name;
   std::ostringstream seed;
   seed << spec.seed;
@@ -37,6 +42,55 @@ formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& sp
   start << t_start;
   run.metadata["start_time_s"] = start.str();
   return run;
+}
+
+DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center) {
+  DbbCircleSpec spec;
+  spec.radius_m = run.radius_m;
+  spec.height_m = run.height_m;
+  spec.direction = run.direction;
+  spec.plane = run.plane == "xz" ? Plane::xz : (run.plane == "yz" ? Plane::yz : Plane::xy);
+  spec.feed_m_per_s = run.feed_m_per_s;
+  if (!run.angle_rad.empty()) spec.start_angle_rad = std::remainder(run.angle_rad.front(), 2.0 * 3.141592653589793);
+  spec.center = center;
+  return spec;
+}
+
+JointCompensation joint_compensation(const std::vector<formats::CompTriplet>& table) {
+  JointCompensation c;
+  for (const auto& t : table) {
+    c.nominal_m.push_back(t.nominal_mm * 1e-3);
+    c.forward_m.push_back(t.forward_mm * 1e-3);
+    c.reverse_m.push_back(t.reverse_mm * 1e-3);
+  }
+  return c;
+}
+
+RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                             const std::vector<formats::DbbRun>& runs, const Vec3& center) {
+  MachineConfig with = machine;
+  with.controller = correction;
+  const Machine plain(machine), compensated(with);
+  RemeasuredRuns out;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    DbbCircleSpec spec = circle_spec_of(runs[k], center);
+    if (const auto s = runs[k].metadata.find("seed"); s != runs[k].metadata.end()) {
+      try {
+        spec.seed = std::stoull(s->second);
+      } catch (const std::exception&) {
+        spec.seed = 0;
+      }
+    }
+    const std::string tag = std::to_string(k + 1) + (runs[k].direction == formats::DbbDirection::ccw ? "_ccw" : "_cw");
+    for (auto* m : {&plain, &compensated}) {
+      const bool after = m == &compensated;
+      formats::DbbRun run = simulate_dbb_run(*m, spec, (after ? "after_" : "before_") + tag);
+      run.metadata.erase("start_time_s");
+      run.metadata["compensation"] = after ? "after" : "before";
+      (after ? out.after : out.before).push_back(std::move(run));
+    }
+  }
+  return out;
 }
 
 }  // namespace guideway::sim

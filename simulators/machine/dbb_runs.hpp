@@ -1,12 +1,36 @@
 #pragma once
 // DBB runs from the virtual machine tool, in the run-file form the identification reads (only the
-// 360 deg data arc; overshoot arcs are dropped). Thread safe.
+// 360 deg data arc; overshoot arcs are dropped), and the virtual machine under a controller's
+// compensation tables (LinuxCNC files, as `guideway compensate --verify` proves them). Thread safe.
 
+#include <string>
+#include <vector>
+
+#include "formats/compensation_files.hpp"
 #include "formats/dbb_run.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::sim {
 
-formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source = "simulated");
+// The run carries the commanded circle centre as center_a_mm / center_b_mm metadata (also when it is 0),
+// so tools that need machine positions (compensation tables) find it.
+formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec,
+                                 const std::string& source = "simulated");
+
+// The circle test a run file describes (radius, height, direction, feed, plane, start angle), about
+// `center` (machine coordinates, m), so the same test can be traced again on the virtual machine.
+DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center);
+
+// A LinuxCNC COMP_FILE_TYPE = 0 table (mm) as the controller's compensation of one joint.
+JointCompensation joint_compensation(const std::vector<formats::CompTriplet>& table);
+
+// Each run's test traced again on the machine, without (`before`) and with the controller's
+// corrections (`after`), about `center`; the runs' `seed` metadata is reused, so runs simulated from
+// the same machine file are reproduced exactly in `before`.
+struct RemeasuredRuns {
+  std::vector<formats::DbbRun> before, after;
+};
+RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                             const std::vector<formats::DbbRun>& runs, const Vec3& center);
 
 }  // namespace guideway::sim

@@ -129,6 +129,19 @@ double Polynomial::derivative(double u) const noexcept {
   return acc;
 }
 
+double JointCompensation::correction_m(double commanded_m, int direction) const noexcept {
+  if (nominal_m.empty() || forward_m.size() != nominal_m.size() || reverse_m.size() != nominal_m.size()) return 0.0;
+  const auto& actual = direction < 0 ? reverse_m : forward_m;
+  if (commanded_m <= nominal_m.front()) return nominal_m.front() - actual.front();
+  if (commanded_m >= nominal_m.back()) return nominal_m.back() - actual.back();
+  const auto hi =
+      static_cast<std::size_t>(std::upper_bound(nominal_m.begin(), nominal_m.end(), commanded_m) - nominal_m.begin());
+  const std::size_t lo = hi - 1;
+  const double f = (commanded_m - nominal_m[lo]) / (nominal_m[hi] - nominal_m[lo]);
+  const double trim_lo = nominal_m[lo] - actual[lo], trim_hi = nominal_m[hi] - actual[hi];
+  return trim_lo + f * (trim_hi - trim_lo);
+}
+
 Machine::Machine(MachineConfig config) : config_(std::move(config)) {}
 
 Vec3 Machine::tool_point(const Vec3& axis_position, double t_s) const {
@@ -154,8 +167,26 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
   out.reserve(n_out);
 
   Vec3 cmd = spec.path(0.0);
-  Vec3 servo = cmd;
-  Vec3 bl = cmd;  // position after the backlash deadband
+  // The controller's compensation: the motor command is the commanded position plus the table's trim
+  // for the direction of the commanded velocity (the first move's direction at the start).
+  int comp_dir[3] = {1, 1, 1};
+  {
+    const Vec3 first = spec.path(dt);
+    for (std::size_t j = 0; j < 3; ++j)
+      if (first[j] < cmd[j]) comp_dir[j] = -1;
+  }
+  const auto& ctl = config_.controller;
+  const auto motor_command = [&](const Vec3& c) {
+    Vec3 m = c;
+    m[0] -= ctl.skew.xy * c[1] + ctl.skew.xz * c[2];
+    m[1] -= ctl.skew.yz * c[2];
+    for (std::size_t j = 0; j < 3; ++j)
+      if (!ctl.tables[j].empty()) m[j] += ctl.tables[j].correction_m(m[j], comp_dir[j]);
+    return m;
+  };
+  Vec3 motor = motor_command(cmd);
+  Vec3 servo = motor;
+  Vec3 bl = motor;  // position after the backlash deadband
   int dir[3] = {0, 0, 0};
   double t_rev[3] = {-1e30, -1e30, -1e30};
   int spike_sign[3] = {0, 0, 0};
@@ -200,15 +231,20 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
       const double t_rel = (static_cast<double>(k - 1) * sub + q) * dt;
       const Vec3 next = spec.path(t_rel);
       for (std::size_t j = 0; j < 3; ++j) {
+        const double step = next[j] - cmd[j];
+        if (std::abs(step) > 1e-13) comp_dir[j] = step > 0 ? 1 : -1;
+      }
+      const Vec3 motor_next = motor_command(next);
+      for (std::size_t j = 0; j < 3; ++j) {
         const auto& e = config_.axis[j];
         const double before = servo[j];
         if (e.servo_lag_s > 0) {
           // Exact response of a first-order lag to a ramp input over the step.
           const double tau = e.servo_lag_s;
-          const double m = (next[j] - cmd[j]) / dt;
-          servo[j] = next[j] - tau * m + (servo[j] - cmd[j] + tau * m) * std::exp(-dt / tau);
+          const double m = (motor_next[j] - motor[j]) / dt;
+          servo[j] = motor_next[j] - tau * m + (servo[j] - motor[j] + tau * m) * std::exp(-dt / tau);
         } else {
-          servo[j] = next[j];
+          servo[j] = motor_next[j];
         }
         const double half = 0.5 * e.backlash_m;
         if (servo[j] - bl[j] > half) bl[j] = servo[j] - half;
@@ -224,6 +260,7 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
         }
       }
       cmd = next;
+      motor = motor_next;
     }
     emit(static_cast<double>(k) * dt_out);
   }

@@ -121,6 +121,28 @@ struct SensorNoise {
   double position_m = 0.0;  // white vibration of the tool point (all three directions)
 };
 
+// A controller's per-joint compensation table, as LinuxCNC applies one (COMP_FILE_TYPE = 0): at each
+// nominal joint position, the actual position the joint reaches moving + and moving -. The controller
+// adds nominal - actual, interpolated linearly, to the commanded joint position, chosen by the sign of
+// the commanded velocity (the last sign is kept while the joint stands still), so the actual position
+// reaches the nominal. Outside the table the end values hold. Empty = no compensation.
+struct JointCompensation {
+  std::vector<double> nominal_m;  // strictly ascending
+  std::vector<double> forward_m;  // actual position moving +
+  std::vector<double> reverse_m;  // moving -
+  [[nodiscard]] bool empty() const noexcept { return nominal_m.empty(); }
+  // What the controller adds to the commanded position (m) moving in `direction` (+1 / -1).
+  [[nodiscard]] double correction_m(double commanded_m, int direction) const noexcept;
+};
+
+// What the controller corrects: per-joint tables (by axis x, y, z; applied last, on the joint
+// commands) and an axis-skew correction of the squareness (applied first, as a controller's skew
+// option or kinematics would: commanded x -= xy * y + xz * z, y -= yz * z, with the signs of Squareness).
+struct ControllerCorrection {
+  std::array<JointCompensation, 3> tables;
+  Squareness skew;
+};
+
 struct MachineConfig {
   std::string name = "virtual";
   std::array<AxisErrors, 3> axis;  // indexed by Axis
@@ -129,6 +151,9 @@ struct MachineConfig {
   SpindleErrors spindle;
   SensorNoise noise;
   Vec3 tool_offset{};  // tool point in the Z carriage frame at zero (m); non-zero gives Abbe arms
+  // The controller's corrections (not part of a machine file; sim::remeasure_dbb loads them); they act
+  // in simulate_motion and so in every dynamic query.
+  ControllerCorrection controller;
 };
 
 // Parses a machine file (docs/machine.md). Errors are guideway::ConfigError "file:line: key: message";
@@ -142,7 +167,7 @@ MachineConfig default_machine_config();
 // One instant of a motion.
 struct MotionSample {
   double t_s = 0.0;    // machine time
-  Vec3 commanded{};    // what the controller commands (m)
+  Vec3 commanded{};    // what the controller commands (m), before its compensation tables
   Vec3 encoder{};      // what the controller reads from its axis encoders (lagging servo position, quantised)
   Vec3 axis_actual{};  // axis positions after backlash, cyclic error, spikes, vibration (before geometry;
                        // scale, thermal drift and the error motions are applied by the chain)

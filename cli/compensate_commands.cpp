@@ -1,0 +1,302 @@
+// `guideway compensate dbb RUN.csv... --out-dir DIR` (or `--latest`: the daemon's latest DBB session):
+// the error map of the identified terms and the files a controller loads (LinuxCNC per-joint tables,
+// INI lines, errors.csv; models/compensation). `--verify --machine FILE` traces the same test again on
+// the virtual machine tool with those tables loaded and prints before/after (docs/compensation.md).
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "cli/commands.hpp"
+#include "cli/daemon_client.hpp"
+#include "core/atomic_file.hpp"
+#include "core/number_format.hpp"
+#include "formats/compensation_files.hpp"
+#include "models/compensation/compensation.hpp"
+#include "models/dbb/identify.hpp"
+#include "simulators/machine/dbb_runs.hpp"
+
+namespace guideway::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace comp = models::compensation;
+namespace dbb = models::dbb;
+
+struct Opts {
+  std::vector<std::string> files;
+  std::string out_dir, machine, axes;
+  std::vector<double> center_mm;
+  double step_mm = 0;
+  bool json = false, verify = false, latest = false;
+};
+
+const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) {
+  for (const auto& e : id.diagnostics)
+    if (e.name == name) return &e;
+  return nullptr;
+}
+
+double circular_deviation_um(const dbb::Identification& id) {
+  const auto* g = find(id, "circular_deviation_um");
+  return g ? g->value : NAN;
+}
+
+// The run files of the daemon's latest DBB session (its PARAMS' derived files).
+std::vector<std::string> latest_session_runs(const std::string& socket, std::string& session) {
+  DaemonClient c = connect_daemon(socket);
+  const nlohmann::json r = c.request({{"class", "params"}, {"kind", "dbb"}}, "PARAMS");
+  throw_if_error(r);
+  session = r.value("session", std::string("latest session"));
+  std::vector<std::string> out;
+  if (r.contains("derived"))
+    for (const auto& p : r.at("derived")) {
+      const std::string path = p.get<std::string>();
+      if (fs::path(path).extension() == ".csv") out.push_back(path);
+    }
+  if (out.empty())
+    throw std::runtime_error("compensate: the daemon's latest DBB session (" + session +
+                             ") left no run files (was it recorded?); give the run files instead");
+  return out;
+}
+
+struct Verification {
+  dbb::Identification before, tables, after;
+  bool skew = false;  // `after` also has the squareness entered as the controller's axis skew
+  std::vector<std::string> written;
+};
+
+// Traces every run's test on the virtual machine: as it is, with the tables written to `out_dir`
+// (read back from the files, as the controller would), and with the tables plus the squareness as the
+// axis-skew correction the user is told to enter. Writes the before/after runs to out_dir/verify/.
+Verification verify(const std::vector<formats::DbbRun>& runs, const comp::ErrorMap& map,
+                    const std::string& machine_file, const std::string& out_dir, const std::vector<std::string>& axes) {
+  const sim::MachineConfig config = sim::load_machine_config(machine_file);
+  sim::ControllerCorrection tables;
+  for (const auto& axis : axes)
+    tables.tables[static_cast<std::size_t>(comp::joint_of(axis))] =
+        sim::joint_compensation(formats::read_linuxcnc_comp((fs::path(out_dir) / (axis + ".comp")).string()));
+  sim::Vec3 center{};
+  center[static_cast<std::size_t>(comp::joint_of(map.axes[0].axis))] = map.terms_of[0].center_m;
+  center[static_cast<std::size_t>(comp::joint_of(map.axes[1].axis))] = map.terms_of[1].center_m;
+  Verification v;
+  sim::ControllerCorrection full = tables;
+  if (map.squareness_known && map.squareness_significant) {
+    v.skew = true;
+    (map.plane == "xy" ? full.skew.xy : (map.plane == "xz" ? full.skew.xz : full.skew.yz)) = map.squareness_rad;
+  }
+  const sim::RemeasuredRuns r = sim::remeasure_dbb(config, full, runs, center);
+  v.before = dbb::identify(r.before);
+  v.after = dbb::identify(r.after);
+  v.tables = v.skew ? dbb::identify(sim::remeasure_dbb(config, tables, runs, center).after) : v.after;
+  const fs::path dir = fs::path(out_dir) / "verify";
+  fs::create_directories(dir);
+  // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() == ".csv" && (name.starts_with("before_") || name.starts_with("after_")))
+      fs::remove(entry.path());
+  }
+  for (const auto* list : {&r.before, &r.after})
+    for (const auto& run : *list) {
+      const std::string path = (dir / (run.source + ".csv")).string();
+      formats::write_dbb_run(run, path);
+      v.written.push_back(path);
+    }
+  return v;
+}
+
+std::string verification_text(const comp::ErrorMap& map, const Verification& v, nlohmann::json& j) {
+  std::ostringstream o;
+  const double g0 = circular_deviation_um(v.before), gt = circular_deviation_um(v.tables),
+               g1 = circular_deviation_um(v.after);
+  o << "\nverification on the virtual machine (the same test traced again):\n";
+  o << "  circular deviation G: " << printf_number("%.3f", g0) << " um before, " << printf_number("%.3f", gt)
+    << " um with the tables (" << printf_number("%.0f", 100 * gt / g0) << " %)";
+  if (v.skew)
+    o << ", " << printf_number("%.3f", g1) << " um with the tables and the squareness as axis skew ("
+      << printf_number("%.0f", 100 * g1 / g0) << " %)";
+  o << "\n  term                          before                after (" << (v.skew ? "tables + skew" : "tables")
+    << ")    |after|/u\n";
+  j["g_before_um"] = g0;
+  j["g_tables_um"] = gt;
+  j["g_after_um"] = g1;
+  j["skew_applied"] = v.skew;
+  nlohmann::json terms = nlohmann::json::array();
+  for (const auto& e : v.before.diagnostics) {
+    if (!e.fitted || !std::isfinite(e.u) || e.name.rfind("run", 0) == 0 || e.name.rfind("center_offset", 0) == 0)
+      continue;
+    const auto* after = find(v.after, e.name);
+    const bool seen = after && after->fitted && std::isfinite(after->u);
+    const comp::Term* t = nullptr;
+    for (const auto& term : map.terms)
+      if (term.name == e.name) t = &term;
+    const double ratio = seen ? std::abs(after->value) / after->u : 0.0;
+    std::string status;
+    if (t && t->use == comp::Use::table && t->significant)
+      status = !seen ? "compensated (no longer detected)"
+                     : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
+    else if (t && e.name == "squareness_urad")
+      status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
+    else if (t && t->significant)
+      status =
+          t->use == comp::Use::map_only ? "no per-joint table can hold it (errors.csv)" : "servo/friction: no table";
+    else if (t)
+      status = "not applied (not significant)";
+    o << "  " << e.name << std::string(e.name.size() < 28 ? 28 - e.name.size() : 1, ' ')
+      << printf_number("%9.4g", e.value) << printf_number(" +/- %-8.2g", e.u);
+    if (seen)
+      o << printf_number("%9.4g", after->value) << printf_number(" +/- %-8.2g", after->u)
+        << printf_number("%6.1f", ratio);
+    else
+      o << "   not detected                 ";
+    o << "  " << status << "\n";
+    nlohmann::json tj = {{"name", e.name}, {"before", e.value}, {"before_u", e.u}, {"status", status}};
+    if (seen) {
+      tj["after"] = after->value;
+      tj["after_u"] = after->u;
+    }
+    terms.push_back(tj);
+  }
+  j["terms"] = terms;
+  std::string left;
+  for (const auto& e : v.after.diagnostics)
+    if (e.fitted && std::isfinite(e.u) && std::abs(e.value) > 3 * e.u && e.name.rfind("run", 0) != 0 &&
+        e.name.rfind("center_offset", 0) != 0 && e.name.rfind("circular_", 0) != 0)
+      left += (left.empty() ? " " : ", ") + e.name + " " + printf_number("%.3g", e.value);
+  o << "  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left) << "\n";
+  if (!v.written.empty())
+    o << "  runs written to " << fs::path(v.written.front()).parent_path().string()
+      << "/ (guideway report on them shows the polar plots before and after)\n";
+  return o.str();
+}
+
+void run_compensate(const Opts& o, const std::string& socket) {
+  std::vector<std::string> files = o.files;
+  std::string source;
+  if (o.latest) {
+    if (!files.empty()) throw std::runtime_error("compensate: give run files or --latest, not both");
+    std::string session;
+    files = latest_session_runs(socket, session);
+    source = "session " + session;
+  }
+  if (files.empty()) throw std::runtime_error("compensate: no run files (give RUN.csv... or --latest)");
+  if (o.verify && o.machine.empty())
+    throw std::runtime_error("compensate: --verify traces the test on the virtual machine: give its --machine FILE");
+  std::vector<formats::DbbRun> runs;
+  for (const auto& f : files) runs.push_back(formats::read_dbb_run(f));
+  if (source.empty()) {
+    for (const auto& f : files) source += (source.empty() ? "" : ", ") + fs::path(f).filename().string();
+  }
+  comp::MapOptions mo;
+  if (o.center_mm.size() == 2) {
+    mo.center_m = std::array<double, 2>{o.center_mm[0] * 1e-3, o.center_mm[1] * 1e-3};
+    // The cyclic error's phase is fitted in machine coordinates: the runs need the centre too.
+    for (auto& r : runs) {
+      r.center_a_m = (*mo.center_m)[0];
+      r.center_b_m = (*mo.center_m)[1];
+    }
+  }
+  mo.step_m = o.step_mm * 1e-3;
+  const dbb::Identification id = dbb::identify(runs);
+  comp::ErrorMap map;
+  try {
+    map = comp::error_map(id, runs, mo);
+  } catch (const comp::CompensationError& e) {
+    throw std::runtime_error(std::string("compensate: ") + e.what());
+  }
+  std::vector<std::string> axes;
+  for (const auto& am : map.axes) axes.push_back(am.axis);
+  if (!o.axes.empty()) {
+    std::vector<std::string> wanted;
+    std::stringstream ss(o.axes);
+    for (std::string a; std::getline(ss, a, ',');) {
+      if (std::find(axes.begin(), axes.end(), a) == axes.end())
+        throw std::runtime_error("compensate: --axes " + o.axes + ": \"" + a + "\" is not an axis of the " + map.plane +
+                                 " plane the runs measured");
+      wanted.push_back(a);
+    }
+    axes = wanted;
+  }
+  fs::create_directories(o.out_dir);
+  nlohmann::json j;
+  j["plane"] = map.plane;
+  j["step_mm"] = map.step_m * 1e3;
+  nlohmann::json written = nlohmann::json::array();
+  for (const auto& f : comp::compensation_files(map, source)) {
+    const auto stem = f.name.substr(0, f.name.find('.'));
+    if (f.name.ends_with(".comp") && std::find(axes.begin(), axes.end(), stem) == axes.end()) continue;
+    std::string content = f.content;
+    if (f.name == "linuxcnc.ini" && axes.size() != map.axes.size()) {
+      std::vector<formats::IniJoint> joints;
+      for (const auto& a : axes) joints.push_back({comp::joint_of(a), a, a + ".comp"});
+      content = formats::format_linuxcnc_ini(joints, {"Guideway compensation, written from " + source});
+    }
+    const std::string path = (fs::path(o.out_dir) / f.name).string();
+    write_file_atomically(path, content);
+    written.push_back(path);
+  }
+  j["files"] = written;
+  nlohmann::json terms = nlohmann::json::array();
+  for (const auto& t : map.terms)
+    terms.push_back(
+        {{"name", t.name},
+         {"value", t.value},
+         {"u", t.u},
+         {"significant", t.significant},
+         {"use", t.use == comp::Use::table ? "table" : (t.use == comp::Use::map_only ? "errors.csv" : "none")},
+         {"why", t.why}});
+  j["terms"] = terms;
+  if (map.squareness_known) {
+    const auto adv = comp::squareness_advice(map.squareness_rad);
+    j["squareness"] = {{"urad", map.squareness_rad * 1e6},
+                       {"u_urad", map.squareness_u_rad * 1e6},
+                       {"um_per_m", adv.um_per_m},
+                       {"correction_um_per_100mm", adv.correction_um_per_100mm},
+                       {"significant", map.squareness_significant}};
+  }
+  std::string text = comp::to_text(map);
+  for (const auto& p : written) text += "wrote " + p.get<std::string>() + "\n";
+  if (o.verify) {
+    const Verification v = verify(runs, map, o.machine, o.out_dir, axes);
+    nlohmann::json vj;
+    text += verification_text(map, v, vj);
+    j["verify"] = vj;
+  }
+  if (o.json)
+    std::cout << j.dump() << "\n";
+  else
+    std::cout << text;
+}
+
+void add_compensate_commands(CLI::App& app, CliContext& ctx) {
+  auto* cmd =
+      app.add_subcommand("compensate", "Compensation tables from identified machine errors (docs/compensation.md)");
+  auto* d = cmd->add_subcommand("dbb", "LinuxCNC per-joint tables, INI lines and errors.csv from DBB runs");
+  auto o = std::make_shared<Opts>();
+  d->add_option("runs", o->files, "DBB run files (guideway/dbb-run/1): in-plane circles in both directions")
+      ->check(CLI::ExistingFile);
+  d->add_flag("--latest", o->latest, "the run files of the daemon's latest DBB session instead of files");
+  d->add_option("--out-dir", o->out_dir, "directory for x.comp, y.comp, linuxcnc.ini, errors.csv")->required();
+  d->add_option("--center-mm", o->center_mm,
+                "circle centre in machine coordinates (first, second plane axis); default: the runs' metadata")
+      ->expected(2);
+  d->add_option("--axes", o->axes, "tables for these plane axes only, e.g. x (default: both)");
+  d->add_option("--step-mm", o->step_mm, "table spacing (default: the finest round step within 256 lines)")
+      ->check(CLI::PositiveNumber);
+  d->add_flag("--json", o->json, "print the result as one JSON object");
+  d->add_flag("--verify", o->verify,
+              "trace the same test on the virtual machine without and with the tables and print before/after");
+  d->add_option("--machine", o->machine, "with --verify: the machine file (docs/machine.md)")->check(CLI::ExistingFile);
+  d->callback([o, &ctx] { run_compensate(*o, ctx.socket); });
+  cmd->require_subcommand(1);
+}
+
+const CommandGroup group(&add_compensate_commands);
+
+}  // namespace
+
+}  // namespace guideway::cli

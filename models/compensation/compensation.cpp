@@ -1,0 +1,338 @@
+#include "models/compensation/compensation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "core/number_format.hpp"
+#include "formats/compensation_files.hpp"
+#include "models/dbb/geometry.hpp"
+
+namespace guideway::models::compensation {
+
+namespace {
+
+constexpr double pi = std::numbers::pi;
+// A term is applied when it exceeds k standard uncertainties (k = 2, the usual expanded uncertainty):
+// a correction smaller than that is mostly noise (an amplitude such as the cyclic error's is positive
+// even when there is none, about 1.25 u on average).
+constexpr double significance_k = 2.0;
+
+const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) {
+  for (const auto& e : id.diagnostics)
+    if (e.name == name) return &e;
+  return nullptr;
+}
+
+// The table steps offered by default (mm): a round spacing a user can read.
+constexpr double default_steps_mm[] = {0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, 10, 20, 25, 50, 100};
+
+std::size_t lines_for(double lo, double hi, double step) {
+  const double first = std::floor(lo / step + 1e-9);
+  const double last = std::ceil(hi / step - 1e-9);
+  return static_cast<std::size_t>(last - first) + 1;
+}
+
+std::string estimate_text(const Term& t) {
+  return t.name + " = " + printf_number("%.4g", t.value) + " +/- " + printf_number("%.2g", t.u);
+}
+
+}  // namespace
+
+double AxisTerms::cyclic_m(double position_m) const {
+  if (cyclic_amplitude_m == 0.0 || !(cyclic_period_m > 0.0)) return 0.0;
+  return cyclic_amplitude_m * std::sin(2 * pi * position_m / cyclic_period_m + cyclic_phase_rad);
+}
+
+double AxisTerms::positioning_error_m(double position_m, int direction) const {
+  return scale * (position_m - center_m) - 0.5 * backlash_m * direction + cyclic_m(position_m);
+}
+
+double AxisTerms::straightness_m(double position_m) const {
+  if (!(radius_m > 0)) return 0.0;
+  const double q = (position_m - center_m) / radius_m;
+  return bow_m * q * q;
+}
+
+int joint_of(const std::string& axis) { return axis == "x" ? 0 : (axis == "y" ? 1 : 2); }
+
+std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs) {
+  std::optional<std::array<double, 2>> c;
+  for (const auto& r : runs) {
+    if (!r.metadata.contains("center_a_mm") || !r.metadata.contains("center_b_mm")) return std::nullopt;
+    const std::array<double, 2> rc{r.center_a_m, r.center_b_m};
+    if (c && (std::abs((*c)[0] - rc[0]) > 1e-9 || std::abs((*c)[1] - rc[1]) > 1e-9))
+      throw CompensationError(r.source + ": circle centre (" + shortest(rc[0] * 1e3) + ", " + shortest(rc[1] * 1e3) +
+                              ") mm differs from the other runs' (" + shortest((*c)[0] * 1e3) + ", " +
+                              shortest((*c)[1] * 1e3) + ") mm: one table needs one set-up");
+    c = rc;
+  }
+  return c;
+}
+
+ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
+  if (runs.empty()) throw CompensationError("no runs");
+  ErrorMap m;
+  m.plane = id.plane;
+  const std::string A = dbb::axis_letter(id.plane, 0), B = dbb::axis_letter(id.plane, 1);
+  const bool ccw =
+      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == formats::DbbDirection::ccw; });
+  const bool cw =
+      std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == formats::DbbDirection::cw; });
+  if (!ccw || !cw)
+    throw CompensationError(
+        "the runs go one way only: in one direction backlash, lateral play and servo mismatch trade off against each "
+        "other and squareness is not separable (docs/conventions.md); measure the circle in both directions");
+  if (!find(id, "scale_" + A + "_ppm") || !find(id, "backlash_" + A + "_um")) {
+    std::string why = "the runs gave no ballbar diagnostics, which the compensation is built from";
+    for (const auto& n : id.notes) why += "; " + n;
+    throw CompensationError(why + " (measure an in-plane circle, height 0, in both directions)");
+  }
+  const auto center = options.center_m ? options.center_m : runs_center_m(runs);
+  if (!center)
+    throw CompensationError(
+        "the circle centre in machine coordinates is not known: the run files carry no center_a_mm / center_b_mm "
+        "metadata; give it with --center-mm X Y (the table positions are machine positions)");
+  double radius = runs.front().radius_m;
+  for (const auto& r : runs) {
+    if (std::abs(r.radius_m - radius) > 1e-9)
+      throw CompensationError(r.source + ": radius " + shortest(r.radius_m * 1e3) +
+                              " mm differs from the other runs'; give the runs of one circle");
+    m.sources.push_back(r.source);
+  }
+
+  const auto term = [&](const std::string& name, Use use, const std::string& why) -> const Term* {
+    const auto* e = find(id, name);
+    if (!e || !e->fitted || !std::isfinite(e->u)) return nullptr;
+    Term t{name, e->value, e->u, std::abs(e->value) > significance_k * e->u, use, why};
+    m.terms.push_back(t);
+    return &m.terms.back();
+  };
+  m.terms.reserve(24);
+  for (int k = 0; k < 2; ++k) {
+    const std::string ax = k == 0 ? A : B, other = k == 0 ? B : A;
+    AxisTerms& at = m.terms_of[static_cast<std::size_t>(k)];
+    at.center_m = (*center)[static_cast<std::size_t>(k)];
+    at.radius_m = radius;
+    if (const auto* t = term("scale_" + ax + "_ppm", Use::table, ""); t && t->significant) at.scale = t->value * 1e-6;
+    if (const auto* t = term("backlash_" + ax + "_um", Use::table, ""); t && t->significant)
+      at.backlash_m = t->value * 1e-6;
+    if (const auto* t = term("cyclic_error_" + ax + "_um", Use::table, ""); t && t->significant) {
+      const auto* p = find(id, "cyclic_period_" + ax + "_mm");
+      const auto* ph = find(id, "cyclic_phase_" + ax + "_deg");
+      if (p && ph) {
+        at.cyclic_amplitude_m = t->value * 1e-6;
+        at.cyclic_period_m = p->value * 1e-3;
+        at.cyclic_phase_rad = ph->value * pi / 180;
+      }
+    }
+    if (const auto* t =
+            term("straightness_" + ax + "_um", Use::map_only,
+                 "a per-joint table moves " + ax + " along " + ax + " only; the straightness moves it along " + other +
+                     " (errors.csv; a controller's cross compensation or a scraped guideway)");
+        t && t->significant)
+      at.bow_m = t->value * 1e-6;
+  }
+  if (const auto* t = term("squareness_urad", Use::map_only,
+                           "depends on the position of the other axis: set the controller's axis-skew correction or a "
+                           "kinematics change (errors.csv)")) {
+    m.squareness_known = true;
+    m.squareness_rad = t->value * 1e-6;
+    m.squareness_u_rad = t->u * 1e-6;
+    m.squareness_significant = t->significant;
+  }
+  for (const auto& ax : {A, B}) {
+    term("lateral_play_" + ax + "_um", Use::not_geometric,
+         "a sideways shift that follows the direction of " + ax +
+             ": a per-joint table of the other axis cannot see that direction (gib adjustment)");
+    term("reversal_spike_" + ax + "_um", Use::not_geometric,
+         "friction at the reversal, decays in milliseconds: servo tuning (friction feed-forward), not a table");
+  }
+  term("servo_mismatch_ms", Use::not_geometric,
+       "the two position loops lag differently: match their gains (or feed-forward); a position table cannot");
+
+  // The grid: the measured range of each axis, on multiples of the step.
+  const auto grid = [&](double c, double step) { return lines_for(c - radius, c + radius, step); };
+  double step = options.step_m;
+  const auto lines_max = [&](double s) { return std::max(grid((*center)[0], s), grid((*center)[1], s)); };
+  if (step > 0) {
+    if (lines_max(step) > formats::linuxcnc_comp_max_lines)
+      throw CompensationError("a step of " + shortest(step * 1e3) + " mm gives " + std::to_string(lines_max(step)) +
+                              " lines over the measured range; LinuxCNC reads at most " +
+                              std::to_string(formats::linuxcnc_comp_max_lines) +
+                              " per joint (use a coarser --step-mm)");
+  } else {
+    for (double s_mm : default_steps_mm) {
+      step = s_mm * 1e-3;
+      if (lines_max(step) <= formats::linuxcnc_comp_max_lines) break;
+    }
+  }
+  m.step_m = step;
+  for (int k = 0; k < 2; ++k) {
+    auto& at = m.terms_of[static_cast<std::size_t>(k)];
+    if (at.cyclic_period_m > 0) {
+      const double x = pi * step / at.cyclic_period_m;
+      at.cyclic_table_gain = step < 0.5 * at.cyclic_period_m ? std::pow(x / std::sin(x), 2) : 0.0;
+    }
+    AxisMap& am = m.axes[static_cast<std::size_t>(k)];
+    am.axis = k == 0 ? A : B;
+    am.across = k == 0 ? B : A;
+    const double first = std::floor((at.center_m - radius) / step + 1e-9);
+    const std::size_t n = grid(at.center_m, step);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double u = (first + static_cast<double>(i)) * step;
+      am.nominal_m.push_back(u);
+      am.forward_m.push_back(at.positioning_error_m(u, +1));
+      am.reverse_m.push_back(at.positioning_error_m(u, -1));
+      am.straightness_m.push_back(at.straightness_m(u));
+      const double extra = (at.cyclic_table_gain - 1.0) * at.cyclic_m(u);
+      am.table_forward_m.push_back(am.forward_m.back() + extra);
+      am.table_reverse_m.push_back(am.reverse_m.back() + extra);
+    }
+  }
+  return m;
+}
+
+SquarenessAdvice squareness_advice(double squareness_rad) {
+  // actual a = a + q b: to land on the nominal a, command a - q b, i.e. -q * 100 mm per +100 mm of b.
+  return {squareness_rad * 1e6, -squareness_rad * 0.1 * 1e6};
+}
+
+namespace {
+
+std::vector<std::string> header_lines(const ErrorMap& m, const std::string& source) {
+  std::vector<std::string> h;
+  h.push_back("written by guideway compensate from " + source);
+  const auto& t0 = m.terms_of[0];
+  h.push_back("measured circle: centre (" + printf_number("%.3f", t0.center_m * 1e3) + ", " +
+              printf_number("%.3f", m.terms_of[1].center_m * 1e3) + ") mm in the " + m.plane + " plane, radius " +
+              printf_number("%.3f", t0.radius_m * 1e3) +
+              " mm; valid only over that range, in that plane and at that height");
+  h.push_back("positions are relative to the axis' position at the circle centre (a DBB sees no constant offset)");
+  std::string applied, left_out;
+  for (const auto& t : m.terms) {
+    if (t.use == Use::not_geometric) continue;
+    if (t.significant)
+      applied += (applied.empty() ? "" : ", ") + estimate_text(t);
+    else
+      left_out += (left_out.empty() ? "" : ", ") + estimate_text(t);
+  }
+  h.push_back("identified (value +/- standard uncertainty): " + (applied.empty() ? std::string("none") : applied));
+  h.push_back("left out, not larger than twice their standard uncertainty (k = 2): " +
+              (left_out.empty() ? std::string("none") : left_out));
+  std::string other;
+  for (const auto& t : m.terms)
+    if (t.use == Use::not_geometric) other += (other.empty() ? "" : ", ") + estimate_text(t);
+  if (!other.empty()) h.push_back("servo and friction effects, in no table: " + other);
+  return h;
+}
+
+std::string letters_upper(const std::string& s) {
+  std::string o = s;
+  for (auto& c : o) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return o;
+}
+
+}  // namespace
+
+std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string& source) {
+  std::vector<OutputFile> out;
+  const auto head = header_lines(m, source);
+  std::vector<formats::IniJoint> joints;
+  for (const auto& am : m.axes) {
+    std::vector<formats::CompTriplet> table;
+    for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
+      table.push_back({am.nominal_m[i] * 1e3, (am.nominal_m[i] + am.table_forward_m[i]) * 1e3,
+                       (am.nominal_m[i] + am.table_reverse_m[i]) * 1e3});
+    std::vector<std::string> c;
+    c.push_back("LinuxCNC compensation table of joint " + std::to_string(joint_of(am.axis)) + " (axis " +
+                letters_upper(am.axis) + "), COMP_FILE_TYPE = 0: nominal, actual moving +, actual moving - (mm)");
+    c.push_back(
+        "these comments follow the table because LinuxCNC stops reading at the first line that is not three numbers");
+    c.insert(c.end(), head.begin(), head.end());
+    c.push_back("in this table: scale, backlash and cyclic error of " + letters_upper(am.axis) +
+                " (those applied above); straightness and squareness are in errors.csv");
+    const auto& at = m.terms_of[static_cast<std::size_t>(&am - m.axes.data())];
+    if (at.cyclic_amplitude_m != 0.0) {
+      if (at.cyclic_table_gain > 0)
+        c.push_back("the cyclic part is multiplied by " + printf_number("%.4f", at.cyclic_table_gain) +
+                    " = 1 / sinc^2(step / period): LinuxCNC's linear interpolation between lines " +
+                    printf_number("%.3g", m.step_m * 1e3) + " mm apart attenuates a " +
+                    printf_number("%.3g", at.cyclic_period_m * 1e3) +
+                    " mm period by the inverse (errors.csv holds the error itself)");
+      else
+        c.push_back(
+            "the cyclic error is NOT in this table: its period is shorter than two table steps (use a smaller "
+            "circle or a finer --step-mm)");
+    }
+    out.push_back({am.axis + ".comp", formats::format_linuxcnc_comp(table, c)});
+    joints.push_back({joint_of(am.axis), am.axis, am.axis + ".comp"});
+  }
+  std::vector<std::string> ic{"Guideway compensation: lines for the [JOINT_n] sections of the machine's INI file",
+                              "copy x.comp / y.comp next to the INI file (COMP_FILE is read relative to it), "
+                              "then restart LinuxCNC",
+                              "joint numbers assume trivial kinematics (X = 0, Y = 1, Z = 2): check your [KINS]"};
+  for (const auto& l : head) ic.push_back(l);
+  out.push_back({"linuxcnc.ini", formats::format_linuxcnc_ini(joints, ic)});
+
+  std::vector<formats::ErrorMapRow> rows;
+  for (const auto& am : m.axes)
+    for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
+      rows.push_back({am.axis, am.nominal_m[i] * 1e3, am.forward_m[i] * 1e6, am.reverse_m[i] * 1e6, am.across,
+                      am.straightness_m[i] * 1e6});
+  std::vector<std::pair<std::string, std::string>> meta;
+  meta.emplace_back("source", source);
+  meta.emplace_back("plane", m.plane);
+  const std::string a = m.axes[0].axis, b = m.axes[1].axis;
+  if (m.squareness_known) {
+    const auto adv = squareness_advice(m.squareness_rad);
+    meta.emplace_back("squareness_" + a + b + "_urad", printf_number("%.3f", m.squareness_rad * 1e6));
+    meta.emplace_back("squareness_" + a + b + "_u_urad", printf_number("%.3f", m.squareness_u_rad * 1e6));
+    meta.emplace_back("squareness_significant", m.squareness_significant ? "true" : "false");
+    meta.emplace_back("squareness_correction_" + a + "_um_per_100mm_" + b,
+                      printf_number("%.3f", adv.correction_um_per_100mm));
+  }
+  std::vector<std::string> ec = head;
+  ec.push_back("forward_um / reverse_um: positioning error (actual - nominal) of the axis moving in + / -");
+  ec.push_back("straightness_um: displacement of the axis along straightness_axis (ends relative to the centre)");
+  ec.push_back("squareness (sign): actual " + a + " = " + a + " + q " + b + ", i.e. " + letters_upper(b) +
+               " leans towards +" + a + " for q > 0; um/m = urad");
+  out.push_back({"errors.csv", formats::format_error_map_csv(rows, meta, ec)});
+  return out;
+}
+
+std::string to_text(const ErrorMap& m) {
+  std::ostringstream o;
+  o << "compensation from the ballbar diagnostics (" << m.plane << " plane, table step "
+    << printf_number("%.3g", m.step_m * 1e3) << " mm)\n";
+  o << "  term                              value      u     use\n";
+  for (const auto& t : m.terms) {
+    std::string use;
+    if (!t.significant)
+      use = "left out (not larger than 2 u)";
+    else if (t.use == Use::table)
+      use = t.name.find("_" + m.axes[0].axis + "_") != std::string::npos ? m.axes[0].axis + ".comp"
+                                                                         : m.axes[1].axis + ".comp";
+    else
+      use = (t.use == Use::map_only ? "errors.csv only: " : "no table: ") + t.why;
+    o << "  " << t.name << std::string(t.name.size() < 30 ? 30 - t.name.size() : 1, ' ')
+      << printf_number("%10.4g", t.value) << printf_number("%8.2g", t.u) << "  " << use << "\n";
+  }
+  for (const auto& am : m.axes)
+    o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, "
+      << printf_number("%.3f", am.nominal_m.front() * 1e3) << " .. " << printf_number("%.3f", am.nominal_m.back() * 1e3)
+      << " mm\n";
+  if (m.squareness_known) {
+    const auto adv = squareness_advice(m.squareness_rad);
+    const std::string a = m.axes[0].axis, b = m.axes[1].axis;
+    o << "squareness " << a << b << ": " << printf_number("%.2f", adv.um_per_m) << " um/m (+/- "
+      << printf_number("%.2f", m.squareness_u_rad * 1e6) << "); correction "
+      << printf_number("%+.3f", adv.correction_um_per_100mm) << " um of " << letters_upper(a) << " per +100 mm of "
+      << letters_upper(b) << (m.squareness_significant ? "" : " (not significant: leave it)")
+      << ". A per-joint table cannot hold it: set your controller's axis-skew correction, or change the kinematics\n";
+  }
+  return o.str();
+}
+
+}  // namespace guideway::models::compensation

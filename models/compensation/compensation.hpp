@@ -1,0 +1,128 @@
+#pragma once
+// Compensation from a DBB identification: the error map of the two plane axes (positioning error moving
+// forward and in reverse, straightness across), the squareness, and the files a controller loads
+// (LinuxCNC per-joint tables, the INI lines, the generic errors.csv; docs/compensation.md).
+//
+// The map is built from the ballbar diagnostics (models/dbb identify, docs/conventions.md), in machine
+// coordinates: the circle centre places the terms, which the diagnostics give about the centre. A DBB
+// test sees no constant offset of an axis, so every positioning error is relative to the axis' position
+// at the circle centre. A term not larger than twice its standard uncertainty (k = 2) is not applied
+// (its correction would be mostly noise) and the files say so.
+// Pure functions; thread safe.
+
+#include <array>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "formats/dbb_run.hpp"
+#include "models/dbb/identify.hpp"
+
+namespace guideway::models::compensation {
+
+class CompensationError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// How one identified term is used.
+enum class Use {
+  table,          // in the axis' per-joint table (and errors.csv)
+  map_only,       // in errors.csv; a per-joint table cannot hold it (straightness, squareness)
+  not_geometric,  // a servo or friction effect: neither table nor map (servo mismatch, reversal spike, ...)
+};
+
+struct Term {
+  std::string name;  // the diagnostic's name, unit in the name ("backlash_x_um")
+  double value = 0.0;
+  double u = 0.0;            // standard uncertainty
+  bool significant = false;  // |value| > 2 u: only then is it applied
+  Use use = Use::table;
+  std::string why;  // for map_only / not_geometric: what the user does with it
+};
+
+// The errors of one plane axis on the table's grid.
+struct AxisMap {
+  std::string axis;                     // "x"
+  std::string across;                   // the other plane axis (direction of the straightness)
+  std::vector<double> nominal_m;        // ascending, machine coordinates
+  std::vector<double> forward_m;        // positioning error (actual - nominal) moving in +
+  std::vector<double> reverse_m;        // moving in -
+  std::vector<double> straightness_m;   // displacement along `across` (ends relative to the middle)
+  std::vector<double> table_forward_m;  // what the table holds: forward_m with the cyclic part
+  std::vector<double> table_reverse_m;  // scaled by cyclic_table_gain
+};
+
+// The positioning error model of one axis (the applied terms only).
+struct AxisTerms {
+  double center_m = 0.0;  // circle centre along this axis (machine coordinates)
+  double radius_m = 0.0;
+  double scale = 0.0;  // relative (not ppm)
+  double backlash_m = 0.0;
+  double cyclic_amplitude_m = 0.0, cyclic_period_m = 0.0, cyclic_phase_rad = 0.0;
+  double bow_m = 0.0;  // straightness bow B: displacement across = B ((u - centre) / r)^2
+  // LinuxCNC interpolates linearly between table lines, which scales a sinusoid of period p sampled
+  // every step h by sinc^2(h / p) (the triangle kernel's response); the table's cyclic part is
+  // multiplied by the inverse so the correction's fundamental has the measured amplitude. 0 = the
+  // period is shorter than two steps: the table cannot hold it.
+  double cyclic_table_gain = 1.0;
+  // actual - nominal at `position_m` moving in `direction` (+1 / -1), relative to the centre.
+  [[nodiscard]] double positioning_error_m(double position_m, int direction) const;
+  [[nodiscard]] double straightness_m(double position_m) const;
+  [[nodiscard]] double cyclic_m(double position_m) const;
+};
+
+struct ErrorMap {
+  std::string plane;                  // "xy", "xz", "yz"
+  std::array<AxisTerms, 2> terms_of;  // per plane axis
+  std::array<AxisMap, 2> axes;
+  double squareness_rad = 0.0;  // actual (a, b) = (a + q b, b): the b axis leans towards +a
+  double squareness_u_rad = 0.0;
+  bool squareness_significant = false;
+  bool squareness_known = false;
+  std::vector<Term> terms;           // every identified term considered
+  std::vector<std::string> sources;  // run files
+  double step_m = 0.0;
+};
+
+struct MapOptions {
+  // Circle centre in machine coordinates (first, second plane axis); else every run's center_a_mm /
+  // center_b_mm metadata (they must agree). Neither: CompensationError.
+  std::optional<std::array<double, 2>> center_m;
+  double step_m = 0.0;  // table spacing; 0 = the finest of 0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, ... mm within 256 lines
+};
+
+// The circle centre of the runs' metadata (first, second plane axis), or nullopt when a run does not
+// state it; throws CompensationError when the runs state different centres.
+std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs);
+
+// Throws CompensationError when the runs do not go both ways, when the identification has no ballbar
+// diagnostics (they need in-plane runs), when the centre is unknown, or when the step gives more than
+// 256 lines.
+ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs,
+                   const MapOptions& options = {});
+
+// Squareness as a user enters it: um of the first axis per metre of the second, and the correction
+// (um) to add to the first axis per +100 mm of the second.
+struct SquarenessAdvice {
+  double um_per_m = 0.0;
+  double correction_um_per_100mm = 0.0;
+};
+SquarenessAdvice squareness_advice(double squareness_rad);
+
+// The files of `guideway compensate`, by name: "<axis>.comp" per plane axis, "linuxcnc.ini", "errors.csv".
+struct OutputFile {
+  std::string name;
+  std::string content;
+};
+// `source` names the session or runs in the headers.
+std::vector<OutputFile> compensation_files(const ErrorMap& map, const std::string& source);
+
+// The text summary `guideway compensate` prints (terms, what was applied, squareness advice).
+std::string to_text(const ErrorMap& map);
+
+// LinuxCNC joint number of a machine axis with trivial kinematics (x 0, y 1, z 2).
+int joint_of(const std::string& axis);
+
+}  // namespace guideway::models::compensation

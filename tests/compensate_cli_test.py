@@ -1,0 +1,159 @@
+#!/usr/bin/python3
+"""guideway simulate dbb -> guideway compensate dbb --verify -> guideway report, end to end through files.
+
+The tables are checked against the machine file's errors computed here, independently of the C++ code:
+scale about the circle centre, half the backlash, the lead error (times LinuxCNC's interpolation gain
+1 / sinc^2(step / period)); the files against LinuxCNC's format rules.
+
+usage: compensate_cli_test.py BUILD_DIR SOURCE_DIR
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+
+def read_comp(path):
+    """Triplets as LinuxCNC reads them: from the top until the first line that is not three numbers."""
+    rows, rest = [], []
+    with open(path) as f:
+        lines = f.read().splitlines()
+    for i, line in enumerate(lines):
+        parts = line.split()
+        try:
+            if len(parts) != 3:
+                raise ValueError
+            rows.append(tuple(float(p) for p in parts))
+        except ValueError:
+            rest = lines[i:]
+            break
+    return rows, rest
+
+
+def main():
+    build, source = sys.argv[1], sys.argv[2]
+    exe = os.path.join(build, "cli", "guideway")
+    machine = os.path.join(source, "config", "machine-leadscrew.toml")
+    cx, cy = 50.0, 20.0
+    with tempfile.TemporaryDirectory() as d:
+        runs = []
+        for direction in ("ccw", "cw"):
+            out = os.path.join(d, f"{direction}.csv")
+            subprocess.run([exe, "simulate", "dbb", "--machine", machine, "--radius-mm", "100", "--feed-mm-per-min", "250",
+                            "--direction", direction, "--center-mm", str(cx), str(cy), "0", "--out", out],
+                           check=True, stdout=subprocess.DEVNULL)
+            runs.append(out)
+        comp = os.path.join(d, "comp")
+        res = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", comp, "--verify", "--machine", machine, "--json"],
+                             check=True, capture_output=True, text=True)
+        j = json.loads(res.stdout)
+
+        # LinuxCNC tables: triplets, strictly ascending, at most 256, covering centre +/- radius, comments after.
+        for axis, c in (("x", cx), ("y", cy)):
+            rows, rest = read_comp(os.path.join(comp, f"{axis}.comp"))
+            assert 2 <= len(rows) <= 256, len(rows)
+            assert all(b[0] > a[0] for a, b in zip(rows, rows[1:])), "nominal not ascending"
+            assert rows[0][0] <= c - 100 and rows[-1][0] >= c + 100, (rows[0][0], rows[-1][0])
+            assert rest and all(line.startswith("#") for line in rest), rest[:2]
+            assert any("COMP_FILE_TYPE = 0" in line for line in rest)
+        assert j["step_mm"] == 1.0, j["step_mm"]
+
+        # X against the machine file: scale 35 ppm, backlash 6 um, lead error 1.5 um / 5 mm / 40 deg.
+        # (The identified scale also holds the 20 ms lag's radius reduction at 250 mm/min: 0.35 ppm.)
+        rows, _ = read_comp(os.path.join(comp, "x.comp"))
+        gain = (math.pi / 5 / math.sin(math.pi / 5)) ** 2
+        diffs = []
+        for nom, fwd, rev in rows:
+            cyc = 1.5 * math.sin(2 * math.pi * nom / 5 + math.radians(40)) * gain
+            truth_f = 35e-6 * (nom - cx) * 1e3 + cyc - 3.0
+            truth_r = 35e-6 * (nom - cx) * 1e3 + cyc + 3.0
+            diffs += [(fwd - nom) * 1e3 - truth_f, (rev - nom) * 1e3 - truth_r]
+        mean = sum(diffs) / len(diffs)
+        rms = math.sqrt(sum((x - mean) ** 2 for x in diffs) / len(diffs))
+        assert rms < 0.25, f"x.comp vs the machine: {rms:.3f} um RMS"
+        rows, _ = read_comp(os.path.join(comp, "y.comp"))
+        diffs = []
+        for nom, fwd, rev in rows:
+            diffs += [(fwd - nom) * 1e3 - (-25e-6 * (nom - cy) * 1e3 - 2.0), (rev - nom) * 1e3 - (-25e-6 * (nom - cy) * 1e3 + 2.0)]
+        mean = sum(diffs) / len(diffs)
+        rms = math.sqrt(sum((x - mean) ** 2 for x in diffs) / len(diffs))
+        assert rms < 0.25, f"y.comp vs the machine: {rms:.3f} um RMS"
+
+        # INI lines
+        with open(os.path.join(comp, "linuxcnc.ini")) as f:
+            ini = f.read()
+        for needle in ("[JOINT_0]", "[JOINT_1]", "COMP_FILE = x.comp", "COMP_FILE = y.comp"):
+            assert needle in ini, needle
+        assert ini.count("COMP_FILE_TYPE = 0") == 2 and ini.count("\nBACKLASH = 0\n") == 2, ini
+
+        # errors.csv: columns, and the squareness a circle centred at x = 50 sees: 8 urad of lean plus the
+        # slope of X's bow there (1e-4 um/mm^2 * 2 * 50 mm = 10 urad), as correction per 100 mm of Y.
+        meta, header, data = {}, None, []
+        with open(os.path.join(comp, "errors.csv")) as f:
+            for line in f.read().splitlines():
+                if line.startswith("#"):
+                    if " = " in line:
+                        k, v = line[2:].split(" = ", 1)
+                        meta[k] = v
+                elif header is None:
+                    header = line.split(",")
+                else:
+                    data.append(line.split(","))
+        assert meta["format"] == "guideway/error-map/1"
+        assert header == ["axis", "position_mm", "forward_um", "reverse_um", "straightness_axis", "straightness_um"], header
+        assert abs(float(meta["squareness_xy_urad"]) - 18.0) < 1.0, meta["squareness_xy_urad"]
+        assert abs(float(meta["squareness_correction_x_um_per_100mm_y"]) + 1.8) < 0.1, meta
+        assert meta["squareness_significant"] == "true"
+        xs = [r for r in data if r[0] == "x"]
+        # X's bow along y: 1e-4 um/mm^2 (x - 50)^2 about the centre, 1 um at the ends
+        for r in xs:
+            assert abs(float(r[5]) - 1e-4 * (float(r[1]) - cx) ** 2) < 0.1, r
+
+        # Proof on the virtual machine: G down to at most 35 %, the table terms in the noise.
+        v = j["verify"]
+        assert v["skew_applied"] is True
+        assert v["g_after_um"] <= 0.35 * v["g_before_um"], v
+        assert v["g_tables_um"] < v["g_before_um"], v
+        by_name = {t["name"]: t for t in v["terms"]}
+        for name in ("scale_x_ppm", "scale_y_ppm", "backlash_x_um", "backlash_y_um"):
+            t = by_name[name]
+            assert abs(t["after"]) < 3 * t["after_u"], t
+        in_tables = {t["name"] for t in j["terms"] if t["significant"] and t["use"] == "table"}
+        assert {"scale_x_ppm", "backlash_x_um", "cyclic_error_x_um", "scale_y_ppm", "backlash_y_um"} <= in_tables, in_tables
+        in_map = {t["name"] for t in j["terms"] if t["significant"] and t["use"] == "errors.csv"}
+        assert {"squareness_urad", "straightness_x_um"} <= in_map, in_map
+
+        # The report shows the before and after runs in their own sections.
+        html = os.path.join(d, "r.html")
+        verify_runs = sorted(os.path.join(comp, "verify", f) for f in os.listdir(os.path.join(comp, "verify")))
+        assert len(verify_runs) == 4, verify_runs
+        subprocess.run([exe, "report", *verify_runs, "--out", html, "--no-date"], check=True, capture_output=True)
+        with open(html) as f:
+            page = f.read()
+        assert "before compensation" in page and "after compensation" in page
+
+        # Clear errors: no centre; one direction only; a step over 256 lines.
+        bare = os.path.join(d, "bare_ccw.csv")
+        with open(runs[0]) as f, open(bare, "w") as g:
+            g.write("".join(l for l in f if not l.startswith("# center_")))
+        bare_cw = os.path.join(d, "bare_cw.csv")
+        with open(runs[1]) as f, open(bare_cw, "w") as g:
+            g.write("".join(l for l in f if not l.startswith("# center_")))
+        r = subprocess.run([exe, "compensate", "dbb", bare, bare_cw, "--out-dir", comp], capture_output=True, text=True)
+        assert r.returncode == 1 and "--center-mm" in r.stderr, r.stderr
+        r = subprocess.run([exe, "compensate", "dbb", bare, bare_cw, "--out-dir", os.path.join(d, "c2"), "--center-mm",
+                            str(cx), str(cy)], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        r = subprocess.run([exe, "compensate", "dbb", runs[0], "--out-dir", comp], capture_output=True, text=True)
+        assert r.returncode == 1 and "both directions" in r.stderr, r.stderr
+        r = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", comp, "--step-mm", "0.5"], capture_output=True, text=True)
+        assert r.returncode == 1 and "256" in r.stderr, r.stderr
+        r = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", comp, "--axes", "z"], capture_output=True, text=True)
+        assert r.returncode == 1 and "not an axis" in r.stderr, r.stderr
+    print("ok")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,360 @@
+// Compensation from a DBB identification (models/compensation, formats/compensation_files) against the
+// virtual machine tool's known errors, and the compensated machine (sim::remeasure_dbb):
+// - the LinuxCNC files: triplets, ascending, at most 256 lines, read back as LinuxCNC reads them;
+// - the error map within 0.25 um RMS of the machine's errors over the measured range;
+// - after loading the tables, G at most 35 % of G before and every compensated term below 3 u,
+//   on three machine files with different errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "formats/compensation_files.hpp"
+#include "models/compensation/compensation.hpp"
+#include "models/dbb/identify.hpp"
+#include "simulators/machine/dbb_runs.hpp"
+
+namespace {
+
+using namespace guideway;
+namespace comp = models::compensation;
+namespace dbb = models::dbb;
+
+constexpr double pi = std::numbers::pi;
+
+std::vector<formats::DbbRun> pair_of(const sim::Machine& m, const sim::Vec3& center, double feed_mm_per_min,
+                                     sim::Plane plane = sim::Plane::xy) {
+  std::vector<formats::DbbRun> runs;
+  for (bool ccw : {true, false}) {
+    sim::DbbCircleSpec s;
+    s.plane = plane;
+    s.radius_m = 0.1;
+    s.center = center;
+    s.feed_m_per_s = feed_mm_per_min / 60000.0;
+    s.direction = ccw ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
+    s.seed = ccw ? 11 : 12;
+    runs.push_back(sim::simulate_dbb_run(m, s, ccw ? "ccw.csv" : "cw.csv"));
+  }
+  return runs;
+}
+
+const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) {
+  for (const auto& e : id.diagnostics)
+    if (e.name == name) return &e;
+  return nullptr;
+}
+
+// --- formats ---
+
+TEST(CompensationFilesTest, LinuxcncTableIsTripletsAscendingWithCommentsAfter) {
+  const std::vector<formats::CompTriplet> t{{-10, -10.001, -9.999}, {0, 0.0005, -0.0005}, {10, 10.002, 10.0}};
+  const std::string text = formats::format_linuxcnc_comp(t, {"first comment", "second"});
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "-10.000000 -10.001000 -9.999000");
+  EXPECT_NE(text.find("\n# first comment\n# second\n"), std::string::npos);
+  const auto back = formats::parse_linuxcnc_comp(text, "t.comp");
+  ASSERT_EQ(back.size(), 3u);
+  EXPECT_DOUBLE_EQ(back[2].forward_mm, 10.002);
+  EXPECT_DOUBLE_EQ(back[1].reverse_mm, -0.0005);
+}
+
+TEST(CompensationFilesTest, RefusesWhatLinuxcncRefuses) {
+  EXPECT_THROW((void)formats::format_linuxcnc_comp({{1, 1, 1}, {1, 1, 1}}, {}), formats::CompensationFileError);
+  EXPECT_THROW((void)formats::format_linuxcnc_comp({{2, 2, 2}, {1, 1, 1}}, {}), formats::CompensationFileError);
+  EXPECT_THROW((void)formats::format_linuxcnc_comp({}, {}), formats::CompensationFileError);
+  std::vector<formats::CompTriplet> big;
+  for (int i = 0; i < 257; ++i) big.push_back({double(i), double(i), double(i)});
+  EXPECT_THROW((void)formats::format_linuxcnc_comp(big, {}), formats::CompensationFileError);
+  big.pop_back();
+  EXPECT_NO_THROW((void)formats::format_linuxcnc_comp(big, {}));
+  // A comment above the table: LinuxCNC's reader stops there and loads nothing.
+  EXPECT_THROW((void)formats::parse_linuxcnc_comp("# header\n0 0 0\n1 1 1\n", "c.comp"),
+               formats::CompensationFileError);
+}
+
+TEST(CompensationFilesTest, IniLinesLoadTheTablesWithBacklashZero) {
+  const std::string ini = formats::format_linuxcnc_ini({{0, "x", "x.comp"}, {1, "y", "y.comp"}}, {"from test"});
+  EXPECT_NE(ini.find("; from test\n"), std::string::npos);
+  EXPECT_NE(ini.find("[JOINT_0]\n"), std::string::npos);
+  EXPECT_NE(ini.find("[JOINT_1]\n"), std::string::npos);
+  EXPECT_NE(ini.find("COMP_FILE = y.comp\n"), std::string::npos);
+  std::size_t n_type = 0, n_bl = 0;
+  for (std::size_t p = 0; (p = ini.find("COMP_FILE_TYPE = 0\n", p)) != std::string::npos; ++p) ++n_type;
+  for (std::size_t p = 0; (p = ini.find("\nBACKLASH = 0\n", p)) != std::string::npos; ++p) ++n_bl;
+  EXPECT_EQ(n_type, 2u);
+  EXPECT_EQ(n_bl, 2u);
+}
+
+// --- the compensated machine ---
+
+TEST(CompensatedMachineTest, ControllerAddsNominalMinusActualByDirection) {
+  sim::JointCompensation c = sim::joint_compensation({{0, 0.001, -0.002}, {10, 10.003, 9.998}});
+  EXPECT_NEAR(c.correction_m(0.0, +1), -1e-6, 1e-15);
+  EXPECT_NEAR(c.correction_m(0.0, -1), 2e-6, 1e-15);
+  EXPECT_NEAR(c.correction_m(0.005, +1), -2e-6, 1e-15);  // halfway: (-1 + -3) / 2 um
+  EXPECT_NEAR(c.correction_m(0.005, -1), 2e-6, 1e-15);
+  EXPECT_NEAR(c.correction_m(0.02, +1), -3e-6, 1e-15);  // beyond the end: its value holds
+  // A static move ends where the table says: actual = commanded + correction + machine error.
+  sim::MachineConfig cfg;
+  cfg.axis[0].scale = 100e-6;
+  cfg.axis[0].backlash_m = 4e-6;
+  // The table of exactly this axis: actual = (1 + s) u -/+ b / 2.
+  std::vector<formats::CompTriplet> t;
+  for (int i = 0; i <= 20; ++i) {
+    const double u = i * 5.0;
+    t.push_back({u, u * (1 + 100e-6) - 0.002, u * (1 + 100e-6) + 0.002});
+  }
+  cfg.controller.tables[0] = sim::joint_compensation(t);
+  const sim::Machine m(cfg);
+  for (const double target : {0.03, 0.07}) {
+    for (const double from : {0.0, 0.1}) {
+      sim::MotionSpec ms;
+      ms.path = sim::linear_move({from, 0, 0}, {target, 0, 0}, 0.01);
+      ms.duration_s = std::abs(target - from) / 0.01 + 0.5;
+      ms.sample_rate_hz = 100;
+      const auto motion = m.simulate_motion(ms);
+      EXPECT_NEAR(motion.back().tool[0], target, 2e-9) << "from " << from << " to " << target;
+    }
+  }
+}
+
+// --- the map against the machine's errors ---
+
+struct TruthAxis {
+  const sim::AxisErrors* e;
+  int j;
+  double positioning(double u, int d) const {
+    double v = e->scale * u + e->translation[static_cast<std::size_t>(j)](u) - 0.5 * e->backlash_m * d;
+    if (e->cyclic_amplitude_m != 0)
+      v += e->cyclic_amplitude_m * std::sin(2 * pi * u / e->cyclic_period_m + e->cyclic_phase_rad);
+    return v;
+  }
+};
+
+// RMS of (map - truth) over the grid, after their mean difference (a DBB sees no constant offset).
+double rms_about_mean(const std::vector<double>& d) {
+  double mean = 0;
+  for (double x : d) mean += x;
+  mean /= static_cast<double>(d.size());
+  double s = 0;
+  for (double x : d) s += (x - mean) * (x - mean);
+  return std::sqrt(s / static_cast<double>(d.size()));
+}
+
+// RMS after the best straight line (the straightness' slope is squareness, carried separately).
+double rms_about_line(const std::vector<double>& x, const std::vector<double>& d) {
+  const double n = static_cast<double>(x.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sx += x[i];
+    sy += d[i];
+    sxx += x[i] * x[i];
+    sxy += x[i] * d[i];
+  }
+  const double b = (n * sxy - sx * sy) / (n * sxx - sx * sx), a = (sy - b * sx) / n;
+  double s = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) s += std::pow(d[i] - a - b * x[i], 2);
+  return std::sqrt(s / n);
+}
+
+struct MapCase {
+  const char* file;
+  bool straightness_in_model;  // the machine's straightness is the diagnostics' bow (no cubic terms)
+};
+
+class CompensationMapTest : public ::testing::TestWithParam<MapCase> {};
+
+TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
+  const auto cfg = sim::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam().file);
+  const sim::Machine m(cfg);
+  const sim::Vec3 center{0.15, 0.08, 0.0};
+  // At 250 mm/min the servo lag shortens the radius by < 1 ppm (docs/conventions.md).
+  const auto runs = pair_of(m, center, 250);
+  const auto id = dbb::identify(runs);
+  const auto map = comp::error_map(id, runs);
+  EXPECT_NEAR(map.terms_of[0].center_m, 0.15, 1e-12);
+  EXPECT_NEAR(map.terms_of[1].center_m, 0.08, 1e-12);
+  for (int k = 0; k < 2; ++k) {
+    const auto& am = map.axes[static_cast<std::size_t>(k)];
+    ASSERT_LE(am.nominal_m.size(), 256u);
+    EXPECT_LE(am.nominal_m.front(), center[static_cast<std::size_t>(k)] - 0.1 + 1e-12);
+    EXPECT_GE(am.nominal_m.back(), center[static_cast<std::size_t>(k)] + 0.1 - 1e-12);
+    const TruthAxis truth{&cfg.axis[static_cast<std::size_t>(k)], k};
+    std::vector<double> d;
+    for (std::size_t i = 0; i < am.nominal_m.size(); ++i) {
+      d.push_back(am.forward_m[i] - truth.positioning(am.nominal_m[i], +1));
+      d.push_back(am.reverse_m[i] - truth.positioning(am.nominal_m[i], -1));
+    }
+    const double rms_um = rms_about_mean(d) * 1e6;
+    RecordProperty(std::string("positioning_rms_um_") + am.axis, std::to_string(rms_um));
+    EXPECT_LT(rms_um, 0.25) << GetParam().file << " axis " << am.axis;
+    if (GetParam().straightness_in_model) {
+      // X moves along y by E_YX(x); Y along x by E_XY(y) (its lean is the squareness, taken out with the line).
+      const auto& across = cfg.axis[static_cast<std::size_t>(k)].translation[static_cast<std::size_t>(1 - k)];
+      std::vector<double> s;
+      for (std::size_t i = 0; i < am.nominal_m.size(); ++i) s.push_back(am.straightness_m[i] - across(am.nominal_m[i]));
+      const double srms_um = rms_about_line(am.nominal_m, s) * 1e6;
+      RecordProperty(std::string("straightness_rms_um_") + am.axis, std::to_string(srms_um));
+      EXPECT_LT(srms_um, 0.25) << GetParam().file << " straightness of " << am.axis;
+    }
+  }
+  // The squareness a circle sees is the angle between the axes' directions at its centre: the lean q
+  // plus the slopes there of X's straightness along y and of Y's along x.
+  ASSERT_TRUE(map.squareness_known);
+  const double local = cfg.squareness.xy + cfg.axis[0].translation[1].derivative(center[0]) +
+                       cfg.axis[1].translation[0].derivative(center[1]);
+  EXPECT_NEAR(map.squareness_rad, local, std::max(3 * map.squareness_u_rad, 2e-6));
+  // The files: a table per plane axis, the INI lines, errors.csv with the squareness.
+  const auto files = comp::compensation_files(map, "test runs");
+  ASSERT_EQ(files.size(), 4u);
+  for (int k = 0; k < 2; ++k) {
+    const auto back = formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content,
+                                                   files[static_cast<std::size_t>(k)].name);
+    const auto& am = map.axes[static_cast<std::size_t>(k)];
+    ASSERT_EQ(back.size(), am.nominal_m.size());
+    for (std::size_t i = 0; i < back.size(); ++i)
+      EXPECT_NEAR(back[i].forward_mm - back[i].nominal_mm, am.table_forward_m[i] * 1e3, 1e-6);
+  }
+  EXPECT_NE(files[3].content.find("# squareness_xy_urad = "), std::string::npos);
+}
+
+INSTANTIATE_TEST_SUITE_P(Machines, CompensationMapTest,
+                         ::testing::Values(MapCase{"machine-example.toml", false},
+                                           MapCase{"machine-leadscrew.toml", true}),
+                         [](const auto& p) {
+                           std::string n = p.param.file;
+                           n = n.substr(0, n.find('.'));
+                           for (auto& c : n)
+                             if (c == '-') c = '_';
+                           return n;
+                         });
+
+TEST(CompensationMapTest, CentreMustBeKnownAndTheRunsMustGoBothWays) {
+  const sim::Machine m(sim::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml"));
+  auto runs = pair_of(m, {0, 0, 0}, 1000);
+  const auto id = dbb::identify(runs);
+  for (auto& r : runs) {
+    r.metadata.erase("center_a_mm");
+    r.metadata.erase("center_b_mm");
+  }
+  try {
+    (void)comp::error_map(id, runs);
+    FAIL() << "no centre, yet a map";
+  } catch (const comp::CompensationError& e) {
+    EXPECT_NE(std::string(e.what()).find("--center-mm"), std::string::npos) << e.what();
+  }
+  comp::MapOptions o;
+  o.center_m = std::array<double, 2>{0.0, 0.0};
+  EXPECT_NO_THROW((void)comp::error_map(id, runs, o));
+  o.step_m = 0.0005;  // 401 lines
+  EXPECT_THROW((void)comp::error_map(id, runs, o), comp::CompensationError);
+  const std::vector<formats::DbbRun> one{runs.front()};
+  EXPECT_THROW((void)comp::error_map(dbb::identify(one), one), comp::CompensationError);
+}
+
+// --- before / after on the virtual machine ---
+
+class CompensationVerifyTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
+  const auto cfg = sim::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam());
+  const sim::Machine m(cfg);
+  const sim::Vec3 center{0.0, 0.0, 0.0};
+  const auto runs = pair_of(m, center, 250);
+  const auto id = dbb::identify(runs);
+  const auto map = comp::error_map(id, runs);
+  const auto files = comp::compensation_files(map, "test runs");
+  // The tables as LinuxCNC reads them, and the squareness as the user enters it in the skew option.
+  sim::ControllerCorrection tables_only;
+  for (int k = 0; k < 2; ++k)
+    tables_only.tables[static_cast<std::size_t>(k)] =
+        sim::joint_compensation(formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content, "t.comp"));
+  sim::ControllerCorrection with_skew = tables_only;
+  if (map.squareness_significant) with_skew.skew.xy = map.squareness_rad;
+  const auto r = sim::remeasure_dbb(cfg, with_skew, runs, center);
+  const auto before = dbb::identify(r.before), after = dbb::identify(r.after);
+  const auto tables = dbb::identify(sim::remeasure_dbb(cfg, tables_only, runs, center).after);
+  const double g0 = find(before, "circular_deviation_um")->value, g1 = find(after, "circular_deviation_um")->value;
+  const double g_tables = find(tables, "circular_deviation_um")->value;
+  RecordProperty("g_before_um", std::to_string(g0));
+  RecordProperty("g_after_um", std::to_string(g1));
+  RecordProperty("g_tables_only_um", std::to_string(g_tables));
+  std::cout << GetParam() << ": G " << g0 << " um -> " << g_tables << " um with the tables, " << g1
+            << " um with tables and skew (" << 100 * g1 / g0 << " %)\n";
+  // Where G is mostly what a table and the skew correct (the lead-screw machine) it falls below 35 %;
+  // the other two keep their X and Y straightness (bow and cubic, about 4.5 um of G), which no
+  // per-joint table can hold: they are checked against 70 % and the straightness must be what is left.
+  const bool table_machine = std::string(GetParam()) == "machine-leadscrew.toml";
+  EXPECT_LE(g1, (table_machine ? 0.35 : 0.70) * g0) << GetParam() << ": G " << g0 << " -> " << g1 << " um";
+  if (!table_machine) {
+    const auto* sx = find(after, "straightness_x_um");
+    ASSERT_NE(sx, nullptr);
+    EXPECT_GT(std::abs(sx->value), 3 * sx->u) << "the straightness a table cannot hold is left";
+  }
+  EXPECT_LT(g_tables, g0) << GetParam();
+  // `before` reproduces the given runs (same machine, same seeds).
+  EXPECT_NEAR(g0, find(id, "circular_deviation_um")->value, 1e-9);
+  const auto* q = find(after, "squareness_urad");
+  ASSERT_NE(q, nullptr);
+  EXPECT_LT(std::abs(q->value), 3 * q->u) << "squareness after the skew correction";
+  for (const auto& t : map.terms) {
+    if (t.use != comp::Use::table || !t.significant) continue;
+    const auto* a = find(after, t.name);
+    ASSERT_NE(a, nullptr) << t.name;
+    std::cout << "  " << t.name << ": " << t.value << " +/- " << t.u << " -> " << a->value << " +/- " << a->u << "\n";
+    if (!a->fitted || !std::isfinite(a->u)) continue;  // no longer detected (a cyclic error's search found none)
+    // The servo lag follows the table's correction late, which leaves up to 1 % of a cyclic error (a
+    // 5 mm lead at 250 mm/min, 20 ms lag: 0.7 %, 3.6 u; 2.0 u without the lag).
+    EXPECT_LT(std::abs(a->value), std::max(3 * a->u, 0.01 * std::abs(t.value)))
+        << GetParam() << ": " << t.name << " " << t.value << " -> " << a->value << " +/- " << a->u;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Machines, CompensationVerifyTest,
+                         ::testing::Values("machine-example.toml", "machine-several-effects.toml",
+                                           "machine-leadscrew.toml"),
+                         [](const auto& p) {
+                           std::string n = p.param;
+                           n = n.substr(0, n.find('.'));
+                           for (auto& c : n)
+                             if (c == '-') c = '_';
+                           return n;
+                         });
+
+// A lathe-like XZ test: the Z table is written for joint 2 and the skew goes to xz.
+TEST(CompensationVerifyTest, XzPlaneTablesForXAndZ) {
+  auto cfg = sim::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml");
+  cfg.axis[2].scale = 20e-6;
+  cfg.axis[2].backlash_m = 3e-6;
+  cfg.squareness.xz = 15e-6;
+  const sim::Vec3 center{0.05, 0.0, -0.02};
+  const auto runs = pair_of(sim::Machine(cfg), center, 250, sim::Plane::xz);
+  const auto id = dbb::identify(runs);
+  const auto map = comp::error_map(id, runs);
+  ASSERT_EQ(map.axes[1].axis, "z");
+  EXPECT_NEAR(map.terms_of[1].center_m, -0.02, 1e-12);
+  EXPECT_EQ(comp::joint_of("z"), 2);
+  const auto files = comp::compensation_files(map, "xz runs");
+  EXPECT_EQ(files[1].name, "z.comp");
+  EXPECT_NE(files[2].content.find("[JOINT_2]\n"), std::string::npos);
+  sim::ControllerCorrection c;
+  c.tables[0] = sim::joint_compensation(formats::parse_linuxcnc_comp(files[0].content, "x.comp"));
+  c.tables[2] = sim::joint_compensation(formats::parse_linuxcnc_comp(files[1].content, "z.comp"));
+  ASSERT_TRUE(map.squareness_significant);
+  c.skew.xz = map.squareness_rad;
+  const auto r = sim::remeasure_dbb(cfg, c, runs, center);
+  const auto before = dbb::identify(r.before), after = dbb::identify(r.after);
+  const double g0 = find(before, "circular_deviation_um")->value, g1 = find(after, "circular_deviation_um")->value;
+  std::cout << "xz: G " << g0 << " -> " << g1 << " um\n";
+  EXPECT_LE(g1, 0.35 * g0);
+  for (const char* name : {"scale_z_ppm", "backlash_z_um", "squareness_urad"}) {
+    const auto* a = find(after, name);
+    ASSERT_NE(a, nullptr) << name;
+    EXPECT_LT(std::abs(a->value), 3 * a->u) << name << " " << a->value << " +/- " << a->u;
+  }
+}
+
+}  // namespace
