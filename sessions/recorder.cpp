@@ -107,7 +107,7 @@ std::string RawRecorder::close(bool complete, const std::map<std::string, std::s
   pending_ += formats::format_raw_trailer({.complete = complete,
                                            .ended_utc = utc_now_iso_ms(),
                                            .samples = s.samples_written,
-                                           .samples_lost = s.samples_lost + ring_.drops(),
+                                           .samples_lost = s.samples_lost,  // stats() counts the ring's drops
                                            .metadata = trailer});
   write_pending();
   const bool written = pending_.empty();

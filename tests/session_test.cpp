@@ -15,6 +15,8 @@
 #include "cli/daemon_client.hpp"
 #include "core/mono_clock.hpp"
 #include "daemon/daemon.hpp"
+#include "formats/raw_recording.hpp"
+#include "sessions/recorder.hpp"
 #include "counting_driver.hpp"
 #include "test_support.hpp"
 
@@ -316,4 +318,28 @@ TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
   EXPECT_NE(message.find("session " + ev["session"].get<std::string>() + " failed: too few samples (1)"),
             std::string::npos)
       << message;
+}
+
+TEST(RawRecorder, SamplesTheRingDroppedAreCountedOnceInTheTrailer) {
+  test::TempDir dir;
+  const toml::table empty;
+  const TableReader table(empty, "test.toml", "device");
+  const test::CountingDriver device({.name = "c", .driver = "counting", .ring_capacity = 16, .table = table});
+  // A ring of 4 and a writer that sleeps: 10 samples pushed at once, 6 of them cannot be kept.
+  sessions::RawRecorder recorder(dir.path().string(), "lost", device, {{"kind", "test"}},
+                                 {.flush_period = std::chrono::seconds(1), .ring_capacity = 4});
+  std::vector<Sample> samples(10);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    samples[i].seq = i;
+    samples[i].value_count = 1;
+    samples[i].value[0] = static_cast<double>(i);
+  }
+  recorder.push(samples);
+  const std::string path = recorder.close(true);
+  EXPECT_EQ(recorder.stats().samples_written, 4u);
+  EXPECT_EQ(recorder.stats().samples_lost, 6u);
+  const formats::RawRecording back = formats::read_raw_recording(path);
+  EXPECT_EQ(back.samples.size(), 4u);
+  EXPECT_EQ(back.samples_lost, 6u) << "the trailer counts each dropped sample once";
+  EXPECT_FALSE(back.complete) << "a recording that lost samples is not whole";
 }
