@@ -834,147 +834,146 @@ double range_about_circle(std::span<const double> angle_rad, std::span<const dou
   return res.maxCoeff() - res.minCoeff();
 }
 
-Identification identify(const std::vector<formats::DbbRun>& runs, const IdentifyOptions& options) {
-  if (runs.empty()) throw formats::DbbRunFormatError("identify: no runs given");
-  for (const auto& r : runs) formats::validate_dbb_run(r);
-  const std::string plane = runs.front().plane;
-  for (const auto& r : runs)
-    if (r.plane != plane)
-      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
-                           "); runs identified together must share the plane");
+namespace {
 
-  Identification out;
-  out.plane = plane;
-  std::vector<Point> pts = points_of(runs);
-  const auto n = static_cast<Eigen::Index>(pts.size());
-  PrerollTable preroll;
-  DiagWork work;
-  // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
-  // (spikes 2, decays 2, cyclic 4).
-  work.j.resize(n, static_cast<Eigen::Index>(2 * runs.size() +
-                                             std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
-  // Backlash widths the points' deadband shapes were computed for (0 = ideal steps).
-  double shaped_b_a = 0, shaped_b_b = 0;
-  std::vector<double> lai_residual_rms(runs.size(), 0.0);  // per run, of the Lai fit
-  std::vector<Contribution> lai_ranking;                    // its terms' parts of G
-  std::vector<std::size_t> lai_counts(runs.size(), 0);
-
-  // ---- Lai third-order fit ----
-  {
-    const bool shared = options.lai_shared_center || runs.size() == 1;
-    const std::size_t n_center = shared ? 2 : 2 * runs.size();
-    const std::size_t m = lai_count - 2 + n_center;
-    std::vector<std::string> names;
-    if (shared) {
-      names = lai3_parameter_names();
-    } else {
-      for (std::size_t k = 0; k < runs.size(); ++k) {
-        names.push_back("run" + std::to_string(k + 1) + ".e_x_um");
-        names.push_back("run" + std::to_string(k + 1) + ".e_y_um");
-      }
-      for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
-    }
-    // With stride > 1 only every stride-th point enters (its residual is not needed).
-    const auto fit = [&](Eigen::Index stride) {
-      const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
-      if (rows == n) stride = 1;
-      auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(m));
-      if (!shared) j.setZero();
-      Eigen::VectorXd ys(rows), ws(rows);
-      double basis[lai_count];
-      for (Eigen::Index i = 0; i < rows; ++i) {
-        const Point& p = pts[static_cast<std::size_t>(i * stride)];
-        lai_basis(p, basis);
-        const std::size_t off = shared ? 0 : 2 * p.run;
-        j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
-        j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
-        for (std::size_t c = 2; c < lai_count; ++c)
-          j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
-        ys[i] = p.dL_um;
-        ws[i] = p.w;
-      }
-      LsqResult r = solve_lsq(j, ys, ws, names);
-      if (!r.ok) throw formats::DbbRunFormatError("identify: " + r.message);
-      return r;
-    };
-    // First pass on a third of the points: only its backlash estimate is used (deadband shape).
-    LsqResult res = fit(3);
-    // Second pass with the deadband shape of the estimated backlash.
-    const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
-    const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
-    const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
-    if (b_a > 0 || b_b > 0) {
-      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0));
-      shaped_b_a = std::max(b_a, 0.0);
-      shaped_b_b = std::max(b_b, 0.0);
-    }
-    res = fit(1);
-    out.fit = summary_of(res);
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      const double e = res.residual[static_cast<Eigen::Index>(i)];
-      lai_residual_rms[pts[i].run] += e * e;
-      lai_counts[pts[i].run] += 1;
-    }
-    for (std::size_t k = 0; k < runs.size(); ++k)
-      lai_residual_rms[k] = lai_counts[k] ? std::sqrt(lai_residual_rms[k] / static_cast<double>(lai_counts[k])) : 0.0;
-    // Each error's part of the circular deviation, Lai's terms grouped as the errors they describe (the
-    // two scales together: what they share is a radius, which the circle absorbs; the centre offset is
-    // the set-up's).
-    double g_max = 0;
-    for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k)
-      g_max = std::max(g_max, circular_deviation(pts.data() + i, runs[k].angle_rad.size()));
-    const auto group_of = [](const std::string& name) -> std::string {
-      if (name == "S_x" || name == "S_y") return "scale_mismatch";
-      if (name == "backlash_x_um" || name == "backlash_y_um" || name == "servo_mismatch_ms")
-        return name.substr(0, name.rfind('_'));
-      if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
-      switch (name.front()) {
-        case 'a': return "x_straightness_in_y";  // with the squareness a1
-        case 'b': return "y_straightness_in_x";
-        case 'c': return "y_roll";
-        case 'd': return "x_straightness_in_z";
-        case 'e': return "y_straightness_in_z";
-        default: return name;
-      }
-    };
-    std::vector<std::string> groups;
-    for (std::size_t c = n_center; c < m; ++c) {
-      const std::string grp = group_of(names[c]);
-      if (res.identified[c] && std::find(groups.begin(), groups.end(), grp) == groups.end()) groups.push_back(grp);
-    }
-    double basis[lai_count];
-    for (const auto& grp : groups) {
-      std::vector<double> curve(pts.size(), 0.0);
-      for (std::size_t i = 0; i < pts.size(); ++i) {
-        lai_basis(pts[i], basis);
-        for (std::size_t c = n_center; c < m; ++c)
-          if (res.identified[c] && group_of(names[c]) == grp) {
-            const std::size_t col = c - n_center + 2;
-            curve[i] += basis[col] * lai_columns[col].si_per_reported * 1e6 * res.fitted[static_cast<Eigen::Index>(c)];
-          }
-      }
-      const double part = part_of_deviation(pts, curve, runs.size());
-      lai_ranking.push_back({grp, part, g_max > 0 ? 100 * part / g_max : nan});
-    }
-    std::sort(lai_ranking.begin(), lai_ranking.end(),
-              [](const Contribution& a, const Contribution& b) { return a.contribution_um > b.contribution_um; });
-    const double omega0 = runs.front().feed_m_per_s / runs.front().radius_m;
-    for (std::size_t c = 0; c < m; ++c) {
-      if (!res.identified[c]) continue;
-      const auto ci = static_cast<Eigen::Index>(c);
-      std::string name = names[c];
-      double value = res.x[ci], u = res.u[ci];
-      if (name == "S_x" || name == "S_y") value += 1.0;
-      if (name == "servo_mismatch_ms") {
-        // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
-        out.lai3.push_back(
-            est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
-      }
-      out.lai3.push_back(est(name, value, u));
-    }
+// The error a Lai parameter describes, for the ranking: the two scales together (what they share is a
+// radius, which the circle absorbs), the straightness coefficients by axis and direction.
+std::string lai_error_group(const std::string& name) {
+  if (name == "S_x" || name == "S_y") return "scale_mismatch";
+  if (name == "backlash_x_um" || name == "backlash_y_um" || name == "servo_mismatch_ms")
+    return name.substr(0, name.rfind('_'));
+  if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
+  switch (name.front()) {
+    case 'a': return "x_straightness_in_y";  // with the squareness a1
+    case 'b': return "y_straightness_in_x";
+    case 'c': return "y_roll";
+    case 'd': return "x_straightness_in_z";
+    case 'e': return "y_straightness_in_z";
+    default: return name;
   }
+}
 
-  // ---- Ballbar diagnostics: of the runs whose geometry they model, an in-plane bar (h = 0) ----
+// What Lai's fit leaves for the rest of identify().
+struct LaiFit {
+  std::vector<double> residual_rms;  // per run
+  std::vector<Contribution> ranking;  // its terms' parts of G, largest first
+  double shaped_b_a = 0, shaped_b_b = 0;  // the backlash widths the points' deadband shapes were computed for
+};
+
+// Lai's third-order model on every run (two passes: the first only estimates the backlash whose
+// deadband shape the second uses; `pts` keep that shape). Fills out.fit and out.lai3.
+LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, PrerollTable& preroll, DiagWork& work,
+               const IdentifyOptions& options, Identification& out) {
+  const auto n = static_cast<Eigen::Index>(pts.size());
+  LaiFit lai;
+  lai.residual_rms.assign(runs.size(), 0.0);
+  std::vector<std::size_t> counts(runs.size(), 0);
+  const bool shared = options.lai_shared_center || runs.size() == 1;
+  const std::size_t n_center = shared ? 2 : 2 * runs.size();
+  const std::size_t m = lai_count - 2 + n_center;
+  std::vector<std::string> names;
+  if (shared) {
+    names = lai3_parameter_names();
+  } else {
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+      names.push_back("run" + std::to_string(k + 1) + ".e_x_um");
+      names.push_back("run" + std::to_string(k + 1) + ".e_y_um");
+    }
+    for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
+  }
+  // With stride > 1 only every stride-th point enters (its residual is not needed).
+  const auto fit = [&](Eigen::Index stride) {
+    const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
+    if (rows == n) stride = 1;
+    auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(m));
+    if (!shared) j.setZero();
+    Eigen::VectorXd ys(rows), ws(rows);
+    double basis[lai_count];
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const Point& p = pts[static_cast<std::size_t>(i * stride)];
+      lai_basis(p, basis);
+      const std::size_t off = shared ? 0 : 2 * p.run;
+      j(i, static_cast<Eigen::Index>(off)) = basis[0] * lai_columns[0].si_per_reported * 1e6;
+      j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
+      for (std::size_t c = 2; c < lai_count; ++c)
+        j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+      ys[i] = p.dL_um;
+      ws[i] = p.w;
+    }
+    LsqResult r = solve_lsq(j, ys, ws, names);
+    if (!r.ok) throw formats::DbbRunFormatError("identify: " + r.message);
+    return r;
+  };
+  // First pass on a third of the points: only its backlash estimate is used (deadband shape).
+  LsqResult res = fit(3);
+  // Second pass with the deadband shape of the estimated backlash.
+  const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
+  const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
+  const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
+  if (b_a > 0 || b_b > 0) {
+    apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0));
+    lai.shaped_b_a = std::max(b_a, 0.0);
+    lai.shaped_b_b = std::max(b_b, 0.0);
+  }
+  res = fit(1);
+  out.fit = summary_of(res);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const double e = res.residual[static_cast<Eigen::Index>(i)];
+    lai.residual_rms[pts[i].run] += e * e;
+    counts[pts[i].run] += 1;
+  }
+  for (std::size_t k = 0; k < runs.size(); ++k)
+    lai.residual_rms[k] = counts[k] ? std::sqrt(lai.residual_rms[k] / static_cast<double>(counts[k])) : 0.0;
+  // Each error's part of the circular deviation, Lai's terms grouped as the errors they describe (the
+  // two scales together: what they share is a radius, which the circle absorbs; the centre offset is
+  // the set-up's).
+  double g_max = 0;
+  for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k)
+    g_max = std::max(g_max, circular_deviation(pts.data() + i, runs[k].angle_rad.size()));
+  std::vector<std::string> groups;
+  for (std::size_t c = n_center; c < m; ++c) {
+    const std::string grp = lai_error_group(names[c]);
+    if (res.identified[c] && std::find(groups.begin(), groups.end(), grp) == groups.end()) groups.push_back(grp);
+  }
+  double basis[lai_count];
+  for (const auto& grp : groups) {
+    std::vector<double> curve(pts.size(), 0.0);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      lai_basis(pts[i], basis);
+      for (std::size_t c = n_center; c < m; ++c)
+        if (res.identified[c] && lai_error_group(names[c]) == grp) {
+          const std::size_t col = c - n_center + 2;
+          curve[i] += basis[col] * lai_columns[col].si_per_reported * 1e6 * res.fitted[static_cast<Eigen::Index>(c)];
+        }
+    }
+    const double part = part_of_deviation(pts, curve, runs.size());
+    lai.ranking.push_back({grp, part, g_max > 0 ? 100 * part / g_max : nan});
+  }
+  std::sort(lai.ranking.begin(), lai.ranking.end(),
+            [](const Contribution& a, const Contribution& b) { return a.contribution_um > b.contribution_um; });
+  const double omega0 = runs.front().feed_m_per_s / runs.front().radius_m;
+  for (std::size_t c = 0; c < m; ++c) {
+    if (!res.identified[c]) continue;
+    const auto ci = static_cast<Eigen::Index>(c);
+    std::string name = names[c];
+    double value = res.x[ci], u = res.u[ci];
+    if (name == "S_x" || name == "S_y") value += 1.0;
+    if (name == "servo_mismatch_ms") {
+      // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
+      out.lai3.push_back(
+          est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
+    }
+    out.lai3.push_back(est(name, value, u));
+  }
+  return lai;
+}
+
+// The ballbar diagnostics, of the runs whose geometry they model (an in-plane bar, h = 0), with the
+// deadband shape Lai's fit estimated. Fills out.diagnostics, out.notes and out.ranking; returns each
+// run's residual RMS (NaN for the runs the diagnostics do not model).
+std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& runs, const std::string& plane,
+                                           DiagWork& work, const LaiFit& lai, const IdentifyOptions& options,
+                                           Identification& out) {
   std::vector<formats::DbbRun> flat;
   std::vector<std::size_t> flat_index;  // into runs
   for (std::size_t k = 0; k < runs.size(); ++k)
@@ -1004,8 +1003,8 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
     }
     std::vector<Point> flat_pts = points_of(flat);
     PrerollTable flat_preroll;
-    if (shaped_b_a > 0 || shaped_b_b > 0) apply_deadband(flat_pts, flat, flat_preroll, shaped_b_a, shaped_b_b);
-    const LsqResult res = diagnose(flat, flat_pts, plane, work, flat_preroll, shaped_b_a, shaped_b_b, options, out);
+    if (lai.shaped_b_a > 0 || lai.shaped_b_b > 0) apply_deadband(flat_pts, flat, flat_preroll, lai.shaped_b_a, lai.shaped_b_b);
+    const LsqResult res = diagnose(flat, flat_pts, plane, work, flat_preroll, lai.shaped_b_a, lai.shaped_b_b, options, out);
     // Absolute scales that agree are a radius change common to both axes, not the axes' scales.
     const auto find = [&](const std::string& name) -> const Estimate* {
       for (const auto& e : out.diagnostics)
@@ -1036,12 +1035,14 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
       residual_rms[flat_index[k]] = cnt ? std::sqrt(ss / static_cast<double>(cnt)) : nan;
     }
   }
-  if (out.ranking.empty()) {
-    out.ranking = lai_ranking;
-    out.ranking_model = "lai3";
-  }
+  return residual_rms;
+}
 
-  // ISO 230-4 circular deviation per run and hysteresis of the first ccw/cw pair of one set-up.
+// ISO 230-4 circular deviation per run (the largest is G) and the hysteresis of the first ccw/cw pair
+// of one set-up; each run's residual RMS from the diagnostics where they model it, else from Lai's fit.
+void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<Point>& pts,
+                    const std::vector<double>& residual_rms, const std::vector<double>& lai_residual_rms,
+                    Identification& out) {
   // First point of each run (the points are in run order).
   std::vector<const Point*> first(runs.size());
   for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k) first[k] = pts.data() + i;
@@ -1072,6 +1073,35 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
     }
     if (done) break;
   }
+}
+
+}  // namespace
+
+Identification identify(const std::vector<formats::DbbRun>& runs, const IdentifyOptions& options) {
+  if (runs.empty()) throw formats::DbbRunFormatError("identify: no runs given");
+  for (const auto& r : runs) formats::validate_dbb_run(r);
+  const std::string plane = runs.front().plane;
+  for (const auto& r : runs)
+    if (r.plane != plane)
+      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
+                           "); runs identified together must share the plane");
+
+  Identification out;
+  out.plane = plane;
+  std::vector<Point> pts = points_of(runs);
+  PrerollTable preroll;
+  DiagWork work;
+  // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
+  // (spikes 2, decays 2, cyclic 4).
+  work.j.resize(static_cast<Eigen::Index>(pts.size()),
+                static_cast<Eigen::Index>(2 * runs.size() + std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
+  const LaiFit lai = fit_lai(runs, pts, preroll, work, options, out);
+  const std::vector<double> residual_rms = diagnose_in_plane_runs(runs, plane, work, lai, options, out);
+  if (out.ranking.empty()) {
+    out.ranking = lai.ranking;
+    out.ranking_model = "lai3";
+  }
+  summarize_runs(runs, pts, residual_rms, lai.residual_rms, out);
   return out;
 }
 
