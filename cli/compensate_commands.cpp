@@ -64,14 +64,18 @@ std::vector<std::string> latest_session_runs(const std::string& socket, std::str
 }
 
 struct Verification {
-  dbb::Identification before, tables, after;
-  bool skew = false;  // `after` also has the squareness entered as the controller's axis skew
+  // Before; with the tables; with the tables and the squareness as axis skew; with those and the
+  // straightness as the cross-axis correction (`after`: everything the files and the advice correct).
+  dbb::Identification before, tables, skewed, after;
+  bool skew = false;   // the squareness was significant and entered as the controller's axis skew
+  bool cross = false;  // straightness.csv was written and loaded
   std::vector<std::string> written;
 };
 
-// Traces every run's test on the virtual machine: as it is, with the tables written to `out_dir`
-// (read back from the files, as the controller would), and with the tables plus the squareness as the
-// axis-skew correction the user is told to enter. Writes the before/after runs to out_dir/verify/.
+// Traces every run's test on the virtual machine: as it is, with the tables written to `out_dir` (read
+// back from the files, as the controller would), then adding the squareness as the axis-skew correction
+// the user is told to enter, then the cross-axis correction of straightness.csv. Writes the runs before
+// and with every correction to out_dir/verify/.
 Verification verify(const std::vector<formats::DbbRun>& runs, const comp::ErrorMap& map,
                     const std::string& machine_file, const std::string& out_dir, const std::vector<std::string>& axes) {
   const sim::MachineConfig config = sim::load_machine_config(machine_file);
@@ -83,15 +87,22 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const comp::ErrorM
   center[static_cast<std::size_t>(comp::joint_of(map.axes[0].axis))] = map.terms_of[0].center_m;
   center[static_cast<std::size_t>(comp::joint_of(map.axes[1].axis))] = map.terms_of[1].center_m;
   Verification v;
-  sim::ControllerCorrection full = tables;
+  sim::ControllerCorrection skewed = tables;
   if (map.squareness_known && map.squareness_significant) {
     v.skew = true;
-    (map.plane == "xy" ? full.skew.xy : (map.plane == "xz" ? full.skew.xz : full.skew.yz)) = map.squareness_rad;
+    (map.plane == "xy" ? skewed.skew.xy : (map.plane == "xz" ? skewed.skew.xz : skewed.skew.yz)) = map.squareness_rad;
+  }
+  sim::ControllerCorrection full = skewed;
+  const fs::path straightness = fs::path(out_dir) / "straightness.csv";
+  if (fs::exists(straightness)) {
+    v.cross = true;
+    full.cross = sim::cross_compensation(formats::read_straightness_csv(straightness.string()));
   }
   const sim::RemeasuredRuns r = sim::remeasure_dbb(config, full, runs, center);
   v.before = dbb::identify(r.before);
   v.after = dbb::identify(r.after);
-  v.tables = v.skew ? dbb::identify(sim::remeasure_dbb(config, tables, runs, center).after) : v.after;
+  v.skewed = v.cross ? dbb::identify(sim::remeasure_dbb(config, skewed, runs, center).after) : v.after;
+  v.tables = v.skew ? dbb::identify(sim::remeasure_dbb(config, tables, runs, center).after) : v.skewed;
   const fs::path dir = fs::path(out_dir) / "verify";
   fs::create_directories(dir);
   // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
@@ -112,19 +123,27 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const comp::ErrorM
 std::string verification_text(const comp::ErrorMap& map, const Verification& v, nlohmann::json& j) {
   std::ostringstream o;
   const double g0 = circular_deviation_um(v.before), gt = circular_deviation_um(v.tables),
-               g1 = circular_deviation_um(v.after);
+               gs = circular_deviation_um(v.skewed), g1 = circular_deviation_um(v.after);
+  const auto stage = [&](double g, const char* what) {
+    o << "\n    " << printf_number("%8.3f", g) << " um (" << printf_number("%3.0f", 100 * g / g0) << " %)  " << what;
+  };
   o << "\nverification on the virtual machine (the same test traced again):\n";
-  o << "  circular deviation G: " << printf_number("%.3f", g0) << " um before, " << printf_number("%.3f", gt)
-    << " um with the tables (" << printf_number("%.0f", 100 * gt / g0) << " %)";
-  if (v.skew)
-    o << ", " << printf_number("%.3f", g1) << " um with the tables and the squareness as axis skew ("
-      << printf_number("%.0f", 100 * g1 / g0) << " %)";
-  o << "\n  term                          before                after (" << (v.skew ? "tables + skew" : "tables")
-    << ")    |after|/u\n";
+  o << "  circular deviation G:\n    " << printf_number("%8.3f", g0) << " um          before";
+  stage(gt, "with the tables");
+  if (v.skew) stage(gs, "with the tables and the squareness as axis skew");
+  if (v.cross)
+    stage(g1, v.skew ? "with the tables, the axis skew and straightness.csv as cross-axis correction"
+                     : "with the tables and straightness.csv as cross-axis correction");
+  std::string all = "tables";
+  if (v.skew) all += " + skew";
+  if (v.cross) all += " + cross";
+  o << "\n  term                          before                after (" << all << ")    |after|/u\n";
   j["g_before_um"] = g0;
   j["g_tables_um"] = gt;
+  j["g_tables_skew_um"] = gs;
   j["g_after_um"] = g1;
   j["skew_applied"] = v.skew;
+  j["straightness_applied"] = v.cross;
   nlohmann::json terms = nlohmann::json::array();
   for (const auto& e : v.before.diagnostics) {
     if (!e.fitted || !std::isfinite(e.u) || e.name.rfind("run", 0) == 0 || e.name.rfind("center_offset", 0) == 0)
@@ -141,6 +160,8 @@ std::string verification_text(const comp::ErrorMap& map, const Verification& v, 
                      : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
     else if (t && e.name == "squareness_urad")
       status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
+    else if (t && t->significant && t->use == comp::Use::cross_table)
+      status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
     else if (t && t->significant)
       status =
           t->use == comp::Use::map_only ? "no per-joint table can hold it (errors.csv)" : "servo/friction: no table";
@@ -239,6 +260,11 @@ void run_compensate(const Opts& o, const std::string& socket) {
     write_file_atomically(path, content);
     written.push_back(path);
   }
+  // A straightness.csv of an earlier compensation in this directory would be loaded with these tables.
+  if (const fs::path stale = fs::path(o.out_dir) / "straightness.csv";
+      fs::exists(stale) && std::none_of(written.begin(), written.end(),
+                                        [&](const auto& p) { return p.template get<std::string>() == stale.string(); }))
+    fs::remove(stale);
   j["files"] = written;
   nlohmann::json terms = nlohmann::json::array();
   for (const auto& t : map.terms)
@@ -247,7 +273,10 @@ void run_compensate(const Opts& o, const std::string& socket) {
          {"value", t.value},
          {"u", t.u},
          {"significant", t.significant},
-         {"use", t.use == comp::Use::table ? "table" : (t.use == comp::Use::map_only ? "errors.csv" : "none")},
+         {"use", t.use == comp::Use::table ? "table"
+                                           : (t.use == comp::Use::map_only
+                                                  ? "errors.csv"
+                                                  : (t.use == comp::Use::cross_table ? "straightness.csv" : "none"))},
          {"why", t.why}});
   j["terms"] = terms;
   if (map.squareness_known) {
@@ -280,7 +309,8 @@ void add_compensate_commands(CLI::App& app, CliContext& ctx) {
   d->add_option("runs", o->files, "DBB run files (guideway/dbb-run/1): in-plane circles in both directions")
       ->check(CLI::ExistingFile);
   d->add_flag("--latest", o->latest, "the run files of the daemon's latest DBB session instead of files");
-  d->add_option("--out-dir", o->out_dir, "directory for x.comp, y.comp, linuxcnc.ini, errors.csv")->required();
+  d->add_option("--out-dir", o->out_dir, "directory for x.comp, y.comp, linuxcnc.ini, errors.csv, straightness.csv")
+      ->required();
   d->add_option("--center-mm", o->center_mm,
                 "circle centre in machine coordinates (first, second plane axis); default: the runs' metadata")
       ->expected(2);

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/csv_table.hpp"
 #include "core/number_format.hpp"
 
 namespace guideway::formats {
@@ -101,6 +102,69 @@ std::string format_error_map_csv(const std::vector<ErrorMapRow>& rows,
       << "\n";
   }
   return o.str();
+}
+
+namespace {
+
+constexpr const char* straightness_header = "moving_axis,position_mm,corrected_axis,correction_mm";
+
+void check_cross_rows(const std::vector<CrossCorrectionRow>& rows, const std::string& name) {
+  if (rows.empty()) fail(name, "no cross-axis corrections");
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    const std::string where = "row " + std::to_string(i + 1) + ": ";
+    if (r.moving_axis.empty() || r.corrected_axis.empty() || r.moving_axis == r.corrected_axis)
+      fail(name, where + "moving axis \"" + r.moving_axis + "\" and corrected axis \"" + r.corrected_axis +
+                     "\" must be two different axes");
+    if (!std::isfinite(r.position_mm) || !std::isfinite(r.correction_mm))
+      fail(name, where + "a value is not a finite number");
+    if (i > 0 && rows[i - 1].moving_axis == r.moving_axis && !(r.position_mm > rows[i - 1].position_mm))
+      fail(name, where + "position " + shortest(r.position_mm) + " mm of " + r.moving_axis +
+                     " does not increase (a table interpolated in that position needs ascending positions)");
+  }
+}
+
+}  // namespace
+
+std::string format_straightness_csv(const std::vector<CrossCorrectionRow>& rows,
+                                    const std::vector<std::pair<std::string, std::string>>& metadata,
+                                    const std::vector<std::string>& comment_lines) {
+  check_cross_rows(rows, "straightness.csv");
+  std::ostringstream o;
+  o << "# format = " << straightness_format_id << "\n";
+  for (const auto& [k, v] : metadata) o << "# " << k << " = " << v << "\n";
+  comments(o, comment_lines, "#");
+  o << straightness_header << "\n";
+  for (const auto& r : rows)
+    o << r.moving_axis << "," << printf_number("%.4f", r.position_mm) << "," << r.corrected_axis << ","
+      << mm(r.correction_mm) << "\n";
+  return o.str();
+}
+
+std::vector<CrossCorrectionRow> parse_straightness_csv(std::string_view text, const std::string& name) {
+  std::vector<CrossCorrectionRow> rows;
+  try {
+    const CsvTable t = parse_csv_table(text, name);
+    const auto f = t.metadata.find("format");
+    if (f == t.metadata.end() || f->second != straightness_format_id)
+      fail(name, std::string("not a straightness table (expected \"# format = ") + straightness_format_id + "\")");
+    const std::size_t moving = t.column("moving_axis"), position = t.column("position_mm"),
+                      corrected = t.column("corrected_axis"), correction = t.column("correction_mm");
+    for (const auto& r : t.rows)
+      rows.push_back({r.cells[moving], t.number(r, position), r.cells[corrected], t.number(r, correction)});
+  } catch (const CsvError& e) {
+    throw CompensationFileError(e.what());
+  }
+  check_cross_rows(rows, name);
+  return rows;
+}
+
+std::vector<CrossCorrectionRow> read_straightness_csv(const std::string& path) {
+  try {
+    return parse_straightness_csv(read_text_file(path), path);
+  } catch (const CsvError& e) {
+    throw CompensationFileError(e.what());
+  }
 }
 
 }  // namespace guideway::formats

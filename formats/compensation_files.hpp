@@ -67,4 +67,24 @@ std::string format_error_map_csv(const std::vector<ErrorMapRow>& rows,
                                  const std::vector<std::pair<std::string, std::string>>& metadata,
                                  const std::vector<std::string>& comment_lines);
 
+// straightness.csv: the cross-axis (straightness) correction. For each moving axis and position, the
+// correction (mm) the controller adds to the command of the other plane axis, interpolated linearly in
+// the moving axis' commanded position; `# key = value` metadata (format = guideway/straightness/1) and
+// `#` comment lines first. Rows of one moving axis are consecutive, positions strictly ascending.
+struct CrossCorrectionRow {
+  std::string moving_axis;     // "x": the axis whose position indexes the correction
+  double position_mm = 0.0;    // its nominal position in machine coordinates
+  std::string corrected_axis;  // "y": the axis whose command is corrected
+  double correction_mm = 0.0;  // added to the corrected axis' command (= minus the straightness there)
+};
+inline constexpr const char* straightness_format_id = "guideway/straightness/1";
+// Throws CompensationFileError when the rows are empty, a value is not finite, an axis corrects itself
+// or a moving axis' positions do not ascend.
+std::string format_straightness_csv(const std::vector<CrossCorrectionRow>& rows,
+                                    const std::vector<std::pair<std::string, std::string>>& metadata,
+                                    const std::vector<std::string>& comment_lines);
+// Reads what format_straightness_csv writes, with the same checks; `name` is used in messages.
+std::vector<CrossCorrectionRow> parse_straightness_csv(std::string_view text, const std::string& name);
+std::vector<CrossCorrectionRow> read_straightness_csv(const std::string& path);
+
 }  // namespace guideway::formats

@@ -32,6 +32,22 @@ def read_comp(path):
     return rows, rest
 
 
+def read_table(path):
+    """A Guideway text table: `# key = value` metadata, the header row, the data rows (cells)."""
+    meta, header, data = {}, None, []
+    with open(path) as f:
+        for line in f.read().splitlines():
+            if line.startswith("#"):
+                if " = " in line:
+                    k, v = line[2:].split(" = ", 1)
+                    meta[k] = v
+            elif header is None:
+                header = line.split(",")
+            else:
+                data.append(line.split(","))
+    return meta, header, data
+
+
 def main():
     build, source = sys.argv[1], sys.argv[2]
     exe = os.path.join(build, "cli", "guideway")
@@ -90,17 +106,7 @@ def main():
 
         # errors.csv: columns, and the squareness a circle centred at x = 50 sees: 8 urad of lean plus the
         # slope of X's bow there (1e-4 um/mm^2 * 2 * 50 mm = 10 urad), as correction per 100 mm of Y.
-        meta, header, data = {}, None, []
-        with open(os.path.join(comp, "errors.csv")) as f:
-            for line in f.read().splitlines():
-                if line.startswith("#"):
-                    if " = " in line:
-                        k, v = line[2:].split(" = ", 1)
-                        meta[k] = v
-                elif header is None:
-                    header = line.split(",")
-                else:
-                    data.append(line.split(","))
+        meta, header, data = read_table(os.path.join(comp, "errors.csv"))
         assert meta["format"] == "guideway/error-map/1"
         assert header == ["axis", "position_mm", "forward_um", "reverse_um", "straightness_axis", "straightness_um"], header
         assert abs(float(meta["squareness_xy_urad"]) - 18.0) < 1.0, meta["squareness_xy_urad"]
@@ -111,11 +117,29 @@ def main():
         for r in xs:
             assert abs(float(r[5]) - 1e-4 * (float(r[1]) - cx) ** 2) < 0.1, r
 
-        # Proof on the virtual machine: G down to at most 35 %, the table terms in the noise.
+        # straightness.csv: X's bow taken back from Y's command, by X's position; the format's columns.
+        meta, header, data = read_table(os.path.join(comp, "straightness.csv"))
+        assert meta["format"] == "guideway/straightness/1", meta
+        assert header == ["moving_axis", "position_mm", "corrected_axis", "correction_mm"], header
+        xs = [r for r in data if r[0] == "x"]
+        assert len(xs) == len(read_comp(os.path.join(comp, "x.comp"))[0]), len(xs)
+        for r in xs:
+            assert r[2] == "y", r
+            assert abs(float(r[3]) * 1e3 + 1e-4 * (float(r[1]) - cx) ** 2) < 0.1, r
+        for r in data:
+            if r[0] == "y":
+                assert r[2] == "x" and abs(float(r[3])) * 1e3 < 0.1, r  # Y is straight on this machine
+
+        # Proof on the virtual machine: G down to at most 35 %, the table terms in the noise; each stage
+        # (tables; + squareness as axis skew; + straightness.csv as cross-axis correction) printed.
         v = j["verify"]
-        assert v["skew_applied"] is True
+        assert v["skew_applied"] is True and v["straightness_applied"] is True, v
         assert v["g_after_um"] <= 0.35 * v["g_before_um"], v
         assert v["g_tables_um"] < v["g_before_um"], v
+        assert v["g_tables_skew_um"] < v["g_tables_um"], v
+        assert v["g_after_um"] < v["g_tables_skew_um"], v
+        print(f"G {v['g_before_um']:.3f} -> tables {v['g_tables_um']:.3f} -> + skew {v['g_tables_skew_um']:.3f}"
+              f" -> + cross {v['g_after_um']:.3f} um")
         by_name = {t["name"]: t for t in v["terms"]}
         for name in ("scale_x_ppm", "scale_y_ppm", "backlash_x_um", "backlash_y_um"):
             t = by_name[name]
@@ -123,7 +147,12 @@ def main():
         in_tables = {t["name"] for t in j["terms"] if t["significant"] and t["use"] == "table"}
         assert {"scale_x_ppm", "backlash_x_um", "cyclic_error_x_um", "scale_y_ppm", "backlash_y_um"} <= in_tables, in_tables
         in_map = {t["name"] for t in j["terms"] if t["significant"] and t["use"] == "errors.csv"}
-        assert {"squareness_urad", "straightness_x_um"} <= in_map, in_map
+        assert {"squareness_urad"} <= in_map, in_map
+        in_cross = {t["name"] for t in j["terms"] if t["significant"] and t["use"] == "straightness.csv"}
+        assert {"straightness_x_um"} <= in_cross, in_cross
+        by_name_after = {t["name"]: t for t in v["terms"]}
+        t = by_name_after["straightness_x_um"]
+        assert abs(t["after"]) < 3 * t["after_u"], t
 
         # The report shows the before and after runs in their own sections.
         html = os.path.join(d, "r.html")

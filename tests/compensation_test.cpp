@@ -6,6 +6,7 @@
 //   on three machine files with different errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -88,7 +89,56 @@ TEST(CompensationFilesTest, IniLinesLoadTheTablesWithBacklashZero) {
   EXPECT_EQ(n_bl, 2u);
 }
 
+TEST(CompensationFilesTest, StraightnessTableRoundTripsAndRefusesBadTables) {
+  const std::vector<formats::CrossCorrectionRow> rows{
+      {"x", -10, "y", 0.001}, {"x", 10, "y", -0.0005}, {"y", -10, "x", 0.0}, {"y", 10, "x", 0.002}};
+  const std::string text = formats::format_straightness_csv(rows, {{"source", "t"}}, {"a comment"});
+  EXPECT_EQ(text.rfind("# format = guideway/straightness/1\n", 0), 0u);
+  EXPECT_NE(text.find("moving_axis,position_mm,corrected_axis,correction_mm\nx,-10.0000,y,0.001000\n"),
+            std::string::npos);
+  const auto back = formats::parse_straightness_csv(text, "s.csv");
+  ASSERT_EQ(back.size(), 4u);
+  EXPECT_EQ(back[3].moving_axis, "y");
+  EXPECT_EQ(back[3].corrected_axis, "x");
+  EXPECT_DOUBLE_EQ(back[1].correction_mm, -0.0005);
+  using E = formats::CompensationFileError;
+  EXPECT_THROW((void)formats::format_straightness_csv({}, {}, {}), E);
+  EXPECT_THROW((void)formats::format_straightness_csv({{"x", 1, "y", 0}, {"x", 1, "y", 0}}, {}, {}), E);
+  EXPECT_THROW((void)formats::format_straightness_csv({{"x", 1, "x", 0}}, {}, {}), E);
+  EXPECT_THROW((void)formats::parse_straightness_csv("moving_axis,position_mm,corrected_axis,correction_mm\n"
+                                                     "x,0,y,0\n",
+                                                     "s.csv"),
+               E);  // no format line: not this file
+  EXPECT_THROW((void)formats::parse_straightness_csv("# format = guideway/straightness/1\n"
+                                                     "moving_axis,position_mm,corrected_axis,correction_mm\n"
+                                                     "x,0,y,abc\n",
+                                                     "s.csv"),
+               E);
+}
+
 // --- the compensated machine ---
+
+TEST(CompensatedMachineTest, CrossAxisCorrectionMovesTheOtherAxisByTheFirstOnesPosition) {
+  const auto cross = sim::cross_compensation({{"x", 0, "y", 0.0}, {"x", 100, "y", -0.004}});
+  ASSERT_EQ(cross.size(), 1u);
+  EXPECT_NEAR(cross[0].at(0.05), -2e-6, 1e-15);
+  EXPECT_NEAR(cross[0].at(0.2), -4e-6, 1e-15);  // beyond the end: its value holds
+  EXPECT_THROW((void)sim::cross_compensation({{"x", 0, "w", 0.0}}), std::invalid_argument);
+  // X bows Y by +4e-4 um/mm^2 x^2 (4 um at 100 mm); the table takes it back, the line is straight again.
+  sim::MachineConfig cfg;
+  cfg.axis[0].translation[1].c = {0.0, 0.0, 4e-4};  // 4e-4 / m * x^2: 4 um at 0.1 m
+  std::vector<formats::CrossCorrectionRow> rows;
+  for (int i = 0; i <= 100; ++i) rows.push_back({"x", double(i), "y", -4e-4 * std::pow(i * 1e-3, 2) * 1e3});
+  cfg.controller.cross = sim::cross_compensation(rows);
+  const sim::Machine m(cfg);
+  sim::MotionSpec ms;
+  ms.path = sim::linear_move({0, 0, 0}, {0.1, 0, 0}, 0.01);
+  ms.duration_s = 10.5;
+  ms.sample_rate_hz = 100;
+  for (const auto& p : m.simulate_motion(ms)) EXPECT_NEAR(p.tool[1], 0.0, 2e-9) << "x " << p.tool[0];
+  cfg.controller.cross.clear();
+  EXPECT_NEAR(sim::Machine(cfg).simulate_motion(ms).back().tool[1], 4e-6, 1e-9);
+}
 
 TEST(CompensatedMachineTest, ControllerAddsNominalMinusActualByDirection) {
   sim::JointCompensation c = sim::joint_compensation({{0, 0.001, -0.002}, {10, 10.003, 9.998}});
@@ -162,7 +212,7 @@ double rms_about_line(const std::vector<double>& x, const std::vector<double>& d
 
 struct MapCase {
   const char* file;
-  bool straightness_in_model;  // the machine's straightness is the diagnostics' bow (no cubic terms)
+  bool straightness_in_model;  // the machine's straightness is what a circle sees of it (bow, cubic split evenly)
 };
 
 class CompensationMapTest : public ::testing::TestWithParam<MapCase> {};
@@ -207,9 +257,9 @@ TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
   const double local = cfg.squareness.xy + cfg.axis[0].translation[1].derivative(center[0]) +
                        cfg.axis[1].translation[0].derivative(center[1]);
   EXPECT_NEAR(map.squareness_rad, local, std::max(3 * map.squareness_u_rad, 2e-6));
-  // The files: a table per plane axis, the INI lines, errors.csv with the squareness.
+  // The files: a table per plane axis, the INI lines, errors.csv with the squareness, straightness.csv.
   const auto files = comp::compensation_files(map, "test runs");
-  ASSERT_EQ(files.size(), 4u);
+  ASSERT_EQ(files.size(), 5u);
   for (int k = 0; k < 2; ++k) {
     const auto back = formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content,
                                                    files[static_cast<std::size_t>(k)].name);
@@ -219,10 +269,25 @@ TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
       EXPECT_NEAR(back[i].forward_mm - back[i].nominal_mm, am.table_forward_m[i] * 1e3, 1e-6);
   }
   EXPECT_NE(files[3].content.find("# squareness_xy_urad = "), std::string::npos);
+  // straightness.csv: minus the straightness of each axis whose straightness is significant, by position.
+  ASSERT_EQ(files[4].name, "straightness.csv");
+  const auto cross = formats::parse_straightness_csv(files[4].content, files[4].name);
+  std::size_t row = 0;
+  for (const auto& am : map.axes) {
+    if (!am.straightness_applied) continue;
+    for (std::size_t i = 0; i < am.nominal_m.size(); ++i, ++row) {
+      ASSERT_LT(row, cross.size());
+      EXPECT_EQ(cross[row].moving_axis, am.axis);
+      EXPECT_EQ(cross[row].corrected_axis, am.across);
+      EXPECT_NEAR(cross[row].position_mm, am.nominal_m[i] * 1e3, 1e-4);
+      EXPECT_NEAR(cross[row].correction_mm, -am.straightness_m[i] * 1e3, 1e-6);
+    }
+  }
+  EXPECT_EQ(row, cross.size());
 }
 
 INSTANTIATE_TEST_SUITE_P(Machines, CompensationMapTest,
-                         ::testing::Values(MapCase{"machine-example.toml", false},
+                         ::testing::Values(MapCase{"machine-example.toml", true},
                                            MapCase{"machine-leadscrew.toml", true}),
                          [](const auto& p) {
                            std::string n = p.param.file;
@@ -263,36 +328,59 @@ TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
   const auto cfg = sim::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam());
   const sim::Machine m(cfg);
   const sim::Vec3 center{0.0, 0.0, 0.0};
-  const auto runs = pair_of(m, center, 250);
+  // machine-several-effects.toml drifts 1 um/min along X, which no table corrects: over a run at
+  // 250 mm/min (3 min) that alone keeps G at 40 % of before; at 500 mm/min the run sees half the drift
+  // (docs/compensation.md: measure such a machine warm, or quickly).
+  const bool drifting = std::string(GetParam()) == "machine-several-effects.toml";
+  const auto runs = pair_of(m, center, drifting ? 500 : 250);
   const auto id = dbb::identify(runs);
   const auto map = comp::error_map(id, runs);
   const auto files = comp::compensation_files(map, "test runs");
-  // The tables as LinuxCNC reads them, and the squareness as the user enters it in the skew option.
+  // The tables as LinuxCNC reads them, the squareness as the user enters it in the skew option, and
+  // straightness.csv as the controller's cross-axis correction.
   sim::ControllerCorrection tables_only;
   for (int k = 0; k < 2; ++k)
     tables_only.tables[static_cast<std::size_t>(k)] =
         sim::joint_compensation(formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content, "t.comp"));
   sim::ControllerCorrection with_skew = tables_only;
   if (map.squareness_significant) with_skew.skew.xy = map.squareness_rad;
-  const auto r = sim::remeasure_dbb(cfg, with_skew, runs, center);
+  sim::ControllerCorrection full = with_skew;
+  const auto straightness =
+      std::find_if(files.begin(), files.end(), [](const auto& f) { return f.name == "straightness.csv"; });
+  ASSERT_NE(straightness, files.end()) << GetParam() << ": every machine here has a significant straightness";
+  full.cross = sim::cross_compensation(formats::parse_straightness_csv(straightness->content, "straightness.csv"));
+  const auto r = sim::remeasure_dbb(cfg, full, runs, center);
   const auto before = dbb::identify(r.before), after = dbb::identify(r.after);
   const auto tables = dbb::identify(sim::remeasure_dbb(cfg, tables_only, runs, center).after);
+  const auto skewed = dbb::identify(sim::remeasure_dbb(cfg, with_skew, runs, center).after);
   const double g0 = find(before, "circular_deviation_um")->value, g1 = find(after, "circular_deviation_um")->value;
   const double g_tables = find(tables, "circular_deviation_um")->value;
+  const double g_skew = find(skewed, "circular_deviation_um")->value;
   RecordProperty("g_before_um", std::to_string(g0));
   RecordProperty("g_after_um", std::to_string(g1));
   RecordProperty("g_tables_only_um", std::to_string(g_tables));
-  std::cout << GetParam() << ": G " << g0 << " um -> " << g_tables << " um with the tables, " << g1
-            << " um with tables and skew (" << 100 * g1 / g0 << " %)\n";
-  // Where G is mostly what a table and the skew correct (the lead-screw machine) it falls below 35 %;
-  // the other two keep their X and Y straightness (bow and cubic, about 4.5 um of G), which no
-  // per-joint table can hold: they are checked against 70 % and the straightness must be what is left.
+  RecordProperty("g_tables_skew_um", std::to_string(g_skew));
+  std::cout << GetParam() << ": G " << g0 << " um -> " << g_tables << " um with the tables, " << g_skew
+            << " um with tables and skew (" << 100 * g_skew / g0 << " %), " << g1
+            << " um with tables, skew and cross-axis straightness (" << 100 * g1 / g0 << " %)\n";
+  // With every correction G falls below 35 % on each machine.
+  EXPECT_LE(g1, 0.35 * g0) << GetParam() << ": G " << g0 << " -> " << g1 << " um";
+  // Tables and skew alone: below 35 % where G is mostly what they correct (the lead-screw machine);
+  // the other two keep their X and Y straightness (bow and cubic, about 4.5 um of G), which no per-joint
+  // table can hold: checked against 70 %, and the straightness must be what is left.
   const bool table_machine = std::string(GetParam()) == "machine-leadscrew.toml";
-  EXPECT_LE(g1, (table_machine ? 0.35 : 0.70) * g0) << GetParam() << ": G " << g0 << " -> " << g1 << " um";
+  EXPECT_LE(g_skew, (table_machine ? 0.35 : 0.70) * g0) << GetParam() << ": G " << g0 << " -> " << g_skew << " um";
   if (!table_machine) {
-    const auto* sx = find(after, "straightness_x_um");
+    const auto* sx = find(skewed, "straightness_x_um");
     ASSERT_NE(sx, nullptr);
     EXPECT_GT(std::abs(sx->value), 3 * sx->u) << "the straightness a table cannot hold is left";
+    EXPECT_LT(g1, 0.8 * g_skew) << "the cross-axis correction takes the straightness out";
+  }
+  for (const auto& t : map.terms) {
+    if (t.use != comp::Use::cross_table || !t.significant || t.name.find("cubic") != std::string::npos) continue;
+    const auto* a = find(after, t.name);
+    ASSERT_NE(a, nullptr) << t.name;
+    EXPECT_LT(std::abs(a->value), 3 * a->u) << GetParam() << ": " << t.name << " " << t.value << " -> " << a->value;
   }
   EXPECT_LT(g_tables, g0) << GetParam();
   // `before` reproduces the given runs (same machine, same seeds).

@@ -34,6 +34,27 @@ std::size_t lines_for(double lo, double hi, double step) {
   return static_cast<std::size_t>(last - first) + 1;
 }
 
+// The difference of the two plane axes' cubic straightness, Lai's a3 - b3 (per mm^2): an in-plane circle
+// determines only that (a3 s c^3 + b3 c s^3 = (a3 + b3) sin 2 theta / 4 + (a3 - b3) sin 4 theta / 8, the
+// first part reads as squareness), fitted alone or reported as the fit's combination of the two.
+std::optional<dbb::Estimate> cubic_difference(const dbb::Identification& id) {
+  const dbb::Estimate *a3 = nullptr, *b3 = nullptr;
+  for (const auto& e : id.lai3) {
+    if (e.name == "a3_per_mm2") a3 = &e;
+    if (e.name == "b3_per_mm2") b3 = &e;
+  }
+  if (a3 && b3 && a3->fitted && b3->fitted)
+    return dbb::Estimate{"a3_minus_b3", a3->value - b3->value, std::hypot(a3->u, b3->u), true};
+  for (const auto& c : id.fit.combinations) {
+    if (c.coefficient.size() != 2 || std::abs(c.coefficient[1] + 1.0) > 1e-6) continue;
+    const std::string kept = c.expression.substr(0, c.expression.find(' '));
+    const std::string other = c.expression.substr(c.expression.rfind('*') + 1);
+    if (kept == "a3_per_mm2" && other == "b3_per_mm2") return dbb::Estimate{"a3_minus_b3", c.value, c.u, true};
+    if (kept == "b3_per_mm2" && other == "a3_per_mm2") return dbb::Estimate{"a3_minus_b3", -c.value, c.u, true};
+  }
+  return std::nullopt;
+}
+
 std::string estimate_text(const Term& t) {
   return t.name + " = " + printf_number("%.4g", t.value) + " +/- " + printf_number("%.2g", t.u);
 }
@@ -51,8 +72,8 @@ double AxisTerms::positioning_error_m(double position_m, int direction) const {
 
 double AxisTerms::straightness_m(double position_m) const {
   if (!(radius_m > 0)) return 0.0;
-  const double q = (position_m - center_m) / radius_m;
-  return bow_m * q * q;
+  const double d = position_m - center_m, q = d / radius_m;
+  return bow_m * q * q + cubic_per_m2 * d * d * d;
 }
 
 int joint_of(const std::string& axis) { return axis == "x" ? 0 : (axis == "y" ? 1 : 2); }
@@ -128,11 +149,33 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
       }
     }
     if (const auto* t =
-            term("straightness_" + ax + "_um", Use::map_only,
-                 "a per-joint table moves " + ax + " along " + ax + " only; the straightness moves it along " + other +
-                     " (errors.csv; a controller's cross compensation or a scraped guideway)");
+            term("straightness_" + ax + "_um", Use::cross_table,
+                 "moves " + ax + " along " + other + ", which a per-joint table of " + ax +
+                     " cannot: the cross-axis correction of " + other + " by " + ax + "'s position (straightness.csv)");
         t && t->significant)
       at.bow_m = t->value * 1e-6;
+  }
+  // The cubic straightness, in um at the circle's radius: (a3 - b3) r^3, half of it given to each axis
+  // with opposite signs (what the circle sees of it; the rest is invisible to a circle of this radius).
+  if (const auto cubic = cubic_difference(id)) {
+    const double r_mm = radius * 1e3;
+    const double per_mm2_to_um = r_mm * r_mm * r_mm * 1e3;
+    dbb::Estimate e{"straightness_cubic_" + A + "_minus_" + B + "_um", cubic->value * per_mm2_to_um,
+                    cubic->u * per_mm2_to_um, true};
+    Term t{
+        e.name,
+        e.value,
+        e.u,
+        std::abs(e.value) > significance_k * e.u,
+        Use::cross_table,
+        "the cubic straightness of " + A + " along " + B + " less that of " + B + " along " + A +
+            " at the radius (Lai's a3 - b3); split evenly between the two cross-axis corrections (straightness.csv)"};
+    m.terms.push_back(t);
+    if (t.significant) {
+      // displacement = k d^3 with k in 1/m^2: (a3 - b3) / 2 per mm^2 is 1e6 times that per m^2.
+      m.terms_of[0].cubic_per_m2 = 0.5 * cubic->value * 1e6;
+      m.terms_of[1].cubic_per_m2 = -0.5 * cubic->value * 1e6;
+    }
   }
   if (const auto* t = term("squareness_urad", Use::map_only,
                            "depends on the position of the other axis: set the controller's axis-skew correction or a "
@@ -186,6 +229,7 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
       am.forward_m.push_back(at.positioning_error_m(u, +1));
       am.reverse_m.push_back(at.positioning_error_m(u, -1));
       am.straightness_m.push_back(at.straightness_m(u));
+      am.straightness_applied = at.bow_m != 0.0 || at.cubic_per_m2 != 0.0;
       const double extra = (at.cyclic_table_gain - 1.0) * at.cyclic_m(u);
       am.table_forward_m.push_back(am.forward_m.back() + extra);
       am.table_reverse_m.push_back(am.reverse_m.back() + extra);
@@ -252,7 +296,8 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
         "these comments follow the table because LinuxCNC stops reading at the first line that is not three numbers");
     c.insert(c.end(), head.begin(), head.end());
     c.push_back("in this table: scale, backlash and cyclic error of " + letters_upper(am.axis) +
-                " (those applied above); straightness and squareness are in errors.csv");
+                " (those applied above); straightness: straightness.csv (cross-axis), squareness: axis skew; both "
+                "also in errors.csv");
     const auto& at = m.terms_of[static_cast<std::size_t>(&am - m.axes.data())];
     if (at.cyclic_amplitude_m != 0.0) {
       if (at.cyclic_table_gain > 0)
@@ -299,6 +344,28 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
   ec.push_back("squareness (sign): actual " + a + " = " + a + " + q " + b + ", i.e. " + letters_upper(b) +
                " leans towards +" + a + " for q > 0; um/m = urad");
   out.push_back({"errors.csv", formats::format_error_map_csv(rows, meta, ec)});
+
+  // The cross-axis correction undoes the straightness: the other axis is commanded back by as much.
+  std::vector<formats::CrossCorrectionRow> cross;
+  for (const auto& am : m.axes)
+    if (am.straightness_applied)
+      for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
+        cross.push_back({am.axis, am.nominal_m[i] * 1e3, am.across, -am.straightness_m[i] * 1e3});
+  if (!cross.empty()) {
+    std::vector<std::string> sc = head;
+    sc.push_back(
+        "correction_mm: added to the command of corrected_axis, interpolated linearly in moving_axis' "
+        "commanded position (minus the straightness of moving_axis along corrected_axis; ends relative "
+        "to the centre)");
+    sc.push_back(
+        "load it as a cross-axis / straightness compensation table (docs/compensation.md); a per-joint "
+        "table cannot hold it");
+    for (const auto& am : m.axes)
+      if (!am.straightness_applied)
+        sc.push_back("no rows for " + am.axis + ": its straightness is not larger than twice its uncertainty");
+    out.push_back(
+        {"straightness.csv", formats::format_straightness_csv(cross, {{"source", source}, {"plane", m.plane}}, sc)});
+  }
   return out;
 }
 
@@ -315,7 +382,7 @@ std::string to_text(const ErrorMap& m) {
       use = t.name.find("_" + m.axes[0].axis + "_") != std::string::npos ? m.axes[0].axis + ".comp"
                                                                          : m.axes[1].axis + ".comp";
     else
-      use = (t.use == Use::map_only ? "errors.csv only: " : "no table: ") + t.why;
+      use = (t.use == Use::map_only ? "errors.csv only: " : (t.use == Use::cross_table ? "" : "no table: ")) + t.why;
     o << "  " << t.name << std::string(t.name.size() < 30 ? 30 - t.name.size() : 1, ' ')
       << printf_number("%10.4g", t.value) << printf_number("%8.2g", t.u) << "  " << use << "\n";
   }

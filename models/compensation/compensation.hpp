@@ -29,7 +29,8 @@ class CompensationError : public std::runtime_error {
 // How one identified term is used.
 enum class Use {
   table,          // in the axis' per-joint table (and errors.csv)
-  map_only,       // in errors.csv; a per-joint table cannot hold it (straightness, squareness)
+  map_only,       // in errors.csv; a per-joint table cannot hold it (squareness: the controller's axis skew)
+  cross_table,    // in straightness.csv (and errors.csv): a correction of the other plane axis by this one's position
   not_geometric,  // a servo or friction effect: neither table nor map (servo mismatch, reversal spike, ...)
 };
 
@@ -50,6 +51,7 @@ struct AxisMap {
   std::vector<double> forward_m;        // positioning error (actual - nominal) moving in +
   std::vector<double> reverse_m;        // moving in -
   std::vector<double> straightness_m;   // displacement along `across` (ends relative to the middle)
+  bool straightness_applied = false;    // a significant straightness term: straightness.csv corrects it
   std::vector<double> table_forward_m;  // what the table holds: forward_m with the cyclic part
   std::vector<double> table_reverse_m;  // scaled by cyclic_table_gain
 };
@@ -62,6 +64,10 @@ struct AxisTerms {
   double backlash_m = 0.0;
   double cyclic_amplitude_m = 0.0, cyclic_period_m = 0.0, cyclic_phase_rad = 0.0;
   double bow_m = 0.0;  // straightness bow B: displacement across = B ((u - centre) / r)^2
+  // Cubic straightness k: displacement across += k (u - centre)^3. A circle sees only the difference of
+  // the two axes' cubics (a sin 4 theta; their sum reads as squareness): it is split evenly between them,
+  // exact on the circle (docs/compensation.md).
+  double cubic_per_m2 = 0.0;
   // LinuxCNC interpolates linearly between table lines, which scales a sinusoid of period p sampled
   // every step h by sinc^2(h / p) (the triangle kernel's response); the table's cyclic part is
   // multiplied by the inverse so the correction's fundamental has the measured amplitude. 0 = the
@@ -111,7 +117,8 @@ struct SquarenessAdvice {
 };
 SquarenessAdvice squareness_advice(double squareness_rad);
 
-// The files of `guideway compensate`, by name: "<axis>.comp" per plane axis, "linuxcnc.ini", "errors.csv".
+// The files of `guideway compensate`, by name: "<axis>.comp" per plane axis, "linuxcnc.ini", "errors.csv",
+// and "straightness.csv" when a straightness term is significant (the cross-axis correction).
 struct OutputFile {
   std::string name;
   std::string content;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/number_format.hpp"
 
@@ -64,6 +65,23 @@ JointCompensation joint_compensation(const std::vector<formats::CompTriplet>& ta
     c.reverse_m.push_back(t.reverse_mm * 1e-3);
   }
   return c;
+}
+
+std::vector<CrossCompensation> cross_compensation(const std::vector<formats::CrossCorrectionRow>& rows) {
+  const auto axis = [](const std::string& a) {
+    if (a == "x") return Axis::x;
+    if (a == "y") return Axis::y;
+    if (a == "z") return Axis::z;
+    throw std::invalid_argument("cross-axis correction: axis \"" + a + "\" is not x, y or z");
+  };
+  std::vector<CrossCompensation> out;
+  for (const auto& r : rows) {
+    if (out.empty() || out.back().moving != axis(r.moving_axis) || out.back().corrected != axis(r.corrected_axis))
+      out.push_back({axis(r.moving_axis), axis(r.corrected_axis), {}, {}});
+    out.back().nominal_m.push_back(r.position_mm * 1e-3);
+    out.back().correction_m.push_back(r.correction_mm * 1e-3);
+  }
+  return out;
 }
 
 RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,

@@ -24,6 +24,10 @@ DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center);
 // A LinuxCNC COMP_FILE_TYPE = 0 table (mm) as the controller's compensation of one joint.
 JointCompensation joint_compensation(const std::vector<formats::CompTriplet>& table);
 
+// A straightness.csv table (mm) as the controller's cross-axis corrections, one per moving axis.
+// Throws std::invalid_argument for an axis other than x, y, z.
+std::vector<CrossCompensation> cross_compensation(const std::vector<formats::CrossCorrectionRow>& rows);
+
 // Each run's test traced again on the machine, without (`before`) and with the controller's
 // corrections (`after`), about `center`; the runs' `seed` metadata is reused, so runs simulated from
 // the same machine file are reproduced exactly in `before`.

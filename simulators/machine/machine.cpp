@@ -129,17 +129,31 @@ double Polynomial::derivative(double u) const noexcept {
   return acc;
 }
 
+namespace {
+
+// A controller's table lookup: value(x) interpolated linearly between the ascending positions `at`,
+// the end values outside; `value(i)` gives the table's value at line i.
+template <typename Value>
+double table_lookup(const std::vector<double>& at, double x, const Value& value) {
+  if (x <= at.front()) return value(0);
+  if (x >= at.back()) return value(at.size() - 1);
+  const auto hi = static_cast<std::size_t>(std::upper_bound(at.begin(), at.end(), x) - at.begin());
+  const std::size_t lo = hi - 1;
+  const double f = (x - at[lo]) / (at[hi] - at[lo]);
+  return value(lo) + f * (value(hi) - value(lo));
+}
+
+}  // namespace
+
 double JointCompensation::correction_m(double commanded_m, int direction) const noexcept {
   if (nominal_m.empty() || forward_m.size() != nominal_m.size() || reverse_m.size() != nominal_m.size()) return 0.0;
   const auto& actual = direction < 0 ? reverse_m : forward_m;
-  if (commanded_m <= nominal_m.front()) return nominal_m.front() - actual.front();
-  if (commanded_m >= nominal_m.back()) return nominal_m.back() - actual.back();
-  const auto hi =
-      static_cast<std::size_t>(std::upper_bound(nominal_m.begin(), nominal_m.end(), commanded_m) - nominal_m.begin());
-  const std::size_t lo = hi - 1;
-  const double f = (commanded_m - nominal_m[lo]) / (nominal_m[hi] - nominal_m[lo]);
-  const double trim_lo = nominal_m[lo] - actual[lo], trim_hi = nominal_m[hi] - actual[hi];
-  return trim_lo + f * (trim_hi - trim_lo);
+  return table_lookup(nominal_m, commanded_m, [&](std::size_t i) { return nominal_m[i] - actual[i]; });
+}
+
+double CrossCompensation::at(double moving_commanded_m) const noexcept {
+  if (nominal_m.empty() || correction_m.size() != nominal_m.size()) return 0.0;
+  return table_lookup(nominal_m, moving_commanded_m, [&](std::size_t i) { return correction_m[i]; });
 }
 
 Machine::Machine(MachineConfig config) : config_(std::move(config)) {}
@@ -180,6 +194,8 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
     Vec3 m = c;
     m[0] -= ctl.skew.xy * c[1] + ctl.skew.xz * c[2];
     m[1] -= ctl.skew.yz * c[2];
+    for (const auto& x : ctl.cross)
+      m[static_cast<std::size_t>(x.corrected)] += x.at(c[static_cast<std::size_t>(x.moving)]);
     for (std::size_t j = 0; j < 3; ++j)
       if (!ctl.tables[j].empty()) m[j] += ctl.tables[j].correction_m(m[j], comp_dir[j]);
     return m;

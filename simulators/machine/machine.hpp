@@ -135,12 +135,25 @@ struct JointCompensation {
   [[nodiscard]] double correction_m(double commanded_m, int direction) const noexcept;
 };
 
-// What the controller corrects: per-joint tables (by axis x, y, z; applied last, on the joint
-// commands) and an axis-skew correction of the squareness (applied first, as a controller's skew
-// option or kinematics would: commanded x -= xy * y + xz * z, y -= yz * z, with the signs of Squareness).
+// A controller's cross-axis (straightness) correction: the command of joint `corrected` gets
+// correction_m interpolated linearly in joint `moving`'s commanded position (end values hold outside),
+// as a controller's straightness / cross compensation applies it.
+struct CrossCompensation {
+  Axis moving = Axis::x;
+  Axis corrected = Axis::y;
+  std::vector<double> nominal_m;     // strictly ascending positions of `moving`
+  std::vector<double> correction_m;  // added to `corrected`'s command
+  [[nodiscard]] double at(double moving_commanded_m) const noexcept;
+};
+
+// What the controller corrects: an axis-skew correction of the squareness (applied first, as a
+// controller's skew option or kinematics would: commanded x -= xy * y + xz * z, y -= yz * z, with the
+// signs of Squareness), the cross-axis corrections (indexed by the commanded positions, before the
+// skew), then the per-joint tables (by axis x, y, z; last, on the joint commands).
 struct ControllerCorrection {
   std::array<JointCompensation, 3> tables;
   Squareness skew;
+  std::vector<CrossCompensation> cross;
 };
 
 struct MachineConfig {
