@@ -12,7 +12,7 @@ namespace {
 using namespace guideway;
 
 std::vector<guideway::formats::DbbRun> patterns() {
-  sim::MachineConfig c;
+  simulators::machine::MachineConfig c;
   c.dbb.center_offset = {2e-6, 3e-6, 0};
   c.dbb.noise_m = 0.1e-6;
   c.axis[0].scale = -10e-6;
@@ -21,7 +21,7 @@ std::vector<guideway::formats::DbbRun> patterns() {
   c.axis[1].backlash_m = 2e-6;
   c.axis[0].translation[1].c = {0, 3e-4, 2.25e-4, -5e-3};  // Lai's a_k in SI units
   c.axis[1].translation[2].c = {0, 1e-4, 1.5e-3, -1.5e-2};
-  const sim::Machine m{c};
+  const simulators::machine::Machine m{c};
   std::vector<guideway::formats::DbbRun> runs;
   const struct {
     double r, h;
@@ -30,13 +30,13 @@ std::vector<guideway::formats::DbbRun> patterns() {
       {0.095, 0.031225, guideway::formats::DbbDirection::ccw}, {0.095, 0.031225, guideway::formats::DbbDirection::cw}, {0.1, 0.0, guideway::formats::DbbDirection::ccw}};
   std::uint64_t seed = 1;
   for (const auto& p : spec) {
-    sim::DbbCircleSpec s;
+    simulators::machine::DbbCircleSpec s;
     s.radius_m = p.r;
     s.height_m = p.h;
     s.direction = p.d;
     s.overshoot_rad = 0.5;
     s.seed = seed++;
-    auto run = sim::simulate_dbb_run(m, s);
+    auto run = simulators::machine::simulate_dbb_run(m, s);
     // exactly 3600 points: drop the closing sample of the 360 deg arc
     run.t_s.resize(3600);
     run.angle_rad.resize(3600);

@@ -13,12 +13,11 @@
 
 #include "simulators/scenarios/scenarios.hpp"
 
-namespace ex = guideway::models::explain;
-namespace scenarios = guideway::sim::scenarios;
+using namespace guideway;
 
 namespace {
 
-std::string effects(const ex::Report& r) {
+std::string effects(const models::explain::Report& r) {
   std::string s;
   for (const auto& f : r.findings) s += (s.empty() ? "" : "+") + f.effect;
   return s.empty() ? "none" : s;
@@ -42,17 +41,17 @@ int main(int argc, char** argv) {
               "CPU fixed / nested (s) |\n|---|---|---|---|---|---|---|\n");
   double cpu[2] = {0, 0};
   int changed = 0, runs = 0;
-  for (const auto& name : scenarios::scenario_names()) {
+  for (const auto& name : simulators::scenarios::scenario_names()) {
     for (int seed = 1; seed <= seeds; ++seed) {
-      scenarios::ScenarioResult res[2];
+      simulators::scenarios::ScenarioResult res[2];
       double t[2];
       for (int k = 0; k < 2; ++k) {
-        scenarios::ScenarioOptions o;
+        simulators::scenarios::ScenarioOptions o;
         o.quick = !full;
         o.seed = static_cast<std::uint64_t>(seed);
         o.explain.heldout_reselect = k == 1;
         const std::clock_t c0 = std::clock();
-        res[k] = scenarios::run_scenario(name, o);
+        res[k] = simulators::scenarios::run_scenario(name, o);
         t[k] = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
         cpu[k] += t[k];
       }

@@ -15,8 +15,6 @@ namespace guideway::cli {
 
 namespace {
 
-namespace gm = guideway::models;
-
 void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
   CLI::App* id = identify_command(app);
   auto* cmd = id->add_subcommand("artifact", "six error motions of a linear axis from a 1-D artifact (Wei 2019)");
@@ -36,16 +34,16 @@ void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
   cmd->add_flag("--json", *json, "print the result as one JSON object");
   cmd->callback([=] {
     try {
-      const auto c = gm::read_artifact_readings(*cal, gm::ArtifactPlacement::calibration);
-      const auto h = gm::read_artifact_readings(*hor, gm::ArtifactPlacement::horizontal);
-      const auto v = gm::read_artifact_readings(*ver, gm::ArtifactPlacement::vertical);
-      gm::ArtifactOptions opt;
+      const auto c = models::artifact::read_artifact_readings(*cal, models::artifact::ArtifactPlacement::calibration);
+      const auto h = models::artifact::read_artifact_readings(*hor, models::artifact::ArtifactPlacement::horizontal);
+      const auto v = models::artifact::read_artifact_readings(*ver, models::artifact::ArtifactPlacement::vertical);
+      models::artifact::ArtifactOptions opt;
       opt.angle_coupling = !*no_coupling;
-      if (!k_scan->empty()) opt.k_scan = gm::read_k_scan(*k_scan);
-      if (!m_scan->empty()) opt.m_scan = gm::read_m_scan(*m_scan);
-      const auto r = gm::identify_artifact(c, h, v, opt);
+      if (!k_scan->empty()) opt.k_scan = models::artifact::read_k_scan(*k_scan);
+      if (!m_scan->empty()) opt.m_scan = models::artifact::read_m_scan(*m_scan);
+      const auto r = models::artifact::identify_artifact(c, h, v, opt);
       if (*json) {
-        std::cout << gm::to_json(r).dump() << "\n";
+        std::cout << models::artifact::to_json(r).dump() << "\n";
         return;
       }
       constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);

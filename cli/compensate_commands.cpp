@@ -23,8 +23,6 @@ namespace guideway::cli {
 namespace {
 
 namespace fs = std::filesystem;
-namespace comp = models::compensation;
-namespace dbb = models::dbb;
 
 struct Opts {
   std::vector<std::string> files;
@@ -34,13 +32,13 @@ struct Opts {
   bool json = false, verify = false, latest = false;
 };
 
-const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) {
+const models::dbb::Estimate* find(const models::dbb::Identification& id, const std::string& name) {
   for (const auto& e : id.diagnostics)
     if (e.name == name) return &e;
   return nullptr;
 }
 
-double circular_deviation_um(const dbb::Identification& id) {
+double circular_deviation_um(const models::dbb::Identification& id) {
   const auto* g = find(id, "circular_deviation_um");
   return g ? g->value : NAN;
 }
@@ -66,7 +64,7 @@ std::vector<std::string> latest_session_runs(const std::string& socket, std::str
 struct Verification {
   // Before; with the tables; with the tables and the squareness as axis skew; with those and the
   // straightness as the cross-axis correction (`after`: everything the files and the advice correct).
-  dbb::Identification before, tables, skewed, after;
+  models::dbb::Identification before, tables, skewed, after;
   bool skew = false;   // the squareness was significant and entered as the controller's axis skew
   bool cross = false;  // straightness.csv was written and loaded
   std::vector<std::string> written;
@@ -76,33 +74,33 @@ struct Verification {
 // back from the files, as the controller would), then adding the squareness as the axis-skew correction
 // the user is told to enter, then the cross-axis correction of straightness.csv. Writes the runs before
 // and with every correction to out_dir/verify/.
-Verification verify(const std::vector<formats::DbbRun>& runs, const comp::ErrorMap& map,
+Verification verify(const std::vector<formats::DbbRun>& runs, const models::compensation::ErrorMap& map,
                     const std::string& machine_file, const std::string& out_dir, const std::vector<std::string>& axes) {
-  const sim::MachineConfig config = sim::load_machine_config(machine_file);
-  sim::ControllerCorrection tables;
+  const simulators::machine::MachineConfig config = simulators::machine::load_machine_config(machine_file);
+  simulators::machine::ControllerCorrection tables;
   for (const auto& axis : axes)
-    tables.tables[static_cast<std::size_t>(comp::joint_of(axis))] =
-        sim::joint_compensation(formats::read_linuxcnc_comp((fs::path(out_dir) / (axis + ".comp")).string()));
-  sim::Vec3 center{};
-  center[static_cast<std::size_t>(comp::joint_of(map.axes[0].axis))] = map.terms_of[0].center_m;
-  center[static_cast<std::size_t>(comp::joint_of(map.axes[1].axis))] = map.terms_of[1].center_m;
+    tables.tables[static_cast<std::size_t>(models::compensation::joint_of(axis))] =
+        simulators::machine::joint_compensation(formats::read_linuxcnc_comp((fs::path(out_dir) / (axis + ".comp")).string()));
+  simulators::machine::Vec3 center{};
+  center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[0].axis))] = map.terms_of[0].center_m;
+  center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[1].axis))] = map.terms_of[1].center_m;
   Verification v;
-  sim::ControllerCorrection skewed = tables;
+  simulators::machine::ControllerCorrection skewed = tables;
   if (map.squareness_known && map.squareness_significant) {
     v.skew = true;
     (map.plane == "xy" ? skewed.skew.xy : (map.plane == "xz" ? skewed.skew.xz : skewed.skew.yz)) = map.squareness_rad;
   }
-  sim::ControllerCorrection full = skewed;
+  simulators::machine::ControllerCorrection full = skewed;
   const fs::path straightness = fs::path(out_dir) / "straightness.csv";
   if (fs::exists(straightness)) {
     v.cross = true;
-    full.cross = sim::cross_compensation(formats::read_straightness_csv(straightness.string()));
+    full.cross = simulators::machine::cross_compensation(formats::read_straightness_csv(straightness.string()));
   }
-  const sim::RemeasuredRuns r = sim::remeasure_dbb(config, full, runs, center);
-  v.before = dbb::identify(r.before);
-  v.after = dbb::identify(r.after);
-  v.skewed = v.cross ? dbb::identify(sim::remeasure_dbb(config, skewed, runs, center).after) : v.after;
-  v.tables = v.skew ? dbb::identify(sim::remeasure_dbb(config, tables, runs, center).after) : v.skewed;
+  const simulators::machine::RemeasuredRuns r = simulators::machine::remeasure_dbb(config, full, runs, center);
+  v.before = models::dbb::identify(r.before);
+  v.after = models::dbb::identify(r.after);
+  v.skewed = v.cross ? models::dbb::identify(simulators::machine::remeasure_dbb(config, skewed, runs, center).after) : v.after;
+  v.tables = v.skew ? models::dbb::identify(simulators::machine::remeasure_dbb(config, tables, runs, center).after) : v.skewed;
   const fs::path dir = fs::path(out_dir) / "verify";
   fs::create_directories(dir);
   // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
@@ -120,7 +118,7 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const comp::ErrorM
   return v;
 }
 
-std::string verification_text(const comp::ErrorMap& map, const Verification& v, nlohmann::json& j) {
+std::string verification_text(const models::compensation::ErrorMap& map, const Verification& v, nlohmann::json& j) {
   std::ostringstream o;
   const double g0 = circular_deviation_um(v.before), gt = circular_deviation_um(v.tables),
                gs = circular_deviation_um(v.skewed), g1 = circular_deviation_um(v.after);
@@ -150,21 +148,21 @@ std::string verification_text(const comp::ErrorMap& map, const Verification& v, 
       continue;
     const auto* after = find(v.after, e.name);
     const bool seen = after && after->fitted && std::isfinite(after->u);
-    const comp::Term* t = nullptr;
+    const models::compensation::Term* t = nullptr;
     for (const auto& term : map.terms)
       if (term.name == e.name) t = &term;
     const double ratio = seen ? std::abs(after->value) / after->u : 0.0;
     std::string status;
-    if (t && t->use == comp::Use::table && t->significant)
+    if (t && t->use == models::compensation::Use::table && t->significant)
       status = !seen ? "compensated (no longer detected)"
                      : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
     else if (t && e.name == "squareness_urad")
       status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
-    else if (t && t->significant && t->use == comp::Use::cross_table)
+    else if (t && t->significant && t->use == models::compensation::Use::cross_table)
       status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
     else if (t && t->significant)
       status =
-          t->use == comp::Use::map_only ? "no per-joint table can hold it (errors.csv)" : "servo/friction: no table";
+          t->use == models::compensation::Use::map_only ? "no per-joint table can hold it (errors.csv)" : "servo/friction: no table";
     else if (t)
       status = "not applied (not significant)";
     o << "  " << e.name << std::string(e.name.size() < 28 ? 28 - e.name.size() : 1, ' ')
@@ -212,7 +210,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
   if (source.empty()) {
     for (const auto& f : files) source += (source.empty() ? "" : ", ") + fs::path(f).filename().string();
   }
-  comp::MapOptions mo;
+  models::compensation::MapOptions mo;
   if (o.center_mm.size() == 2) {
     mo.center_m = std::array<double, 2>{o.center_mm[0] * 1e-3, o.center_mm[1] * 1e-3};
     // The cyclic error's phase is fitted in machine coordinates: the runs need the centre too.
@@ -222,11 +220,11 @@ void run_compensate(const Opts& o, const std::string& socket) {
     }
   }
   mo.step_m = o.step_mm * 1e-3;
-  const dbb::Identification id = dbb::identify(runs);
-  comp::ErrorMap map;
+  const models::dbb::Identification id = models::dbb::identify(runs);
+  models::compensation::ErrorMap map;
   try {
-    map = comp::error_map(id, runs, mo);
-  } catch (const comp::CompensationError& e) {
+    map = models::compensation::error_map(id, runs, mo);
+  } catch (const models::compensation::CompensationError& e) {
     throw std::runtime_error(std::string("compensate: ") + e.what());
   }
   std::vector<std::string> axes;
@@ -247,13 +245,13 @@ void run_compensate(const Opts& o, const std::string& socket) {
   j["plane"] = map.plane;
   j["step_mm"] = map.step_m * 1e3;
   nlohmann::json written = nlohmann::json::array();
-  for (const auto& f : comp::compensation_files(map, source)) {
+  for (const auto& f : models::compensation::compensation_files(map, source)) {
     const auto stem = f.name.substr(0, f.name.find('.'));
     if (f.name.ends_with(".comp") && std::find(axes.begin(), axes.end(), stem) == axes.end()) continue;
     std::string content = f.content;
     if (f.name == "linuxcnc.ini" && axes.size() != map.axes.size()) {
       std::vector<formats::IniJoint> joints;
-      for (const auto& a : axes) joints.push_back({comp::joint_of(a), a, a + ".comp"});
+      for (const auto& a : axes) joints.push_back({models::compensation::joint_of(a), a, a + ".comp"});
       content = formats::format_linuxcnc_ini(joints, {"Guideway compensation, written from " + source});
     }
     const std::string path = (fs::path(o.out_dir) / f.name).string();
@@ -273,21 +271,21 @@ void run_compensate(const Opts& o, const std::string& socket) {
          {"value", t.value},
          {"u", t.u},
          {"significant", t.significant},
-         {"use", t.use == comp::Use::table ? "table"
-                                           : (t.use == comp::Use::map_only
+         {"use", t.use == models::compensation::Use::table ? "table"
+                                           : (t.use == models::compensation::Use::map_only
                                                   ? "errors.csv"
-                                                  : (t.use == comp::Use::cross_table ? "straightness.csv" : "none"))},
+                                                  : (t.use == models::compensation::Use::cross_table ? "straightness.csv" : "none"))},
          {"why", t.why}});
   j["terms"] = terms;
   if (map.squareness_known) {
-    const auto adv = comp::squareness_advice(map.squareness_rad);
+    const auto adv = models::compensation::squareness_advice(map.squareness_rad);
     j["squareness"] = {{"urad", map.squareness_rad * 1e6},
                        {"u_urad", map.squareness_u_rad * 1e6},
                        {"um_per_m", adv.um_per_m},
                        {"correction_um_per_100mm", adv.correction_um_per_100mm},
                        {"significant", map.squareness_significant}};
   }
-  std::string text = comp::to_text(map);
+  std::string text = models::compensation::to_text(map);
   for (const auto& p : written) text += "wrote " + p.get<std::string>() + "\n";
   if (o.verify) {
     const Verification v = verify(runs, map, o.machine, o.out_dir, axes);

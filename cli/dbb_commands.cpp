@@ -74,13 +74,13 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
   sd->add_option("--seed", so->seed, "noise seed (default: the machine file's)");
   sd->add_option("--out", so->out, "run file to write")->required();
   sd->callback([so, t0_option] {
-    const sim::Machine machine = sim::Machine::from_file(so->machine);
+    const simulators::machine::Machine machine = simulators::machine::Machine::from_file(so->machine);
     constexpr double deg = std::numbers::pi / 180.0;
-    sim::DbbCircleSpec spec;
+    simulators::machine::DbbCircleSpec spec;
     spec.radius_m = so->radius_mm * 1e-3;
     spec.height_m = so->height_mm * 1e-3;
     spec.direction = so->direction == "cw" ? formats::DbbDirection::cw : formats::DbbDirection::ccw;
-    spec.plane = so->plane == "xz" ? sim::Plane::xz : (so->plane == "yz" ? sim::Plane::yz : sim::Plane::xy);
+    spec.plane = so->plane == "xz" ? simulators::machine::Plane::xz : (so->plane == "yz" ? simulators::machine::Plane::yz : simulators::machine::Plane::xy);
     spec.feed_m_per_s = so->feed * 1e-3 / 60.0;
     spec.start_angle_rad = so->start_deg * deg;
     spec.overshoot_rad = so->overshoot_deg * deg;
@@ -89,7 +89,7 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
       spec.center = {so->center_mm[0] * 1e-3, so->center_mm[1] * 1e-3, so->center_mm[2] * 1e-3};
     spec.t0_s = so->t0;
     spec.seed = so->seed;
-    auto run = sim::simulate_dbb_run(machine, spec, so->out);
+    auto run = simulators::machine::simulate_dbb_run(machine, spec, so->out);
     // Without --t0-s every run would start at machine time 0: no common clock is claimed.
     if (t0_option->count() == 0) run.metadata.erase("start_time_s");
     formats::write_dbb_run(run, so->out);

@@ -23,8 +23,6 @@ namespace guideway::cli {
 
 namespace {
 
-namespace gm = guideway::models;
-
 
 template <class F>
 void run_reporting(F&& f) {
@@ -37,15 +35,15 @@ void run_reporting(F&& f) {
   }
 }
 
-void print_line(const char* name, const gm::ReferenceLine& r) {
+void print_line(const char* name, const models::flatness::ReferenceLine& r) {
   std::cout << "  " << std::left << std::setw(15) << name << std::right << std::fixed << std::setprecision(3)
             << std::setw(9) << r.straightness_m * 1e6 << " um  (u " << r.u_straightness_m * 1e6 << " um: first order "
             << r.u_first_order_m * 1e6 << ", selection bias " << r.selection_bias_m * 1e6 << "), max at station "
             << r.max_index << ", min at " << r.min_index << "\n";
 }
 
-void print_profile(const gm::StraightnessProfile& p) {
-  std::cout << p.plane << " straightness (u per reading " << std::setprecision(3) << p.u_angle_rad / gm::rad_per_arcsec
+void print_profile(const models::flatness::StraightnessProfile& p) {
+  std::cout << p.plane << " straightness (u per reading " << std::setprecision(3) << p.u_angle_rad / models::flatness::rad_per_arcsec
             << " arcsec, u at the end of the integration " << p.u_height_m.back() * 1e6 << " um):\n";
   print_line("end-point line", p.end_point);
   print_line("least squares", p.least_squares);
@@ -60,7 +58,7 @@ void print_profile(const gm::StraightnessProfile& p) {
     if (k > 0) std::cout << " x" << (k > 1 ? "^" + std::to_string(k) : "");
   }
   std::cout << std::fixed << std::setprecision(4) << "\n    fit residual rms " << f.residual_rms_m * 1e6 << " um, max "
-            << f.residual_max_m * 1e6 << " um; angle residual rms " << f.angle_residual_rms_rad / gm::rad_per_arcsec
+            << f.residual_max_m * 1e6 << " um; angle residual rms " << f.angle_residual_rms_rad / models::flatness::rad_per_arcsec
             << " arcsec\n";
   std::cout << "  " << std::setw(9) << "x_mm" << std::setw(12) << "height_um" << std::setw(10) << "u_um"
             << std::setw(12) << "endpt_um" << std::setw(12) << "lsq_um"
@@ -89,13 +87,13 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
         ->check(CLI::Range(1, 12));
     cmd->callback([=] {
       run_reporting([&] {
-        gm::StraightnessOptions opt;
-        if (*u_arcsec > 0) opt.instrument.u_override_rad = *u_arcsec * gm::rad_per_arcsec;
+        models::flatness::StraightnessOptions opt;
+        if (*u_arcsec > 0) opt.instrument.u_override_rad = *u_arcsec * models::flatness::rad_per_arcsec;
         opt.max_order = *max_order;
-        const auto tr = gm::read_angle_traverse(*file, opt.instrument);
-        const auto r = gm::identify_straightness(tr, opt);
+        const auto tr = models::flatness::read_angle_traverse(*file, opt.instrument);
+        const auto r = models::flatness::identify_straightness(tr, opt);
         if (*json) {
-          std::cout << gm::to_json(r).dump() << "\n";
+          std::cout << models::flatness::to_json(r).dump() << "\n";
           return;
         }
         std::cout << r.source << ": " << r.readings << " readings, step " << r.step_m * 1e3 << " mm\n";
@@ -117,13 +115,13 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
     cmd->add_option("--foot-spacing-mm", *foot_mm, "reflector foot spacing (overrides Config.txt)");
     cmd->callback([=] {
       run_reporting([&] {
-        const auto set = gm::read_union_jack(*dir, *foot_mm * 1e-3);
-        gm::UnionJackOptions opt;
+        const auto set = models::flatness::read_union_jack(*dir, *foot_mm * 1e-3);
+        models::flatness::UnionJackOptions opt;
         opt.least_squares = *lsq;
-        const auto r = gm::evaluate_union_jack(set, opt);
+        const auto r = models::flatness::evaluate_union_jack(set, opt);
         const bool inch = set.inch_units && !(*foot_mm > 0);
         if (*json) {
-          std::cout << gm::to_json(r, inch).dump() << "\n";
+          std::cout << models::flatness::to_json(r, inch).dump() << "\n";
           return;
         }
         const double unit = inch ? 0.0254e-5 : 1e-6;
@@ -150,7 +148,7 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
         if (r.lsq)
           std::cout << "least squares (all lines, one angular offset per line): flatness about the plane "
                     << r.lsq->flatness_m * 1e6 << " um, minimum zone " << r.lsq->flatness_min_zone_m * 1e6
-                    << " um, residual rms " << r.lsq->residual_rms_rad / gm::rad_per_arcsec << " arcsec, redundancy "
+                    << " um, residual rms " << r.lsq->residual_rms_rad / models::flatness::rad_per_arcsec << " arcsec, redundancy "
                     << r.lsq->redundancy << "\n";
       });
     });
@@ -164,10 +162,10 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
     cmd->add_flag("--json", *json, "print the result as one JSON object");
     cmd->callback([=] {
       run_reporting([&] {
-        const auto rev = gm::read_runout_revolution(*file);
-        const auto r = gm::identify_runout(rev);
+        const auto rev = models::flatness::read_runout_revolution(*file);
+        const auto r = models::flatness::identify_runout(rev);
         if (*json) {
-          std::cout << gm::to_json(r).dump() << "\n";
+          std::cout << models::flatness::to_json(r).dump() << "\n";
           return;
         }
         std::cout << std::fixed << std::setprecision(4);
@@ -209,19 +207,19 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
     cmd->add_flag("--json", *json, "print the result as one JSON object");
     cmd->callback([=] {
       run_reporting([&] {
-        gm::StraightnessOptions sopt;
-        if (*u_arcsec > 0) sopt.instrument.u_override_rad = *u_arcsec * gm::rad_per_arcsec;
-        std::vector<gm::WorkpieceProfile> ps;
-        for (const auto& f : *profiles) ps.push_back(gm::read_workpiece_profile(f));
-        const auto tr = gm::read_angle_traverse(*straightness, sopt.instrument);
-        std::optional<gm::RunoutRevolution> rev;
-        if (!runout->empty()) rev = gm::read_runout_revolution(*runout);
-        gm::WorkpieceFlatnessOptions opt;
+        models::flatness::StraightnessOptions sopt;
+        if (*u_arcsec > 0) sopt.instrument.u_override_rad = *u_arcsec * models::flatness::rad_per_arcsec;
+        std::vector<models::flatness::WorkpieceProfile> ps;
+        for (const auto& f : *profiles) ps.push_back(models::flatness::read_workpiece_profile(f));
+        const auto tr = models::flatness::read_angle_traverse(*straightness, sopt.instrument);
+        std::optional<models::flatness::RunoutRevolution> rev;
+        if (!runout->empty()) rev = models::flatness::read_runout_revolution(*runout);
+        models::flatness::WorkpieceFlatnessOptions opt;
         opt.wavelet = *wavelet;
         opt.levels = *levels;
-        const auto r = gm::analyse_workpiece_flatness(ps, tr, rev, opt, sopt);
+        const auto r = models::flatness::analyse_workpiece_flatness(ps, tr, rev, opt, sopt);
         if (*json) {
-          std::cout << gm::to_json(r).dump() << "\n";
+          std::cout << models::flatness::to_json(r).dump() << "\n";
           return;
         }
         std::cout << std::fixed << std::setprecision(3);

@@ -39,9 +39,9 @@ void add_ports_commands(CLI::App& app, CliContext& ctx) {
   ports->add_flag("--json", *json, "one JSON object per port, one per line");
   ports->add_flag("--usb", *usb_only, "only USB ports");
   ports->callback([&ctx, json, usb_only] {
-    std::vector<serial::SerialPortInfo> list;
+    std::vector<drivers::serial::SerialPortInfo> list;
     std::string error;
-    if (!serial::list_serial_ports(list, error)) throw std::runtime_error(error);
+    if (!drivers::serial::list_serial_ports(list, error)) throw std::runtime_error(error);
     const auto by_id = stable_names();
     std::size_t shown = 0;
     for (const auto& p : list) {

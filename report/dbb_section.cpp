@@ -15,13 +15,11 @@ namespace guideway::report {
 
 namespace {
 
-namespace dbb = models::dbb;
-
-std::string estimate_cell(const dbb::Estimate& e) {
+std::string estimate_cell(const models::dbb::Estimate& e) {
   return html_escape(e.fitted ? format_with_u(e.value, e.u) : format_number(e.value, 4));
 }
 
-Table estimates_table(const std::string& caption, const std::vector<dbb::Estimate>& list) {
+Table estimates_table(const std::string& caption, const std::vector<models::dbb::Estimate>& list) {
   Table t{caption, {"quantity", "value \u00b1 standard uncertainty", "unit"}, {}};
   for (const auto& e : list) {
     const auto [name, unit] = split_unit(e.name);
@@ -47,11 +45,11 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
   body << ". Identified together (Lai, Liao and Chieng 1997 third-order model and the ballbar diagnostics; sign "
           "conventions in docs/conventions.md).</p>";
 
-  dbb::Identification id_result;
+  models::dbb::Identification id_result;
   bool identified = false;
   std::string refusal;
   try {
-    id_result = dbb::identify(runs);
+    id_result = models::dbb::identify(runs);
     identified = true;
   } catch (const std::exception& e) {
     refusal = e.what();
@@ -141,7 +139,7 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
     }
     for (const auto& n : id_result.notes) body << html_note(n);
 
-    std::vector<dbb::Estimate> iso, diag;
+    std::vector<models::dbb::Estimate> iso, diag;
     for (const auto& e : id_result.diagnostics)
       (e.name.rfind("circular_", 0) == 0 ? iso : diag).push_back(e);
     Table iso_t{"ISO 230-4 circular test figures", {"quantity", "value", "unit"}, {}};

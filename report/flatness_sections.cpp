@@ -18,7 +18,7 @@ namespace {
 
 std::string um_u(double v_m, double u_m) { return html_escape(format_with_u(v_m * 1e6, u_m * 1e6)); }
 
-std::string straightness_plane(const models::StraightnessProfile& p, const std::string& source) {
+std::string straightness_plane(const models::flatness::StraightnessProfile& p, const std::string& source) {
   std::ostringstream body;
   const double x0 = p.x_m.front();
   LinePlot plot;
@@ -74,7 +74,7 @@ std::string straightness_plane(const models::StraightnessProfile& p, const std::
   Table t{"Straightness, " + html_escape(p.plane) + " plane (ISO 230-1)",
           {"reference", "straightness / \u00b5m (\u00b1 u)", "selection bias / \u00b5m"},
           {}};
-  const auto row = [&](const char* name, const models::ReferenceLine& r) {
+  const auto row = [&](const char* name, const models::flatness::ReferenceLine& r) {
     t.rows.push_back({name, um_u(r.straightness_m, r.u_straightness_m), format_fixed(r.selection_bias_m * 1e6, 3)});
   };
   row("end-point line", p.end_point);
@@ -99,9 +99,9 @@ std::string straightness_plane(const models::StraightnessProfile& p, const std::
 }  // namespace
 
 std::string straightness_section(const std::string& path, const std::string& id) {
-  models::StraightnessResult r;
+  models::flatness::StraightnessResult r;
   try {
-    r = models::identify_straightness(models::read_angle_traverse(path));
+    r = models::flatness::identify_straightness(models::flatness::read_angle_traverse(path));
   } catch (const CsvError& e) {
     throw ReportError(e.what());
   } catch (const std::invalid_argument& e) {
@@ -116,12 +116,12 @@ std::string straightness_section(const std::string& path, const std::string& id)
 }
 
 std::string union_jack_section(const std::string& path, const std::string& id) {
-  models::UnionJackResult r;
+  models::flatness::UnionJackResult r;
   bool inch = false;
   try {
-    const auto set = models::read_union_jack(path);
+    const auto set = models::flatness::read_union_jack(path);
     inch = set.inch_units;
-    r = models::evaluate_union_jack(set);
+    r = models::flatness::evaluate_union_jack(set);
   } catch (const CsvError& e) {
     throw ReportError(e.what());
   } catch (const std::invalid_argument& e) {
@@ -180,11 +180,11 @@ std::string union_jack_section(const std::string& path, const std::string& id) {
 }
 
 std::string runout_section(const std::string& path, const std::string& id) {
-  models::RunoutRevolution rev;
-  models::RunoutResult r;
+  models::flatness::RunoutRevolution rev;
+  models::flatness::RunoutResult r;
   try {
-    rev = models::read_runout_revolution(path);
-    r = models::identify_runout(rev);
+    rev = models::flatness::read_runout_revolution(path);
+    r = models::flatness::identify_runout(rev);
   } catch (const CsvError& e) {
     throw ReportError(e.what());
   } catch (const std::invalid_argument& e) {

@@ -18,16 +18,16 @@ namespace guideway::report {
 
 std::string workpiece_correlation_html(const std::vector<std::string>& profiles, const std::string& traverse,
                                        const std::string& runout, const ReportOptions& options) {
-  models::WorkpieceFlatnessResult r;
+  models::flatness::WorkpieceFlatnessResult r;
   try {
-    std::vector<models::WorkpieceProfile> ps;
-    for (const auto& p : profiles) ps.push_back(models::read_workpiece_profile(p));
-    std::optional<models::RunoutRevolution> rev;
-    if (!runout.empty()) rev = models::read_runout_revolution(runout);
-    models::WorkpieceFlatnessOptions opt;
+    std::vector<models::flatness::WorkpieceProfile> ps;
+    for (const auto& p : profiles) ps.push_back(models::flatness::read_workpiece_profile(p));
+    std::optional<models::flatness::RunoutRevolution> rev;
+    if (!runout.empty()) rev = models::flatness::read_runout_revolution(runout);
+    models::flatness::WorkpieceFlatnessOptions opt;
     opt.wavelet = options.wavelet;
     opt.levels = options.wavelet_level;
-    r = models::analyse_workpiece_flatness(ps, models::read_angle_traverse(traverse), rev, opt);
+    r = models::flatness::analyse_workpiece_flatness(ps, models::flatness::read_angle_traverse(traverse), rev, opt);
   } catch (const std::exception& e) {
     return html_note(std::string("Correlation with the carriage errors not computed: ") + e.what());
   }

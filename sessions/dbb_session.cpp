@@ -15,7 +15,6 @@ namespace guideway::sessions {
 
 namespace {
 
-namespace mdbb = guideway::models::dbb;
 constexpr double pi = std::numbers::pi;
 
 struct Pattern {
@@ -176,9 +175,9 @@ class DbbSession : public Session {
     if (runs.empty()) {
       throw std::runtime_error("no complete DBB circle was traced" + (last_note_.empty() ? "" : " (" + last_note_ + ")"));
     }
-    const mdbb::Identification id = mdbb::identify(runs);
+    const models::dbb::Identification id = models::dbb::identify(runs);
     identified_ = runs;
-    nlohmann::json j = mdbb::to_json(id);
+    nlohmann::json j = models::dbb::to_json(id);
     if (runs.size() < runs_.size()) {
       j["incomplete"] = std::to_string(runs.size()) + " of " + std::to_string(runs_.size()) + " patterns traced";
     }

@@ -75,7 +75,7 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
     vx.push_back(x_mm[i]);
     vz.push_back(z_um[i]);
   }
-  const double min_zone_um = models::minimum_zone(vx, vz).width;
+  const double min_zone_um = models::flatness::minimum_zone(vx, vz).width;
   const auto coeffs = dsp::wavedec(filled, wavelet, mode, options.level);
   const double sigma_um = dsp::mad_sigma(coeffs.back());
   const auto components = dsp::mra(filled, wavelet, mode, options.level);  // [A_J, D_J, ..., D_1]
@@ -181,7 +181,7 @@ class ProfileSession : public Session {
       if (done_) return;
       if (s.value_count < needed) continue;
       const double id = s.value[static_cast<std::size_t>(id_)];
-      if (s.flags & profilometer::sample_profile_start) {
+      if (s.flags & drivers::profilometer::sample_profile_start) {
         if (collecting_ && !x_m_.empty()) note_ = "profile " + shortest(profile_id_) + " was cut short; took the next";
         collecting_ = true;
         profile_id_ = id;
@@ -197,7 +197,7 @@ class ProfileSession : public Session {
       x_m_.push_back(s.value[static_cast<std::size_t>(x_)]);
       // Over-range points arrive as NaN with sample_out_of_range: kept as invalid points.
       z_m_.push_back(s.flags & sample_out_of_range ? std::nan("") : s.value[static_cast<std::size_t>(z_)]);
-      if (s.flags & profilometer::sample_profile_end) done_ = true;
+      if (s.flags & drivers::profilometer::sample_profile_end) done_ = true;
     }
   }
 
@@ -249,13 +249,12 @@ class ProfileSession : public Session {
   // offset + cubic in x; the candidates (feed marks, spindle axial run-out, thermal drift, tool wear, ...) need
   // the time of each point and the feed per revolution, so feed and spindle speed must be given.
   std::optional<nlohmann::json> explain() override {
-    namespace ex = models::explain;
     if (!(o_.feed_mm_per_min > 0) || !(o_.spindle_rpm > 0))
       return explain_not_analysed("straightness", "the session was started without feed_mm_per_min and spindle_rpm, "
                                                   "which place each point in time and give the feed per revolution");
     try {
-      const ex::ProfileRun run = ex::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return ex::to_json(ex::explain(ex::profile_problem({run}, "straightness")));
+      const models::explain::ProfileRun run = models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
+      return models::explain::to_json(models::explain::explain(models::explain::profile_problem({run}, "straightness")));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

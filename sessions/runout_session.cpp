@@ -12,8 +12,6 @@ namespace guideway::sessions {
 
 namespace {
 
-namespace gm = guideway::models;
-
 struct RunoutOptions {
   double plate_diameter_mm = 1000.0;
   double parallelism_um = 2.5;
@@ -87,9 +85,9 @@ class RunoutSession : public Session {
   nlohmann::json identify() override {
     if (angle_deg_.empty()) throw std::runtime_error("no valid micrometer reading was received");
     text_ = revolution_text();
-    const gm::RunoutRevolution rev = gm::parse_runout_revolution(text_, "revolution");
-    const gm::RunoutResult r = gm::identify_runout(rev);
-    nlohmann::json result = gm::to_json(r);
+    const models::flatness::RunoutRevolution rev = models::flatness::parse_runout_revolution(text_, "revolution");
+    const models::flatness::RunoutResult r = models::flatness::identify_runout(rev);
+    nlohmann::json result = models::flatness::to_json(r);
     nlohmann::json j;
     j["model"] = result["model"];
     nlohmann::json g;

@@ -13,8 +13,6 @@ namespace guideway::sessions {
 
 namespace {
 
-namespace gm = guideway::models;
-
 struct StraightnessOptions {
   double step_m = 0.05;
   double start_m = 0.0;
@@ -23,12 +21,12 @@ struct StraightnessOptions {
   double return_gap_s = 1.0;
   double min_dwell_s = 0.3;
   double max_hole_s = 0.45;
-  double settle_rad = 0.5 * gm::rad_per_arcsec;
+  double settle_rad = 0.5 * models::flatness::rad_per_arcsec;
   double pitch_sign = -1.0;
   double yaw_sign = 1.0;
   std::string pitch_channel = "angle_y";
   std::string yaw_channel = "angle_x";  // "" = no yaw
-  gm::StraightnessOptions model;
+  models::flatness::StraightnessOptions model;
 };
 
 StraightnessOptions parse_options(const nlohmann::json& o) {
@@ -46,7 +44,7 @@ StraightnessOptions parse_options(const nlohmann::json& o) {
   s.return_gap_s = number_option(o, "return_gap_s", 1.0, 0.05, 600.0);
   s.min_dwell_s = number_option(o, "min_dwell_s", 0.3, 0.0, 600.0);
   s.max_hole_s = number_option(o, "max_hole_s", 0.45, 0.01, 600.0);
-  s.settle_rad = number_option(o, "settle_arcsec", 0.5, 0.001, 1000.0) * gm::rad_per_arcsec;
+  s.settle_rad = number_option(o, "settle_arcsec", 0.5, 0.001, 1000.0) * models::flatness::rad_per_arcsec;
   s.pitch_channel = string_option(o, "pitch_channel", "angle_y");
   s.yaw_channel = string_option(o, "yaw_channel", "angle_x");
   for (const char* key : {"pitch_sign", "yaw_sign"}) {
@@ -54,7 +52,7 @@ StraightnessOptions parse_options(const nlohmann::json& o) {
     if (v != 1.0 && v != -1.0) throw std::invalid_argument(std::string("option ") + key + " must be 1 or -1");
     (key[0] == 'p' ? s.pitch_sign : s.yaw_sign) = v;
   }
-  s.model.instrument.u_override_rad = number_option(o, "angle_u_arcsec", 0.0, 0.0, 100.0) * gm::rad_per_arcsec;
+  s.model.instrument.u_override_rad = number_option(o, "angle_u_arcsec", 0.0, 0.0, 100.0) * models::flatness::rad_per_arcsec;
   s.model.max_order = static_cast<int>(integer_option(o, "max_order", 8, 1, 8));
   return s;
 }
@@ -153,12 +151,12 @@ class StraightnessSession : public Session {
           (collecting_ ? "" : " (no return of the reflector was seen: option start=now starts at once)"));
     }
     text_ = traverse_text();
-    const gm::AngleTraverse tr = gm::parse_angle_traverse(text_, "traverse", o_.model.instrument);
-    const gm::StraightnessResult r = gm::identify_straightness(tr, o_.model);
-    nlohmann::json result = gm::to_json(r);
+    const models::flatness::AngleTraverse tr = models::flatness::parse_angle_traverse(text_, "traverse", o_.model.instrument);
+    const models::flatness::StraightnessResult r = models::flatness::identify_straightness(tr, o_.model);
+    nlohmann::json result = models::flatness::to_json(r);
     result.erase("source");
     nlohmann::json group;
-    auto add = [&](const std::string& plane, const gm::StraightnessProfile& p) {
+    auto add = [&](const std::string& plane, const models::flatness::StraightnessProfile& p) {
       for (const auto& [name, line] :
            {std::pair{"end_point", &p.end_point}, std::pair{"least_squares", &p.least_squares},
             std::pair{"minimum_zone", &p.minimum_zone}}) {
@@ -255,8 +253,8 @@ class StraightnessSession : public Session {
                     "\n# source = guidewayd straightness session\n";
     t += yaw_ >= 0 ? "x_mm,pitch_arcsec,yaw_arcsec\n" : "x_mm,pitch_arcsec\n";
     for (std::size_t k = 0; k < pitch_rad_.size(); ++k) {
-      t += shortest((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," + shortest(pitch_rad_[k] / gm::rad_per_arcsec);
-      if (yaw_ >= 0) t += "," + shortest(yaw_rad_[k] / gm::rad_per_arcsec);
+      t += shortest((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," + shortest(pitch_rad_[k] / models::flatness::rad_per_arcsec);
+      if (yaw_ >= 0) t += "," + shortest(yaw_rad_[k] / models::flatness::rad_per_arcsec);
       t += "\n";
     }
     return t;

@@ -16,23 +16,22 @@
 
 namespace {
 
-using namespace guideway::models;
-namespace em = guideway::emulators;
-namespace sim = guideway::sim;
+using namespace guideway::models::artifact;
+using namespace guideway;
 using guideway::CsvError;
 
 constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
 const std::string kMachine = GUIDEWAY_SOURCE_DIR "/tests/artifact_wei2019_machine.toml";
 
-ArtifactResult identify(const em::ArtifactFiles& f, const ArtifactOptions& opt = {}) {
+ArtifactResult identify(const simulators::emulators::ArtifactFiles& f, const ArtifactOptions& opt = {}) {
   return identify_artifact(parse_artifact_readings(f.calibration, "cal.csv", ArtifactPlacement::calibration),
                            parse_artifact_readings(f.horizontal, "h.csv", ArtifactPlacement::horizontal),
                            parse_artifact_readings(f.vertical, "v.csv", ArtifactPlacement::vertical), opt);
 }
 
 // The machine's error motions at the targets, relative to the first: dx dy dz ex ey ez.
-std::vector<std::array<double, 6>> truth(const sim::Machine& m, const em::ArtifactFilesSpec& s) {
-  sim::ArtifactSpec a;
+std::vector<std::array<double, 6>> truth(const simulators::machine::Machine& m, const simulators::emulators::ArtifactFilesSpec& s) {
+  simulators::machine::ArtifactSpec a;
   a.start_m = s.start_m;
   a.pitch_m = s.pitch_m;
   a.targets = s.targets;
@@ -54,11 +53,11 @@ std::array<double, 6> uncertainties(const ArtifactTargetErrors& e) {
 const char* kNames[] = {"dx", "dy", "dz", "ex", "ey", "ez"};
 
 TEST(Artifact, RecoversTheSixErrorMotionsExactlyWithoutNoise) {
-  const sim::Machine m = sim::Machine::from_file(kMachine);
-  em::ArtifactFilesSpec s;
+  const simulators::machine::Machine m = simulators::machine::Machine::from_file(kMachine);
+  simulators::emulators::ArtifactFilesSpec s;
   s.spot_noise_px = 0;
   s.laser_noise_m = 0;
-  const auto r = identify(em::artifact_files(m, s));
+  const auto r = identify(simulators::emulators::artifact_files(m, s));
   const auto t = truth(m, s);
   ASSERT_EQ(r.targets.size(), 9u);
   double biggest[6] = {};
@@ -75,10 +74,10 @@ TEST(Artifact, RecoversTheSixErrorMotionsExactlyWithoutNoise) {
 }
 
 TEST(Artifact, RecoversTheErrorsWithNoiseAndTheCouplingCorrectionMatters) {
-  const sim::Machine m = sim::Machine::from_file(kMachine);
-  em::ArtifactFilesSpec s;  // Wei: 0.1 px spots (0.2 arcsec, 0.16 um), 0.05 um laser
+  const simulators::machine::Machine m = simulators::machine::Machine::from_file(kMachine);
+  simulators::emulators::ArtifactFilesSpec s;  // Wei: 0.1 px spots (0.2 arcsec, 0.16 um), 0.05 um laser
   s.seed = 11;
-  const auto files = em::artifact_files(m, s);
+  const auto files = simulators::emulators::artifact_files(m, s);
   const auto r = identify(files);
   const auto t = truth(m, s);
   for (std::size_t i = 0; i < t.size(); ++i) {
@@ -109,8 +108,8 @@ TEST(Artifact, RecoversTheErrorsWithNoiseAndTheCouplingCorrectionMatters) {
 }
 
 TEST(Artifact, UncertaintiesCoverTheTruthInRepeatedMeasurements) {
-  const sim::Machine m = sim::Machine::from_file(kMachine);
-  em::ArtifactFilesSpec s;
+  const simulators::machine::Machine m = simulators::machine::Machine::from_file(kMachine);
+  simulators::emulators::ArtifactFilesSpec s;
   s.spot_noise_px = 0.15;
   s.laser_noise_m = 0.1e-6;
   const auto t = truth(m, s);
@@ -119,7 +118,7 @@ TEST(Artifact, UncertaintiesCoverTheTruthInRepeatedMeasurements) {
   int count = 0;
   for (int k = 0; k < trials; ++k) {
     s.seed = 100 + static_cast<std::uint64_t>(k);
-    const auto r = identify(em::artifact_files(m, s));
+    const auto r = identify(simulators::emulators::artifact_files(m, s));
     for (std::size_t i = 1; i < t.size(); ++i) {
       const auto v = values(r.targets[i]);
       const auto u = uncertainties(r.targets[i]);
@@ -140,10 +139,10 @@ TEST(Artifact, UncertaintiesCoverTheTruthInRepeatedMeasurements) {
 
 TEST(Artifact, ScansCalibrateKAndM) {
   // Wei Sec. 3.2: k and m from line fits of the spot against laser distances and known angles.
-  const sim::Machine m = sim::Machine::from_file(kMachine);
-  em::ArtifactFilesSpec s;
+  const simulators::machine::Machine m = simulators::machine::Machine::from_file(kMachine);
+  simulators::emulators::ArtifactFilesSpec s;
   s.seed = 21;
-  const auto f = em::artifact_files(m, s);
+  const auto f = simulators::emulators::artifact_files(m, s);
   const auto k = fit_k_scan(f.k_scan, "k_scan.csv");
   const auto mm = fit_m_scan(f.m_scan, "m_scan.csv");
   std::printf("k = %.5f um/px (u %.5f), m = %.5f px/arcsec (u %.5f); configured 1.6, %.5f\n", k.coefficient * 1e6,

@@ -16,32 +16,32 @@
 
 using namespace guideway;
 using namespace std::chrono_literals;
-using autocollimator::arcsec_to_rad;
-using autocollimator::AxisState;
+using drivers::autocollimator::arcsec_to_rad;
+using drivers::autocollimator::AxisState;
 using drivers::DeviceState;
 
 namespace {
 
-std::shared_ptr<const emulators::TraverseMotion> traverse() {
+std::shared_ptr<const simulators::emulators::TraverseMotion> traverse() {
   static const auto motion = [] {
-    const sim::Machine machine(emulators::demo_machine_config());
-    sim::TraverseSpec spec;
+    const simulators::machine::Machine machine(simulators::emulators::demo_machine_config());
+    simulators::machine::TraverseSpec spec;
     spec.start_m = 0.0;
     spec.end_m = 0.5;
     spec.step_m = 0.05;
     spec.dwell_s = 0.05;
-    return emulators::make_traverse_motion(machine, spec);
+    return simulators::emulators::make_traverse_motion(machine, spec);
   }();
   return motion;
 }
 
 struct Bench {
-  explicit Bench(bool stream, bool checksum = false, emulators::AutocollimatorSource source = {},
+  explicit Bench(bool stream, bool checksum = false, simulators::emulators::AutocollimatorSource source = {},
                  double range_arcsec = 1000.0)
-      : emu({range_arcsec, checksum, dir.file("ac0")}, source ? source : emulators::traverse_source(traverse())) {
+      : emu({range_arcsec, checksum, dir.file("ac0")}, source ? source : simulators::emulators::traverse_source(traverse())) {
     std::string err;
     if (!emu.start(err)) throw std::runtime_error(err);
-    autocollimator::AutocollimatorSettings s;
+    drivers::autocollimator::AutocollimatorSettings s;
     s.serial.port = emu.path();
     s.serial.baud_rate = 115200;
     s.stream = stream;
@@ -54,7 +54,7 @@ struct Bench {
     s.reconnect_max_ms = 100;
     s.x_channel = "yaw";
     s.y_channel = "pitch";
-    driver = std::make_unique<autocollimator::AutocollimatorDriver>("ac", 1 << 14, s);
+    driver = std::make_unique<drivers::autocollimator::AutocollimatorDriver>("ac", 1 << 14, s);
     driver->start();
   }
   ~Bench() {
@@ -109,8 +109,8 @@ struct Bench {
   }
 
   test::TempDir dir;
-  emulators::AutocollimatorEmulator emu;
-  std::unique_ptr<autocollimator::AutocollimatorDriver> driver;
+  simulators::emulators::AutocollimatorEmulator emu;
+  std::unique_ptr<drivers::autocollimator::AutocollimatorDriver> driver;
   std::vector<Sample> samples;
 };
 
@@ -231,7 +231,7 @@ TEST(AutocollimatorDriver, NoReflectionAndOutOfRangeAreFlagsNotNumbers) {
   Bench b(
       false, false,
       [readings](double) {
-        return emulators::AutocollimatorView{-700.0 + 20.0 * (*readings)++, 12.5, true};
+        return simulators::emulators::AutocollimatorView{-700.0 + 20.0 * (*readings)++, 12.5, true};
       },
       600.0);
   ASSERT_TRUE(b.wait_samples(30));
@@ -267,7 +267,7 @@ TEST(AutocollimatorDriver, NoReflectionAndOutOfRangeAreFlagsNotNumbers) {
 
 TEST(AutocollimatorDriver, CreatedFromConfigThroughTheRegistry) {
   test::TempDir dir;
-  emulators::AutocollimatorEmulator emu({1000.0, false, dir.file("ac")}, emulators::traverse_source(traverse()));
+  simulators::emulators::AutocollimatorEmulator emu({1000.0, false, dir.file("ac")}, simulators::emulators::traverse_source(traverse()));
   std::string err;
   ASSERT_TRUE(emu.start(err)) << err;
   const std::string text = "[[device]]\nname = \"ac\"\ndriver = \"autocollimator-serial\"\nport = \"" + emu.path() +
@@ -277,7 +277,7 @@ TEST(AutocollimatorDriver, CreatedFromConfigThroughTheRegistry) {
   const TableReader top(root, "ac.toml", "");
   const auto devices = top.tables("device");
   drivers::DriverRegistry registry;
-  autocollimator::register_autocollimator_driver(registry);
+  drivers::autocollimator::register_autocollimator_driver(registry);
   (void)devices[0].require_string("name");
   (void)devices[0].require_string("driver");
   auto driver = registry.create({"ac", "autocollimator-serial", 1024, devices[0]});
@@ -300,11 +300,11 @@ TEST(AutocollimatorDriver, CreatedFromConfigThroughTheRegistry) {
 }
 
 TEST(AutocollimatorDriver, AMissingPortIsAnErrorStateWithTheReasonAndRetries) {
-  autocollimator::AutocollimatorSettings s;
+  drivers::autocollimator::AutocollimatorSettings s;
   s.serial.port = "/nonexistent/tty-guideway";
   s.reconnect_min_ms = 5;
   s.reconnect_max_ms = 20;
-  autocollimator::AutocollimatorDriver d("ac", 64, s);
+  drivers::autocollimator::AutocollimatorDriver d("ac", 64, s);
   d.start();
   ASSERT_TRUE(test::eventually([&] { return d.status().state == DeviceState::error; }));
   EXPECT_NE(d.status().reason.find("No such file"), std::string::npos) << d.status().reason;

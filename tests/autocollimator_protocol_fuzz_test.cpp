@@ -11,7 +11,7 @@
 #include "drivers/serial/serial_port.hpp"
 
 using namespace guideway;
-using namespace guideway::autocollimator;
+using namespace guideway::drivers::autocollimator;
 
 namespace {
 
@@ -138,7 +138,7 @@ TEST(SerialLineFramer, AnyChunkingGivesTheSameLines) {
       const char* ends[] = {"\r", "\n", "\r\n", "\n\r"};
       stream += ends[rng() % 4];
     }
-    serial::LineFramer whole(30), pieces(30);
+    drivers::serial::LineFramer whole(30), pieces(30);
     std::vector<std::string> a, b;
     const std::size_t ov_a = whole.feed(stream, a);
     std::size_t ov_b = 0;

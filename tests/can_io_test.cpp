@@ -14,7 +14,7 @@
 #include "drivers/can/can_io.hpp"
 #include "test_support.hpp"
 
-using namespace guideway::can;
+using namespace guideway::drivers::can;
 
 namespace {
 

@@ -1,5 +1,5 @@
 // Compensation from a DBB identification (models/compensation, formats/compensation_files) against the
-// virtual machine tool's known errors, and the compensated machine (sim::remeasure_dbb):
+// virtual machine tool's known errors, and the compensated machine (simulators::machine::remeasure_dbb):
 // - the LinuxCNC files: triplets, ascending, at most 256 lines, read back as LinuxCNC reads them;
 // - the error map within 0.25 um RMS of the machine's errors over the measured range;
 // - after loading the tables, G at most 35 % of G before and every compensated term below 3 u,
@@ -19,28 +19,26 @@
 namespace {
 
 using namespace guideway;
-namespace comp = models::compensation;
-namespace dbb = models::dbb;
 
 constexpr double pi = std::numbers::pi;
 
-std::vector<formats::DbbRun> pair_of(const sim::Machine& m, const sim::Vec3& center, double feed_mm_per_min,
-                                     sim::Plane plane = sim::Plane::xy) {
+std::vector<formats::DbbRun> pair_of(const simulators::machine::Machine& m, const simulators::machine::Vec3& center, double feed_mm_per_min,
+                                     simulators::machine::Plane plane = simulators::machine::Plane::xy) {
   std::vector<formats::DbbRun> runs;
   for (bool ccw : {true, false}) {
-    sim::DbbCircleSpec s;
+    simulators::machine::DbbCircleSpec s;
     s.plane = plane;
     s.radius_m = 0.1;
     s.center = center;
     s.feed_m_per_s = feed_mm_per_min / 60000.0;
     s.direction = ccw ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
     s.seed = ccw ? 11 : 12;
-    runs.push_back(sim::simulate_dbb_run(m, s, ccw ? "ccw.csv" : "cw.csv"));
+    runs.push_back(simulators::machine::simulate_dbb_run(m, s, ccw ? "ccw.csv" : "cw.csv"));
   }
   return runs;
 }
 
-const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) {
+const models::dbb::Estimate* find(const models::dbb::Identification& id, const std::string& name) {
   for (const auto& e : id.diagnostics)
     if (e.name == name) return &e;
   return nullptr;
@@ -119,36 +117,36 @@ TEST(CompensationFilesTest, StraightnessTableRoundTripsAndRefusesBadTables) {
 // --- the compensated machine ---
 
 TEST(CompensatedMachineTest, CrossAxisCorrectionMovesTheOtherAxisByTheFirstOnesPosition) {
-  const auto cross = sim::cross_compensation({{"x", 0, "y", 0.0}, {"x", 100, "y", -0.004}});
+  const auto cross = simulators::machine::cross_compensation({{"x", 0, "y", 0.0}, {"x", 100, "y", -0.004}});
   ASSERT_EQ(cross.size(), 1u);
   EXPECT_NEAR(cross[0].at(0.05), -2e-6, 1e-15);
   EXPECT_NEAR(cross[0].at(0.2), -4e-6, 1e-15);  // beyond the end: its value holds
-  EXPECT_THROW((void)sim::cross_compensation({{"x", 0, "w", 0.0}}), std::invalid_argument);
+  EXPECT_THROW((void)simulators::machine::cross_compensation({{"x", 0, "w", 0.0}}), std::invalid_argument);
   // X bows Y by +4e-4 um/mm^2 x^2 (4 um at 100 mm); the table takes it back, the line is straight again.
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.axis[0].translation[1].c = {0.0, 0.0, 4e-4};  // 4e-4 / m * x^2: 4 um at 0.1 m
   std::vector<formats::CrossCorrectionRow> rows;
   for (int i = 0; i <= 100; ++i) rows.push_back({"x", double(i), "y", -4e-4 * std::pow(i * 1e-3, 2) * 1e3});
-  cfg.controller.cross = sim::cross_compensation(rows);
-  const sim::Machine m(cfg);
-  sim::MotionSpec ms;
-  ms.path = sim::linear_move({0, 0, 0}, {0.1, 0, 0}, 0.01);
+  cfg.controller.cross = simulators::machine::cross_compensation(rows);
+  const simulators::machine::Machine m(cfg);
+  simulators::machine::MotionSpec ms;
+  ms.path = simulators::machine::linear_move({0, 0, 0}, {0.1, 0, 0}, 0.01);
   ms.duration_s = 10.5;
   ms.sample_rate_hz = 100;
   for (const auto& p : m.simulate_motion(ms)) EXPECT_NEAR(p.tool[1], 0.0, 2e-9) << "x " << p.tool[0];
   cfg.controller.cross.clear();
-  EXPECT_NEAR(sim::Machine(cfg).simulate_motion(ms).back().tool[1], 4e-6, 1e-9);
+  EXPECT_NEAR(simulators::machine::Machine(cfg).simulate_motion(ms).back().tool[1], 4e-6, 1e-9);
 }
 
 TEST(CompensatedMachineTest, ControllerAddsNominalMinusActualByDirection) {
-  sim::JointCompensation c = sim::joint_compensation({{0, 0.001, -0.002}, {10, 10.003, 9.998}});
+  simulators::machine::JointCompensation c = simulators::machine::joint_compensation({{0, 0.001, -0.002}, {10, 10.003, 9.998}});
   EXPECT_NEAR(c.correction_m(0.0, +1), -1e-6, 1e-15);
   EXPECT_NEAR(c.correction_m(0.0, -1), 2e-6, 1e-15);
   EXPECT_NEAR(c.correction_m(0.005, +1), -2e-6, 1e-15);  // halfway: (-1 + -3) / 2 um
   EXPECT_NEAR(c.correction_m(0.005, -1), 2e-6, 1e-15);
   EXPECT_NEAR(c.correction_m(0.02, +1), -3e-6, 1e-15);  // beyond the end: its value holds
   // A static move ends where the table says: actual = commanded + correction + machine error.
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.axis[0].scale = 100e-6;
   cfg.axis[0].backlash_m = 4e-6;
   // The table of exactly this axis: actual = (1 + s) u -/+ b / 2.
@@ -157,12 +155,12 @@ TEST(CompensatedMachineTest, ControllerAddsNominalMinusActualByDirection) {
     const double u = i * 5.0;
     t.push_back({u, u * (1 + 100e-6) - 0.002, u * (1 + 100e-6) + 0.002});
   }
-  cfg.controller.tables[0] = sim::joint_compensation(t);
-  const sim::Machine m(cfg);
+  cfg.controller.tables[0] = simulators::machine::joint_compensation(t);
+  const simulators::machine::Machine m(cfg);
   for (const double target : {0.03, 0.07}) {
     for (const double from : {0.0, 0.1}) {
-      sim::MotionSpec ms;
-      ms.path = sim::linear_move({from, 0, 0}, {target, 0, 0}, 0.01);
+      simulators::machine::MotionSpec ms;
+      ms.path = simulators::machine::linear_move({from, 0, 0}, {target, 0, 0}, 0.01);
       ms.duration_s = std::abs(target - from) / 0.01 + 0.5;
       ms.sample_rate_hz = 100;
       const auto motion = m.simulate_motion(ms);
@@ -174,7 +172,7 @@ TEST(CompensatedMachineTest, ControllerAddsNominalMinusActualByDirection) {
 // --- the map against the machine's errors ---
 
 struct TruthAxis {
-  const sim::AxisErrors* e;
+  const simulators::machine::AxisErrors* e;
   int j;
   double positioning(double u, int d) const {
     double v = e->scale * u + e->translation[static_cast<std::size_t>(j)](u) - 0.5 * e->backlash_m * d;
@@ -218,13 +216,13 @@ struct MapCase {
 class CompensationMapTest : public ::testing::TestWithParam<MapCase> {};
 
 TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
-  const auto cfg = sim::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam().file);
-  const sim::Machine m(cfg);
-  const sim::Vec3 center{0.15, 0.08, 0.0};
+  const auto cfg = simulators::machine::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam().file);
+  const simulators::machine::Machine m(cfg);
+  const simulators::machine::Vec3 center{0.15, 0.08, 0.0};
   // At 250 mm/min the servo lag shortens the radius by < 1 ppm (docs/conventions.md).
   const auto runs = pair_of(m, center, 250);
-  const auto id = dbb::identify(runs);
-  const auto map = comp::error_map(id, runs);
+  const auto id = models::dbb::identify(runs);
+  const auto map = models::compensation::error_map(id, runs);
   EXPECT_NEAR(map.terms_of[0].center_m, 0.15, 1e-12);
   EXPECT_NEAR(map.terms_of[1].center_m, 0.08, 1e-12);
   for (int k = 0; k < 2; ++k) {
@@ -258,7 +256,7 @@ TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
                        cfg.axis[1].translation[0].derivative(center[1]);
   EXPECT_NEAR(map.squareness_rad, local, std::max(3 * map.squareness_u_rad, 2e-6));
   // The files: a table per plane axis, the INI lines, errors.csv with the squareness, straightness.csv.
-  const auto files = comp::compensation_files(map, "test runs");
+  const auto files = models::compensation::compensation_files(map, "test runs");
   ASSERT_EQ(files.size(), 5u);
   for (int k = 0; k < 2; ++k) {
     const auto back = formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content,
@@ -298,26 +296,26 @@ INSTANTIATE_TEST_SUITE_P(Machines, CompensationMapTest,
                          });
 
 TEST(CompensationMapTest, CentreMustBeKnownAndTheRunsMustGoBothWays) {
-  const sim::Machine m(sim::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml"));
+  const simulators::machine::Machine m(simulators::machine::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml"));
   auto runs = pair_of(m, {0, 0, 0}, 1000);
-  const auto id = dbb::identify(runs);
+  const auto id = models::dbb::identify(runs);
   for (auto& r : runs) {
     r.metadata.erase("center_a_mm");
     r.metadata.erase("center_b_mm");
   }
   try {
-    (void)comp::error_map(id, runs);
+    (void)models::compensation::error_map(id, runs);
     FAIL() << "no centre, yet a map";
-  } catch (const comp::CompensationError& e) {
+  } catch (const models::compensation::CompensationError& e) {
     EXPECT_NE(std::string(e.what()).find("--center-mm"), std::string::npos) << e.what();
   }
-  comp::MapOptions o;
+  models::compensation::MapOptions o;
   o.center_m = std::array<double, 2>{0.0, 0.0};
-  EXPECT_NO_THROW((void)comp::error_map(id, runs, o));
+  EXPECT_NO_THROW((void)models::compensation::error_map(id, runs, o));
   o.step_m = 0.0005;  // 401 lines
-  EXPECT_THROW((void)comp::error_map(id, runs, o), comp::CompensationError);
+  EXPECT_THROW((void)models::compensation::error_map(id, runs, o), models::compensation::CompensationError);
   const std::vector<formats::DbbRun> one{runs.front()};
-  EXPECT_THROW((void)comp::error_map(dbb::identify(one), one), comp::CompensationError);
+  EXPECT_THROW((void)models::compensation::error_map(models::dbb::identify(one), one), models::compensation::CompensationError);
 }
 
 // --- before / after on the virtual machine ---
@@ -325,34 +323,34 @@ TEST(CompensationMapTest, CentreMustBeKnownAndTheRunsMustGoBothWays) {
 class CompensationVerifyTest : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
-  const auto cfg = sim::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam());
-  const sim::Machine m(cfg);
-  const sim::Vec3 center{0.0, 0.0, 0.0};
+  const auto cfg = simulators::machine::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam());
+  const simulators::machine::Machine m(cfg);
+  const simulators::machine::Vec3 center{0.0, 0.0, 0.0};
   // machine-several-effects.toml drifts 1 um/min along X, which no table corrects: over a run at
   // 250 mm/min (3 min) that alone keeps G at 40 % of before; at 500 mm/min the run sees half the drift
   // (docs/compensation.md: measure such a machine warm, or quickly).
   const bool drifting = std::string(GetParam()) == "machine-several-effects.toml";
   const auto runs = pair_of(m, center, drifting ? 500 : 250);
-  const auto id = dbb::identify(runs);
-  const auto map = comp::error_map(id, runs);
-  const auto files = comp::compensation_files(map, "test runs");
+  const auto id = models::dbb::identify(runs);
+  const auto map = models::compensation::error_map(id, runs);
+  const auto files = models::compensation::compensation_files(map, "test runs");
   // The tables as LinuxCNC reads them, the squareness as the user enters it in the skew option, and
   // straightness.csv as the controller's cross-axis correction.
-  sim::ControllerCorrection tables_only;
+  simulators::machine::ControllerCorrection tables_only;
   for (int k = 0; k < 2; ++k)
     tables_only.tables[static_cast<std::size_t>(k)] =
-        sim::joint_compensation(formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content, "t.comp"));
-  sim::ControllerCorrection with_skew = tables_only;
+        simulators::machine::joint_compensation(formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content, "t.comp"));
+  simulators::machine::ControllerCorrection with_skew = tables_only;
   if (map.squareness_significant) with_skew.skew.xy = map.squareness_rad;
-  sim::ControllerCorrection full = with_skew;
+  simulators::machine::ControllerCorrection full = with_skew;
   const auto straightness =
       std::find_if(files.begin(), files.end(), [](const auto& f) { return f.name == "straightness.csv"; });
   ASSERT_NE(straightness, files.end()) << GetParam() << ": every machine here has a significant straightness";
-  full.cross = sim::cross_compensation(formats::parse_straightness_csv(straightness->content, "straightness.csv"));
-  const auto r = sim::remeasure_dbb(cfg, full, runs, center);
-  const auto before = dbb::identify(r.before), after = dbb::identify(r.after);
-  const auto tables = dbb::identify(sim::remeasure_dbb(cfg, tables_only, runs, center).after);
-  const auto skewed = dbb::identify(sim::remeasure_dbb(cfg, with_skew, runs, center).after);
+  full.cross = simulators::machine::cross_compensation(formats::parse_straightness_csv(straightness->content, "straightness.csv"));
+  const auto r = simulators::machine::remeasure_dbb(cfg, full, runs, center);
+  const auto before = models::dbb::identify(r.before), after = models::dbb::identify(r.after);
+  const auto tables = models::dbb::identify(simulators::machine::remeasure_dbb(cfg, tables_only, runs, center).after);
+  const auto skewed = models::dbb::identify(simulators::machine::remeasure_dbb(cfg, with_skew, runs, center).after);
   const double g0 = find(before, "circular_deviation_um")->value, g1 = find(after, "circular_deviation_um")->value;
   const double g_tables = find(tables, "circular_deviation_um")->value;
   const double g_skew = find(skewed, "circular_deviation_um")->value;
@@ -377,7 +375,7 @@ TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
     EXPECT_LT(g1, 0.8 * g_skew) << "the cross-axis correction takes the straightness out";
   }
   for (const auto& t : map.terms) {
-    if (t.use != comp::Use::cross_table || !t.significant || t.name.find("cubic") != std::string::npos) continue;
+    if (t.use != models::compensation::Use::cross_table || !t.significant || t.name.find("cubic") != std::string::npos) continue;
     const auto* a = find(after, t.name);
     ASSERT_NE(a, nullptr) << t.name;
     EXPECT_LT(std::abs(a->value), 3 * a->u) << GetParam() << ": " << t.name << " " << t.value << " -> " << a->value;
@@ -389,7 +387,7 @@ TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
   ASSERT_NE(q, nullptr);
   EXPECT_LT(std::abs(q->value), 3 * q->u) << "squareness after the skew correction";
   for (const auto& t : map.terms) {
-    if (t.use != comp::Use::table || !t.significant) continue;
+    if (t.use != models::compensation::Use::table || !t.significant) continue;
     const auto* a = find(after, t.name);
     ASSERT_NE(a, nullptr) << t.name;
     std::cout << "  " << t.name << ": " << t.value << " +/- " << t.u << " -> " << a->value << " +/- " << a->u << "\n";
@@ -414,27 +412,27 @@ INSTANTIATE_TEST_SUITE_P(Machines, CompensationVerifyTest,
 
 // A lathe-like XZ test: the Z table is written for joint 2 and the skew goes to xz.
 TEST(CompensationVerifyTest, XzPlaneTablesForXAndZ) {
-  auto cfg = sim::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml");
+  auto cfg = simulators::machine::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml");
   cfg.axis[2].scale = 20e-6;
   cfg.axis[2].backlash_m = 3e-6;
   cfg.squareness.xz = 15e-6;
-  const sim::Vec3 center{0.05, 0.0, -0.02};
-  const auto runs = pair_of(sim::Machine(cfg), center, 250, sim::Plane::xz);
-  const auto id = dbb::identify(runs);
-  const auto map = comp::error_map(id, runs);
+  const simulators::machine::Vec3 center{0.05, 0.0, -0.02};
+  const auto runs = pair_of(simulators::machine::Machine(cfg), center, 250, simulators::machine::Plane::xz);
+  const auto id = models::dbb::identify(runs);
+  const auto map = models::compensation::error_map(id, runs);
   ASSERT_EQ(map.axes[1].axis, "z");
   EXPECT_NEAR(map.terms_of[1].center_m, -0.02, 1e-12);
-  EXPECT_EQ(comp::joint_of("z"), 2);
-  const auto files = comp::compensation_files(map, "xz runs");
+  EXPECT_EQ(models::compensation::joint_of("z"), 2);
+  const auto files = models::compensation::compensation_files(map, "xz runs");
   EXPECT_EQ(files[1].name, "z.comp");
   EXPECT_NE(files[2].content.find("[JOINT_2]\n"), std::string::npos);
-  sim::ControllerCorrection c;
-  c.tables[0] = sim::joint_compensation(formats::parse_linuxcnc_comp(files[0].content, "x.comp"));
-  c.tables[2] = sim::joint_compensation(formats::parse_linuxcnc_comp(files[1].content, "z.comp"));
+  simulators::machine::ControllerCorrection c;
+  c.tables[0] = simulators::machine::joint_compensation(formats::parse_linuxcnc_comp(files[0].content, "x.comp"));
+  c.tables[2] = simulators::machine::joint_compensation(formats::parse_linuxcnc_comp(files[1].content, "z.comp"));
   ASSERT_TRUE(map.squareness_significant);
   c.skew.xz = map.squareness_rad;
-  const auto r = sim::remeasure_dbb(cfg, c, runs, center);
-  const auto before = dbb::identify(r.before), after = dbb::identify(r.after);
+  const auto r = simulators::machine::remeasure_dbb(cfg, c, runs, center);
+  const auto before = models::dbb::identify(r.before), after = models::dbb::identify(r.after);
   const double g0 = find(before, "circular_deviation_um")->value, g1 = find(after, "circular_deviation_um")->value;
   std::cout << "xz: G " << g0 << " -> " << g1 << " um\n";
   EXPECT_LE(g1, 0.35 * g0);

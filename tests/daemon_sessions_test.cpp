@@ -49,7 +49,7 @@ Sample sample(double t_s, std::initializer_list<double> values, std::uint32_t fl
 
 // The autocollimator polled every 50 ms: `dwell_s` on each station, the beam lost for `move_s` between
 // stations and `return_s` after the last (as guideway-emulate autocollimator does).
-void feed_traverse(sessions::Session& s, const std::vector<sim::TraverseStation>& st, double& t, double dwell_s = 0.8,
+void feed_traverse(sessions::Session& s, const std::vector<simulators::machine::TraverseStation>& st, double& t, double dwell_s = 0.8,
                    double move_s = 0.5, double return_s = 1.5, std::size_t first = 0, double hole_at_s = -1) {
   std::vector<Sample> out;
   const double nan = std::nan("");
@@ -66,15 +66,15 @@ void feed_traverse(sessions::Session& s, const std::vector<sim::TraverseStation>
   s.on_samples(out);
 }
 
-sim::MachineConfig straightness_machine() {
-  sim::MachineConfig m;
+simulators::machine::MachineConfig straightness_machine() {
+  simulators::machine::MachineConfig m;
   m.axis[0].rotation[1].c = {0.0, 30e-6, -80e-6};  // E_BX: pitch of X, rad (u in m)
   m.axis[0].rotation[2].c = {5e-6, -20e-6};        // E_CX: yaw of X
   return m;
 }
 
-std::vector<sim::TraverseStation> traverse(const sim::Machine& machine) {
-  sim::TraverseSpec spec;
+std::vector<simulators::machine::TraverseStation> traverse(const simulators::machine::Machine& machine) {
+  simulators::machine::TraverseSpec spec;
   spec.start_m = 0.0;
   spec.end_m = 0.6;
   spec.step_m = 0.05;
@@ -86,7 +86,7 @@ double value(const nlohmann::json& group, const char* name) { return group.at(na
 }  // namespace
 
 TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
-  const sim::Machine machine(straightness_machine());
+  const simulators::machine::Machine machine(straightness_machine());
   const auto st = traverse(machine);
   ASSERT_EQ(st.size(), 13u);
   auto device = autocollimator_device();
@@ -99,7 +99,7 @@ TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
   const nlohmann::json p = session->identify();
 
   // Reference: the model on the machine's own angles (slope = -rotation about +y; yaw = +rotation about z).
-  models::AngleTraverse tr;
+  models::flatness::AngleTraverse tr;
   tr.step_m = 0.05;
   for (const auto& s : st) {
     tr.x_m.push_back(s.position_m);
@@ -107,7 +107,7 @@ TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
     tr.yaw_rad.push_back(s.yaw_rad);
     tr.line.push_back(0);
   }
-  const auto ref = models::identify_straightness(tr);
+  const auto ref = models::flatness::identify_straightness(tr);
   EXPECT_EQ(p["traverse"]["stations"], 13);
   EXPECT_FALSE(p.contains("incomplete"));
   const auto& g = p["straightness"];
@@ -121,13 +121,13 @@ TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "s");
   ASSERT_EQ(files.size(), 1u);
-  nlohmann::json offline = models::to_json(models::identify_straightness(models::read_angle_traverse(files[0])));
+  nlohmann::json offline = models::flatness::to_json(models::flatness::identify_straightness(models::flatness::read_angle_traverse(files[0])));
   offline.erase("source");
   EXPECT_EQ(offline, p["result"]);
 }
 
 TEST(StraightnessSession, AnOutageOfTheLinkDropsTheTraverseAndTheNextIsTaken) {
-  const sim::Machine machine(straightness_machine());
+  const simulators::machine::Machine machine(straightness_machine());
   const auto st = traverse(machine);
   auto device = autocollimator_device();
   auto session = sessions::straightness_session_kind().create({"straightness", "", nlohmann::json::object()}, device);
@@ -142,7 +142,7 @@ TEST(StraightnessSession, AnOutageOfTheLinkDropsTheTraverseAndTheNextIsTaken) {
 }
 
 TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStations) {
-  const sim::Machine perfect{sim::MachineConfig{}};  // every station reads the same angles
+  const simulators::machine::Machine perfect{simulators::machine::MachineConfig{}};  // every station reads the same angles
   const auto st = traverse(perfect);
   auto device = autocollimator_device();
   auto session = sessions::straightness_session_kind().create(
@@ -159,7 +159,7 @@ TEST(StraightnessSession, ReadingsThatJumpWithoutABeamBreakStartANewStation) {
   auto device = autocollimator_device();
   auto session = sessions::straightness_session_kind().create({"straightness", "", {{"start", "now"}}}, device);
   std::vector<Sample> out;
-  const double a = models::rad_per_arcsec;
+  const double a = models::flatness::rad_per_arcsec;
   double t = 0;
   for (double pitch : {1.0, 3.0, 2.0}) {  // slid from station to station with the beam on
     for (int i = 0; i < 10; ++i, t += 0.05) out.push_back(sample(t, {0.0, pitch * a}));
@@ -185,12 +185,12 @@ TEST(StraightnessSession, TooFewStationsFailWithTheReason) {
 }
 
 TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.spindle.tilt_x_rad = 5.0e-6;
   cfg.spindle.plate_parallelism_rad = 2.5e-6;  // p = 2.5 urad * 100 mm = 0.25 um
   cfg.noise.micrometer_m = 0.01e-6;
-  const sim::Machine machine(cfg);
-  sim::RunoutSpec spec;
+  const simulators::machine::Machine machine(cfg);
+  simulators::machine::RunoutSpec spec;
   spec.probe_radius_m = 0.05;
   spec.samples_per_rev = 300;  // 50 Hz at 10 rpm
   spec.revolutions = 2;
@@ -220,14 +220,14 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "r");
   ASSERT_EQ(files.size(), 1u);
-  EXPECT_EQ(models::to_json(models::identify_runout(models::read_runout_revolution(files[0]))), p["result"]);
+  EXPECT_EQ(models::flatness::to_json(models::flatness::identify_runout(models::flatness::read_runout_revolution(files[0]))), p["result"]);
 }
 
 TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.noise.profilometer_m = 0.02e-6;
-  const sim::Machine machine(cfg);
-  sim::FacingSpec spec;
+  const simulators::machine::Machine machine(cfg);
+  simulators::machine::FacingSpec spec;
   spec.x_start_m = 0.050;
   spec.x_end_m = 0.060;
   spec.feed_m_per_s = 2.0 / 60000.0;  // 20 um per revolution at 100 rpm
@@ -240,8 +240,8 @@ TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
   double t = 0;
   auto emit = [&](double id, std::size_t from) {
     for (std::size_t i = from; i < points.size(); ++i, t += 2e-4) {
-      std::uint32_t f = i == 0 ? profilometer::sample_profile_start : 0;
-      if (i + 1 == points.size()) f |= profilometer::sample_profile_end;
+      std::uint32_t f = i == 0 ? drivers::profilometer::sample_profile_start : 0;
+      if (i + 1 == points.size()) f |= drivers::profilometer::sample_profile_end;
       out.push_back(sample(t, {points[i].x_m, points[i].z_m, id, static_cast<double>(i)}, f));
     }
   };
@@ -278,7 +278,7 @@ TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
 TEST(ProfileSession, StoppedBeforeTheEndFailsWithTheReason) {
   auto device = profilometer_device();
   auto session = sessions::profile_session_kind().create({"profile", "", nlohmann::json::object()}, device);
-  std::vector<Sample> out{sample(0, {0.0, 0.0, 7, 0}, profilometer::sample_profile_start),
+  std::vector<Sample> out{sample(0, {0.0, 0.0, 7, 0}, drivers::profilometer::sample_profile_start),
                           sample(1e-3, {1e-6, 0.0, 7, 1})};
   session->on_samples(out);
   EXPECT_FALSE(session->complete());

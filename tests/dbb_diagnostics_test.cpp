@@ -18,19 +18,19 @@ struct Expect {
 };
 
 // A ccw/cw pair (h = 0, r = 100 mm, 1000 mm/min) from a machine with the given errors.
-models::dbb::Identification run_pair(const sim::MachineConfig& cfg, std::uint64_t seed, double noise_um = 0.1,
+models::dbb::Identification run_pair(const simulators::machine::MachineConfig& cfg, std::uint64_t seed, double noise_um = 0.1,
                                      double rate_hz = 0) {
-  sim::MachineConfig c = cfg;
+  simulators::machine::MachineConfig c = cfg;
   c.dbb.noise_m = noise_um * 1e-6;
-  const sim::Machine m{c};
+  const simulators::machine::Machine m{c};
   std::vector<guideway::formats::DbbRun> runs;
   for (bool ccw : {true, false}) {
-    sim::DbbCircleSpec s;
+    simulators::machine::DbbCircleSpec s;
     s.radius_m = 0.1;
     s.direction = ccw ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
     s.seed = seed + (ccw ? 0 : 1);
     s.sample_rate_hz = rate_hz;
-    runs.push_back(sim::simulate_dbb_run(m, s, ccw ? "ccw" : "cw"));
+    runs.push_back(simulators::machine::simulate_dbb_run(m, s, ccw ? "ccw" : "cw"));
   }
   return models::dbb::identify(runs);
 }
@@ -48,50 +48,50 @@ void check(const models::dbb::Identification& id, const std::vector<Expect>& exp
 
 struct Case {
   const char* label;
-  std::function<void(sim::MachineConfig&)> set;
+  std::function<void(simulators::machine::MachineConfig&)> set;
   std::vector<Expect> expect;
 };
 
 std::vector<Case> single_cases() {
   return {
       {"center offset",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.dbb.center_offset = {5e-6, -3e-6, 0};
        },
        {{"run1.center_offset_x_um", 5.0}, {"run1.center_offset_y_um", -3.0}, {"run2.center_offset_x_um", 5.0}}},
       {"scale",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.axis[0].scale = 20e-6;
          c.axis[1].scale = -15e-6;
        },
        {{"scale_x_ppm", 20.0}, {"scale_y_ppm", -15.0}, {"scale_mismatch_ppm", 35.0}}},
-      {"squareness", [](sim::MachineConfig& c) { c.squareness.xy = 50e-6; }, {{"squareness_urad", 50.0}}},
+      {"squareness", [](simulators::machine::MachineConfig& c) { c.squareness.xy = 50e-6; }, {{"squareness_urad", 50.0}}},
       {"backlash",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.axis[0].backlash_m = 4e-6;
          c.axis[1].backlash_m = 6e-6;
        },
        {{"backlash_x_um", 4.0}, {"backlash_y_um", 6.0}}},
       {"lateral play",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.axis[0].lateral_play_m = 3e-6;
          c.axis[1].lateral_play_m = 2e-6;
        },
        {{"lateral_play_x_um", 3.0}, {"lateral_play_y_um", 2.0}}},
       {"reversal spikes",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.axis[0].reversal_spike_m = 6e-6;
          c.axis[1].reversal_spike_m = 4e-6;
        },
        {{"reversal_spike_x_um", 6.0}, {"reversal_spike_y_um", 4.0}}},
       {"servo mismatch",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.axis[0].servo_lag_s = 0.004;
          c.axis[1].servo_lag_s = 0.003;
        },
        {{"servo_mismatch_ms", 1.0}}},
       {"cyclic",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.axis[0].cyclic_amplitude_m = 1.5e-6;
          c.axis[0].cyclic_period_m = 0.005;
          c.axis[0].cyclic_phase_rad = 0.7;
@@ -104,7 +104,7 @@ std::vector<Case> single_cases() {
         {"cyclic_error_y_um", 1.0},
         {"cyclic_period_y_mm", 10.0}}},
       {"straightness",
-       [](sim::MachineConfig& c) {
+       [](simulators::machine::MachineConfig& c) {
          c.axis[0].translation[1].c = {0, 0, 3e-4};   // 3 um bow over +/-100 mm
          c.axis[1].translation[0].c = {0, 0, -2e-4};  // -2 um
        },
@@ -115,7 +115,7 @@ std::vector<Case> single_cases() {
 TEST(DbbDiagnosticsTest, EachErrorAloneIsRecovered) {
   std::uint64_t seed = 100;
   for (const auto& c : single_cases()) {
-    sim::MachineConfig cfg;
+    simulators::machine::MachineConfig cfg;
     c.set(cfg);
     const auto id = run_pair(cfg, seed += 2);
     check(id, c.expect, c.label);
@@ -123,7 +123,7 @@ TEST(DbbDiagnosticsTest, EachErrorAloneIsRecovered) {
 }
 
 TEST(DbbDiagnosticsTest, AllErrorsTogetherAreRecovered) {
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   std::vector<Expect> all;
   for (const auto& c : single_cases()) {
     c.set(cfg);
@@ -142,15 +142,15 @@ TEST(DbbDiagnosticsTest, EachErrorAloneFromASingleRunInEitherDirection) {
     for (const auto& c : single_cases()) {
       const std::string label = std::string(c.label) + (ccw ? " (ccw only)" : " (cw only)");
       if (std::string(c.label) == "squareness" || std::string(c.label) == "servo mismatch") continue;
-      sim::MachineConfig cfg;
+      simulators::machine::MachineConfig cfg;
       c.set(cfg);
       cfg.dbb.noise_m = 0.1e-6;
-      const sim::Machine m{cfg};
-      sim::DbbCircleSpec s;
+      const simulators::machine::Machine m{cfg};
+      simulators::machine::DbbCircleSpec s;
       s.radius_m = 0.1;
       s.direction = ccw ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
       s.seed = ++seed;
-      const auto id = models::dbb::identify({sim::simulate_dbb_run(m, s, label)});
+      const auto id = models::dbb::identify({simulators::machine::simulate_dbb_run(m, s, label)});
       std::vector<Expect> expect;
       for (const auto& e : c.expect)
         if (std::string(e.name).rfind("run2.", 0) == 0)
@@ -165,12 +165,12 @@ TEST(DbbDiagnosticsTest, EachErrorAloneFromASingleRunInEitherDirection) {
 }
 
 TEST(DbbDiagnosticsTest, SingleDirectionRefusesToSeparateSquarenessFromServoMismatch) {
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.squareness.xy = 50e-6;
-  const sim::Machine m{cfg};
-  sim::DbbCircleSpec s;
+  const simulators::machine::Machine m{cfg};
+  simulators::machine::DbbCircleSpec s;
   s.radius_m = 0.1;
-  const auto id = models::dbb::identify({sim::simulate_dbb_run(m, s, "ccw")});
+  const auto id = models::dbb::identify({simulators::machine::simulate_dbb_run(m, s, "ccw")});
   const auto& u = id.diagnostics_fit.unidentifiable;
   EXPECT_NE(std::find(u.begin(), u.end(), "squareness_urad"), u.end());
   EXPECT_NE(std::find(u.begin(), u.end(), "servo_mismatch_ms"), u.end());
@@ -183,7 +183,7 @@ TEST(DbbDiagnosticsTest, SingleDirectionRefusesToSeparateSquarenessFromServoMism
 TEST(DbbDiagnosticsTest, CircularDeviationAndHysteresis) {
   // Backlash alone: each run is a circle with steps of b/2 at the reversals of each axis; the two
   // directions differ by the full backlash at the reversals.
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.axis[0].backlash_m = 4e-6;
   const auto id = run_pair(cfg, 5, 0.0);
   const auto est = test::by_name(id.diagnostics);
@@ -193,18 +193,18 @@ TEST(DbbDiagnosticsTest, CircularDeviationAndHysteresis) {
   EXPECT_GT(est.at("circular_deviation_um").value, 1.5);
   EXPECT_LT(est.at("circular_deviation_um").value, 4.5);
   // A perfect machine: G and H are the noise.
-  const auto perfect = run_pair(sim::MachineConfig{}, 6, 0.0);
+  const auto perfect = run_pair(simulators::machine::MachineConfig{}, 6, 0.0);
   EXPECT_LT(test::by_name(perfect.diagnostics).at("circular_deviation_um").value, 1e-6);
 }
 
 // ---- sign conventions (docs/conventions.md), checked on the raw signal and on the estimate ----
 
-guideway::formats::DbbRun one(const sim::MachineConfig& cfg, bool ccw) {
-  const sim::Machine m{cfg};
-  sim::DbbCircleSpec s;
+guideway::formats::DbbRun one(const simulators::machine::MachineConfig& cfg, bool ccw) {
+  const simulators::machine::Machine m{cfg};
+  simulators::machine::DbbCircleSpec s;
   s.radius_m = 0.1;
   s.direction = ccw ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
-  return sim::simulate_dbb_run(m, s, "conv");
+  return simulators::machine::simulate_dbb_run(m, s, "conv");
 }
 
 double dl_at(const guideway::formats::DbbRun& r, double zeta_deg) {
@@ -221,7 +221,7 @@ double dl_at(const guideway::formats::DbbRun& r, double zeta_deg) {
 }
 
 TEST(DbbConventionsTest, CenterOffsetIsTheCircleCentreRelativeToTheFixedBall) {
-  sim::MachineConfig c;
+  simulators::machine::MachineConfig c;
   c.dbb.center_offset = {5e-6, 0, 0};  // circle centre 5 um towards +x of the fixed ball
   const auto r = one(c, true);
   EXPECT_NEAR(dl_at(r, 0), 5e-6, 1e-8);  // longest at zeta = 0
@@ -229,7 +229,7 @@ TEST(DbbConventionsTest, CenterOffsetIsTheCircleCentreRelativeToTheFixedBall) {
 }
 
 TEST(DbbConventionsTest, ScaleIsPositiveWhenTheAxisTravelsTooFar) {
-  sim::MachineConfig c;
+  simulators::machine::MachineConfig c;
   c.axis[1].scale = 20e-6;
   const auto r = one(c, true);
   EXPECT_NEAR(dl_at(r, 90), 0.1 * 20e-6, 1e-9);
@@ -237,7 +237,7 @@ TEST(DbbConventionsTest, ScaleIsPositiveWhenTheAxisTravelsTooFar) {
 }
 
 TEST(DbbConventionsTest, PositiveSquarenessIsLongestOnThe45DegreeDiagonal) {
-  sim::MachineConfig c;
+  simulators::machine::MachineConfig c;
   c.squareness.xy = 100e-6;
   const auto r = one(c, true);
   EXPECT_NEAR(dl_at(r, 45), 0.1 * 100e-6 * 0.5, 2e-9);
@@ -246,7 +246,7 @@ TEST(DbbConventionsTest, PositiveSquarenessIsLongestOnThe45DegreeDiagonal) {
 }
 
 TEST(DbbConventionsTest, BacklashLosesHalfTheMotionAgainstTheDirectionOfTravel) {
-  sim::MachineConfig c;
+  simulators::machine::MachineConfig c;
   c.axis[0].backlash_m = 4e-6;
   // actual x = commanded x - (b/2) sign(dx/dt). ccw at 135 deg x decreases: actual x = commanded + b/2,
   // dL = (b/2) cos 135 deg < 0; at 315 deg x increases: actual = commanded - b/2, dL = -(b/2) cos 315 < 0.
@@ -260,7 +260,7 @@ TEST(DbbConventionsTest, BacklashLosesHalfTheMotionAgainstTheDirectionOfTravel) 
 }
 
 TEST(DbbConventionsTest, ServoMismatchSignFlipsWithDirection) {
-  sim::MachineConfig c;
+  simulators::machine::MachineConfig c;
   c.axis[0].servo_lag_s = 0.002;  // x lags 1 ms more than y
   c.axis[1].servo_lag_s = 0.001;
   const double v = 1000.0 / 60000.0, dtau = 0.001;
@@ -273,12 +273,12 @@ TEST(DbbConventionsTest, ServoMismatchSignFlipsWithDirection) {
 }
 
 TEST(DbbConventionsTest, CyclicErrorFollowsTheAxisPosition) {
-  sim::MachineConfig c;
+  simulators::machine::MachineConfig c;
   c.axis[0].cyclic_amplitude_m = 1e-6;
   c.axis[0].cyclic_period_m = 0.004;
-  const sim::Machine m{c};
+  const simulators::machine::Machine m{c};
   // actual x = x + A sin(2 pi x / p): at x = 1 mm (a quarter period) the tool is 1 um further out.
-  const auto motion = m.simulate_motion({sim::linear_move({0, 0, 0}, {0.001, 0, 0}, 0.001), 1.5, 100.0});
+  const auto motion = m.simulate_motion({simulators::machine::linear_move({0, 0, 0}, {0.001, 0, 0}, 0.001), 1.5, 100.0});
   EXPECT_NEAR(motion.back().tool[0], 0.001 + 1e-6, 1e-9);
 }
 

@@ -10,7 +10,7 @@
 #include "drivers/dbb/dbb_protocol.hpp"
 
 using namespace guideway;
-using namespace guideway::dbb;
+using namespace guideway::drivers::dbb;
 
 namespace {
 

@@ -21,22 +21,22 @@ using drivers::DeviceState;
 
 namespace {
 
-std::vector<dbb::EncoderScale> three_encoders() {
-  std::vector<dbb::EncoderScale> e(3);
+std::vector<drivers::dbb::EncoderScale> three_encoders() {
+  std::vector<drivers::dbb::EncoderScale> e(3);
   e[0] = {"bar_length", 1, 1e-7, +1, 0, 0.100};
   e[1] = {"x", 2, 1e-7, +1, 0, 0.0};
   e[2] = {"y", 3, 5e-8, -1, 1000, 0.0};
   return e;
 }
 
-emulators::DbbSource circle_source() { return emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6); }
+simulators::emulators::DbbSource circle_source() { return simulators::emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6); }
 
 struct Bench {
   explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
-                 emulators::DbbSource source = circle_source(),
-                 std::int64_t read_period_us = dbb::default_read_period_us)
+                 simulators::emulators::DbbSource source = circle_source(),
+                 std::int64_t read_period_us = drivers::dbb::default_read_period_us)
       : emu({three_encoders(), !driver_produces_sync, rate_hz}, std::move(source)) {
-    dbb::DbbSettings s;
+    drivers::dbb::DbbSettings s;
     s.produce_sync = driver_produces_sync;
     s.sync_rate_hz = rate_hz;
     s.read_period_us = read_period_us;
@@ -45,15 +45,15 @@ struct Bench {
     s.reconnect_max_ms = 100;
     s.encoders = three_encoders();
     emu.start();
-    driver = std::make_unique<dbb::DbbDriver>("dbb", 1 << 14, s, [this](std::string& err) {
+    driver = std::make_unique<drivers::dbb::DbbDriver>("dbb", 1 << 14, s, [this](std::string& err) {
       int sv[2];
       if (::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) < 0) {
         err = "socketpair failed";
-        return can::CanSocket{};
+        return drivers::can::CanSocket{};
       }
       ++connects;
-      emu.attach(can::CanSocket(sv[1]));
-      return can::CanSocket(sv[0]);
+      emu.attach(drivers::can::CanSocket(sv[1]));
+      return drivers::can::CanSocket(sv[0]);
     });
     driver->start();
   }
@@ -87,7 +87,7 @@ struct Bench {
     const int connects_before = connects.load();
     emu.stop();
     const auto log = emu.log();
-    std::vector<emulators::DbbSentCycle> sent;
+    std::vector<simulators::emulators::DbbSentCycle> sent;
     std::size_t late = 0;
     for (const auto& c : log) {
       if (c.sent_mask != 0) sent.push_back(c);
@@ -152,8 +152,8 @@ struct Bench {
     ::testing::Test::RecordProperty("late_answers", std::to_string(late));
   }
 
-  emulators::DbbEmulator emu;
-  std::unique_ptr<dbb::DbbDriver> driver;
+  simulators::emulators::DbbEmulator emu;
+  std::unique_ptr<drivers::dbb::DbbDriver> driver;
   std::atomic<int> connects{0};
   std::vector<Sample> samples;
 };
@@ -172,7 +172,7 @@ std::unique_ptr<drivers::Driver> driver_from_config(const std::string& path, con
   const auto devices = top.tables("device");
   if (devices.size() != 1) throw std::runtime_error("dbb.toml: expected one [[device]]");
   drivers::DriverRegistry registry;
-  dbb::register_dbb_driver(registry);
+  drivers::dbb::register_dbb_driver(registry);
   (void)devices[0].require_string("name");
   (void)devices[0].require_string("driver");
   auto driver = registry.create({"dbb", "dbb-can", 4096, devices[0]});
@@ -206,22 +206,22 @@ TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircles) {
   // The demo machine (squareness, servo mismatch, backlash, bar noise) runs DBB circles at a fast feed
   // so the test sees a good part of each; the samples must equal the machine's bar length and plane
   // axis encoders at the emulator's times, to the encoder resolution.
-  const sim::Machine machine(emulators::demo_machine_config());
-  sim::DbbCircleSpec ccw_xy;
+  const simulators::machine::Machine machine(simulators::emulators::demo_machine_config());
+  simulators::machine::DbbCircleSpec ccw_xy;
   ccw_xy.radius_m = 0.1;
   ccw_xy.feed_m_per_s = 0.5;
   ccw_xy.sample_rate_hz = 2000.0;
-  sim::DbbCircleSpec cw_xz = ccw_xy;
+  simulators::machine::DbbCircleSpec cw_xz = ccw_xy;
   cw_xz.direction = guideway::formats::DbbDirection::cw;
-  cw_xz.plane = sim::Plane::xz;
+  cw_xz.plane = simulators::machine::Plane::xz;
   cw_xz.height_m = 0.03;
   cw_xz.overshoot_rad = 0.3;
   cw_xz.start_angle_rad = 1.0;
   for (const auto& spec : {ccw_xy, cw_xz}) {
-    SCOPED_TRACE(spec.plane == sim::Plane::xy ? "ccw in XY" : "cw in XZ with height");
-    auto motion = emulators::make_dbb_motion(machine, spec);
+    SCOPED_TRACE(spec.plane == simulators::machine::Plane::xy ? "ccw in XY" : "cw in XZ with height");
+    auto motion = simulators::emulators::make_dbb_motion(machine, spec);
     ASSERT_GT(motion->duration_s, 1.0);
-    Bench b(true, 200.0, 150, emulators::dbb_motion_source(motion));
+    Bench b(true, 200.0, 150, simulators::emulators::dbb_motion_source(motion));
     ASSERT_TRUE(b.wait_samples(150));
     b.stop_and_check_all();
     const auto log = b.emu.log();
@@ -244,7 +244,7 @@ TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircles) {
 }
 
 TEST(DbbDriver, ListenOnlyFollowsTheControllersSync) {
-  for (const std::int64_t read_period_us : {std::int64_t{0}, dbb::default_read_period_us}) {
+  for (const std::int64_t read_period_us : {std::int64_t{0}, drivers::dbb::default_read_period_us}) {
     SCOPED_TRACE(read_period_us == 0 ? "a wake-up per frame" : "batched reads");
     Bench b(false, 250.0, 150, circle_source(), read_period_us);
     ASSERT_TRUE(b.wait_samples(100));
@@ -308,7 +308,7 @@ TEST(DbbDriver, ListenBatchedSamplesCarryTheSyncsKernelReceiveTime) {
   ASSERT_TRUE(b.wait_samples(300));
   b.stop_and_check_all();
   const auto log = b.emu.log();
-  std::vector<emulators::DbbSentCycle> sent;
+  std::vector<simulators::emulators::DbbSentCycle> sent;
   for (const auto& c : log) {
     if (c.sent_mask != 0) sent.push_back(c);
   }
@@ -330,26 +330,26 @@ TEST(DbbDriver, FrameTimeIsTheKernelStampOnTheMonotonicClockOrTheReadTime) {
   const std::int64_t offset = 1'700'000'000'000'000'000;  // realtime - monotonic
   const std::int64_t earliest = 5'000'000'000, read = 5'020'000'000;
   // A stamp inside the window: converted.
-  auto t = dbb::frame_time(offset + 5'010'000'000, offset, earliest, read);
+  auto t = drivers::dbb::frame_time(offset + 5'010'000'000, offset, earliest, read);
   EXPECT_TRUE(t.from_kernel);
   EXPECT_EQ(t.t_ns, 5'010'000'000);
   // No control message: the read time, flagged.
-  t = dbb::frame_time(can::no_rx_timestamp, offset, earliest, read);
+  t = drivers::dbb::frame_time(drivers::can::no_rx_timestamp, offset, earliest, read);
   EXPECT_FALSE(t.from_kernel);
   EXPECT_EQ(t.t_ns, read);
   // The real-time clock was stepped by +2 s between stamp and read (the offset sampled at the read
   // is 2 s larger): the stamp lands before the window, so the read time is used.
-  t = dbb::frame_time(offset + 5'010'000'000, offset + 2'000'000'000, earliest, read);
+  t = drivers::dbb::frame_time(offset + 5'010'000'000, offset + 2'000'000'000, earliest, read);
   EXPECT_FALSE(t.from_kernel);
   EXPECT_EQ(t.t_ns, read);
   // Stepped back by 2 s: after the read, likewise.
-  t = dbb::frame_time(offset + 5'010'000'000, offset - 2'000'000'000, earliest, read);
+  t = drivers::dbb::frame_time(offset + 5'010'000'000, offset - 2'000'000'000, earliest, read);
   EXPECT_FALSE(t.from_kernel);
   // Within the 1 ms slack: accepted, never later than the read.
-  t = dbb::frame_time(offset + read + 300'000, offset, earliest, read);
+  t = drivers::dbb::frame_time(offset + read + 300'000, offset, earliest, read);
   EXPECT_TRUE(t.from_kernel);
   EXPECT_EQ(t.t_ns, read);
-  t = dbb::frame_time(offset + earliest - 300'000, offset, earliest, read);
+  t = drivers::dbb::frame_time(offset + earliest - 300'000, offset, earliest, read);
   EXPECT_TRUE(t.from_kernel);
   EXPECT_EQ(t.t_ns, earliest - 300'000);
 }
@@ -357,9 +357,9 @@ TEST(DbbDriver, FrameTimeIsTheKernelStampOnTheMonotonicClockOrTheReadTime) {
 // The kernel filter a SocketCAN bus gets (not exercised here without AF_CAN): SYNC and our nodes'
 // TPDO1 exactly, nothing else, checked frame by frame the way the kernel matches.
 TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesTpdo1Only) {
-  dbb::DbbSettings s;
+  drivers::dbb::DbbSettings s;
   s.encoders = three_encoders();
-  const auto filters = dbb::dbb_can_filters(s);
+  const auto filters = drivers::dbb::dbb_can_filters(s);
   ASSERT_EQ(filters.size(), 1 + s.encoders.size());
   const auto passes = [&](canid_t id) {
     return std::any_of(filters.begin(), filters.end(),
@@ -383,15 +383,15 @@ TEST(DbbDriver, FrameTimesNeverGoBackwardsAcrossAClockStep) {
   const std::int64_t offset = 1'700'000'000'000'000'000;  // realtime - monotonic, sampled at the read
   const std::int64_t earliest = 5'000'000'000, read = 5'000'300'000;
   const std::int64_t true_ns[4] = {5'000'050'000, 5'000'100'000, 5'000'150'000, 5'000'200'000};
-  std::vector<dbb::FrameTime> times;
+  std::vector<drivers::dbb::FrameTime> times;
   for (int i = 0; i < 4; ++i) {
     const std::int64_t step = i < 2 ? 2'000'000'000 : 0;  // the first two were stamped before the step
-    times.push_back(dbb::frame_time(offset + true_ns[i] + step, offset, earliest, read));
+    times.push_back(drivers::dbb::frame_time(offset + true_ns[i] + step, offset, earliest, read));
   }
   ASSERT_FALSE(times[0].from_kernel);
   ASSERT_FALSE(times[1].from_kernel);
   std::int64_t last = earliest - 1'000;
-  dbb::order_frame_times(times, last);
+  drivers::dbb::order_frame_times(times, last);
   // Before the step: the first kernel time after them (not the read time, which would put them after it).
   EXPECT_EQ(times[0].t_ns, true_ns[2]);
   EXPECT_EQ(times[1].t_ns, true_ns[2]);
@@ -399,15 +399,15 @@ TEST(DbbDriver, FrameTimesNeverGoBackwardsAcrossAClockStep) {
   EXPECT_EQ(times[3].t_ns, true_ns[3]);
   EXPECT_EQ(last, true_ns[3]);
   // A batch whose frames all lack a kernel time: the read time.
-  std::vector<dbb::FrameTime> untimed = {dbb::frame_time(can::no_rx_timestamp, offset, earliest, read)};
-  dbb::order_frame_times(untimed, last);
+  std::vector<drivers::dbb::FrameTime> untimed = {drivers::dbb::frame_time(drivers::can::no_rx_timestamp, offset, earliest, read)};
+  drivers::dbb::order_frame_times(untimed, last);
   EXPECT_EQ(untimed[0].t_ns, read);
   // The next read's kernel times earlier than the last time emitted (here: the read time above) are
   // raised to it.
-  std::vector<dbb::FrameTime> next = {dbb::frame_time(offset + read - 100'000, offset, read - 200'000, read + 300'000),
-                                      dbb::frame_time(offset + read + 100'000, offset, read - 200'000, read + 300'000)};
+  std::vector<drivers::dbb::FrameTime> next = {drivers::dbb::frame_time(offset + read - 100'000, offset, read - 200'000, read + 300'000),
+                                      drivers::dbb::frame_time(offset + read + 100'000, offset, read - 200'000, read + 300'000)};
   ASSERT_TRUE(next[0].from_kernel);
-  dbb::order_frame_times(next, last);
+  drivers::dbb::order_frame_times(next, last);
   EXPECT_EQ(next[0].t_ns, read);
   EXPECT_EQ(next[1].t_ns, read + 100'000);
 }
@@ -508,20 +508,20 @@ TEST(DbbDriver, StallIsATimeoutThenStreamingResumes) {
 TEST(DbbDriver, AFullTransmitQueueNeverBlocksTheSyncProducer) {
   int sv[2];
   ASSERT_EQ(::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv), 0);
-  can::CanSocket deaf(sv[1]);  // never read
+  drivers::can::CanSocket deaf(sv[1]);  // never read
   bool handed = false;
-  dbb::DbbSettings s;
+  drivers::dbb::DbbSettings s;
   s.produce_sync = true;
   s.sync_rate_hz = 5000.0;
   s.timeout_ms = 100;
   s.encoders = three_encoders();
-  dbb::DbbDriver driver("dbb", 1024, s, [&](std::string& err) {
+  drivers::dbb::DbbDriver driver("dbb", 1024, s, [&](std::string& err) {
     if (handed) {
       err = "only one connection in this test";
-      return can::CanSocket{};
+      return drivers::can::CanSocket{};
     }
     handed = true;
-    return can::CanSocket(sv[0]);
+    return drivers::can::CanSocket(sv[0]);
   });
   driver.start();
   const auto refused = [&] {
@@ -563,9 +563,9 @@ TEST(DbbDriver, BurstFasterThanTheSyncRateIsReceivedCompletely) {
 TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  emulators::DbbEmulator emu({three_encoders(), false, 100.0}, emulators::ideal_circle_source(0.1, 0.01, -1));
+  simulators::emulators::DbbEmulator emu({three_encoders(), false, 100.0}, simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
-  auto listener = can::listen_can_gateway(path, err);
+  auto listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
   emu.start(std::move(listener));
 
@@ -575,8 +575,8 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
   // The emulator process goes away and comes back: the driver reconnects.
   emu.stop();
   ASSERT_TRUE(test::eventually([&] { return driver->status().state != DeviceState::streaming; }));
-  emulators::DbbEmulator emu2({three_encoders(), false, 100.0}, emulators::ideal_circle_source(0.1, 0.01, -1));
-  listener = can::listen_can_gateway(path, err);
+  simulators::emulators::DbbEmulator emu2({three_encoders(), false, 100.0}, simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
+  listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
   emu2.start(std::move(listener));
   ASSERT_TRUE(test::eventually([&] { return driver->status().counters.reconnects >= 1 && emu2.cycles_sent() >= 10; }));
@@ -595,20 +595,20 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
 TEST(DbbDriver, ListensThroughTheUnixGatewayWithKernelTimesFromAConfigTable) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  emulators::DbbEmulator emu({three_encoders(), true, 1000.0}, emulators::ideal_circle_source(0.1, 0.01, -1));
+  simulators::emulators::DbbEmulator emu({three_encoders(), true, 1000.0}, simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
-  auto listener = can::listen_can_gateway(path, err);
+  auto listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
   emu.start(std::move(listener));
   auto driver = driver_from_config(path, "sync = \"listen\"\nread_period_us = 5000\n");
-  auto* dbb_driver = dynamic_cast<dbb::DbbDriver*>(driver.get());
+  auto* dbb_driver = dynamic_cast<drivers::dbb::DbbDriver*>(driver.get());
   ASSERT_NE(dbb_driver, nullptr);
   EXPECT_EQ(dbb_driver->settings().read_period_us, 5000);
   driver->start();
   ASSERT_TRUE(test::eventually([&] { return driver->ring().depth() >= 200; }));
   emu.stop();
   const auto log = emu.log();
-  std::vector<emulators::DbbSentCycle> sent;
+  std::vector<simulators::emulators::DbbSentCycle> sent;
   for (const auto& c : log) {
     if (c.sent_mask != 0) sent.push_back(c);
   }
@@ -637,7 +637,7 @@ TEST(DbbDriver, ConfigErrorsNameFileLineAndKey) {
     const TableReader top(root, "bad.toml", "");
     const auto devices = top.tables("device");
     drivers::DriverRegistry registry;
-    dbb::register_dbb_driver(registry);
+    drivers::dbb::register_dbb_driver(registry);
     return registry.create({"d", "dbb-can", 1024, devices[0]});
   };
   try {

@@ -19,13 +19,13 @@ using namespace guideway;
 constexpr double q_true = 30e-6;   // squareness (rad)
 constexpr double c1 = 2.5e-3;      // Lai's c1 of the default machine: 2.5 urad/mm = 2.5e-3 rad/m
 
-sim::Machine roll_machine() {
-  sim::MachineConfig m;
+simulators::machine::Machine roll_machine() {
+  simulators::machine::MachineConfig m;
   m.noise.seed = 7;
   m.dbb.noise_m = 0.1e-6;
   m.squareness.xy = q_true;
   m.axis[1].rotation[1].c = {0.0, -c1};  // rotation about +y of -c(y): n displacement x * c1 * y
-  return sim::Machine{m};
+  return simulators::machine::Machine{m};
 }
 
 struct Pattern {

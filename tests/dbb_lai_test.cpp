@@ -65,7 +65,7 @@ double combination_given(const models::LsqCombination& c, const std::vector<std:
 
 TEST(DbbLaiTest, ThreePatternsOfTable4RecoverTable5WithinUncertainty) {
   test::LaiGiven g;  // Table 5: e1 = 1e-4
-  const sim::Machine m{test::lai_machine(g, 0.1)};
+  const simulators::machine::Machine m{test::lai_machine(g, 0.1)};
   const std::vector<guideway::formats::DbbRun> runs = {test::lai_pattern(m, 95.0, 31.225, true, 11),
                                               test::lai_pattern(m, 95.0, 31.225, false, 12),
                                               test::lai_pattern(m, 100.0, 0.0, true, 13)};
@@ -102,7 +102,7 @@ TEST(DbbLaiTest, ThreePatternsOfTable4RecoverTable5WithinUncertainty) {
 TEST(DbbLaiTest, TwoPatternsOfTable2RefuseWhatTheyCannotSeparate) {
   test::LaiGiven g;
   g.e1 = 1.0e-6;  // Table 3
-  const sim::Machine m{test::lai_machine(g, 0.1)};
+  const simulators::machine::Machine m{test::lai_machine(g, 0.1)};
   const std::vector<guideway::formats::DbbRun> runs = {test::lai_pattern(m, 95.0, 31.225, false, 21),
                                               test::lai_pattern(m, 100.0, 0.0, true, 22)};
   const auto id = models::dbb::identify(runs);
@@ -117,7 +117,7 @@ TEST(DbbLaiTest, TwoPatternsOfTable2RefuseWhatTheyCannotSeparate) {
 
 TEST(DbbLaiTest, AFourthPatternAtAnotherRadiusSeparatesEveryParameter) {
   test::LaiGiven g;
-  const sim::Machine m{test::lai_machine(g, 0.1)};
+  const simulators::machine::Machine m{test::lai_machine(g, 0.1)};
   const std::vector<guideway::formats::DbbRun> runs = {
       test::lai_pattern(m, 95.0, 31.225, true, 31), test::lai_pattern(m, 95.0, 31.225, false, 32),
       test::lai_pattern(m, 100.0, 0.0, true, 33), test::lai_pattern(m, 70.0, 31.225, true, 34)};
@@ -131,7 +131,7 @@ TEST(DbbLaiTest, ExactLaiGeometryMatchesTheHtmChain) {
   // Two independent computations of the same deformed machine: Lai's deformation with the exact
   // bar length, and the virtual machine tool's exact homogeneous transforms.
   test::LaiGiven g;
-  const sim::Machine m{test::lai_machine(g, 0.0)};
+  const simulators::machine::Machine m{test::lai_machine(g, 0.0)};
   models::dbb::Lai3Params p;
   p.e_x = g.e_x_um * 1e-6;
   p.e_y = g.e_y_um * 1e-6;
@@ -168,8 +168,8 @@ TEST(DbbLaiTest, ExactLaiGeometryMatchesTheHtmChain) {
 
 TEST(DbbLaiTest, TheLaiMachineFileIsTheGivenMachine) {
   // tests/dbb_lai1997_machine.toml (for the command line) describes the machine of these tests.
-  const sim::Machine file = sim::Machine::from_file(GUIDEWAY_SOURCE_DIR "/tests/dbb_lai1997_machine.toml");
-  const sim::Machine given{test::lai_machine(test::LaiGiven{}, 0.1)};
+  const simulators::machine::Machine file = simulators::machine::Machine::from_file(GUIDEWAY_SOURCE_DIR "/tests/dbb_lai1997_machine.toml");
+  const simulators::machine::Machine given{test::lai_machine(test::LaiGiven{}, 0.1)};
   const auto a = test::lai_pattern(file, 95.0, 31.225, true, 5);
   const auto b = test::lai_pattern(given, 95.0, 31.225, true, 5);
   ASSERT_EQ(a.dL_m.size(), b.dL_m.size());

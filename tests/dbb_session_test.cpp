@@ -21,8 +21,8 @@ class DbbChannels : public drivers::Driver {  // channel layout of dbb-can; neve
   void run(std::stop_token) override {}
 };
 
-sim::MachineConfig test_machine() {
-  sim::MachineConfig m;
+simulators::machine::MachineConfig test_machine() {
+  simulators::machine::MachineConfig m;
   m.dbb.center_offset = {3e-6, -2e-6, 0};
   m.axis[0].scale = 20e-6;
   m.axis[1].scale = -10e-6;
@@ -32,17 +32,17 @@ sim::MachineConfig test_machine() {
 }
 
 // Samples as the driver would publish them: t, bar, encoder x, y; `pause_s` of standing still after.
-void feed_circle(sessions::Session& s, const sim::Machine& machine, double r, double h, guideway::formats::DbbDirection dir, double& t0) {
-  sim::DbbCircleSpec spec;
+void feed_circle(sessions::Session& s, const simulators::machine::Machine& machine, double r, double h, guideway::formats::DbbDirection dir, double& t0) {
+  simulators::machine::DbbCircleSpec spec;
   spec.radius_m = r;
   spec.height_m = h;
   spec.direction = dir;
   spec.feed_m_per_s = 3000.0 / 60e3;
   spec.sample_rate_hz = 250.0;
   spec.t0_s = t0;
-  const sim::DbbRun run = machine.dbb_circle(spec);
+  const simulators::machine::DbbRun run = machine.dbb_circle(spec);
   std::vector<Sample> out;
-  auto add = [&](double t, const sim::DbbSample& d) {
+  auto add = [&](double t, const simulators::machine::DbbSample& d) {
     Sample x;
     x.t_mono_ns = static_cast<std::int64_t>(t * 1e9);
     x.value_count = 3;
@@ -63,7 +63,7 @@ double value_of(const nlohmann::json& group, const std::string& name) {
 }  // namespace
 
 TEST(DbbSession, FindsLaisThreePatternsAndIdentifiesTheMachine) {
-  const sim::Machine machine(test_machine());
+  const simulators::machine::Machine machine(test_machine());
   DbbChannels device;
   auto session = sessions::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);
   double t = 0;
@@ -90,7 +90,7 @@ TEST(DbbSession, FindsLaisThreePatternsAndIdentifiesTheMachine) {
 }
 
 TEST(DbbSession, ACircleMatchingNoPatternIsReportedNotUsed) {
-  const sim::Machine machine(test_machine());
+  const simulators::machine::Machine machine(test_machine());
   DbbChannels device;
   auto session = sessions::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);
   double t = 0;
@@ -100,7 +100,7 @@ TEST(DbbSession, ACircleMatchingNoPatternIsReportedNotUsed) {
 }
 
 TEST(DbbSession, StopAfterOnePatternIdentifiesWhatWasTraced) {
-  const sim::Machine machine(test_machine());
+  const simulators::machine::Machine machine(test_machine());
   DbbChannels device;
   nlohmann::json opts = {{"patterns", {{{"radius_mm", 100}, {"height_mm", 0}, {"direction", "ccw"}},
                                        {{"radius_mm", 100}, {"height_mm", 0}, {"direction", "cw"}}}}};

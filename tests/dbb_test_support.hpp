@@ -27,8 +27,8 @@ struct LaiGiven {
 };
 
 // A machine whose exact HTM chain carries Lai's errors (mapping in docs/conventions.md).
-inline sim::MachineConfig lai_machine(const LaiGiven& g, double noise_um) {
-  sim::MachineConfig m;
+inline simulators::machine::MachineConfig lai_machine(const LaiGiven& g, double noise_um) {
+  simulators::machine::MachineConfig m;
   m.name = "lai1997-given";
   m.noise.seed = 1997;
   m.dbb.center_offset = {-g.e_x_um * 1e-6, -g.e_y_um * 1e-6, 0.0};
@@ -40,7 +40,7 @@ inline sim::MachineConfig lai_machine(const LaiGiven& g, double noise_um) {
   // mm-based Lai coefficients -> SI: coefficient of u^k in m^(1-k) = a_k[mm^(1-k)] * 1e3^(k-1)... for
   // y_m = sum a_k (x_mm)^k mm = sum a_k 1e-3 (1e3 x_m)^k.
   const auto si = [](std::vector<double> mm) {
-    sim::Polynomial p;
+    simulators::machine::Polynomial p;
     double f = 1e-3;
     for (double c : mm) {
       p.c.push_back(c * f);
@@ -53,7 +53,7 @@ inline sim::MachineConfig lai_machine(const LaiGiven& g, double noise_um) {
   y.translation[0] = si({0, 0, g.b2, g.b3});
   y.translation[2] = si({0, g.e1, g.e2, g.e3});
   // Roll of Y: normal displacement x * c(y) = rotation about +y by -c(y) (rad; c_k in 1/mm^k).
-  sim::Polynomial roll;
+  simulators::machine::Polynomial roll;
   double f = 1.0;
   for (double c : {g.c0, g.c1, g.c2}) {
     roll.c.push_back(-c * f);
@@ -65,14 +65,14 @@ inline sim::MachineConfig lai_machine(const LaiGiven& g, double noise_um) {
   return m;
 }
 
-inline formats::DbbRun lai_pattern(const sim::Machine& m, double radius_mm, double height_mm, bool ccw,
+inline formats::DbbRun lai_pattern(const simulators::machine::Machine& m, double radius_mm, double height_mm, bool ccw,
                                     std::uint64_t seed) {
-  sim::DbbCircleSpec s;
+  simulators::machine::DbbCircleSpec s;
   s.radius_m = radius_mm * 1e-3;
   s.height_m = height_mm * 1e-3;
   s.direction = ccw ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
   s.seed = seed;
-  return sim::simulate_dbb_run(m, s, "r" + std::to_string(radius_mm) + (ccw ? "ccw" : "cw"));
+  return simulators::machine::simulate_dbb_run(m, s, "r" + std::to_string(radius_mm) + (ccw ? "ccw" : "cw"));
 }
 
 inline std::map<std::string, models::dbb::Estimate> by_name(const std::vector<models::dbb::Estimate>& list) {

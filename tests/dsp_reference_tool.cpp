@@ -14,17 +14,17 @@
 #include "dsp/wavelet.hpp"
 
 using nlohmann::json;
-namespace gd = guideway::dsp;
+using namespace guideway;
 
 namespace {
 
-struct CollectCoefficients final : gd::WaveletSink {
+struct CollectCoefficients final : dsp::WaveletSink {
   explicit CollectCoefficients(std::size_t bands) : out(bands) {}
   void on_coefficients(std::size_t band, std::uint64_t first_index, std::span<const double> values) override {
     if (first_index != out[band].size()) throw std::logic_error("coefficients out of order");
     out[band].insert(out[band].end(), values.begin(), values.end());
   }
-  gd::Coefficients out;
+  dsp::Coefficients out;
 };
 
 json run_case(const json& c) {
@@ -33,55 +33,55 @@ json run_case(const json& c) {
   if (op == "pearson") {
     auto x = c.at("x").get<std::vector<double>>();
     if (c.contains("nan_at")) x.at(c["nan_at"].get<std::size_t>()) = std::nan("");  // JSON has no NaN
-    r["value"] = gd::pearson(x, c.at("y").get<std::vector<double>>());
+    r["value"] = dsp::pearson(x, c.at("y").get<std::vector<double>>());
     return r;
   }
   if (op == "xcorr") {
-    const auto res = gd::cross_correlation(c.at("x").get<std::vector<double>>(), c.at("y").get<std::vector<double>>(),
+    const auto res = dsp::cross_correlation(c.at("x").get<std::vector<double>>(), c.at("y").get<std::vector<double>>(),
                                            c.at("max_lag").get<std::size_t>());
     r["values"] = res.values;
     r["peak_lag"] = res.peak_lag;
     r["peak_value"] = res.peak_value;
     return r;
   }
-  const gd::Wavelet w(c.at("wavelet").get<std::string>());
-  const gd::Mode mode = gd::parse_mode(c.value("mode", std::string("zero")));
+  const dsp::Wavelet w(c.at("wavelet").get<std::string>());
+  const dsp::Mode mode = dsp::parse_mode(c.value("mode", std::string("zero")));
   const int level = c.value("level", -1);
   if (op == "wavedec") {
-    r["coeffs"] = gd::wavedec(c.at("x").get<std::vector<double>>(), w, mode, level);
+    r["coeffs"] = dsp::wavedec(c.at("x").get<std::vector<double>>(), w, mode, level);
   } else if (op == "waverec") {
-    r["x"] = gd::waverec(c.at("coeffs").get<gd::Coefficients>(), w, mode);
+    r["x"] = dsp::waverec(c.at("coeffs").get<dsp::Coefficients>(), w, mode);
   } else if (op == "roundtrip") {
     // waverec(wavedec(x)) trimmed to N, and the sum of the MRA components.
     const auto x = c.at("x").get<std::vector<double>>();
-    auto rec = gd::waverec(gd::wavedec(x, w, mode, level), w, mode);
+    auto rec = dsp::waverec(dsp::wavedec(x, w, mode, level), w, mode);
     rec.resize(x.size());
     std::vector<double> sum(x.size(), 0.0);
-    for (const auto& comp : gd::mra(x, w, mode, level)) {
+    for (const auto& comp : dsp::mra(x, w, mode, level)) {
       for (std::size_t i = 0; i < x.size(); ++i) sum[i] += comp[i];
     }
     r["rec"] = rec;
     r["mra_sum"] = sum;
   } else if (op == "mra") {
-    r["components"] = gd::mra(c.at("x").get<std::vector<double>>(), w, mode, level);
+    r["components"] = dsp::mra(c.at("x").get<std::vector<double>>(), w, mode, level);
   } else if (op == "dwt") {
-    const auto b = gd::dwt(c.at("x").get<std::vector<double>>(), w, mode);
+    const auto b = dsp::dwt(c.at("x").get<std::vector<double>>(), w, mode);
     r["coeffs"] = json::array({b.approx, b.detail});
   } else if (op == "idwt") {
-    r["x"] = gd::idwt(c.at("a").get<std::vector<double>>(), c.at("d").get<std::vector<double>>(), w, mode);
+    r["x"] = dsp::idwt(c.at("a").get<std::vector<double>>(), c.at("d").get<std::vector<double>>(), w, mode);
   } else if (op == "denoise") {
-    gd::DenoiseOptions opt;
-    opt.rule = c.at("rule") == "hard" ? gd::ThresholdRule::hard : gd::ThresholdRule::soft;
+    dsp::DenoiseOptions opt;
+    opt.rule = c.at("rule") == "hard" ? dsp::ThresholdRule::hard : dsp::ThresholdRule::soft;
     opt.level_dependent = c.at("level_dependent").get<bool>();
-    const auto res = gd::denoise(c.at("x").get<std::vector<double>>(), w, mode, level, opt);
+    const auto res = dsp::denoise(c.at("x").get<std::vector<double>>(), w, mode, level, opt);
     r["x"] = res.signal;
     r["thresholds"] = res.thresholds;
   } else if (op == "stream") {
     // Streaming decomposition (zero-mode cascade) in the given chunk sizes, then flush.
     const auto x = c.at("x").get<std::vector<double>>();
-    gd::StreamingOptions opt;
+    dsp::StreamingOptions opt;
     opt.levels = level;
-    gd::StreamingWavelet s(w, opt);
+    dsp::StreamingWavelet s(w, opt);
     CollectCoefficients sink(static_cast<std::size_t>(level) + 1);
     const auto chunks = c.at("chunks").get<std::vector<std::size_t>>();
     std::size_t pos = 0;

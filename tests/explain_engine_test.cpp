@@ -11,7 +11,7 @@
 
 #include "models/explain/explain.hpp"
 
-namespace ex = guideway::models::explain;
+using namespace guideway;
 
 namespace {
 
@@ -29,16 +29,16 @@ double gauss(std::mt19937_64& rng) {
 }
 
 // y = 3 + 2 cos + 1 sin + extra(i) + N(0, 0.4^2).
-ex::Problem make_problem(const std::function<double(int)>& extra, unsigned seed) {
-  ex::Problem p;
+models::explain::Problem make_problem(const std::function<double(int)>& extra, unsigned seed) {
+  models::explain::Problem p;
   p.model = "synthetic";
   p.domain = "angle_deg";
   p.runs.push_back({"run1", 1, 1000, "g"});
   std::mt19937_64 rng(seed);
   p.base.names = {"offset_um", "cos_um", "sin_um"};
   p.base.columns.resize(n, 3);
-  ex::Candidate step{"backlash", "a step", {}, {}, 0};
-  ex::Candidate sine{"vibration", "a sinusoid", {}, {}, 0};
+  models::explain::Candidate step{"backlash", "a step", {}, {}, 0};
+  models::explain::Candidate sine{"vibration", "a sinusoid", {}, {}, 0};
   step.variants.resize(1);
   step.variants[0].block.names = {"step_um"};
   step.variants[0].block.columns.resize(n, 1);
@@ -60,7 +60,7 @@ ex::Problem make_problem(const std::function<double(int)>& extra, unsigned seed)
 }  // namespace
 
 TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
-  const auto rep = ex::explain(make_problem([](int i) { return 0.3 * step_of(i) / 0.5 * 0.5; }, 1));
+  const auto rep = models::explain::explain(make_problem([](int i) { return 0.3 * step_of(i) / 0.5 * 0.5; }, 1));
   ASSERT_EQ(rep.findings.size(), 1u);
   EXPECT_EQ(rep.findings[0].effect, "backlash");
   ASSERT_EQ(rep.findings[0].parameters.size(), 1u);
@@ -78,10 +78,10 @@ TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
   // no yardstick in this problem, so no percentage.
   EXPECT_NEAR(rep.findings[0].contribution_um, std::abs(par.value), 1e-12);
   EXPECT_TRUE(std::isnan(rep.findings[0].contribution_percent));
-  const auto j = ex::to_json(rep);
+  const auto j = models::explain::to_json(rep);
   for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"}) EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_TRUE(j["findings"][0]["parameters"]["step_um"].contains("u"));
-  EXPECT_NE(ex::to_text(rep).find("backlash"), std::string::npos);
+  EXPECT_NE(models::explain::to_text(rep).find("backlash"), std::string::npos);
   // Residual curves for plots: one grid, then per step (base model, + each finding) one curve per run,
   // each step whiter than the one before.
   const auto& res = j["residuals"];
@@ -107,7 +107,7 @@ TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
 
 TEST(ExplainEngine, NoiseOnlyGivesNoFinding) {
   for (unsigned seed : {2u, 3u, 4u}) {
-    const auto rep = ex::explain(make_problem([](int) { return 0.0; }, seed));
+    const auto rep = models::explain::explain(make_problem([](int) { return 0.0; }, seed));
     EXPECT_TRUE(rep.findings.empty()) << seed;
     EXPECT_FALSE(rep.unexplained) << seed;
     EXPECT_TRUE(rep.mismatch.empty()) << seed;
@@ -116,7 +116,7 @@ TEST(ExplainEngine, NoiseOnlyGivesNoFinding) {
 
 TEST(ExplainEngine, BumpOutsideTheLibraryIsLocatedNotAttributed) {
   // A 2 um Gaussian bump at sample 700 (126 deg), 15 samples wide.
-  const auto rep = ex::explain(make_problem(
+  const auto rep = models::explain::explain(make_problem(
       [](int i) {
         const double d = (i - 700) / 15.0;
         return 2.0 * std::exp(-0.5 * d * d);
@@ -134,27 +134,27 @@ TEST(ExplainEngine, RejectsUnusableProblems) {
   auto p = make_problem([](int) { return 0.0; }, 6);
   auto few = p;
   few.samples.resize(10);
-  EXPECT_THROW((void)ex::explain(few), std::invalid_argument);
+  EXPECT_THROW((void)models::explain::explain(few), std::invalid_argument);
   auto rows = p;
   rows.candidates[0].variants[0].block.columns.conservativeResize(n - 1, Eigen::NoChange);
-  EXPECT_THROW((void)ex::explain(rows), std::invalid_argument);
+  EXPECT_THROW((void)models::explain::explain(rows), std::invalid_argument);
   auto nanp = p;
   nanp.samples[5].y_um = std::nan("");
-  EXPECT_THROW((void)ex::explain(nanp), std::invalid_argument);
+  EXPECT_THROW((void)models::explain::explain(nanp), std::invalid_argument);
 }
 
 TEST(ExplainEngine, HoldsOutWholeRunsWhenThereAreThree) {
   auto p = make_problem([](int i) { return 0.3 * step_of(i); }, 7);
   p.runs = {{"a", 1, 1000, "g"}, {"b", 1, 1000, "g"}, {"c", 1, 1000, "g"}};
   for (int i = 0; i < n; ++i) p.samples[static_cast<std::size_t>(i)].run = static_cast<std::size_t>(std::min(i * 3 / n, 2));
-  const auto rep = ex::explain(p);
+  const auto rep = models::explain::explain(p);
   EXPECT_EQ(rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << rep.heldout_scheme;
   ASSERT_FALSE(rep.findings.empty());
   EXPECT_EQ(rep.findings[0].effect, "backlash");
   EXPECT_LT(rep.final_fit.heldout_rms_um, rep.baseline.heldout_rms_um);
   // Runs must be contiguous.
   p.samples[10].run = 2;
-  EXPECT_THROW((void)ex::explain(p), std::invalid_argument);
+  EXPECT_THROW((void)models::explain::explain(p), std::invalid_argument);
 }
 
 namespace {
@@ -163,9 +163,9 @@ namespace {
 // sinusoid at the periodogram's highest peak with its phase, over 0.25-cycle steps up to Nyquist -- ~500
 // frequencies searched but declared as one (search_size 1), so that neither the Bonferroni factor nor the
 // share rule stands between noise and a finding: only the held-out test does.
-ex::Problem peak_problem(double amplitude, unsigned seed) {
+models::explain::Problem peak_problem(double amplitude, unsigned seed) {
   constexpr int m = 256;
-  ex::Problem p;
+  models::explain::Problem p;
   p.model = "synthetic";
   p.domain = "angle_deg";
   p.runs.push_back({"run1", 1, 1000, "g"});
@@ -174,7 +174,7 @@ ex::Problem peak_problem(double amplitude, unsigned seed) {
   p.base.columns = Eigen::MatrixXd::Ones(m, 1);
   for (int i = 0; i < m; ++i)
     p.samples.push_back({0, amplitude * std::sin(2 * pi * 17.3 * i / m) + gauss(rng), i * 360.0 / m, i * 0.01});
-  ex::Candidate peak{"vibration", "the periodogram's highest peak", {}, {}, 1};
+  models::explain::Candidate peak{"vibration", "the periodogram's highest peak", {}, {}, 1};
   peak.generate = [](const Eigen::VectorXd& r, const std::vector<bool>& use) {
     double best = -1, best_f = 0, best_phase = 0;
     for (double f = 1; f < m / 2; f += 0.25) {
@@ -190,11 +190,11 @@ ex::Problem peak_problem(double amplitude, unsigned seed) {
         best_phase = std::atan2(s, c);
       }
     }
-    ex::Variant v;
+    models::explain::Variant v;
     v.block.names = {"peak_um"};
     v.block.columns.resize(m, 1);
     for (int i = 0; i < m; ++i) v.block.columns(i, 0) = std::cos(2 * pi * best_f * i / m - best_phase);
-    return std::vector<ex::Variant>{v};
+    return std::vector<models::explain::Variant>{v};
   };
   p.candidates = {peak};
   return p;
@@ -202,7 +202,7 @@ ex::Problem peak_problem(double amplitude, unsigned seed) {
 
 // The held-out RMS after the one trial of a single-round report: the finding's, or the one its verdict
 // quotes when the held-out test refused it; NaN when another gate refused it first.
-double trial_heldout(const ex::Report& r) {
+double trial_heldout(const models::explain::Report& r) {
   if (!r.findings.empty()) return r.findings[0].heldout_rms_um_after;
   const std::string lead = "held-out RMS not improved (";
   if (r.considered.size() != 1 || r.considered[0].verdict.rfind(lead, 0) != 0) return std::nan("");
@@ -216,18 +216,18 @@ double trial_heldout(const ex::Report& r) {
 // variant kept fixed the held-out RMS improves by selection alone and noise is taken as a finding; with
 // the choice nested in the folds it does not. A real sinusoid is found both ways.
 TEST(ExplainEngine, HeldOutRechoosesGeneratedVariantsInEachFold) {
-  ex::ExplainOptions loose;
+  models::explain::ExplainOptions loose;
   loose.alpha = 1.0;      // no significance gate (p <= 1 passes unless exactly 1)
   loose.min_share = 0.0;  // no share gate
   loose.max_effects = 1;
-  ex::ExplainOptions fixed = loose;
+  models::explain::ExplainOptions fixed = loose;
   fixed.heldout_reselect = false;
   int taken_fixed = 0, taken_nested = 0;
   constexpr int trials = 40;
   int compared = 0, higher = 0;  // draws where the nested held-out figure of the trial is above the fixed one
   for (unsigned seed = 1; seed <= trials; ++seed) {
     const auto p = peak_problem(0.0, seed);
-    const auto a = ex::explain(p, fixed), b = ex::explain(p, loose);
+    const auto a = models::explain::explain(p, fixed), b = models::explain::explain(p, loose);
     taken_fixed += !a.findings.empty();
     taken_nested += !b.findings.empty();
     // BIC and F-test are the same both ways: only the held-out figure differs, and it is what refused.
@@ -254,7 +254,7 @@ TEST(ExplainEngine, HeldOutRechoosesGeneratedVariantsInEachFold) {
   // figure is the less flattering one (measured 0.003-0.04 um above the fixed one).
   for (unsigned seed = 1; seed <= 5; ++seed) {
     const auto p = peak_problem(1.0, seed);
-    const auto a = ex::explain(p, fixed), b = ex::explain(p, loose);
+    const auto a = models::explain::explain(p, fixed), b = models::explain::explain(p, loose);
     ASSERT_EQ(a.findings.size(), 1u) << seed;
     ASSERT_EQ(b.findings.size(), 1u) << seed;
     EXPECT_LT(b.final_fit.heldout_rms_um, b.baseline.heldout_rms_um - 0.1) << seed;
@@ -271,10 +271,10 @@ struct Probe {
   int masked_calls = 0;     // calls with some row held out
   bool leaked = false;      // a held-out row had a nonzero residual
 };
-ex::Problem probe_problem(const std::shared_ptr<Probe>& probe) {
+models::explain::Problem probe_problem(const std::shared_ptr<Probe>& probe) {
   constexpr int m = 256;
-  ex::Problem p = peak_problem(2.0, 11);
-  ex::Candidate step{"backlash", "a step", {}, {}, 0}, slope{"thermal_drift", "a slope", {}, {}, 0};
+  models::explain::Problem p = peak_problem(2.0, 11);
+  models::explain::Candidate step{"backlash", "a step", {}, {}, 0}, slope{"thermal_drift", "a slope", {}, {}, 0};
   step.variants.resize(1);
   step.variants[0].block.names = {"step_um"};
   step.variants[0].block.columns.resize(m, 1);
@@ -310,11 +310,11 @@ ex::Problem probe_problem(const std::shared_ptr<Probe>& probe) {
 TEST(ExplainEngine, GeneratorsSeeNoHeldOutRowAndRunOncePerFold) {
   auto probe = std::make_shared<Probe>();
   const auto p = probe_problem(probe);
-  ex::ExplainOptions opt;
+  models::explain::ExplainOptions opt;
   opt.min_share = 0.0;  // the step and the slope each leave the others' structure
-  const auto rep = ex::explain(p, opt);
-  ASSERT_EQ(rep.findings.size(), 3u) << ex::to_text(rep);
-  EXPECT_EQ(rep.findings[0].effect, "vibration") << ex::to_text(rep);
+  const auto rep = models::explain::explain(p, opt);
+  ASSERT_EQ(rep.findings.size(), 3u) << models::explain::to_text(rep);
+  EXPECT_EQ(rep.findings[0].effect, "vibration") << models::explain::to_text(rep);
   EXPECT_FALSE(probe->leaked);
   // The peak is tried in round 1, once per fold (8), and re-chosen in every fold when each of the two later
   // effects joins (2 x 8); the trials of the later rounds re-use the folds' choice (re-choosing the terms
@@ -324,7 +324,7 @@ TEST(ExplainEngine, GeneratorsSeeNoHeldOutRowAndRunOncePerFold) {
   auto loro = probe_problem(probe = std::make_shared<Probe>());
   loro.runs = {{"a", 1, 1000, "g"}, {"b", 1, 1000, "g"}, {"c", 1, 1000, "g"}};
   for (std::size_t i = 0; i < loro.samples.size(); ++i) loro.samples[i].run = std::min<std::size_t>(i * 3 / loro.samples.size(), 2);
-  const ex::Report loro_rep = ex::explain(loro, opt);
+  const models::explain::Report loro_rep = models::explain::explain(loro, opt);
   EXPECT_EQ(loro_rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << loro_rep.heldout_scheme;
   EXPECT_GT(probe->masked_calls, 0);
   EXPECT_FALSE(probe->leaked);
@@ -334,27 +334,27 @@ TEST(ExplainEngine, GeneratorsSeeNoHeldOutRowAndRunOncePerFold) {
 // search, on pure noise -- kept fixed, the best of them "predicts" the rows it was picked on.
 TEST(ExplainEngine, HeldOutRechoosesFixedVariantsInEachFold) {
   constexpr int m = 256;
-  ex::ExplainOptions loose;
+  models::explain::ExplainOptions loose;
   loose.alpha = 1.0;
   loose.min_share = 0.0;
   loose.max_effects = 1;
-  ex::ExplainOptions fixed = loose;
+  models::explain::ExplainOptions fixed = loose;
   fixed.heldout_reselect = false;
   int taken_fixed = 0, taken_nested = 0;
   constexpr int trials = 20;
   for (unsigned seed = 1; seed <= trials; ++seed) {
-    ex::Problem p = peak_problem(0.0, seed + 100);
-    ex::Candidate lines{"cyclic_error", "a listed sinusoid", {}, {}, 1};
+    models::explain::Problem p = peak_problem(0.0, seed + 100);
+    models::explain::Candidate lines{"cyclic_error", "a listed sinusoid", {}, {}, 1};
     for (double f = 1; f < m / 2; f += 0.5) {
-      ex::Variant v;
+      models::explain::Variant v;
       v.block.names = {"s_um", "c_um"};
       v.block.columns.resize(m, 2);
       for (int i = 0; i < m; ++i) v.block.columns.row(i) << std::sin(2 * pi * f * i / m), std::cos(2 * pi * f * i / m);
       lines.variants.push_back(std::move(v));
     }
     p.candidates = {lines};
-    taken_fixed += !ex::explain(p, fixed).findings.empty();
-    taken_nested += !ex::explain(p, loose).findings.empty();
+    taken_fixed += !models::explain::explain(p, fixed).findings.empty();
+    taken_nested += !models::explain::explain(p, loose).findings.empty();
   }
   EXPECT_GE(taken_fixed, trials / 2) << taken_fixed;
   EXPECT_LE(taken_nested, trials / 5) << taken_nested;
@@ -363,17 +363,17 @@ TEST(ExplainEngine, HeldOutRechoosesFixedVariantsInEachFold) {
 // A fold that cannot be fitted is not skipped (the trial and the model so far would be averaged over
 // different rows): the held-out figure is NaN and the effect refused, saying which fold.
 TEST(ExplainEngine, AFoldThatCannotBeFittedRefusesTheEffect) {
-  ex::Problem p = peak_problem(3.0, 5);
+  models::explain::Problem p = peak_problem(3.0, 5);
   auto gen = p.candidates[0].generate;
   p.candidates[0].generate = [gen](const Eigen::VectorXd& r, const std::vector<bool>& use) {
-    return use[0] ? gen(r, use) : std::vector<ex::Variant>{};  // nothing when the first block is held out
+    return use[0] ? gen(r, use) : std::vector<models::explain::Variant>{};  // nothing when the first block is held out
   };
-  const auto rep = ex::explain(p);
+  const auto rep = models::explain::explain(p);
   EXPECT_TRUE(rep.findings.empty());
   ASSERT_EQ(rep.considered.size(), 1u);
   EXPECT_EQ(rep.considered[0].verdict,
             "held-out RMS not computable (fold 1 of 8: vibration has no variant that can be fitted on the training rows)");
-  EXPECT_FALSE(ex::explain(peak_problem(3.0, 5)).findings.empty());  // found when every fold has its variant
+  EXPECT_FALSE(models::explain::explain(peak_problem(3.0, 5)).findings.empty());  // found when every fold has its variant
 }
 
 // sensor_nonlinearity's columns from the base refitted to the rows in use: on all rows they are those of
@@ -383,14 +383,14 @@ TEST(ExplainEngine, SensorNonlinearityColumnsSeeNoHeldOutY) {
   Eigen::VectorXd y(n);
   for (int i = 0; i < n; ++i) y[i] = p.samples[static_cast<std::size_t>(i)].y_um;
   const std::vector<double> offset(n, 0.25);
-  const auto gen = ex::sensor_nonlinearity_generator(p.base, y, offset);
+  const auto gen = models::explain::sensor_nonlinearity_generator(p.base, y, offset);
   // All rows: the reading is the base's full fit (+ offset), computed independently here.
   const Eigen::VectorXd x = p.base.columns.colPivHouseholderQr().solve(y);
   std::vector<double> reading(n);
   for (int i = 0; i < n; ++i) reading[static_cast<std::size_t>(i)] = p.base.columns.row(i).dot(x) + 0.25;
   const auto all = gen(Eigen::VectorXd::Zero(n), std::vector<bool>(n, true));
   ASSERT_EQ(all.size(), 1u);
-  const auto ref = ex::sensor_nonlinearity_variant(reading);
+  const auto ref = models::explain::sensor_nonlinearity_variant(reading);
   EXPECT_LT((all[0].block.columns - ref.block.columns).cwiseAbs().maxCoeff(), 1e-9 * ref.block.columns.cwiseAbs().maxCoeff());
   // Rows 0..249 held out: a large change of their y leaves the columns as they were.
   std::vector<bool> use(n, true);
@@ -398,11 +398,11 @@ TEST(ExplainEngine, SensorNonlinearityColumnsSeeNoHeldOutY) {
   Eigen::VectorXd y2 = y;
   y2.head(250).array() += 50.0;
   const auto a = gen(Eigen::VectorXd::Zero(n), use);
-  const auto b = ex::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n), use);
+  const auto b = models::explain::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n), use);
   ASSERT_EQ(a.size(), 1u);
   ASSERT_EQ(b.size(), 1u);
   EXPECT_EQ(a[0].block.columns, b[0].block.columns);
   // ... while on all rows it moves them (the leak the mask removes).
-  const auto c = ex::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n), std::vector<bool>(n, true));
+  const auto c = models::explain::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n), std::vector<bool>(n, true));
   EXPECT_GT((c[0].block.columns - all[0].block.columns).cwiseAbs().maxCoeff(), 1e-3);
 }

@@ -13,14 +13,13 @@
 #include "simulators/scenarios/scenarios.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace ex = guideway::models::explain;
-namespace scenarios = guideway::sim::scenarios;
+using namespace guideway;
 
 class ExplainScenario : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ExplainScenario, MeetsItsExpectation) {
-  const auto r = scenarios::run_scenario(GetParam());
-  EXPECT_TRUE(r.pass) << r.name << ": " << r.failure << "\n" << ex::to_text(r.report);
+  const auto r = simulators::scenarios::run_scenario(GetParam());
+  EXPECT_TRUE(r.pass) << r.name << ": " << r.failure << "\n" << models::explain::to_text(r.report);
   // Every injected effect is found, and nothing else.
   ASSERT_EQ(r.checks.size(), r.expected.size());
   for (const auto& c : r.checks) EXPECT_TRUE(c.found && c.within) << r.name << ": " << c.expected.parameter << " = " << c.value;
@@ -44,7 +43,7 @@ TEST_P(ExplainScenario, MeetsItsExpectation) {
 // A finding's part of G is the range of its term about the least-squares circle: a backlash of b on X
 // alone gives steps of b/2 at the X reversals, a range of about b about the circle (here 0.5 um).
 TEST(ExplainScenarios, BacklashPartOfTheCircularDeviationIsItsWidth) {
-  const auto r = scenarios::run_scenario("dbb_backlash");
+  const auto r = simulators::scenarios::run_scenario("dbb_backlash");
   ASSERT_EQ(r.report.findings.size(), 1u);
   const auto& f = r.report.findings.front();
   EXPECT_NEAR(f.contribution_um, r.checks.front().value, 0.1 * r.checks.front().value);
@@ -52,18 +51,18 @@ TEST(ExplainScenarios, BacklashPartOfTheCircularDeviationIsItsWidth) {
 
 std::string scenario_name(const ::testing::TestParamInfo<std::string>& p) { return p.param; }
 
-INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(scenarios::scenario_names()), scenario_name);
+INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(simulators::scenarios::scenario_names()), scenario_name);
 
 // The reported uncertainties are honest: over seeds 1-5 of the scenarios with several effects, the errors
 // against the truth fall within 1 u and 2 u about as often as a Gaussian's (68 %, 95 %): not too seldom
 // (u too small) nor always (u too large). (Full density, seeds 1-5, every scenario: 69 % and 93 % of 240,
 // the table in docs/explain.md.)
 TEST(ExplainScenarios, UncertaintiesCoverTheTruthOverSeeds) {
-  std::vector<scenarios::ScenarioSummary> sums;
-  for (const auto& name : scenarios::scenario_names())
+  std::vector<simulators::scenarios::ScenarioSummary> sums;
+  for (const auto& name : simulators::scenarios::scenario_names())
     if (name.rfind("dbb_pair_", 0) == 0 || name.rfind("dbb_three_", 0) == 0 || name == "dbb_centre_drift")
-      sums.push_back(scenarios::summarize_scenario(name, {1, 2, 3, 4, 5}));
-  const scenarios::Coverage c = scenarios::uncertainty_coverage(sums);
+      sums.push_back(simulators::scenarios::summarize_scenario(name, {1, 2, 3, 4, 5}));
+  const simulators::scenarios::Coverage c = simulators::scenarios::uncertainty_coverage(sums);
   EXPECT_GE(c.n, 100u);
   EXPECT_GE(c.within_1u, 0.55) << c.within_1u;
   EXPECT_LE(c.within_1u, 0.85) << c.within_1u;
@@ -71,32 +70,30 @@ TEST(ExplainScenarios, UncertaintiesCoverTheTruthOverSeeds) {
   for (const auto& s : sums) EXPECT_EQ(s.passed, s.runs.size()) << s.name;
 }
 
-TEST(ExplainScenarios, UnknownNameIsAnError) { EXPECT_THROW((void)scenarios::run_scenario("nope"), std::invalid_argument); }
+TEST(ExplainScenarios, UnknownNameIsAnError) { EXPECT_THROW((void)simulators::scenarios::run_scenario("nope"), std::invalid_argument); }
 
 // The out-of-library scenario's cause: the machine's local guideway bump (simulators/machine).
 TEST(ExplainScenarios, MachineBumpIsLocalAndReadFromToml) {
-  namespace sim = guideway::sim;
-  const auto cfg = sim::parse_machine_config(
+  const auto cfg = simulators::machine::parse_machine_config(
       "[axis.x]\nbump_um = 2.0\nbump_center_mm = 60\nbump_width_mm = 5\nbump_direction = \"y\"\n", "bump.toml");
   EXPECT_DOUBLE_EQ(cfg.axis[0].bump_amplitude_m, 2e-6);
   EXPECT_EQ(cfg.axis[0].bump_direction, 1);
-  const sim::Machine m(cfg);
+  const simulators::machine::Machine m(cfg);
   const auto at = [&](double x_m) { return m.tool_point({x_m, 0.0, 0.0}); };
   EXPECT_NEAR(at(0.060)[1], 2e-6, 1e-12);
   EXPECT_NEAR(at(0.065)[1], 2e-6 * std::exp(-0.5), 1e-12);
   EXPECT_NEAR(at(0.0)[1], 0.0, 1e-15);
   EXPECT_NEAR(at(0.060)[0], 0.060, 1e-12);  // not along the axis itself
-  EXPECT_THROW((void)sim::parse_machine_config("[axis.x]\nbump_direction = \"w\"\n", "bad.toml"), std::exception);
+  EXPECT_THROW((void)simulators::machine::parse_machine_config("[axis.x]\nbump_direction = \"w\"\n", "bad.toml"), std::exception);
 }
 
 // The spindle run-out scenario's cause: FacingSpec::runout_along_path adds the spindle's axial motion
 // at the moment of the cut; off, the profile is unchanged.
 TEST(ExplainScenarios, FacingRunoutAlongPathIsOptIn) {
-  namespace sim = guideway::sim;
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.spindle.axial_runout_m = 0.2e-6;
-  const sim::Machine m(cfg);
-  sim::FacingSpec spec;
+  const simulators::machine::Machine m(cfg);
+  simulators::machine::FacingSpec spec;
   spec.x_end_m = 0.01;
   spec.profile_step_m = 1e-4;
   spec.spindle_rpm = 107;
@@ -119,10 +116,10 @@ TEST(ExplainScenarios, FacingRunoutAlongPathIsOptIn) {
 // (0.2 us) such a clock keeps of each time stamp: 1e-6 relative, or 1 % of the uncertainty.
 TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
   for (const char* name : {"dbb_thermal_bar", "dbb_cyclic", "dbb_vibration", "flatness_spindle_runout", "flatness_thermal_two_feeds"}) {
-    scenarios::ScenarioOptions epoch;
+    simulators::scenarios::ScenarioOptions epoch;
     epoch.clock_origin_s = 1.8e9;
-    const auto a = scenarios::run_scenario(name);
-    const auto b = scenarios::run_scenario(name, epoch);
+    const auto a = simulators::scenarios::run_scenario(name);
+    const auto b = simulators::scenarios::run_scenario(name, epoch);
     EXPECT_TRUE(b.pass) << name << ": " << b.failure;
     ASSERT_EQ(a.report.findings.size(), b.report.findings.size()) << name;
     for (std::size_t k = 0; k < a.report.findings.size(); ++k) {
@@ -145,30 +142,29 @@ TEST(ExplainScenarios, FindingsDoNotDependOnWhereTheMachineClockStarts) {
 // to run but not its phase, so each run gets its own; the two phases differ by 2 pi f times the runs'
 // true offset (60.05 s apart here, not a whole number of periods).
 TEST(ExplainScenarios, AVibrationIsFoundInRunsWithoutACommonClock) {
-  namespace sim = guideway::sim;
   constexpr double f_hz = 7.3, apart_s = 60.05;
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.axis[0].vibration_amplitude_m = 0.5e-6;
   cfg.axis[0].vibration_frequency_hz = f_hz;
-  const sim::Machine m(cfg);
+  const simulators::machine::Machine m(cfg);
   std::vector<guideway::formats::DbbRun> runs;
   for (int k = 0; k < 2; ++k) {
-    sim::DbbCircleSpec spec;
+    simulators::machine::DbbCircleSpec spec;
     spec.direction = k == 0 ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
     spec.t0_s = k * apart_s;
     spec.sample_rate_hz = 30.0;  // 3 samples per degree: Nyquist 15 Hz
     spec.seed = 7 + static_cast<std::uint64_t>(k);
-    runs.push_back(guideway::sim::simulate_dbb_run(m, spec, "run" + std::to_string(k + 1)));
+    runs.push_back(guideway::simulators::machine::simulate_dbb_run(m, spec, "run" + std::to_string(k + 1)));
     runs.back().metadata.erase("start_time_s");  // recorded on clocks of their own
   }
-  const ex::Report r = ex::explain_dbb_report(runs);
-  ASSERT_FALSE(r.findings.empty()) << ex::to_text(r);
+  const models::explain::Report r = models::explain::explain_dbb_report(runs);
+  ASSERT_FALSE(r.findings.empty()) << models::explain::to_text(r);
   EXPECT_EQ(r.findings.front().effect, "vibration");
   std::map<std::string, double> v;
   for (const auto& p : r.findings.front().parameters) v[p.name] = p.value;
   ASSERT_TRUE(v.contains("vibration_x_um") && v.contains("vibration_phase_x_deg_run1") &&
               v.contains("vibration_phase_x_deg_run2"))
-      << ex::to_text(r);
+      << models::explain::to_text(r);
   EXPECT_NEAR(v["vibration_x_um"], 0.5, 0.01);
   EXPECT_NEAR(v["vibration_hz"], f_hz, 0.002);
   const double turn = std::remainder(v["vibration_phase_x_deg_run2"] - v["vibration_phase_x_deg_run1"] - 360 * f_hz * apart_s, 360.0);
@@ -179,25 +175,24 @@ TEST(ExplainScenarios, AVibrationIsFoundInRunsWithoutACommonClock) {
 // Four runs without a common clock: whole runs would be held out, but a phase per run cannot predict a
 // run it never saw, so the held-out rows are blocks of every run and the vibration is still found.
 TEST(ExplainScenarios, PerRunTermsKeepHeldOutRowsInEveryRun) {
-  namespace sim = guideway::sim;
-  sim::MachineConfig cfg;
+  simulators::machine::MachineConfig cfg;
   cfg.axis[0].vibration_amplitude_m = 0.5e-6;
   cfg.axis[0].vibration_frequency_hz = 7.3;
   cfg.dbb.noise_m = 0.4e-6;
-  const sim::Machine m(cfg);
+  const simulators::machine::Machine m(cfg);
   std::vector<guideway::formats::DbbRun> runs;
   for (int k = 0; k < 4; ++k) {
-    sim::DbbCircleSpec spec;
+    simulators::machine::DbbCircleSpec spec;
     spec.direction = k % 2 == 0 ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
     spec.t0_s = k * 60.05;
     spec.sample_rate_hz = 30.0;
     spec.seed = 11 + static_cast<std::uint64_t>(k);
-    runs.push_back(guideway::sim::simulate_dbb_run(m, spec, "run" + std::to_string(k + 1)));
+    runs.push_back(guideway::simulators::machine::simulate_dbb_run(m, spec, "run" + std::to_string(k + 1)));
     runs.back().metadata.erase("start_time_s");  // recorded on clocks of their own
   }
-  const ex::Report r = ex::explain_dbb_report(runs);
+  const models::explain::Report r = models::explain::explain_dbb_report(runs);
   EXPECT_EQ(r.heldout_scheme.find("leave-one-run-out"), std::string::npos) << r.heldout_scheme;
-  ASSERT_FALSE(r.findings.empty()) << ex::to_text(r);
+  ASSERT_FALSE(r.findings.empty()) << models::explain::to_text(r);
   EXPECT_EQ(r.findings.front().effect, "vibration");
   EXPECT_LT(r.final_fit.heldout_rms_um, r.baseline.heldout_rms_um);
 }
@@ -207,9 +202,9 @@ TEST(ExplainScenarios, PerRunTermsKeepHeldOutRowsInEveryRun) {
 TEST(ExplainScenarios, VibrationUncertaintiesMatchTheScatterOverSeeds) {
   std::map<std::string, std::vector<double>> values, us;
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
-    scenarios::ScenarioOptions o;
+    simulators::scenarios::ScenarioOptions o;
     o.seed = seed;
-    const auto r = scenarios::run_scenario("dbb_vibration", o);
+    const auto r = simulators::scenarios::run_scenario("dbb_vibration", o);
     ASSERT_FALSE(r.report.findings.empty()) << seed;
     for (const auto& p : r.report.findings.front().parameters) {
       values[p.name].push_back(p.value);

@@ -15,7 +15,7 @@
 
 namespace {
 
-using namespace guideway::models;
+using namespace guideway::models::flatness;
 constexpr double pi = std::numbers::pi;
 
 // A revolution file: offset + A cos(phi - phase) + 2nd harmonic + noise, 360 samples.
@@ -80,7 +80,7 @@ TEST(FlatnessRunout, UncertaintyCoversTheTruthInRepeatedTrials) {
 // The virtual machine tool as in Mu's Sec. 4: the spindle leans by 2.8 urad, the thrust plate by
 // 2.5 urad the same way (so r = 0.3 um on a 1 m plate, probe at the rim, and Eq. 21 gives 2.8 urad), with axial run-out and micrometer noise; the file round trip recovers r.
 // Spindle and plate leaning by `spindle_rad` and `plate_rad` towards the azimuth `direction_rad`.
-void lean(guideway::sim::MachineConfig& c, double spindle_rad, double plate_rad, double direction_rad) {
+void lean(guideway::simulators::machine::MachineConfig& c, double spindle_rad, double plate_rad, double direction_rad) {
   c.spindle.tilt_x_rad = spindle_rad * std::cos(direction_rad);
   c.spindle.tilt_y_rad = spindle_rad * std::sin(direction_rad);
   c.spindle.plate_parallelism_rad = plate_rad;
@@ -88,7 +88,7 @@ void lean(guideway::sim::MachineConfig& c, double spindle_rad, double plate_rad,
 }
 
 TEST(FlatnessRunout, RecoversTheVirtualMachineSpindleLean) {
-  using namespace guideway::sim;
+  using namespace guideway::simulators::machine;
   MachineConfig c;
   lean(c, 2.8e-6, 2.5e-6, 1.0);
   c.spindle.axial_runout_m = 0.05e-6;
@@ -118,7 +118,7 @@ TEST(FlatnessRunout, RecoversTheVirtualMachineSpindleLean) {
 // Repeated revolutions of the virtual machine tool (new micrometer noise each): the run-out r covers
 // the configured relative lean within 2u in about 95 % of the revolutions.
 TEST(FlatnessRunout, VirtualMachineCoverageInRepeatedRevolutions) {
-  using namespace guideway::sim;
+  using namespace guideway::simulators::machine;
   MachineConfig c;
   lean(c, 2.8e-6, 2.5e-6, 0.4);
   c.spindle.axial_runout_m = 0.05e-6;

@@ -15,7 +15,7 @@
 
 namespace {
 
-using namespace guideway::models;
+using namespace guideway::models::flatness;
 constexpr double arcsec = rad_per_arcsec;
 
 // Truth: a quartic profile over 600 mm, about 1.2 um peak to valley (x in m from the start).
@@ -174,7 +174,7 @@ TEST(FlatnessStraightness, UncertaintyCoversTheTruthInRepeatedTrials) {
 // pitches and yaws with the slope of its path): the traverse, written as a file and read back,
 // gives the configured straightness within 3u (+ 2 nm for the chord/point-slope discretisation).
 TEST(FlatnessStraightness, RecoversTheVirtualMachineStraightness) {
-  using namespace guideway::sim;
+  using namespace guideway::simulators::machine;
   MachineConfig c;
   auto& ax = c.axis[0];
   ax.bending = true;
@@ -240,7 +240,7 @@ TEST(FlatnessStraightness, RecoversTheVirtualMachineStraightness) {
 // profile is weak (0.19 um, about 4 u), so the max - min selection bias matters: without it in u the
 // coverage was 0.89.
 TEST(FlatnessStraightness, VirtualMachineCoverageInRepeatedTraverses) {
-  using namespace guideway::sim;
+  using namespace guideway::simulators::machine;
   MachineConfig c;
   c.axis[0].bending = true;
   c.axis[0].translation[2].c = {0.0, 0.0, 6e-6, -8e-6};

@@ -17,7 +17,7 @@
 
 namespace {
 
-using namespace guideway::models;
+using namespace guideway::models::flatness;
 namespace fs = std::filesystem;
 
 const std::string moody_dir = GUIDEWAY_TEST_DATA_DIR "/moody1955";

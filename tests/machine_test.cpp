@@ -9,7 +9,7 @@
 
 namespace {
 
-using namespace guideway::sim;
+using namespace guideway::simulators::machine;
 
 constexpr double pi = std::numbers::pi;
 
@@ -54,7 +54,7 @@ TEST(MachineTest, LoadsTomlAndRejectsUnknownKeys) {
 
 namespace {
 
-using namespace guideway::sim;
+using namespace guideway::simulators::machine;
 
 TEST(MachineTest, SameSeedSameRunOtherSeedOtherNoise) {
   MachineConfig c;

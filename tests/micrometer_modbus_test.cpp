@@ -16,8 +16,8 @@
 
 using namespace guideway;
 using namespace std::chrono_literals;
-using emulators::MicrometerEmulator;
-using emulators::ModbusFault;
+using simulators::emulators::MicrometerEmulator;
+using simulators::emulators::ModbusFault;
 
 namespace {
 
@@ -35,7 +35,7 @@ std::string start_transport(MicrometerEmulator& emulator, bool rtu) {
 }
 
 struct Harness {
-  explicit Harness(bool rtu, emulators::MicrometerSource source = emulators::runout_source(120.0),
+  explicit Harness(bool rtu, simulators::emulators::MicrometerSource source = simulators::emulators::runout_source(120.0),
                    bool answers_report_server_id = true) {
     MicrometerEmulator::Options o;
     o.source = std::move(source);
@@ -48,7 +48,7 @@ struct Harness {
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
     driver =
-        std::make_unique<micrometer::MicrometerDriver>("mic", micrometer::parse_micrometer_config(reader), 1 << 14);
+        std::make_unique<drivers::micrometer::MicrometerDriver>("mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 14);
     reader.reject_unknown_keys();
   }
   ~Harness() {
@@ -92,7 +92,7 @@ struct Harness {
 
   toml::table table;
   std::unique_ptr<MicrometerEmulator> emulator;
-  std::unique_ptr<micrometer::MicrometerDriver> driver;
+  std::unique_ptr<drivers::micrometer::MicrometerDriver> driver;
   std::vector<Sample> samples;
 };
 
@@ -124,7 +124,7 @@ TEST_P(MicrometerTransport, FlagsOutOfRangeAndMissingProbe) {
   std::atomic<int> n{0};
   Harness h(GetParam(), [&n](double) {
     const int i = n++;
-    return emulators::MicrometerPoint{i * 1e-8, (i / 10) % 3 == 1, (i / 10) % 3 == 2};
+    return simulators::emulators::MicrometerPoint{i * 1e-8, (i / 10) % 3 == 1, (i / 10) % 3 == 2};
   });
   h.driver->start();
   ASSERT_TRUE(h.wait_samples(40));
@@ -152,7 +152,7 @@ TEST_P(MicrometerTransport, SurvivesEveryFaultAndLosesNothing) {
        {Step{ModbusFault::burst, true}, Step{ModbusFault::exception, true}, Step{ModbusFault::stall, false},
         Step{ModbusFault::bad_crc, true}, Step{ModbusFault::truncate, false}, Step{ModbusFault::garbage, true},
         Step{ModbusFault::burst, true}}) {
-    SCOPED_TRACE(std::string(emulators::to_string(step.fault)));
+    SCOPED_TRACE(std::string(simulators::emulators::to_string(step.fault)));
     const auto before = counters();
     const std::size_t have = h.samples.size();
     h.emulator->inject(step.fault, 1);
@@ -192,22 +192,22 @@ TEST_P(MicrometerTransport, SurvivesEveryFaultAndLosesNothing) {
 }
 
 TEST_P(MicrometerTransport, ReadsTheVirtualMachineToolsRunout) {
-  sim::RunoutSpec spec;
+  simulators::machine::RunoutSpec spec;
   spec.rpm = 60.0;
   spec.samples_per_rev = 100;
   spec.revolutions = 2;
-  const sim::Machine machine(emulators::spindle_demo_machine_config());
-  const auto motion = emulators::make_runout_motion(machine, spec);
-  Harness h(GetParam(), emulators::runout_motion_source(motion));
+  const simulators::machine::Machine machine(simulators::emulators::spindle_demo_machine_config());
+  const auto motion = simulators::emulators::make_runout_motion(machine, spec);
+  Harness h(GetParam(), simulators::emulators::runout_motion_source(motion));
   h.driver->start();
   ASSERT_TRUE(h.wait_samples(80));
   h.expect_matches_served();
   // Every reading is one of the model's run-out samples, as the amplifier's 10 nm counts show it.
-  const modbus::RegisterMap map;
+  const drivers::modbus::RegisterMap map;
   std::vector<double> model;
   double lo = 1, hi = -1;
   for (const auto& m : motion->samples) {
-    model.push_back(modbus::decode_registers(map, modbus::encode_registers(map, m.displacement_m)).value_m);
+    model.push_back(drivers::modbus::decode_registers(map, drivers::modbus::encode_registers(map, m.displacement_m)).value_m);
     lo = std::min(lo, m.displacement_m);
     hi = std::max(hi, m.displacement_m);
   }
@@ -223,7 +223,7 @@ INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerTransport, ::testing::Values(false, t
 TEST(MicrometerDriver, ReportsLostWhenNothingListensAndBacksOff) {
   auto table = parse_toml("transport = \"tcp\"\nport = 1\nbackoff_initial_ms = 20\nbackoff_max_ms = 40\n", "t.toml");
   TableReader reader(table, "t.toml", "device[0]");
-  micrometer::MicrometerDriver d("mic", micrometer::parse_micrometer_config(reader), 16);
+  drivers::micrometer::MicrometerDriver d("mic", drivers::micrometer::parse_micrometer_config(reader), 16);
   d.start();
   ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::lost; }, 3s));
   EXPECT_NE(d.status().reason.find("127.0.0.1:1"), std::string::npos) << d.status().reason;
@@ -233,7 +233,7 @@ TEST(MicrometerDriver, ReportsLostWhenNothingListensAndBacksOff) {
 
 TEST(MicrometerDriver, RegistryCreatesItFromADeviceTable) {
   drivers::DriverRegistry registry;
-  micrometer::register_micrometer_driver(registry);
+  drivers::micrometer::register_micrometer_driver(registry);
   auto table = parse_toml("transport = \"rtu\"\ndevice = \"/dev/null\"\nbaud = 9600\nparity = \"N\"\n", "t.toml");
   TableReader reader(table, "t.toml", "device[0]");
   auto d = registry.create({"mic", "micrometer-modbus", 64, reader});
@@ -253,8 +253,8 @@ namespace {
 constexpr double ring_rate_hz = 10000.0;
 
 // Sample k of the emulator reads k counts (10 nm each): the driver's value tells which sample it is.
-emulators::MicrometerSource numbered_source() {
-  return [](double t_s) { return emulators::MicrometerPoint{std::round(t_s * ring_rate_hz) * 1e-8}; };
+simulators::emulators::MicrometerSource numbered_source() {
+  return [](double t_s) { return simulators::emulators::MicrometerPoint{std::round(t_s * ring_rate_hz) * 1e-8}; };
 }
 
 struct BufferedHarness {
@@ -263,7 +263,7 @@ struct BufferedHarness {
                   double emulator_rate_hz = ring_rate_hz, double configured_rate_hz = ring_rate_hz) {
     MicrometerEmulator::Options o;
     o.source = numbered_source();
-    modbus::SampleRingMap ring;
+    drivers::modbus::SampleRingMap ring;
     ring.sample_rate_hz = emulator_rate_hz;
     ring.ring_samples = ring_samples;
     o.ring = ring;
@@ -277,7 +277,7 @@ struct BufferedHarness {
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
     driver =
-        std::make_unique<micrometer::MicrometerDriver>("mic", micrometer::parse_micrometer_config(reader), 1 << 17);
+        std::make_unique<drivers::micrometer::MicrometerDriver>("mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 17);
     reader.reject_unknown_keys();
   }
   ~BufferedHarness() {
@@ -348,7 +348,7 @@ struct BufferedHarness {
 
   toml::table table;
   std::unique_ptr<MicrometerEmulator> emulator;
-  std::unique_ptr<micrometer::MicrometerDriver> driver;
+  std::unique_ptr<drivers::micrometer::MicrometerDriver> driver;
   std::vector<Sample> samples;
 };
 
@@ -491,7 +491,7 @@ INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerBuffered,
 // The device must not sit silently "streaming" with nothing published: it reports an error saying why.
 TEST(MicrometerDriver, BufferedCounterFasterThanTheConfiguredRateIsAnError) {
   BufferedHarness h(false, 4096, 0, "poll_period_ms = 5\n", ring_rate_hz, 2000.0);
-  micrometer::MicrometerDriver& d = *h.driver;
+  drivers::micrometer::MicrometerDriver& d = *h.driver;
   d.start();
   ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::error; }, 3s));
   EXPECT_NE(d.status().reason.find("sample_rate_hz = 2000"), std::string::npos) << d.status().reason;
@@ -514,7 +514,7 @@ TEST(MicrometerDriver, BufferedCounterFasterThanTheConfiguredRateIsAnError) {
 // early unnoticed. The driver measures the real rate over 1 s and reports an error saying so.
 TEST(MicrometerDriver, BufferedCounterSlowerThanTheConfiguredRateIsAnError) {
   BufferedHarness h(false, 4096, 0, "poll_period_ms = 5\n", 9900.0, ring_rate_hz);
-  micrometer::MicrometerDriver& d = *h.driver;
+  drivers::micrometer::MicrometerDriver& d = *h.driver;
   d.start();
   ASSERT_TRUE(test::eventually([&] { return d.status().state == drivers::DeviceState::error; }, 5s));
   const std::string reason = d.status().reason;
@@ -531,7 +531,7 @@ TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
     auto table = parse_toml(text, "mic.toml");
     TableReader reader(table, "mic.toml", "device[0]");
     try {
-      micrometer::parse_micrometer_config(reader);
+      drivers::micrometer::parse_micrometer_config(reader);
       reader.reject_unknown_keys();
     } catch (const ConfigError& e) {
       return std::string(e.what());
@@ -577,7 +577,7 @@ TEST_P(MicrometerTransport, ALateAnswerIsNeverTakenForTheNextRequest) {
 // costs the read and the silent probe, two failures of the three that declare the link lost; the next
 // read is answered, so the server is not probed again and the link never drops.
 TEST(MicrometerRtu, AServerIgnoringTheProbeIsReadOnWithoutIt) {
-  Harness h(true, emulators::runout_source(120.0), false);
+  Harness h(true, simulators::emulators::runout_source(120.0), false);
   h.driver->start();
   ASSERT_TRUE(h.wait_samples(10));
   for (int round = 0; round < 2; ++round) {

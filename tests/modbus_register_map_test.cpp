@@ -10,7 +10,7 @@
 #include "core/sample.hpp"
 
 using namespace guideway;
-using namespace guideway::modbus;
+using namespace guideway::drivers::modbus;
 
 namespace {
 

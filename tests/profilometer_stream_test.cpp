@@ -10,7 +10,7 @@
 #include "core/sample.hpp"
 
 using namespace guideway;
-using namespace guideway::profilometer;
+using namespace guideway::drivers::profilometer;
 
 namespace {
 

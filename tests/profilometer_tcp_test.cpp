@@ -16,15 +16,15 @@
 
 using namespace guideway;
 using namespace std::chrono_literals;
-using emulators::ProfileFault;
-using emulators::ProfilometerEmulator;
+using simulators::emulators::ProfileFault;
+using simulators::emulators::ProfilometerEmulator;
 
 namespace {
 
 struct Harness {
-  explicit Harness(std::size_t points = 200, double rate = 4000.0, emulators::ProfileSource source = {}) {
+  explicit Harness(std::size_t points = 200, double rate = 4000.0, simulators::emulators::ProfileSource source = {}) {
     ProfilometerEmulator::Options o;
-    o.source = source ? std::move(source) : emulators::faced_profile_source(points, 2e-6);
+    o.source = source ? std::move(source) : simulators::emulators::faced_profile_source(points, 2e-6);
     o.points_per_s = rate;
     o.return_s = 0.02;
     emulator = std::make_unique<ProfilometerEmulator>(o);
@@ -35,7 +35,7 @@ struct Harness {
                            "\nstall_timeout_ms = 1500\nbackoff_initial_ms = 50\nbackoff_max_ms = 400\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
-    driver = std::make_unique<profilometer::ProfilometerDriver>("prof", profilometer::parse_profilometer_config(reader),
+    driver = std::make_unique<drivers::profilometer::ProfilometerDriver>("prof", drivers::profilometer::parse_profilometer_config(reader),
                                                                 1 << 16);
     reader.reject_unknown_keys();
   }
@@ -96,7 +96,7 @@ struct Harness {
 
   toml::table table;
   std::unique_ptr<ProfilometerEmulator> emulator;
-  std::unique_ptr<profilometer::ProfilometerDriver> driver;
+  std::unique_ptr<drivers::profilometer::ProfilometerDriver> driver;
   std::vector<Sample> samples;
 };
 
@@ -119,8 +119,8 @@ TEST(ProfilometerTcp, AssemblesTraversesWithHeaderAndBoundaries) {
   std::size_t starts = 0, ends = 0;
   for (const Sample& s : h.samples) {
     const bool first = s.value[3] == 0.0, last = s.value[3] == 199.0;
-    EXPECT_EQ((s.flags & profilometer::sample_profile_start) != 0, first);
-    if (s.flags & profilometer::sample_profile_end) {
+    EXPECT_EQ((s.flags & drivers::profilometer::sample_profile_start) != 0, first);
+    if (s.flags & drivers::profilometer::sample_profile_end) {
       EXPECT_TRUE(last);
       ++ends;
     }
@@ -139,7 +139,7 @@ TEST(ProfilometerTcp, SurvivesEveryFaultAndLosesNothing) {
   auto counters = [&] { return h.driver->status().counters; };
 
   for (ProfileFault f : {ProfileFault::garbage, ProfileFault::truncate, ProfileFault::bad_checksum}) {
-    SCOPED_TRACE(std::string(emulators::to_string(f)));
+    SCOPED_TRACE(std::string(simulators::emulators::to_string(f)));
     const auto before = counters();
     const std::size_t have = h.samples.size();
     h.emulator->inject(f, 1);
@@ -168,7 +168,7 @@ TEST(ProfilometerTcp, SurvivesEveryFaultAndLosesNothing) {
       std::set<double> ended;
       for (const Sample& s : h.samples) {
         ++points[s.value[2]];
-        if (s.flags & profilometer::sample_profile_end) ended.insert(s.value[2]);
+        if (s.flags & drivers::profilometer::sample_profile_end) ended.insert(s.value[2]);
       }
       want_lost = want_partial = 0;
       for (double id : ended) {
@@ -213,16 +213,16 @@ TEST(ProfilometerTcp, SurvivesEveryFaultAndLosesNothing) {
 }
 
 TEST(ProfilometerTcp, StreamsTheVirtualMachineToolsFacedProfile) {
-  auto machine = std::make_shared<const sim::Machine>(emulators::spindle_demo_machine_config());
-  sim::FacingSpec spec = emulators::demo_facing_spec();
+  auto machine = std::make_shared<const simulators::machine::Machine>(simulators::emulators::spindle_demo_machine_config());
+  simulators::machine::FacingSpec spec = simulators::emulators::demo_facing_spec();
   spec.x_end_m = spec.x_start_m + 300e-6;  // 301 points at 1 um
-  Harness h(0, 6000.0, emulators::facing_profile_source(machine, spec));
+  Harness h(0, 6000.0, simulators::emulators::facing_profile_source(machine, spec));
   h.driver->start();
   ASSERT_TRUE(test::eventually([&] { return h.driver->profiles_completed() >= 2; }));
   h.expect_matches_served();
   std::size_t compared = 0;
   for (std::uint64_t id = 1; id <= 2; ++id) {
-    sim::FacingSpec s = spec;
+    simulators::machine::FacingSpec s = spec;
     s.seed = id;  // traverse n draws its noise with seed n + 1; ids start at 1
     const auto model = machine->facing_profile(s);
     ASSERT_EQ(model.size(), 301u);
@@ -255,7 +255,7 @@ TEST(ProfilometerTcp, StopsPromptlyAndStartsAgain) {
 
 TEST(ProfilometerTcp, RegistryCreatesItAndRejectsBadConfig) {
   drivers::DriverRegistry registry;
-  profilometer::register_profilometer_driver(registry);
+  drivers::profilometer::register_profilometer_driver(registry);
   auto table = parse_toml("host = \"localhost\"\nport = 4001\n", "t.toml");
   TableReader reader(table, "t.toml", "device[0]");
   auto d = registry.create({"prof", "profilometer-tcp", 64, reader});

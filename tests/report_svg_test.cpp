@@ -21,7 +21,7 @@
 #include "report/svg.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace gr = guideway::report;
+using namespace guideway;
 namespace fs = std::filesystem;
 
 namespace {
@@ -77,7 +77,7 @@ TEST(ReportSvg, NiceTicksCoverTheRangeWithOneTwoFiveSteps) {
   for (int i = 0; i < 2000; ++i) {
     const double scale = std::pow(10.0, e(rng));
     const double a = u(rng) * scale * 10, b = a + std::abs(u(rng)) * scale;
-    const auto t = gr::nice_ticks(a, b, 6);
+    const auto t = report::nice_ticks(a, b, 6);
     ASSERT_GE(t.values.size(), 2u);
     EXPECT_LE(t.values.front(), a + 1e-12 * std::abs(a));
     EXPECT_GE(t.values.back(), b - 1e-12 * std::abs(b));
@@ -86,52 +86,52 @@ TEST(ReportSvg, NiceTicksCoverTheRangeWithOneTwoFiveSteps) {
     EXPECT_TRUE(std::abs(m - 1) < 1e-9 || std::abs(m - 2) < 1e-9 || std::abs(m - 5) < 1e-9) << t.step;
     // Every tick prints distinctly with the stated decimals.
     for (std::size_t k = 1; k < t.values.size(); ++k)
-      EXPECT_NE(gr::format_fixed(t.values[k - 1], t.decimals), gr::format_fixed(t.values[k], t.decimals));
+      EXPECT_NE(report::format_fixed(t.values[k - 1], t.decimals), report::format_fixed(t.values[k], t.decimals));
   }
-  EXPECT_EQ(gr::nice_ticks(0, 0).values.size() >= 2, true);
-  EXPECT_THROW((void)gr::nice_ticks(0, NAN), std::invalid_argument);
+  EXPECT_EQ(report::nice_ticks(0, 0).values.size() >= 2, true);
+  EXPECT_THROW((void)report::nice_ticks(0, NAN), std::invalid_argument);
 }
 
 TEST(ReportSvg, NiceCeilAndScale) {
-  EXPECT_DOUBLE_EQ(gr::nice_ceil(0.7), 1.0);
-  EXPECT_DOUBLE_EQ(gr::nice_ceil(1.0), 1.0);
-  EXPECT_DOUBLE_EQ(gr::nice_ceil(1.01), 2.0);
-  EXPECT_DOUBLE_EQ(gr::nice_ceil(3), 5.0);
-  EXPECT_NEAR(gr::nice_ceil(0.0031), 0.005, 1e-15);
-  EXPECT_THROW((void)gr::nice_ceil(0), std::invalid_argument);
-  const gr::Scale s{-2, 3, 400, 100};  // y up: data -2 at the bottom pixel 400
+  EXPECT_DOUBLE_EQ(report::nice_ceil(0.7), 1.0);
+  EXPECT_DOUBLE_EQ(report::nice_ceil(1.0), 1.0);
+  EXPECT_DOUBLE_EQ(report::nice_ceil(1.01), 2.0);
+  EXPECT_DOUBLE_EQ(report::nice_ceil(3), 5.0);
+  EXPECT_NEAR(report::nice_ceil(0.0031), 0.005, 1e-15);
+  EXPECT_THROW((void)report::nice_ceil(0), std::invalid_argument);
+  const report::Scale s{-2, 3, 400, 100};  // y up: data -2 at the bottom pixel 400
   EXPECT_DOUBLE_EQ(s(-2), 400);
   EXPECT_DOUBLE_EQ(s(3), 100);
   EXPECT_DOUBLE_EQ(s(0.5), 250);
 }
 
 TEST(ReportSvg, NumberFormattingAndEscaping) {
-  EXPECT_EQ(gr::format_fixed(-0.0001, 2), "0.00");
-  EXPECT_EQ(gr::format_fixed(-1.5, 1), "-1.5");
-  EXPECT_EQ(gr::format_number(0.0123456, 3), "0.0123");
-  EXPECT_EQ(gr::format_number(1234.6, 4), "1235");  // no exponent
-  EXPECT_EQ(gr::format_with_u(1.23456, 0.0123), "1.235 \u00b1 0.012");
-  EXPECT_EQ(gr::format_with_u(2.5, NAN), "2.5000");
-  EXPECT_EQ(gr::format_with_u(2.2519e-7, 8.5e-10), "(2.2519 \u00b1 0.0085)e-7");
-  EXPECT_EQ(gr::xml_escape("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
+  EXPECT_EQ(report::format_fixed(-0.0001, 2), "0.00");
+  EXPECT_EQ(report::format_fixed(-1.5, 1), "-1.5");
+  EXPECT_EQ(report::format_number(0.0123456, 3), "0.0123");
+  EXPECT_EQ(report::format_number(1234.6, 4), "1235");  // no exponent
+  EXPECT_EQ(report::format_with_u(1.23456, 0.0123), "1.235 \u00b1 0.012");
+  EXPECT_EQ(report::format_with_u(2.5, NAN), "2.5000");
+  EXPECT_EQ(report::format_with_u(2.2519e-7, 8.5e-10), "(2.2519 \u00b1 0.0085)e-7");
+  EXPECT_EQ(report::xml_escape("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
 }
 
 TEST(ReportSvg, LinePlotStructure) {
-  gr::LinePlot p;
+  report::LinePlot p;
   p.title = "t <1>";
   p.x_label = "x / mm";
   p.y_label = "y / um";
   for (int s = 0; s < 3; ++s) {
-    gr::Series ser;
+    report::Series ser;
     ser.label = "s" + std::to_string(s);
     for (int i = 0; i < 50; ++i) {
       ser.x.push_back(i);
       ser.y.push_back(s * std::sin(i * 0.1) + (i == 20 ? NAN : 0.0));
     }
-    ser.style = s == 2 ? gr::Style::line_markers : gr::Style::line;
+    ser.style = s == 2 ? report::Style::line_markers : report::Style::line;
     p.series.push_back(ser);
   }
-  const auto svg = gr::render(p);
+  const auto svg = report::render(p);
   EXPECT_TRUE(tags_balance(svg));
   EXPECT_EQ(count(svg, "class=\"data\""), 3u);
   EXPECT_EQ(count(svg, "class=\"axis x\""), 1u);
@@ -146,17 +146,17 @@ TEST(ReportSvg, LinePlotStructure) {
 }
 
 TEST(ReportSvg, LongSeriesAreDecimatedKeepingExtremes) {
-  gr::LinePlot p;
+  report::LinePlot p;
   p.x_label = "x / mm";
   p.y_label = "y / um";
-  gr::Series s;
+  report::Series s;
   s.label = "long";
   for (int i = 0; i < 100000; ++i) {
     s.x.push_back(i);
     s.y.push_back(i == 51234 ? 50.0 : std::sin(i * 0.01));
   }
   p.series = {s};
-  const auto svg = gr::render(p);
+  const auto svg = report::render(p);
   EXPECT_LT(svg.size(), 200000u);
   const auto at = svg.find("data-points=\"");
   ASSERT_NE(at, std::string::npos);
@@ -167,27 +167,27 @@ TEST(ReportSvg, LongSeriesAreDecimatedKeepingExtremes) {
 
 TEST(ReportSvg, PolarScaleIsTheSmallestFittingOneTwoFiveValue) {
   for (double amp : {0.03, 0.7, 1.0, 3.9, 4.0, 17.0, 250.0}) {
-    gr::PolarPlot p;
-    gr::PolarSeries s;
+    report::PolarPlot p;
+    report::PolarSeries s;
     for (int i = 0; i < 360; ++i) {
       s.angle_rad.push_back(i * std::numbers::pi / 180);
       s.deviation_um.push_back(amp * std::cos(2 * i * std::numbers::pi / 180));
     }
     p.series = {s};
-    const double per = gr::polar_um_per_div(p);
+    const double per = report::polar_um_per_div(p);
     EXPECT_LE(amp, (p.divisions - 0.2) * per * (1 + 1e-12)) << amp;
     const double m = mantissa(per);
     const double smaller = per * (std::abs(m - 5) < 1e-9 ? 0.4 : 0.5);
     EXPECT_GT(amp, (p.divisions - 0.2) * smaller) << amp;
-    const auto svg = gr::render(p);
+    const auto svg = report::render(p);
     EXPECT_TRUE(tags_balance(svg));
     EXPECT_EQ(count(svg, "class=\"ring\""), 2u * p.divisions);
-    EXPECT_NE(svg.find(gr::format_number(per, 3) + " \u00b5m/div"), std::string::npos);
+    EXPECT_NE(svg.find(report::format_number(per, 3) + " \u00b5m/div"), std::string::npos);
   }
 }
 
 TEST(ReportSvg, HeightMapAndBarsAndPanels) {
-  gr::HeightMap h;
+  report::HeightMap h;
   h.x_label = "x / mm";
   h.y_label = "y / mm";
   h.z_label = "height / um";
@@ -198,26 +198,26 @@ TEST(ReportSvg, HeightMapAndBarsAndPanels) {
       h.z.push_back(i * 0.5 - j);
     }
   h.lines = {{0, 1, 2}, {0, 4, 8, 12}};
-  const auto hs = gr::render(h);
+  const auto hs = report::render(h);
   EXPECT_TRUE(tags_balance(hs));
   EXPECT_EQ(count(hs, "class=\"data\""), 2u);
   EXPECT_EQ(count(hs, "class=\"axis colorbar\""), 1u);
   EXPECT_EQ(count(hs, "<circle"), 15u);
 
-  gr::BarChart b;
+  report::BarChart b;
   b.y_label = "rms / um";
   b.categories = {"a", "b", "c"};
   b.series = {{"in", {1.0, 0.5, 0.25}, ""}, {"out", {1.2, NAN, 0.3}, ""}};
-  const auto bs = gr::render(b);
+  const auto bs = report::render(b);
   EXPECT_TRUE(tags_balance(bs));
   EXPECT_EQ(count(bs, "class=\"data\""), 2u);
   EXPECT_EQ(count(bs, "data-points=\"2\""), 1u);  // the NaN bar is left out
 
-  gr::StackedPanels sp;
+  report::StackedPanels sp;
   sp.x_label = "x / mm";
   sp.y_unit = "um";
-  for (const char* n : {"s", "a1", "d1"}) sp.panels.push_back({n, {0, 1, 2, 3}, {0, 1, 0, 1}, "", gr::Style::line, 1});
-  const auto ps = gr::render(sp);
+  for (const char* n : {"s", "a1", "d1"}) sp.panels.push_back({n, {0, 1, 2, 3}, {0, 1, 0, 1}, "", report::Style::line, 1});
+  const auto ps = report::render(sp);
   EXPECT_TRUE(tags_balance(ps));
   EXPECT_EQ(count(ps, "class=\"panel\""), 3u);
   EXPECT_EQ(count(ps, "class=\"axis y\""), 3u);
@@ -226,23 +226,23 @@ TEST(ReportSvg, HeightMapAndBarsAndPanels) {
 
 TEST(Report, RecognisesInputsAndRendersSections) {
   const auto dir = temp_dir("render");
-  const guideway::sim::Machine machine(guideway::sim::default_machine_config());
-  guideway::sim::DbbCircleSpec spec;
+  const guideway::simulators::machine::Machine machine(guideway::simulators::machine::default_machine_config());
+  guideway::simulators::machine::DbbCircleSpec spec;
   spec.radius_m = 0.1;
   std::vector<std::string> inputs;
   for (auto d : {guideway::formats::DbbDirection::ccw, guideway::formats::DbbDirection::cw}) {
     spec.direction = d;
     const auto path = (dir / (d == guideway::formats::DbbDirection::ccw ? "ccw.csv" : "cw.csv")).string();
-    guideway::formats::write_dbb_run(guideway::sim::simulate_dbb_run(machine, spec, path), path);
+    guideway::formats::write_dbb_run(guideway::simulators::machine::simulate_dbb_run(machine, spec, path), path);
     inputs.push_back(path);
   }
   inputs.push_back(data_dir() + "/moody1955");
   inputs.push_back(std::string(GUIDEWAY_SOURCE_DIR) + "/tests/report_explain_example.json");
-  EXPECT_EQ(gr::detect_input(inputs[0]), gr::InputKind::dbb_run);
-  EXPECT_EQ(gr::detect_input(inputs[2]), gr::InputKind::union_jack);
-  EXPECT_EQ(gr::detect_input(inputs[3]), gr::InputKind::explain);
+  EXPECT_EQ(report::detect_input(inputs[0]), report::InputKind::dbb_run);
+  EXPECT_EQ(report::detect_input(inputs[2]), report::InputKind::union_jack);
+  EXPECT_EQ(report::detect_input(inputs[3]), report::InputKind::explain);
 
-  const auto html = gr::render_report(inputs);
+  const auto html = report::render_report(inputs);
   EXPECT_EQ(count(html, "<section class=\"analysis\""), 3u);  // both runs in one DBB section
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"polar\""), 1u);          // one set-up, CW and CCW overlaid
   EXPECT_NE(html.find("circular_hysteresis_um"), std::string::npos);
@@ -260,14 +260,12 @@ TEST(Report, RecognisesInputsAndRendersSections) {
 // The residual before and after each finding (issue 9): the engine keeps one residual per step (base, then
 // base + findings 1..k), the JSON carries them on one abscissa, and the report draws one panel per step.
 TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
-  namespace ex = guideway::models::explain;
-  namespace scenarios = guideway::sim::scenarios;
-  const scenarios::ScenarioResult sc = scenarios::run_scenario("dbb_backlash");
-  const ex::Report& rep = sc.report;
+  const simulators::scenarios::ScenarioResult sc = simulators::scenarios::run_scenario("dbb_backlash");
+  const models::explain::Report& rep = sc.report;
   ASSERT_GE(rep.findings.size(), 1u) << sc.failure;
   ASSERT_EQ(rep.curve_steps.size(), rep.findings.size() + 1);
   ASSERT_FALSE(rep.curve_runs.empty());
-  const auto rms_of = [&](const ex::ResidualStep& st) {
+  const auto rms_of = [&](const models::explain::ResidualStep& st) {
     double s2 = 0;
     std::size_t n = 0;
     for (const auto& curve : st.residual_um) {
@@ -292,7 +290,7 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
     moved = std::max(moved, std::abs(rep.curve_steps[1].residual_um[0][i] - rep.curve_steps[0].residual_um[0][i]));
   EXPECT_GT(moved, 0.2);  // um: the 0.5 um backlash steps
 
-  nlohmann::json j = ex::to_json(rep);
+  nlohmann::json j = models::explain::to_json(rep);
   const auto& r = j.at("residuals");
   ASSERT_EQ(r.at("steps").size(), rep.findings.size() + 1);
   EXPECT_EQ(r.at("runs").size(), rep.curve_runs.size());
@@ -305,7 +303,7 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
   const auto dir = temp_dir("explain_steps");
   const auto path = (dir / "explain.json").string();
   std::ofstream(path) << j.dump();
-  const auto html = gr::render_report({path});
+  const auto html = report::render_report({path});
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"line\""), rep.findings.size() + 1);
   EXPECT_NE(html.find(">Residual of the base model: rms "), std::string::npos);
   EXPECT_NE(html.find(">Residual after + " + rep.findings[0].effect + " (finding 1): rms "), std::string::npos);
@@ -316,14 +314,14 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
   j["residuals"]["steps"][1]["residual_um"].erase(0);
   std::ofstream(path) << j.dump();
   try {
-    (void)gr::render_report({path});
+    (void)report::render_report({path});
     ADD_FAILURE() << "no error";
-  } catch (const gr::ReportError& e) {
+  } catch (const report::ReportError& e) {
     EXPECT_NE(std::string(e.what()).find("explain.json: residuals: step '+ "), std::string::npos) << e.what();
   }
   // An EXPLAIN that says why nothing was analysed (a daemon session without an explanation model).
   std::ofstream(path) << R"({"model":"straightness traverse","not_analysed":"too few stations","findings":[],"unexplained":true})";
-  const auto na = gr::render_report({path});
+  const auto na = report::render_report({path});
   EXPECT_NE(na.find("Not analysed: too few stations"), std::string::npos);
   EXPECT_EQ(count(na, "class=\"plot\""), 0u);
   fs::remove_all(dir);
@@ -334,24 +332,24 @@ TEST(Report, BadInputIsAnErrorNamingTheFileAndLine) {
   const auto unknown = (dir / "mystery.csv").string();
   std::ofstream(unknown) << "a,b\n1,2\n";
   try {
-    (void)gr::render_report({unknown});
+    (void)report::render_report({unknown});
     FAIL() << "no error";
-  } catch (const gr::ReportError& e) {
+  } catch (const report::ReportError& e) {
     EXPECT_NE(std::string(e.what()).find("mystery.csv: not a recognised input"), std::string::npos) << e.what();
   }
   const auto bad = (dir / "bad.csv").string();
   std::ofstream(bad) << "# format = guideway/dbb-run/1\n# radius_mm = 100\n# height_mm = 0\n# direction = ccw\n"
                         "# feed_mm_per_min = 1000\n# plane = xy\nt_s,angle_deg,dL_um\n0,0,1\n0.1,1,x\n";
   try {
-    (void)gr::render_report({bad});
+    (void)report::render_report({bad});
     FAIL() << "no error";
-  } catch (const gr::ReportError& e) {
+  } catch (const report::ReportError& e) {
     EXPECT_NE(std::string(e.what()).find("bad.csv:9"), std::string::npos) << e.what();
   }
   const auto json = (dir / "e.json").string();
   std::ofstream(json) << "{\"model\": \"dbb\"";
-  EXPECT_THROW((void)gr::render_report({json}), gr::ReportError);
-  EXPECT_THROW((void)gr::render_report({(dir / "missing.csv").string()}), gr::ReportError);
-  EXPECT_THROW((void)gr::render_report({}), gr::ReportError);
+  EXPECT_THROW((void)report::render_report({json}), report::ReportError);
+  EXPECT_THROW((void)report::render_report({(dir / "missing.csv").string()}), report::ReportError);
+  EXPECT_THROW((void)report::render_report({}), report::ReportError);
   fs::remove_all(dir);
 }

@@ -14,7 +14,7 @@
 #include "drivers/serial/serial_port.hpp"
 #include "test_support.hpp"
 
-using namespace guideway::serial;
+using namespace guideway::drivers::serial;
 
 namespace {
 

@@ -15,9 +15,8 @@
 
 namespace {
 
-using namespace guideway::models;
-namespace em = guideway::emulators;
-namespace sim = guideway::sim;
+using namespace guideway::models::flatness;
+using namespace guideway;
 
 const std::string kMachine = GUIDEWAY_SOURCE_DIR "/tests/workpiece_flatness_mu2012_machine.toml";
 constexpr double kTilt = 2.8e-6;  // the machine's spindle lean = the squareness to find
@@ -30,14 +29,14 @@ StraightnessOptions traverse_u() {
 }
 
 TEST(WorkpieceFlatness, ReproducesMuExperimentOnTheEmulatedLathe) {
-  const sim::Machine m = sim::Machine::from_file(kMachine);
-  em::WorkpieceFilesSpec spec;  // 600 mm, 110 rpm, profile every 0.05 mm
+  const simulators::machine::Machine m = simulators::machine::Machine::from_file(kMachine);
+  simulators::emulators::WorkpieceFilesSpec spec;  // 600 mm, 110 rpm, profile every 0.05 mm
   std::vector<WorkpieceProfile> profiles;
   for (double feed : {2.0, 8.0})
-    profiles.push_back(parse_workpiece_profile(em::workpiece_profile_csv(m, spec, feed),
+    profiles.push_back(parse_workpiece_profile(simulators::emulators::workpiece_profile_csv(m, spec, feed),
                                                "profile_" + std::to_string(static_cast<int>(feed)) + ".csv"));
-  const auto traverse = parse_angle_traverse(em::straightness_traverse_csv(m, spec), "straightness.csv");
-  const auto runout = parse_runout_revolution(em::runout_revolution_csv(m, spec), "runout.csv");
+  const auto traverse = parse_angle_traverse(simulators::emulators::straightness_traverse_csv(m, spec), "straightness.csv");
+  const auto runout = parse_runout_revolution(simulators::emulators::runout_revolution_csv(m, spec), "runout.csv");
   const auto r = analyse_workpiece_flatness(profiles, traverse, runout, {}, traverse_u());
 
   ASSERT_EQ(r.profiles.size(), 2u);
@@ -79,14 +78,14 @@ TEST(WorkpieceFlatness, ReproducesMuExperimentOnTheEmulatedLathe) {
 TEST(WorkpieceFlatness, StraightnessDominatesWhenTheSpindleIsSquare) {
   // The same lathe with a square spindle and a carriage bent ten times as much: the correlation must
   // now name the straightness (the test can fail either way).
-  sim::MachineConfig c = sim::load_machine_config(kMachine);
+  simulators::machine::MachineConfig c = simulators::machine::load_machine_config(kMachine);
   c.spindle.tilt_x_rad = 0.0;
   for (auto& v : c.axis[0].translation[2].c) v *= 10.0;
-  const sim::Machine m(c);
-  em::WorkpieceFilesSpec spec;
+  const simulators::machine::Machine m(c);
+  simulators::emulators::WorkpieceFilesSpec spec;
   spec.profile_step_m = 0.5e-3;
-  const auto p = parse_workpiece_profile(em::workpiece_profile_csv(m, spec, 2.0), "p.csv");
-  const auto traverse = parse_angle_traverse(em::straightness_traverse_csv(m, spec), "s.csv");
+  const auto p = parse_workpiece_profile(simulators::emulators::workpiece_profile_csv(m, spec, 2.0), "p.csv");
+  const auto traverse = parse_angle_traverse(simulators::emulators::straightness_traverse_csv(m, spec), "s.csv");
   const auto r = analyse_workpiece_flatness({p}, traverse, std::nullopt, {}, traverse_u());
   EXPECT_EQ(r.dominant, "straightness");
   EXPECT_GT(r.profiles[0].correlations[1].gamma_after, 0.95);
@@ -95,10 +94,10 @@ TEST(WorkpieceFlatness, StraightnessDominatesWhenTheSpindleIsSquare) {
 
 TEST(WorkpieceFlatness, SquarenessUncertaintyCoversTheTruthInRepeatedCuts) {
   // White noise only (no deterministic waviness, which would be the same bias in every trial).
-  sim::MachineConfig c = sim::load_machine_config(kMachine);
+  simulators::machine::MachineConfig c = simulators::machine::load_machine_config(kMachine);
   c.axis[2].vibration_amplitude_m = 0.0;
-  const sim::Machine m(c);
-  em::WorkpieceFilesSpec spec;
+  const simulators::machine::Machine m(c);
+  simulators::emulators::WorkpieceFilesSpec spec;
   spec.profile_step_m = 0.5e-3;
   WorkpieceFlatnessOptions opt;
   opt.monte_carlo = 60;
@@ -107,8 +106,8 @@ TEST(WorkpieceFlatness, SquarenessUncertaintyCoversTheTruthInRepeatedCuts) {
   double sum_z = 0, sum_z2 = 0;
   for (int i = 0; i < trials; ++i) {
     spec.seed = 5000 + static_cast<std::uint64_t>(i) * 3;
-    const auto p = parse_workpiece_profile(em::workpiece_profile_csv(m, spec, 2.0), "p.csv");
-    const auto traverse = parse_angle_traverse(em::straightness_traverse_csv(m, spec), "s.csv");
+    const auto p = parse_workpiece_profile(simulators::emulators::workpiece_profile_csv(m, spec, 2.0), "p.csv");
+    const auto traverse = parse_angle_traverse(simulators::emulators::straightness_traverse_csv(m, spec), "s.csv");
     const auto r = analyse_workpiece_flatness({p}, traverse, std::nullopt, opt, traverse_u());
     const double z = (r.squareness_rad - kTilt) / r.u_squareness_rad;
     covered += std::abs(z) <= 2.0;

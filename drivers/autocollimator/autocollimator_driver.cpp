@@ -9,7 +9,7 @@
 
 #include "core/mono_clock.hpp"
 
-namespace guideway::autocollimator {
+namespace guideway::drivers::autocollimator {
 
 AutocollimatorSettings parse_autocollimator_settings(const TableReader& t) {
   AutocollimatorSettings s;
@@ -214,4 +214,4 @@ void register_autocollimator_driver(drivers::DriverRegistry& registry) {
                });
 }
 
-}  // namespace guideway::autocollimator
+}  // namespace guideway::drivers::autocollimator

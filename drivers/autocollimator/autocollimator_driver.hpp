@@ -11,7 +11,7 @@
 #include "drivers/driver.hpp"
 #include "drivers/serial/serial_port.hpp"
 
-namespace guideway::autocollimator {
+namespace guideway::drivers::autocollimator {
 
 struct AutocollimatorSettings {
   serial::SerialSettings serial;
@@ -59,4 +59,4 @@ class AutocollimatorDriver : public drivers::Driver {
 
 void register_autocollimator_driver(drivers::DriverRegistry& registry);
 
-}  // namespace guideway::autocollimator
+}  // namespace guideway::drivers::autocollimator

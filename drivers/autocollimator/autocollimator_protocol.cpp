@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
-namespace guideway::autocollimator {
+namespace guideway::drivers::autocollimator {
 
 namespace {
 
@@ -196,4 +196,4 @@ std::string format_reply(const Reading& reading, double range_arcsec, bool with_
   return out;
 }
 
-}  // namespace guideway::autocollimator
+}  // namespace guideway::drivers::autocollimator

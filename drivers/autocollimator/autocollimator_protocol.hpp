@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-namespace guideway::autocollimator {
+namespace guideway::drivers::autocollimator {
 
 enum class Request { absolute, relative, set_zero, stream_start, stream_stop };
 // The request line including its CR; period_ms only for stream_start.
@@ -55,4 +55,4 @@ std::string format_reply(const Reading& reading, double range_arcsec, bool with_
 // XOR of the bytes, as two upper-case hex digits.
 std::string checksum_hex(std::string_view bytes);
 
-}  // namespace guideway::autocollimator
+}  // namespace guideway::drivers::autocollimator

@@ -15,7 +15,7 @@
 #include <cerrno>
 #include <cstring>
 
-namespace guideway::can {
+namespace guideway::drivers::can {
 
 namespace {
 
@@ -375,4 +375,4 @@ WriteResult try_write_can_frame(int fd, const can_frame& frame, std::string& err
   }
 }
 
-}  // namespace guideway::can
+}  // namespace guideway::drivers::can

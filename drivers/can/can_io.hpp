@@ -12,7 +12,7 @@
 #include <string>
 #include <string_view>
 
-namespace guideway::can {
+namespace guideway::drivers::can {
 
 // An owned file descriptor (closed on destruction). Move-only.
 class CanSocket {
@@ -137,4 +137,4 @@ inline bool is_error_frame(const can_frame& f) noexcept { return (f.can_id & CAN
 inline bool is_rtr_frame(const can_frame& f) noexcept { return (f.can_id & CAN_RTR_FLAG) != 0; }
 inline bool is_extended_frame(const can_frame& f) noexcept { return (f.can_id & CAN_EFF_FLAG) != 0; }
 
-}  // namespace guideway::can
+}  // namespace guideway::drivers::can

@@ -15,7 +15,7 @@
 
 #include "core/mono_clock.hpp"
 
-namespace guideway::dbb {
+namespace guideway::drivers::dbb {
 
 namespace {
 
@@ -403,4 +403,4 @@ void register_dbb_driver(drivers::DriverRegistry& registry) {
                });
 }
 
-}  // namespace guideway::dbb
+}  // namespace guideway::drivers::dbb

@@ -12,7 +12,7 @@
 #include "drivers/dbb/dbb_protocol.hpp"
 #include "drivers/driver.hpp"
 
-namespace guideway::dbb {
+namespace guideway::drivers::dbb {
 
 // Listen mode's read period: a sample waits at most this in the socket, then at most the pipeline's
 // 400 us coalescing step, so p99 sample-to-publish stays under 1 ms with ~300 us left for scheduling.
@@ -134,4 +134,4 @@ class DbbDriver : public drivers::Driver {
 
 void register_dbb_driver(drivers::DriverRegistry& registry);
 
-}  // namespace guideway::dbb
+}  // namespace guideway::drivers::dbb

@@ -4,7 +4,7 @@
 #include <cstring>
 #include <limits>
 
-namespace guideway::dbb {
+namespace guideway::drivers::dbb {
 
 std::uint32_t position_to_count(const EncoderScale& scale, double position_m) noexcept {
   const double counts = (position_m - scale.offset_m) / (scale.resolution_m * scale.direction);
@@ -265,4 +265,4 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
   return r;
 }
 
-}  // namespace guideway::dbb
+}  // namespace guideway::drivers::dbb

@@ -13,7 +13,7 @@
 
 #include "core/sample.hpp"
 
-namespace guideway::dbb {
+namespace guideway::drivers::dbb {
 
 inline constexpr std::uint32_t sync_cob_id = 0x080;
 inline constexpr std::uint32_t emcy_cob_base = 0x080;   // EMCY: 0x080 + node (0x081..0x0FF)
@@ -141,4 +141,4 @@ class DbbDecoder {
   std::uint64_t late_pdos_ = 0;
 };
 
-}  // namespace guideway::dbb
+}  // namespace guideway::drivers::dbb

@@ -7,7 +7,7 @@
 #include "core/mono_clock.hpp"
 #include "core/number_format.hpp"
 
-namespace guideway::micrometer {
+namespace guideway::drivers::micrometer {
 
 MicrometerConfig parse_micrometer_config(const TableReader& t) {
   MicrometerConfig c;
@@ -335,4 +335,4 @@ void register_micrometer_driver(drivers::DriverRegistry& registry) {
                });
 }
 
-}  // namespace guideway::micrometer
+}  // namespace guideway::drivers::micrometer

@@ -16,7 +16,7 @@
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/sample_ring.hpp"
 
-namespace guideway::micrometer {
+namespace guideway::drivers::micrometer {
 
 // Buffered mode's default poll period: favours CPU over latency (docs/protocols.md, "Buffered acquisition").
 inline constexpr double default_buffer_poll_period_ms = 5.0;
@@ -88,4 +88,4 @@ class MicrometerDriver : public drivers::Driver {
 
 void register_micrometer_driver(drivers::DriverRegistry& registry);
 
-}  // namespace guideway::micrometer
+}  // namespace guideway::drivers::micrometer

@@ -4,7 +4,7 @@
 
 #include <cerrno>
 
-namespace guideway::modbus {
+namespace guideway::drivers::modbus {
 
 std::string ModbusEndpoint::describe() const {
   if (kind == Kind::tcp) return "tcp " + host + ":" + std::to_string(port) + " unit " + std::to_string(unit_id);
@@ -196,4 +196,4 @@ void ModbusClient::flush() noexcept {
   if (ctx_) modbus_flush(ctx_);
 }
 
-}  // namespace guideway::modbus
+}  // namespace guideway::drivers::modbus

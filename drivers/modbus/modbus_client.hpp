@@ -12,7 +12,7 @@
 
 struct _modbus;
 
-namespace guideway::modbus {
+namespace guideway::drivers::modbus {
 
 struct ModbusEndpoint {
   enum class Kind { tcp, rtu };
@@ -82,4 +82,4 @@ class ModbusClient {
   std::uint64_t stale_answers_ = 0;
 };
 
-}  // namespace guideway::modbus
+}  // namespace guideway::drivers::modbus

@@ -7,7 +7,7 @@
 
 #include "core/sample.hpp"
 
-namespace guideway::modbus {
+namespace guideway::drivers::modbus {
 
 std::string_view to_string(ValueType t) noexcept {
   switch (t) {
@@ -149,4 +149,4 @@ std::vector<std::uint16_t> encode_registers(const RegisterMap& map, double value
   return block;
 }
 
-}  // namespace guideway::modbus
+}  // namespace guideway::drivers::modbus

@@ -12,7 +12,7 @@
 
 #include "core/toml_access.hpp"
 
-namespace guideway::modbus {
+namespace guideway::drivers::modbus {
 
 enum class RegisterFunction { holding, input };  // read with FC 3 or FC 4
 enum class ValueType { int16, uint16, int32, uint32, float32 };
@@ -61,4 +61,4 @@ Reading decode_registers(const RegisterMap& map, std::span<const std::uint16_t> 
 // (rounded to the register's resolution, saturated to its type) and the given status word.
 std::vector<std::uint16_t> encode_registers(const RegisterMap& map, double value_m, std::uint16_t status = 0);
 
-}  // namespace guideway::modbus
+}  // namespace guideway::drivers::modbus

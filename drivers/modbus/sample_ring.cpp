@@ -4,7 +4,7 @@
 #include <bit>
 #include <cmath>
 
-namespace guideway::modbus {
+namespace guideway::drivers::modbus {
 
 namespace {
 
@@ -180,4 +180,4 @@ std::int64_t StampSequencer::stamp(std::uint64_t k, std::int64_t anchor_time_ns)
   return t;
 }
 
-}  // namespace guideway::modbus
+}  // namespace guideway::drivers::modbus

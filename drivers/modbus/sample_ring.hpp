@@ -20,7 +20,7 @@
 #include "core/toml_access.hpp"
 #include "drivers/modbus/register_map.hpp"
 
-namespace guideway::modbus {
+namespace guideway::drivers::modbus {
 
 struct SampleRingMap {
   RegisterFunction function = RegisterFunction::input;  // both counter and ring are read with it
@@ -146,4 +146,4 @@ class StampSequencer {
   std::int64_t last_t_ns_ = std::numeric_limits<std::int64_t>::min();
 };
 
-}  // namespace guideway::modbus
+}  // namespace guideway::drivers::modbus

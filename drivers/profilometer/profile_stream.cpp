@@ -6,7 +6,7 @@
 
 #include "core/sample.hpp"
 
-namespace guideway::profilometer {
+namespace guideway::drivers::profilometer {
 
 namespace {
 
@@ -299,4 +299,4 @@ void ProfileAssembler::on_line(std::string_view line, std::int64_t t_ns, std::ve
   }
 }
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::drivers::profilometer

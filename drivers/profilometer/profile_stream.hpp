@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-namespace guideway::profilometer {
+namespace guideway::drivers::profilometer {
 
 // Sample flag bits of this driver (above the generic SampleFlag bits).
 inline constexpr std::uint32_t sample_profile_start = 1u << 8;  // first point of a traverse
@@ -99,4 +99,4 @@ class ProfileAssembler {
   bool gap_ = false;
 };
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::drivers::profilometer

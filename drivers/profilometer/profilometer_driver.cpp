@@ -5,7 +5,7 @@
 
 #include "core/mono_clock.hpp"
 
-namespace guideway::profilometer {
+namespace guideway::drivers::profilometer {
 
 ProfilometerConfig parse_profilometer_config(const TableReader& t) {
   ProfilometerConfig c;
@@ -133,4 +133,4 @@ void register_profilometer_driver(drivers::DriverRegistry& registry) {
                });
 }
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::drivers::profilometer

@@ -13,7 +13,7 @@
 #include "drivers/profilometer/profile_stream.hpp"
 #include "drivers/tcp/tcp_client.hpp"
 
-namespace guideway::profilometer {
+namespace guideway::drivers::profilometer {
 
 struct ProfilometerConfig {
   std::string host = "127.0.0.1";
@@ -57,4 +57,4 @@ class ProfilometerDriver : public drivers::Driver {
 
 void register_profilometer_driver(drivers::DriverRegistry& registry);
 
-}  // namespace guideway::profilometer
+}  // namespace guideway::drivers::profilometer

@@ -12,7 +12,7 @@
 #include <cstring>
 #include <filesystem>
 
-namespace guideway::serial {
+namespace guideway::drivers::serial {
 
 namespace {
 
@@ -371,4 +371,4 @@ bool list_serial_ports(std::vector<SerialPortInfo>& ports, std::string& error) {
   return true;
 }
 
-}  // namespace guideway::serial
+}  // namespace guideway::drivers::serial

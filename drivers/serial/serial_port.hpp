@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-namespace guideway::serial {
+namespace guideway::drivers::serial {
 
 enum class Backend { automatic, termios, libserialport };
 std::string_view to_string(Backend backend) noexcept;
@@ -87,4 +87,4 @@ struct SerialPortInfo {
 // Lists the ports; false with `error` when enumeration itself fails (an empty list is not an error).
 bool list_serial_ports(std::vector<SerialPortInfo>& ports, std::string& error);
 
-}  // namespace guideway::serial
+}  // namespace guideway::drivers::serial

@@ -13,7 +13,7 @@
 #include <cstdint>
 #include <cstring>
 
-namespace guideway::tcp {
+namespace guideway::drivers::tcp {
 
 TcpClient::TcpClient() : wake_fd_(eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
 
@@ -99,4 +99,4 @@ ReadResult TcpClient::read_some(char* buffer, std::size_t size, std::chrono::mil
   return {ReadStatus::closed, 0, std::strerror(errno)};
 }
 
-}  // namespace guideway::tcp
+}  // namespace guideway::drivers::tcp

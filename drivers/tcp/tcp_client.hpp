@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <string>
 
-namespace guideway::tcp {
+namespace guideway::drivers::tcp {
 
 enum class ReadStatus { data, timeout, closed, error, interrupted };
 
@@ -39,4 +39,4 @@ class TcpClient {
   int wake_fd_ = -1;  // eventfd
 };
 
-}  // namespace guideway::tcp
+}  // namespace guideway::drivers::tcp

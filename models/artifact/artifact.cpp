@@ -6,7 +6,7 @@
 
 #include "core/csv_table.hpp"
 
-namespace guideway::models {
+namespace guideway::models::artifact {
 
 namespace {
 
@@ -287,4 +287,4 @@ ArtifactResult identify_artifact(const ArtifactReadings& calibration, const Arti
   return res;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::artifact

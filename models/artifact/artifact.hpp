@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-namespace guideway::models {
+namespace guideway::models::artifact {
 
 enum class ArtifactPlacement { calibration, horizontal, vertical };
 
@@ -100,4 +100,4 @@ struct ArtifactResult {
 ArtifactResult identify_artifact(const ArtifactReadings& calibration, const ArtifactReadings& horizontal,
                                  const ArtifactReadings& vertical, const ArtifactOptions& options = {});
 
-}  // namespace guideway::models
+}  // namespace guideway::models::artifact

@@ -2,7 +2,7 @@
 
 #include <numbers>
 
-namespace guideway::models {
+namespace guideway::models::artifact {
 
 namespace {
 
@@ -63,4 +63,4 @@ nlohmann::json to_json(const ArtifactResult& r) {
   return j;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::artifact

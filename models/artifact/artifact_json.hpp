@@ -6,8 +6,8 @@
 
 #include "models/artifact/artifact.hpp"
 
-namespace guideway::models {
+namespace guideway::models::artifact {
 
 nlohmann::json to_json(const ArtifactResult& r);
 
-}  // namespace guideway::models
+}  // namespace guideway::models::artifact

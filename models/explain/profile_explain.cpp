@@ -247,7 +247,7 @@ ProfileRun profile_run(const formats::Profile& prof, const std::string& path) {
   return r;
 }
 
-Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model, const AngleTraverse* straightness) {
+Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model, const flatness::AngleTraverse* straightness) {
   if (runs.empty()) throw std::invalid_argument("explain: no profiles");
   if (model != "flatness" && model != "straightness")
     throw std::invalid_argument("explain: unknown profile model '" + model + "'");
@@ -260,12 +260,12 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
   std::vector<double> y2_um(g.size(), 0.0);
   std::string straightness_note;
   if (straightness) {
-    const AngleTraverse& tr = *straightness;
+    const flatness::AngleTraverse& tr = *straightness;
     if (tr.pitch_rad.size() < 2 || tr.x_m.empty())
       throw std::invalid_argument("explain: " + tr.source + ": too few traverse readings (need 2)");
-    StraightnessOptions so;
+    flatness::StraightnessOptions so;
     so.bootstrap = 0;  // only the polynomial is used
-    const auto prof = straightness_from_angles(tr.x_m.front(), tr.step_m, tr.pitch_rad, so, "vertical");
+    const auto prof = flatness::straightness_from_angles(tr.x_m.front(), tr.step_m, tr.pitch_rad, so, "vertical");
     const double x0_mm = tr.x_m.front() * 1e3, x1_mm = prof.x_m.back() * 1e3, tol_mm = 1e-6;
     for (std::size_t i = 0; i < g.size(); ++i) {
       auto& p = g[i];

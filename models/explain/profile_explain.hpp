@@ -45,9 +45,9 @@ ProfileRun read_profile_run(const std::string& path);
 ProfileRun profile_run(const formats::Profile& profile, const std::string& source);
 
 // model: "flatness" or "straightness". straightness: the autocollimator traverse of the X carriage
-// (models::read_angle_traverse), flatness only; its x must cover every profile (throws naming both).
+// (flatness::read_angle_traverse), flatness only; its x must cover every profile (throws naming both).
 Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model,
-                        const AngleTraverse* straightness = nullptr);
+                        const flatness::AngleTraverse* straightness = nullptr);
 // A given prediction against a profile (equal x within 1e-9 m), no base refit.
 Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& measured);
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 inline constexpr double rad_per_arcsec = std::numbers::pi / (180.0 * 3600.0);
 inline constexpr double metres_per_inch = 0.0254;
@@ -24,4 +24,4 @@ struct Autocollimator {
   }
 };
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

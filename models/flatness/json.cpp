@@ -3,7 +3,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 namespace {
 
@@ -160,4 +160,4 @@ nlohmann::json to_json(const RunoutResult& r) {
   return j;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

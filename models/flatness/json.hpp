@@ -8,10 +8,10 @@
 #include "models/flatness/straightness.hpp"
 #include "models/flatness/union_jack.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 nlohmann::json to_json(const StraightnessResult& r);
 nlohmann::json to_json(const UnionJackResult& r, bool inch_units = false);
 nlohmann::json to_json(const RunoutResult& r);
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

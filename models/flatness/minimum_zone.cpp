@@ -7,7 +7,7 @@
 
 #include <Eigen/Dense>
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 namespace {
 
@@ -144,4 +144,4 @@ MinimumZonePlane minimum_zone_flatness(const std::vector<double>& x, const std::
   return r;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 // The zone found: its width and the lower plane.
 struct MinimumZonePlane {
@@ -21,4 +21,4 @@ struct MinimumZonePlane {
 MinimumZonePlane minimum_zone_flatness(const std::vector<double>& x, const std::vector<double>& y,
                                        const std::vector<double>& z);
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

@@ -10,7 +10,7 @@
 #include "core/number_format.hpp"
 #include "core/csv_table.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 namespace {
 
@@ -103,4 +103,4 @@ RunoutResult identify_runout(const RunoutRevolution& rev) {
   return r;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

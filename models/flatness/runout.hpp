@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 // One run-out recording with its set-up metadata (SI).
 struct RunoutRevolution {
@@ -58,4 +58,4 @@ struct RunoutResult {
 // Throws CsvError when the angles do not determine the sine (too few samples or too narrow an arc).
 RunoutResult identify_runout(const RunoutRevolution& rev);
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

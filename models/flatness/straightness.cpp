@@ -13,7 +13,7 @@
 #include "core/number_format.hpp"
 #include "core/csv_table.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 namespace {
 
@@ -398,4 +398,4 @@ StraightnessResult identify_straightness(const AngleTraverse& traverse, const St
   return r;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

@@ -15,7 +15,7 @@
 
 #include "models/flatness/angles.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 // A traverse as read from a file (SI). Reading k rests on x_m[k] (rear foot) and x_m[k] + step_m.
 struct AngleTraverse {
@@ -113,4 +113,4 @@ struct MinimumZone {
 };
 MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>& y);
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

@@ -13,7 +13,7 @@
 #include "models/flatness/minimum_zone.hpp"
 #include "core/csv_table.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 namespace {
 
@@ -270,4 +270,4 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
   return r;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

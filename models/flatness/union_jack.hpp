@@ -16,7 +16,7 @@
 
 #include "models/flatness/angles.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 // The eight lines in the order of Moody's worksheets (and of reference_heights.dat).
 enum class UnionJackLine : int { nw_se = 0, ne_sw, ne_nw, ne_se, se_sw, nw_sw, e_w, n_s };
@@ -88,4 +88,4 @@ struct UnionJackOptions {
 
 UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOptions& options = {});
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

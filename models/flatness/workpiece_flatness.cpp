@@ -15,7 +15,7 @@
 #include "models/common/least_squares.hpp"
 #include "core/csv_table.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 namespace {
 
@@ -259,4 +259,4 @@ WorkpieceFlatnessResult analyse_workpiece_flatness(const std::vector<WorkpiecePr
   return r;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

@@ -18,7 +18,7 @@
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 // One measured profile of the faced workpiece (SI), equally spaced in x.
 struct WorkpieceProfile {
@@ -64,7 +64,7 @@ struct ProfileFlatness {
   std::string dominant;                            // name of the component with the largest |gamma_after|
   double impact_factor = 0.0;                      // its gamma_after
   // Squareness from the profile: z - y2 = c + q (x - x_start), least squares. q > 0: the surface
-  // rises towards +x (the spindle leans towards +x, sim::SpindleErrors::tilt_x_rad).
+  // rises towards +x (the spindle leans towards +x, simulators::machine::SpindleErrors::tilt_x_rad).
   double squareness_rad = 0.0;
   double u_squareness_rad = 0.0;    // sqrt(u_fit^2 + u_straightness^2)
   double u_fit_rad = 0.0;           // profile noise, inflated for residual autocorrelation
@@ -113,4 +113,4 @@ WorkpieceFlatnessResult analyse_workpiece_flatness(const std::vector<WorkpiecePr
                                                    const WorkpieceFlatnessOptions& options = {},
                                                    const StraightnessOptions& straightness = {});
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

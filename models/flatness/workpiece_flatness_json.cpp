@@ -4,7 +4,7 @@
 
 #include "models/flatness/json.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 namespace {
 
@@ -90,4 +90,4 @@ nlohmann::json to_json(const WorkpieceFlatnessResult& r) {
   return j;
 }
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

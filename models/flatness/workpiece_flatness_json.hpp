@@ -6,8 +6,8 @@
 
 #include "models/flatness/workpiece_flatness.hpp"
 
-namespace guideway::models {
+namespace guideway::models::flatness {
 
 nlohmann::json to_json(const WorkpieceFlatnessResult& r);
 
-}  // namespace guideway::models
+}  // namespace guideway::models::flatness

@@ -11,7 +11,7 @@
 #include "simulators/emulators/can_serial_machine_sources.hpp"
 #include "simulators/emulators/emulator_command.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 namespace {
 
@@ -64,9 +64,9 @@ bool handle_fault(AutocollimatorEmulator& emu, const std::vector<std::string>& w
 int run_autocollimator(const AutocollimatorOptions& o) {
   block_stop_signals();
   std::signal(SIGPIPE, SIG_IGN);  // a reader of our stdout that went away must not kill the emulator
-  const sim::Machine machine(o.machine_file.empty() ? sim::default_machine_config() : sim::load_machine_config(o.machine_file));
-  sim::TraverseSpec spec;
-  spec.axis = o.axis == "y" ? sim::Axis::y : o.axis == "z" ? sim::Axis::z : sim::Axis::x;
+  const machine::Machine machine(o.machine_file.empty() ? machine::default_machine_config() : machine::load_machine_config(o.machine_file));
+  machine::TraverseSpec spec;
+  spec.axis = o.axis == "y" ? machine::Axis::y : o.axis == "z" ? machine::Axis::z : machine::Axis::x;
   spec.start_m = o.start_mm * 1e-3;
   spec.end_m = o.end_mm * 1e-3;
   spec.step_m = o.step_mm * 1e-3;
@@ -114,4 +114,4 @@ const EmulatorCommand registration(&add_autocollimator);
 
 }  // namespace
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -16,10 +16,10 @@
 #include "core/mono_clock.hpp"
 #include "drivers/serial/serial_port.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
-using autocollimator::AxisState;
-using autocollimator::Reading;
+using drivers::autocollimator::AxisState;
+using drivers::autocollimator::Reading;
 
 AutocollimatorEmulator::AutocollimatorEmulator(AutocollimatorEmulatorSettings settings, AutocollimatorSource source)
     : settings_(std::move(settings)), source_(std::move(source)), wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
@@ -180,12 +180,12 @@ void AutocollimatorEmulator::send_faults() {
     write_raw(g + "\r");
   }
   for (int n = truncated_.exchange(0); n > 0; --n) {
-    const std::string full = autocollimator::format_reply(
+    const std::string full = drivers::autocollimator::format_reply(
         Reading{false, AxisState::valid, AxisState::valid, 12.34, -5.67}, settings_.range_arcsec, settings_.checksum);
     write_raw(full.substr(0, 1 + next() % (full.size() - 2)) + "\r");
   }
   for (int n = bad_checksum_.exchange(0); n > 0; --n) {
-    std::string line = autocollimator::format_reply(Reading{false, AxisState::valid, AxisState::valid, 1.5, 2.5},
+    std::string line = drivers::autocollimator::format_reply(Reading{false, AxisState::valid, AxisState::valid, 1.5, 2.5},
                                                     settings_.range_arcsec, true);
     line[line.size() - 1] = line[line.size() - 1] == '0' ? '1' : '0';  // wrong checksum
     write_raw(line + "\r");
@@ -201,9 +201,9 @@ void AutocollimatorEmulator::send_reading(bool relative) {
   r.y_arcsec = v.y_arcsec - (relative ? zero_y_ : 0.0);
   const bool blocked = mono_now_ns() < block_until_ns_.load();
   r.x_state = r.y_state = v.reflection && !blocked ? AxisState::valid : AxisState::no_reflection;
-  const std::string line = autocollimator::format_reply(r, settings_.range_arcsec, settings_.checksum);
+  const std::string line = drivers::autocollimator::format_reply(r, settings_.range_arcsec, settings_.checksum);
   Reading sent;
-  autocollimator::parse_reply(line, false, sent);  // exactly what went out (rounded, OVER applied)
+  drivers::autocollimator::parse_reply(line, false, sent);  // exactly what went out (rounded, OVER applied)
   write_raw(line + "\r");
   std::lock_guard lock(log_mutex_);
   log_.push_back({t_s, sent});
@@ -230,7 +230,7 @@ void AutocollimatorEmulator::handle_command(const std::string& line) {
 }
 
 void AutocollimatorEmulator::loop() {
-  serial::LineFramer framer(64);
+  drivers::serial::LineFramer framer(64);
   std::vector<std::string> lines;
   std::int64_t next_stream = mono_now_ns();
   std::int64_t reopen_at = -1;
@@ -289,4 +289,4 @@ void AutocollimatorEmulator::loop() {
   }
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

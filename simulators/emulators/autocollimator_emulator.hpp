@@ -18,7 +18,7 @@
 
 #include "drivers/autocollimator/autocollimator_protocol.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 // What the instrument sees at t_s (seconds since start): the mirror's tilt about the two axes in
 // arc-seconds, and whether the beam comes back at all.
@@ -37,7 +37,7 @@ struct AutocollimatorEmulatorSettings {
 
 struct AutocollimatorSentReading {
   double t_s = 0;
-  autocollimator::Reading reading;  // as sent (rounded to 0.01", OVER/---- applied)
+  drivers::autocollimator::Reading reading;  // as sent (rounded to 0.01", OVER/---- applied)
 };
 
 class AutocollimatorEmulator {
@@ -110,4 +110,4 @@ class AutocollimatorEmulator {
   std::atomic<std::uint64_t> passes_{0};  // loop passes begun (settle())
 };
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <sstream>
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 void block_stop_signals() {
   sigset_t set;
@@ -96,4 +96,4 @@ int run_control_loop(const ControlHandler& handle, double duration_s) {
   return 0;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

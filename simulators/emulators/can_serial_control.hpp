@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 // Returns false (with a message) for an unknown or malformed command.
 using ControlHandler = std::function<bool(const std::vector<std::string>& words, std::string& message)>;
@@ -21,4 +21,4 @@ int run_control_loop(const ControlHandler& handle, double duration_s);
 bool word_to_int(const std::vector<std::string>& words, std::size_t i, int& out);
 bool word_to_double(const std::vector<std::string>& words, std::size_t i, double& out);
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -4,17 +4,17 @@
 #include <cmath>
 #include <mutex>
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 namespace {
 
-std::pair<int, int> plane_axes(sim::Plane p) {
+std::pair<int, int> plane_axes(machine::Plane p) {
   switch (p) {
-    case sim::Plane::xy:
+    case machine::Plane::xy:
       return {0, 1};
-    case sim::Plane::xz:
+    case machine::Plane::xz:
       return {0, 2};
-    case sim::Plane::yz:
+    case machine::Plane::yz:
       return {1, 2};
   }
   return {0, 1};
@@ -28,7 +28,7 @@ void DbbMotion::at(double t_s, std::span<double> out) const {
   const auto& s = run.samples;
   if (s.empty()) return;
   double t = s.front().t_s + std::fmod(std::max(t_s, 0.0), duration_s > 0 ? duration_s : 1.0);
-  auto hi = std::lower_bound(s.begin(), s.end(), t, [](const sim::DbbSample& a, double v) { return a.t_s < v; });
+  auto hi = std::lower_bound(s.begin(), s.end(), t, [](const machine::DbbSample& a, double v) { return a.t_s < v; });
   if (hi == s.begin()) hi = s.begin() + 1;
   if (hi == s.end()) hi = s.end() - 1;
   const auto lo = hi - 1;
@@ -41,7 +41,7 @@ void DbbMotion::at(double t_s, std::span<double> out) const {
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = i < 3 ? v[i] : 0.0;
 }
 
-std::shared_ptr<const DbbMotion> make_dbb_motion(const sim::Machine& machine, const sim::DbbCircleSpec& spec) {
+std::shared_ptr<const DbbMotion> make_dbb_motion(const machine::Machine& machine, const machine::DbbCircleSpec& spec) {
   auto m = std::make_shared<DbbMotion>();
   m->run = machine.dbb_circle(spec);
   m->plane = spec.plane;
@@ -51,7 +51,7 @@ std::shared_ptr<const DbbMotion> make_dbb_motion(const sim::Machine& machine, co
 
 void DbbProgram::at(double t_s, std::span<double> out) const {
   double t = std::fmod(std::max(t_s, 0.0), duration_s > 0 ? duration_s : 1.0);
-  for (const sim::DbbRun& run : runs) {
+  for (const machine::DbbRun& run : runs) {
     if (run.samples.empty()) continue;
     const double length = run.samples.back().t_s - run.samples.front().t_s;
     if (t <= length + pause_s) {
@@ -59,7 +59,7 @@ void DbbProgram::at(double t_s, std::span<double> out) const {
       const auto& s = run.samples;
       const double tt = std::min(t, length);
       auto hi = std::lower_bound(s.begin(), s.end(), s.front().t_s + tt,
-                                 [](const sim::DbbSample& a, double v) { return a.t_s < v; });
+                                 [](const machine::DbbSample& a, double v) { return a.t_s < v; });
       if (hi == s.begin()) hi = s.begin() + 1;
       if (hi == s.end()) hi = s.end() - 1;
       const auto lo = hi - 1;
@@ -76,7 +76,7 @@ void DbbProgram::at(double t_s, std::span<double> out) const {
   }
 }
 
-std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs,
+std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
                                                    double pause_s, double t0_s) {
   auto p = std::make_shared<DbbProgram>();
   p->pause_s = pause_s;
@@ -93,11 +93,11 @@ std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, 
   return p;
 }
 
-DbbSource dbb_program_source(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs, double pause_s) {
+DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs, double pause_s) {
   struct Player {
-    Player(const sim::Machine& m, std::vector<sim::DbbCircleSpec> s, double pause) : machine(m), specs(std::move(s)), pause_s(pause) {}
-    sim::Machine machine;
-    std::vector<sim::DbbCircleSpec> specs;
+    Player(const machine::Machine& m, std::vector<machine::DbbCircleSpec> s, double pause) : machine(m), specs(std::move(s)), pause_s(pause) {}
+    machine::Machine machine;
+    std::vector<machine::DbbCircleSpec> specs;
     double pause_s = 0;
     double duration_s = 0;
     std::mutex mutex;
@@ -115,7 +115,7 @@ DbbSource dbb_program_source(const sim::Machine& machine, std::vector<sim::DbbCi
     {
       std::lock_guard lock(player->mutex);
       if (pass != player->pass) {
-        std::vector<sim::DbbCircleSpec> pass_specs = player->specs;
+        std::vector<machine::DbbCircleSpec> pass_specs = player->specs;
         const std::uint64_t base = player->machine.config().noise.seed;
         for (std::size_t k = 0; k < pass_specs.size(); ++k)
           pass_specs[k].seed = (pass_specs[k].seed != 0 ? pass_specs[k].seed : base) + static_cast<std::uint64_t>(pass) * 7919u + k;
@@ -151,11 +151,11 @@ std::pair<std::size_t, bool> traverse_phase(const TraverseMotion& m, double t_s)
 
 }  // namespace
 
-const sim::TraverseStation& TraverseMotion::at(double t_s) const { return stations[traverse_phase(*this, t_s).first]; }
+const machine::TraverseStation& TraverseMotion::at(double t_s) const { return stations[traverse_phase(*this, t_s).first]; }
 
 bool TraverseMotion::reflecting(double t_s) const { return traverse_phase(*this, t_s).second; }
 
-std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec,
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine, const machine::TraverseSpec& spec,
                                                            double move_s, double return_s) {
   auto m = std::make_shared<TraverseMotion>();
   m->stations = machine.autocollimator_traverse(spec);
@@ -173,8 +173,8 @@ AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motio
   };
 }
 
-sim::MachineConfig demo_machine_config() {
-  sim::MachineConfig c;
+machine::MachineConfig demo_machine_config() {
+  machine::MachineConfig c;
   c.name = "demo";
   c.squareness.xy = 20e-6;
   c.axis[0].servo_lag_s = 0.010;
@@ -187,4 +187,4 @@ sim::MachineConfig demo_machine_config() {
   return c;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -1,7 +1,7 @@
 #pragma once
 // Sources that feed the CAN and serial emulators from the virtual machine tool: a DBB circle run
 // (bar length and the two plane axes' encoders) and an autocollimator traverse with stops. The
-// motion is computed once by guideway::sim::Machine and replayed in emulator time, repeating when
+// motion is computed once by guideway::simulators::machine::Machine and replayed in emulator time, repeating when
 // it ends. Thread safe (the sources only read an immutable run).
 
 #include <memory>
@@ -10,18 +10,18 @@
 #include "simulators/emulators/dbb_emulator.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 // The computed DBB run shared by the source and tests.
 struct DbbMotion {
-  sim::DbbRun run;
-  sim::Plane plane = sim::Plane::xy;
+  machine::DbbRun run;
+  machine::Plane plane = machine::Plane::xy;
   double duration_s = 0.0;
   // Bar length, first and second plane axis encoder at motion time t (linear interpolation,
   // t wraps around the motion's duration).
   void at(double t_s, std::span<double> out_m) const;
 };
-std::shared_ptr<const DbbMotion> make_dbb_motion(const sim::Machine& machine, const sim::DbbCircleSpec& spec);
+std::shared_ptr<const DbbMotion> make_dbb_motion(const machine::Machine& machine, const machine::DbbCircleSpec& spec);
 DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion);
 
 // A DBB test program: several circles one after the other, the machine standing still for `pause_s`
@@ -30,34 +30,34 @@ DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion);
 // starting at machine time t0_s (the source below simulates each pass at its own time, with noise of
 // its own, so that drift and vibration carry on across passes too).
 struct DbbProgram {
-  std::vector<sim::DbbRun> runs;
-  sim::Plane plane = sim::Plane::xy;
+  std::vector<machine::DbbRun> runs;
+  machine::Plane plane = machine::Plane::xy;
   double pause_s = 1.0;
   double duration_s = 0.0;  // of one pass through the program, pauses included
   void at(double t_s, std::span<double> out_m) const;
 };
-std::shared_ptr<const DbbProgram> make_dbb_program(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs,
+std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
                                                    double pause_s, double t0_s = 0.0);
 // The program played in emulator time = machine time: pass k is simulated (when the time reaches it) at
 // machine time k x the pass's duration, its noise seeded with k. Thread safe.
-DbbSource dbb_program_source(const sim::Machine& machine, std::vector<sim::DbbCircleSpec> specs, double pause_s);
+DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs, double pause_s);
 
 // The traverse: the station's angles hold while the carriage dwells there; t wraps around. Between
 // stations the reflector is lifted and set down one step on (`move_s`, no reflection), and after the
 // last station it is carried back to the start (`return_s`, no reflection): that is how a session
 // tells consecutive stations with equal angles apart and finds the start of a traverse.
 struct TraverseMotion {
-  std::vector<sim::TraverseStation> stations;
+  std::vector<machine::TraverseStation> stations;
   double dwell_s = 1.0;
   double move_s = 0.0;
   double return_s = 0.0;
   [[nodiscard]] double duration_s() const;
   // The station shown at t (during a move or the return: the station just left).
-  [[nodiscard]] const sim::TraverseStation& at(double t_s) const;
+  [[nodiscard]] const machine::TraverseStation& at(double t_s) const;
   // False while the reflector is moved or carried back.
   [[nodiscard]] bool reflecting(double t_s) const;
 };
-std::shared_ptr<const TraverseMotion> make_traverse_motion(const sim::Machine& machine, const sim::TraverseSpec& spec,
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine, const machine::TraverseSpec& spec,
                                                            double move_s = 0.0, double return_s = 0.0);
 // x: yaw, y: pitch (arc-seconds); no reflection during moves and the return (and when the beam is
 // blocked by fault injection).
@@ -65,6 +65,6 @@ AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motio
 
 // A machine with a few typical errors (squareness, servo mismatch, pitch/yaw of X, backlash) for the
 // emulators when no machine file is given.
-sim::MachineConfig demo_machine_config();
+machine::MachineConfig demo_machine_config();
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -11,7 +11,7 @@
 #include "simulators/emulators/dbb_emulator.hpp"
 #include "simulators/emulators/emulator_command.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 namespace {
 
@@ -77,22 +77,22 @@ int run_dbb(const DbbOptions& o) {
   DbbEmulatorSettings settings;
   settings.produce_sync = o.sync == "produce";
   settings.sync_rate_hz = o.sync_rate_hz;
-  const sim::Machine machine(o.machine_file.empty() ? sim::default_machine_config() : sim::load_machine_config(o.machine_file));
-  sim::DbbCircleSpec spec;
+  const machine::Machine machine(o.machine_file.empty() ? machine::default_machine_config() : machine::load_machine_config(o.machine_file));
+  machine::DbbCircleSpec spec;
   spec.radius_m = o.radius_mm * 1e-3;
   spec.height_m = o.height_mm * 1e-3;
   spec.feed_m_per_s = o.feed_mm_min / 60e3;
   spec.direction = o.direction == "ccw" ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
-  spec.plane = o.plane == "xz" ? sim::Plane::xz : o.plane == "yz" ? sim::Plane::yz : sim::Plane::xy;
+  spec.plane = o.plane == "xz" ? machine::Plane::xz : o.plane == "yz" ? machine::Plane::yz : machine::Plane::xy;
   spec.overshoot_rad = o.overshoot_deg * 3.14159265358979323846 / 180.0;
   spec.sample_rate_hz = 1000.0;
   // "lai": Lai's three patterns with one 100 mm bar (h = 31.225 mm at r = 95 mm cw and ccw, then
   // h = 0 at r = 100 mm ccw), a pause after each, repeated; "single": the one circle of the options.
-  std::vector<sim::DbbCircleSpec> specs;
+  std::vector<machine::DbbCircleSpec> specs;
   if (o.program == "lai") {
     for (auto [r_mm, h_mm, dir] : {std::tuple{95.0, 31.225, formats::DbbDirection::cw}, std::tuple{95.0, 31.225, formats::DbbDirection::ccw},
                                    std::tuple{100.0, 0.0, formats::DbbDirection::ccw}}) {
-      sim::DbbCircleSpec p = spec;
+      machine::DbbCircleSpec p = spec;
       p.radius_m = r_mm * 1e-3;
       p.height_m = h_mm * 1e-3;
       p.direction = dir;
@@ -105,7 +105,7 @@ int run_dbb(const DbbOptions& o) {
   const double nominal_length_m = program->runs.front().nominal_length_m;
   const char* names[] = {"bar_length", o.plane == "yz" ? "y" : "x", o.plane == "xy" ? "y" : "z"};
   for (std::size_t i = 0; i < 3; ++i) {
-    dbb::EncoderScale e;
+    drivers::dbb::EncoderScale e;
     e.channel = names[i];
     e.node_id = static_cast<std::uint8_t>(o.nodes[i]);
     e.resolution_m = o.resolution_nm * 1e-9;
@@ -115,23 +115,23 @@ int run_dbb(const DbbOptions& o) {
   DbbSource circle = dbb_program_source(machine, specs, o.pause_s);
   DbbEmulator emu(settings, circle);
   std::string error;
-  can::CanSocket listener;
+  drivers::can::CanSocket listener;
   if (o.fd >= 0) {
-    emu.attach(can::CanSocket(o.fd));
+    emu.attach(drivers::can::CanSocket(o.fd));
     std::printf("bus: fd %d\nendpoint: fd:%d\n", o.fd, o.fd);
   } else {
-    can::CanEndpoint ep;
-    if (!can::parse_can_endpoint(o.bus, ep, error)) throw std::runtime_error(error);
-    if (ep.kind == can::CanEndpoint::Kind::unix_gateway) {
-      listener = can::listen_can_gateway(ep.name, error);
+    drivers::can::CanEndpoint ep;
+    if (!drivers::can::parse_can_endpoint(o.bus, ep, error)) throw std::runtime_error(error);
+    if (ep.kind == drivers::can::CanEndpoint::Kind::unix_gateway) {
+      listener = drivers::can::listen_can_gateway(ep.name, error);
       if (!listener.valid()) throw std::runtime_error(error);
     } else {
-      can::CanSocket s = can::open_socketcan(ep.name, error);
+      drivers::can::CanSocket s = drivers::can::open_socketcan(ep.name, error);
       if (!s.valid()) throw std::runtime_error(error);
       emu.attach(std::move(s));
     }
     // "endpoint:" is read by the daemon's emulator launcher; the address is what the driver's `bus` takes.
-    std::printf("bus: %s\nendpoint: %s\n", can::to_string(ep).c_str(), can::to_string(ep).c_str());
+    std::printf("bus: %s\nendpoint: %s\n", drivers::can::to_string(ep).c_str(), drivers::can::to_string(ep).c_str());
   }
   std::fflush(stdout);
   emu.start(std::move(listener));
@@ -171,4 +171,4 @@ const EmulatorCommand registration(&add_dbb);
 
 }  // namespace
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -12,7 +12,7 @@
 
 #include "core/mono_clock.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 DbbEmulator::DbbEmulator(DbbEmulatorSettings settings, DbbSource source)
     : settings_(std::move(settings)),
@@ -25,7 +25,7 @@ DbbEmulator::~DbbEmulator() {
   if (wake_fd_ >= 0) ::close(wake_fd_);
 }
 
-void DbbEmulator::start(can::CanSocket listener) {
+void DbbEmulator::start(drivers::can::CanSocket listener) {
   if (running_.exchange(true)) return;
   stopped_ = false;
   listener_ = std::move(listener);
@@ -47,7 +47,7 @@ void DbbEmulator::wake() {
   (void)!::write(wake_fd_, &one, sizeof one);
 }
 
-void DbbEmulator::attach(can::CanSocket fd) {
+void DbbEmulator::attach(drivers::can::CanSocket fd) {
   if (stopped_.load()) return;  // a stopped emulator hangs up at once (fd closes here)
   {
     std::lock_guard lock(pending_mutex_);
@@ -106,7 +106,7 @@ bool DbbEmulator::send_faults(int fd, std::vector<can_frame>& batch) {
     batch.push_back(f);
   }
   for (int n = bad_.exchange(0); n > 0; --n) {
-    can_frame f = dbb::make_position_pdo(node0, next());
+    can_frame f = drivers::dbb::make_position_pdo(node0, next());
     f.can_dlc = n % 2 == 0 ? static_cast<std::uint8_t>(5 + next() % 4) : 2;
     batch.push_back(f);
   }
@@ -121,11 +121,11 @@ bool DbbEmulator::send_faults(int fd, std::vector<can_frame>& batch) {
   // Truncated records cannot be batched as can_frames: flush the batch, then write them short.
   const int truncated = truncated_.exchange(0);
   if (truncated > 0) {
-    if (!can::write_can_frames(fd, batch.data(), batch.size(), err)) return false;
+    if (!drivers::can::write_can_frames(fd, batch.data(), batch.size(), err)) return false;
     batch.clear();
     for (int n = truncated; n > 0; --n) {
-      const can_frame f = dbb::make_position_pdo(node0, next());
-      can::write_can_record(fd, &f, 1 + next() % (sizeof f - 1), err);
+      const can_frame f = drivers::dbb::make_position_pdo(node0, next());
+      drivers::can::write_can_record(fd, &f, 1 + next() % (sizeof f - 1), err);
     }
   }
   return true;
@@ -139,14 +139,14 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
     can_frame f{};
     f.can_id = CAN_ERR_FLAG | CAN_ERR_BUSOFF;
     f.can_dlc = CAN_ERR_DLC;
-    (void)can::write_can_frames(fd, &f, 1, err);
+    (void)drivers::can::write_can_frames(fd, &f, 1, err);
     restarted_ = true;
     return;
   }
   if (now < bus_off_until_ns_.load()) return;
   // A cycle goes out as one batch (like a node's TPDOs right after SYNC): SYNC, injected faults, PDOs.
   std::vector<can_frame> batch;
-  if (with_sync) batch.push_back(dbb::make_sync_frame());
+  if (with_sync) batch.push_back(drivers::dbb::make_sync_frame());
   if (!send_faults(fd, batch)) return;
   DbbSentCycle c;
   c.t_s = static_cast<double>(now - t0_ns_) * 1e-9;
@@ -157,16 +157,16 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
   {
     std::lock_guard lock(drop_mutex_);
     for (std::size_t i = 0; i < settings_.encoders.size(); ++i) {
-      c.counts[i] = dbb::position_to_count(settings_.encoders[i], c.truth_m[i]);
+      c.counts[i] = drivers::dbb::position_to_count(settings_.encoders[i], c.truth_m[i]);
       if (drop_cycles_[i] > 0) {
         --drop_cycles_[i];
         continue;
       }
-      batch.push_back(dbb::make_position_pdo(settings_.encoders[i].node_id, c.counts[i]));
+      batch.push_back(drivers::dbb::make_position_pdo(settings_.encoders[i].node_id, c.counts[i]));
       c.sent_mask |= 1u << i;
     }
   }
-  if (!can::write_can_frames(fd, batch.data(), batch.size(), err)) return;
+  if (!drivers::can::write_can_frames(fd, batch.data(), batch.size(), err)) return;
   cycles_.fetch_add(1);
   std::lock_guard lock(log_mutex_);
   log_.push_back(std::move(c));
@@ -219,18 +219,18 @@ void DbbEmulator::loop() {
     if (conn_.valid() && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
       can_frame f{};
       std::string err;
-      const auto rr = can::read_can_frame(conn_.fd(), f, 0, -1, err);
-      if (rr == can::ReadResult::closed || rr == can::ReadResult::error) {
+      const auto rr = drivers::can::read_can_frame(conn_.fd(), f, 0, -1, err);
+      if (rr == drivers::can::ReadResult::closed || rr == drivers::can::ReadResult::error) {
         close_conn();
         continue;
       }
-      if (rr == can::ReadResult::frame && !settings_.produce_sync &&
-          dbb::classify_frame(f).kind == dbb::FrameInfo::Kind::sync) {
+      if (rr == drivers::can::ReadResult::frame && !settings_.produce_sync &&
+          drivers::dbb::classify_frame(f).kind == drivers::dbb::FrameInfo::Kind::sync) {
         if (mono_now_ns() < stall_until_ns_.load()) continue;
         // Nodes answer the SYNC on the bus now: when this thread was held up and several are queued,
         // the older ones are past (a real node never answers a backlog).
         can_frame more{};
-        while (can::read_can_frame(conn_.fd(), more, 0, -1, err) == can::ReadResult::frame) {
+        while (drivers::can::read_can_frame(conn_.fd(), more, 0, -1, err) == drivers::can::ReadResult::frame) {
         }
         const std::uint64_t before = cycles_.load();
         send_cycle(conn_.fd(), false);
@@ -257,4 +257,4 @@ DbbSource ideal_circle_source(double radius_m, double feed_m_s, int direction, d
   };
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

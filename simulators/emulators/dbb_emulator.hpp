@@ -18,14 +18,14 @@
 #include "drivers/can/can_io.hpp"
 #include "drivers/dbb/dbb_protocol.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 // What the encoders see at time t_s (seconds since the emulator started): one position in metres per
 // configured encoder, in encoder order.
 using DbbSource = std::function<void(double t_s, std::span<double> positions_m)>;
 
 struct DbbEmulatorSettings {
-  std::vector<dbb::EncoderScale> encoders;
+  std::vector<drivers::dbb::EncoderScale> encoders;
   bool produce_sync = false;  // false: answer the driver's SYNC; true: we send SYNC at sync_rate_hz
   double sync_rate_hz = 100.0;
 };
@@ -51,10 +51,10 @@ class DbbEmulator {
 
   // Serve connections accepted on `listener` (a listening Unix SEQPACKET socket), one at a time,
   // and/or fds handed in with attach(). Starts the emulator thread.
-  void start(can::CanSocket listener = {});
+  void start(drivers::can::CanSocket listener = {});
   void stop();
   // Serves `fd` from now on (the previous connection is closed). Takes ownership.
-  void attach(can::CanSocket fd);
+  void attach(drivers::can::CanSocket fd);
 
   // Fault injection: applied at the next cycle (before its PDOs) unless said otherwise.
   void inject_disconnect();                                    // close the connection now
@@ -84,15 +84,15 @@ class DbbEmulator {
   DbbEmulatorSettings settings_;
   DbbSource source_;
   std::int64_t t0_ns_ = 0;
-  can::CanSocket listener_;
-  can::CanSocket conn_;
+  drivers::can::CanSocket listener_;
+  drivers::can::CanSocket conn_;
   int wake_fd_ = -1;
   std::jthread thread_;
   std::atomic<bool> running_{false};
   std::atomic<bool> stopped_{false};  // stop() was called: attach() hangs up
 
   std::mutex pending_mutex_;
-  can::CanSocket pending_;
+  drivers::can::CanSocket pending_;
   bool has_pending_ = false;
 
   std::atomic<bool> disconnect_{false};
@@ -117,4 +117,4 @@ class DbbEmulator {
 // Encoder order: bar_length, first axis, second axis.
 DbbSource ideal_circle_source(double radius_m, double feed_m_s, int direction, double bar_error_m = 0.0);
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -7,7 +7,7 @@ int main(int argc, char** argv) {
   CLI::App app{"guideway-emulate: emulated instruments driven by the virtual machine tool, on their real transports"};
   app.require_subcommand(1);
   int exit_code = 0;
-  for (auto add : guideway::emulators::EmulatorCommand::all()) add(app, exit_code);
+  for (auto add : guideway::simulators::emulators::EmulatorCommand::all()) add(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,6 +1,6 @@
 #include "simulators/emulators/emulator_command.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 EmulatorCommand::EmulatorCommand(AddEmulatorFn fn) { all().push_back(fn); }
 
@@ -9,4 +9,4 @@ std::vector<AddEmulatorFn>& EmulatorCommand::all() {
   return groups;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

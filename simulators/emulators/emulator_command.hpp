@@ -7,7 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 using AddEmulatorFn = void (*)(CLI::App& app, int& exit_code);
 
@@ -16,4 +16,4 @@ struct EmulatorCommand {
   static std::vector<AddEmulatorFn>& all();
 };
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -10,13 +10,13 @@
 
 #include "formats/profile_files.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 namespace {
 
 constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
 
-std::uint64_t seed_of(const sim::Machine& machine, std::uint64_t seed) {
+std::uint64_t seed_of(const machine::Machine& machine, std::uint64_t seed) {
   return seed != 0 ? seed : machine.config().noise.seed;
 }
 
@@ -49,8 +49,8 @@ std::string feed_label(double feed) {
 
 }  // namespace
 
-std::string workpiece_profile_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec, double feed_mm_per_min) {
-  sim::FacingSpec f;
+std::string workpiece_profile_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec, double feed_mm_per_min) {
+  machine::FacingSpec f;
   f.x_start_m = spec.x_start_m;
   f.x_end_m = spec.x_start_m + spec.traverse_m;
   f.feed_m_per_s = feed_mm_per_min * 1e-3 / 60.0;
@@ -69,9 +69,9 @@ std::string workpiece_profile_csv(const sim::Machine& machine, const WorkpieceFi
   return formats::format_profile_csv(p);
 }
 
-std::string straightness_traverse_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec) {
-  sim::TraverseSpec t;
-  t.axis = sim::Axis::x;
+std::string straightness_traverse_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec) {
+  machine::TraverseSpec t;
+  t.axis = machine::Axis::x;
   t.start_m = spec.x_start_m + spec.step_m / 2;  // the mirror sits midway between the reflector's feet
   t.end_m = spec.x_start_m + spec.traverse_m - spec.step_m / 2;
   t.step_m = spec.step_m;
@@ -87,8 +87,8 @@ std::string straightness_traverse_csv(const sim::Machine& machine, const Workpie
   return out.str();
 }
 
-std::string runout_revolution_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec) {
-  sim::RunoutSpec r;
+std::string runout_revolution_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec) {
+  machine::RunoutSpec r;
   r.probe_radius_m = spec.probe_radius_m;
   r.samples_per_rev = 360;
   r.rpm = spec.spindle_rpm;
@@ -105,7 +105,7 @@ std::string runout_revolution_csv(const sim::Machine& machine, const WorkpieceFi
   return out.str();
 }
 
-std::vector<std::string> write_workpiece_files(const sim::Machine& machine, const WorkpieceFilesSpec& spec,
+std::vector<std::string> write_workpiece_files(const machine::Machine& machine, const WorkpieceFilesSpec& spec,
                                                const std::vector<double>& feeds_mm_per_min, const std::string& dir) {
   std::vector<std::string> paths;
   for (double feed : feeds_mm_per_min) {
@@ -119,8 +119,8 @@ std::vector<std::string> write_workpiece_files(const sim::Machine& machine, cons
   return paths;
 }
 
-ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpec& spec) {
-  if (spec.axis != sim::Axis::x) throw std::invalid_argument("artifact files: only the X axis is modelled");
+ArtifactFiles artifact_files(const machine::Machine& machine, const ArtifactFilesSpec& spec) {
+  if (spec.axis != machine::Axis::x) throw std::invalid_argument("artifact files: only the X axis is modelled");
   if (spec.targets < 2) throw std::invalid_argument("artifact files: need at least 2 targets");
   const std::size_t n = spec.targets;
   const double k = spec.k_m_per_px;
@@ -142,9 +142,9 @@ ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpe
 
   // placement 0: calibration (perfect reference), 1: horizontal, 2: vertical.
   auto file = [&](int placement) {
-    std::vector<sim::ArtifactTarget> t;
+    std::vector<machine::ArtifactTarget> t;
     if (placement > 0) {
-      sim::ArtifactSpec as;
+      machine::ArtifactSpec as;
       as.axis = spec.axis;
       as.start_m = spec.start_m;
       as.pitch_m = spec.pitch_m;
@@ -210,7 +210,7 @@ ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpe
   return {file(0), file(1), file(2), ks.str(), ms.str()};
 }
 
-std::vector<std::string> write_artifact_files(const sim::Machine& machine, const ArtifactFilesSpec& spec,
+std::vector<std::string> write_artifact_files(const machine::Machine& machine, const ArtifactFilesSpec& spec,
                                               const std::string& dir) {
   const auto f = artifact_files(machine, spec);
   std::vector<std::string> paths{dir + "/calibration.csv", dir + "/horizontal.csv", dir + "/vertical.csv",
@@ -223,4 +223,4 @@ std::vector<std::string> write_artifact_files(const sim::Machine& machine, const
   return paths;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

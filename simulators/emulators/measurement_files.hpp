@@ -13,7 +13,7 @@
 
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 // Mu 2012 Sec. 4: a facing cut along X at constant feed and spindle speed, profiled every
 // `profile_step`; the X carriage traversed with an autocollimator (reflector feet `step` apart, the
@@ -31,27 +31,27 @@ struct WorkpieceFilesSpec {
   std::uint64_t seed = 0;         // 0 = the machine's noise seed
 };
 
-std::string workpiece_profile_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec, double feed_mm_per_min);
-std::string straightness_traverse_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec);
-std::string runout_revolution_csv(const sim::Machine& machine, const WorkpieceFilesSpec& spec);
+std::string workpiece_profile_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec, double feed_mm_per_min);
+std::string straightness_traverse_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec);
+std::string runout_revolution_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec);
 
 // Writes profile_<feed>mm_per_min.csv per feed, straightness.csv and runout.csv into `dir`; returns
 // the paths written. Throws std::runtime_error naming a file that cannot be written.
-std::vector<std::string> write_workpiece_files(const sim::Machine& machine, const WorkpieceFilesSpec& spec,
+std::vector<std::string> write_workpiece_files(const machine::Machine& machine, const WorkpieceFilesSpec& spec,
                                                const std::vector<double>& feeds_mm_per_min, const std::string& dir);
 
 // Wei 2019: an artifact of `targets` targets (plane mirror + paraboloid) `pitch` apart, measured by
 // an angle sensor on the tool. The artifact itself is imperfect (feature points scattered by
 // `position_scatter`, mirrors tilted by `tilt_scatter`, fixed by `artifact_seed`); the calibration
 // sees it on a perfect reference (laser with `laser_noise`), the machine in the horizontal and the
-// vertical placement with its six error functions (sim::Machine::artifact_measurement). Every spot
+// vertical placement with its six error functions (machine::Machine::artifact_measurement). Every spot
 // has white noise `spot_noise_px`. Spot model: docs/formats.md, "1-D artifact".
 struct ArtifactFilesSpec {
-  sim::Axis axis = sim::Axis::x;
+  machine::Axis axis = machine::Axis::x;
   double start_m = 0.05;
   double pitch_m = 0.05;
   std::size_t targets = 9;
-  sim::Vec3 other{};
+  machine::Vec3 other{};
   double k_m_per_px = 1.6e-6;                                // Wei: 1 px = 1.6 um
   double m_px_per_rad = 1.0 / (2.27 * 4.84813681109536e-6);  // Wei: 1 px = 2.27 arcsec
   double spot_noise_px = 0.1;                                // Wei: sub-pixel extraction, ~0.2 arcsec
@@ -69,9 +69,9 @@ struct ArtifactFiles {
   std::string k_scan;  // the reference sensor moved across target 0's paraboloid, +-50 um in 21 steps
   std::string m_scan;  // target 0's mirror tilted on the reference, +-20 arcsec in 21 steps
 };
-ArtifactFiles artifact_files(const sim::Machine& machine, const ArtifactFilesSpec& spec);
+ArtifactFiles artifact_files(const machine::Machine& machine, const ArtifactFilesSpec& spec);
 // calibration.csv, horizontal.csv, vertical.csv, k_scan.csv, m_scan.csv into `dir`; returns the paths.
-std::vector<std::string> write_artifact_files(const sim::Machine& machine, const ArtifactFilesSpec& spec,
+std::vector<std::string> write_artifact_files(const machine::Machine& machine, const ArtifactFilesSpec& spec,
                                               const std::string& dir);
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -8,11 +8,11 @@
 #include "simulators/emulators/emulator_command.hpp"
 #include "simulators/emulators/measurement_files.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 namespace {
 
-sim::Machine machine_from(const std::string& file) {
-  return sim::Machine(file.empty() ? sim::default_machine_config() : sim::load_machine_config(file));
+machine::Machine machine_from(const std::string& file) {
+  return machine::Machine(file.empty() ? machine::default_machine_config() : machine::load_machine_config(file));
 }
 
 template <class F>
@@ -108,4 +108,4 @@ const EmulatorCommand workpiece_registered{add_workpiece};
 const EmulatorCommand artifact_registered{add_artifact};
 
 }  // namespace
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

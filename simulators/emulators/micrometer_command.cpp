@@ -10,7 +10,7 @@
 #include "simulators/emulators/micrometer_machine_source.hpp"
 #include "simulators/emulators/modbus_emulator.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 namespace {
 
 struct MicrometerArgs {
@@ -40,7 +40,7 @@ int run_micrometer(const MicrometerArgs& a) {
   MicrometerEmulator::Options options;
   options.unit_id = a.unit_id;
   if (a.ring_rate_hz > 0.0) {
-    modbus::SampleRingMap ring;  // counter at 100-101, slots of int32 + status from 200
+    drivers::modbus::SampleRingMap ring;  // counter at 100-101, slots of int32 + status from 200
     ring.sample_rate_hz = a.ring_rate_hz;
     ring.ring_samples = a.ring_samples;
     if (const std::string why = ring.validate(); !why.empty()) {
@@ -52,9 +52,9 @@ int run_micrometer(const MicrometerArgs& a) {
   }
   std::string error;
   try {
-    const sim::Machine machine(a.machine_file.empty() ? sim::default_machine_config()
-                                                      : sim::load_machine_config(a.machine_file));
-    sim::RunoutSpec spec;
+    const machine::Machine machine(a.machine_file.empty() ? machine::default_machine_config()
+                                                      : machine::load_machine_config(a.machine_file));
+    machine::RunoutSpec spec;
     spec.rpm = a.rpm;
     spec.probe_radius_m = a.probe_radius_mm * 1e-3;
     spec.samples_per_rev = a.samples_per_rev;
@@ -136,4 +136,4 @@ void add_micrometer(CLI::App& app, int& exit_code) {
 const EmulatorCommand registered{add_micrometer};
 
 }  // namespace
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -2,14 +2,14 @@
 
 #include <cmath>
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
-const sim::RunoutSample& RunoutMotion::at(double t_s) const {
+const machine::RunoutSample& RunoutMotion::at(double t_s) const {
   const auto k = static_cast<std::size_t>(std::floor(std::max(0.0, t_s) / sample_period_s));
   return samples[k % samples.size()];
 }
 
-std::shared_ptr<const RunoutMotion> make_runout_motion(const sim::Machine& machine, const sim::RunoutSpec& spec) {
+std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine, const machine::RunoutSpec& spec) {
   auto m = std::make_shared<RunoutMotion>();
   m->samples = machine.runout_revolution(spec);
   m->sample_period_s = 60.0 / spec.rpm / static_cast<double>(std::max<std::size_t>(1, spec.samples_per_rev));
@@ -21,8 +21,8 @@ MicrometerSource runout_motion_source(std::shared_ptr<const RunoutMotion> motion
   return [motion](double t_s) { return MicrometerPoint{motion->at(t_s).displacement_m}; };
 }
 
-sim::MachineConfig spindle_demo_machine_config() {
-  sim::MachineConfig c;
+machine::MachineConfig spindle_demo_machine_config() {
+  machine::MachineConfig c;
   c.name = "spindle-demo";
   c.spindle.tilt_x_rad = 2.8e-6;
   c.spindle.plate_parallelism_rad = 2.5e-6;  // Mu: r = 0.3 um on a 1000 mm plate, p = 2.5 um
@@ -34,4 +34,4 @@ sim::MachineConfig spindle_demo_machine_config() {
   return c;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -1,6 +1,6 @@
 #pragma once
 // Feeds the micrometer emulator from the virtual machine tool: a probe on a thrust plate fixed to
-// the spindle face sees the plate's run-out revolution (guideway::sim::Machine::runout_revolution),
+// the spindle face sees the plate's run-out revolution (guideway::simulators::machine::Machine::runout_revolution),
 // computed once and replayed in emulator time, sample-and-hold, repeating. Thread safe (immutable).
 
 #include <memory>
@@ -9,20 +9,20 @@
 #include "simulators/emulators/modbus_emulator.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 struct RunoutMotion {
-  std::vector<sim::RunoutSample> samples;  // `revolutions` revolutions of samples_per_rev samples
+  std::vector<machine::RunoutSample> samples;  // `revolutions` revolutions of samples_per_rev samples
   double sample_period_s = 0.0;
   // The model sample the probe shows at emulator time t (t wraps around the computed revolutions).
-  [[nodiscard]] const sim::RunoutSample& at(double t_s) const;
+  [[nodiscard]] const machine::RunoutSample& at(double t_s) const;
 };
-std::shared_ptr<const RunoutMotion> make_runout_motion(const sim::Machine& machine, const sim::RunoutSpec& spec);
+std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine, const machine::RunoutSpec& spec);
 MicrometerSource runout_motion_source(std::shared_ptr<const RunoutMotion> motion);
 
 // A machine whose spindle has the errors a run-out test shows (spindle lean, run-out plate
 // parallelism, axial run-out) and an X axis with straightness in z, for a faced profile; used when no
 // machine file is given.
-sim::MachineConfig spindle_demo_machine_config();
+machine::MachineConfig spindle_demo_machine_config();
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -21,7 +21,7 @@
 
 #include "core/sample.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 namespace {
 
@@ -115,7 +115,7 @@ bool modbus_fault_from_string(std::string_view s, ModbusFault& out) noexcept {
 }
 
 MicrometerEmulator::MicrometerEmulator(Options options) : options_(std::move(options)) {
-  const modbus::RegisterMap& m = options_.map;
+  const drivers::modbus::RegisterMap& m = options_.map;
   std::uint32_t start = m.block_start();
   std::uint32_t end = start + m.block_count();
   if (const auto& ring = options_.ring) {
@@ -140,7 +140,7 @@ void MicrometerEmulator::set_register(std::uint32_t address, std::uint16_t value
 }
 
 void MicrometerEmulator::fill_ring(double t_s) {
-  const modbus::SampleRingMap& ring = *options_.ring;
+  const drivers::modbus::SampleRingMap& ring = *options_.ring;
   // Filled when asked, not on a timer: what a request sees is what a device sampling all along shows.
   const auto taken = static_cast<std::uint64_t>(std::floor(std::max(0.0, t_s) * ring.sample_rate_hz));
   const std::uint64_t from = std::max(ring_taken_, taken > ring.ring_samples ? taken - ring.ring_samples : 0);
@@ -150,12 +150,12 @@ void MicrometerEmulator::fill_ring(double t_s) {
     std::uint16_t status = 0;
     if (p.out_of_range) status |= ring.record.out_of_range_mask;
     if (p.probe_missing) status |= ring.record.probe_missing_mask;
-    const std::vector<std::uint16_t> regs = modbus::encode_registers(ring.record, p.value_m, status);
-    const std::uint32_t slot = modbus::ring_slot(ring, options_.ring_counter_start + k);
+    const std::vector<std::uint16_t> regs = drivers::modbus::encode_registers(ring.record, p.value_m, status);
+    const std::uint32_t slot = drivers::modbus::ring_slot(ring, options_.ring_counter_start + k);
     for (std::uint32_t i = 0; i < rec; ++i) set_register(ring.ring_address + slot * rec + i, regs[i]);
   }
   ring_taken_ = std::max(ring_taken_, taken);
-  const auto counter = modbus::encode_counter(ring, static_cast<std::uint32_t>(options_.ring_counter_start + ring_taken_));
+  const auto counter = drivers::modbus::encode_counter(ring, static_cast<std::uint32_t>(options_.ring_counter_start + ring_taken_));
   set_register(ring.counter_address, counter[0]);
   set_register(ring.counter_address + 1u, counter[1]);
 }
@@ -369,11 +369,11 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
   const std::uint64_t request = requests_.fetch_add(1);
   const double t_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
   const MicrometerPoint point = options_.source ? options_.source(t_s) : MicrometerPoint{};
-  const modbus::RegisterMap& map = options_.map;
+  const drivers::modbus::RegisterMap& map = options_.map;
   std::uint16_t status = 0;
   if (point.out_of_range) status |= map.out_of_range_mask;
   if (point.probe_missing) status |= map.probe_missing_mask;
-  const std::vector<std::uint16_t> block = modbus::encode_registers(map, point.value_m, status);
+  const std::vector<std::uint16_t> block = drivers::modbus::encode_registers(map, point.value_m, status);
   for (std::uint32_t i = 0; i < block.size(); ++i) set_register(map.block_start() + i, block[i]);
   if (options_.ring && options_.source) {
     const auto now = std::chrono::steady_clock::now();
@@ -403,7 +403,7 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
     }
   }
   auto record = [&] {
-    const modbus::Reading r = modbus::decode_registers(map, block);
+    const drivers::modbus::Reading r = drivers::modbus::decode_registers(map, block);
     const std::uint16_t start = static_cast<std::uint16_t>((query[hl + 1] << 8) | query[hl + 2]);
     const std::uint16_t count = static_cast<std::uint16_t>((query[hl + 3] << 8) | query[hl + 4]);
     if (start != map.block_start() || count != map.block_count()) return;  // not the driver's block read
@@ -525,4 +525,4 @@ bool apply_micrometer_command(MicrometerEmulator& emulator, const std::string& l
   return false;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

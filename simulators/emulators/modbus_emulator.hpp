@@ -3,7 +3,7 @@
 // socket, or Modbus RTU on a pseudo-terminal joined to the client's pseudo-terminal by a byte
 // bridge) whose registers follow a reading source, with switchable fault injection. Optionally it
 // also buffers samples taken at a fixed rate in a ring of registers with a sample counter
-// (modbus::SampleRingMap), as amplifiers and data loggers that sample faster than a master polls do.
+// (drivers::modbus::SampleRingMap), as amplifiers and data loggers that sample faster than a master polls do.
 // Thread safe: start/stop from the owning thread; inject/disconnect_for/served from any thread.
 
 #include <atomic>
@@ -20,7 +20,7 @@
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/sample_ring.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 // What the probe sees at time t_s (seconds since the emulator started).
 struct MicrometerPoint {
@@ -55,12 +55,12 @@ struct ServedReading {
 class MicrometerEmulator {
  public:
   struct Options {
-    modbus::RegisterMap map;
+    drivers::modbus::RegisterMap map;
     int unit_id = 1;
     MicrometerSource source = runout_source();
     // The sample ring: sample k (k = 0, 1, ... since start) is source(k / sample_rate_hz), taken at
     // start + k / rate, numbered ring_counter_start + k (mod 2^32) in the counter.
-    std::optional<modbus::SampleRingMap> ring;
+    std::optional<drivers::modbus::SampleRingMap> ring;
     std::uint32_t ring_counter_start = 0;
     // How late a `late` answer comes; the server answers nothing else meanwhile, like a slow device.
     std::chrono::milliseconds late_answer_ms{700};
@@ -128,4 +128,4 @@ class MicrometerEmulator {
 // "fault <name> [count]", "disconnect <ms>". Returns false with a message for an unknown command.
 bool apply_micrometer_command(MicrometerEmulator& emulator, const std::string& line, std::string& message);
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

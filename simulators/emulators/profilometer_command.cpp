@@ -10,7 +10,7 @@
 #include "simulators/emulators/profilometer_emulator.hpp"
 #include "simulators/emulators/profilometer_machine_source.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 namespace {
 
 struct ProfilometerArgs {
@@ -36,8 +36,8 @@ int run_profilometer(const ProfilometerArgs& a) {
     options.source = faced_profile_source(a.points, a.spacing_um * 1e-6);
   } else {
     try {
-      auto machine = std::make_shared<const sim::Machine>(
-          a.machine_file.empty() ? sim::default_machine_config() : sim::load_machine_config(a.machine_file));
+      auto machine = std::make_shared<const machine::Machine>(
+          a.machine_file.empty() ? machine::default_machine_config() : machine::load_machine_config(a.machine_file));
       options.source = facing_profile_source(machine, demo_facing_spec());
     } catch (const std::exception& e) {
       std::cerr << "guideway-emulate profilometer: " << e.what() << "\n";
@@ -84,4 +84,4 @@ void add_profilometer(CLI::App& app, int& exit_code) {
 const EmulatorCommand registered{add_profilometer};
 
 }  // namespace
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -13,7 +13,7 @@
 #include <numbers>
 #include <sstream>
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 namespace {
 
@@ -205,7 +205,7 @@ void ProfilometerEmulator::loop() {
 }
 
 bool ProfilometerEmulator::serve_client(int fd) {
-  std::string out = profilometer::format_banner(options_.instrument);
+  std::string out = drivers::profilometer::format_banner(options_.instrument);
   std::vector<ServedPoint> unsent;  // served once the bytes are handed to the kernel
   auto flush = [&] {
     if (out.empty()) return true;
@@ -227,7 +227,7 @@ bool ProfilometerEmulator::serve_client(int fd) {
     const EmulatedProfile prof = options_.source(id - 1);
     const std::size_t n = std::min(prof.x_m.size(), prof.z_m.size());
     if (n == 0) return false;
-    profilometer::ProfileHeader h;
+    drivers::profilometer::ProfileHeader h;
     h.id = id;
     h.points = n;
     h.length_m = prof.x_m[n - 1] - prof.x_m[0];
@@ -236,7 +236,7 @@ bool ProfilometerEmulator::serve_client(int fd) {
     h.tip_radius_m = options_.tip_radius_m;
     h.z_range_m = options_.z_range_m;
     h.speed_m_per_s = options_.speed_m_per_s;
-    out += profilometer::format_header(h);
+    out += drivers::profilometer::format_header(h);
     auto next_due = Clock::now();
     bool merged = false;  // the previous line was truncated: this one is glued to it and lost too
     for (std::size_t i = 0; i < n; ++i) {
@@ -268,7 +268,7 @@ bool ProfilometerEmulator::serve_client(int fd) {
         }
       }
       const bool ovr = i < prof.over_range.size() && prof.over_range[i];
-      std::string line = profilometer::format_point(i, prof.x_m[i], prof.z_m[i], h, ovr);
+      std::string line = drivers::profilometer::format_point(i, prof.x_m[i], prof.z_m[i], h, ovr);
       bool intact = !merged;
       merged = false;
       if (fault == ProfileFault::garbage) {
@@ -292,7 +292,7 @@ bool ProfilometerEmulator::serve_client(int fd) {
       out += line;
       if (intact) {
         // What a correct parser reads from this line: the values the driver must publish.
-        const auto parsed = profilometer::parse_line(std::string_view(line).substr(0, line.size() - 1));
+        const auto parsed = drivers::profilometer::parse_line(std::string_view(line).substr(0, line.size() - 1));
         if (parsed) {
           unsent.push_back({id, i, parsed->x * h.x_scale(), parsed->over_range ? std::nan("") : parsed->z * h.z_scale(),
                             parsed->over_range});
@@ -300,7 +300,7 @@ bool ProfilometerEmulator::serve_client(int fd) {
       }
       if (out.size() > 8192 && !flush()) return false;
     }
-    out += profilometer::format_end(id, n);
+    out += drivers::profilometer::format_end(id, n);
     if (!flush()) return false;
     profiles_sent_.fetch_add(1);
     // Return stroke: the stylus lifts and travels back; IDLE keeps the link alive.
@@ -308,7 +308,7 @@ bool ProfilometerEmulator::serve_client(int fd) {
         Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.return_s));
     while (Clock::now() < back) {
       if (!wait_until(std::min(back, Clock::now() + std::chrono::milliseconds(200)))) return false;
-      out += profilometer::format_idle();
+      out += drivers::profilometer::format_idle();
       if (!flush()) return false;
     }
   }
@@ -350,4 +350,4 @@ bool apply_profilometer_command(ProfilometerEmulator& emulator, const std::strin
   return false;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -14,7 +14,7 @@
 
 #include "drivers/profilometer/profile_stream.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
 // One traverse to stream: heights z_m at positions x_m (equal spacing expected); over_range points
 // are sent as OVR.
@@ -102,4 +102,4 @@ class ProfilometerEmulator {
 // "fault <name> [count]", "disconnect <ms>", "stall <ms>" (guideway-emulate reads them on stdin).
 bool apply_profilometer_command(ProfilometerEmulator& emulator, const std::string& line, std::string& message);
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -1,13 +1,13 @@
 #include "simulators/emulators/profilometer_machine_source.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
-ProfileSource facing_profile_source(std::shared_ptr<const sim::Machine> machine, sim::FacingSpec spec) {
+ProfileSource facing_profile_source(std::shared_ptr<const machine::Machine> machine, machine::FacingSpec spec) {
   return [machine, spec](std::uint64_t traverse) {
-    sim::FacingSpec s = spec;
+    machine::FacingSpec s = spec;
     s.seed = traverse + 1;
     EmulatedProfile p;
-    for (const sim::ProfilePoint& pt : machine->facing_profile(s)) {
+    for (const machine::ProfilePoint& pt : machine->facing_profile(s)) {
       p.x_m.push_back(pt.x_m);
       p.z_m.push_back(pt.z_m);
     }
@@ -15,8 +15,8 @@ ProfileSource facing_profile_source(std::shared_ptr<const sim::Machine> machine,
   };
 }
 
-sim::FacingSpec demo_facing_spec() {
-  sim::FacingSpec s;
+machine::FacingSpec demo_facing_spec() {
+  machine::FacingSpec s;
   s.x_start_m = 0.050;
   s.x_end_m = 0.060;
   s.feed_m_per_s = 2.0 / 60000.0;
@@ -26,4 +26,4 @@ sim::FacingSpec demo_facing_spec() {
   return s;
 }
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

@@ -1,6 +1,6 @@
 #pragma once
 // Feeds the profilometer emulator from the virtual machine tool: every traverse is the faced
-// workpiece's profile (guideway::sim::Machine::facing_profile) measured along the radius, traverse n
+// workpiece's profile (guideway::simulators::machine::Machine::facing_profile) measured along the radius, traverse n
 // drawing its noise with seed n + 1. Thread safe (the machine is immutable).
 
 #include <memory>
@@ -9,11 +9,11 @@
 #include "simulators/emulators/profilometer_emulator.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::emulators {
+namespace guideway::simulators::emulators {
 
-ProfileSource facing_profile_source(std::shared_ptr<const sim::Machine> machine, sim::FacingSpec spec);
+ProfileSource facing_profile_source(std::shared_ptr<const machine::Machine> machine, machine::FacingSpec spec);
 
 // A 10 mm traverse at 1 um spacing across a face cut at 2 mm/min and 100 rpm (20 um feed marks).
-sim::FacingSpec demo_facing_spec();
+machine::FacingSpec demo_facing_spec();
 
-}  // namespace guideway::emulators
+}  // namespace guideway::simulators::emulators

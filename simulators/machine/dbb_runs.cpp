@@ -6,19 +6,19 @@
 
 #include "core/number_format.hpp"
 
-namespace guideway::sim {
+namespace guideway::simulators::machine {
 
 formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source) {
-  const sim::DbbRun raw = machine.dbb_circle(spec);
+  const machine::DbbRun raw = machine.dbb_circle(spec);
   formats::DbbRun run;
   run.source = source;
   run.radius_m = spec.radius_m;
   run.height_m = spec.height_m;
   run.direction = spec.direction;
   run.feed_m_per_s = spec.feed_m_per_s;
-  run.plane = spec.plane == sim::Plane::xy ? "xy" : (spec.plane == sim::Plane::xz ? "xz" : "yz");
-  const int a = spec.plane == sim::Plane::yz ? 1 : 0;
-  const int b = spec.plane == sim::Plane::xy ? 1 : 2;
+  run.plane = spec.plane == machine::Plane::xy ? "xy" : (spec.plane == machine::Plane::xz ? "xz" : "yz");
+  const int a = spec.plane == machine::Plane::yz ? 1 : 0;
+  const int b = spec.plane == machine::Plane::xy ? 1 : 2;
   run.center_a_m = spec.center[static_cast<std::size_t>(a)];
   run.center_b_m = spec.center[static_cast<std::size_t>(b)];
   run.metadata["center_a_mm"] = shortest(run.center_a_m * 1e3);
@@ -111,4 +111,4 @@ RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorre
   return out;
 }
 
-}  // namespace guideway::sim
+}  // namespace guideway::simulators::machine

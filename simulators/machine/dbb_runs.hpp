@@ -10,7 +10,7 @@
 #include "formats/dbb_run.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::sim {
+namespace guideway::simulators::machine {
 
 // The run carries the commanded circle centre as center_a_mm / center_b_mm metadata (also when it is 0),
 // so tools that need machine positions (compensation tables) find it.
@@ -37,4 +37,4 @@ struct RemeasuredRuns {
 RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
                              const std::vector<formats::DbbRun>& runs, const Vec3& center);
 
-}  // namespace guideway::sim
+}  // namespace guideway::simulators::machine

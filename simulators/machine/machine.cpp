@@ -8,7 +8,7 @@
 
 #include "simulators/machine/noise.hpp"
 
-namespace guideway::sim {
+namespace guideway::simulators::machine {
 
 namespace {
 
@@ -537,4 +537,4 @@ CommandedPath linear_move(const Vec3& from, const Vec3& to, double feed_m_per_s)
   };
 }
 
-}  // namespace guideway::sim
+}  // namespace guideway::simulators::machine

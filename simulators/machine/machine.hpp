@@ -20,7 +20,7 @@
 
 #include "formats/dbb_run.hpp"
 
-namespace guideway::sim {
+namespace guideway::simulators::machine {
 
 using Vec3 = std::array<double, 3>;  // x, y, z in metres (machine coordinates)
 
@@ -164,7 +164,7 @@ struct MachineConfig {
   SpindleErrors spindle;
   SensorNoise noise;
   Vec3 tool_offset{};  // tool point in the Z carriage frame at zero (m); non-zero gives Abbe arms
-  // The controller's corrections (not part of a machine file; sim::remeasure_dbb loads them); they act
+  // The controller's corrections (not part of a machine file; machine::remeasure_dbb loads them); they act
   // in simulate_motion and so in every dynamic query.
   ControllerCorrection controller;
 };
@@ -351,4 +351,4 @@ class Machine {
 // Helpers for commanded paths.
 CommandedPath linear_move(const Vec3& from, const Vec3& to, double feed_m_per_s);
 
-}  // namespace guideway::sim
+}  // namespace guideway::simulators::machine

@@ -6,7 +6,7 @@
 #include "core/toml_access.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::sim {
+namespace guideway::simulators::machine {
 
 namespace {
 
@@ -146,4 +146,4 @@ MachineConfig default_machine_config() {
   return parse_machine_config(machine_example_toml, "<embedded config/machine-example.toml>");
 }
 
-}  // namespace guideway::sim
+}  // namespace guideway::simulators::machine

@@ -8,7 +8,7 @@
 #include <numbers>
 #include <random>
 
-namespace guideway::sim {
+namespace guideway::simulators::machine {
 
 class Rng {
  public:
@@ -34,4 +34,4 @@ class Rng {
   bool has_spare_ = false;
 };
 
-}  // namespace guideway::sim
+}  // namespace guideway::simulators::machine

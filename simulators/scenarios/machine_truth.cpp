@@ -9,7 +9,7 @@
 
 #include "core/number_format.hpp"
 
-namespace guideway::sim::scenarios {
+namespace guideway::simulators::scenarios {
 
 namespace {
 
@@ -19,7 +19,7 @@ const char* letter(int axis) { return axis == 0 ? "x" : (axis == 1 ? "y" : "z");
 
 }  // namespace
 
-DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const std::vector<TruthRun>& runs,
+DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, const std::vector<TruthRun>& runs,
                    bool angles_from_encoders) {
   if (plane != "xy" && plane != "xz" && plane != "yz") throw std::invalid_argument("dbb_truth: plane " + plane);
   const int a = plane == "yz" ? 1 : 0;
@@ -161,4 +161,4 @@ DbbTruth dbb_truth(const sim::MachineConfig& m, const std::string& plane, const 
   return t;
 }
 
-}  // namespace guideway::sim::scenarios
+}  // namespace guideway::simulators::scenarios

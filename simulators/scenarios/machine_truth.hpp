@@ -10,7 +10,7 @@
 
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::sim::scenarios {
+namespace guideway::simulators::scenarios {
 
 // One DBB run of the test, as PARAMS (`runs`) or a run file describes it.
 struct TruthRun {
@@ -41,7 +41,7 @@ struct DbbTruth {
 
 // plane "xy", "xz" or "yz"; angles_from_encoders: the runs' angles are the axis encoders' (a live
 // session) rather than the commanded ones (simulated runs, a ballbar's time-based angles).
-DbbTruth dbb_truth(const sim::MachineConfig& machine, const std::string& plane, const std::vector<TruthRun>& runs,
+DbbTruth dbb_truth(const machine::MachineConfig& machine, const std::string& plane, const std::vector<TruthRun>& runs,
                    bool angles_from_encoders);
 
-}  // namespace guideway::sim::scenarios
+}  // namespace guideway::simulators::scenarios

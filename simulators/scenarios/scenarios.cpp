@@ -16,9 +16,9 @@
 #include "models/explain/profile_explain.hpp"
 #include "simulators/machine/machine.hpp"
 
-namespace guideway::sim::scenarios {
+namespace guideway::simulators::scenarios {
 
-using namespace models;  // the flatness models
+using namespace models::flatness;  // the flatness models
 using namespace models::explain;
 
 namespace {
@@ -29,8 +29,8 @@ constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 
 // The machine every DBB scenario starts from: the geometric errors Lai's base describes (so the base
 // has work to do) and 0.4 um of bar noise; nothing the base leaves out.
-sim::MachineConfig dbb_machine(std::uint64_t seed) {
-  sim::MachineConfig m;
+machine::MachineConfig dbb_machine(std::uint64_t seed) {
+  machine::MachineConfig m;
   m.name = "explain-scenario";
   m.dbb.center_offset = {2 * um, -3 * um, 0};
   m.dbb.noise_m = 0.4 * um;
@@ -51,7 +51,7 @@ struct DbbRunPlan {
 struct DbbScenario {
   std::string name;
   std::string concealment;
-  std::function<void(sim::MachineConfig&)> inject;
+  std::function<void(machine::MachineConfig&)> inject;
   std::vector<Expectation> expected;
   std::vector<DbbRunPlan> runs{{formats::DbbDirection::ccw}, {formats::DbbDirection::cw}};
   double gap_s = 10.0;  // machine time between one run's end and the next one's start
@@ -65,7 +65,7 @@ struct DbbScenario {
   std::vector<std::pair<double, double>> region_deg;
 };
 
-DbbScenario sc(std::string name, std::string concealment, std::function<void(sim::MachineConfig&)> inject,
+DbbScenario sc(std::string name, std::string concealment, std::function<void(machine::MachineConfig&)> inject,
                std::vector<Expectation> expected, std::vector<DbbRunPlan> runs = {{formats::DbbDirection::ccw}, {formats::DbbDirection::cw}},
                double gap_s = 10.0) {
   DbbScenario s;
@@ -79,12 +79,12 @@ DbbScenario sc(std::string name, std::string concealment, std::function<void(sim
 }
 
 // Runs one after another on one machine clock (start_time_s metadata), gap_s apart.
-std::vector<formats::DbbRun> dbb_runs(const sim::MachineConfig& cfg, const DbbScenario& sc, const ScenarioOptions& o) {
-  const sim::Machine machine(cfg);
+std::vector<formats::DbbRun> dbb_runs(const machine::MachineConfig& cfg, const DbbScenario& sc, const ScenarioOptions& o) {
+  const machine::Machine machine(cfg);
   std::vector<formats::DbbRun> runs;
   double t0 = 0;
   for (std::size_t k = 0; k < sc.runs.size(); ++k) {
-    sim::DbbCircleSpec spec;
+    machine::DbbCircleSpec spec;
     spec.radius_m = sc.runs[k].radius_mm * 1e-3;
     spec.direction = sc.runs[k].direction;
     spec.feed_m_per_s = sc.runs[k].feed_mm_per_min / 60000.0;
@@ -92,7 +92,7 @@ std::vector<formats::DbbRun> dbb_runs(const sim::MachineConfig& cfg, const DbbSc
     spec.sample_rate_hz = omega * 180 / pi * (o.quick && !sc.full_density ? 3.0 : 10.0);
     spec.t0_s = t0;
     spec.seed = o.seed * 1000 + k + 1;
-    formats::DbbRun run = simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1));
+    formats::DbbRun run = machine::simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1));
     run.metadata["start_time_s"] = printf_number("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
     runs.push_back(std::move(run));
     t0 += (2 * pi + 2 * spec.overshoot_rad) / omega + sc.gap_s;
@@ -112,31 +112,31 @@ Expectation expect(std::string effect, std::string parameter, double truth, doub
 
 // Sizes of the injected effects (each visible above the 0.4 um noise at these feeds; the concealment
 // column says what hides it).
-void backlash(sim::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].backlash_m = um_ * um; }
-void vibration(sim::MachineConfig& m, int axis, double um_, double hz) {
+void backlash(machine::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].backlash_m = um_ * um; }
+void vibration(machine::MachineConfig& m, int axis, double um_, double hz) {
   m.axis[static_cast<std::size_t>(axis)].vibration_amplitude_m = um_ * um;
   m.axis[static_cast<std::size_t>(axis)].vibration_frequency_hz = hz;
 }
-void cyclic(sim::MachineConfig& m, int axis, double um_, double period_mm) {
+void cyclic(machine::MachineConfig& m, int axis, double um_, double period_mm) {
   m.axis[static_cast<std::size_t>(axis)].cyclic_amplitude_m = um_ * um;
   m.axis[static_cast<std::size_t>(axis)].cyclic_period_m = period_mm * 1e-3;
 }
-void spike(sim::MachineConfig& m, int axis, double um_, double decay_ms) {
+void spike(machine::MachineConfig& m, int axis, double um_, double decay_ms) {
   m.axis[static_cast<std::size_t>(axis)].reversal_spike_m = um_ * um;
   m.axis[static_cast<std::size_t>(axis)].reversal_spike_decay_s = decay_ms * 1e-3;
 }
-void stick_slip(sim::MachineConfig& m, int axis, double um_, double hz, double decay_ms) {
+void stick_slip(machine::MachineConfig& m, int axis, double um_, double hz, double decay_ms) {
   auto& a = m.axis[static_cast<std::size_t>(axis)];
   a.stick_slip_m = um_ * um;
   a.stick_slip_hz = hz;
   a.stick_slip_decay_s = decay_ms * 1e-3;
 }
-void lateral(sim::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].lateral_play_m = um_ * um; }
-void centre_drift(sim::MachineConfig& m, double x_um_per_min, double y_um_per_min) {
+void lateral(machine::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].lateral_play_m = um_ * um; }
+void centre_drift(machine::MachineConfig& m, double x_um_per_min, double y_um_per_min) {
   m.axis[0].drift_m_per_s = x_um_per_min * um / 60.0;
   m.axis[1].drift_m_per_s = y_um_per_min * um / 60.0;
 }
-void lags(sim::MachineConfig& m, double x_ms, double y_ms) {
+void lags(machine::MachineConfig& m, double x_ms, double y_ms) {
   m.axis[0].servo_lag_s = x_ms * 1e-3;
   m.axis[1].servo_lag_s = y_ms * 1e-3;
 }
@@ -147,7 +147,7 @@ void lags(sim::MachineConfig& m, double x_ms, double y_ms) {
 // The bar set up 15/-12 um off the circle's centre (a usual set-up error) reads over +-19 um, where
 // 0.001 dL^2 + 2e-5 dL^3 (um) adds up to 0.5 um; the gain it changes by over the reading (+-4 %) scales
 // every other effect's reading with it.
-void nonlinear_bar(sim::MachineConfig& m) {
+void nonlinear_bar(machine::MachineConfig& m) {
   m.dbb.center_offset = {15 * um, -12 * um, 0};
   m.dbb.nonlinearity_quadratic_per_m = 0.001 / um;
   m.dbb.nonlinearity_cubic_per_m2 = 2e-5 / (um * um);
@@ -157,7 +157,7 @@ const std::vector<DbbRunPlan> two_radii{{formats::DbbDirection::ccw, 1000, 100},
 std::vector<DbbRunPlan> both_at(double feed) { return {{formats::DbbDirection::ccw, feed, 100}, {formats::DbbDirection::cw, feed, 100}}; }
 
 const std::vector<DbbScenario>& dbb_scenarios() {
-  using sim::MachineConfig;
+  using machine::MachineConfig;
   static const std::vector<DbbScenario> all = [] {
     std::vector<DbbScenario> v;
     // One effect at a time.
@@ -358,7 +358,7 @@ ScenarioResult dbb_scenario(const DbbScenario& sc, const ScenarioOptions& o) {
   s.concealment = sc.concealment;
   s.expected = sc.expected;
   s.expect_unexplained = sc.expect_unexplained;
-  sim::MachineConfig m = dbb_machine(o.seed);
+  machine::MachineConfig m = dbb_machine(o.seed);
   sc.inject(m);
   s.report = models::explain::explain(dbb_problem(dbb_runs(m, sc, o)), o.explain);
   evaluate(s);
@@ -405,8 +405,8 @@ ScenarioResult dbb_scenario(const DbbScenario& sc, const ScenarioOptions& o) {
 //   flatness: a bow and an S (1.6 um at 20 mm), the carriage pitching with its guideway's slope, as
 //             an autocollimator on it sees it (0.2 arcsec noise per reading).
 //   straightness: a bow, 0.8 um at 20 mm.
-sim::MachineConfig facing_machine(std::uint64_t seed, bool flatness) {
-  sim::MachineConfig m;
+machine::MachineConfig facing_machine(std::uint64_t seed, bool flatness) {
+  machine::MachineConfig m;
   m.name = "explain-facing";
   m.spindle.tilt_x_rad = 5e-6;
   if (flatness) {
@@ -426,11 +426,11 @@ sim::MachineConfig facing_machine(std::uint64_t seed, bool flatness) {
 // (minus the rotation about +y). The stations are logged against the machine's displayed X, which
 // includes the tool offset (the tool's radius), so with an Abbe arm the carriage sits tool_offset
 // behind the label.
-AngleTraverse facing_traverse(const sim::Machine& machine, std::uint64_t seed) {
+AngleTraverse facing_traverse(const machine::Machine& machine, std::uint64_t seed) {
   constexpr double step = 1e-3;
   const double arm = machine.config().tool_offset[0];
-  sim::TraverseSpec t;
-  t.axis = sim::Axis::x;
+  machine::TraverseSpec t;
+  t.axis = machine::Axis::x;
   t.start_m = step / 2 - arm;
   t.end_m = 0.02 - step / 2 - arm;
   t.step_m = step;
@@ -446,12 +446,12 @@ AngleTraverse facing_traverse(const sim::Machine& machine, std::uint64_t seed) {
   return tr;
 }
 
-std::vector<ProfileRun> facing_runs(const sim::Machine& machine, const std::vector<double>& feeds_mm_per_min,
+std::vector<ProfileRun> facing_runs(const machine::Machine& machine, const std::vector<double>& feeds_mm_per_min,
                                     bool runout_along_path, const ScenarioOptions& o) {
   std::vector<ProfileRun> runs;
   double t0 = 0;
   for (std::size_t k = 0; k < feeds_mm_per_min.size(); ++k) {
-    sim::FacingSpec spec;
+    machine::FacingSpec spec;
     spec.x_start_m = 0.0;
     spec.x_end_m = 0.02;
     spec.feed_m_per_s = feeds_mm_per_min[k] / 60000.0;
@@ -480,7 +480,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
   ScenarioResult s;
   s.name = name;
   s.model = name.rfind("flatness_", 0) == 0 ? "flatness" : "straightness";
-  sim::MachineConfig m = facing_machine(o.seed, s.model == "flatness");
+  machine::MachineConfig m = facing_machine(o.seed, s.model == "flatness");
   std::vector<double> feeds{2.0, 8.0};
   bool along_path = false;
   if (name == "flatness_thermal_two_feeds" || name == "straightness_thermal_two_feeds") {
@@ -512,7 +512,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
   } else {
     throw std::invalid_argument("unknown scenario: " + name);
   }
-  const sim::Machine machine(m);
+  const machine::Machine machine(m);
   std::optional<AngleTraverse> traverse;
   if (s.model == "flatness") traverse = facing_traverse(machine, o.seed);
   s.report = models::explain::explain(profile_problem(facing_runs(machine, feeds, along_path, o), s.model, traverse ? &*traverse : nullptr), o.explain);
@@ -654,4 +654,4 @@ std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summarie
   return o.str();
 }
 
-}  // namespace guideway::sim::scenarios
+}  // namespace guideway::simulators::scenarios

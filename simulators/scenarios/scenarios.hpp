@@ -14,7 +14,7 @@
 
 #include "models/explain/explain.hpp"
 
-namespace guideway::sim::scenarios {
+namespace guideway::simulators::scenarios {
 
 struct ScenarioOptions {
   bool quick = true;      // 3 samples per degree (unit tests) where an effect does not need the instrument's
@@ -85,4 +85,4 @@ Coverage uncertainty_coverage(const std::vector<ScenarioSummary>& summaries);
 // The results table (Markdown) for docs/explain.md, with a line on the coverage.
 std::string scenario_table_markdown(const std::vector<ScenarioSummary>& summaries);
 
-}  // namespace guideway::sim::scenarios
+}  // namespace guideway::simulators::scenarios
