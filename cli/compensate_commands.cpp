@@ -80,7 +80,8 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const models::comp
   simulators::machine::ControllerCorrection tables;
   for (const auto& axis : axes)
     tables.tables[static_cast<std::size_t>(models::compensation::joint_of(axis))] =
-        simulators::machine::joint_compensation(formats::read_linuxcnc_comp((fs::path(out_dir) / (axis + ".comp")).string()));
+        simulators::machine::joint_compensation(
+            formats::read_linuxcnc_comp((fs::path(out_dir) / (axis + ".comp")).string()));
   simulators::machine::Vec3 center{};
   center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[0].axis))] = map.terms_of[0].center_m;
   center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[1].axis))] = map.terms_of[1].center_m;
@@ -99,8 +100,10 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const models::comp
   const simulators::machine::RemeasuredRuns r = simulators::machine::remeasure_dbb(config, full, runs, center);
   v.before = models::dbb::identify(r.before);
   v.after = models::dbb::identify(r.after);
-  v.skewed = v.cross ? models::dbb::identify(simulators::machine::remeasure_dbb(config, skewed, runs, center).after) : v.after;
-  v.tables = v.skew ? models::dbb::identify(simulators::machine::remeasure_dbb(config, tables, runs, center).after) : v.skewed;
+  v.skewed =
+      v.cross ? models::dbb::identify(simulators::machine::remeasure_dbb(config, skewed, runs, center).after) : v.after;
+  v.tables =
+      v.skew ? models::dbb::identify(simulators::machine::remeasure_dbb(config, tables, runs, center).after) : v.skewed;
   const fs::path dir = fs::path(out_dir) / "verify";
   fs::create_directories(dir);
   // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
@@ -161,8 +164,8 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
     else if (t && t->significant && t->use == models::compensation::Use::cross_table)
       status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
     else if (t && t->significant)
-      status =
-          t->use == models::compensation::Use::map_only ? "no per-joint table can hold it (errors.csv)" : "servo/friction: no table";
+      status = t->use == models::compensation::Use::map_only ? "no per-joint table can hold it (errors.csv)"
+                                                             : "servo/friction: no table";
     else if (t)
       status = "not applied (not significant)";
     o << "  " << e.name << std::string(e.name.size() < 28 ? 28 - e.name.size() : 1, ' ')
@@ -271,10 +274,11 @@ void run_compensate(const Opts& o, const std::string& socket) {
          {"value", t.value},
          {"u", t.u},
          {"significant", t.significant},
-         {"use", t.use == models::compensation::Use::table ? "table"
-                                           : (t.use == models::compensation::Use::map_only
-                                                  ? "errors.csv"
-                                                  : (t.use == models::compensation::Use::cross_table ? "straightness.csv" : "none"))},
+         {"use", t.use == models::compensation::Use::table
+                     ? "table"
+                     : (t.use == models::compensation::Use::map_only
+                            ? "errors.csv"
+                            : (t.use == models::compensation::Use::cross_table ? "straightness.csv" : "none"))},
          {"why", t.why}});
   j["terms"] = terms;
   if (map.squareness_known) {

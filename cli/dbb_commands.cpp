@@ -80,7 +80,9 @@ void add_dbb_commands(CLI::App& app, CliContext& /*ctx*/) {
     spec.radius_m = so->radius_mm * 1e-3;
     spec.height_m = so->height_mm * 1e-3;
     spec.direction = so->direction == "cw" ? formats::DbbDirection::cw : formats::DbbDirection::ccw;
-    spec.plane = so->plane == "xz" ? simulators::machine::Plane::xz : (so->plane == "yz" ? simulators::machine::Plane::yz : simulators::machine::Plane::xy);
+    spec.plane = so->plane == "xz"
+                     ? simulators::machine::Plane::xz
+                     : (so->plane == "yz" ? simulators::machine::Plane::yz : simulators::machine::Plane::xy);
     spec.feed_m_per_s = so->feed * 1e-3 / 60.0;
     spec.start_angle_rad = so->start_deg * deg;
     spec.overshoot_rad = so->overshoot_deg * deg;

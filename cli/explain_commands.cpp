@@ -78,7 +78,8 @@ struct Opts {
   std::uint64_t seed = 1;
   std::string table_out;
   double alpha = 1e-3;
-  std::size_t max_effects = models::explain::ExplainOptions{}.max_effects, folds = models::explain::ExplainOptions{}.folds;
+  std::size_t max_effects = models::explain::ExplainOptions{}.max_effects,
+              folds = models::explain::ExplainOptions{}.folds;
   std::uint64_t seeds = 0;
   std::string machine;
 };
@@ -153,7 +154,8 @@ int run_scenarios(const Opts& o) {
 }
 
 // The findings beside what the machine file holds (simulators/scenarios/machine_truth.hpp).
-nlohmann::json against_machine(const nlohmann::json& report, const simulators::scenarios::DbbTruth& truth, const std::string& file) {
+nlohmann::json against_machine(const nlohmann::json& report, const simulators::scenarios::DbbTruth& truth,
+                               const std::string& file) {
   nlohmann::json j = {{"machine_file", file}, {"findable", nlohmann::json::array()}, {"unobservable", nlohmann::json::array()},
                       {"not_in_machine", nlohmann::json::array()}, {"note", truth.note}};
   const auto found = [&](const std::string& parameter) -> const nlohmann::json* {
@@ -173,9 +175,10 @@ nlohmann::json against_machine(const nlohmann::json& report, const simulators::s
   }
   for (const auto& f : report.at("findings")) {
     const std::string effect = f.at("effect");
-    const bool known = std::any_of(truth.findable.begin(), truth.findable.end(), [&](const simulators::scenarios::TruthItem& i) {
-      return i.effect == effect && f.at("parameters").contains(i.parameter);
-    });
+    const bool known =
+        std::any_of(truth.findable.begin(), truth.findable.end(), [&](const simulators::scenarios::TruthItem& i) {
+          return i.effect == effect && f.at("parameters").contains(i.parameter);
+        });
     if (!known) j["not_in_machine"].push_back(effect);
   }
   for (const auto& u : truth.unobservable) j["unobservable"].push_back({{"what", u.what}, {"why", u.why}});
@@ -292,8 +295,11 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
           t.sample_rate_hz = seconds > 0 ? run.at("n").get<double>() / seconds : 0.0;
           runs.push_back(t);
         }
-        comparison = against_machine(r, simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o->machine), params.value("plane", "xy"), runs, true),
-                                     o->machine);
+        comparison =
+            against_machine(r,
+                            simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o->machine),
+                                                             params.value("plane", "xy"), runs, true),
+                            o->machine);
       }
       if (o->json) {
         if (!comparison.is_null()) r["against_machine"] = comparison;
@@ -329,12 +335,13 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
                                  ") are not of one format");
       if (fs == formats::dbb_run_format_id) {
         report = models::explain::explain(models::explain::dbb_compare_problem(formats::read_dbb_run(o->simulated),
-                                                     formats::read_dbb_run(o->measured)),
-                             eo);
+                                                                               formats::read_dbb_run(o->measured)),
+                                          eo);
       } else if (fs == "guideway/profile/1") {
-        report = models::explain::explain(models::explain::profile_compare_problem(models::explain::read_profile_run(o->simulated),
-                                                         models::explain::read_profile_run(o->measured)),
-                             eo);
+        report = models::explain::explain(
+            models::explain::profile_compare_problem(models::explain::read_profile_run(o->simulated),
+                                                     models::explain::read_profile_run(o->measured)),
+            eo);
       } else {
         throw std::runtime_error("explain: " + o->simulated + ": format '" + fs +
                                  "' is neither guideway/dbb-run/1 nor guideway/profile/1");
@@ -356,16 +363,19 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
             const auto it = run.metadata.find("angle_source");
             encoders = encoders && it != run.metadata.end() && it->second == "encoders";
           }
-          machine_comparison = against_machine(
-              models::explain::to_json(report), simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o->machine), runs.front().plane, truth_runs, encoders),
-              o->machine);
+          machine_comparison =
+              against_machine(models::explain::to_json(report),
+                              simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o->machine),
+                                                               runs.front().plane, truth_runs, encoders),
+                              o->machine);
         }
       } else {
         std::vector<models::explain::ProfileRun> runs;
         for (const auto& f : o->files) runs.push_back(models::explain::read_profile_run(f));
         std::optional<models::flatness::AngleTraverse> traverse;
         if (!o->straightness.empty()) traverse = models::flatness::read_angle_traverse(o->straightness);
-        report = models::explain::explain(models::explain::profile_problem(runs, o->model, traverse ? &*traverse : nullptr), eo);
+        report = models::explain::explain(
+            models::explain::profile_problem(runs, o->model, traverse ? &*traverse : nullptr), eo);
       }
     }
     if (!o->machine.empty() && machine_comparison.is_null())

@@ -23,7 +23,6 @@ namespace guideway::cli {
 
 namespace {
 
-
 template <class F>
 void run_reporting(F&& f) {
   try {
@@ -43,8 +42,9 @@ void print_line(const char* name, const models::flatness::ReferenceLine& r) {
 }
 
 void print_profile(const models::flatness::StraightnessProfile& p) {
-  std::cout << p.plane << " straightness (u per reading " << std::setprecision(3) << p.u_angle_rad / models::flatness::rad_per_arcsec
-            << " arcsec, u at the end of the integration " << p.u_height_m.back() * 1e6 << " um):\n";
+  std::cout << p.plane << " straightness (u per reading " << std::setprecision(3)
+            << p.u_angle_rad / models::flatness::rad_per_arcsec << " arcsec, u at the end of the integration "
+            << p.u_height_m.back() * 1e6 << " um):\n";
   print_line("end-point line", p.end_point);
   print_line("least squares", p.least_squares);
   print_line("minimum zone", p.minimum_zone);
@@ -58,8 +58,8 @@ void print_profile(const models::flatness::StraightnessProfile& p) {
     if (k > 0) std::cout << " x" << (k > 1 ? "^" + std::to_string(k) : "");
   }
   std::cout << std::fixed << std::setprecision(4) << "\n    fit residual rms " << f.residual_rms_m * 1e6 << " um, max "
-            << f.residual_max_m * 1e6 << " um; angle residual rms " << f.angle_residual_rms_rad / models::flatness::rad_per_arcsec
-            << " arcsec\n";
+            << f.residual_max_m * 1e6 << " um; angle residual rms "
+            << f.angle_residual_rms_rad / models::flatness::rad_per_arcsec << " arcsec\n";
   std::cout << "  " << std::setw(9) << "x_mm" << std::setw(12) << "height_um" << std::setw(10) << "u_um"
             << std::setw(12) << "endpt_um" << std::setw(12) << "lsq_um"
             << "\n";
@@ -148,8 +148,8 @@ void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
         if (r.lsq)
           std::cout << "least squares (all lines, one angular offset per line): flatness about the plane "
                     << r.lsq->flatness_m * 1e6 << " um, minimum zone " << r.lsq->flatness_min_zone_m * 1e6
-                    << " um, residual rms " << r.lsq->residual_rms_rad / models::flatness::rad_per_arcsec << " arcsec, redundancy "
-                    << r.lsq->redundancy << "\n";
+                    << " um, residual rms " << r.lsq->residual_rms_rad / models::flatness::rad_per_arcsec
+                    << " arcsec, redundancy " << r.lsq->redundancy << "\n";
       });
     });
   }

@@ -253,8 +253,10 @@ class ProfileSession : public Session {
       return explain_not_analysed("straightness", "the session was started without feed_mm_per_min and spindle_rpm, "
                                                   "which place each point in time and give the feed per revolution");
     try {
-      const models::explain::ProfileRun run = models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return models::explain::to_json(models::explain::explain(models::explain::profile_problem({run}, "straightness")));
+      const models::explain::ProfileRun run =
+          models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
+      return models::explain::to_json(
+          models::explain::explain(models::explain::profile_problem({run}, "straightness")));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

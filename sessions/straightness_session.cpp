@@ -52,7 +52,8 @@ StraightnessOptions parse_options(const nlohmann::json& o) {
     if (v != 1.0 && v != -1.0) throw std::invalid_argument(std::string("option ") + key + " must be 1 or -1");
     (key[0] == 'p' ? s.pitch_sign : s.yaw_sign) = v;
   }
-  s.model.instrument.u_override_rad = number_option(o, "angle_u_arcsec", 0.0, 0.0, 100.0) * models::flatness::rad_per_arcsec;
+  s.model.instrument.u_override_rad =
+      number_option(o, "angle_u_arcsec", 0.0, 0.0, 100.0) * models::flatness::rad_per_arcsec;
   s.model.max_order = static_cast<int>(integer_option(o, "max_order", 8, 1, 8));
   return s;
 }
@@ -151,7 +152,8 @@ class StraightnessSession : public Session {
           (collecting_ ? "" : " (no return of the reflector was seen: option start=now starts at once)"));
     }
     text_ = traverse_text();
-    const models::flatness::AngleTraverse tr = models::flatness::parse_angle_traverse(text_, "traverse", o_.model.instrument);
+    const models::flatness::AngleTraverse tr =
+        models::flatness::parse_angle_traverse(text_, "traverse", o_.model.instrument);
     const models::flatness::StraightnessResult r = models::flatness::identify_straightness(tr, o_.model);
     nlohmann::json result = models::flatness::to_json(r);
     result.erase("source");
@@ -253,7 +255,8 @@ class StraightnessSession : public Session {
                     "\n# source = guidewayd straightness session\n";
     t += yaw_ >= 0 ? "x_mm,pitch_arcsec,yaw_arcsec\n" : "x_mm,pitch_arcsec\n";
     for (std::size_t k = 0; k < pitch_rad_.size(); ++k) {
-      t += shortest((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," + shortest(pitch_rad_[k] / models::flatness::rad_per_arcsec);
+      t += shortest((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," +
+           shortest(pitch_rad_[k] / models::flatness::rad_per_arcsec);
       if (yaw_ >= 0) t += "," + shortest(yaw_rad_[k] / models::flatness::rad_per_arcsec);
       t += "\n";
     }

@@ -30,7 +30,8 @@ ArtifactResult identify(const simulators::emulators::ArtifactFiles& f, const Art
 }
 
 // The machine's error motions at the targets, relative to the first: dx dy dz ex ey ez.
-std::vector<std::array<double, 6>> truth(const simulators::machine::Machine& m, const simulators::emulators::ArtifactFilesSpec& s) {
+std::vector<std::array<double, 6>> truth(const simulators::machine::Machine& m,
+                                         const simulators::emulators::ArtifactFilesSpec& s) {
   simulators::machine::ArtifactSpec a;
   a.start_m = s.start_m;
   a.pitch_m = s.pitch_m;

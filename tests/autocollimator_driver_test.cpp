@@ -16,9 +16,9 @@
 
 using namespace guideway;
 using namespace std::chrono_literals;
+using drivers::DeviceState;
 using drivers::autocollimator::arcsec_to_rad;
 using drivers::autocollimator::AxisState;
-using drivers::DeviceState;
 
 namespace {
 
@@ -38,7 +38,8 @@ std::shared_ptr<const simulators::emulators::TraverseMotion> traverse() {
 struct Bench {
   explicit Bench(bool stream, bool checksum = false, simulators::emulators::AutocollimatorSource source = {},
                  double range_arcsec = 1000.0)
-      : emu({range_arcsec, checksum, dir.file("ac0")}, source ? source : simulators::emulators::traverse_source(traverse())) {
+      : emu({range_arcsec, checksum, dir.file("ac0")},
+            source ? source : simulators::emulators::traverse_source(traverse())) {
     std::string err;
     if (!emu.start(err)) throw std::runtime_error(err);
     drivers::autocollimator::AutocollimatorSettings s;
@@ -267,7 +268,8 @@ TEST(AutocollimatorDriver, NoReflectionAndOutOfRangeAreFlagsNotNumbers) {
 
 TEST(AutocollimatorDriver, CreatedFromConfigThroughTheRegistry) {
   test::TempDir dir;
-  simulators::emulators::AutocollimatorEmulator emu({1000.0, false, dir.file("ac")}, simulators::emulators::traverse_source(traverse()));
+  simulators::emulators::AutocollimatorEmulator emu({1000.0, false, dir.file("ac")},
+                                                    simulators::emulators::traverse_source(traverse()));
   std::string err;
   ASSERT_TRUE(emu.start(err)) << err;
   const std::string text = "[[device]]\nname = \"ac\"\ndriver = \"autocollimator-serial\"\nport = \"" + emu.path() +

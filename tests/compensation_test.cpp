@@ -22,7 +22,8 @@ using namespace guideway;
 
 constexpr double pi = std::numbers::pi;
 
-std::vector<formats::DbbRun> pair_of(const simulators::machine::Machine& m, const simulators::machine::Vec3& center, double feed_mm_per_min,
+std::vector<formats::DbbRun> pair_of(const simulators::machine::Machine& m, const simulators::machine::Vec3& center,
+                                     double feed_mm_per_min,
                                      simulators::machine::Plane plane = simulators::machine::Plane::xy) {
   std::vector<formats::DbbRun> runs;
   for (bool ccw : {true, false}) {
@@ -139,7 +140,8 @@ TEST(CompensatedMachineTest, CrossAxisCorrectionMovesTheOtherAxisByTheFirstOnesP
 }
 
 TEST(CompensatedMachineTest, ControllerAddsNominalMinusActualByDirection) {
-  simulators::machine::JointCompensation c = simulators::machine::joint_compensation({{0, 0.001, -0.002}, {10, 10.003, 9.998}});
+  simulators::machine::JointCompensation c =
+      simulators::machine::joint_compensation({{0, 0.001, -0.002}, {10, 10.003, 9.998}});
   EXPECT_NEAR(c.correction_m(0.0, +1), -1e-6, 1e-15);
   EXPECT_NEAR(c.correction_m(0.0, -1), 2e-6, 1e-15);
   EXPECT_NEAR(c.correction_m(0.005, +1), -2e-6, 1e-15);  // halfway: (-1 + -3) / 2 um
@@ -216,7 +218,8 @@ struct MapCase {
 class CompensationMapTest : public ::testing::TestWithParam<MapCase> {};
 
 TEST_P(CompensationMapTest, MapWithinQuarterMicrometreOfTheMachine) {
-  const auto cfg = simulators::machine::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam().file);
+  const auto cfg =
+      simulators::machine::load_machine_config(std::string(GUIDEWAY_SOURCE_DIR "/config/") + GetParam().file);
   const simulators::machine::Machine m(cfg);
   const simulators::machine::Vec3 center{0.15, 0.08, 0.0};
   // At 250 mm/min the servo lag shortens the radius by < 1 ppm (docs/conventions.md).
@@ -296,7 +299,8 @@ INSTANTIATE_TEST_SUITE_P(Machines, CompensationMapTest,
                          });
 
 TEST(CompensationMapTest, CentreMustBeKnownAndTheRunsMustGoBothWays) {
-  const simulators::machine::Machine m(simulators::machine::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml"));
+  const simulators::machine::Machine m(
+      simulators::machine::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-leadscrew.toml"));
   auto runs = pair_of(m, {0, 0, 0}, 1000);
   const auto id = models::dbb::identify(runs);
   for (auto& r : runs) {
@@ -315,7 +319,8 @@ TEST(CompensationMapTest, CentreMustBeKnownAndTheRunsMustGoBothWays) {
   o.step_m = 0.0005;  // 401 lines
   EXPECT_THROW((void)models::compensation::error_map(id, runs, o), models::compensation::CompensationError);
   const std::vector<formats::DbbRun> one{runs.front()};
-  EXPECT_THROW((void)models::compensation::error_map(models::dbb::identify(one), one), models::compensation::CompensationError);
+  EXPECT_THROW((void)models::compensation::error_map(models::dbb::identify(one), one),
+               models::compensation::CompensationError);
 }
 
 // --- before / after on the virtual machine ---
@@ -338,15 +343,16 @@ TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
   // straightness.csv as the controller's cross-axis correction.
   simulators::machine::ControllerCorrection tables_only;
   for (int k = 0; k < 2; ++k)
-    tables_only.tables[static_cast<std::size_t>(k)] =
-        simulators::machine::joint_compensation(formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content, "t.comp"));
+    tables_only.tables[static_cast<std::size_t>(k)] = simulators::machine::joint_compensation(
+        formats::parse_linuxcnc_comp(files[static_cast<std::size_t>(k)].content, "t.comp"));
   simulators::machine::ControllerCorrection with_skew = tables_only;
   if (map.squareness_significant) with_skew.skew.xy = map.squareness_rad;
   simulators::machine::ControllerCorrection full = with_skew;
   const auto straightness =
       std::find_if(files.begin(), files.end(), [](const auto& f) { return f.name == "straightness.csv"; });
   ASSERT_NE(straightness, files.end()) << GetParam() << ": every machine here has a significant straightness";
-  full.cross = simulators::machine::cross_compensation(formats::parse_straightness_csv(straightness->content, "straightness.csv"));
+  full.cross = simulators::machine::cross_compensation(
+      formats::parse_straightness_csv(straightness->content, "straightness.csv"));
   const auto r = simulators::machine::remeasure_dbb(cfg, full, runs, center);
   const auto before = models::dbb::identify(r.before), after = models::dbb::identify(r.after);
   const auto tables = models::dbb::identify(simulators::machine::remeasure_dbb(cfg, tables_only, runs, center).after);
@@ -375,7 +381,8 @@ TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
     EXPECT_LT(g1, 0.8 * g_skew) << "the cross-axis correction takes the straightness out";
   }
   for (const auto& t : map.terms) {
-    if (t.use != models::compensation::Use::cross_table || !t.significant || t.name.find("cubic") != std::string::npos) continue;
+    if (t.use != models::compensation::Use::cross_table || !t.significant || t.name.find("cubic") != std::string::npos)
+      continue;
     const auto* a = find(after, t.name);
     ASSERT_NE(a, nullptr) << t.name;
     EXPECT_LT(std::abs(a->value), 3 * a->u) << GetParam() << ": " << t.name << " " << t.value << " -> " << a->value;

@@ -49,8 +49,9 @@ Sample sample(double t_s, std::initializer_list<double> values, std::uint32_t fl
 
 // The autocollimator polled every 50 ms: `dwell_s` on each station, the beam lost for `move_s` between
 // stations and `return_s` after the last (as guideway-emulate autocollimator does).
-void feed_traverse(sessions::Session& s, const std::vector<simulators::machine::TraverseStation>& st, double& t, double dwell_s = 0.8,
-                   double move_s = 0.5, double return_s = 1.5, std::size_t first = 0, double hole_at_s = -1) {
+void feed_traverse(sessions::Session& s, const std::vector<simulators::machine::TraverseStation>& st, double& t,
+                   double dwell_s = 0.8, double move_s = 0.5, double return_s = 1.5, std::size_t first = 0,
+                   double hole_at_s = -1) {
   std::vector<Sample> out;
   const double nan = std::nan("");
   const double t_begin = t;
@@ -121,7 +122,8 @@ TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "s");
   ASSERT_EQ(files.size(), 1u);
-  nlohmann::json offline = models::flatness::to_json(models::flatness::identify_straightness(models::flatness::read_angle_traverse(files[0])));
+  nlohmann::json offline = models::flatness::to_json(
+      models::flatness::identify_straightness(models::flatness::read_angle_traverse(files[0])));
   offline.erase("source");
   EXPECT_EQ(offline, p["result"]);
 }
@@ -142,7 +144,8 @@ TEST(StraightnessSession, AnOutageOfTheLinkDropsTheTraverseAndTheNextIsTaken) {
 }
 
 TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStations) {
-  const simulators::machine::Machine perfect{simulators::machine::MachineConfig{}};  // every station reads the same angles
+  const simulators::machine::Machine perfect{
+      simulators::machine::MachineConfig{}};  // every station reads the same angles
   const auto st = traverse(perfect);
   auto device = autocollimator_device();
   auto session = sessions::straightness_session_kind().create(
@@ -220,7 +223,9 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "r");
   ASSERT_EQ(files.size(), 1u);
-  EXPECT_EQ(models::flatness::to_json(models::flatness::identify_runout(models::flatness::read_runout_revolution(files[0]))), p["result"]);
+  EXPECT_EQ(
+      models::flatness::to_json(models::flatness::identify_runout(models::flatness::read_runout_revolution(files[0]))),
+      p["result"]);
 }
 
 TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {

@@ -18,8 +18,8 @@ struct Expect {
 };
 
 // A ccw/cw pair (h = 0, r = 100 mm, 1000 mm/min) from a machine with the given errors.
-models::dbb::Identification run_pair(const simulators::machine::MachineConfig& cfg, std::uint64_t seed, double noise_um = 0.1,
-                                     double rate_hz = 0) {
+models::dbb::Identification run_pair(const simulators::machine::MachineConfig& cfg, std::uint64_t seed,
+                                     double noise_um = 0.1, double rate_hz = 0) {
   simulators::machine::MachineConfig c = cfg;
   c.dbb.noise_m = noise_um * 1e-6;
   const simulators::machine::Machine m{c};
@@ -65,7 +65,9 @@ std::vector<Case> single_cases() {
          c.axis[1].scale = -15e-6;
        },
        {{"scale_x_ppm", 20.0}, {"scale_y_ppm", -15.0}, {"scale_mismatch_ppm", 35.0}}},
-      {"squareness", [](simulators::machine::MachineConfig& c) { c.squareness.xy = 50e-6; }, {{"squareness_urad", 50.0}}},
+      {"squareness",
+       [](simulators::machine::MachineConfig& c) { c.squareness.xy = 50e-6; },
+       {{"squareness_urad", 50.0}}},
       {"backlash",
        [](simulators::machine::MachineConfig& c) {
          c.axis[0].backlash_m = 4e-6;
@@ -278,7 +280,8 @@ TEST(DbbConventionsTest, CyclicErrorFollowsTheAxisPosition) {
   c.axis[0].cyclic_period_m = 0.004;
   const simulators::machine::Machine m{c};
   // actual x = x + A sin(2 pi x / p): at x = 1 mm (a quarter period) the tool is 1 um further out.
-  const auto motion = m.simulate_motion({simulators::machine::linear_move({0, 0, 0}, {0.001, 0, 0}, 0.001), 1.5, 100.0});
+  const auto motion =
+      m.simulate_motion({simulators::machine::linear_move({0, 0, 0}, {0.001, 0, 0}, 0.001), 1.5, 100.0});
   EXPECT_NEAR(motion.back().tool[0], 0.001 + 1e-6, 1e-9);
 }
 

@@ -29,7 +29,9 @@ std::vector<drivers::dbb::EncoderScale> three_encoders() {
   return e;
 }
 
-simulators::emulators::DbbSource circle_source() { return simulators::emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6); }
+simulators::emulators::DbbSource circle_source() {
+  return simulators::emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6);
+}
 
 struct Bench {
   explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
@@ -399,13 +401,15 @@ TEST(DbbDriver, FrameTimesNeverGoBackwardsAcrossAClockStep) {
   EXPECT_EQ(times[3].t_ns, true_ns[3]);
   EXPECT_EQ(last, true_ns[3]);
   // A batch whose frames all lack a kernel time: the read time.
-  std::vector<drivers::dbb::FrameTime> untimed = {drivers::dbb::frame_time(drivers::can::no_rx_timestamp, offset, earliest, read)};
+  std::vector<drivers::dbb::FrameTime> untimed = {
+      drivers::dbb::frame_time(drivers::can::no_rx_timestamp, offset, earliest, read)};
   drivers::dbb::order_frame_times(untimed, last);
   EXPECT_EQ(untimed[0].t_ns, read);
   // The next read's kernel times earlier than the last time emitted (here: the read time above) are
   // raised to it.
-  std::vector<drivers::dbb::FrameTime> next = {drivers::dbb::frame_time(offset + read - 100'000, offset, read - 200'000, read + 300'000),
-                                      drivers::dbb::frame_time(offset + read + 100'000, offset, read - 200'000, read + 300'000)};
+  std::vector<drivers::dbb::FrameTime> next = {
+      drivers::dbb::frame_time(offset + read - 100'000, offset, read - 200'000, read + 300'000),
+      drivers::dbb::frame_time(offset + read + 100'000, offset, read - 200'000, read + 300'000)};
   ASSERT_TRUE(next[0].from_kernel);
   drivers::dbb::order_frame_times(next, last);
   EXPECT_EQ(next[0].t_ns, read);
@@ -563,7 +567,8 @@ TEST(DbbDriver, BurstFasterThanTheSyncRateIsReceivedCompletely) {
 TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  simulators::emulators::DbbEmulator emu({three_encoders(), false, 100.0}, simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
+  simulators::emulators::DbbEmulator emu({three_encoders(), false, 100.0},
+                                         simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
   auto listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
@@ -575,7 +580,8 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
   // The emulator process goes away and comes back: the driver reconnects.
   emu.stop();
   ASSERT_TRUE(test::eventually([&] { return driver->status().state != DeviceState::streaming; }));
-  simulators::emulators::DbbEmulator emu2({three_encoders(), false, 100.0}, simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
+  simulators::emulators::DbbEmulator emu2({three_encoders(), false, 100.0},
+                                          simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
   emu2.start(std::move(listener));
@@ -595,7 +601,8 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
 TEST(DbbDriver, ListensThroughTheUnixGatewayWithKernelTimesFromAConfigTable) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  simulators::emulators::DbbEmulator emu({three_encoders(), true, 1000.0}, simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
+  simulators::emulators::DbbEmulator emu({three_encoders(), true, 1000.0},
+                                         simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
   auto listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;

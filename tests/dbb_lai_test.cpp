@@ -168,7 +168,8 @@ TEST(DbbLaiTest, ExactLaiGeometryMatchesTheHtmChain) {
 
 TEST(DbbLaiTest, TheLaiMachineFileIsTheGivenMachine) {
   // tests/dbb_lai1997_machine.toml (for the command line) describes the machine of these tests.
-  const simulators::machine::Machine file = simulators::machine::Machine::from_file(GUIDEWAY_SOURCE_DIR "/tests/dbb_lai1997_machine.toml");
+  const simulators::machine::Machine file =
+      simulators::machine::Machine::from_file(GUIDEWAY_SOURCE_DIR "/tests/dbb_lai1997_machine.toml");
   const simulators::machine::Machine given{test::lai_machine(test::LaiGiven{}, 0.1)};
   const auto a = test::lai_pattern(file, 95.0, 31.225, true, 5);
   const auto b = test::lai_pattern(given, 95.0, 31.225, true, 5);

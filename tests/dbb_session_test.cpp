@@ -32,7 +32,8 @@ simulators::machine::MachineConfig test_machine() {
 }
 
 // Samples as the driver would publish them: t, bar, encoder x, y; `pause_s` of standing still after.
-void feed_circle(sessions::Session& s, const simulators::machine::Machine& machine, double r, double h, guideway::formats::DbbDirection dir, double& t0) {
+void feed_circle(sessions::Session& s, const simulators::machine::Machine& machine, double r, double h,
+                 guideway::formats::DbbDirection dir, double& t0) {
   simulators::machine::DbbCircleSpec spec;
   spec.radius_m = r;
   spec.height_m = h;

@@ -66,7 +66,7 @@ inline simulators::machine::MachineConfig lai_machine(const LaiGiven& g, double 
 }
 
 inline formats::DbbRun lai_pattern(const simulators::machine::Machine& m, double radius_mm, double height_mm, bool ccw,
-                                    std::uint64_t seed) {
+                                   std::uint64_t seed) {
   simulators::machine::DbbCircleSpec s;
   s.radius_m = radius_mm * 1e-3;
   s.height_m = height_mm * 1e-3;

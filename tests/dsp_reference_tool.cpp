@@ -38,7 +38,7 @@ json run_case(const json& c) {
   }
   if (op == "xcorr") {
     const auto res = dsp::cross_correlation(c.at("x").get<std::vector<double>>(), c.at("y").get<std::vector<double>>(),
-                                           c.at("max_lag").get<std::size_t>());
+                                            c.at("max_lag").get<std::size_t>());
     r["values"] = res.values;
     r["peak_lag"] = res.peak_lag;
     r["peak_value"] = res.peak_value;

@@ -373,7 +373,8 @@ TEST(ExplainEngine, AFoldThatCannotBeFittedRefusesTheEffect) {
   ASSERT_EQ(rep.considered.size(), 1u);
   EXPECT_EQ(rep.considered[0].verdict,
             "held-out RMS not computable (fold 1 of 8: vibration has no variant that can be fitted on the training rows)");
-  EXPECT_FALSE(models::explain::explain(peak_problem(3.0, 5)).findings.empty());  // found when every fold has its variant
+  EXPECT_FALSE(
+      models::explain::explain(peak_problem(3.0, 5)).findings.empty());  // found when every fold has its variant
 }
 
 // sensor_nonlinearity's columns from the base refitted to the rows in use: on all rows they are those of
@@ -403,6 +404,7 @@ TEST(ExplainEngine, SensorNonlinearityColumnsSeeNoHeldOutY) {
   ASSERT_EQ(b.size(), 1u);
   EXPECT_EQ(a[0].block.columns, b[0].block.columns);
   // ... while on all rows it moves them (the leak the mask removes).
-  const auto c = models::explain::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n), std::vector<bool>(n, true));
+  const auto c = models::explain::sensor_nonlinearity_generator(p.base, y2, offset)(Eigen::VectorXd::Zero(n),
+                                                                                    std::vector<bool>(n, true));
   EXPECT_GT((c[0].block.columns - all[0].block.columns).cwiseAbs().maxCoeff(), 1e-3);
 }

@@ -181,7 +181,8 @@ TEST(ExplainProfile, AxialRunoutBesideTheFeedMarksIsFound) {
   const auto rep = explain_faced_cut(0.03e-6);
   std::vector<std::string> effects;
   for (const auto& f : rep.findings) effects.push_back(f.effect);
-  ASSERT_NE(std::find(effects.begin(), effects.end(), "spindle_axial_runout"), effects.end()) << models::explain::to_text(rep);
+  ASSERT_NE(std::find(effects.begin(), effects.end(), "spindle_axial_runout"), effects.end())
+      << models::explain::to_text(rep);
   ASSERT_NE(std::find(effects.begin(), effects.end(), "feed_marks"), effects.end()) << models::explain::to_text(rep);
   for (const auto& f : rep.findings) {
     if (f.effect != "spindle_axial_runout") continue;

@@ -51,7 +51,8 @@ TEST(ExplainScenarios, BacklashPartOfTheCircularDeviationIsItsWidth) {
 
 std::string scenario_name(const ::testing::TestParamInfo<std::string>& p) { return p.param; }
 
-INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(simulators::scenarios::scenario_names()), scenario_name);
+INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(simulators::scenarios::scenario_names()),
+                         scenario_name);
 
 // The reported uncertainties are honest: over seeds 1-5 of the scenarios with several effects, the errors
 // against the truth fall within 1 u and 2 u about as often as a Gaussian's (68 %, 95 %): not too seldom
@@ -70,7 +71,9 @@ TEST(ExplainScenarios, UncertaintiesCoverTheTruthOverSeeds) {
   for (const auto& s : sums) EXPECT_EQ(s.passed, s.runs.size()) << s.name;
 }
 
-TEST(ExplainScenarios, UnknownNameIsAnError) { EXPECT_THROW((void)simulators::scenarios::run_scenario("nope"), std::invalid_argument); }
+TEST(ExplainScenarios, UnknownNameIsAnError) {
+  EXPECT_THROW((void)simulators::scenarios::run_scenario("nope"), std::invalid_argument);
+}
 
 // The out-of-library scenario's cause: the machine's local guideway bump (simulators/machine).
 TEST(ExplainScenarios, MachineBumpIsLocalAndReadFromToml) {
@@ -84,7 +87,8 @@ TEST(ExplainScenarios, MachineBumpIsLocalAndReadFromToml) {
   EXPECT_NEAR(at(0.065)[1], 2e-6 * std::exp(-0.5), 1e-12);
   EXPECT_NEAR(at(0.0)[1], 0.0, 1e-15);
   EXPECT_NEAR(at(0.060)[0], 0.060, 1e-12);  // not along the axis itself
-  EXPECT_THROW((void)simulators::machine::parse_machine_config("[axis.x]\nbump_direction = \"w\"\n", "bad.toml"), std::exception);
+  EXPECT_THROW((void)simulators::machine::parse_machine_config("[axis.x]\nbump_direction = \"w\"\n", "bad.toml"),
+               std::exception);
 }
 
 // The spindle run-out scenario's cause: FacingSpec::runout_along_path adds the spindle's axial motion

@@ -35,7 +35,8 @@ std::string start_transport(MicrometerEmulator& emulator, bool rtu) {
 }
 
 struct Harness {
-  explicit Harness(bool rtu, simulators::emulators::MicrometerSource source = simulators::emulators::runout_source(120.0),
+  explicit Harness(bool rtu,
+                   simulators::emulators::MicrometerSource source = simulators::emulators::runout_source(120.0),
                    bool answers_report_server_id = true) {
     MicrometerEmulator::Options o;
     o.source = std::move(source);
@@ -47,8 +48,8 @@ struct Harness {
                            "backoff_initial_ms = 50\nbackoff_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
-    driver =
-        std::make_unique<drivers::micrometer::MicrometerDriver>("mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 14);
+    driver = std::make_unique<drivers::micrometer::MicrometerDriver>(
+        "mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 14);
     reader.reject_unknown_keys();
   }
   ~Harness() {
@@ -207,7 +208,8 @@ TEST_P(MicrometerTransport, ReadsTheVirtualMachineToolsRunout) {
   std::vector<double> model;
   double lo = 1, hi = -1;
   for (const auto& m : motion->samples) {
-    model.push_back(drivers::modbus::decode_registers(map, drivers::modbus::encode_registers(map, m.displacement_m)).value_m);
+    model.push_back(
+        drivers::modbus::decode_registers(map, drivers::modbus::encode_registers(map, m.displacement_m)).value_m);
     lo = std::min(lo, m.displacement_m);
     hi = std::max(hi, m.displacement_m);
   }
@@ -276,8 +278,8 @@ struct BufferedHarness {
                            std::to_string(ring_samples) + "\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
-    driver =
-        std::make_unique<drivers::micrometer::MicrometerDriver>("mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 17);
+    driver = std::make_unique<drivers::micrometer::MicrometerDriver>(
+        "mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 17);
     reader.reject_unknown_keys();
   }
   ~BufferedHarness() {

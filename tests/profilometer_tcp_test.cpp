@@ -35,8 +35,8 @@ struct Harness {
                            "\nstall_timeout_ms = 1500\nbackoff_initial_ms = 50\nbackoff_max_ms = 400\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
-    driver = std::make_unique<drivers::profilometer::ProfilometerDriver>("prof", drivers::profilometer::parse_profilometer_config(reader),
-                                                                1 << 16);
+    driver = std::make_unique<drivers::profilometer::ProfilometerDriver>(
+        "prof", drivers::profilometer::parse_profilometer_config(reader), 1 << 16);
     reader.reject_unknown_keys();
   }
   ~Harness() {
@@ -213,7 +213,8 @@ TEST(ProfilometerTcp, SurvivesEveryFaultAndLosesNothing) {
 }
 
 TEST(ProfilometerTcp, StreamsTheVirtualMachineToolsFacedProfile) {
-  auto machine = std::make_shared<const simulators::machine::Machine>(simulators::emulators::spindle_demo_machine_config());
+  auto machine =
+      std::make_shared<const simulators::machine::Machine>(simulators::emulators::spindle_demo_machine_config());
   simulators::machine::FacingSpec spec = simulators::emulators::demo_facing_spec();
   spec.x_end_m = spec.x_start_m + 300e-6;  // 301 points at 1 um
   Harness h(0, 6000.0, simulators::emulators::facing_profile_source(machine, spec));

@@ -216,7 +216,8 @@ TEST(ReportSvg, HeightMapAndBarsAndPanels) {
   report::StackedPanels sp;
   sp.x_label = "x / mm";
   sp.y_unit = "um";
-  for (const char* n : {"s", "a1", "d1"}) sp.panels.push_back({n, {0, 1, 2, 3}, {0, 1, 0, 1}, "", report::Style::line, 1});
+  for (const char* n : {"s", "a1", "d1"})
+    sp.panels.push_back({n, {0, 1, 2, 3}, {0, 1, 0, 1}, "", report::Style::line, 1});
   const auto ps = report::render(sp);
   EXPECT_TRUE(tags_balance(ps));
   EXPECT_EQ(count(ps, "class=\"panel\""), 3u);

@@ -35,7 +35,8 @@ TEST(WorkpieceFlatness, ReproducesMuExperimentOnTheEmulatedLathe) {
   for (double feed : {2.0, 8.0})
     profiles.push_back(parse_workpiece_profile(simulators::emulators::workpiece_profile_csv(m, spec, feed),
                                                "profile_" + std::to_string(static_cast<int>(feed)) + ".csv"));
-  const auto traverse = parse_angle_traverse(simulators::emulators::straightness_traverse_csv(m, spec), "straightness.csv");
+  const auto traverse =
+      parse_angle_traverse(simulators::emulators::straightness_traverse_csv(m, spec), "straightness.csv");
   const auto runout = parse_runout_revolution(simulators::emulators::runout_revolution_csv(m, spec), "runout.csv");
   const auto r = analyse_workpiece_flatness(profiles, traverse, runout, {}, traverse_u());
 

@@ -247,7 +247,8 @@ ProfileRun profile_run(const formats::Profile& prof, const std::string& path) {
   return r;
 }
 
-Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model, const flatness::AngleTraverse* straightness) {
+Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model,
+                        const flatness::AngleTraverse* straightness) {
   if (runs.empty()) throw std::invalid_argument("explain: no profiles");
   if (model != "flatness" && model != "straightness")
     throw std::invalid_argument("explain: unknown profile model '" + model + "'");

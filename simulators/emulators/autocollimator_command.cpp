@@ -64,7 +64,8 @@ bool handle_fault(AutocollimatorEmulator& emu, const std::vector<std::string>& w
 int run_autocollimator(const AutocollimatorOptions& o) {
   block_stop_signals();
   std::signal(SIGPIPE, SIG_IGN);  // a reader of our stdout that went away must not kill the emulator
-  const machine::Machine machine(o.machine_file.empty() ? machine::default_machine_config() : machine::load_machine_config(o.machine_file));
+  const machine::Machine machine(o.machine_file.empty() ? machine::default_machine_config()
+                                                        : machine::load_machine_config(o.machine_file));
   machine::TraverseSpec spec;
   spec.axis = o.axis == "y" ? machine::Axis::y : o.axis == "z" ? machine::Axis::z : machine::Axis::x;
   spec.start_m = o.start_mm * 1e-3;

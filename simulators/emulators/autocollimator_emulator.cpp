@@ -185,8 +185,8 @@ void AutocollimatorEmulator::send_faults() {
     write_raw(full.substr(0, 1 + next() % (full.size() - 2)) + "\r");
   }
   for (int n = bad_checksum_.exchange(0); n > 0; --n) {
-    std::string line = drivers::autocollimator::format_reply(Reading{false, AxisState::valid, AxisState::valid, 1.5, 2.5},
-                                                    settings_.range_arcsec, true);
+    std::string line = drivers::autocollimator::format_reply(
+        Reading{false, AxisState::valid, AxisState::valid, 1.5, 2.5}, settings_.range_arcsec, true);
     line[line.size() - 1] = line[line.size() - 1] == '0' ? '1' : '0';  // wrong checksum
     write_raw(line + "\r");
   }

@@ -76,8 +76,9 @@ void DbbProgram::at(double t_s, std::span<double> out) const {
   }
 }
 
-std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
-                                                   double pause_s, double t0_s) {
+std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine,
+                                                   std::vector<machine::DbbCircleSpec> specs, double pause_s,
+                                                   double t0_s) {
   auto p = std::make_shared<DbbProgram>();
   p->pause_s = pause_s;
   double t0 = t0_s;
@@ -93,9 +94,11 @@ std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machi
   return p;
 }
 
-DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs, double pause_s) {
+DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
+                             double pause_s) {
   struct Player {
-    Player(const machine::Machine& m, std::vector<machine::DbbCircleSpec> s, double pause) : machine(m), specs(std::move(s)), pause_s(pause) {}
+    Player(const machine::Machine& m, std::vector<machine::DbbCircleSpec> s, double pause)
+        : machine(m), specs(std::move(s)), pause_s(pause) {}
     machine::Machine machine;
     std::vector<machine::DbbCircleSpec> specs;
     double pause_s = 0;
@@ -151,12 +154,15 @@ std::pair<std::size_t, bool> traverse_phase(const TraverseMotion& m, double t_s)
 
 }  // namespace
 
-const machine::TraverseStation& TraverseMotion::at(double t_s) const { return stations[traverse_phase(*this, t_s).first]; }
+const machine::TraverseStation& TraverseMotion::at(double t_s) const {
+  return stations[traverse_phase(*this, t_s).first];
+}
 
 bool TraverseMotion::reflecting(double t_s) const { return traverse_phase(*this, t_s).second; }
 
-std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine, const machine::TraverseSpec& spec,
-                                                           double move_s, double return_s) {
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine,
+                                                           const machine::TraverseSpec& spec, double move_s,
+                                                           double return_s) {
   auto m = std::make_shared<TraverseMotion>();
   m->stations = machine.autocollimator_traverse(spec);
   m->dwell_s = spec.dwell_s > 0 ? spec.dwell_s : 1.0;

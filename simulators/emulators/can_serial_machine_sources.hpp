@@ -36,11 +36,13 @@ struct DbbProgram {
   double duration_s = 0.0;  // of one pass through the program, pauses included
   void at(double t_s, std::span<double> out_m) const;
 };
-std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
-                                                   double pause_s, double t0_s = 0.0);
+std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine,
+                                                   std::vector<machine::DbbCircleSpec> specs, double pause_s,
+                                                   double t0_s = 0.0);
 // The program played in emulator time = machine time: pass k is simulated (when the time reaches it) at
 // machine time k x the pass's duration, its noise seeded with k. Thread safe.
-DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs, double pause_s);
+DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
+                             double pause_s);
 
 // The traverse: the station's angles hold while the carriage dwells there; t wraps around. Between
 // stations the reflector is lifted and set down one step on (`move_s`, no reflection), and after the
@@ -57,8 +59,9 @@ struct TraverseMotion {
   // False while the reflector is moved or carried back.
   [[nodiscard]] bool reflecting(double t_s) const;
 };
-std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine, const machine::TraverseSpec& spec,
-                                                           double move_s = 0.0, double return_s = 0.0);
+std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine,
+                                                           const machine::TraverseSpec& spec, double move_s = 0.0,
+                                                           double return_s = 0.0);
 // x: yaw, y: pitch (arc-seconds); no reflection during moves and the return (and when the beam is
 // blocked by fault injection).
 AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motion);

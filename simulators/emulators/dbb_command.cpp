@@ -77,7 +77,8 @@ int run_dbb(const DbbOptions& o) {
   DbbEmulatorSettings settings;
   settings.produce_sync = o.sync == "produce";
   settings.sync_rate_hz = o.sync_rate_hz;
-  const machine::Machine machine(o.machine_file.empty() ? machine::default_machine_config() : machine::load_machine_config(o.machine_file));
+  const machine::Machine machine(o.machine_file.empty() ? machine::default_machine_config()
+                                                        : machine::load_machine_config(o.machine_file));
   machine::DbbCircleSpec spec;
   spec.radius_m = o.radius_mm * 1e-3;
   spec.height_m = o.height_mm * 1e-3;

@@ -49,7 +49,8 @@ std::string feed_label(double feed) {
 
 }  // namespace
 
-std::string workpiece_profile_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec, double feed_mm_per_min) {
+std::string workpiece_profile_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec,
+                                  double feed_mm_per_min) {
   machine::FacingSpec f;
   f.x_start_m = spec.x_start_m;
   f.x_end_m = spec.x_start_m + spec.traverse_m;
@@ -65,7 +66,7 @@ std::string workpiece_profile_csv(const machine::Machine& machine, const Workpie
   p.metadata = {{"feed_mm_per_min", number(feed_mm_per_min)},
                 {"spindle_rpm", number(spec.spindle_rpm)},
                 {"machine", machine.config().name},
-                {"source", "guideway-emulate workpiece (sim::Machine::facing_profile)"}};
+                {"source", "guideway-emulate workpiece (simulators::machine::Machine::facing_profile)"}};
   return formats::format_profile_csv(p);
 }
 

@@ -31,7 +31,8 @@ struct WorkpieceFilesSpec {
   std::uint64_t seed = 0;         // 0 = the machine's noise seed
 };
 
-std::string workpiece_profile_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec, double feed_mm_per_min);
+std::string workpiece_profile_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec,
+                                  double feed_mm_per_min);
 std::string straightness_traverse_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec);
 std::string runout_revolution_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec);
 

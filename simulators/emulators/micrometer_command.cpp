@@ -53,7 +53,7 @@ int run_micrometer(const MicrometerArgs& a) {
   std::string error;
   try {
     const machine::Machine machine(a.machine_file.empty() ? machine::default_machine_config()
-                                                      : machine::load_machine_config(a.machine_file));
+                                                          : machine::load_machine_config(a.machine_file));
     machine::RunoutSpec spec;
     spec.rpm = a.rpm;
     spec.probe_radius_m = a.probe_radius_mm * 1e-3;

@@ -9,7 +9,8 @@ const machine::RunoutSample& RunoutMotion::at(double t_s) const {
   return samples[k % samples.size()];
 }
 
-std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine, const machine::RunoutSpec& spec) {
+std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine,
+                                                       const machine::RunoutSpec& spec) {
   auto m = std::make_shared<RunoutMotion>();
   m->samples = machine.runout_revolution(spec);
   m->sample_period_s = 60.0 / spec.rpm / static_cast<double>(std::max<std::size_t>(1, spec.samples_per_rev));

@@ -17,7 +17,8 @@ struct RunoutMotion {
   // The model sample the probe shows at emulator time t (t wraps around the computed revolutions).
   [[nodiscard]] const machine::RunoutSample& at(double t_s) const;
 };
-std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine, const machine::RunoutSpec& spec);
+std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine,
+                                                       const machine::RunoutSpec& spec);
 MicrometerSource runout_motion_source(std::shared_ptr<const RunoutMotion> motion);
 
 // A machine whose spindle has the errors a run-out test shows (spindle lean, run-out plate

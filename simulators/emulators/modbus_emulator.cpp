@@ -155,7 +155,8 @@ void MicrometerEmulator::fill_ring(double t_s) {
     for (std::uint32_t i = 0; i < rec; ++i) set_register(ring.ring_address + slot * rec + i, regs[i]);
   }
   ring_taken_ = std::max(ring_taken_, taken);
-  const auto counter = drivers::modbus::encode_counter(ring, static_cast<std::uint32_t>(options_.ring_counter_start + ring_taken_));
+  const auto counter =
+      drivers::modbus::encode_counter(ring, static_cast<std::uint32_t>(options_.ring_counter_start + ring_taken_));
   set_register(ring.counter_address, counter[0]);
   set_register(ring.counter_address + 1u, counter[1]);
 }

@@ -66,7 +66,8 @@ struct DbbScenario {
 };
 
 DbbScenario sc(std::string name, std::string concealment, std::function<void(machine::MachineConfig&)> inject,
-               std::vector<Expectation> expected, std::vector<DbbRunPlan> runs = {{formats::DbbDirection::ccw}, {formats::DbbDirection::cw}},
+               std::vector<Expectation> expected,
+               std::vector<DbbRunPlan> runs = {{formats::DbbDirection::ccw}, {formats::DbbDirection::cw}},
                double gap_s = 10.0) {
   DbbScenario s;
   s.name = std::move(name);
@@ -79,7 +80,8 @@ DbbScenario sc(std::string name, std::string concealment, std::function<void(mac
 }
 
 // Runs one after another on one machine clock (start_time_s metadata), gap_s apart.
-std::vector<formats::DbbRun> dbb_runs(const machine::MachineConfig& cfg, const DbbScenario& sc, const ScenarioOptions& o) {
+std::vector<formats::DbbRun> dbb_runs(const machine::MachineConfig& cfg, const DbbScenario& sc,
+                                      const ScenarioOptions& o) {
   const machine::Machine machine(cfg);
   std::vector<formats::DbbRun> runs;
   double t0 = 0;
@@ -112,7 +114,9 @@ Expectation expect(std::string effect, std::string parameter, double truth, doub
 
 // Sizes of the injected effects (each visible above the 0.4 um noise at these feeds; the concealment
 // column says what hides it).
-void backlash(machine::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].backlash_m = um_ * um; }
+void backlash(machine::MachineConfig& m, int axis, double um_) {
+  m.axis[static_cast<std::size_t>(axis)].backlash_m = um_ * um;
+}
 void vibration(machine::MachineConfig& m, int axis, double um_, double hz) {
   m.axis[static_cast<std::size_t>(axis)].vibration_amplitude_m = um_ * um;
   m.axis[static_cast<std::size_t>(axis)].vibration_frequency_hz = hz;
@@ -131,7 +135,9 @@ void stick_slip(machine::MachineConfig& m, int axis, double um_, double hz, doub
   a.stick_slip_hz = hz;
   a.stick_slip_decay_s = decay_ms * 1e-3;
 }
-void lateral(machine::MachineConfig& m, int axis, double um_) { m.axis[static_cast<std::size_t>(axis)].lateral_play_m = um_ * um; }
+void lateral(machine::MachineConfig& m, int axis, double um_) {
+  m.axis[static_cast<std::size_t>(axis)].lateral_play_m = um_ * um;
+}
 void centre_drift(machine::MachineConfig& m, double x_um_per_min, double y_um_per_min) {
   m.axis[0].drift_m_per_s = x_um_per_min * um / 60.0;
   m.axis[1].drift_m_per_s = y_um_per_min * um / 60.0;
