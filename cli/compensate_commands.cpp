@@ -196,6 +196,117 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
   return o.str();
 }
 
+const models::dbb::Estimate* find_lai3(const models::dbb::Identification& id, const std::string& name) {
+  for (const auto& e : id.lai3)
+    if (e.name == name) return &e;
+  return nullptr;
+}
+
+// A tilted-bar run (Lai's patterns) gives no diagnostics: the check compares each run's circular
+// deviation G and Lai's parameters before and after.
+std::string lai3_verification_text(const models::compensation::ErrorMap& map, const Verification& v,
+                                   nlohmann::json& j) {
+  std::ostringstream o;
+  o << "\nverification on the virtual machine (each run traced again: radius, height, feed, direction;\n"
+       "Lai's model, as the runs give no ballbar diagnostics):\n";
+  o << "  run                                   G before    with the tables" << (v.skew ? "     + axis skew  " : "")
+    << (v.cross ? "     + cross-axis" : "") << "\n";
+  nlohmann::json runs = nlohmann::json::array();
+  for (std::size_t k = 0; k < v.before.runs.size(); ++k) {
+    const auto& b = v.before.runs[k];
+    const double g0 = b.circular_deviation_um, gt = v.tables.runs.at(k).circular_deviation_um,
+                 gs = v.skewed.runs.at(k).circular_deviation_um, g1 = v.after.runs.at(k).circular_deviation_um;
+    const std::string name = printf_number("r %.3g mm", b.radius_mm) + printf_number(" h %.5g mm ", b.height_mm) +
+                             b.direction + printf_number(" %.0f mm/min", b.feed_mm_per_min);
+    o << "  " << name << std::string(name.size() < 38 ? 38 - name.size() : 1, ' ') << printf_number("%7.3f um", g0)
+      << printf_number("   %7.3f um", gt) << printf_number(" (%3.0f %%)", 100 * gt / g0);
+    if (v.skew) o << printf_number("  %7.3f um", gs) << printf_number(" (%3.0f %%)", 100 * gs / g0);
+    if (v.cross) o << printf_number("  %7.3f um", g1) << printf_number(" (%3.0f %%)", 100 * g1 / g0);
+    o << "\n";
+    runs.push_back({{"radius_mm", b.radius_mm},
+                    {"height_mm", b.height_mm},
+                    {"direction", b.direction},
+                    {"feed_mm_per_min", b.feed_mm_per_min},
+                    {"g_before_um", g0},
+                    {"g_tables_um", gt},
+                    {"g_tables_skew_um", gs},
+                    {"g_after_um", g1}});
+  }
+  j["model"] = "lai3";
+  j["runs"] = runs;
+  j["skew_applied"] = v.skew;
+  j["straightness_applied"] = v.cross;
+  o << "  Lai parameter               before                after (all corrections)    |after|/u\n";
+  nlohmann::json terms = nlohmann::json::array();
+  std::string left;
+  for (const auto& e : v.before.lai3) {
+    if (!e.fitted || !std::isfinite(e.u) || e.name.starts_with("e_x") || e.name.starts_with("e_y") ||
+        e.name == "mismatch_phase_angle_deg")
+      continue;
+    const auto* after = find_lai3(v.after, e.name);
+    const bool seen = after && after->fitted && std::isfinite(after->u);
+    // S is a factor about 1: its error is S - 1.
+    const double off = e.name.starts_with("S_") ? 1.0 : 0.0;
+    const double ratio = seen ? std::abs(after->value - off) / after->u : 0.0;
+    const std::string term = models::compensation::lai3_term_of(e.name, map.plane);
+    const models::compensation::Term* t = nullptr;
+    for (const auto& mt : map.terms)
+      if (mt.name == term) t = &mt;
+    std::string status;
+    if (!t)
+      status = "not in the map (out of plane or not separable)";
+    else if (off != 0 && t->significant && std::abs(t->value - (e.value - off) * 1e6) > 0.5)
+      status = "tables hold the difference only (see the note; S_x - S_y below)";
+    else if (t->use == models::compensation::Use::table && t->significant)
+      status = ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u";
+    else if (term == "squareness_urad")
+      status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
+    else if (t->use == models::compensation::Use::cross_table && t->significant)
+      status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
+    else if (t->significant)
+      status = t->use == models::compensation::Use::map_only ? "no per-joint table can hold it (errors.csv)"
+                                                             : "servo: no table";
+    else
+      status = "not applied (not significant)";
+    o << "  " << e.name << std::string(e.name.size() < 24 ? 24 - e.name.size() : 1, ' ')
+      << printf_number("%12.5g", e.value - off) << printf_number(" +/- %-8.2g", e.u);
+    if (seen)
+      o << printf_number("%12.5g", after->value - off) << printf_number(" +/- %-8.2g", after->u)
+        << printf_number("%6.1f", ratio);
+    else
+      o << "   not identified                 ";
+    o << "  " << status << "\n";
+    if (seen && ratio > 3) left += (left.empty() ? " " : ", ") + e.name;
+    nlohmann::json tj = {{"name", e.name}, {"before", e.value}, {"before_u", e.u}, {"status", status}};
+    if (seen) {
+      tj["after"] = after->value;
+      tj["after_u"] = after->u;
+    }
+    terms.push_back(tj);
+  }
+  // The scale difference: what the tables correct when both scales share a radius change.
+  const auto *sx0 = find_lai3(v.before, "S_x"), *sy0 = find_lai3(v.before, "S_y");
+  const auto *sx1 = find_lai3(v.after, "S_x"), *sy1 = find_lai3(v.after, "S_y");
+  if (sx0 && sy0 && sx1 && sy1) {
+    // u of the difference without the two scales' correlation: an upper bound when they correlate positively.
+    const double d0 = sx0->value - sy0->value, u0 = std::hypot(sx0->u, sy0->u);
+    const double d1 = sx1->value - sy1->value, u1 = std::hypot(sx1->u, sy1->u);
+    o << "  S_x - S_y               " << printf_number("%12.5g", d0) << printf_number(" +/- %-8.2g", u0)
+      << printf_number("%12.5g", d1) << printf_number(" +/- %-8.2g", u1) << printf_number("%6.1f", std::abs(d1) / u1)
+      << "  scale mismatch\n";
+    j["scale_mismatch_before"] = d0;
+    j["scale_mismatch_after"] = d1;
+    if (std::abs(d1) > 3 * u1) left += (left.empty() ? " " : ", ") + std::string("S_x - S_y");
+  }
+  j["terms"] = terms;
+  o << "  (S_x, S_y shown as S - 1)\n  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left)
+    << "\n";
+  if (!v.written.empty())
+    o << "  runs written to " << fs::path(v.written.front()).parent_path().string()
+      << "/ (guideway report on them shows the polar plots before and after)\n";
+  return o.str();
+}
+
 void run_compensate(const Opts& o, const std::string& socket) {
   std::vector<std::string> files = o.files;
   std::string source;
@@ -246,6 +357,8 @@ void run_compensate(const Opts& o, const std::string& socket) {
   fs::create_directories(o.out_dir);
   nlohmann::json j;
   j["plane"] = map.plane;
+  j["model"] = map.model;
+  j["notes"] = map.notes;
   j["step_mm"] = map.step_m * 1e3;
   nlohmann::json written = nlohmann::json::array();
   for (const auto& f : models::compensation::compensation_files(map, source)) {
@@ -294,7 +407,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
   if (o.verify) {
     const Verification v = verify(runs, map, o.machine, o.out_dir, axes);
     nlohmann::json vj;
-    text += verification_text(map, v, vj);
+    text += map.model == "lai3" ? lai3_verification_text(map, v, vj) : verification_text(map, v, vj);
     j["verify"] = vj;
   }
   if (o.json)

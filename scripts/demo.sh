@@ -63,10 +63,16 @@ for _ in $(seq 1 100); do
 done
 "$bin/cli/guideway" explain --latest --kind dbb --machine "$machine" || true
 echo
-echo "== guideway compensate dbb --verify   (an in-plane CCW/CW circle at 250 mm/min on $machine,"
-echo "   LinuxCNC tables from it, then the same test on the machine with the tables loaded; docs/compensation.md)"
+echo "== guideway compensate dbb --latest --verify   (LinuxCNC tables from the session's Lai model, then the"
+echo "   three patterns traced again on $machine with the tables loaded; docs/compensation.md)"
 comp_dir="$run_dir/compensation-demo"
 mkdir -p "$comp_dir"
+"$bin/cli/guideway" compensate dbb --latest --out-dir "$comp_dir/session" --verify --machine "$machine"
+"$bin/cli/guideway" report "$comp_dir"/session/verify/*.csv --out "$comp_dir/session-before-after.html"
+echo "== before/after polar plots of the session's patterns: open $comp_dir/session-before-after.html in a browser"
+echo
+echo "== guideway compensate dbb --verify   (an in-plane CCW/CW circle at 250 mm/min on $machine: the ballbar"
+echo "   diagnostics give the squareness too, entered as axis skew)"
 for direction in ccw cw; do
   "$bin/cli/guideway" simulate dbb --machine "$machine" --radius-mm 100 --feed-mm-per-min 250 \
     --direction "$direction" --out "$comp_dir/$direction.csv" >/dev/null

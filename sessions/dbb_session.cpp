@@ -298,6 +298,10 @@ class DbbSession : public Session {
                     {"feed_mm_per_min", feed.str()},
                     {"plane", options_.plane},
                     {"measured_radius_mm", std::to_string(r * 1e3)},
+                    // The circle centre in machine coordinates (the encoders'), which compensation
+                    // tables are placed by (docs/compensation.md); written also when it is 0.
+                    {"center_a_mm", std::to_string(ca * 1e3)},
+                    {"center_b_mm", std::to_string(cb * 1e3)},
                     // t_s of every run is on the session's clock: one machine-time axis for EXPLAIN's
                     // time-dependent effects (thermal drift), see docs/explain.md.
                     {"start_time_s", "0"},

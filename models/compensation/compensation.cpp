@@ -19,10 +19,39 @@ constexpr double pi = std::numbers::pi;
 // even when there is none, about 1.25 u on average).
 constexpr double significance_k = 2.0;
 
-const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) {
-  for (const auto& e : id.diagnostics)
+const dbb::Estimate* find(const std::vector<dbb::Estimate>& estimates, const std::string& name) {
+  for (const auto& e : estimates)
     if (e.name == name) return &e;
   return nullptr;
+}
+
+const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) { return find(id.diagnostics, name); }
+
+// Lai's parameters that feed the map: Lai's name, the map term (with {a} / {b} for the plane axes) and
+// the factor from Lai's unit to the term's (r = the radius the straightness is normalised to, m).
+struct LaiTerm {
+  const char* lai;
+  const char* term;
+  int radius_power;  // the factor is scale * (r in mm)^radius_power
+  double scale;
+};
+constexpr LaiTerm lai_terms[] = {
+    {"S_x", "scale_{a}_ppm", 0, 1e6},
+    {"S_y", "scale_{b}_ppm", 0, 1e6},
+    {"backlash_x_um", "backlash_{a}_um", 0, 1.0},
+    {"backlash_y_um", "backlash_{b}_um", 0, 1.0},
+    {"a1_rad", "squareness_urad", 0, 1e6},
+    {"a2_per_mm", "straightness_{a}_um", 2, 1e3},  // a2 (1/mm) r^2 (mm^2) = mm
+    {"b2_per_mm", "straightness_{b}_um", 2, 1e3},
+    {"a3_per_mm2", "straightness_cubic_{a}_um", 3, 1e3},
+    {"b3_per_mm2", "straightness_cubic_{b}_um", 3, 1e3},
+    {"servo_mismatch_ms", "servo_mismatch_ms", 0, 1.0},
+};
+
+std::string with_axes(std::string s, const std::string& plane) {
+  for (const auto& [key, k] : {std::pair{std::string("{a}"), 0}, std::pair{std::string("{b}"), 1}})
+    if (const auto at = s.find(key); at != std::string::npos) s.replace(at, key.size(), dbb::axis_letter(plane, k));
+  return s;
 }
 
 // The table steps offered by default (mm): a round spacing a user can read.
@@ -76,6 +105,65 @@ double AxisTerms::straightness_m(double position_m) const {
   return bow_m * q * q + cubic_per_m2 * d * d * d;
 }
 
+std::string lai3_term_of(const std::string& lai_name, const std::string& plane) {
+  for (const auto& t : lai_terms)
+    if (lai_name == t.lai) return with_axes(t.term, plane);
+  return "";
+}
+
+std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radius_m, std::vector<std::string>& notes) {
+  std::vector<dbb::Estimate> out;
+  std::string missing;
+  for (const auto& t : lai_terms) {
+    const auto* e = find(id.lai3, t.lai);
+    if (!e || !e->fitted) {
+      missing += (missing.empty() ? "" : ", ") + std::string(t.lai);
+      continue;
+    }
+    const double f = t.scale * std::pow(radius_m * 1e3, t.radius_power);
+    const double v = std::string(t.lai).starts_with("S_") ? e->value - 1.0 : e->value;
+    out.push_back({with_axes(t.term, id.plane), v * f, e->u * f, true});
+  }
+  if (!missing.empty()) {
+    std::string combos;
+    for (const auto& c : id.fit.combinations) combos += (combos.empty() ? "" : ", ") + c.expression;
+    notes.push_back("Lai's model could not separate " + missing + " with these runs, so the map has no such term" +
+                    (combos.empty() ? std::string() : " (they determine only " + combos + ")") +
+                    "; a pattern with h > 0 at another radius separates them (docs/conventions.md)");
+  }
+  // Both scales off by the same large amount is a radius change common to both axes (the position
+  // loops' lag at the runs' feed, a bar calibration error), not the axes' own scales: the table takes
+  // only their difference, as the identification's note for the diagnostics says.
+  dbb::Estimate* sa = nullptr;
+  dbb::Estimate* sb = nullptr;
+  for (auto& e : out) {
+    if (e.name == "scale_" + dbb::axis_letter(id.plane, 0) + "_ppm") sa = &e;
+    if (e.name == "scale_" + dbb::axis_letter(id.plane, 1) + "_ppm") sb = &e;
+  }
+  if (sa && sb) {
+    const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
+    if (std::abs(common) > 50 && std::abs(common) > 3 * std::abs(mismatch)) {
+      notes.push_back("both scales read about " + printf_number("%.0f", common) +
+                      " ppm: a radius change common to both axes (a position loop's lag shrinks a circle by r "
+                      "(omega tau)^2 / 2 at high feed; a bar calibration error), not the axes' own scales; the "
+                      "tables hold only their difference (" +
+                      printf_number("%.1f", mismatch) +
+                      " ppm, split about zero): measure at a low feed for the scales themselves");
+      sa->value -= common;
+      sb->value -= common;
+    }
+  }
+  std::string other;
+  for (const auto& e : id.lai3)
+    if (e.fitted && lai3_term_of(e.name, id.plane).empty() && !e.name.starts_with("e_x") &&
+        !e.name.starts_with("e_y") && e.name != "mismatch_phase_angle_deg")
+      other += (other.empty() ? "" : ", ") + e.name;
+  if (!other.empty())
+    notes.push_back("not in the map: Lai's out-of-plane terms (" + other +
+                    ": straightness along the plane normal, roll), which no table of the plane axes can hold");
+  return out;
+}
+
 int joint_of(const std::string& axis) { return axis == "x" ? 0 : (axis == "y" ? 1 : 2); }
 
 std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs) {
@@ -83,7 +171,9 @@ std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::Db
   for (const auto& r : runs) {
     if (!r.metadata.contains("center_a_mm") || !r.metadata.contains("center_b_mm")) return std::nullopt;
     const std::array<double, 2> rc{r.center_a_m, r.center_b_m};
-    if (c && (std::abs((*c)[0] - rc[0]) > 1e-9 || std::abs((*c)[1] - rc[1]) > 1e-9))
+    // The daemon's runs carry the centre the encoders traced, which differs between runs by the
+    // errors it is measuring (um): one set-up within 10 um; simulated runs agree exactly.
+    if (c && (std::abs((*c)[0] - rc[0]) > 1e-5 || std::abs((*c)[1] - rc[1]) > 1e-5))
       throw CompensationError(r.source + ": circle centre (" + shortest(rc[0] * 1e3) + ", " + shortest(rc[1] * 1e3) +
                               ") mm differs from the other runs' (" + shortest((*c)[0] * 1e3) + ", " +
                               shortest((*c)[1] * 1e3) + ") mm: one table needs one set-up");
@@ -105,10 +195,17 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
     throw CompensationError(
         "the runs go one way only: in one direction backlash, lateral play and servo mismatch trade off against each "
         "other and squareness is not separable (docs/conventions.md); measure the circle in both directions");
-  if (!find(id, "scale_" + A + "_ppm") || !find(id, "backlash_" + A + "_um")) {
-    std::string why = "the runs gave no ballbar diagnostics, which the compensation is built from";
-    for (const auto& n : id.notes) why += "; " + n;
-    throw CompensationError(why + " (measure an in-plane circle, height 0, in both directions)");
+  std::vector<dbb::Estimate> estimates = id.diagnostics;
+  const bool diagnostics = find(id, "scale_" + A + "_ppm") && find(id, "backlash_" + A + "_um");
+  if (!diagnostics) {
+    if (!find(id.lai3, "S_x") && !find(id.lai3, "backlash_x_um")) {
+      std::string why =
+          "the runs gave neither ballbar diagnostics nor Lai's scale and backlash, which the "
+          "compensation is built from";
+      for (const auto& n : id.notes) why += "; " + n;
+      throw CompensationError(why + " (measure an in-plane circle, height 0, in both directions)");
+    }
+    m.model = "lai3";
   }
   const auto center = options.center_m ? options.center_m : runs_center_m(runs);
   if (!center)
@@ -117,20 +214,24 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
         "metadata; give it with --center-mm X Y (the table positions are machine positions)");
   double radius = runs.front().radius_m;
   for (const auto& r : runs) {
-    if (std::abs(r.radius_m - radius) > 1e-9)
+    // Lai's polynomials hold over every run's circle: the map covers the largest.
+    if (m.model == "lai3") radius = std::max(radius, r.radius_m);
+    if (m.model != "lai3" && std::abs(r.radius_m - radius) > 1e-9)
       throw CompensationError(r.source + ": radius " + shortest(r.radius_m * 1e3) +
                               " mm differs from the other runs'; give the runs of one circle");
     m.sources.push_back(r.source);
   }
+  if (m.model == "lai3") estimates = lai3_terms(id, radius, m.notes);
 
   const auto term = [&](const std::string& name, Use use, const std::string& why) -> const Term* {
-    const auto* e = find(id, name);
+    const auto* e = find(estimates, name);
     if (!e || !e->fitted || !std::isfinite(e->u)) return nullptr;
     Term t{name, e->value, e->u, std::abs(e->value) > significance_k * e->u, use, why};
     m.terms.push_back(t);
     return &m.terms.back();
   };
   m.terms.reserve(24);
+  bool cubic_per_axis = false;
   for (int k = 0; k < 2; ++k) {
     const std::string ax = k == 0 ? A : B, other = k == 0 ? B : A;
     AxisTerms& at = m.terms_of[static_cast<std::size_t>(k)];
@@ -140,8 +241,8 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
     if (const auto* t = term("backlash_" + ax + "_um", Use::table, ""); t && t->significant)
       at.backlash_m = t->value * 1e-6;
     if (const auto* t = term("cyclic_error_" + ax + "_um", Use::table, ""); t && t->significant) {
-      const auto* p = find(id, "cyclic_period_" + ax + "_mm");
-      const auto* ph = find(id, "cyclic_phase_" + ax + "_deg");
+      const auto* p = find(estimates, "cyclic_period_" + ax + "_mm");
+      const auto* ph = find(estimates, "cyclic_phase_" + ax + "_deg");
       if (p && ph) {
         at.cyclic_amplitude_m = t->value * 1e-6;
         at.cyclic_period_m = p->value * 1e-3;
@@ -154,10 +255,18 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
                      " cannot: the cross-axis correction of " + other + " by " + ax + "'s position (straightness.csv)");
         t && t->significant)
       at.bow_m = t->value * 1e-6;
+    // Lai's model over several radii separates each axis' cubic (C = a3 r^3 at the map's radius).
+    if (const auto* t =
+            term("straightness_cubic_" + ax + "_um", Use::cross_table,
+                 "the cubic part of " + ax + "'s straightness along " + other + ": the cross-axis correction of " +
+                     other + " by " + ax + "'s position (straightness.csv)")) {
+      cubic_per_axis = true;
+      if (t->significant) at.cubic_per_m2 = t->value * 1e-6 / (radius * radius * radius);
+    }
   }
-  // The cubic straightness, in um at the circle's radius: (a3 - b3) r^3, half of it given to each axis
-  // with opposite signs (what the circle sees of it; the rest is invisible to a circle of this radius).
-  if (const auto cubic = cubic_difference(id)) {
+  // Else the cubic straightness, in um at the circle's radius: (a3 - b3) r^3, half of it given to each
+  // axis with opposite signs (what the circle sees of it; the rest is invisible to a circle of this radius).
+  if (const auto cubic = cubic_per_axis ? std::nullopt : cubic_difference(id)) {
     const double r_mm = radius * 1e3;
     const double per_mm2_to_um = r_mm * r_mm * r_mm * 1e3;
     dbb::Estimate e{"straightness_cubic_" + A + "_minus_" + B + "_um", cubic->value * per_mm2_to_um,
@@ -247,7 +356,9 @@ namespace {
 
 std::vector<std::string> header_lines(const ErrorMap& m, const std::string& source) {
   std::vector<std::string> h;
-  h.push_back("written by guideway compensate from " + source);
+  h.push_back("written by guideway compensate from " + source + "; error model: " + m.model +
+              (m.model == "lai3" ? " (Lai's third-order model, its terms named as the diagnostics')"
+                                 : " (the ballbar diagnostics)"));
   const auto& t0 = m.terms_of[0];
   h.push_back("measured circle: centre (" + printf_number("%.3f", t0.center_m * 1e3) + ", " +
               printf_number("%.3f", m.terms_of[1].center_m * 1e3) + ") mm in the " + m.plane + " plane, radius " +
@@ -269,6 +380,7 @@ std::vector<std::string> header_lines(const ErrorMap& m, const std::string& sour
   for (const auto& t : m.terms)
     if (t.use == Use::not_geometric) other += (other.empty() ? "" : ", ") + estimate_text(t);
   if (!other.empty()) h.push_back("servo and friction effects, in no table: " + other);
+  for (const auto& n : m.notes) h.push_back(n);
   return h;
 }
 
@@ -329,6 +441,7 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
   std::vector<std::pair<std::string, std::string>> meta;
   meta.emplace_back("source", source);
   meta.emplace_back("plane", m.plane);
+  meta.emplace_back("model", m.model);
   const std::string a = m.axes[0].axis, b = m.axes[1].axis;
   if (m.squareness_known) {
     const auto adv = squareness_advice(m.squareness_rad);
@@ -371,8 +484,10 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
 
 std::string to_text(const ErrorMap& m) {
   std::ostringstream o;
-  o << "compensation from the ballbar diagnostics (" << m.plane << " plane, table step "
-    << printf_number("%.3g", m.step_m * 1e3) << " mm)\n";
+  o << "compensation from "
+    << (m.model == "lai3" ? "Lai's third-order model (lai3; terms named as the diagnostics')"
+                          : "the ballbar diagnostics")
+    << " (" << m.plane << " plane, table step " << printf_number("%.3g", m.step_m * 1e3) << " mm)\n";
   o << "  term                              value      u     use\n";
   for (const auto& t : m.terms) {
     std::string use;
@@ -390,6 +505,7 @@ std::string to_text(const ErrorMap& m) {
     o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, "
       << printf_number("%.3f", am.nominal_m.front() * 1e3) << " .. " << printf_number("%.3f", am.nominal_m.back() * 1e3)
       << " mm\n";
+  for (const auto& n : m.notes) o << "note: " << n << "\n";
   if (m.squareness_known) {
     const auto adv = squareness_advice(m.squareness_rad);
     const std::string a = m.axes[0].axis, b = m.axes[1].axis;

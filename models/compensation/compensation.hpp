@@ -64,9 +64,9 @@ struct AxisTerms {
   double backlash_m = 0.0;
   double cyclic_amplitude_m = 0.0, cyclic_period_m = 0.0, cyclic_phase_rad = 0.0;
   double bow_m = 0.0;  // straightness bow B: displacement across = B ((u - centre) / r)^2
-  // Cubic straightness k: displacement across += k (u - centre)^3. A circle sees only the difference of
+  // Cubic straightness k: displacement across += k (u - centre)^3. One circle sees only the difference of
   // the two axes' cubics (a sin 4 theta; their sum reads as squareness): it is split evenly between them,
-  // exact on the circle (docs/compensation.md).
+  // exact on the circle; Lai's model over several radii gives each axis its own (docs/compensation.md).
   double cubic_per_m2 = 0.0;
   // LinuxCNC interpolates linearly between table lines, which scales a sinusoid of period p sampled
   // every step h by sinc^2(h / p) (the triangle kernel's response); the table's cyclic part is
@@ -80,7 +80,11 @@ struct AxisTerms {
 };
 
 struct ErrorMap {
-  std::string plane;                  // "xy", "xz", "yz"
+  std::string plane;  // "xy", "xz", "yz"
+  // The identification the map comes from: "diagnostics" (in-plane runs both ways) or "lai3" (Lai's
+  // third-order model, e.g. of his tilted-bar patterns; its terms are renamed as the diagnostics').
+  std::string model = "diagnostics";
+  std::vector<std::string> notes;     // what the model could not give or the map leaves out, and why
   std::array<AxisTerms, 2> terms_of;  // per plane axis
   std::array<AxisMap, 2> axes;
   double squareness_rad = 0.0;  // actual (a, b) = (a + q b, b): the b axis leans towards +a
@@ -103,11 +107,21 @@ struct MapOptions {
 // state it; throws CompensationError when the runs state different centres.
 std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs);
 
-// Throws CompensationError when the runs do not go both ways, when the identification has no ballbar
-// diagnostics (they need in-plane runs), when the centre is unknown, or when the step gives more than
-// 256 lines.
+// From the ballbar diagnostics when the identification has them, else from Lai's third-order model
+// (scale, backlash, the in-plane straightness polynomials, squareness a1; over the largest radius).
+// Throws CompensationError when the runs do not go both ways, when the identification has neither,
+// when the centre is unknown, or when the step gives more than 256 lines.
 ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs,
                    const MapOptions& options = {});
+
+// Lai's third-order parameters as the terms of the map, named and scaled as the diagnostics
+// (scale_x_ppm = (S_x - 1) 1e6, straightness_x_um = a2 r^2, straightness_cubic_x_um = a3 r^3,
+// squareness_urad = a1, ...; x / y are Lai's a / b, renamed to the plane's axes), at radius r; `notes`
+// gets what the runs could not identify and what the map leaves out.
+std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radius_m, std::vector<std::string>& notes);
+
+// The map term (diagnostics' name, as lai3_terms names it) a Lai parameter feeds, "" for none.
+std::string lai3_term_of(const std::string& lai_name, const std::string& plane);
 
 // Squareness as a user enters it: um of the first axis per metre of the second, and the correction
 // (um) to add to the first axis per +100 mm of the second.
