@@ -15,22 +15,18 @@ import sys
 import tempfile
 import time
 import unittest
+import process_support
+
+
+def wait_for(predicate, timeout=15.0):
+    return process_support.wait_for(predicate, timeout)
+
 
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 SOURCE = sys.argv.pop(1) if len(sys.argv) > 1 else "."
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
 EMULATE = os.path.join(BUILD, "simulators", "emulators", "guideway-emulate")
-
-
-def wait_for(predicate, timeout=15.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.05)
-    return predicate()
 
 
 class CanSerialProcesses(unittest.TestCase):

@@ -9,22 +9,13 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 import unittest
+from process_support import wait_for
 
 BUILD, PLUGINS, BROKEN = (sys.argv.pop(1) for _ in range(3)) if len(sys.argv) > 3 else ("build", "", "")
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
 RAMP = ['[[device]]', 'name = "ramp"', 'driver = "example-ramp"', 'count = 5', 'repeat = true', 'period_s = 0.01']
-
-
-def wait_for(predicate, timeout=10.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return predicate()
 
 
 class DriverPluginDaemon(unittest.TestCase):

@@ -11,19 +11,16 @@ import sys
 import tempfile
 import time
 import unittest
+import process_support
+
+
+def wait_for(predicate, timeout=10.0):
+    return process_support.wait_for(predicate, timeout, poll_s=0.02)
+
 
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
-
-
-def wait_for(predicate, timeout=10.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
 
 
 class GuidewaydProcess(unittest.TestCase):

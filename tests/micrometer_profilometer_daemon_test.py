@@ -14,20 +14,12 @@ import sys
 import tempfile
 import time
 import unittest
+from process_support import wait_for
 
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 EMULATE = os.path.join(BUILD, "simulators", "emulators", "guideway-emulate")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
-
-
-def wait_for(predicate, timeout=10.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.05)
-    return predicate()
 
 
 class Emulator:
