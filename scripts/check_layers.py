@@ -17,11 +17,13 @@ ALLOWED = {
     "formats": {"core"},
     "models": {"core", "dsp", "formats"},
     "drivers": {"core", "formats"},
+    "plant": {"core"},
     "report": {"core", "dsp", "formats", "models"},
     "simulators": {"core", "dsp", "formats", "models", "drivers"},
     "sessions": {"core", "dsp", "formats", "models", "drivers", "report"},
-    "daemon": {"core", "dsp", "formats", "models", "drivers", "report", "sessions"},
-    "cli": {"core", "dsp", "formats", "models", "drivers", "report", "simulators", "sessions"},
+    "fleet": {"core", "formats", "report", "plant"},
+    "daemon": {"core", "dsp", "formats", "models", "drivers", "report", "sessions", "plant"},
+    "cli": {"core", "dsp", "formats", "models", "drivers", "report", "simulators", "sessions", "plant", "fleet"},
 }
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/')
 

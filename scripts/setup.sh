@@ -10,6 +10,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libsystemd-dev
   libboost-dev libreaderwriterqueue-dev
+  libmosquitto-dev libsqlite3-dev  # plant scale: the MQTT publisher and the fleet's history (docs/plant.md)
+  mosquitto mosquitto-clients openssl  # the MQTT tests' real broker, their subscriber and their TLS certificates
   python3 python3-numpy python3-scipy python3-pywt
   linux-perf  # bench/daemon_load.py --syscalls
   chromium  # headless: the report tests and docs/reports.md screenshots

@@ -1,0 +1,63 @@
+#include "plant/topics.hpp"
+
+#include <array>
+
+namespace guideway::plant {
+
+namespace {
+constexpr std::array<std::string_view, 5> leaf_names = {"status", "params", "explain", "event", "devices"};
+}  // namespace
+
+std::string_view to_string(TopicLeaf leaf) noexcept { return leaf_names[static_cast<std::size_t>(leaf)]; }
+
+std::string topic_for(std::string_view prefix, std::string_view machine, TopicLeaf leaf, std::string_view kind) {
+  std::string t;
+  t.reserve(prefix.size() + machine.size() + kind.size() + 16);
+  t.append(prefix).append("/").append(machine).append("/").append(to_string(leaf));
+  if (leaf == TopicLeaf::params || leaf == TopicLeaf::explain) t.append("/").append(kind);
+  return t;
+}
+
+std::optional<Topic> parse_topic(std::string_view prefix, std::string_view topic) {
+  if (topic.size() <= prefix.size() + 1 || !topic.starts_with(prefix) || topic[prefix.size()] != '/') return std::nullopt;
+  std::string_view rest = topic.substr(prefix.size() + 1);
+  const auto slash = rest.find('/');
+  if (slash == std::string_view::npos || slash == 0) return std::nullopt;
+  Topic t;
+  t.machine = std::string(rest.substr(0, slash));
+  rest = rest.substr(slash + 1);
+  const auto next = rest.find('/');
+  const std::string_view leaf = rest.substr(0, next);
+  std::size_t i = 0;
+  while (i < leaf_names.size() && leaf_names[i] != leaf) ++i;
+  if (i == leaf_names.size()) return std::nullopt;
+  t.leaf = static_cast<TopicLeaf>(i);
+  const bool has_kind = t.leaf == TopicLeaf::params || t.leaf == TopicLeaf::explain;
+  if (has_kind) {
+    if (next == std::string_view::npos) return std::nullopt;
+    t.kind = std::string(rest.substr(next + 1));
+    if (!topic_level_problem(t.kind).empty()) return std::nullopt;
+  } else if (next != std::string_view::npos) {
+    return std::nullopt;
+  }
+  return t;
+}
+
+std::string subscription_filter(std::string_view prefix) { return std::string(prefix) + "/#"; }
+
+std::string topic_level_problem(std::string_view name) {
+  if (name.empty()) return "must not be empty";
+  if (name.find('/') != std::string_view::npos) return "must not contain '/' (it is one level of the topic)";
+  return topic_prefix_problem(name);
+}
+
+std::string topic_prefix_problem(std::string_view prefix) {
+  if (prefix.empty()) return "must not be empty";
+  if (prefix.find_first_of("+#") != std::string_view::npos) return "must not contain MQTT wildcards ('+', '#')";
+  if (prefix.find('\0') != std::string_view::npos) return "must not contain a NUL byte";
+  if (prefix.front() == '/' || prefix.back() == '/') return "must not begin or end with '/'";
+  if (prefix.find("//") != std::string_view::npos) return "must not contain an empty level ('//')";
+  return {};
+}
+
+}  // namespace guideway::plant
