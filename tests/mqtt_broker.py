@@ -1,6 +1,7 @@
 """A real MQTT broker for the tests: Debian's mosquitto on a free loopback port, plain or TLS with
 certificates made here by openssl, anonymous or with a password file; and mosquitto_sub as an
 independent subscriber. `missing()` says why the tests must skip (no mosquitto installed)."""
+import getpass
 import os
 import shutil
 import signal
@@ -54,7 +55,8 @@ class Broker:
         self.port = free_port()
         self.conf = os.path.join(directory, "mosquitto.conf")
         self.log_path = os.path.join(directory, "mosquitto.log")
-        lines = [f"listener {self.port} 127.0.0.1"]
+        # Run as root (CI), mosquitto would switch to the `mosquitto` user, which cannot read this directory.
+        lines = [f"user {getpass.getuser()}", f"listener {self.port} 127.0.0.1"]
         if tls:
             ca, cert, key = tls
             lines += [f"cafile {ca}", f"certfile {cert}", f"keyfile {key}"]
@@ -85,6 +87,17 @@ class Broker:
                 return False
         if not wait_for(listening, timeout=10):
             raise RuntimeError("mosquitto did not start:\n" + open(self.log_path).read())
+
+    def wait_saved(self, client_id, timeout=15):
+        """With persistence: waits until `client_id` has connected and the broker has saved its database
+        since (so that a SIGKILL keeps that client's session)."""
+        def connected_at():
+            with open(self.log_path) as f:
+                return "as " + client_id + " " in f.read() and time.time()
+        since = wait_for(connected_at, timeout=timeout)
+        db = os.path.join(self.dir, "mosquitto.db")
+        if not since or not wait_for(lambda: os.path.exists(db) and os.path.getmtime(db) > since, timeout=timeout):
+            raise RuntimeError(f"mosquitto did not save {client_id}'s session:\n" + open(self.log_path).read())
 
     def kill(self, sig=signal.SIGKILL):
         self.proc.send_signal(sig)
