@@ -99,8 +99,9 @@ port = "emulator:gauge:port"
 {device_keys}"""
 
 
-def config_toml(rt, state, rates, publish_hz, client_queue_bytes):
-    """A guidewayd config with the four emulators at the given per-instrument rates (Hz)."""
+def config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml=""):
+    """A guidewayd config with the four emulators at the given per-instrument rates (Hz); extra_toml
+    (more tables: [mqtt], ...) at the end."""
     ac_period_ms = max(1, round(1000.0 / rates["autocollimator"]))
     dbb_args, dbb_sync = dbb_toml(rates["dbb"])
     return f"""
@@ -108,7 +109,7 @@ def config_toml(rt, state, rates, publish_hz, client_queue_bytes):
 socket = "{rt}/guideway.sock"
 state_dir = "{state}"
 log_level = "warn"
-status_period_s = 1.0
+status_period_s = {status_period_s}
 sample_publish_hz = {publish_hz}
 client_queue_bytes = {client_queue_bytes}
 
@@ -159,7 +160,7 @@ name = "profilometer"
 driver = "profilometer-tcp"
 host = "emulator:profiler:host"
 port = "emulator:profiler:port"
-"""
+""" + extra_toml
 
 
 class Conn:
@@ -244,7 +245,7 @@ def pct(values, q):
 
 
 class Daemon:
-    def __init__(self, build, rates, publish_hz, client_queue_bytes):
+    def __init__(self, build, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml=""):
         self.tmp = tempfile.mkdtemp(prefix="gw-load-")
         rt, state = f"{self.tmp}/rt", f"{self.tmp}/state"
         os.makedirs(rt)
@@ -252,7 +253,7 @@ class Daemon:
         self.socket = f"{rt}/guideway.sock"
         cfg = f"{self.tmp}/bench.toml"
         with open(cfg, "w") as f:
-            f.write(config_toml(rt, state, rates, publish_hz, client_queue_bytes))
+            f.write(config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s, extra_toml))
         self.log = open(f"{self.tmp}/guidewayd.log", "w")
         self.proc = subprocess.Popen([f"{build}/daemon/guidewayd", "--config", cfg], stdout=self.log,
                                      stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
@@ -281,14 +282,21 @@ class Daemon:
             time.sleep(0.2)
 
     def stop(self):
-        self.proc.send_signal(signal.SIGTERM)
-        try:
-            self.proc.wait(10)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
+        terminate(self.proc)
         self.log.close()
         shutil.rmtree(self.tmp, ignore_errors=True)
+
+
+def terminate(proc, timeout=10):
+    """SIGTERM, and SIGKILL when it has not exited after timeout s."""
+    if proc.poll() is not None:
+        return
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
 
 
 def device_deltas(st0, st1, dt):
