@@ -1,15 +1,14 @@
 #include "daemon/mqtt_config.hpp"
 
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <climits>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 #include "plant/broker_address.hpp"
+#include "plant/mqtt_connection.hpp"
 #include "plant/topics.hpp"
 
 namespace guideway::daemon {
@@ -34,18 +33,6 @@ std::string readable_file(const TableReader& t, const std::string& key, const st
   std::ifstream in(path);
   if (!in) t.fail(key, "cannot read " + path.string());
   return std::filesystem::absolute(path).lexically_normal().string();
-}
-
-std::string read_password(const TableReader& t, const std::string& path) {
-  struct stat st {};
-  if (stat(path.c_str(), &st) == 0 && (st.st_mode & S_IROTH) != 0)
-    t.fail("password_file", path + " can be read by every user: chmod 0600 (or 0640 with the daemon's group) first");
-  std::ifstream in(path);
-  std::string password;
-  std::getline(in, password);  // the first line; a trailing newline is not part of it
-  if (!password.empty() && password.back() == '\r') password.pop_back();
-  if (password.empty()) t.fail("password_file", path + " is empty: the password is its first line");
-  return password;
 }
 
 }  // namespace
@@ -78,7 +65,11 @@ plant::PublisherSettings parse_mqtt_table(const TableReader& t, const std::strin
   const std::string password_file = readable_file(t, "password_file", relative_to);
   if (!password_file.empty()) {
     if (s.connection.username.empty()) t.fail("password_file", "a password needs a username");
-    s.connection.password = read_password(t, password_file);
+    try {
+      s.connection.password = plant::read_password_file(password_file);
+    } catch (const std::runtime_error& e) {
+      t.fail("password_file", e.what());
+    }
   }
   if (t.has("password")) t.fail("password", "never inline: put the password in a file and name it in password_file");
   s.queue_max_messages = static_cast<std::size_t>(t.get_int("queue_max_messages", 10000, 1, 10'000'000));

@@ -3,6 +3,11 @@
 #include <mosquitto.h>
 #include <mqtt_protocol.h>
 
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
 #include <mutex>
 #include <stdexcept>
 
@@ -27,6 +32,19 @@ std::string mosquitto_error_text(int rc) {
   std::string text = mosquitto_strerror(rc);  // "The connection was lost.": a clause in our messages
   if (!text.empty() && text.back() == '.') text.pop_back();
   return text;
+}
+
+std::string read_password_file(const std::string& path) {
+  struct stat st {};
+  if (stat(path.c_str(), &st) != 0) throw std::runtime_error("cannot read " + path + ": " + std::strerror(errno));
+  if ((st.st_mode & S_IROTH) != 0)
+    throw std::runtime_error(path + " can be read by every user: chmod 0600 (or 0640 with the daemon's group) first");
+  std::ifstream in(path);
+  std::string password;
+  if (!in || !std::getline(in, password)) throw std::runtime_error(path + " is empty or unreadable: the password is its first line");
+  if (!password.empty() && password.back() == '\r') password.pop_back();
+  if (password.empty()) throw std::runtime_error(path + " is empty: the password is its first line");
+  return password;
 }
 
 std::string mqtt_reason_text(int reason_code) { return mosquitto_reason_string(reason_code); }

@@ -71,6 +71,10 @@ class MqttConnection {
   bool started_ = false;
 };
 
+// The password in `path` (its first line). Throws std::runtime_error when the file cannot be read, is
+// empty, or can be read by every user (the daemon's and the fleet's rule: chmod 0600 or 0640).
+std::string read_password_file(const std::string& path);
+
 // libmosquitto's text for an error code (MOSQ_ERR_*), and for an MQTT v5 reason code.
 std::string mosquitto_error_text(int rc);
 std::string mqtt_reason_text(int reason_code);

@@ -130,6 +130,12 @@ void Publisher::send_next() {
                            {}, error);
     }
   }
+  if (announce_online_) {
+    announce_online_ = false;
+    std::string error;
+    status_mid_ = connection_->publish(topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::status),
+                                       status_payload(true, ""), 1, true, {}, error);
+  }
   if (inflight_mid_ >= 0) return;  // one at a time: the order survives any reconnect
   const std::optional<JournalEntry> e = journal_->front();
   if (!e) return;
@@ -160,9 +166,7 @@ void Publisher::on_connected(int reason_code, const std::string& why) {
   backoff_s_ = settings_.reconnect_min_s;
   last_logged_error_.clear();
   inflight_mid_ = -1;  // sent again on this connection: QoS 1 may deliver twice, never out of order
-  std::string error;
-  status_mid_ = connection_->publish(topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::status),
-                                     status_payload(true, ""), 1, true, {}, error);
+  announce_online_ = true;  // sent from run(): libmosquitto holds its callback lock here
   {
     std::lock_guard lock(mutex_);
     if (++connections_ > 1) ++stats_.reconnects;

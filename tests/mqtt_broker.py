@@ -48,9 +48,10 @@ def make_certificates(directory):
 
 class Broker:
     """mosquitto on 127.0.0.1:port. tls=(ca, cert, key); users={name: password} turns anonymous off;
+    acl: the text of an acl_file;
     persistence keeps sessions and retained messages across kill()/start() (saved every second)."""
 
-    def __init__(self, directory, tls=None, users=None, persistence=False):
+    def __init__(self, directory, tls=None, users=None, persistence=False, acl=None):
         self.dir = directory
         self.port = free_port()
         self.conf = os.path.join(directory, "mosquitto.conf")
@@ -68,6 +69,11 @@ class Broker:
             lines += ["allow_anonymous false", f"password_file {pw}"]
         else:
             lines.append("allow_anonymous true")
+        if acl:
+            path = os.path.join(directory, "acl")
+            with open(path, "w") as f:
+                f.write(acl)
+            lines.append(f"acl_file {path}")
         if persistence:
             lines += ["persistence true", f"persistence_location {directory}/", "autosave_interval 1"]
         with open(self.conf, "w") as f:

@@ -8,6 +8,7 @@ daemon keeps running; a bad [mqtt] table is a config error at its line.
 Usage: mqtt_daemon_test.py BUILD_DIR"""
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -24,6 +25,7 @@ from process_support import wait_for  # noqa: E402
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+PLANT_DOC = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "plant.md")
 SKIP = mqtt_broker.missing()
 
 DBB_DEVICE = """
@@ -269,6 +271,30 @@ class MqttPublishing(unittest.TestCase):
         self.assertEqual(log.count("refused the connection"), 1, log)
         self.assertIn('user "mill-3"', log)
         self.assertEqual(d.mqtt()["state"], "connected")
+
+    def test_the_acl_of_docs_plant_md_keeps_each_machine_to_its_own_topics(self):
+        with open(PLANT_DOC) as f:
+            doc = f.read()
+        acl = re.search(r"```acl\n(.*?)```", doc, re.S).group(1)
+        broker = self.broker(users={"mill-5": "pw5", "historian": "pwh"}, acl=acl)
+        pw = os.path.join(self.d, "mill-5.pw")
+        with open(pw, "w") as f:
+            f.write("pw5\n")
+        os.chmod(pw, 0o600)
+        table = f'broker = "mqtt://127.0.0.1:{broker.port}"\nusername = "mill-5"\npassword_file = "{pw}"\n'
+        own = self.daemon(table + 'machine = "mill-5"\n', "own")
+        self.assertTrue(wait_for(lambda: own.mqtt()["delivered"] >= 1 and own.mqtt()["queued"] == 0, timeout=15),
+                        own.mqtt())
+        self.assertEqual(own.mqtt()["refused"], 0)
+        reader = ["-u", "historian", "-P", "pwh"]
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-5/status", reader))["state"], "online")
+        # A daemon that logs in as mill-5 but calls itself mill-6 may not write there: refused, and said.
+        other = self.daemon(table + 'machine = "mill-6"\nclient_id = "guidewayd-impostor"\n', "other")
+        self.assertTrue(wait_for(lambda: other.mqtt()["refused"] >= 1, timeout=15), other.mqtt())
+        self.assertEqual(other.mqtt()["delivered"], 0)
+        self.assertRegex(other.log_text(), "refused the message on guideway/mill-6/.*Not authori[sz]ed.*ACL")
+        self.assertIsNone(mqtt_broker.retained(broker, "guideway/mill-6/status", reader))
+        self.assertEqual(own.mqtt()["state"], "connected")
 
     def test_bad_mqtt_tables_are_config_errors_at_their_line(self):
         pw = os.path.join(self.d, "open.pw")
