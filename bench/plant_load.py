@@ -123,6 +123,20 @@ def lag_ms(db):
     return {"n": len(lags), "p50": dl.pct(lags, 0.5), "p99": dl.pct(lags, 0.99), "max": max(lags, default=float("nan"))}
 
 
+def wait_stored(db, total, stall_s):
+    """Until `total` messages are stored (True), or nothing more was stored for stall_s (False)."""
+    last, last_change = -1, time.monotonic()
+    while True:
+        n = stored_count(db)
+        if n >= total:
+            return True
+        if n != last:
+            last, last_change = n, time.monotonic()
+        elif time.monotonic() - last_change > stall_s:
+            return False
+        time.sleep(0.1)
+
+
 def plant_phase(args, broker, fleet, tmp):
     run_id = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
     total = args.publishers * args.messages
@@ -136,7 +150,7 @@ def plant_phase(args, broker, fleet, tmp):
     if not pub.stdout.strip():
         raise RuntimeError("plant_publishers printed nothing:\n" + pub.stderr)
     publishers = json.loads(pub.stdout)
-    all_stored = wait_for(lambda: stored_count(fleet.db) >= total, timeout=args.store_timeout_s, poll_s=0.2)
+    all_stored = wait_stored(fleet.db, total, args.store_timeout_s)
     t1 = time.monotonic()
     cpu1 = {"fleet": dl.proc_cpu_s(fleet.proc.pid), "broker": dl.proc_cpu_s(broker.proc.pid)}
     dt = t1 - t0
@@ -303,7 +317,8 @@ def main():
     ap.add_argument("--messages", type=int, default=200, help="messages per publisher")
     ap.add_argument("--rate-hz", type=float, default=20.0, help="messages per second per publisher (0: as fast as it goes)")
     ap.add_argument("--topic-prefix", default="guideway")
-    ap.add_argument("--store-timeout-s", type=float, default=120.0, help="how long to wait for the fleet to store everything")
+    ap.add_argument("--store-timeout-s", type=float, default=15.0,
+                    help="the fleet has stored what it will once nothing more was stored for this long")
     ap.add_argument("--step-s", type=float, default=20.0, help="measured seconds per guidewayd step (0: skip phase 2)")
     ap.add_argument("--warmup-s", type=float, default=2.0, help="seconds after all devices stream, not measured")
     ap.add_argument("--daemon-rate-hz", type=float, default=1000.0, help="per-instrument rate in phase 2")
