@@ -51,7 +51,7 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet) {
     rows.push_back(std::move(row));
   }
   return report::html_table(report::Table(
-      "The latest result of each kind (value ± standard uncertainty u). " + report::html_escape(moved_rule_text) + ".",
+      "The latest result of each kind (value ± standard uncertainty u). * " + report::html_escape(moved_rule_text) + ".",
       std::move(header), std::move(rows)));
 }
 

@@ -155,7 +155,7 @@ std::string status_text(const std::vector<MachineStatus>& fleet) {
   };
   std::string out = line(header);
   for (const auto& r : rows) out += line(r);
-  out += std::string(moved_rule_text) + (any_moved ? "\n" : " (none moved)\n");
+  out += "* " + std::string(moved_rule_text) + (any_moved ? "\n" : " (none moved)\n");
   return out;
 }
 

@@ -85,7 +85,7 @@ std::string history_text(std::string_view machine, const std::vector<HistoryEntr
       out += "    " + f.latest.label + ": " + value + " " + f.latest.unit + (f.moved ? "  *" : "") + "\n";
     }
   }
-  if (!entries.empty()) out += std::string(moved_rule_text) + "\n";
+  if (!entries.empty()) out += "* " + std::string(moved_rule_text) + "\n";
   return out;
 }
 

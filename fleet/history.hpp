@@ -46,6 +46,6 @@ struct HistoryEntry {
 
 // The rule, for outputs and docs.
 inline constexpr const char* moved_rule_text =
-    "* moved: |latest - previous| > 2*sqrt(u_latest^2 + u_previous^2) (k = 2); figures without u are never flagged";
+    "moved: |latest - previous| > 2*sqrt(u_latest^2 + u_previous^2) (k = 2); figures without u are never flagged";
 
 }  // namespace guideway::fleet

@@ -67,7 +67,8 @@ class Statement {
   Statement(const Statement&) = delete;
   Statement& operator=(const Statement&) = delete;
   Statement& bind(int i, std::string_view text) {
-    sqlite3_bind_text(s_, i, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
+    // An empty view may have no data pointer, which SQLite would bind as NULL rather than ''.
+    sqlite3_bind_text(s_, i, text.empty() ? "" : text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
     return *this;
   }
   Statement& bind(int i, std::int64_t v) {
@@ -215,7 +216,7 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
   // A producer's clock that cannot be read is no reason to lose a result: the receive time stands in.
   const std::string produced = normalised_time(produced_utc).value_or(*received);
 
-  Transaction tx(db_);
+  Transaction tx(db_);  // an ignored message leaves no trace: not even a machine's last-seen time
   Statement seen(db_,
                  "INSERT INTO machines(machine, last_seen_utc) VALUES(?1, ?2) ON CONFLICT(machine) DO UPDATE SET "
                  "last_seen_utc = max(last_seen_utc, excluded.last_seen_utc)");
@@ -228,16 +229,13 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
   try {
     j = nlohmann::json::parse(payload);
   } catch (const nlohmann::json::parse_error&) {
-    tx.commit();
     return ignored("payload is not JSON");
   }
   if (!j.is_object()) {
-    tx.commit();
     return ignored("payload is not a JSON object");
   }
   const std::string named = string_field(j, "machine");
   if (!named.empty() && named != t->machine) {
-    tx.commit();
     return ignored("payload names machine '" + named + "', the topic '" + t->machine + "'");
   }
   const std::string text(payload);
@@ -246,7 +244,6 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
     case plant::TopicLeaf::status: {
       const std::string state = string_field(j, "state");
       if (state != "online" && state != "offline") {
-        tx.commit();
         return ignored("status without \"state\": \"online\" or \"offline\"");
       }
       const auto since = normalised_time(string_field(j, "since"));
@@ -273,7 +270,6 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
       const std::string cls = t->leaf == plant::TopicLeaf::params ? "PARAMS" : "EXPLAIN";
       const std::string declared = string_field(j, "class");
       if (!declared.empty() && declared != cls) {
-        tx.commit();
         return ignored("payload is a " + declared + " on a " + std::string(plant::to_string(t->leaf)) + " topic");
       }
       const auto digest = digest_of(text);
