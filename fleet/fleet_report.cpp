@@ -25,11 +25,14 @@ std::string anchor(const std::string& machine) {
   return id;
 }
 
+// A cell that a narrow page does not break inside ("1.1564 ± 0.0080").
+std::string nowrap(const std::string& html) { return "<span style=\"white-space:nowrap\">" + html + "</span>"; }
+
 std::string figure_cell(const FigureChange* f) {
   if (!f) return "–";
   std::string cell = report::html_escape(report::format_with_u(f->latest.value, f->latest.u.value_or(std::nan(""))));
   if (f->moved) cell = "<strong class=\"moved\">" + cell + " *</strong>";
-  return cell;
+  return nowrap(cell);
 }
 
 std::string fleet_table(const std::vector<MachineStatus>& fleet) {
@@ -42,7 +45,9 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet) {
     std::string state = m.machine.state.empty() ? "unknown" : m.machine.state;
     if (!m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
     std::vector<std::string> row = {"<a href=\"#" + anchor(m.machine.machine) + "\">" + report::html_escape(m.machine.machine) + "</a>",
-                                    report::html_escape(state), report::html_escape(m.machine.since),
+                                    report::html_escape(state),
+                                    nowrap(report::html_escape(m.machine.since.substr(0, 10))) + " " +
+                                        report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
                                     m.dbb_age_s ? report::html_escape(format_age(*m.dbb_age_s)) + " ago" : "never"};
     for (const auto& c : columns) row.push_back(figure_cell(figure_of(m, c)));
     std::string found;
@@ -74,7 +79,10 @@ std::string trend_plot(const std::string& kind, const Headline& first, const std
     bars.y.insert(bars.y.end(), {values[i].value - half, values[i].value + half, std::nan("")});
   }
   const auto [lo, hi] = std::minmax_element(t_days.begin(), t_days.end());
-  if (*hi - *lo < 1e-6) p.x_range = report::Range{*lo - 0.5, *hi + 0.5};  // one result: a day around it
+  // Room on both sides so that the first and last markers and bars are not cut by the axes; a day
+  // around a single result.
+  const double margin = *hi - *lo < 1e-6 ? 0.5 : 0.05 * (*hi - *lo);
+  p.x_range = report::Range{*lo - margin, *hi + margin};
   const bool with_u = !bars.x.empty();
   p.series.push_back(std::move(v));
   if (with_u) p.series.push_back(std::move(bars));
