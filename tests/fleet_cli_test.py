@@ -17,17 +17,12 @@ import sys
 GUIDEWAY, SRC, ART = sys.argv[1:4]
 sys.path.insert(0, os.path.join(SRC, "report", "tools"))
 import cdp  # noqa: E402
-from report_dom import PLOTS_JS, open_self_contained  # noqa: E402
+from report_dom import PLOTS_JS, have_chromium, open_self_contained  # noqa: E402
+from process_support import Checks  # noqa: E402
 
 PREFIX = "plant/hall1"
 KINDS = ("dbb", "runout", "straightness", "profile")
-failures = []
-
-
-def check(cond, msg):
-    if not cond:
-        failures.append(msg)
-        print("FAIL:", msg)
+check = Checks()
 
 
 def gw(*args, ok=True):
@@ -43,10 +38,7 @@ def golden(name):
 
 
 def main():
-    try:
-        cdp.find_chromium()
-    except cdp.ChromiumMissing as e:
-        print("FAIL:", e)
+    if not have_chromium():
         return 1
     shutil.rmtree(ART, ignore_errors=True)
     os.makedirs(os.path.join(ART, "payloads"))
@@ -184,11 +176,7 @@ def main():
                     check("±2u" in p["legend"] and "value" in p["legend"], w + ": legend %s" % p["legend"])
         b.screenshot(os.path.join(ART, "fleet.png"))
     print("artefacts in", ART)
-    if failures:
-        print("%d check(s) failed" % len(failures))
-        return 1
-    print("all fleet checks passed")
-    return 0
+    return check.finish("all fleet checks passed")
 
 
 if __name__ == "__main__":

@@ -20,16 +20,11 @@ GUIDEWAY, EMULATE, SRC, MOODY, ART = sys.argv[1:6]
 sys.path.insert(0, os.path.join(SRC, "report", "tools"))
 import cdp  # noqa: E402
 import example_inputs  # noqa: E402
-from report_dom import PLOTS_JS, open_self_contained  # noqa: E402
+from report_dom import PLOTS_JS, have_chromium, open_self_contained  # noqa: E402
+from process_support import Checks  # noqa: E402
 
-failures = []
+check = Checks()
 EXPLANATION = {}  # the explanation input (its findings and residual curves)
-
-
-def check(cond, msg):
-    if not cond:
-        failures.append(msg)
-        print("FAIL:", msg)
 
 
 def run(*args):
@@ -151,10 +146,7 @@ def check_report(browser, html, kinds):
 
 
 def main():
-    try:
-        cdp.find_chromium()
-    except cdp.ChromiumMissing as e:
-        print("FAIL:", e)
+    if not have_chromium():
         return 1
     shutil.rmtree(ART, ignore_errors=True)
     os.makedirs(ART)
@@ -203,11 +195,7 @@ def main():
           "unrecognised input: exit %d, %r" % (r.returncode, r.stderr))
 
     print("artefacts in", ART)
-    if failures:
-        print("%d check(s) failed" % len(failures))
-        return 1
-    print("all report checks passed")
-    return 0
+    return check.finish("all report checks passed")
 
 
 if __name__ == "__main__":

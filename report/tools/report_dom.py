@@ -5,6 +5,8 @@ section and plot (report/svg.hpp's fixed SVG structure) as one JavaScript query.
 import os
 import re
 
+import cdp
+
 # Per <section class="analysis">: its kind, id, table count and each plot's axes, labels, legend and data paths.
 PLOTS_JS = r"""
 [...document.querySelectorAll('section.analysis')].map(sec => ({
@@ -44,3 +46,14 @@ def open_self_contained(browser, html, check):
     check(browser.problems() == [], "%s: console/load problems: %s" % (html, browser.problems()))
     reqs = browser.requests()
     check(len(reqs) == 1, "%s: loads more than itself: %s" % (html, reqs))
+
+
+def have_chromium():
+    """True when headless Chromium is installed; otherwise says so as a failure (a test that needs it fails
+    without it, never skips: ./scripts/setup.sh installs it)."""
+    try:
+        cdp.find_chromium()
+        return True
+    except cdp.ChromiumMissing as e:
+        print("FAIL:", e)
+        return False
