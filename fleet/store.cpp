@@ -26,6 +26,7 @@ CREATE TABLE machines(
   release TEXT NOT NULL DEFAULT '',
   reason TEXT NOT NULL DEFAULT '',
   status_payload TEXT NOT NULL DEFAULT '', -- the status applied: its retained copy is a duplicate
+  status_clock TEXT NOT NULL DEFAULT '',   -- the newest time a status carried (the daemon's clock)
   last_seen_utc TEXT NOT NULL DEFAULT '');
 CREATE TABLE results(
   id INTEGER PRIMARY KEY,
@@ -188,12 +189,18 @@ Store::Store(const std::string& path, Open mode) : path_(path) {
       throw where("its schema is version " + std::to_string(version) + ", newer than this guideway knows (" +
                   std::to_string(schema_version) + "): use the guideway release that wrote it, or a newer one");
     if (version == 0) {
-      Statement tables(db_, "SELECT count(*) FROM sqlite_master");
-      tables.step();
-      if (tables.integer(0) != 0) throw where("not a fleet database (it has tables of its own and no schema version)");
+      // Looked at again inside the write transaction: another process (fleet serve, fleet ingest) may
+      // have made the schema meanwhile.
       Transaction t(db_);
-      exec(db_, schema_sql);
-      exec(db_, ("PRAGMA user_version=" + std::to_string(schema_version)).c_str());
+      Statement again(db_, "PRAGMA user_version");
+      again.step();
+      if (again.integer(0) == 0) {
+        Statement tables(db_, "SELECT count(*) FROM sqlite_master");
+        tables.step();
+        if (tables.integer(0) != 0) throw where("not a fleet database (it has tables of its own and no schema version)");
+        exec(db_, schema_sql);
+        exec(db_, ("PRAGMA user_version=" + std::to_string(schema_version)).c_str());
+      }
       t.commit();
     }
   } catch (const std::runtime_error& e) {
@@ -247,21 +254,23 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
         return ignored("status without \"state\": \"online\" or \"offline\"");
       }
       const auto since = normalised_time(string_field(j, "since"));
-      // A will is published by the broker when the connection is lost and carries no time: it counts from
-      // when it arrived. The status's time also orders statuses that arrive late.
-      const std::string effective = since ? *since : *received;
-      Statement cur(db_, "SELECT status_payload, since FROM machines WHERE machine = ?1");
+      // A will (no time: the broker publishes it when the connection is lost, after whatever that
+      // connection brought) always applies, counting from when it arrived. A status with a time of its own
+      // applies unless that time is older than the newest one seen before (a late delivery): both on the
+      // daemon's clock, so a skew between the daemon's and this host's clock never hides a will or the
+      // status after it.
+      Statement cur(db_, "SELECT status_payload, status_clock FROM machines WHERE machine = ?1");
       cur.bind(1, t->machine).step();
       if (cur.text(0) == text) {
         out = {IngestResult::duplicate, {}};
-      } else if (effective < cur.text(1)) {
+      } else if (since && *since < cur.text(1)) {
         out = ignored("status older than the one stored (" + cur.text(1) + ")");
       } else {
         Statement up(db_,
-                     "UPDATE machines SET state = ?2, since = ?3, release = ?4, reason = ?5, "
-                     "status_payload = ?6 WHERE machine = ?1");
-        up.bind(1, t->machine).bind(2, state).bind(3, effective).bind(4, string_field(j, "release"));
-        up.bind(5, string_field(j, "reason")).bind(6, text).step();
+                     "UPDATE machines SET state = ?2, since = ?3, release = ?4, reason = ?5, status_payload = ?6, "
+                     "status_clock = max(status_clock, ?7) WHERE machine = ?1");
+        up.bind(1, t->machine).bind(2, state).bind(3, since.value_or(*received)).bind(4, string_field(j, "release"));
+        up.bind(5, string_field(j, "reason")).bind(6, text).bind(7, since.value_or("")).step();
       }
       break;
     }

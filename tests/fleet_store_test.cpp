@@ -135,6 +135,30 @@ TEST(FleetStore, StatusOnlineThenWillWithoutTimeThenStopped) {
   EXPECT_EQ(s.machines().at(0).since, "2026-11-26T12:10:00.000Z");
 }
 
+TEST(FleetStore, AWillAppliesWhateverTheClockSkew) {
+  guideway::test::TempDir dir;
+  Store s(dir.file("fleet.sqlite"));
+  // The daemon's clock is 5 minutes ahead of this host's.
+  const std::string online = R"({"state":"online","machine":"m","release":"0.1.0","since":"2026-11-26T11:05:00Z"})";
+  EXPECT_EQ(put(s, topic("m", "status"), online, "", "2026-11-26T11:00:01Z"), IngestResult::stored);
+  EXPECT_EQ(put(s, topic("m", "status"), R"({"state":"offline","machine":"m","reason":"connection lost"})", "",
+                "2026-11-26T11:02:00Z"),
+            IngestResult::stored);
+  EXPECT_EQ(s.machines().at(0).state, "offline");
+  EXPECT_EQ(s.machines().at(0).since, "2026-11-26T11:02:00.000Z");
+  // It reconnects a minute later (its clock: 11:08): online again, although 11:08 > 11:02 only by skew.
+  const std::string again = R"({"state":"online","machine":"m","release":"0.1.0","since":"2026-11-26T11:08:00Z"})";
+  EXPECT_EQ(put(s, topic("m", "status"), again, "", "2026-11-26T11:03:00Z"), IngestResult::stored);
+  EXPECT_EQ(s.machines().at(0).state, "online");
+  // The same online status as before the will (a daemon that keeps its start time) applies too.
+  EXPECT_EQ(put(s, topic("m", "status"), R"({"state":"offline","machine":"m","reason":"connection lost"})", "",
+                "2026-11-26T11:04:00Z"),
+            IngestResult::stored);
+  EXPECT_EQ(put(s, topic("m", "status"), again, "", "2026-11-26T11:05:00Z"), IngestResult::stored);
+  EXPECT_EQ(s.machines().at(0).state, "online");
+  EXPECT_EQ(s.machines().at(0).since, "2026-11-26T11:08:00.000Z");
+}
+
 TEST(FleetStore, ResultsAreOrderedByProducedTimeNotArrival) {
   guideway::test::TempDir dir;
   Store s(dir.file("fleet.sqlite"));
