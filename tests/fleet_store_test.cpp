@@ -4,10 +4,12 @@
 #include <sqlite3.h>
 #include <sys/stat.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -183,6 +185,36 @@ TEST(FleetStore, ResultsAreOrderedByProducedTimeNotArrival) {
   const auto latest = s.latest_results(2);
   ASSERT_EQ(latest.size(), 2u);
   EXPECT_EQ(latest[0].session + latest[1].session, "de");
+}
+
+TEST(FleetStore, StatusReadsWhileServeWrites) {
+  guideway::test::TempDir dir;
+  const std::string path = dir.file("fleet.sqlite");
+  Store writer(path);
+  auto p = golden_json("dbb.params.json");
+  std::atomic<bool> done{false};
+  std::string reader_error;
+  std::size_t reads = 0;
+  std::thread reader([&] {
+    try {
+      const Store r(path, Store::Open::existing);  // its own connection, as `guideway fleet status`
+      while (!done.load()) {
+        (void)fleet_status(r, 1.8e9);
+        ++reads;
+      }
+    } catch (const std::exception& e) {
+      reader_error = e.what();
+    }
+  });
+  for (int i = 0; i < 300; ++i) {
+    p["session"] = "s" + std::to_string(i);
+    ASSERT_EQ(put(writer, topic("m" + std::to_string(i % 5), "params", "dbb"), p.dump(), ""), IngestResult::stored);
+  }
+  done = true;
+  reader.join();
+  EXPECT_EQ(reader_error, "");
+  EXPECT_GT(reads, 0u);
+  EXPECT_EQ(writer.results("m3").size(), 60u);
 }
 
 TEST(FleetStore, NewerSchemaAndForeignDatabasesAreRefused) {
