@@ -59,8 +59,7 @@ const std::string& fleet_50x100() {
     for (std::size_t m = 0; m < 50; ++m)
       for (std::size_t k = 0; k < 100; ++k)
         store.ingest("plant", "plant/m" + std::to_string(m) + "/params/dbb", p.with_session(m * 100 + k),
-                     guideway::utc_iso_ms(1.79e9 + static_cast<double>(k) * 6 * 3600),
-                     "2026-11-26T11:00:00Z");
+                     guideway::utc_iso_ms(1.79e9 + static_cast<double>(k) * 6 * 3600), "2026-11-26T11:00:00Z");
     return file;
   }();
   return path;
@@ -68,7 +67,8 @@ const std::string& fleet_50x100() {
 
 void BM_FleetStatus50x100(benchmark::State& state) {
   const guideway::fleet::Store store(fleet_50x100(), guideway::fleet::Store::Open::existing);
-  for (auto _ : state) benchmark::DoNotOptimize(guideway::fleet::status_text(guideway::fleet::fleet_status(store, 1.8e9)));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(guideway::fleet::status_text(guideway::fleet::fleet_status(store, 1.8e9)));
 }
 BENCHMARK(BM_FleetStatus50x100)->Unit(benchmark::kMillisecond);
 

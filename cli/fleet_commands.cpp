@@ -23,13 +23,12 @@ namespace guideway::cli {
 
 namespace {
 
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+double now_s() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 void add_db_option(CLI::App* cmd, std::string& db) {
-  cmd->add_option("--db", db, "fleet database (default: $STATE_DIRECTORY, $XDG_STATE_HOME/guideway or "
-                              "~/.local/state/guideway, /fleet.sqlite)");
+  cmd->add_option("--db", db,
+                  "fleet database (default: $STATE_DIRECTORY, $XDG_STATE_HOME/guideway or "
+                  "~/.local/state/guideway, /fleet.sqlite)");
 }
 
 std::string db_path(const std::string& given) { return given.empty() ? fleet::default_database_path() : given; }
@@ -43,16 +42,18 @@ std::string read_whole_file(const std::string& path) {
 }
 
 void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
-  auto* fleet = shared_subcommand(app, "fleet", "the plant's machines as their daemons publish them over MQTT: "
-                                                "status, history, report (docs/plant.md)");
+  auto* fleet = shared_subcommand(app, "fleet",
+                                  "the plant's machines as their daemons publish them over MQTT: "
+                                  "status, history, report (docs/plant.md)");
   {
     struct Args {
       std::string db;
       bool json = false;
     };
     auto a = std::make_shared<Args>();
-    auto* cmd = fleet->add_subcommand("status", "one line per machine: online/offline, age of the last DBB result, "
-                                                "the latest headline figures (* moved beyond 2u) and what EXPLAIN found");
+    auto* cmd = fleet->add_subcommand("status",
+                                      "one line per machine: online/offline, age of the last DBB result, "
+                                      "the latest headline figures (* moved beyond 2u) and what EXPLAIN found");
     add_db_option(cmd, a->db);
     cmd->add_flag("--json", a->json, "print one JSON object");
     cmd->callback([a] {
@@ -70,8 +71,9 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
       bool json = false;
     };
     auto a = std::make_shared<Args>();
-    auto* cmd = fleet->add_subcommand("history", "every result of one machine, oldest first, each headline figure "
-                                                 "value ± u (* moved beyond 2u against the one before)");
+    auto* cmd = fleet->add_subcommand("history",
+                                      "every result of one machine, oldest first, each headline figure "
+                                      "value ± u (* moved beyond 2u against the one before)");
     cmd->add_option("machine", a->machine, "machine name (as in its topics)")->required();
     cmd->add_option("--kind", a->kind, "only this session kind (dbb, runout, straightness, profile)");
     add_db_option(cmd, a->db);
@@ -82,8 +84,8 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
       if (std::none_of(machines.begin(), machines.end(), [&](const auto& m) { return m.machine == a->machine; })) {
         std::string known;
         for (const auto& m : machines) known += (known.empty() ? "" : ", ") + m.machine;
-        throw std::runtime_error("fleet history: unknown machine '" + a->machine + "'; known: " +
-                                 (known.empty() ? "none yet" : known));
+        throw std::runtime_error("fleet history: unknown machine '" + a->machine +
+                                 "'; known: " + (known.empty() ? "none yet" : known));
       }
       const auto entries = fleet::history_of(store.results(a->machine, a->kind));
       if (a->json)
@@ -98,8 +100,9 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
       bool no_date = false;
     };
     auto a = std::make_shared<Args>();
-    auto* cmd = fleet->add_subcommand("report", "write one self-contained HTML page: the fleet table and each "
-                                                "machine's headline figures over time with ±2u bars");
+    auto* cmd = fleet->add_subcommand("report",
+                                      "write one self-contained HTML page: the fleet table and each "
+                                      "machine's headline figures over time with ±2u bars");
     cmd->add_option("-o,--out", a->out, "HTML file to write ('-': standard output)")->required();
     add_db_option(cmd, a->db);
     cmd->add_option("--title", a->title, "page title");
@@ -125,10 +128,12 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
       std::string db, topic, file, produced, received, prefix = "guideway";
     };
     auto a = std::make_shared<Args>();
-    auto* cmd = fleet->add_subcommand("ingest", "store one message as `fleet serve` does: a result, status or event "
-                                                "kept as a file (import, tests)");
-    cmd->add_option("--topic", a->topic, "its MQTT topic: PREFIX/MACHINE/params/KIND, .../explain/KIND, .../status, "
-                                         ".../event")
+    auto* cmd = fleet->add_subcommand("ingest",
+                                      "store one message as `fleet serve` does: a result, status or event "
+                                      "kept as a file (import, tests)");
+    cmd->add_option("--topic", a->topic,
+                    "its MQTT topic: PREFIX/MACHINE/params/KIND, .../explain/KIND, .../status, "
+                    ".../event")
         ->required();
     cmd->add_option("--file", a->file, "the payload (a PARAMS, EXPLAIN, status or EVENT JSON object)")->required();
     cmd->add_option("--prefix", a->prefix, "the topic prefix (default guideway)");

@@ -54,7 +54,8 @@ std::optional<double> parse_utc_iso(std::string_view text) {
     double scale = 0.1;
     ++at;
     if (at >= text.size() || text[at] < '0' || text[at] > '9') return std::nullopt;
-    for (; at < text.size() && text[at] >= '0' && text[at] <= '9'; ++at, scale *= 0.1) fraction += (text[at] - '0') * scale;
+    for (; at < text.size() && text[at] >= '0' && text[at] <= '9'; ++at, scale *= 0.1)
+      fraction += (text[at] - '0') * scale;
   }
   if (at + 1 != text.size() || text[at] != 'Z') return std::nullopt;
   tm.tm_year = year - 1900;

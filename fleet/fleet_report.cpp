@@ -44,20 +44,21 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet) {
   for (const auto& m : fleet) {
     std::string state = m.machine.state.empty() ? "unknown" : m.machine.state;
     if (!m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
-    std::vector<std::string> row = {"<a href=\"#" + anchor(m.machine.machine) + "\">" + report::html_escape(m.machine.machine) + "</a>",
-                                    report::html_escape(state),
-                                    nowrap(report::html_escape(m.machine.since.substr(0, 10))) + " " +
-                                        report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
-                                    m.dbb_age_s ? report::html_escape(format_age(*m.dbb_age_s)) + " ago" : "never"};
+    std::vector<std::string> row = {
+        "<a href=\"#" + anchor(m.machine.machine) + "\">" + report::html_escape(m.machine.machine) + "</a>",
+        report::html_escape(state),
+        nowrap(report::html_escape(m.machine.since.substr(0, 10))) + " " +
+            report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
+        m.dbb_age_s ? report::html_escape(format_age(*m.dbb_age_s)) + " ago" : "never"};
     for (const auto& c : columns) row.push_back(figure_cell(figure_of(m, c)));
     std::string found;
     for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
     row.push_back(report::html_escape(found.empty() ? "–" : found));
     rows.push_back(std::move(row));
   }
-  return report::html_table(report::Table(
-      "The latest result of each kind (value ± standard uncertainty u). * " + report::html_escape(moved_rule_text) + ".",
-      std::move(header), std::move(rows)));
+  return report::html_table(report::Table("The latest result of each kind (value ± standard uncertainty u). * " +
+                                              report::html_escape(moved_rule_text) + ".",
+                                          std::move(header), std::move(rows)));
 }
 
 // One figure's trend: the values, and a bar from value − 2u to value + 2u at each (NaN-separated
@@ -86,8 +87,9 @@ std::string trend_plot(const std::string& kind, const Headline& first, const std
   const bool with_u = !bars.x.empty();
   p.series.push_back(std::move(v));
   if (with_u) p.series.push_back(std::move(bars));
-  const std::string caption = report::html_escape(first.label + " (" + first.unit + ") of each " + kind + " result" +
-                                                  (with_u ? ", with bars of ±2u (k = 2)" : ": the results give no uncertainty for it"));
+  const std::string caption =
+      report::html_escape(first.label + " (" + first.unit + ") of each " + kind + " result" +
+                          (with_u ? ", with bars of ±2u (k = 2)" : ": the results give no uncertainty for it"));
   return report::html_figure(report::render(p), caption);
 }
 
@@ -116,14 +118,16 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
     const auto t = parse_utc_iso(e.produced_utc);
     if (!t) continue;
     for (const auto& f : e.figures) {
-      auto it = std::find_if(trends.begin(), trends.end(),
-                             [&](const Trend& tr) { return tr.kind == e.kind && tr.values.front().name == f.latest.name; });
+      auto it = std::find_if(trends.begin(), trends.end(), [&](const Trend& tr) {
+        return tr.kind == e.kind && tr.values.front().name == f.latest.name;
+      });
       if (it == trends.end()) it = trends.insert(trends.end(), Trend{e.kind, {}, {}});
       it->t.push_back((*t - t0) / seconds_per_day);
       it->values.push_back(f.latest);
     }
   }
-  std::stable_sort(trends.begin(), trends.end(), [](const Trend& a, const Trend& b) { return kind_rank(a.kind) < kind_rank(b.kind); });
+  std::stable_sort(trends.begin(), trends.end(),
+                   [](const Trend& a, const Trend& b) { return kind_rank(a.kind) < kind_rank(b.kind); });
   for (const auto& tr : trends) body += trend_plot(tr.kind, tr.values.front(), tr.t, tr.values, epoch_day);
   if (!m.explains.empty()) {
     std::vector<std::vector<std::string>> rows;
@@ -132,8 +136,9 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
       if (!e.summary.not_analysed.empty()) found += ": " + e.summary.not_analysed;
       rows.push_back({report::html_escape(e.kind), report::html_escape(e.produced_utc), report::html_escape(found)});
     }
-    body += report::html_table(report::Table("What the latest EXPLAIN of each kind found (contribution to the deviation)",
-                                             {"kind", "produced (UTC)", "found"}, std::move(rows), "text"));
+    body +=
+        report::html_table(report::Table("What the latest EXPLAIN of each kind found (contribution to the deviation)",
+                                         {"kind", "produced (UTC)", "found"}, std::move(rows), "text"));
   }
   return report::html_section("machine", anchor(m.machine.machine), m.machine.machine, body);
 }
@@ -143,8 +148,9 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
 std::string render_fleet_report(const Store& store, const FleetReportOptions& options) {
   const auto fleet = fleet_status(store, options.now_s);
   std::vector<report::TocEntry> toc = {{"fleet", "Fleet"}};
-  std::string body = report::html_section(
-      "fleet", "fleet", "Fleet", fleet.empty() ? report::html_note("No machine has reported yet.") : fleet_table(fleet));
+  std::string body =
+      report::html_section("fleet", "fleet", "Fleet",
+                           fleet.empty() ? report::html_note("No machine has reported yet.") : fleet_table(fleet));
   for (const auto& m : fleet) {
     body += machine_section(m, history_of(store.results(m.machine.machine)));
     toc.push_back({anchor(m.machine.machine), m.machine.machine});

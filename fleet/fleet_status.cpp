@@ -13,7 +13,8 @@ namespace {
 
 // Columns by what a terminal shows: UTF-8 continuation bytes take no column ("µm").
 std::size_t display_width(const std::string& s) {
-  return static_cast<std::size_t>(std::count_if(s.begin(), s.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; }));
+  return static_cast<std::size_t>(
+      std::count_if(s.begin(), s.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; }));
 }
 
 std::string pad(const std::string& s, std::size_t width, bool right) {
@@ -30,10 +31,11 @@ std::vector<MachineStatus> fleet_status(const Store& store, double now_s) {
   const auto rows = store.latest_results(2);
   for (std::size_t i = 0; i < rows.size();) {
     std::size_t end = i;
-    while (end < rows.size() && rows[end].machine == rows[i].machine && rows[end].message_class == rows[i].message_class &&
-           rows[end].kind == rows[i].kind)
+    while (end < rows.size() && rows[end].machine == rows[i].machine &&
+           rows[end].message_class == rows[i].message_class && rows[end].kind == rows[i].kind)
       ++end;
-    const std::vector<ResultRow> group(rows.begin() + static_cast<std::ptrdiff_t>(i), rows.begin() + static_cast<std::ptrdiff_t>(end));
+    const std::vector<ResultRow> group(rows.begin() + static_cast<std::ptrdiff_t>(i),
+                                       rows.begin() + static_cast<std::ptrdiff_t>(end));
     auto entries = history_of(group);
     auto& m = by_name[rows[i].machine];
     if (m.machine.machine.empty()) m.machine.machine = rows[i].machine;
@@ -98,12 +100,18 @@ std::string format_age(double seconds) {
 nlohmann::json status_json(const std::vector<MachineStatus>& fleet) {
   nlohmann::json j = {{"moved_rule", moved_rule_text}, {"machines", nlohmann::json::array()}};
   for (const auto& m : fleet) {
-    nlohmann::json o = {{"machine", m.machine.machine}, {"state", m.machine.state},   {"since", m.machine.since},
-                        {"release", m.machine.release}, {"reason", m.machine.reason}, {"last_seen_utc", m.machine.last_seen_utc},
+    nlohmann::json o = {{"machine", m.machine.machine},
+                        {"state", m.machine.state},
+                        {"since", m.machine.since},
+                        {"release", m.machine.release},
+                        {"reason", m.machine.reason},
+                        {"last_seen_utc", m.machine.last_seen_utc},
                         {"dbb_age_s", m.dbb_age_s ? nlohmann::json(*m.dbb_age_s) : nlohmann::json()},
-                        {"latest", nlohmann::json::object()},  {"explain", nlohmann::json::object()}};
+                        {"latest", nlohmann::json::object()},
+                        {"explain", nlohmann::json::object()}};
     for (const auto& k : m.latest) {
-      auto& r = o["latest"][k.kind] = {{"produced_utc", k.produced_utc}, {"session", k.session}, {"figures", nlohmann::json::array()}};
+      auto& r = o["latest"][k.kind] = {
+          {"produced_utc", k.produced_utc}, {"session", k.session}, {"figures", nlohmann::json::array()}};
       for (const auto& f : k.figures) r["figures"].push_back(to_json(f));
     }
     for (const auto& e : m.explains) {
@@ -127,7 +135,8 @@ std::string status_text(const std::vector<MachineStatus>& fleet) {
   for (const auto& m : fleet) {
     std::string state = m.machine.state.empty() ? "?" : m.machine.state;
     if (m.machine.state == "offline" && !m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
-    std::vector<std::string> row = {m.machine.machine, state, m.machine.since.empty() ? "-" : m.machine.since.substr(0, 19),
+    std::vector<std::string> row = {m.machine.machine, state,
+                                    m.machine.since.empty() ? "-" : m.machine.since.substr(0, 19),
                                     m.dbb_age_s ? format_age(*m.dbb_age_s) + " ago" : "never"};
     for (const auto& c : columns) {
       const auto* f = figure_of(m, c);

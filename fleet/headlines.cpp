@@ -28,9 +28,13 @@ const std::vector<FigureSpec>& spec_of(std::string_view kind) {
   static const std::vector<FigureSpec> dbb = {
       {"circular_deviation_um", "G", "µm", {estimate("/diagnostics/circular_deviation_um")}},
       {"squareness_urad", "squareness", "µrad", {estimate("/diagnostics/squareness_urad")}},
-      {"backlash_{a}_um", "backlash {a}", "µm",
+      {"backlash_{a}_um",
+       "backlash {a}",
+       "µm",
        {estimate("/diagnostics/backlash_{a}_um"), estimate("/lai3/backlash_{a}_um")}},
-      {"backlash_{b}_um", "backlash {b}", "µm",
+      {"backlash_{b}_um",
+       "backlash {b}",
+       "µm",
        {estimate("/diagnostics/backlash_{b}_um"), estimate("/lai3/backlash_{b}_um")}},
       {"scale_{a}_ppm", "scale {a}", "ppm", {estimate("/diagnostics/scale_{a}_ppm")}},
       {"scale_{b}_ppm", "scale {b}", "ppm", {estimate("/diagnostics/scale_{b}_ppm")}},
@@ -40,9 +44,13 @@ const std::vector<FigureSpec>& spec_of(std::string_view kind) {
       {"runout_um", "run-out", "µm", {estimate("/squareness/runout_um")}},
   };
   static const std::vector<FigureSpec> straightness = {
-      {"horizontal_straightness_um", "straightness h", "µm",
+      {"horizontal_straightness_um",
+       "straightness h",
+       "µm",
        {{"/result/horizontal/least_squares/straightness_um", "/result/horizontal/least_squares/u_straightness_um"}}},
-      {"vertical_straightness_um", "straightness v", "µm",
+      {"vertical_straightness_um",
+       "straightness v",
+       "µm",
        {{"/result/vertical/least_squares/straightness_um", "/result/vertical/least_squares/u_straightness_um"}}},
   };
   static const std::vector<FigureSpec> profile = {
@@ -59,7 +67,8 @@ const std::vector<FigureSpec>& spec_of(std::string_view kind) {
 
 std::string with_axes(std::string text, const std::string& a, const std::string& b) {
   for (const auto& [key, letter] : {std::pair<std::string, std::string>{"{a}", a}, {"{b}", b}}) {
-    for (auto at = text.find(key); at != std::string::npos; at = text.find(key, at)) text.replace(at, key.size(), letter);
+    for (auto at = text.find(key); at != std::string::npos; at = text.find(key, at))
+      text.replace(at, key.size(), letter);
   }
   return text;
 }
@@ -79,7 +88,8 @@ std::optional<double> number_at(const nlohmann::json& j, const std::string& poin
 std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params) {
   // The DBB figures are named after the plane's axes ("xy": x and y; "zx": z and x).
   std::string a = "x", b = "y";
-  if (const auto it = params.find("plane"); it != params.end() && it->is_string() && it->get<std::string>().size() == 2) {
+  if (const auto it = params.find("plane");
+      it != params.end() && it->is_string() && it->get<std::string>().size() == 2) {
     a = it->get<std::string>().substr(0, 1);
     b = it->get<std::string>().substr(1, 1);
   }
@@ -88,7 +98,8 @@ std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& par
     for (const auto& src : f.sources) {
       const auto v = number_at(params, with_axes(src.value, a, b));
       if (!v) continue;
-      out.push_back({with_axes(f.name, a, b), with_axes(f.label, a, b), f.unit, *v, number_at(params, with_axes(src.u, a, b))});
+      out.push_back(
+          {with_axes(f.name, a, b), with_axes(f.label, a, b), f.unit, *v, number_at(params, with_axes(src.u, a, b))});
       break;
     }
   }

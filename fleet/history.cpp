@@ -42,8 +42,11 @@ std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
 }
 
 nlohmann::json to_json(const FigureChange& f) {
-  nlohmann::json j = {{"name", f.latest.name}, {"label", f.latest.label}, {"unit", f.latest.unit},
-                      {"value", f.latest.value}, {"moved", f.moved}};
+  nlohmann::json j = {{"name", f.latest.name},
+                      {"label", f.latest.label},
+                      {"unit", f.latest.unit},
+                      {"value", f.latest.value},
+                      {"moved", f.moved}};
   if (f.latest.u) j["u"] = *f.latest.u;
   if (f.previous) {
     j["previous"] = f.previous->value;
@@ -54,7 +57,8 @@ nlohmann::json to_json(const FigureChange& f) {
 
 nlohmann::json to_json(const ExplainSummary& s) {
   nlohmann::json j = {{"findings", nlohmann::json::array()}, {"unexplained", s.unexplained}};
-  for (const auto& f : s.findings) j["findings"].push_back({{"effect", f.effect}, {"contribution_um", f.contribution_um}});
+  for (const auto& f : s.findings)
+    j["findings"].push_back({{"effect", f.effect}, {"contribution_um", f.contribution_um}});
   if (!s.not_analysed.empty()) j["not_analysed"] = s.not_analysed;
   return j;
 }
@@ -62,8 +66,11 @@ nlohmann::json to_json(const ExplainSummary& s) {
 nlohmann::json history_json(std::string_view machine, const std::vector<HistoryEntry>& entries) {
   nlohmann::json j = {{"machine", machine}, {"moved_rule", moved_rule_text}, {"results", nlohmann::json::array()}};
   for (const auto& e : entries) {
-    nlohmann::json r = {{"kind", e.kind},          {"class", e.message_class},     {"produced_utc", e.produced_utc},
-                        {"received_utc", e.received_utc}, {"session", e.session}};
+    nlohmann::json r = {{"kind", e.kind},
+                        {"class", e.message_class},
+                        {"produced_utc", e.produced_utc},
+                        {"received_utc", e.received_utc},
+                        {"session", e.session}};
     if (e.explain) {
       r["explain"] = to_json(*e.explain);
     } else {

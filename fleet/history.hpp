@@ -27,7 +27,7 @@ struct HistoryEntry {
   std::string produced_utc;
   std::string received_utc;
   std::string session;
-  std::vector<FigureChange> figures;     // PARAMS
+  std::vector<FigureChange> figures;      // PARAMS
   std::optional<ExplainSummary> explain;  // EXPLAIN
 };
 

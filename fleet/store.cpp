@@ -131,7 +131,8 @@ void make_private_parents(const std::string& path) {
   for (const auto& part : parent) {
     p /= part;
     if (::mkdir(p.c_str(), 0700) != 0 && errno != EEXIST)
-      throw std::runtime_error("cannot create directory " + p.string() + " for the fleet database: " + std::strerror(errno));
+      throw std::runtime_error("cannot create directory " + p.string() +
+                               " for the fleet database: " + std::strerror(errno));
   }
 }
 
@@ -155,15 +156,20 @@ std::string default_database_path() { return default_state_dir() + "/fleet.sqlit
 
 std::string_view to_string(IngestResult::Outcome outcome) noexcept {
   switch (outcome) {
-    case IngestResult::stored: return "stored";
-    case IngestResult::duplicate: return "duplicate";
-    case IngestResult::ignored: break;
+    case IngestResult::stored:
+      return "stored";
+    case IngestResult::duplicate:
+      return "duplicate";
+    case IngestResult::ignored:
+      break;
   }
   return "ignored";
 }
 
 Store::Store(const std::string& path, Open mode) : path_(path) {
-  const auto where = [&](const std::string& what) { return std::runtime_error("fleet database " + path + ": " + what); };
+  const auto where = [&](const std::string& what) {
+    return std::runtime_error("fleet database " + path + ": " + what);
+  };
   int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_NOMUTEX;
   if (mode == Open::existing) {
     std::error_code ec;
@@ -197,7 +203,8 @@ Store::Store(const std::string& path, Open mode) : path_(path) {
       if (again.integer(0) == 0) {
         Statement tables(db_, "SELECT count(*) FROM sqlite_master");
         tables.step();
-        if (tables.integer(0) != 0) throw where("not a fleet database (it has tables of its own and no schema version)");
+        if (tables.integer(0) != 0)
+          throw where("not a fleet database (it has tables of its own and no schema version)");
         exec(db_, schema_sql);
         exec(db_, ("PRAGMA user_version=" + std::to_string(schema_version)).c_str());
       }
@@ -282,7 +289,9 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
         return ignored("payload is a " + declared + " on a " + std::string(plant::to_string(t->leaf)) + " topic");
       }
       const auto digest = digest_of(text);
-      Statement dup(db_, "SELECT 1 FROM results WHERE machine = ?1 AND class = ?2 AND kind = ?3 AND digest = ?4 AND payload = ?5");
+      Statement dup(
+          db_,
+          "SELECT 1 FROM results WHERE machine = ?1 AND class = ?2 AND kind = ?3 AND digest = ?4 AND payload = ?5");
       if (dup.bind(1, t->machine).bind(2, cls).bind(3, t->kind).bind(4, digest).bind(5, text).step()) {
         out = {IngestResult::duplicate, {}};
         break;
@@ -301,11 +310,13 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
         out = {IngestResult::duplicate, {}};
         break;
       }
-      Statement ins(db_, "INSERT INTO events(machine, produced_utc, received_utc, payload, digest) VALUES(?1, ?2, ?3, ?4, ?5)");
+      Statement ins(
+          db_, "INSERT INTO events(machine, produced_utc, received_utc, payload, digest) VALUES(?1, ?2, ?3, ?4, ?5)");
       ins.bind(1, t->machine).bind(2, produced).bind(3, *received).bind(4, text).bind(5, digest).step();
       break;
     }
-    case plant::TopicLeaf::devices: break;  // handled above
+    case plant::TopicLeaf::devices:
+      break;  // handled above
   }
   tx.commit();
   return out;
@@ -349,7 +360,9 @@ std::vector<ResultRow> Store::latest_results(int per_kind) const {
 }
 
 std::vector<EventRow> Store::events(std::string_view machine) const {
-  Statement s(db_, "SELECT machine, produced_utc, received_utc, payload FROM events WHERE machine = ?1 ORDER BY produced_utc, id");
+  Statement s(
+      db_,
+      "SELECT machine, produced_utc, received_utc, payload FROM events WHERE machine = ?1 ORDER BY produced_utc, id");
   s.bind(1, machine);
   std::vector<EventRow> out;
   while (s.step()) out.push_back({s.text(0), s.text(1), s.text(2), s.text(3)});

@@ -33,16 +33,16 @@ struct MachineRow {
   std::string state;  // "online", "offline", or "" (only devices or results seen so far)
   std::string since;  // UTC; the status's own, or the receive time of a will without one
   std::string release;
-  std::string reason;          // offline: "connection lost", "stopped", ...
-  std::string last_seen_utc;   // the newest message of any kind from it
+  std::string reason;         // offline: "connection lost", "stopped", ...
+  std::string last_seen_utc;  // the newest message of any kind from it
 };
 
 struct ResultRow {
   std::int64_t id = 0;
   std::string machine;
-  std::string kind;          // "dbb", "runout", ...
-  std::string message_class; // "PARAMS" or "EXPLAIN"
-  std::string produced_utc;  // when the daemon made it (ISO 8601 UTC, ms); the receive time when unknown
+  std::string kind;           // "dbb", "runout", ...
+  std::string message_class;  // "PARAMS" or "EXPLAIN"
+  std::string produced_utc;   // when the daemon made it (ISO 8601 UTC, ms); the receive time when unknown
   std::string received_utc;
   std::string session;
   std::string payload;  // the JSON object as published

@@ -59,8 +59,10 @@ TEST(FleetStore, GoldenResultsOfTwoMachinesAreStoredOnceEach) {
     Store s(path);
     for (const std::string machine : {"mill-1", "lathe-2"})
       for (const std::string k : kinds) {
-        EXPECT_EQ(put(s, topic(machine, "params", k), golden(k + ".params.json"), "2026-11-20T10:00:00.000Z"), IngestResult::stored);
-        EXPECT_EQ(put(s, topic(machine, "explain", k), golden(k + ".explain.json"), "2026-11-20T10:00:01.000Z"), IngestResult::stored);
+        EXPECT_EQ(put(s, topic(machine, "params", k), golden(k + ".params.json"), "2026-11-20T10:00:00.000Z"),
+                  IngestResult::stored);
+        EXPECT_EQ(put(s, topic(machine, "explain", k), golden(k + ".explain.json"), "2026-11-20T10:00:01.000Z"),
+                  IngestResult::stored);
         // The retained copy on every resubscription, a QoS 1 redelivery: nothing new.
         EXPECT_EQ(put(s, topic(machine, "params", k), golden(k + ".params.json"), "2026-11-20T10:00:00.000Z",
                       "2026-11-26T13:00:00.000Z"),
@@ -92,7 +94,8 @@ TEST(FleetStore, EventsDevicesAndWhatIsIgnored) {
   EXPECT_EQ(put(s, topic("m", "event"), ev, "2026-11-26T11:00:00.100Z"), IngestResult::stored);
   EXPECT_EQ(put(s, topic("m", "event"), ev, "2026-11-26T11:00:00.100Z"), IngestResult::duplicate);
   EXPECT_EQ(s.events("m").size(), 1u);
-  EXPECT_EQ(put(s, topic("d", "devices"), R"({"class":"STATUS"})", "", "2026-11-26T11:00:05.000Z"), IngestResult::stored);
+  EXPECT_EQ(put(s, topic("d", "devices"), R"({"class":"STATUS"})", "", "2026-11-26T11:00:05.000Z"),
+            IngestResult::stored);
   ASSERT_EQ(s.machines().size(), 2u);
   EXPECT_EQ(s.machines()[0].last_seen_utc, "2026-11-26T11:00:05.000Z");
   EXPECT_TRUE(s.results("d").empty());
@@ -100,8 +103,9 @@ TEST(FleetStore, EventsDevicesAndWhatIsIgnored) {
   const auto r = s.ingest(prefix, "other/m/params/dbb", "{}", "", "2026-11-26T11:00:00Z");
   EXPECT_EQ(r.outcome, IngestResult::ignored);
   EXPECT_NE(r.reason.find("not our topic tree"), std::string::npos);
-  EXPECT_NE(s.ingest(prefix, topic("x", "params", "dbb"), "{not json", "", "2026-11-26T11:00:00Z").reason.find("not JSON"),
-            std::string::npos);
+  EXPECT_NE(
+      s.ingest(prefix, topic("x", "params", "dbb"), "{not json", "", "2026-11-26T11:00:00Z").reason.find("not JSON"),
+      std::string::npos);
   EXPECT_EQ(put(s, topic("x", "explain", "dbb"), golden("dbb.params.json"), ""), IngestResult::ignored);  // a PARAMS
   EXPECT_EQ(put(s, topic("x", "status"), R"({"state":"online","machine":"y"})", ""), IngestResult::ignored);
   EXPECT_EQ(s.machines().size(), 2u);  // an ignored message leaves no machine behind
@@ -112,14 +116,17 @@ TEST(FleetStore, StatusOnlineThenWillWithoutTimeThenStopped) {
   Store s(dir.file("fleet.sqlite"));
   const std::string online = R"({"state":"online","machine":"m","release":"0.1.0","since":"2026-11-26T11:00:00Z"})";
   const std::string will = R"({"state":"offline","machine":"m","reason":"connection lost"})";
-  EXPECT_EQ(put(s, topic("m", "status"), online, "2026-11-26T11:00:00.010Z", "2026-11-26T11:00:00.020Z"), IngestResult::stored);
-  EXPECT_EQ(put(s, topic("m", "status"), online, "2026-11-26T11:00:00.010Z", "2026-11-26T11:05:00.000Z"), IngestResult::duplicate);
+  EXPECT_EQ(put(s, topic("m", "status"), online, "2026-11-26T11:00:00.010Z", "2026-11-26T11:00:00.020Z"),
+            IngestResult::stored);
+  EXPECT_EQ(put(s, topic("m", "status"), online, "2026-11-26T11:00:00.010Z", "2026-11-26T11:05:00.000Z"),
+            IngestResult::duplicate);
   auto m = s.machines().at(0);
   EXPECT_EQ(m.state, "online");
   EXPECT_EQ(m.since, "2026-11-26T11:00:00.000Z");
   EXPECT_EQ(m.release, "0.1.0");
   // The will: no time of its own, so since = when it arrived (its produced_utc was stamped at connect).
-  EXPECT_EQ(put(s, topic("m", "status"), will, "2026-11-26T11:00:00.000Z", "2026-11-26T11:30:00.250Z"), IngestResult::stored);
+  EXPECT_EQ(put(s, topic("m", "status"), will, "2026-11-26T11:00:00.000Z", "2026-11-26T11:30:00.250Z"),
+            IngestResult::stored);
   m = s.machines().at(0);
   EXPECT_EQ(m.state, "offline");
   EXPECT_EQ(m.since, "2026-11-26T11:30:00.250Z");
@@ -175,7 +182,8 @@ TEST(FleetStore, ResultsAreOrderedByProducedTimeNotArrival) {
   EXPECT_EQ(put(s, topic("m", "params", "dbb"), with_session("a"), "2026-11-21T08:00:00Z"), IngestResult::stored);
   // No produced_utc (or one that cannot be read): the receive time stands in.
   EXPECT_EQ(put(s, topic("m", "params", "dbb"), with_session("d"), "", "2026-11-23T00:00:00Z"), IngestResult::stored);
-  EXPECT_EQ(put(s, topic("m", "params", "dbb"), with_session("e"), "yesterday", "2026-11-24T00:00:00Z"), IngestResult::stored);
+  EXPECT_EQ(put(s, topic("m", "params", "dbb"), with_session("e"), "yesterday", "2026-11-24T00:00:00Z"),
+            IngestResult::stored);
   std::string order;
   for (const auto& r : s.results("m")) order += r.session;
   EXPECT_EQ(order, "abcde");
@@ -235,7 +243,8 @@ TEST(FleetStore, NewerSchemaAndForeignDatabasesAreRefused) {
     Store s(path);
     FAIL() << "opened a newer schema";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("schema is version 7, newer than this guideway knows (1)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("schema is version 7, newer than this guideway knows (1)"), std::string::npos)
+        << e.what();
   }
   const std::string other = dir.file("other.sqlite");
   ASSERT_EQ(sqlite3_open(other.c_str(), &db), SQLITE_OK);
@@ -338,7 +347,8 @@ TEST(FleetStatus, LatestFiguresAgeAndMovedFlags) {
   put_dbb("s2", 1.50, 10.0, "2026-11-24T00:00:00Z");  // backlash moved, G too but it has no u
   put_dbb("s3", 1.51, 30.0, "2026-11-25T00:00:00Z");  // backlash within 2u of s2
   put(s, topic("m", "explain", "dbb"), golden("dbb.explain.json"), "2026-11-25T00:00:01Z");
-  put(s, topic("m", "status"), R"({"state":"online","machine":"m","release":"0.1.0","since":"2026-11-26T11:00:00Z"})", "");
+  put(s, topic("m", "status"), R"({"state":"online","machine":"m","release":"0.1.0","since":"2026-11-26T11:00:00Z"})",
+      "");
   const double now = 1795694400.0;  // 2026-11-26T12:00:00Z
   auto status = fleet_status(s, now);
   ASSERT_EQ(status.size(), 1u);
