@@ -1,4 +1,5 @@
 #include "daemon/config.hpp"
+#include "daemon/mqtt_config.hpp"
 
 #include <arpa/inet.h>
 #include <grp.h>
@@ -145,6 +146,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     if (em.get_bool("enabled", true)) c.emulators.push_back(std::move(spec));
     em.reject_unknown_keys();
   }
+  if (const auto m = top.table("mqtt")) c.mqtt = parse_mqtt_table(*m, file_name);
   top.reject_unknown_keys();
   if (c.socket_path.empty()) c.socket_path = default_socket_path();
   // Checked here, not first at bind time, so that --check-config catches it.
@@ -153,6 +155,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     throw ConfigError(file_name, 0, "daemon.socket", "default " + c.socket_path + ": " + problem);
   }
   if (c.state_dir.empty()) c.state_dir = default_state_dir();
+  if (c.mqtt) c.mqtt->journal_dir = c.state_dir + "/mqtt-journal";
   if (c.plugin_dir.empty()) c.plugin_dir = drivers::default_plugin_dir();
   return c;
 }

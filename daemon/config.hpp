@@ -6,11 +6,13 @@
 
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/toml_access.hpp"
 #include "daemon/emulator_launcher.hpp"
+#include "plant/publisher.hpp"
 
 namespace guideway::daemon {
 
@@ -55,6 +57,7 @@ struct DaemonConfig {
   std::vector<EmulatorSpec> emulators;  // [[emulator]]: started before the devices
   std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
   std::string emulator_machine;         // the virtual machine every emulator runs (absolute; "" = its compiled-in default)
+  std::optional<plant::PublisherSettings> mqtt;  // [mqtt]: publish to a plant's broker (docs/plant.md)
 
   std::shared_ptr<toml::table> root;  // keeps the parsed document alive for the device readers
 };

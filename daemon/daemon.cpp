@@ -118,6 +118,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   so.max_clients = config_.max_clients;
   so.reserved_clients = config_.reserved_clients;
   server_ = std::make_unique<SocketServer>(loop_, so);
+  if (config_.mqtt) mqtt_ = std::make_unique<plant::Publisher>(*config_.mqtt, log_);
   server_->on_connect([this](ClientId id) {
     subscriptions_[id] = {};
     server_->send(id, version_message().dump());
@@ -231,6 +232,10 @@ void Daemon::periodic(std::int64_t now_ns) {
     last_status_ns_ = now_ns;
     last_stats_ = pipeline_->take_stats();
     nlohmann::json status = status_json();
+    if (mqtt_) {
+      mqtt_->publish_devices(
+          with_class(MessageClass::status, {{"time", status["time"]}, {"devices", status["devices"]}}).dump());
+    }
     broadcast(make_message(MessageClass::status, std::move(status)));
     notifier_.status(status_line());
   }
@@ -271,6 +276,23 @@ void Daemon::check_emulators(std::int64_t now_ns) {
       event("emulator_restart_failed", ex.what());
     }
   }
+}
+
+nlohmann::json Daemon::mqtt_json() const {
+  if (!mqtt_) return nullptr;
+  const plant::PublisherStats s = mqtt_->stats();
+  nlohmann::json j = {{"broker", s.broker},
+                      {"machine", mqtt_->settings().machine},
+                      {"topic_prefix", mqtt_->settings().topic_prefix},
+                      {"state", s.state},
+                      {"since", s.since},
+                      {"queued", s.queued},
+                      {"delivered", s.delivered},
+                      {"dropped", s.dropped},
+                      {"refused", s.refused},
+                      {"reconnects", s.reconnects}};
+  if (!s.last_error.empty()) j["last_error"] = s.last_error;
+  return j;
 }
 
 nlohmann::json Daemon::emulators_json() const {
@@ -358,7 +380,8 @@ nlohmann::json Daemon::status_json() {
           {"clients", {{"connected", server_->client_count()}, {"dropped_slow", server_->dropped_clients()}}},
           {"devices", std::move(devices)},
           {"emulators", emulators_json()},
-          {"sessions", sessions_json()}});
+          {"sessions", sessions_json()},
+          {"mqtt", mqtt_json()}});
 }
 
 void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<nlohmann::json>& id) {
@@ -421,6 +444,14 @@ nlohmann::json Daemon::handle_explain(ClientId, const Request& req) {
 }
 
 void Daemon::broadcast(const Message& message) {
+  if (mqtt_) {  // hands the line over: the publisher's thread does the disk and the network
+    if (message.cls == MessageClass::params || message.cls == MessageClass::explain) {
+      mqtt_->publish(message.cls == MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
+                     message.body.value("kind", "unknown"), message.line);
+    } else if (message.cls == MessageClass::event) {
+      mqtt_->publish(plant::TopicLeaf::event, {}, message.line);
+    }
+  }
   // Messages about a session (PARAMS, EXPLAIN, a session's EVENT) also reach whoever watches it by name.
   std::vector<ClientId> targets;
   for (const auto& [id, sub] : subscriptions_) {

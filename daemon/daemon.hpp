@@ -24,6 +24,7 @@
 #include "daemon/socket_server.hpp"
 #include "daemon/systemd_notify.hpp"
 #include "drivers/driver.hpp"
+#include "plant/publisher.hpp"
 
 namespace guideway::daemon {
 
@@ -65,6 +66,7 @@ class Daemon {
   // Emulator children that exited: reaped, logged, an EVENT, restarted with back-off.
   void check_emulators(std::int64_t now_ns);
   [[nodiscard]] nlohmann::json emulators_json() const;
+  [[nodiscard]] nlohmann::json mqtt_json() const;
   // One request class each (the table in daemon.cpp dispatches them and lists them); an exception is
   // the ERROR's reason.
   nlohmann::json handle_version(ClientId client, const Request& req);
@@ -112,6 +114,7 @@ class Daemon {
   std::vector<nlohmann::json> latest_params_;   // newest PARAMS per session kind
   std::vector<nlohmann::json> latest_explain_;  // newest EXPLAIN per session kind
   std::unique_ptr<SocketServer> server_;
+  std::unique_ptr<plant::Publisher> mqtt_;  // [mqtt]: PARAMS, EXPLAIN, EVENTs and the device table to the broker
   SystemdNotifier notifier_;
   std::unordered_map<ClientId, Subscription> subscriptions_;
   std::vector<drivers::DeviceState> last_states_;

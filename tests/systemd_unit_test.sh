@@ -19,3 +19,13 @@ score=$(grep -oE 'Overall exposure level for guidewayd.service: [0-9.]+' "$build
 echo "exposure: $score"
 awk -v s="$score" 'BEGIN { exit !(s < 2.0) }' || { echo "FAIL: exposure $score is not below 2.0"; exit 1; }
 echo "PASS: unit verifies, exposure $score"
+
+# The fleet process's unit (docs/plant.md): the same checks, ExecStart pointed at the built CLI.
+sed "s|^ExecStart=/usr/bin/guideway|ExecStart=$build/cli/guideway|" "$unit_dir/guideway-fleet.service" >"$work/guideway-fleet.service"
+out=$(systemd-analyze verify "$work/guideway-fleet.service" 2>&1) || { echo "$out"; echo "FAIL: systemd-analyze verify (fleet)"; exit 1; }
+if grep -q "guideway-fleet.service" <<<"$out"; then echo "$out"; echo "FAIL: systemd-analyze verify warned (fleet)"; exit 1; fi
+systemd-analyze security --offline=yes --no-pager "$work/guideway-fleet.service" >"$build/systemd-security-fleet.txt" 2>&1 || true
+score=$(grep -oE 'Overall exposure level for guideway-fleet.service: [0-9.]+' "$build/systemd-security-fleet.txt" | grep -oE '[0-9.]+$')
+echo "fleet exposure: $score"
+awk -v s="$score" 'BEGIN { exit !(s < 2.0) }' || { echo "FAIL: fleet exposure $score is not below 2.0"; exit 1; }
+echo "PASS: fleet unit verifies, exposure $score"

@@ -1,0 +1,83 @@
+#include "daemon/mqtt_config.hpp"
+
+#include <unistd.h>
+
+#include <climits>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "plant/broker_address.hpp"
+#include "plant/mqtt_connection.hpp"
+#include "plant/topics.hpp"
+
+namespace guideway::daemon {
+
+namespace {
+
+std::string host_name() {
+  char name[HOST_NAME_MAX + 1] = {};
+  if (gethostname(name, sizeof(name) - 1) != 0 || name[0] == '\0') return "localhost";
+  std::string s(name);
+  return s.substr(0, s.find('.'));  // the short name: "cell3-mill", not its domain
+}
+
+// A file the [mqtt] table names: relative to the configuration file, and readable now (checked here
+// so that --check-config finds it, at its line).
+std::string readable_file(const TableReader& t, const std::string& key, const std::string& relative_to) {
+  const std::string value = t.get_string(key, "");
+  if (value.empty()) return value;
+  std::filesystem::path path(value);
+  if (path.is_relative() && relative_to.find('<') == std::string::npos)
+    path = std::filesystem::path(relative_to).parent_path() / path;
+  std::ifstream in(path);
+  if (!in) t.fail(key, "cannot read " + path.string());
+  return std::filesystem::absolute(path).lexically_normal().string();
+}
+
+}  // namespace
+
+plant::PublisherSettings parse_mqtt_table(const TableReader& t, const std::string& relative_to) {
+  plant::PublisherSettings s;
+  try {
+    s.connection.broker = plant::parse_broker_url(t.require_string("broker"));
+  } catch (const std::invalid_argument& e) {
+    t.fail("broker", e.what());
+  }
+  s.machine = t.get_string("machine", host_name());
+  if (const std::string p = plant::topic_level_problem(s.machine); !p.empty()) t.fail("machine", "\"" + s.machine + "\" " + p);
+  s.topic_prefix = t.get_string("topic_prefix", s.topic_prefix);
+  if (const std::string p = plant::topic_prefix_problem(s.topic_prefix); !p.empty())
+    t.fail("topic_prefix", "\"" + s.topic_prefix + "\" " + p);
+  s.connection.client_id = t.get_string("client_id", "guidewayd-" + s.machine);
+  s.connection.keepalive_s = static_cast<int>(t.get_int("keepalive_s", 30, 5, 3600));
+  s.connection.ca_file = readable_file(t, "ca_file", relative_to);
+  s.connection.cert_file = readable_file(t, "cert_file", relative_to);
+  s.connection.key_file = readable_file(t, "key_file", relative_to);
+  const bool tls_key = !s.connection.ca_file.empty() || !s.connection.cert_file.empty() || !s.connection.key_file.empty();
+  if (tls_key && !s.connection.broker.tls) {
+    t.fail(!s.connection.ca_file.empty() ? "ca_file" : !s.connection.cert_file.empty() ? "cert_file" : "key_file",
+           "TLS files need an mqtts:// broker (it is " + s.connection.broker.url() + ")");
+  }
+  if (s.connection.cert_file.empty() != s.connection.key_file.empty())
+    t.fail(s.connection.cert_file.empty() ? "key_file" : "cert_file", "a client certificate needs both cert_file and key_file");
+  s.connection.username = t.get_string("username", "");
+  const std::string password_file = readable_file(t, "password_file", relative_to);
+  if (!password_file.empty()) {
+    if (s.connection.username.empty()) t.fail("password_file", "a password needs a username");
+    try {
+      s.connection.password = plant::read_password_file(password_file);
+    } catch (const std::runtime_error& e) {
+      t.fail("password_file", e.what());
+    }
+  }
+  if (t.has("password")) t.fail("password", "never inline: put the password in a file and name it in password_file");
+  s.queue_max_messages = static_cast<std::size_t>(t.get_int("queue_max_messages", 10000, 1, 10'000'000));
+  s.queue_max_bytes = static_cast<std::size_t>(t.get_int("queue_max_mb", 64, 1, 1 << 20)) << 20;
+  s.reconnect_max_s = t.get_double("reconnect_max_s", 60.0, 1.0, 3600.0);
+  s.release = GUIDEWAY_VERSION;
+  t.reject_unknown_keys();
+  return s;
+}
+
+}  // namespace guideway::daemon

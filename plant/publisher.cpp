@@ -1,0 +1,275 @@
+#include "plant/publisher.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include <nlohmann/json.hpp>
+
+#include "core/mono_clock.hpp"
+#include "core/utc_time.hpp"
+
+namespace guideway::plant {
+
+namespace {
+constexpr int loop_timeout_ms = 50;  // how late a handed-over message may go out while connected
+constexpr double exit_drain_s = 2.0;  // at shutdown: time given to the journal, then to the offline status
+}  // namespace
+
+Publisher::Publisher(PublisherSettings settings, std::shared_ptr<spdlog::logger> log)
+    : settings_(std::move(settings)), log_(std::move(log)), started_utc_(utc_now_iso()) {
+  settings_.connection.will = ConnectionSettings::Will{
+      topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::status), status_payload(false, "connection lost"), true};
+  journal_ = std::make_unique<MessageJournal>(settings_.journal_dir, settings_.queue_max_messages, settings_.queue_max_bytes);
+  connection_ = std::make_unique<MqttConnection>(
+      settings_.connection,
+      MqttConnection::Callbacks{
+          .connected = [this](int rc, const std::string& why) { on_connected(rc, why); },
+          .disconnected = [this](const std::string& why) { on_disconnected(why); },
+          .published = [this](int mid, int rc) { on_published(mid, rc); },
+          .message = nullptr});
+  backoff_s_ = settings_.reconnect_min_s;
+  stats_.broker = settings_.connection.broker.url();
+  stats_.state = "connecting";
+  stats_.since = started_utc_;
+  stats_.queued = journal_->size();
+  if (journal_->taken_up() > 0)
+    log_->info("MQTT: {} message(s) left unsent by the last run are queued ({})", journal_->taken_up(), journal_->dir());
+  thread_ = std::thread([this] { run(); });
+}
+
+Publisher::~Publisher() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();
+}
+
+void Publisher::publish(TopicLeaf leaf, std::string_view kind, std::string payload) {
+  JournalEntry e{topic_for(settings_.topic_prefix, settings_.machine, leaf, kind), std::move(payload), utc_now_iso_ms(),
+                 leaf == TopicLeaf::params || leaf == TopicLeaf::explain};
+  {
+    std::lock_guard lock(mutex_);
+    handed_over_.push_back(std::move(e));
+    // Bounded here too, should the thread be stuck (a name lookup that hangs): oldest first, counted.
+    while (handed_over_.size() > settings_.queue_max_messages) {
+      handed_over_.pop_front();
+      ++stats_.dropped;
+    }
+    ++stats_.queued;
+  }
+  wake_.notify_one();
+}
+
+void Publisher::publish_devices(std::string payload) {
+  std::lock_guard lock(mutex_);
+  devices_ = std::move(payload);
+}
+
+PublisherStats Publisher::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+std::string Publisher::status_payload(bool online, const std::string& reason) const {
+  nlohmann::json j = {{"state", online ? "online" : "offline"}, {"machine", settings_.machine}};
+  if (online) {
+    j["release"] = settings_.release;
+    j["since"] = started_utc_;
+  } else if (reason != "connection lost") {  // the will is written at start: it cannot know when
+    j["since"] = utc_now_iso();
+  }
+  if (!reason.empty()) j["reason"] = reason;
+  return j.dump();
+}
+
+void Publisher::set_state(const std::string& state, const std::string& error) {
+  std::lock_guard lock(mutex_);
+  if (stats_.state != state) stats_.since = utc_now_iso();
+  stats_.state = state;
+  if (!error.empty()) stats_.last_error = error;
+}
+
+void Publisher::take_handed_over() {
+  std::deque<JournalEntry> taken;
+  {
+    std::lock_guard lock(mutex_);
+    taken.swap(handed_over_);
+  }
+  for (const JournalEntry& e : taken) {
+    std::size_t dropped = 0;
+    try {
+      dropped = journal_->push(e);
+    } catch (const std::exception& ex) {  // disk full: the message is lost, and said so
+      dropped = 1;
+      log_->error("MQTT: a message for {} could not be queued: {}", e.topic, ex.what());
+    }
+    if (dropped > 0) {
+      log_->warn("MQTT: journal full ({} messages, {} bytes at most): {} oldest message(s) dropped",
+                 settings_.queue_max_messages, settings_.queue_max_bytes, dropped);
+      std::lock_guard lock(mutex_);
+      stats_.dropped += dropped;
+    }
+  }
+  std::lock_guard lock(mutex_);
+  stats_.queued = journal_->size() + handed_over_.size();
+  stats_.dropped = std::max<std::uint64_t>(stats_.dropped, journal_->unreadable());
+}
+
+void Publisher::send_next() {
+  {
+    std::string devices;
+    {
+      std::lock_guard lock(mutex_);
+      devices.swap(devices_);
+    }
+    if (!devices.empty()) {
+      std::string error;
+      connection_->publish(topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::devices), devices, 0, false,
+                           {}, error);
+    }
+  }
+  if (announce_online_) {
+    announce_online_ = false;
+    std::string error;
+    status_mid_ = connection_->publish(topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::status),
+                                       status_payload(true, ""), 1, true, {}, error);
+  }
+  if (inflight_mid_ >= 0) return;  // one at a time: the order survives any reconnect
+  const std::optional<JournalEntry> e = journal_->front();
+  if (!e) return;
+  std::string error;
+  const int mid = connection_->publish(e->topic, e->payload, 1, e->retain, e->produced_utc, error);
+  if (mid >= 0) {
+    inflight_mid_ = mid;
+  } else if (error != last_logged_error_) {  // not connected after all: tried again on the next connection
+    last_logged_error_ = error;
+    log_->warn("MQTT: could not send {}: {}", e->topic, error);
+  }
+}
+
+void Publisher::on_connected(int reason_code, const std::string& why) {
+  if (reason_code != 0) {
+    const std::string error = "the broker refused the connection: " + why;
+    set_state("refused", error);
+    if (error != last_logged_error_) {
+      last_logged_error_ = error;
+      log_->error("MQTT: {} refused the connection: {} (client id {}, user {}); trying again with back-off up to {} s",
+                  settings_.connection.broker.url(), why, settings_.connection.client_id,
+                  settings_.connection.username.empty() ? "anonymous" : "\"" + settings_.connection.username + "\"",
+                  settings_.reconnect_max_s);
+    }
+    return;
+  }
+  connected_ = true;
+  backoff_s_ = settings_.reconnect_min_s;
+  last_logged_error_.clear();
+  inflight_mid_ = -1;  // sent again on this connection: QoS 1 may deliver twice, never out of order
+  announce_online_ = true;  // sent from run(): libmosquitto holds its callback lock here
+  {
+    std::lock_guard lock(mutex_);
+    if (++connections_ > 1) ++stats_.reconnects;
+  }
+  set_state("connected", "");
+  log_->info("MQTT: connected to {} as {} (machine \"{}\"); {} message(s) waiting", settings_.connection.broker.url(),
+             settings_.connection.client_id, settings_.machine, journal_->size());
+}
+
+void Publisher::on_disconnected(const std::string& why) {
+  const bool was_connected = connected_;
+  connected_ = false;
+  if (stats().state == "refused") return;
+  set_state("disconnected", why);
+  if (was_connected) last_logged_error_ = why;
+  if (was_connected) log_->warn("MQTT: connection to {} lost: {}; messages are kept in {} until it is back",
+                                settings_.connection.broker.url(), why, journal_->dir());
+}
+
+void Publisher::on_published(int mid, int reason_code) {
+  if (mid == status_mid_) status_acked_ = true;
+  if (mid != inflight_mid_) return;
+  inflight_mid_ = -1;
+  const std::optional<JournalEntry> e = journal_->front();
+  if (reason_code >= 0x80) {  // the broker will not take it (its ACL): retrying would block the queue
+    log_->error("MQTT: {} refused the message on {}: {} (check the broker's ACL for this machine)",
+                settings_.connection.broker.url(), e ? e->topic : "?", mqtt_reason_text(reason_code));
+  }
+  journal_->pop_front();
+  std::lock_guard lock(mutex_);
+  ++(reason_code >= 0x80 ? stats_.refused : stats_.delivered);
+  stats_.queued = journal_->size() + handed_over_.size();
+}
+
+void Publisher::run() {
+  const auto schedule_reconnect = [this](const std::string& why) {
+    up_ = false;
+    connected_ = false;
+    if (stats().state != "refused") set_state("disconnected", why);
+    if (why != last_logged_error_ && stats().state != "refused") {
+      last_logged_error_ = why;
+      log_->warn("MQTT: {}: {}; trying again in {} s (then with back-off up to {} s); messages are kept in {}",
+                 settings_.connection.broker.url(), why, backoff_s_, settings_.reconnect_max_s, journal_->dir());
+    }
+    reconnect_at_ns_ = mono_now_ns() + static_cast<std::int64_t>(backoff_s_ * 1e9);
+    backoff_s_ = std::min(settings_.reconnect_max_s, 2 * backoff_s_);
+  };
+  while (true) {
+    {
+      std::lock_guard lock(mutex_);
+      if (stop_) break;
+    }
+    take_handed_over();
+    if (up_) {
+      if (connected_) send_next();
+      const std::string error = connection_->loop(loop_timeout_ms);
+      if (!error.empty()) schedule_reconnect(error);
+      continue;
+    }
+    if (mono_now_ns() >= reconnect_at_ns_) {
+      const std::string error = connection_->connect();
+      if (error.empty()) {
+        up_ = true;
+        if (stats().state != "refused") set_state("connecting", "");
+      } else {
+        schedule_reconnect(error);
+      }
+      continue;
+    }
+    std::unique_lock lock(mutex_);
+    const auto wait_ns = std::min<std::int64_t>(reconnect_at_ns_ - mono_now_ns(), 200'000'000);
+    wake_.wait_for(lock, std::chrono::nanoseconds(std::max<std::int64_t>(wait_ns, 0)),
+                   [this] { return stop_ || !handed_over_.empty(); });
+  }
+  drain_before_exit();
+}
+
+void Publisher::drain_before_exit() {
+  take_handed_over();
+  if (!connected_) {
+    if (journal_->size() > 0)
+      log_->info("MQTT: {} message(s) not yet delivered stay in {} for the next start", journal_->size(), journal_->dir());
+    return;
+  }
+  const auto deadline = mono_now_ns() + static_cast<std::int64_t>(exit_drain_s * 1e9);
+  while (connected_ && (journal_->size() > 0) && mono_now_ns() < deadline) {
+    send_next();
+    if (!connection_->loop(loop_timeout_ms).empty()) break;
+  }
+  if (connected_) {
+    status_acked_ = false;
+    std::string error;
+    status_mid_ = connection_->publish(topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::status),
+                                       status_payload(false, "stopped"), 1, true, {}, error);
+    const auto status_deadline = mono_now_ns() + 1'000'000'000;
+    while (connected_ && !status_acked_ && mono_now_ns() < status_deadline) {
+      if (!connection_->loop(loop_timeout_ms).empty()) break;
+    }
+    connection_->disconnect();
+    connection_->loop(loop_timeout_ms);
+  }
+  if (journal_->size() > 0)
+    log_->info("MQTT: {} message(s) not yet delivered stay in {} for the next start", journal_->size(), journal_->dir());
+}
+
+}  // namespace guideway::plant

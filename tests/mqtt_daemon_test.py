@@ -1,0 +1,328 @@
+#!/usr/bin/python3
+"""guidewayd publishing to a real MQTT broker (Debian's mosquitto on a loopback port; docs/plant.md):
+a DBB session's PARAMS arrives retained; the broker killed mid-session and restarted loses nothing
+and keeps the order (the broker's stream equals what a socket client saw); messages queued while the
+broker is down survive a restart of the daemon; a SIGKILLed daemon is shown offline by its will;
+TLS with a password login works, and a wrong password is reported in STATUS and the log while the
+daemon keeps running; a bad [mqtt] table is a config error at its line.
+Usage: mqtt_daemon_test.py BUILD_DIR"""
+import json
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import mqtt_broker  # noqa: E402
+from process_support import wait_for  # noqa: E402
+
+BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
+GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
+GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+PLANT_DOC = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "plant.md")
+SKIP = mqtt_broker.missing()
+
+DBB_DEVICE = """
+[[emulator]]
+name = "can"
+instrument = "dbb"
+args = ["--bus", "unix:{runtime_dir}/can-bus.sock", "--program", "single", "--feed-mm-min", "5000", "--pause-s", "0.5"]
+[[device]]
+name = "dbb"
+driver = "dbb-can"
+bus = "emulator:can"
+sync = "produce"
+sync_rate_hz = 250.0
+  [[device.encoder]]
+  channel = "bar_length"
+  node_id = 1
+  resolution_nm = 100
+  offset_mm = 100.0
+  [[device.encoder]]
+  channel = "x"
+  node_id = 2
+  resolution_nm = 100
+  [[device.encoder]]
+  channel = "y"
+  node_id = 3
+  resolution_nm = 100
+"""
+
+
+class Daemon:
+    """guidewayd with the DBB emulator and an [mqtt] table, in `directory`."""
+
+    def __init__(self, directory, mqtt_table, name="d"):
+        self.dir = directory
+        self.sock = os.path.join(directory, name + ".sock")
+        self.config = os.path.join(directory, name + ".toml")
+        with open(self.config, "w") as f:
+            f.write(f'[daemon]\nsocket = "{self.sock}"\nstate_dir = "{directory}/{name}-state"\nstatus_period_s = 0.5\n')
+            f.write(DBB_DEVICE + "\n[mqtt]\n" + mqtt_table)
+        self.log_path = os.path.join(directory, name + ".log")
+        self.start()
+
+    def start(self):
+        self.log = open(self.log_path, "a")
+        self.proc = subprocess.Popen([GUIDEWAYD, "--config", self.config], stdout=self.log, stderr=subprocess.STDOUT,
+                                     stdin=subprocess.DEVNULL)
+        if not wait_for(lambda: self.proc.poll() is not None or self.answers(), timeout=30) or self.proc.poll() is not None:
+            raise RuntimeError("guidewayd did not start:\n" + open(self.log_path).read())
+
+    def answers(self):
+        try:
+            self.status()
+            return True
+        except Exception:
+            return False
+
+    def cli(self, *args, timeout=60):
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, *args], capture_output=True, text=True, timeout=timeout)
+        if out.returncode != 0:
+            raise AssertionError(f"guideway {' '.join(args)}: {out.stderr}")
+        return out.stdout
+
+    def status(self):
+        return json.loads(self.cli("status", "--json", timeout=5))
+
+    def mqtt(self):
+        return self.status()["mqtt"]
+
+    def log_text(self):
+        with open(self.log_path) as f:
+            return f.read()
+
+    def stop(self, sig=signal.SIGTERM):
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            self.proc.wait(timeout=30)
+        self.log.close()
+
+
+class Watcher(threading.Thread):
+    """A socket client watching PARAMS, EXPLAIN and EVENT: the stream the broker must match."""
+
+    def __init__(self, sock_path):
+        super().__init__(daemon=True)
+        self.lines = []
+        self.s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.s.connect(sock_path)
+        self.s.sendall(b'{"class":"watch","classes":["PARAMS","EXPLAIN","EVENT"]}\n')
+        self.f = self.s.makefile("rb")
+        self.start()
+        wait_for(lambda: self.watching, timeout=5)
+
+    watching = False
+
+    def run(self):
+        for line in self.f:
+            cls = json.loads(line)["class"]
+            if cls == "WATCH":
+                self.watching = True
+            elif cls in ("PARAMS", "EXPLAIN", "EVENT"):
+                self.lines.append(line.decode().rstrip("\n"))
+
+    def close(self):
+        self.s.close()
+
+
+def results_and_events(messages, machine):
+    """The PARAMS, EXPLAIN and EVENT payloads a subscriber got for `machine`, in order, a QoS 1
+    redelivery (the same message twice in a row) counted once."""
+    out = []
+    for topic, payload in messages:
+        parts = topic.split("/")
+        if parts[1] == machine and parts[2] in ("params", "explain", "event") and (not out or out[-1] != payload):
+            out.append(payload)
+    return out
+
+
+@unittest.skipIf(SKIP, SKIP)
+class MqttPublishing(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(prefix="gwmq-")
+        self.d = self.tmp.name
+        self.cleanup = []
+
+    def tearDown(self):
+        for c in reversed(self.cleanup):
+            c()
+        self.tmp.cleanup()
+
+    def broker(self, **kw):
+        b = mqtt_broker.Broker(self.d, **kw)
+        self.cleanup.append(b.stop)
+        return b
+
+    def daemon(self, table, name="d"):
+        d = Daemon(self.d, table, name)
+        self.cleanup.append(d.stop)
+        return d
+
+    def subscriber(self, broker, topic, name, **kw):
+        s = mqtt_broker.Subscriber(broker, topic, os.path.join(self.d, name + ".sub"), **kw)
+        self.cleanup.append(s.stop)
+        return s
+
+    def test_a_broker_killed_mid_session_loses_nothing_and_keeps_the_order(self):
+        broker = self.broker(persistence=True)
+        sub = self.subscriber(broker, "guideway/#", "all", client_id="order-check")
+        broker.wait_saved("order-check")  # the subscriber's session outlives the kill
+        d = self.daemon(f'broker = "mqtt://127.0.0.1:{broker.port}"\nmachine = "mill-1"\n')
+        self.assertTrue(wait_for(lambda: d.mqtt()["state"] == "connected", timeout=10), d.mqtt())
+        watcher = Watcher(d.sock)
+        self.cleanup.append(watcher.close)
+        session = subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", "dbb", "--set",
+                                    'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]', "--wait", "--json",
+                                    "--timeout", "120"],
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.assertTrue(wait_for(lambda: any('"session_started"' in l or '"recording"' in l for l in watcher.lines)
+                                 or d.status()["sessions"], timeout=10))
+        broker.kill()  # mid-session: the session goes on, its results wait in the journal
+        out, err = session.communicate(timeout=150)
+        self.assertEqual(session.returncode, 0, err)
+        self.assertTrue(wait_for(lambda: any('"report_ready"' in l for l in watcher.lines), timeout=60), watcher.lines)
+        m = d.mqtt()
+        self.assertEqual(m["state"], "disconnected", m)
+        self.assertGreaterEqual(m["queued"], 3, m)  # PARAMS, EXPLAIN, report_ready at least
+        self.assertIn("MQTT: connection to", d.log_text())
+        human = d.cli("status")
+        self.assertRegex(human, r"mqtt: disconnected \(mqtt://127.0.0.1:\d+, machine mill-1, since .*\), [1-9]\d* queued")
+        self.assertIn("last error: ", human)
+        self.assertTrue(os.listdir(os.path.join(self.d, "d-state", "mqtt-journal")))
+
+        broker.start()
+        self.assertTrue(wait_for(lambda: d.mqtt()["queued"] == 0 and d.mqtt()["state"] == "connected", timeout=90),
+                        d.mqtt())
+        self.assertEqual(d.mqtt()["dropped"], 0)
+        seen = watcher.lines
+        self.assertTrue(wait_for(lambda: results_and_events(sub.messages(), "mill-1")[-len(seen):] == seen, timeout=15),
+                        "the broker's stream differs from the socket's:\nsocket: %s\nbroker: %s"
+                        % ("\n".join(x[:100] for x in seen),
+                           "\n".join(x[:100] for x in results_and_events(sub.messages(), "mill-1"))))
+        kinds = [json.loads(x)["class"] for x in seen]
+        self.assertIn("PARAMS", kinds)
+        self.assertIn("EXPLAIN", kinds)
+
+        # Retained: a subscriber that comes later gets the latest PARAMS and EXPLAIN at once.
+        params = [x for x in seen if json.loads(x)["class"] == "PARAMS"][-1]
+        self.assertEqual(mqtt_broker.retained(broker, "guideway/mill-1/params/dbb"), params)
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-1/explain/dbb"))["class"], "EXPLAIN")
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-1/status"))["state"], "online")
+        devices = [p for t, p in sub.messages() if t == "guideway/mill-1/devices"]
+        self.assertTrue(devices and json.loads(devices[-1])["devices"][0]["name"] == "dbb")
+
+        # Killed: the broker's will says offline.
+        d.stop(signal.SIGKILL)
+        self.assertTrue(wait_for(lambda: json.loads(mqtt_broker.retained(broker, "guideway/mill-1/status") or "{}")
+                                 .get("state") == "offline", timeout=10))
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-1/status"))["reason"], "connection lost")
+
+    def test_messages_queued_while_the_broker_is_down_survive_a_daemon_restart(self):
+        broker = self.broker(persistence=True)
+        sub = self.subscriber(broker, "guideway/+/event", "events", client_id="restart-check")
+        broker.wait_saved("restart-check")
+        broker.kill()
+        d = self.daemon(f'broker = "mqtt://127.0.0.1:{broker.port}"\nmachine = "mill-2"\nreconnect_max_s = 2\n')
+        self.assertTrue(wait_for(lambda: d.mqtt()["queued"] >= 1, timeout=10), d.mqtt())  # "streaming" and the like
+        first_run = d.mqtt()["queued"]
+        journal = os.path.join(self.d, "d-state", "mqtt-journal")
+        d.stop()  # SIGTERM, broker still down: the messages stay on disk
+        self.assertEqual(len(os.listdir(journal)), first_run)
+        self.assertIn("stay in", d.log_text())
+        broker.start()
+        d.start()
+        self.assertIn(f"{first_run} message(s) left unsent by the last run are queued", d.log_text())
+        self.assertTrue(wait_for(lambda: d.mqtt()["queued"] == 0 and d.mqtt()["delivered"] >= first_run, timeout=30),
+                        d.mqtt())
+        events = wait_for(lambda: [json.loads(p) for t, p in sub.messages() if t == "guideway/mill-2/event"]
+                          if len(sub.messages()) >= first_run + 1 else None, timeout=15)
+        self.assertTrue(events, sub.messages())
+        # The first run's events come first, in order (both runs report the device streaming).
+        self.assertEqual([e["event"] for e in events[:first_run]].count("streaming"), 1, events)
+        self.assertEqual(os.listdir(journal), [])
+
+    def test_tls_with_a_password_and_a_wrong_password(self):
+        ca, cert, key = mqtt_broker.make_certificates(self.d)
+        broker = self.broker(tls=(ca, cert, key), users={"mill-3": "s3cret"})
+        good = os.path.join(self.d, "good.pw")
+        bad = os.path.join(self.d, "bad.pw")
+        for path, pw in ((good, "s3cret\n"), (bad, "wrong\n")):
+            with open(path, "w") as f:
+                f.write(pw)
+            os.chmod(path, 0o600)
+        table = 'broker = "mqtts://127.0.0.1:{}"\nca_file = "{}"\nusername = "mill-3"\npassword_file = "{}"\nmachine = "{}"\n'
+        d = self.daemon(table.format(broker.port, ca, good, "mill-3"), "good")
+        self.assertTrue(wait_for(lambda: d.mqtt()["state"] == "connected", timeout=15), d.mqtt())
+        tls = ["--cafile", ca, "-u", "mill-3", "-P", "s3cret"]
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-3/status", tls))["state"], "online")
+
+        wrong = self.daemon(table.format(broker.port, ca, bad, "mill-4"), "wrong")
+        self.assertTrue(wait_for(lambda: wrong.mqtt()["state"] == "refused", timeout=15), wrong.mqtt())
+        m = wrong.mqtt()
+        self.assertRegex(m["last_error"].lower(), "not authori[sz]ed|bad user name or password", m)
+        time.sleep(3)  # retries with back-off, logs once, keeps serving
+        self.assertEqual(wrong.proc.poll(), None)
+        self.assertEqual(wrong.mqtt()["state"], "refused")
+        log = wrong.log_text()
+        self.assertEqual(log.count("refused the connection"), 1, log)
+        self.assertIn('user "mill-3"', log)
+        self.assertEqual(d.mqtt()["state"], "connected")
+
+    def test_the_acl_of_docs_plant_md_keeps_each_machine_to_its_own_topics(self):
+        with open(PLANT_DOC) as f:
+            doc = f.read()
+        acl = re.search(r"```acl\n(.*?)```", doc, re.S).group(1)
+        broker = self.broker(users={"mill-5": "pw5", "historian": "pwh"}, acl=acl)
+        pw = os.path.join(self.d, "mill-5.pw")
+        with open(pw, "w") as f:
+            f.write("pw5\n")
+        os.chmod(pw, 0o600)
+        table = f'broker = "mqtt://127.0.0.1:{broker.port}"\nusername = "mill-5"\npassword_file = "{pw}"\n'
+        own = self.daemon(table + 'machine = "mill-5"\n', "own")
+        self.assertTrue(wait_for(lambda: own.mqtt()["delivered"] >= 1 and own.mqtt()["queued"] == 0, timeout=15),
+                        own.mqtt())
+        self.assertEqual(own.mqtt()["refused"], 0)
+        reader = ["-u", "historian", "-P", "pwh"]
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-5/status", reader))["state"], "online")
+        # A daemon that logs in as mill-5 but calls itself mill-6 may not write there: refused, and said.
+        other = self.daemon(table + 'machine = "mill-6"\nclient_id = "guidewayd-impostor"\n', "other")
+        self.assertTrue(wait_for(lambda: other.mqtt()["refused"] >= 1, timeout=15), other.mqtt())
+        self.assertEqual(other.mqtt()["delivered"], 0)
+        self.assertRegex(other.log_text(), "refused the message on guideway/mill-6/.*Not authori[sz]ed.*ACL")
+        self.assertIsNone(mqtt_broker.retained(broker, "guideway/mill-6/status", reader))
+        self.assertEqual(own.mqtt()["state"], "connected")
+
+    def test_bad_mqtt_tables_are_config_errors_at_their_line(self):
+        pw = os.path.join(self.d, "open.pw")
+        with open(pw, "w") as f:
+            f.write("x\n")
+        os.chmod(pw, 0o644)
+        cases = [
+            ('broker = "http://broker:1883"\n', "mqtt.broker", "unknown scheme"),
+            ('broker = "mqtt://broker:99999"\n', "mqtt.broker", "port"),
+            ('broker = "mqtt://b"\nmachine = "cell/3"\n', "mqtt.machine", "'/'"),
+            ('broker = "mqtt://b"\npassword = "x"\n', "mqtt.password", "password_file"),
+            (f'broker = "mqtt://b"\nusername = "u"\npassword_file = "{pw}"\n', "mqtt.password_file", "every user"),
+            (f'broker = "mqtt://b"\nca_file = "{pw}"\n', "mqtt.ca_file", "mqtts://"),
+            ('broker = "mqtts://b"\nca_file = "/nonexistent/ca.pem"\n', "mqtt.ca_file", "cannot read"),
+        ]
+        for table, key, words in cases:
+            path = os.path.join(self.d, "bad.toml")
+            with open(path, "w") as f:
+                f.write('[daemon]\nlog_level = "info"\n\n[mqtt]\n' + table)
+            out = subprocess.run([GUIDEWAYD, "--config", path, "--check-config"], capture_output=True, text=True)
+            self.assertEqual(out.returncode, 2, (table, out.stdout, out.stderr))
+            self.assertIn(key, out.stderr, table)
+            self.assertIn(words, out.stderr, table)
+            self.assertRegex(out.stderr, r"bad\.toml:\d+", table)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
