@@ -31,6 +31,14 @@ void print_status(const nlohmann::json& s) {
             << " us\n";
   std::cout << "clients: " << s["clients"].value("connected", 0) << " connected, "
             << s["clients"].value("dropped_slow", 0) << " dropped as too slow\n";
+  if (const auto m = s.value("mqtt", nlohmann::json()); m.is_object()) {  // [mqtt]: docs/plant.md
+    std::cout << "mqtt: " << m.value("state", "?") << " (" << m.value("broker", "?") << ", machine "
+              << m.value("machine", "?") << ", since " << m.value("since", "?") << "), " << m.value("queued", 0)
+              << " queued, " << m.value("delivered", 0) << " delivered, " << m.value("dropped", 0) << " dropped, "
+              << m.value("refused", 0) << " refused\n";
+    if (m.contains("last_error") && m.value("state", "") != "connected")
+      std::cout << "  last error: " << m.value("last_error", "") << "\n";
+  }
   for (const auto& ses : s.value("sessions", nlohmann::json::array())) {
     std::cout << "session " << ses.value("session", "?") << ": " << ses.value("state", "?") << ", "
               << ses.value("samples", 0) << " samples" << (ses.contains("progress") ? ", " + ses["progress"].get<std::string>() : "")

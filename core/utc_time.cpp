@@ -1,5 +1,6 @@
 #include "core/utc_time.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 
@@ -25,6 +26,54 @@ std::string utc_now_iso_ms() {
   char ms[16];
   std::snprintf(ms, sizeof ms, ".%03dZ", static_cast<int>(ts.tv_nsec / 1'000'000));
   return format_utc(ts.tv_sec, "%Y-%m-%dT%H:%M:%S") + ms;
+}
+
+std::optional<double> parse_utc_iso(std::string_view text) {
+  // Fixed positions: YYYY-MM-DDTHH:MM:SS, then an optional fraction, then Z.
+  const auto digits = [&](std::size_t at, std::size_t n, int& out) {
+    if (at + n > text.size()) return false;
+    out = 0;
+    for (std::size_t i = at; i < at + n; ++i) {
+      if (text[i] < '0' || text[i] > '9') return false;
+      out = out * 10 + (text[i] - '0');
+    }
+    return true;
+  };
+  std::tm tm{};
+  int year = 0, month = 0;
+  if (!digits(0, 4, year) || text.size() < 20 || text[4] != '-' || !digits(5, 2, month) || text[7] != '-' ||
+      !digits(8, 2, tm.tm_mday) || (text[10] != 'T' && text[10] != ' ') || !digits(11, 2, tm.tm_hour) ||
+      text[13] != ':' || !digits(14, 2, tm.tm_min) || text[16] != ':' || !digits(17, 2, tm.tm_sec))
+    return std::nullopt;
+  if (month < 1 || month > 12 || tm.tm_mday < 1 || tm.tm_mday > 31 || tm.tm_hour > 23 || tm.tm_min > 59 ||
+      tm.tm_sec > 60)
+    return std::nullopt;
+  double fraction = 0.0;
+  std::size_t at = 19;
+  if (text[at] == '.') {
+    double scale = 0.1;
+    ++at;
+    if (at >= text.size() || text[at] < '0' || text[at] > '9') return std::nullopt;
+    for (; at < text.size() && text[at] >= '0' && text[at] <= '9'; ++at, scale *= 0.1)
+      fraction += (text[at] - '0') * scale;
+  }
+  if (at + 1 != text.size() || text[at] != 'Z') return std::nullopt;
+  tm.tm_year = year - 1900;
+  tm.tm_mon = month - 1;
+  return static_cast<double>(timegm(&tm)) + fraction;
+}
+
+std::string utc_iso_ms(double seconds_since_epoch) {
+  const double whole = std::floor(seconds_since_epoch);
+  int ms = static_cast<int>(std::lround((seconds_since_epoch - whole) * 1000.0));
+  auto seconds = static_cast<std::time_t>(whole);
+  if (ms == 1000) {
+    ms = 0;
+    ++seconds;
+  }
+  char tail[16];
+  std::snprintf(tail, sizeof tail, ".%03dZ", ms);
+  return format_utc(seconds, "%Y-%m-%dT%H:%M:%S") + tail;
 }
 
 }  // namespace guideway

@@ -192,6 +192,9 @@ class MqttPublishing(unittest.TestCase):
         self.assertEqual(m["state"], "disconnected", m)
         self.assertGreaterEqual(m["queued"], 3, m)  # PARAMS, EXPLAIN, report_ready at least
         self.assertIn("MQTT: connection to", d.log_text())
+        human = d.cli("status")
+        self.assertRegex(human, r"mqtt: disconnected \(mqtt://127.0.0.1:\d+, machine mill-1, since .*\), [1-9]\d* queued")
+        self.assertIn("last error: ", human)
         self.assertTrue(os.listdir(os.path.join(self.d, "d-state", "mqtt-journal")))
 
         broker.start()

@@ -11,3 +11,23 @@ def wait_for(predicate, timeout=10.0, poll_s=0.05):
             return value
         time.sleep(poll_s)
     return predicate()
+
+
+class Checks:
+    """Soft assertions for the end-to-end tests: check(cond, msg) prints and keeps each failure so one
+    run reports them all; finish() prints the summary and gives the exit code."""
+
+    def __init__(self):
+        self.failures = []
+
+    def __call__(self, cond, msg):
+        if not cond:
+            self.failures.append(msg)
+            print("FAIL:", msg)
+
+    def finish(self, passed):
+        if self.failures:
+            print("%d check(s) failed" % len(self.failures))
+            return 1
+        print(passed)
+        return 0

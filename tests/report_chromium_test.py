@@ -20,15 +20,11 @@ GUIDEWAY, EMULATE, SRC, MOODY, ART = sys.argv[1:6]
 sys.path.insert(0, os.path.join(SRC, "report", "tools"))
 import cdp  # noqa: E402
 import example_inputs  # noqa: E402
+from report_dom import PLOTS_JS, have_chromium, open_self_contained  # noqa: E402
+from process_support import Checks  # noqa: E402
 
-failures = []
+check = Checks()
 EXPLANATION = {}  # the explanation input (its findings and residual curves)
-
-
-def check(cond, msg):
-    if not cond:
-        failures.append(msg)
-        print("FAIL:", msg)
 
 
 def run(*args):
@@ -51,44 +47,13 @@ EXPECTED = {
     "explain": {"bar": 1},  # and a line plot when the explanation carries residual curves
 }
 
-PLOTS_JS = r"""
-[...document.querySelectorAll('section.analysis')].map(sec => ({
-  kind: sec.dataset.kind,
-  tables: sec.querySelectorAll('table').length,
-  plots: [...sec.querySelectorAll('svg.plot')].map(svg => {
-    const box = svg.getBoundingClientRect();
-    return {
-      kind: svg.dataset.plot,
-      width: box.width, height: box.height,
-      title: (svg.querySelector('text.title') || {}).textContent || '',
-      axes: [...svg.querySelectorAll('g.axis')].map(g => ({cls: g.getAttribute('class'),
-                                                          ticks: g.querySelectorAll('.tick, .ring, .spoke').length,
-                                                          labels: [...g.querySelectorAll('text.tick-label')].map(t => t.textContent)})),
-      axis_labels: [...svg.querySelectorAll('text.axis-label')].map(t => t.textContent),
-      legend: [...svg.querySelectorAll('g.legend text')].map(t => t.textContent),
-      data: [...svg.querySelectorAll('path.data')].map(p => {
-        const b = p.getBBox();
-        return {series: p.dataset.series, points: Number(p.dataset.points), d: (p.getAttribute('d') || '').length,
-                segs: ((p.getAttribute('d') || '').match(/[MLHVZ]/g) || []).length, w: b.width, h: b.height};
-      }),
-      panels: svg.querySelectorAll('g.panel').length,
-    };
-  }),
-}))
-"""
 
 UNIT = re.compile(r" / |\u00b5m|/div|deg")
 
 
 def check_report(browser, html, kinds):
     kinds = sorted(set(kinds))
-    text = open(html, encoding="utf-8").read()
-    check("<script" not in text.lower(), "%s: has a <script>" % html)
-    check(not re.search(r"(src|href)\s*=\s*\"(https?:|//)", text), "%s: refers to a network resource" % html)
-    browser.open("file://" + os.path.abspath(html))
-    check(browser.problems() == [], "%s: console/load problems: %s" % (html, browser.problems()))
-    reqs = browser.requests()
-    check(len(reqs) == 1, "%s: loads more than itself: %s" % (html, reqs))
+    open_self_contained(browser, html, check)
     sections = browser.evaluate(PLOTS_JS)
     correlation_bars = []
     check(sorted({s["kind"] for s in sections}) == sorted(kinds), "%s: sections %s, expected %s"
@@ -181,10 +146,7 @@ def check_report(browser, html, kinds):
 
 
 def main():
-    try:
-        cdp.find_chromium()
-    except cdp.ChromiumMissing as e:
-        print("FAIL:", e)
+    if not have_chromium():
         return 1
     shutil.rmtree(ART, ignore_errors=True)
     os.makedirs(ART)
@@ -233,11 +195,7 @@ def main():
           "unrecognised input: exit %d, %r" % (r.returncode, r.stderr))
 
     print("artefacts in", ART)
-    if failures:
-        print("%d check(s) failed" % len(failures))
-        return 1
-    print("all report checks passed")
-    return 0
+    return check.finish("all report checks passed")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,158 @@
+// `guideway fleet ...`: the fleet view of a plant's machines (fleet/, docs/plant.md "guideway fleet").
+//   status               one line per machine: state, age of the last DBB, latest headline figures
+//   history MACHINE      every result of a machine, oldest first, each figure value ± u
+//   report --out FILE    self-contained HTML: the fleet table and each machine's trends
+//   ingest --topic T --file F   one message into the database, as `fleet serve` stores it (tests,
+//                        importing results kept as files)
+// `fleet` is a shared parent: `fleet serve` (the MQTT loop) attaches to it from its own file.
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "cli/commands.hpp"
+#include "core/atomic_file.hpp"
+#include "core/utc_time.hpp"
+#include "fleet/fleet_report.hpp"
+#include "fleet/fleet_status.hpp"
+#include "fleet/history.hpp"
+#include "fleet/store.hpp"
+
+namespace guideway::cli {
+
+namespace {
+
+double now_s() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+
+void add_db_option(CLI::App* cmd, std::string& db) {
+  cmd->add_option("--db", db,
+                  "fleet database (default: $STATE_DIRECTORY, $XDG_STATE_HOME/guideway or "
+                  "~/.local/state/guideway, /fleet.sqlite)");
+}
+
+std::string db_path(const std::string& given) { return given.empty() ? fleet::default_database_path() : given; }
+
+std::string read_whole_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("fleet ingest: cannot read " + path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
+  auto* fleet = shared_subcommand(app, "fleet",
+                                  "the plant's machines as their daemons publish them over MQTT: "
+                                  "status, history, report (docs/plant.md)");
+  {
+    struct Args {
+      std::string db;
+      bool json = false;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = fleet->add_subcommand("status",
+                                      "one line per machine: online/offline, age of the last DBB result, "
+                                      "the latest headline figures (* moved beyond 2u) and what EXPLAIN found");
+    add_db_option(cmd, a->db);
+    cmd->add_flag("--json", a->json, "print one JSON object");
+    cmd->callback([a] {
+      const fleet::Store store(db_path(a->db), fleet::Store::Open::existing);
+      const auto status = fleet::fleet_status(store, now_s());
+      if (a->json)
+        std::cout << fleet::status_json(status).dump(1) << "\n";
+      else
+        std::cout << fleet::status_text(status);
+    });
+  }
+  {
+    struct Args {
+      std::string db, machine, kind;
+      bool json = false;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = fleet->add_subcommand("history",
+                                      "every result of one machine, oldest first, each headline figure "
+                                      "value ± u (* moved beyond 2u against the one before)");
+    cmd->add_option("machine", a->machine, "machine name (as in its topics)")->required();
+    cmd->add_option("--kind", a->kind, "only this session kind (dbb, runout, straightness, profile)");
+    add_db_option(cmd, a->db);
+    cmd->add_flag("--json", a->json, "print one JSON object");
+    cmd->callback([a] {
+      const fleet::Store store(db_path(a->db), fleet::Store::Open::existing);
+      const auto machines = store.machines();
+      if (std::none_of(machines.begin(), machines.end(), [&](const auto& m) { return m.machine == a->machine; })) {
+        std::string known;
+        for (const auto& m : machines) known += (known.empty() ? "" : ", ") + m.machine;
+        throw std::runtime_error("fleet history: unknown machine '" + a->machine +
+                                 "'; known: " + (known.empty() ? "none yet" : known));
+      }
+      const auto entries = fleet::history_of(store.results(a->machine, a->kind));
+      if (a->json)
+        std::cout << fleet::history_json(a->machine, entries).dump(1) << "\n";
+      else
+        std::cout << fleet::history_text(a->machine, entries);
+    });
+  }
+  {
+    struct Args {
+      std::string db, out, title = "Guideway fleet";
+      bool no_date = false;
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = fleet->add_subcommand("report",
+                                      "write one self-contained HTML page: the fleet table and each "
+                                      "machine's headline figures over time with ±2u bars");
+    cmd->add_option("-o,--out", a->out, "HTML file to write ('-': standard output)")->required();
+    add_db_option(cmd, a->db);
+    cmd->add_option("--title", a->title, "page title");
+    cmd->add_flag("--no-date", a->no_date, "leave the generation time out");
+    cmd->callback([a] {
+      const fleet::Store store(db_path(a->db), fleet::Store::Open::existing);
+      fleet::FleetReportOptions opt;
+      opt.title = a->title;
+      opt.now_s = now_s();
+      if (!a->no_date) opt.subtitle = "Generated " + utc_now("%Y-%m-%d %H:%M UTC") + " by guideway fleet report";
+      const std::string html = fleet::render_fleet_report(store, opt);
+      if (a->out == "-") {
+        std::cout << html;
+        return;
+      }
+      write_file_atomically(a->out, html);
+      std::cerr << "fleet report: " << store.machines().size() << " machine(s) -> " << a->out << " (" << html.size()
+                << " bytes)\n";
+    });
+  }
+  {
+    struct Args {
+      std::string db, topic, file, produced, received, prefix = "guideway";
+    };
+    auto a = std::make_shared<Args>();
+    auto* cmd = fleet->add_subcommand("ingest",
+                                      "store one message as `fleet serve` does: a result, status or event "
+                                      "kept as a file (import, tests)");
+    cmd->add_option("--topic", a->topic,
+                    "its MQTT topic: PREFIX/MACHINE/params/KIND, .../explain/KIND, .../status, "
+                    ".../event")
+        ->required();
+    cmd->add_option("--file", a->file, "the payload (a PARAMS, EXPLAIN, status or EVENT JSON object)")->required();
+    cmd->add_option("--prefix", a->prefix, "the topic prefix (default guideway)");
+    cmd->add_option("--produced-utc", a->produced, "when the daemon made it (ISO 8601 UTC); default: the receive time");
+    cmd->add_option("--received-utc", a->received, "when it arrived (ISO 8601 UTC); default: now");
+    add_db_option(cmd, a->db);
+    cmd->callback([a] {
+      fleet::Store store(db_path(a->db));
+      const std::string received = a->received.empty() ? utc_now_iso_ms() : a->received;
+      const auto r = store.ingest(a->prefix, a->topic, read_whole_file(a->file), a->produced, received);
+      if (r.outcome == fleet::IngestResult::ignored)
+        throw std::runtime_error("fleet ingest: " + a->file + " ignored: " + r.reason);
+      std::cout << fleet::to_string(r.outcome) << "\n";
+    });
+  }
+}
+
+const CommandGroup group(&add_fleet_commands);
+
+}  // namespace
+
+}  // namespace guideway::cli

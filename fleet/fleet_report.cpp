@@ -1,0 +1,161 @@
+#include "fleet/fleet_report.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "core/utc_time.hpp"
+#include "fleet/fleet_status.hpp"
+#include "fleet/history.hpp"
+#include "report/html.hpp"
+#include "report/svg.hpp"
+
+namespace guideway::fleet {
+
+namespace {
+
+constexpr double seconds_per_day = 86400.0;
+
+// An HTML id from a machine name (letters, digits, '-', '_'; the rest becomes '-').
+std::string anchor(const std::string& machine) {
+  std::string id = "machine-";
+  for (const char c : machine) id += std::isalnum(static_cast<unsigned char>(c)) || c == '_' ? c : '-';
+  return id;
+}
+
+// A cell that a narrow page does not break inside ("1.1564 ± 0.0080").
+std::string nowrap(const std::string& html) { return "<span style=\"white-space:nowrap\">" + html + "</span>"; }
+
+std::string figure_cell(const FigureChange* f) {
+  if (!f) return "–";
+  std::string cell = report::html_escape(report::format_with_u(f->latest.value, f->latest.u.value_or(std::nan(""))));
+  if (f->moved) cell = "<strong class=\"moved\">" + cell + " *</strong>";
+  return nowrap(cell);
+}
+
+std::string fleet_table(const std::vector<MachineStatus>& fleet) {
+  const auto columns = figure_columns(fleet);
+  std::vector<std::string> header = {"machine", "state", "since (UTC)", "last DBB"};
+  for (const auto& c : columns) header.push_back(report::html_escape(c.header));
+  header.emplace_back("EXPLAIN (latest)");
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& m : fleet) {
+    std::string state = m.machine.state.empty() ? "unknown" : m.machine.state;
+    if (!m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
+    std::vector<std::string> row = {
+        "<a href=\"#" + anchor(m.machine.machine) + "\">" + report::html_escape(m.machine.machine) + "</a>",
+        report::html_escape(state),
+        nowrap(report::html_escape(m.machine.since.substr(0, 10))) + " " +
+            report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
+        m.dbb_age_s ? report::html_escape(format_age(*m.dbb_age_s)) + " ago" : "never"};
+    for (const auto& c : columns) row.push_back(figure_cell(figure_of(m, c)));
+    std::string found;
+    for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
+    row.push_back(report::html_escape(found.empty() ? "–" : found));
+    rows.push_back(std::move(row));
+  }
+  return report::html_table(report::Table("The latest result of each kind (value ± standard uncertainty u). * " +
+                                              report::html_escape(moved_rule_text) + ".",
+                                          std::move(header), std::move(rows)));
+}
+
+// One figure's trend: the values, and a bar from value − 2u to value + 2u at each (NaN-separated
+// segments of one series).
+std::string trend_plot(const std::string& kind, const Headline& first, const std::vector<double>& t_days,
+                       const std::vector<Headline>& values, const std::string& epoch_day) {
+  report::LinePlot p;
+  p.title = kind + ": " + first.label;
+  p.x_label = "time / days since " + epoch_day;
+  p.y_label = first.label + " / " + first.unit;
+  p.height = 240;
+  report::Series v{"value", t_days, {}, report::palette(0), report::Style::line_markers, 1.2};
+  report::Series bars{"±2u", {}, {}, report::palette(1), report::Style::line, 1.6};
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    v.y.push_back(values[i].value);
+    if (!values[i].u) continue;
+    const double half = moved_coverage_factor * *values[i].u;
+    bars.x.insert(bars.x.end(), {t_days[i], t_days[i], std::nan("")});
+    bars.y.insert(bars.y.end(), {values[i].value - half, values[i].value + half, std::nan("")});
+  }
+  const auto [lo, hi] = std::minmax_element(t_days.begin(), t_days.end());
+  // Room on both sides so that the first and last markers and bars are not cut by the axes; a day
+  // around a single result.
+  const double margin = *hi - *lo < 1e-6 ? 0.5 : 0.05 * (*hi - *lo);
+  p.x_range = report::Range{*lo - margin, *hi + margin};
+  const bool with_u = !bars.x.empty();
+  p.series.push_back(std::move(v));
+  if (with_u) p.series.push_back(std::move(bars));
+  const std::string caption =
+      report::html_escape(first.label + " (" + first.unit + ") of each " + kind + " result" +
+                          (with_u ? ", with bars of ±2u (k = 2)" : ": the results give no uncertainty for it"));
+  return report::html_figure(report::render(p), caption);
+}
+
+std::string machine_section(const MachineStatus& m, const std::vector<HistoryEntry>& entries) {
+  std::string body;
+  std::string state = m.machine.state.empty() ? "state unknown" : m.machine.state;
+  if (!m.machine.since.empty()) state += " since " + m.machine.since;
+  if (!m.machine.release.empty()) state += ", release " + m.machine.release;
+  if (!m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
+  body += "<p>" + report::html_escape(state) + "; " + std::to_string(entries.size()) + " result(s).</p>";
+  // Time axis: days since the day of the machine's first result.
+  double t0 = std::numeric_limits<double>::infinity();
+  for (const auto& e : entries)
+    if (const auto t = parse_utc_iso(e.produced_utc)) t0 = std::min(t0, *t);
+  if (!std::isfinite(t0)) return report::html_section("machine", anchor(m.machine.machine), m.machine.machine, body);
+  t0 = std::floor(t0 / seconds_per_day) * seconds_per_day;
+  const std::string epoch_day = utc_iso_ms(t0).substr(0, 10);
+  // Per kind and figure (in table order): the times and values.
+  struct Trend {
+    std::string kind;
+    std::vector<double> t;
+    std::vector<Headline> values;
+  };
+  std::vector<Trend> trends;
+  for (const auto& e : entries) {
+    const auto t = parse_utc_iso(e.produced_utc);
+    if (!t) continue;
+    for (const auto& f : e.figures) {
+      auto it = std::find_if(trends.begin(), trends.end(), [&](const Trend& tr) {
+        return tr.kind == e.kind && tr.values.front().name == f.latest.name;
+      });
+      if (it == trends.end()) it = trends.insert(trends.end(), Trend{e.kind, {}, {}});
+      it->t.push_back((*t - t0) / seconds_per_day);
+      it->values.push_back(f.latest);
+    }
+  }
+  std::stable_sort(trends.begin(), trends.end(),
+                   [](const Trend& a, const Trend& b) { return kind_rank(a.kind) < kind_rank(b.kind); });
+  for (const auto& tr : trends) body += trend_plot(tr.kind, tr.values.front(), tr.t, tr.values, epoch_day);
+  if (!m.explains.empty()) {
+    std::vector<std::vector<std::string>> rows;
+    for (const auto& e : m.explains) {
+      std::string found = to_text(e.summary);
+      if (!e.summary.not_analysed.empty()) found += ": " + e.summary.not_analysed;
+      rows.push_back({report::html_escape(e.kind), report::html_escape(e.produced_utc), report::html_escape(found)});
+    }
+    body +=
+        report::html_table(report::Table("What the latest EXPLAIN of each kind found (contribution to the deviation)",
+                                         {"kind", "produced (UTC)", "found"}, std::move(rows), "text"));
+  }
+  return report::html_section("machine", anchor(m.machine.machine), m.machine.machine, body);
+}
+
+}  // namespace
+
+std::string render_fleet_report(const Store& store, const FleetReportOptions& options) {
+  const auto fleet = fleet_status(store, options.now_s);
+  std::vector<report::TocEntry> toc = {{"fleet", "Fleet"}};
+  std::string body =
+      report::html_section("fleet", "fleet", "Fleet",
+                           fleet.empty() ? report::html_note("No machine has reported yet.") : fleet_table(fleet));
+  for (const auto& m : fleet) {
+    body += machine_section(m, history_of(store.results(m.machine.machine)));
+    toc.push_back({anchor(m.machine.machine), m.machine.machine});
+  }
+  return report::html_document(options.title, options.subtitle, toc, body);
+}
+
+}  // namespace guideway::fleet

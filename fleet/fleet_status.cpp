@@ -1,0 +1,171 @@
+#include "fleet/fleet_status.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "core/number_format.hpp"
+#include "core/utc_time.hpp"
+
+namespace guideway::fleet {
+
+namespace {
+
+// Columns by what a terminal shows: UTF-8 continuation bytes take no column ("µm").
+std::size_t display_width(const std::string& s) {
+  return static_cast<std::size_t>(
+      std::count_if(s.begin(), s.end(), [](char c) { return (static_cast<unsigned char>(c) & 0xC0) != 0x80; }));
+}
+
+std::string pad(const std::string& s, std::size_t width, bool right) {
+  const std::string fill(width > display_width(s) ? width - display_width(s) : 0, ' ');
+  return right ? fill + s : s + fill;
+}
+
+}  // namespace
+
+std::vector<MachineStatus> fleet_status(const Store& store, double now_s) {
+  std::map<std::string, MachineStatus> by_name;
+  for (auto& m : store.machines()) by_name[m.machine].machine = m;
+  // The two newest results of each machine, class and kind: the latest and the one it is compared to.
+  const auto rows = store.latest_results(2);
+  for (std::size_t i = 0; i < rows.size();) {
+    std::size_t end = i;
+    while (end < rows.size() && rows[end].machine == rows[i].machine &&
+           rows[end].message_class == rows[i].message_class && rows[end].kind == rows[i].kind)
+      ++end;
+    const std::vector<ResultRow> group(rows.begin() + static_cast<std::ptrdiff_t>(i),
+                                       rows.begin() + static_cast<std::ptrdiff_t>(end));
+    auto entries = history_of(group);
+    auto& m = by_name[rows[i].machine];
+    if (m.machine.machine.empty()) m.machine.machine = rows[i].machine;
+    auto& last = entries.back();
+    if (last.explain) {
+      m.explains.push_back({last.kind, last.produced_utc, *last.explain});
+    } else {
+      m.latest.push_back({last.kind, last.produced_utc, last.session, std::move(last.figures)});
+      if (last.kind == "dbb")
+        if (const auto t = parse_utc_iso(last.produced_utc)) m.dbb_age_s = now_s - *t;
+    }
+    i = end;
+  }
+  std::vector<MachineStatus> out;
+  for (auto& [name, m] : by_name) {
+    const auto by_kind = [](const auto& a, const auto& b) {
+      return std::pair(kind_rank(a.kind), a.kind) < std::pair(kind_rank(b.kind), b.kind);
+    };
+    std::sort(m.latest.begin(), m.latest.end(), by_kind);
+    std::sort(m.explains.begin(), m.explains.end(), by_kind);
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+std::vector<FigureColumn> figure_columns(const std::vector<MachineStatus>& fleet) {
+  std::vector<std::pair<std::pair<int, std::string>, std::vector<FigureColumn>>> kinds;  // in first-seen table order
+  for (const auto& m : fleet) {
+    for (const auto& k : m.latest) {
+      auto it = std::find_if(kinds.begin(), kinds.end(), [&](const auto& e) { return e.first.second == k.kind; });
+      if (it == kinds.end()) it = kinds.insert(kinds.end(), {{kind_rank(k.kind), k.kind}, {}});
+      for (const auto& f : k.figures) {
+        auto& cols = it->second;
+        if (std::none_of(cols.begin(), cols.end(), [&](const FigureColumn& c) { return c.name == f.latest.name; }))
+          cols.push_back({k.kind, f.latest.name, f.latest.label + "/" + f.latest.unit});
+      }
+    }
+  }
+  std::stable_sort(kinds.begin(), kinds.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<FigureColumn> out;
+  for (auto& k : kinds) out.insert(out.end(), k.second.begin(), k.second.end());
+  return out;
+}
+
+const FigureChange* figure_of(const MachineStatus& m, const FigureColumn& c) {
+  for (const auto& k : m.latest)
+    if (k.kind == c.kind)
+      for (const auto& f : k.figures)
+        if (f.latest.name == c.name) return &f;
+  return nullptr;
+}
+
+std::string format_age(double seconds) {
+  if (!std::isfinite(seconds)) return "-";
+  if (seconds < 0) return "in the future";
+  if (seconds < 120) return printf_number("%.0f s", seconds);
+  if (seconds < 7200) return printf_number("%.0f min", seconds / 60);
+  if (seconds < 2 * 86400) return printf_number("%.1f h", seconds / 3600);
+  return printf_number("%.1f d", seconds / 86400);
+}
+
+nlohmann::json status_json(const std::vector<MachineStatus>& fleet) {
+  nlohmann::json j = {{"moved_rule", moved_rule_text}, {"machines", nlohmann::json::array()}};
+  for (const auto& m : fleet) {
+    nlohmann::json o = {{"machine", m.machine.machine},
+                        {"state", m.machine.state},
+                        {"since", m.machine.since},
+                        {"release", m.machine.release},
+                        {"reason", m.machine.reason},
+                        {"last_seen_utc", m.machine.last_seen_utc},
+                        {"dbb_age_s", m.dbb_age_s ? nlohmann::json(*m.dbb_age_s) : nlohmann::json()},
+                        {"latest", nlohmann::json::object()},
+                        {"explain", nlohmann::json::object()}};
+    for (const auto& k : m.latest) {
+      auto& r = o["latest"][k.kind] = {
+          {"produced_utc", k.produced_utc}, {"session", k.session}, {"figures", nlohmann::json::array()}};
+      for (const auto& f : k.figures) r["figures"].push_back(to_json(f));
+    }
+    for (const auto& e : m.explains) {
+      auto r = to_json(e.summary);
+      r["produced_utc"] = e.produced_utc;
+      o["explain"][e.kind] = std::move(r);
+    }
+    j["machines"].push_back(std::move(o));
+  }
+  return j;
+}
+
+std::string status_text(const std::vector<MachineStatus>& fleet) {
+  if (fleet.empty()) return "no machines yet\n";
+  const auto columns = figure_columns(fleet);
+  std::vector<std::string> header = {"MACHINE", "STATE", "SINCE (UTC)", "LAST DBB"};
+  for (const auto& c : columns) header.push_back(c.header + " ");  // the cells end in the moved mark or a space
+  header.emplace_back("EXPLAIN (latest)");
+  std::vector<std::vector<std::string>> rows;
+  bool any_moved = false;
+  for (const auto& m : fleet) {
+    std::string state = m.machine.state.empty() ? "?" : m.machine.state;
+    if (m.machine.state == "offline" && !m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
+    std::vector<std::string> row = {m.machine.machine, state,
+                                    m.machine.since.empty() ? "-" : m.machine.since.substr(0, 19),
+                                    m.dbb_age_s ? format_age(*m.dbb_age_s) + " ago" : "never"};
+    for (const auto& c : columns) {
+      const auto* f = figure_of(m, c);
+      row.push_back(f ? significant_digits(f->latest.value, 3) + (f->moved ? "*" : " ") : "- ");
+      any_moved = any_moved || (f && f->moved);
+    }
+    std::string found;
+    for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
+    row.push_back(found.empty() ? "-" : found);
+    rows.push_back(std::move(row));
+  }
+  std::vector<std::size_t> width(header.size());
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    width[c] = display_width(header[c]);
+    for (const auto& r : rows) width[c] = std::max(width[c], display_width(r[c]));
+  }
+  const auto line = [&](const std::vector<std::string>& cells) {
+    std::string s;
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+      const bool number = c >= 4 && c + 1 < cells.size();  // figure columns: right-aligned
+      if (c) s += "  ";
+      s += c + 1 == cells.size() ? cells[c] : pad(cells[c], width[c], number);
+    }
+    return s + "\n";
+  };
+  std::string out = line(header);
+  for (const auto& r : rows) out += line(r);
+  out += "* " + std::string(moved_rule_text) + (any_moved ? "\n" : " (none moved)\n");
+  return out;
+}
+
+}  // namespace guideway::fleet

@@ -1,0 +1,45 @@
+#pragma once
+// The headline figures of a result: the few numbers of a PARAMS object that say how a machine is
+// (circular deviation, squareness, backlash, straightness, ...), one table per session kind, and what
+// an EXPLAIN object found. Pure; thread safe.
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace guideway::fleet {
+
+struct Headline {
+  std::string name;   // stable key, with its unit: "circular_deviation_um", "backlash_x_um"
+  std::string label;  // for people: "G", "backlash x"
+  std::string unit;   // "µm", "µrad", "ppm"
+  double value = 0.0;
+  std::optional<double> u;  // standard uncertainty, when the result gives one
+};
+
+// The figures of a PARAMS object of session kind `kind` that it holds, in the kind's table order
+// (docs/plant.md lists them); none for a kind without a table.
+[[nodiscard]] std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params);
+
+struct Finding {
+  std::string effect;
+  double contribution_um = 0.0;
+};
+struct ExplainSummary {
+  std::vector<Finding> findings;  // in the order EXPLAIN selected them
+  bool unexplained = false;
+  std::string not_analysed;  // why it was not analysed, when it was not
+};
+[[nodiscard]] ExplainSummary explain_summary(const nlohmann::json& explain);
+// "backlash 1.99 µm, vibration 0.025 µm", "nothing found", "unexplained", "not analysed".
+[[nodiscard]] std::string to_text(const ExplainSummary& s);
+
+// Whether a figure moved between two results: |latest − previous| > k·sqrt(u_latest² + u_previous²)
+// with k = 2 (moved_coverage_factor). A figure without u in either result is never flagged.
+inline constexpr double moved_coverage_factor = 2.0;
+[[nodiscard]] bool moved(const Headline& latest, const Headline& previous);
+
+}  // namespace guideway::fleet

@@ -1,0 +1,99 @@
+#include "fleet/history.hpp"
+
+#include <cmath>
+#include <map>
+
+#include "report/html.hpp"
+
+namespace guideway::fleet {
+
+int kind_rank(std::string_view kind) {
+  static constexpr std::string_view order[] = {"dbb", "runout", "straightness", "profile"};
+  for (int i = 0; i < 4; ++i)
+    if (order[i] == kind) return i;
+  return 4;
+}
+
+std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
+  std::vector<HistoryEntry> out;
+  std::map<std::string, std::vector<Headline>> previous;  // per kind: the figures of its last PARAMS
+  for (const auto& r : rows) {
+    HistoryEntry e{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}};
+    nlohmann::json j = nlohmann::json::parse(r.payload, nullptr, false);
+    if (!j.is_discarded()) {
+      if (r.message_class == "EXPLAIN") {
+        e.explain = explain_summary(j);
+      } else {
+        auto& before = previous[r.kind];
+        auto figures = headlines(r.kind, j);
+        for (auto& h : figures) {
+          FigureChange c{h, std::nullopt, false};
+          for (const auto& p : before)
+            if (p.name == h.name) c.previous = p;
+          c.moved = c.previous && moved(h, *c.previous);
+          e.figures.push_back(std::move(c));
+        }
+        before = std::move(figures);
+      }
+    }
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+nlohmann::json to_json(const FigureChange& f) {
+  nlohmann::json j = {{"name", f.latest.name},
+                      {"label", f.latest.label},
+                      {"unit", f.latest.unit},
+                      {"value", f.latest.value},
+                      {"moved", f.moved}};
+  if (f.latest.u) j["u"] = *f.latest.u;
+  if (f.previous) {
+    j["previous"] = f.previous->value;
+    if (f.previous->u) j["previous_u"] = *f.previous->u;
+  }
+  return j;
+}
+
+nlohmann::json to_json(const ExplainSummary& s) {
+  nlohmann::json j = {{"findings", nlohmann::json::array()}, {"unexplained", s.unexplained}};
+  for (const auto& f : s.findings)
+    j["findings"].push_back({{"effect", f.effect}, {"contribution_um", f.contribution_um}});
+  if (!s.not_analysed.empty()) j["not_analysed"] = s.not_analysed;
+  return j;
+}
+
+nlohmann::json history_json(std::string_view machine, const std::vector<HistoryEntry>& entries) {
+  nlohmann::json j = {{"machine", machine}, {"moved_rule", moved_rule_text}, {"results", nlohmann::json::array()}};
+  for (const auto& e : entries) {
+    nlohmann::json r = {{"kind", e.kind},
+                        {"class", e.message_class},
+                        {"produced_utc", e.produced_utc},
+                        {"received_utc", e.received_utc},
+                        {"session", e.session}};
+    if (e.explain) {
+      r["explain"] = to_json(*e.explain);
+    } else {
+      r["figures"] = nlohmann::json::array();
+      for (const auto& f : e.figures) r["figures"].push_back(to_json(f));
+    }
+    j["results"].push_back(std::move(r));
+  }
+  return j;
+}
+
+std::string history_text(std::string_view machine, const std::vector<HistoryEntry>& entries) {
+  std::string out = std::string(machine) + ": " + std::to_string(entries.size()) + " result(s), oldest first\n";
+  for (const auto& e : entries) {
+    out += e.produced_utc + "  " + e.kind + " " + e.message_class + "  " + (e.session.empty() ? "-" : e.session) + "\n";
+    if (e.explain) out += "    found: " + to_text(*e.explain) + "\n";
+    for (const auto& f : e.figures) {
+      const std::string value = report::format_with_u(f.latest.value, f.latest.u.value_or(std::nan("")));
+      out += "    " + f.latest.label + ": " + value + " " + f.latest.unit + (f.moved ? "  *" : "") + "\n";
+    }
+  }
+  if (!entries.empty()) out += "* " + std::string(moved_rule_text) + "\n";
+  return out;
+}
+
+}  // namespace guideway::fleet
