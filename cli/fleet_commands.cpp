@@ -4,8 +4,11 @@
 //   report --out FILE    self-contained HTML: the fleet table and each machine's trends
 //   ingest --topic T --file F   one message into the database, as `fleet serve` stores it (tests,
 //                        importing results kept as files)
-// `fleet` is a shared parent: `fleet serve` (the MQTT loop) attaches to it from its own file.
+//   serve --broker URL   the fleet process: subscribes to the plant's broker and stores what arrives
+//                        (fleet/subscriber), until SIGTERM or SIGINT
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -18,6 +21,9 @@
 #include "fleet/fleet_status.hpp"
 #include "fleet/history.hpp"
 #include "fleet/store.hpp"
+#include "fleet/subscriber.hpp"
+#include "plant/broker_address.hpp"
+#include "plant/topics.hpp"
 
 namespace guideway::cli {
 
@@ -27,8 +33,8 @@ double now_s() { return std::chrono::duration<double>(std::chrono::system_clock:
 
 void add_db_option(CLI::App* cmd, std::string& db) {
   cmd->add_option("--db", db,
-                  "fleet database (default: $STATE_DIRECTORY, $XDG_STATE_HOME/guideway or "
-                  "~/.local/state/guideway, /fleet.sqlite)");
+                  "fleet database (default: $GUIDEWAY_FLEET_DB, the service's /var/lib/guideway-fleet/fleet.sqlite, or "
+                  "~/.local/state/guideway/fleet.sqlite)");
 }
 
 std::string db_path(const std::string& given) { return given.empty() ? fleet::default_database_path() : given; }
@@ -39,6 +45,50 @@ std::string read_whole_file(const std::string& path) {
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+std::atomic<bool> stop_requested{false};
+
+extern "C" void request_stop(int) { stop_requested.store(true); }
+
+struct ServeOpts {
+  std::string broker, ca_file, cert_file, key_file, username, password_file, client_id = "guideway-fleet";
+  std::string topic_prefix = "guideway", db;
+  std::uint32_t session_expiry_s = 7 * 24 * 3600;
+};
+
+void serve(const ServeOpts& o) {
+  fleet::SubscriberSettings s;
+  try {
+    s.connection.broker = plant::parse_broker_url(o.broker);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(std::string("--broker ") + e.what());
+  }
+  if (const std::string p = plant::topic_prefix_problem(o.topic_prefix); !p.empty())
+    throw std::runtime_error("--topic-prefix \"" + o.topic_prefix + "\" " + p);
+  if ((!o.ca_file.empty() || !o.cert_file.empty()) && !s.connection.broker.tls)
+    throw std::runtime_error("--ca-file and --cert-file need an mqtts:// broker");
+  if (!o.password_file.empty() && o.username.empty()) throw std::runtime_error("--password-file needs --username");
+  s.connection.ca_file = o.ca_file;
+  s.connection.cert_file = o.cert_file;
+  s.connection.key_file = o.key_file;
+  s.connection.username = o.username;
+  if (!o.password_file.empty()) s.connection.password = plant::read_password_file(o.password_file);
+  s.connection.client_id = o.client_id;
+  s.connection.session_expiry_s = o.session_expiry_s;
+  s.topic_prefix = o.topic_prefix;
+  const std::string db = db_path(o.db);
+  fleet::Store store(db);
+  std::signal(SIGTERM, request_stop);
+  std::signal(SIGINT, request_stop);
+  const auto log = [](const std::string& line) { std::cerr << utc_now_iso() << " fleet: " << line << std::endl; };
+  log("storing into " + db + "; broker " + s.connection.broker.url() + ", topics " +
+      plant::subscription_filter(o.topic_prefix));
+  fleet::Subscriber subscriber(std::move(s), store, log);
+  subscriber.run(stop_requested);
+  const auto& c = subscriber.counts();
+  log("stopped: stored " + std::to_string(c.stored) + " message(s), " + std::to_string(c.duplicates) +
+      " already stored, " + std::to_string(c.ignored) + " ignored");
 }
 
 void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
@@ -136,7 +186,7 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
                     ".../event")
         ->required();
     cmd->add_option("--file", a->file, "the payload (a PARAMS, EXPLAIN, status or EVENT JSON object)")->required();
-    cmd->add_option("--prefix", a->prefix, "the topic prefix (default guideway)");
+    cmd->add_option("--topic-prefix", a->prefix, "the daemons' topic_prefix (default guideway)");
     cmd->add_option("--produced-utc", a->produced, "when the daemon made it (ISO 8601 UTC); default: the receive time");
     cmd->add_option("--received-utc", a->received, "when it arrived (ISO 8601 UTC); default: now");
     add_db_option(cmd, a->db);
@@ -148,6 +198,24 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
         throw std::runtime_error("fleet ingest: " + a->file + " ignored: " + r.reason);
       std::cout << fleet::to_string(r.outcome) << "\n";
     });
+  }
+  {
+    auto o = std::make_shared<ServeOpts>();
+    auto* cmd = fleet->add_subcommand(
+        "serve", "subscribe to the plant's broker and store every machine's results (runs until SIGTERM)");
+    cmd->add_option("--broker", o->broker, "mqtt://HOST[:PORT] or mqtts://HOST[:PORT]")->required();
+    cmd->add_option("--ca-file", o->ca_file, "TLS: the CA certificate that signed the broker's (default: the system's)");
+    cmd->add_option("--cert-file", o->cert_file, "TLS client certificate (with --key-file)");
+    cmd->add_option("--key-file", o->key_file, "TLS client key");
+    cmd->add_option("--username", o->username, "broker login");
+    cmd->add_option("--password-file", o->password_file, "file whose first line is the password (mode 0600)");
+    cmd->add_option("--client-id", o->client_id, "MQTT client id; the broker keeps this session")->capture_default_str();
+    cmd->add_option("--topic-prefix", o->topic_prefix, "the daemons' topic_prefix")->capture_default_str();
+    add_db_option(cmd, o->db);
+    cmd->add_option("--session-expiry-s", o->session_expiry_s,
+                    "how long the broker queues messages for the fleet while it is away")
+        ->capture_default_str();
+    cmd->callback([o] { serve(*o); });
   }
 }
 

@@ -152,7 +152,16 @@ std::string string_field(const nlohmann::json& j, const char* key) {
 
 }  // namespace
 
-std::string default_database_path() { return default_state_dir() + "/fleet.sqlite"; }
+std::string default_database_path() {
+  if (const char* env = std::getenv("GUIDEWAY_FLEET_DB"); env != nullptr && *env != '\0') return env;
+  // The service's database (guideway-fleet.service, StateDirectory=guideway-fleet), when there is one and
+  // this is not the service itself: the plant server's users read it without --db.
+  if (std::getenv("STATE_DIRECTORY") == nullptr) {
+    std::error_code ec;
+    if (std::filesystem::exists(system_database_path, ec)) return system_database_path;
+  }
+  return default_state_dir() + "/fleet.sqlite";
+}
 
 std::string_view to_string(IngestResult::Outcome outcome) noexcept {
   switch (outcome) {

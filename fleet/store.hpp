@@ -17,8 +17,10 @@ namespace guideway::fleet {
 // The schema this code writes (PRAGMA user_version); a database of a newer one is refused.
 inline constexpr int schema_version = 1;
 
-// $STATE_DIRECTORY/fleet.sqlite under systemd, else $XDG_STATE_HOME/guideway/fleet.sqlite, else
+// $GUIDEWAY_FLEET_DB when set; else the service's database (system_database_path) when it exists; else
+// $STATE_DIRECTORY/fleet.sqlite under systemd, $XDG_STATE_HOME/guideway/fleet.sqlite, or
 // ~/.local/state/guideway/fleet.sqlite (core's default_state_dir()).
+inline constexpr const char* system_database_path = "/var/lib/guideway-fleet/fleet.sqlite";
 std::string default_database_path();
 
 struct IngestResult {

@@ -54,7 +54,7 @@ def main():
         path = os.path.join(ART, "payloads", name or "%s_%s.json" % (machine, leaf.replace("/", "_")))
         with open(path, "w") as f:
             f.write(payload if isinstance(payload, str) else json.dumps(payload))
-        args = ["fleet", "ingest", "--db", db, "--prefix", PREFIX, "--topic", "%s/%s/%s" % (PREFIX, machine, leaf),
+        args = ["fleet", "ingest", "--db", db, "--topic-prefix", PREFIX, "--topic", "%s/%s/%s" % (PREFIX, machine, leaf),
                 "--file", path]
         if produced:
             args += ["--produced-utc", produced]

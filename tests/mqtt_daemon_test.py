@@ -1,10 +1,13 @@
 #!/usr/bin/python3
-"""guidewayd publishing to a real MQTT broker (Debian's mosquitto on a loopback port; docs/plant.md):
+"""guidewayd publishing to a real MQTT broker, and the fleet process storing it (Debian's mosquitto on a loopback port; docs/plant.md):
 a DBB session's PARAMS arrives retained; the broker killed mid-session and restarted loses nothing
 and keeps the order (the broker's stream equals what a socket client saw); messages queued while the
 broker is down survive a restart of the daemon; a SIGKILLed daemon is shown offline by its will;
 TLS with a password login works, and a wrong password is reported in STATUS and the log while the
-daemon keeps running; a bad [mqtt] table is a config error at its line.
+daemon keeps running; the ACL of docs/plant.md refuses an impostor; a bad [mqtt] table is a config
+error at its line. Then the plant: two daemons on different emulated machines and `guideway fleet
+serve`; `guideway fleet status` lists both with their figures, a fleet restart stores nothing twice,
+a killed daemon shows offline.
 Usage: mqtt_daemon_test.py BUILD_DIR"""
 import json
 import os
@@ -25,45 +28,26 @@ from process_support import wait_for  # noqa: E402
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
-PLANT_DOC = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "plant.md")
 SKIP = mqtt_broker.missing()
 
-DBB_DEVICE = """
-[[emulator]]
-name = "can"
-instrument = "dbb"
-args = ["--bus", "unix:{runtime_dir}/can-bus.sock", "--program", "single", "--feed-mm-min", "5000", "--pause-s", "0.5"]
-[[device]]
-name = "dbb"
-driver = "dbb-can"
-bus = "emulator:can"
-sync = "produce"
-sync_rate_hz = 250.0
-  [[device.encoder]]
-  channel = "bar_length"
-  node_id = 1
-  resolution_nm = 100
-  offset_mm = 100.0
-  [[device.encoder]]
-  channel = "x"
-  node_id = 2
-  resolution_nm = 100
-  [[device.encoder]]
-  channel = "y"
-  node_id = 3
-  resolution_nm = 100
-"""
+SOURCE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+with open(os.path.join(SOURCE, "config", "dbb-node.toml")) as _f:
+    # One circle (CCW, r = 100 mm, h = 0: the sessions here ask for that pattern), not Lai's three: 16 s a test.
+    DBB_DEVICE = _f.read().replace('"--program", "lai"', '"--program", "single"').replace('"--pause-s", "1"', '"--pause-s", "0.5"')
+assert '"single"' in DBB_DEVICE
+PLANT_DOC = os.path.join(SOURCE, "docs", "plant.md")
 
 
 class Daemon:
     """guidewayd with the DBB emulator and an [mqtt] table, in `directory`."""
 
-    def __init__(self, directory, mqtt_table, name="d"):
+    def __init__(self, directory, mqtt_table, name="d", daemon_table=""):
         self.dir = directory
         self.sock = os.path.join(directory, name + ".sock")
         self.config = os.path.join(directory, name + ".toml")
         with open(self.config, "w") as f:
             f.write(f'[daemon]\nsocket = "{self.sock}"\nstate_dir = "{directory}/{name}-state"\nstatus_period_s = 0.5\n')
+            f.write(daemon_table)
             f.write(DBB_DEVICE + "\n[mqtt]\n" + mqtt_table)
         self.log_path = os.path.join(directory, name + ".log")
         self.start()
@@ -143,8 +127,9 @@ def results_and_events(messages, machine):
     return out
 
 
-@unittest.skipIf(SKIP, SKIP)
-class MqttPublishing(unittest.TestCase):
+class BrokerCase(unittest.TestCase):
+    """A temporary directory, and brokers, daemons and subscribers in it, stopped after the test."""
+
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory(prefix="gwmq-")
         self.d = self.tmp.name
@@ -160,8 +145,8 @@ class MqttPublishing(unittest.TestCase):
         self.cleanup.append(b.stop)
         return b
 
-    def daemon(self, table, name="d"):
-        d = Daemon(self.d, table, name)
+    def daemon(self, table, name="d", daemon_table=""):
+        d = Daemon(self.d, table, name, daemon_table)
         self.cleanup.append(d.stop)
         return d
 
@@ -170,6 +155,9 @@ class MqttPublishing(unittest.TestCase):
         self.cleanup.append(s.stop)
         return s
 
+
+@unittest.skipIf(SKIP, SKIP)
+class MqttPublishing(BrokerCase):
     def test_a_broker_killed_mid_session_loses_nothing_and_keeps_the_order(self):
         broker = self.broker(persistence=True)
         sub = self.subscriber(broker, "guideway/#", "all", client_id="order-check")
@@ -322,6 +310,90 @@ class MqttPublishing(unittest.TestCase):
             self.assertIn(key, out.stderr, table)
             self.assertIn(words, out.stderr, table)
             self.assertRegex(out.stderr, r"bad\.toml:\d+", table)
+
+
+@unittest.skipIf(SKIP, SKIP)
+class FleetServe(BrokerCase):
+    """The issue's plant on one machine: a broker, two daemons on emulated machine tools with different
+    errors, `guideway fleet serve`; `guideway fleet status` lists both with their figures."""
+
+    def fleet(self, broker, db):
+        log = open(os.path.join(self.d, "fleet.log"), "a")
+        proc = subprocess.Popen([GUIDEWAY, "fleet", "serve", "--broker", f"mqtt://127.0.0.1:{broker.port}", "--db", db],
+                                stdout=log, stderr=subprocess.STDOUT)
+
+        def stop():
+            if proc.poll() is None:
+                proc.terminate()
+                self.assertEqual(proc.wait(timeout=20), 0)
+            log.close()
+        self.cleanup.append(stop)
+        return proc, stop
+
+    def fleet_log(self):
+        with open(os.path.join(self.d, "fleet.log")) as f:
+            return f.read()
+
+    def fleet_status(self, db):
+        out = subprocess.run([GUIDEWAY, "fleet", "status", "--db", db, "--json"], capture_output=True, text=True)
+        return json.loads(out.stdout) if out.returncode == 0 else {"machines": []}
+
+    def test_two_daemons_and_the_fleet_view(self):
+        broker = self.broker(persistence=True)
+        db = os.path.join(self.d, "fleet.sqlite")
+        proc, stop_fleet = self.fleet(broker, db)
+        machines = os.path.join(SOURCE, "config")
+        daemons = {}
+        for name, machine_file in (("mill-1", "machine-example.toml"), ("mill-2", "machine-leadscrew.toml")):
+            daemons[name] = self.daemon(f'broker = "mqtt://127.0.0.1:{broker.port}"\nmachine = "{name}"\n', name,
+                                        f'emulator_machine = "{machines}/{machine_file}"\n')
+        sessions = [subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", "dbb", "--set",
+                                      'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]', "--wait",
+                                      "--timeout", "120"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                    for d in daemons.values()]
+        for p in sessions:
+            out, err = p.communicate(timeout=150)
+            self.assertEqual(p.returncode, 0, err)
+
+        def both_listed():
+            st = self.fleet_status(db)
+            rows = {m["machine"]: m for m in st["machines"]}
+            return rows if all(n in rows and "dbb" in rows[n].get("latest", {}) and "dbb" in rows[n].get("explain", {})
+                               for n in daemons) else None
+        rows = wait_for(both_listed, timeout=60)
+        self.assertTrue(rows, self.fleet_status(db))
+        g = {}
+        for name in daemons:
+            self.assertEqual(rows[name]["state"], "online")
+            figures = {f["name"]: f for f in rows[name]["latest"]["dbb"]["figures"]}
+            self.assertIn("circular_deviation_um", figures, figures)
+            g[name] = figures["circular_deviation_um"]["value"]
+            self.assertLess(rows[name]["dbb_age_s"], 300)
+        self.assertNotAlmostEqual(g["mill-1"], g["mill-2"], delta=0.5)  # different machines, different errors
+        # What the fleet stored is what the daemon published.
+        params = json.loads(daemons["mill-2"].cli("params", "dbb", "--json"))
+        hist = json.loads(subprocess.run([GUIDEWAY, "fleet", "history", "mill-2", "--db", db, "--json"],
+                                         capture_output=True, text=True, check=True).stdout)
+        self.assertIn(params["session"], json.dumps(hist))
+        human = subprocess.run([GUIDEWAY, "fleet", "status", "--db", db], capture_output=True, text=True, check=True).stdout
+        self.assertRegex(human, r"(?m)^mill-1 +online")
+        self.assertRegex(human, r"(?m)^mill-2 +online")
+
+        # The fleet restarted: the retained results arrive again and are not stored twice.
+        before = len(hist["results"])
+        stop_fleet()
+        proc, stop_fleet = self.fleet(broker, db)
+        self.assertTrue(wait_for(lambda: "subscribed to guideway/#" in self.fleet_log().split("storing into")[-1],
+                                 timeout=15))
+        time.sleep(1)
+        hist2 = json.loads(subprocess.run([GUIDEWAY, "fleet", "history", "mill-2", "--db", db, "--json"],
+                                          capture_output=True, text=True, check=True).stdout)
+        self.assertEqual(len(hist2["results"]), before)
+
+        # A daemon killed: the fleet shows it offline.
+        daemons["mill-1"].stop(signal.SIGKILL)
+        self.assertTrue(wait_for(lambda: {m["machine"]: m for m in self.fleet_status(db)["machines"]}["mill-1"]["state"]
+                                 == "offline", timeout=15))
 
 
 if __name__ == "__main__":
