@@ -86,10 +86,11 @@ Template golden(const std::string& file, const std::string& kind) {
   std::ifstream in(std::string(GUIDEWAY_SOURCE_DIR) + "/tests/golden/" + file);
   if (!in) throw std::runtime_error("cannot read tests/golden/" + file);
   nlohmann::json j = nlohmann::json::parse(in);
-  const std::string marker = "\x01session\x01";
+  const std::string marker = "@@plant-publishers-session@@";  // JSON keeps it as it is
   j["session"] = marker;
   const std::string text = j.dump();
   const auto at = text.find(marker);
+  if (at == std::string::npos) throw std::logic_error("the session marker is not in " + file);
   return {kind, text.substr(0, at), text.substr(at + marker.size())};
 }
 
