@@ -325,6 +325,8 @@ def main():
     ap.add_argument("--status-period-s", type=float, default=0.2, help="guidewayd's status_period_s in phase 2 (both steps)")
     ap.add_argument("--rounds", type=int, default=3, help="MQTT off/on pairs in phase 2 (the ratio is their median)")
     ap.add_argument("--skip-plant", action="store_true", help="phase 2 only, without the fleet (the broker alone)")
+    ap.add_argument("--broker-conf", action="append", default=[], metavar="LINE",
+                    help="a mosquitto.conf line (repeatable), e.g. 'max_queued_messages 0'; default: Debian's defaults")
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args()
     why = mqtt_broker.missing()
@@ -333,12 +335,12 @@ def main():
     for tool in (["bench/plant_publishers", "cli/guideway"] if not args.skip_plant else []) + ["daemon/guidewayd"]:
         if not os.access(f"{args.build}/{tool}", os.X_OK):
             sys.exit(f"plant_load: {args.build}/{tool} not found (cmake --build BUILD --target plant_load_bench builds it all)")
-    res = {"machine": dl.machine(), "load_before": dl.loadavg()}
+    res = {"machine": dl.machine(), "load_before": dl.loadavg(), "broker_conf": args.broker_conf}
     tmp = tempfile.mkdtemp(prefix="gw-plant-load-")
     broker = fleet = None
     try:
         os.makedirs(f"{tmp}/broker")
-        broker = mqtt_broker.Broker(f"{tmp}/broker")
+        broker = mqtt_broker.Broker(f"{tmp}/broker", extra_conf=args.broker_conf)
         if not args.skip_plant:
             fleet = Fleet(args.build, broker, f"{tmp}/fleet.sqlite", args.topic_prefix, f"{tmp}/fleet.log")
             fleet.wait_subscribed()

@@ -49,9 +49,10 @@ def make_certificates(directory):
 class Broker:
     """mosquitto on 127.0.0.1:port. tls=(ca, cert, key); users={name: password} turns anonymous off;
     acl: the text of an acl_file;
-    persistence keeps sessions and retained messages across kill()/start() (saved every second)."""
+    persistence keeps sessions and retained messages across kill()/start() (saved every second);
+    extra_conf: more lines for mosquitto.conf (max_queued_messages 0, ...)."""
 
-    def __init__(self, directory, tls=None, users=None, persistence=False, acl=None):
+    def __init__(self, directory, tls=None, users=None, persistence=False, acl=None, extra_conf=()):
         self.dir = directory
         self.port = free_port()
         self.conf = os.path.join(directory, "mosquitto.conf")
@@ -76,6 +77,7 @@ class Broker:
             lines.append(f"acl_file {path}")
         if persistence:
             lines += ["persistence true", f"persistence_location {directory}/", "autosave_interval 1"]
+        lines += list(extra_conf)
         with open(self.conf, "w") as f:
             f.write("\n".join(lines) + "\n")
         self.proc = None
