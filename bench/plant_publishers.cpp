@@ -22,9 +22,9 @@
 #include <thread>
 #include <vector>
 
-#include <nlohmann/json.hpp>
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
+#include <nlohmann/json.hpp>
 
 #include "core/mono_clock.hpp"
 #include "core/utc_time.hpp"
@@ -40,18 +40,19 @@ namespace fs = std::filesystem;
 struct Options {
   std::string broker;
   int publishers = 50;
-  int messages = 200;      // per publisher
-  double rate_hz = 20.0;   // per publisher; 0 = as fast as publish() returns
+  int messages = 200;     // per publisher
+  double rate_hz = 20.0;  // per publisher; 0 = as fast as publish() returns
   std::string topic_prefix = "guideway";
   std::string run_id = utc_now("%Y%m%dT%H%M%SZ");  // in every session name: runs into one database stay distinct
-  double timeout_s = 300.0;  // for the connections, then for the queues to empty
+  double timeout_s = 300.0;                        // for the connections, then for the queues to empty
 };
 
 [[noreturn]] void usage(const std::string& why) {
-  std::fprintf(stderr,
-               "plant_publishers: %s\nusage: plant_publishers --broker mqtt://HOST:PORT [--publishers N] [--messages M] "
-               "[--rate-hz HZ] [--topic-prefix P] [--run-id ID] [--timeout-s S]\n",
-               why.c_str());
+  std::fprintf(
+      stderr,
+      "plant_publishers: %s\nusage: plant_publishers --broker mqtt://HOST:PORT [--publishers N] [--messages M] "
+      "[--rate-hz HZ] [--topic-prefix P] [--run-id ID] [--timeout-s S]\n",
+      why.c_str());
   std::exit(2);
 }
 
@@ -61,14 +62,22 @@ Options parse_options(int argc, char** argv) {
     const std::string a = argv[i];
     if (i + 1 >= argc) usage(a + " needs a value");
     const std::string v = argv[++i];
-    if (a == "--broker") o.broker = v;
-    else if (a == "--publishers") o.publishers = std::atoi(v.c_str());
-    else if (a == "--messages") o.messages = std::atoi(v.c_str());
-    else if (a == "--rate-hz") o.rate_hz = std::atof(v.c_str());
-    else if (a == "--topic-prefix") o.topic_prefix = v;
-    else if (a == "--run-id") o.run_id = v;
-    else if (a == "--timeout-s") o.timeout_s = std::atof(v.c_str());
-    else usage("unknown option " + a);
+    if (a == "--broker")
+      o.broker = v;
+    else if (a == "--publishers")
+      o.publishers = std::atoi(v.c_str());
+    else if (a == "--messages")
+      o.messages = std::atoi(v.c_str());
+    else if (a == "--rate-hz")
+      o.rate_hz = std::atof(v.c_str());
+    else if (a == "--topic-prefix")
+      o.topic_prefix = v;
+    else if (a == "--run-id")
+      o.run_id = v;
+    else if (a == "--timeout-s")
+      o.timeout_s = std::atof(v.c_str());
+    else
+      usage("unknown option " + a);
   }
   if (o.broker.empty()) usage("--broker is required");
   if (o.publishers < 1 || o.messages < 1 || o.rate_hz < 0) usage("--publishers and --messages >= 1, --rate-hz >= 0");
@@ -115,7 +124,9 @@ struct Percentiles {
 Percentiles percentiles(std::vector<std::int64_t> v) {
   if (v.empty()) return {};
   std::sort(v.begin(), v.end());
-  const auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))]; };
+  const auto at = [&](double q) {
+    return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+  };
   return {at(0.5), at(0.99), v.back()};
 }
 
@@ -179,7 +190,8 @@ int main(int argc, char** argv) {
     pubs.push_back(std::make_unique<plant::Publisher>(std::move(s), log));
   }
   const std::int64_t timeout_ns = static_cast<std::int64_t>(o.timeout_s * 1e9);
-  if (!wait_all(pubs, mono_now_ns() + timeout_ns, [](const plant::PublisherStats& s) { return s.state == "connected"; })) {
+  if (!wait_all(pubs, mono_now_ns() + timeout_ns,
+                [](const plant::PublisherStats& s) { return s.state == "connected"; })) {
     std::fprintf(stderr, "plant_publishers: not every publisher connected to %s\n", o.broker.c_str());
     return 1;
   }
@@ -197,7 +209,8 @@ int main(int argc, char** argv) {
   for (int k = 0; k < o.messages; ++k) {
     for (std::size_t p = 0; p < n; ++p) {
       if (period_ns > 0)
-        sleep_until_ns(t0 + static_cast<std::int64_t>(period_ns * static_cast<double>(static_cast<std::size_t>(k) * n + p)));
+        sleep_until_ns(t0 +
+                       static_cast<std::int64_t>(period_ns * static_cast<double>(static_cast<std::size_t>(k) * n + p)));
       const int session_no = k / 3;
       const Session& s = sessions[static_cast<std::size_t>(session_no) % sessions.size()];
       const std::string session = machines[p] + "-" + o.run_id + "-" + std::to_string(session_no);
@@ -213,12 +226,16 @@ int main(int argc, char** argv) {
           payload = s.explain.with_session(session);
           break;
         default:
-          payload = nlohmann::json{{"class", "EVENT"}, {"event", "report_ready"}, {"device", s.params.kind},
-                                   {"session", session}, {"file", "/var/lib/guideway/" + session + ".report.html"}}
+          payload = nlohmann::json{{"class", "EVENT"},
+                                   {"event", "report_ready"},
+                                   {"device", s.params.kind},
+                                   {"session", session},
+                                   {"file", "/var/lib/guideway/" + session + ".report.html"}}
                         .dump();
       }
       payload_bytes += payload.size();
-      const std::string_view kind = leaf == plant::TopicLeaf::event ? std::string_view{} : std::string_view{s.params.kind};
+      const std::string_view kind =
+          leaf == plant::TopicLeaf::event ? std::string_view{} : std::string_view{s.params.kind};
       const std::int64_t c0 = mono_now_ns();
       pubs[p]->publish(leaf, kind, std::move(payload));
       call_ns[p].push_back(mono_now_ns() - c0);
@@ -226,7 +243,8 @@ int main(int argc, char** argv) {
   }
   const std::int64_t t_handed = mono_now_ns();
   const double caller_cpu = cpu_s(RUSAGE_THREAD) - caller_cpu0;
-  const bool drained = wait_all(pubs, mono_now_ns() + timeout_ns, [](const plant::PublisherStats& s) { return s.queued == 0; });
+  const bool drained =
+      wait_all(pubs, mono_now_ns() + timeout_ns, [](const plant::PublisherStats& s) { return s.queued == 0; });
   const std::int64_t t_done = mono_now_ns();
   double user1 = 0, sys1 = 0;
   const double cpu1 = cpu_s(RUSAGE_SELF, &user1, &sys1);
@@ -242,7 +260,9 @@ int main(int argc, char** argv) {
     reconnects += s.reconnects;
     queued += s.queued;
     all_calls.insert(all_calls.end(), call_ns[p].begin(), call_ns[p].end());
-    per_publisher.push_back({{"machine", machines[p]}, {"delivered", s.delivered}, {"dropped", s.dropped},
+    per_publisher.push_back({{"machine", machines[p]},
+                             {"delivered", s.delivered},
+                             {"dropped", s.dropped},
                              {"publish_call_ns", to_json(percentiles(call_ns[p]))}});
   }
   const std::int64_t t_stop0 = mono_now_ns();
@@ -274,7 +294,8 @@ int main(int argc, char** argv) {
       {"drain_after_last_s", static_cast<double>(t_done - t_handed) * 1e-9},
       {"delivered_per_s", static_cast<double>(delivered) / wall_s},
       {"stop_s", stop_s},
-      {"cpu_s", {{"process", cpu1 - cpu0}, {"user", user1 - user0}, {"system", sys1 - sys0}, {"caller_thread", caller_cpu}}},
+      {"cpu_s",
+       {{"process", cpu1 - cpu0}, {"user", user1 - user0}, {"system", sys1 - sys0}, {"caller_thread", caller_cpu}}},
       {"cpu_pct", 100.0 * (cpu1 - cpu0) / wall_s},
       {"cpu_us_per_message", 1e6 * (cpu1 - cpu0) / static_cast<double>(messages)},
       {"publish_call_ns", to_json(percentiles(all_calls))},
