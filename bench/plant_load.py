@@ -331,7 +331,7 @@ def main():
     args = ap.parse_args()
     why = mqtt_broker.missing()
     if why:
-        sys.exit("plant_load: " + why)
+        sys.exit("plant_load: skipped: " + why)
     for tool in (["bench/plant_publishers", "cli/guideway"] if not args.skip_plant else []) + ["daemon/guidewayd"]:
         if not os.access(f"{args.build}/{tool}", os.X_OK):
             sys.exit(f"plant_load: {args.build}/{tool} not found (cmake --build BUILD --target plant_load_bench builds it all)")
