@@ -64,10 +64,10 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet) {
 // One figure's trend: the values, and a bar from value − 2u to value + 2u at each (NaN-separated
 // segments of one series).
 std::string trend_plot(const std::string& kind, const Headline& first, const std::vector<double>& t_days,
-                       const std::vector<Headline>& values, const std::string& epoch_day) {
+                       const std::vector<Headline>& values, const std::string& time_axis) {
   report::LinePlot p;
   p.title = kind + ": " + first.label;
-  p.x_label = "time / days since " + epoch_day;
+  p.x_label = "time / " + time_axis;
   p.y_label = first.label + " / " + first.unit;
   p.height = 240;
   report::Series v{"value", t_days, {}, report::palette(0), report::Style::line_markers, 1.2};
@@ -80,7 +80,7 @@ std::string trend_plot(const std::string& kind, const Headline& first, const std
     bars.y.insert(bars.y.end(), {values[i].value - half, values[i].value + half, std::nan("")});
   }
   const auto [lo, hi] = std::minmax_element(t_days.begin(), t_days.end());
-  // Room on both sides so that the first and last markers and bars are not cut by the axes; a day
+  // Room on both sides so that the first and last markers and bars are not cut by the axes; one unit
   // around a single result.
   const double margin = *hi - *lo < 1e-6 ? 0.5 : 0.05 * (*hi - *lo);
   p.x_range = report::Range{*lo - margin, *hi + margin};
@@ -100,13 +100,22 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
   if (!m.machine.release.empty()) state += ", release " + m.machine.release;
   if (!m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
   body += "<p>" + report::html_escape(state) + "; " + std::to_string(entries.size()) + " result(s).</p>";
-  // Time axis: days since the day of the machine's first result.
+  // Time axis: in days since the day of the machine's first result, or, when its results span less
+  // than two days (two hours), in hours (minutes) since the hour (minute) of the first.
   double t0 = std::numeric_limits<double>::infinity();
+  double t1 = -t0;
   for (const auto& e : entries)
-    if (const auto t = parse_utc_iso(e.produced_utc)) t0 = std::min(t0, *t);
+    if (const auto t = parse_utc_iso(e.produced_utc)) {
+      t0 = std::min(t0, *t);
+      t1 = std::max(t1, *t);
+    }
   if (!std::isfinite(t0)) return report::html_section("machine", anchor(m.machine.machine), m.machine.machine, body);
-  t0 = std::floor(t0 / seconds_per_day) * seconds_per_day;
-  const std::string epoch_day = utc_iso_ms(t0).substr(0, 10);
+  const double span_s = t1 - t0;
+  const double unit_s = span_s >= 2 * seconds_per_day ? seconds_per_day : span_s >= 7200.0 ? 3600.0 : 60.0;
+  const char* unit = unit_s == seconds_per_day ? "days" : unit_s == 3600.0 ? "h" : "min";
+  t0 = std::floor(t0 / unit_s) * unit_s;
+  const std::string epoch = unit_s == seconds_per_day ? utc_iso_ms(t0).substr(0, 10) : utc_iso_ms(t0).substr(0, 16) + "Z";
+  const std::string time_axis = std::string(unit) + " since " + epoch;
   // Per kind and figure (in table order): the times and values.
   struct Trend {
     std::string kind;
@@ -122,13 +131,13 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
         return tr.kind == e.kind && tr.values.front().name == f.latest.name;
       });
       if (it == trends.end()) it = trends.insert(trends.end(), Trend{e.kind, {}, {}});
-      it->t.push_back((*t - t0) / seconds_per_day);
+      it->t.push_back((*t - t0) / unit_s);
       it->values.push_back(f.latest);
     }
   }
   std::stable_sort(trends.begin(), trends.end(),
                    [](const Trend& a, const Trend& b) { return kind_rank(a.kind) < kind_rank(b.kind); });
-  for (const auto& tr : trends) body += trend_plot(tr.kind, tr.values.front(), tr.t, tr.values, epoch_day);
+  for (const auto& tr : trends) body += trend_plot(tr.kind, tr.values.front(), tr.t, tr.values, time_axis);
   if (!m.explains.empty()) {
     std::vector<std::vector<std::string>> rows;
     for (const auto& e : m.explains) {

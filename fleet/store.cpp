@@ -179,8 +179,9 @@ Store::Store(const std::string& path, Open mode) : path_(path) {
   const auto where = [&](const std::string& what) {
     return std::runtime_error("fleet database " + path + ": " + what);
   };
-  int flags = SQLITE_OPEN_READWRITE | SQLITE_OPEN_NOMUTEX;
-  if (mode == Open::existing) {
+  const bool read_only = mode == Open::existing;
+  int flags = (read_only ? SQLITE_OPEN_READONLY : SQLITE_OPEN_READWRITE) | SQLITE_OPEN_NOMUTEX;
+  if (read_only) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec))
       throw std::runtime_error("no fleet database at " + path + ": start `guideway fleet serve` first");
@@ -196,13 +197,20 @@ Store::Store(const std::string& path, Open mode) : path_(path) {
   }
   try {
     sqlite3_busy_timeout(db_, 5000);  // a reader and the writer wait for each other's short transactions
-    exec(db_, "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL");
+    if (!read_only) {
+      exec(db_, "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL");
+      // The -wal and -shm files stay when the writer closes: a reader that may not create files in the
+      // directory (the service's group, docs/plant.md) can open a WAL database only while they exist.
+      int persist = 1;
+      sqlite3_file_control(db_, "main", SQLITE_FCNTL_PERSIST_WAL, &persist);
+    }
     Statement v(db_, "PRAGMA user_version");
     v.step();
     const auto version = v.integer(0);
     if (version > schema_version)
       throw where("its schema is version " + std::to_string(version) + ", newer than this guideway knows (" +
                   std::to_string(schema_version) + "): use the guideway release that wrote it, or a newer one");
+    if (version == 0 && read_only) throw where("not a fleet database (no schema version): was it made by `guideway fleet serve`?");
     if (version == 0) {
       // Looked at again inside the write transaction: another process (fleet serve, fleet ingest) may
       // have made the schema meanwhile.

@@ -60,8 +60,9 @@ struct EventRow {
 class Store {
  public:
   enum class Open { create, existing };
-  // `create`: the file and its parent directory (0700) are made when missing. `existing`: a missing
-  // file is an error ("no fleet database at PATH: start `guideway fleet serve` first"). Throws
+  // `create`: the file and its parent directory (0700) are made when missing. `existing`: opened read
+  // only (status, history, report: read access to the files is enough, as for the service's group); a
+  // missing file is an error ("no fleet database at PATH: start `guideway fleet serve` first"). Throws
   // std::runtime_error naming the path (newer schema, not a database, ...).
   explicit Store(const std::string& path, Open mode = Open::create);
   ~Store();

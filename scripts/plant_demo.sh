@@ -81,6 +81,12 @@ one=$!
 "$bin/cli/guideway" --socket "$dir/mill-2/guideway.sock" start dbb --wait --timeout 300 >"$dir/mill-2.dbb.txt"
 wait $one
 echo "== a second DBB test on mill-1 (its history; a figure is flagged only if it moved beyond its uncertainty)"
+# The first test's explanation is still being computed (the device is busy until then).
+sessions_done() {  # socket: no session running or finishing
+  "$bin/cli/guideway" --socket "$1" status --json | python3 -c \
+    'import json, sys; sys.exit(any(s["state"] in ("running", "finishing") for s in json.load(sys.stdin)["sessions"]))'
+}
+wait_until 120 sessions_done "$dir/mill-1/guideway.sock"
 "$bin/cli/guideway" --socket "$dir/mill-1/guideway.sock" start dbb --wait --timeout 300 >/dev/null
 # The EXPLAIN of the last test follows its PARAMS by a few seconds.
 wait_until 60 bash -c "[ \$('$bin/cli/guideway' fleet history mill-1 --db '$dir/fleet.sqlite' --json | grep -o '\"EXPLAIN\"' | wc -l) -ge 2 ]" || true

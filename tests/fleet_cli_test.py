@@ -37,6 +37,31 @@ def golden(name):
         return json.load(f)
 
 
+def check_a_reader_without_write_access(db):
+    """`fleet status` by another user who may read the database but not write it or its directory (the
+    service's group, docs/plant.md): runs as `nobody` when the test runs as root, else says it did not."""
+    import pwd
+    import tempfile
+    if os.geteuid() != 0 or not shutil.which("runuser"):
+        print("not checked: a reader without write access (needs root and runuser)")
+        return
+    try:
+        pwd.getpwnam("nobody")
+    except KeyError:
+        print("not checked: a reader without write access (no user nobody)")
+        return
+    with tempfile.TemporaryDirectory(prefix="gw-fleet-ro-") as d:
+        os.chmod(d, 0o755)
+        for suffix in ("", "-wal", "-shm"):  # the writer keeps -wal and -shm (SQLITE_FCNTL_PERSIST_WAL)
+            check(os.path.exists(db + suffix), "the writer left no %s" % (db + suffix))
+            if os.path.exists(db + suffix):
+                shutil.copy(db + suffix, os.path.join(d, "fleet.sqlite" + suffix))
+                os.chmod(os.path.join(d, "fleet.sqlite" + suffix), 0o644)
+        r = subprocess.run(["runuser", "-u", "nobody", "--", os.path.abspath(GUIDEWAY), "fleet", "status", "--db",
+                            os.path.join(d, "fleet.sqlite")], capture_output=True, text=True)
+        check(r.returncode == 0 and "mill-1" in r.stdout, "a read-only reader: exit %d %s" % (r.returncode, r.stderr))
+
+
 def main():
     if not have_chromium():
         return 1
@@ -175,6 +200,7 @@ def main():
                     check(series["±2u"]["points"] == 3 * n and series["±2u"]["h"] > 0, w + ": bars %s" % series["±2u"])
                     check("±2u" in p["legend"] and "value" in p["legend"], w + ": legend %s" % p["legend"])
         b.screenshot(os.path.join(ART, "fleet.png"))
+    check_a_reader_without_write_access(db)
     print("artefacts in", ART)
     return check.finish("all fleet checks passed")
 
