@@ -3,7 +3,10 @@
 #include <mosquitto.h>
 #include <mqtt_protocol.h>
 
+#include <poll.h>
+#include <sys/eventfd.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -52,9 +55,14 @@ std::string mqtt_reason_text(int reason_code) { return mosquitto_reason_string(r
 MqttConnection::MqttConnection(ConnectionSettings settings, Callbacks callbacks)
     : settings_(std::move(settings)), callbacks_(std::move(callbacks)) {
   init_library();
+  wake_fd_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (wake_fd_ < 0) throw std::runtime_error(std::string("eventfd: ") + std::strerror(errno));
   mosq_ = mosquitto_new(settings_.client_id.empty() ? nullptr : settings_.client_id.c_str(),
                         settings_.session_expiry_s == 0, &callbacks_);
-  if (mosq_ == nullptr) throw std::runtime_error("mosquitto_new failed (out of memory?)");
+  if (mosq_ == nullptr) {
+    close(wake_fd_);
+    throw std::runtime_error("mosquitto_new failed (out of memory?)");
+  }
   try {
     check(mosquitto_int_option(mosq_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5), "MQTT v5");
     mosquitto_int_option(mosq_, MOSQ_OPT_TCP_NODELAY, 1);
@@ -80,6 +88,7 @@ MqttConnection::MqttConnection(ConnectionSettings settings, Callbacks callbacks)
     }
   } catch (...) {
     mosquitto_destroy(mosq_);
+    close(wake_fd_);
     throw;
   }
   mosquitto_connect_v5_callback_set(mosq_, [](mosquitto*, void* obj, int rc, int, const mosquitto_property*) {
@@ -117,9 +126,9 @@ MqttConnection::MqttConnection(ConnectionSettings settings, Callbacks callbacks)
 }
 
 MqttConnection::~MqttConnection() {
-  if (mosq_ == nullptr) return;
   if (started_) mosquitto_disconnect_v5(mosq_, 0, nullptr);
   mosquitto_destroy(mosq_);
+  close(wake_fd_);
 }
 
 std::string MqttConnection::connect() {
@@ -141,8 +150,24 @@ std::string MqttConnection::connect() {
 }
 
 std::string MqttConnection::loop(int timeout_ms) {
-  const int rc = mosquitto_loop(mosq_, timeout_ms, 1);
+  // The wait is ours, so that wake() ends it: a handed-over message goes out at once instead of after
+  // mosquitto_loop()'s timeout. Then mosquitto_loop() without waiting does what is ready (TLS included).
+  const int sock = mosquitto_socket(mosq_);
+  if (sock >= 0) {
+    pollfd fds[2] = {{sock, static_cast<short>(POLLIN | (mosquitto_want_write(mosq_) ? POLLOUT : 0)), 0},
+                     {wake_fd_, POLLIN, 0}};
+    if (poll(fds, 2, timeout_ms) > 0 && (fds[1].revents & POLLIN) != 0) {
+      std::uint64_t count = 0;
+      [[maybe_unused]] const auto ignored = read(wake_fd_, &count, sizeof(count));
+    }
+  }
+  const int rc = mosquitto_loop(mosq_, 0, 1);
   return rc == MOSQ_ERR_SUCCESS ? std::string() : mosquitto_error_text(rc);
+}
+
+void MqttConnection::wake() noexcept {
+  const std::uint64_t one = 1;
+  [[maybe_unused]] const auto ignored = write(wake_fd_, &one, sizeof(one));
 }
 
 int MqttConnection::publish(const std::string& topic, std::string_view payload, int qos, bool retain,

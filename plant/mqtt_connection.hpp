@@ -54,8 +54,11 @@ class MqttConnection {
   // Starts (or restarts) connecting; "" or why it could not start. With session_expiry_s it blocks
   // until the broker answers (the fleet has nothing else to do).
   std::string connect();
-  // Network work for up to timeout_ms; "" while the connection is up or coming up, else why it is not.
+  // Network work: waits up to timeout_ms for the network or a wake(), then does what is ready; "" while
+  // the connection is up or coming up, else why it is not.
   std::string loop(int timeout_ms);
+  // Ends a loop()'s wait now (thread safe): a message was handed over to the thread that runs loop().
+  void wake() noexcept;
   // Sends (QoS 0 or 1) with the "produced_utc" user property when given; the message id, or -1 with
   // `error` set.
   int publish(const std::string& topic, std::string_view payload, int qos, bool retain, std::string_view produced_utc,
@@ -69,6 +72,7 @@ class MqttConnection {
   Callbacks callbacks_;
   mosquitto* mosq_ = nullptr;
   bool started_ = false;
+  int wake_fd_ = -1;  // eventfd
 };
 
 // The password in `path` (its first line). Throws std::runtime_error when the file cannot be read, is

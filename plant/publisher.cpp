@@ -11,8 +11,9 @@
 namespace guideway::plant {
 
 namespace {
-constexpr int loop_timeout_ms = 50;  // how late a handed-over message may go out while connected
+constexpr int loop_timeout_ms = 1000;  // a wait on the network; publish() ends it (MqttConnection::wake)
 constexpr double exit_drain_s = 2.0;  // at shutdown: time given to the journal, then to the offline status
+constexpr int exit_loop_ms = 50;
 }  // namespace
 
 Publisher::Publisher(PublisherSettings settings, std::shared_ptr<spdlog::logger> log)
@@ -43,6 +44,7 @@ Publisher::~Publisher() {
     stop_ = true;
   }
   wake_.notify_all();
+  connection_->wake();
   thread_.join();
 }
 
@@ -59,12 +61,16 @@ void Publisher::publish(TopicLeaf leaf, std::string_view kind, std::string paylo
     }
     ++stats_.queued;
   }
-  wake_.notify_one();
+  wake_.notify_one();     // the thread waiting for a reconnect
+  connection_->wake();    // the thread waiting on the network
 }
 
 void Publisher::publish_devices(std::string payload) {
-  std::lock_guard lock(mutex_);
-  devices_ = std::move(payload);
+  {
+    std::lock_guard lock(mutex_);
+    devices_ = std::move(payload);
+  }
+  connection_->wake();
 }
 
 PublisherStats Publisher::stats() const {
@@ -179,6 +185,7 @@ void Publisher::on_connected(int reason_code, const std::string& why) {
 void Publisher::on_disconnected(const std::string& why) {
   const bool was_connected = connected_;
   connected_ = false;
+  if (stopping_) return;  // our own DISCONNECT at shutdown
   if (stats().state == "refused") return;
   set_state("disconnected", why);
   if (was_connected) last_logged_error_ = why;
@@ -254,7 +261,7 @@ void Publisher::drain_before_exit() {
   const auto deadline = mono_now_ns() + static_cast<std::int64_t>(exit_drain_s * 1e9);
   while (connected_ && (journal_->size() > 0) && mono_now_ns() < deadline) {
     send_next();
-    if (!connection_->loop(loop_timeout_ms).empty()) break;
+    if (!connection_->loop(exit_loop_ms).empty()) break;
   }
   if (connected_) {
     status_acked_ = false;
@@ -263,10 +270,11 @@ void Publisher::drain_before_exit() {
                                        status_payload(false, "stopped"), 1, true, {}, error);
     const auto status_deadline = mono_now_ns() + 1'000'000'000;
     while (connected_ && !status_acked_ && mono_now_ns() < status_deadline) {
-      if (!connection_->loop(loop_timeout_ms).empty()) break;
+      if (!connection_->loop(exit_loop_ms).empty()) break;
     }
+    stopping_ = true;
     connection_->disconnect();
-    connection_->loop(loop_timeout_ms);
+    connection_->loop(exit_loop_ms);
   }
   if (journal_->size() > 0)
     log_->info("MQTT: {} message(s) not yet delivered stay in {} for the next start", journal_->size(), journal_->dir());

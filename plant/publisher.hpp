@@ -92,7 +92,8 @@ class Publisher {
   bool connected_ = false;
   bool up_ = false;             // connect() started and loop() has not failed since
   int inflight_mid_ = -1;       // the journal's front, sent and not yet acknowledged
-  bool announce_online_ = false;  // a new connection: the online status goes first
+  bool announce_online_ = false;
+  bool stopping_ = false;       // disconnecting at shutdown: not a lost connection  // a new connection: the online status goes first
   int status_mid_ = -1;
   bool status_acked_ = false;
   double backoff_s_ = 1.0;
