@@ -11,7 +11,7 @@
 namespace guideway::plant {
 
 namespace {
-constexpr int loop_timeout_ms = 1000;  // a wait on the network; publish() ends it (MqttConnection::wake)
+constexpr int loop_timeout_ms = 250;  // a wait on the network; publish() ends it (MqttConnection::wake)
 constexpr double exit_drain_s = 2.0;  // at shutdown: time given to the journal, then to the offline status
 constexpr int exit_loop_ms = 50;
 }  // namespace
