@@ -182,7 +182,10 @@ int MqttConnection::publish(const std::string& topic, std::string_view payload, 
   mosquitto_property_free_all(&props);
   if (rc != MOSQ_ERR_SUCCESS) {
     error = mosquitto_error_text(rc);
-    return -1;
+    const bool never = rc == MOSQ_ERR_PAYLOAD_SIZE || rc == MOSQ_ERR_OVERSIZE_PACKET || rc == MOSQ_ERR_MALFORMED_UTF8 ||
+                       rc == MOSQ_ERR_INVAL || rc == MOSQ_ERR_QOS_NOT_SUPPORTED || rc == MOSQ_ERR_RETAIN_NOT_SUPPORTED ||
+                       rc == MOSQ_ERR_TOPIC_ALIAS_INVALID;
+    return never ? never_sendable : -1;
   }
   return mid;
 }

@@ -37,6 +37,7 @@ struct ConnectionSettings {
 
 class MqttConnection {
  public:
+  static constexpr int never_sendable = -2;
   struct Callbacks {
     std::function<void(int reason_code, const std::string& why)> connected;  // 0 = accepted
     std::function<void(const std::string& why)> disconnected;                // the connection ended
@@ -59,8 +60,9 @@ class MqttConnection {
   std::string loop(int timeout_ms);
   // Ends a loop()'s wait now (thread safe): a message was handed over to the thread that runs loop().
   void wake() noexcept;
-  // Sends (QoS 0 or 1) with the "produced_utc" user property when given; the message id, or -1 with
-  // `error` set.
+  // Sends (QoS 0 or 1) with the "produced_utc" user property when given; the message id, or with
+  // `error` set: -1 when it may go later (not connected), `never_sendable` when this message can never
+  // go (over the broker's maximum packet size, a topic or payload the protocol refuses).
   int publish(const std::string& topic, std::string_view payload, int qos, bool retain, std::string_view produced_utc,
               std::string& error);
   bool subscribe(const std::string& filter, int qos, std::string& error);

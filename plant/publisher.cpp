@@ -14,6 +14,7 @@ namespace {
 constexpr int loop_timeout_ms = 250;  // a wait on the network; publish() ends it (MqttConnection::wake)
 constexpr double exit_drain_s = 2.0;  // at shutdown: time given to the journal, then to the offline status
 constexpr int exit_loop_ms = 50;
+constexpr int max_attempts_per_message = 5;  // connections a message may be sent on without an acknowledgement
 }  // namespace
 
 Publisher::Publisher(PublisherSettings settings, std::shared_ptr<spdlog::logger> log)
@@ -146,13 +147,32 @@ void Publisher::send_next() {
   const std::optional<JournalEntry> e = journal_->front();
   if (!e) return;
   std::string error;
+  // A message the broker never acknowledges (it drops the connection on it, say) would hold up every
+  // message behind it: after a few connections it is given up, as one the broker refused.
+  if (++front_attempts_ > max_attempts_per_message) {
+    refuse_front("not acknowledged after " + std::to_string(max_attempts_per_message) + " connections");
+    return;
+  }
   const int mid = connection_->publish(e->topic, e->payload, 1, e->retain, e->produced_utc, error);
   if (mid >= 0) {
     inflight_mid_ = mid;
+  } else if (mid == MqttConnection::never_sendable) {
+    refuse_front(error);
   } else if (error != last_logged_error_) {  // not connected after all: tried again on the next connection
+    --front_attempts_;
     last_logged_error_ = error;
     log_->warn("MQTT: could not send {}: {}", e->topic, error);
   }
+}
+
+void Publisher::refuse_front(const std::string& why) {
+  const std::optional<JournalEntry> e = journal_->front();
+  log_->error("MQTT: the message on {} ({} bytes) is given up: {}", e ? e->topic : "?", e ? e->payload.size() : 0, why);
+  journal_->pop_front();
+  front_attempts_ = 0;
+  std::lock_guard lock(mutex_);
+  ++stats_.refused;
+  stats_.queued = journal_->size() + handed_over_.size();
 }
 
 void Publisher::on_connected(int reason_code, const std::string& why) {
@@ -203,6 +223,7 @@ void Publisher::on_published(int mid, int reason_code) {
                 settings_.connection.broker.url(), e ? e->topic : "?", mqtt_reason_text(reason_code));
   }
   journal_->pop_front();
+  front_attempts_ = 0;
   std::lock_guard lock(mutex_);
   ++(reason_code >= 0x80 ? stats_.refused : stats_.delivered);
   stats_.queued = journal_->size() + handed_over_.size();

@@ -44,7 +44,8 @@ struct PublisherStats {
   std::uint64_t queued = 0;      // waiting for the broker (in the journal, and handed over)
   std::uint64_t delivered = 0;   // acknowledged by the broker
   std::uint64_t dropped = 0;     // dropped to keep the journal within its bounds, or unreadable
-  std::uint64_t refused = 0;     // refused by the broker (its ACL, a reason code >= 0x80): not retried
+  std::uint64_t refused = 0;     // refused by the broker (its ACL, a reason code >= 0x80), too large for it, or
+                                 // not acknowledged on 5 connections: given up, not retried
   std::uint64_t reconnects = 0;  // successful connections after the first
 };
 
@@ -72,6 +73,7 @@ class Publisher {
   void on_disconnected(const std::string& why);
   void on_published(int mid, int reason_code);
   void set_state(const std::string& state, const std::string& error);
+  void refuse_front(const std::string& why);  // gives up the journal's oldest message, counted as refused
   [[nodiscard]] std::string status_payload(bool online, const std::string& reason) const;
   void drain_before_exit();
 
@@ -92,6 +94,7 @@ class Publisher {
   bool connected_ = false;
   bool up_ = false;             // connect() started and loop() has not failed since
   int inflight_mid_ = -1;       // the journal's front, sent and not yet acknowledged
+  int front_attempts_ = 0;      // times the journal's front has been sent
   bool announce_online_ = false;
   bool stopping_ = false;       // disconnecting at shutdown: not a lost connection  // a new connection: the online status goes first
   int status_mid_ = -1;

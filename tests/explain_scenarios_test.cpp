@@ -59,6 +59,12 @@ INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(simulators::s
 // (u too small) nor always (u too large). (Full density, seeds 1-5, every scenario: 69 % and 93 % of 240,
 // the table in docs/explain.md.)
 TEST(ExplainScenarios, UncertaintiesCoverTheTruthOverSeeds) {
+#if defined(__SANITIZE_ADDRESS__)
+  // Statistics: the scenarios of MeetsItsExpectation again over five seeds, the same code with other
+  // random numbers; ten times slower under ASan (two minutes of the stage) for no memory-safety
+  // coverage the per-scenario cases lack. The Release stage runs it.
+  GTEST_SKIP() << "a statistical test over seeds: run in the Release build, not under ASan";
+#endif
   std::vector<simulators::scenarios::ScenarioSummary> sums;
   for (const auto& name : simulators::scenarios::scenario_names())
     if (name.rfind("dbb_pair_", 0) == 0 || name.rfind("dbb_three_", 0) == 0 || name == "dbb_centre_drift")

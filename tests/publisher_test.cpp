@@ -50,8 +50,9 @@ int free_port() {
 
 class Broker {
  public:
-  Broker(const TempDir& dir) : port_(free_port()), conf_(dir.file("mosquitto.conf")) {
-    std::ofstream(conf_) << "listener " << port_ << " 127.0.0.1\nallow_anonymous true\n";
+  explicit Broker(const TempDir& dir, const std::string& extra_conf = {})
+      : port_(free_port()), conf_(dir.file("mosquitto.conf")) {
+    std::ofstream(conf_) << "listener " << port_ << " 127.0.0.1\nallow_anonymous true\n" << extra_conf;
     start();
   }
   ~Broker() { stop(); }
@@ -198,6 +199,22 @@ TEST(Publisher, EveryMessageArrivesOnceInOrderThroughABrokerOutage) {
   ASSERT_EQ(second.size(), 50u);  // queued while the broker was down: every one, in order
   for (int i = 0; i < 50; ++i) EXPECT_EQ(second[i], "{\"n\":" + std::to_string(100 + i) + "}");
   for (const auto& p : after.produced()) EXPECT_EQ(p.size(), 24u) << p;  // 2026-11-26T11:11:27.588Z
+}
+
+TEST(Publisher, AMessageTheBrokerCanNeverTakeIsGivenUpAndHoldsNothingUp) {
+  if (mosquitto_path().empty()) GTEST_SKIP() << "mosquitto is not installed (scripts/setup.sh installs it)";
+  TempDir dir;
+  Broker broker(dir, "max_packet_size 2000\n");  // told to the client in its CONNACK (MQTT 5)
+  Listener listener(broker.port(), "guideway/mill-9/event");
+  Publisher publisher(settings(broker.port(), dir), quiet());
+  publisher.publish(TopicLeaf::event, {}, "{\"n\":1}");
+  publisher.publish(TopicLeaf::event, {}, "{\"n\":2,\"pad\":\"" + std::string(5000, 'x') + "\"}");
+  publisher.publish(TopicLeaf::event, {}, "{\"n\":3}");
+  ASSERT_TRUE(eventually([&] { return publisher.stats().delivered == 2 && publisher.stats().refused == 1; }))
+      << publisher.stats().delivered << " delivered, " << publisher.stats().refused << " refused";
+  EXPECT_EQ(publisher.stats().queued, 0u);
+  ASSERT_TRUE(eventually([&] { return listener.payloads().size() == 2; }));
+  EXPECT_EQ(listener.payloads(), (std::vector<std::string>{"{\"n\":1}", "{\"n\":3}"}));
 }
 
 TEST(Publisher, AFullJournalDropsTheOldestAndCountsThem) {
