@@ -8,11 +8,10 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 #include "core/atomic_file.hpp"
+#include "core/csv_table.hpp"
 
 namespace guideway::plant {
 
@@ -111,16 +110,15 @@ std::size_t MessageJournal::push(const JournalEntry& entry) {
     remove_front();
     ++dropped;
   }
+  over_bounds_ += dropped;
   return dropped;
 }
 
 std::optional<JournalEntry> MessageJournal::front() {
   while (!files_.empty()) {
-    std::ifstream in(path_of(files_.front().seq), std::ios::binary);
-    std::ostringstream text;
-    text << in.rdbuf();
-    if (in) {
-      if (auto e = decode_journal_entry(text.str())) return e;
+    try {
+      if (auto e = decode_journal_entry(read_text_file(path_of(files_.front().seq)))) return e;
+    } catch (const std::runtime_error&) {  // gone or unreadable: as a damaged file
     }
     remove_front();
     ++unreadable_;

@@ -37,6 +37,8 @@ class MessageJournal {
   [[nodiscard]] std::size_t bytes() const { return bytes_; }
   [[nodiscard]] std::size_t taken_up() const { return taken_up_; }  // messages found at start
   [[nodiscard]] std::uint64_t unreadable() const { return unreadable_; }
+  // Every message dropped since it was opened: past the bounds, and unreadable.
+  [[nodiscard]] std::uint64_t dropped() const { return over_bounds_ + unreadable_; }
   [[nodiscard]] const std::string& dir() const { return dir_; }
 
  private:
@@ -55,6 +57,7 @@ class MessageJournal {
   std::uint64_t next_seq_ = 1;
   std::size_t taken_up_ = 0;
   std::uint64_t unreadable_ = 0;
+  std::uint64_t over_bounds_ = 0;
 };
 
 // The text of one journal file and back (format "guideway/mqtt-journal/1", docs/formats.md).

@@ -58,9 +58,10 @@ void Publisher::publish(TopicLeaf leaf, std::string_view kind, std::string paylo
     // Bounded here too, should the thread be stuck (a name lookup that hangs): oldest first, counted.
     while (handed_over_.size() > settings_.queue_max_messages) {
       handed_over_.pop_front();
+      ++not_journaled_;
       ++stats_.dropped;
     }
-    ++stats_.queued;
+    ++stats_.queued;  // recounted by the publisher's thread (count_queue), which owns the journal
   }
   wake_.notify_one();     // the thread waiting for a reconnect
   connection_->wake();    // the thread waiting on the network
@@ -93,6 +94,9 @@ std::string Publisher::status_payload(bool online, const std::string& reason) co
 
 void Publisher::set_state(const std::string& state, const std::string& error) {
   std::lock_guard lock(mutex_);
+  // A refused login stays the state, with its reason, until a connection is accepted: the failed
+  // connections of the retries say nothing new.
+  if (stats_.state == "refused" && state != "connected" && state != "refused") return;
   if (stats_.state != state) stats_.since = utc_now_iso();
   stats_.state = state;
   if (!error.empty()) stats_.last_error = error;
@@ -105,23 +109,23 @@ void Publisher::take_handed_over() {
     taken.swap(handed_over_);
   }
   for (const JournalEntry& e : taken) {
-    std::size_t dropped = 0;
     try {
-      dropped = journal_->push(e);
+      if (const std::size_t dropped = journal_->push(e); dropped > 0)
+        log_->warn("MQTT: journal full ({} messages, {} bytes at most): {} oldest message(s) dropped",
+                   settings_.queue_max_messages, settings_.queue_max_bytes, dropped);
     } catch (const std::exception& ex) {  // disk full: the message is lost, and said so
-      dropped = 1;
       log_->error("MQTT: a message for {} could not be queued: {}", e.topic, ex.what());
-    }
-    if (dropped > 0) {
-      log_->warn("MQTT: journal full ({} messages, {} bytes at most): {} oldest message(s) dropped",
-                 settings_.queue_max_messages, settings_.queue_max_bytes, dropped);
       std::lock_guard lock(mutex_);
-      stats_.dropped += dropped;
+      ++not_journaled_;
     }
   }
   std::lock_guard lock(mutex_);
+  count_queue();
+}
+
+void Publisher::count_queue() {
   stats_.queued = journal_->size() + handed_over_.size();
-  stats_.dropped = std::max<std::uint64_t>(stats_.dropped, journal_->unreadable());
+  stats_.dropped = not_journaled_ + journal_->dropped();
 }
 
 void Publisher::send_next() {
@@ -168,11 +172,15 @@ void Publisher::send_next() {
 void Publisher::refuse_front(const std::string& why) {
   const std::optional<JournalEntry> e = journal_->front();
   log_->error("MQTT: the message on {} ({} bytes) is given up: {}", e ? e->topic : "?", e ? e->payload.size() : 0, why);
+  finish_front(false);
+}
+
+void Publisher::finish_front(bool delivered) {
   journal_->pop_front();
   front_attempts_ = 0;
   std::lock_guard lock(mutex_);
-  ++stats_.refused;
-  stats_.queued = journal_->size() + handed_over_.size();
+  ++(delivered ? stats_.delivered : stats_.refused);
+  count_queue();
 }
 
 void Publisher::on_connected(int reason_code, const std::string& why) {
@@ -206,7 +214,6 @@ void Publisher::on_disconnected(const std::string& why) {
   const bool was_connected = connected_;
   connected_ = false;
   if (stopping_) return;  // our own DISCONNECT at shutdown
-  if (stats().state == "refused") return;
   set_state("disconnected", why);
   if (was_connected) last_logged_error_ = why;
   if (was_connected) log_->warn("MQTT: connection to {} lost: {}; messages are kept in {} until it is back",
@@ -217,23 +224,19 @@ void Publisher::on_published(int mid, int reason_code) {
   if (mid == status_mid_) status_acked_ = true;
   if (mid != inflight_mid_) return;
   inflight_mid_ = -1;
-  const std::optional<JournalEntry> e = journal_->front();
   if (reason_code >= 0x80) {  // the broker will not take it (its ACL): retrying would block the queue
+    const std::optional<JournalEntry> e = journal_->front();
     log_->error("MQTT: {} refused the message on {}: {} (check the broker's ACL for this machine)",
                 settings_.connection.broker.url(), e ? e->topic : "?", mqtt_reason_text(reason_code));
   }
-  journal_->pop_front();
-  front_attempts_ = 0;
-  std::lock_guard lock(mutex_);
-  ++(reason_code >= 0x80 ? stats_.refused : stats_.delivered);
-  stats_.queued = journal_->size() + handed_over_.size();
+  finish_front(reason_code < 0x80);
 }
 
 void Publisher::run() {
   const auto schedule_reconnect = [this](const std::string& why) {
     up_ = false;
     connected_ = false;
-    if (stats().state != "refused") set_state("disconnected", why);
+    set_state("disconnected", why);
     if (why != last_logged_error_ && stats().state != "refused") {
       last_logged_error_ = why;
       log_->warn("MQTT: {}: {}; trying again in {} s (then with back-off up to {} s); messages are kept in {}",
@@ -258,7 +261,7 @@ void Publisher::run() {
       const std::string error = connection_->connect();
       if (error.empty()) {
         up_ = true;
-        if (stats().state != "refused") set_state("connecting", "");
+        set_state("connecting", "");
       } else {
         schedule_reconnect(error);
       }
@@ -274,11 +277,6 @@ void Publisher::run() {
 
 void Publisher::drain_before_exit() {
   take_handed_over();
-  if (!connected_) {
-    if (journal_->size() > 0)
-      log_->info("MQTT: {} message(s) not yet delivered stay in {} for the next start", journal_->size(), journal_->dir());
-    return;
-  }
   const auto deadline = mono_now_ns() + static_cast<std::int64_t>(exit_drain_s * 1e9);
   while (connected_ && (journal_->size() > 0) && mono_now_ns() < deadline) {
     send_next();

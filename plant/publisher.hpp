@@ -74,6 +74,8 @@ class Publisher {
   void on_published(int mid, int reason_code);
   void set_state(const std::string& state, const std::string& error);
   void refuse_front(const std::string& why);  // gives up the journal's oldest message, counted as refused
+  void finish_front(bool delivered);          // the oldest message is done: delivered or refused
+  void count_queue();                         // stats_.queued and .dropped from their sources; under mutex_
   [[nodiscard]] std::string status_payload(bool online, const std::string& reason) const;
   void drain_before_exit();
 
@@ -87,6 +89,7 @@ class Publisher {
   std::string devices_;  // latest device table not yet sent ("" = none)
   bool stop_ = false;
   PublisherStats stats_;
+  std::uint64_t not_journaled_ = 0;  // dropped before the journal: hand-over overflow, a failed write
 
   // The publisher thread's own state.
   std::unique_ptr<MessageJournal> journal_;
