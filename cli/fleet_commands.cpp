@@ -9,13 +9,12 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
-#include <fstream>
 #include <iostream>
 #include <memory>
-#include <sstream>
 
 #include "cli/commands.hpp"
 #include "core/atomic_file.hpp"
+#include "core/csv_table.hpp"
 #include "core/utc_time.hpp"
 #include "fleet/fleet_report.hpp"
 #include "fleet/fleet_status.hpp"
@@ -38,14 +37,6 @@ void add_db_option(CLI::App* cmd, std::string& db) {
 }
 
 std::string db_path(const std::string& given) { return given.empty() ? fleet::default_database_path() : given; }
-
-std::string read_whole_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("fleet ingest: cannot read " + path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 std::atomic<bool> stop_requested{false};
 
@@ -193,7 +184,7 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
     cmd->callback([a] {
       fleet::Store store(db_path(a->db));
       const std::string received = a->received.empty() ? utc_now_iso_ms() : a->received;
-      const auto r = store.ingest(a->prefix, a->topic, read_whole_file(a->file), a->produced, received);
+      const auto r = store.ingest(a->prefix, a->topic, read_text_file(a->file), a->produced, received);
       if (r.outcome == fleet::IngestResult::ignored)
         throw std::runtime_error("fleet ingest: " + a->file + " ignored: " + r.reason);
       std::cout << fleet::to_string(r.outcome) << "\n";

@@ -92,10 +92,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     c.max_request_bytes = static_cast<std::size_t>(d->get_int("max_request_bytes", 16384, 256, 1 << 24));
     c.emulator_executable = d->get_string("emulator_executable", "");
     if (const std::string m = d->get_string("emulator_machine", ""); !m.empty()) {
-      // Relative to the configuration file, as a user reads it.
-      std::filesystem::path path(m);
-      if (path.is_relative() && file_name.find('<') == std::string::npos)
-        path = std::filesystem::path(file_name).parent_path() / path;
+      const std::filesystem::path path = config_relative_path(file_name, m);
       std::error_code ec;
       if (!std::filesystem::is_regular_file(path, ec)) d->fail("emulator_machine", "no such file: " + path.string());
       c.emulator_machine = std::filesystem::absolute(path, ec).lexically_normal().string();
@@ -161,6 +158,13 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
 }
 
 }  // namespace
+
+std::filesystem::path config_relative_path(const std::string& config_file, const std::string& value) {
+  std::filesystem::path path(value);
+  if (path.is_relative() && config_file.find('<') == std::string::npos)
+    path = std::filesystem::path(config_file).parent_path() / path;
+  return path;
+}
 
 DaemonConfig parse_config(std::string_view text, const std::string& file_name) {
   return from_table(parse_toml(text, file_name), file_name);

@@ -5,6 +5,7 @@
 #include <sys/types.h>
 
 #include <cstddef>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -63,6 +64,9 @@ struct DaemonConfig {
 };
 
 DaemonConfig parse_config(std::string_view text, const std::string& file_name);
+// A path a configuration file names: relative to that file's directory, as its reader means it (the
+// embedded default, "<...>", has none: relative to the working directory).
+std::filesystem::path config_relative_path(const std::string& config_file, const std::string& value);
 // Starts the [[emulator]] processes and puts their endpoints into the device tables ("emulator:NAME").
 // Throws ConfigError for an unknown NAME, std::runtime_error when an emulator does not come up.
 std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& config);

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "daemon/config.hpp"
 #include "plant/broker_address.hpp"
 #include "plant/mqtt_connection.hpp"
 #include "plant/topics.hpp"
@@ -27,9 +28,7 @@ std::string host_name() {
 std::string readable_file(const TableReader& t, const std::string& key, const std::string& relative_to) {
   const std::string value = t.get_string(key, "");
   if (value.empty()) return value;
-  std::filesystem::path path(value);
-  if (path.is_relative() && relative_to.find('<') == std::string::npos)
-    path = std::filesystem::path(relative_to).parent_path() / path;
+  const std::filesystem::path path = config_relative_path(relative_to, value);
   std::ifstream in(path);
   if (!in) t.fail(key, "cannot read " + path.string());
   return std::filesystem::absolute(path).lexically_normal().string();
