@@ -25,6 +25,8 @@ import unittest
 import numpy as np
 import pywt
 
+from process_support import guideway_cli
+
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
@@ -55,10 +57,7 @@ class Daemon:
             time.sleep(0.05)
 
     def cli(self, *args, timeout=30):
-        out = subprocess.run([GUIDEWAY, "--socket", self.sock, *args], capture_output=True, text=True, timeout=timeout)
-        if out.returncode != 0:
-            raise AssertionError(f"guideway {' '.join(args)}: {out.stderr}")
-        return out.stdout
+        return guideway_cli(GUIDEWAY, self.sock, *args, timeout=timeout)
 
     def wait_streaming(self):
         deadline = time.monotonic() + 20

@@ -23,7 +23,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mqtt_broker  # noqa: E402
-from process_support import wait_for  # noqa: E402
+from process_support import guideway_cli, wait_for  # noqa: E402
 
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
@@ -67,10 +67,7 @@ class Daemon:
             return False
 
     def cli(self, *args, timeout=60):
-        out = subprocess.run([GUIDEWAY, "--socket", self.sock, *args], capture_output=True, text=True, timeout=timeout)
-        if out.returncode != 0:
-            raise AssertionError(f"guideway {' '.join(args)}: {out.stderr}")
-        return out.stdout
+        return guideway_cli(GUIDEWAY, self.sock, *args, timeout=timeout)
 
     def status(self):
         return json.loads(self.cli("status", "--json", timeout=5))

@@ -1,4 +1,5 @@
 """Helpers shared by the tests that drive guidewayd and the emulators as processes."""
+import subprocess
 import time
 
 
@@ -31,3 +32,11 @@ class Checks:
             return 1
         print(passed)
         return 0
+
+
+def guideway_cli(guideway, socket_path, *args, timeout=30):
+    """`guideway --socket SOCKET_PATH ARGS...`: its standard output, or AssertionError with its standard error."""
+    out = subprocess.run([guideway, "--socket", socket_path, *args], capture_output=True, text=True, timeout=timeout)
+    if out.returncode != 0:
+        raise AssertionError(f"guideway {' '.join(args)}: {out.stderr}")
+    return out.stdout
