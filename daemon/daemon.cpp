@@ -254,8 +254,9 @@ void Daemon::check_emulators(std::int64_t now_ns) {
       if (how.empty()) continue;
       w.state = "exited";
       w.last_exit = how;
-      w.restart_at_ns = now_ns + static_cast<std::int64_t>(w.backoff_s * 1e9);
-      log_->warn("emulator {} exited ({}); restarting it in {} s", e.name(), how, w.backoff_s);
+      const double wait_s = w.backoff.take();
+      w.restart_at_ns = now_ns + static_cast<std::int64_t>(wait_s * 1e9);
+      log_->warn("emulator {} exited ({}); restarting it in {} s", e.name(), how, wait_s);
       event("emulator_exited", how);
       continue;
     }
@@ -266,13 +267,13 @@ void Daemon::check_emulators(std::int64_t now_ns) {
       emulators_[i] = std::make_unique<EmulatorProcess>(e.executable(), e.restart_spec(), std::chrono::seconds(2));
       ++w.restarts;
       w.state = "running";
-      w.backoff_s = 1.0;
+      w.backoff.reset();
       log_->info("emulator {} restarted (pid {}) at {}", emulators_[i]->name(), emulators_[i]->pid(), emulators_[i]->endpoint());
       event("emulator_restarted", "");
     } catch (const std::exception& ex) {
-      w.backoff_s = std::min(60.0, 2 * w.backoff_s);
-      w.restart_at_ns = now_ns + static_cast<std::int64_t>(w.backoff_s * 1e9);
-      log_->warn("emulator {}: restart failed ({}); next try in {} s", name, ex.what(), w.backoff_s);
+      const double wait_s = w.backoff.take();
+      w.restart_at_ns = now_ns + static_cast<std::int64_t>(wait_s * 1e9);
+      log_->warn("emulator {}: restart failed ({}); next try in {} s", name, ex.what(), wait_s);
       event("emulator_restart_failed", ex.what());
     }
   }

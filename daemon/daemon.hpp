@@ -13,6 +13,7 @@
 
 #include <spdlog/logger.h>
 
+#include "core/backoff.hpp"
 #include "daemon/channel_denoiser.hpp"
 #include "daemon/config.hpp"
 #include "daemon/event_loop.hpp"
@@ -103,7 +104,7 @@ class Daemon {
     std::string last_exit;           // how it last ended
     std::uint64_t restarts = 0;
     std::int64_t restart_at_ns = 0;
-    double backoff_s = 1.0;          // doubles per failed restart, at most 60 s; back to 1 once it runs
+    Backoff backoff{1.0, 60.0};      // doubles per failed restart, at most 60 s; back to 1 once it runs
   };
   std::vector<EmulatorWatch> emulator_watch_;
   std::vector<std::unique_ptr<drivers::Driver>> devices_;

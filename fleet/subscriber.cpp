@@ -1,9 +1,9 @@
 #include "fleet/subscriber.hpp"
 
-#include <algorithm>
 #include <chrono>
 #include <thread>
 
+#include "core/backoff.hpp"
 #include "core/mono_clock.hpp"
 #include "core/utc_time.hpp"
 #include "plant/topics.hpp"
@@ -52,7 +52,7 @@ void Subscriber::run(const std::atomic<bool>& stop) {
           .published = nullptr,
           .message = [&](std::string_view topic, std::string_view payload,
                          std::string_view produced) { on_message(topic, payload, produced); }});
-  double backoff_s = 1.0;
+  Backoff backoff{1.0, settings_.reconnect_max_s};
   std::string last_error;
   SubscriberCounts reported;
   auto next_report_ns = mono_now_ns() + 60'000'000'000LL;
@@ -60,7 +60,7 @@ void Subscriber::run(const std::atomic<bool>& stop) {
     std::string error = connection.connect();
     while (error.empty() && !stop.load()) {
       error = connection.loop(100);
-      if (connected_) backoff_s = 1.0;
+      if (connected_) backoff.reset();
       if (subscribe_) {
         subscribe_ = false;
         std::string why;
@@ -84,9 +84,8 @@ void Subscriber::run(const std::atomic<bool>& stop) {
            std::to_string(static_cast<int>(settings_.reconnect_max_s)) + " s");
       last_error = error;
     }
-    const auto until = mono_now_ns() + static_cast<std::int64_t>(backoff_s * 1e9);
+    const auto until = mono_now_ns() + static_cast<std::int64_t>(backoff.take() * 1e9);
     while (!stop.load() && mono_now_ns() < until) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    backoff_s = std::min(settings_.reconnect_max_s, 2 * backoff_s);
   }
   connection.disconnect();
   connection.loop(100);

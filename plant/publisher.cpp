@@ -29,7 +29,7 @@ Publisher::Publisher(PublisherSettings settings, std::shared_ptr<spdlog::logger>
           .disconnected = [this](const std::string& why) { on_disconnected(why); },
           .published = [this](int mid, int rc) { on_published(mid, rc); },
           .message = nullptr});
-  backoff_s_ = settings_.reconnect_min_s;
+  backoff_ = Backoff{settings_.reconnect_min_s, settings_.reconnect_max_s};
   stats_.broker = settings_.connection.broker.url();
   stats_.state = "connecting";
   stats_.since = started_utc_;
@@ -197,7 +197,7 @@ void Publisher::on_connected(int reason_code, const std::string& why) {
     return;
   }
   connected_ = true;
-  backoff_s_ = settings_.reconnect_min_s;
+  backoff_.reset();
   last_logged_error_.clear();
   inflight_mid_ = -1;  // sent again on this connection: QoS 1 may deliver twice, never out of order
   announce_online_ = true;  // sent from run(): libmosquitto holds its callback lock here
@@ -237,13 +237,13 @@ void Publisher::run() {
     up_ = false;
     connected_ = false;
     set_state("disconnected", why);
+    const double wait_s = backoff_.take();
     if (why != last_logged_error_ && stats().state != "refused") {
       last_logged_error_ = why;
       log_->warn("MQTT: {}: {}; trying again in {} s (then with back-off up to {} s); messages are kept in {}",
-                 settings_.connection.broker.url(), why, backoff_s_, settings_.reconnect_max_s, journal_->dir());
+                 settings_.connection.broker.url(), why, wait_s, settings_.reconnect_max_s, journal_->dir());
     }
-    reconnect_at_ns_ = mono_now_ns() + static_cast<std::int64_t>(backoff_s_ * 1e9);
-    backoff_s_ = std::min(settings_.reconnect_max_s, 2 * backoff_s_);
+    reconnect_at_ns_ = mono_now_ns() + static_cast<std::int64_t>(wait_s * 1e9);
   };
   while (true) {
     {

@@ -17,6 +17,7 @@
 
 #include <spdlog/logger.h>
 
+#include "core/backoff.hpp"
 #include "plant/message_journal.hpp"
 #include "plant/mqtt_connection.hpp"
 #include "plant/topics.hpp"
@@ -102,7 +103,7 @@ class Publisher {
   bool stopping_ = false;       // disconnecting at shutdown: not a lost connection  // a new connection: the online status goes first
   int status_mid_ = -1;
   bool status_acked_ = false;
-  double backoff_s_ = 1.0;
+  Backoff backoff_;
   std::int64_t reconnect_at_ns_ = 0;
   std::uint64_t connections_ = 0;
   std::string last_logged_error_;
