@@ -16,6 +16,7 @@
 #include "formats/compensation_files.hpp"
 #include "models/compensation/compensation.hpp"
 #include "models/dbb/identify.hpp"
+#include "results/session_kinds.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 
 namespace guideway::cli {
@@ -46,7 +47,8 @@ double circular_deviation_um(const models::dbb::Identification& id) {
 // The run files of the daemon's latest DBB session (its PARAMS' derived files).
 std::vector<std::string> latest_session_runs(const std::string& socket, std::string& session) {
   DaemonClient c = connect_daemon(socket);
-  const nlohmann::json r = c.request({{"class", "params"}, {"kind", "dbb"}}, "PARAMS");
+  const nlohmann::json r =
+      c.request({{"class", "params"}, {"kind", results::dbb_kind.name}}, results::MessageClass::params);
   throw_if_error(r);
   session = r.value("session", std::string("latest session"));
   std::vector<std::string> out;

@@ -10,6 +10,7 @@
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
 #include "core/runtime_paths.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::cli {
 
@@ -80,6 +81,18 @@ void print_status(const nlohmann::json& s) {
   }
 }
 
+// The --set help of `guideway start`: every kind's options with their defaults (results/session_kinds.hpp).
+std::string session_options_help() {
+  std::string help = "session option KEY=VALUE (repeatable); every option has a default.";
+  for (const results::SessionKindInfo* kind : results::session_kinds()) {
+    help += " " + std::string(kind->name) + ":";
+    for (std::size_t i = 0; i < kind->options.size(); ++i)
+      help += (i ? ", " : " ") + results::option_with_default(*kind->options[i]);
+    help += ";";
+  }
+  return help + " (all: docs/protocol.md)";
+}
+
 volatile std::sig_atomic_t interrupted = 0;
 
 // A KEY=VALUE option: VALUE is read as JSON when it parses (numbers, true/false, arrays and objects
@@ -103,7 +116,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   version->add_flag("--json", *json, "print the daemon's JSON unchanged");
   version->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
-    const nlohmann::json v = c.request({{"class", "version"}}, "VERSION");
+    const nlohmann::json v = c.request({{"class", "version"}}, results::MessageClass::version);
     throw_if_error_reply(v, *json);
     if (*json) {
       std::cout << v.dump() << "\n";
@@ -117,7 +130,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   status->add_flag("--json", *json, "print the daemon's JSON unchanged");
   status->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
-    const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
+    const nlohmann::json s = c.request({{"class", "status"}}, results::MessageClass::status);
     throw_if_error_reply(s, *json);
     if (*json) {
       std::cout << s.dump() << "\n";
@@ -134,14 +147,11 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     double timeout_s = 600;
   };
   auto so = std::make_shared<StartOptions>();
-  auto* start = app.add_subcommand("start", "Start a test session (dbb, straightness, runout, profile) on the daemon");
-  start->add_option("kind", so->kind, "session kind: dbb, straightness, runout, profile")->required();
+  auto* start =
+      app.add_subcommand("start", "Start a test session (" + results::session_kind_names() + ") on the daemon");
+  start->add_option("kind", so->kind, "session kind: " + results::session_kind_names())->required();
   start->add_option("--device", so->device, "device name (default: the first device that can run this kind)");
-  start->add_option("--set", so->settings,
-                    "session option KEY=VALUE (repeatable); every option has a default. dbb: patterns, "
-                    "radius_tolerance_mm, min_speed_mm_per_min, plane; straightness: step_mm=50, stations=0 (until the "
-                    "return), start=return|now, ...; runout: plate_diameter_mm=1000, parallelism_um=2.5, travel_mm=600, "
-                    "rpm=10, revolutions=1; profile: wavelet=db1, level=5, mode=symmetric (all: docs/protocol.md)");
+  start->add_option("--set", so->settings, session_options_help());
   start->add_flag("--wait", so->wait, "wait for the identified parameters and print them");
   start->add_option("--timeout", so->timeout_s, "with --wait: give up after this many seconds (default 600)");
   start->add_flag("--json", *json, "print the daemon's JSON unchanged");
@@ -156,8 +166,13 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
       auto [k, v] = parse_setting(kv);
       req["options"][k] = v;
     }
-    if (so->wait) c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
-    const nlohmann::json r = c.request(req, "SESSION");
+    if (so->wait)
+      c.request(
+          {{"class", "watch"},
+           {"classes",
+            {results::to_string(results::MessageClass::params), results::to_string(results::MessageClass::event)}}},
+          results::MessageClass::watch);
+    const nlohmann::json r = c.request(req, results::MessageClass::session);
     throw_if_error_reply(r, *json);
     const std::string session = r.value("session", "");
     if (*json) {
@@ -172,11 +187,11 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
       if (!line) continue;
       const auto m = nlohmann::json::parse(*line, nullptr, false);
       if (m.is_discarded() || m.value("session", "") != session) continue;
-      if (m.value("class", "") == "EVENT" && m.value("event", "") == "session_failed") {
+      if (results::has_class(m, results::MessageClass::event) && m.value("event", "") == "session_failed") {
         if (*json) std::cout << m.dump() << "\n";
         throw std::runtime_error("session " + session + " failed: " + m.value("reason", "?"));
       }
-      if (m.value("class", "") == "PARAMS") {
+      if (results::has_class(m, results::MessageClass::params)) {
         if (*json) {
           std::cout << m.dump() << "\n";
         } else {
@@ -199,7 +214,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     DaemonClient c = connect(ctx);
     nlohmann::json req = {{"class", "stop"}};
     if (!stop_session->empty()) req["session"] = *stop_session;
-    const nlohmann::json r = c.request(req, "SESSION");
+    const nlohmann::json r = c.request(req, results::MessageClass::session);
     throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
@@ -216,7 +231,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     DaemonClient c = connect(ctx);
     nlohmann::json req = {{"class", "params"}};
     if (!params_kind->empty()) req["kind"] = *params_kind;
-    const nlohmann::json r = c.request(req, "PARAMS");
+    const nlohmann::json r = c.request(req, results::MessageClass::params);
     throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
@@ -229,7 +244,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
   recordings->add_flag("--json", *json, "print the daemon's JSON unchanged");
   recordings->callback([&ctx, json] {
     DaemonClient c = connect(ctx);
-    const nlohmann::json r = c.request({{"class", "recordings"}}, "RECORDINGS");
+    const nlohmann::json r = c.request({{"class", "recordings"}}, results::MessageClass::recordings);
     throw_if_error_reply(r, *json);
     if (*json) {
       std::cout << r.dump() << "\n";
@@ -252,7 +267,9 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     std::size_t count = 0;
   };
   auto w = std::make_shared<WatchOptions>();
-  watch->add_option("--class", w->classes, "classes to receive: STATUS SAMPLE PARAMS EXPLAIN EVENT (default: all but SAMPLE)");
+  watch->add_option("--class", w->classes,
+                    "classes to receive: " + results::published_class_names() + " (default: all but " +
+                        std::string(results::to_string(results::MessageClass::sample)) + ")");
   watch->add_option("--channel", w->channels, "devices or sessions to receive (default: all)");
   watch->add_option("--seconds", w->seconds, "stop after this many seconds (default: run until interrupted)");
   watch->add_option("--count", w->count, "stop after this many messages");
@@ -262,7 +279,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     DaemonClient c = connect(ctx);
     ChannelUnits units;  // for the readable lines: SAMPLE values carry no unit, STATUS names them
     if (!*json) {
-      const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
+      const nlohmann::json s = c.request({{"class", "status"}}, results::MessageClass::status);
       const nlohmann::json devices = s.value("devices", nlohmann::json::array());
       for (const auto& d : devices) {
         const nlohmann::json device_channels = d.value("channels", nlohmann::json::array());
@@ -274,7 +291,7 @@ void add_daemon_commands(CLI::App& app, CliContext& ctx) {
     nlohmann::json req = {{"class", "watch"}, {"enable", true}};
     if (!classes.empty()) req["classes"] = classes;
     if (!channels.empty()) req["channels"] = channels;
-    const nlohmann::json ack = c.request(req, "WATCH");
+    const nlohmann::json ack = c.request(req, results::MessageClass::watch);
     throw_if_error_reply(ack, *json);
     std::signal(SIGINT, [](int) { interrupted = 1; });
     const auto began = std::chrono::steady_clock::now();

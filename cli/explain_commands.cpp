@@ -12,16 +12,17 @@
 #include <stdexcept>
 
 #include "cli/commands.hpp"
-#include "core/atomic_file.hpp"
-#include "formats/dbb_run.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
+#include "core/atomic_file.hpp"
+#include "formats/dbb_run.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "results/session_kinds.hpp"
+#include "simulators/machine/machine.hpp"
 #include "simulators/scenarios/machine_truth.hpp"
 #include "simulators/scenarios/scenarios.hpp"
-#include "simulators/machine/machine.hpp"
 
 namespace guideway::cli {
 
@@ -276,13 +277,15 @@ void add_explain_commands(CLI::App& app, CliContext& ctx) {
       DaemonClient c = connect_daemon(ctx.socket);
       nlohmann::json req = {{"class", "explain"}};
       if (!o->kind.empty()) req["kind"] = o->kind;
-      nlohmann::json r = c.request(req, "EXPLAIN");
+      nlohmann::json r = c.request(req, results::MessageClass::explain);
       throw_if_error_reply(r, o->json);
       nlohmann::json comparison;
       if (!o->machine.empty()) {
-        if (r.value("kind", "") != "dbb") throw std::runtime_error("explain: --machine compares DBB sessions only");
+        if (r.value("kind", "") != results::dbb_kind.name)
+          throw std::runtime_error("explain: --machine compares DBB sessions only");
         // The runs' geometry from the session's PARAMS; a live session's angles are its encoders'.
-        nlohmann::json params = c.request({{"class", "params"}, {"kind", "dbb"}}, "PARAMS");
+        nlohmann::json params =
+            c.request({{"class", "params"}, {"kind", results::dbb_kind.name}}, results::MessageClass::params);
         throw_if_error_reply(params, o->json);
         std::vector<simulators::scenarios::TruthRun> runs;
         for (const auto& run : params.at("runs")) {

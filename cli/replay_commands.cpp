@@ -7,6 +7,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/params_print.hpp"
+#include "results/message_class.hpp"
 #include "sessions/replay.hpp"
 #include "sessions/session_kinds.hpp"
 
@@ -48,8 +49,9 @@ void add_replay_commands(CLI::App& app, CliContext& ctx) {
       if (!r.failure.empty()) {
         ctx.exit_code = 1;
         if (o->json) {
-          std::cout << nlohmann::json{{"class", "EVENT"}, {"event", "session_failed"}, {"reason", r.failure},
-                                      {"replayed_from", path}}
+          std::cout << results::with_class(
+                           results::MessageClass::event,
+                           {{"event", "session_failed"}, {"reason", r.failure}, {"replayed_from", path}})
                            .dump()
                     << "\n";
         } else {

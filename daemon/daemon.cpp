@@ -162,18 +162,18 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   loop_.add(outbox_.fd(), EPOLLIN, [this](std::uint32_t) {
     const SocketServer::Batch batch(*server_);  // one write per client for the whole outbox batch
     for (Message& m : outbox_.take()) {
-      if (m.cls == MessageClass::params) {
+      if (m.cls == results::MessageClass::params) {
         const nlohmann::json& j = m.body;
         std::erase_if(latest_params_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
         latest_params_.push_back(j);
         log_->info("session {}: parameters identified", j.value("session", "?"));
-      } else if (m.cls == MessageClass::explain) {
+      } else if (m.cls == results::MessageClass::explain) {
         const nlohmann::json& j = m.body;
         std::erase_if(latest_explain_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
         log_->info("session {}: {} finding(s){}", j.value("session", "?"), j.value("findings", nlohmann::json::array()).size(),
                    j.value("unexplained", false) ? ", a structured residual is left unexplained" : "");
         latest_explain_.push_back(j);
-      } else if (m.cls == MessageClass::event) {
+      } else if (m.cls == results::MessageClass::event) {
         const nlohmann::json& j = m.body;
         if (j.contains("session")) {
           // A failure carries its reason (a warning); news such as report_ready carries its file (info).
@@ -234,9 +234,10 @@ void Daemon::periodic(std::int64_t now_ns) {
     nlohmann::json status = status_json();
     if (mqtt_) {
       mqtt_->publish_devices(
-          with_class(MessageClass::status, {{"time", status["time"]}, {"devices", status["devices"]}}).dump());
+          results::with_class(results::MessageClass::status, {{"time", status["time"]}, {"devices", status["devices"]}})
+              .dump());
     }
-    broadcast(make_message(MessageClass::status, std::move(status)));
+    broadcast(make_message(results::MessageClass::status, std::move(status)));
     notifier_.status(status_line());
   }
 }
@@ -365,24 +366,25 @@ nlohmann::json Daemon::status_json() {
     }
     devices.push_back(std::move(d));
   }
-  return with_class(MessageClass::status, {
-          {"time", utc_now_iso()},
-          {"release", GUIDEWAY_VERSION},
-          {"uptime_s", static_cast<double>(mono_now_ns() - started_ns_) * 1e-9},
-          {"config", config_.source},
-          {"socket", config_.socket_path},
-          {"state_dir", config_.state_dir},
-          {"pipeline",
-           {{"iterations", last_stats_.iterations},
-            {"samples", last_stats_.samples},
-            {"latency_mean_us", last_stats_.latency_mean_us},
-            {"latency_max_us", last_stats_.latency_max_us},
-            {"outbox_dropped", outbox_.dropped()}}},
-          {"clients", {{"connected", server_->client_count()}, {"dropped_slow", server_->dropped_clients()}}},
-          {"devices", std::move(devices)},
-          {"emulators", emulators_json()},
-          {"sessions", sessions_json()},
-          {"mqtt", mqtt_json()}});
+  return results::with_class(
+      results::MessageClass::status,
+      {{"time", utc_now_iso()},
+       {"release", GUIDEWAY_VERSION},
+       {"uptime_s", static_cast<double>(mono_now_ns() - started_ns_) * 1e-9},
+       {"config", config_.source},
+       {"socket", config_.socket_path},
+       {"state_dir", config_.state_dir},
+       {"pipeline",
+        {{"iterations", last_stats_.iterations},
+         {"samples", last_stats_.samples},
+         {"latency_mean_us", last_stats_.latency_mean_us},
+         {"latency_max_us", last_stats_.latency_max_us},
+         {"outbox_dropped", outbox_.dropped()}}},
+       {"clients", {{"connected", server_->client_count()}, {"dropped_slow", server_->dropped_clients()}}},
+       {"devices", std::move(devices)},
+       {"emulators", emulators_json()},
+       {"sessions", sessions_json()},
+       {"mqtt", mqtt_json()}});
 }
 
 void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<nlohmann::json>& id) {
@@ -446,10 +448,11 @@ nlohmann::json Daemon::handle_explain(ClientId, const Request& req) {
 
 void Daemon::broadcast(const Message& message) {
   if (mqtt_) {  // hands the line over: the publisher's thread does the disk and the network
-    if (message.cls == MessageClass::params || message.cls == MessageClass::explain) {
-      mqtt_->publish(message.cls == MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
-                     message.body.value("kind", "unknown"), message.line);
-    } else if (message.cls == MessageClass::event) {
+    if (message.cls == results::MessageClass::params || message.cls == results::MessageClass::explain) {
+      mqtt_->publish(
+          message.cls == results::MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
+          message.body.value("kind", "unknown"), message.line);
+    } else if (message.cls == results::MessageClass::event) {
       mqtt_->publish(plant::TopicLeaf::event, {}, message.line);
     }
   }
@@ -487,12 +490,14 @@ nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   }
   const std::string name = sessions_->start(sr);
   log_->info("session {} started", name);
-  return with_class(MessageClass::session, {{"session", name}, {"state", to_string(SessionState::running)}});
+  return results::with_class(results::MessageClass::session,
+                             {{"session", name}, {"state", to_string(SessionState::running)}});
 }
 
 nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {
   const auto names = sessions_->stop(string_field(req.body, "session"));
-  return with_class(MessageClass::session, {{"sessions", names}, {"state", to_string(SessionState::finishing)}});
+  return results::with_class(results::MessageClass::session,
+                             {{"sessions", names}, {"state", to_string(SessionState::finishing)}});
 }
 
 nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
@@ -526,8 +531,9 @@ nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
   if (!in) throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
   std::ostringstream html;
   html << in.rdbuf();
-  return with_class(MessageClass::report, {{"session", session}, {"kind", params.value("kind", "")}, {"file", path},
-                                           {"html", html.str()}});
+  return results::with_class(
+      results::MessageClass::report,
+      {{"session", session}, {"kind", params.value("kind", "")}, {"file", path}, {"html", html.str()}});
 }
 
 nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
@@ -537,7 +543,8 @@ nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
   for (const auto& e : formats::list_raw_recordings(config_.state_dir)) {
     list.push_back({{"file", e.path}, {"bytes", e.bytes}, {"complete", e.complete}});
   }
-  return with_class(MessageClass::recordings, {{"dir", config_.state_dir}, {"recordings", std::move(list)}});
+  return results::with_class(results::MessageClass::recordings,
+                             {{"dir", config_.state_dir}, {"recordings", std::move(list)}});
 }
 
 nlohmann::json Daemon::sessions_json() const {

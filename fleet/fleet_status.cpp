@@ -6,6 +6,7 @@
 
 #include "core/number_format.hpp"
 #include "core/utc_time.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::fleet {
 
@@ -44,7 +45,7 @@ std::vector<MachineStatus> fleet_status(const Store& store, double now_s) {
       m.explains.push_back({last.kind, last.produced_utc, *last.explain});
     } else {
       m.latest.push_back({last.kind, last.produced_utc, last.session, std::move(last.figures)});
-      if (last.kind == "dbb")
+      if (last.kind == results::dbb_kind.name)
         if (const auto t = parse_utc_iso(last.produced_utc)) m.dbb_age_s = now_s - *t;
     }
     i = end;

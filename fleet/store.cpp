@@ -13,6 +13,7 @@
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
 #include "plant/topics.hpp"
+#include "results/message_class.hpp"
 
 namespace guideway::fleet {
 
@@ -300,7 +301,8 @@ IngestResult Store::ingest(std::string_view topic_prefix, std::string_view topic
     }
     case plant::TopicLeaf::params:
     case plant::TopicLeaf::explain: {
-      const std::string cls = t->leaf == plant::TopicLeaf::params ? "PARAMS" : "EXPLAIN";
+      const std::string cls(results::to_string(t->leaf == plant::TopicLeaf::params ? results::MessageClass::params
+                                                                                   : results::MessageClass::explain));
       const std::string declared = string_field(j, "class");
       if (!declared.empty() && declared != cls) {
         return ignored("payload is a " + declared + " on a " + std::string(plant::to_string(t->leaf)) + " topic");

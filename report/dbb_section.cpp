@@ -10,6 +10,7 @@
 #include "report/html.hpp"
 #include "report/sections.hpp"
 #include "report/svg.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::report {
 
@@ -22,7 +23,7 @@ std::string estimate_cell(const models::dbb::Estimate& e) {
 Table estimates_table(const std::string& caption, const std::vector<models::dbb::Estimate>& list) {
   Table t{caption, {"quantity", "value \u00b1 standard uncertainty", "unit"}, {}};
   for (const auto& e : list) {
-    const auto [name, unit] = split_unit(e.name);
+    const auto [name, unit] = results::split_unit(e.name);
     t.rows.push_back({html_escape(e.name), estimate_cell(e), html_escape(unit)});
   }
   return t;
@@ -144,7 +145,7 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
       (e.name.rfind("circular_", 0) == 0 ? iso : diag).push_back(e);
     Table iso_t{"ISO 230-4 circular test figures", {"quantity", "value", "unit"}, {}};
     for (const auto& e : iso) {
-      const auto [name, unit] = split_unit(e.name);
+      const auto [name, unit] = results::split_unit(e.name);
       iso_t.rows.push_back({html_escape(e.name), format_fixed(e.value, 3), html_escape(unit)});
     }
     if (iso.size() < 2)

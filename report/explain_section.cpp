@@ -10,6 +10,7 @@
 #include "report/html.hpp"
 #include "report/sections.hpp"
 #include "report/svg.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::report {
 
@@ -36,7 +37,7 @@ std::string p_cell(double p) { return p == 0 ? "&lt;1e-300" : cell(p, 3); }
 
 // "angle_deg" -> "angle / deg": the unit suffix of a domain name as an axis label.
 std::string axis_label(const std::string& name) {
-  const auto [q, unit] = split_unit(name);
+  const auto [q, unit] = results::split_unit(name);
   return unit.empty() ? name : q + " / " + unit;
 }
 

@@ -8,6 +8,7 @@
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
 #include "models/dbb/geometry.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::compensation {
 
@@ -27,32 +28,27 @@ const dbb::Estimate* find(const std::vector<dbb::Estimate>& estimates, const std
 
 const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) { return find(id.diagnostics, name); }
 
-// Lai's parameters that feed the map: Lai's name, the map term (with {a} / {b} for the plane axes) and
-// the factor from Lai's unit to the term's (r = the radius the straightness is normalised to, m).
+// Lai's parameters that feed the map: Lai's parameter, the map term (of plane axis `axis`, -1 for a term of
+// the plane) and the factor from Lai's unit to the term's (r = the radius the straightness is normalised to).
 struct LaiTerm {
-  const char* lai;
-  const char* term;
+  const results::Parameter* lai;
+  const results::Parameter* term;
+  int axis;
   int radius_power;  // the factor is scale * (r in mm)^radius_power
   double scale;
 };
 constexpr LaiTerm lai_terms[] = {
-    {"S_x", "scale_{a}_ppm", 0, 1e6},
-    {"S_y", "scale_{b}_ppm", 0, 1e6},
-    {"backlash_x_um", "backlash_{a}_um", 0, 1.0},
-    {"backlash_y_um", "backlash_{b}_um", 0, 1.0},
-    {"a1_rad", "squareness_urad", 0, 1e6},
-    {"a2_per_mm", "straightness_{a}_um", 2, 1e3},  // a2 (1/mm) r^2 (mm^2) = mm
-    {"b2_per_mm", "straightness_{b}_um", 2, 1e3},
-    {"a3_per_mm2", "straightness_cubic_{a}_um", 3, 1e3},
-    {"b3_per_mm2", "straightness_cubic_{b}_um", 3, 1e3},
-    {"servo_mismatch_ms", "servo_mismatch_ms", 0, 1.0},
+    {&results::lai_S_x, &results::scale, 0, 0, 1e6},
+    {&results::lai_S_y, &results::scale, 1, 0, 1e6},
+    {&results::lai_backlash_x, &results::backlash, 0, 0, 1.0},
+    {&results::lai_backlash_y, &results::backlash, 1, 0, 1.0},
+    {&results::lai_a1, &results::squareness, -1, 0, 1e6},
+    {&results::lai_a2, &results::straightness_bow, 0, 2, 1e3},  // a2 (1/mm) r^2 (mm^2) = mm
+    {&results::lai_b2, &results::straightness_bow, 1, 2, 1e3},
+    {&results::lai_a3, &results::straightness_cubic, 0, 3, 1e3},
+    {&results::lai_b3, &results::straightness_cubic, 1, 3, 1e3},
+    {&results::lai_servo_mismatch, &results::servo_mismatch, -1, 0, 1.0},
 };
-
-std::string with_axes(std::string s, const std::string& plane) {
-  for (const auto& [key, k] : {std::pair{std::string("{a}"), 0}, std::pair{std::string("{b}"), 1}})
-    if (const auto at = s.find(key); at != std::string::npos) s.replace(at, key.size(), dbb::axis_letter(plane, k));
-  return s;
-}
 
 // The table steps offered by default (mm): a round spacing a user can read.
 constexpr double default_steps_mm[] = {0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, 10, 20, 25, 50, 100};
@@ -69,8 +65,8 @@ std::size_t lines_for(double lo, double hi, double step) {
 std::optional<dbb::Estimate> cubic_difference(const dbb::Identification& id) {
   const dbb::Estimate *a3 = nullptr, *b3 = nullptr;
   for (const auto& e : id.lai3) {
-    if (e.name == "a3_per_mm2") a3 = &e;
-    if (e.name == "b3_per_mm2") b3 = &e;
+    if (e.name == results::lai_a3.name) a3 = &e;
+    if (e.name == results::lai_b3.name) b3 = &e;
   }
   if (a3 && b3 && a3->fitted && b3->fitted)
     return dbb::Estimate{"a3_minus_b3", a3->value - b3->value, std::hypot(a3->u, b3->u), true};
@@ -78,8 +74,10 @@ std::optional<dbb::Estimate> cubic_difference(const dbb::Identification& id) {
     if (c.coefficient.size() != 2 || std::abs(c.coefficient[1] + 1.0) > 1e-6) continue;
     const std::string kept = c.expression.substr(0, c.expression.find(' '));
     const std::string other = c.expression.substr(c.expression.rfind('*') + 1);
-    if (kept == "a3_per_mm2" && other == "b3_per_mm2") return dbb::Estimate{"a3_minus_b3", c.value, c.u, true};
-    if (kept == "b3_per_mm2" && other == "a3_per_mm2") return dbb::Estimate{"a3_minus_b3", -c.value, c.u, true};
+    if (kept == results::lai_a3.name && other == results::lai_b3.name)
+      return dbb::Estimate{"a3_minus_b3", c.value, c.u, true};
+    if (kept == results::lai_b3.name && other == results::lai_a3.name)
+      return dbb::Estimate{"a3_minus_b3", -c.value, c.u, true};
   }
   return std::nullopt;
 }
@@ -107,7 +105,7 @@ double AxisTerms::straightness_m(double position_m) const {
 
 std::string lai3_term_of(const std::string& lai_name, const std::string& plane) {
   for (const auto& t : lai_terms)
-    if (lai_name == t.lai) return with_axes(t.term, plane);
+    if (lai_name == t.lai->name) return results::name(*t.term, plane, t.axis);
   return "";
 }
 
@@ -115,14 +113,14 @@ std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radi
   std::vector<dbb::Estimate> out;
   std::string missing;
   for (const auto& t : lai_terms) {
-    const auto* e = find(id.lai3, t.lai);
+    const auto* e = find(id.lai3, std::string(t.lai->name));
     if (!e || !e->fitted) {
-      missing += (missing.empty() ? "" : ", ") + std::string(t.lai);
+      missing += (missing.empty() ? "" : ", ") + std::string(t.lai->name);
       continue;
     }
     const double f = t.scale * std::pow(radius_m * 1e3, t.radius_power);
-    const double v = std::string(t.lai).starts_with("S_") ? e->value - 1.0 : e->value;
-    out.push_back({with_axes(t.term, id.plane), v * f, e->u * f, true});
+    const double v = t.lai == &results::lai_S_x || t.lai == &results::lai_S_y ? e->value - 1.0 : e->value;
+    out.push_back({results::name(*t.term, id.plane, t.axis), v * f, e->u * f, true});
   }
   if (!missing.empty()) {
     std::string combos;
@@ -137,8 +135,8 @@ std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radi
   dbb::Estimate* sa = nullptr;
   dbb::Estimate* sb = nullptr;
   for (auto& e : out) {
-    if (e.name == "scale_" + dbb::axis_letter(id.plane, 0) + "_ppm") sa = &e;
-    if (e.name == "scale_" + dbb::axis_letter(id.plane, 1) + "_ppm") sb = &e;
+    if (e.name == results::name(results::scale, id.plane, 0)) sa = &e;
+    if (e.name == results::name(results::scale, id.plane, 1)) sb = &e;
   }
   if (sa && sb) {
     const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
@@ -156,7 +154,7 @@ std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radi
   std::string other;
   for (const auto& e : id.lai3)
     if (e.fitted && lai3_term_of(e.name, id.plane).empty() && !e.name.starts_with("e_x") &&
-        !e.name.starts_with("e_y") && e.name != "mismatch_phase_angle_deg")
+        !e.name.starts_with("e_y") && e.name != results::lai_mismatch_phase_angle.name)
       other += (other.empty() ? "" : ", ") + e.name;
   if (!other.empty())
     notes.push_back("not in the map: Lai's out-of-plane terms (" + other +
@@ -186,7 +184,7 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
   if (runs.empty()) throw CompensationError("no runs");
   ErrorMap m;
   m.plane = id.plane;
-  const std::string A = dbb::axis_letter(id.plane, 0), B = dbb::axis_letter(id.plane, 1);
+  const std::string A = results::axis_letter(id.plane, 0), B = results::axis_letter(id.plane, 1);
   const bool ccw =
       std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == formats::DbbDirection::ccw; });
   const bool cw =
@@ -196,9 +194,10 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
         "the runs go one way only: in one direction backlash, lateral play and servo mismatch trade off against each "
         "other and squareness is not separable (docs/conventions.md); measure the circle in both directions");
   std::vector<dbb::Estimate> estimates = id.diagnostics;
-  const bool diagnostics = find(id, "scale_" + A + "_ppm") && find(id, "backlash_" + A + "_um");
+  const bool diagnostics =
+      find(id, results::name(results::scale, id.plane, 0)) && find(id, results::name(results::backlash, id.plane, 0));
   if (!diagnostics) {
-    if (!find(id.lai3, "S_x") && !find(id.lai3, "backlash_x_um")) {
+    if (!find(id.lai3, results::name(results::lai_S_x)) && !find(id.lai3, results::name(results::lai_backlash_x))) {
       std::string why =
           "the runs gave neither ballbar diagnostics nor Lai's scale and backlash, which the "
           "compensation is built from";
@@ -237,12 +236,13 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
     AxisTerms& at = m.terms_of[static_cast<std::size_t>(k)];
     at.center_m = (*center)[static_cast<std::size_t>(k)];
     at.radius_m = radius;
-    if (const auto* t = term("scale_" + ax + "_ppm", Use::table, ""); t && t->significant) at.scale = t->value * 1e-6;
-    if (const auto* t = term("backlash_" + ax + "_um", Use::table, ""); t && t->significant)
+    const auto name = [&](const results::Parameter& p) { return results::name(p, id.plane, k); };
+    if (const auto* t = term(name(results::scale), Use::table, ""); t && t->significant) at.scale = t->value * 1e-6;
+    if (const auto* t = term(name(results::backlash), Use::table, ""); t && t->significant)
       at.backlash_m = t->value * 1e-6;
-    if (const auto* t = term("cyclic_error_" + ax + "_um", Use::table, ""); t && t->significant) {
-      const auto* p = find(estimates, "cyclic_period_" + ax + "_mm");
-      const auto* ph = find(estimates, "cyclic_phase_" + ax + "_deg");
+    if (const auto* t = term(name(results::cyclic_error), Use::table, ""); t && t->significant) {
+      const auto* p = find(estimates, name(results::cyclic_period));
+      const auto* ph = find(estimates, name(results::cyclic_phase));
       if (p && ph) {
         at.cyclic_amplitude_m = t->value * 1e-6;
         at.cyclic_period_m = p->value * 1e-3;
@@ -250,14 +250,14 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
       }
     }
     if (const auto* t =
-            term("straightness_" + ax + "_um", Use::cross_table,
+            term(name(results::straightness_bow), Use::cross_table,
                  "moves " + ax + " along " + other + ", which a per-joint table of " + ax +
                      " cannot: the cross-axis correction of " + other + " by " + ax + "'s position (straightness.csv)");
         t && t->significant)
       at.bow_m = t->value * 1e-6;
     // Lai's model over several radii separates each axis' cubic (C = a3 r^3 at the map's radius).
     if (const auto* t =
-            term("straightness_cubic_" + ax + "_um", Use::cross_table,
+            term(name(results::straightness_cubic), Use::cross_table,
                  "the cubic part of " + ax + "'s straightness along " + other + ": the cross-axis correction of " +
                      other + " by " + ax + "'s position (straightness.csv)")) {
       cubic_per_axis = true;
@@ -269,7 +269,7 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
   if (const auto cubic = cubic_per_axis ? std::nullopt : cubic_difference(id)) {
     const double r_mm = radius * 1e3;
     const double per_mm2_to_um = r_mm * r_mm * r_mm * 1e3;
-    dbb::Estimate e{"straightness_cubic_" + A + "_minus_" + B + "_um", cubic->value * per_mm2_to_um,
+    dbb::Estimate e{results::name(results::straightness_cubic_difference, id.plane), cubic->value * per_mm2_to_um,
                     cubic->u * per_mm2_to_um, true};
     Term t{
         e.name,
@@ -286,7 +286,7 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
       m.terms_of[1].cubic_per_m2 = -0.5 * cubic->value * 1e6;
     }
   }
-  if (const auto* t = term("squareness_urad", Use::map_only,
+  if (const auto* t = term(results::name(results::squareness), Use::map_only,
                            "depends on the position of the other axis: set the controller's axis-skew correction or a "
                            "kinematics change (errors.csv)")) {
     m.squareness_known = true;
@@ -294,14 +294,14 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
     m.squareness_u_rad = t->u * 1e-6;
     m.squareness_significant = t->significant;
   }
-  for (const auto& ax : {A, B}) {
-    term("lateral_play_" + ax + "_um", Use::not_geometric,
-         "a sideways shift that follows the direction of " + ax +
+  for (int k = 0; k < 2; ++k) {
+    term(results::name(results::lateral_play, id.plane, k), Use::not_geometric,
+         "a sideways shift that follows the direction of " + results::axis_letter(id.plane, k) +
              ": a per-joint table of the other axis cannot see that direction (gib adjustment)");
-    term("reversal_spike_" + ax + "_um", Use::not_geometric,
+    term(results::name(results::reversal_spike, id.plane, k), Use::not_geometric,
          "friction at the reversal, decays in milliseconds: servo tuning (friction feed-forward), not a table");
   }
-  term("servo_mismatch_ms", Use::not_geometric,
+  term(results::name(results::servo_mismatch), Use::not_geometric,
        "the two position loops lag differently: match their gains (or feed-forward); a position table cannot");
 
   // The grid: the measured range of each axis, on multiples of the step.

@@ -12,6 +12,7 @@
 
 #include "models/dbb/fast_sincos.hpp"
 #include "models/dbb/geometry.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::dbb {
 
@@ -153,32 +154,22 @@ FitSummary summary_of(const LsqResult& res) {
 // ---- Lai third-order model -------------------------------------------------------------------
 
 struct LaiColumn {
-  const char* name;
+  const results::Parameter* parameter;
   double si_per_reported;  // SI value of one reported unit
 };
 
 // Order matters: lai3_characteristics returns the basis in this order.
 constexpr LaiColumn lai_columns[] = {
-    {"e_x_um", 1e-6},
-    {"e_y_um", 1e-6},
-    {"S_x", 1.0},
-    {"S_y", 1.0},
-    {"a1_rad", 1.0},
-    {"a2_per_mm", 1e3},
-    {"a3_per_mm2", 1e6},
-    {"b2_per_mm", 1e3},
-    {"b3_per_mm2", 1e6},
-    {"c0_plus_d1_rad", 1.0},
-    {"c1_per_mm", 1e3},
-    {"c2_per_mm2", 1e6},
-    {"d2_per_mm", 1e3},
-    {"d3_per_mm2", 1e6},
-    {"e1_rad", 1.0},
-    {"e2_per_mm", 1e3},
-    {"e3_per_mm2", 1e6},
-    {"backlash_x_um", 1e-6},
-    {"backlash_y_um", 1e-6},
-    {"servo_mismatch_ms", 1e-3},
+    {&results::lai_e_x, 1e-6},        {&results::lai_e_y, 1e-6},
+    {&results::lai_S_x, 1.0},         {&results::lai_S_y, 1.0},
+    {&results::lai_a1, 1.0},          {&results::lai_a2, 1e3},
+    {&results::lai_a3, 1e6},          {&results::lai_b2, 1e3},
+    {&results::lai_b3, 1e6},          {&results::lai_c0_plus_d1, 1.0},
+    {&results::lai_c1, 1e3},          {&results::lai_c2, 1e6},
+    {&results::lai_d2, 1e3},          {&results::lai_d3, 1e6},
+    {&results::lai_e1, 1.0},          {&results::lai_e2, 1e3},
+    {&results::lai_e3, 1e6},          {&results::lai_backlash_x, 1e-6},
+    {&results::lai_backlash_y, 1e-6}, {&results::lai_servo_mismatch, 1e-3},
 };
 constexpr std::size_t lai_count = std::size(lai_columns);
 
@@ -292,34 +283,35 @@ void set_cyclic_phases(const DiagLayout& L, std::vector<Point>& pts) {
   }
 }
 
-std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<formats::DbbRun>& runs, const std::string& plane) {
-  const std::string A = axis_letter(plane, 0), B = axis_letter(plane, 1);
+std::vector<std::string> diag_names(const DiagLayout& L, const std::string& plane) {
+  const auto both = [&](const results::Parameter& p, std::vector<std::string>& n) {
+    n.push_back(results::name(p, plane, 0));
+    n.push_back(results::name(p, plane, 1));
+  };
   std::vector<std::string> n;
   for (std::size_t k = 0; k < L.runs; ++k) {
     // One run: plain names; several: run1.center_offset_*, run2.center_offset_*, ...
-    const std::string pre = L.runs > 1 ? "run" + std::to_string(k + 1) + "." : "";
-    (void)runs;
-    n.push_back(pre + "center_offset_" + A + "_um");
-    n.push_back(pre + "center_offset_" + B + "_um");
+    for (int axis = 0; axis < 2; ++axis) {
+      const std::string name = results::name(results::center_offset, plane, axis);
+      n.push_back(L.runs > 1 ? results::run_prefixed(static_cast<int>(k + 1), name) : name);
+    }
   }
-  for (const auto& s :
-       {"scale_" + A + "_ppm", "scale_" + B + "_ppm", std::string("squareness_urad"), "backlash_" + A + "_um",
-        "backlash_" + B + "_um", "lateral_play_" + A + "_um", "lateral_play_" + B + "_um",
-        std::string("servo_mismatch_ms"), "straightness_" + A + "_um", "straightness_" + B + "_um"})
-    n.push_back(s);
-  if (L.spikes) {
-    n.push_back("reversal_spike_" + A + "_um");
-    n.push_back("reversal_spike_" + B + "_um");
-  }
-  if (L.decay_a) n.push_back("reversal_spike_decay_" + A + "_ms");
-  if (L.decay_b) n.push_back("reversal_spike_decay_" + B + "_ms");
+  both(results::scale, n);
+  n.push_back(results::name(results::squareness));
+  both(results::backlash, n);
+  both(results::lateral_play, n);
+  n.push_back(results::name(results::servo_mismatch));
+  both(results::straightness_bow, n);
+  if (L.spikes) both(results::reversal_spike, n);
+  if (L.decay_a) n.push_back(results::name(results::reversal_spike_decay, plane, 0));
+  if (L.decay_b) n.push_back(results::name(results::reversal_spike_decay, plane, 1));
   if (L.cyclic_a) {
-    n.push_back("cyclic_sin_" + A + "_um");
-    n.push_back("cyclic_cos_" + A + "_um");
+    n.push_back(results::name(results::cyclic_sin, plane, 0));
+    n.push_back(results::name(results::cyclic_cos, plane, 0));
   }
   if (L.cyclic_b) {
-    n.push_back("cyclic_sin_" + B + "_um");
-    n.push_back("cyclic_cos_" + B + "_um");
+    n.push_back(results::name(results::cyclic_sin, plane, 1));
+    n.push_back(results::name(results::cyclic_cos, plane, 1));
   }
   return n;
 }
@@ -357,8 +349,8 @@ struct DiagWork {
   Eigen::VectorXd y, w;
 };
 
-LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<formats::DbbRun>& runs,
-                   const std::string& plane, DiagWork& work, Eigen::Index stride = 1) {
+LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::string& plane, DiagWork& work,
+                   Eigen::Index stride = 1) {
   const auto n = static_cast<Eigen::Index>(pts.size());
   if (work.j.rows() != n || work.j.cols() < static_cast<Eigen::Index>(L.count()))
     work.j.resize(n, static_cast<Eigen::Index>(L.count()));
@@ -376,7 +368,7 @@ LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std
     diag_row(L, pts[static_cast<std::size_t>(i)], row);
     j.row(i) = row;
   }
-  return solve_strided(j, work.y, work.w, diag_names(L, runs, plane), stride);
+  return solve_strided(j, work.y, work.w, diag_names(L, plane), stride);
 }
 
 // Weighted sum of squares explained by fitting two extra columns to a residual.
@@ -484,7 +476,7 @@ Estimate est(const std::string& name, double value, double u, bool fitted = true
 
 std::vector<std::string> lai3_parameter_names() {
   std::vector<std::string> n;
-  for (const auto& c : lai_columns) n.emplace_back(c.name);
+  for (const auto& c : lai_columns) n.emplace_back(c.parameter->name);
   return n;
 }
 
@@ -524,7 +516,8 @@ double lai3_exact_dL(const Lai3Params& q, double radius_m, double height_m, int 
 // set-up's, not the machine's, and is not ranked. Terms partly cancel: the percentages need not add up
 // to 100.
 void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::vector<Point>& pts,
-                        const std::vector<formats::DbbRun>& runs, const std::vector<std::string>& names, Identification& out) {
+                        const std::vector<formats::DbbRun>& runs, const std::vector<std::string>& names,
+                        const std::string& plane, Identification& out) {
   const std::size_t g = L.global0();
   std::vector<std::vector<std::size_t>> terms{{g + DiagLayout::scale_a, g + DiagLayout::scale_b}};  // scale mismatch
   for (auto k : {DiagLayout::squareness, DiagLayout::backlash_a, DiagLayout::backlash_b, DiagLayout::play_a,
@@ -550,8 +543,10 @@ void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::ve
     const double part = part_of_deviation(pts, curve, runs.size());
     // Named as the diagnostic (the scales as their mismatch, the cyclic error's two columns after its axis).
     std::string name = names[cols.front()];
-    if (cols.front() == g + DiagLayout::scale_a) name = "scale_mismatch_ppm";
-    else if (cols.size() == 2) name = "cyclic_error_" + name.substr(std::string("cyclic_sin_").size(), 1) + "_um";
+    if (cols.front() == g + DiagLayout::scale_a)
+      name = results::name(results::scale_mismatch);
+    else if (cols.size() == 2)
+      name = results::name(results::cyclic_error, plane, L.cyclic_a && cols.front() == L.cyc_a0() ? 0 : 1);
     out.ranking.push_back({name, part, g_max > 0 ? 100 * part / g_max : nan});
   }
   std::sort(out.ranking.begin(), out.ranking.end(),
@@ -566,7 +561,7 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
   DiagLayout L;
   L.runs = runs.size();
   // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
-  LsqResult base = fit_diag(L, pts, runs, plane, work, 3);
+  LsqResult base = fit_diag(L, pts, plane, work, 3);
   if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
   // Reversal spikes: choose the decay time that explains most of the residual.
   {
@@ -719,7 +714,7 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
   // take-up is late by as much.
   if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
     apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
-  LsqResult res = fit_diag(L, pts, runs, plane, work);
+  LsqResult res = fit_diag(L, pts, plane, work);
   if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
   {
     // Backlash shape from this fit's own estimate (the Lai fit's may differ), then the final fit.
@@ -734,7 +729,7 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
       for (auto& p : pts) set_step_backlash(p);
       if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
-      res = fit_diag(L, pts, runs, plane, work);
+      res = fit_diag(L, pts, plane, work);
       if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
     }
   }
@@ -752,11 +747,11 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     step(L.decay_a, L.decay_a0(), L.spike0(), L.tau_a, L.amp_a);
     step(L.decay_b, L.decay_b0(), L.spike0() + 1, L.tau_b, L.amp_b);
     if (!moved) break;
-    res = fit_diag(L, pts, runs, plane, work);
+    res = fit_diag(L, pts, plane, work);
     if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
   }
   out.diagnostics_fit = summary_of(res);
-  const auto names = diag_names(L, runs, plane);
+  const auto names = diag_names(L, plane);
   const auto get = [&](std::size_t idx) -> std::pair<double, double> {
     return {res.x[static_cast<Eigen::Index>(idx)], res.u[static_cast<Eigen::Index>(idx)]};
   };
@@ -765,7 +760,6 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     const auto [v, u] = get(idx);
     out.diagnostics.push_back(est(names[idx], v, u));
   };
-  const std::string A = axis_letter(plane, 0), B = axis_letter(plane, 1);
   for (std::size_t k = 0; k < 2 * L.runs; ++k) add(k);
   const std::size_t g = L.global0();
   add(g + DiagLayout::scale_a);
@@ -774,16 +768,17 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     const auto ia = static_cast<Eigen::Index>(g + DiagLayout::scale_a);
     const auto ib = static_cast<Eigen::Index>(g + DiagLayout::scale_b);
     const double var = res.covariance(ia, ia) + res.covariance(ib, ib) - 2 * res.covariance(ia, ib);
-    out.diagnostics.push_back(est("scale_mismatch_ppm", res.x[ia] - res.x[ib], std::sqrt(std::max(var, 0.0))));
+    out.diagnostics.push_back(
+        est(results::name(results::scale_mismatch), res.x[ia] - res.x[ib], std::sqrt(std::max(var, 0.0))));
   }
   for (auto k : {DiagLayout::squareness, DiagLayout::backlash_a, DiagLayout::backlash_b, DiagLayout::play_a,
                  DiagLayout::play_b, DiagLayout::servo, DiagLayout::bow_a, DiagLayout::bow_b})
     add(g + k);
   add(L.spike0());
   add(L.spike0() + 1);
-  const auto cyclic = [&](bool on, std::size_t k0, double period, const std::string& ax) {
+  const auto cyclic = [&](bool on, std::size_t k0, double period, int axis) {
     if (!on) {
-      out.diagnostics.push_back(est("cyclic_error_" + ax + "_um", 0.0, nan, false));
+      out.diagnostics.push_back(est(results::name(results::cyclic_error, plane, axis), 0.0, nan, false));
       return;
     }
     if (!res.identified[k0] || !res.identified[k0 + 1]) return;
@@ -796,14 +791,15 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
       u = std::sqrt(std::max(0.0, ga * ga * res.covariance(i0, i0) + gc * gc * res.covariance(i0 + 1, i0 + 1) +
                                       2 * ga * gc * res.covariance(i0, i0 + 1)));
     }
-    out.diagnostics.push_back(est("cyclic_error_" + ax + "_um", amp, u));
-    out.diagnostics.push_back(est("cyclic_period_" + ax + "_mm", period * 1e3, nan, false));
-    out.diagnostics.push_back(est("cyclic_phase_" + ax + "_deg", std::atan2(ac, as) * 180 / pi, nan, false));
+    out.diagnostics.push_back(est(results::name(results::cyclic_error, plane, axis), amp, u));
+    out.diagnostics.push_back(est(results::name(results::cyclic_period, plane, axis), period * 1e3, nan, false));
+    out.diagnostics.push_back(
+        est(results::name(results::cyclic_phase, plane, axis), std::atan2(ac, as) * 180 / pi, nan, false));
   };
-  cyclic(L.cyclic_a, L.cyc_a0(), L.period_a, A);
-  cyclic(L.cyclic_b, L.cyc_b0(), L.period_b, B);
-  const auto decay = [&](bool fitted, std::size_t k, double tau, const std::string& ax) {
-    const std::string name = "reversal_spike_decay_" + ax + "_ms";
+  cyclic(L.cyclic_a, L.cyc_a0(), L.period_a, 0);
+  cyclic(L.cyclic_b, L.cyc_b0(), L.period_b, 1);
+  const auto decay = [&](bool fitted, std::size_t k, double tau, int axis) {
+    const std::string name = results::name(results::reversal_spike_decay, plane, axis);
     if (fitted && res.identified[k]) {
       out.diagnostics.push_back(
           est(name, tau * 1e3 + res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
@@ -811,12 +807,12 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
       out.diagnostics.push_back(est(name, tau * 1e3, nan, false));
     }
   };
-  decay(L.decay_a, L.decay_a0(), L.tau_a, A);
-  decay(L.decay_b, L.decay_b0(), L.tau_b, B);
-  out.diagnostics.push_back(est("reversal_spike_delay_" + A + "_ms", L.delay_a * 1e3, nan, false));
-  out.diagnostics.push_back(est("reversal_spike_delay_" + B + "_ms", L.delay_b * 1e3, nan, false));
+  decay(L.decay_a, L.decay_a0(), L.tau_a, 0);
+  decay(L.decay_b, L.decay_b0(), L.tau_b, 1);
+  out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 0), L.delay_a * 1e3, nan, false));
+  out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 1), L.delay_b * 1e3, nan, false));
 
-  rank_contributions(L, res, pts, runs, names, out);
+  rank_contributions(L, res, pts, runs, names, plane, out);
   out.ranking_model = "diagnostics";
   return res;
 }
@@ -840,7 +836,8 @@ namespace {
 // radius, which the circle absorbs), the straightness coefficients by axis and direction.
 std::string lai_error_group(const std::string& name) {
   if (name == "S_x" || name == "S_y") return "scale_mismatch";
-  if (name == "backlash_x_um" || name == "backlash_y_um" || name == "servo_mismatch_ms")
+  if (name == results::lai_backlash_x.name || name == results::lai_backlash_y.name ||
+      name == results::lai_servo_mismatch.name)
     return name.substr(0, name.rfind('_'));
   if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
   switch (name.front()) {
@@ -876,10 +873,10 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     names = lai3_parameter_names();
   } else {
     for (std::size_t k = 0; k < runs.size(); ++k) {
-      names.push_back("run" + std::to_string(k + 1) + ".e_x_um");
-      names.push_back("run" + std::to_string(k + 1) + ".e_y_um");
+      names.push_back(results::run_prefixed(static_cast<int>(k + 1), results::name(results::lai_e_x)));
+      names.push_back(results::run_prefixed(static_cast<int>(k + 1), results::name(results::lai_e_y)));
     }
-    for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
+    for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].parameter->name);
   }
   // With stride > 1 only every stride-th point enters (its residual is not needed).
   const auto fit = [&](Eigen::Index stride) {
@@ -957,11 +954,11 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     const auto ci = static_cast<Eigen::Index>(c);
     std::string name = names[c];
     double value = res.x[ci], u = res.u[ci];
-    if (name == "S_x" || name == "S_y") value += 1.0;
-    if (name == "servo_mismatch_ms") {
+    if (name == results::lai_S_x.name || name == results::lai_S_y.name) value += 1.0;
+    if (name == results::lai_servo_mismatch.name) {
       // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
-      out.lai3.push_back(
-          est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
+      out.lai3.push_back(est(results::name(results::lai_mismatch_phase_angle), value * 1e-3 * omega0 * 180 / pi,
+                             u * 1e-3 * omega0 * 180 / pi));
     }
     out.lai3.push_back(est(name, value, u));
   }
@@ -1011,16 +1008,17 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
         if (e.name == name) return &e;
       return nullptr;
     };
-    const Estimate* sa = find("scale_" + axis_letter(plane, 0) + "_ppm");
-    const Estimate* sb = find("scale_" + axis_letter(plane, 1) + "_ppm");
+    const Estimate* sa = find(results::name(results::scale, plane, 0));
+    const Estimate* sb = find(results::name(results::scale, plane, 1));
     if (sa && sb) {
       const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
       if (std::abs(common) > 50 && std::abs(common) > 3 * std::abs(mismatch)) {
         std::ostringstream o;
-        o << "both axes' scales read about " << std::lround(common) << " ppm: a radius change common to both (a position "
+        o << "both axes' scales read about " << std::lround(common)
+          << " ppm: a radius change common to both (a position "
           << "loop's lag tau shrinks a circle by r (omega tau)^2 / 2 at high feed, 346 ppm for 30 ms at 5000 mm/min on "
-          << "95 mm; a bar calibration error) rather than the axes' own scales; scale_mismatch_ppm ("
-          << std::lround(mismatch) << " ppm) is the axes' difference";
+          << "95 mm; a bar calibration error) rather than the axes' own scales; "
+          << results::name(results::scale_mismatch) << " (" << std::lround(mismatch) << " ppm) is the axes' difference";
         out.notes.push_back(o.str());
       }
     }
@@ -1061,13 +1059,14 @@ void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<
     g_max = std::max(g_max, s.circular_deviation_um);
     out.runs.push_back(s);
   }
-  out.diagnostics.push_back(est("circular_deviation_um", g_max, nan, false));
+  out.diagnostics.push_back(est(results::name(results::circular_deviation), g_max, nan, false));
   for (std::size_t i = 0; i < runs.size(); ++i) {
     bool done = false;
     for (std::size_t k = i + 1; k < runs.size() && !done; ++k) {
       if (runs[i].direction != runs[k].direction && std::abs(runs[i].radius_m - runs[k].radius_m) < 1e-6 &&
           std::abs(runs[i].height_m - runs[k].height_m) < 1e-6) {
-        out.diagnostics.push_back(est("circular_hysteresis_um", circular_hysteresis(runs[i], first[i], runs[k], first[k]), nan, false));
+        out.diagnostics.push_back(est(results::name(results::circular_hysteresis),
+                                      circular_hysteresis(runs[i], first[i], runs[k], first[k]), nan, false));
         done = true;
       }
     }
