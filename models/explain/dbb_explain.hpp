@@ -1,9 +1,8 @@
 #pragma once
 // EXPLAIN for DBB runs. Base: Lai's geometric guideway terms (models/dbb: centre offset, scale,
 // squareness, straightness and angular polynomials; shared by all runs, as the fixed socket is not
-// moved). Candidates: servo_mismatch, backlash, reversal_spike, lateral_play, cyclic_error,
-// thermal_drift, vibration, stick_slip, sensor_nonlinearity (docs/explain.md, docs/conventions.md for
-// the signs). Runs are placed on one machine-time axis when every run has the metadata key
+// moved). Candidates: every effect of the library with a DBB term (models/explain/effects/; docs/explain.md,
+// docs/conventions.md for the signs). Runs are placed on one machine-time axis when every run has the metadata key
 // `start_time_s` (machine time of its first sample); otherwise each run's drift has its own offset.
 //
 // The daemon's entry point is explain_dbb(): runs in, the report as JSON out (EXPLAIN message body).

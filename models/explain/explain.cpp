@@ -17,6 +17,7 @@
 #include "models/common/least_squares.hpp"
 #include "models/explain/locate.hpp"
 #include "models/explain/stats.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::explain {
 
@@ -877,7 +878,7 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
   for (double v : reading_um) mean += v;
   mean /= static_cast<double>(reading_um.size());
   Variant v;
-  v.block.names = {"sensor_quadratic_per_um", "sensor_cubic_per_um2"};
+  v.block.names = {results::name(results::sensor_quadratic), results::name(results::sensor_cubic)};
   v.block.columns.resize(static_cast<Eigen::Index>(reading_um.size()), 2);
   for (std::size_t i = 0; i < reading_um.size(); ++i) {
     const double d = reading_um[i] - mean;
@@ -906,15 +907,6 @@ sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, st
     }
     return std::vector<Variant>{sensor_nonlinearity_variant(reading)};
   };
-}
-
-void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um) {
-  for (auto& c : p.candidates)
-    if (c.effect == "sensor_nonlinearity") {
-      c.variants.clear();
-      c.generate = sensor_nonlinearity_generator(base, y_um, std::move(offset_um));
-      return;
-    }
 }
 
 std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,

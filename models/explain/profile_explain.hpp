@@ -8,10 +8,11 @@
 //                         straightness stays in the residual; a note says so).
 //   --model straightness: base = one offset per profile + a cubic polynomial in x shared by all
 //                         profiles (the carriage's straightness is the same in every cut).
-// Candidates: thermal_drift (a rate in machine time, shared), spindle_axial_runout (once and twice per
-// spindle revolution in time), tool_wear (in the length cut so far), feed_marks (period = feed per
-// revolution), cyclic_error (lead-screw periods in x), sensor_nonlinearity, and with a traverse
-// abbe_offset (Eq. 14's pitch x offset term: the measured pitch angle times an unknown x offset). The look-alike pair: a
+// Candidates: every effect of the library with a profile term (models/explain/effects/): thermal_drift (a
+// rate in machine time, shared), spindle_axial_runout (once and twice per spindle revolution in time),
+// tool_wear (in the length cut so far), feed_marks (period = feed per revolution), cyclic_error (lead-screw
+// periods in x), sensor_nonlinearity, and with a traverse abbe_offset (Eq. 14's pitch x offset term: the
+// measured pitch angle times an unknown x offset). The look-alike pair: a
 // drift at constant feed is a straight line in x, exactly squareness, unless two feeds are compared
 // (the slope of the drift scales with 1/feed, squareness does not).
 // Time of each point: start_time_s + |x - cut_start| / feed (metadata `start_time_s`, default 0, and

@@ -12,6 +12,7 @@
 
 #include "core/number_format.hpp"
 #include "models/explain/dbb_explain.hpp"
+#include "models/explain/effects/effect.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "results/parameters.hpp"
 #include "simulators/machine/dbb_runs.hpp"
@@ -378,8 +379,7 @@ const std::vector<DbbScenario>& dbb_scenarios() {
     }
     for (auto& s : v)
       for (const auto& e : s.expected)
-        if (e.effect == "reversal_spike" || e.effect == "stick_slip" || e.effect == "servo_lag" ||
-            e.effect == "sensor_nonlinearity")
+        if (const auto* effect = models::explain::effects::find(e.effect); effect && effect->needs_dense_sampling)
           s.full_density = true;
     return v;
   }();
