@@ -553,187 +553,199 @@ void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::ve
             [](const Contribution& a, const Contribution& b) { return a.contribution_um > b.contribution_um; });
 }
 
-// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
-// out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
-LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::string& plane, DiagWork& work,
-                   PrerollTable& preroll, double shaped_b_a, double shaped_b_b, const IdentifyOptions& options,
-                   Identification& out) {
-  DiagLayout L;
-  L.runs = runs.size();
-  // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
-  LsqResult base = fit_diag(L, pts, plane, work, 3);
-  if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
-  // Reversal spikes: choose the decay time that explains most of the residual.
-  {
-    // Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike
-    // after the commanded reversal (the axis' servo lag, 0..20 ms) that explain most of the residual.
-    // Sample spacing: delays shorter than it cannot be told apart (ties keep the shortest).
-    double dt = 1e9;
-    for (const auto& run : runs)
-      for (std::size_t i = 1; i < run.t_s.size(); ++i) dt = std::min(dt, std::max(run.t_s[i] - run.t_s[i - 1], 1e-4));
-    // With samples further apart than 2 ms a delay only trades off against the height: not searched.
-    const double delay_step = std::max(0.002, dt);
-    constexpr double tau_max = 0.1;
-    const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
-    const auto search = [&](bool axis_a, double& tau_out, double& delay_out, double& amp_out, bool& significant) {
-      // Only the points shortly after a reversal matter: (time since, column value, weighted residual).
-      struct Near {
-        double since, u, w, r;
-      };
-      std::vector<Near> near;
-      for (std::size_t i = 0; i < pts.size(); ++i) {
-        const Point& p = pts[i];
-        const double since = axis_a ? p.since_a_s : p.since_b_s;
-        if (since > 8 * tau_max + delay_max) continue;
-        const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b);
-        if (u == 0.0) continue;
-        near.push_back({since, u, p.w, base.residual[static_cast<Eigen::Index>(i)]});
-      }
-      const auto score = [&](double tau, double delay) {
-        double sur = 0, suu = 0;
-        for (const auto& q : near) {
-          const double t = q.since - delay;
-          if (t < 0 || t > 8 * tau) continue;
-          const double u = q.u * std::exp(-t / tau);
-          sur += q.w * u * q.r;
-          suu += q.w * u * u;
-        }
-        return suu > 0 ? sur * sur / suu : 0.0;
-      };
-      const auto amplitude = [&](double tau, double delay) {
-        double sur = 0, suu = 0;
-        for (const auto& q : near) {
-          const double t = q.since - delay;
-          if (t < 0 || t > 8 * tau) continue;
-          const double u = q.u * std::exp(-t / tau);
-          sur += q.w * u * q.r;
-          suu += q.w * u * u;
-        }
-        return suu > 0 ? sur / suu : 0.0;
-      };
-      double best = 0, best_tau = 0.02, best_delay = 0;
-      constexpr int grid = 12;
-      for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
-        for (int q = 0; q < grid; ++q) {
-          const double tau = 0.002 * std::pow(50.0, static_cast<double>(q) / (grid - 1));
-          const double e = score(tau, d);
-          if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
-            best = e;
-            best_tau = tau;
-            best_delay = d;
-          }
-        }
-      }
-      // Refine the delay (when the sampling resolves it) and the decay (golden section in log tau).
-      for (double d = std::max(0.0, best_delay - delay_step);
-           delay_step < 0.004 && d <= best_delay + delay_step + 1e-12; d += 0.25 * delay_step) {
-        const double e = score(best_tau, d);
-        if (e > best * (1 + 1e-9)) {
-          best = e;
-          best_delay = d;
-        }
-      }
-      const double ratio = std::pow(50.0, 1.0 / (grid - 1));
-      double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
-      const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
-      double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
-      double f1 = score(std::exp(x1), best_delay), f2 = score(std::exp(x2), best_delay);
-      for (int it = 0; it < 14; ++it) {
-        if (f1 > f2) {
-          hi = x2;
-          x2 = x1;
-          f2 = f1;
-          x1 = hi - gr * (hi - lo);
-          f1 = score(std::exp(x1), best_delay);
-        } else {
-          lo = x1;
-          x1 = x2;
-          f1 = f2;
-          x2 = lo + gr * (hi - lo);
-          f2 = score(std::exp(x2), best_delay);
-        }
-      }
-      const double xm = 0.5 * (lo + hi);
-      if (score(std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
-      tau_out = best_tau;
-      delay_out = best_delay;
-      amp_out = amplitude(best_tau, best_delay);
-      significant = score(best_tau, best_delay) > 30.0 * base.s2;
-    };
-    search(true, L.tau_a, L.delay_a, L.amp_a, L.decay_a);
-    search(false, L.tau_b, L.delay_b, L.amp_b, L.decay_b);
-    L.spikes = true;
+// A reversal spike of one axis as the search finds it: decay time and delay after the commanded reversal
+// (s), height (um) and whether it explains clearly more than noise.
+struct SpikeShape {
+  double tau = 0.02, delay = 0, amp = 0;
+  bool significant = false;
+};
+
+// The points shortly after an axis' reversal, where a spike lives: time since the reversal, the spike
+// column's value at decay 0, the weight and the preliminary fit's residual.
+struct SpikePoint {
+  double since, u, w, r;
+};
+
+// The least-squares sums of a spike of decay `tau` started `delay` after the reversal against the residual:
+// sum w u r and sum w u^2.
+std::pair<double, double> spike_sums(const std::vector<SpikePoint>& near, double tau, double delay) {
+  double sur = 0, suu = 0;
+  for (const auto& q : near) {
+    const double t = q.since - delay;
+    if (t < 0 || t > 8 * tau) continue;
+    const double u = q.u * std::exp(-t / tau);
+    sur += q.w * u * q.r;
+    suu += q.w * u * u;
   }
-  // Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4).
-  {
-    const double rmin = std::min_element(runs.begin(), runs.end(), [](const formats::DbbRun& a, const formats::DbbRun& b) {
-                          return a.radius_m < b.radius_m;
-                        })->radius_m;
-    const std::vector<double> leads = {1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40};
-    // Largest arc length between samples: a lead p is sampled at least 4 times per period when only
-    // every stride-th point is used, stride = p / (4 * step).
-    double step = 0;
-    for (std::size_t i = 1; i < pts.size(); ++i)
-      if (pts[i].run == pts[i - 1].run)
-        step = std::max(step, pts[i].radius_m * std::abs(pts[i].zeta_rad - pts[i - 1].zeta_rad));
-    const auto stride_for = [step](double p) {
-      return step > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(p / (4 * step))) : std::size_t{1};
-    };
-    const auto pick = [&](double given, bool axis_a) {
-      if (given > 0) return given;
-      double best = 0, best_p = 0;
-      for (double lead_mm : leads) {
-        const double p = lead_mm * 1e-3;
-        if (p > rmin / 4) break;
-        const double e = explained(
-            pts, base.residual,
-            [p, axis_a](const Point& q, double& u1, double& u2) {
-              const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
-              const double f = q.lambda * (axis_a ? q.c : q.s);
-              double sn, cs;
-              fast_sincos(th, sn, cs);  // only compared between leads: libm's last bit is not needed
-              u1 = f * sn;
-              u2 = f * cs;
-            },
-            stride_for(p));
-        if (e > best) {
-          best = e;
-          best_p = p;
-        }
-      }
-      // Keep the term only when it explains clearly more than noise (2 dof, about p < 1e-6).
-      return best > 30.0 * base.s2 ? best_p : 0.0;
-    };
-    L.period_a = pick(options.cyclic_period_a_m, true);
-    L.period_b = pick(options.cyclic_period_b_m, false);
-    L.cyclic_a = L.period_a > 0;
-    L.cyclic_b = L.period_b > 0;
-    set_cyclic_phases(L, pts);
+  return {sur, suu};
+}
+
+// What a spike explains of the residual (sur^2 / suu), 0 when it reaches no point.
+double spike_score(const std::vector<SpikePoint>& near, double tau, double delay) {
+  const auto [sur, suu] = spike_sums(near, tau, delay);
+  return suu > 0 ? sur * sur / suu : 0.0;
+}
+
+// Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike after the
+// commanded reversal (the axis' servo lag, 0..`delay_max`) that explain most of the residual.
+SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bool axis_a, double delay_step,
+                        double delay_max) {
+  constexpr double tau_max = 0.1;
+  std::vector<SpikePoint> near;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Point& p = pts[i];
+    const double since = axis_a ? p.since_a_s : p.since_b_s;
+    if (since > 8 * tau_max + delay_max) continue;
+    const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b);
+    if (u == 0.0) continue;
+    near.push_back({since, u, p.w, base.residual[static_cast<Eigen::Index>(i)]});
   }
-  // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
-  // take-up is late by as much.
-  if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
-    apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
-  LsqResult res = fit_diag(L, pts, plane, work);
-  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
-  {
-    // Backlash shape from this fit's own estimate (the Lai fit's may differ), then the final fit.
-    const std::size_t ga = L.global0() + DiagLayout::backlash_a;
-    const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
-    const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
-    // The points carry the deadband shape of the Lai fit's backlash; refit only when this fit's
-    // estimate differs noticeably.
-    const auto differs = [](double now, double shaped) {
-      return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
-    };
-    if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
-      for (auto& p : pts) set_step_backlash(p);
-      if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
-      res = fit_diag(L, pts, plane, work);
-      if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+  double best = 0, best_tau = 0.02, best_delay = 0;
+  constexpr int grid = 12;
+  for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
+    for (int q = 0; q < grid; ++q) {
+      const double tau = 0.002 * std::pow(50.0, static_cast<double>(q) / (grid - 1));
+      const double e = spike_score(near, tau, d);
+      if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
+        best = e;
+        best_tau = tau;
+        best_delay = d;
+      }
     }
   }
-  // Gauss-Newton iterations on the spike decay times (linear in everything else).
+  // Refine the delay (when the sampling resolves it) and the decay (golden section in log tau).
+  for (double d = std::max(0.0, best_delay - delay_step); delay_step < 0.004 && d <= best_delay + delay_step + 1e-12;
+       d += 0.25 * delay_step) {
+    const double e = spike_score(near, best_tau, d);
+    if (e > best * (1 + 1e-9)) {
+      best = e;
+      best_delay = d;
+    }
+  }
+  const double ratio = std::pow(50.0, 1.0 / (grid - 1));
+  double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
+  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+  double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
+  double f1 = spike_score(near, std::exp(x1), best_delay), f2 = spike_score(near, std::exp(x2), best_delay);
+  for (int it = 0; it < 14; ++it) {
+    if (f1 > f2) {
+      hi = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = hi - gr * (hi - lo);
+      f1 = spike_score(near, std::exp(x1), best_delay);
+    } else {
+      lo = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = lo + gr * (hi - lo);
+      f2 = spike_score(near, std::exp(x2), best_delay);
+    }
+  }
+  const double xm = 0.5 * (lo + hi);
+  if (spike_score(near, std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
+  const auto [sur, suu] = spike_sums(near, best_tau, best_delay);
+  return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, spike_score(near, best_tau, best_delay) > 30.0 * base.s2};
+}
+
+// Reversal spikes: the decay time and delay of each axis that explain most of the preliminary residual.
+void search_reversal_spikes(const std::vector<formats::DbbRun>& runs, const std::vector<Point>& pts,
+                            const LsqResult& base, DiagLayout& L) {
+  // Sample spacing: delays shorter than it cannot be told apart (ties keep the shortest).
+  double dt = 1e9;
+  for (const auto& run : runs)
+    for (std::size_t i = 1; i < run.t_s.size(); ++i) dt = std::min(dt, std::max(run.t_s[i] - run.t_s[i - 1], 1e-4));
+  // With samples further apart than 2 ms a delay only trades off against the height: not searched.
+  const double delay_step = std::max(0.002, dt);
+  const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
+  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max);
+  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max);
+  L.tau_a = a.tau;
+  L.delay_a = a.delay;
+  L.amp_a = a.amp;
+  L.decay_a = a.significant;
+  L.tau_b = b.tau;
+  L.delay_b = b.delay;
+  L.amp_b = b.amp;
+  L.decay_b = b.significant;
+  L.spikes = true;
+}
+
+// Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4), per axis, kept
+// only when it explains clearly more than noise (2 dof, about p < 1e-6).
+void choose_cyclic_periods(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const LsqResult& base,
+                           const IdentifyOptions& options, DiagLayout& L) {
+  const double rmin =
+      std::min_element(runs.begin(), runs.end(), [](const formats::DbbRun& a, const formats::DbbRun& b) {
+        return a.radius_m < b.radius_m;
+      })->radius_m;
+  const std::vector<double> leads = {1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40};
+  // Largest arc length between samples: a lead p is sampled at least 4 times per period when only every
+  // stride-th point is used, stride = p / (4 * step).
+  double step = 0;
+  for (std::size_t i = 1; i < pts.size(); ++i)
+    if (pts[i].run == pts[i - 1].run)
+      step = std::max(step, pts[i].radius_m * std::abs(pts[i].zeta_rad - pts[i - 1].zeta_rad));
+  const auto stride_for = [step](double p) {
+    return step > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(p / (4 * step))) : std::size_t{1};
+  };
+  const auto pick = [&](double given, bool axis_a) {
+    if (given > 0) return given;
+    double best = 0, best_p = 0;
+    for (double lead_mm : leads) {
+      const double p = lead_mm * 1e-3;
+      if (p > rmin / 4) break;
+      const double e = explained(
+          pts, base.residual,
+          [p, axis_a](const Point& q, double& u1, double& u2) {
+            const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
+            const double f = q.lambda * (axis_a ? q.c : q.s);
+            double sn, cs;
+            fast_sincos(th, sn, cs);  // only compared between leads: libm's last bit is not needed
+            u1 = f * sn;
+            u2 = f * cs;
+          },
+          stride_for(p));
+      if (e > best) {
+        best = e;
+        best_p = p;
+      }
+    }
+    return best > 30.0 * base.s2 ? best_p : 0.0;
+  };
+  L.period_a = pick(options.cyclic_period_a_m, true);
+  L.period_b = pick(options.cyclic_period_b_m, false);
+  L.cyclic_a = L.period_a > 0;
+  L.cyclic_b = L.period_b > 0;
+  set_cyclic_phases(L, pts);
+}
+
+// The diagnostics fit with the points' deadband shape of this fit's own backlash (the Lai fit's may
+// differ): refitted only when it differs noticeably from the one the points carry.
+LsqResult fit_with_own_backlash(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts,
+                                const std::string& plane, DiagWork& work, PrerollTable& preroll, double shaped_b_a,
+                                double shaped_b_b, const DiagLayout& L) {
+  LsqResult res = fit_diag(L, pts, plane, work);
+  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+  const std::size_t ga = L.global0() + DiagLayout::backlash_a;
+  const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
+  const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
+  const auto differs = [](double now, double shaped) {
+    return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
+  };
+  if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
+    for (auto& p : pts) set_step_backlash(p);
+    if (b_a > 0 || b_b > 0)
+      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
+    res = fit_diag(L, pts, plane, work);
+    if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+  }
+  return res;
+}
+
+// Gauss-Newton iterations on the spike decay times (linear in everything else).
+void refine_spike_decays(const std::vector<Point>& pts, const std::string& plane, DiagWork& work, DiagLayout& L,
+                         LsqResult& res) {
   for (int it = 0; it < 4 && (L.decay_a || L.decay_b); ++it) {
     bool moved = false;
     const auto step = [&](bool on, std::size_t k_decay, std::size_t k_amp, double& tau, double& amp) {
@@ -750,15 +762,39 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     res = fit_diag(L, pts, plane, work);
     if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
   }
-  out.diagnostics_fit = summary_of(res);
-  const auto names = diag_names(L, plane);
-  const auto get = [&](std::size_t idx) -> std::pair<double, double> {
-    return {res.x[static_cast<Eigen::Index>(idx)], res.u[static_cast<Eigen::Index>(idx)]};
-  };
+}
+
+// The cyclic error of one plane axis as amplitude, period and phase (from its sine and cosine columns,
+// the amplitude's u to first order); an amplitude 0 without u when none was fitted.
+void add_cyclic_error(const LsqResult& res, bool on, std::size_t k0, double period, const std::string& plane, int axis,
+                      std::vector<Estimate>& out) {
+  if (!on) {
+    out.push_back(est(results::name(results::cyclic_error, plane, axis), 0.0, nan, false));
+    return;
+  }
+  if (!res.identified[k0] || !res.identified[k0 + 1]) return;
+  const auto i0 = static_cast<Eigen::Index>(k0);
+  const double as = res.x[i0], ac = res.x[i0 + 1];
+  const double amp = std::hypot(as, ac);
+  double u = nan;
+  if (amp > 0) {
+    const double ga = as / amp, gc = ac / amp;
+    u = std::sqrt(std::max(0.0, ga * ga * res.covariance(i0, i0) + gc * gc * res.covariance(i0 + 1, i0 + 1) +
+                                    2 * ga * gc * res.covariance(i0, i0 + 1)));
+  }
+  out.push_back(est(results::name(results::cyclic_error, plane, axis), amp, u));
+  out.push_back(est(results::name(results::cyclic_period, plane, axis), period * 1e3, nan, false));
+  out.push_back(est(results::name(results::cyclic_phase, plane, axis), std::atan2(ac, as) * 180 / pi, nan, false));
+}
+
+// The diagnostics as reported: the fitted terms identified, the scale mismatch, the cyclic errors, the
+// spikes' decays and delays.
+void report_diagnostics(const DiagLayout& L, const LsqResult& res, const std::vector<std::string>& names,
+                        const std::string& plane, Identification& out) {
   const auto add = [&](std::size_t idx) {
     if (!res.identified[idx]) return;
-    const auto [v, u] = get(idx);
-    out.diagnostics.push_back(est(names[idx], v, u));
+    out.diagnostics.push_back(
+        est(names[idx], res.x[static_cast<Eigen::Index>(idx)], res.u[static_cast<Eigen::Index>(idx)]));
   };
   for (std::size_t k = 0; k < 2 * L.runs; ++k) add(k);
   const std::size_t g = L.global0();
@@ -776,28 +812,8 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     add(g + k);
   add(L.spike0());
   add(L.spike0() + 1);
-  const auto cyclic = [&](bool on, std::size_t k0, double period, int axis) {
-    if (!on) {
-      out.diagnostics.push_back(est(results::name(results::cyclic_error, plane, axis), 0.0, nan, false));
-      return;
-    }
-    if (!res.identified[k0] || !res.identified[k0 + 1]) return;
-    const auto i0 = static_cast<Eigen::Index>(k0);
-    const double as = res.x[i0], ac = res.x[i0 + 1];
-    const double amp = std::hypot(as, ac);
-    double u = nan;
-    if (amp > 0) {
-      const double ga = as / amp, gc = ac / amp;
-      u = std::sqrt(std::max(0.0, ga * ga * res.covariance(i0, i0) + gc * gc * res.covariance(i0 + 1, i0 + 1) +
-                                      2 * ga * gc * res.covariance(i0, i0 + 1)));
-    }
-    out.diagnostics.push_back(est(results::name(results::cyclic_error, plane, axis), amp, u));
-    out.diagnostics.push_back(est(results::name(results::cyclic_period, plane, axis), period * 1e3, nan, false));
-    out.diagnostics.push_back(
-        est(results::name(results::cyclic_phase, plane, axis), std::atan2(ac, as) * 180 / pi, nan, false));
-  };
-  cyclic(L.cyclic_a, L.cyc_a0(), L.period_a, 0);
-  cyclic(L.cyclic_b, L.cyc_b0(), L.period_b, 1);
+  add_cyclic_error(res, L.cyclic_a, L.cyc_a0(), L.period_a, plane, 0, out.diagnostics);
+  add_cyclic_error(res, L.cyclic_b, L.cyc_b0(), L.period_b, plane, 1, out.diagnostics);
   const auto decay = [&](bool fitted, std::size_t k, double tau, int axis) {
     const std::string name = results::name(results::reversal_spike_decay, plane, axis);
     if (fitted && res.identified[k]) {
@@ -811,7 +827,29 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
   decay(L.decay_b, L.decay_b0(), L.tau_b, 1);
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 0), L.delay_a * 1e3, nan, false));
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 1), L.delay_b * 1e3, nan, false));
+}
 
+// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
+// out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
+LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::string& plane,
+                   DiagWork& work, PrerollTable& preroll, double shaped_b_a, double shaped_b_b,
+                   const IdentifyOptions& options, Identification& out) {
+  DiagLayout L;
+  L.runs = runs.size();
+  // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
+  const LsqResult base = fit_diag(L, pts, plane, work, 3);
+  if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
+  search_reversal_spikes(runs, pts, base, L);
+  choose_cyclic_periods(runs, pts, base, options, L);
+  // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
+  // take-up is late by as much.
+  if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
+    apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
+  LsqResult res = fit_with_own_backlash(runs, pts, plane, work, preroll, shaped_b_a, shaped_b_b, L);
+  refine_spike_decays(pts, plane, work, L, res);
+  out.diagnostics_fit = summary_of(res);
+  const auto names = diag_names(L, plane);
+  report_diagnostics(L, res, names, plane, out);
   rank_contributions(L, res, pts, runs, names, plane, out);
   out.ranking_model = "diagnostics";
   return res;
