@@ -48,7 +48,8 @@ double circular_deviation_um(const models::dbb::Identification& id) {
 std::vector<std::string> latest_session_runs(const std::string& socket, std::string& session) {
   DaemonClient c = connect_daemon(socket);
   const nlohmann::json r =
-      c.request({{"class", "params"}, {"kind", results::dbb_kind.name}}, results::MessageClass::params);
+      c.request(results::request(results::RequestClass::params, {{"kind", results::dbb_kind.name}}),
+                results::MessageClass::params);
   throw_if_error(r);
   session = r.value("session", std::string("latest session"));
   std::vector<std::string> out;

@@ -122,7 +122,8 @@ nlohmann::json ask(DaemonClient& c, const nlohmann::json& request, results::Mess
 
 void run_version(const JsonOption& o, CliContext& ctx) {
   DaemonClient c = connect(ctx);
-  const nlohmann::json v = ask(c, {{"class", "version"}}, results::MessageClass::version, o.json);
+  const nlohmann::json v =
+      ask(c, results::request(results::RequestClass::version), results::MessageClass::version, o.json);
   if (o.json) {
     std::cout << v.dump() << "\n";
   } else {
@@ -133,7 +134,8 @@ void run_version(const JsonOption& o, CliContext& ctx) {
 
 void run_status(const JsonOption& o, CliContext& ctx) {
   DaemonClient c = connect(ctx);
-  const nlohmann::json s = ask(c, {{"class", "status"}}, results::MessageClass::status, o.json);
+  const nlohmann::json s =
+      ask(c, results::request(results::RequestClass::status), results::MessageClass::status, o.json);
   if (o.json) {
     std::cout << s.dump() << "\n";
   } else {
@@ -188,7 +190,8 @@ void wait_for_params(DaemonClient& c, const std::string& session, const StartOpt
 void run_start(const StartOptions& o, CliContext& ctx) {
   // Checked before the session starts: a session must not be left running by a bad option.
   if (!(o.timeout_s > 0)) throw std::runtime_error("--timeout must be a positive number of seconds");
-  nlohmann::json req = {{"class", "start"}, {"kind", o.kind}, {"options", nlohmann::json::object()}};
+  nlohmann::json req =
+      results::request(results::RequestClass::start, {{"kind", o.kind}, {"options", nlohmann::json::object()}});
   if (!o.device.empty()) req["device"] = o.device;
   for (const auto& kv : o.settings) {
     auto [k, v] = parse_setting(kv);
@@ -198,7 +201,7 @@ void run_start(const StartOptions& o, CliContext& ctx) {
   if (o.wait) {
     const nlohmann::json classes = {results::to_string(results::MessageClass::params),
                                     results::to_string(results::MessageClass::event)};
-    c.request({{"class", "watch"}, {"classes", classes}}, results::MessageClass::watch);
+    c.request(results::request(results::RequestClass::watch, {{"classes", classes}}), results::MessageClass::watch);
   }
   const nlohmann::json r = ask(c, req, results::MessageClass::session, o.json);
   const std::string session = r.value("session", "");
@@ -220,7 +223,7 @@ struct StopOptions : JsonOption {
 
 void run_stop(const StopOptions& o, CliContext& ctx) {
   DaemonClient c = connect(ctx);
-  nlohmann::json req = {{"class", "stop"}};
+  nlohmann::json req = results::request(results::RequestClass::stop);
   if (!o.session.empty()) req["session"] = o.session;
   const nlohmann::json r = ask(c, req, results::MessageClass::session, o.json);
   if (o.json) {
@@ -240,7 +243,7 @@ struct ParamsOptions : JsonOption {
 
 void run_params(const ParamsOptions& o, CliContext& ctx) {
   DaemonClient c = connect(ctx);
-  nlohmann::json req = {{"class", "params"}};
+  nlohmann::json req = results::request(results::RequestClass::params);
   if (!o.kind.empty()) req["kind"] = o.kind;
   const nlohmann::json r = ask(c, req, results::MessageClass::params, o.json);
   if (o.json) {
@@ -252,7 +255,8 @@ void run_params(const ParamsOptions& o, CliContext& ctx) {
 
 void run_recordings(const JsonOption& o, CliContext& ctx) {
   DaemonClient c = connect(ctx);
-  const nlohmann::json r = ask(c, {{"class", "recordings"}}, results::MessageClass::recordings, o.json);
+  const nlohmann::json r =
+      ask(c, results::request(results::RequestClass::recordings), results::MessageClass::recordings, o.json);
   if (o.json) {
     std::cout << r.dump() << "\n";
     return;
@@ -285,7 +289,7 @@ struct WatchOptions : JsonOption {
 // The unit of each device's channels, for the readable lines: SAMPLE values carry no unit, STATUS names them.
 ChannelUnits channel_units(DaemonClient& c) {
   ChannelUnits units;
-  const nlohmann::json s = c.request({{"class", "status"}}, results::MessageClass::status);
+  const nlohmann::json s = c.request(results::request(results::RequestClass::status), results::MessageClass::status);
   const nlohmann::json devices = s.value("devices", nlohmann::json::array());
   for (const auto& d : devices) {
     const nlohmann::json device_channels = d.value("channels", nlohmann::json::array());
@@ -298,7 +302,7 @@ ChannelUnits channel_units(DaemonClient& c) {
 void run_watch(const WatchOptions& o, CliContext& ctx) {
   DaemonClient c = connect(ctx);
   const ChannelUnits units = o.json ? ChannelUnits{} : channel_units(c);
-  nlohmann::json req = {{"class", "watch"}, {"enable", true}};
+  nlohmann::json req = results::request(results::RequestClass::watch, {{"enable", true}});
   if (!o.classes.empty()) req["classes"] = o.classes;
   if (!o.channels.empty()) req["channels"] = o.channels;
   ask(c, req, results::MessageClass::watch, o.json);

@@ -289,7 +289,7 @@ std::vector<simulators::scenarios::TruthRun> session_truth_runs(const nlohmann::
 // --latest: the daemon's EXPLAIN, with --machine beside what the machine file holds.
 void explain_latest(const Opts& o, CliContext& ctx) {
   DaemonClient c = connect_daemon(ctx.socket);
-  nlohmann::json req = {{"class", "explain"}};
+  nlohmann::json req = results::request(results::RequestClass::explain);
   if (!o.kind.empty()) req["kind"] = o.kind;
   nlohmann::json r = c.request(req, results::MessageClass::explain);
   throw_if_error_reply(r, o.json);
@@ -298,7 +298,8 @@ void explain_latest(const Opts& o, CliContext& ctx) {
     if (r.value("kind", "") != results::dbb_kind.name)
       throw std::runtime_error("explain: --machine compares DBB sessions only");
     const nlohmann::json params =
-        c.request({{"class", "params"}, {"kind", results::dbb_kind.name}}, results::MessageClass::params);
+        c.request(results::request(results::RequestClass::params, {{"kind", results::dbb_kind.name}}),
+                  results::MessageClass::params);
     throw_if_error_reply(params, o.json);
     comparison =
         against_machine(r,

@@ -10,6 +10,7 @@
 
 #include "cli/commands.hpp"
 #include "drivers/serial/serial_port.hpp"
+#include "results/message_class.hpp"
 
 namespace guideway::cli {
 
@@ -43,7 +44,7 @@ struct PortsArgs {
 
 // A port as one JSON line: its name and transport, the USB facts it has, its stable name.
 nlohmann::json port_json(const drivers::serial::SerialPortInfo& p, const std::string& by_id) {
-  nlohmann::json j = {{"class", "PORT"}, {"name", p.name}, {"transport", p.transport}};
+  nlohmann::json j = results::with_class(results::MessageClass::port, {{"name", p.name}, {"transport", p.transport}});
   if (!p.description.empty()) j["description"] = p.description;
   if (!by_id.empty()) j["by_id"] = by_id;
   if (p.usb_vid >= 0) j["usb_vid"] = hex4(p.usb_vid);

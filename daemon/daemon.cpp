@@ -393,17 +393,18 @@ void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<
 }
 
 void Daemon::handle_request(ClientId client, const std::string& line) {
-  // Every request class, in the order docs/protocol.md lists them; an unknown class gets this list.
+  // The handler of every request class (results::RequestClass); an unknown class gets the list.
+  using results::RequestClass;
   struct RequestEntry {
-    const char* cls;
+    RequestClass cls;
     nlohmann::json (Daemon::*handle)(ClientId, const Request&);
   };
   static constexpr RequestEntry request_table[] = {
-      {"version", &Daemon::handle_version}, {"status", &Daemon::handle_status},
-      {"poll", &Daemon::handle_status},     {"watch", &Daemon::handle_watch},
-      {"start", &Daemon::handle_start},     {"stop", &Daemon::handle_stop},
-      {"params", &Daemon::handle_params},   {"explain", &Daemon::handle_explain},
-      {"report", &Daemon::handle_report},   {"recordings", &Daemon::handle_recordings},
+      {RequestClass::version, &Daemon::handle_version}, {RequestClass::status, &Daemon::handle_status},
+      {RequestClass::poll, &Daemon::handle_status},     {RequestClass::watch, &Daemon::handle_watch},
+      {RequestClass::start, &Daemon::handle_start},     {RequestClass::stop, &Daemon::handle_stop},
+      {RequestClass::params, &Daemon::handle_params},   {RequestClass::explain, &Daemon::handle_explain},
+      {RequestClass::report, &Daemon::handle_report},   {RequestClass::recordings, &Daemon::handle_recordings},
   };
   RequestError error;
   std::optional<Request> req = parse_request(line, error);
@@ -411,12 +412,13 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
     reply(client, error_message(error.message), error.id);
     return;
   }
+  const std::optional<RequestClass> cls = results::request_named(req->cls);
   const auto* entry = std::find_if(std::begin(request_table), std::end(request_table),
-                                   [&](const RequestEntry& e) { return req->cls == e.cls; });
+                                   [&](const RequestEntry& e) { return cls == e.cls; });
   if (entry == std::end(request_table)) {
-    std::string known;
-    for (const RequestEntry& e : request_table) known += (known.empty() ? "" : ", ") + std::string(e.cls);
-    reply(client, error_message("unknown request class \"" + req->cls + "\" (known: " + known + ")", req->cls),
+    reply(client,
+          error_message("unknown request class \"" + req->cls + "\" (known: " + results::request_class_names() + ")",
+                        req->cls),
           req->id);
     return;
   }

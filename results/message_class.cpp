@@ -18,8 +18,27 @@ constexpr std::array class_names = {
     ClassName{MessageClass::report, "REPORT", false},   ClassName{MessageClass::recordings, "RECORDINGS", false},
     ClassName{MessageClass::status, "STATUS", true},    ClassName{MessageClass::sample, "SAMPLE", true},
     ClassName{MessageClass::params, "PARAMS", true},    ClassName{MessageClass::explain, "EXPLAIN", true},
-    ClassName{MessageClass::event, "EVENT", true},
+    ClassName{MessageClass::event, "EVENT", true},      ClassName{MessageClass::port, "PORT", false},
 };
+
+struct RequestName {
+  RequestClass cls;
+  std::string_view name;
+};
+
+constexpr std::array request_names = {
+    RequestName{RequestClass::version, "version"}, RequestName{RequestClass::status, "status"},
+    RequestName{RequestClass::poll, "poll"},       RequestName{RequestClass::watch, "watch"},
+    RequestName{RequestClass::start, "start"},     RequestName{RequestClass::stop, "stop"},
+    RequestName{RequestClass::params, "params"},   RequestName{RequestClass::explain, "explain"},
+    RequestName{RequestClass::report, "report"},   RequestName{RequestClass::recordings, "recordings"},
+};
+static_assert([] {
+  for (std::size_t i = 0; i < request_names.size(); ++i) {
+    if (static_cast<std::size_t>(request_names[i].cls) != i) return false;
+  }
+  return true;
+}());
 
 // Indexed by the enum: the table lists the classes in its order.
 static_assert([] {
@@ -58,6 +77,26 @@ std::string published_class_names() {
 }
 
 nlohmann::json with_class(MessageClass cls, nlohmann::json body) {
+  body["class"] = to_string(cls);
+  return body;
+}
+
+std::string_view to_string(RequestClass cls) noexcept { return request_names[static_cast<std::size_t>(cls)].name; }
+
+std::optional<RequestClass> request_named(std::string_view name) noexcept {
+  for (const RequestName& r : request_names) {
+    if (r.name == name) return r.cls;
+  }
+  return std::nullopt;
+}
+
+std::string request_class_names() {
+  std::string out;
+  for (const RequestName& r : request_names) out += (out.empty() ? "" : ", ") + std::string(r.name);
+  return out;
+}
+
+nlohmann::json request(RequestClass cls, nlohmann::json body) {
   body["class"] = to_string(cls);
   return body;
 }

@@ -46,7 +46,9 @@ TEST(Results, EachGroupNamesAParameterOnce) {
     EXPECT_TRUE(seen.insert({std::string(p->group), std::string(p->name)}).second || p->group.empty());
     EXPECT_FALSE(p->label.empty());
     EXPECT_FALSE(p->meaning.empty());
-    if (!p->value_at.empty()) EXPECT_FALSE(p->u_at.empty());
+    if (!p->value_at.empty()) {
+      EXPECT_FALSE(p->u_at.empty());
+    }
   }
 }
 
@@ -117,7 +119,14 @@ TEST(Results, HeaderIsWrittenWithoutEmptyFieldsAndReadBack) {
 
 TEST(Results, MessageClassesByName) {
   EXPECT_EQ(results::class_named("VERSION"), results::MessageClass::version);
-  EXPECT_FALSE(results::class_named("PORT"));
+  EXPECT_EQ(results::class_named("PORT"), results::MessageClass::port);
+  EXPECT_FALSE(results::published_class("PORT"));
+  EXPECT_EQ(results::request(results::RequestClass::params, {{"kind", "dbb"}}).dump(),
+            R"({"class":"params","kind":"dbb"})");
+  EXPECT_EQ(results::request_named("recordings"), results::RequestClass::recordings);
+  EXPECT_FALSE(results::request_named("STATUS")) << "requests are lower case";
+  EXPECT_EQ(results::request_class_names(),
+            "version, status, poll, watch, start, stop, params, explain, report, recordings");
   EXPECT_TRUE(results::has_class(results::with_class(results::MessageClass::params, nlohmann::json::object()),
                                  results::MessageClass::params));
   EXPECT_FALSE(results::has_class(nlohmann::json::array(), results::MessageClass::params));
