@@ -329,14 +329,11 @@ models::explain::Report explain_difference(const Opts& o, const models::explain:
     throw std::runtime_error("explain: " + o.simulated + " (" + fs + ") and " + o.measured + " (" + fm +
                              ") are not of one format");
   if (fs == formats::dbb_run_format_id)
-    return models::explain::explain(
-        models::explain::dbb_compare_problem(formats::read_dbb_run(o.simulated), formats::read_dbb_run(o.measured)),
-        eo);
+    return models::explain::explain_dbb_difference(formats::read_dbb_run(o.simulated),
+                                                   formats::read_dbb_run(o.measured), eo);
   if (fs == "guideway/profile/1")
-    return models::explain::explain(
-        models::explain::profile_compare_problem(models::explain::read_profile_run(o.simulated),
-                                                 models::explain::read_profile_run(o.measured)),
-        eo);
+    return models::explain::explain_profile_difference(models::explain::read_profile_run(o.simulated),
+                                                       models::explain::read_profile_run(o.measured), eo);
   throw std::runtime_error("explain: " + o.simulated + ": format '" + fs +
                            "' is neither guideway/dbb-run/1 nor guideway/profile/1");
 }
@@ -375,7 +372,7 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
   for (const auto& f : o.files) runs.push_back(models::explain::read_profile_run(f));
   std::optional<models::flatness::AngleTraverse> traverse;
   if (!o.straightness.empty()) traverse = models::flatness::read_angle_traverse(o.straightness);
-  return models::explain::explain(models::explain::profile_problem(runs, o.model, traverse ? &*traverse : nullptr), eo);
+  return models::explain::explain_profiles(runs, o.model, traverse ? &*traverse : nullptr, eo);
 }
 
 void run_explain(const Opts& o, CliContext& ctx) {

@@ -255,8 +255,7 @@ class ProfileSession : public Session {
     try {
       const models::explain::ProfileRun run =
           models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return models::explain::to_json(
-          models::explain::explain(models::explain::profile_problem({run}, "straightness")));
+      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness"));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

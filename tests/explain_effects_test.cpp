@@ -12,6 +12,7 @@
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/effects/effect.hpp"
+#include "models/explain/explain.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "profile_test_support.hpp"
 #include "results/parameters.hpp"

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "models/explain/explain.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "profile_test_support.hpp"
 #include "simulators/machine/machine.hpp"

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 #include <Eigen/QR>
 
+#include "models/common/least_squares.hpp"
 #include "models/dbb/fast_sincos.hpp"
 #include "models/dbb/geometry.hpp"
 #include "results/parameters.hpp"

@@ -7,6 +7,8 @@
 #include <span>
 #include <stdexcept>
 
+#include <nlohmann/json.hpp>
+
 #include "core/number_format.hpp"
 #include "models/common/least_squares.hpp"
 #include "models/dbb/geometry.hpp"
@@ -123,7 +125,7 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::ve
   const effects::DbbTerms terms{
       g,    runs, machine_time, reading_um, effects::drive_tracks(g, effects::drive_delays_s(runs)), runs.front().plane,
       base, y_um};
-  p.candidates = effects::candidates(terms, &effects::Effect::dbb);
+  p.candidates = effects::dbb_candidates(terms);
   if (!machine_time && runs.size() > 1) {
     p.notes.push_back("runs have no start_time_s metadata: a drift is fitted with its own offset per run, a vibration with its own phase");
     p.terms_per_run = true;
@@ -195,6 +197,11 @@ Problem dbb_compare_problem(const formats::DbbRun& simulated, const formats::Dbb
 
 Report explain_dbb_report(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options) {
   return explain(dbb_problem(runs), options);
+}
+
+Report explain_dbb_difference(const formats::DbbRun& simulated, const formats::DbbRun& measured,
+                              const ExplainOptions& options) {
+  return explain(dbb_compare_problem(simulated, measured), options);
 }
 
 nlohmann::json explain_dbb(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options) {

@@ -11,12 +11,14 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include "formats/dbb_run.hpp"
-#include "models/explain/explain.hpp"
+#include "models/explain/explain_result.hpp"
 
 namespace guideway::models::explain {
+
+struct Problem;  // explain.hpp (the engine, with Eigen): only for who builds or inspects problems
 
 // Base + candidates for `guideway explain --model dbb`.
 Problem dbb_problem(const std::vector<formats::DbbRun>& runs);
@@ -27,5 +29,7 @@ nlohmann::json explain_dbb(const std::vector<formats::DbbRun>& runs, const Expla
 // A given simulation against a recording (same sample grid: equal length, equal angles within 1e-6
 // deg): the difference measured - simulated is explained with the same candidates and no base refit.
 Problem dbb_compare_problem(const formats::DbbRun& simulated, const formats::DbbRun& measured);
+Report explain_dbb_difference(const formats::DbbRun& simulated, const formats::DbbRun& measured,
+                              const ExplainOptions& options = {});
 
 }  // namespace guideway::models::explain

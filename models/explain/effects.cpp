@@ -3,7 +3,9 @@
 
 #include <stdexcept>
 
+#include "models/explain/effects/dbb_terms.hpp"
 #include "models/explain/effects/effect.hpp"
+#include "models/explain/effects/profile_terms.hpp"
 
 namespace guideway::models::explain {
 
@@ -42,6 +44,26 @@ const Effect* find(std::string_view name) {
     if (e->info.name == name) return e;
   return nullptr;
 }
+
+namespace {
+
+template <class Terms>
+std::vector<Candidate> candidates(const Terms& terms, Term<Terms> Effect::*term) {
+  std::vector<Candidate> out;
+  for (const Effect* e : library()) {
+    const Term<Terms>& t = e->*term;
+    if (t.build == nullptr) continue;
+    Candidate c{e->info.name, t.why, {}, {}, 0};
+    if (t.build(terms, c)) out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Candidate> dbb_candidates(const DbbTerms& terms) { return candidates(terms, &Effect::dbb); }
+
+std::vector<Candidate> profile_candidates(const ProfileTerms& terms) { return candidates(terms, &Effect::profile); }
 
 }  // namespace effects
 

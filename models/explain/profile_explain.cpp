@@ -78,7 +78,7 @@ Problem assemble(const std::vector<ProfileRun>& runs, const std::vector<Pt>& g, 
   p.runs = infos(runs);
   for (const auto& q : g) p.samples.push_back({q.run, q.y_um, q.x_mm, q.t_s});
   const effects::ProfileTerms terms{g, runs, reading, measured_pitch, base, y_um, offset_um};
-  p.candidates = effects::candidates(terms, &effects::Effect::profile);
+  p.candidates = effects::profile_candidates(terms);
   bool two_feeds = false;
   for (const auto& r : runs) two_feeds |= r.feed_mm_per_min != runs.front().feed_mm_per_min;
   if (!two_feeds)
@@ -208,6 +208,16 @@ Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& m
   Problem p = assemble(runs, g, "profile (simulated vs measured)", reading);
   p.notes.push_back("no base refit: the residual is " + measured.source + " - " + simulated.source);
   return p;
+}
+
+Report explain_profiles(const std::vector<ProfileRun>& runs, const std::string& model,
+                        const flatness::AngleTraverse* straightness, const ExplainOptions& options) {
+  return explain(profile_problem(runs, model, straightness), options);
+}
+
+Report explain_profile_difference(const ProfileRun& simulated, const ProfileRun& measured,
+                                  const ExplainOptions& options) {
+  return explain(profile_compare_problem(simulated, measured), options);
 }
 
 }  // namespace guideway::models::explain

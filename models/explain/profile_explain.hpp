@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "models/explain/explain.hpp"
+#include "models/explain/explain_result.hpp"
 #include "models/flatness/straightness.hpp"
 
 namespace guideway::formats {
@@ -29,6 +29,8 @@ struct Profile;
 }
 
 namespace guideway::models::explain {
+
+struct Problem;  // explain.hpp (the engine, with Eigen): only for who builds or inspects problems
 
 struct ProfileRun {
   std::string source;
@@ -49,7 +51,11 @@ ProfileRun profile_run(const formats::Profile& profile, const std::string& sourc
 // (flatness::read_angle_traverse), flatness only; its x must cover every profile (throws naming both).
 Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model,
                         const flatness::AngleTraverse* straightness = nullptr);
+Report explain_profiles(const std::vector<ProfileRun>& runs, const std::string& model,
+                        const flatness::AngleTraverse* straightness = nullptr, const ExplainOptions& options = {});
 // A given prediction against a profile (equal x within 1e-9 m), no base refit.
 Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& measured);
+Report explain_profile_difference(const ProfileRun& simulated, const ProfileRun& measured,
+                                  const ExplainOptions& options = {});
 
 }  // namespace guideway::models::explain

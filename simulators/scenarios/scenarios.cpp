@@ -13,6 +13,7 @@
 #include "core/number_format.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects/effect.hpp"
+#include "models/explain/explain.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "results/parameters.hpp"
 #include "simulators/machine/dbb_runs.hpp"

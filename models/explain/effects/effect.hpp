@@ -9,7 +9,10 @@
 #include <vector>
 
 #include "models/explain/effects.hpp"
-#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain {
+struct Candidate;  // explain.hpp: an effect file with no term does not need the engine (nor Eigen)
+}  // namespace guideway::models::explain
 
 namespace guideway::models::explain::effects {
 
@@ -38,18 +41,9 @@ const std::vector<const Effect*>& library();
 // The effect named `name`; nullptr for an unknown one.
 const Effect* find(std::string_view name);
 
-// The candidates of one base model: each effect's term that `build` offers, named and explained from the
-// library, in the library's order.
-template <class Terms>
-std::vector<Candidate> candidates(const Terms& terms, Term<Terms> Effect::*term) {
-  std::vector<Candidate> out;
-  for (const Effect* e : library()) {
-    const Term<Terms>& t = e->*term;
-    if (t.build == nullptr) continue;
-    Candidate c{e->info.name, t.why, {}, {}, 0};
-    if (t.build(terms, c)) out.push_back(std::move(c));
-  }
-  return out;
-}
+// The candidates of each base model: every effect's term it offers for these runs, named and explained
+// from the library, in the library's order (effects.cpp).
+std::vector<Candidate> dbb_candidates(const DbbTerms& terms);
+std::vector<Candidate> profile_candidates(const ProfileTerms& terms);
 
 }  // namespace guideway::models::explain::effects
