@@ -2,8 +2,9 @@
 // The catalogue of the parameters results report: each one's name, the unit it carries at the end of
 // that name, where a result holds it, how it is shown to people, and whether it is one of its session
 // kind's headline figures. Identification (models/dbb), EXPLAIN's effects, compensation, the fleet's
-// headlines, the CLI and the report name a parameter through its entry here, so a name is spelled once
-// (docs/conventions.md "Names and units"). Pure; thread safe.
+// headlines and the report name a parameter through its entry here, so a name is spelled once (the DBB
+// ones' signs and meaning: docs/conventions.md; where a new one goes: docs/architecture.md). Pure; thread
+// safe.
 //
 // A name may hold placeholders, filled by name():
 //   {axis}  a plane axis the caller picks (0: the plane's first axis, 1: its second; or a given name,

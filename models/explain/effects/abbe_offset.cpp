@@ -10,7 +10,7 @@ namespace {
 // Mu Eq. 14's -(sum k b_k x^(k-1)) p_x: the carriage's pitch acting through the x offset between the point
 // whose path the traverse measured and the tool. Linear in the offset; only the curvature of the pitch
 // separates it from squareness (a pitch linear in x makes it a line in x). Only with a measured pitch.
-bool profile_term(const ProfileTerms& t, Candidate& c) {
+bool abbe_offset_profile_term(const ProfileTerms& t, Candidate& c) {
   if (!t.measured_pitch) return false;
   c.variants.push_back(make_variant(t.g, {results::name(results::abbe_offset)}, [](const Pt& p, double* o) {
     o[0] = p.pitch_rad * 1e3;  // 1 rad over 1 mm = 1e3 um
@@ -35,6 +35,6 @@ extern const Effect abbe_offset{
     {},
     {"the X carriage pitches as it travels, and the tool sits at an offset along x from the point whose straightness "
      "the autocollimator measured, so the measured pitch times that offset adds to the height",
-     &profile_term}};
+     &abbe_offset_profile_term}};
 
 }  // namespace guideway::models::explain::effects

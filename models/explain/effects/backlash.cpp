@@ -61,7 +61,7 @@ std::vector<Variant> backlash_variants(const std::vector<Geo>& gg, const std::ve
 // Ideal step first (actual a = commanded a - (b/2) sign(da/dt)); then, from the current residual, the
 // deadband response at the width the step suggests (the step alone biases it and leaves an inward spike
 // at every reversal that another candidate would otherwise claim), for each drive delay of the grid.
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool backlash_dbb_term(const DbbTerms& t, Candidate& c) {
   const std::vector<std::string> names{results::name(results::backlash, t.plane, 0),
                                        results::name(results::backlash, t.plane, 1)};
   const auto geo = std::make_shared<const std::vector<Geo>>(t.g);
@@ -82,7 +82,8 @@ extern const Effect backlash{
      "a step of the play at each reversal of the axis, opposite on the two sides of the circle",
      {},
      {"dbb"}},
-    {"lost motion in the drives: at each reversal an axis stays behind the command by half its play", &dbb_term},
+    {"lost motion in the drives: at each reversal an axis stays behind the command by half its play",
+     &backlash_dbb_term},
     {}};
 
 }  // namespace guideway::models::explain::effects

@@ -16,7 +16,6 @@ namespace guideway::models::explain::effects {
 
 namespace {
 
-constexpr double pi = std::numbers::pi;
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 
 // The leads searched on a DBB circle (mm).
@@ -80,7 +79,7 @@ std::vector<Variant> best_periods_at_every_delay(const std::vector<Geo>& gg, con
   return vs;
 }
 
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool cyclic_error_dbb_term(const DbbTerms& t, Candidate& c) {
   std::vector<Variant> undelayed;  // the command's positions (the drives' when read from the encoders)
   for (int axis = 0; axis < 2; ++axis)
     for (double p_mm : dbb_periods_mm)
@@ -98,7 +97,7 @@ bool dbb_term(const DbbTerms& t, Candidate& c) {
   return true;
 }
 
-bool profile_term(const ProfileTerms& t, Candidate& c) {
+bool cyclic_error_profile_term(const ProfileTerms& t, Candidate& c) {
   for (double p_mm : {1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0}) {
     Variant v =
         make_variant(t.g, {results::name(results::profile_cyclic_sin), results::name(results::profile_cyclic_cos)},
@@ -127,7 +126,7 @@ extern const Effect cyclic_error{
      {},
      {"dbb", "flatness", "straightness"}},
     {"a lead-screw (or scale) pitch error repeats every lead along the axis, at the same position in every run",
-     &dbb_term},
-    {"a lead-screw pitch error of the X drive repeats every lead along x", &profile_term}};
+     &cyclic_error_dbb_term},
+    {"a lead-screw pitch error of the X drive repeats every lead along x", &cyclic_error_profile_term}};
 
 }  // namespace guideway::models::explain::effects

@@ -5,6 +5,7 @@
 // (with its parameters' names from results/parameters.hpp). The library is the table of these files
 // (models/explain/effects.cpp); dbb_explain and profile_explain loop over it. Thread safe.
 
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,8 @@ struct Candidate;  // explain.hpp: an effect file with no term does not need the
 }  // namespace guideway::models::explain
 
 namespace guideway::models::explain::effects {
+
+inline constexpr double pi = std::numbers::pi;
 
 struct DbbTerms;      // what a DBB term is built from (dbb_terms.hpp)
 struct ProfileTerms;  // what a profile term is built from (profile_terms.hpp)

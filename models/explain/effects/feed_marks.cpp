@@ -12,8 +12,6 @@ namespace guideway::models::explain::effects {
 
 namespace {
 
-constexpr double pi = std::numbers::pi;
-
 // The passes' position of each cut, from the residual's fundamental at the feed per revolution: the
 // scallop's fundamental is -cos(2 pi (x - pass) / f), lowest at a pass, so a pass sits at the
 // fundamental's phase + pi. Held-out rows have residual 0: the phase is that of the rows in use.
@@ -61,7 +59,7 @@ Variant scallops(const std::vector<Pt>& gg, const std::vector<double>& phase, do
 // sinusoid would leave the second harmonic (1/4 of the first) to be claimed by a twice-per-rev
 // spindle_axial_runout, which at constant feed falls at exactly that period. The passes' position is each
 // cut's own: taken per run from the residual's fundamental; the nose curvature 1/R is common.
-bool profile_term(const ProfileTerms& t, Candidate& c) {
+bool feed_marks_profile_term(const ProfileTerms& t, Candidate& c) {
   const auto pts = std::make_shared<const std::vector<Pt>>(t.g);
   const std::size_t n_runs = t.runs.size();
   const double f1_mm = t.runs.empty() || !(t.runs.front().spindle_rpm > 0)
@@ -85,6 +83,6 @@ extern const Effect feed_marks{
      {"flatness", "straightness"}},
     {},
     {"the round tool nose leaves a scallop of height d^2/(2R) between passes one feed per revolution apart",
-     &profile_term}};
+     &feed_marks_profile_term}};
 
 }  // namespace guideway::models::explain::effects

@@ -7,7 +7,7 @@ namespace guideway::models::explain::effects {
 
 namespace {
 
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool lateral_play_dbb_term(const DbbTerms& t, Candidate& c) {
   c.variants.push_back(make_variant(
       t.g, {results::name(results::lateral_play, t.plane, 0), results::name(results::lateral_play, t.plane, 1)},
       [](const Geo& p, double* o) {
@@ -26,7 +26,7 @@ extern const Effect lateral_play{
      "a step along the other axis at each reversal of the carriage's axis",
      {},
      {"dbb"}},
-    {"the carriages shift sideways in their guideways when their direction of travel changes", &dbb_term},
+    {"the carriages shift sideways in their guideways when their direction of travel changes", &lateral_play_dbb_term},
     {}};
 
 }  // namespace guideway::models::explain::effects

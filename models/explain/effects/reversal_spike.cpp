@@ -10,7 +10,7 @@ namespace guideway::models::explain::effects {
 
 namespace {
 
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool reversal_spike_dbb_term(const DbbTerms& t, Candidate& c) {
   for (double tau_ms : {2.0, 5.0, 10.0, 20.0, 50.0, 100.0}) {
     const double tau = tau_ms * 1e-3;
     Variant v = make_variant(
@@ -35,7 +35,8 @@ extern const Effect reversal_spike{
      "a short outward spike right after each reversal, decaying in milliseconds",
      {},
      {"dbb"}},
-    {"stiction at the axis reversals: the axis sticks and the servo catches up with a short decay", &dbb_term},
+    {"stiction at the axis reversals: the axis sticks and the servo catches up with a short decay",
+     &reversal_spike_dbb_term},
     {},
     true};
 

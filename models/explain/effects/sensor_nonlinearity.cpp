@@ -9,7 +9,7 @@ namespace {
 
 // The reading is the sensor's operating point: the base's prediction (measuring the reading itself would
 // let the term fit the very effects in it), refitted to the rows in use when the base is.
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool sensor_nonlinearity_dbb_term(const DbbTerms& t, Candidate& c) {
   if (t.base != nullptr && t.y_um != nullptr) {
     c.generate = sensor_nonlinearity_generator(*t.base, *t.y_um, {});
   } else {
@@ -18,7 +18,7 @@ bool dbb_term(const DbbTerms& t, Candidate& c) {
   return true;
 }
 
-bool profile_term(const ProfileTerms& t, Candidate& c) {
+bool sensor_nonlinearity_profile_term(const ProfileTerms& t, Candidate& c) {
   if (t.base != nullptr && t.y_um != nullptr) {
     c.generate = sensor_nonlinearity_generator(*t.base, *t.y_um, t.offset_um ? *t.offset_um : std::vector<double>{});
   } else {
@@ -37,8 +37,9 @@ extern const Effect sensor_nonlinearity{
      {},
      {"dbb", "flatness", "straightness"}},
     {"the bar's transducer is not linear over its range, an error that is a polynomial in the reading itself",
-     &dbb_term},
-    {"the profilometer is not linear over its range: an error polynomial in the reading", &profile_term},
+     &sensor_nonlinearity_dbb_term},
+    {"the profilometer is not linear over its range: an error polynomial in the reading",
+     &sensor_nonlinearity_profile_term},
     true};
 
 }  // namespace guideway::models::explain::effects

@@ -33,7 +33,7 @@ std::vector<Variant> lag_variant(const Block& base, const Eigen::VectorXd& y, co
 }
 
 // Only where the angles are the commanded ones (a delay grid is searched) and the base is refitted.
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool servo_lag_dbb_term(const DbbTerms& t, Candidate& c) {
   if (t.tracks->size() <= 1 || t.base == nullptr || t.y_um == nullptr) return false;
   auto data = std::make_shared<const std::pair<Block, Eigen::VectorXd>>(*t.base, *t.y_um);
   auto geo = std::make_shared<const std::vector<Geo>>(t.g);
@@ -56,7 +56,7 @@ extern const Effect servo_lag{
      {"dbb"}},
     {"the drives follow the command late (the position loops' 1/Kv), so with the commanded angles every "
      "position-dependent error is seen a little earlier along the path, opposite in the two directions",
-     &dbb_term},
+     &servo_lag_dbb_term},
     {},
     true};
 

@@ -7,7 +7,7 @@ namespace guideway::models::explain::effects {
 
 namespace {
 
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool servo_mismatch_dbb_term(const DbbTerms& t, Candidate& c) {
   c.variants.push_back(make_variant(t.g, {results::name(results::servo_mismatch)}, [](const Geo& p, double* o) {
     o[0] = p.lambda * p.dir * p.feed_m_per_s * p.s * p.c * 1e3;  // 1 ms of lag difference; v in m/s -> um
   }));
@@ -25,7 +25,7 @@ extern const Effect servo_mismatch{
      {"dbb"}},
     {"the two axes' position loops lag by different times, so the circle is stretched along a diagonal by an amount "
      "that grows with feed and flips with direction",
-     &dbb_term},
+     &servo_mismatch_dbb_term},
     {}};
 
 }  // namespace guideway::models::explain::effects

@@ -12,7 +12,7 @@ namespace guideway::models::explain::effects {
 namespace {
 
 // Once and twice per spindle revolution in the time of the cut.
-bool profile_term(const ProfileTerms& t, Candidate& c) {
+bool spindle_axial_runout_profile_term(const ProfileTerms& t, Candidate& c) {
   for (int harmonic : {1, 2}) {
     Variant v = make_variant(t.g, {results::name(results::runout_sin), results::name(results::runout_cos)},
                              [harmonic](const Pt& p, double* o) {
@@ -44,6 +44,6 @@ extern const Effect spindle_axial_runout{
     {},
     {"the spindle moves axially with its rotation (bearing waviness), a sinusoid at a multiple of the spindle "
      "frequency in the time of the cut",
-     &profile_term}};
+     &spindle_axial_runout_profile_term}};
 
 }  // namespace guideway::models::explain::effects

@@ -14,8 +14,7 @@ namespace {
 
 // A decaying oscillation of the axis after it reverses (low speed near the reversal), starting against the
 // new direction of motion as the reversal spike does; frequency and decay searched on a grid.
-bool dbb_term(const DbbTerms& t, Candidate& c) {
-  constexpr double pi = std::numbers::pi;
+bool stick_slip_dbb_term(const DbbTerms& t, Candidate& c) {
   for (double f_hz : {5.0, 10.0, 20.0}) {
     for (double tau_ms : {50.0, 200.0}) {
       const double tau = tau_ms * 1e-3;
@@ -45,7 +44,8 @@ extern const Effect stick_slip{
      "a decaying oscillation after each reversal of the axis",
      {},
      {"dbb"}},
-    {"friction at low speed makes an axis move in jerks just after it reverses, a decaying oscillation", &dbb_term},
+    {"friction at low speed makes an axis move in jerks just after it reverses, a decaying oscillation",
+     &stick_slip_dbb_term},
     {},
     true};
 

@@ -22,7 +22,7 @@ std::vector<std::string> drift_names(const std::vector<int>& axes, std::size_t o
   return names;
 }
 
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool thermal_drift_dbb_term(const DbbTerms& t, Candidate& c) {
   const std::size_t nr = t.runs.size();
   // Without a common time axis each run after the first gets its own offset, in the drift's own
   // direction(s): the bar's reading, or the circle's centre along an axis (a projection on the bar).
@@ -48,7 +48,7 @@ bool dbb_term(const DbbTerms& t, Candidate& c) {
   return true;
 }
 
-bool profile_term(const ProfileTerms& t, Candidate& c) {
+bool thermal_drift_profile_term(const ProfileTerms& t, Candidate& c) {
   c.variants.push_back(
       make_variant(t.g, {results::name(results::profile_drift)}, [](const Pt& p, double* o) { o[0] = p.t_s / 60.0; }));
   return true;
@@ -64,9 +64,9 @@ extern const Effect thermal_drift{
      {},
      {"dbb", "flatness", "straightness"}},
     {"the machine or the bar grows as it warms up, a trend in time that the geometric terms only partly absorb",
-     &dbb_term},
+     &thermal_drift_dbb_term},
     {"the machine grows as it warms up during the cut: a trend in time, which at one constant feed is a straight line "
      "in x like squareness, but with another slope at another feed",
-     &profile_term}};
+     &thermal_drift_profile_term}};
 
 }  // namespace guideway::models::explain::effects

@@ -12,7 +12,7 @@ namespace guideway::models::explain::effects {
 namespace {
 
 // Length cut so far on a face: the spiral from the cut start, pi |x^2 - x0^2| / feed per rev.
-bool profile_term(const ProfileTerms& t, Candidate& c) {
+bool tool_wear_profile_term(const ProfileTerms& t, Candidate& c) {
   std::vector<double> x0(t.runs.size(), std::numeric_limits<double>::quiet_NaN());
   for (const auto& p : t.g)
     if (std::isnan(x0[p.run])) x0[p.run] = p.x_mm;
@@ -33,6 +33,6 @@ extern const Effect tool_wear{
      {},
      {"flatness", "straightness"}},
     {},
-    {"the tool wears with the length it has cut, so the depth of cut falls along the spiral", &profile_term}};
+    {"the tool wears with the length it has cut, so the depth of cut falls along the spiral", &tool_wear_profile_term}};
 
 }  // namespace guideway::models::explain::effects

@@ -19,8 +19,6 @@ namespace guideway::models::explain::effects {
 
 namespace {
 
-constexpr double pi = std::numbers::pi;
-
 // Sums of w^2, w^2 t and w^2 t^2 over a run's samples (w a projection on the bar, t in s).
 struct Moments {
   double w2 = 0, w2t = 0, w2t2 = 0;
@@ -249,7 +247,7 @@ class LineSearch {
   std::array<std::vector<Moments>, 3> moments_;
 };
 
-bool dbb_term(const DbbTerms& t, Candidate& c) {
+bool vibration_dbb_term(const DbbTerms& t, Candidate& c) {
   // The typical sample interval is the median step: live timestamps jitter, and the smallest step of a
   // real recording can be microseconds, which would put the Nyquist limit absurdly high.
   double t_span = 0, dt = 1e300;
@@ -278,7 +276,8 @@ extern const Effect vibration{
      "a sinusoid in time, unrelated to the position",
      {},
      {"dbb"}},
-    {"a structural or drive vibration at a fixed frequency, a sinusoid in time unrelated to the position", &dbb_term},
+    {"a structural or drive vibration at a fixed frequency, a sinusoid in time unrelated to the position",
+     &vibration_dbb_term},
     {}};
 
 }  // namespace guideway::models::explain::effects
