@@ -18,10 +18,21 @@ namespace {
 
 constexpr double seconds_per_day = 86400.0;
 
-// An HTML id from a machine name (letters, digits, '-', '_'; the rest becomes '-').
+// An HTML id from a machine name, one per name: letters, digits and '_' as they are, every other byte
+// as '-' and its two hex digits ("mill.1" -> machine-mill-2e1, "mill-1" -> machine-mill-2d1).
 std::string anchor(const std::string& machine) {
+  static constexpr char hex[] = "0123456789abcdef";
   std::string id = "machine-";
-  for (const char c : machine) id += std::isalnum(static_cast<unsigned char>(c)) || c == '_' ? c : '-';
+  for (const char c : machine) {
+    const auto b = static_cast<unsigned char>(c);
+    if (std::isalnum(b) || c == '_') {
+      id += c;
+    } else {
+      id += '-';
+      id += hex[b >> 4];
+      id += hex[b & 15];
+    }
+  }
   return id;
 }
 
@@ -49,7 +60,7 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet) {
         report::html_escape(state),
         nowrap(report::html_escape(m.machine.since.substr(0, 10))) + " " +
             report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
-        m.dbb_age_s ? report::html_escape(format_age(*m.dbb_age_s)) + " ago" : "never"};
+        m.dbb_age_s ? report::html_escape(format_age_ago(*m.dbb_age_s)) : "never"};
     for (const auto& c : columns) row.push_back(figure_cell(figure_of(m, c)));
     std::string found;
     for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
@@ -114,7 +125,8 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
   const double unit_s = span_s >= 2 * seconds_per_day ? seconds_per_day : span_s >= 7200.0 ? 3600.0 : 60.0;
   const char* unit = unit_s == seconds_per_day ? "days" : unit_s == 3600.0 ? "h" : "min";
   t0 = std::floor(t0 / unit_s) * unit_s;
-  const std::string epoch = unit_s == seconds_per_day ? utc_iso_ms(t0).substr(0, 10) : utc_iso_ms(t0).substr(0, 16) + "Z";
+  const std::string epoch =
+      unit_s == seconds_per_day ? utc_iso_ms(t0).substr(0, 10) : utc_iso_ms(t0).substr(0, 16) + "Z";
   const std::string time_axis = std::string(unit) + " since " + epoch;
   // Per kind and figure (in table order): the times and values.
   struct Trend {

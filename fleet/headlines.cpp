@@ -83,16 +83,22 @@ std::optional<double> number_at(const nlohmann::json& j, const std::string& poin
   return std::isfinite(d) ? std::optional<double>(d) : std::nullopt;
 }
 
+// The DBB figures are named after the plane's axes ("xy": x and y; "zx": z and x); x and y when the
+// object names no plane (or one that is not two axis letters: such a result is refused at ingest).
+std::pair<std::string, std::string> plane_axes(const nlohmann::json& params) {
+  if (const auto it = params.find("plane"); it != params.end() && it->is_string()) {
+    const auto& plane = it->get_ref<const std::string&>();
+    const auto axis = [](char c) { return c == 'x' || c == 'y' || c == 'z'; };
+    if (plane.size() == 2 && axis(plane[0]) && axis(plane[1]) && plane[0] != plane[1])
+      return {plane.substr(0, 1), plane.substr(1, 1)};
+  }
+  return {"x", "y"};
+}
+
 }  // namespace
 
 std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params) {
-  // The DBB figures are named after the plane's axes ("xy": x and y; "zx": z and x).
-  std::string a = "x", b = "y";
-  if (const auto it = params.find("plane");
-      it != params.end() && it->is_string() && it->get<std::string>().size() == 2) {
-    a = it->get<std::string>().substr(0, 1);
-    b = it->get<std::string>().substr(1, 1);
-  }
+  const auto [a, b] = plane_axes(params);
   std::vector<Headline> out;
   for (const auto& f : spec_of(kind)) {
     for (const auto& src : f.sources) {
@@ -106,13 +112,33 @@ std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& par
   return out;
 }
 
+std::string figure_problem(std::string_view kind, const nlohmann::json& params) {
+  const auto [a, b] = plane_axes(params);
+  for (const auto& f : spec_of(kind)) {
+    for (const auto& src : f.sources) {
+      for (const auto& pointer : {with_axes(src.value, a, b), with_axes(src.u, a, b)}) {
+        if (pointer.empty()) continue;
+        const nlohmann::json::json_pointer p(pointer);
+        if (!params.contains(p)) continue;
+        const auto& v = params.at(p);
+        if (!v.is_number() || !std::isfinite(v.get<double>()))
+          return "the figure at " + pointer + " is " + (v.is_number() ? "not finite" : std::string(v.type_name())) +
+                 ", expected a finite number";
+      }
+    }
+  }
+  return {};
+}
+
 ExplainSummary explain_summary(const nlohmann::json& explain) {
   ExplainSummary s;
   if (const auto it = explain.find("findings"); it != explain.end() && it->is_array()) {
     for (const auto& f : *it) {
       if (!f.is_object()) continue;
       Finding finding;
-      finding.effect = f.value("effect", std::string());
+      // Typed reads that never throw: a row stored before ingest checked types must not stop a reader.
+      const auto effect = f.find("effect");
+      finding.effect = effect != f.end() && effect->is_string() ? effect->get<std::string>() : "?";
       const auto c = f.find("contribution_um");
       finding.contribution_um = c != f.end() && c->is_number() ? c->get<double>() : std::nan("");
       s.findings.push_back(std::move(finding));

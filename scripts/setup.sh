@@ -11,6 +11,7 @@ packages=(
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libsystemd-dev
   libboost-dev libreaderwriterqueue-dev
   libmosquitto-dev libsqlite3-dev  # plant scale: the MQTT publisher and the fleet's history (docs/plant.md)
+  libssl-dev  # the fleet's own MQTT client (TLS): it acknowledges only what it has stored (docs/plant.md)
   mosquitto mosquitto-clients openssl  # the MQTT tests' real broker, their subscriber and their TLS certificates
   python3 python3-numpy python3-scipy python3-pywt
   linux-perf  # bench/daemon_load.py --syscalls

@@ -10,6 +10,7 @@ Chromium missing is a failure (./scripts/setup.sh installs it), never a skip.
 """
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -125,7 +126,10 @@ def main():
     r = gw("fleet", "status", "--db", db)
     lines = r.stdout.splitlines()
     print(r.stdout)
-    check(len(lines) == 4 and lines[1].startswith("lathe-2") and lines[2].startswith("mill-1"), "status lines: %r" % lines)
+    check(len(lines) == 6 and lines[1].startswith("lathe-2") and lines[2].startswith("mill-1"), "status lines: %r" % lines)
+    # The malformed payload: counted, with its reason and topic, under the table.
+    check(lines[4].startswith("refused at ingest: 1 message(s)") and "lathe-2/params/dbb" in lines[5]
+          and "not JSON" in lines[5], "refusals: %r" % lines[4:])
     check("offline (connection lost)" in lines[1] and " online " in lines[2], "status states: %r" % lines[1:3])
     check("G/µm" in lines[0] and "backlash x/µm" in lines[0] and "run-out/µm" in lines[0], "status header: %r" % lines[0])
     col = lines[0].index("LAST DBB")
@@ -181,7 +185,8 @@ def main():
         check(sections[0]["tables"] == 1, "no fleet table")
         expected_plots = {"lathe-2": 3, "mill-1": 3 + 2 + 2 + 2}  # dbb: G, backlash x/y; 2 of every other kind
         for sec in sections[1:]:
-            name = sec["id"].replace("machine-", "")
+            # One id per name: letters, digits and '_' as they are, any other byte '-' and two hex digits.
+            name = re.sub(r"-([0-9a-f]{2})", lambda m: chr(int(m.group(1), 16)), sec["id"][len("machine-"):])
             check(len(sec["plots"]) == expected_plots.get(name, -1), "%s: %d plots" % (name, len(sec["plots"])))
             for p in sec["plots"]:
                 w = "%s plot '%s'" % (name, p["title"])
