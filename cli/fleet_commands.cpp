@@ -144,8 +144,8 @@ void add_fleet_commands(CLI::App& app, CliContext& /*ctx*/) {
       const auto machines = store.machines();
       if (std::none_of(machines.begin(), machines.end(), [&](const auto& m) { return m.machine == a->machine; })) {
         std::string known;
-        for (const auto& m : machines) known += (known.empty() ? "" : ", ") + m.machine;
-        throw std::runtime_error("fleet history: unknown machine '" + a->machine +
+        for (const auto& m : machines) known += (known.empty() ? "" : ", ") + printable(m.machine);
+        throw std::runtime_error("fleet history: unknown machine '" + printable(a->machine) +
                                  "'; known: " + (known.empty() ? "none yet" : known));
       }
       const auto entries = fleet::history_of(store.results(a->machine, a->kind));
