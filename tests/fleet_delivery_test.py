@@ -27,7 +27,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mqtt_broker  # noqa: E402
-from process_support import wait_for  # noqa: E402
+from process_support import run_unittests, wait_for  # noqa: E402
 
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
@@ -291,4 +291,4 @@ class FleetTls(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    run_unittests()

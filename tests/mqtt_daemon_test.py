@@ -23,7 +23,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mqtt_broker  # noqa: E402
-from process_support import guideway_cli, wait_for  # noqa: E402
+from process_support import guideway_cli, run_unittests, wait_for  # noqa: E402
 
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
@@ -412,4 +412,4 @@ class FleetServe(BrokerCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    run_unittests()
