@@ -180,6 +180,16 @@ def main():
     gw("fleet", "report", "--db", db, "--out", html, "--no-date")
     with cdp.Browser() as b:
         open_self_contained(b, html, check)
+        cells = b.evaluate("""(() => [...document.querySelectorAll('section#fleet table tbody tr')].map(r =>
+            [...r.cells].map(c => ({text: c.textContent, align: getComputedStyle(c).textAlign}))))()""")
+        for row in cells:
+            machine = row[0]["text"]
+            # A page read later: when the last DBB was made, and how long before the report.
+            check(re.match(r"20\d\d-\d\d-\d\d \d\d:\d\d, .* before this report", row[3]["text"]),
+                  "%s: last DBB %r" % (machine, row[3]["text"]))
+            check([c["align"] for c in (row[0], row[1], row[2], row[3], row[-1])] == ["left"] * 5,
+                  "%s: text columns not left-aligned: %s" % (machine, [c["align"] for c in row]))
+            check(row[4]["align"] == "right", "%s: a figure column is not right-aligned" % machine)
         sections = b.evaluate(PLOTS_JS)
         check([s["kind"] for s in sections] == ["fleet", "machine", "machine"], "sections %s" % [s["kind"] for s in sections])
         check(sections[0]["tables"] == 1, "no fleet table")
@@ -200,6 +210,10 @@ def main():
                 n = 3 if name == "mill-1" and p["title"].startswith("dbb") else (2 if name == "lathe-2" else 1)
                 check(series.get("value", {}).get("points") == n, w + ": value points %s, expected %d" % (series, n))
                 has_u = not p["title"].endswith(": G")
+                # The value axis spans at least a fifth of the largest value: equal Gs are a flat line.
+                y_ticks = [float(t.replace("−", "-")) for a in p["axes"] if a["cls"] == "axis y" for t in a["labels"]]
+                if p["title"].endswith(": G"):
+                    check(max(y_ticks) - min(y_ticks) >= 0.15 * 17.4, w + ": G axis ticks %s" % y_ticks)
                 check(("±2u" in series) == has_u, w + ": ±2u bars %s" % list(series))
                 if has_u:
                     check(series["±2u"]["points"] == 3 * n and series["±2u"]["h"] > 0, w + ": bars %s" % series["±2u"])
