@@ -23,16 +23,20 @@ jobs=${GUIDEWAY_BUILD_JOBS:-$(nproc)}
 # silent: GUIDEWAY_BUILD_QUIET=1 leaves them out.
 progress() {
   if [ "${GUIDEWAY_BUILD_QUIET:-0}" = 1 ]; then cat >/dev/null; return; fi
-  awk -v dir="$dir" -v start="$(date +%s)" '
-    { p = -1 }
-    match($0, /^\[[0-9]+\/[0-9]+\]/) { split(substr($0, 2, RLENGTH - 2), nm, "/"); if (nm[2] > 0) p = int(100 * nm[1] / nm[2]); n = nm[1]; m = nm[2] }
-    match($0, /^\[ *[0-9]+%\]/) { p = substr($0, 2, RLENGTH - 3) + 0; n = ""; m = "" }
-    p >= 0 && int(p / 10) > shown {
-      shown = int(p / 10)
-      printf "   build %s: %3d %%%s, %d s\n", dir, p, (m != "" ? " (" n "/" m " steps)" : ""), systime() - start
-      fflush()
-    }
-    BEGIN { shown = 0 }'
+  local line percent steps shown=0 start=$SECONDS re_ninja='^\[([0-9]+)/([0-9]+)\]' re_make='^\[ *([0-9]+)%\]'
+  while IFS= read -r line; do  # bash, not awk: mawk reads a pipe in blocks and would print them late
+    if [[ $line =~ $re_ninja ]] && [ "${BASH_REMATCH[2]}" -gt 0 ]; then
+      percent=$((100 * BASH_REMATCH[1] / BASH_REMATCH[2])); steps=" (${BASH_REMATCH[1]}/${BASH_REMATCH[2]} steps)"
+    elif [[ $line =~ $re_make ]]; then
+      percent=${BASH_REMATCH[1]}; steps=""
+    else
+      continue
+    fi
+    if [ $((percent / 10)) -gt $shown ]; then
+      shown=$((percent / 10))
+      printf '   build %s: %3d %%%s, %d s\n' "$dir" "$percent" "$steps" $((SECONDS - start))
+    fi
+  done
 }
 set +e
 cmake --build "$dir" -j "$jobs" ${targets:+--target "${targets[@]}"} 2>&1 | tee -a "$log" | progress
