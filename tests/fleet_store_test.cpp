@@ -407,8 +407,9 @@ std::string bytes_of(const std::string& path) {
   return s.str();
 }
 
-// Everything a reader of the fleet does, as `fleet status`, `history` and `report` do it.
-void read_everything(const Store& s) {
+// Everything a reader of the fleet does, as `fleet status`, `history` and `report` do it (the report,
+// the slowest, when asked).
+void read_everything(const Store& s, bool with_report = true) {
   const auto status = fleet_status(s, 1795694400.0);
   (void)status_text(status);
   (void)status_json(status).dump();
@@ -418,7 +419,7 @@ void read_everything(const Store& s) {
     (void)history_text(m.machine, h);
     (void)history_json(m.machine, h).dump();
   }
-  (void)render_fleet_report(s, FleetReportOptions{});
+  if (with_report) (void)render_fleet_report(s, FleetReportOptions{});
 }
 
 }  // namespace
@@ -670,7 +671,11 @@ TEST(FleetIngest, RandomPayloadsNeverStopTheView) {
     }
   };
   const auto golden_params = golden_json("dbb.params.json");
-  const auto golden_explain = golden_json("dbb.explain.json");
+  // The golden EXPLAIN's findings without its 89 kB of residuals: the readers parse every stored row.
+  nlohmann::json golden_explain = {{"class", "EXPLAIN"}, {"findings", nlohmann::json::array()}, {"unexplained", false}};
+  const auto full_explain = golden_json("dbb.explain.json");
+  for (const auto& f : full_explain["findings"])
+    golden_explain["findings"].push_back({{"effect", f["effect"]}, {"contribution_um", f["contribution_um"]}});
   const char* leaves[] = {"params/dbb", "explain/dbb", "params/runout", "explain/profile",
                           "status",     "event",       "devices"};
   int stored = 0, refused = 0;
@@ -705,8 +710,8 @@ TEST(FleetIngest, RandomPayloadsNeverStopTheView) {
                  j.dump(), pick(5) == 0 ? "0999-01-01T00:00:00Z" : "2026-11-26T10:00:00Z", "2026-11-26T12:00:00Z");
     stored += r.outcome == IngestResult::stored;
     refused += r.outcome == IngestResult::refused;
-    if (i % 40 == 0) {
-      ASSERT_NO_THROW(read_everything(s)) << "after payload " << i << ": " << j.dump();
+    if (i % 50 == 0) {
+      ASSERT_NO_THROW(read_everything(s, i % 250 == 0)) << "after payload " << i << ": " << j.dump();
     }
   }
   ASSERT_NO_THROW(read_everything(s));
