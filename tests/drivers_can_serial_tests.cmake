@@ -18,3 +18,5 @@ add_test(NAME can_serial_process_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/can_serial_process_test.py ${PROJECT_BINARY_DIR}
           ${PROJECT_SOURCE_DIR})
 set_tests_properties(can_serial_process_test PROPERTIES LABELS integration TIMEOUT 120)
+# CANopen services and the dbb-can network management (NMT, heartbeat, EMCY, SDO checks), pure and fuzzed.
+guideway_add_test(canopen_network_test SOURCES canopen_network_test.cpp LIBS guideway_dbb)
