@@ -29,6 +29,15 @@ std::vector<drivers::dbb::EncoderScale> three_encoders() {
   return e;
 }
 
+// The emulator's nodes as three_encoders() describes them: CANopen nodes that boot pre-operational.
+simulators::emulators::DbbEmulatorSettings emulator_settings(bool produce_sync, double rate_hz) {
+  simulators::emulators::DbbEmulatorSettings s;
+  s.encoders = three_encoders();
+  s.produce_sync = produce_sync;
+  s.sync_rate_hz = rate_hz;
+  return s;
+}
+
 simulators::emulators::DbbSource circle_source() {
   return simulators::emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6);
 }
@@ -37,7 +46,7 @@ struct Bench {
   explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
                  simulators::emulators::DbbSource source = circle_source(),
                  std::int64_t read_period_us = drivers::dbb::default_read_period_us)
-      : emu({three_encoders(), !driver_produces_sync, rate_hz}, std::move(source)) {
+      : emu(emulator_settings(!driver_produces_sync, rate_hz), std::move(source)) {
     drivers::dbb::DbbSettings s;
     s.produce_sync = driver_produces_sync;
     s.sync_rate_hz = rate_hz;
@@ -356,13 +365,14 @@ TEST(DbbDriver, FrameTimeIsTheKernelStampOnTheMonotonicClockOrTheReadTime) {
   EXPECT_EQ(t.t_ns, earliest - 300'000);
 }
 
-// The kernel filter a SocketCAN bus gets (not exercised here without AF_CAN): SYNC and our nodes'
-// TPDO1 exactly, nothing else, checked frame by frame the way the kernel matches.
-TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesTpdo1Only) {
+// The kernel filter a SocketCAN bus gets (not exercised here without AF_CAN): SYNC and, of our nodes,
+// TPDO1, EMCY, SDO responses and heartbeats exactly, nothing else, checked frame by frame the way the
+// kernel matches.
+TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesFramesOnly) {
   drivers::dbb::DbbSettings s;
   s.encoders = three_encoders();
   const auto filters = drivers::dbb::dbb_can_filters(s);
-  ASSERT_EQ(filters.size(), 1 + s.encoders.size());
+  ASSERT_EQ(filters.size(), 1 + 4 * s.encoders.size());
   const auto passes = [&](canid_t id) {
     return std::any_of(filters.begin(), filters.end(),
                        [&](const can_filter& f) { return (id & f.can_mask) == (f.can_id & f.can_mask); });
@@ -373,9 +383,13 @@ TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesTpdo1Only) {
     EXPECT_FALSE(passes((0x180u + e.node_id) | CAN_RTR_FLAG)) << "a remote request";
     EXPECT_FALSE(passes((0x180u + e.node_id) | CAN_EFF_FLAG)) << "an extended frame";
     EXPECT_FALSE(passes(0x280u + e.node_id)) << "TPDO2";
+    EXPECT_TRUE(passes(0x700u + e.node_id)) << "boot-up and heartbeat";
+    EXPECT_TRUE(passes(0x080u + e.node_id)) << "EMCY";
+    EXPECT_TRUE(passes(0x580u + e.node_id)) << "SDO response";
+    EXPECT_FALSE(passes(0x600u + e.node_id)) << "SDO request (another client's)";
   }
   EXPECT_FALSE(passes(0x180u + 100)) << "another node's TPDO1";
-  EXPECT_FALSE(passes(0x700u + s.encoders[0].node_id)) << "heartbeat";
+  EXPECT_FALSE(passes(0x700u + 100)) << "another node's heartbeat";
   EXPECT_FALSE(passes(0x000)) << "NMT";
 }
 
@@ -433,7 +447,7 @@ TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
   EXPECT_EQ(b.driver->error_frames(), 4u);
   // The driver's own counters reach STATUS through status(), by name; bus_reads/empty_reads do not.
   const auto own = test::driver_counters_by_name(st);
-  EXPECT_EQ(own.size(), 7u);
+  EXPECT_EQ(own.size(), 14u);
   EXPECT_EQ(own.at("bus_off"), 0u);  // protocol or controller errors, not bus-off
   EXPECT_TRUE(own.contains("late_pdos"));
   EXPECT_EQ(own.at("syncs_not_sent"), 0u);
@@ -567,7 +581,7 @@ TEST(DbbDriver, BurstFasterThanTheSyncRateIsReceivedCompletely) {
 TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  simulators::emulators::DbbEmulator emu({three_encoders(), false, 100.0},
+  simulators::emulators::DbbEmulator emu(emulator_settings(false, 100.0),
                                          simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
   auto listener = drivers::can::listen_can_gateway(path, err);
@@ -580,7 +594,7 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
   // The emulator process goes away and comes back: the driver reconnects.
   emu.stop();
   ASSERT_TRUE(test::eventually([&] { return driver->status().state != DeviceState::streaming; }));
-  simulators::emulators::DbbEmulator emu2({three_encoders(), false, 100.0},
+  simulators::emulators::DbbEmulator emu2(emulator_settings(false, 100.0),
                                           simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
@@ -601,7 +615,7 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
 TEST(DbbDriver, ListensThroughTheUnixGatewayWithKernelTimesFromAConfigTable) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  simulators::emulators::DbbEmulator emu({three_encoders(), true, 1000.0},
+  simulators::emulators::DbbEmulator emu(emulator_settings(true, 1000.0),
                                          simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
   auto listener = drivers::can::listen_can_gateway(path, err);
