@@ -475,8 +475,7 @@ TEST(EncoderNetwork, WhenTheControllerManagesNmtNothingIsSentAndNodesWait) {
   net.on_frame(frame(0x703, {0x00}), 2 * ms);  // a boot-up: reported, still nothing sent
   EXPECT_TRUE(net.outgoing().empty());
   EXPECT_EQ(net.events().back().reason,
-            "node 3 (y) booted (boot-up message): pre-operational, no PDOs until started; waiting for the NMT master "
-            "to start it");
+            "node 3 (y) booted (boot-up message): no PDOs until the NMT master (or the node itself) starts it");
   net.on_cycle(0b111, 10 * ms);  // the controller started them: PDOs
   EXPECT_EQ(net.health().level, NetworkHealth::Level::ok);
   EXPECT_TRUE(net.outgoing().empty());

@@ -19,6 +19,12 @@ namespace guideway::drivers::dbb {
 
 namespace {
 
+// An operational node is silent after the device's own silence timeout without its PDO.
+DbbSettings with_pdo_timeout(DbbSettings s) {
+  s.network.pdo_timeout_ms = s.timeout_ms;
+  return s;
+}
+
 std::vector<drivers::ChannelInfo> channels_of(const DbbSettings& s) {
   std::vector<drivers::ChannelInfo> out;
   for (const auto& e : s.encoders) out.push_back({e.channel, "m"});
@@ -57,7 +63,6 @@ DbbSettings parse_dbb_settings(const TableReader& t) {
   }
   n.sdo_timeout_ms = t.get_int("sdo_timeout_ms", 100, 1, 10000);
   n.node_retry_ms = t.get_int("node_retry_ms", 2000, 10, 600000);
-  n.pdo_timeout_ms = s.timeout_ms;
   constexpr std::int64_t u32_max = 0xFFFFFFFF;
   const auto optional_u32 = [](const TableReader& e, const char* key) -> std::optional<std::uint32_t> {
     if (!e.has(key)) return std::nullopt;
@@ -135,7 +140,7 @@ void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexce
 
 DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector)
     : Driver(std::move(name), "dbb-can", channels_of(settings), ring_capacity),
-      settings_(std::move(settings)),
+      settings_(with_pdo_timeout(std::move(settings))),
       connector_(std::move(connector)),
       wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)),
       network_(settings_.encoders, settings_.nodes, settings_.network) {
@@ -188,21 +193,19 @@ void DbbDriver::refresh_state() {
   const NetworkHealth& h = network_.health();
   drivers::DeviceState state = drivers::DeviceState::streaming;
   std::string why;
+  const std::string silence = "no frames for " + std::to_string(settings_.timeout_ms) + " ms";
+  // The nodes' own story comes first where it explains a silence (refused or not yet started nodes send nothing).
   if (bus_off_since_ns_ != 0) {
     state = drivers::DeviceState::error;
     why = "CAN bus off";
+  } else if (h.level == NetworkHealth::Level::failed || h.level == NetworkHealth::Level::starting) {
+    state = h.level == NetworkHealth::Level::failed ? drivers::DeviceState::error : drivers::DeviceState::connecting;
+    why = h.reason + (silent_ ? "; " + silence : "");
   } else if (silent_) {
     state = drivers::DeviceState::lost;
-    why = "no frames for " + std::to_string(settings_.timeout_ms) + " ms";
-    if (h.level != NetworkHealth::Level::ok) why += "; " + h.reason;
-  } else if (h.level == NetworkHealth::Level::failed) {
-    state = drivers::DeviceState::error;
-    why = h.reason;
+    why = silence + (h.level == NetworkHealth::Level::lost ? "; " + h.reason : "");
   } else if (h.level == NetworkHealth::Level::lost) {
     state = drivers::DeviceState::lost;
-    why = h.reason;
-  } else if (h.level == NetworkHealth::Level::starting) {
-    state = drivers::DeviceState::connecting;
     why = h.reason;
   } else if (!complete_cycle_seen_) {
     state = drivers::DeviceState::connecting;

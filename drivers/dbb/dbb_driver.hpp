@@ -31,7 +31,7 @@ struct DbbSettings {
   std::int64_t reconnect_max_ms = 5000;
   std::vector<EncoderScale> encoders;
   // CANopen network management (dbb_network.hpp): NMT, SDO checks, heartbeat consumer. Its
-  // pdo_timeout_ms is timeout_ms.
+  // pdo_timeout_ms is always timeout_ms (the driver sets it).
   NetworkSettings network;
   std::vector<NodeExpectation> nodes;  // one per encoder
 };

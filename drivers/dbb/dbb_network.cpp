@@ -174,9 +174,10 @@ void EncoderNetwork::step_done(std::size_t i, std::int64_t t_ns) {
   send_step(i, t_ns);
 }
 
-void EncoderNetwork::fail(std::size_t i, std::string why, std::int64_t t_ns) {
+void EncoderNetwork::fail(std::size_t i, std::string why, std::int64_t t_ns, bool absent) {
   Node& n = nodes_[i];
   n.phase = Phase::failed;
+  n.absent = absent;
   n.sdo_pending = false;
   n.failure = node_name(i) + ": " + why;
   n.retry_at_ns = t_ns + ms_to_ns(settings_.node_retry_ms);
@@ -403,14 +404,13 @@ void EncoderNetwork::on_boot(std::size_t i, std::int64_t t_ns) {
   n.missed_cycles = 0;
   n.silent = false;
   n.sdo_pending = false;
-  std::string what = node_name(i) + " booted (boot-up message): pre-operational, no PDOs until started";
-  if (settings_.sdo_checks) {
-    what += "; checking it by SDO";
-    if (settings_.manage_nmt) what += " and starting it";
-  } else if (settings_.manage_nmt) {
-    what += "; starting it";
+  std::string what = node_name(i) + " booted (boot-up message)";
+  if (settings_.manage_nmt) {
+    what += ": pre-operational, no PDOs until started; ";
+    what += settings_.sdo_checks ? "checking it by SDO and starting it" : "starting it";
   } else {
-    what += "; waiting for the NMT master to start it";
+    what += ": no PDOs until the NMT master (or the node itself) starts it";
+    if (settings_.sdo_checks) what += "; checking it by SDO";
   }
   event("node_boot", what);
   if (settings_.sdo_checks) {
@@ -568,7 +568,7 @@ void EncoderNetwork::tick(std::int64_t t_ns) {
                  can::to_string(address_of(n.step)) + " (" + step_object(static_cast<int>(n.step)) + ") within " +
                  std::to_string(settings_.sdo_timeout_ms) + " ms, twice (is node-ID " +
                  std::to_string(n.scale.node_id) + " on the bus and powered?)",
-             t_ns);
+             t_ns, true);
       }
     }
     if (n.phase == Phase::failed && t_ns >= n.retry_at_ns) start_check(i, t_ns);
@@ -616,7 +616,7 @@ const NetworkHealth& EncoderNetwork::health() {
     const Node& n = nodes_[i];
     const std::string name = node_name(i);
     if (n.phase == Phase::failed) {
-      items.push_back({NetworkHealth::Level::failed, n.failure});
+      items.push_back({n.absent ? NetworkHealth::Level::lost : NetworkHealth::Level::failed, n.failure});
     } else if (n.heartbeat_lost) {
       items.push_back({NetworkHealth::Level::lost,
                        name + ": no heartbeat for " + std::to_string(n.expect.heartbeat_timeout_ms) + " ms"});

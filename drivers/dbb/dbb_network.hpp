@@ -64,6 +64,8 @@ struct NetworkEvent {
 
 // The nodes summed up: the worst of them decides.
 struct NetworkHealth {
+  // failed: a node answered but is not what the configuration says (or refused the checks); lost: a
+  // node does not answer, or stopped delivering.
   enum class Level { ok, starting, lost, failed };
   Level level = Level::starting;
   std::string reason;  // every node that is not ok, named, "; "-separated ("" when ok)
@@ -145,6 +147,7 @@ class EncoderNetwork {
     std::int64_t retry_at_ns = 0;    // failed: check again then
     std::int64_t started_at_ns = 0;  // NMT start sent then
     std::string failure;
+    bool absent = false;  // the check failed because the node did not answer (lost, not refused)
     std::string configured;  // what this check wrote ("", or "TPDO1 transmission type set to 1")
     NodeIdentity identity;
     bool rebooted = false;  // the current check follows a boot-up message
@@ -161,7 +164,9 @@ class EncoderNetwork {
   void send_step(std::size_t i, std::int64_t t_ns);
   void on_sdo(std::size_t i, const can::SdoMessage& m, std::int64_t t_ns);
   void step_done(std::size_t i, std::int64_t t_ns);
-  void fail(std::size_t i, std::string why, std::int64_t t_ns);
+  // The check failed: the node is not started. `absent`: it did not answer at all (the device is lost,
+  // not in error).
+  void fail(std::size_t i, std::string why, std::int64_t t_ns, bool absent = false);
   void checked(std::size_t i, std::int64_t t_ns);
   void start_nodes_ready(std::int64_t t_ns);
   void send_start(std::size_t i, std::int64_t t_ns);
