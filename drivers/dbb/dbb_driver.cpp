@@ -437,8 +437,12 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       const can_frame sync = make_sync_frame();
       // Never wait for the bus: a full transmit queue (nobody acknowledges, or the gateway's peer does
       // not read) costs this SYNC, counted; the silence that follows is a timeout as usual.
+      // The SYNC's time is taken just before it is written: a PDO stamped before then answers an earlier
+      // SYNC. Taken after the write, a thread preempted between the write and the clock read would give
+      // the nodes' answers to this SYNC to the cycle before (which they complete, leaving this one
+      // partial); a late answer stamped during the write itself is still recognised (late_pdos).
+      const std::int64_t sync_ns = mono_now_ns();
       const auto wrote = can::try_write_can_frame(fd, sync, error);
-      // The SYNC's time is taken once it is written: a PDO stamped before then answers an earlier SYNC.
       now = mono_now_ns();
       if (wrote == can::WriteResult::failed) {
         drain(fd, decoder, ended);
@@ -447,7 +451,7 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       DbbCycle cycle;
       if (wrote == can::WriteResult::queue_full) {
         syncs_not_sent_.fetch_add(1, std::memory_order_relaxed);
-      } else if (decoder.sync_sent(now, cycle)) {
+      } else if (decoder.sync_sent(sync_ns, cycle)) {
         publish_cycle(cycle);
       }
       // The phase is kept, but a late SYNC never brings the next one closer than half a period: the
