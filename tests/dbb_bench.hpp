@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "driver_samples_support.hpp"
 #include "drivers/dbb/dbb_driver.hpp"
 #include "simulators/emulators/dbb_emulator.hpp"
 #include "test_support.hpp"
@@ -85,17 +86,9 @@ struct Bench {
     driver->stop();
     emu.stop();
   }
-  void drain() {
-    Sample s;
-    while (driver->ring().try_pop(s)) samples.push_back(s);
-  }
+  void drain() { drain_samples(*driver, samples); }
   bool wait_samples(std::size_t n, std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
-    return test::eventually(
-        [&] {
-          drain();
-          return samples.size() >= n;
-        },
-        timeout);
+    return test::wait_samples(*driver, samples, n, timeout);
   }
   // Stops both ends, then checks every cycle the emulator sent against the samples, in order. Every cycle
   // is exactly one sample, equal to what was sent (a channel not sent holds the previous sample's value),

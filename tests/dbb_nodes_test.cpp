@@ -116,7 +116,7 @@ TEST(DbbNodes, PreOperationalNodesSendNothingUntilStartedAndTheDeviceSaysWhy) {
   ASSERT_TRUE(b.wait_samples(50));
   ASSERT_TRUE(b.state_is(DeviceState::streaming)) << b.driver->status().reason;
   for (const auto s : b.emu.node_states()) EXPECT_EQ(s, drivers::can::NmtState::operational);
-  EXPECT_EQ(b.counter("nmt_starts"), 3u);
+  EXPECT_GE(b.counter("nmt_starts"), 3u);
   EXPECT_TRUE(b.saw("node_checked",
                     "node 2 (x): vendor-ID 0x47570000, product code 0x00000196, revision 0x00010000, "
                     "serial number 1002; 100 nm per count; TPDO1 synchronous; heartbeat every 20 ms "
@@ -133,6 +133,9 @@ TEST(DbbNodes, ARebootedNodeIsNamedCheckedAndStartedAgainWhileTheOthersStream) {
   ASSERT_TRUE(b.wait_samples(20));
   ASSERT_TRUE(b.state_is(DeviceState::streaming));
   const std::size_t before = b.samples.size();
+  // Counted from here: the nodes' own power-on boot-ups may have been heard too (they boot with the emulator).
+  const auto boot_ups = b.counter("node_boot_ups");
+  const auto starts = b.counter("nmt_starts");
   b.emu.inject_reboot(2, 0.15);
   ASSERT_TRUE(b.state_is(DeviceState::lost, "node 3 (y)")) << b.driver->status().reason;
   EXPECT_EQ(b.driver->status().reason.rfind("node 3 (y): ", 0), 0u) << b.driver->status().reason;
@@ -141,8 +144,8 @@ TEST(DbbNodes, ARebootedNodeIsNamedCheckedAndStartedAgainWhileTheOthersStream) {
   ASSERT_TRUE(b.saw("node_back", "node 3 (y)")) << b.events_text();
   ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
   EXPECT_GT(b.others_streaming_since(before, 2), 10u) << "bar and x kept streaming while y was off";
-  EXPECT_EQ(b.counter("node_boot_ups"), 1u);
-  EXPECT_GE(b.counter("nmt_starts"), 4u);
+  EXPECT_EQ(b.counter("node_boot_ups") - boot_ups, 1u);
+  EXPECT_GE(b.counter("nmt_starts") - starts, 1u);
   // The first complete sample after the reboot says a gap came before it.
   bool gap = false;
   for (std::size_t i = before; i < b.samples.size(); ++i) {
@@ -162,6 +165,7 @@ TEST(DbbNodes, AHeartbeatLossIsNamedAndTheNodeIsBackWhenItIs) {
   ASSERT_TRUE(b.wait_samples(20));
   ASSERT_TRUE(b.state_is(DeviceState::streaming));
   const std::size_t before = b.samples.size();
+  const auto boot_ups = b.counter("node_boot_ups");
   b.emu.inject_mute(1, 0.3);
   ASSERT_TRUE(b.state_is(DeviceState::lost, "node 2 (x): no heartbeat for 80 ms")) << b.driver->status().reason;
   ASSERT_TRUE(b.saw("node_lost", "node 2 (x): no heartbeat for 80 ms")) << b.events_text();
@@ -171,7 +175,7 @@ TEST(DbbNodes, AHeartbeatLossIsNamedAndTheNodeIsBackWhenItIs) {
   ASSERT_TRUE(b.saw("node_back", "node 2 (x)")) << b.events_text();
   EXPECT_GT(b.others_streaming_since(before, 1), 10u);
   EXPECT_GE(b.counter("heartbeat_timeouts"), 1u);
-  EXPECT_EQ(b.counter("node_boot_ups"), 0u);
+  EXPECT_EQ(b.counter("node_boot_ups"), boot_ups) << "it did not reboot";
   EXPECT_EQ(b.counter("emcy"), 1u);
   ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
   b.stop_and_check_all(5);

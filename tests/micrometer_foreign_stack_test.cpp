@@ -18,6 +18,7 @@
 
 #include "core/sample.hpp"
 #include "driver_counters_support.hpp"
+#include "driver_samples_support.hpp"
 #include "drivers/micrometer/micrometer_driver.hpp"
 #include "test_support.hpp"
 
@@ -137,18 +138,8 @@ struct Device {
     driver->start();
   }
   ~Device() { driver->stop(); }
-  void drain() {
-    Sample s;
-    while (driver->ring().try_pop(s)) samples.push_back(s);
-  }
-  bool wait_samples(std::size_t n, std::chrono::milliseconds timeout = 10s) {
-    return test::eventually(
-        [&] {
-          drain();
-          return samples.size() >= n;
-        },
-        timeout);
-  }
+  void drain() { test::drain_samples(*driver, samples); }
+  bool wait_samples(std::size_t n) { return test::wait_samples(*driver, samples, n); }
   // Waits for `n` more samples and returns them.
   std::vector<Sample> next(std::size_t n) {
     const std::size_t from = samples.size();
