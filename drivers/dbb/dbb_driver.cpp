@@ -529,7 +529,7 @@ void DbbDriver::run(std::stop_token stop) {
 
 void register_dbb_driver(drivers::DriverRegistry& registry) {
   registry.add("dbb-can",
-               "double ball bar + axis encoders on CAN (CiA 406 style TPDOs on SYNC; SocketCAN or unix: gateway)",
+               "double ball bar + axis encoders on CAN (CANopen CiA 301/406 nodes: NMT, SDO checks, TPDOs on SYNC; SocketCAN or unix: gateway)",
                [](const drivers::DeviceConfig& c) {
                  return std::make_unique<DbbDriver>(c.name, c.ring_capacity, parse_dbb_settings(c.table));
                });

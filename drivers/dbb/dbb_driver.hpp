@@ -1,7 +1,8 @@
 #pragma once
-// "dbb-can": the double ball bar's length encoder plus two axis encoders on one CAN bus (CiA 406
-// style, see dbb_protocol.hpp). One Sample per SYNC: values in the order of the configured encoders,
-// in metres, timestamped at the SYNC. Thread safety: as drivers::Driver.
+// "dbb-can": the double ball bar's length encoder plus two axis encoders on one CAN bus, CANopen
+// CiA 406 encoders (PDOs: dbb_protocol.hpp; checking and starting the nodes: dbb_network.hpp). One
+// Sample per SYNC: values in the order of the configured encoders, in metres, timestamped at the SYNC.
+// The state is `streaming` only while every node delivers. Thread safety: as drivers::Driver.
 
 #include <functional>
 #include <span>
