@@ -4,6 +4,7 @@
 // the virtual machine tool with those tables loaded and prints before/after (docs/compensation.md).
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -367,6 +368,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
   j["notes"] = map.notes;
   j["step_mm"] = map.step_m * 1e3;
   nlohmann::json written = nlohmann::json::array();
+  std::vector<NamedContent> set;
   for (const auto& f : models::compensation::compensation_files(map, source)) {
     const auto stem = f.name.substr(0, f.name.find('.'));
     if (f.name.ends_with(".comp") && std::find(axes.begin(), axes.end(), stem) == axes.end()) continue;
@@ -376,15 +378,12 @@ void run_compensate(const Opts& o, const std::string& socket) {
       for (const auto& a : axes) joints.push_back({models::compensation::joint_of(a), a, a + ".comp"});
       content = formats::format_linuxcnc_ini(joints, {"Guideway compensation, written from " + source});
     }
-    const std::string path = (fs::path(o.out_dir) / f.name).string();
-    write_file_atomically(path, content);
-    written.push_back(path);
+    set.push_back({f.name, std::move(content)});
+    written.push_back((fs::path(o.out_dir) / f.name).string());
   }
-  // A straightness.csv of an earlier compensation in this directory would be loaded with these tables.
-  if (const fs::path stale = fs::path(o.out_dir) / "straightness.csv";
-      fs::exists(stale) && std::none_of(written.begin(), written.end(),
-                                        [&](const auto& p) { return p.template get<std::string>() == stale.string(); }))
-    fs::remove(stale);
+  // One set or the other, never a mix: a table or a straightness.csv of an earlier compensation in this
+  // directory would be loaded with these (a full disk half way leaves the earlier set whole).
+  write_file_set_atomically(o.out_dir, set, models::compensation::compensation_file_names());
   j["files"] = written;
   nlohmann::json terms = nlohmann::json::array();
   for (const auto& t : map.terms)
@@ -422,6 +421,15 @@ void run_compensate(const Opts& o, const std::string& socket) {
     std::cout << text;
 }
 
+// CLI11 reads "nan" and "inf" as numbers: a table position or step must be a finite one.
+const CLI::Validator finite_number(
+    [](std::string& text) {
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      return std::isfinite(v) ? std::string() : "\"" + text + "\" is not a finite number";
+    },
+    "FINITE");
+
 void add_compensate_commands(CLI::App& app, CliContext& ctx) {
   auto* cmd =
       app.add_subcommand("compensate", "Compensation tables from identified machine errors (docs/compensation.md)");
@@ -434,10 +442,11 @@ void add_compensate_commands(CLI::App& app, CliContext& ctx) {
       ->required();
   d->add_option("--center-mm", o->center_mm,
                 "circle centre in machine coordinates (first, second plane axis); default: the runs' metadata")
-      ->expected(2);
+      ->expected(2)
+      ->check(finite_number);
   d->add_option("--axes", o->axes, "tables for these plane axes only, e.g. x (default: both)");
   d->add_option("--step-mm", o->step_mm, "table spacing (default: the finest round step within 256 lines)")
-      ->check(CLI::PositiveNumber);
+      ->check(finite_number & CLI::PositiveNumber);
   d->add_flag("--json", o->json, "print the result as one JSON object");
   d->add_flag("--verify", o->verify,
               "trace the same test on the virtual machine without and with the tables and print before/after");

@@ -15,6 +15,7 @@
 #include "cli/commands.hpp"
 #include "core/atomic_file.hpp"
 #include "core/csv_table.hpp"
+#include "core/printable.hpp"
 #include "core/utc_time.hpp"
 #include "fleet/fleet_report.hpp"
 #include "fleet/fleet_status.hpp"
@@ -22,6 +23,7 @@
 #include "fleet/store.hpp"
 #include "fleet/subscriber.hpp"
 #include "plant/broker_address.hpp"
+#include "plant/mqtt_socket.hpp"
 #include "plant/topics.hpp"
 #include "results/session_kinds.hpp"
 
@@ -47,6 +49,7 @@ struct ServeOpts {
   std::string broker, ca_file, cert_file, key_file, username, password_file, client_id = "guideway-fleet";
   std::string topic_prefix = "guideway", db;
   std::uint32_t session_expiry_s = 7 * 24 * 3600;
+  std::size_t max_message_kb = fleet::default_max_payload_bytes / 1024;
   void add(CLI::App& cmd) {
     cmd.add_option("--broker", broker, "mqtt://HOST[:PORT] or mqtts://HOST[:PORT]")->required();
     cmd.add_option("--ca-file", ca_file, "TLS: the CA certificate that signed the broker's (default: the system's)");
@@ -60,8 +63,19 @@ struct ServeOpts {
     cmd.add_option("--session-expiry-s", session_expiry_s,
                    "how long the broker queues messages for the fleet while it is away")
         ->capture_default_str();
+    cmd.add_option("--max-message-kb", max_message_kb,
+                   "the largest payload stored; the broker is told never to send a larger one")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 256 * 1024));
   }
 };
+
+// A TLS file option that names a file OpenSSL cannot use is refused now, not at the first connection.
+void check_tls_file(const char* option, const std::string& path, plant::TlsFileRole role) {
+  if (path.empty()) return;
+  if (const std::string p = plant::tls_file_problem(path, role); !p.empty())
+    throw std::runtime_error(std::string(option) + ": " + p);
+}
 
 void serve(const ServeOpts& o, CliContext& /*ctx*/) {
   fleet::SubscriberSettings s;
@@ -75,6 +89,12 @@ void serve(const ServeOpts& o, CliContext& /*ctx*/) {
   if ((!o.ca_file.empty() || !o.cert_file.empty()) && !s.connection.broker.tls)
     throw std::runtime_error("--ca-file and --cert-file need an mqtts:// broker");
   if (!o.password_file.empty() && o.username.empty()) throw std::runtime_error("--password-file needs --username");
+  if (o.cert_file.empty() != o.key_file.empty()) throw std::runtime_error("--cert-file and --key-file go together");
+  check_tls_file("--ca-file", o.ca_file, plant::TlsFileRole::ca_certificates);
+  check_tls_file("--cert-file", o.cert_file, plant::TlsFileRole::client_certificate);
+  check_tls_file("--key-file", o.key_file, plant::TlsFileRole::private_key);
+  if (const std::string p = plant::client_id_problem(o.client_id); !p.empty())
+    throw std::runtime_error("--client-id " + p);
   s.connection.ca_file = o.ca_file;
   s.connection.cert_file = o.cert_file;
   s.connection.key_file = o.key_file;
@@ -83,6 +103,7 @@ void serve(const ServeOpts& o, CliContext& /*ctx*/) {
   s.connection.client_id = o.client_id;
   s.connection.session_expiry_s = o.session_expiry_s;
   s.topic_prefix = o.topic_prefix;
+  s.max_payload_bytes = o.max_message_kb * 1024;
   const std::string db = db_path(o.db);
   fleet::Store store(db);
   std::signal(SIGTERM, request_stop);
@@ -94,7 +115,7 @@ void serve(const ServeOpts& o, CliContext& /*ctx*/) {
   subscriber.run(stop_requested);
   const auto& c = subscriber.counts();
   log("stopped: stored " + std::to_string(c.stored) + " message(s), " + std::to_string(c.duplicates) +
-      " already stored, " + std::to_string(c.ignored) + " ignored");
+      " already stored, " + std::to_string(c.ignored) + " superseded, " + std::to_string(c.refused) + " refused");
 }
 
 struct StatusArgs {
@@ -109,10 +130,13 @@ struct StatusArgs {
 void run_status(const StatusArgs& a, CliContext& /*ctx*/) {
   const fleet::Store store(db_path(a.db), fleet::Store::Open::existing);
   const auto status = fleet::fleet_status(store, now_s());
-  if (a.json)
-    std::cout << fleet::status_json(status).dump(1) << "\n";
-  else
-    std::cout << fleet::status_text(status);
+  if (a.json) {
+    auto j = fleet::status_json(status);
+    j["refused"] = fleet::refusals_json(store);
+    std::cout << j.dump(1) << "\n";
+  } else {
+    std::cout << fleet::status_text(status) << fleet::refusals_text(store);
+  }
 }
 
 struct HistoryArgs {
@@ -131,8 +155,8 @@ void run_history(const HistoryArgs& a, CliContext& /*ctx*/) {
   const auto machines = store.machines();
   if (std::none_of(machines.begin(), machines.end(), [&](const auto& m) { return m.machine == a.machine; })) {
     std::string known;
-    for (const auto& m : machines) known += (known.empty() ? "" : ", ") + m.machine;
-    throw std::runtime_error("fleet history: unknown machine '" + a.machine +
+    for (const auto& m : machines) known += (known.empty() ? "" : ", ") + printable(m.machine);
+    throw std::runtime_error("fleet history: unknown machine '" + printable(a.machine) +
                              "'; known: " + (known.empty() ? "none yet" : known));
   }
   const auto entries = fleet::history_of(store.results(a.machine, a.kind));
@@ -188,8 +212,10 @@ void run_ingest(const IngestArgs& a, CliContext& /*ctx*/) {
   fleet::Store store(db_path(a.db));
   const std::string received = a.received.empty() ? utc_now_iso_ms() : a.received;
   const auto r = store.ingest(a.prefix, a.topic, read_text_file(a.file), a.produced, received);
-  if (r.outcome == fleet::IngestResult::ignored)
-    throw std::runtime_error("fleet ingest: " + a.file + " ignored: " + r.reason);
+  if (r.outcome == fleet::IngestResult::ignored || r.outcome == fleet::IngestResult::refused)
+    throw std::runtime_error("fleet ingest: " + a.file + " " + std::string(fleet::to_string(r.outcome)) + ": " +
+                             printable(r.reason));
+  if (!r.reason.empty()) std::cerr << "fleet ingest: " << printable(r.reason) << "\n";
   std::cout << fleet::to_string(r.outcome) << "\n";
 }
 

@@ -1,4 +1,5 @@
 // guideway: the command-line client of guidewayd and the offline analysis tool.
+#include <csignal>
 #include <iostream>
 
 #include "cli/commands.hpp"
@@ -36,6 +37,9 @@ CLI::App* shared_subcommand(CLI::App& app, const std::string& name, const std::s
 
 int main(int argc, char** argv) {
   guideway::keep_freed_memory();
+  // Past `ulimit -f` a write fails with EFBIG and is reported like a full disk, instead of the signal
+  // killing the command half way through writing a set of files.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"guideway: client of guidewayd and offline analysis of metrology recordings"};
   app.require_subcommand(1);
   guideway::cli::CliContext ctx;

@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -11,7 +12,10 @@
 
 namespace guideway {
 
-void write_file_atomically(const std::string& path, std::string_view content, std::optional<mode_t> exact_mode) {
+namespace {
+
+// Writes PATH.part whole; throws (the part removed) when it cannot.
+void write_part(const std::string& path, std::string_view content, std::optional<mode_t> exact_mode) {
   const std::string part = path + ".part";
   const auto fail = [&](const std::string& what, int err) {
     std::remove(part.c_str());
@@ -32,7 +36,41 @@ void write_file_atomically(const std::string& path, std::string_view content, st
     done += static_cast<std::size_t>(n);
   }
   if (::close(fd) != 0) fail("write failed", errno);
-  if (std::rename(part.c_str(), path.c_str()) != 0) fail("rename failed", errno);
+}
+
+void commit_part(const std::string& path) {
+  const std::string part = path + ".part";
+  if (std::rename(part.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    std::remove(part.c_str());
+    throw std::runtime_error(part + ": rename failed: " + std::strerror(err));
+  }
+}
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, std::string_view content, std::optional<mode_t> exact_mode) {
+  write_part(path, content, exact_mode);
+  commit_part(path);
+}
+
+void write_file_set_atomically(const std::string& dir, const std::vector<NamedContent>& files,
+                               const std::vector<std::string>& retired) {
+  const auto path_of = [&](const std::string& name) { return dir + "/" + name; };
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    try {
+      write_part(path_of(files[i].name), files[i].content, std::nullopt);
+    } catch (...) {
+      for (std::size_t k = 0; k < i; ++k) std::remove((path_of(files[k].name) + ".part").c_str());
+      throw;
+    }
+  }
+  for (const auto& f : files) commit_part(path_of(f.name));  // renames need no space
+  for (const auto& name : retired) {
+    const bool in_set = std::any_of(files.begin(), files.end(), [&](const NamedContent& f) { return f.name == name; });
+    if (!in_set && std::remove(path_of(name).c_str()) != 0 && errno != ENOENT)
+      throw std::runtime_error(path_of(name) + ": cannot remove the previous set's file: " + std::strerror(errno));
+  }
 }
 
 }  // namespace guideway

@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <sys/types.h>
 
@@ -14,5 +15,17 @@ namespace guideway {
 // without, 0666 less the umask. Throws std::runtime_error naming the file and the cause.
 void write_file_atomically(const std::string& path, std::string_view content,
                            std::optional<mode_t> exact_mode = std::nullopt);
+
+// Files that are only right together (a controller's compensation tables and the INI lines that load
+// them): every one is written to NAME.part first, and only when all are written are they renamed into
+// `dir`; then the `retired` names that are not in the set (a previous set's file that would be loaded
+// with the new ones) are removed. A failed write (a full disk) removes the parts and leaves `dir` as it
+// was: the old set whole, never a mix. Throws std::runtime_error naming the file and the cause.
+struct NamedContent {
+  std::string name;  // a file name in `dir`
+  std::string content;
+};
+void write_file_set_atomically(const std::string& dir, const std::vector<NamedContent>& files,
+                               const std::vector<std::string>& retired);
 
 }  // namespace guideway

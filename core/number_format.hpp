@@ -23,12 +23,14 @@ inline void append_shortest(std::string& out, double v) {
 
 // One number in a printf conversion ("%.3f", "%+.2g um", ...), for messages and tables.
 [[nodiscard]] inline std::string printf_number(const char* printf_format, double v) {
-  char buf[128];
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wformat-nonliteral"
-  std::snprintf(buf, sizeof buf, printf_format, v);
+  // Sized to the text: "%.3f" of 1e300 is over 300 characters, and none may be cut.
+  std::string s(static_cast<std::size_t>(std::snprintf(nullptr, 0, printf_format, v)) + 1, '\0');
+  std::snprintf(s.data(), s.size(), printf_format, v);
 #pragma GCC diagnostic pop
-  return buf;
+  s.pop_back();
+  return s;
 }
 
 // `digits` significant digits, as printf's %g (and an ostream's default notation) writes them.

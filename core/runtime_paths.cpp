@@ -100,4 +100,24 @@ std::string socket_path_problem(const std::string& path) {
   return "";
 }
 
+std::string directory_creation_problem(const std::string& dir) {
+  std::filesystem::path p = std::filesystem::absolute(dir).lexically_normal();
+  bool missing = false;
+  for (;;) {
+    struct stat st {};
+    if (stat(p.c_str(), &st) == 0) {
+      if (!S_ISDIR(st.st_mode))
+        return missing ? "cannot be created: " + p.string() + " is not a directory" : "is not a directory";
+      if (access(p.c_str(), W_OK | X_OK) != 0)
+        return missing ? "cannot be created: " + p.string() + " is not writable (" + std::strerror(errno) + ")"
+                       : "is not writable (" + std::string(std::strerror(errno)) + ")";
+      return {};
+    }
+    if (errno != ENOENT) return "cannot be reached: " + p.string() + ": " + std::strerror(errno);
+    if (!p.has_parent_path() || p.parent_path() == p) return "cannot be created: no existing parent";
+    missing = true;
+    p = p.parent_path();
+  }
+}
+
 }  // namespace guideway

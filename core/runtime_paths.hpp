@@ -26,5 +26,8 @@ void secure_socket_directory(const std::string& dir);
 void check_socket_owner(const std::string& path);
 // Why `path` cannot be a Unix socket's address (sun_path holds 107 bytes and a NUL), or "" when it can.
 std::string socket_path_problem(const std::string& path);
+// Why this process could not make and write the directory `dir` ("" when it could): it exists and is
+// not a writable directory, or its nearest existing parent is not. Creates nothing (--check-config).
+std::string directory_creation_problem(const std::string& dir);
 
 }  // namespace guideway

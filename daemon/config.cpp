@@ -53,8 +53,9 @@ mode_t parse_mode(const TableReader& t) {
   }
   if (used != text.size() || text.empty() || v > 0777) t.fail("socket_mode", "expected an octal mode such as \"0660\"");
   if ((v & 0002) != 0)
-    t.fail("socket_mode", "world-writable (" + text + "): any local user could start and stop sessions; give the "
-                          "users a group (socket_group) and 0660");
+    t.fail("socket_mode", "world-writable (" + text +
+                              "): any local user could start and stop sessions; give the "
+                              "users a group (socket_group) and 0660");
   return static_cast<mode_t>(v);
 }
 
@@ -115,7 +116,8 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     DaemonConfig::Processing p;
     p.device = pt.require_string("device");
     const auto enabled_device = [&](const DaemonConfig::Device& d) { return d.name == p.device; };
-    if (std::none_of(c.devices.begin(), c.devices.end(), enabled_device)) pt.fail("device", "no enabled [[device]] is named \"" + p.device + "\"");
+    if (std::none_of(c.devices.begin(), c.devices.end(), enabled_device))
+      pt.fail("device", "no enabled [[device]] is named \"" + p.device + "\"");
     p.channel = pt.require_string("channel");
     p.wavelet = pt.get_string("wavelet", p.wavelet);
     try {
@@ -152,7 +154,15 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     throw ConfigError(file_name, 0, "daemon.socket", "default " + c.socket_path + ": " + problem);
   }
   if (c.state_dir.empty()) c.state_dir = default_state_dir();
-  if (c.mqtt) c.mqtt->journal_dir = c.state_dir + "/mqtt-journal";
+  if (c.mqtt) {
+    c.mqtt->journal_dir = c.state_dir + "/mqtt-journal";
+    // The publisher cannot start without its journal: checked here, so that --check-config refuses it.
+    if (const std::string problem = directory_creation_problem(c.mqtt->journal_dir); !problem.empty()) {
+      const std::string why = "the MQTT journal " + c.mqtt->journal_dir + " " + problem;
+      if (const auto d = top.table("daemon"); d && d->has("state_dir")) d->fail("state_dir", why);
+      top.table("mqtt")->fail("broker", why + " (set [daemon] state_dir to a writable directory)");
+    }
+  }
   if (c.plugin_dir.empty()) c.plugin_dir = drivers::default_plugin_dir();
   return c;
 }

@@ -313,6 +313,15 @@ nlohmann::json Daemon::emulators_json() const {
 
 void Daemon::check_device_events() {
   for (std::size_t i = 0; i < devices_.size(); ++i) {
+    // What happened inside the device (a CANopen node's EMCY or reboot), in order, before its state.
+    for (const drivers::DeviceEvent& e : devices_[i]->take_events()) {
+      if (e.warning)
+        log_->warn("device {}: {}: {}", devices_[i]->name(), e.event, e.reason);
+      else
+        log_->info("device {}: {}: {}", devices_[i]->name(), e.event, e.reason);
+      broadcast(make_message(
+          Event{.event = e.event, .time = utc_now_iso(), .device = devices_[i]->name(), .reason = e.reason}));
+    }
     const drivers::DriverStatus s = devices_[i]->status();
     if (s.state == last_states_[i]) continue;
     last_states_[i] = s.state;

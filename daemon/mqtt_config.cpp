@@ -7,9 +7,11 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "core/printable.hpp"
 #include "daemon/config.hpp"
 #include "plant/broker_address.hpp"
 #include "plant/mqtt_connection.hpp"
+#include "plant/mqtt_socket.hpp"
 #include "plant/topics.hpp"
 
 namespace guideway::daemon {
@@ -34,6 +36,13 @@ std::string readable_file(const TableReader& t, const std::string& key, const st
   return std::filesystem::absolute(path).lexically_normal().string();
 }
 
+// A TLS file: readable, and holding what OpenSSL will need (a PEM certificate or key), so that a
+// directory or a file of the wrong kind is a config error at its line, not "A TLS error occurred" later.
+void check_tls_file(const TableReader& t, const std::string& key, const std::string& path, plant::TlsFileRole role) {
+  if (path.empty()) return;
+  if (const std::string p = plant::tls_file_problem(path, role); !p.empty()) t.fail(key, p);
+}
+
 }  // namespace
 
 plant::PublisherSettings parse_mqtt_table(const TableReader& t, const std::string& relative_to) {
@@ -44,22 +53,32 @@ plant::PublisherSettings parse_mqtt_table(const TableReader& t, const std::strin
     t.fail("broker", e.what());
   }
   s.machine = t.get_string("machine", host_name());
-  if (const std::string p = plant::topic_level_problem(s.machine); !p.empty()) t.fail("machine", "\"" + s.machine + "\" " + p);
+  if (const std::string p = plant::topic_level_problem(s.machine); !p.empty())
+    t.fail("machine", "\"" + printable(s.machine.substr(0, 64)) + "\" " + p);
   s.topic_prefix = t.get_string("topic_prefix", s.topic_prefix);
   if (const std::string p = plant::topic_prefix_problem(s.topic_prefix); !p.empty())
-    t.fail("topic_prefix", "\"" + s.topic_prefix + "\" " + p);
+    t.fail("topic_prefix", "\"" + printable(s.topic_prefix.substr(0, 64)) + "\" " + p);
   s.connection.client_id = t.get_string("client_id", "guidewayd-" + s.machine);
+  if (const std::string p = plant::client_id_problem(s.connection.client_id); !p.empty())
+    t.fail("client_id", "\"" + printable(s.connection.client_id.substr(0, 64)) + "\" " + p);
   s.connection.keepalive_s = static_cast<int>(t.get_int("keepalive_s", 30, 5, 3600));
   s.connection.ca_file = readable_file(t, "ca_file", relative_to);
   s.connection.cert_file = readable_file(t, "cert_file", relative_to);
   s.connection.key_file = readable_file(t, "key_file", relative_to);
-  const bool tls_key = !s.connection.ca_file.empty() || !s.connection.cert_file.empty() || !s.connection.key_file.empty();
+  const bool tls_key =
+      !s.connection.ca_file.empty() || !s.connection.cert_file.empty() || !s.connection.key_file.empty();
   if (tls_key && !s.connection.broker.tls) {
-    t.fail(!s.connection.ca_file.empty() ? "ca_file" : !s.connection.cert_file.empty() ? "cert_file" : "key_file",
+    t.fail(!s.connection.ca_file.empty()     ? "ca_file"
+           : !s.connection.cert_file.empty() ? "cert_file"
+                                             : "key_file",
            "TLS files need an mqtts:// broker (it is " + s.connection.broker.url() + ")");
   }
   if (s.connection.cert_file.empty() != s.connection.key_file.empty())
-    t.fail(s.connection.cert_file.empty() ? "key_file" : "cert_file", "a client certificate needs both cert_file and key_file");
+    t.fail(s.connection.cert_file.empty() ? "key_file" : "cert_file",
+           "a client certificate needs both cert_file and key_file");
+  check_tls_file(t, "ca_file", s.connection.ca_file, plant::TlsFileRole::ca_certificates);
+  check_tls_file(t, "cert_file", s.connection.cert_file, plant::TlsFileRole::client_certificate);
+  check_tls_file(t, "key_file", s.connection.key_file, plant::TlsFileRole::private_key);
   s.connection.username = t.get_string("username", "");
   const std::string password_file = readable_file(t, "password_file", relative_to);
   if (!password_file.empty()) {

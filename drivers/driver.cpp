@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <condition_variable>
+#include <utility>
 
 namespace guideway::drivers {
 
@@ -59,6 +60,31 @@ void Driver::set_state(DeviceState state, std::string reason) {
   std::lock_guard lock(state_mutex_);
   state_ = state;
   reason_ = std::move(reason);
+}
+
+void Driver::post_event(DeviceEvent event) {
+  std::lock_guard lock(state_mutex_);
+  if (events_.size() >= max_pending_events) {
+    events_.erase(events_.begin());
+    ++events_dropped_;
+  }
+  events_.push_back(std::move(event));
+}
+
+std::vector<DeviceEvent> Driver::take_events() {
+  std::vector<DeviceEvent> out;
+  std::uint64_t dropped = 0;
+  {
+    std::lock_guard lock(state_mutex_);
+    out.swap(events_);
+    dropped = std::exchange(events_dropped_, 0);
+  }
+  if (dropped > 0) {
+    out.insert(out.begin(), DeviceEvent{"events_dropped", std::to_string(dropped) +
+                                                              " older events of this device were dropped (more than " +
+                                                              std::to_string(max_pending_events) + " waiting)"});
+  }
+  return out;
 }
 
 void Driver::publish(Sample sample) noexcept {

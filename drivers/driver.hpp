@@ -48,6 +48,14 @@ struct NamedCounter {
   std::uint64_t value = 0;
 };
 
+// Something that happened to a device besides a change of its state (a CANopen node's EMCY, a node
+// that rebooted): the daemon logs it and sends it as an EVENT with the device's name.
+struct DeviceEvent {
+  std::string event;    // snake_case, a fixed name per kind ("node_emcy", "node_boot", ...)
+  std::string reason;   // what happened, naming the part of the device it concerns
+  bool warning = true;  // logged as a warning (else as information)
+};
+
 struct RingStatus {
   std::size_t capacity = 0;
   std::size_t depth = 0;
@@ -78,6 +86,11 @@ class Driver {
   // The driver's own counters (STATUS "driver_counters"), the same names every time; default none.
   // Called from any thread while run() goes on: read atomics only.
   [[nodiscard]] virtual std::vector<NamedCounter> driver_counters() const { return {}; }
+  // The events posted since the last call, oldest first (any thread; the daemon polls it with the
+  // states). At most max_pending_events wait: older ones are dropped, and an "events_dropped" event
+  // says how many.
+  std::vector<DeviceEvent> take_events();
+  static constexpr std::size_t max_pending_events = 256;
   [[nodiscard]] const std::string& name() const noexcept { return name_; }
   [[nodiscard]] const std::string& driver() const noexcept { return driver_; }
   [[nodiscard]] const std::vector<ChannelInfo>& channels() const noexcept { return channels_; }
@@ -95,6 +108,8 @@ class Driver {
   virtual void interrupt() {}
 
   void set_state(DeviceState state, std::string reason = {});
+  // Queues an event for take_events(); never blocks for long (a mutex held for a push).
+  void post_event(DeviceEvent event);
   // Assigns the sequence number and pushes; a full ring counts an overrun (the sample is dropped).
   void publish(Sample sample) noexcept;
   // n samples the instrument took that never reached the driver (its own buffer lapped): their
@@ -119,6 +134,8 @@ class Driver {
   mutable std::mutex state_mutex_;
   DeviceState state_ = DeviceState::stopped;
   std::string reason_;
+  std::vector<DeviceEvent> events_;   // under state_mutex_
+  std::uint64_t events_dropped_ = 0;  // under state_mutex_
   std::jthread thread_;
 };
 

@@ -18,10 +18,21 @@ namespace {
 
 constexpr double seconds_per_day = 86400.0;
 
-// An HTML id from a machine name (letters, digits, '-', '_'; the rest becomes '-').
+// An HTML id from a machine name, one per name: letters, digits and '_' as they are, every other byte
+// as '-' and its two hex digits ("mill.1" -> machine-mill-2e1, "mill-1" -> machine-mill-2d1).
 std::string anchor(const std::string& machine) {
+  static constexpr char hex[] = "0123456789abcdef";
   std::string id = "machine-";
-  for (const char c : machine) id += std::isalnum(static_cast<unsigned char>(c)) || c == '_' ? c : '-';
+  for (const char c : machine) {
+    const auto b = static_cast<unsigned char>(c);
+    if (std::isalnum(b) || c == '_') {
+      id += c;
+    } else {
+      id += '-';
+      id += hex[b >> 4];
+      id += hex[b & 15];
+    }
+  }
   return id;
 }
 
@@ -35,9 +46,18 @@ std::string figure_cell(const FigureChange* f) {
   return nowrap(cell);
 }
 
-std::string fleet_table(const std::vector<MachineStatus>& fleet) {
+// When a result was made, as a page read days later needs it: the date and time, and how long before
+// the report that was ("2026-11-25 09:00, 1.2 d before this report").
+std::string when_made(double made_s, double report_s) {
+  const std::string t = utc_iso_ms(made_s);
+  const double age = report_s - made_s;
+  return nowrap(report::html_escape(t.substr(0, 10) + " " + t.substr(11, 5))) + ", " +
+         report::html_escape(age < 0 ? "after this report" : format_age(age) + " before this report");
+}
+
+std::string fleet_table(const std::vector<MachineStatus>& fleet, double report_s) {
   const auto columns = figure_columns(fleet);
-  std::vector<std::string> header = {"machine", "state", "since (UTC)", "last DBB"};
+  std::vector<std::string> header = {"machine", "state", "since (UTC)", "last DBB (UTC)"};
   for (const auto& c : columns) header.push_back(report::html_escape(c.header));
   header.emplace_back("EXPLAIN (latest)");
   std::vector<std::vector<std::string>> rows;
@@ -49,16 +69,18 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet) {
         report::html_escape(state),
         nowrap(report::html_escape(m.machine.since.substr(0, 10))) + " " +
             report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
-        m.dbb_age_s ? report::html_escape(format_age(*m.dbb_age_s)) + " ago" : "never"};
+        m.dbb_age_s ? when_made(report_s - *m.dbb_age_s, report_s) : "never"};
     for (const auto& c : columns) row.push_back(figure_cell(figure_of(m, c)));
     std::string found;
     for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
     row.push_back(report::html_escape(found.empty() ? "–" : found));
     rows.push_back(std::move(row));
   }
-  return report::html_table(report::Table("The latest result of each kind (value ± standard uncertainty u). * " +
-                                              report::html_escape(moved_rule_text) + ".",
-                                          std::move(header), std::move(rows)));
+  report::Table table("The latest result of each kind (value ± standard uncertainty u). * " +
+                          report::html_escape(moved_rule_text) + ".",
+                      std::move(header), std::move(rows));
+  table.text_columns = {1, 2, 3, table.header.size() - 1};  // state, times and what EXPLAIN found: words
+  return report::html_table(table);
 }
 
 // One figure's trend: the values, and a bar from value − 2u to value + 2u at each (NaN-separated
@@ -84,6 +106,21 @@ std::string trend_plot(const std::string& kind, const Headline& first, const std
   // around a single result.
   const double margin = *hi - *lo < 1e-6 ? 0.5 : 0.05 * (*hi - *lo);
   p.x_range = report::Range{*lo - margin, *hi + margin};
+  // The value axis spans the bars and at least a fifth of the largest value, centred on the data: a
+  // change of 0.04 µm in a G of 17 µm is a flat line, not a fall from the top to the bottom of the plot.
+  double y_lo = std::numeric_limits<double>::infinity(), y_hi = -y_lo, largest = 0.0;
+  for (const auto* s : {&v.y, &bars.y})
+    for (const double y : *s)
+      if (std::isfinite(y)) {
+        y_lo = std::min(y_lo, y);
+        y_hi = std::max(y_hi, y);
+        largest = std::max(largest, std::abs(y));
+      }
+  const double min_span = std::max(0.2 * largest, 1e-9);
+  if (y_hi - y_lo < min_span) {
+    const double mid = 0.5 * (y_lo + y_hi);
+    p.y_range = report::Range{mid - 0.5 * min_span, mid + 0.5 * min_span};
+  }
   const bool with_u = !bars.x.empty();
   p.series.push_back(std::move(v));
   if (with_u) p.series.push_back(std::move(bars));
@@ -114,7 +151,8 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
   const double unit_s = span_s >= 2 * seconds_per_day ? seconds_per_day : span_s >= 7200.0 ? 3600.0 : 60.0;
   const char* unit = unit_s == seconds_per_day ? "days" : unit_s == 3600.0 ? "h" : "min";
   t0 = std::floor(t0 / unit_s) * unit_s;
-  const std::string epoch = unit_s == seconds_per_day ? utc_iso_ms(t0).substr(0, 10) : utc_iso_ms(t0).substr(0, 16) + "Z";
+  const std::string epoch =
+      unit_s == seconds_per_day ? utc_iso_ms(t0).substr(0, 10) : utc_iso_ms(t0).substr(0, 16) + "Z";
   const std::string time_axis = std::string(unit) + " since " + epoch;
   // Per kind and figure (in table order): the times and values.
   struct Trend {
@@ -157,9 +195,9 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
 std::string render_fleet_report(const Store& store, const FleetReportOptions& options) {
   const auto fleet = fleet_status(store, options.now_s);
   std::vector<report::TocEntry> toc = {{"fleet", "Fleet"}};
-  std::string body =
-      report::html_section("fleet", "fleet", "Fleet",
-                           fleet.empty() ? report::html_note("No machine has reported yet.") : fleet_table(fleet));
+  std::string body = report::html_section(
+      "fleet", "fleet", "Fleet",
+      fleet.empty() ? report::html_note("No machine has reported yet.") : fleet_table(fleet, options.now_s));
   for (const auto& m : fleet) {
     body += machine_section(m, history_of(store.results(m.machine.machine)));
     toc.push_back({anchor(m.machine.machine), m.machine.machine});

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "core/number_format.hpp"
+#include "core/printable.hpp"
 #include "core/utc_time.hpp"
 #include "results/session_kinds.hpp"
 
@@ -41,8 +42,8 @@ std::vector<MachineStatus> fleet_status(const Store& store, double now_s) {
     auto& m = by_name[rows[i].machine];
     if (m.machine.machine.empty()) m.machine.machine = rows[i].machine;
     auto& last = entries.back();
-    if (last.explain) {
-      m.explains.push_back({last.kind, last.produced_utc, *last.explain});
+    if (last.message_class == "EXPLAIN") {
+      if (last.explain) m.explains.push_back({last.kind, last.produced_utc, *last.explain});
     } else {
       m.latest.push_back({last.kind, last.produced_utc, last.session, std::move(last.figures)});
       if (last.kind == results::dbb_kind.name)
@@ -87,6 +88,12 @@ const FigureChange* figure_of(const MachineStatus& m, const FigureColumn& c) {
       for (const auto& f : k.figures)
         if (f.latest.name == c.name) return &f;
   return nullptr;
+}
+
+std::string format_age_ago(double seconds) {
+  if (!std::isfinite(seconds)) return "-";
+  if (seconds < 0) return "in the future";  // a producer's clock ahead of this host's
+  return format_age(seconds) + " ago";
 }
 
 std::string format_age(double seconds) {
@@ -138,7 +145,7 @@ std::string status_text(const std::vector<MachineStatus>& fleet) {
     if (m.machine.state == "offline" && !m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
     std::vector<std::string> row = {m.machine.machine, state,
                                     m.machine.since.empty() ? "-" : m.machine.since.substr(0, 19),
-                                    m.dbb_age_s ? format_age(*m.dbb_age_s) + " ago" : "never"};
+                                    m.dbb_age_s ? format_age_ago(*m.dbb_age_s) : "never"};
     for (const auto& c : columns) {
       const auto* f = figure_of(m, c);
       row.push_back(f ? significant_digits(f->latest.value, 3) + (f->moved ? "*" : " ") : "- ");
@@ -154,6 +161,9 @@ std::string status_text(const std::vector<MachineStatus>& fleet) {
     width[c] = display_width(header[c]);
     for (const auto& r : rows) width[c] = std::max(width[c], display_width(r[c]));
   }
+  // Every cell comes from a broker's message: no control character of it reaches the terminal.
+  for (auto& r : rows)
+    for (auto& cell : r) cell = printable(cell);
   const auto line = [&](const std::vector<std::string>& cells) {
     std::string s;
     for (std::size_t c = 0; c < cells.size(); ++c) {
@@ -166,6 +176,28 @@ std::string status_text(const std::vector<MachineStatus>& fleet) {
   std::string out = line(header);
   for (const auto& r : rows) out += line(r);
   out += "* " + std::string(moved_rule_text) + (any_moved ? "\n" : " (none moved)\n");
+  return out;
+}
+
+nlohmann::json refusals_json(const Store& store) {
+  nlohmann::json j = {{"count", store.refused_count()}, {"newest", nlohmann::json::array()}};
+  for (const auto& r : store.refusals(refusals_shown))
+    j["newest"].push_back({{"machine", r.machine},
+                           {"topic", r.topic},
+                           {"reason", r.reason},
+                           {"received_utc", r.received_utc},
+                           {"size_bytes", r.size_bytes}});
+  return j;
+}
+
+std::string refusals_text(const Store& store) {
+  const auto count = store.refused_count();
+  if (count == 0) return {};
+  std::string out =
+      "refused at ingest: " + std::to_string(count) + " message(s) (malformed: never stored); the newest:\n";
+  for (const auto& r : store.refusals(refusals_shown))
+    out +=
+        "  " + printable(r.received_utc.substr(0, 19)) + "  " + printable(r.topic) + "  " + printable(r.reason) + "\n";
   return out;
 }
 

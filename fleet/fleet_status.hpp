@@ -45,6 +45,8 @@ struct MachineStatus {
 
 // "45 s", "12 min", "5.2 h", "3.1 d".
 [[nodiscard]] std::string format_age(double seconds);
+// "45 s ago", or "in the future" for a negative age (a producer's clock ahead of this host's).
+[[nodiscard]] std::string format_age_ago(double seconds);
 
 // The figure columns of a fleet (kind and figure name, label and unit), in kind and table order.
 struct FigureColumn {
@@ -53,6 +55,12 @@ struct FigureColumn {
   std::string header;  // "G/µm"
 };
 [[nodiscard]] std::vector<FigureColumn> figure_columns(const std::vector<MachineStatus>& fleet);
+// The messages `fleet serve` refused at ingest: how many, and the newest few (reason, topic, when);
+// "" / a count of 0 when none.
+inline constexpr std::size_t refusals_shown = 3;
+[[nodiscard]] nlohmann::json refusals_json(const Store& store);
+[[nodiscard]] std::string refusals_text(const Store& store);
+
 // The machine's latest figure of a column, or null.
 [[nodiscard]] const FigureChange* figure_of(const MachineStatus& m, const FigureColumn& c);
 

@@ -20,48 +20,87 @@ std::optional<double> number_at(const nlohmann::json& j, const std::string& poin
   return std::isfinite(d) ? std::optional<double>(d) : std::nullopt;
 }
 
-// A figure's value (and u) where the catalogue says it is: its own pointers, else an estimate object
+// Where the catalogue says a figure's value and u are: its own pointers, else an estimate object
 // {"value": v, "u": u} in its group (models/dbb/json.cpp, the sessions' figure groups), else in the group
 // it is also reported in.
-std::optional<Headline> figure(const results::Parameter& p, const std::string& plane, int axis,
-                               const nlohmann::json& params) {
-  const std::string name = results::name(p, plane, axis);
-  const auto headline = [&](const std::string& value_at, const std::string& u_at) -> std::optional<Headline> {
-    const auto v = number_at(params, value_at);
-    if (!v) return std::nullopt;
-    return Headline{name, results::label(p, plane, axis), results::unit(p), *v, number_at(params, u_at)};
-  };
-  if (!p.value_at.empty()) return headline(std::string(p.value_at), std::string(p.u_at));
+std::vector<std::pair<std::string, std::string>> figure_pointers(const results::Parameter& p,
+                                                                 const std::string& name) {
+  if (!p.value_at.empty()) return {{std::string(p.value_at), std::string(p.u_at)}};
+  std::vector<std::pair<std::string, std::string>> out;
   for (const std::string_view group : {p.group, p.also_in}) {
     if (group.empty()) continue;
     const std::string at = "/" + std::string(group) + "/" + name;
-    if (auto h = headline(at + "/value", at + "/u")) return h;
+    out.emplace_back(at + "/value", at + "/u");
+  }
+  return out;
+}
+
+std::optional<Headline> figure(const results::Parameter& p, const std::string& plane, int axis,
+                               const nlohmann::json& params) {
+  const std::string name = results::name(p, plane, axis);
+  for (const auto& [value_at, u_at] : figure_pointers(p, name)) {
+    if (const auto v = number_at(params, value_at))
+      return Headline{name, results::label(p, plane, axis), results::unit(p), *v, number_at(params, u_at)};
   }
   return std::nullopt;
+}
+
+// The DBB figures are named after the plane's axes ("xy": x and y; "zx": z and x); "xy" when the
+// object names no plane (or one that is not two axis letters: such a result is refused at ingest).
+std::string plane_of(const nlohmann::json& params) {
+  if (const auto it = params.find("plane"); it != params.end() && it->is_string()) {
+    const auto& plane = it->get_ref<const std::string&>();
+    const auto axis = [](char c) { return c == 'x' || c == 'y' || c == 'z'; };
+    if (plane.size() == 2 && axis(plane[0]) && axis(plane[1]) && plane[0] != plane[1]) return plane;
+  }
+  return "xy";
+}
+
+std::vector<int> axes_of(const results::Parameter& p) {
+  return results::per_axis(p) ? std::vector<int>{0, 1} : std::vector<int>{-1};
 }
 
 }  // namespace
 
 std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params) {
-  // The DBB figures are named after the plane's axes ("xy": x and y; "zx": z and x).
-  std::string plane = "xy";
-  if (const auto it = params.find("plane"); it != params.end() && it->is_string() && it->get<std::string>().size() == 2)
-    plane = it->get<std::string>();
+  const std::string plane = plane_of(params);
   std::vector<Headline> out;
   for (const results::Parameter* p : results::headline_parameters(kind)) {
-    const std::vector<int> axes = results::per_axis(*p) ? std::vector<int>{0, 1} : std::vector<int>{-1};
-    for (const int axis : axes)
+    for (const int axis : axes_of(*p))
       if (auto h = figure(*p, plane, axis, params)) out.push_back(std::move(*h));
   }
   return out;
 }
+
+std::string figure_problem(std::string_view kind, const nlohmann::json& params) {
+  const std::string plane = plane_of(params);
+  for (const results::Parameter* p : results::headline_parameters(kind)) {
+    for (const int axis : axes_of(*p)) {
+      for (const auto& [value_at, u_at] : figure_pointers(*p, results::name(*p, plane, axis))) {
+        for (const auto& pointer : {value_at, u_at}) {
+          if (pointer.empty()) continue;
+          const nlohmann::json::json_pointer jp(pointer);
+          if (!params.contains(jp)) continue;
+          const auto& v = params.at(jp);
+          if (!v.is_number() || !std::isfinite(v.get<double>()))
+            return "the figure at " + pointer + " is " +
+                   (v.is_number() ? "not finite" : std::string(v.type_name())) + ", expected a finite number";
+        }
+      }
+    }
+  }
+  return {};
+}
+
 ExplainSummary explain_summary(const nlohmann::json& explain) {
   ExplainSummary s;
   if (const auto it = explain.find("findings"); it != explain.end() && it->is_array()) {
     for (const auto& f : *it) {
       if (!f.is_object()) continue;
       Finding finding;
-      finding.effect = f.value("effect", std::string());
+      // Typed reads that never throw: a row stored before ingest checked types must not stop a reader.
+      const auto effect = f.find("effect");
+      finding.effect = effect != f.end() && effect->is_string() ? effect->get<std::string>() : "?";
       const auto c = f.find("contribution_um");
       finding.contribution_um = c != f.end() && c->is_number() ? c->get<double>() : std::nan("");
       s.findings.push_back(std::move(finding));

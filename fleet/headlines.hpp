@@ -23,6 +23,9 @@ struct Headline {
 // The figures of a PARAMS object of session kind `kind` that it holds, in the kind's order of headline
 // figures (results::headline_parameters; docs/plant.md lists them); none for a kind without any.
 [[nodiscard]] std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params);
+// Why the figures of a PARAMS object cannot be read ("" when they can): a figure that is present but
+// not a finite number. The fleet refuses such a result at ingest (fleet/payload_check.hpp).
+[[nodiscard]] std::string figure_problem(std::string_view kind, const nlohmann::json& params);
 
 struct Finding {
   std::string effect;

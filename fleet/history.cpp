@@ -3,6 +3,7 @@
 #include <cmath>
 #include <map>
 
+#include "core/printable.hpp"
 #include "report/html.hpp"
 #include "results/message_class.hpp"
 #include "results/session_kinds.hpp"
@@ -15,9 +16,10 @@ std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
   std::vector<HistoryEntry> out;
   std::map<std::string, std::vector<Headline>> previous;  // per kind: the figures of its last PARAMS
   for (const auto& r : rows) {
-    HistoryEntry e{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}};
-    nlohmann::json j = nlohmann::json::parse(r.payload, nullptr, false);
-    if (!j.is_discarded()) {
+    HistoryEntry e{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}, true};
+    // A row that cannot be read (stored before ingest checked shapes) is marked and skipped, never fatal.
+    try {
+      const nlohmann::json j = nlohmann::json::parse(r.payload);
       if (r.message_class == results::to_string(results::MessageClass::explain)) {
         e.explain = explain_summary(j);
       } else {
@@ -32,6 +34,8 @@ std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
         }
         before = std::move(figures);
       }
+    } catch (const std::exception&) {
+      e = HistoryEntry{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}, false};
     }
     out.push_back(std::move(e));
   }
@@ -68,6 +72,7 @@ nlohmann::json history_json(std::string_view machine, const std::vector<HistoryE
                         {"produced_utc", e.produced_utc},
                         {"received_utc", e.received_utc},
                         {"session", e.session}};
+    if (!e.readable) r["unreadable"] = true;
     if (e.explain) {
       r["explain"] = to_json(*e.explain);
     } else {
@@ -80,10 +85,13 @@ nlohmann::json history_json(std::string_view machine, const std::vector<HistoryE
 }
 
 std::string history_text(std::string_view machine, const std::vector<HistoryEntry>& entries) {
-  std::string out = std::string(machine) + ": " + std::to_string(entries.size()) + " result(s), oldest first\n";
+  // What came from a broker's message goes through printable(): no control character reaches the terminal.
+  std::string out = printable(machine) + ": " + std::to_string(entries.size()) + " result(s), oldest first\n";
   for (const auto& e : entries) {
-    out += e.produced_utc + "  " + e.kind + " " + e.message_class + "  " + (e.session.empty() ? "-" : e.session) + "\n";
-    if (e.explain) out += "    found: " + to_text(*e.explain) + "\n";
+    out += printable(e.produced_utc) + "  " + printable(e.kind) + " " + e.message_class + "  " +
+           (e.session.empty() ? "-" : printable(e.session)) + "\n";
+    if (!e.readable) out += "    (its payload could not be read: skipped)\n";
+    if (e.explain) out += "    found: " + printable(to_text(*e.explain)) + "\n";
     for (const auto& f : e.figures) {
       const std::string value = report::format_with_u(f.latest.value, f.latest.u.value_or(std::nan("")));
       out += "    " + f.latest.label + ": " + value + " " + f.latest.unit + (f.moved ? "  *" : "") + "\n";

@@ -29,10 +29,11 @@ struct HistoryEntry {
   std::string session;
   std::vector<FigureChange> figures;      // PARAMS
   std::optional<ExplainSummary> explain;  // EXPLAIN
+  bool readable = true;                   // false: its payload could not be read (no figures, no findings)
 };
 
 // Results in the order given (oldest first per kind), with each PARAMS figure compared to the previous
-// PARAMS of its kind. A payload that does not parse gives an entry without figures.
+// PARAMS of its kind. A payload that cannot be read gives an entry marked unreadable, never an error.
 [[nodiscard]] std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows);
 
 // Session kinds in the order people read them: dbb, runout, straightness, profile, then the others.

@@ -1,7 +1,9 @@
 #pragma once
 // `guideway fleet serve`: subscribes to every machine's topics on the plant's broker and stores every
 // status, PARAMS, EXPLAIN and EVENT in the fleet's database (fleet/store.hpp). A persistent MQTT
-// session (the broker queues QoS 1 messages while the fleet is away), reconnect with back-off.
+// session, and a message is acknowledged to the broker only once it is committed (plant/mqtt_inbox.hpp):
+// a crash, a full disk or a locked database loses nothing the broker handed over. Reconnects with
+// back-off. Not thread safe: run() on one thread.
 
 #include <atomic>
 #include <cstdint>
@@ -17,31 +19,31 @@ struct SubscriberSettings {
   plant::ConnectionSettings connection;  // session_expiry_s > 0: a persistent session
   std::string topic_prefix = "guideway";
   double reconnect_max_s = 60.0;
+  std::size_t max_payload_bytes = default_max_payload_bytes;
+  std::uint16_t batch_max = 100;  // messages in flight and committed together
 };
 
 struct SubscriberCounts {
   std::uint64_t stored = 0;
-  std::uint64_t duplicates = 0;  // retained copies seen again, QoS 1 redeliveries
-  std::uint64_t ignored = 0;     // not of the tree, not JSON, ...
+  std::uint64_t duplicates = 0;      // retained copies seen again, QoS 1 redeliveries
+  std::uint64_t ignored = 0;         // superseded (a status older than the one stored)
+  std::uint64_t refused = 0;         // malformed: counted in the database's refusals, never stored
+  std::uint64_t store_failures = 0;  // batches the database could not take (retried, not acknowledged)
 };
 
 class Subscriber {
  public:
   using Log = std::function<void(const std::string& line)>;
   Subscriber(SubscriberSettings settings, Store& store, Log log);
-  // Runs until `stop` is set (checked every 100 ms).
+  // Runs until `stop` is set (checked every 100 ms); then disconnects cleanly.
   void run(const std::atomic<bool>& stop);
   [[nodiscard]] const SubscriberCounts& counts() const { return counts_; }
 
  private:
-  void on_message(std::string_view topic, std::string_view payload, std::string_view produced_utc);
-
   SubscriberSettings settings_;
   Store& store_;
   Log log_;
   SubscriberCounts counts_;
-  bool connected_ = false;
-  bool subscribe_ = false;  // connected: subscribe on the next turn of the loop
 };
 
 }  // namespace guideway::fleet

@@ -1,7 +1,11 @@
 #include "plant/broker_address.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <stdexcept>
+
+#include "core/printable.hpp"
 
 namespace guideway::plant {
 
@@ -12,7 +16,7 @@ std::string BrokerAddress::url() const {
 
 BrokerAddress parse_broker_url(std::string_view url) {
   const auto fail = [&](const std::string& why) {
-    throw std::invalid_argument("\"" + std::string(url) + "\": " + why +
+    throw std::invalid_argument("\"" + printable(url) + "\": " + why +
                                 " (expected mqtt://HOST[:PORT] or mqtts://HOST[:PORT], e.g. mqtt://broker.plant:1883)");
   };
   BrokerAddress a;
@@ -30,7 +34,8 @@ BrokerAddress parse_broker_url(std::string_view url) {
   if (rest.find_first_of("/?#@") != std::string_view::npos)
     fail("no path, query or user part here (credentials go in username and password_file)");
   std::string_view port_text;
-  if (rest.starts_with("[")) {  // [IPv6]:port
+  const bool bracketed = rest.starts_with("[");
+  if (bracketed) {  // [IPv6]:port
     const auto close = rest.find(']');
     if (close == std::string_view::npos) fail("unterminated '[' in the host");
     a.host = std::string(rest.substr(1, close - 1));
@@ -49,6 +54,18 @@ BrokerAddress parse_broker_url(std::string_view url) {
     }
   }
   if (a.host.empty()) fail("no host");
+  const auto bad_char = [&](std::string_view allowed_extra) {
+    return std::find_if(a.host.begin(), a.host.end(), [&](char c) {
+             return !std::isalnum(static_cast<unsigned char>(c)) && allowed_extra.find(c) == std::string_view::npos;
+           }) != a.host.end();
+  };
+  if (bracketed) {
+    if (bad_char(":.%") || a.host.find(':') == std::string::npos) fail("not an IPv6 address between '[' and ']'");
+  } else if (a.host.find(':') != std::string::npos) {
+    fail("an IPv6 address goes between brackets (mqtt://[::1]:1883)");
+  } else if (bad_char(".-_")) {
+    fail("a host name has letters, digits, '.', '-' and '_' only");
+  }
   if (!port_text.empty()) {
     int port = 0;
     const auto [end, ec] = std::from_chars(port_text.data(), port_text.data() + port_text.size(), port);

@@ -40,11 +40,14 @@ std::string mosquitto_error_text(int rc) {
 std::string read_password_file(const std::string& path) {
   struct stat st {};
   if (stat(path.c_str(), &st) != 0) throw std::runtime_error("cannot read " + path + ": " + std::strerror(errno));
-  if ((st.st_mode & S_IROTH) != 0)
-    throw std::runtime_error(path + " can be read by every user: chmod 0600 (or 0640 with the daemon's group) first");
+  if ((st.st_mode & (S_IROTH | S_IWOTH)) != 0)
+    throw std::runtime_error(
+        path + " can be read or written by every user: chmod 0600 (or 0640 with the daemon's group) first");
+  if (!S_ISREG(st.st_mode)) throw std::runtime_error(path + " is not a regular file");
   std::ifstream in(path);
   std::string password;
-  if (!in || !std::getline(in, password)) throw std::runtime_error(path + " is empty or unreadable: the password is its first line");
+  if (!in || !std::getline(in, password))
+    throw std::runtime_error(path + " is empty or unreadable: the password is its first line");
   if (!password.empty() && password.back() == '\r') password.pop_back();
   if (password.empty()) throw std::runtime_error(path + " is empty: the password is its first line");
   return password;
@@ -120,7 +123,8 @@ MqttConnection::MqttConnection(ConnectionSettings settings, Callbacks callbacks)
           free(name);  // NOLINT: libmosquitto allocates them with malloc
           free(value);
         }
-        cb.message(m->topic, std::string_view(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen)),
+        cb.message(m->topic,
+                   std::string_view(static_cast<const char*>(m->payload), static_cast<std::size_t>(m->payloadlen)),
                    produced);
       });
 }
@@ -174,7 +178,8 @@ int MqttConnection::publish(const std::string& topic, std::string_view payload, 
                             std::string_view produced_utc, std::string& error) {
   mosquitto_property* props = nullptr;
   if (!produced_utc.empty()) {
-    mosquitto_property_add_string_pair(&props, MQTT_PROP_USER_PROPERTY, "produced_utc", std::string(produced_utc).c_str());
+    mosquitto_property_add_string_pair(&props, MQTT_PROP_USER_PROPERTY, "produced_utc",
+                                       std::string(produced_utc).c_str());
   }
   int mid = -1;
   const int rc = mosquitto_publish_v5(mosq_, &mid, topic.c_str(), static_cast<int>(payload.size()), payload.data(), qos,
@@ -183,8 +188,8 @@ int MqttConnection::publish(const std::string& topic, std::string_view payload, 
   if (rc != MOSQ_ERR_SUCCESS) {
     error = mosquitto_error_text(rc);
     const bool never = rc == MOSQ_ERR_PAYLOAD_SIZE || rc == MOSQ_ERR_OVERSIZE_PACKET || rc == MOSQ_ERR_MALFORMED_UTF8 ||
-                       rc == MOSQ_ERR_INVAL || rc == MOSQ_ERR_QOS_NOT_SUPPORTED || rc == MOSQ_ERR_RETAIN_NOT_SUPPORTED ||
-                       rc == MOSQ_ERR_TOPIC_ALIAS_INVALID;
+                       rc == MOSQ_ERR_INVAL || rc == MOSQ_ERR_QOS_NOT_SUPPORTED ||
+                       rc == MOSQ_ERR_RETAIN_NOT_SUPPORTED || rc == MOSQ_ERR_TOPIC_ALIAS_INVALID;
     return never ? never_sendable : -1;
   }
   return mid;

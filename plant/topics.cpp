@@ -2,6 +2,8 @@
 
 #include <array>
 
+#include "core/printable.hpp"
+
 namespace guideway::plant {
 
 namespace {
@@ -19,7 +21,8 @@ std::string topic_for(std::string_view prefix, std::string_view machine, TopicLe
 }
 
 std::optional<Topic> parse_topic(std::string_view prefix, std::string_view topic) {
-  if (topic.size() <= prefix.size() + 1 || !topic.starts_with(prefix) || topic[prefix.size()] != '/') return std::nullopt;
+  if (topic.size() <= prefix.size() + 1 || !topic.starts_with(prefix) || topic[prefix.size()] != '/')
+    return std::nullopt;
   std::string_view rest = topic.substr(prefix.size() + 1);
   const auto slash = rest.find('/');
   if (slash == std::string_view::npos || slash == 0) return std::nullopt;
@@ -45,16 +48,38 @@ std::optional<Topic> parse_topic(std::string_view prefix, std::string_view topic
 
 std::string subscription_filter(std::string_view prefix) { return std::string(prefix) + "/#"; }
 
+namespace {
+
+// Why `text` cannot go into an MQTT string a person reads ("" when it can): a control character (NUL
+// included: MQTT forbids it) or bytes that are not UTF-8.
+std::string text_problem(std::string_view text) {
+  if (printable(text) != text) return "must not contain control characters or bytes that are not UTF-8";
+  return {};
+}
+
+}  // namespace
+
 std::string topic_level_problem(std::string_view name) {
   if (name.empty()) return "must not be empty";
+  if (name.size() > max_topic_level_bytes)
+    return "is " + std::to_string(name.size()) + " bytes long; at most " + std::to_string(max_topic_level_bytes);
   if (name.find('/') != std::string_view::npos) return "must not contain '/' (it is one level of the topic)";
   return topic_prefix_problem(name);
 }
 
+std::string client_id_problem(std::string_view id) {
+  if (id.empty()) return "must not be empty";
+  if (id.size() > 256) return "is " + std::to_string(id.size()) + " bytes long; at most 256";
+  return text_problem(id);
+}
+
 std::string topic_prefix_problem(std::string_view prefix) {
   if (prefix.empty()) return "must not be empty";
+  if (prefix.size() > max_topic_prefix_bytes)
+    return "is " + std::to_string(prefix.size()) + " bytes long; at most " + std::to_string(max_topic_prefix_bytes);
   if (prefix.find_first_of("+#") != std::string_view::npos) return "must not contain MQTT wildcards ('+', '#')";
   if (prefix.find('\0') != std::string_view::npos) return "must not contain a NUL byte";
+  if (std::string p = text_problem(prefix); !p.empty()) return p;
   if (prefix.front() == '/' || prefix.back() == '/') return "must not begin or end with '/'";
   if (prefix.find("//") != std::string_view::npos) return "must not contain an empty level ('//')";
   return {};

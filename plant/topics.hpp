@@ -31,8 +31,14 @@ std::optional<Topic> parse_topic(std::string_view prefix, std::string_view topic
 std::string subscription_filter(std::string_view prefix);  // "PREFIX/#"
 
 // Why `name` cannot be one level of a topic (a machine name, a session kind) or a prefix ("" when it
-// can): empty, contains '+', '#' or NUL, or (a level) contains '/'.
+// can): empty, longer than max_topic_level_bytes (a prefix: max_topic_prefix_bytes), contains '+',
+// '#', a control character or bytes that are not UTF-8, or (a level) contains '/'.
+inline constexpr std::size_t max_topic_level_bytes = 128;
+inline constexpr std::size_t max_topic_prefix_bytes = 256;
 std::string topic_level_problem(std::string_view name);
 std::string topic_prefix_problem(std::string_view prefix);
+// Why `id` cannot be an MQTT client identifier here ("" when it can): empty, over 256 bytes, a control
+// character or not UTF-8.
+std::string client_id_problem(std::string_view id);
 
 }  // namespace guideway::plant

@@ -32,7 +32,7 @@ caption { text-align: left; font-weight: bold; font-size: 13px; padding-bottom: 
 th, td { border: 1px solid #bbb; padding: 2px 7px; text-align: right; vertical-align: top; }
 th { background: #eef3f8; }
 td:first-child, th:first-child { text-align: left; }
-table.text td, table.text th { text-align: left; }
+table.text td, table.text th, td.l, th.l { text-align: left; }
 code, td:first-child { font-family: "DejaVu Sans Mono", monospace; font-size: 11.5px; }
 .note { background: #fff8e1; border-left: 4px solid #e69f00; padding: 6px 10px; font-size: 13px; margin: 10px 0; }
 @page { size: A4; margin: 12mm; }
@@ -68,15 +68,20 @@ std::string html_table(const Table& table) {
   std::ostringstream o;
   o << (table.cls.empty() ? std::string("<table>") : "<table class=\"" + html_escape(table.cls) + "\">");
   if (!table.caption.empty()) o << "<caption>" << table.caption << "</caption>";
+  const auto open_cell = [&](const char* tag, std::size_t column) {
+    const bool text =
+        std::find(table.text_columns.begin(), table.text_columns.end(), column) != table.text_columns.end();
+    return std::string("<") + tag + (text ? " class=\"l\">" : ">");
+  };
   if (!table.header.empty()) {
     o << "<thead><tr>";
-    for (const auto& h : table.header) o << "<th>" << h << "</th>";
+    for (std::size_t c = 0; c < table.header.size(); ++c) o << open_cell("th", c) << table.header[c] << "</th>";
     o << "</tr></thead>";
   }
   o << "<tbody>";
   for (const auto& row : table.rows) {
     o << "<tr>";
-    for (const auto& c : row) o << "<td>" << c << "</td>";
+    for (std::size_t c = 0; c < row.size(); ++c) o << open_cell("td", c) << row[c] << "</td>";
     o << "</tr>";
   }
   o << "</tbody></table>";
@@ -84,8 +89,7 @@ std::string html_table(const Table& table) {
 }
 
 std::string html_figure(const std::string& svg, const std::string& caption_html) {
-  return "<figure>" + svg + (caption_html.empty() ? "" : "<figcaption>" + caption_html + "</figcaption>") +
-         "</figure>";
+  return "<figure>" + svg + (caption_html.empty() ? "" : "<figcaption>" + caption_html + "</figcaption>") + "</figure>";
 }
 
 std::string html_note(std::string_view text) { return "<p class=\"note\">" + html_escape(text) + "</p>"; }
@@ -111,7 +115,8 @@ std::string html_document(std::string_view title, std::string_view subtitle, con
   o << "</header>";
   if (toc.size() > 1) {
     o << "<nav><ol>";
-    for (const auto& e : toc) o << "<li><a href=\"#" << html_escape(e.id) << "\">" << html_escape(e.heading) << "</a></li>";
+    for (const auto& e : toc)
+      o << "<li><a href=\"#" << html_escape(e.id) << "\">" << html_escape(e.heading) << "</a></li>";
     o << "</ol></nav>";
   }
   o << "<main>" << body_html << "</main></body></html>\n";

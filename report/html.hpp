@@ -16,16 +16,20 @@ namespace guideway::report {
 // u, the value to `significant` digits.
 [[nodiscard]] std::string format_with_u(double value, double u, int significant = 5);
 
-// A table; cells are HTML (escape text first). The first column is left-aligned (names), the rest right.
+// A table; cells are HTML (escape text first). The first column is left-aligned (names), and the
+// text_columns; the rest right (numbers).
 struct Table {
   Table(std::string caption_html, std::vector<std::string> header_html,
         std::vector<std::vector<std::string>> rows_html = {}, std::string css_class = {})
-      : caption(std::move(caption_html)), header(std::move(header_html)), rows(std::move(rows_html)),
+      : caption(std::move(caption_html)),
+        header(std::move(header_html)),
+        rows(std::move(rows_html)),
         cls(std::move(css_class)) {}
   std::string caption;
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;
-  std::string cls;  // CSS class: "text" left-aligns every column
+  std::string cls;                        // CSS class: "text" left-aligns every column
+  std::vector<std::size_t> text_columns;  // more left-aligned columns (words, not numbers), by index
 };
 [[nodiscard]] std::string html_table(const Table& table);
 

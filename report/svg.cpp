@@ -241,14 +241,14 @@ std::string series_path(const Series& s, const std::string& color, const Scale& 
   if (line) {
     std::vector<double> xs, ys;
     decimate(s.x, s.y, sx, xs, ys, width_px);
-    o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << xs.size()
-      << "\" d=\"" << line_path_d(xs, ys, sx, sy) << "\" fill=\"none\" stroke=\"" << color << "\" stroke-width=\""
+    o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << xs.size() << "\" d=\""
+      << line_path_d(xs, ys, sx, sy) << "\" fill=\"none\" stroke=\"" << color << "\" stroke-width=\""
       << format_fixed(s.width, 1) << "\" stroke-linejoin=\"round\"" << dash_attr(s.style) << "/>";
   }
   if (markers) {
     o << "<path class=\"" << (line ? "markers" : "data") << "\" data-series=\"" << xml_escape(s.label)
-      << "\" data-points=\"" << s.x.size() << "\" d=\"" << marker_path_d(s.x, s.y, sx, sy, 2.6) << "\" fill=\""
-      << color << "\" stroke=\"none\"/>";
+      << "\" data-points=\"" << s.x.size() << "\" d=\"" << marker_path_d(s.x, s.y, sx, sy, 2.6) << "\" fill=\"" << color
+      << "\" stroke=\"none\"/>";
   }
   return o.str();
 }
@@ -299,12 +299,23 @@ std::string xml_escape(std::string_view text) {
   out.reserve(text.size());
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -312,9 +323,11 @@ std::string xml_escape(std::string_view text) {
 
 std::string format_fixed(double value, int decimals) {
   if (!std::isfinite(value)) return std::isnan(value) ? "nan" : (value > 0 ? "inf" : "-inf");
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", std::clamp(decimals, 0, 12), value);
-  std::string s = buf;
+  // Sized to the number: a value of 1e300 has 301 digits before the point, and none may be cut.
+  const int d = std::clamp(decimals, 0, 12);
+  std::string s(static_cast<std::size_t>(std::snprintf(nullptr, 0, "%.*f", d, value)) + 1, '\0');
+  std::snprintf(s.data(), s.size(), "%.*f", d, value);
+  s.pop_back();
   if (s.find_first_not_of("-0.") == std::string::npos && s.front() == '-') s.erase(0, 1);  // "-0.00" -> "0.00"
   return s;
 }
@@ -460,8 +473,8 @@ std::string render(const PolarPlot& plot) {
   const double per_div = polar_um_per_div(plot);
   std::vector<LegendItem> items;
   for (std::size_t i = 0; i < plot.series.size(); ++i)
-    items.push_back({plot.series[i].label, plot.series[i].color.empty() ? palette(i) : plot.series[i].color,
-                     Style::line, false});
+    items.push_back(
+        {plot.series[i].label, plot.series[i].color.empty() ? palette(i) : plot.series[i].color, Style::line, false});
   const int rows = legend_rows(items, 20, plot.size - 20);
   const double top = kTitleHeight + rows * kLegendRow + 6;
   const double outer = (plot.size - 170) / 2;  // room for the angle labels ("180° −X") on both sides
@@ -525,7 +538,8 @@ std::string render(const PolarPlot& plot) {
       }
       const double r = std::max(0.0, radius(s.deviation_um[k]));
       d += pen ? " L" : (d.empty() ? "M" : " M");
-      d += format_fixed(cx + r * std::cos(s.angle_rad[k]), 2) + ' ' + format_fixed(cy - r * std::sin(s.angle_rad[k]), 2);
+      d +=
+          format_fixed(cx + r * std::cos(s.angle_rad[k]), 2) + ' ' + format_fixed(cy - r * std::sin(s.angle_rad[k]), 2);
       pen = true;
     }
     o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << s.angle_rad.size()
@@ -537,8 +551,8 @@ std::string render(const PolarPlot& plot) {
     << "\" text-anchor=\"middle\" font-size=\"13\">angle \u03b6 / deg (from +" << xml_escape(plot.axis_a)
     << " towards +" << xml_escape(plot.axis_b) << ")</text>";
   o << "<text class=\"axis-label scale\" x=\"" << px(cx) << "\" y=\"" << px(height - 12)
-    << "\" text-anchor=\"middle\" font-size=\"13\">radial: " << xml_escape(plot.quantity)
-    << " / \u00b5m, scale " << format_number(per_div, 3) << " \u00b5m/div (bold ring = 0)</text>";
+    << "\" text-anchor=\"middle\" font-size=\"13\">radial: " << xml_escape(plot.quantity) << " / \u00b5m, scale "
+    << format_number(per_div, 3) << " \u00b5m/div (bold ring = 0)</text>";
   o << "</svg>";
   return o.str();
 }
@@ -584,8 +598,8 @@ std::string render(const HeightMap& map) {
         zsum += w * map.z[k];
       }
       const double z = zsum / wsum;
-      o << "<rect x=\"" << px(f.left + i * pw / nx) << "\" y=\"" << px(f.top + (ny - 1 - j) * ph / ny)
-        << "\" width=\"" << px(pw / nx + 0.6) << "\" height=\"" << px(ph / ny + 0.6) << "\" fill=\""
+      o << "<rect x=\"" << px(f.left + i * pw / nx) << "\" y=\"" << px(f.top + (ny - 1 - j) * ph / ny) << "\" width=\""
+        << px(pw / nx + 0.6) << "\" height=\"" << px(ph / ny + 0.6) << "\" fill=\""
         << colormap((z - zr.lo) / (zr.hi - zr.lo)) << "\"/>";
     }
   }
@@ -645,8 +659,8 @@ std::string render(const BarChart& chart) {
   }
   std::vector<LegendItem> items;
   for (std::size_t i = 0; i < chart.series.size(); ++i)
-    items.push_back({chart.series[i].label, chart.series[i].color.empty() ? palette(i) : chart.series[i].color,
-                     Style::line, true});
+    items.push_back(
+        {chart.series[i].label, chart.series[i].color.empty() ? palette(i) : chart.series[i].color, Style::line, true});
   const int rows = legend_rows(items, 70, chart.width - 16);
   const Frame f{72, kTitleHeight + rows * kLegendRow + 8, chart.width - 18, chart.height - 46};
   const Scale sy{yr.lo, yr.hi, f.bottom, f.top};
@@ -661,8 +675,8 @@ std::string render(const BarChart& chart) {
   o << "<g class=\"axis x categorical\">";
   for (std::size_t c = 0; c < chart.categories.size(); ++c) {
     const double cxp = f.left + (static_cast<double>(c) + 0.5) * group_w;
-    o << "<line class=\"tick\" x1=\"" << px(cxp) << "\" y1=\"" << px(f.bottom) << "\" x2=\"" << px(cxp)
-      << "\" y2=\"" << px(f.bottom + 5) << "\" stroke=\"#333\"/>";
+    o << "<line class=\"tick\" x1=\"" << px(cxp) << "\" y1=\"" << px(f.bottom) << "\" x2=\"" << px(cxp) << "\" y2=\""
+      << px(f.bottom + 5) << "\" stroke=\"#333\"/>";
     o << "<text class=\"tick-label\" x=\"" << px(cxp) << "\" y=\"" << px(f.bottom + 18) << "\" text-anchor=\"middle\">"
       << xml_escape(chart.categories[c]) << "</text>";
   }
@@ -684,8 +698,8 @@ std::string render(const BarChart& chart) {
       const double x0 = f.left + static_cast<double>(c) * group_w + group_w * 0.15 + static_cast<double>(i) * bar_w;
       const double top = sy(std::clamp(s.values[c], yr.lo, yr.hi));
       if (!d.empty()) d += ' ';
-      d += 'M' + format_fixed(x0, 2) + ' ' + format_fixed(base, 2) + " H" + format_fixed(x0 + bar_w * 0.92, 2) +
-           " V" + format_fixed(top, 2) + " H" + format_fixed(x0, 2) + " Z";
+      d += 'M' + format_fixed(x0, 2) + ' ' + format_fixed(base, 2) + " H" + format_fixed(x0 + bar_w * 0.92, 2) + " V" +
+           format_fixed(top, 2) + " H" + format_fixed(x0, 2) + " Z";
       labels << "<text class=\"value-label\" x=\"" << px(x0 + bar_w * 0.46) << "\" y=\""
              << px(s.values[c] >= 0 ? top - 4 : top + 12) << "\" text-anchor=\"middle\" font-size=\"10\">"
              << format_number(s.values[c], 3) << "</text>";

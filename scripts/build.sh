@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Configures and builds one build tree. Usage: scripts/build.sh DIR [cmake options...] [-- targets...]
-# Used by demo.sh and test.sh; quiet unless something fails. With ccache installed the build goes through
-# it (CMakeLists.txt, GUIDEWAY_USE_CCACHE): paths below the checkout are hashed relative to it
+# Used by demo.sh and test.sh: a progress line at every tenth of the build, the errors if it fails.
+# With ccache installed the build goes through it (CMakeLists.txt, GUIDEWAY_USE_CCACHE): paths below the checkout are hashed relative to it
 # (CCACHE_BASEDIR, unless already set), so every build tree of it, and every other checkout under the
 # same base, reuses the same objects.
 set -euo pipefail
@@ -23,6 +23,29 @@ if ! cmake -S . -B "$dir" "${generator[@]}" "${opts[@]}" >"$log" 2>&1; then
   cat "$log"; echo "build: cmake configure of $dir failed (log above, also in $log)" >&2; exit 1
 fi
 jobs=${GUIDEWAY_BUILD_JOBS:-$(nproc)}
-if ! cmake --build "$dir" -j "$jobs" ${targets:+--target "${targets[@]}"} >>"$log" 2>&1; then
+# A line at every tenth of the build (ninja's [N/M], make's [ P%]), so a long first build is never
+# silent: GUIDEWAY_BUILD_QUIET=1 leaves them out.
+progress() {
+  if [ "${GUIDEWAY_BUILD_QUIET:-0}" = 1 ]; then cat >/dev/null; return; fi
+  local line percent steps shown=0 start=$SECONDS re_ninja='^\[([0-9]+)/([0-9]+)\]' re_make='^\[ *([0-9]+)%\]'
+  while IFS= read -r line; do  # bash, not awk: mawk reads a pipe in blocks and would print them late
+    if [[ $line =~ $re_ninja ]] && [ "${BASH_REMATCH[2]}" -gt 0 ]; then
+      percent=$((100 * BASH_REMATCH[1] / BASH_REMATCH[2])); steps=" (${BASH_REMATCH[1]}/${BASH_REMATCH[2]} steps)"
+    elif [[ $line =~ $re_make ]]; then
+      percent=${BASH_REMATCH[1]}; steps=""
+    else
+      continue
+    fi
+    if [ $((percent / 10)) -gt $shown ]; then
+      shown=$((percent / 10))
+      printf '   build %s: %3d %%%s, %d s\n' "$dir" "$percent" "$steps" $((SECONDS - start))
+    fi
+  done
+}
+set +e
+cmake --build "$dir" -j "$jobs" ${targets:+--target "${targets[@]}"} 2>&1 | tee -a "$log" | progress
+status=${PIPESTATUS[0]}
+set -e
+if [ "$status" -ne 0 ]; then
   grep -E "error|Error|FAILED" "$log" | head -40; echo "build: $dir failed (full log in $log)" >&2; exit 1
 fi

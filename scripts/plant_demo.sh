@@ -19,10 +19,14 @@ rm -rf "$dir"
 mkdir -p "$dir"
 chmod 0700 "$dir"
 pids=()
+# Stopped in the reverse order of starting: the daemons and the fleet first (each says "offline",
+# "stopped" while the broker is there to take it), the broker last, so no one logs "connection lost".
 cleanup() {
   if [ $keep -eq 0 ]; then
-    for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
-    for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
+    for ((i = ${#pids[@]} - 1; i >= 0; i--)); do
+      kill -TERM "${pids[i]}" 2>/dev/null || true
+      wait "${pids[i]}" 2>/dev/null || true
+    done
   fi
 }
 trap cleanup EXIT
@@ -99,7 +103,12 @@ echo "== guideway fleet history mill-1"
 echo
 "$bin/cli/guideway" fleet report --db "$dir/fleet.sqlite" --out "$dir/fleet.html"
 echo "== the fleet report (trend plots): open $dir/fleet.html in a browser"
-echo "== what went over the broker: mosquitto_sub -p $port -t 'guideway/#' -v --retained-only -W 2"
+echo
+echo "== what the broker holds for a newcomer (its retained messages, first 160 characters of each):"
+echo "   mosquitto_sub -p $port -t 'guideway/#' -v --retained-only -W 2"
+mosquitto_sub -p "$port" -t 'guideway/#' -v --retained-only -W 2 2>/dev/null | cut -c1-160 || true
 if [ $keep -eq 1 ]; then
-  echo "everything keeps running; stop it with: kill \$(cat $dir/*.pid)"
+  echo "everything keeps running (the command above works until you stop it); stop it with: kill \$(cat $dir/*.pid)"
+else
+  echo "(the broker, the daemons and the fleet stop now; ./scripts/plant_demo.sh --keep leaves them running)"
 fi

@@ -12,8 +12,11 @@ packages=(
   libtomlplusplus-dev nlohmann-json3-dev libcli11-dev libsystemd-dev
   libboost-dev libreaderwriterqueue-dev
   libmosquitto-dev libsqlite3-dev  # plant scale: the MQTT publisher and the fleet's history (docs/plant.md)
+  libssl-dev  # the fleet's own MQTT client (TLS): it acknowledges only what it has stored (docs/plant.md)
   mosquitto mosquitto-clients openssl  # the MQTT tests' real broker, their subscriber and their TLS certificates
   python3 python3-numpy python3-scipy python3-pywt
+  python3-pymodbus python3-serial-asyncio mbpoll  # Modbus stacks written elsewhere, for the micrometer's tests
+  ccache  # shares compiled objects between build trees (configure with -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
   linux-perf  # bench/daemon_load.py --syscalls
   chromium  # headless: the report tests and docs/reports.md screenshots
   systemd

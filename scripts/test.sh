@@ -13,21 +13,31 @@ passed=0
 failed=0
 start=$(date +%s)
 
+skipped=0
+cases_run=0
+cases_skipped=0
+
+# Runs ctest, then says what ran, passed, failed and was skipped (with the reasons), from its JUnit file
+# (scripts/test_summary.py): ctest itself counts a test whose cases GoogleTest or unittest skipped as
+# passed, and a whole test skipped for a missing tool is easy to miss in its list.
 run_ctest() {  # dir, ctest args...
   local dir=$1; shift
-  local out
+  local out junit
+  junit="$(cd "$dir" && pwd)/Testing/junit.xml"
+  rm -f "$junit"
   set +e
-  out=$(ctest --test-dir "$dir" --output-on-failure -j "$jobs" "$@" 2>&1)
+  out=$(ctest --test-dir "$dir" --output-on-failure -j "$jobs" --output-junit "$junit" \
+    --test-output-size-passed 50000000 "$@" 2>&1)
   local rc=$?
   set -e
   echo "$out" | grep -vE '^\s*(Start|Test project)' || true
-  local line
-  line=$(echo "$out" | grep -E 'tests passed, [0-9]+ tests? failed out of [0-9]+' | tail -1)
-  if [ -n "$line" ]; then
-    local total fail
-    total=$(echo "$line" | grep -oE 'out of [0-9]+' | grep -oE '[0-9]+')
-    fail=$(echo "$line" | grep -oE '[0-9]+ tests? failed' | grep -oE '^[0-9]+')
-    passed=$((passed + total - fail)); failed=$((failed + fail))
+  if [ -f "$junit" ]; then
+    local summary counts
+    summary=$(python3 scripts/test_summary.py "$stage" "$junit")
+    echo "$summary" | grep -v '^COUNTS '
+    counts=($(echo "$summary" | grep '^COUNTS ' | cut -d' ' -f2-))
+    passed=$((passed + counts[0])); failed=$((failed + counts[1])); skipped=$((skipped + counts[2]))
+    cases_run=$((cases_run + counts[3])); cases_skipped=$((cases_skipped + counts[4]))
   elif [ $rc -ne 0 ]; then
     failed=$((failed + 1))
   fi
@@ -63,5 +73,5 @@ for stage in $stages; do
   echo "== $stage stage took $(( $(date +%s) - t0 )) s"
 done
 echo "== all stages took $(( $(date +%s) - start )) s"
-echo "Total: $passed passed, $failed failed"
+echo "Total: $passed passed, $failed failed, $skipped not run; $cases_run cases ran, $cases_skipped skipped (reasons above)"
 [ "$failed" -eq 0 ]

@@ -164,6 +164,23 @@ class CanSerialProcesses(unittest.TestCase):
         self.assertTrue(p.stdout.readline().startswith("bus: fd "))
         self.assertTrue(p.stdout.readline().startswith("endpoint: fd:"))
         ours.settimeout(5)
+        frame = struct.Struct("<IB3x8s")
+        # CiA 301: each node powers on with its boot-up message (0x700 + node, one byte 00) and stays
+        # pre-operational: a SYNC gets no PDO until NMT "start remote node".
+        boot = [frame.unpack(ours.recv(64)) for _ in range(3)]
+        self.assertEqual(sorted((f[0], f[1], f[2][0]) for f in boot), [(0x704, 1, 0), (0x705, 1, 0), (0x706, 1, 0)])
+        ours.send(frame.pack(0x080, 0, bytes(8)))
+        # Its SDO server: the serial number (0x1018:4, expedited upload 0x40 -> 0x43 + 4 bytes) and the
+        # resolution in nm (0x6005:1); an object it does not have is aborted with 0x06020000.
+        for request, answer in (((0x40, 0x18, 0x10, 0x04), (0x43, 0x18, 0x10, 0x04, 1004)),
+                                ((0x40, 0x05, 0x60, 0x01), (0x43, 0x05, 0x60, 0x01, 50)),
+                                ((0x40, 0x00, 0x20, 0x00), (0x80, 0x00, 0x20, 0x00, 0x06020000))):
+            ours.send(frame.pack(0x604, 8, bytes(request) + bytes(4)))
+            can_id, dlc, data = frame.unpack(ours.recv(64))
+            self.assertEqual((can_id, dlc), (0x584, 8), "no PDO answered the SYNC before: only this SDO answer")
+            self.assertEqual(tuple(data[:4]) + struct.unpack("<I", data[4:]), answer)
+        ours.send(frame.pack(0x000, 2, bytes([0x01, 0x00]) + bytes(6)))  # start every node
+        time.sleep(0.05)
         previous = None
         for cycle in range(20):
             ours.send(struct.pack("<IB3x8s", 0x080, 0, bytes(8)))

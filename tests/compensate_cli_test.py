@@ -181,6 +181,31 @@ def main():
         assert r.returncode == 1 and "256" in r.stderr, r.stderr
         r = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", comp, "--axes", "z"], capture_output=True, text=True)
         assert r.returncode == 1 and "not an axis" in r.stderr, r.stderr
+        # Numbers that are not positions or steps: refused at once (inf grew without bound, 1e-300 wrapped
+        # the line count past the 256-line check, nan silently became 1 mm, 1e300 wrote 300 digits).
+        for args, words in ((["--center-mm", "inf", "0"], "not a finite number"),
+                            (["--center-mm", "nan", "nan"], "not a finite number"),
+                            (["--center-mm", "1e300", "0"], "not a machine position"),
+                            (["--step-mm", "1e-300"], "LinuxCNC reads at most 256"),
+                            (["--step-mm", "nan"], "not a finite number"),
+                            (["--step-mm", "inf"], "not a finite number")):
+            given = [bare, bare_cw] if args[0] == "--center-mm" else runs
+            r = subprocess.run([exe, "compensate", "dbb", *given, "--out-dir", os.path.join(d, "c3"), *args],
+                               capture_output=True, text=True, timeout=30)
+            assert r.returncode != 0 and words in r.stderr, (args, r.returncode, r.stderr)
+            assert not os.path.exists(os.path.join(d, "c3", "x.comp")), args
+
+        # One set or the other: a write that fails half way (a file-size limit: EFBIG, as a full disk)
+        # leaves the earlier set whole, and a new set without straightness.csv removes the earlier one.
+        before = {n: open(os.path.join(comp, n), "rb").read() for n in os.listdir(comp) if os.path.isfile(os.path.join(comp, n))}
+        assert "straightness.csv" in before and "x.comp" in before, sorted(before)
+        smallest = min(len(b) for b in before.values())
+        import resource
+        r = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", comp, "--step-mm", "2"], capture_output=True,
+                           text=True, preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (smallest, smallest)))
+        assert r.returncode == 1 and "File too large" in r.stderr, (r.returncode, r.stderr)
+        after = {n: open(os.path.join(comp, n), "rb").read() for n in os.listdir(comp) if os.path.isfile(os.path.join(comp, n))}
+        assert after == before, "a failed write changed the set: %s" % sorted(set(after) ^ set(before))
     print("ok")
 
 

@@ -12,153 +12,19 @@
 #include "drivers/dbb/dbb_driver.hpp"
 #include "simulators/emulators/can_serial_machine_sources.hpp"
 #include "simulators/emulators/dbb_emulator.hpp"
+#include "dbb_bench.hpp"
 #include "driver_counters_support.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
 using namespace std::chrono_literals;
 using drivers::DeviceState;
+using test::Bench;
+using test::circle_source;
+using test::emulator_settings;
+using test::three_encoders;
 
 namespace {
-
-std::vector<drivers::dbb::EncoderScale> three_encoders() {
-  std::vector<drivers::dbb::EncoderScale> e(3);
-  e[0] = {"bar_length", 1, 1e-7, +1, 0, 0.100};
-  e[1] = {"x", 2, 1e-7, +1, 0, 0.0};
-  e[2] = {"y", 3, 5e-8, -1, 1000, 0.0};
-  return e;
-}
-
-simulators::emulators::DbbSource circle_source() {
-  return simulators::emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6);
-}
-
-struct Bench {
-  explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
-                 simulators::emulators::DbbSource source = circle_source(),
-                 std::int64_t read_period_us = drivers::dbb::default_read_period_us)
-      : emu({three_encoders(), !driver_produces_sync, rate_hz}, std::move(source)) {
-    drivers::dbb::DbbSettings s;
-    s.produce_sync = driver_produces_sync;
-    s.sync_rate_hz = rate_hz;
-    s.read_period_us = read_period_us;
-    s.timeout_ms = timeout_ms;
-    s.reconnect_min_ms = 10;
-    s.reconnect_max_ms = 100;
-    s.encoders = three_encoders();
-    emu.start();
-    driver = std::make_unique<drivers::dbb::DbbDriver>("dbb", 1 << 14, s, [this](std::string& err) {
-      int sv[2];
-      if (::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) < 0) {
-        err = "socketpair failed";
-        return drivers::can::CanSocket{};
-      }
-      ++connects;
-      emu.attach(drivers::can::CanSocket(sv[1]));
-      return drivers::can::CanSocket(sv[0]);
-    });
-    driver->start();
-  }
-  ~Bench() {
-    driver->stop();
-    emu.stop();
-  }
-  void drain() {
-    Sample s;
-    while (driver->ring().try_pop(s)) samples.push_back(s);
-  }
-  bool wait_samples(std::size_t n, std::chrono::milliseconds timeout = 10s) {
-    return test::eventually(
-        [&] {
-          drain();
-          return samples.size() >= n;
-        },
-        timeout);
-  }
-  // Stops both ends, then checks every cycle the emulator sent against the samples, in order. Every cycle
-  // is exactly one sample, equal to what was sent (a channel not sent holds the previous sample's value),
-  // except an answer the emulator logged as late (a loaded machine held it up until the driver's next SYNC
-  // was there): on the bus it may be partly after that SYNC, and the driver then makes it a sample of
-  // what came before the SYNC (the rest held), or, all of it after, no sample of its own (the next
-  // answer replaces it). Which of the two each late answer became is not known, and positions of a
-  // slow machine repeat, so the check searches for an assignment of samples to cycles that explains
-  // every sample (a set of reachable sample indices per cycle).
-  void stop_and_check_all(std::size_t partial_expected_at_least = 0) {
-    // The emulator goes first: the driver then reads everything still queued, publishes what it holds
-    // when it sees the end of the connection, and only then reports the loss.
-    const int connects_before = connects.load();
-    emu.stop();
-    const auto log = emu.log();
-    std::vector<simulators::emulators::DbbSentCycle> sent;
-    std::size_t late = 0;
-    for (const auto& c : log) {
-      if (c.sent_mask != 0) sent.push_back(c);
-      late += c.late;
-    }
-    EXPECT_TRUE(test::eventually([&] {
-      return connects.load() > connects_before || driver->status().state != DeviceState::streaming;
-    })) << "the driver did not see the emulator go";
-    driver->stop();
-    drain();
-    ASSERT_LE(samples.size(), sent.size()) << "a cycle put on the bus became more than one sample";
-    ASSERT_GE(samples.size() + late, sent.size()) << "a cycle put on the bus (and not late) became no sample";
-    const auto near = [](double a, double b, std::size_t k) {
-      return std::abs(a - b) <= three_encoders()[k].resolution_m * 0.51;
-    };
-    const auto held = [&](std::size_t j, std::size_t k) {
-      const double before = j > 0 ? samples[j - 1].value[k] : NAN;
-      const double v = samples[j].value[k];
-      return std::isnan(before) ? std::isnan(v) : near(v, before, k);
-    };
-    // Whether samples[j] can be sent[i]'s; `why` says why not.
-    const auto is_sample_of = [&](std::size_t i, std::size_t j, std::string& why) {
-      const Sample& s = samples[j];
-      const bool complete = sent[i].sent_mask == 0b111;
-      if (s.value_count != 3) return why = "value_count " + std::to_string(s.value_count), false;
-      if (j > 0 && s.t_mono_ns < samples[j - 1].t_mono_ns) return why = "time goes backwards", false;
-      if (!sent[i].late && ((s.flags & sample_partial) != 0) == complete) return why = "partial flag wrong", false;
-      for (std::size_t k = 0; k < 3; ++k) {
-        const bool was_sent = (sent[i].sent_mask & (1u << k)) != 0;
-        const bool exact = was_sent && near(s.value[k], sent[i].truth_m[k], k);
-        const bool ok = sent[i].late ? exact || held(j, k) : was_sent ? exact : held(j, k);
-        if (!ok) {
-          why = "channel " + std::to_string(k) + " is " + std::to_string(s.value[k]) +
-                (was_sent ? ", sent " + std::to_string(sent[i].truth_m[k]) : std::string(", not sent, not held"));
-          return false;
-        }
-      }
-      return true;
-    };
-    std::vector<std::size_t> reach{0};  // sample indices at which cycle i can start
-    for (std::size_t i = 0; i < sent.size(); ++i) {
-      std::vector<std::size_t> next;
-      std::string why;
-      for (const std::size_t j : reach) {
-        if (sent[i].late) next.push_back(j);  // no sample of its own
-        std::string w;
-        if (j < samples.size() && is_sample_of(i, j, w)) next.push_back(j + 1);
-        else if (why.empty()) why = j < samples.size() ? "sample " + std::to_string(j) + ": " + w : "no sample left";
-      }
-      std::sort(next.begin(), next.end());
-      next.erase(std::unique(next.begin(), next.end()), next.end());
-      ASSERT_FALSE(next.empty()) << "sent cycle " << i << (sent[i].late ? " (late)" : "") << " matches no sample: "
-                                 << why;
-      reach = std::move(next);
-    }
-    EXPECT_TRUE(std::find(reach.begin(), reach.end(), samples.size()) != reach.end())
-        << "samples left over (" << samples.size() - reach.back() << "): a cycle became more than one sample";
-    for (std::size_t j = 0; j < samples.size(); ++j) EXPECT_EQ(samples[j].seq, j);
-    const auto partial = std::count_if(samples.begin(), samples.end(),
-                                       [](const Sample& s) { return (s.flags & sample_partial) != 0; });
-    EXPECT_GE(static_cast<std::size_t>(partial), partial_expected_at_least);
-    ::testing::Test::RecordProperty("late_answers", std::to_string(late));
-  }
-
-  simulators::emulators::DbbEmulator emu;
-  std::unique_ptr<drivers::dbb::DbbDriver> driver;
-  std::atomic<int> connects{0};
-  std::vector<Sample> samples;
-};
 
 // A dbb-can device made by the driver registry from a [[device]] table, as guidewayd makes it: the
 // bus is the Unix gateway at `path`, the encoders those of three_encoders(), plus `keys`.
@@ -356,13 +222,14 @@ TEST(DbbDriver, FrameTimeIsTheKernelStampOnTheMonotonicClockOrTheReadTime) {
   EXPECT_EQ(t.t_ns, earliest - 300'000);
 }
 
-// The kernel filter a SocketCAN bus gets (not exercised here without AF_CAN): SYNC and our nodes'
-// TPDO1 exactly, nothing else, checked frame by frame the way the kernel matches.
-TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesTpdo1Only) {
+// The kernel filter a SocketCAN bus gets (not exercised here without AF_CAN): SYNC and, of our nodes,
+// TPDO1, EMCY, SDO responses and heartbeats exactly, nothing else, checked frame by frame the way the
+// kernel matches.
+TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesFramesOnly) {
   drivers::dbb::DbbSettings s;
   s.encoders = three_encoders();
   const auto filters = drivers::dbb::dbb_can_filters(s);
-  ASSERT_EQ(filters.size(), 1 + s.encoders.size());
+  ASSERT_EQ(filters.size(), 1 + 4 * s.encoders.size());
   const auto passes = [&](canid_t id) {
     return std::any_of(filters.begin(), filters.end(),
                        [&](const can_filter& f) { return (id & f.can_mask) == (f.can_id & f.can_mask); });
@@ -373,9 +240,13 @@ TEST(DbbDriver, TheCanFilterPassesSyncAndOurNodesTpdo1Only) {
     EXPECT_FALSE(passes((0x180u + e.node_id) | CAN_RTR_FLAG)) << "a remote request";
     EXPECT_FALSE(passes((0x180u + e.node_id) | CAN_EFF_FLAG)) << "an extended frame";
     EXPECT_FALSE(passes(0x280u + e.node_id)) << "TPDO2";
+    EXPECT_TRUE(passes(0x700u + e.node_id)) << "boot-up and heartbeat";
+    EXPECT_TRUE(passes(0x080u + e.node_id)) << "EMCY";
+    EXPECT_TRUE(passes(0x580u + e.node_id)) << "SDO response";
+    EXPECT_FALSE(passes(0x600u + e.node_id)) << "SDO request (another client's)";
   }
   EXPECT_FALSE(passes(0x180u + 100)) << "another node's TPDO1";
-  EXPECT_FALSE(passes(0x700u + s.encoders[0].node_id)) << "heartbeat";
+  EXPECT_FALSE(passes(0x700u + 100)) << "another node's heartbeat";
   EXPECT_FALSE(passes(0x000)) << "NMT";
 }
 
@@ -433,7 +304,7 @@ TEST(DbbDriver, GarbageTruncatedBadAndErrorFramesAreCountedAndNothingIsLost) {
   EXPECT_EQ(b.driver->error_frames(), 4u);
   // The driver's own counters reach STATUS through status(), by name; bus_reads/empty_reads do not.
   const auto own = test::driver_counters_by_name(st);
-  EXPECT_EQ(own.size(), 7u);
+  EXPECT_EQ(own.size(), 14u);
   EXPECT_EQ(own.at("bus_off"), 0u);  // protocol or controller errors, not bus-off
   EXPECT_TRUE(own.contains("late_pdos"));
   EXPECT_EQ(own.at("syncs_not_sent"), 0u);
@@ -567,7 +438,7 @@ TEST(DbbDriver, BurstFasterThanTheSyncRateIsReceivedCompletely) {
 TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  simulators::emulators::DbbEmulator emu({three_encoders(), false, 100.0},
+  simulators::emulators::DbbEmulator emu(emulator_settings(false, 100.0),
                                          simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
   auto listener = drivers::can::listen_can_gateway(path, err);
@@ -580,7 +451,7 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
   // The emulator process goes away and comes back: the driver reconnects.
   emu.stop();
   ASSERT_TRUE(test::eventually([&] { return driver->status().state != DeviceState::streaming; }));
-  simulators::emulators::DbbEmulator emu2({three_encoders(), false, 100.0},
+  simulators::emulators::DbbEmulator emu2(emulator_settings(false, 100.0),
                                           simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   listener = drivers::can::listen_can_gateway(path, err);
   ASSERT_TRUE(listener.valid()) << err;
@@ -601,7 +472,7 @@ TEST(DbbDriver, ReachesTheEmulatorThroughItsUnixGatewayAndComesBackAfterARestart
 TEST(DbbDriver, ListensThroughTheUnixGatewayWithKernelTimesFromAConfigTable) {
   test::TempDir dir;
   const std::string path = dir.file("can.sock");
-  simulators::emulators::DbbEmulator emu({three_encoders(), true, 1000.0},
+  simulators::emulators::DbbEmulator emu(emulator_settings(true, 1000.0),
                                          simulators::emulators::ideal_circle_source(0.1, 0.01, -1));
   std::string err;
   auto listener = drivers::can::listen_can_gateway(path, err);

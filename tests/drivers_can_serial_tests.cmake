@@ -18,3 +18,12 @@ add_test(NAME can_serial_process_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/can_serial_process_test.py ${PROJECT_BINARY_DIR}
           ${PROJECT_SOURCE_DIR})
 set_tests_properties(can_serial_process_test PROPERTIES LABELS integration TIMEOUT 120)
+# CANopen services and the dbb-can network management (NMT, heartbeat, EMCY, SDO checks), pure and fuzzed.
+guideway_add_test(canopen_network_test SOURCES canopen_network_test.cpp LIBS guideway_dbb)
+# dbb-can with CANopen nodes that boot, stop and reboot: one test per node fault (emulated nodes).
+guideway_add_test(dbb_nodes_test SOURCES dbb_nodes_test.cpp LIBS guideway_dbb guideway_emu_can_serial_sources
+                  LABELS integration tsan TIMEOUT 120)
+# guidewayd with three CANopen nodes written independently of Guideway from the CiA 301 facts (Python).
+add_test(NAME canopen_daemon_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/canopen_daemon_test.py ${PROJECT_BINARY_DIR})
+set_tests_properties(canopen_daemon_test PROPERTIES LABELS integration TIMEOUT 60)

@@ -16,3 +16,11 @@ guideway_add_test(x3p_profile_files_test SOURCES x3p_profile_files_test.cpp LIBS
 add_test(NAME micrometer_profilometer_daemon_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/micrometer_profilometer_daemon_test.py ${PROJECT_BINARY_DIR})
 set_tests_properties(micrometer_profilometer_daemon_test PROPERTIES LABELS integration TIMEOUT 120)
+# The micrometer driver against Debian's python3-pymodbus (tests/pymodbus_amplifier.py), a Modbus stack
+# written elsewhere: TCP and RTU over a pseudo-terminal pair; skipped with the reason where it is missing.
+guideway_add_test(micrometer_foreign_stack_test SOURCES micrometer_foreign_stack_test.cpp LIBS guideway_micrometer
+  LABELS integration TIMEOUT 120)
+# Debian's mbpoll (a Modbus master written elsewhere) against the emulator, TCP and RTU.
+add_test(NAME modbus_mbpoll_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/modbus_mbpoll_test.py ${PROJECT_BINARY_DIR})
+set_tests_properties(modbus_mbpoll_test PROPERTIES LABELS integration TIMEOUT 60)

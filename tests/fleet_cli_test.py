@@ -10,6 +10,7 @@ Chromium missing is a failure (./scripts/setup.sh installs it), never a skip.
 """
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -125,7 +126,10 @@ def main():
     r = gw("fleet", "status", "--db", db)
     lines = r.stdout.splitlines()
     print(r.stdout)
-    check(len(lines) == 4 and lines[1].startswith("lathe-2") and lines[2].startswith("mill-1"), "status lines: %r" % lines)
+    check(len(lines) == 6 and lines[1].startswith("lathe-2") and lines[2].startswith("mill-1"), "status lines: %r" % lines)
+    # The malformed payload: counted, with its reason and topic, under the table.
+    check(lines[4].startswith("refused at ingest: 1 message(s)") and "lathe-2/params/dbb" in lines[5]
+          and "not JSON" in lines[5], "refusals: %r" % lines[4:])
     check("offline (connection lost)" in lines[1] and " online " in lines[2], "status states: %r" % lines[1:3])
     check("G/µm" in lines[0] and "backlash x/µm" in lines[0] and "run-out/µm" in lines[0], "status header: %r" % lines[0])
     col = lines[0].index("LAST DBB")
@@ -176,12 +180,23 @@ def main():
     gw("fleet", "report", "--db", db, "--out", html, "--no-date")
     with cdp.Browser() as b:
         open_self_contained(b, html, check)
+        cells = b.evaluate("""(() => [...document.querySelectorAll('section#fleet table tbody tr')].map(r =>
+            [...r.cells].map(c => ({text: c.textContent, align: getComputedStyle(c).textAlign}))))()""")
+        for row in cells:
+            machine = row[0]["text"]
+            # A page read later: when the last DBB was made, and how long before the report.
+            check(re.match(r"20\d\d-\d\d-\d\d \d\d:\d\d, .* before this report", row[3]["text"]),
+                  "%s: last DBB %r" % (machine, row[3]["text"]))
+            check([c["align"] for c in (row[0], row[1], row[2], row[3], row[-1])] == ["left"] * 5,
+                  "%s: text columns not left-aligned: %s" % (machine, [c["align"] for c in row]))
+            check(row[4]["align"] == "right", "%s: a figure column is not right-aligned" % machine)
         sections = b.evaluate(PLOTS_JS)
         check([s["kind"] for s in sections] == ["fleet", "machine", "machine"], "sections %s" % [s["kind"] for s in sections])
         check(sections[0]["tables"] == 1, "no fleet table")
         expected_plots = {"lathe-2": 3, "mill-1": 3 + 2 + 2 + 2}  # dbb: G, backlash x/y; 2 of every other kind
         for sec in sections[1:]:
-            name = sec["id"].replace("machine-", "")
+            # One id per name: letters, digits and '_' as they are, any other byte '-' and two hex digits.
+            name = re.sub(r"-([0-9a-f]{2})", lambda m: chr(int(m.group(1), 16)), sec["id"][len("machine-"):])
             check(len(sec["plots"]) == expected_plots.get(name, -1), "%s: %d plots" % (name, len(sec["plots"])))
             for p in sec["plots"]:
                 w = "%s plot '%s'" % (name, p["title"])
@@ -195,6 +210,10 @@ def main():
                 n = 3 if name == "mill-1" and p["title"].startswith("dbb") else (2 if name == "lathe-2" else 1)
                 check(series.get("value", {}).get("points") == n, w + ": value points %s, expected %d" % (series, n))
                 has_u = not p["title"].endswith(": G")
+                # The value axis spans at least a fifth of the largest value: equal Gs are a flat line.
+                y_ticks = [float(t.replace("−", "-")) for a in p["axes"] if a["cls"] == "axis y" for t in a["labels"]]
+                if p["title"].endswith(": G"):
+                    check(max(y_ticks) - min(y_ticks) >= 0.15 * 17.4, w + ": G axis ticks %s" % y_ticks)
                 check(("±2u" in series) == has_u, w + ": ±2u bars %s" % list(series))
                 if has_u:
                     check(series["±2u"]["points"] == 3 * n and series["±2u"]["h"] > 0, w + ": bars %s" % series["±2u"])

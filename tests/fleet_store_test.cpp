@@ -4,16 +4,23 @@
 #include <sqlite3.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
+#include <random>
+#include <set>
 #include <sstream>
 #include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "fleet/fleet_report.hpp"
 #include "fleet/fleet_status.hpp"
 #include "fleet/headlines.hpp"
 #include "fleet/history.hpp"
@@ -101,14 +108,22 @@ TEST(FleetStore, EventsDevicesAndWhatIsIgnored) {
   EXPECT_TRUE(s.results("d").empty());
 
   const auto r = s.ingest(prefix, "other/m/params/dbb", "{}", "", "2026-11-26T11:00:00Z");
-  EXPECT_EQ(r.outcome, IngestResult::ignored);
+  EXPECT_EQ(r.outcome, IngestResult::refused);
   EXPECT_NE(r.reason.find("not our topic tree"), std::string::npos);
   EXPECT_NE(
       s.ingest(prefix, topic("x", "params", "dbb"), "{not json", "", "2026-11-26T11:00:00Z").reason.find("not JSON"),
       std::string::npos);
-  EXPECT_EQ(put(s, topic("x", "explain", "dbb"), golden("dbb.params.json"), ""), IngestResult::ignored);  // a PARAMS
-  EXPECT_EQ(put(s, topic("x", "status"), R"({"state":"online","machine":"y"})", ""), IngestResult::ignored);
-  EXPECT_EQ(s.machines().size(), 2u);  // an ignored message leaves no machine behind
+  EXPECT_EQ(put(s, topic("x", "explain", "dbb"), golden("dbb.params.json"), ""), IngestResult::refused);  // a PARAMS
+  EXPECT_EQ(put(s, topic("x", "status"), R"({"state":"online","machine":"y"})", ""), IngestResult::refused);
+  // A device table that is not JSON (docs/plant.md: leaves no trace) makes no machine either.
+  EXPECT_EQ(put(s, topic("phantom", "devices"), "not json at all", ""), IngestResult::refused);
+  EXPECT_EQ(s.machines().size(), 2u);  // a refused message leaves no machine behind
+  EXPECT_EQ(s.refused_count(), 5);
+  const auto newest = s.refusals(2);
+  ASSERT_EQ(newest.size(), 2u);
+  EXPECT_EQ(newest[1].machine, "phantom");
+  EXPECT_EQ(newest[1].topic, topic("phantom", "devices"));
+  EXPECT_EQ(newest[1].size_bytes, 15);
 }
 
 TEST(FleetStore, StatusOnlineThenWillWithoutTimeThenStopped) {
@@ -243,7 +258,7 @@ TEST(FleetStore, NewerSchemaAndForeignDatabasesAreRefused) {
     Store s(path);
     FAIL() << "opened a newer schema";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("schema is version 7, newer than this guideway knows (1)"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("schema is version 7, newer than this guideway knows (2)"), std::string::npos)
         << e.what();
   }
   const std::string other = dir.file("other.sqlite");
@@ -380,4 +395,370 @@ TEST(FleetStatus, LatestFiguresAgeAndMovedFlags) {
   const auto j = status_json(status);
   EXPECT_EQ(j["machines"][0]["latest"]["dbb"]["session"], "s3");
   EXPECT_EQ(j["machines"][0]["explain"]["dbb"]["findings"][0]["effect"], "backlash");
+}
+
+namespace {
+
+// The bytes of a file, "" when it is missing.
+std::string bytes_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Everything a reader of the fleet does, as `fleet status`, `history` and `report` do it (the report,
+// the slowest, when asked).
+void read_everything(const Store& s, bool with_report = true) {
+  const auto status = fleet_status(s, 1795694400.0);
+  (void)status_text(status);
+  (void)status_json(status).dump();
+  (void)refusals_text(s);
+  for (const auto& m : s.machines()) {
+    const auto h = history_of(s.results(m.machine));
+    (void)history_text(m.machine, h);
+    (void)history_json(m.machine, h).dump();
+  }
+  if (with_report) (void)render_fleet_report(s, FleetReportOptions{});
+}
+
+}  // namespace
+
+TEST(FleetIngest, MalformedResultsAreRefusedCountedAndTheViewKeepsAnswering) {
+  guideway::test::TempDir dir;
+  Store s(dir.file("fleet.sqlite"));
+  EXPECT_EQ(put(s, topic("m", "params", "dbb"), golden("dbb.params.json"), "2026-11-20T10:00:00Z"),
+            IngestResult::stored);
+  auto params = golden_json("dbb.params.json");
+  params["plane"] = "~x";  // made every reader throw parse_error.108 (json pointer "/~_")
+  auto bad_figure = golden_json("dbb.params.json");
+  bad_figure["diagnostics"]["circular_deviation_um"]["value"] = "17 um";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {topic("m", "explain", "dbb"), R"({"findings":[{"effect":5}]})"},  // type_error.302 in every reader
+      {topic("m", "explain", "dbb"), R"({"findings":[{"effect":"backlash","contribution_um":"big"}]})"},
+      {topic("m", "explain", "dbb"), R"({"findings":{"effect":"backlash"}})"},
+      {topic("m", "explain", "dbb"), R"({"findings":[],"unexplained":"yes"})"},
+      {topic("m", "params", "dbb"), params.dump()},
+      {topic("m", "params", "dbb"), bad_figure.dump()},
+      {topic("m", "params", "dbb"), R"({"session":7})"},
+      {topic("m", "status"), R"({"state":"online","since":12})"},
+      {topic("m", "params", "dbb"), "[1,2,3]"},
+  };
+  for (const auto& [t, payload] : cases) {
+    const auto r = s.ingest(prefix, t, payload, "", "2026-11-26T12:00:00Z");
+    EXPECT_EQ(r.outcome, IngestResult::refused) << payload;
+    EXPECT_FALSE(r.reason.empty());
+  }
+  EXPECT_EQ(s.refused_count(), static_cast<std::int64_t>(cases.size()));
+  EXPECT_EQ(s.results("m").size(), 1u);  // none of them stored
+  EXPECT_NO_THROW(read_everything(s));
+  EXPECT_NE(refusals_text(s).find("refused at ingest: 9 message(s)"), std::string::npos) << refusals_text(s);
+  EXPECT_NE(s.refusals(9)[0].reason.find("findings[0] needs \"effect\" as a text"), std::string::npos);
+  EXPECT_NE(s.refusals(9)[4].reason.find("\"plane\""), std::string::npos);
+}
+
+TEST(FleetIngest, RowsStoredBeforeIngestCheckedAreSkippedNeverFatal) {
+  guideway::test::TempDir dir;
+  const std::string path = dir.file("fleet.sqlite");
+  {
+    Store s(path);
+    put(s, topic("m", "params", "dbb"), golden("dbb.params.json"), "2026-11-20T10:00:00Z");
+  }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  for (const char* payload : {R"({"findings":[{"effect":5}]})", R"({"plane":"~x","diagnostics":{}})", "not json"}) {
+    const std::string cls = std::string(payload).find("findings") != std::string::npos ? "EXPLAIN" : "PARAMS";
+    const std::string sql =
+        "INSERT INTO results(machine, kind, class, produced_utc, received_utc, session, payload, "
+        "digest) VALUES('m', 'dbb', '" +
+        cls +
+        "', '2026-11-21T00:00:00.000Z', "
+        "'2026-11-21T00:00:00.000Z', 's', '" +
+        payload + "', 0)";
+    ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  }
+  sqlite3_close(db);
+  const Store s(path, Store::Open::existing);
+  EXPECT_NO_THROW(read_everything(s));
+  const auto h = history_of(s.results("m"));
+  ASSERT_EQ(h.size(), 4u);
+  EXPECT_TRUE(h[0].readable);
+  EXPECT_EQ(std::count_if(h.begin(), h.end(), [](const HistoryEntry& e) { return !e.readable; }), 1);  // "not json"
+  EXPECT_NE(history_text("m", h).find("could not be read: skipped"), std::string::npos);
+}
+
+TEST(FleetIngest, TimesOutsideBeliefAreReplacedByTheReceiveTimeAndKept) {
+  guideway::test::TempDir dir;
+  Store s(dir.file("fleet.sqlite"));
+  auto p = golden_json("dbb.params.json");
+  const auto put_session = [&](const std::string& session, const std::string& produced, const std::string& received) {
+    p["session"] = session;
+    return s.ingest(prefix, topic("m", "params", "dbb"), p.dump(), produced, received);
+  };
+  // Produced in 0999: it sorted after 2026 as text and stayed the latest result forever.
+  const auto old = put_session("s-0999", "0999-01-01T00:00:00Z", "2026-11-26T10:00:00.000Z");
+  EXPECT_EQ(old.outcome, IngestResult::stored);
+  EXPECT_NE(old.reason.find("not believed"), std::string::npos);
+  put_session("s-9999", "9999-12-31T23:59:59Z", "2026-11-26T10:30:00.000Z");  // and the future froze it
+  put_session("s-real", "2026-11-26T11:00:00.000Z", "2026-11-26T11:00:01.000Z");
+  const auto rows = s.results("m");
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0].session, "s-0999");
+  EXPECT_EQ(rows[0].produced_utc, "2026-11-26T10:00:00.000Z");
+  EXPECT_EQ(rows[0].claimed_utc, "0999-01-01T00:00:00Z");
+  EXPECT_EQ(rows[1].claimed_utc, "9999-12-31T23:59:59Z");
+  EXPECT_EQ(rows[2].session, "s-real");
+  EXPECT_EQ(rows[2].claimed_utc, "");
+  EXPECT_EQ(fleet_status(s, 1795694400.0).at(0).latest.at(0).session, "s-real");
+  // A day of clock skew is believed.
+  put_session("s-skew", "2026-11-27T10:00:00.000Z", "2026-11-26T11:00:00.000Z");
+  EXPECT_EQ(s.results("m").back().produced_utc, "2026-11-27T10:00:00.000Z");
+
+  // Status: a since in 9999 froze the machine (every later status was "older"); 0999 won over 2026.
+  const auto status = [&](const std::string& state, const std::string& since, const std::string& received) {
+    return put(s, topic("n", "status"), R"({"state":")" + state + R"(","since":")" + since + R"("})", "", received);
+  };
+  EXPECT_EQ(status("online", "9999-01-01T00:00:00Z", "2026-11-26T10:00:00.000Z"), IngestResult::stored);
+  EXPECT_EQ(s.machines().back().since, "2026-11-26T10:00:00.000Z");
+  EXPECT_EQ(status("offline", "2026-11-26T10:05:00Z", "2026-11-26T10:05:00.100Z"), IngestResult::stored);
+  EXPECT_EQ(s.machines().back().state, "offline");
+  EXPECT_EQ(status("online", "0999-01-01T00:00:00Z", "2026-11-26T10:06:00.000Z"), IngestResult::stored);
+  EXPECT_EQ(s.machines().back().since, "2026-11-26T10:06:00.000Z");
+  EXPECT_EQ(status("offline", "2026-11-26T10:10:00Z", "2026-11-26T10:10:00.100Z"), IngestResult::stored);
+  EXPECT_EQ(s.machines().back().state, "offline");
+  EXPECT_EQ(s.machines().back().since, "2026-11-26T10:10:00.000Z");
+}
+
+TEST(FleetIngest, AVersion1DatabaseIsUpgradedWithItsPoisonedTimesMovedAside) {
+  guideway::test::TempDir dir;
+  const std::string path = dir.file("fleet.sqlite");
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  // Version 1 as fleet serve wrote it, with what a 0999 and a 9999 clock left in it.
+  ASSERT_EQ(sqlite3_exec(db, R"sql(
+CREATE TABLE machines(machine TEXT PRIMARY KEY, state TEXT NOT NULL DEFAULT '', since TEXT NOT NULL DEFAULT '',
+  release TEXT NOT NULL DEFAULT '', reason TEXT NOT NULL DEFAULT '', status_payload TEXT NOT NULL DEFAULT '',
+  status_clock TEXT NOT NULL DEFAULT '', last_seen_utc TEXT NOT NULL DEFAULT '');
+CREATE TABLE results(id INTEGER PRIMARY KEY, machine TEXT NOT NULL, kind TEXT NOT NULL, class TEXT NOT NULL,
+  produced_utc TEXT NOT NULL, received_utc TEXT NOT NULL, session TEXT NOT NULL, payload TEXT NOT NULL,
+  digest INTEGER NOT NULL);
+CREATE TABLE events(id INTEGER PRIMARY KEY, machine TEXT NOT NULL, produced_utc TEXT NOT NULL,
+  received_utc TEXT NOT NULL, payload TEXT NOT NULL, digest INTEGER NOT NULL);
+INSERT INTO machines VALUES('m', 'online', '9999-01-01T00:00:00.000Z', '0.1.0', '', '{}',
+  '9999-01-01T00:00:00.000Z', '2026-11-26T10:00:00.000Z');
+INSERT INTO results VALUES(1, 'm', 'dbb', 'PARAMS', '999-01-01T00:00:00.000Z', '2026-11-26T10:00:00.000Z', 'a', '{}', 1);
+INSERT INTO results VALUES(2, 'm', 'dbb', 'PARAMS', '2026-11-25T10:00:00.000Z', '2026-11-26T10:00:00.000Z', 'b', '{}', 2);
+PRAGMA user_version=1;
+)sql",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  { Store upgrade(path); }
+  const Store s(path, Store::Open::existing);
+  const auto rows = s.results("m");
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].session, "b");  // 0999 no longer sorts after 2026
+  EXPECT_EQ(rows[1].produced_utc, "2026-11-26T10:00:00.000Z");
+  EXPECT_EQ(rows[1].claimed_utc, "999-01-01T00:00:00.000Z");
+  EXPECT_EQ(s.machines().at(0).since, "2026-11-26T10:00:00.000Z");
+  EXPECT_EQ(s.refused_count(), 0);
+}
+
+TEST(FleetIngest, ForeignAndNewerFilesAreLeftByteForByte) {
+  guideway::test::TempDir dir;
+  const std::string newer = dir.file("newer.sqlite");
+  { Store s(newer); }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(newer.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "PRAGMA journal_mode=DELETE; PRAGMA user_version=9", nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  const std::string other = dir.file("other.sqlite");
+  ASSERT_EQ(sqlite3_open(other.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE t(x); INSERT INTO t VALUES(1)", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  for (const auto& path : {newer, other}) {
+    std::filesystem::remove(path + "-wal");
+    std::filesystem::remove(path + "-shm");
+    const std::string before = bytes_of(path);
+    EXPECT_THROW(Store{path}, std::runtime_error);
+    EXPECT_EQ(bytes_of(path), before) << path << " was altered";  // not even switched to WAL
+    EXPECT_FALSE(std::filesystem::exists(path + "-wal")) << path;
+  }
+}
+
+TEST(FleetIngest, ABatchIsStoredWholeOrNotAtAll) {
+  guideway::test::TempDir dir;
+  const std::string path = dir.file("fleet.sqlite");
+  Store s(path);
+  s.set_busy_timeout_ms(200);
+  std::vector<std::string> payloads;
+  for (int i = 0; i < 5; ++i) payloads.push_back(R"({"class":"EVENT","n":)" + std::to_string(i) + "}");
+  std::vector<IngestInput> batch;
+  const std::string t = topic("m", "event");
+  for (const auto& p : payloads) batch.push_back({t, p, "", "2026-11-26T12:00:00Z"});
+  batch.push_back({t, "{broken", "", "2026-11-26T12:00:00Z"});  // refused inside the batch: the others stay
+  // Another connection holds the write lock (a long reader-writer, a backup): the batch fails whole.
+  sqlite3* locker = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &locker), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(locker, "BEGIN EXCLUSIVE", nullptr, nullptr, nullptr), SQLITE_OK);
+  EXPECT_THROW(s.ingest_batch(prefix, batch), std::runtime_error);
+  ASSERT_EQ(sqlite3_exec(locker, "COMMIT", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(locker);
+  EXPECT_TRUE(s.events("m").empty());
+  EXPECT_EQ(s.refused_count(), 0);
+  const auto results = s.ingest_batch(prefix, batch);
+  ASSERT_EQ(results.size(), 6u);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(results[static_cast<std::size_t>(i)].outcome, IngestResult::stored);
+  EXPECT_EQ(results[5].outcome, IngestResult::refused);
+  EXPECT_EQ(s.events("m").size(), 5u);
+  EXPECT_EQ(s.refused_count(), 1);
+  // The same batch again (a redelivery after a crash between commit and acknowledgement): nothing twice.
+  const auto again = s.ingest_batch(prefix, batch);
+  EXPECT_EQ(again[0].outcome, IngestResult::duplicate);
+  EXPECT_EQ(s.events("m").size(), 5u);
+}
+
+TEST(FleetIngest, OversizedAndDeeplyNestedPayloadsAreRefused) {
+  guideway::test::TempDir dir;
+  Store s(dir.file("fleet.sqlite"));
+  s.set_max_payload_bytes(1000);
+  const std::string big = R"({"class":"EVENT","text":")" + std::string(2000, 'x') + "\"}";
+  const auto r = s.ingest(prefix, topic("m", "event"), big, "", "2026-11-26T12:00:00Z");
+  EXPECT_EQ(r.outcome, IngestResult::refused);
+  EXPECT_NE(r.reason.find("over the fleet's maximum of 1000"), std::string::npos) << r.reason;
+  const std::string deep = std::string(500, '[') + std::string(500, ']');
+  EXPECT_NE(s.ingest(prefix, topic("m", "event"), deep, "", "2026-11-26T12:00:00Z").reason.find("nested deeper"),
+            std::string::npos);
+  // Brackets inside strings are text, not nesting.
+  const std::string text = R"({"class":"EVENT","reason":")" + std::string(100, '[') + "\"}";
+  EXPECT_EQ(put(s, topic("m", "event"), text, ""), IngestResult::stored);
+}
+
+// Property: whatever sequence of payloads arrives (the documented shapes with fields of every type,
+// and shapes that are wrong), every ingest ends stored, duplicate, ignored or refused, and status,
+// history and the report still answer after each.
+TEST(FleetIngest, RandomPayloadsNeverStopTheView) {
+  guideway::test::TempDir dir;
+  Store s(dir.file("fleet.sqlite"));
+  std::mt19937 rng(20261127);
+  const auto pick = [&](std::size_t n) { return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng); };
+  std::function<nlohmann::json(int)> any_value = [&](int depth) -> nlohmann::json {
+    switch (pick(depth > 2 ? 6 : 8)) {
+      case 0:
+        return nullptr;
+      case 1:
+        return pick(2) == 1;
+      case 2:
+        return static_cast<double>(pick(2000)) - 1000.5;
+      case 3:
+        return std::vector<std::string>{"", "~x", "xy", "zx", "xx", "~1", "/", "\x1b[2J", "1e400"}[pick(9)];
+      case 4:
+        return std::numeric_limits<double>::max();
+      case 5:
+        return static_cast<int>(pick(10));
+      case 6: {
+        nlohmann::json a = nlohmann::json::array();
+        for (std::size_t i = pick(3); i > 0; --i) a.push_back(any_value(depth + 1));
+        return a;
+      }
+      default: {
+        nlohmann::json o = nlohmann::json::object();
+        for (const char* k : {"effect", "contribution_um", "value", "u", "plane"})
+          if (pick(2)) o[k] = any_value(depth + 1);
+        return o;
+      }
+    }
+  };
+  const auto golden_params = golden_json("dbb.params.json");
+  // The golden EXPLAIN's findings without its 89 kB of residuals: the readers parse every stored row.
+  nlohmann::json golden_explain = {{"class", "EXPLAIN"}, {"findings", nlohmann::json::array()}, {"unexplained", false}};
+  const auto full_explain = golden_json("dbb.explain.json");
+  for (const auto& f : full_explain["findings"])
+    golden_explain["findings"].push_back({{"effect", f["effect"]}, {"contribution_um", f["contribution_um"]}});
+  const char* leaves[] = {"params/dbb", "explain/dbb", "params/runout", "explain/profile",
+                          "status",     "event",       "devices"};
+  int stored = 0, refused = 0;
+  for (int i = 0; i < 500; ++i) {
+    const std::string leaf = leaves[pick(7)];
+    nlohmann::json j;
+    switch (pick(4)) {
+      case 0:
+        j = any_value(0);
+        break;  // any shape at all
+      case 1:
+        j = leaf.starts_with("explain") ? golden_explain : golden_params;
+        break;
+      default:  // a documented shape with one field of any type
+        j = leaf.starts_with("explain") ? golden_explain : golden_params;
+        for (const char* pointer : {"/plane", "/findings", "/findings/0/effect", "/findings/0/contribution_um",
+                                    "/diagnostics/circular_deviation_um/value", "/lai3/backlash_x_um/u", "/session",
+                                    "/state", "/since", "/unexplained"})
+          if (pick(6) == 0) {
+            try {
+              j[nlohmann::json::json_pointer(pointer)] = any_value(1);
+            } catch (const nlohmann::json::exception&) {  // "/findings/0" after findings became an object
+            }
+          }
+        j["session"] = "s" + std::to_string(i);
+    }
+    const std::string machine = "m" + std::to_string(pick(3));
+    const auto r =
+        s.ingest(prefix,
+                 topic(machine, leaf.substr(0, leaf.find('/')),
+                       leaf.find('/') == std::string::npos ? "" : leaf.substr(leaf.find('/') + 1)),
+                 j.dump(), pick(5) == 0 ? "0999-01-01T00:00:00Z" : "2026-11-26T10:00:00Z", "2026-11-26T12:00:00Z");
+    stored += r.outcome == IngestResult::stored;
+    refused += r.outcome == IngestResult::refused;
+    if (i % 50 == 0) {
+      ASSERT_NO_THROW(read_everything(s, i % 250 == 0)) << "after payload " << i << ": " << j.dump();
+    }
+  }
+  ASSERT_NO_THROW(read_everything(s));
+  EXPECT_GT(stored, 50);  // the generator makes both kinds
+  EXPECT_GT(refused, 50);
+  EXPECT_EQ(s.refused_count(), refused);
+}
+
+TEST(FleetView, ControlCharactersFromTheBrokerNeverReachTheTerminal) {
+  guideway::test::TempDir dir;
+  Store s(dir.file("fleet.sqlite"));
+  const std::string esc = "\x1b[2J\x1b]0;owned\x07";
+  put(s, topic("m", "status"), nlohmann::json{{"state", "offline"}, {"reason", "lost " + esc}}.dump(), "");
+  auto p = golden_json("dbb.params.json");
+  p["session"] = "s" + esc;
+  put(s, topic("m", "params", "dbb"), p.dump(), "2026-11-26T10:00:00Z");
+  put(s, topic("m", "explain", "dbb"), nlohmann::json{{"findings", {{{"effect", "spike" + esc}}}}}.dump(), "");
+  const std::string status = status_text(fleet_status(s, 1795694400.0));
+  const std::string history = history_text("m", history_of(s.results("m")));
+  for (const auto& text : {status, history}) {
+    EXPECT_EQ(text.find('\x1b'), std::string::npos) << text;
+    EXPECT_EQ(text.find('\x07'), std::string::npos) << text;
+    EXPECT_NE(text.find("\\x1b[2J"), std::string::npos) << text;
+  }
+  EXPECT_NE(status.find("spike\\x1b"), std::string::npos) << status;
+}
+
+TEST(FleetView, AgesInTheFutureHugeValuesAndOneAnchorPerMachine) {
+  EXPECT_EQ(format_age_ago(-5.0), "in the future");  // was "in the future ago"
+  EXPECT_EQ(format_age_ago(30.0), "30 s ago");
+  // Values of 1e63 and over were cut at 64 bytes.
+  HistoryEntry e{"dbb", "PARAMS", "2026-11-26T10:00:00.000Z", "", "s", {}, {}, true};
+  e.figures.push_back({Headline{"g", "G", "µm", 1e70, 0.5}, std::nullopt, false});
+  const std::string text = history_text("m", {e});
+  const auto at = text.find("G: ") + 3;
+  EXPECT_EQ(text.find('.', at) - at, 71u) << text;  // every one of the 71 digits before the point
+  EXPECT_NE(text.find("± 0.50 µm"), std::string::npos) << text;
+
+  guideway::test::TempDir dir;
+  Store s(dir.file("fleet.sqlite"));
+  for (const std::string m : {"mill.1", "mill-1", "mill 1", "mill_1"})
+    put(s, topic(m, "params", "dbb"), golden("dbb.params.json"), "2026-11-26T10:00:00Z");
+  const std::string html = render_fleet_report(s, FleetReportOptions{});
+  std::set<std::string> ids;
+  for (auto id = html.find("id=\"machine-"); id != std::string::npos; id = html.find("id=\"machine-", id + 1))
+    ids.insert(html.substr(id + 4, html.find('"', id + 4) - id - 4));
+  EXPECT_EQ(ids.size(), 4u) << html.substr(0, 200);
+  EXPECT_TRUE(ids.count("machine-mill-2e1") && ids.count("machine-mill-2d1") && ids.count("machine-mill-201") &&
+              ids.count("machine-mill_1"));
 }

@@ -23,7 +23,7 @@ import unittest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import mqtt_broker  # noqa: E402
-from process_support import guideway_cli, wait_for  # noqa: E402
+from process_support import guideway_cli, run_unittests, wait_for  # noqa: E402
 
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
@@ -291,6 +291,11 @@ class MqttPublishing(BrokerCase):
         with open(pw, "w") as f:
             f.write("x\n")
         os.chmod(pw, 0o644)
+        writable = os.path.join(self.d, "writable.pw")
+        with open(writable, "w") as f:
+            f.write("x\n")
+        os.chmod(writable, 0o602)
+        path_of_text = pw
         cases = [
             ('broker = "http://broker:1883"\n', "mqtt.broker", "unknown scheme"),
             ('broker = "mqtt://broker:99999"\n', "mqtt.broker", "port"),
@@ -299,11 +304,22 @@ class MqttPublishing(BrokerCase):
             (f'broker = "mqtt://b"\nusername = "u"\npassword_file = "{pw}"\n', "mqtt.password_file", "every user"),
             (f'broker = "mqtt://b"\nca_file = "{pw}"\n', "mqtt.ca_file", "mqtts://"),
             ('broker = "mqtts://b"\nca_file = "/nonexistent/ca.pem"\n', "mqtt.ca_file", "cannot read"),
+            # What --check-config passed and the daemon then died on, or printed raw to a terminal.
+            (f'broker = "mqtts://b"\nca_file = "{self.d}"\n', "mqtt.ca_file", "is a directory"),
+            (f'broker = "mqtts://b"\nca_file = "{path_of_text}"\n', "mqtt.ca_file", "no PEM certificate"),
+            (f'broker = "mqtt://b"\nusername = "u"\npassword_file = "{writable}"\n', "mqtt.password_file",
+             "written by every user"),
+            ('broker = "mqtt://::1"\n', "mqtt.broker", "between brackets"),
+            ('broker = "mqtt://bro ker"\n', "mqtt.broker", "letters, digits"),
+            ('broker = "mqtt://b"\nmachine = "a\\u001bb"\n', "mqtt.machine", "control characters"),
+            ('broker = "mqtt://b"\nmachine = "' + "m" * 70000 + '"\n', "mqtt.machine", "at most 128"),
+            ('broker = "mqtt://b"\nclient_id = "' + "c" * 70000 + '"\n', "mqtt.client_id", "at most 256"),
+            ('broker = "mqtt://b"\n', "daemon.state_dir", "MQTT journal", '[daemon]\nstate_dir = "/etc/passwd/state"\n'),
         ]
-        for table, key, words in cases:
+        for table, key, words, *daemon_table in cases:
             path = os.path.join(self.d, "bad.toml")
             with open(path, "w") as f:
-                f.write('[daemon]\nlog_level = "info"\n\n[mqtt]\n' + table)
+                f.write((daemon_table[0] if daemon_table else '[daemon]\nlog_level = "info"\n') + '\n[mqtt]\n' + table)
             out = subprocess.run([GUIDEWAYD, "--config", path, "--check-config"], capture_output=True, text=True)
             self.assertEqual(out.returncode, 2, (table, out.stdout, out.stderr))
             self.assertIn(key, out.stderr, table)
@@ -396,4 +412,4 @@ class FleetServe(BrokerCase):
 
 
 if __name__ == "__main__":
-    unittest.main(verbosity=2)
+    run_unittests()

@@ -7,8 +7,10 @@
 #include <fstream>
 #include <random>
 
+#include "core/printable.hpp"
 #include "plant/broker_address.hpp"
 #include "plant/message_journal.hpp"
+#include "plant/mqtt_codec.hpp"
 #include "plant/topics.hpp"
 #include "test_support.hpp"
 
@@ -20,7 +22,8 @@ using test::TempDir;
 TEST(Topics, EveryLeafRoundTrips) {
   EXPECT_EQ(topic_for("guideway", "mill-1", TopicLeaf::params, "dbb"), "guideway/mill-1/params/dbb");
   EXPECT_EQ(topic_for("plant/a", "mill-1", TopicLeaf::status), "plant/a/mill-1/status");
-  for (TopicLeaf leaf : {TopicLeaf::status, TopicLeaf::params, TopicLeaf::explain, TopicLeaf::event, TopicLeaf::devices}) {
+  for (TopicLeaf leaf :
+       {TopicLeaf::status, TopicLeaf::params, TopicLeaf::explain, TopicLeaf::event, TopicLeaf::devices}) {
     const auto t = parse_topic("plant/a", topic_for("plant/a", "m", leaf, "runout"));
     ASSERT_TRUE(t) << to_string(leaf);
     EXPECT_EQ(t->machine, "m");
@@ -30,9 +33,9 @@ TEST(Topics, EveryLeafRoundTrips) {
 }
 
 TEST(Topics, TopicsOutsideTheTreeAreNotTakenApart) {
-  for (const char* topic : {"guideway", "guideway/", "guideway/m", "guideway/m/params", "guideway/m/params/",
-                            "guideway/m/status/x", "guideway/m/other", "guidewayx/m/status", "other/m/status",
-                            "guideway//status", "guideway/m/params/a/b"}) {
+  for (const char* topic :
+       {"guideway", "guideway/", "guideway/m", "guideway/m/params", "guideway/m/params/", "guideway/m/status/x",
+        "guideway/m/other", "guidewayx/m/status", "other/m/status", "guideway//status", "guideway/m/params/a/b"}) {
     EXPECT_FALSE(parse_topic("guideway", topic)) << topic;
   }
 }
@@ -47,6 +50,38 @@ TEST(Topics, NamesThatCannotBeALevelAreRefused) {
   EXPECT_NE(topic_prefix_problem("/plant"), "");
   EXPECT_NE(topic_prefix_problem("plant//x"), "");
   EXPECT_NE(topic_prefix_problem(std::string("a\0b", 3)), "");
+  // What --check-config passed and the daemon then died on (or printed raw to a terminal).
+  EXPECT_NE(topic_level_problem("a\x1b"
+                                "b"),
+            "");
+  EXPECT_NE(topic_level_problem(std::string(70000, 'm')), "");
+  EXPECT_NE(topic_level_problem("\xff\xfe"), "");
+  EXPECT_EQ(topic_level_problem("Fräse-3"), "");  // UTF-8 is fine
+  EXPECT_EQ(client_id_problem("guidewayd-mill-1"), "");
+  EXPECT_NE(client_id_problem(std::string(70000, 'c')), "");
+  EXPECT_NE(client_id_problem("a\nb"), "");
+  EXPECT_NE(client_id_problem(""), "");
+}
+
+TEST(Printable, ControlCharactersAndBrokenUtf8BecomeVisible) {
+  EXPECT_EQ(guideway::printable("mill-1 µm"), "mill-1 µm");
+  EXPECT_EQ(guideway::printable("\x1b[2J\x1b]0;owned\x07"), "\\x1b[2J\\x1b]0;owned\\x07");
+  EXPECT_EQ(guideway::printable("\xc2\x9b"
+                                "31m"),
+            "\\u009b31m");  // C1 CSI
+  EXPECT_EQ(guideway::printable("a\xff"
+                                "b\x7f"),
+            "a\\xffb\\x7f");
+  EXPECT_EQ(guideway::printable(std::string("a\0b", 3)), "a\\x00b");
+  // Property: the output of any bytes has no control character and is valid UTF-8 (printable of it is itself).
+  std::mt19937 rng(7);
+  for (int i = 0; i < 2000; ++i) {
+    std::string bytes(rng() % 40, '\0');
+    for (auto& c : bytes) c = static_cast<char>(rng() & 0xFF);
+    const std::string out = guideway::printable(bytes);
+    EXPECT_EQ(guideway::printable(out), out);
+    for (const char c : out) EXPECT_FALSE(static_cast<unsigned char>(c) < 0x20 || c == 0x7F);
+  }
 }
 
 TEST(BrokerAddress, SchemesPortsAndHosts) {
@@ -64,9 +99,18 @@ TEST(BrokerAddress, SchemesPortsAndHosts) {
   EXPECT_EQ(a.host, "::1");
   EXPECT_EQ(a.url(), "mqtts://[::1]:8884");
   for (const char* bad : {"", "broker:1883", "tcp://b", "mqtt://", "mqtt://:1883", "mqtt://b:", "mqtt://b:0",
-                          "mqtt://b:65536", "mqtt://b:18x", "mqtt://user:pw@b", "mqtt://b/topic", "mqtts://[::1"}) {
+                          "mqtt://b:65536", "mqtt://b:18x", "mqtt://user:pw@b", "mqtt://b/topic", "mqtts://[::1",
+                          "mqtt://::1", "mqtt://bro ker", "mqtt://broker\t", "mqtt://[b.plant]", "mqtt://b\x1b[2J"}) {
     EXPECT_THROW(parse_broker_url(bad), std::invalid_argument) << bad;
   }
+  EXPECT_THROW(parse_broker_url(std::string("mqtt://b\0x", 10)), std::invalid_argument);
+  try {
+    parse_broker_url("mqtt://::1");
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("between brackets"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(parse_broker_url("mqtt://[fe80::1%eth0]:1883").host, "fe80::1%eth0");
+  EXPECT_EQ(parse_broker_url("mqtt://broker_1.plant-a").host, "broker_1.plant-a");
   try {
     parse_broker_url("http://b");
   } catch (const std::invalid_argument& e) {
@@ -75,7 +119,8 @@ TEST(BrokerAddress, SchemesPortsAndHosts) {
 }
 
 JournalEntry entry(int i, std::size_t payload_bytes = 10) {
-  return {"guideway/m/event", std::to_string(i) + std::string(payload_bytes, 'x'), "2026-11-26T10:00:00.000Z", i % 2 == 0};
+  return {"guideway/m/event", std::to_string(i) + std::string(payload_bytes, 'x'), "2026-11-26T10:00:00.000Z",
+          i % 2 == 0};
 }
 
 std::vector<std::string> drain(MessageJournal& j) {
@@ -96,7 +141,8 @@ TEST(MessageJournal, KeepsTheOrderAcrossARestart) {
     j.pop_front();
     EXPECT_EQ(j.size(), 4u);
   }
-  EXPECT_EQ(std::filesystem::status(path).permissions() & std::filesystem::perms::all, std::filesystem::perms::owner_all);
+  EXPECT_EQ(std::filesystem::status(path).permissions() & std::filesystem::perms::all,
+            std::filesystem::perms::owner_all);
   MessageJournal j(path, 100, 1 << 20);
   EXPECT_EQ(j.taken_up(), 4u);
   j.push(entry(5));
@@ -138,7 +184,7 @@ TEST(MessageJournal, AFileACrashCutShortIsSkippedAndCounted) {
   std::vector<std::filesystem::path> files;
   for (const auto& f : std::filesystem::directory_iterator(path)) files.push_back(f.path());
   std::sort(files.begin(), files.end());
-  std::filesystem::resize_file(files[1], 20);                   // truncated
+  std::filesystem::resize_file(files[1], 20);                     // truncated
   std::ofstream(path + "/00000000000000000009.msg.part") << "x";  // a write cut short
   MessageJournal j(path, 100, 1 << 20);
   EXPECT_EQ(drain(j), (std::vector<std::string>{"0", "2"}));
@@ -163,6 +209,147 @@ TEST(MessageJournal, AnyPayloadRoundTrips) {  // property: every byte string, ev
     EXPECT_EQ(back->retain, e.retain);
     const std::string text = encode_journal_entry(e);
     EXPECT_FALSE(decode_journal_entry(text.substr(0, rng() % text.size()))) << n;  // any truncation is refused
+  }
+}
+
+// The fleet's MQTT 5 client: what it sends, byte for byte as the standard lays it out, and what it reads.
+TEST(MqttCodec, ConnectSubscribeAndPubackBytes) {
+  MqttConnectRequest r;
+  r.client_id = "f";
+  r.keepalive_s = 30;
+  r.session_expiry_s = 604800;
+  r.receive_maximum = 100;
+  const std::string c = encode_connect(r);
+  // CONNECT, remaining length, "MQTT", level 5, flags (clean start 0), keep-alive 30, properties:
+  // session expiry (0x11) 604800, receive maximum (0x21) 100; client id "f".
+  const std::string expected(
+      "\x10\x16\x00\x04MQTT\x05\x00\x00\x1e\x08\x11\x00\x09\x3a\x80\x21\x00\x64\x00\x01"
+      "f",
+      24);
+  EXPECT_EQ(c, expected);
+  EXPECT_EQ(encode_subscribe(1, "g/#", 1), std::string("\x82\x09\x00\x01\x00\x00\x03g/#\x01", 11));
+  EXPECT_EQ(encode_puback(0x1234), std::string("\x40\x02\x12\x34", 4));
+  EXPECT_EQ(encode_pingreq(), std::string("\xc0\x00", 2));
+  EXPECT_EQ(encode_disconnect(0), std::string("\xe0\x00", 2));
+  r.username = "u";
+  r.password = "p";
+  EXPECT_EQ(static_cast<unsigned char>(encode_connect(r)[9]), 0xC0u);  // username and password flags
+}
+
+TEST(MqttCodec, PublishRoundTripsThroughThePacketReader) {
+  MqttPublish p;
+  p.topic = "guideway/mill-1/params/dbb";
+  p.qos = 1;
+  p.packet_id = 513;
+  p.dup = true;
+  p.user_properties = {{"produced_utc", "2026-11-26T10:00:00.000Z"}, {"x", "y"}};
+  p.payload = std::string(300, 'j');  // a remaining length of two bytes
+  const std::string bytes = encode_publish(p) + encode_connack(true, 0) + "\xd0";
+  MqttPacketReader reader(1 << 20);
+  for (const char c : bytes) reader.feed(std::string_view(&c, 1));  // one byte at a time
+  const auto a = reader.next();
+  ASSERT_TRUE(a);
+  const auto q = decode_publish(*a);
+  EXPECT_EQ(q.topic, p.topic);
+  EXPECT_EQ(q.qos, 1);
+  EXPECT_TRUE(q.dup);
+  EXPECT_EQ(q.packet_id, 513);
+  EXPECT_EQ(q.user_property("produced_utc"), "2026-11-26T10:00:00.000Z");
+  EXPECT_EQ(q.payload, p.payload);
+  const auto b = reader.next();
+  ASSERT_TRUE(b);
+  EXPECT_TRUE(decode_connack(*b).session_present);
+  EXPECT_FALSE(reader.next());  // half a PINGRESP
+  reader.feed(std::string_view("\x00", 1));
+  EXPECT_EQ(reader.next()->type, MqttPacketType::pingresp);
+}
+
+TEST(MqttCodec, MalformedAndOversizedPacketsAreProtocolErrors) {
+  const auto reader_error = [](const std::string& bytes, std::size_t max = 1 << 20) -> std::uint8_t {
+    MqttPacketReader reader(max);
+    reader.feed(bytes);
+    try {
+      while (auto p = reader.next())
+        if (p->type == MqttPacketType::publish)
+          (void)decode_publish(*p);
+        else if (p->type == MqttPacketType::connack)
+          (void)decode_connack(*p);
+    } catch (const MqttProtocolError& e) {
+      return e.reason_code();
+    }
+    return 0;
+  };
+  EXPECT_EQ(reader_error(std::string("\x30\xff\xff\xff\xff\x01", 6)), mqtt_malformed_packet);  // length > 4 bytes
+  EXPECT_EQ(reader_error(std::string("\x30\x80\x80\x01", 4), 1000), mqtt_packet_too_large);
+  EXPECT_EQ(reader_error(std::string("\x32\x05\x00\x09"
+                                     "abc",
+                                     7)),
+            mqtt_malformed_packet);                                                                // topic past the end
+  EXPECT_EQ(reader_error(std::string("\x30\x05\x00\x02\xc0\x80\x00", 7)), mqtt_malformed_packet);  // overlong UTF-8
+  EXPECT_EQ(reader_error(std::string("\x30\x05\x00\x02"
+                                     "a+\x00",
+                                     7)),
+            mqtt_malformed_packet);                                                                 // a wildcard
+  EXPECT_EQ(reader_error(std::string("\x36\x06\x00\x01t\x00\x01\x00", 8)), mqtt_malformed_packet);  // QoS 3
+  EXPECT_EQ(reader_error(std::string("\x20\x03\x00\x00\x05\xff\x00\x00\x00\x00\x00", 5)), mqtt_malformed_packet);
+  EXPECT_EQ(reader_error(std::string("\x00\x00", 2)), mqtt_malformed_packet);  // reserved type 0
+}
+
+// Fuzz (property): any bytes from the broker end in packets, a wait for more, or a protocol error;
+// never a crash, a hang or an unbounded buffer (run under ASan and UBSan in CI).
+TEST(MqttCodec, RandomBytesNeverCrashTheReader) {
+  std::mt19937 rng(20261127);
+  MqttPublish seed;
+  seed.topic = "g/m/params/dbb";
+  seed.qos = 1;
+  seed.packet_id = 7;
+  seed.user_properties = {{"produced_utc", "2026-11-26T10:00:00.000Z"}};
+  seed.payload = R"({"class":"PARAMS"})";
+  const std::string valid = encode_publish(seed) + encode_connack(false, 0);
+  for (int i = 0; i < 20000; ++i) {
+    std::string bytes = valid;
+    const int mutations = 1 + static_cast<int>(rng() % 4);
+    for (int k = 0; k < mutations; ++k) {
+      switch (rng() % 3) {
+        case 0:
+          bytes[rng() % bytes.size()] = static_cast<char>(rng() & 0xFF);
+          break;
+        case 1:
+          bytes.insert(rng() % bytes.size(), 1, static_cast<char>(rng() & 0xFF));
+          break;
+        default:
+          bytes.erase(rng() % bytes.size(), 1);
+          break;
+      }
+      if (bytes.empty()) bytes = "\x30";
+    }
+    MqttPacketReader reader(4096);
+    reader.feed(bytes);
+    try {
+      while (auto p = reader.next()) {
+        switch (p->type) {
+          case MqttPacketType::publish:
+            (void)decode_publish(*p);
+            break;
+          case MqttPacketType::connack:
+            (void)decode_connack(*p);
+            break;
+          case MqttPacketType::suback:
+            (void)decode_suback(*p);
+            break;
+          case MqttPacketType::disconnect:
+            (void)decode_disconnect(*p);
+            break;
+          case MqttPacketType::puback:
+            (void)decode_puback(*p);
+            break;
+          default:
+            break;
+        }
+      }
+    } catch (const MqttProtocolError&) {
+    }
+    EXPECT_LE(reader.buffered(), bytes.size());
   }
 }
 

@@ -40,3 +40,15 @@ def guideway_cli(guideway, socket_path, *args, timeout=30):
     if out.returncode != 0:
         raise AssertionError(f"guideway {' '.join(args)}: {out.stderr}")
     return out.stdout
+
+
+def run_unittests():
+    """unittest.main for a test file run by ctest: exit 0 when all passed, 1 when any failed, and 77
+    (the tests' SKIP_RETURN_CODE) when every case was skipped, so that ctest reports the test as not run
+    instead of passed."""
+    import sys
+    import unittest
+    result = unittest.main(verbosity=2, exit=False).result
+    if not result.wasSuccessful():
+        sys.exit(1)
+    sys.exit(77 if result.testsRun > 0 and len(result.skipped) == result.testsRun else 0)

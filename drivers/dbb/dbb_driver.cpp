@@ -19,6 +19,12 @@ namespace guideway::drivers::dbb {
 
 namespace {
 
+// An operational node is silent after the device's own silence timeout without its PDO.
+DbbSettings with_pdo_timeout(DbbSettings s) {
+  s.network.pdo_timeout_ms = s.timeout_ms;
+  return s;
+}
+
 std::vector<drivers::ChannelInfo> channels_of(const DbbSettings& s) {
   std::vector<drivers::ChannelInfo> out;
   for (const auto& e : s.encoders) out.push_back({e.channel, "m"});
@@ -44,6 +50,24 @@ DbbSettings parse_dbb_settings(const TableReader& t) {
   }
   s.reconnect_min_ms = t.get_int("reconnect_min_ms", 50, 1, 600000);
   s.reconnect_max_ms = t.get_int("reconnect_max_ms", 5000, s.reconnect_min_ms, 3600000);
+  NetworkSettings& n = s.network;
+  n.manage_nmt = t.get_choice("nmt", "start", {"start", "listen"}) == "start";
+  n.sdo_checks = t.get_bool("sdo_checks", n.manage_nmt);
+  n.configure_nodes = t.get_bool("configure_nodes", false);
+  if (n.configure_nodes && !n.sdo_checks)
+    t.fail("configure_nodes", "needs sdo_checks = true (it writes what the checks read)");
+  n.heartbeat_ms = t.get_int("heartbeat_ms", 0, 0, 65535);
+  const std::int64_t heartbeat_timeout_ms = t.get_int("heartbeat_timeout_ms", 3 * n.heartbeat_ms, 0, 600000);
+  if (t.has("heartbeat_timeout_ms") && heartbeat_timeout_ms <= n.heartbeat_ms && heartbeat_timeout_ms != 0) {
+    t.fail("heartbeat_timeout_ms", "must be longer than heartbeat_ms (" + std::to_string(n.heartbeat_ms) + " ms)");
+  }
+  n.sdo_timeout_ms = t.get_int("sdo_timeout_ms", 100, 1, 10000);
+  n.node_retry_ms = t.get_int("node_retry_ms", 2000, 10, 600000);
+  constexpr std::int64_t u32_max = 0xFFFFFFFF;
+  const auto optional_u32 = [](const TableReader& e, const char* key) -> std::optional<std::uint32_t> {
+    if (!e.has(key)) return std::nullopt;
+    return static_cast<std::uint32_t>(e.get_int(key, 0, 0, u32_max));
+  };
   for (const TableReader& e : t.tables("encoder")) {
     EncoderScale sc;
     sc.channel = e.require_string("channel");
@@ -52,6 +76,17 @@ DbbSettings parse_dbb_settings(const TableReader& t) {
     sc.direction = e.get_choice("direction", "positive", {"positive", "negative"}) == "positive" ? 1 : -1;
     sc.zero_count = e.get_int("zero_count", 0, -(std::int64_t{1} << 40), std::int64_t{1} << 40);
     sc.offset_m = e.get_double("offset_mm", 0.0, -1e6, 1e6) * 1e-3;
+    NodeExpectation x;
+    x.vendor_id = optional_u32(e, "vendor_id");
+    x.product_code = optional_u32(e, "product_code");
+    x.revision_number = optional_u32(e, "revision_number");
+    x.serial_number = optional_u32(e, "serial_number");
+    x.check_resolution = e.get_bool("check_resolution", true);
+    x.heartbeat_timeout_ms = e.get_int("heartbeat_timeout_ms", heartbeat_timeout_ms, 0, 600000);
+    if (e.has("heartbeat_timeout_ms") && x.heartbeat_timeout_ms != 0 && x.heartbeat_timeout_ms <= n.heartbeat_ms) {
+      e.fail("heartbeat_timeout_ms", "must be longer than heartbeat_ms (" + std::to_string(n.heartbeat_ms) + " ms)");
+    }
+    s.nodes.push_back(x);
     for (const auto& other : s.encoders) {
       if (other.node_id == sc.node_id) e.fail("node_id", "node " + std::to_string(sc.node_id) + " is used twice");
       if (other.channel == sc.channel) e.fail("channel", "channel \"" + sc.channel + "\" is used twice");
@@ -81,7 +116,10 @@ std::vector<can_filter> dbb_can_filters(const DbbSettings& settings) {
   // Exact standard identifier; a remote request or an extended frame with the same bits does not match.
   constexpr canid_t exact = CAN_SFF_MASK | CAN_EFF_FLAG | CAN_RTR_FLAG;
   std::vector<can_filter> out{{sync_cob_id, exact}};
-  for (const auto& e : settings.encoders) out.push_back({tpdo1_cob_base + e.node_id, exact});
+  for (const auto& e : settings.encoders) {
+    for (const std::uint32_t base : {tpdo1_cob_base, can::emcy_cob_base, can::tsdo_cob_base, can::heartbeat_cob_base})
+      out.push_back({base + e.node_id, exact});
+  }
   return out;
 }
 
@@ -102,9 +140,10 @@ void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexce
 
 DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector)
     : Driver(std::move(name), "dbb-can", channels_of(settings), ring_capacity),
-      settings_(std::move(settings)),
+      settings_(with_pdo_timeout(std::move(settings))),
       connector_(std::move(connector)),
-      wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {
+      wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)),
+      network_(settings_.encoders, settings_.nodes, settings_.network) {
   if (!connector_) {
     // Foreign traffic on a shared bus is filtered out in the kernel, so it never wakes the driver.
     connector_ = [endpoint = settings_.endpoint, filters = dbb_can_filters(settings_)](std::string& error) {
@@ -130,28 +169,103 @@ std::vector<drivers::NamedCounter> DbbDriver::driver_counters() const {
           {"late_pdos", late_pdos_.load(std::memory_order_relaxed)},
           {"syncs_not_sent", syncs_not_sent_.load(std::memory_order_relaxed)},
           {"untimed_frames", untimed_frames()},
-          {"dropped_frames", dropped_frames()}};
+          {"dropped_frames", dropped_frames()},
+          {"frames_not_sent", frames_not_sent_.load(std::memory_order_relaxed)},
+          {"node_boot_ups", boot_ups_.load(std::memory_order_relaxed)},
+          {"heartbeat_timeouts", heartbeat_timeouts_.load(std::memory_order_relaxed)},
+          {"emcy", emcys_.load(std::memory_order_relaxed)},
+          {"sdo_aborts", sdo_aborts_.load(std::memory_order_relaxed)},
+          {"sdo_timeouts", sdo_timeouts_.load(std::memory_order_relaxed)},
+          {"nmt_starts", nmt_starts_.load(std::memory_order_relaxed)}};
+}
+
+void DbbDriver::set_state_directly(drivers::DeviceState state, std::string reason) {
+  set_state(state, std::move(reason));
+  shown_state_ = drivers::DeviceState::stopped;  // whatever refresh_state finds next differs
+  shown_reason_.clear();
+  state_dirty_ = true;
+}
+
+void DbbDriver::refresh_state() {
+  if (!state_dirty_ && network_.health_version() == state_network_version_) return;
+  state_dirty_ = false;
+  state_network_version_ = network_.health_version();
+  const NetworkHealth& h = network_.health();
+  drivers::DeviceState state = drivers::DeviceState::streaming;
+  std::string why;
+  const std::string silence = "no frames for " + std::to_string(settings_.timeout_ms) + " ms";
+  // The nodes' own story comes first where it explains a silence (refused or not yet started nodes send nothing).
+  if (bus_off_since_ns_ != 0) {
+    state = drivers::DeviceState::error;
+    why = "CAN bus off";
+  } else if (h.level == NetworkHealth::Level::failed || h.level == NetworkHealth::Level::starting) {
+    state = h.level == NetworkHealth::Level::failed ? drivers::DeviceState::error : drivers::DeviceState::connecting;
+    why = h.reason + (silent_ ? "; " + silence : "");
+  } else if (silent_) {
+    state = drivers::DeviceState::lost;
+    why = silence + (h.level == NetworkHealth::Level::lost ? "; " + h.reason : "");
+  } else if (h.level == NetworkHealth::Level::lost) {
+    state = drivers::DeviceState::lost;
+    why = h.reason;
+  } else if (!complete_cycle_seen_) {
+    state = drivers::DeviceState::connecting;
+    why = "waiting for the first complete cycle";
+  } else {
+    why = note_;
+  }
+  if (state != drivers::DeviceState::streaming) note_.clear();
+  if (state == shown_state_ && why == shown_reason_) return;
+  shown_state_ = state;
+  shown_reason_ = why;
+  set_state(state, std::move(why));
+}
+
+void DbbDriver::service_network(int fd, std::int64_t now) {
+  network_.tick(now);
+  std::string error;
+  for (const can_frame& f : network_.outgoing()) {
+    // Never wait for the bus: a refused frame is counted; SDO requests and NMT starts are repeated on timeout.
+    if (can::try_write_can_frame(fd, f, error) != can::WriteResult::written)
+      frames_not_sent_.fetch_add(1, std::memory_order_relaxed);
+  }
+  network_.outgoing().clear();
+  for (NetworkEvent& e : network_.events()) post_event({std::move(e.event), std::move(e.reason), e.warning});
+  network_.events().clear();
+  const NetworkCounters& c = network_.counters();
+  boot_ups_.store(c.boot_ups, std::memory_order_relaxed);
+  heartbeat_timeouts_.store(c.heartbeat_timeouts, std::memory_order_relaxed);
+  emcys_.store(c.emcys, std::memory_order_relaxed);
+  sdo_aborts_.store(c.sdo_aborts, std::memory_order_relaxed);
+  sdo_timeouts_.store(c.sdo_timeouts, std::memory_order_relaxed);
+  nmt_starts_.store(c.nmt_starts, std::memory_order_relaxed);
+  refresh_state();
 }
 
 void DbbDriver::publish_cycle(const DbbCycle& c) {
+  network_.on_cycle(c.present, c.t_sync_ns);
   Sample s;
   s.t_mono_ns = c.t_sync_ns;
   s.flags = c.flags;
+  if (network_.take_gap()) s.flags |= sample_after_gap;  // a node's first PDO after its reboot or silence
   s.value_count = static_cast<std::uint32_t>(c.count);
   std::copy_n(c.position_m.begin(), c.count, s.value.begin());
   if (c.flags & sample_partial) partial_cycles_.fetch_add(1, std::memory_order_relaxed);
   publish(s);
-  // A cycle after a silence or a bus-off: streaming again.
+  // A cycle after a silence or a bus-off: streaming again (if the nodes are all there).
   const std::int64_t t_ns = c.t_sync_ns;
+  if (!complete_cycle_seen_ && !(c.flags & sample_partial)) {
+    complete_cycle_seen_ = true;
+    state_dirty_ = true;
+  }
   if (bus_off_since_ns_ != 0 && t_ns - bus_off_since_ns_ >= 1'000'000'000) {
-    set_state(drivers::DeviceState::streaming,
-              "CAN frames flow again " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
-                  " ms after bus-off (no restart notice)");
+    note_ = "CAN frames flow again " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
+            " ms after bus-off (no restart notice)";
     bus_off_since_ns_ = 0;
     silent_ = false;
+    state_dirty_ = true;
   } else if (silent_ && bus_off_since_ns_ == 0) {
-    set_state(drivers::DeviceState::streaming);
     silent_ = false;
+    state_dirty_ = true;
   }
 }
 
@@ -202,6 +316,10 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& 
   const auto res = decoder.feed(f, t_ns, cycle);
   late_pdos_.store(decoder.late_pdos(), std::memory_order_relaxed);
   if (res.info.kind == FrameInfo::Kind::bad) bad_frames_.fetch_add(1, std::memory_order_relaxed);
+  if ((res.info.kind == FrameInfo::Kind::other || res.info.kind == FrameInfo::Kind::emergency) &&
+      network_.on_frame(f, t_ns) == EncoderNetwork::FrameUse::bad) {
+    bad_frames_.fetch_add(1, std::memory_order_relaxed);
+  }
   if (res.info.kind == FrameInfo::Kind::sync) {
     if (last_sync_ns_ != 0) sync_period_ns_ = t_ns - last_sync_ns_;
     last_sync_ns_ = t_ns;
@@ -217,15 +335,16 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& 
     // nobody saw it.
     if (res.info.error_class & CAN_ERR_BUSOFF) {
       bus_offs_.fetch_add(1, std::memory_order_relaxed);
-      set_state(drivers::DeviceState::error, "CAN bus off");
       bus_off_since_ns_ = t_ns;
       silent_ = true;
+      state_dirty_ = true;
+      refresh_state();  // at once: the daemon polls states, the bus may come back before the next batch ends
     } else if ((res.info.error_class & CAN_ERR_RESTARTED) && bus_off_since_ns_ != 0) {
-      set_state(drivers::DeviceState::streaming,
-                "CAN bus recovered from bus-off after " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
-                    " ms (controller restarted)");
+      note_ = "CAN bus recovered from bus-off after " + std::to_string((t_ns - bus_off_since_ns_) / 1'000'000) +
+              " ms (controller restarted)";
       bus_off_since_ns_ = 0;
       silent_ = false;
+      state_dirty_ = true;
     }
   }
   if (res.cycle_ready) publish_cycle(cycle);
@@ -233,10 +352,9 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns, DbbDecoder& 
 
 void DbbDriver::note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder& decoder) {
   timeouts_.fetch_add(1, std::memory_order_relaxed);
-  // A bus that is off is silent: its state stays the error that says why.
-  if (bus_off_since_ns_ == 0)
-    set_state(drivers::DeviceState::lost, "no frames for " + std::to_string(settings_.timeout_ms) + " ms");
+  // A bus that is off is silent: its state stays the error that says why (refresh_state).
   silent_ = true;
+  state_dirty_ = true;
   last_rx = now;       // count one timeout per silent period
   decoder.mark_gap();  // what comes next follows a gap
 }
@@ -269,9 +387,11 @@ std::string DbbDriver::serve_batched(const std::stop_token& stop, int fd, DbbDec
         note_silence(now, last_rx, decoder);
       }
     }
+    service_network(fd, now);
     const bool resting = now < read_at;
-    const std::int64_t wait_ns =
-        std::clamp<std::int64_t>(resting ? read_at - now : last_rx + timeout_ns - now, 0, 1'000'000'000);
+    const std::int64_t wait_ns = std::clamp<std::int64_t>(
+        std::min(resting ? read_at - now : last_rx + timeout_ns - now, network_.next_deadline() - now), 0,
+        1'000'000'000);
     const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000), static_cast<long>(wait_ns % 1'000'000'000)};
     // Resting: events 0, so only hang-up and errors end the wait early (and are read at once).
     pollfd fds[2] = {{fd, static_cast<short>(resting ? 0 : POLLIN), 0}, {wake_fd_, POLLIN, 0}};
@@ -295,6 +415,7 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
   // counted in untimed_frames.
   (void)can::enable_rx_timestamps(fd, error);
   (void)can::enable_rx_drop_count(fd, error);  // where unsupported, drops show as partial cycles only
+  service_network(fd, mono_now_ns());          // the nodes' checks begin (SDO), or they are started
   if (!settings_.produce_sync && settings_.read_period_us > 0) return serve_batched(stop, fd, decoder);
   const std::int64_t period_ns =
       settings_.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)) : 0;
@@ -316,8 +437,12 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       const can_frame sync = make_sync_frame();
       // Never wait for the bus: a full transmit queue (nobody acknowledges, or the gateway's peer does
       // not read) costs this SYNC, counted; the silence that follows is a timeout as usual.
+      // The SYNC's time is taken just before it is written: a PDO stamped before then answers an earlier
+      // SYNC. Taken after the write, a thread preempted between the write and the clock read would give
+      // the nodes' answers to this SYNC to the cycle before (which they complete, leaving this one
+      // partial); a late answer stamped during the write itself is still recognised (late_pdos).
+      const std::int64_t sync_ns = mono_now_ns();
       const auto wrote = can::try_write_can_frame(fd, sync, error);
-      // The SYNC's time is taken once it is written: a PDO stamped before then answers an earlier SYNC.
       now = mono_now_ns();
       if (wrote == can::WriteResult::failed) {
         drain(fd, decoder, ended);
@@ -326,7 +451,7 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
       DbbCycle cycle;
       if (wrote == can::WriteResult::queue_full) {
         syncs_not_sent_.fetch_add(1, std::memory_order_relaxed);
-      } else if (decoder.sync_sent(now, cycle)) {
+      } else if (decoder.sync_sent(sync_ns, cycle)) {
         publish_cycle(cycle);
       }
       // The phase is kept, but a late SYNC never brings the next one closer than half a period: the
@@ -336,7 +461,8 @@ std::string DbbDriver::serve(const std::stop_token& stop, int fd, DbbDecoder& de
     }
     // Wait with nanosecond resolution (ppoll), so SYNC periods under a millisecond are kept.
     now = mono_now_ns();
-    std::int64_t wait_ns = last_rx + timeout_ns - now;
+    service_network(fd, now);
+    std::int64_t wait_ns = std::min(last_rx + timeout_ns - now, network_.next_deadline() - now);
     if (settings_.produce_sync) wait_ns = std::min(wait_ns, next_sync - now);
     wait_ns = std::clamp<std::int64_t>(wait_ns, 0, 1'000'000'000);
     const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000), static_cast<long>(wait_ns % 1'000'000'000)};
@@ -374,8 +500,8 @@ void DbbDriver::run(std::stop_token stop) {
     kernel_drops_ = 0;
     can::CanSocket sock = connector_(error);
     if (!sock.valid()) {
-      set_state(connected_once ? drivers::DeviceState::lost : drivers::DeviceState::error,
-                to_string(settings_.endpoint) + ": " + error);
+      set_state_directly(connected_once ? drivers::DeviceState::lost : drivers::DeviceState::error,
+                         to_string(settings_.endpoint) + ": " + error);
       if (!sleep_for(stop, std::chrono::milliseconds(backoff_ms))) break;
       backoff_ms = std::min(backoff_ms * 2, settings_.reconnect_max_ms);
       continue;
@@ -383,21 +509,27 @@ void DbbDriver::run(std::stop_token stop) {
     if (connected_once) reconnects_.fetch_add(1, std::memory_order_relaxed);
     connected_once = true;
     backoff_ms = settings_.reconnect_min_ms;
-    set_state(drivers::DeviceState::streaming);
+    // Nothing is known of the nodes on a new connection: checked and started again, streaming again
+    // from the first complete cycle.
+    network_.connected(mono_now_ns());
+    complete_cycle_seen_ = false;
+    note_.clear();
+    bus_off_since_ns_ = 0;
+    state_dirty_ = true;
     const std::string why = serve(stop, sock.fd(), decoder);
     sock.reset();
     DbbCycle rest;
     if (decoder.flush(rest)) publish_cycle(rest);  // nothing received is lost
     if (stop.stop_requested()) break;
     decoder.resync();
-    set_state(drivers::DeviceState::lost, why);
+    set_state_directly(drivers::DeviceState::lost, why);
     if (!sleep_for(stop, std::chrono::milliseconds(backoff_ms))) break;
   }
 }
 
 void register_dbb_driver(drivers::DriverRegistry& registry) {
   registry.add("dbb-can",
-               "double ball bar + axis encoders on CAN (CiA 406 style TPDOs on SYNC; SocketCAN or unix: gateway)",
+               "double ball bar + axis encoders on CAN (CANopen CiA 301/406 nodes: NMT, SDO checks, TPDOs on SYNC; SocketCAN or unix: gateway)",
                [](const drivers::DeviceConfig& c) {
                  return std::make_unique<DbbDriver>(c.name, c.ring_capacity, parse_dbb_settings(c.table));
                });

@@ -1,7 +1,8 @@
 #pragma once
-// "dbb-can": the double ball bar's length encoder plus two axis encoders on one CAN bus (CiA 406
-// style, see dbb_protocol.hpp). One Sample per SYNC: values in the order of the configured encoders,
-// in metres, timestamped at the SYNC. Thread safety: as drivers::Driver.
+// "dbb-can": the double ball bar's length encoder plus two axis encoders on one CAN bus, CANopen
+// CiA 406 encoders (PDOs: dbb_protocol.hpp; checking and starting the nodes: dbb_network.hpp). One
+// Sample per SYNC: values in the order of the configured encoders, in metres, timestamped at the SYNC.
+// The state is `streaming` only while every node delivers. Thread safety: as drivers::Driver.
 
 #include <functional>
 #include <span>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "drivers/can/can_io.hpp"
+#include "drivers/dbb/dbb_network.hpp"
 #include "drivers/dbb/dbb_protocol.hpp"
 #include "drivers/driver.hpp"
 
@@ -29,6 +31,10 @@ struct DbbSettings {
   std::int64_t reconnect_min_ms = 50;  // backoff doubles from min to max between failed connects
   std::int64_t reconnect_max_ms = 5000;
   std::vector<EncoderScale> encoders;
+  // CANopen network management (dbb_network.hpp): NMT, SDO checks, heartbeat consumer. Its
+  // pdo_timeout_ms is always timeout_ms (the driver sets it).
+  NetworkSettings network;
+  std::vector<NodeExpectation> nodes;  // one per encoder
 };
 
 // Reads the settings from a [[device]] table (every accepted key; errors carry file:line:key).
@@ -55,8 +61,9 @@ FrameTime frame_time(std::int64_t rx_realtime_ns, std::int64_t realtime_offset_n
 // normally one read period, but after the bus was silent up to timeout_ms (at most 1 s).
 void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexcept;
 
-// The CAN_RAW_FILTER set a dbb-can SocketCAN socket gets: the SYNC (0x080) and each configured node's
-// TPDO1 (0x180 + node), standard data frames only; error frames come through CAN_RAW_ERR_FILTER.
+// The CAN_RAW_FILTER set a dbb-can SocketCAN socket gets: the SYNC (0x080) and, of each configured
+// node, its TPDO1 (0x180 + node), EMCY (0x080 + node), SDO responses (0x580 + node) and boot-up and
+// heartbeat (0x700 + node); standard data frames only; error frames come through CAN_RAW_ERR_FILTER.
 std::vector<can_filter> dbb_can_filters(const DbbSettings& settings);
 
 // Opens the bus; tests substitute one that hands out socketpair ends.
@@ -104,6 +111,12 @@ class DbbDriver : public drivers::Driver {
   // serve() for sync = "listen" with read_period_us > 0: reads in batches, at most once per period.
   std::string serve_batched(const std::stop_token& stop, int fd, DbbDecoder& decoder);
   void publish_cycle(const DbbCycle& cycle);
+  // Runs the network's timers, sends its frames, posts its events and sets the device state.
+  void service_network(int fd, std::int64_t now);
+  // The device state from bus-off, silence, the nodes and the cycles; set_state only when it changed.
+  void refresh_state();
+  // set_state outside refresh_state (connection faults): refresh_state's memory of what it set is void.
+  void set_state_directly(drivers::DeviceState state, std::string reason);
   // No frame for timeout_ms: one timeout, state lost, the next cycle flagged after a gap.
   void note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder& decoder);
   // Consumes every frame already queued, without waiting, each at its kernel receive time; returns the
@@ -126,8 +139,22 @@ class DbbDriver : public drivers::Driver {
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
   std::atomic<std::uint64_t> dropped_frames_{0};
+  std::atomic<std::uint64_t> frames_not_sent_{0};  // NMT/SDO frames the full transmit queue refused
+  std::atomic<std::uint64_t> boot_ups_{0};         // network counters, copied for status()
+  std::atomic<std::uint64_t> heartbeat_timeouts_{0};
+  std::atomic<std::uint64_t> emcys_{0};
+  std::atomic<std::uint64_t> sdo_aborts_{0};
+  std::atomic<std::uint64_t> sdo_timeouts_{0};
+  std::atomic<std::uint64_t> nmt_starts_{0};
   std::atomic<std::uint64_t> bus_reads_{0};
   std::atomic<std::uint64_t> empty_reads_{0};
+  EncoderNetwork network_;                   // driver thread
+  bool complete_cycle_seen_ = false;         // driver thread: since the connection
+  std::string note_;                         // driver thread: the reason shown with `streaming` (a recovery)
+  bool state_dirty_ = true;                  // driver thread: refresh_state has something to look at
+  std::uint64_t state_network_version_ = 0;  // driver thread: network_.health_version() refresh_state saw
+  drivers::DeviceState shown_state_ = drivers::DeviceState::stopped;  // driver thread: what refresh_state set
+  std::string shown_reason_;
   std::int64_t last_sync_ns_ = 0;    // driver thread: receive time of the newest SYNC (0: none yet)
   std::int64_t sync_period_ns_ = 0;  // driver thread: between the last two SYNCs received
 };

@@ -53,11 +53,16 @@ constexpr LaiTerm lai_terms[] = {
 // The table steps offered by default (mm): a round spacing a user can read.
 constexpr double default_steps_mm[] = {0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, 10, 20, 25, 50, 100};
 
-std::size_t lines_for(double lo, double hi, double step) {
+// Counted in double: a step far below the range (1e-300 mm) gives a count no integer type holds.
+double lines_for(double lo, double hi, double step) {
   const double first = std::floor(lo / step + 1e-9);
   const double last = std::ceil(hi / step - 1e-9);
-  return static_cast<std::size_t>(last - first) + 1;
+  return last - first + 1;
 }
+
+// Machine coordinates this far from zero are a typing error, not a machine (and would print as
+// hundreds of digits in the tables).
+constexpr double max_machine_coordinate_m = 1000.0;
 
 // The difference of the two plane axes' cubic straightness, Lai's a3 - b3 (per mm^2): an in-plane circle
 // determines only that (a3 s c^3 + b3 c s^3 = (a3 + b3) sin 2 theta / 4 + (a3 - b3) sin 4 theta / 8, the
@@ -326,7 +331,7 @@ double table_step(const MapOptions& options, const std::array<double, 2>& center
   double step = options.step_m;
   if (step > 0) {
     if (lines_max(step) > formats::linuxcnc_comp_max_lines)
-      throw CompensationError("a step of " + shortest(step * 1e3) + " mm gives " + std::to_string(lines_max(step)) +
+      throw CompensationError("a step of " + shortest(step * 1e3) + " mm gives " + shortest(lines_max(step)) +
                               " lines over the measured range; LinuxCNC reads at most " +
                               std::to_string(formats::linuxcnc_comp_max_lines) +
                               " per joint (use a coarser --step-mm)");
@@ -351,7 +356,8 @@ void fill_axis_map(ErrorMap& m, int k, double radius) {
   am.axis = results::axis_letter(m.plane, k);
   am.across = results::axis_letter(m.plane, 1 - k);
   const double first = std::floor((at.center_m - radius) / step + 1e-9);
-  const std::size_t n = lines_for(at.center_m - radius, at.center_m + radius, step);
+  // at most linuxcnc_comp_max_lines here (table_step)
+  const auto n = static_cast<std::size_t>(lines_for(at.center_m - radius, at.center_m + radius, step));
   for (std::size_t i = 0; i < n; ++i) {
     const double u = (first + static_cast<double>(i)) * step;
     am.nominal_m.push_back(u);
@@ -378,6 +384,13 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
     throw CompensationError(
         "the circle centre in machine coordinates is not known: the run files carry no center_a_mm / center_b_mm "
         "metadata; give it with --center-mm X Y (the table positions are machine positions)");
+  for (const double c : *center)
+    if (!std::isfinite(c) || std::abs(c) > max_machine_coordinate_m)
+      throw CompensationError("the circle centre " + shortest((*center)[0] * 1e3) + ", " +
+                              shortest((*center)[1] * 1e3) + " mm is not a machine position (finite, within ±" +
+                              shortest(max_machine_coordinate_m * 1e3) + " mm)");
+  if (options.step_m != 0.0 && !(std::isfinite(options.step_m) && options.step_m > 0.0))
+    throw CompensationError("the table step " + shortest(options.step_m * 1e3) + " mm is not a positive number");
   const double radius = map_radius(runs, m);
   const std::vector<dbb::Estimate> estimates = m.model == "lai3" ? lai3_terms(id, radius, m.notes) : id.diagnostics;
   m.terms.reserve(24);
@@ -435,6 +448,10 @@ std::string letters_upper(const std::string& s) {
 }
 
 }  // namespace
+
+std::vector<std::string> compensation_file_names() {
+  return {"x.comp", "y.comp", "z.comp", "linuxcnc.ini", "errors.csv", "straightness.csv"};
+}
 
 std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string& source) {
   std::vector<OutputFile> out;

@@ -139,6 +139,9 @@ struct OutputFile {
 };
 // `source` names the session or runs in the headers.
 std::vector<OutputFile> compensation_files(const ErrorMap& map, const std::string& source);
+// Every name compensation_files can give (x.comp, y.comp, z.comp, linuxcnc.ini, errors.csv,
+// straightness.csv): what a new set written to a directory replaces.
+std::vector<std::string> compensation_file_names();
 
 // The text summary `guideway compensate` prints (terms, what was applied, squareness advice).
 std::string to_text(const ErrorMap& map);

@@ -238,16 +238,19 @@ void AutocollimatorEmulator::loop() {
     passes_.fetch_add(1);
     const std::int64_t now = mono_now_ns();
     if (const double down = disconnect_down_s_.exchange(-1.0); down >= 0) {
-      // Unplugged after the last line went through: wait (briefly) until the reader has taken
-      // everything already written, so the tests can demand that nothing delivered is lost.
-      // Bytes written to the master pass the tty flip buffer (a work queue) before FIONREAD on the
-      // slave sees them, so the queue must read empty twice, some milliseconds apart.
-      int empty_checks = 0;
-      for (int i = 0; i < 200 && slave_keep_ >= 0 && empty_checks < 2; ++i) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      // Unplugged after the last line went through: wait until the reader has taken everything
+      // already written, so the tests can demand that nothing delivered is lost (closing the master
+      // hangs the slave up and drops what it has not read). Bytes written to the master pass the tty
+      // flip buffer (a work queue) before FIONREAD on the slave counts them; a poll() on the slave runs
+      // that work first when nothing is readable yet (n_tty_poll), so the count that follows is exact
+      // however late a loaded machine runs the queue. (Two empty FIONREADs 5 ms apart were not: under
+      // load the queue ran later, a reading was dropped at the close, and the test missed a sample.)
+      for (int i = 0; i < 1000 && slave_keep_ >= 0; ++i) {
+        pollfd p{slave_keep_, POLLIN, 0};
+        (void)::poll(&p, 1, 0);
         int queued = 0;
-        if (::ioctl(slave_keep_, FIONREAD, &queued) < 0) break;
-        empty_checks = queued == 0 ? empty_checks + 1 : 0;
+        if (::ioctl(slave_keep_, FIONREAD, &queued) < 0 || queued == 0) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
       }
       close_pty();
       framer.reset();

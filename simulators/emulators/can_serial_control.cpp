@@ -30,6 +30,19 @@ bool word_to_int(const std::vector<std::string>& words, std::size_t i, int& out)
   }
 }
 
+bool word_to_u32(const std::vector<std::string>& words, std::size_t i, std::uint32_t& out) {
+  if (i >= words.size() || words[i].empty() || words[i][0] == '-') return false;
+  try {
+    std::size_t used = 0;
+    const unsigned long long v = std::stoull(words[i], &used, 0);
+    if (used != words[i].size() || v > 0xFFFFFFFFull) return false;
+    out = static_cast<std::uint32_t>(v);
+    return true;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 bool word_to_double(const std::vector<std::string>& words, std::size_t i, double& out) {
   if (i >= words.size()) return false;
   try {

@@ -3,6 +3,7 @@
 // line on stdin ("garbage 10", "stall 0.5", "disconnect", "quit"), each answered on stdout with
 // "ok ..." or "error ...". Runs until "quit", end of the duration, or SIGINT/SIGTERM.
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -20,5 +21,7 @@ int run_control_loop(const ControlHandler& handle, double duration_s);
 // Parses words[i] as a number; false when missing or malformed.
 bool word_to_int(const std::vector<std::string>& words, std::size_t i, int& out);
 bool word_to_double(const std::vector<std::string>& words, std::size_t i, double& out);
+// An unsigned 32-bit number, decimal or 0x-hexadecimal ("0x08000022").
+bool word_to_u32(const std::vector<std::string>& words, std::size_t i, std::uint32_t& out);
 
 }  // namespace guideway::simulators::emulators

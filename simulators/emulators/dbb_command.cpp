@@ -32,12 +32,72 @@ struct DbbOptions {
   double duration_s = 0.0;
   std::string program = "single";
   double pause_s = 1.0;
+  int heartbeat_ms = 0;
+  int transmission_type = 1;
+  bool auto_start = false;
+  std::vector<std::uint32_t> serial_numbers;
 };
+
+std::string node_states_text(const DbbEmulator& emu) {
+  std::string out;
+  for (const auto st : emu.node_states()) {
+    if (!out.empty()) out += ", ";
+    out += st == drivers::can::NmtState::boot_up ? std::string("off") : std::string(drivers::can::to_string(st));
+  }
+  return out;
+}
+
+// The CANopen node faults; `n` is the encoder index (0 = bar).
+bool handle_node_fault(DbbEmulator& emu, const std::vector<std::string>& w, int n) {
+  const std::string& c = w[0];
+  const auto encoder = static_cast<std::size_t>(n);
+  double s = 0;
+  std::uint32_t code = 0;
+  if (c == "reboot") {
+    int down_ms = 100;
+    if (w.size() > 2 && !word_to_int(w, 2, down_ms)) return false;
+    emu.inject_reboot(encoder, down_ms * 1e-3);
+  } else if (c == "heartbeat-loss" && word_to_double(w, 2, s)) {
+    emu.inject_mute(encoder, s);
+  } else if (c == "sdo-abort" && w.size() > 2) {
+    if (w[2] == "off")
+      code = 0;
+    else if (!word_to_u32(w, 2, code))
+      return false;
+    emu.inject_sdo_abort(encoder, code);
+  } else if (c == "identity" && word_to_u32(w, 2, code)) {
+    EncoderNodeIdentity id;
+    id.serial_number = code;
+    if (w.size() > 3 && !word_to_u32(w, 3, id.vendor_id)) return false;
+    if (w.size() > 4 && !word_to_u32(w, 4, id.product_code)) return false;
+    if (w.size() > 5 && !word_to_u32(w, 5, id.revision_number)) return false;
+    emu.inject_identity(encoder, id);
+  } else if (c == "emcy" && word_to_u32(w, 2, code) && code <= 0xFFFF) {
+    std::uint32_t reg = code == 0 ? 0 : 0x01;
+    if (w.size() > 3 && (!word_to_u32(w, 3, reg) || reg > 0xFF)) return false;
+    emu.inject_emcy(encoder, static_cast<std::uint16_t>(code), static_cast<std::uint8_t>(reg));
+  } else {
+    return false;
+  }
+  return true;
+}
 
 bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::string& msg) {
   int n = 1;
   double s = 0;
   const std::string& c = w[0];
+  if ((c == "reboot" || c == "heartbeat-loss" || c == "sdo-abort" || c == "identity" || c == "emcy") &&
+      word_to_int(w, 1, n) && n >= 0 && n < 3) {
+    if (handle_node_fault(emu, w, n)) return true;
+    msg =
+        "usage: reboot ENCODER [DOWN_MS] | heartbeat-loss ENCODER SECONDS | sdo-abort ENCODER CODE|off"
+        " | identity ENCODER SERIAL [VENDOR PRODUCT REVISION] | emcy ENCODER CODE [REGISTER]";
+    return false;
+  }
+  if (c == "nodes") {
+    msg = node_states_text(emu);
+    return true;
+  }
   if (c == "disconnect") {
     emu.inject_disconnect();
   } else if (c == "garbage" && word_to_int(w, 1, n)) {
@@ -61,11 +121,14 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
   } else if (c == "burst" && word_to_int(w, 1, n)) {
     emu.inject_burst(n);
   } else if (c == "status") {
-    msg = std::to_string(emu.cycles_sent()) + " cycles, " + std::to_string(emu.connections()) + " connections";
+    msg = std::to_string(emu.cycles_sent()) + " cycles, " + std::to_string(emu.connections()) + " connections, nodes " +
+          node_states_text(emu);
   } else {
     msg =
-        "commands: disconnect | garbage N | truncated N | bad N | error-frames N | bus-off [RESTART_MS] | drop-pdo ENCODER [CYCLES]"
-        " | stall SECONDS | burst N | status | quit";
+        "commands: disconnect | garbage N | truncated N | bad N | error-frames N | bus-off [RESTART_MS]"
+        " | drop-pdo ENCODER [CYCLES] | stall SECONDS | burst N | reboot ENCODER [DOWN_MS] | heartbeat-loss ENCODER SECONDS"
+        " | sdo-abort ENCODER CODE|off | identity ENCODER SERIAL [VENDOR PRODUCT REVISION] | emcy ENCODER CODE [REGISTER]"
+        " | nodes | status | quit";
     return false;
   }
   return true;
@@ -77,6 +140,14 @@ int run_dbb(const DbbOptions& o) {
   DbbEmulatorSettings settings;
   settings.produce_sync = o.sync == "produce";
   settings.sync_rate_hz = o.sync_rate_hz;
+  settings.heartbeat_ms = static_cast<std::uint16_t>(o.heartbeat_ms);
+  settings.transmission_type = static_cast<std::uint8_t>(o.transmission_type);
+  settings.nodes_start_operational = o.auto_start;
+  for (const std::uint32_t serial : o.serial_numbers) {
+    EncoderNodeIdentity id;
+    id.serial_number = serial;
+    settings.identities.push_back(id);
+  }
   const machine::Machine machine(o.machine_file.empty() ? machine::default_machine_config()
                                                         : machine::load_machine_config(o.machine_file));
   machine::DbbCircleSpec spec;
@@ -143,7 +214,8 @@ int run_dbb(const DbbOptions& o) {
 
 void add_dbb(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<DbbOptions>();
-  auto* cmd = app.add_subcommand("dbb", "double ball bar + X/Y encoders on CAN (CiA 406 style TPDOs on SYNC)");
+  auto* cmd =
+      app.add_subcommand("dbb", "double ball bar + X/Y encoders on CAN: CANopen nodes (CiA 301/406), TPDOs on SYNC");
   cmd->add_option("--bus", o->bus, "unix:PATH (SEQPACKET gateway to listen on) or can:IFNAME (SocketCAN)")
       ->capture_default_str();
   cmd->add_option("--fd", o->fd, "serve an inherited fd carrying can_frame records instead of --bus");
@@ -152,8 +224,23 @@ void add_dbb(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->add_option("--sync-rate-hz", o->sync_rate_hz, "SYNC rate when producing")->capture_default_str();
   cmd->add_option("--nodes", o->nodes, "node IDs of bar, first axis, second axis")->expected(3)->capture_default_str();
-  cmd->add_option("--resolution-nm", o->resolution_nm, "encoder resolution")->capture_default_str();
-  cmd->add_option("--machine", o->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
+  cmd->add_option("--resolution-nm", o->resolution_nm, "encoder resolution (object 0x6005:1)")->capture_default_str();
+  cmd->add_option("--heartbeat-ms", o->heartbeat_ms, "the nodes' producer heartbeat time at power-on (0x1017; 0: none)")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  cmd->add_option(
+         "--transmission-type", o->transmission_type,
+         "TPDO1 transmission type at power-on (0x1800:2): 1 = every SYNC, n = every n-th, 254/255 = event-driven")
+      ->check(CLI::Range(0, 255))
+      ->capture_default_str();
+  cmd->add_option("--serial-numbers", o->serial_numbers,
+                  "serial numbers (0x1018:4) of bar, first axis, second axis "
+                  "(default 1000 + node-ID)")
+      ->expected(3);
+  cmd->add_flag("--auto-start", o->auto_start,
+                "the nodes start themselves (operational after boot-up) instead of waiting for NMT start");
+  cmd->add_option("--machine", o->machine_file,
+                  "virtual machine tool file (default: config/machine-example.toml, compiled in)");
   cmd->add_option("--radius-mm", o->radius_mm, "circle radius")->capture_default_str();
   cmd->add_option("--height-mm", o->height_mm, "tool ball above the centre ball (Lai's h)")->capture_default_str();
   cmd->add_option("--feed-mm-min", o->feed_mm_min, "feed rate")->capture_default_str();

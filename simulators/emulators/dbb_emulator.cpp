@@ -18,7 +18,18 @@ DbbEmulator::DbbEmulator(DbbEmulatorSettings settings, DbbSource source)
     : settings_(std::move(settings)),
       source_(std::move(source)),
       wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)),
-      drop_cycles_(settings_.encoders.size(), 0) {}
+      drop_cycles_(settings_.encoders.size(), 0) {
+  for (std::size_t i = 0; i < settings_.encoders.size(); ++i) {
+    EncoderNodeSettings n;
+    n.scale = settings_.encoders[i];
+    if (i < settings_.identities.size()) n.identity = settings_.identities[i];
+    n.transmission_type = settings_.transmission_type;
+    n.heartbeat_ms = settings_.heartbeat_ms;
+    n.auto_start = settings_.nodes_start_operational;
+    nodes_.emplace_back(n);
+  }
+  node_states_.assign(nodes_.size(), drivers::can::NmtState::boot_up);
+}
 
 DbbEmulator::~DbbEmulator() {
   stop();
@@ -81,6 +92,73 @@ void DbbEmulator::inject_burst(int cycles) {
   wake();
 }
 
+void DbbEmulator::node_command(std::size_t encoder,
+                               std::function<void(EncoderNode&, std::int64_t, std::vector<can_frame>&)> f) {
+  {
+    std::lock_guard lock(node_mutex_);
+    node_commands_.push_back([this, encoder, f = std::move(f)](std::int64_t now, std::vector<can_frame>& out) {
+      if (encoder < nodes_.size()) f(nodes_[encoder], now, out);
+    });
+  }
+  wake();
+}
+
+void DbbEmulator::inject_reboot(std::size_t encoder, double down_s) {
+  node_command(encoder, [down_s](EncoderNode& n, std::int64_t now, std::vector<can_frame>&) {
+    n.reboot(now, static_cast<std::int64_t>(down_s * 1e9));
+  });
+}
+void DbbEmulator::inject_mute(std::size_t encoder, double seconds) {
+  node_command(encoder, [seconds](EncoderNode& n, std::int64_t now, std::vector<can_frame>&) {
+    n.mute(now, static_cast<std::int64_t>(seconds * 1e9));
+  });
+}
+void DbbEmulator::inject_sdo_abort(std::size_t encoder, std::uint32_t abort_code) {
+  node_command(encoder,
+               [abort_code](EncoderNode& n, std::int64_t, std::vector<can_frame>&) { n.set_sdo_abort(abort_code); });
+}
+void DbbEmulator::inject_identity(std::size_t encoder, EncoderNodeIdentity identity) {
+  node_command(encoder, [identity](EncoderNode& n, std::int64_t, std::vector<can_frame>&) {
+    EncoderNodeIdentity id = identity;
+    if (id.serial_number == 0) id.serial_number = 1000u + n.node_id();
+    n.set_identity(id);
+  });
+}
+void DbbEmulator::inject_emcy(std::size_t encoder, std::uint16_t error_code, std::uint8_t error_register) {
+  node_command(encoder, [error_code, error_register](EncoderNode& n, std::int64_t, std::vector<can_frame>& out) {
+    n.emcy(error_code, error_register, out);
+  });
+}
+
+std::vector<drivers::can::NmtState> DbbEmulator::node_states() const {
+  std::lock_guard lock(node_mutex_);
+  return node_states_;
+}
+
+void DbbEmulator::run_node_commands(std::int64_t now, std::vector<can_frame>& out) {
+  std::vector<std::function<void(std::int64_t, std::vector<can_frame>&)>> commands;
+  {
+    std::lock_guard lock(node_mutex_);
+    commands.swap(node_commands_);
+  }
+  for (auto& c : commands) c(now, out);
+  for (EncoderNode& n : nodes_) n.tick(now, out);
+  std::lock_guard lock(node_mutex_);
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    node_states_[i] = nodes_[i].powered() ? nodes_[i].state() : drivers::can::NmtState::boot_up;
+}
+
+void DbbEmulator::send_node_frames(std::vector<can_frame>& out) {
+  // Frames of nodes nobody hears (no connection) are gone, as on a bus without the driver; a stalled
+  // or bus-off bus carries nothing.
+  const std::int64_t now = mono_now_ns();
+  if (!out.empty() && conn_.valid() && now >= stall_until_ns_.load() && now >= bus_off_until_ns_.load()) {
+    std::string err;
+    (void)drivers::can::write_can_frames(conn_.fd(), out.data(), out.size(), err);
+  }
+  out.clear();
+}
+
 std::vector<DbbSentCycle> DbbEmulator::log() const {
   std::lock_guard lock(log_mutex_);
   return log_;
@@ -100,7 +178,7 @@ bool DbbEmulator::send_faults(int fd, std::vector<can_frame>& batch) {
   const std::uint8_t node0 = settings_.encoders.empty() ? 1 : settings_.encoders[0].node_id;
   for (int n = garbage_.exchange(0); n > 0; --n) {
     can_frame f{};
-    f.can_id = 0x700 + (next() % 0x100);  // NMT heartbeat / foreign range: never ours
+    f.can_id = 0x280 + (next() % 0x100);  // TPDO2/RPDO2 range: never read by the driver
     f.can_dlc = static_cast<std::uint8_t>(next() % 9);
     for (auto& b : f.data) b = static_cast<std::uint8_t>(next());
     batch.push_back(f);
@@ -158,6 +236,8 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
     std::lock_guard lock(drop_mutex_);
     for (std::size_t i = 0; i < settings_.encoders.size(); ++i) {
       c.counts[i] = drivers::dbb::position_to_count(settings_.encoders[i], c.truth_m[i]);
+      nodes_[i].set_count(c.counts[i]);
+      if (!nodes_[i].on_sync()) continue;  // not operational, not synchronous, powered off or muted
       if (drop_cycles_[i] > 0) {
         --drop_cycles_[i];
         continue;
@@ -167,6 +247,7 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
     }
   }
   if (!drivers::can::write_can_frames(fd, batch.data(), batch.size(), err)) return;
+  if (c.sent_mask == 0) return;  // no node answered (none operational, or all dropped): no cycle to log
   cycles_.fetch_add(1);
   std::lock_guard lock(log_mutex_);
   log_.push_back(std::move(c));
@@ -175,6 +256,8 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
 void DbbEmulator::loop() {
   const auto period_ns = static_cast<std::int64_t>(1e9 / settings_.sync_rate_hz);
   std::int64_t next_sync = mono_now_ns() + period_ns;
+  std::vector<can_frame> node_out;
+  bool powered = false;
   while (running_) {
     {
       std::lock_guard lock(pending_mutex_);
@@ -186,6 +269,12 @@ void DbbEmulator::loop() {
       }
     }
     if (disconnect_.exchange(false)) close_conn();
+    if (!powered) {  // the nodes power on with the emulator: their boot-up messages reach whoever is connected
+      powered = true;
+      for (EncoderNode& n : nodes_) n.power_on(mono_now_ns(), node_out);
+    }
+    run_node_commands(mono_now_ns(), node_out);
+    send_node_frames(node_out);
     const std::int64_t now = mono_now_ns();
     const bool stalled = now < stall_until_ns_.load();
     if (conn_.valid() && !stalled) {
@@ -199,6 +288,8 @@ void DbbEmulator::loop() {
     // Nanosecond timeout (ppoll): a millisecond poll() would spin for sub-millisecond periods.
     std::int64_t timeout_ns = 50'000'000;
     if (settings_.produce_sync) timeout_ns = std::clamp<std::int64_t>(next_sync - mono_now_ns(), 0, timeout_ns);
+    for (const EncoderNode& n : nodes_)
+      timeout_ns = std::clamp<std::int64_t>(n.next_deadline() - mono_now_ns(), 0, timeout_ns);
     const timespec ts{0, static_cast<long>(timeout_ns)};
     pollfd fds[3] = {{wake_fd_, POLLIN, 0}, {conn_.fd(), POLLIN, 0}, {listener_.fd(), POLLIN, 0}};
     const int r = ::ppoll(fds, 3, &ts, nullptr);
@@ -217,26 +308,41 @@ void DbbEmulator::loop() {
       }
     }
     if (conn_.valid() && (fds[1].revents & (POLLIN | POLLHUP | POLLERR))) {
-      can_frame f{};
+      // Everything queued: NMT and SDO requests go to the nodes; of the SYNCs only the newest is
+      // answered (when this thread was held up and several are queued, the older ones are past: a
+      // real node never answers a backlog).
       std::string err;
-      const auto rr = drivers::can::read_can_frame(conn_.fd(), f, 0, -1, err);
-      if (rr == drivers::can::ReadResult::closed || rr == drivers::can::ReadResult::error) {
+      bool sync_seen = false;
+      bool closed = false;
+      const std::int64_t t = mono_now_ns();
+      for (;;) {
+        can_frame f{};
+        const auto rr = drivers::can::read_can_frame(conn_.fd(), f, 0, -1, err);
+        if (rr == drivers::can::ReadResult::closed || rr == drivers::can::ReadResult::error) {
+          closed = true;
+          break;
+        }
+        if (rr == drivers::can::ReadResult::truncated) continue;
+        if (rr != drivers::can::ReadResult::frame) break;
+        if (drivers::dbb::classify_frame(f).kind == drivers::dbb::FrameInfo::Kind::sync) {
+          sync_seen = true;
+          continue;
+        }
+        if (t < stall_until_ns_.load()) continue;  // a stalled bus: nothing answers
+        for (EncoderNode& n : nodes_) n.receive(f, t, node_out);
+      }
+      send_node_frames(node_out);
+      if (closed) {
         close_conn();
         continue;
       }
-      if (rr == drivers::can::ReadResult::frame && !settings_.produce_sync &&
-          drivers::dbb::classify_frame(f).kind == drivers::dbb::FrameInfo::Kind::sync) {
-        if (mono_now_ns() < stall_until_ns_.load()) continue;
-        // Nodes answer the SYNC on the bus now: when this thread was held up and several are queued,
-        // the older ones are past (a real node never answers a backlog).
-        can_frame more{};
-        while (drivers::can::read_can_frame(conn_.fd(), more, 0, -1, err) == drivers::can::ReadResult::frame) {
-        }
+      if (sync_seen && !settings_.produce_sync && mono_now_ns() >= stall_until_ns_.load()) {
         const std::uint64_t before = cycles_.load();
         send_cycle(conn_.fd(), false);
         can_frame next{};
         if (cycles_.load() != before &&
-            ::recv(conn_.fd(), &next, sizeof next, MSG_PEEK | MSG_DONTWAIT) == static_cast<ssize_t>(sizeof next)) {
+            ::recv(conn_.fd(), &next, sizeof next, MSG_PEEK | MSG_DONTWAIT) == static_cast<ssize_t>(sizeof next) &&
+            drivers::dbb::classify_frame(next).kind == drivers::dbb::FrameInfo::Kind::sync) {
           std::lock_guard lock(log_mutex_);
           log_.back().late = true;
         }

@@ -17,6 +17,7 @@
 
 #include "drivers/can/can_io.hpp"
 #include "drivers/dbb/dbb_protocol.hpp"
+#include "simulators/emulators/canopen_node.hpp"
 
 namespace guideway::simulators::emulators {
 
@@ -28,6 +29,12 @@ struct DbbEmulatorSettings {
   std::vector<drivers::dbb::EncoderScale> encoders;
   bool produce_sync = false;  // false: answer the driver's SYNC; true: we send SYNC at sync_rate_hz
   double sync_rate_hz = 100.0;
+  // The nodes are CANopen nodes (canopen_node.hpp): powered on when the emulator starts, pre-operational
+  // until an NMT start (unless they start themselves), answering SDO.
+  std::uint16_t heartbeat_ms = 0;               // 0x1017 at power-on (0: no heartbeats)
+  std::uint8_t transmission_type = 1;           // 0x1800:2 at power-on
+  bool nodes_start_operational = false;         // the nodes start themselves (auto-start), no NMT master needed
+  std::vector<EncoderNodeIdentity> identities;  // per encoder; missing: EncoderNodeIdentity{} (serial 1000 + node)
 };
 
 // One cycle the emulator put on the bus.
@@ -65,10 +72,19 @@ class DbbEmulator {
   // The controller goes bus-off: a CAN_ERR_BUSOFF error frame, nothing on the bus for restart_ms (the
   // controller's restart-ms), then a CAN_ERR_RESTARTED error frame and the cycles again.
   void inject_bus_off(int restart_ms = 200);
-  void inject_drop_pdo(std::size_t encoder, int cycles);       // that encoder skips its PDO in the next cycles
-  void inject_stall(double seconds);                           // answer/produce nothing for a while
-  void inject_burst(int cycles);                               // that many extra SYNC+PDO cycles, back to back
+  void inject_drop_pdo(std::size_t encoder, int cycles);  // that encoder skips its PDO in the next cycles
+  void inject_stall(double seconds);                      // answer/produce nothing for a while
+  void inject_burst(int cycles);                          // that many extra SYNC+PDO cycles, back to back
+  // CANopen node faults (applied at once; `encoder` is the index in the encoder list):
+  void inject_reboot(std::size_t encoder, double down_s);                // power off, then boot-up (pre-operational)
+  void inject_mute(std::size_t encoder, double seconds);                 // no heartbeat, PDO or SDO answer for a while
+  void inject_sdo_abort(std::size_t encoder, std::uint32_t abort_code);  // abort every SDO request (0: off)
+  void inject_identity(std::size_t encoder, EncoderNodeIdentity identity);  // another device under that node-ID
+  void inject_emcy(std::size_t encoder, std::uint16_t error_code, std::uint8_t error_register);
+  // The nodes' NMT states (boot_up while powered off), in encoder order, as of the emulator's last loop.
+  [[nodiscard]] std::vector<drivers::can::NmtState> node_states() const;
 
+  // The cycles in which at least one node sent its PDO (a SYNC no node answered is no cycle).
   [[nodiscard]] std::vector<DbbSentCycle> log() const;
   [[nodiscard]] std::uint64_t cycles_sent() const noexcept { return cycles_.load(); }
   [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
@@ -80,6 +96,10 @@ class DbbEmulator {
   void send_cycle(int fd, bool with_sync);
   bool send_faults(int fd, std::vector<can_frame>& batch);
   void close_conn();
+  // Node faults queued by inject_*, the nodes' own frames (heartbeats, SDO answers): on the loop's thread.
+  void run_node_commands(std::int64_t now, std::vector<can_frame>& out);
+  void node_command(std::size_t encoder, std::function<void(EncoderNode&, std::int64_t, std::vector<can_frame>&)> f);
+  void send_node_frames(std::vector<can_frame>& out);
 
   DbbEmulatorSettings settings_;
   DbbSource source_;
@@ -102,7 +122,11 @@ class DbbEmulator {
   std::atomic<bool> restarted_{false};             // a RESTARTED frame to send
   std::atomic<std::int64_t> stall_until_ns_{0};
   std::mutex drop_mutex_;
-  std::vector<int> drop_cycles_;  // per encoder
+  std::vector<int> drop_cycles_;    // per encoder
+  std::vector<EncoderNode> nodes_;  // emulator thread
+  mutable std::mutex node_mutex_;
+  std::vector<std::function<void(std::int64_t, std::vector<can_frame>&)>> node_commands_;  // under node_mutex_
+  std::vector<drivers::can::NmtState> node_states_;                                        // under node_mutex_
   std::uint32_t rng_ = 12345;
 
   mutable std::mutex log_mutex_;

@@ -1,0 +1,116 @@
+#include "fleet/payload_check.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "fleet/headlines.hpp"
+
+namespace guideway::fleet {
+
+namespace {
+
+using nlohmann::json;
+
+// Why `j[key]`, when present, is not of the kind `is` accepts ("" when absent or right).
+template <typename Is>
+std::string field_problem(const json& j, const char* key, const char* expected, Is is) {
+  const auto it = j.find(key);
+  if (it == j.end() || is(*it)) return {};
+  return "\"" + std::string(key) + "\" is " + std::string(it->type_name()) + ", expected " + expected;
+}
+
+bool is_text(const json& v) { return v.is_string(); }
+bool is_finite_number(const json& v) { return v.is_number() && std::isfinite(v.get<double>()); }
+
+// The first problem of several checks, in order.
+std::string first_of(std::initializer_list<std::string> problems) {
+  for (const auto& p : problems)
+    if (!p.empty()) return p;
+  return {};
+}
+
+std::string status_problem(const json& j) {
+  const auto state = j.find("state");
+  if (state == j.end() || !state->is_string() || (*state != "online" && *state != "offline"))
+    return "a status needs \"state\": \"online\" or \"offline\"";
+  return first_of({field_problem(j, "since", "a UTC time text", is_text),
+                   field_problem(j, "release", "a text", is_text), field_problem(j, "reason", "a text", is_text)});
+}
+
+std::string explain_problem(const json& j) {
+  if (const auto it = j.find("findings"); it != j.end()) {
+    if (!it->is_array()) return "\"findings\" is " + std::string(it->type_name()) + ", expected an array";
+    for (std::size_t i = 0; i < it->size(); ++i) {
+      const json& f = (*it)[i];
+      const std::string at = "findings[" + std::to_string(i) + "]";
+      if (!f.is_object()) return at + " is " + std::string(f.type_name()) + ", expected an object";
+      const auto effect = f.find("effect");
+      if (effect == f.end() || !effect->is_string()) return at + " needs \"effect\" as a text";
+      if (std::string p = field_problem(f, "contribution_um", "a finite number", is_finite_number); !p.empty())
+        return at + ": " + p;
+    }
+  }
+  return first_of({field_problem(j, "unexplained", "true or false", [](const json& v) { return v.is_boolean(); }),
+                   field_problem(j, "not_analysed", "a text", is_text)});
+}
+
+std::string params_problem(std::string_view kind, const json& j) {
+  if (const auto it = j.find("plane"); it != j.end() && !(it->is_string() && is_plane(it->get<std::string>())))
+    return "\"plane\" is " + it->dump().substr(0, 40) +
+           ", expected two of the axis letters x, y, z (\"xy\", \"zx\", ...)";
+  return figure_problem(kind, j);
+}
+
+}  // namespace
+
+bool is_plane(std::string_view plane) {
+  const auto axis = [](char c) { return c == 'x' || c == 'y' || c == 'z'; };
+  return plane.size() == 2 && axis(plane[0]) && axis(plane[1]) && plane[0] != plane[1];
+}
+
+std::string payload_size_problem(std::string_view payload, std::size_t max_payload_bytes) {
+  if (payload.size() > max_payload_bytes)
+    return "a payload of " + std::to_string(payload.size()) + " bytes, over the fleet's maximum of " +
+           std::to_string(max_payload_bytes);
+  std::size_t depth = 0;
+  bool in_string = false, escaped = false;
+  for (const char c : payload) {
+    if (in_string) {
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_json_depth) return "a payload nested deeper than " + std::to_string(max_json_depth) + " levels";
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return {};
+}
+
+std::string payload_problem(plant::TopicLeaf leaf, std::string_view kind, const json& j) {
+  if (!j.is_object()) return "the payload is " + std::string(j.type_name()) + ", not a JSON object";
+  const std::string common =
+      first_of({field_problem(j, "machine", "a text", is_text), field_problem(j, "session", "a text", is_text),
+                field_problem(j, "class", "a text", is_text)});
+  if (!common.empty()) return common;
+  switch (leaf) {
+    case plant::TopicLeaf::status:
+      return status_problem(j);
+    case plant::TopicLeaf::params:
+      return params_problem(kind, j);
+    case plant::TopicLeaf::explain:
+      return explain_problem(j);
+    case plant::TopicLeaf::event:
+    case plant::TopicLeaf::devices:
+      return {};
+  }
+  return {};
+}
+
+}  // namespace guideway::fleet

@@ -1,0 +1,180 @@
+#pragma once
+// The DBB driver against the DBB emulator through the real CAN transport (can_frame records over
+// socketpair(AF_UNIX, SOCK_SEQPACKET)), shared by the driver's tests: three encoders, a circle, and
+// the check that every cycle the emulator put on the bus became exactly one sample, equal to it.
+
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "driver_samples_support.hpp"
+#include "drivers/dbb/dbb_driver.hpp"
+#include "simulators/emulators/dbb_emulator.hpp"
+#include "test_support.hpp"
+
+namespace guideway::test {
+
+inline std::vector<drivers::dbb::EncoderScale> three_encoders() {
+  std::vector<drivers::dbb::EncoderScale> e(3);
+  e[0] = {"bar_length", 1, 1e-7, +1, 0, 0.100};
+  e[1] = {"x", 2, 1e-7, +1, 0, 0.0};
+  e[2] = {"y", 3, 5e-8, -1, 1000, 0.0};
+  return e;
+}
+
+// The emulator's nodes as three_encoders() describes them: CANopen nodes that boot pre-operational.
+inline simulators::emulators::DbbEmulatorSettings emulator_settings(bool produce_sync, double rate_hz) {
+  simulators::emulators::DbbEmulatorSettings s;
+  s.encoders = three_encoders();
+  s.produce_sync = produce_sync;
+  s.sync_rate_hz = rate_hz;
+  return s;
+}
+
+inline simulators::emulators::DbbSource circle_source() {
+  return simulators::emulators::ideal_circle_source(0.1, 2000.0 / 60e3, +1, 3e-6);
+}
+
+// Adjust the settings a Bench gives the driver or the emulator (CANopen options, faults present from
+// power-on).
+using TuneDriver = std::function<void(drivers::dbb::DbbSettings&)>;
+using TuneEmulator = std::function<void(simulators::emulators::DbbEmulatorSettings&)>;
+
+inline simulators::emulators::DbbEmulatorSettings tuned(simulators::emulators::DbbEmulatorSettings s,
+                                                        const TuneEmulator& tune) {
+  if (tune) tune(s);
+  return s;
+}
+
+// A driver and the emulator, joined by a socketpair per connection.
+struct Bench {
+  explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
+                 simulators::emulators::DbbSource source = circle_source(),
+                 std::int64_t read_period_us = drivers::dbb::default_read_period_us, const TuneDriver& tune_driver = {},
+                 const TuneEmulator& tune_emulator = {})
+      : emu(tuned(emulator_settings(!driver_produces_sync, rate_hz), tune_emulator), std::move(source)) {
+    drivers::dbb::DbbSettings s;
+    s.produce_sync = driver_produces_sync;
+    s.sync_rate_hz = rate_hz;
+    s.read_period_us = read_period_us;
+    s.timeout_ms = timeout_ms;
+    s.reconnect_min_ms = 10;
+    s.reconnect_max_ms = 100;
+    s.encoders = three_encoders();
+    if (tune_driver) tune_driver(s);
+    emu.start();
+    driver = std::make_unique<drivers::dbb::DbbDriver>("dbb", 1 << 14, s, [this](std::string& err) {
+      int sv[2];
+      if (::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, sv) < 0) {
+        err = "socketpair failed";
+        return drivers::can::CanSocket{};
+      }
+      ++connects;
+      emu.attach(drivers::can::CanSocket(sv[1]));
+      return drivers::can::CanSocket(sv[0]);
+    });
+    driver->start();
+  }
+  ~Bench() {
+    driver->stop();
+    emu.stop();
+  }
+  void drain() { drain_samples(*driver, samples); }
+  bool wait_samples(std::size_t n, std::chrono::milliseconds timeout = std::chrono::seconds(10)) {
+    return test::wait_samples(*driver, samples, n, timeout);
+  }
+  // Stops both ends, then checks every cycle the emulator sent against the samples, in order. Every cycle
+  // is exactly one sample, equal to what was sent (a channel not sent holds the previous sample's value),
+  // except an answer the emulator logged as late (a loaded machine held it up until the driver's next SYNC
+  // was there): on the bus it may be partly after that SYNC, and the driver then makes it a sample of
+  // what came before the SYNC (the rest held), or, all of it after, no sample of its own (the next
+  // answer replaces it). Which of the two each late answer became is not known, and positions of a
+  // slow machine repeat, so the check searches for an assignment of samples to cycles that explains
+  // every sample (a set of reachable sample indices per cycle).
+  void stop_and_check_all(std::size_t partial_expected_at_least = 0) {
+    // The emulator goes first: the driver then reads everything still queued, publishes what it holds
+    // when it sees the end of the connection, and only then reports the loss.
+    const int connects_before = connects.load();
+    emu.stop();
+    const auto log = emu.log();
+    std::vector<simulators::emulators::DbbSentCycle> sent;
+    std::size_t late = 0;
+    for (const auto& c : log) {
+      if (c.sent_mask != 0) sent.push_back(c);
+      late += c.late;
+    }
+    EXPECT_TRUE(test::eventually([&] {
+      return connects.load() > connects_before || driver->status().state != drivers::DeviceState::streaming;
+    })) << "the driver did not see the emulator go";
+    driver->stop();
+    drain();
+    ASSERT_LE(samples.size(), sent.size()) << "a cycle put on the bus became more than one sample";
+    ASSERT_GE(samples.size() + late, sent.size()) << "a cycle put on the bus (and not late) became no sample";
+    const auto near = [](double a, double b, std::size_t k) {
+      return std::abs(a - b) <= three_encoders()[k].resolution_m * 0.51;
+    };
+    const auto held = [&](std::size_t j, std::size_t k) {
+      const double before = j > 0 ? samples[j - 1].value[k] : NAN;
+      const double v = samples[j].value[k];
+      return std::isnan(before) ? std::isnan(v) : near(v, before, k);
+    };
+    // Whether samples[j] can be sent[i]'s; `why` says why not.
+    const auto is_sample_of = [&](std::size_t i, std::size_t j, std::string& why) {
+      const Sample& s = samples[j];
+      const bool complete = sent[i].sent_mask == 0b111;
+      if (s.value_count != 3) return why = "value_count " + std::to_string(s.value_count), false;
+      if (j > 0 && s.t_mono_ns < samples[j - 1].t_mono_ns) return why = "time goes backwards", false;
+      if (!sent[i].late && ((s.flags & sample_partial) != 0) == complete) return why = "partial flag wrong", false;
+      for (std::size_t k = 0; k < 3; ++k) {
+        const bool was_sent = (sent[i].sent_mask & (1u << k)) != 0;
+        const bool exact = was_sent && near(s.value[k], sent[i].truth_m[k], k);
+        const bool ok = sent[i].late ? exact || held(j, k) : was_sent ? exact : held(j, k);
+        if (!ok) {
+          why = "channel " + std::to_string(k) + " is " + std::to_string(s.value[k]) +
+                (was_sent ? ", sent " + std::to_string(sent[i].truth_m[k]) : std::string(", not sent, not held"));
+          return false;
+        }
+      }
+      return true;
+    };
+    std::vector<std::size_t> reach{0};  // sample indices at which cycle i can start
+    for (std::size_t i = 0; i < sent.size(); ++i) {
+      std::vector<std::size_t> next;
+      std::string why;
+      for (const std::size_t j : reach) {
+        if (sent[i].late) next.push_back(j);  // no sample of its own
+        std::string w;
+        if (j < samples.size() && is_sample_of(i, j, w))
+          next.push_back(j + 1);
+        else if (why.empty())
+          why = j < samples.size() ? "sample " + std::to_string(j) + ": " + w : "no sample left";
+      }
+      std::sort(next.begin(), next.end());
+      next.erase(std::unique(next.begin(), next.end()), next.end());
+      ASSERT_FALSE(next.empty()) << "sent cycle " << i << (sent[i].late ? " (late)" : "")
+                                 << " matches no sample: " << why;
+      reach = std::move(next);
+    }
+    EXPECT_TRUE(std::find(reach.begin(), reach.end(), samples.size()) != reach.end())
+        << "samples left over (" << samples.size() - reach.back() << "): a cycle became more than one sample";
+    for (std::size_t j = 0; j < samples.size(); ++j) EXPECT_EQ(samples[j].seq, j);
+    const auto partial =
+        std::count_if(samples.begin(), samples.end(), [](const Sample& s) { return (s.flags & sample_partial) != 0; });
+    EXPECT_GE(static_cast<std::size_t>(partial), partial_expected_at_least);
+    ::testing::Test::RecordProperty("late_answers", std::to_string(late));
+  }
+
+  simulators::emulators::DbbEmulator emu;
+  std::unique_ptr<drivers::dbb::DbbDriver> driver;
+  std::atomic<int> connects{0};
+  std::vector<Sample> samples;
+};
+
+}  // namespace guideway::test
