@@ -212,6 +212,36 @@ def proc_cpu_s(pid):
     return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime (fields 14, 15)
 
 
+def task_stats(pid):
+    """Per thread of pid: {tid: {"name", "cpu_s", "wakeups", "preempted"}}: utime+stime, and the
+    voluntary context switches (each a sleep the thread was woken from) and involuntary ones from
+    /proc/PID/task/TID/status."""
+    out = {}
+    for task in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{task}/comm") as f:
+                name = f.read().strip()
+            st = {"name": name, "cpu_s": proc_cpu_s(f"{pid}/task/{task}"), "wakeups": 0, "preempted": 0}
+            with open(f"/proc/{pid}/task/{task}/status") as f:
+                for line in f:
+                    if line.startswith("voluntary_ctxt_switches:"):
+                        st["wakeups"] = int(line.split()[1])
+                    elif line.startswith("nonvoluntary_ctxt_switches:"):
+                        st["preempted"] = int(line.split()[1])
+            out[int(task)] = st
+        except OSError:
+            pass
+    return out
+
+
+def task_deltas(t0, t1, dt):
+    """Per thread alive at both ends, in creation order: name, CPU % of a core, wake-ups/s, preemptions/s."""
+    return [{"tid": tid, "name": t1[tid]["name"], "cpu_pct": round(100.0 * (t1[tid]["cpu_s"] - t0[tid]["cpu_s"]) / dt, 2),
+             "wakeups_per_s": round((t1[tid]["wakeups"] - t0[tid]["wakeups"]) / dt, 1),
+             "preempted_per_s": round((t1[tid]["preempted"] - t0[tid]["preempted"]) / dt, 1)}
+            for tid in sorted(t1) if tid in t0]
+
+
 def proc_mem_kib(pid):
     out = {}
     with open(f"/proc/{pid}/status") as f:
@@ -372,6 +402,7 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
         emus = children(pid)
         tids = sorted(int(t) for t in os.listdir(f"/proc/{pid}/task"))
         thread0 = {t: proc_cpu_s(f"{pid}/task/{t}") for t in tids}
+        tasks0 = task_stats(pid)
         t0, cpu0, main0 = time.monotonic(), proc_cpu_s(pid), proc_cpu_s(f"{pid}/task/{pid}")
         ecpu0 = {p: proc_cpu_s(p) for p in emus}
         perf = start_perf(pid, step_s) if COUNT_SYSCALLS and publish_hz <= 10 else None
@@ -391,6 +422,7 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
         # config order (dbb, autocollimator, micrometer, profilometer), the pipeline (bench/README.md).
         threads = [round(100.0 * (proc_cpu_s(f"{pid}/task/{t}") - thread0[t]) / dt, 1)
                    for t in tids if os.path.exists(f"/proc/{pid}/task/{t}")]
+        tasks = task_deltas(tasks0, task_stats(pid), dt)
         ecpu = {emulator_name(p): 100.0 * (proc_cpu_s(p) - ecpu0[p]) / dt for p in emus if os.path.exists(f"/proc/{p}")}
         devs = device_deltas(st0, st1, dt)
         total_hz = sum(d["rate_hz"] for d in devs.values())
@@ -404,6 +436,7 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
             "publish_hz": publish_hz, "duration_s": dt, "devices": devs, "total_rate_hz": total_hz,
             "cpu_pct": cpu_pct, "cpu_pct_main_thread": 100.0 * (main1 - main0) / dt,
             "cpu_pct_threads": threads,
+            "threads": tasks, "wakeups_per_s": round(sum(t["wakeups_per_s"] for t in tasks), 1),
             "cpu_pct_per_khz": cpu_pct / (total_hz / 1000.0) if total_hz else float("nan"),
             "emulators_cpu_pct": ecpu, "mem_kib": proc_mem_kib(pid),
             "published": len(all_lat),
@@ -666,6 +699,14 @@ def print_tables(res):
               f"{a['cpu_pct']:.1f} | {a['published'] / a['duration_s']:.0f} | {fmt(a['latency_us']['median'])} | "
               f"{fmt(a['latency_us']['p99'])} | {fmt(a['latency_us']['max'])} | {fmt(a['pipeline_latency_max_us'])} | "
               f"{mem.get('VmRSS', 0) / 1024:.1f} ({mem.get('VmHWM', 0) / 1024:.1f}) | {emus} | {a['loadavg_1min']:.1f} |")
+    print()
+    print("| step | guidewayd wake-ups/s (voluntary context switches, /proc) | per thread by name: CPU % (wake-ups/s) |")
+    print("|---|---:|---|")
+    for s in res["steps"]:
+        d = s["default"]
+        if "threads" in d:
+            print(f"| {step_label(s)} | {d['wakeups_per_s']:.0f} | "
+                  + " / ".join(f"{t['name']} {t['cpu_pct']:.1f} ({t['wakeups_per_s']:.0f})" for t in d["threads"]) + " |")
     print()
     names = list(CEILING_HZ)
     print("| step | guidewayd CPU % per thread, creation order | " + " | ".join(f"{k} thread: % (% per 1 k/s)" for k in names)
