@@ -267,15 +267,20 @@ void IoLoop::run() {
       const std::shared_ptr<FdHandler> handler = it->second.handler;
       (*handler)(events[static_cast<std::size_t>(i)].events);
     }
+    // The due timers, earliest deadline first (a late pass may find several due).
     bool tombstones = false;
-    for (std::size_t i = 0; i < timers_.size(); ++i) {  // by index: a callback may add timers
-      if (timers_[i].id == 0) {
-        tombstones = true;
-        continue;
-      }
-      if (timers_[i].deadline > now_) continue;
-      timers_[i].deadline = never;
-      const std::shared_ptr<Callback> callback = timers_[i].callback;
+    due_.clear();
+    for (const Timer& t : timers_) {
+      if (t.id == 0) tombstones = true;
+      if (t.id != 0 && t.deadline <= now_) due_.emplace_back(t.deadline, t.id);
+    }
+    std::sort(due_.begin(), due_.end());
+    for (const auto& [due_at, id] : due_) {
+      // Looked up again: an earlier callback may have removed, re-armed or added timers.
+      const auto it = std::find_if(timers_.begin(), timers_.end(), [id = id](const Timer& t) { return t.id == id; });
+      if (it == timers_.end() || it->deadline != due_at) continue;
+      it->deadline = never;
+      const std::shared_ptr<Callback> callback = it->callback;
       (*callback)();
     }
     for (const bool end : {false, true}) {

@@ -20,6 +20,7 @@
 #include <string>
 #include <thread>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace guideway::drivers {
@@ -56,7 +57,8 @@ class IoLoop {
   void modify(int fd, std::uint32_t events);  // no system call when unchanged
   void unwatch(int fd);
 
-  // Timers: a deadline on CLOCK_MONOTONIC (ns); the callback runs at the first pass at or after it.
+  // Timers: a deadline on CLOCK_MONOTONIC (ns); the callback runs at the first pass at or after it (the
+  // timers due at one pass in deadline order).
   // arm(never) disarms; a fired timer is disarmed before its callback runs (which may arm it again).
   Id add_timer(Callback callback);
   void arm(Id timer, std::int64_t deadline_ns);
@@ -105,6 +107,7 @@ class IoLoop {
   std::unordered_map<int, Watched> watched_;
   std::uint32_t next_generation_ = 0;
   std::vector<Timer> timers_;
+  std::vector<std::pair<std::int64_t, Id>> due_;  // a pass's due timers (reused)
   std::vector<Hook> hooks_;
   Id next_id_ = 1;
   bool again_ = false;

