@@ -99,20 +99,14 @@ port = "emulator:gauge:port"
 {device_keys}"""
 
 
-def config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml=""):
-    """A guidewayd config with the four emulators at the given per-instrument rates (Hz); extra_toml
-    (more tables: [mqtt], ...) at the end."""
+def config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml="", devices=None,
+                daemon_keys=""):
+    """A guidewayd config with the four emulators at the given per-instrument rates (Hz), or only the
+    instruments named in `devices`; daemon_keys (more [daemon] keys) and extra_toml (more tables:
+    [mqtt], ...) at the end."""
     ac_period_ms = max(1, round(1000.0 / rates["autocollimator"]))
     dbb_args, dbb_sync = dbb_toml(rates["dbb"])
-    return f"""
-[daemon]
-socket = "{rt}/guideway.sock"
-state_dir = "{state}"
-log_level = "warn"
-status_period_s = {status_period_s}
-sample_publish_hz = {publish_hz}
-client_queue_bytes = {client_queue_bytes}
-
+    blocks = {"dbb": f"""
 [[emulator]]
 name = "can"
 instrument = "dbb"
@@ -136,7 +130,7 @@ bus = "emulator:can"
   channel = "y"
   node_id = 3
   resolution_nm = 100
-
+""", "autocollimator": f"""
 [[emulator]]
 name = "ac"
 instrument = "autocollimator"
@@ -148,8 +142,7 @@ driver = "autocollimator-serial"
 port = "{{runtime_dir}}/autocollimator.pty"
 mode = "stream"
 stream_period_ms = {ac_period_ms}
-
-{micrometer_toml(rates["micrometer"])}
+""", "micrometer": micrometer_toml(rates["micrometer"]), "profilometer": f"""
 [[emulator]]
 name = "profiler"
 instrument = "profilometer"
@@ -160,7 +153,17 @@ name = "profilometer"
 driver = "profilometer-tcp"
 host = "emulator:profiler:host"
 port = "emulator:profiler:port"
-""" + extra_toml
+"""}
+    return f"""
+[daemon]
+socket = "{rt}/guideway.sock"
+state_dir = "{state}"
+log_level = "warn"
+status_period_s = {status_period_s}
+sample_publish_hz = {publish_hz}
+client_queue_bytes = {client_queue_bytes}
+{daemon_keys}
+""" + "".join(b for k, b in blocks.items() if devices is None or k in devices) + extra_toml
 
 
 class Conn:
@@ -275,7 +278,8 @@ def pct(values, q):
 
 
 class Daemon:
-    def __init__(self, build, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml=""):
+    def __init__(self, build, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml="", devices=None,
+                 daemon_keys="", env=None):
         self.tmp = tempfile.mkdtemp(prefix="gw-load-")
         rt, state = f"{self.tmp}/rt", f"{self.tmp}/state"
         os.makedirs(rt)
@@ -283,10 +287,12 @@ class Daemon:
         self.socket = f"{rt}/guideway.sock"
         cfg = f"{self.tmp}/bench.toml"
         with open(cfg, "w") as f:
-            f.write(config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s, extra_toml))
+            f.write(config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s, extra_toml, devices,
+                                daemon_keys))
         self.log = open(f"{self.tmp}/guidewayd.log", "w")
         self.proc = subprocess.Popen([f"{build}/daemon/guidewayd", "--config", cfg], stdout=self.log,
-                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                     env={**os.environ, **(env or {})})
         end = time.monotonic() + 30
         while not os.path.exists(self.socket):
             if self.proc.poll() is not None or time.monotonic() > end:
@@ -371,14 +377,15 @@ def emulator_name(pid):
         return str(pid)
 
 
-def measure(build, rates, publish_hz, step_s, warmup_s):
-    """One daemon at `rates`: counters, CPU, memory and (when publishing) SAMPLE latency over step_s."""
-    daemon = Daemon(build, rates, publish_hz=publish_hz, client_queue_bytes=4 << 20)
+def measure(build, rates, publish_hz, step_s, warmup_s, devices=None):
+    """One daemon at `rates` (with the instruments named in `devices`, default all four): counters, CPU,
+    memory and (when publishing) SAMPLE latency over step_s."""
+    daemon = Daemon(build, rates, publish_hz=publish_hz, client_queue_bytes=4 << 20, devices=devices)
     try:
         conn = Conn(daemon.socket)
         daemon.wait_streaming(conn)
         conn.send({"class": "watch", "classes": ["SAMPLE"]})
-        lat = {k: [] for k in rates}
+        lat = {k: [] for k in rates if devices is None or k in devices}
         pipeline = {"latency_max_us": 0.0, "outbox_dropped": 0}
         recording = [False]
 
