@@ -170,17 +170,15 @@ void IoLoop::remove_timer(Id timer) {
   }
 }
 
-IoLoop::Id IoLoop::add_wake_hook(Callback hook) {
+IoLoop::Id IoLoop::add_hook(Stage stage, Callback hook) {
   const Id id = next_id_++;
-  hooks_.push_back({id, false, std::make_shared<Callback>(std::move(hook))});
+  hooks_.push_back({id, stage, std::make_shared<Callback>(std::move(hook))});
   return id;
 }
 
-IoLoop::Id IoLoop::add_end_hook(Callback hook) {
-  const Id id = next_id_++;
-  hooks_.push_back({id, true, std::make_shared<Callback>(std::move(hook))});
-  return id;
-}
+IoLoop::Id IoLoop::add_wake_hook(Callback hook) { return add_hook(Stage::wake, std::move(hook)); }
+IoLoop::Id IoLoop::add_settle_hook(Callback hook) { return add_hook(Stage::settle, std::move(hook)); }
+IoLoop::Id IoLoop::add_end_hook(Callback hook) { return add_hook(Stage::end, std::move(hook)); }
 
 void IoLoop::remove_hook(Id hook) {
   for (Hook& h : hooks_) {
@@ -283,13 +281,13 @@ void IoLoop::run() {
       const std::shared_ptr<Callback> callback = it->callback;
       (*callback)();
     }
-    for (const bool end : {false, true}) {
+    for (const Stage stage : {Stage::wake, Stage::settle, Stage::end}) {
       for (std::size_t i = 0; i < hooks_.size(); ++i) {
         if (hooks_[i].id == 0) {
           tombstones = true;
           continue;
         }
-        if (hooks_[i].end != end) continue;
+        if (hooks_[i].stage != stage) continue;
         const std::shared_ptr<Callback> hook = hooks_[i].callback;
         (*hook)();
       }

@@ -6,11 +6,12 @@
 // (bench/README.md, "One I/O thread").
 //
 // A wake-up runs, in order: the handlers of ready descriptors, the timers that are due, the wake
-// hooks (devices that read in batches look at their sockets here, whatever woke the loop), then the
-// end hooks (the pipeline). A handler that leaves work for later (a device that floods its socket)
-// calls again(): the next pass comes at once, after every other device was served.
-// Thread safety: post(), call(), stop(), wakeups() from any thread; everything else on the loop's
-// thread (or on any one thread before run() starts and after it returned).
+// hooks (devices that read in batches look at their sockets here, whatever woke the loop), the
+// settle hooks (a device whose rest ended with an empty read rests on while another device found
+// data in this pass, else waits for its next byte), then the end hooks (the pipeline). A handler that leaves work for
+// later (a device that floods its socket) calls again(): the next pass comes at once, after every other device was
+// served. Thread safety: post(), call(), stop(), wakeups() from any thread; everything else on the loop's thread (or on
+// any one thread before run() starts and after it returned).
 
 #include <atomic>
 #include <cstdint>
@@ -64,10 +65,17 @@ class IoLoop {
   void arm(Id timer, std::int64_t deadline_ns);
   void remove_timer(Id timer);
 
-  // Hooks run at every pass after the handlers and timers: wake hooks first, then end hooks.
+  // Hooks run at every pass after the handlers and timers: wake hooks, settle hooks, end hooks.
   Id add_wake_hook(Callback hook);
+  Id add_settle_hook(Callback hook);
   Id add_end_hook(Callback hook);
   void remove_hook(Id hook);
+  // A device read data in this pass (devices reading in batches tell each other: their passes are
+  // then worth having; a pass where none found any was a wake-up for nothing).
+  void data_found() noexcept { data_pass_ = passes_.load(std::memory_order_relaxed); }
+  [[nodiscard]] bool data_found_this_pass() const noexcept {
+    return data_pass_ == passes_.load(std::memory_order_relaxed);
+  }
 
   // Another pass at once (without sleeping), after this one ends.
   void again() noexcept { again_ = true; }
@@ -88,11 +96,13 @@ class IoLoop {
     std::int64_t deadline = never;
     std::shared_ptr<Callback> callback;
   };
+  enum class Stage { wake, settle, end };
   struct Hook {
     Id id = 0;
-    bool end = false;
+    Stage stage = Stage::wake;
     std::shared_ptr<Callback> callback;
   };
+  Id add_hook(Stage stage, Callback hook);
 
   void pass(bool woken);
   void run_posted();
@@ -111,6 +121,7 @@ class IoLoop {
   std::vector<Hook> hooks_;
   Id next_id_ = 1;
   bool again_ = false;
+  std::uint64_t data_pass_ = 0;
   std::int64_t now_ = 0;
   std::atomic<bool> running_{false};
   std::atomic<bool> stop_requested_{false};

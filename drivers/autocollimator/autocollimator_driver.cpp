@@ -93,7 +93,10 @@ void AutocollimatorDriver::attach(drivers::IoLoop& loop) {
   backoff_ms_ = settings_.reconnect_min_ms;
   connected_once_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });
-  if (rests_) wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+  if (rests_) {
+    wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+    settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
+  }
   open_port();
 }
 
@@ -101,7 +104,8 @@ void AutocollimatorDriver::detach() {
   close_port();
   io_->remove_timer(timer_);
   if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
-  wake_hook_ = 0;
+  if (settle_hook_ != 0) io_->remove_hook(settle_hook_);
+  wake_hook_ = settle_hook_ = 0;
   io_ = nullptr;
 }
 
@@ -131,6 +135,10 @@ void AutocollimatorDriver::open_port() {
   const std::int64_t now = mono_now_ns();
   next_poll_ns_ = now;
   read_at_ns_ = now;
+  resting_ = false;
+  idle_check_ = false;
+  lonely_ = false;
+  others_pass_ = false;
   io_->watch(line_->fd(), EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
   if (settings_.stream) {
     if (!send(format_request(Request::stream_start, static_cast<int>(settings_.stream_period_ms)), error)) {
@@ -227,6 +235,7 @@ bool AutocollimatorDriver::step() {
     return false;
   }
   const bool resting = now < read_at_ns_;
+  resting_ = resting;
   std::int64_t wake_at = deadline_ns_;
   if (!settings_.stream && !awaiting_) wake_at = next_poll_ns_;
   if (resting) wake_at = std::min(wake_at, read_at_ns_);
@@ -261,16 +270,27 @@ void AutocollimatorDriver::on_timer() {
     }
     return;
   }
-  if (mono_now_ns() >= read_at_ns_ && read_at_ns_ > 0 && served_pass_ != io_->passes() && rests_) {
+  if (resting_ && mono_now_ns() >= read_at_ns_ && served_pass_ != io_->passes()) {
     read_batch(false);  // the rest is over
     return;
   }
   step();
 }
 
+void AutocollimatorDriver::on_settle() {
+  if (!idle_check_ || !line_) return;
+  idle_check_ = false;
+  if (io_->data_found_this_pass()) return;  // others stream: read again at their next pass
+  read_at_ns_ = mono_now_ns();              // nothing anywhere: the next line wakes us
+  lonely_ = true;
+  others_pass_ = false;
+  step();
+}
+
 void AutocollimatorDriver::on_wake() {
-  if (!line_ || served_pass_ == io_->passes() || io_->now() >= read_at_ns_) return;
-  read_batch(true);
+  if (!line_ || served_pass_ == io_->passes()) return;
+  others_pass_ = true;  // a pass this driver did not cause: another device keeps the loop busy
+  if (io_->now() < read_at_ns_) read_batch(true);
 }
 
 void AutocollimatorDriver::read_batch(bool opportunistic) {
@@ -315,12 +335,19 @@ void AutocollimatorDriver::read_batch(bool opportunistic) {
     read_at_ns_ = now;
     io_->again();
   } else if (taken > 0) {
+    io_->data_found();
     // Readings stream: rest a period while the next lines arrive (a reply to a poll is read at once).
-    read_at_ns_ = rests_ ? now + settings_.read_period_us * 1000 : now;
+    // Alone on the loop with lines further apart than a period, a rest would only add a wake-up that
+    // finds nothing: after such a rest (lonely_) the driver wakes per line until another device makes
+    // the loop pass by.
+    if (others_pass_) lonely_ = false;
+    others_pass_ = false;
+    read_at_ns_ = rests_ && !lonely_ ? now + settings_.read_period_us * 1000 : now;
   } else {
-    // Nothing came: the next bytes wake us, unless another pass of the loop read it, which starts its
-    // rest again (the devices of one loop share one wake-up per period).
-    read_at_ns_ = opportunistic ? now + settings_.read_period_us * 1000 : now;
+    // Nothing came. Read at another device's pass, or at the end of a rest: rest on (the end of a rest
+    // is settled once the pass has read every device: on_settle). After readiness: the next line wakes us.
+    if (opportunistic || resting_) read_at_ns_ = now + settings_.read_period_us * 1000;
+    idle_check_ = !opportunistic && resting_;
   }
   step();
 }

@@ -64,6 +64,9 @@ class AutocollimatorDriver : public drivers::Driver {
   void on_ready(std::uint32_t events);
   void on_timer();
   void on_wake();  // any pass of the loop: a resting reader reads now (the devices share wake-ups)
+  // After every device's reads of a pass: a rest that ended with an empty read goes on while another
+  // device found data in that pass, else the next line wakes the driver.
+  void on_settle();
   // Requests due, timeouts, the next wake-up. Returns false when the link ended.
   bool step();
   // Reads what the line holds (at most max_read_bytes per pass), then step().
@@ -82,6 +85,7 @@ class AutocollimatorDriver : public drivers::Driver {
   drivers::IoLoop* io_ = nullptr;
   drivers::IoLoop::Id timer_ = 0;
   drivers::IoLoop::Id wake_hook_ = 0;
+  drivers::IoLoop::Id settle_hook_ = 0;
   std::unique_ptr<serial::SerialLine> line_;
   serial::LineFramer framer_{max_reply_length * 2};
   std::vector<std::string> lines_;
@@ -97,6 +101,10 @@ class AutocollimatorDriver : public drivers::Driver {
   std::int64_t next_poll_ns_ = 0;
   std::int64_t read_at_ns_ = 0;  // resting until then
   std::uint64_t served_pass_ = 0;
+  bool resting_ = false;      // no readiness interest until read_at_ns_
+  bool idle_check_ = false;   // a rest ended with an empty read (on_settle decides)
+  bool lonely_ = false;       // a rest ended with nothing read anywhere: wake per line
+  bool others_pass_ = false;  // since the last line, the loop passed by for another device
   bool after_gap_ = false;
   std::int64_t line_end_ns_ = 0;
 };

@@ -359,7 +359,10 @@ void DbbDriver::attach(drivers::IoLoop& loop) {
   backoff_ms_ = settings_.reconnect_min_ms;
   connected_once_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });
-  if (batched()) wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+  if (batched()) {
+    wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+    settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
+  }
   connect();
 }
 
@@ -372,7 +375,8 @@ void DbbDriver::detach() {
   }
   io_->remove_timer(timer_);
   if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
-  wake_hook_ = 0;
+  if (settle_hook_ != 0) io_->remove_hook(settle_hook_);
+  wake_hook_ = settle_hook_ = 0;
   io_ = nullptr;
 }
 
@@ -403,6 +407,8 @@ void DbbDriver::connect() {
   last_sync_ns_ = 0;
   sync_period_ns_ = 0;
   drain_pending_ = false;
+  resting_ = false;
+  idle_check_ = false;
   // Kernel receive times for every frame (SocketCAN and AF_UNIX sockets support them). The standard
   // endpoints enable them before bind/connect (else frames queued meanwhile would be stamped at the
   // read); this covers other connectors. Should a socket refuse, frames get the time they are read,
@@ -480,6 +486,17 @@ void DbbDriver::on_ready(std::uint32_t events) {
     return;
   }
   step();
+}
+
+void DbbDriver::on_settle() {
+  if (!idle_check_ || !sock_.valid()) return;
+  idle_check_ = false;
+  if (io_->data_found_this_pass()) return;  // others stream: read again at their next pass
+  // Nothing anywhere: a silent bus costs no periodic wake-ups; the next frame wakes us.
+  read_at_ns_ = mono_now_ns();
+  resting_ = false;
+  io_->modify(sock_.fd(), EPOLLIN);
+  io_->arm(timer_, std::min(last_rx_ns_ + settings_.timeout_ms * 1'000'000, network_.next_deadline()));
 }
 
 void DbbDriver::on_wake() {
@@ -564,8 +581,9 @@ void DbbDriver::step_batched(bool opportunistic) {
   // precedes the PDOs by at least a frame time: it wakes us, we rest, then read the PDOs). A frame
   // waits at most read_period_us in the socket. While it rests, any other pass of the loop (another
   // device, a timer) reads it too, and its rest starts again from there: devices served by one loop
-  // thus fall into step and share one wake-up per period (a device whose data stopped is read at
-  // those passes until its own rest ends with an empty read).
+  // thus fall into step and share one wake-up per period. A rest that ends with an empty read waits
+  // for the next frame only when no other device found data in that pass (on_settle): while others
+  // stream it is read at their passes, and waking on its own next frame would be one more wake-up.
   const std::int64_t period_ns = settings_.read_period_us * 1000;
   const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
   std::int64_t now = mono_now_ns();
@@ -579,17 +597,23 @@ void DbbDriver::step_batched(bool opportunistic) {
     }
     now = mono_now_ns();
     if (got > 0) {
+      io_->data_found();
       last_rx_ns_ = now;
       const bool slow_bus = sync_period_ns_ > period_ns && !decoder_->cycle_pending();
       read_at_ns_ = slow_bus || more ? now : now + period_ns;
     } else {
-      if (opportunistic) read_at_ns_ = now + period_ns;  // read just now: the rest starts again
+      // Read just now, at another device's pass or at the end of a rest: rest on (the end of a rest
+      // is settled once the pass has read every device). A read on readiness that found nothing
+      // (the first one, a spurious wake-up) waits for the next frame.
+      if (opportunistic || resting_) read_at_ns_ = now + period_ns;
+      idle_check_ = !opportunistic && resting_;
       if (now - last_rx_ns_ >= timeout_ns) note_silence(now);
     }
   }
   served_pass_ = io_->passes();
   service_network(now);
   const bool resting = now < read_at_ns_;
+  resting_ = resting;
   // Resting: events 0, so only hang-up and errors end the rest early (and are read at once). Else the
   // next frame wakes us (a flood's frames left behind: at once, after the other devices).
   io_->modify(sock_.fd(), resting ? 0u : std::uint32_t{EPOLLIN});

@@ -119,6 +119,9 @@ class DbbDriver : public drivers::Driver {
   // Any pass of the loop, whatever woke it: a batched reader that rests reads now (several devices
   // then share one wake-up per period instead of each waking on its own).
   void on_wake();
+  // After every device's reads of a pass: a rest that ended with an empty read goes on while another
+  // device found data in that pass, else the next frame wakes the driver.
+  void on_settle();
   // One round of work and the next wake-up: SYNC production, reads, silence, the network's timers.
   void step();
   // step() for sync = "listen" with read_period_us > 0: reads in batches, at most once per period.
@@ -146,6 +149,7 @@ class DbbDriver : public drivers::Driver {
   drivers::IoLoop* io_ = nullptr;
   std::uint64_t timer_ = 0;
   std::uint64_t wake_hook_ = 0;
+  std::uint64_t settle_hook_ = 0;
   std::optional<DbbDecoder> decoder_;
   can::CanSocket sock_;
   std::int64_t backoff_ms_ = 0;
@@ -155,6 +159,8 @@ class DbbDriver : public drivers::Driver {
   std::int64_t read_at_ns_ = 0;        // batched: the next read (a future time: resting)
   std::int64_t next_sync_ns_ = 0;      // produce: the next SYNC
   std::uint64_t served_pass_ = 0;      // batched: the loop's pass that last read
+  bool resting_ = false;               // batched: no readiness interest until read_at_ns_
+  bool idle_check_ = false;            // batched: a rest ended with an empty read (on_settle decides)
   bool drain_pending_ = false;         // frames were left in the socket (more than max_drain_frames)
   bool silent_ = false;                // lost/bus-off until the next sample
   std::int64_t bus_off_since_ns_ = 0;  // bus off since then, until it recovers (0 = not)

@@ -1,5 +1,6 @@
 #include "drivers/micrometer/micrometer_driver.hpp"
 
+#include <poll.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -402,7 +403,18 @@ void MicrometerDriver::attach(drivers::IoLoop& loop) {
 
 void MicrometerDriver::detach() {
   resolver_.cancel();
-  poll_.reset();  // a poll under way ends here: what it published stays published
+  // A poll under way is finished first, as the threaded driver finishes it: what the amplifier
+  // answered is published. The one wait on the loop's thread: when a device stops, for its answers,
+  // each within response_timeout_ms.
+  while (poll_ && fd_ >= 0 && link_ == Link::awaiting) {
+    const std::int64_t left = deadline_ns_ - mono_now_ns();
+    if (left <= 0) break;
+    pollfd p{fd_, POLLIN, 0};
+    const timespec ts{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
+    if (::ppoll(&p, 1, &ts, nullptr) < 0 && errno != EINTR) break;
+    on_ready(0);
+  }
+  poll_.reset();
   close_socket();
   io_->remove_timer(timer_);
   if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
@@ -516,6 +528,7 @@ bool MicrometerDriver::read_socket(std::string& ended) {
 
 void MicrometerDriver::on_ready(std::uint32_t) {
   if (fd_ < 0) return;
+  served_pass_ = io_->passes();
   std::string ended;
   if (!read_socket(ended)) {
     if (link_ == Link::awaiting) {
@@ -539,6 +552,7 @@ void MicrometerDriver::on_ready(std::uint32_t) {
         continue;
       case modbus::TcpAnswer::Kind::registers:
         rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
+        io_->data_found();
         answer({}, x_.t_answer_ns);
         return;
       case modbus::TcpAnswer::Kind::exception:
@@ -556,6 +570,7 @@ void MicrometerDriver::on_ready(std::uint32_t) {
 
 void MicrometerDriver::on_timer() {
   const std::int64_t now = mono_now_ns();
+  served_pass_ = io_->passes();
   switch (link_) {
     case Link::resolving: {
       std::string error;
@@ -587,6 +602,15 @@ void MicrometerDriver::on_timer() {
       begin_connect();
       return;
     case Link::awaiting:
+      if (resting_) {
+        // No pass came by for a read period (the other devices went quiet): look, then wait for the
+        // answer's arrival instead.
+        const std::uint16_t asked = transaction_;
+        on_ready(0);
+        if (link_ != Link::awaiting || transaction_ != asked) return;  // it was there: the poll went on
+        resting_ = false;
+        io_->modify(fd_, EPOLLIN);
+      }
       if (now < deadline_ns_) {
         io_->arm(timer_, deadline_ns_);
         return;
@@ -605,6 +629,11 @@ void MicrometerDriver::on_timer() {
 }
 
 void MicrometerDriver::on_wake() {
+  if (served_pass_ != io_->passes()) others_pass_ = true;  // the loop passed by for another device
+  if (link_ == Link::awaiting && resting_) {
+    on_ready(0);  // the answer, if it came since the last pass
+    return;
+  }
   // Buffered mode reads what the amplifier stored meanwhile: a poll up to a fifth of a period early
   // costs nothing (its samples keep their own times) and spares a wake-up of its own.
   if (link_ != Link::idle) return;
@@ -613,6 +642,11 @@ void MicrometerDriver::on_wake() {
 }
 
 void MicrometerDriver::start_poll() {
+  // While other devices keep the loop passing by (at least every read period), a buffered poll's
+  // answers are read at those passes instead of waking the loop each: their samples keep the times
+  // the amplifier gives them (and the answers' kernel receive times), so only the publishing waits.
+  busy_ = config_.buffer.has_value() && others_pass_;
+  others_pass_ = false;
   // Stray or late answers must not be taken for this poll's.
   rx_.clear();
   std::string ended;
@@ -651,7 +685,9 @@ void MicrometerDriver::send_request() {
     return;
   }
   deadline_ns_ = sent_ns_ + std::chrono::nanoseconds(config_.endpoint.response_timeout).count();
-  io_->arm(timer_, deadline_ns_);
+  resting_ = busy_;
+  io_->modify(fd_, resting_ ? 0u : std::uint32_t{EPOLLIN});
+  io_->arm(timer_, resting_ ? std::min(deadline_ns_, sent_ns_ + drivers::default_read_period_us * 1000) : deadline_ns_);
 }
 
 void MicrometerDriver::answer(modbus::ReadResult result, std::int64_t t_answer_ns) {
@@ -663,6 +699,8 @@ void MicrometerDriver::answer(modbus::ReadResult result, std::int64_t t_answer_n
 
 void MicrometerDriver::finish_poll() {
   poll_.reset();
+  resting_ = false;
+  if (fd_ >= 0) io_->modify(fd_, EPOLLIN);
   if (end_link_) {
     end_tcp_link(last_failure_);
     return;

@@ -161,6 +161,10 @@ class MicrometerDriver : public drivers::Driver {
   std::uint16_t transaction_ = 0;
   std::vector<std::uint8_t> rx_;
   std::unique_ptr<PollTask> poll_;
+  std::uint64_t served_pass_ = 0;  // the loop's last pass this driver's socket or timer caused
+  bool others_pass_ = false;       // since the poll began, the loop passed by for another device
+  bool busy_ = false;              // this poll reads its answers at passes that come anyway
+  bool resting_ = false;           // awaiting an answer with no readiness interest
 };
 
 void register_micrometer_driver(drivers::DriverRegistry& registry);

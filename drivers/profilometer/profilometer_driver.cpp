@@ -86,7 +86,10 @@ void ProfilometerDriver::attach(drivers::IoLoop& loop) {
   backoff_ = config_.backoff_initial;
   ever_connected_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });
-  if (config_.read_period_us > 0) wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+  if (config_.read_period_us > 0) {
+    wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+    settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
+  }
   begin_connect();
 }
 
@@ -100,7 +103,8 @@ void ProfilometerDriver::detach() {
   close_socket();
   io_->remove_timer(timer_);
   if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
-  wake_hook_ = 0;
+  if (settle_hook_ != 0) io_->remove_hook(settle_hook_);
+  wake_hook_ = settle_hook_ = 0;
   link_ = Link::waiting;
   io_ = nullptr;
 }
@@ -178,6 +182,10 @@ void ProfilometerDriver::connected() {
   last_data_ns_ = now;
   last_read_ns_ = now;
   read_at_ns_ = now;  // wait for the first bytes
+  resting_ = false;
+  idle_check_ = false;
+  lonely_ = false;
+  others_pass_ = false;
   io_->watch(fd_, EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
   io_->arm(timer_, last_data_ns_ + std::chrono::nanoseconds(config_.stall_timeout).count());
 }
@@ -187,9 +195,21 @@ void ProfilometerDriver::on_ready(std::uint32_t) {
   read_batch(false);  // bytes, or the end of the connection (hang-up, error): the read says which
 }
 
+void ProfilometerDriver::on_settle() {
+  if (!idle_check_ || link_ != Link::streaming) return;
+  idle_check_ = false;
+  if (io_->data_found_this_pass()) return;  // others stream: read again at their next pass
+  const std::int64_t now = mono_now_ns();
+  read_at_ns_ = now;  // nothing anywhere: the next bytes wake us
+  lonely_ = true;
+  others_pass_ = false;
+  arm_streaming_timer(now);
+}
+
 void ProfilometerDriver::on_wake() {
-  if (link_ != Link::streaming || served_pass_ == io_->passes() || io_->now() >= read_at_ns_) return;
-  read_batch(true);
+  if (link_ != Link::streaming || served_pass_ == io_->passes()) return;
+  others_pass_ = true;  // a pass this driver did not cause: another device keeps the loop busy
+  if (io_->now() < read_at_ns_) read_batch(true);
 }
 
 void ProfilometerDriver::on_timer() {
@@ -239,6 +259,7 @@ void ProfilometerDriver::on_timer() {
 
 void ProfilometerDriver::arm_streaming_timer(std::int64_t now) {
   const bool resting = now < read_at_ns_;
+  resting_ = resting;
   io_->modify(fd_, resting ? 0u : std::uint32_t{EPOLLIN});
   const std::int64_t stall_at = last_data_ns_ + std::chrono::nanoseconds(config_.stall_timeout).count();
   io_->arm(timer_, resting ? std::min(read_at_ns_, stall_at) : stall_at);
@@ -290,14 +311,21 @@ void ProfilometerDriver::read_batch(bool opportunistic) {
     return;
   }
   if (taken > 0) {
+    io_->data_found();
     last_data_ns_ = now;
     // Points flow: rest a period while the next ones queue up (at once after a flood's partial read).
-    read_at_ns_ = more || config_.read_period_us == 0 ? now : now + config_.read_period_us * 1000;
+    // Alone on the loop with bytes further apart than a period, a rest would only add a wake-up that
+    // finds nothing: after such a rest (lonely_) the driver wakes per arrival until another device
+    // makes the loop pass by.
+    if (others_pass_) lonely_ = false;
+    others_pass_ = false;
+    read_at_ns_ = more || lonely_ || config_.read_period_us == 0 ? now : now + config_.read_period_us * 1000;
     if (more) io_->again();
   } else {
-    // Nothing came: the next bytes wake us, unless another pass of the loop read it, which starts its
-    // rest again (the devices of one loop share one wake-up per period).
-    read_at_ns_ = opportunistic ? now + config_.read_period_us * 1000 : now;
+    // Nothing came. Read at another device's pass, or at the end of a rest: rest on (the end of a rest
+    // is settled once the pass has read every device: on_settle). After readiness: the next bytes wake us.
+    if (opportunistic || resting_) read_at_ns_ = now + config_.read_period_us * 1000;
+    idle_check_ = !opportunistic && resting_;
   }
   arm_streaming_timer(now);
 }

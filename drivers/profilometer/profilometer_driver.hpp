@@ -61,6 +61,9 @@ class ProfilometerDriver : public drivers::Driver {
   void on_ready(std::uint32_t events);
   void on_timer();
   void on_wake();  // any pass of the loop: a resting reader reads now (the devices share wake-ups)
+  // After every device's reads of a pass: a rest that ended with an empty read goes on while another
+  // device found data in that pass, else the next bytes wake the driver.
+  void on_settle();
   // Reads what is there (at most max_read_bytes per pass: a flooding instrument waits for the others).
   void read_batch(bool opportunistic);
   // Resting (after a read that got bytes): no readiness, a timer at the next read; else the next bytes
@@ -78,6 +81,7 @@ class ProfilometerDriver : public drivers::Driver {
   drivers::IoLoop* io_ = nullptr;
   drivers::IoLoop::Id timer_ = 0;
   drivers::IoLoop::Id wake_hook_ = 0;
+  drivers::IoLoop::Id settle_hook_ = 0;
   Link link_ = Link::waiting;
   tcp::Resolver resolver_;
   std::vector<tcp::Address> addresses_;
@@ -90,6 +94,10 @@ class ProfilometerDriver : public drivers::Driver {
   std::int64_t last_read_ns_ = 0;  // streaming: the last read (the earliest a kernel time can be)
   std::int64_t last_t_ns_ = 0;     // the last time given to bytes (never decreases)
   std::uint64_t served_pass_ = 0;
+  bool resting_ = false;      // no readiness interest until read_at_ns_
+  bool idle_check_ = false;   // a rest ended with an empty read (on_settle decides)
+  bool lonely_ = false;       // a rest ended with nothing read anywhere: wake per arrival
+  bool others_pass_ = false;  // since the last bytes, the loop passed by for another device
   std::chrono::milliseconds backoff_{0};
   bool ever_connected_ = false;
   ProfileAssembler assembler_;
