@@ -3,8 +3,8 @@
 instruments' full rates against the platform floor, before and after, in one run; then cyclictest on
 one CPU with and without the daemon on the other. Standard library only (plus perf and cyclictest).
 
-  python3 bench/controller_load.py AFTER_BUILD BEFORE_BUILD [--rounds 2] [--step-s 6] [--cyclictest-s 20]
-      [--json out.json]
+  python3 bench/controller_load.py AFTER_BUILD BEFORE_BUILD [--rounds 2] [--step-s 6] [--cyclictest-s 15]
+      [--cyclictest-rounds 2] [--skip floor,daemons,alone,cyclictest] [--json out.json]
 
 AFTER_BUILD and BEFORE_BUILD each hold daemon/guidewayd and the emulators (guideway_runtime); the floor
 comes from AFTER_BUILD/bench/platform_floor_bench. In order:
@@ -17,8 +17,9 @@ comes from AFTER_BUILD/bench/platform_floor_bench. In order:
   3. each instrument alone at its full rate in a daemon of each build: CPU per 1 k samples/s;
   4. cyclictest (SCHED_FIFO 95, 200 us interval) pinned to the last CPU: alone, beside the "after"
      daemon kept off that CPU (the kernel's isolated list stood in for by $GUIDEWAY_CPU_ISOLATED_FILE),
-     beside it spread over every CPU, and beside the "before" daemon; p99 and max latency, and the
-     daemon's threads switched in on the measured CPU (perf, sched:sched_switch).
+     beside it spread over every CPU, and beside the "before" daemon, `--cyclictest-rounds` times in
+     turn; p99 and max latency, and the daemon's threads switched in on the measured CPU (perf,
+     sched:sched_switch). The emulators are the daemon's children: they run where it may.
 """
 
 import argparse
@@ -160,7 +161,8 @@ def main():
     ap.add_argument("--step-s", type=float, default=6.0)
     ap.add_argument("--warmup-s", type=float, default=2.0)
     ap.add_argument("--floor-repetitions", type=int, default=3)
-    ap.add_argument("--cyclictest-s", type=float, default=20.0)
+    ap.add_argument("--cyclictest-s", type=float, default=15.0)
+    ap.add_argument("--cyclictest-rounds", type=int, default=2, help="each phase this many times, in turn")
     ap.add_argument("--skip", default="", help="phases to leave out: floor,daemons,alone,cyclictest")
     ap.add_argument("--json", help="write the raw results here")
     ARGS = ap.parse_args()
@@ -203,10 +205,11 @@ def main():
                   ("after, on every CPU", lambda: cyclictest_with(ARGS.after, cpu, s,
                                                                   daemon_keys=f'cpu_affinity = "{everywhere}"')),
                   ("before (as shipped)", lambda: cyclictest_with(ARGS.before, cpu, s))]
-        res["cyclictest"] = {}
-        for label, run in phases:
-            print(f"cyclictest: {label} ...", file=sys.stderr, flush=True)
-            res["cyclictest"][label] = run()
+        res["cyclictest"] = []
+        for r in range(ARGS.cyclictest_rounds):
+            for label, run in phases:
+                print(f"cyclictest round {r + 1}: {label} ...", file=sys.stderr, flush=True)
+                res["cyclictest"].append({"round": r + 1, "phase": label, **run()})
         os.unlink(iso.name)
     res["load_after"] = dl.loadavg()
     if ARGS.json:
@@ -254,18 +257,19 @@ def report(res):
                   f"{b['wakeups_per_s']:.0f} / {a['wakeups_per_s']:.0f} |")
         print()
     if res.get("cyclictest"):
-        ct = res["cyclictest"]
-        idle = ct.get("idle", {})
-        print(f"cyclictest on CPU {res['cyclictest_cpu']} (SCHED_FIFO 95, 200 us):\n")
-        print("| phase | samples | p99 us | max us | p99 / idle | max / idle | daemon threads switched in on the CPU /s |"
-              " emulators' /s | daemon may run on | daemon samples/s |")
-        print("|---|---:|---:|---:|---:|---:|---:|---:|---|---:|")
-        for label, r in ct.items():
+        print(f"cyclictest on CPU {res['cyclictest_cpu']} (SCHED_FIFO 95, 200 us); ratios against the idle run of the "
+              "same round:\n")
+        print("| round | phase | samples | p99 us | max us | p99 / idle | max / idle |"
+              " daemon threads switched in on the CPU /s | emulators' /s | daemon may run on | daemon samples/s |")
+        print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|")
+        for r in res["cyclictest"]:
+            idle = next(x for x in res["cyclictest"] if x["round"] == r["round"] and x["phase"] == "idle")
             rp = r["p99_us"] / idle["p99_us"] if idle.get("p99_us") else None
             rm = r["max_us"] / idle["max_us"] if idle.get("max_us") else None
-            print(f"| {label} | {r['samples']} | {r['p99_us']} | {r['max_us']} | {fmt(rp, 2)} | {fmt(rm, 2)} | "
-                  f"{fmt(r.get('daemon_switches_in_per_s'), 1)} | {fmt(r.get('emulator_switches_in_per_s'), 1)} | "
-                  f"{r.get('daemon_cpus_allowed', '')} | {r.get('samples_per_s', '')} |")
+            print(f"| {r['round']} | {r['phase']} | {r['samples']} | {r['p99_us']} | {r['max_us']} | {fmt(rp, 2)} | "
+                  f"{fmt(rm, 2)} | {fmt(r.get('daemon_switches_in_per_s'), 1)} | "
+                  f"{fmt(r.get('emulator_switches_in_per_s'), 1)} | {r.get('daemon_cpus_allowed', '')} | "
+                  f"{r.get('samples_per_s', '')} |")
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <exception>
 #include <future>
 #include <system_error>
 
@@ -97,10 +98,14 @@ void IoLoop::call(const Callback& fn) {
   std::promise<void> done;
   auto finished = done.get_future();
   post([&] {
-    fn();
-    done.set_value();
+    try {
+      fn();
+      done.set_value();
+    } catch (...) {  // thrown to the caller, not out of the loop's thread
+      done.set_exception(std::current_exception());
+    }
   });
-  finished.wait();
+  finished.get();
 }
 
 void IoLoop::run_posted() {

@@ -47,8 +47,8 @@ class IoLoop {
   void stop();
   // Runs fn on the loop's thread at its next pass.
   void post(Callback fn);
-  // Runs fn on the loop's thread and returns when it has; at once when called on that thread or while
-  // the loop does not run. Not concurrently with stop().
+  // Runs fn on the loop's thread and returns when it has (what it throws is thrown here); at once when
+  // called on that thread or while the loop does not run. Not concurrently with stop().
   void call(const Callback& fn);
   [[nodiscard]] bool in_loop_thread() const noexcept;
 
