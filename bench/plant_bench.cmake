@@ -3,7 +3,7 @@
 # bench/plant_load.py runs it with mosquitto and `guideway fleet serve`, then guidewayd with MQTT off
 # and on:   cmake --build BUILD --target plant_load_bench
 add_executable(plant_publishers ${CMAKE_CURRENT_LIST_DIR}/plant_publishers.cpp)
-target_link_libraries(plant_publishers PRIVATE guideway_plant nlohmann_json::nlohmann_json guideway_warnings)
+target_link_libraries(plant_publishers PRIVATE guideway_plant guideway_results nlohmann_json::nlohmann_json guideway_warnings)
 target_compile_definitions(plant_publishers PRIVATE GUIDEWAY_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 add_custom_target(plant_load_bench
   COMMAND python3 ${CMAKE_CURRENT_LIST_DIR}/plant_load.py ${PROJECT_BINARY_DIR}

@@ -30,6 +30,7 @@
 #include "core/utc_time.hpp"
 #include "plant/broker_address.hpp"
 #include "plant/publisher.hpp"
+#include "results/message_class.hpp"
 
 using namespace guideway;
 
@@ -226,11 +227,11 @@ int main(int argc, char** argv) {
           payload = s.explain.with_session(session);
           break;
         default:
-          payload = nlohmann::json{{"class", "EVENT"},
-                                   {"event", "report_ready"},
-                                   {"device", s.params.kind},
-                                   {"session", session},
-                                   {"file", "/var/lib/guideway/" + session + ".report.html"}}
+          payload = results::with_class(results::MessageClass::event,
+                                        {{"event", "report_ready"},
+                                         {"device", s.params.kind},
+                                         {"session", session},
+                                         {"file", "/var/lib/guideway/" + session + ".report.html"}})
                         .dump();
       }
       payload_bytes += payload.size();

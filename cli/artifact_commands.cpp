@@ -15,71 +15,84 @@ namespace guideway::cli {
 
 namespace {
 
-void add_artifact_commands(CLI::App& app, CliContext& /*ctx*/) {
-  CLI::App* id = identify_command(app);
-  auto* cmd = id->add_subcommand("artifact", "six error motions of a linear axis from a 1-D artifact (Wei 2019)");
-  auto cal = std::make_shared<std::string>();
-  auto hor = std::make_shared<std::string>();
-  auto ver = std::make_shared<std::string>();
-  auto json = std::make_shared<bool>(false);
-  auto no_coupling = std::make_shared<bool>(false);
-  auto k_scan = std::make_shared<std::string>();
-  auto m_scan = std::make_shared<std::string>();
-  cmd->add_option("--calibration", *cal, "the artifact on the reference (docs/formats.md, 1-D artifact)")->required();
-  cmd->add_option("--horizontal", *hor, "the artifact measured by the machine, lying horizontally")->required();
-  cmd->add_option("--vertical", *ver, "the artifact measured by the machine, standing vertically")->required();
-  cmd->add_option("--k-scan", *k_scan, "displacement scan across one paraboloid (X_M_mm,x_M_px): k from a line fit");
-  cmd->add_option("--m-scan", *m_scan, "angle scan of one mirror (theta_arcsec,x_F_px): m from a line fit");
-  cmd->add_flag("--no-angle-coupling", *no_coupling, "leave out Wei's k m epsilon correction (to see its size)");
-  cmd->add_flag("--json", *json, "print the result as one JSON object");
-  cmd->callback([=] {
-    try {
-      const auto c = models::artifact::read_artifact_readings(*cal, models::artifact::ArtifactPlacement::calibration);
-      const auto h = models::artifact::read_artifact_readings(*hor, models::artifact::ArtifactPlacement::horizontal);
-      const auto v = models::artifact::read_artifact_readings(*ver, models::artifact::ArtifactPlacement::vertical);
-      models::artifact::ArtifactOptions opt;
-      opt.angle_coupling = !*no_coupling;
-      if (!k_scan->empty()) opt.k_scan = models::artifact::read_k_scan(*k_scan);
-      if (!m_scan->empty()) opt.m_scan = models::artifact::read_m_scan(*m_scan);
-      const auto r = models::artifact::identify_artifact(c, h, v, opt);
-      if (*json) {
-        std::cout << models::artifact::to_json(r).dump() << "\n";
-        return;
-      }
-      constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
-      std::cout << std::fixed << std::setprecision(4) << "k = " << r.k_m_per_px * 1e6
-                << " um/px, m = " << r.m_px_per_rad * arcsec
-                << " px/arcsec, k m = " << r.coupling_m_per_rad * 1e6 * arcsec << " um/arcsec"
-                << (opt.angle_coupling ? "" : " (coupling correction OFF)") << "\n";
-      if (r.k_scan)
-        std::cout << "k from " << r.k_scan->source << ": " << r.k_m_per_px * 1e6 << " um/px (u " << std::setprecision(6)
-                  << r.u_k_m_per_px * 1e6 << std::setprecision(4) << "), " << r.k_scan->points
-                  << " points, residual rms " << r.k_scan->residual_rms_px << " px\n";
-      if (r.m_scan)
-        std::cout << "m from " << r.m_scan->source << ": " << r.m_px_per_rad * arcsec << " px/arcsec (u "
-                  << std::setprecision(6) << r.u_m_px_per_rad * arcsec << std::setprecision(4) << "), "
-                  << r.m_scan->points << " points, residual rms " << r.m_scan->residual_rms_px << " px\n";
-      std::cout << "error motions of the tool relative to target 0 (value +/- standard uncertainty):\n"
-                << "target     x_mm        dx_um         dy_um         dz_um        ex_arcsec     ey_arcsec     "
-                   "ez_arcsec\n";
-      std::cout << std::setprecision(3);
-      for (const auto& e : r.targets) {
-        auto pm = [](double value, double u) {
-          std::ostringstream s;
-          s << std::fixed << std::setprecision(3) << std::setw(6) << value << "+/-" << std::setprecision(3) << u;
-          return s.str();
-        };
-        std::cout << std::setw(6) << e.target << std::setw(9) << std::setprecision(2) << e.x_m * 1e3 << "  "
-                  << std::setw(13) << pm(e.dx_m * 1e6, e.u_dx_m * 1e6) << " " << std::setw(13)
-                  << pm(e.dy_m * 1e6, e.u_dy_m * 1e6) << " " << std::setw(13) << pm(e.dz_m * 1e6, e.u_dz_m * 1e6) << " "
-                  << std::setw(13) << pm(e.ex_rad / arcsec, e.u_ex_rad / arcsec) << " " << std::setw(13)
-                  << pm(e.ey_rad / arcsec, e.u_ey_rad / arcsec) << " " << std::setw(13)
-                  << pm(e.ez_rad / arcsec, e.u_ez_rad / arcsec) << "\n";
-      }
-    } catch (const CsvError& e) {
-      throw std::runtime_error(e.what());
+struct ArtifactArgs {
+  std::string cal, hor, ver, k_scan, m_scan;
+  bool json = false;
+  bool no_coupling = false;
+  void add(CLI::App& cmd) {
+    cmd.add_option("--calibration", cal, "the artifact on the reference (docs/formats.md, 1-D artifact)")->required();
+    cmd.add_option("--horizontal", hor, "the artifact measured by the machine, lying horizontally")->required();
+    cmd.add_option("--vertical", ver, "the artifact measured by the machine, standing vertically")->required();
+    cmd.add_option("--k-scan", k_scan, "displacement scan across one paraboloid (X_M_mm,x_M_px): k from a line fit");
+    cmd.add_option("--m-scan", m_scan, "angle scan of one mirror (theta_arcsec,x_F_px): m from a line fit");
+    cmd.add_flag("--no-angle-coupling", no_coupling, "leave out Wei's k m epsilon correction (to see its size)");
+    cmd.add_flag("--json", json, "print the result as one JSON object");
+  }
+};
+
+constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
+
+// The optics' constants k and m, and where they came from.
+void print_optics(const models::artifact::ArtifactResult& r, bool coupling) {
+  std::cout << std::fixed << std::setprecision(4) << "k = " << r.k_m_per_px * 1e6
+            << " um/px, m = " << r.m_px_per_rad * arcsec << " px/arcsec, k m = " << r.coupling_m_per_rad * 1e6 * arcsec
+            << " um/arcsec" << (coupling ? "" : " (coupling correction OFF)") << "\n";
+  if (r.k_scan)
+    std::cout << "k from " << r.k_scan->source << ": " << r.k_m_per_px * 1e6 << " um/px (u " << std::setprecision(6)
+              << r.u_k_m_per_px * 1e6 << std::setprecision(4) << "), " << r.k_scan->points << " points, residual rms "
+              << r.k_scan->residual_rms_px << " px\n";
+  if (r.m_scan)
+    std::cout << "m from " << r.m_scan->source << ": " << r.m_px_per_rad * arcsec << " px/arcsec (u "
+              << std::setprecision(6) << r.u_m_px_per_rad * arcsec << std::setprecision(4) << "), " << r.m_scan->points
+              << " points, residual rms " << r.m_scan->residual_rms_px << " px\n";
+}
+
+// The six error motions per target, value +/- u.
+void print_error_motions(const models::artifact::ArtifactResult& r) {
+  std::cout << "error motions of the tool relative to target 0 (value +/- standard uncertainty):\n"
+            << "target     x_mm        dx_um         dy_um         dz_um        ex_arcsec     ey_arcsec     "
+               "ez_arcsec\n";
+  std::cout << std::setprecision(3);
+  const auto pm = [](double value, double u) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(3) << std::setw(6) << value << "+/-" << std::setprecision(3) << u;
+    return s.str();
+  };
+  for (const auto& e : r.targets) {
+    std::cout << std::setw(6) << e.target << std::setw(9) << std::setprecision(2) << e.x_m * 1e3 << "  "
+              << std::setw(13) << pm(e.dx_m * 1e6, e.u_dx_m * 1e6) << " " << std::setw(13)
+              << pm(e.dy_m * 1e6, e.u_dy_m * 1e6) << " " << std::setw(13) << pm(e.dz_m * 1e6, e.u_dz_m * 1e6) << " "
+              << std::setw(13) << pm(e.ex_rad / arcsec, e.u_ex_rad / arcsec) << " " << std::setw(13)
+              << pm(e.ey_rad / arcsec, e.u_ey_rad / arcsec) << " " << std::setw(13)
+              << pm(e.ez_rad / arcsec, e.u_ez_rad / arcsec) << "\n";
+  }
+}
+
+void run_artifact(const ArtifactArgs& a, CliContext& /*ctx*/) {
+  try {
+    const auto c = models::artifact::read_artifact_readings(a.cal, models::artifact::ArtifactPlacement::calibration);
+    const auto h = models::artifact::read_artifact_readings(a.hor, models::artifact::ArtifactPlacement::horizontal);
+    const auto v = models::artifact::read_artifact_readings(a.ver, models::artifact::ArtifactPlacement::vertical);
+    models::artifact::ArtifactOptions opt;
+    opt.angle_coupling = !a.no_coupling;
+    if (!a.k_scan.empty()) opt.k_scan = models::artifact::read_k_scan(a.k_scan);
+    if (!a.m_scan.empty()) opt.m_scan = models::artifact::read_m_scan(a.m_scan);
+    const auto r = models::artifact::identify_artifact(c, h, v, opt);
+    if (a.json) {
+      std::cout << models::artifact::to_json(r).dump() << "\n";
+      return;
     }
-  });
+    print_optics(r, opt.angle_coupling);
+    print_error_motions(r);
+  } catch (const CsvError& e) {
+    throw std::runtime_error(e.what());
+  }
+}
+
+void add_artifact_commands(CLI::App& app, CliContext& ctx) {
+  add_commands(
+      *identify_command(app), ctx,
+      {command("artifact", "six error motions of a linear axis from a 1-D artifact (Wei 2019)", &run_artifact)});
 }
 
 const CommandGroup group(&add_artifact_commands);

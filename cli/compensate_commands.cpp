@@ -17,6 +17,8 @@
 #include "formats/compensation_files.hpp"
 #include "models/compensation/compensation.hpp"
 #include "models/dbb/identify.hpp"
+#include "results/parameters.hpp"
+#include "results/session_kinds.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 
 namespace guideway::cli {
@@ -40,14 +42,16 @@ const models::dbb::Estimate* find(const models::dbb::Identification& id, const s
 }
 
 double circular_deviation_um(const models::dbb::Identification& id) {
-  const auto* g = find(id, "circular_deviation_um");
+  const auto* g = find(id, results::name(results::circular_deviation));
   return g ? g->value : NAN;
 }
 
 // The run files of the daemon's latest DBB session (its PARAMS' derived files).
 std::vector<std::string> latest_session_runs(const std::string& socket, std::string& session) {
   DaemonClient c = connect_daemon(socket);
-  const nlohmann::json r = c.request({{"class", "params"}, {"kind", "dbb"}}, "PARAMS");
+  const nlohmann::json r =
+      c.request(results::request(results::RequestClass::params, {{"kind", results::dbb_kind.name}}),
+                results::MessageClass::params);
   throw_if_error(r);
   session = r.value("session", std::string("latest session"));
   std::vector<std::string> out;
@@ -160,7 +164,7 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
     if (t && t->use == models::compensation::Use::table && t->significant)
       status = !seen ? "compensated (no longer detected)"
                      : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
-    else if (t && e.name == "squareness_urad")
+    else if (t && e.name == results::squareness.name)
       status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
     else if (t && t->significant && t->use == models::compensation::Use::cross_table)
       status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
@@ -242,7 +246,7 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
   std::string left;
   for (const auto& e : v.before.lai3) {
     if (!e.fitted || !std::isfinite(e.u) || e.name.starts_with("e_x") || e.name.starts_with("e_y") ||
-        e.name == "mismatch_phase_angle_deg")
+        e.name == results::lai_mismatch_phase_angle.name)
       continue;
     const auto* after = find_lai3(v.after, e.name);
     const bool seen = after && after->fitted && std::isfinite(after->u);
@@ -260,7 +264,7 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
       status = "tables hold the difference only (see the note; S_x - S_y below)";
     else if (t->use == models::compensation::Use::table && t->significant)
       status = ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u";
-    else if (term == "squareness_urad")
+    else if (term == results::squareness.name)
       status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
     else if (t->use == models::compensation::Use::cross_table && t->significant)
       status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
@@ -286,8 +290,10 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
     terms.push_back(tj);
   }
   // The scale difference: what the tables correct when both scales share a radius change.
-  const auto *sx0 = find_lai3(v.before, "S_x"), *sy0 = find_lai3(v.before, "S_y");
-  const auto *sx1 = find_lai3(v.after, "S_x"), *sy1 = find_lai3(v.after, "S_y");
+  const auto *sx0 = find_lai3(v.before, std::string(results::lai_S_x.name)),
+             *sy0 = find_lai3(v.before, std::string(results::lai_S_y.name));
+  const auto *sx1 = find_lai3(v.after, std::string(results::lai_S_x.name)),
+             *sy1 = find_lai3(v.after, std::string(results::lai_S_y.name));
   if (sx0 && sy0 && sx1 && sy1) {
     // u of the difference without the two scales' correlation: an upper bound when they correlate positively.
     const double d0 = sx0->value - sy0->value, u0 = std::hypot(sx0->u, sy0->u);

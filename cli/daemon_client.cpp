@@ -81,10 +81,10 @@ DaemonClient::DaemonClient(const std::string& address) : address_(address) {
   auto line = read_line(std::chrono::seconds(5));
   if (!line) throw std::runtime_error(address + ": no VERSION banner from the daemon");
   banner_ = nlohmann::json::parse(*line, nullptr, false);
-  if (!banner_.is_discarded() && banner_.is_object() && banner_.value("class", "") == "ERROR") {  // "too many clients"
+  if (!banner_.is_discarded() && results::has_class(banner_, results::MessageClass::error)) {  // "too many clients"
     throw std::runtime_error(address + ": the daemon refused the connection: " + banner_.value("message", "?"));
   }
-  if (banner_.is_discarded() || !banner_.is_object() || banner_.value("class", "") != "VERSION") {
+  if (banner_.is_discarded() || !results::has_class(banner_, results::MessageClass::version)) {
     throw std::runtime_error(address + ": not a guidewayd socket (first line: " + *line + ")");
   }
 }
@@ -152,7 +152,7 @@ std::optional<std::string> DaemonClient::read_line(std::chrono::milliseconds tim
   }
 }
 
-nlohmann::json DaemonClient::request(const nlohmann::json& req, const std::string& reply_class,
+nlohmann::json DaemonClient::request(const nlohmann::json& req, results::MessageClass reply_class,
                                      std::chrono::milliseconds timeout) {
   send(req);
   const std::int64_t deadline = mono_now_ns() + timeout.count() * 1'000'000;
@@ -163,10 +163,10 @@ nlohmann::json DaemonClient::request(const nlohmann::json& req, const std::strin
     if (!line) break;
     nlohmann::json j = nlohmann::json::parse(*line, nullptr, false);
     if (j.is_discarded()) continue;
-    const std::string cls = j.value("class", "");
-    if (cls == reply_class || cls == "ERROR") return j;
+    if (results::has_class(j, reply_class) || results::has_class(j, results::MessageClass::error)) return j;
   }
-  throw std::runtime_error(address_ + ": no " + reply_class + " reply within " + std::to_string(timeout.count()) + " ms");
+  throw std::runtime_error(address_ + ": no " + std::string(results::to_string(reply_class)) + " reply within " +
+                           std::to_string(timeout.count()) + " ms");
 }
 
 DaemonClient connect_daemon(const std::string& address) {
@@ -175,7 +175,8 @@ DaemonClient connect_daemon(const std::string& address) {
 }
 
 void throw_if_error(const nlohmann::json& reply) {
-  if (reply.value("class", "") == "ERROR") throw std::runtime_error("daemon: " + reply.value("message", "error"));
+  if (results::has_class(reply, results::MessageClass::error))
+    throw std::runtime_error("daemon: " + reply.value("message", "error"));
 }
 
 }  // namespace guideway::cli

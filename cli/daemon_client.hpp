@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "results/message_class.hpp"
+
 namespace guideway::cli {
 
 class DaemonClient {
@@ -28,7 +30,7 @@ class DaemonClient {
   std::optional<std::string> read_line(std::chrono::milliseconds timeout);
   // Sends a request and returns the first reply whose class is `reply_class` or ERROR, skipping
   // published messages in between. Throws on timeout.
-  nlohmann::json request(const nlohmann::json& request, const std::string& reply_class,
+  nlohmann::json request(const nlohmann::json& request, results::MessageClass reply_class,
                          std::chrono::milliseconds timeout = std::chrono::seconds(5));
   [[nodiscard]] const nlohmann::json& banner() const noexcept { return banner_; }
   [[nodiscard]] const std::string& address() const noexcept { return address_; }

@@ -10,6 +10,7 @@
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
 #include "core/runtime_paths.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::cli {
 
@@ -80,6 +81,18 @@ void print_status(const nlohmann::json& s) {
   }
 }
 
+// The --set help of `guideway start`: every kind's options with their defaults (results/session_kinds.hpp).
+std::string session_options_help() {
+  std::string help = "session option KEY=VALUE (repeatable); every option has a default.";
+  for (const results::SessionKindInfo* kind : results::session_kinds()) {
+    help += " " + std::string(kind->name) + ":";
+    for (std::size_t i = 0; i < kind->options.size(); ++i)
+      help += (i ? ", " : " ") + results::option_with_default(*kind->options[i]);
+    help += ";";
+  }
+  return help + " (all: docs/protocol.md)";
+}
+
 volatile std::sig_atomic_t interrupted = 0;
 
 // A KEY=VALUE option: VALUE is read as JSON when it parses (numbers, true/false, arrays and objects
@@ -93,205 +106,233 @@ std::pair<std::string, nlohmann::json> parse_setting(const std::string& kv) {
   return {kv.substr(0, eq), v};
 }
 
-}  // namespace
+// Every command of the group prints the daemon's reply as it came with --json.
+struct JsonOption {
+  bool json = false;
+  void add(CLI::App& cmd) { cmd.add_flag("--json", json, "print the daemon's JSON unchanged"); }
+};
 
-namespace {
+// The reply of the daemon to `request` (a reply of class `reply`); an ERROR is thrown (printed first with
+// --json).
+nlohmann::json ask(DaemonClient& c, const nlohmann::json& request, results::MessageClass reply, bool json) {
+  const nlohmann::json r = c.request(request, reply);
+  throw_if_error_reply(r, json);
+  return r;
+}
 
-void add_daemon_commands(CLI::App& app, CliContext& ctx) {
-  auto* version = app.add_subcommand("version", "Show the daemon's release and protocol version");
-  auto json = std::make_shared<bool>(false);
-  version->add_flag("--json", *json, "print the daemon's JSON unchanged");
-  version->callback([&ctx, json] {
-    DaemonClient c = connect(ctx);
-    const nlohmann::json v = c.request({{"class", "version"}}, "VERSION");
-    throw_if_error_reply(v, *json);
-    if (*json) {
-      std::cout << v.dump() << "\n";
-    } else {
-      std::cout << "guidewayd " << v.value("release", "?") << " (protocol " << v.value("proto_major", 0) << "."
-                << v.value("proto_minor", 0) << ") at " << c.address() << "\n";
-    }
-  });
+void run_version(const JsonOption& o, CliContext& ctx) {
+  DaemonClient c = connect(ctx);
+  const nlohmann::json v =
+      ask(c, results::request(results::RequestClass::version), results::MessageClass::version, o.json);
+  if (o.json) {
+    std::cout << v.dump() << "\n";
+  } else {
+    std::cout << "guidewayd " << v.value("release", "?") << " (protocol " << v.value("proto_major", 0) << "."
+              << v.value("proto_minor", 0) << ") at " << c.address() << "\n";
+  }
+}
 
-  auto* status = app.add_subcommand("status", "Show the daemon's devices, counters, rings and clients");
-  status->add_flag("--json", *json, "print the daemon's JSON unchanged");
-  status->callback([&ctx, json] {
-    DaemonClient c = connect(ctx);
-    const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
-    throw_if_error_reply(s, *json);
-    if (*json) {
-      std::cout << s.dump() << "\n";
-    } else {
-      print_status(s);
-    }
-  });
+void run_status(const JsonOption& o, CliContext& ctx) {
+  DaemonClient c = connect(ctx);
+  const nlohmann::json s =
+      ask(c, results::request(results::RequestClass::status), results::MessageClass::status, o.json);
+  if (o.json) {
+    std::cout << s.dump() << "\n";
+  } else {
+    print_status(s);
+  }
+}
 
-  struct StartOptions {
-    std::string kind;
-    std::string device;
-    std::vector<std::string> settings;
-    bool wait = false;
-    double timeout_s = 600;
-  };
-  auto so = std::make_shared<StartOptions>();
-  auto* start = app.add_subcommand("start", "Start a test session (dbb, straightness, runout, profile) on the daemon");
-  start->add_option("kind", so->kind, "session kind: dbb, straightness, runout, profile")->required();
-  start->add_option("--device", so->device, "device name (default: the first device that can run this kind)");
-  start->add_option("--set", so->settings,
-                    "session option KEY=VALUE (repeatable); every option has a default. dbb: patterns, "
-                    "radius_tolerance_mm, min_speed_mm_per_min, plane; straightness: step_mm=50, stations=0 (until the "
-                    "return), start=return|now, ...; runout: plate_diameter_mm=1000, parallelism_um=2.5, travel_mm=600, "
-                    "rpm=10, revolutions=1; profile: wavelet=db1, level=5, mode=symmetric (all: docs/protocol.md)");
-  start->add_flag("--wait", so->wait, "wait for the identified parameters and print them");
-  start->add_option("--timeout", so->timeout_s, "with --wait: give up after this many seconds (default 600)");
-  start->add_flag("--json", *json, "print the daemon's JSON unchanged");
-  start->callback([&ctx, so, json] {
-    // Checked before the session starts: a session must not be left running by a bad option.
-    if (!(so->timeout_s > 0)) throw std::runtime_error("--timeout must be a positive number of seconds");
-    for (const auto& kv : so->settings) parse_setting(kv);
-    DaemonClient c = connect(ctx);
-    nlohmann::json req = {{"class", "start"}, {"kind", so->kind}, {"options", nlohmann::json::object()}};
-    if (!so->device.empty()) req["device"] = so->device;
-    for (const auto& kv : so->settings) {
-      auto [k, v] = parse_setting(kv);
-      req["options"][k] = v;
+struct StartOptions {
+  std::string kind;
+  std::string device;
+  std::vector<std::string> settings;
+  bool wait = false;
+  double timeout_s = 600;
+  bool json = false;
+  void add(CLI::App& cmd) {
+    cmd.add_option("kind", kind, "session kind: " + results::session_kind_names())->required();
+    cmd.add_option("--device", device, "device name (default: the first device that can run this kind)");
+    cmd.add_option("--set", settings, session_options_help());
+    cmd.add_flag("--wait", wait, "wait for the identified parameters and print them");
+    cmd.add_option("--timeout", timeout_s, "with --wait: give up after this many seconds (default 600)");
+    cmd.add_flag("--json", json, "print the daemon's JSON unchanged");
+  }
+};
+
+// After `start --wait`: the session's PARAMS (printed), or its failure, within the timeout.
+void wait_for_params(DaemonClient& c, const std::string& session, const StartOptions& o) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.timeout_s);
+  while (std::chrono::steady_clock::now() < deadline) {
+    auto line = c.read_line(std::chrono::milliseconds(500));
+    if (!line) continue;
+    const auto m = nlohmann::json::parse(*line, nullptr, false);
+    if (m.is_discarded() || m.value("session", "") != session) continue;
+    if (results::has_class(m, results::MessageClass::event) && m.value("event", "") == "session_failed") {
+      if (o.json) std::cout << m.dump() << "\n";
+      throw std::runtime_error("session " + session + " failed: " + m.value("reason", "?"));
     }
-    if (so->wait) c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
-    const nlohmann::json r = c.request(req, "SESSION");
-    throw_if_error_reply(r, *json);
-    const std::string session = r.value("session", "");
-    if (*json) {
-      std::cout << r.dump() << "\n";
-    } else {
-      std::cout << "session " << session << " started\n";
-    }
-    if (!so->wait) return;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(so->timeout_s);
-    while (std::chrono::steady_clock::now() < deadline) {
-      auto line = c.read_line(std::chrono::milliseconds(500));
-      if (!line) continue;
-      const auto m = nlohmann::json::parse(*line, nullptr, false);
-      if (m.is_discarded() || m.value("session", "") != session) continue;
-      if (m.value("class", "") == "EVENT" && m.value("event", "") == "session_failed") {
-        if (*json) std::cout << m.dump() << "\n";
-        throw std::runtime_error("session " + session + " failed: " + m.value("reason", "?"));
+    if (results::has_class(m, results::MessageClass::params)) {
+      if (o.json) {
+        std::cout << m.dump() << "\n";
+      } else {
+        print_params(m);
       }
-      if (m.value("class", "") == "PARAMS") {
-        if (*json) {
-          std::cout << m.dump() << "\n";
-        } else {
-          print_params(m);
-        }
-        return;
-      }
-    }
-    std::ostringstream why;
-    why << "no parameters for session " << session << " within " << so->timeout_s << " s (it goes on: guideway stop "
-        << session << " ends it)";
-    throw std::runtime_error(why.str());
-  });
-
-  auto stop_session = std::make_shared<std::string>();
-  auto* stop = app.add_subcommand("stop", "End a running session (all running sessions when none is named)");
-  stop->add_option("session", *stop_session, "session name (see guideway status)");
-  stop->add_flag("--json", *json, "print the daemon's JSON unchanged");
-  stop->callback([&ctx, stop_session, json] {
-    DaemonClient c = connect(ctx);
-    nlohmann::json req = {{"class", "stop"}};
-    if (!stop_session->empty()) req["session"] = *stop_session;
-    const nlohmann::json r = c.request(req, "SESSION");
-    throw_if_error_reply(r, *json);
-    if (*json) {
-      std::cout << r.dump() << "\n";
-    } else {
-      for (const auto& n : r["sessions"]) std::cout << "session " << n.get<std::string>() << " finishing\n";
-    }
-  });
-
-  auto params_kind = std::make_shared<std::string>();
-  auto* params = app.add_subcommand("params", "Show the latest identified parameters (with standard uncertainties)");
-  params->add_option("kind", *params_kind, "session kind (default: the most recent of any kind)");
-  params->add_flag("--json", *json, "print the daemon's JSON unchanged");
-  params->callback([&ctx, params_kind, json] {
-    DaemonClient c = connect(ctx);
-    nlohmann::json req = {{"class", "params"}};
-    if (!params_kind->empty()) req["kind"] = *params_kind;
-    const nlohmann::json r = c.request(req, "PARAMS");
-    throw_if_error_reply(r, *json);
-    if (*json) {
-      std::cout << r.dump() << "\n";
-    } else {
-      print_params(r);
-    }
-  });
-
-  auto* recordings = app.add_subcommand("recordings", "List the daemon's recordings");
-  recordings->add_flag("--json", *json, "print the daemon's JSON unchanged");
-  recordings->callback([&ctx, json] {
-    DaemonClient c = connect(ctx);
-    const nlohmann::json r = c.request({{"class", "recordings"}}, "RECORDINGS");
-    throw_if_error_reply(r, *json);
-    if (*json) {
-      std::cout << r.dump() << "\n";
       return;
     }
-    const bool none = r.value("recordings", nlohmann::json::array()).empty();
-    std::cout << "recordings in " << r.value("dir", "?") << ":" << (none ? " none yet (every session records one)" : "")
-              << "\n";
-    for (const auto& rec : r["recordings"]) {
-      std::cout << "  " << std::left << std::setw(70) << rec.value("file", "?") << std::right << std::setw(12)
-                << rec.value("bytes", 0) << (rec.value("complete", false) ? "" : "  (incomplete)") << "\n";
-    }
-  });
+  }
+  std::ostringstream why;
+  why << "no parameters for session " << session << " within " << o.timeout_s << " s (it goes on: guideway stop "
+      << session << " ends it)";
+  throw std::runtime_error(why.str());
+}
 
-  auto* watch = app.add_subcommand("watch", "Print the daemon's published messages as they arrive (Ctrl-C ends)");
-  struct WatchOptions {
-    std::vector<std::string> classes;
-    std::vector<std::string> channels;
-    double seconds = 0;
-    std::size_t count = 0;
-  };
-  auto w = std::make_shared<WatchOptions>();
-  watch->add_option("--class", w->classes, "classes to receive: STATUS SAMPLE PARAMS EXPLAIN EVENT (default: all but SAMPLE)");
-  watch->add_option("--channel", w->channels, "devices or sessions to receive (default: all)");
-  watch->add_option("--seconds", w->seconds, "stop after this many seconds (default: run until interrupted)");
-  watch->add_option("--count", w->count, "stop after this many messages");
-  watch->add_flag("--json", *json, "print the daemon's JSON messages unchanged, one per line");
-  watch->callback([&ctx, w, json] {
-    const auto& [classes, channels, seconds, count] = *w;
-    DaemonClient c = connect(ctx);
-    ChannelUnits units;  // for the readable lines: SAMPLE values carry no unit, STATUS names them
-    if (!*json) {
-      const nlohmann::json s = c.request({{"class", "status"}}, "STATUS");
-      const nlohmann::json devices = s.value("devices", nlohmann::json::array());
-      for (const auto& d : devices) {
-        const nlohmann::json device_channels = d.value("channels", nlohmann::json::array());
-        for (const auto& ch : device_channels) {
-          units[d.value("name", "") + "/" + ch.value("name", "")] = ch.value("unit", "");
-        }
-      }
+void run_start(const StartOptions& o, CliContext& ctx) {
+  // Checked before the session starts: a session must not be left running by a bad option.
+  if (!(o.timeout_s > 0)) throw std::runtime_error("--timeout must be a positive number of seconds");
+  nlohmann::json req =
+      results::request(results::RequestClass::start, {{"kind", o.kind}, {"options", nlohmann::json::object()}});
+  if (!o.device.empty()) req["device"] = o.device;
+  for (const auto& kv : o.settings) {
+    auto [k, v] = parse_setting(kv);
+    req["options"][k] = v;
+  }
+  DaemonClient c = connect(ctx);
+  if (o.wait) {
+    const nlohmann::json classes = {results::to_string(results::MessageClass::params),
+                                    results::to_string(results::MessageClass::event)};
+    c.request(results::request(results::RequestClass::watch, {{"classes", classes}}), results::MessageClass::watch);
+  }
+  const nlohmann::json r = ask(c, req, results::MessageClass::session, o.json);
+  const std::string session = r.value("session", "");
+  if (o.json) {
+    std::cout << r.dump() << "\n";
+  } else {
+    std::cout << "session " << session << " started\n";
+  }
+  if (o.wait) wait_for_params(c, session, o);
+}
+
+struct StopOptions : JsonOption {
+  std::string session;
+  void add(CLI::App& cmd) {
+    cmd.add_option("session", session, "session name (see guideway status)");
+    JsonOption::add(cmd);
+  }
+};
+
+void run_stop(const StopOptions& o, CliContext& ctx) {
+  DaemonClient c = connect(ctx);
+  nlohmann::json req = results::request(results::RequestClass::stop);
+  if (!o.session.empty()) req["session"] = o.session;
+  const nlohmann::json r = ask(c, req, results::MessageClass::session, o.json);
+  if (o.json) {
+    std::cout << r.dump() << "\n";
+  } else {
+    for (const auto& n : r["sessions"]) std::cout << "session " << n.get<std::string>() << " finishing\n";
+  }
+}
+
+struct ParamsOptions : JsonOption {
+  std::string kind;
+  void add(CLI::App& cmd) {
+    cmd.add_option("kind", kind, "session kind (default: the most recent of any kind)");
+    JsonOption::add(cmd);
+  }
+};
+
+void run_params(const ParamsOptions& o, CliContext& ctx) {
+  DaemonClient c = connect(ctx);
+  nlohmann::json req = results::request(results::RequestClass::params);
+  if (!o.kind.empty()) req["kind"] = o.kind;
+  const nlohmann::json r = ask(c, req, results::MessageClass::params, o.json);
+  if (o.json) {
+    std::cout << r.dump() << "\n";
+  } else {
+    print_params(r);
+  }
+}
+
+void run_recordings(const JsonOption& o, CliContext& ctx) {
+  DaemonClient c = connect(ctx);
+  const nlohmann::json r =
+      ask(c, results::request(results::RequestClass::recordings), results::MessageClass::recordings, o.json);
+  if (o.json) {
+    std::cout << r.dump() << "\n";
+    return;
+  }
+  const bool none = r.value("recordings", nlohmann::json::array()).empty();
+  std::cout << "recordings in " << r.value("dir", "?") << ":" << (none ? " none yet (every session records one)" : "")
+            << "\n";
+  for (const auto& rec : r["recordings"]) {
+    std::cout << "  " << std::left << std::setw(70) << rec.value("file", "?") << std::right << std::setw(12)
+              << rec.value("bytes", 0) << (rec.value("complete", false) ? "" : "  (incomplete)") << "\n";
+  }
+}
+
+struct WatchOptions : JsonOption {
+  std::vector<std::string> classes;
+  std::vector<std::string> channels;
+  double seconds = 0;
+  std::size_t count = 0;
+  void add(CLI::App& cmd) {
+    cmd.add_option("--class", classes,
+                   "classes to receive: " + results::published_class_names() + " (default: all but " +
+                       std::string(results::to_string(results::MessageClass::sample)) + ")");
+    cmd.add_option("--channel", channels, "devices or sessions to receive (default: all)");
+    cmd.add_option("--seconds", seconds, "stop after this many seconds (default: run until interrupted)");
+    cmd.add_option("--count", count, "stop after this many messages");
+    cmd.add_flag("--json", json, "print the daemon's JSON messages unchanged, one per line");
+  }
+};
+
+// The unit of each device's channels, for the readable lines: SAMPLE values carry no unit, STATUS names them.
+ChannelUnits channel_units(DaemonClient& c) {
+  ChannelUnits units;
+  const nlohmann::json s = c.request(results::request(results::RequestClass::status), results::MessageClass::status);
+  const nlohmann::json devices = s.value("devices", nlohmann::json::array());
+  for (const auto& d : devices) {
+    const nlohmann::json device_channels = d.value("channels", nlohmann::json::array());
+    for (const auto& ch : device_channels)
+      units[d.value("name", "") + "/" + ch.value("name", "")] = ch.value("unit", "");
+  }
+  return units;
+}
+
+void run_watch(const WatchOptions& o, CliContext& ctx) {
+  DaemonClient c = connect(ctx);
+  const ChannelUnits units = o.json ? ChannelUnits{} : channel_units(c);
+  nlohmann::json req = results::request(results::RequestClass::watch, {{"enable", true}});
+  if (!o.classes.empty()) req["classes"] = o.classes;
+  if (!o.channels.empty()) req["channels"] = o.channels;
+  ask(c, req, results::MessageClass::watch, o.json);
+  std::signal(SIGINT, [](int) { interrupted = 1; });
+  const auto began = std::chrono::steady_clock::now();
+  std::size_t seen = 0;
+  while (!interrupted) {
+    if (o.seconds > 0 && std::chrono::steady_clock::now() - began > std::chrono::duration<double>(o.seconds)) break;
+    auto line = c.read_line(std::chrono::milliseconds(200));
+    if (!line) continue;
+    if (o.json) {
+      std::cout << *line << "\n" << std::flush;
+    } else {
+      const auto m = nlohmann::json::parse(*line, nullptr, false);
+      std::cout << (m.is_object() ? watch_line(m, units) : *line) << "\n" << std::flush;
     }
-    nlohmann::json req = {{"class", "watch"}, {"enable", true}};
-    if (!classes.empty()) req["classes"] = classes;
-    if (!channels.empty()) req["channels"] = channels;
-    const nlohmann::json ack = c.request(req, "WATCH");
-    throw_if_error_reply(ack, *json);
-    std::signal(SIGINT, [](int) { interrupted = 1; });
-    const auto began = std::chrono::steady_clock::now();
-    std::size_t seen = 0;
-    while (!interrupted) {
-      if (seconds > 0 && std::chrono::steady_clock::now() - began > std::chrono::duration<double>(seconds)) break;
-      auto line = c.read_line(std::chrono::milliseconds(200));
-      if (!line) continue;
-      if (*json) {
-        std::cout << *line << "\n" << std::flush;
-      } else {
-        const auto m = nlohmann::json::parse(*line, nullptr, false);
-        std::cout << (m.is_object() ? watch_line(m, units) : *line) << "\n" << std::flush;
-      }
-      if (count != 0 && ++seen >= count) break;
-    }
-  });
+    if (o.count != 0 && ++seen >= o.count) break;
+  }
+}
+
+void add_daemon_commands(CLI::App& app, CliContext& ctx) {
+  add_commands(
+      app, ctx,
+      {command("version", "Show the daemon's release and protocol version", &run_version),
+       command("status", "Show the daemon's devices, counters, rings and clients", &run_status),
+       command("start", "Start a test session (" + results::session_kind_names() + ") on the daemon", &run_start),
+       command("stop", "End a running session (all running sessions when none is named)", &run_stop),
+       command("params", "Show the latest identified parameters (with standard uncertainties)", &run_params),
+       command("recordings", "List the daemon's recordings", &run_recordings),
+       command("watch", "Print the daemon's published messages as they arrive (Ctrl-C ends)", &run_watch)});
 }
 
 const CommandGroup daemon_commands(&add_daemon_commands);

@@ -12,16 +12,17 @@
 #include <stdexcept>
 
 #include "cli/commands.hpp"
-#include "core/atomic_file.hpp"
-#include "formats/dbb_run.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
+#include "core/atomic_file.hpp"
+#include "formats/dbb_run.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "results/session_kinds.hpp"
+#include "simulators/machine/machine.hpp"
 #include "simulators/scenarios/machine_truth.hpp"
 #include "simulators/scenarios/scenarios.hpp"
-#include "simulators/machine/machine.hpp"
 
 namespace guideway::cli {
 
@@ -82,7 +83,26 @@ struct Opts {
               folds = models::explain::ExplainOptions{}.folds;
   std::uint64_t seeds = 0;
   std::string machine;
+  void add(CLI::App& cmd);
 };
+
+// One scenario run as --scenarios --json prints it.
+nlohmann::json scenario_json(const simulators::scenarios::ScenarioResult& r) {
+  nlohmann::json checks = nlohmann::json::array();
+  const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+  for (const auto& c : r.checks)
+    checks.push_back({{"effect", c.expected.effect},
+                      {"parameter", c.expected.parameter},
+                      {"truth", c.expected.truth},
+                      {"tolerance", c.expected.tolerance},
+                      {"found", c.found},
+                      {"value", num(c.value)},
+                      {"u", num(c.u)},
+                      {"within", c.within}});
+  return {{"name", r.name},   {"model", r.model},     {"concealment", r.concealment},
+          {"checks", checks}, {"extra", r.extra},     {"expect_unexplained", r.expect_unexplained},
+          {"pass", r.pass},   {"failure", r.failure}, {"report", models::explain::to_json(r.report)}};
+}
 
 int run_scenarios(const Opts& o) {
   simulators::scenarios::ScenarioOptions so;
@@ -116,28 +136,7 @@ int run_scenarios(const Opts& o) {
   if (o.json) {
     nlohmann::json a = nlohmann::json::array();
     for (const auto& s : results)
-      for (const auto& r : s.runs) {
-        nlohmann::json checks = nlohmann::json::array();
-        const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-        for (const auto& c : r.checks)
-          checks.push_back({{"effect", c.expected.effect},
-                            {"parameter", c.expected.parameter},
-                            {"truth", c.expected.truth},
-                            {"tolerance", c.expected.tolerance},
-                            {"found", c.found},
-                            {"value", num(c.value)},
-                            {"u", num(c.u)},
-                            {"within", c.within}});
-        a.push_back({{"name", r.name},
-                     {"model", r.model},
-                     {"concealment", r.concealment},
-                     {"checks", checks},
-                     {"extra", r.extra},
-                     {"expect_unexplained", r.expect_unexplained},
-                     {"pass", r.pass},
-                     {"failure", r.failure},
-                     {"report", models::explain::to_json(r.report)}});
-      }
+      for (const auto& r : s.runs) a.push_back(scenario_json(r));
     std::cout << a.dump() << "\n";
   } else {
     const std::string table = simulators::scenarios::scenario_table_markdown(results);
@@ -236,159 +235,179 @@ void print_effects(bool json) {
   }
 }
 
-void add_explain_commands(CLI::App& app, CliContext& ctx) {
-  auto* cmd = app.add_subcommand("explain", "Locate where a model and a recording differ and name the physics left out");
-  auto o = std::make_shared<Opts>();
-  cmd->add_option("files", o->files, "run or profile files for --model")->check(CLI::ExistingFile);
-  cmd->add_option("--model", o->model,
-                  "base model refitted to FILES: dbb (DBB runs), flatness or straightness (faced profiles)")
+void Opts::add(CLI::App& cmd) {
+  cmd.add_option("files", files, "run or profile files for --model")->check(CLI::ExistingFile);
+  cmd.add_option("--model", model,
+                 "base model refitted to FILES: dbb (DBB runs), flatness or straightness (faced profiles)")
       ->check(CLI::IsMember({"dbb", "flatness", "straightness"}));
-  cmd->add_option("--straightness", o->straightness,
-                  "with --model flatness: autocollimator traverse of the X carriage (docs/formats.md, Straightness "
-                  "traverse), Mu Eq. 16's measured straightness in the base")
+  cmd.add_option("--straightness", straightness,
+                 "with --model flatness: autocollimator traverse of the X carriage (docs/formats.md, Straightness "
+                 "traverse), Mu Eq. 16's measured straightness in the base")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--simulated", o->simulated, "a prediction (same format and sample grid as --measured)")
+  cmd.add_option("--simulated", simulated, "a prediction (same format and sample grid as --measured)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--measured", o->measured, "the recording compared with --simulated")->check(CLI::ExistingFile);
-  cmd->add_flag("--json", o->json, "print the report as one JSON object");
-  cmd->add_option("--alpha", o->alpha, "family-wise significance of each selection step (default 1e-3)")
+  cmd.add_option("--measured", measured, "the recording compared with --simulated")->check(CLI::ExistingFile);
+  cmd.add_flag("--json", json, "print the report as one JSON object");
+  cmd.add_option("--alpha", alpha, "family-wise significance of each selection step (default 1e-3)")
       ->check(CLI::Range(1e-12, 0.5));
-  cmd->add_option("--max-effects", o->max_effects, "at most this many findings (default 6)")->check(CLI::Range(1, 20));
-  cmd->add_option("--folds", o->folds, "blocked cross-validation folds (default 8)")->check(CLI::Range(2, 50));
-  cmd->add_flag("--scenarios", o->scenarios, "run the scenario suite (virtual machine tool) and print its table");
-  cmd->add_option("--scenario", o->only, "with --scenarios: only these (repeatable)");
-  cmd->add_flag("--full", o->full, "with --scenarios: full sample density (slower)");
-  cmd->add_option("--seed", o->seed, "with --scenarios: noise seed (default 1)");
-  cmd->add_option("--seeds", o->seeds, "with --scenarios: every scenario with the seeds 1..N (the table's scatter)")
+  cmd.add_option("--max-effects", max_effects, "at most this many findings (default 6)")->check(CLI::Range(1, 20));
+  cmd.add_option("--folds", folds, "blocked cross-validation folds (default 8)")->check(CLI::Range(2, 50));
+  cmd.add_flag("--scenarios", scenarios, "run the scenario suite (virtual machine tool) and print its table");
+  cmd.add_option("--scenario", only, "with --scenarios: only these (repeatable)");
+  cmd.add_flag("--full", full, "with --scenarios: full sample density (slower)");
+  cmd.add_option("--seed", seed, "with --scenarios: noise seed (default 1)");
+  cmd.add_option("--seeds", seeds, "with --scenarios: every scenario with the seeds 1..N (the table's scatter)")
       ->check(CLI::Range(1, 100));
-  cmd->add_option("--table-out", o->table_out,
-                  "with --scenarios: replace the generated table in this Markdown file (docs/explain.md)");
-  cmd->add_flag("--effects", o->effects, "list the effect library");
-  cmd->add_flag("--latest", o->latest, "the daemon's latest explanation (EXPLAIN) instead of files");
-  cmd->add_option("--kind", o->kind, "with --latest: of this session kind (default: any)");
-  cmd->add_option("--machine", o->machine,
-                  "DBB: the virtual machine tool file the runs come from (the emulators' or guideway simulate's): "
-                  "print what it holds beside each finding, and what the test cannot observe and why")
+  cmd.add_option("--table-out", table_out,
+                 "with --scenarios: replace the generated table in this Markdown file (docs/explain.md)");
+  cmd.add_flag("--effects", effects, "list the effect library");
+  cmd.add_flag("--latest", latest, "the daemon's latest explanation (EXPLAIN) instead of files");
+  cmd.add_option("--kind", kind, "with --latest: of this session kind (default: any)");
+  cmd.add_option("--machine", machine,
+                 "DBB: the virtual machine tool file the runs come from (the emulators' or guideway simulate's): "
+                 "print what it holds beside each finding, and what the test cannot observe and why")
       ->check(CLI::ExistingFile);
-  cmd->callback([o, &ctx] {
-    if (o->effects) return print_effects(o->json);
-    if (o->latest) {
-      DaemonClient c = connect_daemon(ctx.socket);
-      nlohmann::json req = {{"class", "explain"}};
-      if (!o->kind.empty()) req["kind"] = o->kind;
-      nlohmann::json r = c.request(req, "EXPLAIN");
-      throw_if_error_reply(r, o->json);
-      nlohmann::json comparison;
-      if (!o->machine.empty()) {
-        if (r.value("kind", "") != "dbb") throw std::runtime_error("explain: --machine compares DBB sessions only");
-        // The runs' geometry from the session's PARAMS; a live session's angles are its encoders'.
-        nlohmann::json params = c.request({{"class", "params"}, {"kind", "dbb"}}, "PARAMS");
-        throw_if_error_reply(params, o->json);
-        std::vector<simulators::scenarios::TruthRun> runs;
-        for (const auto& run : params.at("runs")) {
-          simulators::scenarios::TruthRun t;
-          t.radius_m = run.at("radius_mm").get<double>() * 1e-3;
-          t.height_m = run.at("height_mm").get<double>() * 1e-3;
-          t.direction = run.at("direction") == "cw" ? -1 : 1;
-          t.feed_m_per_s = run.at("feed_mm_per_min").get<double>() / 60000.0;
-          const double seconds = t.feed_m_per_s > 0 ? 2 * std::numbers::pi * t.radius_m / t.feed_m_per_s : 0.0;
-          t.sample_rate_hz = seconds > 0 ? run.at("n").get<double>() / seconds : 0.0;
-          runs.push_back(t);
-        }
-        comparison =
-            against_machine(r,
-                            simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o->machine),
-                                                             params.value("plane", "xy"), runs, true),
-                            o->machine);
-      }
-      if (o->json) {
-        if (!comparison.is_null()) r["against_machine"] = comparison;
-        std::cout << r.dump() << "\n";
-      } else {
-        std::cout << "session " << r.value("session", "?") << " (" << r.value("kind", "?") << " on " << r.value("device", "?")
-                  << ")\n";
-        print_explanation(r);
-        if (!comparison.is_null()) print_against_machine(comparison);
-      }
-      return;
-    }
-    if (o->scenarios) {
-      ctx.exit_code = run_scenarios(*o);
-      return;
-    }
-    models::explain::ExplainOptions eo;
-    eo.alpha = o->alpha;
-    eo.max_effects = o->max_effects;
-    eo.folds = o->folds;
-    models::explain::Report report;
-    nlohmann::json machine_comparison;
-    if (!o->straightness.empty() && o->model != "flatness")
-      throw std::runtime_error("explain: --straightness belongs to --model flatness (Mu Eq. 16)");
-    if (!o->simulated.empty() || !o->measured.empty()) {
-      if (o->simulated.empty() || o->measured.empty())
-        throw std::runtime_error("explain: --simulated and --measured go together");
-      if (!o->model.empty() || !o->files.empty())
-        throw std::runtime_error("explain: --simulated/--measured take no --model and no files");
-      const std::string fs = format_of(o->simulated), fm = format_of(o->measured);
-      if (fs != fm)
-        throw std::runtime_error("explain: " + o->simulated + " (" + fs + ") and " + o->measured + " (" + fm +
-                                 ") are not of one format");
-      if (fs == formats::dbb_run_format_id) {
-        report = models::explain::explain(models::explain::dbb_compare_problem(formats::read_dbb_run(o->simulated),
-                                                                               formats::read_dbb_run(o->measured)),
-                                          eo);
-      } else if (fs == "guideway/profile/1") {
-        report = models::explain::explain(
-            models::explain::profile_compare_problem(models::explain::read_profile_run(o->simulated),
-                                                     models::explain::read_profile_run(o->measured)),
-            eo);
-      } else {
-        throw std::runtime_error("explain: " + o->simulated + ": format '" + fs +
-                                 "' is neither guideway/dbb-run/1 nor guideway/profile/1");
-      }
-    } else {
-      if (o->model.empty()) throw std::runtime_error("explain: give --model MODEL FILES..., or --simulated and --measured");
-      if (o->files.empty()) throw std::runtime_error("explain: --model " + o->model + " needs at least one file");
-      if (o->model == "dbb") {
-        std::vector<formats::DbbRun> runs;
-        for (const auto& f : o->files) runs.push_back(formats::read_dbb_run(f));
-        report = models::explain::explain_dbb_report(runs, eo);
-        if (!o->machine.empty()) {
-          std::vector<simulators::scenarios::TruthRun> truth_runs;
-          bool encoders = true;
-          for (const auto& run : runs) {
-            const double seconds = run.t_s.size() > 1 ? run.t_s.back() - run.t_s.front() : 0.0;
-            truth_runs.push_back({run.radius_m, run.height_m, run.dir(), run.feed_m_per_s,
-                                  seconds > 0 ? static_cast<double>(run.t_s.size() - 1) / seconds : 0.0});
-            const auto it = run.metadata.find("angle_source");
-            encoders = encoders && it != run.metadata.end() && it->second == "encoders";
-          }
-          machine_comparison =
-              against_machine(models::explain::to_json(report),
-                              simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o->machine),
-                                                               runs.front().plane, truth_runs, encoders),
-                              o->machine);
-        }
-      } else {
-        std::vector<models::explain::ProfileRun> runs;
-        for (const auto& f : o->files) runs.push_back(models::explain::read_profile_run(f));
-        std::optional<models::flatness::AngleTraverse> traverse;
-        if (!o->straightness.empty()) traverse = models::flatness::read_angle_traverse(o->straightness);
-        report = models::explain::explain(
-            models::explain::profile_problem(runs, o->model, traverse ? &*traverse : nullptr), eo);
-      }
-    }
-    if (!o->machine.empty() && machine_comparison.is_null())
-      throw std::runtime_error("explain: --machine compares DBB runs only (--model dbb or --latest)");
-    if (o->json) {
-      nlohmann::json j = models::explain::to_json(report);
-      if (!machine_comparison.is_null()) j["against_machine"] = machine_comparison;
-      std::cout << j.dump() << "\n";
-    } else {
-      std::cout << models::explain::to_text(report);
-      if (!machine_comparison.is_null()) print_against_machine(machine_comparison);
-    }
-  });
+}
+
+// The runs of the daemon's latest DBB session, as the truth of a machine file needs them (from its PARAMS;
+// a live session's angles are its encoders').
+std::vector<simulators::scenarios::TruthRun> session_truth_runs(const nlohmann::json& params) {
+  std::vector<simulators::scenarios::TruthRun> runs;
+  for (const auto& run : params.at("runs")) {
+    simulators::scenarios::TruthRun t;
+    t.radius_m = run.at("radius_mm").get<double>() * 1e-3;
+    t.height_m = run.at("height_mm").get<double>() * 1e-3;
+    t.direction = run.at("direction") == "cw" ? -1 : 1;
+    t.feed_m_per_s = run.at("feed_mm_per_min").get<double>() / 60000.0;
+    const double seconds = t.feed_m_per_s > 0 ? 2 * std::numbers::pi * t.radius_m / t.feed_m_per_s : 0.0;
+    t.sample_rate_hz = seconds > 0 ? run.at("n").get<double>() / seconds : 0.0;
+    runs.push_back(t);
+  }
+  return runs;
+}
+
+// --latest: the daemon's EXPLAIN, with --machine beside what the machine file holds.
+void explain_latest(const Opts& o, CliContext& ctx) {
+  DaemonClient c = connect_daemon(ctx.socket);
+  nlohmann::json req = results::request(results::RequestClass::explain);
+  if (!o.kind.empty()) req["kind"] = o.kind;
+  nlohmann::json r = c.request(req, results::MessageClass::explain);
+  throw_if_error_reply(r, o.json);
+  nlohmann::json comparison;
+  if (!o.machine.empty()) {
+    if (r.value("kind", "") != results::dbb_kind.name)
+      throw std::runtime_error("explain: --machine compares DBB sessions only");
+    const nlohmann::json params =
+        c.request(results::request(results::RequestClass::params, {{"kind", results::dbb_kind.name}}),
+                  results::MessageClass::params);
+    throw_if_error_reply(params, o.json);
+    comparison =
+        against_machine(r,
+                        simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o.machine),
+                                                         params.value("plane", "xy"), session_truth_runs(params), true),
+                        o.machine);
+  }
+  if (o.json) {
+    if (!comparison.is_null()) r["against_machine"] = comparison;
+    std::cout << r.dump() << "\n";
+  } else {
+    std::cout << "session " << r.value("session", "?") << " (" << r.value("kind", "?") << " on "
+              << r.value("device", "?") << ")\n";
+    print_explanation(r);
+    if (!comparison.is_null()) print_against_machine(comparison);
+  }
+}
+
+// --simulated and --measured: the difference explained with the model's candidates, no base refit.
+models::explain::Report explain_difference(const Opts& o, const models::explain::ExplainOptions& eo) {
+  if (o.simulated.empty() || o.measured.empty())
+    throw std::runtime_error("explain: --simulated and --measured go together");
+  if (!o.model.empty() || !o.files.empty())
+    throw std::runtime_error("explain: --simulated/--measured take no --model and no files");
+  const std::string fs = format_of(o.simulated), fm = format_of(o.measured);
+  if (fs != fm)
+    throw std::runtime_error("explain: " + o.simulated + " (" + fs + ") and " + o.measured + " (" + fm +
+                             ") are not of one format");
+  if (fs == formats::dbb_run_format_id)
+    return models::explain::explain_dbb_difference(formats::read_dbb_run(o.simulated),
+                                                   formats::read_dbb_run(o.measured), eo);
+  if (fs == "guideway/profile/1")
+    return models::explain::explain_profile_difference(models::explain::read_profile_run(o.simulated),
+                                                       models::explain::read_profile_run(o.measured), eo);
+  throw std::runtime_error("explain: " + o.simulated + ": format '" + fs +
+                           "' is neither guideway/dbb-run/1 nor guideway/profile/1");
+}
+
+// --model dbb FILES: the runs explained, and with --machine the findings beside the machine file.
+models::explain::Report explain_dbb_runs(const Opts& o, const models::explain::ExplainOptions& eo,
+                                         nlohmann::json& machine_comparison) {
+  std::vector<formats::DbbRun> runs;
+  for (const auto& f : o.files) runs.push_back(formats::read_dbb_run(f));
+  models::explain::Report report = models::explain::explain_dbb_report(runs, eo);
+  if (o.machine.empty()) return report;
+  std::vector<simulators::scenarios::TruthRun> truth_runs;
+  bool encoders = true;
+  for (const auto& run : runs) {
+    const double seconds = run.t_s.size() > 1 ? run.t_s.back() - run.t_s.front() : 0.0;
+    truth_runs.push_back({run.radius_m, run.height_m, run.dir(), run.feed_m_per_s,
+                          seconds > 0 ? static_cast<double>(run.t_s.size() - 1) / seconds : 0.0});
+    const auto it = run.metadata.find("angle_source");
+    encoders = encoders && it != run.metadata.end() && it->second == "encoders";
+  }
+  machine_comparison =
+      against_machine(models::explain::to_json(report),
+                      simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o.machine),
+                                                       runs.front().plane, truth_runs, encoders),
+                      o.machine);
+  return report;
+}
+
+// --model MODEL FILES: the base refitted to the files and what it leaves explained.
+models::explain::Report explain_files(const Opts& o, const models::explain::ExplainOptions& eo,
+                                      nlohmann::json& machine_comparison) {
+  if (o.model.empty()) throw std::runtime_error("explain: give --model MODEL FILES..., or --simulated and --measured");
+  if (o.files.empty()) throw std::runtime_error("explain: --model " + o.model + " needs at least one file");
+  if (o.model == "dbb") return explain_dbb_runs(o, eo, machine_comparison);
+  std::vector<models::explain::ProfileRun> runs;
+  for (const auto& f : o.files) runs.push_back(models::explain::read_profile_run(f));
+  std::optional<models::flatness::AngleTraverse> traverse;
+  if (!o.straightness.empty()) traverse = models::flatness::read_angle_traverse(o.straightness);
+  return models::explain::explain_profiles(runs, o.model, traverse ? &*traverse : nullptr, eo);
+}
+
+void run_explain(const Opts& o, CliContext& ctx) {
+  if (o.effects) return print_effects(o.json);
+  if (o.latest) return explain_latest(o, ctx);
+  if (o.scenarios) {
+    ctx.exit_code = run_scenarios(o);
+    return;
+  }
+  models::explain::ExplainOptions eo;
+  eo.alpha = o.alpha;
+  eo.max_effects = o.max_effects;
+  eo.folds = o.folds;
+  if (!o.straightness.empty() && o.model != "flatness")
+    throw std::runtime_error("explain: --straightness belongs to --model flatness (Mu Eq. 16)");
+  nlohmann::json machine_comparison;
+  const models::explain::Report report = !o.simulated.empty() || !o.measured.empty()
+                                             ? explain_difference(o, eo)
+                                             : explain_files(o, eo, machine_comparison);
+  if (!o.machine.empty() && machine_comparison.is_null())
+    throw std::runtime_error("explain: --machine compares DBB runs only (--model dbb or --latest)");
+  if (o.json) {
+    nlohmann::json j = models::explain::to_json(report);
+    if (!machine_comparison.is_null()) j["against_machine"] = machine_comparison;
+    std::cout << j.dump() << "\n";
+  } else {
+    std::cout << models::explain::to_text(report);
+    if (!machine_comparison.is_null()) print_against_machine(machine_comparison);
+  }
+}
+
+void add_explain_commands(CLI::App& app, CliContext& ctx) {
+  add_commands(
+      app, ctx,
+      {command("explain", "Locate where a model and a recording differ and name the physics left out", &run_explain)});
 }
 
 const CommandGroup group(&add_explain_commands);

@@ -69,190 +69,216 @@ void print_profile(const models::flatness::StraightnessProfile& p) {
               << p.end_point.deviation_m[k] * 1e6 << std::setw(12) << p.least_squares.deviation_m[k] * 1e6 << "\n";
 }
 
-void add_flatness_commands(CLI::App& app, CliContext& /*ctx*/) {
-  CLI::App* id = identify_command(app);
-
-  {
-    auto* cmd = id->add_subcommand("straightness",
-                                   "straightness from an autocollimator traverse (x_mm,pitch_arcsec[,yaw_arcsec])");
-    auto file = std::make_shared<std::string>();
-    auto json = std::make_shared<bool>(false);
-    auto u_arcsec = std::make_shared<double>(0.0);
-    auto max_order = std::make_shared<int>(8);
-    cmd->add_option("ANGLES.csv", *file, "traverse file (docs/formats.md, Straightness traverse)")->required();
-    cmd->add_flag("--json", *json, "print the result as one JSON object");
-    cmd->add_option("--angle-u-arcsec", *u_arcsec,
-                    "standard uncertainty per reading (default: TA80, sqrt(0.01^2/12 + 0.5^2/3) = 0.289 arcsec)");
-    cmd->add_option("--max-order", *max_order, "highest polynomial order tried by the BIC selection")
+struct StraightnessOptions {
+  std::string file;
+  bool json = false;
+  double u_arcsec = 0.0;
+  int max_order = 8;
+  void add(CLI::App& cmd) {
+    cmd.add_option("ANGLES.csv", file, "traverse file (docs/formats.md, Straightness traverse)")->required();
+    cmd.add_flag("--json", json, "print the result as one JSON object");
+    cmd.add_option("--angle-u-arcsec", u_arcsec,
+                   "standard uncertainty per reading (default: TA80, sqrt(0.01^2/12 + 0.5^2/3) = 0.289 arcsec)");
+    cmd.add_option("--max-order", max_order, "highest polynomial order tried by the BIC selection")
         ->check(CLI::Range(1, 12));
-    cmd->callback([=] {
-      run_reporting([&] {
-        models::flatness::StraightnessOptions opt;
-        if (*u_arcsec > 0) opt.instrument.u_override_rad = *u_arcsec * models::flatness::rad_per_arcsec;
-        opt.max_order = *max_order;
-        const auto tr = models::flatness::read_angle_traverse(*file, opt.instrument);
-        const auto r = models::flatness::identify_straightness(tr, opt);
-        if (*json) {
-          std::cout << models::flatness::to_json(r).dump() << "\n";
-          return;
-        }
-        std::cout << r.source << ": " << r.readings << " readings, step " << r.step_m * 1e3 << " mm\n";
-        print_profile(r.vertical);
-        if (r.horizontal) print_profile(*r.horizontal);
-      });
-    });
   }
+};
 
-  {
-    auto* cmd = id->add_subcommand("unionjack", "surface-plate flatness by the Union Jack (Moody) method");
-    auto dir = std::make_shared<std::string>();
-    auto json = std::make_shared<bool>(false);
-    auto lsq = std::make_shared<bool>(false);
-    auto foot_mm = std::make_shared<double>(0.0);
-    cmd->add_option("DIR", *dir, "directory with NW_SE.txt ... N_S.txt and Config.txt")->required();
-    cmd->add_flag("--json", *json, "print the result as one JSON object");
-    cmd->add_flag("--least-squares", *lsq, "also evaluate all eight lines together by least squares");
-    cmd->add_option("--foot-spacing-mm", *foot_mm, "reflector foot spacing (overrides Config.txt)");
-    cmd->callback([=] {
-      run_reporting([&] {
-        const auto set = models::flatness::read_union_jack(*dir, *foot_mm * 1e-3);
-        models::flatness::UnionJackOptions opt;
-        opt.least_squares = *lsq;
-        const auto r = models::flatness::evaluate_union_jack(set, opt);
-        const bool inch = set.inch_units && !(*foot_mm > 0);
-        if (*json) {
-          std::cout << models::flatness::to_json(r, inch).dump() << "\n";
-          return;
-        }
-        const double unit = inch ? 0.0254e-5 : 1e-6;
-        const char* uname = inch ? "x10 uin" : "um";
-        std::cout << *dir << ": foot spacing " << std::setprecision(4) << r.foot_spacing_m * 1e3 << " mm, "
-                  << r.long_steps << " x " << r.short_steps << " steps, diagonals " << r.diagonal_steps << "\n";
-        for (const auto& w : r.warnings) std::cout << "warning: " << w << "\n";
-        std::cout << std::fixed << std::setprecision(3);
-        std::cout << "flatness (Moody datum): " << r.flatness_m * 1e6 << " um";
-        if (inch) std::cout << " = " << r.flatness_m / unit << " " << uname;
-        std::cout << "\nflatness about the least-squares plane of the Moody heights: " << r.flatness_lsq_plane_m * 1e6
-                  << " um\nflatness (minimum zone of the Moody heights): " << r.flatness_min_zone_m * 1e6 << " um\n";
-        for (const auto& l : r.lines)
-          if (l.closure_m)
-            std::cout << "closure of " << l.name << ": " << *l.closure_m * 1e6 << " um = " << *l.closure_m / unit << " "
-                      << uname << "\n";
-        for (const auto& l : r.lines) {
-          std::cout << l.name << " (x, y in station units; height " << uname << "):";
-          for (std::size_t k = 0; k < l.stations.size(); ++k)
-            std::cout << (k % 6 == 0 ? "\n  " : "  ") << std::setprecision(2) << "(" << l.stations[k].x_steps << ","
-                      << l.stations[k].y_steps << ") " << std::setprecision(3) << l.stations[k].height_m / unit;
-          std::cout << "\n";
-        }
-        if (r.lsq)
-          std::cout << "least squares (all lines, one angular offset per line): flatness about the plane "
-                    << r.lsq->flatness_m * 1e6 << " um, minimum zone " << r.lsq->flatness_min_zone_m * 1e6
-                    << " um, residual rms " << r.lsq->residual_rms_rad / models::flatness::rad_per_arcsec
-                    << " arcsec, redundancy " << r.lsq->redundancy << "\n";
-      });
-    });
-  }
+void run_straightness(const StraightnessOptions& o, CliContext& /*ctx*/) {
+  run_reporting([&] {
+    models::flatness::StraightnessOptions opt;
+    if (o.u_arcsec > 0) opt.instrument.u_override_rad = o.u_arcsec * models::flatness::rad_per_arcsec;
+    opt.max_order = o.max_order;
+    const auto tr = models::flatness::read_angle_traverse(o.file, opt.instrument);
+    const auto r = models::flatness::identify_straightness(tr, opt);
+    if (o.json) {
+      std::cout << models::flatness::to_json(r).dump() << "\n";
+      return;
+    }
+    std::cout << r.source << ": " << r.readings << " readings, step " << r.step_m * 1e3 << " mm\n";
+    print_profile(r.vertical);
+    if (r.horizontal) print_profile(*r.horizontal);
+  });
+}
 
-  {
-    auto* cmd = id->add_subcommand("runout", "squareness from a spindle run-out revolution (Mu Eq. 21)");
-    auto file = std::make_shared<std::string>();
-    auto json = std::make_shared<bool>(false);
-    cmd->add_option("RUNOUT.csv", *file, "revolution file (angle_deg,runout_um; docs/formats.md)")->required();
-    cmd->add_flag("--json", *json, "print the result as one JSON object");
-    cmd->callback([=] {
-      run_reporting([&] {
-        const auto rev = models::flatness::read_runout_revolution(*file);
-        const auto r = models::flatness::identify_runout(rev);
-        if (*json) {
-          std::cout << models::flatness::to_json(r).dump() << "\n";
-          return;
-        }
-        std::cout << std::fixed << std::setprecision(4);
-        std::cout << *file << ": " << r.samples << " samples\n"
-                  << "once per revolution: amplitude " << r.amplitude_m * 1e6 << " um (u " << r.u_amplitude_m * 1e6
-                  << "), maximum at " << std::setprecision(2) << r.phase_rad * 180 / std::numbers::pi << " deg (u "
-                  << r.u_phase_rad * 180 / std::numbers::pi << ")\n"
-                  << std::setprecision(4) << "run-out r = 2A = " << r.runout_m * 1e6 << " um (u " << r.u_runout_m * 1e6
-                  << "), parallelism p = " << r.parallelism_m * 1e6
-                  << " um, plate diameter L = " << std::setprecision(1) << r.plate_diameter_m * 1e3 << " mm\n"
-                  << "deflection angle = squareness (r + p) / L = " << std::setprecision(3) << r.deflection_rad * 1e6
-                  << " urad (u " << r.u_deflection_rad * 1e6 << ")\n";
-        if (r.travel_m)
-          std::cout << "squareness amplitude over " << std::setprecision(1) << *r.travel_m * 1e3
-                    << " mm travel: " << std::setprecision(3) << *r.squareness_amplitude_m * 1e6 << " um (u "
-                    << *r.u_squareness_amplitude_m * 1e6 << ")\n";
-      });
-    });
+struct UnionJackOptions {
+  std::string dir;
+  bool json = false;
+  bool lsq = false;
+  double foot_mm = 0.0;
+  void add(CLI::App& cmd) {
+    cmd.add_option("DIR", dir, "directory with NW_SE.txt ... N_S.txt and Config.txt")->required();
+    cmd.add_flag("--json", json, "print the result as one JSON object");
+    cmd.add_flag("--least-squares", lsq, "also evaluate all eight lines together by least squares");
+    cmd.add_option("--foot-spacing-mm", foot_mm, "reflector foot spacing (overrides Config.txt)");
   }
-  {
-    auto* cmd = id->add_subcommand(
-        "flatness", "which carriage error shows on a faced workpiece: wavelet step and correlation (Mu 2012)");
-    auto profiles = std::make_shared<std::vector<std::string>>();
-    auto straightness = std::make_shared<std::string>();
-    auto runout = std::make_shared<std::string>();
-    auto json = std::make_shared<bool>(false);
-    auto wavelet = std::make_shared<std::string>("db1");
-    auto levels = std::make_shared<int>(5);
-    auto u_arcsec = std::make_shared<double>(0.0);
-    cmd->add_option("--profile", *profiles, "faced-workpiece profile, x_mm,z_um (repeatable; docs/formats.md)")
+};
+
+// The Union Jack result in `unit` (um, or 10 uin for a set in inches): flatness, closures, each line's heights.
+void print_union_jack(const std::string& dir, const models::flatness::UnionJackResult& r, bool inch) {
+  const double unit = inch ? 0.0254e-5 : 1e-6;
+  const char* uname = inch ? "x10 uin" : "um";
+  std::cout << dir << ": foot spacing " << std::setprecision(4) << r.foot_spacing_m * 1e3 << " mm, " << r.long_steps
+            << " x " << r.short_steps << " steps, diagonals " << r.diagonal_steps << "\n";
+  for (const auto& w : r.warnings) std::cout << "warning: " << w << "\n";
+  std::cout << std::fixed << std::setprecision(3);
+  std::cout << "flatness (Moody datum): " << r.flatness_m * 1e6 << " um";
+  if (inch) std::cout << " = " << r.flatness_m / unit << " " << uname;
+  std::cout << "\nflatness about the least-squares plane of the Moody heights: " << r.flatness_lsq_plane_m * 1e6
+            << " um\nflatness (minimum zone of the Moody heights): " << r.flatness_min_zone_m * 1e6 << " um\n";
+  for (const auto& l : r.lines)
+    if (l.closure_m)
+      std::cout << "closure of " << l.name << ": " << *l.closure_m * 1e6 << " um = " << *l.closure_m / unit << " "
+                << uname << "\n";
+  for (const auto& l : r.lines) {
+    std::cout << l.name << " (x, y in station units; height " << uname << "):";
+    for (std::size_t k = 0; k < l.stations.size(); ++k)
+      std::cout << (k % 6 == 0 ? "\n  " : "  ") << std::setprecision(2) << "(" << l.stations[k].x_steps << ","
+                << l.stations[k].y_steps << ") " << std::setprecision(3) << l.stations[k].height_m / unit;
+    std::cout << "\n";
+  }
+  if (r.lsq)
+    std::cout << "least squares (all lines, one angular offset per line): flatness about the plane "
+              << r.lsq->flatness_m * 1e6 << " um, minimum zone " << r.lsq->flatness_min_zone_m * 1e6
+              << " um, residual rms " << r.lsq->residual_rms_rad / models::flatness::rad_per_arcsec
+              << " arcsec, redundancy " << r.lsq->redundancy << "\n";
+}
+
+void run_union_jack(const UnionJackOptions& o, CliContext& /*ctx*/) {
+  run_reporting([&] {
+    const auto set = models::flatness::read_union_jack(o.dir, o.foot_mm * 1e-3);
+    models::flatness::UnionJackOptions opt;
+    opt.least_squares = o.lsq;
+    const auto r = models::flatness::evaluate_union_jack(set, opt);
+    const bool inch = set.inch_units && !(o.foot_mm > 0);
+    if (o.json) {
+      std::cout << models::flatness::to_json(r, inch).dump() << "\n";
+      return;
+    }
+    print_union_jack(o.dir, r, inch);
+  });
+}
+
+struct RunoutOptions {
+  std::string file;
+  bool json = false;
+  void add(CLI::App& cmd) {
+    cmd.add_option("RUNOUT.csv", file, "revolution file (angle_deg,runout_um; docs/formats.md)")->required();
+    cmd.add_flag("--json", json, "print the result as one JSON object");
+  }
+};
+
+void run_runout(const RunoutOptions& o, CliContext& /*ctx*/) {
+  run_reporting([&] {
+    const auto rev = models::flatness::read_runout_revolution(o.file);
+    const auto r = models::flatness::identify_runout(rev);
+    if (o.json) {
+      std::cout << models::flatness::to_json(r).dump() << "\n";
+      return;
+    }
+    std::cout << std::fixed << std::setprecision(4);
+    std::cout << o.file << ": " << r.samples << " samples\n"
+              << "once per revolution: amplitude " << r.amplitude_m * 1e6 << " um (u " << r.u_amplitude_m * 1e6
+              << "), maximum at " << std::setprecision(2) << r.phase_rad * 180 / std::numbers::pi << " deg (u "
+              << r.u_phase_rad * 180 / std::numbers::pi << ")\n"
+              << std::setprecision(4) << "run-out r = 2A = " << r.runout_m * 1e6 << " um (u " << r.u_runout_m * 1e6
+              << "), parallelism p = " << r.parallelism_m * 1e6 << " um, plate diameter L = " << std::setprecision(1)
+              << r.plate_diameter_m * 1e3 << " mm\n"
+              << "deflection angle = squareness (r + p) / L = " << std::setprecision(3) << r.deflection_rad * 1e6
+              << " urad (u " << r.u_deflection_rad * 1e6 << ")\n";
+    if (r.travel_m)
+      std::cout << "squareness amplitude over " << std::setprecision(1) << *r.travel_m * 1e3
+                << " mm travel: " << std::setprecision(3) << *r.squareness_amplitude_m * 1e6 << " um (u "
+                << *r.u_squareness_amplitude_m * 1e6 << ")\n";
+  });
+}
+
+struct WorkpieceOptions {
+  std::vector<std::string> profiles;
+  std::string straightness;
+  std::string runout;
+  bool json = false;
+  std::string wavelet = "db1";
+  int levels = 5;
+  double u_arcsec = 0.0;
+  void add(CLI::App& cmd) {
+    cmd.add_option("--profile", profiles, "faced-workpiece profile, x_mm,z_um (repeatable; docs/formats.md)")
         ->required();
-    cmd->add_option("--straightness", *straightness, "autocollimator traverse of the X carriage (x_mm,pitch_arcsec)")
+    cmd.add_option("--straightness", straightness, "autocollimator traverse of the X carriage (x_mm,pitch_arcsec)")
         ->required();
-    cmd->add_option("--runout", *runout, "run-out revolution for the Eq. 21 cross-check (angle_deg,runout_um)");
-    cmd->add_option("--wavelet", *wavelet, "Daubechies wavelet of the decomposition (Mu: db1)");
-    cmd->add_option("--levels", *levels, "decomposition levels; s1 = the approximation at the deepest")
+    cmd.add_option("--runout", runout, "run-out revolution for the Eq. 21 cross-check (angle_deg,runout_um)");
+    cmd.add_option("--wavelet", wavelet, "Daubechies wavelet of the decomposition (Mu: db1)");
+    cmd.add_option("--levels", levels, "decomposition levels; s1 = the approximation at the deepest")
         ->check(CLI::Range(1, 20));
-    cmd->add_option("--angle-u-arcsec", *u_arcsec, "standard uncertainty per traverse reading (default: TA80)");
-    cmd->add_flag("--json", *json, "print the result as one JSON object");
-    cmd->callback([=] {
-      run_reporting([&] {
-        models::flatness::StraightnessOptions sopt;
-        if (*u_arcsec > 0) sopt.instrument.u_override_rad = *u_arcsec * models::flatness::rad_per_arcsec;
-        std::vector<models::flatness::WorkpieceProfile> ps;
-        for (const auto& f : *profiles) ps.push_back(models::flatness::read_workpiece_profile(f));
-        const auto tr = models::flatness::read_angle_traverse(*straightness, sopt.instrument);
-        std::optional<models::flatness::RunoutRevolution> rev;
-        if (!runout->empty()) rev = models::flatness::read_runout_revolution(*runout);
-        models::flatness::WorkpieceFlatnessOptions opt;
-        opt.wavelet = *wavelet;
-        opt.levels = *levels;
-        const auto r = models::flatness::analyse_workpiece_flatness(ps, tr, rev, opt, sopt);
-        if (*json) {
-          std::cout << models::flatness::to_json(r).dump() << "\n";
-          return;
-        }
-        std::cout << std::fixed << std::setprecision(3);
-        std::cout << "straightness y2 (Eq. 10, " << r.straightness_source << "): order " << r.straightness.order
-                  << ", fit residual rms " << r.straightness.residual_rms_m * 1e6 << " um\n"
-                  << "wavelet " << r.wavelet << ", " << r.levels << " levels; s1 = A" << r.levels << "\n";
-        for (const auto& p : r.profiles) {
-          std::cout << p.source << ": " << p.points << " points, " << std::setprecision(1) << p.x_start_m * 1e3 << ".."
-                    << p.x_end_m * 1e3 << " mm, feed " << p.feed_m_per_s * 60e3 << " mm/min, " << p.spindle_rpm
-                    << " rpm; p-v " << std::setprecision(3) << p.peak_to_valley_m * 1e6 << " um (low frequency "
-                    << p.low_frequency_peak_to_valley_m * 1e6 << " um)\n";
-          for (const auto& c : p.correlations)
-            std::cout << "  " << std::left << std::setw(13) << c.name << std::right << " gamma before wavelet (Eq. 19) "
-                      << std::setw(7) << c.gamma_before << ", after (Eq. 20) " << std::setw(7) << c.gamma_after << "\n";
-          std::cout << "  dominant: " << p.dominant << " (impact factor " << p.impact_factor << ")\n"
-                    << "  squareness " << p.squareness_rad * 1e6 << " urad (u " << p.u_squareness_rad * 1e6
-                    << "), amplitude " << p.squareness_amplitude_m * 1e6 << " um (u "
-                    << p.u_squareness_amplitude_m * 1e6 << ")\n";
-        }
-        std::cout << "dominant error: " << r.dominant << " (impact factor " << r.impact_factor << ")\n"
-                  << "squareness (all profiles): " << r.squareness_rad * 1e6 << " urad (u " << r.u_squareness_rad * 1e6
-                  << "), amplitude over " << std::setprecision(1) << r.travel_m * 1e3 << " mm: " << std::setprecision(3)
-                  << r.squareness_amplitude_m * 1e6 << " um (u " << r.u_squareness_amplitude_m * 1e6 << ")\n";
-        if (r.runout_check) {
-          const auto& c = *r.runout_check;
-          std::cout << "Eq. 21 from " << *runout << ": " << c.runout.deflection_rad * 1e6 << " urad (u "
-                    << c.runout.u_deflection_rad * 1e6 << "); profile - Eq. 21 = " << c.difference_rad * 1e6
-                    << " urad (u " << c.u_difference_rad * 1e6
-                    << "): " << (c.consistent ? "consistent" : "NOT consistent") << " within 2u\n";
-        }
-      });
-    });
+    cmd.add_option("--angle-u-arcsec", u_arcsec, "standard uncertainty per traverse reading (default: TA80)");
+    cmd.add_flag("--json", json, "print the result as one JSON object");
   }
+};
+
+// Per profile: its size and cut, the correlations before and after the wavelet step, the dominant
+// error and the squareness it gives.
+void print_profile_flatness(const models::flatness::ProfileFlatness& p) {
+  std::cout << p.source << ": " << p.points << " points, " << std::setprecision(1) << p.x_start_m * 1e3 << ".."
+            << p.x_end_m * 1e3 << " mm, feed " << p.feed_m_per_s * 60e3 << " mm/min, " << p.spindle_rpm << " rpm; p-v "
+            << std::setprecision(3) << p.peak_to_valley_m * 1e6 << " um (low frequency "
+            << p.low_frequency_peak_to_valley_m * 1e6 << " um)\n";
+  for (const auto& c : p.correlations)
+    std::cout << "  " << std::left << std::setw(13) << c.name << std::right << " gamma before wavelet (Eq. 19) "
+              << std::setw(7) << c.gamma_before << ", after (Eq. 20) " << std::setw(7) << c.gamma_after << "\n";
+  std::cout << "  dominant: " << p.dominant << " (impact factor " << p.impact_factor << ")\n"
+            << "  squareness " << p.squareness_rad * 1e6 << " urad (u " << p.u_squareness_rad * 1e6 << "), amplitude "
+            << p.squareness_amplitude_m * 1e6 << " um (u " << p.u_squareness_amplitude_m * 1e6 << ")\n";
+}
+
+void print_workpiece_flatness(const models::flatness::WorkpieceFlatnessResult& r, const std::string& runout) {
+  std::cout << std::fixed << std::setprecision(3);
+  std::cout << "straightness y2 (Eq. 10, " << r.straightness_source << "): order " << r.straightness.order
+            << ", fit residual rms " << r.straightness.residual_rms_m * 1e6 << " um\n"
+            << "wavelet " << r.wavelet << ", " << r.levels << " levels; s1 = A" << r.levels << "\n";
+  for (const auto& p : r.profiles) print_profile_flatness(p);
+  std::cout << "dominant error: " << r.dominant << " (impact factor " << r.impact_factor << ")\n"
+            << "squareness (all profiles): " << r.squareness_rad * 1e6 << " urad (u " << r.u_squareness_rad * 1e6
+            << "), amplitude over " << std::setprecision(1) << r.travel_m * 1e3 << " mm: " << std::setprecision(3)
+            << r.squareness_amplitude_m * 1e6 << " um (u " << r.u_squareness_amplitude_m * 1e6 << ")\n";
+  if (r.runout_check) {
+    const auto& c = *r.runout_check;
+    std::cout << "Eq. 21 from " << runout << ": " << c.runout.deflection_rad * 1e6 << " urad (u "
+              << c.runout.u_deflection_rad * 1e6 << "); profile - Eq. 21 = " << c.difference_rad * 1e6 << " urad (u "
+              << c.u_difference_rad * 1e6 << "): " << (c.consistent ? "consistent" : "NOT consistent")
+              << " within 2u\n";
+  }
+}
+
+void run_workpiece_flatness(const WorkpieceOptions& o, CliContext& /*ctx*/) {
+  run_reporting([&] {
+    models::flatness::StraightnessOptions sopt;
+    if (o.u_arcsec > 0) sopt.instrument.u_override_rad = o.u_arcsec * models::flatness::rad_per_arcsec;
+    std::vector<models::flatness::WorkpieceProfile> ps;
+    for (const auto& f : o.profiles) ps.push_back(models::flatness::read_workpiece_profile(f));
+    const auto tr = models::flatness::read_angle_traverse(o.straightness, sopt.instrument);
+    std::optional<models::flatness::RunoutRevolution> rev;
+    if (!o.runout.empty()) rev = models::flatness::read_runout_revolution(o.runout);
+    models::flatness::WorkpieceFlatnessOptions opt;
+    opt.wavelet = o.wavelet;
+    opt.levels = o.levels;
+    const auto r = models::flatness::analyse_workpiece_flatness(ps, tr, rev, opt, sopt);
+    if (o.json) {
+      std::cout << models::flatness::to_json(r).dump() << "\n";
+      return;
+    }
+    print_workpiece_flatness(r, o.runout);
+  });
+}
+
+void add_flatness_commands(CLI::App& app, CliContext& ctx) {
+  add_commands(
+      *identify_command(app), ctx,
+      {command("straightness", "straightness from an autocollimator traverse (x_mm,pitch_arcsec[,yaw_arcsec])",
+               &run_straightness),
+       command("unionjack", "surface-plate flatness by the Union Jack (Moody) method", &run_union_jack),
+       command("runout", "squareness from a spindle run-out revolution (Mu Eq. 21)", &run_runout),
+       command("flatness", "which carriage error shows on a faced workpiece: wavelet step and correlation (Mu 2012)",
+               &run_workpiece_flatness)});
 }
 
 const CommandGroup group(&add_flatness_commands);

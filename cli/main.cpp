@@ -14,6 +14,15 @@ std::vector<AddCommandsFn>& CommandGroup::all() {
   return groups;
 }
 
+CLI::App* add_commands(CLI::App& parent, CliContext& ctx, const std::vector<Command>& table) {
+  CLI::App* last = nullptr;
+  for (const Command& c : table) {
+    last = parent.add_subcommand(c.name, c.description);
+    c.define(*last, ctx);
+  }
+  return last;
+}
+
 CLI::App* shared_subcommand(CLI::App& app, const std::string& name, const std::string& description) {
   try {
     return app.get_subcommand(name);

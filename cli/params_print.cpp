@@ -1,6 +1,7 @@
 #include "cli/params_print.hpp"
 
 #include "cli/daemon_client.hpp"
+#include "results/message_class.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -124,7 +125,7 @@ void print_explanation(const nlohmann::json& e) {
 }
 
 void throw_if_error_reply(const nlohmann::json& reply, bool json) {
-  if (json && reply.value("class", "") == "ERROR") std::cout << reply.dump() << "\n" << std::flush;
+  if (json && results::has_class(reply, results::MessageClass::error)) std::cout << reply.dump() << "\n" << std::flush;
   throw_if_error(reply);
 }
 
@@ -152,13 +153,14 @@ std::string wall_clock_now() {
 
 std::string watch_line(const nlohmann::json& m, const ChannelUnits& units) {
   const std::string cls = m.value("class", "?");
+  const std::optional<results::MessageClass> known = results::class_named(cls);
   std::ostringstream out;
   out << wall_clock_now() << " " << std::left << std::setw(7) << cls << std::right;
   const auto unit_of = [&](const std::string& device, const std::string& channel) {
     const auto it = units.find(device + "/" + channel);
     return it == units.end() || it->second == "1" ? std::string() : " " + it->second;
   };
-  if (cls == "SAMPLE") {
+  if (known == results::MessageClass::sample) {
     const std::string device = m.value("device", "?");
     out << " " << device << " seq " << m.value("seq", nlohmann::json(0)).dump();
     const nlohmann::json values = m.value("values", nlohmann::json::object());
@@ -172,7 +174,7 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units) {
           << unit_of(device, name);
     }
     if (m.contains("flags")) out << "  flags=" << m["flags"].dump();
-  } else if (cls == "STATUS") {
+  } else if (known == results::MessageClass::status) {
     const nlohmann::json devices = m.value("devices", nlohmann::json::array());
     for (const auto& d : devices) {
       out << " " << d.value("name", "?") << ":" << d.value("state", "?");
@@ -186,7 +188,7 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units) {
       out << "  session " << s.value("session", "?") << " " << s.value("progress", s.value("state", "?"));
       if (s.contains("recording_error")) out << " [recording error: " << s.value("recording_error", "") << "]";
     }
-  } else if (cls == "PARAMS") {
+  } else if (known == results::MessageClass::params) {
     out << " " << m.value("session", "?") << " (" << m.value("model", "?") << ")";
     for (const auto& [group, items] : m.items()) {
       if (!items.is_object() || items.empty()) continue;
@@ -197,7 +199,7 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units) {
       }
     }
     if (m.contains("recording_error")) out << "  [recording error: " << m.value("recording_error", "") << "]";
-  } else if (cls == "EXPLAIN") {
+  } else if (known == results::MessageClass::explain) {
     out << " " << m.value("session", "?") << " (" << m.value("model", "?") << ")";
     if (m.contains("not_analysed")) {
       out << " not analysed: " << m.value("not_analysed", "");
@@ -211,12 +213,12 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units) {
       for (const auto& f : findings) out << " " << f.value("effect", "?");
       if (m.value("unexplained", false)) out << "; a structured residual is left";
     }
-  } else if (cls == "EVENT") {
+  } else if (known == results::MessageClass::event) {
     out << " " << m.value("device", "") << " " << m.value("event", "?");
     if (m.contains("session")) out << " " << m.value("session", "");
     if (m.contains("reason")) out << ": " << m.value("reason", "");
     if (m.contains("file")) out << ": " << m.value("file", "");
-  } else if (cls == "ERROR") {
+  } else if (known == results::MessageClass::error) {
     out << " " << m.value("message", "?");
   } else {
     out << " " << m.dump();  // a class of a later protocol minor version

@@ -7,6 +7,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/params_print.hpp"
+#include "results/message_class.hpp"
 #include "sessions/replay.hpp"
 #include "sessions/session_kinds.hpp"
 
@@ -27,49 +28,58 @@ std::string incomplete_note(const sessions::ReplayResult& r) {
   return " (incomplete recording: the session was interrupted)";
 }
 
-void add_replay_commands(CLI::App& app, CliContext& ctx) {
-  struct Options {
-    std::vector<std::string> recordings;
-    bool json = false;
-  };
-  auto o = std::make_shared<Options>();
-  auto* replay = app.add_subcommand(
-      "replay", "Replay raw session recordings (guideway/raw/1) through the daemon's session code and print their PARAMS");
-  replay->add_option("recording", o->recordings, "raw recording files (NAME.csv or an interrupted NAME.csv.part)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  replay->add_flag("--json", o->json, "one PARAMS JSON line per recording, as the daemon published it");
-  replay->callback([&ctx, o] {
-    sessions::SessionRegistry registry;
-    sessions::register_builtin_sessions(registry);
-    for (const auto& path : o->recordings) {
-      const sessions::ReplayResult r = sessions::replay_recording(path, registry);
-      if (!r.note.empty()) std::cerr << "guideway: " << path << ": note: " << r.note << "\n";
-      if (!r.failure.empty()) {
-        ctx.exit_code = 1;
-        if (o->json) {
-          std::cout << nlohmann::json{{"class", "EVENT"}, {"event", "session_failed"}, {"reason", r.failure},
-                                      {"replayed_from", path}}
-                           .dump()
-                    << "\n";
-        } else {
-          std::cerr << "guideway: " << path << ": identification failed: " << r.failure
-                    << incomplete_note(r) << "\n";
-        }
-        continue;
-      }
-      if (o->json) {
-        std::cout << r.params.dump() << "\n";
-        if (!r.explain.is_null()) std::cout << r.explain.dump() << "\n";
-        continue;
-      }
-      std::cout << "replayed " << path << ": " << r.samples << " samples"
-                << incomplete_note(r) << "\n";
-      print_params(r.params);
-      if (!r.explain.is_null()) print_explanation(r.explain);
-      if (!r.explain_failure.empty()) std::cout << "explanation failed: " << r.explain_failure << "\n";
+struct ReplayArgs {
+  std::vector<std::string> recordings;
+  bool json = false;
+  void add(CLI::App& cmd) {
+    cmd.add_option("recording", recordings, "raw recording files (NAME.csv or an interrupted NAME.csv.part)")
+        ->required()
+        ->check(CLI::ExistingFile);
+    cmd.add_flag("--json", json, "one PARAMS JSON line per recording, as the daemon published it");
+  }
+};
+
+// One recording replayed and printed; false when its identification failed (said on stderr, or as the
+// live session's EVENT with --json).
+bool replay_one(const std::string& path, const sessions::SessionRegistry& registry, bool json) {
+  const sessions::ReplayResult r = sessions::replay_recording(path, registry);
+  if (!r.note.empty()) std::cerr << "guideway: " << path << ": note: " << r.note << "\n";
+  if (!r.failure.empty()) {
+    if (json) {
+      std::cout << results::with_class(results::MessageClass::event,
+                                       {{"event", "session_failed"}, {"reason", r.failure}, {"replayed_from", path}})
+                       .dump()
+                << "\n";
+    } else {
+      std::cerr << "guideway: " << path << ": identification failed: " << r.failure << incomplete_note(r) << "\n";
     }
-  });
+    return false;
+  }
+  if (json) {
+    std::cout << r.params.dump() << "\n";
+    if (!r.explain.is_null()) std::cout << r.explain.dump() << "\n";
+    return true;
+  }
+  std::cout << "replayed " << path << ": " << r.samples << " samples" << incomplete_note(r) << "\n";
+  print_params(r.params);
+  if (!r.explain.is_null()) print_explanation(r.explain);
+  if (!r.explain_failure.empty()) std::cout << "explanation failed: " << r.explain_failure << "\n";
+  return true;
+}
+
+void run_replay(const ReplayArgs& a, CliContext& ctx) {
+  sessions::SessionRegistry registry;
+  sessions::register_builtin_sessions(registry);
+  for (const auto& path : a.recordings)
+    if (!replay_one(path, registry, a.json)) ctx.exit_code = 1;
+}
+
+void add_replay_commands(CLI::App& app, CliContext& ctx) {
+  add_commands(app, ctx,
+               {command("replay",
+                        "Replay raw session recordings (guideway/raw/1) through the daemon's session code and print "
+                        "their PARAMS",
+                        &run_replay)});
 }
 
 const CommandGroup group(&add_replay_commands);

@@ -47,23 +47,23 @@ std::string number_text(double v) {
   return buf;
 }
 
+// The options every wavelet command takes.
 struct WaveletArgs {
   std::string wavelet = "db4";
   std::string mode = "symmetric";
   int level = -1;
   std::optional<std::string> column;
   std::string file;
+  void add(CLI::App& cmd) {
+    cmd.add_option("--wavelet", wavelet, "db1..db20 (haar), sym2..sym20, coif1..coif5")->capture_default_str();
+    cmd.add_option("--mode", mode, "signal extension: zero, constant, symmetric, periodic, reflect, periodization")
+        ->capture_default_str();
+    cmd.add_option("--level", level, "decomposition levels (default: pywt.dwt_max_level for the signal length)");
+    cmd.add_option("--column", column, "column to analyse (required when the file has several)");
+    cmd.add_option("FILE", file, "CSV with a header row (and # metadata), or one number per line; - = stdin")
+        ->required();
+  }
 };
-
-void add_common(CLI::App* cmd, WaveletArgs& a) {
-  cmd->add_option("--wavelet", a.wavelet, "db1..db20 (haar), sym2..sym20, coif1..coif5")->capture_default_str();
-  cmd->add_option("--mode", a.mode, "signal extension: zero, constant, symmetric, periodic, reflect, periodization")
-      ->capture_default_str();
-  cmd->add_option("--level", a.level, "decomposition levels (default: pywt.dwt_max_level for the signal length)");
-  cmd->add_option("--column", a.column, "column to analyse (required when the file has several)");
-  cmd->add_option("FILE", a.file, "CSV with a header row (and # metadata), or one number per line; - = stdin")
-      ->required();
-}
 
 struct Prepared {
   Signal signal;
@@ -105,154 +105,164 @@ void write_file(const std::string& path, const std::string& text) {
   if (!out) throw std::runtime_error(path + ": cannot write");
 }
 
-void add_wavelet_commands(CLI::App& app, CliContext& /*ctx*/) {
+// The `# key = value` lines that say where a written signal comes from.
+std::string provenance(const Prepared& p) {
+  std::ostringstream o;
+  o << "# source = " << p.signal.file << "\n# column = " << p.signal.column << "\n# wavelet = " << p.wavelet.name()
+    << "\n# mode = " << dsp::mode_name(p.mode) << "\n# level = " << p.level << "\n";
+  return o.str();
+}
+
+void run_wavedec(const WaveletArgs& a, CliContext& /*ctx*/) {
+  const Prepared p = prepare(a);
+  nlohmann::ordered_json j = header(p);
+  j["bands"] = band_names(p.level);
+  j["coeffs"] = dsp::wavedec(p.signal.values, p.wavelet, p.mode, p.level);
+  std::cout << j.dump() << "\n";
+}
+
+struct MraArgs : WaveletArgs {
+  std::string out;
+  void add(CLI::App& cmd) {
+    WaveletArgs::add(cmd);
+    cmd.add_option("--out", out, "also write the components as CSV columns aJ,dJ,...,d1 to this file");
+  }
+};
+
+void run_mra(const MraArgs& a, CliContext& /*ctx*/) {
+  const Prepared p = prepare(a);
+  const auto comps = dsp::mra(p.signal.values, p.wavelet, p.mode, p.level);
+  const auto names = band_names(p.level);
+  nlohmann::ordered_json j = header(p);
+  j["bands"] = names;
+  j["components"] = comps;
+  if (!a.out.empty()) {
+    std::ostringstream csv;
+    csv << provenance(p);
+    for (std::size_t b = 0; b < names.size(); ++b) csv << (b ? "," : "") << names[b];
+    csv << "\n";
+    for (std::size_t i = 0; i < p.signal.values.size(); ++i) {
+      for (std::size_t b = 0; b < comps.size(); ++b) csv << (b ? "," : "") << number_text(comps[b][i]);
+      csv << "\n";
+    }
+    write_file(a.out, csv.str());
+  }
+  std::cout << j.dump() << "\n";
+}
+
+struct DenoiseArgs : WaveletArgs {
+  std::string rule = "soft";
+  bool level_dependent = false;
+  std::optional<double> sigma;
+  std::string out;
+  void add(CLI::App& cmd) {
+    WaveletArgs::add(cmd);
+    cmd.add_option("--rule", rule, "soft or hard thresholding")->capture_default_str();
+    cmd.add_flag("--level-dependent", level_dependent, "estimate the noise level per level (default: finest)");
+    cmd.add_option("--sigma", sigma, "known noise standard deviation (default: median(|cD_1|)/0.6745)");
+    cmd.add_option("--out", out, "write a CSV (metadata + one column) here instead of numbers on stdout");
+  }
+};
+
+void run_denoise(const DenoiseArgs& a, CliContext& /*ctx*/) {
+  const Prepared p = prepare(a);
+  dsp::DenoiseOptions o;
+  o.rule = dsp::parse_threshold_rule(a.rule);
+  o.level_dependent = a.level_dependent;
+  o.sigma = a.sigma;
+  const auto r = dsp::denoise(p.signal.values, p.wavelet, p.mode, p.level, o);
+  std::ostringstream text;
+  if (!a.out.empty()) {
+    text << provenance(p) << "# rule = " << a.rule << "\n# level_dependent = " << (a.level_dependent ? "true" : "false")
+         << "\n# sigma = " << number_text(r.sigma) << "\n# thresholds = " << nlohmann::ordered_json(r.thresholds).dump()
+         << "\n"
+         << p.signal.column << "_denoised\n";
+  }
+  for (double v : r.signal) text << number_text(v) << "\n";
+  if (a.out.empty()) {
+    std::cout << text.str();
+    return;
+  }
+  write_file(a.out, text.str());
+  nlohmann::ordered_json j = header(p);
+  j["out"] = a.out;
+  j["sigma"] = r.sigma;
+  j["thresholds"] = r.thresholds;
+  std::cout << j.dump() << "\n";
+}
+
+struct CorrelateArgs {
+  std::string file_a;
+  std::string file_b;
+  std::optional<std::string> column;
+  std::optional<std::string> column_b;
+  std::size_t max_lag = 1000;
+  std::string wavelet = "db1";
+  std::string mode = "symmetric";
+  int lowpass_level = 0;
+  void add(CLI::App& cmd) {
+    cmd.add_option("FILE_A", file_a, "first signal (CSV or one number per line)")->required();
+    cmd.add_option("FILE_B", file_b, "second signal, same length")->required();
+    cmd.add_option("--column", column, "column of FILE_A (and of FILE_B unless --column-b)");
+    cmd.add_option("--column-b", column_b, "column of FILE_B");
+    cmd.add_option("--max-lag", max_lag, "largest lag of the cross-correlation, in samples")->capture_default_str();
+    cmd.add_option("--lowpass-level", lowpass_level,
+                   "also correlate the approximation component A_j of FILE_A at this level (Mu Eq. 20)");
+    cmd.add_option("--wavelet", wavelet, "wavelet for --lowpass-level")->capture_default_str();
+    cmd.add_option("--mode", mode, "signal extension for --lowpass-level")->capture_default_str();
+  }
+};
+
+// Pearson, the cross-correlation peak and, with --lowpass-level, Pearson of A_j of a with b into `j`.
+void correlations(const Signal& a, const Signal& b, const CorrelateArgs& c, nlohmann::ordered_json& j) {
+  j["pearson"] = dsp::pearson(a.values, b.values);
+  const auto x = dsp::cross_correlation(a.values, b.values, c.max_lag);
+  j["max_lag"] = x.max_lag;
+  j["peak"] = {{"lag", x.peak_lag}, {"value", x.peak_value}};
+  if (c.lowpass_level > 0) {
+    const dsp::Wavelet w(c.wavelet);
+    const auto r = dsp::wavelet_correlation(a.values, {b.values}, w, dsp::parse_mode(c.mode), c.lowpass_level);
+    j["lowpass"] = {
+        {"wavelet", std::string(w.name())}, {"mode", c.mode}, {"level", c.lowpass_level}, {"pearson", r.gamma_x1_y[0]}};
+  }
+}
+
+void run_correlate(const CorrelateArgs& c, CliContext& /*ctx*/) {
+  const Signal a = load_signal(c.file_a, c.column);
+  const Signal b = load_signal(c.file_b, c.column_b ? c.column_b : c.column);
+  if (a.values.size() != b.values.size()) {
+    throw std::runtime_error("correlate: " + a.file + " has " + std::to_string(a.values.size()) + " samples, " +
+                             b.file + " has " + std::to_string(b.values.size()) + ": the signals must be equally long");
+  }
+  nlohmann::ordered_json j;
+  j["file_a"] = a.file;
+  j["column_a"] = a.column;
+  j["file_b"] = b.file;
+  j["column_b"] = b.column;
+  j["samples"] = a.values.size();
+  try {
+    correlations(a, b, c, j);
+  } catch (const dsp::CorrelationError& e) {
+    throw std::runtime_error("correlate " + a.file + " (" + a.column + ") with " + b.file + " (" + b.column +
+                             "): " + e.what());
+  }
+  std::cout << j.dump() << "\n";
+}
+
+void add_wavelet_commands(CLI::App& app, CliContext& ctx) {
   auto* wavelet = app.add_subcommand("wavelet",
                                      "Wavelet decomposition, multiresolution analysis and denoising of a "
                                      "signal column (PyWavelets-compatible)");
   wavelet->require_subcommand(1);
-
-  auto dec = std::make_shared<WaveletArgs>();
-  auto* wavedec = wavelet->add_subcommand("wavedec", "Print the coefficients [cA_J, cD_J, ..., cD_1] as JSON");
-  add_common(wavedec, *dec);
-  wavedec->callback([dec] {
-    const Prepared p = prepare(*dec);
-    nlohmann::ordered_json j = header(p);
-    j["bands"] = band_names(p.level);
-    j["coeffs"] = dsp::wavedec(p.signal.values, p.wavelet, p.mode, p.level);
-    std::cout << j.dump() << "\n";
-  });
-
-  auto m = std::make_shared<WaveletArgs>();
-  auto mra_out = std::make_shared<std::string>();
-  auto* mra = wavelet->add_subcommand("mra", "Print the signal-domain components [A_J, D_J, ..., D_1] as JSON");
-  add_common(mra, *m);
-  mra->add_option("--out", *mra_out, "also write the components as CSV columns aJ,dJ,...,d1 to this file");
-  mra->callback([m, mra_out] {
-    const Prepared p = prepare(*m);
-    const auto comps = dsp::mra(p.signal.values, p.wavelet, p.mode, p.level);
-    const auto names = band_names(p.level);
-    nlohmann::ordered_json j = header(p);
-    j["bands"] = names;
-    j["components"] = comps;
-    if (!mra_out->empty()) {
-      std::ostringstream csv;
-      csv << "# source = " << p.signal.file << "\n# column = " << p.signal.column
-          << "\n# wavelet = " << p.wavelet.name() << "\n# mode = " << dsp::mode_name(p.mode)
-          << "\n# level = " << p.level << "\n";
-      for (std::size_t b = 0; b < names.size(); ++b) csv << (b ? "," : "") << names[b];
-      csv << "\n";
-      for (std::size_t i = 0; i < p.signal.values.size(); ++i) {
-        for (std::size_t b = 0; b < comps.size(); ++b) csv << (b ? "," : "") << number_text(comps[b][i]);
-        csv << "\n";
-      }
-      write_file(*mra_out, csv.str());
-    }
-    std::cout << j.dump() << "\n";
-  });
-
-  struct DenoiseArgs {
-    WaveletArgs w;
-    std::string rule = "soft";
-    bool level_dependent = false;
-    std::optional<double> sigma;
-    std::string out;
-  };
-  auto d = std::make_shared<DenoiseArgs>();
-  auto* den = wavelet->add_subcommand("denoise", "Universal-threshold denoising; writes the denoised signal");
-  add_common(den, d->w);
-  den->add_option("--rule", d->rule, "soft or hard thresholding")->capture_default_str();
-  den->add_flag("--level-dependent", d->level_dependent, "estimate the noise level per level (default: finest)");
-  den->add_option("--sigma", d->sigma, "known noise standard deviation (default: median(|cD_1|)/0.6745)");
-  den->add_option("--out", d->out, "write a CSV (metadata + one column) here instead of numbers on stdout");
-  den->callback([d] {
-    const Prepared p = prepare(d->w);
-    dsp::DenoiseOptions o;
-    o.rule = dsp::parse_threshold_rule(d->rule);
-    o.level_dependent = d->level_dependent;
-    o.sigma = d->sigma;
-    const auto r = dsp::denoise(p.signal.values, p.wavelet, p.mode, p.level, o);
-    std::ostringstream text;
-    if (!d->out.empty()) {
-      text << "# source = " << p.signal.file << "\n# column = " << p.signal.column
-           << "\n# wavelet = " << p.wavelet.name() << "\n# mode = " << dsp::mode_name(p.mode)
-           << "\n# level = " << p.level << "\n# rule = " << d->rule
-           << "\n# level_dependent = " << (d->level_dependent ? "true" : "false")
-           << "\n# sigma = " << number_text(r.sigma)
-           << "\n# thresholds = " << nlohmann::ordered_json(r.thresholds).dump() << "\n"
-           << p.signal.column << "_denoised\n";
-    }
-    for (double v : r.signal) text << number_text(v) << "\n";
-    if (d->out.empty()) {
-      std::cout << text.str();
-    } else {
-      write_file(d->out, text.str());
-      nlohmann::ordered_json j = header(p);
-      j["out"] = d->out;
-      j["sigma"] = r.sigma;
-      j["thresholds"] = r.thresholds;
-      std::cout << j.dump() << "\n";
-    }
-  });
-
-  struct CorrelateArgs {
-    std::string file_a;
-    std::string file_b;
-    std::optional<std::string> column;
-    std::optional<std::string> column_b;
-    std::size_t max_lag = 1000;
-    std::string wavelet = "db1";
-    std::string mode = "symmetric";
-    int lowpass_level = 0;
-  };
-  auto c = std::make_shared<CorrelateArgs>();
-  auto* corr = app.add_subcommand("correlate",
-                                  "Pearson coefficient and normalised cross-correlation peak of two "
-                                  "signals (Mu et al. Eq. 6; Eq. 20 with --lowpass-level)");
-  corr->add_option("FILE_A", c->file_a, "first signal (CSV or one number per line)")->required();
-  corr->add_option("FILE_B", c->file_b, "second signal, same length")->required();
-  corr->add_option("--column", c->column, "column of FILE_A (and of FILE_B unless --column-b)");
-  corr->add_option("--column-b", c->column_b, "column of FILE_B");
-  corr->add_option("--max-lag", c->max_lag, "largest lag of the cross-correlation, in samples")->capture_default_str();
-  corr->add_option("--lowpass-level", c->lowpass_level,
-                   "also correlate the approximation component A_j of FILE_A at this level (Mu Eq. 20)");
-  corr->add_option("--wavelet", c->wavelet, "wavelet for --lowpass-level")->capture_default_str();
-  corr->add_option("--mode", c->mode, "signal extension for --lowpass-level")->capture_default_str();
-  corr->callback([c] {
-    const Signal a = load_signal(c->file_a, c->column);
-    const Signal b = load_signal(c->file_b, c->column_b ? c->column_b : c->column);
-    if (a.values.size() != b.values.size()) {
-      throw std::runtime_error("correlate: " + a.file + " has " + std::to_string(a.values.size()) + " samples, " +
-                               b.file + " has " + std::to_string(b.values.size()) +
-                               ": the signals must be equally long");
-    }
-    auto named = [&](const dsp::CorrelationError& e) {
-      return std::runtime_error("correlate " + a.file + " (" + a.column + ") with " + b.file + " (" + b.column +
-                                "): " + e.what());
-    };
-    nlohmann::ordered_json j;
-    j["file_a"] = a.file;
-    j["column_a"] = a.column;
-    j["file_b"] = b.file;
-    j["column_b"] = b.column;
-    j["samples"] = a.values.size();
-    try {
-      j["pearson"] = dsp::pearson(a.values, b.values);
-      const auto x = dsp::cross_correlation(a.values, b.values, c->max_lag);
-      j["max_lag"] = x.max_lag;
-      j["peak"] = {{"lag", x.peak_lag}, {"value", x.peak_value}};
-      if (c->lowpass_level > 0) {
-        const dsp::Wavelet w(c->wavelet);
-        const auto r = dsp::wavelet_correlation(a.values, {b.values}, w, dsp::parse_mode(c->mode), c->lowpass_level);
-        j["lowpass"] = {{"wavelet", std::string(w.name())},
-                        {"mode", c->mode},
-                        {"level", c->lowpass_level},
-                        {"pearson", r.gamma_x1_y[0]}};
-      }
-    } catch (const dsp::CorrelationError& e) {
-      throw named(e);
-    }
-    std::cout << j.dump() << "\n";
-  });
+  add_commands(*wavelet, ctx,
+               {command("wavedec", "Print the coefficients [cA_J, cD_J, ..., cD_1] as JSON", &run_wavedec),
+                command("mra", "Print the signal-domain components [A_J, D_J, ..., D_1] as JSON", &run_mra),
+                command("denoise", "Universal-threshold denoising; writes the denoised signal", &run_denoise)});
+  add_commands(app, ctx,
+               {command("correlate",
+                        "Pearson coefficient and normalised cross-correlation peak of two signals (Mu et al. Eq. 6; "
+                        "Eq. 20 with --lowpass-level)",
+                        &run_correlate)});
 }
 
 const CommandGroup wavelet_commands(&add_wavelet_commands);

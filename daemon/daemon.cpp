@@ -166,19 +166,19 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   loop_.add(outbox_.fd(), EPOLLIN, [this](std::uint32_t) {
     const SocketServer::Batch batch(*server_);  // one write per client for the whole outbox batch
     for (Message& m : outbox_.take()) {
-      if (m.cls == MessageClass::params) {
+      if (m.cls == results::MessageClass::params) {
         const nlohmann::json& j = m.body;
         std::erase_if(latest_params_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
         latest_params_.push_back(j);
         log_->info("session {}: parameters identified", j.value("session", "?"));
-      } else if (m.cls == MessageClass::explain) {
+      } else if (m.cls == results::MessageClass::explain) {
         const nlohmann::json& j = m.body;
         std::erase_if(latest_explain_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
         log_->info("session {}: {} finding(s){}", j.value("session", "?"),
                    j.value("findings", nlohmann::json::array()).size(),
                    j.value("unexplained", false) ? ", a structured residual is left unexplained" : "");
         latest_explain_.push_back(j);
-      } else if (m.cls == MessageClass::event) {
+      } else if (m.cls == results::MessageClass::event) {
         const nlohmann::json& j = m.body;
         if (j.contains("session")) {
           // A failure carries its reason (a warning); news such as report_ready carries its file (info).
@@ -242,9 +242,10 @@ void Daemon::periodic(std::int64_t now_ns) {
     nlohmann::json status = status_json();
     if (mqtt_) {
       mqtt_->publish_devices(
-          with_class(MessageClass::status, {{"time", status["time"]}, {"devices", status["devices"]}}).dump());
+          results::with_class(results::MessageClass::status, {{"time", status["time"]}, {"devices", status["devices"]}})
+              .dump());
     }
-    broadcast(make_message(MessageClass::status, std::move(status)));
+    broadcast(make_message(results::MessageClass::status, std::move(status)));
     notifier_.status(status_line());
   }
 }
@@ -389,8 +390,8 @@ nlohmann::json Daemon::status_json() {
     }
     devices.push_back(std::move(d));
   }
-  return with_class(
-      MessageClass::status,
+  return results::with_class(
+      results::MessageClass::status,
       {{"time", utc_now_iso()},
        {"release", GUIDEWAY_VERSION},
        {"uptime_s", static_cast<double>(mono_now_ns() - started_ns_) * 1e-9},
@@ -416,17 +417,18 @@ void Daemon::reply(ClientId client, nlohmann::json message, const std::optional<
 }
 
 void Daemon::handle_request(ClientId client, const std::string& line) {
-  // Every request class, in the order docs/protocol.md lists them; an unknown class gets this list.
+  // The handler of every request class (results::RequestClass); an unknown class gets the list.
+  using results::RequestClass;
   struct RequestEntry {
-    const char* cls;
+    RequestClass cls;
     nlohmann::json (Daemon::*handle)(ClientId, const Request&);
   };
   static constexpr RequestEntry request_table[] = {
-      {"version", &Daemon::handle_version}, {"status", &Daemon::handle_status},
-      {"poll", &Daemon::handle_status},     {"watch", &Daemon::handle_watch},
-      {"start", &Daemon::handle_start},     {"stop", &Daemon::handle_stop},
-      {"params", &Daemon::handle_params},   {"explain", &Daemon::handle_explain},
-      {"report", &Daemon::handle_report},   {"recordings", &Daemon::handle_recordings},
+      {RequestClass::version, &Daemon::handle_version}, {RequestClass::status, &Daemon::handle_status},
+      {RequestClass::poll, &Daemon::handle_status},     {RequestClass::watch, &Daemon::handle_watch},
+      {RequestClass::start, &Daemon::handle_start},     {RequestClass::stop, &Daemon::handle_stop},
+      {RequestClass::params, &Daemon::handle_params},   {RequestClass::explain, &Daemon::handle_explain},
+      {RequestClass::report, &Daemon::handle_report},   {RequestClass::recordings, &Daemon::handle_recordings},
   };
   RequestError error;
   std::optional<Request> req = parse_request(line, error);
@@ -434,12 +436,13 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
     reply(client, error_message(error.message), error.id);
     return;
   }
+  const std::optional<RequestClass> cls = results::request_named(req->cls);
   const auto* entry = std::find_if(std::begin(request_table), std::end(request_table),
-                                   [&](const RequestEntry& e) { return req->cls == e.cls; });
+                                   [&](const RequestEntry& e) { return cls == e.cls; });
   if (entry == std::end(request_table)) {
-    std::string known;
-    for (const RequestEntry& e : request_table) known += (known.empty() ? "" : ", ") + std::string(e.cls);
-    reply(client, error_message("unknown request class \"" + req->cls + "\" (known: " + known + ")", req->cls),
+    reply(client,
+          error_message("unknown request class \"" + req->cls + "\" (known: " + results::request_class_names() + ")",
+                        req->cls),
           req->id);
     return;
   }
@@ -471,10 +474,11 @@ nlohmann::json Daemon::handle_explain(ClientId, const Request& req) {
 
 void Daemon::broadcast(const Message& message) {
   if (mqtt_) {  // hands the line over: the publisher's thread does the disk and the network
-    if (message.cls == MessageClass::params || message.cls == MessageClass::explain) {
-      mqtt_->publish(message.cls == MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
-                     message.body.value("kind", "unknown"), message.line);
-    } else if (message.cls == MessageClass::event) {
+    if (message.cls == results::MessageClass::params || message.cls == results::MessageClass::explain) {
+      mqtt_->publish(
+          message.cls == results::MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
+          message.body.value("kind", "unknown"), message.line);
+    } else if (message.cls == results::MessageClass::event) {
       mqtt_->publish(plant::TopicLeaf::event, {}, message.line);
     }
   }
@@ -513,12 +517,14 @@ nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   }
   const std::string name = sessions_->start(sr);
   log_->info("session {} started", name);
-  return with_class(MessageClass::session, {{"session", name}, {"state", to_string(SessionState::running)}});
+  return results::with_class(results::MessageClass::session,
+                             {{"session", name}, {"state", to_string(SessionState::running)}});
 }
 
 nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {
   const auto names = sessions_->stop(string_field(req.body, "session"));
-  return with_class(MessageClass::session, {{"sessions", names}, {"state", to_string(SessionState::finishing)}});
+  return results::with_class(results::MessageClass::session,
+                             {{"sessions", names}, {"state", to_string(SessionState::finishing)}});
 }
 
 nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
@@ -552,8 +558,9 @@ nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
   if (!in) throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
   std::ostringstream html;
   html << in.rdbuf();
-  return with_class(MessageClass::report,
-                    {{"session", session}, {"kind", params.value("kind", "")}, {"file", path}, {"html", html.str()}});
+  return results::with_class(
+      results::MessageClass::report,
+      {{"session", session}, {"kind", params.value("kind", "")}, {"file", path}, {"html", html.str()}});
 }
 
 nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
@@ -563,7 +570,8 @@ nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
   for (const auto& e : formats::list_raw_recordings(config_.state_dir)) {
     list.push_back({{"file", e.path}, {"bytes", e.bytes}, {"complete", e.complete}});
   }
-  return with_class(MessageClass::recordings, {{"dir", config_.state_dir}, {"recordings", std::move(list)}});
+  return results::with_class(results::MessageClass::recordings,
+                             {{"dir", config_.state_dir}, {"recordings", std::move(list)}});
 }
 
 nlohmann::json Daemon::sessions_json() const {

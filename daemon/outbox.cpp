@@ -20,10 +20,11 @@ void Outbox::post(Message message) {
   {
     std::lock_guard lock(mutex_);
     if (queue_.size() >= max_messages_) {
-      auto oldest_sample = std::find_if(queue_.begin(), queue_.end(), [](const Message& m) { return m.cls == MessageClass::sample; });
+      auto oldest_sample = std::find_if(queue_.begin(), queue_.end(),
+                                        [](const Message& m) { return m.cls == results::MessageClass::sample; });
       if (oldest_sample != queue_.end()) {
         queue_.erase(oldest_sample);
-      } else if (message.cls == MessageClass::sample) {
+      } else if (message.cls == results::MessageClass::sample) {
         ++dropped_;
         return;
       }

@@ -106,7 +106,7 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
     }
     j["denoised"] = {{"seq", processed->seq}, {"values", std::move(denoised)}};
   }
-  outbox_.post(make_message(MessageClass::sample, std::move(j), dev.name()));
+  outbox_.post(make_message(results::MessageClass::sample, std::move(j), dev.name()));
 }
 
 std::size_t Pipeline::drain_once(std::span<Sample> batch, bool& more, bool& from_threads) {

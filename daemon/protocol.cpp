@@ -7,12 +7,13 @@
 namespace guideway::daemon {
 
 nlohmann::json version_message() {
-  return with_class(MessageClass::version,
-                    {{"release", GUIDEWAY_VERSION}, {"proto_major", protocol_major}, {"proto_minor", protocol_minor}});
+  return results::with_class(
+      results::MessageClass::version,
+      {{"release", GUIDEWAY_VERSION}, {"proto_major", protocol_major}, {"proto_minor", protocol_minor}});
 }
 
 nlohmann::json error_message(std::string_view message, std::string_view request_class) {
-  nlohmann::json j = with_class(MessageClass::error, {{"message", message}});
+  nlohmann::json j = results::with_class(results::MessageClass::error, {{"message", message}});
   if (!request_class.empty()) j["request"] = request_class;
   return j;
 }
@@ -51,9 +52,9 @@ std::optional<Request> parse_request(std::string_view line, RequestError& error)
   return r;
 }
 
-bool Subscription::wants(MessageClass cls, std::string_view channel, std::string_view session) const {
+bool Subscription::wants(results::MessageClass cls, std::string_view channel, std::string_view session) const {
   if (!enabled) return false;
-  if (classes.empty() ? cls == MessageClass::sample : !classes.contains(cls)) return false;
+  if (classes.empty() ? cls == results::MessageClass::sample : !classes.contains(cls)) return false;
   return channels.empty() || channel.empty() || channels.contains(channel) ||
          (!session.empty() && channels.contains(session));
 }
@@ -83,13 +84,15 @@ nlohmann::json apply_watch(const nlohmann::json& body, Subscription& sub) {
   next.enabled = enable == body.end() ? true : enable->get<bool>();
   const auto class_names = string_set(body, "classes", true);
   for (const auto& name : class_names) {
-    const auto cls = published_class(name);
-    if (!cls) throw std::invalid_argument("unknown class \"" + name + "\" (published: " + published_class_names() + ")");
+    const auto cls = results::published_class(name);
+    if (!cls)
+      throw std::invalid_argument("unknown class \"" + name + "\" (published: " + results::published_class_names() +
+                                  ")");
     next.classes.insert(*cls);
   }
   next.channels = string_set(body, "channels", false);
   sub = std::move(next);
-  nlohmann::json reply = with_class(MessageClass::watch, {{"enable", sub.enabled}});
+  nlohmann::json reply = results::with_class(results::MessageClass::watch, {{"enable", sub.enabled}});
   if (!class_names.empty()) reply["classes"] = class_names;
   if (!sub.channels.empty()) reply["channels"] = sub.channels;
   return reply;

@@ -41,11 +41,11 @@ std::optional<Request> parse_request(std::string_view line, RequestError& error)
 // What a client asked to receive with `watch`.
 struct Subscription {
   bool enabled = false;
-  std::set<MessageClass> classes;               // empty = every published class except SAMPLE
+  std::set<results::MessageClass> classes;      // empty = every published class except SAMPLE
   std::set<std::string, std::less<>> channels;  // empty = every device/session
   // `channel`: the device a message is about; `session`: the session it is about ("" = none). Either
   // name in `channels` lets it through.
-  [[nodiscard]] bool wants(MessageClass cls, std::string_view channel, std::string_view session = {}) const;
+  [[nodiscard]] bool wants(results::MessageClass cls, std::string_view channel, std::string_view session = {}) const;
 };
 
 // Applies a watch request; returns the reply (WATCH) or throws std::invalid_argument with the reason.

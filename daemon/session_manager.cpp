@@ -12,6 +12,7 @@
 #include "core/atomic_file.hpp"
 #include "core/utc_time.hpp"
 #include "report/report.hpp"
+#include "results/result_header.hpp"
 
 namespace guideway::daemon {
 
@@ -26,6 +27,15 @@ std::string_view to_string(SessionState state) noexcept {
 }
 
 namespace {
+
+// The header of the session's results: which session, of which kind, on which device.
+results::ResultHeader header_of(const SessionInfo& info) {
+  results::ResultHeader h;
+  h.session = info.name;
+  h.kind = info.kind;
+  h.device = info.device;
+  return h;
+}
 
 std::string join(const std::vector<std::string>& v) {
   std::string out;
@@ -220,10 +230,8 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
   try {
     std::optional<nlohmann::json> report = r.session->explain();
     if (!report) return std::nullopt;
-    (*report)["session"] = info.name;
-    (*report)["kind"] = info.kind;
-    (*report)["device"] = info.device;
-    Message message = make_message(MessageClass::explain, std::move(*report), info.device, info.name);
+    Message message = make_message(results::MessageClass::explain,
+                                   results::with_header(std::move(*report), header_of(info)), info.device, info.name);
     const nlohmann::json& explanation = message.body;
     outbox_.post(message);
     // Kept beside the recording for the session's report (guideway report reads it too). The
@@ -304,14 +312,13 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
   }
   info.state = failure.empty() ? SessionState::done : SessionState::failed;
   if (failure.empty()) {
-    params["session"] = info.name;
-    params["kind"] = info.kind;
-    params["device"] = info.device;
-    params["samples"] = info.samples;
-    if (!info.recording.empty()) params["recording"] = info.recording;
-    if (!info.recording_error.empty()) params["recording_error"] = info.recording_error;
-    if (!derived.empty()) params["derived"] = derived;
-    outbox_.post(make_message(MessageClass::params, std::move(params), info.device, info.name));
+    results::ResultHeader header = header_of(info);
+    header.samples = info.samples;
+    header.recording = info.recording;
+    header.recording_error = info.recording_error;
+    header.derived = derived;
+    outbox_.post(make_message(results::MessageClass::params, results::with_header(std::move(params), header),
+                              info.device, info.name));
     if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
     write_session_report(*r, derived);
   }

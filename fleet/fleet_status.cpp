@@ -7,6 +7,7 @@
 #include "core/number_format.hpp"
 #include "core/printable.hpp"
 #include "core/utc_time.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::fleet {
 
@@ -45,7 +46,7 @@ std::vector<MachineStatus> fleet_status(const Store& store, double now_s) {
       if (last.explain) m.explains.push_back({last.kind, last.produced_utc, *last.explain});
     } else {
       m.latest.push_back({last.kind, last.produced_utc, last.session, std::move(last.figures)});
-      if (last.kind == "dbb")
+      if (last.kind == results::dbb_kind.name)
         if (const auto t = parse_utc_iso(last.produced_utc)) m.dbb_age_s = now_s - *t;
     }
     i = end;

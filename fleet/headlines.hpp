@@ -1,7 +1,7 @@
 #pragma once
 // The headline figures of a result: the few numbers of a PARAMS object that say how a machine is
-// (circular deviation, squareness, backlash, straightness, ...), one table per session kind, and what
-// an EXPLAIN object found. Pure; thread safe.
+// (circular deviation, squareness, backlash, straightness, ...), as the catalogue of parameters lists them
+// per session kind (results/parameters.hpp), and what an EXPLAIN object found. Pure; thread safe.
 
 #include <optional>
 #include <string>
@@ -20,8 +20,8 @@ struct Headline {
   std::optional<double> u;  // standard uncertainty, when the result gives one
 };
 
-// The figures of a PARAMS object of session kind `kind` that it holds, in the kind's table order
-// (docs/plant.md lists them); none for a kind without a table.
+// The figures of a PARAMS object of session kind `kind` that it holds, in the kind's order of headline
+// figures (results::headline_parameters; docs/plant.md lists them); none for a kind without any.
 [[nodiscard]] std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params);
 // Why the figures of a PARAMS object cannot be read ("" when they can): a figure that is present but
 // not a finite number. The fleet refuses such a result at ingest (fleet/payload_check.hpp).

@@ -5,15 +5,12 @@
 
 #include "core/printable.hpp"
 #include "report/html.hpp"
+#include "results/message_class.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::fleet {
 
-int kind_rank(std::string_view kind) {
-  static constexpr std::string_view order[] = {"dbb", "runout", "straightness", "profile"};
-  for (int i = 0; i < 4; ++i)
-    if (order[i] == kind) return i;
-  return 4;
-}
+int kind_rank(std::string_view kind) { return results::session_kind_rank(kind); }
 
 std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
   std::vector<HistoryEntry> out;
@@ -23,7 +20,7 @@ std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
     // A row that cannot be read (stored before ingest checked shapes) is marked and skipped, never fatal.
     try {
       const nlohmann::json j = nlohmann::json::parse(r.payload);
-      if (r.message_class == "EXPLAIN") {
+      if (r.message_class == results::to_string(results::MessageClass::explain)) {
         e.explain = explain_summary(j);
       } else {
         auto& before = previous[r.kind];

@@ -13,6 +13,7 @@
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
 #include "plant/topics.hpp"
+#include "results/message_class.hpp"
 
 namespace guideway::fleet {
 
@@ -386,7 +387,8 @@ IngestResult Store::ingest_one(std::string_view topic_prefix, const IngestInput&
     }
     case plant::TopicLeaf::params:
     case plant::TopicLeaf::explain: {
-      const std::string cls = t->leaf == plant::TopicLeaf::params ? "PARAMS" : "EXPLAIN";
+      const std::string cls(results::to_string(t->leaf == plant::TopicLeaf::params ? results::MessageClass::params
+                                                                                   : results::MessageClass::explain));
       const std::string declared = string_field(j, "class");
       if (!declared.empty() && declared != cls)
         return refused("the payload is a " + claimed_text(declared) + " on a " +

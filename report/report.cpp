@@ -11,6 +11,7 @@
 #include "formats/dbb_run.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::report {
 
@@ -18,25 +19,18 @@ namespace fs = std::filesystem;
 
 std::string_view kind_name(InputKind kind) {
   switch (kind) {
-    case InputKind::dbb_run: return "dbb";
-    case InputKind::straightness: return "straightness";
+    case InputKind::dbb_run:
+      return results::dbb_kind.name;
+    case InputKind::straightness:
+      return results::straightness_kind.name;
     case InputKind::union_jack: return "unionjack";
-    case InputKind::runout: return "runout";
-    case InputKind::profile: return "profile";
+    case InputKind::runout:
+      return results::runout_kind.name;
+    case InputKind::profile:
+      return results::profile_kind.name;
     case InputKind::explain: return "explain";
   }
   return "unknown";
-}
-
-std::pair<std::string, std::string> split_unit(const std::string& name) {
-  static const std::vector<std::pair<std::string, std::string>> units = {
-      {"_per_mm2", "1/mm\u00b2"}, {"_per_mm", "1/mm"}, {"_um", "\u00b5m"},   {"_ppm", "ppm"}, {"_urad", "\u00b5rad"},
-      {"_ms", "ms"},              {"_mm", "mm"},       {"_deg", "deg"},       {"_rad", "rad"}, {"_s", "s"},
-      {"_arcsec", "\u2033"},      {"_nm", "nm"},       {"_m", "m"},           {"_hz", "Hz"}};
-  for (const auto& [suffix, unit] : units)
-    if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
-      return {name.substr(0, name.size() - suffix.size()), unit};
-  return {name, ""};
 }
 
 std::string base_name(const std::string& path) {

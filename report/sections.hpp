@@ -26,8 +26,6 @@ std::string workpiece_correlation_html(const std::vector<std::string>& profiles,
                                        const std::string& runout, const ReportOptions& options);
 std::string explain_section(const std::string& path, const std::string& id);
 
-// "name_um" -> ("name", "µm"): the unit suffix of a reported quantity, for table columns.
-std::pair<std::string, std::string> split_unit(const std::string& name);
 // The file name without its directories.
 std::string base_name(const std::string& path);
 

@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
 # Configures and builds one build tree. Usage: scripts/build.sh DIR [cmake options...] [-- targets...]
 # Used by demo.sh and test.sh: a progress line at every tenth of the build, the errors if it fails.
+# With ccache installed the build goes through it (CMakeLists.txt, GUIDEWAY_USE_CCACHE): paths below the checkout are hashed relative to it
+# (CCACHE_BASEDIR, unless already set), so every build tree of it, and every other checkout under the
+# same base, reuses the same objects.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$(pwd)}
 dir=$1
 shift
 opts=()

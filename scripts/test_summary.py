@@ -55,7 +55,7 @@ def main():
             skipped_cases[reason].append(f"{name}: {case}")
     n_case_skips = sum(len(v) for v in skipped_cases.values())
     print(f"== {stage}: {passed + failed} tests ran: {passed} passed, {failed} failed; {skipped} not run"
-          f"; inside them {cases_run} cases ran and {n_case_skips} were skipped")
+          f"; inside them {cases_run} cases ran, {n_case_skips} skipped")
     for name, reason in skipped_tests:
         print(f"   not run: {name}: {reason}")
     for reason, where in sorted(skipped_cases.items(), key=lambda kv: -len(kv[1])):

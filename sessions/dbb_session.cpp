@@ -38,17 +38,17 @@ std::vector<Pattern> lai_patterns() {
 }
 
 DbbOptions parse_options(const nlohmann::json& o) {
-  check_option_names(o, "dbb", {"patterns", "radius_tolerance_mm", "min_speed_mm_per_min", "plane"});
+  check_option_names(o, results::dbb_kind);
   DbbOptions d;
-  d.radius_tolerance_m = number_option(o, "radius_tolerance_mm", 1.0, 0.001, 50.0) * 1e-3;
-  d.min_speed_m_per_s = number_option(o, "min_speed_mm_per_min", 30.0, 0.1, 1e5) / 60e3;
-  if (auto it = o.find("plane"); it != o.end()) {
+  d.radius_tolerance_m = number_option(o, results::dbb_radius_tolerance_mm) * 1e-3;
+  d.min_speed_m_per_s = number_option(o, results::dbb_min_speed_mm_per_min) / 60e3;
+  if (auto it = o.find(std::string(results::dbb_plane.name)); it != o.end()) {
     if (!it->is_string() || (*it != "xy" && *it != "xz" && *it != "yz")) {
       throw std::invalid_argument("option plane must be \"xy\", \"xz\" or \"yz\"");
     }
     d.plane = it->get<std::string>();
   }
-  auto it = o.find("patterns");
+  auto it = o.find(std::string(results::dbb_patterns.name));
   if (it == o.end()) {
     d.patterns = lai_patterns();
     return d;
@@ -333,9 +333,8 @@ class DbbSession : public Session {
 }  // namespace
 
 SessionKind dbb_session_kind() {
-  return {"dbb",
-          "DBB circular test: Lai's three patterns by default (options: patterns=[{radius_mm,height_mm,direction}], "
-          "radius_tolerance_mm, min_speed_mm_per_min, plane)",
+  return {std::string(results::dbb_kind.name),
+          results::description(results::dbb_kind),
           {"dbb-can"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<DbbSession>(parse_options(r.options), device);

@@ -144,19 +144,19 @@ struct ProfileOptions {
 };
 
 ProfileOptions parse_options(const nlohmann::json& o) {
-  check_option_names(o, "profile", {"wavelet", "mode", "level", "feed_mm_per_min", "spindle_rpm"});
+  check_option_names(o, results::profile_kind);
   ProfileOptions p;
-  p.eval.wavelet = string_option(o, "wavelet", "db1");
-  p.eval.mode = string_option(o, "mode", "symmetric");
-  p.eval.level = static_cast<int>(integer_option(o, "level", 5, 1, 20));
+  p.eval.wavelet = string_option(o, results::profile_wavelet);
+  p.eval.mode = string_option(o, results::profile_mode);
+  p.eval.level = static_cast<int>(integer_option(o, results::profile_level));
   try {
     (void)dsp::Wavelet(p.eval.wavelet);
     (void)dsp::parse_mode(p.eval.mode);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("option wavelet/mode: ") + e.what());
   }
-  p.feed_mm_per_min = number_option(o, "feed_mm_per_min", 0.0, 0.0, 1e6);
-  p.spindle_rpm = number_option(o, "spindle_rpm", 0.0, 0.0, 1e6);
+  p.feed_mm_per_min = number_option(o, results::profile_feed_mm_per_min);
+  p.spindle_rpm = number_option(o, results::profile_spindle_rpm);
   return p;
 }
 
@@ -255,8 +255,7 @@ class ProfileSession : public Session {
     try {
       const models::explain::ProfileRun run =
           models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return models::explain::to_json(
-          models::explain::explain(models::explain::profile_problem({run}, "straightness")));
+      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness"));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }
@@ -277,9 +276,8 @@ class ProfileSession : public Session {
 }  // namespace
 
 SessionKind profile_session_kind() {
-  return {"profile",
-          "one profilometer traverse: straightness of the profile and its wavelet decomposition (options: wavelet=db1, "
-          "level=5, mode=symmetric, feed_mm_per_min, spindle_rpm; the last two give the EXPLAIN of the cut)",
+  return {std::string(results::profile_kind.name),
+          results::description(results::profile_kind),
           {"profilometer-tcp"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<ProfileSession>(parse_options(r.options), device);

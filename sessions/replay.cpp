@@ -5,6 +5,8 @@
 #include <stdexcept>
 
 #include "formats/raw_recording.hpp"
+#include "results/message_class.hpp"
+#include "results/result_header.hpp"
 
 namespace guideway::sessions {
 
@@ -70,20 +72,15 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
     result.failure = e.what();
     return result;
   }
-  result.params["class"] = "PARAMS";
-  result.params["session"] = recording.required("session");
-  result.params["kind"] = kind_name;
-  result.params["device"] = device.name();
-  result.params["samples"] = result.samples;
-  result.params["replayed_from"] = path;
+  results::ResultHeader header{
+      recording.required("session"), kind_name, device.name(), result.samples, {}, {}, {}, path};
+  result.params =
+      results::with_class(results::MessageClass::params, results::with_header(std::move(result.params), header));
   try {
     if (auto report = session->explain()) {
-      result.explain = std::move(*report);
-      result.explain["class"] = "EXPLAIN";
-      result.explain["session"] = result.params["session"];
-      result.explain["kind"] = kind_name;
-      result.explain["device"] = device.name();
-      result.explain["replayed_from"] = path;
+      header.samples.reset();  // an EXPLAIN names its session, not what it was fed
+      result.explain =
+          results::with_class(results::MessageClass::explain, results::with_header(std::move(*report), header));
     }
   } catch (const std::exception& e) {
     result.explain_failure = e.what();

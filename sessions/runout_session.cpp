@@ -23,17 +23,15 @@ struct RunoutOptions {
 };
 
 RunoutOptions parse_options(const nlohmann::json& o) {
-  check_option_names(
-      o, "runout",
-      {"plate_diameter_mm", "parallelism_um", "parallelism_u_um", "travel_mm", "rpm", "revolutions", "channel"});
+  check_option_names(o, results::runout_kind);
   RunoutOptions r;
-  r.plate_diameter_mm = number_option(o, "plate_diameter_mm", 1000.0, 1.0, 1e5);
-  r.parallelism_um = number_option(o, "parallelism_um", 2.5, -1e4, 1e4);
-  r.parallelism_u_um = number_option(o, "parallelism_u_um", 0.0, 0.0, 1e4);
-  r.travel_mm = number_option(o, "travel_mm", 600.0, 0.0, 1e5);
-  r.rpm = number_option(o, "rpm", 10.0, 0.01, 1e5);
-  r.revolutions = number_option(o, "revolutions", 1.0, 1.0, 1000.0);
-  r.channel = string_option(o, "channel", "displacement");
+  r.plate_diameter_mm = number_option(o, results::runout_plate_diameter_mm);
+  r.parallelism_um = number_option(o, results::runout_parallelism_um);
+  r.parallelism_u_um = number_option(o, results::runout_parallelism_u_um);
+  r.travel_mm = number_option(o, results::runout_travel_mm);
+  r.rpm = number_option(o, results::runout_rpm);
+  r.revolutions = number_option(o, results::runout_revolutions);
+  r.channel = string_option(o, results::runout_channel);
   return r;
 }
 
@@ -120,7 +118,7 @@ class RunoutSession : public Session {
   // The revolution's fit already holds the once- and twice-per-revolution terms, and no effect of the
   // library is a candidate for what one revolution leaves; said in the EXPLAIN rather than left silent.
   std::optional<nlohmann::json> explain() override {
-    return explain_not_analysed("runout",
+    return explain_not_analysed(std::string(results::runout_kind.name),
                                 "no explanation model for a run-out revolution yet (its fit already holds the once- "
                                 "and twice-per-revolution terms)");
   }
@@ -152,9 +150,8 @@ class RunoutSession : public Session {
 }  // namespace
 
 SessionKind runout_session_kind() {
-  return {"runout",
-          "spindle run-out revolution on a thrust plate: squareness by Mu's Eq. 21 (options: plate_diameter_mm=1000, "
-          "parallelism_um=2.5, parallelism_u_um=0, travel_mm=600, rpm=10, revolutions=1, channel=displacement)",
+  return {std::string(results::runout_kind.name),
+          results::description(results::runout_kind),
           {"micrometer-modbus"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<RunoutSession>(parse_options(r.options), device);

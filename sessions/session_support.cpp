@@ -12,21 +12,48 @@ namespace guideway::sessions {
 
 namespace {
 
-std::string list(std::initializer_list<const char*> names) {
+template <class Names>
+std::string list(const Names& names) {
   std::string out;
-  for (const char* n : names) out += (out.empty() ? "" : ", ") + std::string(n);
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + std::string(n);
   return out;
+}
+
+// "return|now" -> {"return", "now"}.
+std::vector<std::string> choices_of(std::string_view choices) {
+  std::vector<std::string> out;
+  while (!choices.empty()) {
+    const auto bar = choices.find('|');
+    out.emplace_back(choices.substr(0, bar));
+    choices = bar == std::string_view::npos ? std::string_view() : choices.substr(bar + 1);
+  }
+  return out;
+}
+
+std::string string_among(const nlohmann::json& options, const std::string& key, const std::string& fallback,
+                         const std::vector<std::string>& allowed) {
+  auto it = options.find(key);
+  if (it == options.end()) return fallback;
+  if (!it->is_string()) throw std::invalid_argument("option " + key + " must be a string");
+  const std::string v = it->get<std::string>();
+  if (allowed.empty()) return v;
+  for (const auto& a : allowed) {
+    if (v == a) return v;
+  }
+  throw std::invalid_argument("option " + key + " = \"" + v + "\" must be one of: " + list(allowed));
 }
 
 }  // namespace
 
-void check_option_names(const nlohmann::json& options, const std::string& kind,
-                        std::initializer_list<const char*> known) {
-  if (!options.is_object()) throw std::invalid_argument(kind + " options must be a JSON object");
+void check_option_names(const nlohmann::json& options, const results::SessionKindInfo& kind) {
+  const std::string name(kind.name);
+  if (!options.is_object()) throw std::invalid_argument(name + " options must be a JSON object");
+  std::vector<std::string_view> known;
+  for (const results::SessionOption* o : kind.options) known.push_back(o->name);
   for (const auto& [k, v] : options.items()) {
     bool found = false;
-    for (const char* n : known) found = found || k == n;
-    if (!found) throw std::invalid_argument("unknown " + kind + " option \"" + k + "\" (known: " + list(known) + ")");
+    for (const auto n : known) found = found || k == n;
+    if (!found) throw std::invalid_argument("unknown " + name + " option \"" + k + "\" (known: " + list(known) + ")");
   }
 }
 
@@ -61,15 +88,20 @@ long long integer_option(const nlohmann::json& options, const char* key, long lo
 
 std::string string_option(const nlohmann::json& options, const char* key, const std::string& fallback,
                           std::initializer_list<const char*> allowed) {
-  auto it = options.find(key);
-  if (it == options.end()) return fallback;
-  if (!it->is_string()) throw std::invalid_argument(std::string("option ") + key + " must be a string");
-  const std::string v = it->get<std::string>();
-  if (allowed.size() == 0) return v;
-  for (const char* a : allowed) {
-    if (v == a) return v;
-  }
-  throw std::invalid_argument(std::string("option ") + key + " = \"" + v + "\" must be one of: " + list(allowed));
+  return string_among(options, key, fallback, std::vector<std::string>(allowed.begin(), allowed.end()));
+}
+
+double number_option(const nlohmann::json& options, const results::SessionOption& o) {
+  return number_option(options, std::string(o.name).c_str(), o.fallback, o.min, o.max);
+}
+
+long long integer_option(const nlohmann::json& options, const results::SessionOption& o) {
+  return integer_option(options, std::string(o.name).c_str(), static_cast<long long>(o.fallback),
+                        static_cast<long long>(o.min), static_cast<long long>(o.max));
+}
+
+std::string string_option(const nlohmann::json& options, const results::SessionOption& o) {
+  return string_among(options, std::string(o.name), std::string(o.fallback_text), choices_of(o.choices));
 }
 
 std::vector<std::string> write_derived_text(const std::string& dir, const std::string& base_name,

@@ -9,11 +9,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "results/session_kinds.hpp"
+
 namespace guideway::sessions {
 
-// Throws when `options` is not an object or has a key outside `known` (the message lists them).
-void check_option_names(const nlohmann::json& options, const std::string& kind,
-                        std::initializer_list<const char*> known);
+// Throws when `options` is not an object or has a key that is not one of the kind's options (the message
+// lists them, results/session_kinds.hpp).
+void check_option_names(const nlohmann::json& options, const results::SessionKindInfo& kind);
 // The number at `key`, `fallback` when absent; it must lie in [min, max].
 double number_option(const nlohmann::json& options, const char* key, double fallback, double min, double max);
 // A whole number in [min, max].
@@ -22,6 +24,10 @@ long long integer_option(const nlohmann::json& options, const char* key, long lo
 // A string among `allowed` (any string when `allowed` is empty).
 std::string string_option(const nlohmann::json& options, const char* key, const std::string& fallback,
                           std::initializer_list<const char*> allowed = {});
+// The option as its entry in the kind's table says: default, range, choices.
+double number_option(const nlohmann::json& options, const results::SessionOption& option);
+long long integer_option(const nlohmann::json& options, const results::SessionOption& option);
+std::string string_option(const nlohmann::json& options, const results::SessionOption& option);
 
 // Writes `text` to DIR/BASE.SUFFIX and returns the path ({} when text is empty). Throws
 // std::runtime_error naming the path when it cannot be written.

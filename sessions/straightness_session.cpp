@@ -30,31 +30,28 @@ struct StraightnessOptions {
 };
 
 StraightnessOptions parse_options(const nlohmann::json& o) {
-  check_option_names(
-      o, "straightness",
-      {"step_mm", "start_mm", "stations", "start", "return_gap_s", "min_dwell_s", "max_hole_s", "settle_arcsec",
-       "pitch_channel", "yaw_channel", "pitch_sign", "yaw_sign", "angle_u_arcsec", "max_order"});
+  check_option_names(o, results::straightness_kind);
   StraightnessOptions s;
-  s.step_m = number_option(o, "step_mm", 50.0, 0.1, 10000.0) * 1e-3;
-  s.start_m = number_option(o, "start_mm", 0.0, -1e5, 1e5) * 1e-3;
-  s.stations = static_cast<std::size_t>(integer_option(o, "stations", 0, 0, 100000));
+  s.step_m = number_option(o, results::straightness_step_mm) * 1e-3;
+  s.start_m = number_option(o, results::straightness_start_mm) * 1e-3;
+  s.stations = static_cast<std::size_t>(integer_option(o, results::straightness_stations));
   if (s.stations == 1)
     throw std::invalid_argument("option stations = 1: a traverse needs at least 2 (0 = until the return)");
-  s.wait_for_return = string_option(o, "start", "return", {"return", "now"}) == "return";
-  s.return_gap_s = number_option(o, "return_gap_s", 1.0, 0.05, 600.0);
-  s.min_dwell_s = number_option(o, "min_dwell_s", 0.3, 0.0, 600.0);
-  s.max_hole_s = number_option(o, "max_hole_s", 0.45, 0.01, 600.0);
-  s.settle_rad = number_option(o, "settle_arcsec", 0.5, 0.001, 1000.0) * models::flatness::rad_per_arcsec;
-  s.pitch_channel = string_option(o, "pitch_channel", "angle_y");
-  s.yaw_channel = string_option(o, "yaw_channel", "angle_x");
-  for (const char* key : {"pitch_sign", "yaw_sign"}) {
-    const double v = number_option(o, key, key[0] == 'p' ? -1.0 : 1.0, -1.0, 1.0);
-    if (v != 1.0 && v != -1.0) throw std::invalid_argument(std::string("option ") + key + " must be 1 or -1");
-    (key[0] == 'p' ? s.pitch_sign : s.yaw_sign) = v;
+  s.wait_for_return = string_option(o, results::straightness_start) == "return";
+  s.return_gap_s = number_option(o, results::straightness_return_gap_s);
+  s.min_dwell_s = number_option(o, results::straightness_min_dwell_s);
+  s.max_hole_s = number_option(o, results::straightness_max_hole_s);
+  s.settle_rad = number_option(o, results::straightness_settle_arcsec) * models::flatness::rad_per_arcsec;
+  s.pitch_channel = string_option(o, results::straightness_pitch_channel);
+  s.yaw_channel = string_option(o, results::straightness_yaw_channel);
+  for (const results::SessionOption* sign : {&results::straightness_pitch_sign, &results::straightness_yaw_sign}) {
+    const double v = number_option(o, *sign);
+    if (v != 1.0 && v != -1.0) throw std::invalid_argument("option " + std::string(sign->name) + " must be 1 or -1");
+    (sign == &results::straightness_pitch_sign ? s.pitch_sign : s.yaw_sign) = v;
   }
   s.model.instrument.u_override_rad =
-      number_option(o, "angle_u_arcsec", 0.0, 0.0, 100.0) * models::flatness::rad_per_arcsec;
-  s.model.max_order = static_cast<int>(integer_option(o, "max_order", 8, 1, 8));
+      number_option(o, results::straightness_angle_u_arcsec) * models::flatness::rad_per_arcsec;
+  s.model.max_order = static_cast<int>(integer_option(o, results::straightness_max_order));
   return s;
 }
 
@@ -285,11 +282,8 @@ class StraightnessSession : public Session {
 }  // namespace
 
 SessionKind straightness_session_kind() {
-  return {"straightness",
-          "autocollimator traverse: straightness from the station angles (options: step_mm=50, start_mm=0, "
-          "stations=0 (until the return), start=return|now, return_gap_s=1, min_dwell_s=0.3, max_hole_s=0.45, "
-          "settle_arcsec=0.5, "
-          "pitch_channel=angle_y, yaw_channel=angle_x, pitch_sign=-1, yaw_sign=1, angle_u_arcsec, max_order=8)",
+  return {std::string(results::straightness_kind.name),
+          results::description(results::straightness_kind),
           {"autocollimator-serial"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<StraightnessSession>(parse_options(r.options), device);

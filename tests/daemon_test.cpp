@@ -59,7 +59,7 @@ TEST(Daemon, GreetsWithVersionAndAnswersStatus) {
   DaemonClient c(rd.socket);
   EXPECT_EQ(c.banner()["class"], "VERSION");
   EXPECT_EQ(c.banner()["proto_major"], 1);
-  auto s = c.request({{"class", "status"}, {"id", "abc"}}, "STATUS");
+  auto s = c.request({{"class", "status"}, {"id", "abc"}}, guideway::results::MessageClass::status);
   EXPECT_EQ(s["class"], "STATUS");
   EXPECT_EQ(s["id"], "abc");
   EXPECT_TRUE(s["devices"].empty());
@@ -70,15 +70,15 @@ TEST(Daemon, SurvivesMalformedUnknownAndOversizedRequests) {
   RunningDaemon rd;
   DaemonClient c(rd.socket);
   c.send_line("{this is not json");
-  auto e1 = c.request({{"class", "version"}}, "ERROR");
+  auto e1 = c.request({{"class", "version"}}, guideway::results::MessageClass::error);
   EXPECT_EQ(e1["message"], "malformed JSON");
-  auto e2 = c.request({{"class", "frobnicate"}}, "ERROR");
+  auto e2 = c.request({{"class", "frobnicate"}}, guideway::results::MessageClass::error);
   EXPECT_NE(e2["message"].get<std::string>().find("unknown request class"), std::string::npos);
   c.send_line(std::string(100000, 'x'));  // 100 kB in one line, limit is 16 kB
-  auto e3 = c.request({{"class", "version"}}, "ERROR");
+  auto e3 = c.request({{"class", "version"}}, guideway::results::MessageClass::error);
   EXPECT_NE(e3["message"].get<std::string>().find("exceeds the limit"), std::string::npos);
   // The connection is still usable and answers normally.
-  auto v = c.request({{"class", "version"}}, "VERSION");
+  auto v = c.request({{"class", "version"}}, guideway::results::MessageClass::version);
   EXPECT_EQ(v["class"], "VERSION");
 }
 
@@ -113,7 +113,7 @@ TEST(Daemon, StreamsSamplesFromADriverThroughThePipeline) {
   RunningDaemon rd(
       "sample_publish_hz = 50.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n");
   DaemonClient c(rd.socket);
-  auto ack = c.request({{"class", "watch"}, {"classes", {"SAMPLE", "STATUS"}}}, "WATCH");
+  auto ack = c.request({{"class", "watch"}, {"classes", {"SAMPLE", "STATUS"}}}, guideway::results::MessageClass::watch);
   ASSERT_EQ(ack["class"], "WATCH");
   int samples = 0;
   double last = -1;
@@ -165,7 +165,7 @@ TEST(Daemon, ClientsDroppedForOneReasonAreLoggedOnceThenCounted) {
       ::close(fd);
     }
     DaemonClient c(rd.socket);  // still answers
-    EXPECT_EQ(c.request({{"class", "version"}}, "VERSION")["class"], "VERSION");
+    EXPECT_EQ(c.request({{"class", "version"}}, guideway::results::MessageClass::version)["class"], "VERSION");
   }
   std::istringstream in(out.str());
   int dropped_lines = 0;
@@ -201,7 +201,8 @@ std::string first_line(int fd) {
 TEST(Daemon, IdleConnectionsAreClosedAndDoNotLockOthersOut) {
   RunningDaemon rd("max_clients = 3\nreserved_clients = 0\nidle_timeout_s = 0.5\n");
   DaemonClient watcher(rd.socket);
-  watcher.request({{"class", "watch"}, {"classes", {"STATUS"}}}, "WATCH");  // served: stays
+  watcher.request({{"class", "watch"}, {"classes", {"STATUS"}}},
+                  guideway::results::MessageClass::watch);  // served: stays
   std::vector<int> idle;
   for (int i = 0; i < 2; ++i) idle.push_back(raw_connect(rd.socket));
   const int refused = raw_connect(rd.socket);
@@ -216,8 +217,9 @@ TEST(Daemon, IdleConnectionsAreClosedAndDoNotLockOthersOut) {
     ::close(fd);
   }
   DaemonClient late(rd.socket);
-  EXPECT_EQ(late.request({{"class", "version"}}, "VERSION")["class"], "VERSION");
-  EXPECT_EQ(watcher.request({{"class", "version"}}, "VERSION")["class"], "VERSION");  // the watcher stayed
+  EXPECT_EQ(late.request({{"class", "version"}}, guideway::results::MessageClass::version)["class"], "VERSION");
+  EXPECT_EQ(watcher.request({{"class", "version"}}, guideway::results::MessageClass::version)["class"],
+            "VERSION");  // the watcher stayed
 }
 
 // The last reserved_clients places are for root and the daemon's own user or group: connections from
@@ -253,7 +255,7 @@ TEST(Daemon, ReservedPlacesKeepTheOperatorIn) {
   ASSERT_EQ(::read(pipe_fds[0], &verdict, 1), 1);
   EXPECT_EQ(verdict, 'y');
   DaemonClient root(rd.socket);  // a reserved place
-  EXPECT_EQ(root.request({{"class", "version"}}, "VERSION")["class"], "VERSION");
+  EXPECT_EQ(root.request({{"class", "version"}}, guideway::results::MessageClass::version)["class"], "VERSION");
   ::kill(child, SIGKILL);
   ::waitpid(child, nullptr, 0);
 }
@@ -264,7 +266,7 @@ TEST(Daemon, ReservedPlacesKeepTheOperatorIn) {
 TEST(Daemon, StatusPipelineCountsTheLastPeriodOnly) {
   RunningDaemon rd("[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n");
   DaemonClient c(rd.socket);
-  c.request({{"class", "watch"}, {"classes", {"STATUS"}}}, "WATCH");
+  c.request({{"class", "watch"}, {"classes", {"STATUS"}}}, guideway::results::MessageClass::watch);
   std::vector<std::uint64_t> per_period, iterations;
   std::uint64_t consumed = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -298,7 +300,7 @@ TEST(Daemon, ASampleWithoutAValueLeavesTheChannelOutNeverNull) {
       "sample_publish_hz = 200.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n"
       "nan_every = 2\n");
   DaemonClient c(rd.socket);
-  c.request({{"class", "watch"}, {"classes", {"SAMPLE"}}}, "WATCH");
+  c.request({{"class", "watch"}, {"classes", {"SAMPLE"}}}, guideway::results::MessageClass::watch);
   int with_value = 0, without_value = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while ((with_value < 5 || without_value < 5) && std::chrono::steady_clock::now() < deadline) {
@@ -327,7 +329,7 @@ TEST(Daemon, DenoisesAConfiguredChannelAndPublishesItBesideTheRawValue) {
       "sample_publish_hz = 50.0\n[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n"
       "[[processing]]\ndevice = \"counter\"\nchannel = \"count\"\nwavelet = \"db4\"\nlevels = 4\n");
   DaemonClient c(rd.socket);
-  c.request({{"class", "watch"}, {"classes", {"SAMPLE"}}}, "WATCH");
+  c.request({{"class", "watch"}, {"classes", {"SAMPLE"}}}, guideway::results::MessageClass::watch);
   int checked = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (checked < 5 && std::chrono::steady_clock::now() < deadline) {
@@ -342,7 +344,7 @@ TEST(Daemon, DenoisesAConfiguredChannelAndPublishesItBesideTheRawValue) {
     ++checked;
   }
   EXPECT_EQ(checked, 5);
-  auto s = c.request({{"class", "status"}}, "STATUS");
+  auto s = c.request({{"class", "status"}}, guideway::results::MessageClass::status);
   const auto& p = s["devices"][0]["processing"][0];
   EXPECT_EQ(p["channel"], "count");
   EXPECT_EQ(p["wavelet"], "db4");
@@ -381,11 +383,13 @@ TEST(Daemon, DropsAClientThatNeverReadsAndKeepsServingOthers) {
   ASSERT_EQ(write(silent, watch.data(), watch.size()), static_cast<ssize_t>(watch.size()));
 
   DaemonClient good(rd.socket);
-  EXPECT_TRUE(test::eventually([&] {
-    auto s = good.request({{"class", "status"}}, "STATUS");
-    return s["clients"]["dropped_slow"].get<int>() >= 1;
-  }, std::chrono::seconds(20)));
-  auto s = good.request({{"class", "status"}}, "STATUS");
+  EXPECT_TRUE(test::eventually(
+      [&] {
+        auto s = good.request({{"class", "status"}}, guideway::results::MessageClass::status);
+        return s["clients"]["dropped_slow"].get<int>() >= 1;
+      },
+      std::chrono::seconds(20)));
+  auto s = good.request({{"class", "status"}}, guideway::results::MessageClass::status);
   EXPECT_EQ(s["clients"]["connected"], 1);
   EXPECT_EQ(s["devices"][0]["state"], "streaming");
   close(silent);

@@ -6,8 +6,9 @@
 #include <numbers>
 #include <random>
 
-#include <Eigen/QR>
 #include <gtest/gtest.h>
+#include <Eigen/QR>
+#include <nlohmann/json.hpp>
 
 #include "models/explain/explain.hpp"
 

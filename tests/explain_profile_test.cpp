@@ -12,7 +12,9 @@
 
 #include <gtest/gtest.h>
 
+#include "models/explain/explain.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "profile_test_support.hpp"
 #include "simulators/machine/machine.hpp"
 
 using namespace guideway;
@@ -40,23 +42,7 @@ models::flatness::AngleTraverse traverse(double x0_m = 0.0) {
 std::vector<models::explain::ProfileRun> profiles(double abbe_mm, unsigned seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.03e-6);
-  std::vector<models::explain::ProfileRun> runs;
-  double t0 = 0;
-  for (double feed : {2.0, 8.0}) {
-    models::explain::ProfileRun r;
-    r.source = "p" + std::to_string(runs.size() + 1) + ".csv";
-    r.feed_mm_per_min = feed;
-    r.spindle_rpm = 107;
-    for (int i = 0; i <= 200; ++i) {
-      const double x = i * 1e-4;
-      r.x_m.push_back(x);
-      r.z_m.push_back(h_m(x) + 5e-6 * x + abbe_mm * 1e-3 * slope(x) + noise(rng));
-      r.t_s.push_back(t0 + x / (feed / 60000.0));
-    }
-    t0 = r.t_s.back() + 60;
-    runs.push_back(std::move(r));
-  }
-  return runs;
+  return test::two_cuts([&](double x) { return h_m(x) + 5e-6 * x + abbe_mm * 1e-3 * slope(x) + noise(rng); });
 }
 
 bool has_candidate(const models::explain::Problem& p, const std::string& name) {

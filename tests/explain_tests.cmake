@@ -12,3 +12,7 @@ add_test(NAME explain_scenarios_full COMMAND $<TARGET_FILE:guideway> explain --s
 set_tests_properties(explain_scenarios_full PROPERTIES LABELS slow TIMEOUT 1200)
 # The flatness front end with Mu Eq. 16's measured straightness and the abbe_offset term.
 guideway_add_test(explain_profile_test SOURCES explain_profile_test.cpp LIBS guideway_explain_model guideway_machine LABELS unit)
+# The effect library: one file per effect, each candidate of the front ends a library effect with its names
+# in the catalogue of parameters.
+guideway_add_test(explain_effects_test SOURCES explain_effects_test.cpp
+  LIBS guideway_explain_model guideway_dbb_sim guideway_machine guideway_results LABELS unit)

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 using namespace guideway::daemon;
+using namespace guideway::results;
 
 TEST(Protocol, VersionBannerCarriesClassAndProtocolVersion) {
   const auto v = version_message();

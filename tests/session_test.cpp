@@ -108,8 +108,9 @@ std::vector<std::string> read_lines(const std::string& path) {
 TEST(Session, CompletesIdentifiesPublishesAndRecordsEverySample) {
   Fixture f;
   DaemonClient c(f.socket);
-  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
-  auto started = c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 400}}}}, "SESSION");
+  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, guideway::results::MessageClass::watch);
+  auto started = c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 400}}}},
+                           guideway::results::MessageClass::session);
   ASSERT_EQ(started["class"], "SESSION") << started.dump();
   const std::string name = started["session"];
   EXPECT_EQ(name.rfind("mean-c-", 0), 0u);
@@ -146,11 +147,11 @@ TEST(Session, CompletesIdentifiesPublishesAndRecordsEverySample) {
   EXPECT_NE(std::find(lines.begin(), lines.end(), "# wanted = 400"), lines.end());
 
   // params returns the cached result; recordings lists the file.
-  auto cached = c.request({{"class", "params"}, {"kind", "mean"}}, "PARAMS");
+  auto cached = c.request({{"class", "params"}, {"kind", "mean"}}, guideway::results::MessageClass::params);
   EXPECT_EQ(cached["session"], name);
   // A session's derived files are CSV beside the recording, but they are not raw recordings.
   std::ofstream(f.state + "/" + name + ".run1.csv") << "# format = guideway/dbb-run/1\nangle_deg,dr_um\n";
-  auto recs = c.request({{"class", "recordings"}}, "RECORDINGS");
+  auto recs = c.request({{"class", "recordings"}}, guideway::results::MessageClass::recordings);
   ASSERT_EQ(recs["recordings"].size(), 1u) << recs.dump();
   EXPECT_EQ(recs["recordings"][0]["file"], path);
   EXPECT_EQ(recs["recordings"][0]["complete"], true);
@@ -159,16 +160,17 @@ TEST(Session, CompletesIdentifiesPublishesAndRecordsEverySample) {
 TEST(Session, StopEndsAnOpenEndedSessionAndStatusShowsIt) {
   Fixture f;
   DaemonClient c(f.socket);
-  c.request({{"class", "watch"}, {"classes", {"PARAMS"}}}, "WATCH");
-  const std::string name = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION")["session"];
+  c.request({{"class", "watch"}, {"classes", {"PARAMS"}}}, guideway::results::MessageClass::watch);
+  const std::string name =
+      c.request({{"class", "start"}, {"kind", "mean"}}, guideway::results::MessageClass::session)["session"];
   EXPECT_TRUE(test::eventually([&] {
-    auto s = c.request({{"class", "status"}}, "STATUS");
+    auto s = c.request({{"class", "status"}}, guideway::results::MessageClass::status);
     return s["sessions"].size() == 1 && s["sessions"][0]["state"] == "running" && s["sessions"][0]["samples"] > 50;
   }));
   // The device is busy: a second session on it is refused.
-  auto busy = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION");
+  auto busy = c.request({{"class", "start"}, {"kind", "mean"}}, guideway::results::MessageClass::session);
   EXPECT_EQ(busy["class"], "ERROR");
-  auto stopped = c.request({{"class", "stop"}, {"session", name}}, "SESSION");
+  auto stopped = c.request({{"class", "stop"}, {"session", name}}, guideway::results::MessageClass::session);
   EXPECT_EQ(stopped["state"], "finishing");
   const auto params = Fixture::next(c, "PARAMS");
   EXPECT_EQ(params["session"], name);
@@ -180,14 +182,18 @@ TEST(Session, StopEndsAnOpenEndedSessionAndStatusShowsIt) {
 TEST(Session, WatchingASessionByNameGetsItsParams) {
   Fixture f;
   DaemonClient c(f.socket);
-  const std::string name = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION")["session"];
+  const std::string name =
+      c.request({{"class", "start"}, {"kind", "mean"}}, guideway::results::MessageClass::session)["session"];
   DaemonClient by_session(f.socket), other(f.socket);
-  by_session.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {name}}}, "WATCH");
-  other.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {"mean-c-other"}}}, "WATCH");
+  by_session.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {name}}},
+                     guideway::results::MessageClass::watch);
+  other.request({{"class", "watch"}, {"classes", {"PARAMS"}}, {"channels", {"mean-c-other"}}},
+                guideway::results::MessageClass::watch);
   EXPECT_TRUE(test::eventually([&] {
-    return c.request({{"class", "status"}}, "STATUS")["sessions"][0]["samples"].get<std::uint64_t>() > 10;
+    return c.request({{"class", "status"}}, guideway::results::MessageClass::status)["sessions"][0]["samples"]
+               .get<std::uint64_t>() > 10;
   }));
-  c.request({{"class", "stop"}}, "SESSION");
+  c.request({{"class", "stop"}}, guideway::results::MessageClass::session);
   const auto params = Fixture::next(by_session, "PARAMS");
   ASSERT_FALSE(params.is_null());
   EXPECT_EQ(params["session"], name);
@@ -197,24 +203,33 @@ TEST(Session, WatchingASessionByNameGetsItsParams) {
 TEST(Session, BadRequestsGetErrorsAndTheDaemonGoesOn) {
   Fixture f;
   DaemonClient c(f.socket);
-  EXPECT_NE(c.request({{"class", "start"}}, "SESSION")["message"].get<std::string>().find("needs \"kind\""),
+  EXPECT_NE(
+      c.request({{"class", "start"}}, guideway::results::MessageClass::session)["message"].get<std::string>().find(
+          "needs \"kind\""),
+      std::string::npos);
+  EXPECT_NE(c.request({{"class", "start"}, {"kind", "nope"}}, guideway::results::MessageClass::session)["message"]
+                .get<std::string>()
+                .find("unknown session kind \"nope\" (known: mean)"),
             std::string::npos);
-  EXPECT_NE(c.request({{"class", "start"}, {"kind", "nope"}}, "SESSION")["message"].get<std::string>().find(
-                "unknown session kind \"nope\" (known: mean)"),
-            std::string::npos);
-  EXPECT_NE(c.request({{"class", "start"}, {"kind", "mean"}, {"device", "zz"}}, "SESSION")["message"]
+  EXPECT_NE(c.request({{"class", "start"}, {"kind", "mean"}, {"device", "zz"}},
+                      guideway::results::MessageClass::session)["message"]
                 .get<std::string>()
                 .find("no device named"),
             std::string::npos);
-  EXPECT_EQ(c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", -3}}}}, "SESSION")["message"],
+  EXPECT_EQ(c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", -3}}}},
+                      guideway::results::MessageClass::session)["message"],
             "samples must be >= 0");
-  EXPECT_EQ(c.request({{"class", "stop"}}, "SESSION")["message"], "no session is running");
-  EXPECT_NE(c.request({{"class", "params"}}, "PARAMS")["message"].get<std::string>().find("no parameters"),
-            std::string::npos);
+  EXPECT_EQ(c.request({{"class", "stop"}}, guideway::results::MessageClass::session)["message"],
+            "no session is running");
+  EXPECT_NE(
+      c.request({{"class", "params"}}, guideway::results::MessageClass::params)["message"].get<std::string>().find(
+          "no parameters"),
+      std::string::npos);
   // The device still streams. Its driver thread may not have run yet when these requests are answered
   // (the state is "connecting" until it does): waited for, not assumed.
   EXPECT_TRUE(test::eventually([&] {
-    return c.request({{"class", "status"}}, "STATUS")["devices"][0]["state"] == "streaming";
+    return c.request({{"class", "status"}}, guideway::results::MessageClass::status)["devices"][0]["state"] ==
+           "streaming";
   }));
 }
 
@@ -224,8 +239,9 @@ TEST(Session, UnwritableStateDirIsReportedAndIdentificationGoesOn) {
   std::ofstream(file_not_dir) << "x";
   Fixture f(file_not_dir + "/state");  // a directory below a regular file cannot be created
   DaemonClient c(f.socket);
-  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
-  c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 100}}}}, "SESSION");
+  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, guideway::results::MessageClass::watch);
+  c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 100}}}},
+            guideway::results::MessageClass::session);
   bool saw_failure_event = false;
   nlohmann::json params;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -248,7 +264,7 @@ TEST(Session, UnwritableStateDirIsReportedAndIdentificationGoesOn) {
 TEST(Session, DiskFullMidSessionIsReportedWhileTheSessionRuns) {
   Fixture f;
   DaemonClient c(f.socket);
-  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, "WATCH");
+  c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, guideway::results::MessageClass::watch);
   std::signal(SIGXFSZ, SIG_IGN);  // a write past the limit fails with EFBIG instead of killing the test
   rlimit old{};
   getrlimit(RLIMIT_FSIZE, &old);
@@ -259,7 +275,8 @@ TEST(Session, DiskFullMidSessionIsReportedWhileTheSessionRuns) {
     rlimit r;
     ~Restore() { setrlimit(RLIMIT_FSIZE, &r); }
   } restore{old};
-  const std::string name = c.request({{"class", "start"}, {"kind", "mean"}}, "SESSION")["session"];
+  const std::string name =
+      c.request({{"class", "start"}, {"kind", "mean"}}, guideway::results::MessageClass::session)["session"];
   nlohmann::json event;
   EXPECT_TRUE(test::eventually([&] {
     auto line = c.read_line(std::chrono::milliseconds(100));
@@ -271,15 +288,16 @@ TEST(Session, DiskFullMidSessionIsReportedWhileTheSessionRuns) {
   EXPECT_EQ(event["session"], name);
   EXPECT_NE(event.value("reason", "").find(name + ".csv.part"), std::string::npos) << event.dump();
   // Reported while the session still runs, and the session still gets samples.
-  auto status = c.request({{"class", "status"}}, "STATUS");
+  auto status = c.request({{"class", "status"}}, guideway::results::MessageClass::status);
   ASSERT_EQ(status["sessions"].size(), 1u);
   EXPECT_EQ(status["sessions"][0]["state"], "running");
   EXPECT_NE(status["sessions"][0].value("recording_error", "").find(".csv.part"), std::string::npos) << status.dump();
   const std::uint64_t before = status["sessions"][0]["samples"];
   EXPECT_TRUE(test::eventually([&] {
-    return c.request({{"class", "status"}}, "STATUS")["sessions"][0]["samples"].get<std::uint64_t>() > before + 200;
+    return c.request({{"class", "status"}}, guideway::results::MessageClass::status)["sessions"][0]["samples"]
+               .get<std::uint64_t>() > before + 200;
   }));
-  c.request({{"class", "stop"}}, "SESSION");
+  c.request({{"class", "stop"}}, guideway::results::MessageClass::session);
   const auto params = Fixture::next(c, "PARAMS");
   ASSERT_FALSE(params.is_null());
   EXPECT_GT(params["n"].get<std::uint64_t>(), before + 200);
@@ -297,8 +315,9 @@ TEST(Session, DiskFullMidSessionIsReportedWhileTheSessionRuns) {
 TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
   Fixture f;
   DaemonClient c(f.socket);
-  c.request({{"class", "watch"}, {"classes", {"EVENT"}}}, "WATCH");
-  c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 1}}}}, "SESSION");
+  c.request({{"class", "watch"}, {"classes", {"EVENT"}}}, guideway::results::MessageClass::watch);
+  c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 1}}}},
+            guideway::results::MessageClass::session);
   nlohmann::json ev;
   EXPECT_TRUE(test::eventually([&] {
     auto line = c.read_line(std::chrono::milliseconds(100));
@@ -314,7 +333,8 @@ TEST(Session, FailedIdentificationIsAnEventWithTheReason) {
   EXPECT_EQ(report["event"], "report_failed") << report.dump();
   EXPECT_NE(report.value("reason", "").find("identification failed: too few samples (1)"), std::string::npos);
   // params names the failed session and why, rather than "start a session".
-  const std::string message = c.request({{"class", "params"}, {"kind", "mean"}}, "PARAMS")["message"];
+  const std::string message =
+      c.request({{"class", "params"}, {"kind", "mean"}}, guideway::results::MessageClass::params)["message"];
   EXPECT_NE(message.find("session " + ev["session"].get<std::string>() + " failed: too few samples (1)"),
             std::string::npos)
       << message;

@@ -32,96 +32,99 @@ std::string format_coefficient(double c) {
   return o.str();
 }
 
-}  // namespace
+// The columns of `r` listed in `idx`.
+Eigen::MatrixXd columns_of(const Eigen::MatrixXd& r, const std::vector<Eigen::Index>& idx) {
+  Eigen::MatrixXd c(r.rows(), static_cast<Eigen::Index>(idx.size()));
+  for (std::size_t k = 0; k < idx.size(); ++k) c.col(static_cast<Eigen::Index>(k)) = r.col(idx[k]);
+  return c;
+}
 
-LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
-                    const std::vector<std::string>& names, const LsqOptions& options) {
-  LsqResult res;
-  const Eigen::Index n = jacobian.rows();
-  const Eigen::Index m = jacobian.cols();
-  res.n = static_cast<std::size_t>(n);
-  if (y.size() != n || (weights.size() != 0 && weights.size() != n) || static_cast<Eigen::Index>(names.size()) != m) {
-    res.message = "least squares: inconsistent sizes of Jacobian, data, weights and names";
-    return res;
-  }
-  if (m == 0) {
-    res.message = "least squares: no parameters";
-    return res;
-  }
-  if (n <= m) {
-    res.message = "least squares: " + std::to_string(n) + " data points for " + std::to_string(m) +
-                  " parameters; need more points than parameters";
-    return res;
-  }
-  const auto non_finite = [&res] {
-    res.message = "least squares: non-finite value (NaN or infinity) in the data";
-    return res;
-  };
-  if (!y.allFinite() || (weights.size() != 0 && !weights.allFinite())) return non_finite();
-  Eigen::VectorXd sw = Eigen::VectorXd::Ones(n);
-  if (weights.size() != 0) sw = weights.cwiseMax(0.0).cwiseSqrt();
+// Why the problem cannot be solved at all ("" = it can be tried): sizes that do not agree, no parameters,
+// too few points.
+std::string size_error(Eigen::Index n, Eigen::Index m, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
+                       const std::vector<std::string>& names) {
+  if (y.size() != n || (weights.size() != 0 && weights.size() != n) || static_cast<Eigen::Index>(names.size()) != m)
+    return "least squares: inconsistent sizes of Jacobian, data, weights and names";
+  if (m == 0) return "least squares: no parameters";
+  if (n <= m)
+    return "least squares: " + std::to_string(n) + " data points for " + std::to_string(m) +
+           " parameters; need more points than parameters";
+  return {};
+}
 
-  // [W^1/2 J, W^1/2 y] = Q [R c; 0 d], Householder QR in one pass over J (Q is never formed); then
-  // everything happens on the m x m triangle with c = Q^T W^1/2 y. The columns are scaled to unit
-  // norm for the rank analysis: Householder QR is column-scale invariant, so R's columns are scaled
-  // afterwards (the norm of a column of W^1/2 J is that of its column of R).
-  const Eigen::MatrixXd raug = weighted_triangle(jacobian, y, sw);
-  // A NaN or infinity anywhere in J reaches the diagonal of its column's R (every reflector that
-  // touches it spreads it over the column, and its own reflector puts it on the diagonal), and finite
-  // data give a finite R: J is scanned only when R says so, not before every fit.
-  if (!raug.allFinite() && !jacobian.allFinite()) return non_finite();
-  Eigen::VectorXd scale(m);
-  Eigen::MatrixXd r = raug.topLeftCorner(m, m);
+// [W^1/2 J, W^1/2 y] = Q [R c; 0 d], Householder QR in one pass over J (Q is never formed); then
+// everything happens on the m x m triangle with c = Q^T W^1/2 y. The columns are scaled to unit norm for
+// the rank analysis: Householder QR is column-scale invariant, so R's columns are scaled afterwards (the
+// norm of a column of W^1/2 J is that of its column of R).
+struct ScaledTriangle {
+  Eigen::MatrixXd r;      // R with unit-norm columns
+  Eigen::VectorXd scale;  // the norms they were divided by
+  Eigen::VectorXd qtb;    // c = Q^T W^1/2 y
+};
+
+ScaledTriangle scaled_triangle(const Eigen::MatrixXd& raug, Eigen::Index m) {
+  ScaledTriangle t{raug.topLeftCorner(m, m), Eigen::VectorXd(m), raug.col(m).head(m)};
   for (Eigen::Index j = 0; j < m; ++j) {
-    scale[j] = r.col(j).head(j + 1).norm();
-    if (!(scale[j] > 0)) scale[j] = 1.0;
-    r.col(j) /= scale[j];
+    t.scale[j] = t.r.col(j).head(j + 1).norm();
+    if (!(t.scale[j] > 0)) t.scale[j] = 1.0;
+    t.r.col(j) /= t.scale[j];
   }
-  const Eigen::VectorXd qtb = raug.col(m).head(m);
+  return t;
+}
 
+// Which parameters the data cannot separate (those loading on the null space of the scaled R) and which
+// columns are kept: every parameter outside the null space, then the involved ones in order while the
+// columns stay independent; the rest are dropped (their effect is absorbed by kept ones).
+struct Separation {
+  std::vector<bool> involved;
+  std::vector<Eigen::Index> kept, dropped;
+  double condition_number = 0;
+};
+
+Separation separate(const Eigen::MatrixXd& r, const LsqOptions& options) {
+  const Eigen::Index m = r.cols();
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(r, Eigen::ComputeFullV);
   const auto& sv = svd.singularValues();
   const double smax = sv[0];
   const double smin = sv[m - 1];
-  res.condition_number = smin > 0 ? smax / smin : std::numeric_limits<double>::infinity();
+  Separation s;
+  s.condition_number = smin > 0 ? smax / smin : std::numeric_limits<double>::infinity();
   std::size_t rank = 0;
   for (Eigen::Index i = 0; i < m; ++i)
     if (sv[i] > options.rank_tolerance * smax) ++rank;
-
-  std::vector<bool> involved(static_cast<std::size_t>(m), false);
+  s.involved.assign(static_cast<std::size_t>(m), false);
   if (rank < static_cast<std::size_t>(m)) {
     const Eigen::MatrixXd vnull = svd.matrixV().rightCols(m - static_cast<Eigen::Index>(rank));
     for (Eigen::Index j = 0; j < m; ++j)
-      if (vnull.row(j).norm() > options.null_loading) involved[static_cast<std::size_t>(j)] = true;
+      if (vnull.row(j).norm() > options.null_loading) s.involved[static_cast<std::size_t>(j)] = true;
   }
-  // Keep every parameter outside the null space, then add the involved ones in order while the
-  // columns stay independent; the rest are dropped (their effect is absorbed by kept ones).
-  std::vector<Eigen::Index> kept;
   for (Eigen::Index j = 0; j < m; ++j)
-    if (!involved[static_cast<std::size_t>(j)]) kept.push_back(j);
-  std::vector<Eigen::Index> dropped;
-  const auto columns = [&](const std::vector<Eigen::Index>& idx) {
-    Eigen::MatrixXd c(m, static_cast<Eigen::Index>(idx.size()));
-    for (std::size_t k = 0; k < idx.size(); ++k) c.col(static_cast<Eigen::Index>(k)) = r.col(idx[k]);
-    return c;
-  };
+    if (!s.involved[static_cast<std::size_t>(j)]) s.kept.push_back(j);
   for (Eigen::Index j = 0; j < m; ++j) {
-    if (!involved[static_cast<std::size_t>(j)]) continue;
-    auto trial = kept;
+    if (!s.involved[static_cast<std::size_t>(j)]) continue;
+    auto trial = s.kept;
     trial.push_back(j);
-    if (numerical_rank(columns(trial), options.rank_tolerance) == trial.size()) {
-      kept = std::move(trial);
+    if (numerical_rank(columns_of(r, trial), options.rank_tolerance) == trial.size()) {
+      s.kept = std::move(trial);
     } else {
-      dropped.push_back(j);
+      s.dropped.push_back(j);
     }
   }
-  std::sort(kept.begin(), kept.end());
+  std::sort(s.kept.begin(), s.kept.end());
+  return s;
+}
 
-  const Eigen::MatrixXd rk = columns(kept);
-  const auto k = static_cast<Eigen::Index>(kept.size());
+// The fit on the kept columns: estimates, residual, covariance (of the kept ones, in the parameters'
+// units), u and `identified` of those outside the null space, the names of those inside.
+void fit_kept(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
+              const std::vector<std::string>& names, const ScaledTriangle& t, const Separation& s, LsqResult& res) {
+  const Eigen::Index n = jacobian.rows();
+  const Eigen::Index m = jacobian.cols();
+  const Eigen::MatrixXd rk = columns_of(t.r, s.kept);
+  const auto k = static_cast<Eigen::Index>(s.kept.size());
   Eigen::HouseholderQR<Eigen::MatrixXd> qr2(rk);
   const Eigen::MatrixXd r2 = qr2.matrixQR().topRows(k).triangularView<Eigen::Upper>();
-  const Eigen::VectorXd c2 = (qr2.householderQ().transpose() * qtb).head(k);
+  const Eigen::VectorXd c2 = (qr2.householderQ().transpose() * t.qtb).head(k);
   const Eigen::VectorXd xs = r2.triangularView<Eigen::Upper>().solve(c2);
   const Eigen::MatrixXd rinv = r2.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(k, k));
   const Eigen::MatrixXd cov_s = rinv * rinv.transpose();
@@ -132,7 +135,7 @@ LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eig
   res.identified.assign(static_cast<std::size_t>(m), false);
   Eigen::VectorXd x_all = Eigen::VectorXd::Zero(m);
   for (Eigen::Index i = 0; i < k; ++i)
-    x_all[kept[static_cast<std::size_t>(i)]] = xs[i] / scale[kept[static_cast<std::size_t>(i)]];
+    x_all[s.kept[static_cast<std::size_t>(i)]] = xs[i] / t.scale[s.kept[static_cast<std::size_t>(i)]];
   res.residual = y - jacobian * x_all;
   res.fitted = x_all;
   const Eigen::VectorXd wr = sw.cwiseProduct(res.residual);
@@ -140,49 +143,81 @@ LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eig
   res.s2 = wr.squaredNorm() / static_cast<double>(n - k);
   res.rms = std::sqrt(res.residual.squaredNorm() / static_cast<double>(n));
   for (Eigen::Index i = 0; i < k; ++i) {
-    const Eigen::Index pi = kept[static_cast<std::size_t>(i)];
+    const Eigen::Index pi = s.kept[static_cast<std::size_t>(i)];
     for (Eigen::Index q = 0; q < k; ++q) {
-      const Eigen::Index pq = kept[static_cast<std::size_t>(q)];
-      res.covariance(pi, pq) = res.s2 * cov_s(i, q) / (scale[pi] * scale[pq]);
+      const Eigen::Index pq = s.kept[static_cast<std::size_t>(q)];
+      res.covariance(pi, pq) = res.s2 * cov_s(i, q) / (t.scale[pi] * t.scale[pq]);
     }
   }
   for (Eigen::Index i = 0; i < k; ++i) {
-    const Eigen::Index pi = kept[static_cast<std::size_t>(i)];
-    if (involved[static_cast<std::size_t>(pi)]) continue;
+    const Eigen::Index pi = s.kept[static_cast<std::size_t>(i)];
+    if (s.involved[static_cast<std::size_t>(pi)]) continue;
     res.x[pi] = x_all[pi];
     res.u[pi] = std::sqrt(res.covariance(pi, pi));
     res.identified[static_cast<std::size_t>(pi)] = true;
   }
   for (Eigen::Index j = 0; j < m; ++j)
-    if (involved[static_cast<std::size_t>(j)]) res.unidentifiable.push_back(names[static_cast<std::size_t>(j)]);
+    if (s.involved[static_cast<std::size_t>(j)]) res.unidentifiable.push_back(names[static_cast<std::size_t>(j)]);
+}
 
-  // What the kept-but-involved estimates mean: kept_i absorbs beta_i * dropped_d.
-  if (!dropped.empty()) {
-    const Eigen::MatrixXd rd = columns(dropped);
-    const Eigen::MatrixXd beta = rk.colPivHouseholderQr().solve(rd);  // k x |dropped|, in scaled units
-    for (Eigen::Index i = 0; i < k; ++i) {
-      const Eigen::Index pi = kept[static_cast<std::size_t>(i)];
-      if (!involved[static_cast<std::size_t>(pi)]) continue;
-      LsqCombination comb;
-      comb.expression = names[static_cast<std::size_t>(pi)];
-      comb.index.push_back(static_cast<std::size_t>(pi));
-      comb.coefficient.push_back(1.0);
-      for (std::size_t d = 0; d < dropped.size(); ++d) {
-        const Eigen::Index pd = dropped[d];
-        const double coef = beta(i, static_cast<Eigen::Index>(d)) * scale[pd] / scale[pi];
-        if (std::abs(beta(i, static_cast<Eigen::Index>(d))) < 1e-9) continue;
-        comb.expression +=
-            (coef < 0 ? " - " : " + ") + format_coefficient(std::abs(coef)) + "*" + names[static_cast<std::size_t>(pd)];
-        comb.index.push_back(static_cast<std::size_t>(pd));
-        comb.coefficient.push_back(coef);
-      }
-      comb.value = x_all[pi];
-      comb.u = std::sqrt(res.covariance(pi, pi));
-      res.combinations.push_back(std::move(comb));
+// What the kept-but-involved estimates mean: kept_i absorbs beta_i * dropped_d.
+void add_combinations(const std::vector<std::string>& names, const ScaledTriangle& t, const Separation& s,
+                      LsqResult& res) {
+  if (s.dropped.empty()) return;
+  const Eigen::MatrixXd rk = columns_of(t.r, s.kept);
+  const Eigen::MatrixXd rd = columns_of(t.r, s.dropped);
+  const Eigen::MatrixXd beta = rk.colPivHouseholderQr().solve(rd);  // k x |dropped|, in scaled units
+  for (Eigen::Index i = 0; i < static_cast<Eigen::Index>(s.kept.size()); ++i) {
+    const Eigen::Index pi = s.kept[static_cast<std::size_t>(i)];
+    if (!s.involved[static_cast<std::size_t>(pi)]) continue;
+    LsqCombination comb;
+    comb.expression = names[static_cast<std::size_t>(pi)];
+    comb.index.push_back(static_cast<std::size_t>(pi));
+    comb.coefficient.push_back(1.0);
+    for (std::size_t d = 0; d < s.dropped.size(); ++d) {
+      const Eigen::Index pd = s.dropped[d];
+      const double coef = beta(i, static_cast<Eigen::Index>(d)) * t.scale[pd] / t.scale[pi];
+      if (std::abs(beta(i, static_cast<Eigen::Index>(d))) < 1e-9) continue;
+      comb.expression +=
+          (coef < 0 ? " - " : " + ") + format_coefficient(std::abs(coef)) + "*" + names[static_cast<std::size_t>(pd)];
+      comb.index.push_back(static_cast<std::size_t>(pd));
+      comb.coefficient.push_back(coef);
     }
+    comb.value = res.fitted[pi];
+    comb.u = std::sqrt(res.covariance(pi, pi));
+    res.combinations.push_back(std::move(comb));
   }
+}
+
+}  // namespace
+
+LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y,
+                    const Eigen::VectorXd& weights, const std::vector<std::string>& names, const LsqOptions& options) {
+  LsqResult res;
+  const Eigen::Index n = jacobian.rows();
+  const Eigen::Index m = jacobian.cols();
+  res.n = static_cast<std::size_t>(n);
+  res.message = size_error(n, m, y, weights, names);
+  if (!res.message.empty()) return res;
+  const auto non_finite = [&res] {
+    res.message = "least squares: non-finite value (NaN or infinity) in the data";
+    return res;
+  };
+  if (!y.allFinite() || (weights.size() != 0 && !weights.allFinite())) return non_finite();
+  Eigen::VectorXd sw = Eigen::VectorXd::Ones(n);
+  if (weights.size() != 0) sw = weights.cwiseMax(0.0).cwiseSqrt();
+  const Eigen::MatrixXd raug = weighted_triangle(jacobian, y, sw);
+  // A NaN or infinity anywhere in J reaches the diagonal of its column's R (every reflector that
+  // touches it spreads it over the column, and its own reflector puts it on the diagonal), and finite
+  // data give a finite R: J is scanned only when R says so, not before every fit.
+  if (!raug.allFinite() && !jacobian.allFinite()) return non_finite();
+  const ScaledTriangle t = scaled_triangle(raug, m);
+  const Separation s = separate(t.r, options);
+  res.condition_number = s.condition_number;
+  fit_kept(jacobian, y, sw, names, t, s, res);
+  add_combinations(names, t, s, res);
   for (Eigen::Index j = 0; j < m; ++j)
-    if (involved[static_cast<std::size_t>(j)]) {
+    if (s.involved[static_cast<std::size_t>(j)]) {
       for (Eigen::Index q = 0; q < m; ++q) {
         res.covariance(j, q) = 0.0;
         res.covariance(q, j) = 0.0;
@@ -191,7 +226,7 @@ LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eig
   res.ok = true;
   if (!res.unidentifiable.empty()) {
     std::string list;
-    for (const auto& s : res.unidentifiable) list += (list.empty() ? "" : ", ") + s;
+    for (const auto& name : res.unidentifiable) list += (list.empty() ? "" : ", ") + name;
     res.message = "the data cannot separate: " + list;
   }
   return res;

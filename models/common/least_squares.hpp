@@ -10,6 +10,8 @@
 
 #include <Eigen/Core>
 
+#include "models/common/lsq_combination.hpp"
+
 namespace guideway::models {
 
 struct LsqOptions {
@@ -17,16 +19,6 @@ struct LsqOptions {
   double rank_tolerance = 1e-9;
   // A parameter whose weight in a null-space direction exceeds this is "not separable".
   double null_loading = 0.05;
-};
-
-// A linear combination of parameters that the data does determine, reported when some parameters
-// are not separable: value = sum coefficient[i] * parameter[index[i]].
-struct LsqCombination {
-  std::string expression;  // e.g. "c0_plus_d1 + 9025*c2" (coefficients in the parameters' own units)
-  std::vector<std::size_t> index;
-  std::vector<double> coefficient;
-  double value = 0.0;
-  double u = 0.0;
 };
 
 struct LsqResult {

@@ -8,6 +8,7 @@
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
 #include "models/dbb/geometry.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::compensation {
 
@@ -27,32 +28,27 @@ const dbb::Estimate* find(const std::vector<dbb::Estimate>& estimates, const std
 
 const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) { return find(id.diagnostics, name); }
 
-// Lai's parameters that feed the map: Lai's name, the map term (with {a} / {b} for the plane axes) and
-// the factor from Lai's unit to the term's (r = the radius the straightness is normalised to, m).
+// Lai's parameters that feed the map: Lai's parameter, the map term (of plane axis `axis`, -1 for a term of
+// the plane) and the factor from Lai's unit to the term's (r = the radius the straightness is normalised to).
 struct LaiTerm {
-  const char* lai;
-  const char* term;
+  const results::Parameter* lai;
+  const results::Parameter* term;
+  int axis;
   int radius_power;  // the factor is scale * (r in mm)^radius_power
   double scale;
 };
 constexpr LaiTerm lai_terms[] = {
-    {"S_x", "scale_{a}_ppm", 0, 1e6},
-    {"S_y", "scale_{b}_ppm", 0, 1e6},
-    {"backlash_x_um", "backlash_{a}_um", 0, 1.0},
-    {"backlash_y_um", "backlash_{b}_um", 0, 1.0},
-    {"a1_rad", "squareness_urad", 0, 1e6},
-    {"a2_per_mm", "straightness_{a}_um", 2, 1e3},  // a2 (1/mm) r^2 (mm^2) = mm
-    {"b2_per_mm", "straightness_{b}_um", 2, 1e3},
-    {"a3_per_mm2", "straightness_cubic_{a}_um", 3, 1e3},
-    {"b3_per_mm2", "straightness_cubic_{b}_um", 3, 1e3},
-    {"servo_mismatch_ms", "servo_mismatch_ms", 0, 1.0},
+    {&results::lai_S_x, &results::scale, 0, 0, 1e6},
+    {&results::lai_S_y, &results::scale, 1, 0, 1e6},
+    {&results::lai_backlash_x, &results::backlash, 0, 0, 1.0},
+    {&results::lai_backlash_y, &results::backlash, 1, 0, 1.0},
+    {&results::lai_a1, &results::squareness, -1, 0, 1e6},
+    {&results::lai_a2, &results::straightness_bow, 0, 2, 1e3},  // a2 (1/mm) r^2 (mm^2) = mm
+    {&results::lai_b2, &results::straightness_bow, 1, 2, 1e3},
+    {&results::lai_a3, &results::straightness_cubic, 0, 3, 1e3},
+    {&results::lai_b3, &results::straightness_cubic, 1, 3, 1e3},
+    {&results::lai_servo_mismatch, &results::servo_mismatch, -1, 0, 1.0},
 };
-
-std::string with_axes(std::string s, const std::string& plane) {
-  for (const auto& [key, k] : {std::pair{std::string("{a}"), 0}, std::pair{std::string("{b}"), 1}})
-    if (const auto at = s.find(key); at != std::string::npos) s.replace(at, key.size(), dbb::axis_letter(plane, k));
-  return s;
-}
 
 // The table steps offered by default (mm): a round spacing a user can read.
 constexpr double default_steps_mm[] = {0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, 10, 20, 25, 50, 100};
@@ -74,8 +70,8 @@ constexpr double max_machine_coordinate_m = 1000.0;
 std::optional<dbb::Estimate> cubic_difference(const dbb::Identification& id) {
   const dbb::Estimate *a3 = nullptr, *b3 = nullptr;
   for (const auto& e : id.lai3) {
-    if (e.name == "a3_per_mm2") a3 = &e;
-    if (e.name == "b3_per_mm2") b3 = &e;
+    if (e.name == results::lai_a3.name) a3 = &e;
+    if (e.name == results::lai_b3.name) b3 = &e;
   }
   if (a3 && b3 && a3->fitted && b3->fitted)
     return dbb::Estimate{"a3_minus_b3", a3->value - b3->value, std::hypot(a3->u, b3->u), true};
@@ -83,8 +79,10 @@ std::optional<dbb::Estimate> cubic_difference(const dbb::Identification& id) {
     if (c.coefficient.size() != 2 || std::abs(c.coefficient[1] + 1.0) > 1e-6) continue;
     const std::string kept = c.expression.substr(0, c.expression.find(' '));
     const std::string other = c.expression.substr(c.expression.rfind('*') + 1);
-    if (kept == "a3_per_mm2" && other == "b3_per_mm2") return dbb::Estimate{"a3_minus_b3", c.value, c.u, true};
-    if (kept == "b3_per_mm2" && other == "a3_per_mm2") return dbb::Estimate{"a3_minus_b3", -c.value, c.u, true};
+    if (kept == results::lai_a3.name && other == results::lai_b3.name)
+      return dbb::Estimate{"a3_minus_b3", c.value, c.u, true};
+    if (kept == results::lai_b3.name && other == results::lai_a3.name)
+      return dbb::Estimate{"a3_minus_b3", -c.value, c.u, true};
   }
   return std::nullopt;
 }
@@ -112,7 +110,7 @@ double AxisTerms::straightness_m(double position_m) const {
 
 std::string lai3_term_of(const std::string& lai_name, const std::string& plane) {
   for (const auto& t : lai_terms)
-    if (lai_name == t.lai) return with_axes(t.term, plane);
+    if (lai_name == t.lai->name) return results::name(*t.term, plane, t.axis);
   return "";
 }
 
@@ -120,14 +118,14 @@ std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radi
   std::vector<dbb::Estimate> out;
   std::string missing;
   for (const auto& t : lai_terms) {
-    const auto* e = find(id.lai3, t.lai);
+    const auto* e = find(id.lai3, std::string(t.lai->name));
     if (!e || !e->fitted) {
-      missing += (missing.empty() ? "" : ", ") + std::string(t.lai);
+      missing += (missing.empty() ? "" : ", ") + std::string(t.lai->name);
       continue;
     }
     const double f = t.scale * std::pow(radius_m * 1e3, t.radius_power);
-    const double v = std::string(t.lai).starts_with("S_") ? e->value - 1.0 : e->value;
-    out.push_back({with_axes(t.term, id.plane), v * f, e->u * f, true});
+    const double v = t.lai == &results::lai_S_x || t.lai == &results::lai_S_y ? e->value - 1.0 : e->value;
+    out.push_back({results::name(*t.term, id.plane, t.axis), v * f, e->u * f, true});
   }
   if (!missing.empty()) {
     std::string combos;
@@ -142,8 +140,8 @@ std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radi
   dbb::Estimate* sa = nullptr;
   dbb::Estimate* sb = nullptr;
   for (auto& e : out) {
-    if (e.name == "scale_" + dbb::axis_letter(id.plane, 0) + "_ppm") sa = &e;
-    if (e.name == "scale_" + dbb::axis_letter(id.plane, 1) + "_ppm") sb = &e;
+    if (e.name == results::name(results::scale, id.plane, 0)) sa = &e;
+    if (e.name == results::name(results::scale, id.plane, 1)) sb = &e;
   }
   if (sa && sb) {
     const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
@@ -161,7 +159,7 @@ std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radi
   std::string other;
   for (const auto& e : id.lai3)
     if (e.fitted && lai3_term_of(e.name, id.plane).empty() && !e.name.starts_with("e_x") &&
-        !e.name.starts_with("e_y") && e.name != "mismatch_phase_angle_deg")
+        !e.name.starts_with("e_y") && e.name != results::lai_mismatch_phase_angle.name)
       other += (other.empty() ? "" : ", ") + e.name;
   if (!other.empty())
     notes.push_back("not in the map: Lai's out-of-plane terms (" + other +
@@ -187,11 +185,9 @@ std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::Db
   return c;
 }
 
-ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
-  if (runs.empty()) throw CompensationError("no runs");
-  ErrorMap m;
-  m.plane = id.plane;
-  const std::string A = dbb::axis_letter(id.plane, 0), B = dbb::axis_letter(id.plane, 1);
+namespace {
+
+void require_both_directions(const std::vector<formats::DbbRun>& runs) {
   const bool ccw =
       std::any_of(runs.begin(), runs.end(), [](const auto& r) { return r.direction == formats::DbbDirection::ccw; });
   const bool cw =
@@ -200,18 +196,189 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
     throw CompensationError(
         "the runs go one way only: in one direction backlash, lateral play and servo mismatch trade off against each "
         "other and squareness is not separable (docs/conventions.md); measure the circle in both directions");
-  std::vector<dbb::Estimate> estimates = id.diagnostics;
-  const bool diagnostics = find(id, "scale_" + A + "_ppm") && find(id, "backlash_" + A + "_um");
-  if (!diagnostics) {
-    if (!find(id.lai3, "S_x") && !find(id.lai3, "backlash_x_um")) {
-      std::string why =
-          "the runs gave neither ballbar diagnostics nor Lai's scale and backlash, which the "
-          "compensation is built from";
-      for (const auto& n : id.notes) why += "; " + n;
-      throw CompensationError(why + " (measure an in-plane circle, height 0, in both directions)");
-    }
-    m.model = "lai3";
+}
+
+// "diagnostics" when the identification has them, else "lai3" when Lai's model gave the scale or the
+// backlash; throws when it has neither.
+std::string map_model(const dbb::Identification& id) {
+  if (find(id, results::name(results::scale, id.plane, 0)) && find(id, results::name(results::backlash, id.plane, 0)))
+    return "diagnostics";
+  if (!find(id.lai3, results::name(results::lai_S_x)) && !find(id.lai3, results::name(results::lai_backlash_x))) {
+    std::string why =
+        "the runs gave neither ballbar diagnostics nor Lai's scale and backlash, which the "
+        "compensation is built from";
+    for (const auto& n : id.notes) why += "; " + n;
+    throw CompensationError(why + " (measure an in-plane circle, height 0, in both directions)");
   }
+  return "lai3";
+}
+
+// The radius the map covers: the runs' one circle (diagnostics), the largest of them (Lai's polynomials hold
+// over every run's circle); the runs become the map's sources.
+double map_radius(const std::vector<formats::DbbRun>& runs, ErrorMap& m) {
+  double radius = runs.front().radius_m;
+  for (const auto& r : runs) {
+    if (m.model == "lai3") radius = std::max(radius, r.radius_m);
+    if (m.model != "lai3" && std::abs(r.radius_m - radius) > 1e-9)
+      throw CompensationError(r.source + ": radius " + shortest(r.radius_m * 1e3) +
+                              " mm differs from the other runs'; give the runs of one circle");
+    m.sources.push_back(r.source);
+  }
+  return radius;
+}
+
+// The identified term `name` into the map's terms with its use (nullptr when it was not fitted); applied
+// when significant. m.terms is reserved: the pointer stays valid while the map is built.
+const Term* take_term(ErrorMap& m, const std::vector<dbb::Estimate>& estimates, const std::string& name, Use use,
+                      const std::string& why) {
+  const auto* e = find(estimates, name);
+  if (!e || !e->fitted || !std::isfinite(e->u)) return nullptr;
+  m.terms.push_back({name, e->value, e->u, std::abs(e->value) > significance_k * e->u, use, why});
+  return &m.terms.back();
+}
+
+// Plane axis k's positioning terms (scale, backlash, cyclic error) and its straightness across (bow, and
+// its own cubic when Lai's model over several radii gives one: C = a3 r^3 at the map's radius); returns
+// whether it had a cubic of its own.
+bool axis_terms(ErrorMap& m, const std::vector<dbb::Estimate>& estimates, int k, double center_m, double radius) {
+  const std::string ax = results::axis_letter(m.plane, k), other = results::axis_letter(m.plane, 1 - k);
+  AxisTerms& at = m.terms_of[static_cast<std::size_t>(k)];
+  at.center_m = center_m;
+  at.radius_m = radius;
+  const auto name = [&](const results::Parameter& p) { return results::name(p, m.plane, k); };
+  const auto term = [&](const results::Parameter& p, Use use, const std::string& why) {
+    return take_term(m, estimates, name(p), use, why);
+  };
+  if (const auto* t = term(results::scale, Use::table, ""); t && t->significant) at.scale = t->value * 1e-6;
+  if (const auto* t = term(results::backlash, Use::table, ""); t && t->significant) at.backlash_m = t->value * 1e-6;
+  if (const auto* t = term(results::cyclic_error, Use::table, ""); t && t->significant) {
+    const auto* p = find(estimates, name(results::cyclic_period));
+    const auto* ph = find(estimates, name(results::cyclic_phase));
+    if (p && ph) {
+      at.cyclic_amplitude_m = t->value * 1e-6;
+      at.cyclic_period_m = p->value * 1e-3;
+      at.cyclic_phase_rad = ph->value * pi / 180;
+    }
+  }
+  if (const auto* t =
+          term(results::straightness_bow, Use::cross_table,
+               "moves " + ax + " along " + other + ", which a per-joint table of " + ax +
+                   " cannot: the cross-axis correction of " + other + " by " + ax + "'s position (straightness.csv)");
+      t && t->significant)
+    at.bow_m = t->value * 1e-6;
+  const auto* cubic =
+      term(results::straightness_cubic, Use::cross_table,
+           "the cubic part of " + ax + "'s straightness along " + other + ": the cross-axis correction of " + other +
+               " by " + ax + "'s position (straightness.csv)");
+  if (cubic && cubic->significant) at.cubic_per_m2 = cubic->value * 1e-6 / (radius * radius * radius);
+  return cubic != nullptr;
+}
+
+// The cubic straightness one circle gives, in um at its radius: (a3 - b3) r^3, half of it given to each
+// axis with opposite signs (what the circle sees of it; the rest is invisible to a circle of this radius).
+void split_cubic_difference(ErrorMap& m, const dbb::Identification& id, double radius) {
+  const auto cubic = cubic_difference(id);
+  if (!cubic) return;
+  const std::string A = results::axis_letter(m.plane, 0), B = results::axis_letter(m.plane, 1);
+  const double r_mm = radius * 1e3;
+  const double per_mm2_to_um = r_mm * r_mm * r_mm * 1e3;
+  const dbb::Estimate e{results::name(results::straightness_cubic_difference, m.plane), cubic->value * per_mm2_to_um,
+                        cubic->u * per_mm2_to_um, true};
+  const Term t{e.name,
+               e.value,
+               e.u,
+               std::abs(e.value) > significance_k * e.u,
+               Use::cross_table,
+               "the cubic straightness of " + A + " along " + B + " less that of " + B + " along " + A +
+                   " at the radius (Lai's a3 - b3); split evenly between the two cross-axis corrections "
+                   "(straightness.csv)"};
+  m.terms.push_back(t);
+  if (t.significant) {
+    // displacement = k d^3 with k in 1/m^2: (a3 - b3) / 2 per mm^2 is 1e6 times that per m^2.
+    m.terms_of[0].cubic_per_m2 = 0.5 * cubic->value * 1e6;
+    m.terms_of[1].cubic_per_m2 = -0.5 * cubic->value * 1e6;
+  }
+}
+
+// The squareness (in the map, for the controller's axis skew) and what no position table can correct.
+void plane_terms(ErrorMap& m, const std::vector<dbb::Estimate>& estimates) {
+  if (const auto* t = take_term(m, estimates, results::name(results::squareness), Use::map_only,
+                                "depends on the position of the other axis: set the controller's axis-skew correction "
+                                "or a kinematics change (errors.csv)")) {
+    m.squareness_known = true;
+    m.squareness_rad = t->value * 1e-6;
+    m.squareness_u_rad = t->u * 1e-6;
+    m.squareness_significant = t->significant;
+  }
+  for (int k = 0; k < 2; ++k) {
+    take_term(m, estimates, results::name(results::lateral_play, m.plane, k), Use::not_geometric,
+              "a sideways shift that follows the direction of " + results::axis_letter(m.plane, k) +
+                  ": a per-joint table of the other axis cannot see that direction (gib adjustment)");
+    take_term(m, estimates, results::name(results::reversal_spike, m.plane, k), Use::not_geometric,
+              "friction at the reversal, decays in milliseconds: servo tuning (friction feed-forward), not a table");
+  }
+  take_term(m, estimates, results::name(results::servo_mismatch), Use::not_geometric,
+            "the two position loops lag differently: match their gains (or feed-forward); a position table cannot");
+}
+
+// The table spacing: the one asked for (refused when it gives too many lines), else the finest default
+// step within LinuxCNC's lines over the measured range of both axes.
+double table_step(const MapOptions& options, const std::array<double, 2>& center, double radius) {
+  const auto lines_max = [&](double s) {
+    return std::max(lines_for(center[0] - radius, center[0] + radius, s),
+                    lines_for(center[1] - radius, center[1] + radius, s));
+  };
+  double step = options.step_m;
+  if (step > 0) {
+    if (lines_max(step) > formats::linuxcnc_comp_max_lines)
+      throw CompensationError("a step of " + shortest(step * 1e3) + " mm gives " + shortest(lines_max(step)) +
+                              " lines over the measured range; LinuxCNC reads at most " +
+                              std::to_string(formats::linuxcnc_comp_max_lines) +
+                              " per joint (use a coarser --step-mm)");
+    return step;
+  }
+  for (double s_mm : default_steps_mm) {
+    step = s_mm * 1e-3;
+    if (lines_max(step) <= formats::linuxcnc_comp_max_lines) break;
+  }
+  return step;
+}
+
+// Plane axis k's errors on the table's grid: the measured range on multiples of the step.
+void fill_axis_map(ErrorMap& m, int k, double radius) {
+  const double step = m.step_m;
+  auto& at = m.terms_of[static_cast<std::size_t>(k)];
+  if (at.cyclic_period_m > 0) {
+    const double x = pi * step / at.cyclic_period_m;
+    at.cyclic_table_gain = step < 0.5 * at.cyclic_period_m ? std::pow(x / std::sin(x), 2) : 0.0;
+  }
+  AxisMap& am = m.axes[static_cast<std::size_t>(k)];
+  am.axis = results::axis_letter(m.plane, k);
+  am.across = results::axis_letter(m.plane, 1 - k);
+  const double first = std::floor((at.center_m - radius) / step + 1e-9);
+  // at most linuxcnc_comp_max_lines here (table_step)
+  const auto n = static_cast<std::size_t>(lines_for(at.center_m - radius, at.center_m + radius, step));
+  for (std::size_t i = 0; i < n; ++i) {
+    const double u = (first + static_cast<double>(i)) * step;
+    am.nominal_m.push_back(u);
+    am.forward_m.push_back(at.positioning_error_m(u, +1));
+    am.reverse_m.push_back(at.positioning_error_m(u, -1));
+    am.straightness_m.push_back(at.straightness_m(u));
+    am.straightness_applied = at.bow_m != 0.0 || at.cubic_per_m2 != 0.0;
+    const double extra = (at.cyclic_table_gain - 1.0) * at.cyclic_m(u);
+    am.table_forward_m.push_back(am.forward_m.back() + extra);
+    am.table_reverse_m.push_back(am.reverse_m.back() + extra);
+  }
+}
+
+}  // namespace
+
+ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
+  if (runs.empty()) throw CompensationError("no runs");
+  ErrorMap m;
+  m.plane = id.plane;
+  require_both_directions(runs);
+  m.model = map_model(id);
   const auto center = options.center_m ? options.center_m : runs_center_m(runs);
   if (!center)
     throw CompensationError(
@@ -224,138 +391,16 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
                               shortest(max_machine_coordinate_m * 1e3) + " mm)");
   if (options.step_m != 0.0 && !(std::isfinite(options.step_m) && options.step_m > 0.0))
     throw CompensationError("the table step " + shortest(options.step_m * 1e3) + " mm is not a positive number");
-  double radius = runs.front().radius_m;
-  for (const auto& r : runs) {
-    // Lai's polynomials hold over every run's circle: the map covers the largest.
-    if (m.model == "lai3") radius = std::max(radius, r.radius_m);
-    if (m.model != "lai3" && std::abs(r.radius_m - radius) > 1e-9)
-      throw CompensationError(r.source + ": radius " + shortest(r.radius_m * 1e3) +
-                              " mm differs from the other runs'; give the runs of one circle");
-    m.sources.push_back(r.source);
-  }
-  if (m.model == "lai3") estimates = lai3_terms(id, radius, m.notes);
-
-  const auto term = [&](const std::string& name, Use use, const std::string& why) -> const Term* {
-    const auto* e = find(estimates, name);
-    if (!e || !e->fitted || !std::isfinite(e->u)) return nullptr;
-    Term t{name, e->value, e->u, std::abs(e->value) > significance_k * e->u, use, why};
-    m.terms.push_back(t);
-    return &m.terms.back();
-  };
+  const double radius = map_radius(runs, m);
+  const std::vector<dbb::Estimate> estimates = m.model == "lai3" ? lai3_terms(id, radius, m.notes) : id.diagnostics;
   m.terms.reserve(24);
   bool cubic_per_axis = false;
-  for (int k = 0; k < 2; ++k) {
-    const std::string ax = k == 0 ? A : B, other = k == 0 ? B : A;
-    AxisTerms& at = m.terms_of[static_cast<std::size_t>(k)];
-    at.center_m = (*center)[static_cast<std::size_t>(k)];
-    at.radius_m = radius;
-    if (const auto* t = term("scale_" + ax + "_ppm", Use::table, ""); t && t->significant) at.scale = t->value * 1e-6;
-    if (const auto* t = term("backlash_" + ax + "_um", Use::table, ""); t && t->significant)
-      at.backlash_m = t->value * 1e-6;
-    if (const auto* t = term("cyclic_error_" + ax + "_um", Use::table, ""); t && t->significant) {
-      const auto* p = find(estimates, "cyclic_period_" + ax + "_mm");
-      const auto* ph = find(estimates, "cyclic_phase_" + ax + "_deg");
-      if (p && ph) {
-        at.cyclic_amplitude_m = t->value * 1e-6;
-        at.cyclic_period_m = p->value * 1e-3;
-        at.cyclic_phase_rad = ph->value * pi / 180;
-      }
-    }
-    if (const auto* t =
-            term("straightness_" + ax + "_um", Use::cross_table,
-                 "moves " + ax + " along " + other + ", which a per-joint table of " + ax +
-                     " cannot: the cross-axis correction of " + other + " by " + ax + "'s position (straightness.csv)");
-        t && t->significant)
-      at.bow_m = t->value * 1e-6;
-    // Lai's model over several radii separates each axis' cubic (C = a3 r^3 at the map's radius).
-    if (const auto* t =
-            term("straightness_cubic_" + ax + "_um", Use::cross_table,
-                 "the cubic part of " + ax + "'s straightness along " + other + ": the cross-axis correction of " +
-                     other + " by " + ax + "'s position (straightness.csv)")) {
-      cubic_per_axis = true;
-      if (t->significant) at.cubic_per_m2 = t->value * 1e-6 / (radius * radius * radius);
-    }
-  }
-  // Else the cubic straightness, in um at the circle's radius: (a3 - b3) r^3, half of it given to each
-  // axis with opposite signs (what the circle sees of it; the rest is invisible to a circle of this radius).
-  if (const auto cubic = cubic_per_axis ? std::nullopt : cubic_difference(id)) {
-    const double r_mm = radius * 1e3;
-    const double per_mm2_to_um = r_mm * r_mm * r_mm * 1e3;
-    dbb::Estimate e{"straightness_cubic_" + A + "_minus_" + B + "_um", cubic->value * per_mm2_to_um,
-                    cubic->u * per_mm2_to_um, true};
-    Term t{
-        e.name,
-        e.value,
-        e.u,
-        std::abs(e.value) > significance_k * e.u,
-        Use::cross_table,
-        "the cubic straightness of " + A + " along " + B + " less that of " + B + " along " + A +
-            " at the radius (Lai's a3 - b3); split evenly between the two cross-axis corrections (straightness.csv)"};
-    m.terms.push_back(t);
-    if (t.significant) {
-      // displacement = k d^3 with k in 1/m^2: (a3 - b3) / 2 per mm^2 is 1e6 times that per m^2.
-      m.terms_of[0].cubic_per_m2 = 0.5 * cubic->value * 1e6;
-      m.terms_of[1].cubic_per_m2 = -0.5 * cubic->value * 1e6;
-    }
-  }
-  if (const auto* t = term("squareness_urad", Use::map_only,
-                           "depends on the position of the other axis: set the controller's axis-skew correction or a "
-                           "kinematics change (errors.csv)")) {
-    m.squareness_known = true;
-    m.squareness_rad = t->value * 1e-6;
-    m.squareness_u_rad = t->u * 1e-6;
-    m.squareness_significant = t->significant;
-  }
-  for (const auto& ax : {A, B}) {
-    term("lateral_play_" + ax + "_um", Use::not_geometric,
-         "a sideways shift that follows the direction of " + ax +
-             ": a per-joint table of the other axis cannot see that direction (gib adjustment)");
-    term("reversal_spike_" + ax + "_um", Use::not_geometric,
-         "friction at the reversal, decays in milliseconds: servo tuning (friction feed-forward), not a table");
-  }
-  term("servo_mismatch_ms", Use::not_geometric,
-       "the two position loops lag differently: match their gains (or feed-forward); a position table cannot");
-
-  // The grid: the measured range of each axis, on multiples of the step.
-  const auto grid = [&](double c, double step) { return lines_for(c - radius, c + radius, step); };
-  double step = options.step_m;
-  const auto lines_max = [&](double s) { return std::max(grid((*center)[0], s), grid((*center)[1], s)); };
-  if (step > 0) {
-    if (lines_max(step) > formats::linuxcnc_comp_max_lines)
-      throw CompensationError("a step of " + shortest(step * 1e3) + " mm gives " + shortest(lines_max(step)) +
-                              " lines over the measured range; LinuxCNC reads at most " +
-                              std::to_string(formats::linuxcnc_comp_max_lines) +
-                              " per joint (use a coarser --step-mm)");
-  } else {
-    for (double s_mm : default_steps_mm) {
-      step = s_mm * 1e-3;
-      if (lines_max(step) <= formats::linuxcnc_comp_max_lines) break;
-    }
-  }
-  m.step_m = step;
-  for (int k = 0; k < 2; ++k) {
-    auto& at = m.terms_of[static_cast<std::size_t>(k)];
-    if (at.cyclic_period_m > 0) {
-      const double x = pi * step / at.cyclic_period_m;
-      at.cyclic_table_gain = step < 0.5 * at.cyclic_period_m ? std::pow(x / std::sin(x), 2) : 0.0;
-    }
-    AxisMap& am = m.axes[static_cast<std::size_t>(k)];
-    am.axis = k == 0 ? A : B;
-    am.across = k == 0 ? B : A;
-    const double first = std::floor((at.center_m - radius) / step + 1e-9);
-    const auto n = static_cast<std::size_t>(grid(at.center_m, step));  // at most linuxcnc_comp_max_lines here
-    for (std::size_t i = 0; i < n; ++i) {
-      const double u = (first + static_cast<double>(i)) * step;
-      am.nominal_m.push_back(u);
-      am.forward_m.push_back(at.positioning_error_m(u, +1));
-      am.reverse_m.push_back(at.positioning_error_m(u, -1));
-      am.straightness_m.push_back(at.straightness_m(u));
-      am.straightness_applied = at.bow_m != 0.0 || at.cubic_per_m2 != 0.0;
-      const double extra = (at.cyclic_table_gain - 1.0) * at.cyclic_m(u);
-      am.table_forward_m.push_back(am.forward_m.back() + extra);
-      am.table_reverse_m.push_back(am.reverse_m.back() + extra);
-    }
-  }
+  for (int k = 0; k < 2; ++k)
+    cubic_per_axis = axis_terms(m, estimates, k, (*center)[static_cast<std::size_t>(k)], radius) || cubic_per_axis;
+  if (!cubic_per_axis) split_cubic_difference(m, id, radius);
+  plane_terms(m, estimates);
+  m.step_m = table_step(options, *center, radius);
+  for (int k = 0; k < 2; ++k) fill_axis_map(m, k, radius);
   return m;
 }
 

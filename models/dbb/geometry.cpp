@@ -52,12 +52,6 @@ double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir) {
   return std::abs(zeta_rad - phase_rad - last * pi);
 }
 
-std::string axis_letter(const std::string& plane, int which) {
-  if (plane == "xz") return which == 0 ? "x" : "z";
-  if (plane == "yz") return which == 0 ? "y" : "z";
-  return which == 0 ? "x" : "y";
-}
-
 double reversal_spike_decay(double t_s, double tau_s) {
   return (t_s < 0 || t_s > 8 * tau_s) ? 0.0 : std::exp(-t_s / tau_s);
 }

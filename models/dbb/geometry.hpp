@@ -44,9 +44,6 @@ double velocity_sign_b(double dir, double cos_zeta);
 // pi/2 + k pi (phase pi/2). zeta_rad is the axis' own angle (the commanded one less a servo lag).
 double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir);
 
-// Machine axis letter of the plane's first (which = 0) or second axis: xy -> x, y; xz -> x, z; yz -> y, z.
-std::string axis_letter(const std::string& plane, int which);
-
 // Decay of a reversal spike t_s after it starts, exp(-t / tau): 0 before it starts and from 8 tau on,
 // where it is below 3.4e-4 of its height.
 double reversal_spike_decay(double t_s, double tau_s);

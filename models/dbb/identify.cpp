@@ -10,8 +10,10 @@
 #include <Eigen/Core>
 #include <Eigen/QR>
 
+#include "models/common/least_squares.hpp"
 #include "models/dbb/fast_sincos.hpp"
 #include "models/dbb/geometry.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::dbb {
 
@@ -153,32 +155,22 @@ FitSummary summary_of(const LsqResult& res) {
 // ---- Lai third-order model -------------------------------------------------------------------
 
 struct LaiColumn {
-  const char* name;
+  const results::Parameter* parameter;
   double si_per_reported;  // SI value of one reported unit
 };
 
 // Order matters: lai3_characteristics returns the basis in this order.
 constexpr LaiColumn lai_columns[] = {
-    {"e_x_um", 1e-6},
-    {"e_y_um", 1e-6},
-    {"S_x", 1.0},
-    {"S_y", 1.0},
-    {"a1_rad", 1.0},
-    {"a2_per_mm", 1e3},
-    {"a3_per_mm2", 1e6},
-    {"b2_per_mm", 1e3},
-    {"b3_per_mm2", 1e6},
-    {"c0_plus_d1_rad", 1.0},
-    {"c1_per_mm", 1e3},
-    {"c2_per_mm2", 1e6},
-    {"d2_per_mm", 1e3},
-    {"d3_per_mm2", 1e6},
-    {"e1_rad", 1.0},
-    {"e2_per_mm", 1e3},
-    {"e3_per_mm2", 1e6},
-    {"backlash_x_um", 1e-6},
-    {"backlash_y_um", 1e-6},
-    {"servo_mismatch_ms", 1e-3},
+    {&results::lai_e_x, 1e-6},        {&results::lai_e_y, 1e-6},
+    {&results::lai_S_x, 1.0},         {&results::lai_S_y, 1.0},
+    {&results::lai_a1, 1.0},          {&results::lai_a2, 1e3},
+    {&results::lai_a3, 1e6},          {&results::lai_b2, 1e3},
+    {&results::lai_b3, 1e6},          {&results::lai_c0_plus_d1, 1.0},
+    {&results::lai_c1, 1e3},          {&results::lai_c2, 1e6},
+    {&results::lai_d2, 1e3},          {&results::lai_d3, 1e6},
+    {&results::lai_e1, 1.0},          {&results::lai_e2, 1e3},
+    {&results::lai_e3, 1e6},          {&results::lai_backlash_x, 1e-6},
+    {&results::lai_backlash_y, 1e-6}, {&results::lai_servo_mismatch, 1e-3},
 };
 constexpr std::size_t lai_count = std::size(lai_columns);
 
@@ -292,34 +284,35 @@ void set_cyclic_phases(const DiagLayout& L, std::vector<Point>& pts) {
   }
 }
 
-std::vector<std::string> diag_names(const DiagLayout& L, const std::vector<formats::DbbRun>& runs, const std::string& plane) {
-  const std::string A = axis_letter(plane, 0), B = axis_letter(plane, 1);
+std::vector<std::string> diag_names(const DiagLayout& L, const std::string& plane) {
+  const auto both = [&](const results::Parameter& p, std::vector<std::string>& n) {
+    n.push_back(results::name(p, plane, 0));
+    n.push_back(results::name(p, plane, 1));
+  };
   std::vector<std::string> n;
   for (std::size_t k = 0; k < L.runs; ++k) {
     // One run: plain names; several: run1.center_offset_*, run2.center_offset_*, ...
-    const std::string pre = L.runs > 1 ? "run" + std::to_string(k + 1) + "." : "";
-    (void)runs;
-    n.push_back(pre + "center_offset_" + A + "_um");
-    n.push_back(pre + "center_offset_" + B + "_um");
+    for (int axis = 0; axis < 2; ++axis) {
+      const std::string name = results::name(results::center_offset, plane, axis);
+      n.push_back(L.runs > 1 ? results::run_prefixed(static_cast<int>(k + 1), name) : name);
+    }
   }
-  for (const auto& s :
-       {"scale_" + A + "_ppm", "scale_" + B + "_ppm", std::string("squareness_urad"), "backlash_" + A + "_um",
-        "backlash_" + B + "_um", "lateral_play_" + A + "_um", "lateral_play_" + B + "_um",
-        std::string("servo_mismatch_ms"), "straightness_" + A + "_um", "straightness_" + B + "_um"})
-    n.push_back(s);
-  if (L.spikes) {
-    n.push_back("reversal_spike_" + A + "_um");
-    n.push_back("reversal_spike_" + B + "_um");
-  }
-  if (L.decay_a) n.push_back("reversal_spike_decay_" + A + "_ms");
-  if (L.decay_b) n.push_back("reversal_spike_decay_" + B + "_ms");
+  both(results::scale, n);
+  n.push_back(results::name(results::squareness));
+  both(results::backlash, n);
+  both(results::lateral_play, n);
+  n.push_back(results::name(results::servo_mismatch));
+  both(results::straightness_bow, n);
+  if (L.spikes) both(results::reversal_spike, n);
+  if (L.decay_a) n.push_back(results::name(results::reversal_spike_decay, plane, 0));
+  if (L.decay_b) n.push_back(results::name(results::reversal_spike_decay, plane, 1));
   if (L.cyclic_a) {
-    n.push_back("cyclic_sin_" + A + "_um");
-    n.push_back("cyclic_cos_" + A + "_um");
+    n.push_back(results::name(results::cyclic_sin, plane, 0));
+    n.push_back(results::name(results::cyclic_cos, plane, 0));
   }
   if (L.cyclic_b) {
-    n.push_back("cyclic_sin_" + B + "_um");
-    n.push_back("cyclic_cos_" + B + "_um");
+    n.push_back(results::name(results::cyclic_sin, plane, 1));
+    n.push_back(results::name(results::cyclic_cos, plane, 1));
   }
   return n;
 }
@@ -357,8 +350,8 @@ struct DiagWork {
   Eigen::VectorXd y, w;
 };
 
-LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::vector<formats::DbbRun>& runs,
-                   const std::string& plane, DiagWork& work, Eigen::Index stride = 1) {
+LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std::string& plane, DiagWork& work,
+                   Eigen::Index stride = 1) {
   const auto n = static_cast<Eigen::Index>(pts.size());
   if (work.j.rows() != n || work.j.cols() < static_cast<Eigen::Index>(L.count()))
     work.j.resize(n, static_cast<Eigen::Index>(L.count()));
@@ -376,7 +369,7 @@ LsqResult fit_diag(const DiagLayout& L, const std::vector<Point>& pts, const std
     diag_row(L, pts[static_cast<std::size_t>(i)], row);
     j.row(i) = row;
   }
-  return solve_strided(j, work.y, work.w, diag_names(L, runs, plane), stride);
+  return solve_strided(j, work.y, work.w, diag_names(L, plane), stride);
 }
 
 // Weighted sum of squares explained by fitting two extra columns to a residual.
@@ -484,7 +477,7 @@ Estimate est(const std::string& name, double value, double u, bool fitted = true
 
 std::vector<std::string> lai3_parameter_names() {
   std::vector<std::string> n;
-  for (const auto& c : lai_columns) n.emplace_back(c.name);
+  for (const auto& c : lai_columns) n.emplace_back(c.parameter->name);
   return n;
 }
 
@@ -524,7 +517,8 @@ double lai3_exact_dL(const Lai3Params& q, double radius_m, double height_m, int 
 // set-up's, not the machine's, and is not ranked. Terms partly cancel: the percentages need not add up
 // to 100.
 void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::vector<Point>& pts,
-                        const std::vector<formats::DbbRun>& runs, const std::vector<std::string>& names, Identification& out) {
+                        const std::vector<formats::DbbRun>& runs, const std::vector<std::string>& names,
+                        const std::string& plane, Identification& out) {
   const std::size_t g = L.global0();
   std::vector<std::vector<std::size_t>> terms{{g + DiagLayout::scale_a, g + DiagLayout::scale_b}};  // scale mismatch
   for (auto k : {DiagLayout::squareness, DiagLayout::backlash_a, DiagLayout::backlash_b, DiagLayout::play_a,
@@ -550,195 +544,209 @@ void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::ve
     const double part = part_of_deviation(pts, curve, runs.size());
     // Named as the diagnostic (the scales as their mismatch, the cyclic error's two columns after its axis).
     std::string name = names[cols.front()];
-    if (cols.front() == g + DiagLayout::scale_a) name = "scale_mismatch_ppm";
-    else if (cols.size() == 2) name = "cyclic_error_" + name.substr(std::string("cyclic_sin_").size(), 1) + "_um";
+    if (cols.front() == g + DiagLayout::scale_a)
+      name = results::name(results::scale_mismatch);
+    else if (cols.size() == 2)
+      name = results::name(results::cyclic_error, plane, L.cyclic_a && cols.front() == L.cyc_a0() ? 0 : 1);
     out.ranking.push_back({name, part, g_max > 0 ? 100 * part / g_max : nan});
   }
   std::sort(out.ranking.begin(), out.ranking.end(),
             [](const Contribution& a, const Contribution& b) { return a.contribution_um > b.contribution_um; });
 }
 
-// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
-// out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
-LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::string& plane, DiagWork& work,
-                   PrerollTable& preroll, double shaped_b_a, double shaped_b_b, const IdentifyOptions& options,
-                   Identification& out) {
-  DiagLayout L;
-  L.runs = runs.size();
-  // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
-  LsqResult base = fit_diag(L, pts, runs, plane, work, 3);
-  if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
-  // Reversal spikes: choose the decay time that explains most of the residual.
-  {
-    // Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike
-    // after the commanded reversal (the axis' servo lag, 0..20 ms) that explain most of the residual.
-    // Sample spacing: delays shorter than it cannot be told apart (ties keep the shortest).
-    double dt = 1e9;
-    for (const auto& run : runs)
-      for (std::size_t i = 1; i < run.t_s.size(); ++i) dt = std::min(dt, std::max(run.t_s[i] - run.t_s[i - 1], 1e-4));
-    // With samples further apart than 2 ms a delay only trades off against the height: not searched.
-    const double delay_step = std::max(0.002, dt);
-    constexpr double tau_max = 0.1;
-    const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
-    const auto search = [&](bool axis_a, double& tau_out, double& delay_out, double& amp_out, bool& significant) {
-      // Only the points shortly after a reversal matter: (time since, column value, weighted residual).
-      struct Near {
-        double since, u, w, r;
-      };
-      std::vector<Near> near;
-      for (std::size_t i = 0; i < pts.size(); ++i) {
-        const Point& p = pts[i];
-        const double since = axis_a ? p.since_a_s : p.since_b_s;
-        if (since > 8 * tau_max + delay_max) continue;
-        const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b);
-        if (u == 0.0) continue;
-        near.push_back({since, u, p.w, base.residual[static_cast<Eigen::Index>(i)]});
-      }
-      const auto score = [&](double tau, double delay) {
-        double sur = 0, suu = 0;
-        for (const auto& q : near) {
-          const double t = q.since - delay;
-          if (t < 0 || t > 8 * tau) continue;
-          const double u = q.u * std::exp(-t / tau);
-          sur += q.w * u * q.r;
-          suu += q.w * u * u;
-        }
-        return suu > 0 ? sur * sur / suu : 0.0;
-      };
-      const auto amplitude = [&](double tau, double delay) {
-        double sur = 0, suu = 0;
-        for (const auto& q : near) {
-          const double t = q.since - delay;
-          if (t < 0 || t > 8 * tau) continue;
-          const double u = q.u * std::exp(-t / tau);
-          sur += q.w * u * q.r;
-          suu += q.w * u * u;
-        }
-        return suu > 0 ? sur / suu : 0.0;
-      };
-      double best = 0, best_tau = 0.02, best_delay = 0;
-      constexpr int grid = 12;
-      for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
-        for (int q = 0; q < grid; ++q) {
-          const double tau = 0.002 * std::pow(50.0, static_cast<double>(q) / (grid - 1));
-          const double e = score(tau, d);
-          if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
-            best = e;
-            best_tau = tau;
-            best_delay = d;
-          }
-        }
-      }
-      // Refine the delay (when the sampling resolves it) and the decay (golden section in log tau).
-      for (double d = std::max(0.0, best_delay - delay_step);
-           delay_step < 0.004 && d <= best_delay + delay_step + 1e-12; d += 0.25 * delay_step) {
-        const double e = score(best_tau, d);
-        if (e > best * (1 + 1e-9)) {
-          best = e;
-          best_delay = d;
-        }
-      }
-      const double ratio = std::pow(50.0, 1.0 / (grid - 1));
-      double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
-      const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
-      double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
-      double f1 = score(std::exp(x1), best_delay), f2 = score(std::exp(x2), best_delay);
-      for (int it = 0; it < 14; ++it) {
-        if (f1 > f2) {
-          hi = x2;
-          x2 = x1;
-          f2 = f1;
-          x1 = hi - gr * (hi - lo);
-          f1 = score(std::exp(x1), best_delay);
-        } else {
-          lo = x1;
-          x1 = x2;
-          f1 = f2;
-          x2 = lo + gr * (hi - lo);
-          f2 = score(std::exp(x2), best_delay);
-        }
-      }
-      const double xm = 0.5 * (lo + hi);
-      if (score(std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
-      tau_out = best_tau;
-      delay_out = best_delay;
-      amp_out = amplitude(best_tau, best_delay);
-      significant = score(best_tau, best_delay) > 30.0 * base.s2;
-    };
-    search(true, L.tau_a, L.delay_a, L.amp_a, L.decay_a);
-    search(false, L.tau_b, L.delay_b, L.amp_b, L.decay_b);
-    L.spikes = true;
+// A reversal spike of one axis as the search finds it: decay time and delay after the commanded reversal
+// (s), height (um) and whether it explains clearly more than noise.
+struct SpikeShape {
+  double tau = 0.02, delay = 0, amp = 0;
+  bool significant = false;
+};
+
+// The points shortly after an axis' reversal, where a spike lives: time since the reversal, the spike
+// column's value at decay 0, the weight and the preliminary fit's residual.
+struct SpikePoint {
+  double since, u, w, r;
+};
+
+// The least-squares sums of a spike of decay `tau` started `delay` after the reversal against the residual:
+// sum w u r and sum w u^2.
+std::pair<double, double> spike_sums(const std::vector<SpikePoint>& near, double tau, double delay) {
+  double sur = 0, suu = 0;
+  for (const auto& q : near) {
+    const double t = q.since - delay;
+    if (t < 0 || t > 8 * tau) continue;
+    const double u = q.u * std::exp(-t / tau);
+    sur += q.w * u * q.r;
+    suu += q.w * u * u;
   }
-  // Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4).
-  {
-    const double rmin = std::min_element(runs.begin(), runs.end(), [](const formats::DbbRun& a, const formats::DbbRun& b) {
-                          return a.radius_m < b.radius_m;
-                        })->radius_m;
-    const std::vector<double> leads = {1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40};
-    // Largest arc length between samples: a lead p is sampled at least 4 times per period when only
-    // every stride-th point is used, stride = p / (4 * step).
-    double step = 0;
-    for (std::size_t i = 1; i < pts.size(); ++i)
-      if (pts[i].run == pts[i - 1].run)
-        step = std::max(step, pts[i].radius_m * std::abs(pts[i].zeta_rad - pts[i - 1].zeta_rad));
-    const auto stride_for = [step](double p) {
-      return step > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(p / (4 * step))) : std::size_t{1};
-    };
-    const auto pick = [&](double given, bool axis_a) {
-      if (given > 0) return given;
-      double best = 0, best_p = 0;
-      for (double lead_mm : leads) {
-        const double p = lead_mm * 1e-3;
-        if (p > rmin / 4) break;
-        const double e = explained(
-            pts, base.residual,
-            [p, axis_a](const Point& q, double& u1, double& u2) {
-              const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
-              const double f = q.lambda * (axis_a ? q.c : q.s);
-              double sn, cs;
-              fast_sincos(th, sn, cs);  // only compared between leads: libm's last bit is not needed
-              u1 = f * sn;
-              u2 = f * cs;
-            },
-            stride_for(p));
-        if (e > best) {
-          best = e;
-          best_p = p;
-        }
-      }
-      // Keep the term only when it explains clearly more than noise (2 dof, about p < 1e-6).
-      return best > 30.0 * base.s2 ? best_p : 0.0;
-    };
-    L.period_a = pick(options.cyclic_period_a_m, true);
-    L.period_b = pick(options.cyclic_period_b_m, false);
-    L.cyclic_a = L.period_a > 0;
-    L.cyclic_b = L.period_b > 0;
-    set_cyclic_phases(L, pts);
+  return {sur, suu};
+}
+
+// What a spike explains of the residual (sur^2 / suu), 0 when it reaches no point.
+double spike_score(const std::vector<SpikePoint>& near, double tau, double delay) {
+  const auto [sur, suu] = spike_sums(near, tau, delay);
+  return suu > 0 ? sur * sur / suu : 0.0;
+}
+
+// Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike after the
+// commanded reversal (the axis' servo lag, 0..`delay_max`) that explain most of the residual.
+SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bool axis_a, double delay_step,
+                        double delay_max) {
+  constexpr double tau_max = 0.1;
+  std::vector<SpikePoint> near;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Point& p = pts[i];
+    const double since = axis_a ? p.since_a_s : p.since_b_s;
+    if (since > 8 * tau_max + delay_max) continue;
+    const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b);
+    if (u == 0.0) continue;
+    near.push_back({since, u, p.w, base.residual[static_cast<Eigen::Index>(i)]});
   }
-  // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
-  // take-up is late by as much.
-  if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
-    apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
-  LsqResult res = fit_diag(L, pts, runs, plane, work);
-  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
-  {
-    // Backlash shape from this fit's own estimate (the Lai fit's may differ), then the final fit.
-    const std::size_t ga = L.global0() + DiagLayout::backlash_a;
-    const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
-    const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
-    // The points carry the deadband shape of the Lai fit's backlash; refit only when this fit's
-    // estimate differs noticeably.
-    const auto differs = [](double now, double shaped) {
-      return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
-    };
-    if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
-      for (auto& p : pts) set_step_backlash(p);
-      if (b_a > 0 || b_b > 0) apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
-      res = fit_diag(L, pts, runs, plane, work);
-      if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+  double best = 0, best_tau = 0.02, best_delay = 0;
+  constexpr int grid = 12;
+  for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
+    for (int q = 0; q < grid; ++q) {
+      const double tau = 0.002 * std::pow(50.0, static_cast<double>(q) / (grid - 1));
+      const double e = spike_score(near, tau, d);
+      if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
+        best = e;
+        best_tau = tau;
+        best_delay = d;
+      }
     }
   }
-  // Gauss-Newton iterations on the spike decay times (linear in everything else).
+  // Refine the delay (when the sampling resolves it) and the decay (golden section in log tau).
+  for (double d = std::max(0.0, best_delay - delay_step); delay_step < 0.004 && d <= best_delay + delay_step + 1e-12;
+       d += 0.25 * delay_step) {
+    const double e = spike_score(near, best_tau, d);
+    if (e > best * (1 + 1e-9)) {
+      best = e;
+      best_delay = d;
+    }
+  }
+  const double ratio = std::pow(50.0, 1.0 / (grid - 1));
+  double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
+  const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
+  double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
+  double f1 = spike_score(near, std::exp(x1), best_delay), f2 = spike_score(near, std::exp(x2), best_delay);
+  for (int it = 0; it < 14; ++it) {
+    if (f1 > f2) {
+      hi = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = hi - gr * (hi - lo);
+      f1 = spike_score(near, std::exp(x1), best_delay);
+    } else {
+      lo = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = lo + gr * (hi - lo);
+      f2 = spike_score(near, std::exp(x2), best_delay);
+    }
+  }
+  const double xm = 0.5 * (lo + hi);
+  if (spike_score(near, std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
+  const auto [sur, suu] = spike_sums(near, best_tau, best_delay);
+  return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, spike_score(near, best_tau, best_delay) > 30.0 * base.s2};
+}
+
+// Reversal spikes: the decay time and delay of each axis that explain most of the preliminary residual.
+void search_reversal_spikes(const std::vector<formats::DbbRun>& runs, const std::vector<Point>& pts,
+                            const LsqResult& base, DiagLayout& L) {
+  // Sample spacing: delays shorter than it cannot be told apart (ties keep the shortest).
+  double dt = 1e9;
+  for (const auto& run : runs)
+    for (std::size_t i = 1; i < run.t_s.size(); ++i) dt = std::min(dt, std::max(run.t_s[i] - run.t_s[i - 1], 1e-4));
+  // With samples further apart than 2 ms a delay only trades off against the height: not searched.
+  const double delay_step = std::max(0.002, dt);
+  const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
+  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max);
+  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max);
+  L.tau_a = a.tau;
+  L.delay_a = a.delay;
+  L.amp_a = a.amp;
+  L.decay_a = a.significant;
+  L.tau_b = b.tau;
+  L.delay_b = b.delay;
+  L.amp_b = b.amp;
+  L.decay_b = b.significant;
+  L.spikes = true;
+}
+
+// Cyclic error: the given period or the best of the usual ball-screw leads (at most r/4), per axis, kept
+// only when it explains clearly more than noise (2 dof, about p < 1e-6).
+void choose_cyclic_periods(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const LsqResult& base,
+                           const IdentifyOptions& options, DiagLayout& L) {
+  const double rmin =
+      std::min_element(runs.begin(), runs.end(), [](const formats::DbbRun& a, const formats::DbbRun& b) {
+        return a.radius_m < b.radius_m;
+      })->radius_m;
+  const std::vector<double> leads = {1, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10, 12, 16, 20, 25, 32, 40};
+  // Largest arc length between samples: a lead p is sampled at least 4 times per period when only every
+  // stride-th point is used, stride = p / (4 * step).
+  double step = 0;
+  for (std::size_t i = 1; i < pts.size(); ++i)
+    if (pts[i].run == pts[i - 1].run)
+      step = std::max(step, pts[i].radius_m * std::abs(pts[i].zeta_rad - pts[i - 1].zeta_rad));
+  const auto stride_for = [step](double p) {
+    return step > 0 ? std::max<std::size_t>(1, static_cast<std::size_t>(p / (4 * step))) : std::size_t{1};
+  };
+  const auto pick = [&](double given, bool axis_a) {
+    if (given > 0) return given;
+    double best = 0, best_p = 0;
+    for (double lead_mm : leads) {
+      const double p = lead_mm * 1e-3;
+      if (p > rmin / 4) break;
+      const double e = explained(
+          pts, base.residual,
+          [p, axis_a](const Point& q, double& u1, double& u2) {
+            const double th = 2 * pi * (axis_a ? q.a_m : q.b_m) / p;
+            const double f = q.lambda * (axis_a ? q.c : q.s);
+            double sn, cs;
+            fast_sincos(th, sn, cs);  // only compared between leads: libm's last bit is not needed
+            u1 = f * sn;
+            u2 = f * cs;
+          },
+          stride_for(p));
+      if (e > best) {
+        best = e;
+        best_p = p;
+      }
+    }
+    return best > 30.0 * base.s2 ? best_p : 0.0;
+  };
+  L.period_a = pick(options.cyclic_period_a_m, true);
+  L.period_b = pick(options.cyclic_period_b_m, false);
+  L.cyclic_a = L.period_a > 0;
+  L.cyclic_b = L.period_b > 0;
+  set_cyclic_phases(L, pts);
+}
+
+// The diagnostics fit with the points' deadband shape of this fit's own backlash (the Lai fit's may
+// differ): refitted only when it differs noticeably from the one the points carry.
+LsqResult fit_with_own_backlash(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts,
+                                const std::string& plane, DiagWork& work, PrerollTable& preroll, double shaped_b_a,
+                                double shaped_b_b, const DiagLayout& L) {
+  LsqResult res = fit_diag(L, pts, plane, work);
+  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+  const std::size_t ga = L.global0() + DiagLayout::backlash_a;
+  const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
+  const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
+  const auto differs = [](double now, double shaped) {
+    return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
+  };
+  if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
+    for (auto& p : pts) set_step_backlash(p);
+    if (b_a > 0 || b_b > 0)
+      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
+    res = fit_diag(L, pts, plane, work);
+    if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+  }
+  return res;
+}
+
+// Gauss-Newton iterations on the spike decay times (linear in everything else).
+void refine_spike_decays(const std::vector<Point>& pts, const std::string& plane, DiagWork& work, DiagLayout& L,
+                         LsqResult& res) {
   for (int it = 0; it < 4 && (L.decay_a || L.decay_b); ++it) {
     bool moved = false;
     const auto step = [&](bool on, std::size_t k_decay, std::size_t k_amp, double& tau, double& amp) {
@@ -752,20 +760,43 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     step(L.decay_a, L.decay_a0(), L.spike0(), L.tau_a, L.amp_a);
     step(L.decay_b, L.decay_b0(), L.spike0() + 1, L.tau_b, L.amp_b);
     if (!moved) break;
-    res = fit_diag(L, pts, runs, plane, work);
+    res = fit_diag(L, pts, plane, work);
     if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
   }
-  out.diagnostics_fit = summary_of(res);
-  const auto names = diag_names(L, runs, plane);
-  const auto get = [&](std::size_t idx) -> std::pair<double, double> {
-    return {res.x[static_cast<Eigen::Index>(idx)], res.u[static_cast<Eigen::Index>(idx)]};
-  };
+}
+
+// The cyclic error of one plane axis as amplitude, period and phase (from its sine and cosine columns,
+// the amplitude's u to first order); an amplitude 0 without u when none was fitted.
+void add_cyclic_error(const LsqResult& res, bool on, std::size_t k0, double period, const std::string& plane, int axis,
+                      std::vector<Estimate>& out) {
+  if (!on) {
+    out.push_back(est(results::name(results::cyclic_error, plane, axis), 0.0, nan, false));
+    return;
+  }
+  if (!res.identified[k0] || !res.identified[k0 + 1]) return;
+  const auto i0 = static_cast<Eigen::Index>(k0);
+  const double as = res.x[i0], ac = res.x[i0 + 1];
+  const double amp = std::hypot(as, ac);
+  double u = nan;
+  if (amp > 0) {
+    const double ga = as / amp, gc = ac / amp;
+    u = std::sqrt(std::max(0.0, ga * ga * res.covariance(i0, i0) + gc * gc * res.covariance(i0 + 1, i0 + 1) +
+                                    2 * ga * gc * res.covariance(i0, i0 + 1)));
+  }
+  out.push_back(est(results::name(results::cyclic_error, plane, axis), amp, u));
+  out.push_back(est(results::name(results::cyclic_period, plane, axis), period * 1e3, nan, false));
+  out.push_back(est(results::name(results::cyclic_phase, plane, axis), std::atan2(ac, as) * 180 / pi, nan, false));
+}
+
+// The diagnostics as reported: the fitted terms identified, the scale mismatch, the cyclic errors, the
+// spikes' decays and delays.
+void report_diagnostics(const DiagLayout& L, const LsqResult& res, const std::vector<std::string>& names,
+                        const std::string& plane, Identification& out) {
   const auto add = [&](std::size_t idx) {
     if (!res.identified[idx]) return;
-    const auto [v, u] = get(idx);
-    out.diagnostics.push_back(est(names[idx], v, u));
+    out.diagnostics.push_back(
+        est(names[idx], res.x[static_cast<Eigen::Index>(idx)], res.u[static_cast<Eigen::Index>(idx)]));
   };
-  const std::string A = axis_letter(plane, 0), B = axis_letter(plane, 1);
   for (std::size_t k = 0; k < 2 * L.runs; ++k) add(k);
   const std::size_t g = L.global0();
   add(g + DiagLayout::scale_a);
@@ -774,36 +805,18 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
     const auto ia = static_cast<Eigen::Index>(g + DiagLayout::scale_a);
     const auto ib = static_cast<Eigen::Index>(g + DiagLayout::scale_b);
     const double var = res.covariance(ia, ia) + res.covariance(ib, ib) - 2 * res.covariance(ia, ib);
-    out.diagnostics.push_back(est("scale_mismatch_ppm", res.x[ia] - res.x[ib], std::sqrt(std::max(var, 0.0))));
+    out.diagnostics.push_back(
+        est(results::name(results::scale_mismatch), res.x[ia] - res.x[ib], std::sqrt(std::max(var, 0.0))));
   }
   for (auto k : {DiagLayout::squareness, DiagLayout::backlash_a, DiagLayout::backlash_b, DiagLayout::play_a,
                  DiagLayout::play_b, DiagLayout::servo, DiagLayout::bow_a, DiagLayout::bow_b})
     add(g + k);
   add(L.spike0());
   add(L.spike0() + 1);
-  const auto cyclic = [&](bool on, std::size_t k0, double period, const std::string& ax) {
-    if (!on) {
-      out.diagnostics.push_back(est("cyclic_error_" + ax + "_um", 0.0, nan, false));
-      return;
-    }
-    if (!res.identified[k0] || !res.identified[k0 + 1]) return;
-    const auto i0 = static_cast<Eigen::Index>(k0);
-    const double as = res.x[i0], ac = res.x[i0 + 1];
-    const double amp = std::hypot(as, ac);
-    double u = nan;
-    if (amp > 0) {
-      const double ga = as / amp, gc = ac / amp;
-      u = std::sqrt(std::max(0.0, ga * ga * res.covariance(i0, i0) + gc * gc * res.covariance(i0 + 1, i0 + 1) +
-                                      2 * ga * gc * res.covariance(i0, i0 + 1)));
-    }
-    out.diagnostics.push_back(est("cyclic_error_" + ax + "_um", amp, u));
-    out.diagnostics.push_back(est("cyclic_period_" + ax + "_mm", period * 1e3, nan, false));
-    out.diagnostics.push_back(est("cyclic_phase_" + ax + "_deg", std::atan2(ac, as) * 180 / pi, nan, false));
-  };
-  cyclic(L.cyclic_a, L.cyc_a0(), L.period_a, A);
-  cyclic(L.cyclic_b, L.cyc_b0(), L.period_b, B);
-  const auto decay = [&](bool fitted, std::size_t k, double tau, const std::string& ax) {
-    const std::string name = "reversal_spike_decay_" + ax + "_ms";
+  add_cyclic_error(res, L.cyclic_a, L.cyc_a0(), L.period_a, plane, 0, out.diagnostics);
+  add_cyclic_error(res, L.cyclic_b, L.cyc_b0(), L.period_b, plane, 1, out.diagnostics);
+  const auto decay = [&](bool fitted, std::size_t k, double tau, int axis) {
+    const std::string name = results::name(results::reversal_spike_decay, plane, axis);
     if (fitted && res.identified[k]) {
       out.diagnostics.push_back(
           est(name, tau * 1e3 + res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
@@ -811,12 +824,34 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
       out.diagnostics.push_back(est(name, tau * 1e3, nan, false));
     }
   };
-  decay(L.decay_a, L.decay_a0(), L.tau_a, A);
-  decay(L.decay_b, L.decay_b0(), L.tau_b, B);
-  out.diagnostics.push_back(est("reversal_spike_delay_" + A + "_ms", L.delay_a * 1e3, nan, false));
-  out.diagnostics.push_back(est("reversal_spike_delay_" + B + "_ms", L.delay_b * 1e3, nan, false));
+  decay(L.decay_a, L.decay_a0(), L.tau_a, 0);
+  decay(L.decay_b, L.decay_b0(), L.tau_b, 1);
+  out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 0), L.delay_a * 1e3, nan, false));
+  out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 1), L.delay_b * 1e3, nan, false));
+}
 
-  rank_contributions(L, res, pts, runs, names, out);
+// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
+// out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
+LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::string& plane,
+                   DiagWork& work, PrerollTable& preroll, double shaped_b_a, double shaped_b_b,
+                   const IdentifyOptions& options, Identification& out) {
+  DiagLayout L;
+  L.runs = runs.size();
+  // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
+  const LsqResult base = fit_diag(L, pts, plane, work, 3);
+  if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
+  search_reversal_spikes(runs, pts, base, L);
+  choose_cyclic_periods(runs, pts, base, options, L);
+  // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
+  // take-up is late by as much.
+  if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
+    apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
+  LsqResult res = fit_with_own_backlash(runs, pts, plane, work, preroll, shaped_b_a, shaped_b_b, L);
+  refine_spike_decays(pts, plane, work, L, res);
+  out.diagnostics_fit = summary_of(res);
+  const auto names = diag_names(L, plane);
+  report_diagnostics(L, res, names, plane, out);
+  rank_contributions(L, res, pts, runs, names, plane, out);
   out.ranking_model = "diagnostics";
   return res;
 }
@@ -840,7 +875,8 @@ namespace {
 // radius, which the circle absorbs), the straightness coefficients by axis and direction.
 std::string lai_error_group(const std::string& name) {
   if (name == "S_x" || name == "S_y") return "scale_mismatch";
-  if (name == "backlash_x_um" || name == "backlash_y_um" || name == "servo_mismatch_ms")
+  if (name == results::lai_backlash_x.name || name == results::lai_backlash_y.name ||
+      name == results::lai_servo_mismatch.name)
     return name.substr(0, name.rfind('_'));
   if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
   switch (name.front()) {
@@ -876,10 +912,10 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     names = lai3_parameter_names();
   } else {
     for (std::size_t k = 0; k < runs.size(); ++k) {
-      names.push_back("run" + std::to_string(k + 1) + ".e_x_um");
-      names.push_back("run" + std::to_string(k + 1) + ".e_y_um");
+      names.push_back(results::run_prefixed(static_cast<int>(k + 1), results::name(results::lai_e_x)));
+      names.push_back(results::run_prefixed(static_cast<int>(k + 1), results::name(results::lai_e_y)));
     }
-    for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].name);
+    for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].parameter->name);
   }
   // With stride > 1 only every stride-th point enters (its residual is not needed).
   const auto fit = [&](Eigen::Index stride) {
@@ -957,11 +993,11 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     const auto ci = static_cast<Eigen::Index>(c);
     std::string name = names[c];
     double value = res.x[ci], u = res.u[ci];
-    if (name == "S_x" || name == "S_y") value += 1.0;
-    if (name == "servo_mismatch_ms") {
+    if (name == results::lai_S_x.name || name == results::lai_S_y.name) value += 1.0;
+    if (name == results::lai_servo_mismatch.name) {
       // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
-      out.lai3.push_back(
-          est("mismatch_phase_angle_deg", value * 1e-3 * omega0 * 180 / pi, u * 1e-3 * omega0 * 180 / pi));
+      out.lai3.push_back(est(results::name(results::lai_mismatch_phase_angle), value * 1e-3 * omega0 * 180 / pi,
+                             u * 1e-3 * omega0 * 180 / pi));
     }
     out.lai3.push_back(est(name, value, u));
   }
@@ -1011,16 +1047,17 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
         if (e.name == name) return &e;
       return nullptr;
     };
-    const Estimate* sa = find("scale_" + axis_letter(plane, 0) + "_ppm");
-    const Estimate* sb = find("scale_" + axis_letter(plane, 1) + "_ppm");
+    const Estimate* sa = find(results::name(results::scale, plane, 0));
+    const Estimate* sb = find(results::name(results::scale, plane, 1));
     if (sa && sb) {
       const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
       if (std::abs(common) > 50 && std::abs(common) > 3 * std::abs(mismatch)) {
         std::ostringstream o;
-        o << "both axes' scales read about " << std::lround(common) << " ppm: a radius change common to both (a position "
+        o << "both axes' scales read about " << std::lround(common)
+          << " ppm: a radius change common to both (a position "
           << "loop's lag tau shrinks a circle by r (omega tau)^2 / 2 at high feed, 346 ppm for 30 ms at 5000 mm/min on "
-          << "95 mm; a bar calibration error) rather than the axes' own scales; scale_mismatch_ppm ("
-          << std::lround(mismatch) << " ppm) is the axes' difference";
+          << "95 mm; a bar calibration error) rather than the axes' own scales; "
+          << results::name(results::scale_mismatch) << " (" << std::lround(mismatch) << " ppm) is the axes' difference";
         out.notes.push_back(o.str());
       }
     }
@@ -1061,13 +1098,14 @@ void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<
     g_max = std::max(g_max, s.circular_deviation_um);
     out.runs.push_back(s);
   }
-  out.diagnostics.push_back(est("circular_deviation_um", g_max, nan, false));
+  out.diagnostics.push_back(est(results::name(results::circular_deviation), g_max, nan, false));
   for (std::size_t i = 0; i < runs.size(); ++i) {
     bool done = false;
     for (std::size_t k = i + 1; k < runs.size() && !done; ++k) {
       if (runs[i].direction != runs[k].direction && std::abs(runs[i].radius_m - runs[k].radius_m) < 1e-6 &&
           std::abs(runs[i].height_m - runs[k].height_m) < 1e-6) {
-        out.diagnostics.push_back(est("circular_hysteresis_um", circular_hysteresis(runs[i], first[i], runs[k], first[k]), nan, false));
+        out.diagnostics.push_back(est(results::name(results::circular_hysteresis),
+                                      circular_hysteresis(runs[i], first[i], runs[k], first[k]), nan, false));
         done = true;
       }
     }

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "models/common/least_squares.hpp"
 #include "formats/dbb_run.hpp"
+#include "models/common/lsq_combination.hpp"
 
 namespace guideway::models::dbb {
 

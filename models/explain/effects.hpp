@@ -1,8 +1,8 @@
 #pragma once
 // The library of physical effects the explanation can name: each entry says what the effect is, the
 // domain it lives in, its signature in the data, and which base models already contain it (those are
-// not candidates for that model). The parametric terms themselves are built per model
-// (dbb_explain.cpp, profile_explain.cpp); `terms` names the models that have one (abbe_offset: flatness
+// not candidates for that model). One file per effect (models/explain/effects/<name>.cpp) holds this and
+// its parametric term for each model that has one; `terms` names those models (abbe_offset: flatness
 // only, with a measured pitch traverse -- neither a DBB circle nor a profile alone gives an angle).
 // Thread safe.
 

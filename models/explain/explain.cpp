@@ -17,6 +17,7 @@
 #include "models/common/least_squares.hpp"
 #include "models/explain/locate.hpp"
 #include "models/explain/stats.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::explain {
 
@@ -622,7 +623,11 @@ void add_curves(Report& rep, const Problem& problem, const std::vector<std::pair
 
 }  // namespace
 
-Report explain(const Problem& problem, const ExplainOptions& options) {
+namespace {
+
+// What is explained, one value per sample; refuses too few samples, a base of the wrong size, non-finite
+// samples and candidates of the wrong size.
+Eigen::VectorXd observations(const Problem& problem) {
   const std::size_t n = problem.samples.size();
   if (n < 32) throw std::invalid_argument("explain: too few samples (" + std::to_string(n) + ", need 32)");
   if (problem.base.columns.cols() > 0 && static_cast<std::size_t>(problem.base.columns.rows()) != n)
@@ -636,18 +641,22 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     for (const auto& v : c.variants)
       if (static_cast<std::size_t>(v.block.columns.rows()) != n)
         throw std::invalid_argument("explain: candidate " + c.effect + " has the wrong number of rows");
-  const auto ranges = run_ranges(problem);
+  return y;
+}
 
-  Report rep;
-  rep.model = problem.model;
-  rep.n = n;
-  rep.notes = problem.notes;
+// The held-out rows: whole runs when there are at least three, the base is still determined without any
+// one of them and no candidate has terms of one run alone; otherwise contiguous blocks of every run
+// (staggered between runs).
+struct HeldOutScheme {
+  std::vector<int> fold_of;
+  int folds = 0;
+  std::string name;
+};
 
-  // Held-out scheme: whole runs when there are at least three, the base is still determined without
-  // any one of them and no candidate has terms of one run alone; otherwise contiguous blocks of every
-  // run (staggered between runs).
-  std::vector<int> fold_of(n, 0);
-  int folds = static_cast<int>(std::max<std::size_t>(options.folds, 2));
+HeldOutScheme heldout_scheme(const Problem& problem, const ExplainOptions& options,
+                             const std::vector<std::pair<std::size_t, std::size_t>>& ranges) {
+  const std::size_t n = problem.samples.size();
+  HeldOutScheme h{std::vector<int>(n, 0), static_cast<int>(std::max<std::size_t>(options.folds, 2)), {}};
   bool loro = false;
   if (problem.runs.size() >= 3 && !problem.terms_per_run && problem.base.columns.cols() > 0) {
     const std::size_t full_rank = static_cast<std::size_t>(span_basis(problem.base.columns).cols());
@@ -660,195 +669,287 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     }
   }
   if (loro) {
-    folds = static_cast<int>(problem.runs.size());
-    for (std::size_t i = 0; i < n; ++i) fold_of[i] = static_cast<int>(problem.samples[i].run);
-    rep.heldout_scheme = "leave-one-run-out (" + std::to_string(folds) + " runs)";
-  } else {
-    for (std::size_t k = 0; k < ranges.size(); ++k) {
-      const auto [a, b] = ranges[k];
-      const std::size_t len = b - a;
-      for (std::size_t i = a; i < b; ++i) {
-        const auto block = static_cast<int>((i - a) * static_cast<std::size_t>(folds) / std::max<std::size_t>(len, 1));
-        fold_of[i] = (block + static_cast<int>(k)) % folds;
-      }
+    h.folds = static_cast<int>(problem.runs.size());
+    for (std::size_t i = 0; i < n; ++i) h.fold_of[i] = static_cast<int>(problem.samples[i].run);
+    h.name = "leave-one-run-out (" + std::to_string(h.folds) + " runs)";
+    return h;
+  }
+  for (std::size_t k = 0; k < ranges.size(); ++k) {
+    const auto [a, b] = ranges[k];
+    const std::size_t len = b - a;
+    for (std::size_t i = a; i < b; ++i) {
+      const auto block = static_cast<int>((i - a) * static_cast<std::size_t>(h.folds) / std::max<std::size_t>(len, 1));
+      h.fold_of[i] = (block + static_cast<int>(k)) % h.folds;
     }
-    rep.heldout_scheme = "blocked " + std::to_string(folds) + "-fold cross-validation (contiguous blocks of every run)";
+  }
+  h.name = "blocked " + std::to_string(h.folds) + "-fold cross-validation (contiguous blocks of every run)";
+  return h;
+}
+
+// The set of effects (docs/explain.md "Name and fit"): forward selection on the tests, each earlier choice
+// re-decided and re-tested whenever an effect joins, then every effect's share of the structure left
+// without it; what is dropped is not tried again.
+class EffectSelection {
+ public:
+  // From the base model `base` and its held-out figure.
+  EffectSelection(const Problem& problem, const ExplainOptions& options, const Selection& sel, Model base,
+                  HeldOut base_heldout, double sigma, double visible_floor)
+      : p_(problem),
+        o_(options),
+        sel_(sel),
+        sigma_(sigma),
+        visible_floor_(visible_floor),
+        nc_(problem.candidates.size()),
+        cur_(std::move(base)),
+        cur_ho_(std::move(base_heldout)),
+        cur_heldout_(cur_ho_.rms),
+        banned_(nc_, false),
+        verdict_(nc_) {}
+
+  void run() {
+    bool changed = true;
+    for (std::size_t guard = 0; changed && guard < 4 * nc_ + 4; ++guard) {
+      changed = false;
+      while (terms_.size() < o_.max_effects) {
+        const std::string accepted = forward_step();
+        if (accepted.empty()) break;
+        changed = true;
+        // Earlier choices re-decided with the new effect in the model (a deadband sized, a line picked,
+        // while this effect was still in the residual), then re-tested.
+        for (std::size_t k = 0; k + 1 < terms_.size(); ++k) sel_.rechoose(terms_, k);
+        refresh();
+        prune(accepted);
+      }
+      changed = drop_partial_fits() || changed;
+    }
+    // The findings in the order taken.
+    std::sort(terms_.begin(), terms_.end(), [](const Term& a, const Term& b) { return a.taken < b.taken; });
   }
 
-  const Selection sel(problem, options, y, fold_rows(fold_of, folds));
-  std::vector<Term> terms;
-  Model cur = sel.model(terms);
-  HeldOut cur_ho = sel.heldout(terms, none);
-  double cur_heldout = cur_ho.rms;
-  // Every effect will be refused for it: say why once, whether or not a candidate gets that far.
-  if (!cur_ho.failure.empty()) rep.notes.push_back("held-out RMS of the base not computable (" + cur_ho.failure + ")");
-  rep.baseline = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, cur_heldout, cur.rank + cur.searched};
-  const Located base_loc = locate(problem, cur.residual, options.alpha);
-  rep.noise_um = base_loc.sigma_um;
-  rep.mismatch = base_loc.places;
-  const double sigma = base_loc.sigma_um;
-  // Energy a denoised pure-noise residual keeps is tiny; below this nothing is "visible".
-  const double visible_floor = 1e-3 * sigma * sigma * static_cast<double>(n);
+  [[nodiscard]] const std::vector<Term>& terms() const { return terms_; }
+  [[nodiscard]] const Model& model() const { return cur_; }
+  [[nodiscard]] double heldout() const { return cur_heldout_; }
+  // The latest verdict of every candidate without a term, lowest delta BIC first.
+  [[nodiscard]] std::vector<Considered> considered() const {
+    std::vector<Considered> out;
+    for (std::size_t c = 0; c < nc_; ++c)
+      if (verdict_[c] && !has_term(c)) out.push_back(*verdict_[c]);
+    std::stable_sort(out.begin(), out.end(),
+                     [](const Considered& a, const Considered& b) { return a.delta_bic < b.delta_bic; });
+    return out;
+  }
 
-  // The set of effects (docs/explain.md "Name and fit"): forward selection on the tests, each earlier
-  // choice re-decided and re-tested whenever an effect joins, then every effect's share of the structure
-  // left without it; what is dropped is not tried again.
-  const std::size_t nc = problem.candidates.size();
-  std::vector<bool> banned(nc, false);
-  std::vector<std::optional<Considered>> verdict(nc);  // the latest, for candidates without a term
-  std::size_t taken = 0;
-  const auto refresh = [&] {
-    cur = sel.model(terms);
-    cur_ho = sel.heldout(terms, none);
-    cur_heldout = cur_ho.rms;
-  };
-  const auto has_term = [&](std::size_t c) {
-    return std::any_of(terms.begin(), terms.end(), [&](const Term& t) { return t.cand == c; });
-  };
-  const auto drop = [&](std::size_t k, Considered why) {
-    const std::size_t c = terms[k].cand;
-    terms.erase(terms.begin() + static_cast<std::ptrdiff_t>(k));
-    banned[c] = true;
-    if (!has_term(c)) verdict[c] = std::move(why);
+ private:
+  void refresh() {
+    cur_ = sel_.model(terms_);
+    cur_ho_ = sel_.heldout(terms_, none);
+    cur_heldout_ = cur_ho_.rms;
+  }
+
+  [[nodiscard]] bool has_term(std::size_t c) const {
+    return std::any_of(terms_.begin(), terms_.end(), [&](const Term& t) { return t.cand == c; });
+  }
+
+  void drop(std::size_t k, Considered why) {
+    const std::size_t c = terms_[k].cand;
+    terms_.erase(terms_.begin() + static_cast<std::ptrdiff_t>(k));
+    banned_[c] = true;
+    if (!has_term(c)) verdict_[c] = std::move(why);
     refresh();
-  };
+  }
+
   // Drop-one: every effect kept must still pass the tests with the others in the model.
-  const auto prune = [&](const std::string& after) {
-    while (!terms.empty()) {
+  void prune(const std::string& after) {
+    while (!terms_.empty()) {
       std::size_t worst = none;
       DropTest wd;
-      for (std::size_t k = 0; k < terms.size(); ++k) {
-        DropTest d = sel.drop_test(terms, k, cur, cur_heldout);
+      for (std::size_t k = 0; k < terms_.size(); ++k) {
+        DropTest d = sel_.drop_test(terms_, k, cur_, cur_heldout_);
         if (!d.earns && (worst == none || d.p > wd.p)) {
           worst = k;
           wd = std::move(d);
         }
       }
       if (worst == none) return;
-      drop(worst, {problem.candidates[terms[worst].cand].effect, wd.delta_bic, wd.p, "dropped after " + after + ": " + wd.why});
+      drop(worst,
+           {p_.candidates[terms_[worst].cand].effect, wd.delta_bic, wd.p, "dropped after " + after + ": " + wd.why});
     }
-  };
+  }
 
-  bool changed = true;
-  for (std::size_t guard = 0; changed && guard < 4 * nc + 4; ++guard) {
-    changed = false;
-    while (terms.size() < options.max_effects) {
-      std::vector<Trial> trials;
-      for (std::size_t c = 0; c < nc; ++c) {
-        const Candidate& cand = problem.candidates[c];
-        if (banned[c] || (cand.variants.empty() && !cand.generate)) continue;
-        Trial t = sel.trial(c, terms, cur);
-        if (t.index != none) trials.push_back(std::move(t));
-      }
-      if (trials.empty()) break;
-      for (auto& t : trials) {
-        t.bonferroni *= static_cast<double>(trials.size());
-        t.p = std::min(1.0, t.p * t.bonferroni);
-      }
-      std::sort(trials.begin(), trials.end(), [](const Trial& a, const Trial& b) { return a.delta_bic < b.delta_bic; });
-      std::string accepted;
-      for (auto& t : trials) {
-        const Candidate& cand = problem.candidates[t.cand];
-        Considered con{cand.effect, t.delta_bic, t.p, ""};
-        if (!accepted.empty()) {
-          con.verdict = "not tried after a better candidate was taken";
-        } else if (!(t.p < options.alpha)) {
-          con.verdict = "not significant (p=" + printf_number("%.2g", t.p) + ")";
-        } else if (!(t.delta_bic < 0)) {
-          con.verdict = "does not lower the BIC";
-        } else if (!std::isfinite(cur_heldout)) {  // no figure to beat: the trial's is not computed
-          con.verdict = "held-out RMS of the model so far not computable (" + cur_ho.failure + ")";
-        } else {
-          const Variant& v = listed(cand, t.pool)[t.index];
-          HeldOut ho = sel.heldout(terms, none, t.cand, &v);
-          if (!std::isfinite(ho.rms)) {
-            con.verdict = "held-out RMS not computable (" + ho.failure + ")";
-          } else if (!(ho.rms < cur_heldout)) {
-            con.verdict = "held-out RMS not improved (" + printf_number("%.4g", ho.rms) + " um)";
-          } else {
-            con.verdict = "selected";
-            accepted = cand.effect;
-            terms.push_back({t.cand, t.pool, t.index, t.bonferroni, taken++, std::move(ho.trial)});
-            verdict[t.cand].reset();
-            continue;
-          }
-        }
-        if (!has_term(t.cand)) verdict[t.cand] = std::move(con);
-      }
-      if (accepted.empty()) break;
-      changed = true;
-      // Earlier choices re-decided with the new effect in the model (a deadband sized, a line picked,
-      // while this effect was still in the residual), then re-tested.
-      for (std::size_t k = 0; k + 1 < terms.size(); ++k) sel.rechoose(terms, k);
-      refresh();
-      prune(accepted);
+  // Every candidate not banned tried against the model, Bonferroni over the trials, lowest BIC first.
+  std::vector<Trial> trials() const {
+    std::vector<Trial> out;
+    for (std::size_t c = 0; c < nc_; ++c) {
+      const Candidate& cand = p_.candidates[c];
+      if (banned_[c] || (cand.variants.empty() && !cand.generate)) continue;
+      Trial t = sel_.trial(c, terms_, cur_);
+      if (t.index != none) out.push_back(std::move(t));
     }
-    // Each effect must remove most of the structure left without it: a partial fit of a cause it is not
-    // leaves that cause's shape behind.
-    while (!terms.empty()) {
+    for (auto& t : out) {
+      t.bonferroni *= static_cast<double>(out.size());
+      t.p = std::min(1.0, t.p * t.bonferroni);
+    }
+    std::sort(out.begin(), out.end(), [](const Trial& a, const Trial& b) { return a.delta_bic < b.delta_bic; });
+    return out;
+  }
+
+  // One forward step: the best trial that passes the F-test, lowers the BIC and improves the held-out RMS
+  // joins the model; every other trial's verdict is kept. Returns the effect taken ("" = none).
+  std::string forward_step() {
+    std::string accepted;
+    for (auto& t : trials()) {
+      const Candidate& cand = p_.candidates[t.cand];
+      Considered con{cand.effect, t.delta_bic, t.p, ""};
+      if (!accepted.empty()) {
+        con.verdict = "not tried after a better candidate was taken";
+      } else if (!(t.p < o_.alpha)) {
+        con.verdict = "not significant (p=" + printf_number("%.2g", t.p) + ")";
+      } else if (!(t.delta_bic < 0)) {
+        con.verdict = "does not lower the BIC";
+      } else if (!std::isfinite(cur_heldout_)) {  // no figure to beat: the trial's is not computed
+        con.verdict = "held-out RMS of the model so far not computable (" + cur_ho_.failure + ")";
+      } else {
+        const Variant& v = listed(cand, t.pool)[t.index];
+        HeldOut ho = sel_.heldout(terms_, none, t.cand, &v);
+        if (!std::isfinite(ho.rms)) {
+          con.verdict = "held-out RMS not computable (" + ho.failure + ")";
+        } else if (!(ho.rms < cur_heldout_)) {
+          con.verdict = "held-out RMS not improved (" + printf_number("%.4g", ho.rms) + " um)";
+        } else {
+          con.verdict = "selected";
+          accepted = cand.effect;
+          terms_.push_back({t.cand, t.pool, t.index, t.bonferroni, taken_++, std::move(ho.trial)});
+          verdict_[t.cand].reset();
+          continue;
+        }
+      }
+      if (!has_term(t.cand)) verdict_[t.cand] = std::move(con);
+    }
+    return accepted;
+  }
+
+  // Each effect must remove most of the structure left without it: a partial fit of a cause it is not
+  // leaves that cause's shape behind. Returns whether one was dropped.
+  bool drop_partial_fits() {
+    bool changed = false;
+    while (!terms_.empty()) {
       std::size_t worst = none;
       double worst_share = 1.0;
-      for (std::size_t k = 0; k < terms.size(); ++k) {
-        const double s = sel.share(terms, k, cur, sigma, visible_floor);
-        if (std::isfinite(s) && s < options.min_share && (worst == none || s < worst_share)) {
+      for (std::size_t k = 0; k < terms_.size(); ++k) {
+        const double s = sel_.share(terms_, k, cur_, sigma_, visible_floor_);
+        if (std::isfinite(s) && s < o_.min_share && (worst == none || s < worst_share)) {
           worst = k;
           worst_share = s;
         }
       }
       if (worst == none) break;
-      const std::string effect = problem.candidates[terms[worst].cand].effect;
-      const DropTest d = sel.significance(terms, worst, cur);
-      drop(worst, {effect, d.delta_bic, d.p, "removes only " + printf_number("%.0f", 100 * worst_share) + " % of the structure left without it"});
+      const std::string effect = p_.candidates[terms_[worst].cand].effect;
+      const DropTest d = sel_.significance(terms_, worst, cur_);
+      drop(worst, {effect, d.delta_bic, d.p,
+                   "removes only " + printf_number("%.0f", 100 * worst_share) + " % of the structure left without it"});
       prune("dropping " + effect);
       changed = true;
     }
+    return changed;
   }
 
-  // The findings in the order taken: parameters from the final joint fit; the BIC, p-value and share of
-  // each against the final model without it; RMS and held-out RMS after each in turn.
-  std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) { return a.taken < b.taken; });
+  const Problem& p_;
+  const ExplainOptions& o_;
+  const Selection& sel_;
+  double sigma_, visible_floor_;
+  std::size_t nc_;
+  std::vector<Term> terms_;
+  Model cur_;
+  HeldOut cur_ho_;
+  double cur_heldout_ = nan;
+  std::vector<bool> banned_;
+  std::vector<std::optional<Considered>> verdict_;  // the latest, for candidates without a term
+  std::size_t taken_ = 0;
+};
+
+// A finding's fitted term's size: as the model measures it, else its peak-to-valley over each run.
+void set_contribution(const Problem& problem, const std::vector<std::pair<std::size_t, std::size_t>>& ranges,
+                      const Eigen::VectorXd& term, Finding& fd) {
+  if (problem.contribution_of) {
+    fd.contribution_um = problem.contribution_of(term);
+  } else {
+    for (const auto& [a, b] : ranges) {
+      if (b <= a) continue;
+      const auto seg = term.segment(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b - a));
+      fd.contribution_um = std::max(fd.contribution_um, seg.maxCoeff() - seg.minCoeff());
+    }
+  }
+  if (problem.deviation_um > 0) fd.contribution_percent = 100 * fd.contribution_um / problem.deviation_um;
+}
+
+// The findings in the order taken: parameters from the final joint fit; the BIC, p-value and share of each
+// against the final model without it; RMS and held-out RMS after each in turn. `steps` gets the residual
+// after each.
+void add_findings(const Problem& problem, const Selection& sel, const EffectSelection& chosen, const Eigen::VectorXd& y,
+                  double sigma, double visible_floor, Report& rep,
+                  std::vector<std::pair<std::string, Eigen::VectorXd>>& steps) {
+  const std::vector<Term>& terms = chosen.terms();
+  const std::size_t n = problem.samples.size();
+  const auto ranges = run_ranges(problem);
   const LsqResult final_fit = solve_lsq(sel.design(terms), y, Eigen::VectorXd(), sel.names(terms));
   if (!final_fit.ok) throw std::invalid_argument("explain: least squares failed: " + final_fit.message);
-  std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
   Eigen::Index offset = problem.base.columns.cols();
   for (std::size_t k = 0; k < terms.size(); ++k) {
     const Candidate& cand = problem.candidates[terms[k].cand];
     const Variant& v = variant_of(problem, terms[k]);
     const std::vector<Term> prefix(terms.begin(), terms.begin() + static_cast<std::ptrdiff_t>(k + 1));
     const Model pm = sel.model(prefix);
-    const DropTest d = sel.significance(terms, k, cur);
+    const DropTest d = sel.significance(terms, k, chosen.model());
     Finding fd;
     fd.effect = cand.effect;
-    fd.parameters = sel.widened(terms, k, cur, params_of(v, final_fit, offset));
+    fd.parameters = sel.widened(terms, k, chosen.model(), params_of(v, final_fit, offset));
     fd.delta_bic = d.delta_bic;
     fd.p_value = d.p;
     fd.rms_um_after = std::sqrt(pm.rss / static_cast<double>(n));
-    fd.heldout_rms_um_after = k + 1 == terms.size() ? cur_heldout : sel.heldout(prefix, none).rms;
-    fd.share = sel.share(terms, k, cur, sigma, visible_floor);
-    {
-      // Its fitted term's size: as the model measures it, else its peak-to-valley over each run.
-      const Eigen::VectorXd term = v.block.columns * final_fit.x.segment(offset, v.block.columns.cols());
-      if (problem.contribution_of) {
-        fd.contribution_um = problem.contribution_of(term);
-      } else {
-        for (const auto& [a, b] : ranges) {
-          if (b <= a) continue;
-          const auto seg = term.segment(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b - a));
-          fd.contribution_um = std::max(fd.contribution_um, seg.maxCoeff() - seg.minCoeff());
-        }
-      }
-      if (problem.deviation_um > 0) fd.contribution_percent = 100 * fd.contribution_um / problem.deviation_um;
-    }
+    fd.heldout_rms_um_after = k + 1 == terms.size() ? chosen.heldout() : sel.heldout(prefix, none).rms;
+    fd.share = sel.share(terms, k, chosen.model(), sigma, visible_floor);
+    set_contribution(problem, ranges, v.block.columns * final_fit.x.segment(offset, v.block.columns.cols()), fd);
     fd.why = cand.why;
     rep.findings.push_back(std::move(fd));
     steps.emplace_back("+ " + cand.effect, pm.residual);
     offset += v.block.columns.cols();
   }
-  for (std::size_t c = 0; c < nc; ++c)
-    if (verdict[c] && !has_term(c)) rep.considered.push_back(*verdict[c]);
-  std::stable_sort(rep.considered.begin(), rep.considered.end(),
-                   [](const Considered& a, const Considered& b) { return a.delta_bic < b.delta_bic; });
-  rep.final_fit = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, cur_heldout, cur.rank + cur.searched};
+}
+
+}  // namespace
+
+Report explain(const Problem& problem, const ExplainOptions& options) {
+  const Eigen::VectorXd y = observations(problem);
+  const std::size_t n = problem.samples.size();
+  const auto ranges = run_ranges(problem);
+  Report rep;
+  rep.model = problem.model;
+  rep.n = n;
+  rep.notes = problem.notes;
+  const HeldOutScheme scheme = heldout_scheme(problem, options, ranges);
+  rep.heldout_scheme = scheme.name;
+
+  const Selection sel(problem, options, y, fold_rows(scheme.fold_of, scheme.folds));
+  const Model base = sel.model({});
+  const HeldOut base_ho = sel.heldout({}, none);
+  // Every effect will be refused for it: say why once, whether or not a candidate gets that far.
+  if (!base_ho.failure.empty())
+    rep.notes.push_back("held-out RMS of the base not computable (" + base_ho.failure + ")");
+  rep.baseline = {std::sqrt(base.rss / static_cast<double>(n)), base.bic, base_ho.rms, base.rank + base.searched};
+  const Located base_loc = locate(problem, base.residual, options.alpha);
+  rep.noise_um = base_loc.sigma_um;
+  rep.mismatch = base_loc.places;
+  const double sigma = base_loc.sigma_um;
+  // Energy a denoised pure-noise residual keeps is tiny; below this nothing is "visible".
+  const double visible_floor = 1e-3 * sigma * sigma * static_cast<double>(n);
+
+  EffectSelection chosen(problem, options, sel, base, base_ho, sigma, visible_floor);
+  chosen.run();
+  std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
+  add_findings(problem, sel, chosen, y, sigma, visible_floor, rep, steps);
+  rep.considered = chosen.considered();
+  const Model& cur = chosen.model();
+  rep.final_fit = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, chosen.heldout(), cur.rank + cur.searched};
   rep.deviation_um = problem.deviation_um;
   rep.deviation_name = problem.deviation_name;
   add_curves(rep, problem, steps, options.curve_points);
@@ -877,7 +978,7 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
   for (double v : reading_um) mean += v;
   mean /= static_cast<double>(reading_um.size());
   Variant v;
-  v.block.names = {"sensor_quadratic_per_um", "sensor_cubic_per_um2"};
+  v.block.names = {results::name(results::sensor_quadratic), results::name(results::sensor_cubic)};
   v.block.columns.resize(static_cast<Eigen::Index>(reading_um.size()), 2);
   for (std::size_t i = 0; i < reading_um.size(); ++i) {
     const double d = reading_um[i] - mean;
@@ -906,15 +1007,6 @@ sensor_nonlinearity_generator(const Block& base, const Eigen::VectorXd& y_um, st
     }
     return std::vector<Variant>{sensor_nonlinearity_variant(reading)};
   };
-}
-
-void refit_sensor_nonlinearity(Problem& p, const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um) {
-  for (auto& c : p.candidates)
-    if (c.effect == "sensor_nonlinearity") {
-      c.variants.clear();
-      c.generate = sensor_nonlinearity_generator(base, y_um, std::move(offset_um));
-      return;
-    }
 }
 
 std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,

@@ -1,9 +1,11 @@
-#include "models/explain/explain.hpp"
+#include "models/explain/explain_result.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+
+#include <nlohmann/json.hpp>
 
 #include "core/number_format.hpp"
 

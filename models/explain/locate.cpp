@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 
 #include "core/number_format.hpp"
@@ -129,36 +130,48 @@ double visible_energy(const Problem& problem, const Eigen::VectorXd& residual_um
   return e;
 }
 
-Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, double alpha, double sigma_um) {
-  Located out;
-  const auto ranges = run_ranges(problem);
-  const std::size_t n = problem.samples.size();
-  out.smooth.assign(n, 0.0);
-  // Bands of every run; the noise from the pooled finest details.
-  std::vector<dsp::Coefficients> coeffs(ranges.size());
+namespace {
+
+// Each run's wavelet bands (runs shorter than min_run_samples have none), the pooled finest details the
+// noise is estimated from, and the deepest level.
+struct RunBands {
+  std::vector<dsp::Coefficients> coeffs;
   std::vector<double> finest;
   int deepest = 0;
+};
+
+RunBands decompose_runs(const Eigen::VectorXd& residual_um,
+                        const std::vector<std::pair<std::size_t, std::size_t>>& ranges) {
+  RunBands out;
+  out.coeffs.resize(ranges.size());
   for (std::size_t k = 0; k < ranges.size(); ++k) {
     const auto x = slice(residual_um, ranges[k]);
     if (x.size() < min_run_samples) continue;
     const int level = wavelet_level(x.size());
-    deepest = std::max(deepest, level);
-    coeffs[k] = dsp::wavedec(x, db4(), dsp::Mode::periodization, level);
-    finest.insert(finest.end(), coeffs[k].back().begin(), coeffs[k].back().end());
+    out.deepest = std::max(out.deepest, level);
+    out.coeffs[k] = dsp::wavedec(x, db4(), dsp::Mode::periodization, level);
+    out.finest.insert(out.finest.end(), out.coeffs[k].back().begin(), out.coeffs[k].back().end());
   }
-  if (finest.empty()) throw std::invalid_argument("explain: every run is shorter than 32 samples");
-  const double sigma = sigma_um > 0 ? sigma_um : dsp::mad_sigma(finest);
-  out.sigma_um = sigma;
-  if (!(sigma > 0)) return out;  // an exact fit: nothing to locate
-  const double step = spacing(problem);
-  const std::string unit = unit_of(problem);
+  return out;
+}
 
-  // Band energy per level (level 0 = approximation), chi-square against the noise.
+// The bands whose energy stands out of the noise, and the strongest of them.
+struct BandTest {
+  std::vector<int> flagged;  // level 0 = the approximation
+  std::string dominant;      // the strongest flagged band's label ("" = none)
+  double merge_gap = 0;      // its shortest period: lobes closer than that are one feature
+  double p = 1.0;            // its p-value
+  std::string evidence;
+};
+
+// Band energy per level (level 0 = approximation), each against the finest one (F-test: the noise level is
+// itself estimated from the finest details, so a chi-square with sigma taken as known would be too eager).
+BandTest test_bands(const RunBands& rb, double sigma, double alpha, double step, const std::string& unit) {
   struct Band {
     double energy = 0, dof = 0;
   };
-  std::vector<Band> bands(static_cast<std::size_t>(deepest) + 1);
-  for (const auto& c : coeffs) {
+  std::vector<Band> bands(static_cast<std::size_t>(rb.deepest) + 1);
+  for (const auto& c : rb.coeffs) {
     if (c.empty()) continue;
     const int level = static_cast<int>(c.size()) - 1;
     for (std::size_t b = 0; b < c.size(); ++b) {
@@ -168,14 +181,10 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
       bands[slot].dof += static_cast<double>(c[b].size());
     }
   }
-  // Each band against the finest one (F-test: the noise level is itself estimated from the finest
-  // details, so a chi-square with sigma taken as known would be too eager).
   const Band& finest_band = bands[1];  // slot 1 = D1
   const double ref = finest_band.dof > 0 ? finest_band.energy / finest_band.dof : sigma * sigma;
-  double best_excess = 0, merge_gap = 0;
-  std::string dominant;
-  double band_p = 1.0;
-  std::string band_evidence;
+  BandTest out;
+  double best_excess = 0;
   for (std::size_t b = 0; b < bands.size(); ++b) {
     if (b == 1 || bands[b].dof <= 0 || !(ref > 0)) continue;
     const double ratio = bands[b].energy / bands[b].dof / ref;
@@ -185,31 +194,46 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
     if (p < alpha / 3) out.flagged.push_back(static_cast<int>(b));
     if (p < alpha / 3 && excess > best_excess) {
       best_excess = excess;
-      dominant = band_label(static_cast<int>(b), deepest, b == 0, step, unit);
-      merge_gap = std::ldexp(step, b == 0 ? deepest : static_cast<int>(b));
-      band_p = p;
-      band_evidence = (b == 0 ? "A" + std::to_string(deepest) : "D" + std::to_string(b)) + " energy " +
-                      printf_number("%.3g", ratio) + " x the finest details' (F p=" + pfmt(p) + ")";
+      out.dominant = band_label(static_cast<int>(b), rb.deepest, b == 0, step, unit);
+      out.merge_gap = std::ldexp(step, b == 0 ? rb.deepest : static_cast<int>(b));
+      out.p = p;
+      out.evidence = (b == 0 ? "A" + std::to_string(rb.deepest) : "D" + std::to_string(b)) + " energy " +
+                     printf_number("%.3g", ratio) + " x the finest details' (F p=" + pfmt(p) + ")";
     }
   }
-  // Whiteness per run, pooled: runs test z summed, Ljung-Box Q summed.
-  double z_sum = 0, q_sum = 0, q_dof = 0;
+  return out;
+}
+
+// Whiteness per run, pooled: runs test z summed, Ljung-Box Q summed.
+struct Whiteness {
+  double z_runs = 0, p_runs = 1, q = 0, q_dof = 0, p_lb = 1;
+};
+
+Whiteness whiteness(const Eigen::VectorXd& residual_um,
+                    const std::vector<std::pair<std::size_t, std::size_t>>& ranges) {
+  double z_sum = 0;
   std::size_t z_count = 0;
+  Whiteness w;
   for (const auto& range : ranges) {
     const auto x = slice(residual_um, range);
     if (x.size() < min_run_samples) continue;
     z_sum += runs_test(x).statistic;
     ++z_count;
     const auto lb = ljung_box(x, std::min<std::size_t>(20, x.size() / 10));
-    q_sum += lb.statistic;
-    q_dof += lb.dof;
+    w.q += lb.statistic;
+    w.q_dof += lb.dof;
   }
-  const double z_runs = z_count ? z_sum / std::sqrt(static_cast<double>(z_count)) : 0.0;
-  const double p_runs = normal_two_sided(z_runs);
-  const double p_lb = q_dof > 0 ? chi2_sf(q_sum, q_dof) : 1.0;
-  out.structured = band_p < alpha / 3 || p_runs < alpha / 3 || p_lb < alpha / 3;
+  w.z_runs = z_count ? z_sum / std::sqrt(static_cast<double>(z_count)) : 0.0;
+  w.p_runs = normal_two_sided(w.z_runs);
+  w.p_lb = w.q_dof > 0 ? chi2_sf(w.q, w.q_dof) : 1.0;
+  return w;
+}
 
-  // The places: the flagged bands (hard-thresholded) where they reach half their largest magnitude.
+// The flagged bands (hard-thresholded) of every run into out.smooth and out.visible_energy; returns their
+// largest magnitude.
+double smooth_flagged_bands(const Eigen::VectorXd& residual_um,
+                            const std::vector<std::pair<std::size_t, std::size_t>>& ranges, double sigma,
+                            Located& out) {
   double peak = 0;
   for (const auto& range : ranges) {
     const auto x = slice(residual_um, range);
@@ -221,70 +245,103 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
       peak = std::max(peak, std::abs(d[i]));
     }
   }
-  if (!out.structured) return out;
+  return peak;
+}
 
-  std::string where;
-  std::vector<std::pair<double, double>> place_ranges;
-  if (peak > 0) {
-    std::vector<Interval> iv;
-    for (std::size_t i = 0; i < n;) {
-      if (std::abs(out.smooth[i]) < 0.5 * peak) {
-        ++i;
-        continue;
-      }
-      const double sign = out.smooth[i] > 0 ? 1 : -1;
-      Interval cur{wrap_where(problem, problem.samples[i].where), wrap_where(problem, problem.samples[i].where), 0};
-      std::size_t j = i;
-      for (; j < n && problem.samples[j].run == problem.samples[i].run && out.smooth[j] * sign >= 0.5 * peak; ++j) {
-        const double w = wrap_where(problem, problem.samples[j].where);
-        cur.lo = std::min(cur.lo, w);
-        cur.hi = std::max(cur.hi, w);
-        if (std::abs(out.smooth[j]) > std::abs(cur.peak)) cur.peak = out.smooth[j];
-      }
-      iv.push_back(cur);
-      i = j;
+// The stretches where the smoothed residual reaches half its peak, one sign at a time, within a run.
+std::vector<Interval> lobes(const Problem& problem, const std::vector<double>& smooth, double peak) {
+  const std::size_t n = problem.samples.size();
+  std::vector<Interval> iv;
+  for (std::size_t i = 0; i < n;) {
+    if (std::abs(smooth[i]) < 0.5 * peak) {
+      ++i;
+      continue;
     }
-    std::sort(iv.begin(), iv.end(), [](const Interval& a, const Interval& b) { return a.lo < b.lo; });
-    std::vector<Interval> merged;
-    for (const auto& v : iv) {
-      // Lobes closer than the dominant band's shortest period are one feature (band-pass ringing).
-      if (!merged.empty() && v.lo <= merged.back().hi + std::max(2 * step, merge_gap)) {
-        merged.back().hi = std::max(merged.back().hi, v.hi);
-        if (std::abs(v.peak) > std::abs(merged.back().peak)) merged.back().peak = v.peak;
-      } else {
-        merged.push_back(v);
-      }
+    const double sign = smooth[i] > 0 ? 1 : -1;
+    Interval cur{wrap_where(problem, problem.samples[i].where), wrap_where(problem, problem.samples[i].where), 0};
+    std::size_t j = i;
+    for (; j < n && problem.samples[j].run == problem.samples[i].run && smooth[j] * sign >= 0.5 * peak; ++j) {
+      const double w = wrap_where(problem, problem.samples[j].where);
+      cur.lo = std::min(cur.lo, w);
+      cur.hi = std::max(cur.hi, w);
+      if (std::abs(smooth[j]) > std::abs(cur.peak)) cur.peak = smooth[j];
     }
-    double lo = 1e300, hi = -1e300, covered = 0;
-    for (const auto& s : problem.samples) {
-      lo = std::min(lo, wrap_where(problem, s.where));
-      hi = std::max(hi, wrap_where(problem, s.where));
-    }
-    for (const auto& v : merged) covered += v.hi - v.lo + step;
-    if (covered > 0.6 * (hi - lo) || merged.size() > 8) {
-      where = "throughout " + printf_number("%.4g", lo) + ".." + printf_number("%.4g", hi) + " " + unit + " (peak " + printf_number("%+.3g", peak) +
-              " um)";
-    } else {
-      // Strongest first.
-      std::sort(merged.begin(), merged.end(),
-                [](const Interval& a, const Interval& b) { return std::abs(a.peak) > std::abs(b.peak); });
-      for (const auto& v : merged) {
-        place_ranges.emplace_back(v.lo, v.hi);
-        if (!where.empty()) where += ", ";
-        where += printf_number("%.4g", v.lo) + ".." + printf_number("%.4g", v.hi) + " " + unit + " (" + printf_number("%+.3g", v.peak) + " um)";
-      }
-    }
-  } else {
-    where = "below the noise everywhere (no single place stands out)";
+    iv.push_back(cur);
+    i = j;
   }
-  std::string evidence = band_evidence;
-  const auto add = [&](const std::string& s) { evidence += (evidence.empty() ? "" : "; ") + s; };
-  add("runs test z=" + printf_number("%.3g", z_runs) + " (p=" + pfmt(p_runs) + ")");
-  add("Ljung-Box Q=" + printf_number("%.4g", q_sum) + " on " + printf_number("%g", q_dof) + " dof (p=" + pfmt(p_lb) + ")");
-  add("noise " + printf_number("%.3g", sigma) + " um from the finest details");
-  out.places.push_back({problem.domain, where, dominant.empty() ? "broadband" : dominant, evidence, place_ranges});
+  return iv;
+}
 
-  // Direction and feed: runs of one geometry compared at the same place.
+// Where the structure is: the lobes of the flagged bands, merged when closer than the dominant band's
+// shortest period (band-pass ringing), strongest first; or "throughout" when they cover most of the range.
+std::string where_structured(const Problem& problem, const std::vector<double>& smooth, double peak, double step,
+                             double merge_gap, const std::string& unit,
+                             std::vector<std::pair<double, double>>& place_ranges) {
+  if (!(peak > 0)) return "below the noise everywhere (no single place stands out)";
+  std::vector<Interval> iv = lobes(problem, smooth, peak);
+  std::sort(iv.begin(), iv.end(), [](const Interval& a, const Interval& b) { return a.lo < b.lo; });
+  std::vector<Interval> merged;
+  for (const auto& v : iv) {
+    if (!merged.empty() && v.lo <= merged.back().hi + std::max(2 * step, merge_gap)) {
+      merged.back().hi = std::max(merged.back().hi, v.hi);
+      if (std::abs(v.peak) > std::abs(merged.back().peak)) merged.back().peak = v.peak;
+    } else {
+      merged.push_back(v);
+    }
+  }
+  double lo = 1e300, hi = -1e300, covered = 0;
+  for (const auto& s : problem.samples) {
+    lo = std::min(lo, wrap_where(problem, s.where));
+    hi = std::max(hi, wrap_where(problem, s.where));
+  }
+  for (const auto& v : merged) covered += v.hi - v.lo + step;
+  if (covered > 0.6 * (hi - lo) || merged.size() > 8)
+    return "throughout " + printf_number("%.4g", lo) + ".." + printf_number("%.4g", hi) + " " + unit + " (peak " +
+           printf_number("%+.3g", peak) + " um)";
+  std::sort(merged.begin(), merged.end(),
+            [](const Interval& a, const Interval& b) { return std::abs(a.peak) > std::abs(b.peak); });
+  std::string where;
+  for (const auto& v : merged) {
+    place_ranges.emplace_back(v.lo, v.hi);
+    if (!where.empty()) where += ", ";
+    where += printf_number("%.4g", v.lo) + ".." + printf_number("%.4g", v.hi) + " " + unit + " (" +
+             printf_number("%+.3g", v.peak) + " um)";
+  }
+  return where;
+}
+
+// How run i's residual and run j's correlate at the same place: rho and its Fisher z; nullopt when
+// either is too short or flat.
+struct Correlation {
+  double rho, z, slope;  // slope: r_j = slope * r_i
+};
+std::optional<Correlation> same_place_correlation(const Problem& problem, const Eigen::VectorXd& residual_um,
+                                                  std::pair<std::size_t, std::size_t> ri,
+                                                  std::pair<std::size_t, std::size_t> rj) {
+  std::vector<std::pair<double, double>> xy;
+  for (std::size_t q = rj.first; q < rj.second; ++q)
+    xy.emplace_back(wrap_where(problem, problem.samples[q].where), residual_um[static_cast<Eigen::Index>(q)]);
+  std::sort(xy.begin(), xy.end());
+  double sxx = 0, syy = 0, sxy = 0;
+  std::size_t m = 0;
+  for (std::size_t q = ri.first; q < ri.second; ++q) {
+    const double a = residual_um[static_cast<Eigen::Index>(q)];
+    const double b = interp(xy, wrap_where(problem, problem.samples[q].where));
+    sxx += a * a;
+    syy += b * b;
+    sxy += a * b;
+    ++m;
+  }
+  if (!(sxx > 0 && syy > 0) || m < 4) return std::nullopt;
+  const double rho = sxy / std::sqrt(sxx * syy);
+  const double z = std::atanh(std::clamp(rho, -0.999999, 0.999999)) * std::sqrt(static_cast<double>(m) - 3);
+  return Correlation{rho, z, sxy / sxx};
+}
+
+// Direction and feed: runs of one geometry compared at the same place.
+void compare_runs(const Problem& problem, const Eigen::VectorXd& residual_um,
+                  const std::vector<std::pair<std::size_t, std::size_t>>& ranges, const std::string& band,
+                  std::vector<Mismatch>& places) {
   for (std::size_t i = 0; i < problem.runs.size(); ++i) {
     for (std::size_t j = i + 1; j < problem.runs.size(); ++j) {
       const auto& ri = problem.runs[i];
@@ -296,45 +353,37 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
       if (ranges[i].second - ranges[i].first < min_run_samples ||
           ranges[j].second - ranges[j].first < min_run_samples)
         continue;
-      std::vector<std::pair<double, double>> xy;
-      for (std::size_t q = ranges[j].first; q < ranges[j].second; ++q)
-        xy.emplace_back(wrap_where(problem, problem.samples[q].where), residual_um[static_cast<Eigen::Index>(q)]);
-      std::sort(xy.begin(), xy.end());
-      double sxx = 0, syy = 0, sxy = 0;
-      std::size_t m = 0;
-      for (std::size_t q = ranges[i].first; q < ranges[i].second; ++q) {
-        const double a = residual_um[static_cast<Eigen::Index>(q)];
-        const double b = interp(xy, wrap_where(problem, problem.samples[q].where));
-        sxx += a * a;
-        syy += b * b;
-        sxy += a * b;
-        ++m;
-      }
-      if (!(sxx > 0 && syy > 0) || m < 4) continue;
-      const double rho = sxy / std::sqrt(sxx * syy);
-      const double z = std::atanh(std::clamp(rho, -0.999999, 0.999999)) * std::sqrt(static_cast<double>(m) - 3);
-      if (std::abs(z) < 4) continue;
+      const auto c = same_place_correlation(problem, residual_um, ranges[i], ranges[j]);
+      if (!c || std::abs(c->z) < 4) continue;
       const std::string pair = ri.label + " vs " + rj.label;
       if (dir_pair) {
-        out.places.push_back(
-            {"direction", pair, dominant.empty() ? "broadband" : dominant,
-             "residuals at the same place correlate " + printf_number("%+.2f", rho) + " (z=" + printf_number("%.3g", z) + "): " +
-                 (rho < 0 ? "the mismatch flips sign with the direction of motion (velocity-dependent)"
-                          : "the mismatch repeats at the same place in both directions (position-dependent)"),
+        places.push_back(
+            {"direction",
+             pair,
+             band,
+             "residuals at the same place correlate " + printf_number("%+.2f", c->rho) +
+                 " (z=" + printf_number("%.3g", c->z) + "): " +
+                 (c->rho < 0 ? "the mismatch flips sign with the direction of motion (velocity-dependent)"
+                             : "the mismatch repeats at the same place in both directions (position-dependent)"),
              {}});
       } else {
-        const double slope = sxy / sxx;  // r_j = slope * r_i
-        out.places.push_back({"feed", pair + " (" + printf_number("%g", ri.feed_mm_per_min) + " vs " +
-                                          printf_number("%g", rj.feed_mm_per_min) + " mm/min)",
-                              dominant.empty() ? "broadband" : dominant,
-                              "residuals at the same place correlate " + printf_number("%+.2f", rho) + "; the second is " +
-                                  printf_number("%.3g", slope) + " x the first (feed ratio " +
-                                  printf_number("%.3g", rj.feed_mm_per_min / ri.feed_mm_per_min) + ")",
-                              {}});
+        places.push_back({"feed",
+                          pair + " (" + printf_number("%g", ri.feed_mm_per_min) + " vs " +
+                              printf_number("%g", rj.feed_mm_per_min) + " mm/min)",
+                          band,
+                          "residuals at the same place correlate " + printf_number("%+.2f", c->rho) +
+                              "; the second is " + printf_number("%.3g", c->slope) + " x the first (feed ratio " +
+                              printf_number("%.3g", rj.feed_mm_per_min / ri.feed_mm_per_min) + ")",
+                          {}});
       }
     }
   }
-  // Time: trend of the residual within each run.
+}
+
+// Time: the strongest trend of the residual within a run, when it is clear (z > 5).
+void time_trend(const Problem& problem, const Eigen::VectorXd& residual_um,
+                const std::vector<std::pair<std::size_t, std::size_t>>& ranges, double sigma, const std::string& band,
+                std::vector<Mismatch>& places) {
   double best_z = 0, best_slope = 0;
   std::string best_run;
   for (std::size_t k = 0; k < ranges.size(); ++k) {
@@ -359,10 +408,48 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
     }
   }
   if (std::abs(best_z) > 5)
-    out.places.push_back({"time_s", best_run, dominant.empty() ? "broadband" : dominant,
-                          "the residual trends " + printf_number("%+.3g", best_slope * 60) + " um/min within the run (z=" +
-                              printf_number("%.3g", best_z) + ")",
-                          {}});
+    places.push_back({"time_s",
+                      best_run,
+                      band,
+                      "the residual trends " + printf_number("%+.3g", best_slope * 60) +
+                          " um/min within the run (z=" + printf_number("%.3g", best_z) + ")",
+                      {}});
+}
+
+}  // namespace
+
+Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, double alpha, double sigma_um) {
+  Located out;
+  const auto ranges = run_ranges(problem);
+  out.smooth.assign(problem.samples.size(), 0.0);
+  // Bands of every run; the noise from the pooled finest details.
+  const RunBands rb = decompose_runs(residual_um, ranges);
+  if (rb.finest.empty()) throw std::invalid_argument("explain: every run is shorter than 32 samples");
+  const double sigma = sigma_um > 0 ? sigma_um : dsp::mad_sigma(rb.finest);
+  out.sigma_um = sigma;
+  if (!(sigma > 0)) return out;  // an exact fit: nothing to locate
+  const double step = spacing(problem);
+  const std::string unit = unit_of(problem);
+  BandTest bands = test_bands(rb, sigma, alpha, step, unit);
+  out.flagged = std::move(bands.flagged);
+  const Whiteness w = whiteness(residual_um, ranges);
+  out.structured = bands.p < alpha / 3 || w.p_runs < alpha / 3 || w.p_lb < alpha / 3;
+
+  // The places: the flagged bands (hard-thresholded) where they reach half their largest magnitude.
+  const double peak = smooth_flagged_bands(residual_um, ranges, sigma, out);
+  if (!out.structured) return out;
+  std::vector<std::pair<double, double>> place_ranges;
+  const std::string where = where_structured(problem, out.smooth, peak, step, bands.merge_gap, unit, place_ranges);
+  std::string evidence = bands.evidence;
+  const auto add = [&](const std::string& s) { evidence += (evidence.empty() ? "" : "; ") + s; };
+  add("runs test z=" + printf_number("%.3g", w.z_runs) + " (p=" + pfmt(w.p_runs) + ")");
+  add("Ljung-Box Q=" + printf_number("%.4g", w.q) + " on " + printf_number("%g", w.q_dof) + " dof (p=" + pfmt(w.p_lb) +
+      ")");
+  add("noise " + printf_number("%.3g", sigma) + " um from the finest details");
+  const std::string band = bands.dominant.empty() ? "broadband" : bands.dominant;
+  out.places.push_back({problem.domain, where, band, evidence, place_ranges});
+  compare_runs(problem, residual_um, ranges, band, out.places);
+  time_trend(problem, residual_um, ranges, sigma, band, out.places);
   return out;
 }
 

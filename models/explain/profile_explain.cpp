@@ -10,13 +10,12 @@
 #include "core/number_format.hpp"
 #include "formats/profile_files.hpp"
 #include "models/common/least_squares.hpp"
+#include "models/explain/effects/effect.hpp"
+#include "models/explain/effects/profile_terms.hpp"
 
 namespace guideway::models::explain {
 
 namespace {
-
-constexpr double pi = std::numbers::pi;
-constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 
 double meta_number(const formats::Profile& p, const std::string& path, const std::string& key, double fallback,
                    bool required) {
@@ -35,11 +34,7 @@ double meta_number(const formats::Profile& p, const std::string& path, const std
   }
 }
 
-struct Pt {
-  std::size_t run;
-  double x_mm, t_s, y_um, feed_mm_per_min, rpm;
-  double pitch_rad = 0.0;  // measured pitch of the X carriage at x (Eq. 12), when a traverse is given
-};
+using effects::Pt;
 
 std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
   // Time counts from the earliest point: a Unix-epoch clock (~1.8e9 s) would make a drift column
@@ -64,142 +59,6 @@ std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
   return pts;
 }
 
-std::vector<Candidate> profile_candidates(const std::vector<Pt>& g, const std::vector<double>& reading_um,
-                                          const std::vector<ProfileRun>& runs, bool measured_pitch) {
-  std::vector<Candidate> out;
-  if (measured_pitch) {
-    // Mu Eq. 14's -(sum k b_k x^(k-1)) p_x: the carriage's pitch acting through the x offset between the
-    // point whose path the traverse measured and the tool. Linear in the offset; only the curvature of
-    // the pitch separates it from squareness (a pitch linear in x makes it a line in x).
-    Candidate c{"abbe_offset",
-                "the X carriage pitches as it travels, and the tool sits at an offset along x from the point whose "
-                "straightness the autocollimator measured, so the measured pitch times that offset adds to the height",
-                {}, {}, 0};
-    c.variants.push_back(make_variant(g, {"abbe_offset_x_mm"}, [](const Pt& p, double* o) {
-      o[0] = p.pitch_rad * 1e3;  // 1 rad over 1 mm = 1e3 um
-    }));
-    out.push_back(std::move(c));
-  }
-  {
-    Candidate c{"thermal_drift",
-                "the machine grows as it warms up during the cut: a trend in time, which at one constant feed is a "
-                "straight line in x like squareness, but with another slope at another feed",
-                {}, {}, 0};
-    c.variants.push_back(make_variant(g, {"thermal_drift_um_per_min"}, [](const Pt& p, double* o) { o[0] = p.t_s / 60.0; }));
-    out.push_back(std::move(c));
-  }
-  {
-    Candidate c{"spindle_axial_runout",
-                "the spindle moves axially with its rotation (bearing waviness), a sinusoid at a multiple of the "
-                "spindle frequency in the time of the cut",
-                {}, {}, 0};
-    for (int harmonic : {1, 2}) {
-      Variant v = make_variant(g, {"runout_sin", "runout_cos"}, [harmonic](const Pt& p, double* o) {
-        const double th = harmonic * 2 * pi * p.rpm / 60.0 * p.t_s;
-        o[0] = std::sin(th);
-        o[1] = std::cos(th);
-      });
-      v.fixed.push_back({"spindle_axial_runout_per_rev", static_cast<double>(harmonic), nan});
-      v.searched = 1;
-      v.report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-        return amp_phase("spindle_axial_runout_um", "spindle_axial_runout_phase_deg", x, cov);
-      };
-      c.variants.push_back(std::move(v));
-    }
-    out.push_back(std::move(c));
-  }
-  {
-    // Length cut so far on a face: the spiral from the cut start, pi |x^2 - x0^2| / feed per rev.
-    Candidate c{"tool_wear", "the tool wears with the length it has cut, so the depth of cut falls along the spiral", {}, {}, 0};
-    std::vector<double> x0(runs.size(), nan);
-    for (const auto& p : g)
-      if (std::isnan(x0[p.run])) x0[p.run] = p.x_mm;
-    c.variants.push_back(make_variant(g, {"tool_wear_um_per_m"}, [x0](const Pt& p, double* o) {
-      const double fpr_mm = p.feed_mm_per_min / p.rpm;
-      o[0] = pi * std::abs(p.x_mm * p.x_mm - x0[p.run] * x0[p.run]) / fpr_mm * 1e-3;  // metres cut
-    }));
-    out.push_back(std::move(c));
-  }
-  {
-    // The round nose leaves a scallop between passes one feed per revolution f apart: height d^2 / (2R) at
-    // distance d from the nearest pass, i.e. all harmonics of x / f with fixed ratios ((-1)^(k+1) / k^2).
-    // One sinusoid would leave the second harmonic (1/4 of the first) to be claimed by a twice-per-rev
-    // spindle_axial_runout, which at constant feed falls at exactly that period. The passes' position is
-    // each cut's own: taken per run from the residual's fundamental; the nose curvature 1/R is common.
-    Candidate c{"feed_marks",
-                "the round tool nose leaves a scallop of height d^2/(2R) between passes one feed per revolution apart",
-                {}, {}, 0};
-    const auto pts = std::make_shared<const std::vector<Pt>>(g);
-    const std::size_t n_runs = runs.size();
-    const double f1_mm = runs.empty() || !(runs.front().spindle_rpm > 0)
-                             ? nan
-                             : runs.front().feed_mm_per_min / runs.front().spindle_rpm;
-    // Held-out rows have residual 0: the fundamental's phase is that of the rows in use.
-    c.generate = [pts, n_runs, f1_mm](const Eigen::VectorXd& r, const std::vector<bool>&) {
-      const auto& gg = *pts;
-      std::vector<double> sc(n_runs, 0.0), ss(n_runs, 0.0);
-      for (std::size_t i = 0; i < gg.size(); ++i) {
-        const double u = 2 * pi * gg[i].x_mm * gg[i].rpm / gg[i].feed_mm_per_min;
-        sc[gg[i].run] += r[static_cast<Eigen::Index>(i)] * std::cos(u);
-        ss[gg[i].run] += r[static_cast<Eigen::Index>(i)] * std::sin(u);
-      }
-      // The scallop's fundamental is -cos(2 pi (x - pass) / f): lowest at a pass, so a pass sits at the
-      // fundamental's phase + pi.
-      std::vector<double> phase(n_runs);
-      for (std::size_t k = 0; k < n_runs; ++k) phase[k] = std::atan2(ss[k], sc[k]) + pi;
-      // The scallop at those passes and a quarter feed on: their fundamentals are in quadrature, so the
-      // pair follows any pass position near the estimate linearly, and the F-test counts the two degrees
-      // of freedom a free phase has (as a sine/cosine pair would), not one.
-      const auto scallop = [phase](const Pt& p, double shift) {
-        const double f = p.feed_mm_per_min / p.rpm;
-        const double u = p.x_mm - (phase[p.run] / (2 * pi) + shift) * f;  // from a pass
-        const double d = u - f * std::round(u / f);
-        return (d * d - f * f / 12.0) / 2.0 * 1e3;  // zero mean over a feed; mm^2 / 2 x (1/mm) = mm -> um
-      };
-      std::vector<Variant> vs;
-      vs.push_back(make_variant(gg, {"nose_curvature_per_mm", "nose_curvature_quadrature_per_mm"},
-                                [scallop](const Pt& p, double* o) {
-                                  o[0] = scallop(p, 0.0);
-                                  o[1] = scallop(p, 0.25);
-                                }));
-      vs.back().report = [f1_mm](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-        // Curvature 1/R = the pair's amplitude; the fundamental f^2 / (2 pi^2 R) at the first cut's feed.
-        const auto ap = amp_phase("k", "phase", x, cov);
-        const double kappa = ap[0].value, uk = ap[0].u;
-        const double to_a1 = f1_mm * f1_mm / (2 * pi * pi) * 1e3;
-        return std::vector<ParamValue>{{"feed_marks_um", kappa * to_a1, uk * to_a1},
-                                       {"tool_nose_radius_mm", 1.0 / kappa, uk / (kappa * kappa)}};
-      };
-      return vs;
-    };
-    c.search_size = 1;
-    out.push_back(std::move(c));
-  }
-  {
-    Candidate c{"cyclic_error", "a lead-screw pitch error of the X drive repeats every lead along x", {}, {}, 0};
-    for (double p_mm : {1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0}) {
-      Variant v = make_variant(g, {"cyclic_sin", "cyclic_cos"}, [p_mm](const Pt& p, double* o) {
-        o[0] = std::sin(2 * pi * p.x_mm / p_mm);
-        o[1] = std::cos(2 * pi * p.x_mm / p_mm);
-      });
-      v.fixed.push_back({"cyclic_period_x_mm", p_mm, nan});
-      v.searched = 1;
-      v.report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-        return amp_phase("cyclic_error_x_um", "cyclic_phase_x_deg", x, cov);
-      };
-      c.variants.push_back(std::move(v));
-    }
-    out.push_back(std::move(c));
-  }
-  {
-    Candidate c{"sensor_nonlinearity", "the profilometer is not linear over its range: an error polynomial in the reading",
-                {}, {}, 0};
-    c.variants.push_back(sensor_nonlinearity_variant(reading_um));
-    out.push_back(std::move(c));
-  }
-  return out;
-}
-
 std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
   std::vector<RunInfo> out;
   for (std::size_t k = 0; k < runs.size(); ++k)
@@ -208,14 +67,18 @@ std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
   return out;
 }
 
+// `reading`: the reading the base predicts per point. `base`, `y_um`, `offset_um`: the base refitted, what
+// it explains and the known curve added to its reading (null for a given prediction).
 Problem assemble(const std::vector<ProfileRun>& runs, const std::vector<Pt>& g, const std::string& model,
-                 const std::vector<double>& reading, bool measured_pitch = false) {
+                 const std::vector<double>& reading, bool measured_pitch = false, const Block* base = nullptr,
+                 const Eigen::VectorXd* y_um = nullptr, const std::vector<double>* offset_um = nullptr) {
   Problem p;
   p.model = model;
   p.domain = "position_mm";
   p.runs = infos(runs);
   for (const auto& q : g) p.samples.push_back({q.run, q.y_um, q.x_mm, q.t_s});
-  p.candidates = profile_candidates(g, reading, runs, measured_pitch);
+  const effects::ProfileTerms terms{g, runs, reading, measured_pitch, base, y_um, offset_um};
+  p.candidates = effects::profile_candidates(terms);
   bool two_feeds = false;
   for (const auto& r : runs) two_feeds |= r.feed_mm_per_min != runs.front().feed_mm_per_min;
   if (!two_feeds)
@@ -322,8 +185,7 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
   std::vector<double> reading(g.size());
   for (std::size_t i = 0; i < g.size(); ++i)
     reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)] + y2_um[i];
-  Problem p = assemble(runs, g, model, reading, straightness != nullptr);
-  refit_sensor_nonlinearity(p, base, y, y2_um);
+  Problem p = assemble(runs, g, model, reading, straightness != nullptr, &base, &y, &y2_um);
   if (!straightness_note.empty()) p.notes.insert(p.notes.begin(), straightness_note);
   p.base = std::move(base);
   return p;
@@ -346,6 +208,16 @@ Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& m
   Problem p = assemble(runs, g, "profile (simulated vs measured)", reading);
   p.notes.push_back("no base refit: the residual is " + measured.source + " - " + simulated.source);
   return p;
+}
+
+Report explain_profiles(const std::vector<ProfileRun>& runs, const std::string& model,
+                        const flatness::AngleTraverse* straightness, const ExplainOptions& options) {
+  return explain(profile_problem(runs, model, straightness), options);
+}
+
+Report explain_profile_difference(const ProfileRun& simulated, const ProfileRun& measured,
+                                  const ExplainOptions& options) {
+  return explain(profile_compare_problem(simulated, measured), options);
 }
 
 }  // namespace guideway::models::explain

@@ -8,10 +8,11 @@
 //                         straightness stays in the residual; a note says so).
 //   --model straightness: base = one offset per profile + a cubic polynomial in x shared by all
 //                         profiles (the carriage's straightness is the same in every cut).
-// Candidates: thermal_drift (a rate in machine time, shared), spindle_axial_runout (once and twice per
-// spindle revolution in time), tool_wear (in the length cut so far), feed_marks (period = feed per
-// revolution), cyclic_error (lead-screw periods in x), sensor_nonlinearity, and with a traverse
-// abbe_offset (Eq. 14's pitch x offset term: the measured pitch angle times an unknown x offset). The look-alike pair: a
+// Candidates: every effect of the library with a profile term (models/explain/effects/): thermal_drift (a
+// rate in machine time, shared), spindle_axial_runout (once and twice per spindle revolution in time),
+// tool_wear (in the length cut so far), feed_marks (period = feed per revolution), cyclic_error (lead-screw
+// periods in x), sensor_nonlinearity, and with a traverse abbe_offset (Eq. 14's pitch x offset term: the
+// measured pitch angle times an unknown x offset). The look-alike pair: a
 // drift at constant feed is a straight line in x, exactly squareness, unless two feeds are compared
 // (the slope of the drift scales with 1/feed, squareness does not).
 // Time of each point: start_time_s + |x - cut_start| / feed (metadata `start_time_s`, default 0, and
@@ -20,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "models/explain/explain.hpp"
+#include "models/explain/explain_result.hpp"
 #include "models/flatness/straightness.hpp"
 
 namespace guideway::formats {
@@ -28,6 +29,8 @@ struct Profile;
 }
 
 namespace guideway::models::explain {
+
+struct Problem;  // explain.hpp (the engine, with Eigen): only for who builds or inspects problems
 
 struct ProfileRun {
   std::string source;
@@ -48,7 +51,11 @@ ProfileRun profile_run(const formats::Profile& profile, const std::string& sourc
 // (flatness::read_angle_traverse), flatness only; its x must cover every profile (throws naming both).
 Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& model,
                         const flatness::AngleTraverse* straightness = nullptr);
+Report explain_profiles(const std::vector<ProfileRun>& runs, const std::string& model,
+                        const flatness::AngleTraverse* straightness = nullptr, const ExplainOptions& options = {});
 // A given prediction against a profile (equal x within 1e-9 m), no base refit.
 Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& measured);
+Report explain_profile_difference(const ProfileRun& simulated, const ProfileRun& measured,
+                                  const ExplainOptions& options = {});
 
 }  // namespace guideway::models::explain

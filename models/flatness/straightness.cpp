@@ -240,6 +240,137 @@ MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>
   return best;
 }
 
+namespace {
+
+// End-point line: d_k = h_k - (k/n) h_n. Brownian bridge: var d_k = (s u)^2 k (n-k)/n,
+// var(d_a - d_b) = (s u)^2 m (n-m)/n with m = |a - b|.
+void end_point_line(StraightnessProfile& p, std::size_t n, double s, double su) {
+  const std::size_t N = n + 1;
+  const double dn = static_cast<double>(n);
+  auto& r = p.end_point;
+  r.slope = (p.height_m[n] - p.height_m[0]) / (s * dn);
+  r.intercept_m = 0.0;
+  r.deviation_m.resize(N);
+  r.u_deviation_m.resize(N);
+  for (std::size_t k = 0; k < N; ++k) {
+    const double dk = static_cast<double>(k);
+    r.deviation_m[k] = p.height_m[k] - dk / dn * p.height_m[n];
+    r.u_deviation_m[k] = su * std::sqrt(dk * (dn - dk) / dn);
+  }
+  fill_range(r);
+  const double m = std::abs(static_cast<double>(r.max_index) - static_cast<double>(r.min_index));
+  r.u_straightness_m = su * std::sqrt(m * (dn - m) / dn);
+}
+
+// Least-squares line through the N stations (t_k = k): d = (I - H) C theta s, with the hat matrix
+// H_km = 1/N + (t_k - tbar)(t_m - tbar)/Sxx and C_kj = [j < k]. Row k, column j:
+// [j < k] - (n - j)/N - (k - tbar) S_j / Sxx, where S_j = sum_{m>j} (m - tbar).
+void least_squares_line(StraightnessProfile& p, std::size_t n, double s, double su) {
+  const std::size_t N = n + 1;
+  const double dn = static_cast<double>(n);
+  auto& r = p.least_squares;
+  const double dN = static_cast<double>(N);
+  const double tbar = dn / 2.0;
+  double sxx = 0.0, sxy = 0.0, ybar = 0.0;
+  for (std::size_t k = 0; k < N; ++k) ybar += p.height_m[k] / dN;
+  for (std::size_t k = 0; k < N; ++k) {
+    const double dt = static_cast<double>(k) - tbar;
+    sxx += dt * dt;
+    sxy += dt * (p.height_m[k] - ybar);
+  }
+  const double beta = sxy / sxx;  // per station index
+  r.slope = beta / s;
+  r.intercept_m = ybar - beta * tbar;
+  std::vector<double> big_s(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    // sum_{m=j+1}^{n} (m - tbar)
+    const double cnt = dn - static_cast<double>(j);
+    const double sum_m = (dn * (dn + 1) - static_cast<double>(j) * static_cast<double>(j + 1)) / 2.0;
+    big_s[j] = sum_m - cnt * tbar;
+  }
+  auto ls_row = [&](std::size_t k, std::size_t j) {
+    return c_row(k, j) - (dn - static_cast<double>(j)) / dN - (static_cast<double>(k) - tbar) * big_s[j] / sxx;
+  };
+  r.deviation_m.resize(N);
+  r.u_deviation_m.resize(N);
+  for (std::size_t k = 0; k < N; ++k) {
+    r.deviation_m[k] = p.height_m[k] - (r.intercept_m + beta * static_cast<double>(k));
+    r.u_deviation_m[k] = su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(k, j); }));
+  }
+  fill_range(r);
+  r.u_straightness_m =
+      su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(r.max_index, j) - ls_row(r.min_index, j); }));
+}
+
+// Minimum zone: exact from the convex hull. Its value is max - min of the deviations from the zone
+// lines; first-order uncertainty through the stations that bound it (the extreme deviations from
+// the lower line and the two stations of the hull edge, found as the points on the lower/upper line).
+// After least_squares_line, whose u it falls back on.
+void minimum_zone_line(StraightnessProfile& p, std::size_t n, double s, double su) {
+  const std::size_t N = n + 1;
+  auto& r = p.minimum_zone;
+  std::vector<double> t(N);
+  for (std::size_t k = 0; k < N; ++k) t[k] = static_cast<double>(k);
+  const MinimumZone mz = minimum_zone(t, p.height_m);
+  r.slope = mz.slope / s;
+  r.intercept_m = mz.lower_intercept;
+  r.deviation_m.resize(N);
+  r.u_deviation_m.assign(N, 0.0);
+  for (std::size_t k = 0; k < N; ++k) r.deviation_m[k] = p.height_m[k] - (mz.lower_intercept + mz.slope * t[k]);
+  fill_range(r);
+  r.straightness_m = mz.width;
+  // Contact stations: those within a tolerance of the lower and upper lines.
+  const double tol = 1e-9 * std::max(mz.width, 1e-12) + 1e-15;
+  std::vector<std::size_t> low, high;
+  for (std::size_t k = 0; k < N; ++k) {
+    if (r.deviation_m[k] <= tol) low.push_back(k);
+    if (r.deviation_m[k] >= mz.width - tol) high.push_back(k);
+  }
+  // The line with two contacts carries the edge (a, b); the other contact c sets the width:
+  // w = +-(h_c - h_a - (h_b - h_a)(c - a)/(b - a)).
+  std::vector<std::size_t>& edge = low.size() >= 2 ? low : high;
+  std::vector<std::size_t>& apex = low.size() >= 2 ? high : low;
+  if (edge.size() >= 2 && !apex.empty()) {
+    const std::size_t a = edge.front(), b = edge.back(), c = apex.front();
+    const double lam =
+        (static_cast<double>(c) - static_cast<double>(a)) / (static_cast<double>(b) - static_cast<double>(a));
+    r.u_straightness_m = su * std::sqrt(row_norm2(n, [&](std::size_t j) {
+                           return c_row(c, j) - (1 - lam) * c_row(a, j) - lam * c_row(b, j);
+                         }));
+  } else {
+    r.u_straightness_m = p.least_squares.u_straightness_m;
+  }
+  for (std::size_t k = 0; k < N; ++k) r.u_deviation_m[k] = p.least_squares.u_deviation_m[k];
+}
+
+// Selection bias of the three max - min values: simulate the traverse of the fitted polynomial with
+// the angle noise, many times; bias = mean(simulated value) - value of the polynomial itself.
+void selection_bias(StraightnessProfile& p, std::size_t n, double s, int bootstrap) {
+  std::array<ReferenceLine*, 3> lines = {&p.end_point, &p.least_squares, &p.minimum_zone};
+  for (auto* r : lines) r->u_first_order_m = r->u_straightness_m;
+  if (bootstrap <= 0 || !(p.u_angle_rad > 0)) return;
+  std::vector<double> proxy(n), noisy(n), h, t;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double xj = s * static_cast<double>(j);
+    proxy[j] = std::atan((p.polynomial(xj + s) - p.polynomial(xj)) / s);
+  }
+  const auto reference = straightness_values(proxy, s, h, t);
+  std::mt19937_64 rng(0x5eed5eedULL + n);
+  std::normal_distribution<double> noise(0.0, p.u_angle_rad);
+  std::array<double, 3> bias{};
+  for (int i = 0; i < bootstrap; ++i) {
+    for (std::size_t j = 0; j < n; ++j) noisy[j] = proxy[j] + noise(rng);
+    const auto v = straightness_values(noisy, s, h, t);
+    for (std::size_t q = 0; q < 3; ++q) bias[q] += (v[q] - reference[q]) / bootstrap;
+  }
+  for (std::size_t q = 0; q < 3; ++q) {
+    lines[q]->selection_bias_m = bias[q];
+    lines[q]->u_straightness_m = std::hypot(lines[q]->u_first_order_m, bias[q]);
+  }
+}
+
+}  // namespace
+
 StraightnessProfile straightness_from_angles(double x0_m, double step_m, const std::vector<double>& angle_rad,
                                              const StraightnessOptions& options, const std::string& plane) {
   const std::size_t n = angle_rad.size();
@@ -259,129 +390,11 @@ StraightnessProfile straightness_from_angles(double x0_m, double step_m, const s
     p.height_m[k] = k == 0 ? 0.0 : p.height_m[k - 1] + s * std::tan(angle_rad[k - 1]);
     p.u_height_m[k] = su * std::sqrt(static_cast<double>(k));
   }
-  const double dn = static_cast<double>(n);
-
-  // End-point line: d_k = h_k - (k/n) h_n. Brownian bridge: var d_k = (s u)^2 k (n-k)/n,
-  // var(d_a - d_b) = (s u)^2 m (n-m)/n with m = |a - b|.
-  {
-    auto& r = p.end_point;
-    r.slope = (p.height_m[n] - p.height_m[0]) / (s * dn);
-    r.intercept_m = 0.0;
-    r.deviation_m.resize(N);
-    r.u_deviation_m.resize(N);
-    for (std::size_t k = 0; k < N; ++k) {
-      const double dk = static_cast<double>(k);
-      r.deviation_m[k] = p.height_m[k] - dk / dn * p.height_m[n];
-      r.u_deviation_m[k] = su * std::sqrt(dk * (dn - dk) / dn);
-    }
-    fill_range(r);
-    const double m = std::abs(static_cast<double>(r.max_index) - static_cast<double>(r.min_index));
-    r.u_straightness_m = su * std::sqrt(m * (dn - m) / dn);
-  }
-
-  // Least-squares line through the N stations (t_k = k): d = (I - H) C theta s, with the hat matrix
-  // H_km = 1/N + (t_k - tbar)(t_m - tbar)/Sxx and C_kj = [j < k]. Row k, column j:
-  // [j < k] - (n - j)/N - (k - tbar) S_j / Sxx, where S_j = sum_{m>j} (m - tbar).
-  {
-    auto& r = p.least_squares;
-    const double dN = static_cast<double>(N);
-    const double tbar = dn / 2.0;
-    double sxx = 0.0, sxy = 0.0, ybar = 0.0;
-    for (std::size_t k = 0; k < N; ++k) ybar += p.height_m[k] / dN;
-    for (std::size_t k = 0; k < N; ++k) {
-      const double dt = static_cast<double>(k) - tbar;
-      sxx += dt * dt;
-      sxy += dt * (p.height_m[k] - ybar);
-    }
-    const double beta = sxy / sxx;  // per station index
-    r.slope = beta / s;
-    r.intercept_m = ybar - beta * tbar;
-    std::vector<double> big_s(n);
-    for (std::size_t j = 0; j < n; ++j) {
-      // sum_{m=j+1}^{n} (m - tbar)
-      const double cnt = dn - static_cast<double>(j);
-      const double sum_m = (dn * (dn + 1) - static_cast<double>(j) * static_cast<double>(j + 1)) / 2.0;
-      big_s[j] = sum_m - cnt * tbar;
-    }
-    auto ls_row = [&](std::size_t k, std::size_t j) {
-      return c_row(k, j) - (dn - static_cast<double>(j)) / dN - (static_cast<double>(k) - tbar) * big_s[j] / sxx;
-    };
-    r.deviation_m.resize(N);
-    r.u_deviation_m.resize(N);
-    for (std::size_t k = 0; k < N; ++k) {
-      r.deviation_m[k] = p.height_m[k] - (r.intercept_m + beta * static_cast<double>(k));
-      r.u_deviation_m[k] = su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(k, j); }));
-    }
-    fill_range(r);
-    r.u_straightness_m =
-        su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(r.max_index, j) - ls_row(r.min_index, j); }));
-  }
-
-  // Minimum zone: exact from the convex hull. Its value is max - min of the deviations from the zone
-  // lines; first-order uncertainty through the stations that bound it (the extreme deviations from
-  // the lower line and the two stations of the hull edge, found as the points on the lower/upper line).
-  {
-    auto& r = p.minimum_zone;
-    std::vector<double> t(N);
-    for (std::size_t k = 0; k < N; ++k) t[k] = static_cast<double>(k);
-    const MinimumZone mz = minimum_zone(t, p.height_m);
-    r.slope = mz.slope / s;
-    r.intercept_m = mz.lower_intercept;
-    r.deviation_m.resize(N);
-    r.u_deviation_m.assign(N, 0.0);
-    for (std::size_t k = 0; k < N; ++k) r.deviation_m[k] = p.height_m[k] - (mz.lower_intercept + mz.slope * t[k]);
-    fill_range(r);
-    r.straightness_m = mz.width;
-    // Contact stations: those within a tolerance of the lower and upper lines.
-    const double tol = 1e-9 * std::max(mz.width, 1e-12) + 1e-15;
-    std::vector<std::size_t> low, high;
-    for (std::size_t k = 0; k < N; ++k) {
-      if (r.deviation_m[k] <= tol) low.push_back(k);
-      if (r.deviation_m[k] >= mz.width - tol) high.push_back(k);
-    }
-    // The line with two contacts carries the edge (a, b); the other contact c sets the width:
-    // w = +-(h_c - h_a - (h_b - h_a)(c - a)/(b - a)).
-    std::vector<std::size_t>& edge = low.size() >= 2 ? low : high;
-    std::vector<std::size_t>& apex = low.size() >= 2 ? high : low;
-    if (edge.size() >= 2 && !apex.empty()) {
-      const std::size_t a = edge.front(), b = edge.back(), c = apex.front();
-      const double lam =
-          (static_cast<double>(c) - static_cast<double>(a)) / (static_cast<double>(b) - static_cast<double>(a));
-      r.u_straightness_m = su * std::sqrt(row_norm2(n, [&](std::size_t j) {
-                             return c_row(c, j) - (1 - lam) * c_row(a, j) - lam * c_row(b, j);
-                           }));
-    } else {
-      r.u_straightness_m = p.least_squares.u_straightness_m;
-    }
-    for (std::size_t k = 0; k < N; ++k) r.u_deviation_m[k] = p.least_squares.u_deviation_m[k];
-  }
-
+  end_point_line(p, n, s, su);
+  least_squares_line(p, n, s, su);
+  minimum_zone_line(p, n, s, su);
   p.polynomial = fit_polynomial(s, angle_rad, p.height_m, p.u_angle_rad, options.max_order);
-
-  // Selection bias of the three max - min values: simulate the traverse of the fitted polynomial with
-  // the angle noise, many times; bias = mean(simulated value) - value of the polynomial itself.
-  std::array<ReferenceLine*, 3> lines = {&p.end_point, &p.least_squares, &p.minimum_zone};
-  for (auto* r : lines) r->u_first_order_m = r->u_straightness_m;
-  if (options.bootstrap > 0 && p.u_angle_rad > 0) {
-    std::vector<double> proxy(n), noisy(n), h, t;
-    for (std::size_t j = 0; j < n; ++j) {
-      const double xj = s * static_cast<double>(j);
-      proxy[j] = std::atan((p.polynomial(xj + s) - p.polynomial(xj)) / s);
-    }
-    const auto reference = straightness_values(proxy, s, h, t);
-    std::mt19937_64 rng(0x5eed5eedULL + n);
-    std::normal_distribution<double> noise(0.0, p.u_angle_rad);
-    std::array<double, 3> bias{};
-    for (int i = 0; i < options.bootstrap; ++i) {
-      for (std::size_t j = 0; j < n; ++j) noisy[j] = proxy[j] + noise(rng);
-      const auto v = straightness_values(noisy, s, h, t);
-      for (std::size_t q = 0; q < 3; ++q) bias[q] += (v[q] - reference[q]) / options.bootstrap;
-    }
-    for (std::size_t q = 0; q < 3; ++q) {
-      lines[q]->selection_bias_m = bias[q];
-      lines[q]->u_straightness_m = std::hypot(lines[q]->u_first_order_m, bias[q]);
-    }
-  }
+  selection_bias(p, n, s, options.bootstrap);
   return p;
 }
 

@@ -130,10 +130,118 @@ UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_overrid
   return set;
 }
 
+namespace {
+
+// The Moody heights of the eight lines: the diagonals with equal ends and the middle at zero, the sides
+// fitted to the diagonals' corners, the centre lines to the sides' middles (their misclosure at the
+// centre in `closure`).
+std::array<std::vector<double>, 8> moody_heights(const UnionJackSet& set,
+                                                 std::array<std::optional<double>, 8>& closure) {
+  const double s = set.foot_spacing_m;
+  const std::size_t nl = set.angle_rad[2].size(), ns = set.angle_rad[3].size(), nd = set.angle_rad[0].size();
+  std::array<std::vector<double>, 8> h;
+  for (std::size_t i = 0; i < 2; ++i) {
+    h[i] = fit_ends(cumulate(set.angle_rad[i], s), 0.0, 0.0);
+    const double mid = h[i][nd / 2];
+    for (double& v : h[i]) v -= mid;
+  }
+  const double nw = h[0].front(), se = h[0].back(), ne = h[1].front(), sw = h[1].back();
+  h[2] = fit_ends(cumulate(set.angle_rad[2], s), ne, nw);
+  h[3] = fit_ends(cumulate(set.angle_rad[3], s), ne, se);
+  h[4] = fit_ends(cumulate(set.angle_rad[4], s), se, sw);
+  h[5] = fit_ends(cumulate(set.angle_rad[5], s), nw, sw);
+  h[6] = fit_ends(cumulate(set.angle_rad[6], s), h[3][ns / 2], h[5][ns / 2]);
+  h[7] = fit_ends(cumulate(set.angle_rad[7], s), h[2][nl / 2], h[4][nl / 2]);
+  closure[6] = h[6][nl / 2];
+  closure[7] = h[7][ns / 2];
+  for (std::size_t i = 6; i < 8; ++i)
+    for (double& v : h[i]) v -= *closure[i];
+  return h;
+}
+
+// Peak to valley of the stations' heights about their least-squares plane, and their minimum zone.
+void plane_flatness(const std::vector<UnionJackStation>& all, UnionJackResult& r) {
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(all.size()), 3);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(all.size()));
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    const auto kk = static_cast<Eigen::Index>(k);
+    a.row(kk) << 1.0, all[k].x_steps, all[k].y_steps;
+    y(kk) = all[k].height_m;
+  }
+  const Eigen::VectorXd res = y - a * a.colPivHouseholderQr().solve(y);
+  r.flatness_lsq_plane_m = res.maxCoeff() - res.minCoeff();
+  std::vector<double> xs, ys, zs;
+  for (const auto& st : all) xs.push_back(st.x_steps), ys.push_back(st.y_steps), zs.push_back(st.height_m);
+  r.flatness_min_zone_m = minimum_zone_flatness(xs, ys, zs).width;
+}
+
+// All eight lines together by least squares: unknowns the unique stations' heights and an angular offset
+// per line; the gauge (a constant and two tilts) removed by taking out the heights' least-squares plane.
+UnionJackLsq least_squares_lines(const UnionJackSet& set, const UnionJackResult& r, const UnionJackOptions& options) {
+  const double s = set.foot_spacing_m;
+  UnionJackLsq lsq;
+  // Unique stations keyed by coordinates (in 1e-6 station units).
+  std::map<std::pair<long long, long long>, std::size_t> index;
+  std::array<std::vector<std::size_t>, 8> station_of;
+  for (std::size_t i = 0; i < 8; ++i) {
+    for (const auto& st : r.lines[i].stations) {
+      const std::pair<long long, long long> key{std::llround(st.x_steps * 1e6), std::llround(st.y_steps * 1e6)};
+      auto [it, inserted] = index.emplace(key, lsq.stations.size());
+      if (inserted) lsq.stations.push_back({st.x_steps, st.y_steps, 0.0});
+      station_of[i].push_back(it->second);
+    }
+  }
+  const std::size_t u = lsq.stations.size();
+  std::size_t m = 0;
+  for (const auto& a : set.angle_rad) m += a.size();
+  // Unknowns: station heights (m), then per line an offset times the foot spacing (m).
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(u + 8));
+  Eigen::VectorXd y(static_cast<Eigen::Index>(m));
+  std::size_t row = 0;
+  for (std::size_t i = 0; i < 8; ++i) {
+    for (std::size_t j = 0; j < set.angle_rad[i].size(); ++j, ++row) {
+      const auto rr = static_cast<Eigen::Index>(row);
+      a(rr, static_cast<Eigen::Index>(station_of[i][j + 1])) += 1.0;
+      a(rr, static_cast<Eigen::Index>(station_of[i][j])) -= 1.0;
+      a(rr, static_cast<Eigen::Index>(u + i)) = -1.0;
+      y(rr) = s * std::tan(set.angle_rad[i][j]);
+    }
+  }
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(a);
+  cod.setThreshold(1e-10);
+  const Eigen::VectorXd x = cod.solve(y);
+  const Eigen::MatrixXd pinv = cod.pseudoInverse();
+  Eigen::MatrixXd plane(static_cast<Eigen::Index>(u), 3);
+  for (std::size_t k = 0; k < u; ++k)
+    plane.row(static_cast<Eigen::Index>(k)) << 1.0, lsq.stations[k].x_steps, lsq.stations[k].y_steps;
+  const Eigen::MatrixXd proj = Eigen::MatrixXd::Identity(static_cast<Eigen::Index>(u), static_cast<Eigen::Index>(u)) -
+                               plane * (plane.transpose() * plane).inverse() * plane.transpose();
+  const Eigen::VectorXd heights = proj * x.head(static_cast<Eigen::Index>(u));
+  const Eigen::MatrixXd sens = proj * pinv.topRows(static_cast<Eigen::Index>(u));
+  const double su = s * options.instrument.reading_u_rad();
+  lsq.u_height_m.resize(u);
+  for (std::size_t k = 0; k < u; ++k) {
+    lsq.stations[k].height_m = heights(static_cast<Eigen::Index>(k));
+    lsq.u_height_m[k] = su * sens.row(static_cast<Eigen::Index>(k)).norm();
+  }
+  for (std::size_t i = 0; i < 8; ++i) lsq.offset_rad[i] = x(static_cast<Eigen::Index>(u + i)) / s;
+  const Eigen::VectorXd res = y - a * x;
+  lsq.residual_rms_rad = std::sqrt(res.squaredNorm() / static_cast<double>(m)) / s;
+  lsq.readings = m;
+  lsq.unknowns = u + 8;
+  lsq.redundancy = m - static_cast<std::size_t>(cod.rank());
+  lsq.flatness_m = heights.maxCoeff() - heights.minCoeff();
+  std::vector<double> xs, ys, zs;
+  for (const auto& st : lsq.stations) xs.push_back(st.x_steps), ys.push_back(st.y_steps), zs.push_back(st.height_m);
+  lsq.flatness_min_zone_m = minimum_zone_flatness(xs, ys, zs).width;
+  return lsq;
+}
+
+}  // namespace
+
 UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOptions& options) {
   UnionJackResult r;
   r.foot_spacing_m = set.foot_spacing_m;
-  const double s = set.foot_spacing_m;
   const std::size_t nl = set.angle_rad[2].size(), ns = set.angle_rad[3].size(), nd = set.angle_rad[0].size();
   r.long_steps = nl;
   r.short_steps = ns;
@@ -151,26 +259,8 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
                                         {0, ds, 0, 0},              // NW_SW
                                         {dl, ds / 2, 0, ds / 2},    // E_W
                                         {dl / 2, ds, dl / 2, 0}}};  // N_S
-
-  std::array<std::vector<double>, 8> h;
-  // Diagonals: ends at equal height, middle at zero.
-  for (std::size_t i = 0; i < 2; ++i) {
-    h[i] = fit_ends(cumulate(set.angle_rad[i], s), 0.0, 0.0);
-    const double mid = h[i][nd / 2];
-    for (double& v : h[i]) v -= mid;
-  }
-  const double nw = h[0].front(), se = h[0].back(), ne = h[1].front(), sw = h[1].back();
-  h[2] = fit_ends(cumulate(set.angle_rad[2], s), ne, nw);
-  h[3] = fit_ends(cumulate(set.angle_rad[3], s), ne, se);
-  h[4] = fit_ends(cumulate(set.angle_rad[4], s), se, sw);
-  h[5] = fit_ends(cumulate(set.angle_rad[5], s), nw, sw);
-  h[6] = fit_ends(cumulate(set.angle_rad[6], s), h[3][ns / 2], h[5][ns / 2]);
-  h[7] = fit_ends(cumulate(set.angle_rad[7], s), h[2][nl / 2], h[4][nl / 2]);
   std::array<std::optional<double>, 8> closure{};
-  closure[6] = h[6][nl / 2];
-  closure[7] = h[7][ns / 2];
-  for (std::size_t i = 6; i < 8; ++i)
-    for (double& v : h[i]) v -= *closure[i];
+  const std::array<std::vector<double>, 8> h = moody_heights(set, closure);
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (const auto& line : h)
     for (double v : line) lo = std::min(lo, v), hi = std::max(hi, v);
@@ -189,84 +279,8 @@ UnionJackResult evaluate_union_jack(const UnionJackSet& set, const UnionJackOpti
       all.push_back(st);
     }
   }
-  // Peak to valley of the Moody heights about their least-squares plane.
-  {
-    Eigen::MatrixXd a(static_cast<Eigen::Index>(all.size()), 3);
-    Eigen::VectorXd y(static_cast<Eigen::Index>(all.size()));
-    for (std::size_t k = 0; k < all.size(); ++k) {
-      const auto kk = static_cast<Eigen::Index>(k);
-      a.row(kk) << 1.0, all[k].x_steps, all[k].y_steps;
-      y(kk) = all[k].height_m;
-    }
-    const Eigen::VectorXd res = y - a * a.colPivHouseholderQr().solve(y);
-    r.flatness_lsq_plane_m = res.maxCoeff() - res.minCoeff();
-    std::vector<double> xs, ys, zs;
-    for (const auto& st : all) xs.push_back(st.x_steps), ys.push_back(st.y_steps), zs.push_back(st.height_m);
-    r.flatness_min_zone_m = minimum_zone_flatness(xs, ys, zs).width;
-  }
-
-  if (options.least_squares) {
-    UnionJackLsq lsq;
-    // Unique stations keyed by coordinates (in 1e-6 station units).
-    std::map<std::pair<long long, long long>, std::size_t> index;
-    std::array<std::vector<std::size_t>, 8> station_of;
-    for (std::size_t i = 0; i < 8; ++i) {
-      for (const auto& st : r.lines[i].stations) {
-        const std::pair<long long, long long> key{std::llround(st.x_steps * 1e6), std::llround(st.y_steps * 1e6)};
-        auto [it, inserted] = index.emplace(key, lsq.stations.size());
-        if (inserted) lsq.stations.push_back({st.x_steps, st.y_steps, 0.0});
-        station_of[i].push_back(it->second);
-      }
-    }
-    const std::size_t u = lsq.stations.size();
-    std::size_t m = 0;
-    for (const auto& a : set.angle_rad) m += a.size();
-    // Unknowns: station heights (m), then per line an offset times the foot spacing (m).
-    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(u + 8));
-    Eigen::VectorXd y(static_cast<Eigen::Index>(m));
-    std::size_t row = 0;
-    for (std::size_t i = 0; i < 8; ++i) {
-      for (std::size_t j = 0; j < set.angle_rad[i].size(); ++j, ++row) {
-        const auto rr = static_cast<Eigen::Index>(row);
-        a(rr, static_cast<Eigen::Index>(station_of[i][j + 1])) += 1.0;
-        a(rr, static_cast<Eigen::Index>(station_of[i][j])) -= 1.0;
-        a(rr, static_cast<Eigen::Index>(u + i)) = -1.0;
-        y(rr) = s * std::tan(set.angle_rad[i][j]);
-      }
-    }
-    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(a);
-    cod.setThreshold(1e-10);
-    const Eigen::VectorXd x = cod.solve(y);
-    const Eigen::MatrixXd pinv = cod.pseudoInverse();
-    // Remove the least-squares plane of the station heights (the gauge: a constant and two tilts are
-    // not determined, each line's offset absorbs a tilt).
-    Eigen::MatrixXd plane(static_cast<Eigen::Index>(u), 3);
-    for (std::size_t k = 0; k < u; ++k)
-      plane.row(static_cast<Eigen::Index>(k)) << 1.0, lsq.stations[k].x_steps, lsq.stations[k].y_steps;
-    const Eigen::MatrixXd proj = Eigen::MatrixXd::Identity(static_cast<Eigen::Index>(u), static_cast<Eigen::Index>(u)) -
-                                 plane * (plane.transpose() * plane).inverse() * plane.transpose();
-    const Eigen::VectorXd heights = proj * x.head(static_cast<Eigen::Index>(u));
-    const Eigen::MatrixXd sens = proj * pinv.topRows(static_cast<Eigen::Index>(u));
-    const double su = s * options.instrument.reading_u_rad();
-    lsq.u_height_m.resize(u);
-    for (std::size_t k = 0; k < u; ++k) {
-      lsq.stations[k].height_m = heights(static_cast<Eigen::Index>(k));
-      lsq.u_height_m[k] = su * sens.row(static_cast<Eigen::Index>(k)).norm();
-    }
-    for (std::size_t i = 0; i < 8; ++i) lsq.offset_rad[i] = x(static_cast<Eigen::Index>(u + i)) / s;
-    const Eigen::VectorXd res = y - a * x;
-    lsq.residual_rms_rad = std::sqrt(res.squaredNorm() / static_cast<double>(m)) / s;
-    lsq.readings = m;
-    lsq.unknowns = u + 8;
-    lsq.redundancy = m - static_cast<std::size_t>(cod.rank());
-    lsq.flatness_m = heights.maxCoeff() - heights.minCoeff();
-    {
-      std::vector<double> xs, ys, zs;
-      for (const auto& st : lsq.stations) xs.push_back(st.x_steps), ys.push_back(st.y_steps), zs.push_back(st.height_m);
-      lsq.flatness_min_zone_m = minimum_zone_flatness(xs, ys, zs).width;
-    }
-    r.lsq = std::move(lsq);
-  }
+  plane_flatness(all, r);
+  if (options.least_squares) r.lsq = least_squares_lines(set, r, options);
   return r;
 }
 

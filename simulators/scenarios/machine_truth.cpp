@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "core/number_format.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::simulators::scenarios {
 
@@ -58,13 +59,16 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
   for (const int j : in_plane) {
     const auto& e = m.axis[static_cast<std::size_t>(j)];
     const std::string L = letter(j);
-    if (e.backlash_m != 0) add("backlash", "backlash_" + L + "_um", e.backlash_m / um, 0.5 * e.backlash_m / um, "");
+    if (e.backlash_m != 0)
+      add("backlash", results::name_along(results::backlash, L), e.backlash_m / um, 0.5 * e.backlash_m / um, "");
     if (e.reversal_spike_m != 0)
-      add("reversal_spike", "reversal_spike_" + L + "_um", e.reversal_spike_m / um, e.reversal_spike_m / um,
-          "decay " + printf_number("%g", e.reversal_spike_decay_s * 1e3) + " ms");
-    if (e.lateral_play_m != 0) add("lateral_play", "lateral_play_" + L + "_um", e.lateral_play_m / um, 0.5 * e.lateral_play_m / um, "");
+      add("reversal_spike", results::name_along(results::reversal_spike, L), e.reversal_spike_m / um,
+          e.reversal_spike_m / um, "decay " + printf_number("%g", e.reversal_spike_decay_s * 1e3) + " ms");
+    if (e.lateral_play_m != 0)
+      add("lateral_play", results::name_along(results::lateral_play, L), e.lateral_play_m / um,
+          0.5 * e.lateral_play_m / um, "");
     if (e.stick_slip_m != 0)
-      add("stick_slip", "stick_slip_" + L + "_um", e.stick_slip_m / um, e.stick_slip_m / um,
+      add("stick_slip", results::name_along(results::stick_slip, L), e.stick_slip_m / um, e.stick_slip_m / um,
           printf_number("%g Hz, ", e.stick_slip_hz) + printf_number("decay %g ms", e.stick_slip_decay_s * 1e3));
     if (e.cyclic_amplitude_m != 0) {
       const double p_mm = e.cyclic_period_m * 1e3;
@@ -72,8 +76,8 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
         cannot("cyclic error " + L + " " + printf_number("%g um", e.cyclic_amplitude_m / um) + printf_number(", lead %g mm", p_mm),
                "outside the leads the explanation searches (1-40 mm)");
       else
-        add("cyclic_error", "cyclic_error_" + L + "_um", e.cyclic_amplitude_m / um, e.cyclic_amplitude_m / um,
-            "lead " + printf_number("%g mm", p_mm));
+        add("cyclic_error", results::name_along(results::cyclic_error, L), e.cyclic_amplitude_m / um,
+            e.cyclic_amplitude_m / um, "lead " + printf_number("%g mm", p_mm));
     }
     if (e.vibration_amplitude_m != 0) {
       const double f = e.vibration_frequency_hz;
@@ -83,10 +87,12 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
       else if (longest_run_s > 0 && f < 4 / longest_run_s)
         cannot(what, "slower than 4 periods per run: a drift or Lai's base absorbs it");
       else
-        add("vibration", "vibration_" + L + "_um", e.vibration_amplitude_m / um, e.vibration_amplitude_m / um, printf_number("%g Hz", f));
+        add("vibration", results::name_along(results::vibration, L), e.vibration_amplitude_m / um,
+            e.vibration_amplitude_m / um, printf_number("%g Hz", f));
     }
     if (e.drift_m_per_s != 0)
-      add("thermal_drift", "drift_" + L + "_um_per_min", e.drift_m_per_s / um * 60, std::abs(e.drift_m_per_s) * duration_s / um,
+      add("thermal_drift", results::name_along(results::centre_drift, L), e.drift_m_per_s / um * 60,
+          std::abs(e.drift_m_per_s) * duration_s / um,
           printf_number("%.3g um over the test", std::abs(e.drift_m_per_s) * duration_s / um));
     if (e.scale_drift_per_s != 0)
       cannot("scale drift " + L + " " + printf_number("%g ppm/h", e.scale_drift_per_s * 3.6e9),
@@ -102,7 +108,8 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
     for (const auto& r : runs) v_max = std::max(v_max, r.feed_m_per_s);
     if (la != lb) {
       if (ccw && cw)
-        add("servo_mismatch", "servo_mismatch_ms", (la - lb) * 1e3, 0.5 * v_max * std::abs(la - lb) / um, "");
+        add("servo_mismatch", results::name(results::servo_mismatch), (la - lb) * 1e3,
+            0.5 * v_max * std::abs(la - lb) / um, "");
       else
         cannot("servo mismatch " + printf_number("%g ms", (la - lb) * 1e3), "one direction only: in each direction it is squareness");
     }
@@ -113,7 +120,7 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
                "the session's angles are read from the axis encoders, which follow the drives: angle and bar agree "
                "(it only shrinks the circle by r (omega tau)^2 / 2, part of Lai's scale)");
       else
-        add("servo_lag", "servo_lag_ms", lag * 1e3, 0.0, "the base's shape seen omega x lag early");
+        add("servo_lag", results::name(results::servo_lag), lag * 1e3, 0.0, "the base's shape seen omega x lag early");
     }
   }
   {
@@ -135,14 +142,14 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
   }
   // The bar.
   if (m.dbb.bar_drift_m_per_s != 0)
-    add("thermal_drift", "bar_drift_um_per_min", m.dbb.bar_drift_m_per_s / um * 60,
+    add("thermal_drift", results::name(results::bar_drift), m.dbb.bar_drift_m_per_s / um * 60,
         std::abs(m.dbb.bar_drift_m_per_s) * duration_s / um, "");
   if (m.dbb.nonlinearity_quadratic_per_m != 0) {
     const double q = m.dbb.nonlinearity_quadratic_per_m * um;
     if (radii.size() < 2)
       cannot("bar non-linearity " + printf_number("%g /um", q), "one radius: its harmonics of the centre offset are Lai's base's shapes");
     else
-      add("sensor_nonlinearity", "sensor_quadratic_per_um", q, 0.0, "");
+      add("sensor_nonlinearity", results::name(results::sensor_quadratic), q, 0.0, "");
   }
   if (m.dbb.slip_m != 0)
     cannot("ball slip " + printf_number("%g um", m.dbb.slip_m / um) + printf_number(" at %g s", m.dbb.slip_time_s),

@@ -11,9 +11,12 @@
 #include <stdexcept>
 
 #include "core/number_format.hpp"
-#include "simulators/machine/dbb_runs.hpp"
 #include "models/explain/dbb_explain.hpp"
+#include "models/explain/effects/effect.hpp"
+#include "models/explain/explain.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "results/parameters.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::simulators::scenarios {
@@ -108,8 +111,13 @@ double run1_time_at_deg(const DbbScenario& sc, double deg) {
   return (45.0 + deg) * pi / 180 / omega;
 }
 
-Expectation expect(std::string effect, std::string parameter, double truth, double tolerance) {
-  return {std::move(effect), std::move(parameter), truth, tolerance};
+// What must be found: `effect` with its parameter `p` (of the xy plane's axis `axis`: x or y) near `truth`.
+constexpr int along_x = 0, along_y = 1;
+Expectation expect(std::string effect, const results::Parameter& p, int axis, double truth, double tolerance) {
+  return {std::move(effect), results::name(p, "xy", axis), truth, tolerance};
+}
+Expectation expect(std::string effect, const results::Parameter& p, double truth, double tolerance) {
+  return expect(std::move(effect), p, -1, truth, tolerance);
 }
 
 // Sizes of the injected effects (each visible above the 0.4 um noise at these feeds; the concealment
@@ -168,99 +176,166 @@ const std::vector<DbbScenario>& dbb_scenarios() {
     std::vector<DbbScenario> v;
     // One effect at a time.
     v.push_back(sc("dbb_thermal_bar", "bar growth over the test, partly absorbed by the centre offset and scale terms",
-                 [](MachineConfig& m) { m.dbb.bar_drift_m_per_s = 1.5 * um / 60.0; },
-                 {expect("thermal_drift", "bar_drift_um_per_min", 1.5, 0.15)}));
-    v.push_back(sc("dbb_servo_mismatch", "in each direction exactly the signature of squareness (the base has squareness)",
-                 [](MachineConfig& m) { lags(m, 0.06, 0.0); }, {expect("servo_mismatch", "servo_mismatch_ms", 0.06, 0.01)}));
+                   [](MachineConfig& m) { m.dbb.bar_drift_m_per_s = 1.5 * um / 60.0; },
+                   {expect("thermal_drift", results::bar_drift, 1.5, 0.15)}));
+    v.push_back(sc(
+        "dbb_servo_mismatch", "in each direction exactly the signature of squareness (the base has squareness)",
+        [](MachineConfig& m) { lags(m, 0.06, 0.0); }, {expect("servo_mismatch", results::servo_mismatch, 0.06, 0.01)}));
     v.push_back(sc("dbb_backlash", "0.5 um steps under 0.4 um noise", [](MachineConfig& m) { backlash(m, 0, 0.5); },
-                 {expect("backlash", "backlash_x_um", 0.5, 0.1)}));
+                   {expect("backlash", results::backlash, along_x, 0.5, 0.1)}));
     v.push_back(sc("dbb_cyclic", "0.15 um lead-screw error (5 mm lead), below the 0.4 um noise in the raw residual",
-                 [](MachineConfig& m) { cyclic(m, 0, 0.15, 5); }, {expect("cyclic_error", "cyclic_error_x_um", 0.15, 0.04)}));
-    v.push_back(sc("dbb_vibration",
-                 "0.3 um X-axis vibration at 7.3 Hz under 0.4 um noise, read through cos(angle): in the bar's own spectrum "
-                 "two lines at 7.3 Hz +- the circling frequency",
-                 [](MachineConfig& m) { vibration(m, 0, 0.3, 7.3); }, {expect("vibration", "vibration_x_um", 0.3, 0.05)}));
-    v.push_back(sc("dbb_servo_lag",
-                 "both drives 50 ms late at 2000 mm/min, the angles being the commanded ones: the base's shape seen "
-                 "0.95 deg early, opposite in the two directions (a few hundredths of a um)",
-                 [](MachineConfig& m) { lags(m, 50, 50); }, {expect("servo_lag", "servo_lag_ms", 50, 15)}, both_at(2000)));
+                   [](MachineConfig& m) { cyclic(m, 0, 0.15, 5); },
+                   {expect("cyclic_error", results::cyclic_error, along_x, 0.15, 0.04)}));
+    v.push_back(
+        sc("dbb_vibration",
+           "0.3 um X-axis vibration at 7.3 Hz under 0.4 um noise, read through cos(angle): in the bar's own spectrum "
+           "two lines at 7.3 Hz +- the circling frequency",
+           [](MachineConfig& m) { vibration(m, 0, 0.3, 7.3); },
+           {expect("vibration", results::vibration, along_x, 0.3, 0.05)}));
+    v.push_back(sc(
+        "dbb_servo_lag",
+        "both drives 50 ms late at 2000 mm/min, the angles being the commanded ones: the base's shape seen "
+        "0.95 deg early, opposite in the two directions (a few hundredths of a um)",
+        [](MachineConfig& m) { lags(m, 50, 50); }, {expect("servo_lag", results::servo_lag, 50, 15)}, both_at(2000)));
     v.push_back(sc("dbb_reversal_spike", "1.5 um stiction spikes decaying in 50 ms, a few samples per reversal",
-                 [](MachineConfig& m) { spike(m, 0, 1.5, 50); },
-                 {expect("reversal_spike", "reversal_spike_x_um", 1.5, 0.45)}));
-    v.push_back(sc("dbb_lateral_play", "Y carriage shifts 1 um sideways with its direction: a step along x where Y reverses",
-                 [](MachineConfig& m) { lateral(m, 1, 1.0); }, {expect("lateral_play", "lateral_play_y_um", 1.0, 0.1)}));
+                   [](MachineConfig& m) { spike(m, 0, 1.5, 50); },
+                   {expect("reversal_spike", results::reversal_spike, along_x, 1.5, 0.45)}));
+    v.push_back(sc("dbb_lateral_play",
+                   "Y carriage shifts 1 um sideways with its direction: a step along x where Y reverses",
+                   [](MachineConfig& m) { lateral(m, 1, 1.0); },
+                   {expect("lateral_play", results::lateral_play, along_y, 1.0, 0.1)}));
     v.push_back(sc("dbb_stick_slip", "2 um jerks at 10 Hz decaying in 200 ms after each X reversal",
-                 [](MachineConfig& m) { stick_slip(m, 0, 2.0, 10, 200); },
-                 {expect("stick_slip", "stick_slip_x_um", 2.0, 0.4)}));
-    v.push_back(sc("dbb_sensor_nonlinearity",
-                 "the bar reads dL + 0.001 dL^2 + 2e-5 dL^3 (um), set up 19 um off centre: on one circle the harmonics "
-                 "of Lai's base; separable at two radii",
-                 nonlinear_bar, {expect("sensor_nonlinearity", "sensor_quadratic_per_um", 0.001, 0.0003)}, two_radii));
-    v.push_back(sc("dbb_centre_drift",
-                 "the circle's centre drifts in the plane, X +1.0 and Y -0.67 um/min, the second run 90 s later at 600 "
-                 "mm/min: along one axis each drift is half explained",
-                 [](MachineConfig& m) { centre_drift(m, 1.0, -0.67); },
-                 {expect("thermal_drift", "drift_x_um_per_min", 1.0, 0.1), expect("thermal_drift", "drift_y_um_per_min", -0.67, 0.1)},
-                 both_at(600), 90.0));
+                   [](MachineConfig& m) { stick_slip(m, 0, 2.0, 10, 200); },
+                   {expect("stick_slip", results::stick_slip, along_x, 2.0, 0.4)}));
+    v.push_back(
+        sc("dbb_sensor_nonlinearity",
+           "the bar reads dL + 0.001 dL^2 + 2e-5 dL^3 (um), set up 19 um off centre: on one circle the harmonics "
+           "of Lai's base; separable at two radii",
+           nonlinear_bar, {expect("sensor_nonlinearity", results::sensor_quadratic, 0.001, 0.0003)}, two_radii));
+    v.push_back(sc(
+        "dbb_centre_drift",
+        "the circle's centre drifts in the plane, X +1.0 and Y -0.67 um/min, the second run 90 s later at 600 "
+        "mm/min: along one axis each drift is half explained",
+        [](MachineConfig& m) { centre_drift(m, 1.0, -0.67); },
+        {expect("thermal_drift", results::centre_drift, along_x, 1.0, 0.1),
+         expect("thermal_drift", results::centre_drift, along_y, -0.67, 0.1)},
+        both_at(600), 90.0));
     // Pairs: every effect of the DBB library in at least two, on either axis.
     v.push_back(sc("dbb_pair_backlash_vibration", "X backlash 0.8 um and a 0.4 um Y vibration at 9.1 Hz",
-                 [](MachineConfig& m) { backlash(m, 0, 0.8); vibration(m, 1, 0.4, 9.1); },
-                 {expect("backlash", "backlash_x_um", 0.8, 0.1), expect("vibration", "vibration_y_um", 0.4, 0.05)}));
+                   [](MachineConfig& m) {
+                     backlash(m, 0, 0.8);
+                     vibration(m, 1, 0.4, 9.1);
+                   },
+                   {expect("backlash", results::backlash, along_x, 0.8, 0.1),
+                    expect("vibration", results::vibration, along_y, 0.4, 0.05)}));
     v.push_back(sc("dbb_pair_backlash_cyclic", "Y backlash 0.8 um and a 0.3 um X cyclic error of 5 mm lead",
-                 [](MachineConfig& m) { backlash(m, 1, 0.8); cyclic(m, 0, 0.3, 5); },
-                 {expect("backlash", "backlash_y_um", 0.8, 0.1), expect("cyclic_error", "cyclic_error_x_um", 0.3, 0.05)}));
+                   [](MachineConfig& m) {
+                     backlash(m, 1, 0.8);
+                     cyclic(m, 0, 0.3, 5);
+                   },
+                   {expect("backlash", results::backlash, along_y, 0.8, 0.1),
+                    expect("cyclic_error", results::cyclic_error, along_x, 0.3, 0.05)}));
     v.push_back(sc("dbb_pair_mismatch_spike", "0.06 ms servo mismatch and 1.5 um X reversal spikes (50 ms)",
-                 [](MachineConfig& m) { lags(m, 0.06, 0); spike(m, 0, 1.5, 50); },
-                 {expect("servo_mismatch", "servo_mismatch_ms", 0.06, 0.01),
-                  expect("reversal_spike", "reversal_spike_x_um", 1.5, 0.45)}));
+                   [](MachineConfig& m) {
+                     lags(m, 0.06, 0);
+                     spike(m, 0, 1.5, 50);
+                   },
+                   {expect("servo_mismatch", results::servo_mismatch, 0.06, 0.01),
+                    expect("reversal_spike", results::reversal_spike, along_x, 1.5, 0.45)}));
     v.push_back(sc("dbb_pair_mismatch_drift", "0.06 ms servo mismatch and the centre drifting X +1.0, Y -0.6 um/min",
-                 [](MachineConfig& m) { lags(m, 0.06, 0); centre_drift(m, 1.0, -0.6); },
-                 {expect("servo_mismatch", "servo_mismatch_ms", 0.06, 0.01),
-                  expect("thermal_drift", "drift_x_um_per_min", 1.0, 0.15), expect("thermal_drift", "drift_y_um_per_min", -0.6, 0.15)}));
-    v.push_back(sc("dbb_pair_lag_cyclic", "drives 50 ms late (2000 mm/min) and a 0.3 um Y cyclic error of 8 mm lead, at the drives' positions",
-                 [](MachineConfig& m) { lags(m, 50, 50); cyclic(m, 1, 0.3, 8); },
-                 {expect("servo_lag", "servo_lag_ms", 50, 15), expect("cyclic_error", "cyclic_error_y_um", 0.3, 0.05)},
-                 both_at(2000)));
-    v.push_back(sc("dbb_pair_lag_lateral", "drives 50 ms late (2000 mm/min) and 1 um lateral play of Y",
-                 [](MachineConfig& m) { lags(m, 50, 50); lateral(m, 1, 1.0); },
-                 {expect("servo_lag", "servo_lag_ms", 50, 15), expect("lateral_play", "lateral_play_y_um", 1.0, 0.15)},
-                 both_at(2000)));
+                   [](MachineConfig& m) {
+                     lags(m, 0.06, 0);
+                     centre_drift(m, 1.0, -0.6);
+                   },
+                   {expect("servo_mismatch", results::servo_mismatch, 0.06, 0.01),
+                    expect("thermal_drift", results::centre_drift, along_x, 1.0, 0.15),
+                    expect("thermal_drift", results::centre_drift, along_y, -0.6, 0.15)}));
+    v.push_back(sc(
+        "dbb_pair_lag_cyclic",
+        "drives 50 ms late (2000 mm/min) and a 0.3 um Y cyclic error of 8 mm lead, at the drives' positions",
+        [](MachineConfig& m) {
+          lags(m, 50, 50);
+          cyclic(m, 1, 0.3, 8);
+        },
+        {expect("servo_lag", results::servo_lag, 50, 15),
+         expect("cyclic_error", results::cyclic_error, along_y, 0.3, 0.05)},
+        both_at(2000)));
+    v.push_back(sc(
+        "dbb_pair_lag_lateral", "drives 50 ms late (2000 mm/min) and 1 um lateral play of Y",
+        [](MachineConfig& m) {
+          lags(m, 50, 50);
+          lateral(m, 1, 1.0);
+        },
+        {expect("servo_lag", results::servo_lag, 50, 15),
+         expect("lateral_play", results::lateral_play, along_y, 1.0, 0.15)},
+        both_at(2000)));
     v.push_back(sc("dbb_pair_lateral_bar_drift", "1 um lateral play of X and the bar growing 1.5 um/min",
-                 [](MachineConfig& m) { lateral(m, 0, 1.0); m.dbb.bar_drift_m_per_s = 1.5 * um / 60.0; },
-                 {expect("lateral_play", "lateral_play_x_um", 1.0, 0.1), expect("thermal_drift", "bar_drift_um_per_min", 1.5, 0.15)}));
-    v.push_back(sc("dbb_pair_spike_stick_slip", "1.5 um Y reversal spikes (50 ms) and 2 um X stick-slip (10 Hz, 200 ms): both at reversals",
-                 [](MachineConfig& m) { spike(m, 1, 1.5, 50); stick_slip(m, 0, 2.0, 10, 200); },
-                 {expect("reversal_spike", "reversal_spike_y_um", 1.5, 0.45), expect("stick_slip", "stick_slip_x_um", 2.0, 0.4)}));
-    v.push_back(sc("dbb_pair_stick_slip_nonlinearity", "2 um Y stick-slip (10 Hz, 200 ms) and the bar's non-linearity (two radii)",
-                 [](MachineConfig& m) {
-                   stick_slip(m, 1, 2.0, 10, 200);
-                   nonlinear_bar(m);
-                 },
-                 {expect("stick_slip", "stick_slip_y_um", 2.0, 0.4), expect("sensor_nonlinearity", "sensor_quadratic_per_um", 0.001, 0.0003)},
-                 two_radii));
-    v.push_back(sc("dbb_pair_nonlinearity_vibration", "the bar's non-linearity and a 0.4 um X vibration at 7.3 Hz (two radii)",
-                 [](MachineConfig& m) {
-                   nonlinear_bar(m);
-                   vibration(m, 0, 0.4, 7.3);
-                 },
-                 {expect("sensor_nonlinearity", "sensor_quadratic_per_um", 0.001, 0.0003), expect("vibration", "vibration_x_um", 0.4, 0.05)},
-                 two_radii));
+                   [](MachineConfig& m) {
+                     lateral(m, 0, 1.0);
+                     m.dbb.bar_drift_m_per_s = 1.5 * um / 60.0;
+                   },
+                   {expect("lateral_play", results::lateral_play, along_x, 1.0, 0.1),
+                    expect("thermal_drift", results::bar_drift, 1.5, 0.15)}));
+    v.push_back(sc("dbb_pair_spike_stick_slip",
+                   "1.5 um Y reversal spikes (50 ms) and 2 um X stick-slip (10 Hz, 200 ms): both at reversals",
+                   [](MachineConfig& m) {
+                     spike(m, 1, 1.5, 50);
+                     stick_slip(m, 0, 2.0, 10, 200);
+                   },
+                   {expect("reversal_spike", results::reversal_spike, along_y, 1.5, 0.45),
+                    expect("stick_slip", results::stick_slip, along_x, 2.0, 0.4)}));
+    v.push_back(sc(
+        "dbb_pair_stick_slip_nonlinearity", "2 um Y stick-slip (10 Hz, 200 ms) and the bar's non-linearity (two radii)",
+        [](MachineConfig& m) {
+          stick_slip(m, 1, 2.0, 10, 200);
+          nonlinear_bar(m);
+        },
+        {expect("stick_slip", results::stick_slip, along_y, 2.0, 0.4),
+         expect("sensor_nonlinearity", results::sensor_quadratic, 0.001, 0.0003)},
+        two_radii));
+    v.push_back(sc(
+        "dbb_pair_nonlinearity_vibration", "the bar's non-linearity and a 0.4 um X vibration at 7.3 Hz (two radii)",
+        [](MachineConfig& m) {
+          nonlinear_bar(m);
+          vibration(m, 0, 0.4, 7.3);
+        },
+        {expect("sensor_nonlinearity", results::sensor_quadratic, 0.001, 0.0003),
+         expect("vibration", results::vibration, along_x, 0.4, 0.05)},
+        two_radii));
     // Three at once.
     v.push_back(sc("dbb_three_backlash_mismatch_cyclic",
-                 "X/Y backlash 1.2/0.6 um, 0.08 ms servo mismatch (Y lags), a 0.5 um Y cyclic error of 4 mm lead",
-                 [](MachineConfig& m) { backlash(m, 0, 1.2); backlash(m, 1, 0.6); lags(m, 0, 0.08); cyclic(m, 1, 0.5, 4); },
-                 {expect("backlash", "backlash_x_um", 1.2, 0.1), expect("backlash", "backlash_y_um", 0.6, 0.1),
-                  expect("servo_mismatch", "servo_mismatch_ms", -0.08, 0.01), expect("cyclic_error", "cyclic_error_y_um", 0.5, 0.05)}));
+                   "X/Y backlash 1.2/0.6 um, 0.08 ms servo mismatch (Y lags), a 0.5 um Y cyclic error of 4 mm lead",
+                   [](MachineConfig& m) {
+                     backlash(m, 0, 1.2);
+                     backlash(m, 1, 0.6);
+                     lags(m, 0, 0.08);
+                     cyclic(m, 1, 0.5, 4);
+                   },
+                   {expect("backlash", results::backlash, along_x, 1.2, 0.1),
+                    expect("backlash", results::backlash, along_y, 0.6, 0.1),
+                    expect("servo_mismatch", results::servo_mismatch, -0.08, 0.01),
+                    expect("cyclic_error", results::cyclic_error, along_y, 0.5, 0.05)}));
     v.push_back(sc("dbb_three_backlash_vibration_drift",
-                 "X backlash 0.8 um, a 0.4 um X vibration at 6.1 Hz and the centre drifting X +1.0, Y -0.6 um/min",
-                 [](MachineConfig& m) { backlash(m, 0, 0.8); vibration(m, 0, 0.4, 6.1); centre_drift(m, 1.0, -0.6); },
-                 {expect("backlash", "backlash_x_um", 0.8, 0.1), expect("vibration", "vibration_x_um", 0.4, 0.05),
-                  expect("thermal_drift", "drift_x_um_per_min", 1.0, 0.15), expect("thermal_drift", "drift_y_um_per_min", -0.6, 0.15)}));
+                   "X backlash 0.8 um, a 0.4 um X vibration at 6.1 Hz and the centre drifting X +1.0, Y -0.6 um/min",
+                   [](MachineConfig& m) {
+                     backlash(m, 0, 0.8);
+                     vibration(m, 0, 0.4, 6.1);
+                     centre_drift(m, 1.0, -0.6);
+                   },
+                   {expect("backlash", results::backlash, along_x, 0.8, 0.1),
+                    expect("vibration", results::vibration, along_x, 0.4, 0.05),
+                    expect("thermal_drift", results::centre_drift, along_x, 1.0, 0.15),
+                    expect("thermal_drift", results::centre_drift, along_y, -0.6, 0.15)}));
     v.push_back(sc("dbb_three_lateral_cyclic_vibration",
-                 "1 um lateral play of Y, a 0.3 um X cyclic error of 5 mm lead and a 0.4 um Y vibration at 9.1 Hz",
-                 [](MachineConfig& m) { lateral(m, 1, 1.0); cyclic(m, 0, 0.3, 5); vibration(m, 1, 0.4, 9.1); },
-                 {expect("lateral_play", "lateral_play_y_um", 1.0, 0.1), expect("cyclic_error", "cyclic_error_x_um", 0.3, 0.05),
-                  expect("vibration", "vibration_y_um", 0.4, 0.05)}));
+                   "1 um lateral play of Y, a 0.3 um X cyclic error of 5 mm lead and a 0.4 um Y vibration at 9.1 Hz",
+                   [](MachineConfig& m) {
+                     lateral(m, 1, 1.0);
+                     cyclic(m, 0, 0.3, 5);
+                     vibration(m, 1, 0.4, 9.1);
+                   },
+                   {expect("lateral_play", results::lateral_play, along_y, 1.0, 0.1),
+                    expect("cyclic_error", results::cyclic_error, along_x, 0.3, 0.05),
+                    expect("vibration", results::vibration, along_y, 0.4, 0.05)}));
     // Nothing left out.
     v.push_back(sc("dbb_null", "nothing left out: geometric errors of the base and 0.4 um noise only", [](MachineConfig&) {}, {}));
     v.push_back(sc("dbb_null_feeds", "nothing left out; four runs, both directions at 500 and 2000 mm/min", [](MachineConfig&) {},
@@ -305,8 +380,7 @@ const std::vector<DbbScenario>& dbb_scenarios() {
     }
     for (auto& s : v)
       for (const auto& e : s.expected)
-        if (e.effect == "reversal_spike" || e.effect == "stick_slip" || e.effect == "servo_lag" ||
-            e.effect == "sensor_nonlinearity")
+        if (const auto* effect = models::explain::effects::find(e.effect); effect && effect->needs_dense_sampling)
           s.full_density = true;
     return v;
   }();
@@ -491,7 +565,7 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
   bool along_path = false;
   if (name == "flatness_thermal_two_feeds" || name == "straightness_thermal_two_feeds") {
     m.axis[2].drift_m_per_s = 0.2 * um / 60.0;
-    s.expected = {expect("thermal_drift", "thermal_drift_um_per_min", 0.2, 0.02)};
+    s.expected = {expect("thermal_drift", results::profile_drift, 0.2, 0.02)};
     s.concealment = s.model == "flatness"
                         ? "Z drift at constant feed: a line in x exactly like squareness; only the 2 and 8 mm/min cuts "
                           "differ (X carriage 1.6 um out of straight, its traverse in the base)"
@@ -500,14 +574,14 @@ ScenarioResult profile_scenario(const std::string& name, const ScenarioOptions& 
     m.spindle.axial_runout_m = 0.1 * um;
     feeds = {2.0};
     along_path = true;
-    s.expected = {expect("spindle_axial_runout", "spindle_axial_runout_um", 0.1, 0.02)};
+    s.expected = {expect("spindle_axial_runout", results::spindle_axial_runout, 0.1, 0.02)};
     s.concealment = "0.1 um twice per revolution (3.6 Hz) sampled every 1.5-3 s along the tool path: aliased into "
                     "slow waviness";
   } else if (name == "flatness_abbe_offset") {
     m.tool_offset = {3e-3, 0, 0};
     // u is 0.12-0.17 mm from the profiles alone; the traverse's noise (common to both cuts, not in u) adds
     // about as much again: hence 0.5 mm.
-    s.expected = {expect("abbe_offset", "abbe_offset_x_mm", 3.0, 0.5)};
+    s.expected = {expect("abbe_offset", results::abbe_offset, 3.0, 0.5)};
     s.concealment = "the tool 3 mm along x from the carriage point the traverse measured: pitch x 3 mm adds up to "
                     "0.6 um, all but its curvature a line in x like squareness; what is left is the size of the 0.03 um "
                     "noise";

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "models/explain/explain.hpp"
+#include "models/explain/explain_result.hpp"
 
 namespace guideway::simulators::scenarios {
 

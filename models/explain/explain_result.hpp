@@ -1,0 +1,106 @@
+#pragma once
+// What an explanation reports (models/explain, docs/explain.md): the baseline and final fits, where the
+// residual is structured, the findings with their parameters, the candidates considered, the residual
+// curves; and the report as JSON (the EXPLAIN message's body) and as text. Without Eigen or the JSON
+// library's definitions, for the sessions, the CLI and the scenario suite that only read reports.
+
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace guideway::models::explain {
+
+struct ParamValue {
+  std::string name;
+  double value = 0.0;
+  double u = 0.0;  // standard uncertainty; NaN for a value found by search on a grid
+};
+
+struct ExplainOptions {
+  double alpha = 1e-3;             // family-wise significance level of each selection step
+  std::size_t max_effects = 6;     // at most this many findings
+  std::size_t folds = 8;           // blocked cross-validation folds (when runs are not held out)
+  double min_share = 0.8;          // share of the structure left without it that a finding must remove (a
+                                   // partial fit of a cause it is not leaves that cause's shape behind)
+  std::size_t curve_points = 720;  // residual curves in the report (0 = none)
+  bool heldout_reselect = true;    // held-out RMS re-chooses every effect's variant in each fold from its
+                                   // training rows; false: the variants chosen on all data (optimistic)
+};
+
+struct Mismatch {
+  std::string domain;
+  std::string where;
+  std::string band;
+  std::string evidence;
+  std::vector<std::pair<double, double>> ranges;  // the places in domain units (empty: throughout / n.a.)
+};
+
+struct Finding {
+  std::string effect;
+  std::vector<ParamValue> parameters;
+  double delta_bic = 0.0;
+  double p_value = 1.0;  // Bonferroni-adjusted F-test
+  double rms_um_after = 0.0;
+  double heldout_rms_um_after = 0.0;
+  double share = 0.0;            // of the visible structure removed (NaN when none was visible)
+  double contribution_um = 0.0;  // its fitted term's size: Problem::contribution_of, else its peak-to-valley
+  double contribution_percent = std::numeric_limits<double>::quiet_NaN();  // of Problem::deviation_um
+  std::string why;
+};
+
+// A candidate's test in the last selection round (why it was not taken).
+struct Considered {
+  std::string effect;
+  double delta_bic = 0.0;
+  double p_value = 1.0;
+  std::string verdict;
+};
+
+struct FitStats {
+  double rms_um = 0.0;
+  double bic = 0.0;
+  double heldout_rms_um = 0.0;
+  std::size_t parameters = 0;
+};
+
+struct ResidualStep {
+  std::string label;                             // "base model", "+ backlash", ...
+  std::vector<std::vector<double>> residual_um;  // one curve per run of Report::curve_runs
+};
+
+struct Report {
+  std::string model;
+  std::size_t n = 0;
+  double noise_um = 0.0;       // from the finest wavelet details of the baseline residual
+  std::string heldout_scheme;  // "leave-one-run-out" or "blocked k-fold (k=8)"
+  FitStats baseline;
+  std::vector<Mismatch> mismatch;  // where the baseline residual is structured
+  std::vector<Finding> findings;
+  std::vector<Considered> considered;
+  FitStats final_fit;
+  std::vector<Mismatch> remaining;  // where the final residual is still structured
+  bool unexplained = false;
+  double deviation_um = std::numeric_limits<double>::quiet_NaN();  // Problem::deviation_um
+  std::string deviation_name;
+  std::vector<std::string> notes;
+  // Residual curves for plots (docs/explain.md "residuals"): one x grid (the first run's, in the
+  // problem's domain, increasing, at most ExplainOptions::curve_points), the runs drawn, and per step --
+  // the base model, then after each finding in turn (base + findings 1..k fitted jointly) -- every
+  // run's residual interpolated onto the grid.
+  std::string curve_domain;
+  std::vector<double> curve_x;
+  std::vector<std::string> curve_runs;
+  std::vector<ResidualStep> curve_steps;
+};
+
+// The JSON shape ({"model", "baseline", "mismatch", "findings", "final", "unexplained"}) plus
+// "n", "noise_um", "heldout_scheme", "considered", "remaining", "notes".
+nlohmann::json to_json(const Report& report);
+// A readable explanation for a metrologist.
+std::string to_text(const Report& report);
+
+}  // namespace guideway::models::explain

@@ -1,0 +1,222 @@
+#include "results/parameters.hpp"
+
+#include <algorithm>
+#include <map>
+#include <vector>
+
+namespace guideway::results {
+
+namespace {
+
+constexpr const Parameter* all[] = {
+    &circular_deviation,
+    &circular_hysteresis,
+    &center_offset,
+    &squareness,
+    &backlash,
+    &scale,
+    &scale_mismatch,
+    &lateral_play,
+    &servo_mismatch,
+    &straightness_bow,
+    &reversal_spike,
+    &reversal_spike_decay,
+    &reversal_spike_delay,
+    &cyclic_sin,
+    &cyclic_cos,
+    &cyclic_error,
+    &cyclic_period,
+    &cyclic_phase,
+    // Lai
+    &lai_e_x,
+    &lai_e_y,
+    &lai_S_x,
+    &lai_S_y,
+    &lai_a1,
+    &lai_a2,
+    &lai_a3,
+    &lai_b2,
+    &lai_b3,
+    &lai_c0_plus_d1,
+    &lai_c1,
+    &lai_c2,
+    &lai_d2,
+    &lai_d3,
+    &lai_e1,
+    &lai_e2,
+    &lai_e3,
+    &lai_backlash_x,
+    &lai_backlash_y,
+    &lai_servo_mismatch,
+    &lai_mismatch_phase_angle,
+    // compensation
+    &straightness_cubic,
+    &straightness_cubic_difference,
+    // EXPLAIN, DBB
+    &backlash_delay,
+    &spike_decay,
+    &cyclic_sin_column,
+    &cyclic_cos_column,
+    &cyclic_delay,
+    &bar_drift,
+    &bar_drift_offset,
+    &centre_drift,
+    &centre_drift_offset,
+    &vibration_sin,
+    &vibration_cos,
+    &vibration,
+    &vibration_phase,
+    &vibration_frequency,
+    &stick_slip,
+    &stick_slip_frequency,
+    &stick_slip_decay,
+    &servo_lag,
+    &sensor_quadratic,
+    &sensor_cubic,
+    // EXPLAIN, profiles
+    &abbe_offset,
+    &profile_drift,
+    &runout_sin,
+    &runout_cos,
+    &runout_per_rev,
+    &spindle_axial_runout,
+    &spindle_axial_runout_phase,
+    &tool_wear,
+    &nose_curvature,
+    &nose_curvature_quadrature,
+    &feed_marks,
+    &tool_nose_radius,
+    &profile_cyclic_sin,
+    &profile_cyclic_cos,
+    // headlines of the other kinds
+    &runout_squareness,
+    &runout,
+    &horizontal_straightness,
+    &vertical_straightness,
+    &profile_straightness,
+    &form_straightness,
+};
+
+// Unit suffixes, the longer of two that end alike first ("_per_mm2" before "_per_mm", "_um" before "_m").
+struct Unit {
+  std::string_view suffix;
+  std::string_view symbol;
+};
+constexpr Unit units[] = {{"_per_mm2", "1/mm\u00b2"},
+                          {"_per_mm", "1/mm"},
+                          {"_um", "\u00b5m"},
+                          {"_ppm", "ppm"},
+                          {"_urad", "\u00b5rad"},
+                          {"_ms", "ms"},
+                          {"_mm", "mm"},
+                          {"_deg", "deg"},
+                          {"_rad", "rad"},
+                          {"_s", "s"},
+                          {"_arcsec", "\u2033"},
+                          {"_nm", "nm"},
+                          {"_m", "m"},
+                          {"_hz", "Hz"}};
+
+void replace_all(std::string& text, std::string_view key, std::string_view by) {
+  for (auto at = text.find(key); at != std::string::npos; at = text.find(key, at + by.size()))
+    text.replace(at, key.size(), by);
+}
+
+std::string filled(std::string_view pattern, std::string_view plane, std::string_view along, int run) {
+  std::string out(pattern);
+  replace_all(out, "{a}", axis_letter(plane, 0));
+  replace_all(out, "{b}", axis_letter(plane, 1));
+  if (!along.empty()) replace_all(out, "{axis}", along);
+  if (run > 0) replace_all(out, "{run}", std::to_string(run));
+  return out;
+}
+
+// Whether `name` is `pattern` with its placeholders filled: {axis} a word of letters, {a} and {b} one
+// letter, {run} a number.
+bool matches(std::string_view pattern, std::string_view name) {
+  if (pattern.empty()) return name.empty();
+  if (pattern.front() == '{') {
+    const auto close = pattern.find('}');
+    const std::string_view key = pattern.substr(1, close - 1);
+    const std::string_view rest = pattern.substr(close + 1);
+    const auto fits = [&](char c) { return key == "run" ? (c >= '0' && c <= '9') : (c >= 'a' && c <= 'z'); };
+    const std::size_t most = key == "a" || key == "b" ? 1 : name.size();
+    for (std::size_t n = 1; n <= most && n <= name.size() && fits(name[n - 1]); ++n)
+      if (matches(rest, name.substr(n))) return true;
+    return false;
+  }
+  return !name.empty() && name.front() == pattern.front() && matches(pattern.substr(1), name.substr(1));
+}
+
+// "run2.name" and "name_run2" -> "name": a name of one run among several.
+std::string_view without_run(std::string_view name) {
+  if (name.starts_with("run")) {
+    const auto dot = name.find('.');
+    if (dot != std::string_view::npos && dot > 3 &&
+        name.substr(3, dot - 3).find_first_not_of("0123456789") == std::string_view::npos)
+      return name.substr(dot + 1);
+  }
+  const auto at = name.rfind("_run");
+  if (at != std::string_view::npos && at + 4 < name.size() &&
+      name.substr(at + 4).find_first_not_of("0123456789") == std::string_view::npos)
+    return name.substr(0, at);
+  return name;
+}
+
+}  // namespace
+
+std::span<const Parameter* const> catalogue() { return all; }
+
+const Parameter* find_parameter(std::string_view name) {
+  for (const std::string_view n : {name, without_run(name)})
+    for (const Parameter* p : all)
+      if (matches(p->name, n)) return p;
+  return nullptr;
+}
+
+std::string axis_letter(std::string_view plane, int axis) {
+  if (plane.size() == 2) return std::string(1, plane[axis == 0 ? 0 : 1]);
+  return axis == 0 ? "x" : "y";
+}
+
+std::string name(const Parameter& p, std::string_view plane, int axis) {
+  return filled(p.name, plane, axis < 0 ? std::string() : axis_letter(plane, axis), 0);
+}
+
+std::string name_along(const Parameter& p, std::string_view along, int run) { return filled(p.name, "xy", along, run); }
+
+std::string label(const Parameter& p, std::string_view plane, int axis) {
+  return filled(p.label, plane, axis < 0 ? std::string() : axis_letter(plane, axis), 0);
+}
+
+bool per_axis(const Parameter& p) { return p.name.find("{axis}") != std::string_view::npos; }
+
+std::string run_prefixed(int run, const std::string& name) { return "run" + std::to_string(run) + "." + name; }
+
+std::string run_suffixed(const std::string& name, int run) { return name + "_run" + std::to_string(run); }
+
+std::pair<std::string, std::string> split_unit(const std::string& name) {
+  for (const auto& [suffix, symbol] : units)
+    if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      return {name.substr(0, name.size() - suffix.size()), std::string(symbol)};
+  return {name, ""};
+}
+
+std::string unit(const Parameter& p) { return split_unit(std::string(p.name)).second; }
+
+std::span<const Parameter* const> headline_parameters(std::string_view kind) {
+  static const std::map<std::string_view, std::vector<const Parameter*>, std::less<>> by_kind = [] {
+    std::map<std::string_view, std::vector<const Parameter*>, std::less<>> m;
+    for (const Parameter* p : all)
+      if (p->headline > 0) m[p->kind].push_back(p);
+    for (auto& [k, list] : m)
+      std::stable_sort(list.begin(), list.end(),
+                       [](const Parameter* a, const Parameter* b) { return a->headline < b->headline; });
+    return m;
+  }();
+  const auto it = by_kind.find(kind);
+  if (it == by_kind.end()) return {};
+  return it->second;
+}
+
+}  // namespace guideway::results

@@ -1,0 +1,256 @@
+#pragma once
+// The catalogue of the parameters results report: each one's name, the unit it carries at the end of
+// that name, where a result holds it, how it is shown to people, and whether it is one of its session
+// kind's headline figures. Identification (models/dbb), EXPLAIN's effects, compensation, the fleet's
+// headlines and the report name a parameter through its entry here, so a name is spelled once (the DBB
+// ones' signs and meaning: docs/conventions.md; where a new one goes: docs/architecture.md). Pure; thread
+// safe.
+//
+// A name may hold placeholders, filled by name():
+//   {axis}  a plane axis the caller picks (0: the plane's first axis, 1: its second; or a given name,
+//           "bar" for EXPLAIN's vibration along the bar)
+//   {a} {b} the plane's first and second axis ("xz": x and z)
+//   {run}   a run's number, from 1
+
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+
+namespace guideway::results {
+
+struct Parameter {
+  std::string_view name;     // as reported, unit last: "backlash_{axis}_um"
+  std::string_view label;    // for people, with the same placeholders: "backlash {axis}"
+  std::string_view kind;     // the session kind whose results hold it ("dbb", "runout", ...)
+  std::string_view group;    // the PARAMS object it is in ("diagnostics", "lai3", ...); "" = EXPLAIN or the map only
+  std::string_view meaning;  // what it is, one line
+  int headline = 0;          // its place among its kind's headline figures (fleet, docs/plant.md); 0 = not one
+  std::string_view also_in = {};   // the group to read when `group` lacks it (a DBB backlash: Lai's)
+  std::string_view value_at = {};  // JSON pointer of its value when that is not /group/name/value
+  std::string_view u_at = {};      // ... and of its standard uncertainty (with value_at)
+};
+
+// ---- DBB: the ballbar diagnostics (models/dbb identify; docs/conventions.md) ----------------------------
+inline constexpr Parameter circular_deviation{"circular_deviation_um",
+                                              "G",
+                                              "dbb",
+                                              "diagnostics",
+                                              "ISO 230-4 circular deviation: the largest range of a run's reading "
+                                              "about its least-squares circle",
+                                              1};
+inline constexpr Parameter circular_hysteresis{"circular_hysteresis_um", "circular hysteresis H", "dbb", "diagnostics",
+                                               "ISO 230-4 hysteresis between a CCW and a CW run of one set-up"};
+inline constexpr Parameter center_offset{"center_offset_{axis}_um", "centre offset {axis}", "dbb", "diagnostics",
+                                         "offset of the bar's fixed ball from the circle centre (per run: run{run}.)"};
+inline constexpr Parameter squareness{"squareness_urad",
+                                      "squareness",
+                                      "dbb",
+                                      "diagnostics",
+                                      "out-of-squareness of the plane's axes (the second leans towards the first)",
+                                      2};
+inline constexpr Parameter backlash{
+    "backlash_{axis}_um", "backlash {axis}", "dbb", "diagnostics", "lost motion of the axis at a reversal", 3, "lai3"};
+inline constexpr Parameter scale{
+    "scale_{axis}_ppm", "scale {axis}", "dbb", "diagnostics", "length scale error of the axis", 4};
+inline constexpr Parameter scale_mismatch{"scale_mismatch_ppm", "scale mismatch", "dbb", "diagnostics",
+                                          "difference of the plane axes' scales (first minus second)"};
+inline constexpr Parameter lateral_play{"lateral_play_{axis}_um", "lateral play {axis}", "dbb", "diagnostics",
+                                        "sideways shift of the carriage when its direction of travel changes"};
+inline constexpr Parameter servo_mismatch{"servo_mismatch_ms", "servo mismatch", "dbb", "diagnostics",
+                                          "lag of the first axis' position loop behind the second's"};
+inline constexpr Parameter straightness_bow{"straightness_{axis}_um", "straightness {axis}", "dbb", "diagnostics",
+                                            "bow of the axis across the plane at the circle's radius"};
+inline constexpr Parameter reversal_spike{"reversal_spike_{axis}_um", "reversal spike {axis}", "dbb", "diagnostics",
+                                          "height of the stiction spike after the axis reverses"};
+inline constexpr Parameter reversal_spike_decay{"reversal_spike_decay_{axis}_ms", "reversal spike decay {axis}", "dbb",
+                                                "diagnostics", "decay time of the axis' reversal spike"};
+inline constexpr Parameter reversal_spike_delay{"reversal_spike_delay_{axis}_ms", "reversal spike delay {axis}", "dbb",
+                                                "diagnostics", "delay of the spike after the commanded reversal"};
+inline constexpr Parameter cyclic_sin{"cyclic_sin_{axis}_um", "cyclic error {axis} (sine)", "dbb", "diagnostics",
+                                      "fit column: the cyclic error's sine part (reported as amplitude and phase)"};
+inline constexpr Parameter cyclic_cos{"cyclic_cos_{axis}_um", "cyclic error {axis} (cosine)", "dbb", "diagnostics",
+                                      "fit column: the cyclic error's cosine part"};
+inline constexpr Parameter cyclic_error{"cyclic_error_{axis}_um", "cyclic error {axis}", "dbb", "diagnostics",
+                                        "amplitude of the lead-screw (pitch) error repeating along the axis"};
+inline constexpr Parameter cyclic_period{"cyclic_period_{axis}_mm", "cyclic period {axis}", "dbb", "diagnostics",
+                                         "period of the cyclic error (the screw's lead)"};
+inline constexpr Parameter cyclic_phase{"cyclic_phase_{axis}_deg", "cyclic phase {axis}", "dbb", "diagnostics",
+                                        "phase of the cyclic error at position 0"};
+
+// ---- DBB: Lai's third-order model (Lai 1997 Table 3 names; x, y are Lai's a, b whatever the plane) ------
+inline constexpr Parameter lai_e_x{"e_x_um", "fixed ball offset a", "dbb", "lai3", "fixed ball offset along a"};
+inline constexpr Parameter lai_e_y{"e_y_um", "fixed ball offset b", "dbb", "lai3", "fixed ball offset along b"};
+inline constexpr Parameter lai_S_x{"S_x", "scale factor a", "dbb", "lai3", "scale factor of axis a (1 = exact)"};
+inline constexpr Parameter lai_S_y{"S_y", "scale factor b", "dbb", "lai3", "scale factor of axis b (1 = exact)"};
+inline constexpr Parameter lai_a1{"a1_rad", "a1", "dbb", "lai3", "X straightness in b, linear: the squareness"};
+inline constexpr Parameter lai_a2{"a2_per_mm", "a2", "dbb", "lai3", "X straightness in b, quadratic"};
+inline constexpr Parameter lai_a3{"a3_per_mm2", "a3", "dbb", "lai3", "X straightness in b, cubic"};
+inline constexpr Parameter lai_b2{"b2_per_mm", "b2", "dbb", "lai3", "Y straightness in a, quadratic"};
+inline constexpr Parameter lai_b3{"b3_per_mm2", "b3", "dbb", "lai3", "Y straightness in a, cubic"};
+inline constexpr Parameter lai_c0_plus_d1{"c0_plus_d1_rad", "c0 + d1", "dbb", "lai3",
+                                          "Y roll and X straightness in n, linear (not separable)"};
+inline constexpr Parameter lai_c1{"c1_per_mm", "c1", "dbb", "lai3", "Y roll, linear"};
+inline constexpr Parameter lai_c2{"c2_per_mm2", "c2", "dbb", "lai3", "Y roll, quadratic"};
+inline constexpr Parameter lai_d2{"d2_per_mm", "d2", "dbb", "lai3", "X straightness in n, quadratic"};
+inline constexpr Parameter lai_d3{"d3_per_mm2", "d3", "dbb", "lai3", "X straightness in n, cubic"};
+inline constexpr Parameter lai_e1{"e1_rad", "e1", "dbb", "lai3", "Y straightness in n, linear"};
+inline constexpr Parameter lai_e2{"e2_per_mm", "e2", "dbb", "lai3", "Y straightness in n, quadratic"};
+inline constexpr Parameter lai_e3{"e3_per_mm2", "e3", "dbb", "lai3", "Y straightness in n, cubic"};
+inline constexpr Parameter lai_backlash_x{"backlash_x_um", "backlash a", "dbb", "lai3", "backlash of axis a"};
+inline constexpr Parameter lai_backlash_y{"backlash_y_um", "backlash b", "dbb", "lai3", "backlash of axis b"};
+inline constexpr Parameter lai_servo_mismatch{"servo_mismatch_ms", "servo mismatch", "dbb", "lai3",
+                                              "servo lag difference of axis a behind b"};
+inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg", "mismatch phase angle", "dbb", "lai3",
+                                                    "Lai's phase angle of the servo mismatch at the first run's speed"};
+
+// ---- DBB: terms of the compensation map only (models/compensation) ------------------------------------------
+inline constexpr Parameter straightness_cubic{"straightness_cubic_{axis}_um", "cubic straightness {axis}", "dbb", "",
+                                              "cubic part of the axis' straightness at the circle's radius"};
+inline constexpr Parameter straightness_cubic_difference{
+    "straightness_cubic_{a}_minus_{b}_um", "cubic straightness {a} - {b}", "dbb", "",
+    "difference of the plane axes' cubic straightness, all one circle determines"};
+
+// ---- DBB: EXPLAIN's effect parameters besides the diagnostics' (models/explain/effects) -------------------
+inline constexpr Parameter backlash_delay{"backlash_delay_ms", "backlash delay", "dbb", "",
+                                          "how late the drives follow the command where the deadband is taken up"};
+inline constexpr Parameter spike_decay{"reversal_spike_decay_ms", "reversal spike decay", "dbb", "",
+                                       "decay time of the reversal spikes (searched)"};
+inline constexpr Parameter cyclic_sin_column{"cyclic_sin_{axis}", "cyclic error {axis} (sine)", "dbb", "",
+                                             "fit column: the cyclic error's sine part"};
+inline constexpr Parameter cyclic_cos_column{"cyclic_cos_{axis}", "cyclic error {axis} (cosine)", "dbb", "",
+                                             "fit column: the cyclic error's cosine part"};
+inline constexpr Parameter cyclic_delay{"cyclic_delay_{axis}_ms", "cyclic delay {axis}", "dbb", "",
+                                        "how late the drive follows the command where the cyclic error lives"};
+inline constexpr Parameter bar_drift{"bar_drift_um_per_min", "bar drift", "dbb", "",
+                                     "growth of the bar's reading with time"};
+inline constexpr Parameter bar_drift_offset{"bar_drift_offset_run{run}_um", "bar drift offset run {run}", "dbb", "",
+                                            "the bar's reading offset of a run without a common clock"};
+inline constexpr Parameter centre_drift{"drift_{axis}_um_per_min", "centre drift {axis}", "dbb", "",
+                                        "drift of the circle's centre along the axis with time"};
+inline constexpr Parameter centre_drift_offset{"drift_{axis}_offset_run{run}_um", "centre offset {axis} run {run}",
+                                               "dbb", "", "the centre's offset of a run without a common clock"};
+inline constexpr Parameter vibration_sin{"vibration_sin", "vibration (sine)", "dbb", "",
+                                         "fit column: the vibration's sine part (_runK: one run's)"};
+inline constexpr Parameter vibration_cos{"vibration_cos", "vibration (cosine)", "dbb", "",
+                                         "fit column: the vibration's cosine part (_runK: one run's)"};
+inline constexpr Parameter vibration{"vibration_{axis}_um", "vibration {axis}", "dbb", "",
+                                     "amplitude of a vibration along the axis (or the bar)"};
+inline constexpr Parameter vibration_phase{"vibration_phase_{axis}_deg", "vibration phase {axis}", "dbb", "",
+                                           "its phase at time 0 (_runK: of one run)"};
+inline constexpr Parameter vibration_frequency{"vibration_hz", "vibration frequency", "dbb", "",
+                                               "frequency of the vibration"};
+inline constexpr Parameter stick_slip{"stick_slip_{axis}_um", "stick-slip {axis}", "dbb", "",
+                                      "amplitude of the jerks after the axis reverses"};
+inline constexpr Parameter stick_slip_frequency{"stick_slip_hz", "stick-slip frequency", "dbb", "",
+                                                "frequency of the jerks (searched)"};
+inline constexpr Parameter stick_slip_decay{"stick_slip_decay_ms", "stick-slip decay", "dbb", "",
+                                            "decay time of the jerks (searched)"};
+inline constexpr Parameter servo_lag{"servo_lag_ms", "servo lag", "dbb", "",
+                                     "how late both drives follow the command (the position loops' 1/Kv)"};
+inline constexpr Parameter sensor_quadratic{"sensor_quadratic_per_um", "sensor non-linearity (quadratic)", "", "",
+                                            "the transducer's quadratic error per um of reading"};
+inline constexpr Parameter sensor_cubic{"sensor_cubic_per_um2", "sensor non-linearity (cubic)", "", "",
+                                        "the transducer's cubic error"};
+
+// ---- Profiles: EXPLAIN's effect parameters of a faced surface or a traverse (profile_explain) -----------------
+inline constexpr Parameter abbe_offset{"abbe_offset_x_mm", "Abbe offset x", "profile", "",
+                                       "offset of the tool from the carriage's measuring line"};
+inline constexpr Parameter profile_drift{"thermal_drift_um_per_min", "thermal drift", "profile", "",
+                                         "growth of the depth of cut with time"};
+inline constexpr Parameter runout_sin{"runout_sin", "spindle axial run-out (sine)", "profile", "",
+                                      "fit column: the run-out's sine part"};
+inline constexpr Parameter runout_cos{"runout_cos", "spindle axial run-out (cosine)", "profile", "",
+                                      "fit column: the run-out's cosine part"};
+inline constexpr Parameter runout_per_rev{"spindle_axial_runout_per_rev", "run-out per revolution", "profile", "",
+                                          "the run-out's harmonic of the spindle frequency (searched)"};
+inline constexpr Parameter spindle_axial_runout{"spindle_axial_runout_um", "spindle axial run-out", "profile", "",
+                                                "amplitude of the spindle's axial motion"};
+inline constexpr Parameter spindle_axial_runout_phase{"spindle_axial_runout_phase_deg", "spindle run-out phase",
+                                                      "profile", "", "its phase"};
+inline constexpr Parameter tool_wear{"tool_wear_um_per_m", "tool wear", "profile", "",
+                                     "loss of depth of cut per metre cut"};
+inline constexpr Parameter nose_curvature{"nose_curvature_per_mm", "nose curvature", "profile", "",
+                                          "fit column: the cusp's curvature"};
+inline constexpr Parameter nose_curvature_quadrature{"nose_curvature_quadrature_per_mm", "nose curvature (quadrature)",
+                                                     "profile", "", "fit column: the cusp's quadrature part"};
+inline constexpr Parameter feed_marks{"feed_marks_um", "feed marks", "profile", "",
+                                      "height of the cusps the tool nose leaves"};
+inline constexpr Parameter tool_nose_radius{"tool_nose_radius_mm", "tool nose radius", "profile", "",
+                                            "the nose radius the cusps give"};
+inline constexpr Parameter profile_cyclic_sin{"cyclic_sin", "cyclic error x (sine)", "profile", "",
+                                              "fit column: the X drive's cyclic error, sine part"};
+inline constexpr Parameter profile_cyclic_cos{"cyclic_cos", "cyclic error x (cosine)", "profile", "",
+                                              "fit column: the X drive's cyclic error, cosine part"};
+
+// ---- The headline figures of the other session kinds -------------------------------------------------------
+inline constexpr Parameter runout_squareness{"squareness_urad",
+                                             "squareness (run-out)",
+                                             "runout",
+                                             "squareness",
+                                             "squareness of the spindle to the table by Mu's Eq. 21",
+                                             1};
+inline constexpr Parameter runout{
+    "runout_um", "run-out", "runout", "squareness", "once-per-revolution run-out on the thrust plate", 2};
+inline constexpr Parameter horizontal_straightness{
+    "horizontal_straightness_um",
+    "straightness h",
+    "straightness",
+    "result",
+    "least-squares straightness of the traverse in the horizontal plane (from the yaw)",
+    1,
+    {},
+    "/result/horizontal/least_squares/straightness_um",
+    "/result/horizontal/least_squares/u_straightness_um"};
+inline constexpr Parameter vertical_straightness{
+    "vertical_straightness_um",
+    "straightness v",
+    "straightness",
+    "result",
+    "least-squares straightness of the traverse in the vertical plane (from the pitch)",
+    2,
+    {},
+    "/result/vertical/least_squares/straightness_um",
+    "/result/vertical/least_squares/u_straightness_um"};
+inline constexpr Parameter profile_straightness{"straightness_lsq_um",
+                                                "profile straightness",
+                                                "profile",
+                                                "profile",
+                                                "least-squares straightness of the profile",
+                                                1};
+inline constexpr Parameter form_straightness{"form_straightness_um",
+                                             "form straightness",
+                                             "profile",
+                                             "profile",
+                                             "straightness of the profile's form (the wavelet approximation)",
+                                             2};
+
+// Every entry above, in this file's order.
+std::span<const Parameter* const> catalogue();
+// The entry a reported name is an instance of ("backlash_z_um", "run2.center_offset_x_um",
+// "vibration_phase_bar_deg_run1"), the first in catalogue order; nullptr for a name not in the catalogue.
+const Parameter* find_parameter(std::string_view name);
+
+// The plane's axis `axis` (0 or 1) as it is written in names: "xz", 1 -> "z" (a plane not of two
+// letters: x and y).
+std::string axis_letter(std::string_view plane, int axis);
+// The name with its placeholders filled: {axis} by the plane's axis `axis`, {a} and {b} by the plane's.
+std::string name(const Parameter& p, std::string_view plane = "xy", int axis = -1);
+// ... {axis} by `along` ("bar", "x"), {run} by `run` (from 1; 0: none).
+std::string name_along(const Parameter& p, std::string_view along, int run = 0);
+std::string label(const Parameter& p, std::string_view plane = "xy", int axis = -1);
+// Whether the name holds {axis}: one figure per plane axis.
+[[nodiscard]] bool per_axis(const Parameter& p);
+// A name of one run among several: "run2.center_offset_x_um" (identification), "vibration_sin_run2" (EXPLAIN).
+std::string run_prefixed(int run, const std::string& name);
+std::string run_suffixed(const std::string& name, int run);
+
+// The unit a name ends with, as shown ("_um" -> "µm"): the one table of unit suffixes.
+// "name_um" -> ("name", "µm"); a name without a known suffix -> (name, "").
+std::pair<std::string, std::string> split_unit(const std::string& name);
+std::string unit(const Parameter& p);
+
+// The headline figures of a session kind's PARAMS, in their order; empty for a kind without any.
+std::span<const Parameter* const> headline_parameters(std::string_view kind);
+
+}  // namespace guideway::results

@@ -1,0 +1,32 @@
+#pragma once
+// The header of a result: the fields every PARAMS and EXPLAIN carries besides what was identified or
+// explained (docs/protocol.md "PARAMS"): which session, of which kind, on which device, and where its
+// files are. Written in one place for the daemon's live sessions and for `guideway replay`, read back by
+// the CLI and the fleet. Pure; thread safe.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace guideway::results {
+
+struct ResultHeader {
+  std::string session;  // "dbb-dbb-20250101T120000Z"
+  std::string kind;     // the session kind: "dbb", "straightness", ...
+  std::string device;
+  std::optional<std::uint64_t> samples;  // PARAMS: the samples the session was given
+  std::string recording;                 // the raw recording (live sessions), "" = none
+  std::string recording_error;           // why the recording is incomplete, "" = it is whole
+  std::vector<std::string> derived;      // files written beside the recording
+  std::string replayed_from;             // the recording a replay read, "" = a live result
+};
+
+// `body` with the header's fields set; empty ones are left out (never null).
+nlohmann::json with_header(nlohmann::json body, const ResultHeader& header);
+// The header fields of a PARAMS or EXPLAIN message; absent or mistyped ones are empty.
+ResultHeader read_header(const nlohmann::json& message);
+
+}  // namespace guideway::results

@@ -1,0 +1,134 @@
+// The vocabulary of results (results/): the catalogue of parameters (names filled for a plane, found back
+// from a reported name, one entry per group and name, units from the one table), the session kinds as
+// data (options with their defaults, headline figures in order) and the PARAMS/EXPLAIN header.
+#include <set>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "results/message_class.hpp"
+#include "results/parameters.hpp"
+#include "results/result_header.hpp"
+#include "results/session_kinds.hpp"
+
+using namespace guideway;
+
+TEST(Results, ParameterNamesAreFilledForThePlane) {
+  EXPECT_EQ(results::name(results::backlash, "xy", 0), "backlash_x_um");
+  EXPECT_EQ(results::name(results::backlash, "xz", 1), "backlash_z_um");
+  EXPECT_EQ(results::name(results::backlash, "yz", 0), "backlash_y_um");
+  EXPECT_EQ(results::label(results::backlash, "xz", 1), "backlash z");
+  EXPECT_EQ(results::name(results::straightness_cubic_difference, "yz"), "straightness_cubic_y_minus_z_um");
+  EXPECT_EQ(results::name_along(results::vibration, "bar"), "vibration_bar_um");
+  EXPECT_EQ(results::name_along(results::centre_drift_offset, "x", 3), "drift_x_offset_run3_um");
+  EXPECT_EQ(results::run_prefixed(2, "center_offset_x_um"), "run2.center_offset_x_um");
+  EXPECT_EQ(results::run_suffixed("vibration_phase_x_deg", 2), "vibration_phase_x_deg_run2");
+  EXPECT_EQ(results::axis_letter("xz", 1), "z");
+  EXPECT_TRUE(results::per_axis(results::scale));
+  EXPECT_FALSE(results::per_axis(results::squareness));
+}
+
+TEST(Results, ReportedNamesAreFoundInTheCatalogue) {
+  EXPECT_EQ(results::find_parameter("backlash_z_um"), &results::backlash);
+  EXPECT_EQ(results::find_parameter("run2.center_offset_x_um"), &results::center_offset);
+  EXPECT_EQ(results::find_parameter("vibration_phase_bar_deg_run1"), &results::vibration_phase);
+  EXPECT_EQ(results::find_parameter("straightness_cubic_x_minus_y_um"), &results::straightness_cubic_difference);
+  EXPECT_EQ(results::find_parameter("straightness_cubic_y_um"), &results::straightness_cubic);
+  EXPECT_EQ(results::find_parameter("S_x"), &results::lai_S_x);
+  EXPECT_EQ(results::find_parameter("no_such_um"), nullptr);
+  EXPECT_EQ(results::find_parameter("backlash_xy_um"), &results::backlash) << "{axis} may be a word (\"bar\")";
+}
+
+TEST(Results, EachGroupNamesAParameterOnce) {
+  std::set<std::pair<std::string, std::string>> seen;
+  for (const results::Parameter* p : results::catalogue()) {
+    SCOPED_TRACE(std::string(p->name));
+    EXPECT_TRUE(seen.insert({std::string(p->group), std::string(p->name)}).second || p->group.empty());
+    EXPECT_FALSE(p->label.empty());
+    EXPECT_FALSE(p->meaning.empty());
+    if (!p->value_at.empty()) {
+      EXPECT_FALSE(p->u_at.empty());
+    }
+  }
+}
+
+TEST(Results, UnitsComeFromTheNamesEnd) {
+  EXPECT_EQ(results::unit(results::backlash), "\u00b5m");
+  EXPECT_EQ(results::unit(results::squareness), "\u00b5rad");
+  EXPECT_EQ(results::unit(results::scale), "ppm");
+  EXPECT_EQ(results::unit(results::lai_a3), "1/mm\u00b2");
+  EXPECT_EQ(results::split_unit("radius_mm"), std::make_pair(std::string("radius"), std::string("mm")));
+  EXPECT_EQ(results::split_unit("S_x"), std::make_pair(std::string("S_x"), std::string()));
+}
+
+TEST(Results, HeadlineFiguresAreInTheirKindsOrder) {
+  const auto dbb = results::headlines(results::dbb_kind);
+  ASSERT_EQ(dbb.size(), 4U);
+  EXPECT_EQ(dbb[0], &results::circular_deviation);
+  EXPECT_EQ(dbb[1], &results::squareness);
+  EXPECT_EQ(dbb[2], &results::backlash);
+  EXPECT_EQ(dbb[3], &results::scale);
+  for (const results::SessionKindInfo* kind : results::session_kinds()) {
+    SCOPED_TRACE(std::string(kind->name));
+    EXPECT_FALSE(results::headlines(*kind).empty());
+    for (const results::Parameter* p : results::headlines(*kind)) EXPECT_EQ(p->kind, kind->name);
+  }
+  EXPECT_TRUE(results::headline_parameters("unknown").empty());
+}
+
+TEST(Results, SessionKindsListTheirOptionsWithDefaults) {
+  EXPECT_EQ(results::session_kind_names(), "dbb, runout, straightness, profile");
+  EXPECT_EQ(results::session_kind_rank("runout"), 1);
+  EXPECT_EQ(results::session_kind_rank("unknown"), 4);
+  EXPECT_EQ(&results::session_kind("profile"), &results::profile_kind);
+  EXPECT_THROW((void)results::session_kind("nope"), std::out_of_range);
+  EXPECT_EQ(results::option_with_default(results::straightness_step_mm), "step_mm=50");
+  EXPECT_EQ(results::option_with_default(results::straightness_start), "start=return|now (default return)");
+  EXPECT_EQ(results::option_with_default(results::profile_wavelet), "wavelet=db1");
+  const std::string d = results::description(results::runout_kind);
+  EXPECT_NE(d.find("(options: plate_diameter_mm=1000, parallelism_um=2.5,"), std::string::npos) << d;
+  for (const results::SessionKindInfo* kind : results::session_kinds()) {
+    std::set<std::string_view> names;
+    for (const results::SessionOption* o : kind->options) {
+      EXPECT_TRUE(names.insert(o->name).second) << o->name;
+      EXPECT_FALSE(o->help.empty()) << o->name;
+      if (o->type == results::OptionType::number || o->type == results::OptionType::integer) {
+        EXPECT_LE(o->min, o->fallback) << o->name;
+        EXPECT_LE(o->fallback, o->max) << o->name;
+      }
+    }
+  }
+}
+
+TEST(Results, HeaderIsWrittenWithoutEmptyFieldsAndReadBack) {
+  results::ResultHeader h;
+  h.session = "dbb-dbb-1";
+  h.kind = "dbb";
+  h.device = "dbb";
+  h.samples = 12;
+  h.derived = {"a.csv"};
+  const nlohmann::json j = results::with_header({{"model", "m"}}, h);
+  EXPECT_EQ(j.dump(), R"({"derived":["a.csv"],"device":"dbb","kind":"dbb","model":"m","samples":12,"session":"dbb-dbb-1"})");
+  const results::ResultHeader back = results::read_header(j);
+  EXPECT_EQ(back.session, h.session);
+  EXPECT_EQ(back.samples, h.samples);
+  EXPECT_EQ(back.derived, h.derived);
+  EXPECT_TRUE(back.recording.empty());
+  EXPECT_TRUE(results::read_header(nlohmann::json::array()).session.empty());
+}
+
+TEST(Results, MessageClassesByName) {
+  EXPECT_EQ(results::class_named("VERSION"), results::MessageClass::version);
+  EXPECT_EQ(results::class_named("PORT"), results::MessageClass::port);
+  EXPECT_FALSE(results::published_class("PORT"));
+  EXPECT_EQ(results::request(results::RequestClass::params, {{"kind", "dbb"}}).dump(),
+            R"({"class":"params","kind":"dbb"})");
+  EXPECT_EQ(results::request_named("recordings"), results::RequestClass::recordings);
+  EXPECT_FALSE(results::request_named("STATUS")) << "requests are lower case";
+  EXPECT_EQ(results::request_class_names(),
+            "version, status, poll, watch, start, stop, params, explain, report, recordings");
+  EXPECT_TRUE(results::has_class(results::with_class(results::MessageClass::params, nlohmann::json::object()),
+                                 results::MessageClass::params));
+  EXPECT_FALSE(results::has_class(nlohmann::json::array(), results::MessageClass::params));
+  EXPECT_FALSE(results::has_class({{"class", 3}}, results::MessageClass::params));
+}
