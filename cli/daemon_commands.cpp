@@ -8,6 +8,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
+#include "cli/instrument_print.hpp"
 #include "cli/params_print.hpp"
 #include "core/runtime_paths.hpp"
 #include "results/session_kinds.hpp"
@@ -78,6 +79,7 @@ void print_status(const nlohmann::json& s) {
       }
     }
     if (!own.empty()) std::cout << std::string(static_cast<std::size_t>(name_w), ' ') << "driver counters: " << own << "\n";
+    print_device_instrument(d, name_w, std::cout);
   }
 }
 
@@ -209,6 +211,7 @@ void run_start(const StartOptions& o, CliContext& ctx) {
     std::cout << r.dump() << "\n";
   } else {
     std::cout << "session " << session << " started\n";
+    print_warnings(r, std::cout);
   }
   if (o.wait) wait_for_params(c, session, o);
 }
