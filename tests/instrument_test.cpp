@@ -46,6 +46,17 @@ Instrument bar_instrument() {
   return in;
 }
 
+// The header of a DBB session on the bar, judged on 2025-02-25 (past its due date).
+results::ResultHeader bar_session_header() {
+  results::ResultHeader h;
+  h.session = "dbb-dbb-1";
+  h.kind = "dbb";
+  h.device = "dbb";
+  h.instrument = bar_instrument();
+  h.instrument_checked_on = date("2025-02-25");
+  return h;
+}
+
 }  // namespace
 
 TEST(CalendarDates, AreIsoCalendarDatesThatExist) {
@@ -162,12 +173,7 @@ TEST(InstrumentRecording, TheHeaderKeysAreWrittenAndReadBack) {
 }
 
 TEST(InstrumentResultHeader, IsWrittenJudgedOnTheSessionsDateAndReadBack) {
-  results::ResultHeader h;
-  h.session = "dbb-dbb-1";
-  h.kind = "dbb";
-  h.device = "dbb";
-  h.instrument = bar_instrument();
-  h.instrument_checked_on = date("2025-02-25");
+  results::ResultHeader h = bar_session_header();
   const nlohmann::json j = results::with_header({{"model", "m"}}, h);
   EXPECT_EQ(j["instrument"].dump(),
             R"({"calibrated_length_mm":100.0,"calibrated_length_u_um":0.5,"calibrated_on":"2023-01-10",)"
@@ -210,12 +216,7 @@ TEST(InstrumentReport, TheTableShowsEachInstrumentAndWarnsOfAnExpiredOne) {
 }
 
 TEST(InstrumentFleetHistory, AResultsInstrumentIsShownWithItsDueDate) {
-  results::ResultHeader h;
-  h.session = "dbb-dbb-1";
-  h.kind = "dbb";
-  h.device = "dbb";
-  h.instrument = bar_instrument();
-  h.instrument_checked_on = date("2025-02-25");
+  results::ResultHeader h = bar_session_header();
   const nlohmann::json params = results::with_header({{"class", "PARAMS"}, {"model", "lai3+ballbar"}}, h);
   fleet::ResultRow row;
   row.kind = "dbb";
