@@ -520,7 +520,11 @@ void Daemon::add_instrument_status(std::size_t device, const drivers::DriverStat
   const CalendarDate today = utc_today();
   if (!instrument.empty()) out["instrument"] = results::instrument_json(s.name, instrument, today);
   std::vector<std::string> warnings;
-  if (std::string w = calibration_warning(s.name, instrument, today); !w.empty()) warnings.push_back(std::move(w));
+  if (std::string w = calibration_warning(s.name, instrument, today); !w.empty())
+    warnings.push_back(w + (config_.refuse_uncalibrated ? "; its sessions are refused (refuse_uncalibrated)" : ""));
+  else if (config_.refuse_uncalibrated && !instrument.calibration_due)
+    warnings.push_back("device " + s.name +
+                       ": no calibration_due is configured: its sessions are refused (refuse_uncalibrated)");
   warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the driver's (a serial mismatch)
   if (!warnings.empty()) out["warnings"] = std::move(warnings);
 }

@@ -261,6 +261,9 @@ calibrated_length_u_um = 0.5
         self.assertNotEqual(out.returncode, 0, out.stdout)
         self.assertIn(expired, out.stderr)
         self.assertIn("refused: [daemon] refuse_uncalibrated = true", out.stderr)
+        warning = self.status()["dbb"]["warnings"][0]
+        self.assertTrue(warning.startswith(expired) and warning.endswith(
+            "; its sessions are refused (refuse_uncalibrated)"), warning)
         d.send_signal(signal.SIGTERM)
         self.assertEqual(d.wait(timeout=10), 0)
 
