@@ -10,6 +10,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
+#include "cli/instrument_print.hpp"
 #include "cli/params_print.hpp"
 #include "core/runtime_paths.hpp"
 #include "results/session_kinds.hpp"
@@ -80,6 +81,7 @@ void print_status(const nlohmann::json& s) {
       }
     }
     if (!own.empty()) std::cout << std::string(static_cast<std::size_t>(name_w), ' ') << "driver counters: " << own << "\n";
+    print_device_instrument(d, name_w, std::cout);
   }
 }
 
@@ -252,6 +254,7 @@ void run_start(const StartOptions& o, CliContext& ctx) {
     std::cout << r.dump() << "\n";
   } else {
     std::cout << "session " << session << " started\n";
+    print_warnings(r, std::cout);
   }
   if (o.wait) wait_for_params(c, session, o);
 }

@@ -19,8 +19,13 @@ struct IdentifyArgs {
   bool json = false;
   double period_a_mm = 0, period_b_mm = 0;
   bool per_run_center = false;
+  double bar_length_u_um = 0;
   void add(CLI::App& cmd) {
     cmd.add_option("runs", files, "DBB run files (guideway/dbb-run/1 CSV)")->required()->check(CLI::ExistingFile);
+    cmd.add_option("--bar-length-u-um", bar_length_u_um,
+                   "standard uncertainty of the bar's calibrated length (its certificate's u, k = 1; a device's "
+                   "calibrated_length_u_um): added to every parameter's u as the fit's response to it")
+        ->check(CLI::NonNegativeNumber);
     cmd.add_flag("--json", json, "print the result as one JSON object");
     cmd.add_option("--cyclic-period-a-mm", period_a_mm, "known lead of the first plane axis (default: search)");
     cmd.add_option("--cyclic-period-b-mm", period_b_mm, "known lead of the second plane axis (default: search)");
@@ -36,6 +41,7 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   opt.cyclic_period_a_m = a.period_a_mm * 1e-3;
   opt.cyclic_period_b_m = a.period_b_mm * 1e-3;
   opt.lai_shared_center = !a.per_run_center;
+  opt.bar_length_u_um = a.bar_length_u_um;
   const auto result = models::dbb::identify(runs, opt);
   if (a.json) {
     std::cout << models::dbb::to_json(result).dump() << "\n";

@@ -1,6 +1,7 @@
 #include "cli/params_print.hpp"
 
 #include "cli/daemon_client.hpp"
+#include "cli/instrument_print.hpp"
 #include "core/units.hpp"
 #include "results/message_class.hpp"
 
@@ -70,6 +71,7 @@ void print_params(const nlohmann::json& p) {
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
   if (p.contains("recording_error")) std::cout << "recording error: " << p["recording_error"].get<std::string>() << "\n";
   for (const auto& f : p.value("derived", nlohmann::json::array())) std::cout << "derived: " << f.get<std::string>() << "\n";
+  print_instrument(p, std::cout);
 }
 
 void print_explanation(const nlohmann::json& e) {

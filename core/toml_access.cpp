@@ -171,6 +171,24 @@ std::vector<std::string> TableReader::get_strings(std::string_view key, std::vec
   return out;
 }
 
+std::optional<CalendarDate> TableReader::get_date(std::string_view key) const {
+  const toml::node* node = lookup(key);
+  if (!node) return std::nullopt;
+  const char* expected = "expected a date YYYY-MM-DD (a TOML date such as 2025-03-14, or the string \"2025-03-14\")";
+  std::string text;
+  if (const auto* d = node->as_date()) {
+    const toml::date& v = d->get();
+    text = to_iso({v.year, v.month, v.day});
+  } else if (const auto* str = node->as_string()) {
+    text = str->get();
+  } else {
+    fail_at(node, key, std::string(expected) + ", got " + type_word(*node));
+  }
+  const std::optional<CalendarDate> date = parse_iso_date(text);
+  if (!date) fail_at(node, key, std::string(expected) + ", got \"" + text + "\"");
+  return date;
+}
+
 std::string TableReader::get_choice(std::string_view key, std::string fallback,
                                     const std::vector<std::string>& allowed) const {
   std::string v = get_string(key, std::move(fallback));

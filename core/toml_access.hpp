@@ -14,6 +14,8 @@
 
 #include <toml++/toml.h>
 
+#include "core/utc_time.hpp"
+
 namespace guideway {
 
 class ConfigError : public std::runtime_error {
@@ -53,6 +55,9 @@ class TableReader {
   bool get_bool(std::string_view key, bool fallback) const;
   std::vector<double> get_doubles(std::string_view key, std::vector<double> fallback) const;
   std::vector<std::string> get_strings(std::string_view key, std::vector<std::string> fallback) const;
+  // A date: a TOML local date (calibrated_on = 2025-03-14) or the same as a string ("2025-03-14");
+  // nullopt when the key is absent. A date that does not exist, or any other value, is an error.
+  std::optional<CalendarDate> get_date(std::string_view key) const;
   // One of the allowed words, e.g. direction = "ccw" | "cw".
   std::string get_choice(std::string_view key, std::string fallback, const std::vector<std::string>& allowed) const;
 

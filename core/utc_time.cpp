@@ -76,4 +76,59 @@ std::string utc_iso_ms(double seconds_since_epoch) {
   return format_utc(seconds, "%Y-%m-%dT%H:%M:%S") + tail;
 }
 
+namespace {
+
+// Days since 1970-01-01 of a proleptic Gregorian date (Howard Hinnant's days_from_civil).
+long days_from_civil(int y, int m, int d) {
+  y -= m <= 2 ? 1 : 0;
+  const long era = (y >= 0 ? y : y - 399) / 400;
+  const long yoe = y - era * 400;
+  const long doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+  const long doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  return era * 146097 + doe - 719468;
+}
+
+int days_in_month(int year, int month) {
+  static constexpr int days[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  const bool leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
+  return month == 2 && leap ? 29 : days[month - 1];
+}
+
+}  // namespace
+
+std::optional<CalendarDate> parse_iso_date(std::string_view text) {
+  if (text.size() != 10 || text[4] != '-' || text[7] != '-') return std::nullopt;
+  int v[3] = {0, 0, 0};
+  const std::size_t at[3] = {0, 5, 8}, width[3] = {4, 2, 2};
+  for (int k = 0; k < 3; ++k) {
+    for (std::size_t i = at[k]; i < at[k] + width[k]; ++i) {
+      if (text[i] < '0' || text[i] > '9') return std::nullopt;
+      v[k] = v[k] * 10 + (text[i] - '0');
+    }
+  }
+  const CalendarDate d{v[0], v[1], v[2]};
+  if (d.year < 1 || d.month < 1 || d.month > 12 || d.day < 1 || d.day > days_in_month(d.year, d.month))
+    return std::nullopt;
+  return d;
+}
+
+std::string to_iso(const CalendarDate& date) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%04d-%02d-%02d", date.year, date.month, date.day);
+  return buf;
+}
+
+CalendarDate utc_date(double seconds_since_epoch) {
+  const auto seconds = static_cast<std::time_t>(std::floor(seconds_since_epoch));
+  std::tm tm{};
+  gmtime_r(&seconds, &tm);
+  return {tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday};
+}
+
+CalendarDate utc_today() { return utc_date(static_cast<double>(std::time(nullptr))); }
+
+long days_between(const CalendarDate& from, const CalendarDate& to) {
+  return days_from_civil(to.year, to.month, to.day) - days_from_civil(from.year, from.month, from.day);
+}
+
 }  // namespace guideway

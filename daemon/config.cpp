@@ -1,5 +1,6 @@
 #include "daemon/config.hpp"
 #include "daemon/cpu_placement.hpp"
+#include "daemon/instrument_config.hpp"
 #include "daemon/mqtt_config.hpp"
 
 #include <arpa/inet.h>
@@ -100,6 +101,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
       c.cpu_affinity = std::move(*cpus);
     }
     if (d->has("nice")) c.nice = static_cast<int>(d->get_int("nice", 0, -20, 19));
+    c.refuse_uncalibrated = d->get_bool("refuse_uncalibrated", false);
     c.emulator_executable = d->get_string("emulator_executable", "");
     if (const std::string m = d->get_string("emulator_machine", ""); !m.empty()) {
       const std::filesystem::path path = config_relative_path(file_name, m);
@@ -117,6 +119,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     if (!names.insert(d.name).second) dev.fail("name", "duplicate device name \"" + d.name + "\"");
     d.driver = dev.require_string("driver");
     d.ring_capacity = ring_capacity(dev, c.ring_capacity);
+    d.instrument = parse_instrument(dev, d.driver);
     if (!dev.get_bool("enabled", true)) continue;
     d.table = std::make_shared<TableReader>(dev);
     c.devices.push_back(std::move(d));
@@ -190,6 +193,13 @@ DaemonConfig parse_config(std::string_view text, const std::string& file_name) {
 }
 
 DaemonConfig load_config_file(const std::string& path) { return from_table(parse_toml_file(path), path); }
+
+std::vector<std::string> calibration_warnings(const DaemonConfig& config, const CalendarDate& on) {
+  std::vector<std::string> out;
+  for (const auto& d : config.devices)
+    if (std::string w = calibration_warning(d.name, d.instrument, on); !w.empty()) out.push_back(std::move(w));
+  return out;
+}
 
 std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& config) {
   std::vector<std::unique_ptr<EmulatorProcess>> out;

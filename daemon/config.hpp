@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/instrument.hpp"
 #include "core/toml_access.hpp"
 #include "daemon/emulator_launcher.hpp"
 #include "plant/publisher.hpp"
@@ -40,12 +41,16 @@ struct DaemonConfig {
   // isolated ones; and their nice value (nullopt: as started).
   std::optional<std::set<int>> cpu_affinity;
   std::optional<int> nice;
+  // A session on a device whose calibration has run out (or states no calibration_due) is refused
+  // instead of warned about.
+  bool refuse_uncalibrated = false;
 
   struct Device {
     std::string name;
     std::string driver;
     std::size_t ring_capacity;
     std::shared_ptr<TableReader> table;  // the [[device]] table, for the driver factory
+    Instrument instrument;               // its serial and calibration (daemon/instrument_config.hpp)
   };
   std::vector<Device> devices;
   // [[processing]]: online wavelet denoising of one channel of a device (daemon/channel_denoiser.hpp).
@@ -76,6 +81,8 @@ std::filesystem::path config_relative_path(const std::string& config_file, const
 // Throws ConfigError for an unknown NAME, std::runtime_error when an emulator does not come up.
 std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& config);
 DaemonConfig load_config_file(const std::string& path);
+// One warning per enabled device whose calibration had run out on `on` (calibration_warning's text).
+std::vector<std::string> calibration_warnings(const DaemonConfig& config, const CalendarDate& on);
 DaemonConfig default_config();
 std::string_view default_config_text();
 

@@ -20,6 +20,7 @@
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
+#include "results/result_header.hpp"
 
 namespace guideway::daemon {
 
@@ -104,6 +105,9 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   pipeline_ = std::make_unique<Pipeline>(raw, outbox_, config_.sample_publish_hz, io_);
   const auto steps = processing_steps(config_, devices_);
   auto manager = std::make_unique<SessionManager>(sessions, raw, config_.state_dir, outbox_);
+  std::vector<Instrument> instruments;
+  for (const auto& d : config_.devices) instruments.push_back(d.instrument);  // create_devices' order
+  manager->set_instruments(std::move(instruments), config_.refuse_uncalibrated);
   sessions_ = manager.get();
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     pipeline_->set_processing(i, steps[i]);
@@ -221,6 +225,8 @@ int Daemon::run() {
     log_->warn("TCP on {}:{} is reachable from other hosts: anyone who can connect can start and stop sessions",
                config_.tcp_host, server_->tcp_port());
   }
+  for (const std::string& w : calibration_warnings(config_, utc_today()))
+    log_->warn("{}{}", w, config_.refuse_uncalibrated ? " (refuse_uncalibrated: its sessions are refused)" : "");
   notifier_.ready(status_line());
   loop_.run(50, [this] { periodic(mono_now_ns()); });
   notifier_.stopping();
@@ -352,8 +358,10 @@ void Daemon::check_device_events() {
 std::string Daemon::status_line() const {
   std::size_t streaming = 0;
   for (const auto& d : devices_) streaming += d->status().state == drivers::DeviceState::streaming ? 1 : 0;
+  const std::size_t expired = calibration_warnings(config_, utc_today()).size();
   return std::to_string(streaming) + "/" + std::to_string(devices_.size()) + " devices streaming, " +
-         std::to_string(server_->client_count()) + " clients";
+         std::to_string(server_->client_count()) + " clients" +
+         (expired ? ", " + std::to_string(expired) + " past calibration due" : "");
 }
 
 nlohmann::json Daemon::status_json() {
@@ -362,6 +370,7 @@ nlohmann::json Daemon::status_json() {
     const drivers::DriverStatus s = devices_[i]->status();
     nlohmann::json d = {{"name", s.name}, {"driver", s.driver}, {"state", std::string(drivers::to_string(s.state))}};
     if (!s.reason.empty()) d["reason"] = s.reason;
+    add_instrument_status(i, s, d);
     d["counters"] = {{"samples", s.counters.samples},       {"frames", s.counters.frames},
                      {"bad_frames", s.counters.bad_frames}, {"timeouts", s.counters.timeouts},
                      {"reconnects", s.counters.reconnects}, {"overruns", s.counters.overruns}};
@@ -505,6 +514,21 @@ std::string string_field(const nlohmann::json& body, const char* key) {
 
 }  // namespace
 
+void Daemon::add_instrument_status(std::size_t device, const drivers::DriverStatus& s, nlohmann::json& out) const {
+  // The configuration's devices are the daemon's, in the same order (create_devices).
+  const Instrument& instrument = config_.devices.at(device).instrument;
+  const CalendarDate today = utc_today();
+  if (!instrument.empty()) out["instrument"] = results::instrument_json(s.name, instrument, today);
+  std::vector<std::string> warnings;
+  if (std::string w = calibration_warning(s.name, instrument, today); !w.empty())
+    warnings.push_back(w + (config_.refuse_uncalibrated ? "; its sessions are refused (refuse_uncalibrated)" : ""));
+  else if (config_.refuse_uncalibrated && !instrument.calibration_due)
+    warnings.push_back("device " + s.name +
+                       ": no calibration_due is configured: its sessions are refused (refuse_uncalibrated)");
+  warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the driver's (a serial mismatch)
+  if (!warnings.empty()) out["warnings"] = std::move(warnings);
+}
+
 nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   sessions::SessionRequest sr;
   sr.kind = string_field(req.body, "kind");
@@ -517,8 +541,13 @@ nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   }
   const std::string name = sessions_->start(sr);
   log_->info("session {} started", name);
-  return results::with_class(results::MessageClass::session,
-                             {{"session", name}, {"state", to_string(SessionState::running)}});
+  nlohmann::json reply = {{"session", name}, {"state", to_string(SessionState::running)}};
+  for (const SessionInfo& info : sessions_->snapshot()) {
+    if (info.name != name || info.warnings.empty()) continue;
+    for (const auto& w : info.warnings) log_->warn("session {}: {}", name, w);
+    reply["warnings"] = info.warnings;
+  }
+  return results::with_class(results::MessageClass::session, std::move(reply));
 }
 
 nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {
@@ -585,6 +614,7 @@ nlohmann::json Daemon::sessions_json() const {
     if (!s.progress.empty()) j["progress"] = s.progress;
     if (!s.recording.empty()) j["recording"] = s.recording;
     if (!s.recording_error.empty()) j["recording_error"] = s.recording_error;
+    if (!s.warnings.empty()) j["warnings"] = s.warnings;
     out.push_back(std::move(j));
   }
   return out;

@@ -84,6 +84,9 @@ class Daemon {
   nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
                            const std::string& what) const;
   nlohmann::json sessions_json() const;
+  // A STATUS device's "instrument" (as configured, judged today) and "warnings" (calibration run out,
+  // the driver's own: a serial that is not the configured one).
+  void add_instrument_status(std::size_t device, const drivers::DriverStatus& s, nlohmann::json& out) const;
   std::string status_line() const;
 
   // An exclusive flock on SOCKET_PATH.lock held for the daemon's life, taken before anything starts:

@@ -13,6 +13,7 @@
 
 #include "core/memory_policy.hpp"
 #include "core/runtime_paths.hpp"
+#include "core/utc_time.hpp"
 #include "daemon/config.hpp"
 #include "daemon/cpu_placement.hpp"
 #include "daemon/daemon.hpp"
@@ -122,6 +123,9 @@ int main(int argc, char** argv) {
         (void)daemon::processing_steps(config, devices);
       }
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
+      // Not errors: the instruments still measure (unless refuse_uncalibrated refuses their sessions).
+      for (const std::string& w : daemon::calibration_warnings(config, utc_today()))
+        std::cout << "warning: " << w << "\n";
       return 0;
     }
     // Before any thread or emulator starts: they all inherit the placement.

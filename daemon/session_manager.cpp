@@ -11,6 +11,7 @@
 
 #include "core/atomic_file.hpp"
 #include "core/utc_time.hpp"
+#include "formats/raw_recording.hpp"
 #include "report/report.hpp"
 #include "results/result_header.hpp"
 
@@ -28,15 +29,6 @@ std::string_view to_string(SessionState state) noexcept {
 
 namespace {
 
-// The header of the session's results: which session, of which kind, on which device.
-results::ResultHeader header_of(const SessionInfo& info) {
-  results::ResultHeader h;
-  h.session = info.name;
-  h.kind = info.kind;
-  h.device = info.device;
-  return h;
-}
-
 std::string join(const std::vector<std::string>& v) {
   std::string out;
   for (const auto& s : v) out += (out.empty() ? "" : ", ") + s;
@@ -44,6 +36,38 @@ std::string join(const std::vector<std::string>& v) {
 }
 
 }  // namespace
+
+// The header of the session's results: which session, of which kind, on which device, by which instrument.
+results::ResultHeader SessionManager::header_of(const Running& r) const {
+  results::ResultHeader h;
+  h.session = r.info.name;
+  h.kind = r.info.kind;
+  h.device = r.info.device;
+  h.instrument = r.instrument;
+  h.instrument_checked_on = r.started_on;
+  return h;
+}
+
+void SessionManager::set_instruments(std::vector<Instrument> instruments, bool refuse_uncalibrated) {
+  instruments_ = std::move(instruments);
+  instruments_.resize(devices_.size());
+  refuse_uncalibrated_ = refuse_uncalibrated;
+}
+
+void SessionManager::check_calibration(std::size_t index, const CalendarDate& today) const {
+  if (!refuse_uncalibrated_) return;
+  const Instrument& in = instruments_[index];
+  const std::string& device = devices_[index]->name();
+  const std::string why = "refused: [daemon] refuse_uncalibrated = true";
+  if (!in.calibration_due) {
+    const std::string who = instrument_identity_text(in);
+    throw std::invalid_argument("device " + device + (who.empty() ? "" : " (" + who + ")") +
+                                ": no calibration_due is configured, so its calibration cannot be shown valid; " + why +
+                                " (state the certificate's calibrated_on and calibration_due in its [[device]] table)");
+  }
+  if (const std::string w = calibration_warning(device, in, today); !w.empty())
+    throw std::invalid_argument(w + "; " + why);
+}
 
 SessionManager::SessionManager(const sessions::SessionRegistry& registry, std::vector<drivers::Driver*> devices,
                                std::string state_dir, Outbox& outbox)
@@ -85,7 +109,12 @@ std::string SessionManager::start(const sessions::SessionRequest& request) {
   }
   auto r = std::make_unique<Running>();
   r->device_index = index;
-  r->session = kind->create(request, *devices_[index]);  // throws std::invalid_argument on bad options
+  r->instrument = index < instruments_.size() ? instruments_[index] : Instrument{};
+  r->started_on = utc_today();
+  check_calibration(index, r->started_on);
+  sessions::SessionRequest with_instrument = request;
+  with_instrument.instrument = r->instrument;
+  r->session = kind->create(with_instrument, *devices_[index]);  // throws std::invalid_argument on bad options
   {
     std::lock_guard lock(mutex_);
     for (const auto& info : infos_) {
@@ -99,8 +128,11 @@ std::string SessionManager::start(const sessions::SessionRequest& request) {
     while (std::any_of(infos_.begin(), infos_.end(), [&](const SessionInfo& i) { return i.name == name; })) {
       name = base + "-" + std::to_string(++suffix);
     }
-    r->info = {name, request.kind, devices_[index]->name(), SessionState::running, "", "", "", 0};
+    r->info = {name, request.kind, devices_[index]->name(), SessionState::running, "", "", "", 0, {}};
+    if (std::string w = calibration_warning(r->info.device, r->instrument, r->started_on); !w.empty())
+      r->info.warnings.push_back(std::move(w));
     auto meta = r->session->metadata();
+    meta.merge(formats::instrument_metadata(r->instrument));
     meta["session"] = name;
     meta["kind"] = request.kind;
     meta["options"] = request.options.dump();
@@ -231,7 +263,7 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
     std::optional<nlohmann::json> report = r.session->explain();
     if (!report) return std::nullopt;
     Message message = make_message(results::MessageClass::explain,
-                                   results::with_header(std::move(*report), header_of(info)), info.device, info.name);
+                                   results::with_header(std::move(*report), header_of(r)), info.device, info.name);
     const nlohmann::json& explanation = message.body;
     outbox_.post(message);
     // Kept beside the recording for the session's report (guideway report reads it too). The
@@ -264,6 +296,8 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
     report::ReportOptions options;
     options.title = "Guideway " + r.info.kind + " session " + r.info.name;
     options.subtitle = "device " + r.info.device + ", recording " + r.info.recording;
+    if (!r.instrument.empty()) options.instruments.push_back({r.info.device, r.instrument});
+    options.instruments_checked_on = r.started_on;
     const std::string path = report_path(state_dir_, r.info.name);
     write_file_atomically(path, report::render_report(inputs, options), sessions::recording_file_mode);
     outbox_.post(make_message(Event{.event = "report_ready", .device = r.info.device, .session = r.info.name, .file = path}));
@@ -312,7 +346,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
   }
   info.state = failure.empty() ? SessionState::done : SessionState::failed;
   if (failure.empty()) {
-    results::ResultHeader header = header_of(info);
+    results::ResultHeader header = header_of(*r);
     header.samples = info.samples;
     header.recording = info.recording;
     header.recording_error = info.recording_error;

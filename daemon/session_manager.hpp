@@ -16,8 +16,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/instrument.hpp"
 #include "daemon/outbox.hpp"
 #include "daemon/pipeline.hpp"
+#include "results/result_header.hpp"
 #include "sessions/recorder.hpp"
 #include "sessions/session.hpp"
 
@@ -37,6 +39,7 @@ struct SessionInfo {
   std::string recording;  // path of the raw recording ("" if not recorded)
   std::string recording_error;
   std::uint64_t samples = 0;
+  std::vector<std::string> warnings;  // at its start: its instrument's calibration had run out
 };
 
 // Where a finished session's HTML report is kept (the `report` request serves it).
@@ -48,7 +51,11 @@ class SessionManager : public PipelineStage {
                  Outbox& outbox);
   ~SessionManager() override;
 
+  // The instrument of each device (in the order of the devices) and whether a session on one whose
+  // calibration has run out, or states no due date, is refused. Before the first start().
+  void set_instruments(std::vector<Instrument> instruments, bool refuse_uncalibrated);
   // Creates and queues a session; returns its name. Throws std::invalid_argument with the reason.
+  // The request's instrument is the device's (set_instruments).
   std::string start(const sessions::SessionRequest& request);
   // Requests the end of a session (or of all when name is empty); returns the names affected.
   std::vector<std::string> stop(const std::string& name);
@@ -70,7 +77,12 @@ class SessionManager : public PipelineStage {
     bool stop_requested = false;
     std::uint64_t recorder_errors_seen = 0;  // recorder->error_count() when last looked at
     std::string reported_error;              // the last recording_failed reason posted
+    Instrument instrument;                   // its device's
+    CalendarDate started_on;                 // UTC: the date its instrument's calibration is judged on
   };
+  [[nodiscard]] results::ResultHeader header_of(const Running& r) const;
+  // Throws std::invalid_argument when refuse_uncalibrated refuses a session on this device.
+  void check_calibration(std::size_t device_index, const CalendarDate& today) const;
   void finish_loop(const std::stop_token& stop);
   void finish(std::unique_ptr<Running> r);
   // Posts EXPLAIN (or an explain_failed EVENT); returns the file the explanation was saved to.
@@ -84,6 +96,8 @@ class SessionManager : public PipelineStage {
 
   const sessions::SessionRegistry& registry_;
   std::vector<drivers::Driver*> devices_;
+  std::vector<Instrument> instruments_;  // per device (empty: none stated)
+  bool refuse_uncalibrated_ = false;
   std::string state_dir_;
   Outbox& outbox_;
 

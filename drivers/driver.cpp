@@ -69,6 +69,11 @@ void Driver::stop() {
   set_state(DeviceState::stopped);
 }
 
+void Driver::set_warnings(std::vector<std::string> warnings) {
+  std::lock_guard lock(state_mutex_);
+  warnings_ = std::move(warnings);
+}
+
 DriverStatus Driver::status() const {
   DriverStatus s;
   s.name = name_;
@@ -77,6 +82,7 @@ DriverStatus Driver::status() const {
     std::lock_guard lock(state_mutex_);
     s.state = state_;
     s.reason = reason_;
+    s.warnings = warnings_;
   }
   s.counters.samples = samples_.load(std::memory_order_relaxed);
   s.counters.frames = frames_.load(std::memory_order_relaxed);

@@ -78,6 +78,8 @@ struct DriverStatus {
   std::string driver;
   DeviceState state = DeviceState::stopped;
   std::string reason;  // why the state is what it is ("", "connection refused", ...)
+  // What the user should know whatever the state, e.g. an instrument whose serial is not the configured one.
+  std::vector<std::string> warnings;
   DriverCounters counters;
   std::vector<NamedCounter>
       driver_counters;  // Driver::driver_counters(), in the driver's order (STATUS's JSON object sorts them by name)
@@ -134,6 +136,8 @@ class Driver {
   virtual void detach() {}
 
   void set_state(DeviceState state, std::string reason = {});
+  // Replaces the device's standing warnings (status().warnings); any thread, a mutex held for a swap.
+  void set_warnings(std::vector<std::string> warnings);
   // Queues an event for take_events(); never blocks for long (a mutex held for a push).
   void post_event(DeviceEvent event);
   // Assigns the sequence number and pushes; a full ring counts an overrun (the sample is dropped).
@@ -160,6 +164,7 @@ class Driver {
   mutable std::mutex state_mutex_;
   DeviceState state_ = DeviceState::stopped;
   std::string reason_;
+  std::vector<std::string> warnings_;  // under state_mutex_
   std::vector<DeviceEvent> events_;   // under state_mutex_
   std::uint64_t events_dropped_ = 0;  // under state_mutex_
   std::jthread thread_;

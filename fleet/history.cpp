@@ -6,20 +6,41 @@
 #include "core/printable.hpp"
 #include "report/html.hpp"
 #include "results/message_class.hpp"
+#include "results/result_header.hpp"
 #include "results/session_kinds.hpp"
 
 namespace guideway::fleet {
 
 int kind_rank(std::string_view kind) { return results::session_kind_rank(kind); }
 
+namespace {
+
+// "serial 1001, certificate C-17, due 2024-01-10 (EXPIRED at the session)"
+std::string instrument_line(const HistoryEntry& e) {
+  const Instrument& in = e.instrument;
+  std::string out = printable(instrument_identity_text(in));
+  if (in.calibration_due) {
+    out += (out.empty() ? "" : ", ") + std::string("due ") + to_iso(*in.calibration_due);
+    if (e.instrument_checked_on && calibration_expired(in, *e.instrument_checked_on))
+      out += " (EXPIRED at the session, " + to_iso(*e.instrument_checked_on) + ")";
+  }
+  return out.empty() ? "(no serial or calibration stated)" : out;
+}
+
+}  // namespace
+
 std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
   std::vector<HistoryEntry> out;
   std::map<std::string, std::vector<Headline>> previous;  // per kind: the figures of its last PARAMS
   for (const auto& r : rows) {
-    HistoryEntry e{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}, true};
+    HistoryEntry e{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}, true, {}, {}, {}};
     // A row that cannot be read (stored before ingest checked shapes) is marked and skipped, never fatal.
     try {
       const nlohmann::json j = nlohmann::json::parse(r.payload);
+      const results::ResultHeader header = results::read_header(j);
+      e.device = header.device;
+      e.instrument = header.instrument;
+      e.instrument_checked_on = header.instrument_checked_on;
       if (r.message_class == results::to_string(results::MessageClass::explain)) {
         e.explain = explain_summary(j);
       } else {
@@ -35,7 +56,7 @@ std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
         before = std::move(figures);
       }
     } catch (const std::exception&) {
-      e = HistoryEntry{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}, false};
+      e = HistoryEntry{r.kind, r.message_class, r.produced_utc, r.received_utc, r.session, {}, {}, false, {}, {}, {}};
     }
     out.push_back(std::move(e));
   }
@@ -73,6 +94,8 @@ nlohmann::json history_json(std::string_view machine, const std::vector<HistoryE
                         {"received_utc", e.received_utc},
                         {"session", e.session}};
     if (!e.readable) r["unreadable"] = true;
+    if (!e.instrument.empty())
+      r["instrument"] = results::instrument_json(e.device, e.instrument, e.instrument_checked_on.value_or(utc_today()));
     if (e.explain) {
       r["explain"] = to_json(*e.explain);
     } else {
@@ -91,6 +114,7 @@ std::string history_text(std::string_view machine, const std::vector<HistoryEntr
     out += printable(e.produced_utc) + "  " + printable(e.kind) + " " + e.message_class + "  " +
            (e.session.empty() ? "-" : printable(e.session)) + "\n";
     if (!e.readable) out += "    (its payload could not be read: skipped)\n";
+    if (!e.instrument.empty()) out += "    instrument: " + instrument_line(e) + "\n";
     if (e.explain) out += "    found: " + printable(to_text(*e.explain)) + "\n";
     for (const auto& f : e.figures) {
       const std::string value = report::format_with_u(f.latest.value, f.latest.u.value_or(std::nan("")));

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/instrument.hpp"
 #include "fleet/headlines.hpp"
 #include "fleet/store.hpp"
 
@@ -30,6 +31,11 @@ struct HistoryEntry {
   std::vector<FigureChange> figures;      // PARAMS
   std::optional<ExplainSummary> explain;  // EXPLAIN
   bool readable = true;                   // false: its payload could not be read (no figures, no findings)
+  // The instrument its header names (results/result_header.hpp; empty: none) and the date its
+  // calibration was judged on then.
+  std::string device;
+  Instrument instrument;
+  std::optional<CalendarDate> instrument_checked_on;
 };
 
 // Results in the order given (oldest first per kind), with each PARAMS figure compared to the previous
@@ -42,7 +48,8 @@ struct HistoryEntry {
 [[nodiscard]] nlohmann::json to_json(const FigureChange& f);
 [[nodiscard]] nlohmann::json to_json(const ExplainSummary& s);
 [[nodiscard]] nlohmann::json history_json(std::string_view machine, const std::vector<HistoryEntry>& entries);
-// One line per result: time, kind, session, then each figure "label value ± u unit" (moved: '*').
+// One line per result: time, kind, session, its instrument (serial, calibration due; "EXPIRED at the
+// session" when it had run out), then each figure "label value ± u unit" (moved: '*').
 [[nodiscard]] std::string history_text(std::string_view machine, const std::vector<HistoryEntry>& entries);
 
 // The rule, for outputs and docs.

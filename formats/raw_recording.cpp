@@ -1,6 +1,8 @@
 #include "formats/raw_recording.hpp"
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -46,7 +48,56 @@ double channel_value(const CsvTable& t, const CsvTable::Row& row, std::size_t co
   return t.number(row, col);
 }
 
+constexpr const char* key_serial = "instrument_serial";
+constexpr const char* key_certificate = "instrument_calibration_certificate";
+constexpr const char* key_calibrated_on = "instrument_calibrated_on";
+constexpr const char* key_due = "instrument_calibration_due";
+constexpr const char* key_length = "instrument_calibrated_length_mm";
+constexpr const char* key_length_u = "instrument_calibrated_length_u_um";
+
+Instrument read_instrument(const std::map<std::string, std::string>& m, const std::string& path) {
+  Instrument in;
+  const auto text = [&](const char* key) {
+    const auto it = m.find(key);
+    return it == m.end() ? std::string() : it->second;
+  };
+  in.serial = text(key_serial);
+  in.calibration_certificate = text(key_certificate);
+  const auto date = [&](const char* key) -> std::optional<CalendarDate> {
+    const std::string v = text(key);
+    if (v.empty()) return std::nullopt;
+    const auto d = parse_iso_date(v);
+    if (!d) throw std::runtime_error(path + ": " + key + ": not a date YYYY-MM-DD: '" + v + "'");
+    return d;
+  };
+  in.calibrated_on = date(key_calibrated_on);
+  in.calibration_due = date(key_due);
+  const auto number = [&](const char* key) -> std::optional<double> {
+    const std::string v = text(key);
+    if (v.empty()) return std::nullopt;
+    double x = 0;
+    const auto r = std::from_chars(v.data(), v.data() + v.size(), x);
+    if (r.ec != std::errc() || r.ptr != v.data() + v.size() || !std::isfinite(x))
+      throw std::runtime_error(path + ": " + key + ": not a number: '" + v + "'");
+    return x;
+  };
+  in.calibrated_length_mm = number(key_length);
+  in.calibrated_length_u_um = number(key_length_u);
+  return in;
+}
+
 }  // namespace
+
+std::map<std::string, std::string> instrument_metadata(const Instrument& in) {
+  std::map<std::string, std::string> m;
+  if (!in.serial.empty()) m[key_serial] = in.serial;
+  if (!in.calibration_certificate.empty()) m[key_certificate] = in.calibration_certificate;
+  if (in.calibrated_on) m[key_calibrated_on] = to_iso(*in.calibrated_on);
+  if (in.calibration_due) m[key_due] = to_iso(*in.calibration_due);
+  if (in.calibrated_length_mm) m[key_length] = shortest(*in.calibrated_length_mm);
+  if (in.calibrated_length_u_um) m[key_length_u] = shortest(*in.calibrated_length_u_um);
+  return m;
+}
 
 std::string raw_recording_part_path(const std::string& dir, const std::string& name) {
   return raw_recording_path(dir, name) + std::string(part_suffix);
@@ -159,6 +210,7 @@ RawRecording read_raw_recording(const std::string& path) {
     r.samples.push_back(s);
   }
   r.metadata = t.metadata;
+  r.instrument = read_instrument(r.metadata, path);
   return r;
 }
 

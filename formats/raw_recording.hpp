@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/instrument.hpp"
 #include "core/sample.hpp"
 
 namespace guideway::formats {
@@ -37,6 +38,12 @@ struct RawRecordingHeader {
   std::map<std::string, std::string> metadata;
   std::vector<RawChannel> channels;
 };
+
+// The instrument that made the recording, as header keys (`instrument_serial`,
+// `instrument_calibration_certificate`, `instrument_calibrated_on`, `instrument_calibration_due`,
+// `instrument_calibrated_length_mm`, `instrument_calibrated_length_u_um`): only the parts stated. The
+// recorder writes them with the session's keys (RawRecordingHeader::metadata).
+[[nodiscard]] std::map<std::string, std::string> instrument_metadata(const Instrument& instrument);
 
 // The trailer, appended when the session ends.
 struct RawRecordingTrailer {
@@ -70,6 +77,7 @@ struct RawRecording {
   std::string end_marker;       // the trailer's `end` (complete, aborted), "" when there is none
   std::uint64_t samples_lost = 0;        // the trailer's `samples_lost`: rows the recorder could not write
   std::size_t dropped_partial_line = 0;  // 1 when a last line without its newline was ignored (a kill)
+  Instrument instrument;                 // from the instrument_* keys; empty in a recording without them
 
   // A key that must be in the header (e.g. `kind`, `session`); throws
   // "PATH: not a complete raw recording header (no "KEY")" when it is absent or empty.
@@ -78,7 +86,7 @@ struct RawRecording {
 
 // Reads a whole recording, or what an interrupted session left (NAME.csv.part, no trailer, a last line
 // cut short). Throws std::runtime_error naming the file (and the line of a bad cell) for a file that is
-// not a raw recording.
+// not a raw recording, or naming the key of an instrument_* value that is not a date or number.
 [[nodiscard]] RawRecording read_raw_recording(const std::string& path);
 
 // True when the file's first line is `# format = guideway/raw/1`.

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/csv_table.hpp"
+#include "core/utc_time.hpp"
 #include "formats/dbb_run.hpp"
 #include "formats/raw_recording.hpp"
 #include "report/html.hpp"
@@ -152,6 +153,11 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
   if (!profile_csvs.empty() && !traverse.empty())
     correlation = workpiece_correlation_html(profile_csvs, traverse, runout, options);
 
+  if (!options.instruments.empty()) {
+    const std::string id = next_id("instruments");
+    body << instruments_section(options.instruments, options.instruments_checked_on.value_or(utc_today()), id);
+    toc.push_back({id, "Instruments"});
+  }
   bool dbb_done = false;
   for (std::size_t i = 0; i < items.size(); ++i) {
     const auto& [path, kind] = items[i];

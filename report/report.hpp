@@ -16,10 +16,13 @@
 // Inputs are recognised by their `# format =` metadata or their columns (detect_input). Pure apart from
 // reading the inputs; thread safe. Errors are ReportError with the file (and line) in the message.
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "core/instrument.hpp"
 
 namespace guideway::report {
 
@@ -37,11 +40,21 @@ enum class InputKind { dbb_run, straightness, union_jack, runout, profile, expla
 // "PATH: ..." naming what was expected when the input is none of these.
 [[nodiscard]] InputKind detect_input(const std::string& path);
 
+// An instrument the report's measurements were made with, on its device.
+struct ReportInstrument {
+  std::string device;
+  Instrument instrument;
+};
+
 struct ReportOptions {
   std::string title = "Guideway report";
   std::string subtitle;       // e.g. the time it was generated (the page itself has no clock)
   std::string wavelet = "db1";  // MRA of profiles (Mu 2012 use db1, 5 levels)
   int wavelet_level = 5;
+  // The "Instruments" table at the top (none: no table): identity, certificate, dates, the bar's length,
+  // and whether each calibration had run out on `instruments_checked_on` (default: today, UTC).
+  std::vector<ReportInstrument> instruments;
+  std::optional<CalendarDate> instruments_checked_on;
 };
 
 // The report for these inputs (files or Union Jack directories), in the order given; all DBB runs are

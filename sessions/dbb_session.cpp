@@ -110,7 +110,8 @@ bool fit_circle(const std::vector<Point>& pts, std::size_t from, std::size_t to,
 
 class DbbSession : public Session {
  public:
-  DbbSession(DbbOptions options, const drivers::Driver& device) : options_(std::move(options)) {
+  DbbSession(DbbOptions options, const drivers::Driver& device, const Instrument& instrument)
+      : options_(std::move(options)), bar_length_u_um_(instrument.calibrated_length_u_um.value_or(0.0)) {
     const auto& ch = device.channels();
     for (std::size_t i = 0; i < ch.size(); ++i) {
       if (ch[i].name == "bar_length") {
@@ -175,7 +176,9 @@ class DbbSession : public Session {
     if (runs.empty()) {
       throw std::runtime_error("no complete DBB circle was traced" + (last_note_.empty() ? "" : " (" + last_note_ + ")"));
     }
-    const models::dbb::Identification id = models::dbb::identify(runs);
+    models::dbb::IdentifyOptions identify_options;
+    identify_options.bar_length_u_um = bar_length_u_um_;
+    const models::dbb::Identification id = models::dbb::identify(runs, identify_options);
     identified_ = runs;
     nlohmann::json j = models::dbb::to_json(id);
     if (runs.size() < runs_.size()) {
@@ -319,6 +322,7 @@ class DbbSession : public Session {
   }
 
   DbbOptions options_;
+  double bar_length_u_um_ = 0.0;             // the bar's calibrated length's u (0: not stated)
   std::vector<formats::DbbRun> identified_;  // what identify() fitted, for explain()
   int bar_ = -1, axis_a_ = -1, axis_b_ = -1;
   double t0_ = -1;
@@ -337,7 +341,7 @@ SessionKind dbb_session_kind() {
           results::description(results::dbb_kind),
           {"dbb-can"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
-            return std::make_unique<DbbSession>(parse_options(r.options), device);
+            return std::make_unique<DbbSession>(parse_options(r.options), device, r.instrument);
           }};
 }
 

@@ -4,6 +4,7 @@
 #include <span>
 #include <stdexcept>
 
+#include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
 #include "results/message_class.hpp"
 #include "results/result_header.hpp"
@@ -46,7 +47,8 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   const std::string kind_name = recording.required("kind");
   const SessionKind* kind = registry.find(kind_name);
   if (kind == nullptr) throw std::runtime_error(path + ": session kind \"" + kind_name + "\" is unknown to this build");
-  SessionRequest request{kind_name, device.name(), json_meta(recording, "options", nlohmann::json::object())};
+  SessionRequest request{kind_name, device.name(), json_meta(recording, "options", nlohmann::json::object()),
+                         recording.instrument};
   std::unique_ptr<Session> session;
   try {
     session = kind->create(request, device);
@@ -72,8 +74,17 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
     result.failure = e.what();
     return result;
   }
-  results::ResultHeader header{
-      recording.required("session"), kind_name, device.name(), result.samples, {}, {}, {}, path};
+  results::ResultHeader header;
+  header.session = recording.required("session");
+  header.kind = kind_name;
+  header.device = device.name();
+  header.samples = result.samples;
+  header.replayed_from = path;
+  header.instrument = recording.instrument;
+  // Judged on the day the session started, as the live session judged it.
+  if (const auto started =
+          parse_utc_iso(recording.metadata.count("started_utc") ? recording.metadata.at("started_utc") : ""))
+    header.instrument_checked_on = utc_date(*started);
   result.params =
       results::with_class(results::MessageClass::params, results::with_header(std::move(result.params), header));
   try {

@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/instrument.hpp"
 #include "core/sample.hpp"
 #include "drivers/driver.hpp"
 
@@ -29,6 +30,9 @@ struct SessionRequest {
   std::string kind;      // "dbb", "straightness", "runout", "profile", ...
   std::string device;    // device name; empty = the first device the kind accepts
   nlohmann::json options = nlohmann::json::object();
+  // The device's instrument (the daemon's configuration, or a recording's header): a DBB session's
+  // uncertainties include its bar's calibrated length.
+  Instrument instrument;
 };
 
 // One running test. on_samples() and complete() are called on the pipeline thread; identify() on

@@ -150,6 +150,123 @@ class CanSerialProcesses(unittest.TestCase):
         self.assertEqual(ac.wait(timeout=10), 0)
 
 
+    INSTRUMENT_CONFIG = """[daemon]
+status_period_s = 0.2
+state_dir = "{state}"
+{refuse}
+[[device]]
+name = "dbb"
+driver = "dbb-can"
+bus = "unix:{bus}"
+sync_rate_hz = 250.0
+configure_nodes = true
+heartbeat_ms = 100
+serial = "1001"
+calibration_certificate = "C-2023-117"
+calibrated_on = 2023-01-10
+calibration_due = 2024-01-10
+calibrated_length_mm = 20.0
+calibrated_length_u_um = 0.5
+  [[device.encoder]]
+  channel = "bar_length"
+  node_id = 1
+  resolution_nm = 100
+  [[device.encoder]]
+  channel = "x"
+  node_id = 2
+  resolution_nm = 100
+  [[device.encoder]]
+  channel = "y"
+  node_id = 3
+  resolution_nm = 100
+"""
+
+    def test_instrument_identity_expired_calibration_and_refusal(self):
+        """Issue 30, part 4, through guidewayd and the emulated bar: a serial the bar's node does not report
+        and a calibration past due are warned about (check-config, STATUS, start, PARAMS, recording, report),
+        not refused; with refuse_uncalibrated the start is refused."""
+        # The bar's node reports serial number 4242; the configuration says 1001. One 20 mm circle at
+        # 6000 mm/min takes about 1.6 s.
+        dbb = self.spawn(EMULATE, "dbb", "--bus", "unix:" + self.can, "--serial-numbers", "4242", "1002", "1003",
+                         "--radius-mm", "20", "--feed-mm-min", "6000", "--pause-s", "0.2")
+        self.assertEqual(dbb.stdout.readline().strip(), "bus: unix:" + self.can)
+        self.assertEqual(dbb.stdout.readline().strip(), "endpoint: unix:" + self.can)
+        state = os.path.join(self.tmp.name, "state")
+        cfg = os.path.join(self.tmp.name, "g.toml")
+
+        def write_config(refuse):
+            with open(cfg, "w") as f:
+                f.write(self.INSTRUMENT_CONFIG.format(state=state, bus=self.can,
+                                                      refuse="refuse_uncalibrated = true" if refuse else ""))
+
+        write_config(False)
+        expired = "device dbb (serial 1001, certificate C-2023-117): calibration was due 2024-01-10, "
+        check = subprocess.run([GUIDEWAYD, "--config", cfg, "--check-config"], capture_output=True, text=True,
+                               timeout=20)
+        self.assertEqual(check.returncode, 0, check.stderr)
+        self.assertIn("warning: " + expired, check.stdout)
+        d = self.spawn(GUIDEWAYD, "--config", cfg, "--socket", self.sock)
+        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not create its socket")
+        mismatch = ("node 1 (bar_length) reports serial number 4242 (0x1018:4), the device's serial is 1001: not "
+                    "the instrument the configuration and its calibration name")
+        s = wait_for(lambda: (lambda dev: dev if dev["state"] == "streaming" and len(dev.get("warnings", [])) == 2
+                              else None)(self.status()["dbb"]))
+        self.assertTrue(s, self.status()["dbb"])
+        self.assertTrue(s["warnings"][0].startswith(expired), s["warnings"])
+        self.assertEqual(s["warnings"][1], mismatch)
+        self.assertEqual(s["instrument"]["serial"], "1001")
+        self.assertTrue(s["instrument"]["calibration_expired"])
+        text = subprocess.run([GUIDEWAY, "--socket", self.sock, "status"], capture_output=True, text=True,
+                              timeout=20).stdout
+        self.assertIn("instrument: serial 1001, certificate C-2023-117, calibrated 2023-01-10, due 2024-01-10, "
+                      "bar 20.0000 mm (u 0.5 um)", text)
+        self.assertIn("WARNING: " + expired, text)
+        self.assertIn("WARNING: " + mismatch, text)
+
+        # A session runs on it, and says so: the start's reply, the PARAMS, the recording, the report.
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, "start", "dbb", "--set",
+                              'patterns=[{"radius_mm":20,"height_mm":0,"direction":"ccw"}]', "--wait",
+                              "--timeout", "30"], capture_output=True, text=True, timeout=40)
+        self.assertEqual(out.returncode, 0, out.stderr + out.stdout)
+        lines = out.stdout.splitlines()
+        self.assertTrue(lines[1].startswith("WARNING: " + expired), lines[:3])
+        self.assertIn("instrument: serial 1001, certificate C-2023-117, calibrated 2023-01-10, due 2024-01-10, "
+                      "bar 20.0000 mm (u 0.5 um)", lines)
+        self.assertTrue(lines[-1].startswith("WARNING: " + expired), lines[-3:])
+        params = json.loads(subprocess.run([GUIDEWAY, "--socket", self.sock, "params", "dbb", "--json"],
+                                           capture_output=True, text=True, timeout=20).stdout)
+        self.assertTrue(params["instrument"]["calibration_expired"], params.get("instrument"))
+        self.assertTrue(params["instrument"]["warning"].startswith(expired))
+        with open(params["recording"]) as f:
+            header = f.read(4096)
+        for key in ("# instrument_serial = 1001", "# instrument_calibration_due = 2024-01-10",
+                    "# instrument_calibrated_length_u_um = 0.5"):
+            self.assertIn(key, header)
+        report = params["recording"][:-len(".csv")] + ".report.html"
+        self.assertTrue(wait_for(lambda: os.path.exists(report), timeout=10), report)
+        with open(report) as f:
+            html = f.read()
+        self.assertIn("<h2>Instruments</h2>", html)
+        self.assertIn("<strong>EXPIRED</strong>", html)
+        self.assertIn("Warning: " + expired, html)
+        d.send_signal(signal.SIGTERM)
+        self.assertEqual(d.wait(timeout=10), 0)
+
+        # refuse_uncalibrated: the same start is refused, naming the instrument and why.
+        write_config(True)
+        d = self.spawn(GUIDEWAYD, "--config", cfg, "--socket", self.sock)
+        self.assertTrue(wait_for(lambda: os.path.exists(self.sock)), "daemon did not create its socket")
+        out = subprocess.run([GUIDEWAY, "--socket", self.sock, "start", "dbb"], capture_output=True, text=True,
+                             timeout=20)
+        self.assertNotEqual(out.returncode, 0, out.stdout)
+        self.assertIn(expired, out.stderr)
+        self.assertIn("refused: [daemon] refuse_uncalibrated = true", out.stderr)
+        warning = self.status()["dbb"]["warnings"][0]
+        self.assertTrue(warning.startswith(expired) and warning.endswith(
+            "; its sessions are refused (refuse_uncalibrated)"), warning)
+        d.send_signal(signal.SIGTERM)
+        self.assertEqual(d.wait(timeout=10), 0)
+
     def test_dbb_emulator_on_an_inherited_fd_speaks_the_documented_frames(self):
         # Python packs struct can_frame itself (id u32, dlc u8, 3 pad, 8 data): an independent check
         # of the wire format of docs/protocols.md.

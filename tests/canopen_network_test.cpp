@@ -607,3 +607,42 @@ TEST(CanopenFrames, FuzzedBytesNeverCrashTheDecoders) {
     (void)can::sdo_abort_text(static_cast<std::uint32_t>(byte(rng) << 24 | byte(rng)));
   }
 }
+
+// The instrument's serial ([[device]] serial) against what the bar's node reports: a warning that stands
+// until a check finds it right, an EVENT per check, never a refusal (docs/configuration.md).
+TEST(EncoderNetwork, TheInstrumentsSerialIsComparedWarnedAboutAndNotRefused) {
+  NetworkSettings s;
+  std::vector<NodeExpectation> x(3);
+  x[0].instrument_serial = 1001;
+  EncoderNetwork net(encoders(), x, s);
+  auto facts = node_facts();
+  facts[0].serial = 4242;
+  net.connected(0);
+  std::vector<can_frame> nmt;
+  answer_sdo(net, 1 * ms, facts, &nmt);
+  ASSERT_EQ(nmt.size(), 3u) << "every node is started: a serial mismatch is no refusal";
+  const auto& events = net.events();
+  const auto mismatch =
+      std::find_if(events.begin(), events.end(), [](const auto& e) { return e.event == "instrument_serial_mismatch"; });
+  ASSERT_NE(mismatch, events.end()) << all_reasons(net);
+  EXPECT_EQ(mismatch->reason,
+            "node 1 (bar_length) reports serial number 4242 (0x1018:4), the device's serial is 1001: not the "
+            "instrument the configuration and its calibration name (measuring anyway; check the instrument or "
+            "its serial)");
+  EXPECT_TRUE(mismatch->warning);
+  ASSERT_EQ(net.warnings().size(), 1u);
+  EXPECT_EQ(net.warnings()[0].rfind("node 1 (bar_length) reports serial number 4242", 0), 0u) << net.warnings()[0];
+  net.on_cycle(0b111, 2 * ms);
+  EXPECT_EQ(net.health().level, NetworkHealth::Level::ok) << net.health().reason;
+  // A new connection: the warning stands until the node's check says otherwise; the right node clears it.
+  net.events().clear();
+  facts[0].serial = 1001;
+  const std::uint64_t version = net.health_version();
+  net.connected(10 * ms);
+  EXPECT_EQ(net.warnings().size(), 1u);
+  answer_sdo(net, 11 * ms, facts);
+  EXPECT_TRUE(net.warnings().empty());
+  EXPECT_GT(net.health_version(), version);
+  const std::vector<std::string> names = event_names(net);
+  EXPECT_EQ(std::count(names.begin(), names.end(), "instrument_serial_mismatch"), 0) << all_reasons(net);
+}

@@ -743,7 +743,7 @@ TEST(FleetView, AgesInTheFutureHugeValuesAndOneAnchorPerMachine) {
   EXPECT_EQ(format_age_ago(-5.0), "in the future");  // was "in the future ago"
   EXPECT_EQ(format_age_ago(30.0), "30 s ago");
   // Values of 1e63 and over were cut at 64 bytes.
-  HistoryEntry e{"dbb", "PARAMS", "2026-11-26T10:00:00.000Z", "", "s", {}, {}, true};
+  HistoryEntry e{"dbb", "PARAMS", "2026-11-26T10:00:00.000Z", "", "s", {}, {}, true, {}, {}, {}};
   e.figures.push_back({Headline{"g", "G", "µm", 1e70, 0.5}, std::nullopt, false});
   const std::string text = history_text("m", {e});
   const auto at = text.find("G: ") + 3;

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 
 #include "core/mono_clock.hpp"
@@ -27,6 +28,50 @@ std::vector<drivers::ChannelInfo> channels_of(const DbbSettings& s) {
   std::vector<drivers::ChannelInfo> out;
   for (const auto& e : s.encoders) out.push_back({e.channel, "m"});
   return out;
+}
+
+// The serial as a number (decimal, or hexadecimal after 0x): what a CANopen node's 0x1018:4 can be.
+std::optional<std::uint32_t> serial_number_of(const std::string& serial) {
+  const bool hex = serial.size() > 2 && serial[0] == '0' && (serial[1] == 'x' || serial[1] == 'X');
+  const std::string digits = hex ? serial.substr(2) : serial;
+  if (digits.empty() || digits.size() > 10) return std::nullopt;
+  std::uint64_t v = 0;
+  for (const char c : digits) {
+    const int d = c >= '0' && c <= '9'          ? c - '0'
+                  : hex && c >= 'a' && c <= 'f' ? c - 'a' + 10
+                  : hex && c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                                : -1;
+    if (d < 0) return std::nullopt;
+    v = v * (hex ? 16 : 10) + static_cast<std::uint64_t>(d);
+  }
+  if (v > 0xFFFFFFFFu) return std::nullopt;
+  return static_cast<std::uint32_t>(v);
+}
+
+// The instrument keys of the [[device]] table (the daemon reads and checks them; docs/configuration.md)
+// that concern the bus: the ballbar is its length encoder (channel bar_length, else the first encoder),
+// whose serial number must be the instrument's `serial`, and whose reading at zero_count is the bar's
+// calibrated length.
+void apply_instrument_keys(const TableReader& t, DbbSettings& s) {
+  std::size_t bar = 0;
+  for (std::size_t i = 0; i < s.encoders.size(); ++i)
+    if (s.encoders[i].channel == "bar_length") bar = i;
+  if (const auto serial = serial_number_of(t.get_string("serial", ""))) s.nodes[bar].instrument_serial = serial;
+  if (!t.has("calibrated_length_mm")) return;
+  const double length_mm = t.get_double("calibrated_length_mm", 0.0);
+  EncoderScale& e = s.encoders[bar];
+  const auto encoder_tables = t.tables("encoder");
+  if (!encoder_tables[bar].has("offset_mm")) {
+    e.offset_m = length_mm * 1e-3;
+  } else if (std::abs(e.offset_m * 1e3 - length_mm) > 1e-7) {
+    char buf[200];
+    std::snprintf(
+        buf, sizeof buf,
+        "%.10g mm differs from the bar's calibrated_length_mm = %.10g mm: the bar reads its calibrated length "
+        "at zero_count (leave offset_mm out to take it from calibrated_length_mm)",
+        e.offset_m * 1e3, length_mm);
+    encoder_tables[bar].fail("offset_mm", buf);
+  }
 }
 
 }  // namespace
@@ -93,6 +138,7 @@ DbbSettings parse_dbb_settings(const TableReader& t) {
     s.encoders.push_back(std::move(sc));
   }
   if (s.encoders.empty()) t.fail("encoder", "at least one [[device.encoder]] table is required");
+  apply_instrument_keys(t, s);
   if (s.encoders.size() > max_encoders) {
     t.fail("encoder", "at most " + std::to_string(max_encoders) + " encoders per bus");
   }
@@ -179,6 +225,7 @@ void DbbDriver::refresh_state() {
   if (!state_dirty_ && network_.health_version() == state_network_version_) return;
   state_dirty_ = false;
   state_network_version_ = network_.health_version();
+  set_warnings(network_.warnings());
   const NetworkHealth& h = network_.health();
   drivers::DeviceState state = drivers::DeviceState::streaming;
   std::string why;

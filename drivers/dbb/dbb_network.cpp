@@ -86,6 +86,7 @@ void EncoderNetwork::connected(std::int64_t t_ns) {
     fresh.expect = n.expect;
     fresh.last_heartbeat_ns = t_ns;  // monitored from the connection on: a node never heard of is named too
     fresh.last_pdo_ns = t_ns;
+    fresh.instrument_warning = n.instrument_warning;  // until the node's check says otherwise
     n = std::move(fresh);
   }
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
@@ -209,6 +210,7 @@ void EncoderNetwork::checked(std::size_t i, std::int64_t t_ns) {
   if (!n.configured.empty()) s += " (" + n.configured + ")";
   s += settings_.manage_nmt ? "; starting it" : "; waiting for the NMT master to start it";
   event("node_checked", s, false);
+  compare_instrument_serial(i);
   n.step = Step::done;
   if (!settings_.manage_nmt) {
     n.phase = Phase::waiting;
@@ -216,6 +218,34 @@ void EncoderNetwork::checked(std::size_t i, std::int64_t t_ns) {
     return;
   }
   start_nodes_ready(t_ns);
+}
+
+void EncoderNetwork::compare_instrument_serial(std::size_t i) {
+  Node& n = nodes_[i];
+  if (!n.expect.instrument_serial) return;
+  const std::uint32_t want = *n.expect.instrument_serial;
+  std::string warning;
+  if (!n.identity.serial_number) {
+    warning = node_name(i) + " has no serial number (0x1018:4): the device's serial " + std::to_string(want) +
+              " cannot be confirmed";
+  } else if (*n.identity.serial_number != want) {
+    warning = node_name(i) + " reports serial number " + std::to_string(*n.identity.serial_number) +
+              " (0x1018:4), the device's serial is " + std::to_string(want) +
+              ": not the instrument the configuration and its calibration name";
+  }
+  if (warning != n.instrument_warning) {
+    n.instrument_warning = warning;
+    changed();
+  }
+  if (!warning.empty())
+    event("instrument_serial_mismatch", warning + " (measuring anyway; check the instrument or its serial)");
+}
+
+std::vector<std::string> EncoderNetwork::warnings() const {
+  std::vector<std::string> out;
+  for (const Node& n : nodes_)
+    if (!n.instrument_warning.empty()) out.push_back(n.instrument_warning);
+  return out;
 }
 
 void EncoderNetwork::start_nodes_ready(std::int64_t t_ns) {

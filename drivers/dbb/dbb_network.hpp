@@ -31,6 +31,9 @@ struct NodeExpectation {
   std::optional<std::uint32_t> product_code;
   std::optional<std::uint32_t> revision_number;
   std::optional<std::uint32_t> serial_number;
+  // The instrument's serial ([[device]] serial, when a number) this node must report: a node that does
+  // not is warned about (an EVENT and warnings()), never refused: its data are what was measured.
+  std::optional<std::uint32_t> instrument_serial;
   bool check_resolution = true;           // compare 0x6005:1 (nm per count) with resolution_nm
   std::int64_t heartbeat_timeout_ms = 0;  // 0: this node's heartbeat is not monitored
 };
@@ -55,7 +58,8 @@ struct NodeIdentity {
 };
 
 // Something that happened on the network: `event` is a fixed name (node_checked, node_check_failed,
-// node_boot, node_lost, node_back, node_emcy), `reason` names the node and says what.
+// node_boot, node_lost, node_back, node_emcy, instrument_serial_mismatch), `reason` names the node and
+// says what.
 struct NetworkEvent {
   std::string event;
   std::string reason;
@@ -114,6 +118,9 @@ class EncoderNetwork {
   // Bumped whenever health() may have changed.
   [[nodiscard]] std::uint64_t health_version() const noexcept { return version_; }
   [[nodiscard]] const NetworkCounters& counters() const noexcept { return counters_; }
+  // What stands whatever the health: a node whose serial is not the instrument's (kept until a check of
+  // that node finds it right). A change bumps health_version().
+  [[nodiscard]] std::vector<std::string> warnings() const;
   [[nodiscard]] const NodeIdentity& identity(std::size_t encoder) const { return nodes_.at(encoder).identity; }
   [[nodiscard]] std::size_t node_count() const noexcept { return nodes_.size(); }
   // "node 3 (y)"
@@ -158,6 +165,7 @@ class EncoderNetwork {
     bool silent = false;
     std::string silent_why;
     bool was_down = false;  // lost, silent or rebooted: its next PDO is news (node_back)
+    std::string instrument_warning;  // the last check's serial mismatch ("" = none)
   };
 
   void start_check(std::size_t i, std::int64_t t_ns);
@@ -168,6 +176,8 @@ class EncoderNetwork {
   // not in error).
   void fail(std::size_t i, std::string why, std::int64_t t_ns, bool absent = false);
   void checked(std::size_t i, std::int64_t t_ns);
+  // The node's serial against the instrument's (NodeExpectation::instrument_serial): warns, never fails.
+  void compare_instrument_serial(std::size_t i);
   void start_nodes_ready(std::int64_t t_ns);
   void send_start(std::size_t i, std::int64_t t_ns);
   void on_heartbeat(std::size_t i, const can::Heartbeat& h, std::int64_t t_ns);

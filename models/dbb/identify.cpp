@@ -343,6 +343,26 @@ LsqResult solve_strided(const Eigen::Ref<const Eigen::MatrixXd>& j, const Eigen:
   return r;
 }
 
+// The bar's calibrated length is in every reading (the length encoder's offset): an error of it is the
+// same offset in every dL, which a linear fit turns into that offset times its solution for dL = 1 um,
+// s. Its standard uncertainty u_L adds |s_k| u_L to each parameter's u in quadrature and u_L^2 s s^T to
+// the covariance, so what is computed from the covariance afterwards (the scale mismatch, a cyclic
+// amplitude) carries its part too: none for the mismatch, whose two scales move together.
+void add_bar_length_uncertainty(LsqResult& res, const Eigen::Ref<const Eigen::MatrixXd>& j, const Eigen::VectorXd& w,
+                                const std::vector<std::string>& names, double u_length_um) {
+  if (!(u_length_um > 0) || !res.ok) return;
+  const LsqResult response = solve_lsq(j, Eigen::VectorXd::Ones(j.rows()), w, names);
+  if (!response.ok) return;
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(res.x.size());
+  for (std::size_t k = 0; k < res.identified.size(); ++k) {
+    if (!res.identified[k] || !response.identified[k]) continue;
+    const auto i = static_cast<Eigen::Index>(k);
+    s[i] = response.x[i] * u_length_um;
+    res.u[i] = std::hypot(res.u[i], s[i]);
+  }
+  res.covariance += s * s.transpose();
+}
+
 // The design matrix buffer of all fits of one identification (n rows, as many columns as the widest
 // fit: one allocation, its pages touched once) and the data of the diagnostics fits.
 struct DiagWork {
@@ -850,6 +870,8 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
   refine_spike_decays(pts, plane, work, L, res);
   out.diagnostics_fit = summary_of(res);
   const auto names = diag_names(L, plane);
+  add_bar_length_uncertainty(res, work.j.leftCols(static_cast<Eigen::Index>(L.count())), work.w, names,
+                             options.bar_length_u_um);
   report_diagnostics(L, res, names, plane, out);
   rank_contributions(L, res, pts, runs, names, plane, out);
   out.ranking_model = "diagnostics";
@@ -953,6 +975,12 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
   }
   res = fit(1);
   out.fit = summary_of(res);
+  if (options.bar_length_u_um > 0) {
+    Eigen::VectorXd w(n);
+    for (Eigen::Index i = 0; i < n; ++i) w[i] = pts[static_cast<std::size_t>(i)].w;
+    add_bar_length_uncertainty(res, work.j.topLeftCorner(n, static_cast<Eigen::Index>(m)), w, names,
+                               options.bar_length_u_um);
+  }
   for (std::size_t i = 0; i < pts.size(); ++i) {
     const double e = res.residual[static_cast<Eigen::Index>(i)];
     lai.residual_rms[pts[i].run] += e * e;
@@ -1140,6 +1168,13 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
     out.ranking_model = "lai3";
   }
   summarize_runs(runs, pts, residual_rms, lai.residual_rms, out);
+  if (options.bar_length_u_um > 0) {
+    std::ostringstream o;
+    o << "every u includes the bar's calibrated length (u = " << options.bar_length_u_um
+      << " um), the same offset in every reading: the absolute scales carry it (about u/L each), the scale "
+         "mismatch and the shapes almost none";
+    out.notes.push_back(o.str());
+  }
   return out;
 }
 

@@ -50,6 +50,10 @@ struct IdentifyOptions {
   double cyclic_period_b_m = 0.0;
   // Lai's model assumes the fixed ball stays put between patterns (one shared centre offset).
   bool lai_shared_center = true;
+  // Standard uncertainty of the bar's calibrated length (um; 0: not stated). That length is in every
+  // reading, so an error of it is the same offset in every dL: each parameter's u gains the fit's
+  // response to that offset, |dp/dL0| u_L, in quadrature (docs/conventions.md "The bar's calibrated length").
+  double bar_length_u_um = 0.0;
 };
 
 // One error's part of the circular deviation (the ranking a ballbar's software gives).
