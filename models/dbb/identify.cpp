@@ -1,11 +1,11 @@
 #include "models/dbb/identify.hpp"
 
 #include <algorithm>
-#include <sstream>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <sstream>
 
 #include <Eigen/Core>
 #include <Eigen/QR>
@@ -57,88 +57,45 @@ std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs) {
   return pts;
 }
 
-// Narrowest backlash (m) that apply_deadband shapes.
-constexpr double min_deadband_m = 1e-12;
-
-// cos and sin of the pre-roll angles of apply_deadband (half a turn before each run's first sample,
-// 0.1 deg apart): the same for every backlash estimate, so computed once per identification.
-struct PrerollTable {
-  std::vector<std::vector<double>> c, s;  // per run, index q = 1..1799 at [q - 1]
-};
-
-double preroll_angle(const formats::DbbRun& run, int q) {
-  const double dir = run.dir();
-  return run.angle_rad.front() - dir * pi + dir * q * (pi / 1800);
+// The points' backlash column: the deadband of width b_a / b_b (m) on the drives' track (the one deadband
+// EXPLAIN's backlash effect uses: geometry.hpp), the ideal step for a width <= 0.
+void set_deadband(std::vector<Point>& pts, const DriveTrack& track, double b_a, double b_b) {
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    Point& p = pts[i];
+    const auto m = lost_motion(track, i, b_a, b_b);
+    p.bl_a = b_a > 0 ? m[0] : -0.5 * p.sgn_a;
+    p.bl_b = b_b > 0 ? m[1] : -0.5 * p.sgn_b;
+  }
 }
 
-// Replaces the step-shaped backlash basis by the response of a deadband of width `b` (m) to the
-// commanded circle: the axis stands still at a reversal until the drive has taken up the play, which
-// an ideal step does not describe. Simulated from half a turn before the first sample.
-// `delay_*` (s) lets each drive follow the command late by its servo lag.
-// Without a delay the command at a sample or pre-roll angle is the points' (or the table's) own
-// cos/sin of that very angle, so only the substeps near the reversals need trigonometry.
-// deadband_lost_motion (geometry.hpp) is the same deadband in closed form; it says where they differ.
-void apply_deadband(std::vector<Point>& pts, const std::vector<formats::DbbRun>& runs, PrerollTable& table, double b_a, double b_b,
-                    double delay_a = 0.0, double delay_b = 0.0) {
-  if (table.c.empty()) {
-    for (const formats::DbbRun& run : runs) {
-      auto& c = table.c.emplace_back(1799);
-      auto& s = table.s.emplace_back(1799);
-      for (int q = 1; q < 1800; ++q) {
-        const double z = preroll_angle(run, q);
-        c[static_cast<std::size_t>(q - 1)] = std::cos(z);
-        s[static_cast<std::size_t>(q - 1)] = std::sin(z);
+// The deadband a fit reads: its widths (m) and the drives' delay behind the commanded angles (s).
+struct Deadband {
+  double b_a = 0, b_b = 0;
+  std::size_t track = 0;  // index into the tracks (their delay_s)
+  [[nodiscard]] bool shaped() const { return b_a > 0 || b_b > 0; }
+};
+
+// The deadband of widths `widths` that fits best: at every drive delay of `tracks` the points get its shape
+// and `rms(pts)` (a fit's residual RMS) is evaluated; the lowest wins, and the points keep its shape. With
+// one track (the angles are the encoders') only the widths are set.
+template <class RmsOf>
+Deadband choose_deadband_delay(std::vector<Point>& pts, const std::vector<DriveTrack>& tracks, Deadband widths,
+                               const RmsOf& rms) {
+  widths.b_a = std::max(widths.b_a, 0.0);
+  widths.b_b = std::max(widths.b_b, 0.0);
+  if (widths.shaped() && tracks.size() > 1) {
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < tracks.size(); ++k) {
+      set_deadband(pts, tracks[k], widths.b_a, widths.b_b);
+      const double e = rms(pts);
+      if (e < best) {
+        best = e;
+        widths.track = k;
       }
     }
   }
-  std::size_t i0 = 0;
-  for (std::size_t k = 0; k < runs.size(); ++k) {
-    const formats::DbbRun& run = runs[k];
-    const double r = run.radius_m;
-    const double dir = run.dir();
-    for (int axis = 0; axis < 2; ++axis) {
-      const double b = axis == 0 ? b_a : b_b;
-      const double lag = dir * run.feed_m_per_s / r * (axis == 0 ? delay_a : delay_b);
-      const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z - lag) : r * std::sin(z - lag); };
-      // A deadband narrower than a picometre keeps the ideal step: (act - now) / b would divide the
-      // positions' rounding (r * eps, about 2e-17 m) by b, a noise column (a backlash estimate of
-      // noise-free data is of that order and its sign a coin toss).
-      if (!(b > min_deadband_m)) continue;
-      const double half = 0.5 * b;
-      double z = run.angle_rad.front() - dir * pi;
-      double act = cmd(z);
-      // Fine substeps only near the reversals, where the deadband is being taken up.
-      const double near = 4.0 * std::sqrt(b / r) + 0.01;
-      // Moves to angle `to`, whose cos and sin are `c_to` and `s_to`.
-      const auto advance = [&](double to, double c_to, double s_to) {
-        const double rev = axis == 0 ? std::abs(s_to) : std::abs(c_to);
-        const int steps =
-            rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
-        const double dz = (to - z) / steps;
-        for (int q = 1; q <= steps; ++q) {
-          const double zq = z + dz * q;
-          const double c = (zq == to && lag == 0.0) ? r * (axis == 0 ? c_to : s_to) : cmd(zq);
-          if (c - act > half) act = c - half;
-          if (c - act < -half) act = c + half;
-        }
-        z = to;
-      };
-      // Pre-roll in 0.1 deg steps (each refined only near a reversal).
-      const auto& tc = table.c[k];
-      const auto& ts = table.s[k];
-      for (int q = 1; q < 1800; ++q) {
-        const auto t = static_cast<std::size_t>(q - 1);
-        advance(preroll_angle(run, q), tc[t], ts[t]);
-      }
-      for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
-        Point& p = pts[i0 + i];
-        advance(run.angle_rad[i], p.c, p.s);
-        const double now = lag == 0.0 ? r * (axis == 0 ? p.c : p.s) : cmd(z);
-        (axis == 0 ? p.bl_a : p.bl_b) = (act - now) / b;
-      }
-    }
-    i0 += run.angle_rad.size();
-  }
+  set_deadband(pts, tracks[widths.track], widths.b_a, widths.b_b);
+  return widths;
 }
 
 FitSummary summary_of(const LsqResult& res) {
@@ -539,7 +496,8 @@ void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::ve
     std::vector<double> curve(pts.size(), 0.0);
     for (std::size_t i = 0; i < pts.size(); ++i) {
       diag_row(L, pts[i], row);
-      for (const std::size_t c : cols) curve[i] += row[static_cast<Eigen::Index>(c)] * res.x[static_cast<Eigen::Index>(c)];
+      for (const std::size_t c : cols)
+        curve[i] += row[static_cast<Eigen::Index>(c)] * res.x[static_cast<Eigen::Index>(c)];
     }
     const double part = part_of_deviation(pts, curve, runs.size());
     // Named as the diagnostic (the scales as their mismatch, the cyclic error's two columns after its axis).
@@ -587,10 +545,13 @@ double spike_score(const std::vector<SpikePoint>& near, double tau, double delay
   return suu > 0 ? sur * sur / suu : 0.0;
 }
 
-// Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike after the
-// commanded reversal (the axis' servo lag, 0..`delay_max`) that explain most of the residual.
+// Per axis: the decay time (log grid 2..100 ms, then golden section; never below the sample spacing
+// `tau_min`, where a "spike" would be one sample's noise) and the delay of the spike after the commanded
+// reversal (the axis' servo lag, 0..`delay_max`) that explain most of the residual. When that is not
+// clearly more than noise, a 20 ms spike at the reversal: the height then reported is that of a typical
+// stiction spike, consistent with none.
 SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bool axis_a, double delay_step,
-                        double delay_max) {
+                        double delay_max, double tau_min) {
   constexpr double tau_max = 0.1;
   std::vector<SpikePoint> near;
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -606,6 +567,7 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
   for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
     for (int q = 0; q < grid; ++q) {
       const double tau = 0.002 * std::pow(50.0, static_cast<double>(q) / (grid - 1));
+      if (tau < tau_min) continue;
       const double e = spike_score(near, tau, d);
       if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
         best = e;
@@ -624,7 +586,7 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
     }
   }
   const double ratio = std::pow(50.0, 1.0 / (grid - 1));
-  double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
+  double lo = std::log(std::max(best_tau / ratio, tau_min)), hi = std::log(best_tau * ratio);
   const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
   double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
   double f1 = spike_score(near, std::exp(x1), best_delay), f2 = spike_score(near, std::exp(x2), best_delay);
@@ -645,8 +607,9 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
   }
   const double xm = 0.5 * (lo + hi);
   if (spike_score(near, std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
+  if (!(spike_score(near, best_tau, best_delay) > 30.0 * base.s2)) return {std::max(0.02, tau_min), 0.0, 0.0, false};
   const auto [sur, suu] = spike_sums(near, best_tau, best_delay);
-  return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, spike_score(near, best_tau, best_delay) > 30.0 * base.s2};
+  return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, true};
 }
 
 // Reversal spikes: the decay time and delay of each axis that explain most of the preliminary residual.
@@ -659,8 +622,8 @@ void search_reversal_spikes(const std::vector<formats::DbbRun>& runs, const std:
   // With samples further apart than 2 ms a delay only trades off against the height: not searched.
   const double delay_step = std::max(0.002, dt);
   const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
-  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max);
-  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max);
+  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max, 0.5 * dt);
+  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max, 0.5 * dt);
   L.tau_a = a.tau;
   L.delay_a = a.delay;
   L.amp_a = a.amp;
@@ -721,25 +684,35 @@ void choose_cyclic_periods(const std::vector<formats::DbbRun>& runs, std::vector
   set_cyclic_phases(L, pts);
 }
 
-// The diagnostics fit with the points' deadband shape of this fit's own backlash (the Lai fit's may
-// differ): refitted only when it differs noticeably from the one the points carry.
-LsqResult fit_with_own_backlash(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts,
-                                const std::string& plane, DiagWork& work, PrerollTable& preroll, double shaped_b_a,
-                                double shaped_b_b, const DiagLayout& L) {
-  LsqResult res = fit_diag(L, pts, plane, work);
-  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
-  const std::size_t ga = L.global0() + DiagLayout::backlash_a;
-  const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
-  const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
-  const auto differs = [](double now, double shaped) {
-    return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
-  };
-  if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
-    for (auto& p : pts) set_step_backlash(p);
-    if (b_a > 0 || b_b > 0)
-      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
-    res = fit_diag(L, pts, plane, work);
+// The diagnostics fit with the deadband of its own backlash (the points carry `shaped`, Lai's): its drive
+// delay searched again with the diagnostics' terms (the spikes among them) in the fit, its width refitted
+// when it differs noticeably from the one the points carry.
+LsqResult fit_with_own_backlash(std::vector<Point>& pts, const std::vector<DriveTrack>& tracks,
+                                const std::string& plane, DiagWork& work, Deadband shaped, const DiagLayout& L) {
+  const auto fit = [&](Eigen::Index stride) {
+    LsqResult res = fit_diag(L, pts, plane, work, stride);
     if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+    return res;
+  };
+  const auto own = [&](const LsqResult& res) {
+    const std::size_t ga = L.global0() + DiagLayout::backlash_a;
+    return Deadband{res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0,
+                    res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0, shaped.track};
+  };
+  const auto differs = [](const Deadband& now, const Deadband& was) {
+    const auto by = [](double n, double w) { return std::abs(n - w) > std::max(0.02 * std::abs(w), 0.02e-6); };
+    return by(now.b_a, was.b_a) || by(now.b_b, was.b_b);
+  };
+  LsqResult res = fit(1);
+  Deadband now = own(res);
+  if (now.shaped() && tracks.size() > 1) {
+    shaped = choose_deadband_delay(pts, tracks, now, [&](const std::vector<Point>&) { return fit(3).rms; });
+    res = fit(1);
+    now = own(res);
+  }
+  if (differs(now, shaped)) {
+    set_deadband(pts, tracks[now.track], std::max(now.b_a, 0.0), std::max(now.b_b, 0.0));
+    res = fit(1);
   }
   return res;
 }
@@ -830,10 +803,10 @@ void report_diagnostics(const DiagLayout& L, const LsqResult& res, const std::ve
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 1), L.delay_b * 1e3, nan, false));
 }
 
-// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
-// out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
-LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::string& plane,
-                   DiagWork& work, PrerollTable& preroll, double shaped_b_a, double shaped_b_b,
+// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband `shaped` on the drives' `tracks`):
+// fills out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
+LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts,
+                   const std::vector<DriveTrack>& tracks, const std::string& plane, DiagWork& work, Deadband shaped,
                    const IdentifyOptions& options, Identification& out) {
   DiagLayout L;
   L.runs = runs.size();
@@ -842,11 +815,7 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
   if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
   search_reversal_spikes(runs, pts, base, L);
   choose_cyclic_periods(runs, pts, base, options, L);
-  // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
-  // take-up is late by as much.
-  if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
-    apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
-  LsqResult res = fit_with_own_backlash(runs, pts, plane, work, preroll, shaped_b_a, shaped_b_b, L);
+  LsqResult res = fit_with_own_backlash(pts, tracks, plane, work, shaped, L);
   refine_spike_decays(pts, plane, work, L, res);
   out.diagnostics_fit = summary_of(res);
   const auto names = diag_names(L, plane);
@@ -880,26 +849,33 @@ std::string lai_error_group(const std::string& name) {
     return name.substr(0, name.rfind('_'));
   if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
   switch (name.front()) {
-    case 'a': return "x_straightness_in_y";  // with the squareness a1
-    case 'b': return "y_straightness_in_x";
-    case 'c': return "y_roll";
-    case 'd': return "x_straightness_in_z";
-    case 'e': return "y_straightness_in_z";
-    default: return name;
+    case 'a':
+      return "x_straightness_in_y";  // with the squareness a1
+    case 'b':
+      return "y_straightness_in_x";
+    case 'c':
+      return "y_roll";
+    case 'd':
+      return "x_straightness_in_z";
+    case 'e':
+      return "y_straightness_in_z";
+    default:
+      return name;
   }
 }
 
 // What Lai's fit leaves for the rest of identify().
 struct LaiFit {
-  std::vector<double> residual_rms;  // per run
+  std::vector<double> residual_rms;   // per run
   std::vector<Contribution> ranking;  // its terms' parts of G, largest first
-  double shaped_b_a = 0, shaped_b_b = 0;  // the backlash widths the points' deadband shapes were computed for
+  Deadband shaped;                    // the deadband whose shape the points carry (widths and the drives' delay)
 };
 
 // Lai's third-order model on every run (two passes: the first only estimates the backlash whose
-// deadband shape the second uses; `pts` keep that shape). Fills out.fit and out.lai3.
-LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, PrerollTable& preroll, DiagWork& work,
-               const IdentifyOptions& options, Identification& out) {
+// deadband shape, at the drives' delay that fits best, the second uses; `pts` keep that shape). Fills
+// out.fit and out.lai3.
+LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::vector<DriveTrack>& tracks,
+               DiagWork& work, const IdentifyOptions& options, Identification& out) {
   const auto n = static_cast<Eigen::Index>(pts.size());
   LaiFit lai;
   lai.residual_rms.assign(runs.size(), 0.0);
@@ -942,15 +918,12 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
   };
   // First pass on a third of the points: only its backlash estimate is used (deadband shape).
   LsqResult res = fit(3);
-  // Second pass with the deadband shape of the estimated backlash.
+  // Second pass with the deadband shape of the estimated backlash, at the drives' delay that fits best.
   const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
-  const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
-  const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
-  if (b_a > 0 || b_b > 0) {
-    apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0));
-    lai.shaped_b_a = std::max(b_a, 0.0);
-    lai.shaped_b_b = std::max(b_b, 0.0);
-  }
+  const Deadband step{res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0,
+                      res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0};
+  if (step.shaped())
+    lai.shaped = choose_deadband_delay(pts, tracks, step, [&](const std::vector<Point>&) { return fit(3).rms; });
   res = fit(1);
   out.fit = summary_of(res);
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -1021,15 +994,19 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
   // Among runs with a socket height, the h = 0 ones must also go both ways: in one direction backlash,
   // play, spikes and servo mismatch trade off against errors the diagnostics do not model (a single
   // in-plane test of one machine error at a time is separable; Lai's three patterns are not).
-  const bool both = std::any_of(flat.begin(), flat.end(), [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::ccw; }) &&
-                    std::any_of(flat.begin(), flat.end(), [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::cw; });
+  const bool both = std::any_of(flat.begin(), flat.end(),
+                                [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::ccw; }) &&
+                    std::any_of(flat.begin(), flat.end(),
+                                [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::cw; });
   if (flat.empty()) {
-    out.notes.push_back("no ballbar diagnostics: they model an in-plane bar (h = 0) and every run has a socket height; "
-                        "Lai's model covers these runs (and ranks the errors)");
+    out.notes.push_back(
+        "no ballbar diagnostics: they model an in-plane bar (h = 0) and every run has a socket height; "
+        "Lai's model covers these runs (and ranks the errors)");
   } else if (!both && flat.size() < runs.size()) {
-    out.notes.push_back("no ballbar diagnostics: they need an in-plane (h = 0) test in both directions (backlash, play, "
-                        "spikes and servo mismatch are told apart by the direction), and the h = 0 runs go one way; "
-                        "Lai's model covers every run (and ranks the errors)");
+    out.notes.push_back(
+        "no ballbar diagnostics: they need an in-plane (h = 0) test in both directions (backlash, play, "
+        "spikes and servo mismatch are told apart by the direction), and the h = 0 runs go one way; "
+        "Lai's model covers every run (and ranks the errors)");
   } else {
     if (flat.size() < runs.size()) {
       std::string which;
@@ -1038,9 +1015,10 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
                           "): they model an in-plane bar, not a socket height; Lai's model above uses every run");
     }
     std::vector<Point> flat_pts = points_of(flat);
-    PrerollTable flat_preroll;
-    if (lai.shaped_b_a > 0 || lai.shaped_b_b > 0) apply_deadband(flat_pts, flat, flat_preroll, lai.shaped_b_a, lai.shaped_b_b);
-    const LsqResult res = diagnose(flat, flat_pts, plane, work, flat_preroll, lai.shaped_b_a, lai.shaped_b_b, options, out);
+    const std::vector<DriveTrack> tracks =
+        drive_tracks(flat_pts, drive_delays_s(runs));  // Lai's delays: its track index holds
+    if (lai.shaped.shaped()) set_deadband(flat_pts, tracks[lai.shaped.track], lai.shaped.b_a, lai.shaped.b_b);
+    const LsqResult res = diagnose(flat, flat_pts, tracks, plane, work, lai.shaped, options, out);
     // Absolute scales that agree are a radius change common to both axes, not the axes' scales.
     const auto find = [&](const std::string& name) -> const Estimate* {
       for (const auto& e : out.diagnostics)
@@ -1121,19 +1099,19 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
   const std::string plane = runs.front().plane;
   for (const auto& r : runs)
     if (r.plane != plane)
-      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
-                           "); runs identified together must share the plane");
+      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" +
+                                       plane + "); runs identified together must share the plane");
 
   Identification out;
   out.plane = plane;
   std::vector<Point> pts = points_of(runs);
-  PrerollTable preroll;
   DiagWork work;
   // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
   // (spikes 2, decays 2, cyclic 4).
-  work.j.resize(static_cast<Eigen::Index>(pts.size()),
-                static_cast<Eigen::Index>(2 * runs.size() + std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
-  const LaiFit lai = fit_lai(runs, pts, preroll, work, options, out);
+  work.j.resize(
+      static_cast<Eigen::Index>(pts.size()),
+      static_cast<Eigen::Index>(2 * runs.size() + std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
+  const LaiFit lai = fit_lai(runs, pts, drive_tracks(pts, drive_delays_s(runs)), work, options, out);
   const std::vector<double> residual_rms = diagnose_in_plane_runs(runs, plane, work, lai, options, out);
   if (out.ranking.empty()) {
     out.ranking = lai.ranking;
