@@ -30,6 +30,7 @@ struct Point : SampleGeometry {
   double cyc_sa = 0, cyc_ca = 0;  // sin and cos of the cyclic phase 2 pi a_m / period_a (and b),
   double cyc_sb = 0, cyc_cb = 0;  // once the periods are chosen (set_cyclic_phases)
   double w = 1;
+  std::size_t sample = 0;  // among all the runs identified: the row of IdentifyOptions::beside's columns
 };
 
 // The ideal step: the axis trails the command by half the backlash, on the side it comes from.
@@ -38,7 +39,10 @@ void set_step_backlash(Point& p) {
   p.bl_b = -0.5 * p.sgn_b;
 }
 
-std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs) {
+// The points of `runs`; run k's first sample is sample first_sample[k] of all the runs identified (none
+// given: the runs are all of them).
+std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs,
+                             const std::vector<std::size_t>& first_sample = {}) {
   std::vector<Point> pts;
   std::size_t total = 0;
   for (const auto& r : runs) total += r.angle_rad.size();
@@ -47,14 +51,37 @@ std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs) {
     const formats::DbbRun& run = runs[k];
     const double w =
         static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
+    const std::size_t first = first_sample.empty() ? pts.size() : first_sample[k];
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Point& p = pts.emplace_back();  // filled in place (10^4 points of 200 bytes)
       fill_sample_geometry(run, k, i, p);
       set_step_backlash(p);
       p.w = w;
+      p.sample = first + i;
     }
   }
   return pts;
+}
+
+// The columns of the terms fitted beside a model's own (all of them, or those the diagnostics do not hold),
+// with their names.
+struct BesideColumns {
+  std::vector<const std::vector<double>*> columns;
+  std::vector<std::string> names;
+  [[nodiscard]] std::size_t size() const { return columns.size(); }
+  [[nodiscard]] double at(std::size_t c, const Point& p) const { return (*columns[c])[p.sample]; }
+};
+
+BesideColumns beside_columns(const IdentifyOptions& options, bool diagnostics) {
+  BesideColumns out;
+  for (const BesideTerm& t : options.beside) {
+    if (diagnostics && !t.in_diagnostics) continue;
+    for (std::size_t c = 0; c < t.columns_um.size(); ++c) {
+      out.columns.push_back(&t.columns_um[c]);
+      out.names.push_back(c < t.names.size() ? t.names[c] : t.effect + "_" + std::to_string(c + 1));
+    }
+  }
+  return out;
 }
 
 // The points' backlash column: the deadband of width b_a / b_b (m) on the drives' track (the one deadband
@@ -166,18 +193,21 @@ struct DiagLayout {
   double amp_a = 0, amp_b = 0;
   bool cyclic_a = false, cyclic_b = false;
   double tau_a = 0.02, tau_b = 0.02, delay_a = 0, delay_b = 0, period_a = 0, period_b = 0;
+  const BesideColumns* beside = nullptr;  // fitted beside, after every diagnostic (may be null)
+  [[nodiscard]] std::size_t beside_count() const { return beside ? beside->size() : 0; }
   [[nodiscard]] std::size_t global0() const { return 2 * runs; }
   // global parameters after the per-run centre offsets
   enum G { scale_a, scale_b, squareness, backlash_a, backlash_b, play_a, play_b, servo, bow_a, bow_b, n_base };
   [[nodiscard]] std::size_t count() const {
     return global0() + n_base + (spikes ? 2 : 0) + (decay_a ? 1 : 0) + (decay_b ? 1 : 0) + (cyclic_a ? 2 : 0) +
-           (cyclic_b ? 2 : 0);
+           (cyclic_b ? 2 : 0) + beside_count();
   }
   [[nodiscard]] std::size_t spike0() const { return global0() + n_base; }
   [[nodiscard]] std::size_t decay_a0() const { return spike0() + (spikes ? 2 : 0); }
   [[nodiscard]] std::size_t decay_b0() const { return decay_a0() + (decay_a ? 1 : 0); }
   [[nodiscard]] std::size_t cyc_a0() const { return decay_b0() + (decay_b ? 1 : 0); }
   [[nodiscard]] std::size_t cyc_b0() const { return cyc_a0() + (cyclic_a ? 2 : 0); }
+  [[nodiscard]] std::size_t beside0() const { return cyc_b0() + (cyclic_b ? 2 : 0); }
 };
 
 // Column values in um per reported unit (um, ppm, urad, ms).
@@ -223,6 +253,8 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
     row[k] = lam * s * p.cyc_sb;
     row[k + 1] = lam * s * p.cyc_cb;
   }
+  for (std::size_t k = 0; k < L.beside_count(); ++k)
+    row[static_cast<Eigen::Index>(L.beside0() + k)] = L.beside->at(k, p);
 }
 
 // The cyclic-error phases of the chosen lead-screw periods, computed once for every later fit.
@@ -271,6 +303,7 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::string& plan
     n.push_back(results::name(results::cyclic_sin, plane, 1));
     n.push_back(results::name(results::cyclic_cos, plane, 1));
   }
+  if (L.beside) n.insert(n.end(), L.beside->names.begin(), L.beside->names.end());
   return n;
 }
 
@@ -801,6 +834,12 @@ void report_diagnostics(const DiagLayout& L, const LsqResult& res, const std::ve
   decay(L.decay_b, L.decay_b0(), L.tau_b, 1);
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 0), L.delay_a * 1e3, nan, false));
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 1), L.delay_b * 1e3, nan, false));
+  out.beside.clear();
+  for (std::size_t c = 0; c < L.beside_count(); ++c) {
+    const std::size_t k = L.beside0() + c;
+    if (res.identified[k])
+      out.beside.push_back(est(names[k], res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
+  }
 }
 
 // The ballbar diagnostics of `runs` (points `pts`, carrying the deadband `shaped` on the drives' `tracks`):
@@ -810,6 +849,8 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
                    const IdentifyOptions& options, Identification& out) {
   DiagLayout L;
   L.runs = runs.size();
+  const BesideColumns beside = beside_columns(options, true);
+  L.beside = &beside;
   // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
   const LsqResult base = fit_diag(L, pts, plane, work, 3);
   if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
@@ -893,11 +934,15 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     }
     for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].parameter->name);
   }
+  // The terms fitted beside Lai's, after them.
+  const BesideColumns beside = beside_columns(options, false);
+  names.insert(names.end(), beside.names.begin(), beside.names.end());
+  const std::size_t cols = m + beside.size();
   // With stride > 1 only every stride-th point enters (its residual is not needed).
   const auto fit = [&](Eigen::Index stride) {
-    const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
+    const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(cols), stride);
     if (rows == n) stride = 1;
-    auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(m));
+    auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(cols));
     if (!shared) j.setZero();
     Eigen::VectorXd ys(rows), ws(rows);
     double basis[lai_count];
@@ -909,6 +954,7 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
       j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
       for (std::size_t c = 2; c < lai_count; ++c)
         j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+      for (std::size_t c = 0; c < beside.size(); ++c) j(i, static_cast<Eigen::Index>(m + c)) = beside.at(c, p);
       ys[i] = p.dL_um;
       ws[i] = p.w;
     }
@@ -974,6 +1020,9 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     }
     out.lai3.push_back(est(name, value, u));
   }
+  for (std::size_t c = m; c < cols; ++c)
+    if (res.identified[c])
+      out.beside.push_back(est(names[c], res.x[static_cast<Eigen::Index>(c)], res.u[static_cast<Eigen::Index>(c)]));
   return lai;
 }
 
@@ -1014,7 +1063,11 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
       out.notes.push_back("ballbar diagnostics from the h = 0 run(s) only (" + which +
                           "): they model an in-plane bar, not a socket height; Lai's model above uses every run");
     }
-    std::vector<Point> flat_pts = points_of(flat);
+    std::vector<std::size_t> first(runs.size(), 0);  // of each run among all the runs
+    for (std::size_t k = 1; k < runs.size(); ++k) first[k] = first[k - 1] + runs[k - 1].angle_rad.size();
+    std::vector<std::size_t> flat_first;
+    for (const std::size_t k : flat_index) flat_first.push_back(first[k]);
+    std::vector<Point> flat_pts = points_of(flat, flat_first);
     const std::vector<DriveTrack> tracks =
         drive_tracks(flat_pts, drive_delays_s(runs));  // Lai's delays: its track index holds
     if (lai.shaped.shaped()) set_deadband(flat_pts, tracks[lai.shaped.track], lai.shaped.b_a, lai.shaped.b_b);
@@ -1105,12 +1158,21 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
   Identification out;
   out.plane = plane;
   std::vector<Point> pts = points_of(runs);
+  std::size_t beside = 0;
+  for (const BesideTerm& t : options.beside) {
+    for (const auto& c : t.columns_um)
+      if (c.size() != pts.size())
+        throw formats::DbbRunFormatError("identify: the column of " + t.effect + " fitted beside has " +
+                                         std::to_string(c.size()) + " values for " + std::to_string(pts.size()) +
+                                         " samples");
+    beside += t.columns_um.size();
+  }
   DiagWork work;
   // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
-  // (spikes 2, decays 2, cyclic 4).
-  work.j.resize(
-      static_cast<Eigen::Index>(pts.size()),
-      static_cast<Eigen::Index>(2 * runs.size() + std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
+  // (spikes 2, decays 2, cyclic 4), and the terms fitted beside.
+  work.j.resize(static_cast<Eigen::Index>(pts.size()),
+                static_cast<Eigen::Index>(2 * runs.size() +
+                                          std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8) + beside));
   const LaiFit lai = fit_lai(runs, pts, drive_tracks(pts, drive_delays_s(runs)), work, options, out);
   const std::vector<double> residual_rms = diagnose_in_plane_runs(runs, plane, work, lai, options, out);
   if (out.ranking.empty()) {

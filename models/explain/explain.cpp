@@ -965,7 +965,7 @@ void set_contribution(const Problem& problem, const std::vector<std::pair<std::s
 // against the final model without it; RMS and held-out RMS after each in turn. `steps` gets the residual
 // after each.
 void add_findings(const Problem& problem, const Selection& sel, const EffectSelection& chosen, const Eigen::VectorXd& y,
-                  double sigma, double visible_floor, Report& rep,
+                  double sigma, double visible_floor, bool keep_columns, Report& rep,
                   std::vector<std::pair<std::string, Eigen::VectorXd>>& steps) {
   const std::vector<Term>& terms = chosen.terms();
   const std::size_t n = problem.samples.size();
@@ -989,6 +989,12 @@ void add_findings(const Problem& problem, const Selection& sel, const EffectSele
     fd.share = sel.share(terms, k, chosen.model(), sigma, visible_floor);
     set_contribution(problem, ranges, v.block.columns * final_fit.x.segment(offset, v.block.columns.cols()), fd);
     fd.why = cand.why;
+    if (keep_columns) {
+      fd.column_names = v.block.names;
+      for (Eigen::Index c = 0; c < v.block.columns.cols(); ++c)
+        fd.columns_um.emplace_back(v.block.columns.col(c).data(),
+                                   v.block.columns.col(c).data() + v.block.columns.rows());
+    }
     rep.findings.push_back(std::move(fd));
     steps.emplace_back("+ " + cand.effect, pm.residual);
     offset += v.block.columns.cols();
@@ -1025,7 +1031,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   EffectSelection chosen(problem, options, sel, base, base_ho, sigma, visible_floor);
   chosen.run();
   std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
-  add_findings(problem, sel, chosen, y, sigma, visible_floor, rep, steps);
+  add_findings(problem, sel, chosen, y, sigma, visible_floor, options.keep_columns, rep, steps);
   rep.considered = chosen.considered();
   const Model& cur = chosen.model();
   rep.final_fit = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, chosen.heldout(), cur.rank + cur.searched};
