@@ -154,7 +154,7 @@ std::vector<Refusal> refusals(const Verification& v, const std::vector<Correctio
       std::vector<double> gi = rest.empty() ? v.g_before : g_of(rest);
       const std::size_t wi = worst(gi);
       const double growth = wi < gi.size() ? gi[wi] / v.g_before[wi] : 0.0;
-      if (growth < best) {
+      if (i == 0 || growth < best) {
         best = growth;
         drop = i;
         g_drop = std::move(gi);
@@ -162,9 +162,10 @@ std::vector<Refusal> refusals(const Verification& v, const std::vector<Correctio
     }
     std::string with;
     for (const Correction* c : set) with += (with.empty() ? "" : " + ") + c->file;
-    out.push_back({set[drop]->file, "with " + with + " loaded, G of " + run_label(v.before, k) + " grows from " +
-                                        printf_number("%.3f", v.g_before[k]) + " to " + printf_number("%.3f um", g[k]) +
-                                        printf_number(" (%.0f %%)", 100 * g[k] / v.g_before[k])});
+    out.push_back({set[drop]->file,
+                   "with " + with + " loaded, G of " + run_label(v.before, k) + " grows from " +
+                       printf_number("%.3f", v.g_before[k]) + " to " + printf_number("%.3f um", g[k]) +
+                       (v.g_before[k] > 0 ? printf_number(" (%.0f %%)", 100 * g[k] / v.g_before[k]) : std::string())});
     set.erase(set.begin() + static_cast<std::ptrdiff_t>(drop));
     g = std::move(g_drop);
   }
@@ -215,7 +216,7 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const models::comp
   v.after = models::compensation::identify_checked(r.after).id;
   const std::vector<double>& less = before.beside_um;
   const auto g_of = [&](const std::vector<const Correction*>& set) {
-    return g_of_runs(machine::remeasure_dbb(config, combined(set), runs, center).after, less);
+    return g_of_runs(machine::retrace_dbb(config, combined(set), runs, center, "after"), less);
   };
   v.g_before = g_of_runs(r.before, less);
   v.g_after = g_of_runs(r.after, less);
@@ -552,12 +553,12 @@ void run_compensate(const Opts& o, const std::string& socket) {
     }
   }
   mo.step_m = o.step_mm * 1e-3;
-  // The identification with what EXPLAIN finds on the same runs fitted beside, and its values to check
-  // the terms against.
-  const models::compensation::CheckedIdentification checked = models::compensation::identify_checked(runs);
   models::compensation::ErrorMap map;
   try {
-    map = models::compensation::error_map(checked, runs, mo);
+    models::compensation::check_map_inputs(runs, mo);  // bad input refused before the identification's work
+    // The identification with what EXPLAIN finds on the same runs fitted beside, and its values to check
+    // the terms against.
+    map = models::compensation::error_map(models::compensation::identify_checked(runs), runs, mo);
   } catch (const models::compensation::CompensationError& e) {
     throw std::runtime_error(std::string("compensate: ") + e.what());
   }

@@ -401,12 +401,9 @@ void fill_axis_map(ErrorMap& m, int k, double radius) {
 
 }  // namespace
 
-ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
+std::array<double, 2> check_map_inputs(const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
   if (runs.empty()) throw CompensationError("no runs");
-  ErrorMap m;
-  m.plane = id.plane;
   require_both_directions(runs);
-  m.model = map_model(id);
   const auto center = options.center_m ? options.center_m : runs_center_m(runs);
   if (!center)
     throw CompensationError(
@@ -419,6 +416,17 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
                               shortest(max_machine_coordinate_m * 1e3) + " mm)");
   if (options.step_m != 0.0 && !(std::isfinite(options.step_m) && options.step_m > 0.0))
     throw CompensationError("the table step " + shortest(options.step_m * 1e3) + " mm is not a positive number");
+  double radius = 0;  // the largest: what any map of these runs covers at most
+  for (const auto& r : runs) radius = std::max(radius, r.radius_m);
+  table_step(options, *center, radius);
+  return *center;
+}
+
+ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
+  const std::array<double, 2> center = check_map_inputs(runs, options);
+  ErrorMap m;
+  m.plane = id.plane;
+  m.model = map_model(id);
   const double radius = map_radius(runs, m);
   const std::vector<dbb::Estimate> estimates = m.model == "lai3" ? lai3_terms(id, radius, m.notes) : id.diagnostics;
   if (const auto* g = find(id, results::name(results::circular_deviation))) m.circular_deviation_um = g->value;
@@ -427,10 +435,10 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
   m.terms.reserve(24);
   bool cubic_per_axis = false;
   for (int k = 0; k < 2; ++k)
-    cubic_per_axis = axis_terms(m, estimates, k, (*center)[static_cast<std::size_t>(k)], radius) || cubic_per_axis;
+    cubic_per_axis = axis_terms(m, estimates, k, center[static_cast<std::size_t>(k)], radius) || cubic_per_axis;
   if (!cubic_per_axis) split_cubic_difference(m, id, radius);
   plane_terms(m, estimates);
-  m.step_m = table_step(options, *center, radius);
+  m.step_m = table_step(options, center, radius);
   for (int k = 0; k < 2; ++k) fill_axis_map(m, k, radius);
   return m;
 }
@@ -671,6 +679,8 @@ constexpr std::string_view held_by_diagnostics[] = {"reversal_spike", "lateral_p
 // Not fitted beside either, with the reason: servo_lag is the geometry itself seen one lag earlier along
 // the path, a column built from the base's fit whose shapes the diagnostics' servo mismatch and scale share.
 constexpr std::string_view not_beside[] = {"servo_lag"};
+// A finding whose part of G is below this (%) is not fitted beside.
+constexpr double negligible_percent = 1.0;
 
 bool listed_in(std::span<const std::string_view> list, const std::string& effect) {
   return std::find(list.begin(), list.end(), effect) != list.end();
@@ -688,7 +698,9 @@ CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
   for (const auto& f : report.findings) {
     for (const auto& p : f.parameters)
       if (std::isfinite(p.u)) out.explain.push_back({p.name, p.value, p.u, true});
-    if (listed_in(held_by_both, f.effect)) continue;
+    // A finding below 1 % of G cannot bias a table's term much, and its columns would still widen the
+    // others' uncertainties (a 0.017 um "vibration" took a spike's u from 0.5 to 3.3 um).
+    if (listed_in(held_by_both, f.effect) || !(f.contribution_percent >= negligible_percent)) continue;
     if (listed_in(not_beside, f.effect)) {
       out.notes.push_back("EXPLAIN found " + f.effect +
                           " on these runs; it is not fitted beside the terms (it is the geometry itself seen one lag "

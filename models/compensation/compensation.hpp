@@ -130,8 +130,9 @@ struct MapOptions {
 
 // The identification a compensation is built from: identify (models/dbb) with what EXPLAIN finds on the
 // same runs and neither of its models holds fitted beside their terms (a drift, a vibration, a stick-slip,
-// a sensor's nonlinearity; for Lai's fit also the spikes, the lateral play and a cyclic error), so that it
-// is not read as one of the tables' terms: a 1 um/min drift along X read as -0.25 um of backlash.
+// a sensor's nonlinearity; for Lai's fit also the spikes, the lateral play and a cyclic error; each when
+// its part of G is at least 1 %), so that it is not read as one of the tables' terms: a 1 um/min drift
+// along X read as -0.25 um of backlash.
 // EXPLAIN's findings are also what the map checks its terms against (MapOptions::cross_check).
 struct CheckedIdentification {
   dbb::Identification id;
@@ -153,6 +154,11 @@ ErrorMap error_map(const CheckedIdentification& checked, const std::vector<forma
 // The circle centre of the runs' metadata (first, second plane axis), or nullopt when a run does not
 // state it; throws CompensationError when the runs state different centres.
 std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs);
+
+// What error_map checks before it looks at an identification (so a caller can refuse bad input before
+// identifying): the runs go both ways, the centre (the options' or the runs') is known and a machine
+// position, the step is positive and gives at most 256 lines. Throws CompensationError; returns the centre.
+std::array<double, 2> check_map_inputs(const std::vector<formats::DbbRun>& runs, const MapOptions& options);
 
 // From the ballbar diagnostics when the identification has them, else from Lai's third-order model
 // (scale, backlash, the in-plane straightness polynomials, squareness a1; over the largest radius).

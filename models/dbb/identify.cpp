@@ -578,13 +578,15 @@ double spike_score(const std::vector<SpikePoint>& near, double tau, double delay
   return suu > 0 ? sur * sur / suu : 0.0;
 }
 
-// Per axis: the decay time (log grid 2..100 ms, then golden section; never below the sample spacing
-// `tau_min`, where a "spike" would be one sample's noise) and the delay of the spike after the commanded
+// Per axis: the decay time (log grid 2..100 ms, then golden section; never below half the sample spacing
+// `dt`, where a "spike" would be one sample's noise) and the delay of the spike after the commanded
 // reversal (the axis' servo lag, 0..`delay_max`) that explain most of the residual. When that is not
-// clearly more than noise, a 20 ms spike at the reversal: the height then reported is that of a typical
-// stiction spike, consistent with none.
+// clearly more than noise, a spike at the reversal decaying in 20 ms, or two sample spacings when the
+// samples are further apart than 10 ms: the height then reported is that of a stiction spike the sampling
+// resolves, consistent with none.
 SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bool axis_a, double delay_step,
-                        double delay_max, double tau_min) {
+                        double delay_max, double dt) {
+  const double tau_min = 0.5 * dt;
   constexpr double tau_max = 0.1;
   std::vector<SpikePoint> near;
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -640,7 +642,7 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
   }
   const double xm = 0.5 * (lo + hi);
   if (spike_score(near, std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
-  if (!(spike_score(near, best_tau, best_delay) > 30.0 * base.s2)) return {std::max(0.02, tau_min), 0.0, 0.0, false};
+  if (!(spike_score(near, best_tau, best_delay) > 30.0 * base.s2)) return {std::max(0.02, 2 * dt), 0.0, 0.0, false};
   const auto [sur, suu] = spike_sums(near, best_tau, best_delay);
   return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, true};
 }
@@ -655,8 +657,8 @@ void search_reversal_spikes(const std::vector<formats::DbbRun>& runs, const std:
   // With samples further apart than 2 ms a delay only trades off against the height: not searched.
   const double delay_step = std::max(0.002, dt);
   const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
-  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max, 0.5 * dt);
-  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max, 0.5 * dt);
+  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max, dt);
+  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max, dt);
   L.tau_a = a.tau;
   L.delay_a = a.delay;
   L.amp_a = a.amp;

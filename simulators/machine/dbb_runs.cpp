@@ -92,12 +92,13 @@ std::vector<CrossCompensation> cross_compensation(const std::vector<formats::Cro
   return out;
 }
 
-RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
-                             const std::vector<formats::DbbRun>& runs, const Vec3& center) {
+std::vector<formats::DbbRun> retrace_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                                         const std::vector<formats::DbbRun>& runs, const Vec3& center,
+                                         const std::string& tag) {
   MachineConfig with = machine;
   with.controller = correction;
-  const Machine plain(machine), compensated(with);
-  RemeasuredRuns out;
+  const Machine m(with);
+  std::vector<formats::DbbRun> out;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     DbbCircleSpec spec = circle_spec_of(runs[k], center);
     if (const auto s = runs[k].metadata.find("seed"); s != runs[k].metadata.end()) {
@@ -107,21 +108,24 @@ RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorre
         spec.seed = 0;
       }
     }
-    const std::string tag = std::to_string(k + 1) + (runs[k].direction == formats::DbbDirection::ccw ? "_ccw" : "_cw");
     // The angles as the given run has them: a live session's are the axis encoders'.
     const auto source = runs[k].metadata.find("angle_source");
     const AngleSource angles = source != runs[k].metadata.end() && source->second == "encoders"
                                    ? AngleSource::encoders
                                    : AngleSource::commanded;
-    for (auto* m : {&plain, &compensated}) {
-      const bool after = m == &compensated;
-      formats::DbbRun run = simulate_dbb_run(*m, spec, (after ? "after_" : "before_") + tag, angles);
-      run.metadata.erase("start_time_s");
-      run.metadata["compensation"] = after ? "after" : "before";
-      (after ? out.after : out.before).push_back(std::move(run));
-    }
+    const std::string name =
+        tag + "_" + std::to_string(k + 1) + (runs[k].direction == formats::DbbDirection::ccw ? "_ccw" : "_cw");
+    formats::DbbRun run = simulate_dbb_run(m, spec, name, angles);
+    run.metadata.erase("start_time_s");
+    run.metadata["compensation"] = tag;
+    out.push_back(std::move(run));
   }
   return out;
+}
+
+RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                             const std::vector<formats::DbbRun>& runs, const Vec3& center) {
+  return {retrace_dbb(machine, {}, runs, center, "before"), retrace_dbb(machine, correction, runs, center, "after")};
 }
 
 }  // namespace guideway::simulators::machine

@@ -40,5 +40,10 @@ struct RemeasuredRuns {
 };
 RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
                              const std::vector<formats::DbbRun>& runs, const Vec3& center);
+// The `after` half alone: each run traced with the corrections, named TAG_<k>_<direction> and with
+// `compensation = TAG` metadata.
+std::vector<formats::DbbRun> retrace_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                                         const std::vector<formats::DbbRun>& runs, const Vec3& center,
+                                         const std::string& tag);
 
 }  // namespace guideway::simulators::machine
