@@ -97,6 +97,9 @@ struct Verification {
   bool skew = false;                // the squareness was applied and entered as the controller's axis skew
   bool cross = false;               // straightness.csv was written and loaded
   std::vector<Refusal> refused;     // the files (and the skew) not to load
+  // What is fit to load and each run's G with it (less what was fitted beside, and as measured).
+  std::vector<std::string> loadable;
+  std::vector<double> g_loadable, g_loadable_measured;
   std::vector<std::string> written;
 };
 
@@ -215,9 +218,10 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const models::comp
   v.beside = before.beside;
   v.after = models::compensation::identify_checked(r.after).id;
   const std::vector<double>& less = before.beside_um;
-  const auto g_of = [&](const std::vector<const Correction*>& set) {
-    return g_of_runs(machine::retrace_dbb(config, combined(set), runs, center, "after"), less);
+  const auto trace = [&](const std::vector<const Correction*>& set) {
+    return machine::retrace_dbb(config, combined(set), runs, center, "after");
   };
+  const auto g_of = [&](const std::vector<const Correction*>& set) { return g_of_runs(trace(set), less); };
   v.g_before = g_of_runs(r.before, less);
   v.g_after = g_of_runs(r.after, less);
   v.g_before_measured = g_of_runs(r.before);
@@ -225,6 +229,20 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const models::comp
   v.g_skewed = v.cross ? g_of(skewed) : v.g_after;
   v.g_tables = v.skew ? g_of(tables) : v.g_skewed;
   v.refused = refusals(v, all, g_of);
+  std::vector<const Correction*> fit;
+  for (const auto& c : all)
+    if (std::none_of(v.refused.begin(), v.refused.end(), [&](const Refusal& x) { return x.file == c.file; })) {
+      fit.push_back(&c);
+      v.loadable.push_back(c.file);
+    }
+  if (v.refused.empty()) {
+    v.g_loadable = v.g_after;
+    v.g_loadable_measured = v.g_after_measured;
+  } else if (!fit.empty()) {
+    const auto traced = trace(fit);
+    v.g_loadable = g_of_runs(traced, less);
+    v.g_loadable_measured = g_of_runs(traced);
+  }
   const fs::path dir = fs::path(out_dir) / "verify";
   fs::create_directories(dir);
   // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
@@ -248,9 +266,9 @@ bool refused(const std::vector<Refusal>& list, const std::string& file) {
 
 // The refused files renamed NAME.do-not-load (a file named x.comp invites loading it), linuxcnc.ini
 // rewritten for the tables that remain; the refusals as text and JSON.
-std::string mark_refused(const std::vector<Refusal>& list, const models::compensation::ErrorMap& map,
-                         const std::string& out_dir, const std::vector<std::string>& axes, const std::string& source,
-                         nlohmann::json& j) {
+std::string mark_refused(const Verification& v, const models::compensation::ErrorMap& map, const std::string& out_dir,
+                         const std::vector<std::string>& axes, const std::string& source, nlohmann::json& j) {
+  const std::vector<Refusal>& list = v.refused;
   std::ostringstream o;
   nlohmann::json jl = nlohmann::json::array();
   std::vector<formats::IniJoint> joints;
@@ -268,6 +286,26 @@ std::string mark_refused(const std::vector<Refusal>& list, const models::compens
     jl.push_back({{"file", r.file}, {"why", r.why}, {"renamed_to", renamed}});
   }
   j["do_not_load"] = jl;
+  j["loadable"] = v.loadable;
+  j["g_loadable_um"] = v.g_loadable;
+  j["g_loadable_measured_um"] = v.g_loadable_measured;
+  if (!v.loadable.empty() && !v.g_loadable.empty()) {
+    std::string set, runs;
+    for (const auto& f : v.loadable) set += (set.empty() ? "" : " + ") + f;
+    for (std::size_t k = 0; k < v.g_loadable.size() && k < v.g_before.size(); ++k)
+      runs += (runs.empty() ? "" : ", ") + printf_number("%.3f", v.g_before[k]) + " -> " +
+              printf_number("%.3f um", v.g_loadable[k]) +
+              (v.g_before[k] > 0 ? printf_number(" (%.0f %%)", 100 * v.g_loadable[k] / v.g_before[k]) : std::string());
+    o << "  with what is fit to load (" << set << "), G run by run: " << runs;
+    if (!v.beside.empty()) {
+      std::string measured;
+      for (std::size_t k = 0; k < v.g_loadable_measured.size() && k < v.g_before_measured.size(); ++k)
+        measured += (measured.empty() ? "" : ", ") + printf_number("%.3f", v.g_before_measured[k]) + " -> " +
+                    printf_number("%.3f um", v.g_loadable_measured[k]);
+      o << "; as measured: " << measured;
+    }
+    o << "\n";
+  }
   if (!list.empty()) {
     std::vector<std::string> comments{"Guideway compensation from " + source + ": lines for the [JOINT_n] sections"};
     for (const auto& r : list) comments.push_back("NOT LOADED: " + r.file + ", refused by the verification: " + r.why);
@@ -615,7 +653,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
     const std::vector<Refusal>& refuse = v.refused;
     nlohmann::json vj;
     text += map.model == "lai3" ? lai3_verification_text(map, v, refuse, vj) : verification_text(map, v, refuse, vj);
-    text += mark_refused(refuse, map, o.out_dir, axes, source, vj);
+    text += mark_refused(v, map, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
   if (o.json)

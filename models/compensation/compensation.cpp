@@ -679,8 +679,6 @@ constexpr std::string_view held_by_diagnostics[] = {"reversal_spike", "lateral_p
 // Not fitted beside either, with the reason: servo_lag is the geometry itself seen one lag earlier along
 // the path, a column built from the base's fit whose shapes the diagnostics' servo mismatch and scale share.
 constexpr std::string_view not_beside[] = {"servo_lag"};
-// A finding whose part of G is below this (%) is not fitted beside.
-constexpr double negligible_percent = 1.0;
 
 bool listed_in(std::span<const std::string_view> list, const std::string& effect) {
   return std::find(list.begin(), list.end(), effect) != list.end();
@@ -698,9 +696,7 @@ CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
   for (const auto& f : report.findings) {
     for (const auto& p : f.parameters)
       if (std::isfinite(p.u)) out.explain.push_back({p.name, p.value, p.u, true});
-    // A finding below 1 % of G cannot bias a table's term much, and its columns would still widen the
-    // others' uncertainties (a 0.017 um "vibration" took a spike's u from 0.5 to 3.3 um).
-    if (listed_in(held_by_both, f.effect) || !(f.contribution_percent >= negligible_percent)) continue;
+    if (listed_in(held_by_both, f.effect)) continue;
     if (listed_in(not_beside, f.effect)) {
       out.notes.push_back("EXPLAIN found " + f.effect +
                           " on these runs; it is not fitted beside the terms (it is the geometry itself seen one lag "

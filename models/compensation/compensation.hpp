@@ -130,9 +130,8 @@ struct MapOptions {
 
 // The identification a compensation is built from: identify (models/dbb) with what EXPLAIN finds on the
 // same runs and neither of its models holds fitted beside their terms (a drift, a vibration, a stick-slip,
-// a sensor's nonlinearity; for Lai's fit also the spikes, the lateral play and a cyclic error; each when
-// its part of G is at least 1 %), so that it is not read as one of the tables' terms: a 1 um/min drift
-// along X read as -0.25 um of backlash.
+// a sensor's nonlinearity; for Lai's fit also the spikes, the lateral play and a cyclic error), so that it
+// is not read as one of the tables' terms: a 1 um/min drift along X read as -0.25 um of backlash.
 // EXPLAIN's findings are also what the map checks its terms against (MapOptions::cross_check).
 struct CheckedIdentification {
   dbb::Identification id;
