@@ -41,11 +41,6 @@ const models::dbb::Estimate* find(const models::dbb::Identification& id, const s
   return nullptr;
 }
 
-double circular_deviation_um(const models::dbb::Identification& id) {
-  const auto* g = find(id, results::name(results::circular_deviation));
-  return g ? g->value : NAN;
-}
-
 // The run files of the daemon's latest DBB session (its PARAMS' derived files).
 std::vector<std::string> latest_session_runs(const std::string& socket, std::string& session) {
   DaemonClient c = connect_daemon(socket);
@@ -66,49 +61,188 @@ std::vector<std::string> latest_session_runs(const std::string& socket, std::str
   return out;
 }
 
+// Each run's circular deviation G (ISO 230-4: the range of its reading about its least-squares circle), um,
+// of the reading less `less_um` (one value per sample of all the runs; empty or of another size: nothing).
+std::vector<double> g_of_runs(const std::vector<formats::DbbRun>& runs, const std::vector<double>& less_um = {}) {
+  std::size_t total = 0;
+  for (const auto& run : runs) total += run.dL_m.size();
+  const bool less = less_um.size() == total;
+  std::vector<double> out;
+  std::size_t i0 = 0;
+  for (const auto& run : runs) {
+    std::vector<double> um(run.dL_m.size());
+    for (std::size_t i = 0; i < um.size(); ++i) um[i] = run.dL_m[i] * 1e6 - (less ? less_um[i0 + i] : 0.0);
+    out.push_back(models::dbb::range_about_circle(run.angle_rad, um));
+    i0 += um.size();
+  }
+  return out;
+}
+
+// A file (or the skew) not to load, and why.
+struct Refusal {
+  std::string file;
+  std::string why;
+};
+
 struct Verification {
-  // Before; with the tables; with the tables and the squareness as axis skew; with those and the
-  // straightness as the cross-axis correction (`after`: everything the files and the advice correct).
-  models::dbb::Identification before, tables, skewed, after;
-  bool skew = false;   // the squareness was significant and entered as the controller's axis skew
-  bool cross = false;  // straightness.csv was written and loaded
+  // The retraced runs, identified as the compensation was (what EXPLAIN finds fitted beside).
+  models::dbb::Identification before, after;
+  // Each run's G: before; with the tables; + the squareness as axis skew; + straightness.csv as the
+  // cross-axis correction (`after`: everything the files and the advice correct). Of the readings less what
+  // was fitted beside on the retraced runs before (a drift, a vibration: no table holds it, and it would
+  // judge the tables by what they are not for); as measured in g_*_measured.
+  std::vector<double> g_before, g_tables, g_skewed, g_after;
+  std::vector<double> g_before_measured, g_after_measured;
+  std::vector<std::string> beside;  // what was taken out of G (the effects)
+  bool skew = false;                // the squareness was applied and entered as the controller's axis skew
+  bool cross = false;               // straightness.csv was written and loaded
+  std::vector<Refusal> refused;     // the files (and the skew) not to load
+  // What is fit to load and each run's G with it (less what was fitted beside, and as measured).
+  std::vector<std::string> loadable;
+  std::vector<double> g_loadable, g_loadable_measured;
   std::vector<std::string> written;
 };
 
+// A run as the verification names it: "run 2 (r 95 mm h 31.225 mm ccw 5003 mm/min)".
+std::string run_label(const models::dbb::Identification& id, std::size_t k) {
+  const auto& b = id.runs.at(k);
+  return "run " + std::to_string(k + 1) + " (" + printf_number("r %.3g mm", b.radius_mm) +
+         printf_number(" h %.5g mm ", b.height_mm) + b.direction + printf_number(" %.0f mm/min", b.feed_mm_per_min) +
+         ")";
+}
+
+// One correction the user is told to load (a file) or enter (the skew).
+struct Correction {
+  std::string file;  // "x.comp", "axis skew", "straightness.csv"
+  simulators::machine::ControllerCorrection alone;
+};
+
+simulators::machine::ControllerCorrection combined(const std::vector<const Correction*>& set) {
+  simulators::machine::ControllerCorrection c;
+  for (const Correction* x : set) {
+    for (std::size_t j = 0; j < 3; ++j)
+      if (!x->alone.tables[j].empty()) c.tables[j] = x->alone.tables[j];
+    c.skew.xy += x->alone.skew.xy;
+    c.skew.xz += x->alone.skew.xz;
+    c.skew.yz += x->alone.skew.yz;
+    c.cross.insert(c.cross.end(), x->alone.cross.begin(), x->alone.cross.end());
+  }
+  return c;
+}
+
+// The corrections a user may load together: the set must leave every run's G no larger than before. While
+// it does not, the one whose removal leaves the smallest worst growth is refused, with the run it made
+// worse. `g_of(set)` traces the runs with a set loaded. Larger means more than the printed resolution
+// (1 nm): the retraces reuse each run's noise, so a difference is the corrections'.
+template <class GOf>
+std::vector<Refusal> refusals(const Verification& v, const std::vector<Correction>& all, const GOf& g_of) {
+  constexpr double tolerance_um = 5e-4;
+  const auto worst = [&](const std::vector<double>& g) {  // the run grown most (ratio), g.size() for none
+    std::size_t w = g.size();
+    for (std::size_t k = 0; k < g.size() && k < v.g_before.size(); ++k)
+      if (g[k] > v.g_before[k] + tolerance_um && (w == g.size() || g[k] / v.g_before[k] > g[w] / v.g_before[w])) w = k;
+    return w;
+  };
+  std::vector<const Correction*> set;
+  for (const auto& c : all) set.push_back(&c);
+  std::vector<Refusal> out;
+  std::vector<double> g = v.g_after;  // every correction loaded
+  for (std::size_t k = worst(g); !set.empty() && k < g.size(); k = worst(g)) {
+    std::size_t drop = 0;
+    std::vector<double> g_drop;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < set.size(); ++i) {
+      std::vector<const Correction*> rest = set;
+      rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
+      std::vector<double> gi = rest.empty() ? v.g_before : g_of(rest);
+      const std::size_t wi = worst(gi);
+      const double growth = wi < gi.size() ? gi[wi] / v.g_before[wi] : 0.0;
+      if (i == 0 || growth < best) {
+        best = growth;
+        drop = i;
+        g_drop = std::move(gi);
+      }
+    }
+    std::string with;
+    for (const Correction* c : set) with += (with.empty() ? "" : " + ") + c->file;
+    out.push_back({set[drop]->file,
+                   "with " + with + " loaded, G of " + run_label(v.before, k) + " grows from " +
+                       printf_number("%.3f", v.g_before[k]) + " to " + printf_number("%.3f um", g[k]) +
+                       (v.g_before[k] > 0 ? printf_number(" (%.0f %%)", 100 * g[k] / v.g_before[k]) : std::string())});
+    set.erase(set.begin() + static_cast<std::ptrdiff_t>(drop));
+    g = std::move(g_drop);
+  }
+  return out;
+}
+
 // Traces every run's test on the virtual machine: as it is, with the tables written to `out_dir` (read
 // back from the files, as the controller would), then adding the squareness as the axis-skew correction
-// the user is told to enter, then the cross-axis correction of straightness.csv. Writes the runs before
-// and with every correction to out_dir/verify/.
+// the user is told to enter, then the cross-axis correction of straightness.csv; refuses what makes a run
+// worse (refusals). Writes the runs before and with every correction to out_dir/verify/.
 Verification verify(const std::vector<formats::DbbRun>& runs, const models::compensation::ErrorMap& map,
                     const std::string& machine_file, const std::string& out_dir, const std::vector<std::string>& axes) {
-  const simulators::machine::MachineConfig config = simulators::machine::load_machine_config(machine_file);
-  simulators::machine::ControllerCorrection tables;
-  for (const auto& axis : axes)
-    tables.tables[static_cast<std::size_t>(models::compensation::joint_of(axis))] =
-        simulators::machine::joint_compensation(
-            formats::read_linuxcnc_comp((fs::path(out_dir) / (axis + ".comp")).string()));
-  simulators::machine::Vec3 center{};
+  namespace machine = simulators::machine;
+  const machine::MachineConfig config = machine::load_machine_config(machine_file);
+  std::vector<Correction> all;
+  for (const auto& axis : axes) {
+    Correction& c = all.emplace_back();
+    c.file = axis + ".comp";
+    c.alone.tables[static_cast<std::size_t>(models::compensation::joint_of(axis))] =
+        machine::joint_compensation(formats::read_linuxcnc_comp((fs::path(out_dir) / c.file).string()));
+  }
+  const std::size_t n_tables = all.size();
+  machine::Vec3 center{};
   center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[0].axis))] = map.terms_of[0].center_m;
   center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[1].axis))] = map.terms_of[1].center_m;
   Verification v;
-  simulators::machine::ControllerCorrection skewed = tables;
   if (map.squareness_known && map.squareness_significant) {
     v.skew = true;
-    (map.plane == "xy" ? skewed.skew.xy : (map.plane == "xz" ? skewed.skew.xz : skewed.skew.yz)) = map.squareness_rad;
+    Correction& c = all.emplace_back();
+    c.file = "axis skew";
+    (map.plane == "xy" ? c.alone.skew.xy : (map.plane == "xz" ? c.alone.skew.xz : c.alone.skew.yz)) =
+        map.squareness_rad;
   }
-  simulators::machine::ControllerCorrection full = skewed;
-  const fs::path straightness = fs::path(out_dir) / "straightness.csv";
-  if (fs::exists(straightness)) {
+  if (const fs::path straightness = fs::path(out_dir) / "straightness.csv"; fs::exists(straightness)) {
     v.cross = true;
-    full.cross = simulators::machine::cross_compensation(formats::read_straightness_csv(straightness.string()));
+    Correction& c = all.emplace_back();
+    c.file = "straightness.csv";
+    c.alone.cross = machine::cross_compensation(formats::read_straightness_csv(straightness.string()));
   }
-  const simulators::machine::RemeasuredRuns r = simulators::machine::remeasure_dbb(config, full, runs, center);
-  v.before = models::dbb::identify(r.before);
-  v.after = models::dbb::identify(r.after);
-  v.skewed =
-      v.cross ? models::dbb::identify(simulators::machine::remeasure_dbb(config, skewed, runs, center).after) : v.after;
-  v.tables =
-      v.skew ? models::dbb::identify(simulators::machine::remeasure_dbb(config, tables, runs, center).after) : v.skewed;
+  std::vector<const Correction*> tables, skewed, full;
+  for (const auto& c : all) full.push_back(&c);
+  tables.assign(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(n_tables));
+  skewed.assign(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(n_tables + (v.skew ? 1 : 0)));
+  const machine::RemeasuredRuns r = machine::remeasure_dbb(config, combined(full), runs, center);
+  models::compensation::CheckedIdentification before = models::compensation::identify_checked(r.before);
+  v.before = std::move(before.id);
+  v.beside = before.beside;
+  v.after = models::compensation::identify_checked(r.after).id;
+  const std::vector<double>& less = before.beside_um;
+  const auto trace = [&](const std::vector<const Correction*>& set) {
+    return machine::retrace_dbb(config, combined(set), runs, center, "after");
+  };
+  const auto g_of = [&](const std::vector<const Correction*>& set) { return g_of_runs(trace(set), less); };
+  v.g_before = g_of_runs(r.before, less);
+  v.g_after = g_of_runs(r.after, less);
+  v.g_before_measured = g_of_runs(r.before);
+  v.g_after_measured = g_of_runs(r.after);
+  v.g_skewed = v.cross ? g_of(skewed) : v.g_after;
+  v.g_tables = v.skew ? g_of(tables) : v.g_skewed;
+  v.refused = refusals(v, all, g_of);
+  std::vector<const Correction*> fit;
+  for (const auto& c : all)
+    if (std::none_of(v.refused.begin(), v.refused.end(), [&](const Refusal& x) { return x.file == c.file; })) {
+      fit.push_back(&c);
+      v.loadable.push_back(c.file);
+    }
+  if (v.refused.empty()) {
+    v.g_loadable = v.g_after;
+    v.g_loadable_measured = v.g_after_measured;
+  } else if (!fit.empty()) {
+    const auto traced = trace(fit);
+    v.g_loadable = g_of_runs(traced, less);
+    v.g_loadable_measured = g_of_runs(traced);
+  }
   const fs::path dir = fs::path(out_dir) / "verify";
   fs::create_directories(dir);
   // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
@@ -126,10 +260,119 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const models::comp
   return v;
 }
 
-std::string verification_text(const models::compensation::ErrorMap& map, const Verification& v, nlohmann::json& j) {
+bool refused(const std::vector<Refusal>& list, const std::string& file) {
+  return std::any_of(list.begin(), list.end(), [&](const Refusal& r) { return r.file == file; });
+}
+
+// The refused files renamed NAME.do-not-load (a file named x.comp invites loading it), linuxcnc.ini
+// rewritten for the tables that remain; the refusals as text and JSON.
+std::string mark_refused(const Verification& v, const models::compensation::ErrorMap& map, const std::string& out_dir,
+                         const std::vector<std::string>& axes, const std::string& source, nlohmann::json& j) {
+  const std::vector<Refusal>& list = v.refused;
   std::ostringstream o;
-  const double g0 = circular_deviation_um(v.before), gt = circular_deviation_um(v.tables),
-               gs = circular_deviation_um(v.skewed), g1 = circular_deviation_um(v.after);
+  nlohmann::json jl = nlohmann::json::array();
+  std::vector<formats::IniJoint> joints;
+  for (const auto& a : axes)
+    if (!refused(list, a + ".comp")) joints.push_back({models::compensation::joint_of(a), a, a + ".comp"});
+  for (const auto& r : list) {
+    const fs::path path = fs::path(out_dir) / r.file;
+    std::string renamed;
+    if (r.file != "axis skew" && fs::exists(path)) {
+      renamed = path.string() + std::string(models::compensation::do_not_load_suffix);
+      fs::rename(path, renamed);
+    }
+    o << "  DO NOT LOAD " << (r.file == "axis skew" ? "the squareness as axis skew" : r.file) << ": " << r.why
+      << (renamed.empty() ? "" : "; renamed " + fs::path(renamed).filename().string()) << "\n";
+    jl.push_back({{"file", r.file}, {"why", r.why}, {"renamed_to", renamed}});
+  }
+  j["do_not_load"] = jl;
+  j["loadable"] = v.loadable;
+  j["g_loadable_um"] = v.g_loadable;
+  j["g_loadable_measured_um"] = v.g_loadable_measured;
+  if (!v.loadable.empty() && !v.g_loadable.empty()) {
+    std::string set, runs;
+    for (const auto& f : v.loadable) set += (set.empty() ? "" : " + ") + f;
+    for (std::size_t k = 0; k < v.g_loadable.size() && k < v.g_before.size(); ++k)
+      runs += (runs.empty() ? "" : ", ") + printf_number("%.3f", v.g_before[k]) + " -> " +
+              printf_number("%.3f um", v.g_loadable[k]) +
+              (v.g_before[k] > 0 ? printf_number(" (%.0f %%)", 100 * v.g_loadable[k] / v.g_before[k]) : std::string());
+    o << "  with what is fit to load (" << set << "), G run by run: " << runs;
+    if (!v.beside.empty()) {
+      std::string measured;
+      for (std::size_t k = 0; k < v.g_loadable_measured.size() && k < v.g_before_measured.size(); ++k)
+        measured += (measured.empty() ? "" : ", ") + printf_number("%.3f", v.g_before_measured[k]) + " -> " +
+                    printf_number("%.3f um", v.g_loadable_measured[k]);
+      o << "; as measured: " << measured;
+    }
+    o << "\n";
+  }
+  if (!list.empty()) {
+    std::vector<std::string> comments{"Guideway compensation from " + source + ": lines for the [JOINT_n] sections"};
+    for (const auto& r : list) comments.push_back("NOT LOADED: " + r.file + ", refused by the verification: " + r.why);
+    write_file_atomically((fs::path(out_dir) / "linuxcnc.ini").string(),
+                          formats::format_linuxcnc_ini(joints, comments));
+    if (joints.empty())
+      o << "  no table of the " << map.plane << " plane is fit to load: with any of them some run's G is larger than "
+        << "before\n";
+  } else {
+    o << "  loaded together, the files (and the skew) leave no run's G larger than before: fit to load\n";
+  }
+  return o.str();
+}
+
+// What became of a map term: where it went (and whether that file may be loaded), or why it was left out.
+std::string term_status(const models::compensation::Term& t, const models::compensation::ErrorMap& map,
+                        const Verification& v, const std::vector<Refusal>& refusals, bool seen, double ratio) {
+  namespace comp = models::compensation;
+  if (std::string why = comp::left_out_because(t); !why.empty()) return why;
+  switch (t.use) {
+    case comp::Use::table: {
+      const std::string file =
+          (t.name.find("_" + map.axes[0].axis + "_") != std::string::npos ? map.axes[0].axis : map.axes[1].axis) +
+          ".comp";
+      if (refused(refusals, file)) return "in " + file + ": DO NOT LOAD (below)";
+      return !seen ? "compensated (no longer detected)"
+                   : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
+    }
+    case comp::Use::map_only:  // the squareness
+      if (!v.skew) return "not applied";
+      return refused(refusals, "axis skew") ? "axis skew: DO NOT ENTER (below)" : "axis skew (not a per-joint table)";
+    case comp::Use::cross_table:
+      if (!v.cross) return "not applied";
+      return refused(refusals, "straightness.csv") ? "in straightness.csv: DO NOT LOAD (below)"
+                                                   : "cross-axis correction (straightness.csv)";
+    default:
+      return "servo/friction: no table";
+  }
+}
+
+double largest(const std::vector<double>& g) { return g.empty() ? NAN : *std::max_element(g.begin(), g.end()); }
+
+// What G is of, when the effects fitted beside were taken out of it, and G as measured.
+std::string g_basis_text(const Verification& v) {
+  if (v.beside.empty()) return "";
+  std::string list;
+  for (const auto& e : v.beside) list += (list.empty() ? "" : ", ") + e;
+  std::string runs;
+  for (std::size_t k = 0; k < v.g_before_measured.size() && k < v.g_after_measured.size(); ++k)
+    runs += (runs.empty() ? "" : ", ") + printf_number("%.3f", v.g_before_measured[k]) + " -> " +
+            printf_number("%.3f um", v.g_after_measured[k]);
+  return "  G here is of the readings less what EXPLAIN found and no table holds (" + list +
+         ", fitted beside on the runs before); as measured, run by run: " + runs + "\n";
+}
+
+// A value and its u as the verification prints them, or "not determined" (compensation::determined).
+std::string value_text(const models::dbb::Estimate& e, const models::compensation::ErrorMap& map, double g_um,
+                       const char* value_format) {
+  if (!models::compensation::determined(e.name, e.value, e.u, g_um, map.terms_of[0].radius_m, map.feed_m_per_s))
+    return "   not determined            ";
+  return printf_number(value_format, e.value) + printf_number(" +/- %-8.2g", e.u);
+}
+
+std::string verification_text(const models::compensation::ErrorMap& map, const Verification& v,
+                              const std::vector<Refusal>& refusals, nlohmann::json& j) {
+  std::ostringstream o;
+  const double g0 = largest(v.g_before), gt = largest(v.g_tables), gs = largest(v.g_skewed), g1 = largest(v.g_after);
   const auto stage = [&](double g, const char* what) {
     o << "\n    " << printf_number("%8.3f", g) << " um (" << printf_number("%3.0f", 100 * g / g0) << " %)  " << what;
   };
@@ -143,8 +386,12 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
   std::string all = "tables";
   if (v.skew) all += " + skew";
   if (v.cross) all += " + cross";
-  o << "\n  term                          before                after (" << all << ")    |after|/u\n";
+  o << "\n" << g_basis_text(v);
+  o << "  term                          before                after (" << all << ")    |after|/u\n";
   j["g_before_um"] = g0;
+  j["g_measured_before_um"] = v.g_before_measured;
+  j["g_measured_after_um"] = v.g_after_measured;
+  j["g_less"] = v.beside;
   j["g_tables_um"] = gt;
   j["g_tables_skew_um"] = gs;
   j["g_after_um"] = g1;
@@ -160,24 +407,11 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
     for (const auto& term : map.terms)
       if (term.name == e.name) t = &term;
     const double ratio = seen ? std::abs(after->value) / after->u : 0.0;
-    std::string status;
-    if (t && t->use == models::compensation::Use::table && t->significant)
-      status = !seen ? "compensated (no longer detected)"
-                     : (ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u");
-    else if (t && e.name == results::squareness.name)
-      status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
-    else if (t && t->significant && t->use == models::compensation::Use::cross_table)
-      status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
-    else if (t && t->significant)
-      status = t->use == models::compensation::Use::map_only ? "no per-joint table can hold it (errors.csv)"
-                                                             : "servo/friction: no table";
-    else if (t)
-      status = "not applied (not significant)";
+    const std::string status = t ? term_status(*t, map, v, refusals, seen, ratio) : "";
     o << "  " << e.name << std::string(e.name.size() < 28 ? 28 - e.name.size() : 1, ' ')
-      << printf_number("%9.4g", e.value) << printf_number(" +/- %-8.2g", e.u);
+      << value_text(e, map, g0, "%9.4g");
     if (seen)
-      o << printf_number("%9.4g", after->value) << printf_number(" +/- %-8.2g", after->u)
-        << printf_number("%6.1f", ratio);
+      o << value_text(*after, map, g1, "%9.4g") << printf_number("%6.1f", ratio);
     else
       o << "   not detected                 ";
     o << "  " << status << "\n";
@@ -192,7 +426,8 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
   std::string left;
   for (const auto& e : v.after.diagnostics)
     if (e.fitted && std::isfinite(e.u) && std::abs(e.value) > 3 * e.u && e.name.rfind("run", 0) != 0 &&
-        e.name.rfind("center_offset", 0) != 0 && e.name.rfind("circular_", 0) != 0)
+        e.name.rfind("center_offset", 0) != 0 && e.name.rfind("circular_", 0) != 0 &&
+        models::compensation::determined(e.name, e.value, e.u, g1, map.terms_of[0].radius_m, map.feed_m_per_s))
       left += (left.empty() ? " " : ", ") + e.name + " " + printf_number("%.3g", e.value);
   o << "  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left) << "\n";
   if (!v.written.empty())
@@ -210,7 +445,7 @@ const models::dbb::Estimate* find_lai3(const models::dbb::Identification& id, co
 // A tilted-bar run (Lai's patterns) gives no diagnostics: the check compares each run's circular
 // deviation G and Lai's parameters before and after.
 std::string lai3_verification_text(const models::compensation::ErrorMap& map, const Verification& v,
-                                   nlohmann::json& j) {
+                                   const std::vector<Refusal>& refusals, nlohmann::json& j) {
   std::ostringstream o;
   o << "\nverification on the virtual machine (each run traced again: radius, height, feed, direction;\n"
        "Lai's model, as the runs give no ballbar diagnostics):\n";
@@ -219,8 +454,7 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
   nlohmann::json runs = nlohmann::json::array();
   for (std::size_t k = 0; k < v.before.runs.size(); ++k) {
     const auto& b = v.before.runs[k];
-    const double g0 = b.circular_deviation_um, gt = v.tables.runs.at(k).circular_deviation_um,
-                 gs = v.skewed.runs.at(k).circular_deviation_um, g1 = v.after.runs.at(k).circular_deviation_um;
+    const double g0 = v.g_before.at(k), gt = v.g_tables.at(k), gs = v.g_skewed.at(k), g1 = v.g_after.at(k);
     const std::string name = printf_number("r %.3g mm", b.radius_mm) + printf_number(" h %.5g mm ", b.height_mm) +
                              b.direction + printf_number(" %.0f mm/min", b.feed_mm_per_min);
     o << "  " << name << std::string(name.size() < 38 ? 38 - name.size() : 1, ' ') << printf_number("%7.3f um", g0)
@@ -241,6 +475,10 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
   j["runs"] = runs;
   j["skew_applied"] = v.skew;
   j["straightness_applied"] = v.cross;
+  o << g_basis_text(v);
+  j["g_measured_before_um"] = v.g_before_measured;
+  j["g_measured_after_um"] = v.g_after_measured;
+  j["g_less"] = v.beside;
   o << "  Lai parameter               before                after (all corrections)    |after|/u\n";
   nlohmann::json terms = nlohmann::json::array();
   std::string left;
@@ -260,19 +498,10 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
     std::string status;
     if (!t)
       status = "not in the map (out of plane or not separable)";
-    else if (off != 0 && t->significant && std::abs(t->value - (e.value - off) * 1e6) > 0.5)
+    else if (off != 0 && t->applied() && std::abs(t->value - (e.value - off) * 1e6) > 0.5)
       status = "tables hold the difference only (see the note; S_x - S_y below)";
-    else if (t->use == models::compensation::Use::table && t->significant)
-      status = ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u";
-    else if (term == results::squareness.name)
-      status = v.skew ? "axis skew (not a per-joint table)" : "not applied (not significant)";
-    else if (t->use == models::compensation::Use::cross_table && t->significant)
-      status = v.cross ? "cross-axis correction (straightness.csv)" : "not applied";
-    else if (t->significant)
-      status = t->use == models::compensation::Use::map_only ? "no per-joint table can hold it (errors.csv)"
-                                                             : "servo: no table";
     else
-      status = "not applied (not significant)";
+      status = term_status(*t, map, v, refusals, seen, ratio);
     o << "  " << e.name << std::string(e.name.size() < 24 ? 24 - e.name.size() : 1, ' ')
       << printf_number("%12.5g", e.value - off) << printf_number(" +/- %-8.2g", e.u);
     if (seen)
@@ -327,6 +556,27 @@ void require_options(const Opts& o) {
   throw std::runtime_error(msg);
 }
 
+// The map's terms as JSON: value, u (null when not determined), whether applied, and why not.
+nlohmann::json terms_json(const models::compensation::ErrorMap& map) {
+  namespace comp = models::compensation;
+  nlohmann::json terms = nlohmann::json::array();
+  for (const auto& t : map.terms)
+    terms.push_back(
+        {{"name", t.name},
+         {"value", t.determined ? nlohmann::json(t.value) : nlohmann::json()},
+         {"u", t.determined ? nlohmann::json(t.u) : nlohmann::json()},
+         {"significant", t.significant},
+         {"determined", t.determined},
+         {"contradiction", t.contradiction},
+         {"applied", t.applied()},
+         {"use", t.use == comp::Use::table ? "table"
+                                           : (t.use == comp::Use::map_only
+                                                  ? "errors.csv"
+                                                  : (t.use == comp::Use::cross_table ? "straightness.csv" : "none"))},
+         {"why", t.why}});
+  return terms;
+}
+
 void run_compensate(const Opts& o, const std::string& socket) {
   require_options(o);
   std::vector<std::string> files = o.files;
@@ -353,10 +603,12 @@ void run_compensate(const Opts& o, const std::string& socket) {
     }
   }
   mo.step_m = o.step_mm * 1e-3;
-  const models::dbb::Identification id = models::dbb::identify(runs);
   models::compensation::ErrorMap map;
   try {
-    map = models::compensation::error_map(id, runs, mo);
+    models::compensation::check_map_inputs(runs, mo);  // bad input refused before the identification's work
+    // The identification with what EXPLAIN finds on the same runs fitted beside, and its values to check
+    // the terms against.
+    map = models::compensation::error_map(models::compensation::identify_checked(runs), runs, mo);
   } catch (const models::compensation::CompensationError& e) {
     throw std::runtime_error(std::string("compensate: ") + e.what());
   }
@@ -397,20 +649,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
   // directory would be loaded with these (a full disk half way leaves the earlier set whole).
   write_file_set_atomically(o.out_dir, set, models::compensation::compensation_file_names());
   j["files"] = written;
-  nlohmann::json terms = nlohmann::json::array();
-  for (const auto& t : map.terms)
-    terms.push_back(
-        {{"name", t.name},
-         {"value", t.value},
-         {"u", t.u},
-         {"significant", t.significant},
-         {"use", t.use == models::compensation::Use::table
-                     ? "table"
-                     : (t.use == models::compensation::Use::map_only
-                            ? "errors.csv"
-                            : (t.use == models::compensation::Use::cross_table ? "straightness.csv" : "none"))},
-         {"why", t.why}});
-  j["terms"] = terms;
+  j["terms"] = terms_json(map);
   if (map.squareness_known) {
     const auto adv = models::compensation::squareness_advice(map.squareness_rad);
     j["squareness"] = {{"urad", map.squareness_rad * 1e6},
@@ -423,8 +662,10 @@ void run_compensate(const Opts& o, const std::string& socket) {
   for (const auto& p : written) text += "wrote " + p.get<std::string>() + "\n";
   if (o.verify) {
     const Verification v = verify(runs, map, o.machine, o.out_dir, axes);
+    const std::vector<Refusal>& refuse = v.refused;
     nlohmann::json vj;
-    text += map.model == "lai3" ? lai3_verification_text(map, v, vj) : verification_text(map, v, vj);
+    text += map.model == "lai3" ? lai3_verification_text(map, v, refuse, vj) : verification_text(map, v, refuse, vj);
+    text += mark_refused(v, map, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
   if (o.json)

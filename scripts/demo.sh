@@ -63,8 +63,9 @@ for _ in $(seq 1 100); do
 done
 "$bin/cli/guideway" explain --latest --kind dbb --machine "$machine" || true
 echo
-echo "== guideway compensate dbb --latest --verify   (LinuxCNC tables from the session's Lai model, then the"
-echo "   three patterns traced again on $machine with the tables loaded; docs/compensation.md)"
+echo "== guideway compensate dbb --latest --verify   (LinuxCNC tables from the session's Lai model, with what"
+echo "   EXPLAIN found fitted beside, then the three patterns traced again on $machine with the tables loaded;"
+echo "   a file that makes a run's G larger is refused: DO NOT LOAD, renamed *.do-not-load; docs/compensation.md)"
 comp_dir="$run_dir/compensation-demo"
 mkdir -p "$comp_dir"
 "$bin/cli/guideway" compensate dbb --latest --out-dir "$comp_dir/session" --verify --machine "$machine"

@@ -134,6 +134,7 @@ def main():
         # (tables; + squareness as axis skew; + straightness.csv as cross-axis correction) printed.
         v = j["verify"]
         assert v["skew_applied"] is True and v["straightness_applied"] is True, v
+        assert v["do_not_load"] == [], v["do_not_load"]
         assert v["g_after_um"] <= 0.35 * v["g_before_um"], v
         assert v["g_tables_um"] < v["g_before_um"], v
         assert v["g_tables_skew_um"] < v["g_tables_um"], v
@@ -212,6 +213,27 @@ def main():
         assert r.returncode == 1 and "File too large" in r.stderr, (r.returncode, r.stderr)
         after = {n: open(os.path.join(comp, n), "rb").read() for n in os.listdir(comp) if os.path.isfile(os.path.join(comp, n))}
         assert after == before, "a failed write changed the set: %s" % sorted(set(after) ^ set(before))
+
+        # The verification refuses what makes a run worse: tables of this machine verified on a perfect one
+        # add the errors they correct. Refused files are renamed NAME.do-not-load, linuxcnc.ini loads none.
+        perfect = os.path.join(d, "perfect.toml")
+        with open(perfect, "w") as f:
+            f.write('[machine]\nname = "perfect"\n[dbb]\nnoise_um = 0.1\n')
+        bad = os.path.join(d, "bad")
+        res = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", bad, "--verify", "--machine", perfect],
+                             check=True, capture_output=True, text=True)
+        for name in ("x.comp", "y.comp", "straightness.csv"):
+            assert f"DO NOT LOAD {name}: with " in res.stdout and "grows from" in res.stdout, res.stdout
+            assert not os.path.exists(os.path.join(bad, name)), name
+            assert os.path.exists(os.path.join(bad, name + ".do-not-load")), name
+        assert "no table of the xy plane is fit to load" in res.stdout, res.stdout
+        with open(os.path.join(bad, "linuxcnc.ini")) as f:
+            ini = f.read()
+        assert "COMP_FILE" not in ini and "NOT LOADED: x.comp" in ini, ini
+        # The next set replaces the refused files.
+        subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", bad], check=True, capture_output=True)
+        assert os.path.exists(os.path.join(bad, "x.comp")), os.listdir(bad)
+        assert not any(n.endswith(".do-not-load") for n in os.listdir(bad)), os.listdir(bad)
     print("ok")
 
 

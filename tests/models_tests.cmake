@@ -11,3 +11,4 @@ add_test(NAME compensate_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURC
 set_tests_properties(compensate_cli_test PROPERTIES LABELS integration TIMEOUT 120)
 add_test(NAME compensate_lai_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/compensate_lai_cli_test.py ${PROJECT_BINARY_DIR} ${PROJECT_SOURCE_DIR})
 set_tests_properties(compensate_lai_cli_test PROPERTIES LABELS integration TIMEOUT 120)
+guideway_add_test(dbb_explain_agreement_test SOURCES dbb_explain_agreement_test.cpp LIBS guideway_dbb_sim guideway_explain_model)

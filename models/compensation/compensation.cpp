@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <span>
 #include <sstream>
+#include <string_view>
 
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
 #include "models/dbb/geometry.hpp"
+#include "models/explain/dbb_explain.hpp"
 #include "results/parameters.hpp"
 
 namespace guideway::models::compensation {
@@ -20,8 +23,10 @@ constexpr double pi = std::numbers::pi;
 // even when there is none, about 1.25 u on average).
 constexpr double significance_k = 2.0;
 
-const dbb::Estimate* find(const std::vector<dbb::Estimate>& estimates, const std::string& name) {
-  for (const auto& e : estimates)
+// The item named `name` (an estimate, a term), nullptr for none.
+template <class Named>
+const Named* find(const std::vector<Named>& items, const std::string& name) {
+  for (const auto& e : items)
     if (e.name == name) return &e;
   return nullptr;
 }
@@ -88,6 +93,7 @@ std::optional<dbb::Estimate> cubic_difference(const dbb::Identification& id) {
 }
 
 std::string estimate_text(const Term& t) {
+  if (!t.determined) return t.name + " not determined";
   return t.name + " = " + printf_number("%.4g", t.value) + " +/- " + printf_number("%.2g", t.u);
 }
 
@@ -227,13 +233,39 @@ double map_radius(const std::vector<formats::DbbRun>& runs, ErrorMap& m) {
   return radius;
 }
 
+// A term contradicts another identification of the same runs when they differ by more than this many
+// combined standard uncertainties.
+constexpr double contradiction_k = 3.0;
+
+// The term `name` as checked: whether it is significant, whether the runs can have determined it, and
+// whether it contradicts the map's cross-check (EXPLAIN's value of it).
+Term checked(const ErrorMap& m, const std::string& name, double value, double u, Use use, const std::string& why) {
+  Term t;
+  t.name = name;
+  t.value = value;
+  t.u = u;
+  t.use = use;
+  t.why = why;
+  t.significant = std::abs(t.value) > significance_k * t.u;
+  t.determined = determined(t.name, t.value, t.u, m.circular_deviation_um, m.terms_of[0].radius_m, m.feed_m_per_s);
+  const auto* other = find(m.cross_check, t.name);
+  if (t.determined && other && std::isfinite(other->u)) {
+    const double z = std::abs(t.value - other->value) / std::hypot(t.u, other->u);
+    if (z > contradiction_k)
+      t.contradiction = "contradicts EXPLAIN's " + printf_number("%.4g", other->value) + " +/- " +
+                        printf_number("%.2g", other->u) + " on the same runs (" + printf_number("%.0f", z) +
+                        " combined u apart)";
+  }
+  return t;
+}
+
 // The identified term `name` into the map's terms with its use (nullptr when it was not fitted); applied
-// when significant. m.terms is reserved: the pointer stays valid while the map is built.
+// when Term::applied(). m.terms is reserved: the pointer stays valid while the map is built.
 const Term* take_term(ErrorMap& m, const std::vector<dbb::Estimate>& estimates, const std::string& name, Use use,
                       const std::string& why) {
   const auto* e = find(estimates, name);
   if (!e || !e->fitted || !std::isfinite(e->u)) return nullptr;
-  m.terms.push_back({name, e->value, e->u, std::abs(e->value) > significance_k * e->u, use, why});
+  m.terms.push_back(checked(m, name, e->value, e->u, use, why));
   return &m.terms.back();
 }
 
@@ -249,9 +281,9 @@ bool axis_terms(ErrorMap& m, const std::vector<dbb::Estimate>& estimates, int k,
   const auto term = [&](const results::Parameter& p, Use use, const std::string& why) {
     return take_term(m, estimates, name(p), use, why);
   };
-  if (const auto* t = term(results::scale, Use::table, ""); t && t->significant) at.scale = t->value * 1e-6;
-  if (const auto* t = term(results::backlash, Use::table, ""); t && t->significant) at.backlash_m = t->value * 1e-6;
-  if (const auto* t = term(results::cyclic_error, Use::table, ""); t && t->significant) {
+  if (const auto* t = term(results::scale, Use::table, ""); t && t->applied()) at.scale = t->value * 1e-6;
+  if (const auto* t = term(results::backlash, Use::table, ""); t && t->applied()) at.backlash_m = t->value * 1e-6;
+  if (const auto* t = term(results::cyclic_error, Use::table, ""); t && t->applied()) {
     const auto* p = find(estimates, name(results::cyclic_period));
     const auto* ph = find(estimates, name(results::cyclic_phase));
     if (p && ph) {
@@ -264,13 +296,13 @@ bool axis_terms(ErrorMap& m, const std::vector<dbb::Estimate>& estimates, int k,
           term(results::straightness_bow, Use::cross_table,
                "moves " + ax + " along " + other + ", which a per-joint table of " + ax +
                    " cannot: the cross-axis correction of " + other + " by " + ax + "'s position (straightness.csv)");
-      t && t->significant)
+      t && t->applied())
     at.bow_m = t->value * 1e-6;
   const auto* cubic =
       term(results::straightness_cubic, Use::cross_table,
            "the cubic part of " + ax + "'s straightness along " + other + ": the cross-axis correction of " + other +
                " by " + ax + "'s position (straightness.csv)");
-  if (cubic && cubic->significant) at.cubic_per_m2 = cubic->value * 1e-6 / (radius * radius * radius);
+  if (cubic && cubic->applied()) at.cubic_per_m2 = cubic->value * 1e-6 / (radius * radius * radius);
   return cubic != nullptr;
 }
 
@@ -284,16 +316,12 @@ void split_cubic_difference(ErrorMap& m, const dbb::Identification& id, double r
   const double per_mm2_to_um = r_mm * r_mm * r_mm * 1e3;
   const dbb::Estimate e{results::name(results::straightness_cubic_difference, m.plane), cubic->value * per_mm2_to_um,
                         cubic->u * per_mm2_to_um, true};
-  const Term t{e.name,
-               e.value,
-               e.u,
-               std::abs(e.value) > significance_k * e.u,
-               Use::cross_table,
-               "the cubic straightness of " + A + " along " + B + " less that of " + B + " along " + A +
-                   " at the radius (Lai's a3 - b3); split evenly between the two cross-axis corrections "
-                   "(straightness.csv)"};
+  const Term t = checked(m, e.name, e.value, e.u, Use::cross_table,
+                         "the cubic straightness of " + A + " along " + B + " less that of " + B + " along " + A +
+                             " at the radius (Lai's a3 - b3); split evenly between the two cross-axis corrections "
+                             "(straightness.csv)");
   m.terms.push_back(t);
-  if (t.significant) {
+  if (t.applied()) {
     // displacement = k d^3 with k in 1/m^2: (a3 - b3) / 2 per mm^2 is 1e6 times that per m^2.
     m.terms_of[0].cubic_per_m2 = 0.5 * cubic->value * 1e6;
     m.terms_of[1].cubic_per_m2 = -0.5 * cubic->value * 1e6;
@@ -308,7 +336,7 @@ void plane_terms(ErrorMap& m, const std::vector<dbb::Estimate>& estimates) {
     m.squareness_known = true;
     m.squareness_rad = t->value * 1e-6;
     m.squareness_u_rad = t->u * 1e-6;
-    m.squareness_significant = t->significant;
+    m.squareness_significant = t->applied();
   }
   for (int k = 0; k < 2; ++k) {
     take_term(m, estimates, results::name(results::lateral_play, m.plane, k), Use::not_geometric,
@@ -373,12 +401,9 @@ void fill_axis_map(ErrorMap& m, int k, double radius) {
 
 }  // namespace
 
-ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
+std::array<double, 2> check_map_inputs(const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
   if (runs.empty()) throw CompensationError("no runs");
-  ErrorMap m;
-  m.plane = id.plane;
   require_both_directions(runs);
-  m.model = map_model(id);
   const auto center = options.center_m ? options.center_m : runs_center_m(runs);
   if (!center)
     throw CompensationError(
@@ -391,17 +416,45 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
                               shortest(max_machine_coordinate_m * 1e3) + " mm)");
   if (options.step_m != 0.0 && !(std::isfinite(options.step_m) && options.step_m > 0.0))
     throw CompensationError("the table step " + shortest(options.step_m * 1e3) + " mm is not a positive number");
+  double radius = 0;  // the largest: what any map of these runs covers at most
+  for (const auto& r : runs) radius = std::max(radius, r.radius_m);
+  table_step(options, *center, radius);
+  return *center;
+}
+
+ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::DbbRun>& runs, const MapOptions& options) {
+  const std::array<double, 2> center = check_map_inputs(runs, options);
+  ErrorMap m;
+  m.plane = id.plane;
+  m.model = map_model(id);
   const double radius = map_radius(runs, m);
   const std::vector<dbb::Estimate> estimates = m.model == "lai3" ? lai3_terms(id, radius, m.notes) : id.diagnostics;
+  if (const auto* g = find(id, results::name(results::circular_deviation))) m.circular_deviation_um = g->value;
+  for (const auto& r : runs) m.feed_m_per_s = std::max(m.feed_m_per_s, r.feed_m_per_s);
+  m.cross_check = options.cross_check;
   m.terms.reserve(24);
   bool cubic_per_axis = false;
   for (int k = 0; k < 2; ++k)
-    cubic_per_axis = axis_terms(m, estimates, k, (*center)[static_cast<std::size_t>(k)], radius) || cubic_per_axis;
+    cubic_per_axis = axis_terms(m, estimates, k, center[static_cast<std::size_t>(k)], radius) || cubic_per_axis;
   if (!cubic_per_axis) split_cubic_difference(m, id, radius);
   plane_terms(m, estimates);
-  m.step_m = table_step(options, *center, radius);
+  m.step_m = table_step(options, center, radius);
   for (int k = 0; k < 2; ++k) fill_axis_map(m, k, radius);
   return m;
+}
+
+ErrorMap error_map(const CheckedIdentification& checked, const std::vector<formats::DbbRun>& runs, MapOptions options) {
+  options.cross_check = checked.explain;
+  ErrorMap m = error_map(checked.id, runs, options);
+  m.notes.insert(m.notes.end(), checked.notes.begin(), checked.notes.end());
+  return m;
+}
+
+std::string left_out_because(const Term& t) {
+  if (!t.determined) return "not determined by these runs";
+  if (!t.contradiction.empty()) return "NOT WRITTEN: " + t.contradiction;
+  if (!t.significant) return "left out (not larger than 2 u)";
+  return "";
 }
 
 SquarenessAdvice squareness_advice(double squareness_rad) {
@@ -422,17 +475,26 @@ std::vector<std::string> header_lines(const ErrorMap& m, const std::string& sour
               printf_number("%.3f", t0.radius_m * 1e3) +
               " mm; valid only over that range, in that plane and at that height");
   h.push_back("positions are relative to the axis' position at the circle centre (a DBB sees no constant offset)");
-  std::string applied, left_out;
+  std::string applied, left_out, undetermined, contradicted;
   for (const auto& t : m.terms) {
     if (t.use == Use::not_geometric) continue;
-    if (t.significant)
-      applied += (applied.empty() ? "" : ", ") + estimate_text(t);
+    const auto add = [&](std::string& list, const std::string& text) { list += (list.empty() ? "" : ", ") + text; };
+    if (t.applied())
+      add(applied, estimate_text(t));
+    else if (!t.determined)
+      add(undetermined, t.name);
+    else if (!t.contradiction.empty())
+      add(contradicted, estimate_text(t) + " (" + t.contradiction + ")");
     else
-      left_out += (left_out.empty() ? "" : ", ") + estimate_text(t);
+      add(left_out, estimate_text(t));
   }
   h.push_back("identified (value +/- standard uncertainty): " + (applied.empty() ? std::string("none") : applied));
   h.push_back("left out, not larger than twice their standard uncertainty (k = 2): " +
               (left_out.empty() ? std::string("none") : left_out));
+  if (!undetermined.empty())
+    h.push_back("left out, not determined by these runs (size or uncertainty beyond their circular deviation G): " +
+                undetermined);
+  if (!contradicted.empty()) h.push_back("left out, contradicting EXPLAIN on the same runs: " + contradicted);
   std::string other;
   for (const auto& t : m.terms)
     if (t.use == Use::not_geometric) other += (other.empty() ? "" : ", ") + estimate_text(t);
@@ -450,7 +512,9 @@ std::string letters_upper(const std::string& s) {
 }  // namespace
 
 std::vector<std::string> compensation_file_names() {
-  return {"x.comp", "y.comp", "z.comp", "linuxcnc.ini", "errors.csv", "straightness.csv"};
+  std::vector<std::string> names{"x.comp", "y.comp", "z.comp", "linuxcnc.ini", "errors.csv", "straightness.csv"};
+  for (std::size_t k = 0, n = names.size(); k < n; ++k) names.push_back(names[k] + std::string(do_not_load_suffix));
+  return names;
 }
 
 std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string& source) {
@@ -543,6 +607,17 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
   return out;
 }
 
+namespace {
+
+// Why the squareness is not entered as skew.
+std::string squareness_left_out(const ErrorMap& m) {
+  const auto* t = find(m.terms, results::name(results::squareness));
+  const std::string why = t ? left_out_because(*t) : "";
+  return why.empty() || why == "left out (not larger than 2 u)" ? "not significant" : why;
+}
+
+}  // namespace
+
 std::string to_text(const ErrorMap& m) {
   std::ostringstream o;
   o << "compensation from "
@@ -551,16 +626,17 @@ std::string to_text(const ErrorMap& m) {
     << " (" << m.plane << " plane, table step " << printf_number("%.3g", m.step_m * 1e3) << " mm)\n";
   o << "  term                              value      u     use\n";
   for (const auto& t : m.terms) {
-    std::string use;
-    if (!t.significant)
-      use = "left out (not larger than 2 u)";
+    std::string use = left_out_because(t);
+    if (!use.empty())
+      ;
     else if (t.use == Use::table)
       use = t.name.find("_" + m.axes[0].axis + "_") != std::string::npos ? m.axes[0].axis + ".comp"
                                                                          : m.axes[1].axis + ".comp";
     else
       use = (t.use == Use::map_only ? "errors.csv only: " : (t.use == Use::cross_table ? "" : "no table: ")) + t.why;
     o << "  " << t.name << std::string(t.name.size() < 30 ? 30 - t.name.size() : 1, ' ')
-      << printf_number("%10.4g", t.value) << printf_number("%8.2g", t.u) << "  " << use << "\n";
+      << (t.determined ? printf_number("%10.4g", t.value) + printf_number("%8.2g", t.u) : std::string(18, ' ')) << "  "
+      << use << "\n";
   }
   for (const auto& am : m.axes)
     o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, "
@@ -573,10 +649,85 @@ std::string to_text(const ErrorMap& m) {
     o << "squareness " << a << b << ": " << printf_number("%.2f", adv.um_per_m) << " um/m (+/- "
       << printf_number("%.2f", m.squareness_u_rad * 1e6) << "); correction "
       << printf_number("%+.3f", adv.correction_um_per_100mm) << " um of " << letters_upper(a) << " per +100 mm of "
-      << letters_upper(b) << (m.squareness_significant ? "" : " (not significant: leave it)")
+      << letters_upper(b) << (m.squareness_significant ? "" : " (" + squareness_left_out(m) + ": leave it)")
       << ". A per-joint table cannot hold it: set your controller's axis-skew correction, or change the kinematics\n";
   }
   return o.str();
+}
+
+bool determined(const std::string& name, double value, double u, double g_um, double radius_m, double feed_m_per_s) {
+  if (!(g_um > 0) || !std::isfinite(value) || !std::isfinite(u)) return std::isfinite(value);
+  double um_per_unit = 0;  // the term's size on the circle per unit of it
+  if (name.ends_with("_um"))
+    um_per_unit = 1;
+  else if (name.ends_with("_ppm") || name.ends_with("_urad"))
+    um_per_unit = radius_m;  // 1e-6 of r (m), in um
+  else if (name.ends_with("_ms"))
+    um_per_unit = feed_m_per_s * 1e3;  // a lag of 1 ms at v (m/s): v 1e-3 m = v 1e3 um
+  else
+    return true;
+  return !(std::abs(value) * um_per_unit > 10 * g_um) && !(u * um_per_unit > g_um);
+}
+
+namespace {
+
+// EXPLAIN's effects that identify's models hold themselves, so never fitted beside them: both models hold
+// the backlash and the servo mismatch, the diagnostics also the spikes, the lateral play and a cyclic error
+// (those are fitted beside Lai's terms only).
+constexpr std::string_view held_by_both[] = {"backlash", "servo_mismatch"};
+constexpr std::string_view held_by_diagnostics[] = {"reversal_spike", "lateral_play", "cyclic_error"};
+// Not fitted beside either, with the reason: servo_lag is the geometry itself seen one lag earlier along
+// the path, a column built from the base's fit whose shapes the diagnostics' servo mismatch and scale share.
+constexpr std::string_view not_beside[] = {"servo_lag"};
+
+bool listed_in(std::span<const std::string_view> list, const std::string& effect) {
+  return std::find(list.begin(), list.end(), effect) != list.end();
+}
+
+}  // namespace
+
+CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options) {
+  explain::ExplainOptions eo;
+  eo.keep_columns = true;
+  eo.curve_points = 0;
+  const explain::Report report = explain::explain_dbb_report(runs, eo);
+  CheckedIdentification out;
+  dbb::IdentifyOptions o = options;
+  for (const auto& f : report.findings) {
+    for (const auto& p : f.parameters)
+      if (std::isfinite(p.u)) out.explain.push_back({p.name, p.value, p.u, true});
+    if (listed_in(held_by_both, f.effect)) continue;
+    if (listed_in(not_beside, f.effect)) {
+      out.notes.push_back("EXPLAIN found " + f.effect +
+                          " on these runs; it is not fitted beside the terms (it is the geometry itself seen one lag "
+                          "earlier along the path, which the scale and servo mismatch partly take)");
+      continue;
+    }
+    o.beside.push_back({f.effect, f.column_names, f.columns_um, !listed_in(held_by_diagnostics, f.effect)});
+  }
+  out.id = dbb::identify(runs, o);
+  for (const auto& t : o.beside)
+    for (std::size_t c = 0; c < t.columns_um.size() && c < t.names.size(); ++c)
+      if (const auto* e = find(out.id.beside, t.names[c])) {
+        out.beside_um.resize(t.columns_um[c].size(), 0.0);
+        for (std::size_t i = 0; i < out.beside_um.size(); ++i) out.beside_um[i] += e->value * t.columns_um[c][i];
+      }
+  // The effects actually fitted beside the terms reported (the diagnostics hold a cyclic error themselves).
+  std::vector<std::string> fitted;
+  for (const auto& t : o.beside)
+    if (std::any_of(t.names.begin(), t.names.end(), [&](const std::string& n) { return find(out.id.beside, n); }))
+      fitted.push_back(t.effect);
+  out.beside = fitted;
+  if (!out.beside.empty()) {
+    std::string list, values;
+    for (const auto& e : out.beside) list += (list.empty() ? "" : ", ") + e;
+    for (const auto& e : out.id.beside)
+      values += (values.empty() ? "" : ", ") + e.name + " " + printf_number("%.4g", e.value) + " +/- " +
+                printf_number("%.2g", e.u);
+    out.notes.push_back("fitted beside the terms, as EXPLAIN found them on the same runs: " + list + " (" + values +
+                        "); not in any table");
+  }
+  return out;
 }
 
 }  // namespace guideway::models::compensation

@@ -7,13 +7,15 @@
 // coordinates: the circle centre places the terms, which the diagnostics give about the centre. A DBB
 // test sees no constant offset of an axis, so every positioning error is relative to the axis' position
 // at the circle centre. A term not larger than twice its standard uncertainty (k = 2) is not applied
-// (its correction would be mostly noise) and the files say so.
+// (its correction would be mostly noise), nor one the runs cannot have determined, nor one that contradicts
+// EXPLAIN's value of it on the same runs; the files say so.
 // Pure functions; thread safe.
 
 #include <array>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "formats/dbb_run.hpp"
@@ -38,9 +40,18 @@ struct Term {
   std::string name;  // the diagnostic's name, unit in the name ("backlash_x_um")
   double value = 0.0;
   double u = 0.0;            // standard uncertainty
-  bool significant = false;  // |value| > 2 u: only then is it applied
+  bool significant = false;  // |value| > 2 u
   Use use = Use::table;
   std::string why;  // for map_only / not_geometric: what the user does with it
+  // Not a measurement (determined() false): the runs cannot have given it; `value` and `u` are then no
+  // numbers to print.
+  bool determined = true;
+  // Non-empty: it contradicts another identification of the same runs (EXPLAIN's) beyond their
+  // uncertainties, and says so.
+  std::string contradiction;
+  // Applied (written into a table or the map, entered as skew) only when significant, determined and
+  // not contradicted.
+  [[nodiscard]] bool applied() const { return significant && determined && contradiction.empty(); }
 };
 
 // The errors of one plane axis on the table's grid.
@@ -94,18 +105,59 @@ struct ErrorMap {
   std::vector<Term> terms;           // every identified term considered
   std::vector<std::string> sources;  // run files
   double step_m = 0.0;
+  // What the terms were checked against: the runs' largest circular deviation G and fastest feed
+  // (determined()), and MapOptions::cross_check.
+  double circular_deviation_um = 0.0;
+  double feed_m_per_s = 0.0;
+  std::vector<dbb::Estimate> cross_check;
 };
+
+// Whether an identified term is a measurement at all: not when its size on the circle (um; a ppm or urad
+// term times the radius, a servo mismatch times the feed) exceeds ten times the largest circular deviation
+// G of the runs, nor when its uncertainty's size exceeds G (a value and u of orders more than the runs
+// deviate: a spike of -256 +/- 150 um on runs of G 0.73 um). A name of another unit is taken as determined.
+bool determined(const std::string& name, double value, double u, double g_um, double radius_m, double feed_m_per_s);
 
 struct MapOptions {
   // Circle centre in machine coordinates (first, second plane axis); else every run's center_a_mm /
   // center_b_mm metadata (they must agree). Neither: CompensationError.
   std::optional<std::array<double, 2>> center_m;
   double step_m = 0.0;  // table spacing; 0 = the finest of 0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, ... mm within 256 lines
+  // Another identification of the same runs (EXPLAIN's findings, CheckedIdentification::explain): a term of
+  // the same name that differs from it by more than 3 combined standard uncertainties is not applied.
+  std::vector<dbb::Estimate> cross_check;
 };
+
+// The identification a compensation is built from: identify (models/dbb) with what EXPLAIN finds on the
+// same runs and neither of its models holds fitted beside their terms (a drift, a vibration, a stick-slip,
+// a sensor's nonlinearity; for Lai's fit also the spikes, the lateral play and a cyclic error), so that it
+// is not read as one of the tables' terms: a 1 um/min drift along X read as -0.25 um of backlash.
+// EXPLAIN's findings are also what the map checks its terms against (MapOptions::cross_check).
+struct CheckedIdentification {
+  dbb::Identification id;
+  std::vector<dbb::Estimate> explain;  // EXPLAIN's findings' parameters with an uncertainty
+  std::vector<std::string> beside;     // the effects fitted beside ("thermal_drift")
+  std::vector<std::string> notes;      // what was fitted beside, what EXPLAIN found that was not, and why
+  // The terms fitted beside as fitted, summed, one value per sample of all the runs in their order (um;
+  // empty when none): what no table holds, and what a verification takes out of the runs' G to judge the
+  // tables by what they can correct.
+  std::vector<double> beside_um;
+};
+CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
+                                       const dbb::IdentifyOptions& options = {});
+// error_map of a checked identification: EXPLAIN's values are the cross-check, and the notes of the
+// identification (what was fitted beside) are the map's too.
+ErrorMap error_map(const CheckedIdentification& checked, const std::vector<formats::DbbRun>& runs,
+                   MapOptions options = {});
 
 // The circle centre of the runs' metadata (first, second plane axis), or nullopt when a run does not
 // state it; throws CompensationError when the runs state different centres.
 std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs);
+
+// What error_map checks before it looks at an identification (so a caller can refuse bad input before
+// identifying): the runs go both ways, the centre (the options' or the runs') is known and a machine
+// position, the step is positive and gives at most 256 lines. Throws CompensationError; returns the centre.
+std::array<double, 2> check_map_inputs(const std::vector<formats::DbbRun>& runs, const MapOptions& options);
 
 // From the ballbar diagnostics when the identification has them, else from Lai's third-order model
 // (scale, backlash, the in-plane straightness polynomials, squareness a1; over the largest radius).
@@ -140,8 +192,13 @@ struct OutputFile {
 // `source` names the session or runs in the headers.
 std::vector<OutputFile> compensation_files(const ErrorMap& map, const std::string& source);
 // Every name compensation_files can give (x.comp, y.comp, z.comp, linuxcnc.ini, errors.csv,
-// straightness.csv): what a new set written to a directory replaces.
+// straightness.csv), and each with do_not_load_suffix (a file a verification refused): what a new set
+// written to a directory replaces.
 std::vector<std::string> compensation_file_names();
+inline constexpr std::string_view do_not_load_suffix = ".do-not-load";
+
+// Why a term is not applied (not determined, contradicting EXPLAIN, not significant), "" when it is.
+std::string left_out_because(const Term& t);
 
 // The text summary `guideway compensate` prints (terms, what was applied, squareness advice).
 std::string to_text(const ErrorMap& map);

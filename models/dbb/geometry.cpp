@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "models/dbb/fast_sincos.hpp"
+
 namespace guideway::models::dbb {
 
 namespace {
@@ -11,6 +13,12 @@ namespace {
 constexpr double pi = std::numbers::pi;
 
 double sign_outside_dead_zone(double x) { return x > 1e-9 ? 1.0 : (x < -1e-9 ? -1.0 : 0.0); }
+
+// The number k of an axis' last reversal, at zeta = phase + k pi, on a circle traced in direction dir.
+double last_reversal(double zeta_rad, double phase_rad, double dir) {
+  const double q = (zeta_rad - phase_rad) / pi;
+  return dir > 0 ? std::floor(q) : std::ceil(q);
+}
 
 }  // namespace
 
@@ -39,6 +47,8 @@ void fill_sample_geometry(const formats::DbbRun& run, std::size_t run_index, std
   out.run = run_index;
   out.a_m = run.center_a_m + run.radius_m * out.c;
   out.b_m = run.center_b_m + run.radius_m * out.s;
+  out.center_a_m = run.center_a_m;
+  out.center_b_m = run.center_b_m;
   out.dL_um = run.dL_m[i] * 1e6;
 }
 
@@ -47,9 +57,7 @@ double velocity_sign_a(double dir, double sin_zeta) { return -dir * sign_outside
 double velocity_sign_b(double dir, double cos_zeta) { return dir * sign_outside_dead_zone(cos_zeta); }
 
 double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir) {
-  const double q = (zeta_rad - phase_rad) / pi;
-  const double last = dir > 0 ? std::floor(q) : std::ceil(q);
-  return std::abs(zeta_rad - phase_rad - last * pi);
+  return std::abs(zeta_rad - phase_rad - last_reversal(zeta_rad, phase_rad, dir) * pi);
 }
 
 double reversal_spike_decay(double t_s, double tau_s) {
@@ -64,6 +72,40 @@ double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad) {
 double deadband_lost_motion(double velocity_sign, double rise_m, double backlash_m) {
   const double taken_up = backlash_m > 0 ? std::clamp(rise_m / backlash_m - 0.5, -0.5, 0.5) : 0.5;
   return -velocity_sign * taken_up;
+}
+
+std::vector<double> drive_delays_s(const std::vector<formats::DbbRun>& runs) {
+  const bool encoders = std::all_of(runs.begin(), runs.end(), [](const formats::DbbRun& r) {
+    const auto it = r.metadata.find("angle_source");
+    return it != r.metadata.end() && it->second == "encoders";
+  });
+  if (encoders) return {0.0};
+  return {0.0, 5e-3, 10e-3, 15e-3, 20e-3, 25e-3, 30e-3, 40e-3, 50e-3, 60e-3, 80e-3, 100e-3};
+}
+
+void add_drive_sample(DriveTrack& t, const SampleGeometry& p) {
+  const double z = p.zeta_rad - p.dir * p.omega_rad_per_s * t.delay_s;
+  double s = 0, c = 0;
+  fast_sincos(z, s, c);
+  const auto rise = [&](double phase) {
+    return rise_since_reversal_m(p.radius_m, angle_since_reversal_rad(z, phase, p.dir));
+  };
+  // After its k-th reversal (a at cos z = (-1)^k, b at sin z = (-1)^k) an axis moves back towards the
+  // centre, whichever way the circle is traced: so -1 after an even k. Exactly at a reversal that is the
+  // direction it is about to take, and its rise is 0: the deadband then holds it on the approach's side.
+  const auto direction = [&](double phase) {
+    return std::fmod(std::abs(last_reversal(z, phase, p.dir)), 2.0) == 1.0 ? 1.0 : -1.0;
+  };
+  t.pos_a.push_back(p.center_a_m + p.radius_m * c);
+  t.pos_b.push_back(p.center_b_m + p.radius_m * s);
+  t.vel_a.push_back(direction(0.0));
+  t.vel_b.push_back(direction(pi / 2));
+  t.rise_a.push_back(rise(0.0));
+  t.rise_b.push_back(rise(pi / 2));
+}
+
+std::array<double, 2> lost_motion(const DriveTrack& t, std::size_t i, double b_a, double b_b) {
+  return {deadband_lost_motion(t.vel_a[i], t.rise_a[i], b_a), deadband_lost_motion(t.vel_b[i], t.rise_b[i], b_b)};
 }
 
 }  // namespace guideway::models::dbb

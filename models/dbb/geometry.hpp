@@ -4,8 +4,10 @@
 // each axis moves and how long since it last reversed, and the lost motion of a backlash deadband.
 // Conventions (axes, signs, lambda): docs/conventions.md. Pure functions; thread safe.
 
+#include <array>
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "formats/dbb_run.hpp"
 
@@ -20,10 +22,11 @@ struct SampleGeometry {
   double h_over_l0 = 0;  // h / L0: the part of an error along the plane normal it reads
   double dir = 1;        // +1 ccw (zeta increasing), -1 cw
   double feed_m_per_s = 0, omega_rad_per_s = 0;
-  double sgn_a = 0, sgn_b = 0;          // signs of the axes' velocities, 0 at a reversal
-  double since_a_s = 0, since_b_s = 0;  // time since the last reversal of a / b (spikes decay from it)
-  double a_m = 0, b_m = 0;              // machine coordinates of the commanded point (cyclic error phase)
-  double dL_um = 0;                     // the bar's reading
+  double sgn_a = 0, sgn_b = 0;            // signs of the axes' velocities, 0 at a reversal
+  double since_a_s = 0, since_b_s = 0;    // time since the last reversal of a / b (spikes decay from it)
+  double a_m = 0, b_m = 0;                // machine coordinates of the commanded point (cyclic error phase)
+  double center_a_m = 0, center_b_m = 0;  // the circle's centre, where a lagging drive's position is reckoned from
+  double dL_um = 0;                       // the bar's reading
 };
 
 // The geometry at commanded angle zeta of a circle of radius r and socket height h traced in direction
@@ -57,12 +60,46 @@ double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad);
 // backlash and project on the bar). An ideal step is -sign(velocity) / 2; a deadband stands still after
 // a reversal until the drive has risen b from its extreme, lagging meanwhile by rise / b - 1/2 of b.
 // backlash_m <= 0 gives the ideal step.
-// identify.cpp's apply_deadband simulates the same deadband instead, and identify's published results
-// rest on that simulation. The two agree to 1e-11 but: at a sample exactly at a reversal (0 here, as the
-// velocity's sign is 0; the simulation keeps the approach's -1/2 sign, which is what a deadband does);
-// near the take-up, by up to r (1 - cos 0.005 deg) / b (4e-4 for 1 um on 100 mm), where the simulation's
-// 0.01 deg substeps miss the extreme; and by a whole sign at the first sample after a reversal when the
-// samples are more than about 2 (4 sqrt(b / r) + 0.01) rad apart, which the simulation steps over.
+// Identification (identify.cpp) and EXPLAIN's backlash effect both use this one deadband, on the drives'
+// tracks below.
 double deadband_lost_motion(double velocity_sign, double rise_m, double backlash_m);
+
+// ---- The drives' motion ----
+// The drives' motion on the circle when they follow the command `delay_s` late, per sample: their
+// positions, the direction each moves in since its last reversal and how far it has moved from that
+// extreme. Computed once per identification or explanation for every delay searched (the deadband and the
+// cyclic error live on the drives' positions).
+struct DriveTrack {
+  double delay_s = 0;
+  std::vector<double> pos_a, pos_b;    // m
+  std::vector<double> vel_a, vel_b;    // -1 / +1: the direction since the last reversal (at a reversal: the
+                                       // one it is about to take, so the deadband's lag is the approach's)
+  std::vector<double> rise_a, rise_b;  // r (1 - cos phi), phi the angle past the axis's last reversal (m)
+};
+
+// The delays (s) by which the drives may follow the commanded angle of the runs: none when every run's
+// angles were read from the axis encoders (metadata angle_source = encoders, as a live session writes),
+// else a grid up to a slow position loop's 1/Kv (commanded angles, or angles from time and feed as a
+// ballbar's software computes them).
+std::vector<double> drive_delays_s(const std::vector<formats::DbbRun>& runs);
+
+// Sample g appended to a track (its delay_s set).
+void add_drive_sample(DriveTrack& track, const SampleGeometry& g);
+
+// One track per delay over the samples `g` (any type derived from SampleGeometry).
+template <class Geometry>
+std::vector<DriveTrack> drive_tracks(const std::vector<Geometry>& g, const std::vector<double>& delays) {
+  std::vector<DriveTrack> out;
+  for (const double d : delays) {
+    DriveTrack& t = out.emplace_back();
+    t.delay_s = d;
+    for (const SampleGeometry& p : g) add_drive_sample(t, p);
+  }
+  return out;
+}
+
+// Lost motion per unit backlash of a deadband of width b_a / b_b (m) along each axis ({a, b}) at
+// sample i of the track.
+std::array<double, 2> lost_motion(const DriveTrack& track, std::size_t i, double b_a, double b_b);
 
 }  // namespace guideway::models::dbb

@@ -1,11 +1,11 @@
 #include "models/dbb/identify.hpp"
 
 #include <algorithm>
-#include <sstream>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <sstream>
 
 #include <Eigen/Core>
 #include <Eigen/QR>
@@ -30,6 +30,7 @@ struct Point : SampleGeometry {
   double cyc_sa = 0, cyc_ca = 0;  // sin and cos of the cyclic phase 2 pi a_m / period_a (and b),
   double cyc_sb = 0, cyc_cb = 0;  // once the periods are chosen (set_cyclic_phases)
   double w = 1;
+  std::size_t sample = 0;  // among all the runs identified: the row of IdentifyOptions::beside's columns
 };
 
 // The ideal step: the axis trails the command by half the backlash, on the side it comes from.
@@ -38,7 +39,10 @@ void set_step_backlash(Point& p) {
   p.bl_b = -0.5 * p.sgn_b;
 }
 
-std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs) {
+// The points of `runs`; run k's first sample is sample first_sample[k] of all the runs identified (none
+// given: the runs are all of them).
+std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs,
+                             const std::vector<std::size_t>& first_sample = {}) {
   std::vector<Point> pts;
   std::size_t total = 0;
   for (const auto& r : runs) total += r.angle_rad.size();
@@ -47,98 +51,78 @@ std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs) {
     const formats::DbbRun& run = runs[k];
     const double w =
         static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
+    const std::size_t first = first_sample.empty() ? pts.size() : first_sample[k];
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Point& p = pts.emplace_back();  // filled in place (10^4 points of 200 bytes)
       fill_sample_geometry(run, k, i, p);
       set_step_backlash(p);
       p.w = w;
+      p.sample = first + i;
     }
   }
   return pts;
 }
 
-// Narrowest backlash (m) that apply_deadband shapes.
-constexpr double min_deadband_m = 1e-12;
-
-// cos and sin of the pre-roll angles of apply_deadband (half a turn before each run's first sample,
-// 0.1 deg apart): the same for every backlash estimate, so computed once per identification.
-struct PrerollTable {
-  std::vector<std::vector<double>> c, s;  // per run, index q = 1..1799 at [q - 1]
+// The columns of the terms fitted beside a model's own (all of them, or those the diagnostics do not hold),
+// with their names.
+struct BesideColumns {
+  std::vector<const std::vector<double>*> columns;
+  std::vector<std::string> names;
+  [[nodiscard]] std::size_t size() const { return columns.size(); }
+  [[nodiscard]] double at(std::size_t c, const Point& p) const { return (*columns[c])[p.sample]; }
 };
 
-double preroll_angle(const formats::DbbRun& run, int q) {
-  const double dir = run.dir();
-  return run.angle_rad.front() - dir * pi + dir * q * (pi / 1800);
+BesideColumns beside_columns(const IdentifyOptions& options, bool diagnostics) {
+  BesideColumns out;
+  for (const BesideTerm& t : options.beside) {
+    if (diagnostics && !t.in_diagnostics) continue;
+    for (std::size_t c = 0; c < t.columns_um.size(); ++c) {
+      out.columns.push_back(&t.columns_um[c]);
+      out.names.push_back(c < t.names.size() ? t.names[c] : t.effect + "_" + std::to_string(c + 1));
+    }
+  }
+  return out;
 }
 
-// Replaces the step-shaped backlash basis by the response of a deadband of width `b` (m) to the
-// commanded circle: the axis stands still at a reversal until the drive has taken up the play, which
-// an ideal step does not describe. Simulated from half a turn before the first sample.
-// `delay_*` (s) lets each drive follow the command late by its servo lag.
-// Without a delay the command at a sample or pre-roll angle is the points' (or the table's) own
-// cos/sin of that very angle, so only the substeps near the reversals need trigonometry.
-// deadband_lost_motion (geometry.hpp) is the same deadband in closed form; it says where they differ.
-void apply_deadband(std::vector<Point>& pts, const std::vector<formats::DbbRun>& runs, PrerollTable& table, double b_a, double b_b,
-                    double delay_a = 0.0, double delay_b = 0.0) {
-  if (table.c.empty()) {
-    for (const formats::DbbRun& run : runs) {
-      auto& c = table.c.emplace_back(1799);
-      auto& s = table.s.emplace_back(1799);
-      for (int q = 1; q < 1800; ++q) {
-        const double z = preroll_angle(run, q);
-        c[static_cast<std::size_t>(q - 1)] = std::cos(z);
-        s[static_cast<std::size_t>(q - 1)] = std::sin(z);
+// The points' backlash column: the deadband of width b_a / b_b (m) on the drives' track (the one deadband
+// EXPLAIN's backlash effect uses: geometry.hpp), the ideal step for a width <= 0.
+void set_deadband(std::vector<Point>& pts, const DriveTrack& track, double b_a, double b_b) {
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    Point& p = pts[i];
+    const auto m = lost_motion(track, i, b_a, b_b);
+    p.bl_a = b_a > 0 ? m[0] : -0.5 * p.sgn_a;
+    p.bl_b = b_b > 0 ? m[1] : -0.5 * p.sgn_b;
+  }
+}
+
+// The deadband a fit reads: its widths (m) and the drives' delay behind the commanded angles (s).
+struct Deadband {
+  double b_a = 0, b_b = 0;
+  std::size_t track = 0;  // index into the tracks (their delay_s)
+  [[nodiscard]] bool shaped() const { return b_a > 0 || b_b > 0; }
+};
+
+// The deadband of widths `widths` that fits best: at every drive delay of `tracks` the points get its shape
+// and `rms(pts)` (a fit's residual RMS) is evaluated; the lowest wins, and the points keep its shape. With
+// one track (the angles are the encoders') only the widths are set.
+template <class RmsOf>
+Deadband choose_deadband_delay(std::vector<Point>& pts, const std::vector<DriveTrack>& tracks, Deadband widths,
+                               const RmsOf& rms) {
+  widths.b_a = std::max(widths.b_a, 0.0);
+  widths.b_b = std::max(widths.b_b, 0.0);
+  if (widths.shaped() && tracks.size() > 1) {
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < tracks.size(); ++k) {
+      set_deadband(pts, tracks[k], widths.b_a, widths.b_b);
+      const double e = rms(pts);
+      if (e < best) {
+        best = e;
+        widths.track = k;
       }
     }
   }
-  std::size_t i0 = 0;
-  for (std::size_t k = 0; k < runs.size(); ++k) {
-    const formats::DbbRun& run = runs[k];
-    const double r = run.radius_m;
-    const double dir = run.dir();
-    for (int axis = 0; axis < 2; ++axis) {
-      const double b = axis == 0 ? b_a : b_b;
-      const double lag = dir * run.feed_m_per_s / r * (axis == 0 ? delay_a : delay_b);
-      const auto cmd = [&](double z) { return axis == 0 ? r * std::cos(z - lag) : r * std::sin(z - lag); };
-      // A deadband narrower than a picometre keeps the ideal step: (act - now) / b would divide the
-      // positions' rounding (r * eps, about 2e-17 m) by b, a noise column (a backlash estimate of
-      // noise-free data is of that order and its sign a coin toss).
-      if (!(b > min_deadband_m)) continue;
-      const double half = 0.5 * b;
-      double z = run.angle_rad.front() - dir * pi;
-      double act = cmd(z);
-      // Fine substeps only near the reversals, where the deadband is being taken up.
-      const double near = 4.0 * std::sqrt(b / r) + 0.01;
-      // Moves to angle `to`, whose cos and sin are `c_to` and `s_to`.
-      const auto advance = [&](double to, double c_to, double s_to) {
-        const double rev = axis == 0 ? std::abs(s_to) : std::abs(c_to);
-        const int steps =
-            rev > near ? 1 : std::max(1, static_cast<int>(std::ceil(std::abs(to - z) / (0.01 * pi / 180))));
-        const double dz = (to - z) / steps;
-        for (int q = 1; q <= steps; ++q) {
-          const double zq = z + dz * q;
-          const double c = (zq == to && lag == 0.0) ? r * (axis == 0 ? c_to : s_to) : cmd(zq);
-          if (c - act > half) act = c - half;
-          if (c - act < -half) act = c + half;
-        }
-        z = to;
-      };
-      // Pre-roll in 0.1 deg steps (each refined only near a reversal).
-      const auto& tc = table.c[k];
-      const auto& ts = table.s[k];
-      for (int q = 1; q < 1800; ++q) {
-        const auto t = static_cast<std::size_t>(q - 1);
-        advance(preroll_angle(run, q), tc[t], ts[t]);
-      }
-      for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
-        Point& p = pts[i0 + i];
-        advance(run.angle_rad[i], p.c, p.s);
-        const double now = lag == 0.0 ? r * (axis == 0 ? p.c : p.s) : cmd(z);
-        (axis == 0 ? p.bl_a : p.bl_b) = (act - now) / b;
-      }
-    }
-    i0 += run.angle_rad.size();
-  }
+  set_deadband(pts, tracks[widths.track], widths.b_a, widths.b_b);
+  return widths;
 }
 
 FitSummary summary_of(const LsqResult& res) {
@@ -209,18 +193,21 @@ struct DiagLayout {
   double amp_a = 0, amp_b = 0;
   bool cyclic_a = false, cyclic_b = false;
   double tau_a = 0.02, tau_b = 0.02, delay_a = 0, delay_b = 0, period_a = 0, period_b = 0;
+  const BesideColumns* beside = nullptr;  // fitted beside, after every diagnostic (may be null)
+  [[nodiscard]] std::size_t beside_count() const { return beside ? beside->size() : 0; }
   [[nodiscard]] std::size_t global0() const { return 2 * runs; }
   // global parameters after the per-run centre offsets
   enum G { scale_a, scale_b, squareness, backlash_a, backlash_b, play_a, play_b, servo, bow_a, bow_b, n_base };
   [[nodiscard]] std::size_t count() const {
     return global0() + n_base + (spikes ? 2 : 0) + (decay_a ? 1 : 0) + (decay_b ? 1 : 0) + (cyclic_a ? 2 : 0) +
-           (cyclic_b ? 2 : 0);
+           (cyclic_b ? 2 : 0) + beside_count();
   }
   [[nodiscard]] std::size_t spike0() const { return global0() + n_base; }
   [[nodiscard]] std::size_t decay_a0() const { return spike0() + (spikes ? 2 : 0); }
   [[nodiscard]] std::size_t decay_b0() const { return decay_a0() + (decay_a ? 1 : 0); }
   [[nodiscard]] std::size_t cyc_a0() const { return decay_b0() + (decay_b ? 1 : 0); }
   [[nodiscard]] std::size_t cyc_b0() const { return cyc_a0() + (cyclic_a ? 2 : 0); }
+  [[nodiscard]] std::size_t beside0() const { return cyc_b0() + (cyclic_b ? 2 : 0); }
 };
 
 // Column values in um per reported unit (um, ppm, urad, ms).
@@ -266,6 +253,8 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
     row[k] = lam * s * p.cyc_sb;
     row[k + 1] = lam * s * p.cyc_cb;
   }
+  for (std::size_t k = 0; k < L.beside_count(); ++k)
+    row[static_cast<Eigen::Index>(L.beside0() + k)] = L.beside->at(k, p);
 }
 
 // The cyclic-error phases of the chosen lead-screw periods, computed once for every later fit.
@@ -314,6 +303,7 @@ std::vector<std::string> diag_names(const DiagLayout& L, const std::string& plan
     n.push_back(results::name(results::cyclic_sin, plane, 1));
     n.push_back(results::name(results::cyclic_cos, plane, 1));
   }
+  if (L.beside) n.insert(n.end(), L.beside->names.begin(), L.beside->names.end());
   return n;
 }
 
@@ -559,7 +549,8 @@ void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::ve
     std::vector<double> curve(pts.size(), 0.0);
     for (std::size_t i = 0; i < pts.size(); ++i) {
       diag_row(L, pts[i], row);
-      for (const std::size_t c : cols) curve[i] += row[static_cast<Eigen::Index>(c)] * res.x[static_cast<Eigen::Index>(c)];
+      for (const std::size_t c : cols)
+        curve[i] += row[static_cast<Eigen::Index>(c)] * res.x[static_cast<Eigen::Index>(c)];
     }
     const double part = part_of_deviation(pts, curve, runs.size());
     // Named as the diagnostic (the scales as their mismatch, the cyclic error's two columns after its axis).
@@ -607,10 +598,15 @@ double spike_score(const std::vector<SpikePoint>& near, double tau, double delay
   return suu > 0 ? sur * sur / suu : 0.0;
 }
 
-// Per axis: the decay time (log grid 2..200 ms, then golden section) and the delay of the spike after the
-// commanded reversal (the axis' servo lag, 0..`delay_max`) that explain most of the residual.
+// Per axis: the decay time (log grid 2..100 ms, then golden section; never below half the sample spacing
+// `dt`, where a "spike" would be one sample's noise) and the delay of the spike after the commanded
+// reversal (the axis' servo lag, 0..`delay_max`) that explain most of the residual. When that is not
+// clearly more than noise, a spike at the reversal decaying in 20 ms, or two sample spacings when the
+// samples are further apart than 10 ms: the height then reported is that of a stiction spike the sampling
+// resolves, consistent with none.
 SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bool axis_a, double delay_step,
-                        double delay_max) {
+                        double delay_max, double dt) {
+  const double tau_min = 0.5 * dt;
   constexpr double tau_max = 0.1;
   std::vector<SpikePoint> near;
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -626,6 +622,7 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
   for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
     for (int q = 0; q < grid; ++q) {
       const double tau = 0.002 * std::pow(50.0, static_cast<double>(q) / (grid - 1));
+      if (tau < tau_min) continue;
       const double e = spike_score(near, tau, d);
       if (e > best * (1 + 1e-9)) {  // ties (a delay shorter than the sample spacing): keep the shortest
         best = e;
@@ -644,7 +641,7 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
     }
   }
   const double ratio = std::pow(50.0, 1.0 / (grid - 1));
-  double lo = std::log(best_tau / ratio), hi = std::log(best_tau * ratio);
+  double lo = std::log(std::max(best_tau / ratio, tau_min)), hi = std::log(best_tau * ratio);
   const double gr = 0.5 * (std::sqrt(5.0) - 1.0);
   double x1 = hi - gr * (hi - lo), x2 = lo + gr * (hi - lo);
   double f1 = spike_score(near, std::exp(x1), best_delay), f2 = spike_score(near, std::exp(x2), best_delay);
@@ -665,8 +662,9 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
   }
   const double xm = 0.5 * (lo + hi);
   if (spike_score(near, std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
+  if (!(spike_score(near, best_tau, best_delay) > 30.0 * base.s2)) return {std::max(0.02, 2 * dt), 0.0, 0.0, false};
   const auto [sur, suu] = spike_sums(near, best_tau, best_delay);
-  return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, spike_score(near, best_tau, best_delay) > 30.0 * base.s2};
+  return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, true};
 }
 
 // Reversal spikes: the decay time and delay of each axis that explain most of the preliminary residual.
@@ -679,8 +677,8 @@ void search_reversal_spikes(const std::vector<formats::DbbRun>& runs, const std:
   // With samples further apart than 2 ms a delay only trades off against the height: not searched.
   const double delay_step = std::max(0.002, dt);
   const double delay_max = dt <= 0.002 ? 0.02 : 0.0;
-  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max);
-  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max);
+  const SpikeShape a = search_spike(pts, base, true, delay_step, delay_max, dt);
+  const SpikeShape b = search_spike(pts, base, false, delay_step, delay_max, dt);
   L.tau_a = a.tau;
   L.delay_a = a.delay;
   L.amp_a = a.amp;
@@ -741,25 +739,35 @@ void choose_cyclic_periods(const std::vector<formats::DbbRun>& runs, std::vector
   set_cyclic_phases(L, pts);
 }
 
-// The diagnostics fit with the points' deadband shape of this fit's own backlash (the Lai fit's may
-// differ): refitted only when it differs noticeably from the one the points carry.
-LsqResult fit_with_own_backlash(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts,
-                                const std::string& plane, DiagWork& work, PrerollTable& preroll, double shaped_b_a,
-                                double shaped_b_b, const DiagLayout& L) {
-  LsqResult res = fit_diag(L, pts, plane, work);
-  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
-  const std::size_t ga = L.global0() + DiagLayout::backlash_a;
-  const double b_a = res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0;
-  const double b_b = res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0;
-  const auto differs = [](double now, double shaped) {
-    return std::abs(now - shaped) > std::max(0.02 * std::abs(shaped), 0.02e-6);
-  };
-  if (differs(b_a, shaped_b_a) || differs(b_b, shaped_b_b)) {
-    for (auto& p : pts) set_step_backlash(p);
-    if (b_a > 0 || b_b > 0)
-      apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0), L.delay_a, L.delay_b);
-    res = fit_diag(L, pts, plane, work);
+// The diagnostics fit with the deadband of its own backlash (the points carry `shaped`, Lai's): its drive
+// delay searched again with the diagnostics' terms (the spikes among them) in the fit, its width refitted
+// when it differs noticeably from the one the points carry.
+LsqResult fit_with_own_backlash(std::vector<Point>& pts, const std::vector<DriveTrack>& tracks,
+                                const std::string& plane, DiagWork& work, Deadband shaped, const DiagLayout& L) {
+  const auto fit = [&](Eigen::Index stride) {
+    LsqResult res = fit_diag(L, pts, plane, work, stride);
     if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+    return res;
+  };
+  const auto own = [&](const LsqResult& res) {
+    const std::size_t ga = L.global0() + DiagLayout::backlash_a;
+    return Deadband{res.identified[ga] ? res.x[static_cast<Eigen::Index>(ga)] * 1e-6 : 0.0,
+                    res.identified[ga + 1] ? res.x[static_cast<Eigen::Index>(ga + 1)] * 1e-6 : 0.0, shaped.track};
+  };
+  const auto differs = [](const Deadband& now, const Deadband& was) {
+    const auto by = [](double n, double w) { return std::abs(n - w) > std::max(0.02 * std::abs(w), 0.02e-6); };
+    return by(now.b_a, was.b_a) || by(now.b_b, was.b_b);
+  };
+  LsqResult res = fit(1);
+  Deadband now = own(res);
+  if (now.shaped() && tracks.size() > 1) {
+    shaped = choose_deadband_delay(pts, tracks, now, [&](const std::vector<Point>&) { return fit(3).rms; });
+    res = fit(1);
+    now = own(res);
+  }
+  if (differs(now, shaped)) {
+    set_deadband(pts, tracks[now.track], std::max(now.b_a, 0.0), std::max(now.b_b, 0.0));
+    res = fit(1);
   }
   return res;
 }
@@ -848,25 +856,29 @@ void report_diagnostics(const DiagLayout& L, const LsqResult& res, const std::ve
   decay(L.decay_b, L.decay_b0(), L.tau_b, 1);
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 0), L.delay_a * 1e3, nan, false));
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 1), L.delay_b * 1e3, nan, false));
+  out.beside.clear();
+  for (std::size_t c = 0; c < L.beside_count(); ++c) {
+    const std::size_t k = L.beside0() + c;
+    if (res.identified[k])
+      out.beside.push_back(est(names[k], res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
+  }
 }
 
-// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband shape of shaped_b_a/_b): fills
-// out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
-LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::string& plane,
-                   DiagWork& work, PrerollTable& preroll, double shaped_b_a, double shaped_b_b,
+// The ballbar diagnostics of `runs` (points `pts`, carrying the deadband `shaped` on the drives' `tracks`):
+// fills out.diagnostics, out.diagnostics_fit and out.ranking; returns the final fit.
+LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts,
+                   const std::vector<DriveTrack>& tracks, const std::string& plane, DiagWork& work, Deadband shaped,
                    const IdentifyOptions& options, Identification& out) {
   DiagLayout L;
   L.runs = runs.size();
+  const BesideColumns beside = beside_columns(options, true);
+  L.beside = &beside;
   // Preliminary fit (a third of the points) whose residual steers the spike and cyclic searches.
   const LsqResult base = fit_diag(L, pts, plane, work, 3);
   if (!base.ok) throw formats::DbbRunFormatError("identify: " + base.message);
   search_reversal_spikes(runs, pts, base, L);
   choose_cyclic_periods(runs, pts, base, options, L);
-  // The drives reverse one servo lag late: when the spike search resolved that delay, the deadband
-  // take-up is late by as much.
-  if ((L.delay_a > 0 || L.delay_b > 0) && (shaped_b_a > 0 || shaped_b_b > 0))
-    apply_deadband(pts, runs, preroll, shaped_b_a, shaped_b_b, L.delay_a, L.delay_b);
-  LsqResult res = fit_with_own_backlash(runs, pts, plane, work, preroll, shaped_b_a, shaped_b_b, L);
+  LsqResult res = fit_with_own_backlash(pts, tracks, plane, work, shaped, L);
   refine_spike_decays(pts, plane, work, L, res);
   out.diagnostics_fit = summary_of(res);
   const auto names = diag_names(L, plane);
@@ -902,26 +914,33 @@ std::string lai_error_group(const std::string& name) {
     return name.substr(0, name.rfind('_'));
   if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
   switch (name.front()) {
-    case 'a': return "x_straightness_in_y";  // with the squareness a1
-    case 'b': return "y_straightness_in_x";
-    case 'c': return "y_roll";
-    case 'd': return "x_straightness_in_z";
-    case 'e': return "y_straightness_in_z";
-    default: return name;
+    case 'a':
+      return "x_straightness_in_y";  // with the squareness a1
+    case 'b':
+      return "y_straightness_in_x";
+    case 'c':
+      return "y_roll";
+    case 'd':
+      return "x_straightness_in_z";
+    case 'e':
+      return "y_straightness_in_z";
+    default:
+      return name;
   }
 }
 
 // What Lai's fit leaves for the rest of identify().
 struct LaiFit {
-  std::vector<double> residual_rms;  // per run
+  std::vector<double> residual_rms;   // per run
   std::vector<Contribution> ranking;  // its terms' parts of G, largest first
-  double shaped_b_a = 0, shaped_b_b = 0;  // the backlash widths the points' deadband shapes were computed for
+  Deadband shaped;                    // the deadband whose shape the points carry (widths and the drives' delay)
 };
 
 // Lai's third-order model on every run (two passes: the first only estimates the backlash whose
-// deadband shape the second uses; `pts` keep that shape). Fills out.fit and out.lai3.
-LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, PrerollTable& preroll, DiagWork& work,
-               const IdentifyOptions& options, Identification& out) {
+// deadband shape, at the drives' delay that fits best, the second uses; `pts` keep that shape). Fills
+// out.fit and out.lai3.
+LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::vector<DriveTrack>& tracks,
+               DiagWork& work, const IdentifyOptions& options, Identification& out) {
   const auto n = static_cast<Eigen::Index>(pts.size());
   LaiFit lai;
   lai.residual_rms.assign(runs.size(), 0.0);
@@ -939,11 +958,15 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     }
     for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].parameter->name);
   }
+  // The terms fitted beside Lai's, after them.
+  const BesideColumns beside = beside_columns(options, false);
+  names.insert(names.end(), beside.names.begin(), beside.names.end());
+  const std::size_t cols = m + beside.size();
   // With stride > 1 only every stride-th point enters (its residual is not needed).
   const auto fit = [&](Eigen::Index stride) {
-    const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(m), stride);
+    const Eigen::Index rows = strided_rows(n, static_cast<Eigen::Index>(cols), stride);
     if (rows == n) stride = 1;
-    auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(m));
+    auto j = work.j.topLeftCorner(rows, static_cast<Eigen::Index>(cols));
     if (!shared) j.setZero();
     Eigen::VectorXd ys(rows), ws(rows);
     double basis[lai_count];
@@ -955,6 +978,7 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
       j(i, static_cast<Eigen::Index>(off + 1)) = basis[1] * lai_columns[1].si_per_reported * 1e6;
       for (std::size_t c = 2; c < lai_count; ++c)
         j(i, static_cast<Eigen::Index>(n_center + c - 2)) = basis[c] * lai_columns[c].si_per_reported * 1e6;
+      for (std::size_t c = 0; c < beside.size(); ++c) j(i, static_cast<Eigen::Index>(m + c)) = beside.at(c, p);
       ys[i] = p.dL_um;
       ws[i] = p.w;
     }
@@ -964,15 +988,12 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
   };
   // First pass on a third of the points: only its backlash estimate is used (deadband shape).
   LsqResult res = fit(3);
-  // Second pass with the deadband shape of the estimated backlash.
+  // Second pass with the deadband shape of the estimated backlash, at the drives' delay that fits best.
   const auto bx = static_cast<Eigen::Index>(n_center + 15), by = bx + 1;
-  const double b_a = res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0;
-  const double b_b = res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0;
-  if (b_a > 0 || b_b > 0) {
-    apply_deadband(pts, runs, preroll, std::max(b_a, 0.0), std::max(b_b, 0.0));
-    lai.shaped_b_a = std::max(b_a, 0.0);
-    lai.shaped_b_b = std::max(b_b, 0.0);
-  }
+  const Deadband step{res.identified[static_cast<std::size_t>(bx)] ? res.x[bx] * 1e-6 : 0.0,
+                      res.identified[static_cast<std::size_t>(by)] ? res.x[by] * 1e-6 : 0.0};
+  if (step.shaped())
+    lai.shaped = choose_deadband_delay(pts, tracks, step, [&](const std::vector<Point>&) { return fit(3).rms; });
   res = fit(1);
   out.fit = summary_of(res);
   if (options.bar_length_u_um > 0) {
@@ -1029,6 +1050,9 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     }
     out.lai3.push_back(est(name, value, u));
   }
+  for (std::size_t c = m; c < cols; ++c)
+    if (res.identified[c])
+      out.beside.push_back(est(names[c], res.x[static_cast<Eigen::Index>(c)], res.u[static_cast<Eigen::Index>(c)]));
   return lai;
 }
 
@@ -1049,15 +1073,19 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
   // Among runs with a socket height, the h = 0 ones must also go both ways: in one direction backlash,
   // play, spikes and servo mismatch trade off against errors the diagnostics do not model (a single
   // in-plane test of one machine error at a time is separable; Lai's three patterns are not).
-  const bool both = std::any_of(flat.begin(), flat.end(), [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::ccw; }) &&
-                    std::any_of(flat.begin(), flat.end(), [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::cw; });
+  const bool both = std::any_of(flat.begin(), flat.end(),
+                                [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::ccw; }) &&
+                    std::any_of(flat.begin(), flat.end(),
+                                [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::cw; });
   if (flat.empty()) {
-    out.notes.push_back("no ballbar diagnostics: they model an in-plane bar (h = 0) and every run has a socket height; "
-                        "Lai's model covers these runs (and ranks the errors)");
+    out.notes.push_back(
+        "no ballbar diagnostics: they model an in-plane bar (h = 0) and every run has a socket height; "
+        "Lai's model covers these runs (and ranks the errors)");
   } else if (!both && flat.size() < runs.size()) {
-    out.notes.push_back("no ballbar diagnostics: they need an in-plane (h = 0) test in both directions (backlash, play, "
-                        "spikes and servo mismatch are told apart by the direction), and the h = 0 runs go one way; "
-                        "Lai's model covers every run (and ranks the errors)");
+    out.notes.push_back(
+        "no ballbar diagnostics: they need an in-plane (h = 0) test in both directions (backlash, play, "
+        "spikes and servo mismatch are told apart by the direction), and the h = 0 runs go one way; "
+        "Lai's model covers every run (and ranks the errors)");
   } else {
     if (flat.size() < runs.size()) {
       std::string which;
@@ -1065,10 +1093,15 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
       out.notes.push_back("ballbar diagnostics from the h = 0 run(s) only (" + which +
                           "): they model an in-plane bar, not a socket height; Lai's model above uses every run");
     }
-    std::vector<Point> flat_pts = points_of(flat);
-    PrerollTable flat_preroll;
-    if (lai.shaped_b_a > 0 || lai.shaped_b_b > 0) apply_deadband(flat_pts, flat, flat_preroll, lai.shaped_b_a, lai.shaped_b_b);
-    const LsqResult res = diagnose(flat, flat_pts, plane, work, flat_preroll, lai.shaped_b_a, lai.shaped_b_b, options, out);
+    std::vector<std::size_t> first(runs.size(), 0);  // of each run among all the runs
+    for (std::size_t k = 1; k < runs.size(); ++k) first[k] = first[k - 1] + runs[k - 1].angle_rad.size();
+    std::vector<std::size_t> flat_first;
+    for (const std::size_t k : flat_index) flat_first.push_back(first[k]);
+    std::vector<Point> flat_pts = points_of(flat, flat_first);
+    const std::vector<DriveTrack> tracks =
+        drive_tracks(flat_pts, drive_delays_s(runs));  // Lai's delays: its track index holds
+    if (lai.shaped.shaped()) set_deadband(flat_pts, tracks[lai.shaped.track], lai.shaped.b_a, lai.shaped.b_b);
+    const LsqResult res = diagnose(flat, flat_pts, tracks, plane, work, lai.shaped, options, out);
     // Absolute scales that agree are a radius change common to both axes, not the axes' scales.
     const auto find = [&](const std::string& name) -> const Estimate* {
       for (const auto& e : out.diagnostics)
@@ -1149,19 +1182,28 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
   const std::string plane = runs.front().plane;
   for (const auto& r : runs)
     if (r.plane != plane)
-      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" + plane +
-                           "); runs identified together must share the plane");
+      throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" +
+                                       plane + "); runs identified together must share the plane");
 
   Identification out;
   out.plane = plane;
   std::vector<Point> pts = points_of(runs);
-  PrerollTable preroll;
+  std::size_t beside = 0;
+  for (const BesideTerm& t : options.beside) {
+    for (const auto& c : t.columns_um)
+      if (c.size() != pts.size())
+        throw formats::DbbRunFormatError("identify: the column of " + t.effect + " fitted beside has " +
+                                         std::to_string(c.size()) + " values for " + std::to_string(pts.size()) +
+                                         " samples");
+    beside += t.columns_um.size();
+  }
   DiagWork work;
   // Widest fit: the Lai model with per-run centres or the diagnostics with every optional term
-  // (spikes 2, decays 2, cyclic 4).
+  // (spikes 2, decays 2, cyclic 4), and the terms fitted beside.
   work.j.resize(static_cast<Eigen::Index>(pts.size()),
-                static_cast<Eigen::Index>(2 * runs.size() + std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8)));
-  const LaiFit lai = fit_lai(runs, pts, preroll, work, options, out);
+                static_cast<Eigen::Index>(2 * runs.size() +
+                                          std::max<std::size_t>(lai_count - 2, DiagLayout::n_base + 8) + beside));
+  const LaiFit lai = fit_lai(runs, pts, drive_tracks(pts, drive_delays_s(runs)), work, options, out);
   const std::vector<double> residual_rms = diagnose_in_plane_runs(runs, plane, work, lai, options, out);
   if (out.ranking.empty()) {
     out.ranking = lai.ranking;

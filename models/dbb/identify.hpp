@@ -44,6 +44,17 @@ struct RunSummary {
   double residual_rms_um = 0.0;        // of the diagnostics fit
 };
 
+// A term fitted beside the model's own, so that it is not read as one of them: what EXPLAIN found on the
+// same runs that the models do not hold (a drift, a vibration; models/compensation). Its coefficients are
+// reported in Identification::beside, not among the diagnostics.
+struct BesideTerm {
+  std::string effect;                           // e.g. "thermal_drift"
+  std::vector<std::string> names;               // one per column, unit last
+  std::vector<std::vector<double>> columns_um;  // per column: um per unit, one value per sample of all the
+                                                // runs in their order
+  bool in_diagnostics = true;  // false: the diagnostics hold it themselves (a cyclic error): Lai's fit only
+};
+
 struct IdentifyOptions {
   // Known lead-screw periods; 0 = search the usual ball-screw leads.
   double cyclic_period_a_m = 0.0;
@@ -54,6 +65,7 @@ struct IdentifyOptions {
   // reading, so an error of it is the same offset in every dL: each parameter's u gains the fit's
   // response to that offset, |dp/dL0| u_L, in quadrature (docs/conventions.md "The bar's calibrated length").
   double bar_length_u_um = 0.0;
+  std::vector<BesideTerm> beside;  // fitted beside both models' terms (throws when a column has the wrong size)
 };
 
 // One error's part of the circular deviation (the ranking a ballbar's software gives).
@@ -73,8 +85,10 @@ struct Identification {
                                       // when the runs are a ballbar test they model, else Lai's terms
   std::string ranking_model;          // "diagnostics" or "lai3"
   std::vector<std::string> notes;     // what the diagnostics were fitted to and why
-  std::vector<Estimate> lai3;  // only the identified parameters
-  FitSummary fit;              // the Lai third-order fit
+  std::vector<Estimate> lai3;         // only the identified parameters
+  std::vector<Estimate> beside;       // the coefficients of IdentifyOptions::beside, from the fit the ranking comes
+                                      // from (the diagnostics', else Lai's)
+  FitSummary fit;                     // the Lai third-order fit
   FitSummary diagnostics_fit;
 };
 

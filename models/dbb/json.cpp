@@ -57,10 +57,16 @@ nlohmann::json to_json(const Identification& id) {
   for (const auto& e : id.diagnostics) j["diagnostics"][e.name] = value_json(e);
   j["lai3"] = nlohmann::json::object();
   for (const auto& e : id.lai3) j["lai3"][e.name] = value_json(e);
+  if (!id.beside.empty()) {  // only when terms were fitted beside (compensation's identification)
+    j["beside"] = nlohmann::json::object();
+    for (const auto& e : id.beside) j["beside"][e.name] = value_json(e);
+  }
   j["ranking"] = nlohmann::json::array();
   for (const auto& c : id.ranking)
-    j["ranking"].push_back({{"name", c.name}, {"contribution_um", c.contribution_um},
-                            {"percent_of_circular_deviation", std::isfinite(c.percent) ? nlohmann::json(c.percent) : nlohmann::json()}});
+    j["ranking"].push_back(
+        {{"name", c.name},
+         {"contribution_um", c.contribution_um},
+         {"percent_of_circular_deviation", std::isfinite(c.percent) ? nlohmann::json(c.percent) : nlohmann::json()}});
   j["ranking_model"] = id.ranking_model;
   j["notes"] = id.notes;
   j["fit"] = fit_json(id.fit);

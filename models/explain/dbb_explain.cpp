@@ -25,7 +25,8 @@ constexpr double pi = std::numbers::pi;
 using effects::Geo;
 
 bool all_have_start_time(const std::vector<formats::DbbRun>& runs) {
-  return std::all_of(runs.begin(), runs.end(), [](const formats::DbbRun& r) { return r.metadata.count("start_time_s") > 0; });
+  return std::all_of(runs.begin(), runs.end(),
+                     [](const formats::DbbRun& r) { return r.metadata.count("start_time_s") > 0; });
 }
 
 double start_time_of(const formats::DbbRun& r) {
@@ -56,8 +57,6 @@ std::vector<Geo> geometry(const std::vector<formats::DbbRun>& runs, bool machine
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Geo p;
       dbb::fill_sample_geometry(run, k, i, p);
-      p.center_a_m = run.center_a_m;
-      p.center_b_m = run.center_b_m;
       p.t_s = t0 + run.t_s[i];
       g.push_back(p);
     }
@@ -104,7 +103,7 @@ void check_runs(const std::vector<formats::DbbRun>& runs) {
   for (const auto& r : runs)
     if (r.plane != runs.front().plane)
       throw formats::DbbRunFormatError(r.source + ": plane " + r.plane + " differs from " + runs.front().source + " (" +
-                                runs.front().plane + ")");
+                                       runs.front().plane + ")");
 }
 
 // `reading_um`: the reading the model predicts per sample (the sensor's operating point; taking the
@@ -123,11 +122,13 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::ve
     p.samples.push_back({q.run, q.dL_um, deg, q.t_s});
   }
   const effects::DbbTerms terms{
-      g,    runs, machine_time, reading_um, effects::drive_tracks(g, effects::drive_delays_s(runs)), runs.front().plane,
+      g,    runs, machine_time, reading_um, effects::drive_tracks(g, dbb::drive_delays_s(runs)), runs.front().plane,
       base, y_um};
   p.candidates = effects::dbb_candidates(terms);
   if (!machine_time && runs.size() > 1) {
-    p.notes.push_back("runs have no start_time_s metadata: a drift is fitted with its own offset per run, a vibration with its own phase");
+    p.notes.push_back(
+        "runs have no start_time_s metadata: a drift is fitted with its own offset per run, a vibration with its own "
+        "phase");
     p.terms_per_run = true;
   }
   bool ccw = false, cw = false;
@@ -149,7 +150,8 @@ Problem dbb_problem(const std::vector<formats::DbbRun>& runs) {
   const LsqResult fit = solve_lsq(base.columns, y, Eigen::VectorXd(), base.names);
   if (!fit.ok) throw std::invalid_argument("explain: Lai base fit failed: " + fit.message);
   std::vector<double> reading(g.size());
-  for (std::size_t i = 0; i < g.size(); ++i) reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
+  for (std::size_t i = 0; i < g.size(); ++i)
+    reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
   Problem p = assemble_problem(runs, g, machine_time, reading, &base, &y);
   // The yardstick of the contributions, as a ballbar's software ranks errors: the largest circular
   // deviation G of a run (ISO 230-4: the range of the reading about the run's least-squares circle), and

@@ -29,6 +29,7 @@ struct ExplainOptions {
   std::size_t curve_points = 720;  // residual curves in the report (0 = none)
   bool heldout_reselect = true;    // held-out RMS re-chooses every effect's variant in each fold from its
                                    // training rows; false: the variants chosen on all data (optimistic)
+  bool keep_columns = false;       // each Finding keeps its term's columns (Finding::columns_um)
 };
 
 struct Mismatch {
@@ -50,6 +51,11 @@ struct Finding {
   double contribution_um = 0.0;  // its fitted term's size: Problem::contribution_of, else its peak-to-valley
   double contribution_percent = std::numeric_limits<double>::quiet_NaN();  // of Problem::deviation_um
   std::string why;
+  // With ExplainOptions::keep_columns, the finding's term as it was fitted: its columns (um per unit, one
+  // value per sample in the problem's order) and their names, for a model that fits it beside its own
+  // terms (models/compensation). Not in the JSON.
+  std::vector<std::string> column_names;
+  std::vector<std::vector<double>> columns_um;
 };
 
 // A candidate's test in the last selection round (why it was not taken).

@@ -8,7 +8,8 @@
 
 namespace guideway::simulators::machine {
 
-formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source) {
+formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec, const std::string& source,
+                                 AngleSource angles) {
   const machine::DbbRun raw = machine.dbb_circle(spec);
   formats::DbbRun run;
   run.source = source;
@@ -28,13 +29,20 @@ formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& sp
   seed << spec.seed;
   run.metadata["seed"] = seed.str();
   run.metadata["source"] = "guideway simulate dbb (virtual machine tool)";
-  run.metadata["angle_source"] = "commanded";
+  run.metadata["angle_source"] = angles == AngleSource::encoders ? "encoders" : "commanded";
   double t_start = -1;
   for (const auto& s : raw.samples) {
     if (!s.in_data_arc) continue;
     if (t_start < 0) t_start = s.t_s;
     run.t_s.push_back(s.t_s - t_start);
-    run.angle_rad.push_back(s.angle_rad);
+    double angle = s.angle_rad;
+    if (angles == AngleSource::encoders) {
+      // Where the drives were, about the commanded centre, on the commanded angle's turn.
+      const double e = std::atan2(s.encoder[static_cast<std::size_t>(b)] - run.center_b_m,
+                                  s.encoder[static_cast<std::size_t>(a)] - run.center_a_m);
+      angle += std::remainder(e - angle, 2.0 * 3.141592653589793);
+    }
+    run.angle_rad.push_back(angle);
     run.dL_m.push_back(s.dL_m);
   }
   // Machine time of the first data sample: runs simulated on one machine clock (their spec.t0_s) share it.
@@ -84,12 +92,13 @@ std::vector<CrossCompensation> cross_compensation(const std::vector<formats::Cro
   return out;
 }
 
-RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
-                             const std::vector<formats::DbbRun>& runs, const Vec3& center) {
+std::vector<formats::DbbRun> retrace_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                                         const std::vector<formats::DbbRun>& runs, const Vec3& center,
+                                         const std::string& tag) {
   MachineConfig with = machine;
   with.controller = correction;
-  const Machine plain(machine), compensated(with);
-  RemeasuredRuns out;
+  const Machine m(with);
+  std::vector<formats::DbbRun> out;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     DbbCircleSpec spec = circle_spec_of(runs[k], center);
     if (const auto s = runs[k].metadata.find("seed"); s != runs[k].metadata.end()) {
@@ -99,16 +108,24 @@ RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorre
         spec.seed = 0;
       }
     }
-    const std::string tag = std::to_string(k + 1) + (runs[k].direction == formats::DbbDirection::ccw ? "_ccw" : "_cw");
-    for (auto* m : {&plain, &compensated}) {
-      const bool after = m == &compensated;
-      formats::DbbRun run = simulate_dbb_run(*m, spec, (after ? "after_" : "before_") + tag);
-      run.metadata.erase("start_time_s");
-      run.metadata["compensation"] = after ? "after" : "before";
-      (after ? out.after : out.before).push_back(std::move(run));
-    }
+    // The angles as the given run has them: a live session's are the axis encoders'.
+    const auto source = runs[k].metadata.find("angle_source");
+    const AngleSource angles = source != runs[k].metadata.end() && source->second == "encoders"
+                                   ? AngleSource::encoders
+                                   : AngleSource::commanded;
+    const std::string name =
+        tag + "_" + std::to_string(k + 1) + (runs[k].direction == formats::DbbDirection::ccw ? "_ccw" : "_cw");
+    formats::DbbRun run = simulate_dbb_run(m, spec, name, angles);
+    run.metadata.erase("start_time_s");
+    run.metadata["compensation"] = tag;
+    out.push_back(std::move(run));
   }
   return out;
+}
+
+RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                             const std::vector<formats::DbbRun>& runs, const Vec3& center) {
+  return {retrace_dbb(machine, {}, runs, center, "before"), retrace_dbb(machine, correction, runs, center, "after")};
 }
 
 }  // namespace guideway::simulators::machine

@@ -13,9 +13,12 @@
 namespace guideway::simulators::machine {
 
 // The run carries the commanded circle centre as center_a_mm / center_b_mm metadata (also when it is 0),
-// so tools that need machine positions (compensation tables) find it.
+// so tools that need machine positions (compensation tables) find it. Its angles are the commanded ones, or
+// with AngleSource::encoders the axis encoders' about the commanded centre (as a live session's: the drives'
+// positions, one servo lag behind), which the metadata's angle_source says.
+enum class AngleSource { commanded, encoders };
 formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec,
-                                 const std::string& source = "simulated");
+                                 const std::string& source = "simulated", AngleSource angles = AngleSource::commanded);
 
 // The circle test a run file describes (radius, height, direction, feed, plane, start angle), about
 // `center` (machine coordinates, m), so the same test can be traced again on the virtual machine.
@@ -30,11 +33,17 @@ std::vector<CrossCompensation> cross_compensation(const std::vector<formats::Cro
 
 // Each run's test traced again on the machine, without (`before`) and with the controller's
 // corrections (`after`), about `center`; the runs' `seed` metadata is reused, so runs simulated from
-// the same machine file are reproduced exactly in `before`.
+// the same machine file are reproduced exactly in `before`, and their angle_source (a live session's
+// angles are the encoders').
 struct RemeasuredRuns {
   std::vector<formats::DbbRun> before, after;
 };
 RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
                              const std::vector<formats::DbbRun>& runs, const Vec3& center);
+// The `after` half alone: each run traced with the corrections, named TAG_<k>_<direction> and with
+// `compensation = TAG` metadata.
+std::vector<formats::DbbRun> retrace_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
+                                         const std::vector<formats::DbbRun>& runs, const Vec3& center,
+                                         const std::string& tag);
 
 }  // namespace guideway::simulators::machine

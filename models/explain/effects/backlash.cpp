@@ -15,7 +15,7 @@ namespace {
 // The step and deadband variants from the current residual `r` (rows `use`): the ideal step, then for each
 // drive delay the deadband response at the width the step suggests, refined once by a fit of the response.
 std::vector<Variant> backlash_variants(const std::vector<Geo>& gg, const std::vector<std::string>& names,
-                                       const std::vector<DriveTrack>& tracks, const Eigen::VectorXd& r,
+                                       const std::vector<dbb::DriveTrack>& tracks, const Eigen::VectorXd& r,
                                        const std::vector<bool>& use) {
   std::vector<Variant> vs;
   vs.push_back(make_variant(gg, names, [](const Geo& p, double* o) {
@@ -30,12 +30,12 @@ std::vector<Variant> backlash_variants(const std::vector<Geo>& gg, const std::ve
     const Eigen::Vector2d b = x.colPivHouseholderQr().solve(rr);
     return std::array<double, 2>{std::max(0.0, b[0]) * 1e-6, std::max(0.0, b[1]) * 1e-6};
   };
-  const auto response = [&](std::array<double, 2> b, const DriveTrack& track) {
+  const auto response = [&](std::array<double, 2> b, const dbb::DriveTrack& track) {
     Variant v;
     v.block.names = names;
     v.block.columns.resize(static_cast<Eigen::Index>(gg.size()), 2);
     for (std::size_t i = 0; i < gg.size(); ++i) {
-      const auto m = lost_motion(track, i, b[0], b[1]);
+      const auto m = dbb::lost_motion(track, i, b[0], b[1]);
       v.block.columns(static_cast<Eigen::Index>(i), 0) = gg[i].lambda * m[0] * gg[i].c;
       v.block.columns(static_cast<Eigen::Index>(i), 1) = gg[i].lambda * m[1] * gg[i].s;
     }
@@ -48,7 +48,7 @@ std::vector<Variant> backlash_variants(const std::vector<Geo>& gg, const std::ve
   };
   const auto step = sizes(vs.front());
   if (step[0] > 0 || step[1] > 0) {
-    for (const DriveTrack& track : tracks) {
+    for (const dbb::DriveTrack& track : tracks) {
       // The width the step suggests, then once more from a fit of the response at that width.
       Variant first = response(step, track);
       const auto refined = sizes(first);

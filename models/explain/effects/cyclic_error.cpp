@@ -24,7 +24,7 @@ constexpr double dbb_periods_mm[] = {1.0,  2.0,  2.5,  3.0,  4.0,  5.0,  6.0,  8
 
 // Along plane axis `axis` with period p_mm, on the positions of drive track `track`.
 Variant dbb_variant(const std::vector<Geo>& gg, const std::string& plane, int axis, double p_mm,
-                    const DriveTrack& track, bool delay_searched) {
+                    const dbb::DriveTrack& track, bool delay_searched) {
   const double k = 2 * pi / (p_mm * 1e-3);
   const std::vector<double>& pos = axis == 0 ? track.pos_a : track.pos_b;
   Variant v;
@@ -56,7 +56,7 @@ Variant dbb_variant(const std::vector<Geo>& gg, const std::string& plane, int ax
 // Periods and delays: the two periods per axis whose undelayed terms explain most of the residual, each
 // then tried at every delay.
 std::vector<Variant> best_periods_at_every_delay(const std::vector<Geo>& gg, const std::string& plane,
-                                                 const std::vector<DriveTrack>& tracks,
+                                                 const std::vector<dbb::DriveTrack>& tracks,
                                                  const std::vector<Variant>& undelayed, const Eigen::VectorXd& r,
                                                  const std::vector<bool>& use) {
   const std::vector<Eigen::Index> rows = rows_in_use(use);
@@ -74,7 +74,8 @@ std::vector<Variant> best_periods_at_every_delay(const std::vector<Geo>& gg, con
     }
     std::sort(score.begin(), score.end());
     for (std::size_t k = 0; k < 2 && k < score.size(); ++k)
-      for (const DriveTrack& track : tracks) vs.push_back(dbb_variant(gg, plane, axis, score[k].second, track, true));
+      for (const dbb::DriveTrack& track : tracks)
+        vs.push_back(dbb_variant(gg, plane, axis, score[k].second, track, true));
   }
   return vs;
 }
