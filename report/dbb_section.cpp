@@ -18,7 +18,7 @@ namespace guideway::report {
 namespace {
 
 std::string estimate_cell(const models::dbb::Estimate& e) {
-  return html_escape(e.fitted ? format_with_u(e.value, e.u) : format_number(e.value, 4));
+  return html_escape(e.fitted ? with_uncertainty(e.value, e.u) : format_number(e.value, 4));
 }
 
 Table estimates_table(const std::string& caption, const std::vector<models::dbb::Estimate>& list) {
@@ -150,7 +150,7 @@ void lai_tables(std::ostringstream& body, const models::dbb::Identification& id_
   if (!f.combinations.empty()) {
     Table c{"Combinations these patterns do determine", {"combination", "value \u00b1 u"}};
     for (const auto& k : f.combinations)
-      c.rows.push_back({html_escape(k.expression), html_escape(format_with_u(k.value, k.u))});
+      c.rows.push_back({html_escape(k.expression), html_escape(with_uncertainty(k.value, k.u))});
     body << html_table(c);
   }
 }

@@ -219,7 +219,7 @@ void findings_table(std::ostringstream& body, const json& findings) {
     if (f.contains("parameters") && f["parameters"].is_object())
       for (const auto& [name, v] : f["parameters"].items()) {
         const double value = num(v, "value"), u = num(v, "u");
-        params += (params.empty() ? "" : "<br>") + html_escape(name) + " = " + html_escape(format_with_u(value, u));
+        params += (params.empty() ? "" : "<br>") + html_escape(name) + " = " + html_escape(with_uncertainty(value, u));
       }
     ft.rows.push_back({html_escape(text(f, "effect")), params, cell(num(f, "delta_bic")), p_cell(num(f, "p_value")),
                        cell(num(f, "rms_um_after")), cell(num(f, "heldout_rms_um_after")),

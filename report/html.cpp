@@ -49,21 +49,6 @@ code, td:first-child { font-family: "DejaVu Sans Mono", monospace; font-size: 11
 
 std::string html_escape(std::string_view text) { return xml_escape(text); }
 
-std::string format_with_u(double value, double u, int significant) {
-  if (!std::isfinite(u) || u <= 0) return format_number(value, significant);
-  // Small numbers get a common power of ten: "(2.252 ± 0.085)e-7" rather than a row of zeros.
-  const double mag = std::abs(value) > u ? std::abs(value) : u;
-  if (mag < 1e-3) {
-    const int e = static_cast<int>(std::floor(std::log10(mag)));
-    const double f = std::pow(10.0, -e);
-    const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(u * f))), 0, 12);
-    return "(" + format_fixed(value * f, decimals) + " \u00b1 " + format_fixed(u * f, decimals) + ")e" +
-           std::to_string(e);
-  }
-  const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(u))), 0, 12);
-  return format_fixed(value, decimals) + " \u00b1 " + format_fixed(u, decimals);
-}
-
 std::string html_table(const Table& table) {
   std::ostringstream o;
   o << (table.cls.empty() ? std::string("<table>") : "<table class=\"" + html_escape(table.cls) + "\">");

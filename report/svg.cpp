@@ -321,26 +321,6 @@ std::string xml_escape(std::string_view text) {
   return out;
 }
 
-std::string format_fixed(double value, int decimals) {
-  if (!std::isfinite(value)) return std::isnan(value) ? "nan" : (value > 0 ? "inf" : "-inf");
-  // Sized to the number: a value of 1e300 has 301 digits before the point, and none may be cut.
-  const int d = std::clamp(decimals, 0, 12);
-  std::string s(static_cast<std::size_t>(std::snprintf(nullptr, 0, "%.*f", d, value)) + 1, '\0');
-  std::snprintf(s.data(), s.size(), "%.*f", d, value);
-  s.pop_back();
-  if (s.find_first_not_of("-0.") == std::string::npos && s.front() == '-') s.erase(0, 1);  // "-0.00" -> "0.00"
-  return s;
-}
-
-std::string format_number(double value, int significant) {
-  if (!std::isfinite(value) || value == 0) return format_fixed(value, 0);
-  const double mag = std::floor(std::log10(std::abs(value)));
-  if (mag >= -4 && mag < 9) return format_fixed(value, std::max(0, significant - 1 - static_cast<int>(mag)));
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", std::max(1, significant), value);
-  return buf;
-}
-
 double nice_ceil(double x) {
   if (!(x > 0) || !std::isfinite(x)) throw std::invalid_argument("nice_ceil: needs a positive finite number");
   const double e = std::pow(10.0, std::floor(std::log10(x)));

@@ -14,15 +14,12 @@
 #include <string_view>
 #include <vector>
 
+#include "core/number_format.hpp"
+
 namespace guideway::report {
 
 // Text for XML content and attribute values (& < > " ').
 [[nodiscard]] std::string xml_escape(std::string_view text);
-
-// A number with `decimals` digits after the point ("-0" is printed as "0").
-[[nodiscard]] std::string format_fixed(double value, int decimals);
-// A number with about `significant` digits, without exponent for everyday magnitudes.
-[[nodiscard]] std::string format_number(double value, int significant = 4);
 
 // Tick positions for the range [lo, hi]: multiples of a 1-2-5 step, about `target` of them, covering
 // the range (the first tick <= lo, the last >= hi). lo == hi gives a unit-wide range around it.

@@ -209,10 +209,10 @@ def main():
                 series = {d["series"]: d for d in p["data"]}
                 n = 3 if name == "mill-1" and p["title"].startswith("dbb") else (2 if name == "lathe-2" else 1)
                 check(series.get("value", {}).get("points") == n, w + ": value points %s, expected %d" % (series, n))
-                has_u = not p["title"].endswith(": G")
+                has_u = not p["title"].endswith(": circular deviation G")
                 # The value axis spans at least a fifth of the largest value: equal Gs are a flat line.
                 y_ticks = [float(t.replace("−", "-")) for a in p["axes"] if a["cls"] == "axis y" for t in a["labels"]]
-                if p["title"].endswith(": G"):
+                if p["title"].endswith(": circular deviation G"):
                     check(max(y_ticks) - min(y_ticks) >= 0.15 * 17.4, w + ": G axis ticks %s" % y_ticks)
                 check(("±2u" in series) == has_u, w + ": ±2u bars %s" % list(series))
                 if has_u:

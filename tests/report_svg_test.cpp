@@ -3,23 +3,23 @@
 // checked from outside by report_svg_xml_test.py; the whole page in Chromium by report_chromium_test.py.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdlib>
-#include <numbers>
-#include <unistd.h>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <random>
 
 #include <nlohmann/json.hpp>
 
 #include "formats/dbb_run.hpp"
-#include "simulators/machine/dbb_runs.hpp"
-#include "simulators/scenarios/scenarios.hpp"
 #include "report/html.hpp"
 #include "report/report.hpp"
 #include "report/svg.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 #include "simulators/machine/machine.hpp"
+#include "simulators/scenarios/scenarios.hpp"
 
 using namespace guideway;
 namespace fs = std::filesystem;
@@ -58,9 +58,7 @@ bool tags_balance(const std::string& svg) {
 double mantissa(double step) { return step / std::pow(10.0, std::floor(std::log10(step) + 1e-9)); }
 
 // The project's copy of the real data (tests/data: Moody 1955).
-std::string data_dir() {
-  return GUIDEWAY_TEST_DATA_DIR;
-}
+std::string data_dir() { return GUIDEWAY_TEST_DATA_DIR; }
 
 fs::path temp_dir(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("guideway_report_test_" + name + "_" + std::to_string(::getpid()));
@@ -86,7 +84,7 @@ TEST(ReportSvg, NiceTicksCoverTheRangeWithOneTwoFiveSteps) {
     EXPECT_TRUE(std::abs(m - 1) < 1e-9 || std::abs(m - 2) < 1e-9 || std::abs(m - 5) < 1e-9) << t.step;
     // Every tick prints distinctly with the stated decimals.
     for (std::size_t k = 1; k < t.values.size(); ++k)
-      EXPECT_NE(report::format_fixed(t.values[k - 1], t.decimals), report::format_fixed(t.values[k], t.decimals));
+      EXPECT_NE(guideway::format_fixed(t.values[k - 1], t.decimals), guideway::format_fixed(t.values[k], t.decimals));
   }
   EXPECT_EQ(report::nice_ticks(0, 0).values.size() >= 2, true);
   EXPECT_THROW((void)report::nice_ticks(0, NAN), std::invalid_argument);
@@ -106,13 +104,13 @@ TEST(ReportSvg, NiceCeilAndScale) {
 }
 
 TEST(ReportSvg, NumberFormattingAndEscaping) {
-  EXPECT_EQ(report::format_fixed(-0.0001, 2), "0.00");
-  EXPECT_EQ(report::format_fixed(-1.5, 1), "-1.5");
-  EXPECT_EQ(report::format_number(0.0123456, 3), "0.0123");
-  EXPECT_EQ(report::format_number(1234.6, 4), "1235");  // no exponent
-  EXPECT_EQ(report::format_with_u(1.23456, 0.0123), "1.235 \u00b1 0.012");
-  EXPECT_EQ(report::format_with_u(2.5, NAN), "2.5000");
-  EXPECT_EQ(report::format_with_u(2.2519e-7, 8.5e-10), "(2.2519 \u00b1 0.0085)e-7");
+  EXPECT_EQ(guideway::format_fixed(-0.0001, 2), "0.00");
+  EXPECT_EQ(guideway::format_fixed(-1.5, 1), "-1.5");
+  EXPECT_EQ(guideway::format_number(0.0123456, 3), "0.0123");
+  EXPECT_EQ(guideway::format_number(1234.6, 4), "1235");  // no exponent
+  EXPECT_EQ(guideway::with_uncertainty(1.23456, 0.0123), "1.235 \u00b1 0.012");
+  EXPECT_EQ(guideway::with_uncertainty(2.5, NAN, 5), "2.5000");
+  EXPECT_EQ(guideway::with_uncertainty(2.2519e-7, 8.5e-10), "(2.2519 \u00b1 0.0085)e-7");
   EXPECT_EQ(report::xml_escape("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
 }
 
@@ -182,7 +180,7 @@ TEST(ReportSvg, PolarScaleIsTheSmallestFittingOneTwoFiveValue) {
     const auto svg = report::render(p);
     EXPECT_TRUE(tags_balance(svg));
     EXPECT_EQ(count(svg, "class=\"ring\""), 2u * p.divisions);
-    EXPECT_NE(svg.find(report::format_number(per, 3) + " \u00b5m/div"), std::string::npos);
+    EXPECT_NE(svg.find(guideway::format_number(per, 3) + " \u00b5m/div"), std::string::npos);
   }
 }
 
@@ -244,8 +242,8 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   EXPECT_EQ(report::detect_input(inputs[3]), report::InputKind::explain);
 
   const auto html = report::render_report(inputs);
-  EXPECT_EQ(count(html, "<section class=\"analysis\""), 3u);  // both runs in one DBB section
-  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"polar\""), 1u);          // one set-up, CW and CCW overlaid
+  EXPECT_EQ(count(html, "<section class=\"analysis\""), 3u);         // both runs in one DBB section
+  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"polar\""), 1u);  // one set-up, CW and CCW overlaid
   EXPECT_NE(html.find("circular_hysteresis_um"), std::string::npos);
   EXPECT_NE(html.find("backlash_x_um"), std::string::npos);
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"heightmap\""), 1u);
@@ -321,7 +319,8 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
     EXPECT_NE(std::string(e.what()).find("explain.json: residuals: step '+ "), std::string::npos) << e.what();
   }
   // An EXPLAIN that says why nothing was analysed (a daemon session without an explanation model).
-  std::ofstream(path) << R"({"model":"straightness traverse","not_analysed":"too few stations","findings":[],"unexplained":true})";
+  std::ofstream(path)
+      << R"({"model":"straightness traverse","not_analysed":"too few stations","findings":[],"unexplained":true})";
   const auto na = report::render_report({path});
   EXPECT_NE(na.find("Not analysed: too few stations"), std::string::npos);
   EXPECT_EQ(count(na, "class=\"plot\""), 0u);
