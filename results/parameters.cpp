@@ -231,9 +231,9 @@ const Parameter* find_in(std::string_view name, std::string_view group, Placehol
 
 std::span<const Parameter* const> catalogue() { return all; }
 
-const Parameter* find_parameter(std::string_view name) {
+const Parameter* find_parameter(std::string_view name, std::string_view group) {
   for (const std::string_view n : {name, without_run(name)})
-    if (const Parameter* p = find_in(n, {}, nullptr)) return p;
+    if (const Parameter* p = find_in(n, group, nullptr)) return p;
   return nullptr;
 }
 
@@ -248,8 +248,11 @@ std::string name(const Parameter& p, std::string_view plane, int axis) {
 
 std::string name_along(const Parameter& p, std::string_view along, int run) { return filled(p.name, "xy", along, run); }
 
+// A label names an axis as machine tools do, by its capital ("backlash Z"); "bar" stays a word.
+std::string axis_in_label(const std::string& along) { return along.size() == 1 ? upper(along) : along; }
+
 std::string label(const Parameter& p, std::string_view plane, int axis) {
-  return filled(p.label, plane, axis < 0 ? std::string() : axis_letter(plane, axis), 0);
+  return filled(p.label, plane, axis < 0 ? std::string() : axis_in_label(axis_letter(plane, axis)), 0);
 }
 
 bool per_axis(const Parameter& p) { return p.name.find("{axis}") != std::string_view::npos; }
@@ -278,7 +281,7 @@ std::string label_of(std::string_view name, std::string_view plane, std::string_
     p = find_in(bare, group, &by);
   std::string out;
   if (p) {
-    out = filled(p->label, plane, by.axis, by.run);
+    out = filled(p->label, plane, axis_in_label(by.axis), by.run);
   } else {
     out = split_unit(std::string(bare)).first;
     std::replace(out.begin(), out.end(), '_', ' ');
@@ -288,8 +291,7 @@ std::string label_of(std::string_view name, std::string_view plane, std::string_
 }
 
 ShownUnit shown_unit(std::string_view name, std::string_view group) {
-  const Parameter* p = find_in(name, group, nullptr);
-  if (!p) p = find_in(without_run(name), group, nullptr);
+  const Parameter* p = find_parameter(name, group);
   if (p && !p->shown_as.unit.empty()) return {std::string(p->shown_as.unit), p->shown_as.factor, p->shown_as.offset};
   return {split_unit(std::string(without_run(name))).second, 1.0, 0.0};
 }

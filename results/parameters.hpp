@@ -8,7 +8,7 @@
 //
 // A name may hold placeholders, filled by name():
 //   {axis}  a plane axis the caller picks (0: the plane's first axis, 1: its second; or a given name,
-//           "bar" for EXPLAIN's vibration along the bar)
+//           "bar" for EXPLAIN's vibration along the bar); in a label a one-letter axis is a capital
 //   {a} {b} the plane's first and second axis ("xz": x and z)
 //   {A} {B} {N} in labels: the plane's first and second axis and its normal, as capitals ("xz": X, Z, Y);
 //           Lai's names say x and y for the plane's axes whatever the plane, their labels say which
@@ -18,6 +18,7 @@
 // the reported unit means little to a reader: a scale factor as ppm off 1, Lai's coefficients per mm
 // as micrometres per metre), and the value rounded to its uncertainty (core/number_format.hpp).
 
+#include <numbers>
 #include <span>
 #include <string>
 #include <string_view>
@@ -47,7 +48,7 @@ struct Parameter {
 
 // ---- DBB: the ballbar diagnostics (models/dbb identify; docs/conventions.md) ----------------------------
 inline constexpr Parameter circular_deviation{"circular_deviation_um",
-                                              "circular deviation G",
+                                              "G",
                                               "dbb",
                                               "diagnostics",
                                               "ISO 230-4 circular deviation: the largest range of a run's reading "
@@ -220,9 +221,16 @@ inline constexpr Parameter lai_backlash_x{"backlash_x_um", "backlash {A}", "dbb"
 inline constexpr Parameter lai_backlash_y{"backlash_y_um", "backlash {B}", "dbb", "lai3", "backlash of axis b"};
 inline constexpr Parameter lai_servo_mismatch{"servo_mismatch_ms", "servo mismatch", "dbb", "lai3",
                                               "servo lag difference of axis a behind b"};
-inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg", "servo mismatch phase angle", "dbb",
+inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg",
+                                                    "servo mismatch phase angle",
+                                                    "dbb",
                                                     "lai3",
-                                                    "Lai's phase angle of the servo mismatch at the first run's speed"};
+                                                    "Lai's phase angle of the servo mismatch at the first run's speed",
+                                                    0,
+                                                    {},
+                                                    {},
+                                                    {},
+                                                    {"\u00b5rad", 1e6 * std::numbers::pi / 180}};
 
 // ---- DBB: the errors "what to fix first" ranks from Lai's model (its terms grouped by the error they
 // describe; the diagnostics' ranking names the diagnostics above) -------------------------------------------
@@ -370,7 +378,8 @@ inline constexpr Parameter form_straightness{"form_straightness_um",
 std::span<const Parameter* const> catalogue();
 // The entry a reported name is an instance of ("backlash_z_um", "run2.center_offset_x_um",
 // "vibration_phase_bar_deg_run1"), the first in catalogue order; nullptr for a name not in the catalogue.
-const Parameter* find_parameter(std::string_view name);
+// With a group: its entry first (Lai's "backlash_x_um" is its own, not the diagnostics').
+const Parameter* find_parameter(std::string_view name, std::string_view group = {});
 
 // The plane's axis `axis` (0 or 1) as it is written in names: "xz", 1 -> "z" (a plane not of two
 // letters: x and y).

@@ -318,7 +318,7 @@ TEST(FleetHeadlines, DbbDiagnosticsComeFirstAndNameThePlaneAxes) {
   const auto h = headlines("dbb", p);
   EXPECT_DOUBLE_EQ(find(h, "squareness_urad").value, 12.5);
   EXPECT_DOUBLE_EQ(find(h, "backlash_z_um").value, 3.25);  // diagnostics before lai3
-  EXPECT_EQ(find(h, "backlash_z_um").label, "backlash z");
+  EXPECT_EQ(find(h, "backlash_z_um").label, "backlash Z");
   EXPECT_DOUBLE_EQ(find(h, "scale_x_ppm").value, -8.0);
   EXPECT_THROW(find(h, "scale_z_ppm"), std::runtime_error);  // absent: not listed
 }
@@ -389,7 +389,7 @@ TEST(FleetStatus, LatestFiguresAgeAndMovedFlags) {
   EXPECT_TRUE(h[1].figures[1].moved);
   EXPECT_EQ(h[1].figures[1].latest.name, "backlash_x_um");
   const auto text = status_text(status);
-  EXPECT_NE(text.find("backlash x/µm"), std::string::npos) << text;
+  EXPECT_NE(text.find("backlash X/µm"), std::string::npos) << text;
   EXPECT_NE(text.find("36.0 h ago"), std::string::npos) << text;
   EXPECT_NE(text.find("k = 2"), std::string::npos) << text;
   const auto j = status_json(status);

@@ -17,7 +17,7 @@ TEST(Results, ParameterNamesAreFilledForThePlane) {
   EXPECT_EQ(results::name(results::backlash, "xy", 0), "backlash_x_um");
   EXPECT_EQ(results::name(results::backlash, "xz", 1), "backlash_z_um");
   EXPECT_EQ(results::name(results::backlash, "yz", 0), "backlash_y_um");
-  EXPECT_EQ(results::label(results::backlash, "xz", 1), "backlash z");
+  EXPECT_EQ(results::label(results::backlash, "xz", 1), "backlash Z");
   EXPECT_EQ(results::name(results::straightness_cubic_difference, "yz"), "straightness_cubic_y_minus_z_um");
   EXPECT_EQ(results::name_along(results::vibration, "bar"), "vibration_bar_um");
   EXPECT_EQ(results::name_along(results::centre_drift_offset, "x", 3), "drift_x_offset_run3_um");
@@ -67,8 +67,9 @@ TEST(Results, ValuesAreShownInWordsAndUnitsThatMeanSomething) {
   EXPECT_EQ(results::label_of("y_straightness_in_z", "xz"), "Z straightness along Y");
   EXPECT_EQ(results::label_of("backlash_y", "yz"), "backlash Z");
   EXPECT_EQ(results::label_of("backlash_y_um", "xz", "lai3"), "backlash Z");
-  EXPECT_EQ(results::label_of("backlash_y_um", "xz", "diagnostics"), "backlash y");
-  EXPECT_EQ(results::label_of("run2.center_offset_x_um"), "centre offset x (run 2)");
+  EXPECT_EQ(results::label_of("backlash_y_um", "xz", "diagnostics"), "backlash Y");
+  EXPECT_EQ(results::label_of("vibration_bar_um"), "vibration bar");
+  EXPECT_EQ(results::label_of("run2.center_offset_x_um"), "centre offset X (run 2)");
   EXPECT_EQ(results::label_of("bar_drift_offset_run3_um"), "bar drift offset run 3");
   EXPECT_EQ(results::label_of("horizontal_end_point_um"), "horizontal end point");
   // A scale factor as ppm off 1, Lai's coefficients per mm as micrometres per metre.
@@ -86,7 +87,7 @@ TEST(Results, ValuesAreShownInWordsAndUnitsThatMeanSomething) {
   EXPECT_EQ(s.value, "0.9956 \u00b1 0.0080");
   EXPECT_EQ(s.unit, "\u00b5m");
   s = results::shown("circular_deviation_um", 17.417894088049465, NAN);
-  EXPECT_EQ(s.label, "circular deviation G");
+  EXPECT_EQ(s.label, "G");
   EXPECT_EQ(s.value, "17.4");
   EXPECT_EQ(results::shown_unit("tool_wear_um_per_m").symbol, "\u00b5m/m");
   EXPECT_EQ(results::shown_unit("bar_drift_um_per_min").symbol, "\u00b5m/min");

@@ -874,17 +874,18 @@ namespace {
 // The error a Lai parameter describes, for the ranking: the two scales together (what they share is a
 // radius, which the circle absorbs), the straightness coefficients by axis and direction.
 std::string lai_error_group(const std::string& name) {
-  if (name == "S_x" || name == "S_y") return "scale_mismatch";
-  if (name == results::lai_backlash_x.name || name == results::lai_backlash_y.name ||
-      name == results::lai_servo_mismatch.name)
-    return name.substr(0, name.rfind('_'));
-  if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
+  const auto group = [](const results::Parameter& p) { return std::string(p.name); };
+  if (name == results::lai_S_x.name || name == results::lai_S_y.name) return group(results::rank_scale_mismatch);
+  if (name == results::lai_backlash_x.name) return group(results::rank_backlash_a);
+  if (name == results::lai_backlash_y.name) return group(results::rank_backlash_b);
+  if (name == results::lai_servo_mismatch.name) return group(results::rank_servo_mismatch);
+  if (name == results::lai_c0_plus_d1.name) return group(results::rank_roll_b_straightness_an);
   switch (name.front()) {
-    case 'a': return "x_straightness_in_y";  // with the squareness a1
-    case 'b': return "y_straightness_in_x";
-    case 'c': return "y_roll";
-    case 'd': return "x_straightness_in_z";
-    case 'e': return "y_straightness_in_z";
+    case 'a': return group(results::rank_straightness_ab);  // with the squareness a1
+    case 'b': return group(results::rank_straightness_ba);
+    case 'c': return group(results::rank_roll_b);
+    case 'd': return group(results::rank_straightness_an);
+    case 'e': return group(results::rank_straightness_bn);
     default: return name;
   }
 }
