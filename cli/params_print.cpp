@@ -40,17 +40,11 @@ std::vector<std::string> shown_row(const std::string& name, const nlohmann::json
   return {s.label, s.value, s.unit};
 }
 
-// An identifier in words: "thermal_drift" -> "thermal drift".
-std::string words(std::string id) {
-  std::replace(id.begin(), id.end(), '_', ' ');
-  return id;
-}
-
 // The group's title for people ("lai3" -> "Lai's third-order model").
 std::string group_title(const std::string& group) {
   if (group == results::lai_S_x.group) return "Lai's third-order model";
   if (group == results::backlash.group) return "ballbar diagnostics";
-  return words(group);
+  return results::in_words(group);
 }
 
 // "a1_rad" -> "a1", "c0_plus_d1_rad" -> "c0 + d1": Lai's symbols, for a list.
@@ -231,7 +225,7 @@ void print_explanation(const nlohmann::json& e) {
   const std::string plane = e.value("plane", std::string("xy"));
   const nlohmann::json findings = e.value("findings", nlohmann::json::array());
   for (const auto& f : findings) {
-    std::cout << "  " << words(f.value("effect", "?")) << ":";
+    std::cout << "  " << results::in_words(f.value("effect", "?")) << ":";
     const nlohmann::json parameters = f.value("parameters", nlohmann::json::object());
     std::string sep = " ";
     for (const auto& [name, v] : parameters.items()) {
@@ -247,7 +241,7 @@ void print_explanation(const nlohmann::json& e) {
   for (const auto& f : findings) {
     const double c = number_or(f, "contribution_um", NAN), pc = number_or(f, "percent_of_deviation", NAN);
     if (!std::isfinite(c)) continue;
-    std::string line = words(f.value("effect", "?")) + " " + format_number(c, 3) + " \u00b5m";
+    std::string line = results::in_words(f.value("effect", "?")) + " " + format_number(c, 3) + " \u00b5m";
     if (std::isfinite(pc)) line += " (" + format_number(pc, 2) + " %)";
     ranked.emplace_back(c, line);
   }

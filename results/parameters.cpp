@@ -270,6 +270,12 @@ std::pair<std::string, std::string> split_unit(const std::string& name) {
 
 std::string unit(const Parameter& p) { return split_unit(std::string(p.name)).second; }
 
+std::string in_words(std::string_view id) {
+  std::string out(id);
+  std::replace(out.begin(), out.end(), '_', ' ');
+  return out;
+}
+
 std::string label_of(std::string_view name, std::string_view plane, std::string_view group) {
   int run = 0;
   const std::string_view bare = without_run(name, &run);
@@ -283,8 +289,7 @@ std::string label_of(std::string_view name, std::string_view plane, std::string_
   if (p) {
     out = filled(p->label, plane, axis_in_label(by.axis), by.run);
   } else {
-    out = split_unit(std::string(bare)).first;
-    std::replace(out.begin(), out.end(), '_', ' ');
+    out = in_words(split_unit(std::string(bare)).first);
   }
   if (run > 0) out += " (run " + std::to_string(run) + ")";
   return out;

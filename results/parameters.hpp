@@ -401,6 +401,9 @@ std::string run_suffixed(const std::string& name, int run);
 // axis); a name not in the catalogue in words ("horizontal_end_point_um" -> "horizontal end point").
 std::string label_of(std::string_view name, std::string_view plane = "xy", std::string_view group = {});
 
+// An identifier in words ("thermal_drift" -> "thermal drift"): an effect's or a group's name for people.
+std::string in_words(std::string_view id);
+
 // A reported value as people read it: the label, the value in the unit it is shown in, rounded to its
 // uncertainty (GUM: u to two significant digits, the value to the same place; core/number_format.hpp).
 struct Shown {

@@ -856,17 +856,30 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
   return res;
 }
 
-double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um) {
+CircleFit least_squares_circle(std::span<const double> angle_rad, std::span<const double> reading_um) {
+  CircleFit out;
   const auto n = static_cast<Eigen::Index>(reading_um.size());
-  if (n < 4 || angle_rad.size() != reading_um.size()) return 0.0;
+  if (n < 4 || angle_rad.size() != reading_um.size()) return out;
   Eigen::MatrixXd a(n, 3);
   Eigen::VectorXd y(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     a.row(i) << 1.0, std::cos(angle_rad[static_cast<std::size_t>(i)]), std::sin(angle_rad[static_cast<std::size_t>(i)]);
     y[i] = reading_um[static_cast<std::size_t>(i)];
   }
-  const Eigen::VectorXd res = y - a * a.colPivHouseholderQr().solve(y);
-  return res.maxCoeff() - res.minCoeff();
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(y);
+  const Eigen::VectorXd res = y - a * c;
+  out.mean_um = c[0];
+  out.cos_um = c[1];
+  out.sin_um = c[2];
+  out.deviation_um.assign(res.data(), res.data() + n);
+  return out;
+}
+
+double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um) {
+  const CircleFit c = least_squares_circle(angle_rad, reading_um);
+  if (c.deviation_um.empty()) return 0.0;
+  const auto [lo, hi] = std::minmax_element(c.deviation_um.begin(), c.deviation_um.end());
+  return *hi - *lo;
 }
 
 namespace {

@@ -18,12 +18,6 @@ namespace {
 // compact. Divided by an exact power of ten, so the shortest decimal form is printed.
 double rounded4(double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; }
 
-// An effect's name in words: "thermal_drift" -> "thermal drift".
-std::string words(std::string name) {
-  std::replace(name.begin(), name.end(), '_', ' ');
-  return name;
-}
-
 }  // namespace
 
 nlohmann::json to_json(const Report& r) {
@@ -117,7 +111,7 @@ std::string to_text(const Report& r) {
     o << "\nfindings (in the order they were taken):\n";
     int k = 1;
     for (const auto& f : r.findings) {
-      o << "  " << k++ << ". " << words(f.effect) << ": " << f.why << "\n";
+      o << "  " << k++ << ". " << results::in_words(f.effect) << ": " << f.why << "\n";
       for (const auto& p : f.parameters) {
         const results::Shown v = results::shown(p.name, p.value, p.u);
         o << "       " << v.label << " " << v.value << (v.unit.empty() ? "" : " " + v.unit)
@@ -138,14 +132,14 @@ std::string to_text(const Report& r) {
     if (std::isfinite(r.deviation_um)) o << "; " << r.deviation_name << " " << g(r.deviation_um, "%.3g") << " \u00b5m";
     o << "):\n";
     for (const Finding* f : ranked) {
-      o << "  " << words(f->effect) << ": " << g(f->contribution_um, "%.3g") << " \u00b5m";
+      o << "  " << results::in_words(f->effect) << ": " << g(f->contribution_um, "%.3g") << " \u00b5m";
       if (std::isfinite(f->contribution_percent)) o << " (" << g(f->contribution_percent, "%.0f") << " %)";
       o << "\n";
     }
   }
   if (!r.considered.empty()) {
     o << "\nnot taken:\n";
-    for (const auto& c : r.considered) o << "  " << words(c.effect) << ": " << c.verdict << "\n";
+    for (const auto& c : r.considered) o << "  " << results::in_words(c.effect) << ": " << c.verdict << "\n";
   }
   o << "\nfinal: rms " << g(r.final_fit.rms_um, "%.3g") << " \u00b5m, held-out rms "
     << g(r.final_fit.heldout_rms_um, "%.3g") << " \u00b5m, BIC " << g(r.final_fit.bic, "%.1f") << "\n";
