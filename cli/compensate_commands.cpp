@@ -12,6 +12,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
+#include "cli/params_print.hpp"
 #include "core/atomic_file.hpp"
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
@@ -65,6 +66,16 @@ std::vector<std::string> latest_session_runs(const std::string& socket, std::str
                              ") left no run files (was it recorded?); give the run files instead");
   return out;
 }
+
+// A value as people read it, with its unit: "-10.71 ± 0.18 ppm" (results::shown).
+std::string shown_with_unit(const std::string& name, double value, double u, const std::string& plane,
+                            std::string_view group = {}) {
+  const results::Shown s = results::shown(name, value, u, plane, group);
+  return s.value + (s.unit.empty() ? "" : " " + s.unit);
+}
+
+// Lai's group in the catalogue: its "backlash_y_um" is the plane's second axis.
+constexpr std::string_view lai_group = results::lai_S_x.group;
 
 struct Verification {
   // Before; with the tables; with the tables and the squareness as axis skew; with those and the
@@ -131,10 +142,11 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
   const double g0 = circular_deviation_um(v.before), gt = circular_deviation_um(v.tables),
                gs = circular_deviation_um(v.skewed), g1 = circular_deviation_um(v.after);
   const auto stage = [&](double g, const char* what) {
-    o << "\n    " << printf_number("%8.3f", g) << " um (" << printf_number("%3.0f", 100 * g / g0) << " %)  " << what;
+    o << "\n    " << printf_number("%8.3f", g) << " \u00b5m (" << printf_number("%3.0f", 100 * g / g0) << " %)  "
+      << what;
   };
   o << "\nverification on the virtual machine (the same test traced again):\n";
-  o << "  circular deviation G:\n    " << printf_number("%8.3f", g0) << " um          before";
+  o << "  circular deviation G:\n    " << printf_number("%8.3f", g0) << " \u00b5m          before";
   stage(gt, "with the tables");
   if (v.skew) stage(gs, "with the tables and the squareness as axis skew");
   if (v.cross)
@@ -143,7 +155,8 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
   std::string all = "tables";
   if (v.skew) all += " + skew";
   if (v.cross) all += " + cross";
-  o << "\n  term                          before                after (" << all << ")    |after|/u\n";
+  o << "\n";
+  std::vector<std::vector<std::string>> rows{{"term", "before", "after (" + all + ")", "|after|/u", ""}};
   j["g_before_um"] = g0;
   j["g_tables_um"] = gt;
   j["g_tables_skew_um"] = gs;
@@ -173,14 +186,9 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
                                                              : "servo/friction: no table";
     else if (t)
       status = "not applied (not significant)";
-    o << "  " << e.name << std::string(e.name.size() < 28 ? 28 - e.name.size() : 1, ' ')
-      << printf_number("%9.4g", e.value) << printf_number(" +/- %-8.2g", e.u);
-    if (seen)
-      o << printf_number("%9.4g", after->value) << printf_number(" +/- %-8.2g", after->u)
-        << printf_number("%6.1f", ratio);
-    else
-      o << "   not detected                 ";
-    o << "  " << status << "\n";
+    rows.push_back({results::label_of(e.name, map.plane), shown_with_unit(e.name, e.value, e.u, map.plane),
+                    seen ? shown_with_unit(e.name, after->value, after->u, map.plane) : "not detected",
+                    seen ? printf_number("%.1f", ratio) : "", status});
     nlohmann::json tj = {{"name", e.name}, {"before", e.value}, {"before_u", e.u}, {"status", status}};
     if (seen) {
       tj["after"] = after->value;
@@ -189,11 +197,13 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
     terms.push_back(tj);
   }
   j["terms"] = terms;
+  o << aligned_rows(rows, {false, true, true, true});
   std::string left;
   for (const auto& e : v.after.diagnostics)
     if (e.fitted && std::isfinite(e.u) && std::abs(e.value) > 3 * e.u && e.name.rfind("run", 0) != 0 &&
         e.name.rfind("center_offset", 0) != 0 && e.name.rfind("circular_", 0) != 0)
-      left += (left.empty() ? " " : ", ") + e.name + " " + printf_number("%.3g", e.value);
+      left += (left.empty() ? " " : ", ") + results::label_of(e.name, map.plane) + " " +
+              shown_with_unit(e.name, e.value, e.u, map.plane);
   o << "  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left) << "\n";
   if (!v.written.empty())
     o << "  runs written to " << fs::path(v.written.front()).parent_path().string()
@@ -223,10 +233,10 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
                  gs = v.skewed.runs.at(k).circular_deviation_um, g1 = v.after.runs.at(k).circular_deviation_um;
     const std::string name = printf_number("r %.3g mm", b.radius_mm) + printf_number(" h %.5g mm ", b.height_mm) +
                              b.direction + printf_number(" %.0f mm/min", b.feed_mm_per_min);
-    o << "  " << name << std::string(name.size() < 38 ? 38 - name.size() : 1, ' ') << printf_number("%7.3f um", g0)
-      << printf_number("   %7.3f um", gt) << printf_number(" (%3.0f %%)", 100 * gt / g0);
-    if (v.skew) o << printf_number("  %7.3f um", gs) << printf_number(" (%3.0f %%)", 100 * gs / g0);
-    if (v.cross) o << printf_number("  %7.3f um", g1) << printf_number(" (%3.0f %%)", 100 * g1 / g0);
+    o << "  " << name << std::string(name.size() < 38 ? 38 - name.size() : 1, ' ') << printf_number("%7.3f \u00b5m", g0)
+      << printf_number("   %7.3f \u00b5m", gt) << printf_number(" (%3.0f %%)", 100 * gt / g0);
+    if (v.skew) o << printf_number("  %7.3f \u00b5m", gs) << printf_number(" (%3.0f %%)", 100 * gs / g0);
+    if (v.cross) o << printf_number("  %7.3f \u00b5m", g1) << printf_number(" (%3.0f %%)", 100 * g1 / g0);
     o << "\n";
     runs.push_back({{"radius_mm", b.radius_mm},
                     {"height_mm", b.height_mm},
@@ -241,7 +251,7 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
   j["runs"] = runs;
   j["skew_applied"] = v.skew;
   j["straightness_applied"] = v.cross;
-  o << "  Lai parameter               before                after (all corrections)    |after|/u\n";
+  std::vector<std::vector<std::string>> rows{{"Lai parameter", "before", "after (all corrections)", "|after|/u", ""}};
   nlohmann::json terms = nlohmann::json::array();
   std::string left;
   for (const auto& e : v.before.lai3) {
@@ -261,7 +271,7 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
     if (!t)
       status = "not in the map (out of plane or not separable)";
     else if (off != 0 && t->significant && std::abs(t->value - (e.value - off) * 1e6) > 0.5)
-      status = "tables hold the difference only (see the note; S_x - S_y below)";
+      status = "tables hold the difference only (see the note; scale mismatch below)";
     else if (t->use == models::compensation::Use::table && t->significant)
       status = ratio < 3 ? "compensated (< 3 u)" : "compensated, NOT below 3 u";
     else if (term == results::squareness.name)
@@ -273,15 +283,11 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
                                                              : "servo: no table";
     else
       status = "not applied (not significant)";
-    o << "  " << e.name << std::string(e.name.size() < 24 ? 24 - e.name.size() : 1, ' ')
-      << printf_number("%12.5g", e.value - off) << printf_number(" +/- %-8.2g", e.u);
-    if (seen)
-      o << printf_number("%12.5g", after->value - off) << printf_number(" +/- %-8.2g", after->u)
-        << printf_number("%6.1f", ratio);
-    else
-      o << "   not identified                 ";
-    o << "  " << status << "\n";
-    if (seen && ratio > 3) left += (left.empty() ? " " : ", ") + e.name;
+    rows.push_back({results::label_of(e.name, map.plane, lai_group),
+                    shown_with_unit(e.name, e.value, e.u, map.plane, lai_group),
+                    seen ? shown_with_unit(e.name, after->value, after->u, map.plane, lai_group) : "not identified",
+                    seen ? printf_number("%.1f", ratio) : "", status});
+    if (seen && ratio > 3) left += (left.empty() ? " " : ", ") + results::label_of(e.name, map.plane, lai_group);
     nlohmann::json tj = {{"name", e.name}, {"before", e.value}, {"before_u", e.u}, {"status", status}};
     if (seen) {
       tj["after"] = after->value;
@@ -298,16 +304,15 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
     // u of the difference without the two scales' correlation: an upper bound when they correlate positively.
     const double d0 = sx0->value - sy0->value, u0 = std::hypot(sx0->u, sy0->u);
     const double d1 = sx1->value - sy1->value, u1 = std::hypot(sx1->u, sy1->u);
-    o << "  S_x - S_y               " << printf_number("%12.5g", d0) << printf_number(" +/- %-8.2g", u0)
-      << printf_number("%12.5g", d1) << printf_number(" +/- %-8.2g", u1) << printf_number("%6.1f", std::abs(d1) / u1)
-      << "  scale mismatch\n";
+    rows.push_back({"scale mismatch (S_x - S_y)", with_uncertainty(d0 * 1e6, u0 * 1e6) + " ppm",
+                    with_uncertainty(d1 * 1e6, u1 * 1e6) + " ppm", printf_number("%.1f", std::abs(d1) / u1), ""});
     j["scale_mismatch_before"] = d0;
     j["scale_mismatch_after"] = d1;
-    if (std::abs(d1) > 3 * u1) left += (left.empty() ? " " : ", ") + std::string("S_x - S_y");
+    if (std::abs(d1) > 3 * u1) left += (left.empty() ? " " : ", ") + std::string("scale mismatch");
   }
   j["terms"] = terms;
-  o << "  (S_x, S_y shown as S - 1)\n  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left)
-    << "\n";
+  o << aligned_rows(rows, {false, true, true, true});
+  o << "  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left) << "\n";
   if (!v.written.empty())
     o << "  runs written to " << fs::path(v.written.front()).parent_path().string()
       << "/ (guideway report on them shows the polar plots before and after)\n";

@@ -257,7 +257,7 @@ inline constexpr Parameter rank_roll_b_straightness_an{"y_roll_and_x_straightnes
 inline constexpr Parameter straightness_cubic{"straightness_cubic_{axis}_um", "cubic straightness {axis}", "dbb", "",
                                               "cubic part of the axis' straightness at the circle's radius"};
 inline constexpr Parameter straightness_cubic_difference{
-    "straightness_cubic_{a}_minus_{b}_um", "cubic straightness {a} - {b}", "dbb", "",
+    "straightness_cubic_{a}_minus_{b}_um", "cubic straightness {A} - {B}", "dbb", "",
     "difference of the plane axes' cubic straightness, all one circle determines"};
 
 // ---- DBB: EXPLAIN's effect parameters besides the diagnostics' (models/explain/effects) -------------------
