@@ -181,8 +181,8 @@ void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Id
     for (const auto& [label, c] : r.shown)
       rank_t.rows.push_back({html_escape(label), format_number(c->contribution_um, 3),
                              std::isfinite(c->percent) ? format_number(c->percent, 2) : "&ndash;"});
-    if (!r.small.empty()) rank_t.rows.push_back({"under 1 % of G each", html_escape(r.small), ""});
-    body << html_table(rank_t);
+    if (!r.shown.empty()) body << html_table(rank_t);
+    if (!r.small.empty()) body << "<p>Under 1 % of G each: " << html_escape(r.small) << ".</p>";
   }
   for (const auto& n : id_result.notes) body << html_note(n);
   std::vector<models::dbb::Estimate> iso, diag;
