@@ -645,6 +645,41 @@ std::string render(const HeightMap& map) {
 
 namespace {
 
+// One bar: two corners and where its value label goes.
+struct Bar {
+  double x0, y0, x1, y1;
+  double label_x, label_y;
+  const char* anchor;
+};
+
+// The chart's series as one path of bars each (NaN: no bar) with their value labels, placed by `place`
+// (series, category, value) -> Bar.
+template <typename Place>
+std::string bar_series(const BarChart& chart, const Place& place) {
+  std::ostringstream o;
+  o << "<g class=\"series\">";
+  for (std::size_t i = 0; i < chart.series.size(); ++i) {
+    const auto& s = chart.series[i];
+    std::string d;
+    std::ostringstream labels;
+    std::size_t count = 0;
+    for (std::size_t c = 0; c < chart.categories.size() && c < s.values.size(); ++c) {
+      if (!std::isfinite(s.values[c])) continue;
+      const Bar b = place(i, c, s.values[c]);
+      if (!d.empty()) d += ' ';
+      d += 'M' + format_fixed(b.x0, 2) + ' ' + format_fixed(b.y0, 2) + " H" + format_fixed(b.x1, 2) + " V" +
+           format_fixed(b.y1, 2) + " H" + format_fixed(b.x0, 2) + " Z";
+      labels << "<text class=\"value-label\" x=\"" << px(b.label_x) << "\" y=\"" << px(b.label_y) << "\" text-anchor=\""
+             << b.anchor << "\" font-size=\"10\">" << format_number(s.values[c], 3) << "</text>";
+      ++count;
+    }
+    o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << count << "\" d=\"" << d
+      << "\" fill=\"" << (s.color.empty() ? palette(i) : s.color) << "\"/>" << labels.str();
+  }
+  o << "</g>";
+  return o.str();
+}
+
 // Bars along x, one row per category: the label column as wide as the longest label (at a generous
 // character width, so the browser's font never runs into the axis), a value label after each bar.
 std::string render_horizontal(const BarChart& chart) {
@@ -688,29 +723,13 @@ std::string render_horizontal(const BarChart& chart) {
   if (!chart.x_label.empty())
     o << "<text class=\"axis-label y\" x=\"16\" y=\"" << px(f.top - 8) << "\" font-size=\"13\">"
       << xml_escape(chart.x_label) << "</text>";
-  o << "<g class=\"series\">";
-  for (std::size_t i = 0; i < chart.series.size(); ++i) {
-    const auto& s = chart.series[i];
-    std::string path;
-    std::ostringstream labels;
-    std::size_t count = 0;
-    for (std::size_t c = 0; c < chart.categories.size() && c < s.values.size(); ++c) {
-      if (!std::isfinite(s.values[c])) continue;
-      const double y0 = f.top + static_cast<double>(c) * row_h + row_h * 0.15 + static_cast<double>(i) * bar_h;
-      const double end = sx(std::clamp(s.values[c], xr.lo, xr.hi));
-      if (!path.empty()) path += ' ';
-      path += 'M' + format_fixed(zero, 2) + ' ' + format_fixed(y0, 2) + " V" + format_fixed(y0 + bar_h * 0.92, 2) +
-              " H" + format_fixed(end, 2) + " V" + format_fixed(y0, 2) + " Z";
-      const bool right = s.values[c] >= 0;
-      labels << "<text class=\"value-label\" x=\"" << px(end + (right ? 4 : -4)) << "\" y=\""
-             << px(y0 + bar_h * 0.46 + 3.5) << "\" text-anchor=\"" << (right ? "start" : "end")
-             << "\" font-size=\"10\">" << format_number(s.values[c], 3) << "</text>";
-      ++count;
-    }
-    o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << count << "\" d=\""
-      << path << "\" fill=\"" << (s.color.empty() ? palette(i) : s.color) << "\"/>" << labels.str();
-  }
-  o << "</g><rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
+  o << bar_series(chart, [&](std::size_t i, std::size_t c, double v) {
+    const double y0 = f.top + static_cast<double>(c) * row_h + row_h * 0.15 + static_cast<double>(i) * bar_h;
+    const double end = sx(std::clamp(v, xr.lo, xr.hi));
+    return Bar{
+        zero, y0, end, y0 + bar_h * 0.92, end + (v >= 0 ? 4 : -4), y0 + bar_h * 0.46 + 3.5, v >= 0 ? "start" : "end"};
+  });
+  o << "<rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
     << "\" height=\"" << px(f.h()) << "\" fill=\"none\" stroke=\"#333\"/></svg>";
   return o.str();
 }
@@ -760,29 +779,13 @@ std::string render(const BarChart& chart) {
   if (!chart.x_label.empty())
     o << "<text class=\"axis-label x\" x=\"" << px((f.left + f.right) / 2) << "\" y=\"" << px(chart.height - 8)
       << "\" text-anchor=\"middle\" font-size=\"13\">" << xml_escape(chart.x_label) << "</text>";
-  o << "<g class=\"series\">";
   const double base = sy(std::clamp(0.0, yr.lo, yr.hi));
-  for (std::size_t i = 0; i < chart.series.size(); ++i) {
-    const auto& s = chart.series[i];
-    std::string d;
-    std::ostringstream labels;
-    std::size_t count = 0;
-    for (std::size_t c = 0; c < chart.categories.size() && c < s.values.size(); ++c) {
-      if (!std::isfinite(s.values[c])) continue;
-      const double x0 = f.left + static_cast<double>(c) * group_w + group_w * 0.15 + static_cast<double>(i) * bar_w;
-      const double top = sy(std::clamp(s.values[c], yr.lo, yr.hi));
-      if (!d.empty()) d += ' ';
-      d += 'M' + format_fixed(x0, 2) + ' ' + format_fixed(base, 2) + " H" + format_fixed(x0 + bar_w * 0.92, 2) + " V" +
-           format_fixed(top, 2) + " H" + format_fixed(x0, 2) + " Z";
-      labels << "<text class=\"value-label\" x=\"" << px(x0 + bar_w * 0.46) << "\" y=\""
-             << px(s.values[c] >= 0 ? top - 4 : top + 12) << "\" text-anchor=\"middle\" font-size=\"10\">"
-             << format_number(s.values[c], 3) << "</text>";
-      ++count;
-    }
-    o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << count << "\" d=\"" << d
-      << "\" fill=\"" << (s.color.empty() ? palette(i) : s.color) << "\"/>" << labels.str();
-  }
-  o << "</g><rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
+  o << bar_series(chart, [&](std::size_t i, std::size_t c, double v) {
+    const double x0 = f.left + static_cast<double>(c) * group_w + group_w * 0.15 + static_cast<double>(i) * bar_w;
+    const double top = sy(std::clamp(v, yr.lo, yr.hi));
+    return Bar{x0, base, x0 + bar_w * 0.92, top, x0 + bar_w * 0.46, v >= 0 ? top - 4 : top + 12, "middle"};
+  });
+  o << "<rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
     << "\" height=\"" << px(f.h()) << "\" fill=\"none\" stroke=\"#333\"/></svg>";
   return o.str();
 }
