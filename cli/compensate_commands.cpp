@@ -12,6 +12,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
+#include "cli/params_print.hpp"
 #include "core/atomic_file.hpp"
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
@@ -83,6 +84,16 @@ struct Refusal {
   std::string file;
   std::string why;
 };
+
+// A value as people read it, with its unit: "-10.71 ± 0.18 ppm" (results::shown).
+std::string shown_with_unit(const std::string& name, double value, double u, const std::string& plane,
+                            std::string_view group = {}) {
+  const results::Shown s = results::shown(name, value, u, plane, group);
+  return s.value + (s.unit.empty() ? "" : " " + s.unit);
+}
+
+// Lai's group in the catalogue: its "backlash_y_um" is the plane's second axis.
+constexpr std::string_view lai_group = results::lai_S_x.group;
 
 struct Verification {
   // The retraced runs, identified as the compensation was (what EXPLAIN finds fitted beside).
@@ -362,11 +373,10 @@ std::string g_basis_text(const Verification& v) {
 }
 
 // A value and its u as the verification prints them, or "not determined" (compensation::determined).
-std::string value_text(const models::dbb::Estimate& e, const models::compensation::ErrorMap& map, double g_um,
-                       const char* value_format) {
+std::string value_text(const models::dbb::Estimate& e, const models::compensation::ErrorMap& map, double g_um) {
   if (!models::compensation::determined(e.name, e.value, e.u, g_um, map.terms_of[0].radius_m, map.feed_m_per_s))
-    return "   not determined            ";
-  return printf_number(value_format, e.value) + printf_number(" +/- %-8.2g", e.u);
+    return "not determined";
+  return shown_with_unit(e.name, e.value, e.u, map.plane);
 }
 
 std::string verification_text(const models::compensation::ErrorMap& map, const Verification& v,
@@ -374,10 +384,11 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
   std::ostringstream o;
   const double g0 = largest(v.g_before), gt = largest(v.g_tables), gs = largest(v.g_skewed), g1 = largest(v.g_after);
   const auto stage = [&](double g, const char* what) {
-    o << "\n    " << printf_number("%8.3f", g) << " um (" << printf_number("%3.0f", 100 * g / g0) << " %)  " << what;
+    o << "\n    " << printf_number("%8.3f", g) << " \u00b5m (" << printf_number("%3.0f", 100 * g / g0) << " %)  "
+      << what;
   };
   o << "\nverification on the virtual machine (the same test traced again):\n";
-  o << "  circular deviation G:\n    " << printf_number("%8.3f", g0) << " um          before";
+  o << "  circular deviation G:\n    " << printf_number("%8.3f", g0) << " \u00b5m          before";
   stage(gt, "with the tables");
   if (v.skew) stage(gs, "with the tables and the squareness as axis skew");
   if (v.cross)
@@ -387,7 +398,7 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
   if (v.skew) all += " + skew";
   if (v.cross) all += " + cross";
   o << "\n" << g_basis_text(v);
-  o << "  term                          before                after (" << all << ")    |after|/u\n";
+  std::vector<std::vector<std::string>> rows{{"term", "before", "after (" + all + ")", "|after|/u", ""}};
   j["g_before_um"] = g0;
   j["g_measured_before_um"] = v.g_before_measured;
   j["g_measured_after_um"] = v.g_after_measured;
@@ -408,13 +419,9 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
       if (term.name == e.name) t = &term;
     const double ratio = seen ? std::abs(after->value) / after->u : 0.0;
     const std::string status = t ? term_status(*t, map, v, refusals, seen, ratio) : "";
-    o << "  " << e.name << std::string(e.name.size() < 28 ? 28 - e.name.size() : 1, ' ')
-      << value_text(e, map, g0, "%9.4g");
-    if (seen)
-      o << value_text(*after, map, g1, "%9.4g") << printf_number("%6.1f", ratio);
-    else
-      o << "   not detected                 ";
-    o << "  " << status << "\n";
+    rows.push_back({results::label_of(e.name, map.plane), value_text(e, map, g0),
+                    seen ? value_text(*after, map, g1) : "not detected", seen ? printf_number("%.1f", ratio) : "",
+                    status});
     nlohmann::json tj = {{"name", e.name}, {"before", e.value}, {"before_u", e.u}, {"status", status}};
     if (seen) {
       tj["after"] = after->value;
@@ -423,12 +430,14 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
     terms.push_back(tj);
   }
   j["terms"] = terms;
+  o << aligned_rows(rows, {false, true, true, true});
   std::string left;
   for (const auto& e : v.after.diagnostics)
     if (e.fitted && std::isfinite(e.u) && std::abs(e.value) > 3 * e.u && e.name.rfind("run", 0) != 0 &&
         e.name.rfind("center_offset", 0) != 0 && e.name.rfind("circular_", 0) != 0 &&
         models::compensation::determined(e.name, e.value, e.u, g1, map.terms_of[0].radius_m, map.feed_m_per_s))
-      left += (left.empty() ? " " : ", ") + e.name + " " + printf_number("%.3g", e.value);
+      left += (left.empty() ? " " : ", ") + results::label_of(e.name, map.plane) + " " +
+              shown_with_unit(e.name, e.value, e.u, map.plane);
   o << "  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left) << "\n";
   if (!v.written.empty())
     o << "  runs written to " << fs::path(v.written.front()).parent_path().string()
@@ -457,10 +466,10 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
     const double g0 = v.g_before.at(k), gt = v.g_tables.at(k), gs = v.g_skewed.at(k), g1 = v.g_after.at(k);
     const std::string name = printf_number("r %.3g mm", b.radius_mm) + printf_number(" h %.5g mm ", b.height_mm) +
                              b.direction + printf_number(" %.0f mm/min", b.feed_mm_per_min);
-    o << "  " << name << std::string(name.size() < 38 ? 38 - name.size() : 1, ' ') << printf_number("%7.3f um", g0)
-      << printf_number("   %7.3f um", gt) << printf_number(" (%3.0f %%)", 100 * gt / g0);
-    if (v.skew) o << printf_number("  %7.3f um", gs) << printf_number(" (%3.0f %%)", 100 * gs / g0);
-    if (v.cross) o << printf_number("  %7.3f um", g1) << printf_number(" (%3.0f %%)", 100 * g1 / g0);
+    o << "  " << name << std::string(name.size() < 38 ? 38 - name.size() : 1, ' ') << printf_number("%7.3f \u00b5m", g0)
+      << printf_number("   %7.3f \u00b5m", gt) << printf_number(" (%3.0f %%)", 100 * gt / g0);
+    if (v.skew) o << printf_number("  %7.3f \u00b5m", gs) << printf_number(" (%3.0f %%)", 100 * gs / g0);
+    if (v.cross) o << printf_number("  %7.3f \u00b5m", g1) << printf_number(" (%3.0f %%)", 100 * g1 / g0);
     o << "\n";
     runs.push_back({{"radius_mm", b.radius_mm},
                     {"height_mm", b.height_mm},
@@ -479,7 +488,7 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
   j["g_measured_before_um"] = v.g_before_measured;
   j["g_measured_after_um"] = v.g_after_measured;
   j["g_less"] = v.beside;
-  o << "  Lai parameter               before                after (all corrections)    |after|/u\n";
+  std::vector<std::vector<std::string>> rows{{"Lai parameter", "before", "after (all corrections)", "|after|/u", ""}};
   nlohmann::json terms = nlohmann::json::array();
   std::string left;
   for (const auto& e : v.before.lai3) {
@@ -499,18 +508,14 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
     if (!t)
       status = "not in the map (out of plane or not separable)";
     else if (off != 0 && t->applied() && std::abs(t->value - (e.value - off) * 1e6) > 0.5)
-      status = "tables hold the difference only (see the note; S_x - S_y below)";
+      status = "tables hold the difference only (see the note; scale mismatch below)";
     else
       status = term_status(*t, map, v, refusals, seen, ratio);
-    o << "  " << e.name << std::string(e.name.size() < 24 ? 24 - e.name.size() : 1, ' ')
-      << printf_number("%12.5g", e.value - off) << printf_number(" +/- %-8.2g", e.u);
-    if (seen)
-      o << printf_number("%12.5g", after->value - off) << printf_number(" +/- %-8.2g", after->u)
-        << printf_number("%6.1f", ratio);
-    else
-      o << "   not identified                 ";
-    o << "  " << status << "\n";
-    if (seen && ratio > 3) left += (left.empty() ? " " : ", ") + e.name;
+    rows.push_back({results::label_of(e.name, map.plane, lai_group),
+                    shown_with_unit(e.name, e.value, e.u, map.plane, lai_group),
+                    seen ? shown_with_unit(e.name, after->value, after->u, map.plane, lai_group) : "not identified",
+                    seen ? printf_number("%.1f", ratio) : "", status});
+    if (seen && ratio > 3) left += (left.empty() ? " " : ", ") + results::label_of(e.name, map.plane, lai_group);
     nlohmann::json tj = {{"name", e.name}, {"before", e.value}, {"before_u", e.u}, {"status", status}};
     if (seen) {
       tj["after"] = after->value;
@@ -527,16 +532,15 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
     // u of the difference without the two scales' correlation: an upper bound when they correlate positively.
     const double d0 = sx0->value - sy0->value, u0 = std::hypot(sx0->u, sy0->u);
     const double d1 = sx1->value - sy1->value, u1 = std::hypot(sx1->u, sy1->u);
-    o << "  S_x - S_y               " << printf_number("%12.5g", d0) << printf_number(" +/- %-8.2g", u0)
-      << printf_number("%12.5g", d1) << printf_number(" +/- %-8.2g", u1) << printf_number("%6.1f", std::abs(d1) / u1)
-      << "  scale mismatch\n";
+    rows.push_back({"scale mismatch (S_x - S_y)", with_uncertainty(d0 * 1e6, u0 * 1e6) + " ppm",
+                    with_uncertainty(d1 * 1e6, u1 * 1e6) + " ppm", printf_number("%.1f", std::abs(d1) / u1), ""});
     j["scale_mismatch_before"] = d0;
     j["scale_mismatch_after"] = d1;
-    if (std::abs(d1) > 3 * u1) left += (left.empty() ? " " : ", ") + std::string("S_x - S_y");
+    if (std::abs(d1) > 3 * u1) left += (left.empty() ? " " : ", ") + std::string("scale mismatch");
   }
   j["terms"] = terms;
-  o << "  (S_x, S_y shown as S - 1)\n  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left)
-    << "\n";
+  o << aligned_rows(rows, {false, true, true, true});
+  o << "  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left) << "\n";
   if (!v.written.empty())
     o << "  runs written to " << fs::path(v.written.front()).parent_path().string()
       << "/ (guideway report on them shows the polar plots before and after)\n";

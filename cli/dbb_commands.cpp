@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "cli/commands.hpp"
+#include "cli/params_print.hpp"
 #include "core/toml_access.hpp"
 #include "models/dbb/json.hpp"
 #include "simulators/machine/dbb_runs.hpp"
@@ -43,10 +44,13 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   opt.lai_shared_center = !a.per_run_center;
   opt.bar_length_u_um = a.bar_length_u_um;
   const auto result = models::dbb::identify(runs, opt);
+  const nlohmann::json j = models::dbb::to_json(result);
   if (a.json) {
-    std::cout << models::dbb::to_json(result).dump() << "\n";
+    std::cout << j.dump() << "\n";
   } else {
-    std::cout << models::dbb::to_text(result);
+    std::cout << "DBB identification (" << result.model << "), " << result.runs.size() << " run(s), " << result.plane
+              << " plane\n";
+    print_result(j);
   }
 }
 

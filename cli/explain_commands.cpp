@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <fstream>
 #include <iomanip>
-#include <numbers>
 #include <iostream>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -15,10 +15,12 @@
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
 #include "core/atomic_file.hpp"
+#include "core/number_format.hpp"
 #include "formats/dbb_run.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "results/parameters.hpp"
 #include "results/session_kinds.hpp"
 #include "simulators/machine/machine.hpp"
 #include "simulators/scenarios/machine_truth.hpp"
@@ -140,11 +142,13 @@ int run_scenarios(const Opts& o) {
     std::cout << a.dump() << "\n";
   } else {
     const std::string table = simulators::scenarios::scenario_table_markdown(results);
-    std::string seed_text = seeds.size() > 1 ? "seeds 1-" + std::to_string(seeds.size()) : "seed " + std::to_string(seeds.front());
+    std::string seed_text =
+        seeds.size() > 1 ? "seeds 1-" + std::to_string(seeds.size()) : "seed " + std::to_string(seeds.front());
     if (!o.table_out.empty()) {
       write_table(o.table_out, table + "\n" + std::to_string(runs - failed) + " of " + std::to_string(runs) +
                                    " scenario runs pass (" + std::to_string(results.size()) + " scenarios, " +
-                                   (o.full ? "full sample density" : "quick sample density") + ", " + seed_text + ").\n");
+                                   (o.full ? "full sample density" : "quick sample density") + ", " + seed_text +
+                                   ").\n");
       std::cout << "wrote the scenario table into " << o.table_out << "\n";
     }
     std::cout << table << runs - failed << " of " << runs << " scenario runs pass (" << seed_text << ")\n";
@@ -155,15 +159,19 @@ int run_scenarios(const Opts& o) {
 // The findings beside what the machine file holds (simulators/scenarios/machine_truth.hpp).
 nlohmann::json against_machine(const nlohmann::json& report, const simulators::scenarios::DbbTruth& truth,
                                const std::string& file) {
-  nlohmann::json j = {{"machine_file", file}, {"findable", nlohmann::json::array()}, {"unobservable", nlohmann::json::array()},
-                      {"not_in_machine", nlohmann::json::array()}, {"note", truth.note}};
+  nlohmann::json j = {{"machine_file", file},
+                      {"findable", nlohmann::json::array()},
+                      {"unobservable", nlohmann::json::array()},
+                      {"not_in_machine", nlohmann::json::array()},
+                      {"note", truth.note}};
   const auto found = [&](const std::string& parameter) -> const nlohmann::json* {
     for (const auto& f : report.at("findings"))
       if (f.at("parameters").contains(parameter)) return &f.at("parameters").at(parameter);
     return nullptr;
   };
   for (const auto& item : truth.findable) {
-    nlohmann::json e = {{"effect", item.effect}, {"parameter", item.parameter}, {"machine", item.value}, {"note", item.note}};
+    nlohmann::json e = {
+        {"effect", item.effect}, {"parameter", item.parameter}, {"machine", item.value}, {"note", item.note}};
     if (const auto* p = found(item.parameter)) {
       e["found"] = p->at("value");
       e["u"] = p->at("u");
@@ -185,28 +193,25 @@ nlohmann::json against_machine(const nlohmann::json& report, const simulators::s
 }
 
 void print_against_machine(const nlohmann::json& c) {
-  std::cout << "\nwhat the machine file holds (" << c.at("machine_file").get<std::string>()
-            << "; our own virtual machine tool, which the emulators and guideway simulate run: its errors are known):\n";
+  std::cout
+      << "\nwhat the machine file holds (" << c.at("machine_file").get<std::string>()
+      << "; our own virtual machine tool, which the emulators and guideway simulate run: its errors are known):\n";
   if (c.at("findable").empty()) std::cout << "  nothing the explanation's library names\n";
-  const auto fmt_value = [](double v, int digits = 4) {
-    std::ostringstream o;
-    o << std::setprecision(digits) << v;
-    return o.str();
-  };
+  std::vector<std::vector<std::string>> rows;
   for (const auto& e : c.at("findable")) {
-    char line[256];
-    std::string got = "not found";
-    if (!e.at("found").is_null()) {
-      got = fmt_value(e.at("found").get<double>());
-      if (e.at("u").is_number()) got += " +/- " + fmt_value(e.at("u").get<double>(), 2);
-    }
-    std::snprintf(line, sizeof line, "  %-16s %-26s found %-24s machine file %s", e.at("effect").get<std::string>().c_str(),
-                  e.at("parameter").get<std::string>().c_str(), got.c_str(), fmt_value(e.at("machine").get<double>()).c_str());
-    std::cout << line;
-    if (!e.at("note").get<std::string>().empty()) std::cout << "  (" << e.at("note").get<std::string>() << ")";
-    std::cout << "\n";
+    const std::string name = e.at("parameter").get<std::string>();
+    const double u = e.at("u").is_number() ? e.at("u").get<double>() : NAN;
+    const results::ShownUnit unit = results::shown_unit(name);
+    const results::Shown found = results::shown(name, e.at("found").is_null() ? NAN : e.at("found").get<double>(), u);
+    const std::string held = significant_digits((e.at("machine").get<double>() - unit.offset) * unit.factor, 6);
+    const std::string note = e.at("note").get<std::string>();
+    rows.push_back({e.at("effect").get<std::string>(), found.label,
+                    e.at("found").is_null() ? std::string("not found") : "found " + found.value + " " + found.unit,
+                    "machine file " + held + " " + found.unit + (note.empty() ? "" : "  (" + note + ")")});
   }
-  for (const auto& n : c.at("not_in_machine")) std::cout << "  found but not in the machine file: " << n.get<std::string>() << "\n";
+  std::cout << aligned_rows(rows, {});
+  for (const auto& n : c.at("not_in_machine"))
+    std::cout << "  found but not in the machine file: " << n.get<std::string>() << "\n";
   if (!c.at("unobservable").empty()) {
     std::cout << "not observable in this test:\n";
     for (const auto& u : c.at("unobservable"))
@@ -219,8 +224,12 @@ void print_effects(bool json) {
   if (json) {
     nlohmann::json a = nlohmann::json::array();
     for (const auto& e : models::explain::effect_library())
-      a.push_back({{"name", e.name}, {"meaning", e.meaning}, {"domain", e.domain}, {"signature", e.signature},
-                   {"in_base_of", e.in_base_of}, {"terms", e.terms}});
+      a.push_back({{"name", e.name},
+                   {"meaning", e.meaning},
+                   {"domain", e.domain},
+                   {"signature", e.signature},
+                   {"in_base_of", e.in_base_of},
+                   {"terms", e.terms}});
     std::cout << a.dump() << "\n";
     return;
   }

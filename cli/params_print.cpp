@@ -2,8 +2,11 @@
 
 #include "cli/daemon_client.hpp"
 #include "cli/instrument_print.hpp"
+#include "core/number_format.hpp"
+#include "core/printable.hpp"
 #include "core/units.hpp"
 #include "results/message_class.hpp"
+#include "results/parameters.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,62 +18,197 @@
 
 namespace guideway::cli {
 
-void print_params(const nlohmann::json& p) {
-  std::cout << "session " << p.value("session", "?") << " (" << p.value("kind", "?") << " on " << p.value("device", "?")
-            << "), model " << p.value("model", "?") << "\n";
-  for (const auto& [group, items] : p.items()) {
-    if (!items.is_object() || items.empty()) continue;
-    bool is_param_group = true;
-    for (const auto& [name, v] : items.items()) is_param_group = is_param_group && v.is_object() && v.contains("value");
-    if (!is_param_group) continue;
-    std::cout << group << ":\n";
-    for (const auto& [name, v] : items.items()) {
-      std::cout << "  " << std::left << std::setw(28) << name << std::right << std::setw(14) << std::setprecision(6)
-                << std::defaultfloat << v["value"].get<double>();
-      if (v.contains("u")) std::cout << " +/- " << std::setw(10) << v["u"].get<double>();
-      std::cout << "\n";
-    }
+namespace {
+
+// Below this part of G an error is listed in one line with the others as small ("what to fix first").
+constexpr double negligible_percent = 1.0;
+
+double number_or(const nlohmann::json& j, const char* key, double fallback) {
+  const nlohmann::json v = j.value(key, nlohmann::json());
+  return v.is_number() ? v.get<double>() : fallback;
+}
+
+// A group of {"name": {"value", "u"}} objects (not the fit summaries, the runs or the wavelet bands).
+bool is_parameter_group(const nlohmann::json& items) {
+  if (!items.is_object() || items.empty()) return false;
+  for (const auto& [name, v] : items.items())
+    if (!v.is_object() || !v.contains("value")) return false;
+  return true;
+}
+
+std::vector<std::string> shown_row(const std::string& name, const nlohmann::json& v, std::string_view plane,
+                                   std::string_view group) {
+  const results::Shown s = results::shown(name, number_or(v, "value", NAN), number_or(v, "u", NAN), plane, group);
+  return {s.label, s.value, s.unit};
+}
+
+// The group's title for people ("lai3" -> "Lai's third-order model").
+std::string group_title(const std::string& group) {
+  if (group == results::lai_S_x.group) return "Lai's third-order model";
+  if (group == results::backlash.group) return "ballbar diagnostics";
+  return results::in_words(group);
+}
+
+// "a1_rad" -> "a1", "c0_plus_d1_rad" -> "c0 + d1": Lai's symbols, for a list.
+std::string symbol(const std::string& name) {
+  std::string s = results::split_unit(name).first;
+  for (auto at = s.find("_plus_"); at != std::string::npos; at = s.find("_plus_")) s.replace(at, 6, " + ");
+  return s;
+}
+
+std::string joined(const nlohmann::json& names, const char* sep = ", ") {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : sep) + symbol(n.get<std::string>());
+  return out;
+}
+
+// One line per run: its set-up and G.
+void print_runs(const nlohmann::json& runs) {
+  std::vector<std::vector<std::string>> rows;
+  int k = 0;
+  for (const auto& r : runs)
+    rows.push_back({"run " + std::to_string(++k), "r " + significant_digits(number_or(r, "radius_mm", NAN), 6) + " mm",
+                    "h " + significant_digits(number_or(r, "height_mm", NAN), 6) + " mm", r.value("direction", "?"),
+                    format_fixed(number_or(r, "feed_mm_per_min", NAN), 0) + " mm/min",
+                    "G " + format_number(number_or(r, "circular_deviation_um", NAN), 3) + " \u00b5m"});
+  std::cout << "runs:\n" << aligned_rows(rows, {});
+}
+
+// A group's rows in the catalogue's order (Lai's offsets, scales, straightness, backlash ...), not the
+// JSON's alphabetical one.
+std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, std::string_view plane,
+                                                 std::string_view group, bool iso) {
+  const auto catalogue = results::catalogue();
+  std::vector<std::pair<std::size_t, std::vector<std::string>>> ranked;
+  for (const auto& [name, v] : items.items()) {
+    if (name.starts_with("circular_") != iso) continue;
+    const results::Parameter* p = results::find_parameter(name, group);
+    const auto at = static_cast<std::size_t>(std::find(catalogue.begin(), catalogue.end(), p) - catalogue.begin());
+    ranked.emplace_back(at, shown_row(name, v, plane, group));
   }
-  for (const char* group : {"fit", "diagnostics_fit"}) {
-    if (!p.contains(group) || !p[group].is_object()) continue;
-    std::cout << group << ":";
-    for (const auto& [k, v] : p[group].items()) {
-      if (v.is_primitive()) std::cout << " " << k << "=" << v.dump();
-    }
-    std::cout << "\n";
-    if (p[group].contains("unidentifiable") && !p[group]["unidentifiable"].empty()) {
-      std::cout << "  not separable by these patterns:";
-      for (const auto& n : p[group]["unidentifiable"]) std::cout << " " << n.get<std::string>();
-      std::cout << "\n";
-    }
-  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::vector<std::string>> rows;
+  for (auto& [at, row] : ranked) rows.push_back(std::move(row));
+  return rows;
+}
+
+// A fit in one line: how well it fits, and what the runs cannot separate (the condition number and the
+// solver's message stay in --json).
+void print_fit(const nlohmann::json& fit) {
+  if (!fit.is_object() || fit.value("n", 0) == 0) return;
+  std::cout << "  fit to the " << fit.value("n", 0) << " points: " << format_number(number_or(fit, "rms_um", NAN), 2)
+            << " \u00b5m rms\n";
+  const nlohmann::json refused = fit.value("unidentifiable", nlohmann::json::array());
+  if (!refused.empty())
+    std::cout << "  not separable by these runs (not reported): " << joined(refused)
+              << (fit.contains("combinations") ? "; --json gives the combinations they determine" : "") << "\n";
+}
+
+// "What to fix first": each error's part of G, largest first, in words; the ones under 1 % of G in a line.
+void print_ranking(const nlohmann::json& p, std::string_view plane, double g_um) {
   const nlohmann::json ranking = p.value("ranking", nlohmann::json::array());
-  if (!ranking.empty()) {
-    std::cout << "what to fix first (each error's part of the circular deviation G, from the "
-              << p.value("ranking_model", std::string("?")) << "):\n";
-    for (const auto& c : ranking) {
-      const nlohmann::json percent = c.value("percent_of_circular_deviation", nlohmann::json());
-      std::cout << "  " << std::left << std::setw(28) << c.value("name", std::string("?")) << std::right << std::setw(10)
-                << std::setprecision(3) << c.value("contribution_um", 0.0) << " um";
-      if (percent.is_number()) std::cout << std::setw(7) << std::setprecision(3) << percent.get<double>() << " % of G";
-      std::cout << "\n";
+  if (ranking.empty()) return;
+  const std::string model = p.value("ranking_model", std::string("?"));
+  std::cout << "what to fix first (each error's part of the circular deviation"
+            << (std::isfinite(g_um) ? " G = " + format_number(g_um, 3) + " \u00b5m" : std::string(" G")) << ", from "
+            << (model == "lai3" ? "Lai's model" : "the " + model) << "):\n";
+  const std::string group = model == "lai3" ? std::string(results::rank_backlash_a.group) : model;
+  std::vector<std::vector<std::string>> rows;
+  std::string small;
+  for (const auto& c : ranking) {
+    const std::string label = results::label_of(c.value("name", std::string("?")), plane, group);
+    const double um = number_or(c, "contribution_um", NAN),
+                 percent = number_or(c, "percent_of_circular_deviation", NAN);
+    if (std::isfinite(percent) && percent < negligible_percent) {
+      small += (small.empty() ? "" : ", ") + label + " " + format_number(um, 2) + " \u00b5m";
+      continue;
     }
+    rows.push_back({label, format_number(um, 3) + " \u00b5m",
+                    std::isfinite(percent) ? format_number(percent, 2) + " %" : std::string("\u2013")});
+  }
+  std::cout << aligned_rows(rows, {false, true, true});
+  if (!small.empty()) std::cout << "  under 1 % of G each: " << small << "\n";
+}
+
+void print_dbb(const nlohmann::json& p, std::string_view plane) {
+  if (p.contains("runs") && p["runs"].is_array() && !p["runs"].empty()) print_runs(p["runs"]);
+  const nlohmann::json diagnostics = p.value("diagnostics", nlohmann::json::object());
+  const std::string diag_group(results::backlash.group), lai_group(results::lai_S_x.group);
+  const auto iso = group_rows(diagnostics, plane, diag_group, true);
+  if (!iso.empty())
+    std::cout << "ISO 230-4 circular test (the largest of the runs):\n" << aligned_rows(iso, {false, true});
+  const auto diag = group_rows(diagnostics, plane, diag_group, false);
+  if (!diag.empty()) {
+    std::cout << "ballbar diagnostics (value \u00b1 standard uncertainty):\n" << aligned_rows(diag, {false, true});
+    print_fit(p.value("diagnostics_fit", nlohmann::json::object()));
+  }
+  const auto lai = group_rows(p.value("lai3", nlohmann::json::object()), plane, lai_group, false);
+  if (!lai.empty()) {
+    std::cout << "Lai's third-order model (value \u00b1 standard uncertainty):\n" << aligned_rows(lai, {false, true});
+    print_fit(p.value("fit", nlohmann::json::object()));
+  }
+  const nlohmann::json g = diagnostics.value(results::name(results::circular_deviation), nlohmann::json::object());
+  print_ranking(p, plane, number_or(g, "value", NAN));
+}
+
+}  // namespace
+
+std::string aligned_rows(const std::vector<std::vector<std::string>>& rows, const std::vector<bool>& right,
+                         std::string_view indent) {
+  std::vector<std::size_t> width;
+  for (const auto& row : rows)
+    for (std::size_t c = 0; c + 1 < row.size(); ++c) {  // the last cell is not padded
+      if (width.size() <= c) width.resize(c + 1, 0);
+      width[c] = std::max(width[c], display_width(row[c]));
+    }
+  std::string out;
+  for (const auto& row : rows) {
+    std::string line(indent);
+    for (std::size_t c = 0; c < row.size(); ++c) {
+      const bool last = c + 1 == row.size();
+      const std::size_t pad = last ? 0 : width[c] - display_width(row[c]);
+      if (c > 0) line += "  ";
+      if (c < right.size() && right[c] && !last) line += std::string(pad, ' ');
+      line += row[c];
+      if (!(c < right.size() && right[c]) && !last) line += std::string(pad, ' ');
+    }
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    out += line + "\n";
+  }
+  return out;
+}
+
+void print_result(const nlohmann::json& p) {
+  const std::string plane = p.value("plane", std::string("xy"));
+  const bool dbb = p.contains("lai3") || p.contains("ranking");
+  if (dbb) print_dbb(p, plane);
+  for (const auto& [group, items] : p.items()) {
+    if ((dbb && (group == "diagnostics" || group == "lai3")) || !is_parameter_group(items)) continue;
+    std::cout << group_title(group) << ":\n" << aligned_rows(group_rows(items, plane, group, false), {false, true});
   }
   for (const auto& n : p.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
   if (p.contains("wavelet") && p["wavelet"].contains("bands")) {  // the profile session's summary
     const auto& w = p["wavelet"];
     std::cout << "wavelet " << w.value("wavelet", "?") << ", " << w.value("level", 0) << " levels (dominant detail "
               << w.value("dominant_detail", "?") << "):";
-    for (const auto& b : w["bands"]) {
-      std::cout << " " << b.value("band", "?") << "=" << std::setprecision(4)
-                << (b.contains("rms_um") ? b["rms_um"].get<double>() : b.value("form_um", 0.0)) << "um";
-    }
+    for (const auto& b : w["bands"])
+      std::cout << " " << b.value("band", "?") << " "
+                << format_number(b.contains("rms_um") ? number_or(b, "rms_um", NAN) : number_or(b, "form_um", NAN), 3)
+                << " \u00b5m";
     std::cout << "\n";
   }
+}
+
+void print_params(const nlohmann::json& p) {
+  std::cout << "session " << p.value("session", "?") << " (" << p.value("kind", "?") << " on " << p.value("device", "?")
+            << "), model " << p.value("model", "?") << "\n";
+  print_result(p);
   if (p.contains("incomplete")) std::cout << "incomplete: " << p["incomplete"].get<std::string>() << "\n";
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
-  if (p.contains("recording_error")) std::cout << "recording error: " << p["recording_error"].get<std::string>() << "\n";
-  for (const auto& f : p.value("derived", nlohmann::json::array())) std::cout << "derived: " << f.get<std::string>() << "\n";
+  if (p.contains("recording_error"))
+    std::cout << "recording error: " << p["recording_error"].get<std::string>() << "\n";
+  for (const auto& f : p.value("derived", nlohmann::json::array()))
+    std::cout << "derived: " << f.get<std::string>() << "\n";
   print_instrument(p, std::cout);
 }
 
@@ -78,53 +216,51 @@ void print_explanation(const nlohmann::json& e) {
   // Every lookup by value with a default: a missing key never reaches const operator[] (undefined
   // behaviour), and loops run over named locals, not over items() of a temporary.
   const auto rms = [&e](const char* group) {
-    const nlohmann::json g = e.value(group, nlohmann::json::object());
-    const nlohmann::json v = g.value("heldout_rms_um", nlohmann::json());
-    return v.is_number() ? v.get<double>() : NAN;
+    return format_number(number_or(e.value(group, nlohmann::json::object()), "heldout_rms_um", NAN), 3);
   };
   if (e.contains("not_analysed") && e["not_analysed"].is_string()) {
-    std::cout << "explanation (" << e.value("model", "?") << " model): not analysed: "
-              << e["not_analysed"].get<std::string>() << "\n";
+    std::cout << "explanation (" << e.value("model", "?")
+              << " model): not analysed: " << e["not_analysed"].get<std::string>() << "\n";
     return;
   }
-  std::cout << "explanation (" << e.value("model", "?") << " model): held-out rms " << rms("baseline") << " um -> "
-            << rms("final") << " um\n";
+  std::cout << "explanation (" << e.value("model", "?") << " model): held-out rms " << rms("baseline") << " \u00b5m -> "
+            << rms("final") << " \u00b5m\n";
+  const std::string plane = e.value("plane", std::string("xy"));
   const nlohmann::json findings = e.value("findings", nlohmann::json::array());
   for (const auto& f : findings) {
-    std::cout << "  " << f.value("effect", "?");
+    std::cout << "  " << results::in_words(f.value("effect", "?")) << ":";
     const nlohmann::json parameters = f.value("parameters", nlohmann::json::object());
+    std::string sep = " ";
     for (const auto& [name, v] : parameters.items()) {
-      const nlohmann::json value = v.value("value", nlohmann::json());
-      const nlohmann::json u = v.value("u", nlohmann::json());
-      if (!value.is_number()) continue;
-      std::cout << "  " << name << " = " << value.get<double>();
-      if (u.is_number()) std::cout << " +/- " << u.get<double>();
+      if (!v.value("value", nlohmann::json()).is_number()) continue;
+      const results::Shown s = results::shown(name, number_or(v, "value", NAN), number_or(v, "u", NAN), plane);
+      std::cout << sep << s.label << " " << s.value << (s.unit.empty() ? "" : " " + s.unit);
+      sep = ", ";
     }
     std::cout << "\n    " << f.value("why", "") << "\n";
   }
   // Largest first, against the yardstick (a DBB run's circular deviation G).
   std::vector<std::pair<double, std::string>> ranked;
   for (const auto& f : findings) {
-    const nlohmann::json c = f.value("contribution_um", nlohmann::json());
-    const nlohmann::json pc = f.value("percent_of_deviation", nlohmann::json());
-    if (!c.is_number()) continue;
-    std::ostringstream line;
-    line << f.value("effect", "?") << " " << std::setprecision(3) << c.get<double>() << " um";
-    if (pc.is_number()) line << " (" << std::setprecision(2) << pc.get<double>() << " %)";
-    ranked.emplace_back(c.get<double>(), line.str());
+    const double c = number_or(f, "contribution_um", NAN), pc = number_or(f, "percent_of_deviation", NAN);
+    if (!std::isfinite(c)) continue;
+    std::string line = results::in_words(f.value("effect", "?")) + " " + format_number(c, 3) + " \u00b5m";
+    if (std::isfinite(pc)) line += " (" + format_number(pc, 2) + " %)";
+    ranked.emplace_back(c, line);
   }
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   if (!ranked.empty()) {
     const nlohmann::json dev = e.value("deviation", nlohmann::json::object());
     std::cout << "  largest first";
     if (dev.is_object() && dev.contains("value_um"))
-      std::cout << " (of " << dev.value("name", std::string("the deviation")) << " " << std::setprecision(3)
-                << dev.value("value_um", 0.0) << " um)";
+      std::cout << " (of " << dev.value("name", std::string("the deviation")) << " "
+                << format_number(number_or(dev, "value_um", NAN), 3) << " \u00b5m)";
     std::cout << ":";
-    for (const auto& [v, line] : ranked) std::cout << "  " << line << ";";
+    for (std::size_t k = 0; k < ranked.size(); ++k) std::cout << (k ? "; " : " ") << ranked[k].second;
     std::cout << "\n";
   }
-  if (e.value("unexplained", false)) std::cout << "  a structured residual is left that no effect of the library explains\n";
+  if (e.value("unexplained", false))
+    std::cout << "  a structured residual is left that no effect of the library explains\n";
 }
 
 void throw_if_error_reply(const nlohmann::json& reply, bool json) {
@@ -216,8 +352,11 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units, Chann
       if (!items.is_object() || items.empty()) continue;
       for (const auto& [name, v] : items.items()) {
         if (!v.is_object() || !v.contains("value")) continue;
-        out << "  " << name << "=" << number(v["value"]);
-        if (v.contains("u")) out << "+/-" << number(v["u"]);
+        out << "  " << name << "=";
+        if (v["value"].is_number() && v.contains("u") && v["u"].is_number())
+          out << with_uncertainty(v["value"].get<double>(), v["u"].get<double>());
+        else
+          out << number(v["value"]);
       }
     }
     if (m.contains("recording_error")) out << "  [recording error: " << m.value("recording_error", "") << "]";

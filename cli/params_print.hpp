@@ -1,16 +1,30 @@
 #pragma once
-// Human-readable form of a PARAMS message (the `params`, `start --wait` and `replay` commands).
+// Results as people read them (the `params`, `start --wait`, `replay`, `identify dbb`, `explain` and
+// `compensate` commands): labels in words, values in units that mean something and rounded to their
+// uncertainty (results/parameters.hpp shown()), no fit internals (condition numbers, solver messages:
+// those stay in --json).
 
 #include <map>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 namespace guideway::cli {
 
-// Prints every group of {"name":{"value":..,"u":..}} as an aligned table, then the fit summaries, the
-// wavelet summary of a profile session, and the files involved.
+// The session line, then print_result(), then the files involved.
 void print_params(const nlohmann::json& p);
+// Every group of {"name":{"value":..,"u":..}} as an aligned table of label, value ± u and unit; for a
+// DBB identification (`guideway identify dbb --json`'s shape) the runs, the ISO 230-4 figures, the fits
+// in a line each, and "what to fix first" with the errors under 1 % of G folded into one line; the
+// wavelet summary of a profile session.
+void print_result(const nlohmann::json& p);
+
+// Rows of cells as aligned columns (widths as a terminal shows UTF-8), each line after `indent`;
+// `right[k]`: column k aligns right (numbers). A row's last cell may run long.
+std::string aligned_rows(const std::vector<std::vector<std::string>>& rows, const std::vector<bool>& right,
+                         std::string_view indent = "  ");
 // An EXPLAIN message in a few lines: held-out RMS before and after, each finding with its physics,
 // whether a structured residual is left (`guideway explain` offline prints the full report).
 void print_explanation(const nlohmann::json& e);

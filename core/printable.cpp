@@ -1,5 +1,6 @@
 #include "core/printable.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace guideway {
@@ -37,6 +38,12 @@ std::size_t utf8_sequence_length(std::string_view text, std::size_t at) {
   static constexpr unsigned min_of[] = {0, 0, 0x80, 0x800, 0x10000};
   if (cp < min_of[n] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return 0;
   return n;
+}
+
+std::size_t display_width(std::string_view text) {
+  std::size_t width = 0;
+  for (std::size_t i = 0; i < text.size(); ++width) i += std::max<std::size_t>(1, utf8_sequence_length(text, i));
+  return width;
 }
 
 std::string printable(std::string_view text) {

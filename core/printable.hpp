@@ -15,4 +15,8 @@ namespace guideway {
 // there is none there (a stray continuation byte, an overlong form, a surrogate, past U+10FFFF).
 [[nodiscard]] std::size_t utf8_sequence_length(std::string_view text, std::size_t at);
 
+// The columns text takes on a terminal: one per character (a UTF-8 sequence, "µ" or "±", is one; a byte
+// that is not UTF-8 counts as one), so tables of values with units line up.
+[[nodiscard]] std::size_t display_width(std::string_view text);
+
 }  // namespace guideway

@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 
+#include "core/number_format.hpp"
 #include "core/utc_time.hpp"
 #include "fleet/fleet_status.hpp"
 #include "fleet/history.hpp"
@@ -41,7 +42,7 @@ std::string nowrap(const std::string& html) { return "<span style=\"white-space:
 
 std::string figure_cell(const FigureChange* f) {
   if (!f) return "–";
-  std::string cell = report::html_escape(report::format_with_u(f->latest.value, f->latest.u.value_or(std::nan(""))));
+  std::string cell = report::html_escape(with_uncertainty(f->latest.value, f->latest.u.value_or(std::nan("")), 5));
   if (f->moved) cell = "<strong class=\"moved\">" + cell + " *</strong>";
   return nowrap(cell);
 }

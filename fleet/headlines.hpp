@@ -14,7 +14,7 @@ namespace guideway::fleet {
 
 struct Headline {
   std::string name;   // stable key, with its unit: "circular_deviation_um", "backlash_x_um"
-  std::string label;  // for people: "G", "backlash x"
+  std::string label;  // for people: "G", "backlash X"
   std::string unit;   // "µm", "µrad", "ppm"
   double value = 0.0;
   std::optional<double> u;  // standard uncertainty, when the result gives one

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <map>
 
+#include "core/number_format.hpp"
 #include "core/printable.hpp"
 #include "report/html.hpp"
 #include "results/message_class.hpp"
@@ -117,7 +118,7 @@ std::string history_text(std::string_view machine, const std::vector<HistoryEntr
     if (!e.instrument.empty()) out += "    instrument: " + instrument_line(e) + "\n";
     if (e.explain) out += "    found: " + printable(to_text(*e.explain)) + "\n";
     for (const auto& f : e.figures) {
-      const std::string value = report::format_with_u(f.latest.value, f.latest.u.value_or(std::nan("")));
+      const std::string value = with_uncertainty(f.latest.value, f.latest.u.value_or(std::nan("")), 5);
       out += "    " + f.latest.label + ": " + value + " " + f.latest.unit + (f.moved ? "  *" : "") + "\n";
     }
   }

@@ -1,6 +1,6 @@
 // DBB runs: Lai third-order + ballbar diagnostics (models/dbb), polar plots per set-up.
+#include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <map>
 #include <sstream>
 #include <tuple>
@@ -17,23 +17,47 @@ namespace guideway::report {
 
 namespace {
 
-std::string estimate_cell(const models::dbb::Estimate& e) {
-  return html_escape(e.fitted ? format_with_u(e.value, e.u) : format_number(e.value, 4));
+// Below this part of G an error is not drawn in the ranking; the table lists it in one row with the others.
+constexpr double negligible_percent = 1.0;
+constexpr std::size_t most_bars = 10;
+
+// Each run's reading about its own least-squares circle (ISO 230-4): what its polar plot draws, its G,
+// and the circle itself (mean radius change, centre).
+std::vector<models::dbb::CircleFit> circles_of(const std::vector<formats::DbbRun>& runs) {
+  std::vector<models::dbb::CircleFit> out;
+  for (const auto& r : runs) {
+    std::vector<double> um(r.dL_m.size());
+    std::transform(r.dL_m.begin(), r.dL_m.end(), um.begin(), [](double d) { return d * 1e6; });
+    out.push_back(models::dbb::least_squares_circle(r.angle_rad, um));
+  }
+  return out;
 }
 
-Table estimates_table(const std::string& caption, const std::vector<models::dbb::Estimate>& list) {
+double range_of(const std::vector<double>& v) {
+  if (v.empty()) return NAN;
+  const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+  return *hi - *lo;
+}
+
+std::string signed_um(double v) { return (v > 0 ? "+" : "") + format_number(v, 3); }
+
+// The estimates as people read them: label in words, value ± u rounded to u, the unit it is shown in.
+Table estimates_table(const std::string& caption, const std::vector<models::dbb::Estimate>& list,
+                      std::string_view plane, std::string_view group) {
   Table t{caption, {"quantity", "value \u00b1 standard uncertainty", "unit"}, {}};
+  t.text_columns = {2};
   for (const auto& e : list) {
-    const auto [name, unit] = results::split_unit(e.name);
-    t.rows.push_back({html_escape(e.name), estimate_cell(e), html_escape(unit)});
+    const results::Shown s = results::shown(e.name, e.value, e.fitted ? e.u : NAN, plane, group, 4);
+    t.rows.push_back({html_escape(s.label), html_escape(s.value), html_escape(s.unit)});
   }
   return t;
 }
 
-// One polar plot per set-up (radius, height, plane), its runs overlaid: CCW blue, CW orange; each run's G
-// in its label when the runs were identified.
+// One polar plot per set-up (radius, height, plane), its runs overlaid (CCW blue, CW orange): each run's
+// deviation about its own least-squares circle, magnified so the largest fills the plot, as a ballbar's
+// software draws it; the circles' mean radius and centre are stated beside it.
 void setup_plots(std::ostringstream& body, const std::vector<formats::DbbRun>& runs,
-                 const models::dbb::Identification* id_result) {
+                 const std::vector<models::dbb::CircleFit>& circles) {
   std::map<std::tuple<double, double, std::string>, std::vector<std::size_t>> setups;
   for (std::size_t i = 0; i < runs.size(); ++i)
     setups[{std::round(runs[i].radius_m * 1e6) / 1e3, std::round(runs[i].height_m * 1e6) / 1e3, runs[i].plane}]
@@ -41,116 +65,177 @@ void setup_plots(std::ostringstream& body, const std::vector<formats::DbbRun>& r
   for (const auto& [key, members] : setups) {
     const auto& [radius_mm, height_mm, plane] = key;
     PolarPlot plot;
-    plot.title = "DBB r = " + format_number(radius_mm, 4) + " mm, h = " + format_number(height_mm, 4) + " mm, " +
-                 plane + " plane";
+    plot.title = "DBB r = " + significant_digits(radius_mm, 6) + " mm, h = " + significant_digits(height_mm, 6) +
+                 " mm, " + plane + " plane";
     plot.axis_a = std::string(1, static_cast<char>(std::toupper(plane[0])));
     plot.axis_b = std::string(1, static_cast<char>(std::toupper(plane[1])));
+    plot.quantity = "deviation";
+    plot.zero_ring = "least-squares circle";
     bool have_ccw = false, have_cw = false;
     std::size_t extra = 2;  // further runs of one direction take the next palette colours
+    std::ostringstream circles_text;
     for (std::size_t i : members) {
       const auto& r = runs[i];
+      const auto& c = circles[i];
       PolarSeries s;
       const bool is_ccw = r.direction == formats::DbbDirection::ccw;
-      s.label = std::string(is_ccw ? "CCW" : "CW") + " " + format_number(r.feed_m_per_s * 60000, 4) + " mm/min";
-      if (id_result && i < id_result->runs.size())
-        s.label += ", G = " + format_number(id_result->runs[i].circular_deviation_um, 3) + " \u00b5m";
+      const std::string run =
+          std::string(is_ccw ? "CCW" : "CW") + " " + format_number(r.feed_m_per_s * 60000, 4) + " mm/min";
+      s.label = run + ", G = " + format_number(range_of(c.deviation_um), 3) + " \u00b5m";
       bool& have = is_ccw ? have_ccw : have_cw;
       s.color = palette(have ? extra++ : (is_ccw ? 0 : 1));
       have = true;
       s.angle_rad = r.angle_rad;
-      s.deviation_um.reserve(r.dL_m.size());
-      for (double d : r.dL_m) s.deviation_um.push_back(d * 1e6);
+      s.deviation_um = c.deviation_um;
       plot.series.push_back(std::move(s));
+      circles_text << (circles_text.tellp() > 0 ? "; " : "") << run << ": mean radius "
+                   << format_fixed(r.radius_m * 1e3 + c.mean_um * 1e-3, 5) << " mm (\u0394L " << signed_um(c.mean_um)
+                   << " \u00b5m), centre (" << signed_um(c.cos_um) << ", " << signed_um(c.sin_um) << ") \u00b5m";
     }
     std::ostringstream cap;
-    cap << "Measured bar length change \u0394L (positive = longer) against the commanded angle, magnified: "
-        << format_number(polar_um_per_div(plot), 3) << " \u00b5m per division around the nominal circle (bold). "
-        << "G: ISO 230-4 circular deviation about each run's least-squares circle.";
+    cap << "Each run's bar reading about its own least-squares circle (the circle ISO 230-4's G is taken "
+           "about), magnified: "
+        << format_number(polar_um_per_div(plot), 3)
+        << " \u00b5m per division, the bold ring the circle. The circles themselves: " << circles_text.str()
+        << " (centre from the nominal, along +" << plot.axis_a << " and +" << plot.axis_b << ").";
     body << html_figure(render(plot), html_escape(cap.str()));
   }
 }
 
-// The errors ranked by their part of the circular deviation ("what to fix first"): the five largest.
+// The ranking's entries of at least 1 % of G, and the others in one line.
+struct Ranked {
+  std::vector<std::pair<std::string, const models::dbb::Contribution*>> shown;
+  std::string small;  // "servo mismatch 0.020 µm, ..."
+};
+
+Ranked ranked(const models::dbb::Identification& id) {
+  Ranked out;
+  const std::string_view group =
+      id.ranking_model == "lai3" ? results::rank_backlash_a.group : std::string_view(id.ranking_model);
+  for (const auto& c : id.ranking) {
+    const std::string label = results::label_of(c.name, id.plane, group);
+    if (std::isfinite(c.percent) && c.percent < negligible_percent)
+      out.small += (out.small.empty() ? "" : ", ") + label + " " + format_number(c.contribution_um, 2) + " \u00b5m";
+    else
+      out.shown.emplace_back(label, &c);
+  }
+  return out;
+}
+
+std::string ranking_source(const models::dbb::Identification& id) {
+  return id.ranking_model == "diagnostics" ? "the ballbar diagnostics" : "Lai's model, its terms grouped by error";
+}
+
+// The errors ranked by their part of the circular deviation ("what to fix first"), as horizontal bars.
 void ranking_chart(std::ostringstream& body, const models::dbb::Identification& id_result) {
+  const Ranked r = ranked(id_result);
+  if (r.shown.empty()) return;
   BarChart chart;
   chart.title = "What to fix first";
-  chart.x_label = "error (" + id_result.ranking_model + ")";
+  chart.x_label = "error (from " + ranking_source(id_result) + ")";
+  chart.width = 640;
   chart.y_label = "part of G / \u00b5m";
-  chart.width = 520;
-  chart.height = 360;
-  BarSeries part{"range about the least-squares circle", {}, palette(2)};
-  // The five largest (all of them in the table below), named without their unit.
-  for (std::size_t k = 0; k < id_result.ranking.size() && k < 5; ++k) {
-    std::string name = id_result.ranking[k].name;
-    for (const char* unit : {"_um", "_ppm", "_urad", "_ms"})
-      if (name.size() > std::strlen(unit) && name.ends_with(unit)) name.resize(name.size() - std::strlen(unit));
-    chart.categories.push_back(name);
-    part.values.push_back(id_result.ranking[k].contribution_um);
+  chart.horizontal = true;
+  BarSeries part{"range of its term about the least-squares circle", {}, palette(2)};
+  for (std::size_t k = 0; k < r.shown.size() && k < most_bars; ++k) {
+    chart.categories.push_back(r.shown[k].first);
+    part.values.push_back(r.shown[k].second->contribution_um);
   }
   chart.series = {part};
   std::ostringstream cap;
-  cap << "The five identified errors with the largest part of the circular deviation: the range of each one's fitted "
-         "term about the least-squares circle of a run (as G is the reading's), from the "
-      << (id_result.ranking_model == "diagnostics" ? "ballbar diagnostics" : "Lai model's grouped terms")
-      << "; the set-up's centre offset is not ranked. Terms partly cancel, so the parts need not add up to G.";
+  cap << "The identified errors by their part of the circular deviation G: the range of each one's fitted term "
+         "about a run's least-squares circle (as G is the reading's), the largest over the runs, from "
+      << ranking_source(id_result) << "; the set-up's centre offset is not ranked. Terms partly cancel, so the "
+      << "parts need not add up to G.";
+  if (r.shown.size() > most_bars) cap << " " << r.shown.size() - most_bars << " more are in the table below.";
+  if (!r.small.empty()) cap << " Under 1 % of G each, not drawn: " << r.small << ".";
   body << html_figure(render(chart), html_escape(cap.str()));
 }
 
-// The runs, the ranking, the ISO 230-4 figures and the diagnostics.
-void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Identification& id_result) {
+void runs_table(std::ostringstream& body, const models::dbb::Identification& id_result,
+                const std::vector<models::dbb::CircleFit>& circles) {
   Table runs_t{"Runs",
-               {"file", "r / mm", "h / mm", "direction", "feed / (mm/min)", "points", "G (ISO 230-4) / \u00b5m",
-                "residual rms / \u00b5m"},
+               {"file", "r / mm", "h / mm", "direction", "feed / (mm/min)", "points", "mean \u0394L / \u00b5m",
+                "G (ISO 230-4) / \u00b5m", "residual rms / \u00b5m"},
                {}};
-  for (const auto& r : id_result.runs)
-    runs_t.rows.push_back({html_escape(base_name(r.source)), format_number(r.radius_mm, 5),
-                           format_number(r.height_mm, 5), html_escape(r.direction), format_number(r.feed_mm_per_min, 5),
-                           std::to_string(r.n), format_fixed(r.circular_deviation_um, 3),
-                           format_fixed(r.residual_rms_um, 3)});
+  runs_t.text_columns = {3};
+  for (std::size_t k = 0; k < id_result.runs.size(); ++k) {
+    const auto& r = id_result.runs[k];
+    runs_t.rows.push_back({html_escape(base_name(r.source)), significant_digits(r.radius_mm, 6),
+                           significant_digits(r.height_mm, 6), html_escape(r.direction),
+                           format_fixed(r.feed_mm_per_min, 0), std::to_string(r.n),
+                           k < circles.size() ? format_fixed(circles[k].mean_um, 2) : "&ndash;",
+                           format_fixed(r.circular_deviation_um, 2), format_fixed(r.residual_rms_um, 3)});
+  }
   body << html_table(runs_t);
-  if (!id_result.ranking.empty()) {
+}
+
+// The ranking in words, the ISO 230-4 figures and the diagnostics (only when the runs gave any: the
+// identification's note says why not).
+void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Identification& id_result) {
+  const Ranked r = ranked(id_result);
+  if (!r.shown.empty() || !r.small.empty()) {
     Table rank_t{"What to fix first (each error's part of the circular deviation G)",
                  {"error", "part of G / \u00b5m", "% of G"},
                  {}};
-    for (const auto& c : id_result.ranking)
-      rank_t.rows.push_back({html_escape(c.name), format_fixed(c.contribution_um, 3),
-                             std::isfinite(c.percent) ? format_fixed(c.percent, 1) : "&ndash;"});
-    body << html_table(rank_t);
+    for (const auto& [label, c] : r.shown)
+      rank_t.rows.push_back({html_escape(label), format_number(c->contribution_um, 3),
+                             std::isfinite(c->percent) ? format_number(c->percent, 2) : "&ndash;"});
+    if (!r.shown.empty()) body << html_table(rank_t);
+    if (!r.small.empty()) body << "<p>Under 1 % of G each: " << html_escape(r.small) << ".</p>";
   }
   for (const auto& n : id_result.notes) body << html_note(n);
   std::vector<models::dbb::Estimate> iso, diag;
   for (const auto& e : id_result.diagnostics) (e.name.rfind("circular_", 0) == 0 ? iso : diag).push_back(e);
-  Table iso_t{"ISO 230-4 circular test figures", {"quantity", "value", "unit"}, {}};
+  Table iso_t{"ISO 230-4 circular test figures", {"quantity", "value", "unit", "what it is"}, {}};
+  iso_t.text_columns = {2, 3};
   for (const auto& e : iso) {
-    const auto [name, unit] = results::split_unit(e.name);
-    iso_t.rows.push_back({html_escape(e.name), format_fixed(e.value, 3), html_escape(unit)});
+    const results::Shown s = results::shown(e.name, e.value, NAN, id_result.plane);
+    const results::Parameter* p = results::find_parameter(e.name);
+    iso_t.rows.push_back(
+        {html_escape(s.label), format_fixed(e.value, 2), html_escape(s.unit), p ? html_escape(p->meaning) : ""});
   }
   if (iso.size() < 2)
-    iso_t.rows.push_back({"circular_hysteresis_um", "&ndash;", "needs a CCW and a CW run of one set-up"});
+    iso_t.rows.push_back(
+        {html_escape(results::circular_hysteresis.label), "&ndash;", "", "needs a CCW and a CW run of one set-up"});
   body << html_table(iso_t);
-  body << html_table(estimates_table("Ballbar diagnostics", diag));
   const auto& df = id_result.diagnostics_fit;
-  body << "<p>Diagnostics fit: rms " << format_fixed(df.rms_um, 4) << " \u00b5m over " << df.n
-       << " points, condition number " << format_number(df.condition_number, 3) << ".</p>";
+  if (diag.empty()) {
+    const bool said = std::any_of(id_result.notes.begin(), id_result.notes.end(),
+                                  [](const std::string& n) { return n.find("diagnostics") != std::string::npos; });
+    if (!said)
+      body << html_note("No ballbar diagnostics: they need in-plane (h = 0) runs in both directions of one set-up.");
+    return;
+  }
+  body << html_table(estimates_table("Ballbar diagnostics", diag, id_result.plane, results::backlash.group));
+  if (df.n > 0)
+    body << "<p>Diagnostics fit: rms " << format_number(df.rms_um, 2) << " \u00b5m over " << df.n << " points.</p>";
   if (!df.unidentifiable.empty()) body << html_note("Diagnostics not separable by these runs: " + df.message);
+}
+
+// Lai's symbol of a reported name: "c0_plus_d1_rad" -> "c0 + d1".
+std::string lai_symbol(const std::string& name) {
+  std::string s = results::split_unit(name).first;
+  for (auto at = s.find("_plus_"); at != std::string::npos; at = s.find("_plus_")) s.replace(at, 6, " + ");
+  return s;
 }
 
 // Lai's model: its parameters, the fit and what the patterns could not separate.
 void lai_tables(std::ostringstream& body, const models::dbb::Identification& id_result) {
-  body << html_table(estimates_table("Lai third-order model (Table 3 names)", id_result.lai3));
+  body << html_table(estimates_table("Lai, Liao and Chieng's third-order model (Table 3 symbols in brackets)",
+                                     id_result.lai3, id_result.plane, results::lai_S_x.group));
   const auto& f = id_result.fit;
-  std::ostringstream fit;
-  fit << "Lai fit: rms " << format_fixed(f.rms_um, 4) << " \u00b5m over " << f.n << " points, condition number "
-      << format_number(f.condition_number, 3) << ".";
-  body << "<p>" << html_escape(fit.str()) << "</p>";
+  body << "<p>Lai fit: rms " << format_number(f.rms_um, 2) << " \u00b5m over " << f.n << " points.</p>";
   if (f.unidentifiable.empty()) return;
   std::string names;
-  for (const auto& n : f.unidentifiable) names += (names.empty() ? "" : ", ") + n;
-  body << html_note("Not separable by these patterns (refused, not reported): " + names);
+  for (const auto& n : f.unidentifiable) names += (names.empty() ? "" : ", ") + lai_symbol(n);
+  body << html_note("Not separable by these patterns (refused, not reported): " + names +
+                    ". A pattern with h > 0 at another radius separates them (docs/conventions.md).");
   if (!f.combinations.empty()) {
-    Table c{"Combinations these patterns do determine", {"combination", "value \u00b1 u"}};
+    Table c{"Combinations these patterns do determine (Lai's symbols, in the units they are reported in)",
+            {"combination", "value \u00b1 u"}};
     for (const auto& k : f.combinations)
-      c.rows.push_back({html_escape(k.expression), html_escape(format_with_u(k.value, k.u))});
+      c.rows.push_back({html_escape(k.expression), html_escape(with_uncertainty(k.value, k.u))});
     body << html_table(c);
   }
 }
@@ -182,14 +267,15 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
   } catch (const std::exception& e) {
     refusal = e.what();
   }
-  // The polar plots, beside them the errors ranked by their part of the circular deviation.
+  const std::vector<models::dbb::CircleFit> circles = circles_of(runs);
   body << "<div class=\"side-by-side\">";
-  setup_plots(body, runs, identified ? &id_result : nullptr);
-  if (identified && !id_result.ranking.empty()) ranking_chart(body, id_result);
+  setup_plots(body, runs, circles);
   body << "</div>";
   if (!identified) {
     body << html_note("Identification refused: " + refusal);
   } else {
+    ranking_chart(body, id_result);
+    runs_table(body, id_result, circles);
     runs_and_diagnostics_tables(body, id_result);
     lai_tables(body, id_result);
   }

@@ -78,26 +78,29 @@ void rms_chart(std::ostringstream& body, const json& base, const json& findings)
   in.values.push_back(num(base, "rms_um"));
   out.values.push_back(num(base, "heldout_rms_um"));
   for (const auto& f : findings) {
-    chart.categories.push_back("+ " + text(f, "effect"));
+    chart.categories.push_back("+ " + results::in_words(text(f, "effect")));
     in.values.push_back(num(f, "rms_um_after"));
     out.values.push_back(num(f, "heldout_rms_um_after"));
   }
   chart.series = {in, out};
-  body << html_figure(render(chart), "Residual RMS of the base model and after adding each finding in turn (greedy "
-                                     "forward selection); held-out: data the fit did not see.");
+  body << html_figure(render(chart),
+                      "Residual RMS of the base model and after adding each finding in turn (greedy "
+                      "forward selection); held-out: data the fit did not see.");
 }
 
 // The findings by their part of the yardstick (a DBB run's circular deviation G), largest first.
 void contribution_chart(std::ostringstream& body, const json& j, const json& findings) {
   std::vector<std::pair<double, std::string>> parts;
   for (const auto& f : findings)
-    if (std::isfinite(num(f, "contribution_um"))) parts.emplace_back(num(f, "contribution_um"), text(f, "effect"));
+    if (std::isfinite(num(f, "contribution_um")))
+      parts.emplace_back(num(f, "contribution_um"), results::in_words(text(f, "effect")));
   std::stable_sort(parts.begin(), parts.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   if (parts.empty()) return;
   BarChart rank;
   rank.title = "Findings, largest first";
   rank.x_label = "finding";
   rank.y_label = "size of its term / \u00b5m";
+  rank.horizontal = true;
   BarSeries sizes{"range of the fitted term", {}, palette(2)};
   for (const auto& [v, name] : parts) {
     rank.categories.push_back(name);
@@ -168,6 +171,7 @@ void residual_panel(std::ostringstream& body, const ResidualCurves& c, std::size
   const auto value = [](double v) { return std::isfinite(v) ? format_number(v, 3) : std::string("\u2013"); };
   std::string effect = c.steps[k].label;
   if (effect.rfind("+ ", 0) == 0) effect = effect.substr(2);
+  effect = results::in_words(effect);
   LinePlot plot;
   plot.title =
       (k == 0 ? "Residual of the base model" : "Residual after + " + effect + " (finding " + std::to_string(k) + ")") +
@@ -191,8 +195,9 @@ void residual_panels(std::ostringstream& body, const std::string& path, const js
                            ? &j["residuals"]
                            : nullptr;
   if (!curves || !(*curves)["steps"].is_array() || (*curves)["steps"].empty()) {
-    body << html_note("This explanation carries no residual curves per step (optional \"residuals\" field with "
-                      "\"steps\", docs/explain.md); only the RMS values are shown.");
+    body << html_note(
+        "This explanation carries no residual curves per step (optional \"residuals\" field with "
+        "\"steps\", docs/explain.md); only the RMS values are shown.");
     return;
   }
   const ResidualCurves c = read_residual_curves(path, *curves);
@@ -210,8 +215,8 @@ void residual_panels(std::ostringstream& body, const std::string& path, const js
 
 void findings_table(std::ostringstream& body, const json& findings) {
   Table ft{"Findings (in the order selected)",
-           {"effect", "parameters (value \u00b1 u)", "\u0394BIC", "p", "rms after / \u00b5m", "held-out rms after / \u00b5m",
-            "why"},
+           {"effect", "parameters (value \u00b1 u)", "\u0394BIC", "p", "rms after / \u00b5m",
+            "held-out rms after / \u00b5m", "why"},
            {},
            "text"};
   for (const auto& f : findings) {
@@ -219,10 +224,12 @@ void findings_table(std::ostringstream& body, const json& findings) {
     if (f.contains("parameters") && f["parameters"].is_object())
       for (const auto& [name, v] : f["parameters"].items()) {
         const double value = num(v, "value"), u = num(v, "u");
-        params += (params.empty() ? "" : "<br>") + html_escape(name) + " = " + html_escape(format_with_u(value, u));
+        const results::Shown shown = results::shown(name, value, u);
+        params += (params.empty() ? "" : "<br>") + html_escape(shown.label) + " " + html_escape(shown.value) +
+                  (shown.unit.empty() ? "" : " " + html_escape(shown.unit));
       }
-    ft.rows.push_back({html_escape(text(f, "effect")), params, cell(num(f, "delta_bic")), p_cell(num(f, "p_value")),
-                       cell(num(f, "rms_um_after")), cell(num(f, "heldout_rms_um_after")),
+    ft.rows.push_back({html_escape(results::in_words(text(f, "effect"))), params, cell(num(f, "delta_bic")),
+                       p_cell(num(f, "p_value")), cell(num(f, "rms_um_after")), cell(num(f, "heldout_rms_um_after")),
                        "<span class=\"why\">" + html_escape(text(f, "why")) + "</span>"});
   }
   if (!findings.empty()) body << html_table(ft);
@@ -231,7 +238,8 @@ void findings_table(std::ostringstream& body, const json& findings) {
 void fit_summary(std::ostringstream& body, const json& j) {
   const json& base = j["baseline"];
   Table st{"Fit summary", {"", "rms / \u00b5m", "held-out rms / \u00b5m", "BIC"}, {}};
-  st.rows.push_back({"base model", cell(num(base, "rms_um")), cell(num(base, "heldout_rms_um")), cell(num(base, "bic"), 6)});
+  st.rows.push_back(
+      {"base model", cell(num(base, "rms_um")), cell(num(base, "heldout_rms_um")), cell(num(base, "bic"), 6)});
   if (j.contains("final"))
     st.rows.push_back({"final", cell(num(j["final"], "rms_um")), cell(num(j["final"], "heldout_rms_um")),
                        cell(num(j["final"], "bic"), 6)});
@@ -253,8 +261,8 @@ void places_and_verdicts(std::ostringstream& body, const json& j) {
   if (j.contains("considered") && j["considered"].is_array() && !j["considered"].empty()) {
     Table ct{"Effects considered", {"effect", "\u0394BIC", "p", "verdict"}, {}, "text"};
     for (const auto& c : j["considered"])
-      ct.rows.push_back({html_escape(text(c, "effect")), cell(num(c, "delta_bic")), p_cell(num(c, "p_value")),
-                         html_escape(text(c, "verdict"))});
+      ct.rows.push_back({html_escape(results::in_words(text(c, "effect"))), cell(num(c, "delta_bic")),
+                         p_cell(num(c, "p_value")), html_escape(text(c, "verdict"))});
     body << html_table(ct);
   }
   if (j.contains("notes") && j["notes"].is_array())

@@ -16,7 +16,7 @@ namespace guideway::report {
 
 namespace {
 
-std::string um_u(double v_m, double u_m) { return html_escape(format_with_u(v_m * 1e6, u_m * 1e6)); }
+std::string um_u(double v_m, double u_m) { return html_escape(with_uncertainty(v_m * 1e6, u_m * 1e6)); }
 
 std::string straightness_plane(const models::flatness::StraightnessProfile& p, const std::string& source) {
   std::ostringstream body;
@@ -86,7 +86,7 @@ std::string straightness_plane(const models::flatness::StraightnessProfile& p, c
     // b_k in m/m^k -> um/mm^k
     const double scale = 1e6 / std::pow(1e3, static_cast<double>(k));
     const double u = k < p.polynomial.u_b.size() ? p.polynomial.u_b[k] : NAN;
-    c.rows.push_back({"b" + std::to_string(k), html_escape(format_with_u(p.polynomial.b[k] * scale, u * scale)),
+    c.rows.push_back({"b" + std::to_string(k), html_escape(with_uncertainty(p.polynomial.b[k] * scale, u * scale)),
                       k == 1 ? "\u00b5m/mm" : "\u00b5m/mm<sup>" + std::to_string(k) + "</sup>"});
   }
   c.rows.push_back({"residual rms / max", format_fixed(p.polynomial.residual_rms_m * 1e6, 4) + " / " +
@@ -221,14 +221,14 @@ std::string runout_section(const std::string& path, const std::string& id) {
   Table t{"Squareness from run-out (Mu Eq. 21)", {"quantity", "value \u00b1 u", "unit"}, {}};
   t.rows.push_back({"amplitude A", um_u(r.amplitude_m, r.u_amplitude_m), "\u00b5m"});
   t.rows.push_back({"phase of the maximum \u03c6\u2080",
-                    html_escape(format_with_u(r.phase_rad * 180 / std::numbers::pi,
+                    html_escape(with_uncertainty(r.phase_rad * 180 / std::numbers::pi,
                                               r.u_phase_rad * 180 / std::numbers::pi)),
                     "deg"});
   t.rows.push_back({"run-out r = 2A", um_u(r.runout_m, r.u_runout_m), "\u00b5m"});
   t.rows.push_back({"parallelism p", format_fixed(r.parallelism_m * 1e6, 4), "\u00b5m"});
   t.rows.push_back({"twice per revolution", format_fixed(r.second_harmonic_m * 1e6, 4), "\u00b5m"});
   t.rows.push_back({"squareness \u03b8\u2080 = (r + p)/L",
-                    html_escape(format_with_u(r.deflection_rad * 1e6, r.u_deflection_rad * 1e6)), "\u00b5rad"});
+                    html_escape(with_uncertainty(r.deflection_rad * 1e6, r.u_deflection_rad * 1e6)), "\u00b5rad"});
   if (r.squareness_amplitude_m && r.travel_m)
     t.rows.push_back({"over the travel of " + format_number(*r.travel_m * 1e3, 4) + " mm",
                       um_u(*r.squareness_amplitude_m, r.u_squareness_amplitude_m.value_or(0)), "\u00b5m"});

@@ -11,7 +11,8 @@ namespace guideway::report {
 namespace {
 
 // Screen: a readable column. Print (A4): every analysis starts on a new page, figures and tables are not
-// split, plots scale to the text width (760 px viewBox -> 186 mm: 12 px text prints at about 8 pt).
+// split, plots shrink to the text width (760 px viewBox -> 186 mm: 12 px text prints at about 8 pt); on
+// screen a plot is never drawn larger than its own size (its text stays 12 px).
 constexpr const char* kCss = R"css(
 body { font-family: "DejaVu Sans", Arial, sans-serif; color: #111; margin: 24px auto; max-width: 840px;
        padding: 0 12px; line-height: 1.35; }
@@ -22,8 +23,8 @@ p.subtitle { color: #444; margin-top: 0; font-size: 13px; }
 nav ol { font-size: 13px; }
 figure { margin: 12px 0 18px; break-inside: avoid; page-break-inside: avoid; }
 figcaption { font-size: 12px; color: #333; margin-top: 4px; }
-svg.plot { width: 100%; height: auto; display: block; }
-svg.plot[data-plot="polar"] { max-width: 520px; margin: 0 auto; }
+svg.plot { max-width: 100%; height: auto; display: block; margin: 0 auto; }
+svg.plot[data-plot="polar"] { margin: 0 auto; }
 div.side-by-side { display: flex; flex-wrap: wrap; gap: 12px; align-items: flex-start; }
 div.side-by-side > figure { flex: 1 1 380px; min-width: 0; }
 table { border-collapse: collapse; font-size: 12px; margin: 8px 0 14px; break-inside: avoid;
@@ -41,28 +42,13 @@ code, td:first-child { font-family: "DejaVu Sans Mono", monospace; font-size: 11
   nav { display: none; }
   section.analysis { break-before: page; page-break-before: always; }
   h2 { margin-top: 0; }
-  svg.plot[data-plot="polar"] { max-width: 120mm; }
+  svg.plot[data-plot="polar"] { max-width: min(100%, 120mm); }
 }
 )css";
 
 }  // namespace
 
 std::string html_escape(std::string_view text) { return xml_escape(text); }
-
-std::string format_with_u(double value, double u, int significant) {
-  if (!std::isfinite(u) || u <= 0) return format_number(value, significant);
-  // Small numbers get a common power of ten: "(2.252 ± 0.085)e-7" rather than a row of zeros.
-  const double mag = std::abs(value) > u ? std::abs(value) : u;
-  if (mag < 1e-3) {
-    const int e = static_cast<int>(std::floor(std::log10(mag)));
-    const double f = std::pow(10.0, -e);
-    const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(u * f))), 0, 12);
-    return "(" + format_fixed(value * f, decimals) + " \u00b1 " + format_fixed(u * f, decimals) + ")e" +
-           std::to_string(e);
-  }
-  const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(u))), 0, 12);
-  return format_fixed(value, decimals) + " \u00b1 " + format_fixed(u, decimals);
-}
 
 std::string html_table(const Table& table) {
   std::ostringstream o;

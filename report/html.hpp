@@ -1,6 +1,6 @@
 #pragma once
 // HTML building blocks of the report: one self-contained page (inline CSS, inline SVG, no scripts,
-// nothing fetched), tables, figures, notes, and number formatting with uncertainties. Pure; thread safe.
+// nothing fetched), tables, figures and notes (numbers: core/number_format.hpp). Pure; thread safe.
 
 #include <string>
 #include <string_view>
@@ -11,10 +11,6 @@ namespace guideway::report {
 
 // Text content for HTML (the same escaping as XML).
 [[nodiscard]] std::string html_escape(std::string_view text);
-
-// "value ± u" with u to 2 significant digits and the value to the same decimal place; without a finite
-// u, the value to `significant` digits.
-[[nodiscard]] std::string format_with_u(double value, double u, int significant = 5);
 
 // A table; cells are HTML (escape text first). The first column is left-aligned (names), and the
 // text_columns; the rest right (numbers).

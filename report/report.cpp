@@ -25,12 +25,14 @@ std::string_view kind_name(InputKind kind) {
       return results::dbb_kind.name;
     case InputKind::straightness:
       return results::straightness_kind.name;
-    case InputKind::union_jack: return "unionjack";
+    case InputKind::union_jack:
+      return "unionjack";
     case InputKind::runout:
       return results::runout_kind.name;
     case InputKind::profile:
       return results::profile_kind.name;
-    case InputKind::explain: return "explain";
+    case InputKind::explain:
+      return "explain";
   }
   return "unknown";
 }
@@ -95,8 +97,9 @@ InputKind detect_input(const std::string& path) {
       throw ReportError(e.what());
     }
     if (j.is_object() && (j.contains("findings") || j.contains("baseline"))) return InputKind::explain;
-    throw ReportError(path + ": a JSON input must be an explanation (guideway explain --json: \"baseline\", "
-                             "\"findings\")");
+    throw ReportError(path +
+                      ": a JSON input must be an explanation (guideway explain --json: \"baseline\", "
+                      "\"findings\")");
   }
   CsvTable t;
   try {
@@ -182,6 +185,8 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
           if (g == groups.end()) g = groups.insert(groups.end(), {stage, {}});
           g->second.push_back(p);
         }
+        // Before, then after, whatever order the files came in (a shell's glob puts after_* first).
+        std::stable_partition(groups.begin(), groups.end(), [](const auto& g) { return g.first != "after"; });
         for (std::size_t n = 0; n < groups.size(); ++n) {
           const auto& [stage, runs] = groups[n];
           const std::string gid = n == 0 ? id : next_id(kind_name(kind));

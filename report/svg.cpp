@@ -16,7 +16,8 @@ namespace {
 
 constexpr double kTitleHeight = 26;
 constexpr double kLegendRow = 18;
-constexpr double kCharWidth = 6.6;  // average advance of a 12 px sans-serif character, for layout only
+constexpr double kCharWidth = 6.6;       // average advance of a 12 px sans-serif character, for layout only
+constexpr double kLabelCharWidth = 7.6;  // the widest likely advance (capitals, DejaVu Sans 12 px): room for labels
 
 // Unique ids for clip paths: inline SVGs of one HTML page share the id namespace.
 std::string next_id(const char* prefix) {
@@ -25,6 +26,11 @@ std::string next_id(const char* prefix) {
 }
 
 std::string px(double v) { return format_fixed(v, 1); }
+
+// Characters of UTF-8 text (for layout: "µ" is one).
+std::size_t display_chars(std::string_view text) {
+  return static_cast<std::size_t>(std::count_if(text.begin(), text.end(), [](char c) { return (c & 0xC0) != 0x80; }));
+}
 
 struct Frame {
   double left, top, right, bottom;
@@ -321,26 +327,6 @@ std::string xml_escape(std::string_view text) {
   return out;
 }
 
-std::string format_fixed(double value, int decimals) {
-  if (!std::isfinite(value)) return std::isnan(value) ? "nan" : (value > 0 ? "inf" : "-inf");
-  // Sized to the number: a value of 1e300 has 301 digits before the point, and none may be cut.
-  const int d = std::clamp(decimals, 0, 12);
-  std::string s(static_cast<std::size_t>(std::snprintf(nullptr, 0, "%.*f", d, value)) + 1, '\0');
-  std::snprintf(s.data(), s.size(), "%.*f", d, value);
-  s.pop_back();
-  if (s.find_first_not_of("-0.") == std::string::npos && s.front() == '-') s.erase(0, 1);  // "-0.00" -> "0.00"
-  return s;
-}
-
-std::string format_number(double value, int significant) {
-  if (!std::isfinite(value) || value == 0) return format_fixed(value, 0);
-  const double mag = std::floor(std::log10(std::abs(value)));
-  if (mag >= -4 && mag < 9) return format_fixed(value, std::max(0, significant - 1 - static_cast<int>(mag)));
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", std::max(1, significant), value);
-  return buf;
-}
-
 double nice_ceil(double x) {
   if (!(x > 0) || !std::isfinite(x)) throw std::invalid_argument("nice_ceil: needs a positive finite number");
   const double e = std::pow(10.0, std::floor(std::log10(x)));
@@ -456,21 +442,34 @@ std::string render(const StackedPanels& plot) {
   return o.str();
 }
 
-double polar_um_per_div(const PolarPlot& plot) {
-  if (plot.um_per_div > 0) return plot.um_per_div;
+PolarScale polar_scale(const PolarPlot& plot) {
   double m = 0;
   for (const auto& s : plot.series)
     for (double d : s.deviation_um)
       if (std::isfinite(d)) m = std::max(m, std::abs(d));
-  const int div = std::max(1, plot.divisions);
-  if (m == 0) return 1.0;
-  // Keep a fifth of a division free at the outer ring.
-  return nice_ceil(m / (div - 0.2 + (div == 1 ? 0.1 : 0.0)));
+  PolarScale out;
+  if (plot.divisions > 0) out.divisions = plot.divisions;
+  if (plot.um_per_div > 0) {
+    out.um_per_div = plot.um_per_div;
+    if (plot.divisions <= 0) out.divisions = std::clamp(static_cast<int>(std::ceil(m / plot.um_per_div + 0.15)), 3, 5);
+    return out;
+  }
+  if (m == 0) return out;
+  if (plot.divisions > 0) {
+    // Keep a fifth of a division free at the outer ring.
+    const int div = plot.divisions;
+    out.um_per_div = nice_ceil(m / (div - 0.2 + (div == 1 ? 0.1 : 0.0)));
+    return out;
+  }
+  out.um_per_div = nice_ceil(m / 4.8);
+  out.divisions = std::max(3, static_cast<int>(std::ceil(m / out.um_per_div + 0.15)));
+  return out;
 }
 
 std::string render(const PolarPlot& plot) {
-  const int div = std::max(1, plot.divisions);
-  const double per_div = polar_um_per_div(plot);
+  const PolarScale scale = polar_scale(plot);
+  const int div = std::max(1, scale.divisions);
+  const double per_div = scale.um_per_div;
   std::vector<LegendItem> items;
   for (std::size_t i = 0; i < plot.series.size(); ++i)
     items.push_back(
@@ -481,7 +480,7 @@ std::string render(const PolarPlot& plot) {
   const double nominal = outer * 0.55;
   const double div_px = (outer - nominal) / div;
   const double cx = plot.size / 2, cy = top + 30 + outer;
-  const double height = cy + outer + 64;
+  const double height = cy + outer + 72;  // the 270° label, then the two axis labels under it
   const auto radius = [&](double dev_um) { return nominal + dev_um / per_div * div_px; };
 
   std::ostringstream o;
@@ -551,8 +550,8 @@ std::string render(const PolarPlot& plot) {
     << "\" text-anchor=\"middle\" font-size=\"13\">angle \u03b6 / deg (from +" << xml_escape(plot.axis_a)
     << " towards +" << xml_escape(plot.axis_b) << ")</text>";
   o << "<text class=\"axis-label scale\" x=\"" << px(cx) << "\" y=\"" << px(height - 12)
-    << "\" text-anchor=\"middle\" font-size=\"13\">radial: " << xml_escape(plot.quantity) << " / \u00b5m, scale "
-    << format_number(per_div, 3) << " \u00b5m/div (bold ring = 0)</text>";
+    << "\" text-anchor=\"middle\" font-size=\"13\">radial: " << xml_escape(plot.quantity) << " / \u00b5m, "
+    << format_number(per_div, 3) << " \u00b5m/div (bold ring: " << xml_escape(plot.zero_ring) << ")</text>";
   o << "</svg>";
   return o.str();
 }
@@ -644,7 +643,101 @@ std::string render(const HeightMap& map) {
   return o.str();
 }
 
+namespace {
+
+// One bar: two corners and where its value label goes.
+struct Bar {
+  double x0, y0, x1, y1;
+  double label_x, label_y;
+  const char* anchor;
+};
+
+// The chart's series as one path of bars each (NaN: no bar) with their value labels, placed by `place`
+// (series, category, value) -> Bar.
+template <typename Place>
+std::string bar_series(const BarChart& chart, const Place& place) {
+  std::ostringstream o;
+  o << "<g class=\"series\">";
+  for (std::size_t i = 0; i < chart.series.size(); ++i) {
+    const auto& s = chart.series[i];
+    std::string d;
+    std::ostringstream labels;
+    std::size_t count = 0;
+    for (std::size_t c = 0; c < chart.categories.size() && c < s.values.size(); ++c) {
+      if (!std::isfinite(s.values[c])) continue;
+      const Bar b = place(i, c, s.values[c]);
+      if (!d.empty()) d += ' ';
+      d += 'M' + format_fixed(b.x0, 2) + ' ' + format_fixed(b.y0, 2) + " H" + format_fixed(b.x1, 2) + " V" +
+           format_fixed(b.y1, 2) + " H" + format_fixed(b.x0, 2) + " Z";
+      labels << "<text class=\"value-label\" x=\"" << px(b.label_x) << "\" y=\"" << px(b.label_y) << "\" text-anchor=\""
+             << b.anchor << "\" font-size=\"10\">" << format_number(s.values[c], 3) << "</text>";
+      ++count;
+    }
+    o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << count << "\" d=\"" << d
+      << "\" fill=\"" << (s.color.empty() ? palette(i) : s.color) << "\"/>" << labels.str();
+  }
+  o << "</g>";
+  return o.str();
+}
+
+// Bars along x, one row per category: the label column as wide as the longest label (at a generous
+// character width, so the browser's font never runs into the axis), a value label after each bar.
+std::string render_horizontal(const BarChart& chart) {
+  double lo = 0, hi = 0;
+  for (const auto& s : chart.series) extent(s.values, lo, hi);
+  const Range d = chart.y_range ? *chart.y_range : widen(lo, hi);
+  const Ticks xt = nice_ticks(d.lo, d.hi);
+  const Range xr = chart.y_range ? *chart.y_range : Range{xt.values.front(), xt.values.back()};
+  // A legend only for several series (one series is what the title and axis say).
+  std::vector<LegendItem> items;
+  for (std::size_t i = 0; chart.series.size() > 1 && i < chart.series.size(); ++i)
+    items.push_back(
+        {chart.series[i].label, chart.series[i].color.empty() ? palette(i) : chart.series[i].color, Style::line, true});
+  std::size_t longest = 0;
+  for (const auto& c : chart.categories) longest = std::max(longest, display_chars(c));
+  const double label_w = std::min(chart.width * 0.5, kLabelCharWidth * static_cast<double>(longest) + 12);
+  const int rows = legend_rows(items, 16, chart.width - 16);
+  const double row_h = std::max(22.0, 10.0 + 12.0 * static_cast<double>(chart.series.size()));
+  // The categories' title sits over the label column, under the title and the legend.
+  const double top = kTitleHeight + rows * kLegendRow + (chart.x_label.empty() ? 8 : 26);
+  const Frame f{16 + label_w, top, chart.width - 40, top + row_h * static_cast<double>(chart.categories.size())};
+  const double height = f.bottom + 46;
+  const Scale sx{xr.lo, xr.hi, f.left, f.right};
+  const double bar_h = row_h * 0.7 / static_cast<double>(std::max<std::size_t>(1, chart.series.size()));
+
+  std::ostringstream o;
+  o << open_svg("bar", chart.width, height, chart.title);
+  o << legend(items, 16, chart.width - 16, kTitleHeight);
+  o << x_axis(sx, xt, f.bottom, f.top, true, chart.y_label, (f.left + f.right) / 2, height - 10);
+  o << "<g class=\"axis y categorical\">";
+  for (std::size_t c = 0; c < chart.categories.size(); ++c) {
+    const double cy = f.top + (static_cast<double>(c) + 0.5) * row_h;
+    o << "<line class=\"tick\" x1=\"" << px(f.left - 5) << "\" y1=\"" << px(cy) << "\" x2=\"" << px(f.left)
+      << "\" y2=\"" << px(cy) << "\" stroke=\"#333\"/>";
+    o << "<text class=\"tick-label\" x=\"" << px(f.left - 8) << "\" y=\"" << px(cy + 4) << "\" text-anchor=\"end\">"
+      << xml_escape(chart.categories[c]) << "</text>";
+  }
+  const double zero = sx(std::clamp(0.0, xr.lo, xr.hi));
+  o << "<line class=\"axis-line\" x1=\"" << px(zero) << "\" y1=\"" << px(f.top) << "\" x2=\"" << px(zero) << "\" y2=\""
+    << px(f.bottom) << "\" stroke=\"#333\"/></g>";
+  if (!chart.x_label.empty())
+    o << "<text class=\"axis-label y\" x=\"16\" y=\"" << px(f.top - 8) << "\" font-size=\"13\">"
+      << xml_escape(chart.x_label) << "</text>";
+  o << bar_series(chart, [&](std::size_t i, std::size_t c, double v) {
+    const double y0 = f.top + static_cast<double>(c) * row_h + row_h * 0.15 + static_cast<double>(i) * bar_h;
+    const double end = sx(std::clamp(v, xr.lo, xr.hi));
+    return Bar{
+        zero, y0, end, y0 + bar_h * 0.92, end + (v >= 0 ? 4 : -4), y0 + bar_h * 0.46 + 3.5, v >= 0 ? "start" : "end"};
+  });
+  o << "<rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
+    << "\" height=\"" << px(f.h()) << "\" fill=\"none\" stroke=\"#333\"/></svg>";
+  return o.str();
+}
+
+}  // namespace
+
 std::string render(const BarChart& chart) {
+  if (chart.horizontal) return render_horizontal(chart);
   double lo = 0, hi = 0;
   for (const auto& s : chart.series) extent(s.values, lo, hi);
   Ticks yt;
@@ -686,29 +779,13 @@ std::string render(const BarChart& chart) {
   if (!chart.x_label.empty())
     o << "<text class=\"axis-label x\" x=\"" << px((f.left + f.right) / 2) << "\" y=\"" << px(chart.height - 8)
       << "\" text-anchor=\"middle\" font-size=\"13\">" << xml_escape(chart.x_label) << "</text>";
-  o << "<g class=\"series\">";
   const double base = sy(std::clamp(0.0, yr.lo, yr.hi));
-  for (std::size_t i = 0; i < chart.series.size(); ++i) {
-    const auto& s = chart.series[i];
-    std::string d;
-    std::ostringstream labels;
-    std::size_t count = 0;
-    for (std::size_t c = 0; c < chart.categories.size() && c < s.values.size(); ++c) {
-      if (!std::isfinite(s.values[c])) continue;
-      const double x0 = f.left + static_cast<double>(c) * group_w + group_w * 0.15 + static_cast<double>(i) * bar_w;
-      const double top = sy(std::clamp(s.values[c], yr.lo, yr.hi));
-      if (!d.empty()) d += ' ';
-      d += 'M' + format_fixed(x0, 2) + ' ' + format_fixed(base, 2) + " H" + format_fixed(x0 + bar_w * 0.92, 2) + " V" +
-           format_fixed(top, 2) + " H" + format_fixed(x0, 2) + " Z";
-      labels << "<text class=\"value-label\" x=\"" << px(x0 + bar_w * 0.46) << "\" y=\""
-             << px(s.values[c] >= 0 ? top - 4 : top + 12) << "\" text-anchor=\"middle\" font-size=\"10\">"
-             << format_number(s.values[c], 3) << "</text>";
-      ++count;
-    }
-    o << "<path class=\"data\" data-series=\"" << xml_escape(s.label) << "\" data-points=\"" << count << "\" d=\"" << d
-      << "\" fill=\"" << (s.color.empty() ? palette(i) : s.color) << "\"/>" << labels.str();
-  }
-  o << "</g><rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
+  o << bar_series(chart, [&](std::size_t i, std::size_t c, double v) {
+    const double x0 = f.left + static_cast<double>(c) * group_w + group_w * 0.15 + static_cast<double>(i) * bar_w;
+    const double top = sy(std::clamp(v, yr.lo, yr.hi));
+    return Bar{x0, base, x0 + bar_w * 0.92, top, x0 + bar_w * 0.46, v >= 0 ? top - 4 : top + 12, "middle"};
+  });
+  o << "<rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
     << "\" height=\"" << px(f.h()) << "\" fill=\"none\" stroke=\"#333\"/></svg>";
   return o.str();
 }

@@ -14,15 +14,12 @@
 #include <string_view>
 #include <vector>
 
+#include "core/number_format.hpp"
+
 namespace guideway::report {
 
 // Text for XML content and attribute values (& < > " ').
 [[nodiscard]] std::string xml_escape(std::string_view text);
-
-// A number with `decimals` digits after the point ("-0" is printed as "0").
-[[nodiscard]] std::string format_fixed(double value, int decimals);
-// A number with about `significant` digits, without exponent for everyday magnitudes.
-[[nodiscard]] std::string format_number(double value, int significant = 4);
 
 // Tick positions for the range [lo, hi]: multiples of a 1-2-5 step, about `target` of them, covering
 // the range (the first tick <= lo, the last >= hi). lo == hi gives a unit-wide range around it.
@@ -93,15 +90,23 @@ struct PolarSeries {
 struct PolarPlot {
   std::string title;
   std::vector<PolarSeries> series;
-  double um_per_div = 0.0;  // 0: the smallest 1-2-5 value that keeps every point inside the rings
-  int divisions = 4;
+  double um_per_div = 0.0;   // 0: the 1-2-5 value that lets the points fill the rings (polar_scale)
+  int divisions = 0;         // rings each side of the bold one; 0: 3 to 5, whichever fills best
   std::string axis_a = "X";  // labels of the first and second plane axis (0 deg and 90 deg)
   std::string axis_b = "Y";
   std::string quantity = "\u0394L";  // what is plotted radially
+  std::string zero_ring = "0";       // what the bold ring is
   double size = 520;
 };
-// The scale auto-chosen for these series (um per division).
-[[nodiscard]] double polar_um_per_div(const PolarPlot& plot);
+// The scale chosen for these series: um per division and divisions each side of the bold ring. Auto:
+// the 1-2-5 step of about a fifth of the largest |deviation|, and as many divisions (3 to 5) as keep
+// every point inside with a little room, so the largest deviation reaches 64 % to 97 % of the way out.
+struct PolarScale {
+  double um_per_div = 1.0;
+  int divisions = 4;
+};
+[[nodiscard]] PolarScale polar_scale(const PolarPlot& plot);
+[[nodiscard]] inline double polar_um_per_div(const PolarPlot& plot) { return polar_scale(plot).um_per_div; }
 [[nodiscard]] std::string render(const PolarPlot& plot);
 
 // Scattered heights (e.g. the stations of a Union Jack set) shown as a colour map interpolated by
@@ -128,12 +133,16 @@ struct BarSeries {
 struct BarChart {
   std::string title;
   std::string x_label;  // what the categories are
-  std::string y_label;
+  std::string y_label;  // the values' quantity / unit
   std::vector<std::string> categories;
   std::vector<BarSeries> series;
   std::optional<Range> y_range;  // default: from min(0, data) to max(0, data)
   double width = 760;
-  double height = 300;
+  double height = 300;  // horizontal: from the number of categories
+  // Horizontal bars, a category per row with its label left of it (a ranking): labels of any length
+  // never overlap, as each has its own row and the label column is as wide as the longest. The value
+  // axis (y_label) is then the horizontal one, at the bottom; x_label names the categories.
+  bool horizontal = false;
 };
 [[nodiscard]] std::string render(const BarChart& chart);
 

@@ -56,17 +56,17 @@ std::string workpiece_correlation_html(const std::vector<std::string>& profiles,
       << "</b>, impact factor " << format_number(r.impact_factor, 3) << ".";
   body << html_figure(render(chart), cap.str());
   Table t{"Squareness identified from the profiles", {"quantity", "value \u00b1 u", "unit"}};
-  t.rows.push_back({"squareness", html_escape(format_with_u(r.squareness_rad * 1e6, r.u_squareness_rad * 1e6)),
+  t.rows.push_back({"squareness", html_escape(with_uncertainty(r.squareness_rad * 1e6, r.u_squareness_rad * 1e6)),
                     "\u00b5rad"});
   t.rows.push_back({"over " + format_number(r.travel_m * 1e3, 4) + " mm",
-                    html_escape(format_with_u(r.squareness_amplitude_m * 1e6, r.u_squareness_amplitude_m * 1e6)),
+                    html_escape(with_uncertainty(r.squareness_amplitude_m * 1e6, r.u_squareness_amplitude_m * 1e6)),
                     "\u00b5m"});
   if (r.runout_check) {
     const auto& c = *r.runout_check;
     t.rows.push_back({"run-out (Eq. 21) \u03b8\u2080",
-                      html_escape(format_with_u(c.runout.deflection_rad * 1e6, c.runout.u_deflection_rad * 1e6)),
+                      html_escape(with_uncertainty(c.runout.deflection_rad * 1e6, c.runout.u_deflection_rad * 1e6)),
                       "\u00b5rad"});
-    t.rows.push_back({"|q| \u2212 \u03b8\u2080", html_escape(format_with_u(c.difference_rad * 1e6, c.u_difference_rad * 1e6)) +
+    t.rows.push_back({"|q| \u2212 \u03b8\u2080", html_escape(with_uncertainty(c.difference_rad * 1e6, c.u_difference_rad * 1e6)) +
                                                   (c.consistent ? " (consistent)" : " (<b>inconsistent</b>)"),
                       "\u00b5rad"});
   }

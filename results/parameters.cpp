@@ -1,6 +1,9 @@
 #include "results/parameters.hpp"
 
+#include "core/number_format.hpp"
+
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <vector>
 
@@ -49,6 +52,17 @@ constexpr const Parameter* all[] = {
     &lai_backlash_y,
     &lai_servo_mismatch,
     &lai_mismatch_phase_angle,
+    // the ranking of Lai's terms
+    &rank_scale_mismatch,
+    &rank_backlash_a,
+    &rank_backlash_b,
+    &rank_servo_mismatch,
+    &rank_straightness_ab,
+    &rank_straightness_ba,
+    &rank_straightness_an,
+    &rank_straightness_bn,
+    &rank_roll_b,
+    &rank_roll_b_straightness_an,
     // compensation
     &straightness_cubic,
     &straightness_cubic_difference,
@@ -102,7 +116,11 @@ struct Unit {
   std::string_view suffix;
   std::string_view symbol;
 };
-constexpr Unit units[] = {{"_per_mm2", "1/mm\u00b2"},
+constexpr Unit units[] = {{"_um_per_min", "\u00b5m/min"},
+                          {"_um_per_m", "\u00b5m/m"},
+                          {"_per_um2", "1/\u00b5m\u00b2"},
+                          {"_per_um", "1/\u00b5m"},
+                          {"_per_mm2", "1/mm\u00b2"},
                           {"_per_mm", "1/mm"},
                           {"_um", "\u00b5m"},
                           {"_ppm", "ppm"},
@@ -122,18 +140,39 @@ void replace_all(std::string& text, std::string_view key, std::string_view by) {
     text.replace(at, key.size(), by);
 }
 
+std::string upper(std::string text) {
+  for (char& c : text)
+    if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
+  return text;
+}
+
+// The plane's normal: the axis of x, y, z that is not one of its two.
+std::string normal_letter(std::string_view plane) {
+  const std::string a = axis_letter(plane, 0), b = axis_letter(plane, 1);
+  for (const char* n : {"z", "y", "x"})
+    if (a != n && b != n) return n;
+  return "z";
+}
+
 std::string filled(std::string_view pattern, std::string_view plane, std::string_view along, int run) {
   std::string out(pattern);
   replace_all(out, "{a}", axis_letter(plane, 0));
   replace_all(out, "{b}", axis_letter(plane, 1));
+  replace_all(out, "{A}", upper(axis_letter(plane, 0)));
+  replace_all(out, "{B}", upper(axis_letter(plane, 1)));
+  replace_all(out, "{N}", upper(normal_letter(plane)));
   if (!along.empty()) replace_all(out, "{axis}", along);
   if (run > 0) replace_all(out, "{run}", std::to_string(run));
   return out;
 }
 
 // Whether `name` is `pattern` with its placeholders filled: {axis} a word of letters, {a} and {b} one
-// letter, {run} a number.
-bool matches(std::string_view pattern, std::string_view name) {
+// letter, {run} a number. `filled_by`, when given, receives what {axis} and {run} stood for.
+struct Placeholders {
+  std::string axis;
+  int run = 0;
+};
+bool matches(std::string_view pattern, std::string_view name, Placeholders* filled_by = nullptr) {
   if (pattern.empty()) return name.empty();
   if (pattern.front() == '{') {
     const auto close = pattern.find('}');
@@ -142,35 +181,59 @@ bool matches(std::string_view pattern, std::string_view name) {
     const auto fits = [&](char c) { return key == "run" ? (c >= '0' && c <= '9') : (c >= 'a' && c <= 'z'); };
     const std::size_t most = key == "a" || key == "b" ? 1 : name.size();
     for (std::size_t n = 1; n <= most && n <= name.size() && fits(name[n - 1]); ++n)
-      if (matches(rest, name.substr(n))) return true;
+      if (matches(rest, name.substr(n), filled_by)) {
+        if (filled_by && key == "axis") filled_by->axis = std::string(name.substr(0, n));
+        if (filled_by && key == "run") filled_by->run = std::stoi(std::string(name.substr(0, n)));
+        return true;
+      }
     return false;
   }
-  return !name.empty() && name.front() == pattern.front() && matches(pattern.substr(1), name.substr(1));
+  return !name.empty() && name.front() == pattern.front() && matches(pattern.substr(1), name.substr(1), filled_by);
 }
 
-// "run2.name" and "name_run2" -> "name": a name of one run among several.
-std::string_view without_run(std::string_view name) {
+// "run2.name" and "name_run2" -> "name": a name of one run among several; `run` receives its number.
+std::string_view without_run(std::string_view name, int* run = nullptr) {
+  const auto digits = [](std::string_view d) {
+    return !d.empty() && d.size() < 6 && d.find_first_not_of("0123456789") == std::string_view::npos;
+  };
   if (name.starts_with("run")) {
     const auto dot = name.find('.');
-    if (dot != std::string_view::npos && dot > 3 &&
-        name.substr(3, dot - 3).find_first_not_of("0123456789") == std::string_view::npos)
+    if (dot != std::string_view::npos && digits(name.substr(3, dot - 3))) {
+      if (run) *run = std::stoi(std::string(name.substr(3, dot - 3)));
       return name.substr(dot + 1);
+    }
   }
   const auto at = name.rfind("_run");
-  if (at != std::string_view::npos && at + 4 < name.size() &&
-      name.substr(at + 4).find_first_not_of("0123456789") == std::string_view::npos)
+  if (at != std::string_view::npos && digits(name.substr(at + 4))) {
+    if (run) *run = std::stoi(std::string(name.substr(at + 4)));
     return name.substr(0, at);
+  }
   return name;
+}
+
+// The entry `name` is an instance of, the one of `group` first; `filled_by` receives what its
+// placeholders stood for.
+const Parameter* find_in(std::string_view name, std::string_view group, Placeholders* filled_by) {
+  const Parameter* first = nullptr;
+  for (const Parameter* p : all) {
+    Placeholders here;
+    if (!matches(p->name, name, &here)) continue;
+    if (!first || (!group.empty() && p->group == group && first->group != group)) {
+      first = p;
+      if (filled_by) *filled_by = here;
+    }
+    if (group.empty() || first->group == group) break;
+  }
+  return first;
 }
 
 }  // namespace
 
 std::span<const Parameter* const> catalogue() { return all; }
 
-const Parameter* find_parameter(std::string_view name) {
+const Parameter* find_parameter(std::string_view name, std::string_view group) {
   for (const std::string_view n : {name, without_run(name)})
-    for (const Parameter* p : all)
-      if (matches(p->name, n)) return p;
+    if (const Parameter* p = find_in(n, group, nullptr)) return p;
   return nullptr;
 }
 
@@ -185,8 +248,11 @@ std::string name(const Parameter& p, std::string_view plane, int axis) {
 
 std::string name_along(const Parameter& p, std::string_view along, int run) { return filled(p.name, "xy", along, run); }
 
+// A label names an axis as machine tools do, by its capital ("backlash Z"); "bar" stays a word.
+std::string axis_in_label(const std::string& along) { return along.size() == 1 ? upper(along) : along; }
+
 std::string label(const Parameter& p, std::string_view plane, int axis) {
-  return filled(p.label, plane, axis < 0 ? std::string() : axis_letter(plane, axis), 0);
+  return filled(p.label, plane, axis < 0 ? std::string() : axis_in_label(axis_letter(plane, axis)), 0);
 }
 
 bool per_axis(const Parameter& p) { return p.name.find("{axis}") != std::string_view::npos; }
@@ -203,6 +269,46 @@ std::pair<std::string, std::string> split_unit(const std::string& name) {
 }
 
 std::string unit(const Parameter& p) { return split_unit(std::string(p.name)).second; }
+
+std::string in_words(std::string_view id) {
+  std::string out(id);
+  std::replace(out.begin(), out.end(), '_', ' ');
+  return out;
+}
+
+std::string label_of(std::string_view name, std::string_view plane, std::string_view group) {
+  int run = 0;
+  const std::string_view bare = without_run(name, &run);
+  Placeholders by;
+  const Parameter* p = find_in(name, group, &by);
+  if (p)
+    run = 0;  // its {run} is in the name itself
+  else if (bare != name)
+    p = find_in(bare, group, &by);
+  std::string out;
+  if (p) {
+    out = filled(p->label, plane, axis_in_label(by.axis), by.run);
+  } else {
+    out = in_words(split_unit(std::string(bare)).first);
+  }
+  if (run > 0) out += " (run " + std::to_string(run) + ")";
+  return out;
+}
+
+ShownUnit shown_unit(std::string_view name, std::string_view group) {
+  const Parameter* p = find_parameter(name, group);
+  if (p && !p->shown_as.unit.empty()) return {std::string(p->shown_as.unit), p->shown_as.factor, p->shown_as.offset};
+  return {split_unit(std::string(without_run(name))).second, 1.0, 0.0};
+}
+
+Shown shown(std::string_view name, double value, double u, std::string_view plane, std::string_view group,
+            int significant) {
+  const ShownUnit su = shown_unit(name, group);
+  return {
+      label_of(name, plane, group),
+      with_uncertainty((value - su.offset) * su.factor, std::isfinite(u) ? u * std::abs(su.factor) : u, significant),
+      su.symbol};
+}
 
 std::span<const Parameter* const> headline_parameters(std::string_view kind) {
   static const std::map<std::string_view, std::vector<const Parameter*>, std::less<>> by_kind = [] {

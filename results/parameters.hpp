@@ -8,16 +8,30 @@
 //
 // A name may hold placeholders, filled by name():
 //   {axis}  a plane axis the caller picks (0: the plane's first axis, 1: its second; or a given name,
-//           "bar" for EXPLAIN's vibration along the bar)
+//           "bar" for EXPLAIN's vibration along the bar); in a label a one-letter axis is a capital
 //   {a} {b} the plane's first and second axis ("xz": x and z)
+//   {A} {B} {N} in labels: the plane's first and second axis and its normal, as capitals ("xz": X, Z, Y);
+//           Lai's names say x and y for the plane's axes whatever the plane, their labels say which
 //   {run}   a run's number, from 1
+//
+// How a value is shown to people (shown()): its label, its unit (the name's end, or `shown_as` where
+// the reported unit means little to a reader: a scale factor as ppm off 1, Lai's coefficients per mm
+// as micrometres per metre), and the value rounded to its uncertainty (core/number_format.hpp).
 
+#include <numbers>
 #include <span>
 #include <string>
 #include <string_view>
 #include <utility>
 
 namespace guideway::results {
+
+// The unit a value is shown in when it is not the one its name ends with: shown = (value - offset) * factor.
+struct ShownAs {
+  std::string_view unit;  // "" = the name's own unit
+  double factor = 1.0;
+  double offset = 0.0;
+};
 
 struct Parameter {
   std::string_view name;     // as reported, unit last: "backlash_{axis}_um"
@@ -29,6 +43,7 @@ struct Parameter {
   std::string_view also_in = {};   // the group to read when `group` lacks it (a DBB backlash: Lai's)
   std::string_view value_at = {};  // JSON pointer of its value when that is not /group/name/value
   std::string_view u_at = {};      // ... and of its standard uncertainty (with value_at)
+  ShownAs shown_as = {};           // how people read it, when not in the name's unit
 };
 
 // ---- DBB: the ballbar diagnostics (models/dbb identify; docs/conventions.md) ----------------------------
@@ -79,36 +94,170 @@ inline constexpr Parameter cyclic_phase{"cyclic_phase_{axis}_deg", "cyclic phase
                                         "phase of the cyclic error at position 0"};
 
 // ---- DBB: Lai's third-order model (Lai 1997 Table 3 names; x, y are Lai's a, b whatever the plane) ------
-inline constexpr Parameter lai_e_x{"e_x_um", "fixed ball offset a", "dbb", "lai3", "fixed ball offset along a"};
-inline constexpr Parameter lai_e_y{"e_y_um", "fixed ball offset b", "dbb", "lai3", "fixed ball offset along b"};
-inline constexpr Parameter lai_S_x{"S_x", "scale factor a", "dbb", "lai3", "scale factor of axis a (1 = exact)"};
-inline constexpr Parameter lai_S_y{"S_y", "scale factor b", "dbb", "lai3", "scale factor of axis b (1 = exact)"};
-inline constexpr Parameter lai_a1{"a1_rad", "a1", "dbb", "lai3", "X straightness in b, linear: the squareness"};
-inline constexpr Parameter lai_a2{"a2_per_mm", "a2", "dbb", "lai3", "X straightness in b, quadratic"};
-inline constexpr Parameter lai_a3{"a3_per_mm2", "a3", "dbb", "lai3", "X straightness in b, cubic"};
-inline constexpr Parameter lai_b2{"b2_per_mm", "b2", "dbb", "lai3", "Y straightness in a, quadratic"};
-inline constexpr Parameter lai_b3{"b3_per_mm2", "b3", "dbb", "lai3", "Y straightness in a, cubic"};
-inline constexpr Parameter lai_c0_plus_d1{"c0_plus_d1_rad", "c0 + d1", "dbb", "lai3",
-                                          "Y roll and X straightness in n, linear (not separable)"};
-inline constexpr Parameter lai_c1{"c1_per_mm", "c1", "dbb", "lai3", "Y roll, linear"};
-inline constexpr Parameter lai_c2{"c2_per_mm2", "c2", "dbb", "lai3", "Y roll, quadratic"};
-inline constexpr Parameter lai_d2{"d2_per_mm", "d2", "dbb", "lai3", "X straightness in n, quadratic"};
-inline constexpr Parameter lai_d3{"d3_per_mm2", "d3", "dbb", "lai3", "X straightness in n, cubic"};
-inline constexpr Parameter lai_e1{"e1_rad", "e1", "dbb", "lai3", "Y straightness in n, linear"};
-inline constexpr Parameter lai_e2{"e2_per_mm", "e2", "dbb", "lai3", "Y straightness in n, quadratic"};
-inline constexpr Parameter lai_e3{"e3_per_mm2", "e3", "dbb", "lai3", "Y straightness in n, cubic"};
-inline constexpr Parameter lai_backlash_x{"backlash_x_um", "backlash a", "dbb", "lai3", "backlash of axis a"};
-inline constexpr Parameter lai_backlash_y{"backlash_y_um", "backlash b", "dbb", "lai3", "backlash of axis b"};
+// Shown in units a reader can picture: a straightness coefficient per mm^(k-1) as the micrometres it
+// bends the axis over a metre (um/m^k), a roll coefficient as urad/m^k, an angle in urad, S - 1 in ppm.
+inline constexpr ShownAs shown_um_per_m2{"\u00b5m/m\u00b2", 1e9};
+inline constexpr ShownAs shown_um_per_m3{"\u00b5m/m\u00b3", 1e12};
+inline constexpr ShownAs shown_urad{"\u00b5rad", 1e6};
+inline constexpr ShownAs shown_urad_per_m{"\u00b5rad/m", 1e9};
+inline constexpr ShownAs shown_urad_per_m2{"\u00b5rad/m\u00b2", 1e12};
+inline constexpr ShownAs shown_ppm_off_one{"ppm", 1e6, 1.0};
+inline constexpr Parameter lai_e_x{"e_x_um", "fixed ball offset {A}", "dbb", "lai3", "fixed ball offset along a"};
+inline constexpr Parameter lai_e_y{"e_y_um", "fixed ball offset {B}", "dbb", "lai3", "fixed ball offset along b"};
+inline constexpr Parameter lai_S_x{
+    "S_x", "scale {A} (S_x - 1)", "dbb", "lai3", "scale factor of axis a (1 = exact)", 0, {}, {},
+    {},    shown_ppm_off_one};
+inline constexpr Parameter lai_S_y{
+    "S_y", "scale {B} (S_y - 1)", "dbb", "lai3", "scale factor of axis b (1 = exact)", 0, {}, {},
+    {},    shown_ppm_off_one};
+inline constexpr Parameter lai_a1{"a1_rad",
+                                  "{A} straightness along {B}, linear: squareness (a1)",
+                                  "dbb",
+                                  "lai3",
+                                  "X straightness in b, linear: the squareness",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_urad};
+inline constexpr Parameter lai_a2{"a2_per_mm",
+                                  "{A} straightness along {B}, quadratic (a2)",
+                                  "dbb",
+                                  "lai3",
+                                  "X straightness in b, quadratic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m2};
+inline constexpr Parameter lai_a3{"a3_per_mm2",
+                                  "{A} straightness along {B}, cubic (a3)",
+                                  "dbb",
+                                  "lai3",
+                                  "X straightness in b, cubic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m3};
+inline constexpr Parameter lai_b2{"b2_per_mm",
+                                  "{B} straightness along {A}, quadratic (b2)",
+                                  "dbb",
+                                  "lai3",
+                                  "Y straightness in a, quadratic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m2};
+inline constexpr Parameter lai_b3{"b3_per_mm2",
+                                  "{B} straightness along {A}, cubic (b3)",
+                                  "dbb",
+                                  "lai3",
+                                  "Y straightness in a, cubic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m3};
+inline constexpr Parameter lai_c0_plus_d1{"c0_plus_d1_rad",
+                                          "{B} roll + {A} straightness along {N}, linear (c0 + d1)",
+                                          "dbb",
+                                          "lai3",
+                                          "Y roll and X straightness in n, linear (not separable)",
+                                          0,
+                                          {},
+                                          {},
+                                          {},
+                                          shown_urad};
+inline constexpr Parameter lai_c1{"c1_per_mm", "{B} roll, linear (c1)", "dbb", "lai3", "Y roll, linear", 0, {}, {},
+                                  {},          shown_urad_per_m};
+inline constexpr Parameter lai_c2{
+    "c2_per_mm2", "{B} roll, quadratic (c2)", "dbb", "lai3", "Y roll, quadratic", 0, {}, {}, {}, shown_urad_per_m2};
+inline constexpr Parameter lai_d2{"d2_per_mm",
+                                  "{A} straightness along {N}, quadratic (d2)",
+                                  "dbb",
+                                  "lai3",
+                                  "X straightness in n, quadratic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m2};
+inline constexpr Parameter lai_d3{"d3_per_mm2",
+                                  "{A} straightness along {N}, cubic (d3)",
+                                  "dbb",
+                                  "lai3",
+                                  "X straightness in n, cubic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m3};
+inline constexpr Parameter lai_e1{
+    "e1_rad",  "{B} straightness along {N}, linear (e1)", "dbb", "lai3", "Y straightness in n, linear", 0, {}, {}, {},
+    shown_urad};
+inline constexpr Parameter lai_e2{"e2_per_mm",
+                                  "{B} straightness along {N}, quadratic (e2)",
+                                  "dbb",
+                                  "lai3",
+                                  "Y straightness in n, quadratic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m2};
+inline constexpr Parameter lai_e3{"e3_per_mm2",
+                                  "{B} straightness along {N}, cubic (e3)",
+                                  "dbb",
+                                  "lai3",
+                                  "Y straightness in n, cubic",
+                                  0,
+                                  {},
+                                  {},
+                                  {},
+                                  shown_um_per_m3};
+inline constexpr Parameter lai_backlash_x{"backlash_x_um", "backlash {A}", "dbb", "lai3", "backlash of axis a"};
+inline constexpr Parameter lai_backlash_y{"backlash_y_um", "backlash {B}", "dbb", "lai3", "backlash of axis b"};
 inline constexpr Parameter lai_servo_mismatch{"servo_mismatch_ms", "servo mismatch", "dbb", "lai3",
                                               "servo lag difference of axis a behind b"};
-inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg", "mismatch phase angle", "dbb", "lai3",
-                                                    "Lai's phase angle of the servo mismatch at the first run's speed"};
+inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg",
+                                                    "servo mismatch phase angle",
+                                                    "dbb",
+                                                    "lai3",
+                                                    "Lai's phase angle of the servo mismatch at the first run's speed",
+                                                    0,
+                                                    {},
+                                                    {},
+                                                    {},
+                                                    {"\u00b5rad", 1e6 * std::numbers::pi / 180}};
+
+// ---- DBB: the errors "what to fix first" ranks from Lai's model (its terms grouped by the error they
+// describe; the diagnostics' ranking names the diagnostics above) -------------------------------------------
+inline constexpr Parameter rank_scale_mismatch{"scale_mismatch", "scale mismatch", "dbb", "ranking",
+                                               "S_x and S_y: their difference (what they share is the radius)"};
+inline constexpr Parameter rank_backlash_a{"backlash_x", "backlash {A}", "dbb", "ranking", "Lai's backlash of axis a"};
+inline constexpr Parameter rank_backlash_b{"backlash_y", "backlash {B}", "dbb", "ranking", "Lai's backlash of axis b"};
+inline constexpr Parameter rank_servo_mismatch{"servo_mismatch", "servo mismatch", "dbb", "ranking",
+                                               "Lai's servo lag difference"};
+inline constexpr Parameter rank_straightness_ab{"x_straightness_in_y", "{A} straightness along {B}", "dbb", "ranking",
+                                                "a1, a2, a3: the squareness with the straightness of axis a in b"};
+inline constexpr Parameter rank_straightness_ba{"y_straightness_in_x", "{B} straightness along {A}", "dbb", "ranking",
+                                                "b2, b3: the straightness of axis b in a"};
+inline constexpr Parameter rank_straightness_an{"x_straightness_in_z", "{A} straightness along {N}", "dbb", "ranking",
+                                                "d2, d3: the straightness of axis a along the plane's normal"};
+inline constexpr Parameter rank_straightness_bn{"y_straightness_in_z", "{B} straightness along {N}", "dbb", "ranking",
+                                                "e1, e2, e3: the straightness of axis b along the plane's normal"};
+inline constexpr Parameter rank_roll_b{"y_roll", "{B} roll", "dbb", "ranking", "c1, c2: the roll of axis b"};
+inline constexpr Parameter rank_roll_b_straightness_an{"y_roll_and_x_straightness_in_z",
+                                                       "{B} roll and {A} straightness along {N}", "dbb", "ranking",
+                                                       "c0 + d1, which no set of patterns separates"};
 
 // ---- DBB: terms of the compensation map only (models/compensation) ------------------------------------------
 inline constexpr Parameter straightness_cubic{"straightness_cubic_{axis}_um", "cubic straightness {axis}", "dbb", "",
                                               "cubic part of the axis' straightness at the circle's radius"};
 inline constexpr Parameter straightness_cubic_difference{
-    "straightness_cubic_{a}_minus_{b}_um", "cubic straightness {a} - {b}", "dbb", "",
+    "straightness_cubic_{a}_minus_{b}_um", "cubic straightness {A} - {B}", "dbb", "",
     "difference of the plane axes' cubic straightness, all one circle determines"};
 
 // ---- DBB: EXPLAIN's effect parameters besides the diagnostics' (models/explain/effects) -------------------
@@ -229,7 +378,8 @@ inline constexpr Parameter form_straightness{"form_straightness_um",
 std::span<const Parameter* const> catalogue();
 // The entry a reported name is an instance of ("backlash_z_um", "run2.center_offset_x_um",
 // "vibration_phase_bar_deg_run1"), the first in catalogue order; nullptr for a name not in the catalogue.
-const Parameter* find_parameter(std::string_view name);
+// With a group: its entry first (Lai's "backlash_x_um" is its own, not the diagnostics').
+const Parameter* find_parameter(std::string_view name, std::string_view group = {});
 
 // The plane's axis `axis` (0 or 1) as it is written in names: "xz", 1 -> "z" (a plane not of two
 // letters: x and y).
@@ -245,7 +395,33 @@ std::string label(const Parameter& p, std::string_view plane = "xy", int axis = 
 std::string run_prefixed(int run, const std::string& name);
 std::string run_suffixed(const std::string& name, int run);
 
-// The unit a name ends with, as shown ("_um" -> "µm"): the one table of unit suffixes.
+// The label of a reported name, placeholders filled from the name and the plane, a run's number after it:
+// "run2.center_offset_x_um" -> "centre offset x (run 2)"; "y_straightness_in_z" -> "Y straightness along Z".
+// The entry of `group` first (Lai's "backlash_y_um" is the plane's second axis, the diagnostics' the y
+// axis); a name not in the catalogue in words ("horizontal_end_point_um" -> "horizontal end point").
+std::string label_of(std::string_view name, std::string_view plane = "xy", std::string_view group = {});
+
+// An identifier in words ("thermal_drift" -> "thermal drift"): an effect's or a group's name for people.
+std::string in_words(std::string_view id);
+
+// A reported value as people read it: the label, the value in the unit it is shown in, rounded to its
+// uncertainty (GUM: u to two significant digits, the value to the same place; core/number_format.hpp).
+struct Shown {
+  std::string label;
+  std::string value;  // "-10.01 \u00b1 0.34", "(2.211 \u00b1 0.013)e-7"; without u: `significant` digits
+  std::string unit;   // "ppm", "\u00b5m/m\u00b2"; "" for a number without unit
+};
+Shown shown(std::string_view name, double value, double u, std::string_view plane = "xy", std::string_view group = {},
+            int significant = 3);
+// The unit the name's value is shown in, and the conversion from the reported value.
+struct ShownUnit {
+  std::string symbol;
+  double factor = 1.0;
+  double offset = 0.0;
+};
+ShownUnit shown_unit(std::string_view name, std::string_view group = {});
+
+// The unit a name ends with, as reported ("_um" -> "µm"): the one table of unit suffixes.
 // "name_um" -> ("name", "µm"); a name without a known suffix -> (name, "").
 std::pair<std::string, std::string> split_unit(const std::string& name);
 std::string unit(const Parameter& p);

@@ -38,7 +38,8 @@ def main():
             assert "value" in v and v.get("u", 0) is not None, name
         # readable table and a clear error for a broken file
         text = subprocess.run([exe, "identify", "dbb", *files], check=True, capture_output=True, text=True).stdout
-        assert "Lai third-order model" in text and "refused" in text
+        assert "Lai's third-order model" in text and "not separable by these runs" in text, text
+        assert "condition" not in text and "+/-" not in text and "fit:" not in text, text
         bad = os.path.join(d, "bad.csv")
         with open(files[2]) as f, open(bad, "w") as g:
             g.write(f.read().replace("# direction = ccw", "# direction = cw"))

@@ -191,7 +191,7 @@ class EndToEndSessions(unittest.TestCase):
             self.assertEqual(json.load(f)["findings"], e["findings"])
         html = self.session_report(d, p)
         self.assertIn('data-kind="explain"', html)
-        self.assertIn("Residual after + feed_marks (finding 1)", html)
+        self.assertIn("Residual after + feed marks (finding 1)", html)
         # Straightness traverse: no explanation model; the EXPLAIN says why and claims nothing.
         t = params["straightness"]
         e = self.latest_explain(d, t)

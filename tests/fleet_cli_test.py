@@ -131,11 +131,11 @@ def main():
     check(lines[4].startswith("refused at ingest: 1 message(s)") and "lathe-2/params/dbb" in lines[5]
           and "not JSON" in lines[5], "refusals: %r" % lines[4:])
     check("offline (connection lost)" in lines[1] and " online " in lines[2], "status states: %r" % lines[1:3])
-    check("G/µm" in lines[0] and "backlash x/µm" in lines[0] and "run-out/µm" in lines[0], "status header: %r" % lines[0])
+    check("G/µm" in lines[0] and "backlash X/µm" in lines[0] and "run-out/µm" in lines[0], "status header: %r" % lines[0])
     col = lines[0].index("LAST DBB")
     check(all(len(l) > col and l[col - 2:col] == "  " for l in lines[:3]), "status columns not aligned: %r" % lines[:3])
     check("k = 2" in lines[3] and "never flagged" in lines[3], "status: no moved rule: %r" % lines[3])
-    bcol = lines[0].index("backlash x/µm") + len("backlash x/µm")
+    bcol = lines[0].index("backlash X/µm") + len("backlash X/µm")
     check(lines[2][bcol] == "*" and lines[1][bcol] == " ", "backlash x moved mark: %r / %r" % (lines[2], lines[1]))
 
     st = json.loads(gw("fleet", "status", "--db", db, "--json").stdout)
@@ -171,7 +171,7 @@ def main():
     check([next(g for g in x["figures"] if g["name"] == "backlash_x_um")["moved"] for x in params] == [False, False, True],
           "history moved flags")
     text = gw("fleet", "history", "mill-1", "--db", db).stdout
-    check("backlash x: 0.9956 ± 0.0080 µm" in text and "found: backlash 1.99 µm" in text, "history text:\n" + text)
+    check("backlash X: 0.9956 ± 0.0080 µm" in text and "found: backlash 1.99 µm" in text, "history text:\n" + text)
     r = gw("fleet", "history", "drill-9", "--db", db, ok=False)
     check(r.returncode == 1 and "unknown machine 'drill-9'; known: lathe-2, mill-1" in r.stderr, "unknown machine: %r" % r.stderr)
 

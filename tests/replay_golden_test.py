@@ -5,7 +5,8 @@ Every raw recording tests/golden/NAME.csv (recorded live by guidewayd from the e
 through the daemon's session code and its PARAMS compared with tests/golden/NAME.params.json, which
 holds what the live session published, and its EXPLAIN with NAME.explain.json (the live EXPLAIN when
 record_golden.py recorded it, else the reviewed output of --regenerate). Numbers agree to 1e-9
-relative; any other difference fails.
+relative; any other difference fails. The text output of the same replay (no --json) must read as a
+measurement: no fit internals or unrounded dumps (DUMP_MARKERS).
 
     replay_golden_test.py GUIDEWAY GOLDEN_DIR              # check
     replay_golden_test.py GUIDEWAY GOLDEN_DIR --regenerate # rewrite the .params.json files from the replay
@@ -29,6 +30,19 @@ def replay(guideway, recording):
     explain = next((m for m in messages if m["class"] == "EXPLAIN"), None)
     strip = lambda m: None if m is None else {k: v for k, v in m.items() if k not in IGNORED}
     return strip(params), strip(explain)
+
+
+# What the default (text) output must not show: the fit's internals and unrounded dumps stay in --json.
+DUMP_MARKERS = ("condition_number", "diagnostics_fit", "message=", "rms_um=", "+/-", "e+15", "_um ", "_ppm ")
+
+
+def text_dumps(guideway, recording):
+    """The dump markers `guideway replay` (no --json) prints for this recording: none expected."""
+    out = subprocess.run([guideway, "replay", str(recording)], capture_output=True, text=True, timeout=120)
+    if out.returncode != 0:
+        return [f"guideway replay exited {out.returncode}: {out.stderr}"]
+    return [f"{m!r} in: {line.strip()}" for line in out.stdout.splitlines() for m in DUMP_MARKERS
+            if m in line and not line.startswith(("recording:", "derived:", "replayed "))]
 
 
 def differences(expected, actual, where=""):
@@ -64,6 +78,12 @@ def main():
     failures = 0
     for rec in recordings:
         params, explain = replay(guideway, rec)
+        dumps = [] if regenerate else text_dumps(guideway, rec)
+        if dumps:
+            failures += 1
+            print(f"FAIL {rec.name}: the text output shows internals (they belong in --json):")
+            for d in dumps[:10]:
+                print("   ", d)
         # KIND.params.json: what the live session published; KIND.explain.json: its EXPLAIN.
         for suffix, actual in ((".params.json", params), (".explain.json", explain)):
             expected_path = rec.with_suffix(suffix)

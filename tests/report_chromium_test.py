@@ -3,7 +3,9 @@
 tools (report/tools/example_inputs.py: guideway simulate dbb, guideway-emulate workpiece, Moody's 1955 plate,
 an explanation), one report per analysis and one with all of them is rendered, loaded in
 Chromium, and checked: no console errors, no failed or external loads, no scripts, and every plot's SVG has
-its axes, axis labels with units, legend (where there are several series) and data paths with points.
+its axes, axis labels with units, legend (where there are several series) and data paths with points; at
+a laptop's width (1400 px) and laid out for A4 print, no two texts of a plot overlap (their boxes as
+Chromium lays them out) and none reaches outside its plot.
 Screenshots (PNG), A4 print-outs (PDF) and the HTML files are kept in ARTEFACTS as test artefacts.
 
 usage: report_chromium_test.py GUIDEWAY GUIDEWAY_EMULATE SOURCE_DIR MOODY_DIR ARTEFACTS
@@ -20,7 +22,7 @@ GUIDEWAY, EMULATE, SRC, MOODY, ART = sys.argv[1:6]
 sys.path.insert(0, os.path.join(SRC, "report", "tools"))
 import cdp  # noqa: E402
 import example_inputs  # noqa: E402
-from report_dom import PLOTS_JS, have_chromium, open_self_contained  # noqa: E402
+from report_dom import PLOTS_JS, TEXT_BOXES_JS, have_chromium, open_self_contained, text_overlaps  # noqa: E402
 from process_support import Checks  # noqa: E402
 
 check = Checks()
@@ -51,9 +53,30 @@ EXPECTED = {
 UNIT = re.compile(r" / |\u00b5m|/div|deg")
 
 
+# The A4 print's text width at 96 px per inch: 210 mm less 2 x 12 mm of margin.
+A4_TEXT_PX = 703
+
+
+def check_text_boxes(browser, html, where):
+    """No overlapping texts in any plot, on screen and laid out for print (then back to the screen)."""
+    for media, width in (("screen", browser.width), ("print", A4_TEXT_PX)):
+        browser.call("Emulation.setEmulatedMedia", {"media": media})
+        browser.call("Emulation.setDeviceMetricsOverride",
+                     {"width": width, "height": browser.height, "deviceScaleFactor": 1, "mobile": False})
+        for plot in browser.evaluate(TEXT_BOXES_JS):
+            pairs, outside = text_overlaps(plot)
+            w = "%s %s at %d px: %s plot '%s'" % (os.path.basename(html), media, width, plot["kind"], plot["title"])
+            check(not pairs, w + ": texts overlap: %s" % pairs[:5])
+            check(not outside, w + ": texts outside the plot: %s" % outside[:5])
+    browser.call("Emulation.setEmulatedMedia", {"media": "screen"})
+    browser.call("Emulation.setDeviceMetricsOverride",
+                 {"width": browser.width, "height": browser.height, "deviceScaleFactor": 1, "mobile": False})
+
+
 def check_report(browser, html, kinds):
     kinds = sorted(set(kinds))
     open_self_contained(browser, html, check)
+    check_text_boxes(browser, html, kinds)
     sections = browser.evaluate(PLOTS_JS)
     correlation_bars = []
     check(sorted({s["kind"] for s in sections}) == sorted(kinds), "%s: sections %s, expected %s"
@@ -113,7 +136,7 @@ def check_report(browser, html, kinds):
                   where + ": no base-model residual panel: %s" % [p["title"] for p in steps])
             for k, e in enumerate(effects):
                 if k + 1 < len(steps):
-                    check(("after + %s (finding %d)" % (e, k + 1)) in steps[k + 1]["title"],
+                    check(("after + %s (finding %d)" % (e.replace("_", " "), k + 1)) in steps[k + 1]["title"],
                           where + ": panel %d is '%s', expected finding %d (%s)" % (k + 1, steps[k + 1]["title"], k + 1, e))
             runs = EXPLANATION["residuals"]["runs"]
             for p in steps:
@@ -161,7 +184,7 @@ def main():
     if "residuals" in EXPLANATION:
         # One residual panel per step: the base model, then after each finding.
         EXPECTED["explain"]["line"] = 1 + len(EXPLANATION["findings"])
-    with cdp.Browser() as b:
+    with cdp.Browser(width=1400) as b:
         for kind, files in inputs.items():
             html = os.path.join(ART, "report_%s.html" % kind)
             run(GUIDEWAY, "report", *files, "--out", html, "--no-date", "--title", "Guideway report: " + kind)

@@ -3,23 +3,24 @@
 // checked from outside by report_svg_xml_test.py; the whole page in Chromium by report_chromium_test.py.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdlib>
-#include <numbers>
-#include <unistd.h>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <random>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
 #include "formats/dbb_run.hpp"
-#include "simulators/machine/dbb_runs.hpp"
-#include "simulators/scenarios/scenarios.hpp"
 #include "report/html.hpp"
 #include "report/report.hpp"
 #include "report/svg.hpp"
+#include "simulators/machine/dbb_runs.hpp"
 #include "simulators/machine/machine.hpp"
+#include "simulators/scenarios/scenarios.hpp"
 
 using namespace guideway;
 namespace fs = std::filesystem;
@@ -58,9 +59,7 @@ bool tags_balance(const std::string& svg) {
 double mantissa(double step) { return step / std::pow(10.0, std::floor(std::log10(step) + 1e-9)); }
 
 // The project's copy of the real data (tests/data: Moody 1955).
-std::string data_dir() {
-  return GUIDEWAY_TEST_DATA_DIR;
-}
+std::string data_dir() { return GUIDEWAY_TEST_DATA_DIR; }
 
 fs::path temp_dir(const std::string& name) {
   const auto d = fs::temp_directory_path() / ("guideway_report_test_" + name + "_" + std::to_string(::getpid()));
@@ -86,7 +85,7 @@ TEST(ReportSvg, NiceTicksCoverTheRangeWithOneTwoFiveSteps) {
     EXPECT_TRUE(std::abs(m - 1) < 1e-9 || std::abs(m - 2) < 1e-9 || std::abs(m - 5) < 1e-9) << t.step;
     // Every tick prints distinctly with the stated decimals.
     for (std::size_t k = 1; k < t.values.size(); ++k)
-      EXPECT_NE(report::format_fixed(t.values[k - 1], t.decimals), report::format_fixed(t.values[k], t.decimals));
+      EXPECT_NE(guideway::format_fixed(t.values[k - 1], t.decimals), guideway::format_fixed(t.values[k], t.decimals));
   }
   EXPECT_EQ(report::nice_ticks(0, 0).values.size() >= 2, true);
   EXPECT_THROW((void)report::nice_ticks(0, NAN), std::invalid_argument);
@@ -106,13 +105,13 @@ TEST(ReportSvg, NiceCeilAndScale) {
 }
 
 TEST(ReportSvg, NumberFormattingAndEscaping) {
-  EXPECT_EQ(report::format_fixed(-0.0001, 2), "0.00");
-  EXPECT_EQ(report::format_fixed(-1.5, 1), "-1.5");
-  EXPECT_EQ(report::format_number(0.0123456, 3), "0.0123");
-  EXPECT_EQ(report::format_number(1234.6, 4), "1235");  // no exponent
-  EXPECT_EQ(report::format_with_u(1.23456, 0.0123), "1.235 \u00b1 0.012");
-  EXPECT_EQ(report::format_with_u(2.5, NAN), "2.5000");
-  EXPECT_EQ(report::format_with_u(2.2519e-7, 8.5e-10), "(2.2519 \u00b1 0.0085)e-7");
+  EXPECT_EQ(guideway::format_fixed(-0.0001, 2), "0.00");
+  EXPECT_EQ(guideway::format_fixed(-1.5, 1), "-1.5");
+  EXPECT_EQ(guideway::format_number(0.0123456, 3), "0.0123");
+  EXPECT_EQ(guideway::format_number(1234.6, 4), "1235");  // no exponent
+  EXPECT_EQ(guideway::with_uncertainty(1.23456, 0.0123), "1.235 \u00b1 0.012");
+  EXPECT_EQ(guideway::with_uncertainty(2.5, NAN, 5), "2.5000");
+  EXPECT_EQ(guideway::with_uncertainty(2.2519e-7, 8.5e-10), "(2.2519 \u00b1 0.0085)e-7");
   EXPECT_EQ(report::xml_escape("a<b & \"c\" 'd'>"), "a&lt;b &amp; &quot;c&quot; &#39;d&#39;&gt;");
 }
 
@@ -168,6 +167,7 @@ TEST(ReportSvg, LongSeriesAreDecimatedKeepingExtremes) {
 TEST(ReportSvg, PolarScaleIsTheSmallestFittingOneTwoFiveValue) {
   for (double amp : {0.03, 0.7, 1.0, 3.9, 4.0, 17.0, 250.0}) {
     report::PolarPlot p;
+    p.divisions = 4;  // given: the scale alone is chosen
     report::PolarSeries s;
     for (int i = 0; i < 360; ++i) {
       s.angle_rad.push_back(i * std::numbers::pi / 180);
@@ -182,7 +182,30 @@ TEST(ReportSvg, PolarScaleIsTheSmallestFittingOneTwoFiveValue) {
     const auto svg = report::render(p);
     EXPECT_TRUE(tags_balance(svg));
     EXPECT_EQ(count(svg, "class=\"ring\""), 2u * p.divisions);
-    EXPECT_NE(svg.find(report::format_number(per, 3) + " \u00b5m/div"), std::string::npos);
+    EXPECT_NE(svg.find(guideway::format_number(per, 3) + " \u00b5m/div"), std::string::npos);
+  }
+}
+
+TEST(ReportSvg, PolarScaleFillsThePlot) {
+  // The deviation about the least-squares circle: its largest value reaches 64 % to 97 % of the outer
+  // ring whatever its size, with 3 to 5 divisions of a 1-2-5 step.
+  for (double amp = 0.011; amp < 500; amp *= 1.37) {
+    report::PolarPlot p;
+    report::PolarSeries s;
+    for (int i = 0; i < 360; ++i) {
+      s.angle_rad.push_back(i * std::numbers::pi / 180);
+      s.deviation_um.push_back(amp * std::sin(3 * i * std::numbers::pi / 180));
+    }
+    p.series = {s};
+    const report::PolarScale scale = report::polar_scale(p);
+    const double m = mantissa(scale.um_per_div);
+    EXPECT_TRUE(std::abs(m - 1) < 1e-9 || std::abs(m - 2) < 1e-9 || std::abs(m - 5) < 1e-9) << scale.um_per_div;
+    EXPECT_GE(scale.divisions, 3);
+    EXPECT_LE(scale.divisions, 5);
+    const double reach = amp / (scale.divisions * scale.um_per_div);
+    EXPECT_GE(reach, 0.63) << amp;
+    EXPECT_LE(reach, 0.975) << amp;
+    EXPECT_EQ(count(report::render(p), "class=\"ring\""), 2u * static_cast<unsigned>(scale.divisions));
   }
 }
 
@@ -212,6 +235,15 @@ TEST(ReportSvg, HeightMapAndBarsAndPanels) {
   EXPECT_TRUE(tags_balance(bs));
   EXPECT_EQ(count(bs, "class=\"data\""), 2u);
   EXPECT_EQ(count(bs, "data-points=\"2\""), 1u);  // the NaN bar is left out
+  // Horizontal: a row per category, its label right-aligned left of the frame, the value axis at the bottom.
+  b.horizontal = true;
+  b.categories = {"Y straightness along Z", "b", "a rather long category label, still on its own row"};
+  const auto hb = report::render(b);
+  EXPECT_TRUE(tags_balance(hb));
+  EXPECT_EQ(count(hb, "class=\"axis y categorical\""), 1u);
+  EXPECT_EQ(count(hb, "class=\"axis x\""), 1u);
+  EXPECT_EQ(count(hb, "text-anchor=\"end\">"), 3u);
+  EXPECT_EQ(count(hb, "data-points=\"2\""), 1u);
 
   report::StackedPanels sp;
   sp.x_label = "x / mm";
@@ -244,10 +276,10 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   EXPECT_EQ(report::detect_input(inputs[3]), report::InputKind::explain);
 
   const auto html = report::render_report(inputs);
-  EXPECT_EQ(count(html, "<section class=\"analysis\""), 3u);  // both runs in one DBB section
-  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"polar\""), 1u);          // one set-up, CW and CCW overlaid
-  EXPECT_NE(html.find("circular_hysteresis_um"), std::string::npos);
-  EXPECT_NE(html.find("backlash_x_um"), std::string::npos);
+  EXPECT_EQ(count(html, "<section class=\"analysis\""), 3u);         // both runs in one DBB section
+  EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"polar\""), 1u);  // one set-up, CW and CCW overlaid
+  EXPECT_NE(html.find("circular hysteresis H"), std::string::npos);
+  EXPECT_NE(html.find("backlash X"), std::string::npos);
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"heightmap\""), 1u);
   // The DBB section's ranking ("what to fix first", beside the polar plot) and the explanation's RMS
   // after each finding (the example explanation carries no contributions: no ranking of its findings).
@@ -255,6 +287,49 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   EXPECT_NE(html.find("What to fix first"), std::string::npos);
   EXPECT_NE(html.find("<div class=\"side-by-side\">"), std::string::npos);
   EXPECT_EQ(html.find("<script"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+// Lai's three patterns (the demo's session) give no ballbar diagnostics: the section says why once and
+// shows no table of only a header, no "0 points" fit; the ranking is in words, as horizontal bars, and
+// every polar plot is of the deviation about the run's least-squares circle. Runs of a compensation check
+// come out before first, whatever order the files are given in (a glob puts after_* first).
+TEST(Report, DbbSectionShowsNoEmptyPartsAndBeforeComesFirst) {
+  const auto dir = temp_dir("lai_patterns");
+  const guideway::simulators::machine::Machine machine(guideway::simulators::machine::default_machine_config());
+  std::vector<std::string> after, before;
+  int k = 0;
+  for (const auto& [r_m, h_m, d] : {std::tuple{0.095, 0.031225, guideway::formats::DbbDirection::cw},
+                                    std::tuple{0.095, 0.031225, guideway::formats::DbbDirection::ccw},
+                                    std::tuple{0.1, 0.0, guideway::formats::DbbDirection::ccw}}) {
+    guideway::simulators::machine::DbbCircleSpec spec;
+    spec.radius_m = r_m;
+    spec.height_m = h_m;
+    spec.direction = d;
+    spec.feed_m_per_s = 5.0 / 60;
+    ++k;
+    for (const char* stage : {"after", "before"}) {
+      const auto path = (dir / (std::string(stage) + "_" + std::to_string(k) + ".csv")).string();
+      auto run = guideway::simulators::machine::simulate_dbb_run(machine, spec, path);
+      run.metadata["compensation"] = stage;
+      guideway::formats::write_dbb_run(run, path);
+      (stage[0] == 'a' ? after : before).push_back(path);
+    }
+  }
+  std::vector<std::string> inputs = after;
+  inputs.insert(inputs.end(), before.begin(), before.end());
+  const auto html = report::render_report(inputs);
+  EXPECT_LT(html.find("3 runs, before compensation"), html.find("3 runs, after compensation"));
+  EXPECT_LT(html.find("before_1.csv"), html.find("after_1.csv"));
+  EXPECT_EQ(html.find("Ballbar diagnostics</caption>"), std::string::npos) << "a diagnostics table without rows";
+  EXPECT_EQ(html.find(" 0 points"), std::string::npos);
+  EXPECT_EQ(html.find("condition number"), std::string::npos);
+  EXPECT_NE(html.find("no ballbar diagnostics: they need an in-plane"), std::string::npos);
+  EXPECT_NE(html.find(">Y straightness along Z<"), std::string::npos);  // a category of the ranking
+  EXPECT_EQ(html.find("y_straightness_in_z"), std::string::npos);
+  EXPECT_EQ(count(html, "class=\"axis y categorical\""), 2u);       // horizontal bars, before and after
+  EXPECT_EQ(count(html, "(bold ring: least-squares circle)"), 4u);  // two set-ups, twice
+  EXPECT_NE(html.find("mean radius 94.9"), std::string::npos);      // the circle's own radius, stated
   fs::remove_all(dir);
 }
 
@@ -321,7 +396,8 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
     EXPECT_NE(std::string(e.what()).find("explain.json: residuals: step '+ "), std::string::npos) << e.what();
   }
   // An EXPLAIN that says why nothing was analysed (a daemon session without an explanation model).
-  std::ofstream(path) << R"({"model":"straightness traverse","not_analysed":"too few stations","findings":[],"unexplained":true})";
+  std::ofstream(path)
+      << R"({"model":"straightness traverse","not_analysed":"too few stations","findings":[],"unexplained":true})";
   const auto na = report::render_report({path});
   EXPECT_NE(na.find("Not analysed: too few stations"), std::string::npos);
   EXPECT_EQ(count(na, "class=\"plot\""), 0u);

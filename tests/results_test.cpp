@@ -17,7 +17,7 @@ TEST(Results, ParameterNamesAreFilledForThePlane) {
   EXPECT_EQ(results::name(results::backlash, "xy", 0), "backlash_x_um");
   EXPECT_EQ(results::name(results::backlash, "xz", 1), "backlash_z_um");
   EXPECT_EQ(results::name(results::backlash, "yz", 0), "backlash_y_um");
-  EXPECT_EQ(results::label(results::backlash, "xz", 1), "backlash z");
+  EXPECT_EQ(results::label(results::backlash, "xz", 1), "backlash Z");
   EXPECT_EQ(results::name(results::straightness_cubic_difference, "yz"), "straightness_cubic_y_minus_z_um");
   EXPECT_EQ(results::name_along(results::vibration, "bar"), "vibration_bar_um");
   EXPECT_EQ(results::name_along(results::centre_drift_offset, "x", 3), "drift_x_offset_run3_um");
@@ -59,6 +59,38 @@ TEST(Results, UnitsComeFromTheNamesEnd) {
   EXPECT_EQ(results::unit(results::lai_a3), "1/mm\u00b2");
   EXPECT_EQ(results::split_unit("radius_mm"), std::make_pair(std::string("radius"), std::string("mm")));
   EXPECT_EQ(results::split_unit("S_x"), std::make_pair(std::string("S_x"), std::string()));
+}
+
+TEST(Results, ValuesAreShownInWordsAndUnitsThatMeanSomething) {
+  // Lai's names say x and y for the plane's axes: the labels say which axes they are.
+  EXPECT_EQ(results::label_of("y_straightness_in_z"), "Y straightness along Z");
+  EXPECT_EQ(results::label_of("y_straightness_in_z", "xz"), "Z straightness along Y");
+  EXPECT_EQ(results::label_of("backlash_y", "yz"), "backlash Z");
+  EXPECT_EQ(results::label_of("backlash_y_um", "xz", "lai3"), "backlash Z");
+  EXPECT_EQ(results::label_of("backlash_y_um", "xz", "diagnostics"), "backlash Y");
+  EXPECT_EQ(results::label_of("vibration_bar_um"), "vibration bar");
+  EXPECT_EQ(results::label_of("run2.center_offset_x_um"), "centre offset X (run 2)");
+  EXPECT_EQ(results::label_of("bar_drift_offset_run3_um"), "bar drift offset run 3");
+  EXPECT_EQ(results::label_of("horizontal_end_point_um"), "horizontal end point");
+  // A scale factor as ppm off 1, Lai's coefficients per mm as micrometres per metre.
+  auto s = results::shown("S_x", 0.9996776407483423, 4.069415599581395e-08);
+  EXPECT_EQ(s.label, "scale X (S_x - 1)");
+  EXPECT_EQ(s.value, "-322.359 \u00b1 0.041");
+  EXPECT_EQ(s.unit, "ppm");
+  s = results::shown("a2_per_mm", 2.2105014905903179e-07, 1.3290773841739774e-09);
+  EXPECT_EQ(s.value, "221.1 \u00b1 1.3");
+  EXPECT_EQ(s.unit, "\u00b5m/m\u00b2");
+  s = results::shown("e1_rad", 1.9978019374005592e-06, 3.8883399429594204e-07);
+  EXPECT_EQ(s.value, "2.00 \u00b1 0.39");
+  EXPECT_EQ(s.unit, "\u00b5rad");
+  s = results::shown("backlash_x_um", 0.9956473599246491, 0.008036227194117824);
+  EXPECT_EQ(s.value, "0.9956 \u00b1 0.0080");
+  EXPECT_EQ(s.unit, "\u00b5m");
+  s = results::shown("circular_deviation_um", 17.417894088049465, NAN);
+  EXPECT_EQ(s.label, "G");
+  EXPECT_EQ(s.value, "17.4");
+  EXPECT_EQ(results::shown_unit("tool_wear_um_per_m").symbol, "\u00b5m/m");
+  EXPECT_EQ(results::shown_unit("bar_drift_um_per_min").symbol, "\u00b5m/min");
 }
 
 TEST(Results, HeadlineFiguresAreInTheirKindsOrder) {
@@ -108,7 +140,8 @@ TEST(Results, HeaderIsWrittenWithoutEmptyFieldsAndReadBack) {
   h.samples = 12;
   h.derived = {"a.csv"};
   const nlohmann::json j = results::with_header({{"model", "m"}}, h);
-  EXPECT_EQ(j.dump(), R"({"derived":["a.csv"],"device":"dbb","kind":"dbb","model":"m","samples":12,"session":"dbb-dbb-1"})");
+  EXPECT_EQ(j.dump(),
+            R"({"derived":["a.csv"],"device":"dbb","kind":"dbb","model":"m","samples":12,"session":"dbb-dbb-1"})");
   const results::ResultHeader back = results::read_header(j);
   EXPECT_EQ(back.session, h.session);
   EXPECT_EQ(back.samples, h.samples);

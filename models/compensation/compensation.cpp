@@ -1,6 +1,7 @@
 #include "models/compensation/compensation.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <span>
@@ -8,6 +9,7 @@
 #include <string_view>
 
 #include "core/number_format.hpp"
+#include "core/printable.hpp"
 #include "formats/compensation_files.hpp"
 #include "models/dbb/geometry.hpp"
 #include "models/explain/dbb_explain.hpp"
@@ -624,7 +626,8 @@ std::string to_text(const ErrorMap& m) {
     << (m.model == "lai3" ? "Lai's third-order model (lai3; terms named as the diagnostics')"
                           : "the ballbar diagnostics")
     << " (" << m.plane << " plane, table step " << printf_number("%.3g", m.step_m * 1e3) << " mm)\n";
-  o << "  term                              value      u     use\n";
+  // Each term by its label, its value rounded to u in the unit it is shown in, and where it went.
+  std::vector<std::array<std::string, 4>> rows{{"term", "value \u00b1 u", "", "use"}};
   for (const auto& t : m.terms) {
     std::string use = left_out_because(t);
     if (!use.empty())
@@ -634,10 +637,23 @@ std::string to_text(const ErrorMap& m) {
                                                                          : m.axes[1].axis + ".comp";
     else
       use = (t.use == Use::map_only ? "errors.csv only: " : (t.use == Use::cross_table ? "" : "no table: ")) + t.why;
-    o << "  " << t.name << std::string(t.name.size() < 30 ? 30 - t.name.size() : 1, ' ')
-      << (t.determined ? printf_number("%10.4g", t.value) + printf_number("%8.2g", t.u) : std::string(18, ' ')) << "  "
-      << use << "\n";
+    results::Shown shown = results::shown(t.name, t.value, t.u, m.plane);
+    if (!t.determined) {  // no number for what the runs do not determine (use says why)
+      shown.value = "not determined";
+      shown.unit.clear();
+    }
+    rows.push_back({shown.label, shown.value, shown.unit, use});
   }
+  std::size_t label_w = 0, value_w = 0, unit_w = 0;
+  for (const auto& r : rows) {
+    label_w = std::max(label_w, display_width(r[0]));
+    value_w = std::max(value_w, display_width(r[1]));
+    unit_w = std::max(unit_w, display_width(r[2]));
+  }
+  for (const auto& r : rows)
+    o << "  " << r[0] << std::string(label_w - display_width(r[0]) + 2, ' ')
+      << std::string(value_w - display_width(r[1]), ' ') << r[1] << "  " << r[2]
+      << std::string(unit_w - display_width(r[2]) + 2, ' ') << r[3] << "\n";
   for (const auto& am : m.axes)
     o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, "
       << printf_number("%.3f", am.nominal_m.front() * 1e3) << " .. " << printf_number("%.3f", am.nominal_m.back() * 1e3)
@@ -646,10 +662,10 @@ std::string to_text(const ErrorMap& m) {
   if (m.squareness_known) {
     const auto adv = squareness_advice(m.squareness_rad);
     const std::string a = m.axes[0].axis, b = m.axes[1].axis;
-    o << "squareness " << a << b << ": " << printf_number("%.2f", adv.um_per_m) << " um/m (+/- "
-      << printf_number("%.2f", m.squareness_u_rad * 1e6) << "); correction "
-      << printf_number("%+.3f", adv.correction_um_per_100mm) << " um of " << letters_upper(a) << " per +100 mm of "
-      << letters_upper(b) << (m.squareness_significant ? "" : " (" + squareness_left_out(m) + ": leave it)")
+    o << "squareness " << a << b << ": " << with_uncertainty(adv.um_per_m, m.squareness_u_rad * 1e6)
+      << " \u00b5m/m; correction " << printf_number("%+.3f", adv.correction_um_per_100mm) << " \u00b5m of "
+      << letters_upper(a) << " per +100 mm of " << letters_upper(b)
+      << (m.squareness_significant ? "" : " (" + squareness_left_out(m) + ": leave it)")
       << ". A per-joint table cannot hold it: set your controller's axis-skew correction, or change the kinematics\n";
   }
   return o.str();

@@ -890,17 +890,30 @@ LsqResult diagnose(const std::vector<formats::DbbRun>& runs, std::vector<Point>&
   return res;
 }
 
-double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um) {
+CircleFit least_squares_circle(std::span<const double> angle_rad, std::span<const double> reading_um) {
+  CircleFit out;
   const auto n = static_cast<Eigen::Index>(reading_um.size());
-  if (n < 4 || angle_rad.size() != reading_um.size()) return 0.0;
+  if (n < 4 || angle_rad.size() != reading_um.size()) return out;
   Eigen::MatrixXd a(n, 3);
   Eigen::VectorXd y(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     a.row(i) << 1.0, std::cos(angle_rad[static_cast<std::size_t>(i)]), std::sin(angle_rad[static_cast<std::size_t>(i)]);
     y[i] = reading_um[static_cast<std::size_t>(i)];
   }
-  const Eigen::VectorXd res = y - a * a.colPivHouseholderQr().solve(y);
-  return res.maxCoeff() - res.minCoeff();
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(y);
+  const Eigen::VectorXd res = y - a * c;
+  out.mean_um = c[0];
+  out.cos_um = c[1];
+  out.sin_um = c[2];
+  out.deviation_um.assign(res.data(), res.data() + n);
+  return out;
+}
+
+double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um) {
+  const CircleFit c = least_squares_circle(angle_rad, reading_um);
+  if (c.deviation_um.empty()) return 0.0;
+  const auto [lo, hi] = std::minmax_element(c.deviation_um.begin(), c.deviation_um.end());
+  return *hi - *lo;
 }
 
 namespace {
@@ -908,24 +921,19 @@ namespace {
 // The error a Lai parameter describes, for the ranking: the two scales together (what they share is a
 // radius, which the circle absorbs), the straightness coefficients by axis and direction.
 std::string lai_error_group(const std::string& name) {
-  if (name == "S_x" || name == "S_y") return "scale_mismatch";
-  if (name == results::lai_backlash_x.name || name == results::lai_backlash_y.name ||
-      name == results::lai_servo_mismatch.name)
-    return name.substr(0, name.rfind('_'));
-  if (name.rfind("c0_plus_d1", 0) == 0) return "y_roll_and_x_straightness_in_z";
+  const auto group = [](const results::Parameter& p) { return std::string(p.name); };
+  if (name == results::lai_S_x.name || name == results::lai_S_y.name) return group(results::rank_scale_mismatch);
+  if (name == results::lai_backlash_x.name) return group(results::rank_backlash_a);
+  if (name == results::lai_backlash_y.name) return group(results::rank_backlash_b);
+  if (name == results::lai_servo_mismatch.name) return group(results::rank_servo_mismatch);
+  if (name == results::lai_c0_plus_d1.name) return group(results::rank_roll_b_straightness_an);
   switch (name.front()) {
-    case 'a':
-      return "x_straightness_in_y";  // with the squareness a1
-    case 'b':
-      return "y_straightness_in_x";
-    case 'c':
-      return "y_roll";
-    case 'd':
-      return "x_straightness_in_z";
-    case 'e':
-      return "y_straightness_in_z";
-    default:
-      return name;
+    case 'a': return group(results::rank_straightness_ab);  // with the squareness a1
+    case 'b': return group(results::rank_straightness_ba);
+    case 'c': return group(results::rank_roll_b);
+    case 'd': return group(results::rank_straightness_an);
+    case 'e': return group(results::rank_straightness_bn);
+    default: return name;
   }
 }
 

@@ -96,6 +96,14 @@ struct Identification {
 // reading about its least-squares circle, i.e. less its mean and first harmonic. An error term's
 // "part of G" is the same range of its fitted curve.
 double range_about_circle(std::span<const double> angle_rad, std::span<const double> reading_um);
+// A run's reading (um) about its least-squares circle: the fitted mean (the circle's radius change),
+// its first harmonic (the centre's offset: cos_um along the first plane axis, sin_um the second) and
+// what is left at each angle, the deviation a ballbar's polar plot draws. Empty with fewer than 4 points.
+struct CircleFit {
+  double mean_um = 0.0, cos_um = 0.0, sin_um = 0.0;
+  std::vector<double> deviation_um;
+};
+CircleFit least_squares_circle(std::span<const double> angle_rad, std::span<const double> reading_um);
 
 // Throws RunFormatError for unusable input (no runs, mixed planes, invalid runs).
 Identification identify(const std::vector<formats::DbbRun>& runs, const IdentifyOptions& options = {});

@@ -1,8 +1,6 @@
 #include "models/dbb/json.hpp"
 
 #include <cmath>
-#include <iomanip>
-#include <sstream>
 
 namespace guideway::models::dbb {
 
@@ -26,14 +24,6 @@ nlohmann::json fit_json(const FitSummary& f) {
   }
   if (!f.message.empty()) j["message"] = f.message;
   return j;
-}
-
-void table(std::ostringstream& o, const std::vector<Estimate>& list) {
-  for (const auto& e : list) {
-    o << "  " << std::left << std::setw(30) << e.name << std::right << std::setw(14) << std::setprecision(6) << e.value;
-    if (e.fitted && std::isfinite(e.u)) o << "  +/- " << std::setprecision(3) << e.u;
-    o << "\n";
-  }
 }
 
 }  // namespace
@@ -72,39 +62,6 @@ nlohmann::json to_json(const Identification& id) {
   j["fit"] = fit_json(id.fit);
   j["diagnostics_fit"] = fit_json(id.diagnostics_fit);
   return j;
-}
-
-std::string to_text(const Identification& id) {
-  std::ostringstream o;
-  o << "DBB identification (" << id.model << "), " << id.runs.size() << " run(s)\n";
-  for (const auto& r : id.runs) {
-    o << "  " << r.source << ": r " << r.radius_mm << " mm, h " << r.height_mm << " mm, " << r.direction << ", "
-      << r.feed_mm_per_min << " mm/min, " << r.n << " points, G " << std::setprecision(4) << r.circular_deviation_um
-      << " um, residual " << r.residual_rms_um << " um rms\n";
-  }
-  o << "\nBallbar diagnostics (value +/- standard uncertainty)\n";
-  table(o, id.diagnostics);
-  o << "  fit: rms " << std::setprecision(4) << id.diagnostics_fit.rms_um << " um, n " << id.diagnostics_fit.n
-    << ", condition " << std::setprecision(3) << id.diagnostics_fit.condition_number << "\n";
-  if (!id.diagnostics_fit.unidentifiable.empty()) o << "  refused: " << id.diagnostics_fit.message << "\n";
-  if (!id.ranking.empty()) {
-    o << "\nWhat to fix first (each error's part of the circular deviation G, from the " << id.ranking_model << ")\n";
-    for (const auto& c : id.ranking)
-      o << "  " << std::left << std::setw(30) << c.name << std::right << std::setw(10) << std::setprecision(3)
-        << c.contribution_um << " um  " << std::setw(6) << std::setprecision(3) << c.percent << " % of G\n";
-  }
-  for (const auto& n : id.notes) o << "note: " << n << "\n";
-  o << "\nLai third-order model\n";
-  table(o, id.lai3);
-  o << "  fit: rms " << std::setprecision(4) << id.fit.rms_um << " um, n " << id.fit.n << ", condition "
-    << std::setprecision(3) << id.fit.condition_number << "\n";
-  if (!id.fit.unidentifiable.empty()) {
-    o << "  refused: " << id.fit.message << "\n";
-    for (const auto& c : id.fit.combinations)
-      o << "    determined instead: " << c.expression << " = " << std::setprecision(6) << c.value << " +/- "
-        << std::setprecision(3) << c.u << "\n";
-  }
-  return o.str();
 }
 
 }  // namespace guideway::models::dbb

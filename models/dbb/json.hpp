@@ -1,6 +1,7 @@
 #pragma once
-// JSON and text renderings of a DBB identification (the shape of `guideway identify dbb --json` and
-// of the daemon's PARAMS message). Unknown or non-fitted uncertainties are left out, never null.
+// The JSON of a DBB identification (the shape of `guideway identify dbb --json` and of the daemon's
+// PARAMS message; the CLI prints it for people: cli/params_print.hpp). Unknown or non-fitted
+// uncertainties are left out, never null.
 
 #include <string>
 
@@ -11,6 +12,5 @@
 namespace guideway::models::dbb {
 
 nlohmann::json to_json(const Identification& id);
-std::string to_text(const Identification& id);
 
 }  // namespace guideway::models::dbb

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/number_format.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::explain {
 
@@ -33,7 +34,8 @@ nlohmann::json to_json(const Report& r) {
     for (const auto& m : v) {
       json ranges = json::array();
       for (const auto& [lo, hi] : m.ranges) ranges.push_back({lo, hi});
-      a.push_back({{"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}});
+      a.push_back(
+          {{"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}});
     }
     return a;
   };
@@ -66,7 +68,8 @@ nlohmann::json to_json(const Report& r) {
   j["remaining"] = places(r.remaining);
   json c = json::array();
   for (const auto& k : r.considered)
-    c.push_back({{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
+    c.push_back(
+        {{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
   j["considered"] = c;
   j["notes"] = r.notes;
   if (!r.curve_x.empty()) {
@@ -81,7 +84,8 @@ nlohmann::json to_json(const Report& r) {
       for (const auto& v : st.residual_um) runs.push_back(round_all(v));
       steps.push_back({{"label", st.label}, {"residual_um", runs}});
     }
-    j["residuals"] = {{"domain", r.curve_domain}, {"x", round_all(r.curve_x)}, {"runs", r.curve_runs}, {"steps", steps}};
+    j["residuals"] = {
+        {"domain", r.curve_domain}, {"x", round_all(r.curve_x)}, {"runs", r.curve_runs}, {"steps", steps}};
   }
   return j;
 }
@@ -89,9 +93,11 @@ nlohmann::json to_json(const Report& r) {
 std::string to_text(const Report& r) {
   std::ostringstream o;
   const auto g = [](double v, const char* f = "%.4g") { return printf_number(f, v); };
-  o << "model " << r.model << ": " << r.n << " samples, noise " << g(r.noise_um, "%.3g") << " um (finest wavelet details)\n";
-  o << "baseline: rms " << g(r.baseline.rms_um) << " um, held-out rms " << g(r.baseline.heldout_rms_um) << " um, BIC "
-    << g(r.baseline.bic, "%.1f") << "  [" << r.heldout_scheme << "]\n";
+  o << "model " << r.model << ": " << r.n << " samples, noise " << g(r.noise_um, "%.3g")
+    << " \u00b5m (finest wavelet details)\n";
+  o << "baseline: rms " << g(r.baseline.rms_um, "%.3g") << " \u00b5m, held-out rms "
+    << g(r.baseline.heldout_rms_um, "%.3g") << " \u00b5m, BIC " << g(r.baseline.bic, "%.1f") << "  ["
+    << r.heldout_scheme << "]\n";
   if (r.mismatch.empty()) {
     o << "\nwhere: the baseline residual is indistinguishable from noise (band energies, runs test, Ljung-Box).\n";
   } else {
@@ -105,16 +111,16 @@ std::string to_text(const Report& r) {
     o << "\nfindings (in the order they were taken):\n";
     int k = 1;
     for (const auto& f : r.findings) {
-      o << "  " << k++ << ". " << f.effect << ": " << f.why << "\n";
+      o << "  " << k++ << ". " << results::in_words(f.effect) << ": " << f.why << "\n";
       for (const auto& p : f.parameters) {
-        o << "       " << p.name << " = " << g(p.value, "%.4g");
-        if (std::isfinite(p.u)) o << " +/- " << g(p.u, "%.2g");
-        else o << " (searched)";
-        o << "\n";
+        const results::Shown v = results::shown(p.name, p.value, p.u);
+        o << "       " << v.label << " " << v.value << (v.unit.empty() ? "" : " " + v.unit)
+          << (std::isfinite(p.u) ? "" : " (searched)") << "\n";
       }
-      o << "       BIC " << g(f.delta_bic, "%+.1f") << ", p = " << g(f.p_value, "%.2g") << ", rms -> " << g(f.rms_um_after)
-        << " um, held-out rms -> " << g(f.heldout_rms_um_after) << " um";
-      if (std::isfinite(f.share)) o << ", removes " << g(100 * f.share, "%.0f") << " % of the structure left without it";
+      o << "       BIC " << g(f.delta_bic, "%+.1f") << ", p = " << g(f.p_value, "%.2g") << ", rms -> "
+        << g(f.rms_um_after, "%.3g") << " \u00b5m, held-out rms -> " << g(f.heldout_rms_um_after, "%.3g") << " \u00b5m";
+      if (std::isfinite(f.share))
+        o << ", removes " << g(100 * f.share, "%.0f") << " % of the structure left without it";
       o << "\n";
     }
     // What to fix first: the findings by the size of their term in the readings.
@@ -123,20 +129,20 @@ std::string to_text(const Report& r) {
     std::stable_sort(ranked.begin(), ranked.end(),
                      [](const Finding* a, const Finding* b) { return a->contribution_um > b->contribution_um; });
     o << "\nlargest first (peak-to-valley of each term";
-    if (std::isfinite(r.deviation_um)) o << "; " << r.deviation_name << " " << g(r.deviation_um, "%.3g") << " um";
+    if (std::isfinite(r.deviation_um)) o << "; " << r.deviation_name << " " << g(r.deviation_um, "%.3g") << " \u00b5m";
     o << "):\n";
     for (const Finding* f : ranked) {
-      o << "  " << f->effect << ": " << g(f->contribution_um, "%.3g") << " um";
+      o << "  " << results::in_words(f->effect) << ": " << g(f->contribution_um, "%.3g") << " \u00b5m";
       if (std::isfinite(f->contribution_percent)) o << " (" << g(f->contribution_percent, "%.0f") << " %)";
       o << "\n";
     }
   }
   if (!r.considered.empty()) {
     o << "\nnot taken:\n";
-    for (const auto& c : r.considered) o << "  " << c.effect << ": " << c.verdict << "\n";
+    for (const auto& c : r.considered) o << "  " << results::in_words(c.effect) << ": " << c.verdict << "\n";
   }
-  o << "\nfinal: rms " << g(r.final_fit.rms_um) << " um, held-out rms " << g(r.final_fit.heldout_rms_um) << " um, BIC "
-    << g(r.final_fit.bic, "%.1f") << "\n";
+  o << "\nfinal: rms " << g(r.final_fit.rms_um, "%.3g") << " \u00b5m, held-out rms "
+    << g(r.final_fit.heldout_rms_um, "%.3g") << " \u00b5m, BIC " << g(r.final_fit.bic, "%.1f") << "\n";
   if (r.unexplained) {
     o << "UNEXPLAINED: the residual is still structured and no effect in the library accounts for it:\n";
     for (const auto& m : r.remaining) o << "  - " << m.domain << ": " << m.where << " (" << m.evidence << ")\n";

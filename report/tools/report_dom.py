@@ -36,6 +36,40 @@ PLOTS_JS = r"""
 """
 
 
+# Per plot: the box of every text it draws (titles, tick labels, axis labels, value labels, legend), in page
+# pixels as laid out, to check that no two run into each other and none is cut by the plot's edge.
+TEXT_BOXES_JS = r"""
+[...document.querySelectorAll('svg.plot')].map(svg => {
+  const box = r => ({l: r.left, r: r.right, t: r.top, b: r.bottom});
+  return {
+    kind: svg.dataset.plot,
+    title: (svg.querySelector('text.title') || {}).textContent || '',
+    box: box(svg.getBoundingClientRect()),
+    texts: [...svg.querySelectorAll('text')].filter(t => t.textContent.trim() !== '').map(t => Object.assign(
+        {text: t.textContent, cls: t.getAttribute('class') || (t.closest('g.legend') ? 'legend' : '')},
+        box(t.getBoundingClientRect()))),
+  };
+})
+"""
+
+
+def text_overlaps(plot, slack=0.5):
+    """The pairs of a plot's texts whose boxes intersect (by more than `slack` px each way), and the texts
+    that reach outside the plot. Ring labels of a polar plot sit on its rings and spokes by design, and
+    are only held to the plot's box."""
+    texts = plot["texts"]
+    outside = [t["text"] for t in texts if t["l"] < plot["box"]["l"] - slack or t["r"] > plot["box"]["r"] + slack
+               or t["t"] < plot["box"]["t"] - slack or t["b"] > plot["box"]["b"] + slack]
+    pairs = []
+    for i, a in enumerate(texts):
+        for b in texts[i + 1:]:
+            if "ring-label" in a["cls"] or "ring-label" in b["cls"]:
+                continue
+            if min(a["r"], b["r"]) - max(a["l"], b["l"]) > slack and min(a["b"], b["b"]) - max(a["t"], b["t"]) > slack:
+                pairs.append((a["text"], b["text"]))
+    return pairs, outside
+
+
 def open_self_contained(browser, html, check):
     """Loads `html` in `browser` and checks, through check(cond, msg), that it stands alone: no script,
     nothing referred to on the network, no console or load problems, no request but the page itself."""

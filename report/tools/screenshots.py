@@ -17,6 +17,7 @@ import example_inputs  # noqa: E402
 # (file name, CSS selector of the plot, what it shows)
 SHOTS = [
     ("report_dbb_polar.png", 'section[data-kind="dbb"] svg.plot[data-plot="polar"]', "DBB polar plot"),
+    ("report_dbb_ranking.png", 'section[data-kind="dbb"] svg.plot[data-plot="bar"]', "DBB: what to fix first"),
     ("report_straightness.png", 'section[data-kind="straightness"] svg.plot[data-plot="line"]', "straightness"),
     ("report_unionjack.png", 'section[data-kind="unionjack"] svg.plot[data-plot="heightmap"]', "Union Jack"),
     ("report_runout.png", 'section[data-kind="runout"] svg.plot[data-plot="line"]', "run-out"),
