@@ -285,9 +285,9 @@ TEST(FleetHeadlines, FromTheGoldenResults) {
   EXPECT_EQ(dbb[0].name, "circular_deviation_um");
   EXPECT_DOUBLE_EQ(dbb[0].value, 17.417894088049465);
   EXPECT_FALSE(dbb[0].u);
-  EXPECT_DOUBLE_EQ(find(dbb, "backlash_x_um").value, 0.9956473599246491);
-  EXPECT_DOUBLE_EQ(*find(dbb, "backlash_x_um").u, 0.008036227194117824);
-  EXPECT_DOUBLE_EQ(find(dbb, "backlash_y_um").value, 1.98665042712081);
+  EXPECT_DOUBLE_EQ(find(dbb, "backlash_x_um").value, 0.9956488283922011);
+  EXPECT_DOUBLE_EQ(*find(dbb, "backlash_x_um").u, 0.008036223936743607);
+  EXPECT_DOUBLE_EQ(find(dbb, "backlash_y_um").value, 1.9866502961449253);
 
   const auto runout = headlines("runout", golden_json("runout.params.json"));
   EXPECT_DOUBLE_EQ(find(runout, "squareness_urad").value, 2.783728082308546);
