@@ -794,8 +794,8 @@ class EffectSelection {
         // Earlier choices re-decided with the new effect in the model (a deadband sized, a line picked,
         // while this effect was still in the residual), then re-tested.
         for (std::size_t k = 0; k + 1 < terms_.size(); ++k) sel_.rechoose(terms_, k);
-        for (std::size_t i = 0; i + 1 < terms_.size(); ++i)
-          for (std::size_t j = i + 1; j < terms_.size(); ++j) sel_.rechoose_pair(terms_, i, j);
+        // The new effect with each earlier one (pairs of earlier effects were searched when the later joined).
+        for (std::size_t i = 0; i + 1 < terms_.size(); ++i) sel_.rechoose_pair(terms_, i, terms_.size() - 1);
         refresh();
         prune(accepted);
       }
