@@ -99,20 +99,14 @@ port = "emulator:gauge:port"
 {device_keys}"""
 
 
-def config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml=""):
-    """A guidewayd config with the four emulators at the given per-instrument rates (Hz); extra_toml
-    (more tables: [mqtt], ...) at the end."""
+def config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml="", devices=None,
+                daemon_keys=""):
+    """A guidewayd config with the four emulators at the given per-instrument rates (Hz), or only the
+    instruments named in `devices`; daemon_keys (more [daemon] keys) and extra_toml (more tables:
+    [mqtt], ...) at the end."""
     ac_period_ms = max(1, round(1000.0 / rates["autocollimator"]))
     dbb_args, dbb_sync = dbb_toml(rates["dbb"])
-    return f"""
-[daemon]
-socket = "{rt}/guideway.sock"
-state_dir = "{state}"
-log_level = "warn"
-status_period_s = {status_period_s}
-sample_publish_hz = {publish_hz}
-client_queue_bytes = {client_queue_bytes}
-
+    blocks = {"dbb": f"""
 [[emulator]]
 name = "can"
 instrument = "dbb"
@@ -136,7 +130,7 @@ bus = "emulator:can"
   channel = "y"
   node_id = 3
   resolution_nm = 100
-
+""", "autocollimator": f"""
 [[emulator]]
 name = "ac"
 instrument = "autocollimator"
@@ -148,8 +142,7 @@ driver = "autocollimator-serial"
 port = "{{runtime_dir}}/autocollimator.pty"
 mode = "stream"
 stream_period_ms = {ac_period_ms}
-
-{micrometer_toml(rates["micrometer"])}
+""", "micrometer": micrometer_toml(rates["micrometer"]), "profilometer": f"""
 [[emulator]]
 name = "profiler"
 instrument = "profilometer"
@@ -160,7 +153,17 @@ name = "profilometer"
 driver = "profilometer-tcp"
 host = "emulator:profiler:host"
 port = "emulator:profiler:port"
-""" + extra_toml
+"""}
+    return f"""
+[daemon]
+socket = "{rt}/guideway.sock"
+state_dir = "{state}"
+log_level = "warn"
+status_period_s = {status_period_s}
+sample_publish_hz = {publish_hz}
+client_queue_bytes = {client_queue_bytes}
+{daemon_keys}
+""" + "".join(b for k, b in blocks.items() if devices is None or k in devices) + extra_toml
 
 
 class Conn:
@@ -212,6 +215,36 @@ def proc_cpu_s(pid):
     return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime (fields 14, 15)
 
 
+def task_stats(pid):
+    """Per thread of pid: {tid: {"name", "cpu_s", "wakeups", "preempted"}}: utime+stime, and the
+    voluntary context switches (each a sleep the thread was woken from) and involuntary ones from
+    /proc/PID/task/TID/status."""
+    out = {}
+    for task in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{task}/comm") as f:
+                name = f.read().strip()
+            st = {"name": name, "cpu_s": proc_cpu_s(f"{pid}/task/{task}"), "wakeups": 0, "preempted": 0}
+            with open(f"/proc/{pid}/task/{task}/status") as f:
+                for line in f:
+                    if line.startswith("voluntary_ctxt_switches:"):
+                        st["wakeups"] = int(line.split()[1])
+                    elif line.startswith("nonvoluntary_ctxt_switches:"):
+                        st["preempted"] = int(line.split()[1])
+            out[int(task)] = st
+        except OSError:
+            pass
+    return out
+
+
+def task_deltas(t0, t1, dt):
+    """Per thread alive at both ends, in creation order: name, CPU % of a core, wake-ups/s, preemptions/s."""
+    return [{"tid": tid, "name": t1[tid]["name"], "cpu_pct": round(100.0 * (t1[tid]["cpu_s"] - t0[tid]["cpu_s"]) / dt, 2),
+             "wakeups_per_s": round((t1[tid]["wakeups"] - t0[tid]["wakeups"]) / dt, 1),
+             "preempted_per_s": round((t1[tid]["preempted"] - t0[tid]["preempted"]) / dt, 1)}
+            for tid in sorted(t1) if tid in t0]
+
+
 def proc_mem_kib(pid):
     out = {}
     with open(f"/proc/{pid}/status") as f:
@@ -245,7 +278,8 @@ def pct(values, q):
 
 
 class Daemon:
-    def __init__(self, build, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml=""):
+    def __init__(self, build, rates, publish_hz, client_queue_bytes, status_period_s=1.0, extra_toml="", devices=None,
+                 daemon_keys="", env=None):
         self.tmp = tempfile.mkdtemp(prefix="gw-load-")
         rt, state = f"{self.tmp}/rt", f"{self.tmp}/state"
         os.makedirs(rt)
@@ -253,10 +287,12 @@ class Daemon:
         self.socket = f"{rt}/guideway.sock"
         cfg = f"{self.tmp}/bench.toml"
         with open(cfg, "w") as f:
-            f.write(config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s, extra_toml))
+            f.write(config_toml(rt, state, rates, publish_hz, client_queue_bytes, status_period_s, extra_toml, devices,
+                                daemon_keys))
         self.log = open(f"{self.tmp}/guidewayd.log", "w")
         self.proc = subprocess.Popen([f"{build}/daemon/guidewayd", "--config", cfg], stdout=self.log,
-                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+                                     stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                     env={**os.environ, **(env or {})})
         end = time.monotonic() + 30
         while not os.path.exists(self.socket):
             if self.proc.poll() is not None or time.monotonic() > end:
@@ -341,14 +377,15 @@ def emulator_name(pid):
         return str(pid)
 
 
-def measure(build, rates, publish_hz, step_s, warmup_s):
-    """One daemon at `rates`: counters, CPU, memory and (when publishing) SAMPLE latency over step_s."""
-    daemon = Daemon(build, rates, publish_hz=publish_hz, client_queue_bytes=4 << 20)
+def measure(build, rates, publish_hz, step_s, warmup_s, devices=None):
+    """One daemon at `rates` (with the instruments named in `devices`, default all four): counters, CPU,
+    memory and (when publishing) SAMPLE latency over step_s."""
+    daemon = Daemon(build, rates, publish_hz=publish_hz, client_queue_bytes=4 << 20, devices=devices)
     try:
         conn = Conn(daemon.socket)
         daemon.wait_streaming(conn)
         conn.send({"class": "watch", "classes": ["SAMPLE"]})
-        lat = {k: [] for k in rates}
+        lat = {k: [] for k in rates if devices is None or k in devices}
         pipeline = {"latency_max_us": 0.0, "outbox_dropped": 0}
         recording = [False]
 
@@ -372,6 +409,7 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
         emus = children(pid)
         tids = sorted(int(t) for t in os.listdir(f"/proc/{pid}/task"))
         thread0 = {t: proc_cpu_s(f"{pid}/task/{t}") for t in tids}
+        tasks0 = task_stats(pid)
         t0, cpu0, main0 = time.monotonic(), proc_cpu_s(pid), proc_cpu_s(f"{pid}/task/{pid}")
         ecpu0 = {p: proc_cpu_s(p) for p in emus}
         perf = start_perf(pid, step_s) if COUNT_SYSCALLS and publish_hz <= 10 else None
@@ -391,6 +429,7 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
         # config order (dbb, autocollimator, micrometer, profilometer), the pipeline (bench/README.md).
         threads = [round(100.0 * (proc_cpu_s(f"{pid}/task/{t}") - thread0[t]) / dt, 1)
                    for t in tids if os.path.exists(f"/proc/{pid}/task/{t}")]
+        tasks = task_deltas(tasks0, task_stats(pid), dt)
         ecpu = {emulator_name(p): 100.0 * (proc_cpu_s(p) - ecpu0[p]) / dt for p in emus if os.path.exists(f"/proc/{p}")}
         devs = device_deltas(st0, st1, dt)
         total_hz = sum(d["rate_hz"] for d in devs.values())
@@ -404,6 +443,7 @@ def measure(build, rates, publish_hz, step_s, warmup_s):
             "publish_hz": publish_hz, "duration_s": dt, "devices": devs, "total_rate_hz": total_hz,
             "cpu_pct": cpu_pct, "cpu_pct_main_thread": 100.0 * (main1 - main0) / dt,
             "cpu_pct_threads": threads,
+            "threads": tasks, "wakeups_per_s": round(sum(t["wakeups_per_s"] for t in tasks), 1),
             "cpu_pct_per_khz": cpu_pct / (total_hz / 1000.0) if total_hz else float("nan"),
             "emulators_cpu_pct": ecpu, "mem_kib": proc_mem_kib(pid),
             "published": len(all_lat),
@@ -666,6 +706,14 @@ def print_tables(res):
               f"{a['cpu_pct']:.1f} | {a['published'] / a['duration_s']:.0f} | {fmt(a['latency_us']['median'])} | "
               f"{fmt(a['latency_us']['p99'])} | {fmt(a['latency_us']['max'])} | {fmt(a['pipeline_latency_max_us'])} | "
               f"{mem.get('VmRSS', 0) / 1024:.1f} ({mem.get('VmHWM', 0) / 1024:.1f}) | {emus} | {a['loadavg_1min']:.1f} |")
+    print()
+    print("| step | guidewayd wake-ups/s (voluntary context switches, /proc) | per thread by name: CPU % (wake-ups/s) |")
+    print("|---|---:|---|")
+    for s in res["steps"]:
+        d = s["default"]
+        if "threads" in d:
+            print(f"| {step_label(s)} | {d['wakeups_per_s']:.0f} | "
+                  + " / ".join(f"{t['name']} {t['cpu_pct']:.1f} ({t['wakeups_per_s']:.0f})" for t in d["threads"]) + " |")
     print()
     names = list(CEILING_HZ)
     print("| step | guidewayd CPU % per thread, creation order | " + " | ".join(f"{k} thread: % (% per 1 k/s)" for k in names)

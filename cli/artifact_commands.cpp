@@ -10,6 +10,7 @@
 #include "core/csv_table.hpp"
 #include "models/artifact/artifact.hpp"
 #include "models/artifact/artifact_json.hpp"
+#include "core/units.hpp"
 
 namespace guideway::cli {
 
@@ -30,7 +31,7 @@ struct ArtifactArgs {
   }
 };
 
-constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
+constexpr double arcsec = rad_per_arcsec;
 
 // The optics' constants k and m, and where they came from.
 void print_optics(const models::artifact::ArtifactResult& r, bool coupling) {

@@ -319,7 +319,21 @@ std::string lai3_verification_text(const models::compensation::ErrorMap& map, co
   return o.str();
 }
 
+// Everything the command line lacks, said at once (not one option per attempt).
+void require_options(const Opts& o) {
+  std::vector<std::string> missing;
+  if (o.files.empty() && !o.latest) missing.emplace_back("RUN.csv... or --latest (the runs to build the tables from)");
+  if (o.out_dir.empty()) missing.emplace_back("--out-dir DIR (where the tables are written)");
+  if (o.verify && o.machine.empty())
+    missing.emplace_back("--machine FILE (--verify traces the test on the virtual machine of that file)");
+  if (missing.empty()) return;
+  std::string msg = "compensate dbb: missing ";
+  for (std::size_t i = 0; i < missing.size(); ++i) msg += (i == 0 ? "" : "; ") + missing[i];
+  throw std::runtime_error(msg);
+}
+
 void run_compensate(const Opts& o, const std::string& socket) {
+  require_options(o);
   std::vector<std::string> files = o.files;
   std::string source;
   if (o.latest) {
@@ -329,8 +343,6 @@ void run_compensate(const Opts& o, const std::string& socket) {
     source = "session " + session;
   }
   if (files.empty()) throw std::runtime_error("compensate: no run files (give RUN.csv... or --latest)");
-  if (o.verify && o.machine.empty())
-    throw std::runtime_error("compensate: --verify traces the test on the virtual machine: give its --machine FILE");
   std::vector<formats::DbbRun> runs;
   for (const auto& f : files) runs.push_back(formats::read_dbb_run(f));
   if (source.empty()) {
@@ -443,8 +455,9 @@ void add_compensate_commands(CLI::App& app, CliContext& ctx) {
   d->add_option("runs", o->files, "DBB run files (guideway/dbb-run/1): in-plane circles in both directions")
       ->check(CLI::ExistingFile);
   d->add_flag("--latest", o->latest, "the run files of the daemon's latest DBB session instead of files");
-  d->add_option("--out-dir", o->out_dir, "directory for x.comp, y.comp, linuxcnc.ini, errors.csv, straightness.csv")
-      ->required();
+  // Required, but checked with the other missing options (require_options) so all are named at once.
+  d->add_option("--out-dir", o->out_dir,
+                "directory for x.comp, y.comp, linuxcnc.ini, errors.csv, straightness.csv (required)");
   d->add_option("--center-mm", o->center_mm,
                 "circle centre in machine coordinates (first, second plane axis); default: the runs' metadata")
       ->expected(2)

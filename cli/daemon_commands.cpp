@@ -1,9 +1,11 @@
 // `guideway version|status|watch`: client commands that talk to a running guidewayd.
 #include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
+#include <regex>
 #include <sstream>
 
 #include "cli/commands.hpp"
@@ -148,6 +150,7 @@ struct StartOptions {
   std::string device;
   std::vector<std::string> settings;
   bool wait = false;
+  bool quiet = false;
   double timeout_s = 600;
   bool json = false;
   void add(CLI::App& cmd) {
@@ -156,18 +159,57 @@ struct StartOptions {
     cmd.add_option("--set", settings, session_options_help());
     cmd.add_flag("--wait", wait, "wait for the identified parameters and print them");
     cmd.add_option("--timeout", timeout_s, "with --wait: give up after this many seconds (default 600)");
+    cmd.add_flag("--quiet", quiet, "with --wait: no progress lines on standard error while the session runs");
     cmd.add_flag("--json", json, "print the daemon's JSON unchanged");
   }
+};
+
+// While `start --wait` waits: the session's phase and progress from the daemon's STATUS, on standard
+// error, when its phase changes and otherwise every few seconds, so that a slow run is told from a
+// stuck one.
+class WaitProgress {
+ public:
+  explicit WaitProgress(std::string session) : session_(std::move(session)) {}
+
+  void on_status(const nlohmann::json& status) {
+    const nlohmann::json sessions = status.value("sessions", nlohmann::json::array());
+    for (const auto& s : sessions) {
+      if (!s.is_object() || s.value("session", "") != session_) continue;
+      const std::string state = s.value("state", "?");
+      const std::string progress = s.value("progress", "");
+      const auto now = std::chrono::steady_clock::now();
+      // The phase is the progress without its counts: a new pattern or state prints at once.
+      const std::string phase = state + " " + std::regex_replace(progress, std::regex("[0-9]+"), "#");
+      if (phase == last_phase_ && now - last_print_ < std::chrono::seconds(5)) return;
+      last_phase_ = phase;
+      last_print_ = now;
+      const auto elapsed_s = std::chrono::duration_cast<std::chrono::seconds>(now - began_).count();
+      std::cerr << "  [" << elapsed_s << " s] " << state << (progress.empty() ? "" : ": " + progress) << "\n"
+                << std::flush;
+    }
+  }
+
+ private:
+  std::string session_;
+  std::string last_phase_;
+  std::chrono::steady_clock::time_point began_ = std::chrono::steady_clock::now();
+  std::chrono::steady_clock::time_point last_print_{};
 };
 
 // After `start --wait`: the session's PARAMS (printed), or its failure, within the timeout.
 void wait_for_params(DaemonClient& c, const std::string& session, const StartOptions& o) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.timeout_s);
+  WaitProgress progress(session);
   while (std::chrono::steady_clock::now() < deadline) {
     auto line = c.read_line(std::chrono::milliseconds(500));
     if (!line) continue;
     const auto m = nlohmann::json::parse(*line, nullptr, false);
-    if (m.is_discarded() || m.value("session", "") != session) continue;
+    if (m.is_discarded()) continue;
+    if (results::has_class(m, results::MessageClass::status)) {
+      if (!o.json && !o.quiet) progress.on_status(m);
+      continue;
+    }
+    if (m.value("session", "") != session) continue;
     if (results::has_class(m, results::MessageClass::event) && m.value("event", "") == "session_failed") {
       if (o.json) std::cout << m.dump() << "\n";
       throw std::runtime_error("session " + session + " failed: " + m.value("reason", "?"));
@@ -200,7 +242,8 @@ void run_start(const StartOptions& o, CliContext& ctx) {
   DaemonClient c = connect(ctx);
   if (o.wait) {
     const nlohmann::json classes = {results::to_string(results::MessageClass::params),
-                                    results::to_string(results::MessageClass::event)};
+                                    results::to_string(results::MessageClass::event),
+                                    results::to_string(results::MessageClass::status)};
     c.request(results::request(results::RequestClass::watch, {{"classes", classes}}), results::MessageClass::watch);
   }
   const nlohmann::json r = ask(c, req, results::MessageClass::session, o.json);
@@ -275,6 +318,7 @@ struct WatchOptions : JsonOption {
   std::vector<std::string> channels;
   double seconds = 0;
   std::size_t count = 0;
+  bool si = false;
   void add(CLI::App& cmd) {
     cmd.add_option("--class", classes,
                    "classes to receive: " + results::published_class_names() + " (default: all but " +
@@ -283,6 +327,8 @@ struct WatchOptions : JsonOption {
     cmd.add_option("--seconds", seconds, "stop after this many seconds (default: run until interrupted)");
     cmd.add_option("--count", count, "stop after this many messages");
     cmd.add_flag("--json", json, "print the daemon's JSON messages unchanged, one per line");
+    cmd.add_flag("--si", si,
+                 "sample values in SI units as the daemon sends them (m, rad) instead of µm/mm and arcsec");
   }
 };
 
@@ -309,6 +355,7 @@ void run_watch(const WatchOptions& o, CliContext& ctx) {
   std::signal(SIGINT, [](int) { interrupted = 1; });
   const auto began = std::chrono::steady_clock::now();
   std::size_t seen = 0;
+  ChannelDisplay display;
   while (!interrupted) {
     if (o.seconds > 0 && std::chrono::steady_clock::now() - began > std::chrono::duration<double>(o.seconds)) break;
     auto line = c.read_line(std::chrono::milliseconds(200));
@@ -317,7 +364,7 @@ void run_watch(const WatchOptions& o, CliContext& ctx) {
       std::cout << *line << "\n" << std::flush;
     } else {
       const auto m = nlohmann::json::parse(*line, nullptr, false);
-      std::cout << (m.is_object() ? watch_line(m, units) : *line) << "\n" << std::flush;
+      std::cout << (m.is_object() ? watch_line(m, units, o.si ? nullptr : &display) : *line) << "\n" << std::flush;
     }
     if (o.count != 0 && ++seen >= o.count) break;
   }

@@ -3,6 +3,7 @@
 #include "cli/daemon_client.hpp"
 #include "core/number_format.hpp"
 #include "core/printable.hpp"
+#include "core/units.hpp"
 #include "results/message_class.hpp"
 #include "results/parameters.hpp"
 
@@ -287,27 +288,46 @@ std::string wall_clock_now() {
 
 }  // namespace
 
-std::string watch_line(const nlohmann::json& m, const ChannelUnits& units) {
+DisplayUnit display_unit(const std::string& si_unit, double first_value) {
+  if (si_unit == "m")
+    return std::abs(first_value) >= 1e-3 ? DisplayUnit{"mm", 1e3, 4} : DisplayUnit{"µm", 1e6, 3};
+  if (si_unit == "rad") return {"arcsec", 1.0 / rad_per_arcsec, 2};
+  return {si_unit == "1" ? std::string() : si_unit, 1.0, -1};
+}
+
+std::string watch_line(const nlohmann::json& m, const ChannelUnits& units, ChannelDisplay* display) {
   const std::string cls = m.value("class", "?");
   const std::optional<results::MessageClass> known = results::class_named(cls);
   std::ostringstream out;
   out << wall_clock_now() << " " << std::left << std::setw(7) << cls << std::right;
-  const auto unit_of = [&](const std::string& device, const std::string& channel) {
+  // A value with its unit: as the daemon sent it (SI) without `display`, else in the channel's display unit.
+  const auto value_of = [&](const std::string& device, const std::string& channel, const nlohmann::json& v) {
     const auto it = units.find(device + "/" + channel);
-    return it == units.end() || it->second == "1" ? std::string() : " " + it->second;
+    const std::string si_unit = it == units.end() ? std::string() : it->second;
+    if (display == nullptr || !v.is_number()) return number(v) + (si_unit.empty() || si_unit == "1" ? "" : " " + si_unit);
+    auto shown = display->find(device + "/" + channel);
+    if (shown == display->end())
+      shown = display->emplace(device + "/" + channel, display_unit(si_unit, v.get<double>())).first;
+    const DisplayUnit& d = shown->second;
+    std::ostringstream s;
+    if (d.decimals >= 0)
+      s << std::fixed << std::setprecision(d.decimals) << v.get<double>() * d.per_si;
+    else
+      s << number(v.get<double>() * d.per_si);
+    return s.str() + (d.unit.empty() ? "" : " " + d.unit);
   };
   if (known == results::MessageClass::sample) {
     const std::string device = m.value("device", "?");
     out << " " << device << " seq " << m.value("seq", nlohmann::json(0)).dump();
     const nlohmann::json values = m.value("values", nlohmann::json::object());
     for (const auto& [name, v] : values.items()) {
-      out << "  " << name << "=" << number(v) << unit_of(device, name);
+      out << "  " << name << "=" << value_of(device, name, v);
     }
     const nlohmann::json denoised = m.value("denoised", nlohmann::json::object());
     const nlohmann::json denoised_values = denoised.value("values", nlohmann::json::object());
     for (const auto& [name, v] : denoised_values.items()) {
-      out << "  " << name << "(denoised, seq " << denoised.value("seq", nlohmann::json(0)).dump() << ")=" << number(v)
-          << unit_of(device, name);
+      out << "  " << name << "(denoised, seq " << denoised.value("seq", nlohmann::json(0)).dump()
+          << ")=" << value_of(device, name, v);
     }
     if (m.contains("flags")) out << "  flags=" << m["flags"].dump();
   } else if (known == results::MessageClass::status) {

@@ -1,4 +1,5 @@
 #include "daemon/config.hpp"
+#include "daemon/cpu_placement.hpp"
 #include "daemon/mqtt_config.hpp"
 
 #include <arpa/inet.h>
@@ -91,6 +92,14 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     c.idle_timeout_s = d->get_double("idle_timeout_s", 30.0, 0.0, 86400.0);
     c.client_queue_bytes = static_cast<std::size_t>(d->get_int("client_queue_bytes", 4 << 20, 4096, 1LL << 32));
     c.max_request_bytes = static_cast<std::size_t>(d->get_int("max_request_bytes", 16384, 256, 1 << 24));
+    if (d->has("cpu_affinity")) {
+      std::string error;
+      auto cpus = parse_cpu_list(d->get_string("cpu_affinity", ""), error);
+      if (!cpus) d->fail("cpu_affinity", error);
+      if (cpus->empty()) d->fail("cpu_affinity", "names no CPU (leave it out for every CPU but the isolated ones)");
+      c.cpu_affinity = std::move(*cpus);
+    }
+    if (d->has("nice")) c.nice = static_cast<int>(d->get_int("nice", 0, -20, 19));
     c.emulator_executable = d->get_string("emulator_executable", "");
     if (const std::string m = d->get_string("emulator_machine", ""); !m.empty()) {
       const std::filesystem::path path = config_relative_path(file_name, m);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,10 @@ struct DaemonConfig {
   double idle_timeout_s = 30.0;      // a connection with no complete request by then is closed; 0 = never
   std::size_t client_queue_bytes = 4 * 1024 * 1024;
   std::size_t max_request_bytes = 16 * 1024;
+  // Where the threads run (daemon/cpu_placement.hpp): nullopt = every CPU the process may use but the
+  // isolated ones; and their nice value (nullopt: as started).
+  std::optional<std::set<int>> cpu_affinity;
+  std::optional<int> nice;
 
   struct Device {
     std::string name;
@@ -51,13 +56,13 @@ struct DaemonConfig {
     int levels = 4;
     std::string threshold = "soft";  // "soft" | "hard"
     bool level_dependent = false;
-    std::size_t noise_window = 1024;  // detail coefficients in the running noise estimate
+    std::size_t noise_window = 1024;     // detail coefficients in the running noise estimate
     std::shared_ptr<TableReader> table;  // to name file and line when the channel turns out unknown
   };
   std::vector<Processing> processing;
   std::vector<EmulatorSpec> emulators;  // [[emulator]]: started before the devices
   std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
-  std::string emulator_machine;         // the virtual machine every emulator runs (absolute; "" = its compiled-in default)
+  std::string emulator_machine;  // the virtual machine every emulator runs (absolute; "" = its compiled-in default)
   std::optional<plant::PublisherSettings> mqtt;  // [mqtt]: publish to a plant's broker (docs/plant.md)
 
   std::shared_ptr<toml::table> root;  // keeps the parsed document alive for the device readers

@@ -9,11 +9,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <chrono>
-#include <ctime>
 #include <system_error>
 
 #include "core/mono_clock.hpp"
@@ -37,14 +37,17 @@ std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& conf
                                                         const std::vector<std::unique_ptr<drivers::Driver>>& devices) {
   std::vector<std::vector<DenoiserSpec>> out(devices.size());
   for (const auto& p : config.processing) {
-    const auto device = std::find_if(devices.begin(), devices.end(), [&](const auto& d) { return d->name() == p.device; });
+    const auto device =
+        std::find_if(devices.begin(), devices.end(), [&](const auto& d) { return d->name() == p.device; });
     if (device == devices.end()) p.table->fail("device", "no device is named \"" + p.device + "\"");
     const auto& channels = (*device)->channels();
-    const auto channel = std::find_if(channels.begin(), channels.end(), [&](const auto& c) { return c.name == p.channel; });
+    const auto channel =
+        std::find_if(channels.begin(), channels.end(), [&](const auto& c) { return c.name == p.channel; });
     if (channel == channels.end()) {
       std::string known;
       for (const auto& c : channels) known += (known.empty() ? "" : ", ") + c.name;
-      p.table->fail("channel", "device \"" + p.device + "\" has no channel \"" + p.channel + "\" (it has: " + known + ")");
+      p.table->fail("channel",
+                    "device \"" + p.device + "\" has no channel \"" + p.channel + "\" (it has: " + known + ")");
     }
     DenoiserSpec spec;
     spec.channel = static_cast<std::size_t>(channel - channels.begin());
@@ -98,7 +101,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   std::vector<drivers::Driver*> raw;
   for (auto& d : devices_) raw.push_back(d.get());
   last_states_.assign(devices_.size(), drivers::DeviceState::stopped);
-  pipeline_ = std::make_unique<Pipeline>(raw, outbox_, config_.sample_publish_hz);
+  pipeline_ = std::make_unique<Pipeline>(raw, outbox_, config_.sample_publish_hz, io_);
   const auto steps = processing_steps(config_, devices_);
   auto manager = std::make_unique<SessionManager>(sessions, raw, config_.state_dir, outbox_);
   sessions_ = manager.get();
@@ -128,8 +131,9 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
     if (reason != "closed by peer" && reason != "server shutting down") {
       std::uint64_t more = 0;
       if (dropped_log_.allow(reason, mono_now_ns(), more))
-        log_->warn("client {} dropped: {}{}", id, reason,
-                   more ? " (and " + std::to_string(more) + " more for this reason in the last minute, not logged)" : "");
+        log_->warn(
+            "client {} dropped: {}{}", id, reason,
+            more ? " (and " + std::to_string(more) + " more for this reason in the last minute, not logged)" : "");
     } else {
       log_->debug("client {} gone: {}", id, reason);
     }
@@ -170,7 +174,8 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
       } else if (m.cls == results::MessageClass::explain) {
         const nlohmann::json& j = m.body;
         std::erase_if(latest_explain_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
-        log_->info("session {}: {} finding(s){}", j.value("session", "?"), j.value("findings", nlohmann::json::array()).size(),
+        log_->info("session {}: {} finding(s){}", j.value("session", "?"),
+                   j.value("findings", nlohmann::json::array()).size(),
                    j.value("unexplained", false) ? ", a structured residual is left unexplained" : "");
         latest_explain_.push_back(j);
       } else if (m.cls == results::MessageClass::event) {
@@ -192,6 +197,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
 Daemon::~Daemon() {
   pipeline_->stop();
   for (auto& d : devices_) d->stop();
+  io_.stop();
   server_.reset();
   if (stop_fd_ >= 0) close(stop_fd_);
   if (signal_fd_ >= 0) close(signal_fd_);
@@ -204,7 +210,8 @@ void Daemon::request_stop() noexcept {
 
 int Daemon::run() {
   started_ns_ = mono_now_ns();
-  for (auto& d : devices_) d->start();
+  io_.start("gw-io");
+  for (auto& d : devices_) d->start(&io_);
   pipeline_->start();
   log_->info("guidewayd {} listening on {}{}; {} device(s); config {}", GUIDEWAY_VERSION, config_.socket_path,
              server_->tcp_port() ? " and " + config_.tcp_host + ":" + std::to_string(server_->tcp_port()) : "",
@@ -220,6 +227,7 @@ int Daemon::run() {
   log_->info("stopping");
   pipeline_->stop();
   for (auto& d : devices_) d->stop();
+  io_.stop();
   return 0;
 }
 
@@ -269,7 +277,8 @@ void Daemon::check_emulators(std::int64_t now_ns) {
       ++w.restarts;
       w.state = "running";
       w.backoff.reset();
-      log_->info("emulator {} restarted (pid {}) at {}", emulators_[i]->name(), emulators_[i]->pid(), emulators_[i]->endpoint());
+      log_->info("emulator {} restarted (pid {}) at {}", emulators_[i]->name(), emulators_[i]->pid(),
+                 emulators_[i]->endpoint());
       event("emulator_restarted", "");
     } catch (const std::exception& ex) {
       const double wait_s = w.backoff.take();
@@ -302,8 +311,11 @@ nlohmann::json Daemon::emulators_json() const {
   for (std::size_t i = 0; i < emulators_.size(); ++i) {
     const auto& e = *emulators_[i];
     const auto& w = emulator_watch_[i];
-    nlohmann::json j = {{"name", e.name()}, {"instrument", e.spec().instrument}, {"endpoint", e.endpoint()},
-                        {"state", w.state}, {"restarts", w.restarts}};
+    nlohmann::json j = {{"name", e.name()},
+                        {"instrument", e.spec().instrument},
+                        {"endpoint", e.endpoint()},
+                        {"state", w.state},
+                        {"restarts", w.restarts}};
     if (w.state == "running") j["pid"] = e.pid();
     if (!w.last_exit.empty()) j["last_exit"] = w.last_exit;
     a.push_back(std::move(j));
@@ -330,8 +342,10 @@ void Daemon::check_device_events() {
     } else {
       log_->info("device {}: {}{}", s.name, drivers::to_string(s.state), s.reason.empty() ? "" : ": " + s.reason);
     }
-    broadcast(make_message(
-        Event{.event = std::string(drivers::to_string(s.state)), .time = utc_now_iso(), .device = s.name, .reason = s.reason}));
+    broadcast(make_message(Event{.event = std::string(drivers::to_string(s.state)),
+                                 .time = utc_now_iso(),
+                                 .device = s.name,
+                                 .reason = s.reason}));
   }
 }
 
@@ -348,13 +362,14 @@ nlohmann::json Daemon::status_json() {
     const drivers::DriverStatus s = devices_[i]->status();
     nlohmann::json d = {{"name", s.name}, {"driver", s.driver}, {"state", std::string(drivers::to_string(s.state))}};
     if (!s.reason.empty()) d["reason"] = s.reason;
-    d["counters"] = {{"samples", s.counters.samples}, {"frames", s.counters.frames},
+    d["counters"] = {{"samples", s.counters.samples},       {"frames", s.counters.frames},
                      {"bad_frames", s.counters.bad_frames}, {"timeouts", s.counters.timeouts},
                      {"reconnects", s.counters.reconnects}, {"overruns", s.counters.overruns}};
     nlohmann::json own = nlohmann::json::object();  // the driver's own counters: always an object, maybe empty
     for (const auto& c : s.driver_counters) own[c.name] = c.value;
     d["driver_counters"] = std::move(own);
-    d["ring"] = {{"capacity", s.ring.capacity}, {"depth", s.ring.depth}, {"free", s.ring.free}, {"drops", s.ring.drops}};
+    d["ring"] = {
+        {"capacity", s.ring.capacity}, {"depth", s.ring.depth}, {"free", s.ring.free}, {"drops", s.ring.drops}};
     nlohmann::json channels = nlohmann::json::array();
     for (const auto& c : devices_[i]->channels()) channels.push_back({{"name", c.name}, {"unit", c.unit}});
     d["channels"] = std::move(channels);
@@ -493,7 +508,8 @@ std::string string_field(const nlohmann::json& body, const char* key) {
 nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   sessions::SessionRequest sr;
   sr.kind = string_field(req.body, "kind");
-  if (sr.kind.empty()) throw std::invalid_argument("start needs \"kind\" (e.g. {\"class\":\"start\",\"kind\":\"dbb\"})");
+  if (sr.kind.empty())
+    throw std::invalid_argument("start needs \"kind\" (e.g. {\"class\":\"start\",\"kind\":\"dbb\"})");
   sr.device = string_field(req.body, "device");
   if (auto it = req.body.find("options"); it != req.body.end()) {
     if (!it->is_object()) throw std::invalid_argument("\"options\" must be an object");
@@ -561,7 +577,10 @@ nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {
 nlohmann::json Daemon::sessions_json() const {
   nlohmann::json out = nlohmann::json::array();
   for (const SessionInfo& s : sessions_->snapshot()) {
-    nlohmann::json j = {{"session", s.name}, {"kind", s.kind}, {"device", s.device}, {"state", to_string(s.state)},
+    nlohmann::json j = {{"session", s.name},
+                        {"kind", s.kind},
+                        {"device", s.device},
+                        {"state", to_string(s.state)},
                         {"samples", s.samples}};
     if (!s.progress.empty()) j["progress"] = s.progress;
     if (!s.recording.empty()) j["recording"] = s.recording;

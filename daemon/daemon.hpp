@@ -17,14 +17,15 @@
 #include "daemon/channel_denoiser.hpp"
 #include "daemon/config.hpp"
 #include "daemon/event_loop.hpp"
-#include "daemon/outbox.hpp"
 #include "daemon/logging.hpp"
+#include "daemon/outbox.hpp"
 #include "daemon/pipeline.hpp"
 #include "daemon/protocol.hpp"
 #include "daemon/session_manager.hpp"
 #include "daemon/socket_server.hpp"
 #include "daemon/systemd_notify.hpp"
 #include "drivers/driver.hpp"
+#include "drivers/io_loop.hpp"
 #include "plant/publisher.hpp"
 
 namespace guideway::daemon {
@@ -80,7 +81,8 @@ class Daemon {
   nlohmann::json handle_report(ClientId client, const Request& req);
   nlohmann::json handle_recordings(ClientId client, const Request& req);
   // The newest message of `latest` matching the request's optional kind/session; throws naming `what`.
-  nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req, const std::string& what) const;
+  nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
+                           const std::string& what) const;
   nlohmann::json sessions_json() const;
   std::string status_line() const;
 
@@ -101,17 +103,20 @@ class Daemon {
   std::vector<std::unique_ptr<EmulatorProcess>> emulators_;  // before devices_: outlives the drivers
   struct EmulatorWatch {
     std::string state = "running";  // running | exited (restart pending)
-    std::string last_exit;           // how it last ended
+    std::string last_exit;          // how it last ended
     std::uint64_t restarts = 0;
     std::int64_t restart_at_ns = 0;
-    Backoff backoff{1.0, 60.0};      // doubles per failed restart, at most 60 s; back to 1 once it runs
+    Backoff backoff{1.0, 60.0};  // doubles per failed restart, at most 60 s; back to 1 once it runs
   };
   std::vector<EmulatorWatch> emulator_watch_;
+  // The I/O thread: every loop-driven device and the pipeline (declared before the devices: it
+  // outlives them).
+  drivers::IoLoop io_;
   std::vector<std::unique_ptr<drivers::Driver>> devices_;
   EventLoop loop_;
   Outbox outbox_;
   std::unique_ptr<Pipeline> pipeline_;
-  SessionManager* sessions_ = nullptr;  // owned by pipeline_ (a stage)
+  SessionManager* sessions_ = nullptr;          // owned by pipeline_ (a stage)
   std::vector<nlohmann::json> latest_params_;   // newest PARAMS per session kind
   std::vector<nlohmann::json> latest_explain_;  // newest EXPLAIN per session kind
   std::unique_ptr<SocketServer> server_;

@@ -14,10 +14,11 @@
 #include "core/memory_policy.hpp"
 #include "core/runtime_paths.hpp"
 #include "daemon/config.hpp"
+#include "daemon/cpu_placement.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
-#include "sessions/session_kinds.hpp"
 #include "drivers/builtin.hpp"
+#include "sessions/session_kinds.hpp"
 
 using namespace guideway;
 
@@ -31,7 +32,8 @@ int main(int argc, char** argv) {
   bool print_default = false;
   bool list_drivers = false;
   bool show_version = false;
-  app.add_option("-c,--config", config_path, "TOML configuration file (default: the embedded default, emulated instruments)");
+  app.add_option("-c,--config", config_path,
+                 "TOML configuration file (default: the embedded default, emulated instruments)");
   app.add_option("-s,--socket", socket_override, "Unix socket path (overrides [daemon] socket)");
   // Checked: spdlog reads an unknown level name as "off", which would silence the daemon.
   app.add_option("-l,--log-level", log_level, "trace, debug, info, warn, error (overrides [daemon] log_level)")
@@ -81,7 +83,8 @@ int main(int argc, char** argv) {
     config.socket_path = socket_override;
   }
   if (!log_level.empty()) config.log_level = log_level;
-  if (!emulator_machine.empty()) config.emulator_machine = std::filesystem::absolute(emulator_machine).lexically_normal().string();
+  if (!emulator_machine.empty())
+    config.emulator_machine = std::filesystem::absolute(emulator_machine).lexically_normal().string();
 
   std::shared_ptr<spdlog::logger> log;
   try {
@@ -121,6 +124,12 @@ int main(int argc, char** argv) {
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
       return 0;
     }
+    // Before any thread or emulator starts: they all inherit the placement.
+    const daemon::PlacementResult placement = daemon::apply_placement({config.cpu_affinity, config.nice});
+    log->info("threads on CPU {}{}{}", daemon::format_cpu_list(placement.cpus),
+              placement.isolated.empty() ? "" : " (isolated: " + daemon::format_cpu_list(placement.isolated) + ")",
+              config.nice ? ", nice " + std::to_string(*config.nice) : "");
+    for (const std::string& w : placement.warnings) log->warn("{}", w);
     sessions::SessionRegistry sessions;
     sessions::register_builtin_sessions(sessions);
     daemon::Daemon d(std::move(config), registry, sessions, log, {.handle_signals = true});

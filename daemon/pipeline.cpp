@@ -1,9 +1,11 @@
 #include "daemon/pipeline.hpp"
 
-#include <array>
+#include <sys/epoll.h>
+
 #include <algorithm>
-#include <cmath>
+#include <array>
 #include <chrono>
+#include <cmath>
 
 #include <nlohmann/json.hpp>
 
@@ -11,14 +13,21 @@
 
 namespace guideway::daemon {
 
-Pipeline::Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double sample_publish_hz)
+Pipeline::Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double sample_publish_hz,
+                   drivers::IoLoop& loop)
     : devices_(std::move(devices)),
       outbox_(outbox),
+      loop_(loop),
       publish_period_ns_(sample_publish_hz > 0 ? static_cast<std::int64_t>(1e9 / sample_publish_hz) : -1),
       last_publish_ns_(devices_.size(), 0),
-      chains_(devices_.size()) {
+      chains_(devices_.size()),
+      batch_(max_batch) {
   stats_.devices.resize(devices_.size());
-  for (drivers::Driver* d : devices_) d->set_doorbell(&doorbell_);
+  // Loop-driven drivers are served by this loop and publish in its passes: no doorbell for them.
+  for (drivers::Driver* d : devices_) {
+    threaded_.push_back(!d->loop_driven());
+    if (threaded_.back()) d->set_doorbell(&doorbell_);
+  }
 }
 
 Pipeline::~Pipeline() {
@@ -33,13 +42,27 @@ void Pipeline::set_processing(std::size_t device_index, const std::vector<Denois
 }
 
 void Pipeline::start() {
-  if (!thread_.joinable()) thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
+  if (started_) return;
+  started_ = true;
+  loop_.call([this] {
+    tick_timer_ = loop_.add_timer([] {});  // a pass at least every idle_tick_ns: its end hook is the work
+    coalesce_timer_ = loop_.add_timer([this] { coalescing_ = false; });
+    loop_.watch(doorbell_.fd(), EPOLLIN, [this](std::uint32_t) { doorbell_.clear(); });
+    end_hook_ = loop_.add_end_hook([this] { on_pass(); });
+    loop_.again();
+  });
 }
 
 void Pipeline::stop() {
-  if (!thread_.joinable()) return;
-  thread_.request_stop();
-  thread_.join();
+  if (!started_) return;
+  started_ = false;
+  loop_.call([this] {
+    loop_.remove_hook(end_hook_);
+    loop_.remove_timer(tick_timer_);
+    loop_.remove_timer(coalesce_timer_);
+    loop_.unwatch(doorbell_.fd());
+    doorbell_.disarm();
+  });
 }
 
 PipelineStats Pipeline::take_stats() {
@@ -86,12 +109,14 @@ void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* 
   outbox_.post(make_message(results::MessageClass::sample, std::move(j), dev.name()));
 }
 
-std::size_t Pipeline::drain_once(std::span<Sample> batch) {
+std::size_t Pipeline::drain_once(std::span<Sample> batch, bool& more, bool& from_threads) {
   std::size_t total = 0;
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     const std::size_t n = devices_[i]->ring().pop_bulk(batch);
     if (n == 0) continue;
     total += n;
+    more = more || n == batch.size();
+    from_threads = from_threads || threaded_[i];
     const std::int64_t now = mono_now_ns();
     const std::span<const Sample> samples(batch.data(), n);
     {
@@ -121,35 +146,37 @@ std::size_t Pipeline::drain_once(std::span<Sample> batch) {
   return total;
 }
 
-void Pipeline::run(const std::stop_token& stop) {
-  std::array<Sample, max_batch> batch{};
-  // stop() must not wait for a doorbell timeout.
-  const std::stop_callback wake_on_stop(stop, [this] { doorbell_.ring(); });
-  while (!stop.stop_requested()) {
-    const std::size_t total = drain_once(batch);
-    const std::int64_t now = mono_now_ns();
-    for (auto& stage : stages_) stage->on_tick(now);
-    {
-      std::lock_guard lock(stats_mutex_);
-      ++stats_.iterations;
-    }
-    progress_.fetch_add(1, std::memory_order_relaxed);
-    if (total != 0) {
-      // Data flows: let the next batch gather instead of waking per sample (one wake-up costs as much
-      // as processing tens of samples).
-      std::this_thread::sleep_for(std::chrono::nanoseconds(coalesce_ns));
-      continue;
-    }
-    // Nothing came: sleep until a driver rings. Arm first, then look once more, so a sample
-    // published in between is either seen here or rings the bell.
-    doorbell_.arm();
-    bool any = false;
-    for (drivers::Driver* d : devices_) any = any || d->ring().depth() != 0;
-    if (any || stop.stop_requested()) {
+void Pipeline::on_pass() {
+  bool more = false;
+  bool from_threads = false;
+  drain_once(batch_, more, from_threads);
+  const std::int64_t now = mono_now_ns();
+  for (auto& stage : stages_) stage->on_tick(now);
+  {
+    std::lock_guard lock(stats_mutex_);
+    ++stats_.iterations;
+  }
+  progress_.fetch_add(1, std::memory_order_relaxed);
+  loop_.arm(tick_timer_, now + idle_tick_ns);
+  if (more) loop_.again();  // a backlog: on at once, after the devices had their turn
+  if (from_threads) {
+    // A threaded driver's data flows: let the next batch gather instead of a wake-up per sample (one
+    // wake-up costs as much as processing tens of samples).
+    if (!coalescing_) loop_.arm(coalesce_timer_, now + coalesce_ns);
+    coalescing_ = true;
+    doorbell_.disarm();
+    return;
+  }
+  if (coalescing_ || std::find(threaded_.begin(), threaded_.end(), true) == threaded_.end()) return;
+  // Nothing came from them: the next sample of theirs wakes the loop. Arm first, then look once more,
+  // so a sample published in between is either seen here or rings the bell.
+  doorbell_.arm();
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    if (threaded_[i] && devices_[i]->ring().depth() != 0) {
       doorbell_.disarm();
-      continue;
+      loop_.again();
+      return;
     }
-    doorbell_.wait_for(idle_tick_ns);
   }
 }
 

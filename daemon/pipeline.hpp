@@ -1,9 +1,12 @@
 #pragma once
-// The pipeline thread: the single consumer of every driver ring. It drains the rings in bulk, checks
-// sequence gaps, measures sample-to-processing latency, feeds the stages (sessions, identification)
-// and posts decimated SAMPLE messages to the outbox. It sleeps on the drivers' doorbell
-// when the rings are empty (drivers/doorbell.hpp) and in fixed coalescing steps while data flows.
-// Thread safety: start/stop from the owner; progress() and stats() from any thread.
+// The pipeline: the single consumer of every driver ring, run on the I/O loop that serves the
+// loop-driven drivers (drivers/io_loop.hpp), at the end of every pass, so what the devices read in a
+// wake-up is processed in the same wake-up. It drains the rings in bulk, checks sequence gaps,
+// measures sample-to-processing latency, feeds the stages (sessions, identification) and posts
+// decimated SAMPLE messages to the outbox. Drivers on threads of their own wake the loop through a
+// doorbell (drivers/doorbell.hpp) when it sleeps, and while their data flows it looks again in fixed
+// coalescing steps instead. Thread safety: start/stop from the owner; progress() and stats() from
+// any thread; the rest runs on the loop's thread.
 
 #include <array>
 #include <atomic>
@@ -17,9 +20,10 @@
 #include <vector>
 
 #include "core/sample.hpp"
-#include "daemon/processing_chain.hpp"
 #include "daemon/outbox.hpp"
+#include "daemon/processing_chain.hpp"
 #include "drivers/driver.hpp"
+#include "drivers/io_loop.hpp"
 #include "sessions/session.hpp"
 
 namespace guideway::daemon {
@@ -34,8 +38,8 @@ class PipelineStage {
 };
 
 struct DeviceFlowStats {
-  std::uint64_t consumed = 0;     // samples taken from the ring
-  std::uint64_t seq_gaps = 0;     // samples missing by sequence number (ring overruns seen by the consumer)
+  std::uint64_t consumed = 0;  // samples taken from the ring
+  std::uint64_t seq_gaps = 0;  // samples missing by sequence number (ring overruns seen by the consumer)
   std::int64_t last_t_mono_ns = 0;
   std::uint64_t non_monotonic = 0;  // samples whose timestamp went backwards
 };
@@ -50,7 +54,8 @@ struct PipelineStats {
 
 class Pipeline {
  public:
-  Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double sample_publish_hz);
+  // Runs on `loop` between start() and stop(); the loop must outlive them.
+  Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double sample_publish_hz, drivers::IoLoop& loop);
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
@@ -66,25 +71,28 @@ class Pipeline {
   static constexpr std::size_t max_batch = sessions::max_feed_batch;
   void start();
   void stop();
-  // Advances on every loop of the pipeline thread, idle or not: the watchdog's proof of life.
+  // Advances on every pass of the pipeline, idle or not: the watchdog's proof of life.
   [[nodiscard]] std::uint64_t progress() const noexcept { return progress_.load(std::memory_order_relaxed); }
   // Returns the statistics and restarts the latency window.
   PipelineStats take_stats();
 
-  // While samples flow the thread drains the rings, then sleeps this long before looking again, so
-  // a wake-up carries a batch (bounds the added sample-to-pipeline latency). When a look finds
-  // nothing it sleeps on the drivers' doorbell instead: the next sample wakes it at once.
+  // While samples of drivers on threads of their own flow, the pipeline looks again this long after
+  // it took some, so a wake-up carries a batch (bounds the added sample-to-pipeline latency). When a
+  // look finds nothing it arms their doorbell instead: the next sample wakes the loop at once.
   static constexpr std::int64_t coalesce_ns = 400'000;
-  // Longest sleep on the doorbell: the stages' on_tick (session start/stop) runs at least this often.
+  // Longest time between passes: the stages' on_tick (session start/stop) runs at least this often.
   static constexpr std::int64_t idle_tick_ns = 5'000'000;
 
  private:
-  void run(const std::stop_token& stop);
-  std::size_t drain_once(std::span<Sample> batch);  // one pass over every ring; returns samples taken
+  void on_pass();  // the loop's end hook
+  // One pass over every ring; returns samples taken, and sets `more` when a ring holds more than a batch.
+  std::size_t drain_once(std::span<Sample> batch, bool& more, bool& from_threads);
   void publish_sample(std::size_t index, const Sample& raw, const Sample* processed, std::int64_t now_ns);
 
   std::vector<drivers::Driver*> devices_;
+  std::vector<bool> threaded_;  // per device: on a thread of its own (rings the doorbell)
   Outbox& outbox_;
+  drivers::IoLoop& loop_;
   std::int64_t publish_period_ns_;
   std::vector<std::int64_t> last_publish_ns_;
   std::vector<std::unique_ptr<PipelineStage>> stages_;
@@ -94,8 +102,13 @@ class Pipeline {
   PipelineStats stats_;
   double latency_sum_us_ = 0.0;
   std::uint64_t latency_count_ = 0;
-  alignas(64) drivers::Doorbell doorbell_;  // every driver's publish touches it: its own cache line
-  std::jthread thread_;
+  std::vector<Sample> batch_;  // the loop thread's
+  bool started_ = false;       // owner
+  drivers::IoLoop::Id end_hook_ = 0;
+  drivers::IoLoop::Id tick_timer_ = 0;
+  drivers::IoLoop::Id coalesce_timer_ = 0;
+  bool coalescing_ = false;                 // loop thread: the coalescing timer is armed
+  alignas(64) drivers::Doorbell doorbell_;  // every threaded driver's publish touches it: its own cache line
 };
 
 }  // namespace guideway::daemon

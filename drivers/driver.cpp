@@ -1,18 +1,27 @@
 #include "drivers/driver.hpp"
 
+#include <pthread.h>
+
 #include <algorithm>
 #include <condition_variable>
 #include <utility>
+
+#include "drivers/io_loop.hpp"
 
 namespace guideway::drivers {
 
 std::string_view to_string(DeviceState state) noexcept {
   switch (state) {
-    case DeviceState::stopped: return "stopped";
-    case DeviceState::connecting: return "connecting";
-    case DeviceState::streaming: return "streaming";
-    case DeviceState::lost: return "lost";
-    case DeviceState::error: return "error";
+    case DeviceState::stopped:
+      return "stopped";
+    case DeviceState::connecting:
+      return "connecting";
+    case DeviceState::streaming:
+      return "streaming";
+    case DeviceState::lost:
+      return "lost";
+    case DeviceState::error:
+      return "error";
   }
   return "unknown";
 }
@@ -22,13 +31,37 @@ Driver::Driver(std::string name, std::string driver, std::vector<ChannelInfo> ch
 
 Driver::~Driver() = default;  // derived classes call stop() in their destructors, before their members go
 
-void Driver::start() {
-  if (thread_.joinable()) return;
+void Driver::start(IoLoop* loop) {
+  if (thread_.joinable() || loop_ != nullptr) return;
   set_state(DeviceState::connecting);
-  thread_ = std::jthread([this](std::stop_token stop) { run(stop); });
+  const std::string thread_name = "gw-" + name_;  // ps -L, /proc/PID/task/TID/comm (15 characters)
+  if (loop_driven()) {
+    if (loop == nullptr) {
+      own_loop_ = std::make_unique<IoLoop>();
+      own_loop_->start(thread_name);
+      loop = own_loop_.get();
+    }
+    loop_ = loop;
+    loop_->call([this] { attach(*loop_); });
+    return;
+  }
+  thread_ = std::jthread([this, thread_name](std::stop_token stop) {
+    (void)::pthread_setname_np(::pthread_self(), thread_name.substr(0, 15).c_str());
+    run(stop);
+  });
 }
 
 void Driver::stop() {
+  if (loop_ != nullptr) {
+    loop_->call([this] { detach(); });
+    if (own_loop_) {
+      own_loop_->stop();
+      own_loop_.reset();
+    }
+    loop_ = nullptr;
+    set_state(DeviceState::stopped);
+    return;
+  }
   if (!thread_.joinable()) return;
   thread_.request_stop();
   interrupt();
@@ -126,8 +159,8 @@ std::unique_ptr<Driver> DriverRegistry::create(const DeviceConfig& config) const
   }
   std::string known;
   for (const Entry& e : entries_) known += (known.empty() ? "" : ", ") + e.driver;
-  config.table.fail("driver", "unknown driver \"" + config.driver + "\" (known: " +
-                                  (known.empty() ? std::string("none") : known) + ")");
+  config.table.fail("driver", "unknown driver \"" + config.driver +
+                                  "\" (known: " + (known.empty() ? std::string("none") : known) + ")");
 }
 
 std::vector<std::pair<std::string, std::string>> DriverRegistry::list() const {

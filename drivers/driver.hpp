@@ -1,7 +1,10 @@
 #pragma once
-// The driver API. A driver owns one device: its thread reads the transport, parses frames with a
-// pure parser, timestamps samples with CLOCK_MONOTONIC and pushes them into its SPSC ring (it is
-// the ring's only producer). Faults are states of the driver, never exceptions out of its thread.
+// The driver API. A driver owns one device: it reads the transport, parses frames with a pure
+// parser, timestamps samples with CLOCK_MONOTONIC and pushes them into its SPSC ring (it is the
+// ring's only producer). Faults are states of the driver, never exceptions out of it.
+// Two kinds: a loop-driven driver is a non-blocking state machine fed by descriptor readiness and
+// timers of an IoLoop (drivers/io_loop.hpp), so one thread serves many devices; any other driver
+// (a blocking vendor library, a plugin) runs run() on a thread of its own.
 // Thread safety: start/stop from the owning thread; status() and ring observers from any thread;
 // ring().try_pop/pop_bulk from the single consumer (the pipeline).
 
@@ -25,6 +28,13 @@
 namespace guideway::drivers {
 
 enum class DeviceState { stopped, connecting, streaming, lost, error };
+
+// How long a loop-driven driver that streams rests between reads of its transport (its
+// `read_period_us`, 0: a wake-up per arrival): what arrived meanwhile waits in the socket, then the
+// pipeline runs in the same wake-up, so a sample waits at most this plus the hop to the clients
+// (docs/architecture.md, "Threads"). Every streaming driver has the same default, so the devices of
+// one loop read in step and share one wake-up per period.
+inline constexpr std::int64_t default_read_period_us = 700;
 std::string_view to_string(DeviceState state) noexcept;
 
 struct ChannelInfo {
@@ -69,9 +79,12 @@ struct DriverStatus {
   DeviceState state = DeviceState::stopped;
   std::string reason;  // why the state is what it is ("", "connection refused", ...)
   DriverCounters counters;
-  std::vector<NamedCounter> driver_counters;  // Driver::driver_counters(), in the driver's order (STATUS's JSON object sorts them by name)
+  std::vector<NamedCounter>
+      driver_counters;  // Driver::driver_counters(), in the driver's order (STATUS's JSON object sorts them by name)
   RingStatus ring;
 };
+
+class IoLoop;
 
 class Driver {
  public:
@@ -80,8 +93,15 @@ class Driver {
   Driver(const Driver&) = delete;
   Driver& operator=(const Driver&) = delete;
 
-  void start();
-  void stop();  // requests stop, wakes the thread (interrupt()), joins
+  // Starts serving the device: a loop-driven driver on `loop` when one is given (guidewayd's I/O
+  // thread), else on an IoLoop of its own thread; any other driver runs run() on its own thread.
+  // `loop` must outlive the device's service (stop() first).
+  void start(IoLoop* loop = nullptr);
+  // A loop-driven driver: detach() on its loop's thread (its own loop then ends); else requests stop,
+  // wakes the thread (interrupt()) and joins. Nothing received before is lost.
+  void stop();
+  // Whether this driver is served by an IoLoop (attach/detach) rather than a thread running run().
+  [[nodiscard]] virtual bool loop_driven() const noexcept { return false; }
   [[nodiscard]] DriverStatus status() const;
   // The driver's own counters (STATUS "driver_counters"), the same names every time; default none.
   // Called from any thread while run() goes on: read atomics only.
@@ -101,11 +121,17 @@ class Driver {
   void set_doorbell(Doorbell* bell) noexcept { doorbell_.store(bell, std::memory_order_release); }
 
  protected:
-  // The driver thread: connect, read, parse, publish; on a fault set_state(lost/error), back off, reconnect.
-  // Must return promptly once stop is requested.
-  virtual void run(std::stop_token stop) = 0;
+  // A threaded driver's thread: connect, read, parse, publish; on a fault set_state(lost/error), back
+  // off, reconnect. Must return promptly once stop is requested.
+  virtual void run(std::stop_token stop) { (void)stop; }
   // Called from stop() on the owning thread to unblock a run() waiting on I/O (e.g. write an eventfd).
   virtual void interrupt() {}
+  // A loop-driven driver, on the loop's thread: attach() connects (or schedules the connection) and
+  // watches its descriptors and timers, never blocking; the handlers do the rest (reconnect with
+  // back-off included). detach() removes every descriptor, timer and hook, closes the device and
+  // publishes what it still holds. Everything the two touch is the loop thread's.
+  virtual void attach(IoLoop& loop) { (void)loop; }
+  virtual void detach() {}
 
   void set_state(DeviceState state, std::string reason = {});
   // Queues an event for take_events(); never blocks for long (a mutex held for a push).
@@ -137,6 +163,8 @@ class Driver {
   std::vector<DeviceEvent> events_;   // under state_mutex_
   std::uint64_t events_dropped_ = 0;  // under state_mutex_
   std::jthread thread_;
+  IoLoop* loop_ = nullptr;            // serving a loop-driven driver (owning thread)
+  std::unique_ptr<IoLoop> own_loop_;  // when it was started without one
 };
 
 // A [[device]] table of the configuration. The factory reads its own keys from `table` (and must read

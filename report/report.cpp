@@ -9,6 +9,7 @@
 
 #include "core/csv_table.hpp"
 #include "formats/dbb_run.hpp"
+#include "formats/raw_recording.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
 #include "results/session_kinds.hpp"
@@ -39,6 +40,41 @@ std::string base_name(const std::string& path) {
   const auto name = fs::path(path).filename().string();
   return name.empty() ? path : name;
 }
+
+InputKind detect_input(const std::string& path);
+
+namespace {
+
+// A raw recording is what a session measured, not a result: the files a session derived from it
+// (NAME.run1.csv, NAME.traverse.csv, ...) sit beside it, and those are what a report reads.
+ReportError raw_recording_refused(const std::string& path) {
+  const fs::path p(path);
+  const std::string stem = p.stem().string();  // NAME of NAME.csv
+  std::vector<std::string> derived;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(p.parent_path().empty() ? fs::path(".") : p.parent_path(), ec)) {
+    const std::string name = e.path().filename().string();
+    if (!e.is_regular_file() || name == p.filename().string() || !name.starts_with(stem + ".")) continue;
+    try {
+      detect_input(e.path().string());
+      derived.push_back(e.path().string());
+    } catch (const ReportError&) {
+      // not a report input (the session's PARAMS JSON, a part file, ...)
+    }
+  }
+  std::sort(derived.begin(), derived.end());
+  std::string msg = path + ": a raw recording (" + std::string(formats::raw_format_id) +
+                    ", the samples as they arrived), not a result; ";
+  if (derived.empty())
+    return ReportError(msg + "no file derived from it lies beside it (a session that ended writes NAME.run1.csv, "
+                             "NAME.traverse.csv, ...; `guideway replay " +
+                       path + "` identifies it again)");
+  msg += "give the files the session derived from it:";
+  for (const auto& d : derived) msg += " " + d;
+  return ReportError(msg);
+}
+
+}  // namespace
 
 InputKind detect_input(const std::string& path) {
   std::error_code ec;
@@ -73,6 +109,7 @@ InputKind detect_input(const std::string& path) {
   if (const auto f = t.metadata.find("format"); f != t.metadata.end()) {
     if (f->second == "guideway/dbb-run/1") return InputKind::dbb_run;
     if (f->second == "guideway/profile/1") return InputKind::profile;
+    if (f->second == formats::raw_format_id) throw raw_recording_refused(path);
     // Other formats fall through to the columns (e.g. a run-out written with its own format name).
   }
   const auto has = [&](std::string_view c) { return t.find_column(c).has_value(); };

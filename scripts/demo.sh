@@ -91,5 +91,5 @@ if [ -n "$report_file" ]; then
 fi
 if [ $keep -eq 1 ]; then
   echo
-  echo "guidewayd keeps running (pid $pid). Try: $bin/cli/guideway watch    Stop: kill $pid"
+  echo "guidewayd keeps running (pid $pid). Try: $bin/cli/guideway watch --class SAMPLE --channel dbb    Stop: kill $pid"
 fi

@@ -13,6 +13,7 @@
 #include "models/artifact/artifact.hpp"
 #include "simulators/emulators/measurement_files.hpp"
 #include "simulators/machine/machine.hpp"
+#include "core/units.hpp"
 
 namespace {
 
@@ -20,7 +21,7 @@ using namespace guideway::models::artifact;
 using namespace guideway;
 using guideway::CsvError;
 
-constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
+constexpr double arcsec = rad_per_arcsec;
 const std::string kMachine = GUIDEWAY_SOURCE_DIR "/tests/artifact_wei2019_machine.toml";
 
 ArtifactResult identify(const simulators::emulators::ArtifactFiles& f, const ArtifactOptions& opt = {}) {

@@ -177,6 +177,12 @@ def main():
         assert r.returncode == 0, r.stderr
         r = subprocess.run([exe, "compensate", "dbb", runs[0], "--out-dir", comp], capture_output=True, text=True)
         assert r.returncode == 1 and "both directions" in r.stderr, r.stderr
+        # Every missing option named at once, before the daemon is asked for anything (--latest).
+        r = subprocess.run([exe, "--socket", os.path.join(d, "no-daemon.sock"), "compensate", "dbb", "--latest",
+                            "--verify"], capture_output=True, text=True)
+        assert r.returncode == 1 and "--out-dir DIR" in r.stderr and "--machine FILE" in r.stderr, r.stderr
+        r = subprocess.run([exe, "compensate", "dbb"], capture_output=True, text=True)
+        assert r.returncode == 1 and "RUN.csv... or --latest" in r.stderr and "--out-dir DIR" in r.stderr, r.stderr
         r = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", comp, "--step-mm", "0.5"], capture_output=True, text=True)
         assert r.returncode == 1 and "256" in r.stderr, r.stderr
         r = subprocess.run([exe, "compensate", "dbb", *runs, "--out-dir", comp, "--axes", "z"], capture_output=True, text=True)

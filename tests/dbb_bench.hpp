@@ -53,12 +53,13 @@ inline simulators::emulators::DbbEmulatorSettings tuned(simulators::emulators::D
   return s;
 }
 
-// A driver and the emulator, joined by a socketpair per connection.
+// A driver and the emulator, joined by a socketpair per connection; the driver is served by `loop`
+// (shared with other devices) or by a loop of its own.
 struct Bench {
   explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
                  simulators::emulators::DbbSource source = circle_source(),
                  std::int64_t read_period_us = drivers::dbb::default_read_period_us, const TuneDriver& tune_driver = {},
-                 const TuneEmulator& tune_emulator = {})
+                 const TuneEmulator& tune_emulator = {}, drivers::IoLoop* loop = nullptr)
       : emu(tuned(emulator_settings(!driver_produces_sync, rate_hz), tune_emulator), std::move(source)) {
     drivers::dbb::DbbSettings s;
     s.produce_sync = driver_produces_sync;
@@ -80,7 +81,7 @@ struct Bench {
       emu.attach(drivers::can::CanSocket(sv[1]));
       return drivers::can::CanSocket(sv[0]);
     });
-    driver->start();
+    driver->start(loop);  // a loop shared with other devices, or one of its own
   }
   ~Bench() {
     driver->stop();

@@ -199,6 +199,13 @@ class EndToEndDbb(DaemonCase):
         self.assertIn("# end = complete", text)
         self.assertEqual(len(params["derived"]), 3)
         offline = json.loads(self.cli("identify", "dbb", *params["derived"], "--json"))
+        # A report asked of the raw recording is refused with the run files beside it named.
+        refused = subprocess.run([GUIDEWAY, "report", params["recording"], "-o", "-"], capture_output=True, text=True,
+                                 timeout=30)
+        self.assertEqual(refused.returncode, 1, refused.stderr)
+        self.assertIn("a raw recording", refused.stderr)
+        for derived in params["derived"]:
+            self.assertIn(derived, refused.stderr)
         for name, value in lai.items():
             self.assertAlmostEqual(offline["lai3"][name]["value"], value, delta=1e-9 + 1e-6 * abs(value), msg=name)
         # Sessions assemble the raw stream ([[processing]] of the default config is for the live display):

@@ -263,6 +263,10 @@ class GuidewaydProcess(unittest.TestCase):
         self.assertRegex(out.stdout, r"^\d\d:\d\d:\d\d\.\d{3} STATUS  dbb:\w+ autocollimator:\w+")
         out = self.guideway("watch", "--class", "SAMPLE", "--channel", "dbb", "--count", "1", "--seconds", "20",
                             "--socket", self.sock)
+        # In the units the rest of the tool speaks: a bar length and an axis position in mm (0.1 µm).
+        self.assertRegex(out.stdout, r"SAMPLE  dbb seq \d+  bar_length=-?\d+\.\d{4} mm  x=-?\d+\.\d{4} mm")
+        out = self.guideway("watch", "--class", "SAMPLE", "--channel", "dbb", "--count", "1", "--seconds", "20",
+                            "--si", "--socket", self.sock)
         self.assertRegex(out.stdout, r"SAMPLE  dbb seq \d+  bar_length=[-0-9.e]+ m  x=[-0-9.e]+ m")
         out = self.guideway("watch", "--class", "STATUS", "--count", "1", "--seconds", "20", "--json", "--socket",
                             self.sock)

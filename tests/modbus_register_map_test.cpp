@@ -1,11 +1,18 @@
 // The pure register decoder: known encodings, config parsing, and a randomized property test
-// (random maps, random and mutated register blocks; >= 200k inputs).
+// (random maps, random and mutated register blocks; >= 200k inputs); the Modbus TCP framing of the
+// loop-driven client likewise (the specification's request, every kind of answer, random bytes).
+#include "drivers/modbus/modbus_tcp.hpp"
 #include "drivers/modbus/register_map.hpp"
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "core/sample.hpp"
 
@@ -120,4 +127,116 @@ TEST(RegisterMap, RandomizedDecodeNeverFailsAndRoundTrips) {
   }
   EXPECT_GE(inputs, 250000u);
   EXPECT_GT(round_trips, 100000u);
+}
+
+// ---- Modbus TCP framing of the loop-driven client (drivers/modbus/modbus_tcp.hpp).
+
+namespace {
+
+// An answer as a Modbus TCP server frames it: MBAP header, then the PDU.
+std::vector<std::uint8_t> tcp_answer(std::uint16_t transaction, std::uint8_t unit,
+                                     const std::vector<std::uint8_t>& pdu) {
+  const auto length = static_cast<std::uint16_t>(pdu.size() + 1);
+  std::vector<std::uint8_t> a;
+  const std::uint16_t header[] = {transaction, 0, length};  // big-endian on the wire
+  for (const std::uint16_t w : header) {
+    a.push_back(static_cast<std::uint8_t>(w >> 8));
+    a.push_back(static_cast<std::uint8_t>(w & 0xFF));
+  }
+  a.push_back(unit);
+  for (const std::uint8_t b : pdu) a.push_back(b);
+  return a;
+}
+
+std::vector<std::uint8_t> registers_pdu(std::uint8_t function, const std::vector<std::uint16_t>& regs) {
+  std::vector<std::uint8_t> pdu = {function, static_cast<std::uint8_t>(2 * regs.size())};
+  for (const std::uint16_t r : regs) {
+    pdu.push_back(static_cast<std::uint8_t>(r >> 8));
+    pdu.push_back(static_cast<std::uint8_t>(r));
+  }
+  return pdu;
+}
+
+}  // namespace
+
+TEST(ModbusTcp, TheRequestIsTheSpecificationsFrame) {
+  // Modbus Messaging on TCP/IP Implementation Guide: transaction, protocol 0, length 6, unit, then
+  // the PDU "read input registers" (FC 4), starting address, quantity.
+  const auto r = tcp_read_request(0x1234, 7, RegisterFunction::input, 0x0064, 2);
+  const std::array<std::uint8_t, 12> want = {0x12, 0x34, 0, 0, 0, 6, 7, 0x04, 0x00, 0x64, 0x00, 0x02};
+  EXPECT_EQ(r, want);
+  EXPECT_EQ(tcp_read_request(1, 1, RegisterFunction::holding, 0xFFFE, 125)[7], 0x03);
+}
+
+TEST(ModbusTcp, AnswersExceptionsOtherTransactionsAndGarbageAreTold) {
+  std::vector<std::uint16_t> out(125);
+  const auto ok = tcp_answer(5, 1, registers_pdu(0x04, {0x0001, 0x86A0}));
+  auto a = parse_tcp_answer(ok, 5, 1, RegisterFunction::input, 2, out);
+  ASSERT_EQ(a.kind, TcpAnswer::Kind::registers);
+  EXPECT_EQ(a.length, ok.size());
+  EXPECT_EQ(out[0], 0x0001);
+  EXPECT_EQ(out[1], 0x86A0);
+  // Every prefix is incomplete: the rest is read first.
+  for (std::size_t n = 0; n < ok.size(); ++n) {
+    EXPECT_EQ(parse_tcp_answer(std::span(ok.data(), n), 5, 1, RegisterFunction::input, 2, out).kind,
+              TcpAnswer::Kind::incomplete)
+        << n;
+  }
+  a = parse_tcp_answer(tcp_answer(5, 1, {0x84, 0x06}), 5, 1, RegisterFunction::input, 2, out);
+  EXPECT_EQ(a.kind, TcpAnswer::Kind::exception);
+  EXPECT_EQ(a.exception_code, 6);
+  a = parse_tcp_answer(ok, 4, 1, RegisterFunction::input, 2, out);  // an earlier request's answer
+  EXPECT_EQ(a.kind, TcpAnswer::Kind::other_transaction);
+  EXPECT_EQ(a.length, ok.size());
+  for (const auto& [bytes, words] : std::vector<std::pair<std::vector<std::uint8_t>, std::string>>{
+           {tcp_answer(5, 2, registers_pdu(0x04, {1, 2})), "unit 2"},
+           {tcp_answer(5, 1, registers_pdu(0x03, {1, 2})), "function code 3"},
+           {tcp_answer(5, 1, registers_pdu(0x04, {1, 2, 3})), "6 data bytes to a read of 2"},
+           {tcp_answer(5, 1, {0x84, 0x06, 0x00}), "exception response of 3"},
+           {{0, 5, 0, 1, 0, 7, 1, 4, 4, 0, 1, 0, 2}, "protocol identifier 1"},
+           {{0, 5, 0, 0, 0, 1, 1}, "MBAP length 1"}}) {
+    a = parse_tcp_answer(bytes, 5, 1, RegisterFunction::input, 2, out);
+    EXPECT_EQ(a.kind, TcpAnswer::Kind::bad) << words;
+    EXPECT_NE(a.why.find(words), std::string::npos) << a.why;
+  }
+}
+
+TEST(ModbusTcp, RandomAndMutatedBytesNeverFailAndRoundTrip) {
+  std::mt19937_64 rng(20261127);
+  auto pick = [&](int n) { return static_cast<int>(rng() % static_cast<unsigned>(n)); };
+  std::vector<std::uint16_t> out(125);
+  std::size_t answers = 0;
+  for (int iter = 0; iter < 200000; ++iter) {
+    const auto count = static_cast<std::uint16_t>(1 + pick(125));
+    const auto transaction = static_cast<std::uint16_t>(rng());
+    const auto function = pick(2) ? RegisterFunction::holding : RegisterFunction::input;
+    std::vector<std::uint16_t> regs(count);
+    for (auto& r : regs) r = static_cast<std::uint16_t>(rng());
+    std::vector<std::uint8_t> bytes =
+        tcp_answer(transaction, 1, registers_pdu(function == RegisterFunction::holding ? 0x03 : 0x04, regs));
+    const int mutation = pick(4);
+    if (mutation == 1) {  // a few bytes flipped
+      for (int k = 0; k < 1 + pick(3); ++k)
+        bytes[static_cast<std::size_t>(pick(static_cast<int>(bytes.size())))] ^=
+            static_cast<std::uint8_t>(1 + pick(255));
+    } else if (mutation == 2) {  // cut or extended
+      bytes.resize(static_cast<std::size_t>(pick(static_cast<int>(bytes.size()) + 20)),
+                   static_cast<std::uint8_t>(rng()));
+    } else if (mutation == 3) {  // random bytes
+      bytes.resize(static_cast<std::size_t>(pick(300)));
+      for (auto& b : bytes) b = static_cast<std::uint8_t>(rng());
+    }
+    const TcpAnswer a = parse_tcp_answer(bytes, transaction, 1, function, count, out);
+    ASSERT_LE(a.length, bytes.size());
+    if (a.kind == TcpAnswer::Kind::registers) {
+      ASSERT_EQ(a.length, 9u + 2u * count);
+      if (mutation == 0) {
+        for (std::size_t i = 0; i < count; ++i) ASSERT_EQ(out[i], regs[i]);
+        ++answers;
+      }
+    } else {
+      ASSERT_NE(mutation, 0) << "an intact answer is always taken";
+    }
+  }
+  EXPECT_GT(answers, 40000u);
 }

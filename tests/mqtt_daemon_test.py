@@ -362,13 +362,20 @@ class FleetServe(BrokerCase):
         for name, machine_file in (("mill-1", "machine-example.toml"), ("mill-2", "machine-leadscrew.toml")):
             daemons[name] = self.daemon(f'broker = "mqtt://127.0.0.1:{broker.port}"\nmachine = "{name}"\n', name,
                                         f'emulator_machine = "{machines}/{machine_file}"\n')
+        # One waits with its progress on stderr, the other with --quiet.
         sessions = [subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", "dbb", "--set",
                                       'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]', "--wait",
-                                      "--timeout", "120"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-                    for d in daemons.values()]
-        for p in sessions:
+                                      "--timeout", "120", *(["--quiet"] if i else [])],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                    for i, d in enumerate(daemons.values())]
+        for i, p in enumerate(sessions):
             out, err = p.communicate(timeout=150)
             self.assertEqual(p.returncode, 0, err)
+            self.assertIn("session", out)
+            if i:
+                self.assertEqual(err, "", "--quiet prints no progress")
+            else:
+                self.assertRegex(err, r"\[\d+ s\] running: 0/1 patterns traced", "progress while the session runs")
 
         def both_listed():
             st = self.fleet_status(db)

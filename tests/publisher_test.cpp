@@ -175,6 +175,8 @@ TEST(Publisher, EveryMessageArrivesOnceInOrderThroughABrokerOutage) {
   publish_range(0, 100);
   ASSERT_TRUE(eventually([&] { return publisher.stats().delivered == 100; })) << publisher.stats().delivered;
   EXPECT_EQ(publisher.stats().state, "connected");
+  // Acknowledged by the broker is not yet forwarded to the subscriber: stop it only when all 100 arrived.
+  ASSERT_TRUE(eventually([&] { return listener.payloads().size() >= 100; })) << listener.payloads().size();
 
   broker.stop();
   ASSERT_TRUE(eventually([&] { return publisher.stats().state == "disconnected"; }));

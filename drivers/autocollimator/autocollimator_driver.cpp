@@ -1,7 +1,6 @@
 #include "drivers/autocollimator/autocollimator_driver.hpp"
 
-#include <sys/eventfd.h>
-#include <unistd.h>
+#include <sys/epoll.h>
 
 #include <algorithm>
 #include <cmath>
@@ -39,6 +38,9 @@ AutocollimatorSettings parse_autocollimator_settings(const TableReader& t) {
   s.x_channel = t.get_string("x_channel", "angle_x");
   s.y_channel = t.get_string("y_channel", "angle_y");
   if (s.x_channel == s.y_channel) t.fail("y_channel", "x_channel and y_channel must differ");
+  s.read_period_us = t.get_int("read_period_us", drivers::default_read_period_us, 0, 100'000);
+  if (s.read_period_us * 1000 >= s.reply_timeout_ms * 1'000'000)
+    t.fail("read_period_us", "must be shorter than reply_timeout_ms (" + std::to_string(s.reply_timeout_ms) + " ms)");
   return s;
 }
 
@@ -63,17 +65,10 @@ AutocollimatorDriver::AutocollimatorDriver(std::string name, std::size_t ring_ca
     : Driver(std::move(name), "autocollimator-serial", {{settings.x_channel, "rad"}, {settings.y_channel, "rad"}},
              ring_capacity),
       settings_(std::move(settings)),
-      wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
+      rests_(settings_.stream && settings_.read_period_us > 0 &&
+             settings_.stream_period_ms * 1000 < 2 * settings_.read_period_us) {}
 
-AutocollimatorDriver::~AutocollimatorDriver() {
-  stop();
-  if (wake_fd_ >= 0) ::close(wake_fd_);
-}
-
-void AutocollimatorDriver::interrupt() {
-  const std::uint64_t one = 1;
-  if (wake_fd_ >= 0) (void)!::write(wake_fd_, &one, sizeof one);
-}
+AutocollimatorDriver::~AutocollimatorDriver() { stop(); }
 
 void AutocollimatorDriver::handle_line(const std::string& line, bool& got_reading) {
   Reading r;
@@ -93,116 +88,268 @@ void AutocollimatorDriver::handle_line(const std::string& line, bool& got_readin
   got_reading = true;
 }
 
-std::string AutocollimatorDriver::serve(const std::stop_token& stop, serial::SerialLine& line) {
-  serial::LineFramer framer(max_reply_length * 2);
-  std::vector<std::string> lines;
-  std::string error;
-  const std::int64_t timeout_ns = settings_.reply_timeout_ms * 1'000'000;
-  const std::int64_t poll_ns = settings_.poll_period_ms * 1'000'000;
-  int consecutive_timeouts = 0;
-  bool awaiting = false;      // poll: a request is outstanding
-  std::int64_t deadline = 0;  // poll: reply deadline; stream: silence deadline
-  std::int64_t next_poll = mono_now_ns();
-  const std::string request = format_request(settings_.relative ? Request::relative : Request::absolute);
-
-  auto start_stream = [&]() -> bool {
-    const auto st = line.write_all(format_request(Request::stream_start, static_cast<int>(settings_.stream_period_ms)),
-                                   static_cast<int>(settings_.reply_timeout_ms), error);
-    deadline = mono_now_ns() + timeout_ns;
-    return st == serial::IoStatus::ok;
-  };
-  if (settings_.stream && !start_stream()) return "write: " + error;
-
-  auto on_timeout = [&] {
-    timeouts_.fetch_add(1, std::memory_order_relaxed);
-    if (++consecutive_timeouts >= settings_.lost_after_timeouts) {
-      set_state(drivers::DeviceState::lost, "no reply for " + std::to_string(consecutive_timeouts) + " requests");
-      after_gap_ = true;
-    }
-  };
-
-  while (!stop.stop_requested()) {
-    std::int64_t now = mono_now_ns();
-    if (!settings_.stream) {
-      if (awaiting && now >= deadline) {
-        awaiting = false;
-        on_timeout();
-      }
-      if (!awaiting && now >= next_poll) {
-        const auto st = line.write_all(request, static_cast<int>(settings_.reply_timeout_ms), error);
-        if (st == serial::IoStatus::closed) return "port closed";
-        if (st != serial::IoStatus::ok) return "write: " + error;
-        awaiting = true;
-        deadline = now + timeout_ns;
-        next_poll = std::max(next_poll + poll_ns, now);  // a late reply never causes a burst of requests
-      }
-    } else if (now >= deadline) {
-      on_timeout();
-      if (!start_stream()) return "write: " + error;  // ask again: the instrument may have been reset
-    }
-    now = mono_now_ns();
-    std::int64_t wake_at = deadline;
-    if (!settings_.stream && !awaiting) wake_at = next_poll;
-    const int wait_ms = static_cast<int>(std::clamp<std::int64_t>((wake_at - now + 999'999) / 1'000'000, 0, 1000));
-    const auto w = serial::wait_readable(line, wait_ms, wake_fd_);
-    if (w == serial::WaitResult::woken) return {};
-    if (w == serial::WaitResult::error) return "poll failed";
-    if (w == serial::WaitResult::timeout) continue;
-    char buf[512];
-    std::size_t got = 0;
-    const auto st = line.read_some(buf, sizeof buf, got, error);
-    if (st == serial::IoStatus::closed) return "port closed (device gone)";
-    if (st == serial::IoStatus::error) return error;
-    if (got == 0) continue;
-    line_end_ns_ = mono_now_ns();
-    lines.clear();
-    const std::size_t overflows = framer.feed(std::string_view(buf, got), lines);
-    bad_frames_.fetch_add(overflows, std::memory_order_relaxed);
-    bool got_reading = false;
-    for (const auto& l : lines) handle_line(l, got_reading);
-    if (got_reading) {
-      if (consecutive_timeouts >= settings_.lost_after_timeouts || consecutive_timeouts > 0) {
-        set_state(drivers::DeviceState::streaming);
-      }
-      consecutive_timeouts = 0;
-      awaiting = false;
-      if (settings_.stream) deadline = line_end_ns_ + timeout_ns;
-    }
+void AutocollimatorDriver::attach(drivers::IoLoop& loop) {
+  io_ = &loop;
+  backoff_ms_ = settings_.reconnect_min_ms;
+  connected_once_ = false;
+  timer_ = loop.add_timer([this] { on_timer(); });
+  if (rests_) {
+    wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+    settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
   }
-  return {};
+  open_port();
 }
 
-void AutocollimatorDriver::run(std::stop_token stop) {
-  std::uint64_t stale = 0;
-  (void)!::read(wake_fd_, &stale, sizeof stale);  // a wake-up left over from an earlier stop()
-  std::int64_t backoff_ms = settings_.reconnect_min_ms;
-  bool connected_once = false;
-  while (!stop.stop_requested()) {
-    std::string error;
-    auto line = serial::open_serial(settings_.serial, error);
-    if (!line) {
-      set_state(connected_once ? drivers::DeviceState::lost : drivers::DeviceState::error, error);
-      if (!sleep_for(stop, std::chrono::milliseconds(backoff_ms))) break;
-      backoff_ms = std::min(backoff_ms * 2, settings_.reconnect_max_ms);
-      continue;
+void AutocollimatorDriver::detach() {
+  close_port();
+  io_->remove_timer(timer_);
+  if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
+  if (settle_hook_ != 0) io_->remove_hook(settle_hook_);
+  wake_hook_ = settle_hook_ = 0;
+  io_ = nullptr;
+}
+
+void AutocollimatorDriver::open_port() {
+  std::string error;
+  auto line = serial::open_serial(settings_.serial, error);
+  if (!line) {
+    set_state(connected_once_ ? drivers::DeviceState::lost : drivers::DeviceState::error, error);
+    reconnect_at_ns_ = mono_now_ns() + backoff_ms_ * 1'000'000;
+    backoff_ms_ = std::min(backoff_ms_ * 2, settings_.reconnect_max_ms);
+    io_->arm(timer_, reconnect_at_ns_);
+    return;
+  }
+  if (connected_once_) {
+    reconnects_.fetch_add(1, std::memory_order_relaxed);
+    after_gap_ = true;
+  }
+  connected_once_ = true;
+  backoff_ms_ = settings_.reconnect_min_ms;
+  set_state(drivers::DeviceState::streaming);
+  line_ = std::move(line);
+  framer_.reset();
+  out_.clear();
+  link_closed_ = false;
+  consecutive_timeouts_ = 0;
+  awaiting_ = false;
+  const std::int64_t now = mono_now_ns();
+  next_poll_ns_ = now;
+  read_at_ns_ = now;
+  resting_ = false;
+  idle_check_ = false;
+  lonely_ = false;
+  others_pass_ = false;
+  io_->watch(line_->fd(), EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
+  if (settings_.stream) {
+    if (!send(format_request(Request::stream_start, static_cast<int>(settings_.stream_period_ms)), error)) {
+      end_link("write: " + error);
+      return;
     }
-    if (connected_once) {
-      reconnects_.fetch_add(1, std::memory_order_relaxed);
+    deadline_ns_ = mono_now_ns() + settings_.reply_timeout_ms * 1'000'000;
+  }
+  step();
+}
+
+void AutocollimatorDriver::close_port() {
+  if (!line_) return;
+  if (settings_.stream) {  // best effort, never waiting: the instrument stops talking to nobody
+    std::size_t written = 0;
+    std::string ignored;
+    (void)line_->write_some(format_request(Request::stream_stop), written, ignored);
+  }
+  io_->unwatch(line_->fd());
+  line_.reset();
+  out_.clear();
+}
+
+void AutocollimatorDriver::end_link(const std::string& why) {
+  close_port();
+  set_state(drivers::DeviceState::lost, why);
+  reconnect_at_ns_ = mono_now_ns() + backoff_ms_ * 1'000'000;
+  io_->arm(timer_, reconnect_at_ns_);
+}
+
+bool AutocollimatorDriver::flush_output(std::string& error) {
+  while (!out_.empty()) {
+    std::size_t written = 0;
+    const serial::IoStatus st = line_->write_some(out_, written, error);
+    if (st == serial::IoStatus::would_block) return true;
+    if (st == serial::IoStatus::closed) {
+      link_closed_ = true;
+      error = "port closed";
+      return false;
+    }
+    if (st == serial::IoStatus::error) return false;
+    out_.erase(0, written);
+  }
+  return true;
+}
+
+bool AutocollimatorDriver::send(std::string_view data, std::string& error) {
+  if (out_.empty()) write_deadline_ns_ = mono_now_ns() + settings_.reply_timeout_ms * 1'000'000;
+  out_.append(data);
+  return flush_output(error);
+}
+
+void AutocollimatorDriver::update_interest(bool resting) {
+  io_->modify(line_->fd(), (resting ? 0u : std::uint32_t{EPOLLIN}) | (out_.empty() ? 0u : std::uint32_t{EPOLLOUT}));
+}
+
+bool AutocollimatorDriver::step() {
+  const std::int64_t timeout_ns = settings_.reply_timeout_ms * 1'000'000;
+  const std::int64_t poll_ns = settings_.poll_period_ms * 1'000'000;
+  const auto on_timeout = [&] {
+    timeouts_.fetch_add(1, std::memory_order_relaxed);
+    if (++consecutive_timeouts_ >= settings_.lost_after_timeouts) {
+      set_state(drivers::DeviceState::lost, "no reply for " + std::to_string(consecutive_timeouts_) + " requests");
       after_gap_ = true;
     }
-    connected_once = true;
-    backoff_ms = settings_.reconnect_min_ms;
-    set_state(drivers::DeviceState::streaming);
-    const std::string why = serve(stop, *line);
-    if (settings_.stream) {
-      std::string ignored;
-      line->write_all(format_request(Request::stream_stop), 100, ignored);
+  };
+  std::string error;
+  const std::int64_t now = mono_now_ns();
+  if (!settings_.stream) {
+    if (awaiting_ && now >= deadline_ns_) {
+      awaiting_ = false;
+      on_timeout();
     }
-    line.reset();
-    if (stop.stop_requested()) break;
-    set_state(drivers::DeviceState::lost, why);
-    if (!sleep_for(stop, std::chrono::milliseconds(backoff_ms))) break;
+    if (!awaiting_ && now >= next_poll_ns_) {
+      if (!send(format_request(settings_.relative ? Request::relative : Request::absolute), error)) {
+        end_link(link_closed_ ? "port closed" : "write: " + error);
+        return false;
+      }
+      awaiting_ = true;
+      deadline_ns_ = now + timeout_ns;
+      next_poll_ns_ = std::max(next_poll_ns_ + poll_ns, now);  // a late reply never causes a burst of requests
+    }
+  } else if (now >= deadline_ns_) {
+    on_timeout();
+    // Ask again: the instrument may have been reset.
+    if (!send(format_request(Request::stream_start, static_cast<int>(settings_.stream_period_ms)), error)) {
+      end_link("write: " + error);
+      return false;
+    }
+    deadline_ns_ = mono_now_ns() + timeout_ns;
   }
+  if (!out_.empty() && now >= write_deadline_ns_) {
+    end_link("write: write timed out");
+    return false;
+  }
+  const bool resting = now < read_at_ns_;
+  resting_ = resting;
+  std::int64_t wake_at = deadline_ns_;
+  if (!settings_.stream && !awaiting_) wake_at = next_poll_ns_;
+  if (resting) wake_at = std::min(wake_at, read_at_ns_);
+  if (!out_.empty()) wake_at = std::min(wake_at, write_deadline_ns_);
+  update_interest(resting);
+  io_->arm(timer_, wake_at);
+  return true;
+}
+
+void AutocollimatorDriver::on_ready(std::uint32_t events) {
+  if (!line_) return;
+  if ((events & EPOLLOUT) != 0) {
+    std::string error;
+    if (!flush_output(error)) {
+      end_link(link_closed_ ? "port closed" : "write: " + error);
+      return;
+    }
+  }
+  if ((events & (EPOLLIN | EPOLLHUP | EPOLLERR)) != 0) {
+    read_batch(false);  // bytes, or the end of the line: the read says which
+    return;
+  }
+  step();
+}
+
+void AutocollimatorDriver::on_timer() {
+  if (!line_) {
+    if (mono_now_ns() >= reconnect_at_ns_) {
+      open_port();
+    } else {
+      io_->arm(timer_, reconnect_at_ns_);
+    }
+    return;
+  }
+  if (resting_ && mono_now_ns() >= read_at_ns_ && served_pass_ != io_->passes()) {
+    read_batch(false);  // the rest is over
+    return;
+  }
+  step();
+}
+
+void AutocollimatorDriver::on_settle() {
+  if (!idle_check_ || !line_) return;
+  idle_check_ = false;
+  if (io_->data_found_this_pass()) return;  // others stream: read again at their next pass
+  read_at_ns_ = mono_now_ns();              // nothing anywhere: the next line wakes us
+  lonely_ = true;
+  others_pass_ = false;
+  step();
+}
+
+void AutocollimatorDriver::on_wake() {
+  if (!line_ || served_pass_ == io_->passes()) return;
+  others_pass_ = true;  // a pass this driver did not cause: another device keeps the loop busy
+  if (io_->now() < read_at_ns_) read_batch(true);
+}
+
+void AutocollimatorDriver::read_batch(bool opportunistic) {
+  served_pass_ = io_->passes();
+  char buf[512];
+  std::size_t taken = 0;
+  bool more = false;
+  bool got_reading = false;
+  std::string error;
+  for (;;) {
+    if (taken >= max_read_bytes) {  // a flooding line: the other devices first, then on
+      more = true;
+      break;
+    }
+    std::size_t got = 0;
+    const auto st = line_->read_some(buf, sizeof buf, got, error);
+    if (st == serial::IoStatus::closed) {
+      end_link("port closed (device gone)");
+      return;
+    }
+    if (st == serial::IoStatus::error) {
+      end_link(error);
+      return;
+    }
+    if (got == 0) break;
+    taken += got;
+    line_end_ns_ = mono_now_ns();
+    lines_.clear();
+    const std::size_t overflows = framer_.feed(std::string_view(buf, got), lines_);
+    bad_frames_.fetch_add(overflows, std::memory_order_relaxed);
+    for (const auto& l : lines_) handle_line(l, got_reading);
+    if (got < sizeof buf) break;  // the line is empty (or nearly: the next pass takes the rest)
+  }
+  if (got_reading) {
+    if (consecutive_timeouts_ > 0) set_state(drivers::DeviceState::streaming);
+    consecutive_timeouts_ = 0;
+    awaiting_ = false;
+    if (settings_.stream) deadline_ns_ = line_end_ns_ + settings_.reply_timeout_ms * 1'000'000;
+  }
+  const std::int64_t now = mono_now_ns();
+  if (more) {
+    read_at_ns_ = now;
+    io_->again();
+  } else if (taken > 0) {
+    io_->data_found();
+    // Readings stream: rest a period while the next lines arrive (a reply to a poll is read at once).
+    // Alone on the loop with lines further apart than a period, a rest would only add a wake-up that
+    // finds nothing: after such a rest (lonely_) the driver wakes per line until another device makes
+    // the loop pass by.
+    if (others_pass_) lonely_ = false;
+    others_pass_ = false;
+    read_at_ns_ = rests_ && !lonely_ ? now + settings_.read_period_us * 1000 : now;
+  } else {
+    // Nothing came. Read at another device's pass, or at the end of a rest: rest on (the end of a rest
+    // is settled once the pass has read every device: on_settle). After readiness: the next line wakes us.
+    if (opportunistic || resting_) read_at_ns_ = now + settings_.read_period_us * 1000;
+    idle_check_ = !opportunistic && resting_;
+  }
+  step();
 }
 
 void register_autocollimator_driver(drivers::DriverRegistry& registry) {

@@ -2,13 +2,16 @@
 // "autocollimator-serial": a TA80-style two-axis autocollimator on a serial line (see
 // autocollimator_protocol.hpp). Polls with "a"/"r" at a period, or starts continuous output and
 // listens. One Sample per reading: [angle_x, angle_y] in radians, timestamped when the reply's line
-// ended; out-of-range and no-reflection axes are NaN with sample_out_of_range / sample_no_signal.
-// Thread safety: as drivers::Driver.
+// was read (a serial line carries no arrival times: up to read_period_us after it ended when the
+// driver reads in batches); out-of-range and no-reflection axes are NaN with sample_out_of_range /
+// sample_no_signal. Loop-driven (drivers/io_loop.hpp): requests are written without waiting, replies
+// read as the line becomes readable. Thread safety: as drivers::Driver.
 
 #include <string>
 
 #include "drivers/autocollimator/autocollimator_protocol.hpp"
 #include "drivers/driver.hpp"
+#include "drivers/io_loop.hpp"
 #include "drivers/serial/serial_port.hpp"
 
 namespace guideway::drivers::autocollimator {
@@ -27,6 +30,9 @@ struct AutocollimatorSettings {
   std::int64_t reconnect_max_ms = 5000;
   std::string x_channel = "angle_x";
   std::string y_channel = "angle_y";
+  // Stream mode with lines less than two read periods apart: rest this long between reads while
+  // readings flow (0: a wake-up per line). Readings are then stamped when read, up to this late.
+  std::int64_t read_period_us = drivers::default_read_period_us;
 };
 
 AutocollimatorSettings parse_autocollimator_settings(const TableReader& table);
@@ -43,17 +49,63 @@ class AutocollimatorDriver : public drivers::Driver {
 
   [[nodiscard]] const AutocollimatorSettings& settings() const noexcept { return settings_; }
 
+  [[nodiscard]] bool loop_driven() const noexcept override { return true; }
+
  protected:
-  void run(std::stop_token stop) override;
-  void interrupt() override;
+  void attach(drivers::IoLoop& loop) override;
+  void detach() override;
 
  private:
-  std::string serve(const std::stop_token& stop, serial::SerialLine& line);
+  // Opens the port (or, refused, shows why and tries again after the back-off).
+  void open_port();
+  // The link failed: the port is closed, the state says why, it is opened again after the back-off.
+  void end_link(const std::string& why);
+  void close_port();
+  void on_ready(std::uint32_t events);
+  void on_timer();
+  void on_wake();  // any pass of the loop: a resting reader reads now (the devices share wake-ups)
+  // After every device's reads of a pass: a rest that ended with an empty read goes on while another
+  // device found data in that pass, else the next line wakes the driver.
+  void on_settle();
+  // Requests due, timeouts, the next wake-up. Returns false when the link ended.
+  bool step();
+  // Reads what the line holds (at most max_read_bytes per pass), then step().
+  void read_batch(bool opportunistic);
+  // Queues `data` and writes what the line takes now; the rest when it becomes writable, within
+  // reply_timeout_ms. False with `error` when the line failed.
+  bool send(std::string_view data, std::string& error);
+  bool flush_output(std::string& error);
+  void update_interest(bool resting);
   void handle_line(const std::string& line, bool& got_reading);
+  static constexpr std::size_t max_read_bytes = 64 * 1024;
 
   AutocollimatorSettings settings_;
-  int wake_fd_ = -1;
-  bool after_gap_ = false;  // driver thread only
+  bool rests_ = false;  // stream mode with lines less than two read periods apart
+  // The loop thread's (attach() to detach()):
+  drivers::IoLoop* io_ = nullptr;
+  drivers::IoLoop::Id timer_ = 0;
+  drivers::IoLoop::Id wake_hook_ = 0;
+  drivers::IoLoop::Id settle_hook_ = 0;
+  std::unique_ptr<serial::SerialLine> line_;
+  serial::LineFramer framer_{max_reply_length * 2};
+  std::vector<std::string> lines_;
+  std::string out_;  // written when the line takes it
+  std::int64_t write_deadline_ns_ = 0;
+  bool link_closed_ = false;  // a write found the port gone
+  std::int64_t backoff_ms_ = 0;
+  bool connected_once_ = false;
+  std::int64_t reconnect_at_ns_ = 0;
+  int consecutive_timeouts_ = 0;
+  bool awaiting_ = false;         // poll: a request is outstanding
+  std::int64_t deadline_ns_ = 0;  // poll: reply deadline; stream: silence deadline
+  std::int64_t next_poll_ns_ = 0;
+  std::int64_t read_at_ns_ = 0;  // resting until then
+  std::uint64_t served_pass_ = 0;
+  bool resting_ = false;      // no readiness interest until read_at_ns_
+  bool idle_check_ = false;   // a rest ended with an empty read (on_settle decides)
+  bool lonely_ = false;       // a rest ended with nothing read anywhere: wake per line
+  bool others_pass_ = false;  // since the last line, the loop passed by for another device
+  bool after_gap_ = false;
   std::int64_t line_end_ns_ = 0;
 };
 

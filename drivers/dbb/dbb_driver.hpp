@@ -2,9 +2,12 @@
 // "dbb-can": the double ball bar's length encoder plus two axis encoders on one CAN bus, CANopen
 // CiA 406 encoders (PDOs: dbb_protocol.hpp; checking and starting the nodes: dbb_network.hpp). One
 // Sample per SYNC: values in the order of the configured encoders, in metres, timestamped at the SYNC.
-// The state is `streaming` only while every node delivers. Thread safety: as drivers::Driver.
+// The state is `streaming` only while every node delivers. A loop-driven driver (drivers/io_loop.hpp):
+// the socket's readiness and timers (SYNC, read period, silence, the network's SDO, heartbeat and
+// retry timers, the reconnect back-off) drive it. Thread safety: as drivers::Driver.
 
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -13,17 +16,17 @@
 #include "drivers/dbb/dbb_network.hpp"
 #include "drivers/dbb/dbb_protocol.hpp"
 #include "drivers/driver.hpp"
+#include "drivers/io_loop.hpp"
 
 namespace guideway::drivers::dbb {
 
-// Listen mode's read period: a sample waits at most this in the socket, then at most the pipeline's
-// 400 us coalescing step, so p99 sample-to-publish stays under 1 ms with ~300 us left for scheduling.
-inline constexpr std::int64_t default_read_period_us = 300;
+// Listen mode's read period (drivers::default_read_period_us).
+inline constexpr std::int64_t default_read_period_us = drivers::default_read_period_us;
 
 struct DbbSettings {
-  can::CanEndpoint endpoint;           // can:IFNAME or unix:PATH
-  bool produce_sync = true;            // true: we are the SYNC producer; false: listen only
-  double sync_rate_hz = 100.0;         // when producing SYNC
+  can::CanEndpoint endpoint;    // can:IFNAME or unix:PATH
+  bool produce_sync = true;     // true: we are the SYNC producer; false: listen only
+  double sync_rate_hz = 100.0;  // when producing SYNC
   // sync = "listen": read the bus at most once per read_period_us (frames keep their kernel receive
   // times); 0: wake for every frame arrival. See docs/protocols.md for the default.
   std::int64_t read_period_us = default_read_period_us;
@@ -100,41 +103,73 @@ class DbbDriver : public drivers::Driver {
   // error_frames, partial_cycles, untimed_frames, dropped_frames. Not bus_reads/empty_reads: they
   // count the reader's wake-ups (a CPU cost), not what happened to the data.
   [[nodiscard]] std::vector<drivers::NamedCounter> driver_counters() const override;
+  [[nodiscard]] bool loop_driven() const noexcept override { return true; }
 
  protected:
-  void run(std::stop_token stop) override;
-  void interrupt() override;
+  void attach(drivers::IoLoop& loop) override;
+  void detach() override;
 
  private:
-  // Serves one connection until it fails or stop is requested; returns the reason it ended.
-  std::string serve(const std::stop_token& stop, int fd, DbbDecoder& decoder);
-  // serve() for sync = "listen" with read_period_us > 0: reads in batches, at most once per period.
-  std::string serve_batched(const std::stop_token& stop, int fd, DbbDecoder& decoder);
+  // Opens the bus, or (refused) shows why and tries again after the back-off.
+  void connect();
+  // The connection failed or closed: publishes what the decoder holds, shows the loss, reconnects later.
+  void end_connection(const std::string& why);
+  void on_ready(std::uint32_t events);
+  void on_timer();
+  // Any pass of the loop, whatever woke it: a batched reader that rests reads now (several devices
+  // then share one wake-up per period instead of each waking on its own).
+  void on_wake();
+  // After every device's reads of a pass: a rest that ended with an empty read goes on while another
+  // device found data in that pass, else the next frame wakes the driver.
+  void on_settle();
+  // One round of work and the next wake-up: SYNC production, reads, silence, the network's timers.
+  void step();
+  // step() for sync = "listen" with read_period_us > 0: reads in batches, at most once per period.
+  void step_batched(bool opportunistic = false);
+  [[nodiscard]] bool batched() const noexcept { return !settings_.produce_sync && settings_.read_period_us > 0; }
   void publish_cycle(const DbbCycle& cycle);
   // Runs the network's timers, sends its frames, posts its events and sets the device state.
-  void service_network(int fd, std::int64_t now);
+  void service_network(std::int64_t now);
   // The device state from bus-off, silence, the nodes and the cycles; set_state only when it changed.
   void refresh_state();
   // set_state outside refresh_state (connection faults): refresh_state's memory of what it set is void.
   void set_state_directly(drivers::DeviceState state, std::string reason);
   // No frame for timeout_ms: one timeout, state lost, the next cycle flagged after a gap.
-  void note_silence(std::int64_t now, std::int64_t& last_rx, DbbDecoder& decoder);
-  // Consumes every frame already queued, without waiting, each at its kernel receive time; returns the
-  // number of records read. `ended` gets the reason when the bus closed or failed meanwhile.
-  std::size_t drain(int fd, DbbDecoder& decoder, std::string& ended);
-  void handle_frame(const can_frame& frame, std::int64_t t_ns, DbbDecoder& decoder);
+  void note_silence(std::int64_t now);
+  // Consumes the frames already queued, without waiting, each at its kernel receive time; returns the
+  // number of records read. `ended` gets the reason when the bus closed or failed meanwhile. At most
+  // max_drain_frames at once: `more` says frames were left (a flooding bus), to be read at the next pass.
+  std::size_t drain(std::string& ended, bool& more);
+  void handle_frame(const can_frame& frame, std::int64_t t_ns);
+  static constexpr std::size_t max_drain_frames = 1024;
 
   DbbSettings settings_;
   CanConnector connector_;
-  int wake_fd_ = -1;
-  bool silent_ = false;  // driver thread: lost/bus-off until the next sample
-  std::int64_t bus_off_since_ns_ = 0;  // driver thread: bus off since then, until it recovers (0 = not)
-  std::int64_t prev_read_ns_ = 0;  // driver thread: when a read last found the socket empty
-  std::uint32_t kernel_drops_ = 0;  // driver thread: the socket's total drops reported so far
-  std::int64_t last_frame_ns_ = 0;  // driver thread: the time given to the last frame received (never decreases)
+  // The loop thread's (attach() to detach()):
+  drivers::IoLoop* io_ = nullptr;
+  std::uint64_t timer_ = 0;
+  std::uint64_t wake_hook_ = 0;
+  std::uint64_t settle_hook_ = 0;
+  std::optional<DbbDecoder> decoder_;
+  can::CanSocket sock_;
+  std::int64_t backoff_ms_ = 0;
+  bool connected_once_ = false;
+  std::int64_t reconnect_at_ns_ = 0;   // while not connected
+  std::int64_t last_rx_ns_ = 0;        // the last read that found frames (or the last silence noted)
+  std::int64_t read_at_ns_ = 0;        // batched: the next read (a future time: resting)
+  std::int64_t next_sync_ns_ = 0;      // produce: the next SYNC
+  std::uint64_t served_pass_ = 0;      // batched: the loop's pass that last read
+  bool resting_ = false;               // batched: no readiness interest until read_at_ns_
+  bool idle_check_ = false;            // batched: a rest ended with an empty read (on_settle decides)
+  bool drain_pending_ = false;         // frames were left in the socket (more than max_drain_frames)
+  bool silent_ = false;                // lost/bus-off until the next sample
+  std::int64_t bus_off_since_ns_ = 0;  // bus off since then, until it recovers (0 = not)
+  std::int64_t prev_read_ns_ = 0;      // when a read last found the socket empty
+  std::uint32_t kernel_drops_ = 0;     // the socket's total drops reported so far
+  std::int64_t last_frame_ns_ = 0;     // the time given to the last frame received (never decreases)
   std::atomic<std::uint64_t> error_frames_{0};
   std::atomic<std::uint64_t> bus_offs_{0};
-  std::atomic<std::uint64_t> late_pdos_{0};  // the decoder's, for status()
+  std::atomic<std::uint64_t> late_pdos_{0};       // the decoder's, for status()
   std::atomic<std::uint64_t> syncs_not_sent_{0};  // produce mode: SYNCs the full transmit queue refused
   std::atomic<std::uint64_t> partial_cycles_{0};
   std::atomic<std::uint64_t> untimed_frames_{0};
@@ -148,15 +183,15 @@ class DbbDriver : public drivers::Driver {
   std::atomic<std::uint64_t> nmt_starts_{0};
   std::atomic<std::uint64_t> bus_reads_{0};
   std::atomic<std::uint64_t> empty_reads_{0};
-  EncoderNetwork network_;                   // driver thread
-  bool complete_cycle_seen_ = false;         // driver thread: since the connection
-  std::string note_;                         // driver thread: the reason shown with `streaming` (a recovery)
-  bool state_dirty_ = true;                  // driver thread: refresh_state has something to look at
-  std::uint64_t state_network_version_ = 0;  // driver thread: network_.health_version() refresh_state saw
-  drivers::DeviceState shown_state_ = drivers::DeviceState::stopped;  // driver thread: what refresh_state set
+  EncoderNetwork network_;                   // loop thread
+  bool complete_cycle_seen_ = false;         // loop thread: since the connection
+  std::string note_;                         // loop thread: the reason shown with `streaming` (a recovery)
+  bool state_dirty_ = true;                  // loop thread: refresh_state has something to look at
+  std::uint64_t state_network_version_ = 0;  // loop thread: network_.health_version() refresh_state saw
+  drivers::DeviceState shown_state_ = drivers::DeviceState::stopped;  // loop thread: what refresh_state set
   std::string shown_reason_;
-  std::int64_t last_sync_ns_ = 0;    // driver thread: receive time of the newest SYNC (0: none yet)
-  std::int64_t sync_period_ns_ = 0;  // driver thread: between the last two SYNCs received
+  std::int64_t last_sync_ns_ = 0;    // loop thread: receive time of the newest SYNC (0: none yet)
+  std::int64_t sync_period_ns_ = 0;  // loop thread: between the last two SYNCs received
 };
 
 void register_dbb_driver(drivers::DriverRegistry& registry);

@@ -1,8 +1,20 @@
 #include "drivers/micrometer/micrometer_driver.hpp"
 
+#include <poll.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <coroutine>
+#include <cstring>
+#include <exception>
+#include <utility>
 #include <vector>
+
+#include "drivers/modbus/modbus_tcp.hpp"
 
 #include "core/mono_clock.hpp"
 #include "core/number_format.hpp"
@@ -33,7 +45,8 @@ MicrometerConfig parse_micrometer_config(const TableReader& t) {
       c.map = modbus::parse_register_map(*regs);
       regs->reject_unknown_keys();
     }
-    if (t.has("poll_period_ms")) t.fail("poll_period_ms", "only in buffered mode ([device.buffer]); polled mode uses poll_hz");
+    if (t.has("poll_period_ms"))
+      t.fail("poll_period_ms", "only in buffered mode ([device.buffer]); polled mode uses poll_hz");
     c.poll_hz = t.get_double("poll_hz", 50.0, 0.01, 10000.0);
   }
   c.lost_after_failures = static_cast<int>(t.get_int("lost_after_failures", 3, 1, 1000));
@@ -50,14 +63,14 @@ struct MicrometerDriver::RingCursor {
   // 0.2 s x 0.5 % = 1 ms; beyond it the state says so.
   explicit RingCursor(double rate_hz) : anchor(rate_hz, 200'000'000), stamps(rate_hz) {}
   modbus::CounterTracker counter;
-  modbus::TimeAnchor anchor;   // sample number -> CLOCK_MONOTONIC, from the last 0.2 s of counter reads
-  std::uint64_t next = 0;      // the next sample number to publish
+  modbus::TimeAnchor anchor;       // sample number -> CLOCK_MONOTONIC, from the last 0.2 s of counter reads
+  std::uint64_t next = 0;          // the next sample number to publish
   std::int64_t last_query_ns = 0;  // when the last good counter read was sent
-  modbus::StampSequencer stamps;  // published timestamps only increase, by >= half a period a sample
-  bool gap = false;            // the next published sample follows lost ones
-  int resets_in_row = 0;       // counter reads in a row that looked like an amplifier restart
-  bool rate_flagged = false;   // the measured rate is off sample_rate_hz by more than the tolerance
-  bool overrun_counted = false;  // this poll already counted its ring overrun
+  modbus::StampSequencer stamps;   // published timestamps only increase, by >= half a period a sample
+  bool gap = false;                // the next published sample follows lost ones
+  int resets_in_row = 0;           // counter reads in a row that looked like an amplifier restart
+  bool rate_flagged = false;       // the measured rate is off sample_rate_hz by more than the tolerance
+  bool overrun_counted = false;    // this poll already counted its ring overrun
 };
 
 namespace {
@@ -65,86 +78,139 @@ namespace {
 constexpr double rate_tolerance = 0.005;
 }  // namespace
 
+// A poll as a coroutine that never does I/O itself: at every register read it suspends (ask()), and
+// the transport resumes it with the answer in x_. Created suspended; run and destroyed by its owner.
+class MicrometerDriver::PollTask {
+ public:
+  struct promise_type {
+    PollTask get_return_object() noexcept { return PollTask(std::coroutine_handle<promise_type>::from_promise(*this)); }
+    std::suspend_always initial_suspend() noexcept { return {}; }
+    std::suspend_always final_suspend() noexcept { return {}; }
+    void return_void() noexcept {}
+    void unhandled_exception() noexcept { std::terminate(); }  // a poll throws nothing: a bug
+  };
+  explicit PollTask(std::coroutine_handle<promise_type> h) noexcept : h_(h) {}
+  PollTask(PollTask&& o) noexcept : h_(std::exchange(o.h_, {})) {}
+  PollTask& operator=(PollTask&&) = delete;
+  ~PollTask() {
+    if (h_) h_.destroy();
+  }
+  [[nodiscard]] bool done() const noexcept { return !h_ || h_.done(); }
+  void resume() { h_.resume(); }
+
+ private:
+  std::coroutine_handle<promise_type> h_;
+};
+
+struct MicrometerDriver::ReadAwaiter {
+  const Exchange& x;
+  [[nodiscard]] bool await_ready() const noexcept { return false; }
+  void await_suspend(std::coroutine_handle<>) const noexcept {}
+  [[nodiscard]] const modbus::ReadResult& await_resume() const noexcept { return x.result; }
+};
+
 MicrometerDriver::MicrometerDriver(std::string name, MicrometerConfig config, std::size_t ring_capacity)
     : Driver(std::move(name), "micrometer-modbus", {{"displacement", "m"}}, ring_capacity),
       config_(std::move(config)) {}
 
 MicrometerDriver::~MicrometerDriver() { stop(); }
 
+MicrometerDriver::ReadAwaiter MicrometerDriver::ask(modbus::RegisterFunction function, std::uint16_t address,
+                                                    std::uint16_t count) noexcept {
+  x_.function = function;
+  x_.address = address;
+  x_.count = count;
+  return {x_};
+}
+
+std::chrono::nanoseconds MicrometerDriver::poll_period() const noexcept {
+  return std::chrono::nanoseconds(config_.buffer ? static_cast<std::int64_t>(config_.poll_period_ms * 1e6)
+                                                 : static_cast<std::int64_t>(1e9 / config_.poll_hz));
+}
+
+void MicrometerDriver::link_up() {
+  if (ever_connected_) {
+    reconnects_.fetch_add(1, std::memory_order_relaxed);
+    gap_ = true;
+  }
+  ever_connected_ = true;
+  set_state(drivers::DeviceState::streaming);
+  failures_ = 0;
+  link_gone_ = false;
+  end_link_ = false;
+  last_failure_.clear();
+}
+
+MicrometerDriver::PollTask MicrometerDriver::make_poll() { return config_.buffer ? buffered_poll() : polled_poll(); }
+
 void MicrometerDriver::run(std::stop_token stop) {
   modbus::ModbusClient client(config_.endpoint);
   stale_seen_ = 0;  // a new client counts from 0
-  auto backoff = config_.backoff_initial;
-  bool ever_connected = false;
-  bool gap = false;  // polled mode: the next sample follows a reconnect or a failed poll
-  RingCursor cursor(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
-
+  backoff_ = config_.backoff_initial;
+  ever_connected_ = false;
+  gap_ = false;
+  cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
+  const auto period = poll_period();
   while (!stop.stop_requested()) {
     set_state(drivers::DeviceState::connecting);
     std::string error;
     if (!client.connect(error)) {
       set_state(drivers::DeviceState::lost, error);
-      if (!sleep_for(stop, backoff)) break;
-      backoff = std::min(backoff * 2, config_.backoff_max);
+      if (!sleep_for(stop, backoff_)) break;
+      backoff_ = std::min(backoff_ * 2, config_.backoff_max);
       continue;
     }
-    if (ever_connected) {
-      reconnects_.fetch_add(1, std::memory_order_relaxed);
-      gap = true;
+    link_up();
+    auto next = std::chrono::steady_clock::now();
+    while (!stop.stop_requested()) {
+      client.flush();  // stray or late answers must not be taken for this poll's
+      PollTask poll = make_poll();
+      poll.resume();
+      while (!poll.done()) {
+        x_.result = client.read(x_.function, x_.address, x_.count, x_.block);
+        count_stale(client);
+        x_.t_answer_ns = mono_now_ns();
+        poll.resume();
+      }
+      if (end_link_) break;
+      next += period;
+      const auto now = std::chrono::steady_clock::now();
+      if (next < now) next = now;  // late (a timeout ate the period): poll again at once, no catch-up burst
+      if (!sleep_for(stop, next - now)) break;
     }
-    ever_connected = true;
-    set_state(drivers::DeviceState::streaming);
-    const std::string last_failure = config_.buffer ? stream_buffered(stop, client, backoff, cursor)
-                                                    : stream_polled(stop, client, backoff, gap);
     client.close();
     if (stop.stop_requested()) break;
-    set_state(drivers::DeviceState::lost, last_failure);
-    if (!sleep_for(stop, backoff)) break;
-    backoff = std::min(backoff * 2, config_.backoff_max);
+    set_state(drivers::DeviceState::lost, last_failure_);
+    if (!sleep_for(stop, backoff_)) break;
+    backoff_ = std::min(backoff_ * 2, config_.backoff_max);
   }
 }
 
-std::string MicrometerDriver::stream_polled(const std::stop_token& stop, modbus::ModbusClient& client,
-                                            std::chrono::milliseconds& backoff, bool& gap) {
-  const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / config_.poll_hz));
+MicrometerDriver::PollTask MicrometerDriver::polled_poll() {
   const std::uint16_t start = config_.map.block_start();
   const std::uint16_t count = config_.map.block_count();
-  std::vector<std::uint16_t> block(count);
-  int failures = 0;
-  std::string last_failure;
-  auto next = std::chrono::steady_clock::now();
-  while (!stop.stop_requested()) {
-    client.flush();  // stray or duplicated answers must not be taken for the next one
-    const modbus::ReadResult r = client.read(config_.map.function, start, count, block);
-    count_stale(client);
-    const std::int64_t t = mono_now_ns();
-    if (r.status == modbus::ReadStatus::ok) {
-      frames_.fetch_add(1, std::memory_order_relaxed);
-      const modbus::Reading reading = modbus::decode_registers(config_.map, block);
-      Sample s;
-      s.t_mono_ns = t;
-      s.value_count = 1;
-      s.value[0] = reading.value_m;
-      s.flags = reading.flags | (gap ? sample_after_gap : 0u);
-      publish(s);
-      gap = false;
-      failures = 0;
-      backoff = config_.backoff_initial;
-    } else if (r.status == modbus::ReadStatus::disconnected) {
-      last_failure = count_failure(r);
-      failures = config_.lost_after_failures;
-    } else {
-      last_failure = count_failure(r);
-      ++failures;
-      gap = true;
-    }
-    if (failures >= config_.lost_after_failures) break;
-    next += period;
-    const auto now = std::chrono::steady_clock::now();
-    if (next < now) next = now;  // late (a timeout ate the period): poll again at once, no catch-up burst
-    if (!sleep_for(stop, next - now)) break;
+  const modbus::ReadResult& r = co_await ask(config_.map.function, start, count);
+  if (r.status == modbus::ReadStatus::ok) {
+    frames_.fetch_add(1, std::memory_order_relaxed);
+    const modbus::Reading reading = modbus::decode_registers(config_.map, x_.block);
+    Sample s;
+    s.t_mono_ns = x_.t_answer_ns;
+    s.value_count = 1;
+    s.value[0] = reading.value_m;
+    s.flags = reading.flags | (gap_ ? sample_after_gap : 0u);
+    publish(s);
+    gap_ = false;
+    failures_ = 0;
+    backoff_ = config_.backoff_initial;
+  } else if (r.status == modbus::ReadStatus::disconnected) {
+    last_failure_ = count_failure(r);
+    failures_ = config_.lost_after_failures;
+  } else {
+    last_failure_ = count_failure(r);
+    ++failures_;
+    gap_ = true;
   }
-  return last_failure;
+  end_link_ = failures_ >= config_.lost_after_failures;
 }
 
 std::string MicrometerDriver::count_failure(const modbus::ReadResult& r) {
@@ -158,16 +224,30 @@ std::string MicrometerDriver::count_failure(const modbus::ReadResult& r) {
   return std::string(modbus::to_string(r.status)) + ": " + r.message;
 }
 
+void MicrometerDriver::failed(const modbus::ReadResult& r) {
+  last_failure_ = count_failure(r);
+  if (r.status == modbus::ReadStatus::disconnected) {
+    link_gone_ = true;
+  } else {
+    ++failures_;
+  }
+}
+
 void MicrometerDriver::count_stale(const modbus::ModbusClient& client) noexcept {
   const std::uint64_t n = client.stale_answers();
   if (n == stale_seen_) return;
-  bad_frames_.fetch_add(n - stale_seen_, std::memory_order_relaxed);
-  stale_answers_.fetch_add(n - stale_seen_, std::memory_order_relaxed);
+  count_stale_frames(n - stale_seen_);
   stale_seen_ = n;
 }
 
-void MicrometerDriver::lose(RingCursor& cursor, std::uint64_t n) noexcept {
+void MicrometerDriver::count_stale_frames(std::uint64_t n) noexcept {
+  bad_frames_.fetch_add(n, std::memory_order_relaxed);
+  stale_answers_.fetch_add(n, std::memory_order_relaxed);
+}
+
+void MicrometerDriver::lose(std::uint64_t n) noexcept {
   if (n == 0) return;
+  RingCursor& cursor = *cursor_;
   // One overrun per poll that found samples overwritten, however many of its reads saw it; counted
   // before the samples (release), so that a reader of lost_samples (acquire) then ring_overruns never
   // sees samples lost without an overrun.
@@ -180,152 +260,456 @@ void MicrometerDriver::lose(RingCursor& cursor, std::uint64_t n) noexcept {
   cursor.gap = true;
 }
 
-std::string MicrometerDriver::stream_buffered(const std::stop_token& stop, modbus::ModbusClient& client,
-                                              std::chrono::milliseconds& backoff, RingCursor& cursor) {
+bool MicrometerDriver::take_counter(const modbus::ReadResult& r, std::int64_t t_query) {
   const modbus::SampleRingMap& ring = *config_.buffer;
   const double rate = ring.sample_rate_hz;
-  const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(config_.poll_period_ms * 1e6));
-  std::vector<std::uint16_t> block(125);
-  std::vector<modbus::Reading> readings(ring.samples_per_request());
-  int failures = 0;
-  std::string last_failure;
-  bool link_gone = false;
-  // One failed request: counted, and the poll ends (the next poll asks again: reads are idempotent).
-  auto failed = [&](const modbus::ReadResult& r) {
-    last_failure = count_failure(r);
-    if (r.status == modbus::ReadStatus::disconnected) {
-      link_gone = true;
-    } else {
-      ++failures;
-    }
-  };
-  // Reads the counter; false when the request failed. Handles the first read and device restarts.
-  auto read_counter = [&]() -> bool {
-    const std::int64_t t_query = mono_now_ns();
-    const modbus::ReadResult r = client.read(ring.function, ring.counter_address, 2, block);
-    count_stale(client);
-    const std::int64_t t_answer = mono_now_ns();
-    if (r.status != modbus::ReadStatus::ok) {
-      failed(r);
-      return false;
-    }
-    frames_.fetch_add(1, std::memory_order_relaxed);
-    const double elapsed_s = static_cast<double>(t_answer - cursor.last_query_ns) * 1e-9;
-    const std::uint32_t counter = modbus::decode_counter(ring, block[0], block[1]);
-    const bool backwards = cursor.counter.started() &&
-                           counter - static_cast<std::uint32_t>(cursor.counter.count()) >= 0x80000000u;
-    const auto step = cursor.counter.update(counter, elapsed_s, rate);
-    cursor.last_query_ns = t_query;
-    const std::uint64_t count = cursor.counter.count();
-    if (step == modbus::CounterTracker::Step::advanced && cursor.resets_in_row > 0) {
-      if (cursor.resets_in_row >= 3) set_state(drivers::DeviceState::streaming);
-      cursor.resets_in_row = 0;
-    }
-    if (step != modbus::CounterTracker::Step::advanced) {
-      // Start at the newest sample (first read), or after a restart of the amplifier: what it took
-      // before the restart is not in this count, so it cannot be fetched or numbered; the next sample says so.
-      if (step == modbus::CounterTracker::Step::reset) {
-        counter_resets_.fetch_add(1, std::memory_order_relaxed);
-        cursor.gap = true;
-        // A restart now and then is an amplifier; one at every poll is a counter running faster
-        // than the configured rate, and nothing would ever be published: say so, again after every
-        // further one (a reconnect sets the state to streaming; the count survives it).
-        if (++cursor.resets_in_row >= 3) {
-          std::string why = "the sample counter runs faster than sample_rate_hz = ";
-          append_shortest(why, rate);
-          set_state(drivers::DeviceState::error, why + " (or the amplifier keeps restarting): check [device.buffer]");
-        }
-      }
-      cursor.next = count;
-      // A counter that went backwards is an amplifier that restarted (from 0): what its ring took
-      // since then is in this epoch, [epoch start, count): resume at its oldest intact sample.
-      if (backwards) cursor.next = std::max(count & ~((std::uint64_t{1} << 32) - 1), modbus::oldest_intact(ring, count));
-      cursor.anchor.reset(count > 0 ? count - 1 : 0);
-      cursor.stamps.restart();
-    }
-    cursor.anchor.observe(t_answer, count);
-    if (const auto e = cursor.anchor.rate_error()) {
-      if (std::abs(*e) > rate_tolerance) {  // asserted at every poll: a reconnect sets streaming
-        std::string why = "the sample counter runs ";
-        append_shortest(why, std::round(std::abs(*e) * 1e4) / 100.0);
-        why += *e < 0 ? " % slower" : " % faster";
-        why += " than sample_rate_hz = ";
+  RingCursor& cursor = *cursor_;
+  const std::int64_t t_answer = x_.t_answer_ns;
+  if (r.status != modbus::ReadStatus::ok) {
+    failed(r);
+    return false;
+  }
+  frames_.fetch_add(1, std::memory_order_relaxed);
+  const double elapsed_s = static_cast<double>(t_answer - cursor.last_query_ns) * 1e-9;
+  const std::uint32_t counter = modbus::decode_counter(ring, x_.block[0], x_.block[1]);
+  const bool backwards =
+      cursor.counter.started() && counter - static_cast<std::uint32_t>(cursor.counter.count()) >= 0x80000000u;
+  const auto step = cursor.counter.update(counter, elapsed_s, rate);
+  cursor.last_query_ns = t_query;
+  const std::uint64_t count = cursor.counter.count();
+  if (step == modbus::CounterTracker::Step::advanced && cursor.resets_in_row > 0) {
+    if (cursor.resets_in_row >= 3) set_state(drivers::DeviceState::streaming);
+    cursor.resets_in_row = 0;
+  }
+  if (step != modbus::CounterTracker::Step::advanced) {
+    // Start at the newest sample (first read), or after a restart of the amplifier: what it took
+    // before the restart is not in this count, so it cannot be fetched or numbered; the next sample says so.
+    if (step == modbus::CounterTracker::Step::reset) {
+      counter_resets_.fetch_add(1, std::memory_order_relaxed);
+      cursor.gap = true;
+      // A restart now and then is an amplifier; one at every poll is a counter running faster
+      // than the configured rate, and nothing would ever be published: say so, again after every
+      // further one (a reconnect sets the state to streaming; the count survives it).
+      if (++cursor.resets_in_row >= 3) {
+        std::string why = "the sample counter runs faster than sample_rate_hz = ";
         append_shortest(why, rate);
-        why += " (measured ";
-        append_shortest(why, std::round(rate * (1.0 + *e)));
-        set_state(drivers::DeviceState::error, why + " Hz): timestamps are off; check [device.buffer]");
-        cursor.rate_flagged = true;
-      } else if (cursor.rate_flagged) {
-        cursor.rate_flagged = false;
-        set_state(drivers::DeviceState::streaming);
+        set_state(drivers::DeviceState::error, why + " (or the amplifier keeps restarting): check [device.buffer]");
       }
     }
-    return true;
-  };
+    cursor.next = count;
+    // A counter that went backwards is an amplifier that restarted (from 0): what its ring took
+    // since then is in this epoch, [epoch start, count): resume at its oldest intact sample.
+    if (backwards) cursor.next = std::max(count & ~((std::uint64_t{1} << 32) - 1), modbus::oldest_intact(ring, count));
+    cursor.anchor.reset(count > 0 ? count - 1 : 0);
+    cursor.stamps.restart();
+  }
+  cursor.anchor.observe(t_answer, count);
+  if (const auto e = cursor.anchor.rate_error()) {
+    if (std::abs(*e) > rate_tolerance) {  // asserted at every poll: a reconnect sets streaming
+      std::string why = "the sample counter runs ";
+      append_shortest(why, std::round(std::abs(*e) * 1e4) / 100.0);
+      why += *e < 0 ? " % slower" : " % faster";
+      why += " than sample_rate_hz = ";
+      append_shortest(why, rate);
+      why += " (measured ";
+      append_shortest(why, std::round(rate * (1.0 + *e)));
+      set_state(drivers::DeviceState::error, why + " Hz): timestamps are off; check [device.buffer]");
+      cursor.rate_flagged = true;
+    } else if (cursor.rate_flagged) {
+      cursor.rate_flagged = false;
+      set_state(drivers::DeviceState::streaming);
+    }
+  }
+  return true;
+}
 
-  auto wake = std::chrono::steady_clock::now();
-  while (!stop.stop_requested()) {
-    client.flush();  // a late answer to a failed request must not be taken for this one
-    cursor.overrun_counted = false;
-    bool ok = read_counter();
-    if (ok) {
-      const std::uint64_t count = cursor.counter.count();
-      if (const std::uint64_t oldest = modbus::oldest_intact(ring, count); cursor.next < oldest) {
-        lose(cursor, oldest - cursor.next);  // the ring lapped since the last poll
-        cursor.next = oldest;
+MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
+  const modbus::SampleRingMap& ring = *config_.buffer;
+  const double rate = ring.sample_rate_hz;
+  RingCursor& cursor = *cursor_;
+  readings_.resize(ring.samples_per_request());
+  cursor.overrun_counted = false;
+  std::int64_t t_query = mono_now_ns();
+  const modbus::ReadResult& counter_answer = co_await ask(ring.function, ring.counter_address, 2);
+  bool ok = take_counter(counter_answer, t_query);
+  if (ok) {
+    const std::uint64_t count = cursor.counter.count();
+    if (const std::uint64_t oldest = modbus::oldest_intact(ring, count); cursor.next < oldest) {
+      lose(oldest - cursor.next);  // the ring lapped since the last poll
+      cursor.next = oldest;
+    }
+    const std::int64_t t_counter = cursor.last_query_ns;
+    for (const modbus::RingRead& rr : modbus::plan_ring_reads(ring, cursor.next, count)) {
+      const modbus::ReadResult& r = co_await ask(ring.function, rr.address, rr.count);
+      if (r.status != modbus::ReadStatus::ok) {
+        failed(r);
+        ok = false;
+        break;
       }
-      const std::int64_t t_counter = cursor.last_query_ns;
-      for (const modbus::RingRead& rr : modbus::plan_ring_reads(ring, cursor.next, count)) {
-        const modbus::ReadResult r = client.read(ring.function, rr.address, rr.count, block);
-        count_stale(client);
-        if (r.status != modbus::ReadStatus::ok) {
-          failed(r);
+      frames_.fetch_add(1, std::memory_order_relaxed);
+      modbus::decode_ring_block(ring, rr, x_.block, readings_);
+      // Samples near the ring's tail may have been overwritten while the requests were under way:
+      // bound how far the amplifier can have got, and when that reaches them, ask it.
+      std::uint64_t first = rr.first;
+      const double since_s = static_cast<double>(mono_now_ns() - t_counter) * 1e-9;
+      const auto could = count + static_cast<std::uint64_t>(rate * since_s * 1.05 + 2.0);
+      if (modbus::oldest_intact(ring, could) > first) {
+        t_query = mono_now_ns();
+        const modbus::ReadResult& again = co_await ask(ring.function, ring.counter_address, 2);
+        if (!take_counter(again, t_query)) {
           ok = false;
           break;
         }
-        frames_.fetch_add(1, std::memory_order_relaxed);
-        modbus::decode_ring_block(ring, rr, block, readings);
-        // Samples near the ring's tail may have been overwritten while the requests were under way:
-        // bound how far the amplifier can have got, and when that reaches them, ask it.
-        std::uint64_t first = rr.first;
-        const double since_s = static_cast<double>(mono_now_ns() - t_counter) * 1e-9;
-        const auto could = count + static_cast<std::uint64_t>(rate * since_s * 1.05 + 2.0);
-        if (modbus::oldest_intact(ring, could) > first) {
-          if (!read_counter()) {
-            ok = false;
-            break;
-          }
-          const std::uint64_t intact = modbus::oldest_intact(ring, cursor.counter.count());
-          if (cursor.next != rr.first) break;  // the amplifier restarted: start again at the next poll
-          if (intact > first) {
-            lose(cursor, std::min<std::uint64_t>(intact, rr.first + rr.samples) - first);
-            first = std::min<std::uint64_t>(intact, rr.first + rr.samples);
-          }
+        const std::uint64_t intact = modbus::oldest_intact(ring, cursor.counter.count());
+        if (cursor.next != rr.first) break;  // the amplifier restarted: start again at the next poll
+        if (intact > first) {
+          lose(std::min<std::uint64_t>(intact, rr.first + rr.samples) - first);
+          first = std::min<std::uint64_t>(intact, rr.first + rr.samples);
         }
-        for (std::uint64_t k = first; k < rr.first + rr.samples; ++k) {
-          const modbus::Reading& reading = readings[k - rr.first];
-          Sample s;
-          s.t_mono_ns = cursor.stamps.stamp(k, cursor.anchor.time_ns(k));
-          s.value_count = 1;
-          s.value[0] = reading.value_m;
-          s.flags = reading.flags | (cursor.gap ? sample_after_gap : 0u);
-          cursor.gap = false;
-          publish(s);
-        }
-        cursor.next = rr.first + rr.samples;
       }
+      for (std::uint64_t k = first; k < rr.first + rr.samples; ++k) {
+        const modbus::Reading& reading = readings_[k - rr.first];
+        Sample s;
+        s.t_mono_ns = cursor.stamps.stamp(k, cursor.anchor.time_ns(k));
+        s.value_count = 1;
+        s.value[0] = reading.value_m;
+        s.flags = reading.flags | (cursor.gap ? sample_after_gap : 0u);
+        cursor.gap = false;
+        publish(s);
+      }
+      cursor.next = rr.first + rr.samples;
     }
-    if (link_gone || failures >= config_.lost_after_failures) break;
-    if (ok) {
-      failures = 0;
-      backoff = config_.backoff_initial;
-    }
-    wake += period;
-    const auto now = std::chrono::steady_clock::now();
-    if (wake < now) wake = now;  // late: poll again at once (the ring holds what arrived meanwhile)
-    if (!sleep_for(stop, wake - now)) break;
   }
-  return last_failure;
+  end_link_ = link_gone_ || failures_ >= config_.lost_after_failures;
+  if (!end_link_ && ok) {
+    failures_ = 0;
+    backoff_ = config_.backoff_initial;
+  }
+}
+
+// ---- Modbus TCP on the I/O loop.
+
+void MicrometerDriver::attach(drivers::IoLoop& loop) {
+  io_ = &loop;
+  backoff_ = config_.backoff_initial;
+  ever_connected_ = false;
+  gap_ = false;
+  cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
+  rx_.reserve(2 * modbus::max_tcp_answer_bytes);
+  timer_ = loop.add_timer([this] { on_timer(); });
+  if (config_.buffer) wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
+  begin_connect();
+}
+
+void MicrometerDriver::detach() {
+  resolver_.cancel();
+  // A poll under way is finished first, as the threaded driver finishes it: what the amplifier
+  // answered is published. The one wait on the loop's thread: when a device stops, for its answers,
+  // each within response_timeout_ms.
+  while (poll_ && fd_ >= 0 && link_ == Link::awaiting) {
+    const std::int64_t left = deadline_ns_ - mono_now_ns();
+    if (left <= 0) break;
+    pollfd p{fd_, POLLIN, 0};
+    const timespec ts{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
+    if (::ppoll(&p, 1, &ts, nullptr) < 0 && errno != EINTR) break;
+    on_ready(0);
+  }
+  poll_.reset();
+  close_socket();
+  io_->remove_timer(timer_);
+  if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
+  wake_hook_ = 0;
+  link_ = Link::waiting;
+  io_ = nullptr;
+}
+
+void MicrometerDriver::close_socket() {
+  if (fd_ < 0) return;
+  io_->unwatch(fd_);
+  ::close(fd_);
+  fd_ = -1;
+  rx_.clear();
+}
+
+void MicrometerDriver::begin_connect() {
+  set_state(drivers::DeviceState::connecting);
+  link_ = Link::resolving;
+  addresses_.clear();
+  next_address_ = 0;
+  connect_error_.clear();
+  resolver_.start(config_.endpoint.host, config_.endpoint.port);
+  on_timer();  // an address is resolved at once; a name is looked up off the loop, then looked at
+}
+
+void MicrometerDriver::connect_next() {
+  while (next_address_ < addresses_.size()) {
+    bool done = false;
+    std::string error;
+    fd_ = tcp::start_connect(addresses_[next_address_++], done, error);
+    if (fd_ < 0) {
+      connect_error_ = config_.endpoint.describe() + ": " + error;
+      continue;
+    }
+    if (done) {
+      tcp_connected();
+      return;
+    }
+    link_ = Link::connecting;
+    io_->watch(fd_, EPOLLOUT, [this](std::uint32_t) { on_connect_ready(); });
+    // libmodbus waits a response timeout for the connection too.
+    deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(config_.endpoint.response_timeout).count();
+    io_->arm(timer_, deadline_ns_);
+    return;
+  }
+  connect_failed(connect_error_.empty() ? config_.endpoint.describe() + ": no address" : connect_error_);
+}
+
+void MicrometerDriver::on_connect_ready() {
+  const int err = tcp::connect_error(fd_);
+  if (err == 0) {
+    tcp_connected();
+    return;
+  }
+  close_socket();
+  connect_error_ = config_.endpoint.describe() + ": " + std::strerror(err);
+  connect_next();
+}
+
+void MicrometerDriver::connect_failed(const std::string& error) {
+  set_state(drivers::DeviceState::lost, error);
+  link_ = Link::waiting;
+  deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(backoff_).count();
+  backoff_ = std::min(backoff_ * 2, config_.backoff_max);
+  io_->arm(timer_, deadline_ns_);
+}
+
+void MicrometerDriver::tcp_connected() {
+  tcp::set_stream_options(fd_);
+  io_->watch(fd_, EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
+  link_up();
+  link_ = Link::idle;
+  next_poll_ns_ = mono_now_ns();
+  start_poll();
+}
+
+void MicrometerDriver::end_tcp_link(const std::string& why) {
+  poll_.reset();
+  close_socket();
+  set_state(drivers::DeviceState::lost, why);
+  link_ = Link::waiting;
+  deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(backoff_).count();
+  backoff_ = std::min(backoff_ * 2, config_.backoff_max);
+  io_->arm(timer_, deadline_ns_);
+}
+
+bool MicrometerDriver::read_socket(std::string& ended) {
+  std::uint8_t buf[1024];
+  for (;;) {
+    const tcp::ReadResult r = tcp::read_some(fd_, reinterpret_cast<char*>(buf), sizeof buf);
+    if (r.status == tcp::ReadStatus::would_block) return true;
+    if (r.status != tcp::ReadStatus::data) {
+      ended = r.message;
+      return false;
+    }
+    if (link_ == Link::awaiting) {
+      rx_.insert(rx_.end(), buf, buf + r.bytes);
+      // The answer's time: when the kernel received it (the anchor of buffered mode's stamps).
+      std::int64_t t = mono_now_ns();
+      if (r.rx_realtime_ns != tcp::no_rx_timestamp) {
+        const std::int64_t k = r.rx_realtime_ns - realtime_minus_mono_ns();
+        if (k >= sent_ns_ - 1'000'000 && k <= t + 1'000'000) t = std::clamp(k, sent_ns_, t);
+      }
+      x_.t_answer_ns = t;
+      if (rx_.size() > 4 * modbus::max_tcp_answer_bytes) return true;  // a flood: parse what is there first
+    }
+    // Idle: late or repeated answers to an earlier poll's requests, dropped as libmodbus's flush drops them.
+  }
+}
+
+void MicrometerDriver::on_ready(std::uint32_t) {
+  if (fd_ < 0) return;
+  served_pass_ = io_->passes();
+  std::string ended;
+  if (!read_socket(ended)) {
+    if (link_ == Link::awaiting) {
+      answer({modbus::ReadStatus::disconnected, 0, ended}, mono_now_ns());
+    } else {
+      end_tcp_link("disconnected: " + ended);
+    }
+    return;
+  }
+  if (link_ != Link::awaiting) return;
+  for (;;) {
+    const modbus::TcpAnswer a = modbus::parse_tcp_answer(
+        rx_, transaction_, static_cast<std::uint8_t>(config_.endpoint.unit_id), x_.function, x_.count, x_.block);
+    switch (a.kind) {
+      case modbus::TcpAnswer::Kind::incomplete:
+        return;  // the rest comes, or the response timeout
+      case modbus::TcpAnswer::Kind::other_transaction:
+        // A late answer to a request that timed out (or a repeated one): never taken for this one.
+        rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
+        count_stale_frames(1);
+        continue;
+      case modbus::TcpAnswer::Kind::registers:
+        rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
+        io_->data_found();
+        answer({}, x_.t_answer_ns);
+        return;
+      case modbus::TcpAnswer::Kind::exception:
+        rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
+        answer({modbus::ReadStatus::exception, a.exception_code, modbus::exception_text(a.exception_code)},
+               x_.t_answer_ns);
+        return;
+      case modbus::TcpAnswer::Kind::bad:
+        rx_.clear();  // nothing after it can be trusted
+        answer({modbus::ReadStatus::bad_frame, 0, a.why}, x_.t_answer_ns);
+        return;
+    }
+  }
+}
+
+void MicrometerDriver::on_timer() {
+  const std::int64_t now = mono_now_ns();
+  served_pass_ = io_->passes();
+  switch (link_) {
+    case Link::resolving: {
+      std::string error;
+      if (!resolver_.done(addresses_, error)) {
+        io_->arm(timer_, now + 5'000'000);  // a name being looked up: look again soon
+        return;
+      }
+      if (addresses_.empty()) {
+        connect_failed(config_.endpoint.describe() + ": " + error);
+        return;
+      }
+      connect_next();
+      return;
+    }
+    case Link::connecting:
+      if (now < deadline_ns_) {
+        io_->arm(timer_, deadline_ns_);
+        return;
+      }
+      close_socket();
+      connect_error_ = config_.endpoint.describe() + ": " + std::strerror(ETIMEDOUT);
+      connect_next();
+      return;
+    case Link::waiting:
+      if (now < deadline_ns_) {
+        io_->arm(timer_, deadline_ns_);
+        return;
+      }
+      begin_connect();
+      return;
+    case Link::awaiting:
+      if (resting_) {
+        // No pass came by for a read period (the other devices went quiet): look, then wait for the
+        // answer's arrival instead.
+        const std::uint16_t asked = transaction_;
+        on_ready(0);
+        if (link_ != Link::awaiting || transaction_ != asked) return;  // it was there: the poll went on
+        resting_ = false;
+        io_->modify(fd_, EPOLLIN);
+      }
+      if (now < deadline_ns_) {
+        io_->arm(timer_, deadline_ns_);
+        return;
+      }
+      rx_.clear();  // a part of an answer that stopped half way is dropped with it
+      answer({modbus::ReadStatus::timeout, 0, std::strerror(ETIMEDOUT)}, now);
+      return;
+    case Link::idle:
+      if (now >= next_poll_ns_) {
+        start_poll();
+      } else {
+        io_->arm(timer_, next_poll_ns_);
+      }
+      return;
+  }
+}
+
+void MicrometerDriver::on_wake() {
+  if (served_pass_ != io_->passes()) others_pass_ = true;  // the loop passed by for another device
+  if (link_ == Link::awaiting && resting_) {
+    on_ready(0);  // the answer, if it came since the last pass
+    return;
+  }
+  // Buffered mode reads what the amplifier stored meanwhile: a poll up to a fifth of a period early
+  // costs nothing (its samples keep their own times) and spares a wake-up of its own.
+  if (link_ != Link::idle) return;
+  const std::int64_t slack_ns = std::min<std::int64_t>(poll_period().count() / 5, 2'000'000);
+  if (io_->now() >= next_poll_ns_ - slack_ns) start_poll();
+}
+
+void MicrometerDriver::start_poll() {
+  // While other devices keep the loop passing by (at least every read period), a buffered poll's
+  // answers are read at those passes instead of waking the loop each: their samples keep the times
+  // the amplifier gives them (and the answers' kernel receive times), so only the publishing waits.
+  busy_ = config_.buffer.has_value() && others_pass_;
+  others_pass_ = false;
+  // Stray or late answers must not be taken for this poll's.
+  rx_.clear();
+  std::string ended;
+  if (!read_socket(ended)) {
+    end_tcp_link("disconnected: " + ended);
+    return;
+  }
+  poll_ = std::make_unique<PollTask>(make_poll());
+  continue_poll();
+}
+
+void MicrometerDriver::continue_poll() {
+  poll_->resume();
+  if (poll_->done()) {
+    finish_poll();
+    return;
+  }
+  send_request();
+}
+
+void MicrometerDriver::send_request() {
+  ++transaction_;
+  const auto request = modbus::tcp_read_request(transaction_, static_cast<std::uint8_t>(config_.endpoint.unit_id),
+                                                x_.function, x_.address, x_.count);
+  rx_.clear();
+  sent_ns_ = mono_now_ns();
+  const ssize_t put = ::send(fd_, request.data(), request.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  link_ = Link::awaiting;
+  if (put != static_cast<ssize_t>(request.size())) {
+    // 12 bytes on an idle connection: refused only when the connection is gone (or never drains).
+    const std::string why = put < 0 ? std::strerror(errno) : "short write of a request";
+    answer({put < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) ? modbus::ReadStatus::timeout
+                                                                 : modbus::ReadStatus::disconnected,
+            0, why},
+           sent_ns_);
+    return;
+  }
+  deadline_ns_ = sent_ns_ + std::chrono::nanoseconds(config_.endpoint.response_timeout).count();
+  resting_ = busy_;
+  io_->modify(fd_, resting_ ? 0u : std::uint32_t{EPOLLIN});
+  io_->arm(timer_, resting_ ? std::min(deadline_ns_, sent_ns_ + drivers::default_read_period_us * 1000) : deadline_ns_);
+}
+
+void MicrometerDriver::answer(modbus::ReadResult result, std::int64_t t_answer_ns) {
+  x_.result = std::move(result);
+  x_.t_answer_ns = t_answer_ns;
+  link_ = Link::idle;
+  continue_poll();
+}
+
+void MicrometerDriver::finish_poll() {
+  poll_.reset();
+  resting_ = false;
+  if (fd_ >= 0) io_->modify(fd_, EPOLLIN);
+  if (end_link_) {
+    end_tcp_link(last_failure_);
+    return;
+  }
+  const std::int64_t now = mono_now_ns();
+  next_poll_ns_ += poll_period().count();
+  if (next_poll_ns_ < now) next_poll_ns_ = now;  // late: poll again at once (no catch-up burst)
+  link_ = Link::idle;
+  io_->arm(timer_, next_poll_ns_);
 }
 
 void register_micrometer_driver(drivers::DriverRegistry& registry) {

@@ -5,16 +5,21 @@
 // ring of registers with a sample counter; every poll_period_ms the driver reads the counter and
 // the new part of the ring, publishes every sample once, timestamped from its sample number, and
 // counts what the ring lost between polls. Register maps, transport and rates come from the
-// [[device]] table (docs/protocols.md). Thread safety as drivers::Driver.
+// [[device]] table (docs/protocols.md). A poll is written once, as a coroutine that asks for each
+// register read and is resumed with its answer: over TCP the I/O loop does the reads (loop-driven,
+// a non-blocking Modbus TCP client, modbus_tcp.hpp); over RTU a thread of its own does them with
+// libmodbus (a blocking library on a serial line). Thread safety as drivers::Driver.
 
 #include <chrono>
 #include <optional>
 #include <string>
 
 #include "drivers/driver.hpp"
+#include "drivers/io_loop.hpp"
 #include "drivers/modbus/modbus_client.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/sample_ring.hpp"
+#include "drivers/tcp/tcp_client.hpp"
 
 namespace guideway::drivers::micrometer {
 
@@ -23,11 +28,11 @@ inline constexpr double default_buffer_poll_period_ms = 5.0;
 
 struct MicrometerConfig {
   modbus::ModbusEndpoint endpoint;
-  modbus::RegisterMap map;                     // polled mode
-  double poll_hz = 50.0;                       // polled mode
-  std::optional<modbus::SampleRingMap> buffer;  // set: buffered mode
+  modbus::RegisterMap map;                                // polled mode
+  double poll_hz = 50.0;                                  // polled mode
+  std::optional<modbus::SampleRingMap> buffer;            // set: buffered mode
   double poll_period_ms = default_buffer_poll_period_ms;  // buffered mode
-  int lost_after_failures = 3;  // consecutive failed polls before the link is declared lost
+  int lost_after_failures = 3;                            // consecutive failed polls before the link is declared lost
   std::chrono::milliseconds backoff_initial{100};
   std::chrono::milliseconds backoff_max{5000};
 };
@@ -60,30 +65,106 @@ class MicrometerDriver : public drivers::Driver {
             {"stale_answers", stale_answers_.load(std::memory_order_relaxed)}};
   }
 
+  [[nodiscard]] bool loop_driven() const noexcept override {
+    return config_.endpoint.kind == modbus::ModbusEndpoint::Kind::tcp;
+  }
+
  protected:
-  void run(std::stop_token stop) override;
+  void run(std::stop_token stop) override;      // RTU
+  void attach(drivers::IoLoop& loop) override;  // TCP
+  void detach() override;
 
  private:
   struct RingCursor;
-  // The inner loops of one connection; each returns why the link was given up ("" when stopping).
-  std::string stream_polled(const std::stop_token& stop, modbus::ModbusClient& client,
-                            std::chrono::milliseconds& backoff, bool& gap);
-  std::string stream_buffered(const std::stop_token& stop, modbus::ModbusClient& client,
-                              std::chrono::milliseconds& backoff, RingCursor& cursor);
+  class PollTask;
+  // One register read a poll asks for, and its answer (put there by whoever does the I/O).
+  struct Exchange {
+    modbus::RegisterFunction function = modbus::RegisterFunction::input;
+    std::uint16_t address = 0;
+    std::uint16_t count = 0;
+    modbus::ReadResult result;
+    std::vector<std::uint16_t> block = std::vector<std::uint16_t>(125);
+    std::int64_t t_answer_ns = 0;  // when the answer arrived (CLOCK_MONOTONIC)
+  };
+  struct ReadAwaiter;
+  ReadAwaiter ask(modbus::RegisterFunction function, std::uint16_t address, std::uint16_t count) noexcept;
+  // One poll of either mode; sets end_link_ when the link is to be given up (last_failure_ says why).
+  PollTask polled_poll();
+  PollTask buffered_poll();
+  PollTask make_poll();
+  // The answer to a counter read sent at t_query: the sample numbering, restarts, the rate check.
+  bool take_counter(const modbus::ReadResult& r, std::int64_t t_query);
   // A failed request of either mode: counted (timeout, bad frame, exception; a lost link is not a
   // frame), and the reason to report.
   std::string count_failure(const modbus::ReadResult& r);
-  void lose(RingCursor& cursor, std::uint64_t n) noexcept;
+  void failed(const modbus::ReadResult& r);  // a poll's failed request: counted, the poll ends
+  void lose(std::uint64_t n) noexcept;
   // Takes the late answers the client discarded since the last call into the counters.
   void count_stale(const modbus::ModbusClient& client) noexcept;
+  void count_stale_frames(std::uint64_t n) noexcept;
+  // A new connection: the poll state starts afresh (the ring cursor is kept across reconnects).
+  void link_up();
+  [[nodiscard]] std::chrono::nanoseconds poll_period() const noexcept;
+
+  // TCP on the I/O loop (the loop thread's, attach() to detach()).
+  enum class Link { resolving, connecting, idle, awaiting, waiting };
+  void begin_connect();
+  void connect_next();
+  void on_connect_ready();
+  void tcp_connected();
+  void connect_failed(const std::string& error);
+  void end_tcp_link(const std::string& why);
+  void close_socket();
+  void on_ready(std::uint32_t events);
+  void on_timer();
+  void on_wake();  // any pass of the loop: a buffered poll that is nearly due starts now (shares the wake-up)
+  void start_poll();
+  // Runs the poll until it asks for an answer that is not there yet, or ends.
+  void continue_poll();
+  void send_request();
+  void answer(modbus::ReadResult result, std::int64_t t_answer_ns);
+  void finish_poll();
+  // Reads what the socket holds; false when the connection ended.
+  bool read_socket(std::string& ended);
 
   MicrometerConfig config_;
   std::atomic<std::uint64_t> exceptions_{0};
   std::atomic<std::uint64_t> ring_overruns_{0};
   std::atomic<std::uint64_t> lost_samples_{0};
   std::atomic<std::uint64_t> counter_resets_{0};
-  std::atomic<std::uint64_t> stale_answers_{0};  // RTU: late answers discarded before a read (also bad frames)
-  std::uint64_t stale_seen_ = 0;                 // the client's count already taken (driver thread only)
+  std::atomic<std::uint64_t> stale_answers_{0};  // late answers discarded before a read (also bad frames)
+  std::uint64_t stale_seen_ = 0;                 // the RTU client's count already taken
+  // The poll's state (the driver thread's over RTU, the loop thread's over TCP).
+  Exchange x_;
+  std::unique_ptr<RingCursor> cursor_;  // buffered mode
+  std::vector<modbus::Reading> readings_;
+  std::chrono::milliseconds backoff_{0};
+  bool ever_connected_ = false;
+  bool gap_ = false;  // polled mode: the next sample follows a reconnect or a failed poll
+  int failures_ = 0;
+  bool link_gone_ = false;
+  bool end_link_ = false;
+  std::string last_failure_;
+  // TCP on the loop.
+  drivers::IoLoop* io_ = nullptr;
+  drivers::IoLoop::Id timer_ = 0;
+  drivers::IoLoop::Id wake_hook_ = 0;
+  Link link_ = Link::waiting;
+  tcp::Resolver resolver_;
+  std::vector<tcp::Address> addresses_;
+  std::size_t next_address_ = 0;
+  std::string connect_error_;
+  int fd_ = -1;
+  std::int64_t deadline_ns_ = 0;  // connecting, awaiting: the timeout; waiting: the reconnect
+  std::int64_t next_poll_ns_ = 0;
+  std::int64_t sent_ns_ = 0;
+  std::uint16_t transaction_ = 0;
+  std::vector<std::uint8_t> rx_;
+  std::unique_ptr<PollTask> poll_;
+  std::uint64_t served_pass_ = 0;  // the loop's last pass this driver's socket or timer caused
+  bool others_pass_ = false;       // since the poll began, the loop passed by for another device
+  bool busy_ = false;              // this poll reads its answers at passes that come anyway
+  bool resting_ = false;           // awaiting an answer with no readiness interest
 };
 
 void register_micrometer_driver(drivers::DriverRegistry& registry);

@@ -48,6 +48,8 @@ std::string_view to_string(ReadStatus s) noexcept {
   return "?";
 }
 
+std::string exception_text(int exception_code) { return modbus_strerror(MODBUS_ENOBASE + exception_code); }
+
 ModbusClient::ModbusClient(ModbusEndpoint endpoint) : endpoint_(std::move(endpoint)) {}
 
 ModbusClient::~ModbusClient() { close(); }

@@ -35,6 +35,8 @@ ModbusEndpoint parse_endpoint(const TableReader& table);
 
 enum class ReadStatus { ok, timeout, bad_frame, exception, disconnected };
 std::string_view to_string(ReadStatus s) noexcept;
+// libmodbus's words for a Modbus exception code ("Slave device or server is busy").
+std::string exception_text(int exception_code);
 
 struct ReadResult {
   ReadStatus status = ReadStatus::ok;

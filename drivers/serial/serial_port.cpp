@@ -41,7 +41,13 @@ class TermiosLine final : public SerialLine {
         got = static_cast<std::size_t>(n);
         return IoStatus::ok;
       }
-      if (n == 0) return IoStatus::closed;
+      if (n == 0) {
+        // Raw mode (VMIN = VTIME = 0) reads 0 bytes when none are queued, O_NONBLOCK or not: only a
+        // hang-up makes it the end of the line.
+        pollfd p{fd_, POLLIN, 0};
+        if (::poll(&p, 1, 0) > 0 && (p.revents & (POLLHUP | POLLERR))) return IoStatus::closed;
+        return IoStatus::would_block;
+      }
       if (errno == EINTR) continue;
       if (errno == EAGAIN || errno == EWOULDBLOCK) return IoStatus::would_block;
       if (errno == EIO) return IoStatus::closed;  // pty master gone / device unplugged
@@ -73,6 +79,21 @@ class TermiosLine final : public SerialLine {
       ::poll(&p, 1, static_cast<int>(left.count()));
     }
     return IoStatus::ok;
+  }
+  IoStatus write_some(std::string_view data, std::size_t& written, std::string& error) override {
+    written = 0;
+    for (;;) {
+      const ssize_t n = ::write(fd_, data.data(), data.size());
+      if (n >= 0) {
+        written = static_cast<std::size_t>(n);
+        return n > 0 || data.empty() ? IoStatus::ok : IoStatus::would_block;
+      }
+      if (errno == EINTR) continue;
+      if (errno == EAGAIN || errno == EWOULDBLOCK) return IoStatus::would_block;
+      if (errno == EIO) return IoStatus::closed;
+      error = errno_text("write", errno);
+      return IoStatus::error;
+    }
   }
   void flush() noexcept override { ::tcflush(fd_, TCIOFLUSH); }
   Backend backend() const noexcept override { return Backend::termios; }
@@ -191,6 +212,16 @@ class SpLine final : public SerialLine {
       return IoStatus::error;
     }
     return IoStatus::ok;
+  }
+  IoStatus write_some(std::string_view data, std::size_t& written, std::string& error) override {
+    written = 0;
+    const sp_return r = sp_nonblocking_write(port_, data.data(), data.size());
+    if (r < 0) {
+      error = sp_error_text("write", r);
+      return IoStatus::error;
+    }
+    written = static_cast<std::size_t>(r);
+    return r > 0 || data.empty() ? IoStatus::ok : IoStatus::would_block;
   }
   void flush() noexcept override { sp_flush(port_, SP_BUF_BOTH); }
   Backend backend() const noexcept override { return Backend::libserialport; }

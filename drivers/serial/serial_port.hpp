@@ -40,6 +40,8 @@ class SerialLine {
   virtual IoStatus read_some(char* buf, std::size_t size, std::size_t& got, std::string& error) = 0;
   // Writes all of `data` within timeout_ms.
   virtual IoStatus write_all(std::string_view data, int timeout_ms, std::string& error) = 0;
+  // Writes what the line takes now, never waiting (written = 0 and would_block when it takes nothing).
+  virtual IoStatus write_some(std::string_view data, std::size_t& written, std::string& error) = 0;
   // Discards unread input and unsent output.
   virtual void flush() noexcept = 0;
   [[nodiscard]] virtual Backend backend() const noexcept = 0;

@@ -5,12 +5,12 @@
 #include <numbers>
 
 #include "core/csv_table.hpp"
+#include "core/units.hpp"
 
 namespace guideway::models::artifact {
 
 namespace {
 
-constexpr double rad_per_arcsec = std::numbers::pi / (180.0 * 3600.0);
 
 const char* placement_name(ArtifactPlacement p) {
   switch (p) {

@@ -1,4 +1,5 @@
 #include "models/artifact/artifact_json.hpp"
+#include "core/units.hpp"
 
 #include <numbers>
 
@@ -6,7 +7,7 @@ namespace guideway::models::artifact {
 
 namespace {
 
-constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
+constexpr double arcsec = rad_per_arcsec;
 
 nlohmann::json placement_json(const ArtifactPlacementValues& v) {
   nlohmann::json j = nlohmann::json::array();

@@ -5,9 +5,11 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/units.hpp"
+
 namespace guideway::models::flatness {
 
-inline constexpr double rad_per_arcsec = std::numbers::pi / (180.0 * 3600.0);
+using guideway::rad_per_arcsec;
 inline constexpr double metres_per_inch = 0.0254;
 
 // The instrument: per-reading standard uncertainty u = sqrt(resolution^2/12 + accuracy^2/3), i.e.

@@ -9,12 +9,13 @@
 #include <stdexcept>
 
 #include "formats/profile_files.hpp"
+#include "core/units.hpp"
 
 namespace guideway::simulators::emulators {
 
 namespace {
 
-constexpr double arcsec = std::numbers::pi / (180.0 * 3600.0);
+constexpr double arcsec = rad_per_arcsec;
 
 std::uint64_t seed_of(const machine::Machine& machine, std::uint64_t seed) {
   return seed != 0 ? seed : machine.config().noise.seed;

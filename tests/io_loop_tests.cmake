@@ -1,0 +1,6 @@
+# The I/O loop that serves every loop-driven device (drivers/io_loop.hpp): alone, and with real
+# drivers sharing it as in guidewayd (a flooding device, the four instruments' faults).
+guideway_add_test(io_loop_test SOURCES io_loop_test.cpp
+  LIBS guideway_dbb guideway_autocollimator guideway_micrometer guideway_profilometer guideway_emu_can_serial_sources
+       guideway_micrometer_emulator guideway_profilometer_emulator
+  LABELS integration tsan TIMEOUT 120)
