@@ -51,7 +51,7 @@ DisplayUnit display_unit(const std::string& si_unit, double first_value);
 using ChannelDisplay = std::map<std::string, DisplayUnit>;
 
 // One published message as one readable line (`guideway watch` without --json): the local time it
-// arrived, the class, then what matters of it (values with units, states, parameters +/- u, ...).
+// arrived, the class, then what matters of it (values with units, states, parameters ± u, ...).
 // SAMPLE values in the display units kept in `display` (chosen at a channel's first value), or in SI
 // as the daemon sends them when `display` is null (`--si`).
 std::string watch_line(const nlohmann::json& message, const ChannelUnits& units, ChannelDisplay* display);
