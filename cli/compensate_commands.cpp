@@ -190,8 +190,10 @@ std::vector<Refusal> refusals(const Verification& v, const std::vector<Correctio
 // back from the files, as the controller would), then adding the squareness as the axis-skew correction
 // the user is told to enter, then the cross-axis correction of straightness.csv; refuses what makes a run
 // worse (refusals). Writes the runs before and with every correction to out_dir/verify/.
-Verification verify(const std::vector<formats::DbbRun>& runs, const models::compensation::ErrorMap& map,
-                    const std::string& machine_file, const std::string& out_dir, const std::vector<std::string>& axes) {
+Verification verify(const std::vector<formats::DbbRun>& runs,
+                    const models::compensation::CheckedIdentification& checked,
+                    const models::compensation::ErrorMap& map, const std::string& machine_file,
+                    const std::string& out_dir, const std::vector<std::string>& axes) {
   namespace machine = simulators::machine;
   const machine::MachineConfig config = machine::load_machine_config(machine_file);
   std::vector<Correction> all;
@@ -224,10 +226,13 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const models::comp
   tables.assign(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(n_tables));
   skewed.assign(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(n_tables + (v.skew ? 1 : 0)));
   const machine::RemeasuredRuns r = machine::remeasure_dbb(config, combined(full), runs, center);
-  models::compensation::CheckedIdentification before = models::compensation::identify_checked(r.before);
-  v.before = std::move(before.id);
+  // Identified as the runs were; the retraces of simulated runs share their sample grid, and the retrace
+  // after the retrace before, so EXPLAIN's findings are reused there (identify_checked_like).
+  const models::compensation::CheckedIdentification before =
+      models::compensation::identify_checked_like(r.before, checked, runs);
+  v.before = before.id;
   v.beside = before.beside;
-  v.after = models::compensation::identify_checked(r.after).id;
+  v.after = models::compensation::identify_checked_like(r.after, before, r.before).id;
   const std::vector<double>& less = before.beside_um;
   const auto trace = [&](const std::vector<const Correction*>& set) {
     return machine::retrace_dbb(config, combined(set), runs, center, "after");
@@ -581,6 +586,21 @@ nlohmann::json terms_json(const models::compensation::ErrorMap& map) {
   return terms;
 }
 
+// The plane axes to write tables for: --axes, each an axis of the runs' plane, else both.
+std::vector<std::string> table_axes(const std::string& wanted, const std::string& plane) {
+  const std::vector<std::string> both{results::axis_letter(plane, 0), results::axis_letter(plane, 1)};
+  if (wanted.empty()) return both;
+  std::vector<std::string> out;
+  std::stringstream ss(wanted);
+  for (std::string a; std::getline(ss, a, ',');) {
+    if (std::find(both.begin(), both.end(), a) == both.end())
+      throw std::runtime_error("compensate: --axes " + wanted + ": \"" + a + "\" is not an axis of the " + plane +
+                               " plane the runs measured");
+    out.push_back(a);
+  }
+  return out;
+}
+
 void run_compensate(const Opts& o, const std::string& socket) {
   require_options(o);
   std::vector<std::string> files = o.files;
@@ -607,27 +627,17 @@ void run_compensate(const Opts& o, const std::string& socket) {
     }
   }
   mo.step_m = o.step_mm * 1e-3;
+  const std::vector<std::string> axes = table_axes(o.axes, runs.front().plane);  // refused before the work
   models::compensation::ErrorMap map;
+  models::compensation::CheckedIdentification checked;
   try {
     models::compensation::check_map_inputs(runs, mo);  // bad input refused before the identification's work
     // The identification with what EXPLAIN finds on the same runs fitted beside, and its values to check
     // the terms against.
-    map = models::compensation::error_map(models::compensation::identify_checked(runs), runs, mo);
+    checked = models::compensation::identify_checked(runs);
+    map = models::compensation::error_map(checked, runs, mo);
   } catch (const models::compensation::CompensationError& e) {
     throw std::runtime_error(std::string("compensate: ") + e.what());
-  }
-  std::vector<std::string> axes;
-  for (const auto& am : map.axes) axes.push_back(am.axis);
-  if (!o.axes.empty()) {
-    std::vector<std::string> wanted;
-    std::stringstream ss(o.axes);
-    for (std::string a; std::getline(ss, a, ',');) {
-      if (std::find(axes.begin(), axes.end(), a) == axes.end())
-        throw std::runtime_error("compensate: --axes " + o.axes + ": \"" + a + "\" is not an axis of the " + map.plane +
-                                 " plane the runs measured");
-      wanted.push_back(a);
-    }
-    axes = wanted;
   }
   fs::create_directories(o.out_dir);
   nlohmann::json j;
@@ -665,7 +675,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
   std::string text = models::compensation::to_text(map);
   for (const auto& p : written) text += "wrote " + p.get<std::string>() + "\n";
   if (o.verify) {
-    const Verification v = verify(runs, map, o.machine, o.out_dir, axes);
+    const Verification v = verify(runs, checked, map, o.machine, o.out_dir, axes);
     const std::vector<Refusal>& refuse = v.refused;
     nlohmann::json vj;
     text += map.model == "lai3" ? lai3_verification_text(map, v, refuse, vj) : verification_text(map, v, refuse, vj);

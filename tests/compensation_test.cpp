@@ -587,7 +587,8 @@ TEST(CompensationCheckedTest, DriftIsFittedBesideNotReadAsBacklash) {
   cfg.axis[1].backlash_m = 0.6e-6;
   cfg.axis[0].drift_m_per_s = 1e-6 / 60;
   const auto runs = pair_of(simulators::machine::Machine(cfg), {0, 0, 0}, 250);
-  const auto plain = find(models::dbb::identify(runs), "backlash_x_um");
+  const auto plain_id = models::dbb::identify(runs);
+  const auto* plain = find(plain_id, "backlash_x_um");
   ASSERT_NE(plain, nullptr);
   EXPECT_GT(std::abs(plain->value - 1.0), 5 * plain->u)
       << "the drift no longer biases the plain diagnostics: " << plain->value << " +/- " << plain->u;

@@ -702,6 +702,49 @@ bool listed_in(std::span<const std::string_view> list, const std::string& effect
 
 }  // namespace
 
+namespace {
+
+// identify with options.beside, and what was fitted beside as the checked identification reports it.
+void identify_beside(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options,
+                     CheckedIdentification& out) {
+  out.id = dbb::identify(runs, options);
+  out.beside_terms = options.beside;
+  for (const auto& t : options.beside)
+    for (std::size_t c = 0; c < t.columns_um.size() && c < t.names.size(); ++c)
+      if (const auto* e = find(out.id.beside, t.names[c])) {
+        out.beside_um.resize(t.columns_um[c].size(), 0.0);
+        for (std::size_t i = 0; i < out.beside_um.size(); ++i) out.beside_um[i] += e->value * t.columns_um[c][i];
+      }
+  // The effects actually fitted beside the terms reported (the diagnostics hold a cyclic error themselves).
+  for (const auto& t : options.beside)
+    if (std::any_of(t.names.begin(), t.names.end(), [&](const std::string& n) { return find(out.id.beside, n); }))
+      out.beside.push_back(t.effect);
+  if (!out.beside.empty()) {
+    std::string list, values;
+    for (const auto& e : out.beside) list += (list.empty() ? "" : ", ") + e;
+    for (const auto& e : out.id.beside)
+      values += (values.empty() ? "" : ", ") + e.name + " " + printf_number("%.4g", e.value) + " +/- " +
+                printf_number("%.2g", e.u);
+    out.notes.push_back("fitted beside the terms, as EXPLAIN found them on the same runs: " + list + " (" + values +
+                        "); not in any table");
+  }
+}
+
+// Whether two lists of runs share their sample grid: the same runs, angles and times (a retrace of runs
+// simulated from the same machine file).
+bool same_grid(const std::vector<formats::DbbRun>& a, const std::vector<formats::DbbRun>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    if (a[k].angle_rad.size() != b[k].angle_rad.size() || a[k].direction != b[k].direction) return false;
+    for (std::size_t i = 0; i < a[k].angle_rad.size(); ++i)
+      if (std::abs(a[k].angle_rad[i] - b[k].angle_rad[i]) > 1e-9 || std::abs(a[k].t_s[i] - b[k].t_s[i]) > 1e-9)
+        return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options) {
   explain::ExplainOptions eo;
   eo.keep_columns = true;
@@ -721,28 +764,19 @@ CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
     }
     o.beside.push_back({f.effect, f.column_names, f.columns_um, !listed_in(held_by_diagnostics, f.effect)});
   }
-  out.id = dbb::identify(runs, o);
-  for (const auto& t : o.beside)
-    for (std::size_t c = 0; c < t.columns_um.size() && c < t.names.size(); ++c)
-      if (const auto* e = find(out.id.beside, t.names[c])) {
-        out.beside_um.resize(t.columns_um[c].size(), 0.0);
-        for (std::size_t i = 0; i < out.beside_um.size(); ++i) out.beside_um[i] += e->value * t.columns_um[c][i];
-      }
-  // The effects actually fitted beside the terms reported (the diagnostics hold a cyclic error themselves).
-  std::vector<std::string> fitted;
-  for (const auto& t : o.beside)
-    if (std::any_of(t.names.begin(), t.names.end(), [&](const std::string& n) { return find(out.id.beside, n); }))
-      fitted.push_back(t.effect);
-  out.beside = fitted;
-  if (!out.beside.empty()) {
-    std::string list, values;
-    for (const auto& e : out.beside) list += (list.empty() ? "" : ", ") + e;
-    for (const auto& e : out.id.beside)
-      values += (values.empty() ? "" : ", ") + e.name + " " + printf_number("%.4g", e.value) + " +/- " +
-                printf_number("%.2g", e.u);
-    out.notes.push_back("fitted beside the terms, as EXPLAIN found them on the same runs: " + list + " (" + values +
-                        "); not in any table");
-  }
+  identify_beside(runs, o, out);
+  return out;
+}
+
+CheckedIdentification identify_checked_like(const std::vector<formats::DbbRun>& runs,
+                                            const CheckedIdentification& earlier,
+                                            const std::vector<formats::DbbRun>& earlier_runs) {
+  if (!same_grid(runs, earlier_runs)) return identify_checked(runs);
+  CheckedIdentification out;
+  out.explain = earlier.explain;
+  dbb::IdentifyOptions o;
+  o.beside = earlier.beside_terms;
+  identify_beside(runs, o, out);
   return out;
 }
 

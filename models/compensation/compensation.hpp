@@ -142,9 +142,16 @@ struct CheckedIdentification {
   // empty when none): what no table holds, and what a verification takes out of the runs' G to judge the
   // tables by what they can correct.
   std::vector<double> beside_um;
+  std::vector<dbb::BesideTerm> beside_terms;  // what was fitted beside, as identify took it
 };
 CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
                                        const dbb::IdentifyOptions& options = {});
+// The same for runs on the sample grid of `earlier_runs` (the same runs, angles and times: a retrace of runs
+// simulated from the same machine file, or a retrace after a retrace): `earlier`'s terms are fitted beside
+// again, without running EXPLAIN (its columns are the same); on another grid, identify_checked(runs).
+CheckedIdentification identify_checked_like(const std::vector<formats::DbbRun>& runs,
+                                            const CheckedIdentification& earlier,
+                                            const std::vector<formats::DbbRun>& earlier_runs);
 // error_map of a checked identification: EXPLAIN's values are the cross-check, and the notes of the
 // identification (what was fitted beside) are the map's too.
 ErrorMap error_map(const CheckedIdentification& checked, const std::vector<formats::DbbRun>& runs,
