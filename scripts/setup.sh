@@ -16,7 +16,6 @@ packages=(
   mosquitto mosquitto-clients openssl  # the MQTT tests' real broker, their subscriber and their TLS certificates
   python3 python3-numpy python3-scipy python3-pywt
   python3-pymodbus python3-serial-asyncio mbpoll  # Modbus stacks written elsewhere, for the micrometer's tests
-  ccache  # shares compiled objects between build trees (configure with -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
   linux-perf  # bench/daemon_load.py --syscalls, bench/controller_load.py (a daemon's threads on the measured CPU)
   rt-tests  # cyclictest: bench/controller_load.py measures a real-time loop beside guidewayd
   chromium  # headless: the report tests and docs/reports.md screenshots
