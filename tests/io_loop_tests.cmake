@@ -4,3 +4,6 @@ guideway_add_test(io_loop_test SOURCES io_loop_test.cpp
   LIBS guideway_dbb guideway_autocollimator guideway_micrometer guideway_profilometer guideway_emu_can_serial_sources
        guideway_micrometer_emulator guideway_profilometer_emulator
   LABELS integration tsan TIMEOUT 120)
+# The TCP connection attempt the loop-driven TCP drivers share.
+guideway_add_test(tcp_loop_connector_test SOURCES tcp_loop_connector_test.cpp LIBS guideway_tcp
+  LABELS unit TIMEOUT 60)

@@ -397,12 +397,14 @@ void MicrometerDriver::attach(drivers::IoLoop& loop) {
   cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
   rx_.reserve(2 * modbus::max_tcp_answer_bytes);
   timer_ = loop.add_timer([this] { on_timer(); });
+  connector_.attach(
+      loop, [this](int fd) { tcp_connected(fd); }, [this](const std::string& error) { connect_failed(error); });
   if (config_.buffer) wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
   begin_connect();
 }
 
 void MicrometerDriver::detach() {
-  resolver_.cancel();
+  connector_.detach();
   // A poll under way is finished first, as the threaded driver finishes it: what the amplifier
   // answered is published. The one wait on the loop's thread: when a device stops, for its answers,
   // each within response_timeout_ms.
@@ -433,46 +435,10 @@ void MicrometerDriver::close_socket() {
 
 void MicrometerDriver::begin_connect() {
   set_state(drivers::DeviceState::connecting);
-  link_ = Link::resolving;
-  addresses_.clear();
-  next_address_ = 0;
-  connect_error_.clear();
-  resolver_.start(config_.endpoint.host, config_.endpoint.port);
-  on_timer();  // an address is resolved at once; a name is looked up off the loop, then looked at
-}
-
-void MicrometerDriver::connect_next() {
-  while (next_address_ < addresses_.size()) {
-    bool done = false;
-    std::string error;
-    fd_ = tcp::start_connect(addresses_[next_address_++], done, error);
-    if (fd_ < 0) {
-      connect_error_ = config_.endpoint.describe() + ": " + error;
-      continue;
-    }
-    if (done) {
-      tcp_connected();
-      return;
-    }
-    link_ = Link::connecting;
-    io_->watch(fd_, EPOLLOUT, [this](std::uint32_t) { on_connect_ready(); });
-    // libmodbus waits a response timeout for the connection too.
-    deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(config_.endpoint.response_timeout).count();
-    io_->arm(timer_, deadline_ns_);
-    return;
-  }
-  connect_failed(connect_error_.empty() ? config_.endpoint.describe() + ": no address" : connect_error_);
-}
-
-void MicrometerDriver::on_connect_ready() {
-  const int err = tcp::connect_error(fd_);
-  if (err == 0) {
-    tcp_connected();
-    return;
-  }
-  close_socket();
-  connect_error_ = config_.endpoint.describe() + ": " + std::strerror(err);
-  connect_next();
+  link_ = Link::connecting;
+  // libmodbus waits a response timeout for the connection too.
+  connector_.start(config_.endpoint.host, config_.endpoint.port, config_.endpoint.describe(),
+                   config_.endpoint.response_timeout);
 }
 
 void MicrometerDriver::connect_failed(const std::string& error) {
@@ -483,7 +449,8 @@ void MicrometerDriver::connect_failed(const std::string& error) {
   io_->arm(timer_, deadline_ns_);
 }
 
-void MicrometerDriver::tcp_connected() {
+void MicrometerDriver::tcp_connected(int fd) {
+  fd_ = fd;
   tcp::set_stream_options(fd_);
   io_->watch(fd_, EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
   link_up();
@@ -572,28 +539,8 @@ void MicrometerDriver::on_timer() {
   const std::int64_t now = mono_now_ns();
   served_pass_ = io_->passes();
   switch (link_) {
-    case Link::resolving: {
-      std::string error;
-      if (!resolver_.done(addresses_, error)) {
-        io_->arm(timer_, now + 5'000'000);  // a name being looked up: look again soon
-        return;
-      }
-      if (addresses_.empty()) {
-        connect_failed(config_.endpoint.describe() + ": " + error);
-        return;
-      }
-      connect_next();
-      return;
-    }
     case Link::connecting:
-      if (now < deadline_ns_) {
-        io_->arm(timer_, deadline_ns_);
-        return;
-      }
-      close_socket();
-      connect_error_ = config_.endpoint.describe() + ": " + std::strerror(ETIMEDOUT);
-      connect_next();
-      return;
+      return;  // the connector's own timer
     case Link::waiting:
       if (now < deadline_ns_) {
         io_->arm(timer_, deadline_ns_);

@@ -19,6 +19,7 @@
 #include "drivers/modbus/modbus_client.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/sample_ring.hpp"
+#include "drivers/tcp/loop_connector.hpp"
 #include "drivers/tcp/tcp_client.hpp"
 
 namespace guideway::drivers::micrometer {
@@ -107,11 +108,9 @@ class MicrometerDriver : public drivers::Driver {
   [[nodiscard]] std::chrono::nanoseconds poll_period() const noexcept;
 
   // TCP on the I/O loop (the loop thread's, attach() to detach()).
-  enum class Link { resolving, connecting, idle, awaiting, waiting };
+  enum class Link { connecting, idle, awaiting, waiting };
   void begin_connect();
-  void connect_next();
-  void on_connect_ready();
-  void tcp_connected();
+  void tcp_connected(int fd);
   void connect_failed(const std::string& error);
   void end_tcp_link(const std::string& why);
   void close_socket();
@@ -150,12 +149,9 @@ class MicrometerDriver : public drivers::Driver {
   drivers::IoLoop::Id timer_ = 0;
   drivers::IoLoop::Id wake_hook_ = 0;
   Link link_ = Link::waiting;
-  tcp::Resolver resolver_;
-  std::vector<tcp::Address> addresses_;
-  std::size_t next_address_ = 0;
-  std::string connect_error_;
+  tcp::LoopConnector connector_;
   int fd_ = -1;
-  std::int64_t deadline_ns_ = 0;  // connecting, awaiting: the timeout; waiting: the reconnect
+  std::int64_t deadline_ns_ = 0;  // awaiting: the timeout; waiting: the reconnect
   std::int64_t next_poll_ns_ = 0;
   std::int64_t sent_ns_ = 0;
   std::uint16_t transaction_ = 0;

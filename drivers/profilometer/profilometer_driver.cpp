@@ -86,6 +86,8 @@ void ProfilometerDriver::attach(drivers::IoLoop& loop) {
   backoff_ = config_.backoff_initial;
   ever_connected_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });
+  connector_.attach(
+      loop, [this](int fd) { connected(fd); }, [this](const std::string& error) { connect_failed(error); });
   if (config_.read_period_us > 0) {
     wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
     settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
@@ -94,7 +96,7 @@ void ProfilometerDriver::attach(drivers::IoLoop& loop) {
 }
 
 void ProfilometerDriver::detach() {
-  resolver_.cancel();
+  connector_.detach();
   if (link_ == Link::streaming) {
     close_socket();
     assembler_.finish(events_);  // what arrived before the stop is published, never dropped
@@ -118,46 +120,9 @@ void ProfilometerDriver::close_socket() {
 
 void ProfilometerDriver::begin_connect() {
   set_state(drivers::DeviceState::connecting);
-  link_ = Link::resolving;
-  addresses_.clear();
-  next_address_ = 0;
-  connect_error_.clear();
-  resolver_.start(config_.host, config_.port);
-  on_timer();  // an address is resolved at once; a name is looked up off the loop, then looked at
-}
-
-void ProfilometerDriver::connect_next() {
-  while (next_address_ < addresses_.size()) {
-    const tcp::Address& a = addresses_[next_address_++];
-    bool done = false;
-    std::string error;
-    fd_ = tcp::start_connect(a, done, error);
-    if (fd_ < 0) {
-      connect_error_ = config_.host + ":" + std::to_string(config_.port) + ": " + error;
-      continue;
-    }
-    if (done) {
-      connected();
-      return;
-    }
-    link_ = Link::connecting;
-    io_->watch(fd_, EPOLLOUT, [this](std::uint32_t) { on_connect_ready(); });
-    deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(config_.connect_timeout).count();
-    io_->arm(timer_, deadline_ns_);
-    return;
-  }
-  connect_failed(connect_error_.empty() ? config_.host + ": no address" : connect_error_);
-}
-
-void ProfilometerDriver::on_connect_ready() {
-  const int err = tcp::connect_error(fd_);
-  if (err == 0) {
-    connected();
-    return;
-  }
-  close_socket();
-  connect_error_ = config_.host + ":" + std::to_string(config_.port) + ": " + std::strerror(err);
-  connect_next();
+  link_ = Link::connecting;
+  connector_.start(config_.host, config_.port, config_.host + ":" + std::to_string(config_.port),
+                   config_.connect_timeout);
 }
 
 void ProfilometerDriver::connect_failed(const std::string& error) {
@@ -172,7 +137,8 @@ void ProfilometerDriver::wait_backoff() {
   io_->arm(timer_, deadline_ns_);
 }
 
-void ProfilometerDriver::connected() {
+void ProfilometerDriver::connected(int fd) {
+  fd_ = fd;
   tcp::set_stream_options(fd_);
   if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
   ever_connected_ = true;
@@ -215,28 +181,8 @@ void ProfilometerDriver::on_wake() {
 void ProfilometerDriver::on_timer() {
   const std::int64_t now = mono_now_ns();
   switch (link_) {
-    case Link::resolving: {
-      std::string error;
-      if (!resolver_.done(addresses_, error)) {
-        io_->arm(timer_, now + 5'000'000);  // a name being looked up: look again soon
-        return;
-      }
-      if (addresses_.empty()) {
-        connect_failed(error);
-        return;
-      }
-      connect_next();
-      return;
-    }
     case Link::connecting:
-      if (now < deadline_ns_) {
-        io_->arm(timer_, deadline_ns_);
-        return;
-      }
-      close_socket();
-      connect_error_ = config_.host + ":" + std::to_string(config_.port) + ": " + std::strerror(ETIMEDOUT);
-      connect_next();
-      return;
+      return;  // the connector's own timer
     case Link::waiting:
       if (now < deadline_ns_) {
         io_->arm(timer_, deadline_ns_);

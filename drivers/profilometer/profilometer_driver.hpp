@@ -14,6 +14,7 @@
 #include "drivers/driver.hpp"
 #include "drivers/io_loop.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
+#include "drivers/tcp/loop_connector.hpp"
 #include "drivers/tcp/tcp_client.hpp"
 
 namespace guideway::drivers::profilometer {
@@ -52,12 +53,10 @@ class ProfilometerDriver : public drivers::Driver {
   void detach() override;
 
  private:
-  enum class Link { resolving, connecting, streaming, waiting };
+  enum class Link { connecting, streaming, waiting };
   void begin_connect();
-  void connect_next();  // the next resolved address, or the connection failed
   void connect_failed(const std::string& error);
-  void on_connect_ready();
-  void connected();
+  void connected(int fd);
   void on_ready(std::uint32_t events);
   void on_timer();
   void on_wake();  // any pass of the loop: a resting reader reads now (the devices share wake-ups)
@@ -83,12 +82,9 @@ class ProfilometerDriver : public drivers::Driver {
   drivers::IoLoop::Id wake_hook_ = 0;
   drivers::IoLoop::Id settle_hook_ = 0;
   Link link_ = Link::waiting;
-  tcp::Resolver resolver_;
-  std::vector<tcp::Address> addresses_;
-  std::size_t next_address_ = 0;
-  std::string connect_error_;
+  tcp::LoopConnector connector_;
   int fd_ = -1;
-  std::int64_t deadline_ns_ = 0;  // resolving: next look; connecting: timeout; waiting: reconnect
+  std::int64_t deadline_ns_ = 0;  // waiting: the reconnect
   std::int64_t last_data_ns_ = 0;
   std::int64_t read_at_ns_ = 0;    // streaming: the next read (a future time: resting)
   std::int64_t last_read_ns_ = 0;  // streaming: the last read (the earliest a kernel time can be)
