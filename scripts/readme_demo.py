@@ -9,6 +9,11 @@
   scripts/readme_demo.py check
       every line the README quotes is in docs/demo-transcript.txt, in the same order, and the block is
       what `refresh` would write from that transcript (exit 1 and the first difference otherwise)
+  scripts/readme_demo.py rerun [--from FILE] [-- DEMO ARGS...]
+      runs the demo anew (or reads its saved output) and checks that every line the README quotes is
+      in it, in its section (sections in order), up to numbers (a live run's figures differ in their last digits; every run of
+      digits is compared as one number-shaped word, a table's column spacing as one space) and the build's progress (it depends on what is
+      already built): the README still says what the demo does (the slow test readme_demo_rerun_test)
 
 Which lines the abridged block keeps is said below, per section of the demo (the "== ..." lines): the
 lines a newcomer is told to look at; everything left out in between becomes one "...".
@@ -130,17 +135,7 @@ def readme_block(readme_text):
 
 
 def refresh(args):
-    if args.from_file:
-        with open(args.from_file) as f:
-            text = f.read()
-    else:
-        print("readme_demo: running ./scripts/demo.sh " + " ".join(args.demo_args), file=sys.stderr)
-        run = subprocess.run([os.path.join(ROOT, "scripts", "demo.sh"), *args.demo_args], cwd=ROOT,
-                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        if run.returncode != 0:
-            sys.exit(f"readme_demo: demo.sh exited with {run.returncode}; README left as it was")
-        text = run.stdout
-    text = sanitize(text)
+    text = sanitize(demo_output(args))
     with open(TRANSCRIPT, "w") as f:
         f.write(text if text.endswith("\n") else text + "\n")
     with open(README) as f:
@@ -180,6 +175,62 @@ def check(_args):
     print(f"readme_demo: README.md's {len(quoted) - 2} quoted lines are the transcript's, in order")
 
 
+def shape(line):
+    """A line up to its numbers: each run of digits (with its sign, point and exponent) becomes '#', and the
+    spaces that align a table's columns (their widths follow the numbers) one space."""
+    return " ".join(re.sub(r"[-+]?\d+(?:[.,]\d+)*(?:e[-+]?\d+)?", "#", line).split())
+
+
+def rerun(args):
+    new_sections = {}  # "== " line (shape) -> the shapes of its lines; sections come in the demo's order
+    order, current = [], None
+    for line in sanitize(demo_output(args)).splitlines():
+        if line.startswith("== ") or current is None:
+            current = shape(line)
+            order.append(current)
+            new_sections.setdefault(current, [])
+        new_sections[current].append(shape(line))
+    with open(README) as f:
+        lines, b, e = readme_block(f.read())
+    at, section, compared = -1, "", 0
+    for q in lines[b + 2 : e - 1]:
+        body = q[len(INDENT):] if q.startswith(INDENT) else q
+        if body.startswith("== "):
+            section = body
+            try:
+                at = order.index(shape(body), at + 1)
+            except ValueError:
+                sys.exit(f"readme_demo: the new run has no section {body!r} after the ones before it")
+            continue
+        if body == "..." or not body.strip() or section.startswith("== building"):
+            continue
+        # Within a section, any order: a ranking of nearly equal errors may swap two neighbours. A list of
+        # names (three or more after a colon) by its heading: which terms pass a 3 u test follows the noise.
+        head, colon, rest = body.partition(": ")
+        if colon and rest.count(", ") >= 2:
+            found = any(l.startswith(shape(head) + ":") for l in new_sections[order[at]])
+        else:
+            found = shape(body) in new_sections[order[at]]
+        if not found:
+            sys.exit(f"readme_demo: the demo no longer prints a line the README quotes (up to numbers) in {section!r}:\n"
+                     f"  {body}\nrun scripts/readme_demo.py refresh if the change is meant")
+        compared += 1
+    print(f"readme_demo: the new run prints all {compared} lines the README quotes, section by section, up to numbers")
+
+
+def demo_output(args):
+    if args.from_file:
+        with open(args.from_file) as f:
+            return f.read()
+    print("readme_demo: running ./scripts/demo.sh " + " ".join(args.demo_args), file=sys.stderr)
+    run = subprocess.run([os.path.join(ROOT, "scripts", "demo.sh"), *args.demo_args], cwd=ROOT,
+                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    if run.returncode != 0:
+        sys.stderr.write(run.stdout[-4000:])
+        sys.exit(f"readme_demo: demo.sh exited with {run.returncode}")
+    return run.stdout
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -187,8 +238,11 @@ def main():
     r.add_argument("--from", dest="from_file", help="the demo's saved output instead of a new run")
     r.add_argument("demo_args", nargs="*", help="arguments for demo.sh (after --)")
     sub.add_parser("check", help="the README block against the transcript")
+    n = sub.add_parser("rerun", help="run the demo anew: the README's quoted lines, up to numbers, are in it")
+    n.add_argument("--from", dest="from_file", help="the demo's saved output instead of a new run")
+    n.add_argument("demo_args", nargs="*", help="arguments for demo.sh (after --)")
     args = p.parse_args()
-    {"refresh": refresh, "check": check}[args.cmd](args)
+    {"refresh": refresh, "check": check, "rerun": rerun}[args.cmd](args)
 
 
 if __name__ == "__main__":
