@@ -1,6 +1,7 @@
 #include "simulators/machine/dbb_runs.hpp"
 
 #include <cmath>
+#include <numbers>
 #include <sstream>
 #include <stdexcept>
 
@@ -30,6 +31,8 @@ formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& sp
   run.metadata["seed"] = seed.str();
   run.metadata["source"] = "guideway simulate dbb (virtual machine tool)";
   run.metadata["angle_source"] = angles == AngleSource::encoders ? "encoders" : "commanded";
+  if (spec.data_arc_rad < 2.0 * std::numbers::pi - 1e-9)
+    run.metadata["data_arc_deg"] = shortest(spec.data_arc_rad * 180.0 / std::numbers::pi);
   double t_start = -1;
   for (const auto& s : raw.samples) {
     if (!s.in_data_arc) continue;
@@ -61,6 +64,16 @@ DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center) {
   spec.plane = run.plane == "xz" ? Plane::xz : (run.plane == "yz" ? Plane::yz : Plane::xy);
   spec.feed_m_per_s = run.feed_m_per_s;
   if (!run.angle_rad.empty()) spec.start_angle_rad = std::remainder(run.angle_rad.front(), 2.0 * 3.141592653589793);
+  // A partial arc as the run file states it (data_arc_deg), else as long as its samples reach.
+  if (const auto arc = run.metadata.find("data_arc_deg"); arc != run.metadata.end()) {
+    try {
+      spec.data_arc_rad = std::stod(arc->second) * std::numbers::pi / 180.0;
+    } catch (const std::exception&) {
+    }
+  } else if (run.angle_rad.size() > 1) {
+    const double span = std::abs(run.angle_rad.back() - run.angle_rad.front());
+    if (span < 359.0 * std::numbers::pi / 180.0) spec.data_arc_rad = span;
+  }
   spec.center = center;
   return spec;
 }

@@ -1,6 +1,6 @@
 #pragma once
 // DBB runs from the virtual machine tool, in the run-file form the identification reads (only the
-// 360 deg data arc; overshoot arcs are dropped), and the virtual machine under a controller's
+// data arc, 360 deg or the spec's partial arc, stated as data_arc_deg; overshoot arcs are dropped), and the virtual machine under a controller's
 // compensation tables (LinuxCNC files, as `guideway compensate --verify` proves them). Thread safe.
 
 #include <string>
