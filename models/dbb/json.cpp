@@ -23,6 +23,7 @@ nlohmann::json fit_json(const FitSummary& f) {
     for (const auto& k : f.combinations) c.push_back({{"expression", k.expression}, {"value", k.value}, {"u", k.u}});
   }
   if (!f.message.empty()) j["message"] = f.message;
+  if (!f.why.empty()) j["why"] = f.why;
   return j;
 }
 
@@ -87,6 +88,8 @@ nlohmann::json to_json(const Identification& id) {
                          {"n", r.n},
                          {"circular_deviation_um", r.circular_deviation_um},
                          {"residual_rms_um", r.residual_rms_um}});
+    if (r.data_arc_deg < 359.0) j["runs"].back()["data_arc_deg"] = r.data_arc_deg;  // a partial arc
+    if (r.gaps > 0) j["runs"].back()["gaps"] = r.gaps;
   }
   j["diagnostics"] = nlohmann::json::object();
   for (const auto& e : id.diagnostics) j["diagnostics"][e.name] = value_json(e);
