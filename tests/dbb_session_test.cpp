@@ -214,6 +214,53 @@ TEST(DbbSession, FindsTheVerticalPlanesFromTheEncodersThatMoved) {
   ASSERT_TRUE(p.contains("summary"));
 }
 
+// The three-plane test as a vertical machine allows it: xy 360 deg, xz and yz 220 deg above the centre
+// (10 deg feed-in/out), ccw then cw each, on x, y and z encoders. Each plane is identified from its own
+// circles and the summary recovers what only the vertical planes see: squareness XZ and YZ, Z backlash
+// and scale (this machine has no servo lag: the absolute scales are the file's).
+TEST(DbbSession, TheThreePlaneTestRecoversWhatOnlyTheVerticalPlanesSee) {
+  simulators::machine::MachineConfig m = test_machine();
+  m.squareness.xz = 20e-6;
+  m.squareness.yz = -25e-6;
+  m.axis[2].scale = 15e-6;
+  m.axis[2].backlash_m = 2e-6;
+  m.axis[0].backlash_m = 1e-6;
+  const simulators::machine::Machine machine(m);
+  DbbChannels device(true);
+  auto session =
+      sessions::dbb_session_kind().create({"dbb", "", {{"test", "three-plane"}, {"feed_mm_per_min", 3000}}}, device);
+  double t = 0;
+  for (const Plane plane : {Plane::xy, Plane::xz, Plane::yz}) {
+    for (const DbbDirection dir : {DbbDirection::ccw, DbbDirection::cw}) {
+      Circle c{.direction = dir, .plane = plane};
+      if (plane != Plane::xy) {
+        c.data_arc_deg = 220;
+        c.start_deg = dir == DbbDirection::ccw ? -20 : 200;
+      }
+      feed_circle(*session, machine, c, t, true);
+    }
+  }
+  ASSERT_TRUE(session->complete()) << session->progress();
+  const nlohmann::json p = session->identify();
+  EXPECT_EQ(p["test"], "three-plane");
+  EXPECT_EQ(p["plane"], "xy");
+  for (const char* plane : {"xy", "xz", "yz"}) ASSERT_FALSE(p["planes"][plane].contains("error")) << p["planes"].dump();
+  const nlohmann::json& s = p["summary"];
+  const auto within = [](const nlohmann::json& e, double truth, double k, const std::string& what) {
+    const double v = e.at("value").get<double>(), u = e.at("u").get<double>();
+    EXPECT_LT(std::abs(v - truth), k * u + 1e-3 * std::abs(truth)) << what << ": " << v << " +/- " << u;
+  };
+  within(s["squareness"]["squareness_xy_urad"], 15.0, 3, "squareness xy");
+  within(s["squareness"]["squareness_xz_urad"], 20.0, 3, "squareness xz");
+  within(s["squareness"]["squareness_yz_urad"], -25.0, 3, "squareness yz");
+  within(s["backlash"]["backlash_z_um"], 2.0, 3, "backlash z");
+  EXPECT_TRUE(s["backlash"]["backlash_z_um"]["consistent"].get<bool>()) << s["backlash"].dump();
+  within(s["scale"]["scale_z_ppm"], 15.0, 3, "scale z");
+  within(s["scale_mismatch"]["scale_mismatch_xz_ppm"], 20.0 - 15.0, 3, "scale mismatch xz");
+  // Each 220 deg arc kept its data arc; the run files say so.
+  EXPECT_EQ(session->metadata().at("plane"), "xy,xz,yz");
+}
+
 TEST(DbbSession, BadTemplateOptionsAreRefusedSayingWhy) {
   EXPECT_NE(refusal({{"test", "iso"}}).find("test"), std::string::npos);
   EXPECT_NE(refusal({{"test", "lai"}, {"patterns", {{{"radius_mm", 100}}}}}).find("does not go with option test"),
