@@ -77,6 +77,16 @@ AxisFigure combine(const std::string& name, const std::string& axis, std::vector
 
 }  // namespace
 
+std::vector<std::vector<formats::DbbRun>> runs_by_plane(std::vector<formats::DbbRun> runs) {
+  std::vector<std::vector<formats::DbbRun>> out;
+  for (auto& run : runs) {
+    auto it = std::find_if(out.begin(), out.end(), [&](const auto& g) { return g.front().plane == run.plane; });
+    if (it == out.end()) it = out.insert(out.end(), std::vector<formats::DbbRun>{});
+    it->push_back(std::move(run));
+  }
+  return out;
+}
+
 bool figures_agree(double a, double ua, double b, double ub) {
   if (!std::isfinite(ua) || !std::isfinite(ub)) return true;  // nothing to judge by
   return std::abs(a - b) <= 2 * std::hypot(ua, ub);
