@@ -142,6 +142,10 @@ PlanesSummary summarize_planes(const std::vector<Identification>& ids) {
   for (const auto* list : {&out.backlash, &out.scale})
     for (const auto& f : *list)
       if (!f.consistent) out.notes.push_back(f.note);
+  if (!out.scale.empty())
+    out.notes.push_back(
+        "an axis' scale carries what is common to its plane's two axes (a radius change: the position loops' lag at "
+        "speed, the bar's calibration); the scale mismatches are the axes' own differences");
   // Every plane's ranking, against the largest G of them all.
   for (const auto& id : ids)
     for (const auto& r : id.runs)
