@@ -82,7 +82,12 @@ void setup_plots(std::ostringstream& body, const std::vector<formats::DbbRun>& r
       const bool is_ccw = r.direction == formats::DbbDirection::ccw;
       const std::string run =
           std::string(is_ccw ? "CCW" : "CW") + " " + format_number(r.feed_m_per_s * 60000, 4) + " mm/min";
-      s.label = run + ", G = " + format_number(range_of(c.deviation_um), 3) + " \u00b5m";
+      // A partial arc's G is over its data arc (ISO 230-4 on a partial arc): the legend says so.
+      const std::string arc =
+          formats::dbb_run_full_circle(r)
+              ? std::string()
+              : " over " + format_fixed(formats::dbb_run_arc_rad(r) * 180 / 3.141592653589793, 0) + "\u00b0";
+      s.label = run + ", G = " + format_number(range_of(c.deviation_um), 3) + " \u00b5m" + arc;
       bool& have = is_ccw ? have_ccw : have_cw;
       s.color = palette(have ? extra++ : (is_ccw ? 0 : 1));
       have = true;
