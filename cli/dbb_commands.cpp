@@ -37,25 +37,16 @@ struct IdentifyArgs {
 };
 
 void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
-  // The runs by plane, in the order the planes first appear: each plane is identified on its own.
-  std::vector<std::vector<formats::DbbRun>> by_plane;
-  for (const auto& f : a.files) {
-    formats::DbbRun run = formats::read_dbb_run(f);
-    auto it =
-        std::find_if(by_plane.begin(), by_plane.end(), [&](const auto& g) { return g.front().plane == run.plane; });
-    if (it == by_plane.end()) {
-      by_plane.emplace_back();
-      it = by_plane.end() - 1;
-    }
-    it->push_back(std::move(run));
-  }
+  std::vector<formats::DbbRun> runs;
+  for (const auto& f : a.files) runs.push_back(formats::read_dbb_run(f));
   models::dbb::IdentifyOptions opt;
   opt.cyclic_period_a_m = a.period_a_mm * 1e-3;
   opt.cyclic_period_b_m = a.period_b_mm * 1e-3;
   opt.lai_shared_center = !a.per_run_center;
   opt.bar_length_u_um = a.bar_length_u_um;
   std::vector<models::dbb::Identification> ids;
-  for (const auto& runs : by_plane) ids.push_back(models::dbb::identify(runs, opt));
+  for (const auto& plane : models::dbb::runs_by_plane(std::move(runs)))
+    ids.push_back(models::dbb::identify(plane, opt));
   if (ids.size() == 1) {
     const nlohmann::json j = models::dbb::to_json(ids.front());
     if (a.json) {

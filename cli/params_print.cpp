@@ -215,15 +215,18 @@ void print_result(const nlohmann::json& p) {
 void print_planes_summary(const nlohmann::json& s) {
   std::cout << "the machine across its planes (" << joined(s.value("planes", nlohmann::json::array())) << "):\n";
   std::vector<std::vector<std::string>> rows;
-  for (const char* group : {"squareness", "scale_mismatch"})
-    for (const auto& [name, v] : s.value(group, nlohmann::json::object()).items()) {
+  for (const char* group : {"squareness", "scale_mismatch"}) {
+    const nlohmann::json items = s.value(group, nlohmann::json::object());
+    for (const auto& [name, v] : items.items()) {
       // squareness_xz_urad: the plane is in the name
       const std::string bare = results::split_unit(name).first;
       const std::string plane = bare.substr(bare.size() - 2);
       rows.push_back(shown_row(name, v, plane, results::plane_squareness.group));
     }
-  for (const char* group : {"backlash", "scale"})
-    for (const auto& [name, v] : s.value(group, nlohmann::json::object()).items()) {
+  }
+  for (const char* group : {"backlash", "scale"}) {
+    const nlohmann::json items = s.value(group, nlohmann::json::object());
+    for (const auto& [name, v] : items.items()) {
       std::vector<std::string> row = shown_row(name, v, "xy", results::axis_backlash.group);
       std::string from;
       for (const auto& f : v.value("from", nlohmann::json::array()))
@@ -234,6 +237,7 @@ void print_planes_summary(const nlohmann::json& s) {
       row.push_back("from " + from + (v.value("consistent", true) ? "" : ": the planes DISAGREE"));
       rows.push_back(std::move(row));
     }
+  }
   std::cout << aligned_rows(rows, {false, true});
   const nlohmann::json ranking = s.value("ranking", nlohmann::json::array());
   if (!ranking.empty()) {

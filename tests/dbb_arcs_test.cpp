@@ -17,6 +17,7 @@
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
 #include "models/dbb/three_planes.hpp"
+#include "models/explain/dbb_explain.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -284,6 +285,21 @@ TEST(DbbArcsTest, RandomGapsNeverCrash) {
   }
   EXPECT_GT(identified, 0);
   EXPECT_EQ(identified + refused, 12);
+}
+
+TEST(DbbArcsTest, ExplainAcceptsPartialArcsAndSaysWhatTheyHold) {
+  const simulators::machine::Machine m(three_plane_machine());
+  auto runs = plane_runs(m, Plane::yz, 600);
+  runs[1] = simulators::machine::with_dropout(runs[1], 6.0, 1.1);
+  const models::explain::Report r = models::explain::explain_dbb_report(runs);
+  const auto has = [&](const std::string& text) {
+    return std::any_of(r.notes.begin(), r.notes.end(), [&](const std::string& n) { return n.find(text) != std::string::npos; });
+  };
+  EXPECT_TRUE(has("ccw: a partial data arc of 220.0 deg (-20.0 to 200.0 deg)"));
+  EXPECT_TRUE(has("cw: gap of "));
+  EXPECT_TRUE(has("Z reverses at 90 and 270 deg: 90 deg inside the data"));
+  EXPECT_TRUE(std::isfinite(r.final_fit.rms_um));
+  EXPECT_LT(r.final_fit.rms_um, r.baseline.rms_um);
 }
 
 bool have_numpy() { return std::system("/usr/bin/python3 -c 'import numpy, scipy' >/dev/null 2>&1") == 0; }

@@ -63,18 +63,22 @@ std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs,
   // the arc it holds (its uncertainties grow), not as a whole circle. On full circles: every run alike.
   std::size_t total = 0;
   double covered_total = 0;
+  bool all_whole = true;
   std::vector<double> covered(runs.size());
   for (std::size_t k = 0; k < runs.size(); ++k) {
     total += runs[k].angle_rad.size();
     const bool whole = formats::dbb_run_full_circle(runs[k]) && formats::dbb_run_gaps(runs[k]).empty();
     covered[k] = whole ? 2 * pi : formats::dbb_run_covered_rad(runs[k]);
+    all_whole = all_whole && whole;
     covered_total += covered[k];
   }
   pts.reserve(total);
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const formats::DbbRun& run = runs[k];
-    const double w =
-        static_cast<double>(total) * covered[k] / (covered_total * static_cast<double>(run.angle_rad.size()));
+    // 1 on full circles: the weights exactly as before partial arcs.
+    const double arc_share = all_whole ? 1.0 : covered[k] * static_cast<double>(runs.size()) / covered_total;
+    const double w = arc_share * static_cast<double>(total) /
+                     (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
     const std::size_t first = first_sample.empty() ? pts.size() : first_sample[k];
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Point& p = pts.emplace_back();  // filled in place (10^4 points of 200 bytes)

@@ -77,6 +77,16 @@ AxisFigure combine(const std::string& name, const std::string& axis, std::vector
 
 }  // namespace
 
+std::vector<std::vector<formats::DbbRun>> runs_by_plane(std::vector<formats::DbbRun> runs) {
+  std::vector<std::vector<formats::DbbRun>> out;
+  for (auto& run : runs) {
+    auto it = std::find_if(out.begin(), out.end(), [&](const auto& g) { return g.front().plane == run.plane; });
+    if (it == out.end()) it = out.insert(out.end(), std::vector<formats::DbbRun>{});
+    it->push_back(std::move(run));
+  }
+  return out;
+}
+
 bool figures_agree(double a, double ua, double b, double ub) {
   if (!std::isfinite(ua) || !std::isfinite(ub)) return true;  // nothing to judge by
   return std::abs(a - b) <= 2 * std::hypot(ua, ub);
@@ -132,6 +142,10 @@ PlanesSummary summarize_planes(const std::vector<Identification>& ids) {
   for (const auto* list : {&out.backlash, &out.scale})
     for (const auto& f : *list)
       if (!f.consistent) out.notes.push_back(f.note);
+  if (!out.scale.empty())
+    out.notes.push_back(
+        "an axis' scale carries what is common to its plane's two axes (a radius change: the position loops' lag at "
+        "speed, the bar's calibration); the scale mismatches are the axes' own differences");
   // Every plane's ranking, against the largest G of them all.
   for (const auto& id : ids)
     for (const auto& r : id.runs)

@@ -53,6 +53,9 @@ struct PlanesSummary {
   std::vector<std::string> notes;          // missing planes, disagreements, figures a plane could not give
 };
 
+// The runs grouped by plane, in the order the planes first appear (each plane is identified on its own).
+std::vector<std::vector<formats::DbbRun>> runs_by_plane(std::vector<formats::DbbRun> runs);
+
 // `ids`: one identification per plane (each of one plane; a plane given twice is refused: throws
 // std::invalid_argument, as for none).
 PlanesSummary summarize_planes(const std::vector<Identification>& ids);
