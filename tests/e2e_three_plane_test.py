@@ -108,6 +108,14 @@ class ThreePlaneLive(unittest.TestCase):
         self.assertEqual(sorted(f["plane"] for f in z["from"]), ["xz", "yz"])
         print("\n".join(report))
         self.assertFalse(failures, "\n".join(failures))
+        # Compensation from the three planes together is not written yet: --latest says so and names the files.
+        r = subprocess.run([GUIDEWAY, "--socket", self.sock, "compensate", "dbb", "--latest", "--out-dir",
+                            os.path.join(self.tmp.name, "comp")], capture_output=True, text=True, timeout=60)
+        self.assertNotEqual(r.returncode, 0, r.stdout)
+        self.assertIn("has circles in several planes", r.stderr)
+        for path in params["derived"]:
+            if path.endswith(".csv"):
+                self.assertIn(path, r.stderr)
 
     def without_vertical_errors(self):
         """config/machine-example.toml without what only the vertical planes see of it."""
