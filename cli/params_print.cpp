@@ -260,7 +260,22 @@ void print_planes_summary(const nlohmann::json& s) {
 void print_params(const nlohmann::json& p) {
   std::cout << "session " << p.value("session", "?") << " (" << p.value("kind", "?") << " on " << p.value("device", "?")
             << "), model " << p.value("model", "?") << "\n";
+  // Several planes (the three-plane test): the first plane's result is the PARAMS' own, then each other
+  // plane's, then the machine across them.
+  const nlohmann::json planes = p.value("planes", nlohmann::json::object());
+  const std::string first = p.value("plane", std::string("xy"));
+  if (!planes.empty()) std::cout << "plane " << first << ":\n";
   print_result(p);
+  for (const auto& [name, id] : planes.items()) {
+    if (name == first) continue;
+    std::cout << "plane " << name << ":\n";
+    if (id.contains("error")) {
+      std::cout << "  not identified: " << id.value("error", std::string()) << "\n";
+      continue;
+    }
+    print_result(id);
+  }
+  if (p.contains("summary")) print_planes_summary(p["summary"]);
   if (p.contains("incomplete")) std::cout << "incomplete: " << p["incomplete"].get<std::string>() << "\n";
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
   if (p.contains("recording_error"))

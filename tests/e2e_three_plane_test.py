@@ -108,6 +108,10 @@ class ThreePlaneLive(unittest.TestCase):
         self.assertEqual(sorted(f["plane"] for f in z["from"]), ["xz", "yz"])
         print("\n".join(report))
         self.assertFalse(failures, "\n".join(failures))
+        # The text form: every plane, then the machine across them.
+        text = self.cli("params", "dbb")
+        for line in ("plane xy:", "plane xz:", "plane yz:", "the machine across its planes"):
+            self.assertIn(line, text)
         # Compensation from the three planes together is not written yet: --latest says so and names the files.
         r = subprocess.run([GUIDEWAY, "--socket", self.sock, "compensate", "dbb", "--latest", "--out-dir",
                             os.path.join(self.tmp.name, "comp")], capture_output=True, text=True, timeout=60)
