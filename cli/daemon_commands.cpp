@@ -45,8 +45,8 @@ void print_status(const nlohmann::json& s) {
   }
   for (const auto& ses : s.value("sessions", nlohmann::json::array())) {
     std::cout << "session " << ses.value("session", "?") << ": " << ses.value("state", "?") << ", "
-              << ses.value("samples", 0) << " samples" << (ses.contains("progress") ? ", " + ses["progress"].get<std::string>() : "")
-              << "\n";
+              << ses.value("samples", 0) << " samples"
+              << (ses.contains("progress") ? ", " + ses["progress"].get<std::string>() : "") << "\n";
     // A disk error loses data: never only in the JSON.
     if (ses.contains("recording_error")) std::cout << "  recording error: " << ses.value("recording_error", "") << "\n";
   }
@@ -62,16 +62,17 @@ void print_status(const nlohmann::json& s) {
   }
   std::cout << std::left << std::setw(name_w) << "DEVICE" << std::setw(driver_w) << "DRIVER" << std::setw(11) << "STATE"
             << std::right << std::setw(10) << "SAMPLES" << std::setw(9) << "BAD" << std::setw(9) << "TIMEOUT"
-            << std::setw(7) << "RECON" << std::setw(9) << "OVERRUN" << std::setw(12) << "RING" << "  REASON\n";
+            << std::setw(7) << "RECON" << std::setw(9) << "OVERRUN" << std::setw(12) << "RING"
+            << "  REASON\n";
   for (const auto& d : devices) {
     const auto& c = d["counters"];
     std::ostringstream ring;
     ring << d["ring"].value("depth", 0) << "/" << d["ring"].value("capacity", 0);
     std::cout << std::left << std::setw(name_w) << d.value("name", "?") << std::setw(driver_w) << d.value("driver", "?")
               << std::setw(11) << d.value("state", "?") << std::right << std::setw(10) << fmt_count(c, "samples")
-              << std::setw(9) << fmt_count(c, "bad_frames") << std::setw(9) << fmt_count(c, "timeouts")
-              << std::setw(7) << fmt_count(c, "reconnects") << std::setw(9) << fmt_count(c, "overruns")
-              << std::setw(12) << ring.str() << "  " << d.value("reason", "") << "\n";
+              << std::setw(9) << fmt_count(c, "bad_frames") << std::setw(9) << fmt_count(c, "timeouts") << std::setw(7)
+              << fmt_count(c, "reconnects") << std::setw(9) << fmt_count(c, "overruns") << std::setw(12) << ring.str()
+              << "  " << d.value("reason", "") << "\n";
     // The driver's own counters under its row, only those that counted something (zeros are the norm).
     std::string own;
     const nlohmann::json counters = d.value("driver_counters", nlohmann::json::object());  // absent before protocol 1.1
@@ -80,7 +81,8 @@ void print_status(const nlohmann::json& s) {
         own += (own.empty() ? "" : ", ") + name + "=" + value.dump();
       }
     }
-    if (!own.empty()) std::cout << std::string(static_cast<std::size_t>(name_w), ' ') << "driver counters: " << own << "\n";
+    if (!own.empty())
+      std::cout << std::string(static_cast<std::size_t>(name_w), ' ') << "driver counters: " << own << "\n";
     print_device_instrument(d, name_w, std::cout);
   }
 }
@@ -151,6 +153,7 @@ struct StartOptions {
   std::string kind;
   std::string device;
   std::vector<std::string> settings;
+  std::string test;
   bool wait = false;
   bool quiet = false;
   double timeout_s = 600;
@@ -158,6 +161,9 @@ struct StartOptions {
   void add(CLI::App& cmd) {
     cmd.add_option("kind", kind, "session kind: " + results::session_kind_names())->required();
     cmd.add_option("--device", device, "device name (default: the first device that can run this kind)");
+    cmd.add_option("--test", test,
+                   "dbb: the test, " + std::string(results::dbb_test.choices) + " (default " +
+                       std::string(results::dbb_test.fallback_text) + "; the same as --set test=NAME)");
     cmd.add_option("--set", settings, session_options_help());
     cmd.add_flag("--wait", wait, "wait for the identified parameters and print them");
     cmd.add_option("--timeout", timeout_s, "with --wait: give up after this many seconds (default 600)");
@@ -237,8 +243,11 @@ void run_start(const StartOptions& o, CliContext& ctx) {
   nlohmann::json req =
       results::request(results::RequestClass::start, {{"kind", o.kind}, {"options", nlohmann::json::object()}});
   if (!o.device.empty()) req["device"] = o.device;
+  if (!o.test.empty()) req["options"][std::string(results::dbb_test.name)] = o.test;
   for (const auto& kv : o.settings) {
     auto [k, v] = parse_setting(kv);
+    if (k == results::dbb_test.name && !o.test.empty())
+      throw std::runtime_error("--test and --set test=... both give the test: give one");
     req["options"][k] = v;
   }
   DaemonClient c = connect(ctx);
@@ -330,8 +339,7 @@ struct WatchOptions : JsonOption {
     cmd.add_option("--seconds", seconds, "stop after this many seconds (default: run until interrupted)");
     cmd.add_option("--count", count, "stop after this many messages");
     cmd.add_flag("--json", json, "print the daemon's JSON messages unchanged, one per line");
-    cmd.add_flag("--si", si,
-                 "sample values in SI units as the daemon sends them (m, rad) instead of µm/mm and arcsec");
+    cmd.add_flag("--si", si, "sample values in SI units as the daemon sends them (m, rad) instead of µm/mm and arcsec");
   }
 };
 

@@ -1,5 +1,6 @@
 // `guideway identify dbb` and `guideway simulate dbb`: offline DBB identification (Lai's third-order
 // model and ballbar diagnostics) and DBB runs from the virtual machine tool.
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -43,20 +44,42 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   opt.cyclic_period_b_m = a.period_b_mm * 1e-3;
   opt.lai_shared_center = !a.per_run_center;
   opt.bar_length_u_um = a.bar_length_u_um;
-  const auto result = models::dbb::identify(runs, opt);
-  const nlohmann::json j = models::dbb::to_json(result);
-  if (a.json) {
-    std::cout << j.dump() << "\n";
-  } else {
-    std::cout << "DBB identification (" << result.model << "), " << result.runs.size() << " run(s), " << result.plane
-              << " plane\n";
-    print_result(j);
+  std::vector<models::dbb::Identification> ids;
+  for (const auto& plane : models::dbb::runs_by_plane(std::move(runs)))
+    ids.push_back(models::dbb::identify(plane, opt));
+  if (ids.size() == 1) {
+    const nlohmann::json j = models::dbb::to_json(ids.front());
+    if (a.json) {
+      std::cout << j.dump() << "\n";
+    } else {
+      std::cout << "DBB identification (" << ids.front().model << "), " << ids.front().runs.size() << " run(s), "
+                << ids.front().plane << " plane\n";
+      print_result(j);
+    }
+    return;
   }
+  // Several planes: each plane's identification, then the machine across them.
+  const nlohmann::json summary = models::dbb::to_json(models::dbb::summarize_planes(ids));
+  if (a.json) {
+    nlohmann::json j = {{"planes", nlohmann::json::object()}, {"summary", summary}};
+    for (const auto& id : ids) j["planes"][id.plane] = models::dbb::to_json(id);
+    std::cout << j.dump() << "\n";
+    return;
+  }
+  for (const auto& id : ids) {
+    std::cout << "== " << id.plane << " plane: DBB identification (" << id.model << "), " << id.runs.size()
+              << " run(s)\n";
+    print_result(models::dbb::to_json(id));
+    std::cout << "\n";
+  }
+  print_planes_summary(summary);
 }
 
 struct SimulateArgs {
   std::string machine, out, direction = "ccw", plane = "xy";
   double radius_mm = 100, height_mm = 0, feed = 1000, start_deg = 0, overshoot_deg = 45, rate = 0, t0 = 0;
+  double arc_deg = 360;
+  std::vector<double> gap_s;
   std::vector<double> center_mm;
   std::uint64_t seed = 0;
   CLI::Option* t0_option = nullptr;
@@ -71,6 +94,13 @@ struct SimulateArgs {
     cmd.add_option("--feed-mm-per-min", feed, "feed rate (default 1000)")->check(CLI::PositiveNumber);
     cmd.add_option("--plane", plane, "xy, xz or yz (default xy)")->check(CLI::IsMember({"xy", "xz", "yz"}));
     cmd.add_option("--start-deg", start_deg, "start angle of the data arc (default 0)");
+    cmd.add_option("--arc-deg", arc_deg,
+                   "data arc (default 360; a partial arc of 180 deg or more, e.g. 220 from --start-deg -20 in a "
+                   "vertical plane)")
+        ->check(CLI::Range(180.0, 360.0));
+    cmd.add_option("--gap-s", gap_s,
+                   "drop the samples of a dropout: START DURATION (s from the first sample of the data arc)")
+        ->expected(2);
     cmd.add_option("--overshoot-deg", overshoot_deg, "feed-in/feed-out arcs (default 45)")
         ->check(CLI::NonNegativeNumber);
     cmd.add_option("--sample-rate-hz", rate, "bar sampling rate (default: 10 samples per degree)");
@@ -94,6 +124,7 @@ simulators::machine::DbbCircleSpec circle_spec(const SimulateArgs& a) {
   spec.feed_m_per_s = a.feed * 1e-3 / 60.0;
   spec.start_angle_rad = a.start_deg * deg;
   spec.overshoot_rad = a.overshoot_deg * deg;
+  spec.data_arc_rad = a.arc_deg * deg;
   spec.sample_rate_hz = a.rate;
   if (a.center_mm.size() == 3) spec.center = {a.center_mm[0] * 1e-3, a.center_mm[1] * 1e-3, a.center_mm[2] * 1e-3};
   spec.t0_s = a.t0;
@@ -106,6 +137,7 @@ void run_simulate(const SimulateArgs& a, CliContext& /*ctx*/) {
   auto run = simulators::machine::simulate_dbb_run(machine, circle_spec(a), a.out);
   // Without --t0-s every run would start at machine time 0: no common clock is claimed.
   if (a.t0_option->count() == 0) run.metadata.erase("start_time_s");
+  if (a.gap_s.size() == 2) run = simulators::machine::with_dropout(run, a.gap_s[0], a.gap_s[1]);
   formats::write_dbb_run(run, a.out);
   std::cout << "wrote " << a.out << ": " << run.angle_rad.size() << " samples, r " << a.radius_mm << " mm, h "
             << a.height_mm << " mm, " << a.direction << "\n";

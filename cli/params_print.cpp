@@ -62,15 +62,26 @@ std::string joined(const nlohmann::json& names, const char* sep = ", ") {
   return out;
 }
 
+// " over a 220 deg arc, 1 gap": a run's data arc when not the full circle, and its dropouts.
+std::string arc_and_gaps(const nlohmann::json& r) {
+  std::string out;
+  const double arc = number_or(r, "data_arc_deg", 360.0);
+  if (arc < 359.0) out += " over a " + format_fixed(arc, 0) + " deg arc";
+  const int gaps = r.value("gaps", 0);
+  if (gaps > 0) out += (out.empty() ? ", " : "; ") + std::to_string(gaps) + (gaps == 1 ? " gap" : " gaps");
+  return out;
+}
+
 // One line per run: its set-up and G.
 void print_runs(const nlohmann::json& runs) {
   std::vector<std::vector<std::string>> rows;
   int k = 0;
   for (const auto& r : runs)
-    rows.push_back({"run " + std::to_string(++k), "r " + significant_digits(number_or(r, "radius_mm", NAN), 6) + " mm",
-                    "h " + significant_digits(number_or(r, "height_mm", NAN), 6) + " mm", r.value("direction", "?"),
-                    format_fixed(number_or(r, "feed_mm_per_min", NAN), 0) + " mm/min",
-                    "G " + format_number(number_or(r, "circular_deviation_um", NAN), 3) + " \u00b5m"});
+    rows.push_back(
+        {"run " + std::to_string(++k), "r " + significant_digits(number_or(r, "radius_mm", NAN), 6) + " mm",
+         "h " + significant_digits(number_or(r, "height_mm", NAN), 6) + " mm", r.value("direction", "?"),
+         format_fixed(number_or(r, "feed_mm_per_min", NAN), 0) + " mm/min",
+         "G " + format_number(number_or(r, "circular_deviation_um", NAN), 3) + " \u00b5m" + arc_and_gaps(r)});
   std::cout << "runs:\n" << aligned_rows(rows, {});
 }
 
@@ -102,6 +113,8 @@ void print_fit(const nlohmann::json& fit) {
   if (!refused.empty())
     std::cout << "  not separable by these runs (not reported): " << joined(refused)
               << (fit.contains("combinations") ? "; --json gives the combinations they determine" : "") << "\n";
+  for (const auto& why : fit.value("why", nlohmann::json::array()))
+    std::cout << "    " << why.get<std::string>() << "\n";
 }
 
 // "What to fix first": each error's part of G, largest first, in words; the ones under 1 % of G in a line.
@@ -199,10 +212,70 @@ void print_result(const nlohmann::json& p) {
   }
 }
 
+void print_planes_summary(const nlohmann::json& s) {
+  std::cout << "the machine across its planes (" << joined(s.value("planes", nlohmann::json::array())) << "):\n";
+  std::vector<std::vector<std::string>> rows;
+  for (const char* group : {"squareness", "scale_mismatch"}) {
+    const nlohmann::json items = s.value(group, nlohmann::json::object());
+    for (const auto& [name, v] : items.items()) {
+      // squareness_xz_urad: the plane is in the name
+      const std::string bare = results::split_unit(name).first;
+      const std::string plane = bare.substr(bare.size() - 2);
+      rows.push_back(shown_row(name, v, plane, results::plane_squareness.group));
+    }
+  }
+  for (const char* group : {"backlash", "scale"}) {
+    const nlohmann::json items = s.value(group, nlohmann::json::object());
+    for (const auto& [name, v] : items.items()) {
+      std::vector<std::string> row = shown_row(name, v, "xy", results::axis_backlash.group);
+      std::string from;
+      for (const auto& f : v.value("from", nlohmann::json::array()))
+        from +=
+            (from.empty() ? "" : ", ") + f.value("plane", std::string("?")) + " " +
+            results::shown(name, number_or(f, "value", NAN), number_or(f, "u", NAN), "xy", results::axis_backlash.group)
+                .value;
+      row.push_back("from " + from + (v.value("consistent", true) ? "" : ": the planes DISAGREE"));
+      rows.push_back(std::move(row));
+    }
+  }
+  std::cout << aligned_rows(rows, {false, true});
+  const nlohmann::json ranking = s.value("ranking", nlohmann::json::array());
+  if (!ranking.empty()) {
+    std::cout << "what to fix first across the machine (each error's part of the largest G, "
+              << format_number(number_or(s, "circular_deviation_um", NAN), 3) << " \u00b5m):\n";
+    std::vector<std::vector<std::string>> r;
+    for (const auto& c : ranking) {
+      const double percent = number_or(c, "percent_of_circular_deviation", NAN);
+      if (std::isfinite(percent) && percent < negligible_percent) continue;
+      const std::string plane = c.value("plane", std::string("xy"));
+      r.push_back({plane, results::label_of(c.value("name", std::string("?")), plane, results::backlash.group),
+                   format_number(number_or(c, "contribution_um", NAN), 3) + " \u00b5m",
+                   std::isfinite(percent) ? format_number(percent, 2) + " %" : std::string("\u2013")});
+    }
+    std::cout << aligned_rows(r, {false, false, true, true});
+  }
+  for (const auto& n : s.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
+}
+
 void print_params(const nlohmann::json& p) {
   std::cout << "session " << p.value("session", "?") << " (" << p.value("kind", "?") << " on " << p.value("device", "?")
             << "), model " << p.value("model", "?") << "\n";
+  // Several planes (the three-plane test): the first plane's result is the PARAMS' own, then each other
+  // plane's, then the machine across them.
+  const nlohmann::json planes = p.value("planes", nlohmann::json::object());
+  const std::string first = p.value("plane", std::string("xy"));
+  if (!planes.empty()) std::cout << "plane " << first << ":\n";
   print_result(p);
+  for (const auto& [name, id] : planes.items()) {
+    if (name == first) continue;
+    std::cout << "plane " << name << ":\n";
+    if (id.contains("error")) {
+      std::cout << "  not identified: " << id.value("error", std::string()) << "\n";
+      continue;
+    }
+    print_result(id);
+  }
+  if (p.contains("summary")) print_planes_summary(p["summary"]);
   if (p.contains("incomplete")) std::cout << "incomplete: " << p["incomplete"].get<std::string>() << "\n";
   if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
   if (p.contains("recording_error"))
@@ -291,8 +364,7 @@ std::string wall_clock_now() {
 }  // namespace
 
 DisplayUnit display_unit(const std::string& si_unit, double first_value) {
-  if (si_unit == "m")
-    return std::abs(first_value) >= 1e-3 ? DisplayUnit{"mm", 1e3, 4} : DisplayUnit{"µm", 1e6, 3};
+  if (si_unit == "m") return std::abs(first_value) >= 1e-3 ? DisplayUnit{"mm", 1e3, 4} : DisplayUnit{"µm", 1e6, 3};
   if (si_unit == "rad") return {"arcsec", 1.0 / rad_per_arcsec, 2};
   return {si_unit == "1" ? std::string() : si_unit, 1.0, -1};
 }
@@ -306,7 +378,8 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units, Chann
   const auto value_of = [&](const std::string& device, const std::string& channel, const nlohmann::json& v) {
     const auto it = units.find(device + "/" + channel);
     const std::string si_unit = it == units.end() ? std::string() : it->second;
-    if (display == nullptr || !v.is_number()) return number(v) + (si_unit.empty() || si_unit == "1" ? "" : " " + si_unit);
+    if (display == nullptr || !v.is_number())
+      return number(v) + (si_unit.empty() || si_unit == "1" ? "" : " " + si_unit);
     auto shown = display->find(device + "/" + channel);
     if (shown == display->end())
       shown = display->emplace(device + "/" + channel, display_unit(si_unit, v.get<double>())).first;

@@ -21,6 +21,11 @@ void print_params(const nlohmann::json& p);
 // wavelet summary of a profile session.
 void print_result(const nlohmann::json& p);
 
+// The summary of several planes' DBB identifications (models/dbb/json.hpp to_json(PlanesSummary)): squareness
+// and scale mismatch per plane, backlash and scale per axis with the planes they come from and whether they
+// agree, "what to fix first" across the machine, the notes.
+void print_planes_summary(const nlohmann::json& summary);
+
 // Rows of cells as aligned columns (widths as a terminal shows UTF-8), each line after `indent`;
 // `right[k]`: column k aligns right (numbers). A row's last cell may run long.
 std::string aligned_rows(const std::vector<std::vector<std::string>>& rows, const std::vector<bool>& right,
@@ -41,9 +46,9 @@ using ChannelUnits = std::map<std::string, std::string>;
 // (a deviation, a gauge reading: 1 nm); an angle in arcsec. Chosen once per channel so that a column
 // never switches unit; other units as they are.
 struct DisplayUnit {
-  std::string unit;      // as printed ("µm"; "" for a count)
-  double per_si = 1.0;   // shown value = SI value * per_si
-  int decimals = -1;     // fixed decimals, or -1: six significant digits
+  std::string unit;     // as printed ("µm"; "" for a count)
+  double per_si = 1.0;  // shown value = SI value * per_si
+  int decimals = -1;    // fixed decimals, or -1: six significant digits
 };
 DisplayUnit display_unit(const std::string& si_unit, double first_value);
 

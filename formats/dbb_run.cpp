@@ -84,6 +84,53 @@ double meta_number(const DbbRun& run, const std::map<std::string, std::size_t>& 
 
 double DbbRun::nominal_length_m() const { return std::sqrt(radius_m * radius_m + height_m * height_m); }
 
+namespace {
+
+double median_step_rad(const DbbRun& run) {
+  if (run.angle_rad.size() < 2) return 0.0;
+  std::vector<double> steps(run.angle_rad.size() - 1);
+  for (std::size_t i = 1; i < run.angle_rad.size(); ++i)
+    steps[i - 1] = std::abs(run.angle_rad[i] - run.angle_rad[i - 1]);
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+  return steps[steps.size() / 2];
+}
+
+std::string fixed(double v, int digits) {
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(digits) << v;
+  return o.str();
+}
+
+}  // namespace
+
+std::vector<DbbGap> dbb_run_gaps(const DbbRun& run) {
+  std::vector<DbbGap> out;
+  const std::size_t n = std::min({run.angle_rad.size(), run.t_s.size()});
+  const double limit = std::max(5.0 * median_step_rad(run), 0.5 * deg);
+  for (std::size_t i = 1; i < n; ++i)
+    if (std::abs(run.angle_rad[i] - run.angle_rad[i - 1]) > limit)
+      out.push_back({i - 1, run.angle_rad[i - 1], run.angle_rad[i], run.t_s[i - 1], run.t_s[i]});
+  return out;
+}
+
+double dbb_run_arc_rad(const DbbRun& run) {
+  if (run.angle_rad.size() < 2) return 0.0;
+  return std::abs(run.angle_rad.back() - run.angle_rad.front()) + median_step_rad(run);
+}
+
+double dbb_run_covered_rad(const DbbRun& run) {
+  const double step = median_step_rad(run);
+  double covered = dbb_run_arc_rad(run);
+  for (const DbbGap& g : dbb_run_gaps(run)) covered -= g.angle_rad() - step;
+  return covered;
+}
+
+std::string describe_gap(const DbbGap& g) {
+  return "gap of " + fixed(g.angle_rad() / deg, 1) + " deg (" + fixed(g.duration_s(), 2) + " s) from " +
+         fixed(g.from_rad / deg, 1) + " to " + fixed(g.to_rad / deg, 1) + " deg (t " + fixed(g.from_s, 2) + " to " +
+         fixed(g.to_s, 2) + " s, after sample " + std::to_string(g.after) + ")";
+}
+
 void validate_dbb_run(const DbbRun& run) {
   const std::string& src = run.source;
   if (!(run.radius_m > 0) || !std::isfinite(run.radius_m)) fail(src, 0, "radius_mm must be a positive number");
@@ -93,11 +140,10 @@ void validate_dbb_run(const DbbRun& run) {
     fail(src, 0, "plane must be xy, xz or yz, got \"" + run.plane + "\"");
   const std::size_t n = run.angle_rad.size();
   if (run.t_s.size() != n || run.dL_m.size() != n) fail(src, 0, "columns t_s, angle_deg and dL_um differ in length");
-  constexpr std::size_t min_points = 72;
-  if (n < min_points)
+  if (n < dbb_min_samples)
     fail(src, 0,
-         "too few points: " + std::to_string(n) + " samples, need at least " + std::to_string(min_points) +
-             " over the full circle");
+         "too few samples: " + std::to_string(n) + ", need at least " + std::to_string(dbb_min_samples) +
+             " on the data arc");
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(run.t_s[i]) || !std::isfinite(run.angle_rad[i]) || !std::isfinite(run.dL_m[i]))
       fail(src, 0, "sample " + std::to_string(i) + " is not a finite number (NaN or infinity)");
@@ -108,25 +154,32 @@ void validate_dbb_run(const DbbRun& run) {
     fail(src, 0,
          std::string("angles run ") + (span > 0 ? "counter-clockwise" : "clockwise") +
              " but the metadata says direction = " + (dir > 0 ? "ccw" : "cw"));
-  double max_step = 0;
   for (std::size_t i = 1; i < n; ++i) {
-    const double step = (run.angle_rad[i] - run.angle_rad[i - 1]) * dir;
-    if (step < 0)
+    if ((run.angle_rad[i] - run.angle_rad[i - 1]) * dir < 0)
       fail(src, 0,
            "angle goes backwards at sample " + std::to_string(i) + " (direction " + (dir > 0 ? "ccw" : "cw") + ")");
-    max_step = std::max(max_step, step);
     if (run.t_s[i] < run.t_s[i - 1]) fail(src, 0, "time goes backwards at sample " + std::to_string(i));
   }
-  if (max_step > 10 * deg) {
-    std::ostringstream m;
-    m << "gap of " << max_step / deg << " deg between samples; at most 10 deg allowed";
-    fail(src, 0, m.str());
+  const double arc = dbb_run_arc_rad(run);
+  if (arc < dbb_min_arc_deg * deg)
+    fail(src, 0,
+         "partial arc: the samples cover " + fixed(arc / deg, 1) + " deg, a DBB run needs an arc of at least " +
+             fixed(dbb_min_arc_deg, 0) + " deg");
+  if (run.data_arc_rad != 0) {
+    if (!(run.data_arc_rad >= dbb_min_arc_deg * deg) || run.data_arc_rad > 360.0 * deg + 1e-9)
+      fail(src, 0, "data_arc_deg must be between 180 and 360, got " + fixed(run.data_arc_rad / deg, 1));
+    if (arc > run.data_arc_rad + 1.0 * deg)
+      fail(src, 0,
+           "the samples span " + fixed(arc / deg, 1) +
+               " deg, more than the stated data arc (data_arc_deg = " + fixed(run.data_arc_rad / deg, 1) + ")");
   }
-  if (std::abs(span) + max_step < 359.0 * deg) {
-    std::ostringstream m;
-    m << "partial arc: the samples cover " << std::fixed << std::setprecision(1) << std::abs(span) / deg
-      << " deg, a DBB run needs the full 360 deg circle";
-    fail(src, 0, m.str());
+  const double covered = dbb_run_covered_rad(run);
+  if (covered < dbb_min_arc_deg * deg) {
+    std::string gaps;
+    for (const DbbGap& g : dbb_run_gaps(run)) gaps += (gaps.empty() ? "" : "; ") + describe_gap(g);
+    fail(src, 0,
+         "after its gaps the samples cover only " + fixed(covered / deg, 1) + " deg of the " + fixed(arc / deg, 1) +
+             " deg arc, at least " + fixed(dbb_min_arc_deg, 0) + " deg must be left (" + gaps + ")");
   }
   double max_dl = 0;
   for (double d : run.dL_m) max_dl = std::max(max_dl, std::abs(d));
@@ -209,6 +262,9 @@ DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
   run.feed_m_per_s = meta_number(run, meta_line, "feed_mm_per_min", true, 0) * 1e-3 / 60.0;
   run.center_a_m = meta_number(run, meta_line, "center_a_mm", false, 0) * 1e-3;
   run.center_b_m = meta_number(run, meta_line, "center_b_mm", false, 0) * 1e-3;
+  run.data_arc_rad = meta_number(run, meta_line, "data_arc_deg", false, 0) * deg;
+  if (run.metadata.count("data_arc_deg") && !(run.data_arc_rad > 0))
+    fail(source, meta_line["data_arc_deg"], "data_arc_deg must be a positive number of degrees");
   const auto d = run.metadata.find("direction");
   if (d == run.metadata.end()) fail(source, 0, "missing metadata line `# direction = ccw|cw`");
   if (d->second == "ccw") {
@@ -265,6 +321,7 @@ std::string format_dbb_run(const DbbRun& run) {
   o << "# feed_mm_per_min = " << run.feed_m_per_s * 60e3 << "\n";
   o << "# plane = " << run.plane << "\n";
   for (const char* k : {"radius_mm", "height_mm", "direction", "feed_mm_per_min", "plane"}) meta.erase(k);
+  if (run.data_arc_rad != 0) meta["data_arc_deg"] = shortest(run.data_arc_rad / deg);
   if (run.center_a_m != 0 || run.center_b_m != 0) {
     o << "# center_a_mm = " << run.center_a_m * 1e3 << "\n# center_b_mm = " << run.center_b_m * 1e3 << "\n";
     meta.erase("center_a_mm");

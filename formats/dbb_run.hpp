@@ -1,11 +1,15 @@
 #pragma once
 // DBB run files (docs/formats.md, "DBB run"): CSV with `# key = value` metadata lines, a header row
 // `t_s,angle_deg,dL_um[,extra...]`, then one row per sample. Reading validates the file and the run
-// (metadata present and consistent, finite numbers, a full circle in the stated direction) and
-// reports errors as "file:line: message". Pure functions; thread safe.
+// (metadata present and consistent, finite numbers, monotonic angles in the stated direction) and
+// reports errors as "file:line: message"). A run's data arc is a full circle or a partial arc of at
+// least 180 deg (a vertical plane's 220 deg arc), optionally stated as `data_arc_deg`; samples missing
+// inside it (a dropout) are gaps, found and described by dbb_run_gaps(), never a reason to refuse the run
+// unless what is left covers less than 180 deg or has fewer than 72 samples. Pure functions; thread safe.
 // It scans the CSV itself rather than through core/csv_table because it names the line of every
 // metadata key it refuses and refuses a key given twice, which the generic reader does not track.
 
+#include <cstddef>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -32,6 +36,7 @@ struct DbbRun {
   std::string plane = "xy";  // xy | xz | yz
   double center_a_m = 0.0;   // optional: circle centre in machine coordinates (cyclic error phase)
   double center_b_m = 0.0;
+  double data_arc_rad = 0.0;  // optional `data_arc_deg`: the arc the test commanded samples on (0 = not stated)
   std::map<std::string, std::string> metadata;  // every `# key = value` line, verbatim
   std::vector<double> t_s;
   std::vector<double> angle_rad;  // commanded angle zeta, unwrapped (monotonic)
@@ -39,6 +44,30 @@ struct DbbRun {
   [[nodiscard]] int dir() const { return static_cast<int>(direction); }
   [[nodiscard]] double nominal_length_m() const;
 };
+
+// The least arc a run may cover, what is left of it after its gaps, and the fewest samples.
+inline constexpr double dbb_min_arc_deg = 180.0;
+inline constexpr std::size_t dbb_min_samples = 72;
+
+// A dropout: consecutive samples further apart than the run's sampling (more than 5 times the median
+// step and more than 0.5 deg), between sample `after` and the next.
+struct DbbGap {
+  std::size_t after = 0;                // index of the last sample before the gap
+  double from_rad = 0.0, to_rad = 0.0;  // commanded angles either side (unwrapped, as in the run)
+  double from_s = 0.0, to_s = 0.0;      // times either side
+  [[nodiscard]] double angle_rad() const { return to_rad > from_rad ? to_rad - from_rad : from_rad - to_rad; }
+  [[nodiscard]] double duration_s() const { return to_s - from_s; }
+};
+std::vector<DbbGap> dbb_run_gaps(const DbbRun& run);
+// The arc the run's samples span (first to last, plus one regular step: a full circle is 2 pi), and what
+// of it the samples cover (less the gaps).
+double dbb_run_arc_rad(const DbbRun& run);
+double dbb_run_covered_rad(const DbbRun& run);
+[[nodiscard]] inline bool dbb_run_full_circle(const DbbRun& run) {
+  return dbb_run_arc_rad(run) >= 359.0 / 180.0 * 3.141592653589793;
+}
+// "gap of 10.8 deg (1.10 s) from 120.3 to 131.1 deg (t 7.22 to 8.32 s, after sample 1203)".
+std::string describe_gap(const DbbGap& gap);
 
 // Parses and validates; throws RunFormatError naming the file and line.
 DbbRun parse_dbb_run(const std::string& text, const std::string& source);

@@ -7,6 +7,7 @@
 
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
+#include "models/dbb/three_planes.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
 #include "report/svg.hpp"
@@ -81,7 +82,12 @@ void setup_plots(std::ostringstream& body, const std::vector<formats::DbbRun>& r
       const bool is_ccw = r.direction == formats::DbbDirection::ccw;
       const std::string run =
           std::string(is_ccw ? "CCW" : "CW") + " " + format_number(r.feed_m_per_s * 60000, 4) + " mm/min";
-      s.label = run + ", G = " + format_number(range_of(c.deviation_um), 3) + " \u00b5m";
+      // A partial arc's G is over its data arc (ISO 230-4 on a partial arc): the legend says so.
+      const std::string arc =
+          formats::dbb_run_full_circle(r)
+              ? std::string()
+              : " over " + format_fixed(formats::dbb_run_arc_rad(r) * 180 / 3.141592653589793, 0) + "\u00b0";
+      s.label = run + ", G = " + format_number(range_of(c.deviation_um), 3) + " \u00b5m" + arc;
       bool& have = is_ccw ? have_ccw : have_cw;
       s.color = palette(have ? extra++ : (is_ccw ? 0 : 1));
       have = true;
@@ -240,6 +246,45 @@ void lai_tables(std::ostringstream& body, const models::dbb::Identification& id_
   }
 }
 
+// Several planes: squareness and scale mismatch per plane, backlash and scale per axis from every plane that
+// sees it (and whether they agree), and every plane's errors ranked together.
+void planes_summary(std::ostringstream& body, const models::dbb::PlanesSummary& s) {
+  body << "<h3>The machine across its planes</h3>";
+  Table t{"Squareness and scale mismatch per plane; backlash and scale per axis from every plane that sees it",
+          {"quantity", "value \u00b1 standard uncertainty", "unit", "from the planes"},
+          {}};
+  t.text_columns = {2, 3};
+  const std::string group(results::plane_squareness.group);
+  for (const auto* list : {&s.squareness, &s.scale_mismatch})
+    for (const auto& e : *list) {
+      const std::string bare = results::split_unit(e.name).first;
+      const results::Shown v = results::shown(e.name, e.value, e.u, bare.substr(bare.size() - 2), group, 4);
+      t.rows.push_back({html_escape(v.label), html_escape(v.value), html_escape(v.unit), ""});
+    }
+  for (const auto* list : {&s.backlash, &s.scale})
+    for (const auto& f : *list) {
+      const results::Shown v = results::shown(f.name, f.value, f.u, "xy", group, 4);
+      std::string from;
+      for (const auto& p : f.from)
+        from += (from.empty() ? "" : ", ") + p.plane + " " + results::shown(f.name, p.value, p.u, "xy", group, 4).value;
+      t.rows.push_back({html_escape(v.label), html_escape(v.value), html_escape(v.unit),
+                        html_escape(from + (f.consistent ? "" : ": they disagree"))});
+    }
+  body << html_table(t);
+  Table r{"What to fix first across the machine (each error's part of the largest G of the planes, " +
+              format_number(s.circular_deviation_um, 3) + " \u00b5m)",
+          {"plane", "error", "part of G / \u00b5m", "% of G"},
+          {}};
+  for (const auto& c : s.ranking) {
+    if (std::isfinite(c.percent) && c.percent < negligible_percent) continue;
+    r.rows.push_back({html_escape(c.plane), html_escape(results::label_of(c.name, c.plane, results::backlash.group)),
+                      format_number(c.contribution_um, 3),
+                      std::isfinite(c.percent) ? format_number(c.percent, 2) : "&ndash;"});
+  }
+  body << html_table(r);
+  for (const auto& n : s.notes) body << html_note(n);
+}
+
 }  // namespace
 
 std::string dbb_section(const std::vector<std::string>& paths, const std::string& id) {
@@ -255,30 +300,35 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
   body << "<p>" << runs.size() << " circular test run(s): ";
   for (std::size_t i = 0; i < runs.size(); ++i)
     body << (i ? ", " : "") << "<code>" << html_escape(base_name(paths[i])) << "</code>";
-  body << ". Identified together (Lai, Liao and Chieng 1997 third-order model and the ballbar diagnostics; sign "
-          "conventions in docs/conventions.md).</p>";
+  body << ". Identified together per plane (Lai, Liao and Chieng 1997 third-order model and the ballbar diagnostics; "
+          "sign conventions in docs/conventions.md).</p>";
 
-  models::dbb::Identification id_result;
-  bool identified = false;
-  std::string refusal;
-  try {
-    id_result = models::dbb::identify(runs);
-    identified = true;
-  } catch (const std::exception& e) {
-    refusal = e.what();
-  }
   const std::vector<models::dbb::CircleFit> circles = circles_of(runs);
   body << "<div class=\"side-by-side\">";
   setup_plots(body, runs, circles);
   body << "</div>";
-  if (!identified) {
-    body << html_note("Identification refused: " + refusal);
-  } else {
+  // Each plane identified on its own; with several, the machine across them after.
+  std::vector<models::dbb::Identification> ids;
+  const auto planes = models::dbb::runs_by_plane(runs);
+  for (const auto& plane_runs : planes) {
+    if (planes.size() > 1) body << "<h3>" << html_escape(plane_runs.front().plane) << " plane</h3>";
+    std::vector<models::dbb::CircleFit> plane_circles;
+    for (const auto& r : plane_runs)
+      for (std::size_t k = 0; k < runs.size(); ++k)
+        if (runs[k].source == r.source) plane_circles.push_back(circles[k]);
+    try {
+      ids.push_back(models::dbb::identify(plane_runs));
+    } catch (const std::exception& e) {
+      body << html_note("Identification refused: " + std::string(e.what()));
+      continue;
+    }
+    const models::dbb::Identification& id_result = ids.back();
     ranking_chart(body, id_result);
-    runs_table(body, id_result, circles);
+    runs_table(body, id_result, plane_circles);
     runs_and_diagnostics_tables(body, id_result);
     lai_tables(body, id_result);
   }
+  if (ids.size() > 1) planes_summary(body, models::dbb::summarize_planes(ids));
   return html_section(std::string(results::dbb_kind.name), id, "Double ball bar: circular tests", body.str());
 }
 

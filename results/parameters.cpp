@@ -63,6 +63,11 @@ constexpr const Parameter* all[] = {
     &rank_straightness_bn,
     &rank_roll_b,
     &rank_roll_b_straightness_an,
+    // across the test planes
+    &plane_squareness,
+    &plane_scale_mismatch,
+    &axis_backlash,
+    &axis_scale,
     // compensation
     &straightness_cubic,
     &straightness_cubic_difference,

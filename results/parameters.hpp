@@ -253,6 +253,17 @@ inline constexpr Parameter rank_roll_b_straightness_an{"y_roll_and_x_straightnes
                                                        "{B} roll and {A} straightness along {N}", "dbb", "ranking",
                                                        "c0 + d1, which no set of patterns separates"};
 
+// ---- DBB: the machine across its test planes (models/dbb/three_planes: several planes' identifications) ------
+inline constexpr Parameter plane_squareness{
+    "squareness_{a}{b}_urad", "squareness {A}{B}", "dbb", "planes",
+    "out-of-squareness of the plane's axes (its second leans towards its first)"};
+inline constexpr Parameter plane_scale_mismatch{"scale_mismatch_{a}{b}_ppm", "scale mismatch {A}{B}", "dbb", "planes",
+                                                "difference of the plane's axes' scales (first minus second)"};
+inline constexpr Parameter axis_backlash{"backlash_{axis}_um", "backlash {axis}", "dbb", "planes",
+                                         "the axis' backlash from every plane that sees it (their weighted mean)"};
+inline constexpr Parameter axis_scale{"scale_{axis}_ppm", "scale {axis}", "dbb", "planes",
+                                      "the axis' scale error from every plane that sees it (their weighted mean)"};
+
 // ---- DBB: terms of the compensation map only (models/compensation) ------------------------------------------
 inline constexpr Parameter straightness_cubic{"straightness_cubic_{axis}_um", "cubic straightness {axis}", "dbb", "",
                                               "cubic part of the axis' straightness at the circle's radius"};

@@ -31,12 +31,31 @@ struct SessionOption {
   std::string_view help = {};           // one line: what it sets (and its unit when the name has none)
 };
 
-// dbb: a DBB circular test.
+// dbb: a DBB circular test. `test` picks a template (sessions/dbb_session.cpp); `patterns` replaces it.
+inline constexpr SessionOption dbb_test{"test",
+                                        OptionType::text,
+                                        0,
+                                        0,
+                                        0,
+                                        "standard",
+                                        "standard|three-plane|lai",
+                                        "standard: cw + ccw at h = 0 in the plane; three-plane: xy 360 deg, xz and yz "
+                                        "220 deg, cw + ccw each; lai: Lai's three patterns"};
+inline constexpr SessionOption dbb_feed_mm_per_min{"feed_mm_per_min",
+                                                   OptionType::number,
+                                                   1000.0,
+                                                   0.0,
+                                                   1e5,
+                                                   {},
+                                                   {},
+                                                   "the feed of the circles (one 10 % off is not the test's; 0 = any)"};
+inline constexpr SessionOption dbb_radius_mm{
+    "radius_mm", OptionType::number, 100.0, 1.0, 2000.0, {}, {}, "the circles' radius (standard, three-plane)"};
 inline constexpr SessionOption dbb_patterns{
     "patterns", OptionType::json,
     0,          0,
-    0,          "Lai's three: r 95 mm h 31.225 mm cw and ccw, r 100 mm h 0 ccw",
-    {},         "the circles, [{radius_mm, height_mm, direction}] (direction ccw|cw)"};
+    0,          "the test's",
+    {},         "the circles instead of a test, [{radius_mm, height_mm, direction, plane, data_arc_deg}]"};
 inline constexpr SessionOption dbb_radius_tolerance_mm{"radius_tolerance_mm",
                                                        OptionType::number,
                                                        1.0,
@@ -47,8 +66,8 @@ inline constexpr SessionOption dbb_radius_tolerance_mm{"radius_tolerance_mm",
                                                        "how far the bar may read from a pattern's radius"};
 inline constexpr SessionOption dbb_min_speed_mm_per_min{
     "min_speed_mm_per_min", OptionType::number, 30.0, 0.1, 1e5, {}, {}, "slower counts as standing still"};
-inline constexpr SessionOption dbb_plane{"plane",    OptionType::text,          0, 0, 0, "xy",
-                                         "xy|xz|yz", "the plane of the circles"};
+inline constexpr SessionOption dbb_plane{
+    "plane", OptionType::text, 0, 0, 0, "xy", "xy|xz|yz", "the plane of the standard and lai tests' circles"};
 
 // straightness: an autocollimator traverse.
 inline constexpr SessionOption straightness_step_mm{"step_mm", OptionType::number,         50.0, 0.1, 10000.0, {},
@@ -136,8 +155,9 @@ struct SessionKindInfo {
   std::span<const SessionOption* const> options;  // in the order the kind lists them
 };
 
-inline constexpr const SessionOption* dbb_options[] = {&dbb_patterns, &dbb_radius_tolerance_mm,
-                                                       &dbb_min_speed_mm_per_min, &dbb_plane};
+inline constexpr const SessionOption* dbb_options[] = {
+    &dbb_test,     &dbb_feed_mm_per_min,     &dbb_radius_mm,           &dbb_plane,
+    &dbb_patterns, &dbb_radius_tolerance_mm, &dbb_min_speed_mm_per_min};
 inline constexpr SessionKindInfo dbb_kind{
     "dbb", "DBB circular test: the circles of a double ball bar, Lai's third-order model and the ballbar diagnostics",
     dbb_options};

@@ -52,36 +52,27 @@ echo
 echo "== guideway status"
 "$bin/cli/guideway" status
 echo
-echo "== guideway start dbb --wait   (Lai's three DBB patterns on the emulated machine, about 35 s)"
-"$bin/cli/guideway" start dbb --wait --timeout 300
+echo "== guideway start dbb --wait   (the standard ballbar test on the emulated machine: ccw and cw circles at"
+echo "   h = 0 in XY, r = 100 mm, 1000 mm/min; 100-150 s, by where in its program the machine is)"
+"$bin/cli/guideway" start dbb --wait --timeout 400
 echo
 echo "== guideway explain --latest --machine $machine"
-echo "   (what Lai's model left out, fitted and checked on held-out data, beside what the machine file holds)"
+echo "   (what the model left out, fitted and checked on held-out data, beside what the machine file holds)"
 for _ in $(seq 1 100); do
   "$bin/cli/guideway" explain --latest --kind dbb >/dev/null 2>&1 && break
   sleep 0.3
 done
 "$bin/cli/guideway" explain --latest --kind dbb --machine "$machine" || true
 echo
-echo "== guideway compensate dbb --latest --verify   (LinuxCNC tables from the session's Lai model, with what"
-echo "   EXPLAIN found fitted beside, then the three patterns traced again on $machine with the tables loaded;"
-echo "   a file that makes a run's G larger is refused: DO NOT LOAD, renamed *.do-not-load; docs/compensation.md)"
+echo "== guideway compensate dbb --latest --verify   (LinuxCNC tables and the axis skew from the session's"
+echo "   ballbar diagnostics, with what EXPLAIN found fitted beside, then the two circles traced again on"
+echo "   $machine with them loaded; a file that makes a run's G larger is refused: DO NOT LOAD, renamed"
+echo "   *.do-not-load; docs/compensation.md)"
 comp_dir="$run_dir/compensation-demo"
 mkdir -p "$comp_dir"
 "$bin/cli/guideway" compensate dbb --latest --out-dir "$comp_dir/session" --verify --machine "$machine"
 "$bin/cli/guideway" report "$comp_dir"/session/verify/*.csv --out "$comp_dir/session-before-after.html"
-echo "== before/after polar plots of the session's patterns: open $comp_dir/session-before-after.html in a browser"
-echo
-echo "== guideway compensate dbb --verify   (an in-plane CCW/CW circle at 250 mm/min on $machine: the ballbar"
-echo "   diagnostics give the squareness too, entered as axis skew)"
-for direction in ccw cw; do
-  "$bin/cli/guideway" simulate dbb --machine "$machine" --radius-mm 100 --feed-mm-per-min 250 \
-    --direction "$direction" --out "$comp_dir/$direction.csv" >/dev/null
-done
-"$bin/cli/guideway" compensate dbb "$comp_dir/ccw.csv" "$comp_dir/cw.csv" --out-dir "$comp_dir/comp" \
-  --verify --machine "$machine"
-"$bin/cli/guideway" report "$comp_dir"/comp/verify/*.csv --out "$comp_dir/before-after.html"
-echo "== before/after polar plots: open $comp_dir/before-after.html in a browser"
+echo "== before/after polar plots of the session's circles: open $comp_dir/session-before-after.html in a browser"
 echo
 echo "== guideway recordings"
 "$bin/cli/guideway" recordings

@@ -1,15 +1,18 @@
 #include "sessions/dbb_session.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <optional>
 #include <sstream>
 
-#include "sessions/session_support.hpp"
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
 #include "models/explain/dbb_explain.hpp"
+#include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
 
@@ -17,24 +20,73 @@ namespace {
 
 constexpr double pi = std::numbers::pi;
 
+// One circle of a test: where the bar is (radius, socket height, plane), which way the machine turns
+// and the data arc it keeps (360 deg, or 220 deg in a vertical plane the table cuts).
 struct Pattern {
-  double radius_m;
-  double height_m;
-  formats::DbbDirection direction;
+  double radius_m = 0.1;
+  double height_m = 0.0;
+  formats::DbbDirection direction = formats::DbbDirection::ccw;
+  std::string plane = "xy";
+  double data_arc_rad = 2 * pi;
 };
 
 struct DbbOptions {
+  std::string test = "standard";  // the template, or "patterns" when the circles are given
   std::vector<Pattern> patterns;
+  double feed_m_per_s = 1000.0 / 60e3;  // 0: any feed
   double radius_tolerance_m = 1e-3;
   double min_speed_m_per_s = 0.5e-3;  // 30 mm/min: slower counts as standing still
   std::string plane = "xy";
 };
 
+const char* direction_name(formats::DbbDirection d) { return d == formats::DbbDirection::ccw ? "ccw" : "cw"; }
+
+// The standard test: ccw then cw, full circles at h = 0 in the plane.
+std::vector<Pattern> standard_patterns(double radius_m, const std::string& plane) {
+  return {{radius_m, 0.0, formats::DbbDirection::ccw, plane}, {radius_m, 0.0, formats::DbbDirection::cw, plane}};
+}
+
+// The three-plane test: xy 360 deg, then xz and yz 220 deg (the arc above the centre: the table is
+// below), each ccw then cw.
+std::vector<Pattern> three_plane_patterns(double radius_m) {
+  constexpr double vertical_arc_rad = 220.0 * pi / 180.0;
+  std::vector<Pattern> out;
+  for (const char* plane : {"xy", "xz", "yz"}) {
+    const double arc = std::string(plane) == "xy" ? 2 * pi : vertical_arc_rad;
+    for (auto dir : {formats::DbbDirection::ccw, formats::DbbDirection::cw})
+      out.push_back({radius_m, 0.0, dir, plane, arc});
+  }
+  return out;
+}
+
 // Lai's three patterns (Tables 2 and 4): one 100 mm bar, socket height 31.225 mm at r = 95 mm in
 // both directions, and h = 0 at r = 100 mm counter-clockwise.
-std::vector<Pattern> lai_patterns() {
-  return {{95e-3, 31.225e-3, formats::DbbDirection::cw}, {95e-3, 31.225e-3, formats::DbbDirection::ccw},
-          {100e-3, 0.0, formats::DbbDirection::ccw}};
+std::vector<Pattern> lai_patterns(const std::string& plane) {
+  return {{95e-3, 31.225e-3, formats::DbbDirection::cw, plane},
+          {95e-3, 31.225e-3, formats::DbbDirection::ccw, plane},
+          {100e-3, 0.0, formats::DbbDirection::ccw, plane}};
+}
+
+std::vector<Pattern> given_patterns(const nlohmann::json& list, const std::string& plane) {
+  if (!list.is_array() || list.empty()) {
+    throw std::invalid_argument(
+        "option patterns must be a non-empty array of {radius_mm, height_mm, direction, plane, data_arc_deg}");
+  }
+  std::vector<Pattern> out;
+  for (const auto& p : list) {
+    if (!p.is_object()) {
+      throw std::invalid_argument(
+          "each pattern must be an object {radius_mm, height_mm, direction, plane, data_arc_deg}");
+    }
+    Pattern pat{number_option(p, "radius_mm", 100.0, 1.0, 2000.0) * 1e-3,
+                number_option(p, "height_mm", 0.0, 0.0, 2000.0) * 1e-3, formats::DbbDirection::ccw,
+                string_option(p, "plane", plane, {"xy", "xz", "yz"}),
+                number_option(p, "data_arc_deg", 360.0, 180.0, 360.0) * pi / 180.0};
+    const std::string dir = string_option(p, "direction", "ccw", {"ccw", "cw"});
+    pat.direction = dir == "ccw" ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
+    out.push_back(pat);
+  }
+  return out;
 }
 
 DbbOptions parse_options(const nlohmann::json& o) {
@@ -42,38 +94,54 @@ DbbOptions parse_options(const nlohmann::json& o) {
   DbbOptions d;
   d.radius_tolerance_m = number_option(o, results::dbb_radius_tolerance_mm) * 1e-3;
   d.min_speed_m_per_s = number_option(o, results::dbb_min_speed_mm_per_min) / 60e3;
-  if (auto it = o.find(std::string(results::dbb_plane.name)); it != o.end()) {
-    if (!it->is_string() || (*it != "xy" && *it != "xz" && *it != "yz")) {
-      throw std::invalid_argument("option plane must be \"xy\", \"xz\" or \"yz\"");
+  d.feed_m_per_s = number_option(o, results::dbb_feed_mm_per_min) / 60e3;
+  d.plane = string_option(o, results::dbb_plane);
+  d.test = string_option(o, results::dbb_test);
+  const auto given = [&](const results::SessionOption& opt) { return o.contains(std::string(opt.name)); };
+  const double radius_m = number_option(o, results::dbb_radius_mm) * 1e-3;
+  if (given(results::dbb_patterns)) {
+    if (given(results::dbb_test) || given(results::dbb_radius_mm)) {
+      throw std::invalid_argument("option patterns gives the circles: it does not go with option test or radius_mm");
     }
-    d.plane = it->get<std::string>();
-  }
-  auto it = o.find(std::string(results::dbb_patterns.name));
-  if (it == o.end()) {
-    d.patterns = lai_patterns();
-    return d;
-  }
-  if (!it->is_array() || it->empty()) {
-    throw std::invalid_argument("option patterns must be a non-empty array of {radius_mm, height_mm, direction}");
-  }
-  for (const auto& p : *it) {
-    if (!p.is_object()) throw std::invalid_argument("each pattern must be an object {radius_mm, height_mm, direction}");
-    Pattern pat{number_option(p, "radius_mm", 100.0, 1.0, 2000.0) * 1e-3,
-                number_option(p, "height_mm", 0.0, 0.0, 2000.0) * 1e-3, formats::DbbDirection::ccw};
-    const std::string dir = p.value("direction", "ccw");
-    if (dir != "ccw" && dir != "cw") throw std::invalid_argument("pattern direction must be \"ccw\" or \"cw\"");
-    pat.direction = dir == "ccw" ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
-    d.patterns.push_back(pat);
+    d.test = std::string(results::dbb_patterns.name);
+    d.patterns = given_patterns(o.at(std::string(results::dbb_patterns.name)), d.plane);
+  } else if (d.test == "three-plane") {
+    if (given(results::dbb_plane)) {
+      throw std::invalid_argument(
+          "the three-plane test has its planes (xy, then xz and yz): option plane is "
+          "for the standard and lai tests");
+    }
+    d.patterns = three_plane_patterns(radius_m);
+  } else if (d.test == "lai") {
+    if (given(results::dbb_radius_mm)) {
+      throw std::invalid_argument(
+          "Lai's patterns have their radii (95 and 100 mm): option radius_mm is for the "
+          "standard and three-plane tests");
+    }
+    d.patterns = lai_patterns(d.plane);
+  } else {
+    d.patterns = standard_patterns(radius_m, d.plane);
   }
   return d;
 }
 
+// One SYNC cycle's reading: the bar and the axes by letter (x, y, z; an axis without an encoder stays 0).
+struct Reading {
+  double t_s = 0.0;
+  double bar_m = 0.0;
+  std::array<double, 3> xyz_m{};
+};
+
+// A reading in the plane of its circle.
 struct Point {
   double t_s;
   double bar_m;
   double a_m;  // first plane axis
   double b_m;  // second plane axis
 };
+
+// The axes' indices (0 = x, 1 = y, 2 = z) of a plane "xy", "xz" or "yz".
+std::array<int, 2> plane_axes(const std::string& plane) { return {plane[0] - 'x', plane[1] - 'x'}; }
 
 // Algebraic (Kasa) circle fit: centre and radius minimising sum((x-a)^2 + (y-b)^2 - r^2)^2.
 bool fit_circle(const std::vector<Point>& pts, std::size_t from, std::size_t to, double& ca, double& cb, double& r) {
@@ -112,29 +180,18 @@ class DbbSession : public Session {
  public:
   DbbSession(DbbOptions options, const drivers::Driver& device, const Instrument& instrument)
       : options_(std::move(options)), bar_length_u_um_(instrument.calibrated_length_u_um.value_or(0.0)) {
-    const auto& ch = device.channels();
-    for (std::size_t i = 0; i < ch.size(); ++i) {
-      if (ch[i].name == "bar_length") {
-        bar_ = static_cast<int>(i);
-      } else if (axis_a_ < 0) {
-        axis_a_ = static_cast<int>(i);
-      } else if (axis_b_ < 0) {
-        axis_b_ = static_cast<int>(i);
-      }
-    }
-    if (bar_ < 0 || axis_a_ < 0 || axis_b_ < 0) {
-      throw std::invalid_argument("device " + device.name() + " needs a bar_length channel and two axis channels");
-    }
+    find_channels(device);
     runs_.resize(options_.patterns.size());
   }
 
   void on_samples(std::span<const Sample> samples) override {
     for (const Sample& s : samples) {
       if (s.flags & (sample_partial | sample_out_of_range | sample_no_signal)) continue;  // incomplete cycle
-      const std::size_t needed = static_cast<std::size_t>(std::max({bar_, axis_a_, axis_b_})) + 1;
-      if (s.value_count < needed) continue;
-      Point p{static_cast<double>(s.t_mono_ns) * 1e-9, s.value[static_cast<std::size_t>(bar_)],
-              s.value[static_cast<std::size_t>(axis_a_)], s.value[static_cast<std::size_t>(axis_b_)]};
+      if (s.value_count < needed_values_) continue;
+      Reading p{static_cast<double>(s.t_mono_ns) * 1e-9, s.value[static_cast<std::size_t>(bar_)], {}};
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (axis_[k] >= 0) p.xyz_m[k] = s.value[static_cast<std::size_t>(axis_[k])];
+      }
       if (t0_ < 0) t0_ = p.t_s;
       p.t_s -= t0_;
       const bool moving = is_moving(p);
@@ -169,20 +226,48 @@ class DbbSession : public Session {
   nlohmann::json identify() override {
     if (!segment_.empty()) close_segment();  // a stop in the middle of a circle keeps what is complete
     // Identified from exactly what the run files hold, so `guideway identify dbb` on them agrees.
-    std::vector<formats::DbbRun> runs;
+    std::map<std::string, std::vector<formats::DbbRun>> by_plane;
+    std::size_t traced = 0;
     for (const auto& r : runs_) {
-      if (r) runs.push_back(formats::parse_dbb_run(formats::format_dbb_run(*r), r->source));
+      if (!r) continue;
+      by_plane[r->plane].push_back(formats::parse_dbb_run(formats::format_dbb_run(*r), r->source));
+      ++traced;
     }
-    if (runs.empty()) {
-      throw std::runtime_error("no complete DBB circle was traced" + (last_note_.empty() ? "" : " (" + last_note_ + ")"));
+    if (traced == 0) {
+      throw std::runtime_error("no complete DBB circle was traced" +
+                               (last_note_.empty() ? "" : " (" + last_note_ + ")"));
     }
     models::dbb::IdentifyOptions identify_options;
     identify_options.bar_length_u_um = bar_length_u_um_;
-    const models::dbb::Identification id = models::dbb::identify(runs, identify_options);
-    identified_ = runs;
-    nlohmann::json j = models::dbb::to_json(id);
-    if (runs.size() < runs_.size()) {
-      j["incomplete"] = std::to_string(runs.size()) + " of " + std::to_string(runs_.size()) + " patterns traced";
+    // One identification per plane: the first plane of the test (xy of the three-plane test) is the
+    // PARAMS' body as for a one-plane test; every plane's is under "planes".
+    nlohmann::json planes = nlohmann::json::object();
+    std::vector<models::dbb::Identification> ids;
+    nlohmann::json j;
+    for (const Pattern& pat : options_.patterns) {
+      const auto it = by_plane.find(pat.plane);
+      if (it == by_plane.end() || planes.contains(pat.plane)) continue;
+      try {
+        ids.push_back(models::dbb::identify(it->second, identify_options));
+      } catch (const std::exception& e) {
+        if (by_plane.size() == 1) throw;
+        planes[pat.plane] = {{"error", e.what()}};
+        continue;
+      }
+      planes[pat.plane] = models::dbb::to_json(ids.back());
+      if (j.is_null()) {
+        j = planes[pat.plane];
+        identified_ = it->second;
+      }
+    }
+    if (j.is_null()) throw std::runtime_error("no plane could be identified: " + planes.dump());
+    if (planes.size() > 1) {
+      j["planes"] = planes;
+      if (ids.size() > 1) j["summary"] = models::dbb::to_json(models::dbb::summarize_planes(ids));
+    }
+    j["test"] = options_.test;
+    if (traced < runs_.size()) {
+      j["incomplete"] = std::to_string(traced) + " of " + std::to_string(runs_.size()) + " patterns traced";
     }
     return j;
   }
@@ -198,11 +283,18 @@ class DbbSession : public Session {
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
     std::ostringstream p;
+    std::string planes;
     for (const auto& pat : options_.patterns) {
-      p << (p.tellp() > 0 ? "; " : "") << "r=" << pat.radius_m * 1e3 << "mm h=" << pat.height_m * 1e3
-        << "mm " << (pat.direction == formats::DbbDirection::ccw ? "ccw" : "cw");
+      p << (p.tellp() > 0 ? "; " : "") << "r=" << pat.radius_m * 1e3 << "mm h=" << pat.height_m * 1e3 << "mm "
+        << direction_name(pat.direction);
+      if (pat.plane != options_.plane || pat.data_arc_rad < 2 * pi) {
+        p << " " << pat.plane << " " << std::lround(pat.data_arc_rad * 180 / pi) << "deg";
+      }
+      if (planes.find(pat.plane) == std::string::npos) planes += (planes.empty() ? "" : ",") + pat.plane;
     }
-    return {{"patterns", p.str()}, {"plane", options_.plane}};
+    std::map<std::string, std::string> m{{"test", options_.test}, {"patterns", p.str()}, {"plane", planes}};
+    if (options_.feed_m_per_s > 0) m["feed_mm_per_min"] = std::to_string(options_.feed_m_per_s * 60e3);
+    return m;
   }
 
   std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
@@ -217,100 +309,147 @@ class DbbSession : public Session {
   }
 
  private:
-  bool is_moving(const Point& p) {
+  // The bar and the axis encoders: with x, y and z (channels so named) the plane of each circle is found
+  // from the two that moved; with two axis channels they are the plane option's axes, whatever their names.
+  void find_channels(const drivers::Driver& device) {
+    const auto& ch = device.channels();
+    std::vector<int> axes;
+    std::array<int, 3> named{-1, -1, -1};
+    for (std::size_t i = 0; i < ch.size(); ++i) {
+      const std::string& name = ch[i].name;
+      if (name == "bar_length") {
+        bar_ = static_cast<int>(i);
+        continue;
+      }
+      axes.push_back(static_cast<int>(i));
+      if (name.size() == 1 && name[0] >= 'x' && name[0] <= 'z')
+        named[static_cast<std::size_t>(name[0] - 'x')] = static_cast<int>(i);
+    }
+    if (bar_ < 0 || axes.size() < 2) {
+      throw std::invalid_argument("device " + device.name() + " needs a bar_length channel and two axis channels");
+    }
+    three_axes_ = named[0] >= 0 && named[1] >= 0 && named[2] >= 0;
+    if (three_axes_) {
+      axis_ = named;
+    } else {
+      const auto ab = plane_axes(options_.plane);
+      axis_[static_cast<std::size_t>(ab[0])] = axes[0];
+      axis_[static_cast<std::size_t>(ab[1])] = axes[1];
+      for (const Pattern& pat : options_.patterns) {
+        if (pat.plane == options_.plane) continue;
+        throw std::invalid_argument("the " + options_.test + " test has circles in the " + pat.plane +
+                                    " plane: it needs axis encoders named x, y and z on device " + device.name() +
+                                    " (it has " + std::to_string(axes.size()) + " axis channels, read as the " +
+                                    options_.plane + " plane)");
+      }
+    }
+    needed_values_ = static_cast<std::size_t>(std::max({bar_, axis_[0], axis_[1], axis_[2]})) + 1;
+  }
+
+  bool is_moving(const Reading& p) {
     if (!have_last_) return false;
     const double dt = p.t_s - last_.t_s;
     if (dt <= 0) return !segment_.empty();
-    const double v = std::hypot(p.a_m - last_.a_m, p.b_m - last_.b_m) / dt;
-    return v > options_.min_speed_m_per_s;
+    double d2 = 0;
+    for (std::size_t k = 0; k < 3; ++k) d2 += (p.xyz_m[k] - last_.xyz_m[k]) * (p.xyz_m[k] - last_.xyz_m[k]);
+    return std::sqrt(d2) / dt > options_.min_speed_m_per_s;
+  }
+
+  // The plane of a stretch of motion: the two axes that moved most (the plane option's with two encoders).
+  std::string plane_of(const std::vector<Reading>& seg) const {
+    if (!three_axes_) return options_.plane;
+    std::array<double, 3> range{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto [lo, hi] = std::minmax_element(
+          seg.begin(), seg.end(), [k](const Reading& a, const Reading& b) { return a.xyz_m[k] < b.xyz_m[k]; });
+      range[k] = hi->xyz_m[k] - lo->xyz_m[k];
+    }
+    const auto still = std::min_element(range.begin(), range.end()) - range.begin();
+    return still == 0 ? "yz" : still == 1 ? "xz" : "xy";
+  }
+
+  // The first pattern still to trace that a circle of this plane, direction and radius is.
+  std::size_t match_pattern(const std::string& plane, formats::DbbDirection dir, double r) const {
+    for (std::size_t i = 0; i < options_.patterns.size(); ++i) {
+      const Pattern& pat = options_.patterns[i];
+      if (!runs_[i] && pat.plane == plane && pat.direction == dir &&
+          std::abs(pat.radius_m - r) < options_.radius_tolerance_m) {
+        return i;
+      }
+    }
+    return runs_.size();
   }
 
   void close_segment() {
-    std::vector<Point> seg;
+    std::vector<Reading> seg;
     seg.swap(segment_);
+    if (seg.size() < 10) return;
+    const std::string plane = plane_of(seg);
+    const auto [ia, ib] = plane_axes(plane);
+    std::vector<Point> pts;
+    pts.reserve(seg.size());
+    for (const Reading& q : seg) {
+      pts.push_back({q.t_s, q.bar_m, q.xyz_m[static_cast<std::size_t>(ia)], q.xyz_m[static_cast<std::size_t>(ib)]});
+    }
     double ca = 0, cb = 0, r = 0;
-    if (!fit_circle(seg, 0, seg.size(), ca, cb, r)) return;
+    if (!fit_circle(pts, 0, pts.size(), ca, cb, r)) return;
     // Keep the samples on the circle (feed-in moves are radial), refit on them.
     std::vector<Point> on;
-    for (const Point& p : seg) {
+    for (const Point& p : pts) {
       if (std::abs(std::hypot(p.a_m - ca, p.b_m - cb) - r) < options_.radius_tolerance_m) on.push_back(p);
     }
     if (!fit_circle(on, 0, on.size(), ca, cb, r)) return;
     std::vector<double> angle(on.size());
     for (std::size_t i = 0; i < on.size(); ++i) {
       angle[i] = std::atan2(on[i].b_m - cb, on[i].a_m - ca);
-      if (i > 0) {
-        double d = angle[i] - angle[i - 1];
-        // Unwrap relative to the previous sample's unwrapped angle.
-        d = std::remainder(angle[i] - std::remainder(angle[i - 1], 2 * pi), 2 * pi);
-        angle[i] = angle[i - 1] + d;
-      }
+      // Unwrapped relative to the previous sample's unwrapped angle.
+      if (i > 0) angle[i] = angle[i - 1] + std::remainder(angle[i] - std::remainder(angle[i - 1], 2 * pi), 2 * pi);
     }
     const double span = angle.back() - angle.front();
-    if (std::abs(span) < 2 * pi) {
-      std::ostringstream o;
-      o << "ignored an arc of " << std::abs(span) * 180 / pi << " deg at r = " << r * 1e3 << " mm";
-      last_note_ = o.str();
-      return;
-    }
     const auto dir = span > 0 ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
-    std::size_t match = runs_.size();
-    for (std::size_t i = 0; i < options_.patterns.size(); ++i) {
-      const Pattern& pat = options_.patterns[i];
-      if (!runs_[i] && pat.direction == dir && std::abs(pat.radius_m - r) < options_.radius_tolerance_m) {
-        match = i;
-        break;
-      }
-    }
+    std::ostringstream what;
+    what << "a " << direction_name(dir) << " arc of " << std::lround(std::abs(span) * 180 / pi) << " deg in " << plane
+         << " at r = " << r * 1e3 << " mm";
+    const std::size_t match = match_pattern(plane, dir, r);
     if (match == runs_.size()) {
-      std::ostringstream o;
-      o << "a " << (dir == formats::DbbDirection::ccw ? "ccw" : "cw") << " circle of r = " << r * 1e3
-        << " mm matches no pattern still to trace";
-      last_note_ = o.str();
+      last_note_ = what.str() + " matches no pattern still to trace";
       return;
     }
-    // The central 360 deg of the swept arc: the overshoot arcs at both ends are dropped.
-    const double mid = 0.5 * (angle.front() + angle.back());
-    const double lo = mid - pi * static_cast<int>(dir), hi = mid + pi * static_cast<int>(dir);
     const Pattern& pat = options_.patterns[match];
+    if (std::abs(span) < pat.data_arc_rad) {
+      last_note_ = what.str() + " is shorter than pattern " + std::to_string(match + 1) + "'s data arc of " +
+                   std::to_string(std::lround(pat.data_arc_rad * 180 / pi)) + " deg: ignored";
+      return;
+    }
+    // The central data arc of the swept arc: the feed-in/feed-out overshoot at both ends is dropped.
+    const double mid = 0.5 * (angle.front() + angle.back());
+    const double half = 0.5 * pat.data_arc_rad;
     formats::DbbRun run;
     run.source = "pattern " + std::to_string(match + 1);
     run.radius_m = pat.radius_m;
     run.height_m = pat.height_m;
     run.direction = dir;
-    run.plane = options_.plane;
+    run.plane = plane;
     run.center_a_m = ca;
     run.center_b_m = cb;
     const double nominal = std::hypot(pat.radius_m, pat.height_m);
     for (std::size_t i = 0; i < on.size(); ++i) {
-      const double rel = (angle[i] - lo) * static_cast<int>(dir);
-      if (rel < 0 || rel > (hi - lo) * static_cast<int>(dir)) continue;
+      if (std::abs(angle[i] - mid) > half) continue;
       run.t_s.push_back(on[i].t_s);
       run.angle_rad.push_back(angle[i]);
       run.dL_m.push_back(on[i].bar_m - nominal);
     }
     if (run.t_s.size() < 2) return;
     const double duration = run.t_s.back() - run.t_s.front();
-    run.feed_m_per_s = duration > 0 ? 2 * pi * r / duration : 0.0;
-    std::ostringstream feed;
-    feed << run.feed_m_per_s * 60e3;
-    run.metadata = {{"format", formats::dbb_run_format_id},
-                    {"radius_mm", std::to_string(pat.radius_m * 1e3)},
-                    {"height_mm", std::to_string(pat.height_m * 1e3)},
-                    {"direction", dir == formats::DbbDirection::ccw ? "ccw" : "cw"},
-                    {"feed_mm_per_min", feed.str()},
-                    {"plane", options_.plane},
-                    {"measured_radius_mm", std::to_string(r * 1e3)},
-                    // The circle centre in machine coordinates (the encoders'), which compensation
-                    // tables are placed by (docs/compensation.md); written also when it is 0.
-                    {"center_a_mm", std::to_string(ca * 1e3)},
-                    {"center_b_mm", std::to_string(cb * 1e3)},
-                    // t_s of every run is on the session's clock: one machine-time axis for EXPLAIN's
-                    // time-dependent effects (thermal drift), see docs/explain.md.
-                    {"start_time_s", "0"},
-                    // The angles are the axis encoders' (the drives' positions), not the commanded ones:
-                    // EXPLAIN then needs no drive delay (docs/explain.md).
-                    {"angle_source", "encoders"}};
+    run.feed_m_per_s = duration > 0 ? pat.data_arc_rad * r / duration : 0.0;
+    if (options_.feed_m_per_s > 0 && std::abs(run.feed_m_per_s / options_.feed_m_per_s - 1) > 0.1) {
+      std::ostringstream o;
+      o << what.str() << " was traced at " << std::lround(run.feed_m_per_s * 60e3) << " mm/min; the test's feed is "
+        << std::lround(options_.feed_m_per_s * 60e3) << " mm/min (option feed_mm_per_min): ignored";
+      last_note_ = o.str();
+      return;
+    }
+    run.metadata = run_metadata(pat, run, r, ca, cb);
     try {
       formats::validate_dbb_run(run);
     } catch (const formats::DbbRunFormatError& e) {
@@ -321,18 +460,55 @@ class DbbSession : public Session {
     last_note_.clear();
   }
 
+  std::map<std::string, std::string> run_metadata(const Pattern& pat, const formats::DbbRun& run, double r, double ca,
+                                                  double cb) const {
+    std::ostringstream feed;
+    feed << run.feed_m_per_s * 60e3;
+    return {{"format", formats::dbb_run_format_id},
+            {"test", options_.test},
+            {"radius_mm", std::to_string(pat.radius_m * 1e3)},
+            {"height_mm", std::to_string(pat.height_m * 1e3)},
+            {"direction", direction_name(run.direction)},
+            {"feed_mm_per_min", feed.str()},
+            {"plane", run.plane},
+            {"data_arc_deg", std::to_string(pat.data_arc_rad * 180 / pi)},
+            {"measured_radius_mm", std::to_string(r * 1e3)},
+            // The circle centre in machine coordinates (the encoders'), which compensation
+            // tables are placed by (docs/compensation.md); written also when it is 0.
+            {"center_a_mm", std::to_string(ca * 1e3)},
+            {"center_b_mm", std::to_string(cb * 1e3)},
+            // t_s of every run is on the session's clock: one machine-time axis for EXPLAIN's
+            // time-dependent effects (thermal drift), see docs/explain.md.
+            {"start_time_s", "0"},
+            // The angles are the axis encoders' (the drives' positions), not the commanded ones:
+            // EXPLAIN then needs no drive delay (docs/explain.md).
+            {"angle_source", "encoders"}};
+  }
+
   DbbOptions options_;
   double bar_length_u_um_ = 0.0;             // the bar's calibrated length's u (0: not stated)
-  std::vector<formats::DbbRun> identified_;  // what identify() fitted, for explain()
-  int bar_ = -1, axis_a_ = -1, axis_b_ = -1;
+  std::vector<formats::DbbRun> identified_;  // what identify() fitted (the first plane's), for explain()
+  int bar_ = -1;
+  std::array<int, 3> axis_{-1, -1, -1};  // channel of x, y, z (-1: none)
+  bool three_axes_ = false;
+  std::size_t needed_values_ = 0;
   double t0_ = -1;
-  Point last_{};
+  Reading last_{};
   bool have_last_ = false;
   int still_ = 0;
-  std::vector<Point> segment_;
+  std::vector<Reading> segment_;
   std::vector<std::optional<formats::DbbRun>> runs_;
   std::string last_note_;
 };
+
+// A recording made before the test templates (no "test" in its header) ran Lai's patterns by default,
+// at whatever feed.
+nlohmann::json recorded_options(nlohmann::json options, const std::map<std::string, std::string>& header) {
+  if (header.count(std::string(results::dbb_test.name)) > 0 || !options.is_object()) return options;
+  if (!options.contains(std::string(results::dbb_patterns.name))) options[std::string(results::dbb_test.name)] = "lai";
+  options[std::string(results::dbb_feed_mm_per_min.name)] = 0;
+  return options;
+}
 
 }  // namespace
 
@@ -342,7 +518,8 @@ SessionKind dbb_session_kind() {
           {"dbb-can"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<DbbSession>(parse_options(r.options), device, r.instrument);
-          }};
+          },
+          &recorded_options};
 }
 
 }  // namespace guideway::sessions

@@ -5,19 +5,18 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
-#include "sessions/session_support.hpp"
-#include "formats/profile_files.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
 #include "dsp/denoise.hpp"
 #include "dsp/series.hpp"
 #include "dsp/wavelet.hpp"
+#include "formats/profile_files.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
+#include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
 
 namespace {
-
 
 // Least-squares line through the valid points; returns the deviations (NaN where z is NaN).
 std::vector<double> line_deviations(const std::vector<double>& x, const std::vector<double>& z) {
@@ -250,8 +249,9 @@ class ProfileSession : public Session {
   // the time of each point and the feed per revolution, so feed and spindle speed must be given.
   std::optional<nlohmann::json> explain() override {
     if (!(o_.feed_mm_per_min > 0) || !(o_.spindle_rpm > 0))
-      return explain_not_analysed("straightness", "the session was started without feed_mm_per_min and spindle_rpm, "
-                                                  "which place each point in time and give the feed per revolution");
+      return explain_not_analysed("straightness",
+                                  "the session was started without feed_mm_per_min and spindle_rpm, "
+                                  "which place each point in time and give the feed per revolution");
     try {
       const models::explain::ProfileRun run =
           models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
@@ -281,7 +281,8 @@ SessionKind profile_session_kind() {
           {"profilometer-tcp"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<ProfileSession>(parse_options(r.options), device);
-          }};
+          },
+          {}};  // no recorded_options: a recording of this kind replays with its recorded options
 }
 
 }  // namespace guideway::sessions

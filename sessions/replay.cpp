@@ -47,8 +47,9 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   const std::string kind_name = recording.required("kind");
   const SessionKind* kind = registry.find(kind_name);
   if (kind == nullptr) throw std::runtime_error(path + ": session kind \"" + kind_name + "\" is unknown to this build");
-  SessionRequest request{kind_name, device.name(), json_meta(recording, "options", nlohmann::json::object()),
-                         recording.instrument};
+  nlohmann::json options = json_meta(recording, "options", nlohmann::json::object());
+  if (kind->recorded_options) options = kind->recorded_options(std::move(options), recording.metadata);
+  SessionRequest request{kind_name, device.name(), std::move(options), recording.instrument};
   std::unique_ptr<Session> session;
   try {
     session = kind->create(request, device);

@@ -4,9 +4,9 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
-#include "sessions/session_support.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
+#include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
 
@@ -34,7 +34,6 @@ RunoutOptions parse_options(const nlohmann::json& o) {
   r.channel = string_option(o, results::runout_channel);
   return r;
 }
-
 
 class RunoutSession : public Session {
  public:
@@ -132,7 +131,8 @@ class RunoutSession : public Session {
     if (o_.travel_mm > 0) t += "# travel_mm = " + shortest(o_.travel_mm) + "\n";
     t += "# rpm = " + shortest(o_.rpm) + "\n# device = " + device_ + "\n# source = guidewayd runout session\n";
     t += "angle_deg,runout_um\n";
-    for (std::size_t i = 0; i < angle_deg_.size(); ++i) t += shortest(angle_deg_[i]) + "," + shortest(runout_um_[i]) + "\n";
+    for (std::size_t i = 0; i < angle_deg_.size(); ++i)
+      t += shortest(angle_deg_[i]) + "," + shortest(runout_um_[i]) + "\n";
     return t;
   }
 
@@ -155,7 +155,8 @@ SessionKind runout_session_kind() {
           {"micrometer-modbus"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<RunoutSession>(parse_options(r.options), device);
-          }};
+          },
+          {}};  // no recorded_options: a recording of this kind replays with its recorded options
 }
 
 }  // namespace guideway::sessions

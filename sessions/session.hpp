@@ -27,8 +27,8 @@ namespace guideway::sessions {
 inline constexpr std::size_t max_feed_batch = 512;
 
 struct SessionRequest {
-  std::string kind;      // "dbb", "straightness", "runout", "profile", ...
-  std::string device;    // device name; empty = the first device the kind accepts
+  std::string kind;    // "dbb", "straightness", "runout", "profile", ...
+  std::string device;  // device name; empty = the first device the kind accepts
   nlohmann::json options = nlohmann::json::object();
   // The device's instrument (the daemon's configuration, or a recording's header): a DBB session's
   // uncertainties include its bar's calibrated length.
@@ -69,6 +69,10 @@ struct SessionKind {
   std::vector<std::string> drivers;  // drivers whose devices this kind accepts
   // Throws std::invalid_argument naming the bad option.
   std::function<std::unique_ptr<Session>(const SessionRequest&, const drivers::Driver& device)> create;
+  // The options a recording's session ran with, from its recorded options and header (a recording made
+  // before an option existed ran with that option's default of its day); none: the recorded options.
+  std::function<nlohmann::json(nlohmann::json options, const std::map<std::string, std::string>& header)>
+      recorded_options;
 };
 
 class SessionRegistry {

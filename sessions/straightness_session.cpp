@@ -3,11 +3,11 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/csv_table.hpp"
 #include "core/number_format.hpp"
-#include "sessions/session_support.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/straightness.hpp"
-#include "core/csv_table.hpp"
+#include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
 
@@ -62,7 +62,6 @@ int channel_index(const drivers::Driver& device, const std::string& name) {
   }
   return -1;
 }
-
 
 class StraightnessSession : public Session {
  public:
@@ -195,7 +194,8 @@ class StraightnessSession : public Session {
     return explain_not_analysed(
         "straightness traverse",
         "no explanation model for autocollimator traverses yet (guideway explain --model straightness explains faced "
-        "profiles, as the profile session does), and " + std::to_string(pitch_rad_.size()) +
+        "profiles, as the profile session does), and " +
+            std::to_string(pitch_rad_.size()) +
             " stations are too few for its noise and structure tests (at least 32 samples)");
   }
 
@@ -287,7 +287,8 @@ SessionKind straightness_session_kind() {
           {"autocollimator-serial"},
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<StraightnessSession>(parse_options(r.options), device);
-          }};
+          },
+          {}};  // no recorded_options: a recording of this kind replays with its recorded options
 }
 
 }  // namespace guideway::sessions

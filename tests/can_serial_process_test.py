@@ -225,7 +225,8 @@ calibrated_length_u_um = 0.5
 
         # A session runs on it, and says so: the start's reply, the PARAMS, the recording, the report.
         out = subprocess.run([GUIDEWAY, "--socket", self.sock, "start", "dbb", "--set",
-                              'patterns=[{"radius_mm":20,"height_mm":0,"direction":"ccw"}]', "--wait",
+                              'patterns=[{"radius_mm":20,"height_mm":0,"direction":"ccw"}]', "--set",
+                              "feed_mm_per_min=0", "--wait",
                               "--timeout", "30"], capture_output=True, text=True, timeout=40)
         self.assertEqual(out.returncode, 0, out.stderr + out.stdout)
         lines = out.stdout.splitlines()

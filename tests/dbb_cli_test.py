@@ -45,7 +45,62 @@ def main():
             g.write(f.read().replace("# direction = ccw", "# direction = cw"))
         r = subprocess.run([exe, "identify", "dbb", bad], capture_output=True, text=True)
         assert r.returncode == 1 and "angles run counter-clockwise but the metadata says direction = cw" in r.stderr, r.stderr
+        three_planes(exe, source, d)
     print("ok")
+
+
+def three_planes(exe, source, d):
+    """A three-plane test (XY 360 deg, XZ and YZ 220 deg arcs, one run with a 1.1 s dropout) identified
+    together: each plane on its own, then the machine across them, against the machine file."""
+    machine = os.path.join(source, "tests", "dbb_three_planes_machine.toml")
+    files = []
+    for plane in ("xy", "xz", "yz"):
+        for direction in ("ccw", "cw"):
+            out = os.path.join(d, f"{plane}-{direction}.csv")
+            arc = [] if plane == "xy" else ["--arc-deg", "220", "--start-deg", "-20" if direction == "ccw" else "200"]
+            gap = ["--gap-s", "10.5", "1.1"] if (plane, direction) == ("yz", "ccw") else []
+            subprocess.run([exe, "simulate", "dbb", "--machine", machine, "--radius-mm", "100", "--plane", plane,
+                            "--direction", direction, *arc, *gap, "--out", out], check=True, stdout=subprocess.DEVNULL)
+            files.append(out)
+    j = json.loads(subprocess.run([exe, "identify", "dbb", *files, "--json"], check=True, capture_output=True,
+                                  text=True).stdout)
+    assert sorted(j["planes"]) == ["xy", "xz", "yz"], j.keys()
+    assert j["planes"]["xz"]["runs"][0]["data_arc_deg"] == 220, j["planes"]["xz"]["runs"][0]
+    assert j["planes"]["yz"]["runs"][0]["gaps"] == 1, j["planes"]["yz"]["runs"][0]
+    s = j["summary"]
+
+    def near(v, truth, floor):
+        return abs(v["value"] - truth) <= 3 * v["u"] + floor
+
+    for name, truth in (("squareness_xy_urad", 30), ("squareness_xz_urad", 25), ("squareness_yz_urad", -15)):
+        assert near(s["squareness"][name], truth, 0.5), (name, s["squareness"][name])
+    for name, truth in (("scale_mismatch_xy_ppm", -20), ("scale_mismatch_xz_ppm", -30), ("scale_mismatch_yz_ppm", -10)):
+        assert near(s["scale_mismatch"][name], truth, 0.5), (name, s["scale_mismatch"][name])
+    for axis, truth in (("x", 1.0), ("y", 2.0), ("z", 3.0)):
+        b = s["backlash"][f"backlash_{axis}_um"]
+        assert [f["plane"] for f in b["from"]] == {"x": ["xy", "xz"], "y": ["xy", "yz"], "z": ["xz", "yz"]}[axis], b
+        for f in b["from"]:
+            assert abs(f["value"] - truth) <= 3 * f["u"] + 0.05, (axis, f)
+        assert b["consistent"] == ("note" not in b), b
+    ranking = s["ranking"]
+    assert all(a["contribution_um"] >= b["contribution_um"] for a, b in zip(ranking, ranking[1:])), ranking
+    assert {r["plane"] for r in ranking} == {"xy", "xz", "yz"}, ranking
+    text = subprocess.run([exe, "identify", "dbb", *files], check=True, capture_output=True, text=True).stdout
+    for expected in ("== xz plane", "over a 220 deg arc", "the machine across its planes (xy, xz, yz):",
+                     "backlash Z", "from xz ", "what to fix first across the machine", "gap of 10.6 deg (1.11 s)"):
+        assert expected in text, (expected, text)
+    # compensate on the XZ arcs, verified on the virtual machine: the tables take up the Z backlash.
+    comp = subprocess.run([exe, "compensate", "dbb", files[2], files[3], "--out-dir", os.path.join(d, "comp"),
+                           "--verify", "--machine", machine, "--json"], check=True, capture_output=True, text=True)
+    assert os.path.exists(os.path.join(d, "comp", "z.comp")), comp.stdout[:500]
+    # An arc under 180 deg is refused by the reader.
+    short = os.path.join(d, "short.csv")
+    with open(files[2]) as f, open(short, "w") as g:
+        rows = [line for line in f if line.startswith("#") or line.startswith("t_s") or
+                float(line.split(",")[1]) < 150]
+        g.write("".join(rows))
+    r = subprocess.run([exe, "identify", "dbb", short], capture_output=True, text=True)
+    assert r.returncode == 1 and "a DBB run needs an arc of at least 180 deg" in r.stderr, r.stderr
 
 
 if __name__ == "__main__":

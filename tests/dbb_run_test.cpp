@@ -70,13 +70,21 @@ TEST(DbbRunTest, AcceptsWrappedAnglesExtraColumnsAndTrailer) {
 }
 
 TEST(DbbRunTest, TooFewPoints) {
-  EXPECT_NE(error_of(header() + rows(20)).find("too few points: 20 samples"), std::string::npos)
+  EXPECT_NE(error_of(header() + rows(20)).find("too few samples: 20, need at least 72"), std::string::npos)
       << error_of(header() + rows(20));
 }
 
-TEST(DbbRunTest, PartialArc) {
-  const auto e = error_of(header() + rows(300, 270.0));
-  EXPECT_NE(e.find("partial arc: the samples cover 270.0 deg"), std::string::npos) << e;
+TEST(DbbRunTest, PartialArcOf180DegOrMoreIsARun) {
+  EXPECT_EQ(error_of(header() + rows(300, 270.0)), "");
+  EXPECT_EQ(error_of(header("# data_arc_deg = 220\n") + rows(221, 220.0)), "");
+  const auto e = error_of(header() + rows(300, 170.0));
+  EXPECT_NE(e.find("partial arc: the samples cover 170.6 deg, a DBB run needs an arc of at least 180 deg"),
+            std::string::npos)
+      << e;
+  const auto stated = error_of(header("# data_arc_deg = 200\n") + rows(300, 270.0));
+  EXPECT_NE(stated.find("more than the stated data arc (data_arc_deg = 200.0)"), std::string::npos) << stated;
+  const auto small = error_of(header("# data_arc_deg = 120\n") + rows(300, 270.0));
+  EXPECT_NE(small.find("data_arc_deg must be between 180 and 360, got 120.0"), std::string::npos) << small;
 }
 
 TEST(DbbRunTest, NaNNamesTheLine) {

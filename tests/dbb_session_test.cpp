@@ -1,6 +1,7 @@
-// The daemon's DBB session fed with what the dbb-can driver delivers (bar length and X/Y encoder
-// readings per SYNC) for Lai's three patterns traced by the virtual machine tool, with pauses between
-// patterns: the session finds the circles by itself and identifies the configured errors.
+// The daemon's DBB session fed with what the dbb-can driver delivers (bar length and the axis encoders'
+// readings per SYNC) for the circles of its tests traced by the virtual machine tool, with pauses between
+// them: the session finds the circles (and, with x, y and z encoders, their planes) by itself, keeps each
+// one's data arc and identifies the configured errors.
 #include "sessions/dbb_session.hpp"
 
 #include <gtest/gtest.h>
@@ -10,12 +11,16 @@
 #include "simulators/machine/machine.hpp"
 
 using namespace guideway;
+using guideway::formats::DbbDirection;
+using simulators::machine::Plane;
 
 namespace {
 
 class DbbChannels : public drivers::Driver {  // channel layout of dbb-can; never started
  public:
   DbbChannels() : Driver("dbb", "dbb-can", {{"bar_length", "m"}, {"x", "m"}, {"y", "m"}}, 2) {}
+  // The z encoder too (the default configuration's), in a channel order of its own.
+  explicit DbbChannels(bool) : Driver("dbb", "dbb-can", {{"bar_length", "m"}, {"z", "m"}, {"x", "m"}, {"y", "m"}}, 2) {}
 
  protected:
   void run(std::stop_token) override {}
@@ -31,14 +36,29 @@ simulators::machine::MachineConfig test_machine() {
   return m;
 }
 
-// Samples as the driver would publish them: t, bar, encoder x, y; `pause_s` of standing still after.
-void feed_circle(sessions::Session& s, const simulators::machine::Machine& machine, double r, double h,
-                 guideway::formats::DbbDirection dir, double& t0) {
+struct Circle {
+  double radius_m = 100e-3;
+  double height_m = 0.0;
+  DbbDirection direction = DbbDirection::ccw;
+  Plane plane = Plane::xy;
+  double feed_mm_per_min = 3000.0;
+  double data_arc_deg = 360.0;
+  double start_deg = 0.0;
+};
+
+// Samples as the driver would publish them: t, bar, encoder x, y (with `xyz`: z, x, y); 1 s of standing
+// still after.
+void feed_circle(sessions::Session& s, const simulators::machine::Machine& machine, const Circle& c, double& t0,
+                 bool xyz = false) {
   simulators::machine::DbbCircleSpec spec;
-  spec.radius_m = r;
-  spec.height_m = h;
-  spec.direction = dir;
-  spec.feed_m_per_s = 3000.0 / 60e3;
+  spec.radius_m = c.radius_m;
+  spec.height_m = c.height_m;
+  spec.direction = c.direction;
+  spec.plane = c.plane;
+  spec.feed_m_per_s = c.feed_mm_per_min / 60e3;
+  spec.data_arc_rad = c.data_arc_deg * M_PI / 180;
+  spec.start_angle_rad = c.start_deg * M_PI / 180;
+  if (c.data_arc_deg < 360) spec.overshoot_rad = 10 * M_PI / 180;
   spec.sample_rate_hz = 250.0;
   spec.t0_s = t0;
   const simulators::machine::DbbRun run = machine.dbb_circle(spec);
@@ -46,8 +66,9 @@ void feed_circle(sessions::Session& s, const simulators::machine::Machine& machi
   auto add = [&](double t, const simulators::machine::DbbSample& d) {
     Sample x;
     x.t_mono_ns = static_cast<std::int64_t>(t * 1e9);
-    x.value_count = 3;
-    x.value = {d.bar_length_m, d.encoder[0], d.encoder[1], 0, 0};
+    x.value_count = xyz ? 4 : 3;
+    x.value = xyz ? std::array<double, 5>{d.bar_length_m, d.encoder[2], d.encoder[0], d.encoder[1], 0}
+                  : std::array<double, 5>{d.bar_length_m, d.encoder[0], d.encoder[1], 0, 0};
     out.push_back(x);
   };
   for (const auto& d : run.samples) add(t0 + d.t_s, d);
@@ -57,8 +78,24 @@ void feed_circle(sessions::Session& s, const simulators::machine::Machine& machi
   s.on_samples(out);
 }
 
+void feed_circle(sessions::Session& s, const simulators::machine::Machine& machine, double r, double h,
+                 DbbDirection dir, double& t0) {
+  feed_circle(s, machine, Circle{r, h, dir}, t0);
+}
+
 double value_of(const nlohmann::json& group, const std::string& name) {
   return group.at(name).at("value").get<double>();
+}
+
+std::string refusal(const nlohmann::json& options, bool xyz = false) {
+  const DbbChannels two;
+  const DbbChannels three(true);
+  try {
+    sessions::dbb_session_kind().create({"dbb", "", options}, xyz ? three : two);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "not refused";
 }
 
 }  // namespace
@@ -66,7 +103,7 @@ double value_of(const nlohmann::json& group, const std::string& name) {
 TEST(DbbSession, FindsLaisThreePatternsAndIdentifiesTheMachine) {
   const simulators::machine::Machine machine(test_machine());
   DbbChannels device;
-  auto session = sessions::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);
+  auto session = sessions::dbb_session_kind().create({"dbb", "", {{"test", "lai"}, {"feed_mm_per_min", 3000}}}, device);
   double t = 0;
   feed_circle(*session, machine, 95e-3, 31.225e-3, guideway::formats::DbbDirection::cw, t);
   EXPECT_FALSE(session->complete());
@@ -103,8 +140,10 @@ TEST(DbbSession, ACircleMatchingNoPatternIsReportedNotUsed) {
 TEST(DbbSession, StopAfterOnePatternIdentifiesWhatWasTraced) {
   const simulators::machine::Machine machine(test_machine());
   DbbChannels device;
-  nlohmann::json opts = {{"patterns", {{{"radius_mm", 100}, {"height_mm", 0}, {"direction", "ccw"}},
-                                       {{"radius_mm", 100}, {"height_mm", 0}, {"direction", "cw"}}}}};
+  nlohmann::json opts = {{"patterns",
+                          {{{"radius_mm", 100}, {"height_mm", 0}, {"direction", "ccw"}},
+                           {{"radius_mm", 100}, {"height_mm", 0}, {"direction", "cw"}}}},
+                         {"feed_mm_per_min", 3000}};
   auto session = sessions::dbb_session_kind().create({"dbb", "", opts}, device);
   double t = 0;
   feed_circle(*session, machine, 100e-3, 0.0, guideway::formats::DbbDirection::ccw, t);
@@ -114,10 +153,137 @@ TEST(DbbSession, StopAfterOnePatternIdentifiesWhatWasTraced) {
   EXPECT_NEAR(value_of(p["diagnostics"], "center_offset_x_um"), 3.0, 0.3);  // one run: no run prefix
 }
 
+TEST(DbbSession, TheStandardTestIsTheDefaultAndGivesTheDiagnostics) {
+  const simulators::machine::Machine machine(test_machine());
+  DbbChannels device;
+  auto session = sessions::dbb_session_kind().create({"dbb", "", {{"feed_mm_per_min", 3000}}}, device);
+  double t = 0;
+  feed_circle(*session, machine, 100e-3, 0.0, DbbDirection::ccw, t);
+  EXPECT_NE(session->progress().find("1/2 patterns"), std::string::npos) << session->progress();
+  feed_circle(*session, machine, 100e-3, 0.0, DbbDirection::cw, t);
+  ASSERT_TRUE(session->complete()) << session->progress();
+  const nlohmann::json p = session->identify();
+  EXPECT_EQ(p["test"], "standard");
+  // The in-plane pair gives the ballbar diagnostics: squareness 15 urad, scale mismatch 20 - (-10) ppm.
+  EXPECT_NEAR(value_of(p["diagnostics"], "squareness_urad"), 15.0, 1.0) << p["diagnostics"].dump();
+  EXPECT_NEAR(value_of(p["diagnostics"], "scale_mismatch_ppm"), 30.0, 2.0) << p["diagnostics"].dump();
+  EXPECT_FALSE(p.contains("planes"));
+  EXPECT_EQ(session->metadata().at("test"), "standard");
+}
+
+TEST(DbbSession, ACircleAtAnotherFeedThanTheTestsIsNamedAndIgnored) {
+  const simulators::machine::Machine machine(test_machine());
+  DbbChannels device;
+  auto session = sessions::dbb_session_kind().create({"dbb", "", nlohmann::json::object()}, device);  // 1000 mm/min
+  double t = 0;
+  feed_circle(*session, machine, 100e-3, 0.0, DbbDirection::ccw, t);  // at 3000 mm/min
+  EXPECT_NE(session->progress().find("0/2 patterns"), std::string::npos) << session->progress();
+  EXPECT_NE(session->progress().find(" mm/min; the test's feed is 1000 mm/min (option feed_mm_per_min): ignored"),
+            std::string::npos)
+      << session->progress();
+}
+
+// With x, y and z encoders the session finds each circle's plane from the two axes that moved, whatever
+// the channels' order: circles in xz and yz go to their patterns and are identified plane by plane.
+TEST(DbbSession, FindsTheVerticalPlanesFromTheEncodersThatMoved) {
+  simulators::machine::MachineConfig m = test_machine();
+  m.squareness.xz = 20e-6;
+  m.squareness.yz = -25e-6;
+  const simulators::machine::Machine machine(m);
+  DbbChannels device(true);
+  const nlohmann::json opts = {{"patterns",
+                                {{{"plane", "xz"}, {"direction", "ccw"}},
+                                 {{"plane", "xz"}, {"direction", "cw"}},
+                                 {{"plane", "yz"}, {"direction", "ccw"}},
+                                 {{"plane", "yz"}, {"direction", "cw"}}}},
+                               {"feed_mm_per_min", 3000}};
+  auto session = sessions::dbb_session_kind().create({"dbb", "", opts}, device);
+  double t = 0;
+  feed_circle(*session, machine, Circle{.direction = DbbDirection::cw, .plane = Plane::yz}, t, true);
+  EXPECT_NE(session->progress().find("1/4 patterns"), std::string::npos) << session->progress();
+  feed_circle(*session, machine, Circle{.plane = Plane::xz}, t, true);
+  feed_circle(*session, machine, Circle{.direction = DbbDirection::cw, .plane = Plane::xz}, t, true);
+  feed_circle(*session, machine, Circle{.plane = Plane::yz}, t, true);
+  ASSERT_TRUE(session->complete()) << session->progress();
+  const nlohmann::json p = session->identify();
+  ASSERT_TRUE(p.contains("planes")) << p.dump();
+  EXPECT_EQ(p["plane"], "xz");
+  EXPECT_EQ(p["planes"]["yz"]["plane"], "yz");
+  EXPECT_NEAR(value_of(p["planes"]["xz"]["diagnostics"], "squareness_urad"), 20.0, 1.5) << p["planes"]["xz"].dump();
+  EXPECT_NEAR(value_of(p["planes"]["yz"]["diagnostics"], "squareness_urad"), -25.0, 1.5) << p["planes"]["yz"].dump();
+  ASSERT_TRUE(p.contains("summary"));
+}
+
+// The three-plane test as a vertical machine allows it: xy 360 deg, xz and yz 220 deg above the centre
+// (10 deg feed-in/out), ccw then cw each, on x, y and z encoders. Each plane is identified from its own
+// circles and the summary recovers what only the vertical planes see: squareness XZ and YZ, Z backlash
+// and scale (this machine has no servo lag: the absolute scales are the file's).
+TEST(DbbSession, TheThreePlaneTestRecoversWhatOnlyTheVerticalPlanesSee) {
+  simulators::machine::MachineConfig m = test_machine();
+  m.squareness.xz = 20e-6;
+  m.squareness.yz = -25e-6;
+  m.axis[2].scale = 15e-6;
+  m.axis[2].backlash_m = 2e-6;
+  m.axis[0].backlash_m = 1e-6;
+  const simulators::machine::Machine machine(m);
+  DbbChannels device(true);
+  auto session =
+      sessions::dbb_session_kind().create({"dbb", "", {{"test", "three-plane"}, {"feed_mm_per_min", 3000}}}, device);
+  double t = 0;
+  for (const Plane plane : {Plane::xy, Plane::xz, Plane::yz}) {
+    for (const DbbDirection dir : {DbbDirection::ccw, DbbDirection::cw}) {
+      Circle c{.direction = dir, .plane = plane};
+      if (plane != Plane::xy) {
+        c.data_arc_deg = 220;
+        c.start_deg = dir == DbbDirection::ccw ? -20 : 200;
+      }
+      feed_circle(*session, machine, c, t, true);
+    }
+  }
+  ASSERT_TRUE(session->complete()) << session->progress();
+  const nlohmann::json p = session->identify();
+  EXPECT_EQ(p["test"], "three-plane");
+  EXPECT_EQ(p["plane"], "xy");
+  for (const char* plane : {"xy", "xz", "yz"}) ASSERT_FALSE(p["planes"][plane].contains("error")) << p["planes"].dump();
+  const nlohmann::json& s = p["summary"];
+  const auto within = [](const nlohmann::json& e, double truth, double k, const std::string& what) {
+    const double v = e.at("value").get<double>(), u = e.at("u").get<double>();
+    EXPECT_LT(std::abs(v - truth), k * u + 1e-3 * std::abs(truth)) << what << ": " << v << " +/- " << u;
+  };
+  within(s["squareness"]["squareness_xy_urad"], 15.0, 3, "squareness xy");
+  within(s["squareness"]["squareness_xz_urad"], 20.0, 3, "squareness xz");
+  within(s["squareness"]["squareness_yz_urad"], -25.0, 3, "squareness yz");
+  within(s["backlash"]["backlash_z_um"], 2.0, 3, "backlash z");
+  EXPECT_TRUE(s["backlash"]["backlash_z_um"]["consistent"].get<bool>()) << s["backlash"].dump();
+  within(s["scale"]["scale_z_ppm"], 15.0, 3, "scale z");
+  within(s["scale_mismatch"]["scale_mismatch_xz_ppm"], 20.0 - 15.0, 3, "scale mismatch xz");
+  // Each 220 deg arc kept its data arc; the run files say so.
+  EXPECT_EQ(session->metadata().at("plane"), "xy,xz,yz");
+}
+
+TEST(DbbSession, BadTemplateOptionsAreRefusedSayingWhy) {
+  EXPECT_NE(refusal({{"test", "iso"}}).find("test"), std::string::npos);
+  EXPECT_NE(refusal({{"test", "lai"}, {"patterns", {{{"radius_mm", 100}}}}}).find("does not go with option test"),
+            std::string::npos);
+  EXPECT_NE(refusal({{"radius_mm", 150}, {"patterns", {{{"radius_mm", 100}}}}}).find("radius_mm"), std::string::npos);
+  EXPECT_NE(refusal({{"test", "three-plane"}, {"plane", "xz"}}, true).find("has its planes"), std::string::npos);
+  EXPECT_NE(refusal({{"test", "lai"}, {"radius_mm", 150}}).find("have their radii"), std::string::npos);
+  EXPECT_NE(refusal({{"feed_mm_per_min", -1}}).find("feed_mm_per_min"), std::string::npos);
+  EXPECT_NE(refusal({{"radius_mm", 0.5}}).find("radius_mm"), std::string::npos);
+  EXPECT_NE(refusal({{"patterns", {{{"data_arc_deg", 90}}}}}).find("data_arc_deg"), std::string::npos);
+  EXPECT_NE(refusal({{"patterns", {{{"plane", "zx"}}}}}).find("plane"), std::string::npos);
+  // The three-plane test on a bus with two axis encoders: it cannot see the vertical planes.
+  const std::string two = refusal({{"test", "three-plane"}});
+  EXPECT_NE(two.find("needs axis encoders named x, y and z"), std::string::npos) << two;
+  EXPECT_EQ(refusal({{"test", "three-plane"}}, true), "not refused");
+  EXPECT_EQ(refusal({{"test", "standard"}, {"plane", "yz"}, {"radius_mm", 150}, {"feed_mm_per_min", 500}}),
+            "not refused");
+}
+
 TEST(DbbSession, BadOptionsAreRefusedWithTheirName) {
   DbbChannels device;
   auto kind = sessions::dbb_session_kind();
-  EXPECT_THROW(kind.create({"dbb", "", {{"radius_mm", 100}}}, device), std::invalid_argument);
+  EXPECT_THROW(kind.create({"dbb", "", {{"radius", 100}}}, device), std::invalid_argument);
   try {
     kind.create({"dbb", "", {{"patterns", {{{"radius_mm", -5}}}}}}, device);
     FAIL();

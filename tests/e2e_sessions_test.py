@@ -310,7 +310,7 @@ class EndToEndSessions(unittest.TestCase):
         lines = text.split("\n")
         self.assertEqual(lines[0], "# format = guideway/raw/1")
         header = next(i for i, l in enumerate(lines) if not l.startswith("#"))
-        self.assertEqual(lines[header], "t_mono_ns,seq,flags,bar_length_m,x_m,y_m")
+        self.assertEqual(lines[header], "t_mono_ns,seq,flags,bar_length_m,x_m,y_m,z_m")
         # A kill in the middle of a write() may leave a last line without its newline: readers drop it.
         rows = lines[header + 1:-1]
         self.assertFalse(any(l.startswith("# end") for l in lines), "a killed recording has no end marker")

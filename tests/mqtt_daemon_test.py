@@ -33,7 +33,7 @@ SKIP = mqtt_broker.missing()
 SOURCE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 with open(os.path.join(SOURCE, "config", "dbb-node.toml")) as _f:
     # One circle (CCW, r = 100 mm, h = 0: the sessions here ask for that pattern), not Lai's three: 16 s a test.
-    DBB_DEVICE = _f.read().replace('"--program", "lai"', '"--program", "single"').replace('"--pause-s", "1"', '"--pause-s", "0.5"')
+    DBB_DEVICE = _f.read().replace('"--program", "standard"', '"--program", "single"').replace('"--pause-s", "1"', '"--pause-s", "0.5"')
 assert '"single"' in DBB_DEVICE
 PLANT_DOC = os.path.join(SOURCE, "docs", "plant.md")
 
@@ -164,7 +164,7 @@ class MqttPublishing(BrokerCase):
         watcher = Watcher(d.sock)
         self.cleanup.append(watcher.close)
         session = subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", "dbb", "--set",
-                                    'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]', "--wait", "--json",
+                                    'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]', "--set", "feed_mm_per_min=5000", "--wait", "--json",
                                     "--timeout", "120"],
                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self.assertTrue(wait_for(lambda: any('"session_started"' in l or '"recording"' in l for l in watcher.lines)
@@ -364,7 +364,7 @@ class FleetServe(BrokerCase):
                                         f'emulator_machine = "{machines}/{machine_file}"\n')
         # One waits with its progress on stderr, the other with --quiet.
         sessions = [subprocess.Popen([GUIDEWAY, "--socket", d.sock, "start", "dbb", "--set",
-                                      'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]', "--wait",
+                                      'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]', "--set", "feed_mm_per_min=5000", "--wait",
                                       "--timeout", "120", *(["--quiet"] if i else [])],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
                     for i, d in enumerate(daemons.values())]

@@ -11,6 +11,7 @@
 #include <Eigen/QR>
 
 #include "models/common/least_squares.hpp"
+#include "models/dbb/arcs.hpp"
 #include "models/dbb/fast_sincos.hpp"
 #include "models/dbb/geometry.hpp"
 #include "results/parameters.hpp"
@@ -31,7 +32,20 @@ struct Point : SampleGeometry {
   double cyc_sb = 0, cyc_cb = 0;  // once the periods are chosen (set_cyclic_phases)
   double w = 1;
   std::size_t sample = 0;  // among all the runs identified: the row of IdentifyOptions::beside's columns
+  // 0 when no run passes a reversal of the axis (a partial arc: arcs.hpp): its reversal terms' columns
+  // are then zero, so the fits refuse them by name instead of reading them from the arc's ends.
+  double rev_a = 1, rev_b = 1;
 };
+
+// The axes' reversal terms are observable only when some run passes one of the axis' reversals.
+void mask_unseen_reversals(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts) {
+  const double a = reversals_in_arcs(runs, 0).seen_deg.empty() ? 0.0 : 1.0;
+  const double b = reversals_in_arcs(runs, 1).seen_deg.empty() ? 0.0 : 1.0;
+  for (Point& p : pts) {
+    p.rev_a = a;
+    p.rev_b = b;
+  }
+}
 
 // The ideal step: the axis trails the command by half the backlash, on the side it comes from.
 void set_step_backlash(Point& p) {
@@ -44,13 +58,27 @@ void set_step_backlash(Point& p) {
 std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs,
                              const std::vector<std::size_t>& first_sample = {}) {
   std::vector<Point> pts;
+  // Each run's samples weigh as its sampling density along the arc it covers: runs sampled at different
+  // rates count alike per degree, and a run that lost samples to a gap or covers a partial arc counts for
+  // the arc it holds (its uncertainties grow), not as a whole circle. On full circles: every run alike.
   std::size_t total = 0;
-  for (const auto& r : runs) total += r.angle_rad.size();
+  double covered_total = 0;
+  bool all_whole = true;
+  std::vector<double> covered(runs.size());
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    total += runs[k].angle_rad.size();
+    const bool whole = formats::dbb_run_full_circle(runs[k]) && formats::dbb_run_gaps(runs[k]).empty();
+    covered[k] = whole ? 2 * pi : formats::dbb_run_covered_rad(runs[k]);
+    all_whole = all_whole && whole;
+    covered_total += covered[k];
+  }
   pts.reserve(total);
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const formats::DbbRun& run = runs[k];
-    const double w =
-        static_cast<double>(total) / (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
+    // 1 on full circles: the weights exactly as before partial arcs.
+    const double arc_share = all_whole ? 1.0 : covered[k] * static_cast<double>(runs.size()) / covered_total;
+    const double w = arc_share * static_cast<double>(total) /
+                     (static_cast<double>(runs.size()) * static_cast<double>(run.angle_rad.size()));
     const std::size_t first = first_sample.empty() ? pts.size() : first_sample[k];
     for (std::size_t i = 0; i < run.angle_rad.size(); ++i) {
       Point& p = pts.emplace_back();  // filled in place (10^4 points of 200 bytes)
@@ -60,6 +88,7 @@ std::vector<Point> points_of(const std::vector<formats::DbbRun>& runs,
       p.sample = first + i;
     }
   }
+  mask_unseen_reversals(runs, pts);
   return pts;
 }
 
@@ -177,8 +206,8 @@ void lai_basis(const Point& p, double* out) {
   out[14] = hl * r * s;
   out[15] = hl * r * r * s * s;
   out[16] = hl * r * r * r * s * s * s;
-  out[17] = lam * p.bl_a * c;
-  out[18] = lam * p.bl_b * s;
+  out[17] = lam * p.bl_a * c * p.rev_a;
+  out[18] = lam * p.bl_b * s * p.rev_b;
   out[19] = lam * p.dir * p.feed_m_per_s * s * c;
 }
 
@@ -220,17 +249,17 @@ void diag_row(const DiagLayout& L, const Point& p, Eigen::RowVectorXd& row) {
   row[g + DiagLayout::scale_a] = lam * r * c * c;  // 1 ppm = 1e-6 * r m = r um
   row[g + DiagLayout::scale_b] = lam * r * s * s;
   row[g + DiagLayout::squareness] = lam * r * s * c;
-  row[g + DiagLayout::backlash_a] = lam * p.bl_a * c;
-  row[g + DiagLayout::backlash_b] = lam * p.bl_b * s;
-  row[g + DiagLayout::play_a] = lam * 0.5 * p.sgn_a * s;
-  row[g + DiagLayout::play_b] = lam * 0.5 * p.sgn_b * c;
+  row[g + DiagLayout::backlash_a] = lam * p.bl_a * c * p.rev_a;
+  row[g + DiagLayout::backlash_b] = lam * p.bl_b * s * p.rev_b;
+  row[g + DiagLayout::play_a] = lam * 0.5 * p.sgn_a * s * p.rev_a;
+  row[g + DiagLayout::play_b] = lam * 0.5 * p.sgn_b * c * p.rev_b;
   row[g + DiagLayout::servo] = lam * p.dir * p.feed_m_per_s * s * c * 1e3;  // 1 ms = 1e-3 s; v m/s -> um: *1e6*1e-3
   row[g + DiagLayout::bow_a] = lam * s * c * c;
   row[g + DiagLayout::bow_b] = lam * c * s * s;
   if (L.spikes) {
     const auto k = static_cast<Eigen::Index>(L.spike0());
-    row[k] = lam * c * (-p.sgn_a) * reversal_spike_decay(p.since_a_s - L.delay_a, L.tau_a);
-    row[k + 1] = lam * s * (-p.sgn_b) * reversal_spike_decay(p.since_b_s - L.delay_b, L.tau_b);
+    row[k] = lam * c * (-p.sgn_a) * reversal_spike_decay(p.since_a_s - L.delay_a, L.tau_a) * p.rev_a;
+    row[k + 1] = lam * s * (-p.sgn_b) * reversal_spike_decay(p.since_b_s - L.delay_b, L.tau_b) * p.rev_b;
   }
   // d/dtau of A exp(-t/tau) = A t / tau^2 exp(-t/tau), per ms of tau.
   if (L.decay_a) {
@@ -450,7 +479,8 @@ double circular_hysteresis(const formats::DbbRun& r1, const Point* p1, const for
   fill(p2, n2, n1);
   const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
   const Eigen::VectorXd res = y - a * x;
-  // Residual of each run on a 0.5 deg grid (linear interpolation in the wrapped angle).
+  // Residual of each run on a 0.5 deg grid (linear interpolation in the wrapped angle), NaN where the run
+  // has no samples (outside a partial arc, in a gap): H is over the angles both runs hold.
   const auto on_grid = [&](const formats::DbbRun& r, Eigen::Index off) {
     std::vector<std::pair<double, double>> v;
     for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
@@ -460,24 +490,40 @@ double circular_hysteresis(const formats::DbbRun& r1, const Point* p1, const for
     }
     std::sort(v.begin(), v.end());
     std::vector<double> g(720, nan);
+    const std::vector<formats::DbbGap> gaps = formats::dbb_run_gaps(r);
+    const bool whole = gaps.empty() && formats::dbb_run_full_circle(r);
+    // The longest step between samples that is not a gap: a grid angle further from the samples is not held.
+    double reach = 0.5 * pi / 180;
+    for (std::size_t i = 1; i < v.size(); ++i) {
+      const double step = v[i].first - v[i - 1].first;
+      const bool in_gap =
+          std::any_of(gaps.begin(), gaps.end(), [&](const formats::DbbGap& q) { return step >= 0.99 * q.angle_rad(); });
+      if (!in_gap && step < pi / 2) reach = std::max(reach, step);
+    }
     for (std::size_t k = 0; k < g.size(); ++k) {
       const double z = static_cast<double>(k) * pi / 360.0;
       auto it = std::lower_bound(v.begin(), v.end(), std::make_pair(z, -1e300));
-      if (it == v.end() || it == v.begin()) {
+      if (whole && (it == v.end() || it == v.begin())) {
         g[k] = (it == v.end() ? v.back() : v.front()).second;
         continue;
       }
-      const auto& hi = *it;
-      const auto& lo = *(it - 1);
-      const double f = hi.first > lo.first ? (z - lo.first) / (hi.first - lo.first) : 0.0;
+      // Neighbours across 0 deg, where a partial arc may hold them.
+      const auto& hi = it == v.end() ? v.front() : *it;
+      const auto& lo = it == v.begin() ? v.back() : *(it - 1);
+      const double span = std::fmod(hi.first - lo.first + 2 * pi, 2 * pi);
+      if (!whole && span > reach * (1 + 1e-9) + 1e-12) continue;
+      const double dz = std::fmod(z - lo.first + 2 * pi, 2 * pi);
+      const double f = span > 0 ? dz / span : 0.0;
       g[k] = lo.second + f * (hi.second - lo.second);
     }
     return g;
   };
   const auto g1 = on_grid(r1, 0);
   const auto g2 = on_grid(r2, n1);
-  double h = 0;
-  for (std::size_t k = 0; k < g1.size(); ++k) h = std::max(h, std::abs(g1[k] - g2[k]));
+  double h = nan;
+  for (std::size_t k = 0; k < g1.size(); ++k)
+    if (std::isfinite(g1[k]) && std::isfinite(g2[k]))
+      h = std::isfinite(h) ? std::max(h, std::abs(g1[k] - g2[k])) : std::abs(g1[k] - g2[k]);
   return h;
 }
 
@@ -613,7 +659,7 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
     const Point& p = pts[i];
     const double since = axis_a ? p.since_a_s : p.since_b_s;
     if (since > 8 * tau_max + delay_max) continue;
-    const double u = p.lambda * (axis_a ? p.c * -p.sgn_a : p.s * -p.sgn_b);
+    const double u = p.lambda * (axis_a ? p.c * -p.sgn_a * p.rev_a : p.s * -p.sgn_b * p.rev_b);
     if (u == 0.0) continue;
     near.push_back({since, u, p.w, base.residual[static_cast<Eigen::Index>(i)]});
   }
@@ -928,12 +974,18 @@ std::string lai_error_group(const std::string& name) {
   if (name == results::lai_servo_mismatch.name) return group(results::rank_servo_mismatch);
   if (name == results::lai_c0_plus_d1.name) return group(results::rank_roll_b_straightness_an);
   switch (name.front()) {
-    case 'a': return group(results::rank_straightness_ab);  // with the squareness a1
-    case 'b': return group(results::rank_straightness_ba);
-    case 'c': return group(results::rank_roll_b);
-    case 'd': return group(results::rank_straightness_an);
-    case 'e': return group(results::rank_straightness_bn);
-    default: return name;
+    case 'a':
+      return group(results::rank_straightness_ab);  // with the squareness a1
+    case 'b':
+      return group(results::rank_straightness_ba);
+    case 'c':
+      return group(results::rank_roll_b);
+    case 'd':
+      return group(results::rank_straightness_an);
+    case 'e':
+      return group(results::rank_straightness_bn);
+    default:
+      return name;
   }
 }
 
@@ -1163,6 +1215,10 @@ void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<
     s.feed_mm_per_min = r.feed_m_per_s * 60e3;
     s.n = r.angle_rad.size();
     s.circular_deviation_um = circular_deviation(first[k], r.angle_rad.size());
+    s.data_arc_deg = formats::dbb_run_full_circle(r) ? 360.0
+                     : r.data_arc_rad > 0            ? r.data_arc_rad * 180 / pi
+                                                     : formats::dbb_run_arc_rad(r) * 180 / pi;
+    s.gaps = formats::dbb_run_gaps(r).size();
     s.residual_rms_um = std::isfinite(residual_rms[k]) ? residual_rms[k] : lai_residual_rms[k];
     g_max = std::max(g_max, s.circular_deviation_um);
     out.runs.push_back(s);
@@ -1173,8 +1229,9 @@ void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<
     for (std::size_t k = i + 1; k < runs.size() && !done; ++k) {
       if (runs[i].direction != runs[k].direction && std::abs(runs[i].radius_m - runs[k].radius_m) < 1e-6 &&
           std::abs(runs[i].height_m - runs[k].height_m) < 1e-6) {
-        out.diagnostics.push_back(est(results::name(results::circular_hysteresis),
-                                      circular_hysteresis(runs[i], first[i], runs[k], first[k]), nan, false));
+        const double h = circular_hysteresis(runs[i], first[i], runs[k], first[k]);
+        if (!std::isfinite(h)) continue;  // their arcs do not overlap
+        out.diagnostics.push_back(est(results::name(results::circular_hysteresis), h, nan, false));
         done = true;
       }
     }
@@ -1218,6 +1275,12 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
     out.ranking_model = "lai3";
   }
   summarize_runs(runs, pts, residual_rms, lai.residual_rms, out);
+  // A partial arc or a gap: what it holds and costs, and why each refused term is refused.
+  const std::vector<std::string> arcs = arc_notes(runs, plane);
+  out.notes.insert(out.notes.end(), arcs.begin(), arcs.end());
+  if (!arcs.empty())
+    for (FitSummary* f : {&out.fit, &out.diagnostics_fit})
+      for (const auto& name : f->unidentifiable) f->why.push_back(name + ": " + why_unidentifiable(name, runs, plane));
   if (options.bar_length_u_um > 0) {
     std::ostringstream o;
     o << "every u includes the bar's calibrated length (u = " << options.bar_length_u_um

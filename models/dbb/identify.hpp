@@ -29,6 +29,8 @@ struct FitSummary {
   std::size_t n = 0;
   double condition_number = 0.0;
   std::vector<std::string> unidentifiable;
+  std::vector<std::string> why;  // on partial arcs or gappy runs: one per unidentifiable term, "name: why the
+                                 // runs cannot separate it" (arcs.hpp)
   std::vector<LsqCombination> combinations;  // in the reported units
   std::string message;
 };
@@ -40,7 +42,9 @@ struct RunSummary {
   std::string direction;
   double feed_mm_per_min = 0.0;
   std::size_t n = 0;
-  double circular_deviation_um = 0.0;  // ISO 230-4 G, about the run's least-squares circle
+  double circular_deviation_um = 0.0;  // ISO 230-4 G, about the run's least-squares circle, over its data arc
+  double data_arc_deg = 360.0;         // the arc its samples span (360: a full circle)
+  std::size_t gaps = 0;                // dropouts inside it (formats::dbb_run_gaps)
   double residual_rms_um = 0.0;        // of the diagnostics fit
 };
 

@@ -23,10 +23,56 @@ nlohmann::json fit_json(const FitSummary& f) {
     for (const auto& k : f.combinations) c.push_back({{"expression", k.expression}, {"value", k.value}, {"u", k.u}});
   }
   if (!f.message.empty()) j["message"] = f.message;
+  if (!f.why.empty()) j["why"] = f.why;
+  return j;
+}
+
+nlohmann::json u_json(double value, double u) {
+  nlohmann::json j = {{"value", value}};
+  if (std::isfinite(u)) j["u"] = u;
+  return j;
+}
+
+nlohmann::json axis_figures_json(const std::vector<AxisFigure>& list) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& f : list) {
+    nlohmann::json e = u_json(f.value, f.u);
+    e["axis"] = f.axis;
+    e["consistent"] = f.consistent;
+    e["from"] = nlohmann::json::array();
+    for (const auto& p : f.from) {
+      nlohmann::json q = u_json(p.value, p.u);
+      q["plane"] = p.plane;
+      e["from"].push_back(q);
+    }
+    if (!f.note.empty()) e["note"] = f.note;
+    j[f.name] = e;
+  }
   return j;
 }
 
 }  // namespace
+
+nlohmann::json to_json(const PlanesSummary& s) {
+  nlohmann::json j;
+  j["planes"] = s.planes;
+  j["squareness"] = nlohmann::json::object();
+  for (const auto& e : s.squareness) j["squareness"][e.name] = value_json(e);
+  j["scale_mismatch"] = nlohmann::json::object();
+  for (const auto& e : s.scale_mismatch) j["scale_mismatch"][e.name] = value_json(e);
+  j["backlash"] = axis_figures_json(s.backlash);
+  j["scale"] = axis_figures_json(s.scale);
+  j["ranking"] = nlohmann::json::array();
+  for (const auto& c : s.ranking)
+    j["ranking"].push_back(
+        {{"plane", c.plane},
+         {"name", c.name},
+         {"contribution_um", c.contribution_um},
+         {"percent_of_circular_deviation", std::isfinite(c.percent) ? nlohmann::json(c.percent) : nlohmann::json()}});
+  j["circular_deviation_um"] = s.circular_deviation_um;
+  j["notes"] = s.notes;
+  return j;
+}
 
 nlohmann::json to_json(const Identification& id) {
   nlohmann::json j;
@@ -42,6 +88,8 @@ nlohmann::json to_json(const Identification& id) {
                          {"n", r.n},
                          {"circular_deviation_um", r.circular_deviation_um},
                          {"residual_rms_um", r.residual_rms_um}});
+    if (r.data_arc_deg < 359.0) j["runs"].back()["data_arc_deg"] = r.data_arc_deg;  // a partial arc
+    if (r.gaps > 0) j["runs"].back()["gaps"] = r.gaps;
   }
   j["diagnostics"] = nlohmann::json::object();
   for (const auto& e : id.diagnostics) j["diagnostics"][e.name] = value_json(e);

@@ -8,9 +8,14 @@
 #include <nlohmann/json.hpp>
 
 #include "models/dbb/identify.hpp"
+#include "models/dbb/three_planes.hpp"
 
 namespace guideway::models::dbb {
 
 nlohmann::json to_json(const Identification& id);
+// The summary of several planes: {"planes", "squareness": {name: {value, u}}, "scale_mismatch", "backlash" and
+// "scale": {name: {axis, value, u, consistent, from: [{plane, value, u}], note}}, "ranking": [{plane, name,
+// contribution_um, percent_of_circular_deviation}], "circular_deviation_um", "notes"}.
+nlohmann::json to_json(const PlanesSummary& s);
 
 }  // namespace guideway::models::dbb

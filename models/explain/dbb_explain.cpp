@@ -11,6 +11,7 @@
 
 #include "core/number_format.hpp"
 #include "models/common/least_squares.hpp"
+#include "models/dbb/arcs.hpp"
 #include "models/dbb/geometry.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/explain/effects/dbb_terms.hpp"
@@ -131,6 +132,8 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::ve
         "phase");
     p.terms_per_run = true;
   }
+  // A partial arc or a gap: what the runs hold of the axes' reversals, and that G is over the data arcs.
+  for (auto& note : dbb::arc_notes(runs, runs.front().plane)) p.notes.push_back(std::move(note));
   bool ccw = false, cw = false;
   for (const auto& r : runs) (r.dir() > 0 ? ccw : cw) = true;
   if (!(ccw && cw))

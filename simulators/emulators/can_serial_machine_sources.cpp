@@ -1,6 +1,7 @@
 #include "simulators/emulators/can_serial_machine_sources.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <mutex>
 
@@ -8,16 +9,28 @@ namespace guideway::simulators::emulators {
 
 namespace {
 
-std::pair<int, int> plane_axes(machine::Plane p) {
+// The plane's two axes, then the axis normal to it (the encoders' order on the bus: bar, a, b, normal).
+std::array<int, 3> plane_axes(machine::Plane p) {
   switch (p) {
     case machine::Plane::xy:
-      return {0, 1};
+      return {0, 1, 2};
     case machine::Plane::xz:
-      return {0, 2};
+      return {0, 2, 1};
     case machine::Plane::yz:
-      return {1, 2};
+      return {1, 2, 0};
   }
-  return {0, 1};
+  return {0, 1, 2};
+}
+
+// Bar length and the three axes' encoders between two samples (w: 0 at lo, 1 at hi), in bus order.
+void interpolate(const machine::DbbSample& lo, const machine::DbbSample& hi, double w, machine::Plane plane,
+                 std::span<double> out) {
+  const auto axes = plane_axes(plane);
+  const double v[4] = {lo.bar_length_m + w * (hi.bar_length_m - lo.bar_length_m),
+                       lo.encoder[axes[0]] + w * (hi.encoder[axes[0]] - lo.encoder[axes[0]]),
+                       lo.encoder[axes[1]] + w * (hi.encoder[axes[1]] - lo.encoder[axes[1]]),
+                       lo.encoder[axes[2]] + w * (hi.encoder[axes[2]] - lo.encoder[axes[2]])};
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = i < 4 ? v[i] : 0.0;
 }
 
 constexpr double rad_to_arcsec = 180.0 * 3600.0 / 3.14159265358979323846;
@@ -34,11 +47,7 @@ void DbbMotion::at(double t_s, std::span<double> out) const {
   const auto lo = hi - 1;
   const double span = hi->t_s - lo->t_s;
   const double w = span > 0 ? std::clamp((t - lo->t_s) / span, 0.0, 1.0) : 0.0;
-  const auto [a, b] = plane_axes(plane);
-  const double v[3] = {lo->bar_length_m + w * (hi->bar_length_m - lo->bar_length_m),
-                       lo->encoder[a] + w * (hi->encoder[a] - lo->encoder[a]),
-                       lo->encoder[b] + w * (hi->encoder[b] - lo->encoder[b])};
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = i < 3 ? v[i] : 0.0;
+  interpolate(*lo, *hi, w, plane, out);
 }
 
 std::shared_ptr<const DbbMotion> make_dbb_motion(const machine::Machine& machine, const machine::DbbCircleSpec& spec) {
@@ -65,11 +74,7 @@ void DbbProgram::at(double t_s, std::span<double> out) const {
       const auto lo = hi - 1;
       const double span = hi->t_s - lo->t_s;
       const double w = span > 0 ? std::clamp((s.front().t_s + tt - lo->t_s) / span, 0.0, 1.0) : 0.0;
-      const auto [a, b] = plane_axes(plane);
-      const double v[3] = {lo->bar_length_m + w * (hi->bar_length_m - lo->bar_length_m),
-                           lo->encoder[a] + w * (hi->encoder[a] - lo->encoder[a]),
-                           lo->encoder[b] + w * (hi->encoder[b] - lo->encoder[b])};
-      for (std::size_t i = 0; i < out.size(); ++i) out[i] = i < 3 ? v[i] : 0.0;
+      interpolate(*lo, *hi, w, plane, out);
       return;
     }
     t -= length + pause_s;
@@ -82,9 +87,9 @@ std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machi
   auto p = std::make_shared<DbbProgram>();
   p->pause_s = pause_s;
   double t0 = t0_s;
+  if (!specs.empty()) p->plane = specs.front().plane;  // the bus order of the axes, whatever plane each circle is in
   for (auto& spec : specs) {
     spec.t0_s = t0;
-    p->plane = spec.plane;
     p->runs.push_back(machine.dbb_circle(spec));
     const auto& s = p->runs.back().samples;
     const double length = s.empty() ? 0.0 : s.back().t_s - s.front().t_s;
@@ -121,7 +126,8 @@ DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machin
         std::vector<machine::DbbCircleSpec> pass_specs = player->specs;
         const std::uint64_t base = player->machine.config().noise.seed;
         for (std::size_t k = 0; k < pass_specs.size(); ++k)
-          pass_specs[k].seed = (pass_specs[k].seed != 0 ? pass_specs[k].seed : base) + static_cast<std::uint64_t>(pass) * 7919u + k;
+          pass_specs[k].seed =
+              (pass_specs[k].seed != 0 ? pass_specs[k].seed : base) + static_cast<std::uint64_t>(pass) * 7919u + k;
         player->current = make_dbb_program(player->machine, pass_specs, player->pause_s, static_cast<double>(pass) * d);
         player->pass = pass;
       }

@@ -1,6 +1,6 @@
 #pragma once
 // Sources that feed the CAN and serial emulators from the virtual machine tool: a DBB circle run
-// (bar length and the two plane axes' encoders) and an autocollimator traverse with stops. The
+// (bar length, the two plane axes' encoders and the normal axis's) and an autocollimator traverse with stops. The
 // motion is computed once by guideway::simulators::machine::Machine and replayed in emulator time, repeating when
 // it ends. Thread safe (the sources only read an immutable run).
 
@@ -17,8 +17,8 @@ struct DbbMotion {
   machine::DbbRun run;
   machine::Plane plane = machine::Plane::xy;
   double duration_s = 0.0;
-  // Bar length, first and second plane axis encoder at motion time t (linear interpolation,
-  // t wraps around the motion's duration).
+  // Bar length, first and second plane axis encoder, then the normal axis's, at motion time t (linear
+  // interpolation, t wraps around the motion's duration).
   void at(double t_s, std::span<double> out_m) const;
 };
 std::shared_ptr<const DbbMotion> make_dbb_motion(const machine::Machine& machine, const machine::DbbCircleSpec& spec);
@@ -31,7 +31,7 @@ DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion);
 // its own, so that drift and vibration carry on across passes too).
 struct DbbProgram {
   std::vector<machine::DbbRun> runs;
-  machine::Plane plane = machine::Plane::xy;
+  machine::Plane plane = machine::Plane::xy;  // the first circle's: the axes' order on the bus (as DbbMotion's)
   double pause_s = 1.0;
   double duration_s = 0.0;  // of one pass through the program, pauses included
   void at(double t_s, std::span<double> out_m) const;

@@ -1,9 +1,12 @@
-// `guideway-emulate dbb`: the DBB bar and two axis encoders on a CAN bus (Unix gateway socket,
+// `guideway-emulate dbb`: the DBB bar and the axis encoders (the plane's two, and the normal axis's
+// when a fourth node is given) on a CAN bus (Unix gateway socket,
 // SocketCAN interface, or an inherited fd), following a DBB circle.
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <numbers>
 #include <tuple>
 
 #include "simulators/emulators/can_serial_control.hpp"
@@ -14,6 +17,8 @@
 namespace guideway::simulators::emulators {
 
 namespace {
+
+constexpr double pi = std::numbers::pi;
 
 struct DbbOptions {
   std::string bus = "unix:/tmp/guideway-can.sock";
@@ -87,7 +92,7 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
   double s = 0;
   const std::string& c = w[0];
   if ((c == "reboot" || c == "heartbeat-loss" || c == "sdo-abort" || c == "identity" || c == "emcy") &&
-      word_to_int(w, 1, n) && n >= 0 && n < 3) {
+      word_to_int(w, 1, n) && n >= 0 && n < static_cast<int>(emu.node_states().size())) {
     if (handle_node_fault(emu, w, n)) return true;
     msg =
         "usage: reboot ENCODER [DOWN_MS] | heartbeat-loss ENCODER SECONDS | sdo-abort ENCODER CODE|off"
@@ -126,12 +131,56 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
   } else {
     msg =
         "commands: disconnect | garbage N | truncated N | bad N | error-frames N | bus-off [RESTART_MS]"
-        " | drop-pdo ENCODER [CYCLES] | stall SECONDS | burst N | reboot ENCODER [DOWN_MS] | heartbeat-loss ENCODER SECONDS"
-        " | sdo-abort ENCODER CODE|off | identity ENCODER SERIAL [VENDOR PRODUCT REVISION] | emcy ENCODER CODE [REGISTER]"
+        " | drop-pdo ENCODER [CYCLES] | stall SECONDS | burst N | reboot ENCODER [DOWN_MS] | heartbeat-loss ENCODER "
+        "SECONDS"
+        " | sdo-abort ENCODER CODE|off | identity ENCODER SERIAL [VENDOR PRODUCT REVISION] | emcy ENCODER CODE "
+        "[REGISTER]"
         " | nodes | status | quit";
     return false;
   }
   return true;
+}
+
+// The circles of a program. "single": the one circle of the options; "standard": ccw then cw at h = 0 in
+// the plane (the standard ballbar test); "three-plane": xy 360 deg, then xz and yz 220 deg above the
+// centre (the table is below), ccw then cw each, with feed-in/feed-out arcs of at most 10 deg there (the
+// table and the spindle head leave no more); "lai": Lai's three patterns with one 100 mm bar (h = 31.225
+// mm at r = 95 mm cw and ccw, then h = 0 at r = 100 mm ccw). A pause after each circle, repeated.
+std::vector<machine::DbbCircleSpec> program_specs(const std::string& program, const machine::DbbCircleSpec& spec) {
+  using formats::DbbDirection;
+  std::vector<machine::DbbCircleSpec> specs;
+  if (program == "lai") {
+    for (auto [r_mm, h_mm, dir] :
+         {std::tuple{95.0, 31.225, DbbDirection::cw}, std::tuple{95.0, 31.225, DbbDirection::ccw},
+          std::tuple{100.0, 0.0, DbbDirection::ccw}}) {
+      machine::DbbCircleSpec p = spec;
+      p.radius_m = r_mm * 1e-3;
+      p.height_m = h_mm * 1e-3;
+      p.direction = dir;
+      specs.push_back(p);
+    }
+  } else if (program == "standard" || program == "three-plane") {
+    const bool three = program == "three-plane";
+    for (const machine::Plane plane : {spec.plane, machine::Plane::xz, machine::Plane::yz}) {
+      for (const DbbDirection dir : {DbbDirection::ccw, DbbDirection::cw}) {
+        machine::DbbCircleSpec p = spec;
+        p.height_m = 0.0;
+        p.direction = dir;
+        p.plane = three ? plane : spec.plane;
+        if (p.plane != machine::Plane::xy && three) {
+          p.data_arc_rad = 220.0 * pi / 180.0;
+          p.overshoot_rad = std::min(spec.overshoot_rad, 10.0 * pi / 180.0);
+          p.start_angle_rad =
+              (dir == DbbDirection::ccw ? -20.0 : 200.0) * pi / 180.0;  // the arc about +90 deg: z above
+        }
+        specs.push_back(p);
+      }
+      if (!three) break;
+    }
+  } else {
+    specs.push_back(spec);
+  }
+  return specs;
 }
 
 int run_dbb(const DbbOptions& o) {
@@ -156,30 +205,26 @@ int run_dbb(const DbbOptions& o) {
   spec.feed_m_per_s = o.feed_mm_min / 60e3;
   spec.direction = o.direction == "ccw" ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
   spec.plane = o.plane == "xz" ? machine::Plane::xz : o.plane == "yz" ? machine::Plane::yz : machine::Plane::xy;
-  spec.overshoot_rad = o.overshoot_deg * 3.14159265358979323846 / 180.0;
+  spec.overshoot_rad = o.overshoot_deg * pi / 180.0;
   spec.sample_rate_hz = 1000.0;
-  // "lai": Lai's three patterns with one 100 mm bar (h = 31.225 mm at r = 95 mm cw and ccw, then
-  // h = 0 at r = 100 mm ccw), a pause after each, repeated; "single": the one circle of the options.
-  std::vector<machine::DbbCircleSpec> specs;
-  if (o.program == "lai") {
-    for (auto [r_mm, h_mm, dir] : {std::tuple{95.0, 31.225, formats::DbbDirection::cw}, std::tuple{95.0, 31.225, formats::DbbDirection::ccw},
-                                   std::tuple{100.0, 0.0, formats::DbbDirection::ccw}}) {
-      machine::DbbCircleSpec p = spec;
-      p.radius_m = r_mm * 1e-3;
-      p.height_m = h_mm * 1e-3;
-      p.direction = dir;
-      specs.push_back(p);
-    }
-  } else {
-    specs.push_back(spec);
+  const std::vector<machine::DbbCircleSpec> specs = program_specs(o.program, spec);
+  std::vector<int> nodes = o.nodes;
+  if (o.program == "three-plane" && nodes.size() < 4) {
+    // The three planes need every axis on the bus: the normal axis's encoder on the next node.
+    nodes.push_back(*std::max_element(nodes.begin(), nodes.end()) + 1);
   }
   auto program = make_dbb_program(machine, specs, o.pause_s);
   const double nominal_length_m = program->runs.front().nominal_length_m;
-  const char* names[] = {"bar_length", o.plane == "yz" ? "y" : "x", o.plane == "xy" ? "y" : "z"};
-  for (std::size_t i = 0; i < 3; ++i) {
+  // The bus order: bar, the (first circle's) plane axes, the normal axis (served when a fourth node is given).
+  const machine::Plane plane = specs.front().plane;
+  const char* names[] = {"bar_length", plane == machine::Plane::yz ? "y" : "x", plane == machine::Plane::xy ? "y" : "z",
+                         plane == machine::Plane::xy   ? "z"
+                         : plane == machine::Plane::xz ? "y"
+                                                       : "x"};
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
     drivers::dbb::EncoderScale e;
     e.channel = names[i];
-    e.node_id = static_cast<std::uint8_t>(o.nodes[i]);
+    e.node_id = static_cast<std::uint8_t>(nodes[i]);
     e.resolution_m = o.resolution_nm * 1e-9;
     if (i == 0) e.offset_m = std::round(nominal_length_m * 1e6) * 1e-6;  // the bar's nominal, in um
     settings.encoders.push_back(e);
@@ -215,7 +260,7 @@ int run_dbb(const DbbOptions& o) {
 void add_dbb(CLI::App& app, int& exit_code) {
   auto o = std::make_shared<DbbOptions>();
   auto* cmd =
-      app.add_subcommand("dbb", "double ball bar + X/Y encoders on CAN: CANopen nodes (CiA 301/406), TPDOs on SYNC");
+      app.add_subcommand("dbb", "double ball bar + X/Y/Z encoders on CAN: CANopen nodes (CiA 301/406), TPDOs on SYNC");
   cmd->add_option("--bus", o->bus, "unix:PATH (SEQPACKET gateway to listen on) or can:IFNAME (SocketCAN)")
       ->capture_default_str();
   cmd->add_option("--fd", o->fd, "serve an inherited fd carrying can_frame records instead of --bus");
@@ -223,7 +268,11 @@ void add_dbb(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"answer", "produce"}))
       ->capture_default_str();
   cmd->add_option("--sync-rate-hz", o->sync_rate_hz, "SYNC rate when producing")->capture_default_str();
-  cmd->add_option("--nodes", o->nodes, "node IDs of bar, first axis, second axis")->expected(3)->capture_default_str();
+  cmd->add_option("--nodes", o->nodes,
+                  "node IDs of bar, first axis, second axis and (optional) the axis normal to the plane (z for xy; "
+                  "three-plane: the next node when not given)")
+      ->expected(3, 4)
+      ->capture_default_str();
   cmd->add_option("--resolution-nm", o->resolution_nm, "encoder resolution (object 0x6005:1)")->capture_default_str();
   cmd->add_option("--heartbeat-ms", o->heartbeat_ms, "the nodes' producer heartbeat time at power-on (0x1017; 0: none)")
       ->check(CLI::Range(0, 65535))
@@ -236,7 +285,7 @@ void add_dbb(CLI::App& app, int& exit_code) {
   cmd->add_option("--serial-numbers", o->serial_numbers,
                   "serial numbers (0x1018:4) of bar, first axis, second axis "
                   "(default 1000 + node-ID)")
-      ->expected(3);
+      ->expected(3, 4);
   cmd->add_flag("--auto-start", o->auto_start,
                 "the nodes start themselves (operational after boot-up) instead of waiting for NMT start");
   cmd->add_option("--machine", o->machine_file,
@@ -247,8 +296,10 @@ void add_dbb(CLI::App& app, int& exit_code) {
   cmd->add_option("--direction", o->direction, "ccw or cw")->check(CLI::IsMember({"ccw", "cw"}))->capture_default_str();
   cmd->add_option("--plane", o->plane, "circle plane")->check(CLI::IsMember({"xy", "xz", "yz"}))->capture_default_str();
   cmd->add_option("--overshoot-deg", o->overshoot_deg, "feed-in/feed-out arcs")->capture_default_str();
-  cmd->add_option("--program", o->program, "single: the circle of the options; lai: Lai's three patterns in turn")
-      ->check(CLI::IsMember({"single", "lai"}))
+  cmd->add_option("--program", o->program,
+                  "single: the circle of the options; standard: ccw then cw at h = 0 in the plane; three-plane: xy "
+                  "360 deg, xz and yz 220 deg (z above the centre), ccw then cw each; lai: Lai's three patterns")
+      ->check(CLI::IsMember({"single", "standard", "three-plane", "lai"}))
       ->capture_default_str();
   cmd->add_option("--pause-s", o->pause_s, "standing still after each circle")->capture_default_str();
   cmd->add_option("--duration-s", o->duration_s, "stop after this long (0: until quit/SIGTERM)")->capture_default_str();

@@ -1,6 +1,7 @@
 #include "simulators/machine/dbb_runs.hpp"
 
 #include <cmath>
+#include <numbers>
 #include <sstream>
 #include <stdexcept>
 
@@ -30,6 +31,10 @@ formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& sp
   run.metadata["seed"] = seed.str();
   run.metadata["source"] = "guideway simulate dbb (virtual machine tool)";
   run.metadata["angle_source"] = angles == AngleSource::encoders ? "encoders" : "commanded";
+  if (spec.data_arc_rad < 2.0 * std::numbers::pi - 1e-9) {
+    run.data_arc_rad = spec.data_arc_rad;
+    run.metadata["data_arc_deg"] = shortest(spec.data_arc_rad * 180.0 / std::numbers::pi);
+  }
   double t_start = -1;
   for (const auto& s : raw.samples) {
     if (!s.in_data_arc) continue;
@@ -53,6 +58,21 @@ formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& sp
   return run;
 }
 
+formats::DbbRun with_dropout(const formats::DbbRun& run, double start_s, double duration_s) {
+  formats::DbbRun kept = run;
+  kept.t_s.clear();
+  kept.angle_rad.clear();
+  kept.dL_m.clear();
+  for (std::size_t i = 0; i < run.t_s.size(); ++i) {
+    if (run.t_s[i] > start_s && run.t_s[i] < start_s + duration_s) continue;
+    kept.t_s.push_back(run.t_s[i]);
+    kept.angle_rad.push_back(run.angle_rad[i]);
+    kept.dL_m.push_back(run.dL_m[i]);
+  }
+  formats::validate_dbb_run(kept);
+  return kept;
+}
+
 DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center) {
   DbbCircleSpec spec;
   spec.radius_m = run.radius_m;
@@ -61,6 +81,11 @@ DbbCircleSpec circle_spec_of(const formats::DbbRun& run, const Vec3& center) {
   spec.plane = run.plane == "xz" ? Plane::xz : (run.plane == "yz" ? Plane::yz : Plane::xy);
   spec.feed_m_per_s = run.feed_m_per_s;
   if (!run.angle_rad.empty()) spec.start_angle_rad = std::remainder(run.angle_rad.front(), 2.0 * 3.141592653589793);
+  // A partial arc as the run file states it (data_arc_deg), else as long as its samples reach.
+  if (run.data_arc_rad > 0)
+    spec.data_arc_rad = run.data_arc_rad;
+  else if (run.angle_rad.size() > 1 && !formats::dbb_run_full_circle(run))
+    spec.data_arc_rad = formats::dbb_run_arc_rad(run);
   spec.center = center;
   return spec;
 }

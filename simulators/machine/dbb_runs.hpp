@@ -1,7 +1,8 @@
 #pragma once
 // DBB runs from the virtual machine tool, in the run-file form the identification reads (only the
-// 360 deg data arc; overshoot arcs are dropped), and the virtual machine under a controller's
-// compensation tables (LinuxCNC files, as `guideway compensate --verify` proves them). Thread safe.
+// data arc, 360 deg or the spec's partial arc, stated as data_arc_deg; overshoot arcs are dropped), and the virtual
+// machine under a controller's compensation tables (LinuxCNC files, as `guideway compensate --verify` proves them).
+// Thread safe.
 
 #include <string>
 #include <vector>
@@ -19,6 +20,10 @@ namespace guideway::simulators::machine {
 enum class AngleSource { commanded, encoders };
 formats::DbbRun simulate_dbb_run(const Machine& machine, const DbbCircleSpec& spec,
                                  const std::string& source = "simulated", AngleSource angles = AngleSource::commanded);
+
+// The run less its samples from start_s to start_s + duration_s (times as in the run): a dropout, as a
+// recording loses it. Throws formats::DbbRunFormatError when what is left is not a run (validate_dbb_run).
+formats::DbbRun with_dropout(const formats::DbbRun& run, double start_s, double duration_s);
 
 // The circle test a run file describes (radius, height, direction, feed, plane, start angle), about
 // `center` (machine coordinates, m), so the same test can be traced again on the virtual machine.

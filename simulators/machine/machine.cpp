@@ -304,14 +304,14 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
   const double r = spec.radius_m;
   const double h = spec.height_m;
   run.nominal_length_m = std::sqrt(r * r + h * h);
-  if (!(r > 0) || !(spec.feed_m_per_s > 0) || !(spec.overshoot_rad >= 0)) return run;
+  if (!(r > 0) || !(spec.feed_m_per_s > 0) || !(spec.overshoot_rad >= 0) || !(spec.data_arc_rad > 0)) return run;
   const auto [a, b] = plane_axes(spec.plane);
   Vector3d e1 = Vector3d::Zero(), e2 = Vector3d::Zero();
   e1[a] = 1;
   e2[b] = 1;
   const Vector3d normal = e1.cross(e2);
   const double omega = spec.feed_m_per_s / r;
-  const double sweep = two_pi + 2.0 * spec.overshoot_rad;
+  const double sweep = spec.data_arc_rad + 2.0 * spec.overshoot_rad;
   const double duration = sweep / omega;
   const double sgn = spec.direction == formats::DbbDirection::ccw ? 1.0 : -1.0;
   const double zeta0 = spec.start_angle_rad - sgn * spec.overshoot_rad;
@@ -340,7 +340,7 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
     const double t_rel = s.t_s - spec.t0_s;
     d.angle_rad = zeta0 + sgn * omega * t_rel;
     const double progressed = omega * t_rel;
-    d.in_data_arc = progressed >= spec.overshoot_rad - 1e-12 && progressed <= spec.overshoot_rad + two_pi + 1e-12;
+    d.in_data_arc = progressed >= spec.overshoot_rad - 1e-12 && progressed <= spec.overshoot_rad + spec.data_arc_rad + 1e-12;
     d.tool = s.tool;
     d.encoder = s.encoder;
     d.commanded = s.commanded;

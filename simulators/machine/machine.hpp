@@ -103,8 +103,8 @@ struct DbbErrors {
 };
 
 struct SpindleErrors {
-  double tilt_x_rad = 0.0;  // spindle axis leans towards +x (squareness to the X travel, Mu's Delta beta_xz)
-  double tilt_y_rad = 0.0;  // towards +y
+  double tilt_x_rad = 0.0;      // spindle axis leans towards +x (squareness to the X travel, Mu's Delta beta_xz)
+  double tilt_y_rad = 0.0;      // towards +y
   double axial_runout_m = 0.0;  // twice-per-revolution axial motion amplitude
   // The run-out test's thrust plate (stationary, on the table) is not parallel to the X/Y travel: its
   // normal leans by this angle towards the azimuth `plate_parallelism_direction` (0 = towards +x, as
@@ -202,15 +202,17 @@ enum class Plane { xy, xz, yz };
 
 // A DBB circular test: the tool ball runs a circle of `radius` about `center` in `plane`; the fixed
 // ball sits `height` below it along the plane normal (Lai's h) and off by the configured centre
-// offset. The commanded angle runs from start - overshoot to start + 360 deg + overshoot (ccw) or
-// the mirror image (cw); samples inside the 360 deg data arc are flagged.
+// offset. The commanded angle runs from start - overshoot to start + data arc + overshoot (ccw) or
+// the mirror image (cw); samples inside the data arc (360 deg, or a partial arc such as the 220 deg a
+// vertical plane allows: from -20 to 200 deg ccw, from 200 to -20 deg cw) are flagged.
 struct DbbCircleSpec {
   double radius_m = 0.1;
   double height_m = 0.0;
   formats::DbbDirection direction = formats::DbbDirection::ccw;
   Plane plane = Plane::xy;
-  double feed_m_per_s = 1000.0 / 60000.0;  // 1000 mm/min
-  double start_angle_rad = 0.0;
+  double feed_m_per_s = 1000.0 / 60000.0;     // 1000 mm/min
+  double start_angle_rad = 0.0;               // where the data arc starts
+  double data_arc_rad = 6.283185307179586;    // the arc the samples are taken on (2 pi: a full circle)
   double overshoot_rad = 0.7853981633974483;  // 45 deg feed-in and feed-out arcs
   double sample_rate_hz = 0.0;                // 0 = 10 samples per degree of arc
   Vec3 center{};                              // commanded circle centre (machine coordinates)
