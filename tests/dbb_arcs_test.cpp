@@ -293,7 +293,8 @@ TEST(DbbArcsTest, ExplainAcceptsPartialArcsAndSaysWhatTheyHold) {
   runs[1] = simulators::machine::with_dropout(runs[1], 6.0, 1.1);
   const models::explain::Report r = models::explain::explain_dbb_report(runs);
   const auto has = [&](const std::string& text) {
-    return std::any_of(r.notes.begin(), r.notes.end(), [&](const std::string& n) { return n.find(text) != std::string::npos; });
+    return std::any_of(r.notes.begin(), r.notes.end(),
+                       [&](const std::string& n) { return n.find(text) != std::string::npos; });
   };
   EXPECT_TRUE(has("ccw: a partial data arc of 220.0 deg (-20.0 to 200.0 deg)"));
   EXPECT_TRUE(has("cw: gap of "));

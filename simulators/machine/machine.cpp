@@ -340,14 +340,16 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
     const double t_rel = s.t_s - spec.t0_s;
     d.angle_rad = zeta0 + sgn * omega * t_rel;
     const double progressed = omega * t_rel;
-    d.in_data_arc = progressed >= spec.overshoot_rad - 1e-12 && progressed <= spec.overshoot_rad + spec.data_arc_rad + 1e-12;
+    d.in_data_arc =
+        progressed >= spec.overshoot_rad - 1e-12 && progressed <= spec.overshoot_rad + spec.data_arc_rad + 1e-12;
     d.tool = s.tool;
     d.encoder = s.encoder;
     d.commanded = s.commanded;
     double len = (v(s.tool) - fixed).norm();
     const auto& bar = config_.dbb;
     const double change = len - run.nominal_length_m;
-    len += bar.nonlinearity_quadratic_per_m * change * change + bar.nonlinearity_cubic_per_m2 * change * change * change;
+    len +=
+        bar.nonlinearity_quadratic_per_m * change * change + bar.nonlinearity_cubic_per_m2 * change * change * change;
     len += bar.bar_length_error_m + bar.bar_drift_m_per_s * s.t_s;
     if (bar.slip_m != 0 && s.t_s >= bar.slip_time_s) len += bar.slip_m;
     if (config_.dbb.noise_m > 0) len += config_.dbb.noise_m * rng.normal();
