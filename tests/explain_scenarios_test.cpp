@@ -264,7 +264,5 @@ TEST(ExplainScenarios, AFaultBesideAnEffectIsSetAsideAndLocatedInEveryDomain) {
   simulators::scenarios::ScenarioOptions off;
   off.explain.max_set_aside = 0;
   const auto hidden = simulators::scenarios::run_scenario("dbb_slip_beside_backlash", off);
-  EXPECT_TRUE(hidden.report.findings.empty());
-  const auto found = simulators::scenarios::run_scenario("dbb_slip_beside_backlash");
-  EXPECT_TRUE(found.pass) << found.failure;
+  EXPECT_TRUE(hidden.report.findings.empty());  // with it, the backlash is found (MeetsItsExpectation)
 }
