@@ -20,6 +20,7 @@
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "models/explain/runout_explain.hpp"
 #include "results/parameters.hpp"
 #include "results/session_kinds.hpp"
 #include "simulators/machine/machine.hpp"
@@ -245,10 +246,11 @@ void print_effects(bool json) {
 }
 
 void Opts::add(CLI::App& cmd) {
-  cmd.add_option("files", files, "run or profile files for --model")->check(CLI::ExistingFile);
+  cmd.add_option("files", files, "run, profile or run-out files for --model")->check(CLI::ExistingFile);
   cmd.add_option("--model", model,
-                 "base model refitted to FILES: dbb (DBB runs), flatness or straightness (faced profiles)")
-      ->check(CLI::IsMember({"dbb", "flatness", "straightness"}));
+                 "base model refitted to FILES: dbb (DBB runs), flatness or straightness (faced profiles), runout "
+                 "(spindle run-out records of several revolutions)")
+      ->check(CLI::IsMember({"dbb", "flatness", "straightness", "runout"}));
   cmd.add_option("--straightness", straightness,
                  "with --model flatness: autocollimator traverse of the X carriage (docs/formats.md, Straightness "
                  "traverse), Mu Eq. 16's measured straightness in the base")
@@ -377,6 +379,11 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
   if (o.model.empty()) throw std::runtime_error("explain: give --model MODEL FILES..., or --simulated and --measured");
   if (o.files.empty()) throw std::runtime_error("explain: --model " + o.model + " needs at least one file");
   if (o.model == "dbb") return explain_dbb_runs(o, eo, machine_comparison);
+  if (o.model == "runout") {
+    std::vector<models::explain::RunoutRecord> records;
+    for (const auto& f : o.files) records.push_back(models::explain::read_runout_record(f));
+    return models::explain::explain_runout(records, eo);
+  }
   std::vector<models::explain::ProfileRun> runs;
   for (const auto& f : o.files) runs.push_back(models::explain::read_profile_run(f));
   std::optional<models::flatness::AngleTraverse> traverse;

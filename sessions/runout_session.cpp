@@ -7,6 +7,7 @@
 #include "sessions/session_support.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::sessions {
 
@@ -17,8 +18,8 @@ struct RunoutOptions {
   double parallelism_um = 2.5;
   double parallelism_u_um = 0.0;
   double travel_mm = 600.0;
-  double rpm = 10.0;
-  double revolutions = 1.0;
+  double rpm = 60.0;
+  double revolutions = 20.0;
   std::string channel = "displacement";
 };
 
@@ -85,7 +86,7 @@ class RunoutSession : public Session {
     text_ = revolution_text();
     const models::flatness::RunoutRevolution rev = models::flatness::parse_runout_revolution(text_, "revolution");
     const models::flatness::RunoutResult r = models::flatness::identify_runout(rev);
-    nlohmann::json result = models::flatness::to_json(r);
+    nlohmann::json result = models::flatness::runout_json(rev);
     nlohmann::json j;
     j["model"] = result["model"];
     nlohmann::json g;
@@ -98,6 +99,17 @@ class RunoutSession : public Session {
     }
     j["squareness"] = g;
     j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
+    if (result.contains("error_motion")) {
+      // ISO 230-7 values: peaks-to-valleys of the record as measured (no uncertainty of their own).
+      nlohmann::json em;
+      for (const results::Parameter* p : {&results::total_error_motion, &results::synchronous_error_motion,
+                                          &results::asynchronous_error_motion, &results::fundamental_error_motion}) {
+        const std::string name = results::name(*p);
+        em[name] = {{"value", result["error_motion"][name]}};
+      }
+      j["error_motion"] = em;
+      j["revolution"]["revolutions"] = result["error_motion"]["revolutions"];
+    }
     if (!done_) j["incomplete"] = shortest(angle_deg_.back()) + " of " + shortest(o_.revolutions * 360.0) + " deg";
     j["result"] = result;
     return j;
