@@ -5,6 +5,8 @@
 
 #include "core/number_format.hpp"
 #include "sessions/session_support.hpp"
+#include "models/explain/runout_explain.hpp"
+#include "models/flatness/error_motion.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 #include "results/parameters.hpp"
@@ -127,12 +129,16 @@ class RunoutSession : public Session {
     return write_derived_text(dir, base_name, "runout.csv", text_);
   }
 
-  // The revolution's fit already holds the once- and twice-per-revolution terms, and no effect of the
-  // library is a candidate for what one revolution leaves; said in the EXPLAIN rather than left silent.
+  // `guideway explain --model runout` of the derived file's text, as offline: what the once-per-revolution
+  // base leaves, named from the spindle's library (docs/explain.md, "Run-out").
   std::optional<nlohmann::json> explain() override {
-    return explain_not_analysed(std::string(results::runout_kind.name),
-                                "no explanation model for a run-out revolution yet (its fit already holds the once- "
-                                "and twice-per-revolution terms)");
+    if (text_.empty()) return std::nullopt;
+    const auto rev = models::flatness::parse_runout_revolution(text_, "revolution");
+    if (models::flatness::whole_revolutions(rev.angle_rad) < 2)
+      return explain_not_analysed(std::string(results::runout_kind.name),
+                                  "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
+                                  "told from what does not (record several, e.g. revolutions = 20)");
+    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}));
   }
 
  private:

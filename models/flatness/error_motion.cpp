@@ -72,7 +72,7 @@ ErrorMotionResult error_motion(const std::vector<double>& angle_rad, const std::
   const Eigen::Vector3d p = j.colPivHouseholderQr().solve(y);
   r.fundamental_m = std::hypot(p(1), p(2));
   r.fundamental_phase_rad = std::atan2(p(2), p(1));
-  if (r.fundamental_phase_rad < 0) r.fundamental_phase_rad += two_pi;
+  if (r.fundamental_phase_rad < 0) r.fundamental_phase_rad = std::fmod(r.fundamental_phase_rad + two_pi, two_pi);
   const Eigen::VectorXd res = y - j * p;
   const std::vector<double> e(res.data(), res.data() + n);
   r.total_m = dsp::peak_to_valley(e);
