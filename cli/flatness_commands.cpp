@@ -198,8 +198,9 @@ void run_runout(const RunoutOptions& o, CliContext& /*ctx*/) {
       return;
     }
     const nlohmann::json& em = j["error_motion"];
-    std::cout << "error motion (ISO 230-7) over " << em["revolutions"].get<std::size_t>()
-              << " revolutions, the once-per-revolution term (" << std::setprecision(4)
+    const auto revolutions = em["revolutions"].get<std::size_t>();
+    std::cout << "error motion (ISO 230-7) over " << revolutions << (revolutions == 1 ? " revolution" : " revolutions")
+              << ", the once-per-revolution term (" << std::setprecision(4)
               << em[results::name(results::fundamental_error_motion)].get<double>() << " um) removed:\n";
     for (const results::Parameter* p : {&results::total_error_motion, &results::synchronous_error_motion,
                                         &results::asynchronous_error_motion}) {
