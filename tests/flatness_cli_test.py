@@ -198,13 +198,17 @@ for name, (text, msg) in bad.items():
     check(rc == 1 and msg in err, "bad traverse %s -> %s" % (name, err.strip()))
 
 # --- Run-out ----------------------------------------------------------------------------------------
+def write_runout(path, ang, z, metadata="# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n"):
+    with open(path, "w") as f:
+        f.write(metadata + "angle_deg,runout_um\n")
+        for row in zip(ang, z):
+            f.write("%.17g,%.17g\n" % row)
+
+
 ang = np.arange(0, 360, 2.0)
 z = 0.7 + 0.15 * np.cos(np.radians(ang - 75)) + rng.normal(0, 0.01, ang.size)
 path = os.path.join(tmp, "runout.csv")
-with open(path, "w") as f:
-    f.write("# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n# travel_mm = 600\nangle_deg,runout_um\n")
-    for row in zip(ang, z):
-        f.write("%.17g,%.17g\n" % row)
+write_runout(path, ang, z, "# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n# travel_mm = 600\n")
 rc, out, err = run("runout", path, "--json")
 check(rc == 0, "runout exits 0 " + err.strip())
 ro = json.loads(out)
@@ -243,10 +247,7 @@ phi = np.radians(ang)
 z = (0.2 * np.cos(phi - 1) + 0.12 * np.cos(3 * phi + 0.7) + 0.03 * np.sin(5 * phi) + 0.08 * np.cos(3.7 * phi)
      + 0.002 * phi + rng.normal(0, 0.01, n))
 path = os.path.join(tmp, "runout_revs.csv")
-with open(path, "w") as f:
-    f.write("# plate_diameter_mm = 1000\n# parallelism_um = 2.5\nangle_deg,runout_um\n")
-    for row in zip(ang, z):
-        f.write("%.17g,%.17g\n" % row)
+write_runout(path, ang, z)
 rc, out, err = run("runout", path, "--json")
 check(rc == 0, "runout of 12.3 revolutions exits 0 " + err.strip())
 em = json.loads(out)["error_motion"]
@@ -262,10 +263,7 @@ check("synchronous error motion = " in out and "over 12 revolutions" in out, "th
 # asynchronous part; the once-per-revolution lean is removed first.
 ang = np.arange(0, 360 * 5, 1.0)
 phi = np.radians(ang)
-with open(path, "w") as f:
-    f.write("# plate_diameter_mm = 1000\n# parallelism_um = 0\nangle_deg,runout_um\n")
-    for a_deg, v in zip(ang, 0.5 * np.cos(phi) + 0.1 * np.cos(3 * phi)):
-        f.write("%.17g,%.17g\n" % (a_deg, v))
+write_runout(path, ang, 0.5 * np.cos(phi) + 0.1 * np.cos(3 * phi))
 em = json.loads(run("runout", path, "--json")[1])["error_motion"]
 check(abs(em["synchronous_error_motion_um"] - 0.2) < 1e-6 and abs(em["total_error_motion_um"] - 0.2) < 1e-6
       and em["asynchronous_error_motion_um"] < 1e-9 and abs(em["fundamental_um"] - 0.5) < 1e-9,
