@@ -122,8 +122,7 @@ int run_scenarios(const Opts& o) {
   std::vector<simulators::scenarios::ScenarioSummary> results;
   // --model M: the scenarios of that model only (their names start with it).
   std::vector<std::string> names = o.only.empty() ? simulators::scenarios::scenario_names() : o.only;
-  if (!o.model.empty())
-    std::erase_if(names, [&](const std::string& n) { return n.rfind(o.model + "_", 0) != 0; });
+  if (!o.model.empty()) std::erase_if(names, [&](const std::string& n) { return n.rfind(o.model + "_", 0) != 0; });
   if (names.empty()) throw std::runtime_error("explain --scenarios: no scenario of model " + o.model);
   for (const auto& name : names) {
     results.push_back(simulators::scenarios::summarize_scenario(name, seeds, so));

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "core/csv_table.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
-#include "core/csv_table.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "models/flatness/workpiece_flatness.hpp"
 #include "models/flatness/workpiece_flatness_json.hpp"
@@ -202,8 +202,8 @@ void run_runout(const RunoutOptions& o, CliContext& /*ctx*/) {
     std::cout << "error motion (ISO 230-7) over " << revolutions << (revolutions == 1 ? " revolution" : " revolutions")
               << ", the once-per-revolution term (" << std::setprecision(4)
               << em[results::name(results::fundamental_error_motion)].get<double>() << " um) removed:\n";
-    for (const results::Parameter* p : {&results::total_error_motion, &results::synchronous_error_motion,
-                                        &results::asynchronous_error_motion}) {
+    for (const results::Parameter* p :
+         {&results::total_error_motion, &results::synchronous_error_motion, &results::asynchronous_error_motion}) {
       const auto shown = results::shown(results::name(*p), em[results::name(*p)].get<double>(),
                                         std::numeric_limits<double>::quiet_NaN());
       std::cout << "  " << shown.label << " = " << shown.value << " " << shown.unit << "\n";

@@ -4,12 +4,12 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
-#include "sessions/session_support.hpp"
 #include "models/explain/runout_explain.hpp"
 #include "models/flatness/error_motion.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 #include "results/parameters.hpp"
+#include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
 

@@ -172,5 +172,6 @@ TEST(ExplainEffects, EveryRunoutCandidateIsALibraryEffect) {
   for (const auto& info : models::explain::effect_library())
     if (claims(info, "runout")) expected.insert(info.name);
   EXPECT_EQ(offered, expected);
-  EXPECT_EQ(expected, (std::set<std::string>{"asynchronous_line", "speed_variation", "synchronous_harmonic", "thermal_drift"}));
+  EXPECT_EQ(expected,
+            (std::set<std::string>{"asynchronous_line", "speed_variation", "synchronous_harmonic", "thermal_drift"}));
 }

@@ -70,8 +70,8 @@ TEST(ExplainRunout, FindsWhatTheExampleMachineSpindleHolds) {
     const auto near = [&](const std::string& effect, const std::string& name, double truth) {
       ASSERT_TRUE(f.count(effect)) << effect << " not in " << names(rep);
       const auto& p = f.at(effect).at(name);
-      EXPECT_LT(std::abs(p.value - truth), std::max(4 * p.u, 1e-3)) << effect << " " << name << " " << p.value
-                                                                      << " +/- " << p.u << " (truth " << truth << ")";
+      EXPECT_LT(std::abs(p.value - truth), std::max(4 * p.u, 1e-3))
+          << effect << " " << name << " " << p.value << " +/- " << p.u << " (truth " << truth << ")";
     };
     near("synchronous_harmonic 2.00", "synchronous_harmonic_um", 0.05);
     near("synchronous_harmonic 3.00", "synchronous_harmonic_um", 0.12);

@@ -19,7 +19,8 @@ namespace guideway::models::explain {
 
 namespace effects {
 
-Variant line_variant(const RunoutTerms& t, double order, const results::Parameter& amp, const results::Parameter& phase) {
+Variant line_variant(const RunoutTerms& t, double order, const results::Parameter& amp,
+                     const results::Parameter& phase) {
   const std::size_t pairs = t.runs;
   const auto suffixed = [pairs](const std::string& name, std::size_t k) {
     return pairs > 1 ? results::run_suffixed(name, static_cast<int>(k + 1)) : name;
@@ -39,7 +40,8 @@ Variant line_variant(const RunoutTerms& t, double order, const results::Paramete
     std::vector<ParamValue> out;
     for (std::size_t k = 0; k < pairs; ++k) {
       const auto j = static_cast<Eigen::Index>(2 * k);
-      for (ParamValue& pv : amp_phase(suffixed(amp_name, k), suffixed(phase_name, k), x.segment(j, 2), cov.block(j, j, 2, 2)))
+      for (ParamValue& pv :
+           amp_phase(suffixed(amp_name, k), suffixed(phase_name, k), x.segment(j, 2), cov.block(j, j, 2, 2)))
         out.push_back(std::move(pv));
     }
     return out;
@@ -83,11 +85,13 @@ Problem runout_problem(const std::vector<RunoutRecord>& records) {
   double revolutions = 1e300, per_rev = 1e300;
   for (std::size_t k = 0; k < records.size(); ++k) {
     const RunoutRecord& r = records[k];
-    if (r.angle_rad.size() != r.runout_m.size()) throw std::invalid_argument(r.source + ": angles and readings differ in number");
+    if (r.angle_rad.size() != r.runout_m.size())
+      throw std::invalid_argument(r.source + ": angles and readings differ in number");
     const std::size_t whole = flatness::whole_revolutions(r.angle_rad);
     if (whole < 2)
-      throw std::invalid_argument(r.source + ": " + std::to_string(whole) +
-                                  " whole revolutions; EXPLAIN of a run-out needs at least 2 (what repeats and what does not)");
+      throw std::invalid_argument(
+          r.source + ": " + std::to_string(whole) +
+          " whole revolutions; EXPLAIN of a run-out needs at least 2 (what repeats and what does not)");
     for (std::size_t i = 1; i < r.angle_rad.size(); ++i)
       if (!(r.angle_rad[i] > r.angle_rad[i - 1]))
         throw std::invalid_argument(r.source + ": the angle does not increase at reading " + std::to_string(i + 1));
@@ -96,13 +100,14 @@ Problem runout_problem(const std::vector<RunoutRecord>& records) {
     revolutions = std::min(revolutions, span / two_pi);
     per_rev = std::min(per_rev, static_cast<double>(r.angle_rad.size()) / (span / two_pi));
     for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
-      if (!std::isfinite(r.runout_m[i])) throw std::invalid_argument(r.source + ": reading " + std::to_string(i + 1) + " is not finite");
+      if (!std::isfinite(r.runout_m[i]))
+        throw std::invalid_argument(r.source + ": reading " + std::to_string(i + 1) + " is not finite");
       const double theta = r.angle_rad[i] - a0;
       g.push_back({k, theta, theta / omega, omega});
       p.samples.push_back({k, r.runout_m[i] * 1e6, std::fmod(theta, two_pi) * 180.0 / std::numbers::pi, theta / omega});
     }
-    p.runs.push_back({r.source + " (" + printf_number("%g", r.rpm) + " rpm, " + std::to_string(whole) + " rev)", 1,
-                      0.0, "runout"});
+    p.runs.push_back(
+        {r.source + " (" + printf_number("%g", r.rpm) + " rpm, " + std::to_string(whole) + " rev)", 1, 0.0, "runout"});
   }
   // Base: per record an offset and the once-per-revolution term (the face's tilt, the set-up's centring).
   const std::size_t nr = records.size();
@@ -129,9 +134,10 @@ Problem runout_problem(const std::vector<RunoutRecord>& records) {
   p.candidates = effects::runout_candidates(terms);
   // Records share no clock: a term of time (growth, a line's phase) has its own part per record.
   p.terms_per_run = nr > 1;
-  p.notes.push_back("angles from time at the nominal rpm (the micrometer reads no spindle angle); orders searched up to " +
-                    printf_number("%g", highest) + " per revolution, resolved to 1/" +
-                    printf_number("%.3g", revolutions) + " of an order");
+  p.notes.push_back(
+      "angles from time at the nominal rpm (the micrometer reads no spindle angle); orders searched up to " +
+      printf_number("%g", highest) + " per revolution, resolved to 1/" + printf_number("%.3g", revolutions) +
+      " of an order");
   return p;
 }
 

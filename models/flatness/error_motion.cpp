@@ -47,8 +47,9 @@ ErrorMotionResult error_motion(const std::vector<double>& angle_rad, const std::
   const double a0 = angle_rad.front();
   r.revolutions = whole_revolutions(angle_rad);
   if (r.revolutions < 1)
-    throw std::invalid_argument(source + ": less than one whole revolution recorded; ISO 230-7 error motion needs one "
-                                         "or more (several for the asynchronous part)");
+    throw std::invalid_argument(source +
+                                ": less than one whole revolution recorded; ISO 230-7 error motion needs one "
+                                "or more (several for the asynchronous part)");
   // Whole revolutions only: samples with angle < a0 + 2 pi n (the end is the next revolution's start).
   const double end = a0 + two_pi * static_cast<double>(r.revolutions) * (1.0 - 1e-12);
   std::vector<double> a, z;

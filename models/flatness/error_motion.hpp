@@ -10,7 +10,8 @@
 //                angle: its peak-to-valley (what repeats every revolution: spindle and artifact form);
 //   asynchronous the largest spread across the revolutions at one angle (what does not repeat:
 //                bearing defects at non-integer orders, growth, noise).
-// Only whole revolutions from the first sample count (a sample standing for the step to the next). Pure functions; thread safe; SI units.
+// Only whole revolutions from the first sample count (a sample standing for the step to the next). Pure functions;
+// thread safe; SI units.
 
 #include <cstddef>
 #include <string>
@@ -19,14 +20,14 @@
 namespace guideway::models::flatness {
 
 struct ErrorMotionResult {
-  std::size_t revolutions = 0;     // whole revolutions used
-  std::size_t samples = 0;         // samples in them
-  std::size_t points_per_rev = 0;  // the angle grid of the synchronous average
-  double fundamental_m = 0.0;      // amplitude of the removed once-per-revolution term
+  std::size_t revolutions = 0;         // whole revolutions used
+  std::size_t samples = 0;             // samples in them
+  std::size_t points_per_rev = 0;      // the angle grid of the synchronous average
+  double fundamental_m = 0.0;          // amplitude of the removed once-per-revolution term
   double fundamental_phase_rad = 0.0;  // angle of its maximum, [0, 2 pi)
   double total_m = 0.0;
   double synchronous_m = 0.0;
-  double asynchronous_m = 0.0;  // 0 with one revolution
+  double asynchronous_m = 0.0;              // 0 with one revolution
   std::vector<double> synchronous_curve_m;  // the average revolution, points_per_rev values from angle 0
 };
 

@@ -20,7 +20,7 @@ struct MicrometerArgs {
   std::string parity = "E";
   int unit_id = 1;
   std::string machine_file;
-  double rpm = 60.0;  // the runout session's default
+  double rpm = 60.0;               // the runout session's default
   double probe_radius_mm = 500.0;  // rim of a 1000 mm plate: the runout session's default plate_diameter_mm
   std::size_t samples_per_rev = 360;
   double ring_rate_hz = 10000.0;  // the sample ring (docs/protocols.md, "Buffered acquisition")
@@ -108,7 +108,9 @@ void add_micrometer(CLI::App& app, int& exit_code) {
   sub->add_option("--parity", args->parity, "RTU parity N, E or O")->check(CLI::IsMember({"N", "E", "O"}));
   sub->add_option("--unit-id", args->unit_id, "Modbus unit (slave) id")->capture_default_str();
   sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
-  sub->add_option("--rpm", args->rpm, "spindle speed of the run-out revolutions (the machine file's speed_ramp drifts it)")->capture_default_str();
+  sub->add_option("--rpm", args->rpm,
+                  "spindle speed of the run-out revolutions (the machine file's speed_ramp drifts it)")
+      ->capture_default_str();
   sub->add_option("--probe-radius-mm", args->probe_radius_mm, "probe radius on the thrust plate")
       ->capture_default_str();
   sub->add_option("--samples-per-rev", args->samples_per_rev, "model samples per revolution")->capture_default_str();

@@ -34,29 +34,45 @@ Expectation expect(const std::string& effect, const results::Parameter& p, doubl
 // probe): a growth of g um/min reads -g.
 const std::vector<RunoutScenario>& runout_scenarios() {
   static const std::vector<RunoutScenario> all = {
-      {"runout_harmonic", "a 4-lobed race, 0.03 um, under a 0.15 um once-per-revolution lean and 0.01 um noise",
-       [](machine::MachineConfig& m) { m.spindle.synchronous = {{4, 0.03 * um, 0.5}}; },
+      {"runout_harmonic",
+       "a 4-lobed race, 0.03 um, under a 0.15 um once-per-revolution lean and 0.01 um noise",
+       [](machine::MachineConfig& m) {
+         m.spindle.synchronous = {{4, 0.03 * um, 0.5}};
+       },
        {expect("synchronous_harmonic", results::synchronous_harmonic, 0.03, 0.003)}},
-      {"runout_async_line", "a bearing defect at 2.3 per revolution, 0.03 um: no revolution repeats it",
-       [](machine::MachineConfig& m) { m.spindle.asynchronous = {{2.3, 0.03 * um, 1.0}}; },
+      {"runout_async_line",
+       "a bearing defect at 2.3 per revolution, 0.03 um: no revolution repeats it",
+       [](machine::MachineConfig& m) {
+         m.spindle.asynchronous = {{2.3, 0.03 * um, 1.0}};
+       },
        {expect("asynchronous_line", results::asynchronous_line, 0.03, 0.003)}},
-      {"runout_growth", "axial growth 0.2 um/min: 0.07 um over the 20 s record, a slow trend beside the lean",
+      {"runout_growth",
+       "axial growth 0.2 um/min: 0.07 um over the 20 s record, a slow trend beside the lean",
        [](machine::MachineConfig& m) { m.spindle.axial_growth_m_per_s = 0.2 * um / 60.0; },
        {expect("thermal_drift", results::axial_growth, -0.2, 0.02)}},
-      {"runout_speed_ramp", "the speed rises 2 %/min: the lean's phase slides by 8 deg over the record",
+      {"runout_speed_ramp",
+       "the speed rises 2 %/min: the lean's phase slides by 8 deg over the record",
        [](machine::MachineConfig& m) { m.spindle.speed_ramp_per_s = 0.02 / 60.0; },
        {expect("speed_variation", results::speed_ramp, 2.0, 0.3)}},
-      {"runout_pair", "a 3rd harmonic 0.1 um and a line at 3.7 per revolution 0.05 um: 0.7 of an order apart",
+      {"runout_pair",
+       "a 3rd harmonic 0.1 um and a line at 3.7 per revolution 0.05 um: 0.7 of an order apart",
        [](machine::MachineConfig& m) {
          m.spindle.synchronous = {{3, 0.1 * um, 0.0}};
          m.spindle.asynchronous = {{3.7, 0.05 * um, 2.0}};
        },
        {expect("synchronous_harmonic", results::synchronous_harmonic, 0.1, 0.003),
         expect("asynchronous_line", results::asynchronous_line, 0.05, 0.003)}},
-      {"runout_null_records", "nothing left out: the lean and 0.01 um noise, three records each from its own angle",
-       [](machine::MachineConfig&) {}, {}, 3},
-      {"runout_probe_slip", "outside the library: the probe slips 0.04 um on the plate 60 % into the record",
-       [](machine::MachineConfig&) {}, {}, 1, 0.04},
+      {"runout_null_records",
+       "nothing left out: the lean and 0.01 um noise, three records each from its own angle",
+       [](machine::MachineConfig&) {},
+       {},
+       3},
+      {"runout_probe_slip",
+       "outside the library: the probe slips 0.04 um on the plate 60 % into the record",
+       [](machine::MachineConfig&) {},
+       {},
+       1,
+       0.04},
   };
   return all;
 }
@@ -117,7 +133,8 @@ ScenarioResult runout_scenario(const std::string& name, const ScenarioOptions& o
     s.expect_unexplained = sc.slip_um != 0.0;
     machine::MachineConfig m = spindle_machine(o.seed);
     sc.inject(m);
-    s.report = models::explain::explain(models::explain::runout_problem(records(machine::Machine(m), sc, o)), o.explain);
+    s.report =
+        models::explain::explain(models::explain::runout_problem(records(machine::Machine(m), sc, o)), o.explain);
     check_expectations(s);
     return s;
   }

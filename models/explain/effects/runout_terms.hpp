@@ -32,6 +32,7 @@ struct RunoutTerms {
 // when there are several (each record starts at its own spindle angle and time, so a line keeps its
 // amplitude from record to record but not its phase), reported as amplitude `amp` and phase `phase` (per
 // record: names with _run1, _run2, ...) with the order as the searched value.
-Variant line_variant(const RunoutTerms& t, double order, const results::Parameter& amp, const results::Parameter& phase);
+Variant line_variant(const RunoutTerms& t, double order, const results::Parameter& amp,
+                     const results::Parameter& phase);
 
 }  // namespace guideway::models::explain::effects
