@@ -5,10 +5,10 @@
 #include <numbers>
 #include <sstream>
 
+#include "core/csv_table.hpp"
 #include "models/flatness/error_motion.hpp"
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
-#include "core/csv_table.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"

@@ -335,8 +335,9 @@ TEST(FleetHeadlines, ExplainFindings) {
   const auto r = explain_summary(golden_json("runout.explain.json"));
   EXPECT_FALSE(r.unexplained);
   ASSERT_EQ(r.findings.size(), 4u);
-  EXPECT_EQ(to_text(r), "synchronous_harmonic 0.239 \u00b5m, asynchronous_line 0.16 \u00b5m, synchronous_harmonic 0.0975 "
-                        "\u00b5m, thermal_drift 0.0999 \u00b5m");
+  EXPECT_EQ(to_text(r),
+            "synchronous_harmonic 0.239 \u00b5m, asynchronous_line 0.16 \u00b5m, synchronous_harmonic 0.0975 "
+            "\u00b5m, thermal_drift 0.0999 \u00b5m");
   const auto t = explain_summary(golden_json("straightness.explain.json"));
   EXPECT_TRUE(t.unexplained);
   EXPECT_TRUE(t.findings.empty());
