@@ -2,3 +2,7 @@
 # on all the data kept: size of the optimism and the CPU cost (docs/explain.md "Held out").
 add_executable(explain_heldout_bench ${CMAKE_CURRENT_LIST_DIR}/explain_heldout_bench.cpp)
 target_link_libraries(explain_heldout_bench PRIVATE guideway_explain_scenarios guideway_warnings)
+
+# EXPLAIN's CPU against the samples per run (bench/README.md "EXPLAIN's cost").
+add_executable(explain_cost_bench ${CMAKE_CURRENT_LIST_DIR}/explain_cost_bench.cpp)
+target_link_libraries(explain_cost_bench PRIVATE guideway_explain_scenarios benchmark::benchmark guideway_warnings)

@@ -34,7 +34,7 @@ models::explain::Problem make_problem(const std::function<double(int)>& extra, u
   models::explain::Problem p;
   p.model = "synthetic";
   p.domain = "angle_deg";
-  p.runs.push_back({"run1", 1, 1000, "g"});
+  p.runs.push_back({"run1", 1, 1000, "g", "", 0.0});
   std::mt19937_64 rng(seed);
   p.base.names = {"offset_um", "cos_um", "sin_um"};
   p.base.columns.resize(n, 3);
@@ -146,7 +146,7 @@ TEST(ExplainEngine, RejectsUnusableProblems) {
 
 TEST(ExplainEngine, HoldsOutWholeRunsWhenThereAreThree) {
   auto p = make_problem([](int i) { return 0.3 * step_of(i); }, 7);
-  p.runs = {{"a", 1, 1000, "g"}, {"b", 1, 1000, "g"}, {"c", 1, 1000, "g"}};
+  p.runs = {{"a", 1, 1000, "g", "", 0.0}, {"b", 1, 1000, "g", "", 0.0}, {"c", 1, 1000, "g", "", 0.0}};
   for (int i = 0; i < n; ++i) p.samples[static_cast<std::size_t>(i)].run = static_cast<std::size_t>(std::min(i * 3 / n, 2));
   const auto rep = models::explain::explain(p);
   EXPECT_EQ(rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << rep.heldout_scheme;
@@ -169,7 +169,7 @@ models::explain::Problem peak_problem(double amplitude, unsigned seed) {
   models::explain::Problem p;
   p.model = "synthetic";
   p.domain = "angle_deg";
-  p.runs.push_back({"run1", 1, 1000, "g"});
+  p.runs.push_back({"run1", 1, 1000, "g", "", 0.0});
   std::mt19937_64 rng(seed);
   p.base.names = {"offset_um"};
   p.base.columns = Eigen::MatrixXd::Ones(m, 1);
@@ -323,7 +323,7 @@ TEST(ExplainEngine, GeneratorsSeeNoHeldOutRowAndRunOncePerFold) {
   EXPECT_EQ(probe->masked_calls, 24);
   // Leave-one-run-out (three runs) holds out whole runs: the probe still sees zeros only.
   auto loro = probe_problem(probe = std::make_shared<Probe>());
-  loro.runs = {{"a", 1, 1000, "g"}, {"b", 1, 1000, "g"}, {"c", 1, 1000, "g"}};
+  loro.runs = {{"a", 1, 1000, "g", "", 0.0}, {"b", 1, 1000, "g", "", 0.0}, {"c", 1, 1000, "g", "", 0.0}};
   for (std::size_t i = 0; i < loro.samples.size(); ++i) loro.samples[i].run = std::min<std::size_t>(i * 3 / loro.samples.size(), 2);
   const models::explain::Report loro_rep = models::explain::explain(loro, opt);
   EXPECT_EQ(loro_rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << loro_rep.heldout_scheme;

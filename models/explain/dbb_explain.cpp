@@ -116,6 +116,14 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::ve
   p.model = "dbb";
   p.domain = "angle_deg";
   p.runs = run_infos(runs);
+  // Locations: each run's time zero on the problem's axis (geometry()'s), and the machine clock's origin.
+  if (machine_time) {
+    double origin_s = start_time_of(runs.front());
+    for (const auto& run : runs) origin_s = std::min(origin_s, start_time_of(run));
+    p.clock_origin_s = origin_s;
+    for (std::size_t k = 0; k < runs.size(); ++k) p.runs[k].start_s = start_time_of(runs[k]) - origin_s;
+  }
+  for (std::size_t k = 0; k < runs.size(); ++k) p.runs[k].source = runs[k].source;
   for (const auto& q : g) {
     double deg = std::fmod(q.zeta_rad * 180 / pi, 360.0);
     if (deg < 0) deg += 360;

@@ -13,10 +13,10 @@
 namespace guideway::models::explain {
 
 struct EffectInfo {
-  std::string name;       // as reported (e.g. "servo_mismatch")
-  std::string meaning;    // the physics, one sentence
-  std::string domain;     // where it lives: angle/position, time, direction, feed, reversal
-  std::string signature;  // what it looks like in the residual
+  std::string name;                     // as reported (e.g. "servo_mismatch")
+  std::string meaning;                  // the physics, one sentence
+  std::string domain;                   // where it lives: angle/position, time, direction, feed, reversal
+  std::string signature;                // what it looks like in the residual
   std::vector<std::string> in_base_of;  // models whose base already contains it
   std::vector<std::string> terms;       // models with a candidate term for it
 };

@@ -1,7 +1,9 @@
 #include "models/explain/explain.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <map>
@@ -10,7 +12,9 @@
 #include <optional>
 #include <stdexcept>
 #include <tuple>
+#include <type_traits>
 
+#include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
@@ -46,6 +50,10 @@ double f_test(double rss0, double rss1, double q, double dof1, double m) {
 // solve_lsq's rank analysis) adds no rank.
 constexpr double rank_tolerance = 1e-9;
 
+// Memory the caches of models may hold (each an n x rank basis): at 100,000 samples per run one model is
+// ~40 MB, so a count of entries alone would not bound it.
+constexpr std::size_t cache_budget_bytes = std::size_t{256} << 20;
+
 // The held-out rows' prediction from a least-squares fit to the training rows (jt, yt): no uncertainties
 // wanted, so the minimum-norm solution of the column-scaled problem by a complete orthogonal
 // decomposition (rank as span_basis decides it). Minimum norm, not a basic solution: with columns the
@@ -59,8 +67,20 @@ bool predict(const Eigen::MatrixXd& jt, const Eigen::VectorXd& yt, const Eigen::
   }
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
   cod.setThreshold(rank_tolerance);
-  cod.compute(jt * scale.asDiagonal());
-  const Eigen::VectorXd b = cod.solve(yt);
+  Eigen::VectorXd b;
+  const Eigen::Index p = jt.cols();
+  if (jt.rows() >= 2 * p) {
+    // A tall design is first reduced by a blocked (unpivoted) QR, S = Q0 R0: the minimum-norm solution of
+    // R0 b = (Q0^T y)[:p] is that of S b = y, and the rank-revealing decomposition then works on p x p.
+    const Eigen::HouseholderQR<Eigen::MatrixXd> h(jt * scale.asDiagonal());
+    const Eigen::MatrixXd r0 = h.matrixQR().topRows(p).triangularView<Eigen::Upper>();
+    const Eigen::VectorXd qty = (h.householderQ().transpose() * yt).head(p);
+    cod.compute(r0);
+    b = cod.solve(qty);
+  } else {
+    cod.compute(jt * scale.asDiagonal());
+    b = cod.solve(yt);
+  }
   if (!b.allFinite()) return false;
   out = jh * (scale.asDiagonal() * b);
   return true;
@@ -73,11 +93,39 @@ Eigen::MatrixXd hcat(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 }
 
 // An orthonormal basis of the span of a's columns (each scaled to unit norm first: the base mixes units).
+// The rank and the columns spanned are those of a column-pivoted QR (threshold rank_tolerance); a tall
+// matrix is first reduced by a blocked unpivoted QR (S = Q0 R0: the pivoted QR of R0 pivots as S's, column
+// norms being kept by Q0), and the basis formed as S_P R1^-1 with one Cholesky-QR pass to restore the
+// orthogonality a triangular solve loses (its error ~ cond(R1) x eps, at most 1e-7 at the rank threshold).
+// Both steps are matrix products: the unblocked pivoted QR of the whole n x p matrix was a fifth of
+// explain()'s CPU at 18,000 samples per run.
 Eigen::MatrixXd span_basis(const Eigen::MatrixXd& a) {
   if (a.cols() == 0) return Eigen::MatrixXd(a.rows(), 0);
   Eigen::MatrixXd s = a;
   for (Eigen::Index c = 0; c < s.cols(); ++c)
     if (const double norm = s.col(c).norm(); norm > 0) s.col(c) /= norm;
+  const Eigen::Index p = s.cols();
+  if (s.rows() >= 2 * p) {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> h(s);
+    const Eigen::MatrixXd r0 = h.matrixQR().topRows(p).triangularView<Eigen::Upper>();
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(r0);
+    qr.setThreshold(rank_tolerance);
+    const Eigen::Index r = qr.rank();
+    if (r == 0) return Eigen::MatrixXd(a.rows(), 0);
+    const auto& perm = qr.colsPermutation().indices();
+    Eigen::MatrixXd q(s.rows(), r);
+    for (Eigen::Index c = 0; c < r; ++c) q.col(c) = s.col(perm[c]);
+    const Eigen::MatrixXd r1 = qr.matrixR().topLeftCorner(r, r).triangularView<Eigen::Upper>();
+    r1.triangularView<Eigen::Upper>().solveInPlace<Eigen::OnTheRight>(q);
+    for (int pass = 0; pass < 2; ++pass) {
+      const Eigen::MatrixXd g = q.transpose() * q;
+      const Eigen::LLT<Eigen::MatrixXd> llt(g);
+      if (llt.info() != Eigen::Success) break;
+      llt.matrixU().solveInPlace<Eigen::OnTheRight>(q);
+      if ((g - Eigen::MatrixXd::Identity(r, r)).cwiseAbs().maxCoeff() < 1e-12) break;
+    }
+    return q;
+  }
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s);
   qr.setThreshold(rank_tolerance);
   return qr.householderQ() * Eigen::MatrixXd::Identity(a.rows(), qr.rank());
@@ -110,12 +158,14 @@ struct Extension {
   double rss = 0;
   std::size_t rank = 0;  // added to the model's
 };
-Extension extend(const Model& m, const Eigen::MatrixXd& x) {
-  Eigen::MatrixXd xp = x - m.q * (m.q.transpose() * x);
+// As extend(), from xp = x - Q Q^T x and the norms of x's columns.
+Extension extend_projected(const Model& m, Eigen::MatrixXd xp, const Eigen::VectorXd& norms) {
   // Relative to each column's own size before the projection: a column in the model's span adds nothing.
   for (Eigen::Index c = 0; c < xp.cols(); ++c) {
-    const double norm = x.col(c).norm();
-    xp.col(c) = norm > 0 ? Eigen::VectorXd(xp.col(c) / norm) : Eigen::VectorXd::Zero(xp.rows());
+    if (norms[c] > 0)
+      xp.col(c) /= norms[c];
+    else
+      xp.col(c).setZero();
   }
   Extension e{m.rss, 0};
   if (xp.cols() == 0 || xp.cwiseAbs().maxCoeff() < 1e-7) return e;
@@ -126,6 +176,9 @@ Extension extend(const Model& m, const Eigen::MatrixXd& x) {
   const Eigen::VectorXd qtr = qr.householderQ().transpose() * m.residual;
   e.rss = std::max(0.0, m.rss - qtr.head(static_cast<Eigen::Index>(e.rank)).squaredNorm());
   return e;
+}
+Extension extend(const Model& m, const Eigen::MatrixXd& x) {
+  return extend_projected(m, x - m.q * (m.q.transpose() * x), x.colwise().norm().transpose());
 }
 
 // The rows of each fold.
@@ -150,7 +203,12 @@ std::vector<FoldRows> fold_rows(const std::vector<int>& fold_of, int folds) {
 // A term's columns in one fold: of the variant chosen on that fold's training rows.
 struct FoldBlock {
   Eigen::MatrixXd train, test;
+  std::uint64_t id = 0;  // names these columns for the fold models' cache (0: none)
 };
+FoldBlock fold_block(const Variant& v, const FoldRows& fold) {
+  static std::atomic<std::uint64_t> ids{0};
+  return {v.block.columns(fold.train, Eigen::all), v.block.columns(fold.test, Eigen::all), ++ids};
+}
 
 // An effect in the model: its candidate, the variant chosen on all the data and, per fold, the columns
 // of the variant chosen again on the fold's training rows (docs/explain.md "Held out").
@@ -190,15 +248,42 @@ Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& all
   Choice best;
   double best_bic = 0;
   const auto count = static_cast<double>(m.residual.size());
-  for (std::size_t v = 0; v < variants.size(); ++v) {
-    if (!allowed[v]) continue;
-    const Extension e =
-        rows ? extend(m, variants[v].block.columns(*rows, Eigen::all)) : extend(m, variants[v].block.columns);
-    if (e.rank == 0) continue;
-    const double b = bic_of(e.rss, static_cast<double>(e.rank + variants[v].searched), count);
-    if (best.index == none || b < best_bic) {
-      best = {v, e};
-      best_bic = b;
+  // The variants' columns projected off the model's basis a batch at a time: two matrix products per
+  // batch instead of two passes over the n x rank basis per variant (memory-bound at large n).
+  constexpr Eigen::Index batch_columns = 64;
+  std::size_t v = 0;
+  while (v < variants.size()) {
+    std::vector<std::size_t> members;
+    Eigen::Index width = 0;
+    for (; v < variants.size() && (members.empty() || width + variants[v].block.columns.cols() <= batch_columns); ++v) {
+      if (!allowed[v]) continue;
+      members.push_back(v);
+      width += variants[v].block.columns.cols();
+    }
+    if (members.empty()) continue;
+    Eigen::MatrixXd x(m.residual.size(), width);
+    Eigen::Index at = 0;
+    for (std::size_t k : members) {
+      const auto& c = variants[k].block.columns;
+      if (rows)
+        x.middleCols(at, c.cols()) = c(*rows, Eigen::all);
+      else
+        x.middleCols(at, c.cols()) = c;
+      at += c.cols();
+    }
+    const Eigen::VectorXd norms = x.colwise().norm().transpose();
+    const Eigen::MatrixXd xp = x - m.q * (m.q.transpose() * x);
+    at = 0;
+    for (std::size_t k : members) {
+      const Eigen::Index q = variants[k].block.columns.cols();
+      const Extension e = extend_projected(m, xp.middleCols(at, q), norms.segment(at, q));
+      at += q;
+      if (e.rank == 0) continue;
+      const double b = bic_of(e.rss, static_cast<double>(e.rank + variants[k].searched), count);
+      if (best.index == none || b < best_bic) {
+        best = {k, e};
+        best_bic = b;
+      }
     }
   }
   return best;
@@ -383,7 +468,7 @@ class Selection {
         const Variant* chosen = fixed;
         std::shared_ptr<const std::vector<Variant>> pool;
         if (o_.heldout_reselect) {
-          const Model m = model_of(jt, 0, yt);
+          const Model& m = fold_model(f, terms, skip);
           Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
           r(fold.train) = m.residual;
           pool = generate(cand, r, fold.use);
@@ -392,7 +477,7 @@ class Selection {
           if (ch.index == none) return fail(cand.effect + " has no variant that can be fitted on the training rows");
           chosen = &variants[ch.index];
         }
-        out.trial[f] = {chosen->block.columns(fold.train, Eigen::all), chosen->block.columns(fold.test, Eigen::all)};
+        out.trial[f] = fold_block(*chosen, fold);
         jt = hcat(jt, out.trial[f].train);
         jh = hcat(jh, out.trial[f].test);
       }
@@ -499,19 +584,17 @@ class Selection {
       const FoldRows& fold = folds_[f];
       if (fold.test.empty()) continue;
       if (!o_.heldout_reselect) {
-        t.folds[f] = {now.block.columns(fold.train, Eigen::all), now.block.columns(fold.test, Eigen::all)};
+        t.folds[f] = fold_block(now, fold);
         continue;
       }
-      const Eigen::MatrixXd jt = fold_columns(f, terms, k, true);
-      const Model m = model_of(jt, 0, y_train_[f]);
+      const Model& m = fold_model(f, terms, k);
       Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
       r(fold.train) = m.residual;
       auto fpool = generate(cand, r, fold.use);
       const auto& fv = listed(cand, fpool);
       const Choice fc = choose(fv, allowed(t.cand, fv, terms, k), &fold.train, m);
       if (fc.index == none) continue;  // the fold keeps its earlier choice, made on its training rows too
-      t.folds[f] = {fv[fc.index].block.columns(fold.train, Eigen::all),
-                    fv[fc.index].block.columns(fold.test, Eigen::all)};
+      t.folds[f] = fold_block(fv[fc.index], fold);
     }
   }
 
@@ -614,15 +697,50 @@ class Selection {
     std::vector<std::shared_ptr<const std::vector<Variant>>> pools;
   };
   template <class V>
-  static void remember(std::map<Key, Entry<V>>& cache, const Key& key, const std::vector<Term>& terms, const V& value) {
-    if (cache.size() >= 64) cache.clear();  // bounds the memory (each model holds an n x rank basis)
+  void remember(std::map<Key, Entry<V>>& cache, const Key& key, const std::vector<Term>& terms, const V& value) const {
     Entry<V> e{value, {}};
+    std::size_t bytes = 0;
+    if constexpr (std::is_same_v<V, Model>) bytes += static_cast<std::size_t>(value.q.size() + value.residual.size());
     for (const auto& t : terms)
-      if (t.pool) e.pools.push_back(t.pool);
+      if (t.pool) {
+        e.pools.push_back(t.pool);
+        for (const auto& v : *t.pool) bytes += static_cast<std::size_t>(v.block.columns.size());
+      }
+    bytes *= sizeof(double);
+    // Bounds the memory: each model holds an n x rank basis, each entry the generated variants it keeps alive.
+    std::size_t& held = std::is_same_v<V, Model> ? model_bytes_ : heldout_bytes_;
+    if (cache.size() >= 64 || held + bytes > cache_budget_bytes) {
+      cache.clear();
+      held = 0;
+    }
+    held += bytes;
     cache.emplace(key, std::move(e));
   }
+  mutable std::size_t model_bytes_ = 0, heldout_bytes_ = 0;
   mutable std::map<Key, Entry<Model>> models_;
   mutable std::map<Key, Entry<HeldOut>> heldouts_;
+
+  // The model of the base and the terms (but `skip`) on fold f's training rows, kept by the columns' ids
+  // (a term's fold columns depend on when they were chosen, not only on its variant): every trial of a
+  // forward step and every re-choice is fitted against the same fold models.
+  [[nodiscard]] const Model& fold_model(std::size_t f, const std::vector<Term>& terms, std::size_t skip) const {
+    std::vector<std::uint64_t> key{f};
+    for (std::size_t k = 0; k < terms.size(); ++k)
+      if (k != skip) key.push_back(terms[k].folds[f].id);
+    std::sort(key.begin() + 1, key.end());
+    if (std::find(key.begin() + 1, key.end(), 0) == key.end())
+      if (const auto it = fold_models_.find(key); it != fold_models_.end()) return it->second;
+    Model m = model_of(fold_columns(f, terms, skip, true), 0, y_train_[f]);
+    const std::size_t bytes = static_cast<std::size_t>(m.q.size() + m.residual.size()) * sizeof(double);
+    if (fold_model_bytes_ + bytes > cache_budget_bytes) {
+      fold_models_.clear();
+      fold_model_bytes_ = 0;
+    }
+    fold_model_bytes_ += bytes;
+    return fold_models_.insert_or_assign(std::move(key), std::move(m)).first->second;
+  }
+  mutable std::map<std::vector<std::uint64_t>, Model> fold_models_;
+  mutable std::size_t fold_model_bytes_ = 0;
 
   // Fold f's columns of the base and the terms (but `skip`) on its training or held-out rows.
   [[nodiscard]] Eigen::MatrixXd fold_columns(std::size_t f, const std::vector<Term>& terms, std::size_t skip,
@@ -806,6 +924,9 @@ class EffectSelection {
   }
 
   [[nodiscard]] const std::vector<Term>& terms() const { return terms_; }
+  // The effects held when the share rule first dropped one (partial fits of a cause outside the library
+  // among them): their residual shows such a cause where the base's is structured throughout.
+  [[nodiscard]] const std::optional<std::vector<Term>>& before_share() const { return before_share_; }
   [[nodiscard]] const Model& model() const { return cur_; }
   [[nodiscard]] double heldout() const { return cur_heldout_; }
   // The latest verdict of every candidate without a term, lowest delta BIC first.
@@ -922,6 +1043,7 @@ class EffectSelection {
         }
       }
       if (worst == none) break;
+      if (!before_share_) before_share_ = terms_;
       const std::string effect = p_.candidates[terms_[worst].cand].effect;
       const DropTest d = sel_.significance(terms_, worst, cur_);
       drop(worst, {effect, d.delta_bic, d.p,
@@ -943,6 +1065,7 @@ class EffectSelection {
   double cur_heldout_ = nan;
   std::vector<bool> banned_;
   std::vector<std::optional<Considered>> verdict_;  // the latest, for candidates without a term
+  std::optional<std::vector<Term>> before_share_;
   std::size_t taken_ = 0;
 };
 
@@ -1003,7 +1126,16 @@ void add_findings(const Problem& problem, const Selection& sel, const EffectSele
 
 }  // namespace
 
-Report explain(const Problem& problem, const ExplainOptions& options) {
+namespace {
+
+struct Pass {
+  Report report;
+  // Where the residual of the effects held before the share rule dropped any is structured, place by
+  // place (empty: none dropped, or structured throughout).
+  std::vector<Location> probe;
+};
+
+Pass explain_once(const Problem& problem, const ExplainOptions& options) {
   const Eigen::VectorXd y = observations(problem);
   const std::size_t n = problem.samples.size();
   const auto ranges = run_ranges(problem);
@@ -1041,7 +1173,215 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   const Located fin = locate(problem, cur.residual, options.alpha);
   rep.remaining = fin.places;
   rep.unexplained = fin.structured;
-  return rep;
+  Pass pass{std::move(rep), {}};
+  if (pass.report.unexplained && chosen.before_share()) {
+    const Located probe = locate(problem, sel.model(*chosen.before_share()).residual, options.alpha, sigma);
+    for (const auto& m : probe.places) pass.probe.insert(pass.probe.end(), m.locations.begin(), m.locations.end());
+  }
+  return pass;
+}
+
+// The problem without the samples `keep` leaves out: the base's and every listed variant's rows dropped,
+// each generator given the whole residual (zero on the rows left out) with those rows out of use, its
+// variants' rows dropped; a contribution measured on the whole sample grid (a left-out sample takes its
+// run's nearest kept value).
+struct Reduced {
+  Problem problem;
+  std::vector<Eigen::Index> kept;  // the whole problem's index of each sample
+};
+// `after`: for each place set aside, its run and the first sample after it; from there on (and in every later
+// run) the reading may stand off by a constant, a nuisance column of the base (a step, such as a ball
+// slipping in its socket, leaves the data after it offset from the data before it, whatever is set aside).
+Reduced without_samples(const Problem& p, const std::vector<bool>& keep,
+                        const std::vector<std::pair<std::size_t, std::size_t>>& after) {
+  Reduced out;
+  for (std::size_t i = 0; i < keep.size(); ++i)
+    if (keep[i]) out.kept.push_back(static_cast<Eigen::Index>(i));
+  const auto kept = std::make_shared<const std::vector<Eigen::Index>>(out.kept);
+  const auto n = static_cast<Eigen::Index>(p.samples.size());
+  Problem& q = out.problem;
+  q = p;
+  q.samples.clear();
+  for (const Eigen::Index i : *kept) q.samples.push_back(p.samples[static_cast<std::size_t>(i)]);
+  if (p.base.columns.cols() > 0) q.base.columns = p.base.columns(*kept, Eigen::all);
+  if (!after.empty()) {
+    const Eigen::Index b = q.base.columns.cols();
+    q.base.columns.conservativeResize(static_cast<Eigen::Index>(kept->size()),
+                                      b + static_cast<Eigen::Index>(after.size()));
+    for (std::size_t k = 0; k < after.size(); ++k) {
+      const auto [run, first] = after[k];
+      for (std::size_t i = 0; i < kept->size(); ++i) {
+        const auto w = static_cast<std::size_t>((*kept)[i]);
+        const std::size_t r = p.samples[w].run;
+        q.base.columns(static_cast<Eigen::Index>(i), b + static_cast<Eigen::Index>(k)) =
+            r > run || (r == run && w >= first) ? 1.0 : 0.0;
+      }
+      q.base.names.push_back("offset_after_set_aside_" + std::to_string(k + 1) + "_um");
+    }
+  }
+  for (auto& c : q.candidates) {
+    for (auto& v : c.variants) v.block.columns = Eigen::MatrixXd(v.block.columns(*kept, Eigen::all));
+    if (!c.generate) continue;
+    c.generate = [generate = c.generate, kept, n](const Eigen::VectorXd& r, const std::vector<bool>& use) {
+      Eigen::VectorXd whole = Eigen::VectorXd::Zero(n);
+      std::vector<bool> in_use(static_cast<std::size_t>(n), false);
+      for (std::size_t i = 0; i < kept->size(); ++i) {
+        whole[(*kept)[i]] = r[static_cast<Eigen::Index>(i)];
+        in_use[static_cast<std::size_t>((*kept)[i])] = use[i];
+      }
+      std::vector<Variant> vs = generate(whole, in_use);
+      for (auto& v : vs) v.block.columns = Eigen::MatrixXd(v.block.columns(*kept, Eigen::all));
+      return vs;
+    };
+  }
+  if (p.contribution_of) {
+    std::vector<std::size_t> nearest(static_cast<std::size_t>(n));  // for each sample, the kept one standing in
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < nearest.size(); ++i) {
+      while (k + 1 < kept->size() && (static_cast<std::size_t>((*kept)[k]) < i ||
+                                      p.samples[static_cast<std::size_t>((*kept)[k])].run < p.samples[i].run))
+        ++k;
+      nearest[i] = k;
+    }
+    q.contribution_of = [of = p.contribution_of, nearest = std::move(nearest)](const Eigen::VectorXd& term) {
+      Eigen::VectorXd whole(static_cast<Eigen::Index>(nearest.size()));
+      for (std::size_t i = 0; i < nearest.size(); ++i)
+        whole[static_cast<Eigen::Index>(i)] = term[static_cast<Eigen::Index>(nearest[i])];
+      return of(whole);
+    };
+  }
+  return out;
+}
+
+// The localized places of a report's remaining structure, in the whole problem's samples (`index`: the
+// whole problem's index of each sample of the problem the report is of).
+// Where a pass left structure no effect explains, place by place, in the whole problem's samples
+// (`index`: the whole problem's index of each sample of the pass's problem): the places of its remaining
+// structure, or when that is structured throughout, those of the probe (Pass::probe).
+std::vector<Location> remaining_places(const Pass& pass, const std::vector<Eigen::Index>& index, bool& from_probe) {
+  std::vector<Location> places;
+  for (const auto& m : pass.report.remaining) places.insert(places.end(), m.locations.begin(), m.locations.end());
+  from_probe = places.empty();
+  if (from_probe) places = pass.probe;
+  for (Location& l : places) {
+    l.first_sample = static_cast<std::size_t>(index[l.first_sample]);
+    l.end_sample = static_cast<std::size_t>(index[l.end_sample - 1]) + 1;
+  }
+  return places;
+}
+
+// Sets aside each place and a margin on either side (its own length, at most 1/32 of its run: the tails
+// of a step or a ring-down beyond half its peak). Returns the samples set aside in all.
+std::size_t set_aside(const Problem& p, const std::vector<Location>& places, std::vector<bool>& keep) {
+  const auto ranges = run_ranges(p);
+  for (const auto& l : places) {
+    const auto [a, b] = ranges[p.samples[l.first_sample].run];
+    const std::size_t len = l.end_sample - l.first_sample, margin = std::min(len, (b - a) / 32);
+    const std::size_t from = l.first_sample - std::min(margin, l.first_sample - a);
+    const std::size_t to = std::min(b, l.end_sample + margin);
+    for (std::size_t i = from; i < to; ++i) keep[i] = false;
+  }
+  return static_cast<std::size_t>(std::count(keep.begin(), keep.end(), false));
+}
+
+// Whether each place of what is left repeats in another run: judged among the places reported (those a
+// partial fit's residual showed in other runs are not among them).
+void repeats_among(std::vector<Mismatch>& remaining, const std::string& domain) {
+  std::vector<Location*> all;
+  for (auto& m : remaining)
+    for (auto& l : m.locations) all.push_back(&l);
+  double lo = 1e300, hi = -1e300;
+  for (const Location* l : all) {
+    lo = std::min({lo, l->where.first, l->where.second});
+    hi = std::max({hi, l->where.first, l->where.second});
+  }
+  const double tol = domain == "angle_deg" ? 3.6 : 0.01 * std::max(0.0, hi - lo);
+  for (Location* a : all) {
+    a->repeats_in.clear();
+    const auto [alo, ahi] = std::minmax(a->where.first, a->where.second);
+    for (const Location* b : all) {
+      if (b->run == a->run) continue;
+      const auto [blo, bhi] = std::minmax(b->where.first, b->where.second);
+      if (alo <= bhi + tol && blo <= ahi + tol &&
+          std::find(a->repeats_in.begin(), a->repeats_in.end(), b->run) == a->repeats_in.end())
+        a->repeats_in.push_back(b->run);
+    }
+  }
+}
+
+}  // namespace
+
+// When the residual left is structured at a few places no effect explains, the findings of the first
+// pass may be partial fits of it or nothing at all (each real effect must remove most of the structure
+// left without it, and the unexplained place is part of that structure). The places are set aside and the
+// effects sought again in the rest: what is found there is reported with the places, `unexplained`.
+Report explain(const Problem& problem, const ExplainOptions& options) {
+  Pass first = explain_once(problem, options);
+  const std::size_t n = problem.samples.size();
+  std::vector<Eigen::Index> index(n);
+  for (std::size_t i = 0; i < n; ++i) index[i] = static_cast<Eigen::Index>(i);
+  std::vector<bool> keep(n, true);
+  std::vector<Location> aside;
+  std::vector<std::pair<std::size_t, std::size_t>> after;  // per place set aside: its run, the first sample after it
+  std::optional<Pass> later;
+  // Every place of a residual structured locally; of the probe (Pass::probe) only the strongest a round:
+  // its other places may be the partial fits' leftovers, which the effects found without it explain.
+  for (int round = 0; round < 3 && options.max_set_aside > 0; ++round) {
+    const Pass& cur = later ? *later : first;
+    if (!cur.report.unexplained) break;
+    bool from_probe = false;
+    std::vector<Location> places = remaining_places(cur, index, from_probe);
+    if (places.empty()) break;
+    if (from_probe)
+      places = {*std::max_element(places.begin(), places.end(), [](const Location& a, const Location& b) {
+        return std::abs(a.peak_um) < std::abs(b.peak_um);
+      })};
+    std::vector<bool> trial = keep;
+    const std::size_t count = set_aside(problem, places, trial);
+    if (static_cast<double>(count) > options.max_set_aside * static_cast<double>(n)) break;
+    auto trial_after = after;
+    for (const auto& l : places) {
+      const std::size_t run = problem.samples[l.first_sample].run;
+      std::size_t i = l.end_sample;
+      while (i < n && !trial[i] && problem.samples[i].run == run) ++i;
+      trial_after.emplace_back(run, i);
+    }
+    Reduced reduced = without_samples(problem, trial, trial_after);
+    Pass next = explain_once(reduced.problem, options);
+    keep = std::move(trial);
+    after = std::move(trial_after);
+    index = std::move(reduced.kept);
+    for (auto& l : places) l.set_aside = true;
+    aside.insert(aside.end(), places.begin(), places.end());
+    later = std::move(next);
+  }
+  if (!later) return std::move(first.report);
+  Report out = std::move(later->report);
+  out.n = first.report.n;
+  out.set_aside = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), false));
+  out.noise_um = first.report.noise_um;
+  out.mismatch = first.report.mismatch;
+  Mismatch m;
+  m.domain = problem.domain;
+  m.band = "-";
+  m.evidence =
+      "no effect of the library explains it: set aside, the findings are fitted to the rest, with the reading free "
+      "to stand off by a constant after each place (a nuisance for a step, not a finding)";
+  for (const auto& l : aside) {
+    m.where += (m.where.empty() ? "" : ", ") + l.run + " " + printf_number("%.4g", l.where.first) + ".." +
+               printf_number("%.4g", l.where.second) + (problem.domain == "angle_deg" ? " deg" : " mm");
+    m.ranges.emplace_back(std::min(l.where.first, l.where.second), std::max(l.where.first, l.where.second));
+  }
+  m.locations = aside;
+  out.remaining.insert(out.remaining.begin(), std::move(m));
+  repeats_among(out.remaining, problem.domain);
+  out.unexplained = true;
+  out.notes.push_back(
+      std::to_string(out.set_aside) + " of " + std::to_string(n) + " samples (" +
+      printf_number("%.1f", 100.0 * static_cast<double>(out.set_aside) / static_cast<double>(n)) + " %) at " +
+      std::to_string(aside.size()) +
+      " places no effect explains were set aside; the baseline, findings and final fit are of the rest");
+  return out;
 }
 
 std::vector<Eigen::Index> rows_in_use(const std::vector<bool>& use) {

@@ -35,9 +35,11 @@ struct Sample {
 
 struct RunInfo {
   std::string label;
-  int direction = 1;             // +1 / -1 (ccw / cw, or +x / -x)
+  int direction = 1;  // +1 / -1 (ccw / cw, or +x / -x)
   double feed_mm_per_min = 0.0;
-  std::string geometry;          // runs with equal geometry are compared across direction and feed
+  std::string geometry;  // runs with equal geometry are compared across direction and feed
+  std::string source;    // the run's file or source, for the locations reported
+  double start_s = 0.0;  // the run's time zero on the problems' time axis (Sample::t_s)
 };
 
 // Design columns in um per reported unit, one row per sample.
@@ -77,6 +79,8 @@ struct Problem {
   Block base;  // may have no columns (a given simulation: nothing is refitted)
   std::vector<Candidate> candidates;
   std::vector<std::string> notes;  // passed through to the report
+  // Machine-clock time of t_s = 0 (NaN: the runs share no machine clock), for the locations reported.
+  double clock_origin_s = std::numeric_limits<double>::quiet_NaN();
   // Some candidates have terms of one run alone (a drift offset or a vibration phase per run, when
   // runs share no clock): such a term cannot predict a run held out whole, so held-out rows are then
   // blocks of every run, whatever the number of runs.
@@ -102,7 +106,8 @@ Variant make_variant(const std::vector<Point>& points, std::vector<std::string> 
   for (std::size_t i = 0; i < points.size(); ++i) {
     std::fill(buf.begin(), buf.end(), 0.0);
     row(points[i], buf.data());
-    for (Eigen::Index k = 0; k < q; ++k) v.block.columns(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
+    for (Eigen::Index k = 0; k < q; ++k)
+      v.block.columns(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
   }
   return v;
 }

@@ -18,6 +18,29 @@ namespace {
 // compact. Divided by an exact power of ten, so the shortest decimal form is printed.
 double rounded4(double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; }
 
+std::string unit_of_domain(const std::string& domain) { return domain == "angle_deg" ? "deg" : "mm"; }
+
+// One location in words: the run (file), the place, the times from the run's start and on the machine
+// clock, the size, and whether it repeats.
+std::string location_text(const Location& l, const std::string& domain) {
+  const auto g = [](double v, const char* f) { return printf_number(f, v); };
+  std::string s = l.run + (l.source.empty() ? "" : " [" + l.source + "]") + ": " + g(l.where.first, "%.4g") + ".." +
+                  g(l.where.second, "%.4g") + " " + unit_of_domain(domain) + ", " +
+                  g(l.t_from_run_start_s.first, "%.2f") + ".." + g(l.t_from_run_start_s.second, "%.2f") +
+                  " s from its start";
+  if (std::isfinite(l.t_machine_s.first))
+    s += " (machine clock " + g(l.t_machine_s.first, "%.2f") + ".." + g(l.t_machine_s.second, "%.2f") + " s)";
+  s += ", " + g(l.peak_um, "%+.3g") + " um, ";
+  if (l.repeats_in.empty()) {
+    s += "once (no other run has it at this place)";
+  } else {
+    s += "repeats in";
+    for (const auto& r : l.repeats_in) s += " " + r;
+  }
+  if (l.set_aside) s += "; set aside from the fit of the findings";
+  return s;
+}
+
 }  // namespace
 
 nlohmann::json to_json(const Report& r) {
@@ -29,19 +52,38 @@ nlohmann::json to_json(const Report& r) {
                 {"heldout_rms_um", num(f.heldout_rms_um)},
                 {"parameters", f.parameters}};
   };
-  const auto places = [](const std::vector<Mismatch>& v) {
+  const auto places = [&](const std::vector<Mismatch>& v) {
     json a = json::array();
     for (const auto& m : v) {
       json ranges = json::array();
       for (const auto& [lo, hi] : m.ranges) ranges.push_back({lo, hi});
-      a.push_back(
-          {{"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}});
+      json place{
+          {"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}};
+      if (!m.locations.empty()) {
+        json locs = json::array();
+        const auto pair = [&](std::pair<double, double> p) {
+          return json::array({num(rounded4(p.first)), num(rounded4(p.second))});
+        };
+        for (const auto& l : m.locations)
+          locs.push_back({{"run", l.run},
+                          {"source", l.source},
+                          {"where", pair(l.where)},
+                          {"t_from_run_start_s", pair(l.t_from_run_start_s)},
+                          {"t_machine_s", pair(l.t_machine_s)},
+                          {"peak_um", num(rounded4(l.peak_um))},
+                          {"once", l.repeats_in.empty()},
+                          {"repeats_in", l.repeats_in},
+                          {"set_aside", l.set_aside}});
+        place["locations"] = locs;
+      }
+      a.push_back(std::move(place));
     }
     return a;
   };
   json j;
   j["model"] = r.model;
   j["n"] = r.n;
+  if (r.set_aside > 0) j["set_aside_samples"] = r.set_aside;
   j["noise_um"] = num(r.noise_um);
   j["heldout_scheme"] = r.heldout_scheme;
   j["baseline"] = stats(r.baseline);
@@ -102,8 +144,10 @@ std::string to_text(const Report& r) {
     o << "\nwhere: the baseline residual is indistinguishable from noise (band energies, runs test, Ljung-Box).\n";
   } else {
     o << "\nwhere the residual is not noise:\n";
-    for (const auto& m : r.mismatch)
+    for (const auto& m : r.mismatch) {
       o << "  - " << m.domain << ": " << m.where << "\n      band " << m.band << "\n      " << m.evidence << "\n";
+      for (const auto& l : m.locations) o << "      at " << location_text(l, m.domain) << "\n";
+    }
   }
   if (r.findings.empty()) {
     o << "\nfindings: none of the candidate effects is significant.\n";
@@ -145,7 +189,10 @@ std::string to_text(const Report& r) {
     << g(r.final_fit.heldout_rms_um, "%.3g") << " \u00b5m, BIC " << g(r.final_fit.bic, "%.1f") << "\n";
   if (r.unexplained) {
     o << "UNEXPLAINED: the residual is still structured and no effect in the library accounts for it:\n";
-    for (const auto& m : r.remaining) o << "  - " << m.domain << ": " << m.where << " (" << m.evidence << ")\n";
+    for (const auto& m : r.remaining) {
+      o << "  - " << m.domain << ": " << m.where << " (" << m.evidence << ")\n";
+      for (const auto& l : m.locations) o << "      at " << location_text(l, m.domain) << "\n";
+    }
   } else {
     o << "the remaining residual is consistent with noise.\n";
   }

@@ -30,6 +30,25 @@ struct ExplainOptions {
   bool heldout_reselect = true;    // held-out RMS re-chooses every effect's variant in each fold from its
                                    // training rows; false: the variants chosen on all data (optimistic)
   bool keep_columns = false;       // each Finding keeps its term's columns (Finding::columns_um)
+  // When the residual left is structured at a few places no effect explains (a step, a transient, a burst),
+  // those places are set aside and the effects sought again in the rest, up to this share of the samples
+  // (0: never).
+  double max_set_aside = 0.3;
+};
+
+// A localized structure in every domain the user can act on: the run (and its file), the time from the
+// run's start and on the machine clock, the place in the problem's domain, and whether another run has
+// structure at the same place (position-bound) or not (it happened once).
+struct Location {
+  std::string run;                            // the run's label, e.g. "run2 (cw)"
+  std::string source;                         // the run's file or source ("" when unknown)
+  std::pair<double, double> where{0.0, 0.0};  // in the problem's domain (deg or mm)
+  std::pair<double, double> t_from_run_start_s{0.0, 0.0};
+  std::pair<double, double> t_machine_s{0.0, 0.0};  // NaN when the runs share no machine clock
+  double peak_um = 0.0;
+  std::vector<std::string> repeats_in;           // other runs with structure at the same place (empty: once)
+  bool set_aside = false;                        // its samples were left out of the fit of the findings
+  std::size_t first_sample = 0, end_sample = 0;  // [first, end) in the problem's samples (not reported)
 };
 
 struct Mismatch {
@@ -38,6 +57,7 @@ struct Mismatch {
   std::string band;
   std::string evidence;
   std::vector<std::pair<double, double>> ranges;  // the places in domain units (empty: throughout / n.a.)
+  std::vector<Location> locations;                // the places run by run (localized structure only)
 };
 
 struct Finding {
@@ -81,6 +101,7 @@ struct ResidualStep {
 struct Report {
   std::string model;
   std::size_t n = 0;
+  std::size_t set_aside = 0;   // samples of localized structure no effect explains, left out of the findings' fit
   double noise_um = 0.0;       // from the finest wavelet details of the baseline residual
   std::string heldout_scheme;  // "leave-one-run-out" or "blocked k-fold (k=8)"
   FitStats baseline;

@@ -6,9 +6,9 @@
 #include <optional>
 #include <string>
 
+#include <span>
 #include "core/number_format.hpp"
 #include "dsp/denoise.hpp"
-#include <span>
 #include "dsp/wavelet.hpp"
 #include "models/explain/stats.hpp"
 
@@ -50,7 +50,8 @@ std::string unit_of(const Problem& p) { return p.domain == "angle_deg" ? "deg" :
 std::string band_label(int level, int deepest, bool approx, double step, const std::string& unit) {
   // Detail level j passes periods of about 2^j .. 2^(j+1) samples; the approximation the longer ones.
   if (approx)
-    return "A" + std::to_string(deepest) + " (periods > " + printf_number("%.3g", std::ldexp(step, deepest + 1)) + " " + unit + ")";
+    return "A" + std::to_string(deepest) + " (periods > " + printf_number("%.3g", std::ldexp(step, deepest + 1)) + " " +
+           unit + ")";
   return "D" + std::to_string(level) + " (periods " + printf_number("%.3g", std::ldexp(step, level)) + "-" +
          printf_number("%.3g", std::ldexp(step, level + 1)) + " " + unit + ")";
 }
@@ -83,8 +84,9 @@ std::vector<std::pair<std::size_t, std::size_t>> run_ranges(const Problem& probl
   std::vector<bool> seen(problem.runs.size(), false);
   for (std::size_t i = 0; i < problem.samples.size(); ++i) {
     const std::size_t r = problem.samples[i].run;
-    if (r >= out.size()) throw std::invalid_argument("explain: sample refers to run " + std::to_string(r) + " of " +
-                                                     std::to_string(out.size()));
+    if (r >= out.size())
+      throw std::invalid_argument("explain: sample refers to run " + std::to_string(r) + " of " +
+                                  std::to_string(out.size()));
     if (!seen[r]) {
       out[r] = {i, i + 1};
       seen[r] = true;
@@ -107,8 +109,10 @@ std::vector<double> band_signal(std::span<const double> x, double sigma, const s
     const int slot = b == 0 ? 0 : level + 1 - static_cast<int>(b);
     const bool keep = std::find(flagged.begin(), flagged.end(), slot) != flagged.end();
     for (double& v : c[b]) {
-      if (!keep) v = 0.0;
-      else if (b > 0) v = dsp::apply_threshold(v, lambda, dsp::ThresholdRule::hard);
+      if (!keep)
+        v = 0.0;
+      else if (b > 0)
+        v = dsp::apply_threshold(v, lambda, dsp::ThresholdRule::hard);
     }
   }
   auto y = dsp::waverec(c, db4(), dsp::Mode::periodization);
@@ -164,6 +168,41 @@ struct BandTest {
   std::string evidence;
 };
 
+// A burst: a short event (a knock's ringing, a glitch) adds too little energy to lift a whole band, but a
+// few detail coefficients far above the noise: the largest of each detail band (below the finest, from
+// which the noise is estimated) against sigma, Bonferroni over every coefficient tested. A flagged band
+// joins the located ones (its structure is shown and placed like the others').
+void burst_test(const RunBands& rb, double sigma, double alpha, double step, const std::string& unit, BandTest& out) {
+  if (!(sigma > 0)) return;
+  std::vector<double> largest(static_cast<std::size_t>(rb.deepest) + 1, 0.0);
+  double tested = 0;
+  for (const auto& c : rb.coeffs) {
+    if (c.empty()) continue;
+    const int level = static_cast<int>(c.size()) - 1;
+    for (std::size_t b = 1; b < c.size(); ++b) {
+      const std::size_t slot = static_cast<std::size_t>(level + 1) - b;
+      if (slot < 2) continue;
+      for (double v : c[b]) largest[slot] = std::max(largest[slot], std::abs(v));
+      tested += static_cast<double>(c[b].size());
+    }
+  }
+  for (std::size_t b = 2; b < largest.size(); ++b) {
+    const double z = largest[b] / sigma;
+    const double p = std::min(1.0, normal_two_sided(z) * tested);
+    if (!(p < alpha / 3)) continue;
+    if (std::find(out.flagged.begin(), out.flagged.end(), static_cast<int>(b)) == out.flagged.end())
+      out.flagged.push_back(static_cast<int>(b));
+    if (p < out.p) {
+      out.dominant = band_label(static_cast<int>(b), rb.deepest, false, step, unit);
+      out.merge_gap = std::ldexp(step, static_cast<int>(b));
+      out.p = p;
+      out.evidence = "D" + std::to_string(b) + " has a coefficient " + printf_number("%.3g", z) +
+                     " sigma from zero (a burst; p=" + pfmt(p) + " over " + printf_number("%g", tested) +
+                     " coefficients)";
+    }
+  }
+}
+
 // Band energy per level (level 0 = approximation), each against the finest one (F-test: the noise level is
 // itself estimated from the finest details, so a chi-square with sigma taken as known would be too eager).
 BandTest test_bands(const RunBands& rb, double sigma, double alpha, double step, const std::string& unit) {
@@ -188,8 +227,7 @@ BandTest test_bands(const RunBands& rb, double sigma, double alpha, double step,
   for (std::size_t b = 0; b < bands.size(); ++b) {
     if (b == 1 || bands[b].dof <= 0 || !(ref > 0)) continue;
     const double ratio = bands[b].energy / bands[b].dof / ref;
-    const double p =
-        std::min(1.0, f_sf(ratio, bands[b].dof, finest_band.dof) * static_cast<double>(bands.size() - 1));
+    const double p = std::min(1.0, f_sf(ratio, bands[b].dof, finest_band.dof) * static_cast<double>(bands.size() - 1));
     const double excess = bands[b].energy - bands[b].dof * ref;
     if (p < alpha / 3) out.flagged.push_back(static_cast<int>(b));
     if (p < alpha / 3 && excess > best_excess) {
@@ -201,6 +239,7 @@ BandTest test_bands(const RunBands& rb, double sigma, double alpha, double step,
                      printf_number("%.3g", ratio) + " x the finest details' (F p=" + pfmt(p) + ")";
     }
   }
+  burst_test(rb, sigma, alpha, step, unit, out);
   return out;
 }
 
@@ -310,6 +349,63 @@ std::string where_structured(const Problem& problem, const std::vector<double>& 
   return where;
 }
 
+// The same lobes run by run, as sample ranges: merged within a run when closer than `gap` (domain units),
+// each in every domain the user can act on; a lobe repeats when another run has one at the same place.
+std::vector<Location> run_locations(const Problem& problem, const std::vector<double>& smooth, double peak,
+                                    double gap) {
+  const std::size_t n = problem.samples.size();
+  std::vector<Location> out;
+  const auto distance = [&](double a, double b) {
+    double d = std::abs(a - b);
+    if (problem.domain == "angle_deg") d = std::min(d, 360.0 - d);
+    return d;
+  };
+  for (std::size_t i = 0; i < n;) {
+    if (std::abs(smooth[i]) < 0.5 * peak) {
+      ++i;
+      continue;
+    }
+    const std::size_t run = problem.samples[i].run;
+    std::size_t j = i, last = i;
+    double top = 0;
+    // Extends over samples of the run below half the peak when the next lobe is within `gap`.
+    for (; j < n && problem.samples[j].run == run; ++j) {
+      if (std::abs(smooth[j]) >= 0.5 * peak) {
+        last = j;
+        if (std::abs(smooth[j]) > std::abs(top)) top = smooth[j];
+      } else if (distance(problem.samples[j].where, problem.samples[last].where) > gap) {
+        break;
+      }
+    }
+    Location loc;
+    const RunInfo& ri = problem.runs[run];
+    loc.run = ri.label;
+    loc.source = ri.source;
+    loc.where = {wrap_where(problem, problem.samples[i].where), wrap_where(problem, problem.samples[last].where)};
+    loc.t_from_run_start_s = {problem.samples[i].t_s - ri.start_s, problem.samples[last].t_s - ri.start_s};
+    loc.t_machine_s = {problem.clock_origin_s + problem.samples[i].t_s,
+                       problem.clock_origin_s + problem.samples[last].t_s};
+    loc.peak_um = top;
+    loc.first_sample = i;
+    loc.end_sample = last + 1;
+    out.push_back(std::move(loc));
+    i = last + 1;
+  }
+  // Same place: the ranges overlap, or come within `gap` (a run in the other direction passes it the other way).
+  const auto lo_hi = [](const Location& l) { return std::minmax(l.where.first, l.where.second); };
+  for (auto& a : out)
+    for (const auto& b : out) {
+      if (&a == &b || a.run == b.run) continue;
+      const auto [alo, ahi] = lo_hi(a);
+      const auto [blo, bhi] = lo_hi(b);
+      const bool overlap =
+          (alo <= bhi + gap && blo <= ahi + gap) || distance(alo, bhi) <= gap || distance(blo, ahi) <= gap;
+      if (overlap && std::find(a.repeats_in.begin(), a.repeats_in.end(), b.run) == a.repeats_in.end())
+        a.repeats_in.push_back(b.run);
+    }
+  return out;
+}
+
 // How run i's residual and run j's correlate at the same place: rho and its Fisher z; nullopt when
 // either is too short or flat.
 struct Correlation {
@@ -350,8 +446,7 @@ void compare_runs(const Problem& problem, const Eigen::VectorXd& residual_um,
       const bool dir_pair = ri.direction != rj.direction && ri.feed_mm_per_min == rj.feed_mm_per_min;
       const bool feed_pair = ri.direction == rj.direction && ri.feed_mm_per_min != rj.feed_mm_per_min;
       if (!dir_pair && !feed_pair) continue;
-      if (ranges[i].second - ranges[i].first < min_run_samples ||
-          ranges[j].second - ranges[j].first < min_run_samples)
+      if (ranges[i].second - ranges[i].first < min_run_samples || ranges[j].second - ranges[j].first < min_run_samples)
         continue;
       const auto c = same_place_correlation(problem, residual_um, ranges[i], ranges[j]);
       if (!c || std::abs(c->z) < 4) continue;
@@ -365,6 +460,7 @@ void compare_runs(const Problem& problem, const Eigen::VectorXd& residual_um,
                  " (z=" + printf_number("%.3g", c->z) + "): " +
                  (c->rho < 0 ? "the mismatch flips sign with the direction of motion (velocity-dependent)"
                              : "the mismatch repeats at the same place in both directions (position-dependent)"),
+             {},
              {}});
       } else {
         places.push_back({"feed",
@@ -374,6 +470,7 @@ void compare_runs(const Problem& problem, const Eigen::VectorXd& residual_um,
                           "residuals at the same place correlate " + printf_number("%+.2f", c->rho) +
                               "; the second is " + printf_number("%.3g", c->slope) + " x the first (feed ratio " +
                               printf_number("%.3g", rj.feed_mm_per_min / ri.feed_mm_per_min) + ")",
+                          {},
                           {}});
       }
     }
@@ -413,6 +510,7 @@ void time_trend(const Problem& problem, const Eigen::VectorXd& residual_um,
                       band,
                       "the residual trends " + printf_number("%+.3g", best_slope * 60) +
                           " um/min within the run (z=" + printf_number("%.3g", best_z) + ")",
+                      {},
                       {}});
 }
 
@@ -447,7 +545,9 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
       ")");
   add("noise " + printf_number("%.3g", sigma) + " um from the finest details");
   const std::string band = bands.dominant.empty() ? "broadband" : bands.dominant;
-  out.places.push_back({problem.domain, where, band, evidence, place_ranges});
+  std::vector<Location> locations;
+  if (!place_ranges.empty()) locations = run_locations(problem, out.smooth, peak, std::max(2 * step, bands.merge_gap));
+  out.places.push_back({problem.domain, where, band, evidence, place_ranges, std::move(locations)});
   compare_runs(problem, residual_um, ranges, band, out.places);
   time_trend(problem, residual_um, ranges, sigma, band, out.places);
   return out;

@@ -14,12 +14,12 @@
 namespace guideway::models::explain {
 
 struct Located {
-  double sigma_um = 0.0;           // noise level (MAD of the finest details)
-  bool structured = false;         // any test significant at alpha
-  std::vector<Mismatch> places;    // empty when not structured
-  std::vector<int> flagged;        // bands with significant energy: 0 = approximation, j = detail level j
-  std::vector<double> smooth;      // the flagged bands of the residual, hard-thresholded, per sample
-  double visible_energy = 0.0;     // sum of smooth^2 (um^2)
+  double sigma_um = 0.0;         // noise level (MAD of the finest details)
+  bool structured = false;       // any test significant at alpha
+  std::vector<Mismatch> places;  // empty when not structured
+  std::vector<int> flagged;      // bands with significant energy: 0 = approximation, j = detail level j
+  std::vector<double> smooth;    // the flagged bands of the residual, hard-thresholded, per sample
+  double visible_energy = 0.0;   // sum of smooth^2 (um^2)
 };
 
 // sigma_um > 0 imposes the noise level (e.g. the baseline's) instead of estimating it.

@@ -47,7 +47,8 @@ std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
     const auto& r = runs[k];
     if (r.x_m.size() != r.z_m.size() || r.x_m.size() != r.t_s.size())
       throw std::invalid_argument(r.source + ": x, z and t differ in length");
-    if (r.x_m.size() < 32) throw std::invalid_argument(r.source + ": too few points (" + std::to_string(r.x_m.size()) + ", need 32)");
+    if (r.x_m.size() < 32)
+      throw std::invalid_argument(r.source + ": too few points (" + std::to_string(r.x_m.size()) + ", need 32)");
     if (!(r.feed_mm_per_min > 0) || !(r.spindle_rpm > 0))
       throw std::invalid_argument(r.source + ": feed and spindle speed must be positive");
     for (std::size_t i = 0; i < r.x_m.size(); ++i) {
@@ -62,8 +63,8 @@ std::vector<Pt> points_of(const std::vector<ProfileRun>& runs) {
 std::vector<RunInfo> infos(const std::vector<ProfileRun>& runs) {
   std::vector<RunInfo> out;
   for (std::size_t k = 0; k < runs.size(); ++k)
-    out.push_back({"profile" + std::to_string(k + 1) + " (" + printf_number("%g", runs[k].feed_mm_per_min) + " mm/min)", 1,
-                   runs[k].feed_mm_per_min, "face"});
+    out.push_back({"profile" + std::to_string(k + 1) + " (" + printf_number("%g", runs[k].feed_mm_per_min) + " mm/min)",
+                   1, runs[k].feed_mm_per_min, "face", runs[k].source, 0.0});
   return out;
 }
 
@@ -77,13 +78,24 @@ Problem assemble(const std::vector<ProfileRun>& runs, const std::vector<Pt>& g, 
   p.domain = "position_mm";
   p.runs = infos(runs);
   for (const auto& q : g) p.samples.push_back({q.run, q.y_um, q.x_mm, q.t_s});
+  // Locations: a profile's time counts from its first point; the machine clock is the profiles' own.
+  double origin_s = std::numeric_limits<double>::infinity();
+  for (const auto& r : runs)
+    for (double t : r.t_s) origin_s = std::min(origin_s, t);
+  p.clock_origin_s = origin_s;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    p.runs[k].source = runs[k].source;
+    p.runs[k].start_s =
+        runs[k].t_s.empty() ? 0.0 : *std::min_element(runs[k].t_s.begin(), runs[k].t_s.end()) - origin_s;
+  }
   const effects::ProfileTerms terms{g, runs, reading, measured_pitch, base, y_um, offset_um};
   p.candidates = effects::profile_candidates(terms);
   bool two_feeds = false;
   for (const auto& r : runs) two_feeds |= r.feed_mm_per_min != runs.front().feed_mm_per_min;
   if (!two_feeds)
-    p.notes.push_back("one feed rate only: a thermal drift at constant feed is a straight line in x, the signature of "
-                      "squareness; compare two feed rates to tell them apart");
+    p.notes.push_back(
+        "one feed rate only: a thermal drift at constant feed is a straight line in x, the signature of "
+        "squareness; compare two feed rates to tell them apart");
   return p;
 }
 
@@ -102,7 +114,8 @@ ProfileRun profile_run(const formats::Profile& prof, const std::string& path) {
   if (prof.x_m.empty()) throw std::invalid_argument(path + ": no points");
   const double x0 = meta_number(prof, path, "cut_start_mm", prof.x_m.front() * 1e3, false) * 1e-3;
   for (std::size_t i = 0; i < prof.x_m.size(); ++i) {
-    if (!std::isfinite(prof.z_m[i])) throw std::invalid_argument(path + ": point " + std::to_string(i + 1) + " is invalid (NaN)");
+    if (!std::isfinite(prof.z_m[i]))
+      throw std::invalid_argument(path + ": point " + std::to_string(i + 1) + " is invalid (NaN)");
     r.x_m.push_back(prof.x_m[i]);
     r.z_m.push_back(prof.z_m[i]);
     r.t_s.push_back(t0 + std::abs(prof.x_m[i] - x0) / (r.feed_mm_per_min / 60000.0));
@@ -116,8 +129,9 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
   if (model != "flatness" && model != "straightness")
     throw std::invalid_argument("explain: unknown profile model '" + model + "'");
   if (straightness && model != "flatness")
-    throw std::invalid_argument("explain: a measured straightness traverse (" + straightness->source +
-                                ") belongs to the flatness model (Mu Eq. 16); the straightness model fits its own polynomial");
+    throw std::invalid_argument(
+        "explain: a measured straightness traverse (" + straightness->source +
+        ") belongs to the flatness model (Mu Eq. 16); the straightness model fits its own polynomial");
   auto g = points_of(runs);
   // Eq. 16's measured straightness y2: the traverse's Eq. 10 polynomial (as `guideway identify flatness`
   // evaluates it), a known curve subtracted from every profile; its slope is the pitch (Eq. 12).
@@ -135,20 +149,22 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
       auto& p = g[i];
       if (p.x_mm < x0_mm - tol_mm || p.x_mm > x1_mm + tol_mm)
         throw std::invalid_argument("explain: " + runs[p.run].source + ": x = " + printf_number("%g", p.x_mm) +
-                                    " mm leaves the straightness traverse of " + tr.source + " (" + printf_number("%g", x0_mm) +
-                                    " to " + printf_number("%g", x1_mm) + " mm)");
+                                    " mm leaves the straightness traverse of " + tr.source + " (" +
+                                    printf_number("%g", x0_mm) + " to " + printf_number("%g", x1_mm) + " mm)");
       const double u = (p.x_mm - x0_mm) * 1e-3;
       y2_um[i] = prof.polynomial(u) * 1e6;
       p.pitch_rad = prof.polynomial.slope(u);
       p.y_um -= y2_um[i];
     }
-    straightness_note = "base: Mu Eq. 16 with the measured straightness of " + tr.source + " (Eq. 10 polynomial of order " +
-                        std::to_string(prof.polynomial.order) + ", " + printf_number("%g", x0_mm) + " to " + printf_number("%g", x1_mm) +
+    straightness_note = "base: Mu Eq. 16 with the measured straightness of " + tr.source +
+                        " (Eq. 10 polynomial of order " + std::to_string(prof.polynomial.order) + ", " +
+                        printf_number("%g", x0_mm) + " to " + printf_number("%g", x1_mm) +
                         " mm) subtracted from every profile";
   } else if (model == "flatness") {
-    straightness_note = "measured straightness not supplied (--straightness): the base is Eq. 16's squareness only, so the "
-                        "X carriage's straightness stays in the residual (and abbe_offset, which needs the measured pitch, "
-                        "is not tried)";
+    straightness_note =
+        "measured straightness not supplied (--straightness): the base is Eq. 16's squareness only, so the "
+        "X carriage's straightness stays in the residual (and abbe_offset, which needs the measured pitch, "
+        "is not tried)";
   }
   Block base;
   const std::size_t nr = runs.size();
@@ -158,7 +174,8 @@ Problem profile_problem(const std::vector<ProfileRun>& runs, const std::string& 
   } else {
     for (const char* n : {"slope_urad", "quadratic_um_per_mm2", "cubic_um_per_mm3"}) base.names.push_back(n);
   }
-  base.columns = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(g.size()), static_cast<Eigen::Index>(base.names.size()));
+  base.columns =
+      Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(g.size()), static_cast<Eigen::Index>(base.names.size()));
   // Polynomials about the middle of the x range (conditioning).
   double lo = 1e300, hi = -1e300;
   for (const auto& p : g) {
@@ -197,8 +214,8 @@ Problem profile_compare_problem(const ProfileRun& simulated, const ProfileRun& m
                                 " points, " + measured.source + " has " + std::to_string(measured.x_m.size()));
   for (std::size_t i = 0; i < simulated.x_m.size(); ++i)
     if (std::abs(simulated.x_m[i] - measured.x_m[i]) > 1e-9)
-      throw std::invalid_argument("explain: " + simulated.source + " and " + measured.source + " differ in x at point " +
-                                  std::to_string(i + 1));
+      throw std::invalid_argument("explain: " + simulated.source + " and " + measured.source +
+                                  " differ in x at point " + std::to_string(i + 1));
   ProfileRun diff = measured;
   for (std::size_t i = 0; i < diff.z_m.size(); ++i) diff.z_m[i] -= simulated.z_m[i];
   const std::vector<ProfileRun> runs{diff};

@@ -12,14 +12,16 @@
 #include <string>
 #include <vector>
 
+#include "formats/dbb_run.hpp"
 #include "models/explain/explain_result.hpp"
 
 namespace guideway::simulators::scenarios {
 
 struct ScenarioOptions {
-  bool quick = true;      // 3 samples per degree (unit tests) where an effect does not need the instrument's
-                          // 10 (spikes, jerks, the servo lag keep 10); false: 10 everywhere
-  std::uint64_t seed = 1;  // noise seed
+  bool quick = true;             // 3 samples per degree (unit tests) where an effect does not need the instrument's
+                                 // 10 (spikes, jerks, the servo lag keep 10); false: 10 everywhere
+  std::uint64_t seed = 1;        // noise seed
+  double samples_per_deg = 0.0;  // DBB runs' sample density; 0: as `quick` says (3 or 10)
   // Added to every run's machine time, as a recording on a Unix-epoch clock would carry it: the
   // findings must not depend on where the clock starts.
   double clock_origin_s = 0.0;
@@ -28,31 +30,32 @@ struct ScenarioOptions {
 
 // One injected effect the scenario's model can see, and how it is checked.
 struct Expectation {
-  std::string effect;     // as reported (e.g. "backlash")
-  std::string parameter;  // the checked parameter (e.g. "backlash_x_um")
-  double truth = 0.0;     // what the virtual machine holds, in the parameter's unit
-  double tolerance = 0.0; // absolute
+  std::string effect;      // as reported (e.g. "backlash")
+  std::string parameter;   // the checked parameter (e.g. "backlash_x_um")
+  double truth = 0.0;      // what the virtual machine holds, in the parameter's unit
+  double tolerance = 0.0;  // absolute
 };
 
 // What one scenario run found for one expectation.
 struct Check {
   Expectation expected;
-  bool found = false;  // a finding of the effect reports the parameter
-  double value = 0.0;  // NaN when not found
-  double u = 0.0;      // its standard uncertainty (NaN when searched on a grid or not found)
-  bool within = false; // |value - truth| <= tolerance
+  bool found = false;   // a finding of the effect reports the parameter
+  double value = 0.0;   // NaN when not found
+  double u = 0.0;       // its standard uncertainty (NaN when searched on a grid or not found)
+  bool within = false;  // |value - truth| <= tolerance
 };
 
 struct ScenarioResult {
   std::string name;
-  std::string model;        // dbb, flatness, straightness
-  std::string concealment;  // what is injected and how it hides
+  std::string model;                  // dbb, flatness, straightness
+  std::string concealment;            // what is injected and how it hides
   std::vector<Expectation> expected;  // every effect injected that the model can see; empty = none
   bool expect_unexplained = false;
   std::string expect_where;  // for a cause outside the library: the place that must be located
+  std::string located;       // ... and where it was
   models::explain::Report report;
-  std::vector<Check> checks;        // one per expectation
-  std::vector<std::string> extra;   // findings no expectation accounts for
+  std::vector<Check> checks;       // one per expectation
+  std::vector<std::string> extra;  // findings no expectation accounts for
   bool pass = false;
   std::string failure;  // why not, when !pass
 };
@@ -66,6 +69,9 @@ ScenarioResult runout_scenario(const std::string& name, const ScenarioOptions& o
 void check_expectations(ScenarioResult& s);
 // Throws std::invalid_argument for an unknown name.
 ScenarioResult run_scenario(const std::string& name, const ScenarioOptions& options = {});
+// A DBB scenario's runs as the virtual machine traces them (what run_scenario explains), e.g. for the cost
+// benchmark at a given sample density. Throws std::invalid_argument for a name that is not a DBB scenario.
+std::vector<formats::DbbRun> scenario_dbb_runs(const std::string& name, const ScenarioOptions& options = {});
 
 // A scenario over several noise seeds: per expectation how often it was found, the mean and scatter of
 // its value, the mean reported u and the largest |value - truth| / u; the held-out RMS before and after.

@@ -162,23 +162,34 @@ class LineSearch {
     return pw;
   }
 
-  // The exact periodogram at f (direction `which`).
-  [[nodiscard]] double power(double f, int which, const Eigen::VectorXd& r) const {
+  // The exact periodogram at f, f + h, ..., f + 4h (direction `which`): per sample one phasor at f and one
+  // step of h, multiplied on (two sine-cosine pairs a sample instead of five).
+  [[nodiscard]] std::array<double, 5> powers(double f, double h, int which, const Eigen::VectorXd& r) const {
     const auto& gg = *geo_;
-    double total = 0, re = 0, im = 0;
-    for (std::size_t j = 0; j < gg.size(); ++j) {
-      if (j > 0 && gg[j].run != gg[j - 1].run) {
-        total += re * re + im * im;
-        re = im = 0;
+    std::array<double, 5> total{}, re{}, im{};
+    const auto flush = [&] {
+      for (std::size_t k = 0; k < 5; ++k) {
+        total[k] += re[k] * re[k] + im[k] * im[k];
+        re[k] = im[k] = 0;
       }
+    };
+    for (std::size_t j = 0; j < gg.size(); ++j) {
+      if (j > 0 && gg[j].run != gg[j - 1].run) flush();
       const double v = weight(gg[j], which) * r[static_cast<Eigen::Index>(j)];
       if (v == 0.0) continue;
-      double sn = 0, cs = 0;
+      double sn = 0, cs = 0, sh = 0, ch = 0;
       dbb::fast_sincos(2 * pi * f * gg[j].t_s, sn, cs);
-      re += v * cs;
-      im -= v * sn;
+      dbb::fast_sincos(2 * pi * h * gg[j].t_s, sh, ch);
+      for (std::size_t k = 0; k < 5; ++k) {
+        re[k] += v * cs;
+        im[k] -= v * sn;
+        const double c2 = cs * ch - sn * sh;
+        sn = sn * ch + cs * sh;
+        cs = c2;
+      }
     }
-    return total + re * re + im * im;
+    flush();
+    return total;
   }
 
   // The strongest grid point, then the strongest at least `apart_` from it.
@@ -200,8 +211,7 @@ class LineSearch {
   // loses much of a line that is a fraction of a grid step off).
   [[nodiscard]] double refined_frequency(std::size_t q, int which, const Eigen::VectorXd& r) const {
     const double f0 = df_ * static_cast<double>(q_lo_ + q), h = 0.5 * df_;
-    std::array<double, 5> pk{};
-    for (int k = 0; k < 5; ++k) pk[static_cast<std::size_t>(k)] = power(f0 + (k - 2) * h, which, r);
+    const std::array<double, 5> pk = powers(f0 - 2 * h, h, which, r);
     const auto top = static_cast<std::size_t>(std::max_element(pk.begin(), pk.end()) - pk.begin());
     double offset = 0.0;
     if (top > 0 && top < 4) {
