@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -11,13 +12,14 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "core/csv_table.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
-#include "core/csv_table.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "models/flatness/workpiece_flatness.hpp"
 #include "models/flatness/workpiece_flatness_json.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::cli {
 
@@ -172,8 +174,9 @@ void run_runout(const RunoutOptions& o, CliContext& /*ctx*/) {
   run_reporting([&] {
     const auto rev = models::flatness::read_runout_revolution(o.file);
     const auto r = models::flatness::identify_runout(rev);
+    const nlohmann::json j = models::flatness::runout_json(rev);
     if (o.json) {
-      std::cout << models::flatness::to_json(r).dump() << "\n";
+      std::cout << j.dump() << "\n";
       return;
     }
     std::cout << std::fixed << std::setprecision(4);
@@ -190,6 +193,21 @@ void run_runout(const RunoutOptions& o, CliContext& /*ctx*/) {
       std::cout << "squareness amplitude over " << std::setprecision(1) << *r.travel_m * 1e3
                 << " mm travel: " << std::setprecision(3) << *r.squareness_amplitude_m * 1e6 << " um (u "
                 << *r.u_squareness_amplitude_m * 1e6 << ")\n";
+    if (!j.contains("error_motion")) {
+      std::cout << "error motion (ISO 230-7): less than one whole revolution recorded\n";
+      return;
+    }
+    const nlohmann::json& em = j["error_motion"];
+    const auto revolutions = em["revolutions"].get<std::size_t>();
+    std::cout << "error motion (ISO 230-7) over " << revolutions << (revolutions == 1 ? " revolution" : " revolutions")
+              << ", the once-per-revolution term (" << std::setprecision(4)
+              << em[results::name(results::fundamental_error_motion)].get<double>() << " um) removed:\n";
+    for (const results::Parameter* p :
+         {&results::total_error_motion, &results::synchronous_error_motion, &results::asynchronous_error_motion}) {
+      const auto shown = results::shown(results::name(*p), em[results::name(*p)].get<double>(),
+                                        std::numeric_limits<double>::quiet_NaN());
+      std::cout << "  " << shown.label << " = " << shown.value << " " << shown.unit << "\n";
+    }
   });
 }
 

@@ -1,16 +1,19 @@
 // Straightness traverses, Union Jack plates and run-out revolutions (models/flatness).
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <sstream>
 
+#include "core/csv_table.hpp"
+#include "models/flatness/error_motion.hpp"
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
-#include "core/csv_table.hpp"
 #include "models/flatness/union_jack.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
 #include "report/svg.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::report {
 
@@ -234,6 +237,22 @@ std::string runout_section(const std::string& path, const std::string& id) {
                       um_u(*r.squareness_amplitude_m, r.u_squareness_amplitude_m.value_or(0)), "\u00b5m"});
   t.rows.push_back({"fit residual rms", format_fixed(r.residual_rms_m * 1e6, 4), "\u00b5m"});
   body << html_table(t);
+  if (models::flatness::whole_revolutions(rev.angle_rad) >= 1) {
+    // ISO 230-7 values of the record (models/flatness/error_motion: the once-per-revolution term removed).
+    const auto em = models::flatness::error_motion(rev.angle_rad, rev.runout_m, path);
+    Table e{"Spindle error motion (ISO 230-7) over " + std::to_string(em.revolutions) + " revolution" +
+                (em.revolutions == 1 ? "" : "s") + ", the once-per-revolution term removed",
+            {"quantity", "value", "unit"},
+            {}};
+    for (const auto& [p, v] : {std::pair{&results::total_error_motion, em.total_m},
+                               std::pair{&results::synchronous_error_motion, em.synchronous_m},
+                               std::pair{&results::asynchronous_error_motion, em.asynchronous_m},
+                               std::pair{&results::fundamental_error_motion, em.fundamental_m}}) {
+      const auto shown = results::shown(results::name(*p), v * 1e6, std::numeric_limits<double>::quiet_NaN());
+      e.rows.push_back({html_escape(shown.label), html_escape(shown.value), html_escape(shown.unit)});
+    }
+    body << html_table(e);
+  }
   return html_section("runout", id, "Spindle run-out and squareness: " + base_name(path), body.str());
 }
 

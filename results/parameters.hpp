@@ -352,6 +352,40 @@ inline constexpr Parameter runout_squareness{"squareness_urad",
                                              1};
 inline constexpr Parameter runout{
     "runout_um", "run-out", "runout", "squareness", "once-per-revolution run-out on the thrust plate", 2};
+// ---- Run-out: ISO 230-7 spindle error motion of the record (models/flatness/error_motion) -------------------
+inline constexpr Parameter total_error_motion{
+    "total_error_motion_um", "total error motion", "runout", "error_motion",
+    "ISO 230-7 total error motion: peak-to-valley of the record, once-per-revolution term removed"};
+inline constexpr Parameter synchronous_error_motion{
+    "synchronous_error_motion_um", "synchronous error motion", "runout", "error_motion",
+    "ISO 230-7 synchronous error motion: peak-to-valley of the average revolution, once-per-revolution term removed"};
+inline constexpr Parameter asynchronous_error_motion{
+    "asynchronous_error_motion_um", "asynchronous error motion", "runout", "error_motion",
+    "ISO 230-7 asynchronous error motion: the widest spread across revolutions at one angle"};
+inline constexpr Parameter fundamental_error_motion{
+    "fundamental_um", "once-per-revolution term (removed)", "runout", "error_motion",
+    "amplitude of the once-per-revolution sinusoid removed before the error motion values (the face's tilt)"};
+// ---- Run-out: EXPLAIN's effect parameters of a spindle run-out record (runout_explain) ---------------------
+inline constexpr Parameter runout_order_sin{"order_sin", "line (sine)", "runout", "", "fit column: a line's sine part"};
+inline constexpr Parameter runout_order_cos{"order_cos", "line (cosine)", "runout", "",
+                                            "fit column: a line's cosine part"};
+inline constexpr Parameter runout_order{"order_per_rev", "order", "runout", "",
+                                        "a line's frequency in cycles per spindle revolution (searched)"};
+inline constexpr Parameter synchronous_harmonic{"synchronous_harmonic_um", "synchronous harmonic", "runout", "",
+                                                "amplitude of a harmonic that repeats every revolution"};
+inline constexpr Parameter synchronous_harmonic_phase{"synchronous_harmonic_phase_deg", "synchronous harmonic phase",
+                                                      "runout", "", "its phase"};
+inline constexpr Parameter asynchronous_line{"asynchronous_line_um", "asynchronous line", "runout", "",
+                                             "amplitude of a line at a non-integer order (a bearing defect)"};
+inline constexpr Parameter asynchronous_line_phase{"asynchronous_line_phase_deg", "asynchronous line phase", "runout",
+                                                   "", "its phase at the record's start"};
+inline constexpr Parameter axial_growth{"axial_growth_um_per_min", "axial thermal growth", "runout", "",
+                                        "growth of the spindle along its axis with time"};
+inline constexpr Parameter speed_offset{"speed_offset_percent", "speed offset", "runout", "",
+                                        "the spindle's speed above the nominal rpm"};
+inline constexpr Parameter speed_ramp{"speed_ramp_percent_per_min", "speed ramp", "runout", "",
+                                      "change of the spindle's speed with time"};
+
 inline constexpr Parameter horizontal_straightness{
     "horizontal_straightness_um",
     "straightness h",

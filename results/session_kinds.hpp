@@ -126,9 +126,16 @@ inline constexpr SessionOption runout_parallelism_u_um{
     "parallelism_u_um", OptionType::number, 0.0, 0.0, 1e4, {}, {}, "its standard uncertainty"};
 inline constexpr SessionOption runout_travel_mm{
     "travel_mm", OptionType::number, 600.0, 0.0, 1e5, {}, {}, "travel the squareness is given over"};
-inline constexpr SessionOption runout_rpm{"rpm", OptionType::number, 10.0, 0.01, 1e5, {}, {}, "spindle speed (1/min)"};
-inline constexpr SessionOption runout_revolutions{"revolutions",          OptionType::number, 1.0, 1.0, 1000.0, {}, {},
-                                                  "revolutions to record"};
+inline constexpr SessionOption runout_rpm{"rpm", OptionType::number, 60.0, 0.01, 1e5, {}, {}, "spindle speed (1/min)"};
+// Several revolutions: ISO 230-7's synchronous (average) and asynchronous (spread) error motions.
+inline constexpr SessionOption runout_revolutions{"revolutions",
+                                                  OptionType::number,
+                                                  20.0,
+                                                  1.0,
+                                                  1000.0,
+                                                  {},
+                                                  {},
+                                                  "revolutions to record (ISO 230-7 error motion: several)"};
 inline constexpr SessionOption runout_channel{
     "channel", OptionType::text, 0, 0, 0, "displacement", {}, "the device channel that reads the run-out"};
 

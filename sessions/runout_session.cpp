@@ -4,8 +4,11 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
+#include "models/explain/runout_explain.hpp"
+#include "models/flatness/error_motion.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
+#include "results/parameters.hpp"
 #include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
@@ -17,8 +20,8 @@ struct RunoutOptions {
   double parallelism_um = 2.5;
   double parallelism_u_um = 0.0;
   double travel_mm = 600.0;
-  double rpm = 10.0;
-  double revolutions = 1.0;
+  double rpm = 60.0;
+  double revolutions = 20.0;
   std::string channel = "displacement";
 };
 
@@ -84,7 +87,7 @@ class RunoutSession : public Session {
     text_ = revolution_text();
     const models::flatness::RunoutRevolution rev = models::flatness::parse_runout_revolution(text_, "revolution");
     const models::flatness::RunoutResult r = models::flatness::identify_runout(rev);
-    nlohmann::json result = models::flatness::to_json(r);
+    nlohmann::json result = models::flatness::runout_json(rev);
     nlohmann::json j;
     j["model"] = result["model"];
     nlohmann::json g;
@@ -97,6 +100,17 @@ class RunoutSession : public Session {
     }
     j["squareness"] = g;
     j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
+    if (result.contains("error_motion")) {
+      // ISO 230-7 values: peaks-to-valleys of the record as measured (no uncertainty of their own).
+      nlohmann::json em;
+      for (const results::Parameter* p : {&results::total_error_motion, &results::synchronous_error_motion,
+                                          &results::asynchronous_error_motion, &results::fundamental_error_motion}) {
+        const std::string name = results::name(*p);
+        em[name] = {{"value", result["error_motion"][name]}};
+      }
+      j["error_motion"] = em;
+      j["revolution"]["revolutions"] = result["error_motion"]["revolutions"];
+    }
     if (!done_) j["incomplete"] = shortest(angle_deg_.back()) + " of " + shortest(o_.revolutions * 360.0) + " deg";
     j["result"] = result;
     return j;
@@ -114,12 +128,16 @@ class RunoutSession : public Session {
     return write_derived_text(dir, base_name, "runout.csv", text_);
   }
 
-  // The revolution's fit already holds the once- and twice-per-revolution terms, and no effect of the
-  // library is a candidate for what one revolution leaves; said in the EXPLAIN rather than left silent.
+  // `guideway explain --model runout` of the derived file's text, as offline: what the once-per-revolution
+  // base leaves, named from the spindle's library (docs/explain.md, "Run-out").
   std::optional<nlohmann::json> explain() override {
-    return explain_not_analysed(std::string(results::runout_kind.name),
-                                "no explanation model for a run-out revolution yet (its fit already holds the once- "
-                                "and twice-per-revolution terms)");
+    if (text_.empty()) return std::nullopt;
+    const auto rev = models::flatness::parse_runout_revolution(text_, "revolution");
+    if (models::flatness::whole_revolutions(rev.angle_rad) < 2)
+      return explain_not_analysed(std::string(results::runout_kind.name),
+                                  "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
+                                  "told from what does not (record several, e.g. revolutions = 20)");
+    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}));
   }
 
  private:

@@ -5,6 +5,8 @@
 // configured errors, and its derived file identifies offline to the very same result.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <cmath>
 #include <numbers>
 
@@ -200,7 +202,7 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   const auto rev = machine.runout_revolution(spec);
   auto device = micrometer_device();
   auto session = sessions::runout_session_kind().create(
-      {"runout", "", {{"plate_diameter_mm", 100}, {"parallelism_um", 0.25}}}, device);
+      {"runout", "", {{"plate_diameter_mm", 100}, {"parallelism_um", 0.25}, {"rpm", 10}, {"revolutions", 1}}}, device);
   std::vector<Sample> out;
   for (const auto& r : rev) out.push_back(sample(50.0 + r.t_s, {r.displacement_m}));
   session->on_samples(std::span(out).first(150));
@@ -223,9 +225,48 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "r");
   ASSERT_EQ(files.size(), 1u);
-  EXPECT_EQ(
-      models::flatness::to_json(models::flatness::identify_runout(models::flatness::read_runout_revolution(files[0]))),
-      p["result"]);
+  EXPECT_EQ(models::flatness::runout_json(models::flatness::read_runout_revolution(files[0])), p["result"]);
+  // One revolution: its error motion has no asynchronous part, and there is nothing to explain it from.
+  EXPECT_EQ(p["revolution"]["revolutions"], 1);
+  const auto e = session->explain();
+  ASSERT_TRUE(e);
+  EXPECT_NE((*e)["not_analysed"].get<std::string>().find("fewer than 2 whole revolutions"), std::string::npos) << *e;
+}
+
+// The defaults: 20 revolutions at 60 rpm of the example machine's spindle, read at 50 Hz: the ISO 230-7
+// values and an EXPLAIN that names the spindle's errors (the machine file's) and nothing else.
+TEST(RunoutSession, TwentyRevolutionsGiveTheErrorMotionAndTheirExplanation) {
+  const simulators::machine::Machine machine(simulators::machine::default_machine_config());
+  simulators::machine::RunoutSpec spec;
+  spec.rpm = 60;
+  spec.samples_per_rev = 50;
+  spec.revolutions = 21;
+  auto device = micrometer_device();
+  auto session = sessions::runout_session_kind().create({"runout", "", nlohmann::json::object()}, device);
+  std::vector<Sample> out;
+  for (const auto& r : machine.runout_revolution(spec)) out.push_back(sample(50.0 + r.t_s, {r.displacement_m}));
+  session->on_samples(out);
+  ASSERT_TRUE(session->complete());
+  const auto p = session->identify();
+  EXPECT_EQ(p["revolution"]["revolutions"], 20);
+  EXPECT_EQ(p["revolution"]["samples"], 1000);
+  const auto& em = p["error_motion"];
+  // Synchronous: the 2nd and 3rd harmonics (0.05, 0.12 um); asynchronous: the 3.7 line (0.08 um, up to
+  // 0.16 um wide) and 20 s of growth at 0.3 um/min (0.1 um), with 0.01 um of noise.
+  const double sync = value(em, "synchronous_error_motion_um"), async = value(em, "asynchronous_error_motion_um");
+  EXPECT_GT(sync, 0.25);
+  EXPECT_LT(sync, 0.40);
+  EXPECT_GT(async, 0.15);
+  EXPECT_LT(async, 0.35);
+  EXPECT_GE(value(em, "total_error_motion_um"), std::max(sync, async));
+  const auto e = session->explain();
+  ASSERT_TRUE(e);
+  std::multiset<std::string> effects;
+  for (const auto& f : (*e)["findings"]) effects.insert(f["effect"].get<std::string>());
+  EXPECT_EQ(effects, (std::multiset<std::string>{"asynchronous_line", "synchronous_harmonic", "synchronous_harmonic",
+                                                 "thermal_drift"}))
+      << e->dump();
+  EXPECT_FALSE((*e)["unexplained"].get<bool>()) << e->dump();
 }
 
 TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {

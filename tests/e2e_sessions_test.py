@@ -199,10 +199,29 @@ class EndToEndSessions(unittest.TestCase):
         self.assertIn(f"{STATIONS} stations", e["not_analysed"])
         self.assertIn("not analysed: ", d.cli("explain", "--latest", "--kind", "straightness"))
         self.assertIn("Not analysed: ", self.session_report(d, t))
-        # Run-out: likewise, so that every session's PARAMS is followed by an EXPLAIN.
-        e = self.latest_explain(d, params["runout"])
-        self.assertEqual(e["findings"], [])
-        self.assertIn("run-out revolution", e["not_analysed"])
+        # Run-out: the machine file's spindle errors, each named with its size, and nothing else; the same as
+        # `guideway explain --model runout` of the derived file.
+        ro = params["runout"]
+        e = self.latest_explain(d, ro)
+        found = sorted((f["effect"], round(f["parameters"].get("order_per_rev", {"value": 0})["value"], 1))
+                       for f in e["findings"])
+        print(f"runout EXPLAIN: {[(f['effect'], f['parameters']) for f in e['findings']]}, held-out rms "
+              f"{e['baseline']['heldout_rms_um']:.4f} -> {e['final']['heldout_rms_um']:.4f} um", file=sys.stderr)
+        self.assertEqual(found, [("asynchronous_line", 3.7), ("synchronous_harmonic", 2.0), ("synchronous_harmonic", 3.0),
+                                 ("thermal_drift", 0.0)])
+        self.assertFalse(e["unexplained"])
+        for f in e["findings"]:
+            truth = {2.0: 0.05, 3.0: 0.12, 3.7: 0.08}
+            for name in ("synchronous_harmonic_um", "asynchronous_line_um"):
+                if name in f["parameters"]:
+                    a, order = f["parameters"][name], round(f["parameters"]["order_per_rev"]["value"], 1)
+                    self.assertLess(abs(a["value"] - truth[order]), max(4 * a["u"], 0.005), f)
+            if "axial_growth_um_per_min" in f["parameters"]:  # the reading sees the growth with its sign reversed
+                g = f["parameters"]["axial_growth_um_per_min"]
+                self.assertLess(abs(g["value"] + 0.3), max(4 * g["u"], 0.02), f)
+        runout = [f for f in ro["derived"] if f.endswith(".runout.csv")][0]
+        offline = json.loads(d.cli("explain", "--model", "runout", runout, "--json", timeout=120))
+        self.assertEqual([f["effect"] for f in offline["findings"]], [f["effect"] for f in e["findings"]])
 
     def session_report(self, d, p):
         """NAME.report.html beside the recording (written atomically after the EXPLAIN)."""
@@ -248,7 +267,13 @@ class EndToEndSessions(unittest.TestCase):
         self.assertAlmostEqual(g["squareness_urad"]["value"], (g["runout_um"]["value"] + 2.5) / 1000 * 1e3, delta=1e-9)
         self.assertLess(abs(g["squareness_urad"]["value"] - 2.8), max(3 * g["squareness_urad"]["u"], 0.01))
         self.assertAlmostEqual(g["squareness_amplitude_um"]["value"], g["squareness_urad"]["value"] * 0.6, delta=1e-9)
-        self.assertGreaterEqual(p["revolution"]["samples"], 200)  # 50 Hz polling over 6 s
+        self.assertGreaterEqual(p["revolution"]["samples"], 800)  # 50 Hz polling over 20 revolutions at 60 rpm
+        self.assertEqual(p["revolution"]["revolutions"], 20)
+        em = p["error_motion"]
+        print("runout error motion: " + ", ".join(f"{k} {v['value']:.4f} um" for k, v in em.items()), file=sys.stderr)
+        # The 2nd and 3rd harmonics (0.05, 0.12 um) repeat; the 3.7 line (0.08 um) and growth do not.
+        self.assertTrue(0.25 < em["synchronous_error_motion_um"]["value"] < 0.45, em)
+        self.assertTrue(0.15 < em["asynchronous_error_motion_um"]["value"] < 0.4, em)
         self.assert_recording(p)
         runout = [f for f in p["derived"] if f.endswith(".runout.csv")]
         offline = json.loads(d.cli("identify", "runout", runout[0], "--json"))

@@ -4,6 +4,7 @@
 // candidate reports is in the catalogue of parameters (results/parameters.hpp).
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <set>
 #include <string>
 
@@ -14,6 +15,7 @@
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/explain.hpp"
 #include "models/explain/profile_explain.hpp"
+#include "models/explain/runout_explain.hpp"
 #include "profile_test_support.hpp"
 #include "results/parameters.hpp"
 #include "simulators/machine/dbb_runs.hpp"
@@ -126,6 +128,8 @@ TEST(ExplainEffects, EachModelsTermsAreThoseItsEntryClaims) {
     EXPECT_EQ(e->profile.build != nullptr, claims(e->info, "flatness") || claims(e->info, "straightness"));
     EXPECT_EQ(e->dbb.build != nullptr, !e->dbb.why.empty());
     EXPECT_EQ(e->profile.build != nullptr, !e->profile.why.empty());
+    EXPECT_EQ(e->runout.build != nullptr, claims(e->info, "runout"));
+    EXPECT_EQ(e->runout.build != nullptr, !e->runout.why.empty());
     for (const auto& base : e->info.in_base_of) EXPECT_FALSE(claims(e->info, base)) << base << ": base and candidate";
   }
 }
@@ -153,4 +157,21 @@ TEST(ExplainEffects, EveryProfileCandidateIsALibraryEffect) {
       check_candidates(models::explain::profile_problem(profiles(), "straightness"), "straightness", &Effect::profile);
   EXPECT_EQ(straightness.count("abbe_offset"), 0U);
   EXPECT_EQ(straightness.size(), expected.size() - 1);
+}
+
+TEST(ExplainEffects, EveryRunoutCandidateIsALibraryEffect) {
+  models::explain::RunoutRecord r;
+  r.source = "r.csv";
+  r.rpm = 60;
+  for (int k = 0; k < 200; ++k) {
+    r.angle_rad.push_back(2 * std::numbers::pi * k / 40.0);
+    r.runout_m.push_back(1e-7 * std::cos(r.angle_rad.back()) + 1e-9 * std::sin(0.37 * k));
+  }
+  const auto offered = check_candidates(models::explain::runout_problem({r}), "runout", &Effect::runout);
+  std::set<std::string> expected;
+  for (const auto& info : models::explain::effect_library())
+    if (claims(info, "runout")) expected.insert(info.name);
+  EXPECT_EQ(offered, expected);
+  EXPECT_EQ(expected,
+            (std::set<std::string>{"asynchronous_line", "speed_variation", "synchronous_harmonic", "thermal_drift"}));
 }

@@ -16,3 +16,5 @@ guideway_add_test(explain_profile_test SOURCES explain_profile_test.cpp LIBS gui
 # in the catalogue of parameters.
 guideway_add_test(explain_effects_test SOURCES explain_effects_test.cpp
   LIBS guideway_explain_model guideway_dbb_sim guideway_machine guideway_results LABELS unit)
+# The run-out front end on the virtual machine's spindle (synchronous, asynchronous, growth, speed).
+guideway_add_test(explain_runout_test SOURCES explain_runout_test.cpp LIBS guideway_explain_model guideway_machine LABELS unit)

@@ -198,13 +198,17 @@ for name, (text, msg) in bad.items():
     check(rc == 1 and msg in err, "bad traverse %s -> %s" % (name, err.strip()))
 
 # --- Run-out ----------------------------------------------------------------------------------------
+def write_runout(path, ang, z, metadata="# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n"):
+    with open(path, "w") as f:
+        f.write(metadata + "angle_deg,runout_um\n")
+        for row in zip(ang, z):
+            f.write("%.17g,%.17g\n" % row)
+
+
 ang = np.arange(0, 360, 2.0)
 z = 0.7 + 0.15 * np.cos(np.radians(ang - 75)) + rng.normal(0, 0.01, ang.size)
 path = os.path.join(tmp, "runout.csv")
-with open(path, "w") as f:
-    f.write("# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n# travel_mm = 600\nangle_deg,runout_um\n")
-    for row in zip(ang, z):
-        f.write("%.17g,%.17g\n" % row)
+write_runout(path, ang, z, "# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n# travel_mm = 600\n")
 rc, out, err = run("runout", path, "--json")
 check(rc == 0, "runout exits 0 " + err.strip())
 ro = json.loads(out)
@@ -215,6 +219,55 @@ amp = np.hypot(c[1], c[2])
 check(abs(ro["once_per_rev"]["amplitude_um"] - amp) < 1e-12, "run-out amplitude equals numpy lstsq (%.4f um)" % amp)
 check(abs(ro["deflection_urad"] - (2 * amp + 2.5) / 1000 * 1e3) < 1e-9, "deflection (r + p) / L")
 check(abs(ro["squareness_amplitude_um"] - ro["deflection_urad"] * 0.6) < 1e-9, "squareness amplitude over 600 mm")
+
+check(ro.get("error_motion", {}).get("revolutions") == 1,
+      "a revolution sampled every 2 deg up to 358 deg is one whole revolution: %s" % ro.get("error_motion"))
+
+
+# --- Run-out over several revolutions: ISO 230-7 error motion against numpy --------------------------------
+def iso230_7(a_deg, z):
+    """Total, synchronous and asynchronous error motion, the once-per-revolution term removed (numpy)."""
+    a = np.radians(a_deg)
+    step = (a[-1] - a[0]) / (a.size - 1)
+    revs = int(np.floor((a[-1] - a[0] + step) / (2 * np.pi) + 1e-6))
+    keep = a < a[0] + 2 * np.pi * revs * (1 - 1e-12)
+    a, z = a[keep], z[keep]
+    J = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a)])
+    e = z - J @ np.linalg.lstsq(J, z, rcond=None)[0]
+    m = int(np.clip(a.size // revs, 8, 3600))
+    grid = np.interp(2 * np.pi * np.arange(m * revs) / m, a - a[0], e).reshape(revs, m)
+    return revs, np.ptp(e), np.ptp(grid.mean(axis=0)), np.ptp(grid, axis=0).max()
+
+
+# 12.3 revolutions, 91 readings per revolution with jittered angles (live time stamps), a 3rd and a 5th
+# harmonic, a line at 3.7 per revolution and growth: every value against numpy's.
+n = int(12.3 * 91)
+ang = (np.arange(n) + rng.uniform(-0.3, 0.3, n)) * 360.0 / 91 + 17.0
+phi = np.radians(ang)
+z = (0.2 * np.cos(phi - 1) + 0.12 * np.cos(3 * phi + 0.7) + 0.03 * np.sin(5 * phi) + 0.08 * np.cos(3.7 * phi)
+     + 0.002 * phi + rng.normal(0, 0.01, n))
+path = os.path.join(tmp, "runout_revs.csv")
+write_runout(path, ang, z)
+rc, out, err = run("runout", path, "--json")
+check(rc == 0, "runout of 12.3 revolutions exits 0 " + err.strip())
+em = json.loads(out)["error_motion"]
+revs, total, sync, asyn = iso230_7(ang, z)
+check(em["revolutions"] == revs == 12, "12 whole revolutions (%s)" % em["revolutions"])
+for name, ref in (("total", total), ("synchronous", sync), ("asynchronous", asyn)):
+    got = em[name + "_error_motion_um"]
+    check(abs(got - ref) < 1e-9, "%s error motion %.6f um equals numpy's %.6f um" % (name, got, ref))
+rc, out, err = run("runout", path)
+check("synchronous error motion = " in out and "over 12 revolutions" in out, "the text names the figures: " + out)
+
+# Closed form: a 3rd harmonic of 0.1 um alone repeats every revolution: synchronous = total = 0.2 um, no
+# asynchronous part; the once-per-revolution lean is removed first.
+ang = np.arange(0, 360 * 5, 1.0)
+phi = np.radians(ang)
+write_runout(path, ang, 0.5 * np.cos(phi) + 0.1 * np.cos(3 * phi))
+em = json.loads(run("runout", path, "--json")[1])["error_motion"]
+check(abs(em["synchronous_error_motion_um"] - 0.2) < 1e-6 and abs(em["total_error_motion_um"] - 0.2) < 1e-6
+      and em["asynchronous_error_motion_um"] < 1e-9 and abs(em["fundamental_um"] - 0.5) < 1e-9,
+      "a 3rd harmonic of 0.1 um: synchronous = total = 0.2 um, asynchronous 0 (%s)" % em)
 
 shutil.rmtree(tmp, ignore_errors=True)
 if failures:

@@ -87,7 +87,7 @@ TEST(FleetStore, GoldenResultsOfTwoMachinesAreStoredOnceEach) {
   EXPECT_EQ(s.results("mill-1", "dbb").size(), 2u);
   const auto p = s.results("lathe-2", "runout", "PARAMS");
   ASSERT_EQ(p.size(), 1u);
-  EXPECT_EQ(p[0].session, "runout-micrometer-20261121T095158Z");
+  EXPECT_EQ(p[0].session, "runout-micrometer-20261127T090008Z");
   EXPECT_EQ(p[0].produced_utc, "2026-11-20T10:00:00.000Z");
   EXPECT_EQ(p[0].received_utc, "2026-11-26T12:00:00.000Z");
   EXPECT_EQ(p[0].payload, golden("runout.params.json"));
@@ -290,9 +290,9 @@ TEST(FleetHeadlines, FromTheGoldenResults) {
   EXPECT_DOUBLE_EQ(find(dbb, "backlash_y_um").value, 1.9866502961449253);
 
   const auto runout = headlines("runout", golden_json("runout.params.json"));
-  EXPECT_DOUBLE_EQ(find(runout, "squareness_urad").value, 2.783728082308546);
-  EXPECT_DOUBLE_EQ(*find(runout, "squareness_urad").u, 0.0017572725568859374);
-  EXPECT_DOUBLE_EQ(find(runout, "runout_um").value, 0.2837280823085464);
+  EXPECT_DOUBLE_EQ(find(runout, "squareness_urad").value, 2.7996784330861715);
+  EXPECT_DOUBLE_EQ(*find(runout, "squareness_urad").u, 0.00956282200400326);
+  EXPECT_DOUBLE_EQ(find(runout, "runout_um").value, 0.2996784330861717);
 
   const auto st = headlines("straightness", golden_json("straightness.params.json"));
   ASSERT_EQ(st.size(), 2u);
@@ -331,10 +331,17 @@ TEST(FleetHeadlines, ExplainFindings) {
   EXPECT_EQ(s.findings[1].effect, "vibration");
   EXPECT_FALSE(s.unexplained);
   EXPECT_EQ(to_text(s), "backlash 1.99 µm, vibration 0.0246 µm");
+  // The run-out's: the example spindle's four error motions, largest first in the text.
   const auto r = explain_summary(golden_json("runout.explain.json"));
-  EXPECT_TRUE(r.unexplained);
-  EXPECT_TRUE(r.findings.empty());
-  EXPECT_EQ(to_text(r), "not analysed");
+  EXPECT_FALSE(r.unexplained);
+  ASSERT_EQ(r.findings.size(), 4u);
+  EXPECT_EQ(to_text(r),
+            "synchronous_harmonic 0.239 \u00b5m, asynchronous_line 0.16 \u00b5m, synchronous_harmonic 0.0975 "
+            "\u00b5m, thermal_drift 0.0999 \u00b5m");
+  const auto t = explain_summary(golden_json("straightness.explain.json"));
+  EXPECT_TRUE(t.unexplained);
+  EXPECT_TRUE(t.findings.empty());
+  EXPECT_EQ(to_text(t), "not analysed");
 }
 
 TEST(FleetHeadlines, MovedBeyondTwiceTheCombinedUncertainty) {

@@ -196,7 +196,6 @@ TEST_P(MicrometerTransport, ReadsTheVirtualMachineToolsRunout) {
   simulators::machine::RunoutSpec spec;
   spec.rpm = 60.0;
   spec.samples_per_rev = 100;
-  spec.revolutions = 2;
   const simulators::machine::Machine machine(simulators::emulators::spindle_demo_machine_config());
   const auto motion = simulators::emulators::make_runout_motion(machine, spec);
   Harness h(GetParam(), simulators::emulators::runout_motion_source(motion));
@@ -207,7 +206,10 @@ TEST_P(MicrometerTransport, ReadsTheVirtualMachineToolsRunout) {
   const drivers::modbus::RegisterMap map;
   std::vector<double> model;
   double lo = 1, hi = -1;
-  for (const auto& m : motion->samples) {
+  // The emulator's record is endless (its time from its start): the model's first 30 s cover this test.
+  simulators::machine::RunoutSpec first = spec;
+  first.revolutions = 30;
+  for (const auto& m : machine.runout_revolution(first)) {
     model.push_back(
         drivers::modbus::decode_registers(map, drivers::modbus::encode_registers(map, m.displacement_m)).value_m);
     lo = std::min(lo, m.displacement_m);

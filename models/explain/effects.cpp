@@ -6,6 +6,7 @@
 #include "models/explain/effects/dbb_terms.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/profile_terms.hpp"
+#include "models/explain/effects/runout_terms.hpp"
 
 namespace guideway::models::explain {
 
@@ -13,7 +14,7 @@ namespace effects {
 
 extern const Effect backlash, reversal_spike, lateral_play, servo_mismatch, servo_lag, cyclic_error, thermal_drift,
     vibration, stick_slip, scale_mismatch, squareness, straightness, spindle_axial_runout, tool_wear, feed_marks,
-    abbe_offset, cosine_error, sensor_nonlinearity;
+    abbe_offset, cosine_error, sensor_nonlinearity, synchronous_harmonic, asynchronous_line, speed_variation;
 
 const std::vector<const Effect*>& library() {
   static const std::vector<const Effect*> table = {
@@ -35,6 +36,9 @@ const std::vector<const Effect*>& library() {
       &abbe_offset,
       &cosine_error,
       &sensor_nonlinearity,
+      &synchronous_harmonic,
+      &asynchronous_line,
+      &speed_variation,
   };
   return table;
 }
@@ -64,6 +68,8 @@ std::vector<Candidate> candidates(const Terms& terms, Term<Terms> Effect::*term)
 std::vector<Candidate> dbb_candidates(const DbbTerms& terms) { return candidates(terms, &Effect::dbb); }
 
 std::vector<Candidate> profile_candidates(const ProfileTerms& terms) { return candidates(terms, &Effect::profile); }
+
+std::vector<Candidate> runout_candidates(const RunoutTerms& terms) { return candidates(terms, &Effect::runout); }
 
 }  // namespace effects
 

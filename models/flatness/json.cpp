@@ -3,6 +3,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "results/parameters.hpp"
+
 namespace guideway::models::flatness {
 
 namespace {
@@ -157,6 +159,27 @@ nlohmann::json to_json(const RunoutResult& r) {
     j["squareness_amplitude_um"] = *r.squareness_amplitude_m * um;
     j["u_squareness_amplitude_um"] = *r.u_squareness_amplitude_m * um;
   }
+  return j;
+}
+
+nlohmann::json to_json(const ErrorMotionResult& r) {
+  nlohmann::json j;
+  j["model"] = "error_motion/iso230-7";
+  j["revolutions"] = r.revolutions;
+  j["samples"] = r.samples;
+  j["points_per_rev"] = r.points_per_rev;
+  j[results::name(results::total_error_motion)] = r.total_m * um;
+  j[results::name(results::synchronous_error_motion)] = r.synchronous_m * um;
+  j[results::name(results::asynchronous_error_motion)] = r.asynchronous_m * um;
+  j[results::name(results::fundamental_error_motion)] = r.fundamental_m * um;
+  j["fundamental_phase_deg"] = r.fundamental_phase_rad * 180.0 / std::numbers::pi;
+  return j;
+}
+
+nlohmann::json runout_json(const RunoutRevolution& rev) {
+  nlohmann::json j = to_json(identify_runout(rev));
+  if (whole_revolutions(rev.angle_rad) >= 1)
+    j["error_motion"] = to_json(error_motion(rev.angle_rad, rev.runout_m, rev.source));
   return j;
 }
 

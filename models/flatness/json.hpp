@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "models/flatness/error_motion.hpp"
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
 #include "models/flatness/union_jack.hpp"
@@ -13,5 +14,10 @@ namespace guideway::models::flatness {
 nlohmann::json to_json(const StraightnessResult& r);
 nlohmann::json to_json(const UnionJackResult& r, bool inch_units = false);
 nlohmann::json to_json(const RunoutResult& r);
+// ISO 230-7 values under their catalogue names (results/parameters.hpp), in um.
+nlohmann::json to_json(const ErrorMotionResult& r);
+// `guideway identify runout`'s result, as the runout session publishes it: Mu's Eq. 21 (to_json of
+// identify_runout) and, from one whole revolution on, "error_motion" (ISO 230-7).
+nlohmann::json runout_json(const RunoutRevolution& rev);
 
 }  // namespace guideway::models::flatness

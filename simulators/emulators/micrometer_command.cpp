@@ -20,10 +20,9 @@ struct MicrometerArgs {
   std::string parity = "E";
   int unit_id = 1;
   std::string machine_file;
-  double rpm = 10.0;
+  double rpm = 60.0;               // the runout session's default
   double probe_radius_mm = 500.0;  // rim of a 1000 mm plate: the runout session's default plate_diameter_mm
   std::size_t samples_per_rev = 360;
-  std::size_t revolutions = 10;
   double ring_rate_hz = 10000.0;  // the sample ring (docs/protocols.md, "Buffered acquisition")
   std::uint32_t ring_samples = 4096;
   std::uint32_t ring_counter_start = 0;
@@ -58,7 +57,6 @@ int run_micrometer(const MicrometerArgs& a) {
     spec.rpm = a.rpm;
     spec.probe_radius_m = a.probe_radius_mm * 1e-3;
     spec.samples_per_rev = a.samples_per_rev;
-    spec.revolutions = a.revolutions;
     options.source = runout_motion_source(make_runout_motion(machine, spec));
   } catch (const std::exception& e) {
     std::cerr << "guideway-emulate micrometer: " << e.what() << "\n";
@@ -110,11 +108,12 @@ void add_micrometer(CLI::App& app, int& exit_code) {
   sub->add_option("--parity", args->parity, "RTU parity N, E or O")->check(CLI::IsMember({"N", "E", "O"}));
   sub->add_option("--unit-id", args->unit_id, "Modbus unit (slave) id")->capture_default_str();
   sub->add_option("--machine", args->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
-  sub->add_option("--rpm", args->rpm, "spindle speed of the run-out revolutions")->capture_default_str();
+  sub->add_option("--rpm", args->rpm,
+                  "spindle speed of the run-out revolutions (the machine file's speed_ramp drifts it)")
+      ->capture_default_str();
   sub->add_option("--probe-radius-mm", args->probe_radius_mm, "probe radius on the thrust plate")
       ->capture_default_str();
   sub->add_option("--samples-per-rev", args->samples_per_rev, "model samples per revolution")->capture_default_str();
-  sub->add_option("--revolutions", args->revolutions, "revolutions computed (then repeated)")->capture_default_str();
   sub->add_option("--ring-rate-hz", args->ring_rate_hz,
                   "sample rate of the sample ring (counter at input/holding registers 100-101, int32 + status "
                   "slots from 200; 0: no ring)")

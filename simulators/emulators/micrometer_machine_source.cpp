@@ -1,20 +1,20 @@
 #include "simulators/emulators/micrometer_machine_source.hpp"
 
 #include <cmath>
+#include <stdexcept>
 
 namespace guideway::simulators::emulators {
 
-const machine::RunoutSample& RunoutMotion::at(double t_s) const {
-  const auto k = static_cast<std::size_t>(std::floor(std::max(0.0, t_s) / sample_period_s));
-  return samples[k % samples.size()];
+machine::RunoutSample RunoutMotion::at(double t_s) const {
+  return machine.runout_sample(spec, static_cast<std::uint64_t>(std::floor(std::max(0.0, t_s) / sample_period_s)));
 }
 
 std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine,
                                                        const machine::RunoutSpec& spec) {
-  auto m = std::make_shared<RunoutMotion>();
-  m->samples = machine.runout_revolution(spec);
-  m->sample_period_s = 60.0 / spec.rpm / static_cast<double>(std::max<std::size_t>(1, spec.samples_per_rev));
-  if (m->samples.empty()) m->samples.push_back({});
+  if (spec.samples_per_rev == 0 || !(spec.rpm > 0))
+    throw std::invalid_argument("run-out motion: samples per revolution and rpm must be positive");
+  auto m = std::make_shared<RunoutMotion>(RunoutMotion{machine, spec, 0.0});
+  m->sample_period_s = 60.0 / spec.rpm / static_cast<double>(spec.samples_per_rev);
   return m;
 }
 

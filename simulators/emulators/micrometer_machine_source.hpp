@@ -1,10 +1,10 @@
 #pragma once
 // Feeds the micrometer emulator from the virtual machine tool: a probe on a thrust plate fixed to
-// the spindle face sees the plate's run-out revolution (guideway::simulators::machine::Machine::runout_revolution),
-// computed once and replayed in emulator time, sample-and-hold, repeating. Thread safe (immutable).
+// the spindle face sees the plate's run-out (guideway::simulators::machine::Machine::runout_sample), an
+// endless record in emulator time, sample-and-hold between the model's samples (so thermal growth and
+// asynchronous lines run on instead of repeating). Thread safe (immutable).
 
 #include <memory>
-#include <vector>
 
 #include "simulators/emulators/modbus_emulator.hpp"
 #include "simulators/machine/machine.hpp"
@@ -12,10 +12,11 @@
 namespace guideway::simulators::emulators {
 
 struct RunoutMotion {
-  std::vector<machine::RunoutSample> samples;  // `revolutions` revolutions of samples_per_rev samples
+  machine::Machine machine;
+  machine::RunoutSpec spec;  // rpm, probe radius and samples_per_rev of the model's samples
   double sample_period_s = 0.0;
-  // The model sample the probe shows at emulator time t (t wraps around the computed revolutions).
-  [[nodiscard]] const machine::RunoutSample& at(double t_s) const;
+  // The model sample the probe shows at emulator time t.
+  [[nodiscard]] machine::RunoutSample at(double t_s) const;
 };
 std::shared_ptr<const RunoutMotion> make_runout_motion(const machine::Machine& machine,
                                                        const machine::RunoutSpec& spec);

@@ -424,31 +424,56 @@ Matrix3d spindle_frame(const SpindleErrors& s) { return rot_y(s.tilt_x_rad) * ro
 
 }  // namespace
 
-std::vector<RunoutSample> Machine::runout_revolution(const RunoutSpec& spec) const {
-  std::vector<RunoutSample> out;
-  if (spec.samples_per_rev == 0 || !(spec.rpm > 0)) return out;
+namespace {
+
+// A standard normal drawn from (seed, k) alone (splitmix64, Box-Muller), so reading k of an endless
+// record is the same whether it is computed alone or in a run.
+double normal_at(std::uint64_t seed, std::uint64_t k) {
+  const auto mix = [](std::uint64_t z) {
+    z += 0x9e3779b97f4a7c15ULL;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+  };
+  const std::uint64_t a = mix(seed ^ mix(2 * k)), b = mix(seed ^ mix(2 * k + 1));
+  const double u1 = (static_cast<double>(a >> 11) + 0.5) * (1.0 / 9007199254740992.0);
+  const double u2 = (static_cast<double>(b >> 11) + 0.5) * (1.0 / 9007199254740992.0);
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(two_pi * u2);
+}
+
+}  // namespace
+
+RunoutSample Machine::runout_sample(const RunoutSpec& spec, std::uint64_t k) const {
   const auto& sp = config_.spindle;
-  Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
   const double omega = spec.rpm / 60.0 * two_pi;
-  const std::size_t n = spec.samples_per_rev * std::max<std::size_t>(1, spec.revolutions);
+  const double t = static_cast<double>(k) * 60.0 / spec.rpm / static_cast<double>(spec.samples_per_rev);
+  const double theta = omega * (t + 0.5 * sp.speed_ramp_per_s * t * t);
   // Stationary plate through the origin, its normal leaning like a spindle axis would.
   const Vector3d plate_normal = rot_z(sp.plate_parallelism_direction_rad) * rot_y(sp.plate_parallelism_rad) *
                                 rot_z(-sp.plate_parallelism_direction_rad) * Vector3d::UnitZ();
   const Vector3d axis = spindle_axis(sp);
-  for (std::size_t k = 0; k < n; ++k) {
-    const double theta = two_pi * static_cast<double>(k) / static_cast<double>(spec.samples_per_rev);
-    // Probe tip: on the circle of radius R perpendicular to the (leaning) spindle axis, moved along
-    // the axis by the axial run-out; the reading is the exact gap to the plate along the axis.
-    const Vector3d tip = spindle_frame(sp) * rot_z(theta) * Vector3d(spec.probe_radius_m, 0.0, 0.0) +
-                         axis * (sp.axial_runout_m * std::cos(2.0 * theta));
-    double z = -plate_normal.dot(tip) / plate_normal.dot(axis);
-    if (config_.noise.micrometer_m > 0) z += config_.noise.micrometer_m * rng.normal();
-    RunoutSample s;
-    s.t_s = spec.t0_s + theta / omega;
-    s.angle_rad = theta;
-    s.displacement_m = z;
-    out.push_back(s);
-  }
+  // Probe tip: on the circle of radius R perpendicular to the (leaning) spindle axis, moved along the
+  // axis by the axial error motions; the reading is the exact gap to the plate along the axis.
+  double axial = sp.axial_runout_m * std::cos(2.0 * theta) + sp.axial_growth_m_per_s * t;
+  for (const auto* lines : {&sp.synchronous, &sp.asynchronous})
+    for (const auto& l : *lines) axial += l.amplitude_m * std::cos(l.order * theta + l.phase_rad);
+  const Vector3d tip = spindle_frame(sp) * rot_z(theta) * Vector3d(spec.probe_radius_m, 0.0, 0.0) + axis * axial;
+  double z = -plate_normal.dot(tip) / plate_normal.dot(axis);
+  if (config_.noise.micrometer_m > 0)
+    z += config_.noise.micrometer_m * normal_at(spec.seed != 0 ? spec.seed : config_.noise.seed, k);
+  RunoutSample s;
+  s.t_s = spec.t0_s + t;
+  s.angle_rad = theta;
+  s.displacement_m = z;
+  return s;
+}
+
+std::vector<RunoutSample> Machine::runout_revolution(const RunoutSpec& spec) const {
+  std::vector<RunoutSample> out;
+  if (spec.samples_per_rev == 0 || !(spec.rpm > 0)) return out;
+  const std::size_t n = spec.samples_per_rev * std::max<std::size_t>(1, spec.revolutions);
+  out.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) out.push_back(runout_sample(spec, k));
   return out;
 }
 

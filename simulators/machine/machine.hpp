@@ -111,6 +111,21 @@ struct SpindleErrors {
   // tilt_x). Mu's p of Eq. 21 is this angle times the plate diameter.
   double plate_parallelism_rad = 0.0;
   double plate_parallelism_direction_rad = 0.0;
+  // ISO 230-7 error motions the run-out probe sees along the spindle axis, on top of the lean:
+  // synchronous harmonics (integer orders, the same every revolution: bearing race waviness, artifact
+  // form) and asynchronous lines (non-integer orders: a rolling element's defect, cage frequency), each
+  // amplitude * cos(order * theta + phase), theta the spindle's angle since the record began.
+  struct Line {
+    double order = 0.0;
+    double amplitude_m = 0.0;
+    double phase_rad = 0.0;
+  };
+  std::vector<Line> synchronous;
+  std::vector<Line> asynchronous;
+  double axial_growth_m_per_s = 0.0;  // thermal growth of the spindle along its axis during the record
+  // The spindle's speed drifts: rpm(t) = rpm (1 + speed_ramp_per_s t), so a reading taken at time t
+  // is at theta = omega (t + speed_ramp_per_s t^2 / 2), not at the nominal omega t.
+  double speed_ramp_per_s = 0.0;
 };
 
 struct SensorNoise {
@@ -342,7 +357,11 @@ class Machine {
 
   [[nodiscard]] DbbRun dbb_circle(const DbbCircleSpec& spec) const;
   [[nodiscard]] std::vector<TraverseStation> autocollimator_traverse(const TraverseSpec& spec) const;
+  // Readings at times t0 + k T / samples_per_rev (T = 60 / rpm), k < samples_per_rev * revolutions;
+  // the angle is where the spindle is at that time (its speed may drift).
   [[nodiscard]] std::vector<RunoutSample> runout_revolution(const RunoutSpec& spec) const;
+  // Reading k of that record alone (the emulator's endless stream), its noise drawn from (seed, k).
+  [[nodiscard]] RunoutSample runout_sample(const RunoutSpec& spec, std::uint64_t k) const;
   [[nodiscard]] std::vector<ProfilePoint> facing_profile(const FacingSpec& spec) const;
   [[nodiscard]] std::vector<ArtifactTarget> artifact_measurement(const ArtifactSpec& spec) const;
 

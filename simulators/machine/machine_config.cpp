@@ -26,6 +26,31 @@ Polynomial micro_poly(const TableReader& t, std::string_view key) {
   return p;
 }
 
+// The spindle's error motion lines `<prefix>_orders`, `<prefix>_um`, `<prefix>_phase_deg` (arrays of
+// equal length; phases optional): integer orders >= 2 when `integer` (the first order is the lean),
+// otherwise non-integer orders.
+std::vector<SpindleErrors::Line> read_spindle_lines(const TableReader& t, const std::string& prefix, bool integer) {
+  const std::string ok = prefix + "_orders", ak = prefix + "_um", pk = prefix + "_phase_deg";
+  const auto orders = t.get_doubles(ok, {});
+  const auto amps = t.get_doubles(ak, {});
+  const auto phases = t.get_doubles(pk, std::vector<double>(orders.size(), 0.0));
+  if (amps.size() != orders.size()) t.fail(ak, "needs one amplitude per order in " + ok);
+  if (phases.size() != orders.size()) t.fail(pk, "needs one phase per order in " + ok);
+  std::vector<SpindleErrors::Line> out;
+  for (std::size_t i = 0; i < orders.size(); ++i) {
+    const double o = orders[i];
+    if (!std::isfinite(o) || !(o > 0) || o > 1000) t.fail(ok, "orders must be in (0, 1000]");
+    if (integer && (o != std::round(o) || o < 2))
+      t.fail(ok, "synchronous orders are whole numbers from 2 (once per revolution is the lean, tilt_x_urad)");
+    if (!integer && o == std::round(o))
+      t.fail(ok, "asynchronous orders are not whole numbers (a whole order repeats every revolution: harmonic_orders)");
+    if (!std::isfinite(amps[i]) || std::abs(amps[i]) > 1e5) t.fail(ak, "amplitudes must be finite, |a| <= 1e5 um");
+    if (!std::isfinite(phases[i])) t.fail(pk, "phases must be finite");
+    out.push_back({o, amps[i] * um, phases[i] * deg});
+  }
+  return out;
+}
+
 AxisErrors read_axis(const TableReader& t) {
   AxisErrors e;
   e.scale = t.get_double("scale_ppm", 0.0, -1e5, 1e5) * 1e-6;
@@ -109,6 +134,10 @@ MachineConfig read(const toml::table& root, const std::string& file) {
     m.spindle.plate_parallelism_rad = t->get_double("plate_parallelism_urad", 0.0, -1e5, 1e5) * um;
     m.spindle.plate_parallelism_direction_rad =
         t->get_double("plate_parallelism_direction_deg", 0.0, -360.0, 360.0) * deg;
+    m.spindle.synchronous = read_spindle_lines(*t, "harmonic", true);
+    m.spindle.asynchronous = read_spindle_lines(*t, "async", false);
+    m.spindle.axial_growth_m_per_s = t->get_double("axial_growth_um_per_min", 0.0, -1e4, 1e4) * um / 60.0;
+    m.spindle.speed_ramp_per_s = t->get_double("speed_ramp_percent_per_min", 0.0, -50.0, 50.0) * 0.01 / 60.0;
     t->reject_unknown_keys();
   }
   if (auto t = top.table("axis")) {

@@ -61,6 +61,12 @@ struct ScenarioResult {
 };
 
 std::vector<std::string> scenario_names();
+// The spindle run-out scenarios (runout_scenarios.cpp), part of scenario_names().
+std::vector<std::string> runout_scenario_names();
+ScenarioResult runout_scenario(const std::string& name, const ScenarioOptions& options);
+// Every expectation of `s` against its report's findings, and the common checks (held-out RMS improved,
+// unexplained as expected): fills checks, extra, pass and failure.
+void check_expectations(ScenarioResult& s);
 // Throws std::invalid_argument for an unknown name.
 ScenarioResult run_scenario(const std::string& name, const ScenarioOptions& options = {});
 // A DBB scenario's runs as the virtual machine traces them (what run_scenario explains), e.g. for the cost

@@ -21,6 +21,7 @@ inline constexpr double pi = std::numbers::pi;
 
 struct DbbTerms;      // what a DBB term is built from (dbb_terms.hpp)
 struct ProfileTerms;  // what a profile term is built from (profile_terms.hpp)
+struct RunoutTerms;   // what a spindle run-out term is built from (runout_terms.hpp)
 
 // A model's candidate term for an effect: the finding's sentence and what fills the candidate's
 // variants, generator and search size (false: no term for these runs, e.g. no measured angle).
@@ -37,6 +38,7 @@ struct Effect {
   // The effect lives on a few samples per run (a spike, a jerk) or on a few hundredths of a um: the
   // scenario suite simulates it at the instrument's full sample density.
   bool needs_dense_sampling = false;
+  Term<RunoutTerms> runout = {};  // build == nullptr: no term for a spindle run-out record
 };
 
 // The library, in its order (effects.cpp: one line per effect file).
@@ -48,5 +50,6 @@ const Effect* find(std::string_view name);
 // from the library, in the library's order (effects.cpp).
 std::vector<Candidate> dbb_candidates(const DbbTerms& terms);
 std::vector<Candidate> profile_candidates(const ProfileTerms& terms);
+std::vector<Candidate> runout_candidates(const RunoutTerms& terms);
 
 }  // namespace guideway::models::explain::effects

@@ -2,6 +2,7 @@
 #include "models/explain/effects/dbb_terms.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/profile_terms.hpp"
+#include "models/explain/effects/runout_terms.hpp"
 #include "results/parameters.hpp"
 
 namespace guideway::models::explain::effects {
@@ -54,6 +55,13 @@ bool thermal_drift_profile_term(const ProfileTerms& t, Candidate& c) {
   return true;
 }
 
+// The spindle's axial growth: a rate per minute of each record's time (each record's offset is the base's).
+bool thermal_drift_runout_term(const RunoutTerms& t, Candidate& c) {
+  c.variants.push_back(
+      make_variant(t.g, {results::name(results::axial_growth)}, [](const Rp& p, double* o) { o[0] = p.t_s / 60.0; }));
+  return true;
+}
+
 }  // namespace
 
 extern const Effect thermal_drift{
@@ -62,11 +70,14 @@ extern const Effect thermal_drift{
      "time",
      "a trend in time that maps onto position differently at each feed and start time",
      {},
-     {"dbb", "flatness", "straightness"}},
+     {"dbb", "flatness", "straightness", "runout"}},
     {"the machine or the bar grows as it warms up, a trend in time that the geometric terms only partly absorb",
      &thermal_drift_dbb_term},
     {"the machine grows as it warms up during the cut: a trend in time, which at one constant feed is a straight line "
      "in x like squareness, but with another slope at another feed",
-     &thermal_drift_profile_term}};
+     &thermal_drift_profile_term},
+    false,
+    {"the spindle grows along its axis as it warms up: a trend in time through the record, which no revolution repeats",
+     &thermal_drift_runout_term}};
 
 }  // namespace guideway::models::explain::effects
