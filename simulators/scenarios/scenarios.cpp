@@ -77,6 +77,12 @@ struct DbbScenario {
     int run = -1;
     double after_s = 0, um = 0, hz = 0, decay_s = 0;
   } knock;
+  // A dropout: run `run` loses its samples for duration_s from where its angle reaches from_deg (the
+  // recording's gap, not the machine's: the samples are simply not there).
+  struct Dropout {
+    int run = -1;
+    double from_deg = 0, duration_s = 0;
+  } dropout;
 };
 
 DbbScenario sc(std::string name, std::string concealment, std::function<void(machine::MachineConfig&)> inject,
@@ -114,6 +120,12 @@ std::vector<formats::DbbRun> dbb_runs(const machine::MachineConfig& cfg, const D
       for (std::size_t i = 0; i < run.t_s.size(); ++i)
         if (const double dt = run.t_s[i] - sc.knock.after_s; dt >= 0)
           run.dL_m[i] += sc.knock.um * um * std::sin(2 * pi * sc.knock.hz * dt) * std::exp(-dt / sc.knock.decay_s);
+    if (sc.dropout.run == static_cast<int>(k)) {
+      const double from_rad = sc.dropout.from_deg * pi / 180;
+      std::size_t i = 0;
+      while (i + 1 < run.angle_rad.size() && (run.angle_rad[i] - from_rad) * run.dir() < 0) ++i;
+      run = machine::with_dropout(run, run.t_s[i], sc.dropout.duration_s);
+    }
     run.metadata["start_time_s"] =
         printf_number("%.17g", o.clock_origin_s + std::stod(run.metadata.at("start_time_s")));
     runs.push_back(std::move(run));
@@ -454,6 +466,21 @@ const std::vector<DbbScenario>& dbb_scenarios() {
       knock.inject = [](MachineConfig& m) { backlash(m, 0, 0.8); };
       knock.knock = {1, after_s, 4.0, 20.0, 0.15};
       v.push_back(knock);
+    }
+    {
+      // A recording's dropout, not a machine error: 1.1 s (10.5 deg at 1000 mm/min) of the first run lost
+      // across X's reversal at 180 deg. The rest still holds X's other reversals and both of Y's.
+      DbbScenario gap = sc("dbb_dropout_beside_backlash",
+                           "1.1 s of the first run lost from 175 deg (across X's reversal) beside 0.8 um X and 0.5 um "
+                           "Y backlash: the gap costs the data in it, not the run",
+                           [](MachineConfig& m) {
+                             backlash(m, 0, 0.8);
+                             backlash(m, 1, 0.5);
+                           },
+                           {expect("backlash", results::backlash, along_x, 0.8, 0.1),
+                            expect("backlash", results::backlash, along_y, 0.5, 0.1)});
+      gap.dropout = {0, 175.0, 1.1};
+      v.push_back(gap);
     }
     for (auto& s : v)
       for (const auto& e : s.expected)
