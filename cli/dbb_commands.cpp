@@ -8,6 +8,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/params_print.hpp"
+#include "core/number_format.hpp"
 #include "core/toml_access.hpp"
 #include "models/dbb/json.hpp"
 #include "simulators/machine/dbb_runs.hpp"
@@ -138,6 +139,8 @@ void run_simulate(const SimulateArgs& a, CliContext& /*ctx*/) {
   // Without --t0-s every run would start at machine time 0: no common clock is claimed.
   if (a.t0_option->count() == 0) run.metadata.erase("start_time_s");
   if (a.gap_s.size() == 2) run = simulators::machine::with_dropout(run, a.gap_s[0], a.gap_s[1]);
+  // A test condition the standards' figures state (models/dbb/standard_figures.hpp).
+  run.metadata["overshoot_deg"] = significant_digits(a.overshoot_deg, 6);
   formats::write_dbb_run(run, a.out);
   std::cout << "wrote " << a.out << ": " << run.angle_rad.size() << " samples, r " << a.radius_mm << " mm, h "
             << a.height_mm << " mm, " << a.direction << "\n";

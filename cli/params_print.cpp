@@ -85,6 +85,57 @@ void print_runs(const nlohmann::json& runs) {
   std::cout << "runs:\n" << aligned_rows(rows, {});
 }
 
+// A run's test conditions in words, "not recorded" where the run's metadata does not say.
+std::string conditions_text(const nlohmann::json& c) {
+  const auto optional = [&](const char* key, const char* unit) {
+    const nlohmann::json v = c.value(key, nlohmann::json("not recorded"));
+    return v.is_number() ? significant_digits(v.get<double>(), 4) + unit : std::string("not recorded");
+  };
+  const double arc = number_or(c, "data_arc_deg", 360.0);
+  const int gaps = c.value("gaps", 0);
+  return "r " + significant_digits(number_or(c, "radius_mm", NAN), 6) + " mm, h " +
+         significant_digits(number_or(c, "height_mm", NAN), 6) + " mm, " +
+         format_fixed(number_or(c, "feed_mm_per_min", NAN), 0) + " mm/min, " + c.value("direction", "?") + ", " +
+         (c.value("partial_arc", false) ? format_fixed(arc, 0) + " deg arc" : std::string("full circle")) + ", " +
+         std::to_string(c.value("samples", 0)) + " samples every " +
+         significant_digits(number_or(c, "spacing_deg", NAN), 4) + " deg, " +
+         (gaps == 0 ? std::string("no gap") : std::to_string(gaps) + (gaps == 1 ? " gap" : " gaps")) + "; feed-in " +
+         optional("feed_in_deg", " deg") + ", feed-out " + optional("feed_out_deg", " deg") + "; temperature " +
+         optional("temperature_c", " \u00b0C");
+}
+
+// "ISO 230-4 circular deviation G 5.34 µm" for each of `names` the entry holds.
+std::string figures_text(const nlohmann::json& entry, std::initializer_list<const results::Parameter*> names) {
+  std::string out;
+  for (const results::Parameter* p : names) {
+    const std::string n = results::name(*p);
+    if (!entry.contains(n)) continue;
+    const results::Shown s = results::shown(n, number_or(entry[n], "value", NAN), NAN);
+    out += (out.empty() ? "" : "; ") + s.label + " " + s.value + " " + s.unit;
+  }
+  return out;
+}
+
+// The standards' figures (docs/standards.md): per run, then per CCW/CW pair, each with what it is over.
+void print_standards(const nlohmann::json& st) {
+  if (!st.is_object() || st.value("runs", nlohmann::json::array()).empty()) return;
+  namespace r = results;
+  std::cout << "the standards' figures (docs/standards.md; a partial arc's are over its arc only):\n";
+  for (const auto& run : st["runs"]) {
+    std::cout << "  run " << run.value("run", 0) << ", over " << run.value("over", std::string("?")) << ": "
+              << figures_text(run, {&r::iso_circular_deviation, &r::iso_radial_deviation_max,
+                                    &r::iso_radial_deviation_min, &r::asme_circularity})
+              << "\n    test conditions: " << conditions_text(run.value("conditions", nlohmann::json::object()))
+              << "\n";
+  }
+  for (const auto& pair : st.value("pairs", nlohmann::json::array()))
+    std::cout << "  runs " << pair.value("ccw_run", 0) << " (ccw) and " << pair.value("cw_run", 0) << " (cw), over "
+              << pair.value("over", std::string("?")) << ": "
+              << figures_text(pair, {&r::iso_circular_hysteresis, &r::iso_bidirectional_deviation, &r::asme_hysteresis,
+                                     &r::asme_bidirectional_circularity})
+              << "\n";
+}
+
 // A group's rows in the catalogue's order (Lai's offsets, scales, straightness, backlash ...), not the
 // JSON's alphabetical one.
 std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, std::string_view plane,
@@ -160,6 +211,7 @@ void print_dbb(const nlohmann::json& p, std::string_view plane) {
     std::cout << "Lai's third-order model (value \u00b1 standard uncertainty):\n" << aligned_rows(lai, {false, true});
     print_fit(p.value("fit", nlohmann::json::object()));
   }
+  print_standards(p.value("standards", nlohmann::json::object()));
   const nlohmann::json g = diagnostics.value(results::name(results::circular_deviation), nlohmann::json::object());
   print_ranking(p, plane, number_or(g, "value", NAN));
 }

@@ -176,6 +176,49 @@ void runs_table(std::ostringstream& body, const models::dbb::Identification& id_
   body << html_table(runs_t);
 }
 
+// The standards' figures (docs/standards.md), each run's and each CCW/CW pair's with what it is over and
+// the conditions it was measured under.
+void standards_table(std::ostringstream& body, const models::dbb::Identification& id_result) {
+  const models::dbb::StandardFigures& st = id_result.standards;
+  if (st.runs.empty()) return;
+  Table t{"The standards' figures (ISO 230-4, ASME B5.54; a partial arc's are over its arc only)",
+          {"runs", "over", "G / \u00b5m", "F max / \u00b5m", "F min / \u00b5m", "H / \u00b5m", "G(b) / \u00b5m",
+           "test conditions"},
+          {}};
+  t.text_columns = {0, 1, 7};
+  const auto optional = [](const std::optional<double>& v, const char* unit) {
+    return v ? significant_digits(*v, 4) + unit : std::string("not recorded");
+  };
+  const auto over = [](double arc_deg, bool partial) {
+    return partial ? format_fixed(arc_deg, 0) + "\u00b0 arc" : std::string("full circle");
+  };
+  for (std::size_t k = 0; k < st.runs.size(); ++k) {
+    const models::dbb::RunFigures& f = st.runs[k];
+    const models::dbb::TestConditions& c = f.conditions;
+    const std::string cond =
+        "r " + significant_digits(c.radius_mm, 6) + " mm, h " + significant_digits(c.height_mm, 6) + " mm, " +
+        format_fixed(c.feed_mm_per_min, 0) + " mm/min, " + c.direction + ", " + std::to_string(c.samples) +
+        " samples every " + significant_digits(c.spacing_deg, 4) + "\u00b0, " + std::to_string(c.gaps) +
+        " gaps, feed-in " + optional(c.feed_in_deg, "\u00b0") + ", feed-out " + optional(c.feed_out_deg, "\u00b0") +
+        ", temperature " + optional(c.temperature_c, " \u00b0C");
+    t.rows.push_back({"run " + std::to_string(k + 1) + " (" + html_escape(base_name(f.source)) + ")",
+                      over(c.data_arc_deg, c.partial_arc), format_fixed(f.iso_circular_deviation_um, 2),
+                      format_fixed(f.iso_radial_deviation_max_um, 2), format_fixed(f.iso_radial_deviation_min_um, 2),
+                      "&ndash;", "&ndash;", html_escape(cond)});
+  }
+  for (const models::dbb::PairFigures& p : st.pairs) {
+    const bool partial = st.runs[p.ccw].conditions.partial_arc || st.runs[p.cw].conditions.partial_arc;
+    t.rows.push_back({"runs " + std::to_string(p.ccw + 1) + " (ccw) and " + std::to_string(p.cw + 1) + " (cw)",
+                      over(p.common_arc_deg, partial), "&ndash;", "&ndash;", "&ndash;",
+                      format_fixed(p.iso_circular_hysteresis_um, 2), format_fixed(p.iso_bidirectional_deviation_um, 2),
+                      "common least-squares circle"});
+  }
+  body << html_table(t);
+  body << html_note(
+      "ASME B5.54's circularity of one direction is G, its hysteresis H and its bidirectional circularity G(b), "
+      "computed alike (docs/standards.md).");
+}
+
 // The ranking in words, the ISO 230-4 figures and the diagnostics (only when the runs gave any: the
 // identification's note says why not).
 void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Identification& id_result) {
@@ -326,6 +369,7 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
     ranking_chart(body, id_result);
     runs_table(body, id_result, plane_circles);
     runs_and_diagnostics_tables(body, id_result);
+    standards_table(body, id_result);
     lai_tables(body, id_result);
   }
   if (ids.size() > 1) planes_summary(body, models::dbb::summarize_planes(ids));

@@ -56,6 +56,30 @@ inline constexpr Parameter circular_deviation{"circular_deviation_um",
                                               1};
 inline constexpr Parameter circular_hysteresis{"circular_hysteresis_um", "circular hysteresis H", "dbb", "diagnostics",
                                                "ISO 230-4 hysteresis between a CCW and a CW run of one set-up"};
+// ---- DBB: the standards' figures (models/dbb/standard_figures.hpp; docs/standards.md), per run and per
+// CCW/CW pair in PARAMS' "standards" object, each with its test conditions ------------------------------
+inline constexpr Parameter iso_circular_deviation{"iso_circular_deviation_um", "ISO 230-4 circular deviation G", "dbb",
+                                                  "standards",
+                                                  "range of a run's reading about its own least-squares circle"};
+inline constexpr Parameter iso_radial_deviation_max{
+    "iso_radial_deviation_max_um", "ISO 230-4 radial deviation F max", "dbb", "standards",
+    "largest deviation of a run's path from the nominal radius, about its least-squares centre"};
+inline constexpr Parameter iso_radial_deviation_min{
+    "iso_radial_deviation_min_um", "ISO 230-4 radial deviation F min", "dbb", "standards",
+    "smallest deviation of a run's path from the nominal radius, about its least-squares centre"};
+inline constexpr Parameter asme_circularity{"asme_circularity_um", "ASME B5.54 circularity", "dbb", "standards",
+                                            "one direction's range about its least-squares circle"};
+inline constexpr Parameter iso_circular_hysteresis{
+    "iso_circular_hysteresis_um", "ISO 230-4 circular hysteresis H", "dbb", "standards",
+    "largest difference of a CCW and a CW run at one angle, about their common least-squares circle"};
+inline constexpr Parameter iso_bidirectional_deviation{
+    "iso_bidirectional_deviation_um", "ISO 230-4 bidirectional circular deviation G(b)", "dbb", "standards",
+    "range of a CCW and a CW run together about their common least-squares circle"};
+inline constexpr Parameter asme_hysteresis{"asme_hysteresis_um", "ASME B5.54 hysteresis", "dbb", "standards",
+                                           "largest difference of the two directions at one angle"};
+inline constexpr Parameter asme_bidirectional_circularity{
+    "asme_bidirectional_circularity_um", "ASME B5.54 bidirectional circularity", "dbb", "standards",
+    "range of both directions together about their common least-squares circle"};
 inline constexpr Parameter center_offset{"center_offset_{axis}_um", "centre offset {axis}", "dbb", "diagnostics",
                                          "offset of the bar's fixed ball from the circle centre (per run: run{run}.)"};
 inline constexpr Parameter squareness{"squareness_urad",

@@ -459,74 +459,6 @@ double part_of_deviation(const std::vector<Point>& pts, const std::vector<double
   return out;
 }
 
-// ISO 230-4 circular hysteresis of a ccw/cw pair (points from p1 and p2) about their common
-// least-squares circle.
-double circular_hysteresis(const formats::DbbRun& r1, const Point* p1, const formats::DbbRun& r2, const Point* p2) {
-  const auto n1 = static_cast<Eigen::Index>(r1.angle_rad.size());
-  const auto n2 = static_cast<Eigen::Index>(r2.angle_rad.size());
-  Eigen::MatrixXd a(n1 + n2, 3);
-  Eigen::VectorXd y(n1 + n2);
-  const auto fill = [&](const Point* p, Eigen::Index n, Eigen::Index off) {
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const auto row = off + i;
-      a(row, 0) = 1;
-      a(row, 1) = p[i].c;
-      a(row, 2) = p[i].s;
-      y[row] = p[i].dL_um;
-    }
-  };
-  fill(p1, n1, 0);
-  fill(p2, n2, n1);
-  const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
-  const Eigen::VectorXd res = y - a * x;
-  // Residual of each run on a 0.5 deg grid (linear interpolation in the wrapped angle), NaN where the run
-  // has no samples (outside a partial arc, in a gap): H is over the angles both runs hold.
-  const auto on_grid = [&](const formats::DbbRun& r, Eigen::Index off) {
-    std::vector<std::pair<double, double>> v;
-    for (std::size_t i = 0; i < r.angle_rad.size(); ++i) {
-      double z = std::fmod(r.angle_rad[i], 2 * pi);
-      if (z < 0) z += 2 * pi;
-      v.emplace_back(z, res[off + static_cast<Eigen::Index>(i)]);
-    }
-    std::sort(v.begin(), v.end());
-    std::vector<double> g(720, nan);
-    const std::vector<formats::DbbGap> gaps = formats::dbb_run_gaps(r);
-    const bool whole = gaps.empty() && formats::dbb_run_full_circle(r);
-    // The longest step between samples that is not a gap: a grid angle further from the samples is not held.
-    double reach = 0.5 * pi / 180;
-    for (std::size_t i = 1; i < v.size(); ++i) {
-      const double step = v[i].first - v[i - 1].first;
-      const bool in_gap =
-          std::any_of(gaps.begin(), gaps.end(), [&](const formats::DbbGap& q) { return step >= 0.99 * q.angle_rad(); });
-      if (!in_gap && step < pi / 2) reach = std::max(reach, step);
-    }
-    for (std::size_t k = 0; k < g.size(); ++k) {
-      const double z = static_cast<double>(k) * pi / 360.0;
-      auto it = std::lower_bound(v.begin(), v.end(), std::make_pair(z, -1e300));
-      if (whole && (it == v.end() || it == v.begin())) {
-        g[k] = (it == v.end() ? v.back() : v.front()).second;
-        continue;
-      }
-      // Neighbours across 0 deg, where a partial arc may hold them.
-      const auto& hi = it == v.end() ? v.front() : *it;
-      const auto& lo = it == v.begin() ? v.back() : *(it - 1);
-      const double span = std::fmod(hi.first - lo.first + 2 * pi, 2 * pi);
-      if (!whole && span > reach * (1 + 1e-9) + 1e-12) continue;
-      const double dz = std::fmod(z - lo.first + 2 * pi, 2 * pi);
-      const double f = span > 0 ? dz / span : 0.0;
-      g[k] = lo.second + f * (hi.second - lo.second);
-    }
-    return g;
-  };
-  const auto g1 = on_grid(r1, 0);
-  const auto g2 = on_grid(r2, n1);
-  double h = nan;
-  for (std::size_t k = 0; k < g1.size(); ++k)
-    if (std::isfinite(g1[k]) && std::isfinite(g2[k]))
-      h = std::isfinite(h) ? std::max(h, std::abs(g1[k] - g2[k])) : std::abs(g1[k] - g2[k]);
-  return h;
-}
-
 Estimate est(const std::string& name, double value, double u, bool fitted = true) { return {name, value, u, fitted}; }
 
 }  // namespace
@@ -1198,12 +1130,9 @@ std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& r
 
 // ISO 230-4 circular deviation per run (the largest is G) and the hysteresis of the first ccw/cw pair
 // of one set-up; each run's residual RMS from the diagnostics where they model it, else from Lai's fit.
-void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<Point>& pts,
-                    const std::vector<double>& residual_rms, const std::vector<double>& lai_residual_rms,
-                    Identification& out) {
-  // First point of each run (the points are in run order).
-  std::vector<const Point*> first(runs.size());
-  for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k) first[k] = pts.data() + i;
+void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<double>& residual_rms,
+                    const std::vector<double>& lai_residual_rms, Identification& out) {
+  out.standards = standard_figures(runs);
   double g_max = 0;
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const formats::DbbRun& r = runs[k];
@@ -1214,29 +1143,17 @@ void summarize_runs(const std::vector<formats::DbbRun>& runs, const std::vector<
     s.direction = r.direction == formats::DbbDirection::ccw ? "ccw" : "cw";
     s.feed_mm_per_min = r.feed_m_per_s * 60e3;
     s.n = r.angle_rad.size();
-    s.circular_deviation_um = circular_deviation(first[k], r.angle_rad.size());
-    s.data_arc_deg = formats::dbb_run_full_circle(r) ? 360.0
-                     : r.data_arc_rad > 0            ? r.data_arc_rad * 180 / pi
-                                                     : formats::dbb_run_arc_rad(r) * 180 / pi;
-    s.gaps = formats::dbb_run_gaps(r).size();
+    s.circular_deviation_um = out.standards.runs[k].iso_circular_deviation_um;
+    s.data_arc_deg = out.standards.runs[k].conditions.data_arc_deg;
+    s.gaps = out.standards.runs[k].conditions.gaps;
     s.residual_rms_um = std::isfinite(residual_rms[k]) ? residual_rms[k] : lai_residual_rms[k];
     g_max = std::max(g_max, s.circular_deviation_um);
     out.runs.push_back(s);
   }
   out.diagnostics.push_back(est(results::name(results::circular_deviation), g_max, nan, false));
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    bool done = false;
-    for (std::size_t k = i + 1; k < runs.size() && !done; ++k) {
-      if (runs[i].direction != runs[k].direction && std::abs(runs[i].radius_m - runs[k].radius_m) < 1e-6 &&
-          std::abs(runs[i].height_m - runs[k].height_m) < 1e-6) {
-        const double h = circular_hysteresis(runs[i], first[i], runs[k], first[k]);
-        if (!std::isfinite(h)) continue;  // their arcs do not overlap
-        out.diagnostics.push_back(est(results::name(results::circular_hysteresis), h, nan, false));
-        done = true;
-      }
-    }
-    if (done) break;
-  }
+  if (!out.standards.pairs.empty())  // the first CCW/CW pair of one set-up
+    out.diagnostics.push_back(est(results::name(results::circular_hysteresis),
+                                  out.standards.pairs.front().iso_circular_hysteresis_um, nan, false));
 }
 
 }  // namespace
@@ -1274,7 +1191,7 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
     out.ranking = lai.ranking;
     out.ranking_model = "lai3";
   }
-  summarize_runs(runs, pts, residual_rms, lai.residual_rms, out);
+  summarize_runs(runs, residual_rms, lai.residual_rms, out);
   // A partial arc or a gap: what it holds and costs, and why each refused term is refused.
   const std::vector<std::string> arcs = arc_notes(runs, plane);
   out.notes.insert(out.notes.end(), arcs.begin(), arcs.end());

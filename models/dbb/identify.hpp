@@ -13,6 +13,7 @@
 
 #include "formats/dbb_run.hpp"
 #include "models/common/lsq_combination.hpp"
+#include "models/dbb/standard_figures.hpp"
 
 namespace guideway::models::dbb {
 
@@ -94,6 +95,7 @@ struct Identification {
                                       // from (the diagnostics', else Lai's)
   FitSummary fit;                     // the Lai third-order fit
   FitSummary diagnostics_fit;
+  StandardFigures standards;  // ISO 230-4 and ASME B5.54 figures with their test conditions
 };
 
 // ISO 230-4's circular deviation of one run's reading (um) at its commanded angles: the range of the

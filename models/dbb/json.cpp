@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "results/parameters.hpp"
+
 namespace guideway::models::dbb {
 
 namespace {
@@ -47,6 +49,59 @@ nlohmann::json axis_figures_json(const std::vector<AxisFigure>& list) {
     }
     if (!f.note.empty()) e["note"] = f.note;
     j[f.name] = e;
+  }
+  return j;
+}
+
+nlohmann::json or_not_recorded(const std::optional<double>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json("not recorded");
+}
+
+nlohmann::json conditions_json(const TestConditions& c) {
+  return {{"radius_mm", c.radius_mm},
+          {"height_mm", c.height_mm},
+          {"feed_mm_per_min", c.feed_mm_per_min},
+          {"direction", c.direction},
+          {"data_arc_deg", c.data_arc_deg},
+          {"partial_arc", c.partial_arc},
+          {"samples", c.samples},
+          {"spacing_deg", c.spacing_deg},
+          {"gaps", c.gaps},
+          {"feed_in_deg", or_not_recorded(c.feed_in_deg)},
+          {"feed_out_deg", or_not_recorded(c.feed_out_deg)},
+          {"temperature_c", or_not_recorded(c.temperature_c)}};
+}
+
+// The figures under their catalogue names (results/parameters.hpp), each {"value": v}; "over" says what
+// they are over: "the full circle" or "the 220 deg arc" (a partial arc's figures are over its arc only).
+nlohmann::json standards_json(const StandardFigures& s) {
+  namespace r = results;
+  const auto over = [](double arc_deg, bool partial) {
+    return partial ? "the " + std::to_string(std::lround(arc_deg)) + " deg arc" : std::string("the full circle");
+  };
+  nlohmann::json j = {{"runs", nlohmann::json::array()}, {"pairs", nlohmann::json::array()}};
+  for (std::size_t k = 0; k < s.runs.size(); ++k) {
+    const RunFigures& f = s.runs[k];
+    j["runs"].push_back({{"run", k + 1},
+                         {"source", f.source},
+                         {"over", over(f.conditions.data_arc_deg, f.conditions.partial_arc)},
+                         {"conditions", conditions_json(f.conditions)},
+                         {r::name(r::iso_circular_deviation), {{"value", f.iso_circular_deviation_um}}},
+                         {r::name(r::iso_radial_deviation_max), {{"value", f.iso_radial_deviation_max_um}}},
+                         {r::name(r::iso_radial_deviation_min), {{"value", f.iso_radial_deviation_min_um}}},
+                         {r::name(r::asme_circularity), {{"value", f.asme_circularity_um}}}});
+  }
+  for (const PairFigures& p : s.pairs) {
+    const bool partial = s.runs[p.ccw].conditions.partial_arc || s.runs[p.cw].conditions.partial_arc;
+    j["pairs"].push_back(
+        {{"ccw_run", p.ccw + 1},
+         {"cw_run", p.cw + 1},
+         {"common_arc_deg", p.common_arc_deg},
+         {"over", over(p.common_arc_deg, partial)},
+         {r::name(r::iso_circular_hysteresis), {{"value", p.iso_circular_hysteresis_um}}},
+         {r::name(r::iso_bidirectional_deviation), {{"value", p.iso_bidirectional_deviation_um}}},
+         {r::name(r::asme_hysteresis), {{"value", p.asme_hysteresis_um}}},
+         {r::name(r::asme_bidirectional_circularity), {{"value", p.asme_bidirectional_circularity_um}}}});
   }
   return j;
 }
@@ -109,6 +164,7 @@ nlohmann::json to_json(const Identification& id) {
   j["notes"] = id.notes;
   j["fit"] = fit_json(id.fit);
   j["diagnostics_fit"] = fit_json(id.diagnostics_fit);
+  j["standards"] = standards_json(id.standards);
   return j;
 }
 
