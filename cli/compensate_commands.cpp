@@ -18,6 +18,7 @@
 #include "formats/compensation_files.hpp"
 #include "models/compensation/compensation.hpp"
 #include "models/dbb/identify.hpp"
+#include "models/dbb/three_planes.hpp"
 #include "results/parameters.hpp"
 #include "results/session_kinds.hpp"
 #include "simulators/machine/dbb_runs.hpp"
@@ -59,16 +60,6 @@ std::vector<std::string> latest_session_runs(const std::string& socket, std::str
   if (out.empty())
     throw std::runtime_error("compensate: the daemon's latest DBB session (" + session +
                              ") left no run files (was it recorded?); give the run files instead");
-  if (r.contains("planes")) {
-    // x/y/z tables from several planes together are not written yet (issue 27, part 5): one plane's runs.
-    std::string files;
-    for (const auto& f : out) files += "\n  " + f;
-    throw std::runtime_error("compensate: the daemon's latest DBB session (" + session + ", test " +
-                             r.value("test", std::string("?")) +
-                             ") has circles in several planes; compensation from several planes together is not "
-                             "written yet: give one plane's run files (their # plane line says which):" +
-                             files);
-  }
   return out;
 }
 
@@ -199,11 +190,11 @@ std::vector<Refusal> refusals(const Verification& v, const std::vector<Correctio
 // Traces every run's test on the virtual machine: as it is, with the tables written to `out_dir` (read
 // back from the files, as the controller would), then adding the squareness as the axis-skew correction
 // the user is told to enter, then the cross-axis correction of straightness.csv; refuses what makes a run
-// worse (refusals). Writes the runs before and with every correction to out_dir/verify/.
+// worse (refusals). Writes the runs before and with every correction to `dir`.
 Verification verify(const std::vector<formats::DbbRun>& runs,
                     const models::compensation::CheckedIdentification& checked,
                     const models::compensation::ErrorMap& map, const std::string& machine_file,
-                    const std::string& out_dir, const std::vector<std::string>& axes) {
+                    const std::string& out_dir, const std::vector<std::string>& axes, const fs::path& dir) {
   namespace machine = simulators::machine;
   const machine::MachineConfig config = machine::load_machine_config(machine_file);
   std::vector<Correction> all;
@@ -269,7 +260,6 @@ Verification verify(const std::vector<formats::DbbRun>& runs,
     v.g_loadable = g_of_runs(traced, less);
     v.g_loadable_measured = g_of_runs(traced);
   }
-  const fs::path dir = fs::path(out_dir) / "verify";
   fs::create_directories(dir);
   // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
   for (const auto& entry : fs::directory_iterator(dir)) {
@@ -292,7 +282,7 @@ bool refused(const std::vector<Refusal>& list, const std::string& file) {
 
 // The refused files renamed NAME.do-not-load (a file named x.comp invites loading it), linuxcnc.ini
 // rewritten for the tables that remain; the refusals as text and JSON.
-std::string mark_refused(const Verification& v, const models::compensation::ErrorMap& map, const std::string& out_dir,
+std::string mark_refused(const Verification& v, const std::string& plane, const std::string& out_dir,
                          const std::vector<std::string>& axes, const std::string& source, nlohmann::json& j) {
   const std::vector<Refusal>& list = v.refused;
   std::ostringstream o;
@@ -338,7 +328,7 @@ std::string mark_refused(const Verification& v, const models::compensation::Erro
     write_file_atomically((fs::path(out_dir) / "linuxcnc.ini").string(),
                           formats::format_linuxcnc_ini(joints, comments));
     if (joints.empty())
-      o << "  no table of the " << map.plane << " plane is fit to load: with any of them some run's G is larger than "
+      o << "  no table of the " << plane << " plane is fit to load: with any of them some run's G is larger than "
         << "before\n";
   } else {
     o << "  loaded together, the files (and the skew) leave no run's G larger than before: fit to load\n";
@@ -596,19 +586,176 @@ nlohmann::json terms_json(const models::compensation::ErrorMap& map) {
   return terms;
 }
 
-// The plane axes to write tables for: --axes, each an axis of the runs' plane, else both.
-std::vector<std::string> table_axes(const std::string& wanted, const std::string& plane) {
-  const std::vector<std::string> both{results::axis_letter(plane, 0), results::axis_letter(plane, 1)};
+// The axes to write tables for: --axes, each an axis the runs measured (`measured`: of the `plane` or
+// planes), else all of them.
+std::vector<std::string> table_axes(const std::string& wanted, const std::vector<std::string>& measured,
+                                    const std::string& plane) {
+  const std::vector<std::string>& both = measured;
   if (wanted.empty()) return both;
   std::vector<std::string> out;
   std::stringstream ss(wanted);
   for (std::string a; std::getline(ss, a, ',');) {
     if (std::find(both.begin(), both.end(), a) == both.end())
       throw std::runtime_error("compensate: --axes " + wanted + ": \"" + a + "\" is not an axis of the " + plane +
-                               " plane the runs measured");
+                               " the runs measured");
     out.push_back(a);
   }
   return out;
+}
+
+// Writes the files of `maps` (one plane's, or one per plane of a test in several) with the tables of `axes`
+// only to o.out_dir, as one set; returns the paths written.
+nlohmann::json write_compensation(const Opts& o, const std::vector<models::compensation::ErrorMap>& maps,
+                                  const std::string& source, const std::vector<std::string>& axes,
+                                  std::size_t all_axes) {
+  fs::create_directories(o.out_dir);
+  nlohmann::json written = nlohmann::json::array();
+  std::vector<NamedContent> set;
+  for (const auto& f : models::compensation::compensation_files(maps, source)) {
+    const auto stem = f.name.substr(0, f.name.find('.'));
+    if (f.name.ends_with(".comp") && std::find(axes.begin(), axes.end(), stem) == axes.end()) continue;
+    std::string content = f.content;
+    if (f.name == "linuxcnc.ini" && axes.size() != all_axes) {
+      std::vector<formats::IniJoint> joints;
+      for (const auto& a : axes) joints.push_back({models::compensation::joint_of(a), a, a + ".comp"});
+      content = formats::format_linuxcnc_ini(joints, {"Guideway compensation, written from " + source});
+    }
+    set.push_back({f.name, std::move(content)});
+    written.push_back((fs::path(o.out_dir) / f.name).string());
+  }
+  // One set or the other, never a mix: a table or a straightness.csv of an earlier compensation in this
+  // directory would be loaded with these (a full disk half way leaves the earlier set whole).
+  write_file_set_atomically(o.out_dir, set, models::compensation::compensation_file_names());
+  return written;
+}
+
+// One map's terms and squareness as JSON.
+void map_json(const models::compensation::ErrorMap& map, nlohmann::json& j) {
+  j["plane"] = map.plane;
+  j["model"] = map.model;
+  j["notes"] = map.notes;
+  j["step_mm"] = map.step_m * 1e3;
+  j["terms"] = terms_json(map);
+  if (map.squareness_known) {
+    const auto adv = models::compensation::squareness_advice(map.squareness_rad);
+    j["squareness"] = {{"urad", map.squareness_rad * 1e6},
+                       {"u_urad", map.squareness_u_rad * 1e6},
+                       {"um_per_m", adv.um_per_m},
+                       {"correction_um_per_100mm", adv.correction_um_per_100mm},
+                       {"significant", map.squareness_significant}};
+  }
+}
+
+// The verifications of the planes as one: every plane's refusals (a file refused in one plane is not loaded
+// in any), their runs' G in the planes' order. G with what is fit to load is each plane's own; it is left
+// out when a plane's loadable set is not the union's (it was not traced with the union's set).
+Verification merged(const std::vector<models::compensation::ErrorMap>& maps, const std::vector<Verification>& vs) {
+  Verification all;
+  bool same = true;
+  for (std::size_t i = 0; i < vs.size(); ++i)
+    for (const auto& r : vs[i].refused)
+      if (r.file == "axis skew" || !refused(all.refused, r.file))
+        all.refused.push_back({r.file, "the " + maps[i].plane + " plane: " + r.why});
+  for (const auto& v : vs) {
+    for (const auto& f : v.loadable)
+      if (refused(all.refused, f)) same = false;
+    for (const auto& e : v.beside)
+      if (std::find(all.beside.begin(), all.beside.end(), e) == all.beside.end()) all.beside.push_back(e);
+    all.g_before.insert(all.g_before.end(), v.g_before.begin(), v.g_before.end());
+    all.g_before_measured.insert(all.g_before_measured.end(), v.g_before_measured.begin(), v.g_before_measured.end());
+    all.g_loadable.insert(all.g_loadable.end(), v.g_loadable.begin(), v.g_loadable.end());
+    all.g_loadable_measured.insert(all.g_loadable_measured.end(), v.g_loadable_measured.begin(),
+                                   v.g_loadable_measured.end());
+    for (const auto& f : v.loadable)
+      if (f != "axis skew" && std::find(all.loadable.begin(), all.loadable.end(), f) == all.loadable.end())
+        all.loadable.push_back(f);
+  }
+  const bool skews = std::any_of(vs.begin(), vs.end(), [](const Verification& v) {
+    return std::find(v.loadable.begin(), v.loadable.end(), "axis skew") != v.loadable.end();
+  });
+  if (skews) all.loadable.emplace_back("the planes' axis skews");
+  if (!same || all.g_loadable.size() != all.g_before.size()) all.g_loadable.clear();
+  return all;
+}
+
+// A test in several planes (the three-plane test): each plane identified and mapped as one plane is, each
+// axis' scale and backlash the planes' combined figure (one table per axis; a figure its planes disagree
+// on is refused), every plane's squareness as its axis skew; --verify retraces each plane's runs with the files.
+void compensate_planes(const Opts& o, const std::vector<std::vector<formats::DbbRun>>& groups,
+                       const std::string& source) {
+  namespace comp = models::compensation;
+  if (!o.center_mm.empty())
+    throw std::runtime_error(
+        "compensate: --center-mm gives one plane's circle centre, and the runs are of several planes: each run "
+        "file's centre metadata places its plane's circle");
+  comp::MapOptions mo;
+  mo.step_m = o.step_mm * 1e-3;
+  std::vector<comp::CheckedIdentification> checked;
+  std::vector<comp::ErrorMap> maps;
+  std::vector<models::dbb::Identification> ids;
+  std::vector<std::string> measured;
+  std::string planes;
+  for (const auto& g : groups) {
+    planes += (planes.empty() ? "" : ", ") + g.front().plane;
+    for (int k = 0; k < 2; ++k)
+      if (const std::string a = results::axis_letter(g.front().plane, k);
+          std::find(measured.begin(), measured.end(), a) == measured.end())
+        measured.push_back(a);
+  }
+  const std::vector<std::string> axes = table_axes(o.axes, measured, planes + " planes");  // refused before the work
+  for (const auto& g : groups) {
+    try {
+      comp::check_map_inputs(g, mo);
+      checked.push_back(comp::identify_checked(g));
+      maps.push_back(comp::error_map(checked.back(), g, mo));
+    } catch (const comp::CompensationError& e) {
+      throw std::runtime_error("compensate: the " + g.front().plane + " plane: " + e.what());
+    }
+    ids.push_back(checked.back().id);
+  }
+  const std::vector<comp::RefusedFigure> refused_figures =
+      comp::use_machine_figures(maps, models::dbb::summarize_planes(ids));
+  nlohmann::json j;
+  j["planes"] = nlohmann::json::array();
+  j["files"] = write_compensation(o, maps, source, axes, measured.size());
+  std::string text;
+  for (const auto& m : maps) {
+    nlohmann::json pj;
+    map_json(m, pj);
+    j["planes"].push_back(pj);
+    text += "== " + m.plane + " plane ==\n" + comp::to_text(m);
+  }
+  j["refused_figures"] = nlohmann::json::array();
+  for (const auto& r : refused_figures) {
+    text += "NOT WRITTEN: " + r.name + " (in " + r.axis + ".comp), its planes disagree: " + r.why + "\n";
+    j["refused_figures"].push_back({{"name", r.name}, {"axis", r.axis}, {"why", r.why}});
+  }
+  for (const auto& p : j["files"]) text += "wrote " + p.get<std::string>() + "\n";
+  if (o.verify) {
+    std::vector<Verification> vs;
+    nlohmann::json vj;
+    vj["planes"] = nlohmann::json::array();
+    for (std::size_t i = 0; i < maps.size(); ++i) {
+      std::vector<std::string> plane_axes;
+      for (const auto& am : maps[i].axes)
+        if (std::find(axes.begin(), axes.end(), am.axis) != axes.end()) plane_axes.push_back(am.axis);
+      vs.push_back(verify(groups[i], checked[i], maps[i], o.machine, o.out_dir, plane_axes,
+                          fs::path(o.out_dir) / "verify" / maps[i].plane));
+      nlohmann::json pj;
+      text += "\n== " + maps[i].plane + " plane ==" +
+              (maps[i].model == "lai3" ? lai3_verification_text(maps[i], vs.back(), vs.back().refused, pj)
+                                       : verification_text(maps[i], vs.back(), vs.back().refused, pj));
+      pj["plane"] = maps[i].plane;
+      vj["planes"].push_back(pj);
+    }
+    text += "\nthe planes together:\n";
+    text += mark_refused(merged(maps, vs), planes, o.out_dir, axes, source, vj);
+    j["verify"] = vj;
+  }
+  if (o.json)
+    std::cout << j.dump() << "\n";
+  else
+    std::cout << text;
 }
 
 void run_compensate(const Opts& o, const std::string& socket) {
@@ -627,6 +774,10 @@ void run_compensate(const Opts& o, const std::string& socket) {
   if (source.empty()) {
     for (const auto& f : files) source += (source.empty() ? "" : ", ") + fs::path(f).filename().string();
   }
+  if (auto groups = models::dbb::runs_by_plane(runs); groups.size() > 1) {
+    compensate_planes(o, groups, source);
+    return;
+  }
   models::compensation::MapOptions mo;
   if (o.center_mm.size() == 2) {
     mo.center_m = std::array<double, 2>{o.center_mm[0] * 1e-3, o.center_mm[1] * 1e-3};
@@ -637,7 +788,9 @@ void run_compensate(const Opts& o, const std::string& socket) {
     }
   }
   mo.step_m = o.step_mm * 1e-3;
-  const std::vector<std::string> axes = table_axes(o.axes, runs.front().plane);  // refused before the work
+  const std::string plane = runs.front().plane;
+  const std::vector<std::string> axes =
+      table_axes(o.axes, {results::axis_letter(plane, 0), results::axis_letter(plane, 1)}, plane + " plane");
   models::compensation::ErrorMap map;
   models::compensation::CheckedIdentification checked;
   try {
@@ -649,47 +802,17 @@ void run_compensate(const Opts& o, const std::string& socket) {
   } catch (const models::compensation::CompensationError& e) {
     throw std::runtime_error(std::string("compensate: ") + e.what());
   }
-  fs::create_directories(o.out_dir);
   nlohmann::json j;
-  j["plane"] = map.plane;
-  j["model"] = map.model;
-  j["notes"] = map.notes;
-  j["step_mm"] = map.step_m * 1e3;
-  nlohmann::json written = nlohmann::json::array();
-  std::vector<NamedContent> set;
-  for (const auto& f : models::compensation::compensation_files(map, source)) {
-    const auto stem = f.name.substr(0, f.name.find('.'));
-    if (f.name.ends_with(".comp") && std::find(axes.begin(), axes.end(), stem) == axes.end()) continue;
-    std::string content = f.content;
-    if (f.name == "linuxcnc.ini" && axes.size() != map.axes.size()) {
-      std::vector<formats::IniJoint> joints;
-      for (const auto& a : axes) joints.push_back({models::compensation::joint_of(a), a, a + ".comp"});
-      content = formats::format_linuxcnc_ini(joints, {"Guideway compensation, written from " + source});
-    }
-    set.push_back({f.name, std::move(content)});
-    written.push_back((fs::path(o.out_dir) / f.name).string());
-  }
-  // One set or the other, never a mix: a table or a straightness.csv of an earlier compensation in this
-  // directory would be loaded with these (a full disk half way leaves the earlier set whole).
-  write_file_set_atomically(o.out_dir, set, models::compensation::compensation_file_names());
-  j["files"] = written;
-  j["terms"] = terms_json(map);
-  if (map.squareness_known) {
-    const auto adv = models::compensation::squareness_advice(map.squareness_rad);
-    j["squareness"] = {{"urad", map.squareness_rad * 1e6},
-                       {"u_urad", map.squareness_u_rad * 1e6},
-                       {"um_per_m", adv.um_per_m},
-                       {"correction_um_per_100mm", adv.correction_um_per_100mm},
-                       {"significant", map.squareness_significant}};
-  }
+  map_json(map, j);
+  j["files"] = write_compensation(o, {map}, source, axes, map.axes.size());
   std::string text = models::compensation::to_text(map);
-  for (const auto& p : written) text += "wrote " + p.get<std::string>() + "\n";
+  for (const auto& p : j["files"]) text += "wrote " + p.get<std::string>() + "\n";
   if (o.verify) {
-    const Verification v = verify(runs, checked, map, o.machine, o.out_dir, axes);
+    const Verification v = verify(runs, checked, map, o.machine, o.out_dir, axes, fs::path(o.out_dir) / "verify");
     const std::vector<Refusal>& refuse = v.refused;
     nlohmann::json vj;
     text += map.model == "lai3" ? lai3_verification_text(map, v, refuse, vj) : verification_text(map, v, refuse, vj);
-    text += mark_refused(v, map, o.out_dir, axes, source, vj);
+    text += mark_refused(v, map.plane, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
   if (o.json)

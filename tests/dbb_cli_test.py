@@ -95,6 +95,7 @@ def three_planes(exe, source, d):
     comp = subprocess.run([exe, "compensate", "dbb", files[2], files[3], "--out-dir", os.path.join(d, "comp"),
                            "--verify", "--machine", machine, "--json"], check=True, capture_output=True, text=True)
     assert os.path.exists(os.path.join(d, "comp", "z.comp")), comp.stdout[:500]
+    compensate_three_planes(exe, machine, files, d)
     # An arc under 180 deg is refused by the reader.
     short = os.path.join(d, "short.csv")
     with open(files[2]) as f, open(short, "w") as g:
@@ -103,6 +104,38 @@ def three_planes(exe, source, d):
         g.write("".join(rows))
     r = subprocess.run([exe, "identify", "dbb", short], capture_output=True, text=True)
     assert r.returncode == 1 and "a DBB run needs an arc of at least 180 deg" in r.stderr, r.stderr
+
+
+def compensate_three_planes(exe, machine, files, d):
+    """compensate on the whole three-plane test, verified on the virtual machine: x/y/z tables, each plane's
+    G smaller with them and the skews, and z.comp holds the machine file's Z backlash and scale."""
+    out = os.path.join(d, "comp3")
+    j = json.loads(subprocess.run([exe, "compensate", "dbb", *files, "--out-dir", out, "--verify", "--machine",
+                                   machine, "--json"], check=True, capture_output=True, text=True).stdout)
+    for name in ("x.comp", "y.comp", "z.comp", "linuxcnc.ini", "errors.csv"):
+        assert os.path.exists(os.path.join(out, name)), (name, j["files"], j["verify"]["do_not_load"])
+    assert [p["plane"] for p in j["verify"]["planes"]] == ["xy", "xz", "yz"], j["verify"]["planes"]
+    for p in j["verify"]["planes"]:
+        for g0, g1 in zip(p["g_measured_before_um"], p["g_measured_after_um"]):
+            assert g1 < 0.6 * g0, (p["plane"], g0, g1)
+    assert not j["verify"]["do_not_load"], j["verify"]["do_not_load"]
+    with open(os.path.join(out, "errors.csv")) as f:
+        meta = dict(line[2:].strip().split(" = ", 1) for line in f if line.startswith("# ") and " = " in line)
+    for plane, truth in (("xy", 30), ("xz", 25), ("yz", -15)):
+        assert abs(float(meta[f"squareness_{plane}_urad"]) - truth) < 0.5, (plane, meta)
+    # z.comp: nominal, actual moving +, actual moving - (mm); backlash = reverse - forward, scale = slope.
+    with open(os.path.join(out, "z.comp")) as f:
+        rows = [[float(v) for v in line.split()] for line in f if line.strip() and not line.startswith("#")]
+    (n0, f0, r0), (n1, f1, r1) = rows[0], rows[-1]
+    backlash_um = (r0 - f0) * 1e3
+    scale_ppm = (((f1 + r1) - (f0 + r0)) / 2 / (n1 - n0) - 1) * 1e6
+    terms = {t["name"]: t for p in j["planes"] for t in p["terms"]}
+    b, s = terms["backlash_z_um"], terms["scale_z_ppm"]
+    assert abs(backlash_um - b["value"]) < 1e-3 and abs(scale_ppm - s["value"]) < 0.01, (backlash_um, scale_ppm)
+    assert abs(backlash_um - 3.0) < 3 * b["u"], (backlash_um, b)
+    # The file's 20 ppm less the servo lag's radial shrink, (v tau)^2 / (2 r^2): 30 ms at 1000 mm/min, r 100 mm.
+    lag_ppm = -((1000 / 60 * 0.030) ** 2) / (2 * 100**2) * 1e6
+    assert abs(scale_ppm - (20 + lag_ppm)) < 4 * s["u"], (scale_ppm, lag_ppm, s)
 
 
 if __name__ == "__main__":

@@ -112,14 +112,20 @@ class ThreePlaneLive(unittest.TestCase):
         text = self.cli("params", "dbb")
         for line in ("plane xy:", "plane xz:", "plane yz:", "the machine across its planes"):
             self.assertIn(line, text)
-        # Compensation from the three planes together is not written yet: --latest says so and names the files.
-        r = subprocess.run([GUIDEWAY, "--socket", self.sock, "compensate", "dbb", "--latest", "--out-dir",
-                            os.path.join(self.tmp.name, "comp")], capture_output=True, text=True, timeout=60)
-        self.assertNotEqual(r.returncode, 0, r.stdout)
-        self.assertIn("has circles in several planes", r.stderr)
-        for path in params["derived"]:
-            if path.endswith(".csv"):
-                self.assertIn(path, r.stderr)
+        # Compensation from the three planes together: x/y/z tables and the three skews, each plane's G
+        # smaller with them on the virtual machine.
+        comp = os.path.join(self.tmp.name, "comp")
+        r = subprocess.run([GUIDEWAY, "--socket", self.sock, "compensate", "dbb", "--latest", "--out-dir", comp,
+                            "--verify", "--machine", os.path.join(SOURCE, "config", "machine-example.toml"),
+                            "--json"], capture_output=True, text=True, timeout=300)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        c = json.loads(r.stdout)
+        self.assertEqual([p["plane"] for p in c["planes"]], ["xy", "xz", "yz"])
+        for name in ("x.comp", "y.comp", "z.comp"):
+            self.assertTrue(os.path.exists(os.path.join(comp, name)) or
+                            os.path.exists(os.path.join(comp, name + ".do-not-load")), c["files"])
+        for p in c["verify"]["planes"]:
+            self.assertLess(p["g_after_um"], p["g_before_um"], p["plane"])
 
     def without_vertical_errors(self):
         """config/machine-example.toml without what only the vertical planes see of it."""

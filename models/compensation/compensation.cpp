@@ -520,10 +520,55 @@ std::vector<std::string> compensation_file_names() {
 }
 
 std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string& source) {
+  return compensation_files(std::vector<ErrorMap>{m}, source);
+}
+
+namespace {
+
+// Each axis' map once, from the first plane that sees it, with its plane's terms.
+std::vector<std::pair<const ErrorMap*, std::size_t>> axes_once(const std::vector<ErrorMap>& planes) {
+  std::vector<std::pair<const ErrorMap*, std::size_t>> out;
+  for (const auto& m : planes)
+    for (std::size_t k = 0; k < m.axes.size(); ++k)
+      if (std::none_of(out.begin(), out.end(),
+                       [&](const auto& a) { return a.first->axes[a.second].axis == m.axes[k].axis; }))
+        out.emplace_back(&m, k);
+  return out;
+}
+
+// The squareness of each plane as errors.csv's metadata (one plane: squareness_significant, as before).
+void squareness_meta(const std::vector<ErrorMap>& planes, std::vector<std::pair<std::string, std::string>>& meta) {
+  for (const auto& m : planes) {
+    if (!m.squareness_known) continue;
+    const std::string a = m.axes[0].axis, b = m.axes[1].axis;
+    const auto adv = squareness_advice(m.squareness_rad);
+    meta.emplace_back("squareness_" + a + b + "_urad", printf_number("%.3f", m.squareness_rad * 1e6));
+    meta.emplace_back("squareness_" + a + b + "_u_urad", printf_number("%.3f", m.squareness_u_rad * 1e6));
+    meta.emplace_back(
+        planes.size() == 1 ? std::string("squareness_significant") : "squareness_" + a + b + "_significant",
+        m.squareness_significant ? "true" : "false");
+    meta.emplace_back("squareness_correction_" + a + "_um_per_100mm_" + b,
+                      printf_number("%.3f", adv.correction_um_per_100mm));
+  }
+}
+
+}  // namespace
+
+std::vector<OutputFile> compensation_files(const std::vector<ErrorMap>& planes, const std::string& source) {
+  if (planes.empty()) throw CompensationError("no plane to write compensation files of");
   std::vector<OutputFile> out;
-  const auto head = header_lines(m, source);
+  std::vector<std::string> head;
+  std::string plane_names, table_names;
+  for (const auto& m : planes) {
+    plane_names += (plane_names.empty() ? "" : ",") + m.plane;
+    for (const auto& l : header_lines(m, source))
+      if (std::find(head.begin(), head.end(), l) == head.end()) head.push_back(l);
+  }
+  const auto axes = axes_once(planes);
   std::vector<formats::IniJoint> joints;
-  for (const auto& am : m.axes) {
+  for (const auto& [mp, k] : axes) {
+    const ErrorMap& m = *mp;
+    const AxisMap& am = m.axes[k];
     std::vector<formats::CompTriplet> table;
     for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
       table.push_back({am.nominal_m[i] * 1e3, (am.nominal_m[i] + am.table_forward_m[i]) * 1e3,
@@ -537,7 +582,7 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
     c.push_back("in this table: scale, backlash and cyclic error of " + letters_upper(am.axis) +
                 " (those applied above); straightness: straightness.csv (cross-axis), squareness: axis skew; both "
                 "also in errors.csv");
-    const auto& at = m.terms_of[static_cast<std::size_t>(&am - m.axes.data())];
+    const auto& at = m.terms_of[k];
     if (at.cyclic_amplitude_m != 0.0) {
       if (at.cyclic_table_gain > 0)
         c.push_back("the cyclic part is multiplied by " + printf_number("%.4f", at.cyclic_table_gain) +
@@ -552,45 +597,49 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
     }
     out.push_back({am.axis + ".comp", formats::format_linuxcnc_comp(table, c)});
     joints.push_back({joint_of(am.axis), am.axis, am.axis + ".comp"});
+    table_names += (table_names.empty() ? "" : " / ") + am.axis + ".comp";
   }
   std::vector<std::string> ic{"Guideway compensation: lines for the [JOINT_n] sections of the machine's INI file",
-                              "copy x.comp / y.comp next to the INI file (COMP_FILE is read relative to it), "
-                              "then restart LinuxCNC",
+                              "copy " + table_names +
+                                  " next to the INI file (COMP_FILE is read relative to it), "
+                                  "then restart LinuxCNC",
                               "joint numbers assume trivial kinematics (X = 0, Y = 1, Z = 2): check your [KINS]"};
   for (const auto& l : head) ic.push_back(l);
   out.push_back({"linuxcnc.ini", formats::format_linuxcnc_ini(joints, ic)});
 
   std::vector<formats::ErrorMapRow> rows;
-  for (const auto& am : m.axes)
+  for (const auto& [mp, k] : axes) {
+    const AxisMap& am = mp->axes[k];
     for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
       rows.push_back({am.axis, am.nominal_m[i] * 1e3, am.forward_m[i] * 1e6, am.reverse_m[i] * 1e6, am.across,
                       am.straightness_m[i] * 1e6});
+  }
   std::vector<std::pair<std::string, std::string>> meta;
   meta.emplace_back("source", source);
-  meta.emplace_back("plane", m.plane);
-  meta.emplace_back("model", m.model);
-  const std::string a = m.axes[0].axis, b = m.axes[1].axis;
-  if (m.squareness_known) {
-    const auto adv = squareness_advice(m.squareness_rad);
-    meta.emplace_back("squareness_" + a + b + "_urad", printf_number("%.3f", m.squareness_rad * 1e6));
-    meta.emplace_back("squareness_" + a + b + "_u_urad", printf_number("%.3f", m.squareness_u_rad * 1e6));
-    meta.emplace_back("squareness_significant", m.squareness_significant ? "true" : "false");
-    meta.emplace_back("squareness_correction_" + a + "_um_per_100mm_" + b,
-                      printf_number("%.3f", adv.correction_um_per_100mm));
-  }
+  meta.emplace_back("plane", plane_names);
+  meta.emplace_back("model", planes.front().model);
+  squareness_meta(planes, meta);
   std::vector<std::string> ec = head;
   ec.push_back("forward_um / reverse_um: positioning error (actual - nominal) of the axis moving in + / -");
   ec.push_back("straightness_um: displacement of the axis along straightness_axis (ends relative to the centre)");
-  ec.push_back("squareness (sign): actual " + a + " = " + a + " + q " + b + ", i.e. " + letters_upper(b) +
-               " leans towards +" + a + " for q > 0; um/m = urad");
+  for (const auto& m : planes) {
+    const std::string a = m.axes[0].axis, b = m.axes[1].axis;
+    ec.push_back("squareness (sign): actual " + a + " = " + a + " + q " + b + ", i.e. " + letters_upper(b) +
+                 " leans towards +" + a + " for q > 0; um/m = urad");
+  }
+  if (planes.size() > 1)
+    ec.push_back(
+        "each axis once, from the first plane that sees it (its straightness along that plane's other axis; "
+        "the other plane's in straightness.csv)");
   out.push_back({"errors.csv", formats::format_error_map_csv(rows, meta, ec)});
 
   // The cross-axis correction undoes the straightness: the other axis is commanded back by as much.
   std::vector<formats::CrossCorrectionRow> cross;
-  for (const auto& am : m.axes)
-    if (am.straightness_applied)
-      for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
-        cross.push_back({am.axis, am.nominal_m[i] * 1e3, am.across, -am.straightness_m[i] * 1e3});
+  for (const auto& m : planes)
+    for (const auto& am : m.axes)
+      if (am.straightness_applied)
+        for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
+          cross.push_back({am.axis, am.nominal_m[i] * 1e3, am.across, -am.straightness_m[i] * 1e3});
   if (!cross.empty()) {
     std::vector<std::string> sc = head;
     sc.push_back(
@@ -600,13 +649,51 @@ std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string&
     sc.push_back(
         "load it as a cross-axis / straightness compensation table (docs/compensation.md); a per-joint "
         "table cannot hold it");
-    for (const auto& am : m.axes)
-      if (!am.straightness_applied)
-        sc.push_back("no rows for " + am.axis + ": its straightness is not larger than twice its uncertainty");
-    out.push_back(
-        {"straightness.csv", formats::format_straightness_csv(cross, {{"source", source}, {"plane", m.plane}}, sc)});
+    for (const auto& m : planes)
+      for (const auto& am : m.axes)
+        if (!am.straightness_applied)
+          sc.push_back("no rows for " + am.axis + (planes.size() > 1 ? " along " + am.across : std::string()) +
+                       ": its straightness is not larger than twice its uncertainty");
+    out.push_back({"straightness.csv",
+                   formats::format_straightness_csv(cross, {{"source", source}, {"plane", plane_names}}, sc)});
   }
   return out;
+}
+
+std::vector<RefusedFigure> use_machine_figures(std::vector<ErrorMap>& planes, const dbb::PlanesSummary& summary) {
+  std::vector<RefusedFigure> refused;
+  for (const auto* figures : {&summary.backlash, &summary.scale})
+    for (const dbb::AxisFigure& f : *figures) {
+      if (!f.consistent) refused.push_back({f.name, f.axis, f.note});
+      std::string planes_text;
+      for (const auto& p : f.from) planes_text += (planes_text.empty() ? "" : ", ") + p.plane;
+      for (auto& m : planes)
+        for (auto& t : m.terms) {
+          if (t.name != f.name) continue;
+          t.value = f.value;
+          t.u = f.u;
+          t.significant = std::abs(f.value) > 2 * f.u;
+          if (!f.consistent) t.contradiction = "the planes disagree: " + f.note;
+          if (f.from.size() > 1)
+            m.notes.push_back(f.name + ": the planes' combined figure (" + planes_text + "), " +
+                              with_uncertainty(f.value, f.u, 3) + ", in place of this plane's alone");
+        }
+    }
+  for (auto& m : planes) {
+    for (std::size_t k = 0; k < m.axes.size(); ++k) {
+      AxisTerms& at = m.terms_of[k];
+      at.scale = 0.0;
+      at.backlash_m = 0.0;
+      for (const auto& t : m.terms) {
+        if (!t.applied()) continue;
+        if (t.name == results::name(results::scale, m.plane, static_cast<int>(k))) at.scale = t.value * 1e-6;
+        if (t.name == results::name(results::backlash, m.plane, static_cast<int>(k))) at.backlash_m = t.value * 1e-6;
+      }
+      m.axes[k] = AxisMap{};
+      fill_axis_map(m, static_cast<int>(k), at.radius_m);
+    }
+  }
+  return refused;
 }
 
 namespace {

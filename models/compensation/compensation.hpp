@@ -20,6 +20,7 @@
 
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
+#include "models/dbb/three_planes.hpp"
 
 namespace guideway::models::compensation {
 
@@ -198,6 +199,22 @@ struct OutputFile {
 };
 // `source` names the session or runs in the headers.
 std::vector<OutputFile> compensation_files(const ErrorMap& map, const std::string& source);
+// The files of a test in several planes (one map per plane): each axis' table once (from the first plane
+// that sees it: use_machine_figures makes its planes' tables the same), errors.csv with every axis and
+// every plane's squareness, straightness.csv with every plane's cross-axis rows.
+std::vector<OutputFile> compensation_files(const std::vector<ErrorMap>& planes, const std::string& source);
+
+// A test in several planes (models/dbb/three_planes): every axis' scale and backlash in each plane's map
+// replaced by the planes' combined figure (`summary`, their inverse-variance mean; applied when larger
+// than twice its u), so an axis seen by two planes gets one table. A figure whose planes disagree is
+// refused: it is applied in no plane's map (its term's contradiction names the planes and by how much) and
+// returned; the rest of the axis' table stands. The maps' notes say what was combined.
+struct RefusedFigure {
+  std::string name;  // "scale_y_ppm"
+  std::string axis;
+  std::string why;  // the summary's note
+};
+std::vector<RefusedFigure> use_machine_figures(std::vector<ErrorMap>& planes, const dbb::PlanesSummary& summary);
 // Every name compensation_files can give (x.comp, y.comp, z.comp, linuxcnc.ini, errors.csv,
 // straightness.csv), and each with do_not_load_suffix (a file a verification refused): what a new set
 // written to a directory replaces.
