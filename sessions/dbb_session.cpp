@@ -449,7 +449,8 @@ class DbbSession : public Session {
       last_note_ = o.str();
       return;
     }
-    run.metadata = run_metadata(pat, run, r, ca, cb);
+    // The swept arc beyond the data arc, half before and half after it: the test's feed-in and feed-out.
+    run.metadata = run_metadata(pat, run, r, ca, cb, 0.5 * (std::abs(span) - pat.data_arc_rad));
     try {
       formats::validate_dbb_run(run);
     } catch (const formats::DbbRunFormatError& e) {
@@ -461,7 +462,7 @@ class DbbSession : public Session {
   }
 
   std::map<std::string, std::string> run_metadata(const Pattern& pat, const formats::DbbRun& run, double r, double ca,
-                                                  double cb) const {
+                                                  double cb, double overshoot_rad) const {
     std::ostringstream feed;
     feed << run.feed_m_per_s * 60e3;
     return {{"format", formats::dbb_run_format_id},
@@ -472,6 +473,7 @@ class DbbSession : public Session {
             {"feed_mm_per_min", feed.str()},
             {"plane", run.plane},
             {"data_arc_deg", std::to_string(pat.data_arc_rad * 180 / pi)},
+            {"overshoot_deg", std::to_string(overshoot_rad * 180 / pi)},
             {"measured_radius_mm", std::to_string(r * 1e3)},
             // The circle centre in machine coordinates (the encoders'), which compensation
             // tables are placed by (docs/compensation.md); written also when it is 0.
