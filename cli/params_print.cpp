@@ -144,6 +144,7 @@ std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, st
   std::vector<std::pair<std::size_t, std::vector<std::string>>> ranked;
   for (const auto& [name, v] : items.items()) {
     if (name.starts_with("circular_") != iso) continue;
+    if (!iso && !v.contains("u")) continue;  // a searched or assumed value: searched_values()
     const results::Parameter* p = results::find_parameter(name, group);
     const auto at = static_cast<std::size_t>(std::find(catalogue.begin(), catalogue.end(), p) - catalogue.begin());
     ranked.emplace_back(at, shown_row(name, v, plane, group));
@@ -152,6 +153,18 @@ std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, st
   std::vector<std::vector<std::string>> rows;
   for (auto& [at, row] : ranked) rows.push_back(std::move(row));
   return rows;
+}
+
+// The values a fit held at what a search chose or a default (a spike's decay and delay, a cyclic error
+// not found): one line, apart from the fitted ones, since they have no uncertainty to show.
+std::string searched_values(const nlohmann::json& items, std::string_view plane, std::string_view group) {
+  std::string out;
+  for (const auto& [name, v] : items.items()) {
+    if (name.starts_with("circular_") || v.contains("u")) continue;
+    const auto row = shown_row(name, v, plane, group);
+    out += (out.empty() ? "" : ", ") + row[0] + " " + row[1] + (row[2].empty() ? "" : " " + row[2]);
+  }
+  return out;
 }
 
 // A fit in one line: how well it fits, and what the runs cannot separate (the condition number and the
@@ -204,6 +217,8 @@ void print_dbb(const nlohmann::json& p, std::string_view plane) {
   const auto diag = group_rows(diagnostics, plane, diag_group, false);
   if (!diag.empty()) {
     std::cout << "ballbar diagnostics (value \u00b1 standard uncertainty):\n" << aligned_rows(diag, {false, true});
+    if (const std::string held = searched_values(diagnostics, plane, diag_group); !held.empty())
+      std::cout << "  held at a searched or assumed value (no u): " << held << "\n";
     print_fit(p.value("diagnostics_fit", nlohmann::json::object()));
   }
   const auto lai = group_rows(p.value("lai3", nlohmann::json::object()), plane, lai_group, false);
