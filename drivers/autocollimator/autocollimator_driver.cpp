@@ -90,7 +90,8 @@ void AutocollimatorDriver::handle_line(const std::string& line, bool& got_readin
 
 void AutocollimatorDriver::attach(drivers::IoLoop& loop) {
   io_ = &loop;
-  backoff_ms_ = settings_.reconnect_min_ms;
+  backoff_ = drivers::ReconnectBackoff(std::chrono::milliseconds(settings_.reconnect_min_ms),
+                                       std::chrono::milliseconds(settings_.reconnect_max_ms));
   connected_once_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });
   if (rests_) {
@@ -114,8 +115,7 @@ void AutocollimatorDriver::open_port() {
   auto line = serial::open_serial(settings_.serial, error);
   if (!line) {
     set_state(connected_once_ ? drivers::DeviceState::lost : drivers::DeviceState::error, error);
-    reconnect_at_ns_ = mono_now_ns() + backoff_ms_ * 1'000'000;
-    backoff_ms_ = std::min(backoff_ms_ * 2, settings_.reconnect_max_ms);
+    reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
     io_->arm(timer_, reconnect_at_ns_);
     return;
   }
@@ -124,7 +124,7 @@ void AutocollimatorDriver::open_port() {
     after_gap_ = true;
   }
   connected_once_ = true;
-  backoff_ms_ = settings_.reconnect_min_ms;
+  backoff_.reset();
   set_state(drivers::DeviceState::streaming);
   line_ = std::move(line);
   framer_.reset();
@@ -165,7 +165,7 @@ void AutocollimatorDriver::close_port() {
 void AutocollimatorDriver::end_link(const std::string& why) {
   close_port();
   set_state(drivers::DeviceState::lost, why);
-  reconnect_at_ns_ = mono_now_ns() + backoff_ms_ * 1'000'000;
+  reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
   io_->arm(timer_, reconnect_at_ns_);
 }
 

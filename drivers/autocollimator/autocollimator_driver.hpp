@@ -12,6 +12,7 @@
 #include "drivers/autocollimator/autocollimator_protocol.hpp"
 #include "drivers/driver.hpp"
 #include "drivers/io_loop.hpp"
+#include "drivers/reconnect_backoff.hpp"
 #include "drivers/serial/serial_port.hpp"
 
 namespace guideway::drivers::autocollimator {
@@ -92,7 +93,7 @@ class AutocollimatorDriver : public drivers::Driver {
   std::string out_;  // written when the line takes it
   std::int64_t write_deadline_ns_ = 0;
   bool link_closed_ = false;  // a write found the port gone
-  std::int64_t backoff_ms_ = 0;
+  drivers::ReconnectBackoff backoff_;
   bool connected_once_ = false;
   std::int64_t reconnect_at_ns_ = 0;
   int consecutive_timeouts_ = 0;

@@ -403,7 +403,8 @@ void DbbDriver::note_silence(std::int64_t now) {
 void DbbDriver::attach(drivers::IoLoop& loop) {
   io_ = &loop;
   decoder_.emplace(settings_.encoders, settings_.produce_sync);
-  backoff_ms_ = settings_.reconnect_min_ms;
+  backoff_ = drivers::ReconnectBackoff(std::chrono::milliseconds(settings_.reconnect_min_ms),
+                                       std::chrono::milliseconds(settings_.reconnect_max_ms));
   connected_once_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });
   if (batched()) {
@@ -435,14 +436,13 @@ void DbbDriver::connect() {
   if (!sock.valid()) {
     set_state_directly(connected_once_ ? drivers::DeviceState::lost : drivers::DeviceState::error,
                        to_string(settings_.endpoint) + ": " + error);
-    reconnect_at_ns_ = mono_now_ns() + backoff_ms_ * 1'000'000;
-    backoff_ms_ = std::min(backoff_ms_ * 2, settings_.reconnect_max_ms);
+    reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
     io_->arm(timer_, reconnect_at_ns_);
     return;
   }
   if (connected_once_) reconnects_.fetch_add(1, std::memory_order_relaxed);
   connected_once_ = true;
-  backoff_ms_ = settings_.reconnect_min_ms;
+  backoff_.reset();
   // Nothing is known of the nodes on a new connection: checked and started again, streaming again
   // from the first complete cycle.
   network_.connected(mono_now_ns());
@@ -487,7 +487,7 @@ void DbbDriver::end_connection(const std::string& why) {
   if (decoder_->flush(rest)) publish_cycle(rest);  // nothing received is lost
   decoder_->resync();
   set_state_directly(drivers::DeviceState::lost, why);
-  reconnect_at_ns_ = mono_now_ns() + backoff_ms_ * 1'000'000;
+  reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
   io_->arm(timer_, reconnect_at_ns_);
 }
 

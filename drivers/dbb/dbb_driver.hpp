@@ -17,6 +17,7 @@
 #include "drivers/dbb/dbb_protocol.hpp"
 #include "drivers/driver.hpp"
 #include "drivers/io_loop.hpp"
+#include "drivers/reconnect_backoff.hpp"
 
 namespace guideway::drivers::dbb {
 
@@ -152,7 +153,7 @@ class DbbDriver : public drivers::Driver {
   std::uint64_t settle_hook_ = 0;
   std::optional<DbbDecoder> decoder_;
   can::CanSocket sock_;
-  std::int64_t backoff_ms_ = 0;
+  drivers::ReconnectBackoff backoff_;
   bool connected_once_ = false;
   std::int64_t reconnect_at_ns_ = 0;   // while not connected
   std::int64_t last_rx_ns_ = 0;        // the last read that found frames (or the last silence noted)

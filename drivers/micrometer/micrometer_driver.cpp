@@ -146,7 +146,7 @@ MicrometerDriver::PollTask MicrometerDriver::make_poll() { return config_.buffer
 void MicrometerDriver::run(std::stop_token stop) {
   modbus::ModbusClient client(config_.endpoint);
   stale_seen_ = 0;  // a new client counts from 0
-  backoff_ = config_.backoff_initial;
+  backoff_ = drivers::ReconnectBackoff(config_.backoff_initial, config_.backoff_max);
   ever_connected_ = false;
   gap_ = false;
   cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
@@ -156,8 +156,7 @@ void MicrometerDriver::run(std::stop_token stop) {
     std::string error;
     if (!client.connect(error)) {
       set_state(drivers::DeviceState::lost, error);
-      if (!sleep_for(stop, backoff_)) break;
-      backoff_ = std::min(backoff_ * 2, config_.backoff_max);
+      if (!sleep_for(stop, backoff_.take())) break;
       continue;
     }
     link_up();
@@ -181,8 +180,7 @@ void MicrometerDriver::run(std::stop_token stop) {
     client.close();
     if (stop.stop_requested()) break;
     set_state(drivers::DeviceState::lost, last_failure_);
-    if (!sleep_for(stop, backoff_)) break;
-    backoff_ = std::min(backoff_ * 2, config_.backoff_max);
+    if (!sleep_for(stop, backoff_.take())) break;
   }
 }
 
@@ -201,7 +199,7 @@ MicrometerDriver::PollTask MicrometerDriver::polled_poll() {
     publish(s);
     gap_ = false;
     failures_ = 0;
-    backoff_ = config_.backoff_initial;
+    backoff_.reset();
   } else if (r.status == modbus::ReadStatus::disconnected) {
     last_failure_ = count_failure(r);
     failures_ = config_.lost_after_failures;
@@ -383,7 +381,7 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
   end_link_ = link_gone_ || failures_ >= config_.lost_after_failures;
   if (!end_link_ && ok) {
     failures_ = 0;
-    backoff_ = config_.backoff_initial;
+    backoff_.reset();
   }
 }
 
@@ -391,7 +389,7 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
 
 void MicrometerDriver::attach(drivers::IoLoop& loop) {
   io_ = &loop;
-  backoff_ = config_.backoff_initial;
+  backoff_ = drivers::ReconnectBackoff(config_.backoff_initial, config_.backoff_max);
   ever_connected_ = false;
   gap_ = false;
   cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
@@ -443,9 +441,12 @@ void MicrometerDriver::begin_connect() {
 
 void MicrometerDriver::connect_failed(const std::string& error) {
   set_state(drivers::DeviceState::lost, error);
+  wait_backoff();
+}
+
+void MicrometerDriver::wait_backoff() {
   link_ = Link::waiting;
-  deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(backoff_).count();
-  backoff_ = std::min(backoff_ * 2, config_.backoff_max);
+  deadline_ns_ = mono_now_ns() + backoff_.take_ns();
   io_->arm(timer_, deadline_ns_);
 }
 
@@ -463,10 +464,7 @@ void MicrometerDriver::end_tcp_link(const std::string& why) {
   poll_.reset();
   close_socket();
   set_state(drivers::DeviceState::lost, why);
-  link_ = Link::waiting;
-  deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(backoff_).count();
-  backoff_ = std::min(backoff_ * 2, config_.backoff_max);
-  io_->arm(timer_, deadline_ns_);
+  wait_backoff();
 }
 
 bool MicrometerDriver::read_socket(std::string& ended) {

@@ -19,6 +19,7 @@
 #include "drivers/modbus/modbus_client.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/sample_ring.hpp"
+#include "drivers/reconnect_backoff.hpp"
 #include "drivers/tcp/loop_connector.hpp"
 #include "drivers/tcp/tcp_client.hpp"
 
@@ -112,6 +113,7 @@ class MicrometerDriver : public drivers::Driver {
   void begin_connect();
   void tcp_connected(int fd);
   void connect_failed(const std::string& error);
+  void wait_backoff();  // lost: the next attempt after the back-off
   void end_tcp_link(const std::string& why);
   void close_socket();
   void on_ready(std::uint32_t events);
@@ -137,7 +139,7 @@ class MicrometerDriver : public drivers::Driver {
   Exchange x_;
   std::unique_ptr<RingCursor> cursor_;  // buffered mode
   std::vector<modbus::Reading> readings_;
-  std::chrono::milliseconds backoff_{0};
+  drivers::ReconnectBackoff backoff_;
   bool ever_connected_ = false;
   bool gap_ = false;  // polled mode: the next sample follows a reconnect or a failed poll
   int failures_ = 0;

@@ -83,7 +83,7 @@ void ProfilometerDriver::attach(drivers::IoLoop& loop) {
   events_.clear();
   events_.reserve(1024);
   buffer_.resize(16384);
-  backoff_ = config_.backoff_initial;
+  backoff_ = drivers::ReconnectBackoff(config_.backoff_initial, config_.backoff_max);
   ever_connected_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });
   connector_.attach(
@@ -132,8 +132,7 @@ void ProfilometerDriver::connect_failed(const std::string& error) {
 
 void ProfilometerDriver::wait_backoff() {
   link_ = Link::waiting;
-  deadline_ns_ = mono_now_ns() + std::chrono::nanoseconds(backoff_).count();
-  backoff_ = std::min(backoff_ * 2, config_.backoff_max);
+  deadline_ns_ = mono_now_ns() + backoff_.take_ns();
   io_->arm(timer_, deadline_ns_);
 }
 
@@ -247,7 +246,7 @@ void ProfilometerDriver::read_batch(bool opportunistic) {
       }
     }
     publish_events(events_);
-    backoff_ = config_.backoff_initial;
+    backoff_.reset();
     if (r.bytes < buffer_.size()) break;  // the socket is empty (or nearly: the next pass takes the rest)
   }
   const std::int64_t now = mono_now_ns();

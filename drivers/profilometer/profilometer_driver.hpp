@@ -14,6 +14,7 @@
 #include "drivers/driver.hpp"
 #include "drivers/io_loop.hpp"
 #include "drivers/profilometer/profile_stream.hpp"
+#include "drivers/reconnect_backoff.hpp"
 #include "drivers/tcp/loop_connector.hpp"
 #include "drivers/tcp/tcp_client.hpp"
 
@@ -94,7 +95,7 @@ class ProfilometerDriver : public drivers::Driver {
   bool idle_check_ = false;   // a rest ended with an empty read (on_settle decides)
   bool lonely_ = false;       // a rest ended with nothing read anywhere: wake per arrival
   bool others_pass_ = false;  // since the last bytes, the loop passed by for another device
-  std::chrono::milliseconds backoff_{0};
+  drivers::ReconnectBackoff backoff_;
   bool ever_connected_ = false;
   ProfileAssembler assembler_;
   std::vector<StreamEvent> events_;
