@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """The DISPLAY program of tests/linuxcnc_comp_test.py's LinuxCNC configuration: no window, LinuxCNC's own
-`linuxcnc` Python module (NML status, command and error channels) and `halcmd`.
+`linuxcnc` Python module (NML status, command and error channels) and its `hal` module (the pins).
 
 It takes the machine out of estop, homes every joint (no switches: HOME_SEARCH_VEL = 0), then makes the
 moves of the plan one by one (MDI G1, one axis at a time) and, once the move has ended and the joint's
@@ -102,10 +102,11 @@ def main():
     with open(ini.find("GUIDEWAY_TEST", "PLAN")) as f:
         plan = json.load(f)
     out = {"samples": [], "messages": [], "error": None}
-    session = Session()
-    reader = hal.component("guideway_comp_check")  # hal.get_value needs the process to be a HAL component
-    reader.ready()
+    session = None
     try:
+        session = Session()
+        reader = hal.component("guideway_comp_check")  # hal.get_value needs the process to be a HAL component
+        reader.ready()
         session.start(int(ini.find("KINS", "JOINTS")))
         for move in plan["moves"]:
             session.mdi(f"G1 {move['axis']}{move['to_mm']:.6f} F{plan.get('feed_mm_per_min', 3000)}")
@@ -114,7 +115,7 @@ def main():
         session.poll_errors()
     except Exception as e:  # the test reports it with LinuxCNC's messages
         out["error"] = str(e)
-    out["messages"] = session.messages
+    out["messages"] = session.messages if session else []
     with open(result_path, "w") as f:
         json.dump(out, f)
 
