@@ -386,6 +386,24 @@ def check_comment_inside(samples, joint, full, loaded):
           f"{loaded[-1][0]} mm at {past} positions, nothing reported")
 
 
+def check_swapped(samples, joint, full, swapped):
+    """A table with two lines out of order: LinuxCNC leaves out the line that does not increase, says so, and
+    loads every other line (those after it too)."""
+    kept = [swapped[0]]
+    for row in swapped[1:]:
+        if row[0] > kept[-1][0]:
+            kept.append(row)
+    missing = [row for row in full if row not in kept]
+    assert len(missing) == 1, missing
+    for r in compare(samples, {joint: kept}):
+        assert abs(r["diff_mm"]) <= TOLERANCE_MM, r
+    at_missing = [r for r in compare(samples, {joint: full}) if r["to_mm"] == missing[0][0]]
+    assert len(at_missing) == 2 and all(abs(r["diff_mm"]) > 100 * TOLERANCE_MM for r in at_missing), at_missing
+    print(f"two lines out of order: LinuxCNC reports '{SWAPPED_REPORT}', leaves out the line at {missing[0][0]} mm "
+          f"(there {at_missing[0]['diff_mm'] * 1e3:+.3f} um from the whole table) and applies the other "
+          f"{len(kept)} lines")
+
+
 @contextlib.contextmanager
 def machine_lock():
     """One LinuxCNC per machine: another run of this test (any user, any checkout) waits here. A read-only
@@ -438,14 +456,17 @@ def check_planes(exe, source, work):
     check_axes_end_up_commanded("xy", applied, machine)
     check_comment_inside(result["samples"], 2, xy[1], read_comp(commented))
 
-    # XZ's x.comp and z.comp; joint 1 gets XY's y.comp with two lines swapped: LinuxCNC reports it.
-    swapped = corrupted_copy(os.path.join(comp_xy, "y.comp"), work, "swapped.comp",
-                             lambda lines: lines.__setitem__(slice(half, half + 2), [lines[half + 1], lines[half]]))
-    plan = {"feed_mm_per_min": feed, "moves": plan_moves("X", 0, xz[0]) + plan_moves("Z", 2, xz[2])}
+    # XZ's x.comp and z.comp; joint 1 gets XY's x.comp (the lead error: not linear) with the centre line and
+    # the next swapped: LinuxCNC reports the centre line, leaves it out and interpolates over it.
+    centre = len(xy[0]) // 2
+    swapped = corrupted_copy(os.path.join(comp_xy, "x.comp"), work, "swapped.comp",
+                             lambda lines: lines.__setitem__(slice(centre, centre + 2), [lines[centre + 1], lines[centre]]))
+    plan = {"feed_mm_per_min": feed,
+            "moves": plan_moves("X", 0, xz[0]) + plan_moves("Z", 2, xz[2]) + plan_moves("Y", 1, xy[0])}
     result, output = run_config("xz", work, comp_xz, plan, {1: swapped})
     assert SWAPPED_REPORT in result["messages"] and SWAPPED_REPORT in output, (result["messages"], output)
     assert not complaints(output, result["messages"], [SWAPPED_REPORT]), complaints(output, result["messages"])
-    print(f"a table with two lines swapped: LinuxCNC reports '{SWAPPED_REPORT}'")
+    check_swapped(result["samples"], 1, xy[0], read_comp(swapped))
     applied = compare(result["samples"], xz)
     check_applied("xz", applied, ["X", "Z"])
     check_axes_end_up_commanded("xz", applied, machine)
