@@ -188,8 +188,8 @@ def run_linuxcnc(ini_path, log_path, fifo_dir):
         os.chown(fifo_dir, NOBODY_UID, -1)
     start = time.monotonic()
     with open(log_path, "w") as log:
-        proc = subprocess.Popen([LINUXCNC, "-r", ini_path], stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
-                                env=env, start_new_session=True)
+        proc = subprocess.Popen([LINUXCNC, "-r", ini_path], stdin=subprocess.DEVNULL, stdout=log,
+                                stderr=subprocess.STDOUT, env=env, start_new_session=True)
         try:
             code = proc.wait(timeout=LINUXCNC_TIMEOUT_S)
         except subprocess.TimeoutExpired:
@@ -324,7 +324,8 @@ def complaints(output, messages, expected=()):
 def check_applied(name, comparison, axes):
     """Every table applied at every position as the table says, by the direction of the last move."""
     for r in comparison:
-        print(f"  {r['axis']} {r['to_mm']:10.4f} mm {'up  ' if r['up'] else 'down'}  LinuxCNC {r['applied_mm'] * 1e3:+9.4f} um"
+        print(f"  {r['axis']} {r['to_mm']:10.4f} mm {'up  ' if r['up'] else 'down'}"
+              f"  LinuxCNC {r['applied_mm'] * 1e3:+9.4f} um"
               f"  table {r['table_mm'] * 1e3:+9.4f} um  diff {r['diff_mm'] * 1e6:+.3f} nm")
     assert sorted({r["axis"] for r in comparison}) == sorted(axes), (name, axes)
     bad = [r for r in comparison if abs(r["diff_mm"]) > TOLERANCE_MM]
@@ -335,7 +336,8 @@ def check_applied(name, comparison, axes):
         by_position.setdefault((r["axis"], r["to_mm"]), {})[r["up"]] = r["applied_mm"]
     pairs = [v for v in by_position.values() if len(v) == 2]
     assert len(pairs) >= 6 * len(axes), f"{name}: {len(pairs)} positions reached in both directions"
-    assert all(v[True] - v[False] > BACKLASH_MIN_MM for v in pairs), f"{name}: forward/reverse not applied: {by_position}"
+    assert all(v[True] - v[False] > BACKLASH_MIN_MM for v in pairs), \
+        f"{name}: forward/reverse not applied: {by_position}"
     worst = max(abs(r["diff_mm"]) for r in comparison)
     largest = max(abs(r["applied_mm"]) for r in comparison)
     print(f"{name}: {len(comparison)} moves ({len(pairs)} positions both ways) on {', '.join(axes)}: corrections up to "
@@ -366,7 +368,8 @@ def check_axes_end_up_commanded(name, comparison, machine):
         raw = [v[1] for v in values]
         spread = max(abs(v - sum(left) / len(left)) for v in left)
         raw_spread = max(abs(v - sum(raw) / len(raw)) for v in raw)
-        print(f"{name}: {axis} where commanded within {spread:.3f} um (about their mean; uncompensated {raw_spread:.3f} um)")
+        print(f"{name}: {axis} where commanded within {spread:.3f} um (about their mean; "
+              f"uncompensated {raw_spread:.3f} um)")
         assert spread < LEFT_UM, (name, axis, spread, values)
 
 
@@ -459,8 +462,9 @@ def check_planes(exe, source, work):
     # XZ's x.comp and z.comp; joint 1 gets XY's x.comp (the lead error: not linear) with the centre line and
     # the next swapped: LinuxCNC reports the centre line, leaves it out and interpolates over it.
     centre = len(xy[0]) // 2
-    swapped = corrupted_copy(os.path.join(comp_xy, "x.comp"), work, "swapped.comp",
-                             lambda lines: lines.__setitem__(slice(centre, centre + 2), [lines[centre + 1], lines[centre]]))
+    swapped = corrupted_copy(
+        os.path.join(comp_xy, "x.comp"), work, "swapped.comp",
+        lambda lines: lines.__setitem__(slice(centre, centre + 2), [lines[centre + 1], lines[centre]]))
     plan = {"feed_mm_per_min": feed,
             "moves": plan_moves("X", 0, xz[0]) + plan_moves("Z", 2, xz[2]) + plan_moves("Y", 1, xy[0])}
     result, output = run_config("xz", work, comp_xz, plan, {1: swapped})
