@@ -14,6 +14,7 @@
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
+#include "cli/progress.hpp"
 #include "core/atomic_file.hpp"
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
@@ -81,7 +82,7 @@ struct Opts {
   std::vector<std::string> files;
   std::string simulated, measured;
   std::string straightness;  // --model flatness: the X carriage's autocollimator traverse (Eq. 16)
-  bool json = false;
+  bool json = false, quiet = false;
   bool scenarios = false, full = false, effects = false, latest = false;
   std::string kind;
   std::vector<std::string> only;
@@ -336,6 +337,7 @@ void Opts::add(CLI::App& cmd) {
       ->check(CLI::ExistingFile);
   cmd.add_option("--measured", measured, "the recording compared with --simulated")->check(CLI::ExistingFile);
   cmd.add_flag("--json", json, "print the report as one JSON object");
+  cmd.add_flag("--quiet", quiet, "no progress lines on standard error (--json: none either)");
   cmd.add_option("--alpha", alpha, "family-wise significance of each selection step (default 1e-3)")
       ->check(CLI::Range(1e-12, 0.5));
   cmd.add_option("--max-effects", max_effects, "at most this many findings (default 6)")->check(CLI::Range(1, 20));
@@ -484,12 +486,16 @@ void run_explain(const Opts& o, CliContext& ctx) {
   eo.folds = o.folds;
   if (!o.straightness.empty() && o.model != "flatness")
     throw std::runtime_error("explain: --straightness belongs to --model flatness (Mu Eq. 16)");
+  Progress progress("explain", o.quiet || o.json);
+  progress.doing("reading the files and fitting the base model");
+  eo.on_progress = [&progress](const std::string& doing) { progress.doing(doing); };
   nlohmann::json machine_comparison;
   const models::explain::Report report = !o.simulated.empty() || !o.measured.empty()
                                              ? explain_difference(o, eo)
                                              : explain_files(o, eo, machine_comparison);
   if (!o.machine.empty() && machine_comparison.is_null())
     throw std::runtime_error("explain: --machine compares DBB runs only (--model dbb or --latest)");
+  progress.doing("");
   if (o.json) {
     nlohmann::json j = models::explain::to_json(report);
     if (!machine_comparison.is_null()) j["against_machine"] = machine_comparison;
