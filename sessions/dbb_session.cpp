@@ -8,6 +8,7 @@
 #include <optional>
 #include <sstream>
 
+#include "core/number_format.hpp"
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
@@ -426,8 +427,9 @@ class DbbSession : public Session {
     const double span = angle.back() - angle.front();
     const auto dir = span > 0 ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
     std::ostringstream what;
-    what << "a " << direction_name(dir) << " arc of " << std::lround(std::abs(span) * 180 / pi) << " deg in " << plane
-         << " at r = " << r * 1e3 << " mm";
+    // To a tenth of a degree: a circle cut short by a few samples is not "360 deg shorter than 360 deg".
+    what << "a " << direction_name(dir) << " arc of " << printf_number("%.1f", std::abs(span) * 180 / pi) << " deg in "
+         << plane << " at r = " << r * 1e3 << " mm";
     const std::size_t match = match_pattern(plane, dir, r);
     if (match == runs_.size()) {
       last_note_ = what.str() + " matches no pattern still to trace";
