@@ -13,6 +13,7 @@
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
+#include "cli/progress.hpp"
 #include "core/atomic_file.hpp"
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
@@ -34,7 +35,7 @@ struct Opts {
   std::string out_dir, machine, axes;
   std::vector<double> center_mm;
   double step_mm = 0;
-  bool json = false, verify = false, latest = false;
+  bool json = false, verify = false, latest = false, quiet = false;
 };
 
 const models::dbb::Estimate* find(const models::dbb::Identification& id, const std::string& name) {
@@ -682,7 +683,7 @@ Verification merged(const std::vector<models::compensation::ErrorMap>& maps, con
 // axis' scale and backlash the planes' combined figure (one table per axis; a figure its planes disagree
 // on is refused), every plane's squareness as its axis skew; --verify retraces each plane's runs with the files.
 void compensate_planes(const Opts& o, const std::vector<std::vector<formats::DbbRun>>& groups,
-                       const std::string& source) {
+                       const std::string& source, Progress& progress) {
   namespace comp = models::compensation;
   if (!o.center_mm.empty())
     throw std::runtime_error(
@@ -704,6 +705,7 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
   }
   const std::vector<std::string> axes = table_axes(o.axes, measured, planes + " planes");  // refused before the work
   for (const auto& g : groups) {
+    progress.doing("identifying the " + g.front().plane + " plane's runs, with what EXPLAIN finds fitted beside");
     try {
       comp::check_map_inputs(g, mo);
       checked.push_back(comp::identify_checked(g));
@@ -739,6 +741,8 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
       std::vector<std::string> plane_axes;
       for (const auto& am : maps[i].axes)
         if (std::find(axes.begin(), axes.end(), am.axis) != axes.end()) plane_axes.push_back(am.axis);
+      progress.doing("verify: the " + maps[i].plane + " plane's test traced again on " + o.machine +
+                     " without and with the files, and identified");
       vs.push_back(verify(groups[i], checked[i], maps[i], o.machine, o.out_dir, plane_axes,
                           fs::path(o.out_dir) / "verify" / maps[i].plane));
       nlohmann::json pj;
@@ -752,6 +756,7 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
     text += mark_refused(merged(maps, vs), planes, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
+  progress.doing("");
   if (o.json)
     std::cout << j.dump() << "\n";
   else
@@ -774,8 +779,9 @@ void run_compensate(const Opts& o, const std::string& socket) {
   if (source.empty()) {
     for (const auto& f : files) source += (source.empty() ? "" : ", ") + fs::path(f).filename().string();
   }
+  Progress progress("compensate", o.quiet || o.json);
   if (auto groups = models::dbb::runs_by_plane(runs); groups.size() > 1) {
-    compensate_planes(o, groups, source);
+    compensate_planes(o, groups, source, progress);
     return;
   }
   models::compensation::MapOptions mo;
@@ -797,6 +803,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
     models::compensation::check_map_inputs(runs, mo);  // bad input refused before the identification's work
     // The identification with what EXPLAIN finds on the same runs fitted beside, and its values to check
     // the terms against.
+    progress.doing("identifying the runs, with what EXPLAIN finds fitted beside");
     checked = models::compensation::identify_checked(runs);
     map = models::compensation::error_map(checked, runs, mo);
   } catch (const models::compensation::CompensationError& e) {
@@ -808,6 +815,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
   std::string text = models::compensation::to_text(map);
   for (const auto& p : j["files"]) text += "wrote " + p.get<std::string>() + "\n";
   if (o.verify) {
+    progress.doing("verify: the test traced again on " + o.machine + " without and with the files, and identified");
     const Verification v = verify(runs, checked, map, o.machine, o.out_dir, axes, fs::path(o.out_dir) / "verify");
     const std::vector<Refusal>& refuse = v.refused;
     nlohmann::json vj;
@@ -815,6 +823,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
     text += mark_refused(v, map.plane, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
+  progress.doing("");
   if (o.json)
     std::cout << j.dump() << "\n";
   else
@@ -849,6 +858,7 @@ void add_compensate_commands(CLI::App& app, CliContext& ctx) {
   d->add_option("--step-mm", o->step_mm, "table spacing (default: the finest round step within 256 lines)")
       ->check(finite_number & CLI::PositiveNumber);
   d->add_flag("--json", o->json, "print the result as one JSON object");
+  d->add_flag("--quiet", o->quiet, "no progress lines on standard error (--json: none either)");
   d->add_flag("--verify", o->verify,
               "trace the same test on the virtual machine without and with the tables and print before/after");
   d->add_option("--machine", o->machine, "with --verify: the machine file (docs/machine.md)")->check(CLI::ExistingFile);

@@ -1,17 +1,18 @@
 // `guideway version|status|watch`: client commands that talk to a running guidewayd.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
-#include <regex>
 #include <sstream>
 
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/instrument_print.hpp"
 #include "cli/params_print.hpp"
+#include "cli/progress.hpp"
 #include "core/runtime_paths.hpp"
 #include "results/session_kinds.hpp"
 
@@ -172,57 +173,41 @@ struct StartOptions {
   }
 };
 
-// While `start --wait` waits: the session's phase and progress from the daemon's STATUS, on standard
-// error, when its phase changes and otherwise every few seconds, so that a slow run is told from a
-// stuck one.
-class WaitProgress {
- public:
-  explicit WaitProgress(std::string session) : session_(std::move(session)) {}
-
-  void on_status(const nlohmann::json& status) {
-    const nlohmann::json sessions = status.value("sessions", nlohmann::json::array());
-    for (const auto& s : sessions) {
-      if (!s.is_object() || s.value("session", "") != session_) continue;
-      const std::string state = s.value("state", "?");
-      const std::string progress = s.value("progress", "");
-      const auto now = std::chrono::steady_clock::now();
-      // The phase is the progress without its counts: a new pattern or state prints at once.
-      const std::string phase = state + " " + std::regex_replace(progress, std::regex("[0-9]+"), "#");
-      if (phase == last_phase_ && now - last_print_ < std::chrono::seconds(5)) return;
-      last_phase_ = phase;
-      last_print_ = now;
-      const auto elapsed_s = std::chrono::duration_cast<std::chrono::seconds>(now - began_).count();
-      std::cerr << "  [" << elapsed_s << " s] " << state << (progress.empty() ? "" : ": " + progress) << "\n"
-                << std::flush;
-    }
+// While `start --wait` waits: the session's state, progress and time left (its estimate from its programme)
+// from the daemon's STATUS ("" when STATUS does not name it).
+std::string session_doing(const nlohmann::json& status, const std::string& session) {
+  for (const auto& s : status.value("sessions", nlohmann::json::array())) {
+    if (!s.is_object() || s.value("session", "") != session) continue;
+    const std::string progress = s.value("progress", "");
+    std::string doing = s.value("state", "?") + (progress.empty() ? "" : ": " + progress);
+    if (s.contains("time_left_s"))
+      doing += ", about " + std::to_string(std::lround(s.value("time_left_s", 0.0))) + " s left";
+    return doing;
   }
-
- private:
-  std::string session_;
-  std::string last_phase_;
-  std::chrono::steady_clock::time_point began_ = std::chrono::steady_clock::now();
-  std::chrono::steady_clock::time_point last_print_{};
-};
+  return {};
+}
 
 // After `start --wait`: the session's PARAMS (printed), or its failure, within the timeout.
 void wait_for_params(DaemonClient& c, const std::string& session, const StartOptions& o) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.timeout_s);
-  WaitProgress progress(session);
+  Progress progress("", o.json || o.quiet, 0.0);  // from the start: the session's phases
   while (std::chrono::steady_clock::now() < deadline) {
     auto line = c.read_line(std::chrono::milliseconds(500));
     if (!line) continue;
     const auto m = nlohmann::json::parse(*line, nullptr, false);
     if (m.is_discarded()) continue;
     if (results::has_class(m, results::MessageClass::status)) {
-      if (!o.json && !o.quiet) progress.on_status(m);
+      if (std::string doing = session_doing(m, session); !doing.empty()) progress.doing(std::move(doing));
       continue;
     }
     if (m.value("session", "") != session) continue;
     if (results::has_class(m, results::MessageClass::event) && m.value("event", "") == "session_failed") {
+      progress.doing("");  // the session's end: no progress line among what follows
       if (o.json) std::cout << m.dump() << "\n";
       throw std::runtime_error("session " + session + " failed: " + m.value("reason", "?"));
     }
     if (results::has_class(m, results::MessageClass::params)) {
+      progress.doing("");
       if (o.json) {
         std::cout << m.dump() << "\n";
       } else {

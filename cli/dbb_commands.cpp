@@ -8,6 +8,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/params_print.hpp"
+#include "cli/progress.hpp"
 #include "core/number_format.hpp"
 #include "core/toml_access.hpp"
 #include "models/dbb/json.hpp"
@@ -19,7 +20,7 @@ namespace {
 
 struct IdentifyArgs {
   std::vector<std::string> files;
-  bool json = false;
+  bool json = false, quiet = false;
   double period_a_mm = 0, period_b_mm = 0;
   bool per_run_center = false;
   double bar_length_u_um = 0;
@@ -30,6 +31,7 @@ struct IdentifyArgs {
                    "calibrated_length_u_um): added to every parameter's u as the fit's response to it")
         ->check(CLI::NonNegativeNumber);
     cmd.add_flag("--json", json, "print the result as one JSON object");
+    cmd.add_flag("--quiet", quiet, "no progress lines on standard error (--json: none either)");
     cmd.add_option("--cyclic-period-a-mm", period_a_mm, "known lead of the first plane axis (default: search)");
     cmd.add_option("--cyclic-period-b-mm", period_b_mm, "known lead of the second plane axis (default: search)");
     cmd.add_flag("--per-run-center", per_run_center,
@@ -46,8 +48,14 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   opt.lai_shared_center = !a.per_run_center;
   opt.bar_length_u_um = a.bar_length_u_um;
   std::vector<models::dbb::Identification> ids;
-  for (const auto& plane : models::dbb::runs_by_plane(std::move(runs)))
-    ids.push_back(models::dbb::identify(plane, opt));
+  {
+    Progress progress("identify", a.quiet || a.json);
+    for (const auto& plane : models::dbb::runs_by_plane(std::move(runs))) {
+      progress.doing("the " + plane.front().plane + " plane's " + std::to_string(plane.size()) +
+                     " run(s): Lai's model and the ballbar diagnostics");
+      ids.push_back(models::dbb::identify(plane, opt));
+    }
+  }
   if (ids.size() == 1) {
     const nlohmann::json j = models::dbb::to_json(ids.front());
     if (a.json) {

@@ -14,10 +14,14 @@
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
 #include "cli/params_print.hpp"
+#include "cli/progress.hpp"
 #include "core/atomic_file.hpp"
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
 #include "formats/dbb_run.hpp"
+#include "models/dbb/identify.hpp"
+#include "models/dbb/json.hpp"
+#include "models/dbb/three_planes.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
 #include "models/explain/profile_explain.hpp"
@@ -78,7 +82,7 @@ struct Opts {
   std::vector<std::string> files;
   std::string simulated, measured;
   std::string straightness;  // --model flatness: the X carriage's autocollimator traverse (Eq. 16)
-  bool json = false;
+  bool json = false, quiet = false;
   bool scenarios = false, full = false, effects = false, latest = false;
   std::string kind;
   std::vector<std::string> only;
@@ -179,14 +183,39 @@ int run_scenarios(const Opts& o) {
   return failed ? 1 : 0;
 }
 
-// The findings beside what the machine file holds (simulators/scenarios/machine_truth.hpp).
-nlohmann::json against_machine(const nlohmann::json& report, const simulators::scenarios::DbbTruth& truth,
-                               const std::string& file) {
-  nlohmann::json j = {{"machine_file", file},
-                      {"findable", nlohmann::json::array()},
-                      {"unobservable", nlohmann::json::array()},
-                      {"not_in_machine", nlohmann::json::array()},
-                      {"note", truth.note}};
+// Lai's base beside the ballbar diagnostics (PARAMS' "diagnostics"; a centre offset is run 1's when each
+// run has its own): every geometric term the test fits, whatever EXPLAIN finds.
+nlohmann::json diagnostics_against_machine(const nlohmann::json& diagnostics,
+                                           const simulators::scenarios::DbbTruth& truth) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& item : truth.diagnostics) {
+    std::string name = item.parameter;
+    if (!diagnostics.contains(name) && diagnostics.contains(results::run_prefixed(1, name)))
+      name = results::run_prefixed(1, name);
+    nlohmann::json e = {
+        {"term", item.effect}, {"parameter", name}, {"machine", item.value}, {"note", item.note}, {"found", nullptr}};
+    if (diagnostics.contains(name)) {
+      e["found"] = diagnostics.at(name).at("value");
+      e["u"] = diagnostics.at(name).value("u", nlohmann::json());
+    }
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+// The findings (and the ballbar diagnostics of `params`, PARAMS' shape) beside what the machine file holds
+// (simulators/scenarios/machine_truth.hpp).
+nlohmann::json against_machine(const nlohmann::json& report, const nlohmann::json& params,
+                               const simulators::scenarios::DbbTruth& truth, const std::string& file) {
+  nlohmann::json j = {
+      {"machine_file", file},
+      {"plane", params.value("plane", "xy")},
+      {"diagnostics", diagnostics_against_machine(params.value("diagnostics", nlohmann::json::object()), truth)},
+      {"centre_offset_sign", truth.centre_offset_sign},
+      {"findable", nlohmann::json::array()},
+      {"unobservable", nlohmann::json::array()},
+      {"not_in_machine", nlohmann::json::array()},
+      {"note", truth.note}};
   const auto found = [&](const std::string& parameter) -> const nlohmann::json* {
     for (const auto& f : report.at("findings"))
       if (f.at("parameters").contains(parameter)) return &f.at("parameters").at(parameter);
@@ -215,6 +244,32 @@ nlohmann::json against_machine(const nlohmann::json& report, const simulators::s
   return j;
 }
 
+// The rows of diagnostics_against_machine, then the sign of the centre offset in one sentence.
+void print_diagnostics_against_machine(const nlohmann::json& c) {
+  const nlohmann::json& items = c.at("diagnostics");
+  if (items.empty()) return;  // no run at h = 0: nothing of the kind is fitted
+  std::cout << "Lai's base, as the ballbar diagnostics report it (fitted whatever EXPLAIN finds):\n";
+  if (std::all_of(items.begin(), items.end(), [](const nlohmann::json& e) { return e.at("found").is_null(); })) {
+    std::cout << "  not fitted to these runs (they need an h = 0 ccw/cw pair; PARAMS' notes say why)\n";
+    return;
+  }
+  const std::string plane = c.at("plane").get<std::string>();
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& e : items) {
+    const std::string name = e.at("parameter").get<std::string>();
+    const double u = e.contains("u") && e.at("u").is_number() ? e.at("u").get<double>() : NAN;
+    const results::ShownUnit unit = results::shown_unit(name, "diagnostics");
+    const results::Shown found =
+        results::shown(name, e.at("found").is_null() ? NAN : e.at("found").get<double>(), u, plane, "diagnostics");
+    const std::string held = significant_digits((e.at("machine").get<double>() - unit.offset) * unit.factor, 4);
+    const std::string note = e.at("note").get<std::string>();
+    rows.push_back({e.at("term").get<std::string>(), found.label,
+                    e.at("found").is_null() ? std::string("not reported") : "found " + found.value + " " + found.unit,
+                    "machine file " + held + " " + found.unit + (note.empty() ? "" : "  (" + note + ")")});
+  }
+  std::cout << aligned_rows(rows, {}) << "  (" << c.at("centre_offset_sign").get<std::string>() << ")\n";
+}
+
 void print_against_machine(const nlohmann::json& c) {
   std::cout
       << "\nwhat the machine file holds (" << c.at("machine_file").get<std::string>()
@@ -233,6 +288,7 @@ void print_against_machine(const nlohmann::json& c) {
                     "machine file " + held + " " + found.unit + (note.empty() ? "" : "  (" + note + ")")});
   }
   std::cout << aligned_rows(rows, {});
+  print_diagnostics_against_machine(c);
   for (const auto& n : c.at("not_in_machine"))
     std::cout << "  found but not in the machine file: " << n.get<std::string>() << "\n";
   if (!c.at("unobservable").empty()) {
@@ -281,6 +337,7 @@ void Opts::add(CLI::App& cmd) {
       ->check(CLI::ExistingFile);
   cmd.add_option("--measured", measured, "the recording compared with --simulated")->check(CLI::ExistingFile);
   cmd.add_flag("--json", json, "print the report as one JSON object");
+  cmd.add_flag("--quiet", quiet, "no progress lines on standard error (--json: none either)");
   cmd.add_option("--alpha", alpha, "family-wise significance of each selection step (default 1e-3)")
       ->check(CLI::Range(1e-12, 0.5));
   cmd.add_option("--max-effects", max_effects, "at most this many findings (default 6)")->check(CLI::Range(1, 20));
@@ -335,7 +392,7 @@ void explain_latest(const Opts& o, CliContext& ctx) {
                   results::MessageClass::params);
     throw_if_error_reply(params, o.json);
     comparison =
-        against_machine(r,
+        against_machine(r, params,
                         simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o.machine),
                                                          params.value("plane", "xy"), session_truth_runs(params), true),
                         o.machine);
@@ -387,10 +444,13 @@ models::explain::Report explain_dbb_runs(const Opts& o, const models::explain::E
     const auto it = run.metadata.find("angle_source");
     encoders = encoders && it != run.metadata.end() && it->second == "encoders";
   }
+  // The ballbar diagnostics as `guideway identify dbb` gives them, of the first file's plane.
+  std::vector<formats::DbbRun> plane_runs = models::dbb::runs_by_plane(runs).front();
+  const nlohmann::json params = models::dbb::to_json(models::dbb::identify(plane_runs));
   machine_comparison =
-      against_machine(models::explain::to_json(report),
+      against_machine(models::explain::to_json(report), params,
                       simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o.machine),
-                                                       runs.front().plane, truth_runs, encoders),
+                                                       plane_runs.front().plane, truth_runs, encoders),
                       o.machine);
   return report;
 }
@@ -426,12 +486,16 @@ void run_explain(const Opts& o, CliContext& ctx) {
   eo.folds = o.folds;
   if (!o.straightness.empty() && o.model != "flatness")
     throw std::runtime_error("explain: --straightness belongs to --model flatness (Mu Eq. 16)");
+  Progress progress("explain", o.quiet || o.json);
+  progress.doing("reading the files and fitting the base model");
+  eo.on_progress = [&progress](const std::string& doing) { progress.doing(doing); };
   nlohmann::json machine_comparison;
   const models::explain::Report report = !o.simulated.empty() || !o.measured.empty()
                                              ? explain_difference(o, eo)
                                              : explain_files(o, eo, machine_comparison);
   if (!o.machine.empty() && machine_comparison.is_null())
     throw std::runtime_error("explain: --machine compares DBB runs only (--model dbb or --latest)");
+  progress.doing("");
   if (o.json) {
     nlohmann::json j = models::explain::to_json(report);
     if (!machine_comparison.is_null()) j["against_machine"] = machine_comparison;

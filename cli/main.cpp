@@ -33,6 +33,29 @@ CLI::App* shared_subcommand(CLI::App& app, const std::string& name, const std::s
   }
 }
 
+namespace {
+
+// Every required option the command line lacks, named at once (CLI11 names the first only): "" when it
+// lacks one or none.
+std::string all_missing(const CLI::App& app) {
+  const CLI::App* cmd = &app;
+  std::string path = "guideway";
+  while (!cmd->get_subcommands().empty()) {
+    cmd = cmd->get_subcommands().front();
+    path += " " + cmd->get_name();
+  }
+  std::string missing;
+  int count = 0;
+  for (const CLI::Option* o : cmd->get_options()) {
+    if (!o->get_required() || o->count() > 0) continue;
+    missing += (count++ ? ", " : "") + o->get_name();
+  }
+  if (count < 2) return {};
+  return path + ": missing " + missing + " (each is required; " + path.substr(9) + " --help says what they are)";
+}
+
+}  // namespace
+
 }  // namespace guideway::cli
 
 int main(int argc, char** argv) {
@@ -53,6 +76,12 @@ int main(int argc, char** argv) {
   for (auto add : guideway::cli::CommandGroup::all()) add(app, ctx);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::RequiredError& e) {
+    if (const std::string missing = guideway::cli::all_missing(app); !missing.empty()) {
+      std::cerr << missing << "\n";
+      return e.get_exit_code();
+    }
+    return app.exit(e);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const std::exception& e) {

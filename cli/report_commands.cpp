@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
+#include "cli/progress.hpp"
 #include "core/atomic_file.hpp"
 #include "core/utc_time.hpp"
 #include "report/report.hpp"
@@ -23,7 +24,7 @@ struct ReportArgs {
   std::string title = "Guideway report";
   std::string wavelet = "db1";
   int level = 5;
-  bool no_date = false;
+  bool no_date = false, quiet = false;
   void add(CLI::App& cmd) {
     cmd.add_option("inputs", inputs,
                    "input files (DBB runs, straightness, run-out, profile CSV or X3P, explain JSON) and Union Jack "
@@ -34,6 +35,7 @@ struct ReportArgs {
     cmd.add_option("--wavelet", wavelet, "wavelet of the profile MRA (default db1, as Mu 2012)");
     cmd.add_option("--level", level, "MRA levels (default 5)")->check(CLI::Range(1, 20));
     cmd.add_flag("--no-date", no_date, "leave the generation time out (reproducible files)");
+    cmd.add_flag("--quiet", quiet, "no progress lines on standard error");
   }
 };
 
@@ -45,6 +47,8 @@ void run_report(const ReportArgs& a, CliContext& /*ctx*/) {
   if (!a.no_date) opt.subtitle = "Generated " + utc_now("%Y-%m-%d %H:%M UTC") + " by guideway report";
   std::string html;
   try {
+    Progress progress("report", a.quiet);
+    progress.doing("reading and plotting " + std::to_string(a.inputs.size()) + " input(s)");
     html = report::render_report(a.inputs, opt);
   } catch (const report::ReportError& e) {
     throw std::runtime_error(e.what());

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -612,6 +613,7 @@ nlohmann::json Daemon::sessions_json() const {
                         {"state", to_string(s.state)},
                         {"samples", s.samples}};
     if (!s.progress.empty()) j["progress"] = s.progress;
+    if (s.time_left_s && s.state == SessionState::running) j["time_left_s"] = std::round(*s.time_left_s * 10) / 10;
     if (!s.recording.empty()) j["recording"] = s.recording;
     if (!s.recording_error.empty()) j["recording_error"] = s.recording_error;
     if (!s.warnings.empty()) j["warnings"] = s.warnings;

@@ -17,7 +17,7 @@ namespace guideway::daemon {
 inline constexpr int protocol_major = 1;
 // Minor versions only add: 1 added STATUS devices[].driver_counters; 3 added the DBB ranking and notes
 // in PARAMS, the findings' contributions in EXPLAIN and dbb-can's bus_off counter.
-inline constexpr int protocol_minor = 6;
+inline constexpr int protocol_minor = 7;
 
 nlohmann::json version_message();
 nlohmann::json error_message(std::string_view message, std::string_view request_class = {});

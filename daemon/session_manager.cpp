@@ -128,7 +128,7 @@ std::string SessionManager::start(const sessions::SessionRequest& request) {
     while (std::any_of(infos_.begin(), infos_.end(), [&](const SessionInfo& i) { return i.name == name; })) {
       name = base + "-" + std::to_string(++suffix);
     }
-    r->info = {name, request.kind, devices_[index]->name(), SessionState::running, "", "", "", 0, {}};
+    r->info = {name, request.kind, devices_[index]->name(), SessionState::running, "", "", "", 0, {}, {}};
     if (std::string w = calibration_warning(r->info.device, r->instrument, r->started_on); !w.empty())
       r->info.warnings.push_back(std::move(w));
     auto meta = r->session->metadata();
@@ -192,6 +192,7 @@ void SessionManager::on_tick(std::int64_t) {
       for (auto& info : infos_) {
         if (info.name == r->info.name) {
           info.progress = r->session->progress();
+          info.time_left_s = r->session->time_left_s();
           info.samples = r->info.samples;
         }
       }

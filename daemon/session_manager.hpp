@@ -40,6 +40,7 @@ struct SessionInfo {
   std::string recording_error;
   std::uint64_t samples = 0;
   std::vector<std::string> warnings;  // at its start: its instrument's calibration had run out
+  std::optional<double> time_left_s;  // Session::time_left_s() while it runs
 };
 
 // Where a finished session's HTML report is kept (the `report` request serves it).

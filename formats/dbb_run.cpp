@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
+#include "formats/raw_recording.hpp"
 
 namespace guideway::formats {
 
@@ -304,6 +305,18 @@ DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
 DbbRun read_dbb_run(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DbbRunFormatError(path + ": cannot open file");
+  if (is_raw_recording(path)) {  // the session's recording, not its runs: name the run files beside it
+    std::vector<std::string> runs;
+    for (const auto& d : derived_files(path)) {
+      const std::string stem = d.substr(0, d.size() - 4);  // NAME.runK of NAME.runK.csv
+      const auto dot = stem.rfind(".run");
+      if (dot != std::string::npos && dot + 4 < stem.size() &&
+          stem.find_first_not_of("0123456789", dot + 4) == std::string::npos)
+        runs.push_back(d);
+    }
+    throw DbbRunFormatError(
+        raw_recording_refusal(path, runs, "DBB run files (" + std::string(dbb_run_format_id) + ")"));
+  }
   std::ostringstream s;
   s << in.rdbuf();
   return parse_dbb_run(s.str(), path);

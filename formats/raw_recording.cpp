@@ -220,6 +220,38 @@ bool is_raw_recording(const std::string& path) {
   return std::getline(in, first) && first == format_line();
 }
 
+std::vector<std::string> derived_files(const std::string& path) {
+  const std::filesystem::path p(path);
+  std::string stem = p.filename().string();  // NAME of NAME.csv or NAME.csv.part
+  if (stem.ends_with(part_suffix)) stem.resize(stem.size() - part_suffix.size());
+  if (stem.ends_with(".csv")) stem.resize(stem.size() - 4);
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(
+           p.parent_path().empty() ? std::filesystem::path(".") : p.parent_path(), ec)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file(ec) && name != p.filename().string() && name.starts_with(stem + ".") &&
+        name.ends_with(".csv"))
+      out.push_back(e.path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string raw_recording_refusal(const std::string& path, const std::vector<std::string>& instead,
+                                  std::string_view wanted) {
+  std::string msg = path + ": a raw recording (" + std::string(raw_format_id) + ", the samples as they arrived), not " +
+                    std::string(wanted) + "; ";
+  if (instead.empty())
+    return msg +
+           "no such file derived from it lies beside it (a session that ended writes NAME.run1.csv, "
+           "NAME.traverse.csv, ...; `guideway replay " +
+           path + "` identifies it again)";
+  msg += "give the files the session derived from it:";
+  for (const auto& d : instead) msg += " " + d;
+  return msg;
+}
+
 std::vector<RawRecordingEntry> list_raw_recordings(const std::string& dir) {
   std::vector<RawRecordingEntry> out;
   std::error_code ec;

@@ -97,6 +97,14 @@ struct RawRecordingEntry {
   std::uintmax_t bytes = 0;
   bool complete = false;  // NAME.csv; a NAME.csv.part is still written or was interrupted
 };
+// The files a session derived from the raw recording `path` (NAME.csv or NAME.csv.part): NAME.*.csv beside
+// it (the DBB run files NAME.runK.csv, a traverse, ...; not the recording), sorted by path.
+[[nodiscard]] std::vector<std::string> derived_files(const std::string& path);
+// The refusal of a raw recording given where `wanted` ("DBB run files") is expected: a raw recording is what
+// a session measured, not a result; `instead` (files derived from it) are named, or how to make them.
+[[nodiscard]] std::string raw_recording_refusal(const std::string& path, const std::vector<std::string>& instead,
+                                                std::string_view wanted);
+
 // The raw recordings in `dir` (NAME.csv and NAME.csv.part files that are raw recordings, not the
 // derived CSV files beside them), sorted by path; none when the directory cannot be read.
 [[nodiscard]] std::vector<RawRecordingEntry> list_raw_recordings(const std::string& dir);

@@ -49,30 +49,16 @@ namespace {
 // A raw recording is what a session measured, not a result: the files a session derived from it
 // (NAME.run1.csv, NAME.traverse.csv, ...) sit beside it, and those are what a report reads.
 ReportError raw_recording_refused(const std::string& path) {
-  const fs::path p(path);
-  const std::string stem = p.stem().string();  // NAME of NAME.csv
-  std::vector<std::string> derived;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(p.parent_path().empty() ? fs::path(".") : p.parent_path(), ec)) {
-    const std::string name = e.path().filename().string();
-    if (!e.is_regular_file() || name == p.filename().string() || !name.starts_with(stem + ".")) continue;
+  std::vector<std::string> inputs;
+  for (const auto& d : formats::derived_files(path)) {
     try {
-      detect_input(e.path().string());
-      derived.push_back(e.path().string());
+      detect_input(d);
+      inputs.push_back(d);
     } catch (const ReportError&) {
       // not a report input (the session's PARAMS JSON, a part file, ...)
     }
   }
-  std::sort(derived.begin(), derived.end());
-  std::string msg = path + ": a raw recording (" + std::string(formats::raw_format_id) +
-                    ", the samples as they arrived), not a result; ";
-  if (derived.empty())
-    return ReportError(msg + "no file derived from it lies beside it (a session that ended writes NAME.run1.csv, "
-                             "NAME.traverse.csv, ...; `guideway replay " +
-                       path + "` identifies it again)");
-  msg += "give the files the session derived from it:";
-  for (const auto& d : derived) msg += " " + d;
-  return ReportError(msg);
+  return ReportError(formats::raw_recording_refusal(path, inputs, "a result"));
 }
 
 }  // namespace

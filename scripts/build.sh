@@ -23,12 +23,23 @@ if ! cmake -S . -B "$dir" "${generator[@]}" "${opts[@]}" >"$log" 2>&1; then
   cat "$log"; echo "build: cmake configure of $dir failed (log above, also in $log)" >&2; exit 1
 fi
 jobs=${GUIDEWAY_BUILD_JOBS:-$(nproc)}
-# A line at every tenth of the build (ninja's [N/M], make's [ P%]), so a long first build is never
-# silent: GUIDEWAY_BUILD_QUIET=1 leaves them out.
+# A line at every tenth of the build (ninja's [N/M], make's [ P%]), and one at least every 30 s between
+# them ("still at it" while no step ends: a long compile or link; the last tenth of a first build is a few
+# long steps), so a long build is never silent: GUIDEWAY_BUILD_QUIET=1 leaves them out.
 progress() {
   if [ "${GUIDEWAY_BUILD_QUIET:-0}" = 1 ]; then cat >/dev/null; return; fi
-  local line percent steps shown=0 start=$SECONDS re_ninja='^\[([0-9]+)/([0-9]+)\]' re_make='^\[ *([0-9]+)%\]'
-  while IFS= read -r line; do  # bash, not awk: mawk reads a pipe in blocks and would print them late
+  local line percent=0 steps="" shown=0 start=$SECONDS said=$SECONDS re_ninja='^\[([0-9]+)/([0-9]+)\]' re_make='^\[ *([0-9]+)%\]'
+  while true; do  # bash, not awk: mawk reads a pipe in blocks and would print them late
+    local rc=0
+    IFS= read -r -t 5 line || rc=$?
+    if [ $rc -ne 0 ]; then
+      [ $rc -gt 128 ] || break  # the end of the build's output; else 5 s without a line
+      if [ $((SECONDS - said)) -ge 30 ]; then
+        said=$SECONDS
+        printf '   build %s: %3d %%%s, %d s (still at it)\n' "$dir" "$percent" "$steps" $((SECONDS - start))
+      fi
+      continue
+    fi
     if [[ $line =~ $re_ninja ]] && [ "${BASH_REMATCH[2]}" -gt 0 ]; then
       percent=$((100 * BASH_REMATCH[1] / BASH_REMATCH[2])); steps=" (${BASH_REMATCH[1]}/${BASH_REMATCH[2]} steps)"
     elif [[ $line =~ $re_make ]]; then
@@ -38,6 +49,10 @@ progress() {
     fi
     if [ $((percent / 10)) -gt $shown ]; then
       shown=$((percent / 10))
+      said=$SECONDS
+      printf '   build %s: %3d %%%s, %d s\n' "$dir" "$percent" "$steps" $((SECONDS - start))
+    elif [ $((SECONDS - said)) -ge 30 ]; then  # steps end, slowly, within one tenth
+      said=$SECONDS
       printf '   build %s: %3d %%%s, %d s\n' "$dir" "$percent" "$steps" $((SECONDS - start))
     fi
   done

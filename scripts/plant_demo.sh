@@ -79,10 +79,15 @@ start_daemon mill-1 config/machine-example.toml
 start_daemon mill-2 config/machine-several-effects.toml
 wait_until 10 bash -c "'$bin/cli/guideway' --socket '$dir/mill-1/guideway.sock' status --json | grep -q '\"state\":\"connected\"'"
 echo
-echo "== a DBB test (Lai's three patterns, about 40 s) on both machines at once"
-"$bin/cli/guideway" --socket "$dir/mill-1/guideway.sock" start dbb --set feed_mm_per_min=5000 --wait --timeout 300 >"$dir/mill-1.dbb.txt" &
+echo "== a DBB test (the standard test: ccw and cw circles, r 100 mm, at 5000 mm/min; about 20 s) on both machines at once"
+# Each machine's progress lines (standard error) under its name; the parameters (standard output) to a file.
+start_dbb() {  # name, where its parameters go
+  "$bin/cli/guideway" --socket "$dir/$1/guideway.sock" start dbb --set feed_mm_per_min=5000 --wait --timeout 300 \
+    2>&1 >"$2" | sed -u "s/^ */   $1: /"
+}
+start_dbb mill-1 "$dir/mill-1.dbb.txt" &
 one=$!
-"$bin/cli/guideway" --socket "$dir/mill-2/guideway.sock" start dbb --set feed_mm_per_min=5000 --wait --timeout 300 >"$dir/mill-2.dbb.txt"
+start_dbb mill-2 "$dir/mill-2.dbb.txt"
 wait $one
 echo "== a second DBB test on mill-1 (its history; a figure is flagged only if it moved beyond its uncertainty)"
 # The first test's explanation is still being computed (the device is busy until then).
@@ -91,7 +96,7 @@ sessions_done() {  # socket: no session running or finishing
     'import json, sys; sys.exit(any(s["state"] in ("running", "finishing") for s in json.load(sys.stdin)["sessions"]))'
 }
 wait_until 120 sessions_done "$dir/mill-1/guideway.sock"
-"$bin/cli/guideway" --socket "$dir/mill-1/guideway.sock" start dbb --set feed_mm_per_min=5000 --wait --timeout 300 >/dev/null
+start_dbb mill-1 /dev/null
 # The EXPLAIN of the last test follows its PARAMS by a few seconds.
 wait_until 60 bash -c "[ \$('$bin/cli/guideway' fleet history mill-1 --db '$dir/fleet.sqlite' --json | grep -o '\"EXPLAIN\"' | wc -l) -ge 2 ]" || true
 echo

@@ -45,7 +45,7 @@ KEEP = [
                                r"first ^\s+scale mismatch\s", r"after 3 ^what to fix first", r"^note:",
                                r"^recording:"]),
     ("== guideway explain", ["head 2", r"^explanation", r"^  \S+  \S+ = ", r"largest first", r"^what the machine file",
-                             r"found .* machine file", r"^not observable"]),
+                             r"found .* machine file", r"^Lai's base", r"^  \(a centre offset is", r"^not observable"]),
     ("== guideway compensate", ["head 5", r"^\s+term\s", r"^\s+(scale|backlash) [XY]\s+-?\d", r"^\s+squareness ",
                                 r"^verification", r"^\s+run\s+G before", r"^\s+r \d+ mm .* µm",
                                 r"after 4 circular deviation G:", r"^\s+still above", r"DO NOT LOAD \S+:",

@@ -8,6 +8,7 @@
 #include <optional>
 #include <sstream>
 
+#include "core/number_format.hpp"
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
@@ -223,6 +224,24 @@ class DbbSession : public Session {
     return o.str();
   }
 
+  // The circles still to trace at the test's feed (without one: the last run's), each its data arc plus the
+  // feed-in and feed-out of the last run traced (none before the first), less what the one being traced has run.
+  [[nodiscard]] std::optional<double> time_left_s() const override {
+    const double v = options_.feed_m_per_s > 0 ? options_.feed_m_per_s : last_feed_m_per_s_;
+    if (!(v > 0)) return std::nullopt;
+    double left_s = 0;
+    bool current = !segment_.empty();
+    for (std::size_t i = 0; i < runs_.size(); ++i) {
+      if (runs_[i]) continue;
+      const Pattern& p = options_.patterns[i];
+      double run_s = (p.data_arc_rad + 2 * last_overshoot_rad_) * p.radius_m / v;
+      if (current) run_s = std::max(0.0, run_s - (segment_.back().t_s - segment_.front().t_s));
+      current = false;
+      left_s += run_s;
+    }
+    return left_s;
+  }
+
   nlohmann::json identify() override {
     if (!segment_.empty()) close_segment();  // a stop in the middle of a circle keeps what is complete
     // Identified from exactly what the run files hold, so `guideway identify dbb` on them agrees.
@@ -408,8 +427,9 @@ class DbbSession : public Session {
     const double span = angle.back() - angle.front();
     const auto dir = span > 0 ? formats::DbbDirection::ccw : formats::DbbDirection::cw;
     std::ostringstream what;
-    what << "a " << direction_name(dir) << " arc of " << std::lround(std::abs(span) * 180 / pi) << " deg in " << plane
-         << " at r = " << r * 1e3 << " mm";
+    // To a tenth of a degree: a circle cut short by a few samples is not "360 deg shorter than 360 deg".
+    what << "a " << direction_name(dir) << " arc of " << printf_number("%.1f", std::abs(span) * 180 / pi) << " deg in "
+         << plane << " at r = " << r * 1e3 << " mm";
     const std::size_t match = match_pattern(plane, dir, r);
     if (match == runs_.size()) {
       last_note_ = what.str() + " matches no pattern still to trace";
@@ -457,6 +477,8 @@ class DbbSession : public Session {
       last_note_ = std::string("pattern ") + std::to_string(match + 1) + " rejected: " + e.what();
       return;
     }
+    last_feed_m_per_s_ = run.feed_m_per_s;
+    last_overshoot_rad_ = 0.5 * (std::abs(span) - pat.data_arc_rad);
     runs_[match] = std::move(run);
     last_note_.clear();
   }
@@ -501,6 +523,8 @@ class DbbSession : public Session {
   std::vector<Reading> segment_;
   std::vector<std::optional<formats::DbbRun>> runs_;
   std::string last_note_;
+  double last_feed_m_per_s_ = 0.0;   // of the last run traced (time_left_s)
+  double last_overshoot_rad_ = 0.0;  // its feed-in, and its feed-out
 };
 
 // A recording made before the test templates (no "test" in its header) ran Lai's patterns by default,

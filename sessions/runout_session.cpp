@@ -1,5 +1,6 @@
 #include "sessions/runout_session.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -80,6 +81,12 @@ class RunoutSession : public Session {
     p << static_cast<int>(deg) << " of " << static_cast<int>(o_.revolutions * 360.0) << " deg";
     if (skipped_) p << " (" << skipped_ << " invalid readings skipped)";
     return p.str();
+  }
+
+  // The revolutions still to turn at the test's speed (all of them before the first reading).
+  [[nodiscard]] std::optional<double> time_left_s() const override {
+    const double turned_s = angle_deg_.empty() ? 0.0 : angle_deg_.back() / (o_.rpm * 6.0);
+    return std::max(0.0, duration_s_ - turned_s);
   }
 
   nlohmann::json identify() override {

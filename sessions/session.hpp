@@ -46,6 +46,10 @@ class Session {
   [[nodiscard]] virtual bool complete() const { return false; }
   // Human-readable progress for STATUS, e.g. "pattern 2/3, 210 of 360 deg".
   [[nodiscard]] virtual std::string progress() const { return {}; }
+  // Seconds until the session has all it needs, estimated from its programme (a DBB test's circles at
+  // its feed, a run-out's revolutions at its speed, a traverse's stations at the pace measured so far);
+  // nullopt while it cannot say (waiting for an operator, a traverse of open length).
+  [[nodiscard]] virtual std::optional<double> time_left_s() const { return std::nullopt; }
   // Identified parameters: the body of the PARAMS message (model, parameters with "value" and "u",
   // fit quality). Throws std::runtime_error with the reason when identification is impossible.
   virtual nlohmann::json identify() = 0;

@@ -140,6 +140,14 @@ class StraightnessSession : public Session {
     return p.str();
   }
 
+  // The stations still to measure at the pace of those measured so far (from one station's start to the next);
+  // nullopt for a traverse of open length and before its second station.
+  [[nodiscard]] std::optional<double> time_left_s() const override {
+    const std::size_t n = pitch_rad_.size();
+    if (!collecting_ || o_.stations == 0 || n < 2) return std::nullopt;
+    return (last_station_t_ - first_station_t_) / static_cast<double>(n - 1) * static_cast<double>(o_.stations - n);
+  }
+
   nlohmann::json identify() override {
     if (!done_) close_dwell();  // stopped: the stations measured so far
     if (pitch_rad_.size() < 2) {
@@ -211,6 +219,7 @@ class StraightnessSession : public Session {
     if (t1 - t0 < o_.min_dwell_s) return;  // passing through, not resting on a station
     pitch_rad_.push_back(o_.pitch_sign * pitch);
     yaw_rad_.push_back(o_.yaw_sign * yaw);
+    (pitch_rad_.size() == 1 ? first_station_t_ : last_station_t_) = t0;
     if (o_.stations > 0 && pitch_rad_.size() >= o_.stations) done_ = true;
   }
 
@@ -275,6 +284,7 @@ class StraightnessSession : public Session {
   std::size_t dwell_n_ = 0;
   double dwell_t0_ = 0.0, dwell_t1_ = 0.0, dwell_pitch_ = 0.0, dwell_yaw_ = 0.0;
   std::vector<double> pitch_rad_, yaw_rad_;
+  double first_station_t_ = 0.0, last_station_t_ = 0.0;  // the first and the last station's start (time_left_s)
   std::string note_;
   std::string text_;
 };

@@ -138,6 +138,10 @@ with tempfile.TemporaryDirectory() as d:
                         ver], capture_output=True, text=True, timeout=60)
     check(p.returncode == 1 and "%s: 7 targets, but the calibration %s has 9" % (short, cal) in p.stderr,
           "mismatched lengths: " + p.stderr.strip())
+    # Every required option missing is named at once (CLI11 alone names the first).
+    p = subprocess.run([GUIDEWAY, "identify", "artifact", "--vertical", ver], capture_output=True, text=True, timeout=60)
+    check(p.returncode != 0 and "guideway identify artifact: missing --calibration, --horizontal" in p.stderr,
+          "missing options: " + p.stderr.strip())
 
 if failures:
     print("%d failures" % len(failures))

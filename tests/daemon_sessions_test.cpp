@@ -152,8 +152,13 @@ TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStatio
   auto device = autocollimator_device();
   auto session = sessions::straightness_session_kind().create(
       {"straightness", "", {{"start", "now"}, {"stations", 5}, {"step_mm", 50}}}, device);
+  EXPECT_FALSE(session->time_left_s());  // no pace yet
   double t = 0;
-  feed_traverse(*session, st, t);
+  feed_traverse(*session, {st.begin(), st.begin() + 3}, t, 0.8, 0.5, 0.5);
+  // The time left: 2 stations at the pace of the first 3 (0.8 s on each, 0.5 s between).
+  ASSERT_TRUE(session->time_left_s()) << session->progress();
+  EXPECT_NEAR(*session->time_left_s(), 2 * 1.3, 0.15);
+  feed_traverse(*session, st, t, 0.8, 0.5, 1.5, 3);
   ASSERT_TRUE(session->complete());
   const auto p = session->identify();
   EXPECT_EQ(p["traverse"]["stations"], 5);
@@ -205,7 +210,10 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
       {"runout", "", {{"plate_diameter_mm", 100}, {"parallelism_um", 0.25}, {"rpm", 10}, {"revolutions", 1}}}, device);
   std::vector<Sample> out;
   for (const auto& r : rev) out.push_back(sample(50.0 + r.t_s, {r.displacement_m}));
+  ASSERT_TRUE(session->time_left_s());
+  EXPECT_DOUBLE_EQ(*session->time_left_s(), 6.0);  // one turn at 10 rpm
   session->on_samples(std::span(out).first(150));
+  EXPECT_NEAR(*session->time_left_s(), 3.0, 0.03);  // half of it turned
   EXPECT_FALSE(session->complete());
   EXPECT_NE(session->progress().find("of 360 deg"), std::string::npos) << session->progress();
   session->on_samples(std::span(out).subspan(150));

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <numbers>
 #include <sstream>
 
@@ -57,6 +58,35 @@ TEST(DbbRunTest, ParsesAndRoundTrips) {
     EXPECT_NEAR(back.dL_m[i], r.dL_m[i], 1e-12);
   }
   EXPECT_EQ(back.metadata.at("machine"), "vmc-1");
+}
+
+// The session's raw recording given where its runs are expected (identify, explain, compensate): refused
+// with the run files beside it named, or, without them, how to identify it again.
+TEST(DbbRunTest, ARawRecordingIsRefusedNamingTheRunFilesBesideIt) {
+  guideway::test::TempDir dir;
+  const auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir.file(name)) << text;
+    return dir.file(name);
+  };
+  const std::string recording = write("dbb-1.csv", "# format = guideway/raw/1\nt_ns,seq,flags,bar_length\n");
+  const auto refusal = [&] {
+    try {
+      guideway::formats::read_dbb_run(recording);
+    } catch (const guideway::formats::DbbRunFormatError& e) {
+      return std::string(e.what());
+    }
+    return std::string("not refused");
+  };
+  EXPECT_NE(refusal().find("a raw recording (guideway/raw/1"), std::string::npos) << refusal();
+  EXPECT_NE(refusal().find("guideway replay " + recording), std::string::npos) << refusal();
+  const std::string run1 = write("dbb-1.run1.csv", header() + rows(361));
+  const std::string run2 = write("dbb-1.run2.csv", header() + rows(361));
+  write("dbb-1.params.json", "{}");
+  write("dbb-10.run1.csv", header() + rows(361));  // another session's
+  EXPECT_NE(refusal().find("give the files the session derived from it: " + run1 + " " + run2), std::string::npos)
+      << refusal();
+  EXPECT_EQ(refusal().find("dbb-10"), std::string::npos) << refusal();
+  EXPECT_EQ(refusal().find("params.json"), std::string::npos) << refusal();
 }
 
 TEST(DbbRunTest, AcceptsWrappedAnglesExtraColumnsAndTrailer) {

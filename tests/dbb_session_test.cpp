@@ -47,9 +47,9 @@ struct Circle {
 };
 
 // Samples as the driver would publish them: t, bar, encoder x, y (with `xyz`: z, x, y); 1 s of standing
-// still after.
+// still after. A `part` below 1: only that first part of the circle's samples, nothing after.
 void feed_circle(sessions::Session& s, const simulators::machine::Machine& machine, const Circle& c, double& t0,
-                 bool xyz = false) {
+                 bool xyz = false, double part = 1.0) {
   simulators::machine::DbbCircleSpec spec;
   spec.radius_m = c.radius_m;
   spec.height_m = c.height_m;
@@ -71,6 +71,12 @@ void feed_circle(sessions::Session& s, const simulators::machine::Machine& machi
                   : std::array<double, 5>{d.bar_length_m, d.encoder[0], d.encoder[1], 0, 0};
     out.push_back(x);
   };
+  if (part < 1.0) {
+    const auto n = static_cast<std::size_t>(part * static_cast<double>(run.samples.size()));
+    for (std::size_t i = 0; i < n; ++i) add(t0 + run.samples[i].t_s, run.samples[i]);
+    s.on_samples(out);
+    return;
+  }
   for (const auto& d : run.samples) add(t0 + d.t_s, d);
   const double end = t0 + run.samples.back().t_s;
   for (int i = 1; i <= 250; ++i) add(end + i / 250.0, run.samples.back());  // 1 s standing still
@@ -169,6 +175,27 @@ TEST(DbbSession, TheStandardTestIsTheDefaultAndGivesTheDiagnostics) {
   EXPECT_NEAR(value_of(p["diagnostics"], "scale_mismatch_ppm"), 30.0, 2.0) << p["diagnostics"].dump();
   EXPECT_FALSE(p.contains("planes"));
   EXPECT_EQ(session->metadata().at("test"), "standard");
+}
+
+// The time left `start --wait` shows: the circles still to trace at the test's feed, each with the feed-in
+// and feed-out of the last one traced, less what the circle being traced has run.
+TEST(DbbSession, TheTimeLeftIsTheCirclesStillToTraceAtTheTestsFeed) {
+  const simulators::machine::Machine machine(test_machine());
+  DbbChannels device;
+  auto session = sessions::dbb_session_kind().create({"dbb", "", {{"feed_mm_per_min", 3000}}}, device);
+  const double s_per_rad = 0.1 / 0.05;  // r 100 mm at 3000 mm/min
+  ASSERT_TRUE(session->time_left_s());
+  EXPECT_NEAR(*session->time_left_s(), 2 * 2 * M_PI * s_per_rad, 1e-9);  // two data arcs, no feed-in known yet
+  double t = 0;
+  feed_circle(*session, machine, 100e-3, 0.0, DbbDirection::ccw, t);  // 45 deg of feed-in and feed-out
+  const double circle_s = (2 * M_PI + 2 * M_PI / 4) * s_per_rad;
+  ASSERT_TRUE(session->time_left_s());
+  EXPECT_NEAR(*session->time_left_s(), circle_s, 0.02 * circle_s) << session->progress();
+  feed_circle(*session, machine, Circle{100e-3, 0.0, DbbDirection::cw}, t, false, 0.5);
+  EXPECT_NEAR(*session->time_left_s(), 0.5 * circle_s, 0.02 * circle_s) << session->progress();
+  // At any feed the first circle's own is taken once it is traced.
+  auto any_feed = sessions::dbb_session_kind().create({"dbb", "", {{"feed_mm_per_min", 0}}}, device);
+  EXPECT_FALSE(any_feed->time_left_s());
 }
 
 TEST(DbbSession, ACircleAtAnotherFeedThanTheTestsIsNamedAndIgnored) {

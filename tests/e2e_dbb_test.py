@@ -232,6 +232,14 @@ class EndToEndDbb(DaemonCase):
         self.assertIn("a raw recording", refused.stderr)
         for derived in params["derived"]:
             self.assertIn(derived, refused.stderr)
+        # So are identify and compensate, which take the run files (the session's PARAMS is not a run file).
+        runs = [d for d in params["derived"] if ".run" in os.path.basename(d)]
+        for command in (["identify", "dbb"], ["compensate", "dbb", "--out-dir", tempfile.gettempdir()]):
+            refused = subprocess.run([GUIDEWAY, *command, params["recording"]], capture_output=True, text=True,
+                                     timeout=30)
+            self.assertEqual(refused.returncode, 1, refused.stderr)
+            self.assertIn("a raw recording", refused.stderr)
+            self.assertIn("give the files the session derived from it: " + " ".join(sorted(runs)), refused.stderr)
         for name, value in lai.items():
             self.assertAlmostEqual(offline["lai3"][name]["value"], value, delta=1e-9 + 1e-6 * abs(value), msg=name)
         # Sessions assemble the raw stream ([[processing]] of the default config is for the live display):

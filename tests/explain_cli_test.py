@@ -9,6 +9,7 @@ usage: explain_cli_test.py GUIDEWAY_EXE SOURCE_DIR
 import json
 import os
 import random
+import re
 import subprocess
 import sys
 import tempfile
@@ -77,6 +78,24 @@ def main():
                   "vibration", "stick_slip", "scale_mismatch", "squareness", "straightness", "spindle_axial_runout",
                   "tool_wear", "feed_marks", "abbe_offset", "cosine_error", "sensor_nonlinearity"):
             assert n in names, n
+
+        # --machine: the findings and the ballbar diagnostics beside what the file holds (its centre offset,
+        # squareness, no scale or straightness), with the sign of the centre offset said.
+        j = json.loads(run(exe, "explain", "--model", "dbb", *files, "--machine", machine, "--json").stdout)
+        c = j["against_machine"]
+        assert [x["parameter"] for x in c["findable"]] == ["backlash_x_um"], c["findable"]
+        diag = {x["parameter"]: x for x in c["diagnostics"]}
+        for name, truth in (("run1.center_offset_x_um", 1.5), ("run1.center_offset_y_um", 0.0),
+                            ("squareness_urad", 8.0), ("scale_mismatch_ppm", 0.0), ("scale_x_ppm", 0.0),
+                            ("straightness_y_um", 0.0)):
+            x = diag[name]
+            assert x["machine"] == truth, x
+            assert abs(x["found"] - truth) < max(0.1 * abs(truth), 5 * x["u"]), x
+        assert "opposite sign" in c["centre_offset_sign"], c
+        text = run(exe, "explain", "--model", "dbb", *files, "--machine", machine).stdout
+        assert "Lai's base, as the ballbar diagnostics report it" in text, text
+        assert re.search(r"squareness\s+squareness\s+found [0-9.]+ ± [0-9.]+ µrad\s+machine file 8 µrad", text), text
+        assert "(a centre offset is the circle's centre less the fixed ball's position" in text, text
 
         # a simulation of the machine without backlash against the recording: no base refit
         sim = os.path.join(d, "sim.csv")

@@ -982,6 +982,9 @@ class EffectSelection {
     for (std::size_t c = 0; c < nc_; ++c) {
       const Candidate& cand = p_.candidates[c];
       if (banned_[c] || (cand.variants.empty() && !cand.generate)) continue;
+      if (o_.on_progress)
+        o_.on_progress("looking for effect " + std::to_string(terms_.size() + 1) + ": trying " + cand.effect + " (" +
+                       std::to_string(c + 1) + " of " + std::to_string(nc_) + ")");
       Trial t = sel_.trial(c, terms_, cur_);
       if (t.index != none) out.push_back(std::move(t));
     }
@@ -1347,6 +1350,9 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
       trial_after.emplace_back(run, i);
     }
     Reduced reduced = without_samples(problem, trial, trial_after);
+    if (options.on_progress)
+      options.on_progress("pass " + std::to_string(round + 2) + ", " + std::to_string(aside.size() + places.size()) +
+                          " places set aside");
     Pass next = explain_once(reduced.problem, options);
     keep = std::move(trial);
     after = std::move(trial_after);

@@ -5,6 +5,7 @@
 // library's definitions, for the sessions, the CLI and the scenario suite that only read reports.
 
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <string>
 #include <utility>
@@ -34,6 +35,9 @@ struct ExplainOptions {
   // those places are set aside and the effects sought again in the rest, up to this share of the samples
   // (0: never).
   double max_set_aside = 0.3;
+  // What the engine is doing, at its steps (a candidate tried, a pass with places set aside), e.g. "looking
+  // for effect 2: trying backlash (3 of 14)"; for a command's progress line. Empty: not called.
+  std::function<void(const std::string&)> on_progress;
 };
 
 // A localized structure in every domain the user can act on: the run (and its file), the time from the

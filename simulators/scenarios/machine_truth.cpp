@@ -18,6 +18,51 @@ constexpr double um = 1e-6;
 
 const char* letter(int axis) { return axis == 0 ? "x" : (axis == 1 ? "y" : "z"); }
 
+// What the machine file holds of the ballbar diagnostics of the h = 0 runs (docs/conventions.md, "Ballbar
+// diagnostics"): empty when no run is at h = 0 (the diagnostics are then not fitted).
+std::vector<TruthItem> diagnostics_truth(const machine::MachineConfig& m, const std::string& plane, int a, int b,
+                                         const std::vector<TruthRun>& runs) {
+  double radius_m = 0, shrink_a = 0, shrink_b = 0;
+  int flat = 0;
+  for (const auto& r : runs) {
+    if (r.height_m != 0 || r.radius_m <= 0) continue;
+    // A position loop of lag tau shortens the traced radius by r (omega tau)^2 / 2: a scale of both axes.
+    const double omega = r.feed_m_per_s / r.radius_m;
+    shrink_a += 0.5 * std::pow(omega * m.axis[static_cast<std::size_t>(a)].servo_lag_s, 2);
+    shrink_b += 0.5 * std::pow(omega * m.axis[static_cast<std::size_t>(b)].servo_lag_s, 2);
+    if (flat++ == 0) radius_m = r.radius_m;
+  }
+  std::vector<TruthItem> out;
+  if (flat == 0) return out;
+  shrink_a /= flat;
+  shrink_b /= flat;
+  const std::array<int, 2> ab{a, b};
+  for (int k = 0; k < 2; ++k)
+    out.push_back({"centre offset", results::name(results::center_offset, plane, k),
+                   m.dbb.center_offset[static_cast<std::size_t>(ab[static_cast<std::size_t>(k)])] / um, ""});
+  const double square = a == 0 && b == 1 ? m.squareness.xy : (a == 0 ? m.squareness.xz : m.squareness.yz);
+  out.push_back({"squareness", results::name(results::squareness), square * 1e6, ""});
+  const auto lag_note = [&](double shrink) {
+    return shrink * 1e6 < 0.05 ? std::string()
+                               : "the file's scale less the servo lag's " + printf_number("%.3g ppm", shrink * 1e6) +
+                                     ": the circle shrinks by r (omega tau)^2 / 2";
+  };
+  const double scale_a = m.axis[static_cast<std::size_t>(a)].scale, scale_b = m.axis[static_cast<std::size_t>(b)].scale;
+  out.push_back({"scale", results::name(results::scale_mismatch), (scale_a - shrink_a - scale_b + shrink_b) * 1e6,
+                 std::abs(shrink_a - shrink_b) * 1e6 < 0.05 ? "" : lag_note(shrink_a - shrink_b)});
+  out.push_back({"scale", results::name(results::scale, plane, 0), (scale_a - shrink_a) * 1e6, lag_note(shrink_a)});
+  out.push_back({"scale", results::name(results::scale, plane, 1), (scale_b - shrink_b) * 1e6, lag_note(shrink_b)});
+  // The bow over the diameter: the quadratic coefficient of the axis' straightness across the plane, times r^2.
+  for (int k = 0; k < 2; ++k) {
+    const auto& poly = m.axis[static_cast<std::size_t>(ab[static_cast<std::size_t>(k)])]
+                           .translation[static_cast<std::size_t>(ab[static_cast<std::size_t>(1 - k)])];
+    const double c2 = poly.c.size() > 2 ? poly.c[2] : 0.0;
+    out.push_back({"straightness", results::name(results::straightness_bow, plane, k), c2 * radius_m * radius_m / um,
+                   "its quadratic term at r = " + printf_number("%g mm", radius_m * 1e3)});
+  }
+  return out;
+}
+
 }  // namespace
 
 DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, const std::vector<TruthRun>& runs,
@@ -163,6 +208,11 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
     if (s.plate_parallelism_rad != 0) what += printf_number(", thrust plate %g urad", s.plate_parallelism_rad / um);
     cannot(what, "a DBB test does not turn the spindle (the run-out and profile sessions see these)");
   }
+  t.diagnostics = diagnostics_truth(m, plane, a, b, runs);
+  t.centre_offset_sign =
+      "a centre offset is the circle's centre less the fixed ball's position, as the machine file's "
+      "center_offset; Lai's fixed ball offset (e_x_um, e_y_um) is the fixed ball's less the centre: the "
+      "opposite sign (docs/conventions.md)";
   t.note = "geometric errors (centre offset, scale, squareness, straightness, roll) are Lai's base: PARAMS lai3; "
            "the bar's noise is " + printf_number("%g um", noise_um) + " (EXPLAIN's noise_um)";
   return t;

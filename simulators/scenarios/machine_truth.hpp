@@ -35,8 +35,14 @@ struct Unobservable {
 
 struct DbbTruth {
   std::vector<TruthItem> findable;
+  // Lai's base as the ballbar diagnostics report it (PARAMS' "diagnostics", `guideway identify dbb`): the
+  // geometric terms every test with an h = 0 ccw/cw pair fits, whatever EXPLAIN finds. `parameter` is
+  // the diagnostics' name (a centre offset's without its run: each run has one, the machine's).
+  std::vector<TruthItem> diagnostics;
   std::vector<Unobservable> unobservable;
   std::string note;  // what the comparison assumes (the base, the noise)
+  // The sign of the centre offset, one sentence: PARAMS' against the machine file's and Lai's e_x/e_y.
+  std::string centre_offset_sign;
 };
 
 // plane "xy", "xz" or "yz"; angles_from_encoders: the runs' angles are the axis encoders' (a live
