@@ -239,6 +239,19 @@ double map_radius(const std::vector<formats::DbbRun>& runs, ErrorMap& m) {
 // combined standard uncertainties.
 constexpr double contradiction_k = 3.0;
 
+}  // namespace
+
+std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others) {
+  const auto* other = find(others, term.name);
+  if (!other || !std::isfinite(other->u) || !std::isfinite(term.u)) return "";
+  const double z = std::abs(term.value - other->value) / std::hypot(term.u, other->u);
+  if (!(z > contradiction_k)) return "";
+  return "contradicts EXPLAIN's " + printf_number("%.4g", other->value) + " +/- " + printf_number("%.2g", other->u) +
+         " on the same runs (" + printf_number("%.0f", z) + " combined u apart)";
+}
+
+namespace {
+
 // The term `name` as checked: whether it is significant, whether the runs can have determined it, and
 // whether it contradicts the map's cross-check (EXPLAIN's value of it).
 Term checked(const ErrorMap& m, const std::string& name, double value, double u, Use use, const std::string& why) {
@@ -250,14 +263,7 @@ Term checked(const ErrorMap& m, const std::string& name, double value, double u,
   t.why = why;
   t.significant = std::abs(t.value) > significance_k * t.u;
   t.determined = determined(t.name, t.value, t.u, m.circular_deviation_um, m.terms_of[0].radius_m, m.feed_m_per_s);
-  const auto* other = find(m.cross_check, t.name);
-  if (t.determined && other && std::isfinite(other->u)) {
-    const double z = std::abs(t.value - other->value) / std::hypot(t.u, other->u);
-    if (z > contradiction_k)
-      t.contradiction = "contradicts EXPLAIN's " + printf_number("%.4g", other->value) + " +/- " +
-                        printf_number("%.2g", other->u) + " on the same runs (" + printf_number("%.0f", z) +
-                        " combined u apart)";
-  }
+  if (t.determined) t.contradiction = contradiction({name, value, u, true}, m.cross_check);
   return t;
 }
 

@@ -119,6 +119,11 @@ struct ErrorMap {
 // deviate: a spike of -256 +/- 150 um on runs of G 0.73 um). A name of another unit is taken as determined.
 bool determined(const std::string& name, double value, double u, double g_um, double radius_m, double feed_m_per_s);
 
+// How `term` contradicts another identification of the same runs (`others`, EXPLAIN's findings: the estimate
+// of the same name): their difference beyond 3 combined standard uncertainties, in words with both values and
+// how far apart they are; "" when it does not (no such estimate, or either has no u).
+std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others);
+
 struct MapOptions {
   // Circle centre in machine coordinates (first, second plane axis); else every run's center_a_mm /
   // center_b_mm metadata (they must agree). Neither: CompensationError.
