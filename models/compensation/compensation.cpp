@@ -458,6 +458,16 @@ ErrorMap error_map(const CheckedIdentification& checked, const std::vector<forma
   return m;
 }
 
+bool spike_from_backlash_step(const ErrorMap& map, const dbb::Estimate& before, const dbb::Estimate& after) {
+  for (int axis = 0; axis < 2; ++axis) {
+    if (after.name != results::name(results::reversal_spike, map.plane, axis)) continue;
+    const Term* backlash = find(map.terms, results::name(results::backlash, map.plane, axis));
+    return backlash && backlash->applied() && before.fitted && !(std::abs(before.value) > significance_k * before.u) &&
+           after.fitted && std::isfinite(after.u) && after.value < -significance_k * after.u;
+  }
+  return false;
+}
+
 std::string left_out_because(const Term& t) {
   if (!t.determined) return "not determined by these runs";
   if (!t.contradiction.empty()) return "NOT WRITTEN: " + t.contradiction;

@@ -124,6 +124,17 @@ bool determined(const std::string& name, double value, double u, double g_um, do
 // how far apart they are; "" when it does not (no such estimate, or either has no u).
 std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others);
 
+// Whether a reversal spike seen on the runs retraced with the map's tables (`after`) is the tables' own backlash
+// step rather than the machine's stiction: the axis' table holds a backlash (applied), the runs before showed no
+// spike (|value| not above 2 u), and after it is significant with the sign of an axis turning back early
+// (negative; stiction holds the axis back: positive). A controller switches a per-joint table between its
+// forward and reverse columns by the commanded velocity (LinuxCNC's COMP_FILE), so the backlash step is taken at
+// the commanded reversal while the drive still lags its command by the servo lag: the drive crosses its deadband
+// before reaching its extreme and the carriage turns back early (on config/machine-example.toml's standard test,
+// 30 ms lag, 1000 mm/min: a dip of 0.83 um for Y's 2 um over some 50 ms). No table removes it; velocity
+// feed-forward, or a reversal timing of the backlash step, does.
+bool spike_from_backlash_step(const ErrorMap& map, const dbb::Estimate& before, const dbb::Estimate& after);
+
 struct MapOptions {
   // Circle centre in machine coordinates (first, second plane axis); else every run's center_a_mm /
   // center_b_mm metadata (they must agree). Neither: CompensationError.
