@@ -67,14 +67,27 @@ PlaneResult identify_plane(const std::vector<formats::DbbRun>& runs, const model
       const std::string why = models::compensation::contradiction(e, checked.explain);
       if (why.empty()) continue;
       out.json[group][e.name]["not_determined"] = why;
-      const results::Shown shown = results::shown(e.name, e.value, e.u, checked.id.plane, group);
-      out.json["notes"].push_back(shown.label + " is not determined: " + shown.value + " " + shown.unit + " " + why +
-                                  (beside.empty() ? std::string() : "; fitted beside: " + beside));
+      const auto other = std::find_if(checked.explain.begin(), checked.explain.end(),
+                                      [&](const models::dbb::Estimate& x) { return x.name == e.name; });
+      const results::Shown mine = results::shown(e.name, e.value, e.u, checked.id.plane, group);
+      const results::Shown theirs = results::shown(e.name, other->value, other->u, checked.id.plane, group);
+      out.json["notes"].push_back(mine.label + " is not determined: " + mine.value + " " + mine.unit +
+                                  ", where EXPLAIN finds " + theirs.value + " " + theirs.unit + " on the same runs" +
+                                  (beside.empty() ? std::string() : ", with " + beside + " fitted beside"));
     }
   };
   mark(checked.id.diagnostics, "diagnostics");
   mark(checked.id.lai3, "lai3");
-  for (const auto& n : checked.notes) out.json["notes"].push_back(n);
+  for (const auto& n : checked.notes) {
+    // The values fitted beside are in their own group, in words: the note says only what they are.
+    if (n.starts_with("fitted beside the terms"))
+      out.json["notes"].push_back(
+          "what EXPLAIN found on the same runs and the models do not hold is fitted beside "
+          "their terms (above), so that it is not read as one of them: " +
+          beside);
+    else
+      out.json["notes"].push_back(n);
+  }
   return out;
 }
 

@@ -72,11 +72,12 @@ def six_effects(exe, source, d):
         assert alone[group]["backlash_x_um"]["value"] < 0, alone[group]["backlash_x_um"]  # the drift, read as backlash
     assert abs(j["beside"]["drift_x_um_per_min"]["value"] - 1.0) < 0.15, j["beside"]
     assert "beside" not in alone
-    assert any("thermal_drift" in n for n in j["notes"]), j["notes"]
+    assert any("thermal drift" in n for n in j["notes"]), j["notes"]
     # no term left that contradicts EXPLAIN (each would be marked not_determined, with both values in a note)
     assert not [n for g in ("diagnostics", "lai3") for n, v in j[g].items() if "not_determined" in v], j
     text = subprocess.run([exe, "identify", "dbb", *files], check=True, capture_output=True, text=True).stdout
-    assert "centre drift X" in text and "fitted beside" in text, text
+    assert "centre drift X" in text and "fitted beside" in text and "thermal drift" in text, text
+    assert "+/-" not in text and "drift_x_um_per_min" not in text, text  # in words, rounded to u
 
 
 def three_planes(exe, source, d):
