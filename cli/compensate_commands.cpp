@@ -340,7 +340,7 @@ std::string mark_refused(const Verification& v, const std::string& plane, const 
 std::string term_status(const models::compensation::Term& t, const models::compensation::ErrorMap& map,
                         const Verification& v, const std::vector<Refusal>& refusals, bool seen, double ratio) {
   namespace comp = models::compensation;
-  if (std::string why = comp::left_out_because(t); !why.empty()) return why;
+  if (std::string why = comp::left_out_in_words(t, map); !why.empty()) return why;
   switch (t.use) {
     case comp::Use::table: {
       const std::string file =

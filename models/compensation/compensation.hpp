@@ -111,6 +111,8 @@ struct ErrorMap {
   double circular_deviation_um = 0.0;
   double feed_m_per_s = 0.0;
   std::vector<dbb::Estimate> cross_check;
+  // What was fitted beside the terms (CheckedIdentification: the identification's `beside`), for people's text.
+  std::vector<dbb::Estimate> beside;
 };
 
 // Whether an identified term is a measurement at all: not when its size on the circle (um; a ppm or urad
@@ -239,6 +241,8 @@ inline constexpr std::string_view do_not_load_suffix = ".do-not-load";
 
 // Why a term is not applied (not determined, contradicting EXPLAIN, not significant), "" when it is.
 std::string left_out_because(const Term& t);
+// The same for people: a contradiction of EXPLAIN with EXPLAIN's value rounded to its u, in its unit.
+std::string left_out_in_words(const Term& t, const ErrorMap& m);
 
 // The text summary `guideway compensate` prints (terms, what was applied, squareness advice).
 std::string to_text(const ErrorMap& map);
