@@ -341,7 +341,7 @@ std::string mark_refused(const Verification& v, const std::string& plane, const 
 std::string term_status(const models::compensation::Term& t, const models::compensation::ErrorMap& map,
                         const Verification& v, const std::vector<Refusal>& refusals, bool seen, double ratio) {
   namespace comp = models::compensation;
-  if (std::string why = comp::left_out_because(t); !why.empty()) return why;
+  if (std::string why = comp::left_out_in_words(t, map); !why.empty()) return why;
   switch (t.use) {
     case comp::Use::table: {
       const std::string file =
@@ -385,6 +385,32 @@ std::string value_text(const models::dbb::Estimate& e, const models::compensatio
   return shown_with_unit(e.name, e.value, e.u, map.plane);
 }
 
+constexpr const char* backlash_step_status = "the tables' backlash step, not stiction (below)";
+
+// What is still above 3 u after, apart from the spikes the tables' backlash step makes
+// (compensation::spike_from_backlash_step), which are said with their cause.
+std::string left_after_text(const models::compensation::ErrorMap& map, const Verification& v, double g1) {
+  std::string left, step;
+  for (const auto& e : v.after.diagnostics) {
+    if (!e.fitted || !std::isfinite(e.u) || !(std::abs(e.value) > 3 * e.u) || e.name.starts_with("run") ||
+        e.name.starts_with("center_offset") || e.name.starts_with("circular_") ||
+        !models::compensation::determined(e.name, e.value, e.u, g1, map.terms_of[0].radius_m, map.feed_m_per_s))
+      continue;
+    const std::string text =
+        results::label_of(e.name, map.plane) + " " + shown_with_unit(e.name, e.value, e.u, map.plane);
+    const auto* before = find(v.before, e.name);
+    const bool from_step = before && models::compensation::spike_from_backlash_step(map, *before, e);
+    (from_step ? step : left) += ((from_step ? step : left).empty() ? " " : ", ") + text;
+  }
+  std::string out = "  still above 3 u after:" + (left.empty() ? std::string(" nothing") : left) + "\n";
+  if (!step.empty())
+    out += "  from the tables' backlash step, not the machine's stiction:" + step +
+           " (the axis turns back early: the controller switches a table's backlash at the commanded reversal, "
+           "while the drive still lags its command; velocity feed-forward or a reversal timing of the step removes "
+           "it, no table does; docs/compensation.md)\n";
+  return out;
+}
+
 std::string verification_text(const models::compensation::ErrorMap& map, const Verification& v,
                               const std::vector<Refusal>& refusals, nlohmann::json& j) {
   std::ostringstream o;
@@ -424,7 +450,9 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
     for (const auto& term : map.terms)
       if (term.name == e.name) t = &term;
     const double ratio = seen ? std::abs(after->value) / after->u : 0.0;
-    const std::string status = t ? term_status(*t, map, v, refusals, seen, ratio) : "";
+    const bool step = seen && models::compensation::spike_from_backlash_step(map, e, *after);
+    const std::string status =
+        step ? std::string(backlash_step_status) : (t ? term_status(*t, map, v, refusals, seen, ratio) : "");
     rows.push_back({results::label_of(e.name, map.plane), value_text(e, map, g0),
                     seen ? value_text(*after, map, g1) : "not detected", seen ? printf_number("%.1f", ratio) : "",
                     status});
@@ -433,18 +461,12 @@ std::string verification_text(const models::compensation::ErrorMap& map, const V
       tj["after"] = after->value;
       tj["after_u"] = after->u;
     }
+    if (step) tj["from_backlash_step"] = true;
     terms.push_back(tj);
   }
   j["terms"] = terms;
   o << aligned_rows(rows, {false, true, true, true});
-  std::string left;
-  for (const auto& e : v.after.diagnostics)
-    if (e.fitted && std::isfinite(e.u) && std::abs(e.value) > 3 * e.u && e.name.rfind("run", 0) != 0 &&
-        e.name.rfind("center_offset", 0) != 0 && e.name.rfind("circular_", 0) != 0 &&
-        models::compensation::determined(e.name, e.value, e.u, g1, map.terms_of[0].radius_m, map.feed_m_per_s))
-      left += (left.empty() ? " " : ", ") + results::label_of(e.name, map.plane) + " " +
-              shown_with_unit(e.name, e.value, e.u, map.plane);
-  o << "  still above 3 u after:" << (left.empty() ? std::string(" nothing") : left) << "\n";
+  o << left_after_text(map, v, g1);
   if (!v.written.empty())
     o << "  runs written to " << fs::path(v.written.front()).parent_path().string()
       << "/ (guideway report on them shows the polar plots before and after)\n";

@@ -11,7 +11,9 @@
 #include "cli/progress.hpp"
 #include "core/number_format.hpp"
 #include "core/toml_access.hpp"
+#include "models/compensation/compensation.hpp"
 #include "models/dbb/json.hpp"
+#include "results/parameters.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 
 namespace guideway::cli {
@@ -23,6 +25,7 @@ struct IdentifyArgs {
   bool json = false, quiet = false;
   double period_a_mm = 0, period_b_mm = 0;
   bool per_run_center = false;
+  bool without_explain = false;
   double bar_length_u_um = 0;
   void add(CLI::App& cmd) {
     cmd.add_option("runs", files, "DBB run files (guideway/dbb-run/1 CSV)")->required()->check(CLI::ExistingFile);
@@ -36,8 +39,59 @@ struct IdentifyArgs {
     cmd.add_option("--cyclic-period-b-mm", period_b_mm, "known lead of the second plane axis (default: search)");
     cmd.add_flag("--per-run-center", per_run_center,
                  "Lai model: one centre offset per run instead of Lai's fixed socket shared by all patterns");
+    cmd.add_flag("--without-explain", without_explain,
+                 "the models alone: without fitting what EXPLAIN finds on the same runs beside their terms (a drift "
+                 "then reads as backlash)");
   }
 };
+
+// One plane's identification as `compensate` makes it (models::compensation::identify_checked): what EXPLAIN
+// finds on the same runs and the models do not hold (a drift, a vibration) fitted beside their terms, so that
+// it is not read as one of them. A term that still contradicts EXPLAIN's value of it beyond 3 combined u is
+// "not determined" (`not_determined` in the JSON, with both values), not a number to act on.
+struct PlaneResult {
+  models::dbb::Identification id;
+  nlohmann::json json;
+};
+PlaneResult identify_plane(const std::vector<formats::DbbRun>& runs, const models::dbb::IdentifyOptions& opt,
+                           bool with_explain) {
+  if (!with_explain) {
+    PlaneResult out{models::dbb::identify(runs, opt), {}};
+    out.json = models::dbb::to_json(out.id);
+    return out;
+  }
+  const models::compensation::CheckedIdentification checked = models::compensation::identify_checked(runs, opt);
+  PlaneResult out{checked.id, models::dbb::to_json(checked.id)};
+  std::string beside;
+  for (const auto& e : checked.beside) beside += (beside.empty() ? "" : ", ") + results::in_words(e);
+  const auto mark = [&](const std::vector<models::dbb::Estimate>& terms, const char* group) {
+    for (const auto& e : terms) {
+      const std::string why = models::compensation::contradiction(e, checked.explain);
+      if (why.empty()) continue;
+      out.json[group][e.name]["not_determined"] = why;
+      const auto other = std::find_if(checked.explain.begin(), checked.explain.end(),
+                                      [&](const models::dbb::Estimate& x) { return x.name == e.name; });
+      const results::Shown mine = results::shown(e.name, e.value, e.u, checked.id.plane, group);
+      const results::Shown theirs = results::shown(e.name, other->value, other->u, checked.id.plane, group);
+      out.json["notes"].push_back(mine.label + " is not determined: " + mine.value + " " + mine.unit +
+                                  ", where EXPLAIN finds " + theirs.value + " " + theirs.unit + " on the same runs" +
+                                  (beside.empty() ? std::string() : ", with " + beside + " fitted beside"));
+    }
+  };
+  mark(checked.id.diagnostics, "diagnostics");
+  mark(checked.id.lai3, "lai3");
+  for (const auto& n : checked.notes) {
+    // The values fitted beside are in their own group, in words: the note says only what they are.
+    if (n.starts_with("fitted beside the terms"))
+      out.json["notes"].push_back(
+          "what EXPLAIN found on the same runs and the models do not hold is fitted beside "
+          "their terms (above), so that it is not read as one of them: " +
+          beside);
+    else
+      out.json["notes"].push_back(n);
+  }
+  return out;
+}
 
 void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   std::vector<formats::DbbRun> runs;
@@ -48,16 +102,20 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   opt.lai_shared_center = !a.per_run_center;
   opt.bar_length_u_um = a.bar_length_u_um;
   std::vector<models::dbb::Identification> ids;
+  std::vector<nlohmann::json> plane_json;
   {
     Progress progress("identify", a.quiet || a.json);
     for (const auto& plane : models::dbb::runs_by_plane(std::move(runs))) {
-      progress.doing("the " + plane.front().plane + " plane's " + std::to_string(plane.size()) +
-                     " run(s): Lai's model and the ballbar diagnostics");
-      ids.push_back(models::dbb::identify(plane, opt));
+      progress.doing("the " + plane.front().plane + " plane's " + std::to_string(plane.size()) + " run(s): " +
+                     (a.without_explain ? "Lai's model and the ballbar diagnostics"
+                                        : "Lai's model, the ballbar diagnostics and EXPLAIN beside them"));
+      PlaneResult r = identify_plane(plane, opt, !a.without_explain);
+      ids.push_back(std::move(r.id));
+      plane_json.push_back(std::move(r.json));
     }
   }
   if (ids.size() == 1) {
-    const nlohmann::json j = models::dbb::to_json(ids.front());
+    const nlohmann::json& j = plane_json.front();
     if (a.json) {
       std::cout << j.dump() << "\n";
     } else {
@@ -71,14 +129,15 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   const nlohmann::json summary = models::dbb::to_json(models::dbb::summarize_planes(ids));
   if (a.json) {
     nlohmann::json j = {{"planes", nlohmann::json::object()}, {"summary", summary}};
-    for (const auto& id : ids) j["planes"][id.plane] = models::dbb::to_json(id);
+    for (std::size_t k = 0; k < ids.size(); ++k) j["planes"][ids[k].plane] = plane_json[k];
     std::cout << j.dump() << "\n";
     return;
   }
-  for (const auto& id : ids) {
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const auto& id = ids[k];
     std::cout << "== " << id.plane << " plane: DBB identification (" << id.model << "), " << id.runs.size()
               << " run(s)\n";
-    print_result(models::dbb::to_json(id));
+    print_result(plane_json[k]);
     std::cout << "\n";
   }
   print_planes_summary(summary);

@@ -39,6 +39,7 @@ bool is_parameter_group(const nlohmann::json& items) {
 std::vector<std::string> shown_row(const std::string& name, const nlohmann::json& v, std::string_view plane,
                                    std::string_view group) {
   const results::Shown s = results::shown(name, number_or(v, "value", NAN), number_or(v, "u", NAN), plane, group);
+  if (v.contains("not_determined")) return {s.label, "not determined", ""};  // why: in the notes
   return {s.label, s.value, s.unit};
 }
 
@@ -46,6 +47,7 @@ std::vector<std::string> shown_row(const std::string& name, const nlohmann::json
 std::string group_title(const std::string& group) {
   if (group == results::lai_S_x.group) return "Lai's third-order model";
   if (group == results::backlash.group) return "ballbar diagnostics";
+  if (group == "beside") return "fitted beside the models' terms (what EXPLAIN found on the same runs; in no table)";
   return results::in_words(group);
 }
 

@@ -176,6 +176,30 @@ void runs_table(std::ostringstream& body, const models::dbb::Identification& id_
   body << html_table(runs_t);
 }
 
+// Runs traced with compensation loaded (`compensation = after`, guideway compensate --verify) whose reversal
+// spikes are negative: an axis turning back early, which is the tables' backlash step, not stiction
+// (models::compensation::spike_from_backlash_step, docs/compensation.md).
+void compensated_spikes_note(std::ostringstream& body, const std::vector<formats::DbbRun>& runs,
+                             const models::dbb::Identification& id_result) {
+  const auto after = [](const formats::DbbRun& r) {
+    const auto f = r.metadata.find("compensation");
+    return f != r.metadata.end() && f->second != "before";
+  };
+  if (runs.empty() || !std::all_of(runs.begin(), runs.end(), after)) return;
+  std::string spikes;
+  for (int axis = 0; axis < 2; ++axis)
+    for (const auto& e : id_result.diagnostics)
+      if (e.name == results::name(results::reversal_spike, id_result.plane, axis) && e.fitted && std::isfinite(e.u) &&
+          e.value < -2 * e.u)
+        spikes += (spikes.empty() ? "" : " and ") + results::label_of(e.name, id_result.plane);
+  if (spikes.empty()) return;
+  body << html_note("These runs were traced with the compensation loaded. Their " + spikes +
+                    " are negative, an axis turning back early: the tables' backlash step, which the controller "
+                    "takes at the commanded reversal while the drive still lags its command, not stiction. No table "
+                    "removes it; velocity feed-forward, or a reversal timing of the step, does (docs/compensation.md, "
+                    "\"Reversal spikes after a backlash table\").");
+}
+
 // The standards' figures (docs/standards.md), each run's and each CCW/CW pair's with what it is over and
 // the conditions it was measured under.
 void standards_table(std::ostringstream& body, const models::dbb::Identification& id_result) {
@@ -231,7 +255,8 @@ void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Id
       rank_t.rows.push_back({html_escape(label), format_number(c->contribution_um, 3),
                              std::isfinite(c->percent) ? format_number(c->percent, 2) : "&ndash;"});
     if (!r.shown.empty()) body << html_table(rank_t);
-    if (!r.small.empty()) body << "<p>Under 1 % of G each: " << html_escape(r.small) << ".</p>";
+    // With bars drawn, their caption names the ones under 1 % already.
+    if (!r.small.empty() && r.shown.empty()) body << "<p>Under 1 % of G each: " << html_escape(r.small) << ".</p>";
   }
   for (const auto& n : id_result.notes) body << html_note(n);
   std::vector<models::dbb::Estimate> iso, diag;
@@ -318,6 +343,7 @@ void planes_summary(std::ostringstream& body, const models::dbb::PlanesSummary& 
               format_number(s.circular_deviation_um, 3) + " \u00b5m)",
           {"plane", "error", "part of G / \u00b5m", "% of G"},
           {}};
+  r.text_columns = {1};  // the error, in words
   for (const auto& c : s.ranking) {
     if (std::isfinite(c.percent) && c.percent < negligible_percent) continue;
     r.rows.push_back({html_escape(c.plane), html_escape(results::label_of(c.name, c.plane, results::backlash.group)),
@@ -367,6 +393,7 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
     }
     const models::dbb::Identification& id_result = ids.back();
     ranking_chart(body, id_result);
+    compensated_spikes_note(body, plane_runs, id_result);
     runs_table(body, id_result, plane_circles);
     runs_and_diagnostics_tables(body, id_result);
     standards_table(body, id_result);

@@ -336,3 +336,21 @@ TEST(DbbArcsTest, LeastSquaresCircleOfAGappyPartialArcMatchesNumpy) {
 }
 
 }  // namespace
+
+// A recording that lost samples often (a loaded machine: 11 gaps in one run of the demo's live session) is said
+// in one note for the run, with the count, what was lost in all and the first gap; a few gaps one note each.
+TEST(DbbArcsTest, ManyGapsOfARunAreOneNote) {
+  const simulators::machine::Machine m(three_plane_machine());
+  auto runs = plane_runs(m, Plane::xy, 400);
+  for (const double start_s : {2.0, 5.0, 8.0, 11.0, 14.0})
+    runs[0] = simulators::machine::with_dropout(runs[0], start_s, 0.2);
+  runs[1] = simulators::machine::with_dropout(runs[1], 4.0, 0.2);
+  const auto notes = models::dbb::identify(runs).notes;
+  const auto count = [&](const std::string& text) {
+    return std::count_if(notes.begin(), notes.end(),
+                         [&](const std::string& n) { return n.find(text) != std::string::npos; });
+  };
+  EXPECT_EQ(count("ccw: 5 gaps, "), 1) << "the five gaps of the first run in one note";
+  EXPECT_EQ(count("ccw: gap of "), 0);
+  EXPECT_EQ(count("cw: gap of "), 1) << "the one gap of the second run as before";
+}

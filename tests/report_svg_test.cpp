@@ -290,6 +290,37 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   fs::remove_all(dir);
 }
 
+// Runs traced with the compensation loaded whose reversal spikes are negative (an axis turning back early: the
+// tables' backlash step, docs/compensation.md) get a note that says so, not the stiction a spike otherwise means;
+// the same runs before compensation, and a positive spike after, get none.
+TEST(Report, NegativeSpikesAfterCompensationAreSaidToBeTheTablesStep) {
+  const auto dir = temp_dir("step_spikes");
+  const auto render = [&](double spike_m, const char* stage) {
+    guideway::simulators::machine::MachineConfig cfg;
+    cfg.dbb.noise_m = 0.1e-6;
+    cfg.axis[1].reversal_spike_m = spike_m;
+    const guideway::simulators::machine::Machine machine(cfg);
+    std::vector<std::string> paths;
+    for (const auto d : {guideway::formats::DbbDirection::ccw, guideway::formats::DbbDirection::cw}) {
+      guideway::simulators::machine::DbbCircleSpec spec;
+      spec.radius_m = 0.1;
+      spec.direction = d;
+      const auto path =
+          (dir / (std::string(stage) + (d == guideway::formats::DbbDirection::ccw ? "_ccw" : "_cw") + ".csv")).string();
+      auto run = guideway::simulators::machine::simulate_dbb_run(machine, spec, path);
+      run.metadata["compensation"] = stage;
+      guideway::formats::write_dbb_run(run, path);
+      paths.push_back(path);
+    }
+    return report::render_report(paths);
+  };
+  const std::string note = "the tables&#39; backlash step";
+  EXPECT_NE(render(-1.5e-6, "after").find(note), std::string::npos);
+  EXPECT_EQ(render(-1.5e-6, "before").find(note), std::string::npos);
+  EXPECT_EQ(render(1.5e-6, "after").find(note), std::string::npos);
+  fs::remove_all(dir);
+}
+
 // Lai's three patterns (the demo's session) give no ballbar diagnostics: the section says why once and
 // shows no table of only a header, no "0 points" fit; the ranking is in words, as horizontal bars, and
 // every polar plot is of the deviation about the run's least-squares circle. Runs of a compensation check

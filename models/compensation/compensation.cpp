@@ -235,9 +235,25 @@ double map_radius(const std::vector<formats::DbbRun>& runs, ErrorMap& m) {
   return radius;
 }
 
+// How the note on what was fitted beside the terms begins.
+constexpr std::string_view fitted_beside_note = "fitted beside the terms";
+
 // A term contradicts another identification of the same runs when they differ by more than this many
 // combined standard uncertainties.
 constexpr double contradiction_k = 3.0;
+
+}  // namespace
+
+std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others) {
+  const auto* other = find(others, term.name);
+  if (!other || !std::isfinite(other->u) || !std::isfinite(term.u)) return "";
+  const double z = std::abs(term.value - other->value) / std::hypot(term.u, other->u);
+  if (!(z > contradiction_k)) return "";
+  return "contradicts EXPLAIN's " + printf_number("%.4g", other->value) + " +/- " + printf_number("%.2g", other->u) +
+         " on the same runs (" + printf_number("%.0f", z) + " combined u apart)";
+}
+
+namespace {
 
 // The term `name` as checked: whether it is significant, whether the runs can have determined it, and
 // whether it contradicts the map's cross-check (EXPLAIN's value of it).
@@ -250,14 +266,7 @@ Term checked(const ErrorMap& m, const std::string& name, double value, double u,
   t.why = why;
   t.significant = std::abs(t.value) > significance_k * t.u;
   t.determined = determined(t.name, t.value, t.u, m.circular_deviation_um, m.terms_of[0].radius_m, m.feed_m_per_s);
-  const auto* other = find(m.cross_check, t.name);
-  if (t.determined && other && std::isfinite(other->u)) {
-    const double z = std::abs(t.value - other->value) / std::hypot(t.u, other->u);
-    if (z > contradiction_k)
-      t.contradiction = "contradicts EXPLAIN's " + printf_number("%.4g", other->value) + " +/- " +
-                        printf_number("%.2g", other->u) + " on the same runs (" + printf_number("%.0f", z) +
-                        " combined u apart)";
-  }
+  if (t.determined) t.contradiction = contradiction({name, value, u, true}, m.cross_check);
   return t;
 }
 
@@ -449,7 +458,27 @@ ErrorMap error_map(const CheckedIdentification& checked, const std::vector<forma
   options.cross_check = checked.explain;
   ErrorMap m = error_map(checked.id, runs, options);
   m.notes.insert(m.notes.end(), checked.notes.begin(), checked.notes.end());
+  m.beside = checked.id.beside;
   return m;
+}
+
+bool spike_from_backlash_step(const ErrorMap& map, const dbb::Estimate& before, const dbb::Estimate& after) {
+  for (int axis = 0; axis < 2; ++axis) {
+    if (after.name != results::name(results::reversal_spike, map.plane, axis)) continue;
+    const Term* backlash = find(map.terms, results::name(results::backlash, map.plane, axis));
+    return backlash && backlash->applied() && before.fitted && !(std::abs(before.value) > significance_k * before.u) &&
+           after.fitted && std::isfinite(after.u) && after.value < -significance_k * after.u;
+  }
+  return false;
+}
+
+std::string left_out_in_words(const Term& t, const ErrorMap& m) {
+  const auto* explain = t.contradiction.starts_with("contradicts EXPLAIN") ? find(m.cross_check, t.name) : nullptr;
+  if (!t.determined || !explain) return left_out_because(t);
+  const results::Shown theirs = results::shown(t.name, explain->value, explain->u, m.plane);
+  const double z = std::abs(t.value - explain->value) / std::hypot(t.u, explain->u);
+  return "NOT WRITTEN: EXPLAIN finds " + theirs.value + (theirs.unit.empty() ? "" : " " + theirs.unit) +
+         " on the same runs (" + printf_number("%.0f", z) + " combined u apart)";
 }
 
 std::string left_out_because(const Term& t) {
@@ -716,7 +745,7 @@ std::string to_text(const ErrorMap& m) {
   // Each term by its label, its value rounded to u in the unit it is shown in, and where it went.
   std::vector<std::array<std::string, 4>> rows{{"term", "value \u00b1 u", "", "use"}};
   for (const auto& t : m.terms) {
-    std::string use = left_out_because(t);
+    std::string use = left_out_in_words(t, m);
     if (!use.empty())
       ;
     else if (t.use == Use::table)
@@ -745,7 +774,18 @@ std::string to_text(const ErrorMap& m) {
     o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, "
       << printf_number("%.3f", am.nominal_m.front() * 1e3) << " .. " << printf_number("%.3f", am.nominal_m.back() * 1e3)
       << " mm\n";
-  for (const auto& n : m.notes) o << "note: " << n << "\n";
+  // The notes, but what was fitted beside in words and rounded to u (the files keep the names).
+  for (const auto& n : m.notes)
+    if (m.beside.empty() || !n.starts_with(fitted_beside_note)) o << "note: " << n << "\n";
+  if (!m.beside.empty()) {
+    o << "note: " << fitted_beside_note << " (what EXPLAIN found on the same runs; in no table):";
+    for (std::size_t k = 0; k < m.beside.size(); ++k) {
+      const auto& e = m.beside[k];
+      const results::Shown s = results::shown(e.name, e.value, e.u, m.plane);
+      o << (k ? ", " : " ") << s.label << " " << s.value << (s.unit.empty() ? "" : " " + s.unit);
+    }
+    o << "\n";
+  }
   if (m.squareness_known) {
     const auto adv = squareness_advice(m.squareness_rad);
     const std::string a = m.axes[0].axis, b = m.axes[1].axis;
@@ -812,8 +852,8 @@ void identify_beside(const std::vector<formats::DbbRun>& runs, const dbb::Identi
     for (const auto& e : out.id.beside)
       values += (values.empty() ? "" : ", ") + e.name + " " + printf_number("%.4g", e.value) + " +/- " +
                 printf_number("%.2g", e.u);
-    out.notes.push_back("fitted beside the terms, as EXPLAIN found them on the same runs: " + list + " (" + values +
-                        "); not in any table");
+    out.notes.push_back(std::string(fitted_beside_note) + ", as EXPLAIN found them on the same runs: " + list + " (" +
+                        values + "); not in any table");
   }
 }
 

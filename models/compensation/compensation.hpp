@@ -111,6 +111,8 @@ struct ErrorMap {
   double circular_deviation_um = 0.0;
   double feed_m_per_s = 0.0;
   std::vector<dbb::Estimate> cross_check;
+  // What was fitted beside the terms (CheckedIdentification: the identification's `beside`), for people's text.
+  std::vector<dbb::Estimate> beside;
 };
 
 // Whether an identified term is a measurement at all: not when its size on the circle (um; a ppm or urad
@@ -118,6 +120,22 @@ struct ErrorMap {
 // G of the runs, nor when its uncertainty's size exceeds G (a value and u of orders more than the runs
 // deviate: a spike of -256 +/- 150 um on runs of G 0.73 um). A name of another unit is taken as determined.
 bool determined(const std::string& name, double value, double u, double g_um, double radius_m, double feed_m_per_s);
+
+// How `term` contradicts another identification of the same runs (`others`, EXPLAIN's findings: the estimate
+// of the same name): their difference beyond 3 combined standard uncertainties, in words with both values and
+// how far apart they are; "" when it does not (no such estimate, or either has no u).
+std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others);
+
+// Whether a reversal spike seen on the runs retraced with the map's tables (`after`) is the tables' own backlash
+// step rather than the machine's stiction: the axis' table holds a backlash (applied), the runs before showed no
+// spike (|value| not above 2 u), and after it is significant with the sign of an axis turning back early
+// (negative; stiction holds the axis back: positive). A controller switches a per-joint table between its
+// forward and reverse columns by the commanded velocity (LinuxCNC's COMP_FILE), so the backlash step is taken at
+// the commanded reversal while the drive still lags its command by the servo lag: the drive crosses its deadband
+// before reaching its extreme and the carriage turns back early (on config/machine-example.toml's standard test,
+// 30 ms lag, 1000 mm/min: a dip of 0.83 um for Y's 2 um over some 50 ms). No table removes it; velocity
+// feed-forward, or a reversal timing of the backlash step, does.
+bool spike_from_backlash_step(const ErrorMap& map, const dbb::Estimate& before, const dbb::Estimate& after);
 
 struct MapOptions {
   // Circle centre in machine coordinates (first, second plane axis); else every run's center_a_mm /
@@ -223,6 +241,8 @@ inline constexpr std::string_view do_not_load_suffix = ".do-not-load";
 
 // Why a term is not applied (not determined, contradicting EXPLAIN, not significant), "" when it is.
 std::string left_out_because(const Term& t);
+// The same for people: a contradiction of EXPLAIN with EXPLAIN's value rounded to its u, in its unit.
+std::string left_out_in_words(const Term& t, const ErrorMap& m);
 
 // The text summary `guideway compensate` prints (terms, what was applied, squareness advice).
 std::string to_text(const ErrorMap& map);

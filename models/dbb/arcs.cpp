@@ -86,6 +86,9 @@ std::string arcs_text(const std::vector<formats::DbbRun>& runs) {
   return out;
 }
 
+// More gaps than this in a run are said in one note.
+constexpr std::size_t max_gaps_described = 3;
+
 std::vector<std::string> arc_notes(const std::vector<formats::DbbRun>& runs, const std::string& plane) {
   std::vector<std::string> notes;
   bool partial = false, gappy = false;
@@ -97,11 +100,21 @@ std::vector<std::string> arc_notes(const std::vector<formats::DbbRun>& runs, con
       notes.push_back(r.source + ": a partial data arc of " + fixed1(arc / deg) + " deg (" +
                       fixed1(r.angle_rad.front() / deg) + " to " + fixed1(r.angle_rad.back() / deg) + " deg)");
     }
-    for (const auto& g : gaps) {
-      gappy = true;
+    gappy = gappy || !gaps.empty();
+    if (gaps.size() > max_gaps_described) {  // a recording that lost samples often: one line, not one per gap
+      double lost_deg = 0, lost_s = 0;
+      for (const auto& g : gaps) {
+        lost_deg += g.angle_rad() / deg;
+        lost_s += g.duration_s();
+      }
+      notes.push_back(r.source + ": " + std::to_string(gaps.size()) + " gaps, " + fixed1(lost_deg) + " deg (" +
+                      fixed1(lost_s) + " s) in all, the first " + formats::describe_gap(gaps.front()) +
+                      "; the data in them is lost, the fit uses the samples there are (its u grows accordingly)");
+      continue;
+    }
+    for (const auto& g : gaps)
       notes.push_back(r.source + ": " + formats::describe_gap(g) +
                       "; the data in it is lost, the fit uses the samples there are (its u grows accordingly)");
-    }
   }
   if (!partial && !gappy) return notes;
   for (int axis = 0; axis < 2; ++axis) {

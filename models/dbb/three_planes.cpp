@@ -65,8 +65,8 @@ AxisFigure combine(const std::string& name, const std::string& axis, std::vector
       if (figures_agree(a.value, a.u, b.value, b.u)) continue;
       f.consistent = false;
       std::ostringstream o;
-      o << name << ": the " << a.plane << " plane gives " << figure_text(name, a.value, a.u) << ", the " << b.plane
-        << " plane " << figure_text(name, b.value, b.u) << "; they differ by "
+      o << results::label_of(name, a.plane) << ": the " << a.plane << " plane gives " << figure_text(name, a.value, a.u)
+        << ", the " << b.plane << " plane " << figure_text(name, b.value, b.u) << "; they differ by "
         << shortest(std::round(std::abs(a.value - b.value) * 100) / 100)
         << ", more than twice their combined uncertainty ("
         << shortest(std::round(2 * std::hypot(a.u, b.u) * 100) / 100) << ")";
