@@ -18,6 +18,7 @@
 #include "formats/compensation_files.hpp"
 #include "models/compensation/compensation.hpp"
 #include "models/dbb/identify.hpp"
+#include "models/explain/dbb_explain.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 
 namespace {
@@ -612,10 +613,11 @@ TEST(CompensationCheckedTest, DriftIsFittedBesideNotReadAsBacklash) {
   EXPECT_NE(models::compensation::to_text(map).find("fitted beside the terms"), std::string::npos);
 }
 
-// A place no effect explains (the ball slips in its socket part-way through the first run) beside a drift:
-// EXPLAIN finds the drift on the samples left once it has set the slip aside, so its columns do not cover
-// every sample; they are then not fitted beside (said in a note) instead of failing the identification.
-TEST(CompensationCheckedTest, EffectsFoundBesideASetAsidePlaceAreNotFittedBeside) {
+// A place no effect explains (the ball slips in its socket part-way through the first run) beside a drift
+// and backlash: EXPLAIN finds its effects on the samples left once it has set the slip aside, and gives their
+// columns over every sample of the runs, so they are fitted beside the terms like any other finding (they were
+// noted and skipped before).
+TEST(CompensationCheckedTest, EffectsFoundBesideASetAsidePlaceAreFittedBeside) {
   simulators::machine::MachineConfig cfg;
   cfg.dbb.noise_m = 0.1e-6;
   cfg.axis[0].backlash_m = 0.8e-6;
@@ -626,11 +628,31 @@ TEST(CompensationCheckedTest, EffectsFoundBesideASetAsidePlaceAreNotFittedBeside
   // EXPLAIN's cost (the sanitizer build's time).
   const double per_s = 3.0 * (1000.0 / 60000.0 / 0.1) * 180 / pi;
   const auto runs = pair_of(simulators::machine::Machine(cfg), {0, 0, 0}, 1000, simulators::machine::Plane::xy, per_s);
+  const std::size_t samples = runs[0].dL_m.size() + runs[1].dL_m.size();
+  models::explain::ExplainOptions eo;
+  eo.keep_columns = true;
+  eo.curve_points = 0;
+  const auto report = models::explain::explain_dbb_report(runs, eo);
+  ASSERT_GT(report.set_aside, 0u) << "EXPLAIN set nothing aside here: the test no longer reaches the case it is for";
+  std::vector<std::string> beside_expected;
+  for (const auto& f : report.findings) {
+    ASSERT_FALSE(f.columns_um.empty()) << f.effect;
+    for (const auto& c : f.columns_um) EXPECT_EQ(c.size(), samples) << f.effect;
+    if (f.effect != "backlash" && f.effect != "servo_mismatch" && f.effect != "servo_lag")
+      beside_expected.push_back(f.effect);
+  }
+  ASSERT_FALSE(beside_expected.empty()) << models::explain::to_text(report);
+
   const auto checked = models::compensation::identify_checked(runs);
-  const bool noted = std::any_of(checked.notes.begin(), checked.notes.end(),
-                                 [](const std::string& n) { return n.find("set aside") != std::string::npos; });
-  EXPECT_TRUE(noted) << "EXPLAIN set nothing aside here: the test no longer reaches the case it is for";
-  EXPECT_TRUE(checked.beside_um.empty() || checked.beside_um.size() == runs[0].dL_m.size() + runs[1].dL_m.size());
+  std::vector<std::string> beside;
+  for (const auto& t : checked.beside_terms) {
+    beside.push_back(t.effect);
+    for (const auto& c : t.columns_um) EXPECT_EQ(c.size(), samples) << t.effect;
+  }
+  EXPECT_EQ(beside, beside_expected);
+  EXPECT_TRUE(checked.beside_um.empty() || checked.beside_um.size() == samples);
+  EXPECT_TRUE(std::none_of(checked.notes.begin(), checked.notes.end(),
+                           [](const std::string& n) { return n.find("set aside") != std::string::npos; }));
 }
 
 TEST(CompensationCheckedTest, TermThatContradictsExplainIsNotWritten) {

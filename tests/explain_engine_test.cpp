@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <Eigen/QR>
@@ -80,7 +82,8 @@ TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
   EXPECT_NEAR(rep.findings[0].contribution_um, std::abs(par.value), 1e-12);
   EXPECT_TRUE(std::isnan(rep.findings[0].contribution_percent));
   const auto j = models::explain::to_json(rep);
-  for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"}) EXPECT_TRUE(j.contains(key)) << key;
+  for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"})
+    EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_TRUE(j["findings"][0]["parameters"]["step_um"].contains("u"));
   EXPECT_NE(models::explain::to_text(rep).find("backlash"), std::string::npos);
   // Residual curves for plots: one grid, then per step (base model, + each finding) one curve per run,
@@ -115,6 +118,27 @@ TEST(ExplainEngine, NoiseOnlyGivesNoFinding) {
   }
 }
 
+// Noise that is not white (a moving average with a negative weight: the runs test and Ljung-Box reject it),
+// with nothing above the noise anywhere: no place, no effect. Not `unexplained` (a verdict without a place),
+// but a note that says what the tests saw (docs/explain.md step 5).
+TEST(ExplainEngine, CorrelatedNoiseWithNoPlaceIsANoteNotUnexplained) {
+  std::mt19937_64 rng(11);
+  std::vector<double> g(n + 1);
+  for (double& v : g) v = gauss(rng);
+  const auto rep = models::explain::explain(make_problem([&g](int i) { return 0.4 * (g[i + 1] - 0.6 * g[i]); }, 12));
+  EXPECT_TRUE(rep.findings.empty());
+  EXPECT_FALSE(rep.unexplained);
+  EXPECT_TRUE(rep.remaining.empty());
+  const bool noted = std::any_of(rep.notes.begin(), rep.notes.end(), [](const std::string& s) {
+    return s.find("not white noise") != std::string::npos && s.find("Ljung-Box") != std::string::npos;
+  });
+  EXPECT_TRUE(noted) << "the residual was white or located: the test no longer reaches its case";
+  // White noise: no such note.
+  const auto white = models::explain::explain(make_problem([](int) { return 0.0; }, 12));
+  EXPECT_TRUE(std::none_of(white.notes.begin(), white.notes.end(),
+                           [](const std::string& s) { return s.find("not white noise") != std::string::npos; }));
+}
+
 TEST(ExplainEngine, BumpOutsideTheLibraryIsLocatedNotAttributed) {
   // A 2 um Gaussian bump at sample 700 (126 deg), 15 samples wide.
   const auto rep = models::explain::explain(make_problem(
@@ -147,7 +171,8 @@ TEST(ExplainEngine, RejectsUnusableProblems) {
 TEST(ExplainEngine, HoldsOutWholeRunsWhenThereAreThree) {
   auto p = make_problem([](int i) { return 0.3 * step_of(i); }, 7);
   p.runs = {{"a", 1, 1000, "g", "", 0.0}, {"b", 1, 1000, "g", "", 0.0}, {"c", 1, 1000, "g", "", 0.0}};
-  for (int i = 0; i < n; ++i) p.samples[static_cast<std::size_t>(i)].run = static_cast<std::size_t>(std::min(i * 3 / n, 2));
+  for (int i = 0; i < n; ++i)
+    p.samples[static_cast<std::size_t>(i)].run = static_cast<std::size_t>(std::min(i * 3 / n, 2));
   const auto rep = models::explain::explain(p);
   EXPECT_EQ(rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << rep.heldout_scheme;
   ASSERT_FALSE(rep.findings.empty());
@@ -269,8 +294,8 @@ namespace {
 // whether any row held out, use[i] false, carries a nonzero residual, and counts its calls on part of the
 // rows), a step and a slope, both with a fixed single variant and planted so that all three are taken.
 struct Probe {
-  int masked_calls = 0;     // calls with some row held out
-  bool leaked = false;      // a held-out row had a nonzero residual
+  int masked_calls = 0;  // calls with some row held out
+  bool leaked = false;   // a held-out row had a nonzero residual
 };
 models::explain::Problem probe_problem(const std::shared_ptr<Probe>& probe) {
   constexpr int m = 256;
@@ -285,8 +310,8 @@ models::explain::Problem probe_problem(const std::shared_ptr<Probe>& probe) {
   for (int i = 0; i < m; ++i) {
     step.variants[0].block.columns(i, 0) = (i % 64) < 32 ? 0.5 : -0.5;
     slope.variants[0].block.columns(i, 0) = (i - m / 2.0) / m;
-    p.samples[static_cast<std::size_t>(i)].y_um += 1.5 * step.variants[0].block.columns(i, 0) +
-                                                   3.0 * slope.variants[0].block.columns(i, 0);
+    p.samples[static_cast<std::size_t>(i)].y_um +=
+        1.5 * step.variants[0].block.columns(i, 0) + 3.0 * slope.variants[0].block.columns(i, 0);
   }
   auto gen = p.candidates[0].generate;
   p.candidates[0].generate = [gen, probe](const Eigen::VectorXd& r, const std::vector<bool>& use) {
@@ -324,7 +349,8 @@ TEST(ExplainEngine, GeneratorsSeeNoHeldOutRowAndRunOncePerFold) {
   // Leave-one-run-out (three runs) holds out whole runs: the probe still sees zeros only.
   auto loro = probe_problem(probe = std::make_shared<Probe>());
   loro.runs = {{"a", 1, 1000, "g", "", 0.0}, {"b", 1, 1000, "g", "", 0.0}, {"c", 1, 1000, "g", "", 0.0}};
-  for (std::size_t i = 0; i < loro.samples.size(); ++i) loro.samples[i].run = std::min<std::size_t>(i * 3 / loro.samples.size(), 2);
+  for (std::size_t i = 0; i < loro.samples.size(); ++i)
+    loro.samples[i].run = std::min<std::size_t>(i * 3 / loro.samples.size(), 2);
   const models::explain::Report loro_rep = models::explain::explain(loro, opt);
   EXPECT_EQ(loro_rep.heldout_scheme.rfind("leave-one-run-out", 0), 0u) << loro_rep.heldout_scheme;
   EXPECT_GT(probe->masked_calls, 0);
@@ -372,8 +398,9 @@ TEST(ExplainEngine, AFoldThatCannotBeFittedRefusesTheEffect) {
   const auto rep = models::explain::explain(p);
   EXPECT_TRUE(rep.findings.empty());
   ASSERT_EQ(rep.considered.size(), 1u);
-  EXPECT_EQ(rep.considered[0].verdict,
-            "held-out RMS not computable (fold 1 of 8: vibration has no variant that can be fitted on the training rows)");
+  EXPECT_EQ(
+      rep.considered[0].verdict,
+      "held-out RMS not computable (fold 1 of 8: vibration has no variant that can be fitted on the training rows)");
   EXPECT_FALSE(
       models::explain::explain(peak_problem(3.0, 5)).findings.empty());  // found when every fold has its variant
 }
@@ -393,7 +420,8 @@ TEST(ExplainEngine, SensorNonlinearityColumnsSeeNoHeldOutY) {
   const auto all = gen(Eigen::VectorXd::Zero(n), std::vector<bool>(n, true));
   ASSERT_EQ(all.size(), 1u);
   const auto ref = models::explain::sensor_nonlinearity_variant(reading);
-  EXPECT_LT((all[0].block.columns - ref.block.columns).cwiseAbs().maxCoeff(), 1e-9 * ref.block.columns.cwiseAbs().maxCoeff());
+  EXPECT_LT((all[0].block.columns - ref.block.columns).cwiseAbs().maxCoeff(),
+            1e-9 * ref.block.columns.cwiseAbs().maxCoeff());
   // Rows 0..249 held out: a large change of their y leaves the columns as they were.
   std::vector<bool> use(n, true);
   for (int i = 0; i < 250; ++i) use[static_cast<std::size_t>(i)] = false;

@@ -7,7 +7,7 @@ guideway_add_test(dbb_arcs_test SOURCES dbb_arcs_test.cpp LIBS guideway_dbb_sim 
 guideway_add_test(dbb_lsq_test SOURCES dbb_lsq_test.cpp LIBS guideway_model_dbb)
 add_test(NAME dbb_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/dbb_cli_test.py ${PROJECT_BINARY_DIR} ${PROJECT_SOURCE_DIR})
 set_tests_properties(dbb_cli_test PROPERTIES LABELS integration TIMEOUT 120)
-guideway_add_test(compensation_test SOURCES compensation_test.cpp LIBS guideway_model_compensation guideway_dbb_sim guideway_formats)
+guideway_add_test(compensation_test SOURCES compensation_test.cpp LIBS guideway_model_compensation guideway_explain_model guideway_dbb_sim guideway_formats)
 add_test(NAME compensate_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/compensate_cli_test.py ${PROJECT_BINARY_DIR} ${PROJECT_SOURCE_DIR})
 set_tests_properties(compensate_cli_test PROPERTIES LABELS integration TIMEOUT 300)
 add_test(NAME compensate_lai_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/compensate_lai_cli_test.py ${PROJECT_BINARY_DIR} ${PROJECT_SOURCE_DIR})

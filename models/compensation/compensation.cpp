@@ -879,20 +879,10 @@ CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
   const explain::Report report = explain::explain_dbb_report(runs, eo);
   CheckedIdentification out;
   dbb::IdentifyOptions o = options;
-  std::size_t samples = 0;
-  for (const auto& r : runs) samples += r.t_s.size();
   for (const auto& f : report.findings) {
     for (const auto& p : f.parameters)
       if (std::isfinite(p.u)) out.explain.push_back({p.name, p.value, p.u, true});
     if (listed_in(held_by_both, f.effect)) continue;
-    // EXPLAIN found its effects on the samples left once it set aside a place no effect explains: their
-    // columns cover only those, so they cannot be fitted beside the terms over every sample.
-    if (report.set_aside > 0 && !f.columns_um.empty() && f.columns_um.front().size() != samples) {
-      out.notes.push_back("EXPLAIN found " + f.effect + " on these runs once it had set aside " +
-                          std::to_string(report.set_aside) +
-                          " samples no effect explains; it is not fitted beside the terms (see guideway explain)");
-      continue;
-    }
     if (listed_in(not_beside, f.effect)) {
       out.notes.push_back("EXPLAIN found " + f.effect +
                           " on these runs; it is not fitted beside the terms (it is the geometry itself seen one lag "

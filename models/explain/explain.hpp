@@ -59,6 +59,10 @@ struct Variant {
   std::string group;
   // Reported parameters from the block's coefficients and their covariance; empty = the coefficients.
   std::function<std::vector<ParamValue>(const Eigen::VectorXd&, const Eigen::MatrixXd&)> report;
+  // Set by the engine, not by a front end: when it has set samples aside (docs/explain.md step 5) and
+  // ExplainOptions::keep_columns asks for the findings' columns, the block over every sample of the problem
+  // given to explain() (block.columns then holds the samples kept only). Empty otherwise.
+  Eigen::MatrixXd columns_all_samples;
 };
 
 struct Candidate {
