@@ -89,7 +89,7 @@ echo "== before/after polar plots of the session's circles: open $comp_dir/sessi
 echo
 echo "== guideway recordings"
 "$bin/cli/guideway" recordings
-report_file=$(ls -t "${XDG_STATE_HOME:-$HOME/.local/state}"/guideway/*.report.html 2>/dev/null | head -1 || true)
+report_file=$(ls -t "${XDG_STATE_HOME:-$HOME/.local/state}"/guideway/dbb-*.report.html 2>/dev/null | head -1 || true)
 if [ -n "$report_file" ]; then
   echo
   echo "== the session's report (plots): open $report_file in a browser"
