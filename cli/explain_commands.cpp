@@ -2,6 +2,7 @@
 // it and show the held-out improvement (models/explain, docs/explain.md). Also runs the scenario suite
 // and writes its results table into docs/explain.md.
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -186,7 +187,7 @@ int run_scenarios(const Opts& o) {
 // Lai's base beside the ballbar diagnostics (PARAMS' "diagnostics"; a centre offset is run 1's when each
 // run has its own): every geometric term the test fits, whatever EXPLAIN finds.
 nlohmann::json diagnostics_against_machine(const nlohmann::json& diagnostics,
-                                           const simulators::scenarios::DbbTruth& truth) {
+                                           const simulators::scenarios::MachineTruth& truth) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& item : truth.diagnostics) {
     std::string name = item.parameter;
@@ -203,10 +204,10 @@ nlohmann::json diagnostics_against_machine(const nlohmann::json& diagnostics,
   return out;
 }
 
-// The findings (and the ballbar diagnostics of `params`, PARAMS' shape) beside what the machine file holds
+// The findings (and the ballbar diagnostics of `params`, PARAMS' shape: DBB only) beside what the machine file holds
 // (simulators/scenarios/machine_truth.hpp).
 nlohmann::json against_machine(const nlohmann::json& report, const nlohmann::json& params,
-                               const simulators::scenarios::DbbTruth& truth, const std::string& file) {
+                               const simulators::scenarios::MachineTruth& truth, const std::string& file) {
   nlohmann::json j = {
       {"machine_file", file},
       {"plane", params.value("plane", "xy")},
@@ -216,15 +217,28 @@ nlohmann::json against_machine(const nlohmann::json& report, const nlohmann::jso
       {"unobservable", nlohmann::json::array()},
       {"not_in_machine", nlohmann::json::array()},
       {"note", truth.note}};
-  const auto found = [&](const std::string& parameter) -> const nlohmann::json* {
+  // A finding holds an item's parameter (of one record, or the first of several: _run1), at its order
+  // per revolution when the item has one (a run-out line: the order found within a quarter of an order).
+  const auto holds = [](const nlohmann::json& f,
+                        const simulators::scenarios::TruthItem& item) -> const nlohmann::json* {
+    const auto& p = f.at("parameters");
+    if (item.order != 0) {
+      const std::string order = results::name(results::runout_order);
+      if (!p.contains(order) || std::abs(p.at(order).at("value").get<double>() - item.order) > 0.25) return nullptr;
+    }
+    for (const std::string& name : {item.parameter, results::run_suffixed(item.parameter, 1)})
+      if (p.contains(name)) return &p.at(name);
+    return nullptr;
+  };
+  const auto found = [&](const simulators::scenarios::TruthItem& item) -> const nlohmann::json* {
     for (const auto& f : report.at("findings"))
-      if (f.at("parameters").contains(parameter)) return &f.at("parameters").at(parameter);
+      if (const auto* p = holds(f, item)) return p;
     return nullptr;
   };
   for (const auto& item : truth.findable) {
     nlohmann::json e = {
         {"effect", item.effect}, {"parameter", item.parameter}, {"machine", item.value}, {"note", item.note}};
-    if (const auto* p = found(item.parameter)) {
+    if (const auto* p = found(item)) {
       e["found"] = p->at("value");
       e["u"] = p->at("u");
     } else {
@@ -234,10 +248,9 @@ nlohmann::json against_machine(const nlohmann::json& report, const nlohmann::jso
   }
   for (const auto& f : report.at("findings")) {
     const std::string effect = f.at("effect");
-    const bool known =
-        std::any_of(truth.findable.begin(), truth.findable.end(), [&](const simulators::scenarios::TruthItem& i) {
-          return i.effect == effect && f.at("parameters").contains(i.parameter);
-        });
+    const bool known = std::any_of(
+        truth.findable.begin(), truth.findable.end(),
+        [&](const simulators::scenarios::TruthItem& i) { return i.effect == effect && holds(f, i) != nullptr; });
     if (!known) j["not_in_machine"].push_back(effect);
   }
   for (const auto& u : truth.unobservable) j["unobservable"].push_back({{"what", u.what}, {"why", u.why}});
@@ -354,8 +367,8 @@ void Opts::add(CLI::App& cmd) {
   cmd.add_flag("--latest", latest, "the daemon's latest explanation (EXPLAIN) instead of files");
   cmd.add_option("--kind", kind, "with --latest: of this session kind (default: any)");
   cmd.add_option("--machine", machine,
-                 "DBB: the virtual machine tool file the runs come from (the emulators' or guideway simulate's): "
-                 "print what it holds beside each finding, and what the test cannot observe and why")
+                 "DBB or run-out: the virtual machine tool file the runs come from (the emulators' or guideway "
+                 "simulate's): print what it holds beside each finding, and what the test cannot observe and why")
       ->check(CLI::ExistingFile);
 }
 
@@ -376,6 +389,21 @@ std::vector<simulators::scenarios::TruthRun> session_truth_runs(const nlohmann::
   return runs;
 }
 
+// The record of the daemon's latest run-out session (its PARAMS' revolution).
+simulators::scenarios::TruthRecord session_truth_record(const nlohmann::json& params) {
+  const auto& rev = params.at("revolution");
+  const double rpm = rev.at("rpm").get<double>();
+  const double revolutions = rev.value("revolutions", rev.at("covered_deg").get<double>() / 360.0);
+  return {rpm, revolutions, rev.at("samples").get<double>() / std::max(revolutions, 1.0)};
+}
+
+// The records of run-out files, as the truth of a machine file needs them.
+simulators::scenarios::TruthRecord file_truth_record(const models::explain::RunoutRecord& r) {
+  const double revolutions =
+      r.angle_rad.size() > 1 ? (r.angle_rad.back() - r.angle_rad.front()) / (2 * std::numbers::pi) : 0.0;
+  return {r.rpm, revolutions, static_cast<double>(r.angle_rad.size()) / std::max(revolutions, 1e-9)};
+}
+
 // --latest: the daemon's EXPLAIN, with --machine beside what the machine file holds.
 void explain_latest(const Opts& o, CliContext& ctx) {
   DaemonClient c = connect_daemon(ctx.socket);
@@ -385,17 +413,19 @@ void explain_latest(const Opts& o, CliContext& ctx) {
   throw_if_error_reply(r, o.json);
   nlohmann::json comparison;
   if (!o.machine.empty()) {
-    if (r.value("kind", "") != results::dbb_kind.name)
-      throw std::runtime_error("explain: --machine compares DBB sessions only");
+    const std::string kind = r.value("kind", "");
+    if (kind != results::dbb_kind.name && kind != results::runout_kind.name)
+      throw std::runtime_error("explain: --machine compares DBB and run-out sessions only, not " + kind);
     const nlohmann::json params =
-        c.request(results::request(results::RequestClass::params, {{"kind", results::dbb_kind.name}}),
-                  results::MessageClass::params);
+        c.request(results::request(results::RequestClass::params, {{"kind", kind}}), results::MessageClass::params);
     throw_if_error_reply(params, o.json);
-    comparison =
-        against_machine(r, params,
-                        simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o.machine),
-                                                         params.value("plane", "xy"), session_truth_runs(params), true),
-                        o.machine);
+    const auto machine = simulators::machine::load_machine_config(o.machine);
+    comparison = against_machine(
+        r, params,
+        kind == results::runout_kind.name
+            ? simulators::scenarios::runout_truth(machine, {session_truth_record(params)})
+            : simulators::scenarios::dbb_truth(machine, params.value("plane", "xy"), session_truth_runs(params), true),
+        o.machine);
   }
   if (o.json) {
     if (!comparison.is_null()) r["against_machine"] = comparison;
@@ -463,8 +493,18 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
   if (o.model == "dbb") return explain_dbb_runs(o, eo, machine_comparison);
   if (o.model == "runout") {
     std::vector<models::explain::RunoutRecord> records;
-    for (const auto& f : o.files) records.push_back(models::explain::read_runout_record(f));
-    return models::explain::explain_runout(records, eo);
+    std::vector<simulators::scenarios::TruthRecord> truth_records;
+    for (const auto& f : o.files) {
+      records.push_back(models::explain::read_runout_record(f));
+      truth_records.push_back(file_truth_record(records.back()));
+    }
+    models::explain::Report report = models::explain::explain_runout(records, eo);
+    if (!o.machine.empty())
+      machine_comparison = against_machine(
+          models::explain::to_json(report), nlohmann::json::object(),
+          simulators::scenarios::runout_truth(simulators::machine::load_machine_config(o.machine), truth_records),
+          o.machine);
+    return report;
   }
   std::vector<models::explain::ProfileRun> runs;
   for (const auto& f : o.files) runs.push_back(models::explain::read_profile_run(f));
@@ -494,7 +534,8 @@ void run_explain(const Opts& o, CliContext& ctx) {
                                              ? explain_difference(o, eo)
                                              : explain_files(o, eo, machine_comparison);
   if (!o.machine.empty() && machine_comparison.is_null())
-    throw std::runtime_error("explain: --machine compares DBB runs only (--model dbb or --latest)");
+    throw std::runtime_error(
+        "explain: --machine compares DBB runs and run-out records only (--model dbb|runout or --latest)");
   progress.doing("");
   if (o.json) {
     nlohmann::json j = models::explain::to_json(report);

@@ -163,18 +163,68 @@ void run_union_jack(const UnionJackOptions& o, CliContext& /*ctx*/) {
 
 struct RunoutOptions {
   std::string file;
+  std::string turned;
   bool json = false;
   void add(CLI::App& cmd) {
     cmd.add_option("RUNOUT.csv", file, "revolution file (angle_deg,runout_um; docs/formats.md)")->required();
+    cmd.add_option("TURNED.csv", turned,
+                   "a second record with the artifact turned (its artifact_turned_deg; both with angles from the "
+                   "spindle's zero): the spindle's synchronous error motion with the artifact's form removed "
+                   "(Donaldson's reversal)");
     cmd.add_flag("--json", json, "print the result as one JSON object");
   }
 };
+
+// The reversal's figures after the first record's.
+void print_reversal(const nlohmann::json& rv) {
+  std::cout << "reversal (Donaldson) with " << rv["records"][1].get<std::string>() << ", the artifact turned "
+            << std::setprecision(1) << rv["turned_deg"].get<double>() << " deg:\n";
+  for (const results::Parameter* p : {&results::spindle_synchronous_error_motion, &results::artifact_form_error}) {
+    const auto shown = results::shown(results::name(*p), rv[results::name(*p)].get<double>(),
+                                      std::numeric_limits<double>::quiet_NaN());
+    std::cout << "  " << shown.label << " = " << shown.value << " " << shown.unit << "\n";
+  }
+  if (!rv["together_orders"].empty()) {
+    // A long list (at 180 deg every even order) as its first three and its last.
+    const auto& list = rv["together_orders"];
+    std::string orders;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      if (list.size() > 6 && i == 3) orders += ", ...";
+      if (list.size() > 6 && i >= 3 && i + 1 < list.size()) continue;
+      orders += (orders.empty() ? "" : ", ") + std::to_string(list[i].get<int>());
+    }
+    std::cout << "  orders " << orders
+              << " stay in the spindle's figure with the form (the turn leaves them in place)\n";
+  }
+}
+
+// ISO 230-7's figures of a record, and a reversal's when two records were given.
+void print_error_motion(const nlohmann::json& j) {
+  if (!j.contains("error_motion")) {
+    std::cout << "error motion (ISO 230-7): less than one whole revolution recorded\n";
+    return;
+  }
+  const nlohmann::json& em = j["error_motion"];
+  const auto revolutions = em["revolutions"].get<std::size_t>();
+  std::cout << "error motion (ISO 230-7) over " << revolutions << (revolutions == 1 ? " revolution" : " revolutions")
+            << ", the once-per-revolution term (" << std::setprecision(4)
+            << em[results::name(results::fundamental_error_motion)].get<double>() << " um) removed:\n";
+  for (const results::Parameter* p :
+       {&results::total_error_motion, &results::synchronous_error_motion, &results::asynchronous_error_motion}) {
+    const auto shown = results::shown(results::name(*p), em[results::name(*p)].get<double>(),
+                                      std::numeric_limits<double>::quiet_NaN());
+    std::cout << "  " << shown.label << " = " << shown.value << " " << shown.unit << "\n";
+  }
+  if (j.contains("reversal")) print_reversal(j["reversal"]);
+}
 
 void run_runout(const RunoutOptions& o, CliContext& /*ctx*/) {
   run_reporting([&] {
     const auto rev = models::flatness::read_runout_revolution(o.file);
     const auto r = models::flatness::identify_runout(rev);
-    const nlohmann::json j = models::flatness::runout_json(rev);
+    nlohmann::json j = models::flatness::runout_json(rev);
+    if (!o.turned.empty())
+      j["reversal"] = models::flatness::reversal_json(rev, models::flatness::read_runout_revolution(o.turned));
     if (o.json) {
       std::cout << j.dump() << "\n";
       return;
@@ -193,21 +243,7 @@ void run_runout(const RunoutOptions& o, CliContext& /*ctx*/) {
       std::cout << "squareness amplitude over " << std::setprecision(1) << *r.travel_m * 1e3
                 << " mm travel: " << std::setprecision(3) << *r.squareness_amplitude_m * 1e6 << " um (u "
                 << *r.u_squareness_amplitude_m * 1e6 << ")\n";
-    if (!j.contains("error_motion")) {
-      std::cout << "error motion (ISO 230-7): less than one whole revolution recorded\n";
-      return;
-    }
-    const nlohmann::json& em = j["error_motion"];
-    const auto revolutions = em["revolutions"].get<std::size_t>();
-    std::cout << "error motion (ISO 230-7) over " << revolutions << (revolutions == 1 ? " revolution" : " revolutions")
-              << ", the once-per-revolution term (" << std::setprecision(4)
-              << em[results::name(results::fundamental_error_motion)].get<double>() << " um) removed:\n";
-    for (const results::Parameter* p :
-         {&results::total_error_motion, &results::synchronous_error_motion, &results::asynchronous_error_motion}) {
-      const auto shown = results::shown(results::name(*p), em[results::name(*p)].get<double>(),
-                                        std::numeric_limits<double>::quiet_NaN());
-      std::cout << "  " << shown.label << " = " << shown.value << " " << shown.unit << "\n";
-    }
+    print_error_motion(j);
   });
 }
 

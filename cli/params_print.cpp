@@ -141,12 +141,12 @@ void print_standards(const nlohmann::json& st) {
 // A group's rows in the catalogue's order (Lai's offsets, scales, straightness, backlash ...), not the
 // JSON's alphabetical one.
 std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, std::string_view plane,
-                                                 std::string_view group, bool iso) {
+                                                 std::string_view group, bool iso, bool without_u = false) {
   const auto catalogue = results::catalogue();
   std::vector<std::pair<std::size_t, std::vector<std::string>>> ranked;
   for (const auto& [name, v] : items.items()) {
     if (name.starts_with("circular_") != iso) continue;
-    if (!iso && !v.contains("u")) continue;  // a searched or assumed value: searched_values()
+    if (!iso && !without_u && !v.contains("u")) continue;  // a searched or assumed value: searched_values()
     const results::Parameter* p = results::find_parameter(name, group);
     const auto at = static_cast<std::size_t>(std::find(catalogue.begin(), catalogue.end(), p) - catalogue.begin());
     ranked.emplace_back(at, shown_row(name, v, plane, group));
@@ -266,7 +266,9 @@ void print_result(const nlohmann::json& p) {
   if (dbb) print_dbb(p, plane);
   for (const auto& [group, items] : p.items()) {
     if ((dbb && (group == "diagnostics" || group == "lai3")) || !is_parameter_group(items)) continue;
-    std::cout << group_title(group) << ":\n" << aligned_rows(group_rows(items, plane, group, false), {false, true});
+    // Every value, those with no uncertainty of their own too (ISO 230-7's peaks-to-valleys as measured).
+    std::cout << group_title(group) << ":\n"
+              << aligned_rows(group_rows(items, plane, group, false, true), {false, true});
   }
   for (const auto& n : p.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
   if (p.contains("wavelet") && p["wavelet"].contains("bands")) {  // the profile session's summary

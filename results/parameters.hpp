@@ -389,6 +389,12 @@ inline constexpr Parameter asynchronous_error_motion{
 inline constexpr Parameter fundamental_error_motion{
     "fundamental_um", "once-per-revolution term (removed)", "runout", "error_motion",
     "amplitude of the once-per-revolution sinusoid removed before the error motion values (the face's tilt)"};
+inline constexpr Parameter spindle_synchronous_error_motion{
+    "spindle_synchronous_error_motion_um", "spindle's synchronous error motion", "runout", "error_motion",
+    "ISO 230-7 synchronous error motion of the spindle alone: the artifact's form removed by a reversal (Donaldson)"};
+inline constexpr Parameter artifact_form_error{
+    "artifact_form_um", "artifact's form", "runout", "error_motion",
+    "peak-to-valley of the artifact's own form, separated from the spindle's by a reversal (Donaldson)"};
 // ---- Run-out: EXPLAIN's effect parameters of a spindle run-out record (runout_explain) ---------------------
 inline constexpr Parameter runout_order_sin{"order_sin", "line (sine)", "runout", "", "fit column: a line's sine part"};
 inline constexpr Parameter runout_order_cos{"order_cos", "line (cosine)", "runout", "",
@@ -409,6 +415,15 @@ inline constexpr Parameter speed_offset{"speed_offset_percent", "speed offset", 
                                         "the spindle's speed above the nominal rpm"};
 inline constexpr Parameter speed_ramp{"speed_ramp_percent_per_min", "speed ramp", "runout", "",
                                       "change of the spindle's speed with time"};
+inline constexpr Parameter artifact_form{
+    "artifact_form_harmonic_um", "artifact form harmonic", "runout", "",
+    "amplitude of a harmonic of the artifact's own form (it turns with the artifact)"};
+inline constexpr Parameter artifact_form_phase{"artifact_form_harmonic_phase_deg", "artifact form phase", "runout", "",
+                                               "its phase from the spindle's zero in the first record"};
+inline constexpr Parameter speed_ripple{"speed_ripple_percent", "speed ripple", "runout", "",
+                                        "amplitude of a periodic ripple of the spindle's speed"};
+inline constexpr Parameter speed_ripple_phase{"speed_ripple_phase_deg", "speed ripple phase", "runout", "",
+                                              "its phase at the record's start"};
 
 inline constexpr Parameter horizontal_straightness{
     "horizontal_straightness_um",

@@ -138,6 +138,16 @@ inline constexpr SessionOption runout_revolutions{"revolutions",
                                                   "revolutions to record (ISO 230-7 error motion: several)"};
 inline constexpr SessionOption runout_channel{
     "channel", OptionType::text, 0, 0, 0, "displacement", {}, "the device channel that reads the run-out"};
+// Donaldson's reversal: the record states how far the artifact was turned against the record it is compared with.
+inline constexpr SessionOption runout_artifact_turned_deg{
+    "artifact_turned_deg",
+    OptionType::number,
+    0.0,
+    -360.0,
+    360.0,
+    {},
+    {},
+    "the artifact's turn on the spindle since the record it is compared with (180: a reversal), in the file's header"};
 
 // profile: one profilometer traverse.
 inline constexpr SessionOption profile_wavelet{
@@ -170,8 +180,8 @@ inline constexpr SessionKindInfo dbb_kind{
     dbb_options};
 
 inline constexpr const SessionOption* runout_options[] = {
-    &runout_plate_diameter_mm, &runout_parallelism_um, &runout_parallelism_u_um, &runout_travel_mm, &runout_rpm,
-    &runout_revolutions,       &runout_channel};
+    &runout_plate_diameter_mm, &runout_parallelism_um, &runout_parallelism_u_um,   &runout_travel_mm, &runout_rpm,
+    &runout_revolutions,       &runout_channel,        &runout_artifact_turned_deg};
 inline constexpr SessionKindInfo runout_kind{
     "runout", "spindle run-out revolution on a thrust plate: squareness by Mu's Eq. 21", runout_options};
 

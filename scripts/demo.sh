@@ -43,6 +43,14 @@ if ! kill -0 "$pid" 2>/dev/null; then
 fi
 echo "$pid" >"$run_dir/guidewayd.pid"
 "$bin/cli/guideway" version
+# The daemon's latest EXPLAIN of a kind (it comes a moment after the PARAMS), beside what the machine file holds.
+explain_latest() {
+  for _ in $(seq 1 100); do
+    "$bin/cli/guideway" explain --latest --kind "$1" >/dev/null 2>&1 && break
+    sleep 0.3
+  done
+  "$bin/cli/guideway" explain --latest --kind "$1" --machine "$machine" || true
+}
 # The emulated instruments connect within a second or two.
 for _ in $(seq 1 50); do
   "$bin/cli/guideway" status --json | grep -q '"state":"connecting"' || break
@@ -58,11 +66,16 @@ echo "   h = 0 in XY, r = 100 mm, 1000 mm/min; 100-150 s, by where in its progra
 echo
 echo "== guideway explain --latest --machine $machine"
 echo "   (what the model left out, fitted and checked on held-out data, beside what the machine file holds)"
-for _ in $(seq 1 100); do
-  "$bin/cli/guideway" explain --latest --kind dbb >/dev/null 2>&1 && break
-  sleep 0.3
-done
-"$bin/cli/guideway" explain --latest --kind dbb --machine "$machine" || true
+explain_latest dbb
+echo
+echo "== guideway start runout --set revolutions=8 --wait   (the spindle's run-out on the emulated micrometer: a probe"
+echo "   on the spindle at 500 mm over the thrust plate, 8 revolutions at 60 rpm, 8 s; Mu's Eq. 21 squareness and"
+echo "   the ISO 230-7 error motions, the once-per-revolution term removed)"
+"$bin/cli/guideway" start runout --set revolutions=8 --wait --timeout 120
+echo
+echo "== guideway explain --latest --kind runout --machine $machine"
+echo "   (the spindle's error motions named from the run-out record, beside what the machine file's [spindle] holds)"
+explain_latest runout
 echo
 echo "== guideway compensate dbb --latest --verify   (LinuxCNC tables and the axis skew from the session's"
 echo "   ballbar diagnostics, with what EXPLAIN found fitted beside, then the two circles traced again on"
@@ -76,7 +89,7 @@ echo "== before/after polar plots of the session's circles: open $comp_dir/sessi
 echo
 echo "== guideway recordings"
 "$bin/cli/guideway" recordings
-report_file=$(ls -t "${XDG_STATE_HOME:-$HOME/.local/state}"/guideway/*.report.html 2>/dev/null | head -1 || true)
+report_file=$(ls -t "${XDG_STATE_HOME:-$HOME/.local/state}"/guideway/dbb-*.report.html 2>/dev/null | head -1 || true)
 if [ -n "$report_file" ]; then
   echo
   echo "== the session's report (plots): open $report_file in a browser"

@@ -24,6 +24,7 @@ struct RunoutOptions {
   double rpm = 60.0;
   double revolutions = 20.0;
   std::string channel = "displacement";
+  double artifact_turned_deg = 0.0;
 };
 
 RunoutOptions parse_options(const nlohmann::json& o) {
@@ -36,6 +37,7 @@ RunoutOptions parse_options(const nlohmann::json& o) {
   r.rpm = number_option(o, results::runout_rpm);
   r.revolutions = number_option(o, results::runout_revolutions);
   r.channel = string_option(o, results::runout_channel);
+  r.artifact_turned_deg = number_option(o, results::runout_artifact_turned_deg);
   return r;
 }
 
@@ -124,11 +126,13 @@ class RunoutSession : public Session {
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
-    return {{"plate_diameter_mm", shortest(o_.plate_diameter_mm)},
-            {"parallelism_um", shortest(o_.parallelism_um)},
-            {"travel_mm", shortest(o_.travel_mm)},
-            {"rpm", shortest(o_.rpm)},
-            {"revolutions", shortest(o_.revolutions)}};
+    std::map<std::string, std::string> m{{"plate_diameter_mm", shortest(o_.plate_diameter_mm)},
+                                         {"parallelism_um", shortest(o_.parallelism_um)},
+                                         {"travel_mm", shortest(o_.travel_mm)},
+                                         {"rpm", shortest(o_.rpm)},
+                                         {"revolutions", shortest(o_.revolutions)}};
+    if (o_.artifact_turned_deg != 0) m["artifact_turned_deg"] = shortest(o_.artifact_turned_deg);
+    return m;
   }
 
   std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
@@ -155,6 +159,9 @@ class RunoutSession : public Session {
                     "\n# parallelism_u_um = " + shortest(o_.parallelism_u_um) + "\n";
     if (o_.travel_mm > 0) t += "# travel_mm = " + shortest(o_.travel_mm) + "\n";
     t += "# rpm = " + shortest(o_.rpm) + "\n# device = " + device_ + "\n# source = guidewayd runout session\n";
+    // The angles come from time since the first reading (the micrometer reads no spindle angle).
+    t += "# angle_zero = first_reading\n";
+    if (o_.artifact_turned_deg != 0) t += "# artifact_turned_deg = " + shortest(o_.artifact_turned_deg) + "\n";
     t += "angle_deg,runout_um\n";
     for (std::size_t i = 0; i < angle_deg_.size(); ++i)
       t += shortest(angle_deg_[i]) + "," + shortest(runout_um_[i]) + "\n";

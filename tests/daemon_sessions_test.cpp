@@ -206,8 +206,14 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   spec.revolutions = 2;
   const auto rev = machine.runout_revolution(spec);
   auto device = micrometer_device();
-  auto session = sessions::runout_session_kind().create(
-      {"runout", "", {{"plate_diameter_mm", 100}, {"parallelism_um", 0.25}, {"rpm", 10}, {"revolutions", 1}}}, device);
+  auto session = sessions::runout_session_kind().create({"runout",
+                                                         "",
+                                                         {{"plate_diameter_mm", 100},
+                                                          {"parallelism_um", 0.25},
+                                                          {"rpm", 10},
+                                                          {"revolutions", 1},
+                                                          {"artifact_turned_deg", 180}}},
+                                                        device);
   std::vector<Sample> out;
   for (const auto& r : rev) out.push_back(sample(50.0 + r.t_s, {r.displacement_m}));
   ASSERT_TRUE(session->time_left_s());
@@ -233,7 +239,13 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "r");
   ASSERT_EQ(files.size(), 1u);
-  EXPECT_EQ(models::flatness::runout_json(models::flatness::read_runout_revolution(files[0])), p["result"]);
+  const auto written = models::flatness::read_runout_revolution(files[0]);
+  EXPECT_EQ(models::flatness::runout_json(written), p["result"]);
+  // The record states the artifact's turn, and that its angles start at its first reading (no spindle index).
+  ASSERT_TRUE(written.artifact_turned_rad);
+  EXPECT_DOUBLE_EQ(*written.artifact_turned_rad, std::numbers::pi);
+  EXPECT_FALSE(written.angle_from_spindle_zero);
+  EXPECT_EQ(session->metadata().at("artifact_turned_deg"), "180");
   // One revolution: its error motion has no asynchronous part, and there is nothing to explain it from.
   EXPECT_EQ(p["revolution"]["revolutions"], 1);
   const auto e = session->explain();

@@ -171,7 +171,14 @@ TEST(ExplainEffects, EveryRunoutCandidateIsALibraryEffect) {
   std::set<std::string> expected;
   for (const auto& info : models::explain::effect_library())
     if (claims(info, "runout")) expected.insert(info.name);
+  EXPECT_EQ(expected, (std::set<std::string>{"artifact_form", "asynchronous_line", "speed_ripple", "speed_variation",
+                                             "synchronous_harmonic", "thermal_drift"}));
+  // The artifact's form has a term only with a reversal: a second record, the artifact turned.
+  expected.erase("artifact_form");
   EXPECT_EQ(offered, expected);
-  EXPECT_EQ(expected,
-            (std::set<std::string>{"asynchronous_line", "speed_variation", "synchronous_harmonic", "thermal_drift"}));
+  models::explain::RunoutRecord turned = r;
+  r.artifact_turned_rad = 0.0;
+  turned.artifact_turned_rad = std::numbers::pi;
+  expected.insert("artifact_form");
+  EXPECT_EQ(check_candidates(models::explain::runout_problem({r, turned}), "runout", &Effect::runout), expected);
 }

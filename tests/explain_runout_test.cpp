@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <string>
 
 #include "models/explain/explain.hpp"
@@ -20,13 +21,19 @@ using models::explain::Report;
 using models::explain::RunoutRecord;
 
 // 20 revolutions at 60 rpm read 50 times a second: the runout session's defaults on the default daemon.
-RunoutRecord record_of(const simulators::machine::MachineConfig& cfg, std::uint64_t seed) {
+// turned_deg: the plate turned on the table since the first record (a reversal; the record then states it).
+RunoutRecord record_of(const simulators::machine::MachineConfig& cfg, std::uint64_t seed,
+                       std::optional<double> turned_deg = std::nullopt) {
   simulators::machine::RunoutSpec spec;
   spec.rpm = 60.0;
   spec.samples_per_rev = 50;
   spec.revolutions = 20;
   spec.seed = seed;
   RunoutRecord r;
+  if (turned_deg) {
+    spec.artifact_turned_rad = *turned_deg * std::numbers::pi / 180.0;
+    r.artifact_turned_rad = spec.artifact_turned_rad;
+  }
   r.source = "virtual spindle";
   r.rpm = spec.rpm;
   for (const auto& s : simulators::machine::Machine(cfg).runout_revolution(spec)) {
@@ -103,6 +110,67 @@ TEST(ExplainRunout, ASpindleWithoutErrorMotionStaysQuietAndASpeedRampIsNamed) {
   EXPECT_LT(std::abs(ramp.value - 3.0), 4 * ramp.u) << ramp.value << " +/- " << ramp.u;
 }
 
+// Donaldson's reversal: a 3-lobed race on the spindle under a plate with 3 and 5 lobes of its own, two
+// records with the plate turned 180 deg between them, both from the spindle's zero (an index).
+TEST(ExplainRunout, AReversalTellsTheSpindlesHarmonicFromThePlatesForm) {
+  simulators::machine::MachineConfig cfg;
+  cfg.spindle.tilt_x_rad = 2.8e-6;
+  cfg.spindle.plate_parallelism_rad = 2.5e-6;
+  cfg.spindle.synchronous = {{3, 0.08e-6, 0.3}};
+  cfg.spindle.plate_form = {{3, 0.05e-6, 1.2}, {5, 0.04e-6, -0.4}};
+  cfg.noise.micrometer_m = 0.01e-6;
+  const Report rep = models::explain::explain_runout({record_of(cfg, 7, 0.0), record_of(cfg, 8, 180.0)});
+  const auto f = findings(rep);
+  ASSERT_EQ(f.size(), 3u) << names(rep);
+  const auto near = [&](const std::string& effect, const std::string& name, double truth) {
+    ASSERT_TRUE(f.count(effect)) << effect << " not in " << names(rep);
+    const auto& p = f.at(effect).at(name);
+    EXPECT_LT(std::abs(p.value - truth), 4 * p.u)
+        << effect << " " << p.value << " +/- " << p.u << " (truth " << truth << ")";
+    if (name.ends_with("_um")) {
+      EXPECT_LT(p.u, 0.005) << effect;
+    }
+  };
+  near("synchronous_harmonic 3.00", "synchronous_harmonic_um", 0.08);
+  near("artifact_form 3.00", "artifact_form_harmonic_um", 0.05);
+  near("artifact_form 5.00", "artifact_form_harmonic_um", 0.04);
+  // The form's phase from the spindle's zero in the first record: +cos(5 theta - 0.4 rad) = sin(5 theta - 0.4 + pi/2).
+  near("artifact_form 5.00", "artifact_form_harmonic_phase_deg", -0.4 * 180 / std::numbers::pi + 90.0);
+  const auto noted = [&](const Report& r, const std::string& what) {
+    return std::any_of(r.notes.begin(), r.notes.end(),
+                       [&](const std::string& n) { return n.find(what) != std::string::npos; });
+  };
+  EXPECT_TRUE(noted(rep, "orders 2, 4, 6")) << "even orders stay together";
+
+  // The same records with no turn stated: the harmonics stay together, one phase per record.
+  RunoutRecord a = record_of(cfg, 7), b = record_of(cfg, 8, 180.0);
+  b.artifact_turned_rad.reset();
+  const Report together = models::explain::explain_runout({a, b});
+  for (const auto& finding : together.findings) EXPECT_NE(finding.effect, "artifact_form") << names(together);
+  // A turn stated on records whose angles start at their first reading (the live session's): refused, noted.
+  a = record_of(cfg, 7, 0.0);
+  b = record_of(cfg, 8, 180.0);
+  b.angle_from_spindle_zero = false;
+  const Report refused = models::explain::explain_runout({a, b});
+  for (const auto& finding : refused.findings) EXPECT_NE(finding.effect, "artifact_form") << names(refused);
+  EXPECT_TRUE(noted(refused, "no reversal")) << names(refused);
+}
+
+TEST(ExplainRunout, ASpeedRippleIsNamedWithItsSize) {
+  simulators::machine::MachineConfig cfg;
+  cfg.spindle.tilt_x_rad = 2.8e-6;
+  cfg.spindle.plate_parallelism_rad = 0.8e-6;  // a 1 um lean: its phase wobbles with the ripple
+  cfg.spindle.speed_ripple = 0.01;
+  cfg.spindle.speed_ripple_per_rev = 0.4;
+  cfg.noise.micrometer_m = 0.01e-6;
+  const Report rep = models::explain::explain_runout({record_of(cfg, 9)});
+  const auto f = findings(rep);
+  ASSERT_EQ(f.size(), 1u) << names(rep);
+  ASSERT_TRUE(f.count("speed_ripple 0.40") || f.count("speed_ripple 0.39")) << names(rep);
+  const auto& ripple = f.begin()->second.at("speed_ripple_percent");
+  EXPECT_LT(std::abs(ripple.value - 1.0), std::max(4 * ripple.u, 0.05)) << ripple.value << " +/- " << ripple.u;
+}
+
 TEST(ExplainRunout, RefusesARecordOfLessThanTwoRevolutions) {
   simulators::machine::MachineConfig cfg;
   RunoutRecord r = record_of(cfg, 1);
@@ -129,6 +197,14 @@ TEST(MachineSpindle, ReadsTheErrorMotionKeysAndRefusesMisplacedOrders) {
   EXPECT_DOUBLE_EQ(c.spindle.asynchronous[0].phase_rad, 0.0);  // phases default to 0
   EXPECT_DOUBLE_EQ(c.spindle.axial_growth_m_per_s, 0.01e-6);
   EXPECT_DOUBLE_EQ(c.spindle.speed_ramp_per_s, 0.015 / 60.0);
+  const auto d = simulators::machine::parse_machine_config(
+      "[spindle]\nplate_form_orders = [3]\nplate_form_um = [0.05]\nspeed_ripple_percent = 2\nspeed_ripple_per_rev = "
+      "0.4\n",
+      "m.toml");
+  ASSERT_EQ(d.spindle.plate_form.size(), 1u);
+  EXPECT_DOUBLE_EQ(d.spindle.plate_form[0].amplitude_m, 0.05e-6);
+  EXPECT_DOUBLE_EQ(d.spindle.speed_ripple, 0.02);
+  EXPECT_DOUBLE_EQ(d.spindle.speed_ripple_per_rev, 0.4);
   const auto refused = [](const std::string& toml, const std::string& why) {
     try {
       (void)simulators::machine::parse_machine_config(toml, "m.toml");
@@ -141,6 +217,27 @@ TEST(MachineSpindle, ReadsTheErrorMotionKeysAndRefusesMisplacedOrders) {
   refused("[spindle]\nharmonic_orders = [1]\nharmonic_um = [0.1]\n", "whole numbers from 2");
   refused("[spindle]\nasync_orders = [4]\nasync_um = [0.1]\n", "not whole numbers");
   refused("[spindle]\nasync_orders = [3.7]\nasync_um = []\n", "one amplitude per order");
+  refused("[spindle]\nplate_form_orders = [2.5]\nplate_form_um = [0.1]\n", "whole numbers from 2");
+  refused("[spindle]\nspeed_ripple_percent = 1\n", "its frequency");
+}
+
+// The plate's form turns with the plate, the spindle's error motion does not: half a turn flips the odd
+// orders of the form and leaves the rest of the reading where it was.
+TEST(MachineSpindle, ThePlatesFormTurnsWithThePlate) {
+  simulators::machine::MachineConfig cfg = simulators::machine::default_machine_config();
+  cfg.noise.micrometer_m = 0;
+  cfg.spindle.plate_form = {{3, 0.05e-6, 1.2}, {4, 0.03e-6, 0.0}};
+  simulators::machine::RunoutSpec spec;
+  spec.rpm = 60;
+  spec.samples_per_rev = 50;
+  spec.revolutions = 1;
+  const auto a = simulators::machine::Machine(cfg).runout_revolution(spec);
+  spec.artifact_turned_rad = std::numbers::pi;
+  const auto b = simulators::machine::Machine(cfg).runout_revolution(spec);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k)
+    EXPECT_NEAR(a[k].displacement_m - b[k].displacement_m, 2 * 0.05e-6 * std::cos(3 * a[k].angle_rad + 1.2), 1e-15)
+        << k;
 }
 
 TEST(MachineSpindle, AReadingAloneEqualsTheSameReadingInARecord) {

@@ -269,6 +269,59 @@ check(abs(em["synchronous_error_motion_um"] - 0.2) < 1e-6 and abs(em["total_erro
       and em["asynchronous_error_motion_um"] < 1e-9 and abs(em["fundamental_um"] - 0.5) < 1e-9,
       "a 3rd harmonic of 0.1 um: synchronous = total = 0.2 um, asynchronous 0 (%s)" % em)
 
+# --- Donaldson's reversal: the spindle's synchronous error motion with the plate's form removed ----------
+# Simulated here (not by the project's machine): the spindle's 3rd harmonic and twice-per-revolution motion
+# stay at their spindle angle, the plate's 3rd, 4th and 5th lobes turn with it by 180 deg in the second
+# record; 8 revolutions of 90 readings, angles from the spindle's zero. numpy: the average revolutions'
+# FFTs, spindle = (A + B) / 2 at every order, form = (A - B) / 2 at the odd orders (an even order's form a
+# half turn brings back onto itself: it stays in the spindle's figure), the mean and the Nyquist order out.
+def average_revolution(a_deg, z):
+    a = np.radians(a_deg)
+    revs = int(np.floor((a[-1] - a[0] + (a[1] - a[0])) / (2 * np.pi) + 1e-6))
+    J = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a)])
+    e = z - J @ np.linalg.lstsq(J, z, rcond=None)[0]
+    m = a.size // revs
+    return np.interp(2 * np.pi * np.arange(m * revs) / m, a - a[0], e).reshape(revs, m).mean(axis=0)
+
+
+spindle = lambda t: 0.08 * np.cos(3 * t + 0.3) + 0.05 * np.cos(2 * t)
+form = lambda t: 0.05 * np.cos(3 * t + 1.2) + 0.03 * np.cos(5 * t - 0.4) + 0.02 * np.cos(4 * t)
+ang = np.arange(8 * 90) * 4.0
+phi = np.radians(ang)
+za = 0.15 * np.cos(phi - 0.5) + spindle(phi) + form(phi) + rng.normal(0, 0.005, phi.size)
+zb = 0.12 * np.cos(phi + 0.9) + spindle(phi) + form(phi - np.pi) + rng.normal(0, 0.005, phi.size)
+pa, pb = os.path.join(tmp, "plate_0.csv"), os.path.join(tmp, "plate_180.csv")
+meta = "# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n# angle_zero = spindle\n"
+write_runout(pa, ang, za, meta + "# artifact_turned_deg = 0\n")
+write_runout(pb, ang, zb, meta + "# artifact_turned_deg = 180\n")
+rc, out, err = run("runout", pa, pb, "--json")
+check(rc == 0, "runout with a reversal exits 0 " + err.strip())
+rv = json.loads(out).get("reversal", {})
+fa, fb = np.fft.rfft(average_revolution(ang, za)), np.fft.rfft(average_revolution(ang, zb))
+fs, ff = (fa + fb) / 2, (fa - fb) / 2
+fs[0] = ff[0] = 0
+fs[-1] = ff[-1] = 0  # 90 points: order 45 is the Nyquist order
+ff[0::2] = 0
+ref_spindle, ref_form = np.ptp(np.fft.irfft(fs, 90)), np.ptp(np.fft.irfft(ff, 90))
+check(abs(rv.get("spindle_synchronous_error_motion_um", 0) - ref_spindle) < 1e-9,
+      "spindle's synchronous error motion %s um equals numpy's %.6f um" % (rv.get("spindle_synchronous_error_motion_um"), ref_spindle))
+check(abs(rv.get("artifact_form_um", 0) - ref_form) < 1e-9,
+      "artifact's form %s um equals numpy's %.6f um" % (rv.get("artifact_form_um"), ref_form))
+t = np.linspace(0, 2 * np.pi, 3600, endpoint=False)
+true_spindle = np.ptp(spindle(t) + 0.02 * np.cos(4 * t))  # the form's 4th order stays with the spindle
+true_form = np.ptp(0.05 * np.cos(3 * t + 1.2) + 0.03 * np.cos(5 * t - 0.4))
+check(abs(ref_spindle - true_spindle) < 0.01 and abs(ref_form - true_form) < 0.01,
+      "and near the truth: spindle %.4f (%.4f), form %.4f (%.4f) um" % (ref_spindle, true_spindle, ref_form, true_form))
+check(rv.get("together_orders", [])[:3] == [2, 4, 6], "even orders stay together: %s" % rv.get("together_orders"))
+rc, out, err = run("runout", pa, pb)
+check(rc == 0 and "reversal (Donaldson)" in out and "spindle's synchronous error motion = " in out,
+      "the text gives the reversal's figures: " + out)
+# Angles from the first reading (the live session's) cannot be compared: refused, naming the file.
+write_runout(pb, ang, zb, "# plate_diameter_mm = 1000\n# parallelism_um = 2.5\n# angle_zero = first_reading\n"
+             "# artifact_turned_deg = 180\n")
+rc, out, err = run("runout", pa, pb)
+check(rc == 1 and "plate_180.csv: its angles count from its first reading" in err, "unreferenced angles refused: " + err.strip())
+
 shutil.rmtree(tmp, ignore_errors=True)
 if failures:
     print("%d failure(s)" % len(failures))

@@ -14,7 +14,8 @@ namespace effects {
 
 extern const Effect backlash, reversal_spike, lateral_play, servo_mismatch, servo_lag, cyclic_error, thermal_drift,
     vibration, stick_slip, scale_mismatch, squareness, straightness, spindle_axial_runout, tool_wear, feed_marks,
-    abbe_offset, cosine_error, sensor_nonlinearity, synchronous_harmonic, asynchronous_line, speed_variation;
+    abbe_offset, cosine_error, sensor_nonlinearity, synchronous_harmonic, asynchronous_line, speed_variation,
+    artifact_form, speed_ripple;
 
 const std::vector<const Effect*>& library() {
   static const std::vector<const Effect*> table = {
@@ -39,6 +40,8 @@ const std::vector<const Effect*>& library() {
       &synchronous_harmonic,
       &asynchronous_line,
       &speed_variation,
+      &artifact_form,
+      &speed_ripple,
   };
   return table;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
 #include <stdexcept>
 
@@ -96,6 +97,63 @@ ErrorMotionResult error_motion(const std::vector<double>& angle_rad, const std::
     }
     r.asynchronous_m = std::max(r.asynchronous_m, hi - lo);
   }
+  return r;
+}
+
+namespace {
+
+// The average revolution's harmonics 1..orders at the spindle's angle: c_k with curve(a) ~ sum Re(c_k e^(i k a)).
+std::vector<std::complex<double>> harmonics(const std::vector<double>& curve, double zero_rad, std::size_t orders) {
+  std::vector<std::complex<double>> c(orders + 1);
+  const double m = static_cast<double>(curve.size());
+  for (std::size_t k = 1; k <= orders; ++k)
+    for (std::size_t j = 0; j < curve.size(); ++j)
+      c[k] +=
+          curve[j] * std::polar(2.0 / m, -static_cast<double>(k) * (zero_rad + two_pi * static_cast<double>(j) / m));
+  return c;
+}
+
+}  // namespace
+
+ReversalResult separate_reversal(const ErrorMotionResult& first, double first_zero_rad, const ErrorMotionResult& turned,
+                                 double turned_zero_rad, double turned_rad) {
+  const std::size_t m = std::min(first.synchronous_curve_m.size(), turned.synchronous_curve_m.size());
+  if (m < 8) throw std::invalid_argument("reversal: fewer than 8 points per revolution");
+  // Orders below the coarser curve's Nyquist order.
+  const std::size_t orders = (m - 1) / 2;
+  const auto a = harmonics(first.synchronous_curve_m, first_zero_rad, orders);
+  const auto b = harmonics(turned.synchronous_curve_m, turned_zero_rad, orders);
+  ReversalResult r;
+  r.turned_rad = turned_rad;
+  r.points_per_rev = m;
+  std::vector<std::complex<double>> s(orders + 1), f(orders + 1);
+  bool any = false;
+  for (std::size_t k = 1; k <= orders; ++k) {
+    const std::complex<double> d = 1.0 - std::polar(1.0, -static_cast<double>(k) * turned_rad);
+    if (std::abs(d) >= 1.0) {
+      f[k] = (a[k] - b[k]) / d;
+      s[k] = a[k] - f[k];
+      any = any || k >= 2;
+    } else {
+      s[k] = 0.5 * (a[k] + b[k]);
+      if (k >= 2) r.together_orders.push_back(static_cast<int>(k));
+    }
+  }
+  if (!any)
+    throw std::invalid_argument("reversal: a turn of " + std::to_string(turned_rad * 180.0 / std::numbers::pi) +
+                                " deg moves no order's form by 60 deg or more: nothing to separate");
+  r.spindle_curve_m.assign(m, 0.0);
+  r.form_curve_m.assign(m, 0.0);
+  for (std::size_t j = 0; j < m; ++j) {
+    const double angle = two_pi * static_cast<double>(j) / static_cast<double>(m);
+    for (std::size_t k = 1; k <= orders; ++k) {
+      const std::complex<double> e = std::polar(1.0, static_cast<double>(k) * angle);
+      r.spindle_curve_m[j] += (s[k] * e).real();
+      r.form_curve_m[j] += (f[k] * e).real();
+    }
+  }
+  r.spindle_synchronous_m = dsp::peak_to_valley(r.spindle_curve_m);
+  r.artifact_form_m = dsp::peak_to_valley(r.form_curve_m);
   return r;
 }
 

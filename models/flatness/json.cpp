@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 #include "results/parameters.hpp"
 
@@ -180,6 +181,33 @@ nlohmann::json runout_json(const RunoutRevolution& rev) {
   nlohmann::json j = to_json(identify_runout(rev));
   if (whole_revolutions(rev.angle_rad) >= 1)
     j["error_motion"] = to_json(error_motion(rev.angle_rad, rev.runout_m, rev.source));
+  return j;
+}
+
+nlohmann::json reversal_json(const RunoutRevolution& first, const RunoutRevolution& turned) {
+  if (!turned.artifact_turned_rad)
+    throw std::invalid_argument(turned.source + ": no artifact_turned_deg: how far the artifact was turned against " +
+                                first.source + " is not stated");
+  for (const RunoutRevolution* r : {&first, &turned}) {
+    if (!r->angle_from_spindle_zero)
+      throw std::invalid_argument(r->source +
+                                  ": its angles count from its first reading (angle_zero = first_reading): a reversal "
+                                  "needs both records' angles from the spindle's zero (an index or encoder)");
+    if (whole_revolutions(r->angle_rad) < 1)
+      throw std::invalid_argument(r->source + ": less than one whole revolution recorded");
+  }
+  const double turned_rad = *turned.artifact_turned_rad - first.artifact_turned_rad.value_or(0.0);
+  const ReversalResult r = separate_reversal(
+      error_motion(first.angle_rad, first.runout_m, first.source), first.angle_rad.front(),
+      error_motion(turned.angle_rad, turned.runout_m, turned.source), turned.angle_rad.front(), turned_rad);
+  nlohmann::json j;
+  j["model"] = "error_motion/iso230-7 reversal (Donaldson)";
+  j["records"] = {first.source, turned.source};
+  j["turned_deg"] = turned_rad * 180.0 / std::numbers::pi;
+  j["points_per_rev"] = r.points_per_rev;
+  j[results::name(results::spindle_synchronous_error_motion)] = r.spindle_synchronous_m * um;
+  j[results::name(results::artifact_form_error)] = r.artifact_form_m * um;
+  j["together_orders"] = r.together_orders;
   return j;
 }
 

@@ -30,6 +30,17 @@ RunoutRevolution parse_runout_revolution(std::string_view text, const std::strin
     if (!(*travel > 0)) throw CsvError(source + ": travel_mm = " + significant_digits(*travel, 10) + " must be positive");
     rev.travel_m = *travel * 1e-3;
   }
+  if (auto turned = t.optional_metadata_number("artifact_turned_deg")) {
+    if (!std::isfinite(*turned) || std::abs(*turned) > 360.0)
+      throw CsvError(source + ": artifact_turned_deg = " + significant_digits(*turned, 10) + " must be within +-360");
+    rev.artifact_turned_rad = *turned * std::numbers::pi / 180.0;
+  }
+  if (const auto zero = t.metadata.find("angle_zero"); zero != t.metadata.end()) {
+    if (zero->second != "spindle" && zero->second != "first_reading")
+      throw CsvError(source + ": angle_zero = " + zero->second +
+                     ": 'spindle' (angles from the spindle's zero) or 'first_reading'");
+    rev.angle_from_spindle_zero = zero->second == "spindle";
+  }
   const std::size_t ca = t.column("angle_deg");
   const std::size_t cr = t.column("runout_um");
   for (const auto& row : t.rows) {

@@ -23,13 +23,21 @@ struct RunoutRevolution {
   double parallelism_m = 0.0;
   double u_parallelism_m = 0.0;    // optional `parallelism_u_um`
   std::optional<double> travel_m;  // optional `travel_mm`
+  // Donaldson's reversal: how far the artifact (the plate) was turned about the spindle axis, in the
+  // spindle's direction, since the record it is compared with (optional `artifact_turned_deg`).
+  std::optional<double> artifact_turned_rad;
+  // The angles count from the spindle's zero (an index, an encoder), the same in every record
+  // (`angle_zero = spindle`, the default); false: from the record's first reading (`angle_zero =
+  // first_reading`, what the runout session writes: the micrometer reads no spindle angle).
+  bool angle_from_spindle_zero = true;
   std::vector<double> angle_rad;
   std::vector<double> runout_m;
   std::vector<std::size_t> line;
 };
 
-// Metadata plate_diameter_mm (> 0), parallelism_um, optional parallelism_u_um and travel_mm; columns
-// angle_deg,runout_um. At least 8 samples. Throws CsvError "file:line: message".
+// Metadata plate_diameter_mm (> 0), parallelism_um, optional parallelism_u_um, travel_mm,
+// artifact_turned_deg and angle_zero (spindle | first_reading); columns angle_deg,runout_um. At least 8 samples. Throws
+// CsvError "file:line: message".
 RunoutRevolution parse_runout_revolution(std::string_view text, const std::string& source);
 RunoutRevolution read_runout_revolution(const std::string& path);
 

@@ -447,7 +447,12 @@ RunoutSample Machine::runout_sample(const RunoutSpec& spec, std::uint64_t k) con
   const auto& sp = config_.spindle;
   const double omega = spec.rpm / 60.0 * two_pi;
   const double t = static_cast<double>(k) * 60.0 / spec.rpm / static_cast<double>(spec.samples_per_rev);
-  const double theta = omega * (t + 0.5 * sp.speed_ramp_per_s * t * t);
+  double slip_s = 0.5 * sp.speed_ramp_per_s * t * t;
+  if (sp.speed_ripple != 0 && sp.speed_ripple_per_rev > 0) {
+    const double w = two_pi * sp.speed_ripple_per_rev * spec.rpm / 60.0;
+    slip_s += sp.speed_ripple * (1.0 - std::cos(w * t)) / w;
+  }
+  const double theta = omega * (t + slip_s);
   // Stationary plate through the origin, its normal leaning like a spindle axis would.
   const Vector3d plate_normal = rot_z(sp.plate_parallelism_direction_rad) * rot_y(sp.plate_parallelism_rad) *
                                 rot_z(-sp.plate_parallelism_direction_rad) * Vector3d::UnitZ();
@@ -459,6 +464,8 @@ RunoutSample Machine::runout_sample(const RunoutSpec& spec, std::uint64_t k) con
     for (const auto& l : *lines) axial += l.amplitude_m * std::cos(l.order * theta + l.phase_rad);
   const Vector3d tip = spindle_frame(sp) * rot_z(theta) * Vector3d(spec.probe_radius_m, 0.0, 0.0) + axis * axial;
   double z = -plate_normal.dot(tip) / plate_normal.dot(axis);
+  for (const auto& l : sp.plate_form)
+    z += l.amplitude_m * std::cos(l.order * (theta - spec.artifact_turned_rad) + l.phase_rad);
   if (config_.noise.micrometer_m > 0)
     z += config_.noise.micrometer_m * normal_at(spec.seed != 0 ? spec.seed : config_.noise.seed, k);
   RunoutSample s;

@@ -123,9 +123,17 @@ struct SpindleErrors {
   std::vector<Line> synchronous;
   std::vector<Line> asynchronous;
   double axial_growth_m_per_s = 0.0;  // thermal growth of the spindle along its axis during the record
-  // The spindle's speed drifts: rpm(t) = rpm (1 + speed_ramp_per_s t), so a reading taken at time t
-  // is at theta = omega (t + speed_ramp_per_s t^2 / 2), not at the nominal omega t.
+  // The thrust plate's own form (its lobing): lines of integer order in the plate's azimuth, adding to
+  // its height under the probe. It turns with the plate (RunoutSpec::artifact_turned_rad), the spindle's
+  // error motions above do not: what a reversal (Donaldson) separates.
+  std::vector<Line> plate_form;
+  // The spindle's speed drifts and ripples: rpm(t) = rpm (1 + speed_ramp_per_s t + speed_ripple
+  // sin(2 pi f t)), f = speed_ripple_per_rev rpm / 60 (a drive's frequency in cycles per nominal
+  // revolution), so a reading taken at time t is at theta = omega (t + speed_ramp_per_s t^2 / 2 +
+  // speed_ripple (1 - cos(2 pi f t)) / (2 pi f)), not at the nominal omega t.
   double speed_ramp_per_s = 0.0;
+  double speed_ripple = 0.0;  // amplitude, a fraction of the nominal speed
+  double speed_ripple_per_rev = 0.0;
 };
 
 struct SensorNoise {
@@ -286,6 +294,9 @@ struct RunoutSpec {
   std::size_t revolutions = 1;
   double t0_s = 0.0;
   std::uint64_t seed = 0;
+  // The plate turned on the table about the spindle axis since the first record, in the direction the
+  // spindle turns (180 deg: Donaldson's reversal): its form is read at plate azimuth theta - turned.
+  double artifact_turned_rad = 0.0;
 };
 
 struct RunoutSample {

@@ -28,7 +28,7 @@ Polynomial micro_poly(const TableReader& t, std::string_view key) {
 
 // The spindle's error motion lines `<prefix>_orders`, `<prefix>_um`, `<prefix>_phase_deg` (arrays of
 // equal length; phases optional): integer orders >= 2 when `integer` (the first order is the lean),
-// otherwise non-integer orders.
+// otherwise non-integer orders (the plate's form, `plate_form_*`, is of whole orders too).
 std::vector<SpindleErrors::Line> read_spindle_lines(const TableReader& t, const std::string& prefix, bool integer) {
   const std::string ok = prefix + "_orders", ak = prefix + "_um", pk = prefix + "_phase_deg";
   const auto orders = t.get_doubles(ok, {});
@@ -138,6 +138,11 @@ MachineConfig read(const toml::table& root, const std::string& file) {
     m.spindle.asynchronous = read_spindle_lines(*t, "async", false);
     m.spindle.axial_growth_m_per_s = t->get_double("axial_growth_um_per_min", 0.0, -1e4, 1e4) * um / 60.0;
     m.spindle.speed_ramp_per_s = t->get_double("speed_ramp_percent_per_min", 0.0, -50.0, 50.0) * 0.01 / 60.0;
+    m.spindle.plate_form = read_spindle_lines(*t, "plate_form", true);
+    m.spindle.speed_ripple = t->get_double("speed_ripple_percent", 0.0, -50.0, 50.0) * 0.01;
+    m.spindle.speed_ripple_per_rev = t->get_double("speed_ripple_per_rev", 0.0, 0.0, 1000.0);
+    if (m.spindle.speed_ripple != 0 && m.spindle.speed_ripple_per_rev <= 0)
+      t->fail("speed_ripple_per_rev", "a speed ripple needs its frequency in cycles per revolution (> 0)");
     t->reject_unknown_keys();
   }
   if (auto t = top.table("axis")) {

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
 #include <cstdio>
+#include <map>
 #include <numbers>
 #include <stdexcept>
 
@@ -65,14 +67,14 @@ std::vector<TruthItem> diagnostics_truth(const machine::MachineConfig& m, const 
 
 }  // namespace
 
-DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, const std::vector<TruthRun>& runs,
-                   bool angles_from_encoders) {
+MachineTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, const std::vector<TruthRun>& runs,
+                       bool angles_from_encoders) {
   if (plane != "xy" && plane != "xz" && plane != "yz") throw std::invalid_argument("dbb_truth: plane " + plane);
   const int a = plane == "yz" ? 1 : 0;
   const int b = plane == "xy" ? 1 : 2;
   const int normal = 3 - a - b;
   const std::array<int, 2> in_plane{a, b};
-  DbbTruth t;
+  MachineTruth t;
 
   // The test: its length in machine time (the data arcs), its samples, directions, radii, heights.
   double duration_s = 0, samples = 0, max_lean = 0, slowest_rate = 1e300, longest_run_s = 0;
@@ -215,6 +217,90 @@ DbbTruth dbb_truth(const machine::MachineConfig& m, const std::string& plane, co
       "opposite sign (docs/conventions.md)";
   t.note = "geometric errors (centre offset, scale, squareness, straightness, roll) are Lai's base: PARAMS lai3; "
            "the bar's noise is " + printf_number("%g um", noise_um) + " (EXPLAIN's noise_um)";
+  return t;
+}
+
+MachineTruth runout_truth(const machine::MachineConfig& m, const std::vector<TruthRecord>& records) {
+  if (records.empty()) throw std::invalid_argument("runout_truth: no records");
+  MachineTruth t;
+  double samples = 0, revolutions = 1e300, per_rev = 1e300, duration_s = 0;
+  for (const auto& r : records) {
+    samples += r.samples_per_rev * r.revolutions;
+    revolutions = std::min(revolutions, r.revolutions);
+    per_rev = std::min(per_rev, r.samples_per_rev);
+    duration_s = std::max(duration_s, r.revolutions * 60.0 / r.rpm);
+  }
+  // As runout_explain searches: orders up to a quarter of the samples per revolution (2..50), resolved
+  // to 1 / revolutions of an order.
+  const double highest = std::clamp(std::floor(per_rev / 4.0), 2.0, 50.0);
+  const double noise_um = m.noise.micrometer_m / um;
+  const double floor_um = samples > 0 ? 7 * noise_um / std::sqrt(samples) : 0.0;
+  const auto add = [&](std::string effect, const results::Parameter& p, double value, double signal_um,
+                       std::string note, double order) {
+    if (signal_um > 0 && signal_um < floor_um)
+      note += (note.empty() ? "" : "; ") + printf_number("%.3g", signal_um) + " um in the reading, below the " +
+              printf_number("%.2g", floor_um) + " um these samples resolve";
+    t.findable.push_back({std::move(effect), results::name(p), value, std::move(note), order});
+  };
+  const auto cannot = [&](std::string what, std::string why) {
+    t.unobservable.push_back({std::move(what), std::move(why)});
+  };
+  const auto& s = m.spindle;
+  // The synchronous harmonics: the axial run-out (order 2), the [spindle] harmonics (read with their sign
+  // reversed) and the plate's form, summed by order: one record cannot tell them apart. The amplitude the
+  // probe sees; the phase counts from the record's first reading, so it is not compared.
+  std::map<int, std::complex<double>> harmonics;
+  if (s.axial_runout_m != 0) harmonics[2] -= s.axial_runout_m;
+  for (const auto& l : s.synchronous)
+    harmonics[static_cast<int>(std::lround(l.order))] -= std::polar(l.amplitude_m, l.phase_rad);
+  for (const auto& l : s.plate_form)
+    harmonics[static_cast<int>(std::lround(l.order))] += std::polar(l.amplitude_m, l.phase_rad);
+  for (const auto& [order, phasor] : harmonics) {
+    const double a_um = std::abs(phasor) / um;
+    if (order > highest)
+      cannot(
+          printf_number("synchronous harmonic of order %g", order) + printf_number(", %g um", a_um),
+          printf_number("above the %g per revolution the samples resolve (a quarter of them per revolution)", highest));
+    else
+      add("synchronous_harmonic", results::synchronous_harmonic, a_um, a_um, printf_number("order %g", order), order);
+  }
+  for (const auto& l : s.asynchronous) {
+    const double a_um = l.amplitude_m / um;
+    const double off = std::abs(l.order - std::round(l.order));
+    if (l.order > highest + 0.5)
+      cannot(printf_number("asynchronous line at %g per revolution", l.order) + printf_number(", %g um", a_um),
+             printf_number("above the %g per revolution the samples resolve", highest));
+    else if (off < 1.0 / revolutions)
+      cannot(printf_number("asynchronous line at %g per revolution", l.order) + printf_number(", %g um", a_um),
+             printf_number("within 1/%g of an order of a harmonic: the record is too short to tell it from one",
+                           revolutions));
+    else
+      add("asynchronous_line", results::asynchronous_line, a_um, a_um, printf_number("order %g", l.order), l.order);
+  }
+  // The reading is the plate's height under the probe: the spindle's growth along +z reads with its sign reversed.
+  if (s.axial_growth_m_per_s != 0)
+    add("thermal_drift", results::axial_growth, -s.axial_growth_m_per_s / um * 60.0,
+        std::abs(s.axial_growth_m_per_s) * duration_s / um, "read as the plate's height: the growth's sign reversed",
+        0.0);
+  if (s.speed_ramp_per_s != 0) add("speed_variation", results::speed_ramp, s.speed_ramp_per_s * 6000.0, 0.0, "", 0.0);
+  if (s.speed_ripple != 0) {
+    const double nu = s.speed_ripple_per_rev;
+    if (std::abs(nu - std::round(nu)) < 1.0 / revolutions)
+      cannot(
+          printf_number("speed ripple %g %%", s.speed_ripple * 100) + printf_number(" at %g per revolution", nu),
+          "locked to the revolution, it repeats every revolution: it reads as synchronous harmonics of orders nu - 1 "
+          "and nu + 1");
+    else
+      add("speed_ripple", results::speed_ripple, std::abs(s.speed_ripple) * 100.0, 0.0,
+          printf_number("at %g per revolution", nu), nu);
+  }
+  if (s.tilt_y_rad != 0 || s.plate_parallelism_direction_rad != 0)
+    cannot("the lean's direction",
+           "the micrometer reads no spindle angle: a record's angle starts at its first reading");
+  t.note =
+      "the once-per-revolution term (the spindle's lean against the thrust plate: PARAMS runout_um) is the base; "
+      "the micrometer's noise is " +
+      printf_number("%g um", noise_um) + " (EXPLAIN's noise_um)";
   return t;
 }
 

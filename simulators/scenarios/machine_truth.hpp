@@ -1,9 +1,9 @@
 #pragma once
-// What a DBB test on the virtual machine tool can find (the emulators' machine, our own, so its errors
-// are known): per effect of the explanation library the parameter it would report and the machine
-// file's value, and what the machine holds that the test cannot observe, with the reason and the size
-// it would have in the bar's reading. `guideway explain --machine FILE` prints it beside the findings.
-// Pure functions; thread safe.
+// What a test on the virtual machine tool can find (the emulators' machine, our own, so its errors are
+// known): per effect of the explanation library the parameter it would report and the machine file's
+// value, and what the machine holds that the test cannot observe, with the reason and the size it would
+// have in the reading. A DBB test (the bar) and a spindle run-out record (the micrometer on the thrust
+// plate). `guideway explain --machine FILE` prints it beside the findings. Pure functions; thread safe.
 
 #include <string>
 #include <vector>
@@ -26,6 +26,7 @@ struct TruthItem {
   std::string parameter;  // as EXPLAIN reports it
   double value = 0.0;     // the machine file's, in the parameter's unit
   std::string note;       // e.g. "period 4 mm", "two radii needed"
+  double order = 0.0;     // a run-out line's order per revolution (the finding's order_per_rev); 0: none
 };
 
 struct Unobservable {
@@ -33,7 +34,7 @@ struct Unobservable {
   std::string why;   // why this test cannot see it, with the size it would have (um) where it has one
 };
 
-struct DbbTruth {
+struct MachineTruth {
   std::vector<TruthItem> findable;
   // Lai's base as the ballbar diagnostics report it (PARAMS' "diagnostics", `guideway identify dbb`): the
   // geometric terms every test with an h = 0 ccw/cw pair fits, whatever EXPLAIN finds. `parameter` is
@@ -47,7 +48,21 @@ struct DbbTruth {
 
 // plane "xy", "xz" or "yz"; angles_from_encoders: the runs' angles are the axis encoders' (a live
 // session) rather than the commanded ones (simulated runs, a ballbar's time-based angles).
-DbbTruth dbb_truth(const machine::MachineConfig& machine, const std::string& plane, const std::vector<TruthRun>& runs,
-                   bool angles_from_encoders);
+MachineTruth dbb_truth(const machine::MachineConfig& machine, const std::string& plane,
+                       const std::vector<TruthRun>& runs, bool angles_from_encoders);
+
+// One run-out record of the test: its spindle speed and length.
+struct TruthRecord {
+  double rpm = 60.0;
+  double revolutions = 20.0;
+  double samples_per_rev = 50.0;
+};
+
+// The spindle's error motions a run-out record sees (the runout session's micrometer on the thrust plate;
+// models/explain/runout_explain): the synchronous harmonics (the twice-per-revolution axial run-out, the
+// [spindle] harmonics and the plate's form, together), the asynchronous lines, the axial growth, the speed
+// ramp and ripple, each as EXPLAIN reports
+// it (in the reading's sign: the plate's height under the probe); the lean against the plate is the base.
+MachineTruth runout_truth(const machine::MachineConfig& machine, const std::vector<TruthRecord>& records);
 
 }  // namespace guideway::simulators::scenarios

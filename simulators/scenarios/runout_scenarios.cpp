@@ -1,6 +1,7 @@
 // The spindle run-out scenarios of EXPLAIN's suite: records of the virtual machine's spindle (20
 // revolutions at 60 rpm, as the runout session takes them by default) with one error motion at a time,
-// a pair, a null of several records, and a cause outside the library (the probe slips on the plate).
+// a pair, a reversal (two records, the plate turned 180 deg between them), a null of several records,
+// and a cause outside the library (the probe slips on the plate).
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -24,6 +25,9 @@ struct RunoutScenario {
   std::vector<Expectation> expected;
   std::size_t records = 1;
   double slip_um = 0.0;  // the probe slips on the plate 60 % into each record: a step of the reading
+  // Donaldson's reversal: the plate turned by this much in every record after the first, the records'
+  // angles from the spindle's zero (0: each record's angle from its own first reading).
+  double turned_deg = 0.0;
 };
 
 Expectation expect(const std::string& effect, const results::Parameter& p, double truth, double tolerance) {
@@ -62,6 +66,26 @@ const std::vector<RunoutScenario>& runout_scenarios() {
        },
        {expect("synchronous_harmonic", results::synchronous_harmonic, 0.1, 0.003),
         expect("asynchronous_line", results::asynchronous_line, 0.05, 0.003)}},
+      {"runout_reversal",
+       "a 3-lobed race 0.08 um under a plate of 3 lobes 0.05 um: one 3rd harmonic in a record; two records, the "
+       "plate turned 180 deg (Donaldson)",
+       [](machine::MachineConfig& m) {
+         m.spindle.synchronous = {{3, 0.08 * um, 0.3}};
+         m.spindle.plate_form = {{3, 0.05 * um, 1.2}};
+       },
+       {expect("synchronous_harmonic", results::synchronous_harmonic, 0.08, 0.006),
+        expect("artifact_form", results::artifact_form, 0.05, 0.006)},
+       2,
+       0.0,
+       180.0},
+      {"runout_speed_ripple",
+       "the speed ripples 1 % at 0.4 per revolution (a drive) under a 1 um lean: the lean's phase wobbles 1.4 deg",
+       [](machine::MachineConfig& m) {
+         m.spindle.plate_parallelism_rad = 0.8e-6;
+         m.spindle.speed_ripple = 0.01;
+         m.spindle.speed_ripple_per_rev = 0.4;
+       },
+       {expect("speed_ripple", results::speed_ripple, 1.0, 0.15)}},
       {"runout_null_records",
        "nothing left out: the lean and 0.01 um noise, three records each from its own angle",
        [](machine::MachineConfig&) {},
@@ -97,12 +121,16 @@ std::vector<models::explain::RunoutRecord> records(const machine::Machine& machi
     spec.samples_per_rev = o.quick ? 50 : 100;  // 50: the session's 50 Hz polling; 100: a faster amplifier
     spec.revolutions = 20;
     spec.seed = o.seed * 1000 + 300 + k;
+    spec.artifact_turned_rad = static_cast<double>(k) * sc.turned_deg * std::numbers::pi / 180.0;
     const auto samples = machine.runout_revolution(spec);
     models::explain::RunoutRecord r;
     r.source = "scenario-runout" + std::to_string(k + 1);
     r.rpm = spec.rpm;
-    // Each record starts where the spindle happens to be: its angle counts from its first reading.
-    const std::size_t skip = k * 7;
+    if (sc.turned_deg != 0) r.artifact_turned_rad = spec.artifact_turned_rad;
+    // Each record starts where the spindle happens to be: its angle counts from its first reading. A
+    // reversal's records start at the spindle's zero (an index triggers them).
+    r.angle_from_spindle_zero = sc.turned_deg != 0;
+    const std::size_t skip = sc.turned_deg != 0 ? 0 : k * 7;
     for (std::size_t i = skip; i < samples.size(); ++i) {
       const double t = samples[i].t_s - samples[skip].t_s;
       r.angle_rad.push_back(2 * std::numbers::pi * spec.rpm / 60.0 * t);

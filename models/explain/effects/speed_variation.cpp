@@ -3,8 +3,6 @@
 #include <memory>
 #include <tuple>
 
-#include <Eigen/QR>
-
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/runout_terms.hpp"
 #include "results/parameters.hpp"
@@ -22,8 +20,7 @@ Variant slip_variant(const std::vector<Rp>& g, const Eigen::VectorXd& coef, bool
   if (offset) names.push_back(results::name(results::speed_offset));
   names.push_back(results::name(results::speed_ramp));
   return make_variant(g, std::move(names), [&coef, offset](const Rp& p, double* o) {
-    const auto c = static_cast<Eigen::Index>(3 * p.run);
-    const double slope = -coef[c + 1] * std::sin(p.theta_rad) + coef[c + 2] * std::cos(p.theta_rad);
+    const double slope = once_per_rev_slope(coef, p);
     if (offset) *o++ = slope * p.omega_rad_s * p.t_s * 0.01;
     *o = slope * p.omega_rad_s * 0.5 * p.t_s * p.t_s * 0.01 / 60.0;
   });
@@ -34,11 +31,9 @@ bool speed_variation_runout_term(const RunoutTerms& t, Candidate& c) {
   c.search_size = 2;
   c.generate = [data](const Eigen::VectorXd&, const std::vector<bool>& use) {
     const auto& [g, base, y] = *data;
-    const auto rows = rows_in_use(use);
     std::vector<Variant> out;
-    if (rows.size() <= static_cast<std::size_t>(base.columns.cols())) return out;
-    const Eigen::MatrixXd j = base.columns(rows, Eigen::all);
-    const Eigen::VectorXd coef = j.colPivHouseholderQr().solve(y(rows));
+    const Eigen::VectorXd coef = base_coefficients(base, y, use);
+    if (coef.size() == 0) return out;
     for (bool offset : {false, true}) out.push_back(slip_variant(g, coef, offset));
     return out;
   };
