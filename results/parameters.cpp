@@ -138,6 +138,14 @@ constexpr const Parameter* all[] = {
     &artifact_form_phase,
     &speed_ripple,
     &speed_ripple_phase,
+    &angle_drift,
+    &reflector_rocking,
+    &pitch_wave_sin,
+    &pitch_wave_cos,
+    &pitch_wave,
+    &pitch_wave_phase,
+    &pitch_wave_period,
+    &yaw_coupling,
     &horizontal_straightness,
     &vertical_straightness,
     &profile_straightness,
@@ -150,6 +158,7 @@ struct Unit {
   std::string_view symbol;
 };
 constexpr Unit units[] = {{"_um_per_min", "\u00b5m/min"},
+                          {"_arcsec_per_min", "\u2033/min"},
                           {"_percent_per_min", "%/min"},
                           {"_percent", "%"},
                           {"_per_rev", "/rev"},

@@ -424,6 +424,25 @@ inline constexpr Parameter speed_ripple{"speed_ripple_percent", "speed ripple", 
                                         "amplitude of a periodic ripple of the spindle's speed"};
 inline constexpr Parameter speed_ripple_phase{"speed_ripple_phase_deg", "speed ripple phase", "runout", "",
                                               "its phase at the record's start"};
+// ---- Traverses: EXPLAIN's effect parameters of autocollimator traverses (traverse_explain) ----------------
+inline constexpr Parameter angle_drift{"angle_drift_arcsec_per_min", "angle drift", "straightness", "",
+                                       "the pitch reading's zero drifting with time (instrument, air)"};
+inline constexpr Parameter reflector_rocking{"reflector_rocking_arcsec", "reflector rocking", "straightness", "",
+                                             "half the pitch difference moving + minus moving - (the reflector or "
+                                             "carriage tilting with the direction of travel)"};
+inline constexpr Parameter pitch_wave_sin{"pitch_wave_sin_arcsec", "pitch wave (sine)", "straightness", "",
+                                          "fit column: a periodic pitch's sine part"};
+inline constexpr Parameter pitch_wave_cos{"pitch_wave_cos_arcsec", "pitch wave (cosine)", "straightness", "",
+                                          "fit column: a periodic pitch's cosine part"};
+inline constexpr Parameter pitch_wave{"pitch_wave_arcsec", "periodic pitch", "straightness", "",
+                                      "amplitude of a pitch that repeats along the axis (rack, lead screw)"};
+inline constexpr Parameter pitch_wave_phase{"pitch_wave_phase_deg", "periodic pitch phase", "straightness", "",
+                                            "its phase at x = 0"};
+inline constexpr Parameter pitch_wave_period{"pitch_wave_period_mm", "periodic pitch period", "straightness", "",
+                                             "its period along the axis (searched)"};
+inline constexpr Parameter yaw_coupling{"yaw_coupling_percent", "yaw read as pitch", "straightness", "",
+                                        "part of the yaw reading that the pitch reading holds (head or reflector "
+                                        "turned about the beam)"};
 
 inline constexpr Parameter horizontal_straightness{
     "horizontal_straightness_um",

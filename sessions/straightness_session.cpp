@@ -195,16 +195,15 @@ class StraightnessSession : public Session {
     return write_derived_text(dir, base_name, "angles.csv", text_);
   }
 
-  // No explanation model for an angle traverse yet (`guideway explain --model straightness` explains faced
-  // profiles: the profile session), and a traverse has far fewer stations than the engine needs to tell
-  // structure from noise. Said in the EXPLAIN rather than left silent; nothing is claimed.
+  // The session records one forward pass; EXPLAIN of a traverse (guideway explain --model traverse) needs a
+  // pass of 32 readings or more, and a return or a repeat to tell a drift or a rocking from the geometry.
+  // Said in the EXPLAIN rather than left silent; nothing is claimed.
   std::optional<nlohmann::json> explain() override {
     return explain_not_analysed(
         "straightness traverse",
-        "no explanation model for autocollimator traverses yet (guideway explain --model straightness explains faced "
-        "profiles, as the profile session does), and " +
-            std::to_string(pitch_rad_.size()) +
-            " stations are too few for its noise and structure tests (at least 32 samples)");
+        "one forward pass of " + std::to_string(pitch_rad_.size()) +
+            " stations: EXPLAIN of a traverse (guideway explain --model traverse) needs a pass of 32 readings or more, "
+            "and passes back or repeated to tell a drift or a rocking from the straightness");
   }
 
  private:

@@ -16,6 +16,7 @@
 #include "models/explain/explain.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/explain/runout_explain.hpp"
+#include "models/explain/traverse_explain.hpp"
 #include "profile_test_support.hpp"
 #include "results/parameters.hpp"
 #include "simulators/machine/dbb_runs.hpp"
@@ -130,6 +131,8 @@ TEST(ExplainEffects, EachModelsTermsAreThoseItsEntryClaims) {
     EXPECT_EQ(e->profile.build != nullptr, !e->profile.why.empty());
     EXPECT_EQ(e->runout.build != nullptr, claims(e->info, "runout"));
     EXPECT_EQ(e->runout.build != nullptr, !e->runout.why.empty());
+    EXPECT_EQ(e->traverse.build != nullptr, claims(e->info, "traverse"));
+    EXPECT_EQ(e->traverse.build != nullptr, !e->traverse.why.empty());
     for (const auto& base : e->info.in_base_of) EXPECT_FALSE(claims(e->info, base)) << base << ": base and candidate";
   }
 }
@@ -181,4 +184,28 @@ TEST(ExplainEffects, EveryRunoutCandidateIsALibraryEffect) {
   turned.artifact_turned_rad = std::numbers::pi;
   expected.insert("artifact_form");
   EXPECT_EQ(check_candidates(models::explain::runout_problem({r, turned}), "runout", &Effect::runout), expected);
+}
+
+TEST(ExplainEffects, EveryTraverseCandidateIsALibraryEffect) {
+  // A forward and a return pass of 40 readings with times and yaw: every traverse term has what it needs.
+  std::vector<models::explain::TraversePass> passes(2);
+  for (int d = 0; d < 2; ++d) {
+    auto& p = passes[static_cast<std::size_t>(d)];
+    p.source = "t.csv pass " + std::to_string(d + 1);
+    p.direction = d == 0 ? 1 : -1;
+    p.step_m = 0.01;
+    for (int k = 0; k < 40; ++k) {
+      const int station = d == 0 ? k : 39 - k;
+      p.x_m.push_back(0.01 * station);
+      p.t_s.push_back(2.0 * (d * 45 + k));
+      p.pitch_rad.push_back(1e-6 * station + 1e-8 * std::sin(0.37 * k + d));
+      p.yaw_rad.push_back(2e-7 * std::cos(0.9 * station));
+    }
+  }
+  const auto offered = check_candidates(models::explain::traverse_problem(passes), "traverse", &Effect::traverse);
+  std::set<std::string> expected;
+  for (const auto& info : models::explain::effect_library())
+    if (claims(info, "traverse")) expected.insert(info.name);
+  EXPECT_EQ(offered, expected);
+  EXPECT_EQ(expected, (std::set<std::string>{"angle_drift", "pitch_wave", "reflector_rocking", "yaw_coupling"}));
 }

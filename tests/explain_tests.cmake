@@ -18,3 +18,10 @@ guideway_add_test(explain_effects_test SOURCES explain_effects_test.cpp
   LIBS guideway_explain_model guideway_dbb_sim guideway_machine guideway_results LABELS unit)
 # The run-out front end on the virtual machine's spindle (synchronous, asynchronous, growth, speed).
 guideway_add_test(explain_runout_test SOURCES explain_runout_test.cpp LIBS guideway_explain_model guideway_machine LABELS unit)
+# The traverse front end on the virtual machine's X carriage (drift, rocking, pitch wave, yaw coupling).
+guideway_add_test(explain_traverse_test SOURCES explain_traverse_test.cpp
+  LIBS guideway_explain_scenarios guideway_explain_model guideway_machine LABELS unit)
+add_test(NAME explain_traverse_cli_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/explain_traverse_cli_test.py $<TARGET_FILE:guideway>
+          $<TARGET_FILE:guideway-emulate>)
+set_tests_properties(explain_traverse_cli_test PROPERTIES LABELS integration TIMEOUT 120)

@@ -7,6 +7,7 @@
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/profile_terms.hpp"
 #include "models/explain/effects/runout_terms.hpp"
+#include "models/explain/effects/traverse_terms.hpp"
 
 namespace guideway::models::explain {
 
@@ -15,7 +16,7 @@ namespace effects {
 extern const Effect backlash, reversal_spike, lateral_play, servo_mismatch, servo_lag, cyclic_error, thermal_drift,
     vibration, stick_slip, scale_mismatch, squareness, straightness, spindle_axial_runout, tool_wear, feed_marks,
     abbe_offset, cosine_error, sensor_nonlinearity, synchronous_harmonic, asynchronous_line, speed_variation,
-    artifact_form, speed_ripple;
+    artifact_form, speed_ripple, angle_drift, reflector_rocking, pitch_wave, yaw_coupling;
 
 const std::vector<const Effect*>& library() {
   static const std::vector<const Effect*> table = {
@@ -42,6 +43,10 @@ const std::vector<const Effect*>& library() {
       &speed_variation,
       &artifact_form,
       &speed_ripple,
+      &angle_drift,
+      &reflector_rocking,
+      &pitch_wave,
+      &yaw_coupling,
   };
   return table;
 }
@@ -73,6 +78,8 @@ std::vector<Candidate> dbb_candidates(const DbbTerms& terms) { return candidates
 std::vector<Candidate> profile_candidates(const ProfileTerms& terms) { return candidates(terms, &Effect::profile); }
 
 std::vector<Candidate> runout_candidates(const RunoutTerms& terms) { return candidates(terms, &Effect::runout); }
+
+std::vector<Candidate> traverse_candidates(const TraverseTerms& terms) { return candidates(terms, &Effect::traverse); }
 
 }  // namespace effects
 

@@ -10,8 +10,8 @@
 
 #include <Eigen/Dense>
 
-#include "core/number_format.hpp"
 #include "core/csv_table.hpp"
+#include "core/number_format.hpp"
 
 namespace guideway::models::flatness {
 
@@ -24,7 +24,7 @@ double checked_angle(const CsvTable& t, const CsvTable::Row& row, std::size_t co
   const double range_arcsec = ac.range_rad / rad_per_arcsec;
   if (std::abs(arcsec) > range_arcsec)
     throw CsvError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(arcsec, 10) +
-                     " is outside the autocollimator range +-" + significant_digits(range_arcsec, 10) + " arcsec");
+                   " is outside the autocollimator range +-" + significant_digits(range_arcsec, 10) + " arcsec");
   return arcsec * rad_per_arcsec;
 }
 
@@ -162,26 +162,36 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
   const std::size_t cx = t.column("x_mm");
   const std::size_t cp = t.column("pitch_arcsec");
   const auto cy = t.find_column("yaw_arcsec");
-  if (t.rows.size() < 2)
-    throw CsvError(source + ": " + std::to_string(t.rows.size()) + " readings; a traverse needs at least 2");
+  // A file of several passes (a `pass` column): its first pass is the traverse evaluated here.
+  std::size_t rows = t.rows.size();
+  if (const auto cpass = t.find_column("pass"); cpass && rows > 0) {
+    const double first = t.number(t.rows.front(), *cpass);
+    for (std::size_t i = 1; i < rows; ++i)
+      if (t.number(t.rows[i], *cpass) != first) {
+        rows = i;
+        break;
+      }
+  }
+  if (rows < 2) throw CsvError(source + ": " + std::to_string(rows) + " readings; a traverse needs at least 2");
   double prev_x = 0.0;
-  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+  for (std::size_t i = 0; i < rows; ++i) {
     const auto& row = t.rows[i];
     const double x = t.number(row, cx);
     if (i > 0) {
       const double dx = x - prev_x;
       const double tol = 1e-3 * step_mm;
       if (dx <= tol)
-        throw CsvError(where(source, row.line) + "x_mm = " + significant_digits(x, 10) + " does not increase (previous station " +
-                         significant_digits(prev_x, 10) + ")");
+        throw CsvError(where(source, row.line) + "x_mm = " + significant_digits(x, 10) +
+                       " does not increase (previous station " + significant_digits(prev_x, 10) + ")");
       if (std::abs(dx - step_mm) > tol) {
         const double steps = dx / step_mm;
         if (std::abs(steps - std::round(steps)) <= 1e-3 * steps)
-          throw CsvError(where(source, row.line) + "missing station: x_mm jumps from " + significant_digits(prev_x, 10) + " to " +
-                           significant_digits(x, 10) + " (step_mm = " + significant_digits(step_mm, 10) + ", " + significant_digits(std::round(steps) - 1, 10) +
-                           " station(s) missing, first at x_mm = " + significant_digits(prev_x + step_mm, 10) + ")");
+          throw CsvError(where(source, row.line) + "missing station: x_mm jumps from " +
+                         significant_digits(prev_x, 10) + " to " + significant_digits(x, 10) + " (step_mm = " +
+                         significant_digits(step_mm, 10) + ", " + significant_digits(std::round(steps) - 1, 10) +
+                         " station(s) missing, first at x_mm = " + significant_digits(prev_x + step_mm, 10) + ")");
         throw CsvError(where(source, row.line) + "x_mm spacing " + significant_digits(dx, 10) +
-                         " does not match step_mm = " + significant_digits(step_mm, 10));
+                       " does not match step_mm = " + significant_digits(step_mm, 10));
       }
     }
     prev_x = x;

@@ -8,8 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "formats/profile_files.hpp"
 #include "core/units.hpp"
+#include "formats/profile_files.hpp"
 
 namespace guideway::simulators::emulators {
 
@@ -80,12 +80,19 @@ std::string straightness_traverse_csv(const machine::Machine& machine, const Wor
   t.seed = seed_of(machine, spec.seed) + 1;
   std::ostringstream out;
   out << "# step_mm = " << setting(spec.step_m * 1e3) << "\n# machine = " << machine.config().name
-      << "\nx_mm,pitch_arcsec,yaw_arcsec\n";
+      << (spec.passes > 1 ? "\nx_mm,pitch_arcsec,yaw_arcsec,t_s,pass\n" : "\nx_mm,pitch_arcsec,yaw_arcsec\n");
   // Rotation about +y is minus the slope of the vertical path, rotation about +z plus the slope of the
-  // horizontal one (docs/formats.md, Straightness traverse).
-  for (const auto& s : machine.autocollimator_traverse(t))
-    out << number((s.position_m - spec.step_m / 2) * 1e3) << "," << number(-s.pitch_rad / arcsec) << ","
-        << number(s.yaw_rad / arcsec) << "\n";
+  // horizontal one (docs/formats.md, Straightness traverse). Several passes: forward and back, each
+  // reading with its time and its pass.
+  t.dwell_s = spec.dwell_s;
+  const auto passes = machine.autocollimator_passes(t, spec.passes, spec.turn_s);
+  for (std::size_t k = 0; k < passes.size(); ++k)
+    for (const auto& s : passes[k]) {
+      out << number((s.position_m - spec.step_m / 2) * 1e3) << "," << number(-s.pitch_rad / arcsec) << ","
+          << number(s.yaw_rad / arcsec);
+      if (spec.passes > 1) out << "," << number(s.t_s) << "," << k + 1;
+      out << "\n";
+    }
   return out.str();
 }
 
@@ -99,9 +106,8 @@ std::string runout_revolution_csv(const machine::Machine& machine, const Workpie
       spec.parallelism_m.value_or(machine.config().spindle.plate_parallelism_rad * 2 * spec.probe_radius_m);
   std::ostringstream out;
   out << "# plate_diameter_mm = " << setting(2 * spec.probe_radius_m * 1e3)
-      << "\n# parallelism_um = " << setting(parallelism_m * 1e6)
-      << "\n# travel_mm = " << setting(spec.traverse_m * 1e3) << "\n# machine = " << machine.config().name
-      << "\nangle_deg,runout_um\n";
+      << "\n# parallelism_um = " << setting(parallelism_m * 1e6) << "\n# travel_mm = " << setting(spec.traverse_m * 1e3)
+      << "\n# machine = " << machine.config().name << "\nangle_deg,runout_um\n";
   for (const auto& s : machine.runout_revolution(r))
     out << number(s.angle_rad * 180.0 / std::numbers::pi) << "," << number(s.displacement_m * 1e6) << "\n";
   return out.str();

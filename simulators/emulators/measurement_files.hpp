@@ -23,12 +23,15 @@ struct WorkpieceFilesSpec {
   double traverse_m = 0.6;
   double spindle_rpm = 110.0;
   double profile_step_m = 0.05e-3;
-  double step_m = 0.01;           // autocollimator foot spacing
-  double probe_radius_m = 0.5;    // run-out probe at the rim of a 1000 mm plate (Mu: L = 1000 mm)
+  double step_m = 0.01;         // autocollimator foot spacing
+  std::size_t passes = 1;       // traverse passes, forward and back (> 1: with t_s and pass columns)
+  double dwell_s = 1.0;         // time per traverse station
+  double turn_s = 10.0;         // between the passes
+  double probe_radius_m = 0.5;  // run-out probe at the rim of a 1000 mm plate (Mu: L = 1000 mm)
   // p of Eq. 21 written into the run-out file (a set-up value measured apart); unset: the machine's
   // plate parallelism times the plate diameter, i.e. measured without error.
   std::optional<double> parallelism_m;
-  std::uint64_t seed = 0;         // 0 = the machine's noise seed
+  std::uint64_t seed = 0;  // 0 = the machine's noise seed
 };
 
 std::string workpiece_profile_csv(const machine::Machine& machine, const WorkpieceFilesSpec& spec,

@@ -34,6 +34,7 @@ void add_workpiece(CLI::App& app, int& exit_code) {
     double probe_radius_mm = 500;
     std::optional<double> parallelism_um;
     std::uint64_t seed = 0;
+    std::size_t passes = 1;
   };
   auto a = std::make_shared<Args>();
   auto* sub = app.add_subcommand(
@@ -46,6 +47,11 @@ void add_workpiece(CLI::App& app, int& exit_code) {
   sub->add_option("--x-start-mm", a->x_start_mm, "X at the start")->capture_default_str();
   sub->add_option("--profile-step-mm", a->profile_step_mm, "profilometer point spacing")->capture_default_str();
   sub->add_option("--step-mm", a->step_mm, "autocollimator foot spacing")->capture_default_str();
+  sub->add_option("--passes", a->passes,
+                  "traverse passes forward and back, 1 s a station, 10 s between passes (> 1: the file gets t_s and "
+                  "pass columns, for guideway explain --model traverse)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   sub->add_option("--probe-radius-mm", a->probe_radius_mm, "run-out probe radius (plate diameter / 2)")
       ->capture_default_str();
   sub->add_option("--parallelism-um", a->parallelism_um,
@@ -60,6 +66,7 @@ void add_workpiece(CLI::App& app, int& exit_code) {
       s.spindle_rpm = a->rpm;
       s.profile_step_m = a->profile_step_mm * 1e-3;
       s.step_m = a->step_mm * 1e-3;
+      s.passes = a->passes;
       s.probe_radius_m = a->probe_radius_mm * 1e-3;
       if (a->parallelism_um) s.parallelism_m = *a->parallelism_um * 1e-6;
       s.seed = a->seed;

@@ -52,6 +52,13 @@ Vector3d travel_direction(const MachineConfig& m, int j) {
 // Rotation error motion of axis j at position u (Mu Eq. 2 order: Rx * Ry * Rz).
 Matrix3d axis_rotation(const AxisErrors& e, int j, double u) {
   double ang[3] = {e.rotation[0](u), e.rotation[1](u), e.rotation[2](u)};
+  // Periodic pitch and yaw (a rack, a lead screw): the pitch axis is y for X and Z, x for Y; the yaw axis z
+  // for X and Y, x for Z (as the autocollimator traverse reads them).
+  const auto wave = [u](double a, double period, double phase) {
+    return a == 0.0 ? 0.0 : a * std::sin(2.0 * std::numbers::pi * u / period + phase);
+  };
+  ang[j == 1 ? 0 : 1] += wave(e.pitch_wave_rad, e.pitch_wave_period_m, e.pitch_wave_phase_rad);
+  ang[j == 2 ? 0 : 2] += wave(e.yaw_wave_rad, e.yaw_wave_period_m, e.yaw_wave_phase_rad);
   if (e.bending) {
     const auto slope = [&](int i) { return std::atan(e.translation[static_cast<std::size_t>(i)].derivative(u)); };
     if (j == 0) {
@@ -370,6 +377,23 @@ double static_actual(const AxisErrors& e, double u, int dir) {
   return act;
 }
 
+// The instrument's own errors on the mirror's angles. They are defined on the readings as a traverse file
+// holds them (pitch read = - the rotation pitch_rad, yaw read = + yaw_rad; docs/formats.md), so the
+// rotation here takes them with those signs.
+void read_through_instrument(const AutocollimatorErrors& a, int dir, double t_s, TraverseStation& st) {
+  double pitch = -st.pitch_rad, yaw = st.yaw_rad;
+  if (a.head_roll_rad != 0.0) {
+    const double c = std::cos(a.head_roll_rad), s = std::sin(a.head_roll_rad);
+    const double p0 = pitch;
+    pitch = p0 * c + yaw * s;
+    yaw = yaw * c - p0 * s;
+  }
+  pitch += a.pitch_drift_rad_per_s * t_s + a.rocking_rad * dir;
+  yaw += a.yaw_drift_rad_per_s * t_s;
+  st.pitch_rad = -pitch;
+  st.yaw_rad = yaw;
+}
+
 }  // namespace
 
 std::vector<TraverseStation> Machine::autocollimator_traverse(const TraverseSpec& spec) const {
@@ -408,11 +432,27 @@ std::vector<TraverseStation> Machine::autocollimator_traverse(const TraverseSpec
       st.pitch_rad = std::atan2(n_mirror.x(), n_mirror.z());
       st.yaw_rad = std::atan2(-n_mirror.y(), n_mirror.z());
     }
+    read_through_instrument(config_.autocollimator, dir, t, st);
     if (config_.noise.autocollimator_rad > 0) {
       st.pitch_rad += config_.noise.autocollimator_rad * rng.normal();
       st.yaw_rad += config_.noise.autocollimator_rad * rng.normal();
     }
     out.push_back(st);
+  }
+  return out;
+}
+
+std::vector<std::vector<TraverseStation>> Machine::autocollimator_passes(const TraverseSpec& spec, std::size_t passes,
+                                                                         double turn_s) const {
+  std::vector<std::vector<TraverseStation>> out;
+  TraverseSpec pass = spec;
+  const std::uint64_t seed = spec.seed != 0 ? spec.seed : config_.noise.seed;
+  for (std::size_t k = 0; k < passes; ++k) {
+    pass.seed = seed + k;
+    out.push_back(autocollimator_traverse(pass));
+    if (out.back().empty()) break;
+    pass.t0_s = out.back().back().t_s + turn_s;
+    std::swap(pass.start_m, pass.end_m);
   }
   return out;
 }

@@ -59,6 +59,14 @@ struct AxisErrors {
   double cyclic_amplitude_m = 0.0;  // lead-screw error: + A sin(2 pi u / period + phase)
   double cyclic_period_m = 0.005;
   double cyclic_phase_rad = 0.0;
+  // A periodic pitch of the carriage as it runs over a rack or a lead screw's long wave: the rotation about
+  // the axis' pitch axis (X: y, Y: x, Z: y) gains A sin(2 pi u / period + phase).
+  double pitch_wave_rad = 0.0;
+  double pitch_wave_period_m = 0.1;
+  double pitch_wave_phase_rad = 0.0;
+  double yaw_wave_rad = 0.0;  // the same about the yaw axis (X, Y: z; Z: x)
+  double yaw_wave_period_m = 0.1;
+  double yaw_wave_phase_rad = 0.0;
 
   // Thermal (t = machine time in s since the start of the warm-up, see the queries' t0_s).
   double scale_drift_per_s = 0.0;  // d(scale)/dt
@@ -136,6 +144,18 @@ struct SpindleErrors {
   double speed_ripple_per_rev = 0.0;
 };
 
+// The autocollimator and its set-up, as its traverse readings see them (docs/formats.md's signs: a reading
+// is the slope, > 0 rising towards +x): the instrument's zero or the air drifts in time, the reflector
+// rocks on its mount with the direction of travel, and a head turned about its beam reads part of the yaw
+// as pitch.
+struct AutocollimatorErrors {
+  double pitch_drift_rad_per_s = 0.0;  // both channels' zero drift, from machine time 0
+  double yaw_drift_rad_per_s = 0.0;
+  double rocking_rad = 0.0;  // the pitch reading gains + rocking moving +, - rocking moving -
+  // pitch read = pitch cos r + yaw sin r, yaw read = yaw cos r - pitch sin r
+  double head_roll_rad = 0.0;
+};
+
 struct SensorNoise {
   std::uint64_t seed = 1;
   double autocollimator_rad = 0.0;  // standard deviation per reading
@@ -185,6 +205,7 @@ struct MachineConfig {
   Squareness squareness;
   DbbErrors dbb;
   SpindleErrors spindle;
+  AutocollimatorErrors autocollimator;
   SensorNoise noise;
   Vec3 tool_offset{};  // tool point in the Z carriage frame at zero (m); non-zero gives Abbe arms
   // The controller's corrections (not part of a machine file; machine::remeasure_dbb loads them); they act
@@ -368,6 +389,12 @@ class Machine {
 
   [[nodiscard]] DbbRun dbb_circle(const DbbCircleSpec& spec) const;
   [[nodiscard]] std::vector<TraverseStation> autocollimator_traverse(const TraverseSpec& spec) const;
+  // Passes back and forth: `spec` is the first (forward) pass, the next runs from its end back to its start,
+  // and so on, each starting turn_s after the last reading of the one before; pass k's noise seed is
+  // spec's seed (or the machine's) + k.
+  [[nodiscard]] std::vector<std::vector<TraverseStation>> autocollimator_passes(const TraverseSpec& spec,
+                                                                                std::size_t passes,
+                                                                                double turn_s) const;
   // Readings at times t0 + k T / samples_per_rev (T = 60 / rpm), k < samples_per_rev * revolutions;
   // the angle is where the spindle is at that time (its speed may drift).
   [[nodiscard]] std::vector<RunoutSample> runout_revolution(const RunoutSpec& spec) const;

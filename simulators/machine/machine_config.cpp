@@ -72,6 +72,12 @@ AxisErrors read_axis(const TableReader& t) {
   e.cyclic_amplitude_m = t.get_double("cyclic_amplitude_um", 0.0, -1e5, 1e5) * um;
   e.cyclic_period_m = t.get_double("cyclic_period_mm", 5.0, 1e-3, 1e4) * 1e-3;
   e.cyclic_phase_rad = t.get_double("cyclic_phase_deg", 0.0, -360.0, 360.0) * deg;
+  e.pitch_wave_rad = t.get_double("pitch_wave_urad", 0.0, -1e5, 1e5) * um;
+  e.pitch_wave_period_m = t.get_double("pitch_wave_period_mm", 100.0, 1e-3, 1e5) * 1e-3;
+  e.pitch_wave_phase_rad = t.get_double("pitch_wave_phase_deg", 0.0, -360.0, 360.0) * deg;
+  e.yaw_wave_rad = t.get_double("yaw_wave_urad", 0.0, -1e5, 1e5) * um;
+  e.yaw_wave_period_m = t.get_double("yaw_wave_period_mm", 100.0, 1e-3, 1e5) * 1e-3;
+  e.yaw_wave_phase_rad = t.get_double("yaw_wave_phase_deg", 0.0, -360.0, 360.0) * deg;
   e.scale_drift_per_s = t.get_double("scale_drift_ppm_per_h", 0.0, -1e5, 1e5) * 1e-6 / 3600.0;
   e.drift_m_per_s = t.get_double("drift_um_per_h", 0.0, -1e6, 1e6) * um / 3600.0;
   e.bump_amplitude_m = t.get_double("bump_um", 0.0, -1e5, 1e5) * um;
@@ -143,6 +149,15 @@ MachineConfig read(const toml::table& root, const std::string& file) {
     m.spindle.speed_ripple_per_rev = t->get_double("speed_ripple_per_rev", 0.0, 0.0, 1000.0);
     if (m.spindle.speed_ripple != 0 && m.spindle.speed_ripple_per_rev <= 0)
       t->fail("speed_ripple_per_rev", "a speed ripple needs its frequency in cycles per revolution (> 0)");
+    t->reject_unknown_keys();
+  }
+  if (auto t = top.table("autocollimator")) {
+    constexpr double arcsec = deg / 3600.0;
+    m.autocollimator.pitch_drift_rad_per_s =
+        t->get_double("pitch_drift_arcsec_per_min", 0.0, -1e4, 1e4) * arcsec / 60.0;
+    m.autocollimator.yaw_drift_rad_per_s = t->get_double("yaw_drift_arcsec_per_min", 0.0, -1e4, 1e4) * arcsec / 60.0;
+    m.autocollimator.rocking_rad = t->get_double("rocking_arcsec", 0.0, -1e4, 1e4) * arcsec;
+    m.autocollimator.head_roll_rad = t->get_double("head_roll_deg", 0.0, -45.0, 45.0) * deg;
     t->reject_unknown_keys();
   }
   if (auto t = top.table("axis")) {

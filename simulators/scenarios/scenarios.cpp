@@ -756,6 +756,7 @@ std::vector<std::string> scenario_names() {
                         "flatness_null", "straightness_thermal_two_feeds", "straightness_null"})
     out.emplace_back(p);
   for (auto& n : runout_scenario_names()) out.push_back(std::move(n));
+  for (auto& n : traverse_scenario_names()) out.push_back(std::move(n));
   return out;
 }
 
@@ -763,6 +764,7 @@ ScenarioResult run_scenario(const std::string& name, const ScenarioOptions& opti
   if (const DbbScenario* d = find_dbb(name)) return dbb_scenario(*d, options);
   if (name.rfind("flatness_", 0) == 0 || name.rfind("straightness_", 0) == 0) return profile_scenario(name, options);
   if (name.rfind("runout_", 0) == 0) return runout_scenario(name, options);
+  if (name.rfind("traverse_", 0) == 0) return traverse_scenario(name, options);
   throw std::invalid_argument("unknown scenario: " + name);
 }
 

@@ -14,6 +14,11 @@
 
 #include "formats/dbb_run.hpp"
 #include "models/explain/explain_result.hpp"
+#include "models/explain/traverse_explain.hpp"
+
+namespace guideway::simulators::machine {
+class Machine;
+}
 
 namespace guideway::simulators::scenarios {
 
@@ -64,6 +69,21 @@ std::vector<std::string> scenario_names();
 // The spindle run-out scenarios (runout_scenarios.cpp), part of scenario_names().
 std::vector<std::string> runout_scenario_names();
 ScenarioResult runout_scenario(const std::string& name, const ScenarioOptions& options);
+// Passes of the virtual machine's X carriage under an autocollimator, as traverse files hold them (rear foot,
+// the pitch read = - the rotation about +y; docs/formats.md): forward, return, forward, ... each `turn_s`
+// after the one before, every file its own set-up with its clock from 0, each pass its own noise seed.
+struct SimulatedTraverse {
+  double start_m = 0.0, end_m = 0.6, step_m = 0.01;
+  double dwell_s = 2.0;  // time per station
+  double turn_s = 10.0;  // between the last reading of a pass and the first of the next
+  std::size_t passes = 2, files = 1;
+  std::uint64_t seed = 1;
+};
+std::vector<models::explain::TraversePass> simulated_traverse(const machine::Machine& machine,
+                                                              const SimulatedTraverse& traverse);
+// The autocollimator traverse scenarios (traverse_scenarios.cpp), part of scenario_names().
+std::vector<std::string> traverse_scenario_names();
+ScenarioResult traverse_scenario(const std::string& name, const ScenarioOptions& options);
 // Every expectation of `s` against its report's findings, and the common checks (held-out RMS improved,
 // unexplained as expected): fills checks, extra, pass and failure.
 void check_expectations(ScenarioResult& s);

@@ -19,9 +19,10 @@ namespace guideway::models::explain::effects {
 
 inline constexpr double pi = std::numbers::pi;
 
-struct DbbTerms;      // what a DBB term is built from (dbb_terms.hpp)
-struct ProfileTerms;  // what a profile term is built from (profile_terms.hpp)
-struct RunoutTerms;   // what a spindle run-out term is built from (runout_terms.hpp)
+struct DbbTerms;       // what a DBB term is built from (dbb_terms.hpp)
+struct ProfileTerms;   // what a profile term is built from (profile_terms.hpp)
+struct RunoutTerms;    // what a spindle run-out term is built from (runout_terms.hpp)
+struct TraverseTerms;  // what an autocollimator traverse term is built from (traverse_terms.hpp)
 
 // A model's candidate term for an effect: the finding's sentence and what fills the candidate's
 // variants, generator and search size (false: no term for these runs, e.g. no measured angle).
@@ -38,7 +39,8 @@ struct Effect {
   // The effect lives on a few samples per run (a spike, a jerk) or on a few hundredths of a um: the
   // scenario suite simulates it at the instrument's full sample density.
   bool needs_dense_sampling = false;
-  Term<RunoutTerms> runout = {};  // build == nullptr: no term for a spindle run-out record
+  Term<RunoutTerms> runout = {};      // build == nullptr: no term for a spindle run-out record
+  Term<TraverseTerms> traverse = {};  // build == nullptr: no term for autocollimator traverses
 };
 
 // The library, in its order (effects.cpp: one line per effect file).
@@ -51,5 +53,6 @@ const Effect* find(std::string_view name);
 std::vector<Candidate> dbb_candidates(const DbbTerms& terms);
 std::vector<Candidate> profile_candidates(const ProfileTerms& terms);
 std::vector<Candidate> runout_candidates(const RunoutTerms& terms);
+std::vector<Candidate> traverse_candidates(const TraverseTerms& terms);
 
 }  // namespace guideway::models::explain::effects

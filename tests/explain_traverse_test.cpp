@@ -1,0 +1,165 @@
+// EXPLAIN for autocollimator traverses (models/explain/traverse_explain) on the virtual machine's X
+// carriage: the traverse file with passes (read and refused), what the example machine file holds found
+// and nothing else, what one pass cannot tell, and the machine file's [autocollimator] and wave keys.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "core/csv_table.hpp"
+#include "core/toml_access.hpp"
+#include "models/explain/explain.hpp"
+#include "models/explain/traverse_explain.hpp"
+#include "simulators/machine/machine.hpp"
+#include "simulators/scenarios/scenarios.hpp"
+
+namespace {
+
+using namespace guideway;
+using models::explain::Report;
+
+constexpr double arcsec = 4.84813681109536e-6;
+
+std::map<std::string, models::explain::ParamValue> parameters(const Report& rep) {
+  std::map<std::string, models::explain::ParamValue> out;
+  for (const auto& f : rep.findings)
+    for (const auto& p : f.parameters) out[p.name] = p;
+  return out;
+}
+
+std::string effects(const Report& rep) {
+  std::string s;
+  for (const auto& f : rep.findings) s += f.effect + "; ";
+  return s;
+}
+
+TEST(TraverseFile, PassesForwardAndBackWithTimes) {
+  const std::string text =
+      "# step_mm = 10\nx_mm,pitch_arcsec,yaw_arcsec,t_s,pass\n"
+      "0,1.5,0.1,0,1\n10,1.25,0.2,2,1\n20,1,0.3,4,1\n"
+      "20,1.1,0.3,14,2\n10,1.3,0.2,16,2\n0,1.6,0.1,18,2\n";
+  const auto passes = models::explain::parse_traverse_passes(text, "t.csv");
+  ASSERT_EQ(passes.size(), 2u);
+  EXPECT_EQ(passes[0].direction, 1);
+  EXPECT_EQ(passes[1].direction, -1);
+  EXPECT_EQ(passes[1].source, "t.csv pass 2");
+  EXPECT_DOUBLE_EQ(passes[1].t_s.front(), 14.0);
+  EXPECT_NEAR(passes[1].pitch_rad.back(), 1.6 * arcsec, 1e-15);
+  EXPECT_DOUBLE_EQ(passes[0].step_m, 0.01);
+  // A plain traverse (no pass column) is one pass.
+  const auto one = models::explain::parse_traverse_passes("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n", "p.csv");
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_TRUE(one[0].t_s.empty());
+  EXPECT_TRUE(one[0].yaw_rad.empty());
+}
+
+TEST(TraverseFile, RefusesWhatCannotBePlaced) {
+  const auto error = [](const std::string& text) {
+    try {
+      models::explain::parse_traverse_passes(text, "bad.csv");
+    } catch (const CsvError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  // A turn inside a pass, a skipped station, a pass coming back, time running backwards, out of range.
+  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,1\n0,1\n").find("bad.csv:5: x_mm = 0 is not one step"),
+            std::string::npos);
+  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n20,1\n").find("bad.csv:4:"), std::string::npos);
+  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec,pass\n0,1,1\n10,1,1\n10,1,2\n0,1,2\n0,1,1\n10,1,1\n")
+                .find("pass 1 again"),
+            std::string::npos);
+  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec,t_s\n0,1,5\n10,1,4\n").find("t_s = 4 does not increase"),
+            std::string::npos);
+  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,700\n").find("outside the autocollimator range"),
+            std::string::npos);
+  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n").find("at least 2"), std::string::npos);
+}
+
+// The example machine (config/machine-example.toml) read forward and back: its drift (0.1"/min) and its
+// reflector's rocking (0.2") are named, with their sizes within a few u, and nothing else.
+TEST(ExplainTraverse, FindsWhatTheExampleMachineFileHolds) {
+  const simulators::machine::MachineConfig cfg = simulators::machine::default_machine_config();
+  ASSERT_NEAR(cfg.autocollimator.pitch_drift_rad_per_s, 0.1 * arcsec / 60.0, 1e-15);
+  ASSERT_NEAR(cfg.autocollimator.rocking_rad, 0.2 * arcsec, 1e-15);
+  simulators::scenarios::SimulatedTraverse t;
+  t.seed = 7;
+  const Report rep = models::explain::explain_traverses(
+      simulators::scenarios::simulated_traverse(simulators::machine::Machine(cfg), t));
+  auto p = parameters(rep);
+  ASSERT_EQ(rep.findings.size(), 2u) << effects(rep);
+  ASSERT_TRUE(p.count("angle_drift_arcsec_per_min")) << effects(rep);
+  ASSERT_TRUE(p.count("reflector_rocking_arcsec")) << effects(rep);
+  EXPECT_NEAR(p["angle_drift_arcsec_per_min"].value, 0.1, 4 * p["angle_drift_arcsec_per_min"].u);
+  EXPECT_NEAR(p["reflector_rocking_arcsec"].value, 0.2, 4 * p["reflector_rocking_arcsec"].u);
+  EXPECT_LT(p["reflector_rocking_arcsec"].u, 0.02);  // 0.05" noise over 120 readings, beside the drift
+  EXPECT_FALSE(rep.unexplained);
+  EXPECT_LT(rep.final_fit.heldout_rms_um, rep.baseline.heldout_rms_um);
+}
+
+// One pass alone: time is a line in x and there is no other direction, so neither drift nor rocking is a
+// candidate (the notes say why), and the example machine's pass is explained by its base.
+TEST(ExplainTraverse, OnePassCannotTellDriftOrRockingAndSaysSo) {
+  simulators::scenarios::SimulatedTraverse t;
+  t.passes = 1;
+  const auto problem = models::explain::traverse_problem(simulators::scenarios::simulated_traverse(
+      simulators::machine::Machine(simulators::machine::default_machine_config()), t));
+  for (const auto& c : problem.candidates) {
+    EXPECT_NE(c.effect, "angle_drift");
+    EXPECT_NE(c.effect, "reflector_rocking");
+  }
+  std::string notes;
+  for (const auto& n : problem.notes) notes += n + "\n";
+  EXPECT_NE(notes.find("a drift in time is a slope in x"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("flips with the direction of travel is not seen"), std::string::npos) << notes;
+  const Report rep = models::explain::explain(problem);
+  EXPECT_TRUE(rep.findings.empty()) << effects(rep);
+}
+
+// A traverse at the session's default 50 mm steps (12 readings a pass) is refused with the numbers: the
+// engine's structure tests take a pass of 32 readings or more.
+TEST(ExplainTraverse, PassesTooShortForTheTestsAreRefusedWithTheNumbers) {
+  simulators::scenarios::SimulatedTraverse t;
+  t.step_m = 0.05;
+  t.passes = 4;
+  const auto passes =
+      simulators::scenarios::simulated_traverse(simulators::machine::Machine(simulators::machine::MachineConfig{}), t);
+  try {
+    models::explain::traverse_problem(passes);
+    FAIL() << "refused";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("the longest pass has 12 readings"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("a step of 18.75 mm or less"), std::string::npos) << e.what();
+  }
+}
+
+TEST(MachineTraverse, AutocollimatorKeysActOnTheReadingsAsAFileHoldsThem) {
+  auto cfg = simulators::machine::parse_machine_config(
+      "[autocollimator]\npitch_drift_arcsec_per_min = 0.6\nrocking_arcsec = 0.25\n"
+      "[axis.x]\npitch_wave_urad = 2\npitch_wave_period_mm = 50\n",
+      "t.toml");
+  simulators::machine::TraverseSpec fwd;
+  fwd.start_m = 0.0;
+  fwd.end_m = 0.1;
+  fwd.step_m = 0.0125;  // a quarter of the wave
+  fwd.dwell_s = 10.0;
+  const auto f = simulators::machine::Machine(cfg).autocollimator_traverse(fwd);
+  // pitch read = -rotation: drift 0.1" a station, rocking +0.25" moving +, the wave -2 urad sin(2 pi x / 50 mm).
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    const double wave = -2e-6 * std::sin(2 * std::numbers::pi * f[k].position_m / 0.05);
+    EXPECT_NEAR(-f[k].pitch_rad, 0.1 * arcsec * static_cast<double>(k) + 0.25 * arcsec + wave, 1e-12) << k;
+  }
+  simulators::machine::TraverseSpec back = fwd;
+  std::swap(back.start_m, back.end_m);
+  const auto b = simulators::machine::Machine(cfg).autocollimator_traverse(back);
+  EXPECT_NEAR(-b[0].pitch_rad, -0.25 * arcsec, 1e-12);  // moving -, at t = 0, x = 0.1 (a whole wave: sin = 0)
+  EXPECT_THROW(simulators::machine::parse_machine_config("[autocollimator]\nhead_roll_deg = 60\n", "t.toml"),
+               ConfigError);
+  EXPECT_THROW(simulators::machine::parse_machine_config("[autocollimator]\nzero = 1\n", "t.toml"), ConfigError);
+}
+
+}  // namespace
