@@ -791,7 +791,9 @@ void add_cyclic_error(const LsqResult& res, bool on, std::size_t k0, double peri
   }
   out.push_back(est(results::name(results::cyclic_error, plane, axis), amp, u));
   out.push_back(est(results::name(results::cyclic_period, plane, axis), period * 1e3, nan, false));
-  out.push_back(est(results::name(results::cyclic_phase, plane, axis), std::atan2(ac, as) * 180 / pi, nan, false));
+  // The phase of an amplitude within 2 u of zero is noise's (it printed as e.g. 6e-10 deg): not reported.
+  if (std::isfinite(u) && amp > 2 * u)
+    out.push_back(est(results::name(results::cyclic_phase, plane, axis), std::atan2(ac, as) * 180 / pi, nan, false));
 }
 
 // The diagnostics as reported: the fitted terms identified, the scale mismatch, the cyclic errors, the
