@@ -281,7 +281,19 @@ void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Id
       body << html_note("No ballbar diagnostics: they need in-plane (h = 0) runs in both directions of one set-up.");
     return;
   }
-  body << html_table(estimates_table("Ballbar diagnostics", diag, id_result.plane, results::backlash.group));
+  // Values held at a searched or assumed value have no u: one line under the table, as the CLI prints them,
+  // not rows among the measured ones.
+  std::vector<models::dbb::Estimate> fitted, held;
+  for (const auto& e : diag) (e.fitted && std::isfinite(e.u) ? fitted : held).push_back(e);
+  body << html_table(estimates_table("Ballbar diagnostics", fitted, id_result.plane, results::backlash.group));
+  if (!held.empty()) {
+    std::string line;
+    for (const auto& e : held) {
+      const results::Shown s = results::shown(e.name, e.value, NAN, id_result.plane, results::backlash.group, 4);
+      line += (line.empty() ? "" : ", ") + s.label + " " + s.value + (s.unit.empty() ? "" : " " + s.unit);
+    }
+    body << "<p>Held at a searched or assumed value (no u): " << html_escape(line) << ".</p>";
+  }
   if (df.n > 0)
     body << "<p>Diagnostics fit: rms " << format_number(df.rms_um, 2) << " \u00b5m over " << df.n << " points.</p>";
   if (!df.unidentifiable.empty()) body << html_note("Diagnostics not separable by these runs: " + df.message);

@@ -280,6 +280,13 @@ TEST(Report, RecognisesInputsAndRendersSections) {
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"polar\""), 1u);  // one set-up, CW and CCW overlaid
   EXPECT_NE(html.find("circular hysteresis H"), std::string::npos);
   EXPECT_NE(html.find("backlash X"), std::string::npos);
+  // Values held at a searched or assumed value (a spike's decay) are one line under the diagnostics,
+  // not rows without a u among the measured ones.
+  const auto held = html.find("Held at a searched or assumed value (no u): ");
+  ASSERT_NE(held, std::string::npos);
+  EXPECT_LT(html.find("reversal spike decay X"), html.find("<", held + 1)) << "the decay is in that line";
+  EXPECT_GT(html.find("reversal spike decay X"), html.find("Ballbar diagnostics</caption>"));
+  EXPECT_GT(html.find("reversal spike decay X"), held);
   EXPECT_EQ(count(html, "class=\"plot\" data-plot=\"heightmap\""), 1u);
   // The DBB section's ranking ("what to fix first", beside the polar plot) and the explanation's RMS
   // after each finding (the example explanation carries no contributions: no ranking of its findings).
