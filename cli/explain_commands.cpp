@@ -378,9 +378,10 @@ void Opts::add(CLI::App& cmd) {
   cmd.add_flag("--effects", effects, "list the effect library");
   cmd.add_flag("--latest", latest, "the daemon's latest explanation (EXPLAIN) instead of files");
   cmd.add_option("--kind", kind, "with --latest: of this session kind (default: any)");
-  cmd.add_option("--machine", machine,
-                 "DBB or run-out: the virtual machine tool file the runs come from (the emulators' or guideway "
-                 "simulate's): print what it holds beside each finding, and what the test cannot observe and why")
+  cmd.add_option(
+         "--machine", machine,
+         "DBB, run-out or traverse: the virtual machine tool file the runs come from (the emulators' or guideway "
+         "simulate's): print what it holds beside each finding, and what the test cannot observe and why")
       ->check(CLI::ExistingFile);
 }
 
@@ -426,16 +427,17 @@ void explain_latest(const Opts& o, CliContext& ctx) {
   nlohmann::json comparison;
   if (!o.machine.empty()) {
     const std::string kind = r.value("kind", "");
-    if (kind != results::dbb_kind.name && kind != results::runout_kind.name)
-      throw std::runtime_error("explain: --machine compares DBB and run-out sessions only, not " + kind);
+    if (kind != results::dbb_kind.name && kind != results::runout_kind.name && kind != results::straightness_kind.name)
+      throw std::runtime_error("explain: --machine compares DBB, run-out and straightness sessions only, not " + kind);
     const nlohmann::json params =
         c.request(results::request(results::RequestClass::params, {{"kind", kind}}), results::MessageClass::params);
     throw_if_error_reply(params, o.json);
     const auto machine = simulators::machine::load_machine_config(o.machine);
     comparison = against_machine(
         r, params,
-        kind == results::runout_kind.name
-            ? simulators::scenarios::runout_truth(machine, {session_truth_record(params)})
+        kind == results::runout_kind.name ? simulators::scenarios::runout_truth(machine, {session_truth_record(params)})
+        : kind == results::straightness_kind.name
+            ? simulators::scenarios::traverse_truth(machine)
             : simulators::scenarios::dbb_truth(machine, params.value("plane", "xy"), session_truth_runs(params), true),
         o.machine);
   }
@@ -518,8 +520,14 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
           o.machine);
     return report;
   }
-  if (o.model == "traverse")
-    return models::explain::explain_traverses(models::explain::read_traverse_files(o.files), eo);
+  if (o.model == "traverse") {
+    auto report = models::explain::explain_traverses(models::explain::read_traverse_files(o.files), eo);
+    if (!o.machine.empty())
+      machine_comparison = against_machine(
+          models::explain::to_json(report), nlohmann::json::object(),
+          simulators::scenarios::traverse_truth(simulators::machine::load_machine_config(o.machine)), o.machine);
+    return report;
+  }
   std::vector<models::explain::ProfileRun> runs;
   for (const auto& f : o.files) runs.push_back(models::explain::read_profile_run(f));
   std::optional<models::flatness::AngleTraverse> traverse;
@@ -549,7 +557,8 @@ void run_explain(const Opts& o, CliContext& ctx) {
                                              : explain_files(o, eo, machine_comparison);
   if (!o.machine.empty() && machine_comparison.is_null())
     throw std::runtime_error(
-        "explain: --machine compares DBB runs and run-out records only (--model dbb|runout or --latest)");
+        "explain: --machine compares DBB runs, run-out records and traverses only (--model dbb|runout|traverse or "
+        "--latest)");
   progress.doing("");
   if (o.json) {
     nlohmann::json j = models::explain::to_json(report);

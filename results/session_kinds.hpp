@@ -70,12 +70,16 @@ inline constexpr SessionOption dbb_plane{
     "plane", OptionType::text, 0, 0, 0, "xy", "xy|xz|yz", "the plane of the standard and lai tests' circles"};
 
 // straightness: an autocollimator traverse.
-inline constexpr SessionOption straightness_step_mm{"step_mm", OptionType::number,         50.0, 0.1, 10000.0, {},
+// The default step: 600 mm in 32 steps, so that each pass of the emulated traverse has the 32 readings
+// EXPLAIN's structure tests need (models/explain/traverse_explain.cpp).
+inline constexpr SessionOption straightness_step_mm{"step_mm", OptionType::number,         18.75, 0.1, 10000.0, {},
                                                     {},        "distance between stations"};
 inline constexpr SessionOption straightness_start_mm{
     "start_mm", OptionType::number, 0.0, -1e5, 1e5, {}, {}, "position of the first station"};
 inline constexpr SessionOption straightness_stations{
-    "stations", OptionType::integer, 0, 0, 100000, {}, {}, "stations to take (0 = until the return)"};
+    "stations", OptionType::integer, 0, 0, 100000, {}, {}, "stations per pass (0 = until the return)"};
+inline constexpr SessionOption straightness_passes{
+    "passes", OptionType::integer, 2, 1, 100, {}, {}, "passes: forward, back, forward... over the same stations"};
 inline constexpr SessionOption straightness_start{"start",
                                                   OptionType::text,
                                                   0,
@@ -186,10 +190,10 @@ inline constexpr SessionKindInfo runout_kind{
     "runout", "spindle run-out revolution on a thrust plate: squareness by Mu's Eq. 21", runout_options};
 
 inline constexpr const SessionOption* straightness_options[] = {
-    &straightness_step_mm,        &straightness_start_mm,    &straightness_stations,   &straightness_start,
-    &straightness_return_gap_s,   &straightness_min_dwell_s, &straightness_max_hole_s, &straightness_settle_arcsec,
-    &straightness_pitch_channel,  &straightness_yaw_channel, &straightness_pitch_sign, &straightness_yaw_sign,
-    &straightness_angle_u_arcsec, &straightness_max_order};
+    &straightness_step_mm,       &straightness_start_mm,       &straightness_stations,    &straightness_passes,
+    &straightness_start,         &straightness_return_gap_s,   &straightness_min_dwell_s, &straightness_max_hole_s,
+    &straightness_settle_arcsec, &straightness_pitch_channel,  &straightness_yaw_channel, &straightness_pitch_sign,
+    &straightness_yaw_sign,      &straightness_angle_u_arcsec, &straightness_max_order};
 inline constexpr SessionKindInfo straightness_kind{
     "straightness", "autocollimator traverse: straightness from the station angles", straightness_options};
 

@@ -5,6 +5,7 @@
 
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
+#include "models/explain/traverse_explain.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/straightness.hpp"
 #include "sessions/session_support.hpp"
@@ -14,9 +15,10 @@ namespace guideway::sessions {
 namespace {
 
 struct StraightnessOptions {
-  double step_m = 0.05;
+  double step_m = 0.01875;
   double start_m = 0.0;
-  std::size_t stations = 0;  // 0: until the reflector is carried back
+  std::size_t stations = 0;  // per pass; 0: until the reflector is carried back
+  std::size_t passes = 2;    // forward, back, forward... over the same stations
   bool wait_for_return = true;
   double return_gap_s = 1.0;
   double min_dwell_s = 0.3;
@@ -37,6 +39,7 @@ StraightnessOptions parse_options(const nlohmann::json& o) {
   s.stations = static_cast<std::size_t>(integer_option(o, results::straightness_stations));
   if (s.stations == 1)
     throw std::invalid_argument("option stations = 1: a traverse needs at least 2 (0 = until the return)");
+  s.passes = static_cast<std::size_t>(integer_option(o, results::straightness_passes));
   s.wait_for_return = string_option(o, results::straightness_start) == "return";
   s.return_gap_s = number_option(o, results::straightness_return_gap_s);
   s.min_dwell_s = number_option(o, results::straightness_min_dwell_s);
@@ -133,7 +136,7 @@ class StraightnessSession : public Session {
       p << "waiting for the reflector to be carried back to the start (beam break of " << o_.return_gap_s << " s)";
     } else {
       p << pitch_rad_.size();
-      if (o_.stations > 0) p << "/" << o_.stations;
+      if (o_.stations > 0) p << "/" << o_.stations * o_.passes;
       p << " stations";
     }
     if (!note_.empty()) p << "; " << note_;
@@ -145,7 +148,8 @@ class StraightnessSession : public Session {
   [[nodiscard]] std::optional<double> time_left_s() const override {
     const std::size_t n = pitch_rad_.size();
     if (!collecting_ || o_.stations == 0 || n < 2) return std::nullopt;
-    return (last_station_t_ - first_station_t_) / static_cast<double>(n - 1) * static_cast<double>(o_.stations - n);
+    return (last_station_t_ - first_station_t_) / static_cast<double>(n - 1) *
+           static_cast<double>(o_.stations * o_.passes - n);
   }
 
   nlohmann::json identify() override {
@@ -154,6 +158,13 @@ class StraightnessSession : public Session {
       throw std::runtime_error(
           "traverse of " + std::to_string(pitch_rad_.size()) + " station(s); at least 2 are needed" +
           (collecting_ ? "" : " (no return of the reflector was seen: option start=now starts at once)"));
+    }
+    if (pitch_rad_.size() % o_.passes != 0 || pitch_rad_.size() / o_.passes < 2) {
+      throw std::runtime_error(std::to_string(pitch_rad_.size()) + " stations do not make " +
+                               std::to_string(o_.passes) +
+                               " passes of 2 or more stations each (option passes: the passes the traverse "
+                               "program runs; " +
+                               (done_ ? "the program ran a different number)" : "stopped within a pass)"));
     }
     text_ = traverse_text();
     const models::flatness::AngleTraverse tr =
@@ -175,10 +186,12 @@ class StraightnessSession : public Session {
     nlohmann::json j;
     j["model"] = result["model"];
     j["straightness"] = group;
-    j["traverse"] = {{"stations", r.readings}, {"step_mm", r.step_m * 1e3}, {"start_mm", o_.start_m * 1e3}};
+    j["traverse"] = {
+        {"stations", r.readings}, {"passes", o_.passes}, {"step_mm", r.step_m * 1e3}, {"start_mm", o_.start_m * 1e3}};
     if (!done_) {  // stopped before the count or the return
-      j["incomplete"] = "stopped after " + std::to_string(r.readings) +
-                        (o_.stations > 0 ? " of " + std::to_string(o_.stations) : std::string()) + " stations";
+      j["incomplete"] = "stopped after " + std::to_string(pitch_rad_.size()) +
+                        (o_.stations > 0 ? " of " + std::to_string(o_.stations * o_.passes) : std::string()) +
+                        " stations";
     }
     j["result"] = result;
     return j;
@@ -186,6 +199,7 @@ class StraightnessSession : public Session {
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
     return {{"step_mm", shortest(o_.step_m * 1e3)},
+            {"passes", std::to_string(o_.passes)},
             {"start_mm", shortest(o_.start_m * 1e3)},
             {"pitch_channel", o_.pitch_channel + (o_.pitch_sign < 0 ? " (negated)" : "")},
             {"yaw_channel", o_.yaw_channel.empty() ? "none" : o_.yaw_channel + (o_.yaw_sign < 0 ? " (negated)" : "")}};
@@ -195,15 +209,18 @@ class StraightnessSession : public Session {
     return write_derived_text(dir, base_name, "angles.csv", text_);
   }
 
-  // The session records one forward pass; EXPLAIN of a traverse (guideway explain --model traverse) needs a
-  // pass of 32 readings or more, and a return or a repeat to tell a drift or a rocking from the geometry.
-  // Said in the EXPLAIN rather than left silent; nothing is claimed.
+  // `guideway explain --model traverse` of the derived file's text, as offline: what the straightness
+  // polynomial common to the passes leaves, named from the traverse library (docs/explain.md, "Traverses").
   std::optional<nlohmann::json> explain() override {
-    return explain_not_analysed(
-        "straightness traverse",
-        "one forward pass of " + std::to_string(pitch_rad_.size()) +
-            " stations: EXPLAIN of a traverse (guideway explain --model traverse) needs a pass of 32 readings or more, "
-            "and passes back or repeated to tell a drift or a rocking from the straightness");
+    if (text_.empty()) return std::nullopt;
+    const auto passes = models::explain::parse_traverse_passes(text_, "traverse");
+    try {
+      return models::explain::to_json(models::explain::explain_traverses(passes));
+    } catch (const std::invalid_argument& e) {  // too few readings in a pass: said, not claimed
+      const std::string why = e.what();
+      return explain_not_analysed(std::string(results::straightness_kind.name),
+                                  why.starts_with("explain: ") ? why.substr(9) : why);
+    }
   }
 
  private:
@@ -218,8 +235,9 @@ class StraightnessSession : public Session {
     if (t1 - t0 < o_.min_dwell_s) return;  // passing through, not resting on a station
     pitch_rad_.push_back(o_.pitch_sign * pitch);
     yaw_rad_.push_back(o_.yaw_sign * yaw);
+    station_t_.push_back(0.5 * (t0 + t1));  // the reading is the dwell's mean
     (pitch_rad_.size() == 1 ? first_station_t_ : last_station_t_) = t0;
-    if (o_.stations > 0 && pitch_rad_.size() >= o_.stations) done_ = true;
+    if (o_.stations > 0 && pitch_rad_.size() >= o_.stations * o_.passes) done_ = true;
   }
 
   void on_hole(double t) {
@@ -232,8 +250,7 @@ class StraightnessSession : public Session {
       << ": waiting for the next traverse";
     note_ = m.str();
     collecting_ = false;
-    pitch_rad_.clear();
-    yaw_rad_.clear();
+    clear_stations();
   }
 
   // The reflector went back to the start.
@@ -250,20 +267,29 @@ class StraightnessSession : public Session {
     if (!pitch_rad_.empty()) {
       note_ = "a traverse of " + std::to_string(pitch_rad_.size()) + " station(s) ended early; starting again";
     }
-    pitch_rad_.clear();
-    yaw_rad_.clear();
+    clear_stations();
   }
 
-  // The traverse file of docs/formats.md: angles in arc-seconds, written so they read back exactly.
+  void clear_stations() {
+    pitch_rad_.clear();
+    yaw_rad_.clear();
+    station_t_.clear();
+  }
+
+  // The traverse file of docs/formats.md: angles in arc-seconds, written so they read back exactly; with the
+  // time of each reading (since the first) and its pass, forward passes odd, returns even.
   [[nodiscard]] std::string traverse_text() const {
     std::string t = "# step_mm = " + shortest(o_.step_m * 1e3) + "\n# device = " + device_ +
                     "\n# source = guidewayd straightness session\n";
-    t += yaw_ >= 0 ? "x_mm,pitch_arcsec,yaw_arcsec\n" : "x_mm,pitch_arcsec\n";
+    t += yaw_ >= 0 ? "x_mm,pitch_arcsec,yaw_arcsec,t_s,pass\n" : "x_mm,pitch_arcsec,t_s,pass\n";
+    const std::size_t per_pass = pitch_rad_.size() / o_.passes;
     for (std::size_t k = 0; k < pitch_rad_.size(); ++k) {
-      t += shortest((o_.start_m + static_cast<double>(k) * o_.step_m) * 1e3) + "," +
+      const std::size_t pass = k / per_pass, i = k % per_pass;
+      const std::size_t station = pass % 2 == 0 ? i : per_pass - 1 - i;
+      t += shortest((o_.start_m + static_cast<double>(station) * o_.step_m) * 1e3) + "," +
            shortest(pitch_rad_[k] / models::flatness::rad_per_arcsec);
       if (yaw_ >= 0) t += "," + shortest(yaw_rad_[k] / models::flatness::rad_per_arcsec);
-      t += "\n";
+      t += "," + shortest(station_t_[k] - station_t_[0]) + "," + std::to_string(pass + 1) + "\n";
     }
     return t;
   }
@@ -283,10 +309,21 @@ class StraightnessSession : public Session {
   std::size_t dwell_n_ = 0;
   double dwell_t0_ = 0.0, dwell_t1_ = 0.0, dwell_pitch_ = 0.0, dwell_yaw_ = 0.0;
   std::vector<double> pitch_rad_, yaw_rad_;
+  std::vector<double> station_t_;                        // mid-dwell time of each station, s
   double first_station_t_ = 0.0, last_station_t_ = 0.0;  // the first and the last station's start (time_left_s)
   std::string note_;
   std::string text_;
 };
+
+// A recording made before the passes option (no "passes" in its header) ran one forward pass of the
+// 50 mm step of its day.
+nlohmann::json recorded_options(nlohmann::json options, const std::map<std::string, std::string>& header) {
+  if (header.count(std::string(results::straightness_passes.name)) > 0 || !options.is_object()) return options;
+  const std::string passes(results::straightness_passes.name), step(results::straightness_step_mm.name);
+  if (!options.contains(passes)) options[passes] = 1;
+  if (!options.contains(step)) options[step] = 50.0;
+  return options;
+}
 
 }  // namespace
 
@@ -297,7 +334,7 @@ SessionKind straightness_session_kind() {
           [](const SessionRequest& r, const drivers::Driver& device) -> std::unique_ptr<Session> {
             return std::make_unique<StraightnessSession>(parse_options(r.options), device);
           },
-          {}};  // no recorded_options: a recording of this kind replays with its recorded options
+          &recorded_options};
 }
 
 }  // namespace guideway::sessions

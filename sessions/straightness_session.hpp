@@ -9,8 +9,12 @@
 // is the mean over its dwell. A beam break of at least `return_gap_s` is the reflector being carried
 // back to the start: by default the traverse begins after one (so a session started in the middle of
 // a traverse waits for the next), and, unless `stations` fixes the count, the next one ends it.
-// The station readings are written as a traverse file and identified from that very text, so
-// `guideway identify straightness` on the derived file gives the same result.
+// The traverse program runs `passes` passes over the same stations (default 2: forward, then back, the
+// turn station read twice), so the stations taken are passes x stations per pass; a pass is identified
+// with its direction from its place in that order. The station readings are written as a traverse file
+// (with each reading's time and pass) and identified from that very text, the first pass, so
+// `guideway identify straightness` on the derived file gives the same result; EXPLAIN is
+// `guideway explain --model traverse` of that text.
 
 #include "sessions/session.hpp"
 

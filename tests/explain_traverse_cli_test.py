@@ -2,7 +2,7 @@
 """`guideway explain --model traverse` end to end through files: the example machine's X carriage traversed
 forward and back by `guideway-emulate workpiece --passes 2` -> the drift and the reflector's rocking that
 config/machine-example.toml holds are named with their sizes, nothing else; the readable form; `identify
-straightness` evaluates the file's first pass; clear errors for a pass that turns or a file too short.
+straightness` evaluates the file's first pass; `--machine` puts the file's values beside; clear errors for a pass that turns or a file too short.
 
 usage: explain_traverse_cli_test.py GUIDEWAY GUIDEWAY_EMULATE
 """
@@ -36,6 +36,17 @@ def main():
         assert j["unexplained"] is False
         text = run(exe, "explain", "--model", "traverse", trav).stdout
         assert "reflector rocking" in text and "angle drift" in text and "note: what is explained" in text, text
+
+        # --machine: the findings beside the machine file's values, nothing found that the file lacks
+        machine = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config", "machine-example.toml")
+        c = json.loads(run(exe, "explain", "--model", "traverse", trav, "--machine", machine, "--json").stdout)
+        c = c["against_machine"]
+        held = {e["effect"]: (e["machine"], e["found"]) for e in c["findable"]}
+        assert abs(held["angle_drift"][0] - 0.1) < 1e-12 and held["angle_drift"][1] == drift["value"], held
+        assert abs(held["reflector_rocking"][0] - 0.2) < 1e-12 and held["reflector_rocking"][1] == rock["value"], held
+        assert set(held) == {"angle_drift", "reflector_rocking"} and c["not_in_machine"] == [], c
+        text = run(exe, "explain", "--model", "traverse", trav, "--machine", machine).stdout
+        assert "what the machine file holds" in text and "machine file 0.2" in text, text
 
         # identify straightness reads the first pass of the same file
         r = run(exe, "identify", "straightness", trav)

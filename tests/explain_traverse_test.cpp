@@ -120,7 +120,7 @@ TEST(ExplainTraverse, OnePassCannotTellDriftOrRockingAndSaysSo) {
   EXPECT_TRUE(rep.findings.empty()) << effects(rep);
 }
 
-// A traverse at the session's default 50 mm steps (12 readings a pass) is refused with the numbers: the
+// A traverse at the session's former default 50 mm steps (12 readings a pass) is refused with the numbers: the
 // engine's structure tests take a pass of 32 readings or more.
 TEST(ExplainTraverse, PassesTooShortForTheTestsAreRefusedWithTheNumbers) {
   simulators::scenarios::SimulatedTraverse t;

@@ -114,7 +114,7 @@ TEST(Results, SessionKindsListTheirOptionsWithDefaults) {
   EXPECT_EQ(results::session_kind_rank("unknown"), 4);
   EXPECT_EQ(&results::session_kind("profile"), &results::profile_kind);
   EXPECT_THROW((void)results::session_kind("nope"), std::out_of_range);
-  EXPECT_EQ(results::option_with_default(results::straightness_step_mm), "step_mm=50");
+  EXPECT_EQ(results::option_with_default(results::straightness_step_mm), "step_mm=18.75");
   EXPECT_EQ(results::option_with_default(results::straightness_start), "start=return|now (default return)");
   EXPECT_EQ(results::option_with_default(results::profile_wavelet), "wavelet=db1");
   const std::string d = results::description(results::runout_kind);

@@ -134,7 +134,7 @@ Layout layout_of(const std::vector<TraversePass>& passes) {
   if (longest < 32)
     throw std::invalid_argument("explain: the longest pass has " + std::to_string(longest) +
                                 " readings; EXPLAIN's structure tests need a pass of 32 readings or more (over " +
-                                shortest((hi - lo) * 1e3) + " mm: a step of " +
+                                shortest(std::round((hi - lo) * 1e6) / 1e3) + " mm: a step of " +
                                 shortest(std::floor((hi - lo) * 1e3 / 32 * 100) / 100) + " mm or less)");
   l.x0_m = lo;
   l.span_m = hi - lo;

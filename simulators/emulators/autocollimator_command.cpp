@@ -1,7 +1,7 @@
 // `guideway-emulate autocollimator`: a TA80-style autocollimator on a pseudo-terminal watching a
 // mirror on a carriage that traverses an axis of the virtual machine tool with stops every step; the
-// reflector is lifted between stops and carried back after the last (no reflection meanwhile), then
-// the traverse repeats.
+// reflector is lifted between stops, runs back over the same stops (--passes) and rests after the last
+// (no reflection meanwhile), then the program repeats.
 #include <csignal>
 #include <cstdio>
 #include <iostream>
@@ -21,8 +21,9 @@ struct AutocollimatorOptions {
   std::string axis = "x";
   double start_mm = 0.0;
   double end_mm = 600.0;
-  double step_mm = 50.0;
-  double dwell_s = 0.8;
+  double step_mm = 18.75;  // 33 stations a pass: EXPLAIN's structure tests need 32 readings
+  std::size_t passes = 2;
+  double dwell_s = 1.5;  // 2 s a station with the move: the example machine's drift of 0.1"/min is found
   double move_s = 0.5;
   double return_s = 1.5;
   double range_arcsec = 1000.0;
@@ -73,7 +74,7 @@ int run_autocollimator(const AutocollimatorOptions& o) {
   spec.step_m = o.step_mm * 1e-3;
   spec.dwell_s = o.dwell_s;
   AutocollimatorEmulator emu({o.range_arcsec, o.checksum, o.link},
-                             traverse_source(make_traverse_motion(machine, spec, o.move_s, o.return_s)));
+                             traverse_source(make_traverse_motion(machine, spec, o.move_s, o.return_s, o.passes)));
   emu.on_reopen([](const std::string& path) {
     std::printf("pty: %s\n", path.c_str());
     std::fflush(stdout);
@@ -96,11 +97,15 @@ void add_autocollimator(CLI::App& app, int& exit_code) {
                                  "TA80-style autocollimator on a pseudo-terminal (prints \"pty: /dev/pts/N\"), "
                                  "watching a traverse with stops");
   cmd->add_option("--link", o->link, "keep a symlink to the current pty here (survives disconnect faults)");
-  cmd->add_option("--machine", o->machine_file, "virtual machine tool file (default: config/machine-example.toml, compiled in)");
+  cmd->add_option("--machine", o->machine_file,
+                  "virtual machine tool file (default: config/machine-example.toml, compiled in)");
   cmd->add_option("--axis", o->axis, "traversed axis")->check(CLI::IsMember({"x", "y", "z"}))->capture_default_str();
   cmd->add_option("--start-mm", o->start_mm, "first station")->capture_default_str();
   cmd->add_option("--end-mm", o->end_mm, "last station")->capture_default_str();
   cmd->add_option("--step-mm", o->step_mm, "distance between stops")->capture_default_str();
+  cmd->add_option("--passes", o->passes, "passes over the stations: forward, back, forward...")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   cmd->add_option("--dwell-s", o->dwell_s, "time at each stop")->capture_default_str();
   cmd->add_option("--move-s", o->move_s, "reflector lifted between stops (no reflection)")->capture_default_str();
   cmd->add_option("--return-s", o->return_s, "reflector carried back to the start after the last stop (no reflection)")

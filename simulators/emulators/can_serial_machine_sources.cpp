@@ -168,12 +168,17 @@ bool TraverseMotion::reflecting(double t_s) const { return traverse_phase(*this,
 
 std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine,
                                                            const machine::TraverseSpec& spec, double move_s,
-                                                           double return_s) {
+                                                           double return_s, std::size_t passes) {
   auto m = std::make_shared<TraverseMotion>();
-  m->stations = machine.autocollimator_traverse(spec);
   m->dwell_s = spec.dwell_s > 0 ? spec.dwell_s : 1.0;
   m->move_s = std::max(0.0, move_s);
   m->return_s = std::max(0.0, return_s);
+  // Station k of the program is read at machine time k x (dwell + move), the time its dwell starts, so that
+  // a drift in time is what the session's clock sees.
+  machine::TraverseSpec timed = spec;
+  timed.dwell_s = m->dwell_s + m->move_s;
+  for (auto& pass : machine.autocollimator_passes(timed, std::max<std::size_t>(passes, 1), timed.dwell_s))
+    m->stations.insert(m->stations.end(), pass.begin(), pass.end());
   if (m->stations.empty()) m->stations.push_back({});
   return m;
 }

@@ -47,7 +47,10 @@ DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machin
 // The traverse: the station's angles hold while the carriage dwells there; t wraps around. Between
 // stations the reflector is lifted and set down one step on (`move_s`, no reflection), and after the
 // last station it is carried back to the start (`return_s`, no reflection): that is how a session
-// tells consecutive stations with equal angles apart and finds the start of a traverse.
+// tells consecutive stations with equal angles apart and finds the start of a traverse. With `passes`
+// > 1 the program runs forward, back, forward... over the same stations (Machine::autocollimator_passes:
+// the turn station read again after a move), `stations` all of them in the order read, and `return_s`
+// follows the last pass.
 struct TraverseMotion {
   std::vector<machine::TraverseStation> stations;
   double dwell_s = 1.0;
@@ -61,7 +64,7 @@ struct TraverseMotion {
 };
 std::shared_ptr<const TraverseMotion> make_traverse_motion(const machine::Machine& machine,
                                                            const machine::TraverseSpec& spec, double move_s = 0.0,
-                                                           double return_s = 0.0);
+                                                           double return_s = 0.0, std::size_t passes = 1);
 // x: yaw, y: pitch (arc-seconds); no reflection during moves and the return (and when the beam is
 // blocked by fault injection).
 AutocollimatorSource traverse_source(std::shared_ptr<const TraverseMotion> motion);

@@ -304,4 +304,32 @@ MachineTruth runout_truth(const machine::MachineConfig& m, const std::vector<Tru
   return t;
 }
 
+MachineTruth traverse_truth(const machine::MachineConfig& m) {
+  MachineTruth t;
+  const auto add = [&](std::string effect, const results::Parameter& p, double value, std::string note) {
+    t.findable.push_back({std::move(effect), results::name(p), value, std::move(note), 0.0});
+  };
+  const double arcsec = std::numbers::pi / (180.0 * 3600.0);
+  const auto& a = m.autocollimator;
+  if (a.pitch_drift_rad_per_s != 0)
+    add("angle_drift", results::angle_drift, a.pitch_drift_rad_per_s / arcsec * 60.0,
+        "forward and return passes disagree by it times the time between their readings");
+  if (a.rocking_rad != 0) add("reflector_rocking", results::reflector_rocking, a.rocking_rad / arcsec, "+ moving +x");
+  const auto& x = m.axis[0];
+  if (x.pitch_wave_rad != 0)
+    add("pitch_wave", results::pitch_wave, x.pitch_wave_rad / arcsec,
+        printf_number("period %g mm", x.pitch_wave_period_m * 1e3));
+  if (a.head_roll_rad != 0)
+    add("yaw_coupling", results::yaw_coupling, 100.0 * std::sin(a.head_roll_rad),
+        "seen only where the yaw has a shape of its own");
+  if (a.yaw_drift_rad_per_s != 0)
+    t.unobservable.push_back({printf_number("yaw drift %g\"/min", a.yaw_drift_rad_per_s / arcsec * 60.0),
+                              "EXPLAIN of a traverse explains the pitch readings"});
+  t.note =
+      "the traverse is of X (the emulator's axis); its pitch polynomial (PARAMS straightness) is the base; the "
+      "autocollimator's noise is " +
+      printf_number("%g\"", m.noise.autocollimator_rad / arcsec) + " a reading";
+  return t;
+}
+
 }  // namespace guideway::simulators::scenarios

@@ -2,8 +2,9 @@
 // What a test on the virtual machine tool can find (the emulators' machine, our own, so its errors are
 // known): per effect of the explanation library the parameter it would report and the machine file's
 // value, and what the machine holds that the test cannot observe, with the reason and the size it would
-// have in the reading. A DBB test (the bar) and a spindle run-out record (the micrometer on the thrust
-// plate). `guideway explain --machine FILE` prints it beside the findings. Pure functions; thread safe.
+// have in the reading. A DBB test (the bar), a spindle run-out record (the micrometer on the thrust
+// plate) and an autocollimator traverse. `guideway explain --machine FILE` prints it beside the findings. Pure
+// functions; thread safe.
 
 #include <string>
 #include <vector>
@@ -64,5 +65,11 @@ struct TruthRecord {
 // ramp and ripple, each as EXPLAIN reports
 // it (in the reading's sign: the plate's height under the probe); the lean against the plate is the base.
 MachineTruth runout_truth(const machine::MachineConfig& machine, const std::vector<TruthRecord>& records);
+
+// The autocollimator's errors a straightness traverse of the X axis sees (the emulator's traverse; the
+// straightness session's forward and return passes; models/explain/traverse_explain), each as EXPLAIN reports
+// it in the slope's sign: the pitch reading's drift in time, the reflector's rocking with the direction of
+// travel, X's periodic pitch, the head's roll (the yaw read as pitch); the axis's pitch polynomial is the base.
+MachineTruth traverse_truth(const machine::MachineConfig& machine);
 
 }  // namespace guideway::simulators::scenarios
