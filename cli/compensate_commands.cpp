@@ -701,6 +701,15 @@ Verification merged(const std::vector<models::compensation::ErrorMap>& maps, con
   return all;
 }
 
+// The command's output, once its progress line is ended: the JSON for a program, else the text.
+void print_output(const Opts& o, Progress& progress, const nlohmann::json& j, const std::string& text) {
+  progress.doing("");
+  if (o.json)
+    std::cout << j.dump() << "\n";
+  else
+    std::cout << text;
+}
+
 // A test in several planes (the three-plane test): each plane identified and mapped as one plane is, each
 // axis' scale and backlash the planes' combined figure (one table per axis; a figure its planes disagree
 // on is refused), every plane's squareness as its axis skew; --verify retraces each plane's runs with the files.
@@ -778,11 +787,7 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
     text += mark_refused(merged(maps, vs), planes, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
-  progress.doing("");
-  if (o.json)
-    std::cout << j.dump() << "\n";
-  else
-    std::cout << text;
+  print_output(o, progress, j, text);
 }
 
 void run_compensate(const Opts& o, const std::string& socket) {
@@ -845,11 +850,7 @@ void run_compensate(const Opts& o, const std::string& socket) {
     text += mark_refused(v, map.plane, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
-  progress.doing("");
-  if (o.json)
-    std::cout << j.dump() << "\n";
-  else
-    std::cout << text;
+  print_output(o, progress, j, text);
 }
 
 // CLI11 reads "nan" and "inf" as numbers: a table position or step must be a finite one.
