@@ -66,12 +66,14 @@ class RunoutSession : public Session {
       }
       if (t0_ns_ < 0) t0_ns_ = s.t_mono_ns;
       const double t = static_cast<double>(s.t_mono_ns - t0_ns_) * 1e-9;
-      if (t >= duration_s_) {
-        done_ = true;  // every turn is in: the next sample starts a new revolution
-        return;
-      }
+      // The reading at or past the last turn's end is kept: it closes that turn, so a late or missed
+      // reading before it (a loaded machine) cannot leave the record a step short of its revolutions.
       angle_deg_.push_back(t * o_.rpm * 6.0);
       runout_um_.push_back(z * 1e6);
+      if (t >= duration_s_) {
+        done_ = true;
+        return;
+      }
     }
   }
 
