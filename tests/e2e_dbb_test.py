@@ -383,8 +383,18 @@ class SeveralEffectsLive(DaemonCase):
         while json.loads(self.cli("status", "--json"))["devices"][0]["state"] != "streaming":
             self.assertLess(time.monotonic(), deadline, "the DBB emulator does not stream")
             time.sleep(0.2)
-        self.cli("start", "dbb", "--test", "lai", "--set", "feed_mm_per_min=5000", "--wait", "--json", "--timeout",
-                 "240", timeout=300)
+        out = self.cli("start", "dbb", "--test", "lai", "--set", "feed_mm_per_min=5000", "--wait", "--json",
+                       "--timeout", "240", timeout=300)
+        # One answer per machine: the session's PARAMS fit what EXPLAIN finds beside Lai's terms, so the drift
+        # is not read as backlash (the models alone: backlash X 0.41 um on this machine's live session).
+        params = json.loads(out.splitlines()[-1])
+        print("PARAMS beside:", json.dumps(params.get("beside")), "backlash:",
+              json.dumps({k: params["lai3"][k] for k in ("backlash_x_um", "backlash_y_um")}), file=sys.stderr)
+        self.assertIn("drift_x_um_per_min", params.get("beside", {}), params.get("notes"))
+        for name, truth in (("backlash_x_um", 1.0), ("backlash_y_um", 0.6)):
+            b = params["lai3"][name]
+            self.assertNotIn("not_determined", b, params.get("notes"))
+            self.assertLess(abs(b["value"] - truth), max(0.1 * truth, 5 * b["u"]), (name, b))
         self.request_when_ready("explain", "EXPLAIN")
         e = json.loads(self.cli("explain", "--latest", "--kind", "dbb", "--machine", self.machine, "--json"))
         c = e["against_machine"]
