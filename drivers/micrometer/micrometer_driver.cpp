@@ -727,7 +727,10 @@ void MicrometerDriver::all_answered() {
 void MicrometerDriver::finish_poll() {
   poll_.reset();
   resting_ = false;
-  if (fd_ >= 0) io_->modify(fd_, EPOLLIN);
+  // While other devices keep the loop passing by, the socket stays without readiness interest until
+  // the next poll (no two epoll_ctl per poll): a stray answer is flushed when it starts, a hang-up is
+  // reported all the same.
+  if (fd_ >= 0) io_->modify(fd_, busy_ ? 0u : std::uint32_t{EPOLLIN});
   if (end_link_) {
     end_tcp_link(last_failure_);
     return;
