@@ -1,9 +1,7 @@
 // The micrometer-modbus driver against the emulated gauge amplifier through real libmodbus on both
 // sides: Modbus TCP on loopback and Modbus RTU over pseudo-terminals. Every fault is injected; the
 // driver must count it, recover, and lose nothing it had received.
-#include <arpa/inet.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -630,16 +628,7 @@ namespace {
 class HandWrittenAmplifier {
  public:
   explicit HandWrittenAmplifier(bool first_only) : first_only_(first_only) {
-    listen_fd_ = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    if (::bind(listen_fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 || ::listen(listen_fd_, 1) != 0 ||
-        ::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
-      throw std::runtime_error("listen");
-    }
-    port_ = ntohs(a.sin_port);
+    listen_fd_ = test::listen_on_loopback(port_);
     t0_ = std::chrono::steady_clock::now();
     server_ = std::thread([this] { serve(); });
   }
@@ -724,27 +713,29 @@ void expect_every_sample_once(const std::vector<Sample>& samples) {
   }
 }
 
-std::unique_ptr<drivers::micrometer::MicrometerDriver> buffered_driver(int port, toml::table& table) {
-  table = parse_toml("transport = \"tcp\"\nhost = \"127.0.0.1\"\nport = " + std::to_string(port) +
-                         "\npoll_period_ms = 5\nresponse_timeout_ms = 100\n[buffer]\ncounter_address = 100\n"
-                         "ring_address = 200\nsample_rate_hz = 10000\nring_samples = 16384\n",
-                     "test.toml");
+// A buffered driver (10 kHz, 5 ms polls, 100 ms response timeout) against `amplifier` until it has
+// published 3000 samples; every one of them, once, in order. Returns the stopped driver.
+std::unique_ptr<drivers::micrometer::MicrometerDriver> stream_from(const HandWrittenAmplifier& amplifier) {
+  const toml::table table = parse_toml(
+      "transport = \"tcp\"\nhost = \"127.0.0.1\"\nport = " + std::to_string(amplifier.port()) +
+          "\npoll_period_ms = 5\nresponse_timeout_ms = 100\n[buffer]\ncounter_address = 100\nring_address = 200\n"
+          "sample_rate_hz = 10000\nring_samples = 16384\n",
+      "test.toml");
   TableReader reader(table, "test.toml", "device[0]");
-  return std::make_unique<drivers::micrometer::MicrometerDriver>(
+  auto d = std::make_unique<drivers::micrometer::MicrometerDriver>(
       "mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 17);
-}
-
-std::vector<Sample> take_samples(drivers::micrometer::MicrometerDriver& d, std::size_t n) {
-  std::vector<Sample> out;
-  (void)test::eventually([&] {
-    Sample s;
-    while (d.ring().try_pop(s)) out.push_back(s);
-    return out.size() >= n;
-  });
-  d.stop();
+  d->start();
+  std::vector<Sample> samples;
   Sample s;
-  while (d.ring().try_pop(s)) out.push_back(s);
-  return out;
+  (void)test::eventually([&] {
+    while (d->ring().try_pop(s)) samples.push_back(s);
+    return samples.size() >= 3000;
+  });
+  d->stop();
+  while (d->ring().try_pop(s)) samples.push_back(s);
+  EXPECT_GE(samples.size(), 3000u);
+  expect_every_sample_once(samples);
+  return d;
 }
 
 }  // namespace
@@ -753,12 +744,7 @@ std::vector<Sample> take_samples(drivers::micrometer::MicrometerDriver& d, std::
 // (one round trip a poll): the amplifier sees them together, and every sample arrives once.
 TEST(MicrometerBufferedPipelined, CounterAndRingReadsGoOutInOneWrite) {
   HandWrittenAmplifier amplifier(false);
-  toml::table table;
-  auto d = buffered_driver(amplifier.port(), table);
-  d->start();
-  const std::vector<Sample> samples = take_samples(*d, 3000);
-  ASSERT_GE(samples.size(), 3000u);
-  expect_every_sample_once(samples);
+  const auto d = stream_from(amplifier);
   EXPECT_GE(amplifier.most_requests_in_one_read(), 2u);
   EXPECT_EQ(d->status().counters.timeouts, 0u);
   EXPECT_EQ(test::driver_counters_by_name(d->status()).at("stale_answers"), 0u);
@@ -768,12 +754,7 @@ TEST(MicrometerBufferedPipelined, CounterAndRingReadsGoOutInOneWrite) {
 // (one lost answer is not enough to tell), then the driver asks one request at a time and loses nothing.
 TEST(MicrometerBufferedPipelined, AnAmplifierTakingOneRequestAtATimeIsAskedSo) {
   HandWrittenAmplifier amplifier(true);
-  toml::table table;
-  auto d = buffered_driver(amplifier.port(), table);
-  d->start();
-  const std::vector<Sample> samples = take_samples(*d, 3000);
-  ASSERT_GE(samples.size(), 3000u);
-  expect_every_sample_once(samples);
+  const auto d = stream_from(amplifier);
   const auto st = d->status();
   EXPECT_GE(st.counters.timeouts, 2u);
   EXPECT_LE(st.counters.timeouts, 3u) << "a pipelined ask that arrives split in two reads is answered in full";
