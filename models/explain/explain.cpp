@@ -821,11 +821,15 @@ class Selection {
   mutable std::map<std::vector<std::uint64_t>, Model> fold_models_;
   mutable std::size_t fold_model_bytes_ = 0;
 
-  // Fold f's base factored on its training rows (null without a base); kept within the memory budget.
+  // Fold f's base factored on its training rows, kept within the memory budget; null without a base, and
+  // at the fold's first held-out fit (factoring the base and forming its Q costs two plain fits: a problem
+  // whose base alone is tested, a null, never fits a fold twice).
   [[nodiscard]] std::shared_ptr<const FoldBase> fold_base_of(std::size_t f) const {
     if (base_train_[f].cols() == 0) return nullptr;
     if (fold_bases_.empty()) fold_bases_.resize(folds_.size());
     if (fold_bases_[f]) return fold_bases_[f];
+    if (fold_fits_.size() < folds_.size()) fold_fits_.resize(folds_.size(), 0);
+    if (fold_fits_[f]++ == 0) return nullptr;
     auto fb = std::make_shared<const FoldBase>(fold_base(base_train_[f]));
     const auto bytes = static_cast<std::size_t>(fb->q.size()) * sizeof(double);
     if (fold_base_bytes_ + bytes <= cache_budget_bytes) {
@@ -835,6 +839,7 @@ class Selection {
     return fb;
   }
   mutable std::vector<std::shared_ptr<const FoldBase>> fold_bases_;
+  mutable std::vector<int> fold_fits_;  // held-out fits per fold so far
   mutable std::size_t fold_base_bytes_ = 0;
 
   // Fold f's columns of the base (unless with_base is false) and the terms (but `skip`) on its training or
