@@ -137,6 +137,31 @@ TEST(ExplainTraverse, PassesTooShortForTheTestsAreRefusedWithTheNumbers) {
   }
 }
 
+// Issue #29: setting a place aside must leave every pass long enough for the structure tests (32 readings).
+// At the session's default 33 stations a pass, a bump of the reflector in the return pass stays where it is,
+// unexplained and located, with nothing set aside and a note saying why; it used to be set aside, leaving the
+// pass blind to the tests (and, with places in both passes, `explain: every run is shorter than 32 samples`).
+TEST(ExplainTraverse, SettingAsideNeverLeavesAPassTooShortForTheTests) {
+  simulators::scenarios::SimulatedTraverse t;
+  t.step_m = 0.01875;
+  t.end_m = 0.6 + t.step_m;  // 33 stations, as the session's
+  t.seed = 3;
+  auto passes = simulators::scenarios::simulated_traverse(
+      simulators::machine::Machine(simulators::machine::default_machine_config()), t);
+  ASSERT_EQ(passes.back().x_m.size(), 33u);
+  auto& last = passes.back().pitch_rad;
+  for (std::size_t i = 12; i < 16; ++i) last[i] += 2.0 * arcsec;  // the reflector knocked for 4 readings
+  const Report rep = models::explain::explain_traverses(passes);
+  EXPECT_TRUE(rep.unexplained);
+  EXPECT_EQ(rep.set_aside, 0u);
+  std::string notes;
+  for (const auto& n : rep.notes) notes += n + "\n";
+  EXPECT_NE(notes.find("not set aside: pass2 (-) would keep fewer than 32 samples"), std::string::npos) << notes;
+  ASSERT_FALSE(rep.remaining.empty());
+  ASSERT_FALSE(rep.remaining.front().locations.empty()) << rep.remaining.front().where;
+  EXPECT_EQ(rep.remaining.front().locations.front().run, "pass2 (-)");
+}
+
 TEST(MachineTraverse, AutocollimatorKeysActOnTheReadingsAsAFileHoldsThem) {
   auto cfg = simulators::machine::parse_machine_config(
       "[autocollimator]\npitch_drift_arcsec_per_min = 0.6\nrocking_arcsec = 0.25\n"
