@@ -15,6 +15,8 @@ comes from AFTER_BUILD/bench/platform_floor_bench. In order:
      (voluntary context switches of every thread, /proc), p99 sample-to-publish latency publishing
      every batch, losses;
   3. each instrument alone at its full rate in a daemon of each build: CPU per 1 k samples/s;
+  3b. with --side-by-side N: both daemons at once, under the same load, gw-io's and the process's CPU
+     over N windows of --step-s (on a machine others load, the one comparison of the builds that holds);
   4. cyclictest (SCHED_FIFO 95, 200 us interval) pinned to the last CPU: alone, beside the "after"
      daemon kept off that CPU (the kernel's isolated list stood in for by $GUIDEWAY_CPU_ISOLATED_FILE),
      beside it spread over every CPU, and beside the "before" daemon, `--cyclictest-rounds` times in
@@ -69,6 +71,38 @@ def alone(build, name):
     rate = r["devices"][name]["rate_hz"]
     return {"cpu_pct": r["cpu_pct"], "rate_hz": rate, "wakeups_per_s": r["wakeups_per_s"],
             "cpu_pct_per_khz": r["cpu_pct"] / (rate / 1000.0) if rate else float("nan")}
+
+
+def side_by_side(builds, windows):
+    """Both daemons at full rate at once: per window, each one's gw-io and process CPU % and samples/s."""
+    ds, conns, tids = {}, {}, {}
+    try:
+        for b, path in builds.items():
+            ds[b] = dl.Daemon(path, dl.step_rates(10000), publish_hz=10, client_queue_bytes=4 << 20)
+        for b, d in ds.items():
+            conns[b] = dl.Conn(d.socket)
+            d.wait_streaming(conns[b])
+            task = f"/proc/{d.proc.pid}/task"
+            tids[b] = next(t for t in os.listdir(task) if open(f"{task}/{t}/comm").read().strip() == "gw-io")
+        time.sleep(ARGS.warmup_s)
+        out = []
+        for _ in range(windows):
+            st0 = {b: ds[b].status(conns[b]) for b in ds}
+            cpu0 = {b: (dl.proc_cpu_s(f"{ds[b].proc.pid}/task/{tids[b]}"), dl.proc_cpu_s(ds[b].proc.pid)) for b in ds}
+            t0 = time.monotonic()
+            time.sleep(ARGS.step_s)
+            dt = time.monotonic() - t0
+            row = {"loadavg_1min": dl.loadavg()[0]}
+            for b in ds:
+                io, proc = dl.proc_cpu_s(f"{ds[b].proc.pid}/task/{tids[b]}"), dl.proc_cpu_s(ds[b].proc.pid)
+                rate = sum(v["rate_hz"] for v in dl.device_deltas(st0[b], ds[b].status(conns[b]), dt).values())
+                row[b] = {"gw_io_pct": 100 * (io - cpu0[b][0]) / dt, "cpu_pct": 100 * (proc - cpu0[b][1]) / dt,
+                          "samples_per_s": rate}
+            out.append(row)
+        return out
+    finally:
+        for d in ds.values():
+            d.stop()
 
 
 def histogram_stats(path):
@@ -163,6 +197,8 @@ def main():
     ap.add_argument("--floor-repetitions", type=int, default=3)
     ap.add_argument("--cyclictest-s", type=float, default=15.0)
     ap.add_argument("--cyclictest-rounds", type=int, default=2, help="each phase this many times, in turn")
+    ap.add_argument("--side-by-side", type=int, default=0, metavar="N",
+                    help="also run both daemons at once for N windows of --step-s (0: not)")
     ap.add_argument("--skip", default="", help="phases to leave out: floor,daemons,alone,cyclictest")
     ap.add_argument("--json", help="write the raw results here")
     ARGS = ap.parse_args()
@@ -191,6 +227,9 @@ def main():
             for b in ("before", "after"):
                 print(f"{name} alone: {b} ...", file=sys.stderr, flush=True)
                 res["alone"].setdefault(name, {})[b] = alone(builds[b], name)
+    if ARGS.side_by_side > 0:
+        print(f"side by side, {ARGS.side_by_side} windows ...", file=sys.stderr, flush=True)
+        res["side_by_side"] = side_by_side(builds, ARGS.side_by_side)
     if "cyclictest" not in skip:
         cpu = sorted(os.sched_getaffinity(0))[-1]
         s = ARGS.cyclictest_s
@@ -256,6 +295,21 @@ def report(res):
                   f"{fmt(a['cpu_pct_per_khz'] / b['cpu_pct_per_khz'] if b['cpu_pct_per_khz'] else None, 2)} | "
                   f"{b['wakeups_per_s']:.0f} / {a['wakeups_per_s']:.0f} |")
         print()
+    if res.get("side_by_side"):
+        rows = res["side_by_side"]
+        print("| window (both at once) | gw-io % before / after | process % before / after | samples/s before / after |"
+              " load |")
+        print("|---|---:|---:|---:|---:|")
+        for i, w in enumerate(rows):
+            b, a = w["before"], w["after"]
+            print(f"| {i + 1} | {b['gw_io_pct']:.2f} / {a['gw_io_pct']:.2f} | {b['cpu_pct']:.2f} / {a['cpu_pct']:.2f} | "
+                  f"{b['samples_per_s']:.0f} / {a['samples_per_s']:.0f} | {w['loadavg_1min']:.1f} |")
+        tot = {k: {m: sum(w[k][m] for w in rows) for m in ("gw_io_pct", "cpu_pct", "samples_per_s")}
+               for k in ("before", "after")}
+        per_sample = {k: t["cpu_pct"] / t["samples_per_s"] for k, t in tot.items()}
+        print(f"\nafter / before, side by side: gw-io {tot['after']['gw_io_pct'] / tot['before']['gw_io_pct']:.3f}, "
+              f"process {tot['after']['cpu_pct'] / tot['before']['cpu_pct']:.3f}, "
+              f"process per sample {per_sample['after'] / per_sample['before']:.3f}\n")
     if res.get("cyclictest"):
         print(f"cyclictest on CPU {res['cyclictest_cpu']} (SCHED_FIFO 95, 200 us); ratios against the idle run of the "
               "same round:\n")

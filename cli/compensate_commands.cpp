@@ -193,7 +193,7 @@ std::vector<Refusal> refusals(const Verification& v, const std::vector<Correctio
 // the user is told to enter, then the cross-axis correction of straightness.csv; refuses what makes a run
 // worse (refusals). Writes the runs before and with every correction to `dir`.
 Verification verify(const std::vector<formats::DbbRun>& runs,
-                    const models::compensation::CheckedIdentification& checked,
+                    const models::explain::CheckedIdentification& checked,
                     const models::compensation::ErrorMap& map, const std::string& machine_file,
                     const std::string& out_dir, const std::vector<std::string>& axes, const fs::path& dir) {
   namespace machine = simulators::machine;
@@ -230,11 +230,11 @@ Verification verify(const std::vector<formats::DbbRun>& runs,
   const machine::RemeasuredRuns r = machine::remeasure_dbb(config, combined(full), runs, center);
   // Identified as the runs were; the retraces of simulated runs share their sample grid, and the retrace
   // after the retrace before, so EXPLAIN's findings are reused there (identify_checked_like).
-  const models::compensation::CheckedIdentification before =
-      models::compensation::identify_checked_like(r.before, checked, runs);
+  const models::explain::CheckedIdentification before =
+      models::explain::identify_checked_like(r.before, checked, runs);
   v.before = before.id;
   v.beside = before.beside;
-  v.after = models::compensation::identify_checked_like(r.after, before, r.before).id;
+  v.after = models::explain::identify_checked_like(r.after, before, r.before).id;
   const std::vector<double>& less = before.beside_um;
   const auto trace = [&](const std::vector<const Correction*>& set) {
     return machine::retrace_dbb(config, combined(set), runs, center, "after");
@@ -722,7 +722,7 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
         "file's centre metadata places its plane's circle");
   comp::MapOptions mo;
   mo.step_m = o.step_mm * 1e-3;
-  std::vector<comp::CheckedIdentification> checked;
+  std::vector<models::explain::CheckedIdentification> checked;
   std::vector<comp::ErrorMap> maps;
   std::vector<models::dbb::Identification> ids;
   std::vector<std::string> measured;
@@ -739,7 +739,7 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
     progress.doing("identifying the " + g.front().plane + " plane's runs, with what EXPLAIN finds fitted beside");
     try {
       comp::check_map_inputs(g, mo);
-      checked.push_back(comp::identify_checked(g));
+      checked.push_back(models::explain::identify_checked(g));
       maps.push_back(comp::error_map(checked.back(), g, mo));
     } catch (const comp::CompensationError& e) {
       throw std::runtime_error("compensate: the " + g.front().plane + " plane: " + e.what());
@@ -825,13 +825,13 @@ void run_compensate(const Opts& o, const std::string& socket) {
   const std::vector<std::string> axes =
       table_axes(o.axes, {results::axis_letter(plane, 0), results::axis_letter(plane, 1)}, plane + " plane");
   models::compensation::ErrorMap map;
-  models::compensation::CheckedIdentification checked;
+  models::explain::CheckedIdentification checked;
   try {
     models::compensation::check_map_inputs(runs, mo);  // bad input refused before the identification's work
     // The identification with what EXPLAIN finds on the same runs fitted beside, and its values to check
     // the terms against.
     progress.doing("identifying the runs, with what EXPLAIN finds fitted beside");
-    checked = models::compensation::identify_checked(runs);
+    checked = models::explain::identify_checked(runs);
     map = models::compensation::error_map(checked, runs, mo);
   } catch (const models::compensation::CompensationError& e) {
     throw std::runtime_error(std::string("compensate: ") + e.what());

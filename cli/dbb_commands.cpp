@@ -11,8 +11,8 @@
 #include "cli/progress.hpp"
 #include "core/number_format.hpp"
 #include "core/toml_access.hpp"
-#include "models/compensation/compensation.hpp"
 #include "models/dbb/json.hpp"
+#include "models/explain/dbb_checked.hpp"
 #include "results/parameters.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 
@@ -45,10 +45,9 @@ struct IdentifyArgs {
   }
 };
 
-// One plane's identification as `compensate` makes it (models::compensation::identify_checked): what EXPLAIN
-// finds on the same runs and the models do not hold (a drift, a vibration) fitted beside their terms, so that
-// it is not read as one of them. A term that still contradicts EXPLAIN's value of it beyond 3 combined u is
-// "not determined" (`not_determined` in the JSON, with both values), not a number to act on.
+// One plane's identification as `compensate` and the live session make it (models/explain/dbb_checked):
+// what EXPLAIN finds on the same runs and the models do not hold (a drift, a vibration) fitted beside their
+// terms, so that it is not read as one of them; a term that still contradicts EXPLAIN is "not determined".
 struct PlaneResult {
   models::dbb::Identification id;
   nlohmann::json json;
@@ -60,37 +59,8 @@ PlaneResult identify_plane(const std::vector<formats::DbbRun>& runs, const model
     out.json = models::dbb::to_json(out.id);
     return out;
   }
-  const models::compensation::CheckedIdentification checked = models::compensation::identify_checked(runs, opt);
-  PlaneResult out{checked.id, models::dbb::to_json(checked.id)};
-  std::string beside;
-  for (const auto& e : checked.beside) beside += (beside.empty() ? "" : ", ") + results::in_words(e);
-  const auto mark = [&](const std::vector<models::dbb::Estimate>& terms, const char* group) {
-    for (const auto& e : terms) {
-      const std::string why = models::compensation::contradiction(e, checked.explain);
-      if (why.empty()) continue;
-      out.json[group][e.name]["not_determined"] = why;
-      const auto other = std::find_if(checked.explain.begin(), checked.explain.end(),
-                                      [&](const models::dbb::Estimate& x) { return x.name == e.name; });
-      const results::Shown mine = results::shown(e.name, e.value, e.u, checked.id.plane, group);
-      const results::Shown theirs = results::shown(e.name, other->value, other->u, checked.id.plane, group);
-      out.json["notes"].push_back(mine.label + " is not determined: " + mine.value + " " + mine.unit +
-                                  ", where EXPLAIN finds " + theirs.value + " " + theirs.unit + " on the same runs" +
-                                  (beside.empty() ? std::string() : ", with " + beside + " fitted beside"));
-    }
-  };
-  mark(checked.id.diagnostics, "diagnostics");
-  mark(checked.id.lai3, "lai3");
-  for (const auto& n : checked.notes) {
-    // The values fitted beside are in their own group, in words: the note says only what they are.
-    if (n.starts_with("fitted beside the terms"))
-      out.json["notes"].push_back(
-          "what EXPLAIN found on the same runs and the models do not hold is fitted beside "
-          "their terms (above), so that it is not read as one of them: " +
-          beside);
-    else
-      out.json["notes"].push_back(n);
-  }
-  return out;
+  const models::explain::CheckedIdentification checked = models::explain::identify_checked(runs, opt);
+  return {checked.id, models::explain::to_json(checked)};
 }
 
 void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {

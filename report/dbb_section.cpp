@@ -8,6 +8,7 @@
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/three_planes.hpp"
+#include "models/explain/dbb_checked.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
 #include "report/svg.hpp"
@@ -42,13 +43,24 @@ double range_of(const std::vector<double>& v) {
 
 std::string signed_um(double v) { return (v > 0 ? "+" : "") + format_number(v, 3); }
 
-// The estimates as people read them: label in words, value ± u rounded to u, the unit it is shown in.
+// The estimates as people read them: label in words, value ± u rounded to u, the unit it is shown in. A term
+// that contradicts EXPLAIN's value of it on the same runs (`explain`) is "not determined", with both values,
+// as `identify dbb` shows it.
 Table estimates_table(const std::string& caption, const std::vector<models::dbb::Estimate>& list,
-                      std::string_view plane, std::string_view group) {
+                      std::string_view plane, std::string_view group,
+                      const std::vector<models::dbb::Estimate>& explain = {}) {
   Table t{caption, {"quantity", "value \u00b1 standard uncertainty", "unit"}, {}};
   t.text_columns = {2};
   for (const auto& e : list) {
     const results::Shown s = results::shown(e.name, e.value, e.fitted ? e.u : NAN, plane, group, 4);
+    const auto other = std::find_if(explain.begin(), explain.end(), [&](const auto& x) { return x.name == e.name; });
+    if (e.fitted && other != explain.end() && !models::explain::contradiction(e, explain).empty()) {
+      const results::Shown theirs = results::shown(e.name, other->value, other->u, plane, group, 4);
+      t.rows.push_back({html_escape(s.label),
+                        html_escape("not determined: " + s.value + " here, EXPLAIN " + theirs.value),
+                        html_escape(s.unit)});
+      continue;
+    }
     t.rows.push_back({html_escape(s.label), html_escape(s.value), html_escape(s.unit)});
   }
   return t;
@@ -245,7 +257,8 @@ void standards_table(std::ostringstream& body, const models::dbb::Identification
 
 // The ranking in words, the ISO 230-4 figures and the diagnostics (only when the runs gave any: the
 // identification's note says why not).
-void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Identification& id_result) {
+void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Identification& id_result,
+                                 const std::vector<models::dbb::Estimate>& explain) {
   const Ranked r = ranked(id_result);
   if (!r.shown.empty() || !r.small.empty()) {
     Table rank_t{"What to fix first (each error's part of the circular deviation G)",
@@ -285,7 +298,7 @@ void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Id
   // not rows among the measured ones.
   std::vector<models::dbb::Estimate> fitted, held;
   for (const auto& e : diag) (e.fitted && std::isfinite(e.u) ? fitted : held).push_back(e);
-  body << html_table(estimates_table("Ballbar diagnostics", fitted, id_result.plane, results::backlash.group));
+  body << html_table(estimates_table("Ballbar diagnostics", fitted, id_result.plane, results::backlash.group, explain));
   if (!held.empty()) {
     std::string line;
     for (const auto& e : held) {
@@ -299,6 +312,16 @@ void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Id
   if (!df.unidentifiable.empty()) body << html_note("Diagnostics not separable by these runs: " + df.message);
 }
 
+// What EXPLAIN found on the same runs and the models do not hold, as fitted beside their terms.
+void beside_table(std::ostringstream& body, const models::explain::CheckedIdentification& checked) {
+  if (checked.id.beside.empty()) return;
+  std::string effects;
+  for (const auto& e : checked.beside) effects += (effects.empty() ? "" : ", ") + results::in_words(e);
+  body << html_table(estimates_table(
+      "Fitted beside the models' terms: what EXPLAIN found on the same runs (" + effects + "), in no table",
+      checked.id.beside, checked.id.plane, {}));
+}
+
 // Lai's symbol of a reported name: "c0_plus_d1_rad" -> "c0 + d1".
 std::string lai_symbol(const std::string& name) {
   std::string s = results::split_unit(name).first;
@@ -307,9 +330,10 @@ std::string lai_symbol(const std::string& name) {
 }
 
 // Lai's model: its parameters, the fit and what the patterns could not separate.
-void lai_tables(std::ostringstream& body, const models::dbb::Identification& id_result) {
+void lai_tables(std::ostringstream& body, const models::dbb::Identification& id_result,
+                const std::vector<models::dbb::Estimate>& explain) {
   body << html_table(estimates_table("Lai, Liao and Chieng's third-order model (Table 3 symbols in brackets)",
-                                     id_result.lai3, id_result.plane, results::lai_S_x.group));
+                                     id_result.lai3, id_result.plane, results::lai_S_x.group, explain));
   const auto& f = id_result.fit;
   body << "<p>Lai fit: rms " << format_number(f.rms_um, 2) << " \u00b5m over " << f.n << " points.</p>";
   if (f.unidentifiable.empty()) return;
@@ -397,19 +421,24 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
     for (const auto& r : plane_runs)
       for (std::size_t k = 0; k < runs.size(); ++k)
         if (runs[k].source == r.source) plane_circles.push_back(circles[k]);
+    // As `identify dbb` and the session's PARAMS: what EXPLAIN finds and the models do not hold is fitted
+    // beside their terms.
+    models::explain::CheckedIdentification checked;
     try {
-      ids.push_back(models::dbb::identify(plane_runs));
+      checked = models::explain::identify_checked(plane_runs);
     } catch (const std::exception& e) {
       body << html_note("Identification refused: " + std::string(e.what()));
       continue;
     }
+    ids.push_back(checked.id);
     const models::dbb::Identification& id_result = ids.back();
     ranking_chart(body, id_result);
     compensated_spikes_note(body, plane_runs, id_result);
     runs_table(body, id_result, plane_circles);
-    runs_and_diagnostics_tables(body, id_result);
+    runs_and_diagnostics_tables(body, id_result, checked.explain);
+    beside_table(body, checked);
     standards_table(body, id_result);
-    lai_tables(body, id_result);
+    lai_tables(body, id_result, checked.explain);
   }
   if (ids.size() > 1) planes_summary(body, models::dbb::summarize_planes(ids));
   return html_section(std::string(results::dbb_kind.name), id, "Double ball bar: circular tests", body.str());

@@ -510,9 +510,12 @@ std::string render(const PolarPlot& plot) {
     o << "<text class=\"tick-label\" x=\"" << px(lx) << "\" y=\"" << px(ly) << "\" text-anchor=\"" << anchor << "\">"
       << xml_escape(label) << "</text>";
   }
-  // Ring values along the 75 deg direction, where no spoke runs.
+  // Ring values along the 75 deg direction, where no spoke runs; every other ring's when the rings are
+  // closer than two lines of its 10 px text (a ring label over each 13 px ring ran into the next).
   const double tl = 75 * std::numbers::pi / 180;
+  const int label_every = div_px < 20 ? 2 : 1;
   for (int k = -div; k <= div; ++k) {
+    if (k % label_every != 0) continue;
     const double r = radius(k * per_div);
     const double v = k * per_div;
     const int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(per_div) + 1e-9)));

@@ -12,6 +12,7 @@
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/json.hpp"
+#include "models/explain/dbb_checked.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "sessions/session_support.hpp"
 
@@ -266,17 +267,24 @@ class DbbSession : public Session {
     for (const Pattern& pat : options_.patterns) {
       const auto it = by_plane.find(pat.plane);
       if (it == by_plane.end() || planes.contains(pat.plane)) continue;
+      nlohmann::json plane_explain;  // EXPLAIN's report of this plane's runs, for explain()
+      // As `guideway identify dbb` on the run files: what EXPLAIN finds beside the models' terms is fitted
+      // beside them (a drift is not read as backlash), a term that contradicts EXPLAIN is not determined.
       try {
-        ids.push_back(models::dbb::identify(it->second, identify_options));
+        const models::explain::CheckedIdentification checked =
+            models::explain::identify_checked(it->second, identify_options);
+        ids.push_back(checked.id);
+        planes[pat.plane] = models::explain::to_json(checked);
+        plane_explain = checked.explain_report;
       } catch (const std::exception& e) {
         if (by_plane.size() == 1) throw;
         planes[pat.plane] = {{"error", e.what()}};
         continue;
       }
-      planes[pat.plane] = models::dbb::to_json(ids.back());
       if (j.is_null()) {
         j = planes[pat.plane];
         identified_ = it->second;
+        explained_ = plane_explain;
       }
     }
     if (j.is_null()) throw std::runtime_error("no plane could be identified: " + planes.dump());
@@ -293,6 +301,7 @@ class DbbSession : public Session {
 
   std::optional<nlohmann::json> explain() override {
     if (identified_.empty()) return std::nullopt;
+    if (!explained_.is_null()) return explained_;  // run by identify() already, on the same runs
     try {
       return models::explain::explain_dbb(identified_);
     } catch (const std::invalid_argument& e) {
@@ -512,6 +521,7 @@ class DbbSession : public Session {
   DbbOptions options_;
   double bar_length_u_um_ = 0.0;             // the bar's calibrated length's u (0: not stated)
   std::vector<formats::DbbRun> identified_;  // what identify() fitted (the first plane's), for explain()
+  nlohmann::json explained_;                 // EXPLAIN's report of identified_ as identify() ran it (null: none)
   int bar_ = -1;
   std::array<int, 3> axis_{-1, -1, -1};  // channel of x, y, z (-1: none)
   bool three_axes_ = false;

@@ -457,10 +457,10 @@ TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
   // drift (and the vibration), which the diagnostics alone read as 0.38 um of X backlash for its 1 um; on
   // the others EXPLAIN finds nothing the models lack, so the plain identification (cheaper) is the same.
   const auto identify = [&](const std::vector<formats::DbbRun>& r) {
-    return drifting ? models::compensation::identify_checked(r).id : models::dbb::identify(r);
+    return drifting ? models::explain::identify_checked(r).id : models::dbb::identify(r);
   };
   const auto checked =
-      drifting ? models::compensation::identify_checked(runs) : models::compensation::CheckedIdentification{};
+      drifting ? models::explain::identify_checked(runs) : models::explain::CheckedIdentification{};
   const auto id = drifting ? checked.id : models::dbb::identify(runs);
   const auto map =
       drifting ? models::compensation::error_map(checked, runs) : models::compensation::error_map(id, runs);
@@ -595,7 +595,7 @@ TEST(CompensationCheckedTest, DriftIsFittedBesideNotReadAsBacklash) {
   ASSERT_NE(plain, nullptr);
   EXPECT_GT(std::abs(plain->value - 1.0), 5 * plain->u)
       << "the drift no longer biases the plain diagnostics: " << plain->value << " +/- " << plain->u;
-  const auto checked = models::compensation::identify_checked(runs);
+  const auto checked = models::explain::identify_checked(runs);
   ASSERT_EQ(checked.beside, std::vector<std::string>{"thermal_drift"});
   const auto* b = find(checked.id, "backlash_x_um");
   ASSERT_NE(b, nullptr);
@@ -643,7 +643,7 @@ TEST(CompensationCheckedTest, EffectsFoundBesideASetAsidePlaceAreFittedBeside) {
   }
   ASSERT_FALSE(beside_expected.empty()) << models::explain::to_text(report);
 
-  const auto checked = models::compensation::identify_checked(runs);
+  const auto checked = models::explain::identify_checked(runs);
   std::vector<std::string> beside;
   for (const auto& t : checked.beside_terms) {
     beside.push_back(t.effect);
@@ -725,7 +725,7 @@ TEST(CompensationVerifyTest, SpikesAfterABacklashTableAreTheTablesStepNotStictio
                                                            simulators::machine::AngleSource::encoders));
     }
     // As `compensate --verify` identifies: what EXPLAIN finds fitted beside, before and after.
-    const auto checked = models::compensation::identify_checked(runs);
+    const auto checked = models::explain::identify_checked(runs);
     const auto& id = checked.id;
     const auto map = models::compensation::error_map(checked, runs);
     const auto files = models::compensation::compensation_files(map, "test runs");
@@ -739,7 +739,7 @@ TEST(CompensationVerifyTest, SpikesAfterABacklashTableAreTheTablesStepNotStictio
       if (f.name == "straightness.csv")
         tables.cross = simulators::machine::cross_compensation(formats::parse_straightness_csv(f.content, f.name));
     const auto after_runs = simulators::machine::retrace_dbb(cfg, tables, runs, {0, 0, 0}, "t");
-    const auto after = models::compensation::identify_checked_like(after_runs, checked, runs).id;
+    const auto after = models::explain::identify_checked_like(after_runs, checked, runs).id;
     if (check_dip) {
       // The dip itself: the retrace less the same test on the machine without backlash and without tables.
       auto ideal = cfg;

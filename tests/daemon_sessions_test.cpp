@@ -281,7 +281,7 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   session->on_samples(std::span(out).subspan(150));
   ASSERT_TRUE(session->complete());
   const auto p = session->identify();
-  EXPECT_EQ(p["revolution"]["samples"], 300);  // one turn exactly: the second is not taken
+  EXPECT_EQ(p["revolution"]["samples"], 301);  // one turn and the reading that closes it: no more of the second
   // Truth: the spindle's lean relative to the plate across the 100 mm plate, peak to peak; Eq. 21
   // adds p back and gives the lean itself.
   const double r_um = 100e-3 * (5.0e-6 - 2.5e-6) * 1e6;
@@ -325,7 +325,7 @@ TEST(RunoutSession, TwentyRevolutionsGiveTheErrorMotionAndTheirExplanation) {
   ASSERT_TRUE(session->complete());
   const auto p = session->identify();
   EXPECT_EQ(p["revolution"]["revolutions"], 20);
-  EXPECT_EQ(p["revolution"]["samples"], 1000);
+  EXPECT_EQ(p["revolution"]["samples"], 1001);  // 20 turns and the reading that closes the last
   const auto& em = p["error_motion"];
   // Synchronous: the 2nd and 3rd harmonics (0.05, 0.12 um); asynchronous: the 3.7 line (0.08 um, up to
   // 0.16 um wide) and 20 s of growth at 0.3 um/min (0.1 um), with 0.01 um of noise.

@@ -6,8 +6,15 @@
 
 #include <gtest/gtest.h>
 
-#include <cmath>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "formats/dbb_run.hpp"
+#include "models/dbb/identify.hpp"
+#include "models/explain/dbb_checked.hpp"
 #include "simulators/machine/machine.hpp"
 
 using namespace guideway;
@@ -73,12 +80,13 @@ void feed_circle(sessions::Session& s, const simulators::machine::Machine& machi
   };
   if (part < 1.0) {
     const auto n = static_cast<std::size_t>(part * static_cast<double>(run.samples.size()));
-    for (std::size_t i = 0; i < n; ++i) add(t0 + run.samples[i].t_s, run.samples[i]);
+    for (std::size_t i = 0; i < n; ++i) add(run.samples[i].t_s, run.samples[i]);
     s.on_samples(out);
     return;
   }
-  for (const auto& d : run.samples) add(t0 + d.t_s, d);
-  const double end = t0 + run.samples.back().t_s;
+  // The samples' times are the machine's clock (spec.t0_s on), the one a drift grows with.
+  for (const auto& d : run.samples) add(d.t_s, d);
+  const double end = run.samples.back().t_s;
   for (int i = 1; i <= 250; ++i) add(end + i / 250.0, run.samples.back());  // 1 s standing still
   t0 = end + 2.0;
   s.on_samples(out);
@@ -175,6 +183,50 @@ TEST(DbbSession, TheStandardTestIsTheDefaultAndGivesTheDiagnostics) {
   EXPECT_NEAR(value_of(p["diagnostics"], "scale_mismatch_ppm"), 30.0, 2.0) << p["diagnostics"].dump();
   EXPECT_FALSE(p.contains("planes"));
   EXPECT_EQ(session->metadata().at("test"), "standard");
+}
+
+// One answer per machine: a drift along X beside 1 um of backlash is fitted beside the terms in the
+// session's PARAMS as `guideway identify dbb` fits it on the session's run files, so the drift is not read
+// as backlash (identify alone: the backlash is off by the drift's part).
+TEST(DbbSession, ADriftBesideTheBacklashIsFittedBesideAsOfflineAndNotReadAsBacklash) {
+  simulators::machine::MachineConfig m = test_machine();
+  m.axis[0].backlash_m = 1e-6;
+  m.axis[0].drift_m_per_s = 1e-6 / 60;  // 1 um/min
+  const simulators::machine::Machine machine(m);
+  DbbChannels device;
+  auto session = sessions::dbb_session_kind().create({"dbb", "", {{"feed_mm_per_min", 1000}}}, device);
+  double t = 0;
+  feed_circle(*session, machine, Circle{.feed_mm_per_min = 1000}, t);
+  feed_circle(*session, machine, Circle{.direction = DbbDirection::cw, .feed_mm_per_min = 1000}, t);
+  ASSERT_TRUE(session->complete()) << session->progress();
+  const nlohmann::json p = session->identify();
+  ASSERT_TRUE(p.contains("beside")) << p.dump();
+  EXPECT_TRUE(p["beside"].contains("drift_x_um_per_min")) << p["beside"].dump();
+  const double drift = value_of(p["beside"], "drift_x_um_per_min");
+  EXPECT_NEAR(drift, 1.0, 3 * p["beside"]["drift_x_um_per_min"]["u"].get<double>() + 0.05);
+  const auto& b = p["diagnostics"]["backlash_x_um"];
+  EXPECT_NEAR(b["value"].get<double>(), 1.0, 3 * b["u"].get<double>() + 0.05) << b.dump();
+  EXPECT_FALSE(b.contains("not_determined")) << b.dump();
+  // The same as the identification of the session's run files (what `identify dbb --json` prints of them);
+  // the models alone read part of the drift as backlash.
+  const auto dir = std::filesystem::temp_directory_path() / ("dbb_session_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::vector<formats::DbbRun> runs;
+  for (const auto& path : session->write_derived(dir.string(), "drift")) runs.push_back(formats::read_dbb_run(path));
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(runs.size(), 2u);
+  const nlohmann::json offline = models::explain::to_json(models::explain::identify_checked(runs));
+  for (const char* group : {"diagnostics", "lai3", "beside"})
+    for (const auto& [name, e] : p[group].items())
+      EXPECT_NEAR(e["value"].get<double>(), offline[group][name]["value"].get<double>(),
+                  1e-9 * (1 + std::abs(e["value"].get<double>())))
+          << group << "." << name;
+  const auto alone_id = models::dbb::identify(runs);
+  const auto alone_it = std::find_if(alone_id.diagnostics.begin(), alone_id.diagnostics.end(),
+                                     [](const models::dbb::Estimate& e) { return e.name == "backlash_x_um"; });
+  ASSERT_NE(alone_it, alone_id.diagnostics.end());
+  const models::dbb::Estimate& alone = *alone_it;
+  EXPECT_GT(std::abs(alone.value - 1.0), 3 * alone.u) << alone.value << " +/- " << alone.u;
 }
 
 // The time left `start --wait` shows: the circles still to trace at the test's feed, each with the feed-in

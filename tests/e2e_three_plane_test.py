@@ -107,6 +107,9 @@ class ThreePlaneLive(unittest.TestCase):
         self.assertTrue(z["consistent"], z)
         self.assertEqual(sorted(f["plane"] for f in z["from"]), ["xz", "yz"])
         print("\n".join(report))
+        if failures:  # what the identification fitted beside and noted, to tell a gappy session from the models
+            for plane in ("xy", "xz", "yz"):
+                print(plane, "beside:", params["planes"][plane].get("beside"), "notes:", params["planes"][plane].get("notes"))
         self.assertFalse(failures, "\n".join(failures))
         # The text form: every plane, then the machine across them.
         text = self.cli("params", "dbb")

@@ -196,7 +196,7 @@ driver = "micrometer-modbus"
 host = "{host}"
 port = {port}
 poll_period_ms = 5
-response_timeout_ms = 400
+response_timeout_ms = 800
 [device.buffer]
 counter_address = 100
 ring_address = 200
@@ -216,12 +216,13 @@ sample_rate_hz = 10000
         self.assertEqual(b["driver_counters"], {"exceptions": 0, "ring_overruns": 0, "lost_samples": 0,
                                                 "counter_resets": 0, "stale_answers": 0}, b)
         self.assertLess(b["counters"]["frames"], b["counters"]["samples"] / 10)  # many samples per request
-        # Two requests unanswered for 400 ms each: the 0.41 s ring laps, ~4000 samples are lost.
-        self.em.command("fault stall 2")
+        # A request unanswered for 800 ms (one: over TCP a poll's requests go out together, so a second
+        # stall would fall in the same poll): the 0.41 s ring laps, ~4000 samples are lost.
+        self.em.command("fault stall 1")
         self.assertTrue(wait_for(lambda: self.c.status()["mic"].get("seq_gaps", 0) > 0, 5), self.c.status())
         c = self.c.status()["mic"]
         self.assertGreater(c["seq_gaps"], 2000, c)
-        self.assertEqual(c["counters"]["timeouts"], 2, c)
+        self.assertEqual(c["counters"]["timeouts"], 1, c)
         self.assertEqual(c["state"], "streaming", c)
         n = c["counters"]["samples"]
         self.assertTrue(wait_for(lambda: self.c.status()["mic"]["counters"]["samples"] > n + 2000))
@@ -231,7 +232,7 @@ sample_rate_hz = 10000
         e = self.c.status()["mic"]
         own = e["driver_counters"]
         self.assertGreaterEqual(own["ring_overruns"], 1, e)
-        self.assertLessEqual(own["ring_overruns"], 2, e)  # one per poll that found a lap: two stalls at most
+        self.assertLessEqual(own["ring_overruns"], 2, e)  # one per poll that found a lap
         self.assertGreater(own["lost_samples"], 2000, e)
         self.assertEqual(own["lost_samples"], e["seq_gaps"], e)
         self.assertEqual(e["counters"]["overruns"], 0, e)  # so no gap came from the daemon's own ring

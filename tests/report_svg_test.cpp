@@ -205,7 +205,13 @@ TEST(ReportSvg, PolarScaleFillsThePlot) {
     const double reach = amp / (scale.divisions * scale.um_per_div);
     EXPECT_GE(reach, 0.63) << amp;
     EXPECT_LE(reach, 0.975) << amp;
-    EXPECT_EQ(count(report::render(p), "class=\"ring\""), 2u * static_cast<unsigned>(scale.divisions));
+    const std::string svg = report::render(p);
+    EXPECT_EQ(count(svg, "class=\"ring\""), 2u * static_cast<unsigned>(scale.divisions));
+    // Ring values: every ring's when the rings are far enough apart for the text, else every other (the
+    // bold ring's always), never more than seven, so that no label runs into the next.
+    const std::size_t labels = count(svg, "ring-label");
+    EXPECT_GE(labels, 5u) << amp;
+    EXPECT_LE(labels, 7u) << amp;
   }
 }
 
@@ -345,6 +351,7 @@ TEST(Report, DbbSectionShowsNoEmptyPartsAndBeforeComesFirst) {
     spec.height_m = h_m;
     spec.direction = d;
     spec.feed_m_per_s = 5.0 / 60;
+    spec.sample_rate_hz = 100;  // about 2 samples a degree: what the report shows, at a fifth of EXPLAIN's cost
     ++k;
     for (const char* stage : {"after", "before"}) {
       const auto path = (dir / (std::string(stage) + "_" + std::to_string(k) + ".csv")).string();

@@ -124,15 +124,24 @@ for trial in range(15):
     cx, cy, r0 = (float(nominal.get(k)) for k in ("cx", "cy", "r"))
     rings = find_class(root, "circle", "ring") + [nominal]
     radii = sorted(float(c.get("r")) for c in rings)
-    labels = find_class(root, "text", "ring-label")
-    vals = sorted(float(t.text) for t in labels)
-    A = np.column_stack([np.ones(len(vals)), vals])
-    coef, *_ = np.linalg.lstsq(A, np.array(radii), rcond=None)  # radius = r0 + k * value
-    per_div = vals[1] - vals[0]
     stated = [t for t in find_class(root, "text", "axis-label") if "div" in (t.text or "")]
     m = re.search(r"([\d.]+) \u00b5m/div", stated[0].text if stated else "")
-    if not m or abs(float(m.group(1)) - per_div) > 1e-9 * per_div:
-        fail("polar %d: stated scale %r, rings %g um apart" % (trial, stated[0].text if stated else None, per_div))
+    per_div = float(m.group(1)) if m else float("nan")
+    # The rings are one stated division apart about the bold ring, the value 0: radius = r0 + k * value
+    # (radii printed to 0.1 px).
+    steps = np.diff(radii)
+    ring_of = (np.arange(len(radii)) - len(radii) // 2) * per_div
+    coef, *_ = np.linalg.lstsq(np.column_stack([np.ones(len(radii)), ring_of]), np.array(radii), rcond=None)
+    if not m or np.abs(steps - steps.mean()).max() > 0.11 or abs(coef[0] - r0) > 0.06:
+        fail("polar %d: stated scale %r, rings %s px apart" % (trial, stated[0].text if stated else None, steps))
+        continue
+    # Ring values (every ring's, or every other's when the rings are close) sit on their rings along 75 deg
+    # (the text's baseline 4 px below).
+    for t in find_class(root, "text", "ring-label"):
+        at = (np.hypot(float(t.get("x")) - cx, float(t.get("y")) - 4 - cy) - coef[0]) / coef[1]
+        if abs(at - float(t.text)) > 0.2 / coef[1]:
+            fail("polar %d: ring value %s drawn at %g" % (trial, t.text, at))
+    vals = list((np.array(radii) - coef[0]) / coef[1])  # the rings' values, labelled or not
     # The scale fills the plot: a 1-2-5 step, 3 to 5 rings out, the largest deviation 63 % to 97 % of the way.
     if (max(abs(dev)) > max(vals) or not is_125(per_div) or not 3 <= round(max(vals) / per_div) <= 5
             or not 0.63 <= max(abs(dev)) / max(vals) <= 0.975):

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <coroutine>
@@ -79,7 +80,7 @@ constexpr double rate_tolerance = 0.005;
 }  // namespace
 
 // A poll as a coroutine that never does I/O itself: at every register read it suspends (ask()), and
-// the transport resumes it with the answer in x_. Created suspended; run and destroyed by its owner.
+// the transport resumes it with the answer in xs_. Created suspended; run and destroyed by its owner.
 class MicrometerDriver::PollTask {
  public:
   struct promise_type {
@@ -117,10 +118,17 @@ MicrometerDriver::~MicrometerDriver() { stop(); }
 
 MicrometerDriver::ReadAwaiter MicrometerDriver::ask(modbus::RegisterFunction function, std::uint16_t address,
                                                     std::uint16_t count) noexcept {
-  x_.function = function;
-  x_.address = address;
-  x_.count = count;
-  return {x_};
+  Exchange& x = xs_[0];
+  x.function = function;
+  x.address = address;
+  x.count = count;
+  asked_ = 1;
+  return {x};
+}
+
+MicrometerDriver::ReadAwaiter MicrometerDriver::ask_all(std::size_t n) noexcept {
+  asked_ = std::clamp<std::size_t>(n, 1, xs_.size());
+  return {xs_[0]};
 }
 
 std::chrono::nanoseconds MicrometerDriver::poll_period() const noexcept {
@@ -166,9 +174,17 @@ void MicrometerDriver::run(std::stop_token stop) {
       PollTask poll = make_poll();
       poll.resume();
       while (!poll.done()) {
-        x_.result = client.read(x_.function, x_.address, x_.count, x_.block);
-        count_stale(client);
-        x_.t_answer_ns = mono_now_ns();
+        for (std::size_t i = 0; i < asked_; ++i) {
+          Exchange& x = xs_[i];
+          const modbus::ReadStatus before = i > 0 ? xs_[i - 1].result.status : modbus::ReadStatus::ok;
+          if (before != modbus::ReadStatus::ok && before != modbus::ReadStatus::exception) {
+            x.result = xs_[i - 1].result;  // the line failed: the rest would fail the same way, one timeout each
+            continue;
+          }
+          x.result = client.read(x.function, x.address, x.count, x.block);
+          count_stale(client);
+          x.t_answer_ns = mono_now_ns();
+        }
         poll.resume();
       }
       if (end_link_) break;
@@ -190,9 +206,9 @@ MicrometerDriver::PollTask MicrometerDriver::polled_poll() {
   const modbus::ReadResult& r = co_await ask(config_.map.function, start, count);
   if (r.status == modbus::ReadStatus::ok) {
     frames_.fetch_add(1, std::memory_order_relaxed);
-    const modbus::Reading reading = modbus::decode_registers(config_.map, x_.block);
+    const modbus::Reading reading = modbus::decode_registers(config_.map, xs_[0].block);
     Sample s;
-    s.t_mono_ns = x_.t_answer_ns;
+    s.t_mono_ns = xs_[0].t_answer_ns;
     s.value_count = 1;
     s.value[0] = reading.value_m;
     s.flags = reading.flags | (gap_ ? sample_after_gap : 0u);
@@ -258,18 +274,19 @@ void MicrometerDriver::lose(std::uint64_t n) noexcept {
   cursor.gap = true;
 }
 
-bool MicrometerDriver::take_counter(const modbus::ReadResult& r, std::int64_t t_query) {
+bool MicrometerDriver::take_counter(const Exchange& x, std::int64_t t_query) {
   const modbus::SampleRingMap& ring = *config_.buffer;
   const double rate = ring.sample_rate_hz;
   RingCursor& cursor = *cursor_;
-  const std::int64_t t_answer = x_.t_answer_ns;
+  const modbus::ReadResult& r = x.result;
+  const std::int64_t t_answer = x.t_answer_ns;
   if (r.status != modbus::ReadStatus::ok) {
     failed(r);
     return false;
   }
   frames_.fetch_add(1, std::memory_order_relaxed);
   const double elapsed_s = static_cast<double>(t_answer - cursor.last_query_ns) * 1e-9;
-  const std::uint32_t counter = modbus::decode_counter(ring, x_.block[0], x_.block[1]);
+  const std::uint32_t counter = modbus::decode_counter(ring, x.block[0], x.block[1]);
   const bool backwards =
       cursor.counter.started() && counter - static_cast<std::uint32_t>(cursor.counter.count()) >= 0x80000000u;
   const auto step = cursor.counter.update(counter, elapsed_s, rate);
@@ -328,8 +345,26 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
   readings_.resize(ring.samples_per_request());
   cursor.overrun_counted = false;
   std::int64_t t_query = mono_now_ns();
-  const modbus::ReadResult& counter_answer = co_await ask(ring.function, ring.counter_address, 2);
-  bool ok = take_counter(counter_answer, t_query);
+  // Over TCP the ring's new part goes out with the counter read, as far as the amplifier will have
+  // got by now (its rate, 2 % and 2 samples more; what it has not written yet is dropped once the
+  // counter says so): a poll is one round trip, not one per read, and its samples wait in the socket
+  // for one pass of the loop, not three.
+  std::vector<modbus::RingRead> ahead;
+  if (io_ != nullptr && !one_at_a_time_ && cursor.counter.started()) {
+    const double since_s = static_cast<double>(t_query - cursor.last_query_ns) * 1e-9;
+    const auto taken = static_cast<std::uint64_t>(std::max(0.0, rate * since_s * 1.02) + 2.0);
+    ahead = modbus::plan_ring_reads(ring, cursor.next, cursor.counter.count() + taken);
+    if (ahead.size() > max_reads_ahead) ahead.resize(max_reads_ahead);
+  }
+  const std::uint64_t next_asked = cursor.next;
+  (void)ask(ring.function, ring.counter_address, 2);
+  for (std::size_t i = 0; i < ahead.size(); ++i) {
+    xs_[1 + i].function = ring.function;
+    xs_[1 + i].address = ahead[i].address;
+    xs_[1 + i].count = ahead[i].count;
+  }
+  (void)co_await ask_all(1 + ahead.size());
+  bool ok = take_counter(xs_[0], t_query);
   if (ok) {
     const std::uint64_t count = cursor.counter.count();
     if (const std::uint64_t oldest = modbus::oldest_intact(ring, count); cursor.next < oldest) {
@@ -337,15 +372,33 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
       cursor.next = oldest;
     }
     const std::int64_t t_counter = cursor.last_query_ns;
-    for (const modbus::RingRead& rr : modbus::plan_ring_reads(ring, cursor.next, count)) {
-      const modbus::ReadResult& r = co_await ask(ring.function, rr.address, rr.count);
-      if (r.status != modbus::ReadStatus::ok) {
-        failed(r);
+    // The reads of [cursor.next, count): those answered with the counter (answer: their exchange),
+    // while the numbering held (no lap, no restart), then the rest, asked one by one (answer 0).
+    struct Planned {
+      modbus::RingRead read;
+      std::uint64_t end = 0;
+      std::size_t answer = 0;
+    };
+    std::vector<Planned> plan;
+    std::uint64_t planned_to = cursor.next;
+    for (std::size_t i = 0; cursor.next == next_asked && i < ahead.size() && ahead[i].first < count; ++i) {
+      planned_to = std::min<std::uint64_t>(ahead[i].first + ahead[i].samples, count);
+      plan.push_back({ahead[i], planned_to, 1 + i});
+    }
+    for (const modbus::RingRead& rr : modbus::plan_ring_reads(ring, planned_to, count)) {
+      plan.push_back({rr, rr.first + rr.samples, 0});
+    }
+    for (const Planned& p : plan) {
+      const modbus::RingRead& rr = p.read;
+      if (p.answer == 0) (void)co_await ask(ring.function, rr.address, rr.count);
+      const Exchange& x = xs_[p.answer];
+      if (x.result.status != modbus::ReadStatus::ok) {
+        failed(x.result);
         ok = false;
         break;
       }
       frames_.fetch_add(1, std::memory_order_relaxed);
-      modbus::decode_ring_block(ring, rr, x_.block, readings_);
+      modbus::decode_ring_block(ring, rr, x.block, readings_);
       // Samples near the ring's tail may have been overwritten while the requests were under way:
       // bound how far the amplifier can have got, and when that reaches them, ask it.
       std::uint64_t first = rr.first;
@@ -353,19 +406,19 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
       const auto could = count + static_cast<std::uint64_t>(rate * since_s * 1.05 + 2.0);
       if (modbus::oldest_intact(ring, could) > first) {
         t_query = mono_now_ns();
-        const modbus::ReadResult& again = co_await ask(ring.function, ring.counter_address, 2);
-        if (!take_counter(again, t_query)) {
+        (void)co_await ask(ring.function, ring.counter_address, 2);
+        if (!take_counter(xs_[0], t_query)) {
           ok = false;
           break;
         }
         const std::uint64_t intact = modbus::oldest_intact(ring, cursor.counter.count());
         if (cursor.next != rr.first) break;  // the amplifier restarted: start again at the next poll
         if (intact > first) {
-          lose(std::min<std::uint64_t>(intact, rr.first + rr.samples) - first);
-          first = std::min<std::uint64_t>(intact, rr.first + rr.samples);
+          lose(std::min<std::uint64_t>(intact, p.end) - first);
+          first = std::min<std::uint64_t>(intact, p.end);
         }
       }
-      for (std::uint64_t k = first; k < rr.first + rr.samples; ++k) {
+      for (std::uint64_t k = first; k < p.end; ++k) {
         const modbus::Reading& reading = readings_[k - rr.first];
         Sample s;
         s.t_mono_ns = cursor.stamps.stamp(k, cursor.anchor.time_ns(k));
@@ -375,7 +428,7 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
         cursor.gap = false;
         publish(s);
       }
-      cursor.next = rr.first + rr.samples;
+      cursor.next = p.end;
     }
   }
   end_link_ = link_gone_ || failures_ >= config_.lost_after_failures;
@@ -484,7 +537,7 @@ bool MicrometerDriver::read_socket(std::string& ended) {
         const std::int64_t k = r.rx_realtime_ns - realtime_minus_mono_ns();
         if (k >= sent_ns_ - 1'000'000 && k <= t + 1'000'000) t = std::clamp(k, sent_ns_, t);
       }
-      x_.t_answer_ns = t;
+      rx_ns_ = t;
       if (rx_.size() > 4 * modbus::max_tcp_answer_bytes) return true;  // a flood: parse what is there first
     }
     // Idle: late or repeated answers to an earlier poll's requests, dropped as libmodbus's flush drops them.
@@ -505,30 +558,42 @@ void MicrometerDriver::on_ready(std::uint32_t) {
   }
   if (link_ != Link::awaiting) return;
   for (;;) {
+    // The answers come in the order asked (a Modbus TCP server answers a connection's requests in turn).
+    Exchange& x = xs_[answered_];
+    const auto transaction = static_cast<std::uint16_t>(transaction_ - (asked_ - 1 - answered_));
     const modbus::TcpAnswer a = modbus::parse_tcp_answer(
-        rx_, transaction_, static_cast<std::uint8_t>(config_.endpoint.unit_id), x_.function, x_.count, x_.block);
+        rx_, transaction, static_cast<std::uint8_t>(config_.endpoint.unit_id), x.function, x.count, x.block);
     switch (a.kind) {
       case modbus::TcpAnswer::Kind::incomplete:
         return;  // the rest comes, or the response timeout
-      case modbus::TcpAnswer::Kind::other_transaction:
+      case modbus::TcpAnswer::Kind::other_transaction: {
         // A late answer to a request that timed out (or a repeated one): never taken for this one.
+        // An answer to a later request of this ask means the server passed over this one: the ask
+        // fails at its timeout as a whole, and that answer is no stale one.
+        const auto after = static_cast<std::uint16_t>(((rx_[0] << 8) | rx_[1]) - transaction);
         rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
-        count_stale_frames(1);
+        if (after == 0 || after >= asked_ - answered_) count_stale_frames(1);
         continue;
+      }
       case modbus::TcpAnswer::Kind::registers:
         rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
         io_->data_found();
-        answer({}, x_.t_answer_ns);
-        return;
+        x.result = {};
+        break;
       case modbus::TcpAnswer::Kind::exception:
         rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
-        answer({modbus::ReadStatus::exception, a.exception_code, modbus::exception_text(a.exception_code)},
-               x_.t_answer_ns);
-        return;
+        x.result = {modbus::ReadStatus::exception, a.exception_code, modbus::exception_text(a.exception_code)};
+        break;
       case modbus::TcpAnswer::Kind::bad:
         rx_.clear();  // nothing after it can be trusted
-        answer({modbus::ReadStatus::bad_frame, 0, a.why}, x_.t_answer_ns);
+        answer({modbus::ReadStatus::bad_frame, 0, a.why}, rx_ns_);
         return;
+    }
+    x.t_answer_ns = rx_ns_;
+    if (++answered_ == asked_) {
+      if (asked_ > 1) partly_answered_ = 0;
+      all_answered();
+      return;
     }
   }
 }
@@ -561,6 +626,9 @@ void MicrometerDriver::on_timer() {
         return;
       }
       rx_.clear();  // a part of an answer that stopped half way is dropped with it
+      // Some of a pipelined ask answered, the rest never, twice in a row (once is a lost answer): an
+      // amplifier that takes one request at a time and drops the others; from now on it is asked so.
+      if (asked_ > 1 && answered_ > 0 && ++partly_answered_ >= 2) one_at_a_time_ = true;
       answer({modbus::ReadStatus::timeout, 0, std::strerror(ETIMEDOUT)}, now);
       return;
     case Link::idle:
@@ -613,15 +681,22 @@ void MicrometerDriver::continue_poll() {
 }
 
 void MicrometerDriver::send_request() {
-  ++transaction_;
-  const auto request = modbus::tcp_read_request(transaction_, static_cast<std::uint8_t>(config_.endpoint.unit_id),
-                                                x_.function, x_.address, x_.count);
+  // Every request of the ask in one write.
+  std::array<std::uint8_t, (1 + max_reads_ahead) * modbus::tcp_request_bytes> requests{};
+  for (std::size_t i = 0; i < asked_; ++i) {
+    const Exchange& x = xs_[i];
+    const auto one = modbus::tcp_read_request(++transaction_, static_cast<std::uint8_t>(config_.endpoint.unit_id),
+                                              x.function, x.address, x.count);
+    std::copy(one.begin(), one.end(), requests.begin() + static_cast<std::ptrdiff_t>(i * one.size()));
+  }
+  const std::size_t size = asked_ * modbus::tcp_request_bytes;
+  answered_ = 0;
   rx_.clear();
   sent_ns_ = mono_now_ns();
-  const ssize_t put = ::send(fd_, request.data(), request.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  const ssize_t put = ::send(fd_, requests.data(), size, MSG_NOSIGNAL | MSG_DONTWAIT);
   link_ = Link::awaiting;
-  if (put != static_cast<ssize_t>(request.size())) {
-    // 12 bytes on an idle connection: refused only when the connection is gone (or never drains).
+  if (put != static_cast<ssize_t>(size)) {
+    // At most 48 bytes on an idle connection: refused only when the connection is gone (or never drains).
     const std::string why = put < 0 ? std::strerror(errno) : "short write of a request";
     answer({put < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) ? modbus::ReadStatus::timeout
                                                                  : modbus::ReadStatus::disconnected,
@@ -636,8 +711,15 @@ void MicrometerDriver::send_request() {
 }
 
 void MicrometerDriver::answer(modbus::ReadResult result, std::int64_t t_answer_ns) {
-  x_.result = std::move(result);
-  x_.t_answer_ns = t_answer_ns;
+  for (std::size_t i = answered_; i < asked_; ++i) {
+    xs_[i].result = result;
+    xs_[i].t_answer_ns = t_answer_ns;
+  }
+  answered_ = asked_;
+  all_answered();
+}
+
+void MicrometerDriver::all_answered() {
   link_ = Link::idle;
   continue_poll();
 }
@@ -645,7 +727,10 @@ void MicrometerDriver::answer(modbus::ReadResult result, std::int64_t t_answer_n
 void MicrometerDriver::finish_poll() {
   poll_.reset();
   resting_ = false;
-  if (fd_ >= 0) io_->modify(fd_, EPOLLIN);
+  // While other devices keep the loop passing by, the socket stays without readiness interest until
+  // the next poll (no two epoll_ctl per poll): a stray answer is flushed when it starts, a hang-up is
+  // reported all the same.
+  if (fd_ >= 0) io_->modify(fd_, busy_ ? 0u : std::uint32_t{EPOLLIN});
   if (end_link_) {
     end_tcp_link(last_failure_);
     return;

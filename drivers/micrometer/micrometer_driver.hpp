@@ -4,7 +4,10 @@
 // (metres) per answer. Buffered mode ([buffer] table): the amplifier keeps its recent samples in a
 // ring of registers with a sample counter; every poll_period_ms the driver reads the counter and
 // the new part of the ring, publishes every sample once, timestamped from its sample number, and
-// counts what the ring lost between polls. Register maps, transport and rates come from the
+// counts what the ring lost between polls. Over TCP the counter read and the reads of the ring's new
+// part (as far as the amplifier will have got, from its rate) go out in one write, so a poll is one
+// round trip; an amplifier that answers only the first of such pipelined requests is read one
+// request at a time from then on. Register maps, transport and rates come from the
 // [[device]] table (docs/protocols.md). A poll is written once, as a coroutine that asks for each
 // register read and is resumed with its answer: over TCP the I/O loop does the reads (loop-driven,
 // a non-blocking Modbus TCP client, modbus_tcp.hpp); over RTU a thread of its own does them with
@@ -90,12 +93,18 @@ class MicrometerDriver : public drivers::Driver {
   };
   struct ReadAwaiter;
   ReadAwaiter ask(modbus::RegisterFunction function, std::uint16_t address, std::uint16_t count) noexcept;
+  // The first n exchanges of xs_ (filled by the poll) asked at once; resumed when all are answered
+  // (a failure fails the ones after it that have no answer).
+  ReadAwaiter ask_all(std::size_t n) noexcept;
+  // Most ring reads a buffered poll sends ahead with its counter read (3 x 41 samples at the
+  // default record: 12 ms at 10 kHz); the rest, after an outage, are asked one by one.
+  static constexpr std::size_t max_reads_ahead = 3;
   // One poll of either mode; sets end_link_ when the link is to be given up (last_failure_ says why).
   PollTask polled_poll();
   PollTask buffered_poll();
   PollTask make_poll();
   // The answer to a counter read sent at t_query: the sample numbering, restarts, the rate check.
-  bool take_counter(const modbus::ReadResult& r, std::int64_t t_query);
+  bool take_counter(const Exchange& x, std::int64_t t_query);
   // A failed request of either mode: counted (timeout, bad frame, exception; a lost link is not a
   // frame), and the reason to report.
   std::string count_failure(const modbus::ReadResult& r);
@@ -123,7 +132,9 @@ class MicrometerDriver : public drivers::Driver {
   // Runs the poll until it asks for an answer that is not there yet, or ends.
   void continue_poll();
   void send_request();
+  // The exchanges not answered yet all end with `result` (a timeout, a lost link, a bad frame).
   void answer(modbus::ReadResult result, std::int64_t t_answer_ns);
+  void all_answered();
   void finish_poll();
   // Reads what the socket holds; false when the connection ended.
   bool read_socket(std::string& ended);
@@ -135,8 +146,10 @@ class MicrometerDriver : public drivers::Driver {
   std::atomic<std::uint64_t> counter_resets_{0};
   std::atomic<std::uint64_t> stale_answers_{0};  // late answers discarded before a read (also bad frames)
   std::uint64_t stale_seen_ = 0;                 // the RTU client's count already taken
-  // The poll's state (the driver thread's over RTU, the loop thread's over TCP).
-  Exchange x_;
+  // The poll's state (the driver thread's over RTU, the loop thread's over TCP): the exchanges of
+  // the current ask (asked_ of them; a single ask uses xs_[0]).
+  std::vector<Exchange> xs_ = std::vector<Exchange>(1 + max_reads_ahead);
+  std::size_t asked_ = 1;
   std::unique_ptr<RingCursor> cursor_;  // buffered mode
   std::vector<modbus::Reading> readings_;
   drivers::ReconnectBackoff backoff_;
@@ -156,7 +169,11 @@ class MicrometerDriver : public drivers::Driver {
   std::int64_t deadline_ns_ = 0;  // awaiting: the timeout; waiting: the reconnect
   std::int64_t next_poll_ns_ = 0;
   std::int64_t sent_ns_ = 0;
-  std::uint16_t transaction_ = 0;
+  std::uint16_t transaction_ = 0;  // the last one sent; the ask's first is transaction_ - asked_ + 1
+  std::size_t answered_ = 0;       // exchanges of the ask answered so far
+  std::int64_t rx_ns_ = 0;         // when the bytes in rx_ arrived (the kernel's receive time)
+  int partly_answered_ = 0;        // pipelined asks in a row that timed out with some answered
+  bool one_at_a_time_ = false;     // the amplifier dropped pipelined requests: ask one by one
   std::vector<std::uint8_t> rx_;
   std::unique_ptr<PollTask> poll_;
   std::uint64_t served_pass_ = 0;  // the loop's last pass this driver's socket or timer caused

@@ -235,26 +235,6 @@ double map_radius(const std::vector<formats::DbbRun>& runs, ErrorMap& m) {
   return radius;
 }
 
-// How the note on what was fitted beside the terms begins.
-constexpr std::string_view fitted_beside_note = "fitted beside the terms";
-
-// A term contradicts another identification of the same runs when they differ by more than this many
-// combined standard uncertainties.
-constexpr double contradiction_k = 3.0;
-
-}  // namespace
-
-std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others) {
-  const auto* other = find(others, term.name);
-  if (!other || !std::isfinite(other->u) || !std::isfinite(term.u)) return "";
-  const double z = std::abs(term.value - other->value) / std::hypot(term.u, other->u);
-  if (!(z > contradiction_k)) return "";
-  return "contradicts EXPLAIN's " + printf_number("%.4g", other->value) + " +/- " + printf_number("%.2g", other->u) +
-         " on the same runs (" + printf_number("%.0f", z) + " combined u apart)";
-}
-
-namespace {
-
 // The term `name` as checked: whether it is significant, whether the runs can have determined it, and
 // whether it contradicts the map's cross-check (EXPLAIN's value of it).
 Term checked(const ErrorMap& m, const std::string& name, double value, double u, Use use, const std::string& why) {
@@ -266,7 +246,7 @@ Term checked(const ErrorMap& m, const std::string& name, double value, double u,
   t.why = why;
   t.significant = std::abs(t.value) > significance_k * t.u;
   t.determined = determined(t.name, t.value, t.u, m.circular_deviation_um, m.terms_of[0].radius_m, m.feed_m_per_s);
-  if (t.determined) t.contradiction = contradiction({name, value, u, true}, m.cross_check);
+  if (t.determined) t.contradiction = explain::contradiction({name, value, u, true}, m.cross_check);
   return t;
 }
 
@@ -454,7 +434,8 @@ ErrorMap error_map(const dbb::Identification& id, const std::vector<formats::Dbb
   return m;
 }
 
-ErrorMap error_map(const CheckedIdentification& checked, const std::vector<formats::DbbRun>& runs, MapOptions options) {
+ErrorMap error_map(const explain::CheckedIdentification& checked, const std::vector<formats::DbbRun>& runs,
+                   MapOptions options) {
   options.cross_check = checked.explain;
   ErrorMap m = error_map(checked.id, runs, options);
   m.notes.insert(m.notes.end(), checked.notes.begin(), checked.notes.end());
@@ -776,9 +757,9 @@ std::string to_text(const ErrorMap& m) {
       << " mm\n";
   // The notes, but what was fitted beside in words and rounded to u (the files keep the names).
   for (const auto& n : m.notes)
-    if (m.beside.empty() || !n.starts_with(fitted_beside_note)) o << "note: " << n << "\n";
+    if (m.beside.empty() || !n.starts_with(explain::fitted_beside_note)) o << "note: " << n << "\n";
   if (!m.beside.empty()) {
-    o << "note: " << fitted_beside_note << " (what EXPLAIN found on the same runs; in no table):";
+    o << "note: " << explain::fitted_beside_note << " (what EXPLAIN found on the same runs; in no table):";
     for (std::size_t k = 0; k < m.beside.size(); ++k) {
       const auto& e = m.beside[k];
       const results::Shown s = results::shown(e.name, e.value, e.u, m.plane);
@@ -810,101 +791,6 @@ bool determined(const std::string& name, double value, double u, double g_um, do
   else
     return true;
   return !(std::abs(value) * um_per_unit > 10 * g_um) && !(u * um_per_unit > g_um);
-}
-
-namespace {
-
-// EXPLAIN's effects that identify's models hold themselves, so never fitted beside them: both models hold
-// the backlash and the servo mismatch, the diagnostics also the spikes, the lateral play and a cyclic error
-// (those are fitted beside Lai's terms only).
-constexpr std::string_view held_by_both[] = {"backlash", "servo_mismatch"};
-constexpr std::string_view held_by_diagnostics[] = {"reversal_spike", "lateral_play", "cyclic_error"};
-// Not fitted beside either, with the reason: servo_lag is the geometry itself seen one lag earlier along
-// the path, a column built from the base's fit whose shapes the diagnostics' servo mismatch and scale share.
-constexpr std::string_view not_beside[] = {"servo_lag"};
-
-bool listed_in(std::span<const std::string_view> list, const std::string& effect) {
-  return std::find(list.begin(), list.end(), effect) != list.end();
-}
-
-}  // namespace
-
-namespace {
-
-// identify with options.beside, and what was fitted beside as the checked identification reports it.
-void identify_beside(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options,
-                     CheckedIdentification& out) {
-  out.id = dbb::identify(runs, options);
-  out.beside_terms = options.beside;
-  for (const auto& t : options.beside)
-    for (std::size_t c = 0; c < t.columns_um.size() && c < t.names.size(); ++c)
-      if (const auto* e = find(out.id.beside, t.names[c])) {
-        out.beside_um.resize(t.columns_um[c].size(), 0.0);
-        for (std::size_t i = 0; i < out.beside_um.size(); ++i) out.beside_um[i] += e->value * t.columns_um[c][i];
-      }
-  // The effects actually fitted beside the terms reported (the diagnostics hold a cyclic error themselves).
-  for (const auto& t : options.beside)
-    if (std::any_of(t.names.begin(), t.names.end(), [&](const std::string& n) { return find(out.id.beside, n); }))
-      out.beside.push_back(t.effect);
-  if (!out.beside.empty()) {
-    std::string list, values;
-    for (const auto& e : out.beside) list += (list.empty() ? "" : ", ") + e;
-    for (const auto& e : out.id.beside)
-      values += (values.empty() ? "" : ", ") + e.name + " " + printf_number("%.4g", e.value) + " +/- " +
-                printf_number("%.2g", e.u);
-    out.notes.push_back(std::string(fitted_beside_note) + ", as EXPLAIN found them on the same runs: " + list + " (" +
-                        values + "); not in any table");
-  }
-}
-
-// Whether two lists of runs share their sample grid: the same runs, angles and times (a retrace of runs
-// simulated from the same machine file).
-bool same_grid(const std::vector<formats::DbbRun>& a, const std::vector<formats::DbbRun>& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    if (a[k].angle_rad.size() != b[k].angle_rad.size() || a[k].direction != b[k].direction) return false;
-    for (std::size_t i = 0; i < a[k].angle_rad.size(); ++i)
-      if (std::abs(a[k].angle_rad[i] - b[k].angle_rad[i]) > 1e-9 || std::abs(a[k].t_s[i] - b[k].t_s[i]) > 1e-9)
-        return false;
-  }
-  return true;
-}
-
-}  // namespace
-
-CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options) {
-  explain::ExplainOptions eo;
-  eo.keep_columns = true;
-  eo.curve_points = 0;
-  const explain::Report report = explain::explain_dbb_report(runs, eo);
-  CheckedIdentification out;
-  dbb::IdentifyOptions o = options;
-  for (const auto& f : report.findings) {
-    for (const auto& p : f.parameters)
-      if (std::isfinite(p.u)) out.explain.push_back({p.name, p.value, p.u, true});
-    if (listed_in(held_by_both, f.effect)) continue;
-    if (listed_in(not_beside, f.effect)) {
-      out.notes.push_back("EXPLAIN found " + f.effect +
-                          " on these runs; it is not fitted beside the terms (it is the geometry itself seen one lag "
-                          "earlier along the path, which the scale and servo mismatch partly take)");
-      continue;
-    }
-    o.beside.push_back({f.effect, f.column_names, f.columns_um, !listed_in(held_by_diagnostics, f.effect)});
-  }
-  identify_beside(runs, o, out);
-  return out;
-}
-
-CheckedIdentification identify_checked_like(const std::vector<formats::DbbRun>& runs,
-                                            const CheckedIdentification& earlier,
-                                            const std::vector<formats::DbbRun>& earlier_runs) {
-  if (!same_grid(runs, earlier_runs)) return identify_checked(runs);
-  CheckedIdentification out;
-  out.explain = earlier.explain;
-  dbb::IdentifyOptions o;
-  o.beside = earlier.beside_terms;
-  identify_beside(runs, o, out);
-  return out;
 }
 
 }  // namespace guideway::models::compensation

@@ -21,6 +21,7 @@
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/three_planes.hpp"
+#include "models/explain/dbb_checked.hpp"
 
 namespace guideway::models::compensation {
 
@@ -111,7 +112,8 @@ struct ErrorMap {
   double circular_deviation_um = 0.0;
   double feed_m_per_s = 0.0;
   std::vector<dbb::Estimate> cross_check;
-  // What was fitted beside the terms (CheckedIdentification: the identification's `beside`), for people's text.
+  // What was fitted beside the terms (explain::CheckedIdentification: the identification's `beside`), for people's
+  // text.
   std::vector<dbb::Estimate> beside;
 };
 
@@ -120,11 +122,6 @@ struct ErrorMap {
 // G of the runs, nor when its uncertainty's size exceeds G (a value and u of orders more than the runs
 // deviate: a spike of -256 +/- 150 um on runs of G 0.73 um). A name of another unit is taken as determined.
 bool determined(const std::string& name, double value, double u, double g_um, double radius_m, double feed_m_per_s);
-
-// How `term` contradicts another identification of the same runs (`others`, EXPLAIN's findings: the estimate
-// of the same name): their difference beyond 3 combined standard uncertainties, in words with both values and
-// how far apart they are; "" when it does not (no such estimate, or either has no u).
-std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others);
 
 // Whether a reversal spike seen on the runs retraced with the map's tables (`after`) is the tables' own backlash
 // step rather than the machine's stiction: the axis' table holds a backlash (applied), the runs before showed no
@@ -142,38 +139,14 @@ struct MapOptions {
   // center_b_mm metadata (they must agree). Neither: CompensationError.
   std::optional<std::array<double, 2>> center_m;
   double step_m = 0.0;  // table spacing; 0 = the finest of 0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, ... mm within 256 lines
-  // Another identification of the same runs (EXPLAIN's findings, CheckedIdentification::explain): a term of
+  // Another identification of the same runs (EXPLAIN's findings, explain::CheckedIdentification::explain): a term of
   // the same name that differs from it by more than 3 combined standard uncertainties is not applied.
   std::vector<dbb::Estimate> cross_check;
 };
 
-// The identification a compensation is built from: identify (models/dbb) with what EXPLAIN finds on the
-// same runs and neither of its models holds fitted beside their terms (a drift, a vibration, a stick-slip,
-// a sensor's nonlinearity; for Lai's fit also the spikes, the lateral play and a cyclic error), so that it
-// is not read as one of the tables' terms: a 1 um/min drift along X read as -0.25 um of backlash.
-// EXPLAIN's findings are also what the map checks its terms against (MapOptions::cross_check).
-struct CheckedIdentification {
-  dbb::Identification id;
-  std::vector<dbb::Estimate> explain;  // EXPLAIN's findings' parameters with an uncertainty
-  std::vector<std::string> beside;     // the effects fitted beside ("thermal_drift")
-  std::vector<std::string> notes;      // what was fitted beside, what EXPLAIN found that was not, and why
-  // The terms fitted beside as fitted, summed, one value per sample of all the runs in their order (um;
-  // empty when none): what no table holds, and what a verification takes out of the runs' G to judge the
-  // tables by what they can correct.
-  std::vector<double> beside_um;
-  std::vector<dbb::BesideTerm> beside_terms;  // what was fitted beside, as identify took it
-};
-CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
-                                       const dbb::IdentifyOptions& options = {});
-// The same for runs on the sample grid of `earlier_runs` (the same runs, angles and times: a retrace of runs
-// simulated from the same machine file, or a retrace after a retrace): `earlier`'s terms are fitted beside
-// again, without running EXPLAIN (its columns are the same); on another grid, identify_checked(runs).
-CheckedIdentification identify_checked_like(const std::vector<formats::DbbRun>& runs,
-                                            const CheckedIdentification& earlier,
-                                            const std::vector<formats::DbbRun>& earlier_runs);
 // error_map of a checked identification: EXPLAIN's values are the cross-check, and the notes of the
 // identification (what was fitted beside) are the map's too.
-ErrorMap error_map(const CheckedIdentification& checked, const std::vector<formats::DbbRun>& runs,
+ErrorMap error_map(const explain::CheckedIdentification& checked, const std::vector<formats::DbbRun>& runs,
                    MapOptions options = {});
 
 // The circle centre of the runs' metadata (first, second plane axis), or nullopt when a run does not

@@ -993,7 +993,8 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
   if (options.bar_length_u_um > 0) {
     Eigen::VectorXd w(n);
     for (Eigen::Index i = 0; i < n; ++i) w[i] = pts[static_cast<std::size_t>(i)].w;
-    add_bar_length_uncertainty(res, work.j.topLeftCorner(n, static_cast<Eigen::Index>(m)), w, names,
+    // Every column of the fit, the terms fitted beside included: the response is of the same model.
+    add_bar_length_uncertainty(res, work.j.topLeftCorner(n, static_cast<Eigen::Index>(cols)), w, names,
                                options.bar_length_u_um);
   }
   for (std::size_t i = 0; i < pts.size(); ++i) {

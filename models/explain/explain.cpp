@@ -54,35 +54,112 @@ constexpr double rank_tolerance = 1e-9;
 // ~40 MB, so a count of entries alone would not bound it.
 constexpr std::size_t cache_budget_bytes = std::size_t{256} << 20;
 
+// The triangular factor of a tall matrix [a y] (y optional: a vector or none), R with R^T R = [a y]^T [a y],
+// p + (y ? 1 : 0) rows: a QR of each chunk of rows that fits in a core's cache, then one of their factors
+// stacked (a tall-skinny QR). One pass over the matrix: Householder QR of a whole n x p matrix of fewer than 32
+// columns is one unblocked panel, p rank-one updates each streaming the whole matrix from memory (a tenth of
+// explain()'s CPU at 18,000 samples per run). The column of y gives Q^T y with the same reflectors.
+Eigen::MatrixXd tall_r(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd* y = nullptr) {
+  const Eigen::Index n = a.rows(), w = a.cols() + (y ? 1 : 0);
+  const Eigen::Index chunk = std::max<Eigen::Index>(2 * w, (Eigen::Index{1} << 17) / std::max<Eigen::Index>(w, 1));
+  const auto factor = [w](Eigen::MatrixXd& m) {  // m's rows replaced by its R (at most w rows)
+    if (m.rows() <= w) return;
+    Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> h(m);
+    m = Eigen::MatrixXd(h.matrixQR().topRows(w).triangularView<Eigen::Upper>());
+  };
+  Eigen::MatrixXd stacked(0, w);
+  Eigen::MatrixXd part;
+  for (Eigen::Index from = 0; from < n; from += chunk) {
+    const Eigen::Index rows = std::min(chunk, n - from);
+    part.resize(rows, w);
+    part.leftCols(a.cols()) = a.middleRows(from, rows);
+    if (y) part.col(w - 1) = y->segment(from, rows);
+    factor(part);
+    stacked.conservativeResize(stacked.rows() + part.rows(), w);
+    stacked.bottomRows(part.rows()) = part;
+  }
+  factor(stacked);
+  if (stacked.rows() < w) stacked.conservativeResizeLike(Eigen::MatrixXd::Zero(w, w));
+  return stacked;
+}
+
 // The held-out rows' prediction from a least-squares fit to the training rows (jt, yt): no uncertainties
 // wanted, so the minimum-norm solution of the column-scaled problem by a complete orthogonal
 // decomposition (rank as span_basis decides it). Minimum norm, not a basic solution: with columns the
 // training rows cannot separate (Lai's unidentifiable terms) a basic solution's held-out prediction would
 // depend on which column round-off pivots out. False when the fit fails.
 // jt is scaled and decomposed in place.
-bool predict(Eigen::MatrixXd jt, const Eigen::VectorXd& yt, const Eigen::MatrixXd& jh, Eigen::VectorXd& out) {
-  Eigen::VectorXd scale(jt.cols());
-  for (Eigen::Index c = 0; c < jt.cols(); ++c) {
-    const double norm = jt.col(c).norm();
+// Each column scaled to unit norm (a zero column kept); the scales applied.
+Eigen::VectorXd scale_columns(Eigen::Ref<Eigen::MatrixXd> m) {
+  Eigen::VectorXd scale(m.cols());
+  for (Eigen::Index c = 0; c < m.cols(); ++c) {
+    const double norm = m.col(c).norm();
     scale[c] = norm > 0 ? 1.0 / norm : 1.0;
-    jt.col(c) *= scale[c];
+    m.col(c) *= scale[c];
   }
+  return scale;
+}
+// The minimum-norm solution of S b = y from the triangular factor r of [S y] (p + 1 columns): that of
+// R0 b = (Q0^T y)[:p], the rank-revealing decomposition working on p x p.
+Eigen::VectorXd min_norm_solution(const Eigen::MatrixXd& r, Eigen::Index p) {
   Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
   cod.setThreshold(rank_tolerance);
+  cod.compute(r.topLeftCorner(p, p));
+  return cod.solve(Eigen::VectorXd(r.col(p).head(p)));
+}
+bool predict(Eigen::MatrixXd jt, const Eigen::VectorXd& yt, const Eigen::MatrixXd& jh, Eigen::VectorXd& out) {
+  const Eigen::VectorXd scale = scale_columns(jt);
   Eigen::VectorXd b;
   const Eigen::Index p = jt.cols();
   if (jt.rows() >= 2 * p) {
-    // A tall design is first reduced by a blocked (unpivoted) QR, S = Q0 R0: the minimum-norm solution of
-    // R0 b = (Q0^T y)[:p] is that of S b = y, and the rank-revealing decomposition then works on p x p.
-    const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> h(jt);
-    const Eigen::MatrixXd r0 = h.matrixQR().topRows(p).triangularView<Eigen::Upper>();
-    const Eigen::VectorXd qty = (h.householderQ().transpose() * yt).head(p);
-    cod.compute(r0);
-    b = cod.solve(qty);
+    b = min_norm_solution(tall_r(jt, &yt), p);  // a tall design reduced first (tall_r)
   } else {
+    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod;
+    cod.setThreshold(rank_tolerance);
     cod.compute(jt);
     b = cod.solve(yt);
   }
+  if (!b.allFinite()) return false;
+  out = jh * (scale.asDiagonal() * b);
+  return true;
+}
+
+// A fold's base on its training rows, factored once: every held-out fit in that fold has the base's columns
+// and differs only in the few columns of the effects beside it.
+struct FoldBase {
+  Eigen::VectorXd scale;  // predict()'s column scales
+  Eigen::MatrixXd q, r;   // the scaled base = Q R, Q's columns orthonormal (Householder: whatever the base's rank)
+};
+FoldBase fold_base(Eigen::MatrixXd b) {
+  FoldBase fb;
+  fb.scale = scale_columns(b);
+  const Eigen::HouseholderQR<Eigen::MatrixXd> h(b);
+  fb.r = h.matrixQR().topRows(b.cols()).triangularView<Eigen::Upper>();
+  fb.q = h.householderQ() * Eigen::MatrixXd::Identity(b.rows(), b.cols());
+  return fb;
+}
+// predict() of the design [base rest] from the fold's factored base: [B R y] = [Q E'] [[R_B C] [0 R_E]] with
+// C = Q^T [R y] and E = [R y] - Q C = E' R_E, so only E is factored (tall_r). The projection is done twice
+// (classical Gram-Schmidt loses orthogonality to Q where a column lies near the base's span; twice is enough).
+// jh: the held-out rows of the base's columns then rest's.
+bool predict_beside(const FoldBase& base, Eigen::MatrixXd rest, const Eigen::VectorXd& yt, const Eigen::MatrixXd& jh,
+                    Eigen::VectorXd& out) {
+  const Eigen::Index pb = base.q.cols(), pr = rest.cols(), p = pb + pr;
+  Eigen::MatrixXd e(rest.rows(), pr + 1);
+  e.leftCols(pr) = rest;
+  e.col(pr) = yt;
+  Eigen::VectorXd scale(p);
+  scale << base.scale, scale_columns(e.leftCols(pr));
+  Eigen::MatrixXd c = base.q.transpose() * e;
+  e.noalias() -= base.q * c;
+  const Eigen::MatrixXd again = base.q.transpose() * e;
+  e.noalias() -= base.q * again;
+  c += again;
+  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(p + 1, p + 1);
+  r.topLeftCorner(pb, pb) = base.r;
+  r.topRightCorner(pb, pr + 1) = c;
+  r.bottomRightCorner(pr + 1, pr + 1) = tall_r(e);
+  const Eigen::VectorXd b = min_norm_solution(r, p);
   if (!b.allFinite()) return false;
   out = jh * (scale.asDiagonal() * b);
   return true;
@@ -101,9 +178,7 @@ Eigen::MatrixXd span_basis(Eigen::MatrixXd s) {
     if (const double norm = s.col(c).norm(); norm > 0) s.col(c) /= norm;
   const Eigen::Index p = s.cols();
   if (s.rows() >= 2 * p) {
-    const Eigen::HouseholderQR<Eigen::MatrixXd> h(s);
-    const Eigen::MatrixXd r0 = h.matrixQR().topRows(p).triangularView<Eigen::Upper>();
-    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(r0);
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(tall_r(s));
     qr.setThreshold(rank_tolerance);
     const Eigen::Index r = qr.rank();
     if (r == 0) return Eigen::MatrixXd(s.rows(), 0);
@@ -238,8 +313,10 @@ struct Choice {
   std::size_t index = none;
   Extension ext;
 };
+// `buffer` holds a batch's columns between calls: at large n a fresh n x 64 batch is an allocation the kernel
+// clears page by page every time.
 Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& allowed,
-              const std::vector<Eigen::Index>* rows, const Model& m) {
+              const std::vector<Eigen::Index>* rows, const Model& m, std::vector<double>& buffer) {
   Choice best;
   double best_bic = 0;
   const auto count = static_cast<double>(m.residual.size());
@@ -256,7 +333,8 @@ Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& all
       width += variants[v].block.columns.cols();
     }
     if (members.empty()) continue;
-    Eigen::MatrixXd x(m.residual.size(), width);
+    buffer.resize(std::max(buffer.size(), static_cast<std::size_t>(m.residual.size() * width)));
+    Eigen::Map<Eigen::MatrixXd> x(buffer.data(), m.residual.size(), width);
     Eigen::Index at = 0;
     for (std::size_t k : members) {
       const auto& c = variants[k].block.columns;
@@ -267,7 +345,8 @@ Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& all
       at += c.cols();
     }
     const Eigen::VectorXd norms = x.colwise().norm().transpose();
-    const Eigen::MatrixXd xp = x - m.q * (m.q.transpose() * x);
+    x.noalias() -= m.q * (m.q.transpose() * x);  // projected off the basis: Q^T x is evaluated first
+    const auto& xp = x;
     at = 0;
     for (std::size_t k : members) {
       const Eigen::Index q = variants[k].block.columns.cols();
@@ -403,7 +482,7 @@ class Selection {
     t.cand = c;
     t.pool = generate(cand, cur.residual, std::vector<bool>(n_, true));
     const auto& variants = listed(cand, t.pool);
-    const Choice ch = choose(variants, allowed(c, variants, terms, none), nullptr, cur);
+    const Choice ch = choose(variants, allowed(c, variants, terms, none), nullptr, cur, choose_buffer_);
     if (ch.index == none) return t;
     t.index = ch.index;
     t.ext = ch.ext;
@@ -467,7 +546,7 @@ class Selection {
           r(fold.train) = m.residual;
           pool = generate(cand, r, fold.use);
           const auto& variants = listed(cand, pool);
-          const Choice ch = choose(variants, allowed(trial, variants, terms, skip), &fold.train, m);
+          const Choice ch = choose(variants, allowed(trial, variants, terms, skip), &fold.train, m, choose_buffer_);
           if (ch.index == none) return fail(cand.effect + " has no variant that can be fitted on the training rows");
           chosen = &variants[ch.index];
         }
@@ -475,13 +554,16 @@ class Selection {
       }
       // Built once with the trial's columns (no concatenated copies: at large n each copy of the fold's
       // design is an allocation the kernel clears page by page, a tenth of explain()'s CPU).
-      const bool with_trial = trial != none;
-      Eigen::MatrixXd jt = fold_columns(f, terms, skip, true, with_trial ? &out.trial[f].train : nullptr);
-      const Eigen::MatrixXd jh = fold_columns(f, terms, skip, false, with_trial ? &out.trial[f].test : nullptr);
-      if (fold.train.size() < static_cast<std::size_t>(jt.cols()) + 2)
-        return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(jt.cols()) + " columns");
+      const Eigen::MatrixXd* extra_train = trial != none ? &out.trial[f].train : nullptr;
+      const Eigen::MatrixXd jh = fold_columns(f, terms, skip, false, trial != none ? &out.trial[f].test : nullptr);
+      if (fold.train.size() < static_cast<std::size_t>(jh.cols()) + 2)
+        return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(jh.cols()) + " columns");
       Eigen::VectorXd predicted;
-      if (!predict(std::move(jt), yt, jh, predicted)) return fail("the fit failed (not finite)");
+      const auto base = fold.train.size() >= 2 * static_cast<std::size_t>(jh.cols() + 1) ? fold_base_of(f) : nullptr;
+      const bool fitted =
+          base ? predict_beside(*base, fold_columns(f, terms, skip, true, extra_train, false), yt, jh, predicted)
+               : predict(fold_columns(f, terms, skip, true, extra_train), yt, jh, predicted);
+      if (!fitted) return fail("the fit failed (not finite)");
       sse += (y_(fold.test) - predicted).squaredNorm();
       count += fold.test.size();
     }
@@ -498,7 +580,7 @@ class Selection {
     const Model without = model(terms, k);
     auto pool = generate(cand, without.residual, std::vector<bool>(n_, true));
     const auto& variants = listed(cand, pool);
-    const Choice ch = choose(variants, allowed(t.cand, variants, terms, k), nullptr, without);
+    const Choice ch = choose(variants, allowed(t.cand, variants, terms, k), nullptr, without, choose_buffer_);
     if (ch.index == none) return false;
     const Variant& now = variants[ch.index];
     const Variant& before = variant_of(p_, t);
@@ -540,7 +622,7 @@ class Selection {
       const Model without_j = model_of(design(trial, j), searched, y_);  // not cached: one use each
       const auto pool_j = generate(cj, without_j.residual, std::vector<bool>(n_, true));
       const auto& vj = listed(cj, pool_j);
-      const Choice ch = choose(vj, allowed(trial[j].cand, vj, trial, j), nullptr, without_j);
+      const Choice ch = choose(vj, allowed(trial[j].cand, vj, trial, j), nullptr, without_j, choose_buffer_);
       if (ch.index == none) continue;
       const double bic =
           bic_of(ch.ext.rss, static_cast<double>(without_j.rank + ch.ext.rank + searched + vj[ch.index].searched),
@@ -589,7 +671,7 @@ class Selection {
       r(fold.train) = m.residual;
       auto fpool = generate(cand, r, fold.use);
       const auto& fv = listed(cand, fpool);
-      const Choice fc = choose(fv, allowed(t.cand, fv, terms, k), &fold.train, m);
+      const Choice fc = choose(fv, allowed(t.cand, fv, terms, k), &fold.train, m, choose_buffer_);
       if (fc.index == none) continue;  // the fold keeps its earlier choice, made on its training rows too
       t.folds[f] = fold_block(fv[fc.index], fold);
     }
@@ -739,17 +821,40 @@ class Selection {
   mutable std::map<std::vector<std::uint64_t>, Model> fold_models_;
   mutable std::size_t fold_model_bytes_ = 0;
 
-  // Fold f's columns of the base and the terms (but `skip`) on its training or held-out rows, and `extra`'s
-  // (a trial's on the same rows) after them.
+  // Fold f's base factored on its training rows, kept within the memory budget; null without a base, and
+  // at the fold's first held-out fit (factoring the base and forming its Q costs two plain fits: a problem
+  // whose base alone is tested, a null, never fits a fold twice).
+  [[nodiscard]] std::shared_ptr<const FoldBase> fold_base_of(std::size_t f) const {
+    if (base_train_[f].cols() == 0) return nullptr;
+    if (fold_bases_.empty()) fold_bases_.resize(folds_.size());
+    if (fold_bases_[f]) return fold_bases_[f];
+    if (fold_fits_.size() < folds_.size()) fold_fits_.resize(folds_.size(), 0);
+    if (fold_fits_[f]++ == 0) return nullptr;
+    auto fb = std::make_shared<const FoldBase>(fold_base(base_train_[f]));
+    const auto bytes = static_cast<std::size_t>(fb->q.size()) * sizeof(double);
+    if (fold_base_bytes_ + bytes <= cache_budget_bytes) {
+      fold_base_bytes_ += bytes;
+      fold_bases_[f] = fb;
+    }
+    return fb;
+  }
+  mutable std::vector<std::shared_ptr<const FoldBase>> fold_bases_;
+  mutable std::vector<int> fold_fits_;  // held-out fits per fold so far
+  mutable std::size_t fold_base_bytes_ = 0;
+
+  // Fold f's columns of the base (unless with_base is false) and the terms (but `skip`) on its training or
+  // held-out rows, and `extra`'s (a trial's on the same rows) after them.
   [[nodiscard]] Eigen::MatrixXd fold_columns(std::size_t f, const std::vector<Term>& terms, std::size_t skip,
-                                             bool train, const Eigen::MatrixXd* extra = nullptr) const {
+                                             bool train, const Eigen::MatrixXd* extra = nullptr,
+                                             bool with_base = true) const {
     const Eigen::MatrixXd& base = train ? base_train_[f] : base_test_[f];
-    Eigen::Index cols = base.cols() + (extra ? extra->cols() : 0);
+    const Eigen::Index base_cols = with_base ? base.cols() : 0;
+    Eigen::Index cols = base_cols + (extra ? extra->cols() : 0);
     for (std::size_t k = 0; k < terms.size(); ++k)
       if (k != skip) cols += (train ? terms[k].folds[f].train : terms[k].folds[f].test).cols();
     Eigen::MatrixXd j(base.rows(), cols);
-    j.leftCols(base.cols()) = base;
-    Eigen::Index at = base.cols();
+    if (base_cols > 0) j.leftCols(base_cols) = base;
+    Eigen::Index at = base_cols;
     for (std::size_t k = 0; k < terms.size(); ++k) {
       if (k == skip) continue;
       const Eigen::MatrixXd& b = train ? terms[k].folds[f].train : terms[k].folds[f].test;
@@ -765,6 +870,7 @@ class Selection {
   const Eigen::VectorXd& y_;
   std::size_t n_;
   std::vector<FoldRows> folds_;
+  mutable std::vector<double> choose_buffer_;  // choose()'s batches
   std::vector<Eigen::MatrixXd> base_train_, base_test_;
   std::vector<Eigen::VectorXd> y_train_;
 };

@@ -1,6 +1,8 @@
 // backlash: lost motion in the drives at each reversal.
 #include <algorithm>
+#include <array>
 #include <limits>
+#include <memory>
 
 #include <Eigen/QR>
 
@@ -12,33 +14,45 @@ namespace guideway::models::explain::effects {
 
 namespace {
 
+// What the generator needs of the geometry, per sample, in arrays of their own (a sample's whole geometry is
+// ten times larger: the generator runs in every fold of every held-out test), and the ideal step, which does
+// not depend on the residual.
+struct Shapes {
+  std::vector<double> lambda, c, s;
+  Variant step;
+};
+
 // The step and deadband variants from the current residual `r` (rows `use`): the ideal step, then for each
 // drive delay the deadband response at the width the step suggests, refined once by a fit of the response.
-std::vector<Variant> backlash_variants(const std::vector<Geo>& gg, const std::vector<std::string>& names,
+std::vector<Variant> backlash_variants(const Shapes& sh, const std::vector<std::string>& names,
                                        const std::vector<dbb::DriveTrack>& tracks, const Eigen::VectorXd& r,
                                        const std::vector<bool>& use) {
-  std::vector<Variant> vs;
-  vs.push_back(make_variant(gg, names, [](const Geo& p, double* o) {
-    o[0] = -p.lambda * 0.5 * p.sgn_a * p.c;
-    o[1] = -p.lambda * 0.5 * p.sgn_b * p.s;
-  }));
+  std::vector<Variant> vs{sh.step};
   // Sizes from the rows in use only (a held-out row's zero residual would shrink them).
   const std::vector<Eigen::Index> rows = rows_in_use(use);
   const Eigen::VectorXd rr = r(rows);
-  const auto sizes = [&](const Variant& v) {
-    const Eigen::MatrixXd x = v.block.columns(rows, Eigen::all);
+  const auto sizes = [&](const Eigen::MatrixXd& x) {  // x: the variant's columns on `rows`
     const Eigen::Vector2d b = x.colPivHouseholderQr().solve(rr);
     return std::array<double, 2>{std::max(0.0, b[0]) * 1e-6, std::max(0.0, b[1]) * 1e-6};
   };
+  // The deadband response's columns at the samples `at`.
+  const auto response_at = [&](std::array<double, 2> b, const dbb::DriveTrack& track,
+                               const std::vector<Eigen::Index>& at) {
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(at.size()), 2);
+    for (std::size_t k = 0; k < at.size(); ++k) {
+      const auto i = static_cast<std::size_t>(at[k]);
+      const auto m = dbb::lost_motion(track, i, b[0], b[1]);
+      x(static_cast<Eigen::Index>(k), 0) = sh.lambda[i] * m[0] * sh.c[i];
+      x(static_cast<Eigen::Index>(k), 1) = sh.lambda[i] * m[1] * sh.s[i];
+    }
+    return x;
+  };
+  std::vector<Eigen::Index> every(sh.lambda.size());
+  for (std::size_t i = 0; i < every.size(); ++i) every[i] = static_cast<Eigen::Index>(i);
   const auto response = [&](std::array<double, 2> b, const dbb::DriveTrack& track) {
     Variant v;
     v.block.names = names;
-    v.block.columns.resize(static_cast<Eigen::Index>(gg.size()), 2);
-    for (std::size_t i = 0; i < gg.size(); ++i) {
-      const auto m = dbb::lost_motion(track, i, b[0], b[1]);
-      v.block.columns(static_cast<Eigen::Index>(i), 0) = gg[i].lambda * m[0] * gg[i].c;
-      v.block.columns(static_cast<Eigen::Index>(i), 1) = gg[i].lambda * m[1] * gg[i].s;
-    }
+    v.block.columns = response_at(b, track, every);
     if (tracks.size() > 1) {
       v.fixed.push_back(
           {results::name(results::backlash_delay), track.delay_s * 1e3, std::numeric_limits<double>::quiet_NaN()});
@@ -46,13 +60,13 @@ std::vector<Variant> backlash_variants(const std::vector<Geo>& gg, const std::ve
     }
     return v;
   };
-  const auto step = sizes(vs.front());
+  const auto step = sizes(sh.step.block.columns(rows, Eigen::all));
   if (step[0] > 0 || step[1] > 0) {
     for (const dbb::DriveTrack& track : tracks) {
-      // The width the step suggests, then once more from a fit of the response at that width.
-      Variant first = response(step, track);
-      const auto refined = sizes(first);
-      vs.push_back(refined[0] > 0 || refined[1] > 0 ? response(refined, track) : std::move(first));
+      // The width the step suggests, then once more from a fit of the response at that width: the first
+      // response is needed on the rows in use only.
+      const auto refined = sizes(response_at(step, track, rows));
+      vs.push_back(response(refined[0] > 0 || refined[1] > 0 ? refined : step, track));
     }
   }
   return vs;
@@ -64,10 +78,20 @@ std::vector<Variant> backlash_variants(const std::vector<Geo>& gg, const std::ve
 bool backlash_dbb_term(const DbbTerms& t, Candidate& c) {
   const std::vector<std::string> names{results::name(results::backlash, t.plane, 0),
                                        results::name(results::backlash, t.plane, 1)};
-  const auto geo = std::make_shared<const std::vector<Geo>>(t.g);
+  auto shapes = std::make_shared<Shapes>();
+  for (const Geo& p : t.g) {
+    shapes->lambda.push_back(p.lambda);
+    shapes->c.push_back(p.c);
+    shapes->s.push_back(p.s);
+  }
+  shapes->step = make_variant(t.g, names, [](const Geo& p, double* o) {
+    o[0] = -p.lambda * 0.5 * p.sgn_a * p.c;
+    o[1] = -p.lambda * 0.5 * p.sgn_b * p.s;
+  });
   const auto tracks = t.tracks;
-  c.generate = [geo, names, tracks](const Eigen::VectorXd& r, const std::vector<bool>& use) {
-    return backlash_variants(*geo, names, *tracks, r, use);
+  c.generate = [shapes = std::shared_ptr<const Shapes>(std::move(shapes)), names, tracks](
+                   const Eigen::VectorXd& r, const std::vector<bool>& use) {
+    return backlash_variants(*shapes, names, *tracks, r, use);
   };
   c.search_size = 1 + tracks->size();
   return true;

@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <numbers>
 
 #include <Eigen/Cholesky>
@@ -53,29 +55,57 @@ Variant dbb_variant(const std::vector<Geo>& gg, const std::string& plane, int ax
   return v;
 }
 
+// The delayed variants made so far, by (axis, period, delay): the generator runs in every fold of every
+// held-out test and offers the same few periods again and again, and a variant's columns depend on its
+// period and delay only (a sine and cosine per sample: most of the generator's time). Bounded in memory;
+// beyond the bound a variant is made again when asked for.
+class DelayedVariants {
+ public:
+  Variant get(const std::vector<Geo>& gg, const std::string& plane, int axis, std::size_t period,
+              const std::vector<dbb::DriveTrack>& tracks, std::size_t track) {
+    const std::size_t key =
+        (static_cast<std::size_t>(axis) * std::size(dbb_periods_mm) + period) * tracks.size() + track;
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (const auto it = made_.find(key); it != made_.end()) return it->second;
+    Variant v = dbb_variant(gg, plane, axis, dbb_periods_mm[period], tracks[track], true);
+    const auto bytes = static_cast<std::size_t>(v.block.columns.size()) * sizeof(double);
+    if (bytes_ + bytes <= budget_bytes) {
+      bytes_ += bytes;
+      made_.emplace(key, v);
+    }
+    return v;
+  }
+
+ private:
+  static constexpr std::size_t budget_bytes = std::size_t{96} << 20;
+  std::mutex mutex_;
+  std::map<std::size_t, Variant> made_;
+  std::size_t bytes_ = 0;
+};
+
 // Periods and delays: the two periods per axis whose undelayed terms explain most of the residual, each
 // then tried at every delay.
 std::vector<Variant> best_periods_at_every_delay(const std::vector<Geo>& gg, const std::string& plane,
                                                  const std::vector<dbb::DriveTrack>& tracks,
-                                                 const std::vector<Variant>& undelayed, const Eigen::VectorXd& r,
-                                                 const std::vector<bool>& use) {
+                                                 const std::vector<Variant>& undelayed, DelayedVariants& delayed,
+                                                 const Eigen::VectorXd& r, const std::vector<bool>& use) {
   const std::vector<Eigen::Index> rows = rows_in_use(use);
   const Eigen::VectorXd rr = r(rows);
   std::vector<Variant> vs;
   const std::size_t per_axis = std::size(dbb_periods_mm);
   for (int axis = 0; axis < 2; ++axis) {
-    std::vector<std::pair<double, double>> score;  // (-explained, period)
+    std::vector<std::pair<double, std::size_t>> score;  // (-explained, period's index)
     for (std::size_t k = 0; k < per_axis; ++k) {
       const Eigen::MatrixXd x =
           undelayed[static_cast<std::size_t>(axis) * per_axis + k].block.columns(rows, Eigen::all);
       const Eigen::Matrix2d xtx = x.transpose() * x;
       const Eigen::Vector2d xtr = x.transpose() * rr;
-      score.emplace_back(-xtr.dot(xtx.ldlt().solve(xtr)), dbb_periods_mm[k]);
+      score.emplace_back(-xtr.dot(xtx.ldlt().solve(xtr)), k);
     }
     std::sort(score.begin(), score.end());
     for (std::size_t k = 0; k < 2 && k < score.size(); ++k)
-      for (const dbb::DriveTrack& track : tracks)
-        vs.push_back(dbb_variant(gg, plane, axis, score[k].second, track, true));
+      for (std::size_t track = 0; track < tracks.size(); ++track)
+        vs.push_back(delayed.get(gg, plane, axis, score[k].second, tracks, track));
   }
   return vs;
 }
@@ -91,8 +121,10 @@ bool cyclic_error_dbb_term(const DbbTerms& t, Candidate& c) {
   }
   const auto geo = std::make_shared<const std::vector<Geo>>(t.g);
   const auto base = std::make_shared<const std::vector<Variant>>(std::move(undelayed));
-  c.generate = [geo, plane = t.plane, tracks = t.tracks, base](const Eigen::VectorXd& r, const std::vector<bool>& use) {
-    return best_periods_at_every_delay(*geo, plane, *tracks, *base, r, use);
+  const auto delayed = std::make_shared<DelayedVariants>();
+  c.generate = [geo, plane = t.plane, tracks = t.tracks, base, delayed](const Eigen::VectorXd& r,
+                                                                        const std::vector<bool>& use) {
+    return best_periods_at_every_delay(*geo, plane, *tracks, *base, *delayed, r, use);
   };
   c.search_size = 2 * std::size(dbb_periods_mm) * t.tracks->size();
   return true;

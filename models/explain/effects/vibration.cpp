@@ -6,6 +6,7 @@
 #include <complex>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <numbers>
 
 #include <unsupported/Eigen/FFT>
@@ -104,6 +105,13 @@ class LineSearch {
     // Two lines closer than the Fourier resolution 1/t_span are one line: the second strongest is sought
     // at least that far from the first.
     apart_ = static_cast<std::size_t>(std::ceil(1.0 / (t_span * df_) - 1e-9));
+    // Each sample's bin and projections: the same for every residual the generator is given.
+    for (std::size_t i = 0, first = 0; i < t.g.size(); ++i) {
+      if (t.g[i].run != t.g[first].run) first = i;
+      bin_.push_back(static_cast<std::size_t>(std::max(0.0, std::round((t.g[i].t_s - t.g[first].t_s) / dt_))));
+      for (int which = 0; which < 3; ++which)
+        weights_[static_cast<std::size_t>(which)].push_back(weight(t.g[i], which));
+    }
     // Time moments of the squared projection per direction and run, for a line's report: the frequency's
     // uncertainty (Cramer-Rao, from the spread of t about each run's centroid: the periodogram that chose
     // it sums runs' powers, so it knows f from within runs only) and, per phase group, the part of it
@@ -142,19 +150,19 @@ class LineSearch {
     const auto& gg = *geo_;
     std::array<std::vector<double>, 3> pw;
     for (auto& v : pw) v.assign(grid_, 0.0);
-    Eigen::FFT<double> fft;
     std::vector<double> binned(fft_size_);
     std::vector<std::complex<double>> spectrum;
+    // The FFT's plan (its twiddle factors: a sine and cosine per point) is made once, not per call.
+    const std::lock_guard<std::mutex> lock(fft_mutex_);
     for (std::size_t i = 0; i < gg.size();) {
       const std::size_t first = i;
       while (i < gg.size() && gg[i].run == gg[first].run) ++i;
       for (int which = 0; which < 3; ++which) {
         std::fill(binned.begin(), binned.end(), 0.0);
-        for (std::size_t j = first; j < i; ++j) {
-          const auto bin = static_cast<std::size_t>(std::max(0.0, std::round((gg[j].t_s - gg[first].t_s) / dt_)));
-          if (bin < fft_size_) binned[bin] += weight(gg[j], which) * r[static_cast<Eigen::Index>(j)];
-        }
-        fft.fwd(spectrum, binned);
+        const std::vector<double>& w = weights_[static_cast<std::size_t>(which)];
+        for (std::size_t j = first; j < i; ++j)
+          if (bin_[j] < fft_size_) binned[bin_[j]] += w[j] * r[static_cast<Eigen::Index>(j)];
+        fft_.fwd(spectrum, binned);
         auto& acc = pw[static_cast<std::size_t>(which)];
         for (std::size_t q = 0; q < grid_; ++q) acc[q] += std::norm(spectrum[q_lo_ + q]);
       }
@@ -175,7 +183,7 @@ class LineSearch {
     };
     for (std::size_t j = 0; j < gg.size(); ++j) {
       if (j > 0 && gg[j].run != gg[j - 1].run) flush();
-      const double v = weight(gg[j], which) * r[static_cast<Eigen::Index>(j)];
+      const double v = weights_[static_cast<std::size_t>(which)][j] * r[static_cast<Eigen::Index>(j)];
       if (v == 0.0) continue;
       double sn = 0, cs = 0, sh = 0, ch = 0;
       dbb::fast_sincos(2 * pi * f * gg[j].t_s, sn, cs);
@@ -255,6 +263,10 @@ class LineSearch {
   double df_ = 0;
   std::size_t q_lo_ = 0, grid_ = 0, phases_ = 1, apart_ = 0;
   std::array<std::vector<Moments>, 3> moments_;
+  std::vector<std::size_t> bin_;                // each sample's bin from its run's first
+  std::array<std::vector<double>, 3> weights_;  // each sample's projection per direction (weight())
+  mutable std::mutex fft_mutex_;
+  mutable Eigen::FFT<double> fft_;
 };
 
 bool vibration_dbb_term(const DbbTerms& t, Candidate& c) {
