@@ -16,8 +16,6 @@ namespace guideway::models::explain {
 
 namespace {
 
-constexpr std::size_t min_run_samples = 32;  // shorter runs are not decomposed
-
 std::string pfmt(double p) { return p < 1e-300 ? std::string("<1e-300") : printf_number("%.2g", p); }
 
 int wavelet_level(std::size_t n) { return std::clamp(dsp::dwt_max_level(n, 8), 1, 10); }

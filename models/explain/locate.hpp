@@ -13,6 +13,9 @@
 
 namespace guideway::models::explain {
 
+// Shorter runs are not decomposed: their structure is not tested.
+inline constexpr std::size_t min_run_samples = 32;
+
 struct Located {
   double sigma_um = 0.0;         // noise level (MAD of the finest details)
   bool structured = false;       // any test significant at alpha
