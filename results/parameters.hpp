@@ -300,10 +300,28 @@ inline constexpr Parameter backlash_delay{"backlash_delay_ms", "backlash delay",
                                           "how late the drives follow the command where the deadband is taken up"};
 inline constexpr Parameter spike_decay{"reversal_spike_decay_ms", "reversal spike decay", "dbb", "",
                                        "decay time of the reversal spikes (searched)"};
-inline constexpr Parameter cyclic_sin_column{"cyclic_sin_{axis}", "cyclic error {axis} (sine)", "dbb", "",
-                                             "fit column: the cyclic error's sine part"};
-inline constexpr Parameter cyclic_cos_column{"cyclic_cos_{axis}", "cyclic error {axis} (cosine)", "dbb", "",
-                                             "fit column: the cyclic error's cosine part"};
+// A line's sine and cosine parts: unit-amplitude columns, so each part is in um (fitted beside, shown).
+inline constexpr ShownAs shown_um{"\u00b5m"};
+inline constexpr Parameter cyclic_sin_column{"cyclic_sin_{axis}",
+                                             "cyclic error {axis} (sine)",
+                                             "dbb",
+                                             "",
+                                             "fit column: the cyclic error's sine part",
+                                             0,
+                                             {},
+                                             {},
+                                             {},
+                                             shown_um};
+inline constexpr Parameter cyclic_cos_column{"cyclic_cos_{axis}",
+                                             "cyclic error {axis} (cosine)",
+                                             "dbb",
+                                             "",
+                                             "fit column: the cyclic error's cosine part",
+                                             0,
+                                             {},
+                                             {},
+                                             {},
+                                             shown_um};
 inline constexpr Parameter cyclic_delay{"cyclic_delay_{axis}_ms", "cyclic delay {axis}", "dbb", "",
                                         "how late the drive follows the command where the cyclic error lives"};
 inline constexpr Parameter bar_drift{"bar_drift_um_per_min", "bar drift", "dbb", "",
@@ -314,10 +332,26 @@ inline constexpr Parameter centre_drift{"drift_{axis}_um_per_min", "centre drift
                                         "drift of the circle's centre along the axis with time"};
 inline constexpr Parameter centre_drift_offset{"drift_{axis}_offset_run{run}_um", "centre offset {axis} run {run}",
                                                "dbb", "", "the centre's offset of a run without a common clock"};
-inline constexpr Parameter vibration_sin{"vibration_sin", "vibration (sine)", "dbb", "",
-                                         "fit column: the vibration's sine part (_runK: one run's)"};
-inline constexpr Parameter vibration_cos{"vibration_cos", "vibration (cosine)", "dbb", "",
-                                         "fit column: the vibration's cosine part (_runK: one run's)"};
+inline constexpr Parameter vibration_sin{"vibration_sin",
+                                         "vibration (sine)",
+                                         "dbb",
+                                         "",
+                                         "fit column: the vibration's sine part (_runK: one run's)",
+                                         0,
+                                         {},
+                                         {},
+                                         {},
+                                         shown_um};
+inline constexpr Parameter vibration_cos{"vibration_cos",
+                                         "vibration (cosine)",
+                                         "dbb",
+                                         "",
+                                         "fit column: the vibration's cosine part (_runK: one run's)",
+                                         0,
+                                         {},
+                                         {},
+                                         {},
+                                         shown_um};
 inline constexpr Parameter vibration{"vibration_{axis}_um", "vibration {axis}", "dbb", "",
                                      "amplitude of a vibration along the axis (or the bar)"};
 inline constexpr Parameter vibration_phase{"vibration_phase_{axis}_deg", "vibration phase {axis}", "dbb", "",
