@@ -6,16 +6,14 @@
 
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/explain/dbb_checked.hpp"
 #include "simulators/machine/machine.hpp"
+#include "test_support.hpp"
 
 using namespace guideway;
 using guideway::formats::DbbDirection;
@@ -209,11 +207,10 @@ TEST(DbbSession, ADriftBesideTheBacklashIsFittedBesideAsOfflineAndNotReadAsBackl
   EXPECT_FALSE(b.contains("not_determined")) << b.dump();
   // The same as the identification of the session's run files (what `identify dbb --json` prints of them);
   // the models alone read part of the drift as backlash.
-  const auto dir = std::filesystem::temp_directory_path() / ("dbb_session_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir dir;
   std::vector<formats::DbbRun> runs;
-  for (const auto& path : session->write_derived(dir.string(), "drift")) runs.push_back(formats::read_dbb_run(path));
-  std::filesystem::remove_all(dir);
+  for (const auto& path : session->write_derived(dir.path().string(), "drift"))
+    runs.push_back(formats::read_dbb_run(path));
   ASSERT_EQ(runs.size(), 2u);
   const nlohmann::json offline = models::explain::to_json(models::explain::identify_checked(runs));
   for (const char* group : {"diagnostics", "lai3", "beside"})
