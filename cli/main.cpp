@@ -35,8 +35,8 @@ CLI::App* shared_subcommand(CLI::App& app, const std::string& name, const std::s
 
 namespace {
 
-// Every required option the command line lacks, named at once (CLI11 names the first only): "" when it
-// lacks one or none.
+// Every required option the command line lacks, named at once and in one form (CLI11 names the first
+// only, in its own words): "" when it lacks none.
 std::string all_missing(const CLI::App& app) {
   const CLI::App* cmd = &app;
   std::string path = "guideway";
@@ -50,8 +50,10 @@ std::string all_missing(const CLI::App& app) {
     if (!o->get_required() || o->count() > 0) continue;
     missing += (count++ ? ", " : "") + o->get_name();
   }
-  if (count < 2) return {};
-  return path + ": missing " + missing + " (each is required; " + path.substr(9) + " --help says what they are)";
+  if (count == 0) return {};
+  const std::string help = path.substr(9) + " --help says what ";
+  return path + ": missing " + missing +
+         (count == 1 ? " (required; " + help + "it is)" : " (each is required; " + help + "they are)");
 }
 
 }  // namespace

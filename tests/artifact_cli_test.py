@@ -142,6 +142,12 @@ with tempfile.TemporaryDirectory() as d:
     p = subprocess.run([GUIDEWAY, "identify", "artifact", "--vertical", ver], capture_output=True, text=True, timeout=60)
     check(p.returncode != 0 and "guideway identify artifact: missing --calibration, --horizontal" in p.stderr,
           "missing options: " + p.stderr.strip())
+    # One missing is said in the same form (not CLI11's own "--calibration is required").
+    p = subprocess.run([GUIDEWAY, "identify", "artifact", "--vertical", ver, "--horizontal", hor], capture_output=True,
+                       text=True, timeout=60)
+    check(p.returncode != 0 and p.stderr.startswith(
+        "guideway identify artifact: missing --calibration (required; identify artifact --help says what it is)"),
+          "one missing option: " + p.stderr.strip())
 
 if failures:
     print("%d failures" % len(failures))
