@@ -60,7 +60,7 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet, double report_s
   const auto columns = figure_columns(fleet);
   std::vector<std::string> header = {"machine", "state", "since (UTC)", "last DBB (UTC)"};
   for (const auto& c : columns) header.push_back(report::html_escape(c.header));
-  header.emplace_back("EXPLAIN (latest)");
+  header.emplace_back(explain_column_header);
   std::vector<std::vector<std::string>> rows;
   for (const auto& m : fleet) {
     std::string state = m.machine.state.empty() ? "unknown" : m.machine.state;
@@ -72,13 +72,12 @@ std::string fleet_table(const std::vector<MachineStatus>& fleet, double report_s
             report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
         m.dbb_age_s ? when_made(report_s - *m.dbb_age_s, report_s) : "never"};
     for (const auto& c : columns) row.push_back(figure_cell(figure_of(m, c)));
-    std::string found;
-    for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
+    const std::string found = explains_text(m);
     row.push_back(report::html_escape(found.empty() ? "–" : found));
     rows.push_back(std::move(row));
   }
   report::Table table("The latest result of each kind (value ± standard uncertainty u). * " +
-                          report::html_escape(moved_rule_text) + ".",
+                          report::html_escape(moved_rule_text) + ". " + report::html_escape(explain_column_note) + ".",
                       std::move(header), std::move(rows));
   table.text_columns = {1, 2, 3, table.header.size() - 1};  // state, times and what EXPLAIN found: words
   return report::html_table(table);

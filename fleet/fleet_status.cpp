@@ -132,12 +132,18 @@ nlohmann::json status_json(const std::vector<MachineStatus>& fleet) {
   return j;
 }
 
+std::string explains_text(const MachineStatus& m) {
+  std::string found;
+  for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
+  return found;
+}
+
 std::string status_text(const std::vector<MachineStatus>& fleet) {
   if (fleet.empty()) return "no machines yet\n";
   const auto columns = figure_columns(fleet);
   std::vector<std::string> header = {"MACHINE", "STATE", "SINCE (UTC)", "LAST DBB"};
   for (const auto& c : columns) header.push_back(c.header + " ");  // the cells end in the moved mark or a space
-  header.emplace_back("EXPLAIN (latest)");
+  header.emplace_back(explain_column_header);
   std::vector<std::vector<std::string>> rows;
   bool any_moved = false;
   for (const auto& m : fleet) {
@@ -151,8 +157,7 @@ std::string status_text(const std::vector<MachineStatus>& fleet) {
       row.push_back(f ? significant_digits(f->latest.value, 3) + (f->moved ? "*" : " ") : "- ");
       any_moved = any_moved || (f && f->moved);
     }
-    std::string found;
-    for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
+    const std::string found = explains_text(m);
     row.push_back(found.empty() ? "-" : found);
     rows.push_back(std::move(row));
   }
@@ -176,6 +181,8 @@ std::string status_text(const std::vector<MachineStatus>& fleet) {
   std::string out = line(header);
   for (const auto& r : rows) out += line(r);
   out += "* " + std::string(moved_rule_text) + (any_moved ? "\n" : " (none moved)\n");
+  if (std::any_of(fleet.begin(), fleet.end(), [](const MachineStatus& m) { return !m.explains.empty(); }))
+    out += std::string(explain_column_note) + "\n";
   return out;
 }
 

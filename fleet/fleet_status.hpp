@@ -43,6 +43,14 @@ struct MachineStatus {
 // is printed under the table.
 [[nodiscard]] std::string status_text(const std::vector<MachineStatus>& fleet);
 
+// The EXPLAIN column of a machine: each kind's latest findings, largest first ("dbb: servo mismatch
+// 2.53 µm, backlash 1.01 µm"), and what its header and the note under a table say of it.
+inline constexpr const char* explain_column_header = "EXPLAIN (latest, largest first)";
+inline constexpr const char* explain_column_note =
+    "EXPLAIN: the effects its latest explanation of each kind found, with the size of each one's term (for DBB "
+    "runs its range about the least-squares circle, as G's; else its peak-to-valley)";
+[[nodiscard]] std::string explains_text(const MachineStatus& m);
+
 // "45 s", "12 min", "5.2 h", "3.1 d".
 [[nodiscard]] std::string format_age(double seconds);
 // "45 s ago", or "in the future" for a negative age (a producer's clock ahead of this host's).

@@ -1,5 +1,6 @@
 #include "fleet/headlines.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/number_format.hpp"
@@ -23,8 +24,7 @@ std::optional<double> number_at(const nlohmann::json& j, const std::string& poin
 // Where the catalogue says a figure's value and u are: its own pointers, else an estimate object
 // {"value": v, "u": u} in its group (models/dbb/json.cpp, the sessions' figure groups), else in the group
 // it is also reported in.
-std::vector<std::pair<std::string, std::string>> figure_pointers(const results::Parameter& p,
-                                                                 const std::string& name) {
+std::vector<std::pair<std::string, std::string>> figure_pointers(const results::Parameter& p, const std::string& name) {
   if (!p.value_at.empty()) return {{std::string(p.value_at), std::string(p.u_at)}};
   std::vector<std::pair<std::string, std::string>> out;
   for (const std::string_view group : {p.group, p.also_in}) {
@@ -83,8 +83,8 @@ std::string figure_problem(std::string_view kind, const nlohmann::json& params) 
           if (!params.contains(jp)) continue;
           const auto& v = params.at(jp);
           if (!v.is_number() || !std::isfinite(v.get<double>()))
-            return "the figure at " + pointer + " is " +
-                   (v.is_number() ? "not finite" : std::string(v.type_name())) + ", expected a finite number";
+            return "the figure at " + pointer + " is " + (v.is_number() ? "not finite" : std::string(v.type_name())) +
+                   ", expected a finite number";
         }
       }
     }
@@ -115,10 +115,18 @@ ExplainSummary explain_summary(const nlohmann::json& explain) {
 
 std::string to_text(const ExplainSummary& s) {
   if (!s.not_analysed.empty()) return "not analysed";
+  // Largest first, as EXPLAIN's own text lists them ("what to fix first"); in the order found for equal sizes.
+  std::vector<const Finding*> ranked;
+  for (const auto& f : s.findings) ranked.push_back(&f);
+  std::stable_sort(ranked.begin(), ranked.end(), [](const Finding* a, const Finding* b) {
+    return (std::isfinite(a->contribution_um) ? a->contribution_um : -1.0) >
+           (std::isfinite(b->contribution_um) ? b->contribution_um : -1.0);
+  });
   std::string out;
-  for (const auto& f : s.findings) {
+  for (const Finding* fp : ranked) {
+    const Finding& f = *fp;
     if (!out.empty()) out += ", ";
-    out += f.effect;
+    out += results::in_words(f.effect);
     if (std::isfinite(f.contribution_um)) out += " " + significant_digits(f.contribution_um, 3) + " µm";
   }
   if (out.empty()) out = "nothing found";

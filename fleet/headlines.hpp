@@ -37,7 +37,7 @@ struct ExplainSummary {
   std::string not_analysed;  // why it was not analysed, when it was not
 };
 [[nodiscard]] ExplainSummary explain_summary(const nlohmann::json& explain);
-// "backlash 1.99 µm, vibration 0.025 µm", "nothing found", "unexplained", "not analysed".
+// Largest first, in words: "backlash 1.99 µm, vibration 0.025 µm", "nothing found", "unexplained", "not analysed".
 [[nodiscard]] std::string to_text(const ExplainSummary& s);
 
 // Whether a figure moved between two results: |latest − previous| > k·sqrt(u_latest² + u_previous²)

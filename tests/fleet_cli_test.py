@@ -126,10 +126,15 @@ def main():
     r = gw("fleet", "status", "--db", db)
     lines = r.stdout.splitlines()
     print(r.stdout)
-    check(len(lines) == 6 and lines[1].startswith("lathe-2") and lines[2].startswith("mill-1"), "status lines: %r" % lines)
+    check(len(lines) == 7 and lines[1].startswith("lathe-2") and lines[2].startswith("mill-1"), "status lines: %r" % lines)
+    # The EXPLAIN column: in words, largest first, and what its sizes are said under the table.
+    check(lines[0].endswith("EXPLAIN (latest, largest first)") and
+          lines[2].endswith("dbb: backlash 1.99 µm, vibration 0.0246 µm") and
+          lines[4].startswith("EXPLAIN: the effects") and "range about the least-squares circle" in lines[4],
+          "status EXPLAIN column: %r" % lines)
     # The malformed payload: counted, with its reason and topic, under the table.
-    check(lines[4].startswith("refused at ingest: 1 message(s)") and "lathe-2/params/dbb" in lines[5]
-          and "not JSON" in lines[5], "refusals: %r" % lines[4:])
+    check(lines[5].startswith("refused at ingest: 1 message(s)") and "lathe-2/params/dbb" in lines[6]
+          and "not JSON" in lines[6], "refusals: %r" % lines[5:])
     check("offline (connection lost)" in lines[1] and " online " in lines[2], "status states: %r" % lines[1:3])
     check("G/µm" in lines[0] and "backlash X/µm" in lines[0] and "run-out/µm" in lines[0], "status header: %r" % lines[0])
     col = lines[0].index("LAST DBB")
