@@ -47,40 +47,70 @@ std::string figure_cell(const FigureChange* f) {
   return nowrap(cell);
 }
 
+// "2026-11-25T09:00:12.5Z" as "2026-11-25 09:00" on one line; "" stays "".
+std::string utc_minutes_html(const std::string& iso) {
+  if (iso.size() < 16) return report::html_escape(iso);
+  return nowrap(report::html_escape(iso.substr(0, 10) + " " + iso.substr(11, 5)));
+}
+
 // When a result was made, as a page read days later needs it: the date and time, and how long before
 // the report that was ("2026-11-25 09:00, 1.2 d before this report").
 std::string when_made(double made_s, double report_s) {
-  const std::string t = utc_iso_ms(made_s);
   const double age = report_s - made_s;
-  return nowrap(report::html_escape(t.substr(0, 10) + " " + t.substr(11, 5))) + ", " +
+  return utc_minutes_html(utc_iso_ms(made_s)) + ", " +
          report::html_escape(age < 0 ? "after this report" : format_age(age) + " before this report");
+}
+
+std::string machine_link(const MachineStatus& m) {
+  return "<a href=\"#" + anchor(m.machine.machine) + "\">" + report::html_escape(m.machine.machine) + "</a>";
+}
+
+// One row per kind EXPLAIN was latest run on: kind, when, what it found (largest first) or why not.
+std::vector<std::vector<std::string>> explain_rows(const MachineStatus& m) {
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& e : m.explains) {
+    std::string found = to_text(e.summary);
+    if (!e.summary.not_analysed.empty()) found += ": " + e.summary.not_analysed;
+    rows.push_back({report::html_escape(e.kind), utc_minutes_html(e.produced_utc), report::html_escape(found)});
+  }
+  return rows;
+}
+
+// What the latest EXPLAIN of each machine and kind found, in a table of its own: a column of it beside
+// the figures was squeezed to a word a line.
+std::string explains_table(const std::vector<MachineStatus>& fleet) {
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& m : fleet)
+    for (auto& r : explain_rows(m)) {
+      r.insert(r.begin(), machine_link(m));
+      rows.push_back(std::move(r));
+    }
+  if (rows.empty()) return {};
+  return report::html_table(report::Table(report::html_escape(explain_column_note) + ", largest first.",
+                                          {"machine", "kind", "produced (UTC)", "found"}, std::move(rows), "text"));
 }
 
 std::string fleet_table(const std::vector<MachineStatus>& fleet, double report_s) {
   const auto columns = figure_columns(fleet);
-  std::vector<std::string> header = {"machine", "state", "since (UTC)", "last DBB (UTC)"};
+  std::vector<std::string> header = {"machine", "state since (UTC)", "last DBB (UTC)"};
   for (const auto& c : columns) header.push_back(report::html_escape(c.header));
-  header.emplace_back(explain_column_header);
   std::vector<std::vector<std::string>> rows;
   for (const auto& m : fleet) {
     std::string state = m.machine.state.empty() ? "unknown" : m.machine.state;
     if (!m.machine.reason.empty()) state += " (" + m.machine.reason + ")";
+    // The state and since when in one cell: a column less keeps the table within the page.
     std::vector<std::string> row = {
-        "<a href=\"#" + anchor(m.machine.machine) + "\">" + report::html_escape(m.machine.machine) + "</a>",
-        report::html_escape(state),
-        nowrap(report::html_escape(m.machine.since.substr(0, 10))) + " " +
-            report::html_escape(m.machine.since.substr(std::min<std::size_t>(11, m.machine.since.size()), 5)),
+        machine_link(m),
+        report::html_escape(state) + (m.machine.since.empty() ? "" : "<br>") + utc_minutes_html(m.machine.since),
         m.dbb_age_s ? when_made(report_s - *m.dbb_age_s, report_s) : "never"};
     for (const auto& c : columns) row.push_back(figure_cell(figure_of(m, c)));
-    const std::string found = explains_text(m);
-    row.push_back(report::html_escape(found.empty() ? "–" : found));
     rows.push_back(std::move(row));
   }
   report::Table table("The latest result of each kind (value ± standard uncertainty u). * " +
-                          report::html_escape(moved_rule_text) + ". " + report::html_escape(explain_column_note) + ".",
+                          report::html_escape(moved_rule_text) + ".",
                       std::move(header), std::move(rows));
-  table.text_columns = {1, 2, 3, table.header.size() - 1};  // state, times and what EXPLAIN found: words
-  return report::html_table(table);
+  table.text_columns = {1, 2};  // state and times: words
+  return report::html_table(table) + explains_table(fleet);
 }
 
 // One figure's trend: the values, and a bar from value − 2u to value + 2u at each (NaN-separated
@@ -176,17 +206,9 @@ std::string machine_section(const MachineStatus& m, const std::vector<HistoryEnt
   std::stable_sort(trends.begin(), trends.end(),
                    [](const Trend& a, const Trend& b) { return kind_rank(a.kind) < kind_rank(b.kind); });
   for (const auto& tr : trends) body += trend_plot(tr.kind, tr.values.front(), tr.t, tr.values, time_axis);
-  if (!m.explains.empty()) {
-    std::vector<std::vector<std::string>> rows;
-    for (const auto& e : m.explains) {
-      std::string found = to_text(e.summary);
-      if (!e.summary.not_analysed.empty()) found += ": " + e.summary.not_analysed;
-      rows.push_back({report::html_escape(e.kind), report::html_escape(e.produced_utc), report::html_escape(found)});
-    }
-    body +=
-        report::html_table(report::Table("What the latest EXPLAIN of each kind found (contribution to the deviation)",
-                                         {"kind", "produced (UTC)", "found"}, std::move(rows), "text"));
-  }
+  if (!m.explains.empty())
+    body += report::html_table(report::Table(report::html_escape(explain_column_note) + ", largest first.",
+                                             {"kind", "produced (UTC)", "found"}, explain_rows(m), "text"));
   return report::html_section("machine", anchor(m.machine.machine), m.machine.machine, body);
 }
 

@@ -185,19 +185,28 @@ def main():
     gw("fleet", "report", "--db", db, "--out", html, "--no-date")
     with cdp.Browser() as b:
         open_self_contained(b, html, check)
-        cells = b.evaluate("""(() => [...document.querySelectorAll('section#fleet table tbody tr')].map(r =>
-            [...r.cells].map(c => ({text: c.textContent, align: getComputedStyle(c).textAlign}))))()""")
-        for row in cells:
+        tables = b.evaluate("""(() => [...document.querySelectorAll('section#fleet table')].map(t =>
+            [...t.querySelectorAll('tbody tr')].map(r =>
+            [...r.cells].map(c => ({text: c.textContent, align: getComputedStyle(c).textAlign})))))()""")
+        check(len(tables) == 2, "the fleet section: %d tables (figures, EXPLAIN)" % len(tables))
+        for row in tables[0]:
             machine = row[0]["text"]
             # A page read later: when the last DBB was made, and how long before the report.
-            check(re.match(r"20\d\d-\d\d-\d\d \d\d:\d\d, .* before this report", row[3]["text"]),
-                  "%s: last DBB %r" % (machine, row[3]["text"]))
-            check([c["align"] for c in (row[0], row[1], row[2], row[3], row[-1])] == ["left"] * 5,
+            check(re.match(r"20\d\d-\d\d-\d\d \d\d:\d\d, .* before this report", row[2]["text"]),
+                  "%s: last DBB %r" % (machine, row[2]["text"]))
+            check(re.match(r"(online|offline).*20\d\d-\d\d-\d\d \d\d:\d\d$", row[1]["text"]),
+                  "%s: state since %r" % (machine, row[1]["text"]))
+            check([c["align"] for c in row[:3]] == ["left"] * 3,
                   "%s: text columns not left-aligned: %s" % (machine, [c["align"] for c in row]))
-            check(row[4]["align"] == "right", "%s: a figure column is not right-aligned" % machine)
+            check(all(c["align"] == "right" for c in row[3:]), "%s: a figure column is not right-aligned" % machine)
+        # What EXPLAIN found, in a table of its own (a column beside the figures was a word a line): in words,
+        # largest first, left-aligned.
+        found = {r[0]["text"]: r for r in tables[1]}
+        check(list(found) == ["mill-1"] and found["mill-1"][3]["text"] == "backlash 1.99 µm, vibration 0.0246 µm"
+              and all(c["align"] == "left" for c in found["mill-1"]), "EXPLAIN table: %r" % tables[1])
         sections = b.evaluate(PLOTS_JS)
         check([s["kind"] for s in sections] == ["fleet", "machine", "machine"], "sections %s" % [s["kind"] for s in sections])
-        check(sections[0]["tables"] == 1, "no fleet table")
+        check(sections[0]["tables"] == 2, "the fleet section's tables: %d" % sections[0]["tables"])
         expected_plots = {"lathe-2": 3, "mill-1": 3 + 2 + 2 + 2}  # dbb: G, backlash x/y; 2 of every other kind
         for sec in sections[1:]:
             # One id per name: letters, digits and '_' as they are, any other byte '-' and two hex digits.
