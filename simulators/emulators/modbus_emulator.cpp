@@ -268,6 +268,11 @@ std::vector<ServedReading> MicrometerEmulator::served() const {
   return served_;
 }
 
+std::vector<std::uint64_t> MicrometerEmulator::served_counters() const {
+  std::lock_guard lock(mutex_);
+  return {served_counters_.begin(), served_counters_.end()};
+}
+
 bool MicrometerEmulator::line_down() const {
   std::lock_guard lock(mutex_);
   return std::chrono::steady_clock::now() < down_until_;
@@ -411,8 +416,20 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
     std::lock_guard lock(mutex_);
     served_.push_back({request, r.value_m, r.flags});
   };
+  auto record_counter = [&] {
+    const std::uint16_t start = static_cast<std::uint16_t>((query[hl + 1] << 8) | query[hl + 2]);
+    const std::uint16_t count = static_cast<std::uint16_t>((query[hl + 3] << 8) | query[hl + 4]);
+    if (!options_.ring || start > options_.ring->counter_address || start + count < options_.ring->counter_address + 2)
+      return;
+    std::lock_guard lock(mutex_);
+    if (served_counters_.size() == max_served_counters) served_counters_.pop_front();
+    served_counters_.push_back(ring_taken_);
+  };
   if (!fault || !register_read) {
-    if (modbus_reply(ctx, query, length, mapping) > 0 && register_read) record();
+    if (modbus_reply(ctx, query, length, mapping) > 0 && register_read) {
+      record();
+      record_counter();
+    }
     return;
   }
   switch (*fault) {
