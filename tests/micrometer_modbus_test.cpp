@@ -42,10 +42,11 @@ std::string start_transport(MicrometerEmulator& emulator, bool rtu) {
 struct Harness {
   explicit Harness(bool rtu,
                    simulators::emulators::MicrometerSource source = simulators::emulators::runout_source(120.0),
-                   bool answers_report_server_id = true) {
+                   bool answers_report_server_id = true, std::chrono::milliseconds late_answer_ms = 700ms) {
     MicrometerEmulator::Options o;
     o.source = std::move(source);
     o.answers_report_server_id = answers_report_server_id;
+    o.late_answer_ms = late_answer_ms;
     emulator = std::make_unique<MicrometerEmulator>(o);
     const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(transport +
@@ -620,6 +621,30 @@ TEST_P(MicrometerTransport, ALateAnswerIsNeverTakenForTheNextRequest) {
   }
   h.expect_matches_served();
 }
+
+// RTU: an answer so late that the Report Server ID probe sent after the timeout (400 ms) hears
+// nothing for its whole timeout either (the amplifier is still busy with the late request): it comes
+// while a later read waits, with the same function code and byte count. 1 s: while the marker read
+// (of a count no unanswered read asked for) waits; 1.5 s: after the marker timed out too, the link
+// was declared lost (3 failures) and the serial line reopened, which must not count as in step. The
+// late answer is discarded and counted, never published as a reading. Deterministic: it lands
+// 150-250 ms inside that read's window, without load.
+class MicrometerRtuVeryLate : public ::testing::TestWithParam<int> {};
+
+TEST_P(MicrometerRtuVeryLate, AnAnswerLaterThanTheProbesTimeoutIsNeverTaken) {
+  Harness h(true, simulators::emulators::runout_source(120.0), true, std::chrono::milliseconds(GetParam()));
+  h.driver->start();
+  ASSERT_TRUE(h.wait_samples(10));
+  h.emulator->inject(ModbusFault::late, 1);
+  const std::size_t have = h.samples.size();
+  ASSERT_TRUE(h.wait_samples(have + 30));
+  EXPECT_GE(test::driver_counters_by_name(h.driver->status()).at("stale_answers"), 1u)
+      << "the late answer was discarded";
+  h.expect_matches_served();
+}
+
+INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerRtuVeryLate, ::testing::Values(1000, 1500),
+                         [](const auto& p) { return std::to_string(p.param) + "ms"; });
 
 // A server that ignores Report Server ID (no exception answer, against the standard): one timeout
 // costs the read and the silent probe, two failures of the three that declare the link lost; the next
