@@ -2,6 +2,8 @@
 
 #include <modbus/modbus.h>
 
+#include <termios.h>
+
 #include <cerrno>
 
 namespace guideway::drivers::modbus {
@@ -125,6 +127,8 @@ ReadResult ModbusClient::read(RegisterFunction function, std::uint16_t address, 
   const int rc = function == RegisterFunction::holding ? modbus_read_registers(ctx_, address, count, out.data())
                                                        : modbus_read_input_registers(ctx_, address, count, out.data());
   if (rc == count) {
+    Block& widest = widest_answered_[static_cast<std::size_t>(function)];
+    if (count > widest.count) widest = {address, count};
     in_step();
     return {};
   }
@@ -144,12 +148,14 @@ constexpr std::uint8_t report_server_id = 0x11;
 
 bool ModbusClient::resync(RegisterFunction function, std::uint16_t address, std::uint16_t count,
                           ReadResult& failure) noexcept {
-  // The smallest count no unanswered read of this function asked for, within the coming read's
-  // registers (so the server has them); 0: none.
+  // The smallest count no unanswered read of this function asked for, within registers the server
+  // has: the coming read's, or the widest block it answered on this line; 0: none.
+  const Block& widest = widest_answered_[static_cast<std::size_t>(function)];
   std::uint16_t marker = 0;
-  for (std::uint16_t m = 1; m <= count && marker == 0; ++m) {
+  for (std::uint16_t m = 1; m <= std::max(count, widest.count) && marker == 0; ++m) {
     if (!unanswered_counts_[static_cast<std::size_t>(function)].test(m)) marker = m;
   }
+  if (marker > count) address = widest.address;
   if (!probe_ignored_ && (!silent_probe_ || marker == 0)) {
     const ProbeOutcome probed = resync_by_probe(failure);
     if (probed != ProbeOutcome::unproven) return probed == ProbeOutcome::in_step;
@@ -162,14 +168,14 @@ bool ModbusClient::resync(RegisterFunction function, std::uint16_t address, std:
   if (marker > 0) return resync_by_read(function, address, marker, failure);
   // Every count up to this read's is unanswered on a server that ignores FC 17: nothing tells a late
   // answer apart. Flushing only (a rare case: a failed 1-register read, say).
-  modbus_flush(ctx_);
+  discard_input();
   in_step();
   return true;
 }
 
 ModbusClient::ProbeOutcome ModbusClient::resync_by_probe(ReadResult& failure) noexcept {
   const std::uint8_t probe[] = {static_cast<std::uint8_t>(endpoint_.unit_id), report_server_id};
-  modbus_flush(ctx_);
+  discard_input();
   if (modbus_send_raw_request(ctx_, probe, sizeof probe) < 0) {
     failure = classify(errno);
     return ProbeOutcome::failed;
@@ -212,7 +218,7 @@ ModbusClient::ProbeOutcome ModbusClient::resync_by_probe(ReadResult& failure) no
     }
     heard = true;
     ++stale_answers_;  // a damaged frame: drop what is left of it and go on
-    modbus_flush(ctx_);
+    discard_input();
   }
   failure = {ReadStatus::bad_frame, 0, "64 frames while waiting for the answer to Report Server ID"};
   return ProbeOutcome::failed;  // still out of step: the next read probes again
@@ -224,7 +230,7 @@ bool ModbusClient::resync_by_read(RegisterFunction function, std::uint16_t addre
   const std::uint8_t request[] = {
       static_cast<std::uint8_t>(endpoint_.unit_id), code, static_cast<std::uint8_t>(address >> 8),
       static_cast<std::uint8_t>(address & 0xff),    0,    static_cast<std::uint8_t>(marker)};
-  modbus_flush(ctx_);
+  discard_input();
   if (modbus_send_raw_request(ctx_, request, sizeof request) < 0) {
     failure = classify(errno);
     return false;
@@ -248,6 +254,9 @@ bool ModbusClient::resync_by_read(RegisterFunction function, std::uint16_t addre
       return true;
     }
     if (n >= 0) {  // another register answer (a late one), an exception, another unit's frame: stale
+      // An exception may be the marker's own: registers no longer there (another device on the
+      // line); the next marker keeps within the coming read's.
+      if (n > 2 && frame[1] == (code | 0x80)) widest_answered_[static_cast<std::size_t>(function)] = {};
       ++stale_answers_;
       continue;
     }
@@ -258,7 +267,7 @@ bool ModbusClient::resync_by_read(RegisterFunction function, std::uint16_t addre
       return false;  // still out of step: the next read sends another marker
     }
     ++stale_answers_;  // a damaged frame: drop what is left of it and go on
-    modbus_flush(ctx_);
+    discard_input();
   }
   failure = {ReadStatus::bad_frame, 0, "64 frames while waiting for the answer to a marker read"};
   return false;
@@ -272,7 +281,17 @@ void ModbusClient::in_step() noexcept {
 }
 
 void ModbusClient::flush() noexcept {
-  if (ctx_) modbus_flush(ctx_);
+  if (ctx_) discard_input();
+}
+
+void ModbusClient::discard_input() noexcept {
+  // libmodbus's RTU flush is tcflush(TCIOFLUSH): it would also drop requests written but not yet
+  // sent (a probe or a marker the line never carries, or one cut short), which then never answer.
+  if (endpoint_.kind == ModbusEndpoint::Kind::rtu) {
+    ::tcflush(modbus_get_socket(ctx_), TCIFLUSH);
+  } else {
+    modbus_flush(ctx_);
+  }
 }
 
 }  // namespace guideway::drivers::modbus

@@ -86,6 +86,7 @@ class ModbusClient {
   bool resync_by_read(RegisterFunction function, std::uint16_t address, std::uint16_t count,
                       ReadResult& failure) noexcept;
   void in_step() noexcept;
+  void discard_input() noexcept;  // what has arrived and not been read (never what is still to be sent)
 
   ModbusEndpoint endpoint_;
   _modbus* ctx_ = nullptr;
@@ -96,6 +97,12 @@ class ModbusClient {
   // Register counts of the reads (FC 3, FC 4) sent since the line was last in step and not
   // answered: their answers may still come, a marker read asks for another count.
   std::array<std::bitset<126>, 2> unanswered_counts_{};
+  // The widest read (FC 3, FC 4) answered on this line: registers the server has, for marker reads.
+  struct Block {
+    std::uint16_t address = 0;
+    std::uint16_t count = 0;
+  };
+  std::array<Block, 2> widest_answered_{};
   std::uint64_t stale_answers_ = 0;
 };
 
