@@ -104,6 +104,7 @@ class MicrometerEmulator {
   bool line_down() const;
   void fill_ring(double t_s);  // the ring and counter as the amplifier shows them at t_s
   void set_register(std::uint32_t address, std::uint16_t value);
+  void record_counter(std::uint16_t start, std::uint16_t count);  // a read answered: its counter, if it covers it
 
   Options options_;
   std::string host_;
