@@ -2,6 +2,8 @@
 // A Modbus master (client) over TCP or RTU through libmodbus, reduced to what a polling driver
 // needs: connect, read one register block, classify every failure. Not thread safe: one owner thread.
 
+#include <array>
+#include <bitset>
 #include <chrono>
 #include <cstdint>
 #include <span>
@@ -62,18 +64,29 @@ class ModbusClient {
   void flush() noexcept;
   // RTU answers carry no transaction id: after a timeout or a bad frame the failed request's answer
   // may still come, and would be taken for the next request of the same size. So the next read first
-  // asks for the server id (FC 17, answered with it or an exception, never like a register read) and
-  // discards every frame before that answer. Counts the frames so discarded (late answers, damaged
-  // frames, frames for another unit).
+  // sends a marker whose answer no earlier request's can pass for, and discards every frame before
+  // that answer (a serial server answers in turn). The marker is Report Server ID (FC 17, answered
+  // with it or an exception, never like a register read); after a probe that heard nothing for a
+  // whole response timeout (a server still busy with a late request, or one that ignores FC 17), a
+  // read of a register count that no unanswered read asked for (its byte count tells it apart).
+  // Counts the frames so discarded (late answers, damaged frames, frames for another unit).
   [[nodiscard]] std::uint64_t stale_answers() const noexcept { return stale_answers_; }
-  // The server answered a read right after ignoring a probe: it ignores FC 17, and is not probed again.
+  // The server answered a marker read while probes sent before it went unanswered: it ignores FC 17,
+  // and is brought back in step by marker reads only.
   [[nodiscard]] bool probe_ignored() const noexcept { return probe_ignored_; }
   [[nodiscard]] const ModbusEndpoint& endpoint() const noexcept { return endpoint_; }
 
  private:
   // False when the line could not be brought back in step (nothing answered, or the link is gone).
-  bool resync(ReadResult& failure) noexcept;
+  // The read about to be sent (function, address, count) chooses the marker read.
+  bool resync(RegisterFunction function, std::uint16_t address, std::uint16_t count, ReadResult& failure) noexcept;
+  // Report Server ID: in step once every probe sent since the line was last in step is answered.
+  enum class ProbeOutcome { in_step, unproven, failed };
+  ProbeOutcome resync_by_probe(ReadResult& failure) noexcept;
+  bool resync_by_read(RegisterFunction function, std::uint16_t address, std::uint16_t count,
+                      ReadResult& failure) noexcept;
   void in_step() noexcept;
+  void discard_input() noexcept;  // what has arrived and not been read (never what is still to be sent)
 
   ModbusEndpoint endpoint_;
   _modbus* ctx_ = nullptr;
@@ -81,6 +94,15 @@ class ModbusClient {
   int probes_unanswered_ = 0;   // probes sent since the line was last in step, not yet answered
   bool silent_probe_ = false;   // the last probe heard nothing at all
   bool probe_ignored_ = false;  // sticky: the server ignores FC 17
+  // Register counts of the reads (FC 3, FC 4) sent since the line was last in step and not
+  // answered: their answers may still come, a marker read asks for another count.
+  std::array<std::bitset<126>, 2> unanswered_counts_{};
+  // The widest read (FC 3, FC 4) answered on this line: registers the server has, for marker reads.
+  struct Block {
+    std::uint16_t address = 0;
+    std::uint16_t count = 0;
+  };
+  std::array<Block, 2> widest_answered_{};
   std::uint64_t stale_answers_ = 0;
 };
 

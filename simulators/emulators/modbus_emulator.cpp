@@ -268,6 +268,19 @@ std::vector<ServedReading> MicrometerEmulator::served() const {
   return served_;
 }
 
+void MicrometerEmulator::record_counter(std::uint16_t start, std::uint16_t count) {
+  const auto& ring = options_.ring;
+  if (!ring || start > ring->counter_address || start + count < ring->counter_address + 2) return;
+  std::lock_guard lock(mutex_);
+  if (served_counters_.size() == max_served_counters) served_counters_.pop_front();
+  served_counters_.push_back(ring_taken_);
+}
+
+std::vector<std::uint64_t> MicrometerEmulator::served_counters() const {
+  std::lock_guard lock(mutex_);
+  return {served_counters_.begin(), served_counters_.end()};
+}
+
 bool MicrometerEmulator::line_down() const {
   std::lock_guard lock(mutex_);
   return std::chrono::steady_clock::now() < down_until_;
@@ -412,7 +425,11 @@ void MicrometerEmulator::handle(const std::uint8_t* query, int length, int fd, b
     served_.push_back({request, r.value_m, r.flags});
   };
   if (!fault || !register_read) {
-    if (modbus_reply(ctx, query, length, mapping) > 0 && register_read) record();
+    if (modbus_reply(ctx, query, length, mapping) > 0 && register_read) {
+      record();
+      record_counter(static_cast<std::uint16_t>((query[hl + 1] << 8) | query[hl + 2]),
+                     static_cast<std::uint16_t>((query[hl + 3] << 8) | query[hl + 4]));
+    }
     return;
   }
   switch (*fault) {

@@ -84,6 +84,10 @@ class MicrometerEmulator {
   // The line goes dead for d: TCP closes the connection and refuses new ones; RTU drops all bytes.
   void disconnect_for(std::chrono::milliseconds d);
   [[nodiscard]] std::vector<ServedReading> served() const;
+  // Ring mode: the samples taken since the ring's (re)start as the counter showed them, at each of the
+  // last max_served_counters counter reads answered (what a master can know was overwritten, when).
+  [[nodiscard]] std::vector<std::uint64_t> served_counters() const;
+  static constexpr std::size_t max_served_counters = 1 << 16;
   [[nodiscard]] std::uint64_t requests() const noexcept { return requests_.load(); }
   [[nodiscard]] std::uint64_t connections() const noexcept { return connections_.load(); }
   // The amplifier restarted `ago` before the next request: its counter starts again at 0 (sample k of
@@ -100,13 +104,14 @@ class MicrometerEmulator {
   bool line_down() const;
   void fill_ring(double t_s);  // the ring and counter as the amplifier shows them at t_s
   void set_register(std::uint32_t address, std::uint16_t value);
+  void record_counter(std::uint16_t start, std::uint16_t count);  // a read answered: its counter, if it covers it
 
   Options options_;
   std::string host_;
   void* ctx_ = nullptr;      // modbus_t*
   void* mapping_ = nullptr;  // modbus_mapping_t*
   std::uint32_t mapping_start_ = 0;
-  std::uint64_t ring_taken_ = 0;  // samples written into the ring so far (server thread)
+  std::uint64_t ring_taken_ = 0;                   // samples written into the ring so far (server thread)
   std::chrono::steady_clock::time_point ring_t0_;  // the ring's (re)start (mutex_)
   std::atomic<std::int64_t> ring_restart_ago_ns_{-1};
   int listen_fd_ = -1;
@@ -119,6 +124,7 @@ class MicrometerEmulator {
   std::chrono::steady_clock::time_point down_until_{};
   bool drop_connection_ = false;
   std::vector<ServedReading> served_;
+  std::deque<std::uint64_t> served_counters_;
   std::atomic<std::uint64_t> requests_{0};
   std::atomic<std::uint64_t> connections_{0};
   std::uint32_t rng_ = 0x9e3779b9u;
