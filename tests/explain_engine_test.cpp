@@ -3,6 +3,7 @@
 // the truth, the held-out improvement, the null case and an out-of-library bump.
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
 #include <string>
@@ -115,6 +116,53 @@ TEST(ExplainEngine, NoiseOnlyGivesNoFinding) {
     EXPECT_TRUE(rep.findings.empty()) << seed;
     EXPECT_FALSE(rep.unexplained) << seed;
     EXPECT_TRUE(rep.mismatch.empty()) << seed;
+  }
+}
+
+// A variant's rank against the model: two columns well apart add two (their joint fit as a plain least
+// squares gives it), two 1e-3 apart still two, and two whose difference is 1e-12 to 3e-10 of their size one,
+// as one column would (the rank test, rank_tolerance 1e-9). The engine decides the first by the Gram matrix
+// of the columns and the others by a pivoted QR: the Gram matrix could not resolve 1e-9.
+TEST(ExplainEngine, NearlyCollinearColumnsAddTheRankAPivotedQrGives) {
+  const auto candidate = [](const std::string& effect, double apart, int columns) {
+    models::explain::Candidate c{effect, "columns", {}, {}, 0};
+    c.variants.resize(1);
+    c.variants[0].block.columns.resize(n, columns);
+    for (int k = 0; k < columns; ++k) c.variants[0].block.names.push_back(effect + std::to_string(k));
+    for (int i = 0; i < n; ++i) {
+      const double z = 2 * pi * i / n;
+      c.variants[0].block.columns(i, 0) = std::sin(11 * z);
+      if (columns > 1) c.variants[0].block.columns(i, 1) = std::sin(11 * z) + apart * std::sin(23 * z);
+    }
+    return c;
+  };
+  const auto delta_bics = [](const models::explain::Problem& p) {
+    const auto rep = models::explain::explain(p);
+    EXPECT_TRUE(rep.findings.empty());
+    std::map<std::string, double> out;
+    for (const auto& c : rep.considered) out[c.effect] = c.delta_bic;
+    return out;
+  };
+  models::explain::Problem p = make_problem([](int) { return 0.0; }, 5);
+  p.candidates = {candidate("thermal_drift", 1e-3, 2), candidate("vibration", 1, 2)};
+  auto apart = delta_bics(p);
+  // The joint fit of the base and the two columns apart, independently: n ln(RSS/n) + rank ln n.
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) y[i] = p.samples[static_cast<std::size_t>(i)].y_um;
+  const auto bic = [&](const Eigen::MatrixXd& j) {
+    const Eigen::VectorXd r = y - j * j.colPivHouseholderQr().solve(y);
+    return n * std::log(r.squaredNorm() / n) + static_cast<double>(j.cols()) * std::log(static_cast<double>(n));
+  };
+  Eigen::MatrixXd joint(n, 5);
+  joint << p.base.columns, p.candidates[1].variants[0].block.columns;
+  const double expected = bic(joint) - bic(p.base.columns);
+  EXPECT_NEAR(apart["vibration"], expected, 1e-6);
+  EXPECT_NEAR(apart["thermal_drift"], expected, 1e-6);  // the same span
+  for (const double d : {1e-12, 3e-12, 1e-11, 3e-11, 1e-10, 3e-10}) {
+    p.candidates = {candidate("backlash", 0, 1), candidate("cyclic_error", d, 2)};
+    auto collinear = delta_bics(p);
+    EXPECT_NEAR(collinear["cyclic_error"], collinear["backlash"], 1e-6) << d;
+    EXPECT_LT(collinear["cyclic_error"], expected - 0.5 * std::log(static_cast<double>(n))) << d;  // a rank less
   }
 }
 

@@ -69,11 +69,6 @@ double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad) {
   return 2 * radius_m * half * half;
 }
 
-double deadband_lost_motion(double velocity_sign, double rise_m, double backlash_m) {
-  const double taken_up = backlash_m > 0 ? std::clamp(rise_m / backlash_m - 0.5, -0.5, 0.5) : 0.5;
-  return -velocity_sign * taken_up;
-}
-
 std::vector<double> drive_delays_s(const std::vector<formats::DbbRun>& runs) {
   const bool encoders = std::all_of(runs.begin(), runs.end(), [](const formats::DbbRun& r) {
     const auto it = r.metadata.find("angle_source");
@@ -102,10 +97,6 @@ void add_drive_sample(DriveTrack& t, const SampleGeometry& p) {
   t.vel_b.push_back(direction(pi / 2));
   t.rise_a.push_back(rise(0.0));
   t.rise_b.push_back(rise(pi / 2));
-}
-
-std::array<double, 2> lost_motion(const DriveTrack& t, std::size_t i, double b_a, double b_b) {
-  return {deadband_lost_motion(t.vel_a[i], t.rise_a[i], b_a), deadband_lost_motion(t.vel_b[i], t.rise_b[i], b_b)};
 }
 
 }  // namespace guideway::models::dbb

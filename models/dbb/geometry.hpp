@@ -4,6 +4,7 @@
 // each axis moves and how long since it last reversed, and the lost motion of a backlash deadband.
 // Conventions (axes, signs, lambda): docs/conventions.md. Pure functions; thread safe.
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <string>
@@ -62,7 +63,11 @@ double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad);
 // backlash_m <= 0 gives the ideal step.
 // Identification (identify.cpp) and EXPLAIN's backlash effect both use this one deadband, on the drives'
 // tracks below.
-double deadband_lost_motion(double velocity_sign, double rise_m, double backlash_m);
+// Inline: EXPLAIN's backlash generator calls it for every sample at every delay in every fold.
+inline double deadband_lost_motion(double velocity_sign, double rise_m, double backlash_m) {
+  const double taken_up = backlash_m > 0 ? std::clamp(rise_m / backlash_m - 0.5, -0.5, 0.5) : 0.5;
+  return -velocity_sign * taken_up;
+}
 
 // ---- The drives' motion ----
 // The drives' motion on the circle when they follow the command `delay_s` late, per sample: their
@@ -100,6 +105,9 @@ std::vector<DriveTrack> drive_tracks(const std::vector<Geometry>& g, const std::
 
 // Lost motion per unit backlash of a deadband of width b_a / b_b (m) along each axis ({a, b}) at
 // sample i of the track.
-std::array<double, 2> lost_motion(const DriveTrack& track, std::size_t i, double b_a, double b_b);
+inline std::array<double, 2> lost_motion(const DriveTrack& track, std::size_t i, double b_a, double b_b) {
+  return {deadband_lost_motion(track.vel_a[i], track.rise_a[i], b_a),
+          deadband_lost_motion(track.vel_b[i], track.rise_b[i], b_b)};
+}
 
 }  // namespace guideway::models::dbb

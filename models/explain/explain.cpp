@@ -228,7 +228,28 @@ struct Extension {
   double rss = 0;
   std::size_t rank = 0;  // added to the model's
 };
-// As extend(), from xp = x - Q Q^T x and the norms of x's columns.
+// The joint fit from the Gram matrix g of x's columns projected off the model's span, each scaled by its norm
+// before the projection, and b, their products with the model's residual: where the columns are well apart,
+// a Cholesky with the largest diagonal first whose every pivot is at least gram_apart of the first (R's
+// diagonal from a QR at least 1e-2 of its largest: g's condition at most 1e4, so b^T g^-1 b is exact to
+// ~1e-12 relative) is of full rank whatever the rank test (rank_tolerance, 1e-9) decides. Nothing where the
+// Gram matrix cannot decide: nearly collinear columns, a diagonal below min_diag (g from cross products
+// loses what cancels) and the edge of "what is left is rounding" (|R00| < 1e-7) are decided by the
+// column-pivoted QR of the projected columns, as before (the Gram matrix squares the condition: it could not
+// resolve 1e-9).
+constexpr double gram_apart = 1e-4;  // of the squared pivots
+std::optional<Extension> extend_by_gram(const Model& m, const Eigen::MatrixXd& g, const Eigen::VectorXd& b,
+                                        double min_diag) {
+  if (g.rows() == 0 || !(g.diagonal().minCoeff() >= min_diag)) return std::nullopt;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(g);  // pivots on the largest diagonal left: a pivoted Cholesky
+  const Eigen::VectorXd d = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !(d.maxCoeff() > 4e-14) || !(d.minCoeff() >= gram_apart * d.maxCoeff()))
+    return std::nullopt;
+  return Extension{std::max(0.0, m.rss - b.dot(ldlt.solve(b))), static_cast<std::size_t>(g.rows())};
+}
+
+// As extend(), from xp = x - Q Q^T x and the norms of x's columns: by the Gram matrix where it decides (a
+// pivoted QR of an n x 2 matrix streams it several times), else by the column-pivoted QR.
 Extension extend_projected(const Model& m, Eigen::MatrixXd xp, const Eigen::VectorXd& norms) {
   // Relative to each column's own size before the projection: a column in the model's span adds nothing.
   for (Eigen::Index c = 0; c < xp.cols(); ++c) {
@@ -239,6 +260,7 @@ Extension extend_projected(const Model& m, Eigen::MatrixXd xp, const Eigen::Vect
   }
   Extension e{m.rss, 0};
   if (xp.cols() == 0 || xp.cwiseAbs().maxCoeff() < 1e-7) return e;
+  if (const auto by_gram = extend_by_gram(m, xp.transpose() * xp, xp.transpose() * m.residual, 0.0)) return *by_gram;
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(xp);
   qr.setThreshold(rank_tolerance);
   if (std::abs(qr.matrixQR()(0, 0)) < 1e-7) return e;  // what is left of every column is rounding
@@ -307,6 +329,26 @@ bool group_free(const Problem& p, const Variant& v, std::size_t cand, const std:
   return true;
 }
 
+// As extend(), from x's products with the model's basis, c = Q^T x, and qtr = Q^T r (r the model's
+// residual): the Gram matrix of x's columns projected off Q is x^T x - c^T c, and their products with the
+// residual x^T r - c^T qtr, so the projection itself is formed only where extend_by_gram cannot decide (a
+// column that keeps less than a tenth of its norm off the model's span, whose Gram entries would lose
+// digits to the cancellation: then 1e-12 relative at most).
+constexpr double crossed_min_diag = 1e-2;
+Extension extend_crossed(const Model& m, const Eigen::Ref<const Eigen::MatrixXd>& x,
+                         const Eigen::Ref<const Eigen::MatrixXd>& c, const Eigen::VectorXd& qtr) {
+  Eigen::MatrixXd g = x.transpose() * x;
+  const Eigen::VectorXd norms = g.diagonal().cwiseSqrt();
+  if (norms.minCoeff() > 0) {
+    g.noalias() -= c.transpose() * c;
+    const Eigen::VectorXd inv = norms.cwiseInverse();
+    const Eigen::MatrixXd scaled = inv.asDiagonal() * g * inv.asDiagonal();
+    const Eigen::VectorXd b = inv.asDiagonal() * (x.transpose() * m.residual - c.transpose() * qtr);
+    if (const auto by_gram = extend_by_gram(m, scaled, b, crossed_min_diag)) return *by_gram;
+  }
+  return extend_projected(m, x - m.q * c, norms);
+}
+
 // A candidate's best variant against a model on some rows: the exact joint fit of each allowed variant,
 // lowest BIC (n ln RSS + (rank + searched) ln n). rows = null: all rows. none: no variant can be fitted.
 struct Choice {
@@ -320,9 +362,10 @@ Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& all
   Choice best;
   double best_bic = 0;
   const auto count = static_cast<double>(m.residual.size());
-  // The variants' columns projected off the model's basis a batch at a time: two matrix products per
-  // batch instead of two passes over the n x rank basis per variant (memory-bound at large n).
+  // The variants' products with the model's basis a batch at a time: one matrix product per batch instead
+  // of a pass over the n x rank basis per variant (memory-bound at large n).
   constexpr Eigen::Index batch_columns = 64;
+  const Eigen::VectorXd qtr = m.q.transpose() * m.residual;  // zero but for rounding
   std::size_t v = 0;
   while (v < variants.size()) {
     std::vector<std::size_t> members;
@@ -344,13 +387,11 @@ Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& all
         x.middleCols(at, c.cols()) = c;
       at += c.cols();
     }
-    const Eigen::VectorXd norms = x.colwise().norm().transpose();
-    x.noalias() -= m.q * (m.q.transpose() * x);  // projected off the basis: Q^T x is evaluated first
-    const auto& xp = x;
+    const Eigen::MatrixXd c = m.q.transpose() * x;
     at = 0;
     for (std::size_t k : members) {
       const Eigen::Index q = variants[k].block.columns.cols();
-      const Extension e = extend_projected(m, xp.middleCols(at, q), norms.segment(at, q));
+      const Extension e = extend_crossed(m, x.middleCols(at, q), c.middleCols(at, q), qtr);
       at += q;
       if (e.rank == 0) continue;
       const double b = bic_of(e.rss, static_cast<double>(e.rank + variants[k].searched), count);

@@ -90,16 +90,25 @@ std::vector<Variant> best_periods_at_every_delay(const std::vector<Geo>& gg, con
                                                  const std::vector<Variant>& undelayed, DelayedVariants& delayed,
                                                  const Eigen::VectorXd& r, const std::vector<bool>& use) {
   const std::vector<Eigen::Index> rows = rows_in_use(use);
-  const Eigen::VectorXd rr = r(rows);
   std::vector<Variant> vs;
   const std::size_t per_axis = std::size(dbb_periods_mm);
   for (int axis = 0; axis < 2; ++axis) {
     std::vector<std::pair<double, std::size_t>> score;  // (-explained, period's index)
     for (std::size_t k = 0; k < per_axis; ++k) {
-      const Eigen::MatrixXd x =
-          undelayed[static_cast<std::size_t>(axis) * per_axis + k].block.columns(rows, Eigen::all);
-      const Eigen::Matrix2d xtx = x.transpose() * x;
-      const Eigen::Vector2d xtr = x.transpose() * rr;
+      // The 2 x 2 normal equations summed over the rows in use in place (the rows' copy of the columns was
+      // most of the generator's time at large n).
+      const Eigen::MatrixXd& x = undelayed[static_cast<std::size_t>(axis) * per_axis + k].block.columns;
+      Eigen::Matrix2d xtx = Eigen::Matrix2d::Zero();
+      Eigen::Vector2d xtr = Eigen::Vector2d::Zero();
+      for (const Eigen::Index i : rows) {
+        const double s = x(i, 0), c = x(i, 1), ri = r[i];
+        xtx(0, 0) += s * s;
+        xtx(0, 1) += s * c;
+        xtx(1, 1) += c * c;
+        xtr[0] += s * ri;
+        xtr[1] += c * ri;
+      }
+      xtx(1, 0) = xtx(0, 1);
       score.emplace_back(-xtr.dot(xtx.ldlt().solve(xtr)), k);
     }
     std::sort(score.begin(), score.end());

@@ -105,12 +105,19 @@ class LineSearch {
     // Two lines closer than the Fourier resolution 1/t_span are one line: the second strongest is sought
     // at least that far from the first.
     apart_ = static_cast<std::size_t>(std::ceil(1.0 / (t_span * df_) - 1e-9));
+    // Only the bins up to half the FFT's size are read: the reflected half is not formed.
+    fft_.SetFlag(Eigen::FFT<double>::HalfSpectrum);
     // Each sample's bin and projections: the same for every residual the generator is given.
     for (std::size_t i = 0, first = 0; i < t.g.size(); ++i) {
       if (t.g[i].run != t.g[first].run) first = i;
       bin_.push_back(static_cast<std::size_t>(std::max(0.0, std::round((t.g[i].t_s - t.g[first].t_s) / dt_))));
       for (int which = 0; which < 3; ++which)
         weights_[static_cast<std::size_t>(which)].push_back(weight(t.g[i], which));
+      // The step of half a grid step that refined_frequency() takes between its five points, per sample.
+      double sn = 0, cs = 0;
+      dbb::fast_sincos(2 * pi * step_hz() * t.g[i].t_s, sn, cs);
+      step_sin_.push_back(sn);
+      step_cos_.push_back(cs);
     }
     // Time moments of the squared projection per direction and run, for a line's report: the frequency's
     // uncertainty (Cramer-Rao, from the spread of t about each run's centroid: the periodogram that chose
@@ -170,9 +177,11 @@ class LineSearch {
     return pw;
   }
 
-  // The exact periodogram at f, f + h, ..., f + 4h (direction `which`): per sample one phasor at f and one
-  // step of h, multiplied on (two sine-cosine pairs a sample instead of five).
-  [[nodiscard]] std::array<double, 5> powers(double f, double h, int which, const Eigen::VectorXd& r) const {
+  [[nodiscard]] double step_hz() const { return 0.5 * df_; }
+
+  // The exact periodogram at f, f + h, ..., f + 4h (direction `which`, h = step_hz()): per sample one phasor
+  // at f and the step of h, kept per sample, multiplied on (one sine-cosine pair a sample instead of five).
+  [[nodiscard]] std::array<double, 5> powers(double f, int which, const Eigen::VectorXd& r) const {
     const auto& gg = *geo_;
     std::array<double, 5> total{}, re{}, im{};
     const auto flush = [&] {
@@ -185,9 +194,9 @@ class LineSearch {
       if (j > 0 && gg[j].run != gg[j - 1].run) flush();
       const double v = weights_[static_cast<std::size_t>(which)][j] * r[static_cast<Eigen::Index>(j)];
       if (v == 0.0) continue;
-      double sn = 0, cs = 0, sh = 0, ch = 0;
+      double sn = 0, cs = 0;
       dbb::fast_sincos(2 * pi * f * gg[j].t_s, sn, cs);
-      dbb::fast_sincos(2 * pi * h * gg[j].t_s, sh, ch);
+      const double sh = step_sin_[j], ch = step_cos_[j];
       for (std::size_t k = 0; k < 5; ++k) {
         re[k] += v * cs;
         im[k] -= v * sn;
@@ -218,8 +227,8 @@ class LineSearch {
   // then the parabola through the highest and its neighbours (a coherent fit over runs a minute apart
   // loses much of a line that is a fraction of a grid step off).
   [[nodiscard]] double refined_frequency(std::size_t q, int which, const Eigen::VectorXd& r) const {
-    const double f0 = df_ * static_cast<double>(q_lo_ + q), h = 0.5 * df_;
-    const std::array<double, 5> pk = powers(f0 - 2 * h, h, which, r);
+    const double f0 = df_ * static_cast<double>(q_lo_ + q), h = step_hz();
+    const std::array<double, 5> pk = powers(f0 - 2 * h, which, r);
     const auto top = static_cast<std::size_t>(std::max_element(pk.begin(), pk.end()) - pk.begin());
     double offset = 0.0;
     if (top > 0 && top < 4) {
@@ -265,6 +274,7 @@ class LineSearch {
   std::array<std::vector<Moments>, 3> moments_;
   std::vector<std::size_t> bin_;                // each sample's bin from its run's first
   std::array<std::vector<double>, 3> weights_;  // each sample's projection per direction (weight())
+  std::vector<double> step_sin_, step_cos_;     // sin and cos of 2 pi step_hz() t, per sample
   mutable std::mutex fft_mutex_;
   mutable Eigen::FFT<double> fft_;
 };
