@@ -6,6 +6,7 @@
 // DbbGapsTest.SeedsStatistics (label slow) repeats it over seeds and counts the terms further than 3 u.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -139,6 +140,27 @@ TEST(DbbGapsTest, GapsAroundAReversalCostPrecisionNotBias) {
   }
   // What the cubic term takes out is no longer left in the residual (0.88 um rms before it was fitted).
   EXPECT_LT(b.diagnostics_fit.rms_um, 0.2);
+}
+
+// Gaps over the first degrees after each of X's reversals in both runs leave its reversal spike's column
+// without a sample: refused by name with that reason, and the rest still read within 3 u.
+TEST(DbbGapsTest, ASpikeWithoutSamplesAfterItsReversalIsRefusedByNameWithTheReason) {
+  auto runs = standard_test(11);
+  // X reverses at 0 and 180 deg: the first 3.3 deg after each go, in the direction of travel (both runs start
+  // at X's reversal at 0 deg).
+  for (auto& r : runs) r = without_arc(without_arc(r, 179.9, 3.4), -1.0, 4.3);
+  const auto id = models::dbb::identify(runs);
+  EXPECT_EQ(find(id.diagnostics, "reversal_spike_x_um"), nullptr);
+  const auto& why = id.diagnostics_fit.why;
+  EXPECT_TRUE(std::any_of(why.begin(), why.end(), [](const std::string& w) {
+    return w.starts_with("reversal_spike_x_um: no run holds a sample in the first moments after a reversal of X");
+  })) << (why.empty() ? std::string("no reason given") : why.front());
+  for (const auto& [name, truth] : example_machine_truth()) {
+    if (name == "reversal_spike_x_um") continue;
+    const auto* e = find(id.diagnostics, name);
+    ASSERT_TRUE(e && e->u > 0) << name;
+    EXPECT_LE(std::abs(e->value - truth), 3 * e->u) << name << ": " << e->value << " ± " << e->u;
+  }
 }
 
 // Over seeds the errors against the machine file are as their u say: at most a few of the terms beyond 3 u.
