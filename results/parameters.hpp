@@ -291,8 +291,9 @@ inline constexpr Parameter axis_scale{"scale_{axis}_ppm", "scale {axis}", "dbb",
 // ---- DBB: terms of the compensation map only (models/compensation) ------------------------------------------
 inline constexpr Parameter straightness_cubic{"straightness_cubic_{axis}_um", "cubic straightness {axis}", "dbb", "",
                                               "cubic part of the axis' straightness at the circle's radius"};
+// ... and a diagnostic too: all a circle sees of the cubic straightness besides a squareness.
 inline constexpr Parameter straightness_cubic_difference{
-    "straightness_cubic_{a}_minus_{b}_um", "cubic straightness {A} - {B}", "dbb", "",
+    "straightness_cubic_{a}_minus_{b}_um", "cubic straightness {A} - {B}", "dbb", "diagnostics",
     "difference of the plane axes' cubic straightness, all one circle determines"};
 
 // ---- DBB: EXPLAIN's effect parameters besides the diagnostics' (models/explain/effects) -------------------

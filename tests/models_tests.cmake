@@ -4,6 +4,10 @@ guideway_add_test(dbb_lai_test SOURCES dbb_lai_test.cpp LIBS guideway_dbb_sim)
 guideway_add_test(dbb_diagnostics_test SOURCES dbb_diagnostics_test.cpp LIBS guideway_dbb_sim)
 guideway_add_test(dbb_run_test SOURCES dbb_run_test.cpp LIBS guideway_model_dbb)
 guideway_add_test(dbb_arcs_test SOURCES dbb_arcs_test.cpp LIBS guideway_dbb_sim guideway_explain_model)
+# Gaps near a reversal: precision lost, no bias; the same over 20 seeds is `slow`.
+guideway_add_test(dbb_gaps_test SOURCES dbb_gaps_test.cpp LIBS guideway_dbb_sim)
+add_test(NAME dbb_gaps_seeds COMMAND dbb_gaps_test --gtest_filter=DbbGapsTest.SeedsStatistics)
+set_tests_properties(dbb_gaps_seeds PROPERTIES LABELS slow TIMEOUT 600 ENVIRONMENT GUIDEWAY_SLOW_TESTS=1)
 guideway_add_test(dbb_lsq_test SOURCES dbb_lsq_test.cpp LIBS guideway_model_dbb)
 add_test(NAME dbb_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/dbb_cli_test.py ${PROJECT_BINARY_DIR} ${PROJECT_SOURCE_DIR})
 set_tests_properties(dbb_cli_test PROPERTIES LABELS integration TIMEOUT 120)
@@ -13,3 +17,6 @@ set_tests_properties(compensate_cli_test PROPERTIES LABELS integration TIMEOUT 3
 add_test(NAME compensate_lai_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/compensate_lai_cli_test.py ${PROJECT_BINARY_DIR} ${PROJECT_SOURCE_DIR})
 set_tests_properties(compensate_lai_cli_test PROPERTIES LABELS integration TIMEOUT 300)
 guideway_add_test(dbb_explain_agreement_test SOURCES dbb_explain_agreement_test.cpp LIBS guideway_dbb_sim guideway_explain_model)
+# The demo's gappy live session (tests/data/demo_gaps) against its machine file and numpy.
+add_test(NAME dbb_gaps_cli_test COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/dbb_gaps_cli_test.py ${PROJECT_BINARY_DIR} ${PROJECT_SOURCE_DIR})
+set_tests_properties(dbb_gaps_cli_test PROPERTIES LABELS integration TIMEOUT 120)
