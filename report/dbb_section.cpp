@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <tuple>
 
@@ -390,9 +391,32 @@ void planes_summary(std::ostringstream& body, const models::dbb::PlanesSummary& 
   for (const auto& n : s.notes) body << html_note(n);
 }
 
+// The session's identification of these runs (ReportOptions::identified), its runs named by their files as
+// the rest of the section names them; nullopt when none is of this plane and these runs (as many, in the same
+// directions, with as many points).
+std::optional<models::explain::CheckedIdentification> session_identification(
+    const std::vector<formats::DbbRun>& plane_runs, const std::vector<models::explain::CheckedIdentification>& given) {
+  for (const auto& c : given) {
+    const auto& runs = c.id.runs;
+    if (c.id.plane != plane_runs.front().plane || runs.size() != plane_runs.size()) continue;
+    bool same = true;
+    for (std::size_t k = 0; k < runs.size() && same; ++k)
+      same = runs[k].n == plane_runs[k].angle_rad.size() &&
+             runs[k].direction == (plane_runs[k].direction == formats::DbbDirection::ccw ? "ccw" : "cw");
+    if (!same) continue;
+    models::explain::CheckedIdentification out = c;
+    for (std::size_t k = 0; k < runs.size(); ++k) out.id.runs[k].source = plane_runs[k].source;
+    for (std::size_t k = 0; k < out.id.standards.runs.size() && k < runs.size(); ++k)
+      out.id.standards.runs[k].source = plane_runs[k].source;
+    return out;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
-std::string dbb_section(const std::vector<std::string>& paths, const std::string& id) {
+std::string dbb_section(const std::vector<std::string>& paths, const std::string& id,
+                        const std::vector<models::explain::CheckedIdentification>& identified) {
   std::vector<formats::DbbRun> runs;
   for (const auto& p : paths) {
     try {
@@ -422,13 +446,21 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
       for (std::size_t k = 0; k < runs.size(); ++k)
         if (runs[k].source == r.source) plane_circles.push_back(circles[k]);
     // As `identify dbb` and the session's PARAMS: what EXPLAIN finds and the models do not hold is fitted
-    // beside their terms.
+    // beside their terms. A session's report shows the session's own identification: what PARAMS published.
+    std::optional<models::explain::CheckedIdentification> from_session = session_identification(plane_runs, identified);
     models::explain::CheckedIdentification checked;
-    try {
-      checked = models::explain::identify_checked(plane_runs);
-    } catch (const std::exception& e) {
-      body << html_note("Identification refused: " + std::string(e.what()));
-      continue;
+    if (from_session) {
+      checked = std::move(*from_session);
+      body << "<p data-identified-by=\"session\">The values below are the session's identification, as its PARAMS "
+              "published them (not identified again from these files).</p>";
+    } else {
+      try {
+        checked = models::explain::identify_checked(plane_runs);
+      } catch (const std::exception& e) {
+        body << html_note("Identification refused: " + std::string(e.what()));
+        continue;
+      }
+      body << "<p data-identified-by=\"files\">The values below are identified from these files.</p>";
     }
     ids.push_back(checked.id);
     const models::dbb::Identification& id_result = ids.back();

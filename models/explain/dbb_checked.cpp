@@ -1,6 +1,7 @@
 #include "models/explain/dbb_checked.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <span>
 
@@ -90,7 +91,14 @@ bool same_grid(const std::vector<formats::DbbRun>& a, const std::vector<formats:
 
 }  // namespace
 
+namespace {
+std::atomic<std::size_t> identify_checked_calls{0};
+}  // namespace
+
+std::size_t identify_checked_count() { return identify_checked_calls.load(std::memory_order_relaxed); }
+
 CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options) {
+  identify_checked_calls.fetch_add(1, std::memory_order_relaxed);
   ExplainOptions eo;
   eo.keep_columns = true;
   CheckedIdentification out;
