@@ -314,13 +314,29 @@ void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Id
 }
 
 // What EXPLAIN found on the same runs and the models do not hold, as fitted beside their terms.
+// A line (a vibration, a cyclic error) is shown as its amplitude and phase, not its sine and cosine parts.
 void beside_table(std::ostringstream& body, const models::explain::CheckedIdentification& checked) {
   if (checked.id.beside.empty()) return;
   std::string effects;
   for (const auto& e : checked.beside) effects += (effects.empty() ? "" : ", ") + results::in_words(e);
+  const auto has = [&](const std::string& name) {
+    return std::any_of(checked.id.beside.begin(), checked.id.beside.end(),
+                       [&](const auto& e) { return e.name == name; });
+  };
+  std::vector<models::dbb::Estimate> shown;
+  bool lines = false;
+  for (const auto& e : checked.id.beside) {
+    const auto line = results::line_of_part(e.name);
+    if (line && has(line->amplitude)) {
+      lines = true;
+      continue;
+    }
+    shown.push_back(e);
+  }
   body << html_table(estimates_table(
-      "Fitted beside the models' terms: what EXPLAIN found on the same runs (" + effects + "), in no table",
-      checked.id.beside, checked.id.plane, {}));
+      "Fitted beside the models' terms: what EXPLAIN found on the same runs (" + effects + "), in no table", shown,
+      checked.id.plane, {}));
+  if (lines) body << "<p>" << html_escape("A line's " + std::string(results::line_phase_reference) + ".") << "</p>";
 }
 
 // Lai's symbol of a reported name: "c0_plus_d1_rad" -> "c0 + d1".
