@@ -43,6 +43,14 @@ std::vector<std::string> shown_row(const std::string& name, const nlohmann::json
   return {s.label, s.value, s.unit};
 }
 
+// Whether the group holds a line shown as its amplitude and phase (results::line_of_part).
+bool holds_a_line(const nlohmann::json& items) {
+  for (const auto& [name, v] : items.items())
+    if (const auto line = results::line_of_part(name); line && name == line->sine && items.contains(line->amplitude))
+      return true;
+  return false;
+}
+
 // The group's title for people ("lai3" -> "Lai's third-order model").
 std::string group_title(const std::string& group) {
   if (group == results::lai_S_x.group) return "Lai's third-order model";
@@ -146,6 +154,8 @@ std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, st
   std::vector<std::pair<std::size_t, std::vector<std::string>>> ranked;
   for (const auto& [name, v] : items.items()) {
     if (name.starts_with("circular_") != iso) continue;
+    // A line's sine and cosine parts are shown as its amplitude and phase (beside them in the JSON).
+    if (const auto line = results::line_of_part(name); line && items.contains(line->amplitude)) continue;
     if (!iso && !without_u && !v.contains("u")) continue;  // a searched or assumed value: searched_values()
     const results::Parameter* p = results::find_parameter(name, group);
     const auto at = static_cast<std::size_t>(std::find(catalogue.begin(), catalogue.end(), p) - catalogue.begin());
@@ -269,6 +279,7 @@ void print_result(const nlohmann::json& p) {
     // Every value, those with no uncertainty of their own too (ISO 230-7's peaks-to-valleys as measured).
     std::cout << group_title(group) << ":\n"
               << aligned_rows(group_rows(items, plane, group, false, true), {false, true});
+    if (holds_a_line(items)) std::cout << "  " << results::line_phase_reference << "\n";
   }
   for (const auto& n : p.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
   if (p.contains("wavelet") && p["wavelet"].contains("bands")) {  // the profile session's summary

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <tuple>
 
@@ -313,13 +314,29 @@ void runs_and_diagnostics_tables(std::ostringstream& body, const models::dbb::Id
 }
 
 // What EXPLAIN found on the same runs and the models do not hold, as fitted beside their terms.
+// A line (a vibration, a cyclic error) is shown as its amplitude and phase, not its sine and cosine parts.
 void beside_table(std::ostringstream& body, const models::explain::CheckedIdentification& checked) {
   if (checked.id.beside.empty()) return;
   std::string effects;
   for (const auto& e : checked.beside) effects += (effects.empty() ? "" : ", ") + results::in_words(e);
+  const auto has = [&](const std::string& name) {
+    return std::any_of(checked.id.beside.begin(), checked.id.beside.end(),
+                       [&](const auto& e) { return e.name == name; });
+  };
+  std::vector<models::dbb::Estimate> shown;
+  bool lines = false;
+  for (const auto& e : checked.id.beside) {
+    const auto line = results::line_of_part(e.name);
+    if (line && has(line->amplitude)) {
+      lines = true;
+      continue;
+    }
+    shown.push_back(e);
+  }
   body << html_table(estimates_table(
-      "Fitted beside the models' terms: what EXPLAIN found on the same runs (" + effects + "), in no table",
-      checked.id.beside, checked.id.plane, {}));
+      "Fitted beside the models' terms: what EXPLAIN found on the same runs (" + effects + "), in no table", shown,
+      checked.id.plane, {}));
+  if (lines) body << "<p>" << html_escape("A line's " + std::string(results::line_phase_reference) + ".") << "</p>";
 }
 
 // Lai's symbol of a reported name: "c0_plus_d1_rad" -> "c0 + d1".
@@ -390,9 +407,32 @@ void planes_summary(std::ostringstream& body, const models::dbb::PlanesSummary& 
   for (const auto& n : s.notes) body << html_note(n);
 }
 
+// The session's identification of these runs (ReportOptions::identified), its runs named by their files as
+// the rest of the section names them; nullopt when none is of this plane and these runs (as many, in the same
+// directions, with as many points).
+std::optional<models::explain::CheckedIdentification> session_identification(
+    const std::vector<formats::DbbRun>& plane_runs, const std::vector<models::explain::CheckedIdentification>& given) {
+  for (const auto& c : given) {
+    const auto& runs = c.id.runs;
+    if (c.id.plane != plane_runs.front().plane || runs.size() != plane_runs.size()) continue;
+    bool same = true;
+    for (std::size_t k = 0; k < runs.size() && same; ++k)
+      same = runs[k].n == plane_runs[k].angle_rad.size() &&
+             runs[k].direction == (plane_runs[k].direction == formats::DbbDirection::ccw ? "ccw" : "cw");
+    if (!same) continue;
+    models::explain::CheckedIdentification out = c;
+    for (std::size_t k = 0; k < runs.size(); ++k) out.id.runs[k].source = plane_runs[k].source;
+    for (std::size_t k = 0; k < out.id.standards.runs.size() && k < runs.size(); ++k)
+      out.id.standards.runs[k].source = plane_runs[k].source;
+    return out;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
-std::string dbb_section(const std::vector<std::string>& paths, const std::string& id) {
+std::string dbb_section(const std::vector<std::string>& paths, const std::string& id,
+                        const std::vector<models::explain::CheckedIdentification>& identified) {
   std::vector<formats::DbbRun> runs;
   for (const auto& p : paths) {
     try {
@@ -422,13 +462,21 @@ std::string dbb_section(const std::vector<std::string>& paths, const std::string
       for (std::size_t k = 0; k < runs.size(); ++k)
         if (runs[k].source == r.source) plane_circles.push_back(circles[k]);
     // As `identify dbb` and the session's PARAMS: what EXPLAIN finds and the models do not hold is fitted
-    // beside their terms.
+    // beside their terms. A session's report shows the session's own identification: what PARAMS published.
+    std::optional<models::explain::CheckedIdentification> from_session = session_identification(plane_runs, identified);
     models::explain::CheckedIdentification checked;
-    try {
-      checked = models::explain::identify_checked(plane_runs);
-    } catch (const std::exception& e) {
-      body << html_note("Identification refused: " + std::string(e.what()));
-      continue;
+    if (from_session) {
+      checked = std::move(*from_session);
+      body << "<p data-identified-by=\"session\">The values below are the session's identification, as its PARAMS "
+              "published them (not identified again from these files).</p>";
+    } else {
+      try {
+        checked = models::explain::identify_checked(plane_runs);
+      } catch (const std::exception& e) {
+        body << html_note("Identification refused: " + std::string(e.what()));
+        continue;
+      }
+      body << "<p data-identified-by=\"files\">The values below are identified from these files.</p>";
     }
     ids.push_back(checked.id);
     const models::dbb::Identification& id_result = ids.back();

@@ -176,7 +176,7 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
         for (std::size_t n = 0; n < groups.size(); ++n) {
           const auto& [stage, runs] = groups[n];
           const std::string gid = n == 0 ? id : next_id(kind_name(kind));
-          body << dbb_section(runs, gid);
+          body << dbb_section(runs, gid, options.identified);
           toc.push_back({gid, "Double ball bar (" + std::to_string(runs.size()) + " runs" +
                                   (stage.empty() ? std::string() : ", " + stage + " compensation") + ")"});
         }

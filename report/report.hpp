@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "core/instrument.hpp"
+#include "models/explain/dbb_checked.hpp"
 
 namespace guideway::report {
 
@@ -55,6 +56,11 @@ struct ReportOptions {
   // and whether each calibration had run out on `instruments_checked_on` (default: today, UTC).
   std::vector<ReportInstrument> instruments;
   std::optional<CalendarDate> instruments_checked_on;
+  // What a session identified from the DBB runs it wrote, one per plane, as its PARAMS published it (with
+  // EXPLAIN's findings fitted beside): the DBB section shows it instead of identifying the run files again,
+  // and says so. A plane's runs are taken as the session's when they are as many, in the same directions,
+  // with as many points. Empty (`guideway report FILES`): the runs are identified from the files.
+  std::vector<models::explain::CheckedIdentification> identified;
 };
 
 // The report for these inputs (files or Union Jack directories), in the order given; all DBB runs are
@@ -62,7 +68,7 @@ struct ReportOptions {
 // unreadable or unrecognised input (the message names the file and, for bad rows, the line); an
 // identification that refuses the data is shown in the report as a note, not thrown.
 //
-// For the daemon's `report` request: call render_report(recorded_files) and send the string.
+// For the daemon's session report: render_report(the session's files, options with its identification).
 [[nodiscard]] std::string render_report(const std::vector<std::string>& inputs, const ReportOptions& options = {});
 
 }  // namespace guideway::report

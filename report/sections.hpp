@@ -10,7 +10,9 @@
 
 namespace guideway::report {
 
-std::string dbb_section(const std::vector<std::string>& paths, const std::string& id);
+// `identified`: ReportOptions::identified, shown for the planes whose runs it matches.
+std::string dbb_section(const std::vector<std::string>& paths, const std::string& id,
+                        const std::vector<models::explain::CheckedIdentification>& identified = {});
 std::string straightness_section(const std::string& path, const std::string& id);
 std::string union_jack_section(const std::string& path, const std::string& id);
 std::string runout_section(const std::string& path, const std::string& id);

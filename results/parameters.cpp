@@ -91,6 +91,8 @@ constexpr const Parameter* all[] = {
     &centre_drift_offset,
     &vibration_sin,
     &vibration_cos,
+    &beside_vibration,  // before vibration, whose {axis} would take "amplitude"
+    &beside_vibration_phase,
     &vibration,
     &vibration_phase,
     &vibration_frequency,
@@ -275,6 +277,27 @@ const Parameter* find_in(std::string_view name, std::string_view group, Placehol
 }  // namespace
 
 std::span<const Parameter* const> catalogue() { return all; }
+
+std::optional<LineNames> line_of_part(std::string_view part_name) {
+  struct Line {  // references: catalogue() above is where each entry's address is taken (once)
+    const Parameter &sine, &cosine, &amplitude, &phase;
+  };
+  static constexpr Line lines[] = {{vibration_sin, vibration_cos, beside_vibration, beside_vibration_phase},
+                                   {cyclic_sin_column, cyclic_cos_column, cyclic_error, cyclic_phase}};
+  int run = 0;
+  const std::string_view bare = without_run(part_name, &run);
+  for (const Line& line : lines)
+    for (const Parameter* part : {&line.sine, &line.cosine}) {
+      Placeholders by;
+      if (!matches(part->name, bare, &by)) continue;
+      const auto named = [&](const Parameter& p) {
+        const std::string n = filled(p.name, "xy", by.axis, 0);
+        return run > 0 ? run_suffixed(n, run) : n;
+      };
+      return LineNames{named(line.sine), named(line.cosine), named(line.amplitude), named(line.phase)};
+    }
+  return std::nullopt;
+}
 
 const Parameter* find_parameter(std::string_view name, std::string_view group) {
   for (const std::string_view n : {name, without_run(name)})

@@ -19,6 +19,7 @@
 // as micrometres per metre), and the value rounded to its uncertainty (core/number_format.hpp).
 
 #include <numbers>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -353,6 +354,14 @@ inline constexpr Parameter vibration_cos{"vibration_cos",
                                          {},
                                          {},
                                          shown_um};
+// A vibration fitted beside the models' terms (PARAMS' "beside", next to its parts): A sin(2 pi f t + phi).
+inline constexpr Parameter beside_vibration{
+    "vibration_amplitude_um", "vibration amplitude", "dbb", "beside",
+    "amplitude of the vibration fitted beside, along the direction EXPLAIN found it (_runK: one run's)"};
+inline constexpr Parameter beside_vibration_phase{
+    "vibration_phase_deg", "vibration phase at t = 0", "dbb", "beside",
+    "its phase at t = 0 of the runs' clock, the earliest run's start (_runK: that run's own start), at EXPLAIN's "
+    "frequency: its u leaves out the frequency's, which EXPLAIN's vibration phase includes"};
 inline constexpr Parameter vibration{"vibration_{axis}_um", "vibration {axis}", "dbb", "",
                                      "amplitude of a vibration along the axis (or the bar)"};
 inline constexpr Parameter vibration_phase{"vibration_phase_{axis}_deg", "vibration phase {axis}", "dbb", "",
@@ -563,6 +572,22 @@ ShownUnit shown_unit(std::string_view name, std::string_view group = {});
 // "name_um" -> ("name", "µm"); a name without a known suffix -> (name, "").
 std::pair<std::string, std::string> split_unit(const std::string& name);
 std::string unit(const Parameter& p);
+
+// A line fitted as its sine and cosine parts (unit-amplitude columns sin theta, cos theta: a vibration, a
+// cyclic error fitted beside): people read its amplitude A and phase phi, s sin theta + c cos theta =
+// A sin(theta + phi) (models/common/amplitude_phase), the JSON keeps the parts beside them. The names of the
+// line a reported part is of ("vibration_cos_run2" -> "vibration_sin_run2", "vibration_cos_run2",
+// "vibration_amplitude_um_run2", "vibration_phase_deg_run2"; "cyclic_sin_x" -> ..., "cyclic_error_x_um",
+// "cyclic_phase_x_deg"); nullopt for a name that is no line's part.
+struct LineNames {
+  std::string sine, cosine, amplitude, phase;
+};
+std::optional<LineNames> line_of_part(std::string_view part_name);
+// What a line's phase is counted from, said once where people read the values.
+inline constexpr std::string_view line_phase_reference =
+    "amplitude A and phase \u03c6 are of A sin(\u03b8 + \u03c6): a vibration's \u03b8 = 2\u03c0 f t from t = 0 of "
+    "the runs' clock (the earliest run's start; with a phase per run, that run's own start), a cyclic error's "
+    "\u03b8 = 2\u03c0 x / lead from the axis at x = 0 (machine coordinates)";
 
 // The headline figures of a session kind's PARAMS, in their order; empty for a kind without any.
 std::span<const Parameter* const> headline_parameters(std::string_view kind);

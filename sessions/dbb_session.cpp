@@ -263,6 +263,7 @@ class DbbSession : public Session {
     // PARAMS' body as for a one-plane test; every plane's is under "planes".
     nlohmann::json planes = nlohmann::json::object();
     std::vector<models::dbb::Identification> ids;
+    checked_.clear();
     nlohmann::json j;
     for (const Pattern& pat : options_.patterns) {
       const auto it = by_plane.find(pat.plane);
@@ -276,6 +277,7 @@ class DbbSession : public Session {
         ids.push_back(checked.id);
         planes[pat.plane] = models::explain::to_json(checked);
         plane_explain = checked.explain_report;
+        checked_.push_back(checked);
       } catch (const std::exception& e) {
         if (by_plane.size() == 1) throw;
         planes[pat.plane] = {{"error", e.what()}};
@@ -298,6 +300,9 @@ class DbbSession : public Session {
     }
     return j;
   }
+
+  // The report shows what PARAMS published: each plane's identification, EXPLAIN's findings fitted beside.
+  void fill_report(report::ReportOptions& options) const override { options.identified = checked_; }
 
   std::optional<nlohmann::json> explain() override {
     if (identified_.empty()) return std::nullopt;
@@ -522,6 +527,7 @@ class DbbSession : public Session {
   double bar_length_u_um_ = 0.0;             // the bar's calibrated length's u (0: not stated)
   std::vector<formats::DbbRun> identified_;  // what identify() fitted (the first plane's), for explain()
   nlohmann::json explained_;                 // EXPLAIN's report of identified_ as identify() ran it (null: none)
+  std::vector<models::explain::CheckedIdentification> checked_;  // each plane's, as identify() published it
   int bar_ = -1;
   std::array<int, 3> axis_{-1, -1, -1};  // channel of x, y, z (-1: none)
   bool three_axes_ = false;

@@ -12,6 +12,9 @@
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/explain/dbb_checked.hpp"
+#include "report/html.hpp"
+#include "report/report.hpp"
+#include "results/parameters.hpp"
 #include "simulators/machine/machine.hpp"
 #include "test_support.hpp"
 
@@ -197,7 +200,9 @@ TEST(DbbSession, ADriftBesideTheBacklashIsFittedBesideAsOfflineAndNotReadAsBackl
   feed_circle(*session, machine, Circle{.feed_mm_per_min = 1000}, t);
   feed_circle(*session, machine, Circle{.direction = DbbDirection::cw, .feed_mm_per_min = 1000}, t);
   ASSERT_TRUE(session->complete()) << session->progress();
+  const std::size_t identified_before = models::explain::identify_checked_count();
   const nlohmann::json p = session->identify();
+  EXPECT_EQ(models::explain::identify_checked_count(), identified_before + 1);
   ASSERT_TRUE(p.contains("beside")) << p.dump();
   EXPECT_TRUE(p["beside"].contains("drift_x_um_per_min")) << p["beside"].dump();
   const double drift = value_of(p["beside"], "drift_x_um_per_min");
@@ -208,11 +213,30 @@ TEST(DbbSession, ADriftBesideTheBacklashIsFittedBesideAsOfflineAndNotReadAsBackl
   // The same as the identification of the session's run files (what `identify dbb --json` prints of them);
   // the models alone read part of the drift as backlash.
   const test::TempDir dir;
+  const std::vector<std::string> files = session->write_derived(dir.path().string(), "drift");
   std::vector<formats::DbbRun> runs;
-  for (const auto& path : session->write_derived(dir.path().string(), "drift"))
-    runs.push_back(formats::read_dbb_run(path));
+  for (const auto& path : files) runs.push_back(formats::read_dbb_run(path));
   ASSERT_EQ(runs.size(), 2u);
+  // The session's report (as the daemon writes it) shows exactly what PARAMS published, from the session's
+  // own identification: the run files are not identified a second time.
+  report::ReportOptions options;
+  session->fill_report(options);
+  const std::string html = report::render_report(files, options);
+  EXPECT_EQ(models::explain::identify_checked_count(), identified_before + 1);
+  EXPECT_NE(html.find("data-identified-by=\"session\""), std::string::npos);
+  EXPECT_EQ(html.find("data-identified-by=\"files\""), std::string::npos);
+  for (const char* group : {"diagnostics", "lai3", "beside"})
+    for (const auto& [name, e] : p[group].items()) {
+      if (!e.contains("u") || e.contains("not_determined")) continue;  // shown apart from the table's rows
+      const results::Shown shown = results::shown(name, e["value"].get<double>(), e["u"].get<double>(), "xy",
+                                                  std::string(group) == "beside" ? "" : group, 4);
+      EXPECT_NE(html.find("<td>" + report::html_escape(shown.label) + "</td><td>" + report::html_escape(shown.value) +
+                          "</td>"),
+                std::string::npos)
+          << group << "." << name << ": " << shown.label << " " << shown.value;
+    }
   const nlohmann::json offline = models::explain::to_json(models::explain::identify_checked(runs));
+  EXPECT_EQ(models::explain::identify_checked_count(), identified_before + 2);  // what the report would have cost
   for (const char* group : {"diagnostics", "lai3", "beside"})
     for (const auto& [name, e] : p[group].items())
       EXPECT_NEAR(e["value"].get<double>(), offline[group][name]["value"].get<double>(),

@@ -305,6 +305,9 @@ class EndToEndDbb(DaemonCase):
         self.assertIn("<svg", report["html"])
         self.assertIn("Explanation of the mismatch", report["html"])  # the EXPLAIN section is there
         self.assertIn("Residual RMS after each finding", report["html"])
+        # The session's own identification, as PARAMS published it: its run files are not identified again.
+        self.assertIn('data-identified-by="session"', report["html"])
+        self.assertNotIn('data-identified-by="files"', report["html"])
         for suffix in (".explain.json", ".report.html"):
             path = params["recording"][: -len(".csv")] + suffix
             self.assertEqual(stat.S_IMODE(os.stat(path).st_mode), 0o640, path)

@@ -93,6 +93,26 @@ TEST(Results, ValuesAreShownInWordsAndUnitsThatMeanSomething) {
   EXPECT_EQ(results::shown_unit("bar_drift_um_per_min").symbol, "\u00b5m/min");
 }
 
+// A line fitted beside as its sine and cosine parts is read as its amplitude and phase, named in the catalogue.
+TEST(Results, ALinesPartsNameItsAmplitudeAndPhase) {
+  const auto v = results::line_of_part("vibration_cos_run2");
+  ASSERT_TRUE(v.has_value());
+  EXPECT_EQ(v->sine, "vibration_sin_run2");
+  EXPECT_EQ(v->cosine, "vibration_cos_run2");
+  EXPECT_EQ(v->amplitude, "vibration_amplitude_um_run2");
+  EXPECT_EQ(v->phase, "vibration_phase_deg_run2");
+  EXPECT_EQ(results::label_of(v->amplitude), "vibration amplitude (run 2)");
+  EXPECT_EQ(results::shown("vibration_phase_deg", 12.34, 5.6).label, "vibration phase at t = 0");
+  EXPECT_EQ(results::shown("vibration_amplitude_um", 0.0123, 0.0019).unit, "\u00b5m");
+  const auto c = results::line_of_part("cyclic_sin_y");
+  ASSERT_TRUE(c.has_value());
+  EXPECT_EQ(c->cosine, "cyclic_cos_y");
+  EXPECT_EQ(c->amplitude, "cyclic_error_y_um");
+  EXPECT_EQ(c->phase, "cyclic_phase_y_deg");
+  for (const char* none : {"vibration_x_um", "cyclic_sin_x_um", "drift_x_um_per_min", "vibration_amplitude_um"})
+    EXPECT_FALSE(results::line_of_part(none).has_value()) << none;
+}
+
 TEST(Results, HeadlineFiguresAreInTheirKindsOrder) {
   const auto dbb = results::headlines(results::dbb_kind);
   ASSERT_EQ(dbb.size(), 4U);

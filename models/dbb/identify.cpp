@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 #include <Eigen/QR>
 
+#include "models/common/amplitude_phase.hpp"
 #include "models/common/least_squares.hpp"
 #include "models/dbb/arcs.hpp"
 #include "models/dbb/fast_sincos.hpp"
@@ -800,19 +801,38 @@ void add_cyclic_error(const LsqResult& res, bool on, std::size_t k0, double peri
   }
   if (!res.identified[k0] || !res.identified[k0 + 1]) return;
   const auto i0 = static_cast<Eigen::Index>(k0);
-  const double as = res.x[i0], ac = res.x[i0 + 1];
-  const double amp = std::hypot(as, ac);
-  double u = nan;
-  if (amp > 0) {
-    const double ga = as / amp, gc = ac / amp;
-    u = std::sqrt(std::max(0.0, ga * ga * res.covariance(i0, i0) + gc * gc * res.covariance(i0 + 1, i0 + 1) +
-                                    2 * ga * gc * res.covariance(i0, i0 + 1)));
-  }
+  const AmplitudePhase line = amplitude_phase(res.x[i0], res.x[i0 + 1], res.covariance(i0, i0),
+                                              res.covariance(i0 + 1, i0 + 1), res.covariance(i0, i0 + 1));
+  const double amp = line.amplitude, u = line.u_amplitude;
   out.push_back(est(results::name(results::cyclic_error, plane, axis), amp, u));
   out.push_back(est(results::name(results::cyclic_period, plane, axis), period * 1e3, nan, false));
   // The phase of an amplitude within 2 u of zero is noise's (it printed as e.g. 6e-10 deg): not reported.
   if (std::isfinite(u) && amp > 2 * u)
-    out.push_back(est(results::name(results::cyclic_phase, plane, axis), std::atan2(ac, as) * 180 / pi, nan, false));
+    out.push_back(est(results::name(results::cyclic_phase, plane, axis), line.phase_rad * 180 / pi, nan, false));
+}
+
+// The terms fitted beside (columns [first, end) of the fit) as reported: each identified column, then each
+// line among them (a vibration's or cyclic error's sine and cosine parts) as its amplitude and phase, with
+// u from the parts' covariance.
+void add_beside(const LsqResult& res, const std::vector<std::string>& names, std::size_t first, std::size_t end,
+                std::vector<Estimate>& beside) {
+  beside.clear();
+  for (std::size_t c = first; c < end; ++c)
+    if (res.identified[c])
+      beside.push_back(est(names[c], res.x[static_cast<Eigen::Index>(c)], res.u[static_cast<Eigen::Index>(c)]));
+  for (std::size_t i = first; i < end; ++i) {
+    const auto line = results::line_of_part(names[i]);
+    if (!line || names[i] != line->sine || !res.identified[i]) continue;
+    const auto cos_at = std::find(names.begin() + static_cast<std::ptrdiff_t>(first),
+                                  names.begin() + static_cast<std::ptrdiff_t>(end), line->cosine);
+    const auto j = static_cast<std::size_t>(cos_at - names.begin());
+    if (j == end || !res.identified[j]) continue;
+    const auto si = static_cast<Eigen::Index>(i), ci = static_cast<Eigen::Index>(j);
+    const AmplitudePhase a =
+        amplitude_phase(res.x[si], res.x[ci], res.covariance(si, si), res.covariance(ci, ci), res.covariance(si, ci));
+    beside.push_back(est(line->amplitude, a.amplitude, a.u_amplitude));
+    beside.push_back(est(line->phase, a.phase_rad * 180 / pi, a.u_phase_rad * 180 / pi));
+  }
 }
 
 // The diagnostics as reported: the fitted terms identified, the scale mismatch, the cyclic errors, the
@@ -855,12 +875,7 @@ void report_diagnostics(const DiagLayout& L, const LsqResult& res, const std::ve
   decay(L.decay_b, L.decay_b0(), L.tau_b, 1);
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 0), L.delay_a * 1e3, nan, false));
   out.diagnostics.push_back(est(results::name(results::reversal_spike_delay, plane, 1), L.delay_b * 1e3, nan, false));
-  out.beside.clear();
-  for (std::size_t c = 0; c < L.beside_count(); ++c) {
-    const std::size_t k = L.beside0() + c;
-    if (res.identified[k])
-      out.beside.push_back(est(names[k], res.x[static_cast<Eigen::Index>(k)], res.u[static_cast<Eigen::Index>(k)]));
-  }
+  add_beside(res, names, L.beside0(), L.beside0() + L.beside_count(), out.beside);
 }
 
 // The ballbar diagnostics of `runs` (points `pts`, carrying the deadband `shaped` on the drives' `tracks`):
@@ -1064,9 +1079,7 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     }
     out.lai3.push_back(est(name, value, u));
   }
-  for (std::size_t c = m; c < cols; ++c)
-    if (res.identified[c])
-      out.beside.push_back(est(names[c], res.x[static_cast<Eigen::Index>(c)], res.u[static_cast<Eigen::Index>(c)]));
+  add_beside(res, names, m, cols, out.beside);
   return lai;
 }
 

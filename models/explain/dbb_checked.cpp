@@ -1,6 +1,7 @@
 #include "models/explain/dbb_checked.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <span>
 
@@ -67,9 +68,12 @@ void identify_beside(const std::vector<formats::DbbRun>& runs, const dbb::Identi
   if (!out.beside.empty()) {
     std::string list, values;
     for (const auto& e : out.beside) list += (list.empty() ? "" : ", ") + e;
-    for (const auto& e : out.id.beside)
+    for (const auto& e : out.id.beside) {
+      // A line as its amplitude and phase, not its sine and cosine parts.
+      if (const auto line = results::line_of_part(e.name); line && find(out.id.beside, line->amplitude)) continue;
       values += (values.empty() ? "" : ", ") + e.name + " " + printf_number("%.4g", e.value) + " +/- " +
                 printf_number("%.2g", e.u);
+    }
     out.notes.push_back(std::string(fitted_beside_note) + ", as EXPLAIN found them on the same runs: " + list + " (" +
                         values + "); not in any table");
   }
@@ -90,7 +94,14 @@ bool same_grid(const std::vector<formats::DbbRun>& a, const std::vector<formats:
 
 }  // namespace
 
+namespace {
+std::atomic<std::size_t> identify_checked_calls{0};
+}  // namespace
+
+std::size_t identify_checked_count() { return identify_checked_calls.load(std::memory_order_relaxed); }
+
 CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options) {
+  identify_checked_calls.fetch_add(1, std::memory_order_relaxed);
   ExplainOptions eo;
   eo.keep_columns = true;
   CheckedIdentification out;

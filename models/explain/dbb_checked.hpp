@@ -7,6 +7,7 @@
 // combined standard uncertainties is "not determined", with both values.
 // Pure functions; thread safe.
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -40,6 +41,9 @@ inline constexpr std::string_view fitted_beside_note = "fitted beside the terms"
 // note that says why; what identify itself refuses throws as identify does.
 CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
                                        const dbb::IdentifyOptions& options = {});
+// How many times identify_checked has run in this process (each runs EXPLAIN: seconds of CPU on long runs):
+// what a test counts to show that a session's end identifies once, its report included.
+std::size_t identify_checked_count();
 // The same for runs on the sample grid of `earlier_runs` (the same runs, angles and times: a retrace of runs
 // simulated from the same machine file, or a retrace after a retrace): `earlier`'s terms are fitted beside
 // again, without running EXPLAIN (its columns are the same); on another grid, identify_checked(runs).
