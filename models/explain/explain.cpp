@@ -19,6 +19,7 @@
 #include <Eigen/SVD>
 
 #include "core/number_format.hpp"
+#include "models/common/amplitude_phase.hpp"
 #include "models/common/least_squares.hpp"
 #include "models/explain/locate.hpp"
 #include "models/explain/stats.hpp"
@@ -1777,15 +1778,9 @@ std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<boo
 
 std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string& phase_name, const Eigen::VectorXd& x,
                                   const Eigen::MatrixXd& cov) {
-  const double cs = x[0], cc = x[1];
-  const double a = std::hypot(cs, cc);
-  double ua = std::numeric_limits<double>::quiet_NaN(), up = ua;
-  if (a > 0) {
-    Eigen::Vector2d ga(cs / a, cc / a), gp(-cc / (a * a), cs / (a * a));
-    ua = std::sqrt(std::max(0.0, ga.dot(cov.topLeftCorner(2, 2) * ga)));
-    up = std::sqrt(std::max(0.0, gp.dot(cov.topLeftCorner(2, 2) * gp))) * 180 / std::numbers::pi;
-  }
-  return {{amp_name, a, ua}, {phase_name, std::atan2(cc, cs) * 180 / std::numbers::pi, up}};
+  const AmplitudePhase ap = amplitude_phase(x[0], x[1], cov(0, 0), cov(1, 1), cov(0, 1));
+  constexpr double deg = 180 / std::numbers::pi;
+  return {{amp_name, ap.amplitude, ap.u_amplitude}, {phase_name, ap.phase_rad * deg, ap.u_phase_rad * deg}};
 }
 
 }  // namespace guideway::models::explain
