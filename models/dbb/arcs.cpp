@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "core/number_format.hpp"
 #include "models/dbb/geometry.hpp"
 #include "results/parameters.hpp"
 
@@ -62,13 +63,12 @@ int reversal_axis(const std::string& name, const std::string& plane) {
 }
 
 // Whether some run holds a sample where a reversal spike of the axis lives: after one of its reversals, within
-// the 8 decay times of the 20 ms the diagnostics take when no spike stands out (geometry.hpp,
-// reversal_spike_decay). Gaps there leave the spike's column without a sample: its height cannot be read.
+// the extent of a spike of the decay the diagnostics take when none stands out (geometry.hpp). Gaps there
+// leave the spike's column without a sample: its height cannot be read.
 bool holds_spike_window(const std::vector<formats::DbbRun>& runs, int axis) {
-  constexpr double assumed_decay_s = 0.02;
   const double phase = axis == 0 ? 0.0 : std::numbers::pi / 2;
   return std::any_of(runs.begin(), runs.end(), [&](const formats::DbbRun& r) {
-    const double window_rad = 8 * assumed_decay_s * r.feed_m_per_s / r.radius_m;
+    const double window_rad = spike_extent_decays * assumed_spike_decay_s * r.feed_m_per_s / r.radius_m;
     return std::any_of(r.angle_rad.begin(), r.angle_rad.end(), [&](double zeta) {
       const double since = angle_since_reversal_rad(zeta, phase, r.dir());
       return since > 0 && since <= window_rad;
@@ -164,9 +164,10 @@ std::string why_unidentifiable(const std::string& name, const std::vector<format
              axis_name(plane, axis) + " reverses at " + angles_text(rev.missed_deg) +
              " deg): without one its lost motion is a constant offset the centre takes up";
     if (name.rfind("reversal_spike", 0) == 0 && !holds_spike_window(runs, axis))
-      return "no run holds a sample in the first moments after a reversal of " + axis_name(plane, axis) +
-             " (8 decay times of 20 ms), where a reversal spike rises and decays: the gaps there take them, so its "
-             "height cannot be read";
+      return "no run holds a sample in the first moments after a reversal of " + axis_name(plane, axis) + " (" +
+             printf_number("%g", spike_extent_decays) + " decay times of " +
+             printf_number("%g", assumed_spike_decay_s * 1e3) +
+             " ms), where a reversal spike rises and decays: the gaps there take them, so its height cannot be read";
   }
   const bool flat = std::all_of(runs.begin(), runs.end(), [](const formats::DbbRun& r) { return r.height_m < 1e-9; });
   for (const results::Parameter* p : {&results::lai_c0_plus_d1, &results::lai_c1, &results::lai_c2, &results::lai_d2,

@@ -61,7 +61,7 @@ double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir) {
 }
 
 double reversal_spike_decay(double t_s, double tau_s) {
-  return (t_s < 0 || t_s > 8 * tau_s) ? 0.0 : std::exp(-t_s / tau_s);
+  return (t_s < 0 || t_s > spike_extent_decays * tau_s) ? 0.0 : std::exp(-t_s / tau_s);
 }
 
 double rise_since_reversal_m(double radius_m, double angle_since_reversal_rad) {

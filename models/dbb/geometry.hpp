@@ -48,9 +48,13 @@ double velocity_sign_b(double dir, double cos_zeta);
 // pi/2 + k pi (phase pi/2). zeta_rad is the axis' own angle (the commanded one less a servo lag).
 double angle_since_reversal_rad(double zeta_rad, double phase_rad, double dir);
 
-// Decay of a reversal spike t_s after it starts, exp(-t / tau): 0 before it starts and from 8 tau on,
-// where it is below 3.4e-4 of its height.
+// Decay of a reversal spike t_s after it starts, exp(-t / tau): 0 before it starts and from
+// spike_extent_decays tau on, where it is below 3.4e-4 of its height.
+inline constexpr double spike_extent_decays = 8.0;
 double reversal_spike_decay(double t_s, double tau_s);
+// The decay time the diagnostics take for a spike when none stands out of the noise (identify.cpp);
+// arcs.cpp asks whether the data holds a sample within its extent.
+inline constexpr double assumed_spike_decay_s = 0.02;
 
 // ---- Backlash deadband ----
 // How far the axis has moved from its last extreme, r (1 - cos phi) at phi past its reversal; written

@@ -222,7 +222,8 @@ struct DiagLayout {
   bool decay_a = false, decay_b = false;
   double amp_a = 0, amp_b = 0;
   bool cyclic_a = false, cyclic_b = false;
-  double tau_a = 0.02, tau_b = 0.02, delay_a = 0, delay_b = 0, period_a = 0, period_b = 0;
+  double tau_a = assumed_spike_decay_s, tau_b = assumed_spike_decay_s, delay_a = 0, delay_b = 0, period_a = 0,
+         period_b = 0;
   const BesideColumns* beside = nullptr;  // fitted beside, after every diagnostic (may be null)
   [[nodiscard]] std::size_t beside_count() const { return beside ? beside->size() : 0; }
   [[nodiscard]] std::size_t global0() const { return 2 * runs; }
@@ -566,7 +567,7 @@ void rank_contributions(const DiagLayout& L, const LsqResult& res, const std::ve
 // A reversal spike of one axis as the search finds it: decay time and delay after the commanded reversal
 // (s), height (um) and whether it explains clearly more than noise.
 struct SpikeShape {
-  double tau = 0.02, delay = 0, amp = 0;
+  double tau = assumed_spike_decay_s, delay = 0, amp = 0;
   bool significant = false;
 };
 
@@ -615,7 +616,7 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
     if (u == 0.0) continue;
     near.push_back({since, u, p.w, base.residual[static_cast<Eigen::Index>(i)]});
   }
-  double best = 0, best_tau = 0.02, best_delay = 0;
+  double best = 0, best_tau = assumed_spike_decay_s, best_delay = 0;
   constexpr int grid = 12;
   for (double d = 0; d <= delay_max + 1e-12; d += delay_step) {
     for (int q = 0; q < grid; ++q) {
@@ -660,7 +661,8 @@ SpikeShape search_spike(const std::vector<Point>& pts, const LsqResult& base, bo
   }
   const double xm = 0.5 * (lo + hi);
   if (spike_score(near, std::exp(xm), best_delay) > best) best_tau = std::exp(xm);
-  if (!(spike_score(near, best_tau, best_delay) > 30.0 * base.s2)) return {std::max(0.02, 2 * dt), 0.0, 0.0, false};
+  if (!(spike_score(near, best_tau, best_delay) > 30.0 * base.s2))
+    return {std::max(assumed_spike_decay_s, 2 * dt), 0.0, 0.0, false};
   const auto [sur, suu] = spike_sums(near, best_tau, best_delay);
   return {best_tau, best_delay, suu > 0 ? sur / suu : 0.0, true};
 }
