@@ -129,6 +129,7 @@ std::vector<DeviceEvent> Driver::take_events() {
 void Driver::publish(Sample sample) noexcept {
   sample.seq = next_seq_++;
   samples_.store(next_seq_, std::memory_order_relaxed);
+  published_.store(published_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   ring_.try_push(sample);
   if (Doorbell* bell = doorbell_.load(std::memory_order_acquire)) bell->ring();
 }

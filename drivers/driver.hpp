@@ -147,6 +147,10 @@ class Driver {
   void skip_samples(std::uint64_t n) noexcept;
   // Sleeps for d unless stop is requested first; returns false when stopping.
   static bool sleep_for(const std::stop_token& stop, std::chrono::nanoseconds d);
+  // Samples published so far (the producer thread; skipped ones not included).
+  [[nodiscard]] std::uint64_t published_samples() const noexcept {
+    return published_.load(std::memory_order_relaxed);
+  }
 
   std::atomic<std::uint64_t> frames_{0};
   std::atomic<std::uint64_t> bad_frames_{0};
@@ -161,6 +165,7 @@ class Driver {
   std::atomic<Doorbell*> doorbell_{nullptr};
   std::uint64_t next_seq_ = 0;  // producer thread only
   std::atomic<std::uint64_t> samples_{0};
+  std::atomic<std::uint64_t> published_{0};
   mutable std::mutex state_mutex_;
   DeviceState state_ = DeviceState::stopped;
   std::string reason_;
