@@ -16,7 +16,9 @@ LoopDriver::LoopDriver(std::string name, std::string driver, std::vector<Channel
                        std::size_t ring_capacity, LoopPolicy policy)
     : Driver(std::move(name), std::move(driver), std::move(channels), ring_capacity),
       policy_(policy),
-      backoff_(policy.backoff) {}
+      backoff_(policy.backoff) {
+  set_sample_bound(std::chrono::nanoseconds(policy_.sample_bound_ns));
+}
 
 void LoopDriver::on_silence(std::int64_t now_ns) {
   (void)now_ns;
@@ -89,6 +91,7 @@ void LoopDriver::up(int fd, bool owned) {
   if (relinked_) reconnects_.fetch_add(1, std::memory_order_relaxed);
   ever_up_ = true;
   published_at_up_ = published_samples();
+  mark_link_up();
   set_state(DeviceState::streaming);
   const std::int64_t now = mono_now_ns();
   schedule_ = policy_.schedule;

@@ -49,6 +49,9 @@ struct LoopPolicy {
   // another device makes the loop pass by.
   bool alone_reads_per_arrival = true;
   std::int64_t silence_ns = 0;  // nothing read for this long: on_silence() (once per silent period); 0: never
+  // The longest the device goes without a sample while it works (Driver::set_sample_bound): `streaming`
+  // is shown only while samples arrive within it. 0: no such rule.
+  std::int64_t sample_bound_ns = 0;
 };
 
 class LoopDriver : public Driver {
@@ -68,7 +71,7 @@ class LoopDriver : public Driver {
   // during a rest. A driver may end the link from here (end_link) instead of returning `ended`.
   virtual ReadOutcome read_some(bool at_others_pass) = 0;
   // A new link (the protocol's state starts afresh; a request may be sent). The state is already
-  // `streaming`.
+  // `streaming` (shown as `connecting` until the first sample: Driver::set_sample_bound).
   virtual void on_link_up(std::int64_t now_ns) { (void)now_ns; }
   // The link ends (or the device stops): publish what the parser holds, close the driver's transport.
   // The descriptor is no longer watched.

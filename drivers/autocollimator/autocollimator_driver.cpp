@@ -70,6 +70,9 @@ drivers::LoopPolicy policy_of(const AutocollimatorSettings& s) {
   const bool rests = s.stream && s.read_period_us > 0 && s.stream_period_ms * 1000 < 2 * s.read_period_us;
   p.schedule = rests ? drivers::ReadSchedule::rest : drivers::ReadSchedule::per_arrival;
   p.read_period_ns = s.read_period_us * 1000;
+  // Lost after lost_after_timeouts requests (or stream periods) without a reading.
+  const std::int64_t period_ms = s.stream ? s.stream_period_ms : s.poll_period_ms;
+  p.sample_bound_ns = s.lost_after_timeouts * (s.reply_timeout_ms + period_ms) * 1'000'000;
   return p;
 }
 

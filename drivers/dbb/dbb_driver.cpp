@@ -204,6 +204,8 @@ drivers::LoopPolicy policy_of(const DbbSettings& s) {
   p.read_period_ns = s.read_period_us * 1000;
   p.alone_reads_per_arrival = false;  // the slow-bus rule decides (rest_after)
   p.silence_ns = s.timeout_ms * 1'000'000;
+  // Twice the silence: the bus's own story (no frames, a node's silence or reboot) is told first.
+  p.sample_bound_ns = 2 * p.silence_ns;
   return p;
 }
 

@@ -121,6 +121,9 @@ drivers::LoopPolicy policy_of(const MicrometerConfig& c) {
   drivers::LoopPolicy p;
   p.backoff = Backoff::between(c.backoff_initial, c.backoff_max);
   p.schedule = drivers::ReadSchedule::per_arrival;  // a poll that may share the others' passes rests (send_request)
+  // Lost after lost_after_failures polls without an answer.
+  p.sample_bound_ns =
+      c.lost_after_failures * (poll_period_of(c) + std::chrono::nanoseconds(c.endpoint.response_timeout)).count();
   return p;
 }
 
@@ -179,6 +182,7 @@ void MicrometerDriver::run(std::stop_token stop) {
       continue;
     }
     if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
+    mark_link_up();
     set_state(drivers::DeviceState::streaming);
     new_link(ever_connected_);
     ever_connected_ = true;

@@ -33,6 +33,7 @@ drivers::LoopPolicy policy_of(const ProfilometerConfig& c) {
   p.schedule = c.read_period_us > 0 ? drivers::ReadSchedule::rest : drivers::ReadSchedule::per_arrival;
   p.read_period_ns = c.read_period_us * 1000;
   p.silence_ns = std::chrono::nanoseconds(c.stall_timeout).count();  // the link is lost
+  p.sample_bound_ns = p.silence_ns;  // points flow while a traverse is measured, headers between them
   return p;
 }
 
