@@ -198,10 +198,12 @@ void LoopDriver::after_read(const ReadOutcome& r, bool samples, bool at_others_p
     }
     if (others_pass_) lonely_ = false;
     others_pass_ = false;
-    // A flood is read on at the next pass, after the other devices.
-    const bool rests = period_ns > 0 && !r.more && !lonely_ && rest_after(r);
+    // A flood of data is read on at the next pass, after the other devices; a read that gave no sample
+    // (junk, a flood of it included) rests like any other, so garbage never costs more reads than data.
+    const bool flood = r.more && samples;
+    const bool rests = period_ns > 0 && (!samples || (!flood && !lonely_ && rest_after(r)));
     read_at_ns_ = rests ? now + period_ns : now;
-    if (r.more) io_->again();
+    if (flood) io_->again();
     return;
   }
   if (schedule_ != ReadSchedule::rest) return;
