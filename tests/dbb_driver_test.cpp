@@ -90,17 +90,28 @@ TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircles) {
     auto motion = simulators::emulators::make_dbb_motion(machine, spec);
     ASSERT_GT(motion->duration_s, 1.0);
     Bench b(true, 200.0, 150, simulators::emulators::dbb_motion_source(motion));
+    ASSERT_TRUE(b.wait_samples(60));
+    // The third node misses three cycles: partial samples holding its channel, as a late answer under
+    // load makes them (a sample's channels are not all its cycle's).
+    b.emu.inject_drop_pdo(2, 3);
     ASSERT_TRUE(b.wait_samples(150));
-    b.stop_and_check_all();
-    const auto log = b.emu.log();
+    b.stop_and_check_all(3);
+    ASSERT_EQ(b.cycle_of.size(), b.samples.size());
     double min_dl = 1, max_dl = -1;
+    // Each sample against the machine at the time of the cycle it is (the check's assignment: under load
+    // an answer late for the next SYNC may be no sample of its own, or a partial one holding a channel),
+    // each channel its cycle sent; a held one (flagged partial) the check found equal to the sample before.
     for (std::size_t i = 0; i < b.samples.size(); ++i) {
+      const auto& cycle = b.sent[b.cycle_of[i]];
       double truth[3];
-      motion->at(log[i].t_s, truth);
-      // Encoder scales differ per node (the third: 50 nm, counting negative, zero at 1000).
-      EXPECT_NEAR(b.samples[i].value[0] - 0.1, truth[0] - 0.1, 0.51e-7) << i;
-      EXPECT_NEAR(b.samples[i].value[1], truth[1], 0.51e-7) << i;
-      EXPECT_NEAR(b.samples[i].value[2], truth[2], 0.26e-7) << i;
+      motion->at(cycle.t_s, truth);
+      const double bound[3] = {0.51e-7, 0.51e-7, 0.26e-7};  // encoder scales differ (the third: 50 nm)
+      for (std::size_t k = 0; k < 3; ++k) {
+        if ((cycle.sent_mask & (1u << k)) == 0) continue;
+        const bool held = (b.samples[i].flags & sample_partial) != 0 && i > 0 &&
+                          std::abs(b.samples[i].value[k] - b.samples[i - 1].value[k]) <= bound[k];
+        if (!held) EXPECT_NEAR(b.samples[i].value[k], truth[k], bound[k]) << "sample " << i << " channel " << k;
+      }
       const double dl = b.samples[i].value[0] - motion->run.nominal_length_m;
       min_dl = std::min(min_dl, dl);
       max_dl = std::max(max_dl, dl);
