@@ -61,7 +61,8 @@ struct Bench {
                  std::int64_t read_period_us = drivers::dbb::default_read_period_us, const TuneDriver& tune_driver = {},
                  const TuneEmulator& tune_emulator = {}, drivers::IoLoop* loop = nullptr)
       : emu(tuned(emulator_settings(!driver_produces_sync, rate_hz), tune_emulator), std::move(source)),
-        driver_produces_sync(driver_produces_sync) {
+        driver_produces_sync(driver_produces_sync),
+        sync_period_ns(static_cast<std::int64_t>(1e9 / rate_hz)) {
     drivers::dbb::DbbSettings s;
     s.produce_sync = driver_produces_sync;
     s.sync_rate_hz = rate_hz;
@@ -101,7 +102,8 @@ struct Bench {
   // slow machine repeat, so the check searches for an assignment of samples to cycles that explains
   // every sample (a set of reachable sample indices per cycle), its values and its time (a sample
   // given another cycle's time is no cycle's). One such assignment is kept in `cycle_of` (the index
-  // in `sent` of each sample's cycle).
+  // in `sent` of each sample's cycle). Driving the SYNC, a hole of two periods or more in the samples
+  // must be flagged on the sample after it.
   void stop_and_check_all(std::size_t partial_expected_at_least = 0) {
     // The emulator goes first: the driver then reads everything still queued, publishes what it holds
     // when it sees the end of the connection, and only then reports the loss.
@@ -187,8 +189,14 @@ struct Bench {
           << "cycle " << i;
       cycle_of[--j] = i;
     }
-    for (std::size_t k = 1; driver_produces_sync && k < samples.size(); ++k)
-      EXPECT_GT(samples[k].t_mono_ns, samples[k - 1].t_mono_ns) << "sample " << k << ": two cycles, one time";
+    for (std::size_t k = 1; driver_produces_sync && k < samples.size(); ++k) {
+      const std::int64_t dt = samples[k].t_mono_ns - samples[k - 1].t_mono_ns;
+      EXPECT_GT(dt, 0) << "sample " << k << ": two cycles, one time";
+      // A hole (a SYNC slot missed, not sent or not answered) is flagged on the sample after it.
+      if (dt >= 2 * sync_period_ns)
+        EXPECT_TRUE(samples[k].flags & sample_after_gap)
+            << "a hole of " << dt / 1e6 << " ms before sample " << k << " is not flagged";
+    }
     for (std::size_t j = 0; j < samples.size(); ++j) EXPECT_EQ(samples[j].seq, j);
     const auto partial =
         std::count_if(samples.begin(), samples.end(), [](const Sample& s) { return (s.flags & sample_partial) != 0; });
@@ -198,6 +206,7 @@ struct Bench {
 
   simulators::emulators::DbbEmulator emu;
   bool driver_produces_sync;
+  std::int64_t sync_period_ns;
   std::unique_ptr<drivers::dbb::DbbDriver> driver;
   std::atomic<int> connects{0};
   std::vector<Sample> samples;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <thread>
 
 #include "core/mono_clock.hpp"
 #include "drivers/dbb/dbb_driver.hpp"
@@ -19,6 +20,7 @@
 using namespace guideway;
 using namespace std::chrono_literals;
 using drivers::DeviceState;
+using drivers::IoLoop;
 using test::Bench;
 using test::circle_source;
 using test::emulator_settings;
@@ -365,6 +367,34 @@ TEST(DbbDriver, MissingPdoGivesAPartialSampleHoldingTheLastValue) {
   ASSERT_TRUE(test::eventually([&] { return b.driver->partial_cycles() >= 3; }));
   ASSERT_TRUE(b.wait_samples(b.samples.size() + 10));
   b.stop_and_check_all(3);
+}
+
+// A raw recording under CANopen faults had holes of 14.5 to 84 ms with flags 0: SYNCs no node
+// answered (a stall shorter than the timeout, an emulator busy with 2000 EMCYs answering only the
+// newest of its queued SYNCs) and SYNC slots a held-up loop came too late for became no sample, and
+// nothing said so. The sample after a hole now says it (sample_after_gap, as after a timeout); every
+// hole of two periods or more in the driver tests' samples is checked so (Bench::stop_and_check_all).
+TEST(DbbDriver, AHoleShorterThanTheTimeoutIsFlaggedOnTheSampleAfterIt) {
+  IoLoop loop;
+  loop.start("test-io");
+  Bench b(true, 200.0, 150, circle_source(), drivers::dbb::default_read_period_us, {}, {}, &loop);
+  ASSERT_TRUE(b.wait_samples(20));
+  // No node answers for 40 ms (8 SYNCs), well within the 150 ms timeout.
+  b.emu.inject_stall(0.04);
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 20));
+  // The loop held up for 40 ms: the SYNCs of those slots are never sent.
+  loop.post([] { std::this_thread::sleep_for(40ms); });
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 20));
+  EXPECT_EQ(b.driver->status().counters.timeouts, 0u);
+  std::size_t holes = 0;
+  for (std::size_t k = 1; k < b.samples.size(); ++k) {
+    if (b.samples[k].t_mono_ns - b.samples[k - 1].t_mono_ns < 30'000'000) continue;
+    ++holes;
+    EXPECT_TRUE(b.samples[k].flags & sample_after_gap) << "hole before sample " << k;
+  }
+  EXPECT_GE(holes, 2u);
+  b.stop_and_check_all();
+  loop.stop();
 }
 
 TEST(DbbDriver, StallIsATimeoutThenStreamingResumes) {

@@ -465,6 +465,7 @@ void DbbDriver::on_link_up(std::int64_t now_ns) {
   sync_period_ns_ = 0;
   drain_pending_ = false;
   next_sync_ns_ = now_ns;
+  last_sync_sent_ns_ = 0;
 }
 
 void DbbDriver::on_link_down() {
@@ -510,10 +511,15 @@ bool DbbDriver::send_sync() {
     return false;
   }
   DbbCycle cycle;
+  // A hole in the samples is flagged on the sample after it (sample_after_gap): SYNCs two periods or
+  // more apart (the loop was held up), a SYNC the bus did not take, a SYNC no node answered (the decoder).
   if (wrote == can::WriteResult::queue_full) {
     syncs_not_sent_.fetch_add(1, std::memory_order_relaxed);
-  } else if (decoder_->sync_sent(sync_ns, cycle)) {
-    publish_cycle(cycle);
+    decoder_->mark_gap();
+  } else {
+    if (last_sync_sent_ns_ != 0 && sync_ns - last_sync_sent_ns_ >= 2 * period_ns) decoder_->mark_gap();
+    last_sync_sent_ns_ = sync_ns;
+    if (decoder_->sync_sent(sync_ns, cycle)) publish_cycle(cycle);
   }
   // The phase is kept, but a late SYNC never brings the next one closer than half a period: the
   // nodes need that time to answer, and a PDO that comes after our next SYNC is a late one.

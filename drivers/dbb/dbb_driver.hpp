@@ -139,6 +139,7 @@ class DbbDriver : public drivers::LoopDriver {
   std::optional<DbbDecoder> decoder_;
   can::CanSocket sock_;
   std::int64_t next_sync_ns_ = 0;      // produce: the next SYNC
+  std::int64_t last_sync_sent_ns_ = 0;  // produce: the last SYNC the bus took (0: none on this link)
   bool drain_pending_ = false;         // paced: frames were left in the socket (more than max_drain_frames)
   bool silent_ = false;                // lost/bus-off until the next sample
   std::int64_t bus_off_since_ns_ = 0;  // bus off since then, until it recovers (0 = not)
