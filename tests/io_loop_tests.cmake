@@ -12,4 +12,4 @@ guideway_add_test(backoff_test SOURCES backoff_test.cpp LIBS guideway_core
   LABELS unit TIMEOUT 30)
 # The one rule of `streaming` for every built-in driver: a peer that sends junk, one that stays silent.
 guideway_add_test(driver_streaming_rule_test SOURCES driver_streaming_rule_test.cpp
-  LIBS guideway_dbb guideway_autocollimator guideway_micrometer guideway_profilometer LABELS integration TIMEOUT 60)
+  LIBS guideway_dbb guideway_autocollimator guideway_micrometer guideway_profilometer LABELS integration tsan TIMEOUT 60)
