@@ -176,5 +176,4 @@ std::vector<ParamValue> amp_phase(const std::string& amp_name, const std::string
   return {{amp_name, ap.amplitude, ap.u_amplitude}, {phase_name, ap.phase_rad * deg, ap.u_phase_rad * deg}};
 }
 
-
 }  // namespace guideway::models::explain

@@ -81,7 +81,6 @@ Extension extend_crossed(const Model& m, const Eigen::Ref<const Eigen::MatrixXd>
   return extend_projected(m, x - m.q * c, norms);
 }
 
-
 }  // namespace
 
 double bic_of(double rss, double k, double m) { return m * std::log(floored(rss, m) / m) + k * std::log(m); }

@@ -37,8 +37,7 @@ std::pair<std::size_t, std::size_t> stretch_of(const Problem& p,
 // times its samples, chi-square, Bonferroni over the places) was the structure of an effect found later (in the
 // first pass, the backlash's lobes of the other run beside a slip), not a fault. All kept when the fit fails.
 std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const std::vector<Location>& places,
-                                     const std::vector<bool>& keep,
-                                     const std::vector<OffsetAfter>& after, double sigma,
+                                     const std::vector<bool>& keep, const std::vector<OffsetAfter>& after, double sigma,
                                      double alpha) {
   std::vector<bool> out(places.size(), true);
   const auto n = static_cast<Eigen::Index>(p.samples.size());
@@ -84,8 +83,8 @@ std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const s
 // `keep_whole`: every variant keeps its block over all samples (Variant::columns_all_samples), for the
 // findings' columns (ExplainOptions::keep_columns); a generated variant always does (it is made per call, and
 // the places set aside are checked against the findings over every sample: explain()).
-Reduced without_samples(const Problem& p, const std::vector<bool>& keep,
-                        const std::vector<OffsetAfter>& after, bool keep_whole) {
+Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after,
+                        bool keep_whole) {
   Reduced out;
   for (std::size_t i = 0; i < keep.size(); ++i)
     if (keep[i]) out.kept.push_back(static_cast<Eigen::Index>(i));
@@ -250,8 +249,8 @@ void repeats_among(std::vector<Mismatch>& remaining, const std::string& domain) 
 // (unexplained_places) is given back, and the pass run again with the rest set aside. Kept only when that pass
 // finds as much and leaves no new structure; `aside`, `keep`, `after` and `last` are then its.
 void release_explained(const Problem& problem, const ExplainOptions& options, double sigma,
-                       std::vector<Location>& aside, std::vector<bool>& keep,
-                       std::vector<OffsetAfter>& after, Pass& last) {
+                       std::vector<Location>& aside, std::vector<bool>& keep, std::vector<OffsetAfter>& after,
+                       Pass& last) {
   const std::vector<bool> fault = unexplained_places(problem, last, aside, keep, after, sigma, options.alpha);
   const auto faults = static_cast<std::size_t>(std::count(fault.begin(), fault.end(), true));
   if (faults == 0 || faults == aside.size()) return;

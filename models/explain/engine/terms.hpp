@@ -40,8 +40,7 @@ std::shared_ptr<const std::vector<Variant>> generated(const Candidate& c, const 
 
 // A variant may join the model when its candidate has no term yet (skip aside), or when every term of its
 // candidate is of another, named group (a cyclic error on the other axis, a vibration along another direction).
-bool group_free(const Problem& p, const Variant& v, std::size_t cand, const std::vector<Term>& terms,
-                std::size_t skip);
+bool group_free(const Problem& p, const Variant& v, std::size_t cand, const std::vector<Term>& terms, std::size_t skip);
 // group_free of each variant of the list.
 std::vector<bool> allowed(const Problem& p, std::size_t cand, const std::vector<Variant>& variants,
                           const std::vector<Term>& terms, std::size_t skip);
