@@ -30,7 +30,8 @@ done
 c++ -O3 "$build/bench/CMakeFiles/dbb_bench.dir/dbb_bench.cpp.o" "${old_objects[@]}" -o "$tmp/dbb_bench_old" \
   "$build/simulators/machine/libguideway_dbb_sim.a" "$build/models/dbb/libguideway_model_dbb.a" \
   "$build/models/common/libguideway_models_common.a" "$build/simulators/machine/libguideway_machine.a" \
-  "$build/core/libguideway_core.a" -lbenchmark -ltomlplusplus
+  "$build/formats/libguideway_formats.a" "$build/results/libguideway_results.a" "$build/core/libguideway_core.a" \
+  -lbenchmark -ltomlplusplus
 for i in $(seq 1 "$rounds"); do
   "$tmp/dbb_bench_old" --benchmark_format=json >"$tmp/old_$i.json" 2>/dev/null
   "$build/bench/dbb_bench" --benchmark_format=json >"$tmp/new_$i.json" 2>/dev/null
