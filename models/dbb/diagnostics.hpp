@@ -61,7 +61,7 @@ inline constexpr std::size_t diagnostics_max_columns = DiagLayout::n_base + 8;
 
 // The ballbar diagnostics, of the runs whose geometry they model (an in-plane bar, h = 0), with the
 // deadband shape Lai's fit estimated. Fills out.diagnostics, out.notes and out.ranking; returns each
-// run's residual RMS (NaN for the runs the diagnostics do not model). Throws when a fit cannot be
+// run's residual RMS (NaN for the runs the diagnostics do not model). Throws FitError when a fit cannot be
 // solved.
 std::vector<double> diagnose_in_plane_runs(const std::vector<formats::DbbRun>& runs, const std::string& plane,
                                            FitWork& work, const LaiFit& lai, const IdentifyOptions& options,

@@ -99,7 +99,7 @@ FitSummary summary_of(const LsqResult& res) {
 }
 
 LsqResult solved(LsqResult res) {
-  if (!res.ok) throw formats::DbbRunFormatError("identify: " + res.message);
+  if (!res.ok) throw FitError("identify: " + res.message);
   return res;
 }
 

@@ -89,7 +89,7 @@ Deadband choose_deadband_delay(std::vector<Point>& pts, const std::vector<DriveT
 
 FitSummary summary_of(const LsqResult& res);
 
-// The result of a fit identify needs; throws when it could not be solved.
+// The result of a fit identify needs; throws FitError with its message when it could not be solved.
 LsqResult solved(LsqResult res);
 
 // Rows a preliminary fit on every stride-th point uses: all n when that would leave too few for

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include <Eigen/Core>
 #include <Eigen/QR>
@@ -95,9 +96,9 @@ Identification identify(const std::vector<formats::DbbRun>& runs, const Identify
   for (const BesideTerm& t : options.beside) {
     for (const auto& c : t.columns_um)
       if (c.size() != pts.size())
-        throw formats::DbbRunFormatError("identify: the column of " + t.effect + " fitted beside has " +
-                                         std::to_string(c.size()) + " values for " + std::to_string(pts.size()) +
-                                         " samples");
+        throw std::invalid_argument("identify: the column of " + t.effect + " fitted beside has " +
+                                    std::to_string(c.size()) + " values for " + std::to_string(pts.size()) +
+                                    " samples");
     beside += t.columns_um.size();
   }
   fitting::FitWork work;

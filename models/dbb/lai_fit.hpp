@@ -26,7 +26,7 @@ struct LaiFit {
 
 // Lai's third-order model on every run (two passes: the first only estimates the backlash whose
 // deadband shape, at the drives' delay that fits best, the second uses; `pts` keep that shape). Fills
-// out.fit, out.lai3 and out.beside; throws when a fit cannot be solved.
+// out.fit, out.lai3 and out.beside; throws FitError when a fit cannot be solved.
 LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts, const std::vector<DriveTrack>& tracks,
                FitWork& work, const IdentifyOptions& options, Identification& out);
 
