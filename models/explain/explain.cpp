@@ -98,7 +98,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     }
     auto trial_after = after;
     for (const auto& l : places) trial_after.push_back(engine::offset_after(problem, l, trial));
-    Reduced reduced = engine::without_samples(problem, trial, trial_after, options.keep_columns);
+    Reduced reduced = engine::without_samples(problem, trial, trial_after);
     if (options.on_progress)
       options.on_progress("pass " + std::to_string(round + 2) + ", " + std::to_string(aside.size() + places.size()) +
                           " places set aside");
@@ -116,6 +116,24 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   }
   engine::release_explained(problem, options, first.report.noise_um, aside, keep, after, *later);
   return with_places_set_aside(problem, first.report, std::move(later->report), std::move(aside), keep);
+}
+
+Eigen::Index width(const Variant& v) {
+  return v.fill ? static_cast<Eigen::Index>(v.block.names.size()) : v.block.columns.cols();
+}
+
+void write_columns(const Variant& v, Eigen::Ref<Eigen::MatrixXd> out) {
+  if (v.fill)
+    v.fill(out);
+  else
+    out = v.block.columns;
+}
+
+const Eigen::MatrixXd& columns_of(const Variant& v, Eigen::Index rows, Eigen::MatrixXd& scratch) {
+  if (!v.fill) return v.block.columns;
+  scratch.resize(rows, width(v));
+  v.fill(scratch);
+  return scratch;
 }
 
 std::vector<Eigen::Index> rows_in_use(const std::vector<bool>& use) {
@@ -147,20 +165,38 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
   return v;
 }
 
+std::shared_ptr<const Eigen::VectorXd> BasePredictions::of(const std::vector<bool>& use) const {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [mask, predicted] : recent_)
+      if (mask == use) return predicted;
+  }
+  auto predicted = std::make_shared<const Eigen::VectorXd>(base_prediction(base_, y_, use));
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (recent_.size() >= kept) recent_.erase(recent_.begin());
+  recent_.emplace_back(use, predicted);
+  return predicted;
+}
+
 std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> sensor_nonlinearity_generator(
     const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um) {
-  if (static_cast<std::size_t>(base.columns.rows()) != static_cast<std::size_t>(y_um.size()) ||
-      (!offset_um.empty() && offset_um.size() != static_cast<std::size_t>(y_um.size())))
+  if (static_cast<std::size_t>(base.columns.rows()) != static_cast<std::size_t>(y_um.size()))
     throw std::invalid_argument("explain: sensor_nonlinearity: base, samples and offsets differ in length");
-  auto data =
-      std::make_shared<const std::tuple<Block, Eigen::VectorXd, std::vector<double>>>(base, y_um, std::move(offset_um));
-  return [data](const Eigen::VectorXd&, const std::vector<bool>& use) {
-    const auto& [b, y, offset] = *data;
-    if (use.size() != static_cast<std::size_t>(y.size()))
+  return sensor_nonlinearity_generator(std::make_shared<const BasePredictions>(base, y_um), std::move(offset_um));
+}
+
+std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> sensor_nonlinearity_generator(
+    std::shared_ptr<const BasePredictions> base, std::vector<double> offset_um) {
+  if (!offset_um.empty() && offset_um.size() != static_cast<std::size_t>(base->rows()))
+    throw std::invalid_argument("explain: sensor_nonlinearity: base, samples and offsets differ in length");
+  return [base, offset = std::move(offset_um)](const Eigen::VectorXd&, const std::vector<bool>& use) {
+    const Eigen::VectorXd& y = base->y();
+    if (use.size() != static_cast<std::size_t>(base->rows()))
       throw std::invalid_argument("explain: sensor_nonlinearity: the row mask and the samples differ in length");
-    const Eigen::VectorXd predicted = base_prediction(b, y, use);
+    const auto shared = base->of(use);
+    const Eigen::VectorXd& predicted = *shared;
     if (predicted.size() == 0) return std::vector<Variant>{};
-    std::vector<double> reading(static_cast<std::size_t>(y.size()));
+    std::vector<double> reading(use.size());
     for (std::size_t i = 0; i < reading.size(); ++i) {
       const auto r = static_cast<Eigen::Index>(i);
       reading[i] = (use[i] ? y[r] - (y[r] - predicted[r]) : predicted[r]) + (offset.empty() ? 0.0 : offset[i]);
