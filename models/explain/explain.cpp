@@ -60,6 +60,23 @@ Report with_places_set_aside(const Problem& problem, const Report& first, Report
   return out;
 }
 
+// Whether explain() would set aside places of a pass's residual (in the samples of the pass's problem, `index` the
+// whole problem's index of each) on top of `keep`: within max_set_aside of the samples, no run left too short.
+engine::SetAsideCheck settable(const Problem& problem, const ExplainOptions& options, std::vector<Eigen::Index> index,
+                               std::vector<bool> keep) {
+  return [&problem, &options, index = std::move(index), keep = std::move(keep)](const std::vector<Location>& places) {
+    std::vector<Location> whole = places;
+    for (Location& l : whole) {
+      l.first_sample = static_cast<std::size_t>(index[l.first_sample]);
+      l.end_sample = static_cast<std::size_t>(index[l.end_sample - 1]) + 1;
+    }
+    std::vector<bool> trial = keep;
+    const std::size_t count = engine::set_aside(problem, whole, trial);
+    return !(static_cast<double>(count) > options.max_set_aside * static_cast<double>(keep.size())) &&
+           engine::starved_run(problem, trial).empty();
+  };
+}
+
 }  // namespace
 
 // When the residual left is structured at a few places no effect explains, the findings of the first
@@ -67,18 +84,20 @@ Report with_places_set_aside(const Problem& problem, const Report& first, Report
 // left without it, and the unexplained place is part of that structure). The places are set aside and the
 // effects sought again in the rest: what is found there is reported with the places, `unexplained`.
 Report explain(const Problem& problem, const ExplainOptions& options) {
-  Pass first = explain_once(problem, options);
   const std::size_t n = problem.samples.size();
   std::vector<Eigen::Index> index(n);
   for (std::size_t i = 0; i < n; ++i) index[i] = static_cast<Eigen::Index>(i);
   std::vector<bool> keep(n, true);
+  constexpr int rounds = 3;
+  Pass first =
+      explain_once(problem, options, options.max_set_aside > 0 ? settable(problem, options, index, keep) : nullptr);
   std::vector<Location> aside;
   std::vector<OffsetAfter> after;  // per place set aside: its run, the first sample after it
   std::optional<Pass> later;
   std::string starved;  // why the places were not set aside (a run would become too short to test)
   // Every place of a residual structured locally; of the probe (Pass::probe) only the strongest a round:
   // its other places may be the partial fits' leftovers, which the effects found without it explain.
-  for (int round = 0; round < 3 && options.max_set_aside > 0; ++round) {
+  for (int round = 0; round < rounds && options.max_set_aside > 0; ++round) {
     const Pass& cur = later ? *later : first;
     if (!cur.report.unexplained) break;
     bool from_probe = false;
@@ -102,7 +121,8 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     if (options.on_progress)
       options.on_progress("pass " + std::to_string(round + 2) + ", " + std::to_string(aside.size() + places.size()) +
                           " places set aside");
-    Pass next = explain_once(reduced.problem, options);
+    Pass next = explain_once(reduced.problem, options,
+                             round + 1 < rounds ? settable(problem, options, reduced.kept, trial) : nullptr);
     keep = std::move(trial);
     after = std::move(trial_after);
     index = std::move(reduced.kept);

@@ -162,7 +162,7 @@ Eigen::VectorXd observations(const Problem& problem) {
   return y;
 }
 
-Pass explain_once(const Problem& problem, const ExplainOptions& options) {
+Pass explain_once(const Problem& problem, const ExplainOptions& options, const SetAsideCheck& can_set_aside) {
   const Eigen::VectorXd y = observations(problem);
   const std::size_t n = problem.samples.size();
   const auto ranges = run_ranges(problem);
@@ -188,7 +188,26 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options) {
   const double visible_floor = 1e-3 * sigma * sigma * static_cast<double>(n);
 
   EffectSelection chosen(problem, options, sel, base, base_ho, sigma, visible_floor);
-  chosen.run();
+  // The places explain() would set aside after this pass, were it to end with the base's residual: those of the
+  // residual's local structure, else the strongest of the probe's (Pass::probe).
+  std::function<bool(const Model&)> settled;
+  if (can_set_aside)
+    settled = [&](const Model& m) {
+      const Located left = locate(problem, m.residual, options.alpha);
+      if (!left.structured || !(left.visible_energy > 0)) return false;
+      std::vector<Location> places;
+      for (const auto& mm : left.places) places.insert(places.end(), mm.locations.begin(), mm.locations.end());
+      if (places.empty() && chosen.before_share()) {
+        const Located probe = locate(problem, sel.model(*chosen.before_share()).residual, options.alpha, sigma);
+        for (const auto& mm : probe.places) places.insert(places.end(), mm.locations.begin(), mm.locations.end());
+        if (!places.empty())
+          places = {*std::max_element(places.begin(), places.end(), [](const Location& a, const Location& b) {
+            return std::abs(a.peak_um) < std::abs(b.peak_um);
+          })};
+      }
+      return !places.empty() && can_set_aside(places);
+    };
+  chosen.run(settled);
   std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
   add_findings(problem, sel, chosen, y, sigma, visible_floor, options.keep_columns, rep, steps);
   rep.considered = chosen.considered();
