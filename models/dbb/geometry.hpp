@@ -102,9 +102,13 @@ void add_drive_sample(DriveTrack& track, const SampleGeometry& g);
 template <class Geometry>
 std::vector<DriveTrack> drive_tracks(const std::vector<Geometry>& g, const std::vector<double>& delays) {
   std::vector<DriveTrack> out;
+  out.reserve(delays.size());
   for (const double d : delays) {
     DriveTrack& t = out.emplace_back();
     t.delay_s = d;
+    // Sized once: a track per delay of every sample is the largest thing a DBB problem holds.
+    for (auto* v : {&t.vel_a, &t.vel_b}) v->reserve(g.size());
+    for (auto* v : {&t.rise_a, &t.rise_b}) v->reserve(g.size());
     for (const SampleGeometry& p : g) add_drive_sample(t, p);
   }
   return out;

@@ -51,6 +51,9 @@ std::vector<Geo> geometry(const std::vector<formats::DbbRun>& runs, bool machine
     for (const auto& run : runs) origin_s = std::min(origin_s, start_time_of(run));
   }
   std::vector<Geo> g;
+  std::size_t samples = 0;
+  for (const auto& run : runs) samples += run.angle_rad.size();
+  g.reserve(samples);  // grown by doubling, the copy and the old block would both be live: 1.5 x its size at peak
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const formats::DbbRun& run = runs[k];
     formats::validate_dbb_run(run);
