@@ -18,6 +18,7 @@
 #include <system_error>
 
 #include "core/mono_clock.hpp"
+#include "core/number_format.hpp"
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
@@ -126,7 +127,19 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   so.max_clients = config_.max_clients;
   so.reserved_clients = config_.reserved_clients;
   server_ = std::make_unique<SocketServer>(loop_, so);
-  if (config_.mqtt) mqtt_ = std::make_unique<plant::Publisher>(*config_.mqtt, log_);
+  if (config_.mqtt) {
+    plant::PublisherSettings mqtt = *config_.mqtt;
+    mqtt.held_back_event = [per_minute = mqtt.events_per_minute](const std::string& device, std::uint64_t count) {
+      return make_message(Event{.event = "events_dropped",
+                                .time = utc_now_iso(),
+                                .device = device,
+                                .reason = std::to_string(count) + " event(s) not sent to the MQTT broker: more than " +
+                                          shortest(per_minute) + " a minute (events_per_minute)",
+                                .device_news = true})
+          .line;
+    };
+    mqtt_ = std::make_unique<plant::Publisher>(std::move(mqtt), log_);
+  }
   server_->on_connect([this](ClientId id) {
     subscriptions_[id] = {};
     server_->send(id, version_message().dump());
@@ -307,6 +320,10 @@ nlohmann::json Daemon::mqtt_json() const {
                       {"queued", s.queued},
                       {"delivered", s.delivered},
                       {"dropped", s.dropped},
+                      {"dropped_results", s.dropped_results},
+                      {"dropped_transitions", s.dropped_transitions},
+                      {"dropped_events", s.dropped_events},
+                      {"rate_limited", s.rate_limited},
                       {"refused", s.refused},
                       {"reconnects", s.reconnects}};
   if (!s.last_error.empty()) j["last_error"] = s.last_error;
@@ -338,8 +355,11 @@ void Daemon::check_device_events() {
         log_->warn("device {}: {}: {}", devices_[i]->name(), e.event, e.reason);
       else
         log_->info("device {}: {}: {}", devices_[i]->name(), e.event, e.reason);
-      broadcast(make_message(
-          Event{.event = e.event, .time = utc_now_iso(), .device = devices_[i]->name(), .reason = e.reason}));
+      broadcast(make_message(Event{.event = e.event,
+                                   .time = utc_now_iso(),
+                                   .device = devices_[i]->name(),
+                                   .reason = e.reason,
+                                   .device_news = true}));
     }
     const drivers::DriverStatus s = devices_[i]->status();
     if (s.state == last_states_[i]) continue;
@@ -489,7 +509,11 @@ void Daemon::broadcast(const Message& message) {
           message.cls == results::MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
           message.body.value("kind", "unknown"), message.line);
     } else if (message.cls == results::MessageClass::event) {
-      mqtt_->publish(plant::TopicLeaf::event, {}, message.line);
+      // The order of eviction (docs/plant.md): a session's news is a result, a device's inner events go first.
+      const plant::JournalShare share = !message.session.empty() ? plant::JournalShare::results
+                                        : message.device_news    ? plant::JournalShare::events
+                                                                 : plant::JournalShare::transitions;
+      mqtt_->publish_event(message.line, share, message.channel);
     }
   }
   // Messages about a session (PARAMS, EXPLAIN, a session's EVENT) also reach whoever watches it by name.

@@ -92,6 +92,8 @@ plant::PublisherSettings parse_mqtt_table(const TableReader& t, const std::strin
   if (t.has("password")) t.fail("password", "never inline: put the password in a file and name it in password_file");
   s.queue_max_messages = static_cast<std::size_t>(t.get_int("queue_max_messages", 10000, 1, 10'000'000));
   s.queue_max_bytes = static_cast<std::size_t>(t.get_int("queue_max_mb", 64, 1, 1 << 20)) << 20;
+  s.queue_events_percent = t.get_double("queue_events_percent", 25.0, 1.0, 100.0);
+  s.events_per_minute = t.get_double("events_per_minute", 60.0, 1.0, 60000.0);
   s.reconnect_max_s = t.get_double("reconnect_max_s", 60.0, 1.0, 3600.0);
   s.release = GUIDEWAY_VERSION;
   t.reject_unknown_keys();
