@@ -69,9 +69,10 @@ void replace_table(std::string& text, const std::string& path, const TableMarker
   text = text.substr(0, from) + "\n" + table + text.substr(b);
 }
 
-// The `# format = ...` of a file ("" when it has none).
+// The `# format = ...` of a file ("" when it has none), from its first 64 KiB (core/input_file.hpp's
+// checks: a FIFO or a device is refused, naming it).
 std::string format_of(const std::string& path) {
-  std::ifstream in(path);
+  std::istringstream in(read_file_head(path, 64 << 10));
   std::string line;
   while (std::getline(in, line)) {
     if (line.empty() || line[0] != '#') break;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "core/input_file.hpp"
 #include "core/printable.hpp"
 #include "daemon/config.hpp"
 #include "plant/broker_address.hpp"
@@ -31,8 +32,11 @@ std::string readable_file(const TableReader& t, const std::string& key, const st
   const std::string value = t.get_string(key, "");
   if (value.empty()) return value;
   const std::filesystem::path path = config_relative_path(relative_to, value);
-  std::ifstream in(path);
-  if (!in) t.fail(key, "cannot read " + path.string());
+  try {  // a regular file (a FIFO would hang the daemon's start) that can be read now
+    (void)read_file_head(path.string(), 0);
+  } catch (const CsvError& e) {
+    t.fail(key, e.what());
+  }
   return std::filesystem::absolute(path).lexically_normal().string();
 }
 

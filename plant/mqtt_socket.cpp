@@ -219,6 +219,7 @@ std::string tls_file_problem(const std::string& path, TlsFileRole role) {
   struct stat st {};
   if (stat(path.c_str(), &st) != 0) return "cannot read " + path + ": " + std::strerror(errno);
   if (S_ISDIR(st.st_mode)) return path + " is a directory, not a PEM file";
+  if (!S_ISREG(st.st_mode)) return path + " is not a regular file, not a PEM file";
   std::unique_ptr<FILE, decltype(&fclose)> f(std::fopen(path.c_str(), "r"), fclose);
   if (!f) return "cannot read " + path + ": " + std::strerror(errno);
   if (role == TlsFileRole::private_key) {
