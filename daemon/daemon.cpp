@@ -157,9 +157,13 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
     }
   });
   server_->on_request([this](ClientId id, const std::string& line) { handle_request(id, line); });
-  server_->on_oversize([this](ClientId id, std::size_t bytes) {
-    server_->send(id, error_message("request of " + std::to_string(bytes) + " bytes exceeds the limit of " +
-                                    std::to_string(config_.max_request_bytes) + " bytes")
+  server_->on_oversize([this](ClientId id, std::size_t bytes, bool whole) {
+    const std::string limit = std::to_string(config_.max_request_bytes);
+    server_->send(id, error_message(whole ? "request of " + std::to_string(bytes) + " bytes exceeds the limit of " +
+                                                limit + " bytes"
+                                          : "request of more than " + limit + " bytes (no end of line after " +
+                                                std::to_string(bytes) + ") exceeds the limit of " + limit +
+                                                " bytes; the rest of the line is discarded")
                           .dump());
   });
 
