@@ -482,6 +482,10 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
   }
   try {
     reply(client, (this->*entry->handle)(client, *req), req->id);
+  } catch (const NotYet& e) {  // a result on its way: said with its session, so a client can wait for it
+    nlohmann::json m = error_message(e.what(), req->cls);
+    m["pending_session"] = e.session;
+    reply(client, std::move(m), req->id);
   } catch (const std::exception& e) {
     reply(client, error_message(e.what(), req->cls), req->id);
   }
@@ -589,23 +593,36 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
                                  const std::string& what) const {
   const std::string kind = string_field(req.body, "kind");
   const std::string session = string_field(req.body, "session");
+  const auto matches = [&](const nlohmann::json& j) {
+    return (kind.empty() || j["kind"] == kind) && (session.empty() || j["session"] == session);
+  };
+  // The newest session asked for says why there is none, or that it is on its way: it runs, it is being
+  // finished (its PARAMS out, its EXPLAIN still computed: an older session's would be the wrong one), or it
+  // failed; only without one is the user sent to start one.
+  const auto infos = sessions_->snapshot();
+  const auto newest = std::find_if(infos.rbegin(), infos.rend(), [&](const SessionInfo& i) {
+    return (kind.empty() || i.kind == kind) && (session.empty() || i.name == session);
+  });
+  const std::string none = "no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind);
+  if (newest != infos.rend() && newest->state == SessionState::finishing &&
+      std::none_of(latest.begin(), latest.end(), [&](const nlohmann::json& j) { return j["session"] == newest->name; }))
+    throw NotYet(none + ": session " + newest->name + " has ended and is being finished (identified, explained, "
+                     "reported); ask again in moments",
+                 newest->name);
   for (auto it = latest.rbegin(); it != latest.rend(); ++it) {
-    if ((kind.empty() || (*it)["kind"] == kind) && (session.empty() || (*it)["session"] == session)) return *it;
+    if (matches(*it)) return *it;
   }
   if (!kind.empty() && !sessions_->known_kind(kind)) {
     throw std::invalid_argument("unknown session kind \"" + kind + "\" (known: " + sessions_->kinds() + ")");
   }
+  if (newest != infos.rend() && newest->state == SessionState::running)
+    throw NotYet(none + ": session " + newest->name + " is still running", newest->name);
   if (!session.empty()) throw std::invalid_argument("no " + what + " for session \"" + session + "\"");
-  // A session that ran and failed is the likely reason: say which and why (else "start one").
-  const auto infos = sessions_->snapshot();
   for (auto it = infos.rbegin(); it != infos.rend(); ++it) {
-    if ((kind.empty() || it->kind == kind) && it->state == SessionState::failed) {
-      throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
-                                  ": session " + it->name + " failed: " + it->progress);
-    }
+    if ((kind.empty() || it->kind == kind) && it->state == SessionState::failed)
+      throw std::invalid_argument(none + ": session " + it->name + " failed: " + it->progress);
   }
-  throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
-                              " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
+  throw std::invalid_argument(none + " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
 }
 
 nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
@@ -613,7 +630,14 @@ nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
   const std::string session = params.value("session", "");
   const std::string path = report_path(config_.state_dir, session);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
+  if (!in) {
+    const auto infos = sessions_->snapshot();
+    if (std::any_of(infos.begin(), infos.end(), [&](const SessionInfo& i) {
+          return i.name == session && i.state == SessionState::finishing;
+        }))
+      throw NotYet("the report of session " + session + " is being written; ask again in moments", session);
+    throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
+  }
   std::ostringstream html;
   html << in.rdbuf();
   return results::with_class(
