@@ -524,14 +524,15 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
     nlohmann::json vj;
     vj["planes"] = nlohmann::json::array();
     const auto machine = simulators::machine::load_machine_config(o.machine);
+    std::vector<comp::Retrace> retraces;
     for (std::size_t i = 0; i < maps.size(); ++i) {
       std::vector<std::string> plane_axes;
       for (const auto& am : maps[i].axes)
         if (std::find(axes.begin(), axes.end(), am.axis) != axes.end()) plane_axes.push_back(am.axis);
       progress.doing("verify: the " + maps[i].plane + " plane's test traced again on " + o.machine +
                      " without and with the files, and identified");
-      vs.push_back(comp::verify(groups[i], checked[i], maps[i], o.out_dir, plane_axes,
-                                simulators::machine::dbb_retrace(machine, groups[i])));
+      retraces.push_back(simulators::machine::dbb_retrace(machine, groups[i]));
+      vs.push_back(comp::verify(groups[i], checked[i], maps[i], o.out_dir, plane_axes, retraces.back()));
       comp::write_verify_runs(vs.back(), fs::path(o.out_dir) / "verify" / maps[i].plane);
       nlohmann::json pj;
       text += "\n== " + maps[i].plane + " plane ==" +
@@ -540,8 +541,15 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
       pj["plane"] = maps[i].plane;
       vj["planes"].push_back(pj);
     }
+    progress.doing("verify: the planes traced again with what all of them leave fit to load");
+    const Verification all = comp::together(maps, vs, retraces);
+    for (std::size_t i = 0; i < vs.size(); ++i) {  // each plane's G with the union's set
+      vj["planes"][i]["loadable"] = vs[i].loadable;
+      vj["planes"][i]["g_loadable_um"] = vs[i].g_loadable;
+      vj["planes"][i]["g_before_runs_um"] = vs[i].g_before;
+    }
     text += "\nthe planes together:\n";
-    text += mark_refused(comp::merged(maps, vs), planes, o.out_dir, axes, source, vj);
+    text += mark_refused(all, planes, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
   print_output(o, progress, j, text);

@@ -2,6 +2,7 @@
 #include "models/compensation/verification.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <limits>
 
 #include "core/atomic_file.hpp"
@@ -39,23 +40,22 @@ std::string run_label(const dbb::Identification& id, std::size_t k) {
          ")";
 }
 
-// The corrections a user may load together: the set must leave every run's G no larger than before. While
-// it does not, the one whose removal leaves the smallest worst growth is refused, with the run it made
-// worse. `g_of(set)` traces the runs with a set loaded. Larger means more than the printed resolution
-// (1 nm): the retraces reuse each run's noise, so a difference is the corrections'.
-template <class GOf>
-std::vector<Refusal> refusals(const Verification& v, const std::vector<Correction>& all, const GOf& g_of) {
+}  // namespace
+
+std::vector<Refusal> refuse_growth(
+    const std::vector<double>& g_before, std::vector<const Correction*>& set, std::vector<double>& g,
+    const std::function<std::vector<double>(const std::vector<const Correction*>&)>& g_of,
+    const std::function<std::string(std::size_t)>& run_label) {
+  // Larger means more than the printed resolution (1 nm): the retraces reuse each run's noise, so a
+  // difference is the corrections'.
   constexpr double tolerance_um = 5e-4;
-  const auto worst = [&](const std::vector<double>& g) {  // the run grown most (ratio), g.size() for none
-    std::size_t w = g.size();
-    for (std::size_t k = 0; k < g.size() && k < v.g_before.size(); ++k)
-      if (g[k] > v.g_before[k] + tolerance_um && (w == g.size() || g[k] / v.g_before[k] > g[w] / v.g_before[w])) w = k;
+  const auto worst = [&](const std::vector<double>& gs) {  // the run grown most (ratio), gs.size() for none
+    std::size_t w = gs.size();
+    for (std::size_t k = 0; k < gs.size() && k < g_before.size(); ++k)
+      if (gs[k] > g_before[k] + tolerance_um && (w == gs.size() || gs[k] / g_before[k] > gs[w] / g_before[w])) w = k;
     return w;
   };
-  std::vector<const Correction*> set;
-  for (const auto& c : all) set.push_back(&c);
   std::vector<Refusal> out;
-  std::vector<double> g = v.g_after;  // every correction loaded
   for (std::size_t k = worst(g); !set.empty() && k < g.size(); k = worst(g)) {
     std::size_t drop = 0;
     std::vector<double> g_drop;
@@ -63,9 +63,9 @@ std::vector<Refusal> refusals(const Verification& v, const std::vector<Correctio
     for (std::size_t i = 0; i < set.size(); ++i) {
       std::vector<const Correction*> rest = set;
       rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
-      std::vector<double> gi = rest.empty() ? v.g_before : g_of(rest);
+      std::vector<double> gi = rest.empty() ? g_before : g_of(rest);
       const std::size_t wi = worst(gi);
-      const double growth = wi < gi.size() ? gi[wi] / v.g_before[wi] : 0.0;
+      const double growth = wi < gi.size() ? gi[wi] / g_before[wi] : 0.0;
       if (i == 0 || growth < best) {
         best = growth;
         drop = i;
@@ -75,16 +75,14 @@ std::vector<Refusal> refusals(const Verification& v, const std::vector<Correctio
     std::string with;
     for (const Correction* c : set) with += (with.empty() ? "" : " + ") + c->file;
     out.push_back({set[drop]->file,
-                   "with " + with + " loaded, G of " + run_label(v.before, k) + " grows from " +
-                       printf_number("%.3f", v.g_before[k]) + " to " + printf_number("%.3f um", g[k]) +
-                       (v.g_before[k] > 0 ? printf_number(" (%.0f %%)", 100 * g[k] / v.g_before[k]) : std::string())});
+                   "with " + with + " loaded, G of " + run_label(k) + " grows from " +
+                       printf_number("%.3f", g_before[k]) + " to " + printf_number("%.3f um", g[k]) +
+                       (g_before[k] > 0 ? printf_number(" (%.0f %%)", 100 * g[k] / g_before[k]) : std::string())});
     set.erase(set.begin() + static_cast<std::ptrdiff_t>(drop));
     g = std::move(g_drop);
   }
   return out;
 }
-
-}  // namespace
 
 Verification verify(const std::vector<formats::DbbRun>& runs, const explain::CheckedIdentification& checked,
                     const ErrorMap& map, const std::string& out_dir, const std::vector<std::string>& axes,
@@ -127,13 +125,10 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const explain::Che
   v.g_after_measured = g_of_runs(runs_after);
   v.g_skewed = v.cross ? g_of(skewed) : v.g_after;
   v.g_tables = v.skew ? g_of(tables) : v.g_skewed;
-  v.refused = refusals(v, all, g_of);
-  std::vector<const Correction*> fit;
-  for (const auto& c : all)
-    if (!refused(v.refused, c.file)) {
-      fit.push_back(&c);
-      v.loadable.push_back(c.file);
-    }
+  std::vector<const Correction*> fit = full;
+  std::vector<double> g_fit = v.g_after;  // every correction loaded
+  v.refused = refuse_growth(v.g_before, fit, g_fit, g_of, [&](std::size_t k) { return run_label(v.before, k); });
+  for (const Correction* c : fit) v.loadable.push_back(c->file);
   if (v.refused.empty()) {
     v.g_loadable = v.g_after;
     v.g_loadable_measured = v.g_after_measured;
@@ -144,6 +139,9 @@ Verification verify(const std::vector<formats::DbbRun>& runs, const explain::Che
   }
   v.runs_before = std::move(runs_before);
   v.runs_after = std::move(runs_after);
+  v.corrections = std::move(all);
+  v.center_m = center;
+  v.less_um = less;
   return v;
 }
 
@@ -194,6 +192,42 @@ Verification merged(const std::vector<ErrorMap>& maps, const std::vector<Verific
   if (skews) all.loadable.emplace_back("the planes' axis skews");
   if (!same || all.g_loadable.size() != all.g_before.size()) all.g_loadable.clear();
   return all;
+}
+
+Verification together(const std::vector<ErrorMap>& maps, std::vector<Verification>& vs,
+                      const std::vector<Retrace>& retraces) {
+  // A plane's skew is its own; a file refused in any plane is refused in all.
+  const auto union_refuses = [&](std::size_t i, const std::string& file) {
+    if (file == "axis skew") return refused(vs[i].refused, file);
+    return std::any_of(vs.begin(), vs.end(), [&](const Verification& v) { return refused(v.refused, file); });
+  };
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (std::size_t i = 0; i < vs.size(); ++i) {
+      Verification& v = vs[i];
+      std::vector<const Correction*> set;
+      std::vector<std::string> files;
+      for (const auto& c : v.corrections)
+        if (!union_refuses(i, c.file)) {
+          set.push_back(&c);
+          files.push_back(c.file);
+        }
+      if (files == v.loadable) continue;  // traced with this set already
+      const auto traced = [&](const std::vector<const Correction*>& s) { return retraces[i].with(s, v.center_m); };
+      const auto g_of = [&](const std::vector<const Correction*>& s) { return g_of_runs(traced(s), v.less_um); };
+      std::vector<double> g = set.empty() ? v.g_before : g_of(set);
+      for (auto& r : refuse_growth(v.g_before, set, g, g_of, [&](std::size_t k) { return run_label(v.before, k); })) {
+        r.why = "with the other planes' refusals, " + r.why;
+        v.refused.push_back(std::move(r));
+        changed = true;
+      }
+      v.loadable.clear();
+      for (const Correction* c : set) v.loadable.push_back(c->file);
+      v.g_loadable = set.empty() ? v.g_before : g;
+      v.g_loadable_measured = set.empty() ? v.g_before_measured : g_of_runs(traced(set));
+    }
+  }
+  return merged(maps, vs);
 }
 
 std::vector<AppliedRefusal> apply_refusals(const Verification& v, const std::string& out_dir,

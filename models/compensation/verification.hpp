@@ -65,6 +65,11 @@ struct Verification {
   std::vector<double> g_loadable, g_loadable_measured;
   std::vector<formats::DbbRun> runs_before, runs_after;  // the retraces, for write_verify_runs
   std::vector<std::string> written;                      // where write_verify_runs put them
+  // What was traced, to trace a set of it again (together): every correction, the circle centre and what
+  // G is taken less.
+  std::vector<Correction> corrections;
+  std::array<double, 3> center_m{};
+  std::vector<double> less_um;
 };
 
 // Each run's circular deviation G (ISO 230-4: the range of its reading about its least-squares circle), um,
@@ -86,6 +91,23 @@ void write_verify_runs(Verification& v, const std::filesystem::path& dir);
 // in any), their runs' G in the planes' order. G with what is fit to load is each plane's own; it is left
 // out when a plane's loadable set is not the union's (it was not traced with the union's set).
 Verification merged(const std::vector<ErrorMap>& maps, const std::vector<Verification>& vs);
+
+// The planes' verifications made one set to load: a file refused in one plane is loaded in none, so a plane
+// left with less than its own fit set (y.comp without the x.comp the xz plane refused) is traced again with
+// what the union leaves it and, while a run of it grows, refuses more by the same rule, until no plane's
+// run is larger than before with the union's set. Each plane's loadable set and G are then the union's
+// (`vs` updated; `retraces[i]` traces plane i); returns merged(maps, vs).
+Verification together(const std::vector<ErrorMap>& maps, std::vector<Verification>& vs,
+                      const std::vector<Retrace>& retraces);
+
+// The refusal rule over a set: while with `set` loaded some run's G (`g`) is larger than `g_before`
+// (beyond 0.5 nm, the printed resolution), the correction whose removal leaves the smallest worst growth is
+// refused, naming the run it made worse (by `run_label`). `g_of(set)` is G with a set loaded. On return
+// `set` and `g` are what is left and its G.
+std::vector<Refusal> refuse_growth(
+    const std::vector<double>& g_before, std::vector<const Correction*>& set, std::vector<double>& g,
+    const std::function<std::vector<double>(const std::vector<const Correction*>&)>& g_of,
+    const std::function<std::string(std::size_t)>& run_label);
 
 bool refused(const std::vector<Refusal>& list, const std::string& file);
 

@@ -158,9 +158,9 @@ RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorre
 models::compensation::Retrace dbb_retrace(const MachineConfig& machine, const std::vector<formats::DbbRun>& runs) {
   using models::compensation::Correction;
   // Each correction as the controller loads it, read once: the verification traces many sets of them.
-  auto read = std::make_shared<std::map<const Correction*, ControllerCorrection>>();
+  auto read = std::make_shared<std::map<std::string, ControllerCorrection>>();  // by file: a set's are distinct
   const auto alone = [read](const Correction* c) -> const ControllerCorrection& {
-    auto it = read->find(c);
+    auto it = read->find(c->file);
     if (it != read->end()) return it->second;
     ControllerCorrection one;
     switch (c->kind) {
@@ -174,7 +174,7 @@ models::compensation::Retrace dbb_retrace(const MachineConfig& machine, const st
         one.cross = cross_compensation(formats::read_straightness_csv(c->path));
         break;
     }
-    return read->emplace(c, std::move(one)).first->second;
+    return read->emplace(c->file, std::move(one)).first->second;
   };
   const auto combined = [alone](const std::vector<const Correction*>& set) {
     ControllerCorrection c;
