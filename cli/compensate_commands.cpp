@@ -534,19 +534,23 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
       retraces.push_back(simulators::machine::dbb_retrace(machine, groups[i]));
       vs.push_back(comp::verify(groups[i], checked[i], maps[i], o.out_dir, plane_axes, retraces.back()));
       comp::write_verify_runs(vs.back(), fs::path(o.out_dir) / "verify" / maps[i].plane);
-      nlohmann::json pj;
-      text += "\n== " + maps[i].plane + " plane ==" +
-              (maps[i].model == "lai3" ? lai3_verification_text(maps[i], vs.back(), vs.back().refused, pj)
-                                       : verification_text(maps[i], vs.back(), vs.back().refused, pj));
-      pj["plane"] = maps[i].plane;
-      vj["planes"].push_back(pj);
     }
     progress.doing("verify: the planes traced again with what all of them leave fit to load");
     const Verification all = comp::together(maps, vs, retraces);
-    for (std::size_t i = 0; i < vs.size(); ++i) {  // each plane's G with the union's set
-      vj["planes"][i]["loadable"] = vs[i].loadable;
-      vj["planes"][i]["g_loadable_um"] = vs[i].g_loadable;
-      vj["planes"][i]["g_before_runs_um"] = vs[i].g_before;
+    for (std::size_t i = 0; i < vs.size(); ++i) {
+      // The plane's terms said with what the planes together refuse: its own skew, and any plane's files.
+      std::vector<Refusal> refusals = vs[i].refused;
+      for (const auto& r : all.refused)
+        if (r.file != "axis skew" && !refused(refusals, r.file)) refusals.push_back(r);
+      nlohmann::json pj;
+      text += "\n== " + maps[i].plane + " plane ==" +
+              (maps[i].model == "lai3" ? lai3_verification_text(maps[i], vs[i], refusals, pj)
+                                       : verification_text(maps[i], vs[i], refusals, pj));
+      pj["plane"] = maps[i].plane;
+      pj["loadable"] = vs[i].loadable;  // each plane's G with the union's set
+      pj["g_loadable_um"] = vs[i].g_loadable;
+      pj["g_before_runs_um"] = vs[i].g_before;
+      vj["planes"].push_back(pj);
     }
     text += "\nthe planes together:\n";
     text += mark_refused(all, planes, o.out_dir, axes, source, vj);
