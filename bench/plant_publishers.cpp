@@ -238,7 +238,10 @@ int main(int argc, char** argv) {
       const std::string_view kind =
           leaf == plant::TopicLeaf::event ? std::string_view{} : std::string_view{s.params.kind};
       const std::int64_t c0 = mono_now_ns();
-      pubs[p]->publish(leaf, kind, std::move(payload));
+      if (leaf == plant::TopicLeaf::event)
+        pubs[p]->publish_event(std::move(payload), plant::JournalShare::results, s.params.kind);
+      else
+        pubs[p]->publish(leaf, kind, std::move(payload));
       call_ns[p].push_back(mono_now_ns() - c0);
     }
   }

@@ -18,6 +18,7 @@
 #include "core/number_format.hpp"
 #include "formats/compensation_files.hpp"
 #include "models/compensation/compensation.hpp"
+#include "models/compensation/verification.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/dbb/three_planes.hpp"
 #include "results/parameters.hpp"
@@ -64,28 +65,9 @@ std::vector<std::string> latest_session_runs(const std::string& socket, std::str
   return out;
 }
 
-// Each run's circular deviation G (ISO 230-4: the range of its reading about its least-squares circle), um,
-// of the reading less `less_um` (one value per sample of all the runs; empty or of another size: nothing).
-std::vector<double> g_of_runs(const std::vector<formats::DbbRun>& runs, const std::vector<double>& less_um = {}) {
-  std::size_t total = 0;
-  for (const auto& run : runs) total += run.dL_m.size();
-  const bool less = less_um.size() == total;
-  std::vector<double> out;
-  std::size_t i0 = 0;
-  for (const auto& run : runs) {
-    std::vector<double> um(run.dL_m.size());
-    for (std::size_t i = 0; i < um.size(); ++i) um[i] = run.dL_m[i] * 1e6 - (less ? less_um[i0 + i] : 0.0);
-    out.push_back(models::dbb::range_about_circle(run.angle_rad, um));
-    i0 += um.size();
-  }
-  return out;
-}
-
-// A file (or the skew) not to load, and why.
-struct Refusal {
-  std::string file;
-  std::string why;
-};
+using models::compensation::Refusal;
+using models::compensation::refused;
+using models::compensation::Verification;
 
 // A value as people read it, with its unit: "-10.71 ± 0.18 ppm" (results::shown).
 std::string shown_with_unit(const std::string& name, double value, double u, const std::string& plane,
@@ -97,210 +79,17 @@ std::string shown_with_unit(const std::string& name, double value, double u, con
 // Lai's group in the catalogue: its "backlash_y_um" is the plane's second axis.
 constexpr std::string_view lai_group = results::lai_S_x.group;
 
-struct Verification {
-  // The retraced runs, identified as the compensation was (what EXPLAIN finds fitted beside).
-  models::dbb::Identification before, after;
-  // Each run's G: before; with the tables; + the squareness as axis skew; + straightness.csv as the
-  // cross-axis correction (`after`: everything the files and the advice correct). Of the readings less what
-  // was fitted beside on the retraced runs before (a drift, a vibration: no table holds it, and it would
-  // judge the tables by what they are not for); as measured in g_*_measured.
-  std::vector<double> g_before, g_tables, g_skewed, g_after;
-  std::vector<double> g_before_measured, g_after_measured;
-  std::vector<std::string> beside;  // what was taken out of G (the effects)
-  bool skew = false;                // the squareness was applied and entered as the controller's axis skew
-  bool cross = false;               // straightness.csv was written and loaded
-  std::vector<Refusal> refused;     // the files (and the skew) not to load
-  // What is fit to load and each run's G with it (less what was fitted beside, and as measured).
-  std::vector<std::string> loadable;
-  std::vector<double> g_loadable, g_loadable_measured;
-  std::vector<std::string> written;
-};
-
-// A run as the verification names it: "run 2 (r 95 mm h 31.225 mm ccw 5003 mm/min)".
-std::string run_label(const models::dbb::Identification& id, std::size_t k) {
-  const auto& b = id.runs.at(k);
-  return "run " + std::to_string(k + 1) + " (" + printf_number("r %.3g mm", b.radius_mm) +
-         printf_number(" h %.5g mm ", b.height_mm) + b.direction + printf_number(" %.0f mm/min", b.feed_mm_per_min) +
-         ")";
-}
-
-// One correction the user is told to load (a file) or enter (the skew).
-struct Correction {
-  std::string file;  // "x.comp", "axis skew", "straightness.csv"
-  simulators::machine::ControllerCorrection alone;
-};
-
-simulators::machine::ControllerCorrection combined(const std::vector<const Correction*>& set) {
-  simulators::machine::ControllerCorrection c;
-  for (const Correction* x : set) {
-    for (std::size_t j = 0; j < 3; ++j)
-      if (!x->alone.tables[j].empty()) c.tables[j] = x->alone.tables[j];
-    c.skew.xy += x->alone.skew.xy;
-    c.skew.xz += x->alone.skew.xz;
-    c.skew.yz += x->alone.skew.yz;
-    c.cross.insert(c.cross.end(), x->alone.cross.begin(), x->alone.cross.end());
-  }
-  return c;
-}
-
-// The corrections a user may load together: the set must leave every run's G no larger than before. While
-// it does not, the one whose removal leaves the smallest worst growth is refused, with the run it made
-// worse. `g_of(set)` traces the runs with a set loaded. Larger means more than the printed resolution
-// (1 nm): the retraces reuse each run's noise, so a difference is the corrections'.
-template <class GOf>
-std::vector<Refusal> refusals(const Verification& v, const std::vector<Correction>& all, const GOf& g_of) {
-  constexpr double tolerance_um = 5e-4;
-  const auto worst = [&](const std::vector<double>& g) {  // the run grown most (ratio), g.size() for none
-    std::size_t w = g.size();
-    for (std::size_t k = 0; k < g.size() && k < v.g_before.size(); ++k)
-      if (g[k] > v.g_before[k] + tolerance_um && (w == g.size() || g[k] / v.g_before[k] > g[w] / v.g_before[w])) w = k;
-    return w;
-  };
-  std::vector<const Correction*> set;
-  for (const auto& c : all) set.push_back(&c);
-  std::vector<Refusal> out;
-  std::vector<double> g = v.g_after;  // every correction loaded
-  for (std::size_t k = worst(g); !set.empty() && k < g.size(); k = worst(g)) {
-    std::size_t drop = 0;
-    std::vector<double> g_drop;
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < set.size(); ++i) {
-      std::vector<const Correction*> rest = set;
-      rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
-      std::vector<double> gi = rest.empty() ? v.g_before : g_of(rest);
-      const std::size_t wi = worst(gi);
-      const double growth = wi < gi.size() ? gi[wi] / v.g_before[wi] : 0.0;
-      if (i == 0 || growth < best) {
-        best = growth;
-        drop = i;
-        g_drop = std::move(gi);
-      }
-    }
-    std::string with;
-    for (const Correction* c : set) with += (with.empty() ? "" : " + ") + c->file;
-    out.push_back({set[drop]->file,
-                   "with " + with + " loaded, G of " + run_label(v.before, k) + " grows from " +
-                       printf_number("%.3f", v.g_before[k]) + " to " + printf_number("%.3f um", g[k]) +
-                       (v.g_before[k] > 0 ? printf_number(" (%.0f %%)", 100 * g[k] / v.g_before[k]) : std::string())});
-    set.erase(set.begin() + static_cast<std::ptrdiff_t>(drop));
-    g = std::move(g_drop);
-  }
-  return out;
-}
-
-// Traces every run's test on the virtual machine: as it is, with the tables written to `out_dir` (read
-// back from the files, as the controller would), then adding the squareness as the axis-skew correction
-// the user is told to enter, then the cross-axis correction of straightness.csv; refuses what makes a run
-// worse (refusals). Writes the runs before and with every correction to `dir`.
-Verification verify(const std::vector<formats::DbbRun>& runs,
-                    const models::explain::CheckedIdentification& checked,
-                    const models::compensation::ErrorMap& map, const std::string& machine_file,
-                    const std::string& out_dir, const std::vector<std::string>& axes, const fs::path& dir) {
-  namespace machine = simulators::machine;
-  const machine::MachineConfig config = machine::load_machine_config(machine_file);
-  std::vector<Correction> all;
-  for (const auto& axis : axes) {
-    Correction& c = all.emplace_back();
-    c.file = axis + ".comp";
-    c.alone.tables[static_cast<std::size_t>(models::compensation::joint_of(axis))] =
-        machine::joint_compensation(formats::read_linuxcnc_comp((fs::path(out_dir) / c.file).string()));
-  }
-  const std::size_t n_tables = all.size();
-  machine::Vec3 center{};
-  center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[0].axis))] = map.terms_of[0].center_m;
-  center[static_cast<std::size_t>(models::compensation::joint_of(map.axes[1].axis))] = map.terms_of[1].center_m;
-  Verification v;
-  if (map.squareness_known && map.squareness_significant) {
-    v.skew = true;
-    Correction& c = all.emplace_back();
-    c.file = "axis skew";
-    (map.plane == "xy" ? c.alone.skew.xy : (map.plane == "xz" ? c.alone.skew.xz : c.alone.skew.yz)) =
-        map.squareness_rad;
-  }
-  if (const fs::path straightness = fs::path(out_dir) / "straightness.csv"; fs::exists(straightness)) {
-    v.cross = true;
-    Correction& c = all.emplace_back();
-    c.file = "straightness.csv";
-    c.alone.cross = machine::cross_compensation(formats::read_straightness_csv(straightness.string()));
-  }
-  std::vector<const Correction*> tables, skewed, full;
-  for (const auto& c : all) full.push_back(&c);
-  tables.assign(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(n_tables));
-  skewed.assign(full.begin(), full.begin() + static_cast<std::ptrdiff_t>(n_tables + (v.skew ? 1 : 0)));
-  const machine::RemeasuredRuns r = machine::remeasure_dbb(config, combined(full), runs, center);
-  // Identified as the runs were; the retraces of simulated runs share their sample grid, and the retrace
-  // after the retrace before, so EXPLAIN's findings are reused there (identify_checked_like).
-  const models::explain::CheckedIdentification before =
-      models::explain::identify_checked_like(r.before, checked, runs);
-  v.before = before.id;
-  v.beside = before.beside;
-  v.after = models::explain::identify_checked_like(r.after, before, r.before).id;
-  const std::vector<double>& less = before.beside_um;
-  const auto trace = [&](const std::vector<const Correction*>& set) {
-    return machine::retrace_dbb(config, combined(set), runs, center, "after");
-  };
-  const auto g_of = [&](const std::vector<const Correction*>& set) { return g_of_runs(trace(set), less); };
-  v.g_before = g_of_runs(r.before, less);
-  v.g_after = g_of_runs(r.after, less);
-  v.g_before_measured = g_of_runs(r.before);
-  v.g_after_measured = g_of_runs(r.after);
-  v.g_skewed = v.cross ? g_of(skewed) : v.g_after;
-  v.g_tables = v.skew ? g_of(tables) : v.g_skewed;
-  v.refused = refusals(v, all, g_of);
-  std::vector<const Correction*> fit;
-  for (const auto& c : all)
-    if (std::none_of(v.refused.begin(), v.refused.end(), [&](const Refusal& x) { return x.file == c.file; })) {
-      fit.push_back(&c);
-      v.loadable.push_back(c.file);
-    }
-  if (v.refused.empty()) {
-    v.g_loadable = v.g_after;
-    v.g_loadable_measured = v.g_after_measured;
-  } else if (!fit.empty()) {
-    const auto traced = trace(fit);
-    v.g_loadable = g_of_runs(traced, less);
-    v.g_loadable_measured = g_of_runs(traced);
-  }
-  fs::create_directories(dir);
-  // Runs of an earlier check with more runs would otherwise join this one's in a report of the directory.
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    const std::string name = entry.path().filename().string();
-    if (entry.path().extension() == ".csv" && (name.starts_with("before_") || name.starts_with("after_")))
-      fs::remove(entry.path());
-  }
-  for (const auto* list : {&r.before, &r.after})
-    for (const auto& run : *list) {
-      const std::string path = (dir / (run.source + ".csv")).string();
-      formats::write_dbb_run(run, path);
-      v.written.push_back(path);
-    }
-  return v;
-}
-
-bool refused(const std::vector<Refusal>& list, const std::string& file) {
-  return std::any_of(list.begin(), list.end(), [&](const Refusal& r) { return r.file == file; });
-}
-
 // The refused files renamed NAME.do-not-load (a file named x.comp invites loading it), linuxcnc.ini
-// rewritten for the tables that remain; the refusals as text and JSON.
+// rewritten for the tables that remain (models/compensation::apply_refusals); the refusals as text and JSON.
 std::string mark_refused(const Verification& v, const std::string& plane, const std::string& out_dir,
                          const std::vector<std::string>& axes, const std::string& source, nlohmann::json& j) {
   const std::vector<Refusal>& list = v.refused;
   std::ostringstream o;
   nlohmann::json jl = nlohmann::json::array();
-  std::vector<formats::IniJoint> joints;
-  for (const auto& a : axes)
-    if (!refused(list, a + ".comp")) joints.push_back({models::compensation::joint_of(a), a, a + ".comp"});
-  for (const auto& r : list) {
-    const fs::path path = fs::path(out_dir) / r.file;
-    std::string renamed;
-    if (r.file != "axis skew" && fs::exists(path)) {
-      renamed = path.string() + std::string(models::compensation::do_not_load_suffix);
-      fs::rename(path, renamed);
-    }
+  for (const auto& r : models::compensation::apply_refusals(v, out_dir, axes, source)) {
     o << "  DO NOT LOAD " << (r.file == "axis skew" ? "the squareness as axis skew" : r.file) << ": " << r.why
-      << (renamed.empty() ? "" : "; renamed " + fs::path(renamed).filename().string()) << "\n";
-    jl.push_back({{"file", r.file}, {"why", r.why}, {"renamed_to", renamed}});
+      << (r.renamed_to.empty() ? "" : "; renamed " + fs::path(r.renamed_to).filename().string()) << "\n";
+    jl.push_back({{"file", r.file}, {"why", r.why}, {"renamed_to", r.renamed_to}});
   }
   j["do_not_load"] = jl;
   j["loadable"] = v.loadable;
@@ -324,11 +113,9 @@ std::string mark_refused(const Verification& v, const std::string& plane, const 
     o << "\n";
   }
   if (!list.empty()) {
-    std::vector<std::string> comments{"Guideway compensation from " + source + ": lines for the [JOINT_n] sections"};
-    for (const auto& r : list) comments.push_back("NOT LOADED: " + r.file + ", refused by the verification: " + r.why);
-    write_file_atomically((fs::path(out_dir) / "linuxcnc.ini").string(),
-                          formats::format_linuxcnc_ini(joints, comments));
-    if (joints.empty())
+    const bool none_left =
+        std::all_of(axes.begin(), axes.end(), [&](const std::string& a) { return refused(list, a + ".comp"); });
+    if (none_left)
       o << "  no table of the " << plane << " plane is fit to load: with any of them some run's G is larger than "
         << "before\n";
   } else {
@@ -669,38 +456,6 @@ void map_json(const models::compensation::ErrorMap& map, nlohmann::json& j) {
   }
 }
 
-// The verifications of the planes as one: every plane's refusals (a file refused in one plane is not loaded
-// in any), their runs' G in the planes' order. G with what is fit to load is each plane's own; it is left
-// out when a plane's loadable set is not the union's (it was not traced with the union's set).
-Verification merged(const std::vector<models::compensation::ErrorMap>& maps, const std::vector<Verification>& vs) {
-  Verification all;
-  bool same = true;
-  for (std::size_t i = 0; i < vs.size(); ++i)
-    for (const auto& r : vs[i].refused)
-      if (r.file == "axis skew" || !refused(all.refused, r.file))
-        all.refused.push_back({r.file, "the " + maps[i].plane + " plane: " + r.why});
-  for (const auto& v : vs) {
-    for (const auto& f : v.loadable)
-      if (refused(all.refused, f)) same = false;
-    for (const auto& e : v.beside)
-      if (std::find(all.beside.begin(), all.beside.end(), e) == all.beside.end()) all.beside.push_back(e);
-    all.g_before.insert(all.g_before.end(), v.g_before.begin(), v.g_before.end());
-    all.g_before_measured.insert(all.g_before_measured.end(), v.g_before_measured.begin(), v.g_before_measured.end());
-    all.g_loadable.insert(all.g_loadable.end(), v.g_loadable.begin(), v.g_loadable.end());
-    all.g_loadable_measured.insert(all.g_loadable_measured.end(), v.g_loadable_measured.begin(),
-                                   v.g_loadable_measured.end());
-    for (const auto& f : v.loadable)
-      if (f != "axis skew" && std::find(all.loadable.begin(), all.loadable.end(), f) == all.loadable.end())
-        all.loadable.push_back(f);
-  }
-  const bool skews = std::any_of(vs.begin(), vs.end(), [](const Verification& v) {
-    return std::find(v.loadable.begin(), v.loadable.end(), "axis skew") != v.loadable.end();
-  });
-  if (skews) all.loadable.emplace_back("the planes' axis skews");
-  if (!same || all.g_loadable.size() != all.g_before.size()) all.g_loadable.clear();
-  return all;
-}
-
 // The command's output, once its progress line is ended: the JSON for a program, else the text.
 void print_output(const Opts& o, Progress& progress, const nlohmann::json& j, const std::string& text) {
   progress.doing("");
@@ -768,23 +523,37 @@ void compensate_planes(const Opts& o, const std::vector<std::vector<formats::Dbb
     std::vector<Verification> vs;
     nlohmann::json vj;
     vj["planes"] = nlohmann::json::array();
+    const auto machine = simulators::machine::load_machine_config(o.machine);
+    std::vector<comp::Retrace> retraces;
     for (std::size_t i = 0; i < maps.size(); ++i) {
       std::vector<std::string> plane_axes;
       for (const auto& am : maps[i].axes)
         if (std::find(axes.begin(), axes.end(), am.axis) != axes.end()) plane_axes.push_back(am.axis);
       progress.doing("verify: the " + maps[i].plane + " plane's test traced again on " + o.machine +
                      " without and with the files, and identified");
-      vs.push_back(verify(groups[i], checked[i], maps[i], o.machine, o.out_dir, plane_axes,
-                          fs::path(o.out_dir) / "verify" / maps[i].plane));
+      retraces.push_back(simulators::machine::dbb_retrace(machine, groups[i]));
+      vs.push_back(comp::verify(groups[i], checked[i], maps[i], o.out_dir, plane_axes, retraces.back()));
+      comp::write_verify_runs(vs.back(), fs::path(o.out_dir) / "verify" / maps[i].plane);
+    }
+    progress.doing("verify: the planes traced again with what all of them leave fit to load");
+    const Verification all = comp::together(maps, vs, retraces);
+    for (std::size_t i = 0; i < vs.size(); ++i) {
+      // The plane's terms said with what the planes together refuse: its own skew, and any plane's files.
+      std::vector<Refusal> refusals = vs[i].refused;
+      for (const auto& r : all.refused)
+        if (r.file != "axis skew" && !refused(refusals, r.file)) refusals.push_back(r);
       nlohmann::json pj;
       text += "\n== " + maps[i].plane + " plane ==" +
-              (maps[i].model == "lai3" ? lai3_verification_text(maps[i], vs.back(), vs.back().refused, pj)
-                                       : verification_text(maps[i], vs.back(), vs.back().refused, pj));
+              (maps[i].model == "lai3" ? lai3_verification_text(maps[i], vs[i], refusals, pj)
+                                       : verification_text(maps[i], vs[i], refusals, pj));
       pj["plane"] = maps[i].plane;
+      pj["loadable"] = vs[i].loadable;  // each plane's G with the union's set
+      pj["g_loadable_um"] = vs[i].g_loadable;
+      pj["g_before_runs_um"] = vs[i].g_before;
       vj["planes"].push_back(pj);
     }
     text += "\nthe planes together:\n";
-    text += mark_refused(merged(maps, vs), planes, o.out_dir, axes, source, vj);
+    text += mark_refused(all, planes, o.out_dir, axes, source, vj);
     j["verify"] = vj;
   }
   print_output(o, progress, j, text);
@@ -843,7 +612,10 @@ void run_compensate(const Opts& o, const std::string& socket) {
   for (const auto& p : j["files"]) text += "wrote " + p.get<std::string>() + "\n";
   if (o.verify) {
     progress.doing("verify: the test traced again on " + o.machine + " without and with the files, and identified");
-    const Verification v = verify(runs, checked, map, o.machine, o.out_dir, axes, fs::path(o.out_dir) / "verify");
+    const auto machine = simulators::machine::load_machine_config(o.machine);
+    Verification v = models::compensation::verify(runs, checked, map, o.out_dir, axes,
+                                                  simulators::machine::dbb_retrace(machine, runs));
+    models::compensation::write_verify_runs(v, fs::path(o.out_dir) / "verify");
     const std::vector<Refusal>& refuse = v.refused;
     nlohmann::json vj;
     text += map.model == "lai3" ? lai3_verification_text(map, v, refuse, vj) : verification_text(map, v, refuse, vj);

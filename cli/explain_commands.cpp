@@ -2,6 +2,7 @@
 // it and show the held-out improvement (models/explain, docs/explain.md). Also runs the scenario suite
 // and writes its results table into docs/explain.md.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -11,6 +12,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
@@ -69,9 +71,10 @@ void replace_table(std::string& text, const std::string& path, const TableMarker
   text = text.substr(0, from) + "\n" + table + text.substr(b);
 }
 
-// The `# format = ...` of a file ("" when it has none).
+// The `# format = ...` of a file ("" when it has none), from its first 64 KiB (core/input_file.hpp's
+// checks: a FIFO or a device is refused, naming it).
 std::string format_of(const std::string& path) {
-  std::ifstream in(path);
+  std::istringstream in(read_file_head(path, 64 << 10));
   std::string line;
   while (std::getline(in, line)) {
     if (line.empty() || line[0] != '#') break;
@@ -422,12 +425,26 @@ simulators::scenarios::TruthRecord file_truth_record(const models::explain::Runo
   return {r.rpm, revolutions, static_cast<double>(r.angle_rad.size()) / std::max(revolutions, 1e-9)};
 }
 
+// How long --latest waits for an explanation the daemon is still computing (a session being finished).
+constexpr int explain_wait_s = 600;
+
 // --latest: the daemon's EXPLAIN, with --machine beside what the machine file holds.
 void explain_latest(const Opts& o, CliContext& ctx) {
   DaemonClient c = connect_daemon(ctx.socket);
   nlohmann::json req = results::request(results::RequestClass::explain);
   if (!o.kind.empty()) req["kind"] = o.kind;
   nlohmann::json r = c.request(req, results::MessageClass::explain);
+  // A session of the kind still running or being finished: its EXPLAIN is on its way; waited for (the
+  // daemon names it), not answered with "start a session".
+  if (r.contains("pending_session")) {
+    Progress progress("explain", o.quiet || o.json, 1.0);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(explain_wait_s);
+    while (r.contains("pending_session") && std::chrono::steady_clock::now() < until) {
+      progress.doing("waiting for the explanation of session " + r.value("pending_session", std::string("?")));
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+      r = c.request(req, results::MessageClass::explain);
+    }
+  }
   throw_if_error_reply(r, o.json);
   nlohmann::json comparison;
   if (!o.machine.empty()) {

@@ -112,7 +112,8 @@ struct UnionJackOptions {
     cmd.add_option("DIR", dir, "directory with NW_SE.txt ... N_S.txt and Config.txt")->required();
     cmd.add_flag("--json", json, "print the result as one JSON object");
     cmd.add_flag("--least-squares", lsq, "also evaluate all eight lines together by least squares");
-    cmd.add_option("--foot-spacing-mm", foot_mm, "reflector foot spacing (overrides Config.txt)");
+    cmd.add_option("--foot-spacing-mm", foot_mm, "reflector foot spacing (overrides Config.txt), (0, 1000] mm")
+        ->check(CLI::Range(1e-6, 1000.0));
   }
 };
 

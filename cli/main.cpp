@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
+#include "core/input_file.hpp"
 #include "core/memory_policy.hpp"
 
 namespace guideway::cli {
@@ -72,6 +73,25 @@ int main(int argc, char** argv) {
                  "daemon address: a Unix socket path or tcp:HOST:PORT (default: $GUIDEWAY_SOCKET, the per-user "
                  "socket, then /run/guideway/guideway.sock)");
   app.set_version_flag("-V,--version", "guideway " GUIDEWAY_VERSION);
+  // Every file a command reads: at most so many bytes and rows (core/input_file.hpp, docs/formats.md "Limits").
+  app.add_option_function<double>(
+         "--max-input-mb",
+         [](double mb) {
+           guideway::InputLimits l = guideway::input_limits();
+           l.max_bytes = static_cast<std::uint64_t>(mb * 1e6);
+           guideway::set_input_limits(l);
+         },
+         "largest input file read, MB (default 2000: 2 GB)")
+      ->check(CLI::Range(0.001, 1e6));
+  app.add_option_function<double>(
+         "--max-input-rows",
+         [](double rows) {
+           guideway::InputLimits l = guideway::input_limits();
+           l.max_rows = static_cast<std::uint64_t>(rows);
+           guideway::set_input_limits(l);
+         },
+         "most data rows read from one table (default 50000000)")
+      ->check(CLI::Range(1.0, 1e12));
   // `guideway status --socket P` as well as `guideway --socket P status`: a subcommand hands the
   // options it does not know to the app (subcommands inherit this setting when they are added).
   app.fallthrough();

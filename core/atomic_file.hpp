@@ -18,8 +18,9 @@ void write_file_atomically(const std::string& path, std::string_view content,
 
 // Files that are only right together (a controller's compensation tables and the INI lines that load
 // them): every one is written to NAME.part first, and only when all are written are they renamed into
-// `dir`; then the `retired` names that are not in the set (a previous set's file that would be loaded
-// with the new ones) are removed. A failed write (a full disk) removes the parts and leaves `dir` as it
+// `dir`; the `retired` names that are not in the set (a previous set's file that would be loaded with the
+// new ones) are removed. The earlier set is kept aside (NAME.previous) until the new one is whole, so a
+// failed write (a full disk) or a rename that fails half way (a directory in the way) leaves `dir` as it
 // was: the old set whole, never a mix. Throws std::runtime_error naming the file and the cause.
 struct NamedContent {
   std::string name;  // a file name in `dir`

@@ -1,5 +1,8 @@
 #include "core/csv_table.hpp"
 
+#include "core/number_format.hpp"
+
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -19,6 +22,8 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
+constexpr std::size_t max_columns = 4096;  // a table's columns: a header of a 2 GB line would not fit in memory
+
 std::string at(const std::string& source, std::size_t line) { return source + ":" + std::to_string(line) + ": "; }
 
 char pick_delimiter(std::string_view line) {
@@ -28,26 +33,38 @@ char pick_delimiter(std::string_view line) {
   return ' ';  // blanks
 }
 
-std::vector<std::string> split(std::string_view line, char delim) {
-  std::vector<std::string> cells;
+// Calls f(cell) for each cell of `line` (trimmed), in order; allocates nothing.
+template <class F>
+void for_each_cell(std::string_view line, char delim, F&& f) {
   if (delim == ' ') {
     std::size_t i = 0;
     while (i < line.size()) {
       while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
       const std::size_t start = i;
       while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
-      if (i > start) cells.emplace_back(line.substr(start, i - start));
+      if (i > start) f(line.substr(start, i - start));
     }
-    return cells;
+    return;
   }
   std::size_t start = 0;
   while (true) {
     const std::size_t end = line.find(delim, start);
-    cells.emplace_back(trim(line.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start)));
+    f(trim(line.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start)));
     if (end == std::string_view::npos) break;
     start = end + 1;
   }
+}
+
+std::vector<std::string> split(std::string_view line, char delim) {
+  std::vector<std::string> cells;
+  for_each_cell(line, delim, [&](std::string_view c) { cells.emplace_back(c); });
   return cells;
+}
+
+std::size_t cell_count(std::string_view line, char delim) {
+  std::size_t n = 0;
+  for_each_cell(line, delim, [&](std::string_view) { ++n; });
+  return n;
 }
 
 std::string join_columns(const std::vector<std::string>& cols) {
@@ -68,24 +85,28 @@ std::optional<double> parse_double(std::string_view text) {
   return v;
 }
 
-std::string read_text_file(const std::string& path) {
-  if (path == "-") return std::string(std::istreambuf_iterator<char>(std::cin), std::istreambuf_iterator<char>());
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw CsvError(path + ": cannot read (" + std::strerror(errno) + ")");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw CsvError(path + ": read error");
-  return ss.str();
-}
+namespace {
+CsvTable parse_owned(std::string owned, const std::string& source);
+}  // namespace
 
 CsvTable read_csv_table(const std::string& path) {
-  return parse_csv_table(read_text_file(path), path == "-" ? std::string("<stdin>") : path);
+  return parse_owned(read_text_file(path), path == "-" ? std::string("<stdin>") : path);
 }
 
 CsvTable parse_csv_table(std::string_view text, const std::string& source) {
+  return parse_owned(std::string(text), source);
+}
+
+namespace {
+
+CsvTable parse_owned(std::string owned, const std::string& source) {
   CsvTable t;
   t.source = source;
-  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+  t.text = std::move(owned);
+  std::string_view text = t.text;
+  t.rows.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);  // no doubling's slack
+  const std::size_t bom = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
+  text.remove_prefix(bom);
   char delim = 0;
   std::size_t line_no = 0;
   std::size_t pos = 0;
@@ -101,7 +122,10 @@ CsvTable parse_csv_table(std::string_view text, const std::string& source) {
       const std::size_t eq = body.find('=');
       if (eq != std::string_view::npos && eq > 0) {
         const std::string key(trim(body.substr(0, eq)));
-        if (key.find(' ') == std::string::npos) t.metadata[key] = std::string(trim(body.substr(eq + 1)));
+        if (key.find(' ') == std::string::npos) {
+          t.metadata[key] = std::string(trim(body.substr(eq + 1)));
+          t.metadata_line[key] = line_no;
+        }
       }
       continue;
     }
@@ -109,6 +133,8 @@ CsvTable parse_csv_table(std::string_view text, const std::string& source) {
       throw CsvError(at(source, line_no) + "binary data, not a text table");
     if (delim == 0) {
       delim = pick_delimiter(line);
+      if (cell_count(line, delim) > max_columns)
+        throw CsvError(at(source, line_no) + "more than " + std::to_string(max_columns) + " columns");
       auto cells = split(line, delim);
       bool all_numbers = true;
       for (const auto& c : cells) all_numbers = all_numbers && parse_double(c).has_value();
@@ -131,16 +157,35 @@ CsvTable parse_csv_table(std::string_view text, const std::string& source) {
         for (std::size_t i = 0; i < cells.size(); ++i) t.columns.push_back("column" + std::to_string(i + 1));
       }
     }
-    auto cells = split(line, delim);
-    if (cells.size() != t.columns.size()) {
-      throw CsvError(at(source, line_no) + std::to_string(cells.size()) + " cells, expected " +
+    if (const std::size_t cells = cell_count(line, delim); cells != t.columns.size()) {
+      throw CsvError(at(source, line_no) + std::to_string(cells) + " cells, expected " +
                      std::to_string(t.columns.size()) +
                      (t.header_line != 0 ? " (the header's columns)" : " (as the first row)"));
     }
-    t.rows.push_back({line_no, std::move(cells)});
+    check_row_count(t.rows.size() + 1, source, line_no);
+    const auto begin = static_cast<std::size_t>(line.data() - t.text.data());
+    t.rows.push_back({line_no, begin, begin + line.size()});
   }
   if (t.columns.empty()) throw CsvError(source + ": no header and no data");
+  t.delimiter = delim;
   return t;
+}
+
+}  // namespace
+
+std::string_view CsvTable::cell(const Row& row, std::size_t col) const {
+  const std::string_view line = std::string_view(text).substr(row.begin, row.end - row.begin);
+  std::string_view out;
+  std::size_t i = 0;
+  bool found = false;
+  for_each_cell(line, delimiter, [&](std::string_view c) {
+    if (i++ == col) {
+      out = c;
+      found = true;
+    }
+  });
+  if (!found) throw CsvError(at(source, row.line) + "no cell " + std::to_string(col + 1));
+  return out;
 }
 
 std::optional<std::size_t> CsvTable::find_column(std::string_view name) const {
@@ -158,10 +203,11 @@ std::size_t CsvTable::column(std::string_view name) const {
 }
 
 double CsvTable::number(const Row& row, std::size_t col) const {
-  const std::string& cell = row.cells.at(col);
-  if (auto v = parse_double(cell)) return *v;
-  if (cell.empty()) throw CsvError(at(source, row.line) + "column '" + columns.at(col) + "': empty cell");
-  throw CsvError(at(source, row.line) + "column '" + columns.at(col) + "': '" + cell + "' is not a finite number");
+  const std::string_view c = cell(row, col);
+  if (auto v = parse_double(c)) return *v;
+  if (c.empty()) throw CsvError(at(source, row.line) + "column '" + columns.at(col) + "': empty cell");
+  throw CsvError(at(source, row.line) + "column '" + columns.at(col) + "': '" + std::string(c.substr(0, 80)) +
+                 "' is not a finite number");
 }
 
 std::vector<double> CsvTable::numbers(std::size_t col) const {
@@ -183,7 +229,34 @@ double CsvTable::metadata_number(const std::string& key) const {
   auto it = metadata.find(key);
   if (it == metadata.end()) throw CsvError(source + ": missing metadata line '# " + key + " = <number>'");
   if (auto v = parse_double(it->second)) return *v;
-  throw CsvError(source + ": metadata '" + key + "' = '" + it->second + "' is not a number");
+  throw CsvError(at(source, metadata_line.at(key)) + "metadata '" + key + "' = '" + it->second.substr(0, 80) +
+                 "' is not a number");
+}
+
+namespace {
+
+std::string outside(double v, double lo, double hi, std::string_view what) {
+  return " = " + shortest(v) + " is outside [" + shortest(lo) + ", " + shortest(hi) + "] " + std::string(what);
+}
+
+}  // namespace
+
+double CsvTable::number_in(const Row& row, std::size_t col, double lo, double hi, std::string_view what) const {
+  const double v = number(row, col);
+  if (!(v >= lo && v <= hi)) throw CsvError(at(source, row.line) + columns.at(col) + outside(v, lo, hi, what));
+  return v;
+}
+
+double CsvTable::metadata_in(const std::string& key, double lo, double hi, std::string_view what) const {
+  const double v = metadata_number(key);
+  if (!(v >= lo && v <= hi)) throw CsvError(at(source, metadata_line.at(key)) + key + outside(v, lo, hi, what));
+  return v;
+}
+
+std::optional<double> CsvTable::optional_metadata_in(const std::string& key, double lo, double hi,
+                                                     std::string_view what) const {
+  if (metadata.find(key) == metadata.end()) return std::nullopt;
+  return metadata_in(key, lo, hi, what);
 }
 
 std::optional<double> CsvTable::optional_metadata_number(const std::string& key) const {

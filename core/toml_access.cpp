@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/input_file.hpp"
+
 namespace guideway {
 
 namespace {
@@ -58,15 +60,17 @@ toml::table parse_toml(std::string_view text, const std::string& file_name) {
 }
 
 toml::table parse_toml_file(const std::string& path) {
-  // A directory opens as a stream on Linux and reads as nothing: an empty configuration, silently.
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw ConfigError(path, 0, "", "is a directory, not a configuration file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path, 0, "", std::string("cannot open file (") + std::strerror(errno) + ")");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw ConfigError(path, 0, "", "read error");
-  return parse_toml(text.str(), path);
+  std::string text;
+  try {  // a regular file within the input limits: a FIFO or a device is refused, never waited on
+    text = read_text_file(path);
+  } catch (const CsvError& e) {
+    std::string why = e.what();
+    if (why.starts_with(path + ": ")) why.erase(0, path.size() + 2);
+    throw ConfigError(path, 0, "", why);
+  }
+  return parse_toml(text, path);
 }
 
 TableReader::TableReader(const toml::table& table, std::string file, std::string path)

@@ -119,7 +119,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     if (!names.insert(d.name).second) dev.fail("name", "duplicate device name \"" + d.name + "\"");
     d.driver = dev.require_string("driver");
     d.ring_capacity = ring_capacity(dev, c.ring_capacity);
-    d.instrument = parse_instrument(dev, d.driver);
+    d.instrument = parse_instrument(dev, d.driver, utc_today());
     if (!dev.get_bool("enabled", true)) continue;
     d.table = std::make_shared<TableReader>(dev);
     c.devices.push_back(std::move(d));
@@ -156,6 +156,16 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     spec.args = em.get_strings("args", {});
     if (em.get_bool("enabled", true)) c.emulators.push_back(std::move(spec));
     em.reject_unknown_keys();
+  }
+  if (c.refuse_uncalibrated) {  // every start on a device without a due date would be refused: say so now
+    std::string without;
+    for (const DaemonConfig::Device& d : c.devices)
+      if (!d.instrument.calibration_due) without += (without.empty() ? "" : ", ") + d.name;
+    if (!without.empty())
+      top.table("daemon")->fail("refuse_uncalibrated",
+                                "every session would be refused on device(s) " + without +
+                                    ": no calibration_due is stated (state calibrated_on and calibration_due in "
+                                    "their [[device]] tables, or set refuse_uncalibrated = false)");
   }
   if (const auto m = top.table("mqtt")) c.mqtt = parse_mqtt_table(*m, file_name);
   top.reject_unknown_keys();

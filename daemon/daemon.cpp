@@ -18,6 +18,7 @@
 #include <system_error>
 
 #include "core/mono_clock.hpp"
+#include "core/number_format.hpp"
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
@@ -126,7 +127,19 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   so.max_clients = config_.max_clients;
   so.reserved_clients = config_.reserved_clients;
   server_ = std::make_unique<SocketServer>(loop_, so);
-  if (config_.mqtt) mqtt_ = std::make_unique<plant::Publisher>(*config_.mqtt, log_);
+  if (config_.mqtt) {
+    plant::PublisherSettings mqtt = *config_.mqtt;
+    mqtt.held_back_event = [per_minute = mqtt.events_per_minute](const std::string& device, std::uint64_t count) {
+      return make_message(Event{.event = "events_dropped",
+                                .time = utc_now_iso(),
+                                .device = device,
+                                .reason = std::to_string(count) + " event(s) not sent to the MQTT broker: more than " +
+                                          shortest(per_minute) + " a minute (events_per_minute)",
+                                .device_news = true})
+          .line;
+    };
+    mqtt_ = std::make_unique<plant::Publisher>(std::move(mqtt), log_);
+  }
   server_->on_connect([this](ClientId id) {
     subscriptions_[id] = {};
     server_->send(id, version_message().dump());
@@ -144,9 +157,13 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
     }
   });
   server_->on_request([this](ClientId id, const std::string& line) { handle_request(id, line); });
-  server_->on_oversize([this](ClientId id, std::size_t bytes) {
-    server_->send(id, error_message("request of " + std::to_string(bytes) + " bytes exceeds the limit of " +
-                                    std::to_string(config_.max_request_bytes) + " bytes")
+  server_->on_oversize([this](ClientId id, std::size_t bytes, bool whole) {
+    const std::string limit = std::to_string(config_.max_request_bytes);
+    server_->send(id, error_message(whole ? "request of " + std::to_string(bytes) + " bytes exceeds the limit of " +
+                                                limit + " bytes"
+                                          : "request of more than " + limit + " bytes (no end of line after " +
+                                                std::to_string(bytes) + ") exceeds the limit of " + limit +
+                                                " bytes; the rest of the line is discarded")
                           .dump());
   });
 
@@ -307,6 +324,10 @@ nlohmann::json Daemon::mqtt_json() const {
                       {"queued", s.queued},
                       {"delivered", s.delivered},
                       {"dropped", s.dropped},
+                      {"dropped_results", s.dropped_results},
+                      {"dropped_transitions", s.dropped_transitions},
+                      {"dropped_events", s.dropped_events},
+                      {"rate_limited", s.rate_limited},
                       {"refused", s.refused},
                       {"reconnects", s.reconnects}};
   if (!s.last_error.empty()) j["last_error"] = s.last_error;
@@ -338,8 +359,11 @@ void Daemon::check_device_events() {
         log_->warn("device {}: {}: {}", devices_[i]->name(), e.event, e.reason);
       else
         log_->info("device {}: {}: {}", devices_[i]->name(), e.event, e.reason);
-      broadcast(make_message(
-          Event{.event = e.event, .time = utc_now_iso(), .device = devices_[i]->name(), .reason = e.reason}));
+      broadcast(make_message(Event{.event = e.event,
+                                   .time = utc_now_iso(),
+                                   .device = devices_[i]->name(),
+                                   .reason = e.reason,
+                                   .device_news = true}));
     }
     const drivers::DriverStatus s = devices_[i]->status();
     if (s.state == last_states_[i]) continue;
@@ -458,6 +482,10 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
   }
   try {
     reply(client, (this->*entry->handle)(client, *req), req->id);
+  } catch (const NotYet& e) {  // a result on its way: said with its session, so a client can wait for it
+    nlohmann::json m = error_message(e.what(), req->cls);
+    m["pending_session"] = e.session;
+    reply(client, std::move(m), req->id);
   } catch (const std::exception& e) {
     reply(client, error_message(e.what(), req->cls), req->id);
   }
@@ -489,7 +517,11 @@ void Daemon::broadcast(const Message& message) {
           message.cls == results::MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
           message.body.value("kind", "unknown"), message.line);
     } else if (message.cls == results::MessageClass::event) {
-      mqtt_->publish(plant::TopicLeaf::event, {}, message.line);
+      // The order of eviction (docs/plant.md): a session's news is a result, a device's inner events go first.
+      const plant::JournalShare share = !message.session.empty() ? plant::JournalShare::results
+                                        : message.device_news    ? plant::JournalShare::events
+                                                                 : plant::JournalShare::transitions;
+      mqtt_->publish_event(message.line, share, message.channel);
     }
   }
   // Messages about a session (PARAMS, EXPLAIN, a session's EVENT) also reach whoever watches it by name.
@@ -561,23 +593,36 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
                                  const std::string& what) const {
   const std::string kind = string_field(req.body, "kind");
   const std::string session = string_field(req.body, "session");
+  const auto matches = [&](const nlohmann::json& j) {
+    return (kind.empty() || j["kind"] == kind) && (session.empty() || j["session"] == session);
+  };
+  // The newest session asked for says why there is none, or that it is on its way: it runs, it is being
+  // finished (its PARAMS out, its EXPLAIN still computed: an older session's would be the wrong one), or it
+  // failed; only without one is the user sent to start one.
+  const auto infos = sessions_->snapshot();
+  const auto newest = std::find_if(infos.rbegin(), infos.rend(), [&](const SessionInfo& i) {
+    return (kind.empty() || i.kind == kind) && (session.empty() || i.name == session);
+  });
+  const std::string none = "no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind);
+  if (newest != infos.rend() && newest->state == SessionState::finishing &&
+      std::none_of(latest.begin(), latest.end(), [&](const nlohmann::json& j) { return j["session"] == newest->name; }))
+    throw NotYet(none + ": session " + newest->name + " has ended and is being finished (identified, explained, "
+                     "reported); ask again in moments",
+                 newest->name);
   for (auto it = latest.rbegin(); it != latest.rend(); ++it) {
-    if ((kind.empty() || (*it)["kind"] == kind) && (session.empty() || (*it)["session"] == session)) return *it;
+    if (matches(*it)) return *it;
   }
   if (!kind.empty() && !sessions_->known_kind(kind)) {
     throw std::invalid_argument("unknown session kind \"" + kind + "\" (known: " + sessions_->kinds() + ")");
   }
+  if (newest != infos.rend() && newest->state == SessionState::running)
+    throw NotYet(none + ": session " + newest->name + " is still running", newest->name);
   if (!session.empty()) throw std::invalid_argument("no " + what + " for session \"" + session + "\"");
-  // A session that ran and failed is the likely reason: say which and why (else "start one").
-  const auto infos = sessions_->snapshot();
   for (auto it = infos.rbegin(); it != infos.rend(); ++it) {
-    if ((kind.empty() || it->kind == kind) && it->state == SessionState::failed) {
-      throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
-                                  ": session " + it->name + " failed: " + it->progress);
-    }
+    if ((kind.empty() || it->kind == kind) && it->state == SessionState::failed)
+      throw std::invalid_argument(none + ": session " + it->name + " failed: " + it->progress);
   }
-  throw std::invalid_argument("no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind) +
-                              " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
+  throw std::invalid_argument(none + " (start a session: guideway start " + (kind.empty() ? "KIND" : kind) + ")");
 }
 
 nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
@@ -585,7 +630,14 @@ nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
   const std::string session = params.value("session", "");
   const std::string path = report_path(config_.state_dir, session);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
+  if (!in) {
+    const auto infos = sessions_->snapshot();
+    if (std::any_of(infos.begin(), infos.end(), [&](const SessionInfo& i) {
+          return i.name == session && i.state == SessionState::finishing;
+        }))
+      throw NotYet("the report of session " + session + " is being written; ask again in moments", session);
+    throw std::invalid_argument("no report for session " + session + " (" + path + " is missing: see the log)");
+  }
   std::ostringstream html;
   html << in.rdbuf();
   return results::with_class(

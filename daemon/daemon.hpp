@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -81,6 +82,11 @@ class Daemon {
   nlohmann::json handle_report(ClientId client, const Request& req);
   nlohmann::json handle_recordings(ClientId client, const Request& req);
   // The newest message of `latest` matching the request's optional kind/session; throws naming `what`.
+  // A result a session of the kind will publish, not yet there: the request's ERROR names the session.
+  struct NotYet : std::invalid_argument {
+    NotYet(const std::string& what, std::string pending) : std::invalid_argument(what), session(std::move(pending)) {}
+    std::string session;
+  };
   nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
                            const std::string& what) const;
   nlohmann::json sessions_json() const;

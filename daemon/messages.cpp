@@ -20,7 +20,9 @@ Message make_message(const Event& e) {
   for (const auto& [key, value] : fields) {
     if (!value->empty()) j[key] = *value;
   }
-  return make_message(results::MessageClass::event, std::move(j), e.device, e.session);
+  Message m = make_message(results::MessageClass::event, std::move(j), e.device, e.session);
+  m.device_news = e.device_news;
+  return m;
 }
 
 }  // namespace guideway::daemon

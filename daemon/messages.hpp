@@ -19,6 +19,7 @@ struct Message {
   std::string session;  // the session it is about ("" = none): its watchers by name get it too
   nlohmann::json body;  // the object, kept for PARAMS, EXPLAIN and EVENT (the daemon reads them); else null
   std::string line;     // the encoded object, no newline
+  bool device_news = false;  // an EVENT of what happened inside a device, not a change of state (Event)
 };
 
 Message make_message(results::MessageClass cls, nlohmann::json body, std::string channel = {},
@@ -33,6 +34,9 @@ struct Event {
   std::string session{};
   std::string reason{};  // why (a failure): the daemon logs events with a reason as warnings
   std::string file{};    // the file it produced (report_ready)
+  // What happened inside a device (a CANopen node's EMCY, boot, loss), not a change of its state nor a
+  // session's news: the MQTT journal drops these first and rate-limits them per device (docs/plant.md).
+  bool device_news = false;
 };
 
 Message make_message(const Event& event);

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "core/input_file.hpp"
 #include "core/printable.hpp"
 #include "daemon/config.hpp"
 #include "plant/broker_address.hpp"
@@ -31,8 +32,11 @@ std::string readable_file(const TableReader& t, const std::string& key, const st
   const std::string value = t.get_string(key, "");
   if (value.empty()) return value;
   const std::filesystem::path path = config_relative_path(relative_to, value);
-  std::ifstream in(path);
-  if (!in) t.fail(key, "cannot read " + path.string());
+  try {  // a regular file (a FIFO would hang the daemon's start) that can be read now
+    (void)read_file_head(path.string(), 0);
+  } catch (const CsvError& e) {
+    t.fail(key, e.what());
+  }
   return std::filesystem::absolute(path).lexically_normal().string();
 }
 
@@ -92,6 +96,8 @@ plant::PublisherSettings parse_mqtt_table(const TableReader& t, const std::strin
   if (t.has("password")) t.fail("password", "never inline: put the password in a file and name it in password_file");
   s.queue_max_messages = static_cast<std::size_t>(t.get_int("queue_max_messages", 10000, 1, 10'000'000));
   s.queue_max_bytes = static_cast<std::size_t>(t.get_int("queue_max_mb", 64, 1, 1 << 20)) << 20;
+  s.queue_events_percent = t.get_double("queue_events_percent", 25.0, 1.0, 100.0);
+  s.events_per_minute = t.get_double("events_per_minute", 60.0, 1.0, 60000.0);
   s.reconnect_max_s = t.get_double("reconnect_max_s", 60.0, 1.0, 3600.0);
   s.release = GUIDEWAY_VERSION;
   t.reject_unknown_keys();

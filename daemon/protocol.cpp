@@ -18,6 +18,56 @@ nlohmann::json error_message(std::string_view message, std::string_view request_
   return j;
 }
 
+namespace {
+
+// The text of the request's top-level "id" when it is a number JSON holds as a double (not a 64-bit
+// integer): read with nlohmann's SAX interface, which hands over a number's lexeme.
+class IdLexeme : public nlohmann::json::json_sax_t {
+ public:
+  std::string lexeme;
+  bool null() override { return value(); }
+  bool boolean(bool) override { return value(); }
+  bool number_integer(number_integer_t) override { return value(); }
+  bool number_unsigned(number_unsigned_t) override { return value(); }
+  bool number_float(number_float_t, const string_t& s) override {
+    if (depth_ == 1 && key_ == "id") lexeme = s;
+    return value();
+  }
+  bool string(string_t&) override { return value(); }
+  bool binary(binary_t&) override { return value(); }
+  bool start_object(std::size_t) override { return ++depth_, key_.clear(), true; }
+  bool key(string_t& k) override {
+    if (depth_ == 1) key_ = k;
+    return true;
+  }
+  bool end_object() override { return --depth_, key_.clear(), true; }
+  bool start_array(std::size_t) override { return ++depth_, true; }
+  bool end_array() override { return --depth_, true; }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override { return false; }
+
+ private:
+  bool value() { return true; }
+  int depth_ = 0;
+  std::string key_;
+};
+
+// Significant digits of a JSON number's lexeme (no sign, exponent, leading or trailing zeros).
+std::size_t significant_digits(std::string_view lexeme) {
+  std::string digits;
+  for (char c : lexeme.substr(0, lexeme.find_first_of("eE"))) {
+    if (c >= '0' && c <= '9') digits += c;
+  }
+  const auto a = digits.find_first_not_of('0');
+  if (a == std::string::npos) return 0;
+  return digits.find_last_not_of('0') - a + 1;
+}
+
+// A double holds every decimal of 15 significant digits exactly (DBL_DIG): a number id with more, not a
+// 64-bit integer, would come back as another number.
+constexpr std::size_t exact_id_digits = 15;
+
+}  // namespace
+
 std::optional<Request> parse_request(std::string_view line, RequestError& error) {
   error = {};
   if (line.find_first_not_of(" \t\r") == std::string_view::npos) {
@@ -39,7 +89,19 @@ std::optional<Request> parse_request(std::string_view line, RequestError& error)
     return std::nullopt;
   }
   Request r;
-  if (auto id = body.find("id"); id != body.end()) r.id = *id;
+  if (auto id = body.find("id"); id != body.end()) {
+    if (id->is_number_float()) {
+      IdLexeme sax;
+      (void)nlohmann::json::sax_parse(line, &sax);
+      if (significant_digits(sax.lexeme) > exact_id_digits) {
+        error.message = "\"id\" " + sax.lexeme.substr(0, 64) +
+                        " cannot be echoed exactly: a number id has at most 15 significant digits or is a 64-bit "
+                        "integer (send a longer one as a string)";
+        return std::nullopt;
+      }
+    }
+    r.id = *id;
+  }
   auto cls = body.find("class");
   if (cls == body.end() || !cls->is_string()) {
     error.message = "a request needs a string \"class\" (e.g. {\"class\":\"status\"})";

@@ -182,25 +182,16 @@ void SocketServer::read_from(ClientId id) {
       Client& c = clients_.at(id);
       const char* nl = static_cast<const char*>(std::memchr(buf.data() + start, '\n', len - start));
       const std::size_t end = nl ? static_cast<std::size_t>(nl - buf.data()) : len;
-      if (c.discarding) {
-        c.discarded += end - start;
-        if (nl) {
-          c.discarding = false;
-          const std::size_t bytes = c.discarded;
-          c.discarded = 0;
-          if (on_oversize_) on_oversize_(id, bytes);
-        }
+      if (c.discarding) {  // answered already: the rest of the line goes, up to its newline
+        if (nl) c.discarding = false;
       } else {
         c.inbox.append(buf.data() + start, end - start);
         if (c.inbox.size() > options_.max_request_bytes) {
-          c.discarded = c.inbox.size();
+          const std::size_t bytes = c.inbox.size();
           c.inbox.clear();
           c.discarding = !nl;
-          if (nl && on_oversize_) {
-            c.served = true;
-            on_oversize_(id, c.discarded);
-            c.discarded = 0;
-          }
+          c.served = true;
+          if (on_oversize_) on_oversize_(id, bytes, nl != nullptr);
         } else if (nl) {
           c.served = true;
           std::string line;

@@ -47,7 +47,10 @@ class SocketServer {
   // Called when a client goes, with why ("closed by peer", "queue overflow (...)", ...).
   using DisconnectHandler = std::function<void(ClientId, const std::string& reason)>;
   // Called for a request line that was too long (the server discards it and answers via this).
-  using OversizeHandler = std::function<void(ClientId, std::size_t bytes)>;
+  // A request line over max_request_bytes: `bytes` of it when its newline came (`whole`), else as soon as
+  // the limit is passed, without waiting for a newline that may never come; its rest is discarded
+  // (one reply a line either way).
+  using OversizeHandler = std::function<void(ClientId, std::size_t bytes, bool whole)>;
 
   SocketServer(EventLoop& loop, SocketServerOptions options);
   ~SocketServer();
@@ -90,7 +93,6 @@ class SocketServer {
     int fd = -1;
     std::string inbox;
     bool discarding = false;  // inside an oversize line: skip to the next newline
-    std::size_t discarded = 0;
     std::deque<std::string> outbox;
     std::size_t out_offset = 0;  // bytes of outbox.front() already written
     std::size_t queued = 0;

@@ -50,12 +50,19 @@ std::string format_linuxcnc_comp(const std::vector<CompTriplet>& table, const st
 
 std::vector<CompTriplet> parse_linuxcnc_comp(std::string_view text, const std::string& name) {
   std::vector<CompTriplet> out;
-  std::istringstream in{std::string(text)};
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream fields(line);
+  std::size_t pos = 0, line_no = 0;
+  while (pos < text.size()) {
+    const std::size_t nl = text.find('\n', pos);
+    std::istringstream fields{std::string(text.substr(pos, std::min<std::size_t>(nl, text.size()) - pos).substr(0, 256))};
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
+    ++line_no;
     CompTriplet t;
     if (!(fields >> t.nominal_mm >> t.forward_mm >> t.reverse_mm)) break;
+    try {
+      check_row_count(out.size() + 1, name, line_no);
+    } catch (const CsvError& e) {
+      throw CompensationFileError(e.what());
+    }
     out.push_back(t);
   }
   check_table(out, name);
@@ -63,11 +70,11 @@ std::vector<CompTriplet> parse_linuxcnc_comp(std::string_view text, const std::s
 }
 
 std::vector<CompTriplet> read_linuxcnc_comp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) fail(path, "cannot open");
-  std::ostringstream s;
-  s << f.rdbuf();
-  return parse_linuxcnc_comp(s.str(), path);
+  try {
+    return parse_linuxcnc_comp(read_text_file(path), path);
+  } catch (const CsvError& e) {
+    throw CompensationFileError(e.what());
+  }
 }
 
 std::string format_linuxcnc_ini(const std::vector<IniJoint>& joints, const std::vector<std::string>& comment_lines) {
@@ -151,7 +158,8 @@ std::vector<CrossCorrectionRow> parse_straightness_csv(std::string_view text, co
     const std::size_t moving = t.column("moving_axis"), position = t.column("position_mm"),
                       corrected = t.column("corrected_axis"), correction = t.column("correction_mm");
     for (const auto& r : t.rows)
-      rows.push_back({r.cells[moving], t.number(r, position), r.cells[corrected], t.number(r, correction)});
+      rows.push_back({std::string(t.cell(r, moving)), t.number(r, position), std::string(t.cell(r, corrected)),
+                      t.number(r, correction)});
   } catch (const CsvError& e) {
     throw CompensationFileError(e.what());
   }

@@ -11,6 +11,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "core/input_file.hpp"
 #include "core/number_format.hpp"
 #include "formats/raw_recording.hpp"
 
@@ -19,6 +20,13 @@ namespace guideway::formats {
 namespace {
 
 constexpr double deg = std::numbers::pi / 180.0;
+
+std::string_view trim_view(std::string_view s) {
+  const auto b = s.find_first_not_of(" \t\r");
+  if (b == std::string_view::npos) return {};
+  const auto e = s.find_last_not_of(" \t\r");
+  return s.substr(b, e - b + 1);
+}
 
 std::string trim(std::string_view s) {
   const auto b = s.find_first_not_of(" \t\r");
@@ -78,7 +86,31 @@ double meta_number(const DbbRun& run, const std::map<std::string, std::size_t>& 
   if (!parse_double(it->second, v) || !std::isfinite(v)) {
     fail(run.source, lines.at(key), key + ": expected a finite number, got \"" + it->second + "\"");
   }
+  const DbbPlausible* bound = nullptr;
+  for (const DbbPlausible& b : dbb_plausible_metadata)
+    if (b.key == key) bound = &b;
+  const bool inside = !bound || ((bound->min_open ? v > bound->min : v >= bound->min) && v <= bound->max);
+  if (!inside)
+    fail(run.source, lines.at(key),
+         key + " = " + it->second + " is outside " + (bound->min_open ? "(" : "[") + shortest(bound->min) + ", " +
+             shortest(bound->max) + "] " + std::string(bound->unit) + ", " + std::string(bound->what));
   return v;
+}
+
+// A data row's cells (comma separated, trimmed), without allocating; false when there are not `n`.
+bool cells_of(std::string_view line, std::size_t n, std::vector<std::string_view>& out) {
+  out.clear();
+  std::size_t start = 0;
+  while (out.size() <= n) {
+    const std::size_t end = line.find(',', start);
+    std::string_view c = line.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start);
+    while (!c.empty() && (c.front() == ' ' || c.front() == '\t' || c.front() == '\r')) c.remove_prefix(1);
+    while (!c.empty() && (c.back() == ' ' || c.back() == '\t' || c.back() == '\r')) c.remove_suffix(1);
+    out.push_back(c);
+    if (end == std::string_view::npos) break;
+    start = end + 1;
+  }
+  return out.size() == n;
 }
 
 }  // namespace
@@ -161,7 +193,11 @@ void validate_dbb_run(const DbbRun& run) {
            "angle goes backwards at sample " + std::to_string(i) + " (direction " + (dir > 0 ? "ccw" : "cw") + ")");
     if (run.t_s[i] < run.t_s[i - 1]) fail(src, 0, "time goes backwards at sample " + std::to_string(i));
   }
+  if (!(run.t_s.back() > run.t_s.front()))
+    fail(src, 0, "t_s does not advance: every sample is at t = " + shortest(run.t_s.front()) + " s");
   const double arc = dbb_run_arc_rad(run);
+  if (arc > 361.0 * deg)
+    fail(src, 0, "the samples span " + fixed(arc / deg, 1) + " deg: a run is one circle, 360 deg at most");
   if (arc < dbb_min_arc_deg * deg)
     fail(src, 0,
          "partial arc: the samples cover " + fixed(arc / deg, 1) + " deg, a DBB run needs an arc of at least " +
@@ -197,19 +233,22 @@ DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
   DbbRun run;
   run.source = source;
   std::map<std::string, std::size_t> meta_line;
-  std::istringstream in(text);
-  std::string line;
   std::size_t lineno = 0;
   std::vector<std::string> header;
   std::size_t header_line = 0;
   int col_t = -1, col_a = -1, col_d = -1;
   std::vector<double> angle_deg;
-  while (std::getline(in, line)) {
+  std::vector<std::string_view> f;
+  std::size_t pos = 0;
+  while (pos < text.size()) {  // views of the text: a line costs nothing beyond the file's own bytes
+    const std::size_t nl = text.find('\n', pos);
+    const std::string_view line = std::string_view(text).substr(pos, nl == std::string::npos ? std::string::npos : nl - pos);
+    pos = nl == std::string::npos ? text.size() : nl + 1;
     ++lineno;
-    const std::string tl = trim(line);
+    const std::string_view tl = trim_view(line);
     if (tl.empty()) continue;
     if (tl[0] == '#') {
-      const std::string body = trim(std::string_view(tl).substr(1));
+      const std::string body = trim(tl.substr(1));
       const auto eq = body.find('=');
       if (eq == std::string::npos) continue;  // a plain comment
       const std::string key = trim(std::string_view(body).substr(0, eq));
@@ -224,7 +263,9 @@ DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
       continue;
     }
     if (header.empty()) {
-      header = split(tl);
+      if (std::count(tl.begin(), tl.end(), ',') >= dbb_max_columns)
+        fail(source, lineno, "header row has more than " + std::to_string(dbb_max_columns) + " columns");
+      header = split(std::string(tl));
       header_line = lineno;
       for (std::size_t i = 0; i < header.size(); ++i) {
         if (header[i] == "t_s") col_t = static_cast<int>(i);
@@ -232,21 +273,45 @@ DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
         if (header[i] == "dL_um") col_d = static_cast<int>(i);
       }
       if (col_t < 0 || col_a < 0 || col_d < 0)
-        fail(source, lineno, "header row must name the columns t_s, angle_deg and dL_um, got \"" + tl + "\"");
+        fail(source, lineno,
+             "header row must name the columns t_s, angle_deg and dL_um, got \"" + std::string(tl.substr(0, 200)) +
+                 "\"");
       continue;
     }
-    const auto f = split(tl);
-    if (f.size() != header.size())
-      fail(source, lineno, "expected " + std::to_string(header.size()) + " fields, got " + std::to_string(f.size()));
+    if (!cells_of(tl, header.size(), f))
+      fail(source, lineno,
+           "expected " + std::to_string(header.size()) + " fields, got " +
+               (f.size() > header.size() ? "more" : std::to_string(f.size())));
+    try {
+      check_row_count(run.t_s.size() + 1, source, lineno);
+    } catch (const CsvError& e) {
+      throw DbbRunFormatError(e.what());
+    }
     double vals[3];
     const int cols[3] = {col_t, col_a, col_d};
     for (int k = 0; k < 3; ++k) {
-      const auto& cell = f[static_cast<std::size_t>(cols[k])];
-      if (!parse_double(cell, vals[k]))
-        fail(source, lineno, header[static_cast<std::size_t>(cols[k])] + ": \"" + cell + "\" is not a number");
-      if (!std::isfinite(vals[k]))
-        fail(source, lineno, header[static_cast<std::size_t>(cols[k])] + " is not a finite number (" + cell + ")");
+      const std::string cell(f[static_cast<std::size_t>(cols[k])].substr(0, 80));
+      const std::string& name = header[static_cast<std::size_t>(cols[k])];
+      if (!parse_double(cell, vals[k])) fail(source, lineno, name + ": \"" + cell + "\" is not a number");
+      if (!std::isfinite(vals[k])) fail(source, lineno, name + " is not a finite number (" + cell + ")");
+      const DbbPlausible& b = dbb_plausible_columns[static_cast<std::size_t>(k)];
+      if (k == 2 && std::abs(vals[k]) > b.max) {
+        const auto meta = [&](const char* key) {
+          const auto it = run.metadata.find(key);
+          return it == run.metadata.end() ? std::string("?") : it->second.substr(0, 40);
+        };
+        fail(source, lineno,
+             "dL_um = " + cell + " is outside [-" + shortest(b.max) + ", " + shortest(b.max) +
+                 "] um: the bar length does not match the metadata (radius_mm = " + meta("radius_mm") +
+                 ", height_mm = " + meta("height_mm") + ")");
+      }
+      if (std::abs(vals[k]) > b.max)
+        fail(source, lineno,
+             name + " = " + cell + " is outside [-" + shortest(b.max) + ", " + shortest(b.max) + "] " + std::string(b.unit) +
+                 ", " + std::string(b.what));
     }
+    if (!run.t_s.empty() && vals[0] < run.t_s.back())
+      fail(source, lineno, "t_s = " + shortest(vals[0]) + " s goes back (the row before: " + shortest(run.t_s.back()) + " s)");
     run.t_s.push_back(vals[0]);
     angle_deg.push_back(vals[1]);
     run.dL_m.push_back(vals[2] * 1e-6);
@@ -264,6 +329,8 @@ DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
   run.center_a_m = meta_number(run, meta_line, "center_a_mm", false, 0) * 1e-3;
   run.center_b_m = meta_number(run, meta_line, "center_b_mm", false, 0) * 1e-3;
   run.data_arc_rad = meta_number(run, meta_line, "data_arc_deg", false, 0) * deg;
+  for (const DbbPlausible& b : dbb_plausible_metadata)  // the optional ones read elsewhere: checked here
+    (void)meta_number(run, meta_line, std::string(b.key), false, 0);
   if (run.metadata.count("data_arc_deg") && !(run.data_arc_rad > 0))
     fail(source, meta_line["data_arc_deg"], "data_arc_deg must be a positive number of degrees");
   const auto d = run.metadata.find("direction");
@@ -303,9 +370,13 @@ DbbRun parse_dbb_run(const std::string& text, const std::string& source) {
 }
 
 DbbRun read_dbb_run(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DbbRunFormatError(path + ": cannot open file");
-  if (is_raw_recording(path)) {  // the session's recording, not its runs: name the run files beside it
+  std::string text;
+  try {
+    text = read_text_file(path);  // a regular file within the input limits (core/input_file.hpp)
+  } catch (const CsvError& e) {
+    throw DbbRunFormatError(e.what());
+  }
+  if (is_raw_recording_text(text)) {  // the session's recording, not its runs: name the run files beside it
     std::vector<std::string> runs;
     for (const auto& d : derived_files(path)) {
       const std::string stem = d.substr(0, d.size() - 4);  // NAME.runK of NAME.runK.csv
@@ -317,9 +388,7 @@ DbbRun read_dbb_run(const std::string& path) {
     throw DbbRunFormatError(
         raw_recording_refusal(path, runs, "DBB run files (" + std::string(dbb_run_format_id) + ")"));
   }
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_dbb_run(s.str(), path);
+  return parse_dbb_run(text, path);
 }
 
 std::string format_dbb_run(const DbbRun& run) {

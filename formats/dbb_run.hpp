@@ -13,6 +13,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace guideway::formats {
@@ -44,6 +45,38 @@ struct DbbRun {
   [[nodiscard]] int dir() const { return static_cast<int>(direction); }
   [[nodiscard]] double nominal_length_m() const;
 };
+
+// The plausible range of a run's quantities (docs/formats.md, "DBB runs"): a value outside is refused at
+// its line, naming the range. Metadata keys not listed have checks of their own (data_arc_deg,
+// nominal_length_mm) or are not numbers.
+struct DbbPlausible {
+  std::string_view key;
+  double min;
+  bool min_open;  // (min, ...] rather than [min, ...]
+  double max;
+  std::string_view unit;
+  std::string_view what;  // why the range
+};
+inline constexpr DbbPlausible dbb_plausible_metadata[] = {
+    {"radius_mm", 0, true, 2000, "mm", "a ballbar's radius (bars with extensions reach 1.5 m)"},
+    {"height_mm", 0, false, 2000, "mm", "the height of a tilted bar's socket above its centre ball"},
+    {"feed_mm_per_min", 0, true, 200000, "mm/min", "a machine tool's feed (200 m/min)"},
+    {"center_a_mm", -100000, false, 100000, "mm", "a machine tool's travel (100 m)"},
+    {"center_b_mm", -100000, false, 100000, "mm", "a machine tool's travel (100 m)"},
+    {"start_time_s", -1e10, false, 1e10, "s", "a clock's time (300 years)"},
+    {"feed_in_deg", 0, false, 360, "deg", "an arc of the circle"},
+    {"feed_out_deg", 0, false, 360, "deg", "an arc of the circle"},
+    {"overshoot_deg", 0, false, 360, "deg", "an arc of the circle"},
+    {"temperature_c", -50, false, 150, "degC", "a workshop's temperature"},
+};
+// The columns t_s, angle_deg, dL_um: each within +-max.
+inline constexpr DbbPlausible dbb_plausible_columns[] = {
+    {"t_s", 0, false, 1e6, "s", "a test's time (11 days)"},
+    {"angle_deg", 0, false, 3600, "deg", "a circle's angle, unwrapped or not (10 turns)"},
+    {"dL_um", 0, false, 1000, "um", "a bar length within 1 mm of sqrt(radius_mm^2 + height_mm^2)"},
+};
+// A header row's columns at most.
+inline constexpr std::size_t dbb_max_columns = 4096;
 
 // The least arc a run may cover, what is left of it after its gaps, and the fewest samples.
 inline constexpr double dbb_min_arc_deg = 180.0;

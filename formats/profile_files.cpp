@@ -10,12 +10,15 @@
 #include <limits>
 #include <sstream>
 
+#include "core/input_file.hpp"
 #include "core/number_format.hpp"
 #include "formats/zip_archive.hpp"
 
 namespace guideway::formats {
 
 namespace {
+
+constexpr std::size_t profile_max_columns = 4096;
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r' || s.front() == '\n'))
@@ -46,11 +49,11 @@ std::vector<std::string_view> split(std::string_view s, char sep) {
 }
 
 std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ProfileFileError(path + ": cannot open: " + std::strerror(errno));
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  try {
+    return read_text_file(path);  // a regular file within the input limits (core/input_file.hpp)
+  } catch (const CsvError& e) {
+    throw ProfileFileError(e.what());
+  }
 }
 
 double unit_of(std::string_view column, char axis) {
@@ -91,7 +94,11 @@ Profile parse_profile_csv(std::string_view text, const std::string& name) {
   auto fail = [&](const std::string& why) -> ProfileFileError {
     return ProfileFileError(name + ":" + std::to_string(line_no) + ": " + why);
   };
-  for (std::string_view raw : split(text, '\n')) {
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    const std::size_t nl = text.find('\n', pos);
+    const std::string_view raw = text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
     ++line_no;
     const std::string_view line = trim(raw);
     if (line.empty()) continue;
@@ -103,6 +110,10 @@ Profile parse_profile_csv(std::string_view text, const std::string& name) {
       }
       continue;
     }
+    if (const auto commas = static_cast<std::size_t>(std::count(line.begin(), line.end(), ','));
+        x_col < 0 ? commas >= profile_max_columns : commas + 1 != columns)
+      throw fail(x_col < 0 ? "more than " + std::to_string(profile_max_columns) + " columns"
+                           : "expected " + std::to_string(columns) + " columns, got " + std::to_string(commas + 1));
     const auto cells = split(line, ',');
     if (x_col < 0) {  // the header row
       for (std::size_t i = 0; i < cells.size(); ++i) {
@@ -132,6 +143,16 @@ Profile parse_profile_csv(std::string_view text, const std::string& name) {
     } else {
       throw fail("z is not a number");
     }
+    try {
+      check_row_count(p.x_m.size() + 1, name, line_no);
+    } catch (const CsvError& e) {
+      throw ProfileFileError(e.what());
+    }
+    if (std::abs(x * x_scale) > profile_max_abs_x_m)
+      throw fail("x = " + std::string(trim(cells[static_cast<std::size_t>(x_col)]).substr(0, 40)) +
+                 " is outside +-10 m (a machine's travel)");
+    if (std::abs(z) > profile_max_abs_z_m)
+      throw fail("z = " + std::string(zc.substr(0, 40)) + " is outside +-10 mm (a profilometer's range)");
     p.x_m.push_back(x * x_scale);
     p.z_m.push_back(z);
   }
@@ -237,9 +258,13 @@ X3pSurface parse_x3p(std::string_view archive, const std::string& name) {
     }
     s.increment_x_m = number({"Record1", "Axes", "CX", "Increment"}, 0.0, "CX.Increment");
     s.increment_y_m = number({"Record1", "Axes", "CY", "Increment"}, 0.0, "CY.Increment");
-    if (!(s.increment_x_m > 0) || !(s.increment_y_m > 0)) throw fail("CX/CY increments must be positive");
+    if (!(s.increment_x_m > 0) || !(s.increment_y_m > 0) || s.increment_x_m > profile_max_increment_m ||
+        s.increment_y_m > profile_max_increment_m)
+      throw fail("CX/CY increments must be in (0, 1] m");
     s.offset_x_m = number({"Record1", "Axes", "CX", "Offset"}, 0.0, "CX.Offset");
     s.offset_y_m = number({"Record1", "Axes", "CY", "Offset"}, 0.0, "CY.Offset");
+    if (std::abs(s.offset_x_m) > profile_max_abs_x_m || std::abs(s.offset_y_m) > profile_max_abs_x_m)
+      throw fail("CX/CY offsets must be within +-10 m (a machine's travel)");
     const std::string z_type(text({"Record1", "Axes", "CZ", "DataType"}).value_or(""));
     if (z_type.size() != 1 || std::string_view("DFLI").find(z_type[0]) == std::string_view::npos) {
       throw fail("CZ.DataType \"" + z_type + "\": expected D, F, L or I");

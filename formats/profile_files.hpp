@@ -29,6 +29,12 @@ struct Profile {
   [[nodiscard]] std::optional<double> spacing_m() const;
 };
 
+// The plausible range of a profile's points (docs/formats.md): |x| <= 10 m (a machine's travel), |z| <= 10 mm
+// (a profilometer's range); a point outside is refused at its line. X3P increments lie in (0, 1 m].
+inline constexpr double profile_max_abs_x_m = 10.0;
+inline constexpr double profile_max_abs_z_m = 10e-3;
+inline constexpr double profile_max_increment_m = 1.0;
+
 // --- CSV: "# key = value" lines, a header row naming x and z with units (x_mm | x_um | x_m,
 // z_um | z_nm | z_mm | z_m; other columns are ignored), then rows; an empty or "nan" z is invalid.
 Profile parse_profile_csv(std::string_view text, const std::string& name);

@@ -41,7 +41,7 @@ std::string meta(const CsvTable& t, const std::string& key) {
 
 // The recorder writes a non-finite reading as to_chars does ("nan", "inf", "-inf").
 double channel_value(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
-  const std::string& cell = row.cells[col];
+  const std::string_view cell = t.cell(row, col);
   if (cell == "nan" || cell == "-nan") return std::numeric_limits<double>::quiet_NaN();
   if (cell == "inf") return std::numeric_limits<double>::infinity();
   if (cell == "-inf") return -std::numeric_limits<double>::infinity();
@@ -203,7 +203,7 @@ RawRecording read_raw_recording(const std::string& path) {
     s.seq = static_cast<std::uint64_t>(t.number(row, seq_col));
     s.flags = static_cast<std::uint32_t>(t.number(row, flags_col));
     for (std::size_t c = 0; c < channel_cols.size(); ++c) {
-      if (row.cells[channel_cols[c]].empty()) break;  // the channels a sample lacks are the last ones
+      if (t.cell(row, channel_cols[c]).empty()) break;  // the channels a sample lacks are the last ones
       s.value[c] = channel_value(t, row, channel_cols[c]);
       s.value_count = static_cast<std::uint32_t>(c + 1);
     }
@@ -214,10 +214,17 @@ RawRecording read_raw_recording(const std::string& path) {
   return r;
 }
 
+bool is_raw_recording_text(std::string_view text) {
+  const std::string line = format_line();
+  return text.starts_with(line) && (text.size() == line.size() || text[line.size()] == '\n');
+}
+
 bool is_raw_recording(const std::string& path) {
-  std::ifstream in(path);
-  std::string first;
-  return std::getline(in, first) && first == format_line();
+  try {  // the checks of every input: a FIFO or a device is no recording, and is not waited on
+    return is_raw_recording_text(read_file_head(path, 64));
+  } catch (const CsvError&) {
+    return false;
+  }
 }
 
 std::vector<std::string> derived_files(const std::string& path) {

@@ -91,6 +91,8 @@ struct RawRecording {
 
 // True when the file's first line is `# format = guideway/raw/1`.
 [[nodiscard]] bool is_raw_recording(const std::string& path);
+// Whether `text` (a file's beginning) is a raw recording's: its first line is the format line.
+[[nodiscard]] bool is_raw_recording_text(std::string_view text);
 
 struct RawRecordingEntry {
   std::string path;

@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -66,8 +67,44 @@ std::optional<JournalEntry> decode_journal_entry(std::string_view text) {
   return e;
 }
 
-MessageJournal::MessageJournal(std::string dir, std::size_t max_messages, std::size_t max_bytes)
-    : dir_(std::move(dir)), max_messages_(std::max<std::size_t>(1, max_messages)), max_bytes_(max_bytes) {
+std::string_view to_string(JournalShare share) noexcept {
+  switch (share) {
+    case JournalShare::events:
+      return "events";
+    case JournalShare::transitions:
+      return "transitions";
+    case JournalShare::results:
+      return "results";
+  }
+  return "?";
+}
+
+namespace {
+
+// A file's name says its share: NNN.event.msg, NNN.transition.msg, NNN.msg (a result; the journal of a
+// release before the shares has only these).
+constexpr std::array<std::string_view, journal_share_count> share_suffix = {".event", ".transition", ""};
+
+bool parse_name(std::string_view name, std::uint64_t& seq, JournalShare& share) {
+  if (!name.ends_with(suffix)) return false;
+  name.remove_suffix(suffix.size());
+  share = JournalShare::results;
+  for (std::size_t i = 0; i + 1 < share_suffix.size(); ++i) {
+    if (name.ends_with(share_suffix[i])) {
+      share = static_cast<JournalShare>(i);
+      name.remove_suffix(share_suffix[i].size());
+      break;
+    }
+  }
+  const auto [end, err] = std::from_chars(name.data(), name.data() + name.size(), seq);
+  return err == std::errc() && end == name.data() + name.size();
+}
+
+}  // namespace
+
+MessageJournal::MessageJournal(std::string dir, JournalBounds bounds) : dir_(std::move(dir)), bounds_(bounds) {
+  bounds_.max_messages = std::max<std::size_t>(1, bounds_.max_messages);
+  bounds_.max_event_messages = std::max<std::size_t>(1, bounds_.max_event_messages);
   namespace fs = std::filesystem;
   std::error_code ec;
   fs::create_directories(dir_, ec);
@@ -79,61 +116,107 @@ MessageJournal::MessageJournal(std::string dir, std::size_t max_messages, std::s
       fs::remove(entry.path(), ec);
       continue;
     }
-    if (!name.ends_with(suffix)) continue;
     std::uint64_t seq = 0;
-    const std::string_view digits(name.data(), name.size() - suffix.size());
-    const auto [end, err] = std::from_chars(digits.data(), digits.data() + digits.size(), seq);
-    if (err != std::errc() || end != digits.data() + digits.size()) continue;
-    files_.push_back({seq, static_cast<std::size_t>(entry.file_size(ec))});
+    JournalShare share = JournalShare::results;
+    if (!parse_name(name, seq, share)) continue;
+    files_[index(share)].push_back({seq, static_cast<std::size_t>(entry.file_size(ec))});
   }
   if (ec) throw std::runtime_error("MQTT journal " + dir_ + ": cannot read it: " + ec.message());
-  std::sort(files_.begin(), files_.end(), [](const File& a, const File& b) { return a.seq < b.seq; });
-  for (const File& f : files_) bytes_ += f.bytes;
-  if (!files_.empty()) next_seq_ = files_.back().seq + 1;
-  taken_up_ = files_.size();
+  for (std::size_t i = 0; i < journal_share_count; ++i) {
+    std::sort(files_[i].begin(), files_[i].end(), [](const File& a, const File& b) { return a.seq < b.seq; });
+    for (const File& f : files_[i]) bytes_[i] += f.bytes;
+    if (!files_[i].empty()) next_seq_ = std::max(next_seq_, files_[i].back().seq + 1);
+  }
+  taken_up_ = size();
 }
 
-std::string MessageJournal::path_of(std::uint64_t seq) const {
+std::size_t MessageJournal::size() const {
+  std::size_t n = 0;
+  for (const Files& f : files_) n += f.size();
+  return n;
+}
+
+std::size_t MessageJournal::bytes() const {
+  std::size_t n = 0;
+  for (std::size_t b : bytes_) n += b;
+  return n;
+}
+
+std::uint64_t MessageJournal::dropped() const {
+  std::uint64_t n = unreadable_;
+  for (std::uint64_t d : over_bounds_) n += d;
+  return n;
+}
+
+std::string MessageJournal::path_of(std::uint64_t seq, JournalShare share) const {
   char name[32];
   std::snprintf(name, sizeof(name), "%020llu", static_cast<unsigned long long>(seq));
-  return dir_ + "/" + name + std::string(suffix);
+  return dir_ + "/" + name + std::string(share_suffix[index(share)]) + std::string(suffix);
 }
 
-std::size_t MessageJournal::push(const JournalEntry& entry) {
-  const std::string text = encode_journal_entry(entry);
-  write_file_atomically(path_of(next_seq_), text, 0600);
-  files_.push_back({next_seq_++, text.size()});
-  bytes_ += text.size();
-  std::size_t dropped = 0;
-  // The newest message is kept even when it alone is over max_bytes: a bound on the backlog, not on a message.
-  while (files_.size() > 1 && (files_.size() > max_messages_ || bytes_ > max_bytes_)) {
-    remove_front();
-    ++dropped;
+std::optional<JournalShare> MessageJournal::oldest() const {
+  std::optional<JournalShare> best;
+  for (std::size_t i = 0; i < journal_share_count; ++i) {
+    if (!files_[i].empty() && (!best || files_[i].front().seq < files_[index(*best)].front().seq))
+      best = static_cast<JournalShare>(i);
   }
-  over_bounds_ += dropped;
+  return best;
+}
+
+bool MessageJournal::over_bounds() const { return size() > bounds_.max_messages || bytes() > bounds_.max_bytes; }
+
+JournalDrops MessageJournal::push(const JournalEntry& entry) {
+  const std::string text = encode_journal_entry(entry);
+  write_file_atomically(path_of(next_seq_, entry.share), text, 0600);
+  files_[index(entry.share)].push_back({next_seq_++, text.size()});
+  bytes_[index(entry.share)] += text.size();
+  JournalDrops dropped{};
+  const auto drop = [&](JournalShare s) {
+    remove_front(s);
+    ++dropped[index(s)];
+  };
+  // The events' own share first: a flood of them never takes more than it.
+  const std::size_t ev = index(JournalShare::events);
+  while (files_[ev].size() > bounds_.max_event_messages ||
+         (files_[ev].size() > 1 && bytes_[ev] > bounds_.max_event_bytes))
+    drop(JournalShare::events);
+  // Then the whole: the first share in the order of eviction that has a message gives up its oldest.
+  // The newest message is kept even when it alone is over max_bytes: a bound on the backlog, not on a message.
+  while (size() > 1 && over_bounds()) {
+    for (std::size_t i = 0; i < journal_share_count; ++i) {
+      if (files_[i].empty()) continue;
+      drop(static_cast<JournalShare>(i));
+      break;
+    }
+  }
+  for (std::size_t i = 0; i < journal_share_count; ++i) over_bounds_[i] += dropped[i];
   return dropped;
 }
 
 std::optional<JournalEntry> MessageJournal::front() {
-  while (!files_.empty()) {
+  while (const std::optional<JournalShare> share = oldest()) {
     try {
-      if (auto e = decode_journal_entry(read_text_file(path_of(files_.front().seq)))) return e;
+      if (auto e = decode_journal_entry(read_text_file(path_of(files_[index(*share)].front().seq, *share)))) {
+        e->share = *share;
+        return e;
+      }
     } catch (const std::runtime_error&) {  // gone or unreadable: as a damaged file
     }
-    remove_front();
+    remove_front(*share);
     ++unreadable_;
   }
   return std::nullopt;
 }
 
 void MessageJournal::pop_front() {
-  if (!files_.empty()) remove_front();
+  if (const std::optional<JournalShare> share = oldest()) remove_front(*share);
 }
 
-void MessageJournal::remove_front() {
-  std::remove(path_of(files_.front().seq).c_str());
-  bytes_ -= files_.front().bytes;
-  files_.pop_front();
+void MessageJournal::remove_front(JournalShare share) {
+  Files& files = files_[index(share)];
+  std::remove(path_of(files.front().seq, share).c_str());
+  bytes_[index(share)] -= files.front().bytes;
+  files.pop_front();
 }
 
 }  // namespace guideway::plant

@@ -5,6 +5,7 @@
 #include <exception>
 #include <optional>
 #include <string_view>
+#include <utility>
 
 #include "core/backoff.hpp"
 #include "plant/mqtt_codec.hpp"
@@ -37,10 +38,10 @@ struct Pending {
 // One connection's state: the socket, the packet stream and the keep-alive.
 class Session {
  public:
-  Session(const InboxSettings& s, InboxCounts& counts)
+  Session(const InboxSettings& s, InboxCounts& counts, const std::atomic<bool>& stop)
       : settings_(s),
         counts_(counts),
-        socket_(s.connection, s.connect_timeout_ms),
+        socket_(s.connection, s.connect_timeout_ms, &stop),
         reader_(s.max_message_bytes),
         keepalive_(std::chrono::seconds(std::max(1, s.connection.keepalive_s))) {}
 
@@ -73,7 +74,7 @@ class Session {
       const int left =
           static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count());
       if (left <= 0) return "no CONNACK from the broker within " + std::to_string(settings_.connect_timeout_ms) + " ms";
-      reader_.feed(socket_.read_some(left));
+      reader_.feed(socket_.read_some(left));  // ends within 100 ms of a stop (SocketStopped)
     }
   }
 
@@ -110,7 +111,10 @@ class Session {
           const auto s = decode_suback(*p);
           if (s.packet_id == subscribe_packet_id && !s.reason_codes.empty() && s.reason_codes.front() >= 0x80)
             return "the broker refused the subscription: " + reason_text(s.reason_codes.front(), s.reason_string);
-          subscribed_ = true;
+          if (s.packet_id == subscribe_packet_id && !subscribed_) {
+            subscribed_ = true;
+            just_subscribed_ = true;
+          }
           break;
         }
         case MqttPacketType::pingresp:
@@ -157,6 +161,8 @@ class Session {
   }
 
   [[nodiscard]] bool session_present() const { return session_present_; }
+  // True once, after the SUBACK that accepted the subscription arrived.
+  bool take_subscribed() { return std::exchange(just_subscribed_, false); }
 
  private:
   void send(const std::string& bytes) {
@@ -174,6 +180,7 @@ class Session {
   std::optional<Clock::time_point> ping_sent_;
   bool session_present_ = false;
   bool subscribed_ = false;
+  bool just_subscribed_ = false;
 };
 
 }  // namespace
@@ -183,12 +190,12 @@ MqttInbox::MqttInbox(InboxSettings settings, Log log) : settings_(std::move(sett
 std::string MqttInbox::run_connection(const std::atomic<bool>& stop, const StoreBatch& store) {
   accepted_ = false;
   try {
-    Session session(settings_, counts_);
+    Session session(settings_, counts_, stop);
     if (std::string why = session.handshake(); !why.empty()) return why;
     accepted_ = true;
     session.subscribe(settings_.filter);
     log_("connected to " + settings_.connection.broker.url() + " as " + settings_.connection.client_id +
-         (session.session_present() ? " (its session kept)" : " (a new session)") + "; subscribed to " +
+         (session.session_present() ? " (its session kept)" : " (a new session)") + "; subscribing to " +
          settings_.filter);
     Pending pending;
     Backoff retry{1.0, settings_.store_retry_max_s};
@@ -199,7 +206,14 @@ std::string MqttInbox::run_connection(const std::atomic<bool>& stop, const Store
       int timeout_ms = pending.messages.empty() || retry_at ? 100 : 0;
       for (;;) {
         const auto before = counts_.received;
-        if (std::string why = session.receive(timeout_ms, pending, retry_at.has_value()); !why.empty()) return why;
+        std::string why;
+        try {
+          why = session.receive(timeout_ms, pending, retry_at.has_value());
+        } catch (const SocketStopped&) {
+          break;  // stopped while waiting: the loop ends, and the DISCONNECT below is clean
+        }
+        if (!why.empty()) return why;
+        if (session.take_subscribed()) log_("subscribed to " + settings_.filter + " (the broker's SUBACK)");
         if (timeout_ms > 0 || counts_.received == before || pending.packet_ids.size() >= settings_.receive_maximum)
           break;
       }
@@ -226,6 +240,8 @@ std::string MqttInbox::run_connection(const std::atomic<bool>& stop, const Store
       if (std::string why = session.keep_alive(); !why.empty()) return why;
     }
     session.disconnect(0);
+    return {};
+  } catch (const SocketStopped&) {  // stopped while connecting, in the TLS handshake or waiting for CONNACK
     return {};
   } catch (const MqttProtocolError& e) {
     return std::string("protocol error: ") + e.what();

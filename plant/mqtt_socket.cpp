@@ -33,13 +33,20 @@ int ms_left(Clock::time_point deadline) {
   return left > 0 ? static_cast<int>(left) : 0;
 }
 
-// True when fd became ready for `events` before the deadline.
-bool wait_ready(int fd, short events, Clock::time_point deadline) {
+constexpr int stop_check_ms = 100;  // a stop flag is looked at this often while a wait lasts
+
+// True when fd became ready for `events` before the deadline. Throws SocketStopped once *stop is set.
+bool wait_ready(int fd, short events, Clock::time_point deadline, const std::atomic<bool>* stop) {
   for (;;) {
+    if (stop != nullptr && stop->load()) throw SocketStopped();
     pollfd p{fd, events, 0};
-    const int n = poll(&p, 1, ms_left(deadline));
+    const int left = ms_left(deadline);
+    const int n = poll(&p, 1, stop != nullptr ? std::min(left, stop_check_ms) : left);
     if (n > 0) return true;
-    if (n == 0) return false;
+    if (n == 0) {
+      if (ms_left(deadline) == 0) return false;
+      continue;
+    }
     if (errno != EINTR) throw std::runtime_error(std::string("poll: ") + std::strerror(errno));
   }
 }
@@ -55,7 +62,7 @@ std::string tls_errors() {
   return out.empty() ? "TLS error" : out;
 }
 
-int connect_tcp(const BrokerAddress& broker, Clock::time_point deadline) {
+int connect_tcp(const BrokerAddress& broker, Clock::time_point deadline, const std::atomic<bool>* stop) {
   addrinfo hints{};
   hints.ai_family = AF_UNSPEC;
   hints.ai_socktype = SOCK_STREAM;
@@ -73,7 +80,14 @@ int connect_tcp(const BrokerAddress& broker, Clock::time_point deadline) {
     }
     int rc = connect(fd, a->ai_addr, a->ai_addrlen);
     if (rc != 0 && errno == EINPROGRESS) {
-      if (!wait_ready(fd, POLLOUT, deadline)) {
+      bool ready = false;
+      try {
+        ready = wait_ready(fd, POLLOUT, deadline, stop);
+      } catch (...) {
+        close(fd);
+        throw;
+      }
+      if (!ready) {
         close(fd);
         why = "timed out";
         continue;
@@ -97,14 +111,15 @@ int connect_tcp(const BrokerAddress& broker, Clock::time_point deadline) {
 
 // Repeats an OpenSSL call while it wants the network, within the deadline; its result when done.
 template <typename Call>
-int tls_call(ssl_st* ssl, int fd, Clock::time_point deadline, const char* what, Call call) {
+int tls_call(ssl_st* ssl, int fd, Clock::time_point deadline, const std::atomic<bool>* stop, const char* what,
+             Call call) {
   for (;;) {
     ERR_clear_error();
     const int rc = call();
     if (rc > 0) return rc;
     const int err = SSL_get_error(ssl, rc);
     if (err == SSL_ERROR_WANT_READ || err == SSL_ERROR_WANT_WRITE) {
-      if (!wait_ready(fd, err == SSL_ERROR_WANT_READ ? POLLIN : POLLOUT, deadline)) return 0;
+      if (!wait_ready(fd, err == SSL_ERROR_WANT_READ ? POLLIN : POLLOUT, deadline, stop)) return 0;
       continue;
     }
     if (err == SSL_ERROR_ZERO_RETURN) throw std::runtime_error("the broker closed the connection");
@@ -125,9 +140,9 @@ bool is_ip_literal(const std::string& host) {
 
 }  // namespace
 
-MqttSocket::MqttSocket(const ConnectionSettings& s, int timeout_ms) {
+MqttSocket::MqttSocket(const ConnectionSettings& s, int timeout_ms, const std::atomic<bool>* stop) : stop_(stop) {
   const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
-  fd_ = connect_tcp(s.broker, deadline);
+  fd_ = connect_tcp(s.broker, deadline, stop_);
   if (!s.broker.tls) return;
   try {
     ctx_ = SSL_CTX_new(TLS_client_method());
@@ -152,12 +167,12 @@ MqttSocket::MqttSocket(const ConnectionSettings& s, int timeout_ms) {
       X509_VERIFY_PARAM_set1_ip_asc(param, s.broker.host.c_str());
     } else {
 #pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wold-style-cast"  // OpenSSL's macro
+#pragma GCC diagnostic ignored "-Wold-style-cast"             // OpenSSL's macro
       SSL_set_tlsext_host_name(ssl_, s.broker.host.c_str());  // SNI
 #pragma GCC diagnostic pop
       SSL_set1_host(ssl_, s.broker.host.c_str());
     }
-    if (tls_call(ssl_, fd_, deadline, "TLS handshake", [&] { return SSL_connect(ssl_); }) == 0)
+    if (tls_call(ssl_, fd_, deadline, stop_, "TLS handshake", [&] { return SSL_connect(ssl_); }) == 0)
       throw std::runtime_error("TLS handshake with " + s.broker.url() + ": timed out");
   } catch (...) {
     SSL_free(ssl_);
@@ -179,7 +194,7 @@ void MqttSocket::write_all(std::string_view bytes, int timeout_ms) {
   while (!bytes.empty()) {
     std::size_t n = 0;
     if (ssl_ != nullptr) {
-      const int rc = tls_call(ssl_, fd_, deadline, "TLS write", [&] {
+      const int rc = tls_call(ssl_, fd_, deadline, stop_, "TLS write", [&] {
         return SSL_write(ssl_, bytes.data(), static_cast<int>(std::min<std::size_t>(bytes.size(), 1 << 30)));
       });
       if (rc == 0) throw std::runtime_error("writing to the broker timed out");
@@ -189,7 +204,7 @@ void MqttSocket::write_all(std::string_view bytes, int timeout_ms) {
       if (rc < 0) {
         if (errno == EINTR) continue;
         if (errno != EAGAIN) throw std::runtime_error(std::string("writing to the broker: ") + std::strerror(errno));
-        if (!wait_ready(fd_, POLLOUT, deadline)) throw std::runtime_error("writing to the broker timed out");
+        if (!wait_ready(fd_, POLLOUT, deadline, stop_)) throw std::runtime_error("writing to the broker timed out");
         continue;
       }
       n = static_cast<std::size_t>(rc);
@@ -202,7 +217,8 @@ std::string MqttSocket::read_some(int timeout_ms) {
   const auto deadline = Clock::now() + std::chrono::milliseconds(timeout_ms);
   char buffer[16384];
   if (ssl_ != nullptr) {
-    const int rc = tls_call(ssl_, fd_, deadline, "TLS read", [&] { return SSL_read(ssl_, buffer, sizeof(buffer)); });
+    const int rc =
+        tls_call(ssl_, fd_, deadline, stop_, "TLS read", [&] { return SSL_read(ssl_, buffer, sizeof(buffer)); });
     return std::string(buffer, static_cast<std::size_t>(rc));  // rc 0: timed out, nothing read
   }
   for (;;) {
@@ -211,7 +227,7 @@ std::string MqttSocket::read_some(int timeout_ms) {
     if (rc == 0) throw std::runtime_error("the broker closed the connection");
     if (errno == EINTR) continue;
     if (errno != EAGAIN) throw std::runtime_error(std::string("reading from the broker: ") + std::strerror(errno));
-    if (!wait_ready(fd_, POLLIN, deadline)) return {};
+    if (!wait_ready(fd_, POLLIN, deadline, stop_)) return {};
   }
 }
 
@@ -219,6 +235,7 @@ std::string tls_file_problem(const std::string& path, TlsFileRole role) {
   struct stat st {};
   if (stat(path.c_str(), &st) != 0) return "cannot read " + path + ": " + std::strerror(errno);
   if (S_ISDIR(st.st_mode)) return path + " is a directory, not a PEM file";
+  if (!S_ISREG(st.st_mode)) return path + " is not a regular file, not a PEM file";
   std::unique_ptr<FILE, decltype(&fclose)> f(std::fopen(path.c_str(), "r"), fclose);
   if (!f) return "cannot read " + path + ": " + std::strerror(errno);
   if (role == TlsFileRole::private_key) {

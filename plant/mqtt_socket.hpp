@@ -2,6 +2,8 @@
 // A client's byte stream to an MQTT broker: TCP, or TLS over TCP (OpenSSL) for mqtts://, with every
 // wait bounded. Used by the fleet's own MQTT client (plant/mqtt_inbox.hpp). Not thread safe.
 
+#include <atomic>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 
@@ -12,12 +14,20 @@ struct ssl_st;
 
 namespace guideway::plant {
 
+// Thrown by a wait of MqttSocket once its stop flag is set.
+class SocketStopped : public std::runtime_error {
+ public:
+  SocketStopped() : std::runtime_error("stopped") {}
+};
+
 class MqttSocket {
  public:
   // Connects to settings.broker (and completes the TLS handshake, verifying the broker's certificate
   // against ca_file, or the system's CAs, and its name or address) within timeout_ms. Throws
-  // std::runtime_error saying why not ("connection refused", "certificate verify failed", ...).
-  MqttSocket(const ConnectionSettings& settings, int timeout_ms);
+  // std::runtime_error saying why not ("connection refused", "certificate verify failed", ...). Every
+  // wait of this socket also ends within 100 ms of `stop` being set (a SIGTERM while a broker says
+  // nothing), throwing SocketStopped.
+  MqttSocket(const ConnectionSettings& settings, int timeout_ms, const std::atomic<bool>* stop = nullptr);
   ~MqttSocket();
   MqttSocket(const MqttSocket&) = delete;
   MqttSocket& operator=(const MqttSocket&) = delete;
@@ -30,6 +40,7 @@ class MqttSocket {
 
  private:
   int fd_ = -1;
+  const std::atomic<bool>* stop_ = nullptr;
   ssl_ctx_st* ctx_ = nullptr;
   ssl_st* ssl_ = nullptr;
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -18,24 +19,33 @@ constexpr int max_attempts_per_message = 5;  // connections a message may be sen
 }  // namespace
 
 Publisher::Publisher(PublisherSettings settings, std::shared_ptr<spdlog::logger> log)
-    : settings_(std::move(settings)), log_(std::move(log)), started_utc_(utc_now_iso()) {
-  settings_.connection.will = ConnectionSettings::Will{
-      topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::status), status_payload(false, "connection lost"), true};
-  journal_ = std::make_unique<MessageJournal>(settings_.journal_dir, settings_.queue_max_messages, settings_.queue_max_bytes);
+    : settings_(std::move(settings)),
+      log_(std::move(log)),
+      started_utc_(utc_now_iso()),
+      rate_limit_(settings_.events_per_minute) {
+  settings_.connection.will =
+      ConnectionSettings::Will{topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::status),
+                               status_payload(false, "connection lost"), true};
+  const double events_share = std::clamp(settings_.queue_events_percent, 0.0, 100.0) / 100.0;
+  journal_ = std::make_unique<MessageJournal>(
+      settings_.journal_dir,
+      JournalBounds{settings_.queue_max_messages, settings_.queue_max_bytes,
+                    static_cast<std::size_t>(static_cast<double>(settings_.queue_max_messages) * events_share),
+                    static_cast<std::size_t>(static_cast<double>(settings_.queue_max_bytes) * events_share)});
   connection_ = std::make_unique<MqttConnection>(
       settings_.connection,
-      MqttConnection::Callbacks{
-          .connected = [this](int rc, const std::string& why) { on_connected(rc, why); },
-          .disconnected = [this](const std::string& why) { on_disconnected(why); },
-          .published = [this](int mid, int rc) { on_published(mid, rc); },
-          .message = nullptr});
+      MqttConnection::Callbacks{.connected = [this](int rc, const std::string& why) { on_connected(rc, why); },
+                                .disconnected = [this](const std::string& why) { on_disconnected(why); },
+                                .published = [this](int mid, int rc) { on_published(mid, rc); },
+                                .message = nullptr});
   backoff_ = Backoff{settings_.reconnect_min_s, settings_.reconnect_max_s};
   stats_.broker = settings_.connection.broker.url();
   stats_.state = "connecting";
   stats_.since = started_utc_;
   stats_.queued = journal_->size();
   if (journal_->taken_up() > 0)
-    log_->info("MQTT: {} message(s) left unsent by the last run are queued ({})", journal_->taken_up(), journal_->dir());
+    log_->info("MQTT: {} message(s) left unsent by the last run are queued ({})", journal_->taken_up(),
+               journal_->dir());
   thread_ = std::thread([this] { run(); });
 }
 
@@ -50,21 +60,41 @@ Publisher::~Publisher() {
 }
 
 void Publisher::publish(TopicLeaf leaf, std::string_view kind, std::string payload) {
-  JournalEntry e{topic_for(settings_.topic_prefix, settings_.machine, leaf, kind), std::move(payload), utc_now_iso_ms(),
-                 leaf == TopicLeaf::params || leaf == TopicLeaf::explain};
   {
     std::lock_guard lock(mutex_);
-    handed_over_.push_back(std::move(e));
-    // Bounded here too, should the thread be stuck (a name lookup that hangs): oldest first, counted.
-    while (handed_over_.size() > settings_.queue_max_messages) {
-      handed_over_.pop_front();
-      ++not_journaled_;
-      ++stats_.dropped;
-    }
-    ++stats_.queued;  // recounted by the publisher's thread (count_queue), which owns the journal
+    hand_over({topic_for(settings_.topic_prefix, settings_.machine, leaf, kind), std::move(payload), utc_now_iso_ms(),
+               true, JournalShare::results});
   }
-  wake_.notify_one();     // the thread waiting for a reconnect
-  connection_->wake();    // the thread waiting on the network
+  wake_.notify_one();   // the thread waiting for a reconnect
+  connection_->wake();  // the thread waiting on the network
+}
+
+void Publisher::publish_event(std::string payload, JournalShare share, std::string_view device) {
+  {
+    std::lock_guard lock(mutex_);
+    if (share == JournalShare::events && !rate_limit_.admit(device, mono_now_ns())) {
+      stats_.rate_limited = rate_limit_.held_back_total();
+      return;  // counted; said in one EVENT when the device's rate allows (take_handed_over)
+    }
+    hand_over({topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::event), std::move(payload),
+               utc_now_iso_ms(), false, share});
+  }
+  wake_.notify_one();
+  connection_->wake();
+}
+
+void Publisher::hand_over(JournalEntry e) {
+  handed_over_.push_back(std::move(e));
+  // Bounded here too, should the thread be stuck (a name lookup that hangs): the oldest of the first
+  // share in the order of eviction, as the journal does; counted.
+  while (handed_over_.size() > settings_.queue_max_messages) {
+    const auto first = std::min_element(handed_over_.begin(), handed_over_.end(),
+                                        [](const JournalEntry& a, const JournalEntry& b) { return a.share < b.share; });
+    ++not_handed_over_[static_cast<std::size_t>(first->share)];
+    handed_over_.erase(first);
+    ++stats_.dropped;
+  }
+  ++stats_.queued;  // recounted by the publisher's thread (count_queue), which owns the journal
 }
 
 void Publisher::publish_devices(std::string payload) {
@@ -104,19 +134,37 @@ void Publisher::set_state(const std::string& state, const std::string& error) {
 
 void Publisher::take_handed_over() {
   std::deque<JournalEntry> taken;
+  std::vector<EventRateLimit::HeldBack> held_back;
   {
     std::lock_guard lock(mutex_);
     taken.swap(handed_over_);
+    held_back = rate_limit_.take_held_back(mono_now_ns());
+  }
+  for (const EventRateLimit::HeldBack& h : held_back) {
+    log_->warn("MQTT: {} event(s) of device {} held back: more than {} a minute (events_per_minute)", h.count, h.source,
+               settings_.events_per_minute);
+    // After what was taken: those events were made before the held-back ones were counted.
+    if (settings_.held_back_event)
+      taken.push_back({topic_for(settings_.topic_prefix, settings_.machine, TopicLeaf::event),
+                       settings_.held_back_event(h.source, h.count), utc_now_iso_ms(), false, JournalShare::events});
   }
   for (const JournalEntry& e : taken) {
     try {
-      if (const std::size_t dropped = journal_->push(e); dropped > 0)
-        log_->warn("MQTT: journal full ({} messages, {} bytes at most): {} oldest message(s) dropped",
-                   settings_.queue_max_messages, settings_.queue_max_bytes, dropped);
+      const JournalDrops dropped = journal_->push(e);
+      for (std::size_t i = journal_share_count; i-- > 0;) {
+        if (dropped[i] == 0) continue;
+        const auto share = static_cast<JournalShare>(i);
+        // A result dropped is news; an event dropped for a result is the journal doing its job.
+        if (share == JournalShare::events)
+          log_->debug("MQTT: journal full: {} oldest event(s) dropped", dropped[i]);
+        else
+          log_->warn("MQTT: journal full ({} messages, {} bytes at most): {} oldest {} dropped",
+                     settings_.queue_max_messages, settings_.queue_max_bytes, dropped[i], to_string(share));
+      }
     } catch (const std::exception& ex) {  // disk full: the message is lost, and said so
       log_->error("MQTT: a message for {} could not be queued: {}", e.topic, ex.what());
       std::lock_guard lock(mutex_);
-      ++not_journaled_;
+      ++not_written_;
     }
   }
   std::lock_guard lock(mutex_);
@@ -125,7 +173,15 @@ void Publisher::take_handed_over() {
 
 void Publisher::count_queue() {
   stats_.queued = journal_->size() + handed_over_.size();
-  stats_.dropped = not_journaled_ + journal_->dropped();
+  const auto by_share = [&](JournalShare s) {
+    return journal_->dropped(s) + not_handed_over_[static_cast<std::size_t>(s)];
+  };
+  stats_.dropped_results = by_share(JournalShare::results);
+  stats_.dropped_transitions = by_share(JournalShare::transitions);
+  stats_.dropped_events = by_share(JournalShare::events);
+  stats_.rate_limited = rate_limit_.held_back_total();
+  stats_.dropped = stats_.dropped_results + stats_.dropped_transitions + stats_.dropped_events + stats_.rate_limited +
+                   journal_->unreadable() + not_written_;
 }
 
 void Publisher::send_next() {
@@ -199,7 +255,7 @@ void Publisher::on_connected(int reason_code, const std::string& why) {
   connected_ = true;
   backoff_.reset();
   last_logged_error_.clear();
-  inflight_mid_ = -1;  // sent again on this connection: QoS 1 may deliver twice, never out of order
+  inflight_mid_ = -1;       // sent again on this connection: QoS 1 may deliver twice, never out of order
   announce_online_ = true;  // sent from run(): libmosquitto holds its callback lock here
   {
     std::lock_guard lock(mutex_);
@@ -216,8 +272,9 @@ void Publisher::on_disconnected(const std::string& why) {
   if (stopping_) return;  // our own DISCONNECT at shutdown
   set_state("disconnected", why);
   if (was_connected) last_logged_error_ = why;
-  if (was_connected) log_->warn("MQTT: connection to {} lost: {}; messages are kept in {} until it is back",
-                                settings_.connection.broker.url(), why, journal_->dir());
+  if (was_connected)
+    log_->warn("MQTT: connection to {} lost: {}; messages are kept in {} until it is back",
+               settings_.connection.broker.url(), why, journal_->dir());
 }
 
 void Publisher::on_published(int mid, int reason_code) {
@@ -296,7 +353,8 @@ void Publisher::drain_before_exit() {
     connection_->loop(exit_loop_ms);
   }
   if (journal_->size() > 0)
-    log_->info("MQTT: {} message(s) not yet delivered stay in {} for the next start", journal_->size(), journal_->dir());
+    log_->info("MQTT: {} message(s) not yet delivered stay in {} for the next start", journal_->size(),
+               journal_->dir());
 }
 
 }  // namespace guideway::plant

@@ -1,5 +1,7 @@
 #include "report/svg.hpp"
 
+#include "core/printable.hpp"
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -303,8 +305,14 @@ std::string colormap(double t) {
 std::string xml_escape(std::string_view text) {
   std::string out;
   out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
+  // Control characters (but tab and line ends), C1 and bytes that are not UTF-8 as printable()'s visible
+  // escapes: XML forbids them, and a broker's ESC or BEL would otherwise reach whoever reads the page.
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t end = text.find_first_of("\t\n\r&<>\"'", i);
+    const std::string_view run = text.substr(i, end == std::string_view::npos ? std::string_view::npos : end - i);
+    out += printable(run);
+    if (end == std::string_view::npos) break;
+    switch (text[end]) {
       case '&':
         out += "&amp;";
         break;
@@ -321,8 +329,9 @@ std::string xml_escape(std::string_view text) {
         out += "&#39;";
         break;
       default:
-        out += c;
+        out += text[end];  // tab, line end
     }
+    i = end + 1;
   }
   return out;
 }

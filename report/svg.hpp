@@ -18,7 +18,8 @@
 
 namespace guideway::report {
 
-// Text for XML content and attribute values (& < > " ').
+// Text for XML content and attribute values (& < > " '); control characters other than tab and line
+// ends, C1 and bytes that are not UTF-8 become printable()'s visible escapes (\x1b).
 [[nodiscard]] std::string xml_escape(std::string_view text);
 
 // Tick positions for the range [lo, hi]: multiples of a 1-2-5 step, about `target` of them, covering

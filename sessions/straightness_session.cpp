@@ -47,6 +47,9 @@ StraightnessOptions parse_options(const nlohmann::json& o) {
   s.settle_rad = number_option(o, results::straightness_settle_arcsec) * models::flatness::rad_per_arcsec;
   s.pitch_channel = string_option(o, results::straightness_pitch_channel);
   s.yaw_channel = string_option(o, results::straightness_yaw_channel);
+  if (s.yaw_channel == s.pitch_channel)  // one reading taken for both planes' angles would be a wrong result
+    throw std::invalid_argument("options pitch_channel and yaw_channel name the same channel \"" + s.pitch_channel +
+                                "\": the pitch and the yaw are two readings (yaw_channel = \"\" for none)");
   for (const results::SessionOption* sign : {&results::straightness_pitch_sign, &results::straightness_yaw_sign}) {
     const double v = number_option(o, *sign);
     if (v != 1.0 && v != -1.0) throw std::invalid_argument("option " + std::string(sign->name) + " must be 1 or -1");

@@ -195,7 +195,9 @@ def main():
                             (["--center-mm", "1e300", "0"], "not a machine position"),
                             (["--step-mm", "1e-300"], "LinuxCNC reads at most 256"),
                             (["--step-mm", "nan"], "not a finite number"),
-                            (["--step-mm", "inf"], "not a finite number")):
+                            (["--step-mm", "inf"], "not a finite number"),
+                            # Issue 46 item 9: a one-line x.comp was written.
+                            (["--step-mm", "1e300"], "is over the circle's radius of 100 mm")):
             given = [bare, bare_cw] if args[0] == "--center-mm" else runs
             r = subprocess.run([exe, "compensate", "dbb", *given, "--out-dir", os.path.join(d, "c3"), *args],
                                capture_output=True, text=True, timeout=30)

@@ -15,11 +15,14 @@
 #include <sstream>
 #include <tuple>
 
+#include "core/atomic_file.hpp"
 #include "formats/compensation_files.hpp"
 #include "models/compensation/compensation.hpp"
+#include "models/compensation/verification.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "simulators/machine/dbb_runs.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -459,8 +462,7 @@ TEST_P(CompensationVerifyTest, TablesCutGAndLeaveCompensatedTermsInTheNoise) {
   const auto identify = [&](const std::vector<formats::DbbRun>& r) {
     return drifting ? models::explain::identify_checked(r).id : models::dbb::identify(r);
   };
-  const auto checked =
-      drifting ? models::explain::identify_checked(runs) : models::explain::CheckedIdentification{};
+  const auto checked = drifting ? models::explain::identify_checked(runs) : models::explain::CheckedIdentification{};
   const auto id = drifting ? checked.id : models::dbb::identify(runs);
   const auto map =
       drifting ? models::compensation::error_map(checked, runs) : models::compensation::error_map(id, runs);
@@ -779,4 +781,58 @@ TEST(CompensationVerifyTest, SpikesAfterABacklashTableAreTheTablesStepNotStictio
   ASSERT_EQ(stuck.size(), 2u);
   EXPECT_GT(stuck[0].second, 3) << "X's stiction is still there";
   EXPECT_FALSE(stuck[0].first) << "stiction is not the tables' step";
+}
+
+// A file refused in one plane is loaded in none, so the planes together must hold with what that leaves
+// (issue 46, e2e_three_plane_test under load: a plane's G grew with the set called fit to load). Every
+// axis 50 ppm long: the xy and xz circles show no scale mismatch. The xz plane, given x.comp alone, refuses
+// it (X shorter than Z); the xy plane, given x.comp and y.comp, takes both; with x.comp refused, y.comp
+// alone makes Y shorter than X in the xy plane and must be refused there too.
+TEST(CompensationVerifyTest, PlanesTogetherRefuseWhatTheOtherPlanesRefusalsMakeWorse) {
+  simulators::machine::MachineConfig cfg;
+  for (auto& a : cfg.axis) a.scale = 50e-6;
+  const test::TempDir dir;
+  std::vector<formats::CompTriplet> table;
+  for (int k = -15; k <= 15; ++k) table.push_back({10.0 * k, 10.0 * k * (1 + 50e-6), 10.0 * k * (1 + 50e-6)});
+  for (const char* name : {"x.comp", "y.comp"})
+    write_file_atomically(dir.file(name), formats::format_linuxcnc_comp(table, {}));
+  namespace comp = models::compensation;
+  const simulators::machine::Machine m(cfg);
+  std::vector<comp::Verification> vs;
+  std::vector<comp::Retrace> retraces;
+  std::vector<comp::ErrorMap> maps(2);
+  for (const auto& [plane, axes] : {std::pair{simulators::machine::Plane::xy, std::vector<std::string>{"x", "y"}},
+                                    std::pair{simulators::machine::Plane::xz, std::vector<std::string>{"x"}}}) {
+    const auto runs = pair_of(m, {0.0, 0.0, 0.0}, 2000, plane, 100.0);
+    maps[vs.size()].plane = plane == simulators::machine::Plane::xy ? "xy" : "xz";
+    retraces.push_back(simulators::machine::dbb_retrace(cfg, runs));
+    comp::Verification& v = vs.emplace_back();
+    for (const auto& a : axes)
+      v.corrections.push_back(
+          {a + ".comp", comp::Correction::Kind::table, dir.file(a + ".comp"), comp::joint_of(a), "", 0.0});
+    v.before.runs.resize(runs.size());  // named in a refusal's reason
+    std::vector<const comp::Correction*> set;
+    for (const auto& c : v.corrections) set.push_back(&c);
+    const auto [before, after] = retraces.back().before_and_after(set, v.center_m);
+    v.g_before = v.g_before_measured = comp::g_of_runs(before);
+    std::vector<double> g = comp::g_of_runs(after);
+    const auto g_of = [&](const std::vector<const comp::Correction*>& s) {
+      return comp::g_of_runs(retraces.back().with(s, v.center_m));
+    };
+    v.refused = comp::refuse_growth(v.g_before, set, g, g_of, [](std::size_t k) { return std::to_string(k); });
+    for (const auto* c : set) v.loadable.push_back(c->file);
+    v.g_loadable = v.g_loadable_measured = g;
+  }
+  ASSERT_TRUE(vs[0].refused.empty()) << "x.comp and y.comp together keep the xy plane's circle round";
+  ASSERT_EQ(vs[1].refused.size(), 1u);
+  EXPECT_EQ(vs[1].refused[0].file, "x.comp");
+  const comp::Verification all = comp::together(maps, vs, retraces);
+  EXPECT_TRUE(comp::refused(all.refused, "x.comp"));
+  EXPECT_TRUE(comp::refused(all.refused, "y.comp")) << "y.comp alone makes the xy circle an ellipse";
+  EXPECT_TRUE(all.loadable.empty());
+  ASSERT_EQ(all.g_loadable.size(), all.g_before.size()) << "every plane traced with the union's set";
+  for (std::size_t k = 0; k < all.g_before.size(); ++k) EXPECT_LE(all.g_loadable[k], all.g_before[k] + 5e-4) << k;
+  const auto g_y = comp::g_of_runs(retraces[0].with({&vs[0].corrections[1]}, vs[0].center_m));
+  for (std::size_t k = 0; k < g_y.size(); ++k)
+    EXPECT_GT(g_y[k], vs[0].g_before[k] + 0.5) << "y.comp alone grows the xy plane's G (run " << k << ")";
 }

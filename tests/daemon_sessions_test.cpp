@@ -427,6 +427,9 @@ TEST(SessionOptions, BadOptionsAreRefusedWithTheirName) {
   expect_refused([&] { s.create({"straightness", "", {{"start", "later"}}}, ac); }, "start");
   expect_refused([&] { s.create({"straightness", "", {{"pitch_channel", "nope"}}}, ac); }, "nope");
   expect_refused([&] { s.create({"straightness", "", {{"stepmm", 1}}}, ac); }, "stepmm");
+  // Issue 46 item 12: one channel read for both angles.
+  expect_refused([&] { s.create({"straightness", "", {{"pitch_channel", "angle_y"}, {"yaw_channel", "angle_y"}}}, ac); },
+                 "pitch_channel and yaw_channel name the same channel \"angle_y\"");
   expect_refused([&] { r.create({"runout", "", {{"plate_diameter_mm", "big"}}}, mm); }, "plate_diameter_mm");
   expect_refused([&] { r.create({"runout", "", {{"rpm", 0}}}, mm); }, "rpm");
   expect_refused([&] { p.create({"profile", "", {{"wavelet", "db99"}}}, pf); }, "wavelet");

@@ -13,6 +13,7 @@
 #include <sys/socket.h>
 #include <sys/un.h>
 
+#include <algorithm>
 #include <cstring>
 #include <thread>
 
@@ -80,6 +81,62 @@ TEST(Daemon, SurvivesMalformedUnknownAndOversizedRequests) {
   // The connection is still usable and answers normally.
   auto v = c.request({{"class", "version"}}, guideway::results::MessageClass::version);
   EXPECT_EQ(v["class"], "VERSION");
+}
+
+// Issue 46 item 11: a request longer than the limit and no newline after it (a client that never sends
+// one) is answered as soon as the limit is passed, once; the line's rest is discarded up to its newline.
+TEST(Daemon, ALongRequestWithoutANewlineIsAnsweredAtOnce) {
+  RunningDaemon rd;
+  const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un a{};
+  a.sun_family = AF_UNIX;
+  std::strncpy(a.sun_path, rd.socket.c_str(), sizeof(a.sun_path) - 1);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+  const std::string big(20000, 'x');
+  ASSERT_EQ(write(fd, big.data(), big.size()), static_cast<ssize_t>(big.size()));
+  std::string got;
+  const auto read_lines = [&](std::size_t lines) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+    while (static_cast<std::size_t>(std::count(got.begin(), got.end(), '\n')) < lines &&
+           std::chrono::steady_clock::now() < deadline) {
+      char buf[4096];
+      const ssize_t n = recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+      if (n > 0) got.append(buf, static_cast<std::size_t>(n));
+      else std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  };
+  read_lines(2);  // the banner, then the ERROR, with no newline sent
+  ASSERT_EQ(std::count(got.begin(), got.end(), '\n'), 2) << got;
+  const auto error = nlohmann::json::parse(got.substr(got.find('\n') + 1));
+  EXPECT_EQ(error["class"], "ERROR");
+  EXPECT_EQ(error["message"].get<std::string>().rfind("request of more than 16384 bytes (no end of line after ", 0), 0u)
+      << error;
+  const std::string rest = std::string(5000, 'y') + "\n{\"class\":\"version\"}\n";  // the line ends, then one more
+  ASSERT_EQ(write(fd, rest.data(), rest.size()), static_cast<ssize_t>(rest.size()));
+  read_lines(3);
+  ASSERT_EQ(std::count(got.begin(), got.end(), '\n'), 3) << got;
+  const std::string last = got.substr(got.rfind('\n', got.size() - 2) + 1);
+  EXPECT_EQ(nlohmann::json::parse(last)["class"], "VERSION") << "one reply for the long line, no second ERROR";
+  close(fd);
+}
+
+// Issue 46 item 11: a numeric id is echoed as sent; one a double cannot hold (it came back as
+// 1.2345678901234568e+29) is refused, saying so.
+TEST(Daemon, ANumberIdIsEchoedExactlyOrRefused) {
+  RunningDaemon rd;
+  DaemonClient c(rd.socket);
+  c.send_line(R"({"class":"version","id":123456789012345678901234567890})");
+  auto e = nlohmann::json::parse(*c.read_line(std::chrono::seconds(5)));
+  EXPECT_EQ(e["class"], "ERROR");
+  EXPECT_FALSE(e.contains("id"));
+  EXPECT_EQ(e["message"], "\"id\" 123456789012345678901234567890 cannot be echoed exactly: a number id has at most 15 "
+                          "significant digits or is a 64-bit integer (send a longer one as a string)");
+  c.send_line(R"({"class":"version","id":18446744073709551615})");
+  EXPECT_NE(c.read_line(std::chrono::seconds(5))->find(R"("id":18446744073709551615)"), std::string::npos);
+  c.send_line(R"({"class":"version","id":0.1})");
+  EXPECT_NE(c.read_line(std::chrono::seconds(5))->find(R"("id":0.1)"), std::string::npos);
+  c.send_line(R"({"class":"version","id":1e21})");
+  EXPECT_EQ(nlohmann::json::parse(*c.read_line(std::chrono::seconds(5)))["id"], 1e21);
 }
 
 TEST(Daemon, EveryLineGetsOneReplyAndARefusedOneKeepsItsId) {

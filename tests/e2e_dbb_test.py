@@ -141,6 +141,17 @@ class DaemonCase(unittest.TestCase):
                 self.assertEqual(m["class"], reply_class, f"docs/protocol.md's example {example} got {m}")
                 if example["class"] == "start":
                     started = m["session"]
+                if example["class"] == "stop":
+                    # The requests after it ask for the latest results: those of the stopped session once
+                    # it is finished (while it is, they say so: pending_session), so wait for that.
+                    def finished():
+                        st = json.loads(self.cli("status", "--json"))
+                        return all(x["state"] not in ("running", "finishing") for x in st.get("sessions", [])
+                                   if x["session"] == started)
+                    deadline = time.monotonic() + 60
+                    while not finished():
+                        self.assertLess(time.monotonic(), deadline, "the stopped session did not finish")
+                        time.sleep(0.2)
             self.assertIsNotNone(started, "docs/protocol.md has no start example")
 
     def request_when_ready(self, request_class, reply_class, timeout_s=120):

@@ -13,9 +13,10 @@ simulation shows with them taken out of the file: squareness XZ 20 and YZ -25 ur
 the scale mismatches XZ and YZ), and backlash Z 2 um directly (nothing else reads as it), from both
 vertical planes in agreement. Absolute scales carry the servo lag's radial shrink (30 ms on every axis:
 v^2 tau^2 / (2 r^2), -112 ppm at 3000 mm/min) on every axis alike; the mismatches do not.
-Usage: e2e_three_plane_test.py BUILD_DIR"""
+Usage: e2e_three_plane_test.py BUILD_DIR (GUIDEWAY_TEST_KEEP_DIR=DIR: its temporary directory copied there)"""
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -33,6 +34,9 @@ class ThreePlaneLive(unittest.TestCase):
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory(prefix="gw3p-")
         self.addCleanup(self.tmp.cleanup)
+        if os.environ.get("GUIDEWAY_TEST_KEEP_DIR"):  # the session, its recording and the files, to look at after
+            self.addCleanup(shutil.copytree, self.tmp.name, os.environ["GUIDEWAY_TEST_KEEP_DIR"], dirs_exist_ok=True,
+                           ignore=shutil.ignore_patterns("*.sock"))
         default = subprocess.run([GUIDEWAYD, "--print-default-config"], capture_output=True, text=True,
                                  check=True).stdout
         program = f'"--program", "three-plane", "--feed-mm-min", "{FEED_MM_PER_MIN}"'
@@ -104,8 +108,12 @@ class ThreePlaneLive(unittest.TestCase):
             b = s["backlash"][f"backlash_{axis}_um"]
             check(f"backlash {axis.upper()} um", b["value"], b["u"], truth, k=4.0)
         z = s["backlash"]["backlash_z_um"]
-        self.assertTrue(z["consistent"], z)
         self.assertEqual(sorted(f["plane"] for f in z["from"]), ["xz", "yz"])
+        # Both vertical planes give Z's backlash, in agreement within 4 combined u. Not `consistent`, the
+        # summary's 2 u flag: quietly the emulated session is the same every time, but under load which
+        # samples arrive varies (3-15 % lost) and a 2 u test of honest figures fails one session in twenty.
+        a, b = z["from"]
+        self.assertLess(abs(a["value"] - b["value"]), 4 * (a["u"] ** 2 + b["u"] ** 2) ** 0.5, z)
         print("\n".join(report))
         if failures:  # what the identification fitted beside and noted, to tell a gappy session from the models
             for plane in ("xy", "xz", "yz"):
@@ -127,8 +135,20 @@ class ThreePlaneLive(unittest.TestCase):
         for name in ("x.comp", "y.comp", "z.comp"):
             self.assertTrue(os.path.exists(os.path.join(comp, name)) or
                             os.path.exists(os.path.join(comp, name + ".do-not-load")), c["files"])
-        for p in c["verify"]["planes"]:
-            self.assertLess(p["g_after_um"], p["g_before_um"], p["plane"])
+        v = c["verify"]
+        why = json.dumps({"do_not_load": v["do_not_load"], "loadable": v["loadable"],
+                          "planes": [{k: p.get(k) for k in ("plane", "g_before_um", "g_tables_um", "g_tables_skew_um",
+                                                            "g_after_um", "g_less", "g_before_runs_um", "loadable",
+                                                            "g_loadable_um")} for p in v["planes"]]}, indent=1)
+        # What the planes together leave fit to load was traced on every plane: no run of it grows, and each
+        # plane's largest G falls. (G with every file, refused ones too, may grow: under load a figure the
+        # planes disagree on is not written, X's scale, and y.comp's scale, mostly the servo lag's shrink
+        # every axis shares, then makes the XY circle an ellipse: y.comp is refused, rightly.)
+        for p in v["planes"]:
+            self.assertEqual(len(p["g_loadable_um"]), len(p["g_before_runs_um"]), why)
+            for before, loadable in zip(p["g_before_runs_um"], p["g_loadable_um"]):
+                self.assertLessEqual(loadable, before + 5e-4, p["plane"] + ": " + why)
+            self.assertLess(max(p["g_loadable_um"]), max(p["g_before_runs_um"]), p["plane"] + ": " + why)
 
     def without_vertical_errors(self):
         """config/machine-example.toml without what only the vertical planes see of it."""

@@ -749,6 +749,11 @@ TEST(FleetView, ControlCharactersFromTheBrokerNeverReachTheTerminal) {
     EXPECT_NE(text.find("\\x1b[2J"), std::string::npos) << text;
   }
   EXPECT_NE(status.find("spike\\x1b"), std::string::npos) << status;
+  // The HTML report too (issue 46 item 10: it copied the raw bytes): visible escapes, like the text views.
+  const std::string html = render_fleet_report(s, FleetReportOptions{});
+  EXPECT_EQ(html.find('\x1b'), std::string::npos);
+  EXPECT_EQ(html.find('\x07'), std::string::npos);
+  EXPECT_NE(html.find("spike\\x1b[2J\\x1b]0;owned\\x07"), std::string::npos);
 }
 
 TEST(FleetView, AgesInTheFutureHugeValuesAndOneAnchorPerMachine) {

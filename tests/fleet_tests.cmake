@@ -11,3 +11,7 @@ set_tests_properties(fleet_cli_test PROPERTIES LABELS integration TIMEOUT 180)
 add_test(NAME fleet_delivery_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/fleet_delivery_test.py ${PROJECT_BINARY_DIR})
 set_tests_properties(fleet_delivery_test PROPERTIES LABELS integration TIMEOUT 300 SKIP_RETURN_CODE 77)
+# fleet serve against a broker that accepts and says nothing, or no SUBACK (issue 46 items 8 and 13).
+add_test(NAME fleet_serve_silent_broker_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/fleet_serve_silent_broker_test.py ${PROJECT_BINARY_DIR})
+set_tests_properties(fleet_serve_silent_broker_test PROPERTIES LABELS integration TIMEOUT 120)

@@ -133,6 +133,31 @@ TEST(InstrumentConfig, BadValuesAreErrorsNamingFileLineAndKey) {
             std::string::npos);
 }
 
+// Issue 46 items 5 and 6: what --check-config passed and the daemon then streamed or refused every start on.
+TEST(InstrumentConfig, ImplausibleCalibrationsAreErrorsAtTheirLine) {
+  EXPECT_EQ(config_error(dbb_device("calibrated_length_mm = 1e308\n")),
+            "t.toml:4: device[0].calibrated_length_mm: 1e+308 mm is over 3000 mm, a ballbar's length (with extensions)");
+  EXPECT_EQ(config_error(dbb_device("calibrated_length_mm = 100\ncalibrated_length_u_um = 1e300\n")),
+            "t.toml:5: device[0].calibrated_length_u_um: 1e+300 um is over 1000 um: a bar known no better than a "
+            "millimetre is not calibrated");
+  EXPECT_EQ(config_error(dbb_device("calibrated_on = 9999-12-31\n")).rfind(
+                "t.toml:4: device[0].calibrated_on: 9999-12-31 is after today (", 0),
+            0u);
+  EXPECT_EQ(config_error(dbb_device("calibrated_on = 2023-01-10\ncalibration_due = 9999-12-31\n")),
+            "t.toml:5: device[0].calibration_due: 9999-12-31 is more than 10 years after calibrated_on (2023-01-10): "
+            "no certificate runs that long");
+  EXPECT_EQ(config_error(dbb_device("serial = \"\"\n")),
+            "t.toml:4: device[0].serial: is empty: state it as on the instrument's plate or certificate, or leave the "
+            "key out");
+  EXPECT_EQ(config_error(dbb_device("calibration_certificate = \" \"\n")).rfind(
+                "t.toml:4: device[0].calibration_certificate: is empty", 0),
+            0u);
+  EXPECT_EQ(config_error("[daemon]\nrefuse_uncalibrated = true\n" + dbb_device("serial = \"1001\"\n")),
+            "t.toml:2: daemon.refuse_uncalibrated: every session would be refused on device(s) dbb: no calibration_due "
+            "is stated (state calibrated_on and calibration_due in their [[device]] tables, or set "
+            "refuse_uncalibrated = false)");
+}
+
 TEST(InstrumentRecording, TheHeaderKeysAreWrittenAndReadBack) {
   test::TempDir dir;
   formats::RawRecordingHeader h;

@@ -2,7 +2,8 @@
 """guidewayd publishing to a real MQTT broker, and the fleet process storing it (Debian's mosquitto on a loopback port; docs/plant.md):
 a DBB session's PARAMS arrives retained; the broker killed mid-session and restarted loses nothing
 and keeps the order (the broker's stream equals what a socket client saw); messages queued while the
-broker is down survive a restart of the daemon; a SIGKILLed daemon is shown offline by its will;
+broker is down survive a restart of the daemon; a flood of EMCYs with the broker down leaves a session's
+PARAMS and EXPLAIN in the journal (issue 46 item 2); a SIGKILLed daemon is shown offline by its will;
 TLS with a password login works, and a wrong password is reported in STATUS and the log while the
 daemon keeps running; the ACL of docs/plant.md refuses an impostor; a bad [mqtt] table is a config
 error at its line. Then the plant: two daemons on different emulated machines and `guideway fleet
@@ -28,6 +29,7 @@ from process_support import guideway_cli, run_unittests, wait_for  # noqa: E402
 BUILD = sys.argv.pop(1) if len(sys.argv) > 1 else "build"
 GUIDEWAYD = os.path.join(BUILD, "daemon", "guidewayd")
 GUIDEWAY = os.path.join(BUILD, "cli", "guideway")
+EMULATE = os.path.join(BUILD, "simulators", "emulators", "guideway-emulate")
 SKIP = mqtt_broker.missing()
 
 SOURCE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -41,14 +43,14 @@ PLANT_DOC = os.path.join(SOURCE, "docs", "plant.md")
 class Daemon:
     """guidewayd with the DBB emulator and an [mqtt] table, in `directory`."""
 
-    def __init__(self, directory, mqtt_table, name="d", daemon_table=""):
+    def __init__(self, directory, mqtt_table, name="d", daemon_table="", device=DBB_DEVICE):
         self.dir = directory
         self.sock = os.path.join(directory, name + ".sock")
         self.config = os.path.join(directory, name + ".toml")
         with open(self.config, "w") as f:
             f.write(f'[daemon]\nsocket = "{self.sock}"\nstate_dir = "{directory}/{name}-state"\nstatus_period_s = 0.5\n')
             f.write(daemon_table)
-            f.write(DBB_DEVICE + "\n[mqtt]\n" + mqtt_table)
+            f.write(device + "\n[mqtt]\n" + mqtt_table)
         self.log_path = os.path.join(directory, name + ".log")
         self.start()
 
@@ -233,6 +235,72 @@ class MqttPublishing(BrokerCase):
         self.assertEqual([e["event"] for e in events[:first_run]].count("streaming"), 1, events)
         self.assertEqual(os.listdir(journal), [])
 
+    def test_a_sessions_results_survive_an_emcy_flood_with_the_broker_down(self):
+        """Issue 46 item 2: broker down, queue_max_messages = 100, a session, then 150 EMCYs of one node:
+        the session's PARAMS and EXPLAIN stay in the journal and reach the broker when it is back."""
+        broker = self.broker()
+        broker.kill()
+        can = os.path.join(self.d, "can.sock")
+        emulator = subprocess.Popen([EMULATE, "dbb", "--bus", "unix:" + can, "--program", "single", "--feed-mm-min",
+                                     "5000", "--pause-s", "0.5"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                    stderr=subprocess.DEVNULL, text=True, bufsize=1)
+
+        def stop_emulator():
+            emulator.kill()
+            emulator.wait()
+            emulator.stdin.close()
+            emulator.stdout.close()
+        self.cleanup.append(stop_emulator)
+        self.assertEqual(emulator.stdout.readline().strip(), "bus: unix:" + can)
+        self.assertEqual(emulator.stdout.readline().strip(), "endpoint: unix:" + can)
+        device = DBB_DEVICE[DBB_DEVICE.index("[[device]]"):].replace('"emulator:can"', '"unix:%s"' % can)
+        d = Daemon(self.d, f'broker = "mqtt://127.0.0.1:{broker.port}"\nmachine = "mill-6"\n'
+                   'queue_max_messages = 100\nreconnect_max_s = 2\n', name="flood", device=device)
+        self.cleanup.append(d.stop)
+        self.assertTrue(wait_for(lambda: d.status()["devices"][0]["state"] == "streaming", timeout=30), d.status())
+        out = d.cli("start", "dbb", "--set", 'patterns=[{"radius_mm":100,"height_mm":0,"direction":"ccw"}]',
+                    "--set", "feed_mm_per_min=5000", "--wait", "--json", "--timeout", "120", timeout=150)
+        session = json.loads(out.splitlines()[-1])["session"]
+        journal = os.path.join(self.d, "flood-state", "mqtt-journal")
+
+        def journaled():
+            found = []
+            for name in sorted(os.listdir(journal)):
+                try:
+                    with open(os.path.join(journal, name), "rb") as f:
+                        payload = f.read().split(b"\n", 4)[4]
+                except (OSError, IndexError):
+                    continue  # sent meanwhile, or a .part
+                message = json.loads(payload)
+                found.append((message["class"], message.get("session", ""), message.get("event", "")))
+            return found
+
+        self.assertTrue(wait_for(lambda: ("EXPLAIN", session, "") in journaled(), timeout=120), journaled())
+        for _ in range(150):
+            emulator.stdin.write("emcy 1 0x8130 0x11\n")
+            emulator.stdin.flush()
+            reply = emulator.stdout.readline()
+            self.assertTrue(reply.startswith("ok"), reply)
+        self.assertTrue(wait_for(lambda: d.status()["devices"][0]["driver_counters"]["emcy"] >= 150, timeout=30),
+                        d.status()["devices"][0]["driver_counters"])
+        self.assertTrue(wait_for(lambda: [e for e in journaled() if e[2] == "node_emcy"], timeout=10))
+        time.sleep(1)  # the publisher's thread takes what was handed over
+        left = journaled()
+        self.assertIn(("PARAMS", session, ""), left)
+        self.assertIn(("EXPLAIN", session, ""), left)
+        self.assertLessEqual(len(left), 100)
+        self.assertLessEqual(sum(1 for e in left if e[2] in ("node_emcy", "events_dropped")), 25, left)
+        m = d.mqtt()
+        self.assertEqual((m["dropped_results"], m["dropped_transitions"]), (0, 0), m)
+        self.assertGreater(m["rate_limited"], 0, m)
+
+        broker.start()
+        self.assertTrue(wait_for(lambda: d.mqtt()["queued"] == 0, timeout=60), d.mqtt())
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-6/params/dbb"))["session"], session)
+        self.assertEqual(json.loads(mqtt_broker.retained(broker, "guideway/mill-6/explain/dbb"))["session"], session)
+        # The held-back EMCYs are counted in events_dropped EVENTs (the log says so too).
+        self.assertIn("held back: more than 60 a minute", d.log_text())
+
     def test_tls_with_a_password_and_a_wrong_password(self):
         ca, cert, key = mqtt_broker.make_certificates(self.d)
         broker = self.broker(tls=(ca, cert, key), users={"mill-3": "s3cret"})
@@ -315,6 +383,8 @@ class MqttPublishing(BrokerCase):
             ('broker = "mqtt://b"\nmachine = "' + "m" * 70000 + '"\n', "mqtt.machine", "at most 128"),
             ('broker = "mqtt://b"\nclient_id = "' + "c" * 70000 + '"\n', "mqtt.client_id", "at most 256"),
             ('broker = "mqtt://b"\n', "daemon.state_dir", "MQTT journal", '[daemon]\nstate_dir = "/etc/passwd/state"\n'),
+            ('broker = "mqtt://b"\nqueue_events_percent = 0\n', "mqtt.queue_events_percent", "[1, 100]"),
+            ('broker = "mqtt://b"\nevents_per_minute = 1e9\n', "mqtt.events_per_minute", "60000"),
         ]
         for table, key, words, *daemon_table in cases:
             path = os.path.join(self.d, "bad.toml")

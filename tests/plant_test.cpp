@@ -1,14 +1,18 @@
 // plant/: the MQTT topic tree, broker addresses and the publisher's on-disk journal (its bounds, its
-// survival across a restart, files a crash cut short). The publisher against a real broker is
+// order of eviction by share, its survival across a restart, files a crash cut short) and the events'
+// rate limit. The publisher against a real broker is
 // tests/mqtt_daemon_test.py.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <random>
 
 #include "core/printable.hpp"
 #include "plant/broker_address.hpp"
+#include "plant/event_rate_limit.hpp"
 #include "plant/message_journal.hpp"
 #include "plant/mqtt_codec.hpp"
 #include "plant/topics.hpp"
@@ -118,10 +122,15 @@ TEST(BrokerAddress, SchemesPortsAndHosts) {
   }
 }
 
-JournalEntry entry(int i, std::size_t payload_bytes = 10) {
+JournalEntry entry(int i, std::size_t payload_bytes = 10, JournalShare share = JournalShare::results) {
   return {"guideway/m/event", std::to_string(i) + std::string(payload_bytes, 'x'), "2026-11-26T10:00:00.000Z",
-          i % 2 == 0};
+          i % 2 == 0, share};
 }
+
+// Bounds without a share of their own for events.
+JournalBounds bounds(std::size_t messages, std::size_t bytes) { return {messages, bytes, messages, bytes}; }
+
+std::uint64_t total(const JournalDrops& d) { return d[0] + d[1] + d[2]; }
 
 std::vector<std::string> drain(MessageJournal& j) {
   std::vector<std::string> out;
@@ -136,14 +145,14 @@ TEST(MessageJournal, KeepsTheOrderAcrossARestart) {
   TempDir dir;
   const std::string path = dir.file("journal");
   {
-    MessageJournal j(path, 100, 1 << 20);
-    for (int i = 0; i < 5; ++i) EXPECT_EQ(j.push(entry(i)), 0u);
+    MessageJournal j(path, bounds(100, 1 << 20));
+    for (int i = 0; i < 5; ++i) EXPECT_EQ(total(j.push(entry(i))), 0u);
     j.pop_front();
     EXPECT_EQ(j.size(), 4u);
   }
   EXPECT_EQ(std::filesystem::status(path).permissions() & std::filesystem::perms::all,
             std::filesystem::perms::owner_all);
-  MessageJournal j(path, 100, 1 << 20);
+  MessageJournal j(path, bounds(100, 1 << 20));
   EXPECT_EQ(j.taken_up(), 4u);
   j.push(entry(5));
   const auto front = j.front();
@@ -157,28 +166,125 @@ TEST(MessageJournal, KeepsTheOrderAcrossARestart) {
 
 TEST(MessageJournal, DropsTheOldestPastItsBoundsAndSaysHowMany) {
   TempDir dir;
-  MessageJournal by_count(dir.file("a"), 3, 1 << 20);
+  MessageJournal by_count(dir.file("a"), bounds(3, 1 << 20));
   std::size_t dropped = 0;
-  for (int i = 0; i < 5; ++i) dropped += by_count.push(entry(i));
+  for (int i = 0; i < 5; ++i) dropped += total(by_count.push(entry(i)));
   EXPECT_EQ(dropped, 2u);
   EXPECT_EQ(drain(by_count), (std::vector<std::string>{"2", "3", "4"}));
 
-  MessageJournal by_bytes(dir.file("b"), 1000, 1000);
+  MessageJournal by_bytes(dir.file("b"), bounds(1000, 1000));
   dropped = 0;
-  for (int i = 0; i < 10; ++i) dropped += by_bytes.push(entry(i, 300));
+  for (int i = 0; i < 10; ++i) dropped += total(by_bytes.push(entry(i, 300)));
   EXPECT_LE(by_bytes.bytes(), 1000u);
   EXPECT_EQ(dropped + by_bytes.size(), 10u);
   EXPECT_EQ(drain(by_bytes).back(), "9");
   // One message over the byte bound alone is kept: the bound is on the backlog.
-  EXPECT_EQ(by_bytes.push(entry(10, 5000)), 0u);
+  EXPECT_EQ(total(by_bytes.push(entry(10, 5000))), 0u);
   EXPECT_EQ(by_bytes.size(), 1u);
+}
+
+// Issue 46 item 2: broker down, queue_max_messages = 100, a session's PARAMS and EXPLAIN, then any number
+// of a device's events: the results stay, in their place in the order; the events keep their share.
+TEST(MessageJournal, ASessionsResultsSurviveAnyNumberOfEvents) {
+  TempDir dir;
+  for (const int events : {150, 1000, 20000}) {
+    const std::string path = dir.file("j" + std::to_string(events));
+    {
+      MessageJournal j(path, {100, 1 << 20, 25, 1 << 18});
+      j.push(entry(0, 10, JournalShare::transitions));  // the device streaming
+      j.push(entry(1, 4000));                           // PARAMS
+      j.push(entry(2, 9000));                           // EXPLAIN
+      for (int i = 0; i < events; ++i) j.push(entry(3 + i, 40, JournalShare::events));
+      EXPECT_EQ(j.dropped(JournalShare::results), 0u);
+      EXPECT_EQ(j.dropped(JournalShare::transitions), 0u);
+      EXPECT_EQ(j.dropped(JournalShare::events), static_cast<std::uint64_t>(events - 25));
+      EXPECT_EQ(j.size(JournalShare::events), 25u);
+    }
+    MessageJournal j(path, {100, 1 << 20, 25, 1 << 18});  // and so after a restart, shares and all
+    EXPECT_EQ(j.size(JournalShare::results), 2u);
+    EXPECT_EQ(j.size(JournalShare::transitions), 1u);
+    const std::vector<std::string> order = drain(j);
+    ASSERT_EQ(order.size(), 28u);
+    EXPECT_EQ(std::vector<std::string>(order.begin(), order.begin() + 4),
+              (std::vector<std::string>{"0", "1", "2", std::to_string(3 + events - 25)}));
+    EXPECT_EQ(order.back(), std::to_string(2 + events));
+  }
+}
+
+// Property: whatever comes in whatever order under whatever bounds, a message is dropped only for one of
+// its own share or when no share evicted before it has a message; the events keep within their share,
+// the whole within its bounds, and what is left leaves in the order it came.
+TEST(MessageJournal, TheOrderOfEvictionHoldsForAnyMix) {
+  TempDir dir;
+  std::mt19937 rng(46);
+  for (int round = 0; round < 40; ++round) {
+    const JournalBounds b{1 + rng() % 30, 200 + rng() % 3000, 1 + rng() % 10, 100 + rng() % 1000};
+    MessageJournal j(dir.file("r" + std::to_string(round)), b);
+    std::vector<int> expected;  // what is left, in order
+    std::vector<JournalShare> share_of;
+    for (int i = 0; i < 200; ++i) {
+      const auto share = static_cast<JournalShare>(rng() % journal_share_count);
+      const std::array<std::size_t, journal_share_count> before = {
+          j.size(JournalShare::events), j.size(JournalShare::transitions), j.size(JournalShare::results)};
+      const JournalDrops d = j.push(entry(i, rng() % 120, share));
+      share_of.push_back(share);
+      expected.push_back(i);
+      for (std::size_t s = 1; s < journal_share_count; ++s) {
+        if (d[s] == 0) continue;  // a later share lost a message: every earlier one was empty but for this push
+        for (std::size_t earlier = 0; earlier < s; ++earlier)
+          EXPECT_EQ(before[earlier] + (static_cast<std::size_t>(share) == earlier ? 1u : 0u), d[earlier])
+              << "round " << round << " message " << i;
+      }
+      EXPECT_LE(j.size(JournalShare::events), b.max_event_messages);
+      if (j.size() > 1) {
+        EXPECT_LE(j.size(), b.max_messages);
+        EXPECT_LE(j.bytes(), b.max_bytes);
+      }
+      // Which ones went: the oldest of each share, by the counts.
+      for (std::size_t s = 0; s < journal_share_count; ++s) {
+        for (std::uint64_t k = 0; k < d[s]; ++k) {
+          const auto it = std::find_if(expected.begin(), expected.end(),
+                                       [&](int m) { return static_cast<std::size_t>(share_of[m]) == s; });
+          ASSERT_NE(it, expected.end());
+          expected.erase(it);
+        }
+      }
+    }
+    std::vector<std::string> want;
+    for (int m : expected) want.push_back(std::to_string(m));
+    EXPECT_EQ(drain(j), want) << "round " << round;
+  }
+}
+
+TEST(EventRateLimit, ABurstThenTheRateEachSourceOnItsOwnAndTheHeldBackCounted) {
+  EventRateLimit limit(60);  // a burst of 60, then one a second
+  const std::int64_t s = 1'000'000'000;
+  int admitted = 0;
+  for (int i = 0; i < 150; ++i) admitted += limit.admit("dbb", 10 * s) ? 1 : 0;
+  EXPECT_EQ(admitted, 60);
+  EXPECT_EQ(limit.held_back_total(), 90u);
+  EXPECT_TRUE(limit.admit("autocollimator", 10 * s));  // another device is not held back by this one's flood
+  EXPECT_TRUE(limit.take_held_back(10 * s).empty());   // no token left to say it with yet
+  EXPECT_FALSE(limit.admit("dbb", 10 * s + s / 2));    // counted, after the held-back ones
+  const auto said = limit.take_held_back(11 * s);
+  ASSERT_EQ(said.size(), 1u);
+  EXPECT_EQ(said[0].source, "dbb");
+  EXPECT_EQ(said[0].count, 91u);
+  EXPECT_TRUE(limit.take_held_back(11 * s).empty());
+  EXPECT_FALSE(limit.admit("dbb", 11 * s));  // the token went to the count
+  EXPECT_FALSE(limit.admit("dbb", 12 * s));  // a token, but the count of the one before goes first
+  const auto then = limit.take_held_back(12 * s);
+  ASSERT_EQ(then.size(), 1u);
+  EXPECT_EQ(then[0].count, 2u);
+  EXPECT_TRUE(limit.admit("dbb", 13 * s));
+  EXPECT_EQ(limit.held_back_total(), 93u);
 }
 
 TEST(MessageJournal, AFileACrashCutShortIsSkippedAndCounted) {
   TempDir dir;
   const std::string path = dir.file("journal");
   {
-    MessageJournal j(path, 100, 1 << 20);
+    MessageJournal j(path, bounds(100, 1 << 20));
     for (int i = 0; i < 3; ++i) j.push(entry(i));
   }
   std::vector<std::filesystem::path> files;
@@ -186,7 +292,7 @@ TEST(MessageJournal, AFileACrashCutShortIsSkippedAndCounted) {
   std::sort(files.begin(), files.end());
   std::filesystem::resize_file(files[1], 20);                     // truncated
   std::ofstream(path + "/00000000000000000009.msg.part") << "x";  // a write cut short
-  MessageJournal j(path, 100, 1 << 20);
+  MessageJournal j(path, bounds(100, 1 << 20));
   EXPECT_EQ(drain(j), (std::vector<std::string>{"0", "2"}));
   EXPECT_EQ(j.unreadable(), 1u);
   EXPECT_FALSE(std::filesystem::exists(path + "/00000000000000000009.msg.part"));

@@ -31,17 +31,29 @@ std::size_t required_column(const CsvTable& t, const std::string& name) {
   throw CsvError(at_line(t.source, t.header_line) + "missing column '" + name + "'");
 }
 
+// The plausible ranges of the format (docs/formats.md, "1-D artifact"): a camera's image, a machine's
+// travel, a tilt the sensor can see; a conversion factor and an uncertainty of at most 1000 of their unit.
+constexpr double max_factor = 1000.0;
+constexpr double max_abs_px = 1e5;
+constexpr double max_abs_mm = 1e5;
+constexpr double max_abs_arcsec = 36000.0;
+
 double positive_meta(const CsvTable& t, const std::string& key) {
-  const double v = t.metadata_number(key);
+  const double v = t.metadata_in(key, 0.0, max_factor, "(a conversion factor of the sensor)");
   if (!(v > 0)) throw CsvError(t.source + ": metadata '" + key + "' must be positive");
   return v;
 }
 
 double optional_non_negative(const CsvTable& t, const std::string& key, double fallback) {
-  const auto v = t.optional_metadata_number(key);
-  if (!v) return fallback;
-  if (!(*v >= 0)) throw CsvError(t.source + ": metadata '" + key + "' must not be negative");
-  return *v;
+  return t.optional_metadata_in(key, 0.0, max_factor, "(a standard uncertainty)").value_or(fallback);
+}
+
+double px(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
+  return t.number_in(row, col, -max_abs_px, max_abs_px, "px, a camera's image");
+}
+
+double mm(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
+  return t.number_in(row, col, -max_abs_mm, max_abs_mm, "mm, a machine's travel");
 }
 
 // Values of one identification, without uncertainties (linear, or bilinear in k and m, in every input).
@@ -109,17 +121,17 @@ ArtifactReadings parse_artifact_readings(std::string_view text, const std::strin
     const double id = t.number(row, c_target);
     const auto want = static_cast<double>(r.target.size());
     if (id != want)
-      throw CsvError(at_line(source, row.line) + "target " + row.cells[c_target] + ", expected " +
+      throw CsvError(at_line(source, row.line) + "target " + std::string(t.cell(row, c_target)) + ", expected " +
                      std::to_string(r.target.size()) +
                      " (targets are numbered 0, 1, 2, ... in order; 0 is the "
                      "reference)");
     r.target.push_back(static_cast<int>(id));
-    r.along_m.push_back(t.number(row, c_along) * 1e-3);
-    r.across_m.push_back(t.number(row, c_across) * 1e-3);
-    r.x_M_px.push_back(t.number(row, c_xm));
-    r.y_M_px.push_back(t.number(row, c_ym));
-    r.x_F_px.push_back(t.number(row, c_xf));
-    r.y_F_px.push_back(t.number(row, c_yf));
+    r.along_m.push_back(mm(t, row, c_along) * 1e-3);
+    r.across_m.push_back(mm(t, row, c_across) * 1e-3);
+    r.x_M_px.push_back(px(t, row, c_xm));
+    r.y_M_px.push_back(px(t, row, c_ym));
+    r.x_F_px.push_back(px(t, row, c_xf));
+    r.y_F_px.push_back(px(t, row, c_yf));
     r.line.push_back(row.line);
   }
   if (r.target.size() < 2)
@@ -143,8 +155,11 @@ ConversionFit fit_scan(std::string_view text, const std::string& source, const c
   std::vector<double> x(n), y(n);
   double xm = 0, ym = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    x[i] = t.number(t.rows[i], cr) * ref_scale;
-    y[i] = t.number(t.rows[i], cs);
+    const bool displacement = std::string_view(kind) == "displacement";
+    x[i] = (displacement ? mm(t, t.rows[i], cr)
+                         : t.number_in(t.rows[i], cr, -max_abs_arcsec, max_abs_arcsec, "arcsec, a tilt of 10 deg")) *
+           ref_scale;
+    y[i] = px(t, t.rows[i], cs);
     xm += x[i];
     ym += y[i];
   }

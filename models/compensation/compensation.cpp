@@ -349,6 +349,13 @@ double table_step(const MapOptions& options, const std::array<double, 2>& center
   };
   double step = options.step_m;
   if (step > 0) {
+    // The tables cover centre +- radius: a step over the radius leaves fewer than three lines across the
+    // circle (1e300 mm wrote a one-line table of nothing).
+    if (step > radius)
+      throw CompensationError("a step of " + shortest(step * 1e3) + " mm is over the circle's radius of " +
+                              shortest(radius * 1e3) +
+                              " mm: the tables cover centre +- radius with at least three lines (use a finer "
+                              "--step-mm)");
     if (lines_max(step) > formats::linuxcnc_comp_max_lines)
       throw CompensationError("a step of " + shortest(step * 1e3) + " mm gives " + shortest(lines_max(step)) +
                               " lines over the measured range; LinuxCNC reads at most " +

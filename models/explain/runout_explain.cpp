@@ -11,6 +11,7 @@
 
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
+#include "results/session_kinds.hpp"
 #include "models/common/least_squares.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/runout_terms.hpp"
@@ -199,7 +200,9 @@ RunoutRecord runout_record(const flatness::RunoutRevolution& rev, double rpm) {
 }
 
 RunoutRecord parse_runout_record(const std::string& text, const std::string& source) {
-  const auto rpm = parse_csv_table(text, source).optional_metadata_number("rpm");
+  const auto rpm = parse_csv_table(text, source)
+                       .optional_metadata_in("rpm", results::runout_rpm.min, results::runout_rpm.max,
+                                             "1/min, a spindle's speed (the runout session's range)");
   if (!rpm)
     throw std::invalid_argument(source + ": metadata 'rpm' is missing (the spindle speed gives each reading its time)");
   return runout_record(flatness::parse_runout_revolution(text, source), *rpm);

@@ -11,6 +11,7 @@
 #include "core/number_format.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/traverse_terms.hpp"
+#include "models/flatness/straightness.hpp"
 #include "results/parameters.hpp"
 
 namespace guideway::models::explain {
@@ -19,15 +20,6 @@ namespace {
 
 std::string at_line(const std::string& source, std::size_t line) { return source + ":" + std::to_string(line) + ": "; }
 
-// One row's angle (arcsec in the file) within the instrument's range.
-double angle_of(const CsvTable& t, const CsvTable::Row& row, std::size_t col, const flatness::Autocollimator& ac) {
-  const double arcsec = t.number(row, col);
-  if (std::abs(arcsec) * flatness::rad_per_arcsec > ac.range_rad)
-    throw CsvError(at_line(t.source, row.line) + t.columns[col] + " = " + shortest(arcsec) +
-                   " is outside the autocollimator range +-" + shortest(ac.range_rad / flatness::rad_per_arcsec) +
-                   " arcsec");
-  return arcsec * flatness::rad_per_arcsec;
-}
 
 // Checks that the readings of `p` are one step apart in one direction (its first step gives it).
 void check_stations(const CsvTable& t, const std::vector<std::size_t>& lines, TraversePass& p) {
@@ -52,15 +44,14 @@ void check_stations(const CsvTable& t, const std::vector<std::size_t>& lines, Tr
 std::vector<TraversePass> parse_traverse_passes(const std::string& text, const std::string& source, std::size_t file,
                                                 const flatness::Autocollimator& ac) {
   const CsvTable t = parse_csv_table(text, source);
-  const double step_mm = t.metadata_number("step_mm");
-  if (!(step_mm > 0)) throw CsvError(source + ": step_mm = " + shortest(step_mm) + " must be positive");
+  const double step_mm = flatness::traverse_step_mm(t);
   const std::size_t cx = t.column("x_mm"), cp = t.column("pitch_arcsec");
   const auto cy = t.find_column("yaw_arcsec"), ct = t.find_column("t_s"), cpass = t.find_column("pass");
   std::vector<TraversePass> out;
   std::vector<std::vector<std::size_t>> lines;
   double pass_number = std::numeric_limits<double>::quiet_NaN();
   for (const auto& row : t.rows) {
-    const double n = cpass ? t.number(row, *cpass) : 1.0;
+    const double n = cpass ? flatness::traverse_pass(t, row, *cpass) : 1.0;
     if (out.empty() || n != pass_number) {
       for (const TraversePass& p : out)
         if (p.source == source + " pass " + shortest(n))
@@ -74,10 +65,13 @@ std::vector<TraversePass> parse_traverse_passes(const std::string& text, const s
       lines.emplace_back();
     }
     TraversePass& p = out.back();
-    p.x_m.push_back(t.number(row, cx) * 1e-3);
-    p.pitch_rad.push_back(angle_of(t, row, cp, ac));
-    if (cy) p.yaw_rad.push_back(angle_of(t, row, *cy, ac));
-    if (ct) p.t_s.push_back(t.number(row, *ct));
+    if (p.x_m.size() == flatness::traverse_max_readings)
+      throw CsvError(at_line(source, row.line) + "more than " + std::to_string(flatness::traverse_max_readings) +
+                     " readings in a pass (the straightness session's most)");
+    p.x_m.push_back(flatness::traverse_x_mm(t, row, cx) * 1e-3);
+    p.pitch_rad.push_back(flatness::traverse_angle_rad(t, row, cp, ac));
+    if (cy) p.yaw_rad.push_back(flatness::traverse_angle_rad(t, row, *cy, ac));
+    if (ct) p.t_s.push_back(flatness::traverse_time_s(t, row, *ct));
     lines.back().push_back(row.line);
   }
   if (out.empty()) throw CsvError(source + ": no readings");

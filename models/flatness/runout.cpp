@@ -9,6 +9,7 @@
 
 #include "core/number_format.hpp"
 #include "core/csv_table.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::models::flatness {
 
@@ -20,32 +21,38 @@ RunoutRevolution parse_runout_revolution(std::string_view text, const std::strin
   const CsvTable t = parse_csv_table(text, source);
   RunoutRevolution rev;
   rev.source = source;
-  const double d_mm = t.metadata_number("plate_diameter_mm");
-  if (!(d_mm > 0)) throw CsvError(source + ": plate_diameter_mm = " + significant_digits(d_mm, 10) + " must be positive");
-  rev.plate_diameter_m = d_mm * 1e-3;
-  rev.parallelism_m = t.metadata_number("parallelism_um") * 1e-6;
-  rev.u_parallelism_m = t.optional_metadata_number("parallelism_u_um").value_or(0.0) * 1e-6;
-  if (rev.u_parallelism_m < 0) throw CsvError(source + ": parallelism_u_um must not be negative");
-  if (auto travel = t.optional_metadata_number("travel_mm")) {
+  // The metadata within the runout session's ranges of the same options (results/session_kinds.hpp).
+  const auto in = [&](const results::SessionOption& o, std::string_view what) {
+    return t.optional_metadata_in(std::string(o.name), o.min, o.max, what);
+  };
+  const auto required = [&](const results::SessionOption& o, std::string_view what) {
+    return t.metadata_in(std::string(o.name), o.min, o.max, what);
+  };
+  rev.plate_diameter_m = required(results::runout_plate_diameter_mm, "mm, a thrust plate's diameter") * 1e-3;
+  rev.parallelism_m = required(results::runout_parallelism_um, "um, a plate's parallelism") * 1e-6;
+  rev.u_parallelism_m = in(results::runout_parallelism_u_um, "um, its standard uncertainty").value_or(0.0) * 1e-6;
+  if (auto travel = in(results::runout_travel_mm, "mm, a machine's travel")) {
     if (!(*travel > 0)) throw CsvError(source + ": travel_mm = " + significant_digits(*travel, 10) + " must be positive");
     rev.travel_m = *travel * 1e-3;
   }
-  if (auto turned = t.optional_metadata_number("artifact_turned_deg")) {
-    if (!std::isfinite(*turned) || std::abs(*turned) > 360.0)
-      throw CsvError(source + ": artifact_turned_deg = " + significant_digits(*turned, 10) + " must be within +-360");
+  if (auto turned = t.optional_metadata_in("artifact_turned_deg", -360.0, 360.0, "deg, a turn of the artifact")) {
     rev.artifact_turned_rad = *turned * std::numbers::pi / 180.0;
   }
   if (const auto zero = t.metadata.find("angle_zero"); zero != t.metadata.end()) {
     if (zero->second != "spindle" && zero->second != "first_reading")
-      throw CsvError(source + ": angle_zero = " + zero->second +
+      throw CsvError(source + ": angle_zero = " + zero->second.substr(0, 80) +
                      ": 'spindle' (angles from the spindle's zero) or 'first_reading'");
     rev.angle_from_spindle_zero = zero->second == "spindle";
   }
   const std::size_t ca = t.column("angle_deg");
   const std::size_t cr = t.column("runout_um");
+  const double max_deg = 360.0 * (results::runout_revolutions.max + 1);
   for (const auto& row : t.rows) {
-    rev.angle_rad.push_back(t.number(row, ca) * std::numbers::pi / 180.0);
-    rev.runout_m.push_back(t.number(row, cr) * 1e-6);
+    rev.angle_rad.push_back(t.number_in(row, ca, -max_deg, max_deg, "deg, the session's most revolutions") *
+                            std::numbers::pi / 180.0);
+    rev.runout_m.push_back(t.number_in(row, cr, -runout_max_abs_um, runout_max_abs_um,
+                                       "um, a micrometer's range (10 mm)") *
+                           1e-6);
     rev.line.push_back(row.line);
   }
   if (rev.angle_rad.size() < 8)

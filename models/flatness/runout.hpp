@@ -38,6 +38,8 @@ struct RunoutRevolution {
 // Metadata plate_diameter_mm (> 0), parallelism_um, optional parallelism_u_um, travel_mm,
 // artifact_turned_deg and angle_zero (spindle | first_reading); columns angle_deg,runout_um. At least 8 samples. Throws
 // CsvError "file:line: message".
+// A reading's plausible range (docs/formats.md, "Run-out revolution"): an inductance micrometer's range.
+inline constexpr double runout_max_abs_um = 10000.0;
 RunoutRevolution parse_runout_revolution(std::string_view text, const std::string& source);
 RunoutRevolution read_runout_revolution(const std::string& path);
 

@@ -19,15 +19,6 @@ namespace {
 
 std::string where(const std::string& source, std::size_t line) { return source + ":" + std::to_string(line) + ": "; }
 
-double checked_angle(const CsvTable& t, const CsvTable::Row& row, std::size_t col, const Autocollimator& ac) {
-  const double arcsec = t.number(row, col);
-  const double range_arcsec = ac.range_rad / rad_per_arcsec;
-  if (std::abs(arcsec) > range_arcsec)
-    throw CsvError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(arcsec, 10) +
-                   " is outside the autocollimator range +-" + significant_digits(range_arcsec, 10) + " arcsec");
-  return arcsec * rad_per_arcsec;
-}
-
 // Sum of squares of sensitivities of a quantity to the readings; the quantity's standard uncertainty
 // is step * u_theta * sqrt(sum). `row(j)` is d quantity / d (step * theta_j).
 template <class Row>
@@ -152,12 +143,40 @@ double PolynomialFit::slope(double x) const {
   return v;
 }
 
+double traverse_step_mm(const CsvTable& t) {
+  return t.metadata_in("step_mm", traverse_min_step_mm, traverse_max_step_mm, "mm, a reflector's foot spacing");
+}
+
+double traverse_x_mm(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
+  return t.number_in(row, col, -traverse_max_abs_x_mm, traverse_max_abs_x_mm, "mm, a machine's travel");
+}
+
+double traverse_angle_rad(const CsvTable& t, const CsvTable::Row& row, std::size_t col, const Autocollimator& ac) {
+  const double arcsec = t.number(row, col);
+  const double range_arcsec = ac.range_rad / rad_per_arcsec;
+  if (std::abs(arcsec) > range_arcsec)
+    throw CsvError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(arcsec, 10) +
+                   " is outside the autocollimator range +-" + significant_digits(range_arcsec, 10) + " arcsec");
+  return arcsec * rad_per_arcsec;
+}
+
+double traverse_time_s(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
+  return t.number_in(row, col, -traverse_max_abs_t_s, traverse_max_abs_t_s, "s, one file's clock (116 days)");
+}
+
+double traverse_pass(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
+  const double n = t.number(row, col);
+  if (!(n >= 1 && n <= traverse_max_pass && n == std::floor(n)))
+    throw CsvError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(n, 10) +
+                   " is not a pass number (a whole number in [1, " + significant_digits(traverse_max_pass, 10) + "])");
+  return n;
+}
+
 AngleTraverse parse_angle_traverse(std::string_view text, const std::string& source, const Autocollimator& ac) {
   const CsvTable t = parse_csv_table(text, source);
   AngleTraverse tr;
   tr.source = source;
-  const double step_mm = t.metadata_number("step_mm");
-  if (!(step_mm > 0)) throw CsvError(source + ": step_mm = " + significant_digits(step_mm, 10) + " must be positive");
+  const double step_mm = traverse_step_mm(t);
   tr.step_m = step_mm * 1e-3;
   const std::size_t cx = t.column("x_mm");
   const std::size_t cp = t.column("pitch_arcsec");
@@ -165,9 +184,9 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
   // A file of several passes (a `pass` column): its first pass is the traverse evaluated here.
   std::size_t rows = t.rows.size();
   if (const auto cpass = t.find_column("pass"); cpass && rows > 0) {
-    const double first = t.number(t.rows.front(), *cpass);
+    const double first = traverse_pass(t, t.rows.front(), *cpass);
     for (std::size_t i = 1; i < rows; ++i)
-      if (t.number(t.rows[i], *cpass) != first) {
+      if (traverse_pass(t, t.rows[i], *cpass) != first) {
         rows = i;
         break;
       }
@@ -176,7 +195,10 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
   double prev_x = 0.0;
   for (std::size_t i = 0; i < rows; ++i) {
     const auto& row = t.rows[i];
-    const double x = t.number(row, cx);
+    if (i == traverse_max_readings)  // here, not before: an earlier line at fault is named first
+      throw CsvError(where(source, row.line) + "more than " + std::to_string(traverse_max_readings) +
+                     " readings in a pass (the straightness session's most)");
+    const double x = traverse_x_mm(t, row, cx);
     if (i > 0) {
       const double dx = x - prev_x;
       const double tol = 1e-3 * step_mm;
@@ -196,8 +218,8 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
     }
     prev_x = x;
     tr.x_m.push_back(x * 1e-3);
-    tr.pitch_rad.push_back(checked_angle(t, row, cp, ac));
-    if (cy) tr.yaw_rad.push_back(checked_angle(t, row, *cy, ac));
+    tr.pitch_rad.push_back(traverse_angle_rad(t, row, cp, ac));
+    if (cy) tr.yaw_rad.push_back(traverse_angle_rad(t, row, *cy, ac));
     tr.line.push_back(row.line);
   }
   return tr;

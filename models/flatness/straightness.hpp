@@ -13,6 +13,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/csv_table.hpp"
 #include "models/flatness/angles.hpp"
 
 namespace guideway::models::flatness {
@@ -32,6 +33,22 @@ struct AngleTraverse {
 // "file:line: message".
 AngleTraverse parse_angle_traverse(std::string_view text, const std::string& source, const Autocollimator& ac = {});
 AngleTraverse read_angle_traverse(const std::string& path, const Autocollimator& ac = {});
+
+// The traverse format's quantities, each within its plausible bound (docs/formats.md, "Straightness
+// traverse"), as `guideway identify straightness` and `explain --model traverse` read them; a value
+// outside is a CsvError naming file:line and the bound. The bounds are the straightness session's
+// options' (a step of 0.1 mm to 10 m, a station within 100 m, at most 100000 readings a pass).
+inline constexpr double traverse_min_step_mm = 0.1;
+inline constexpr double traverse_max_step_mm = 10000.0;
+inline constexpr double traverse_max_abs_x_mm = 2e5;
+inline constexpr std::size_t traverse_max_readings = 100000;
+inline constexpr double traverse_max_abs_t_s = 1e7;  // 116 days on the file's clock
+inline constexpr double traverse_max_pass = 1e6;
+double traverse_step_mm(const CsvTable& t);
+double traverse_x_mm(const CsvTable& t, const CsvTable::Row& row, std::size_t col);
+double traverse_angle_rad(const CsvTable& t, const CsvTable::Row& row, std::size_t col, const Autocollimator& ac);
+double traverse_time_s(const CsvTable& t, const CsvTable::Row& row, std::size_t col);
+double traverse_pass(const CsvTable& t, const CsvTable::Row& row, std::size_t col);  // a whole number >= 1
 
 // Deviations from one reference line, with the straightness (max - min) and its standard uncertainty.
 struct ReferenceLine {

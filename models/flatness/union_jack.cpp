@@ -17,17 +17,22 @@ namespace guideway::models::flatness {
 
 namespace {
 
-std::string trimmed(const std::string& s) {
+std::string trimmed(std::string_view s) {
   const auto a = s.find_first_not_of(" \t\r");
-  if (a == std::string::npos) return {};
-  return s.substr(a, s.find_last_not_of(" \t\r") - a + 1);
+  if (a == std::string_view::npos) return {};
+  return std::string(s.substr(a, s.find_last_not_of(" \t\r") - a + 1).substr(0, 200));
 }
 
-std::vector<std::string> lines_of(const std::string& text) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) out.push_back(line);
+// The lines of `text` (views into it), at most the input limit's rows (core/input_file.hpp).
+std::vector<std::string_view> lines_of(const std::string& text, const std::string& path) {
+  std::vector<std::string_view> out;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    const std::size_t nl = text.find('\n', pos);
+    out.push_back(std::string_view(text).substr(pos, nl == std::string::npos ? std::string::npos : nl - pos));
+    pos = nl == std::string::npos ? text.size() : nl + 1;
+    check_row_count(out.size(), path, out.size());
+  }
   return out;
 }
 
@@ -38,7 +43,8 @@ std::string join_path(const std::string& dir, const std::string& name) {
 
 double read_foot_spacing(const std::string& dir, bool& inch) {
   const std::string path = join_path(dir, "Config.txt");
-  const auto lines = lines_of(read_text_file(path));
+  const std::string text = read_text_file(path);
+  const auto lines = lines_of(text, path);
   for (std::size_t i = 0; i < lines.size(); ++i) {
     const std::string l = trimmed(lines[i]);
     if (l.empty() || l.front() == '#') continue;
@@ -48,7 +54,11 @@ double read_foot_spacing(const std::string& dir, bool& inch) {
     if ((unit != 'I' && unit != 'M') || !value || !(*value > 0))
       throw CsvError(where + "expected 'I <inches>' or 'M <mm>' (the reflector foot spacing), got '" + l + "'");
     inch = unit == 'I';
-    return inch ? *value * metres_per_inch : *value * 1e-3;
+    const double spacing_m = inch ? *value * metres_per_inch : *value * 1e-3;
+    if (spacing_m > union_jack_max_foot_spacing_m)
+      throw CsvError(where + "foot spacing " + l.substr(2) + (inch ? " in" : " mm") +
+                     " is over 1000 mm, a reflector's base");
+    return spacing_m;
   }
   throw CsvError(path + ": no foot spacing line ('I <inches>' or 'M <mm>')");
 }
@@ -87,7 +97,8 @@ UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_overrid
   const double range_arcsec = ac.range_rad / rad_per_arcsec;
   for (std::size_t i = 0; i < 8; ++i) {
     const std::string path = join_path(dir, std::string(union_jack_names[i]) + ".txt");
-    const auto lines = lines_of(read_text_file(path));
+    const std::string text = read_text_file(path);
+    const auto lines = lines_of(text, path);
     for (std::size_t k = 0; k < lines.size(); ++k) {
       const std::string l = trimmed(lines[k]);
       if (l.empty() || l.front() == '#') continue;
@@ -97,6 +108,9 @@ UnionJackSet read_union_jack(const std::string& dir, double foot_spacing_overrid
       if (std::abs(*v) > range_arcsec)
         throw CsvError(where + "reading " + significant_digits(*v, 10) + " arcsec is outside the autocollimator range +-" +
                          significant_digits(range_arcsec, 10) + " arcsec");
+      if (set.angle_rad[i].size() == union_jack_max_readings)
+        throw CsvError(where + "more than " + std::to_string(union_jack_max_readings) +
+                       " readings on a line (the evaluation's dense matrices grow with their square)");
       set.angle_rad[i].push_back(*v * rad_per_arcsec);
       set.file_line[i].push_back(k + 1);
       last_line[i] = k + 1;

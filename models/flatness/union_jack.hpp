@@ -20,6 +20,11 @@ namespace guideway::models::flatness {
 
 // The eight lines in the order of Moody's worksheets (and of reference_heights.dat).
 enum class UnionJackLine : int { nw_se = 0, ne_sw, ne_nw, ne_se, se_sw, nw_sw, e_w, n_s };
+// Plausible bounds (docs/formats.md, "Union Jack set"): a reflector's foot spacing, and the readings of one
+// line (the least-squares evaluation's matrices grow with the square of the stations).
+inline constexpr double union_jack_max_foot_spacing_m = 1.0;
+inline constexpr std::size_t union_jack_max_readings = 2000;
+
 inline constexpr std::array<const char*, 8> union_jack_names = {"NW_SE", "NE_SW", "NE_NW", "NE_SE",
                                                                 "SE_SW", "NW_SW", "E_W",   "N_S"};
 

@@ -14,6 +14,7 @@
 #include "dsp/wavelet.hpp"
 #include "models/common/least_squares.hpp"
 #include "core/csv_table.hpp"
+#include "core/number_format.hpp"
 
 namespace guideway::models::flatness {
 
@@ -30,7 +31,11 @@ double required_meta(const formats::Profile& p, const std::string& source, const
   const auto v = p.meta(key);
   if (!v) throw CsvError(source + ": missing metadata line '# " + key + " = <number>'");
   const auto d = parse_double(*v);
-  if (!d || !(*d > 0)) throw CsvError(source + ": metadata '" + key + " = " + *v + "' is not a positive number");
+  if (!d || !(*d > 0)) throw CsvError(source + ": metadata '" + key + " = " + v->substr(0, 80) + "' is not a positive number");
+  // A machine tool's feed (200 m/min) and spindle speed (100000 /min) at most (docs/formats.md).
+  const double max = key == "feed_mm_per_min" ? 200000.0 : 1e5;
+  if (*d > max)
+    throw CsvError(source + ": metadata '" + key + " = " + *v + "' is outside (0, " + shortest(max) + "]");
   return *d;
 }
 

@@ -1,6 +1,8 @@
 #include "simulators/machine/dbb_runs.hpp"
 
 #include <cmath>
+#include <map>
+#include <memory>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -151,6 +153,52 @@ std::vector<formats::DbbRun> retrace_dbb(const MachineConfig& machine, const Con
 RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
                              const std::vector<formats::DbbRun>& runs, const Vec3& center) {
   return {retrace_dbb(machine, {}, runs, center, "before"), retrace_dbb(machine, correction, runs, center, "after")};
+}
+
+models::compensation::Retrace dbb_retrace(const MachineConfig& machine, const std::vector<formats::DbbRun>& runs) {
+  using models::compensation::Correction;
+  // Each correction as the controller loads it, read once: the verification traces many sets of them.
+  auto read = std::make_shared<std::map<std::string, ControllerCorrection>>();  // by file: a set's are distinct
+  const auto alone = [read](const Correction* c) -> const ControllerCorrection& {
+    auto it = read->find(c->file);
+    if (it != read->end()) return it->second;
+    ControllerCorrection one;
+    switch (c->kind) {
+      case Correction::Kind::table:
+        one.tables[static_cast<std::size_t>(c->joint)] = joint_compensation(formats::read_linuxcnc_comp(c->path));
+        break;
+      case Correction::Kind::skew:
+        (c->plane == "xy" ? one.skew.xy : (c->plane == "xz" ? one.skew.xz : one.skew.yz)) = c->skew_rad;
+        break;
+      case Correction::Kind::cross:
+        one.cross = cross_compensation(formats::read_straightness_csv(c->path));
+        break;
+    }
+    return read->emplace(c->file, std::move(one)).first->second;
+  };
+  const auto combined = [alone](const std::vector<const Correction*>& set) {
+    ControllerCorrection c;
+    for (const Correction* x : set) {
+      const ControllerCorrection& a = alone(x);
+      for (std::size_t j = 0; j < 3; ++j)
+        if (!a.tables[j].empty()) c.tables[j] = a.tables[j];
+      c.skew.xy += a.skew.xy;
+      c.skew.xz += a.skew.xz;
+      c.skew.yz += a.skew.yz;
+      c.cross.insert(c.cross.end(), a.cross.begin(), a.cross.end());
+    }
+    return c;
+  };
+  models::compensation::Retrace r;
+  r.before_and_after = [machine, runs, combined](const std::vector<const Correction*>& all,
+                                                 const std::array<double, 3>& center) {
+    RemeasuredRuns m = remeasure_dbb(machine, combined(all), runs, center);
+    return std::pair{std::move(m.before), std::move(m.after)};
+  };
+  r.with = [machine, runs, combined](const std::vector<const Correction*>& set, const std::array<double, 3>& center) {
+    return retrace_dbb(machine, combined(set), runs, center, "after");
+  };
+  return r;
 }
 
 }  // namespace guideway::simulators::machine

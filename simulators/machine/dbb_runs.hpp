@@ -9,6 +9,7 @@
 
 #include "formats/compensation_files.hpp"
 #include "formats/dbb_run.hpp"
+#include "models/compensation/verification.hpp"
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::simulators::machine {
@@ -50,5 +51,10 @@ RemeasuredRuns remeasure_dbb(const MachineConfig& machine, const ControllerCorre
 std::vector<formats::DbbRun> retrace_dbb(const MachineConfig& machine, const ControllerCorrection& correction,
                                          const std::vector<formats::DbbRun>& runs, const Vec3& center,
                                          const std::string& tag);
+
+// The machine as the compensation's verification retraces on (models/compensation/verification.hpp): each
+// correction read back from its file (x.comp, straightness.csv) once, as the controller would, or the skew
+// entered; the runs traced about the circle centre with a set loaded.
+models::compensation::Retrace dbb_retrace(const MachineConfig& machine, const std::vector<formats::DbbRun>& runs);
 
 }  // namespace guideway::simulators::machine
