@@ -27,7 +27,9 @@ namespace fs = std::filesystem;
 namespace mm = models::map;
 
 struct SequenceArgs {
-  bool run = false, redo = false, no_runout = false;
+  bool run = false, redo = false, no_runout = false, no_ballbar = false;
+  std::vector<double> travel_mm;
+  double traverse_step_mm = 0;
   std::vector<std::string> artifacts;
   std::vector<double> artifact_other_mm;
   std::vector<std::string> traverse_devices;
@@ -37,6 +39,12 @@ struct SequenceArgs {
     cmd.add_flag("--run", run, "run the tests not done yet, one after the other, then fit the map");
     cmd.add_flag("--redo", redo, "with --run: run every test again, done or not");
     cmd.add_flag("--no-runout", no_runout, "leave out the run-out plate (a cross-check of the XZ squareness)");
+    cmd.add_flag("--no-ballbar", no_ballbar, "leave out the ballbar (the squarenesses are then not determined)");
+    cmd.add_option("--travel-mm", travel_mm,
+                   "where each traverse starts: X_LO X_HI Y_LO Y_HI Z_LO Z_HI (its first station at LO; default: the "
+                   "session's start_mm)")
+        ->expected(6);
+    cmd.add_option("--traverse-step-mm", traverse_step_mm, "the traverses' station spacing (default: the session's)");
     cmd.add_option("--artifact", artifacts, "1-D artifact directories measured offline (their `# axis`)")
         ->check(CLI::ExistingDirectory);
     cmd.add_option("--artifact-other-mm", artifact_other_mm, "where the artifacts lay: X Y Z (default 0 0 0)")->expected(3);
@@ -63,12 +71,14 @@ struct Step {
 
 std::vector<Step> steps_of(const SequenceArgs& a) {
   std::vector<Step> s;
+  if (!a.no_ballbar) {
   Step dbb{std::string(results::dbb_kind.name), "", "ballbar in three planes (XY full circle, XZ and YZ 220 deg arcs, "
                                                      "CCW and CW)",
            "the ballbar's fixed ball at the volume's centre, the tool ball in the spindle; the three-plane program "
            "ready on the controller",
            {{std::string(results::dbb_test.name), "three-plane"}}, a.ballbar_device, ""};
-  s.push_back(dbb);
+    s.push_back(dbb);
+  }
   for (int k = 0; k < 3; ++k) {
     const std::string ax = mm::axis_name(k);
     std::string device;
@@ -79,6 +89,9 @@ std::vector<Step> steps_of(const SequenceArgs& a) {
                  "the autocollimator's beam along " + std::string(1, "XYZ"[k]) + ", the reflector on the " +
                      std::string(1, "XYZ"[k]) + " carriage; the traverse program ready (forward and back)",
                  {{std::string(results::straightness_axis.name), ax}}, device, ""});
+    if (a.travel_mm.size() == 6)
+      s.back().options[std::string(results::straightness_start_mm.name)] = a.travel_mm[static_cast<std::size_t>(2 * k)];
+    if (a.traverse_step_mm > 0) s.back().options[std::string(results::straightness_step_mm.name)] = a.traverse_step_mm;
   }
   if (!a.no_runout)
     s.push_back({std::string(results::runout_kind.name), "", "run-out plate (a cross-check of the XZ squareness)",

@@ -12,3 +12,7 @@ add_test(NAME map_numpy_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/map_numpy_test.py $<TARGET_FILE:guideway>
           ${PROJECT_SOURCE_DIR}/config/machine-example.toml ${PROJECT_BINARY_DIR}/map_numpy_work)
 set_tests_properties(map_numpy_test PROPERTIES LABELS integration TIMEOUT 120)
+add_test(NAME map_sequence_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/map_sequence_test.py $<TARGET_FILE:guidewayd>
+          $<TARGET_FILE:guideway> ${PROJECT_BINARY_DIR}/map_sequence_work)
+set_tests_properties(map_sequence_test PROPERTIES LABELS integration TIMEOUT 300)
