@@ -190,16 +190,21 @@ void assign_parameters(ErrorMap& m) {
   m.covariance.clear();
 }
 
+Vec3 rotation_arm(const std::array<int, 3>& chain, int axis, const Vec3& position, const Vec3& tool_offset) {
+  std::array<int, 3> level{};
+  for (int k = 0; k < 3; ++k) level[static_cast<std::size_t>(chain[static_cast<std::size_t>(k)])] = k;
+  Vec3 arm = tool_offset;
+  for (std::size_t i = 0; i < 3; ++i)
+    if (level[i] > level[static_cast<std::size_t>(axis)]) arm[i] += position[i];
+  return arm;
+}
+
 Vec3 tool_error(const ErrorMap& m, const Vec3& position, const Vec3& tool_offset) {
   check_chain(m);
-  const auto level = level_of(m);
   Vector3d e = Vector3d::Zero();
   for (int j = 0; j < 3; ++j) {
     const double u = position[static_cast<std::size_t>(j)];
-    Vector3d arm = v3(tool_offset);
-    for (int i = 0; i < 3; ++i)
-      if (level[static_cast<std::size_t>(i)] > level[static_cast<std::size_t>(j)])
-        arm[i] += position[static_cast<std::size_t>(i)];
+    const Vector3d arm = v3(rotation_arm(m.chain, j, position, tool_offset));
     const Vector3d d(m.value(j, 0, u), m.value(j, 1, u), m.value(j, 2, u));
     const Vector3d w(m.value(j, 3, u), m.value(j, 4, u), m.value(j, 5, u));
     e += d + w.cross(arm);
@@ -237,14 +242,9 @@ void tool_error_jacobian(const ErrorMap& m, const Vec3& position, const Vec3& to
   check_chain(m);
   const std::size_t n = m.parameters;
   std::fill(rows, rows + 3 * n, 0.0);
-  const auto level = level_of(m);
   std::vector<double> phi;
   for (int j = 0; j < 3; ++j) {
-    // The arm of axis j's rotations: the nominal positions of the axes above it and the tool.
-    Vector3d arm = v3(tool_offset);
-    for (int i = 0; i < 3; ++i)
-      if (level[static_cast<std::size_t>(i)] > level[static_cast<std::size_t>(j)])
-        arm[i] += position[static_cast<std::size_t>(i)];
+    const Vector3d arm = v3(rotation_arm(m.chain, j, position, tool_offset));
     for (int c = 0; c < components; ++c) {
       const ErrorFunction& f = m.function(j, c);
       if (f.first_parameter == no_parameter) continue;

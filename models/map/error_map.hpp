@@ -138,6 +138,10 @@ void assign_parameters(ErrorMap& map);
 // order: what an angle sensor on that carriage reads.
 [[nodiscard]] Vec3 carriage_angles(const ErrorMap& map, int axis, const Vec3& position);
 
+// The arm of axis `axis`' rotations in `chain` (from the bed up): the nominal positions of the axes above it
+// plus the tool offset. Its rotation eps adds eps x arm to the tool point's error.
+[[nodiscard]] Vec3 rotation_arm(const std::array<int, 3>& chain, int axis, const Vec3& position, const Vec3& tool_offset);
+
 // The derivatives of tool_error with respect to every parameter of the map (3 rows of `map.parameters`
 // values, row-major; tool_error is linear in them).
 void tool_error_jacobian(const ErrorMap& map, const Vec3& position, const Vec3& tool_offset, double* rows);

@@ -222,18 +222,13 @@ TableMap read_table_map(const std::string& dir) {
 }
 
 Vec3 table_tool_error(const TableMap& t, const Vec3& p, const Vec3& tool) {
-  std::array<int, 3> level{};
-  for (int k = 0; k < 3; ++k) level[static_cast<std::size_t>(t.chain[static_cast<std::size_t>(k)])] = k;
   Vec3 e{};
   for (int j = 0; j < 3; ++j) {
     const auto& tab = t.axes[static_cast<std::size_t>(j)];
     const double u_mm = p[static_cast<std::size_t>(j)] * 1e3;
     double v[6];
     for (std::size_t c = 0; c < 6; ++c) v[c] = interpolate(tab.position_mm, tab.values[c], u_mm) * 1e-6;
-    Vec3 arm = tool;
-    for (int i = 0; i < 3; ++i)
-      if (level[static_cast<std::size_t>(i)] > level[static_cast<std::size_t>(j)])
-        arm[static_cast<std::size_t>(i)] += p[static_cast<std::size_t>(i)];
+    const Vec3 arm = rotation_arm(t.chain, j, p, tool);
     e[0] += v[0] + v[4] * arm[2] - v[5] * arm[1];
     e[1] += v[1] + v[5] * arm[0] - v[3] * arm[2];
     e[2] += v[2] + v[3] * arm[1] - v[4] * arm[0];

@@ -178,6 +178,14 @@ Blocks make_blocks(const MapInputs& in, const ErrorMap& m, const FitOptions& o,
   return b;
 }
 
+// A group's columns of the global parameters: the map's, then its own.
+VectorXd local_theta(const Blocks& b, std::size_t g, const VectorXd& theta) {
+  const std::size_t local = b.p + b.groups[g]->nuisance();
+  VectorXd t(ix(local));
+  for (std::size_t k = 0; k < local; ++k) t[ix(k)] = theta[ix(b.global(g, k))];
+  return t;
+}
+
 // The linearised readings at parameters theta (global): y - f(theta) + J theta, per group.
 std::vector<VectorXd> pseudo_readings(const Blocks& b, ErrorMap& m, const VectorXd& theta) {
   std::vector<double> mp(b.p);
@@ -188,8 +196,7 @@ std::vector<VectorXd> pseudo_readings(const Blocks& b, ErrorMap& m, const Vector
     const Group& gr = *b.groups[g];
     const std::size_t ng = gr.nuisance();
     std::vector<double> nu(ng);
-    VectorXd local(ix(b.p + ng));
-    for (std::size_t k = 0; k < b.p + ng; ++k) local[ix(k)] = theta[ix(b.global(g, k))];
+    const VectorXd local = local_theta(b, g, theta);
     for (std::size_t k = 0; k < ng; ++k) nu[k] = local[ix(b.p + k)];
     std::vector<double> f(gr.rows());
     gr.predict(m, nu.data(), f.data());
@@ -286,9 +293,7 @@ Solution solve(const Blocks& b, const std::vector<VectorXd>& y, const std::vecto
   for (std::size_t k = 0; k < n; ++k) where[cols[k]] = static_cast<long>(k);
   for (std::size_t g = 0; g < b.groups.size(); ++g) {
     const std::size_t local = b.p + b.groups[g]->nuisance();
-    VectorXd t(ix(local));
-    for (std::size_t k = 0; k < local; ++k) t[ix(k)] = s.theta[ix(b.global(g, k))];
-    const VectorXd r = y[g] - b.jac[g] * t;
+    const VectorXd r = y[g] - b.jac[g] * local_theta(b, g, s.theta);
     s.chi2.push_back(r.dot(b.w[g].asDiagonal() * r));
     double tr = 0.0;
     if (b.groups[g]->in_fit && (use_group.empty() || use_group[g]))
@@ -677,10 +682,7 @@ std::vector<GroupSummary> summaries(const Fitted& f) {
     gs.test = gr.name;
     gs.unit = gr.unit;
     gs.observations = gr.rows();
-    const std::size_t local = b.p + gr.nuisance();
-    VectorXd t(ix(local));
-    for (std::size_t k = 0; k < local; ++k) t[ix(k)] = s.theta[ix(b.global(g, k))];
-    const VectorXd r = y[g] - b.jac[g] * t;
+    const VectorXd r = y[g] - b.jac[g] * local_theta(b, g, s.theta);
     gs.residual_rms = std::sqrt(r.squaredNorm() / std::max<double>(1, static_cast<double>(r.size()))) * gr.unit_per_si;
     double mean_sigma2 = 0;
     for (double sg : gr.sigma) mean_sigma2 += sg * sg;
@@ -781,12 +783,8 @@ std::vector<CrossCheck> ballbar_checks(const Fitted& fitted, const ErrorMap& m, 
     if (!lu.isInvertible()) continue;
     const MatrixXd inv = lu.inverse();
     const MatrixXd op = inv * x.transpose() * w.asDiagonal();  // readings -> local terms
-    // y[g] holds the plane's readings with the map's linear part added back at the joint fit's values; the
-    // local terms see the readings themselves.
-    VectorXd local_theta(ix(b.p + ng));
-    for (std::size_t k = 0; k < b.p + ng; ++k) local_theta[ix(k)] = s.theta[ix(b.global(g, k))];
-    const VectorXd readings = y[g];
-    const VectorXd measured = op * readings;
+    // y[g]: the plane's readings less the chain's second-order part at the joint fit (the bar's exact length).
+    const VectorXd measured = op * y[g];
     // Predicted: the map fitted without this plane, through the plane's signature.
     std::vector<bool> use(b.groups.size(), true);
     use[g] = false;

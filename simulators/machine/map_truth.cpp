@@ -49,8 +49,7 @@ std::array<double, 3> gauge_squareness(const MachineConfig& m, const std::array<
       const auto co = legendre_coefficients(m, travel[static_cast<std::size_t>(j)], j, c, 1);
       removed[static_cast<std::size_t>(j * components + c)] = {co[0], role_of(j, c) == Role::straightness ? co[1] : 0.0};
     }
-  // Level of each axis in the chain bed -> Y -> X -> Z.
-  const int level[3] = {1, 0, 2};
+  const std::array<int, 3> chain{1, 0, 2};  // the machine's: bed -> Y -> X -> Z
   const auto field = [&](const Vec3& p) {
     Vec3 e{};
     for (int j = 0; j < 3; ++j) {
@@ -60,9 +59,7 @@ std::array<double, 3> gauge_squareness(const MachineConfig& m, const std::array<
         const auto& r = removed[static_cast<std::size_t>(j * components + c)];
         e[static_cast<std::size_t>(c)] += r[0] + r[1] * xi;
       }
-      Vec3 arm = m.tool_offset;
-      for (int i = 0; i < 3; ++i)
-        if (level[i] > level[j]) arm[static_cast<std::size_t>(i)] += p[static_cast<std::size_t>(i)];
+      const Vec3 arm = models::map::rotation_arm(chain, j, p, m.tool_offset);
       const Vec3 w{removed[static_cast<std::size_t>(j * components + 3)][0],
                    removed[static_cast<std::size_t>(j * components + 4)][0],
                    removed[static_cast<std::size_t>(j * components + 5)][0]};
