@@ -7,24 +7,11 @@
 
 #include "core/csv_table.hpp"
 #include "models/flatness/runout.hpp"
+#include "models/map/json_fields.hpp"
 
 namespace guideway::models::map {
 
-namespace {
-
 namespace fs = std::filesystem;
-
-Vec3 vec_mm(const nlohmann::json& j, const std::string& where) {
-  if (!j.is_array() || j.size() != 3) throw std::invalid_argument(where + ": expected [x, y, z] in mm");
-  Vec3 v{};
-  for (std::size_t i = 0; i < 3; ++i) {
-    if (!j[i].is_number()) throw std::invalid_argument(where + ": expected numbers");
-    v[i] = j[i].get<double>() * 1e-3;
-  }
-  return v;
-}
-
-}  // namespace
 
 Day read_day(const std::string& path) {
   nlohmann::json j;
@@ -33,25 +20,14 @@ Day read_day(const std::string& path) {
   } catch (const nlohmann::json::exception& e) {
     throw std::invalid_argument(path + ": not a day manifest (JSON: " + std::string(e.what()) + ")");
   }
-  if (!j.is_object() || j.value("format", "") != day_format_id)
+  if (!j.is_object() || j.value("format", nlohmann::json()) != day_format_id)
     throw std::invalid_argument(path + ": not a day manifest (format must be " + day_format_id + ")");
   Day d;
   d.path = path;
   const fs::path dir = fs::path(path).parent_path();
-  d.machine = j.value("machine", "");
-  if (j.contains("tool_offset_mm")) d.tool_offset_m = vec_mm(j["tool_offset_mm"], path + ": tool_offset_mm");
-  if (j.contains("travel_mm")) {
-    std::array<Travel, 3> t{};
-    for (int a = 0; a < 3; ++a) {
-      const std::string name = axis_name(a);
-      const auto& r = j["travel_mm"].value(name, nlohmann::json());
-      if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number() ||
-          !(r[1].get<double>() > r[0].get<double>()))
-        throw std::invalid_argument(path + ": travel_mm." + name + " must be [lo, hi] with lo < hi");
-      t[static_cast<std::size_t>(a)] = {r[0].get<double>() * 1e-3, r[1].get<double>() * 1e-3};
-    }
-    d.travel = t;
-  }
+  d.machine = fields::text(j, "machine", path);
+  if (j.contains("tool_offset_mm")) d.tool_offset_m = fields::vec_mm(j["tool_offset_mm"], path + ": tool_offset_mm");
+  if (j.contains("travel_mm")) d.travel = fields::travel_mm(j["travel_mm"], path);
   if (!j.contains("tests") || !j["tests"].is_array())
     throw std::invalid_argument(path + ": no \"tests\" list");
   std::size_t k = 0;
@@ -59,10 +35,10 @@ Day read_day(const std::string& path) {
     ++k;
     const std::string where = path + ": test " + std::to_string(k);
     DayEntry e;
-    e.kind = t.value("kind", "");
+    e.kind = fields::text(t, "kind", where);
     if (e.kind != "dbb" && e.kind != "straightness" && e.kind != "artifact" && e.kind != "runout")
       throw std::invalid_argument(where + ": kind '" + e.kind + "' (dbb, straightness, artifact or runout)");
-    e.where = e.kind == "dbb" ? t.value("plane", "") : t.value("axis", "");
+    e.where = fields::text(t, e.kind == "dbb" ? "plane" : "axis", where);
     if (e.kind == "dbb" && squareness_index(e.where) < 0)
       throw std::invalid_argument(where + ": plane '" + e.where + "' (xy, xz or yz)");
     if ((e.kind == "straightness" || e.kind == "artifact") && !parse_axis(e.where))
@@ -70,14 +46,15 @@ Day read_day(const std::string& path) {
     if (!t.contains("files") || !t["files"].is_array() || t["files"].empty())
       throw std::invalid_argument(where + ": no files");
     for (const auto& f : t["files"]) {
-      if (!f.is_string()) throw std::invalid_argument(where + ": file names must be strings");
+      if (!f.is_string() || f.get<std::string>().empty())
+        throw std::invalid_argument(where + ": file names must be non-empty strings");
       const fs::path p(f.get<std::string>());
       e.files.push_back((p.is_absolute() ? p : dir / p).string());
     }
     if (e.kind == "artifact") {
       if (e.files.size() != 3)
         throw std::invalid_argument(where + ": an artifact is three files (calibration, horizontal, vertical)");
-      if (t.contains("other_mm")) e.other_m = vec_mm(t["other_mm"], where + ": other_mm");
+      if (t.contains("other_mm")) e.other_m = fields::vec_mm(t["other_mm"], where + ": other_mm");
     }
     if (e.kind == "straightness" && e.files.size() != 1)
       throw std::invalid_argument(where + ": a traverse is one file");

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "core/csv_table.hpp"
+#include "models/map/json_fields.hpp"
 
 namespace guideway::models::map {
 
@@ -13,16 +14,7 @@ constexpr double micro = 1e6;  // m -> um, rad -> urad
 
 std::string unit_of(int component) { return component < 3 ? "um" : "urad"; }
 
-[[noreturn]] void fail(const std::string& source, const std::string& what) {
-  throw std::invalid_argument(source + ": " + what);
-}
-
-double number(const nlohmann::json& j, const char* key, const std::string& source) {
-  if (!j.contains(key) || !j[key].is_number()) fail(source, std::string("missing number '") + key + "'");
-  const double v = j[key].get<double>();
-  if (!std::isfinite(v)) fail(source, std::string("'") + key + "' is not finite");
-  return v;
-}
+using fields::fail;
 
 nlohmann::json vec_mm(const Vec3& v) { return {v[0] * 1e3, v[1] * 1e3, v[2] * 1e3}; }
 
@@ -152,25 +144,15 @@ nlohmann::json to_json(const MapFit& fit, const std::optional<VolumetricAccuracy
 }
 
 ErrorMap map_from_json(const nlohmann::json& j, const std::string& source) {
-  if (!j.is_object() || j.value("format", "") != map_format_id)
+  if (!j.is_object() || j.value("format", nlohmann::json()) != map_format_id)
     fail(source, std::string("not an error map (format must be ") + map_format_id + ")");
-  std::array<Travel, 3> travel{};
-  for (int a = 0; a < 3; ++a) {
-    const auto& t = j.value("travel_mm", nlohmann::json()).value(axis_name(a), nlohmann::json());
-    if (!t.is_array() || t.size() != 2 || !t[0].is_number() || !t[1].is_number() ||
-        !(t[1].get<double>() > t[0].get<double>()))
-      fail(source, "travel_mm." + axis_name(a) + " must be [lo, hi] with lo < hi");
-    travel[static_cast<std::size_t>(a)] = {t[0].get<double>() * 1e-3, t[1].get<double>() * 1e-3};
-  }
-  Vec3 tool{};
-  if (j.contains("tool_offset_mm")) {
-    const auto& t = j["tool_offset_mm"];
-    if (!t.is_array() || t.size() != 3) fail(source, "tool_offset_mm must be [x, y, z]");
-    for (std::size_t i = 0; i < 3; ++i) tool[i] = t[i].get<double>() * 1e-3;
-  }
+  if (!j.contains("travel_mm")) fail(source, "missing travel_mm");
+  const std::array<Travel, 3> travel = fields::travel_mm(j["travel_mm"], source);
+  const Vec3 tool = j.contains("tool_offset_mm") ? fields::vec_mm(j["tool_offset_mm"], source + ": tool_offset_mm")
+                                                 : Vec3{};
   ErrorMap m = empty_map(travel, tool);
-  m.machine = j.value("machine", "");
-  const std::string chain = j.value("chain", "yxz");
+  m.machine = fields::text(j, "machine", source);
+  const std::string chain = fields::text(j, "chain", source, "yxz");
   if (chain.size() != 3) fail(source, "chain must name the three axes from the bed up (e.g. yxz)");
   for (std::size_t k = 0; k < 3; ++k) {
     const auto a = chain[k] - 'x';
@@ -180,8 +162,9 @@ ErrorMap map_from_json(const nlohmann::json& j, const std::string& source) {
   if (!j.contains("functions") || !j["functions"].is_array() || j["functions"].size() != 18)
     fail(source, "expected 18 functions");
   std::vector<std::pair<ErrorFunction*, std::vector<double>>> coefficients;
+  std::array<std::array<bool, components>, 3> seen{};
   for (const auto& fj : j["functions"]) {
-    const std::string name = fj.value("name", "");
+    const std::string name = fields::text(fj, "name", source + ": functions");
     int axis = -1, comp = -1;
     for (int a = 0; a < 3; ++a)
       for (int c = 0; c < components; ++c)
@@ -190,15 +173,19 @@ ErrorMap map_from_json(const nlohmann::json& j, const std::string& source) {
           comp = c;
         }
     if (axis < 0) fail(source, "unknown function '" + name + "'");
+    bool& once = seen[static_cast<std::size_t>(axis)][static_cast<std::size_t>(comp)];
+    if (once) fail(source, "function '" + name + "' given twice");
+    once = true;
+    const std::string where = source + ": " + name;
     ErrorFunction& f = m.function(axis, comp);
-    f.determined = fj.value("determined", false);
+    f.determined = fields::flag(fj, "determined", where);
     if (!f.determined) {
-      f.why = fj.value("why", "");
+      f.why = fields::text(fj, "why", where);
       continue;
     }
-    f.determined_by = fj.value("determined_by", "");
-    f.orders = fj.value("orders", std::vector<int>());
-    const auto co = fj.value("coefficients", std::vector<double>());
+    f.determined_by = fields::text(fj, "determined_by", where);
+    f.orders = fields::integers(fj, "orders", where);
+    const auto co = fields::numbers(fj, "coefficients", where);
     if (f.orders.empty() || co.size() != f.orders.size())
       fail(source, name + ": orders and coefficients must be given, one coefficient per order");
     for (std::size_t k = 0; k < f.orders.size(); ++k)
@@ -209,16 +196,20 @@ ErrorMap map_from_json(const nlohmann::json& j, const std::string& source) {
   if (!j.contains("squareness") || !j["squareness"].is_array() || j["squareness"].size() != 3)
     fail(source, "expected 3 squarenesses");
   std::array<double, 3> q{};
+  std::array<bool, 3> seen_plane{};
   for (const auto& qj : j["squareness"]) {
-    const int i = squareness_index(qj.value("plane", ""));
+    const int i = squareness_index(fields::text(qj, "plane", source + ": squareness"));
     if (i < 0) fail(source, "squareness of an unknown plane");
+    if (seen_plane[static_cast<std::size_t>(i)]) fail(source, "a plane's squareness given twice");
+    seen_plane[static_cast<std::size_t>(i)] = true;
     auto& sq = m.squareness[static_cast<std::size_t>(i)];
-    sq.determined = qj.value("determined", false);
+    const std::string where = source + ": squareness";
+    sq.determined = fields::flag(qj, "determined", where);
     if (sq.determined) {
-      q[static_cast<std::size_t>(i)] = number(qj, "value_urad", source) * 1e-6;
-      sq.determined_by = qj.value("determined_by", "");
+      q[static_cast<std::size_t>(i)] = fields::number(qj, "value_urad", where) * 1e-6;
+      sq.determined_by = fields::text(qj, "determined_by", where);
     } else {
-      sq.why = qj.value("why", "");
+      sq.why = fields::text(qj, "why", where);
     }
   }
   assign_parameters(m);
@@ -232,7 +223,11 @@ ErrorMap map_from_json(const nlohmann::json& j, const std::string& source) {
     m.covariance.assign(m.parameters * m.parameters, 0.0);
     for (std::size_t r = 0; r < m.parameters; ++r) {
       if (!cov[r].is_array() || cov[r].size() != m.parameters) fail(source, "covariance must be parameters x parameters");
-      for (std::size_t c = 0; c < m.parameters; ++c) m.covariance[r * m.parameters + c] = cov[r][c].get<double>() * 1e-12;
+      for (std::size_t c = 0; c < m.parameters; ++c) {
+        if (!cov[r][c].is_number() || !std::isfinite(cov[r][c].get<double>()))
+          fail(source, "covariance entries must be finite numbers");
+        m.covariance[r * m.parameters + c] = cov[r][c].get<double>() * 1e-12;
+      }
     }
   }
   return m;
@@ -253,10 +248,10 @@ std::vector<AxisBacklash> backlash_from_json(const nlohmann::json& j, const std:
   if (!j.contains("backlash")) return out;
   if (!j["backlash"].is_array()) fail(source, "backlash must be a list");
   for (const auto& b : j["backlash"]) {
-    const std::string a = b.value("axis", "");
+    const std::string a = fields::text(b, "axis", source + ": backlash");
     if (a.size() != 1 || a[0] < 'x' || a[0] > 'z') fail(source, "backlash of an unknown axis");
-    out.push_back({a[0] - 'x', number(b, "value_um", source) * 1e-6, number(b, "u_um", source) * 1e-6,
-                   b.value("from", "")});
+    out.push_back({a[0] - 'x', fields::number(b, "value_um", source) * 1e-6, fields::number(b, "u_um", source) * 1e-6,
+                   fields::text(b, "from", source + ": backlash")});
   }
   return out;
 }
