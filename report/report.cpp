@@ -214,6 +214,9 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
           html = map_section(nlohmann::json::parse(read_text_file(path)), path, id);
         } catch (const std::invalid_argument& e) {
           throw ReportError(e.what());
+        } catch (const nlohmann::json::exception& e) {
+          // The map read (map_from_json checks it), a part shown only to people (checks, groups, volumetric) not.
+          throw ReportError(path + ": not an error map as `guideway map fit` writes it (" + e.what() + ")");
         }
         toc.push_back({id, "Error map: " + base_name(path)});
         break;
