@@ -48,10 +48,12 @@ void print_optics(const models::artifact::ArtifactResult& r, bool coupling) {
               << " points, residual rms " << r.m_scan->residual_rms_px << " px\n";
 }
 
-// The six error motions per target, value +/- u.
+// The six error motions per target in machine directions, value +/- u.
 void print_error_motions(const models::artifact::ArtifactResult& r) {
-  std::cout << "error motions of the tool relative to target 0 (value +/- standard uncertainty):\n"
-            << "target     x_mm        dx_um         dy_um         dz_um        ex_arcsec     ey_arcsec     "
+  const char a = static_cast<char>('x' + r.axis);
+  std::cout << "error motions of the tool relative to target 0, along " << static_cast<char>('X' + r.axis)
+            << " (value +/- standard uncertainty):\n"
+            << "target     " << a << "_mm        dx_um         dy_um         dz_um        ex_arcsec     ey_arcsec     "
                "ez_arcsec\n";
   std::cout << std::setprecision(3);
   const auto pm = [](double value, double u) {
@@ -60,12 +62,11 @@ void print_error_motions(const models::artifact::ArtifactResult& r) {
     return s.str();
   };
   for (const auto& e : r.targets) {
-    std::cout << std::setw(6) << e.target << std::setw(9) << std::setprecision(2) << e.x_m * 1e3 << "  "
-              << std::setw(13) << pm(e.dx_m * 1e6, e.u_dx_m * 1e6) << " " << std::setw(13)
-              << pm(e.dy_m * 1e6, e.u_dy_m * 1e6) << " " << std::setw(13) << pm(e.dz_m * 1e6, e.u_dz_m * 1e6) << " "
-              << std::setw(13) << pm(e.ex_rad / arcsec, e.u_ex_rad / arcsec) << " " << std::setw(13)
-              << pm(e.ey_rad / arcsec, e.u_ey_rad / arcsec) << " " << std::setw(13)
-              << pm(e.ez_rad / arcsec, e.u_ez_rad / arcsec) << "\n";
+    const auto m = models::artifact::machine_errors(e, r.axis);
+    std::cout << std::setw(6) << e.target << std::setw(9) << std::setprecision(2) << e.x_m * 1e3 << "  ";
+    for (std::size_t k = 0; k < 3; ++k) std::cout << std::setw(13) << pm(m.d[k] * 1e6, m.u_d[k] * 1e6) << " ";
+    for (std::size_t k = 0; k < 3; ++k)
+      std::cout << std::setw(13) << pm(m.r[k] / arcsec, m.u_r[k] / arcsec) << (k < 2 ? " " : "\n");
   }
 }
 

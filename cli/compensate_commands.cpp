@@ -635,8 +635,7 @@ const CLI::Validator finite_number(
     "FINITE");
 
 void add_compensate_commands(CLI::App& app, CliContext& ctx) {
-  auto* cmd =
-      app.add_subcommand("compensate", "Compensation tables from identified machine errors (docs/compensation.md)");
+  auto* cmd = shared_subcommand(app, "compensate", "Compensation tables from identified machine errors (docs/compensation.md)");
   auto* d = cmd->add_subcommand("dbb", "LinuxCNC per-joint tables, INI lines and errors.csv from DBB runs");
   auto o = std::make_shared<Opts>();
   d->add_option("runs", o->files, "DBB run files (guideway/dbb-run/1): in-plane circles in both directions")

@@ -13,6 +13,7 @@
 #include "cli/instrument_print.hpp"
 #include "cli/params_print.hpp"
 #include "cli/progress.hpp"
+#include "cli/session_wait.hpp"
 #include "core/runtime_paths.hpp"
 #include "results/session_kinds.hpp"
 
@@ -173,61 +174,6 @@ struct StartOptions {
   }
 };
 
-// While `start --wait` waits: the session's state, progress and time left (its estimate from its programme)
-// from the daemon's STATUS ("" when STATUS does not name it).
-std::string session_doing(const nlohmann::json& status, const std::string& session) {
-  for (const auto& s : status.value("sessions", nlohmann::json::array())) {
-    if (!s.is_object() || s.value("session", "") != session) continue;
-    const std::string progress = s.value("progress", "");
-    std::string doing = s.value("state", "?") + (progress.empty() ? "" : ": " + progress);
-    // A DBB test's estimate is its circles' tracing only: the machine's moves between them (its own
-    // programme) come on top, so it is a lower bound (the demo: 75 s said, 134 s taken).
-    const std::string seconds = s.contains("time_left_s")
-                                    ? std::to_string(std::lround(s.value("time_left_s", 0.0))) + " s left"
-                                    : std::string();
-    if (!seconds.empty())
-      doing += s.value("kind", "") == results::dbb_kind.name ? ", at least " + seconds + " (circles to trace)"
-                                                              : ", about " + seconds;
-    return doing;
-  }
-  return {};
-}
-
-// After `start --wait`: the session's PARAMS (printed), or its failure, within the timeout.
-void wait_for_params(DaemonClient& c, const std::string& session, const StartOptions& o) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.timeout_s);
-  Progress progress("", o.json || o.quiet, 0.0);  // from the start: the session's phases
-  while (std::chrono::steady_clock::now() < deadline) {
-    auto line = c.read_line(std::chrono::milliseconds(500));
-    if (!line) continue;
-    const auto m = nlohmann::json::parse(*line, nullptr, false);
-    if (m.is_discarded()) continue;
-    if (results::has_class(m, results::MessageClass::status)) {
-      if (std::string doing = session_doing(m, session); !doing.empty()) progress.doing(std::move(doing));
-      continue;
-    }
-    if (m.value("session", "") != session) continue;
-    if (results::has_class(m, results::MessageClass::event) && m.value("event", "") == "session_failed") {
-      progress.doing("");  // the session's end: no progress line among what follows
-      if (o.json) std::cout << m.dump() << "\n";
-      throw std::runtime_error("session " + session + " failed: " + m.value("reason", "?"));
-    }
-    if (results::has_class(m, results::MessageClass::params)) {
-      progress.doing("");
-      if (o.json) {
-        std::cout << m.dump() << "\n";
-      } else {
-        print_params(m);
-      }
-      return;
-    }
-  }
-  std::ostringstream why;
-  why << "no parameters for session " << session << " within " << o.timeout_s << " s (it goes on: guideway stop "
-      << session << " ends it)";
-  throw std::runtime_error(why.str());
-}
-
 void run_start(const StartOptions& o, CliContext& ctx) {
   // Checked before the session starts: a session must not be left running by a bad option.
   if (!(o.timeout_s > 0)) throw std::runtime_error("--timeout must be a positive number of seconds");
@@ -242,12 +188,7 @@ void run_start(const StartOptions& o, CliContext& ctx) {
     req["options"][k] = v;
   }
   DaemonClient c = connect(ctx);
-  if (o.wait) {
-    const nlohmann::json classes = {results::to_string(results::MessageClass::params),
-                                    results::to_string(results::MessageClass::event),
-                                    results::to_string(results::MessageClass::status)};
-    c.request(results::request(results::RequestClass::watch, {{"classes", classes}}), results::MessageClass::watch);
-  }
+  if (o.wait) watch_session_progress(c);
   const nlohmann::json r = ask(c, req, results::MessageClass::session, o.json);
   const std::string session = r.value("session", "");
   if (o.json) {
@@ -256,7 +197,7 @@ void run_start(const StartOptions& o, CliContext& ctx) {
     std::cout << "session " << session << " started\n";
     print_warnings(r, std::cout);
   }
-  if (o.wait) wait_for_params(c, session, o);
+  if (o.wait) wait_for_params(c, session, o.timeout_s, o.quiet, o.json);
 }
 
 struct StopOptions : JsonOption {

@@ -190,7 +190,10 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
     for (Message& m : outbox_.take()) {
       if (m.cls == results::MessageClass::params) {
         const nlohmann::json& j = m.body;
-        std::erase_if(latest_params_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
+        // The newest per kind, and per axis for a kind whose sessions name one (a traverse of each carriage).
+        std::erase_if(latest_params_, [&](const nlohmann::json& p) {
+          return p["kind"] == j["kind"] && p.value("axis", "") == j.value("axis", "");
+        });
         latest_params_.push_back(j);
         log_->info("session {}: parameters identified", j.value("session", "?"));
       } else if (m.cls == results::MessageClass::explain) {
@@ -593,8 +596,10 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
                                  const std::string& what) const {
   const std::string kind = string_field(req.body, "kind");
   const std::string session = string_field(req.body, "session");
+  const std::string axis = string_field(req.body, "axis");
   const auto matches = [&](const nlohmann::json& j) {
-    return (kind.empty() || j["kind"] == kind) && (session.empty() || j["session"] == session);
+    return (kind.empty() || j["kind"] == kind) && (session.empty() || j["session"] == session) &&
+           (axis.empty() || j.value("axis", "") == axis);
   };
   // The newest session asked for says why there is none, or that it is on its way: it runs, it is being
   // finished (its PARAMS out, its EXPLAIN still computed: an older session's would be the wrong one), or it
@@ -612,6 +617,9 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
   for (auto it = latest.rbegin(); it != latest.rend(); ++it) {
     if (matches(*it)) return *it;
   }
+  if (!axis.empty() && kind == "straightness")
+    throw std::invalid_argument("no " + what + " yet for a straightness traverse of " + axis +
+                                " (start one: guideway start straightness --set axis=" + axis + ")");
   if (!kind.empty() && !sessions_->known_kind(kind)) {
     throw std::invalid_argument("unknown session kind \"" + kind + "\" (known: " + sessions_->kinds() + ")");
   }

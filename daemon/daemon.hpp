@@ -126,7 +126,7 @@ class Daemon {
   Outbox outbox_;
   std::unique_ptr<Pipeline> pipeline_;
   SessionManager* sessions_ = nullptr;          // owned by pipeline_ (a stage)
-  std::vector<nlohmann::json> latest_params_;   // newest PARAMS per session kind
+  std::vector<nlohmann::json> latest_params_;   // newest PARAMS per session kind (and axis, when it names one)
   std::vector<nlohmann::json> latest_explain_;  // newest EXPLAIN per session kind
   std::unique_ptr<SocketServer> server_;
   std::unique_ptr<plant::Publisher> mqtt_;  // [mqtt]: PARAMS, EXPLAIN, EVENTs and the device table to the broker

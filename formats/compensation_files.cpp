@@ -125,7 +125,8 @@ void check_cross_rows(const std::vector<CrossCorrectionRow>& rows, const std::st
                      "\" must be two different axes");
     if (!std::isfinite(r.position_mm) || !std::isfinite(r.correction_mm))
       fail(name, where + "a value is not a finite number");
-    if (i > 0 && rows[i - 1].moving_axis == r.moving_axis && !(r.position_mm > rows[i - 1].position_mm))
+    if (i > 0 && rows[i - 1].moving_axis == r.moving_axis && rows[i - 1].corrected_axis == r.corrected_axis &&
+        !(r.position_mm > rows[i - 1].position_mm))
       fail(name, where + "position " + shortest(r.position_mm) + " mm of " + r.moving_axis +
                      " does not increase (a table interpolated in that position needs ascending positions)");
   }

@@ -70,7 +70,8 @@ std::string format_error_map_csv(const std::vector<ErrorMapRow>& rows,
 // straightness.csv: the cross-axis (straightness) correction. For each moving axis and position, the
 // correction (mm) the controller adds to the command of the other plane axis, interpolated linearly in
 // the moving axis' commanded position; `# key = value` metadata (format = guideway/straightness/1) and
-// `#` comment lines first. Rows of one moving axis are consecutive, positions strictly ascending.
+// `#` comment lines first. Rows of one moving axis and corrected axis are consecutive, positions strictly
+// ascending (a moving axis may correct both other axes: the error map's straightness in both directions).
 struct CrossCorrectionRow {
   std::string moving_axis;     // "x": the axis whose position indexes the correction
   double position_mm = 0.0;    // its nominal position in machine coordinates
@@ -79,7 +80,7 @@ struct CrossCorrectionRow {
 };
 inline constexpr const char* straightness_format_id = "guideway/straightness/1";
 // Throws CompensationFileError when the rows are empty, a value is not finite, an axis corrects itself
-// or a moving axis' positions do not ascend.
+// or the positions of a moving axis' rows for one corrected axis do not ascend.
 std::string format_straightness_csv(const std::vector<CrossCorrectionRow>& rows,
                                     const std::vector<std::pair<std::string, std::string>>& metadata,
                                     const std::vector<std::string>& comment_lines);

@@ -33,6 +33,8 @@ std::string_view kind_name(InputKind kind) {
       return results::profile_kind.name;
     case InputKind::explain:
       return "explain";
+    case InputKind::map:
+      return "map";
   }
   return "unknown";
 }
@@ -83,9 +85,10 @@ InputKind detect_input(const std::string& path) {
       throw ReportError(e.what());
     }
     if (j.is_object() && (j.contains("findings") || j.contains("baseline"))) return InputKind::explain;
+    if (j.is_object() && j.value("format", "") == "guideway/map/1") return InputKind::map;
     throw ReportError(path +
                       ": a JSON input must be an explanation (guideway explain --json: \"baseline\", "
-                      "\"findings\")");
+                      "\"findings\") or an error map (guideway map fit --out: format guideway/map/1)");
   }
   CsvTable t;
   try {
@@ -205,6 +208,17 @@ std::string render_report(const std::vector<std::string>& inputs, const ReportOp
       case InputKind::explain:
         html = explain_section(path, id);
         toc.push_back({id, "Explanation: " + base_name(path)});
+        break;
+      case InputKind::map:
+        try {
+          html = map_section(nlohmann::json::parse(read_text_file(path)), path, id);
+        } catch (const std::invalid_argument& e) {
+          throw ReportError(e.what());
+        } catch (const nlohmann::json::exception& e) {
+          // The map read (map_from_json checks it), a part shown only to people (checks, groups, volumetric) not.
+          throw ReportError(path + ": not an error map as `guideway map fit` writes it (" + e.what() + ")");
+        }
+        toc.push_back({id, "Error map: " + base_name(path)});
         break;
     }
     body << html;

@@ -13,6 +13,9 @@
 //     inputs, the correlation bars before/after the wavelet step (Figures 8-9, workpiece_flatness).
 //   - Explanations (the JSON of `guideway explain --json`): residual RMS before/after each finding,
 //     in-sample and held out, the finding and mismatch tables, the residual curves it carries.
+//   - Error maps (`guideway map fit --out`, format guideway/map/1): the 21 errors with their uncertainty bands,
+//     the error vectors on the volume's faces, the volumetric accuracy, what was not determined, the
+//     cross-checks (models/map).
 // Inputs are recognised by their `# format =` metadata or their columns (detect_input). Pure apart from
 // reading the inputs; thread safe. Errors are ReportError with the file (and line) in the message.
 
@@ -21,6 +24,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "core/instrument.hpp"
 #include "models/explain/dbb_checked.hpp"
@@ -32,7 +37,7 @@ class ReportError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class InputKind { dbb_run, straightness, union_jack, runout, profile, explain };
+enum class InputKind { dbb_run, straightness, union_jack, runout, profile, explain, map };
 
 [[nodiscard]] std::string_view kind_name(InputKind kind);  // "dbb", "straightness", ...
 
@@ -70,5 +75,8 @@ struct ReportOptions {
 //
 // For the daemon's session report: render_report(the session's files, options with its identification).
 [[nodiscard]] std::string render_report(const std::vector<std::string>& inputs, const ReportOptions& options = {});
+
+// The report of one error map given as its JSON (models/map/map_json; `guideway map fit --report`).
+[[nodiscard]] std::string render_map_report(const nlohmann::json& map, const ReportOptions& options = {});
 
 }  // namespace guideway::report

@@ -27,6 +27,8 @@ std::string profile_section(const std::string& path, const std::string& id, cons
 std::string workpiece_correlation_html(const std::vector<std::string>& profiles, const std::string& traverse,
                                        const std::string& runout, const ReportOptions& options);
 std::string explain_section(const std::string& path, const std::string& id);
+// An error map's JSON (models/map/map_json), `source` naming it.
+std::string map_section(const nlohmann::json& map, const std::string& source, const std::string& id);
 // The instruments of ReportOptions: one row each, a highlighted note per calibration that had run out.
 std::string instruments_section(const std::vector<ReportInstrument>& instruments, const CalendarDate& checked_on,
                                 const std::string& id);

@@ -375,6 +375,11 @@ std::string render(const LinePlot& plot) {
     extent(s.x, xlo, xhi);
     extent(s.y, ylo, yhi);
   }
+  for (const auto& b : plot.bands) {
+    extent(b.x, xlo, xhi);
+    extent(b.lo, ylo, yhi);
+    extent(b.hi, ylo, yhi);
+  }
   const Range xr = plot.x_range ? *plot.x_range : widen(xlo, xhi);
   Ticks yt;
   Range yr;
@@ -393,6 +398,11 @@ std::string render(const LinePlot& plot) {
     const auto& s = plot.series[i];
     if (!s.label.empty()) items.push_back({s.label, s.color.empty() ? palette(i) : s.color, s.style, false});
   }
+  const auto band_color = [&](std::size_t i) {
+    return plot.bands[i].color.empty() ? palette(i) : plot.bands[i].color;
+  };
+  for (std::size_t i = 0; i < plot.bands.size(); ++i)
+    if (!plot.bands[i].label.empty()) items.push_back({plot.bands[i].label, band_color(i), Style::line, true});
   const int rows = legend_rows(items, 70, plot.width - 16);
   Frame f{72, kTitleHeight + rows * kLegendRow + 8, plot.width - 18, plot.height - 46};
   const Scale sx{xr.lo, xr.hi, f.left, f.right};
@@ -405,6 +415,17 @@ std::string render(const LinePlot& plot) {
   o << y_axis(sy, yt, f.left, f.right, plot.y_label, 16);
   const std::string clip = next_id("clip");
   o << "<defs>" << clip_rect(clip, f) << "</defs><g class=\"series\" clip-path=\"url(#" << clip << ")\">";
+  for (std::size_t i = 0; i < plot.bands.size(); ++i) {
+    const Band& b = plot.bands[i];
+    std::string d;
+    const std::size_t n = std::min({b.x.size(), b.lo.size(), b.hi.size()});
+    for (std::size_t k = 0; k < n; ++k)
+      d += (d.empty() ? "M" : " L") + format_fixed(sx(b.x[k]), 2) + ' ' + format_fixed(sy(b.hi[k]), 2);
+    for (std::size_t k = n; k-- > 0;) d += " L" + format_fixed(sx(b.x[k]), 2) + ' ' + format_fixed(sy(b.lo[k]), 2);
+    if (n > 0) d += " Z";
+    o << "<path class=\"band\" data-series=\"" << xml_escape(b.label) << "\" d=\"" << d << "\" fill=\"" << band_color(i)
+      << "\" fill-opacity=\"0.18\" stroke=\"none\"/>";
+  }
   for (std::size_t i = 0; i < plot.series.size(); ++i) {
     const auto& s = plot.series[i];
     o << series_path(s, s.color.empty() ? palette(i) : s.color, sx, sy, f.w());
@@ -799,6 +820,121 @@ std::string render(const BarChart& chart) {
   });
   o << "<rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
     << "\" height=\"" << px(f.h()) << "\" fill=\"none\" stroke=\"#333\"/></svg>";
+  return o.str();
+}
+
+}  // namespace guideway::report
+
+namespace guideway::report {
+
+std::string render(const VectorField& field) {
+  const std::size_t n = std::min({field.x.size(), field.y.size(), field.u.size(), field.v.size()});
+  if (n == 0) throw std::invalid_argument("vector field: no points");
+  double xlo = std::numeric_limits<double>::infinity(), xhi = -xlo, ylo = xlo, yhi = -xlo;
+  extent(field.x, xlo, xhi);
+  extent(field.y, ylo, yhi);
+  Range xr = widen(xlo, xhi), yr = widen(ylo, yhi);
+  // Room around the points for the arrows at the edges.
+  const double mx = 0.12 * (xr.hi - xr.lo), my = 0.12 * (yr.hi - yr.lo);
+  xr = {xr.lo - mx, xr.hi + mx};
+  yr = {yr.lo - my, yr.hi + my};
+  double longest = 0;
+  for (std::size_t k = 0; k < n; ++k) longest = std::max(longest, std::hypot(field.u[k], field.v[k]));
+  bool colored = field.w.size() >= n;
+  double wlo = 0, whi = 0;
+  if (colored) {
+    wlo = std::numeric_limits<double>::infinity();
+    whi = -wlo;
+    extent(field.w, wlo, whi);
+    // Symmetric about 0 and out to the ticks, so the colour bar's ends are labelled.
+    const double h = std::max(std::abs(wlo), std::abs(whi));
+    if (!(h > 0)) {
+      colored = false;
+    } else {
+      const Ticks t = nice_ticks(-h, h, 4);
+      whi = std::max(-t.values.front(), t.values.back());
+      wlo = -whi;
+    }
+  }
+
+  const double left = 70, bar_w = colored ? 96 : 16;
+  double pw = field.width - left - bar_w;
+  double ph = pw * (yr.hi - yr.lo) / (xr.hi - xr.lo);
+  if (ph > 360) {
+    pw *= 360 / ph;
+    ph = 360;
+  }
+  const double legend_h = kLegendRow + 4;
+  const Frame f{left, kTitleHeight + legend_h + 6, left + pw, kTitleHeight + legend_h + 6 + ph};
+  const double height = f.bottom + 52;
+  const Scale sx{xr.lo, xr.hi, f.left, f.right};
+  const Scale sy{yr.lo, yr.hi, f.bottom, f.top};
+  // The longest arrow spans about a sixth of the face.
+  const double cell_px = std::min(pw, ph) / 6.0;
+  const double step = longest > 0 ? nice_ceil(longest) : 1.0;
+  const double px_per_unit = cell_px / step;
+
+  std::ostringstream o;
+  o << open_svg("vectors", field.width, height, field.title);
+  // Legend: the scale arrow.
+  {
+    const double y = kTitleHeight + 12;
+    const double x0 = f.left, x1 = f.left + cell_px;
+    const std::string label = "arrow = " + format_number(step, 3) + " " + field.vector_unit;
+    o << "<g class=\"legend\"><g class=\"legend-item\"><path d=\"M" << px(x0) << ' ' << px(y - 4) << " L" << px(x1) << ' '
+      << px(y - 4) << " M" << px(x1 - 6) << ' ' << px(y - 8) << " L" << px(x1) << ' ' << px(y - 4) << " L" << px(x1 - 6)
+      << ' ' << px(y) << "\" stroke=\"#333\" stroke-width=\"1.6\" fill=\"none\"/><text x=\"" << px(x1 + 8) << "\" y=\""
+      << px(y) << "\">" << xml_escape(label) << "</text></g></g>";
+  }
+  o << x_axis(sx, nice_ticks(xr.lo, xr.hi, 6), f.bottom, f.top, true, field.x_label, (f.left + f.right) / 2, height - 8);
+  o << y_axis(sy, nice_ticks(yr.lo, yr.hi, 6), f.left, f.right, field.y_label, 16);
+  std::string d;
+  std::ostringstream arrows;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double x0 = sx(field.x[k]), y0 = sy(field.y[k]);
+    const double dx = field.u[k] * px_per_unit, dy = -field.v[k] * px_per_unit;
+    const double len = std::hypot(dx, dy);
+    std::string a = "M" + format_fixed(x0, 2) + ' ' + format_fixed(y0, 2) + " L" + format_fixed(x0 + dx, 2) + ' ' +
+                    format_fixed(y0 + dy, 2);
+    if (len > 4) {
+      const double ux = dx / len, uy = dy / len, hl = std::min(6.0, 0.4 * len);
+      a += " M" + format_fixed(x0 + dx - hl * ux - 0.5 * hl * uy, 2) + ' ' +
+           format_fixed(y0 + dy - hl * uy + 0.5 * hl * ux, 2) + " L" + format_fixed(x0 + dx, 2) + ' ' +
+           format_fixed(y0 + dy, 2) + " L" + format_fixed(x0 + dx - hl * ux + 0.5 * hl * uy, 2) + ' ' +
+           format_fixed(y0 + dy - hl * uy - 0.5 * hl * ux, 2);
+    }
+    const std::string color = colored ? colormap((field.w[k] - wlo) / (whi - wlo)) : palette(0);
+    arrows << "<path class=\"arrow\" d=\"" << a << "\" stroke=\"" << color << "\" stroke-width=\"1.5\" fill=\"none\"/>";
+    arrows << "<circle cx=\"" << px(x0) << "\" cy=\"" << px(y0) << "\" r=\"1.6\" fill=\"#333\"/>";
+    d += a + ' ';
+  }
+  // The data path (all arrows) for tools and tests; drawn transparent under the coloured arrows.
+  o << "<g class=\"series\"><path class=\"data\" data-series=\"error vectors\" data-points=\"" << n << "\" d=\"" << d
+    << "\" stroke=\"none\" fill=\"none\"/>" << arrows.str() << "</g>";
+  o << "<rect class=\"frame\" x=\"" << px(f.left) << "\" y=\"" << px(f.top) << "\" width=\"" << px(f.w())
+    << "\" height=\"" << px(f.h()) << "\" fill=\"none\" stroke=\"#333\"/>";
+  if (colored) {
+    const double bx = f.right + 18, bw = 14;
+    o << "<g class=\"axis colorbar\">";
+    const int cells = 40;
+    for (int i = 0; i < cells; ++i)
+      o << "<rect x=\"" << px(bx) << "\" y=\"" << px(f.bottom - (i + 1) * ph / cells) << "\" width=\"" << px(bw)
+        << "\" height=\"" << px(ph / cells + 0.6) << "\" fill=\"" << colormap((i + 0.5) / cells) << "\"/>";
+    const Ticks wt = nice_ticks(wlo, whi, 4);
+    const Scale sw{wlo, whi, f.bottom, f.top};  // the ends of the colour scale are the field's largest |w|
+    for (double v : wt.values) {
+      if (v < wlo - 1e-9 * (whi - wlo) || v > whi + 1e-9 * (whi - wlo)) continue;
+      o << "<line class=\"tick\" x1=\"" << px(bx + bw) << "\" y1=\"" << px(sw(v)) << "\" x2=\"" << px(bx + bw + 4)
+        << "\" y2=\"" << px(sw(v)) << "\" stroke=\"#333\"/><text class=\"tick-label\" x=\"" << px(bx + bw + 7) << "\" y=\""
+        << px(sw(v) + 4) << "\">" << format_fixed(v, wt.decimals) << "</text>";
+    }
+    o << "</g>";
+    const double cy = (f.top + f.bottom) / 2, lx = field.width - 8;
+    o << "<text class=\"axis-label colorbar\" x=\"" << px(lx) << "\" y=\"" << px(cy) << "\" text-anchor=\"middle\""
+      << " font-size=\"13\" transform=\"rotate(-90 " << px(lx) << ' ' << px(cy) << ")\">" << xml_escape(field.w_label)
+      << "</text>";
+  }
+  o << "</svg>";
   return o.str();
 }
 

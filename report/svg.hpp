@@ -56,11 +56,19 @@ struct Range {
   double hi = 1.0;
 };
 
+// A band between two curves (an uncertainty band: value -+ 2 u), drawn under the series, filled.
+struct Band {
+  std::string label;  // its legend entry ("" for none)
+  std::vector<double> x, lo, hi;
+  std::string color;  // CSS colour; empty = the palette colour of its index
+};
+
 struct LinePlot {
   std::string title;
   std::string x_label;  // "quantity / unit"
   std::string y_label;
   std::vector<Series> series;
+  std::vector<Band> bands;  // <path class="band">, each with its series' colour when the index matches
   std::optional<Range> x_range;  // default: the data's extent
   std::optional<Range> y_range;  // default: the data's extent, rounded out to ticks
   double width = 760;
@@ -146,6 +154,22 @@ struct BarChart {
   bool horizontal = false;
 };
 [[nodiscard]] std::string render(const BarChart& chart);
+
+// Error vectors on a face or slice of the working volume: an arrow per point of the face (its in-plane components,
+// magnified so the longest spans about a grid cell), coloured by the component out of the plane; a scale arrow
+// in the legend and a colour bar for the out-of-plane component.
+struct VectorField {
+  std::string title;
+  std::string x_label;  // the face's axes, "X / mm"
+  std::string y_label;
+  std::vector<double> x, y;  // arrow tails, in the axes' units
+  std::vector<double> u, v;  // in-plane components (vector_unit)
+  std::vector<double> w;     // out of the plane (vector_unit); empty: none
+  std::string vector_unit = "\u00b5m";
+  std::string w_label;  // colour bar: "Z error / um"
+  double width = 380;
+};
+[[nodiscard]] std::string render(const VectorField& field);
 
 // The palette (colour-blind safe, distinct in greyscale print order).
 [[nodiscard]] const std::string& palette(std::size_t index);

@@ -106,10 +106,15 @@ inline constexpr SessionOption straightness_pitch_channel{
     "pitch_channel", OptionType::text, 0, 0, 0, "angle_y", {}, "the device channel that reads the pitch"};
 inline constexpr SessionOption straightness_yaw_channel{
     "yaw_channel", OptionType::text, 0, 0, 0, "angle_x", {}, "the device channel that reads the yaw (\"\" = none)"};
+inline constexpr SessionOption straightness_axis{
+    "axis",      OptionType::text, 0, 0, 0, "x", "x|y|z",
+    "the carriage traversed: its pitch and yaw axes and the sign of each channel (docs/conventions.md)"};
 inline constexpr SessionOption straightness_pitch_sign{
-    "pitch_sign", OptionType::number, -1.0, -1.0, 1.0, {}, {}, "1 or -1: the sign of the pitch reading"};
+    "pitch_sign", OptionType::number, 0.0, -1.0, 1.0, {}, {},
+    "1 or -1: the sign of the pitch reading (0: the axis' convention, X -1, Y and Z +1)"};
 inline constexpr SessionOption straightness_yaw_sign{
-    "yaw_sign", OptionType::number, 1.0, -1.0, 1.0, {}, {}, "1 or -1: the sign of the yaw reading"};
+    "yaw_sign", OptionType::number, 0.0, -1.0, 1.0, {}, {},
+    "1 or -1: the sign of the yaw reading (0: the axis' convention, X +1, Y and Z -1)"};
 inline constexpr SessionOption straightness_angle_u_arcsec{"angle_u_arcsec",
                                                            OptionType::number,
                                                            0.0,
@@ -193,7 +198,7 @@ inline constexpr const SessionOption* straightness_options[] = {
     &straightness_step_mm,       &straightness_start_mm,       &straightness_stations,    &straightness_passes,
     &straightness_start,         &straightness_return_gap_s,   &straightness_min_dwell_s, &straightness_max_hole_s,
     &straightness_settle_arcsec, &straightness_pitch_channel,  &straightness_yaw_channel, &straightness_pitch_sign,
-    &straightness_yaw_sign,      &straightness_angle_u_arcsec, &straightness_max_order};
+    &straightness_yaw_sign,      &straightness_angle_u_arcsec, &straightness_max_order,   &straightness_axis};
 inline constexpr SessionKindInfo straightness_kind{
     "straightness", "autocollimator traverse: straightness from the station angles", straightness_options};
 

@@ -426,6 +426,9 @@ class DbbSession : public Session {
     }
     double ca = 0, cb = 0, r = 0;
     if (!fit_circle(pts, 0, pts.size(), ca, cb, r)) return;
+    // Where the circle lies along the plane's normal (its third encoder; 0 without one): the error map places it.
+    double cn = 0;
+    for (const Reading& q : seg) cn += q.xyz_m[static_cast<std::size_t>(3 - ia - ib)] / static_cast<double>(seg.size());
     // Keep the samples on the circle (feed-in moves are radial), refit on them.
     std::vector<Point> on;
     for (const Point& p : pts) {
@@ -484,7 +487,7 @@ class DbbSession : public Session {
       return;
     }
     // The swept arc beyond the data arc, half before and half after it: the test's feed-in and feed-out.
-    run.metadata = run_metadata(pat, run, r, ca, cb, 0.5 * (std::abs(span) - pat.data_arc_rad));
+    run.metadata = run_metadata(pat, run, r, ca, cb, cn, 0.5 * (std::abs(span) - pat.data_arc_rad));
     try {
       formats::validate_dbb_run(run);
     } catch (const formats::DbbRunFormatError& e) {
@@ -498,7 +501,7 @@ class DbbSession : public Session {
   }
 
   std::map<std::string, std::string> run_metadata(const Pattern& pat, const formats::DbbRun& run, double r, double ca,
-                                                  double cb, double overshoot_rad) const {
+                                                  double cb, double cn, double overshoot_rad) const {
     std::ostringstream feed;
     feed << run.feed_m_per_s * 60e3;
     return {{"format", formats::dbb_run_format_id},
@@ -515,6 +518,7 @@ class DbbSession : public Session {
             // tables are placed by (docs/compensation.md); written also when it is 0.
             {"center_a_mm", std::to_string(ca * 1e3)},
             {"center_b_mm", std::to_string(cb * 1e3)},
+            {"center_n_mm", std::to_string(cn * 1e3)},
             // t_s of every run is on the session's clock: one machine-time axis for EXPLAIN's
             // time-dependent effects (thermal drift), see docs/explain.md.
             {"start_time_s", "0"},

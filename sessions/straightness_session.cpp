@@ -6,6 +6,7 @@
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
 #include "models/explain/traverse_explain.hpp"
+#include "models/flatness/angles.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/straightness.hpp"
 #include "sessions/session_support.hpp"
@@ -24,6 +25,7 @@ struct StraightnessOptions {
   double min_dwell_s = 0.3;
   double max_hole_s = 0.45;
   double settle_rad = 0.5 * models::flatness::rad_per_arcsec;
+  int axis = 0;  // 0 x, 1 y, 2 z
   double pitch_sign = -1.0;
   double yaw_sign = 1.0;
   std::string pitch_channel = "angle_y";
@@ -50,10 +52,16 @@ StraightnessOptions parse_options(const nlohmann::json& o) {
   if (s.yaw_channel == s.pitch_channel)  // one reading taken for both planes' angles would be a wrong result
     throw std::invalid_argument("options pitch_channel and yaw_channel name the same channel \"" + s.pitch_channel +
                                 "\": the pitch and the yaw are two readings (yaw_channel = \"\" for none)");
+  s.axis = string_option(o, results::straightness_axis)[0] - 'x';
+  // The channels' signs that make the file's angles slopes along the traversed axis (docs/conventions.md):
+  // 0, the default, takes the axis' convention.
   for (const results::SessionOption* sign : {&results::straightness_pitch_sign, &results::straightness_yaw_sign}) {
-    const double v = number_option(o, *sign);
-    if (v != 1.0 && v != -1.0) throw std::invalid_argument("option " + std::string(sign->name) + " must be 1 or -1");
-    (sign == &results::straightness_pitch_sign ? s.pitch_sign : s.yaw_sign) = v;
+    const bool pitch = sign == &results::straightness_pitch_sign;
+    double v = number_option(o, *sign);
+    if (v == 0.0) v = pitch ? models::flatness::traverse_pitch_sign(s.axis) : models::flatness::traverse_yaw_sign(s.axis);
+    if (v != 1.0 && v != -1.0)
+      throw std::invalid_argument("option " + std::string(sign->name) + " must be 1 or -1 (0: the axis' convention)");
+    (pitch ? s.pitch_sign : s.yaw_sign) = v;
   }
   s.model.instrument.u_override_rad =
       number_option(o, results::straightness_angle_u_arcsec) * models::flatness::rad_per_arcsec;
@@ -187,10 +195,14 @@ class StraightnessSession : public Session {
     add("vertical", r.vertical);
     if (r.horizontal) add("horizontal", *r.horizontal);
     nlohmann::json j;
+    j["axis"] = std::string(1, "xyz"[o_.axis]);  // the daemon keeps the newest PARAMS per kind and axis
     j["model"] = result["model"];
     j["straightness"] = group;
-    j["traverse"] = {
-        {"stations", r.readings}, {"passes", o_.passes}, {"step_mm", r.step_m * 1e3}, {"start_mm", o_.start_m * 1e3}};
+    j["traverse"] = {{"stations", r.readings},
+                     {"passes", o_.passes},
+                     {"step_mm", r.step_m * 1e3},
+                     {"start_mm", o_.start_m * 1e3},
+                     {"axis", std::string(1, "xyz"[o_.axis])}};
     if (!done_) {  // stopped before the count or the return
       j["incomplete"] = "stopped after " + std::to_string(pitch_rad_.size()) +
                         (o_.stations > 0 ? " of " + std::to_string(o_.stations * o_.passes) : std::string()) +
@@ -201,7 +213,8 @@ class StraightnessSession : public Session {
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
-    return {{"step_mm", shortest(o_.step_m * 1e3)},
+    return {{"axis", std::string(1, "xyz"[o_.axis])},
+            {"step_mm", shortest(o_.step_m * 1e3)},
             {"passes", std::to_string(o_.passes)},
             {"start_mm", shortest(o_.start_m * 1e3)},
             {"pitch_channel", o_.pitch_channel + (o_.pitch_sign < 0 ? " (negated)" : "")},
@@ -282,8 +295,9 @@ class StraightnessSession : public Session {
   // The traverse file of docs/formats.md: angles in arc-seconds, written so they read back exactly; with the
   // time of each reading (since the first) and its pass, forward passes odd, returns even.
   [[nodiscard]] std::string traverse_text() const {
-    std::string t = "# step_mm = " + shortest(o_.step_m * 1e3) + "\n# device = " + device_ +
-                    "\n# source = guidewayd straightness session\n";
+    // With the axis, x_mm is the carriage's position along it (where the map places the reading).
+    std::string t = "# step_mm = " + shortest(o_.step_m * 1e3) + "\n# axis = " + std::string(1, "xyz"[o_.axis]) +
+                    "\n# device = " + device_ + "\n# source = guidewayd straightness session\n";
     t += yaw_ >= 0 ? "x_mm,pitch_arcsec,yaw_arcsec,t_s,pass\n" : "x_mm,pitch_arcsec,t_s,pass\n";
     const std::size_t per_pass = pitch_rad_.size() / o_.passes;
     for (std::size_t k = 0; k < pitch_rad_.size(); ++k) {

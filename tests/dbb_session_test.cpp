@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <string>
 
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
@@ -52,6 +54,7 @@ struct Circle {
   double feed_mm_per_min = 3000.0;
   double data_arc_deg = 360.0;
   double start_deg = 0.0;
+  simulators::machine::Vec3 center{};  // the commanded centre, machine coordinates
 };
 
 // Samples as the driver would publish them: t, bar, encoder x, y (with `xyz`: z, x, y); 1 s of standing
@@ -68,6 +71,7 @@ void feed_circle(sessions::Session& s, const simulators::machine::Machine& machi
   spec.start_angle_rad = c.start_deg * M_PI / 180;
   if (c.data_arc_deg < 360) spec.overshoot_rad = 10 * M_PI / 180;
   spec.sample_rate_hz = 250.0;
+  spec.center = c.center;
   spec.t0_s = t0;
   const simulators::machine::DbbRun run = machine.dbb_circle(spec);
   std::vector<Sample> out;
@@ -337,6 +341,10 @@ TEST(DbbSession, TheThreePlaneTestRecoversWhatOnlyTheVerticalPlanesSee) {
         c.data_arc_deg = 220;
         c.start_deg = dir == DbbDirection::ccw ? -20 : 200;
       }
+      // Each plane away from the origin along its normal: the run files say where (center_n_mm).
+      c.center = plane == Plane::xy ? simulators::machine::Vec3{0, 0, -0.05}
+                 : plane == Plane::xz ? simulators::machine::Vec3{0, 0.12, 0}
+                                      : simulators::machine::Vec3{0.08, 0, 0};
       feed_circle(*session, machine, c, t, true);
     }
   }
@@ -359,6 +367,16 @@ TEST(DbbSession, TheThreePlaneTestRecoversWhatOnlyTheVerticalPlanesSee) {
   within(s["scale_mismatch"]["scale_mismatch_xz_ppm"], 20.0 - 15.0, 3, "scale mismatch xz");
   // Each 220 deg arc kept its data arc; the run files say so.
   EXPECT_EQ(session->metadata().at("plane"), "xy,xz,yz");
+  // The run files place each circle along its plane's normal, from the encoder that stood still.
+  const test::TempDir dir;
+  const std::vector<std::string> files = session->write_derived(dir.path().string(), "three");
+  ASSERT_EQ(files.size(), 6u);
+  const std::map<std::string, double> normal_mm{{"xy", -50.0}, {"xz", 120.0}, {"yz", 80.0}};
+  for (const auto& path : files) {
+    const formats::DbbRun run = formats::read_dbb_run(path);
+    const std::string plane = run.metadata.at("plane");
+    EXPECT_NEAR(std::stod(run.metadata.at("center_n_mm")), normal_mm.at(plane), 0.01) << path;
+  }
 }
 
 TEST(DbbSession, BadTemplateOptionsAreRefusedSayingWhy) {

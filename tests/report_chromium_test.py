@@ -47,6 +47,7 @@ EXPECTED = {
     "runout": {"line": 1},
     "profile": {"line": 1, "panels": 2},  # and under the last profile: the correlation bars
     "explain": {"bar": 1},  # and a line plot when the explanation carries residual curves
+    "map": {"line": 6, "vectors": 3},  # each axis' translations and rotations, the volume's three faces
 }
 
 
@@ -146,6 +147,15 @@ def check_report(browser, html, kinds):
                       where + ": panel '%s' does not draw the whole curve" % p["title"])
             yticks = {tuple(a["labels"]) for p in steps for a in p["axes"] if a["cls"] == "axis y"}
             check(len(yticks) == 1, where + ": the residual panels are not on one y scale: %s" % yticks)
+        if sec["kind"] == "map":
+            lines = [p for p in plots if p["kind"] == "line"]
+            for p in lines:
+                check(len(p["data"]) == 3, where + ": plot '%s' draws %d functions, expected 3" % (p["title"], len(p["data"])))
+                check(any("2 u" in l for l in p["legend"]), where + ": plot '%s' has no uncertainty band in its legend: %s"
+                      % (p["title"], p["legend"]))
+            for p in [p for p in plots if p["kind"] == "vectors"]:
+                check(any("colorbar" in a["cls"] for a in p["axes"]), where + ": vectors '%s' without colour scale" % p["title"])
+                check(all(d["points"] == 49 for d in p["data"]), where + ": vectors '%s': %s" % (p["title"], p["data"]))
         if sec["kind"] == "unionjack":
             hm = [p for p in plots if p["kind"] == "heightmap"][0]
             check(len(hm["data"]) == 8, where + ": %d Union Jack lines, expected 8" % len(hm["data"]))

@@ -92,6 +92,31 @@ std::array<double, 7> outputs(const ArtifactTargetErrors& e) {
 
 }  // namespace
 
+int across_axis(int axis, ArtifactPlacement placement) {
+  if (placement == ArtifactPlacement::vertical) return axis == 2 ? 1 : 2;
+  return axis == 0 ? 1 : 0;
+}
+
+MachineErrors machine_errors(const ArtifactTargetErrors& e, int axis) {
+  MachineErrors m;
+  const auto h = static_cast<std::size_t>(across_axis(axis, ArtifactPlacement::horizontal));
+  const auto v = static_cast<std::size_t>(across_axis(axis, ArtifactPlacement::vertical));
+  const auto j = static_cast<std::size_t>(axis);
+  m.d[j] = e.dx_m;
+  m.u_d[j] = e.u_dx_m;
+  m.d[h] = e.dy_m;
+  m.u_d[h] = e.u_dy_m;
+  m.d[v] = e.dz_m;
+  m.u_d[v] = e.u_dz_m;
+  m.r[j] = e.ex_rad;
+  m.u_r[j] = e.u_ex_rad;
+  m.r[h] = e.ey_rad;
+  m.u_r[h] = e.u_ey_rad;
+  m.r[v] = e.ez_rad;
+  m.u_r[v] = e.u_ez_rad;
+  return m;
+}
+
 ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source, ArtifactPlacement expected) {
   const CsvTable t = parse_csv_table(text, source);
   ArtifactReadings r;
@@ -110,9 +135,15 @@ ArtifactReadings parse_artifact_readings(std::string_view text, const std::strin
   }
   r.u_spot_px = optional_non_negative(t, "u_spot_px", 0.1);
   r.u_position_m = optional_non_negative(t, "u_position_um", 0.0) * 1e-6;
+  if (const auto a = t.metadata.find("axis"); a != t.metadata.end()) {
+    if (a->second != "x" && a->second != "y" && a->second != "z")
+      throw CsvError(source + ": axis is '" + a->second + "', expected x, y or z");
+    r.axis = a->second[0] - 'x';
+  }
+  const auto column_of = [](int axis) { return std::string(1, "XYZ"[axis]) + "_M_mm"; };
   const std::size_t c_target = required_column(t, "target");
-  const std::size_t c_along = required_column(t, "X_M_mm");
-  const std::size_t c_across = required_column(t, expected == ArtifactPlacement::vertical ? "Z_M_mm" : "Y_M_mm");
+  const std::size_t c_along = required_column(t, column_of(r.axis));
+  const std::size_t c_across = required_column(t, column_of(across_axis(r.axis, expected)));
   const std::size_t c_xm = required_column(t, "x_M_px");
   const std::size_t c_ym = required_column(t, "y_M_px");
   const std::size_t c_xf = required_column(t, "x_F_px");
@@ -227,11 +258,16 @@ ArtifactPlacementValues placement_values(const ArtifactReadings& r, double k, do
 ArtifactResult identify_artifact(const ArtifactReadings& calibration, const ArtifactReadings& horizontal,
                                  const ArtifactReadings& vertical, const ArtifactOptions& options) {
   const std::size_t n = calibration.target.size();
-  for (const ArtifactReadings* r : {&horizontal, &vertical})
+  for (const ArtifactReadings* r : {&horizontal, &vertical}) {
     if (r->target.size() != n)
       throw CsvError(r->source + ": " + std::to_string(r->target.size()) + " targets, but the calibration " +
                      calibration.source + " has " + std::to_string(n));
+    if (r->axis != calibration.axis)
+      throw CsvError(r->source + ": axis " + std::string(1, "xyz"[r->axis]) + ", but the calibration " +
+                     calibration.source + " is along " + std::string(1, "xyz"[calibration.axis]));
+  }
   ArtifactResult res;
+  res.axis = calibration.axis;
   res.k_scan = options.k_scan;
   res.m_scan = options.m_scan;
   res.k_m_per_px = options.k_scan ? options.k_scan->coefficient : calibration.k_m_per_px;

@@ -8,6 +8,7 @@
 // and straightness errors after the angle-coupling correction k m epsilon. Pure functions (file
 // reading aside); thread safe. SI inside (m, rad); docs/formats.md "1-D artifact" has the files.
 
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -23,6 +24,7 @@ enum class ArtifactPlacement { calibration, horizontal, vertical };
 struct ArtifactReadings {
   std::string source;
   ArtifactPlacement placement = ArtifactPlacement::calibration;
+  int axis = 0;  // the machine axis the artifact lies along (`# axis = x|y|z`, default x): 0, 1, 2
   double k_m_per_px = 0.0;    // calibration only (0 = not given: a scan must give it)
   double m_px_per_rad = 0.0;  // calibration only (0 = not given)
   double u_k_m_per_px = 0.0;
@@ -30,14 +32,20 @@ struct ArtifactReadings {
   double u_spot_px = 0.0;     // standard uncertainty of each spot coordinate
   double u_position_m = 0.0;  // of each measurement-point coordinate (laser or machine feedback)
   std::vector<int> target;
-  std::vector<double> along_m;   // X_M
-  std::vector<double> across_m;  // Y_M (calibration, horizontal) or Z_M (vertical)
+  std::vector<double> along_m;   // X_M (the axis' own column: X_M_mm, Y_M_mm or Z_M_mm)
+  std::vector<double> across_m;  // the placement's across column (across_axis): Y_M (X horizontal), Z_M (X vertical)
   std::vector<double> x_M_px, y_M_px, x_F_px, y_F_px;
   std::vector<std::size_t> line;
 };
 
+// The machine axis a placement reads across an artifact along `axis`: horizontal X -> y, Y -> x, Z -> x;
+// vertical X -> z, Y -> z, Z -> y (for Z both placements stand upright, turned 90 deg apart about z); the
+// calibration reads across as the horizontal placement does.
+[[nodiscard]] int across_axis(int axis, ArtifactPlacement placement);
+
 // Throws CsvError "file:line: message": missing placement or column, non-numeric cells, a placement
-// other than `expected`, targets not numbered 0, 1, 2, ... in order, fewer than 2 targets.
+// other than `expected`, an axis other than x, y, z, targets not numbered 0, 1, 2, ... in order, fewer than 2
+// targets.
 ArtifactReadings parse_artifact_readings(std::string_view text, const std::string& source, ArtifactPlacement expected);
 ArtifactReadings read_artifact_readings(const std::string& path, ArtifactPlacement expected);
 
@@ -52,9 +60,12 @@ ArtifactPlacementValues placement_values(const ArtifactReadings& r, double k_m_p
 // in ISO 230-1 signs (the virtual machine tool's): dx positioning, dy / dz straightness, ex roll,
 // ey pitch, ez yaw (right-handed about +x, +y, +z). Wei's delta = X'_F - X_F - k m epsilon is the
 // apparent shift of the targets, the opposite of the tool's error: d = -delta.
+// For an artifact along another axis the same quantities are taken in the artifact's own terms: d_x along it,
+// d_y and e_y across and about across in the horizontal placement (across_axis), d_z and e_z in the vertical,
+// e_x its roll; machine_errors() puts them in machine directions.
 struct ArtifactTargetErrors {
   int target = 0;
-  double x_m = 0.0;  // machine X of the measurement point (horizontal placement)
+  double x_m = 0.0;  // machine position of the measurement point along the axis (horizontal placement)
   double dx_m = 0, dy_m = 0, dz_m = 0, ex_rad = 0, ey_rad = 0, ez_rad = 0;
   double u_dx_m = 0, u_dy_m = 0, u_dz_m = 0, u_ex_rad = 0, u_ey_rad = 0, u_ez_rad = 0;
   double ex_vertical_rad = 0, u_ex_vertical_rad = 0;  // roll again from the vertical placement (a check)
@@ -88,6 +99,7 @@ struct ArtifactOptions {
 };
 
 struct ArtifactResult {
+  int axis = 0;  // the files' axis
   double k_m_per_px = 0, m_px_per_rad = 0, u_k_m_per_px = 0, u_m_px_per_rad = 0;
   std::optional<ConversionFit> k_scan, m_scan;  // the fits used, when scans were given
   double coupling_m_per_rad = 0;                // k m
@@ -95,7 +107,14 @@ struct ArtifactResult {
   std::vector<ArtifactTargetErrors> targets;
 };
 
-// Throws CsvError naming a file when the three do not have the same targets, or when k or m is
+// One target's error motions in machine directions (index 0, 1, 2 = x, y, z): displacement, rotation and
+// their standard uncertainties (for X the same numbers as dx..ez).
+struct MachineErrors {
+  std::array<double, 3> d{}, u_d{}, r{}, u_r{};
+};
+[[nodiscard]] MachineErrors machine_errors(const ArtifactTargetErrors& e, int axis);
+
+// Throws CsvError naming a file when the three do not have the same targets or axis, or when k or m is
 // neither in the calibration's metadata nor given by a scan.
 ArtifactResult identify_artifact(const ArtifactReadings& calibration, const ArtifactReadings& horizontal,
                                  const ArtifactReadings& vertical, const ArtifactOptions& options = {});

@@ -42,24 +42,28 @@ nlohmann::json to_json(const ArtifactResult& r) {
   j["calibration"] = placement_json(r.calibration);
   j["horizontal"] = placement_json(r.horizontal);
   j["vertical"] = placement_json(r.vertical);
+  // Every key names a machine direction: for an artifact along Y, y_mm is the position, dy_um its positioning
+  // error and ey_arcsec its roll (machine_errors).
+  const std::string a(1, "xyz"[r.axis]);
+  j["axis"] = a;
   nlohmann::json t = nlohmann::json::array();
-  for (const auto& e : r.targets)
-    t.push_back({{"target", e.target},
-                 {"x_mm", e.x_m * 1e3},
-                 {"dx_um", e.dx_m * 1e6},
-                 {"u_dx_um", e.u_dx_m * 1e6},
-                 {"dy_um", e.dy_m * 1e6},
-                 {"u_dy_um", e.u_dy_m * 1e6},
-                 {"dz_um", e.dz_m * 1e6},
-                 {"u_dz_um", e.u_dz_m * 1e6},
-                 {"ex_arcsec", e.ex_rad / arcsec},
-                 {"u_ex_arcsec", e.u_ex_rad / arcsec},
-                 {"ey_arcsec", e.ey_rad / arcsec},
-                 {"u_ey_arcsec", e.u_ey_rad / arcsec},
-                 {"ez_arcsec", e.ez_rad / arcsec},
-                 {"u_ez_arcsec", e.u_ez_rad / arcsec},
-                 {"ex_vertical_arcsec", e.ex_vertical_rad / arcsec},
-                 {"u_ex_vertical_arcsec", e.u_ex_vertical_rad / arcsec}});
+  for (const auto& e : r.targets) {
+    const MachineErrors m = machine_errors(e, r.axis);
+    nlohmann::json row = {{"target", e.target}, {a + "_mm", e.x_m * 1e3}};
+    for (std::size_t i = 0; i < 3; ++i) {
+      const std::string d(1, "xyz"[i]);
+      row["d" + d + "_um"] = m.d[i] * 1e6;
+      row["u_d" + d + "_um"] = m.u_d[i] * 1e6;
+    }
+    for (std::size_t i = 0; i < 3; ++i) {
+      const std::string d(1, "xyz"[i]);
+      row["e" + d + "_arcsec"] = m.r[i] / arcsec;
+      row["u_e" + d + "_arcsec"] = m.u_r[i] / arcsec;
+    }
+    row["e" + a + "_vertical_arcsec"] = e.ex_vertical_rad / arcsec;
+    row["u_e" + a + "_vertical_arcsec"] = e.u_ex_vertical_rad / arcsec;
+    t.push_back(row);
+  }
   j["targets"] = t;
   return j;
 }

@@ -26,4 +26,12 @@ struct Autocollimator {
   }
 };
 
+// A carriage traverse of machine axis `axis` (0 x, 1 y, 2 z; docs/conventions.md "Autocollimator traverse of
+// any axis"): a traverse file's angles are slopes of the carriage's path along the axis, pitch in the vertical
+// direction (X, Y: z; Z: x), yaw in the horizontal one (X: y; Y: x; Z: y). The carriage's rotation about its
+// pitch axis (X: y, Y: x, Z: y) is traverse_pitch_sign(axis) times the pitch slope, about its yaw axis (X: z,
+// Y: z, Z: x) traverse_yaw_sign(axis) times the yaw slope (and the slopes the same signs times the rotations).
+[[nodiscard]] inline constexpr double traverse_pitch_sign(int axis) { return axis == 0 ? -1.0 : 1.0; }
+[[nodiscard]] inline constexpr double traverse_yaw_sign(int axis) { return axis == 0 ? 1.0 : -1.0; }
+
 }  // namespace guideway::models::flatness

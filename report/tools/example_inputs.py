@@ -47,6 +47,11 @@ def make_inputs(guideway, emulate, src, moody, out):
             json.dump(j, f)
         note = ("tests/report_explain_example.json (guideway explain unavailable: %s), without residual curves"
                 % ((r.stderr.strip().splitlines() or ["no output"])[-1]))
+    # The error map of a simulated day on the example machine (docs/map.md).
+    day = os.path.join(out, "day")
+    _run(guideway, "simulate", "day", "--machine", machine, "--out-dir", day, "--no-runout")
+    error_map = os.path.join(out, "map.json")
+    _run(guideway, "map", "fit", "--day", os.path.join(day, "day.json"), "--out", error_map, "--quiet", "--grid", "7")
     return {
         "dbb": [os.path.join(out, "dbb_ccw.csv"), os.path.join(out, "dbb_cw.csv")],
         "straightness": traverse,
@@ -55,4 +60,5 @@ def make_inputs(guideway, emulate, src, moody, out):
         # The profiles with the traverse and the run-out: the MRA panels and Mu's correlation bars.
         "profile": profiles + traverse + runout,
         "explain": [explain],
+        "map": [error_map],
     }, note

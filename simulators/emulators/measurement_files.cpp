@@ -10,6 +10,7 @@
 
 #include "core/units.hpp"
 #include "formats/profile_files.hpp"
+#include "models/artifact/artifact.hpp"
 
 namespace guideway::simulators::emulators {
 
@@ -128,7 +129,6 @@ std::vector<std::string> write_workpiece_files(const machine::Machine& machine, 
 }
 
 ArtifactFiles artifact_files(const machine::Machine& machine, const ArtifactFilesSpec& spec) {
-  if (spec.axis != machine::Axis::x) throw std::invalid_argument("artifact files: only the X axis is modelled");
   if (spec.targets < 2) throw std::invalid_argument("artifact files: need at least 2 targets");
   const std::size_t n = spec.targets;
   const double k = spec.k_m_per_px;
@@ -147,6 +147,14 @@ ArtifactFiles artifact_files(const machine::Machine& machine, const ArtifactFile
     }
   }
   const std::uint64_t seed = seed_of(machine, spec.seed);
+  // The artifact lies along the axis; each placement reads across another machine axis (models/artifact's
+  // across_axis: X horizontal y, vertical z; Y horizontal x, vertical z; Z x and y).
+  const auto j = static_cast<std::size_t>(spec.axis);
+  const std::size_t across_of[3] = {
+      static_cast<std::size_t>(models::artifact::across_axis(static_cast<int>(j), models::artifact::ArtifactPlacement::horizontal)),
+      static_cast<std::size_t>(models::artifact::across_axis(static_cast<int>(j), models::artifact::ArtifactPlacement::horizontal)),
+      static_cast<std::size_t>(models::artifact::across_axis(static_cast<int>(j), models::artifact::ArtifactPlacement::vertical))};
+  const auto column = [](std::size_t axis) { return std::string(1, "XYZ"[axis]) + "_M_mm"; };
 
   // placement 0: calibration (perfect reference), 1: horizontal, 2: vertical.
   auto file = [&](int placement) {
@@ -165,23 +173,24 @@ ArtifactFiles artifact_files(const machine::Machine& machine, const ArtifactFile
     std::normal_distribution<double> g(0.0, 1.0);
     const char* names[] = {"calibration", "horizontal", "vertical"};
     std::ostringstream out;
-    out << "# format = guideway/artifact/1\n# placement = " << names[placement] << "\n# axis = x\n";
+    out << "# format = guideway/artifact/1\n# placement = " << names[placement] << "\n# axis = " << "xyz"[j] << "\n";
     if (placement == 0)
       out << "# k_um_per_px = " << setting(k * 1e6) << "\n# m_px_per_arcsec = " << setting(m * arcsec) << "\n";
     out << "# u_spot_px = " << setting(spec.spot_noise_px)
         << "\n# u_position_um = " << setting(placement == 0 ? spec.laser_noise_m * 1e6 : 0.0)
         << "\n# machine = " << machine.config().name << "\n";
-    out << "target,X_M_mm," << (placement == 2 ? "Z_M_mm" : "Y_M_mm") << ",x_M_px,y_M_px,x_F_px,y_F_px\n";
+    const std::size_t across = across_of[placement];
+    out << "target," << column(j) << "," << column(across) << ",x_M_px,y_M_px,x_F_px,y_F_px\n";
     for (std::size_t i = 0; i < n; ++i) {
       // Commanded measurement point over the nominal target; the sensor's actual error there.
       const double c_along = spec.start_m + static_cast<double>(i) * spec.pitch_m;
-      const double c_across = placement == 2 ? spec.other[2] : spec.other[1];
+      const double c_across = spec.other[across];
       double d_along = 0, d_across = 0, tilt_x_img = 0, tilt_y_img = 0;
       if (placement > 0) {
-        d_along = t[i].displacement_m[0];
-        d_across = placement == 1 ? t[i].displacement_m[1] : t[i].displacement_m[2];
-        tilt_x_img = placement == 1 ? t[i].rotation_rad[1] : t[i].rotation_rad[2];  // about the image's y axis
-        tilt_y_img = t[i].rotation_rad[0];                                          // about x (roll)
+        d_along = t[i].displacement_m[j];
+        d_across = t[i].displacement_m[across];
+        tilt_x_img = t[i].rotation_rad[across];  // about the image's y axis (the placement's across axis)
+        tilt_y_img = t[i].rotation_rad[j];       // about the artifact (roll)
       }
       const double xF = m * (ty[i] + tilt_x_img);
       const double yF = m * (tx[i] + tilt_y_img);

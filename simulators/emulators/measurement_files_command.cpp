@@ -78,7 +78,8 @@ void add_workpiece(CLI::App& app, int& exit_code) {
 
 void add_artifact(CLI::App& app, int& exit_code) {
   struct Args {
-    std::string machine, out_dir;
+    std::string machine, out_dir, axis = "x";
+    std::vector<double> other_mm;
     double start_mm = 50, pitch_mm = 50, spot_noise_px = 0.1, laser_noise_um = 0.05;
     std::size_t targets = 9;
     std::uint64_t seed = 0, artifact_seed = 2019;
@@ -87,7 +88,12 @@ void add_artifact(CLI::App& app, int& exit_code) {
   auto* sub = app.add_subcommand("artifact", "files of Wei's 1-D artifact: calibration, horizontal, vertical");
   sub->add_option("--out-dir", a->out_dir, "directory for the files")->required();
   sub->add_option("--machine", a->machine, "virtual machine tool file (default: config/machine-example.toml)");
-  sub->add_option("--start-mm", a->start_mm, "X of the first target")->capture_default_str();
+  sub->add_option("--axis", a->axis, "the axis the artifact lies along")
+      ->check(CLI::IsMember({"x", "y", "z"}))
+      ->capture_default_str();
+  sub->add_option("--other-mm", a->other_mm, "where it lies: the positions of the other axes, X Y Z (default 0 0 0)")
+      ->expected(3);
+  sub->add_option("--start-mm", a->start_mm, "position of the first target along the axis")->capture_default_str();
   sub->add_option("--pitch-mm", a->pitch_mm, "target spacing")->capture_default_str();
   sub->add_option("--targets", a->targets, "number of targets")->capture_default_str();
   sub->add_option("--spot-noise-px", a->spot_noise_px, "white noise of every spot coordinate")->capture_default_str();
@@ -99,6 +105,8 @@ void add_artifact(CLI::App& app, int& exit_code) {
   sub->callback([a, &exit_code] {
     exit_code = report_errors("artifact", [&] {
       ArtifactFilesSpec s;
+      s.axis = a->axis == "y" ? machine::Axis::y : a->axis == "z" ? machine::Axis::z : machine::Axis::x;
+      if (a->other_mm.size() == 3) s.other = {a->other_mm[0] * 1e-3, a->other_mm[1] * 1e-3, a->other_mm[2] * 1e-3};
       s.start_m = a->start_mm * 1e-3;
       s.pitch_m = a->pitch_mm * 1e-3;
       s.targets = a->targets;

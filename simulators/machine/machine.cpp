@@ -51,28 +51,8 @@ Vector3d travel_direction(const MachineConfig& m, int j) {
 
 // Rotation error motion of axis j at position u (Mu Eq. 2 order: Rx * Ry * Rz).
 Matrix3d axis_rotation(const AxisErrors& e, int j, double u) {
-  double ang[3] = {e.rotation[0](u), e.rotation[1](u), e.rotation[2](u)};
-  // Periodic pitch and yaw (a rack, a lead screw): the pitch axis is y for X and Z, x for Y; the yaw axis z
-  // for X and Y, x for Z (as the autocollimator traverse reads them).
-  const auto wave = [u](double a, double period, double phase) {
-    return a == 0.0 ? 0.0 : a * std::sin(2.0 * std::numbers::pi * u / period + phase);
-  };
-  ang[j == 1 ? 0 : 1] += wave(e.pitch_wave_rad, e.pitch_wave_period_m, e.pitch_wave_phase_rad);
-  ang[j == 2 ? 0 : 2] += wave(e.yaw_wave_rad, e.yaw_wave_period_m, e.yaw_wave_phase_rad);
-  if (e.bending) {
-    const auto slope = [&](int i) { return std::atan(e.translation[static_cast<std::size_t>(i)].derivative(u)); };
-    if (j == 0) {
-      ang[2] += slope(1);
-      ang[1] -= slope(2);
-    } else if (j == 1) {
-      ang[2] -= slope(0);
-      ang[0] += slope(2);
-    } else {
-      ang[1] += slope(0);
-      ang[0] -= slope(1);
-    }
-  }
-  return rot_x(ang[0]) * rot_y(ang[1]) * rot_z(ang[2]);
+  const auto m = axis_error_motions(e, j, u);
+  return rot_x(m[3]) * rot_y(m[4]) * rot_z(m[5]);
 }
 
 // Index of the direction in which an axis' lateral play shifts it (X->y, Y->x, Z->x).
@@ -90,6 +70,7 @@ Chain chain(const MachineConfig& m, const Vec3& u, const Vec3& lateral, double t
   for (int j = 0; j < 3; ++j) {
     const auto& e = m.axis[static_cast<std::size_t>(j)];
     const double uj = u[static_cast<std::size_t>(j)];
+    // The translations as axis_error_motions gives them, in this order of operations (recorded goldens).
     const double scale = e.scale + e.scale_drift_per_s * t;
     double along = uj * (1.0 + scale) + e.drift_m_per_s * t;
     Vector3d off = Vector3d::Zero();
@@ -136,6 +117,41 @@ double Polynomial::derivative(double u) const noexcept {
   return acc;
 }
 
+std::array<double, 6> axis_error_motions(const AxisErrors& e, int j, double u, double t_s) {
+  std::array<double, 6> m{};
+  for (std::size_t i = 0; i < 3; ++i) {
+    m[i] = e.translation[i](u);
+    m[3 + i] = e.rotation[i](u);
+  }
+  const auto J = static_cast<std::size_t>(j);
+  m[J] += u * (e.scale + e.scale_drift_per_s * t_s) + e.drift_m_per_s * t_s;
+  if (e.bump_amplitude_m != 0.0 && e.bump_direction != j && e.bump_direction >= 0 && e.bump_direction < 3) {
+    const double z = (u - e.bump_center_m) / e.bump_width_m;
+    m[static_cast<std::size_t>(e.bump_direction)] += e.bump_amplitude_m * std::exp(-0.5 * z * z);
+  }
+  // Periodic pitch and yaw (a rack, a lead screw): the pitch axis is y for X and Z, x for Y; the yaw axis z
+  // for X and Y, x for Z (as the autocollimator traverse reads them).
+  const auto wave = [u](double a, double period, double phase) {
+    return a == 0.0 ? 0.0 : a * std::sin(2.0 * std::numbers::pi * u / period + phase);
+  };
+  m[j == 1 ? 3 : 4] += wave(e.pitch_wave_rad, e.pitch_wave_period_m, e.pitch_wave_phase_rad);
+  m[j == 2 ? 3 : 5] += wave(e.yaw_wave_rad, e.yaw_wave_period_m, e.yaw_wave_phase_rad);
+  if (e.bending) {
+    const auto slope = [&](int i) { return std::atan(e.translation[static_cast<std::size_t>(i)].derivative(u)); };
+    if (j == 0) {
+      m[5] += slope(1);
+      m[4] -= slope(2);
+    } else if (j == 1) {
+      m[5] -= slope(0);
+      m[3] += slope(2);
+    } else {
+      m[4] += slope(0);
+      m[3] -= slope(1);
+    }
+  }
+  return m;
+}
+
 namespace {
 
 // A controller's table lookup: value(x) interpolated linearly between the ascending positions `at`,
@@ -161,6 +177,21 @@ double JointCompensation::correction_m(double commanded_m, int direction) const 
 double CrossCompensation::at(double moving_commanded_m) const noexcept {
   if (nominal_m.empty() || correction_m.size() != nominal_m.size()) return 0.0;
   return table_lookup(nominal_m, moving_commanded_m, [&](std::size_t i) { return correction_m[i]; });
+}
+
+Vec3 controller_command(const ControllerCorrection& ctl, const Vec3& commanded, const std::array<int, 3>& direction) {
+  Vec3 c = commanded;
+  if (ctl.volumetric) {
+    const Vec3 v = ctl.volumetric(commanded);
+    for (std::size_t j = 0; j < 3; ++j) c[j] += v[j];
+  }
+  Vec3 m = c;
+  m[0] -= ctl.skew.xy * c[1] + ctl.skew.xz * c[2];
+  m[1] -= ctl.skew.yz * c[2];
+  for (const auto& x : ctl.cross) m[static_cast<std::size_t>(x.corrected)] += x.at(c[static_cast<std::size_t>(x.moving)]);
+  for (std::size_t j = 0; j < 3; ++j)
+    if (!ctl.tables[j].empty()) m[j] += ctl.tables[j].correction_m(m[j], direction[j]);
+  return m;
 }
 
 Machine::Machine(MachineConfig config) : config_(std::move(config)) {}
@@ -198,14 +229,7 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
   }
   const auto& ctl = config_.controller;
   const auto motor_command = [&](const Vec3& c) {
-    Vec3 m = c;
-    m[0] -= ctl.skew.xy * c[1] + ctl.skew.xz * c[2];
-    m[1] -= ctl.skew.yz * c[2];
-    for (const auto& x : ctl.cross)
-      m[static_cast<std::size_t>(x.corrected)] += x.at(c[static_cast<std::size_t>(x.moving)]);
-    for (std::size_t j = 0; j < 3; ++j)
-      if (!ctl.tables[j].empty()) m[j] += ctl.tables[j].correction_m(m[j], comp_dir[j]);
-    return m;
+    return controller_command(ctl, c, {comp_dir[0], comp_dir[1], comp_dir[2]});
   };
   Vec3 motor = motor_command(cmd);
   Vec3 servo = motor;
@@ -336,7 +360,8 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
   ms.seed = spec.seed != 0 ? spec.seed : config_.noise.seed;
   const auto motion = simulate_motion(ms);
 
-  Vector3d fixed = center - v(config_.dbb.center_offset) - h * normal;
+  // The circle is the tool point's (the commanded centre plus the tool offset); the fixed ball sits below it.
+  Vector3d fixed = center + v(config_.tool_offset) - v(config_.dbb.center_offset) - h * normal;
   // Only the in-plane components of the centre offset move the fixed ball sideways; an offset along
   // the normal changes the height and is applied as well (exact geometry).
   Rng rng(ms.seed ^ 0x9e3779b97f4a7c15ULL);
@@ -598,6 +623,12 @@ std::vector<ArtifactTarget> Machine::artifact_measurement(const ArtifactSpec& sp
     out.push_back(tgt);
   }
   return out;
+}
+
+Vec3 Machine::static_tool_point(const Vec3& motor, const std::array<int, 3>& approach, double t_s) const {
+  Vec3 act{};
+  for (std::size_t i = 0; i < 3; ++i) act[i] = static_actual(config_.axis[i], motor[i], approach[i]);
+  return a3(chain(config_, act, Vec3{}, t_s).tool);
 }
 
 CommandedPath linear_move(const Vec3& from, const Vec3& to, double feed_m_per_s) {

@@ -87,6 +87,12 @@ struct AxisErrors {
   double encoder_noise_m = 0.0;       // standard deviation of white noise on the encoder reading
 };
 
+// The error motions of axis j (0 x, 1 y, 2 z) at position u (m) and machine time t: the translations E_Xj,
+// E_Yj, E_Zj (m; the one along j is the positioning error, u (scale + scale drift t) + E_jj(u) + drift t, the
+// bump in its direction) and the rotations E_Aj, E_Bj, E_Cj (rad; with the pitch and yaw waves and, for a
+// bent guideway, the straightness slopes). What the chain applies; not the servo, backlash or cyclic error.
+std::array<double, 6> axis_error_motions(const AxisErrors& e, int j, double u, double t_s = 0.0);
+
 // Squareness between axes (rad). xy: the actual Y travel direction leans towards +x, so actual
 // (x, y) = (x + q y, y) to first order; xz: Z leans towards +x (x += q z); yz: Z leans towards +y.
 struct Squareness {
@@ -97,7 +103,9 @@ struct Squareness {
 
 // DBB set-up errors and the bar as a sensor.
 struct DbbErrors {
-  std::array<double, 3> center_offset{};  // centre of the traced circle minus fixed-ball projection (m)
+  // Centre of the traced circle (of the tool point: the commanded centre plus the tool offset) minus the
+  // fixed-ball projection (m).
+  std::array<double, 3> center_offset{};
   double bar_length_error_m = 0.0;        // calibration error of the bar's nominal length
   double bar_drift_m_per_s = 0.0;         // thermal growth of the reading (positive = reads longer)
   double noise_m = 0.0;                   // standard deviation of the bar reading
@@ -197,7 +205,14 @@ struct ControllerCorrection {
   std::array<JointCompensation, 3> tables;
   Squareness skew;
   std::vector<CrossCompensation> cross;
+  // A volumetric compensation (Siemens VCS, Heidenhain KinematicsComp, a map of the 21 errors; applied first):
+  // the correction (m) added to the commanded position, a function of it. Empty: none.
+  std::function<Vec3(const Vec3&)> volumetric;
 };
+
+// The motor commands the controller gives for commanded position `c` with `correction` (volumetric, then
+// skew, cross-axis and per-joint tables; the tables' column by `direction` of each joint, +1 / -1).
+Vec3 controller_command(const ControllerCorrection& correction, const Vec3& c, const std::array<int, 3>& direction);
 
 struct MachineConfig {
   std::string name = "virtual";
@@ -402,6 +417,11 @@ class Machine {
   [[nodiscard]] RunoutSample runout_sample(const RunoutSpec& spec, std::uint64_t k) const;
   [[nodiscard]] std::vector<ProfilePoint> facing_profile(const FacingSpec& spec) const;
   [[nodiscard]] std::vector<ArtifactTarget> artifact_measurement(const ArtifactSpec& spec) const;
+  // The tool point (machine coordinates, m) with the axes standing at `motor` positions approached in the
+  // direction of `approach` (+1 / -1 per axis: half the backlash behind), with their cyclic error, through
+  // the exact chain at machine time t: what a static measurement (an artifact, a laser) sees.
+  [[nodiscard]] Vec3 static_tool_point(const Vec3& motor, const std::array<int, 3>& approach = {1, 1, 1},
+                                       double t_s = 0.0) const;
 
  private:
   MachineConfig config_;
