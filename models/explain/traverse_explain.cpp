@@ -9,8 +9,11 @@
 
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
+#include "formats/dabam.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/traverse_terms.hpp"
+#include "models/flatness/instruments.hpp"
+#include "models/flatness/straightness.hpp"
 #include "results/parameters.hpp"
 
 namespace guideway::models::explain {
@@ -19,13 +22,14 @@ namespace {
 
 std::string at_line(const std::string& source, std::size_t line) { return source + ":" + std::to_string(line) + ": "; }
 
-// One row's angle (arcsec in the file) within the instrument's range.
-double angle_of(const CsvTable& t, const CsvTable::Row& row, std::size_t col, const flatness::Autocollimator& ac) {
+// One row's angle (arcsec in the file) within a slope's plausible bound; the instrument's range is checked
+// on the span of a file's readings (flatness::check_instrument_range).
+double angle_of(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
   const double arcsec = t.number(row, col);
-  if (std::abs(arcsec) * flatness::rad_per_arcsec > ac.range_rad)
-    throw CsvError(at_line(t.source, row.line) + t.columns[col] + " = " + shortest(arcsec) +
-                   " is outside the autocollimator range +-" + shortest(ac.range_rad / flatness::rad_per_arcsec) +
-                   " arcsec");
+  if (!(std::abs(arcsec) * flatness::rad_per_arcsec <= flatness::max_abs_angle_rad))
+    throw CsvError(at_line(t.source, row.line) + t.columns[col] + " = " + shortest(arcsec) + " is outside +-" +
+                   significant_digits(flatness::max_abs_angle_rad / flatness::rad_per_arcsec, 6) +
+                   " arcsec (a slope's plausible bound)");
   return arcsec * flatness::rad_per_arcsec;
 }
 
@@ -37,7 +41,7 @@ void check_stations(const CsvTable& t, const std::vector<std::size_t>& lines, Tr
   p.direction = p.x_m[1] > p.x_m[0] ? 1 : -1;
   for (std::size_t i = 1; i < p.x_m.size(); ++i) {
     const double dx = (p.x_m[i] - p.x_m[i - 1]) * p.direction;
-    if (std::abs(dx - p.step_m) > 1e-3 * p.step_m)
+    if (std::abs(dx - p.step_m) > flatness::station_jitter_tolerance * p.step_m)
       throw CsvError(at_line(t.source, lines[i]) + "x_mm = " + shortest(p.x_m[i] * 1e3) + " is not one step (" +
                      shortest(p.step_m * 1e3) + " mm) " + (p.direction > 0 ? "after" : "before") +
                      " the previous station " + shortest(p.x_m[i - 1] * 1e3) +
@@ -75,26 +79,52 @@ std::vector<TraversePass> parse_traverse_passes(const std::string& text, const s
     }
     TraversePass& p = out.back();
     p.x_m.push_back(t.number(row, cx) * 1e-3);
-    p.pitch_rad.push_back(angle_of(t, row, cp, ac));
-    if (cy) p.yaw_rad.push_back(angle_of(t, row, *cy, ac));
+    p.pitch_rad.push_back(angle_of(t, row, cp));
+    if (cy) p.yaw_rad.push_back(angle_of(t, row, *cy));
     if (ct) p.t_s.push_back(t.number(row, *ct));
     lines.back().push_back(row.line);
   }
   if (out.empty()) throw CsvError(source + ": no readings");
   for (std::size_t k = 0; k < out.size(); ++k) check_stations(t, lines[k], out[k]);
+  // One set-up: the file's readings within the instrument's range about their middle.
+  std::vector<double> pitch, yaw;
+  std::vector<std::size_t> all_lines;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    pitch.insert(pitch.end(), out[k].pitch_rad.begin(), out[k].pitch_rad.end());
+    yaw.insert(yaw.end(), out[k].yaw_rad.begin(), out[k].yaw_rad.end());
+    all_lines.insert(all_lines.end(), lines[k].begin(), lines[k].end());
+  }
+  flatness::check_instrument_range(pitch, ac, "pitch_arcsec", source, all_lines);
+  if (cy) flatness::check_instrument_range(yaw, ac, "yaw_arcsec", source, all_lines);
   return out;
 }
 
 std::vector<TraversePass> read_traverse_passes(const std::string& path, std::size_t file,
                                                const flatness::Autocollimator& ac) {
+  if (formats::is_dabam_path(path)) return {slope_profile_pass(flatness::read_angle_traverse(path, ac), file)};
   return parse_traverse_passes(read_text_file(path), path, file, ac);
 }
 
-std::vector<TraversePass> read_traverse_files(const std::vector<std::string>& paths) {
+std::vector<TraversePass> read_traverse_files(const std::vector<std::string>& paths,
+                                              const std::function<flatness::Autocollimator(const std::string&)>& instrument_of) {
   std::vector<TraversePass> out;
-  for (std::size_t f = 0; f < paths.size(); ++f)
-    for (TraversePass& p : read_traverse_passes(paths[f], f)) out.push_back(std::move(p));
+  for (std::size_t f = 0; f < paths.size(); ++f) {
+    const flatness::Autocollimator ac = instrument_of ? instrument_of(paths[f]) : flatness::default_instrument(paths[f]);
+    for (TraversePass& p : read_traverse_passes(paths[f], f, ac)) out.push_back(std::move(p));
+  }
   return out;
+}
+
+TraversePass slope_profile_pass(const flatness::AngleTraverse& traverse, std::size_t file) {
+  TraversePass p;
+  p.source = traverse.source;
+  p.file = file;
+  p.direction = 1;
+  p.step_m = traverse.step_m;
+  p.x_m = traverse.x_m;
+  p.pitch_rad = traverse.pitch_rad;
+  p.yaw_rad = traverse.yaw_rad;
+  return p;
 }
 
 namespace {
