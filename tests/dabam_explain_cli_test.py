@@ -7,7 +7,7 @@ Each entry is one forward pass without times, read with the deflectometer's rang
 flat tilted by 1,000" (031), a curved mirror spanning 1,664" (020), positions that jitter by 0.34 % of a
 step (901). On a real profile alone EXPLAIN must find no effect (what the polynomial base leaves of the
 real surface may be reported as unexplained, with its place); every candidate is listed in `considered`;
-the notes say one pass, no times. The TA80's range refuses the curved mirror, naming its readings.
+the notes say one pass, no times, and the places are told in readings, not seconds. The TA80's range refuses the curved mirror, naming its readings.
 (Small entries only: the suite runs under ASan.)
 """
 import json
@@ -43,6 +43,14 @@ for name in ("dabam-009", "dabam-031", "dabam-020", "dabam-901"):
           and "passes one way only" in notes and "no pass back or repeat with times" in notes,
           "%s: %d readings as one pass, no finding on the real profile alone (considered: %s; unexplained: %s)"
           % (name, j["n"], sorted(considered), j["unexplained"]))
+
+# Without times the places are told in readings, never in seconds (issue 41: "reading N" used to read "N s").
+rc, out, err = explain(os.path.join(DABAM, "dabam-031.dat"))
+rc_j, out_j, _ = explain("--json", os.path.join(DABAM, "dabam-031.dat"))
+locations = [l for m in json.loads(out_j)["remaining"] for l in m.get("locations", [])] if rc_j == 0 else []
+check(rc == 0 and " s from its start" not in out and "readings 0..9 of it (no times recorded)" in out
+      and locations and all("readings_from_run_start" in l and "t_from_run_start_s" not in l for l in locations),
+      "dabam-031 (no times): its places in readings (%s)" % [l.get("readings_from_run_start") for l in locations])
 
 rc, out, err = explain("--instrument", "autocollimator", os.path.join(DABAM, "dabam-020.dat"))
 check(rc == 1 and "slope spans 1664.39\"" in err and "more than the autocollimator's range +-600\"" in err,

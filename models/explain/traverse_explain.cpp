@@ -229,6 +229,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
   Problem p;
   p.model = "traverse";
   p.domain = "position_mm";
+  p.timed = l.timed;
   std::vector<effects::Tp> g;
   std::vector<double> file_t0(l.files, std::numeric_limits<double>::quiet_NaN());
   for (const TraversePass& pass : passes)
@@ -240,7 +241,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
     const TraversePass& pass = passes[k];
     const double t0 = l.timed ? file_t0[pass.file] : 0.0;
     for (std::size_t i = 0; i < pass.x_m.size(); ++i, ++index) {
-      // Without times, each reading a second: the locations then read "reading N" in seconds.
+      // Without times, each reading counts one: the locations then speak of readings (Problem::timed).
       const double t = l.timed ? pass.t_s[i] - t0 : static_cast<double>(index);
       g.push_back({k, pass.x_m[i] + pass.step_m / 2, t, pass.direction, l.yaw ? pass.yaw_rad[i] * 1e6 : 0.0});
       if (!std::isfinite(pass.pitch_rad[i])) throw std::invalid_argument(pass.source + ": a reading is not finite");
