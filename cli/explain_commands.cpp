@@ -16,6 +16,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/daemon_client.hpp"
+#include "cli/instrument_options.hpp"
 #include "cli/params_print.hpp"
 #include "cli/progress.hpp"
 #include "core/atomic_file.hpp"
@@ -97,6 +98,7 @@ struct Opts {
   std::vector<std::string> files;
   std::string simulated, measured;
   std::string straightness;  // --model flatness: the X carriage's autocollimator traverse (Eq. 16)
+  InstrumentOptions instrument;  // what read the traverse's angles (--model traverse, --straightness)
   bool json = false, quiet = false;
   bool scenarios = false, full = false, effects = false, latest = false;
   std::string kind;
@@ -361,6 +363,7 @@ void Opts::add(CLI::App& cmd) {
                  "with --model flatness: autocollimator traverse of the X carriage (docs/formats.md, Straightness "
                  "traverse), Mu Eq. 16's measured straightness in the base")
       ->check(CLI::ExistingFile);
+  instrument.add(cmd);
   cmd.add_option("--simulated", simulated, "a prediction (same format and sample grid as --measured)")
       ->check(CLI::ExistingFile);
   cmd.add_option("--measured", measured, "the recording compared with --simulated")->check(CLI::ExistingFile);
@@ -543,7 +546,8 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
     return report;
   }
   if (o.model == "traverse") {
-    auto report = models::explain::explain_traverses(models::explain::read_traverse_files(o.files), eo);
+    auto report = models::explain::explain_traverses(
+        models::explain::read_traverse_files(o.files, [&](const std::string& f) { return o.instrument.of(f); }), eo);
     if (!o.machine.empty())
       machine_comparison = against_machine(
           models::explain::to_json(report), nlohmann::json::object(),
@@ -553,7 +557,8 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
   std::vector<models::explain::ProfileRun> runs;
   for (const auto& f : o.files) runs.push_back(models::explain::read_profile_run(f));
   std::optional<models::flatness::AngleTraverse> traverse;
-  if (!o.straightness.empty()) traverse = models::flatness::read_angle_traverse(o.straightness);
+  if (!o.straightness.empty())
+    traverse = models::flatness::read_angle_traverse(o.straightness, o.instrument.of(o.straightness));
   return models::explain::explain_profiles(runs, o.model, traverse ? &*traverse : nullptr, eo);
 }
 

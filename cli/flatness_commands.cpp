@@ -12,7 +12,10 @@
 #include <vector>
 
 #include "cli/commands.hpp"
+#include "cli/instrument_options.hpp"
 #include "core/csv_table.hpp"
+#include "core/number_format.hpp"
+#include "models/flatness/instruments.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 #include "models/flatness/straightness.hpp"
@@ -36,23 +39,38 @@ void run_reporting(F&& f) {
   }
 }
 
-void print_line(const char* name, const models::flatness::ReferenceLine& r) {
-  std::cout << "  " << std::left << std::setw(15) << name << std::right << std::fixed << std::setprecision(3)
-            << std::setw(9) << r.straightness_m * 1e6 << " um  (u " << r.u_straightness_m * 1e6 << " um: first order "
-            << r.u_first_order_m * 1e6 << ", selection bias " << r.selection_bias_m * 1e6 << "), max at station "
-            << r.max_index << ", min at " << r.min_index << "\n";
+// Five significant digits, the u's two: a deflectometer's are nanometres, a TA80's tenths of a micrometre.
+void print_line(const char* name, const models::flatness::ReferenceLine& r, bool data_u) {
+  const auto um = [](double m) { return significant_digits(m * 1e6, 2); };
+  std::cout << "  " << std::left << std::setw(15) << name << std::right << std::setw(9)
+            << significant_digits(r.straightness_m * 1e6, 5) << " um  (u " << um(r.u_straightness_m)
+            << " um: first order " << um(r.u_first_order_m) << ", selection bias " << um(r.selection_bias_m);
+  if (data_u && std::isfinite(r.u_straightness_data_m))
+    std::cout << "; from the readings' scatter u " << um(r.u_straightness_data_m) << " um";
+  std::cout << "), max at station " << r.max_index << ", min at " << r.min_index << "\n";
 }
 
 void print_profile(const models::flatness::StraightnessProfile& p) {
-  std::cout << p.plane << " straightness (u per reading " << std::setprecision(3)
-            << p.u_angle_rad / models::flatness::rad_per_arcsec << " arcsec, u at the end of the integration "
-            << p.u_height_m.back() * 1e6 << " um):\n";
-  print_line("end-point line", p.end_point);
-  print_line("least squares", p.least_squares);
-  print_line("minimum zone", p.minimum_zone);
+  constexpr double as = 1 / models::flatness::rad_per_arcsec;
+  std::cout << p.plane << " straightness (u per reading " << std::setprecision(3) << p.u_angle_rad * as
+            << " arcsec, u at the end of the integration " << p.u_height_m.back() * 1e6 << " um):\n";
+  std::cout << "  readings: middle " << significant_digits(p.tilt_rad * as, 6) << " arcsec (a tilt), span "
+            << significant_digits(p.span_rad * as, 6) << " arcsec";
+  if (std::isfinite(p.u_angle_data_rad))
+    std::cout << ", scatter " << significant_digits(p.u_angle_data_rad * as, 3) << " arcsec (finest wavelet details)";
+  std::cout << "\n";
+  if (!p.u_disagreement.empty()) std::cout << "  note: " << p.u_disagreement << "\n";
+  const bool data_u = !p.u_disagreement.empty();
+  print_line("end-point line", p.end_point, data_u);
+  print_line("least squares", p.least_squares, data_u);
+  print_line("minimum zone", p.minimum_zone, data_u);
   const auto& f = p.polynomial;
-  std::cout << "  polynomial (Mu Eq. 10, x in mm from the first station, height in mm), order " << f.order
-            << " by BIC:\n    Ez =";
+  std::cout << "  polynomial (Mu Eq. 10, x in mm from the first station, height in mm), order " << f.order << " by BIC"
+            << (f.order > 1 && f.order == static_cast<int>(f.bic.size())
+                    ? " (the highest tried, --max-order: the surface is not a polynomial of a low order; the values "
+                      "above do not use it)"
+                    : "")
+            << ":\n    Ez =";
   std::cout << std::scientific << std::setprecision(4);
   for (std::size_t k = f.b.size(); k-- > 0;) {
     const double b_mm = f.b[k] * 1e3 / std::pow(1e3, static_cast<double>(k));
@@ -74,13 +92,15 @@ void print_profile(const models::flatness::StraightnessProfile& p) {
 struct StraightnessOptions {
   std::string file;
   bool json = false;
-  double u_arcsec = 0.0;
+  InstrumentOptions instrument;
   int max_order = 8;
   void add(CLI::App& cmd) {
-    cmd.add_option("ANGLES.csv", file, "traverse file (docs/formats.md, Straightness traverse)")->required();
+    cmd.add_option("ANGLES.csv", file,
+                   "traverse file (docs/formats.md, Straightness traverse), or a DABAM entry (NAME.dat with "
+                   "NAME.txt beside it)")
+        ->required();
     cmd.add_flag("--json", json, "print the result as one JSON object");
-    cmd.add_option("--angle-u-arcsec", u_arcsec,
-                   "standard uncertainty per reading (default: TA80, sqrt(0.01^2/12 + 0.5^2/3) = 0.289 arcsec)");
+    instrument.add(cmd);
     cmd.add_option("--max-order", max_order, "highest polynomial order tried by the BIC selection")
         ->check(CLI::Range(1, 12));
   }
@@ -89,7 +109,7 @@ struct StraightnessOptions {
 void run_straightness(const StraightnessOptions& o, CliContext& /*ctx*/) {
   run_reporting([&] {
     models::flatness::StraightnessOptions opt;
-    if (o.u_arcsec > 0) opt.instrument.u_override_rad = o.u_arcsec * models::flatness::rad_per_arcsec;
+    opt.instrument = o.instrument.of(o.file);
     opt.max_order = o.max_order;
     const auto tr = models::flatness::read_angle_traverse(o.file, opt.instrument);
     const auto r = models::flatness::identify_straightness(tr, opt);
@@ -97,7 +117,14 @@ void run_straightness(const StraightnessOptions& o, CliContext& /*ctx*/) {
       std::cout << models::flatness::to_json(r).dump() << "\n";
       return;
     }
-    std::cout << r.source << ": " << r.readings << " readings, step " << r.step_m * 1e3 << " mm\n";
+    std::cout << r.source << ": " << r.readings << " readings, step " << r.step_m * 1e3 << " mm";
+    if (r.jitter > 0)
+      std::cout << " (positions jitter by up to " << significant_digits(100 * r.jitter, 2)
+                << " % of it: each reading's own spacing used; tolerance "
+                << significant_digits(100 * models::flatness::station_jitter_tolerance, 2) << " %)";
+    std::cout << "\ninstrument: " << r.instrument.name << ", range +-"
+              << significant_digits(r.instrument.range_rad / models::flatness::rad_per_arcsec, 6)
+              << " arcsec about the readings' middle\n";
     print_profile(r.vertical);
     if (r.horizontal) print_profile(*r.horizontal);
   });
@@ -255,7 +282,7 @@ struct WorkpieceOptions {
   bool json = false;
   std::string wavelet = "db1";
   int levels = 5;
-  double u_arcsec = 0.0;
+  InstrumentOptions instrument;
   void add(CLI::App& cmd) {
     cmd.add_option("--profile", profiles, "faced-workpiece profile, x_mm,z_um (repeatable; docs/formats.md)")
         ->required();
@@ -265,7 +292,7 @@ struct WorkpieceOptions {
     cmd.add_option("--wavelet", wavelet, "Daubechies wavelet of the decomposition (Mu: db1)");
     cmd.add_option("--levels", levels, "decomposition levels; s1 = the approximation at the deepest")
         ->check(CLI::Range(1, 20));
-    cmd.add_option("--angle-u-arcsec", u_arcsec, "standard uncertainty per traverse reading (default: TA80)");
+    instrument.add(cmd);
     cmd.add_flag("--json", json, "print the result as one JSON object");
   }
 };
@@ -307,7 +334,7 @@ void print_workpiece_flatness(const models::flatness::WorkpieceFlatnessResult& r
 void run_workpiece_flatness(const WorkpieceOptions& o, CliContext& /*ctx*/) {
   run_reporting([&] {
     models::flatness::StraightnessOptions sopt;
-    if (o.u_arcsec > 0) sopt.instrument.u_override_rad = o.u_arcsec * models::flatness::rad_per_arcsec;
+    sopt.instrument = o.instrument.of(o.straightness);
     std::vector<models::flatness::WorkpieceProfile> ps;
     for (const auto& f : o.profiles) ps.push_back(models::flatness::read_workpiece_profile(f));
     const auto tr = models::flatness::read_angle_traverse(o.straightness, sopt.instrument);

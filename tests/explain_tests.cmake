@@ -25,3 +25,9 @@ add_test(NAME explain_traverse_cli_test
   COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/explain_traverse_cli_test.py $<TARGET_FILE:guideway>
           $<TARGET_FILE:guideway-emulate>)
 set_tests_properties(explain_traverse_cli_test PROPERTIES LABELS integration TIMEOUT 120)
+# Real DABAM slope profiles through `explain --model traverse`: one pass each, no finding on a profile alone,
+# the instruments' ranges.
+add_test(NAME dabam_explain_cli_test
+  COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/dabam_explain_cli_test.py $<TARGET_FILE:guideway>
+          ${PROJECT_SOURCE_DIR}/tests/data/dabam)
+set_tests_properties(dabam_explain_cli_test PROPERTIES LABELS integration TIMEOUT 120)

@@ -67,7 +67,7 @@ TEST(TraverseFile, RefusesWhatCannotBePlaced) {
     }
     return std::string("no error");
   };
-  // A turn inside a pass, a skipped station, a pass coming back, time running backwards, out of range.
+  // A turn inside a pass, a skipped station, a pass coming back, time running backwards, a span out of range.
   EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,1\n0,1\n").find("bad.csv:5: x_mm = 0 is not one step"),
             std::string::npos);
   EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n20,1\n").find("bad.csv:4:"), std::string::npos);
@@ -76,8 +76,12 @@ TEST(TraverseFile, RefusesWhatCannotBePlaced) {
             std::string::npos);
   EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec,t_s\n0,1,5\n10,1,4\n").find("t_s = 4 does not increase"),
             std::string::npos);
-  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,700\n").find("outside the autocollimator range"),
+  EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,-560\n10,700\n")
+                .find("bad.csv:4: pitch_arcsec spans 1260\" (from -560 at bad.csv:3 to 700 at bad.csv:4), more than the "
+                      "autocollimator's range +-600\" about the readings' middle"),
             std::string::npos);
+  // A tilted set-up within the range about its middle is the set-up, not an error.
+  EXPECT_EQ(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,890\n10,900\n"), "no error");
   EXPECT_NE(error("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n").find("at least 2"), std::string::npos);
 }
 

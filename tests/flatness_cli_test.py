@@ -189,7 +189,8 @@ for plane, ang in (("vertical", pitch), ("horizontal", yaw)):
 bad = {
     "missing.csv": ("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n30,3\n", "missing.csv:5: missing station"),
     "text.csv": ("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,n/a\n", "text.csv:4: column 'pitch_arcsec': 'n/a' is not a finite number"),
-    "range.csv": ("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,650\n", "range.csv:4: pitch_arcsec = 650 is outside the autocollimator range"),
+    "range.csv": ("# step_mm = 10\nx_mm,pitch_arcsec\n0,-560\n10,650\n",
+                  "range.csv:4: pitch_arcsec spans 1210\" (from -560 at "),
 }
 for name, (text, msg) in bad.items():
     p = os.path.join(tmp, name)

@@ -8,6 +8,7 @@
 #include <random>
 #include <sstream>
 
+#include "models/flatness/instruments.hpp"
 #include "models/flatness/straightness.hpp"
 #include "core/csv_table.hpp"
 #include "simulators/machine/machine.hpp"
@@ -114,6 +115,127 @@ TEST(FlatnessStraightness, MinimumZoneMatchesBruteForceOnRandomPoints) {
       EXPECT_LE(d, mz.width + 1e-12);
     }
   }
+}
+
+// A curved profile puts every station on one hull chain (the case that made the zone quadratic in n);
+// positions spaced unevenly.
+TEST(FlatnessStraightness, MinimumZoneMatchesBruteForceOnCurvedUnevenPoints) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> spacing(0.5, 1.5);
+  for (int trial = 0; trial < 40; ++trial) {
+    const std::size_t n = 30 + static_cast<std::size_t>(trial);
+    std::vector<double> x(n), y(n);
+    const double bow = trial % 2 ? 1.0 : -1.0, noise = trial % 4 < 2 ? 0.0 : 1e-3;
+    for (std::size_t k = 0; k < n; ++k) {
+      x[k] = k == 0 ? 0.0 : x[k - 1] + spacing(rng);
+      y[k] = bow * 1e-2 * x[k] * x[k] + 0.3 * x[k] + noise * g(rng);
+    }
+    EXPECT_NEAR(minimum_zone(x, y).width, evaluate_truth(x, y).minimum_zone, 1e-12) << trial;
+  }
+}
+
+// A tilted set-up is the set-up: readings of 900" +- 3" fit the TA80's +-600" about their middle.
+TEST(FlatnessStraightness, ATiltWithinTheInstrumentsReachIsAccepted) {
+  std::string text = "# step_mm = 10\nx_mm,pitch_arcsec\n";
+  double lo = 1e9, hi = -1e9;
+  for (int k = 0; k < 20; ++k) {
+    const double a = 900 + 3 * std::sin(k);
+    lo = std::min(lo, a), hi = std::max(hi, a);
+    char row[64];
+    std::snprintf(row, sizeof row, "%d,%.17g\n", 10 * k, a);
+    text += row;
+  }
+  const auto tr = parse_angle_traverse(text, "t.csv");
+  const auto r = identify_straightness(tr);
+  EXPECT_NEAR(r.vertical.tilt_rad / arcsec, (lo + hi) / 2, 1e-9);
+  EXPECT_NEAR(r.vertical.span_rad / arcsec, hi - lo, 1e-9);
+  EXPECT_EQ(r.instrument.name, "autocollimator");
+}
+
+// Positions that jitter (an encoder, x rounded): each reading's own spacing, integrated as measured, and
+// the reference lines fitted in x. Without it the file was refused ("x_mm spacing ... does not match").
+TEST(FlatnessStraightness, JitteredPositionsAreIntegratedAsMeasured) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> jitter(-0.002, 0.002);
+  const double step = 0.01;
+  const std::size_t n = 60;
+  std::vector<double> x(n + 1);
+  for (std::size_t k = 0; k <= n; ++k) x[k] = step * static_cast<double>(k) + (k == 0 || k == n ? 0 : step * jitter(rng));
+  std::string text = "# step_mm = 10\nx_mm,pitch_arcsec\n";
+  char row[96];
+  for (std::size_t k = 0; k < n; ++k) {
+    const double ds = k + 1 < n ? x[k + 1] - x[k] : step;  // the last reading rests on one step
+    std::snprintf(row, sizeof row, "%.17g,%.17g\n", x[k] * 1e3, std::atan((truth(x[k] + ds) - truth(x[k])) / ds) / arcsec);
+    text += row;
+  }
+  const auto tr = parse_angle_traverse(text, "t.csv");
+  EXPECT_GT(tr.jitter, 0.001);
+  EXPECT_LT(tr.jitter, 0.002 * 2.01);
+  const auto r = identify_straightness(tr);
+  std::vector<double> xs(n + 1), ys(n + 1);
+  for (std::size_t k = 0; k <= n; ++k) {
+    xs[k] = k < n ? x[k] : x[n - 1] + step;
+    ys[k] = truth(xs[k]) - truth(0.0);
+    EXPECT_NEAR(r.vertical.x_m[k], xs[k], 1e-15);
+    EXPECT_NEAR(r.vertical.height_m[k], ys[k], 1e-12);
+  }
+  const Truth t = evaluate_truth(xs, ys);
+  EXPECT_NEAR(r.vertical.end_point.straightness_m, t.end_point, 1e-12);
+  EXPECT_NEAR(r.vertical.least_squares.straightness_m, t.least_squares, 1e-12);
+  EXPECT_NEAR(r.vertical.minimum_zone.straightness_m, t.minimum_zone, 1e-12);
+}
+
+TEST(FlatnessStraightness, NamedInstrumentsAndTheirUncertainty) {
+  EXPECT_EQ(instrument_names(), "autocollimator, level, deflectometer");
+  EXPECT_NEAR(instrument_profile("autocollimator").reading_u_rad() / arcsec, 0.2887, 1e-4);
+  EXPECT_NEAR(instrument_profile("level").reading_u_rad(), std::sqrt(1e-12 / 12 + 1e-12 / 3), 1e-15);
+  EXPECT_NEAR(instrument_profile("deflectometer").reading_u_rad(), std::sqrt(1e-16 / 12 + 4e-14 / 3), 1e-15);
+  EXPECT_NEAR(instrument_profile("deflectometer").range_rad, 10e-3, 1e-15);
+  EXPECT_THROW((void)instrument_profile("theodolite"), std::invalid_argument);
+  EXPECT_EQ(default_instrument("m/dabam-004.dat").name, "deflectometer");
+  EXPECT_EQ(default_instrument("m/traverse.csv").name, "autocollimator");
+}
+
+// The readings' own scatter (finest db4 details) finds white noise on a smooth curve; when it and the
+// instrument's u differ by more than 3x the profile says so, and reports the straightness's u from both.
+TEST(FlatnessStraightness, TheReadingsScatterBesideTheInstrumentsU) {
+  std::mt19937_64 rng(3);
+  const double step = 0.001;
+  const auto smooth = chord_angles(truth, 0.0, step, 600);
+  for (const double sigma_arcsec : {0.01, 0.3}) {
+    std::normal_distribution<double> g(0.0, sigma_arcsec * arcsec);
+    auto a = smooth;
+    for (double& v : a) v += g(rng);
+    const auto p = straightness_from_angles(0.0, step, a);
+    EXPECT_NEAR(p.u_angle_data_rad / arcsec, sigma_arcsec, 0.1 * sigma_arcsec);
+    const bool disagree = sigma_arcsec < 0.1;
+    EXPECT_EQ(!p.u_disagreement.empty(), disagree) << p.u_disagreement;
+    if (disagree) EXPECT_NE(p.u_disagreement.find("below the 0.289\" stated for the autocollimator"), std::string::npos);
+    EXPECT_NEAR(p.least_squares.u_straightness_data_m / p.least_squares.u_straightness_m,
+                p.u_angle_data_rad / p.u_angle_rad, 0.2 * p.u_angle_data_rad / p.u_angle_rad);
+  }
+  EXPECT_TRUE(std::isnan(straightness_from_angles(0.0, step, std::vector<double>(15, 0.0)).u_angle_data_rad));
+}
+
+// Noise only widens a max - min: the selection bias is never negative, also where the bootstrap's own
+// scatter exceeds it (a strongly bowed profile read with little noise, the curved mirrors' case).
+TEST(FlatnessStraightness, SelectionBiasIsNeverNegative) {
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> g(0.0, 0.001 * arcsec);
+  StraightnessOptions opt;
+  opt.instrument.u_override_rad = 0.001 * arcsec;
+  int zero = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    auto a = chord_angles([](double x) { return 2e-4 * x * x; }, 0.0, 0.002, 200);
+    for (double& v : a) v += g(rng);
+    const auto p = straightness_from_angles(0.0, 0.002, a, opt);
+    for (const auto* r : {&p.end_point, &p.least_squares, &p.minimum_zone}) {
+      EXPECT_GE(r->selection_bias_m, 0.0) << trial;
+      zero += r->selection_bias_m == 0.0;
+    }
+  }
+  std::printf("selection bias 0 (a negative bootstrap mean) on %d of 60 lines\n", zero);
 }
 
 TEST(FlatnessStraightness, RandomWalkUncertaintyFormulas) {
@@ -291,13 +413,18 @@ TEST(FlatnessStraightness, BadInputNamesFileAndLine) {
       "t.csv:5: missing station: x_mm jumps from 10 to 30 (step_mm = 10, 1 station(s) missing, first at x_mm = 20)");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,abc\n"),
             "t.csv:4: column 'pitch_arcsec': 'abc' is not a finite number");
-  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec,yaw_arcsec\n0,1,0\n10,2,-600.5\n"),
-            "t.csv:4: yaw_arcsec = -600.5 is outside the autocollimator range +-600 arcsec");
+  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec,yaw_arcsec\n0,1,600\n10,2,-600.5\n"),
+            "t.csv:4: yaw_arcsec spans 1200.5\" (from -600.5 at t.csv:4 to 600 at t.csv:3), more than the "
+            "autocollimator's range +-600\" about the readings' middle (--instrument autocollimator, level, "
+            "deflectometer, or --range-arcsec)");
+  EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,-360001\n"),
+            "t.csv:4: pitch_arcsec = -360001 is outside +-20626.5 arcsec (a slope's plausible bound)");
   EXPECT_EQ(error_of("x_mm,pitch_arcsec\n0,1\n10,2\n"), "t.csv: missing metadata line '# step_mm = <number>'");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,angle\n0,1\n10,2\n"), "t.csv:2: no column 'pitch_arcsec' (columns: 'x_mm', 'angle')");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10\n"), "t.csv:4: 1 cells, expected 2 (the header's columns)");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n10,2\n17,2\n"),
-            "t.csv:5: x_mm spacing 7 does not match step_mm = 10");
+            "t.csv:5: x_mm spacing 7 is not within 5 % of step_mm = 10 (positions that jitter by less are used as "
+            "measured)");
   EXPECT_EQ(error_of("# step_mm = 10\nx_mm,pitch_arcsec\n0,1\n"), "t.csv: 1 readings; a traverse needs at least 2");
 }
 

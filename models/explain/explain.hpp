@@ -89,6 +89,9 @@ struct Candidate {
 struct Problem {
   std::string model;   // "dbb", "flatness", "straightness", "simulated"
   std::string domain;  // "angle_deg" or "position_mm"
+  // false: no times were recorded, the samples' t_s count readings (a traverse without `t_s`): the locations
+  // then speak of readings, never of seconds.
+  bool timed = true;
   std::vector<Sample> samples;
   std::vector<RunInfo> runs;
   Block base;  // may have no columns (a given simulation: nothing is refitted)

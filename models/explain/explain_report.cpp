@@ -25,9 +25,12 @@ std::string unit_of_domain(const std::string& domain) { return domain == "angle_
 std::string location_text(const Location& l, const std::string& domain) {
   const auto g = [](double v, const char* f) { return printf_number(f, v); };
   std::string s = l.run + (l.source.empty() ? "" : " [" + l.source + "]") + ": " + g(l.where.first, "%.4g") + ".." +
-                  g(l.where.second, "%.4g") + " " + unit_of_domain(domain) + ", " +
-                  g(l.t_from_run_start_s.first, "%.2f") + ".." + g(l.t_from_run_start_s.second, "%.2f") +
-                  " s from its start";
+                  g(l.where.second, "%.4g") + " " + unit_of_domain(domain) + ", ";
+  if (l.timed)
+    s += g(l.t_from_run_start_s.first, "%.2f") + ".." + g(l.t_from_run_start_s.second, "%.2f") + " s from its start";
+  else  // no times recorded: the readings' order, counted from its first (0)
+    s += "readings " + g(l.t_from_run_start_s.first, "%.0f") + ".." + g(l.t_from_run_start_s.second, "%.0f") +
+         " of it (no times recorded)";
   if (std::isfinite(l.t_machine_s.first))
     s += " (machine clock " + g(l.t_machine_s.first, "%.2f") + ".." + g(l.t_machine_s.second, "%.2f") + " s)";
   s += ", " + g(l.peak_um, "%+.3g") + " um, ";
@@ -64,16 +67,18 @@ nlohmann::json to_json(const Report& r) {
         const auto pair = [&](std::pair<double, double> p) {
           return json::array({num(rounded4(p.first)), num(rounded4(p.second))});
         };
-        for (const auto& l : m.locations)
+        for (const auto& l : m.locations) {
           locs.push_back({{"run", l.run},
                           {"source", l.source},
                           {"where", pair(l.where)},
-                          {"t_from_run_start_s", pair(l.t_from_run_start_s)},
                           {"t_machine_s", pair(l.t_machine_s)},
                           {"peak_um", num(rounded4(l.peak_um))},
                           {"once", l.repeats_in.empty()},
                           {"repeats_in", l.repeats_in},
                           {"set_aside", l.set_aside}});
+          // Without times, the readings' order from the run's first (0), never seconds.
+          locs.back()[l.timed ? "t_from_run_start_s" : "readings_from_run_start"] = pair(l.t_from_run_start_s);
+        }
         place["locations"] = locs;
       }
       a.push_back(std::move(place));

@@ -51,8 +51,9 @@ struct Location {
   std::string run;                            // the run's label, e.g. "run2 (cw)"
   std::string source;                         // the run's file or source ("" when unknown)
   std::pair<double, double> where{0.0, 0.0};  // in the problem's domain (deg or mm)
-  std::pair<double, double> t_from_run_start_s{0.0, 0.0};
+  std::pair<double, double> t_from_run_start_s{0.0, 0.0};  // readings, not seconds, where !timed
   std::pair<double, double> t_machine_s{0.0, 0.0};  // NaN when the runs share no machine clock
+  bool timed = true;                                // Problem::timed
   double peak_um = 0.0;
   std::vector<std::string> repeats_in;           // other runs with structure at the same place (empty: once)
   bool set_aside = false;                        // its samples were left out of the fit of the findings

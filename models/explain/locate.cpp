@@ -381,6 +381,7 @@ std::vector<Location> run_locations(const Problem& problem, const std::vector<do
     loc.source = ri.source;
     loc.where = {wrap_where(problem, problem.samples[i].where), wrap_where(problem, problem.samples[last].where)};
     loc.t_from_run_start_s = {problem.samples[i].t_s - ri.start_s, problem.samples[last].t_s - ri.start_s};
+    loc.timed = problem.timed;
     loc.t_machine_s = {problem.clock_origin_s + problem.samples[i].t_s,
                        problem.clock_origin_s + problem.samples[last].t_s};
     loc.peak_um = top;

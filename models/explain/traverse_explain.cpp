@@ -9,8 +9,10 @@
 
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
+#include "formats/dabam.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/traverse_terms.hpp"
+#include "models/flatness/instruments.hpp"
 #include "models/flatness/straightness.hpp"
 #include "results/parameters.hpp"
 
@@ -29,7 +31,7 @@ void check_stations(const CsvTable& t, const std::vector<std::size_t>& lines, Tr
   p.direction = p.x_m[1] > p.x_m[0] ? 1 : -1;
   for (std::size_t i = 1; i < p.x_m.size(); ++i) {
     const double dx = (p.x_m[i] - p.x_m[i - 1]) * p.direction;
-    if (std::abs(dx - p.step_m) > 1e-3 * p.step_m)
+    if (std::abs(dx - p.step_m) > flatness::station_jitter_tolerance * p.step_m)
       throw CsvError(at_line(t.source, lines[i]) + "x_mm = " + shortest(p.x_m[i] * 1e3) + " is not one step (" +
                      shortest(p.step_m * 1e3) + " mm) " + (p.direction > 0 ? "after" : "before") +
                      " the previous station " + shortest(p.x_m[i - 1] * 1e3) +
@@ -69,26 +71,52 @@ std::vector<TraversePass> parse_traverse_passes(const std::string& text, const s
       throw CsvError(at_line(source, row.line) + "more than " + std::to_string(flatness::traverse_max_readings) +
                      " readings in a pass (the straightness session's most)");
     p.x_m.push_back(flatness::traverse_x_mm(t, row, cx) * 1e-3);
-    p.pitch_rad.push_back(flatness::traverse_angle_rad(t, row, cp, ac));
-    if (cy) p.yaw_rad.push_back(flatness::traverse_angle_rad(t, row, *cy, ac));
+    p.pitch_rad.push_back(flatness::traverse_angle_rad(t, row, cp));
+    if (cy) p.yaw_rad.push_back(flatness::traverse_angle_rad(t, row, *cy));
     if (ct) p.t_s.push_back(flatness::traverse_time_s(t, row, *ct));
     lines.back().push_back(row.line);
   }
   if (out.empty()) throw CsvError(source + ": no readings");
   for (std::size_t k = 0; k < out.size(); ++k) check_stations(t, lines[k], out[k]);
+  // One set-up: the file's readings within the instrument's range about their middle.
+  std::vector<double> pitch, yaw;
+  std::vector<std::size_t> all_lines;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    pitch.insert(pitch.end(), out[k].pitch_rad.begin(), out[k].pitch_rad.end());
+    yaw.insert(yaw.end(), out[k].yaw_rad.begin(), out[k].yaw_rad.end());
+    all_lines.insert(all_lines.end(), lines[k].begin(), lines[k].end());
+  }
+  flatness::check_instrument_range(pitch, ac, "pitch_arcsec", source, all_lines);
+  if (cy) flatness::check_instrument_range(yaw, ac, "yaw_arcsec", source, all_lines);
   return out;
 }
 
 std::vector<TraversePass> read_traverse_passes(const std::string& path, std::size_t file,
                                                const flatness::Autocollimator& ac) {
+  if (formats::is_dabam_path(path)) return {slope_profile_pass(flatness::read_angle_traverse(path, ac), file)};
   return parse_traverse_passes(read_text_file(path), path, file, ac);
 }
 
-std::vector<TraversePass> read_traverse_files(const std::vector<std::string>& paths) {
+std::vector<TraversePass> read_traverse_files(const std::vector<std::string>& paths,
+                                              const std::function<flatness::Autocollimator(const std::string&)>& instrument_of) {
   std::vector<TraversePass> out;
-  for (std::size_t f = 0; f < paths.size(); ++f)
-    for (TraversePass& p : read_traverse_passes(paths[f], f)) out.push_back(std::move(p));
+  for (std::size_t f = 0; f < paths.size(); ++f) {
+    const flatness::Autocollimator ac = instrument_of ? instrument_of(paths[f]) : flatness::default_instrument(paths[f]);
+    for (TraversePass& p : read_traverse_passes(paths[f], f, ac)) out.push_back(std::move(p));
+  }
   return out;
+}
+
+TraversePass slope_profile_pass(const flatness::AngleTraverse& traverse, std::size_t file) {
+  TraversePass p;
+  p.source = traverse.source;
+  p.file = file;
+  p.direction = 1;
+  p.step_m = traverse.step_m;
+  p.x_m = traverse.x_m;
+  p.pitch_rad = traverse.pitch_rad;
+  p.yaw_rad = traverse.yaw_rad;
+  return p;
 }
 
 namespace {
@@ -193,6 +221,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
   Problem p;
   p.model = "traverse";
   p.domain = "position_mm";
+  p.timed = l.timed;
   std::vector<effects::Tp> g;
   std::vector<double> file_t0(l.files, std::numeric_limits<double>::quiet_NaN());
   for (const TraversePass& pass : passes)
@@ -204,7 +233,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
     const TraversePass& pass = passes[k];
     const double t0 = l.timed ? file_t0[pass.file] : 0.0;
     for (std::size_t i = 0; i < pass.x_m.size(); ++i, ++index) {
-      // Without times, each reading a second: the locations then read "reading N" in seconds.
+      // Without times, each reading counts one: the locations then speak of readings (Problem::timed).
       const double t = l.timed ? pass.t_s[i] - t0 : static_cast<double>(index);
       g.push_back({k, pass.x_m[i] + pass.step_m / 2, t, pass.direction, l.yaw ? pass.yaw_rad[i] * 1e6 : 0.0});
       if (!std::isfinite(pass.pitch_rad[i])) throw std::invalid_argument(pass.source + ": a reading is not finite");

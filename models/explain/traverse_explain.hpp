@@ -13,11 +13,16 @@
 // functions; thread safe; throw std::invalid_argument (file errors: CsvError "file:line: ...").
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "models/explain/explain_result.hpp"
 #include "models/flatness/angles.hpp"
+
+namespace guideway::models::flatness {
+struct AngleTraverse;  // straightness.hpp
+}
 
 namespace guideway::models::explain {
 
@@ -38,12 +43,21 @@ struct TraversePass {
 // A traverse file (docs/formats.md "Straightness traverse", with its optional `t_s` and `pass` columns):
 // its passes, in file order. Rows of a pass are contiguous and one step apart in one direction; without
 // a `pass` column the file is one pass. Throws CsvError naming the file and line.
+// Positions one step apart within flatness::station_jitter_tolerance; angles within the instrument's range
+// about the file's middle (flatness::check_instrument_range).
 std::vector<TraversePass> parse_traverse_passes(const std::string& text, const std::string& source,
                                                 std::size_t file = 0, const flatness::Autocollimator& ac = {});
+// A traverse file, or a DABAM slope profile (NAME.dat or NAME.txt: one forward pass without times, read as
+// flatness::read_angle_traverse reads it).
 std::vector<TraversePass> read_traverse_passes(const std::string& path, std::size_t file = 0,
                                                const flatness::Autocollimator& ac = {});
-// The passes of several files, each file its own index.
-std::vector<TraversePass> read_traverse_files(const std::vector<std::string>& paths);
+// The passes of several files, each file its own index, each read with instrument_of(path) (default:
+// flatness::default_instrument, the deflectometer for a DABAM entry, the autocollimator otherwise).
+std::vector<TraversePass> read_traverse_files(
+    const std::vector<std::string>& paths,
+    const std::function<flatness::Autocollimator(const std::string&)>& instrument_of = {});
+// A slope profile read as a traverse (flatness::slope_profile_traverse) as one forward pass, no times.
+TraversePass slope_profile_pass(const flatness::AngleTraverse& traverse, std::size_t file = 0);
 
 Problem traverse_problem(const std::vector<TraversePass>& passes);
 Report explain_traverses(const std::vector<TraversePass>& passes, const ExplainOptions& options = {});

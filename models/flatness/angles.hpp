@@ -1,8 +1,10 @@
 #pragma once
-// Angle units and the TA80-style autocollimator as an uncertainty source (Mu 2012, Sec. 4.1:
-// range +-600", resolution 0.01", accuracy 0.5").
+// Angle units and the slope-reading instrument as an uncertainty source: by default the TA80-style
+// autocollimator (Mu 2012, Sec. 4.1: range +-600", resolution 0.01", accuracy 0.5"); the other named
+// instruments (an electronic level, a deflectometer) in instruments.hpp.
 
 #include <cmath>
+#include <string>
 #include <numbers>
 
 #include "core/units.hpp"
@@ -13,8 +15,11 @@ using guideway::rad_per_arcsec;
 inline constexpr double metres_per_inch = 0.0254;
 
 // The instrument: per-reading standard uncertainty u = sqrt(resolution^2/12 + accuracy^2/3), i.e.
-// rectangular distributions of half-width resolution/2 and accuracy, independent between readings.
+// rectangular distributions of half-width resolution/2 and accuracy, independent between readings. The
+// range is about the readings' middle (the instrument is aimed at, or zeroed on, the surface: a mounting
+// tilt within its reach is the set-up, not a reading out of range).
 struct Autocollimator {
+  std::string name = "autocollimator";  // as instruments.hpp names it
   double range_rad = 600.0 * rad_per_arcsec;
   double resolution_rad = 0.01 * rad_per_arcsec;
   double accuracy_rad = 0.5 * rad_per_arcsec;

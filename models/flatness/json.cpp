@@ -4,6 +4,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "models/flatness/instruments.hpp"
 #include "results/parameters.hpp"
 
 namespace guideway::models::flatness {
@@ -14,11 +15,14 @@ constexpr double um = 1e6;
 constexpr double urad = 1e6;
 constexpr double tens_of_microinch_per_m = 1.0 / (0.0254 * 1e-5);
 
+nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
 nlohmann::json line_json(const ReferenceLine& r) {
   return {{"straightness_um", r.straightness_m * um},
           {"u_straightness_um", r.u_straightness_m * um},
           {"u_first_order_um", r.u_first_order_m * um},
           {"selection_bias_um", r.selection_bias_m * um},
+          {"u_straightness_data_um", finite_or_null(r.u_straightness_data_m * um)},
           {"slope_urad", r.slope * urad},
           {"max_station", r.max_index},
           {"min_station", r.min_index}};
@@ -28,6 +32,10 @@ nlohmann::json profile_json(const StraightnessProfile& p) {
   nlohmann::json j;
   j["plane"] = p.plane;
   j["u_angle_arcsec"] = p.u_angle_rad / rad_per_arcsec;
+  j["u_angle_data_arcsec"] = finite_or_null(p.u_angle_data_rad / rad_per_arcsec);
+  j["u_disagreement"] = p.u_disagreement.empty() ? nlohmann::json(nullptr) : nlohmann::json(p.u_disagreement);
+  j["tilt_arcsec"] = p.tilt_rad / rad_per_arcsec;
+  j["span_arcsec"] = p.span_rad / rad_per_arcsec;
   j["u_end_height_um"] = p.u_height_m.back() * um;
   j["end_point"] = line_json(p.end_point);
   j["least_squares"] = line_json(p.least_squares);
@@ -36,6 +44,7 @@ nlohmann::json profile_json(const StraightnessProfile& p) {
   nlohmann::json poly;
   poly["criterion"] = "BIC on the chord-slope fit";
   poly["order"] = f.order;
+  poly["at_cap"] = f.order == static_cast<int>(f.bic.size()) && f.order > 1;
   poly["x_origin_mm"] = p.x_m.front() * 1e3;
   // Eq. 10 in Mu's units: height in mm, x in mm (b_k mm^(1-k)), and in SI.
   nlohmann::json b_mm = nlohmann::json::array(), u_b_mm = nlohmann::json::array();
@@ -91,6 +100,11 @@ nlohmann::json to_json(const StraightnessResult& r) {
   j["source"] = r.source;
   j["step_mm"] = r.step_m * 1e3;
   j["readings"] = r.readings;
+  j["instrument"] = {{"name", r.instrument.name},
+                     {"range_arcsec", r.instrument.range_rad / rad_per_arcsec},
+                     {"u_arcsec", r.instrument.reading_u_rad() / rad_per_arcsec}};
+  j["jitter_percent"] = 100 * r.jitter;
+  j["jitter_tolerance_percent"] = 100 * station_jitter_tolerance;
   j["vertical"] = profile_json(r.vertical);
   if (r.horizontal) j["horizontal"] = profile_json(*r.horizontal);
   return j;

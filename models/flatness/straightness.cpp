@@ -12,6 +12,8 @@
 
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
+#include "formats/dabam.hpp"
+#include "models/flatness/instruments.hpp"
 
 namespace guideway::models::flatness {
 
@@ -41,23 +43,25 @@ void fill_range(ReferenceLine& r) {
   r.straightness_m = *mx - *mn;
 }
 
-PolynomialFit fit_polynomial(double step_m, const std::vector<double>& angle_rad, const std::vector<double>& height_m,
-                             double u_angle_rad, int max_order) {
+// `t`: each station's position in steps from the first (t_k = k on the grid), N = n + 1 of them.
+PolynomialFit fit_polynomial(double step_m, const std::vector<double>& t, const std::vector<double>& angle_rad,
+                             const std::vector<double>& height_m, double u_angle_rad, int max_order) {
   const std::size_t n = angle_rad.size();
-  const double span = step_m * static_cast<double>(n);
-  const double sigma = step_m / span;  // step in the scaled coordinate xi = (x - x0) / span
+  const double span_steps = t[n];
+  const double span = step_m * span_steps;
   Eigen::VectorXd y(static_cast<Eigen::Index>(n));
   for (std::size_t j = 0; j < n; ++j) y(static_cast<Eigen::Index>(j)) = std::tan(angle_rad[j]);
   const int highest = std::max(1, std::min(max_order, static_cast<int>(n) - 2));
   const double rss_floor = static_cast<double>(n) * std::pow(1e-6 * u_angle_rad, 2);
   const double dn = static_cast<double>(n);
 
+  // Chord slope of reading r in the scaled coordinate xi = (x - x0) / span: (p(xi_r+1) - p(xi_r)) / sigma_r.
   auto design = [&](int order) {
     Eigen::MatrixXd j(static_cast<Eigen::Index>(n), order);
     for (std::size_t r = 0; r < n; ++r) {
-      const double xi = static_cast<double>(r) * sigma;
+      const double xi = t[r] / span_steps, xi1 = t[r + 1] / span_steps, sigma = xi1 - xi;
       for (int k = 1; k <= order; ++k)
-        j(static_cast<Eigen::Index>(r), k - 1) = (std::pow(xi + sigma, k) - std::pow(xi, k)) / sigma;
+        j(static_cast<Eigen::Index>(r), k - 1) = (std::pow(xi1, k) - std::pow(xi, k)) / sigma;
     }
     return j;
   };
@@ -97,7 +101,7 @@ PolynomialFit fit_polynomial(double step_m, const std::vector<double>& angle_rad
   fit.residual_m.resize(height_m.size());
   double ss = 0.0;
   for (std::size_t k = 0; k < height_m.size(); ++k) {
-    fit.residual_m[k] = height_m[k] - fit(step_m * static_cast<double>(k));
+    fit.residual_m[k] = height_m[k] - fit(step_m * t[k]);
     ss += fit.residual_m[k] * fit.residual_m[k];
     fit.residual_max_m = std::max(fit.residual_max_m, std::abs(fit.residual_m[k]));
   }
@@ -105,20 +109,20 @@ PolynomialFit fit_polynomial(double step_m, const std::vector<double>& angle_rad
   return fit;
 }
 
-// The three straightness values of chord-slope angles (no uncertainties): for the bootstrap.
-std::array<double, 3> straightness_values(const std::vector<double>& angle_rad, double s, std::vector<double>& h,
-                                          std::vector<double>& t) {
+// The three straightness values of chord-slope angles (no uncertainties): for the bootstrap. `t`: the
+// stations in steps (fit_polynomial), `ds` each reading's spacing in m.
+std::array<double, 3> straightness_values(const std::vector<double>& angle_rad, const std::vector<double>& ds,
+                                          const std::vector<double>& t, std::vector<double>& h) {
   const std::size_t n = angle_rad.size();
   h.assign(n + 1, 0.0);
-  t.resize(n + 1);
-  for (std::size_t k = 0; k <= n; ++k) t[k] = static_cast<double>(k);
-  for (std::size_t k = 0; k < n; ++k) h[k + 1] = h[k] + s * std::tan(angle_rad[k]);
-  const double dn = static_cast<double>(n), dN = dn + 1, tbar = dn / 2;
-  double lo_e = 0, hi_e = 0, ybar = 0, sxx = 0, sxy = 0;
+  for (std::size_t k = 0; k < n; ++k) h[k + 1] = h[k] + ds[k] * std::tan(angle_rad[k]);
+  const double dN = static_cast<double>(n + 1);
+  double lo_e = 0, hi_e = 0, ybar = 0, tbar = 0, sxx = 0, sxy = 0;
   for (std::size_t k = 0; k <= n; ++k) {
-    const double d = h[k] - t[k] / dn * h[n];
+    const double d = h[k] - t[k] / t[n] * h[n];
     lo_e = std::min(lo_e, d), hi_e = std::max(hi_e, d);
     ybar += h[k] / dN;
+    tbar += t[k] / dN;
   }
   for (std::size_t k = 0; k <= n; ++k) sxx += (t[k] - tbar) * (t[k] - tbar), sxy += (t[k] - tbar) * (h[k] - ybar);
   double lo_l = std::numeric_limits<double>::infinity(), hi_l = -lo_l;
@@ -151,12 +155,12 @@ double traverse_x_mm(const CsvTable& t, const CsvTable::Row& row, std::size_t co
   return t.number_in(row, col, -traverse_max_abs_x_mm, traverse_max_abs_x_mm, "mm, a machine's travel");
 }
 
-double traverse_angle_rad(const CsvTable& t, const CsvTable::Row& row, std::size_t col, const Autocollimator& ac) {
+double traverse_angle_rad(const CsvTable& t, const CsvTable::Row& row, std::size_t col) {
   const double arcsec = t.number(row, col);
-  const double range_arcsec = ac.range_rad / rad_per_arcsec;
-  if (std::abs(arcsec) > range_arcsec)
+  if (!(std::abs(arcsec) * rad_per_arcsec <= max_abs_angle_rad))
     throw CsvError(where(t.source, row.line) + t.columns[col] + " = " + significant_digits(arcsec, 10) +
-                   " is outside the autocollimator range +-" + significant_digits(range_arcsec, 10) + " arcsec");
+                   " is outside +-" + significant_digits(max_abs_angle_rad / rad_per_arcsec, 6) +
+                   " arcsec (a slope's plausible bound)");
   return arcsec * rad_per_arcsec;
 }
 
@@ -176,6 +180,7 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
   const CsvTable t = parse_csv_table(text, source);
   AngleTraverse tr;
   tr.source = source;
+  tr.instrument = ac;
   const double step_mm = traverse_step_mm(t);
   tr.step_m = step_mm * 1e-3;
   const std::size_t cx = t.column("x_mm");
@@ -201,31 +206,82 @@ AngleTraverse parse_angle_traverse(std::string_view text, const std::string& sou
     const double x = traverse_x_mm(t, row, cx);
     if (i > 0) {
       const double dx = x - prev_x;
-      const double tol = 1e-3 * step_mm;
+      const double tol = station_jitter_tolerance * step_mm;
       if (dx <= tol)
         throw CsvError(where(source, row.line) + "x_mm = " + significant_digits(x, 10) +
                        " does not increase (previous station " + significant_digits(prev_x, 10) + ")");
       if (std::abs(dx - step_mm) > tol) {
         const double steps = dx / step_mm;
-        if (std::abs(steps - std::round(steps)) <= 1e-3 * steps)
+        if (std::abs(steps - std::round(steps)) <= station_jitter_tolerance)
           throw CsvError(where(source, row.line) + "missing station: x_mm jumps from " +
                          significant_digits(prev_x, 10) + " to " + significant_digits(x, 10) + " (step_mm = " +
                          significant_digits(step_mm, 10) + ", " + significant_digits(std::round(steps) - 1, 10) +
                          " station(s) missing, first at x_mm = " + significant_digits(prev_x + step_mm, 10) + ")");
-        throw CsvError(where(source, row.line) + "x_mm spacing " + significant_digits(dx, 10) +
-                       " does not match step_mm = " + significant_digits(step_mm, 10));
+        throw CsvError(where(source, row.line) + "x_mm spacing " + significant_digits(dx, 10) + " is not within " +
+                       significant_digits(100 * station_jitter_tolerance, 3) + " % of step_mm = " +
+                       significant_digits(step_mm, 10) + " (positions that jitter by less are used as measured)");
       }
+      if (const double off = std::abs(dx - step_mm) / step_mm; off > station_grid_tolerance)
+        tr.jitter = std::max(tr.jitter, off);
     }
     prev_x = x;
     tr.x_m.push_back(x * 1e-3);
-    tr.pitch_rad.push_back(traverse_angle_rad(t, row, cp, ac));
-    if (cy) tr.yaw_rad.push_back(traverse_angle_rad(t, row, *cy, ac));
+    tr.pitch_rad.push_back(traverse_angle_rad(t, row, cp));
+    if (cy) tr.yaw_rad.push_back(traverse_angle_rad(t, row, *cy));
     tr.line.push_back(row.line);
   }
+  check_instrument_range(tr.pitch_rad, ac, t.columns[cp], source, tr.line);
+  if (cy) check_instrument_range(tr.yaw_rad, ac, t.columns[*cy], source, tr.line);
   return tr;
 }
 
+AngleTraverse slope_profile_traverse(const std::string& source, const std::vector<double>& x_m,
+                                     const std::vector<double>& slope_rad, const std::vector<std::size_t>& lines,
+                                     const Autocollimator& ac) {
+  const std::size_t n = x_m.size();
+  if (n < 2 || slope_rad.size() != n)
+    throw CsvError(source + ": " + std::to_string(n) + " reading(s); a profile needs at least 2, one slope each");
+  const auto line = [&](std::size_t i) { return i < lines.size() ? where(source, lines[i]) : source + ": "; };
+  std::vector<double> dx(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) dx[i] = x_m[i + 1] - x_m[i];
+  std::vector<double> sorted = dx;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double step = sorted[sorted.size() / 2];
+  if (!(step > 0)) throw CsvError(source + ": positions do not increase");
+  AngleTraverse tr;
+  tr.source = source;
+  tr.instrument = ac;
+  tr.step_m = step;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i > 0) {
+      const double off = std::abs(dx[i - 1] - step) / step;
+      if (off > station_jitter_tolerance)
+        throw CsvError(line(i) + "spacing " + significant_digits(dx[i - 1] * 1e3, 8) + " mm after " +
+                       significant_digits(x_m[i - 1] * 1e3, 10) + " mm is not within " +
+                       significant_digits(100 * station_jitter_tolerance, 3) + " % of the profile's step " +
+                       significant_digits(step * 1e3, 8) + " mm (the median spacing): a gap or a change of step");
+      if (off > station_grid_tolerance) tr.jitter = std::max(tr.jitter, off);
+    }
+    if (!(std::abs(slope_rad[i]) <= max_abs_angle_rad))
+      throw CsvError(line(i) + "slope " + significant_digits(slope_rad[i], 8) + " rad is outside +-" +
+                     significant_digits(max_abs_angle_rad, 3) + " rad (a slope's plausible bound)");
+    tr.x_m.push_back(x_m[i] - step / 2);
+    tr.pitch_rad.push_back(std::atan(slope_rad[i]));
+    tr.line.push_back(i < lines.size() ? lines[i] : 0);
+  }
+  check_instrument_range(tr.pitch_rad, ac, "slope", source, lines);
+  return tr;
+}
+
+Autocollimator default_instrument(const std::string& path) {
+  return instrument_profile(formats::is_dabam_path(path) ? "deflectometer" : "autocollimator");
+}
+
 AngleTraverse read_angle_traverse(const std::string& path, const Autocollimator& ac) {
+  if (formats::is_dabam_path(path)) {
+    const formats::DabamProfile d = formats::read_dabam(path);
+    return slope_profile_traverse(d.source, d.x_m, d.slope_rad, d.line, ac);
+  }
   return parse_angle_traverse(read_text_file(path), path, ac);
 }
 
@@ -251,16 +307,32 @@ MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>
     while (upper.size() >= 2 && cross(upper[upper.size() - 2], upper.back(), *it) <= 0) upper.pop_back();
     upper.push_back(*it);
   }
+  // Both chains left to right: the lower's edge slopes increase, the upper's decrease. The extreme of
+  // y - m x over all points (max for a lower edge, min for an upper one) lies on the other chain, at the
+  // first vertex whose next edge turns past m: a binary search, so a curved profile whose hull holds every
+  // station costs O(n log n), not O(n^2).
+  std::reverse(upper.begin(), upper.end());
+  // slope(a, b) > m for a left of b, without dividing (a vertical edge's slope is +-inf).
+  auto steeper = [&](std::size_t a, std::size_t b, double m) { return y[b] - y[a] > m * (x[b] - x[a]); };
+  auto extreme_on = [&](const std::vector<std::size_t>& chain, double m, bool max) {
+    std::size_t lo = 0, hi = chain.size() - 1;  // first vertex i with edge (i, i+1) past m; hi: the last
+    while (lo < hi) {
+      const std::size_t mid = (lo + hi) / 2;
+      const bool past = max ? !steeper(chain[mid], chain[mid + 1], m) : steeper(chain[mid], chain[mid + 1], m);
+      if (past)
+        hi = mid;
+      else
+        lo = mid + 1;
+    }
+    return y[chain[lo]] - m * x[chain[lo]];
+  };
   best.width = std::numeric_limits<double>::infinity();
   auto try_edge = [&](std::size_t a, std::size_t b, bool on_lower) {
     if (x[a] == x[b]) return;  // vertical edge: not a candidate direction for a vertical zone
     const double m = (y[b] - y[a]) / (x[b] - x[a]);
     const double c_edge = y[a] - m * x[a];
-    double extreme = c_edge;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double c = y[i] - m * x[i];
-      extreme = on_lower ? std::max(extreme, c) : std::min(extreme, c);
-    }
+    const double other = extreme_on(on_lower ? upper : lower, m, on_lower);
+    const double extreme = on_lower ? std::max(c_edge, other) : std::min(c_edge, other);
     const double w = std::abs(extreme - c_edge);
     if (w < best.width) best = {w, m, on_lower ? c_edge : extreme};
   };
@@ -274,19 +346,27 @@ MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>
 
 namespace {
 
-// End-point line: d_k = h_k - (k/n) h_n. Brownian bridge: var d_k = (s u)^2 k (n-k)/n,
+// The stations of a profile in steps from the first (t_k = k on the grid; the measured spacing / step when
+// positions jitter), from p.x_m.
+std::vector<double> steps_of(const StraightnessProfile& p, double s) {
+  std::vector<double> t(p.x_m.size());
+  for (std::size_t k = 0; k < t.size(); ++k) t[k] = (p.x_m[k] - p.x_m[0]) / s;
+  return t;
+}
+
+// End-point line: d_k = h_k - (t_k/t_n) h_n. Brownian bridge (on the grid): var d_k = (s u)^2 k (n-k)/n,
 // var(d_a - d_b) = (s u)^2 m (n-m)/n with m = |a - b|.
-void end_point_line(StraightnessProfile& p, std::size_t n, double s, double su) {
+void end_point_line(StraightnessProfile& p, const std::vector<double>& t, std::size_t n, double s, double su) {
   const std::size_t N = n + 1;
   const double dn = static_cast<double>(n);
   auto& r = p.end_point;
-  r.slope = (p.height_m[n] - p.height_m[0]) / (s * dn);
+  r.slope = (p.height_m[n] - p.height_m[0]) / (s * t[n]);
   r.intercept_m = 0.0;
   r.deviation_m.resize(N);
   r.u_deviation_m.resize(N);
   for (std::size_t k = 0; k < N; ++k) {
     const double dk = static_cast<double>(k);
-    r.deviation_m[k] = p.height_m[k] - dk / dn * p.height_m[n];
+    r.deviation_m[k] = p.height_m[k] - t[k] / t[n] * p.height_m[n];
     r.u_deviation_m[k] = su * std::sqrt(dk * (dn - dk) / dn);
   }
   fill_range(r);
@@ -294,25 +374,27 @@ void end_point_line(StraightnessProfile& p, std::size_t n, double s, double su) 
   r.u_straightness_m = su * std::sqrt(m * (dn - m) / dn);
 }
 
-// Least-squares line through the N stations (t_k = k): d = (I - H) C theta s, with the hat matrix
-// H_km = 1/N + (t_k - tbar)(t_m - tbar)/Sxx and C_kj = [j < k]. Row k, column j:
+// Least-squares line through the N stations (in x; u on the grid, t_k = k): d = (I - H) C theta s, with the hat
+// matrix H_km = 1/N + (t_k - tbar)(t_m - tbar)/Sxx and C_kj = [j < k]. Row k, column j:
 // [j < k] - (n - j)/N - (k - tbar) S_j / Sxx, where S_j = sum_{m>j} (m - tbar).
-void least_squares_line(StraightnessProfile& p, std::size_t n, double s, double su) {
+void least_squares_line(StraightnessProfile& p, const std::vector<double>& t, std::size_t n, double s, double su) {
   const std::size_t N = n + 1;
   const double dn = static_cast<double>(n);
   auto& r = p.least_squares;
   const double dN = static_cast<double>(N);
-  const double tbar = dn / 2.0;
-  double sxx = 0.0, sxy = 0.0, ybar = 0.0;
-  for (std::size_t k = 0; k < N; ++k) ybar += p.height_m[k] / dN;
+  double sxx = 0.0, sxy = 0.0, ybar = 0.0, tmean = 0.0;
+  for (std::size_t k = 0; k < N; ++k) ybar += p.height_m[k] / dN, tmean += t[k] / dN;
   for (std::size_t k = 0; k < N; ++k) {
-    const double dt = static_cast<double>(k) - tbar;
+    const double dt = t[k] - tmean;
     sxx += dt * dt;
     sxy += dt * (p.height_m[k] - ybar);
   }
-  const double beta = sxy / sxx;  // per station index
+  const double beta = sxy / sxx;  // per step
   r.slope = beta / s;
-  r.intercept_m = ybar - beta * tbar;
+  r.intercept_m = ybar - beta * tmean;
+  const double tbar = dn / 2.0;
+  double gxx = 0.0;  // Sxx on the grid
+  for (std::size_t k = 0; k < N; ++k) gxx += (static_cast<double>(k) - tbar) * (static_cast<double>(k) - tbar);
   std::vector<double> big_s(n);
   for (std::size_t j = 0; j < n; ++j) {
     // sum_{m=j+1}^{n} (m - tbar)
@@ -321,12 +403,12 @@ void least_squares_line(StraightnessProfile& p, std::size_t n, double s, double 
     big_s[j] = sum_m - cnt * tbar;
   }
   auto ls_row = [&](std::size_t k, std::size_t j) {
-    return c_row(k, j) - (dn - static_cast<double>(j)) / dN - (static_cast<double>(k) - tbar) * big_s[j] / sxx;
+    return c_row(k, j) - (dn - static_cast<double>(j)) / dN - (static_cast<double>(k) - tbar) * big_s[j] / gxx;
   };
   r.deviation_m.resize(N);
   r.u_deviation_m.resize(N);
   for (std::size_t k = 0; k < N; ++k) {
-    r.deviation_m[k] = p.height_m[k] - (r.intercept_m + beta * static_cast<double>(k));
+    r.deviation_m[k] = p.height_m[k] - (r.intercept_m + beta * t[k]);
     r.u_deviation_m[k] = su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(k, j); }));
   }
   fill_range(r);
@@ -334,15 +416,13 @@ void least_squares_line(StraightnessProfile& p, std::size_t n, double s, double 
       su * std::sqrt(row_norm2(n, [&](std::size_t j) { return ls_row(r.max_index, j) - ls_row(r.min_index, j); }));
 }
 
-// Minimum zone: exact from the convex hull. Its value is max - min of the deviations from the zone
+// Minimum zone: exact from the convex hull (in x). Its value is max - min of the deviations from the zone
 // lines; first-order uncertainty through the stations that bound it (the extreme deviations from
 // the lower line and the two stations of the hull edge, found as the points on the lower/upper line).
 // After least_squares_line, whose u it falls back on.
-void minimum_zone_line(StraightnessProfile& p, std::size_t n, double s, double su) {
+void minimum_zone_line(StraightnessProfile& p, const std::vector<double>& t, std::size_t n, double s, double su) {
   const std::size_t N = n + 1;
   auto& r = p.minimum_zone;
-  std::vector<double> t(N);
-  for (std::size_t k = 0; k < N; ++k) t[k] = static_cast<double>(k);
   const MinimumZone mz = minimum_zone(t, p.height_m);
   r.slope = mz.slope / s;
   r.intercept_m = mz.lower_intercept;
@@ -376,35 +456,76 @@ void minimum_zone_line(StraightnessProfile& p, std::size_t n, double s, double s
 }
 
 // Selection bias of the three max - min values: simulate the traverse of the fitted polynomial with
-// the angle noise, many times; bias = mean(simulated value) - value of the polynomial itself.
-void selection_bias(StraightnessProfile& p, std::size_t n, double s, int bootstrap) {
-  std::array<ReferenceLine*, 3> lines = {&p.end_point, &p.least_squares, &p.minimum_zone};
-  for (auto* r : lines) r->u_first_order_m = r->u_straightness_m;
-  if (bootstrap <= 0 || !(p.u_angle_rad > 0)) return;
-  std::vector<double> proxy(n), noisy(n), h, t;
+// angle noise u_angle, many times; bias = mean(simulated value) - value of the polynomial itself, at least
+// 0 (noise only widens a max - min; a negative mean is the bootstrap's own scatter).
+std::array<double, 3> bootstrap_bias(const StraightnessProfile& p, const std::vector<double>& t,
+                                     const std::vector<double>& ds, double u_angle, int bootstrap) {
+  const std::size_t n = ds.size();
+  std::vector<double> proxy(n), noisy(n), h;
   for (std::size_t j = 0; j < n; ++j) {
-    const double xj = s * static_cast<double>(j);
-    proxy[j] = std::atan((p.polynomial(xj + s) - p.polynomial(xj)) / s);
+    const double xj = p.x_m[j] - p.x_m[0];
+    proxy[j] = std::atan((p.polynomial(xj + ds[j]) - p.polynomial(xj)) / ds[j]);
   }
-  const auto reference = straightness_values(proxy, s, h, t);
+  const auto reference = straightness_values(proxy, ds, t, h);
   std::mt19937_64 rng(0x5eed5eedULL + n);
-  std::normal_distribution<double> noise(0.0, p.u_angle_rad);
+  std::normal_distribution<double> noise(0.0, u_angle);
   std::array<double, 3> bias{};
   for (int i = 0; i < bootstrap; ++i) {
     for (std::size_t j = 0; j < n; ++j) noisy[j] = proxy[j] + noise(rng);
-    const auto v = straightness_values(noisy, s, h, t);
+    const auto v = straightness_values(noisy, ds, t, h);
     for (std::size_t q = 0; q < 3; ++q) bias[q] += (v[q] - reference[q]) / bootstrap;
   }
+  for (double& b : bias) b = std::max(0.0, b);
+  return bias;
+}
+
+void selection_bias(StraightnessProfile& p, const std::vector<double>& t, const std::vector<double>& ds,
+                    int bootstrap) {
+  std::array<ReferenceLine*, 3> lines = {&p.end_point, &p.least_squares, &p.minimum_zone};
+  for (auto* r : lines) r->u_first_order_m = r->u_straightness_m;
+  if (bootstrap <= 0 || !(p.u_angle_rad > 0)) return;
+  const auto bias = bootstrap_bias(p, t, ds, p.u_angle_rad, bootstrap);
   for (std::size_t q = 0; q < 3; ++q) {
     lines[q]->selection_bias_m = bias[q];
     lines[q]->u_straightness_m = std::hypot(lines[q]->u_first_order_m, bias[q]);
   }
+  // The same with the readings' own scatter: the first-order u scales with the reading's u, the bias is
+  // simulated anew.
+  if (!(p.u_angle_data_rad > 0)) return;
+  const auto data_bias = bootstrap_bias(p, t, ds, p.u_angle_data_rad, bootstrap);
+  for (std::size_t q = 0; q < 3; ++q)
+    lines[q]->u_straightness_data_m =
+        std::hypot(lines[q]->u_first_order_m * p.u_angle_data_rad / p.u_angle_rad, data_bias[q]);
 }
 
-}  // namespace
+// The readings' scatter beside the instrument's u, and what to say when they disagree.
+void data_scatter(StraightnessProfile& p, const std::vector<double>& angle_rad, const std::string& instrument) {
+  const auto [lo, hi] = std::minmax_element(angle_rad.begin(), angle_rad.end());
+  p.tilt_rad = (*hi + *lo) / 2;
+  p.span_rad = *hi - *lo;
+  p.u_angle_data_rad = reading_scatter_rad(angle_rad);
+  if (!(p.u_angle_data_rad > 0) || !(p.u_angle_rad > 0)) return;
+  const double ratio = p.u_angle_rad / p.u_angle_data_rad;
+  if (ratio <= u_disagreement_factor && ratio >= 1 / u_disagreement_factor) return;
+  const auto arcsec = [](double rad) { return significant_digits(rad / rad_per_arcsec, 3) + "\""; };
+  p.u_disagreement = "the readings scatter " + arcsec(p.u_angle_data_rad) + " (finest wavelet details), " +
+                     significant_digits(ratio > 1 ? ratio : 1 / ratio, 2) + "x " + (ratio > 1 ? "below" : "above") +
+                     " the " + arcsec(p.u_angle_rad) + " stated for the " + instrument +
+                     ": the u given is the instrument's, the data's beside it";
+}
 
-StraightnessProfile straightness_from_angles(double x0_m, double step_m, const std::vector<double>& angle_rad,
-                                             const StraightnessOptions& options, const std::string& plane) {
+// Each reading's spacing from the rear feet (the last one's the step); a spacing within station_grid_tolerance
+// of the step is the step (positions on the grid, as a file's decimal millimetres give them).
+std::vector<double> spacing_of(const std::vector<double>& x_m, double step_m) {
+  std::vector<double> ds(x_m.size(), step_m);
+  for (std::size_t k = 0; k + 1 < x_m.size(); ++k)
+    if (const double d = x_m[k + 1] - x_m[k]; std::abs(d - step_m) > station_grid_tolerance * step_m) ds[k] = d;
+  return ds;
+}
+
+StraightnessProfile straightness_of(double x0_m, double step_m, const std::vector<double>& ds,
+                                    const std::vector<double>& angle_rad, const StraightnessOptions& options,
+                                    const std::string& plane) {
   const std::size_t n = angle_rad.size();
   if (n < 2) throw std::invalid_argument("straightness: need at least 2 readings");
   if (!(step_m > 0)) throw std::invalid_argument("straightness: step must be positive");
@@ -414,20 +535,39 @@ StraightnessProfile straightness_from_angles(double x0_m, double step_m, const s
   const double s = step_m;
   const double su = s * p.u_angle_rad;
   const std::size_t N = n + 1;
+  const bool grid = std::all_of(ds.begin(), ds.end(), [&](double d) { return d == s; });
   p.x_m.resize(N);
   p.height_m.resize(N);
   p.u_height_m.resize(N);
+  std::vector<double> t(N);
   for (std::size_t k = 0; k < N; ++k) {
-    p.x_m[k] = x0_m + s * static_cast<double>(k);
-    p.height_m[k] = k == 0 ? 0.0 : p.height_m[k - 1] + s * std::tan(angle_rad[k - 1]);
+    p.x_m[k] = k == 0 ? x0_m : grid ? x0_m + s * static_cast<double>(k) : p.x_m[k - 1] + ds[k - 1];
+    t[k] = grid ? static_cast<double>(k) : (p.x_m[k] - x0_m) / s;
+    p.height_m[k] = k == 0 ? 0.0 : p.height_m[k - 1] + ds[k - 1] * std::tan(angle_rad[k - 1]);
     p.u_height_m[k] = su * std::sqrt(static_cast<double>(k));
   }
-  end_point_line(p, n, s, su);
-  least_squares_line(p, n, s, su);
-  minimum_zone_line(p, n, s, su);
-  p.polynomial = fit_polynomial(s, angle_rad, p.height_m, p.u_angle_rad, options.max_order);
-  selection_bias(p, n, s, options.bootstrap);
+  end_point_line(p, t, n, s, su);
+  least_squares_line(p, t, n, s, su);
+  minimum_zone_line(p, t, n, s, su);
+  p.polynomial = fit_polynomial(s, t, angle_rad, p.height_m, p.u_angle_rad, options.max_order);
+  data_scatter(p, angle_rad, options.instrument.name);
+  selection_bias(p, t, ds, options.bootstrap);
   return p;
+}
+
+}  // namespace
+
+StraightnessProfile straightness_from_angles(double x0_m, double step_m, const std::vector<double>& angle_rad,
+                                             const StraightnessOptions& options, const std::string& plane) {
+  return straightness_of(x0_m, step_m, std::vector<double>(angle_rad.size(), step_m), angle_rad, options, plane);
+}
+
+StraightnessProfile straightness_from_stations(const std::vector<double>& x_m, double step_m,
+                                               const std::vector<double>& angle_rad, const StraightnessOptions& options,
+                                               const std::string& plane) {
+  if (x_m.size() != angle_rad.size() || x_m.empty())
+    throw std::invalid_argument("straightness: one rear-foot position per reading");
+  return straightness_of(x_m.front(), step_m, spacing_of(x_m, step_m), angle_rad, options, plane);
 }
 
 StraightnessResult identify_straightness(const AngleTraverse& traverse, const StraightnessOptions& options) {
@@ -435,11 +575,12 @@ StraightnessResult identify_straightness(const AngleTraverse& traverse, const St
   r.source = traverse.source;
   r.step_m = traverse.step_m;
   r.readings = traverse.pitch_rad.size();
+  r.instrument = options.instrument;
+  r.jitter = traverse.jitter;
   if (traverse.x_m.empty()) throw CsvError(traverse.source + ": empty traverse");
-  r.vertical = straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.pitch_rad, options, "vertical");
+  r.vertical = straightness_from_stations(traverse.x_m, traverse.step_m, traverse.pitch_rad, options, "vertical");
   if (!traverse.yaw_rad.empty())
-    r.horizontal =
-        straightness_from_angles(traverse.x_m.front(), traverse.step_m, traverse.yaw_rad, options, "horizontal");
+    r.horizontal = straightness_from_stations(traverse.x_m, traverse.step_m, traverse.yaw_rad, options, "horizontal");
   return r;
 }
 
