@@ -134,7 +134,7 @@ Iso230Squareness parse_iso230_squareness(std::string_view text, const std::strin
   if (!cn || !cv) fail(name, "expected the columns name,value_urad");
   bool seen[3] = {false, false, false};
   for (const auto& row : t.rows) {
-    const std::string& n = row.cells[*cn];
+    const std::string n(t.cell(row, *cn));
     const double v = finite_number(t, row, *cv);
     const int i = n == "EC0Y" ? 0 : n == "EB0Z" ? 1 : n == "EA0Z" ? 2 : -1;
     if (i < 0) fail(name + ":" + std::to_string(row.line), "unknown squareness '" + n + "' (EC0Y, EB0Z, EA0Z)");
