@@ -78,17 +78,20 @@ class Machine:
 
 
 def comments(path):
-    """Each line's comment (the text in parentheses), by line number."""
-    out = {}
+    """Each line's comment (the text in parentheses), by line number, and the program's last move (a line of
+    G0, G1, G2 or G3): a run that ends before it was cut short."""
+    out, last_move = {}, None
     with open(path) as f:
         for number, line in enumerate(f, 1):
             if "(" in line and ")" in line:
                 out[number] = line[line.index("(") + 1:line.rindex(")")]
-    return out
+            if set(line.split("(")[0].upper().split()) & {"G0", "G1", "G2", "G3", "G00", "G01", "G02", "G03"}:
+                last_move = number
+    return out, last_move
 
 
 def run_program(m, path, mount_s):
-    notes = comments(path)
+    notes, end_line = comments(path)
     m.set_mode(linuxcnc.MODE_AUTO)
     m.command.program_open(path)
     m.command.wait_complete()
@@ -97,12 +100,16 @@ def run_program(m, path, mount_s):
     m.command.wait_complete()
     m.wait_for("the program to start", lambda s: s.interp_state != linuxcnc.INTERP_IDLE)
     say(f"running {path}")
-    last_said = 0.0
+    last_said, reached = 0.0, 0
     while True:
         m.poll()
         s = m.stat
         now = time.monotonic() - start
+        reached = max(reached, s.current_line, s.motion_line)
         if s.interp_state == linuxcnc.INTERP_IDLE:
+            if end_line and reached < end_line:
+                raise RuntimeError(f"the program stopped at line {reached} before its last move at line {end_line} "
+                                   f"(LinuxCNC said: {m.messages or 'nothing'})")
             break
         if s.task_state != linuxcnc.STATE_ON:
             raise RuntimeError("the machine went off during the program")

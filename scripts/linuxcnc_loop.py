@@ -220,13 +220,13 @@ def cli(tools, socket_path, *args, timeout=60, check=True):
     return res
 
 
-def daemon_config(work, radius_mm):
+def daemon_config(work, args):
     """guidewayd's configuration: the DBB bus of the emulator the loop starts (no emulators of its own)."""
     bar = f"""  [[device.encoder]]
   channel = "bar_length"
   node_id = 1
   resolution_nm = 100
-  offset_mm = {radius_mm}
+  offset_mm = {args.radius_mm}
 """
     axes = "".join(f"""  [[device.encoder]]
   channel = "{a}"
@@ -248,7 +248,22 @@ sync = "produce"
 sync_rate_hz = 250.0
 configure_nodes = true
 heartbeat_ms = 100
-{bar}{axes}"""
+{bar}{axes}
+# LinuxCNC itself: its commanded positions and the program's session pin, through guideway-linuxcnc-bridge.
+[[device]]
+name = "linuxcnc"
+driver = "linuxcnc-hal"
+socket = "{work}/run/linuxcnc.sock"
+
+# The test program raises motion.digital-out-00 over its circles (M62 P0 ... M65 P0): the session runs
+# while it is up.
+[[session_trigger]]
+device = "linuxcnc"
+channel = "session"
+kind = "dbb"
+session_device = "dbb"
+options = {{ test = "standard", radius_mm = {args.radius_mm}, feed_mm_per_min = {args.feed_mm_per_min} }}
+"""
     path = os.path.join(work, "guidewayd.toml")
     with open(path, "w") as f:
         f.write(text)
@@ -365,7 +380,9 @@ class Daemon:
         self.socket = os.path.join(work, "guideway.sock")
         emulate = [tools["guideway-emulate"], "dbb", "--bus", f"unix:{work}/can-bus.sock", "--nodes", "1", "2", "3",
                    "4", "--follow", bridge_socket, "--plane", "xy", "--radius-mm", str(args.radius_mm),
-                   "--center-mm", *(str(c) for c in args.center_mm)]
+                   "--center-mm", *(str(c) for c in args.center_mm),
+                   # a loaded PC stalls LinuxCNC's uspace servo thread now and then: a second of slack
+                   "--follow-delay-ms", "1000"]
         if args.machine:
             emulate += ["--machine", args.machine]
         self.emulator = Process("emulator", emulate, os.path.join(work, "emulator.log"),
@@ -373,7 +390,7 @@ class Daemon:
                                 stdin=subprocess.PIPE)
         if not wait_until(lambda: os.path.exists(f"{work}/can-bus.sock"), 10):
             raise Failed("guideway-emulate did not start:\n" + "\n".join(self.emulator.lines))
-        config = daemon_config(work, args.radius_mm)
+        config = daemon_config(work, args)
         self.daemon = Process("guidewayd", [tools["guidewayd"], "--config", config],
                               os.path.join(work, "guidewayd.log"))
         if not wait_until(lambda: cli(tools, self.socket, "version", check=False).returncode == 0, 20):
@@ -416,19 +433,34 @@ def session_line(line):
     return "guidewayd " + line.strip() if line.strip() else None
 
 
+def latest_session(tools, socket_path):
+    res = cli(tools, socket_path, "params", "dbb", "--json", check=False)
+    return json.loads(res.stdout) if res.returncode == 0 else {}
+
+
+def event_line(line):
+    """guidewayd's EVENTs the loop shows: the sessions the controller's pin begins and ends, failures."""
+    try:
+        e = json.loads(line)
+    except ValueError:
+        return None
+    if e.get("event", "").startswith("session") or e.get("event") in ("periods_lost", "recording_failed"):
+        return f"guidewayd EVENT {e.get('event')}: {e.get('reason', '')}"
+    return None
+
+
 def measure(tag, daemon, work, args, user, share, comp_dir=None):
-    """One LinuxCNC run of the test program with a guidewayd session measuring it: its PARAMS, the run's
-    stream and LinuxCNC's result."""
+    """One LinuxCNC run of the test program, the session begun and ended by the program's pin: its PARAMS,
+    the run's stream and LinuxCNC's result."""
     tools = daemon.tools
     bridge_socket = os.path.join(work, "run", "linuxcnc.sock")
     cfg, ini = linuxcnc_config(share, work, f"linuxcnc-{tag}", tools, args.program, bridge_socket, comp_dir)
     if os.getuid() == 0:
         shutil.chown(cfg, user)
-    settings = ["--set", "test=standard", "--set", f"radius_mm={args.radius_mm}",
-                "--set", f"feed_mm_per_min={args.feed_mm_per_min}"]
-    session = Process(f"session-{tag}", [tools["guideway"], "--socket", daemon.socket, "start", "dbb", *settings,
-                                         "--wait", "--json", "--timeout", str(args.timeout_s)],
-                      os.path.join(work, f"session-{tag}.log"), echo=None)
+    before = latest_session(tools, daemon.socket).get("session")
+    events = Process(f"events-{tag}", ["stdbuf", "-oL", tools["guideway"], "--socket", daemon.socket, "watch",
+                                       "--class", "EVENT", "--json"], os.path.join(work, f"events-{tag}.log"),
+                     echo=event_line)
     stream_path = os.path.join(work, f"stream-{tag}.txt")
     recorder = StreamRecorder(bridge_socket, stream_path)
     say(f"{elapsed()} LinuxCNC starts ({'with the correction' if comp_dir else 'as it is'}): {ini}")
@@ -438,27 +470,55 @@ def measure(tag, daemon, work, args, user, share, comp_dir=None):
         recorder.stop()
     say(f"{elapsed()} LinuxCNC ran the program in {result['seconds']:.1f} s and shut down; waiting for the "
         "session's identification")
-    # The virtual machine plays LinuxCNC's periods back a little late: the last circle's end is measured
-    # a moment after LinuxCNC stopped. A session still running then has seen all it will: it ends.
-    wait_until(lambda: not session.running(), 10)
-    if session.running():
-        stop = cli(tools, daemon.socket, "stop", check=False)
-        say(f"{elapsed()} the program has ended: guideway stop (the session identifies what it traced): "
-            f"{stop.stdout.strip() or stop.stderr.strip()}")
-    last = 0.0
-    while session.running():
+    params = wait_for_session(tools, daemon.socket, before, args.timeout_s)
+    events.stop()
+    say(f"{elapsed()} the {tag} session {params.get('session')}, run by run: " + ", ".join(
+        f"{r.get('direction')} G {r.get('circular_deviation_um', float('nan')):.2f} um" for r in params.get("runs", [])))
+    explain_session(tools, daemon.socket, args.machine, tag, params.get("session", ""))
+    return params, stream_path, result, cfg
+
+
+def wait_for_session(tools, socket_path, before, timeout_s):
+    """The PARAMS of the DBB session after `before`, with the session's progress every 10 s. The virtual
+    machine plays LinuxCNC's periods a little late: a session still running 15 s after the program ended has
+    seen all it will and is ended (it identifies what it traced)."""
+    start, last, stopped = time.monotonic(), 0.0, False
+    while time.monotonic() - start < timeout_s:
+        p = latest_session(tools, socket_path)
+        if p.get("session") and p.get("session") != before:
+            return p
+        status = json.loads(cli(tools, socket_path, "status", "--json", check=False).stdout or "{}")
+        running = [x for x in status.get("sessions", []) if x.get("state") == "running"]
+        failed = [x for x in status.get("sessions", []) if x.get("state") == "failed" and x.get("session") != before]
+        if failed:
+            raise Failed(f"session {failed[-1].get('session')} failed: {failed[-1].get('progress')}")
         if time.monotonic() - last > 10:
             last = time.monotonic()
-            status = cli(tools, daemon.socket, "status", check=False).stdout
-            said = [l for l in status.splitlines() if l.startswith("session ")]
-            say(f"{elapsed()} guidewayd " + (said[0] if said else "identifying"))
-        if session.wait(1) is not None:
-            break
-    code = session.wait(5)
-    if code != 0:
-        raise Failed(f"the {tag} session failed:\n" + "\n".join(session.lines[-20:]))
-    params = json.loads(session.lines[-1])
-    return params, stream_path, result, cfg
+            say(f"{elapsed()} guidewayd " + ("; ".join(f"session {x.get('session')}: {x.get('progress', '')}"
+                                                     for x in running) or "identifying"))
+        if running and not stopped and time.monotonic() - start > 15:
+            stopped = True
+            res = cli(tools, socket_path, "stop", check=False)
+            say(f"{elapsed()} the program has ended: guideway stop ({res.stdout.strip() or res.stderr.strip()})")
+        if not running and not stopped and time.monotonic() - start > 30:
+            raise Failed("no session began: the program's pin (motion.digital-out-00) never reached guidewayd")
+        time.sleep(0.5)
+    raise Failed(f"no PARAMS within {timeout_s:.0f} s")
+
+
+def explain_session(tools, socket_path, machine, tag, session):
+    """EXPLAIN of the session just measured, as guidewayd published it, beside what the machine file holds."""
+    def published():
+        res = cli(tools, socket_path, "explain", "--latest", "--kind", "dbb", "--json", check=False)
+        return res.returncode == 0 and json.loads(res.stdout).get("session") == session
+
+    if not wait_until(published, 60, 0.5):
+        say(f"{elapsed()} no EXPLAIN of the {tag} session")
+        return
+    res = cli(tools, socket_path, "explain", "--latest", "--kind", "dbb", *(["--machine", machine] if machine else []),
+              check=False)
+    say(f"{elapsed()} == guideway explain --latest ({tag}: what the model left out of LinuxCNC's runs)")
+    say(res.stdout.rstrip() or res.stderr.rstrip())
 
 
 def largest_g_um(params):
@@ -660,12 +720,14 @@ def loop(args):
         work = args.work or tempfile.mkdtemp(prefix="guideway-linuxcnc-loop-")
         os.makedirs(os.path.join(work, "run"), exist_ok=True)
         try:
-            return run_loop(args, tools, user, work)
+            code, last_line = run_loop(args, tools, user, work)
         finally:
             if not args.keep and not args.work:
                 shutil.rmtree(work, ignore_errors=True)
-            elif args.keep:
-                say(f"kept {work}")
+            else:
+                say(f"kept {work} (the runs, the streams, LinuxCNC's configurations and logs, the report)")
+        say(last_line)
+        return code
 
 
 def prepare_work(args, tools, user, work):
@@ -726,8 +788,8 @@ def run_loop(args, tools, user, work):
     if args.json:
         with open(args.json, "w") as f:
             json.dump(figures, f, indent=1)
-    say(f"LinuxCNC loop: G before {g_before:.2f} µm, after {g_after:.2f} µm (tables loaded by LinuxCNC)")
-    return 1 if failed else 0
+    return 1 if failed else 0, (f"LinuxCNC loop: G before {g_before:.2f} µm, after {g_after:.2f} µm "
+                                "(tables loaded by LinuxCNC)")
 
 
 if __name__ == "__main__":
