@@ -64,7 +64,8 @@ def find_tool(name, bin_dir, subdir):
     for candidate in ([os.path.join(bin_dir, subdir, name), os.path.join(bin_dir, name)] if bin_dir else []):
         if os.access(candidate, os.X_OK):
             return os.path.abspath(candidate)
-    found = shutil.which(name)
+    # guidewayd is in /usr/sbin, which a user's PATH may lack
+    found = shutil.which(name) or shutil.which(name, path="/usr/sbin:/usr/local/sbin")
     if not found:
         raise Failed(f"{name} not found (give --bin-dir BUILD_DIR, or install the guideway package)")
     return found

@@ -19,7 +19,7 @@
 namespace guideway::drivers::linuxcnc {
 
 struct BridgeOptions {
-  std::string socket_path = "/tmp/guideway-linuxcnc.sock";
+  std::string socket_path = "/run/guideway-linuxcnc/bridge.sock";
   unsigned socket_mode = 0666;  // guidewayd (user guideway) reads what LinuxCNC's user's bridge serves
   // The program whose stdout carries the periods (halsampler -t, or a test's stand-in).
   std::vector<std::string> source_command = {"halsampler", "-t", "-c", "0"};

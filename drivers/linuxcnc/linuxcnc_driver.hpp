@@ -17,7 +17,7 @@
 namespace guideway::drivers::linuxcnc {
 
 struct LinuxcncHalConfig {
-  std::string socket = "/tmp/guideway-linuxcnc.sock";
+  std::string socket = "/run/guideway-linuxcnc/bridge.sock";
   // The stream's columns published, at most max_sample_values; a name ending in _mm is published in m
   // (channel without the suffix), any other as it comes.
   std::vector<std::string> columns = {"x_cmd_mm", "y_cmd_mm", "z_cmd_mm", "program_line", "session"};

@@ -71,7 +71,7 @@ class FollowPlayback {
 };
 
 struct FollowSettings {
-  std::string socket_path = "/tmp/guideway-linuxcnc.sock";
+  std::string socket_path = "/run/guideway-linuxcnc/bridge.sock";
   machine::Plane plane = machine::Plane::xy;  // the bus order of the encoders
   machine::Vec3 center_m{};                   // where the bar's fixed ball is set (the circle's commanded centre)
   double radius_m = 0.1;
