@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # dbb_bench of the working tree against the same benchmark with the identification sources as they
-# were at an older commit (models/dbb/identify.cpp and models/common/*.cpp, or the files
-# listed in $DBB_COMPARE_FILES; everything else from the working tree), run alternately in one
+# were at an older commit (models/dbb/identify.cpp and, from the commit that split it, its parts
+# fit_points, lai_fit, diagnostics and diagnostics_search, and models/common/*.cpp, or the files listed in
+# $DBB_COMPARE_FILES; everything else from the working tree), run alternately in one
 # session so that both see the same machine load. Prints the medians of wall and CPU time.
 # Usage: bench/dbb_compare.sh BUILD_DIR [COMMIT (default a50fd25)] [ROUNDS (default 3)]
 # BUILD_DIR: a Release build with -DGUIDEWAY_BUILD_BENCH=ON where dbb_bench has been built.
@@ -12,7 +13,9 @@ rounds=${3:-3}
 src=$(cd "$(dirname "$0")/.." && pwd)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-files=${DBB_COMPARE_FILES:-models/dbb/identify.cpp $(git -C "$src" ls-tree --name-only "$commit" models/common/ | grep '\.cpp$')}
+identify_parts='^models/dbb/(identify|fit_points|lai_fit|diagnostics|diagnostics_search)\.cpp$'
+files=${DBB_COMPARE_FILES:-$(git -C "$src" ls-tree --name-only "$commit" models/dbb/ models/common/ |
+  grep -E "$identify_parts|^models/common/.*\.cpp$")}
 # The old files are compiled against the old tree's headers (a changed signature must not send the
 # old code to the new definition).
 mkdir "$tmp/old_tree"
@@ -27,7 +30,8 @@ done
 c++ -O3 "$build/bench/CMakeFiles/dbb_bench.dir/dbb_bench.cpp.o" "${old_objects[@]}" -o "$tmp/dbb_bench_old" \
   "$build/simulators/machine/libguideway_dbb_sim.a" "$build/models/dbb/libguideway_model_dbb.a" \
   "$build/models/common/libguideway_models_common.a" "$build/simulators/machine/libguideway_machine.a" \
-  "$build/core/libguideway_core.a" -lbenchmark -ltomlplusplus
+  "$build/formats/libguideway_formats.a" "$build/results/libguideway_results.a" "$build/core/libguideway_core.a" \
+  -lbenchmark -ltomlplusplus
 for i in $(seq 1 "$rounds"); do
   "$tmp/dbb_bench_old" --benchmark_format=json >"$tmp/old_$i.json" 2>/dev/null
   "$build/bench/dbb_bench" --benchmark_format=json >"$tmp/new_$i.json" 2>/dev/null

@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <utility>
 
+#include "core/mono_clock.hpp"
 #include "drivers/io_loop.hpp"
 
 namespace guideway::drivers {
@@ -84,6 +85,7 @@ DriverStatus Driver::status() const {
     s.reason = reason_;
     s.warnings = warnings_;
   }
+  apply_sample_bound(s);
   s.counters.samples = samples_.load(std::memory_order_relaxed);
   s.counters.frames = frames_.load(std::memory_order_relaxed);
   s.counters.bad_frames = bad_frames_.load(std::memory_order_relaxed);
@@ -93,6 +95,42 @@ DriverStatus Driver::status() const {
   s.driver_counters = driver_counters();
   s.ring = {ring_.capacity(), ring_.depth(), ring_.free_slots(), ring_.drops()};
   return s;
+}
+
+void Driver::mark_link_up() {
+  std::lock_guard lock(state_mutex_);
+  link_up_ns_ = mono_now_ns();
+  published_at_link_up_ = published_.load(std::memory_order_relaxed);
+  bad_frames_at_link_up_ = bad_frames_.load(std::memory_order_relaxed);
+}
+
+void Driver::apply_sample_bound(DriverStatus& s) const {
+  const std::int64_t bound_ns = sample_bound_ns_.load(std::memory_order_relaxed);
+  if (s.state != DeviceState::streaming || bound_ns <= 0) return;
+  std::int64_t link_up_ns = 0;
+  std::uint64_t published_at_up = 0;
+  std::uint64_t bad_at_up = 0;
+  {
+    std::lock_guard lock(state_mutex_);
+    link_up_ns = link_up_ns_;
+    published_at_up = published_at_link_up_;
+    bad_at_up = bad_frames_at_link_up_;
+  }
+  // The count first (acquire, paired with publish()): the time read after it is that sample's or newer.
+  const bool none_yet = published_.load(std::memory_order_acquire) == published_at_up;
+  const std::int64_t last_ns = last_sample_ns_.load(std::memory_order_relaxed);
+  const std::int64_t now = mono_now_ns();
+  if (none_yet && now - link_up_ns < bound_ns) {
+    s.state = DeviceState::connecting;
+    s.reason = "waiting for the first sample";
+  } else if (none_yet || now - last_ns > bound_ns) {
+    s.state = DeviceState::lost;
+    s.reason = "no sample for more than " + std::to_string(bound_ns / 1'000'000) + " ms";
+  } else {
+    return;
+  }
+  const std::uint64_t bad = bad_frames_.load(std::memory_order_relaxed) - bad_at_up;
+  if (bad > 0) s.reason += " (" + std::to_string(bad) + " bad frames on this link)";
 }
 
 void Driver::set_state(DeviceState state, std::string reason) {
@@ -129,6 +167,8 @@ std::vector<DeviceEvent> Driver::take_events() {
 void Driver::publish(Sample sample) noexcept {
   sample.seq = next_seq_++;
   samples_.store(next_seq_, std::memory_order_relaxed);
+  last_sample_ns_.store(sample.t_mono_ns, std::memory_order_relaxed);
+  published_.store(published_.load(std::memory_order_relaxed) + 1, std::memory_order_release);
   ring_.try_push(sample);
   if (Doorbell* bell = doorbell_.load(std::memory_order_acquire)) bell->ring();
 }

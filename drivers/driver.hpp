@@ -147,6 +147,21 @@ class Driver {
   void skip_samples(std::uint64_t n) noexcept;
   // Sleeps for d unless stop is requested first; returns false when stopping.
   static bool sleep_for(const std::stop_token& stop, std::chrono::nanoseconds d);
+  // The one rule of `streaming` (docs/protocol.md, "Device states"): a device with a sample bound (the
+  // longest it goes without a sample while it works: its period, its timeouts) is shown `streaming`
+  // only while samples arrive within it. Until its link's first sample status() shows `connecting`
+  // ("waiting for the first sample"), then `lost` ("no sample for more than N ms") once the bound
+  // passes; from its next sample what the driver set again. 0 (the default): the state as set. Set it
+  // before start().
+  void set_sample_bound(std::chrono::nanoseconds bound) noexcept {
+    sample_bound_ns_.store(bound.count(), std::memory_order_relaxed);
+  }
+  // A new link to the device (the producer thread): the samples that count for `streaming` from now on.
+  void mark_link_up();
+  // Samples published so far (the producer thread; skipped ones not included).
+  [[nodiscard]] std::uint64_t published_samples() const noexcept {
+    return published_.load(std::memory_order_relaxed);
+  }
 
   std::atomic<std::uint64_t> frames_{0};
   std::atomic<std::uint64_t> bad_frames_{0};
@@ -154,6 +169,9 @@ class Driver {
   std::atomic<std::uint64_t> reconnects_{0};
 
  private:
+  // status(): `streaming` as the sample bound allows it (set_sample_bound).
+  void apply_sample_bound(DriverStatus& s) const;
+
   std::string name_;
   std::string driver_;
   std::vector<ChannelInfo> channels_;
@@ -161,6 +179,12 @@ class Driver {
   std::atomic<Doorbell*> doorbell_{nullptr};
   std::uint64_t next_seq_ = 0;  // producer thread only
   std::atomic<std::uint64_t> samples_{0};
+  std::atomic<std::uint64_t> published_{0};
+  std::atomic<std::int64_t> last_sample_ns_{0};  // the newest published sample's time
+  std::atomic<std::int64_t> sample_bound_ns_{0};
+  std::int64_t link_up_ns_ = 0;                // under state_mutex_: mark_link_up()'s
+  std::uint64_t published_at_link_up_ = 0;     // under state_mutex_
+  std::uint64_t bad_frames_at_link_up_ = 0;    // under state_mutex_
   mutable std::mutex state_mutex_;
   DeviceState state_ = DeviceState::stopped;
   std::string reason_;

@@ -60,7 +60,9 @@ struct Bench {
                  simulators::emulators::DbbSource source = circle_source(),
                  std::int64_t read_period_us = drivers::dbb::default_read_period_us, const TuneDriver& tune_driver = {},
                  const TuneEmulator& tune_emulator = {}, drivers::IoLoop* loop = nullptr)
-      : emu(tuned(emulator_settings(!driver_produces_sync, rate_hz), tune_emulator), std::move(source)) {
+      : emu(tuned(emulator_settings(!driver_produces_sync, rate_hz), tune_emulator), std::move(source)),
+        driver_produces_sync(driver_produces_sync),
+        sync_period_ns(static_cast<std::int64_t>(1e9 / rate_hz)) {
     drivers::dbb::DbbSettings s;
     s.produce_sync = driver_produces_sync;
     s.sync_rate_hz = rate_hz;
@@ -98,14 +100,17 @@ struct Bench {
   // what came before the SYNC (the rest held), or, all of it after, no sample of its own (the next
   // answer replaces it). Which of the two each late answer became is not known, and positions of a
   // slow machine repeat, so the check searches for an assignment of samples to cycles that explains
-  // every sample (a set of reachable sample indices per cycle).
+  // every sample (a set of reachable sample indices per cycle), its values and its time (a sample
+  // given another cycle's time is no cycle's). One such assignment is kept in `cycle_of` (the index
+  // in `sent` of each sample's cycle). Driving the SYNC, a hole of two periods or more in the samples
+  // must be flagged on the sample after it.
   void stop_and_check_all(std::size_t partial_expected_at_least = 0) {
     // The emulator goes first: the driver then reads everything still queued, publishes what it holds
     // when it sees the end of the connection, and only then reports the loss.
     const int connects_before = connects.load();
     emu.stop();
     const auto log = emu.log();
-    std::vector<simulators::emulators::DbbSentCycle> sent;
+    sent.clear();
     std::size_t late = 0;
     for (const auto& c : log) {
       if (c.sent_mask != 0) sent.push_back(c);
@@ -133,6 +138,12 @@ struct Bench {
       if (s.value_count != 3) return why = "value_count " + std::to_string(s.value_count), false;
       if (j > 0 && s.t_mono_ns < samples[j - 1].t_mono_ns) return why = "time goes backwards", false;
       if (!sent[i].late && ((s.flags & sample_partial) != 0) == complete) return why = "partial flag wrong", false;
+      // Its time is its cycle's SYNC: ours was stamped before the emulator read it and answered (the
+      // cycle's t_mono_ns); the emulator's was received as it wrote the cycle, before the next one.
+      if (driver_produces_sync ? s.t_mono_ns > sent[i].t_mono_ns
+                               : s.t_mono_ns < sent[i].t_mono_ns ||
+                                     (i + 1 < sent.size() && s.t_mono_ns > sent[i + 1].t_mono_ns))
+        return why = "time " + std::to_string(s.t_mono_ns) + " is not this cycle's", false;
       for (std::size_t k = 0; k < 3; ++k) {
         const bool was_sent = (sent[i].sent_mask & (1u << k)) != 0;
         const bool exact = was_sent && near(s.value[k], sent[i].truth_m[k], k);
@@ -146,7 +157,9 @@ struct Bench {
       return true;
     };
     std::vector<std::size_t> reach{0};  // sample indices at which cycle i can start
+    std::vector<std::vector<std::size_t>> reached;  // reach before each cycle
     for (std::size_t i = 0; i < sent.size(); ++i) {
+      reached.push_back(reach);
       std::vector<std::size_t> next;
       std::string why;
       for (const std::size_t j : reach) {
@@ -163,8 +176,27 @@ struct Bench {
                                  << " matches no sample: " << why;
       reach = std::move(next);
     }
-    EXPECT_TRUE(std::find(reach.begin(), reach.end(), samples.size()) != reach.end())
+    ASSERT_TRUE(std::find(reach.begin(), reach.end(), samples.size()) != reach.end())
         << "samples left over (" << samples.size() - reach.back() << "): a cycle became more than one sample";
+    // One assignment, walked back from the end: a late cycle takes no sample where that explains the rest.
+    cycle_of.assign(samples.size(), 0);
+    std::size_t j = samples.size();
+    for (std::size_t i = sent.size(); i-- > 0;) {
+      const auto& before = reached[i];
+      std::string why;
+      if (sent[i].late && std::find(before.begin(), before.end(), j) != before.end()) continue;
+      ASSERT_TRUE(j > 0 && std::find(before.begin(), before.end(), j - 1) != before.end() && is_sample_of(i, j - 1, why))
+          << "cycle " << i;
+      cycle_of[--j] = i;
+    }
+    for (std::size_t k = 1; driver_produces_sync && k < samples.size(); ++k) {
+      const std::int64_t dt = samples[k].t_mono_ns - samples[k - 1].t_mono_ns;
+      EXPECT_GT(dt, 0) << "sample " << k << ": two cycles, one time";
+      // A hole (a SYNC slot missed, not sent or not answered) is flagged on the sample after it.
+      if (dt >= 2 * sync_period_ns)
+        EXPECT_TRUE(samples[k].flags & sample_after_gap)
+            << "a hole of " << dt / 1e6 << " ms before sample " << k << " is not flagged";
+    }
     for (std::size_t j = 0; j < samples.size(); ++j) EXPECT_EQ(samples[j].seq, j);
     const auto partial =
         std::count_if(samples.begin(), samples.end(), [](const Sample& s) { return (s.flags & sample_partial) != 0; });
@@ -173,9 +205,14 @@ struct Bench {
   }
 
   simulators::emulators::DbbEmulator emu;
+  bool driver_produces_sync;
+  std::int64_t sync_period_ns;
   std::unique_ptr<drivers::dbb::DbbDriver> driver;
   std::atomic<int> connects{0};
   std::vector<Sample> samples;
+  // stop_and_check_all(): the cycles the emulator put on the bus, and the one each sample is.
+  std::vector<simulators::emulators::DbbSentCycle> sent;
+  std::vector<std::size_t> cycle_of;
 };
 
 }  // namespace guideway::test

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <thread>
 
 #include "core/mono_clock.hpp"
 #include "drivers/dbb/dbb_driver.hpp"
@@ -19,6 +20,7 @@
 using namespace guideway;
 using namespace std::chrono_literals;
 using drivers::DeviceState;
+using drivers::IoLoop;
 using test::Bench;
 using test::circle_source;
 using test::emulator_settings;
@@ -90,17 +92,28 @@ TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircles) {
     auto motion = simulators::emulators::make_dbb_motion(machine, spec);
     ASSERT_GT(motion->duration_s, 1.0);
     Bench b(true, 200.0, 150, simulators::emulators::dbb_motion_source(motion));
+    ASSERT_TRUE(b.wait_samples(60));
+    // The third node misses three cycles: partial samples holding its channel, as a late answer under
+    // load makes them (a sample's channels are not all its cycle's).
+    b.emu.inject_drop_pdo(2, 3);
     ASSERT_TRUE(b.wait_samples(150));
-    b.stop_and_check_all();
-    const auto log = b.emu.log();
+    b.stop_and_check_all(3);
+    ASSERT_EQ(b.cycle_of.size(), b.samples.size());
     double min_dl = 1, max_dl = -1;
+    // Each sample against the machine at the time of the cycle it is (the check's assignment: under load
+    // an answer late for the next SYNC may be no sample of its own, or a partial one holding a channel),
+    // each channel its cycle sent; a held one (flagged partial) the check found equal to the sample before.
     for (std::size_t i = 0; i < b.samples.size(); ++i) {
+      const auto& cycle = b.sent[b.cycle_of[i]];
       double truth[3];
-      motion->at(log[i].t_s, truth);
-      // Encoder scales differ per node (the third: 50 nm, counting negative, zero at 1000).
-      EXPECT_NEAR(b.samples[i].value[0] - 0.1, truth[0] - 0.1, 0.51e-7) << i;
-      EXPECT_NEAR(b.samples[i].value[1], truth[1], 0.51e-7) << i;
-      EXPECT_NEAR(b.samples[i].value[2], truth[2], 0.26e-7) << i;
+      motion->at(cycle.t_s, truth);
+      const double bound[3] = {0.51e-7, 0.51e-7, 0.26e-7};  // encoder scales differ (the third: 50 nm)
+      for (std::size_t k = 0; k < 3; ++k) {
+        if ((cycle.sent_mask & (1u << k)) == 0) continue;
+        const bool held = (b.samples[i].flags & sample_partial) != 0 && i > 0 &&
+                          std::abs(b.samples[i].value[k] - b.samples[i - 1].value[k]) <= bound[k];
+        if (!held) EXPECT_NEAR(b.samples[i].value[k], truth[k], bound[k]) << "sample " << i << " channel " << k;
+      }
       const double dl = b.samples[i].value[0] - motion->run.nominal_length_m;
       min_dl = std::min(min_dl, dl);
       max_dl = std::max(max_dl, dl);
@@ -356,12 +369,47 @@ TEST(DbbDriver, MissingPdoGivesAPartialSampleHoldingTheLastValue) {
   b.stop_and_check_all(3);
 }
 
+// A raw recording under CANopen faults had holes of 14.5 to 84 ms with flags 0: SYNCs no node
+// answered (a stall shorter than the timeout, an emulator busy with 2000 EMCYs answering only the
+// newest of its queued SYNCs) and SYNC slots a held-up loop came too late for became no sample, and
+// nothing said so. The sample after a hole now says it (sample_after_gap, as after a timeout); every
+// hole of two periods or more in the driver tests' samples is checked so (Bench::stop_and_check_all).
+TEST(DbbDriver, AHoleShorterThanTheTimeoutIsFlaggedOnTheSampleAfterIt) {
+  IoLoop loop;
+  loop.start("test-io");
+  Bench b(true, 200.0, 150, circle_source(), drivers::dbb::default_read_period_us, {}, {}, &loop);
+  ASSERT_TRUE(b.wait_samples(20));
+  // No node answers for 40 ms (8 SYNCs), well within the 150 ms timeout.
+  b.emu.inject_stall(0.04);
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 20));
+  // The loop held up for 40 ms: the SYNCs of those slots are never sent.
+  loop.post([] { std::this_thread::sleep_for(40ms); });
+  ASSERT_TRUE(b.wait_samples(b.samples.size() + 20));
+  EXPECT_EQ(b.driver->status().counters.timeouts, 0u);
+  std::size_t holes = 0;
+  for (std::size_t k = 1; k < b.samples.size(); ++k) {
+    if (b.samples[k].t_mono_ns - b.samples[k - 1].t_mono_ns < 30'000'000) continue;
+    ++holes;
+    EXPECT_TRUE(b.samples[k].flags & sample_after_gap) << "hole before sample " << k;
+  }
+  EXPECT_GE(holes, 2u);
+  b.stop_and_check_all();
+  loop.stop();
+}
+
 TEST(DbbDriver, StallIsATimeoutThenStreamingResumes) {
   Bench b(true, 200.0, 100);
   ASSERT_TRUE(b.wait_samples(10));
   b.emu.inject_stall(0.5);
-  ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::lost; }, 3s));
-  EXPECT_NE(b.driver->status().reason.find("no frames"), std::string::npos) << b.driver->status().reason;
+  // The driver's own reason (a machine that holds its thread up past twice the timeout may show the
+  // sample bound's "no sample for more than 200 ms" first).
+  ASSERT_TRUE(test::eventually(
+      [&] {
+        const auto st = b.driver->status();
+        return st.state == DeviceState::lost && st.reason.find("no frames") != std::string::npos;
+      },
+      3s))
+      << b.driver->status().reason;
   ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::streaming; }, 5s));
   const std::size_t before = b.samples.size();
   ASSERT_TRUE(b.wait_samples(before + 20));

@@ -166,6 +166,30 @@ TEST(DbbRunTest, IdentifyRefusesMixedPlanesAndEmptyInput) {
   EXPECT_THROW((void)identify({a}), guideway::formats::DbbRunFormatError);
 }
 
+// The runs are fine; what is fitted beside them is not: the solver's failure has its own error, and a column
+// of the wrong size is the caller's, neither a run format error.
+TEST(DbbRunTest, IdentifySaysWhenAFitCannotBeSolvedAndWhenABesideColumnDoesNotFit) {
+  const DbbRun a = guideway::formats::parse_dbb_run(header() + rows(361), "a.csv");
+  IdentifyOptions o;
+  o.beside.push_back({"thermal_drift", {"drift_um_per_s"}, {std::vector<double>(361, 1.0)}});
+  o.beside.front().columns_um.front()[100] = std::nan("");
+  try {
+    (void)identify({a}, o);
+    FAIL();
+  } catch (const guideway::formats::DbbRunFormatError& e) {
+    FAIL() << "a solver failure read as the runs' format: " << e.what();
+  } catch (const FitError& e) {
+    EXPECT_NE(std::string(e.what()).find("non-finite"), std::string::npos) << e.what();
+  }
+  o.beside.front().columns_um.front().resize(360, 1.0);
+  try {
+    (void)identify({a}, o);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("360 values for 361 samples"), std::string::npos) << e.what();
+  }
+}
+
 TEST(DbbRunTest, JsonShape) {
   const DbbRun a = guideway::formats::parse_dbb_run(header() + rows(721), "a.csv");
   const auto j = to_json(identify({a}));

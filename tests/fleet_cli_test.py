@@ -53,12 +53,16 @@ def check_a_reader_without_write_access(db):
         return
     with tempfile.TemporaryDirectory(prefix="gw-fleet-ro-") as d:
         os.chmod(d, 0o755)
+        # The reader runs its own copy: the checkout may sit in a folder only its owner may enter.
+        exe = os.path.join(d, "guideway")
+        shutil.copy(GUIDEWAY, exe)
+        os.chmod(exe, 0o755)
         for suffix in ("", "-wal", "-shm"):  # the writer keeps -wal and -shm (SQLITE_FCNTL_PERSIST_WAL)
             check(os.path.exists(db + suffix), "the writer left no %s" % (db + suffix))
             if os.path.exists(db + suffix):
                 shutil.copy(db + suffix, os.path.join(d, "fleet.sqlite" + suffix))
                 os.chmod(os.path.join(d, "fleet.sqlite" + suffix), 0o644)
-        r = subprocess.run(["runuser", "-u", "nobody", "--", os.path.abspath(GUIDEWAY), "fleet", "status", "--db",
+        r = subprocess.run(["runuser", "-u", "nobody", "--", exe, "fleet", "status", "--db",
                             os.path.join(d, "fleet.sqlite")], capture_output=True, text=True)
         check(r.returncode == 0 and "mill-1" in r.stdout, "a read-only reader: exit %d %s" % (r.returncode, r.stderr))
 

@@ -77,6 +77,21 @@ class WhereThingsGo(unittest.TestCase):
         for folder in folders:
             self.assertTrue((ROOT / "drivers" / folder).is_dir(), f"drivers/{folder}")
 
+    def test_every_built_in_driver_is_its_protocol_on_the_skeleton(self):
+        """The loop's timer and hooks, the link's back-off and the rest schedule are the skeleton's
+        (drivers/loop_driver.hpp): an instrument's folder touches none of them."""
+        registered = re.findall(r"&(\w+)::register_\w+_driver", text("drivers/builtin.cpp"))
+        self.assertTrue(registered)
+        loop_words = re.compile(r"add_timer|add_wake_hook|add_settle_hook|remove_hook|->arm\(|\.arm\(|->watch\(|"
+                                r"->modify\(|LoopConnector|default_read_period_us \*")
+        for name in registered:
+            header = text(f"drivers/{name}/{name}_driver.hpp")
+            self.assertTrue("public drivers::LoopDriver" in header, f"drivers/{name}: not on the skeleton")
+            for source in sorted((ROOT / "drivers" / name).glob("*.[ch]pp")):
+                for number, line in enumerate(source.read_text().splitlines(), 1):
+                    self.assertIsNone(loop_words.search(line), f"{source.relative_to(ROOT)}:{number}: loop policy "
+                                      f"outside the skeleton: {line.strip()}")
+
     def test_every_command_group_has_its_cmake(self):
         for source in (ROOT / "cli").glob("*_commands.cpp"):
             if source.name == "daemon_commands.cpp":  # the client's own commands, in cli/CMakeLists.txt

@@ -1,7 +1,5 @@
 #include "drivers/autocollimator/autocollimator_driver.hpp"
 
-#include <sys/epoll.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -61,12 +59,29 @@ void reading_to_sample(const Reading& r, double range_arcsec, Sample& s) noexcep
   }
 }
 
+namespace {
+
+drivers::LoopPolicy policy_of(const AutocollimatorSettings& s) {
+  drivers::LoopPolicy p;
+  p.backoff = Backoff::between(std::chrono::milliseconds(s.reconnect_min_ms), std::chrono::milliseconds(s.reconnect_max_ms));
+  p.unreached_is_error = true;  // a port that was never there is a wrong path
+  // Stream mode with lines less than two read periods apart rests between reads; otherwise (polls,
+  // slow streams) a rest would only delay the line.
+  const bool rests = s.stream && s.read_period_us > 0 && s.stream_period_ms * 1000 < 2 * s.read_period_us;
+  p.schedule = rests ? drivers::ReadSchedule::rest : drivers::ReadSchedule::per_arrival;
+  p.read_period_ns = s.read_period_us * 1000;
+  // Lost after lost_after_timeouts requests (or stream periods) without a reading.
+  const std::int64_t period_ms = s.stream ? s.stream_period_ms : s.poll_period_ms;
+  p.sample_bound_ns = s.lost_after_timeouts * (s.reply_timeout_ms + period_ms) * 1'000'000;
+  return p;
+}
+
+}  // namespace
+
 AutocollimatorDriver::AutocollimatorDriver(std::string name, std::size_t ring_capacity, AutocollimatorSettings settings)
-    : Driver(std::move(name), "autocollimator-serial", {{settings.x_channel, "rad"}, {settings.y_channel, "rad"}},
-             ring_capacity),
-      settings_(std::move(settings)),
-      rests_(settings_.stream && settings_.read_period_us > 0 &&
-             settings_.stream_period_ms * 1000 < 2 * settings_.read_period_us) {}
+    : LoopDriver(std::move(name), "autocollimator-serial", {{settings.x_channel, "rad"}, {settings.y_channel, "rad"}},
+                 ring_capacity, policy_of(settings)),
+      settings_(std::move(settings)) {}
 
 AutocollimatorDriver::~AutocollimatorDriver() { stop(); }
 
@@ -88,85 +103,42 @@ void AutocollimatorDriver::handle_line(const std::string& line, bool& got_readin
   got_reading = true;
 }
 
-void AutocollimatorDriver::attach(drivers::IoLoop& loop) {
-  io_ = &loop;
-  backoff_ = drivers::ReconnectBackoff(std::chrono::milliseconds(settings_.reconnect_min_ms),
-                                       std::chrono::milliseconds(settings_.reconnect_max_ms));
-  connected_once_ = false;
-  timer_ = loop.add_timer([this] { on_timer(); });
-  if (rests_) {
-    wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
-    settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
-  }
-  open_port();
-}
-
-void AutocollimatorDriver::detach() {
-  close_port();
-  io_->remove_timer(timer_);
-  if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
-  if (settle_hook_ != 0) io_->remove_hook(settle_hook_);
-  wake_hook_ = settle_hook_ = 0;
-  io_ = nullptr;
-}
-
-void AutocollimatorDriver::open_port() {
+void AutocollimatorDriver::open() {
   std::string error;
-  auto line = serial::open_serial(settings_.serial, error);
-  if (!line) {
-    set_state(connected_once_ ? drivers::DeviceState::lost : drivers::DeviceState::error, error);
-    reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
-    io_->arm(timer_, reconnect_at_ns_);
+  line_ = serial::open_serial(settings_.serial, error);
+  if (!line_) {
+    link_failed(error);
     return;
   }
-  if (connected_once_) {
-    reconnects_.fetch_add(1, std::memory_order_relaxed);
-    after_gap_ = true;
-  }
-  connected_once_ = true;
-  backoff_.reset();
-  set_state(drivers::DeviceState::streaming);
-  line_ = std::move(line);
+  link_up(line_->fd());
+}
+
+void AutocollimatorDriver::on_link_up(std::int64_t now_ns) {
+  if (relinked()) after_gap_ = true;
   framer_.reset();
   out_.clear();
   link_closed_ = false;
   consecutive_timeouts_ = 0;
   awaiting_ = false;
-  const std::int64_t now = mono_now_ns();
-  next_poll_ns_ = now;
-  read_at_ns_ = now;
-  resting_ = false;
-  idle_check_ = false;
-  lonely_ = false;
-  others_pass_ = false;
-  io_->watch(line_->fd(), EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
+  next_poll_ns_ = now_ns;
   if (settings_.stream) {
+    std::string error;
     if (!send(format_request(Request::stream_start, static_cast<int>(settings_.stream_period_ms)), error)) {
       end_link("write: " + error);
       return;
     }
     deadline_ns_ = mono_now_ns() + settings_.reply_timeout_ms * 1'000'000;
   }
-  step();
 }
 
-void AutocollimatorDriver::close_port() {
-  if (!line_) return;
+void AutocollimatorDriver::on_link_down() {
   if (settings_.stream) {  // best effort, never waiting: the instrument stops talking to nobody
     std::size_t written = 0;
     std::string ignored;
     (void)line_->write_some(format_request(Request::stream_stop), written, ignored);
   }
-  io_->unwatch(line_->fd());
   line_.reset();
   out_.clear();
-}
-
-void AutocollimatorDriver::end_link(const std::string& why) {
-  close_port();
-  set_state(drivers::DeviceState::lost, why);
-  reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
-  io_->arm(timer_, reconnect_at_ns_);
 }
 
 bool AutocollimatorDriver::flush_output(std::string& error) {
@@ -191,11 +163,12 @@ bool AutocollimatorDriver::send(std::string_view data, std::string& error) {
   return flush_output(error);
 }
 
-void AutocollimatorDriver::update_interest(bool resting) {
-  io_->modify(line_->fd(), (resting ? 0u : std::uint32_t{EPOLLIN}) | (out_.empty() ? 0u : std::uint32_t{EPOLLOUT}));
+void AutocollimatorDriver::on_writable() {
+  std::string error;
+  if (!flush_output(error)) end_link(link_closed_ ? "port closed" : "write: " + error);
 }
 
-bool AutocollimatorDriver::step() {
+std::int64_t AutocollimatorDriver::service(std::int64_t now) {
   const std::int64_t timeout_ns = settings_.reply_timeout_ms * 1'000'000;
   const std::int64_t poll_ns = settings_.poll_period_ms * 1'000'000;
   const auto on_timeout = [&] {
@@ -206,7 +179,6 @@ bool AutocollimatorDriver::step() {
     }
   };
   std::string error;
-  const std::int64_t now = mono_now_ns();
   if (!settings_.stream) {
     if (awaiting_ && now >= deadline_ns_) {
       awaiting_ = false;
@@ -215,7 +187,7 @@ bool AutocollimatorDriver::step() {
     if (!awaiting_ && now >= next_poll_ns_) {
       if (!send(format_request(settings_.relative ? Request::relative : Request::absolute), error)) {
         end_link(link_closed_ ? "port closed" : "write: " + error);
-        return false;
+        return drivers::IoLoop::never;
       }
       awaiting_ = true;
       deadline_ns_ = now + timeout_ns;
@@ -226,97 +198,43 @@ bool AutocollimatorDriver::step() {
     // Ask again: the instrument may have been reset.
     if (!send(format_request(Request::stream_start, static_cast<int>(settings_.stream_period_ms)), error)) {
       end_link("write: " + error);
-      return false;
+      return drivers::IoLoop::never;
     }
     deadline_ns_ = mono_now_ns() + timeout_ns;
   }
   if (!out_.empty() && now >= write_deadline_ns_) {
     end_link("write: write timed out");
-    return false;
+    return drivers::IoLoop::never;
   }
-  const bool resting = now < read_at_ns_;
-  resting_ = resting;
+  want_write(!out_.empty());
   std::int64_t wake_at = deadline_ns_;
   if (!settings_.stream && !awaiting_) wake_at = next_poll_ns_;
-  if (resting) wake_at = std::min(wake_at, read_at_ns_);
   if (!out_.empty()) wake_at = std::min(wake_at, write_deadline_ns_);
-  update_interest(resting);
-  io_->arm(timer_, wake_at);
-  return true;
+  return wake_at;
 }
 
-void AutocollimatorDriver::on_ready(std::uint32_t events) {
-  if (!line_) return;
-  if ((events & EPOLLOUT) != 0) {
-    std::string error;
-    if (!flush_output(error)) {
-      end_link(link_closed_ ? "port closed" : "write: " + error);
-      return;
-    }
-  }
-  if ((events & (EPOLLIN | EPOLLHUP | EPOLLERR)) != 0) {
-    read_batch(false);  // bytes, or the end of the line: the read says which
-    return;
-  }
-  step();
-}
-
-void AutocollimatorDriver::on_timer() {
-  if (!line_) {
-    if (mono_now_ns() >= reconnect_at_ns_) {
-      open_port();
-    } else {
-      io_->arm(timer_, reconnect_at_ns_);
-    }
-    return;
-  }
-  if (resting_ && mono_now_ns() >= read_at_ns_ && served_pass_ != io_->passes()) {
-    read_batch(false);  // the rest is over
-    return;
-  }
-  step();
-}
-
-void AutocollimatorDriver::on_settle() {
-  if (!idle_check_ || !line_) return;
-  idle_check_ = false;
-  if (io_->data_found_this_pass()) return;  // others stream: read again at their next pass
-  read_at_ns_ = mono_now_ns();              // nothing anywhere: the next line wakes us
-  lonely_ = true;
-  others_pass_ = false;
-  step();
-}
-
-void AutocollimatorDriver::on_wake() {
-  if (!line_ || served_pass_ == io_->passes()) return;
-  others_pass_ = true;  // a pass this driver did not cause: another device keeps the loop busy
-  if (io_->now() < read_at_ns_) read_batch(true);
-}
-
-void AutocollimatorDriver::read_batch(bool opportunistic) {
-  served_pass_ = io_->passes();
+drivers::ReadOutcome AutocollimatorDriver::read_some(bool) {
+  drivers::ReadOutcome out;
   char buf[512];
-  std::size_t taken = 0;
-  bool more = false;
   bool got_reading = false;
   std::string error;
   for (;;) {
-    if (taken >= max_read_bytes) {  // a flooding line: the other devices first, then on
-      more = true;
+    if (out.taken >= max_read_bytes) {  // a flooding line: the other devices first, then on
+      out.more = true;
       break;
     }
     std::size_t got = 0;
     const auto st = line_->read_some(buf, sizeof buf, got, error);
     if (st == serial::IoStatus::closed) {
-      end_link("port closed (device gone)");
-      return;
+      out.ended = "port closed (device gone)";
+      break;
     }
     if (st == serial::IoStatus::error) {
-      end_link(error);
-      return;
+      out.ended = error;
+      break;
     }
     if (got == 0) break;
-    taken += got;
+    out.taken += got;
     line_end_ns_ = mono_now_ns();
     lines_.clear();
     const std::size_t overflows = framer_.feed(std::string_view(buf, got), lines_);
@@ -330,26 +248,7 @@ void AutocollimatorDriver::read_batch(bool opportunistic) {
     awaiting_ = false;
     if (settings_.stream) deadline_ns_ = line_end_ns_ + settings_.reply_timeout_ms * 1'000'000;
   }
-  const std::int64_t now = mono_now_ns();
-  if (more) {
-    read_at_ns_ = now;
-    io_->again();
-  } else if (taken > 0) {
-    io_->data_found();
-    // Readings stream: rest a period while the next lines arrive (a reply to a poll is read at once).
-    // Alone on the loop with lines further apart than a period, a rest would only add a wake-up that
-    // finds nothing: after such a rest (lonely_) the driver wakes per line until another device makes
-    // the loop pass by.
-    if (others_pass_) lonely_ = false;
-    others_pass_ = false;
-    read_at_ns_ = rests_ && !lonely_ ? now + settings_.read_period_us * 1000 : now;
-  } else {
-    // Nothing came. Read at another device's pass, or at the end of a rest: rest on (the end of a rest
-    // is settled once the pass has read every device: on_settle). After readiness: the next line wakes us.
-    if (opportunistic || resting_) read_at_ns_ = now + settings_.read_period_us * 1000;
-    idle_check_ = !opportunistic && resting_;
-  }
-  step();
+  return out;
 }
 
 void register_autocollimator_driver(drivers::DriverRegistry& registry) {

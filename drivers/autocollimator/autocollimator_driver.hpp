@@ -4,15 +4,14 @@
 // listens. One Sample per reading: [angle_x, angle_y] in radians, timestamped when the reply's line
 // was read (a serial line carries no arrival times: up to read_period_us after it ended when the
 // driver reads in batches); out-of-range and no-reflection axes are NaN with sample_out_of_range /
-// sample_no_signal. Loop-driven (drivers/io_loop.hpp): requests are written without waiting, replies
-// read as the line becomes readable. Thread safety: as drivers::Driver.
+// sample_no_signal. On the driver skeleton (drivers/loop_driver.hpp): requests are written without
+// waiting, replies read as the line becomes readable (in stream mode at a read period).
+// Thread safety: as drivers::Driver.
 
 #include <string>
 
 #include "drivers/autocollimator/autocollimator_protocol.hpp"
-#include "drivers/driver.hpp"
-#include "drivers/io_loop.hpp"
-#include "drivers/reconnect_backoff.hpp"
+#include "drivers/loop_driver.hpp"
 #include "drivers/serial/serial_port.hpp"
 
 namespace guideway::drivers::autocollimator {
@@ -43,69 +42,43 @@ void reading_to_sample(const Reading& reading, double range_arcsec, Sample& samp
 
 inline constexpr double arcsec_to_rad = 3.14159265358979323846 / (180.0 * 3600.0);
 
-class AutocollimatorDriver : public drivers::Driver {
+class AutocollimatorDriver : public drivers::LoopDriver {
  public:
   AutocollimatorDriver(std::string name, std::size_t ring_capacity, AutocollimatorSettings settings);
   ~AutocollimatorDriver() override;
 
   [[nodiscard]] const AutocollimatorSettings& settings() const noexcept { return settings_; }
 
-  [[nodiscard]] bool loop_driven() const noexcept override { return true; }
-
  protected:
-  void attach(drivers::IoLoop& loop) override;
-  void detach() override;
+  void open() override;
+  void on_link_up(std::int64_t now_ns) override;
+  // Reads what the line holds (at most max_read_bytes: a flooding line waits for the others).
+  drivers::ReadOutcome read_some(bool at_others_pass) override;
+  // Requests due, their timeouts, a write that does not drain.
+  std::int64_t service(std::int64_t now_ns) override;
+  void on_writable() override;
+  void on_link_down() override;
 
  private:
-  // Opens the port (or, refused, shows why and tries again after the back-off).
-  void open_port();
-  // The link failed: the port is closed, the state says why, it is opened again after the back-off.
-  void end_link(const std::string& why);
-  void close_port();
-  void on_ready(std::uint32_t events);
-  void on_timer();
-  void on_wake();  // any pass of the loop: a resting reader reads now (the devices share wake-ups)
-  // After every device's reads of a pass: a rest that ended with an empty read goes on while another
-  // device found data in that pass, else the next line wakes the driver.
-  void on_settle();
-  // Requests due, timeouts, the next wake-up. Returns false when the link ended.
-  bool step();
-  // Reads what the line holds (at most max_read_bytes per pass), then step().
-  void read_batch(bool opportunistic);
   // Queues `data` and writes what the line takes now; the rest when it becomes writable, within
   // reply_timeout_ms. False with `error` when the line failed.
   bool send(std::string_view data, std::string& error);
   bool flush_output(std::string& error);
-  void update_interest(bool resting);
   void handle_line(const std::string& line, bool& got_reading);
   static constexpr std::size_t max_read_bytes = 64 * 1024;
 
   AutocollimatorSettings settings_;
-  bool rests_ = false;  // stream mode with lines less than two read periods apart
-  // The loop thread's (attach() to detach()):
-  drivers::IoLoop* io_ = nullptr;
-  drivers::IoLoop::Id timer_ = 0;
-  drivers::IoLoop::Id wake_hook_ = 0;
-  drivers::IoLoop::Id settle_hook_ = 0;
+  // The loop thread's:
   std::unique_ptr<serial::SerialLine> line_;
   serial::LineFramer framer_{max_reply_length * 2};
   std::vector<std::string> lines_;
   std::string out_;  // written when the line takes it
   std::int64_t write_deadline_ns_ = 0;
   bool link_closed_ = false;  // a write found the port gone
-  drivers::ReconnectBackoff backoff_;
-  bool connected_once_ = false;
-  std::int64_t reconnect_at_ns_ = 0;
   int consecutive_timeouts_ = 0;
   bool awaiting_ = false;         // poll: a request is outstanding
   std::int64_t deadline_ns_ = 0;  // poll: reply deadline; stream: silence deadline
   std::int64_t next_poll_ns_ = 0;
-  std::int64_t read_at_ns_ = 0;  // resting until then
-  std::uint64_t served_pass_ = 0;
-  bool resting_ = false;      // no readiness interest until read_at_ns_
-  bool idle_check_ = false;   // a rest ended with an empty read (on_settle decides)
-  bool lonely_ = false;       // a rest ended with nothing read anywhere: wake per line
-  bool others_pass_ = false;  // since the last line, the loop passed by for another device
   bool after_gap_ = false;
   std::int64_t line_end_ns_ = 0;
 };

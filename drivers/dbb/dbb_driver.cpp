@@ -182,8 +182,37 @@ void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexce
   }
 }
 
+namespace {
+
+drivers::LoopPolicy policy_of(const DbbSettings& s) {
+  drivers::LoopPolicy p;
+  p.backoff = Backoff::between(std::chrono::milliseconds(s.reconnect_min_ms), std::chrono::milliseconds(s.reconnect_max_ms));
+  p.unreached_is_error = true;  // a bus that was never there is a wrong interface or path
+  const std::int64_t period_ns = s.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / s.sync_rate_hz)) : 0;
+  // Short SYNC periods: wake once per cycle, at the SYNC, and read the previous cycle's PDOs then
+  // (the sample is published up to one period later, <= 500 us). Longer periods also wake for the
+  // PDOs, so a sample never waits a long period. A wake-up costs far more than the system calls.
+  // Listening, the bus is read in batches at most once per read_period_us (frames keep their kernel
+  // receive times): at high SYNC rates one wake-up per period; at low rates one per cycle when a
+  // cycle's frames arrive together, two on a real bus (the SYNC precedes the PDOs by a frame time).
+  if (s.produce_sync) {
+    p.schedule = period_ns <= DbbDriver::max_batched_sync_period_ns ? drivers::ReadSchedule::paced
+                                                                     : drivers::ReadSchedule::per_arrival;
+  } else {
+    p.schedule = s.read_period_us > 0 ? drivers::ReadSchedule::rest : drivers::ReadSchedule::per_arrival;
+  }
+  p.read_period_ns = s.read_period_us * 1000;
+  p.alone_reads_per_arrival = false;  // the slow-bus rule decides (rest_after)
+  p.silence_ns = s.timeout_ms * 1'000'000;
+  // Twice the silence: the bus's own story (no frames, a node's silence or reboot) is told first.
+  p.sample_bound_ns = 2 * p.silence_ns;
+  return p;
+}
+
+}  // namespace
+
 DbbDriver::DbbDriver(std::string name, std::size_t ring_capacity, DbbSettings settings, CanConnector connector)
-    : Driver(std::move(name), "dbb-can", channels_of(settings), ring_capacity),
+    : LoopDriver(std::move(name), "dbb-can", channels_of(settings), ring_capacity, policy_of(settings)),
       settings_(with_pdo_timeout(std::move(settings))),
       connector_(std::move(connector)),
       network_(settings_.encoders, settings_.nodes, settings_.network) {
@@ -214,8 +243,7 @@ std::vector<drivers::NamedCounter> DbbDriver::driver_counters() const {
           {"nmt_starts", nmt_starts_.load(std::memory_order_relaxed)}};
 }
 
-void DbbDriver::set_state_directly(drivers::DeviceState state, std::string reason) {
-  set_state(state, std::move(reason));
+void DbbDriver::forget_shown_state() {
   shown_state_ = drivers::DeviceState::stopped;  // whatever refresh_state finds next differs
   shown_reason_.clear();
   state_dirty_ = true;
@@ -305,27 +333,27 @@ void DbbDriver::publish_cycle(const DbbCycle& c) {
   }
 }
 
-std::size_t DbbDriver::drain(std::string& ended, bool& more) {
+drivers::ReadOutcome DbbDriver::read_some(bool) {
   std::array<can_frame, 32> frames{};
   std::array<std::int64_t, 32> rx_realtime_ns{};
   std::string error;
-  std::size_t records = 0;
-  more = false;
+  drivers::ReadOutcome out;
+  std::size_t& records = out.taken;
   bus_reads_.fetch_add(1, std::memory_order_relaxed);
   for (;;) {
     if (records >= max_drain_frames) {  // a flooding bus: the other devices first, then on
-      more = true;
-      return records;
+      out.more = true;
+      return out;
     }
     const std::int64_t read_start = mono_now_ns();
     can::FrameBatch batch;
     const can::ReadResult r = can::read_can_frames(sock_.fd(), frames, rx_realtime_ns, batch, error);
-    if (r == can::ReadResult::closed) ended = "connection closed by the bus";
-    if (r == can::ReadResult::error) ended = error;
+    if (r == can::ReadResult::closed) out.ended = "connection closed by the bus";
+    if (r == can::ReadResult::error) out.ended = error;
     if (r != can::ReadResult::frame) {
       prev_read_ns_ = read_start;
       if (records == 0) empty_reads_.fetch_add(1, std::memory_order_relaxed);
-      return records;
+      return out;
     }
     const std::int64_t read_ns = mono_now_ns();
     const std::int64_t offset_ns = realtime_minus_mono_ns();
@@ -346,7 +374,7 @@ std::size_t DbbDriver::drain(std::string& ended, bool& more) {
     for (std::size_t i = 0; i < batch.count; ++i) handle_frame(frames[i], times[i].t_ns);
     if (batch.count + batch.truncated < frames.size()) {  // the queue is empty
       prev_read_ns_ = read_start;
-      return records;
+      return out;
     }
   }
 }
@@ -391,71 +419,28 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns) {
   if (res.cycle_ready) publish_cycle(cycle);
 }
 
-void DbbDriver::note_silence(std::int64_t now) {
+void DbbDriver::on_silence(std::int64_t) {
   timeouts_.fetch_add(1, std::memory_order_relaxed);
   // A bus that is off is silent: its state stays the error that says why (refresh_state).
   silent_ = true;
   state_dirty_ = true;
-  last_rx_ns_ = now;     // count one timeout per silent period
   decoder_->mark_gap();  // what comes next follows a gap
 }
 
-void DbbDriver::attach(drivers::IoLoop& loop) {
-  io_ = &loop;
-  decoder_.emplace(settings_.encoders, settings_.produce_sync);
-  backoff_ = drivers::ReconnectBackoff(std::chrono::milliseconds(settings_.reconnect_min_ms),
-                                       std::chrono::milliseconds(settings_.reconnect_max_ms));
-  connected_once_ = false;
-  timer_ = loop.add_timer([this] { on_timer(); });
-  if (batched()) {
-    wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
-    settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
-  }
-  connect();
+bool DbbDriver::rest_after(const drivers::ReadOutcome&) const {
+  return !(sync_period_ns_ > settings_.read_period_us * 1000 && !decoder_->cycle_pending());
 }
 
-void DbbDriver::detach() {
-  if (sock_.valid()) {
-    io_->unwatch(sock_.fd());
-    sock_.reset();
-    DbbCycle rest;
-    if (decoder_->flush(rest)) publish_cycle(rest);  // nothing received is lost
-  }
-  io_->remove_timer(timer_);
-  if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
-  if (settle_hook_ != 0) io_->remove_hook(settle_hook_);
-  wake_hook_ = settle_hook_ = 0;
-  io_ = nullptr;
-}
-
-void DbbDriver::connect() {
+void DbbDriver::open() {
   std::string error;
   prev_read_ns_ = mono_now_ns();  // no frame on this connection was received before it was opened
   kernel_drops_ = 0;
   can::CanSocket sock = connector_(error);
   if (!sock.valid()) {
-    set_state_directly(connected_once_ ? drivers::DeviceState::lost : drivers::DeviceState::error,
-                       to_string(settings_.endpoint) + ": " + error);
-    reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
-    io_->arm(timer_, reconnect_at_ns_);
+    forget_shown_state();
+    link_failed(to_string(settings_.endpoint) + ": " + error);
     return;
   }
-  if (connected_once_) reconnects_.fetch_add(1, std::memory_order_relaxed);
-  connected_once_ = true;
-  backoff_.reset();
-  // Nothing is known of the nodes on a new connection: checked and started again, streaming again
-  // from the first complete cycle.
-  network_.connected(mono_now_ns());
-  complete_cycle_seen_ = false;
-  note_.clear();
-  bus_off_since_ns_ = 0;
-  state_dirty_ = true;
-  silent_ = false;
-  last_sync_ns_ = 0;
-  sync_period_ns_ = 0;
-  drain_pending_ = false;
-  resting_ = false;
-  idle_check_ = false;
   // Kernel receive times for every frame (SocketCAN and AF_UNIX sockets support them). The standard
   // endpoints enable them before bind/connect (else frames queued meanwhile would be stamped at the
   // read); this covers other connectors. Should a socket refuse, frames get the time they are read,
@@ -463,208 +448,84 @@ void DbbDriver::connect() {
   (void)can::enable_rx_timestamps(sock.fd(), error);
   (void)can::enable_rx_drop_count(sock.fd(), error);  // where unsupported, drops show as partial cycles only
   sock_ = std::move(sock);
-  const std::int64_t now = mono_now_ns();
-  service_network(now);  // the nodes' checks begin (SDO), or they are started
-  last_rx_ns_ = now;
-  read_at_ns_ = now;
-  next_sync_ns_ = now;
-  // Short SYNC periods: wake once per cycle, at the SYNC, and read the previous cycle's PDOs then
-  // (the sample is published up to one period later, <= 500 us). Longer periods also wake for the
-  // PDOs, so a sample never waits a long period. A wake-up costs far more than the system calls.
-  // With events 0 the bus still reports hang-up and errors, so a lost connection wakes us.
-  const std::int64_t period_ns =
-      settings_.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)) : 0;
-  const bool one_wake_per_cycle = settings_.produce_sync && period_ns <= max_batched_sync_period_ns;
-  io_->watch(sock_.fd(), one_wake_per_cycle || batched() ? 0u : std::uint32_t{EPOLLIN},
-             [this](std::uint32_t events) { on_ready(events); });
-  step();
+  link_up(sock_.fd());
 }
 
-void DbbDriver::end_connection(const std::string& why) {
-  io_->unwatch(sock_.fd());
+void DbbDriver::on_link_up(std::int64_t now_ns) {
+  if (!relinked()) decoder_.emplace(settings_.encoders, settings_.produce_sync);
+  // Nothing is known of the nodes on a new connection: checked and started again, streaming again
+  // from the first complete cycle.
+  network_.connected(now_ns);
+  complete_cycle_seen_ = false;
+  note_.clear();
+  bus_off_since_ns_ = 0;
+  forget_shown_state();
+  silent_ = false;
+  last_sync_ns_ = 0;
+  sync_period_ns_ = 0;
+  drain_pending_ = false;
+  next_sync_ns_ = now_ns;
+  last_sync_sent_ns_ = 0;
+}
+
+void DbbDriver::on_link_down() {
   sock_.reset();
   DbbCycle rest;
   if (decoder_->flush(rest)) publish_cycle(rest);  // nothing received is lost
   decoder_->resync();
-  set_state_directly(drivers::DeviceState::lost, why);
-  reconnect_at_ns_ = mono_now_ns() + backoff_.take_ns();
-  io_->arm(timer_, reconnect_at_ns_);
+  forget_shown_state();
 }
 
-void DbbDriver::on_timer() {
-  if (!sock_.valid()) {
-    if (mono_now_ns() >= reconnect_at_ns_) {
-      connect();
-    } else {
-      io_->arm(timer_, reconnect_at_ns_);
-    }
-    return;
-  }
-  step();
-}
-
-void DbbDriver::on_ready(std::uint32_t events) {
-  if (!sock_.valid()) return;
-  std::string ended;
-  if ((events & (EPOLLHUP | EPOLLERR)) != 0) {
-    // The connection ends: every frame still queued first (EOF or the error comes after them).
-    bool more = true;
-    while (more && ended.empty()) {
-      if (drain(ended, more) > 0) last_rx_ns_ = mono_now_ns();
-    }
-    if (ended.empty()) {
-      int err = 0;
-      socklen_t len = sizeof err;
-      (void)::getsockopt(sock_.fd(), SOL_SOCKET, SO_ERROR, &err, &len);
-      ended = err != 0 ? std::string("socket error: ") + std::strerror(err) : "connection hung up";
-    }
-    end_connection(ended);
-    return;
-  }
-  if (batched()) {
-    read_at_ns_ = mono_now_ns();  // a frame after a read that found none: read now
-    step_batched();
-    return;
-  }
-  // Every frame queued (a whole cycle's PDOs usually arrive together): one recvmmsg, one wake-up.
-  if (drain(ended, drain_pending_) > 0) last_rx_ns_ = mono_now_ns();
-  if (!ended.empty()) {  // EOF comes after every queued frame was read
-    end_connection(ended);
-    return;
-  }
-  step();
-}
-
-void DbbDriver::on_settle() {
-  if (!idle_check_ || !sock_.valid()) return;
-  idle_check_ = false;
-  if (io_->data_found_this_pass()) return;  // others stream: read again at their next pass
-  // Nothing anywhere: a silent bus costs no periodic wake-ups; the next frame wakes us.
-  read_at_ns_ = mono_now_ns();
-  resting_ = false;
-  io_->modify(sock_.fd(), EPOLLIN);
-  io_->arm(timer_, std::min(last_rx_ns_ + settings_.timeout_ms * 1'000'000, network_.next_deadline()));
-}
-
-void DbbDriver::on_wake() {
-  // Only a batched reader that rests, and only when this pass has not served it already.
-  if (!sock_.valid() || served_pass_ == io_->passes() || io_->now() >= read_at_ns_) return;
-  step_batched(true);
-}
-
-void DbbDriver::step() {
-  if (batched()) {
-    step_batched();
-    return;
-  }
-  const std::int64_t period_ns =
-      settings_.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)) : 0;
-  const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
-  std::string error;
-  std::string ended;
-  if (drain_pending_) {  // frames left by a flood: read on before anything else
-    if (drain(ended, drain_pending_) > 0) last_rx_ns_ = mono_now_ns();
-    if (!ended.empty()) {
-      end_connection(ended);
-      return;
-    }
-  }
-  std::int64_t now = mono_now_ns();
-  // Before the network's timers: a silent bus is shown as such first, then what the nodes say.
-  if (now - last_rx_ns_ >= timeout_ns) note_silence(now);
-  if (settings_.produce_sync && now >= next_sync_ns_) {
-    // Frames already queued were on the bus before this SYNC: consume them first, so a cycle's
-    // last PDO waiting in the socket is not cut off by our own next SYNC.
-    if (drain(ended, drain_pending_) > 0) last_rx_ns_ = mono_now_ns();
-    if (!ended.empty()) {  // EOF comes after every queued frame was read
-      end_connection(ended);
-      return;
-    }
-    const can_frame sync = make_sync_frame();
-    // Never wait for the bus: a full transmit queue (nobody acknowledges, or the gateway's peer does
-    // not read) costs this SYNC, counted; the silence that follows is a timeout as usual.
-    // The SYNC's time is taken just before it is written: a PDO stamped before then answers an earlier
-    // SYNC. Taken after the write, a thread preempted between the write and the clock read would give
-    // the nodes' answers to this SYNC to the cycle before (which they complete, leaving this one
-    // partial); a late answer stamped during the write itself is still recognised (late_pdos).
-    const std::int64_t sync_ns = mono_now_ns();
-    const auto wrote = can::try_write_can_frame(sock_.fd(), sync, error);
+std::int64_t DbbDriver::service(std::int64_t now) {
+  if (settings_.produce_sync) {
+    if (drain_pending_ && !read_queued(drain_pending_)) return drivers::IoLoop::never;  // a flood's frames first
+    if (mono_now_ns() >= next_sync_ns_ && !send_sync()) return drivers::IoLoop::never;
     now = mono_now_ns();
-    if (wrote == can::WriteResult::failed) {
-      bool more = false;
-      drain(ended, more);
-      end_connection("SYNC write failed: " + error);
-      return;
-    }
-    DbbCycle cycle;
-    if (wrote == can::WriteResult::queue_full) {
-      syncs_not_sent_.fetch_add(1, std::memory_order_relaxed);
-    } else if (decoder_->sync_sent(sync_ns, cycle)) {
-      publish_cycle(cycle);
-    }
-    // The phase is kept, but a late SYNC never brings the next one closer than half a period: the
-    // nodes need that time to answer, and a PDO that comes after our next SYNC is a late one.
-    next_sync_ns_ += period_ns;
-    if (next_sync_ns_ < now + period_ns / 2) next_sync_ns_ = now + period_ns;
   }
-  now = mono_now_ns();
   service_network(now);
-  std::int64_t deadline = std::min(last_rx_ns_ + timeout_ns, network_.next_deadline());
+  std::int64_t deadline = network_.next_deadline();
   if (settings_.produce_sync) deadline = std::min(deadline, next_sync_ns_);
-  if (drain_pending_) {
-    deadline = now;
-    io_->again();
-  }
-  io_->arm(timer_, deadline);
+  if (drain_pending_) deadline = now;
+  return deadline;
 }
 
-void DbbDriver::step_batched(bool opportunistic) {
-  // Read, then rest for read_period_us while frames queue up in the socket (each keeps its kernel
-  // receive time, so the SYNC's time is exact however late it is read), then read again. A read that
-  // finds nothing waits for the next frame instead, so a silent bus costs no periodic wake-ups. When
-  // SYNCs come further apart than the period and the read completed its cycle, there is nothing to
-  // batch: wait for the next SYNC at once. So at high SYNC rates one wake-up per period; at low rates
-  // one per cycle when a cycle's frames arrive together (the emulator), two on a real bus (the SYNC
-  // precedes the PDOs by at least a frame time: it wakes us, we rest, then read the PDOs). A frame
-  // waits at most read_period_us in the socket. While it rests, any other pass of the loop (another
-  // device, a timer) reads it too, and its rest starts again from there: devices served by one loop
-  // thus fall into step and share one wake-up per period. A rest that ends with an empty read waits
-  // for the next frame only when no other device found data in that pass (on_settle): while others
-  // stream it is read at their passes, and waking on its own next frame would be one more wake-up.
-  const std::int64_t period_ns = settings_.read_period_us * 1000;
-  const std::int64_t timeout_ns = settings_.timeout_ms * 1'000'000;
-  std::int64_t now = mono_now_ns();
-  if (opportunistic || now >= read_at_ns_) {
-    std::string ended;
+bool DbbDriver::send_sync() {
+  // Frames already queued were on the bus before this SYNC: consume them first, so a cycle's last PDO
+  // waiting in the socket is not cut off by our own next SYNC.
+  if (!read_queued(drain_pending_)) return false;
+  const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz));
+  const can_frame sync = make_sync_frame();
+  std::string error;
+  // Never wait for the bus: a full transmit queue (nobody acknowledges, or the gateway's peer does
+  // not read) costs this SYNC, counted; the silence that follows is a timeout as usual.
+  // The SYNC's time is taken just before it is written: a PDO stamped before then answers an earlier
+  // SYNC. Taken after the write, a thread preempted between the write and the clock read would give
+  // the nodes' answers to this SYNC to the cycle before (which they complete, leaving this one
+  // partial); a late answer stamped during the write itself is still recognised (late_pdos).
+  const std::int64_t sync_ns = mono_now_ns();
+  const auto wrote = can::try_write_can_frame(sock_.fd(), sync, error);
+  const std::int64_t now = mono_now_ns();
+  if (wrote == can::WriteResult::failed) {
     bool more = false;
-    const std::size_t got = drain(ended, more);
-    if (!ended.empty()) {  // EOF comes after every queued frame was read
-      end_connection(ended);
-      return;
-    }
-    now = mono_now_ns();
-    if (got > 0) {
-      io_->data_found();
-      last_rx_ns_ = now;
-      const bool slow_bus = sync_period_ns_ > period_ns && !decoder_->cycle_pending();
-      read_at_ns_ = slow_bus || more ? now : now + period_ns;
-    } else {
-      // Read just now, at another device's pass or at the end of a rest: rest on (the end of a rest
-      // is settled once the pass has read every device). A read on readiness that found nothing
-      // (the first one, a spurious wake-up) waits for the next frame.
-      if (opportunistic || resting_) read_at_ns_ = now + period_ns;
-      idle_check_ = !opportunistic && resting_;
-      if (now - last_rx_ns_ >= timeout_ns) note_silence(now);
-    }
+    if (read_queued(more)) end_link("SYNC write failed: " + error);
+    return false;
   }
-  served_pass_ = io_->passes();
-  service_network(now);
-  const bool resting = now < read_at_ns_;
-  resting_ = resting;
-  // Resting: events 0, so only hang-up and errors end the rest early (and are read at once). Else the
-  // next frame wakes us (a flood's frames left behind: at once, after the other devices).
-  io_->modify(sock_.fd(), resting ? 0u : std::uint32_t{EPOLLIN});
-  io_->arm(timer_, std::min(resting ? read_at_ns_ : last_rx_ns_ + timeout_ns, network_.next_deadline()));
+  DbbCycle cycle;
+  // A hole in the samples is flagged on the sample after it (sample_after_gap): SYNCs two periods or
+  // more apart (the loop was held up), a SYNC the bus did not take, a SYNC no node answered (the decoder).
+  if (wrote == can::WriteResult::queue_full) {
+    syncs_not_sent_.fetch_add(1, std::memory_order_relaxed);
+    decoder_->mark_gap();
+  } else {
+    if (last_sync_sent_ns_ != 0 && sync_ns - last_sync_sent_ns_ >= 2 * period_ns) decoder_->mark_gap();
+    last_sync_sent_ns_ = sync_ns;
+    if (decoder_->sync_sent(sync_ns, cycle)) publish_cycle(cycle);
+  }
+  // The phase is kept, but a late SYNC never brings the next one closer than half a period: the
+  // nodes need that time to answer, and a PDO that comes after our next SYNC is a late one.
+  next_sync_ns_ += period_ns;
+  if (next_sync_ns_ < now + period_ns / 2) next_sync_ns_ = now + period_ns;
+  return true;
 }
 
 void register_dbb_driver(drivers::DriverRegistry& registry) {

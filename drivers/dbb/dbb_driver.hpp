@@ -2,9 +2,10 @@
 // "dbb-can": the double ball bar's length encoder plus two axis encoders on one CAN bus, CANopen
 // CiA 406 encoders (PDOs: dbb_protocol.hpp; checking and starting the nodes: dbb_network.hpp). One
 // Sample per SYNC: values in the order of the configured encoders, in metres, timestamped at the SYNC.
-// The state is `streaming` only while every node delivers. A loop-driven driver (drivers/io_loop.hpp):
-// the socket's readiness and timers (SYNC, read period, silence, the network's SDO, heartbeat and
-// retry timers, the reconnect back-off) drive it. Thread safety: as drivers::Driver.
+// The state is `streaming` only while every node delivers. On the driver skeleton
+// (drivers/loop_driver.hpp): the socket's readiness and timers (SYNC, read period, silence, the
+// network's SDO, heartbeat and retry timers, the reconnect back-off) drive it. Thread safety: as
+// drivers::Driver.
 
 #include <functional>
 #include <optional>
@@ -15,9 +16,7 @@
 #include "drivers/can/can_io.hpp"
 #include "drivers/dbb/dbb_network.hpp"
 #include "drivers/dbb/dbb_protocol.hpp"
-#include "drivers/driver.hpp"
-#include "drivers/io_loop.hpp"
-#include "drivers/reconnect_backoff.hpp"
+#include "drivers/loop_driver.hpp"
 
 namespace guideway::drivers::dbb {
 
@@ -73,7 +72,7 @@ std::vector<can_filter> dbb_can_filters(const DbbSettings& settings);
 // Opens the bus; tests substitute one that hands out socketpair ends.
 using CanConnector = std::function<can::CanSocket(std::string& error)>;
 
-class DbbDriver : public drivers::Driver {
+class DbbDriver : public drivers::LoopDriver {
  public:
   // SYNC periods up to this (sync_rate_hz >= 2000) are served with one wake-up per cycle: the PDOs
   // are read just before the next SYNC instead of as they arrive.
@@ -104,65 +103,44 @@ class DbbDriver : public drivers::Driver {
   // error_frames, partial_cycles, untimed_frames, dropped_frames. Not bus_reads/empty_reads: they
   // count the reader's wake-ups (a CPU cost), not what happened to the data.
   [[nodiscard]] std::vector<drivers::NamedCounter> driver_counters() const override;
-  [[nodiscard]] bool loop_driven() const noexcept override { return true; }
-
  protected:
-  void attach(drivers::IoLoop& loop) override;
-  void detach() override;
+  // Opens the bus, or (refused) says why: the skeleton tries again after the back-off.
+  void open() override;
+  void on_link_up(std::int64_t now_ns) override;
+  // Consumes the frames already queued, without waiting, each at its kernel receive time. At most
+  // max_drain_frames at once (`more`: a flooding bus, read on at the next pass).
+  drivers::ReadOutcome read_some(bool at_others_pass) override;
+  // SYNC production (reading the cycle before each SYNC), the network's timers, the state.
+  std::int64_t service(std::int64_t now_ns) override;
+  // No frame for timeout_ms: one timeout, state lost, the next cycle flagged after a gap (the bus stays open).
+  void on_silence(std::int64_t now_ns) override;
+  // The slow-bus rule: SYNCs further apart than the read period and the cycle complete: nothing to
+  // batch, the next SYNC is read when it comes.
+  [[nodiscard]] bool rest_after(const drivers::ReadOutcome& read) const override;
+  // Publishes what the decoder holds.
+  void on_link_down() override;
 
  private:
-  // Opens the bus, or (refused) shows why and tries again after the back-off.
-  void connect();
-  // The connection failed or closed: publishes what the decoder holds, shows the loss, reconnects later.
-  void end_connection(const std::string& why);
-  void on_ready(std::uint32_t events);
-  void on_timer();
-  // Any pass of the loop, whatever woke it: a batched reader that rests reads now (several devices
-  // then share one wake-up per period instead of each waking on its own).
-  void on_wake();
-  // After every device's reads of a pass: a rest that ended with an empty read goes on while another
-  // device found data in that pass, else the next frame wakes the driver.
-  void on_settle();
-  // One round of work and the next wake-up: SYNC production, reads, silence, the network's timers.
-  void step();
-  // step() for sync = "listen" with read_period_us > 0: reads in batches, at most once per period.
-  void step_batched(bool opportunistic = false);
-  [[nodiscard]] bool batched() const noexcept { return !settings_.produce_sync && settings_.read_period_us > 0; }
   void publish_cycle(const DbbCycle& cycle);
   // Runs the network's timers, sends its frames, posts its events and sets the device state.
   void service_network(std::int64_t now);
   // The device state from bus-off, silence, the nodes and the cycles; set_state only when it changed.
   void refresh_state();
-  // set_state outside refresh_state (connection faults): refresh_state's memory of what it set is void.
-  void set_state_directly(drivers::DeviceState state, std::string reason);
-  // No frame for timeout_ms: one timeout, state lost, the next cycle flagged after a gap.
-  void note_silence(std::int64_t now);
-  // Consumes the frames already queued, without waiting, each at its kernel receive time; returns the
-  // number of records read. `ended` gets the reason when the bus closed or failed meanwhile. At most
-  // max_drain_frames at once: `more` says frames were left (a flooding bus), to be read at the next pass.
-  std::size_t drain(std::string& ended, bool& more);
+  // The state was set outside refresh_state (the link): refresh_state's memory of what it set is void.
+  void forget_shown_state();
+  // produce mode: the queued cycle, then this SYNC; false when the link ended.
+  bool send_sync();
   void handle_frame(const can_frame& frame, std::int64_t t_ns);
   static constexpr std::size_t max_drain_frames = 1024;
 
   DbbSettings settings_;
   CanConnector connector_;
-  // The loop thread's (attach() to detach()):
-  drivers::IoLoop* io_ = nullptr;
-  std::uint64_t timer_ = 0;
-  std::uint64_t wake_hook_ = 0;
-  std::uint64_t settle_hook_ = 0;
+  // The loop thread's:
   std::optional<DbbDecoder> decoder_;
   can::CanSocket sock_;
-  drivers::ReconnectBackoff backoff_;
-  bool connected_once_ = false;
-  std::int64_t reconnect_at_ns_ = 0;   // while not connected
-  std::int64_t last_rx_ns_ = 0;        // the last read that found frames (or the last silence noted)
-  std::int64_t read_at_ns_ = 0;        // batched: the next read (a future time: resting)
   std::int64_t next_sync_ns_ = 0;      // produce: the next SYNC
-  std::uint64_t served_pass_ = 0;      // batched: the loop's pass that last read
-  bool resting_ = false;               // batched: no readiness interest until read_at_ns_
-  bool idle_check_ = false;            // batched: a rest ended with an empty read (on_settle decides)
-  bool drain_pending_ = false;         // frames were left in the socket (more than max_drain_frames)
+  std::int64_t last_sync_sent_ns_ = 0;  // produce: the last SYNC the bus took (0: none on this link)
+  bool drain_pending_ = false;         // paced: frames were left in the socket (more than max_drain_frames)
   bool silent_ = false;                // lost/bus-off until the next sample
   std::int64_t bus_off_since_ns_ = 0;  // bus off since then, until it recovers (0 = not)
   std::int64_t prev_read_ns_ = 0;      // when a read last found the socket empty

@@ -161,10 +161,13 @@ std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
 bool DbbDecoder::sync_sent(std::int64_t t_ns, DbbCycle& cycle) {
   bool ready = false;
   if (held_open_) {
-    // Nothing stamped before the last SYNC came since: the held cycle is final (the open one is empty).
+    // Nothing stamped before the last SYNC came since: the held cycle is final, the open one is empty
+    // (no sample: the next cycle follows a hole).
     emit_held(cycle);
     ready = true;
     behind_ = true;
+    ++empty_cycles_;
+    gap_ = true;
   } else if (open_ && !emitted_ && cur_.present == all_mask_) {
     close_cycle(cycle);
     ready = true;
@@ -174,8 +177,9 @@ bool DbbDecoder::sync_sent(std::int64_t t_ns, DbbCycle& cycle) {
     held_open_ = true;
     behind_ = true;
   } else if (open_ && !emitted_) {
-    ++empty_cycles_;  // no node answered this SYNC: no sample (the silence is a timeout)
-    if (cur_.flags & sample_after_gap) gap_ = true;  // the gap mark moves on to the next cycle
+    // No node answered this SYNC: no sample, a hole in the samples (a longer silence is a timeout).
+    ++empty_cycles_;
+    gap_ = true;  // the next cycle follows it
     behind_ = true;
   } else if (open_) {
     behind_ = false;  // emitted complete before this SYNC: the nodes keep up
@@ -223,13 +227,18 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
       if (held_open_) {
         emit_held(cycle);
         r.cycle_ready = true;
+        if (open_ && !emitted_ && cur_.present == 0) {  // the cycle after the held one got nothing
+          ++empty_cycles_;
+          gap_ = true;
+        }
       } else if (open_ && !emitted_) {
         if (cur_.present != 0) {
           close_cycle(cycle);
           r.cycle_ready = true;
         } else {
-          ++empty_cycles_;  // no node answered this SYNC: no sample (the silence is a timeout)
-          if (cur_.flags & sample_after_gap) gap_ = true;  // the gap mark moves on to the next cycle
+          // No node answered this SYNC: no sample, a hole in the samples (a longer silence is a timeout).
+          ++empty_cycles_;
+          gap_ = true;  // the next cycle follows it
         }
       }
       open_cycle(t_ns, 0);

@@ -110,9 +110,30 @@ struct MicrometerDriver::ReadAwaiter {
   [[nodiscard]] const modbus::ReadResult& await_resume() const noexcept { return x.result; }
 };
 
+namespace {
+
+std::chrono::nanoseconds poll_period_of(const MicrometerConfig& c) {
+  return std::chrono::nanoseconds(c.buffer ? static_cast<std::int64_t>(c.poll_period_ms * 1e6)
+                                           : static_cast<std::int64_t>(1e9 / c.poll_hz));
+}
+
+drivers::LoopPolicy policy_of(const MicrometerConfig& c) {
+  drivers::LoopPolicy p;
+  p.backoff = Backoff::between(c.backoff_initial, c.backoff_max);
+  p.schedule = drivers::ReadSchedule::per_arrival;  // a poll that may share the others' passes rests (send_request)
+  // Lost after lost_after_failures polls without an answer.
+  p.sample_bound_ns =
+      c.lost_after_failures * (poll_period_of(c) + std::chrono::nanoseconds(c.endpoint.response_timeout)).count();
+  return p;
+}
+
+}  // namespace
+
 MicrometerDriver::MicrometerDriver(std::string name, MicrometerConfig config, std::size_t ring_capacity)
-    : Driver(std::move(name), "micrometer-modbus", {{"displacement", "m"}}, ring_capacity),
-      config_(std::move(config)) {}
+    : LoopDriver(std::move(name), "micrometer-modbus", {{"displacement", "m"}}, ring_capacity, policy_of(config)),
+      config_(std::move(config)) {
+  rx_.reserve(2 * modbus::max_tcp_answer_bytes);
+}
 
 MicrometerDriver::~MicrometerDriver() { stop(); }
 
@@ -131,18 +152,10 @@ MicrometerDriver::ReadAwaiter MicrometerDriver::ask_all(std::size_t n) noexcept 
   return {xs_[0]};
 }
 
-std::chrono::nanoseconds MicrometerDriver::poll_period() const noexcept {
-  return std::chrono::nanoseconds(config_.buffer ? static_cast<std::int64_t>(config_.poll_period_ms * 1e6)
-                                                 : static_cast<std::int64_t>(1e9 / config_.poll_hz));
-}
+std::chrono::nanoseconds MicrometerDriver::poll_period() const noexcept { return poll_period_of(config_); }
 
-void MicrometerDriver::link_up() {
-  if (ever_connected_) {
-    reconnects_.fetch_add(1, std::memory_order_relaxed);
-    gap_ = true;
-  }
-  ever_connected_ = true;
-  set_state(drivers::DeviceState::streaming);
+void MicrometerDriver::new_link(bool relinked) {
+  if (relinked) gap_ = true;
   failures_ = 0;
   link_gone_ = false;
   end_link_ = false;
@@ -154,7 +167,8 @@ MicrometerDriver::PollTask MicrometerDriver::make_poll() { return config_.buffer
 void MicrometerDriver::run(std::stop_token stop) {
   modbus::ModbusClient client(config_.endpoint);
   stale_seen_ = 0;  // a new client counts from 0
-  backoff_ = drivers::ReconnectBackoff(config_.backoff_initial, config_.backoff_max);
+  Backoff& wait = backoff();  // the skeleton's policy, on this thread
+  wait.reset();
   ever_connected_ = false;
   gap_ = false;
   cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
@@ -164,10 +178,15 @@ void MicrometerDriver::run(std::stop_token stop) {
     std::string error;
     if (!client.connect(error)) {
       set_state(drivers::DeviceState::lost, error);
-      if (!sleep_for(stop, backoff_.take())) break;
+      if (!sleep_for(stop, std::chrono::nanoseconds(wait.take_ns()))) break;
       continue;
     }
-    link_up();
+    if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
+    mark_link_up();
+    set_state(drivers::DeviceState::streaming);
+    new_link(ever_connected_);
+    ever_connected_ = true;
+    const std::uint64_t published_at_up = published_samples();
     auto next = std::chrono::steady_clock::now();
     while (!stop.stop_requested()) {
       client.flush();  // stray or late answers must not be taken for this poll's
@@ -196,7 +215,8 @@ void MicrometerDriver::run(std::stop_token stop) {
     client.close();
     if (stop.stop_requested()) break;
     set_state(drivers::DeviceState::lost, last_failure_);
-    if (!sleep_for(stop, backoff_.take())) break;
+    if (published_samples() > published_at_up) wait.reset();  // after a link that gave samples: soon
+    if (!sleep_for(stop, std::chrono::nanoseconds(wait.take_ns()))) break;
   }
 }
 
@@ -215,7 +235,6 @@ MicrometerDriver::PollTask MicrometerDriver::polled_poll() {
     publish(s);
     gap_ = false;
     failures_ = 0;
-    backoff_.reset();
   } else if (r.status == modbus::ReadStatus::disconnected) {
     last_failure_ = count_failure(r);
     failures_ = config_.lost_after_failures;
@@ -350,7 +369,7 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
   // counter says so): a poll is one round trip, not one per read, and its samples wait in the socket
   // for one pass of the loop, not three.
   std::vector<modbus::RingRead> ahead;
-  if (io_ != nullptr && !one_at_a_time_ && cursor.counter.started()) {
+  if (loop_driven() && !one_at_a_time_ && cursor.counter.started()) {
     const double since_s = static_cast<double>(t_query - cursor.last_query_ns) * 1e-9;
     const auto taken = static_cast<std::uint64_t>(std::max(0.0, rate * since_s * 1.02) + 2.0);
     ahead = modbus::plan_ring_reads(ring, cursor.next, cursor.counter.count() + taken);
@@ -432,104 +451,60 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
     }
   }
   end_link_ = link_gone_ || failures_ >= config_.lost_after_failures;
-  if (!end_link_ && ok) {
-    failures_ = 0;
-    backoff_.reset();
-  }
+  if (!end_link_ && ok) failures_ = 0;
 }
 
 // ---- Modbus TCP on the I/O loop.
 
-void MicrometerDriver::attach(drivers::IoLoop& loop) {
-  io_ = &loop;
-  backoff_ = drivers::ReconnectBackoff(config_.backoff_initial, config_.backoff_max);
-  ever_connected_ = false;
-  gap_ = false;
-  cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
-  rx_.reserve(2 * modbus::max_tcp_answer_bytes);
-  timer_ = loop.add_timer([this] { on_timer(); });
-  connector_.attach(
-      loop, [this](int fd) { tcp_connected(fd); }, [this](const std::string& error) { connect_failed(error); });
-  if (config_.buffer) wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
-  begin_connect();
+void MicrometerDriver::open() {
+  // libmodbus waits a response timeout for the connection too.
+  connect_tcp(config_.endpoint.host, config_.endpoint.port, config_.endpoint.describe(),
+              config_.endpoint.response_timeout);
 }
 
-void MicrometerDriver::detach() {
-  connector_.detach();
-  // A poll under way is finished first, as the threaded driver finishes it: what the amplifier
-  // answered is published. The one wait on the loop's thread: when a device stops, for its answers,
-  // each within response_timeout_ms.
-  while (poll_ && fd_ >= 0 && link_ == Link::awaiting) {
+void MicrometerDriver::on_link_up(std::int64_t now_ns) {
+  if (!relinked()) {  // a start: no ring cursor from an earlier start
+    gap_ = false;
+    cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
+  }
+  new_link(relinked());
+  ask_ = Ask::idle;
+  next_poll_ns_ = now_ns;  // service() starts the first poll
+  early_ns_ = 0;
+}
+
+void MicrometerDriver::on_stop() {
+  // The one wait on the loop's thread: when a device stops, for its answers, each within
+  // response_timeout_ms.
+  while (poll_ && link_is_up() && ask_ == Ask::awaiting) {
     const std::int64_t left = deadline_ns_ - mono_now_ns();
     if (left <= 0) break;
-    pollfd p{fd_, POLLIN, 0};
+    pollfd p{link_fd(), POLLIN, 0};
     const timespec ts{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
     if (::ppoll(&p, 1, &ts, nullptr) < 0 && errno != EINTR) break;
-    on_ready(0);
+    const drivers::ReadOutcome r = read_some(false);
+    if (!r.ended.empty()) break;
   }
-  poll_.reset();
-  close_socket();
-  io_->remove_timer(timer_);
-  if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
-  wake_hook_ = 0;
-  link_ = Link::waiting;
-  io_ = nullptr;
 }
 
-void MicrometerDriver::close_socket() {
-  if (fd_ < 0) return;
-  io_->unwatch(fd_);
-  ::close(fd_);
-  fd_ = -1;
+void MicrometerDriver::on_link_down() {
+  poll_.reset();
   rx_.clear();
+  ask_ = Ask::idle;
 }
 
-void MicrometerDriver::begin_connect() {
-  set_state(drivers::DeviceState::connecting);
-  link_ = Link::connecting;
-  // libmodbus waits a response timeout for the connection too.
-  connector_.start(config_.endpoint.host, config_.endpoint.port, config_.endpoint.describe(),
-                   config_.endpoint.response_timeout);
-}
-
-void MicrometerDriver::connect_failed(const std::string& error) {
-  set_state(drivers::DeviceState::lost, error);
-  wait_backoff();
-}
-
-void MicrometerDriver::wait_backoff() {
-  link_ = Link::waiting;
-  deadline_ns_ = mono_now_ns() + backoff_.take_ns();
-  io_->arm(timer_, deadline_ns_);
-}
-
-void MicrometerDriver::tcp_connected(int fd) {
-  fd_ = fd;
-  tcp::set_stream_options(fd_);
-  io_->watch(fd_, EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
-  link_up();
-  link_ = Link::idle;
-  next_poll_ns_ = mono_now_ns();
-  start_poll();
-}
-
-void MicrometerDriver::end_tcp_link(const std::string& why) {
-  poll_.reset();
-  close_socket();
-  set_state(drivers::DeviceState::lost, why);
-  wait_backoff();
-}
-
-bool MicrometerDriver::read_socket(std::string& ended) {
+std::size_t MicrometerDriver::read_socket(std::string& ended) {
   std::uint8_t buf[1024];
+  std::size_t taken = 0;
   for (;;) {
-    const tcp::ReadResult r = tcp::read_some(fd_, reinterpret_cast<char*>(buf), sizeof buf);
-    if (r.status == tcp::ReadStatus::would_block) return true;
+    const tcp::ReadResult r = tcp::read_some(link_fd(), reinterpret_cast<char*>(buf), sizeof buf);
+    if (r.status == tcp::ReadStatus::would_block) return taken;
     if (r.status != tcp::ReadStatus::data) {
       ended = r.message;
-      return false;
+      return taken;
     }
-    if (link_ == Link::awaiting) {
+    taken += r.bytes;
+    if (ask_ == Ask::awaiting) {
       rx_.insert(rx_.end(), buf, buf + r.bytes);
       // The answer's time: when the kernel received it (the anchor of buffered mode's stamps).
       std::int64_t t = mono_now_ns();
@@ -538,25 +513,29 @@ bool MicrometerDriver::read_socket(std::string& ended) {
         if (k >= sent_ns_ - 1'000'000 && k <= t + 1'000'000) t = std::clamp(k, sent_ns_, t);
       }
       rx_ns_ = t;
-      if (rx_.size() > 4 * modbus::max_tcp_answer_bytes) return true;  // a flood: parse what is there first
+      if (rx_.size() > 4 * modbus::max_tcp_answer_bytes) return taken;  // a flood: parse what is there first
     }
     // Idle: late or repeated answers to an earlier poll's requests, dropped as libmodbus's flush drops them.
   }
 }
 
-void MicrometerDriver::on_ready(std::uint32_t) {
-  if (fd_ < 0) return;
-  served_pass_ = io_->passes();
+drivers::ReadOutcome MicrometerDriver::read_some(bool) {
+  drivers::ReadOutcome out;
   std::string ended;
-  if (!read_socket(ended)) {
-    if (link_ == Link::awaiting) {
-      answer({modbus::ReadStatus::disconnected, 0, ended}, mono_now_ns());
+  out.taken = read_socket(ended);
+  if (!ended.empty()) {
+    if (ask_ == Ask::awaiting) {
+      answer({modbus::ReadStatus::disconnected, 0, ended}, mono_now_ns());  // the poll ends the link
     } else {
-      end_tcp_link("disconnected: " + ended);
+      out.ended = "disconnected: " + ended;
     }
-    return;
+    return out;
   }
-  if (link_ != Link::awaiting) return;
+  if (ask_ == Ask::awaiting) take_answers();
+  return out;
+}
+
+void MicrometerDriver::take_answers() {
   for (;;) {
     // The answers come in the order asked (a Modbus TCP server answers a connection's requests in turn).
     Exchange& x = xs_[answered_];
@@ -577,7 +556,6 @@ void MicrometerDriver::on_ready(std::uint32_t) {
       }
       case modbus::TcpAnswer::Kind::registers:
         rx_.erase(rx_.begin(), rx_.begin() + static_cast<std::ptrdiff_t>(a.length));
-        io_->data_found();
         x.result = {};
         break;
       case modbus::TcpAnswer::Kind::exception:
@@ -598,73 +576,34 @@ void MicrometerDriver::on_ready(std::uint32_t) {
   }
 }
 
-void MicrometerDriver::on_timer() {
-  const std::int64_t now = mono_now_ns();
-  served_pass_ = io_->passes();
-  switch (link_) {
-    case Link::connecting:
-      return;  // the connector's own timer
-    case Link::waiting:
-      if (now < deadline_ns_) {
-        io_->arm(timer_, deadline_ns_);
-        return;
-      }
-      begin_connect();
-      return;
-    case Link::awaiting:
-      if (resting_) {
-        // No pass came by for a read period (the other devices went quiet): look, then wait for the
-        // answer's arrival instead.
-        const std::uint16_t asked = transaction_;
-        on_ready(0);
-        if (link_ != Link::awaiting || transaction_ != asked) return;  // it was there: the poll went on
-        resting_ = false;
-        io_->modify(fd_, EPOLLIN);
-      }
-      if (now < deadline_ns_) {
-        io_->arm(timer_, deadline_ns_);
-        return;
-      }
-      rx_.clear();  // a part of an answer that stopped half way is dropped with it
-      // Some of a pipelined ask answered, the rest never, twice in a row (once is a lost answer): an
-      // amplifier that takes one request at a time and drops the others; from now on it is asked so.
-      if (asked_ > 1 && answered_ > 0 && ++partly_answered_ >= 2) one_at_a_time_ = true;
-      answer({modbus::ReadStatus::timeout, 0, std::strerror(ETIMEDOUT)}, now);
-      return;
-    case Link::idle:
-      if (now >= next_poll_ns_) {
-        start_poll();
-      } else {
-        io_->arm(timer_, next_poll_ns_);
-      }
-      return;
+std::int64_t MicrometerDriver::service(std::int64_t now) {
+  if (ask_ == Ask::awaiting && now >= deadline_ns_) {
+    rx_.clear();  // a part of an answer that stopped half way is dropped with it
+    // Some of a pipelined ask answered, the rest never, twice in a row (once is a lost answer): an
+    // amplifier that takes one request at a time and drops the others; from now on it is asked so.
+    if (asked_ > 1 && answered_ > 0 && ++partly_answered_ >= 2) one_at_a_time_ = true;
+    answer({modbus::ReadStatus::timeout, 0, std::strerror(ETIMEDOUT)}, now);
+  } else if (ask_ == Ask::idle && now >= next_poll_ns_ - early_ns_) {
+    start_poll();
   }
-}
-
-void MicrometerDriver::on_wake() {
-  if (served_pass_ != io_->passes()) others_pass_ = true;  // the loop passed by for another device
-  if (link_ == Link::awaiting && resting_) {
-    on_ready(0);  // the answer, if it came since the last pass
-    return;
-  }
-  // Buffered mode reads what the amplifier stored meanwhile: a poll up to a fifth of a period early
-  // costs nothing (its samples keep their own times) and spares a wake-up of its own.
-  if (link_ != Link::idle) return;
-  const std::int64_t slack_ns = std::min<std::int64_t>(poll_period().count() / 5, 2'000'000);
-  if (io_->now() >= next_poll_ns_ - slack_ns) start_poll();
+  if (!link_is_up()) return drivers::IoLoop::never;
+  return ask_ == Ask::awaiting ? deadline_ns_ : next_poll_ns_;
 }
 
 void MicrometerDriver::start_poll() {
   // While other devices keep the loop passing by (at least every read period), a buffered poll's
   // answers are read at those passes instead of waking the loop each: their samples keep the times
   // the amplifier gives them (and the answers' kernel receive times), so only the publishing waits.
-  busy_ = config_.buffer.has_value() && others_pass_;
-  others_pass_ = false;
+  busy_ = config_.buffer.has_value() && others_passed_since(poll_pass_);
+  poll_pass_ = loop().passes();
+  early_ns_ = 0;
+  set_service_slack(0);
   // Stray or late answers must not be taken for this poll's.
   rx_.clear();
   std::string ended;
-  if (!read_socket(ended)) {
-    end_tcp_link("disconnected: " + ended);
+  (void)read_socket(ended);
+  if (!ended.empty()) {
+    end_link("disconnected: " + ended);
     return;
   }
   poll_ = std::make_unique<PollTask>(make_poll());
@@ -693,8 +632,8 @@ void MicrometerDriver::send_request() {
   answered_ = 0;
   rx_.clear();
   sent_ns_ = mono_now_ns();
-  const ssize_t put = ::send(fd_, requests.data(), size, MSG_NOSIGNAL | MSG_DONTWAIT);
-  link_ = Link::awaiting;
+  const ssize_t put = ::send(link_fd(), requests.data(), size, MSG_NOSIGNAL | MSG_DONTWAIT);
+  ask_ = Ask::awaiting;
   if (put != static_cast<ssize_t>(size)) {
     // At most 48 bytes on an idle connection: refused only when the connection is gone (or never drains).
     const std::string why = put < 0 ? std::strerror(errno) : "short write of a request";
@@ -705,9 +644,11 @@ void MicrometerDriver::send_request() {
     return;
   }
   deadline_ns_ = sent_ns_ + std::chrono::nanoseconds(config_.endpoint.response_timeout).count();
-  resting_ = busy_;
-  io_->modify(fd_, resting_ ? 0u : std::uint32_t{EPOLLIN});
-  io_->arm(timer_, resting_ ? std::min(deadline_ns_, sent_ns_ + drivers::default_read_period_us * 1000) : deadline_ns_);
+  if (busy_) {
+    rest_from(sent_ns_);  // the answers are read at the others' passes (or when the rest ends)
+  } else {
+    set_schedule(drivers::ReadSchedule::per_arrival);
+  }
 }
 
 void MicrometerDriver::answer(modbus::ReadResult result, std::int64_t t_answer_ns) {
@@ -720,26 +661,29 @@ void MicrometerDriver::answer(modbus::ReadResult result, std::int64_t t_answer_n
 }
 
 void MicrometerDriver::all_answered() {
-  link_ = Link::idle;
+  ask_ = Ask::idle;
   continue_poll();
 }
 
 void MicrometerDriver::finish_poll() {
   poll_.reset();
-  resting_ = false;
+  ask_ = Ask::idle;
+  if (end_link_) {
+    end_link(last_failure_);
+    return;
+  }
   // While other devices keep the loop passing by, the socket stays without readiness interest until
   // the next poll (no two epoll_ctl per poll): a stray answer is flushed when it starts, a hang-up is
   // reported all the same.
-  if (fd_ >= 0) io_->modify(fd_, busy_ ? 0u : std::uint32_t{EPOLLIN});
-  if (end_link_) {
-    end_tcp_link(last_failure_);
-    return;
-  }
+  set_schedule(busy_ ? drivers::ReadSchedule::paced : drivers::ReadSchedule::per_arrival);
+  // Buffered mode reads what the amplifier stored meanwhile: a poll up to a fifth of a period early
+  // (at another device's pass) costs nothing (its samples keep their own times) and spares a wake-up
+  // of its own.
+  if (config_.buffer) early_ns_ = std::min<std::int64_t>(poll_period().count() / 5, 2'000'000);
+  set_service_slack(early_ns_);
   const std::int64_t now = mono_now_ns();
   next_poll_ns_ += poll_period().count();
   if (next_poll_ns_ < now) next_poll_ns_ = now;  // late: poll again at once (no catch-up burst)
-  link_ = Link::idle;
-  io_->arm(timer_, next_poll_ns_);
 }
 
 void register_micrometer_driver(drivers::DriverRegistry& registry) {

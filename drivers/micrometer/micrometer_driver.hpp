@@ -9,22 +9,19 @@
 // round trip; an amplifier that answers only the first of such pipelined requests is read one
 // request at a time from then on. Register maps, transport and rates come from the
 // [[device]] table (docs/protocols.md). A poll is written once, as a coroutine that asks for each
-// register read and is resumed with its answer: over TCP the I/O loop does the reads (loop-driven,
-// a non-blocking Modbus TCP client, modbus_tcp.hpp); over RTU a thread of its own does them with
-// libmodbus (a blocking library on a serial line). Thread safety as drivers::Driver.
+// register read and is resumed with its answer: over TCP the I/O loop does the reads (on the driver
+// skeleton, drivers/loop_driver.hpp: a non-blocking Modbus TCP client, modbus_tcp.hpp); over RTU a
+// thread of its own does them with libmodbus (a blocking library on a serial line). Either way
+// `streaming` while samples arrive within lost_after_failures polls. Thread safety as drivers::Driver.
 
 #include <chrono>
 #include <optional>
 #include <string>
 
-#include "drivers/driver.hpp"
-#include "drivers/io_loop.hpp"
+#include "drivers/loop_driver.hpp"
 #include "drivers/modbus/modbus_client.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/sample_ring.hpp"
-#include "drivers/reconnect_backoff.hpp"
-#include "drivers/tcp/loop_connector.hpp"
-#include "drivers/tcp/tcp_client.hpp"
 
 namespace guideway::drivers::micrometer {
 
@@ -45,7 +42,7 @@ struct MicrometerConfig {
 // Reads every key the driver accepts (throws ConfigError naming file:line:key).
 MicrometerConfig parse_micrometer_config(const TableReader& table);
 
-class MicrometerDriver : public drivers::Driver {
+class MicrometerDriver : public drivers::LoopDriver {
  public:
   MicrometerDriver(std::string name, MicrometerConfig config, std::size_t ring_capacity);
   ~MicrometerDriver() override;
@@ -75,9 +72,18 @@ class MicrometerDriver : public drivers::Driver {
   }
 
  protected:
-  void run(std::stop_token stop) override;      // RTU
-  void attach(drivers::IoLoop& loop) override;  // TCP
-  void detach() override;
+  void run(std::stop_token stop) override;  // RTU
+  // TCP, on the skeleton:
+  void open() override;
+  void on_link_up(std::int64_t now_ns) override;
+  // Reads the answers (and drives the poll on with them); late or stray ones while idle are dropped.
+  drivers::ReadOutcome read_some(bool at_others_pass) override;
+  // Starts a poll when it is due, fails an ask that timed out.
+  std::int64_t service(std::int64_t now_ns) override;
+  // A poll under way is finished first, as the threaded driver finishes it: what the amplifier answered
+  // is published.
+  void on_stop() override;
+  void on_link_down() override;
 
  private:
   struct RingCursor;
@@ -114,20 +120,11 @@ class MicrometerDriver : public drivers::Driver {
   void count_stale(const modbus::ModbusClient& client) noexcept;
   void count_stale_frames(std::uint64_t n) noexcept;
   // A new connection: the poll state starts afresh (the ring cursor is kept across reconnects).
-  void link_up();
+  void new_link(bool relinked);
   [[nodiscard]] std::chrono::nanoseconds poll_period() const noexcept;
 
-  // TCP on the I/O loop (the loop thread's, attach() to detach()).
-  enum class Link { connecting, idle, awaiting, waiting };
-  void begin_connect();
-  void tcp_connected(int fd);
-  void connect_failed(const std::string& error);
-  void wait_backoff();  // lost: the next attempt after the back-off
-  void end_tcp_link(const std::string& why);
-  void close_socket();
-  void on_ready(std::uint32_t events);
-  void on_timer();
-  void on_wake();  // any pass of the loop: a buffered poll that is nearly due starts now (shares the wake-up)
+  // TCP on the I/O loop (the loop thread's).
+  enum class Ask { idle, awaiting };
   void start_poll();
   // Runs the poll until it asks for an answer that is not there yet, or ends.
   void continue_poll();
@@ -136,8 +133,10 @@ class MicrometerDriver : public drivers::Driver {
   void answer(modbus::ReadResult result, std::int64_t t_answer_ns);
   void all_answered();
   void finish_poll();
-  // Reads what the socket holds; false when the connection ended.
-  bool read_socket(std::string& ended);
+  // Reads what the socket holds (the bytes read); `ended` says why the connection ended.
+  std::size_t read_socket(std::string& ended);
+  // Takes the answers rx_ holds, in the order asked.
+  void take_answers();
 
   MicrometerConfig config_;
   std::atomic<std::uint64_t> exceptions_{0};
@@ -152,22 +151,17 @@ class MicrometerDriver : public drivers::Driver {
   std::size_t asked_ = 1;
   std::unique_ptr<RingCursor> cursor_;  // buffered mode
   std::vector<modbus::Reading> readings_;
-  drivers::ReconnectBackoff backoff_;
-  bool ever_connected_ = false;
+  bool ever_connected_ = false;  // RTU
   bool gap_ = false;  // polled mode: the next sample follows a reconnect or a failed poll
   int failures_ = 0;
   bool link_gone_ = false;
   bool end_link_ = false;
   std::string last_failure_;
   // TCP on the loop.
-  drivers::IoLoop* io_ = nullptr;
-  drivers::IoLoop::Id timer_ = 0;
-  drivers::IoLoop::Id wake_hook_ = 0;
-  Link link_ = Link::waiting;
-  tcp::LoopConnector connector_;
-  int fd_ = -1;
-  std::int64_t deadline_ns_ = 0;  // awaiting: the timeout; waiting: the reconnect
+  Ask ask_ = Ask::idle;
+  std::int64_t deadline_ns_ = 0;  // awaiting: the timeout
   std::int64_t next_poll_ns_ = 0;
+  std::int64_t early_ns_ = 0;  // idle: how early the next poll may start (at another device's pass)
   std::int64_t sent_ns_ = 0;
   std::uint16_t transaction_ = 0;  // the last one sent; the ask's first is transaction_ - asked_ + 1
   std::size_t answered_ = 0;       // exchanges of the ask answered so far
@@ -176,10 +170,8 @@ class MicrometerDriver : public drivers::Driver {
   bool one_at_a_time_ = false;     // the amplifier dropped pipelined requests: ask one by one
   std::vector<std::uint8_t> rx_;
   std::unique_ptr<PollTask> poll_;
-  std::uint64_t served_pass_ = 0;  // the loop's last pass this driver's socket or timer caused
-  bool others_pass_ = false;       // since the poll began, the loop passed by for another device
-  bool busy_ = false;              // this poll reads its answers at passes that come anyway
-  bool resting_ = false;           // awaiting an answer with no readiness interest
+  std::uint64_t poll_pass_ = 0;  // the loop's pass when the last poll began
+  bool busy_ = false;            // this poll reads its answers at passes that come anyway
 };
 
 void register_micrometer_driver(drivers::DriverRegistry& registry);

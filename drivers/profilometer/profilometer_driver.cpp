@@ -1,12 +1,10 @@
 #include "drivers/profilometer/profilometer_driver.hpp"
 
-#include <sys/epoll.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstring>
 
 #include "core/mono_clock.hpp"
+#include "drivers/tcp/tcp_client.hpp"
 
 namespace guideway::drivers::profilometer {
 
@@ -27,10 +25,26 @@ ProfilometerConfig parse_profilometer_config(const TableReader& t) {
   return c;
 }
 
+namespace {
+
+drivers::LoopPolicy policy_of(const ProfilometerConfig& c) {
+  drivers::LoopPolicy p;
+  p.backoff = Backoff::between(c.backoff_initial, c.backoff_max);
+  p.schedule = c.read_period_us > 0 ? drivers::ReadSchedule::rest : drivers::ReadSchedule::per_arrival;
+  p.read_period_ns = c.read_period_us * 1000;
+  p.silence_ns = std::chrono::nanoseconds(c.stall_timeout).count();  // the link is lost
+  p.sample_bound_ns = p.silence_ns;  // points flow while a traverse is measured, headers between them
+  return p;
+}
+
+}  // namespace
+
 ProfilometerDriver::ProfilometerDriver(std::string name, ProfilometerConfig config, std::size_t ring_capacity)
-    : Driver(std::move(name), "profilometer-tcp", {{"x", "m"}, {"z", "m"}, {"profile", "1"}, {"index", "1"}},
-             ring_capacity),
-      config_(std::move(config)) {}
+    : LoopDriver(std::move(name), "profilometer-tcp", {{"x", "m"}, {"z", "m"}, {"profile", "1"}, {"index", "1"}},
+                 ring_capacity, policy_of(config)),
+      config_(std::move(config)) {
+  events_.reserve(1024);
+}
 
 ProfilometerDriver::~ProfilometerDriver() { stop(); }
 
@@ -77,153 +91,28 @@ void ProfilometerDriver::publish_events(std::vector<StreamEvent>& events) {
   events.clear();
 }
 
-void ProfilometerDriver::attach(drivers::IoLoop& loop) {
-  io_ = &loop;
-  assembler_ = ProfileAssembler{};
-  events_.clear();
-  events_.reserve(1024);
-  buffer_.resize(16384);
-  backoff_ = drivers::ReconnectBackoff(config_.backoff_initial, config_.backoff_max);
-  ever_connected_ = false;
-  timer_ = loop.add_timer([this] { on_timer(); });
-  connector_.attach(
-      loop, [this](int fd) { connected(fd); }, [this](const std::string& error) { connect_failed(error); });
-  if (config_.read_period_us > 0) {
-    wake_hook_ = loop.add_wake_hook([this] { on_wake(); });
-    settle_hook_ = loop.add_settle_hook([this] { on_settle(); });
-  }
-  begin_connect();
+void ProfilometerDriver::open() {
+  connect_tcp(config_.host, config_.port, config_.host + ":" + std::to_string(config_.port), config_.connect_timeout);
 }
 
-void ProfilometerDriver::detach() {
-  connector_.detach();
-  if (link_ == Link::streaming) {
-    close_socket();
-    assembler_.finish(events_);  // what arrived before the stop is published, never dropped
-    publish_events(events_);
-  }
-  close_socket();
-  io_->remove_timer(timer_);
-  if (wake_hook_ != 0) io_->remove_hook(wake_hook_);
-  if (settle_hook_ != 0) io_->remove_hook(settle_hook_);
-  wake_hook_ = settle_hook_ = 0;
-  link_ = Link::waiting;
-  io_ = nullptr;
+void ProfilometerDriver::on_link_up(std::int64_t now_ns) { last_read_ns_ = now_ns; }
+
+void ProfilometerDriver::on_link_down() {
+  assembler_.finish(events_);  // what arrived before the fault or the stop is published, never dropped
+  publish_events(events_);
 }
 
-void ProfilometerDriver::close_socket() {
-  if (fd_ < 0) return;
-  io_->unwatch(fd_);
-  ::close(fd_);
-  fd_ = -1;
-}
-
-void ProfilometerDriver::begin_connect() {
-  set_state(drivers::DeviceState::connecting);
-  link_ = Link::connecting;
-  connector_.start(config_.host, config_.port, config_.host + ":" + std::to_string(config_.port),
-                   config_.connect_timeout);
-}
-
-void ProfilometerDriver::connect_failed(const std::string& error) {
-  set_state(drivers::DeviceState::lost, error);
-  wait_backoff();
-}
-
-void ProfilometerDriver::wait_backoff() {
-  link_ = Link::waiting;
-  deadline_ns_ = mono_now_ns() + backoff_.take_ns();
-  io_->arm(timer_, deadline_ns_);
-}
-
-void ProfilometerDriver::connected(int fd) {
-  fd_ = fd;
-  tcp::set_stream_options(fd_);
-  if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
-  ever_connected_ = true;
-  link_ = Link::streaming;
-  set_state(drivers::DeviceState::streaming);
-  const std::int64_t now = mono_now_ns();
-  last_data_ns_ = now;
-  last_read_ns_ = now;
-  read_at_ns_ = now;  // wait for the first bytes
-  resting_ = false;
-  idle_check_ = false;
-  lonely_ = false;
-  others_pass_ = false;
-  io_->watch(fd_, EPOLLIN, [this](std::uint32_t events) { on_ready(events); });
-  io_->arm(timer_, last_data_ns_ + std::chrono::nanoseconds(config_.stall_timeout).count());
-}
-
-void ProfilometerDriver::on_ready(std::uint32_t) {
-  if (link_ != Link::streaming) return;
-  read_batch(false);  // bytes, or the end of the connection (hang-up, error): the read says which
-}
-
-void ProfilometerDriver::on_settle() {
-  if (!idle_check_ || link_ != Link::streaming) return;
-  idle_check_ = false;
-  if (io_->data_found_this_pass()) return;  // others stream: read again at their next pass
-  const std::int64_t now = mono_now_ns();
-  read_at_ns_ = now;  // nothing anywhere: the next bytes wake us
-  lonely_ = true;
-  others_pass_ = false;
-  arm_streaming_timer(now);
-}
-
-void ProfilometerDriver::on_wake() {
-  if (link_ != Link::streaming || served_pass_ == io_->passes()) return;
-  others_pass_ = true;  // a pass this driver did not cause: another device keeps the loop busy
-  if (io_->now() < read_at_ns_) read_batch(true);
-}
-
-void ProfilometerDriver::on_timer() {
-  const std::int64_t now = mono_now_ns();
-  switch (link_) {
-    case Link::connecting:
-      return;  // the connector's own timer
-    case Link::waiting:
-      if (now < deadline_ns_) {
-        io_->arm(timer_, deadline_ns_);
-        return;
-      }
-      begin_connect();
-      return;
-    case Link::streaming:
-      if (now >= read_at_ns_ && served_pass_ != io_->passes()) read_batch(false);
-      if (link_ != Link::streaming) return;
-      if (now - last_data_ns_ >= std::chrono::nanoseconds(config_.stall_timeout).count()) {
-        timeouts_.fetch_add(1, std::memory_order_relaxed);
-        end_connection("no data for " + std::to_string(config_.stall_timeout.count()) + " ms");
-        return;
-      }
-      arm_streaming_timer(mono_now_ns());
-      break;
-  }
-}
-
-void ProfilometerDriver::arm_streaming_timer(std::int64_t now) {
-  const bool resting = now < read_at_ns_;
-  resting_ = resting;
-  io_->modify(fd_, resting ? 0u : std::uint32_t{EPOLLIN});
-  const std::int64_t stall_at = last_data_ns_ + std::chrono::nanoseconds(config_.stall_timeout).count();
-  io_->arm(timer_, resting ? std::min(read_at_ns_, stall_at) : stall_at);
-}
-
-void ProfilometerDriver::read_batch(bool opportunistic) {
-  served_pass_ = io_->passes();
-  std::size_t taken = 0;
-  bool more = false;
-  std::string ended;
+drivers::ReadOutcome ProfilometerDriver::read_some(bool) {
+  drivers::ReadOutcome out;
   for (;;) {
-    if (taken >= max_read_bytes) {  // a flooding instrument: the other devices first, then on
-      more = true;
+    if (out.taken >= max_read_bytes) {  // a flooding instrument: the other devices first, then on
+      out.more = true;
       break;
     }
-    const tcp::ReadResult r = tcp::read_some(fd_, buffer_.data(), buffer_.size());
+    const tcp::ReadResult r = tcp::read_some(link_fd(), buffer_.data(), buffer_.size());
     if (r.status == tcp::ReadStatus::would_block) break;
     if (r.status != tcp::ReadStatus::data) {
-      ended = r.message;
+      out.ended = r.message;
       break;
     }
     const std::int64_t read_ns = mono_now_ns();
@@ -237,7 +126,7 @@ void ProfilometerDriver::read_batch(bool opportunistic) {
     }
     t = std::max(t, last_t_ns_);
     last_t_ns_ = t;
-    taken += r.bytes;
+    out.taken += r.bytes;
     assembler_.feed(std::string_view(buffer_.data(), r.bytes), t, events_);
     for (const StreamEvent& e : events_) {
       if (e.type == StreamEvent::Type::header) {
@@ -246,41 +135,10 @@ void ProfilometerDriver::read_batch(bool opportunistic) {
       }
     }
     publish_events(events_);
-    backoff_.reset();
     if (r.bytes < buffer_.size()) break;  // the socket is empty (or nearly: the next pass takes the rest)
   }
-  const std::int64_t now = mono_now_ns();
-  last_read_ns_ = now;
-  if (!ended.empty()) {
-    end_connection(ended);
-    return;
-  }
-  if (taken > 0) {
-    io_->data_found();
-    last_data_ns_ = now;
-    // Points flow: rest a period while the next ones queue up (at once after a flood's partial read).
-    // Alone on the loop with bytes further apart than a period, a rest would only add a wake-up that
-    // finds nothing: after such a rest (lonely_) the driver wakes per arrival until another device
-    // makes the loop pass by.
-    if (others_pass_) lonely_ = false;
-    others_pass_ = false;
-    read_at_ns_ = more || lonely_ || config_.read_period_us == 0 ? now : now + config_.read_period_us * 1000;
-    if (more) io_->again();
-  } else {
-    // Nothing came. Read at another device's pass, or at the end of a rest: rest on (the end of a rest
-    // is settled once the pass has read every device: on_settle). After readiness: the next bytes wake us.
-    if (opportunistic || resting_) read_at_ns_ = now + config_.read_period_us * 1000;
-    idle_check_ = !opportunistic && resting_;
-  }
-  arm_streaming_timer(now);
-}
-
-void ProfilometerDriver::end_connection(const std::string& reason) {
-  close_socket();
-  assembler_.finish(events_);  // what arrived before the fault is published, never dropped
-  publish_events(events_);
-  set_state(drivers::DeviceState::lost, reason);
-  wait_backoff();
+  last_read_ns_ = mono_now_ns();
+  return out;
 }
 
 void register_profilometer_driver(drivers::DriverRegistry& registry) {

@@ -8,6 +8,7 @@
 
 #include <optional>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -111,7 +112,15 @@ struct CircleFit {
 };
 CircleFit least_squares_circle(std::span<const double> angle_rad, std::span<const double> reading_um);
 
-// Throws RunFormatError for unusable input (no runs, mixed planes, invalid runs).
+// A least-squares fit of the identification could not be solved (a non-finite value reached it, too few samples
+// for its columns): the solver's failure, not the runs' (formats::DbbRunFormatError).
+class FitError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Throws formats::DbbRunFormatError for unusable runs (none, mixed planes, invalid runs), std::invalid_argument
+// for a column fitted beside of the wrong size, FitError when a fit cannot be solved.
 Identification identify(const std::vector<formats::DbbRun>& runs, const IdentifyOptions& options = {});
 
 // Lai third-order parameters in SI (straightness coefficients in m^(1-k), angles in rad).

@@ -1,0 +1,181 @@
+// The set of effects EXPLAIN reports (effect_selection.hpp).
+#include "models/explain/engine/effect_selection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+#include "core/number_format.hpp"
+#include "models/explain/engine/term_tests.hpp"
+#include "models/explain/locate.hpp"
+
+namespace guideway::models::explain::engine {
+
+EffectSelection::EffectSelection(const Problem& problem, const ExplainOptions& options, const Selection& sel,
+                                 Model base, HeldOut base_heldout, double sigma, double visible_floor)
+    : p_(problem),
+      o_(options),
+      sel_(sel),
+      sigma_(sigma),
+      visible_floor_(visible_floor),
+      nc_(problem.candidates.size()),
+      cur_(std::move(base)),
+      cur_ho_(std::move(base_heldout)),
+      cur_heldout_(cur_ho_.rms),
+      banned_(nc_, false),
+      verdict_(nc_) {}
+
+void EffectSelection::run() {
+  bool changed = true;
+  for (std::size_t guard = 0; changed && guard < 4 * nc_ + 4; ++guard) {
+    changed = false;
+    while (terms_.size() < o_.max_effects) {
+      const std::string accepted = forward_step();
+      if (accepted.empty()) break;
+      changed = true;
+      // Earlier choices re-decided with the new effect in the model (a deadband sized, a line picked,
+      // while this effect was still in the residual), then re-tested.
+      for (std::size_t k = 0; k + 1 < terms_.size(); ++k) sel_.rechoose(terms_, k);
+      // The new effect with each earlier one (pairs of earlier effects were searched when the later joined).
+      for (std::size_t i = 0; i + 1 < terms_.size(); ++i) sel_.rechoose_pair(terms_, i, terms_.size() - 1);
+      refresh();
+      prune(accepted);
+    }
+    changed = drop_partial_fits() || changed;
+  }
+  // The findings in the order taken.
+  std::sort(terms_.begin(), terms_.end(), [](const Term& a, const Term& b) { return a.taken < b.taken; });
+}
+
+// The latest verdict of every candidate without a term, lowest delta BIC first.
+std::vector<Considered> EffectSelection::considered() const {
+  std::vector<Considered> out;
+  for (std::size_t c = 0; c < nc_; ++c)
+    if (verdict_[c] && !has_term(c)) out.push_back(*verdict_[c]);
+  std::stable_sort(out.begin(), out.end(),
+                   [](const Considered& a, const Considered& b) { return a.delta_bic < b.delta_bic; });
+  return out;
+}
+
+void EffectSelection::refresh() {
+  cur_ = sel_.model(terms_);
+  cur_ho_ = sel_.heldout(terms_, none);
+  cur_heldout_ = cur_ho_.rms;
+}
+
+void EffectSelection::drop(std::size_t k, Considered why) {
+  const std::size_t c = terms_[k].cand;
+  terms_.erase(terms_.begin() + static_cast<std::ptrdiff_t>(k));
+  banned_[c] = true;
+  if (!has_term(c)) verdict_[c] = std::move(why);
+  refresh();
+}
+
+// Drop-one: every effect kept must still pass the tests with the others in the model.
+void EffectSelection::prune(const std::string& after) {
+  while (!terms_.empty()) {
+    std::size_t worst = none;
+    DropTest wd;
+    for (std::size_t k = 0; k < terms_.size(); ++k) {
+      DropTest d = drop_test(sel_, terms_, k, cur_, cur_heldout_);
+      if (!d.earns && (worst == none || d.p > wd.p)) {
+        worst = k;
+        wd = std::move(d);
+      }
+    }
+    if (worst == none) return;
+    drop(worst,
+         {p_.candidates[terms_[worst].cand].effect, wd.delta_bic, wd.p, "dropped after " + after + ": " + wd.why});
+  }
+}
+
+// Every candidate not banned tried against the model, Bonferroni over the trials, lowest BIC first.
+std::vector<Trial> EffectSelection::trials() const {
+  std::vector<Trial> out;
+  for (std::size_t c = 0; c < nc_; ++c) {
+    const Candidate& cand = p_.candidates[c];
+    if (banned_[c] || (cand.variants.empty() && !cand.generate)) continue;
+    if (o_.on_progress)
+      o_.on_progress("looking for effect " + std::to_string(terms_.size() + 1) + ": trying " + cand.effect + " (" +
+                     std::to_string(c + 1) + " of " + std::to_string(nc_) + ")");
+    Trial t = sel_.trial(c, terms_, cur_);
+    if (t.index != none) out.push_back(std::move(t));
+  }
+  for (auto& t : out) {
+    t.bonferroni *= static_cast<double>(out.size());
+    t.p = std::min(1.0, t.p * t.bonferroni);
+  }
+  std::sort(out.begin(), out.end(), [](const Trial& a, const Trial& b) { return a.delta_bic < b.delta_bic; });
+  return out;
+}
+
+// One forward step: the best trial that passes the F-test, lowers the BIC and improves the held-out RMS
+// joins the model; every other trial's verdict is kept. Returns the effect taken ("" = none).
+std::string EffectSelection::forward_step() {
+  std::string accepted;
+  for (auto& t : trials()) {
+    const Candidate& cand = p_.candidates[t.cand];
+    Considered con{cand.effect, t.delta_bic, t.p, ""};
+    if (!accepted.empty()) {
+      con.verdict = "not tried after a better candidate was taken";
+    } else if (!(t.p < o_.alpha)) {
+      con.verdict = "not significant (p=" + printf_number("%.2g", t.p) + ")";
+    } else if (!(t.delta_bic < 0)) {
+      con.verdict = "does not lower the BIC";
+    } else if (!std::isfinite(cur_heldout_)) {  // no figure to beat: the trial's is not computed
+      con.verdict = "held-out RMS of the model so far not computable (" + cur_ho_.failure + ")";
+    } else {
+      const Variant& v = listed(cand, t.pool)[t.index];
+      HeldOut ho = sel_.heldout(terms_, none, t.cand, &v);
+      if (!std::isfinite(ho.rms)) {
+        con.verdict = "held-out RMS not computable (" + ho.failure + ")";
+      } else if (!(ho.rms < cur_heldout_)) {
+        con.verdict = "held-out RMS not improved (" + printf_number("%.4g", ho.rms) + " um)";
+      } else {
+        con.verdict = "selected";
+        accepted = cand.effect;
+        terms_.push_back({t.cand, t.pool, t.index, t.bonferroni, taken_++, std::move(ho.trial)});
+        verdict_[t.cand].reset();
+        continue;
+      }
+    }
+    if (!has_term(t.cand)) verdict_[t.cand] = std::move(con);
+  }
+  return accepted;
+}
+
+// Each effect must remove most of the structure left without it: a partial fit of a cause it is not
+// leaves that cause's shape behind. Not when nothing is left above the noise: no shape is left behind, and
+// the share is then of the noise (a traverse's drift at t = 7.7 "removed only 69-80 %" at 26 of 100 seeds).
+// Returns whether one was dropped.
+bool EffectSelection::drop_partial_fits() {
+  bool changed = false;
+  while (!terms_.empty()) {
+    const Located left = locate(p_, cur_.residual, o_.alpha, sigma_);
+    if (!left.structured || !(left.visible_energy > 0)) break;
+    std::size_t worst = none;
+    double worst_share = 1.0;
+    for (std::size_t k = 0; k < terms_.size(); ++k) {
+      const double s = share(sel_, terms_, k, cur_, sigma_, visible_floor_);
+      if (std::isfinite(s) && s < o_.min_share && (worst == none || s < worst_share)) {
+        worst = k;
+        worst_share = s;
+      }
+    }
+    if (worst == none) break;
+    if (!before_share_) before_share_ = terms_;
+    const std::string effect = p_.candidates[terms_[worst].cand].effect;
+    const DropTest d = significance(sel_, terms_, worst, cur_);
+    drop(worst, {effect, d.delta_bic, d.p,
+                 "removes only " + printf_number("%.0f", 100 * worst_share) + " % of the structure left without it"});
+    prune("dropping " + effect);
+    changed = true;
+  }
+  return changed;
+}
+
+bool EffectSelection::has_term(std::size_t c) const {
+  return std::any_of(terms_.begin(), terms_.end(), [&](const Term& t) { return t.cand == c; });
+}
+
+}  // namespace guideway::models::explain::engine

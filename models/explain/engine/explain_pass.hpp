@@ -1,0 +1,38 @@
+#pragma once
+// One pass of EXPLAIN over a problem (models/explain/engine, docs/explain.md steps 1-4): the base fitted and its
+// residual located, the effects selected, the findings reported with their parameters, shares and residual
+// curves, and the verdict on what is left. explain() runs passes again with places set aside (set_aside.hpp).
+// Pure functions; thread safe.
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain::engine {
+
+// What is explained, one value per sample; refuses too few samples, a base of the wrong size, non-finite
+// samples and candidates of the wrong size.
+Eigen::VectorXd observations(const Problem& problem);
+
+// A finding's term as the whole problem sees it: its candidate and variant, and a generated variant's columns
+// over every sample of the problem given to explain() (a listed variant's are that problem's own).
+struct TermColumns {
+  std::size_t cand = 0, index = 0;
+  bool generated = false;
+  Eigen::MatrixXd all_samples;
+};
+
+struct Pass {
+  Report report;
+  // Where the residual of the effects held before the share rule dropped any is structured, place by
+  // place (empty: none dropped, or structured throughout).
+  std::vector<Location> probe;
+  std::vector<TermColumns> terms;  // the findings' terms, in the order taken
+};
+
+Pass explain_once(const Problem& problem, const ExplainOptions& options);
+
+}  // namespace guideway::models::explain::engine

@@ -1,0 +1,42 @@
+#pragma once
+// EXPLAIN's held-out rows (models/explain/engine, docs/explain.md "Held out"): whole runs or contiguous blocks of
+// every run, the rows of each fold, and a term's columns on a fold's training and held-out rows.
+// Pure functions; thread safe.
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain::engine {
+
+// The held-out rows: whole runs when there are at least three, the base is still determined without any
+// one of them and no candidate has terms of one run alone; otherwise contiguous blocks of every run
+// (staggered between runs).
+struct HeldOutScheme {
+  std::vector<int> fold_of;
+  int folds = 0;
+  std::string name;
+};
+HeldOutScheme heldout_scheme(const Problem& problem, const ExplainOptions& options,
+                             const std::vector<std::pair<std::size_t, std::size_t>>& ranges);
+
+// The rows of each fold.
+struct FoldRows {
+  std::vector<Eigen::Index> train, test;
+  std::vector<bool> use;  // use[i]: sample i is a training row of this fold
+};
+std::vector<FoldRows> fold_rows(const std::vector<int>& fold_of, int folds);
+
+// A term's columns in one fold: of the variant chosen on that fold's training rows.
+struct FoldBlock {
+  Eigen::MatrixXd train, test;
+  std::uint64_t id = 0;  // names these columns for the fold models' cache (0: none)
+};
+FoldBlock fold_block(const Variant& v, const FoldRows& fold);
+
+}  // namespace guideway::models::explain::engine

@@ -1,0 +1,63 @@
+#pragma once
+// The models EXPLAIN's selection compares (models/explain/engine, docs/explain.md "Name and fit"): the base and
+// a set of terms fitted on all the data and on every fold's training rows, a candidate tried against them, and
+// earlier choices re-decided once a later effect has joined. Models and held-out figures of one set of terms
+// are computed once and kept (variant_set_cache.hpp). Not thread safe: one per pass of explain().
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "models/explain/engine/fold_fits.hpp"
+#include "models/explain/engine/folds.hpp"
+#include "models/explain/engine/model_fit.hpp"
+#include "models/explain/engine/terms.hpp"
+#include "models/explain/engine/variant_set_cache.hpp"
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain::engine {
+
+class Selection {
+ public:
+  Selection(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y,
+            std::vector<FoldRows> folds);
+
+  [[nodiscard]] const Problem& problem() const { return p_; }
+  [[nodiscard]] const ExplainOptions& options() const { return o_; }
+  [[nodiscard]] const Eigen::VectorXd& observations() const { return y_; }
+
+  // The columns of the base and the terms (but `skip`), on all rows, and their names.
+  [[nodiscard]] Eigen::MatrixXd design(const std::vector<Term>& terms, std::size_t skip = none) const;
+  [[nodiscard]] std::vector<std::string> names(const std::vector<Term>& terms) const;
+  // The model of the base and the terms (but `skip`) on all the data.
+  [[nodiscard]] Model model(const std::vector<Term>& terms, std::size_t skip = none) const;
+  // Held-out RMS of the base, the terms (but `skip`) and candidate `trial` (FoldFits::heldout).
+  [[nodiscard]] HeldOut heldout(const std::vector<Term>& terms, std::size_t skip, std::size_t trial = none,
+                                const Variant* fixed = nullptr) const;
+
+  // Candidate c tried against the model `cur` of the terms: its best variant on all the data and the
+  // F-test (Bonferroni over the grid points searched) and BIC against cur.
+  [[nodiscard]] Trial trial(std::size_t c, const std::vector<Term>& terms, const Model& cur) const;
+
+  // Term k's variant chosen again with the others in the model (on all the data and in every fold):
+  // chosen before a later effect was taken, it may have absorbed part of that effect. True if it changed.
+  bool rechoose(std::vector<Term>& terms, std::size_t k) const;
+  // Terms i and j re-chosen together on all the data: every variant of i (generated against the model
+  // without i) with j's best given it; the pair whose joint fit has the lowest BIC replaces theirs when that
+  // is lower than now. True if the pair changed (then both are chosen again in every fold).
+  bool rechoose_pair(std::vector<Term>& terms, std::size_t i, std::size_t j) const;
+
+ private:
+  const Problem& p_;
+  const ExplainOptions& o_;
+  const Eigen::VectorXd& y_;
+  std::size_t n_;
+  mutable std::vector<double> choose_buffer_;  // choose()'s batches
+  FoldFits fits_;
+  mutable VariantSetCache<Model> models_;
+  mutable VariantSetCache<HeldOut> heldouts_;
+};
+
+}  // namespace guideway::models::explain::engine

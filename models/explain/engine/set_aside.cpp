@@ -1,0 +1,278 @@
+// EXPLAIN's set-aside rounds (set_aside.hpp).
+#include "models/explain/engine/set_aside.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "models/common/least_squares.hpp"
+#include "models/explain/locate.hpp"
+#include "models/explain/stats.hpp"
+
+namespace guideway::models::explain::engine {
+
+namespace {
+
+// `after`: for each place set aside, its run and the first sample after it; from there on (and in every later
+// run) the reading may stand off by a constant, a nuisance column of the base (a step, such as a ball
+// slipping in its socket, leaves the data after it offset from the data before it, whatever is set aside).
+bool stands_off(const Problem& p, OffsetAfter after, std::size_t sample) {
+  const std::size_t r = p.samples[sample].run;
+  return r > after.first || (r == after.first && sample >= after.second);
+}
+
+// The samples [from, to) a place sets aside: the place and a margin on either side (its own length, at most
+// 1/32 of its run: the tails of a step or a ring-down beyond half its peak).
+std::pair<std::size_t, std::size_t> stretch_of(const Problem& p,
+                                               const std::vector<std::pair<std::size_t, std::size_t>>& ranges,
+                                               const Location& l) {
+  const auto [a, b] = ranges[p.samples[l.first_sample].run];
+  const std::size_t len = l.end_sample - l.first_sample, margin = std::min(len, (b - a) / 32);
+  return {l.first_sample - std::min(margin, l.first_sample - a), std::min(b, l.end_sample + margin)};
+}
+
+// Of the places set aside, those the findings made without them do not explain. The last pass's model (the base,
+// the reading's offsets after each place, the findings' terms), fitted to the samples kept, predicts every
+// sample; a place whose stretch it predicts to within the noise (its residual's sum of squares against sigma^2
+// times its samples, chi-square, Bonferroni over the places) was the structure of an effect found later (in the
+// first pass, the backlash's lobes of the other run beside a slip), not a fault. All kept when the fit fails.
+std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const std::vector<Location>& places,
+                                     const std::vector<bool>& keep, const std::vector<OffsetAfter>& after, double sigma,
+                                     double alpha) {
+  std::vector<bool> out(places.size(), true);
+  const auto n = static_cast<Eigen::Index>(p.samples.size());
+  if (!(sigma > 0) || places.size() < 2) return out;
+  Eigen::Index cols = p.base.columns.cols() + static_cast<Eigen::Index>(after.size());
+  for (const TermColumns& t : pass.terms) {
+    const Eigen::MatrixXd& c = t.generated ? t.all_samples : p.candidates[t.cand].variants[t.index].block.columns;
+    if (c.rows() != n) return out;
+    cols += c.cols();
+  }
+  Eigen::MatrixXd design(n, cols);
+  Eigen::Index at = 0;
+  design.leftCols(p.base.columns.cols()) = p.base.columns;
+  at += p.base.columns.cols();
+  for (const auto& a : after) {
+    for (Eigen::Index i = 0; i < n; ++i) design(i, at) = stands_off(p, a, static_cast<std::size_t>(i)) ? 1.0 : 0.0;
+    ++at;
+  }
+  for (const TermColumns& t : pass.terms) {
+    const Eigen::MatrixXd& c = t.generated ? t.all_samples : p.candidates[t.cand].variants[t.index].block.columns;
+    design.middleCols(at, c.cols()) = c;
+    at += c.cols();
+  }
+  const Eigen::VectorXd y = observations(p);
+  const auto rows = rows_in_use(keep);
+  const LsqResult fit = solve_lsq(design(rows, Eigen::all), y(rows), Eigen::VectorXd(),
+                                  std::vector<std::string>(static_cast<std::size_t>(cols)));
+  if (!fit.ok) return out;
+  const Eigen::VectorXd residual = y - design * fit.fitted;
+  const auto ranges = run_ranges(p);
+  for (std::size_t k = 0; k < places.size(); ++k) {
+    const auto [from, to] = stretch_of(p, ranges, places[k]);
+    const double chi2 =
+        residual.segment(static_cast<Eigen::Index>(from), static_cast<Eigen::Index>(to - from)).squaredNorm() /
+        (sigma * sigma);
+    out[k] = chi2_sf(chi2, static_cast<double>(to - from)) * static_cast<double>(places.size()) < alpha;
+  }
+  return out;
+}
+
+}  // namespace
+
+// `keep_whole`: every variant keeps its block over all samples (Variant::columns_all_samples), for the
+// findings' columns (ExplainOptions::keep_columns); a generated variant always does (it is made per call, and
+// the places set aside are checked against the findings over every sample: explain()).
+Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after,
+                        bool keep_whole) {
+  Reduced out;
+  for (std::size_t i = 0; i < keep.size(); ++i)
+    if (keep[i]) out.kept.push_back(static_cast<Eigen::Index>(i));
+  const auto kept = std::make_shared<const std::vector<Eigen::Index>>(out.kept);
+  const auto n = static_cast<Eigen::Index>(p.samples.size());
+  Problem& q = out.problem;
+  q = p;
+  q.samples.clear();
+  for (const Eigen::Index i : *kept) q.samples.push_back(p.samples[static_cast<std::size_t>(i)]);
+  if (p.base.columns.cols() > 0) q.base.columns = p.base.columns(*kept, Eigen::all);
+  if (!after.empty()) {
+    const Eigen::Index b = q.base.columns.cols();
+    q.base.columns.conservativeResize(static_cast<Eigen::Index>(kept->size()),
+                                      b + static_cast<Eigen::Index>(after.size()));
+    for (std::size_t k = 0; k < after.size(); ++k) {
+      for (std::size_t i = 0; i < kept->size(); ++i)
+        q.base.columns(static_cast<Eigen::Index>(i), b + static_cast<Eigen::Index>(k)) =
+            stands_off(p, after[k], static_cast<std::size_t>((*kept)[i])) ? 1.0 : 0.0;
+      q.base.names.push_back("offset_after_set_aside_" + std::to_string(k + 1) + "_um");
+    }
+  }
+  const auto crop = [kept](Variant& v, bool whole) {
+    Eigen::MatrixXd cropped = v.block.columns(*kept, Eigen::all);
+    if (whole) v.columns_all_samples = std::move(v.block.columns);
+    v.block.columns = std::move(cropped);
+  };
+  for (auto& c : q.candidates) {
+    for (auto& v : c.variants) crop(v, keep_whole);
+    if (!c.generate) continue;
+    c.generate = [generate = c.generate, kept, n, crop](const Eigen::VectorXd& r, const std::vector<bool>& use) {
+      Eigen::VectorXd whole = Eigen::VectorXd::Zero(n);
+      std::vector<bool> in_use(static_cast<std::size_t>(n), false);
+      for (std::size_t i = 0; i < kept->size(); ++i) {
+        whole[(*kept)[i]] = r[static_cast<Eigen::Index>(i)];
+        in_use[static_cast<std::size_t>((*kept)[i])] = use[i];
+      }
+      std::vector<Variant> vs = generate(whole, in_use);
+      for (auto& v : vs) crop(v, true);
+      return vs;
+    };
+  }
+  if (p.contribution_of) {
+    std::vector<std::size_t> nearest(static_cast<std::size_t>(n));  // for each sample, the kept one standing in
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < nearest.size(); ++i) {
+      while (k + 1 < kept->size() && (static_cast<std::size_t>((*kept)[k]) < i ||
+                                      p.samples[static_cast<std::size_t>((*kept)[k])].run < p.samples[i].run))
+        ++k;
+      nearest[i] = k;
+    }
+    q.contribution_of = [of = p.contribution_of, nearest = std::move(nearest)](const Eigen::VectorXd& term) {
+      Eigen::VectorXd whole(static_cast<Eigen::Index>(nearest.size()));
+      for (std::size_t i = 0; i < nearest.size(); ++i)
+        whole[static_cast<Eigen::Index>(i)] = term[static_cast<Eigen::Index>(nearest[i])];
+      return of(whole);
+    };
+  }
+  return out;
+}
+
+// Where a pass left structure no effect explains, place by place, in the whole problem's samples
+// (`index`: the whole problem's index of each sample of the pass's problem): the places of its remaining
+// structure, or when that is structured throughout, those of the probe (Pass::probe).
+std::vector<Location> remaining_places(const Pass& pass, const std::vector<Eigen::Index>& index, bool& from_probe) {
+  std::vector<Location> places;
+  for (const auto& m : pass.report.remaining) places.insert(places.end(), m.locations.begin(), m.locations.end());
+  from_probe = places.empty();
+  if (from_probe) places = pass.probe;
+  for (Location& l : places) {
+    l.first_sample = static_cast<std::size_t>(index[l.first_sample]);
+    l.end_sample = static_cast<std::size_t>(index[l.end_sample - 1]) + 1;
+  }
+  return places;
+}
+
+// Sets aside each place's stretch. Returns the samples set aside in all.
+std::size_t set_aside(const Problem& p, const std::vector<Location>& places, std::vector<bool>& keep) {
+  const auto ranges = run_ranges(p);
+  for (const auto& l : places) {
+    const auto [from, to] = stretch_of(p, ranges, l);
+    for (std::size_t i = from; i < to; ++i) keep[i] = false;
+  }
+  return static_cast<std::size_t>(std::count(keep.begin(), keep.end(), false));
+}
+
+// A place's run and the first sample after the stretch set aside about it (or its run's end): where the
+// reading may stand off (without_samples).
+OffsetAfter offset_after(const Problem& p, const Location& l, const std::vector<bool>& keep) {
+  const std::size_t run = p.samples[l.first_sample].run;
+  std::size_t i = l.end_sample;
+  while (i < keep.size() && !keep[i] && p.samples[i].run == run) ++i;
+  return {run, i};
+}
+
+// A run the structure tests could look at that setting aside would leave too short for them (a traverse's
+// pass of 33 readings): its label, or "" when there is none.
+std::string starved_run(const Problem& p, const std::vector<bool>& keep) {
+  const auto ranges = run_ranges(p);
+  for (std::size_t r = 0; r < ranges.size(); ++r) {
+    const auto [a, b] = ranges[r];
+    const auto kept = static_cast<std::size_t>(
+        std::count(keep.begin() + static_cast<std::ptrdiff_t>(a), keep.begin() + static_cast<std::ptrdiff_t>(b), true));
+    if (b - a >= min_run_samples && kept < min_run_samples) return p.runs[r].label;
+  }
+  return "";
+}
+
+// Places set aside in successive rounds that are one stretch of set-aside samples in a run (a ring-down's tail
+// taken by the round after its peak's) are one place: merged, in the order the run passed them.
+std::vector<Location> merge_contiguous(std::vector<Location> places, const std::vector<bool>& keep) {
+  std::sort(places.begin(), places.end(),
+            [](const Location& a, const Location& b) { return a.first_sample < b.first_sample; });
+  std::vector<Location> out;
+  for (Location& l : places) {
+    if (!out.empty() && out.back().run == l.run) {
+      Location& prev = out.back();
+      const std::size_t from = std::min(prev.end_sample, l.first_sample);
+      const std::size_t to = std::max(prev.end_sample, l.first_sample);
+      if (std::none_of(keep.begin() + static_cast<std::ptrdiff_t>(from), keep.begin() + static_cast<std::ptrdiff_t>(to),
+                       [](bool k) { return k; })) {
+        if (l.end_sample > prev.end_sample) {
+          prev.end_sample = l.end_sample;
+          prev.where.second = l.where.second;
+          prev.t_from_run_start_s.second = l.t_from_run_start_s.second;
+          prev.t_machine_s.second = l.t_machine_s.second;
+        }
+        if (std::abs(l.peak_um) > std::abs(prev.peak_um)) prev.peak_um = l.peak_um;
+        continue;
+      }
+    }
+    out.push_back(std::move(l));
+  }
+  return out;
+}
+
+// Whether each place of what is left repeats in another run: judged among the places reported (those a
+// partial fit's residual showed in other runs are not among them).
+void repeats_among(std::vector<Mismatch>& remaining, const std::string& domain) {
+  std::vector<Location*> all;
+  for (auto& m : remaining)
+    for (auto& l : m.locations) all.push_back(&l);
+  double lo = 1e300, hi = -1e300;
+  for (const Location* l : all) {
+    lo = std::min({lo, l->where.first, l->where.second});
+    hi = std::max({hi, l->where.first, l->where.second});
+  }
+  const double tol = domain == "angle_deg" ? 3.6 : 0.01 * std::max(0.0, hi - lo);
+  for (Location* a : all) {
+    a->repeats_in.clear();
+    const auto [alo, ahi] = std::minmax(a->where.first, a->where.second);
+    for (const Location* b : all) {
+      if (b->run == a->run) continue;
+      const auto [blo, bhi] = std::minmax(b->where.first, b->where.second);
+      if (alo <= bhi + tol && blo <= ahi + tol &&
+          std::find(a->repeats_in.begin(), a->repeats_in.end(), b->run) == a->repeats_in.end())
+        a->repeats_in.push_back(b->run);
+    }
+  }
+}
+
+// One fault is one place: a place set aside with the others whose stretch the last pass's findings explain
+// (unexplained_places) is given back, and the pass run again with the rest set aside. Kept only when that pass
+// finds as much and leaves no new structure; `aside`, `keep`, `after` and `last` are then its.
+void release_explained(const Problem& problem, const ExplainOptions& options, double sigma,
+                       std::vector<Location>& aside, std::vector<bool>& keep, std::vector<OffsetAfter>& after,
+                       Pass& last) {
+  const std::vector<bool> fault = unexplained_places(problem, last, aside, keep, after, sigma, options.alpha);
+  const auto faults = static_cast<std::size_t>(std::count(fault.begin(), fault.end(), true));
+  if (faults == 0 || faults == aside.size()) return;
+  std::vector<Location> places;
+  for (std::size_t k = 0; k < aside.size(); ++k)
+    if (fault[k]) places.push_back(aside[k]);
+  std::vector<bool> trial(keep.size(), true);
+  set_aside(problem, places, trial);
+  std::vector<OffsetAfter> trial_after;
+  for (const auto& l : places) trial_after.push_back(offset_after(problem, l, trial));
+  const Reduced reduced = without_samples(problem, trial, trial_after, options.keep_columns);
+  if (options.on_progress)
+    options.on_progress("pass with " + std::to_string(places.size()) + " of " + std::to_string(aside.size()) +
+                        " places set aside (the findings explain the others)");
+  Pass next = explain_once(reduced.problem, options);
+  if (next.report.findings.size() < last.report.findings.size() ||
+      (next.report.unexplained && !last.report.unexplained))
+    return;
+  aside = std::move(places);
+  keep = std::move(trial);
+  after = std::move(trial_after);
+  last = std::move(next);
+}
+
+}  // namespace guideway::models::explain::engine

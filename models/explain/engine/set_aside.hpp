@@ -1,0 +1,64 @@
+#pragma once
+// EXPLAIN's set-aside rounds (models/explain/engine, docs/explain.md step 5): when the residual left is
+// structured at a few places no effect explains (a step, a transient, a burst), those places are set aside,
+// the reading free to stand off by a constant after each, and the effects sought again in the rest; a place
+// the later findings explain is given back. Pure functions; thread safe.
+
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "models/explain/engine/explain_pass.hpp"
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain::engine {
+
+// Per place set aside: its run and the first sample after it (where the reading may stand off).
+using OffsetAfter = std::pair<std::size_t, std::size_t>;
+
+// The problem without the samples `keep` leaves out: the base's and every listed variant's rows dropped,
+// each generator given the whole residual (zero on the rows left out) with those rows out of use, its
+// variants' rows dropped; a contribution measured on the whole sample grid (a left-out sample takes its
+// run's nearest kept value). `after`: from each place's first sample after it on (and in every later run)
+// the reading may stand off by a constant, a nuisance column of the base. `keep_whole`: every variant keeps
+// its block over all samples (Variant::columns_all_samples).
+struct Reduced {
+  Problem problem;
+  std::vector<Eigen::Index> kept;  // the whole problem's index of each sample
+};
+Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after,
+                        bool keep_whole);
+
+// Where a pass left structure no effect explains, place by place, in the whole problem's samples
+// (`index`: the whole problem's index of each sample of the pass's problem): the places of its remaining
+// structure, or when that is structured throughout, those of the probe (Pass::probe).
+std::vector<Location> remaining_places(const Pass& pass, const std::vector<Eigen::Index>& index, bool& from_probe);
+
+// Sets aside each place's stretch (the place and a margin on either side). Returns the samples set aside in all.
+std::size_t set_aside(const Problem& p, const std::vector<Location>& places, std::vector<bool>& keep);
+
+// A place's run and the first sample after the stretch set aside about it (or its run's end).
+OffsetAfter offset_after(const Problem& p, const Location& l, const std::vector<bool>& keep);
+
+// A run the structure tests could look at that setting aside would leave too short for them (a traverse's
+// pass of 33 readings): its label, or "" when there is none.
+std::string starved_run(const Problem& p, const std::vector<bool>& keep);
+
+// One fault is one place: a place set aside with the others whose stretch the last pass's findings explain
+// is given back, and the pass run again with the rest set aside. Kept only when that pass finds as much and
+// leaves no new structure; `aside`, `keep`, `after` and `last` are then its.
+void release_explained(const Problem& problem, const ExplainOptions& options, double sigma,
+                       std::vector<Location>& aside, std::vector<bool>& keep, std::vector<OffsetAfter>& after,
+                       Pass& last);
+
+// Places set aside in successive rounds that are one stretch of set-aside samples in a run are one place:
+// merged, in the order the run passed them.
+std::vector<Location> merge_contiguous(std::vector<Location> places, const std::vector<bool>& keep);
+
+// Whether each place of what is left repeats in another run: judged among the places reported.
+void repeats_among(std::vector<Mismatch>& remaining, const std::string& domain);
+
+}  // namespace guideway::models::explain::engine

@@ -1,0 +1,46 @@
+#pragma once
+// EXPLAIN's least squares on tall designs (models/explain/engine): the triangular factor of a tall matrix in
+// one pass (tall_r), an orthonormal basis of a design's span with the rank a column-pivoted QR decides
+// (span_basis), and a held-out prediction from a fit to the training rows (predict, predict_beside). Columns
+// are scaled to unit norm first: a design mixes units. Pure functions; thread safe.
+
+#include <Eigen/Core>
+
+namespace guideway::models::explain::engine {
+
+// A direction whose pivot is below this fraction of the largest (columns scaled to unit norm, as
+// solve_lsq's rank analysis) adds no rank.
+inline constexpr double rank_tolerance = 1e-9;
+
+// The triangular factor of a tall matrix [a y] (y optional: a vector or none), R with R^T R = [a y]^T [a y],
+// p + (y ? 1 : 0) rows.
+Eigen::MatrixXd tall_r(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd* y = nullptr);
+
+// Each column scaled to unit norm (a zero column kept); the scales applied.
+Eigen::VectorXd scale_columns(Eigen::Ref<Eigen::MatrixXd> m);
+
+// The minimum-norm solution of S b = y from the triangular factor r of [S y] (p + 1 columns).
+Eigen::VectorXd min_norm_solution(const Eigen::MatrixXd& r, Eigen::Index p);
+
+// The held-out rows' prediction (jh: their columns) from a least-squares fit to the training rows (jt, yt):
+// the minimum-norm solution of the column-scaled problem. False when the fit fails.
+bool predict(Eigen::MatrixXd jt, const Eigen::VectorXd& yt, const Eigen::MatrixXd& jh, Eigen::VectorXd& out);
+
+// A fold's base on its training rows, factored once: every held-out fit in that fold has the base's columns
+// and differs only in the few columns of the effects beside it.
+struct FoldBase {
+  Eigen::VectorXd scale;  // predict()'s column scales
+  Eigen::MatrixXd q, r;   // the scaled base = Q R, Q's columns orthonormal (Householder: whatever the base's rank)
+};
+FoldBase fold_base(Eigen::MatrixXd b);
+
+// predict() of the design [base rest] from the fold's factored base. jh: the held-out rows of the base's
+// columns then rest's.
+bool predict_beside(const FoldBase& base, Eigen::MatrixXd rest, const Eigen::VectorXd& yt, const Eigen::MatrixXd& jh,
+                    Eigen::VectorXd& out);
+
+// An orthonormal basis of the span of s's columns (each scaled to unit norm first), of the rank a
+// column-pivoted QR with threshold rank_tolerance gives.
+Eigen::MatrixXd span_basis(Eigen::MatrixXd s);
+
+}  // namespace guideway::models::explain::engine
