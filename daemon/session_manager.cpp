@@ -219,7 +219,8 @@ void SessionManager::end_triggered(std::int64_t now_ns) {
   }
 }
 
-void SessionManager::on_samples(std::size_t device_index, const drivers::Driver&, std::span<const Sample> samples) {
+void SessionManager::on_samples(std::size_t device_index, const drivers::Driver& device,
+                                std::span<const Sample> samples) {
   for (std::size_t i = 0; i < triggers_.size(); ++i) {
     if (triggers_[i].trigger.device_index != device_index) continue;
     const std::size_t ch = triggers_[i].trigger.channel;
@@ -230,7 +231,10 @@ void SessionManager::on_samples(std::size_t device_index, const drivers::Driver&
     }
   }
   for (auto& r : running_) {
-    if (r->device_index != device_index) continue;
+    if (r->device_index != device_index) {
+      r->session->on_other_samples(device, samples);
+      continue;
+    }
     if (r->recorder) r->recorder->push(samples);
     r->info.samples += samples.size();
     r->session->on_samples(samples);

@@ -564,6 +564,33 @@ def check_stream(tag, stream_path, result, checks):
     return header, periods
 
 
+def check_commanded(tag, params, checks):
+    """The runs carry LinuxCNC's commanded position beside the bar's reading (`<a>_cmd_mm`, `<b>_cmd_mm`, and
+    the metadata `controller`, `controller_lag_ms`, `controller_mismatch_um`: how far the encoders stayed from
+    the command the lag earlier)."""
+    runs = derived_runs(params)
+    carried = []
+    for path in runs:
+        meta, header = {}, ""
+        with open(path) as f:
+            for line in f:
+                if line.startswith("#"):
+                    key, _, value = line[1:].partition("=")
+                    meta[key.strip()] = value.strip()
+                else:
+                    header = line.strip()
+                    break
+        plane = meta.get("plane", "xy")
+        wanted = [f"{plane[0]}_cmd_mm", f"{plane[1]}_cmd_mm"]
+        ok = all(c in header.split(",") for c in wanted) and "controller" in meta
+        carried.append(ok)
+        say(f"{elapsed()} {tag}: {os.path.basename(path)} " + (
+            f"carries {', '.join(wanted)} from {meta.get('controller')}: the encoders followed the command "
+            f"{meta.get('controller_lag_ms')} ms later, {meta.get('controller_mismatch_um')} um from it on average"
+            if ok else f"lacks the controller's commanded position (header {header})"))
+    checks.append((f"{tag}: runs carry LinuxCNC's commanded position", bool(carried) and all(carried)))
+
+
 FEED_MOTION = (2, 3)  # motion.motion-type: feed, arc (1 is a rapid)
 TABLE_TOLERANCE_MM = 3e-6  # halsampler prints 6 decimals: three rounded numbers per correction
 OFFSET_TOLERANCE_MM = 5e-6  # the offsets follow their input one servo period late (a few nm at 50 mm/s)
@@ -757,6 +784,7 @@ def run_loop(args, tools, user, work):
     try:
         before, stream_before, result_before, _ = measure("before", daemon, work, args, user, share)
         check_stream("before", stream_before, result_before, checks)
+        check_commanded("before", before, checks)
         g_before = largest_g_um(before)
         say(f"{elapsed()} before: G {g_before:.2f} um")
         comp_dir = os.path.join(work, "comp")
@@ -771,6 +799,7 @@ def run_loop(args, tools, user, work):
             if res.returncode == 0 else f"{elapsed()} no external offsets: {res.stderr.strip()}")
         after, stream_after, result_after, _ = measure("after", daemon, work, args, user, share, comp_dir)
         header, periods = check_stream("after", stream_after, result_after, checks)
+        check_commanded("after", after, checks)
         check_tables(header, periods, comp_dir, checks)
         check_offsets(header, periods, comp_dir, checks)
         g_after = largest_g_um(after)
