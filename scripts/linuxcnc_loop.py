@@ -221,6 +221,11 @@ def cli(tools, socket_path, *args, timeout=60, check=True):
     return res
 
 
+# The virtual machine's slack behind LinuxCNC: a loaded PC stalls LinuxCNC's uspace servo thread now and then,
+# for up to 3 s; at 1 s of slack the playback ran dry mid-circle (an underrun stops the machine, cuts the run).
+FOLLOW_DELAY_MS = 4000
+
+
 def daemon_config(work, args):
     """guidewayd's configuration: the DBB bus of the emulator the loop starts (no emulators of its own)."""
     bar = f"""  [[device.encoder]]
@@ -264,6 +269,8 @@ channel = "session"
 kind = "dbb"
 session_device = "dbb"
 options = {{ test = "standard", radius_mm = {args.radius_mm}, feed_mm_per_min = {args.feed_mm_per_min} }}
+# the bar's last readings come the virtual machine's playback delay after LinuxCNC's pin falls
+end_after_s = {FOLLOW_DELAY_MS / 1000 + 3:g}
 """
     path = os.path.join(work, "guidewayd.toml")
     with open(path, "w") as f:
@@ -382,8 +389,7 @@ class Daemon:
         emulate = [tools["guideway-emulate"], "dbb", "--bus", f"unix:{work}/can-bus.sock", "--nodes", "1", "2", "3",
                    "4", "--follow", bridge_socket, "--plane", "xy", "--radius-mm", str(args.radius_mm),
                    "--center-mm", *(str(c) for c in args.center_mm),
-                   # a loaded PC stalls LinuxCNC's uspace servo thread now and then: a second of slack
-                   "--follow-delay-ms", "1000"]
+                   "--follow-delay-ms", str(FOLLOW_DELAY_MS)]
         if args.machine:
             emulate += ["--machine", args.machine]
         self.emulator = Process("emulator", emulate, os.path.join(work, "emulator.log"),
@@ -627,10 +633,16 @@ def interpolate(xs, ys, x):
     return ys[lo] + (ys[hi] - ys[lo]) * (x - xs[lo]) / (xs[hi] - xs[lo])
 
 
-def check_tables(header, periods, comp_dir, checks):
+MAX_SWITCH_PERIODS = 100  # LinuxCNC's switch between a table's columns after the commanded reversal
+
+
+def check_tables(header, periods, comp_dir, checks, figures):
     """Period by period of the feed moves, what LinuxCNC added to each joint (motor-pos-cmd - pos-cmd -
     motor-offset) against the table's correction there for the direction of motion (nominal - actual,
-    linear between lines), away from the reversals, where LinuxCNC ramps its switch between the columns."""
+    linear between lines), away from the reversals: 20 periods before each (the command slows to it,
+    halsampler's 1 nm hides the sign) and after it until LinuxCNC has switched to the new direction's column,
+    which it does late on some joints (measured: the periods from the commanded reversal to the first period
+    within the tolerance of the new column; at most MAX_SWITCH_PERIODS, said per axis)."""
     col = {c: i for i, c in enumerate(header["columns"].split(","))}
     for axis in "xyz":
         path = os.path.join(comp_dir, f"{axis}.comp")
@@ -640,26 +652,41 @@ def check_tables(header, periods, comp_dir, checks):
         noms = [r[0] for r in rows]
         fwd, rev = [r[0] - r[1] for r in rows], [r[0] - r[2] for r in rows]
         cmds = [v[col[f"{axis}_cmd_mm"]] for _, v in periods]
-        # The direction of each period's move, and the periods near a reversal (20 either side: the command
-        # slows to it, LinuxCNC ramps its switch over a few periods, halsampler's 1 nm hides the sign).
         direction = [0] + [1 if b > a else -1 if b < a else 0 for a, b in zip(cmds, cmds[1:])]
+
+        def error(k, d):
+            v = periods[k][1]
+            applied = v[col[f"{axis}_motor_mm"]] - cmds[k] - v[col[f"{axis}_motor_offset_mm"]]
+            return abs(applied - interpolate(noms, fwd if d > 0 else rev, cmds[k]))
+
         near = [False] * len(cmds)
+        switches = []  # periods from each commanded reversal of the feed moves to LinuxCNC's switch
         last = 0
         for k, d in enumerate(direction):
             if d and last and d != last:
-                for i in range(max(0, k - 20), min(len(cmds), k + 20)):
+                switch = next((i - k for i in range(k, min(len(cmds), k + MAX_SWITCH_PERIODS + 1))
+                               if error(i, d) <= TABLE_TOLERANCE_MM), None)
+                if periods[k][1][col["motion_type"]] in FEED_MOTION:
+                    switches.append(switch)
+                for i in range(max(0, k - 20), min(len(cmds), k + max(20, (switch or MAX_SWITCH_PERIODS) + 1))):
                     near[i] = True
             last = d or last
         worst, n = 0.0, 0
         for k, (_, v) in enumerate(periods):
             if v[col["motion_type"]] not in FEED_MOTION or near[k] or not direction[k]:
                 continue
-            applied = v[col[f"{axis}_motor_mm"]] - cmds[k] - v[col[f"{axis}_motor_offset_mm"]]
-            table = interpolate(noms, fwd if direction[k] > 0 else rev, cmds[k])
-            worst, n = max(worst, abs(applied - table)), n + 1
+            worst, n = max(worst, error(k, direction[k])), n + 1
+        on_time = [x for x in switches if x is not None]
         say(f"{elapsed()} {axis}.comp as LinuxCNC applied it: {n} servo periods of the feed moves, within "
-            f"{worst * 1e6:.1f} nm of the file's correction (its {len(rows)} lines)")
+            f"{worst * 1e6:.1f} nm of the file's correction (its {len(rows)} lines); at {len(switches)} reversals "
+            f"LinuxCNC switched to the new direction's column " +
+            (f"{min(on_time)} to {max(on_time)} servo periods after the commanded reversal" if on_time else "never") +
+            (f", {len(switches) - len(on_time)} times not within {MAX_SWITCH_PERIODS}"
+             if len(on_time) < len(switches) else ""))
+        figures[f"{axis}_switch_periods"] = [min(on_time), max(on_time)] if on_time else None
         checks.append((f"{axis}.comp applied as written", n > 1000 and worst <= TABLE_TOLERANCE_MM))
+        checks.append((f"{axis}.comp: LinuxCNC switches its columns within {MAX_SWITCH_PERIODS} periods",
+                       bool(switches) and len(on_time) == len(switches)))
 
 
 def read_offsets_hal(path):
@@ -780,7 +807,7 @@ def run_loop(args, tools, user, work):
     share = os.path.abspath(args.share_dir)
     prepare_work(args, tools, user, work)
     daemon = Daemon(tools, work, args, os.path.join(work, "run", "linuxcnc.sock"))
-    checks = []
+    checks, switch_figures = [], {}
     try:
         before, stream_before, result_before, _ = measure("before", daemon, work, args, user, share)
         check_stream("before", stream_before, result_before, checks)
@@ -800,9 +827,12 @@ def run_loop(args, tools, user, work):
         after, stream_after, result_after, _ = measure("after", daemon, work, args, user, share, comp_dir)
         header, periods = check_stream("after", stream_after, result_after, checks)
         check_commanded("after", after, checks)
-        check_tables(header, periods, comp_dir, checks)
+        check_tables(header, periods, comp_dir, checks, switch_figures)
         check_offsets(header, periods, comp_dir, checks)
         g_after = largest_g_um(after)
+        traced = (len(after.get("runs", [])), len(before.get("runs", [])))
+        say(f"{elapsed()} after: {traced[0]} of the test's runs traced (before: {traced[1]})")
+        checks.append(("after: every run of the test traced", traced[0] == traced[1] and traced[0] > 0))
         say(f"{elapsed()} the emulator {daemon.follower_status()}")
     finally:
         daemon.stop()
@@ -814,7 +844,7 @@ def run_loop(args, tools, user, work):
     failed = [name for name, ok in checks if not ok]
     for name in failed:
         say(f"CHECK FAILED: {name}")
-    figures = {"g_before_um": g_before, "g_after_um": g_after, "work": work, "checks": dict(checks)}
+    figures = {"g_before_um": g_before, "g_after_um": g_after, "work": work, "checks": dict(checks), **switch_figures}
     if args.json:
         with open(args.json, "w") as f:
             json.dump(figures, f, indent=1)
