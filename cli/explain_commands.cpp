@@ -102,7 +102,7 @@ struct Opts {
   std::string table_out;
   double alpha = 1e-3;
   std::size_t max_effects = models::explain::ExplainOptions{}.max_effects,
-              folds = models::explain::ExplainOptions{}.folds;
+              folds = models::explain::ExplainOptions{}.folds, memory_mb = models::explain::ExplainOptions{}.memory_mb;
   std::uint64_t seeds = 0;
   std::string machine;
   void add(CLI::App& cmd);
@@ -366,6 +366,11 @@ void Opts::add(CLI::App& cmd) {
   cmd.add_option("--alpha", alpha, "family-wise significance of each selection step (default 1e-3)")
       ->check(CLI::Range(1e-12, 0.5));
   cmd.add_option("--max-effects", max_effects, "at most this many findings (default 6)")->check(CLI::Range(1, 20));
+  cmd.add_option("--memory-mb", memory_mb,
+                 "what the analysis may keep for reuse (models, held-out fits), MB (default " +
+                     std::to_string(models::explain::ExplainOptions{}.memory_mb) +
+                     "); less is slower, the results the same (docs/explain.md \"Cost\")")
+      ->check(CLI::Range(0, 65536));
   cmd.add_option("--folds", folds, "blocked cross-validation folds (default 8)")->check(CLI::Range(2, 50));
   cmd.add_flag("--scenarios", scenarios, "run the scenario suite (virtual machine tool) and print its table");
   cmd.add_option("--scenario", only, "with --scenarios: only these (repeatable)");
@@ -546,6 +551,7 @@ void run_explain(const Opts& o, CliContext& ctx) {
   eo.alpha = o.alpha;
   eo.max_effects = o.max_effects;
   eo.folds = o.folds;
+  eo.memory_mb = o.memory_mb;
   if (!o.straightness.empty() && o.model != "flatness")
     throw std::runtime_error("explain: --straightness belongs to --model flatness (Mu Eq. 16)");
   Progress progress("explain", o.quiet || o.json);

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """guideway simulate dbb + guideway identify dbb --json, end to end through files.
 
-usage: dbb_cli_test.py BUILD_DIR SOURCE_DIR
+usage: dbb_cli_test.py BUILD_DIR SOURCE_DIR [PART]
+PART: basic, three_planes or six_effects (ctest runs each as a test of its own); none: all three.
 """
 import json
 import os
@@ -10,46 +11,42 @@ import sys
 import tempfile
 
 
-def main():
-    build, source = sys.argv[1], sys.argv[2]
-    exe = os.path.join(build, "cli", "guideway")
+def basic(exe, source, d):
+    """Three runs of the example machine at two heights identified together; the readable table; a broken file."""
     machine = os.path.join(source, "config", "machine-example.toml")
-    with tempfile.TemporaryDirectory() as d:
-        files = []
-        for i, (r, h, direction) in enumerate([(95, 31.225, "ccw"), (95, 31.225, "cw"), (100, 0, "ccw")]):
-            out = os.path.join(d, f"p{i}.csv")
-            subprocess.run([exe, "simulate", "dbb", "--machine", machine, "--radius-mm", str(r), "--height-mm", str(h),
-                            "--direction", direction, "--seed", str(10 + i), "--out", out], check=True,
-                           stdout=subprocess.DEVNULL)
-            files.append(out)
-        res = subprocess.run([exe, "identify", "dbb", *files, "--json"], check=True, capture_output=True, text=True)
-        j = json.loads(res.stdout)
-        assert j["model"] == "lai3+ballbar", j["model"]
-        assert len(j["runs"]) == 3
-        for key in ("rms_um", "n", "condition_number", "unidentifiable"):
-            assert key in j["fit"], key
-        assert j["fit"]["n"] == 3 * 3601
-        # the example machine: Lai e_x = -center_offset_x = -2 um, backlash 1 and 2 um
-        ex = j["lai3"]["e_x_um"]
-        assert abs(ex["value"] + 2.0) < 5 * ex["u"] + 0.05, ex
-        assert abs(j["lai3"]["backlash_y_um"]["value"] - 2.0) < 0.1, j["lai3"]["backlash_y_um"]
-        assert "c0_plus_d1_rad" in j["fit"]["unidentifiable"]
-        for name, v in j["diagnostics"].items():
-            assert "value" in v and v.get("u", 0) is not None, name
-        # readable table and a clear error for a broken file
-        text = subprocess.run([exe, "identify", "dbb", *files], check=True, capture_output=True, text=True).stdout
-        assert "Lai's third-order model" in text and "not separable by these runs" in text, text
-        # no fit internals (the condition number stays in --json); the standards' test conditions are for people
-        assert "condition number" not in text and "condition_number" not in text, text
-        assert "+/-" not in text and "fit:" not in text, text
-        bad = os.path.join(d, "bad.csv")
-        with open(files[2]) as f, open(bad, "w") as g:
-            g.write(f.read().replace("# direction = ccw", "# direction = cw"))
-        r = subprocess.run([exe, "identify", "dbb", bad], capture_output=True, text=True)
-        assert r.returncode == 1 and "angles run counter-clockwise but the metadata says direction = cw" in r.stderr, r.stderr
-        three_planes(exe, source, d)
-        six_effects(exe, source, d)
-    print("ok")
+    files = []
+    for i, (r, h, direction) in enumerate([(95, 31.225, "ccw"), (95, 31.225, "cw"), (100, 0, "ccw")]):
+        out = os.path.join(d, f"p{i}.csv")
+        subprocess.run([exe, "simulate", "dbb", "--machine", machine, "--radius-mm", str(r), "--height-mm", str(h),
+                        "--direction", direction, "--seed", str(10 + i), "--out", out], check=True,
+                       stdout=subprocess.DEVNULL)
+        files.append(out)
+    res = subprocess.run([exe, "identify", "dbb", *files, "--json"], check=True, capture_output=True, text=True)
+    j = json.loads(res.stdout)
+    assert j["model"] == "lai3+ballbar", j["model"]
+    assert len(j["runs"]) == 3
+    for key in ("rms_um", "n", "condition_number", "unidentifiable"):
+        assert key in j["fit"], key
+    assert j["fit"]["n"] == 3 * 3601
+    # the example machine: Lai e_x = -center_offset_x = -2 um, backlash 1 and 2 um
+    ex = j["lai3"]["e_x_um"]
+    assert abs(ex["value"] + 2.0) < 5 * ex["u"] + 0.05, ex
+    assert abs(j["lai3"]["backlash_y_um"]["value"] - 2.0) < 0.1, j["lai3"]["backlash_y_um"]
+    assert "c0_plus_d1_rad" in j["fit"]["unidentifiable"]
+    for name, v in j["diagnostics"].items():
+        assert "value" in v and v.get("u", 0) is not None, name
+    # readable table and a clear error for a broken file
+    text = subprocess.run([exe, "identify", "dbb", *files], check=True, capture_output=True, text=True).stdout
+    assert "Lai's third-order model" in text and "not separable by these runs" in text, text
+    # no fit internals (the condition number stays in --json); the standards' test conditions are for people
+    assert "condition number" not in text and "condition_number" not in text, text
+    assert "+/-" not in text and "fit:" not in text, text
+    bad = os.path.join(d, "bad.csv")
+    with open(files[2]) as f, open(bad, "w") as g:
+        g.write(f.read().replace("# direction = ccw", "# direction = cw"))
+    r = subprocess.run([exe, "identify", "dbb", bad], capture_output=True, text=True)
+    assert r.returncode == 1 and "angles run counter-clockwise but the metadata says direction = cw" in r.stderr, r.stderr
+
 
 
 def six_effects(exe, source, d):
@@ -167,6 +164,19 @@ def compensate_three_planes(exe, machine, files, d):
     # The file's 20 ppm less the servo lag's radial shrink, (v tau)^2 / (2 r^2): 30 ms at 1000 mm/min, r 100 mm.
     lag_ppm = -((1000 / 60 * 0.030) ** 2) / (2 * 100**2) * 1e6
     assert abs(scale_ppm - (20 + lag_ppm)) < 4 * s["u"], (scale_ppm, lag_ppm, s)
+
+
+PARTS = {"basic": basic, "three_planes": three_planes, "six_effects": six_effects}
+
+
+def main():
+    build, source = sys.argv[1], sys.argv[2]
+    parts = sys.argv[3:] or list(PARTS)
+    exe = os.path.join(build, "cli", "guideway")
+    for part in parts:
+        with tempfile.TemporaryDirectory() as d:
+            PARTS[part](exe, source, d)
+    print("ok")
 
 
 if __name__ == "__main__":

@@ -77,7 +77,7 @@ std::set<std::string> reported_names(const models::explain::Candidate& c, std::s
     names.insert(v.block.names.begin(), v.block.names.end());
     for (const auto& f : v.fixed) names.insert(f.name);
     if (v.report) {
-      const auto q = v.block.columns.cols();
+      const auto q = static_cast<Eigen::Index>(v.block.names.size());
       for (const auto& p : v.report(Eigen::VectorXd::Ones(q), Eigen::MatrixXd::Identity(q, q))) names.insert(p.name);
     }
   }

@@ -9,7 +9,7 @@ add_test(NAME explain_cli_test
 set_tests_properties(explain_cli_test PROPERTIES LABELS integration TIMEOUT 300)
 # The whole suite at the instrument's full sample density over seeds 1-5, as for docs/explain.md's table.
 add_test(NAME explain_scenarios_full COMMAND $<TARGET_FILE:guideway> explain --scenarios --full --seeds 5)
-set_tests_properties(explain_scenarios_full PROPERTIES LABELS slow TIMEOUT 1200)
+set_tests_properties(explain_scenarios_full PROPERTIES LABELS slow TIMEOUT 1200 COST 800)
 # The flatness front end with Mu Eq. 16's measured straightness and the abbe_offset term.
 guideway_add_test(explain_profile_test SOURCES explain_profile_test.cpp LIBS guideway_explain_model guideway_machine LABELS unit)
 # The effect library: one file per effect, each candidate of the front ends a library effect with its names

@@ -78,10 +78,15 @@ std::vector<double> drive_delays_s(const std::vector<formats::DbbRun>& runs) {
   return {0.0, 5e-3, 10e-3, 15e-3, 20e-3, 25e-3, 30e-3, 40e-3, 50e-3, 60e-3, 80e-3, 100e-3};
 }
 
-void add_drive_sample(DriveTrack& t, const SampleGeometry& p) {
-  const double z = p.zeta_rad - p.dir * p.omega_rad_per_s * t.delay_s;
+std::array<double, 2> drive_position(const SampleGeometry& p, double delay_s) {
+  const double z = p.zeta_rad - p.dir * p.omega_rad_per_s * delay_s;
   double s = 0, c = 0;
   fast_sincos(z, s, c);
+  return {p.center_a_m + p.radius_m * c, p.center_b_m + p.radius_m * s};
+}
+
+void add_drive_sample(DriveTrack& t, const SampleGeometry& p) {
+  const double z = p.zeta_rad - p.dir * p.omega_rad_per_s * t.delay_s;
   const auto rise = [&](double phase) {
     return rise_since_reversal_m(p.radius_m, angle_since_reversal_rad(z, phase, p.dir));
   };
@@ -89,10 +94,8 @@ void add_drive_sample(DriveTrack& t, const SampleGeometry& p) {
   // centre, whichever way the circle is traced: so -1 after an even k. Exactly at a reversal that is the
   // direction it is about to take, and its rise is 0: the deadband then holds it on the approach's side.
   const auto direction = [&](double phase) {
-    return std::fmod(std::abs(last_reversal(z, phase, p.dir)), 2.0) == 1.0 ? 1.0 : -1.0;
+    return static_cast<std::int8_t>(std::fmod(std::abs(last_reversal(z, phase, p.dir)), 2.0) == 1.0 ? 1 : -1);
   };
-  t.pos_a.push_back(p.center_a_m + p.radius_m * c);
-  t.pos_b.push_back(p.center_b_m + p.radius_m * s);
   t.vel_a.push_back(direction(0.0));
   t.vel_b.push_back(direction(pi / 2));
   t.rise_a.push_back(rise(0.0));

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -74,17 +75,19 @@ inline double deadband_lost_motion(double velocity_sign, double rise_m, double b
 }
 
 // ---- The drives' motion ----
-// The drives' motion on the circle when they follow the command `delay_s` late, per sample: their
-// positions, the direction each moves in since its last reversal and how far it has moved from that
-// extreme. Computed once per identification or explanation for every delay searched (the deadband and the
-// cyclic error live on the drives' positions).
+// The drives' motion on the circle when they follow the command `delay_s` late, per sample: the direction each
+// moves in since its last reversal and how far it has moved from that extreme. Computed once per identification
+// or explanation for every delay searched (the deadband lives on it); their positions (a cyclic error's) are
+// drive_position()'s.
 struct DriveTrack {
   double delay_s = 0;
-  std::vector<double> pos_a, pos_b;    // m
-  std::vector<double> vel_a, vel_b;    // -1 / +1: the direction since the last reversal (at a reversal: the
-                                       // one it is about to take, so the deadband's lag is the approach's)
-  std::vector<double> rise_a, rise_b;  // r (1 - cos phi), phi the angle past the axis's last reversal (m)
+  std::vector<std::int8_t> vel_a, vel_b;  // -1 / +1: the direction since the last reversal (at a reversal: the
+                                          // one it is about to take, so the deadband's lag is the approach's)
+  std::vector<double> rise_a, rise_b;     // r (1 - cos phi), phi the angle past the axis's last reversal (m)
 };
+
+// The drives' position (m, machine coordinates, {a, b}) at sample g when they follow the command delay_s late.
+std::array<double, 2> drive_position(const SampleGeometry& g, double delay_s);
 
 // The delays (s) by which the drives may follow the commanded angle of the runs: none when every run's
 // angles were read from the axis encoders (metadata angle_source = encoders, as a live session writes),
@@ -99,9 +102,13 @@ void add_drive_sample(DriveTrack& track, const SampleGeometry& g);
 template <class Geometry>
 std::vector<DriveTrack> drive_tracks(const std::vector<Geometry>& g, const std::vector<double>& delays) {
   std::vector<DriveTrack> out;
+  out.reserve(delays.size());
   for (const double d : delays) {
     DriveTrack& t = out.emplace_back();
     t.delay_s = d;
+    // Sized once: a track per delay of every sample is the largest thing a DBB problem holds.
+    for (auto* v : {&t.vel_a, &t.vel_b}) v->reserve(g.size());
+    for (auto* v : {&t.rise_a, &t.rise_b}) v->reserve(g.size());
     for (const SampleGeometry& p : g) add_drive_sample(t, p);
   }
   return out;
@@ -111,7 +118,7 @@ std::vector<DriveTrack> drive_tracks(const std::vector<Geometry>& g, const std::
 // sample i of the track.
 inline std::array<double, 2> lost_motion(const DriveTrack& track, std::size_t i, double b_a, double b_b) {
   return {deadband_lost_motion(track.vel_a[i], track.rise_a[i], b_a),
-          deadband_lost_motion(track.vel_b[i], track.rise_b[i], b_b)};
+          deadband_lost_motion(track.vel_b[i], track.rise_b[i], b_b)};  // -1 / +1 exactly as doubles
 }
 
 }  // namespace guideway::models::dbb

@@ -51,6 +51,9 @@ std::vector<Geo> geometry(const std::vector<formats::DbbRun>& runs, bool machine
     for (const auto& run : runs) origin_s = std::min(origin_s, start_time_of(run));
   }
   std::vector<Geo> g;
+  std::size_t samples = 0;
+  for (const auto& run : runs) samples += run.angle_rad.size();
+  g.reserve(samples);  // grown by doubling, the copy and the old block would both be live: 1.5 x its size at peak
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const formats::DbbRun& run = runs[k];
     formats::validate_dbb_run(run);
@@ -110,9 +113,10 @@ void check_runs(const std::vector<formats::DbbRun>& runs) {
 // `reading_um`: the reading the model predicts per sample (the sensor's operating point; taking the
 // measured value would let a candidate fit the very effects in it). `base`, `y_um`: the base refitted and
 // what it explains, null for a given simulation.
-Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::vector<Geo>& g, bool machine_time,
-                         const std::vector<double>& reading_um, const Block* base = nullptr,
-                         const Eigen::VectorXd* y_um = nullptr) {
+Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::shared_ptr<const std::vector<Geo>>& geo,
+                         bool machine_time, const std::vector<double>& reading_um,
+                         std::shared_ptr<const BasePredictions> base = nullptr) {
+  const std::vector<Geo>& g = *geo;
   Problem p;
   p.model = "dbb";
   p.domain = "angle_deg";
@@ -130,9 +134,14 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::ve
     if (deg < 0) deg += 360;
     p.samples.push_back({q.run, q.dL_um, deg, q.t_s});
   }
-  const effects::DbbTerms terms{
-      g,    runs, machine_time, reading_um, effects::drive_tracks(g, dbb::drive_delays_s(runs)), runs.front().plane,
-      base, y_um};
+  const effects::DbbTerms terms{g,
+                                geo,
+                                runs,
+                                machine_time,
+                                reading_um,
+                                effects::drive_tracks(g, dbb::drive_delays_s(runs)),
+                                runs.front().plane,
+                                std::move(base)};
   p.candidates = effects::dbb_candidates(terms);
   if (!machine_time && runs.size() > 1) {
     p.notes.push_back(
@@ -154,7 +163,8 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::ve
 Problem dbb_problem(const std::vector<formats::DbbRun>& runs) {
   check_runs(runs);
   const bool machine_time = all_have_start_time(runs);
-  const auto g = geometry(runs, machine_time);
+  const auto geo = std::make_shared<const std::vector<Geo>>(geometry(runs, machine_time));
+  const std::vector<Geo>& g = *geo;
   Block base = lai_base(g);
   Eigen::VectorXd y(static_cast<Eigen::Index>(g.size()));
   for (std::size_t i = 0; i < g.size(); ++i) y[static_cast<Eigen::Index>(i)] = g[i].dL_um;
@@ -163,7 +173,7 @@ Problem dbb_problem(const std::vector<formats::DbbRun>& runs) {
   std::vector<double> reading(g.size());
   for (std::size_t i = 0; i < g.size(); ++i)
     reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
-  Problem p = assemble_problem(runs, g, machine_time, reading, &base, &y);
+  Problem p = assemble_problem(runs, geo, machine_time, reading, std::make_shared<const BasePredictions>(base, y));
   // The yardstick of the contributions, as a ballbar's software ranks errors: the largest circular
   // deviation G of a run (ISO 230-4: the range of the reading about the run's least-squares circle), and
   // a finding's part of it the same range of its fitted term.
@@ -199,10 +209,10 @@ Problem dbb_compare_problem(const formats::DbbRun& simulated, const formats::Dbb
   for (std::size_t i = 0; i < diff.dL_m.size(); ++i) diff.dL_m[i] -= simulated.dL_m[i];
   const std::vector<formats::DbbRun> runs{diff};
   const bool machine_time = all_have_start_time(runs);
-  const auto g = geometry(runs, machine_time);
+  const auto geo = std::make_shared<const std::vector<Geo>>(geometry(runs, machine_time));
   std::vector<double> reading(simulated.dL_m.size());
   for (std::size_t i = 0; i < reading.size(); ++i) reading[i] = simulated.dL_m[i] * 1e6;
-  Problem p = assemble_problem(runs, g, machine_time, reading);
+  Problem p = assemble_problem(runs, geo, machine_time, reading);
   p.model = "dbb (simulated vs measured)";
   p.notes.push_back("no base refit: the residual is " + measured.source + " - " + simulated.source);
   return p;

@@ -60,6 +60,23 @@ Report with_places_set_aside(const Problem& problem, const Report& first, Report
   return out;
 }
 
+// Whether explain() would set aside places of a pass's residual (in the samples of the pass's problem, `index` the
+// whole problem's index of each) on top of `keep`: within max_set_aside of the samples, no run left too short.
+engine::SetAsideCheck settable(const Problem& problem, const ExplainOptions& options, std::vector<Eigen::Index> index,
+                               std::vector<bool> keep) {
+  return [&problem, &options, index = std::move(index), keep = std::move(keep)](const std::vector<Location>& places) {
+    std::vector<Location> whole = places;
+    for (Location& l : whole) {
+      l.first_sample = static_cast<std::size_t>(index[l.first_sample]);
+      l.end_sample = static_cast<std::size_t>(index[l.end_sample - 1]) + 1;
+    }
+    std::vector<bool> trial = keep;
+    const std::size_t count = engine::set_aside(problem, whole, trial);
+    return !(static_cast<double>(count) > options.max_set_aside * static_cast<double>(keep.size())) &&
+           engine::starved_run(problem, trial).empty();
+  };
+}
+
 }  // namespace
 
 // When the residual left is structured at a few places no effect explains, the findings of the first
@@ -67,18 +84,20 @@ Report with_places_set_aside(const Problem& problem, const Report& first, Report
 // left without it, and the unexplained place is part of that structure). The places are set aside and the
 // effects sought again in the rest: what is found there is reported with the places, `unexplained`.
 Report explain(const Problem& problem, const ExplainOptions& options) {
-  Pass first = explain_once(problem, options);
   const std::size_t n = problem.samples.size();
   std::vector<Eigen::Index> index(n);
   for (std::size_t i = 0; i < n; ++i) index[i] = static_cast<Eigen::Index>(i);
   std::vector<bool> keep(n, true);
+  constexpr int rounds = 3;
+  Pass first =
+      explain_once(problem, options, options.max_set_aside > 0 ? settable(problem, options, index, keep) : nullptr);
   std::vector<Location> aside;
   std::vector<OffsetAfter> after;  // per place set aside: its run, the first sample after it
   std::optional<Pass> later;
   std::string starved;  // why the places were not set aside (a run would become too short to test)
   // Every place of a residual structured locally; of the probe (Pass::probe) only the strongest a round:
   // its other places may be the partial fits' leftovers, which the effects found without it explain.
-  for (int round = 0; round < 3 && options.max_set_aside > 0; ++round) {
+  for (int round = 0; round < rounds && options.max_set_aside > 0; ++round) {
     const Pass& cur = later ? *later : first;
     if (!cur.report.unexplained) break;
     bool from_probe = false;
@@ -98,11 +117,12 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     }
     auto trial_after = after;
     for (const auto& l : places) trial_after.push_back(engine::offset_after(problem, l, trial));
-    Reduced reduced = engine::without_samples(problem, trial, trial_after, options.keep_columns);
+    Reduced reduced = engine::without_samples(problem, trial, trial_after);
     if (options.on_progress)
       options.on_progress("pass " + std::to_string(round + 2) + ", " + std::to_string(aside.size() + places.size()) +
                           " places set aside");
-    Pass next = explain_once(reduced.problem, options);
+    Pass next = explain_once(reduced.problem, options,
+                             round + 1 < rounds ? settable(problem, options, reduced.kept, trial) : nullptr);
     keep = std::move(trial);
     after = std::move(trial_after);
     index = std::move(reduced.kept);
@@ -116,6 +136,24 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
   }
   engine::release_explained(problem, options, first.report.noise_um, aside, keep, after, *later);
   return with_places_set_aside(problem, first.report, std::move(later->report), std::move(aside), keep);
+}
+
+Eigen::Index width(const Variant& v) {
+  return v.fill ? static_cast<Eigen::Index>(v.block.names.size()) : v.block.columns.cols();
+}
+
+void write_columns(const Variant& v, Eigen::Ref<Eigen::MatrixXd> out) {
+  if (v.fill)
+    v.fill(out);
+  else
+    out = v.block.columns;
+}
+
+const Eigen::MatrixXd& columns_of(const Variant& v, Eigen::Index rows, Eigen::MatrixXd& scratch) {
+  if (!v.fill) return v.block.columns;
+  scratch.resize(rows, width(v));
+  v.fill(scratch);
+  return scratch;
 }
 
 std::vector<Eigen::Index> rows_in_use(const std::vector<bool>& use) {
@@ -147,20 +185,38 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
   return v;
 }
 
+std::shared_ptr<const Eigen::VectorXd> BasePredictions::of(const std::vector<bool>& use) const {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [mask, predicted] : recent_)
+      if (mask == use) return predicted;
+  }
+  auto predicted = std::make_shared<const Eigen::VectorXd>(base_prediction(base_, y_, use));
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (recent_.size() >= kept) recent_.erase(recent_.begin());
+  recent_.emplace_back(use, predicted);
+  return predicted;
+}
+
 std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> sensor_nonlinearity_generator(
     const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um) {
-  if (static_cast<std::size_t>(base.columns.rows()) != static_cast<std::size_t>(y_um.size()) ||
-      (!offset_um.empty() && offset_um.size() != static_cast<std::size_t>(y_um.size())))
+  if (static_cast<std::size_t>(base.columns.rows()) != static_cast<std::size_t>(y_um.size()))
     throw std::invalid_argument("explain: sensor_nonlinearity: base, samples and offsets differ in length");
-  auto data =
-      std::make_shared<const std::tuple<Block, Eigen::VectorXd, std::vector<double>>>(base, y_um, std::move(offset_um));
-  return [data](const Eigen::VectorXd&, const std::vector<bool>& use) {
-    const auto& [b, y, offset] = *data;
-    if (use.size() != static_cast<std::size_t>(y.size()))
+  return sensor_nonlinearity_generator(std::make_shared<const BasePredictions>(base, y_um), std::move(offset_um));
+}
+
+std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> sensor_nonlinearity_generator(
+    std::shared_ptr<const BasePredictions> base, std::vector<double> offset_um) {
+  if (!offset_um.empty() && offset_um.size() != static_cast<std::size_t>(base->rows()))
+    throw std::invalid_argument("explain: sensor_nonlinearity: base, samples and offsets differ in length");
+  return [base, offset = std::move(offset_um)](const Eigen::VectorXd&, const std::vector<bool>& use) {
+    const Eigen::VectorXd& y = base->y();
+    if (use.size() != static_cast<std::size_t>(base->rows()))
       throw std::invalid_argument("explain: sensor_nonlinearity: the row mask and the samples differ in length");
-    const Eigen::VectorXd predicted = base_prediction(b, y, use);
+    const auto shared = base->of(use);
+    const Eigen::VectorXd& predicted = *shared;
     if (predicted.size() == 0) return std::vector<Variant>{};
-    std::vector<double> reading(static_cast<std::size_t>(y.size()));
+    std::vector<double> reading(use.size());
     for (std::size_t i = 0; i < reading.size(); ++i) {
       const auto r = static_cast<Eigen::Index>(i);
       reading[i] = (use[i] ? y[r] - (y[r] - predicted[r]) : predicted[r]) + (offset.empty() ? 0.0 : offset[i]);

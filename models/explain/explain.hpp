@@ -15,6 +15,8 @@
 #include <cstddef>
 #include <functional>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -52,6 +54,11 @@ struct Block {
 // searched on a grid, each grid point a variant.
 struct Variant {
   Block block;
+  // Columns made on demand, set instead of block.columns (which is then empty): writes the block's columns, one
+  // row per sample of the problem, into `out` (sized for them). For what a generator offers many of and is cheap
+  // to make again (a sinusoid of a position or of time, a deadband's response): none of them is held, the engine
+  // makes each where it uses it. The same columns every call.
+  std::function<void(Eigen::Ref<Eigen::MatrixXd> out)> fill;
   std::vector<ParamValue> fixed;  // the searched values, reported with u = NaN
   std::size_t searched = 0;       // nonlinear parameters searched (counted in the BIC)
   // A candidate is taken at most once, unless its variants name groups: then once per group (a cyclic
@@ -59,11 +66,15 @@ struct Variant {
   std::string group;
   // Reported parameters from the block's coefficients and their covariance; empty = the coefficients.
   std::function<std::vector<ParamValue>(const Eigen::VectorXd&, const Eigen::MatrixXd&)> report;
-  // Set by the engine, not by a front end: when it has set samples aside (docs/explain.md step 5) and
-  // ExplainOptions::keep_columns asks for the findings' columns, the block over every sample of the problem
-  // given to explain() (block.columns then holds the samples kept only). Empty otherwise.
-  Eigen::MatrixXd columns_all_samples;
+  // Set by the engine, not by a front end: when it has set samples aside (docs/explain.md step 5), the block over
+  // every sample of the problem given to explain() (the block then holds the samples kept only). Empty otherwise.
+  std::function<Eigen::MatrixXd()> all_samples;
 };
+// A variant's number of columns; its columns written into `out` (one row per sample, width(v) columns); and
+// its columns themselves, its block's or made into `scratch`.
+Eigen::Index width(const Variant& v);
+void write_columns(const Variant& v, Eigen::Ref<Eigen::MatrixXd> out);
+const Eigen::MatrixXd& columns_of(const Variant& v, Eigen::Index rows, Eigen::MatrixXd& scratch);
 
 struct Candidate {
   std::string effect;  // a name of effect_library()
@@ -101,18 +112,31 @@ struct Problem {
 // Helpers for the model front ends (dbb_explain, profile_explain).
 // A variant whose block has one row per point, filled by row(point, out) into zeroed storage.
 template <class Point, class RowFn>
-Variant make_variant(const std::vector<Point>& points, std::vector<std::string> names, const RowFn& row) {
-  Variant v;
-  v.block.names = std::move(names);
-  const auto q = static_cast<Eigen::Index>(v.block.names.size());
-  v.block.columns.resize(static_cast<Eigen::Index>(points.size()), q);
+void fill_rows(const std::vector<Point>& points, const RowFn& row, Eigen::Ref<Eigen::MatrixXd> out) {
+  const Eigen::Index q = out.cols();
   std::vector<double> buf(static_cast<std::size_t>(q));
   for (std::size_t i = 0; i < points.size(); ++i) {
     std::fill(buf.begin(), buf.end(), 0.0);
     row(points[i], buf.data());
-    for (Eigen::Index k = 0; k < q; ++k)
-      v.block.columns(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
+    for (Eigen::Index k = 0; k < q; ++k) out(static_cast<Eigen::Index>(i), k) = buf[static_cast<std::size_t>(k)];
   }
+}
+template <class Point, class RowFn>
+Variant make_variant(const std::vector<Point>& points, std::vector<std::string> names, const RowFn& row) {
+  Variant v;
+  v.block.names = std::move(names);
+  v.block.columns.resize(static_cast<Eigen::Index>(points.size()), static_cast<Eigen::Index>(v.block.names.size()));
+  fill_rows(points, row, v.block.columns);
+  return v;
+}
+// The same made on demand (Variant::fill): the points shared, the row function kept.
+template <class Point, class RowFn>
+Variant make_lazy_variant(std::shared_ptr<const std::vector<Point>> points, std::vector<std::string> names, RowFn row) {
+  Variant v;
+  v.block.names = std::move(names);
+  v.fill = [points = std::move(points), row = std::move(row)](Eigen::Ref<Eigen::MatrixXd> out) {
+    fill_rows(*points, row, out);
+  };
   return v;
 }
 // Amplitude and phase (deg) of A sin(theta + phi) = (A cos phi) sin theta + (A sin phi) cos theta from the
@@ -126,6 +150,25 @@ std::vector<Eigen::Index> rows_in_use(const std::vector<bool>& use);
 // what is built from it); empty when the fit fails.
 Eigen::VectorXd base_prediction(const Block& base, const Eigen::VectorXd& y_um, const std::vector<bool>& use);
 
+// base_prediction of one base and what it explains, kept for the last few masks asked for: the generators of a
+// problem that read the base's prediction (servo_lag, sensor_nonlinearity) are given the same masks -- every row,
+// each fold's training rows -- again and again. Thread safe.
+class BasePredictions {
+ public:
+  BasePredictions(Block base, Eigen::VectorXd y_um) : base_(std::move(base)), y_(std::move(y_um)) {}
+  // Empty when the fit fails.
+  [[nodiscard]] std::shared_ptr<const Eigen::VectorXd> of(const std::vector<bool>& use) const;
+  [[nodiscard]] Eigen::Index rows() const { return y_.size(); }
+  [[nodiscard]] const Eigen::VectorXd& y() const { return y_; }
+
+ private:
+  static constexpr std::size_t kept = 10;  // masks: every row and 8 folds, and one more
+  Block base_;
+  Eigen::VectorXd y_;
+  mutable std::mutex mutex_;
+  mutable std::vector<std::pair<std::vector<bool>, std::shared_ptr<const Eigen::VectorXd>>> recent_;  // latest last
+};
+
 // sensor_nonlinearity's block: (reading - mean)^2 and (reading - mean)^3 per sample, the reading being
 // the sensor's operating point.
 Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um);
@@ -134,6 +177,9 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um);
 // columns. With every row in use it equals sensor_nonlinearity_variant(y - base fit residual + offset).
 std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> sensor_nonlinearity_generator(
     const Block& base, const Eigen::VectorXd& y_um, std::vector<double> offset_um);
+// The same from predictions shared with the problem's other generators.
+std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> sensor_nonlinearity_generator(
+    std::shared_ptr<const BasePredictions> base, std::vector<double> offset_um);
 Report explain(const Problem& problem, const ExplainOptions& options = {});
 
 }  // namespace guideway::models::explain

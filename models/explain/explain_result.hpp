@@ -35,6 +35,10 @@ struct ExplainOptions {
   // those places are set aside and the effects sought again in the rest, up to this share of the samples
   // (0: never).
   double max_set_aside = 0.3;
+  // What the engine's caches may hold (MB): models and held-out fits kept for reuse. Beyond it they are
+  // dropped and made again when needed (slower, the same results). 16: a fault beside backlash at 2 x 18,859
+  // samples costs the same CPU as with 64, within the noise, and peaks 28 MB lower (bench/README.md).
+  std::size_t memory_mb = 16;
   // What the engine is doing, at its steps (a candidate tried, a pass with places set aside), e.g. "looking
   // for effect 2: trying backlash (3 of 14)"; for a command's progress line. Empty: not called.
   std::function<void(const std::string&)> on_progress;

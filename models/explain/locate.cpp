@@ -496,7 +496,9 @@ void time_trend(const Problem& problem, const Eigen::VectorXd& residual_um,
     if (!(stt > 0)) continue;
     const double slope = sty / stt;
     const double z = slope / (sigma / std::sqrt(stt));
-    if (std::abs(z) > std::abs(best_z)) {
+    // Runs that trend alike (a drift seen in a forward and a return pass, or by two profiles) are a tie the later
+    // run wins: which is larger in their last digits is rounding's, not the data's.
+    if (std::abs(z) >= std::abs(best_z) * (1 - 1e-9)) {
       best_z = z;
       best_slope = slope;
       best_run = problem.runs[k].label;

@@ -19,15 +19,40 @@ namespace {
 // not depend on the residual.
 struct Shapes {
   std::vector<double> lambda, c, s;
-  Variant step;
+  Eigen::MatrixXd step;  // n x 2
 };
+
+// The deadband response of widths b (m) on drive track `track` over every sample, made on demand (its lost
+// motion per sample is cheaper to make again than to keep: the generator offers one per delay in every fold).
+Variant response_variant(const std::shared_ptr<const Shapes>& sh, const std::vector<std::string>& names,
+                         const std::shared_ptr<const std::vector<dbb::DriveTrack>>& tracks, std::size_t track,
+                         std::array<double, 2> b) {
+  Variant v;
+  v.block.names = names;
+  v.fill = [sh, tracks, track, b](Eigen::Ref<Eigen::MatrixXd> out) {
+    const dbb::DriveTrack& t = (*tracks)[track];
+    for (std::size_t i = 0; i < sh->lambda.size(); ++i) {
+      const auto m = dbb::lost_motion(t, i, b[0], b[1]);
+      out(static_cast<Eigen::Index>(i), 0) = sh->lambda[i] * m[0] * sh->c[i];
+      out(static_cast<Eigen::Index>(i), 1) = sh->lambda[i] * m[1] * sh->s[i];
+    }
+  };
+  if (tracks->size() > 1) {
+    v.fixed.push_back({results::name(results::backlash_delay), (*tracks)[track].delay_s * 1e3,
+                       std::numeric_limits<double>::quiet_NaN()});
+    v.searched = 1;
+  }
+  return v;
+}
 
 // The step and deadband variants from the current residual `r` (rows `use`): the ideal step, then for each
 // drive delay the deadband response at the width the step suggests, refined once by a fit of the response.
-std::vector<Variant> backlash_variants(const Shapes& sh, const std::vector<std::string>& names,
-                                       const std::vector<dbb::DriveTrack>& tracks, const Eigen::VectorXd& r,
-                                       const std::vector<bool>& use) {
-  std::vector<Variant> vs{sh.step};
+std::vector<Variant> backlash_variants(const std::shared_ptr<const Shapes>& sh, const std::vector<std::string>& names,
+                                       const std::shared_ptr<const std::vector<dbb::DriveTrack>>& tracks,
+                                       const Eigen::VectorXd& r, const std::vector<bool>& use) {
+  std::vector<Variant> vs(1);
+  vs[0].block.names = names;
+  vs[0].fill = [sh](Eigen::Ref<Eigen::MatrixXd> out) { out = sh->step; };
   // Sizes from the rows in use only (a held-out row's zero residual would shrink them).
   const std::vector<Eigen::Index> rows = rows_in_use(use);
   const Eigen::VectorXd rr = r(rows);
@@ -35,38 +60,24 @@ std::vector<Variant> backlash_variants(const Shapes& sh, const std::vector<std::
     const Eigen::Vector2d b = x.colPivHouseholderQr().solve(rr);
     return std::array<double, 2>{std::max(0.0, b[0]) * 1e-6, std::max(0.0, b[1]) * 1e-6};
   };
-  // The deadband response's columns at the samples `at`.
-  const auto response_at = [&](std::array<double, 2> b, const dbb::DriveTrack& track,
-                               const std::vector<Eigen::Index>& at) {
-    Eigen::MatrixXd x(static_cast<Eigen::Index>(at.size()), 2);
-    for (std::size_t k = 0; k < at.size(); ++k) {
-      const auto i = static_cast<std::size_t>(at[k]);
+  // The deadband response's columns at the rows in use.
+  const auto response_on_rows = [&](std::array<double, 2> b, const dbb::DriveTrack& track) {
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), 2);
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      const auto i = static_cast<std::size_t>(rows[k]);
       const auto m = dbb::lost_motion(track, i, b[0], b[1]);
-      x(static_cast<Eigen::Index>(k), 0) = sh.lambda[i] * m[0] * sh.c[i];
-      x(static_cast<Eigen::Index>(k), 1) = sh.lambda[i] * m[1] * sh.s[i];
+      x(static_cast<Eigen::Index>(k), 0) = sh->lambda[i] * m[0] * sh->c[i];
+      x(static_cast<Eigen::Index>(k), 1) = sh->lambda[i] * m[1] * sh->s[i];
     }
     return x;
   };
-  std::vector<Eigen::Index> every(sh.lambda.size());
-  for (std::size_t i = 0; i < every.size(); ++i) every[i] = static_cast<Eigen::Index>(i);
-  const auto response = [&](std::array<double, 2> b, const dbb::DriveTrack& track) {
-    Variant v;
-    v.block.names = names;
-    v.block.columns = response_at(b, track, every);
-    if (tracks.size() > 1) {
-      v.fixed.push_back(
-          {results::name(results::backlash_delay), track.delay_s * 1e3, std::numeric_limits<double>::quiet_NaN()});
-      v.searched = 1;
-    }
-    return v;
-  };
-  const auto step = sizes(sh.step.block.columns(rows, Eigen::all));
+  const auto step = sizes(sh->step(rows, Eigen::all));
   if (step[0] > 0 || step[1] > 0) {
-    for (const dbb::DriveTrack& track : tracks) {
+    for (std::size_t k = 0; k < tracks->size(); ++k) {
       // The width the step suggests, then once more from a fit of the response at that width: the first
       // response is needed on the rows in use only.
-      const auto refined = sizes(response_at(step, track, rows));
-      vs.push_back(response(refined[0] > 0 || refined[1] > 0 ? refined : step, track));
+      const auto refined = sizes(response_on_rows(step, (*tracks)[k]));
+      vs.push_back(response_variant(sh, names, tracks, k, refined[0] > 0 || refined[1] > 0 ? refined : step));
     }
   }
   return vs;
@@ -85,13 +96,13 @@ bool backlash_dbb_term(const DbbTerms& t, Candidate& c) {
     shapes->s.push_back(p.s);
   }
   shapes->step = make_variant(t.g, names, [](const Geo& p, double* o) {
-    o[0] = -p.lambda * 0.5 * p.sgn_a * p.c;
-    o[1] = -p.lambda * 0.5 * p.sgn_b * p.s;
-  });
+                   o[0] = -p.lambda * 0.5 * p.sgn_a * p.c;
+                   o[1] = -p.lambda * 0.5 * p.sgn_b * p.s;
+                 }).block.columns;
   const auto tracks = t.tracks;
   c.generate = [shapes = std::shared_ptr<const Shapes>(std::move(shapes)), names, tracks](
                    const Eigen::VectorXd& r, const std::vector<bool>& use) {
-    return backlash_variants(*shapes, names, *tracks, r, use);
+    return backlash_variants(shapes, names, tracks, r, use);
   };
   c.search_size = 1 + tracks->size();
   return true;

@@ -2,8 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
-#include <mutex>
+#include <memory>
 #include <numbers>
 
 #include <Eigen/Cholesky>
@@ -24,26 +23,48 @@ constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double dbb_periods_mm[] = {1.0,  2.0,  2.5,  3.0,  4.0,  5.0,  6.0,  8.0, 10.0,
                                      12.0, 12.5, 15.0, 16.0, 20.0, 25.0, 32.0, 40.0};
 
-// Along plane axis `axis` with period p_mm, on the positions of drive track `track`.
-Variant dbb_variant(const std::vector<Geo>& gg, const std::string& plane, int axis, double p_mm,
-                    const dbb::DriveTrack& track, bool delay_searched) {
+// What the period search and the variants read, per sample: sin and cos of the commanded angle, and the projection
+// of each axis on the bar.
+struct Undelayed {
+  std::vector<double> sz, cz, proj_a, proj_b;
+};
+
+// The drives' position along `axis` at sample i when they follow the command late by an angle whose cos and sin
+// are cos_d, sin_d (dir omega delay, for the sample's run): the commanded angle's sine and cosine turned back by
+// it, a product instead of a sine per sample; at no delay the commanded position itself.
+double delayed_position(const Geo& g, const Undelayed& u, std::size_t i, int axis, double cos_d, double sin_d) {
+  return axis == 0 ? g.center_a_m + g.radius_m * (u.cz[i] * cos_d + u.sz[i] * sin_d)
+                   : g.center_b_m + g.radius_m * (u.sz[i] * cos_d - u.cz[i] * sin_d);
+}
+
+// Along plane axis `axis` with period p_mm, on the drives' positions when they follow the command delay_s late.
+// Made on demand (Variant::fill): a sine and cosine per sample, cheaper to make again than to keep (the generator
+// offers 48 of them in every fold of every held-out test).
+Variant dbb_variant(std::shared_ptr<const std::vector<Geo>> geo, std::shared_ptr<const Undelayed> u,
+                    const std::string& plane, int axis, double p_mm, double delay_s, bool delay_searched) {
   const double k = 2 * pi / (p_mm * 1e-3);
-  const std::vector<double>& pos = axis == 0 ? track.pos_a : track.pos_b;
   Variant v;
   v.block.names = {results::name(results::cyclic_sin_column, plane, axis),
                    results::name(results::cyclic_cos_column, plane, axis)};
-  v.block.columns.resize(static_cast<Eigen::Index>(gg.size()), 2);
-  for (std::size_t i = 0; i < gg.size(); ++i) {
-    double sn = 0, cs = 0;
-    dbb::fast_sincos(k * pos[i], sn, cs);
-    const double proj = gg[i].lambda * (axis == 0 ? gg[i].c : gg[i].s);
-    v.block.columns(static_cast<Eigen::Index>(i), 0) = proj * sn;
-    v.block.columns(static_cast<Eigen::Index>(i), 1) = proj * cs;
-  }
+  v.fill = [geo = std::move(geo), u = std::move(u), axis, k, delay_s](Eigen::Ref<Eigen::MatrixXd> out) {
+    const std::vector<Geo>& gg = *geo;
+    const std::vector<double>& proj = axis == 0 ? u->proj_a : u->proj_b;
+    double cos_d = 1, sin_d = 0;
+    for (std::size_t i = 0; i < gg.size(); ++i) {
+      if (i == 0 || gg[i].run != gg[i - 1].run) {
+        cos_d = std::cos(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
+        sin_d = std::sin(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
+      }
+      double sn = 0, cs = 0;
+      dbb::fast_sincos(k * delayed_position(gg[i], *u, i, axis, cos_d, sin_d), sn, cs);
+      out(static_cast<Eigen::Index>(i), 0) = proj[i] * sn;
+      out(static_cast<Eigen::Index>(i), 1) = proj[i] * cs;
+    }
+  };
   v.fixed.push_back({results::name(results::cyclic_period, plane, axis), p_mm, nan});
   v.searched = 1;
   if (delay_searched) {
-    v.fixed.push_back({results::name(results::cyclic_delay, plane, axis), track.delay_s * 1e3, nan});
+    v.fixed.push_back({results::name(results::cyclic_delay, plane, axis), delay_s * 1e3, nan});
     v.searched = 2;
   }
   v.group = results::axis_letter(plane, axis);
@@ -55,53 +76,30 @@ Variant dbb_variant(const std::vector<Geo>& gg, const std::string& plane, int ax
   return v;
 }
 
-// The delayed variants made so far, by (axis, period, delay): the generator runs in every fold of every
-// held-out test and offers the same few periods again and again, and a variant's columns depend on its
-// period and delay only (a sine and cosine per sample: most of the generator's time). Bounded in memory;
-// beyond the bound a variant is made again when asked for.
-class DelayedVariants {
- public:
-  Variant get(const std::vector<Geo>& gg, const std::string& plane, int axis, std::size_t period,
-              const std::vector<dbb::DriveTrack>& tracks, std::size_t track) {
-    const std::size_t key =
-        (static_cast<std::size_t>(axis) * std::size(dbb_periods_mm) + period) * tracks.size() + track;
-    const std::lock_guard<std::mutex> lock(mutex_);
-    if (const auto it = made_.find(key); it != made_.end()) return it->second;
-    Variant v = dbb_variant(gg, plane, axis, dbb_periods_mm[period], tracks[track], true);
-    const auto bytes = static_cast<std::size_t>(v.block.columns.size()) * sizeof(double);
-    if (bytes_ + bytes <= budget_bytes) {
-      bytes_ += bytes;
-      made_.emplace(key, v);
-    }
-    return v;
-  }
-
- private:
-  static constexpr std::size_t budget_bytes = std::size_t{96} << 20;
-  std::mutex mutex_;
-  std::map<std::size_t, Variant> made_;
-  std::size_t bytes_ = 0;
-};
-
 // Periods and delays: the two periods per axis whose undelayed terms explain most of the residual, each
 // then tried at every delay.
-std::vector<Variant> best_periods_at_every_delay(const std::vector<Geo>& gg, const std::string& plane,
-                                                 const std::vector<dbb::DriveTrack>& tracks,
-                                                 const std::vector<Variant>& undelayed, DelayedVariants& delayed,
-                                                 const Eigen::VectorXd& r, const std::vector<bool>& use) {
+std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std::vector<Geo>>& geo,
+                                                 const std::string& plane, const std::vector<dbb::DriveTrack>& tracks,
+                                                 const std::shared_ptr<const Undelayed>& u, const Eigen::VectorXd& r,
+                                                 const std::vector<bool>& use) {
+  const std::vector<Geo>& gg = *geo;
   const std::vector<Eigen::Index> rows = rows_in_use(use);
   std::vector<Variant> vs;
   const std::size_t per_axis = std::size(dbb_periods_mm);
   for (int axis = 0; axis < 2; ++axis) {
+    const std::vector<double>& proj = axis == 0 ? u->proj_a : u->proj_b;
     std::vector<std::pair<double, std::size_t>> score;  // (-explained, period's index)
     for (std::size_t k = 0; k < per_axis; ++k) {
-      // The 2 x 2 normal equations summed over the rows in use in place (the rows' copy of the columns was
-      // most of the generator's time at large n).
-      const Eigen::MatrixXd& x = undelayed[static_cast<std::size_t>(axis) * per_axis + k].block.columns;
+      // The 2 x 2 normal equations summed over the rows in use, the term's columns made as they are summed.
+      const double kk = 2 * pi / (dbb_periods_mm[k] * 1e-3);
       Eigen::Matrix2d xtx = Eigen::Matrix2d::Zero();
       Eigen::Vector2d xtr = Eigen::Vector2d::Zero();
       for (const Eigen::Index i : rows) {
-        const double s = x(i, 0), c = x(i, 1), ri = r[i];
+        double sn = 0, cs = 0;
+        const auto j = static_cast<std::size_t>(i);
+        dbb::fast_sincos(kk * delayed_position(gg[j], *u, j, axis, 1.0, 0.0), sn, cs);
+        const double s = proj[static_cast<std::size_t>(i)] * sn, c = proj[static_cast<std::size_t>(i)] * cs;
+        const double ri = r[i];
         xtx(0, 0) += s * s;
         xtx(0, 1) += s * c;
         xtx(1, 1) += c * c;
@@ -113,27 +111,34 @@ std::vector<Variant> best_periods_at_every_delay(const std::vector<Geo>& gg, con
     }
     std::sort(score.begin(), score.end());
     for (std::size_t k = 0; k < 2 && k < score.size(); ++k)
-      for (std::size_t track = 0; track < tracks.size(); ++track)
-        vs.push_back(delayed.get(gg, plane, axis, score[k].second, tracks, track));
+      for (const dbb::DriveTrack& track : tracks)
+        vs.push_back(dbb_variant(geo, u, plane, axis, dbb_periods_mm[score[k].second], track.delay_s, true));
   }
   return vs;
 }
 
 bool cyclic_error_dbb_term(const DbbTerms& t, Candidate& c) {
-  std::vector<Variant> undelayed;  // the command's positions (the drives' when read from the encoders)
-  for (int axis = 0; axis < 2; ++axis)
-    for (double p_mm : dbb_periods_mm)
-      undelayed.push_back(dbb_variant(t.g, t.plane, axis, p_mm, t.tracks->front(), false));
+  // The commanded positions (the drives' when read from the encoders): at the first delay, 0.
+  auto u = std::make_shared<Undelayed>();
+  for (const Geo& g : t.g) {
+    double sn = 0, cs = 0;
+    dbb::fast_sincos(g.zeta_rad, sn, cs);
+    u->sz.push_back(sn);
+    u->cz.push_back(cs);
+    u->proj_a.push_back(g.lambda * g.c);
+    u->proj_b.push_back(g.lambda * g.s);
+  }
+  const std::shared_ptr<const Undelayed> shared = std::move(u);
+  const double first_delay = t.tracks->front().delay_s;
   if (t.tracks->size() == 1) {
-    c.variants = std::move(undelayed);
+    for (int axis = 0; axis < 2; ++axis)
+      for (double p_mm : dbb_periods_mm)
+        c.variants.push_back(dbb_variant(t.geo, shared, t.plane, axis, p_mm, first_delay, false));
     return true;
   }
-  const auto geo = std::make_shared<const std::vector<Geo>>(t.g);
-  const auto base = std::make_shared<const std::vector<Variant>>(std::move(undelayed));
-  const auto delayed = std::make_shared<DelayedVariants>();
-  c.generate = [geo, plane = t.plane, tracks = t.tracks, base, delayed](const Eigen::VectorXd& r,
-                                                                        const std::vector<bool>& use) {
-    return best_periods_at_every_delay(*geo, plane, *tracks, *base, *delayed, r, use);
+  c.generate = [geo = t.geo, plane = t.plane, tracks = t.tracks, shared](const Eigen::VectorXd& r,
+                                                                         const std::vector<bool>& use) {
+    return best_periods_at_every_delay(geo, plane, *tracks, shared, r, use);
   };
   c.search_size = 2 * std::size(dbb_periods_mm) * t.tracks->size();
   return true;

@@ -27,15 +27,15 @@ std::shared_ptr<const std::vector<dbb::DriveTrack>> drive_tracks(const std::vect
 
 struct DbbTerms {
   const std::vector<Geo>& g;
+  std::shared_ptr<const std::vector<Geo>> geo;  // g itself, for the generators that keep it
   const std::vector<formats::DbbRun>& runs;
   bool machine_time = false;              // every run has start_time_s: one clock for all runs
   const std::vector<double>& reading_um;  // the reading the model predicts per sample (the sensor's operating point)
   std::shared_ptr<const std::vector<dbb::DriveTrack>> tracks;  // one per delay of dbb::drive_delays_s
   std::string plane;                                           // "xy", "xz", "yz"
-  // The base and what is explained when the base is refitted (null for a given simulation): the terms
-  // built from the base's prediction (servo_lag; sensor_nonlinearity's reading) need them.
-  const Block* base = nullptr;
-  const Eigen::VectorXd* y_um = nullptr;
+  // The base refitted to the rows in use and predicted on every row (null for a given simulation): the terms
+  // built from the base's prediction (servo_lag; sensor_nonlinearity's reading) share it.
+  std::shared_ptr<const BasePredictions> base;
 };
 
 }  // namespace guideway::models::explain::effects

@@ -100,13 +100,14 @@ class StationSpectrum {
   mutable Eigen::FFT<double> fft_;
 };
 
-Variant wave_variant(const std::vector<Tp>& g, double cycles_per_m) {
-  Variant v = make_variant(g, {results::name(results::pitch_wave_sin), results::name(results::pitch_wave_cos)},
-                           [cycles_per_m](const Tp& p, double* o) {
-                             const double th = 2 * pi * cycles_per_m * p.x_m;
-                             o[0] = std::sin(th) * urad_per_arcsec;
-                             o[1] = std::cos(th) * urad_per_arcsec;
-                           });
+Variant wave_variant(std::shared_ptr<const std::vector<Tp>> g, double cycles_per_m) {
+  Variant v =
+      make_lazy_variant(std::move(g), {results::name(results::pitch_wave_sin), results::name(results::pitch_wave_cos)},
+                        [cycles_per_m](const Tp& p, double* o) {
+                          const double th = 2 * pi * cycles_per_m * p.x_m;
+                          o[0] = std::sin(th) * urad_per_arcsec;
+                          o[1] = std::cos(th) * urad_per_arcsec;
+                        });
   v.fixed.push_back(
       {results::name(results::pitch_wave_period), 1e3 / cycles_per_m, std::numeric_limits<double>::quiet_NaN()});
   v.searched = 1;
@@ -139,7 +140,7 @@ bool pitch_wave_traverse_term(const TraverseTerms& t, Candidate& c) {
       if (den < 0) f += grid.step * std::clamp(0.5 * (a - d) / den, -0.5, 0.5);
     }
     std::vector<Variant> out;
-    out.push_back(wave_variant(*g, f));
+    out.push_back(wave_variant(g, f));
     return out;
   };
   return true;

@@ -10,8 +10,8 @@ namespace {
 // The reading is the sensor's operating point: the base's prediction (measuring the reading itself would
 // let the term fit the very effects in it), refitted to the rows in use when the base is.
 bool sensor_nonlinearity_dbb_term(const DbbTerms& t, Candidate& c) {
-  if (t.base != nullptr && t.y_um != nullptr) {
-    c.generate = sensor_nonlinearity_generator(*t.base, *t.y_um, {});
+  if (t.base) {
+    c.generate = sensor_nonlinearity_generator(t.base, {});
   } else {
     c.variants.push_back(sensor_nonlinearity_variant(t.reading_um));
   }

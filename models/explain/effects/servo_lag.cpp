@@ -13,9 +13,10 @@ namespace {
 // The base's prediction seen where the drives were, lag behind the command: -dir omega dy/dzeta per ms of
 // lag (the reading at the drive's angle zeta - dir omega lag, to first order). The base is refitted to the
 // rows in use, so a held-out row's y does not reach the column.
-std::vector<Variant> lag_variant(const Block& base, const Eigen::VectorXd& y, const std::vector<Geo>& gg,
+std::vector<Variant> lag_variant(const BasePredictions& base, const std::vector<Geo>& gg,
                                  const std::vector<bool>& use) {
-  const Eigen::VectorXd predicted = base_prediction(base, y, use);
+  const auto shared = base.of(use);
+  const Eigen::VectorXd& predicted = *shared;
   if (predicted.size() == 0) return {};
   Variant v;
   v.block.names = {results::name(results::servo_lag)};
@@ -34,11 +35,9 @@ std::vector<Variant> lag_variant(const Block& base, const Eigen::VectorXd& y, co
 
 // Only where the angles are the commanded ones (a delay grid is searched) and the base is refitted.
 bool servo_lag_dbb_term(const DbbTerms& t, Candidate& c) {
-  if (t.tracks->size() <= 1 || t.base == nullptr || t.y_um == nullptr) return false;
-  auto data = std::make_shared<const std::pair<Block, Eigen::VectorXd>>(*t.base, *t.y_um);
-  auto geo = std::make_shared<const std::vector<Geo>>(t.g);
-  c.generate = [data, geo](const Eigen::VectorXd&, const std::vector<bool>& use) {
-    return lag_variant(data->first, data->second, *geo, use);
+  if (t.tracks->size() <= 1 || !t.base) return false;
+  c.generate = [base = t.base, geo = t.geo](const Eigen::VectorXd&, const std::vector<bool>& use) {
+    return lag_variant(*base, *geo, use);
   };
   return true;
 }

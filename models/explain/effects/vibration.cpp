@@ -91,8 +91,7 @@ std::vector<ParamValue> line_report(const std::string& along, std::size_t phases
 // the exact periodogram.
 class LineSearch {
  public:
-  LineSearch(const DbbTerms& t, double dt, double t_span)
-      : geo_(std::make_shared<const std::vector<Geo>>(t.g)), dt_(dt), plane_(t.plane) {
+  LineSearch(const DbbTerms& t, double dt, double t_span) : geo_(t.geo), dt_(dt), plane_(t.plane) {
     while (static_cast<double>(fft_size_) < 4.0 * t_span / dt + 1 && fft_size_ < (std::size_t{1} << 20)) fft_size_ *= 2;
     df_ = 1.0 / (static_cast<double>(fft_size_) * dt);
     const double f_lo = 4.0 / t_span, f_hi = 0.4 / dt;
@@ -248,7 +247,7 @@ class LineSearch {
       for (const results::Parameter* column : {&results::vibration_sin, &results::vibration_cos})
         names.push_back(run > 0 ? results::run_suffixed(results::name(*column), run) : results::name(*column));
     }
-    Variant v = make_variant(*geo_, names, [=](const Geo& p, double* o) {
+    Variant v = make_lazy_variant(geo_, names, [=](const Geo& p, double* o) {
       const double proj = which == 0 ? 1.0 : p.lambda * (which == 1 ? p.c : p.s);
       const std::size_t col = phases > 1 ? 2 * p.run : 0;
       double sn = 0, cs = 0;

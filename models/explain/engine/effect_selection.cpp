@@ -25,7 +25,7 @@ EffectSelection::EffectSelection(const Problem& problem, const ExplainOptions& o
       banned_(nc_, false),
       verdict_(nc_) {}
 
-void EffectSelection::run() {
+void EffectSelection::run(const std::function<bool(const Model& base)>& settled) {
   bool changed = true;
   for (std::size_t guard = 0; changed && guard < 4 * nc_ + 4; ++guard) {
     changed = false;
@@ -41,7 +41,9 @@ void EffectSelection::run() {
       refresh();
       prune(accepted);
     }
+    const bool had_terms = !terms_.empty();
     changed = drop_partial_fits() || changed;
+    if (settled && had_terms && terms_.empty() && settled(cur_)) break;
   }
   // The findings in the order taken.
   std::sort(terms_.begin(), terms_.end(), [](const Term& a, const Term& b) { return a.taken < b.taken; });

@@ -4,6 +4,7 @@
 // of the structure left without it; what is dropped is not tried again. Not thread safe: one per pass.
 
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -22,7 +23,9 @@ class EffectSelection {
   EffectSelection(const Problem& problem, const ExplainOptions& options, const Selection& sel, Model base,
                   HeldOut base_heldout, double sigma, double visible_floor);
 
-  void run();
+  // `settled`, when given, is asked whenever the share rule has dropped every effect taken: true ends the
+  // selection there (the base's residual is then what the pass leaves).
+  void run(const std::function<bool(const Model& base)>& settled = {});
 
   [[nodiscard]] const std::vector<Term>& terms() const { return terms_; }
   // The effects held when the share rule first dropped one (partial fits of a cause outside the library

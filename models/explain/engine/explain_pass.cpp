@@ -105,19 +105,21 @@ void add_findings(const Problem& problem, const Selection& sel, const EffectSele
     fd.rms_um_after = std::sqrt(pm.rss / static_cast<double>(n));
     fd.heldout_rms_um_after = k + 1 == terms.size() ? chosen.heldout() : sel.heldout(prefix, none).rms;
     fd.share = share(sel, terms, k, chosen.model(), sigma, visible_floor);
-    set_contribution(problem, ranges, v.block.columns * final_fit.x.segment(offset, v.block.columns.cols()), fd);
+    Eigen::MatrixXd scratch;
+    const Eigen::MatrixXd& columns = columns_of(v, static_cast<Eigen::Index>(n), scratch);
+    set_contribution(problem, ranges, columns * final_fit.x.segment(offset, columns.cols()), fd);
     fd.why = cand.why;
     if (keep_columns) {
       // Over every sample of the runs, also when some were set aside: the shape is the effect's wherever
       // it was fitted (a model that fits it beside its own terms needs every sample's value).
-      const Eigen::MatrixXd& all = v.columns_all_samples.size() > 0 ? v.columns_all_samples : v.block.columns;
+      const Eigen::MatrixXd all = v.all_samples ? v.all_samples() : columns;
       fd.column_names = v.block.names;
       for (Eigen::Index c = 0; c < all.cols(); ++c)
         fd.columns_um.emplace_back(all.col(c).data(), all.col(c).data() + all.rows());
     }
     rep.findings.push_back(std::move(fd));
     steps.emplace_back("+ " + cand.effect, pm.residual);
-    offset += v.block.columns.cols();
+    offset += columns.cols();
   }
 }
 
@@ -155,12 +157,12 @@ Eigen::VectorXd observations(const Problem& problem) {
   }
   for (const auto& c : problem.candidates)
     for (const auto& v : c.variants)
-      if (static_cast<std::size_t>(v.block.columns.rows()) != n)
+      if (!v.fill && static_cast<std::size_t>(v.block.columns.rows()) != n)
         throw std::invalid_argument("explain: candidate " + c.effect + " has the wrong number of rows");
   return y;
 }
 
-Pass explain_once(const Problem& problem, const ExplainOptions& options) {
+Pass explain_once(const Problem& problem, const ExplainOptions& options, const SetAsideCheck& can_set_aside) {
   const Eigen::VectorXd y = observations(problem);
   const std::size_t n = problem.samples.size();
   const auto ranges = run_ranges(problem);
@@ -171,7 +173,7 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options) {
   const HeldOutScheme scheme = heldout_scheme(problem, options, ranges);
   rep.heldout_scheme = scheme.name;
 
-  const Selection sel(problem, options, y, fold_rows(scheme.fold_of, scheme.folds));
+  const Selection sel(problem, options, y, scheme);
   const Model base = sel.model({});
   const HeldOut base_ho = sel.heldout({}, none);
   // Every effect will be refused for it: say why once, whether or not a candidate gets that far.
@@ -186,7 +188,26 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options) {
   const double visible_floor = 1e-3 * sigma * sigma * static_cast<double>(n);
 
   EffectSelection chosen(problem, options, sel, base, base_ho, sigma, visible_floor);
-  chosen.run();
+  // The places explain() would set aside after this pass, were it to end with the base's residual: those of the
+  // residual's local structure, else the strongest of the probe's (Pass::probe).
+  std::function<bool(const Model&)> settled;
+  if (can_set_aside)
+    settled = [&](const Model& m) {
+      const Located left = locate(problem, m.residual, options.alpha);
+      if (!left.structured || !(left.visible_energy > 0)) return false;
+      std::vector<Location> places;
+      for (const auto& mm : left.places) places.insert(places.end(), mm.locations.begin(), mm.locations.end());
+      if (places.empty() && chosen.before_share()) {
+        const Located probe = locate(problem, sel.model(*chosen.before_share()).residual, options.alpha, sigma);
+        for (const auto& mm : probe.places) places.insert(places.end(), mm.locations.begin(), mm.locations.end());
+        if (!places.empty())
+          places = {*std::max_element(places.begin(), places.end(), [](const Location& a, const Location& b) {
+            return std::abs(a.peak_um) < std::abs(b.peak_um);
+          })};
+      }
+      return !places.empty() && can_set_aside(places);
+    };
+  chosen.run(settled);
   std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
   add_findings(problem, sel, chosen, y, sigma, visible_floor, options.keep_columns, rep, steps);
   rep.considered = chosen.considered();
@@ -199,9 +220,15 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options) {
   settle_verdict(fin, rep);
   Pass pass{std::move(rep), {}, {}};
   for (const Term& t : chosen.terms()) {
+    // A generated term's columns over every sample of the problem given to explain() (a listed one's are that
+    // problem's own: not copied).
     const Variant& v = variant_of(problem, t);
-    pass.terms.push_back({t.cand, t.index, t.pool != nullptr,
-                          v.columns_all_samples.size() > 0 ? v.columns_all_samples : v.block.columns});
+    Eigen::MatrixXd all;
+    if (t.pool) {
+      Eigen::MatrixXd scratch;
+      all = v.all_samples ? v.all_samples() : columns_of(v, static_cast<Eigen::Index>(n), scratch);
+    }
+    pass.terms.push_back({t.cand, t.index, t.pool != nullptr, std::move(all)});
   }
   if (pass.report.unexplained && chosen.before_share()) {
     const Located probe = locate(problem, sel.model(*chosen.before_share()).residual, options.alpha, sigma);

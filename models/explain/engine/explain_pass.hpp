@@ -5,6 +5,7 @@
 // Pure functions; thread safe.
 
 #include <cstddef>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -33,6 +34,11 @@ struct Pass {
   std::vector<TermColumns> terms;  // the findings' terms, in the order taken
 };
 
-Pass explain_once(const Problem& problem, const ExplainOptions& options);
+// Where a pass's residual is structured at places no effect explains, whether explain() would set them aside (the
+// places in the pass's problem's samples): true, and a pass whose share rule has dropped every effect it took ends
+// there (docs/explain.md step 5: what it could take next are more partial fits of the same structure).
+using SetAsideCheck = std::function<bool(const std::vector<Location>& places)>;
+
+Pass explain_once(const Problem& problem, const ExplainOptions& options, const SetAsideCheck& can_set_aside = {});
 
 }  // namespace guideway::models::explain::engine

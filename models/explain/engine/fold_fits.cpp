@@ -4,37 +4,39 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
-#include "models/explain/engine/variant_set_cache.hpp"
+#include "models/explain/engine/subspace.hpp"
 
 namespace guideway::models::explain::engine {
 
+namespace {
+
+// Whether v is one of the candidate's listed variants (not of a generated list).
+bool is_listed(const Candidate& c, const Variant* v) {
+  return !c.variants.empty() && v >= c.variants.data() && v < c.variants.data() + c.variants.size();
+}
+
+}  // namespace
+
 FoldFits::FoldFits(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y,
-                   std::vector<FoldRows> folds, std::vector<double>& choose_buffer)
+                   const GroupedBase& base, std::vector<FoldRows> folds, std::vector<double>& choose_buffer,
+                   std::size_t cache_bytes)
     : p_(problem),
       o_(options),
       y_(y),
+      base_(base),
       n_(static_cast<std::size_t>(y.size())),
       folds_(std::move(folds)),
-      choose_buffer_(choose_buffer) {
-  const bool has_base = p_.base.columns.cols() > 0;
-  for (const auto& f : folds_) {
-    const auto rows = [&](const std::vector<Eigen::Index>& r) {
-      return has_base ? Eigen::MatrixXd(p_.base.columns(r, Eigen::all))
-                      : Eigen::MatrixXd(static_cast<Eigen::Index>(r.size()), 0);
-    };
-    base_train_.push_back(rows(f.train));
-    base_test_.push_back(rows(f.test));
-    y_train_.push_back(y_(f.train));
-  }
-}
+      choose_buffer_(choose_buffer),
+      cache_bytes_(cache_bytes) {}
 
 HeldOut FoldFits::heldout(const std::vector<Term>& terms, std::size_t skip, std::size_t trial,
                           const Variant* fixed) const {
   HeldOut out;
   Eigen::Index columns = p_.base.columns.cols();
   for (std::size_t k = 0; k < terms.size(); ++k)
-    if (k != skip) columns += variant_of(p_, terms[k]).block.columns.cols();
+    if (k != skip) columns += width(variant_of(p_, terms[k]));
   if (columns == 0 && trial == none) {
     out.rms = std::sqrt(y_.squaredNorm() / static_cast<double>(n_));
     return out;
@@ -51,29 +53,20 @@ HeldOut FoldFits::heldout(const std::vector<Term>& terms, std::size_t skip, std:
       return failed;
     };
     if (trial != none) {
-      const Variant* chosen = fixed;
-      FoldChoice fc;
       if (o_.heldout_reselect) {
-        fc = chosen_in_fold(f, trial, terms, skip);
-        if (!fc.variant)
+        out.trial[f] = chosen_in_fold(f, trial, terms, skip);
+        if (!out.trial[f].variant)
           return fail(p_.candidates[trial].effect + " has no variant that can be fitted on the training rows");
-        chosen = fc.variant;
+      } else {
+        out.trial[f] = fold_block(*fixed, is_listed(p_.candidates[trial], fixed));
       }
-      out.trial[f] = fold_block(*chosen, fold);
     }
-    // Built once with the trial's columns (no concatenated copies: at large n each copy of the fold's
-    // design is an allocation the kernel clears page by page, a tenth of explain()'s CPU).
-    const Eigen::MatrixXd* extra_train = trial != none ? &out.trial[f].train : nullptr;
-    const Eigen::MatrixXd jh = fold_columns(f, terms, skip, false, trial != none ? &out.trial[f].test : nullptr);
-    if (fold.train.size() < static_cast<std::size_t>(jh.cols()) + 2)
-      return fail(std::to_string(fold.train.size()) + " training rows for " + std::to_string(jh.cols()) + " columns");
+    const Eigen::MatrixXd rest = fold_columns(f, terms, skip, trial != none ? out.trial[f].variant.get() : nullptr);
+    const auto cols = static_cast<std::size_t>(p_.base.columns.cols() + rest.cols());  // as the design has them
+    if (fold.train_rows() < cols + 2)
+      return fail(std::to_string(fold.train_rows()) + " training rows for " + std::to_string(cols) + " columns");
     Eigen::VectorXd predicted;
-    const auto base = fold.train.size() >= 2 * static_cast<std::size_t>(jh.cols() + 1) ? fold_base_of(f) : nullptr;
-    const Eigen::VectorXd& yt = y_train_[f];
-    const bool fitted =
-        base ? predict_beside(*base, fold_columns(f, terms, skip, true, extra_train, false), yt, jh, predicted)
-             : predict(fold_columns(f, terms, skip, true, extra_train), yt, jh, predicted);
-    if (!fitted) return fail("the fit failed (not finite)");
+    if (!predict_fold(f, rest, predicted)) return fail("the fit failed (not finite)");
     sse += (y_(fold.test) - predicted).squaredNorm();
     count += fold.test.size();
   }
@@ -81,35 +74,72 @@ HeldOut FoldFits::heldout(const std::vector<Term>& terms, std::size_t skip, std:
   return out;
 }
 
+// The fit of [B R y] on the training rows from the base's factor there, Q_S = blockdiag(Q_g) W (grouped_base.hpp):
+// [B R y] = [Q_S E'] [[R_B C] [0 R_E]] with C = Q_S^T [R y] and E = [R y] - Q_S C = E' R_E, so only E is factored
+// (tall_r); the projection is done twice (classical Gram-Schmidt loses orthogonality to Q_S where a column lies
+// near the base's span). The minimum-norm solution of the column-scaled problem (min_norm_solution): with columns
+// the training rows cannot separate (Lai's unidentifiable terms) a basic solution's held-out prediction would
+// depend on which column round-off pivots out. A fold too short to be reduced first, or a problem without a base,
+// is fitted on its training rows directly (predict()).
+bool FoldFits::predict_fold(std::size_t f, const Eigen::MatrixXd& rest, Eigen::VectorXd& predicted) const {
+  const FoldRows& fold = folds_[f];
+  const Eigen::Index p = base_.cols(), pr = rest.cols();
+  Eigen::MatrixXd jh(static_cast<Eigen::Index>(fold.test.size()), p + pr);
+  if (p > 0) jh.leftCols(p) = p_.base.columns(fold.test, base_.columns());
+  if (pr > 0) jh.rightCols(pr) = rest(fold.test, Eigen::all);
+  const GroupedBase::Span& s = base_.span(f);
+  if (p > 0 && s.rows >= 2 * (p + pr + 1)) {
+    Eigen::MatrixXd e(static_cast<Eigen::Index>(n_), pr + 1);
+    e.leftCols(pr) = rest;
+    e.col(pr) = y_;
+    zero_rows(base_.ranges(f), e);
+    Eigen::VectorXd scale(p + pr);
+    scale << s.scale, scale_columns(e.leftCols(pr));
+    Eigen::MatrixXd c = s.w.transpose() * base_.products(s, e);
+    base_.subtract(s, s.w * c, e);
+    const Eigen::MatrixXd again = s.w.transpose() * base_.products(s, e);
+    base_.subtract(s, s.w * again, e);
+    c += again;
+    Eigen::MatrixXd r = Eigen::MatrixXd::Zero(p + pr + 1, p + pr + 1);
+    r.topLeftCorner(p, p) = s.r;
+    r.topRightCorner(p, pr + 1) = c;
+    r.bottomRightCorner(pr + 1, pr + 1) = tall_r(e);
+    const Eigen::VectorXd b = min_norm_solution(r, p + pr);
+    if (!b.allFinite()) return false;
+    predicted = jh * (scale.asDiagonal() * b);
+    return true;
+  }
+  const std::vector<Eigen::Index> train = rows_in_use(fold.use);
+  Eigen::MatrixXd jt(static_cast<Eigen::Index>(train.size()), p + pr);
+  if (p > 0) jt.leftCols(p) = p_.base.columns(train, base_.columns());
+  if (pr > 0) jt.rightCols(pr) = rest(train, Eigen::all);
+  return predict(std::move(jt), y_(train), jh, predicted);
+}
+
 void FoldFits::refold(std::vector<Term>& terms, std::size_t k) const {
   Term& t = terms[k];
   const Variant& now = variant_of(p_, t);
   for (std::size_t f = 0; f < folds_.size(); ++f) {
-    const FoldRows& fold = folds_[f];
-    if (fold.test.empty()) continue;
+    if (folds_[f].test.empty()) continue;
     if (!o_.heldout_reselect) {
-      t.folds[f] = fold_block(now, fold);
+      t.folds[f] = fold_block(now, t.pool == nullptr);
       continue;
     }
-    const FoldChoice fc = chosen_in_fold(f, t.cand, terms, k);
-    if (!fc.variant) continue;  // the fold keeps its earlier choice, made on its training rows too
-    t.folds[f] = fold_block(*fc.variant, fold);
+    FoldBlock b = chosen_in_fold(f, t.cand, terms, k);
+    if (!b.variant) continue;  // the fold keeps its earlier choice, made on its training rows too
+    t.folds[f] = std::move(b);
   }
 }
 
-FoldFits::FoldChoice FoldFits::chosen_in_fold(std::size_t f, std::size_t cand, const std::vector<Term>& terms,
-                                              std::size_t skip) const {
-  const FoldRows& fold = folds_[f];
+FoldBlock FoldFits::chosen_in_fold(std::size_t f, std::size_t cand, const std::vector<Term>& terms,
+                                   std::size_t skip) const {
   const Candidate& c = p_.candidates[cand];
   const Model& m = fold_model(f, terms, skip);
-  Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
-  r(fold.train) = m.residual;
-  FoldChoice out;
-  out.pool = generated(c, r, fold.use, n_);
-  const auto& variants = listed(c, out.pool);
-  const Choice ch = choose(variants, allowed(p_, cand, variants, terms, skip), &fold.train, m, choose_buffer_);
-  if (ch.index != none) out.variant = &variants[ch.index];
-  return out;
+  const auto pool = generated(c, m.residual, folds_[f].use, n_);
+  const auto& variants = listed(c, pool);
+  const Choice ch = choose(variants, allowed(p_, cand, variants, terms, skip), m, choose_buffer_);
+  if (ch.index == none) return {};
+  return fold_block(variants[ch.index], pool == nullptr);
 }
 
 // Kept by the columns' ids (a term's fold columns depend on when they were chosen, not only on its variant):
@@ -121,9 +151,9 @@ const Model& FoldFits::fold_model(std::size_t f, const std::vector<Term>& terms,
   std::sort(key.begin() + 1, key.end());
   if (std::find(key.begin() + 1, key.end(), 0) == key.end())
     if (const auto it = fold_models_.find(key); it != fold_models_.end()) return it->second;
-  Model m = model_of(fold_columns(f, terms, skip, true), 0, y_train_[f]);
-  const std::size_t bytes = static_cast<std::size_t>(m.q.size() + m.residual.size()) * sizeof(double);
-  if (fold_model_bytes_ + bytes > cache_budget_bytes) {
+  Model m = model_of(base_, f, fold_columns(f, terms, skip), 0, y_);
+  const std::size_t bytes = m.bytes();
+  if (fold_model_bytes_ + bytes > cache_bytes_) {
     fold_models_.clear();
     fold_model_bytes_ = 0;
   }
@@ -131,40 +161,20 @@ const Model& FoldFits::fold_model(std::size_t f, const std::vector<Term>& terms,
   return fold_models_.insert_or_assign(std::move(key), std::move(m)).first->second;
 }
 
-// Kept within the memory budget; null at the fold's first held-out fit (factoring the base and forming its Q
-// costs two plain fits: a problem whose base alone is tested, a null, never fits a fold twice).
-std::shared_ptr<const FoldBase> FoldFits::fold_base_of(std::size_t f) const {
-  if (base_train_[f].cols() == 0) return nullptr;
-  if (fold_bases_.empty()) fold_bases_.resize(folds_.size());
-  if (fold_bases_[f]) return fold_bases_[f];
-  if (fold_fits_.size() < folds_.size()) fold_fits_.resize(folds_.size(), 0);
-  if (fold_fits_[f]++ == 0) return nullptr;
-  auto fb = std::make_shared<const FoldBase>(fold_base(base_train_[f]));
-  const auto bytes = static_cast<std::size_t>(fb->q.size()) * sizeof(double);
-  if (fold_base_bytes_ + bytes <= cache_budget_bytes) {
-    fold_base_bytes_ += bytes;
-    fold_bases_[f] = fb;
-  }
-  return fb;
-}
-
-Eigen::MatrixXd FoldFits::fold_columns(std::size_t f, const std::vector<Term>& terms, std::size_t skip, bool train,
-                                       const Eigen::MatrixXd* extra, bool with_base) const {
-  const Eigen::MatrixXd& base = train ? base_train_[f] : base_test_[f];
-  const Eigen::Index base_cols = with_base ? base.cols() : 0;
-  Eigen::Index cols = base_cols + (extra ? extra->cols() : 0);
+Eigen::MatrixXd FoldFits::fold_columns(std::size_t f, const std::vector<Term>& terms, std::size_t skip,
+                                       const Variant* extra) const {
+  Eigen::Index cols = extra ? width(*extra) : 0;
   for (std::size_t k = 0; k < terms.size(); ++k)
-    if (k != skip) cols += (train ? terms[k].folds[f].train : terms[k].folds[f].test).cols();
-  Eigen::MatrixXd j(base.rows(), cols);
-  if (base_cols > 0) j.leftCols(base_cols) = base;
-  Eigen::Index at = base_cols;
+    if (k != skip) cols += width(*terms[k].folds[f].variant);
+  Eigen::MatrixXd j(static_cast<Eigen::Index>(n_), cols);
+  Eigen::Index at = 0;
   for (std::size_t k = 0; k < terms.size(); ++k) {
     if (k == skip) continue;
-    const Eigen::MatrixXd& b = train ? terms[k].folds[f].train : terms[k].folds[f].test;
-    j.middleCols(at, b.cols()) = b;
-    at += b.cols();
+    const Variant& v = *terms[k].folds[f].variant;
+    write_columns(v, j.middleCols(at, width(v)));
+    at += width(v);
   }
-  if (extra) j.rightCols(extra->cols()) = *extra;
+  if (extra) write_columns(*extra, j.rightCols(width(*extra)));
   return j;
 }
 

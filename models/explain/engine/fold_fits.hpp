@@ -1,8 +1,9 @@
 #pragma once
 // The held-out evaluation of EXPLAIN's selection (models/explain/engine, docs/explain.md "Held out"): every
 // fold's held-out rows predicted from a fit to its training rows of the base, the terms (each with the variant
-// chosen on that fold's training rows) and a trial candidate; the fold models and the folds' factored bases
-// kept within a memory budget. Not thread safe: one per selection.
+// chosen on that fold's training rows) and a trial candidate. A fold's training rows are every group of the
+// grouped base but its own (grouped_base.hpp): the base is factored once for every fold. The fold models are kept
+// within a memory budget. Not thread safe: one per selection.
 
 #include <cstddef>
 #include <cstdint>
@@ -13,8 +14,8 @@
 #include <Eigen/Core>
 
 #include "models/explain/engine/folds.hpp"
+#include "models/explain/engine/grouped_base.hpp"
 #include "models/explain/engine/model_fit.hpp"
-#include "models/explain/engine/subspace.hpp"
 #include "models/explain/engine/terms.hpp"
 #include "models/explain/explain.hpp"
 
@@ -22,9 +23,10 @@ namespace guideway::models::explain::engine {
 
 class FoldFits {
  public:
-  // `choose_buffer`: choose()'s batches, shared with the selection (one n x 64 buffer).
-  FoldFits(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y, std::vector<FoldRows> folds,
-           std::vector<double>& choose_buffer);
+  // `base`: the problem's base grouped by fold (group f = fold f's held-out rows). `choose_buffer`: choose()'s
+  // batches, shared with the selection (one n x 64 buffer). `cache_bytes`: what the fold models may hold.
+  FoldFits(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y, const GroupedBase& base,
+           std::vector<FoldRows> folds, std::vector<double>& choose_buffer, std::size_t cache_bytes);
 
   // Held-out RMS of the base, the terms (but `skip`) and candidate `trial` (none: no trial). With
   // ExplainOptions::heldout_reselect (the default) the trial's variant is chosen again in each fold from the
@@ -39,39 +41,33 @@ class FoldFits {
   // (ExplainOptions::heldout_reselect), else the one chosen on all the data.
   void refold(std::vector<Term>& terms, std::size_t k) const;
 
+  [[nodiscard]] std::size_t folds() const { return folds_.size(); }
+
  private:
   // Candidate `cand`'s variant chosen on fold f's training rows against the model of the terms (but `skip`)
-  // there; variant null when none can be fitted. The pool keeps a generated variant alive.
-  struct FoldChoice {
-    std::shared_ptr<const std::vector<Variant>> pool;
-    const Variant* variant = nullptr;
-  };
-  [[nodiscard]] FoldChoice chosen_in_fold(std::size_t f, std::size_t cand, const std::vector<Term>& terms,
-                                          std::size_t skip) const;
+  // there: the block of its columns, no variant when none can be fitted.
+  [[nodiscard]] FoldBlock chosen_in_fold(std::size_t f, std::size_t cand, const std::vector<Term>& terms,
+                                         std::size_t skip) const;
   // The model of the base and the terms (but `skip`) on fold f's training rows, kept by the columns' ids.
   [[nodiscard]] const Model& fold_model(std::size_t f, const std::vector<Term>& terms, std::size_t skip) const;
-  // Fold f's base factored on its training rows; null without a base and at the fold's first held-out fit.
-  [[nodiscard]] std::shared_ptr<const FoldBase> fold_base_of(std::size_t f) const;
-  // Fold f's columns of the base (unless with_base is false) and the terms (but `skip`) on its training or
-  // held-out rows, and `extra`'s (a trial's on the same rows) after them.
+  // The terms' (but `skip`) columns in fold f and `extra`'s (a trial's) after them, every row.
   [[nodiscard]] Eigen::MatrixXd fold_columns(std::size_t f, const std::vector<Term>& terms, std::size_t skip,
-                                             bool train, const Eigen::MatrixXd* extra = nullptr,
-                                             bool with_base = true) const;
+                                             const Variant* extra = nullptr) const;
+  // Fold f's held-out rows predicted from the fit of the base and `rest` (every row) to its training rows; false
+  // when the fit is not finite.
+  bool predict_fold(std::size_t f, const Eigen::MatrixXd& rest, Eigen::VectorXd& predicted) const;
 
   const Problem& p_;
   const ExplainOptions& o_;
   const Eigen::VectorXd& y_;
+  const GroupedBase& base_;
   std::size_t n_;
   std::vector<FoldRows> folds_;
   std::vector<double>& choose_buffer_;
-  std::vector<Eigen::MatrixXd> base_train_, base_test_;
-  std::vector<Eigen::VectorXd> y_train_;
+  std::size_t cache_bytes_;
 
   mutable std::map<std::vector<std::uint64_t>, Model> fold_models_;
   mutable std::size_t fold_model_bytes_ = 0;
-  mutable std::vector<std::shared_ptr<const FoldBase>> fold_bases_;
-  mutable std::vector<int> fold_fits_;  // held-out fits per fold so far
-  mutable std::size_t fold_base_bytes_ = 0;
 };
 
 }  // namespace guideway::models::explain::engine

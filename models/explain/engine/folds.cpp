@@ -48,16 +48,17 @@ std::vector<FoldRows> fold_rows(const std::vector<int>& fold_of, int folds) {
     fr.use.assign(fold_of.size(), false);
     for (std::size_t i = 0; i < fold_of.size(); ++i) {
       const bool held = fold_of[i] == f;
-      (held ? fr.test : fr.train).push_back(static_cast<Eigen::Index>(i));
+      if (held) fr.test.push_back(static_cast<Eigen::Index>(i));
       fr.use[i] = !held;
     }
   }
   return out;
 }
 
-FoldBlock fold_block(const Variant& v, const FoldRows& fold) {
+FoldBlock fold_block(const Variant& v, bool listed) {
   static std::atomic<std::uint64_t> ids{0};
-  return {v.block.columns(fold.train, Eigen::all), v.block.columns(fold.test, Eigen::all), ++ids};
+  if (listed) return {std::shared_ptr<const Variant>(std::shared_ptr<const Variant>(), &v), ++ids};
+  return {std::make_shared<const Variant>(v), ++ids};
 }
 
 }  // namespace guideway::models::explain::engine

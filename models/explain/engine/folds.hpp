@@ -4,6 +4,7 @@
 // Pure functions; thread safe.
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,16 +28,19 @@ HeldOutScheme heldout_scheme(const Problem& problem, const ExplainOptions& optio
 
 // The rows of each fold.
 struct FoldRows {
-  std::vector<Eigen::Index> train, test;
+  std::vector<Eigen::Index> test;
   std::vector<bool> use;  // use[i]: sample i is a training row of this fold
+  [[nodiscard]] std::size_t train_rows() const { return use.size() - test.size(); }
 };
 std::vector<FoldRows> fold_rows(const std::vector<int>& fold_of, int folds);
 
-// A term's columns in one fold: of the variant chosen on that fold's training rows.
+// A term's columns in one fold: the variant chosen on that fold's training rows (every row of it).
 struct FoldBlock {
-  Eigen::MatrixXd train, test;
+  std::shared_ptr<const Variant> variant;
   std::uint64_t id = 0;  // names these columns for the fold models' cache (0: none)
 };
-FoldBlock fold_block(const Variant& v, const FoldRows& fold);
+// A listed variant (one of the problem's, which outlives the selection) is referred to, a generated one copied
+// out of its list (the rest of the list is not kept for it).
+FoldBlock fold_block(const Variant& v, bool listed);
 
 }  // namespace guideway::models::explain::engine

@@ -68,7 +68,7 @@ Extension extend_projected(const Model& m, Eigen::MatrixXd xp, const Eigen::Vect
 // digits to the cancellation: then 1e-12 relative at most).
 constexpr double crossed_min_diag = 1e-2;
 Extension extend_crossed(const Model& m, const Eigen::Ref<const Eigen::MatrixXd>& x,
-                         const Eigen::Ref<const Eigen::MatrixXd>& c, const Eigen::VectorXd& qtr) {
+                         const Eigen::Ref<const Eigen::MatrixXd>& c, const Eigen::Ref<const Eigen::VectorXd>& qtr) {
   Eigen::MatrixXd g = x.transpose() * x;
   const Eigen::VectorXd norms = g.diagonal().cwiseSqrt();
   if (norms.minCoeff() > 0) {
@@ -78,7 +78,9 @@ Extension extend_crossed(const Model& m, const Eigen::Ref<const Eigen::MatrixXd>
     const Eigen::VectorXd b = inv.asDiagonal() * (x.transpose() * m.residual - c.transpose() * qtr);
     if (const auto by_gram = extend_by_gram(m, scaled, b, crossed_min_diag)) return *by_gram;
   }
-  return extend_projected(m, x - m.q * c, norms);
+  Eigen::MatrixXd xp = x;
+  subtract(m, c, xp);
+  return extend_projected(m, std::move(xp), norms);
 }
 
 }  // namespace
@@ -91,55 +93,92 @@ double f_test(double rss0, double rss1, double q, double dof1, double m) {
   return f_sf(((a - b) / q) / (b / dof1), q, dof1);
 }
 
-Model model_of(Eigen::MatrixXd j, std::size_t searched, const Eigen::VectorXd& y) {
+Model model_of(const GroupedBase& base, std::size_t skip, Eigen::MatrixXd terms, std::size_t searched,
+               const Eigen::VectorXd& y) {
+  const GroupedBase::Span& s = base.span(skip);
   Model m;
-  m.q = span_basis(std::move(j));
-  m.residual = y - m.q * (m.q.transpose() * y);
-  m.rss = m.residual.squaredNorm();
-  m.rank = static_cast<std::size_t>(m.q.cols());
+  m.base = &base;
+  m.skip = skip;
   m.searched = searched;
-  m.bic = bic_of(m.rss, static_cast<double>(m.rank + searched), static_cast<double>(y.size()));
+  if (skip != GroupedBase::all) zero_rows(base.ranges(skip), terms);
+  // Each column scaled to unit norm on the model's rows, then projected off the base's span (twice: classical
+  // Gram-Schmidt loses orthogonality where a column lies near the span), its rank then decided as a joint pivoted
+  // QR of the base's and its columns would (span_basis).
+  for (Eigen::Index c = 0; c < terms.cols(); ++c)
+    if (const double norm = terms.col(c).norm(); norm > 0) terms.col(c) /= norm;
+  if (s.v.cols() > 0 && terms.cols() > 0)
+    for (int pass = 0; pass < 2; ++pass) {
+      const Eigen::MatrixXd c = s.v.transpose() * base.products(s, terms);
+      base.subtract(s, s.v * c, terms);
+    }
+  m.qt = unit_span_basis(std::move(terms));
+  m.residual = y;
+  if (skip != GroupedBase::all) zero_rows(base.ranges(skip), m.residual);
+  subtract(m, project(m, m.residual), m.residual);
+  m.rss = m.residual.squaredNorm();
+  m.rank = static_cast<std::size_t>(s.v.cols() + m.qt.cols());
+  m.bic = bic_of(m.rss, static_cast<double>(m.rank + searched), static_cast<double>(s.rows));
   return m;
 }
 
-Extension extend(const Model& m, const Eigen::MatrixXd& x) {
-  return extend_projected(m, x - m.q * (m.q.transpose() * x), x.colwise().norm().transpose());
+Eigen::MatrixXd project(const Model& m, const Eigen::Ref<const Eigen::MatrixXd>& x) {
+  const GroupedBase::Span& s = m.base->span(m.skip);
+  const Eigen::Index rb = s.v.cols(), k = m.qt.cols();
+  Eigen::MatrixXd c(rb + k, x.cols());
+  if (rb > 0) c.topRows(rb) = s.v.transpose() * m.base->products(s, x);
+  if (k > 0) c.bottomRows(k).noalias() = m.qt.transpose() * x;
+  return c;
 }
-Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& allowed,
-              const std::vector<Eigen::Index>* rows, const Model& m, std::vector<double>& buffer) {
+
+void subtract(const Model& m, const Eigen::Ref<const Eigen::MatrixXd>& c, Eigen::Ref<Eigen::MatrixXd> x) {
+  const GroupedBase::Span& s = m.base->span(m.skip);
+  const Eigen::Index rb = s.v.cols(), k = m.qt.cols();
+  if (rb > 0) m.base->subtract(s, s.v * c.topRows(rb), x);
+  if (k > 0) x.noalias() -= m.qt * c.bottomRows(k);
+}
+
+Extension extend(const Model& m, Eigen::MatrixXd x) {
+  if (m.skip != GroupedBase::all) zero_rows(m.base->ranges(m.skip), x);
+  const Eigen::VectorXd norms = x.colwise().norm().transpose();
+  subtract(m, project(m, x), x);
+  return extend_projected(m, std::move(x), norms);
+}
+
+Choice choose(const std::vector<Variant>& variants, const std::vector<bool>& allowed, const Model& m,
+              std::vector<double>& buffer) {
   Choice best;
   double best_bic = 0;
-  const auto count = static_cast<double>(m.residual.size());
+  const auto count = static_cast<double>(m.base->span(m.skip).rows);
+  const Eigen::Index n = m.residual.size();
   // The variants' products with the model's basis a batch at a time: one matrix product per batch instead
-  // of a pass over the n x rank basis per variant (memory-bound at large n).
-  constexpr Eigen::Index batch_columns = 64;
-  const Eigen::VectorXd qtr = m.q.transpose() * m.residual;  // zero but for rounding
+  // of a pass over the basis per variant (memory-bound at large n); a batch of at most ~2 MB of columns.
+  const Eigen::Index batch_columns =
+      std::clamp<Eigen::Index>((Eigen::Index{1} << 18) / std::max<Eigen::Index>(n, 1), 8, 64);
+  const Eigen::MatrixXd qtr = project(m, m.residual);  // zero but for rounding
   std::size_t v = 0;
   while (v < variants.size()) {
     std::vector<std::size_t> members;
-    Eigen::Index width = 0;
-    for (; v < variants.size() && (members.empty() || width + variants[v].block.columns.cols() <= batch_columns); ++v) {
+    Eigen::Index cols = 0;
+    for (; v < variants.size() && (members.empty() || cols + width(variants[v]) <= batch_columns); ++v) {
       if (!allowed[v]) continue;
       members.push_back(v);
-      width += variants[v].block.columns.cols();
+      cols += width(variants[v]);
     }
     if (members.empty()) continue;
-    buffer.resize(std::max(buffer.size(), static_cast<std::size_t>(m.residual.size() * width)));
-    Eigen::Map<Eigen::MatrixXd> x(buffer.data(), m.residual.size(), width);
+    buffer.resize(std::max(buffer.size(), static_cast<std::size_t>(n * cols)));
+    Eigen::Map<Eigen::MatrixXd> x(buffer.data(), n, cols);
     Eigen::Index at = 0;
     for (std::size_t k : members) {
-      const auto& c = variants[k].block.columns;
-      if (rows)
-        x.middleCols(at, c.cols()) = c(*rows, Eigen::all);
-      else
-        x.middleCols(at, c.cols()) = c;
-      at += c.cols();
+      const Eigen::Index q = width(variants[k]);
+      write_columns(variants[k], x.middleCols(at, q));
+      at += q;
     }
-    const Eigen::MatrixXd c = m.q.transpose() * x;
+    if (m.skip != GroupedBase::all) zero_rows(m.base->ranges(m.skip), x);  // the model's rows only
+    const Eigen::MatrixXd c = project(m, x);
     at = 0;
     for (std::size_t k : members) {
-      const Eigen::Index q = variants[k].block.columns.cols();
-      const Extension e = extend_crossed(m, x.middleCols(at, q), c.middleCols(at, q), qtr);
+      const Eigen::Index q = width(variants[k]);
+      const Extension e = extend_crossed(m, x.middleCols(at, q), c.middleCols(at, q), qtr.col(0));
       at += q;
       if (e.rank == 0) continue;
       const double b = bic_of(e.rss, static_cast<double>(e.rank + variants[k].searched), count);

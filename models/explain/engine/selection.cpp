@@ -27,17 +27,21 @@ double overlap(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
 }  // namespace
 
 Selection::Selection(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y,
-                     std::vector<FoldRows> folds)
+                     const HeldOutScheme& scheme)
     : p_(problem),
       o_(options),
       y_(y),
       n_(static_cast<std::size_t>(y.size())),
-      fits_(problem, options, y, std::move(folds), choose_buffer_) {}
+      base_(problem.base.columns, scheme.fold_of, static_cast<std::size_t>(scheme.folds)),
+      fits_(problem, options, y, base_, fold_rows(scheme.fold_of, scheme.folds), choose_buffer_,
+            cache_budget_bytes(options) / 2),
+      models_(cache_budget_bytes(options) / 4),
+      heldouts_(cache_budget_bytes(options) / 4) {}
 
 Eigen::MatrixXd Selection::design(const std::vector<Term>& terms, std::size_t skip) const {
   Eigen::Index cols = p_.base.columns.cols();
   for (std::size_t k = 0; k < terms.size(); ++k)
-    if (k != skip) cols += variant_of(p_, terms[k]).block.columns.cols();
+    if (k != skip) cols += width(variant_of(p_, terms[k]));
   Eigen::MatrixXd j(static_cast<Eigen::Index>(n_), cols);
   Eigen::Index at = 0;
   if (p_.base.columns.cols() > 0) {
@@ -46,9 +50,24 @@ Eigen::MatrixXd Selection::design(const std::vector<Term>& terms, std::size_t sk
   }
   for (std::size_t k = 0; k < terms.size(); ++k) {
     if (k == skip) continue;
-    const auto& c = variant_of(p_, terms[k]).block.columns;
-    j.middleCols(at, c.cols()) = c;
-    at += c.cols();
+    const Variant& v = variant_of(p_, terms[k]);
+    write_columns(v, j.middleCols(at, width(v)));
+    at += width(v);
+  }
+  return j;
+}
+
+Eigen::MatrixXd Selection::term_columns(const std::vector<Term>& terms, std::size_t skip) const {
+  Eigen::Index cols = 0;
+  for (std::size_t k = 0; k < terms.size(); ++k)
+    if (k != skip) cols += width(variant_of(p_, terms[k]));
+  Eigen::MatrixXd j(static_cast<Eigen::Index>(n_), cols);
+  Eigen::Index at = 0;
+  for (std::size_t k = 0; k < terms.size(); ++k) {
+    if (k == skip) continue;
+    const Variant& v = variant_of(p_, terms[k]);
+    write_columns(v, j.middleCols(at, width(v)));
+    at += width(v);
   }
   return j;
 }
@@ -68,8 +87,8 @@ Model Selection::model(const std::vector<Term>& terms, std::size_t skip) const {
   std::size_t searched = 0;
   for (std::size_t k = 0; k < terms.size(); ++k)
     if (k != skip) searched += variant_of(p_, terms[k]).searched;
-  Model m = model_of(design(terms, skip), searched, y_);
-  models_.remember(key, terms, m, static_cast<std::size_t>(m.q.size() + m.residual.size()) * sizeof(double));
+  Model m = model_of(base_, GroupedBase::all, term_columns(terms, skip), searched, y_);
+  models_.remember(key, terms, m, m.bytes());
   return m;
 }
 
@@ -89,7 +108,7 @@ Trial Selection::trial(std::size_t c, const std::vector<Term>& terms, const Mode
   t.cand = c;
   t.pool = generated(cand, cur.residual, std::vector<bool>(n_, true), n_);
   const auto& variants = listed(cand, t.pool);
-  const Choice ch = choose(variants, allowed(p_, c, variants, terms, none), nullptr, cur, choose_buffer_);
+  const Choice ch = choose(variants, allowed(p_, c, variants, terms, none), cur, choose_buffer_);
   if (ch.index == none) return t;
   t.index = ch.index;
   t.ext = ch.ext;
@@ -110,13 +129,13 @@ bool Selection::rechoose(std::vector<Term>& terms, std::size_t k) const {
   const Model without = model(terms, k);
   auto pool = generated(cand, without.residual, std::vector<bool>(n_, true), n_);
   const auto& variants = listed(cand, pool);
-  const Choice ch = choose(variants, allowed(p_, t.cand, variants, terms, k), nullptr, without, choose_buffer_);
+  const Choice ch = choose(variants, allowed(p_, t.cand, variants, terms, k), without, choose_buffer_);
   if (ch.index == none) return false;
-  const Variant& now = variants[ch.index];
-  const Variant& before = variant_of(p_, t);
-  if (now.block.columns.cols() == before.block.columns.cols() &&
-      (now.block.columns - before.block.columns).cwiseAbs().maxCoeff() <=
-          1e-12 * (1 + before.block.columns.cwiseAbs().maxCoeff()))
+  Eigen::MatrixXd now_scratch, before_scratch;
+  const auto rows = static_cast<Eigen::Index>(n_);
+  const Eigen::MatrixXd& now = columns_of(variants[ch.index], rows, now_scratch);
+  const Eigen::MatrixXd& before = columns_of(variant_of(p_, t), rows, before_scratch);
+  if (now.cols() == before.cols() && (now - before).cwiseAbs().maxCoeff() <= 1e-12 * (1 + before.cwiseAbs().maxCoeff()))
     return false;
   t.pool = pool;
   t.index = ch.index;
@@ -132,7 +151,11 @@ bool Selection::rechoose_pair(std::vector<Term>& terms, std::size_t i, std::size
   if ((!ci.generate && ci.variants.size() < 2) || (!cj.generate && cj.variants.size() < 2)) return false;
   // Terms that share (almost) nothing cannot stand in for each other: not searched (a deadband and a
   // spike share 0.17; most pairs of the scenario suite below 0.03).
-  if (overlap(variant_of(p_, terms[i]).block.columns, variant_of(p_, terms[j]).block.columns) < 0.1) return false;
+  Eigen::MatrixXd scratch_i, scratch_j;
+  const auto rows = static_cast<Eigen::Index>(n_);
+  if (overlap(columns_of(variant_of(p_, terms[i]), rows, scratch_i),
+              columns_of(variant_of(p_, terms[j]), rows, scratch_j)) < 0.1)
+    return false;
   const auto pool_i = generated(ci, model(terms, i).residual, std::vector<bool>(n_, true), n_);
   const auto& vi = listed(ci, pool_i);
   const std::vector<bool> ok = allowed(p_, terms[i].cand, vi, terms, i);
@@ -146,10 +169,10 @@ bool Selection::rechoose_pair(std::vector<Term>& terms, std::size_t i, std::size
     std::size_t searched = 0;
     for (std::size_t k = 0; k < trial.size(); ++k)
       if (k != j) searched += variant_of(p_, trial[k]).searched;
-    const Model without_j = model_of(design(trial, j), searched, y_);  // not cached: one use each
+    const Model without_j = model_of(base_, GroupedBase::all, term_columns(trial, j), searched, y_);  // not cached
     const auto pool_j = generated(cj, without_j.residual, std::vector<bool>(n_, true), n_);
     const auto& vj = listed(cj, pool_j);
-    const Choice ch = choose(vj, allowed(p_, trial[j].cand, vj, trial, j), nullptr, without_j, choose_buffer_);
+    const Choice ch = choose(vj, allowed(p_, trial[j].cand, vj, trial, j), without_j, choose_buffer_);
     if (ch.index == none) continue;
     const double bic =
         bic_of(ch.ext.rss, static_cast<double>(without_j.rank + ch.ext.rank + searched + vj[ch.index].searched),

@@ -21,8 +21,9 @@ namespace guideway::models::explain::engine {
 
 class Selection {
  public:
+  // The held-out folds: scheme.fold_of, the groups of the grouped base.
   Selection(const Problem& problem, const ExplainOptions& options, const Eigen::VectorXd& y,
-            std::vector<FoldRows> folds);
+            const HeldOutScheme& scheme);
 
   [[nodiscard]] const Problem& problem() const { return p_; }
   [[nodiscard]] const ExplainOptions& options() const { return o_; }
@@ -30,6 +31,8 @@ class Selection {
 
   // The columns of the base and the terms (but `skip`), on all rows, and their names.
   [[nodiscard]] Eigen::MatrixXd design(const std::vector<Term>& terms, std::size_t skip = none) const;
+  // The terms' columns alone (but `skip`'s).
+  [[nodiscard]] Eigen::MatrixXd term_columns(const std::vector<Term>& terms, std::size_t skip = none) const;
   [[nodiscard]] std::vector<std::string> names(const std::vector<Term>& terms) const;
   // The model of the base and the terms (but `skip`) on all the data.
   [[nodiscard]] Model model(const std::vector<Term>& terms, std::size_t skip = none) const;
@@ -55,6 +58,7 @@ class Selection {
   const Eigen::VectorXd& y_;
   std::size_t n_;
   mutable std::vector<double> choose_buffer_;  // choose()'s batches
+  GroupedBase base_;
   FoldFits fits_;
   mutable VariantSetCache<Model> models_;
   mutable VariantSetCache<HeldOut> heldouts_;

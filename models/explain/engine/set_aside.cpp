@@ -43,10 +43,14 @@ std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const s
   const auto n = static_cast<Eigen::Index>(p.samples.size());
   if (!(sigma > 0) || places.size() < 2) return out;
   Eigen::Index cols = p.base.columns.cols() + static_cast<Eigen::Index>(after.size());
-  for (const TermColumns& t : pass.terms) {
-    const Eigen::MatrixXd& c = t.generated ? t.all_samples : p.candidates[t.cand].variants[t.index].block.columns;
-    if (c.rows() != n) return out;
-    cols += c.cols();
+  std::vector<Eigen::MatrixXd> scratch(pass.terms.size());
+  std::vector<const Eigen::MatrixXd*> term_columns;
+  for (std::size_t k = 0; k < pass.terms.size(); ++k) {
+    const TermColumns& t = pass.terms[k];
+    term_columns.push_back(t.generated ? &t.all_samples
+                                       : &columns_of(p.candidates[t.cand].variants[t.index], n, scratch[k]));
+    if (term_columns.back()->rows() != n) return out;
+    cols += term_columns.back()->cols();
   }
   Eigen::MatrixXd design(n, cols);
   Eigen::Index at = 0;
@@ -56,10 +60,9 @@ std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const s
     for (Eigen::Index i = 0; i < n; ++i) design(i, at) = stands_off(p, a, static_cast<std::size_t>(i)) ? 1.0 : 0.0;
     ++at;
   }
-  for (const TermColumns& t : pass.terms) {
-    const Eigen::MatrixXd& c = t.generated ? t.all_samples : p.candidates[t.cand].variants[t.index].block.columns;
-    design.middleCols(at, c.cols()) = c;
-    at += c.cols();
+  for (const Eigen::MatrixXd* c : term_columns) {
+    design.middleCols(at, c->cols()) = *c;
+    at += c->cols();
   }
   const Eigen::VectorXd y = observations(p);
   const auto rows = rows_in_use(keep);
@@ -80,49 +83,96 @@ std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const s
 
 }  // namespace
 
-// `keep_whole`: every variant keeps its block over all samples (Variant::columns_all_samples), for the
-// findings' columns (ExplainOptions::keep_columns); a generated variant always does (it is made per call, and
-// the places set aside are checked against the findings over every sample: explain()).
-Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after,
-                        bool keep_whole) {
+namespace {
+
+// A variant of the whole problem (`n` samples) on the samples `kept`, made on demand from `whole` (which writes its
+// block, w columns, over every sample); that block is also its Variant::all_samples. `like`: the variant it stands
+// for (its names, searched values, report: not its columns).
+Variant cropped(const Variant& like, Eigen::Index w, std::function<void(Eigen::Ref<Eigen::MatrixXd>)> whole,
+                const std::shared_ptr<const std::vector<Eigen::Index>>& kept, Eigen::Index n) {
+  Variant out;
+  out.block.names = like.block.names;
+  out.fixed = like.fixed;
+  out.searched = like.searched;
+  out.group = like.group;
+  out.report = like.report;
+  out.fill = [whole, kept, n, w](Eigen::Ref<Eigen::MatrixXd> o) {
+    Eigen::MatrixXd all(n, w);
+    whole(all);
+    o = all(*kept, Eigen::all);
+  };
+  out.all_samples = [whole, n, w] {
+    Eigen::MatrixXd all(n, w);
+    whole(all);
+    return all;
+  };
+  return out;
+}
+
+// A listed variant's rows read from the whole problem's (which outlives the reduced one); a generated one's from
+// what it was made over, moved into the new one.
+Variant cropped_listed(const Variant& v, const std::shared_ptr<const std::vector<Eigen::Index>>& kept, Eigen::Index n) {
+  return cropped(
+      v, width(v), [listed = &v](Eigen::Ref<Eigen::MatrixXd> o) { write_columns(*listed, o); }, kept, n);
+}
+Variant cropped_generated(Variant v, const std::shared_ptr<const std::vector<Eigen::Index>>& kept, Eigen::Index n) {
+  const Eigen::Index w = width(v);
+  std::function<void(Eigen::Ref<Eigen::MatrixXd>)> whole;
+  if (v.fill) {
+    whole = std::move(v.fill);
+  } else {
+    whole = [columns = std::make_shared<const Eigen::MatrixXd>(std::move(v.block.columns))](
+                Eigen::Ref<Eigen::MatrixXd> o) { o = *columns; };
+  }
+  return cropped(v, w, std::move(whole), kept, n);
+}
+
+}  // namespace
+
+// Nothing of the variants is copied: the reduced problem's read the whole problem's rows when used.
+Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after) {
   Reduced out;
   for (std::size_t i = 0; i < keep.size(); ++i)
     if (keep[i]) out.kept.push_back(static_cast<Eigen::Index>(i));
   const auto kept = std::make_shared<const std::vector<Eigen::Index>>(out.kept);
   const auto n = static_cast<Eigen::Index>(p.samples.size());
   Problem& q = out.problem;
-  q = p;
-  q.samples.clear();
+  q.model = p.model;
+  q.domain = p.domain;
+  q.runs = p.runs;
+  q.notes = p.notes;
+  q.clock_origin_s = p.clock_origin_s;
+  q.terms_per_run = p.terms_per_run;
+  q.deviation_um = p.deviation_um;
+  q.deviation_name = p.deviation_name;
   for (const Eigen::Index i : *kept) q.samples.push_back(p.samples[static_cast<std::size_t>(i)]);
-  if (p.base.columns.cols() > 0) q.base.columns = p.base.columns(*kept, Eigen::all);
-  if (!after.empty()) {
-    const Eigen::Index b = q.base.columns.cols();
-    q.base.columns.conservativeResize(static_cast<Eigen::Index>(kept->size()),
-                                      b + static_cast<Eigen::Index>(after.size()));
-    for (std::size_t k = 0; k < after.size(); ++k) {
-      for (std::size_t i = 0; i < kept->size(); ++i)
-        q.base.columns(static_cast<Eigen::Index>(i), b + static_cast<Eigen::Index>(k)) =
-            stands_off(p, after[k], static_cast<std::size_t>((*kept)[i])) ? 1.0 : 0.0;
-      q.base.names.push_back("offset_after_set_aside_" + std::to_string(k + 1) + "_um");
-    }
+  q.base.names = p.base.names;
+  q.base.columns.resize(static_cast<Eigen::Index>(kept->size()),
+                        p.base.columns.cols() + static_cast<Eigen::Index>(after.size()));
+  if (p.base.columns.cols() > 0) q.base.columns.leftCols(p.base.columns.cols()) = p.base.columns(*kept, Eigen::all);
+  for (std::size_t k = 0; k < after.size(); ++k) {
+    const Eigen::Index b = p.base.columns.cols() + static_cast<Eigen::Index>(k);
+    for (std::size_t i = 0; i < kept->size(); ++i)
+      q.base.columns(static_cast<Eigen::Index>(i), b) =
+          stands_off(p, after[k], static_cast<std::size_t>((*kept)[i])) ? 1.0 : 0.0;
+    q.base.names.push_back("offset_after_set_aside_" + std::to_string(k + 1) + "_um");
   }
-  const auto crop = [kept](Variant& v, bool whole) {
-    Eigen::MatrixXd cropped = v.block.columns(*kept, Eigen::all);
-    if (whole) v.columns_all_samples = std::move(v.block.columns);
-    v.block.columns = std::move(cropped);
-  };
-  for (auto& c : q.candidates) {
-    for (auto& v : c.variants) crop(v, keep_whole);
+  for (const Candidate& c : p.candidates) {
+    Candidate& d = q.candidates.emplace_back();
+    d.effect = c.effect;
+    d.why = c.why;
+    d.search_size = c.search_size;
+    for (const Variant& v : c.variants) d.variants.push_back(cropped_listed(v, kept, n));
     if (!c.generate) continue;
-    c.generate = [generate = c.generate, kept, n, crop](const Eigen::VectorXd& r, const std::vector<bool>& use) {
+    d.generate = [generate = c.generate, kept, n](const Eigen::VectorXd& r, const std::vector<bool>& use) {
       Eigen::VectorXd whole = Eigen::VectorXd::Zero(n);
       std::vector<bool> in_use(static_cast<std::size_t>(n), false);
       for (std::size_t i = 0; i < kept->size(); ++i) {
         whole[(*kept)[i]] = r[static_cast<Eigen::Index>(i)];
         in_use[static_cast<std::size_t>((*kept)[i])] = use[i];
       }
-      std::vector<Variant> vs = generate(whole, in_use);
-      for (auto& v : vs) crop(v, true);
+      std::vector<Variant> vs;
+      for (Variant& v : generate(whole, in_use)) vs.push_back(cropped_generated(std::move(v), kept, n));
       return vs;
     };
   }
@@ -261,7 +311,7 @@ void release_explained(const Problem& problem, const ExplainOptions& options, do
   set_aside(problem, places, trial);
   std::vector<OffsetAfter> trial_after;
   for (const auto& l : places) trial_after.push_back(offset_after(problem, l, trial));
-  const Reduced reduced = without_samples(problem, trial, trial_after, options.keep_columns);
+  const Reduced reduced = without_samples(problem, trial, trial_after);
   if (options.on_progress)
     options.on_progress("pass with " + std::to_string(places.size()) + " of " + std::to_string(aside.size()) +
                         " places set aside (the findings explain the others)");

@@ -23,14 +23,13 @@ using OffsetAfter = std::pair<std::size_t, std::size_t>;
 // each generator given the whole residual (zero on the rows left out) with those rows out of use, its
 // variants' rows dropped; a contribution measured on the whole sample grid (a left-out sample takes its
 // run's nearest kept value). `after`: from each place's first sample after it on (and in every later run)
-// the reading may stand off by a constant, a nuisance column of the base. `keep_whole`: every variant keeps
-// its block over all samples (Variant::columns_all_samples).
+// the reading may stand off by a constant, a nuisance column of the base. Every variant's block over all
+// samples is its Variant::all_samples.
 struct Reduced {
   Problem problem;
   std::vector<Eigen::Index> kept;  // the whole problem's index of each sample
 };
-Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after,
-                        bool keep_whole);
+Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after);
 
 // Where a pass left structure no effect explains, place by place, in the whole problem's samples
 // (`index`: the whole problem's index of each sample of the pass's problem): the places of its remaining

@@ -114,22 +114,30 @@ bool predict_beside(const FoldBase& base, Eigen::MatrixXd rest, const Eigen::Vec
   return true;
 }
 
-// An orthonormal basis of the span of a's columns (each scaled to unit norm first: the base mixes units).
-// The rank and the columns spanned are those of a column-pivoted QR (threshold rank_tolerance); a tall
-// matrix is first reduced by a blocked unpivoted QR (S = Q0 R0: the pivoted QR of R0 pivots as S's, column
+namespace {
+
+// The pivots above `tolerance` (absolute: the columns are of unit norm) of a column-pivoted QR.
+template <class Qr>
+Eigen::Index rank_above(const Qr& qr, double tolerance) {
+  Eigen::Index r = 0;
+  for (Eigen::Index i = 0; i < std::min(qr.matrixQR().rows(), qr.matrixQR().cols()); ++i)
+    if (std::abs(qr.matrixQR()(i, i)) > tolerance) ++r;
+  return r;
+}
+
+}  // namespace
+
+// A tall matrix is first reduced by a blocked unpivoted QR (S = Q0 R0: the pivoted QR of R0 pivots as S's, column
 // norms being kept by Q0), and the basis formed as S_P R1^-1 with one Cholesky-QR pass to restore the
 // orthogonality a triangular solve loses (its error ~ cond(R1) x eps, at most 1e-7 at the rank threshold).
 // Both steps are matrix products: the unblocked pivoted QR of the whole n x p matrix was a fifth of
 // explain()'s CPU at 18,000 samples per run.
-Eigen::MatrixXd span_basis(Eigen::MatrixXd s) {
+Eigen::MatrixXd unit_span_basis(Eigen::MatrixXd s) {
   if (s.cols() == 0) return Eigen::MatrixXd(s.rows(), 0);
-  for (Eigen::Index c = 0; c < s.cols(); ++c)
-    if (const double norm = s.col(c).norm(); norm > 0) s.col(c) /= norm;
   const Eigen::Index p = s.cols();
   if (s.rows() >= 2 * p) {
-    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(tall_r(s));
-    qr.setThreshold(rank_tolerance);
-    const Eigen::Index r = qr.rank();
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(tall_r(s));
+    const Eigen::Index r = rank_above(qr, rank_tolerance);
     if (r == 0) return Eigen::MatrixXd(s.rows(), 0);
     const auto& perm = qr.colsPermutation().indices();
     Eigen::MatrixXd q(s.rows(), r);
@@ -145,9 +153,14 @@ Eigen::MatrixXd span_basis(Eigen::MatrixXd s) {
     }
     return q;
   }
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s);
-  qr.setThreshold(rank_tolerance);
-  return qr.householderQ() * Eigen::MatrixXd::Identity(s.rows(), qr.rank());
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s);
+  return qr.householderQ() * Eigen::MatrixXd::Identity(s.rows(), rank_above(qr, rank_tolerance));
+}
+
+Eigen::MatrixXd span_basis(Eigen::MatrixXd s) {
+  for (Eigen::Index c = 0; c < s.cols(); ++c)
+    if (const double norm = s.col(c).norm(); norm > 0) s.col(c) /= norm;
+  return unit_span_basis(std::move(s));
 }
 
 }  // namespace guideway::models::explain::engine

@@ -42,5 +42,9 @@ bool predict_beside(const FoldBase& base, Eigen::MatrixXd rest, const Eigen::Vec
 // An orthonormal basis of the span of s's columns (each scaled to unit norm first), of the rank a
 // column-pivoted QR with threshold rank_tolerance gives.
 Eigen::MatrixXd span_basis(Eigen::MatrixXd s);
+// The same of columns already scaled, a direction counted where its pivot is above rank_tolerance itself (for
+// columns projected off a span they were of unit norm before: the threshold a joint pivoted QR of them with that
+// span's columns would apply).
+Eigen::MatrixXd unit_span_basis(Eigen::MatrixXd s);
 
 }  // namespace guideway::models::explain::engine

@@ -55,14 +55,16 @@ std::vector<ParamValue> widened(const Selection& sel, const std::vector<Term>& t
   std::vector<double> spread(out.size(), 0.0);
   for (std::size_t v = 0; v < variants.size(); ++v) {
     if (v == t.index || !ok[v]) continue;
-    const Extension e = extend(without, variants[v].block.columns);
+    Eigen::MatrixXd x(static_cast<Eigen::Index>(sel.observations().size()), width(variants[v]));
+    write_columns(variants[v], x);
+    const Extension e = extend(without, std::move(x));
     if (e.rank == 0 || !(e.rss - cur.rss < s2)) continue;
     std::vector<Term> alt = terms;
     alt[k].index = v;
     const LsqResult fit = solve_lsq(sel.design(alt), sel.observations(), Eigen::VectorXd(), sel.names(alt));
     if (!fit.ok) continue;
     Eigen::Index offset = p.base.columns.cols();
-    for (std::size_t j = 0; j < k; ++j) offset += variant_of(p, terms[j]).block.columns.cols();
+    for (std::size_t j = 0; j < k; ++j) offset += width(variant_of(p, terms[j]));
     for (const ParamValue& q : params_of(variants[v], fit, offset))
       for (std::size_t i = 0; i < out.size(); ++i)
         if (out[i].name == q.name && std::isfinite(out[i].u))

@@ -15,7 +15,7 @@ std::shared_ptr<const std::vector<Variant>> generated(const Candidate& c, const 
   if (!c.generate) return nullptr;
   auto pool = std::make_shared<const std::vector<Variant>>(c.generate(residual_um, use));
   for (const auto& v : *pool)
-    if (static_cast<std::size_t>(v.block.columns.rows()) != n)
+    if (!v.fill && static_cast<std::size_t>(v.block.columns.rows()) != n)
       throw std::invalid_argument("explain: candidate " + c.effect + " has the wrong number of rows");
   return pool;
 }
@@ -37,7 +37,7 @@ std::vector<bool> allowed(const Problem& p, std::size_t cand, const std::vector<
 }
 
 std::vector<ParamValue> params_of(const Variant& v, const LsqResult& f, Eigen::Index offset) {
-  const auto q = v.block.columns.cols();
+  const auto q = width(v);
   Eigen::VectorXd x = f.x.segment(offset, q);
   Eigen::MatrixXd cov = f.covariance.block(offset, offset, q, q);
   std::vector<ParamValue> out;

@@ -15,9 +15,9 @@
 
 namespace guideway::models::explain::engine {
 
-// Memory the caches of models may hold (each an n x rank basis): at 100,000 samples per run one model is
-// ~40 MB, so a count of entries alone would not bound it.
-inline constexpr std::size_t cache_budget_bytes = std::size_t{256} << 20;
+// What the selection's caches may hold in all (ExplainOptions::memory_mb): a count of entries alone would not
+// bound it, an entry's size grows with the samples.
+inline std::size_t cache_budget_bytes(const ExplainOptions& options) { return options.memory_mb << 20; }
 
 // A variant's address identifies it while its list lives, and an entry keeps the generated lists of its
 // terms alive, so an address is never reused for another variant while its entry exists.
@@ -25,6 +25,7 @@ template <class V>
 class VariantSetCache {
  public:
   using Key = std::vector<const Variant*>;
+  explicit VariantSetCache(std::size_t budget_bytes) : budget_(budget_bytes) {}
 
   // The set of the terms' variants (but `skip`).
   static Key key_of(const Problem& p, const std::vector<Term>& terms, std::size_t skip) {
@@ -50,7 +51,7 @@ class VariantSetCache {
         for (const auto& v : *t.pool) bytes += static_cast<std::size_t>(v.block.columns.size()) * sizeof(double);
       }
     // Bounds the memory: each model holds an n x rank basis, each entry the generated variants it keeps alive.
-    if (entries_.size() >= 64 || held_ + bytes > cache_budget_bytes) {
+    if (entries_.size() >= 64 || held_ + bytes > budget_) {
       entries_.clear();
       held_ = 0;
     }
@@ -64,6 +65,7 @@ class VariantSetCache {
     std::vector<std::shared_ptr<const std::vector<Variant>>> pools;
   };
   std::map<Key, Entry> entries_;
+  std::size_t budget_;
   std::size_t held_ = 0;
 };
 
