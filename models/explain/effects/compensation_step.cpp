@@ -164,15 +164,16 @@ std::vector<Variant> compensation_step_variants(const StepShapes& sh, const Eige
 // axis): a machine whose controller compensates its backlash does not; one that shows it has no table, and a
 // compensation step is not what its reversals hold (its deadband's take-up would be read as one).
 bool shows_backlash(const DbbTerms& t) {
-  if (t.base == nullptr || t.y_um == nullptr || t.g.empty()) return false;
+  if (!t.base || t.g.empty()) return false;
   const Eigen::Index n = static_cast<Eigen::Index>(t.g.size());
   // The base's own backlash columns (the ballbar diagnostics' base has them) are tested with the rest of it as
   // the base; else the ideal step is, with the base's span projected out (Lai's base is rank-deficient for
   // in-plane runs: only its span matters).
-  Eigen::MatrixXd base = t.base->columns, step(n, 2);
+  const Block& fitted = t.base->base();
+  Eigen::MatrixXd base = fitted.columns, step(n, 2);
   std::vector<Eigen::Index> own;
   for (Eigen::Index k = 0; k < base.cols(); ++k)
-    if (t.base->names[static_cast<std::size_t>(k)].starts_with("backlash_")) own.push_back(k);
+    if (fitted.names[static_cast<std::size_t>(k)].starts_with("backlash_")) own.push_back(k);
   if (own.size() == 2) {
     step << base.col(own[0]), base.col(own[1]);
     Eigen::MatrixXd rest(n, base.cols() - 2);
@@ -198,7 +199,7 @@ bool shows_backlash(const DbbTerms& t) {
   if (away.size() < 100) return false;
   base = Eigen::MatrixXd(base(away, Eigen::all));
   step = Eigen::MatrixXd(step(away, Eigen::all));
-  const Eigen::VectorXd y_away = (*t.y_um)(away);
+  const Eigen::VectorXd y_away = t.base->y()(away);
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> bq(base);
   const auto m = static_cast<Eigen::Index>(away.size());
   const Eigen::MatrixXd q = bq.householderQ() * Eigen::MatrixXd::Identity(m, bq.rank());
