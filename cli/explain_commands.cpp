@@ -307,7 +307,7 @@ void print_against_machine(const nlohmann::json& c) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& e : c.at("findable")) {
     const std::string name = e.at("parameter").get<std::string>();
-    const double u = e.at("u").is_number() ? e.at("u").get<double>() : NAN;
+    const double u = e.contains("u") && e.at("u").is_number() ? e.at("u").get<double>() : NAN;  // none: not found
     const results::ShownUnit unit = results::shown_unit(name);
     const results::Shown found = results::shown(name, e.at("found").is_null() ? NAN : e.at("found").get<double>(), u);
     const std::string held = significant_digits((e.at("machine").get<double>() - unit.offset) * unit.factor, 6);

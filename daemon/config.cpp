@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <set>
 
+#include <nlohmann/json.hpp>
+
 #include "core/runtime_paths.hpp"
 #include "drivers/driver.hpp"
 #include "dsp/wavelet.hpp"
@@ -65,6 +67,42 @@ std::size_t ring_capacity(const TableReader& t, std::size_t fallback) {
   const auto v = static_cast<std::size_t>(t.get_int("ring_capacity", static_cast<std::int64_t>(fallback), 2, 1 << 26));
   if (!std::has_single_bit(v)) t.fail("ring_capacity", "must be a power of two");
   return v;
+}
+
+// A TOML value as JSON (session options: numbers, strings, booleans, arrays and tables of them).
+nlohmann::json toml_to_json(const toml::node& n) {
+  if (const auto* t = n.as_table()) {
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto& [k, v] : *t) j[std::string(k.str())] = toml_to_json(v);
+    return j;
+  }
+  if (const auto* a = n.as_array()) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& v : *a) j.push_back(toml_to_json(v));
+    return j;
+  }
+  if (const auto v = n.value<std::int64_t>(); v && n.is_integer()) return *v;
+  if (const auto v = n.value<double>()) return *v;
+  if (const auto v = n.value<bool>()) return *v;
+  if (const auto v = n.value<std::string>()) return *v;
+  return nullptr;
+}
+
+DaemonConfig::SessionTrigger parse_session_trigger(const TableReader& t, const DaemonConfig& c) {
+  DaemonConfig::SessionTrigger s;
+  s.device = t.require_string("device");
+  if (std::none_of(c.devices.begin(), c.devices.end(), [&](const auto& d) { return d.name == s.device; }))
+    t.fail("device", "no enabled [[device]] is named \"" + s.device + "\"");
+  s.channel = t.require_string("channel");
+  s.kind = t.require_string("kind");
+  s.on_device = t.get_string("session_device", "");
+  s.end_after_s = t.get_double("end_after_s", s.end_after_s, 0.0, 3600.0);
+  nlohmann::json options = nlohmann::json::object();
+  if (const auto o = t.table("options")) options = toml_to_json(o->raw());
+  s.options = options.dump();
+  t.reject_unknown_keys();
+  s.table = std::make_shared<TableReader>(t);
+  return s;
 }
 
 DaemonConfig from_table(toml::table table, const std::string& file_name) {
@@ -146,6 +184,7 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     p.table = std::make_shared<TableReader>(pt);
     if (enabled) c.processing.push_back(std::move(p));
   }
+  for (const TableReader& tt : top.tables("session_trigger")) c.session_triggers.push_back(parse_session_trigger(tt, c));
   std::set<std::string> emulator_names;
   for (const TableReader& em : top.tables("emulator")) {
     EmulatorSpec spec;

@@ -65,6 +65,20 @@ struct DaemonConfig {
     std::shared_ptr<TableReader> table;  // to name file and line when the channel turns out unknown
   };
   std::vector<Processing> processing;
+  // [[session_trigger]]: a session that begins when a device's channel rises above 0.5 and ends when it
+  // falls: a controller's pin (LinuxCNC's session pin through a linuxcnc-hal device; docs/linuxcnc.md).
+  struct SessionTrigger {
+    std::string device;     // whose channel says when
+    std::string channel;
+    std::string kind;       // the session it starts
+    std::string on_device;  // on this device ("": the first that can run the kind)
+    std::string options;    // JSON object: the session's options
+    // The session ends this long after the channel falls: the instrument's last readings may reach guidewayd
+    // after the controller's pin (a bus's latency; the virtual machine plays LinuxCNC's periods back late).
+    double end_after_s = 3.0;
+    std::shared_ptr<TableReader> table;  // to name file and line when the device or channel is unknown
+  };
+  std::vector<SessionTrigger> session_triggers;
   std::vector<EmulatorSpec> emulators;  // [[emulator]]: started before the devices
   std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
   std::string emulator_machine;  // the virtual machine every emulator runs (absolute; "" = its compiled-in default)

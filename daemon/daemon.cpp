@@ -65,6 +65,54 @@ std::vector<std::vector<DenoiserSpec>> processing_steps(const DaemonConfig& conf
   return out;
 }
 
+// [[session_trigger]] tables as the session manager's triggers: their device and channel found, their session's
+// options checked now (a session that could not begin is a configuration error, not a surprise at the pin).
+std::vector<SessionManager::Trigger> session_triggers(const DaemonConfig& config,
+                                                      const std::vector<std::unique_ptr<drivers::Driver>>& devices,
+                                                      const sessions::SessionRegistry& registry) {
+  std::vector<SessionManager::Trigger> out;
+  const auto named = [&](const std::string& name) {
+    return std::find_if(devices.begin(), devices.end(), [&](const auto& d) { return d->name() == name; });
+  };
+  for (const auto& t : config.session_triggers) {
+    const auto device = named(t.device);
+    if (device == devices.end()) t.table->fail("device", "no device is named \"" + t.device + "\"");
+    const auto& channels = (*device)->channels();
+    const auto channel =
+        std::find_if(channels.begin(), channels.end(), [&](const auto& c) { return c.name == t.channel; });
+    if (channel == channels.end()) {
+      std::string known;
+      for (const auto& c : channels) known += (known.empty() ? "" : ", ") + c.name;
+      t.table->fail("channel", "device \"" + t.device + "\" has no channel \"" + t.channel + "\" (it has: " + known + ")");
+    }
+    SessionManager::Trigger trig;
+    trig.device_index = static_cast<std::size_t>(device - devices.begin());
+    trig.channel = static_cast<std::size_t>(channel - channels.begin());
+    trig.pin = t.device + "." + t.channel;
+    trig.request.kind = t.kind;
+    trig.request.device = t.on_device;
+    trig.request.options = nlohmann::json::parse(t.options);
+    trig.end_after_s = t.end_after_s;
+    const sessions::SessionKind* kind = registry.find(t.kind);
+    if (!kind) t.table->fail("kind", "no session kind \"" + t.kind + "\"");
+    const auto target = t.on_device.empty()
+                            ? std::find_if(devices.begin(), devices.end(),
+                                           [&](const auto& d) {
+                                             return std::find(kind->drivers.begin(), kind->drivers.end(),
+                                                              d->driver()) != kind->drivers.end();
+                                           })
+                            : named(t.on_device);
+    if (target == devices.end()) t.table->fail("session_device", "no device here can run a " + t.kind + " session");
+    try {
+      (void)kind->create(trig.request, **target);
+    } catch (const std::invalid_argument& e) {
+      t.table->fail("options", e.what());
+    }
+    out.push_back(std::move(trig));
+  }
+  return out;
+}
+
 Daemon::InstanceLock::InstanceLock(const std::string& socket_path) {
   if (socket_path.empty()) return;  // no Unix socket: nothing shared to guard
   const std::string path = socket_path + ".lock";
@@ -110,6 +158,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   std::vector<Instrument> instruments;
   for (const auto& d : config_.devices) instruments.push_back(d.instrument);  // create_devices' order
   manager->set_instruments(std::move(instruments), config_.refuse_uncalibrated);
+  manager->set_triggers(session_triggers(config_, devices_, sessions));
   sessions_ = manager.get();
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     pipeline_->set_processing(i, steps[i]);

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "core/atomic_file.hpp"
+#include "core/mono_clock.hpp"
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
 #include "report/report.hpp"
@@ -171,16 +172,77 @@ std::vector<SessionInfo> SessionManager::snapshot() const {
   return infos_;
 }
 
-void SessionManager::on_samples(std::size_t device_index, const drivers::Driver&, std::span<const Sample> samples) {
+void SessionManager::set_triggers(std::vector<Trigger> triggers) {
+  for (auto& t : triggers) triggers_.push_back({std::move(t), false, {}});
+}
+
+void SessionManager::triggered(std::size_t index, bool on) {
+  TriggerState& t = triggers_[index];
+  t.on = on;
+  SessionInfo about;
+  about.device = devices_[t.trigger.device_index]->name();
+  if (on) {
+    if (!t.session.empty()) {  // up again before its session ended: the same session goes on
+      t.end_at_ns = 0;
+      return;
+    }
+    try {
+      t.session = start(t.trigger.request);
+      about.name = t.session;
+      post_event(about, "session_triggered", t.trigger.pin + " rose: session " + t.session + " begins");
+    } catch (const std::invalid_argument& e) {
+      t.session.clear();
+      post_event(about, "session_trigger_failed", t.trigger.pin + " rose but no session began: " + e.what());
+    }
+    return;
+  }
+  if (t.session.empty()) return;
+  t.end_at_ns = mono_now_ns() + static_cast<std::int64_t>(t.trigger.end_after_s * 1e9);
+}
+
+void SessionManager::end_triggered(std::int64_t now_ns) {
+  for (TriggerState& t : triggers_) {
+    if (t.end_at_ns == 0 || now_ns < t.end_at_ns || t.session.empty()) continue;
+    SessionInfo about;
+    about.device = devices_[t.trigger.device_index]->name();
+    about.name = t.session;
+    try {
+      stop(t.session);
+      post_event(about, "session_triggered",
+                 t.trigger.pin + " fell: session " + t.session + " ends (" + std::to_string(t.trigger.end_after_s) +
+                     " s after it, for the instrument's last readings)");
+    } catch (const std::invalid_argument&) {
+      // It had ended already (every pattern traced).
+    }
+    t.session.clear();
+    t.end_at_ns = 0;
+  }
+}
+
+void SessionManager::on_samples(std::size_t device_index, const drivers::Driver& device,
+                                std::span<const Sample> samples) {
+  for (std::size_t i = 0; i < triggers_.size(); ++i) {
+    if (triggers_[i].trigger.device_index != device_index) continue;
+    const std::size_t ch = triggers_[i].trigger.channel;
+    for (const Sample& s : samples) {
+      if (ch >= s.value_count) continue;
+      const bool on = s.value[ch] > 0.5;
+      if (on != triggers_[i].on) triggered(i, on);
+    }
+  }
   for (auto& r : running_) {
-    if (r->device_index != device_index) continue;
+    if (r->device_index != device_index) {
+      r->session->on_other_samples(device, samples);
+      continue;
+    }
     if (r->recorder) r->recorder->push(samples);
     r->info.samples += samples.size();
     r->session->on_samples(samples);
   }
 }
 
-void SessionManager::on_tick(std::int64_t) {
+void SessionManager::on_tick(std::int64_t now_mono_ns) {
+  end_triggered(now_mono_ns);
   std::vector<std::string> stops;
   {
     std::lock_guard lock(mutex_);

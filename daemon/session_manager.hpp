@@ -64,6 +64,17 @@ class SessionManager : public PipelineStage {
   [[nodiscard]] bool known_kind(const std::string& kind) const { return registry_.find(kind) != nullptr; }
   [[nodiscard]] std::string kinds() const;  // "dbb, straightness, ..."
 
+  // A session begun when a device's channel rises above 0.5 and ended when it falls: a controller's pin
+  // ([[session_trigger]]; LinuxCNC's session pin, docs/linuxcnc.md). Set before the pipeline runs.
+  struct Trigger {
+    std::size_t device_index = 0;
+    std::size_t channel = 0;
+    std::string pin;  // "linuxcnc.session", for the events
+    sessions::SessionRequest request;
+    double end_after_s = 0.0;  // the session ends this long after the channel falls
+  };
+  void set_triggers(std::vector<Trigger> triggers);
+
   // Raw samples go to the recordings and to the sessions: identification, uncertainties and EXPLAIN
   // come from what was measured ([[processing]] is for the live display, SAMPLE's `denoised`).
   void on_samples(std::size_t device_index, const drivers::Driver& device, std::span<const Sample> samples) override;
@@ -91,6 +102,10 @@ class SessionManager : public PipelineStage {
   // Renders NAME.report.html from the session's files (report/); a failure is an EVENT.
   void write_session_report(const Running& r, std::vector<std::string> inputs);
   void post_event(const SessionInfo& info, const std::string& event, const std::string& reason);
+  // A trigger's channel crossed 0.5 (pipeline thread): its session starts, or is asked to end.
+  void triggered(std::size_t index, bool on);
+  // Ends the triggered sessions whose channel fell end_after_s ago (pipeline thread).
+  void end_triggered(std::int64_t now_ns);
   // A disk error of the session's files: kept for STATUS and PARAMS (`recording_error`), and an
   // EVENT recording_failed (logged by the daemon) unless this very reason was posted already.
   void report_recording_error(Running& r, const std::string& reason);
@@ -108,6 +123,13 @@ class SessionManager : public PipelineStage {
   std::vector<SessionInfo> infos_;  // every session this run, newest last
 
   std::vector<std::unique_ptr<Running>> running_;  // pipeline thread only
+  struct TriggerState {
+    Trigger trigger;
+    bool on = false;
+    std::string session;            // the one it started ("": none)
+    std::int64_t end_at_ns = 0;     // when the channel fell: the session ends then (0: not falling)
+  };
+  std::vector<TriggerState> triggers_;  // pipeline thread only (after set_triggers)
 
   std::mutex finish_mutex_;
   std::condition_variable_any finish_cv_;

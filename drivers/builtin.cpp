@@ -2,6 +2,7 @@
 
 #include "drivers/autocollimator/autocollimator_driver.hpp"
 #include "drivers/dbb/dbb_driver.hpp"
+#include "drivers/linuxcnc/linuxcnc_driver.hpp"
 #include "drivers/micrometer/micrometer_driver.hpp"
 #include "drivers/profilometer/profilometer_driver.hpp"
 
@@ -15,6 +16,7 @@ constexpr void (*builtin_drivers[])(DriverRegistry&) = {
     &autocollimator::register_autocollimator_driver,
     &micrometer::register_micrometer_driver,
     &profilometer::register_profilometer_driver,
+    &linuxcnc::register_linuxcnc_driver,
 };
 
 }  // namespace

@@ -410,7 +410,14 @@ std::string format_dbb_run(const DbbRun& run) {
     meta.erase("center_b_mm");
   }
   for (const auto& [k, v] : meta) o << "# " << k << " = " << v << "\n";
-  o << "t_s,angle_deg,dL_um\n";
+  o << "t_s,angle_deg,dL_um";
+  for (const auto& [name, values] : run.extra_columns) {
+    if (values.size() != run.angle_rad.size())
+      throw DbbRunFormatError(run.source + ": column " + name + " has " + std::to_string(values.size()) +
+                              " values for " + std::to_string(run.angle_rad.size()) + " samples");
+    o << ',' << name;
+  }
+  o << "\n";
   // Data rows with the fewest digits that read back to the same values: a run file identified
   // offline gives exactly the result the daemon computed from it.
   std::string rows;
@@ -421,6 +428,10 @@ std::string format_dbb_run(const DbbRun& run) {
     append_shortest(rows, run.angle_rad[i] / deg);
     rows += ',';
     append_shortest(rows, run.dL_m[i] * 1e6);
+    for (const auto& column : run.extra_columns) {
+      rows += ',';
+      append_shortest(rows, column.second[i]);
+    }
     rows += '\n';
   }
   return o.str() + rows;

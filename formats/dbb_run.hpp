@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace guideway::formats {
@@ -42,6 +43,9 @@ struct DbbRun {
   std::vector<double> t_s;
   std::vector<double> angle_rad;  // commanded angle zeta, unwrapped (monotonic)
   std::vector<double> dL_m;
+  // Columns written after dL_um, one value per sample each (a controller's commanded position beside the
+  // reading: "x_cmd_mm"); the reader ignores extra columns and leaves this empty.
+  std::vector<std::pair<std::string, std::vector<double>>> extra_columns;
   [[nodiscard]] int dir() const { return static_cast<int>(direction); }
   [[nodiscard]] double nominal_length_m() const;
 };

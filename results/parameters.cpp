@@ -82,6 +82,8 @@ constexpr const Parameter* all[] = {
     // EXPLAIN, DBB
     &backlash_delay,
     &spike_decay,
+    &compensation_step,
+    &compensation_step_lag,
     &cyclic_sin_column,
     &cyclic_cos_column,
     &cyclic_delay,

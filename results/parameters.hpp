@@ -302,6 +302,11 @@ inline constexpr Parameter backlash_delay{"backlash_delay_ms", "backlash delay",
                                           "how late the drives follow the command where the deadband is taken up"};
 inline constexpr Parameter spike_decay{"reversal_spike_decay_ms", "reversal spike decay", "dbb", "",
                                        "decay time of the reversal spikes (searched)"};
+inline constexpr Parameter compensation_step{
+    "compensation_step_{axis}_um", "compensation step {axis}", "dbb", "",
+    "the backlash a controller's table steps at the commanded reversal while the drive follows late"};
+inline constexpr Parameter compensation_step_lag{"compensation_step_lag_ms", "compensation step lag", "dbb", "",
+                                                 "how late the drive follows the compensation's step (searched)"};
 // A line's sine and cosine parts: unit-amplitude columns, so each part is in um (fitted beside, shown).
 inline constexpr ShownAs shown_um{"\u00b5m"};
 inline constexpr Parameter cyclic_sin_column{"cyclic_sin_{axis}",

@@ -208,6 +208,31 @@ class DbbSession : public Session {
     }
   }
 
+  // A controller's commanded positions (a device with channels x_cmd, y_cmd, z_cmd: LinuxCNC's linuxcnc-hal),
+  // kept to write beside the bar's reading (close_segment).
+  void on_other_samples(const drivers::Driver& device, std::span<const Sample> samples) override {
+    if (cmd_device_ == nullptr) {
+      std::array<int, 3> ch{-1, -1, -1};
+      const auto& channels = device.channels();
+      for (std::size_t i = 0; i < channels.size(); ++i)
+        for (std::size_t k = 0; k < 3; ++k)
+          if (channels[i].name == std::string(1, static_cast<char>('x' + k)) + "_cmd") ch[k] = static_cast<int>(i);
+      if (ch[0] < 0 || ch[1] < 0 || ch[2] < 0) return;
+      cmd_device_ = &device;
+      cmd_channel_ = ch;
+    }
+    if (&device != cmd_device_) return;
+    for (const Sample& s : samples) {
+      if (s.value_count <= static_cast<std::uint32_t>(*std::max_element(cmd_channel_.begin(), cmd_channel_.end())))
+        continue;
+      Commanded c{static_cast<double>(s.t_mono_ns) * 1e-9, {}};
+      for (std::size_t k = 0; k < 3; ++k) c.xyz_m[k] = s.value[static_cast<std::size_t>(cmd_channel_[k])];
+      commanded_.push_back(c);
+    }
+    // Hours at 1 kHz would grow without end: the oldest half goes (a circle is minutes).
+    if (commanded_.size() > max_commanded) commanded_.erase(commanded_.begin(), commanded_.begin() + max_commanded / 2);
+  }
+
   [[nodiscard]] bool complete() const override {
     for (const auto& r : runs_) {
       if (!r) return false;
@@ -494,10 +519,108 @@ class DbbSession : public Session {
       last_note_ = std::string("pattern ") + std::to_string(match + 1) + " rejected: " + e.what();
       return;
     }
+    add_commanded(run, on);
     last_feed_m_per_s_ = run.feed_m_per_s;
     last_overshoot_rad_ = 0.5 * (std::abs(span) - pat.data_arc_rad);
     runs_[match] = std::move(run);
     last_note_.clear();
+  }
+
+  // The controller's command at CLOCK_MONOTONIC time t_s along the axes a, b (linear between its periods).
+  std::array<double, 2> commanded_at(double t_s, int a, int b) const {
+    auto hi = std::lower_bound(commanded_.begin(), commanded_.end(), t_s,
+                               [](const Commanded& c, double t) { return c.t_s < t; });
+    if (hi == commanded_.begin()) hi = commanded_.begin() + 1;
+    if (hi == commanded_.end()) hi = commanded_.end() - 1;
+    const auto lo = hi - 1;
+    const double w = hi->t_s > lo->t_s ? std::clamp((t_s - lo->t_s) / (hi->t_s - lo->t_s), 0.0, 1.0) : 0.0;
+    const auto at = [&](int k) {
+      const auto i = static_cast<std::size_t>(k);
+      return lo->xyz_m[i] + w * (hi->xyz_m[i] - lo->xyz_m[i]);
+    };
+    return {at(a), at(b)};
+  }
+
+  // The controller's commanded position beside each reading of the run (columns <a>_cmd_mm, <b>_cmd_mm), taken
+  // the time earlier at which the encoders follow it best: the drives' lag and the links' latency. That time
+  // drifts where the readings' clock and the controller's differ (a virtual machine playing LinuxCNC's periods
+  // back a second behind, its clock taking up LinuxCNC's 1 % drift: 0.16 s over a 16 s run), so it is tracked
+  // window by window (a second of the run each) and interpolated between them. The metadata states it
+  // (controller_lag_ms: mean, controller_lag_spread_ms: largest less smallest) and how far the encoders stayed
+  // from the command (controller_mismatch_um, mean). Nothing when no controller's device streamed over the run.
+  void add_commanded(formats::DbbRun& run, const std::vector<Point>& on) {
+    if (commanded_.size() < 2 || run.t_s.size() < 2) return;
+    const auto [ia, ib] = plane_axes(run.plane);
+    std::vector<const Point*> kept;  // the run's samples
+    for (const Point& p : on)
+      if (p.t_s >= run.t_s.front() && p.t_s <= run.t_s.back()) kept.push_back(&p);
+    if (kept.size() < 20) return;
+    // Mean distance of the samples [from, to) (every stride-th) from the command lag earlier.
+    const auto mismatch = [&](std::size_t from, std::size_t to, std::size_t stride, double lag) {
+      double sum = 0;
+      std::size_t n = 0;
+      for (std::size_t i = from; i < to; i += stride, ++n) {
+        const auto c = commanded_at(kept[i]->t_s + t0_ - lag, ia, ib);
+        sum += std::hypot(kept[i]->a_m - c[0], kept[i]->b_m - c[1]);
+      }
+      return sum / static_cast<double>(std::max<std::size_t>(n, 1));
+    };
+    // The best lag over [0, max_controller_lag_s]: on a 20 ms grid, then on grids 1/25 and 1/625 as fine about
+    // it (the mismatch grows with the feed times the lag's error: one minimum within a revolution). Each window
+    // searches the whole range: the lag jumps where a virtual machine's playback ran dry and waits longer.
+    const auto search = [&](std::size_t from, std::size_t to) {
+      const std::size_t stride = std::max<std::size_t>(1, (to - from) / 100);
+      double best = 0, best_m = mismatch(from, to, stride, 0.0), step = 0.02;
+      for (double lag = step; lag <= max_controller_lag_s; lag += step)
+        if (const double m = mismatch(from, to, stride, lag); m < best_m) best = lag, best_m = m;
+      for (int pass = 0; pass < 2; ++pass) {
+        const double centre = best;
+        for (double lag = std::max(0.0, centre - step); lag <= centre + step; lag += step / 25)
+          if (const double m = mismatch(from, to, stride, lag); m < best_m) best = lag, best_m = m;
+        step /= 25;
+      }
+      return best;
+    };
+    std::vector<std::pair<double, double>> track;  // (run time, lag) at each window's middle
+    for (std::size_t from = 0; from < kept.size();) {
+      std::size_t to = from;
+      while (to < kept.size() && kept[to]->t_s < kept[from]->t_s + lag_window_s) ++to;
+      if (kept.size() - to < 20) to = kept.size();  // a short tail joins the last window
+      track.emplace_back(0.5 * (kept[from]->t_s + kept[to - 1]->t_s), search(from, to));
+      from = to;
+    }
+    // Linear between the windows' middles, and beyond the first and the last (the drift goes on to the ends).
+    const auto lag_at = [&](double t) {
+      if (track.size() == 1) return track.front().second;
+      auto hi = std::lower_bound(track.begin(), track.end(), t, [](const auto& w, double x) { return w.first < x; });
+      hi = std::clamp(hi, track.begin() + 1, track.end() - 1);
+      const auto lo = hi - 1;
+      return lo->second + (t - lo->first) / (hi->first - lo->first) * (hi->second - lo->second);
+    };
+    const double first = run.t_s.front() + t0_ - lag_at(run.t_s.front());
+    const double last = run.t_s.back() + t0_ - lag_at(run.t_s.back());
+    if (first < commanded_.front().t_s || last > commanded_.back().t_s) return;  // not over the whole run
+    std::vector<double> a_mm, b_mm;
+    for (const double t : run.t_s) {
+      const auto c = commanded_at(t + t0_ - lag_at(t), ia, ib);
+      a_mm.push_back(c[0] * 1e3);
+      b_mm.push_back(c[1] * 1e3);
+    }
+    double sum = 0, lo = track.front().second, hi = lo, lag_sum = 0;
+    for (const Point* p : kept) {
+      const double l = lag_at(p->t_s);
+      const auto c = commanded_at(p->t_s + t0_ - l, ia, ib);
+      sum += std::hypot(p->a_m - c[0], p->b_m - c[1]);
+      lag_sum += l;
+    }
+    for (const auto& w : track) lo = std::min(lo, w.second), hi = std::max(hi, w.second);
+    const auto n = static_cast<double>(kept.size());
+    run.extra_columns = {{std::string(1, run.plane[0]) + "_cmd_mm", std::move(a_mm)},
+                         {std::string(1, run.plane[1]) + "_cmd_mm", std::move(b_mm)}};
+    run.metadata["controller"] = cmd_device_->name();
+    run.metadata["controller_lag_ms"] = printf_number("%.1f", lag_sum / n * 1e3);
+    run.metadata["controller_lag_spread_ms"] = printf_number("%.1f", (hi - lo) * 1e3);
+    run.metadata["controller_mismatch_um"] = printf_number("%.3g", sum / n * 1e6);
   }
 
   std::map<std::string, std::string> run_metadata(const Pattern& pat, const formats::DbbRun& run, double r, double ca,
@@ -543,6 +666,16 @@ class DbbSession : public Session {
   std::vector<Reading> segment_;
   std::vector<std::optional<formats::DbbRun>> runs_;
   std::string last_note_;
+  struct Commanded {
+    double t_s;                  // CLOCK_MONOTONIC
+    std::array<double, 3> xyz_m;
+  };
+  static constexpr std::size_t max_commanded = 4'000'000;  // an hour at 1 kHz
+  static constexpr double max_controller_lag_s = 10.0;  // a virtual machine plays the periods back seconds late
+  static constexpr double lag_window_s = 1.0;
+  std::vector<Commanded> commanded_;  // pipeline thread
+  const drivers::Driver* cmd_device_ = nullptr;
+  std::array<int, 3> cmd_channel_{-1, -1, -1};
   double last_feed_m_per_s_ = 0.0;   // of the last run traced (time_left_s)
   double last_overshoot_rad_ = 0.0;  // its feed-in, and its feed-out
 };

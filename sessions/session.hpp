@@ -42,6 +42,12 @@ class Session {
  public:
   virtual ~Session() = default;
   virtual void on_samples(std::span<const Sample> samples) = 0;
+  // Another device's samples, as they come (pipeline thread): a controller's commanded positions (a
+  // linuxcnc-hal device's x_cmd, y_cmd, z_cmd) a DBB session writes beside the bar's reading. Default: none.
+  virtual void on_other_samples(const drivers::Driver& device, std::span<const Sample> samples) {
+    (void)device;
+    (void)samples;
+  }
   // True once the session has all it needs (e.g. every pattern of a DBB test): it then finishes
   // without a stop request.
   [[nodiscard]] virtual bool complete() const { return false; }

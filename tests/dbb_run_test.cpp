@@ -99,6 +99,34 @@ TEST(DbbRunTest, AcceptsWrappedAnglesExtraColumnsAndTrailer) {
   EXPECT_NEAR(r.angle_rad.back() - r.angle_rad.front(), 2 * std::numbers::pi, 1e-12);
 }
 
+
+// A controller's commanded position written beside the bar's reading (a live session with a linuxcnc-hal
+// device): columns after dL_um, one value a sample; the reader takes the run as before. A column of the wrong
+// length is the writer's error, named.
+TEST(DbbRunTest, WritesExtraColumnsAfterTheReadings) {
+  DbbRun r = guideway::formats::parse_dbb_run(header() + rows(361), "run.csv");
+  std::vector<double> x_mm, y_mm;
+  for (const double a : r.angle_rad) {
+    x_mm.push_back(100 * std::cos(a));
+    y_mm.push_back(100 * std::sin(a));
+  }
+  r.extra_columns = {{"x_cmd_mm", x_mm}, {"y_cmd_mm", y_mm}};
+  const std::string text = guideway::formats::format_dbb_run(r);
+  EXPECT_NE(text.find("\nt_s,angle_deg,dL_um,x_cmd_mm,y_cmd_mm\n"), std::string::npos) << text.substr(0, 400);
+  EXPECT_NE(text.find(",100,0\n"), std::string::npos) << "the first sample's command (100, 0) mm";
+  const DbbRun back = guideway::formats::parse_dbb_run(text, "back.csv");
+  ASSERT_EQ(back.dL_m.size(), r.dL_m.size());
+  for (std::size_t i = 0; i < r.dL_m.size(); ++i) EXPECT_DOUBLE_EQ(back.dL_m[i], r.dL_m[i]);
+  EXPECT_TRUE(back.extra_columns.empty());
+  r.extra_columns[1].second.pop_back();
+  try {
+    (void)guideway::formats::format_dbb_run(r);
+    ADD_FAILURE() << "a short column was written";
+  } catch (const guideway::formats::DbbRunFormatError& e) {
+    EXPECT_NE(std::string(e.what()).find("column y_cmd_mm has 360 values for 361 samples"), std::string::npos)
+        << e.what();
+  }
+}
 TEST(DbbRunTest, TooFewPoints) {
   EXPECT_NE(error_of(header() + rows(20)).find("too few samples: 20, need at least 72"), std::string::npos)
       << error_of(header() + rows(20));

@@ -50,7 +50,7 @@ class DriverPluginDaemon(unittest.TestCase):
         self.assertEqual(out.returncode, 0, out.stderr)
         names = [line.split("\t")[0] for line in out.stdout.splitlines()]
         self.assertEqual(names, ["dbb-can", "autocollimator-serial", "micrometer-modbus", "profilometer-tcp",
-                                 "example-ramp", "example-faulty"])
+                                 "linuxcnc-hal", "example-ramp", "example-faulty"])
         self.assert_broken_plugins_named(out.stderr)
 
     def test_a_plugin_device_streams_in_the_daemon(self):

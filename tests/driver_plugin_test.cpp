@@ -61,7 +61,7 @@ std::string config_error_of(const std::string& keys) {
 
 }  // namespace
 
-TEST(DriverTable, TheFourInstrumentDriversAreBuiltIn) {
+TEST(DriverTable, TheFourInstrumentDriversAndLinuxCncAreBuiltIn) {
   drivers::DriverRegistry registry;
   drivers::register_builtin_drivers(registry);
   std::vector<std::string> names;
@@ -70,7 +70,8 @@ TEST(DriverTable, TheFourInstrumentDriversAreBuiltIn) {
     EXPECT_FALSE(description.empty()) << name;
   }
   EXPECT_EQ(names,
-            (std::vector<std::string>{"dbb-can", "autocollimator-serial", "micrometer-modbus", "profilometer-tcp"}));
+            (std::vector<std::string>{"dbb-can", "autocollimator-serial", "micrometer-modbus", "profilometer-tcp",
+                                      "linuxcnc-hal"}));
 }
 
 TEST(DriverPlugin, ADriverNotBuiltInComesFromACPlugin) {
@@ -81,10 +82,10 @@ TEST(DriverPlugin, ADriverNotBuiltInComesFromACPlugin) {
   ASSERT_TRUE(registry.contains("example-ramp"));
   EXPECT_TRUE(registry.contains("dbb-can")) << "a plugin adds to the built-in drivers";
   const auto drivers = registry.list();
-  ASSERT_EQ(drivers.size(), 6u);
-  EXPECT_EQ(drivers[4],
+  ASSERT_EQ(drivers.size(), 7u);
+  EXPECT_EQ(drivers[5],
             (std::pair<std::string, std::string>{"example-ramp", "example plugin (C): a ramp of `count` samples"}));
-  EXPECT_EQ(drivers[5].first, "example-faulty") << "plugins in file name order, after the built-in drivers";
+  EXPECT_EQ(drivers[6].first, "example-faulty") << "plugins in file name order, after the built-in drivers";
 }
 
 TEST(DriverPlugin, SamplesStateAndCountersCrossTheBoundary) {
@@ -201,7 +202,7 @@ TEST(DriverPlugin, APluginOfAnotherAbiOrWithoutTheEntryPointIsNamedAndSkipped) {
   EXPECT_EQ(errors[1], dir + "/example_driver_plugin_other_abi.so: plugin ABI 99, guidewayd expects 1 "
                              "(rebuild it against this drivers/plugin_abi.h)");
   EXPECT_FALSE(registry.contains("example-ramp"));
-  EXPECT_EQ(registry.list().size(), 4u) << "the built-in drivers stay";
+  EXPECT_EQ(registry.list().size(), 5u) << "the built-in drivers stay";
 }
 
 TEST(DriverPlugin, AFileInThePluginDirectoryThatIsNoPluginIsNamed) {

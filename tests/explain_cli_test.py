@@ -104,6 +104,14 @@ def main():
         j = json.loads(run(exe, "explain", "--simulated", sim, "--measured", files[0], "--json").stdout)
         assert j["findings"] and j["findings"][0]["effect"] == "backlash", j["findings"]
 
+        # runs without the backlash the file holds (a machine whose controller compensates it): "not found"
+        # beside the file's value, in text as in JSON (the text once stopped on the missing u)
+        sim_cw = os.path.join(d, "sim-cw.csv")
+        run(exe, "simulate", "dbb", "--machine", perfect, "--radius-mm", "100", "--direction", "cw",
+            "--sample-rate-hz", "30", "--out", sim_cw)
+        text = run(exe, "explain", "--model", "dbb", sim, sim_cw, "--machine", machine).stdout
+        assert re.search(r"backlash\s+backlash X\s+not found\s+machine file 2 µm", text), text
+
         # faced profiles at two feeds with a thermal drift (0.2 um/min) and squareness: --model flatness
         rnd = random.Random(5)
 

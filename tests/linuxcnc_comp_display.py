@@ -12,11 +12,15 @@ error channel, to [GUIDEWAY_TEST]RESULT as JSON; when it exits, LinuxCNC shuts d
 The plan ([GUIDEWAY_TEST]PLAN, JSON): {"moves": [{"axis": "X", "joint": 0, "to_mm": 12.3}, ...]}.
 """
 import json
+import os
 import sys
 import time
 
 import hal
 import linuxcnc
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "linuxcnc"))
+from guideway_headless import Machine  # noqa: E402
 
 TIMEOUT_S = 20.0
 
@@ -26,49 +30,14 @@ def ini_path():
     return args[args.index("-ini") + 1]
 
 
-class Session:
+class Session(Machine):
+    """linuxcnc/guideway_headless.py's machine (estop, on, homing, modes, the error channel), with MDI moves."""
+
     def __init__(self):
-        self.stat = linuxcnc.stat()
-        self.command = linuxcnc.command()
-        self.errors = linuxcnc.error_channel()
-        self.messages = []
-
-    def poll_errors(self):
-        while True:
-            e = self.errors.poll()
-            if not e:
-                return
-            self.messages.append(e[1].strip())
-
-    def wait_for(self, what, predicate):
-        deadline = time.monotonic() + TIMEOUT_S
-        while time.monotonic() < deadline:
-            self.stat.poll()
-            self.poll_errors()
-            if predicate(self.stat):
-                return
-            time.sleep(0.01)
-        raise RuntimeError(f"timed out waiting for {what}; LinuxCNC said: {self.messages}")
-
-    def set_mode(self, mode):
-        self.command.mode(mode)
-        self.command.wait_complete()
-        self.wait_for(f"mode {mode}", lambda s: s.task_mode == mode)
+        super().__init__(echo=False)  # the test reads the messages from the result
 
     def start(self, joints):
-        self.wait_for("the task", lambda s: s.task_state == linuxcnc.STATE_ESTOP)
-        self.command.state(linuxcnc.STATE_ESTOP_RESET)
-        self.command.wait_complete()
-        self.command.state(linuxcnc.STATE_ON)
-        self.command.wait_complete()
-        self.wait_for("machine on", lambda s: s.task_state == linuxcnc.STATE_ON)
-        self.set_mode(linuxcnc.MODE_MANUAL)
-        self.command.teleop_enable(0)
-        self.command.wait_complete()
-        for j in range(joints):
-            self.command.home(j)
-            self.command.wait_complete()
-            self.wait_for(f"joint {j} homed", lambda s, j=j: s.homed[j])
+        super().start()
         self.set_mode(linuxcnc.MODE_MDI)
         self.mdi("G21 G90 G94")
 
@@ -112,7 +81,7 @@ def main():
             session.mdi(f"G1 {move['axis']}{move['to_mm']:.6f} F{plan.get('feed_mm_per_min', 3000)}")
             pins = settled_pins(move["joint"])
             out["samples"].append({**move, **pins})
-        session.poll_errors()
+        session.poll()
     except Exception as e:  # the test reports it with LinuxCNC's messages
         out["error"] = str(e)
     out["messages"] = session.messages if session else []

@@ -29,8 +29,6 @@ Skips (exit code 77) only when LinuxCNC is not installed (`linuxcnc-uspace`; scr
 usage: linuxcnc_comp_test.py BUILD_DIR SOURCE_DIR
 """
 import bisect
-import contextlib
-import fcntl
 import json
 import math
 import os
@@ -53,23 +51,10 @@ TOLERANCE_MM = 1e-6
 # 0.25 um RMS) and the lead error's interpolation between 1 mm lines (up to 0.14 of its 1.5 um at a line).
 LEFT_UM = 0.4
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
+from linuxcnc_loop import fragment_sections, lingering_linuxcnc, machine_lock, read_comp  # noqa: E402
 AXES = "XYZ"
 NOBODY_UID = 65534
-
-
-def read_comp(path):
-    """Triplets as LinuxCNC reads them: from the top until the first line that is not three numbers."""
-    rows = []
-    with open(path) as f:
-        for line in f:
-            parts = line.split()
-            try:
-                if len(parts) != 3:
-                    break
-                rows.append(tuple(float(p) for p in parts))
-            except ValueError:
-                break
-    return rows
 
 
 def table_correction_mm(rows, position_mm, moving_up):
@@ -81,22 +66,6 @@ def table_correction_mm(rows, position_mm, moving_up):
     col = 1 if moving_up else 2
     c0, c1 = rows[i][0] - rows[i][col], rows[i + 1][0] - rows[i + 1][col]
     return c0 + (c1 - c0) * (position_mm - noms[i]) / (noms[i + 1] - noms[i])
-
-
-def fragment_sections(path):
-    """The `key = value` lines of each section of our linuxcnc.ini fragment (comments left out)."""
-    sections, current = {}, None
-    with open(path) as f:
-        for line in f:
-            s = line.strip()
-            if not s or s[0] in "#;":
-                continue
-            if s.startswith("[") and s.endswith("]"):
-                current = sections.setdefault(s[1:-1], [])
-            else:
-                assert current is not None and "=" in s, f"{path}: '{s}' is not in a section"
-                current.append(s)
-    return sections
 
 
 HAL = """# The motion controller with every joint looped back: the drive is where it is commanded.
@@ -165,15 +134,6 @@ def write_config(config_dir, comp_dir, plan, other_tables=None):
     with open(path, "w") as f:
         f.write("\n".join(ini))
     return path
-
-
-def lingering_linuxcnc():
-    """The pids of a LinuxCNC's processes already running on this machine."""
-    pids = []
-    for name in ("milltask", "linuxcncsvr", "io", "rtapi_app"):
-        res = subprocess.run(["pidof", name], capture_output=True, text=True)
-        pids += res.stdout.split()
-    return pids
 
 
 def run_linuxcnc(ini_path, log_path, fifo_dir):
@@ -405,22 +365,6 @@ def check_swapped(samples, joint, full, swapped):
     print(f"two lines out of order: LinuxCNC reports '{SWAPPED_REPORT}', leaves out the line at {missing[0][0]} mm "
           f"(there {at_missing[0]['diff_mm'] * 1e3:+.3f} um from the whole table) and applies the other "
           f"{len(kept)} lines")
-
-
-@contextlib.contextmanager
-def machine_lock():
-    """One LinuxCNC per machine: another run of this test (any user, any checkout) waits here. A read-only
-    descriptor takes the lock, so a lock file another user created serves as well."""
-    path = os.path.join(tempfile.gettempdir(), "guideway-linuxcnc-test.lock")
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except FileNotFoundError:
-        fd = os.open(path, os.O_RDONLY | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
-    finally:
-        os.close(fd)
 
 
 def main():

@@ -16,7 +16,7 @@ namespace effects {
 extern const Effect backlash, reversal_spike, lateral_play, servo_mismatch, servo_lag, cyclic_error, thermal_drift,
     vibration, stick_slip, scale_mismatch, squareness, straightness, spindle_axial_runout, tool_wear, feed_marks,
     abbe_offset, cosine_error, sensor_nonlinearity, synchronous_harmonic, asynchronous_line, speed_variation,
-    artifact_form, speed_ripple, angle_drift, reflector_rocking, pitch_wave, yaw_coupling;
+    artifact_form, speed_ripple, angle_drift, reflector_rocking, pitch_wave, yaw_coupling, compensation_step;
 
 const std::vector<const Effect*>& library() {
   static const std::vector<const Effect*> table = {
@@ -47,6 +47,7 @@ const std::vector<const Effect*>& library() {
       &reflector_rocking,
       &pitch_wave,
       &yaw_coupling,
+      &compensation_step,
   };
   return table;
 }

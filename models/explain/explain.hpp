@@ -163,6 +163,7 @@ class BasePredictions {
   [[nodiscard]] std::shared_ptr<const Eigen::VectorXd> of(const std::vector<bool>& use) const;
   [[nodiscard]] Eigen::Index rows() const { return y_.size(); }
   [[nodiscard]] const Eigen::VectorXd& y() const { return y_; }
+  [[nodiscard]] const Block& base() const { return base_; }
 
  private:
   static constexpr std::size_t kept = 10;  // masks: every row and 8 folds, and one more

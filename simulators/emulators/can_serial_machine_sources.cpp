@@ -9,23 +9,10 @@ namespace guideway::simulators::emulators {
 
 namespace {
 
-// The plane's two axes, then the axis normal to it (the encoders' order on the bus: bar, a, b, normal).
-std::array<int, 3> plane_axes(machine::Plane p) {
-  switch (p) {
-    case machine::Plane::xy:
-      return {0, 1, 2};
-    case machine::Plane::xz:
-      return {0, 2, 1};
-    case machine::Plane::yz:
-      return {1, 2, 0};
-  }
-  return {0, 1, 2};
-}
-
 // Bar length and the three axes' encoders between two samples (w: 0 at lo, 1 at hi), in bus order.
 void interpolate(const machine::DbbSample& lo, const machine::DbbSample& hi, double w, machine::Plane plane,
                  std::span<double> out) {
-  const auto axes = plane_axes(plane);
+  const auto axes = bus_axes(plane);
   const double v[4] = {lo.bar_length_m + w * (hi.bar_length_m - lo.bar_length_m),
                        lo.encoder[axes[0]] + w * (hi.encoder[axes[0]] - lo.encoder[axes[0]]),
                        lo.encoder[axes[1]] + w * (hi.encoder[axes[1]] - lo.encoder[axes[1]]),
@@ -36,6 +23,18 @@ void interpolate(const machine::DbbSample& lo, const machine::DbbSample& hi, dou
 constexpr double rad_to_arcsec = 180.0 * 3600.0 / 3.14159265358979323846;
 
 }  // namespace
+
+std::array<int, 3> bus_axes(machine::Plane plane) {
+  switch (plane) {
+    case machine::Plane::xy:
+      return {0, 1, 2};
+    case machine::Plane::xz:
+      return {0, 2, 1};
+    case machine::Plane::yz:
+      return {1, 2, 0};
+  }
+  return {0, 1, 2};
+}
 
 void DbbMotion::at(double t_s, std::span<double> out) const {
   const auto& s = run.samples;

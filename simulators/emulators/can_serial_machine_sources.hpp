@@ -4,6 +4,7 @@
 // motion is computed once by guideway::simulators::machine::Machine and replayed in emulator time, repeating when
 // it ends. Thread safe (the sources only read an immutable run).
 
+#include <array>
 #include <memory>
 
 #include "simulators/emulators/autocollimator_emulator.hpp"
@@ -11,6 +12,10 @@
 #include "simulators/machine/machine.hpp"
 
 namespace guideway::simulators::emulators {
+
+// The axes (0 = x, 1 = y, 2 = z) of the encoders on the DBB bus after the bar: the plane's two, then the
+// normal axis's.
+std::array<int, 3> bus_axes(machine::Plane plane);
 
 // The computed DBB run shared by the source and tests.
 struct DbbMotion {

@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <numbers>
 #include <tuple>
 
@@ -13,6 +14,7 @@
 #include "simulators/emulators/can_serial_machine_sources.hpp"
 #include "simulators/emulators/dbb_emulator.hpp"
 #include "simulators/emulators/emulator_command.hpp"
+#include "simulators/emulators/linuxcnc_follower.hpp"
 
 namespace guideway::simulators::emulators {
 
@@ -41,6 +43,9 @@ struct DbbOptions {
   int transmission_type = 1;
   bool auto_start = false;
   std::vector<std::uint32_t> serial_numbers;
+  std::string follow;                        // the bridge's socket: move as LinuxCNC commands
+  double follow_delay_ms = 300.0;
+  std::vector<double> center_mm{0.0, 0.0, 0.0};  // the bar's fixed ball (the circle's commanded centre)
 };
 
 std::string node_states_text(const DbbEmulator& emu) {
@@ -213,8 +218,25 @@ int run_dbb(const DbbOptions& o) {
     // The three planes need every axis on the bus: the normal axis's encoder on the next node.
     nodes.push_back(*std::max_element(nodes.begin(), nodes.end()) + 1);
   }
-  auto program = make_dbb_program(machine, specs, o.pause_s);
-  const double nominal_length_m = program->runs.front().nominal_length_m;
+  // Following LinuxCNC the machine moves as the controller commands; else it runs the program's circles.
+  std::unique_ptr<LinuxcncFollower> follower;
+  DbbSource circle;
+  double nominal_length_m = 0;
+  if (!o.follow.empty()) {
+    FollowSettings fs;
+    fs.socket_path = o.follow;
+    fs.plane = spec.plane;
+    fs.radius_m = spec.radius_m;
+    fs.height_m = spec.height_m;
+    fs.center_m = {o.center_mm[0] * 1e-3, o.center_mm[1] * 1e-3, o.center_mm[2] * 1e-3};
+    fs.min_delay_s = o.follow_delay_ms * 1e-3;
+    follower = std::make_unique<LinuxcncFollower>(machine, fs);
+    circle = follower->source();
+    nominal_length_m = std::hypot(spec.radius_m, spec.height_m);
+  } else {
+    nominal_length_m = make_dbb_program(machine, specs, o.pause_s)->runs.front().nominal_length_m;
+    circle = dbb_program_source(machine, specs, o.pause_s);
+  }
   // The bus order: bar, the (first circle's) plane axes, the normal axis (served when a fourth node is given).
   const machine::Plane plane = specs.front().plane;
   const char* names[] = {"bar_length", plane == machine::Plane::yz ? "y" : "x", plane == machine::Plane::xy ? "y" : "z",
@@ -229,7 +251,6 @@ int run_dbb(const DbbOptions& o) {
     if (i == 0) e.offset_m = std::round(nominal_length_m * 1e6) * 1e-6;  // the bar's nominal, in um
     settings.encoders.push_back(e);
   }
-  DbbSource circle = dbb_program_source(machine, specs, o.pause_s);
   DbbEmulator emu(settings, circle);
   std::string error;
   drivers::can::CanSocket listener;
@@ -252,8 +273,21 @@ int run_dbb(const DbbOptions& o) {
   }
   std::fflush(stdout);
   emu.start(std::move(listener));
-  const int rc = run_control_loop([&](const auto& w, std::string& m) { return handle_fault(emu, w, m); }, o.duration_s);
+  if (follower) follower->start();
+  const int rc = run_control_loop(
+      [&](const auto& w, std::string& m) {
+        if (follower && w[0] == "follow") {
+          m = follower->status();
+          return true;
+        }
+        return handle_fault(emu, w, m);
+      },
+      o.duration_s);
   emu.stop();
+  if (follower) {
+    follower->stop();
+    std::printf("%s\n", follower->status().c_str());
+  }
   return rc;
 }
 
@@ -302,6 +336,16 @@ void add_dbb(CLI::App& app, int& exit_code) {
       ->check(CLI::IsMember({"single", "standard", "three-plane", "lai"}))
       ->capture_default_str();
   cmd->add_option("--pause-s", o->pause_s, "standing still after each circle")->capture_default_str();
+  cmd->add_option("--follow", o->follow,
+                  "move as LinuxCNC commands: the socket of guideway-linuxcnc-bridge (docs/linuxcnc.md); the bar is "
+                  "set for --radius-mm, --height-mm, --plane about --center-mm");
+  cmd->add_option("--follow-delay-ms", o->follow_delay_ms,
+                  "with --follow: the least delay behind LinuxCNC's newest period (longer when the link is late)")
+      ->check(CLI::Range(1.0, 5000.0))
+      ->capture_default_str();
+  cmd->add_option("--center-mm", o->center_mm, "with --follow: where the bar's fixed ball is (machine coordinates)")
+      ->expected(3)
+      ->capture_default_str();
   cmd->add_option("--duration-s", o->duration_s, "stop after this long (0: until quit/SIGTERM)")->capture_default_str();
   cmd->callback([o, &exit_code] { exit_code = run_dbb(*o); });
 }

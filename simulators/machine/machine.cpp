@@ -208,10 +208,80 @@ std::array<double, 9> Machine::carriage_rotation(Axis axis, const Vec3& axis_pos
   return out;
 }
 
+MotionStepper::MotionStepper(const Machine& machine, const Vec3& motor_m, double t0_s, std::uint64_t seed)
+    : machine_(&machine),
+      rng_(seed != 0 ? seed : machine.config().noise.seed),
+      t0_s_(t0_s),
+      motor_(motor_m),
+      servo_(motor_m),
+      backlash_(motor_m) {}
+
+void MotionStepper::step(const Vec3& motor_m, double t_rel_s, double dt_s) {
+  const MachineConfig& config = machine_->config();
+  for (std::size_t j = 0; j < 3; ++j) {
+    const auto& e = config.axis[j];
+    const double before = servo_[j];
+    if (e.servo_lag_s > 0) {
+      // Exact response of a first-order lag to a ramp input over the step.
+      const double tau = e.servo_lag_s;
+      const double m = (motor_m[j] - motor_[j]) / dt_s;
+      servo_[j] = motor_m[j] - tau * m + (servo_[j] - motor_[j] + tau * m) * std::exp(-dt_s / tau);
+    } else {
+      servo_[j] = motor_m[j];
+    }
+    const double half = 0.5 * e.backlash_m;
+    if (servo_[j] - backlash_[j] > half) backlash_[j] = servo_[j] - half;
+    if (servo_[j] - backlash_[j] < -half) backlash_[j] = servo_[j] + half;
+    const double moved = servo_[j] - before;
+    const int sgn = std::abs(moved) > 1e-13 ? sign_of(moved) : 0;
+    if (sgn != 0 && sgn != dir_[j]) {
+      if (dir_[j] != 0) {
+        t_rev_[j] = t_rel_s;
+        spike_sign_[j] = sgn;
+      }
+      dir_[j] = sgn;
+    }
+  }
+  motor_ = motor_m;
+}
+
+MotionSample MotionStepper::sample(const Vec3& commanded_m, double t_rel_s) {
+  const MachineConfig& config = machine_->config();
+  MotionSample s;
+  const double t = t0_s_ + t_rel_s;
+  s.t_s = t;
+  s.commanded = commanded_m;
+  Vec3 lateral{};
+  for (std::size_t j = 0; j < 3; ++j) {
+    const auto& e = config.axis[j];
+    double enc = servo_[j];
+    if (e.encoder_noise_m > 0) enc += e.encoder_noise_m * rng_.normal();
+    if (e.encoder_resolution_m > 0) enc = std::round(enc / e.encoder_resolution_m) * e.encoder_resolution_m;
+    s.encoder[j] = enc;
+    double act = backlash_[j];
+    if (e.cyclic_amplitude_m != 0 && e.cyclic_period_m > 0)
+      act += e.cyclic_amplitude_m * std::sin(two_pi * servo_[j] / e.cyclic_period_m + e.cyclic_phase_rad);
+    if (e.reversal_spike_m != 0 && spike_sign_[j] != 0 && e.reversal_spike_decay_s > 0)
+      act -= spike_sign_[j] * e.reversal_spike_m * std::exp(-(t_rel_s - t_rev_[j]) / e.reversal_spike_decay_s);
+    if (e.stick_slip_m != 0 && spike_sign_[j] != 0 && e.stick_slip_decay_s > 0) {
+      const double since = t_rel_s - t_rev_[j];
+      act -= spike_sign_[j] * e.stick_slip_m * std::exp(-since / e.stick_slip_decay_s) *
+             std::sin(two_pi * e.stick_slip_hz * since);
+    }
+    if (e.vibration_amplitude_m != 0) act += e.vibration_amplitude_m * std::sin(two_pi * e.vibration_frequency_hz * t);
+    s.axis_actual[j] = act;
+    lateral[j] = 0.5 * e.lateral_play_m * dir_[j];
+  }
+  Vector3d tool = chain(config, s.axis_actual, lateral, t).tool;
+  if (config.noise.position_m > 0)
+    for (int i = 0; i < 3; ++i) tool[i] += config.noise.position_m * rng_.normal();
+  s.tool = a3(tool);
+  return s;
+}
+
 std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const {
   std::vector<MotionSample> out;
   if (!spec.path || !(spec.duration_s >= 0.0) || !(spec.sample_rate_hz > 0.0)) return out;
-  Rng rng(spec.seed != 0 ? spec.seed : config_.noise.seed);
   const double dt_out = 1.0 / spec.sample_rate_hz;
   const int sub = std::max(1, static_cast<int>(std::ceil(dt_out / 2e-4)));
   const double dt = dt_out / sub;
@@ -231,48 +301,8 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
   const auto motor_command = [&](const Vec3& c) {
     return controller_command(ctl, c, {comp_dir[0], comp_dir[1], comp_dir[2]});
   };
-  Vec3 motor = motor_command(cmd);
-  Vec3 servo = motor;
-  Vec3 bl = motor;  // position after the backlash deadband
-  int dir[3] = {0, 0, 0};
-  double t_rev[3] = {-1e30, -1e30, -1e30};
-  int spike_sign[3] = {0, 0, 0};
-
-  const auto emit = [&](double t_rel) {
-    MotionSample s;
-    const double t = spec.t0_s + t_rel;
-    s.t_s = t;
-    s.commanded = cmd;
-    Vec3 lateral{};
-    for (std::size_t j = 0; j < 3; ++j) {
-      const auto& e = config_.axis[j];
-      double enc = servo[j];
-      if (e.encoder_noise_m > 0) enc += e.encoder_noise_m * rng.normal();
-      if (e.encoder_resolution_m > 0) enc = std::round(enc / e.encoder_resolution_m) * e.encoder_resolution_m;
-      s.encoder[j] = enc;
-      double act = bl[j];
-      if (e.cyclic_amplitude_m != 0 && e.cyclic_period_m > 0)
-        act += e.cyclic_amplitude_m * std::sin(two_pi * servo[j] / e.cyclic_period_m + e.cyclic_phase_rad);
-      if (e.reversal_spike_m != 0 && spike_sign[j] != 0 && e.reversal_spike_decay_s > 0)
-        act -= spike_sign[j] * e.reversal_spike_m * std::exp(-(t_rel - t_rev[j]) / e.reversal_spike_decay_s);
-      if (e.stick_slip_m != 0 && spike_sign[j] != 0 && e.stick_slip_decay_s > 0) {
-        const double since = t_rel - t_rev[j];
-        act -= spike_sign[j] * e.stick_slip_m * std::exp(-since / e.stick_slip_decay_s) *
-               std::sin(two_pi * e.stick_slip_hz * since);
-      }
-      if (e.vibration_amplitude_m != 0)
-        act += e.vibration_amplitude_m * std::sin(two_pi * e.vibration_frequency_hz * t);
-      s.axis_actual[j] = act;
-      lateral[j] = 0.5 * e.lateral_play_m * dir[j];
-    }
-    Vector3d tool = chain(config_, s.axis_actual, lateral, t).tool;
-    if (config_.noise.position_m > 0)
-      for (int i = 0; i < 3; ++i) tool[i] += config_.noise.position_m * rng.normal();
-    s.tool = a3(tool);
-    out.push_back(s);
-  };
-
-  emit(0.0);
+  MotionStepper machine(*this, motor_command(cmd), spec.t0_s, spec.seed);
+  out.push_back(machine.sample(cmd, 0.0));
   for (std::size_t k = 1; k < n_out; ++k) {
     for (int q = 1; q <= sub; ++q) {
       const double t_rel = (static_cast<double>(k - 1) * sub + q) * dt;
@@ -281,35 +311,10 @@ std::vector<MotionSample> Machine::simulate_motion(const MotionSpec& spec) const
         const double step = next[j] - cmd[j];
         if (std::abs(step) > 1e-13) comp_dir[j] = step > 0 ? 1 : -1;
       }
-      const Vec3 motor_next = motor_command(next);
-      for (std::size_t j = 0; j < 3; ++j) {
-        const auto& e = config_.axis[j];
-        const double before = servo[j];
-        if (e.servo_lag_s > 0) {
-          // Exact response of a first-order lag to a ramp input over the step.
-          const double tau = e.servo_lag_s;
-          const double m = (motor_next[j] - motor[j]) / dt;
-          servo[j] = motor_next[j] - tau * m + (servo[j] - motor[j] + tau * m) * std::exp(-dt / tau);
-        } else {
-          servo[j] = motor_next[j];
-        }
-        const double half = 0.5 * e.backlash_m;
-        if (servo[j] - bl[j] > half) bl[j] = servo[j] - half;
-        if (servo[j] - bl[j] < -half) bl[j] = servo[j] + half;
-        const double step = servo[j] - before;
-        const int sgn = std::abs(step) > 1e-13 ? sign_of(step) : 0;
-        if (sgn != 0 && sgn != dir[j]) {
-          if (dir[j] != 0) {
-            t_rev[j] = t_rel;
-            spike_sign[j] = sgn;
-          }
-          dir[j] = sgn;
-        }
-      }
+      machine.step(motor_command(next), t_rel, dt);
       cmd = next;
-      motor = motor_next;
     }
-    emit(static_cast<double>(k) * dt_out);
+    out.push_back(machine.sample(cmd, static_cast<double>(k) * dt_out));
   }
   return out;
 }
@@ -329,6 +334,34 @@ std::array<int, 2> plane_axes(Plane p) {
 
 }  // namespace
 
+Vec3 dbb_fixed_ball(const MachineConfig& config, const Vec3& center_m, Plane plane, double height_m) {
+  const auto [a, b] = plane_axes(plane);
+  Vector3d e1 = Vector3d::Zero(), e2 = Vector3d::Zero();
+  e1[a] = 1;
+  e2[b] = 1;
+  // The circle is the tool point's (the commanded centre plus the tool offset); the fixed ball sits below it.
+  // Only the in-plane components of the centre offset move the fixed ball sideways; an offset along
+  // the normal changes the height and is applied as well (exact geometry).
+  return a3(v(center_m) + v(config.tool_offset) - v(config.dbb.center_offset) - height_m * e1.cross(e2));
+}
+
+DbbBar::DbbBar(const MachineConfig& config, const Vec3& fixed_ball_m, double nominal_length_m, std::uint64_t seed)
+    : errors_(config.dbb),
+      fixed_(fixed_ball_m),
+      nominal_m_(nominal_length_m),
+      rng_((seed != 0 ? seed : config.noise.seed) ^ 0x9e3779b97f4a7c15ULL) {}
+
+double DbbBar::read(const Vec3& tool_m, double t_s) {
+  double len = (v(tool_m) - v(fixed_)).norm();
+  const auto& bar = errors_;
+  const double change = len - nominal_m_;
+  len += bar.nonlinearity_quadratic_per_m * change * change + bar.nonlinearity_cubic_per_m2 * change * change * change;
+  len += bar.bar_length_error_m + bar.bar_drift_m_per_s * t_s;
+  if (bar.slip_m != 0 && t_s >= bar.slip_time_s) len += bar.slip_m;
+  if (bar.noise_m > 0) len += bar.noise_m * rng_.normal();
+  return len;
+}
+
 DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
   DbbRun run;
   run.spec = spec;
@@ -340,7 +373,6 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
   Vector3d e1 = Vector3d::Zero(), e2 = Vector3d::Zero();
   e1[a] = 1;
   e2[b] = 1;
-  const Vector3d normal = e1.cross(e2);
   const double omega = spec.feed_m_per_s / r;
   const double sweep = spec.data_arc_rad + 2.0 * spec.overshoot_rad;
   const double duration = sweep / omega;
@@ -360,11 +392,7 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
   ms.seed = spec.seed != 0 ? spec.seed : config_.noise.seed;
   const auto motion = simulate_motion(ms);
 
-  // The circle is the tool point's (the commanded centre plus the tool offset); the fixed ball sits below it.
-  Vector3d fixed = center + v(config_.tool_offset) - v(config_.dbb.center_offset) - h * normal;
-  // Only the in-plane components of the centre offset move the fixed ball sideways; an offset along
-  // the normal changes the height and is applied as well (exact geometry).
-  Rng rng(ms.seed ^ 0x9e3779b97f4a7c15ULL);
+  DbbBar bar(config_, dbb_fixed_ball(config_, spec.center, spec.plane, h), run.nominal_length_m, ms.seed);
   run.samples.reserve(motion.size());
   for (const auto& s : motion) {
     DbbSample d;
@@ -377,16 +405,8 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
     d.tool = s.tool;
     d.encoder = s.encoder;
     d.commanded = s.commanded;
-    double len = (v(s.tool) - fixed).norm();
-    const auto& bar = config_.dbb;
-    const double change = len - run.nominal_length_m;
-    len +=
-        bar.nonlinearity_quadratic_per_m * change * change + bar.nonlinearity_cubic_per_m2 * change * change * change;
-    len += bar.bar_length_error_m + bar.bar_drift_m_per_s * s.t_s;
-    if (bar.slip_m != 0 && s.t_s >= bar.slip_time_s) len += bar.slip_m;
-    if (config_.dbb.noise_m > 0) len += config_.dbb.noise_m * rng.normal();
-    d.bar_length_m = len;
-    d.dL_m = len - run.nominal_length_m;
+    d.bar_length_m = bar.read(s.tool, s.t_s);
+    d.dL_m = d.bar_length_m - run.nominal_length_m;
     run.samples.push_back(d);
   }
   return run;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "formats/dbb_run.hpp"
+#include "simulators/machine/noise.hpp"
 
 namespace guideway::simulators::machine {
 
@@ -426,6 +427,55 @@ class Machine {
  private:
   MachineConfig config_;
 };
+
+// The servo, the mechanics and the chain of a machine advanced step by step by its drives' commands (the
+// motor positions a controller sends its drives, its compensation included): what simulate_motion runs
+// along a commanded path, and what follows a real controller's servo periods (guideway-emulate dbb
+// --follow: LinuxCNC's joint motor-pos-cmd). Holds a reference to the machine, which must outlive it. Not
+// thread safe.
+class MotionStepper {
+ public:
+  // Standing at `motor_m` (the drives at rest there) at machine time t0_s; noise drawn from `seed` (0: the
+  // machine's noise seed).
+  MotionStepper(const Machine& machine, const Vec3& motor_m, double t0_s, std::uint64_t seed);
+  // Advances to time t_rel_s (since t0), dt_s after the last step, the drives' command moving linearly to
+  // motor_m over the step (a first-order lag answers a ramp exactly).
+  void step(const Vec3& motor_m, double t_rel_s, double dt_s);
+  // The machine now, at t_rel_s (since t0): its encoders, axes and tool point; `commanded_m` is what the
+  // controller commanded (reported as given). Draws the sample's noise.
+  [[nodiscard]] MotionSample sample(const Vec3& commanded_m, double t_rel_s);
+
+ private:
+  const Machine* machine_;
+  Rng rng_;
+  double t0_s_ = 0.0;
+  Vec3 motor_{};
+  Vec3 servo_{};
+  Vec3 backlash_{};  // position after the backlash deadband
+  int dir_[3] = {0, 0, 0};
+  double t_rev_[3] = {-1e30, -1e30, -1e30};
+  int spike_sign_[3] = {0, 0, 0};
+};
+
+// The ball bar as a sensor: what it reads of the distance between the tool ball and the fixed ball, with the
+// bar's own errors (DbbErrors: nonlinearity, length error, thermal drift, a slip, noise). Not thread safe.
+class DbbBar {
+ public:
+  // Noise drawn from `seed` (0: the machine's noise seed).
+  DbbBar(const MachineConfig& config, const Vec3& fixed_ball_m, double nominal_length_m, std::uint64_t seed);
+  // The reading (m) with the tool ball at tool_m at machine time t_s.
+  [[nodiscard]] double read(const Vec3& tool_m, double t_s);
+
+ private:
+  DbbErrors errors_;
+  Vec3 fixed_{};
+  double nominal_m_ = 0.0;
+  Rng rng_;
+};
+
+// Where the fixed ball sits for a circle about `center_m` in `plane` with the tool ball `height_m` above it
+// (Lai's h): the centre less the set-up's offset (DbbErrors::center_offset), h below along the plane normal.
+Vec3 dbb_fixed_ball(const MachineConfig& config, const Vec3& center_m, Plane plane, double height_m);
 
 // Helpers for commanded paths.
 CommandedPath linear_move(const Vec3& from, const Vec3& to, double feed_m_per_s);

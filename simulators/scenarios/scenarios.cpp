@@ -62,6 +62,8 @@ struct DbbScenario {
   // or on the difference between two radii (the bar's non-linearity) need the instrument's sample
   // density: quick mode keeps it for them.
   bool full_density = false;
+  // The angles are the axis encoders' (a live session's, machine::AngleSource::encoders), not the commanded ones.
+  bool encoder_angles = false;
   bool expect_unexplained = false;
   std::vector<double> where_deg;  // an out-of-library cause: the angles it must be located at
   // ... and the arcs the located places may span (empty: only those angles)
@@ -115,7 +117,9 @@ std::vector<formats::DbbRun> dbb_runs(const machine::MachineConfig& cfg, const D
     spec.sample_rate_hz = omega * 180 / pi * per_deg;
     spec.t0_s = t0;
     spec.seed = o.seed * 1000 + k + 1;
-    formats::DbbRun run = machine::simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1));
+    formats::DbbRun run =
+        machine::simulate_dbb_run(machine, spec, "scenario-run" + std::to_string(k + 1),
+                                  sc.encoder_angles ? machine::AngleSource::encoders : machine::AngleSource::commanded);
     if (sc.knock.run == static_cast<int>(k))
       for (std::size_t i = 0; i < run.t_s.size(); ++i)
         if (const double dt = run.t_s[i] - sc.knock.after_s; dt >= 0)
@@ -171,6 +175,14 @@ void stick_slip(machine::MachineConfig& m, int axis, double um_, double hz, doub
   a.stick_slip_m = um_ * um;
   a.stick_slip_hz = hz;
   a.stick_slip_decay_s = decay_ms * 1e-3;
+}
+// A controller's per-joint tables holding each axis' backlash (LinuxCNC's COMP_FILE: the forward column b/2 short,
+// the reverse b/2 long), switched by the commanded direction.
+void backlash_tables(machine::MachineConfig& m, double x_um, double y_um) {
+  for (std::size_t j = 0; j < 2; ++j) {
+    const double half = 0.5 * (j == 0 ? x_um : y_um) * um;
+    m.controller.tables[j] = {{-1.0, 1.0}, {-1.0 - half, 1.0 - half}, {-1.0 + half, 1.0 + half}};
+  }
 }
 void lateral(machine::MachineConfig& m, int axis, double um_) {
   m.axis[static_cast<std::size_t>(axis)].lateral_play_m = um_ * um;
@@ -233,6 +245,25 @@ const std::vector<DbbScenario>& dbb_scenarios() {
     v.push_back(sc("dbb_reversal_spike", "1.5 um stiction spikes decaying in 50 ms, a few samples per reversal",
                    [](MachineConfig& m) { spike(m, 0, 1.5, 50); },
                    {expect("reversal_spike", results::reversal_spike, along_x, 1.5, 0.45)}));
+    {
+      // As a live session reads them (encoder angles): a drive's lag is then part of the angles, not an effect.
+      DbbScenario s = sc("dbb_compensation_step",
+                         "backlash of 1 um (X) and 2 um (Y) held by the controller's tables, which switch at the "
+                         "commanded reversal while the drives follow 30 ms late (encoder angles, as a live "
+                         "session's; the bar's 0.1 um noise): a dip of about half the backlash at each reversal, "
+                         "some 3 samples long, a reversal spike's place and size",
+                         [](MachineConfig& m) {
+                           m.dbb.noise_m = 0.1 * um;
+                           backlash(m, 0, 1.0);
+                           backlash(m, 1, 2.0);
+                           lags(m, 30, 30);
+                           backlash_tables(m, 1.0, 2.0);
+                         },
+                         {expect("compensation_step", results::compensation_step, along_x, 1.0, 0.2),
+                          expect("compensation_step", results::compensation_step, along_y, 2.0, 0.2)});
+      s.encoder_angles = true;
+      v.push_back(std::move(s));
+    }
     v.push_back(sc("dbb_lateral_play",
                    "Y carriage shifts 1 um sideways with its direction: a step along x where Y reverses",
                    [](MachineConfig& m) { lateral(m, 1, 1.0); },
