@@ -1,7 +1,5 @@
 #include "drivers/linuxcnc/linuxcnc_driver.hpp"
 
-#include <poll.h>
-#include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -30,7 +28,7 @@ int connect_unix(const std::string& path, std::string& error) {
     return -1;
   }
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
   if (fd < 0 || ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
     error = path + ": " + std::strerror(errno) + " (is LinuxCNC running with guideway-bridge.hal?)";
     if (fd >= 0) ::close(fd);
@@ -45,132 +43,135 @@ std::string channel_of(const std::string& column) {
   return column.ends_with("_mm") ? column.substr(0, column.size() - 3) : column;
 }
 
-LinuxcncHalDriver::LinuxcncHalDriver(std::string name, LinuxcncHalConfig config, std::size_t ring_capacity)
-    : Driver(std::move(name), "linuxcnc-hal", channels_of(config.columns), ring_capacity),
-      config_(std::move(config)),
-      wake_fd_(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {}
+namespace {
 
-LinuxcncHalDriver::~LinuxcncHalDriver() {
-  stop();
-  if (wake_fd_ >= 0) ::close(wake_fd_);
+LoopPolicy linuxcnc_policy() {
+  LoopPolicy p;
+  p.backoff = Backoff{0.2, 5.0};  // LinuxCNC (re)started: the bridge is back within its first waits
+  p.schedule = ReadSchedule::per_arrival;
+  p.read_period_ns = 0;
+  return p;
 }
+
+}  // namespace
+
+LinuxcncHalDriver::LinuxcncHalDriver(std::string name, LinuxcncHalConfig config, std::size_t ring_capacity)
+    : LoopDriver(std::move(name), "linuxcnc-hal", channels_of(config.columns), ring_capacity, linuxcnc_policy()),
+      config_(std::move(config)) {}
+
+LinuxcncHalDriver::~LinuxcncHalDriver() { stop(); }
 
 std::vector<NamedCounter> LinuxcncHalDriver::driver_counters() const {
   return {{"periods", periods_.load()}, {"lost_periods", lost_.load()}, {"streams", streams_.load()}};
 }
 
-void LinuxcncHalDriver::interrupt() {
-  const std::uint64_t one = 1;
-  [[maybe_unused]] auto ignored = ::write(wake_fd_, &one, sizeof(one));
-}
-
-void LinuxcncHalDriver::run(std::stop_token stop) {
-  bool first = true;
-  while (!stop.stop_requested()) {
-    std::string error;
-    const int fd = connect_unix(config_.socket, error);
-    if (fd < 0) {
-      set_state(DeviceState::connecting, error);
-      if (!sleep_for(stop, std::chrono::milliseconds(500))) return;
-      continue;
-    }
-    if (!first) ++reconnects_;
-    first = false;
-    ++streams_;
-    const bool readable = follow(fd, stop);
-    ::close(fd);
-    if (stop.stop_requested()) return;
-    if (readable) {
-      set_state(DeviceState::lost, "LinuxCNC's stream ended (LinuxCNC stopped?): waiting for the bridge");
-    }
-    if (!sleep_for(stop, std::chrono::milliseconds(readable ? 200 : 5000))) return;
+void LinuxcncHalDriver::open() {
+  std::string error;
+  fd_ = connect_unix(config_.socket, error);
+  if (fd_ < 0) {
+    link_failed(error);
+    return;
   }
+  link_up(fd_);
 }
 
-bool LinuxcncHalDriver::follow(int fd, const std::stop_token& stop) {
-  std::vector<int> index;  // the published columns' places in the stream
-  std::int64_t period_ns = 0;
-  std::string refused;
-  struct Period {
-    std::int64_t seq;
-    Sample sample;
-  };
-  std::vector<Period> batch;
-  HalStreamReader reader(
-      [&](std::int64_t seq, std::span<const double> v) {
+void LinuxcncHalDriver::on_link_up(std::int64_t) {
+  streams_.fetch_add(1, std::memory_order_relaxed);
+  index_.clear();
+  batch_.clear();
+  period_ns_ = 0;
+  reader_ = std::make_unique<HalStreamReader>(
+      [this](std::int64_t seq, std::span<const double> v) {
         Period p{seq, {}};
-        p.sample.value_count = static_cast<std::uint32_t>(index.size());
-        for (std::size_t i = 0; i < index.size(); ++i) {
-          const double x = v[static_cast<std::size_t>(index[i])];
+        p.sample.value_count = static_cast<std::uint32_t>(index_.size());
+        for (std::size_t i = 0; i < index_.size(); ++i) {
+          const double x = v[static_cast<std::size_t>(index_[i])];
           p.sample.value[i] = config_.columns[i].ends_with("_mm") ? x * 1e-3 : x;
         }
-        batch.push_back(p);
+        batch_.push_back(p);
       },
-      [&](std::uint64_t n, std::string_view why) {
-        lost_ += n;
+      [this](std::uint64_t n, std::string_view why) {
+        lost_.fetch_add(n, std::memory_order_relaxed);
         skip_samples(n);
         post_event({"periods_lost", std::to_string(n) + " servo periods lost (" + std::string(why) + ")", true});
       });
-  char buf[65536];
-  pollfd p[2] = {{fd, POLLIN, 0}, {wake_fd_, POLLIN, 0}};
-  while (!stop.stop_requested()) {
-    if (::poll(p, 2, 1000) <= 0) continue;
-    if (p[1].revents & POLLIN) {
-      std::uint64_t junk;
-      [[maybe_unused]] auto ignored = ::read(wake_fd_, &junk, sizeof(junk));
-      continue;
+}
+
+void LinuxcncHalDriver::on_link_down() {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  reader_.reset();
+  batch_.clear();
+}
+
+bool LinuxcncHalDriver::take_header() {
+  std::string refused;
+  for (const auto& c : config_.columns) {
+    const int i = reader_->header().column(c);
+    if (i < 0) refused += (refused.empty() ? "" : ", ") + c;
+    index_.push_back(i);
+  }
+  if (refused.empty()) {
+    period_ns_ = reader_->header().period_ns;
+    return true;
+  }
+  std::string all;
+  for (const auto& c : reader_->header().columns) all += (all.empty() ? "" : ",") + c;
+  const std::string why = "the bridge's stream has no column " + refused + " (it has: " + all + ")";
+  end_link(why);
+  set_state(DeviceState::error, why);
+  return false;
+}
+
+void LinuxcncHalDriver::publish_batch(std::int64_t arrived_ns) {
+  // Each period's time: the newest one's at its arrival, the others a servo period apart.
+  for (const Period& q : batch_) {
+    Sample s = q.sample;
+    s.t_mono_ns = arrived_ns - seq_step(q.seq, batch_.back().seq) * period_ns_;
+    publish(s);
+    frames_.fetch_add(1, std::memory_order_relaxed);
+    periods_.fetch_add(1, std::memory_order_relaxed);
+  }
+  batch_.clear();
+}
+
+ReadOutcome LinuxcncHalDriver::read_some(bool) {
+  ReadOutcome out;
+  while (link_is_up()) {
+    if (out.taken >= max_read_bytes) {  // a burst larger than this: the other devices first, then on
+      out.more = true;
+      break;
     }
-    const ssize_t n = ::read(fd, buf, sizeof(buf));
-    if (n <= 0) return true;
+    const ssize_t n = ::read(fd_, buffer_.data(), buffer_.size());
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      out.ended = n == 0 ? "LinuxCNC's stream ended (LinuxCNC stopped?): waiting for the bridge"
+                         : "LinuxCNC's stream: " + std::string(std::strerror(errno));
+      break;
+    }
+    out.taken += static_cast<std::size_t>(n);
     const std::int64_t arrived = mono_now_ns();
+    std::string_view bytes(buffer_.data(), static_cast<std::size_t>(n));
     // The header is complete before the first period is handed over: the columns are found then.
-    if (index.empty() && !reader.header_complete()) {
-      std::string_view bytes(buf, static_cast<std::size_t>(n));
+    if (!reader_->header_complete()) {
       const auto end = bytes.find("# end\n");
-      reader.feed(end == std::string_view::npos ? bytes : bytes.substr(0, end + 6));
-      if (!reader.header_complete()) {
-        if (!reader.error().empty()) break;
-        continue;
-      }
-      for (const auto& c : config_.columns) {
-        const int i = reader.header().column(c);
-        if (i < 0) refused += (refused.empty() ? "" : ", ") + c;
-        index.push_back(i);
-      }
-      if (!refused.empty()) break;
-      period_ns = reader.header().period_ns;
-      set_state(DeviceState::streaming);
-      if (end != std::string_view::npos) reader.feed(bytes.substr(end + 6));
-    } else {
-      reader.feed(std::string_view(buf, static_cast<std::size_t>(n)));
+      reader_->feed(end == std::string_view::npos ? bytes : bytes.substr(0, end + 6));
+      if (reader_->header_complete() && !take_header()) return out;
+      bytes = end == std::string_view::npos ? std::string_view() : bytes.substr(end + 6);
     }
-    if (!reader.error().empty()) break;
-    bad_frames_ = reader.counters().bad_lines;
-    // Each period's time: the newest one's at its arrival, the others a servo period apart.
-    for (const Period& q : batch) {
-      Sample s = q.sample;
-      s.t_mono_ns = arrived - seq_step(q.seq, batch.back().seq) * period_ns;
-      publish(s);
-      ++frames_;
-      ++periods_;
+    if (!bytes.empty()) reader_->feed(bytes);
+    if (!reader_->error().empty()) {
+      const std::string why = "not the bridge's stream: " + reader_->error();
+      end_link(why);
+      set_state(DeviceState::error, why);
+      return out;
     }
-    batch.clear();
+    bad_frames_.store(reader_->counters().bad_lines, std::memory_order_relaxed);
+    publish_batch(arrived);
+    if (static_cast<std::size_t>(n) < buffer_.size()) break;  // the socket is empty (or nearly)
   }
-  if (!refused.empty()) {
-    set_state(DeviceState::error, "the bridge's stream has no column " + refused + " (it has: " +
-                                      [&] {
-                                        std::string all;
-                                        for (const auto& c : reader.header().columns) all += (all.empty() ? "" : ",") + c;
-                                        return all;
-                                      }() +
-                                      ")");
-    return false;
-  }
-  if (!reader.error().empty()) {
-    set_state(DeviceState::error, "not the bridge's stream: " + reader.error());
-    return false;
-  }
-  return true;
+  return out;
 }
 
 void register_linuxcnc_driver(DriverRegistry& registry) {

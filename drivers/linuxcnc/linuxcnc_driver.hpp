@@ -6,13 +6,16 @@
 // period before the next (halsampler hands them over in bursts). A period the stream lost is skipped in the
 // sequence numbers (the pipeline counts it) and counted as lost_periods. LinuxCNC stopped or not started:
 // the device waits for the bridge and reconnects (a LinuxCNC restart is a new stream).
-// A driver on a thread of its own (poll on the socket and an eventfd).
+// A loop-driven driver (drivers/loop_driver.hpp): it reads every arrival at once (halsampler's bursts are
+// already batched), and a LinuxCNC that stalls for seconds is no silence that ends the link.
 
 #include <atomic>
+#include <memory>
 #include <string>
 #include <vector>
 
-#include "drivers/driver.hpp"
+#include "drivers/linuxcnc/hal_stream.hpp"
+#include "drivers/loop_driver.hpp"
 
 namespace guideway::drivers::linuxcnc {
 
@@ -26,21 +29,37 @@ struct LinuxcncHalConfig {
 // The channel name a column gets ("x_cmd_mm" -> "x_cmd") and its unit ("m" or "").
 std::string channel_of(const std::string& column);
 
-class LinuxcncHalDriver : public Driver {
+class LinuxcncHalDriver : public drivers::LoopDriver {
  public:
   LinuxcncHalDriver(std::string name, LinuxcncHalConfig config, std::size_t ring_capacity);
   ~LinuxcncHalDriver() override;
   [[nodiscard]] std::vector<NamedCounter> driver_counters() const override;
 
  protected:
-  void run(std::stop_token stop) override;
-  void interrupt() override;
+  void open() override;
+  void on_link_up(std::int64_t now_ns) override;
+  ReadOutcome read_some(bool at_others_pass) override;
+  void on_link_down() override;
 
  private:
-  bool follow(int fd, const std::stop_token& stop);  // false: the stream is not one we can read
+  // The header's columns found (index_) once it is complete; false with the device's error when the
+  // stream is not the bridge's or lacks a column.
+  bool take_header();
+  void publish_batch(std::int64_t arrived_ns);
+  static constexpr std::size_t max_read_bytes = 256 * 1024;
 
   LinuxcncHalConfig config_;
-  int wake_fd_ = -1;
+  // The loop thread's:
+  int fd_ = -1;
+  std::unique_ptr<HalStreamReader> reader_;
+  std::vector<int> index_;  // the published columns' places in the stream
+  std::int64_t period_ns_ = 0;
+  struct Period {
+    std::int64_t seq;
+    Sample sample;
+  };
+  std::vector<Period> batch_;
+  std::vector<char> buffer_ = std::vector<char>(65536);
   std::atomic<std::uint64_t> periods_{0}, lost_{0}, streams_{0};
 };
 
