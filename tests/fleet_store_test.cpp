@@ -302,9 +302,9 @@ TEST(FleetHeadlines, FromTheGoldenResults) {
   const auto st = headlines("straightness", golden_json("straightness.params.json"));
   ASSERT_EQ(st.size(), 2u);
   EXPECT_DOUBLE_EQ(find(st, "horizontal_straightness_um").value, 0.02703768606187836);
-  EXPECT_DOUBLE_EQ(*find(st, "horizontal_straightness_um").u, 0.23125132280376762);
+  EXPECT_DOUBLE_EQ(*find(st, "horizontal_straightness_um").u, 0.2312513228037677);
   EXPECT_DOUBLE_EQ(find(st, "vertical_straightness_um").value, 0.07891808072092471);
-  EXPECT_DOUBLE_EQ(*find(st, "vertical_straightness_um").u, 0.19924894888796588);
+  EXPECT_DOUBLE_EQ(*find(st, "vertical_straightness_um").u, 0.19924894888793224);
 
   const auto pr = headlines("profile", golden_json("profile.params.json"));
   EXPECT_DOUBLE_EQ(find(pr, "straightness_lsq_um").value, 0.2055772949384913);
