@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it: installs what is missing, then
-#   1. a Release build (as packagers build): every test, the long ones (label `slow`) too, so that a slow
-#      failure cannot land unseen (issue 46), but those labelled `checkout` (they run ./scripts/demo.sh in
-#      the checkout itself: its build/ and the user's default socket);
+#   1. a Release build (as packagers build): every test, the long ones (label `slow`) included;
 #   2. an ASan+UBSan build: every test except `slow` and `peer` (a peer's program run against our files);
 #   3. a TSan build of the threaded code: the tests labelled `tsan` (ring stress, daemon threads).
-# GUIDEWAY_TEST_STAGES="main asan tsan" selects stages; GUIDEWAY_TEST_LABEL=slow adds the `checkout` tests
-# to the Release stage and the long variants to the ASan stage.
+# While one stage's tests run, the next stage's build runs beside them at idle priority (SCHED_IDLE: it
+# takes only what the tests leave of the CPUs; most of them wait on sockets and emulated machines), so
+# that its stage starts with its build done or nearly. Each stage's tests are checked against their
+# timeouts (scripts/test_margin.py: over a third of its timeout warns, over half fails the stage).
+# GUIDEWAY_TEST_STAGES="main asan tsan" selects stages; GUIDEWAY_TEST_LABEL=slow adds the long variants
+# to the ASan stage too; GUIDEWAY_TEST_QUICK=1 leaves them out of the Release stage.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
@@ -41,42 +43,95 @@ run_ctest() {  # dir, ctest args...
     counts=($(echo "$summary" | grep '^COUNTS ' | cut -d' ' -f2-))
     passed=$((passed + counts[0])); failed=$((failed + counts[1])); skipped=$((skipped + counts[2]))
     cases_run=$((cases_run + counts[3])); cases_skipped=$((cases_skipped + counts[4]))
+    # Each test's time against its timeout: over a third warns, over half fails the stage.
+    if ! python3 scripts/test_margin.py "$stage" "$dir" "$junit"; then failed=$((failed + 1)); fi
   elif [ $rc -ne 0 ]; then
     failed=$((failed + 1))
   fi
   return 0
 }
 
-label_args=(-LE checkout)
+# Each stage's build: its tree, its options, and the targets it tests (none named: everything).
+build_dir() {
+  case $1 in main) echo build ;; asan) echo build-asan ;; tsan) echo build-tsan ;; esac
+}
+build_stage() {  # stage
+  case $1 in
+    main) scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON ;;
+    # -g1 (line tables), as CMakeLists.txt's RelWithDebInfo default: sanitizer reports need only file:line.
+    # Test programs and the CLI at -O0 (GUIDEWAY_THIN_PROGRAM_FLAGS): half their compile time, and the
+    # libraries under test keep -O1.
+    asan) scripts/build.sh build-asan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=address -DGUIDEWAY_BUILD_BENCH=OFF \
+            -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0 ;;
+    tsan) scripts/build.sh build-tsan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=thread -DGUIDEWAY_BUILD_BENCH=OFF \
+            -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0 -- guideway_tsan_tests ;;
+    *) echo "unknown stage $1" >&2; exit 2 ;;
+  esac
+}
+
+# The next stage's build, started beside this stage's tests at idle priority; its output in DIR.bg.log.
+bg_stage=""
+bg_pid=""
+bg_start=0
+start_background_build() {  # stage
+  local dir idle=()
+  dir=$(build_dir "$1")
+  if command -v chrt >/dev/null && chrt --idle 0 true 2>/dev/null; then idle=(chrt --idle 0); else idle=(nice -n 19); fi
+  bg_stage=$1
+  bg_start=$(date +%s)
+  # Its own session, so that an early exit stops its compilers too (the trap below).
+  GUIDEWAY_BUILD_QUIET=1 setsid "${idle[@]}" bash -c "$(declare -f build_stage); build_stage $1" >"$dir.bg.log" 2>&1 &
+  bg_pid=$!
+  echo "   ($1 build started beside these tests at idle priority: $dir.bg.log)"
+}
+# Waits for the background build of `stage` (a line every 30 s); false when it failed.
+finish_background_build() {  # stage
+  [ "$bg_stage" = "$1" ] || return 0
+  local dir waited=0 rc=0
+  dir=$(build_dir "$1")
+  while kill -0 "$bg_pid" 2>/dev/null; do
+    sleep 1; waited=$((waited + 1))
+    if [ $((waited % 30)) -eq 0 ]; then echo "   build $dir: still at it beside the last tests ($waited s here)"; fi
+  done
+  wait "$bg_pid" || rc=$?
+  bg_stage=""
+  if [ $rc -ne 0 ]; then cat "$dir.bg.log"; echo "build: $dir failed (log above)" >&2; return 1; fi
+  echo "   build $dir: done ($(( $(date +%s) - bg_start )) s since it started, $waited s of them waited for here)"
+}
+trap '[ -n "$bg_stage" ] && kill -- -"$bg_pid" 2>/dev/null; true' EXIT
+
 # The peers' own programs (LinuxCNC loading our tables: label `peer`) gain nothing from our sanitizers,
 # and the CLI steps they run are sanitized in compensate_cli_test: they run in the Release stage only.
+label_args=()
+if [ "${GUIDEWAY_TEST_QUICK:-0}" = 1 ]; then label_args=(-LE slow); fi
 asan_label_args=(-LE 'slow|peer')
-if [ "${GUIDEWAY_TEST_LABEL:-}" = "slow" ]; then label_args=(); asan_label_args=(-LE peer); fi
+if [ "${GUIDEWAY_TEST_LABEL:-}" = "slow" ]; then asan_label_args=(-LE peer); fi
 
-for stage in $stages; do
+read -r -a stage_list <<<"$stages"
+for i in "${!stage_list[@]}"; do
+  stage=${stage_list[$i]}
+  next=${stage_list[$((i + 1))]:-}
   t0=$(date +%s)
   case $stage in
-    main)
-      echo "== main build (Release): all tests, 'slow' too, but 'checkout'"
-      scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON
-      run_ctest build "${label_args[@]}" ;;
-    asan)
-      echo "== ASan+UBSan build: all tests but 'slow' and 'peer'"
-      # -g1 (line tables), as CMakeLists.txt's RelWithDebInfo default: sanitizer reports need only file:line.
-      # Test programs and the CLI at -O0 (GUIDEWAY_THIN_PROGRAM_FLAGS): half their compile time, and the
-      # libraries under test keep -O1.
-      scripts/build.sh build-asan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=address -DGUIDEWAY_BUILD_BENCH=OFF \
-        -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0
-      ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-        run_ctest build-asan "${asan_label_args[@]}" ;;
-    tsan)
-      echo "== TSan build: tests labelled 'tsan'"
-      scripts/build.sh build-tsan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=thread -DGUIDEWAY_BUILD_BENCH=OFF \
-        -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0 -- guideway_tsan_tests
-      TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 run_ctest build-tsan -L tsan ;;
+    main) echo "== main build (Release): all tests${label_args:+ but 'slow'}" ;;
+    asan) echo "== ASan+UBSan build: all tests but 'slow' and 'peer'" ;;
+    tsan) echo "== TSan build: tests labelled 'tsan'" ;;
     *) echo "unknown stage $stage" >&2; exit 2 ;;
   esac
-  echo "== $stage stage took $(( $(date +%s) - t0 )) s"
+  if [ "$bg_stage" = "$stage" ]; then
+    finish_background_build "$stage"
+  else
+    build_stage "$stage"
+  fi
+  t_built=$(date +%s)
+  if [ -n "$next" ]; then start_background_build "$next"; fi
+  case $stage in
+    main) run_ctest build "${label_args[@]}" ;;
+    asan) ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+            run_ctest build-asan "${asan_label_args[@]}" ;;
+    tsan) TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 run_ctest build-tsan -L tsan ;;
+  esac
+  echo "== $stage stage took $(( $(date +%s) - t0 )) s (build $((t_built - t0)) s, tests $(( $(date +%s) - t_built )) s)"
 done
 echo "== all stages took $(( $(date +%s) - start )) s"
 echo "Total: $passed passed, $failed failed, $skipped not run; $cases_run cases ran, $cases_skipped skipped (reasons above)"
