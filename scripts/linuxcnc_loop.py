@@ -465,7 +465,7 @@ def measure(tag, daemon, work, args, user, share, comp_dir=None):
     if os.getuid() == 0:
         shutil.chown(cfg, user)
     before = latest_session(tools, daemon.socket).get("session")
-    events = Process(f"events-{tag}", ["stdbuf", "-oL", tools["guideway"], "--socket", daemon.socket, "watch",
+    events = Process(f"events-{tag}", [tools["guideway"], "--socket", daemon.socket, "watch",
                                        "--class", "EVENT", "--json"], os.path.join(work, f"events-{tag}.log"),
                      echo=event_line)
     stream_path = os.path.join(work, f"stream-{tag}.txt")
