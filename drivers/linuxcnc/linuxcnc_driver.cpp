@@ -9,6 +9,7 @@
 
 #include "core/mono_clock.hpp"
 #include "drivers/linuxcnc/hal_stream.hpp"
+#include "drivers/tcp/tcp_client.hpp"
 
 namespace guideway::drivers::linuxcnc {
 
@@ -142,17 +143,18 @@ ReadOutcome LinuxcncHalDriver::read_some(bool) {
       out.more = true;
       break;
     }
-    const ssize_t n = ::read(fd_, buffer_.data(), buffer_.size());
-    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      out.ended = n == 0 ? "LinuxCNC's stream ended (LinuxCNC stopped?): waiting for the bridge"
-                         : "LinuxCNC's stream: " + std::string(std::strerror(errno));
+    const tcp::ReadResult r = tcp::read_some(fd_, buffer_.data(), buffer_.size());
+    if (r.status == tcp::ReadStatus::would_block) break;
+    if (r.status != tcp::ReadStatus::data) {
+      out.ended = r.status == tcp::ReadStatus::closed
+                      ? "LinuxCNC's stream ended (LinuxCNC stopped?): waiting for the bridge"
+                      : "LinuxCNC's stream: " + r.message;
       break;
     }
-    out.taken += static_cast<std::size_t>(n);
+    const std::size_t n = r.bytes;
+    out.taken += n;
     const std::int64_t arrived = mono_now_ns();
-    std::string_view bytes(buffer_.data(), static_cast<std::size_t>(n));
+    std::string_view bytes(buffer_.data(), n);
     // The header is complete before the first period is handed over: the columns are found then.
     if (!reader_->header_complete()) {
       const auto end = bytes.find("# end\n");
@@ -169,7 +171,7 @@ ReadOutcome LinuxcncHalDriver::read_some(bool) {
     }
     bad_frames_.store(reader_->counters().bad_lines, std::memory_order_relaxed);
     publish_batch(arrived);
-    if (static_cast<std::size_t>(n) < buffer_.size()) break;  // the socket is empty (or nearly)
+    if (n < buffer_.size()) break;  // the socket is empty (or nearly)
   }
   return out;
 }
