@@ -27,15 +27,15 @@ cases_skipped=0
 # passed, and a whole test skipped for a missing tool is easy to miss in its list.
 run_ctest() {  # dir, ctest args...
   local dir=$1; shift
-  local out junit
+  local junit
   junit="$(cd "$dir" && pwd)/Testing/junit.xml"
   rm -f "$junit"
+  # Each test's line as it ends (a stage's tests run for minutes: its progress shows).
   set +e
-  out=$(ctest --test-dir "$dir" --output-on-failure -j "$jobs" --output-junit "$junit" \
-    --test-output-size-passed 50000000 "$@" 2>&1)
-  local rc=$?
+  ctest --test-dir "$dir" --output-on-failure -j "$jobs" --output-junit "$junit" \
+    --test-output-size-passed 50000000 "$@" 2>&1 | grep --line-buffered -vE '^\s*(Start|Test project)'
+  local rc=${PIPESTATUS[0]}
   set -e
-  echo "$out" | grep -vE '^\s*(Start|Test project)' || true
   if [ -f "$junit" ]; then
     local summary counts
     summary=$(python3 scripts/test_summary.py "$stage" "$junit")
