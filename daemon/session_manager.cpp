@@ -361,7 +361,9 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
     options.subtitle = "device " + r.info.device + ", recording " + r.info.recording;
     if (!r.instrument.empty()) options.instruments.push_back({r.info.device, r.instrument});
     options.instruments_checked_on = r.started_on;
-    r.session->fill_report(options);  // what PARAMS published, not identified again from the files
+    // What PARAMS published, not identified again from the files.
+    const auto identified = r.session->identified_planes();
+    options.identified.assign(identified.begin(), identified.end());
     const std::string path = report_path(state_dir_, r.info.name);
     write_file_atomically(path, report::render_report(inputs, options), sessions::recording_file_mode);
     outbox_.post(make_message(Event{.event = "report_ready", .device = r.info.device, .session = r.info.name, .file = path}));

@@ -326,8 +326,10 @@ class DbbSession : public Session {
     return j;
   }
 
-  // The report shows what PARAMS published: each plane's identification, EXPLAIN's findings fitted beside.
-  void fill_report(report::ReportOptions& options) const override { options.identified = checked_; }
+  // What PARAMS published: each plane's identification, EXPLAIN's findings fitted beside.
+  [[nodiscard]] std::span<const models::explain::CheckedIdentification> identified_planes() const override {
+    return checked_;
+  }
 
   std::optional<nlohmann::json> explain() override {
     if (identified_.empty()) return std::nullopt;

@@ -19,7 +19,7 @@
 #include "core/instrument.hpp"
 #include "core/sample.hpp"
 #include "drivers/driver.hpp"
-#include "report/report.hpp"
+#include "models/explain/dbb_checked.hpp"
 
 namespace guideway::sessions {
 
@@ -64,10 +64,13 @@ class Session {
   // still differ and which left-out physics explains it (models/explain; the body of the EXPLAIN
   // message), or nullopt for a kind without an explanation model. Throws std::runtime_error.
   virtual std::optional<nlohmann::json> explain() { return std::nullopt; }
-  // After identify(), on the worker thread: what the session's report takes from the session rather than
-  // from its files (a DBB session: its identification per plane, as PARAMS published it, so the report does
-  // not identify the run files a second time). Default: nothing; the report reads the files.
-  virtual void fill_report(report::ReportOptions& options) const { (void)options; }
+  // After identify(), on the worker thread: the identification per plane as PARAMS published it (a DBB
+  // session: Lai's model and the diagnostics with EXPLAIN's findings fitted beside), for whoever builds the
+  // session's report, so it does not identify the run files a second time. Default: none; the report reads
+  // the files. Valid while the session lives.
+  [[nodiscard]] virtual std::span<const models::explain::CheckedIdentification> identified_planes() const {
+    return {};
+  }
   // Metadata for the recording header (options, geometry), written as "# key = value".
   [[nodiscard]] virtual std::map<std::string, std::string> metadata() const { return {}; }
   // Derived files (e.g. DBB run files) written next to the raw recording at the end; returns paths.
