@@ -17,6 +17,7 @@
 #include "models/map/fit.hpp"
 #include "models/map/map_json.hpp"
 #include "models/map/volumetric.hpp"
+#include "results/message_class.hpp"
 #include "results/session_kinds.hpp"
 
 namespace guideway::cli {
@@ -106,7 +107,7 @@ std::string latest_session(DaemonClient& c, const Step& s) {
   nlohmann::json req = {{"kind", s.kind}};
   if (!s.axis.empty()) req["axis"] = s.axis;
   const nlohmann::json r = c.request(results::request(results::RequestClass::params, req), results::MessageClass::params);
-  if (r.value("class", "") == "ERROR") return {};
+  if (results::has_class(r, results::MessageClass::error)) return {};
   if (s.kind == results::dbb_kind.name) {
     std::set<std::string> planes;
     for (const auto& p : r.value("derived", nlohmann::json::array())) {

@@ -12,6 +12,7 @@
 #include "models/map/exports.hpp"
 #include "models/map/map_json.hpp"
 #include "report/report.hpp"
+#include "results/message_class.hpp"
 #include "results/session_kinds.hpp"
 
 namespace guideway::cli {
@@ -47,7 +48,7 @@ void add_latest_inputs(mm::MapInputs& in, const std::string& socket, std::ostrea
     nlohmann::json req = {{"kind", kind}};
     if (!axis.empty()) req["axis"] = axis;
     const nlohmann::json r = c.request(results::request(results::RequestClass::params, req), results::MessageClass::params);
-    if (r.value("class", "") == "ERROR") {
+    if (results::has_class(r, results::MessageClass::error)) {
       notes << "map: " << kind << (axis.empty() ? "" : " " + axis) << ": " << r.value("message", "no session") << "\n";
       return {};
     }

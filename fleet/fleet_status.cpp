@@ -7,6 +7,7 @@
 #include "core/number_format.hpp"
 #include "core/printable.hpp"
 #include "core/utc_time.hpp"
+#include "results/message_class.hpp"
 #include "results/session_kinds.hpp"
 
 namespace guideway::fleet {
@@ -42,7 +43,7 @@ std::vector<MachineStatus> fleet_status(const Store& store, double now_s) {
     auto& m = by_name[rows[i].machine];
     if (m.machine.machine.empty()) m.machine.machine = rows[i].machine;
     auto& last = entries.back();
-    if (last.message_class == "EXPLAIN") {
+    if (last.message_class == results::to_string(results::MessageClass::explain)) {
       if (last.explain) m.explains.push_back({last.kind, last.produced_utc, *last.explain});
     } else {
       m.latest.push_back({last.kind, last.produced_utc, last.session, std::move(last.figures)});
