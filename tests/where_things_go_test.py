@@ -28,6 +28,19 @@ class WhereThingsGo(unittest.TestCase):
         self.assertEqual(len(re.findall(r"^\s+&\w+,$", table, re.M)), len(files), "the table lists only effect files")
         self.assertIn("effects/*.cpp", text("models/explain/CMakeLists.txt"), "effect files need no CMake line")
 
+    def test_every_effect_dbb_checked_lists_is_an_effect(self):
+        """dbb_checked.cpp's lists (held by identify's models, never fitted beside) name effects by their
+        library name: a renamed or removed effect must not leave a name that matches nothing."""
+        source = text("models/explain/dbb_checked.cpp")
+        effects = {p.stem for p in (ROOT / "models/explain/effects").glob("*.cpp")}
+        for name in ("held_by_both", "held_by_diagnostics", "not_beside"):
+            m = re.search(rf"constexpr std::string_view {name}\[\] = \{{([^}}]*)\}};", source)
+            self.assertIsNotNone(m, f"dbb_checked.cpp has its list {name}")
+            listed = re.findall(r'"(\w+)"', m.group(1))
+            self.assertTrue(listed, name)
+            for effect in listed:
+                self.assertIn(effect, effects, f"dbb_checked.cpp's {name} lists {effect}: no effects/{effect}.cpp")
+
     def test_every_session_kind_has_its_session_and_registration(self):
         kinds = re.findall(r'inline constexpr SessionKindInfo (\w+)_kind\{\s*"(\w+)"', text("results/session_kinds.hpp"))
         self.assertTrue(kinds)
@@ -42,6 +55,32 @@ class WhereThingsGo(unittest.TestCase):
             self.assertIn(f"results::{name}_kind", session, f"the {name} session takes its name and options from results/")
         self.assertEqual(len(re.findall(r"registry\.add\(", registry)), len(kinds), "every registered kind is in results/")
         self.assertIn("*_session.cpp", text("sessions/CMakeLists.txt"), "session files need no CMake line")
+
+    def test_every_input_kind_of_the_report_has_its_chain(self):
+        """A session kind's files reach its report through report/'s chain: the InputKind, its name, its
+        recognition, its section and its case in render_report."""
+        enum = re.search(r"enum class InputKind \{([^}]*)\}", text("report/report.hpp")).group(1)
+        kinds = [k.strip() for k in enum.split(",") if k.strip()]
+        self.assertGreaterEqual(len(kinds), 7)
+        source = text("report/report.cpp")
+        kind_name = re.search(r"std::string_view kind_name\(InputKind kind\) \{(.*?)\n\}", source, re.S).group(1)
+        detect = re.search(r"InputKind detect_input\(const std::string& path\) \{(.*?)\n\}", source, re.S).group(1)
+        render = re.search(r"std::string render_report\(.*?\n\}", source, re.S).group(0)
+        sections = text("report/sections.hpp")
+        cmake = text("report/CMakeLists.txt")
+        for k in kinds:
+            self.assertIn(f"case InputKind::{k}:", kind_name, f"kind_name names {k}")
+            self.assertIn(f"return InputKind::{k};", detect, f"detect_input recognises {k}")
+            case = re.search(rf"case InputKind::{k}:(.*?)(?=case InputKind::|\n    \}})", render, re.S)
+            self.assertIsNotNone(case, f"render_report has a case for {k}")
+            called = re.findall(r"\b(\w+_section)\(", case.group(1))
+            self.assertTrue(called, f"render_report's case {k} renders a section")
+            for section in called:
+                self.assertRegex(sections, rf"std::string {section}\(", f"{section} in report/sections.hpp")
+                defined = [p for p in (ROOT / "report").glob("*.cpp") if re.search(rf"^std::string {section}\(",
+                                                                                  p.read_text(), re.M)]
+                self.assertEqual(len(defined), 1, f"{section} defined once in report/")
+                self.assertIn(defined[0].name, cmake, f"{defined[0].name} in report/CMakeLists.txt")
 
     def test_every_parameter_constant_is_in_the_catalogue(self):
         names = re.findall(r"inline constexpr Parameter (\w+)\{", text("results/parameters.hpp"))
@@ -76,6 +115,38 @@ class WhereThingsGo(unittest.TestCase):
             self.assertTrue((ROOT / "drivers" / name / "CMakeLists.txt").exists())
         for folder in folders:
             self.assertTrue((ROOT / "drivers" / folder).is_dir(), f"drivers/{folder}")
+
+    def test_every_emulated_instrument_reads_the_machine_and_runs_by_default(self):
+        """An instrument's emulator reads the virtual machine (simulators/machine) and guidewayd's default
+        configuration (config/default.toml) starts it beside its device, whose driver is built in."""
+        import tomllib
+        emulators = ROOT / "simulators/emulators"
+        instruments = {}
+        for source in sorted(emulators.glob("*_command.cpp")):
+            body = source.read_text()
+            for name in re.findall(r'add_subcommand\(\s*"(\w+)"', body):
+                instruments[name] = source
+        self.assertGreaterEqual(len(instruments), 4)
+        registered = re.findall(r"&(\w+)::register_\w+_driver", text("drivers/builtin.cpp"))
+        drivers = set()
+        for folder in registered:
+            for source in (ROOT / "drivers" / folder).glob("*.cpp"):
+                drivers.update(re.findall(r'registry\.add\(\s*"([\w-]+)"', source.read_text()))
+        self.assertEqual(len(drivers), len(registered), drivers)
+        config = tomllib.loads(text("config/default.toml"))
+        started = [e["instrument"] for e in config["emulator"]]
+        devices = [d["driver"] for d in config["device"]]
+        self.assertEqual(len(started), len(devices), "one emulator a device")
+        for driver in devices:
+            self.assertIn(driver, drivers, f"config/default.toml: {driver} is a built-in driver")
+        for name in started:
+            self.assertIn(name, instruments, f"config/default.toml: guideway-emulate {name}")
+        machine = re.compile(r'#include "simulators/(machine/\w+|emulators/\w*machine_sources?)\.hpp"')
+        for name, source in instruments.items():
+            if source.name == "measurement_files_command.cpp":  # files of a day's tests, no transport
+                continue
+            self.assertIsNotNone(machine.search(source.read_text()), f"{source.name}: {name} reads the virtual machine")
+            self.assertIn(name, started, f"config/default.toml starts guideway-emulate {name}")
 
     def test_every_built_in_driver_is_its_protocol_on_the_skeleton(self):
         """The loop's timer and hooks, the link's back-off and the rest schedule are the skeleton's
