@@ -22,14 +22,14 @@ struct Backoff {
     return Backoff{first_s, std::chrono::duration<double>(ceiling).count(), first_s};
   }
 
-  // The wait before this retry; the one after it doubles.
-  double take() noexcept {
+  // The wait before this retry (s); the one after it doubles.
+  double take_s() noexcept {
     const double wait_s = next_s;
     next_s = std::min(std::max(max_s, min_s), 2 * next_s);
     return wait_s;
   }
-  // take() in nanoseconds (deadlines on CLOCK_MONOTONIC).
-  std::int64_t take_ns() noexcept { return std::llround(take() * 1e9); }
+  // take_s() in nanoseconds (deadlines on CLOCK_MONOTONIC).
+  std::int64_t take_ns() noexcept { return std::llround(take_s() * 1e9); }
   void reset() noexcept { next_s = min_s; }
 };
 

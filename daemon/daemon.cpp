@@ -339,7 +339,7 @@ void Daemon::check_emulators(std::int64_t now_ns) {
       if (how.empty()) continue;
       w.state = "exited";
       w.last_exit = how;
-      const double wait_s = w.backoff.take();
+      const double wait_s = w.backoff.take_s();
       w.restart_at_ns = now_ns + static_cast<std::int64_t>(wait_s * 1e9);
       log_->warn("emulator {} exited ({}); restarting it in {} s", e.name(), how, wait_s);
       event("emulator_exited", how);
@@ -357,7 +357,7 @@ void Daemon::check_emulators(std::int64_t now_ns) {
                  emulators_[i]->endpoint());
       event("emulator_restarted", "");
     } catch (const std::exception& ex) {
-      const double wait_s = w.backoff.take();
+      const double wait_s = w.backoff.take_s();
       w.restart_at_ns = now_ns + static_cast<std::int64_t>(wait_s * 1e9);
       log_->warn("emulator {}: restart failed ({}); next try in {} s", name, ex.what(), wait_s);
       event("emulator_restart_failed", ex.what());

@@ -98,7 +98,7 @@ void Subscriber::run(const std::atomic<bool>& stop) {
            std::to_string(static_cast<int>(settings_.reconnect_max_s)) + " s");
       last_error = why;
     }
-    const auto until = mono_now_ns() + static_cast<std::int64_t>(backoff.take() * 1e9);
+    const auto until = mono_now_ns() + backoff.take_ns();
     while (!stop.load() && mono_now_ns() < until) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
 }

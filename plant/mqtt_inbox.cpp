@@ -228,7 +228,7 @@ std::string MqttInbox::run_connection(const std::atomic<bool>& stop, const Store
           retry.reset();
         } catch (const std::exception& e) {
           ++counts_.store_failures;
-          const double wait_s = retry.take();
+          const double wait_s = retry.take_s();
           retry_at = Clock::now() + std::chrono::milliseconds(static_cast<int>(wait_s * 1000));
           if (e.what() != last_failure) {
             log_("could not store " + std::to_string(pending.messages.size()) +

@@ -294,7 +294,7 @@ void Publisher::run() {
     up_ = false;
     connected_ = false;
     set_state("disconnected", why);
-    const double wait_s = backoff_.take();
+    const double wait_s = backoff_.take_s();
     if (why != last_logged_error_ && stats().state != "refused") {
       last_logged_error_ = why;
       log_->warn("MQTT: {}: {}; trying again in {} s (then with back-off up to {} s); messages are kept in {}",

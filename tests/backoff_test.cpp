@@ -10,11 +10,11 @@ using guideway::Backoff;
 
 TEST(Backoff, DoublesPerFailureUpToItsCeilingAndStartsAgainAfterASuccess) {
   Backoff b = Backoff::between(100ms, 500ms);
-  EXPECT_DOUBLE_EQ(b.take(), 0.1);
-  EXPECT_DOUBLE_EQ(b.take(), 0.2);
-  EXPECT_DOUBLE_EQ(b.take(), 0.4);
-  EXPECT_DOUBLE_EQ(b.take(), 0.5);
-  EXPECT_DOUBLE_EQ(b.take(), 0.5);
+  EXPECT_DOUBLE_EQ(b.take_s(), 0.1);
+  EXPECT_DOUBLE_EQ(b.take_s(), 0.2);
+  EXPECT_DOUBLE_EQ(b.take_s(), 0.4);
+  EXPECT_DOUBLE_EQ(b.take_s(), 0.5);
+  EXPECT_DOUBLE_EQ(b.take_s(), 0.5);
   b.reset();
   EXPECT_EQ(b.take_ns(), 100'000'000);
   EXPECT_EQ(b.take_ns(), 200'000'000);
@@ -28,7 +28,7 @@ TEST(Backoff, ACeilingBelowTheFirstWaitIsTheFirstWait) {
 
 TEST(Backoff, SecondsAsTheBrokerAndTheEmulatorsGiveThem) {
   Backoff b{1.0, 60.0};
-  for (const double want_s : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 60.0, 60.0}) EXPECT_DOUBLE_EQ(b.take(), want_s);
+  for (const double want_s : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 60.0, 60.0}) EXPECT_DOUBLE_EQ(b.take_s(), want_s);
   b.reset();
-  EXPECT_DOUBLE_EQ(b.take(), 1.0);
+  EXPECT_DOUBLE_EQ(b.take_s(), 1.0);
 }
