@@ -1,3 +1,4 @@
+// A blocking JSON Lines client of guidewayd (daemon_client.hpp), over a Unix socket or TCP.
 #include "cli/daemon_client.hpp"
 
 #include "core/runtime_paths.hpp"

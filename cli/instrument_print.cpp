@@ -1,3 +1,4 @@
+// The instrument lines of the commands' readable output (instrument_print.hpp).
 #include "cli/instrument_print.hpp"
 
 #include <string>

@@ -1,3 +1,4 @@
+// What the `guideway map` and `guideway compensate map` commands share (map_support.hpp).
 #include "cli/map_support.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// PARAMS and EXPLAIN as people read them (params_print.hpp).
 #include "cli/params_print.hpp"
 
 #include "cli/daemon_client.hpp"

@@ -1,3 +1,4 @@
+// A long command's progress on standard error (progress.hpp).
 #include "cli/progress.hpp"
 
 #include <cctype>

@@ -1,3 +1,4 @@
+// Waiting for a session the CLI started (session_wait.hpp): its progress, then its PARAMS.
 #include "cli/session_wait.hpp"
 
 #include <chrono>

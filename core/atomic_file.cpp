@@ -1,3 +1,4 @@
+// Whole files written so that a reader never sees half of one (atomic_file.hpp).
 #include "core/atomic_file.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// The reader of Guideway's text tables and plain number columns (csv_table.hpp).
 #include "core/csv_table.hpp"
 
 #include "core/number_format.hpp"

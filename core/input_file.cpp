@@ -1,3 +1,4 @@
+// Every file an offline command reads, read here (input_file.hpp): regular files only, within bounds.
 #include "core/input_file.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// An instrument's identity and calibration as text, and whether its calibration has run out (instrument.hpp).
 #include "core/instrument.hpp"
 
 namespace guideway {

@@ -1,3 +1,4 @@
+// Numbers as text (number_format.hpp): the shortest that reads back in files, rounded to its uncertainty for people.
 #include "core/number_format.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Text from outside made safe to print (printable.hpp).
 #include "core/printable.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The daemon's default socket and state paths (runtime_paths.hpp).
 #include "core/runtime_paths.hpp"
 
 #include <sys/stat.h>

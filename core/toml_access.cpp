@@ -1,3 +1,4 @@
+// Typed, validated access to a TOML table (toml_access.hpp): every error names file, line and key.
 #include "core/toml_access.hpp"
 
 #include <cerrno>

@@ -1,3 +1,4 @@
+// UTC times and calendar dates as text (utc_time.hpp).
 #include "core/utc_time.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// Online wavelet denoising of one channel (channel_denoiser.hpp), a pipeline processing step.
 #include "daemon/channel_denoiser.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// guidewayd's configuration read and validated (config.hpp): errors with file, line and key.
 #include "daemon/config.hpp"
 #include "daemon/cpu_placement.hpp"
 #include "daemon/instrument_config.hpp"

@@ -1,3 +1,4 @@
+// Where and how politely guidewayd's threads run (cpu_placement.hpp): cpu_affinity and nice, set once at start.
 #include "daemon/cpu_placement.hpp"
 
 #include <sched.h>

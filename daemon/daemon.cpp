@@ -1,3 +1,4 @@
+// guidewayd wired together (daemon.hpp): drivers, pipeline, sessions, socket server, emulators, the requests' handlers.
 #include "daemon/daemon.hpp"
 
 #include <fcntl.h>

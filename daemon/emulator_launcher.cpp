@@ -1,3 +1,4 @@
+// Device emulators as child processes (emulator_launcher.hpp): started, their endpoints read, put into device tables.
 #include "daemon/emulator_launcher.hpp"
 
 #include <fcntl.h>

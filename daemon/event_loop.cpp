@@ -1,3 +1,4 @@
+// The daemon's epoll loop (event_loop.hpp): descriptors with callbacks, run until stop().
 #include "daemon/event_loop.hpp"
 
 #include <unistd.h>

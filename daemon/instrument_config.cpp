@@ -1,3 +1,4 @@
+// The instrument keys of a [[device]] table (instrument_config.hpp): identity, calibration, their warnings.
 #include "daemon/instrument_config.hpp"
 
 #include <cmath>

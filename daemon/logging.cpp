@@ -1,3 +1,4 @@
+// guidewayd's logger (logging.hpp): to the journal under systemd, else to stderr.
 #include "daemon/logging.hpp"
 
 #include <sys/stat.h>

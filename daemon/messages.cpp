@@ -1,3 +1,4 @@
+// The messages guidewayd publishes, each encoded once where it is made (messages.hpp).
 #include "daemon/messages.hpp"
 
 #include <utility>

@@ -1,3 +1,4 @@
+// The optional [mqtt] table of guidewayd's configuration (mqtt_config.hpp).
 #include "daemon/mqtt_config.hpp"
 
 #include <unistd.h>

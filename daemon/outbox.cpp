@@ -1,3 +1,4 @@
+// The pipeline's messages handed to the event loop (outbox.hpp): a bounded list under a mutex and an eventfd.
 #include "daemon/outbox.hpp"
 
 #include <sys/eventfd.h>

@@ -1,3 +1,4 @@
+// The single consumer of every driver ring (pipeline.hpp): sequence gaps, latency, the stages, SAMPLE messages.
 #include "daemon/pipeline.hpp"
 
 #include <sys/epoll.h>

@@ -1,3 +1,4 @@
+// A device's [[processing]] steps applied in order to its stream (processing_chain.hpp).
 #include "daemon/processing_chain.hpp"
 
 #include <algorithm>

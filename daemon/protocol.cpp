@@ -1,3 +1,4 @@
+// guidewayd's JSON Lines protocol (protocol.hpp): requests parsed, errors and subscriptions.
 #include "daemon/protocol.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Runs test sessions (session_manager.hpp): feeds, records, identifies and explains them, and builds their reports.
 #include "daemon/session_manager.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The JSON Lines server on a Unix socket and optionally TCP (socket_server.hpp).
 #include "daemon/socket_server.hpp"
 
 #include <arpa/inet.h>

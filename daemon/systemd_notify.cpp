@@ -1,3 +1,4 @@
+// sd_notify glue (systemd_notify.hpp): READY, STATUS, STOPPING and the watchdog.
 #include "daemon/systemd_notify.hpp"
 
 #include <systemd/sd-daemon.h>

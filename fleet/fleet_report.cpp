@@ -1,3 +1,4 @@
+// The fleet report (fleet_report.hpp): one self-contained HTML page of the plant's machines.
 #include "fleet/fleet_report.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The fleet at a glance (fleet_status.hpp): per machine its state, its latest results and their headline figures.
 #include "fleet/fleet_status.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The headline figures of a result (headlines.hpp): the few numbers of a PARAMS that say how a machine is.
 #include "fleet/headlines.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// A machine's results over time (history.hpp), each with its headline figures and what moved.
 #include "fleet/history.hpp"
 
 #include <cmath>

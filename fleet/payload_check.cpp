@@ -1,3 +1,4 @@
+// What the fleet refuses at ingest (payload_check.hpp): payloads too large, too deep, or of the wrong shape.
 #include "fleet/payload_check.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The fleet's SQLite database (store.hpp): machines' status, results and events as the broker delivered them.
 #include "fleet/store.hpp"
 
 #include <sqlite3.h>

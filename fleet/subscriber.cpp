@@ -1,3 +1,4 @@
+// `guideway fleet serve` (subscriber.hpp): every machine's topics from the broker into the store.
 #include "fleet/subscriber.hpp"
 
 #include <chrono>

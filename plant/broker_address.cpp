@@ -1,3 +1,4 @@
+// The MQTT broker's address (broker_address.hpp): mqtt:// or mqtts://, host and port.
 #include "plant/broker_address.hpp"
 
 #include <algorithm>

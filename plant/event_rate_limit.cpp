@@ -1,3 +1,4 @@
+// How many of a device's events go to the MQTT journal (event_rate_limit.hpp): a token bucket per source.
 #include "plant/event_rate_limit.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The publisher's on-disk queue of unacknowledged QoS 1 messages (message_journal.hpp).
 #include "plant/message_journal.hpp"
 
 #include <sys/stat.h>

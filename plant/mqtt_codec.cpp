@@ -1,3 +1,4 @@
+// MQTT 5 packets of a subscribing client as bytes (mqtt_codec.hpp): pure encoders and decoders.
 #include "plant/mqtt_codec.hpp"
 
 #include <array>

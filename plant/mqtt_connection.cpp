@@ -1,3 +1,4 @@
+// One MQTT 5 client connection through libmosquitto, driven by the caller's thread (mqtt_connection.hpp).
 #include "plant/mqtt_connection.hpp"
 
 #include <mosquitto.h>

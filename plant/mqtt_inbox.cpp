@@ -1,3 +1,4 @@
+// An MQTT 5 subscriber that acknowledges a message only once it is stored (mqtt_inbox.hpp).
 #include "plant/mqtt_inbox.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// A client's byte stream to an MQTT broker, TCP or TLS (mqtt_socket.hpp).
 #include "plant/mqtt_socket.hpp"
 
 #include <arpa/inet.h>

@@ -1,3 +1,4 @@
+// A daemon's MQTT publisher thread (publisher.hpp): results and events through the journal to the broker.
 #include "plant/publisher.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The MQTT topic tree (topics.hpp): topics made and parsed, names checked.
 #include "plant/topics.hpp"
 
 #include <array>

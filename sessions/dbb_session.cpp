@@ -1,3 +1,4 @@
+// The "dbb" session (dbb_session.hpp): circles from the bar's samples, identified per plane, EXPLAIN beside.
 #include "sessions/dbb_session.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The "profile" session (profile_session.hpp): one flagged profilometer traverse, its straightness and wavelet MRA.
 #include "sessions/profile_session.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The raw recorder (recorder.hpp): a session's samples through its own ring to NAME.csv.part by a writer thread.
 #include "sessions/recorder.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// Replay of a raw recording (replay.hpp): its samples fed through the session kind the daemon ran live.
 #include "sessions/replay.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The "runout" session (runout_session.hpp): spindle revolutions of the micrometer, run-out and error motion.
 #include "sessions/runout_session.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The registry of session kinds (session.hpp): kinds added once, found by name.
 #include "sessions/session.hpp"
 
 #include <algorithm>

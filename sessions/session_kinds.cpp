@@ -1,3 +1,4 @@
+// The session kinds guidewayd offers, one registration line each (session_kinds.hpp).
 #include "sessions/session_kinds.hpp"
 
 #include "sessions/dbb_session.hpp"

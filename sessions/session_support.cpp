@@ -1,3 +1,4 @@
+// What the session kinds share (session_support.hpp): a start request's options checked, derived files' text.
 #include "sessions/session_support.hpp"
 
 #include <cerrno>

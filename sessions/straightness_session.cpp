@@ -1,3 +1,4 @@
+// The "straightness" session (straightness_session.hpp): an autocollimator traverse's stations, its straightness.
 #include "sessions/straightness_session.hpp"
 
 #include <cmath>
