@@ -116,6 +116,20 @@ class WhereThingsGo(unittest.TestCase):
         for folder in folders:
             self.assertTrue((ROOT / "drivers" / folder).is_dir(), f"drivers/{folder}")
 
+    def test_a_message_class_is_compared_by_its_enum_outside_results(self):
+        """results/message_class is the one place a class's wire name is written: elsewhere a class is compared
+        through MessageClass (to_string, has_class), never with its text ("EXPLAIN")."""
+        table = text("results/message_class.cpp")
+        names = "|".join(re.findall(r'ClassName\{MessageClass::\w+, "([A-Z]+)"', table))
+        self.assertIn("EXPLAIN", names)
+        compared = re.compile(rf'(==|!=)\s*"({names})"|"({names})"\s*(==|!=)')
+        for folder in ("core", "dsp", "formats", "models", "drivers", "plant", "report", "simulators", "sessions",
+                       "fleet", "daemon", "cli"):
+            for source in sorted((ROOT / folder).rglob("*.[ch]pp")):
+                for number, line in enumerate(source.read_text().splitlines(), 1):
+                    self.assertIsNone(compared.search(line), f"{source.relative_to(ROOT)}:{number}: a message class "
+                                      f"compared by its text: {line.strip()}")
+
     def test_every_emulated_instrument_reads_the_machine_and_runs_by_default(self):
         """An instrument's emulator reads the virtual machine (simulators/machine) and guidewayd's default
         configuration (config/default.toml) starts it beside its device, whose driver is built in."""
