@@ -68,9 +68,7 @@ class Session {
   // session: Lai's model and the diagnostics with EXPLAIN's findings fitted beside), for whoever builds the
   // session's report, so it does not identify the run files a second time. Default: none; the report reads
   // the files. Valid while the session lives.
-  [[nodiscard]] virtual std::span<const models::explain::CheckedIdentification> identified_planes() const {
-    return {};
-  }
+  [[nodiscard]] virtual std::span<const models::explain::CheckedIdentification> identified_planes() const { return {}; }
   // Metadata for the recording header (options, geometry), written as "# key = value".
   [[nodiscard]] virtual std::map<std::string, std::string> metadata() const { return {}; }
   // Derived files (e.g. DBB run files) written next to the raw recording at the end; returns paths.
