@@ -16,6 +16,7 @@
 #include "dbb_bench.hpp"
 #include "driver_counters_support.hpp"
 #include "test_support.hpp"
+#include "sanitizer_build.hpp"
 
 using namespace guideway;
 using namespace std::chrono_literals;

@@ -12,6 +12,7 @@
 #include "simulators/machine/dbb_runs.hpp"
 #include "simulators/machine/machine.hpp"
 #include "simulators/scenarios/scenarios.hpp"
+#include "sanitizer_build.hpp"
 
 using namespace guideway;
 

@@ -12,6 +12,7 @@
 #include "models/map/map_json.hpp"
 #include "models/map/volumetric.hpp"
 #include "map_test_support.hpp"
+#include "sanitizer_build.hpp"
 
 namespace {
 
