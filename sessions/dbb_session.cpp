@@ -550,7 +550,8 @@ class DbbSession : public Session {
   // from the command (controller_mismatch_um, mean). Nothing when no controller's device streamed over the run.
   void add_commanded(formats::DbbRun& run, const std::vector<Point>& on) {
     if (commanded_.size() < 2 || run.t_s.size() < 2) return;
-    const auto [ia, ib] = plane_axes(run.plane);
+    const std::array<int, 2> axes = plane_axes(run.plane);
+    const int ia = axes[0], ib = axes[1];  // not a structured binding: clang 14 cannot capture one (the lambda below)
     std::vector<const Point*> kept;  // the run's samples
     for (const Point& p : on)
       if (p.t_s >= run.t_s.front() && p.t_s <= run.t_s.back()) kept.push_back(&p);
