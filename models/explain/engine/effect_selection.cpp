@@ -25,14 +25,15 @@ EffectSelection::EffectSelection(const Problem& problem, const ExplainOptions& o
       banned_(nc_, false),
       verdict_(nc_) {}
 
+// The forward steps run until none takes an effect; another round of them only when the share rule has dropped
+// one since: with nothing dropped the state is the one the last step left, and the same steps would take nothing
+// again (each candidate is taken at most once and dropped at most once, so the rounds are at most nc_ + 1).
 void EffectSelection::run(const std::function<bool(const Model& base)>& settled) {
   bool changed = true;
   for (std::size_t guard = 0; changed && guard < 4 * nc_ + 4; ++guard) {
-    changed = false;
     while (terms_.size() < o_.max_effects) {
       const std::string accepted = forward_step();
       if (accepted.empty()) break;
-      changed = true;
       // Earlier choices re-decided with the new effect in the model (a deadband sized, a line picked,
       // while this effect was still in the residual), then re-tested.
       for (std::size_t k = 0; k + 1 < terms_.size(); ++k) sel_.rechoose(terms_, k);
@@ -42,7 +43,7 @@ void EffectSelection::run(const std::function<bool(const Model& base)>& settled)
       prune(accepted);
     }
     const bool had_terms = !terms_.empty();
-    changed = drop_partial_fits() || changed;
+    changed = drop_partial_fits();
     if (settled && had_terms && terms_.empty() && settled(cur_)) break;
   }
   // The findings in the order taken.
