@@ -298,7 +298,7 @@ class DbbSession : public Session {
       // beside them (a drift is not read as backlash), a term that contradicts EXPLAIN is not determined.
       try {
         const models::explain::CheckedIdentification checked =
-            models::explain::identify_checked(it->second, identify_options);
+            models::explain::identify_checked(it->second, identify_options, explain_options());
         ids.push_back(checked.id);
         planes[pat.plane] = models::explain::to_json(checked);
         plane_explain = checked.explain_report;
@@ -333,7 +333,7 @@ class DbbSession : public Session {
     if (identified_.empty()) return std::nullopt;
     if (!explained_.is_null()) return explained_;  // run by identify() already, on the same runs
     try {
-      return models::explain::explain_dbb(identified_);
+      return models::explain::explain_dbb(identified_, explain_options());
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }
