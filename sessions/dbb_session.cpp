@@ -299,7 +299,7 @@ class DbbSession : public Session {
       // beside them (a drift is not read as backlash), a term that contradicts EXPLAIN is not determined.
       try {
         const models::explain::CheckedIdentification checked =
-            models::explain::identify_checked(it->second, identify_options);
+            models::explain::identify_checked(it->second, identify_options, explain_options());
         ids.push_back(checked.id);
         planes[pat.plane] = models::explain::to_json(checked);
         plane_explain = checked.explain_report;
@@ -336,7 +336,7 @@ class DbbSession : public Session {
     if (identified_.empty()) return std::nullopt;
     if (!explained_.is_null()) return explained_;  // run by identify() already, on the same runs
     try {
-      return models::explain::explain_dbb(identified_);
+      return models::explain::explain_dbb(identified_, explain_options());
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }
@@ -553,7 +553,8 @@ class DbbSession : public Session {
   // from the command (controller_mismatch_um, mean). Nothing when no controller's device streamed over the run.
   void add_commanded(formats::DbbRun& run, const std::vector<Point>& on) {
     if (commanded_.size() < 2 || run.t_s.size() < 2) return;
-    const auto [ia, ib] = plane_axes(run.plane);
+    const std::array<int, 2> axes = plane_axes(run.plane);
+    const int ia = axes[0], ib = axes[1];  // not a structured binding: clang 14 cannot capture one (the lambda below)
     std::vector<const Point*> kept;  // the run's samples
     for (const Point& p : on)
       if (p.t_s >= run.t_s.front() && p.t_s <= run.t_s.back()) kept.push_back(&p);
