@@ -25,6 +25,7 @@ import argparse
 import contextlib
 import fcntl
 import json
+import math
 import os
 import pwd
 import shutil
@@ -239,6 +240,13 @@ def daemon_config(work, args):
   node_id = {n}
   resolution_nm = 100
 """ for n, a in ((2, "x"), (3, "y"), (4, "z")))
+    # The virtual machine's fifth node: the servo period it plays, a thousandth of a period per count, so that
+    # the session pairs each reading with LinuxCNC's command of the same period (docs/linuxcnc.md).
+    period = """  [[device.encoder]]
+  channel = "controller_period"
+  node_id = 5
+  resolution_nm = 1000000
+"""
     text = f"""# guidewayd of scripts/linuxcnc_loop.py: the ball bar and the X/Y/Z encoders of the virtual machine that
 # LinuxCNC moves (guideway-emulate dbb --follow, started by the loop).
 [daemon]
@@ -254,7 +262,7 @@ sync = "produce"
 sync_rate_hz = 250.0
 configure_nodes = true
 heartbeat_ms = 100
-{bar}{axes}
+{bar}{axes}{period}
 # LinuxCNC itself: its commanded positions and the program's session pin, through guideway-linuxcnc-bridge.
 [[device]]
 name = "linuxcnc"
@@ -387,7 +395,7 @@ class Daemon:
         self.tools, self.work = tools, work
         self.socket = os.path.join(work, "guideway.sock")
         emulate = [tools["guideway-emulate"], "dbb", "--bus", f"unix:{work}/can-bus.sock", "--nodes", "1", "2", "3",
-                   "4", "--follow", bridge_socket, "--plane", "xy", "--radius-mm", str(args.radius_mm),
+                   "4", "5", "--follow", bridge_socket, "--plane", "xy", "--radius-mm", str(args.radius_mm),
                    "--center-mm", *(str(c) for c in args.center_mm),
                    "--follow-delay-ms", str(FOLLOW_DELAY_MS)]
         if args.machine:
@@ -570,31 +578,65 @@ def check_stream(tag, stream_path, result, checks):
     return header, periods
 
 
-def check_commanded(tag, params, checks):
-    """The runs carry LinuxCNC's commanded position beside the bar's reading (`<a>_cmd_mm`, `<b>_cmd_mm`, and
-    the metadata `controller`, `controller_lag_ms`, `controller_mismatch_um`: how far the encoders stayed from
-    the command the lag earlier)."""
-    runs = derived_runs(params)
+def read_run(path):
+    """A run file: its metadata and its columns (name -> values)."""
+    meta, names, cols = {}, None, {}
+    with open(path) as f:
+        for line in f:
+            if line.startswith("#"):
+                key, _, value = line[1:].partition("=")
+                meta[key.strip()] = value.strip()
+            elif names is None:
+                names = line.strip().split(",")
+                cols = {n: [] for n in names}
+            elif line.strip():
+                for n, v in zip(names, line.strip().split(",")):
+                    cols[n].append(float(v))
+    return meta, cols
+
+
+CMD_TOLERANCE_MM = 1e-6  # the stream's %f: 1 nm
+
+
+def check_commanded(tag, params, header, periods, checks):
+    """The runs carry LinuxCNC's commanded position beside the bar's reading (`<a>_cmd_mm`, `<b>_cmd_mm`,
+    `controller_period`, and the metadata `controller`, `controller_match`, `controller_lag_periods`,
+    `controller_mismatch_um`: how far the encoders stayed from the command the lag earlier), paired by servo
+    period: each row's command is the bridge's stream's of the row's period less the lag, to the nanometre."""
+    cols_of = {c: i for i, c in enumerate(header.get("columns", "").split(","))}
+    by_seq = {seq: values for seq, values in periods}
     carried = []
-    for path in runs:
-        meta, header = {}, ""
-        with open(path) as f:
-            for line in f:
-                if line.startswith("#"):
-                    key, _, value = line[1:].partition("=")
-                    meta[key.strip()] = value.strip()
-                else:
-                    header = line.strip()
-                    break
+    for path in derived_runs(params):
+        meta, cols = read_run(path)
         plane = meta.get("plane", "xy")
         wanted = [f"{plane[0]}_cmd_mm", f"{plane[1]}_cmd_mm"]
-        ok = all(c in header.split(",") for c in wanted) and "controller" in meta
+        ok = all(c in cols for c in wanted + ["controller_period"]) and meta.get("controller_match") == "servo period"
+        worst, n = 0.0, 0
+        if ok:
+            lag = float(meta["controller_lag_periods"])
+            for i, p in enumerate(cols["controller_period"]):
+                q = p - lag
+                j = math.floor(q)
+                lo, hi = by_seq.get(j), by_seq.get(j + 1)
+                if lo is None or hi is None:
+                    continue
+                w = q - j
+                for c in wanted:
+                    k = cols_of[c]
+                    worst = max(worst, abs(cols[c][i] - (lo[k] + w * (hi[k] - lo[k]))))
+                n += 1
+            ok = n > 0.99 * len(cols["controller_period"]) and worst <= CMD_TOLERANCE_MM
         carried.append(ok)
         say(f"{elapsed()} {tag}: {os.path.basename(path)} " + (
-            f"carries {', '.join(wanted)} from {meta.get('controller')}: the encoders followed the command "
-            f"{meta.get('controller_lag_ms')} ms later, {meta.get('controller_mismatch_um')} um from it on average"
-            if ok else f"lacks the controller's commanded position (header {header})"))
-    checks.append((f"{tag}: runs carry LinuxCNC's commanded position", bool(carried) and all(carried)))
+            f"carries {', '.join(wanted)} from {meta.get('controller')}, paired by servo period: {n} rows, each the "
+            f"stream's command {meta.get('controller_lag_periods')} periods before the row's within "
+            f"{worst * 1e6:.2f} nm; the encoders followed it {meta.get('controller_lag_ms')} ms later, "
+            f"{meta.get('controller_mismatch_um')} um from it on average"
+            if ok else f"lacks the controller's commanded position paired by servo period (columns "
+                       f"{','.join(cols)}, match {meta.get('controller_match')}, lag "
+                       f"{meta.get('controller_lag_periods')} periods, {n} rows checked, worst {worst * 1e6:.1f} nm)"))
+    checks.append((f"{tag}: runs carry LinuxCNC's commanded position of the reading's servo period",
+                   bool(carried) and all(carried)))
 
 
 FEED_MOTION = (2, 3)  # motion.motion-type: feed, arc (1 is a rapid)
@@ -810,8 +852,8 @@ def run_loop(args, tools, user, work):
     checks, switch_figures = [], {}
     try:
         before, stream_before, result_before, _ = measure("before", daemon, work, args, user, share)
-        check_stream("before", stream_before, result_before, checks)
-        check_commanded("before", before, checks)
+        header_before, periods_before = check_stream("before", stream_before, result_before, checks)
+        check_commanded("before", before, header_before, periods_before, checks)
         g_before = largest_g_um(before)
         say(f"{elapsed()} before: G {g_before:.2f} um")
         comp_dir = os.path.join(work, "comp")
@@ -826,7 +868,7 @@ def run_loop(args, tools, user, work):
             if res.returncode == 0 else f"{elapsed()} no external offsets: {res.stderr.strip()}")
         after, stream_after, result_after, _ = measure("after", daemon, work, args, user, share, comp_dir)
         header, periods = check_stream("after", stream_after, result_after, checks)
-        check_commanded("after", after, checks)
+        check_commanded("after", after, header, periods, checks)
         check_tables(header, periods, comp_dir, checks, switch_figures)
         check_offsets(header, periods, comp_dir, checks)
         g_after = largest_g_um(after)

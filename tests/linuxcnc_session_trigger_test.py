@@ -162,7 +162,7 @@ class SessionTrigger(unittest.TestCase):
                              timeout=30)
         self.assertEqual(out.returncode, 2, out.stderr)
         self.assertRegex(out.stderr, r"g\.toml:\d+: session_trigger\[0\]\.channel: device \"linuxcnc\" has no "
-                                     r"channel \"pin\" \(it has: x_cmd, y_cmd, z_cmd, program_line, session\)")
+                                     r"channel \"pin\" \(it has: x_cmd, y_cmd, z_cmd, session, period\)")
 
 
 if __name__ == "__main__":

@@ -256,7 +256,8 @@ bool LinuxcncFollower::follow_connection(int fd, const std::stop_token& stop) {
         FollowFrame f;
         f.t_s = t0 + t_rel;
         f.bus_m = {bar.read(s.tool, f.t_s), s.encoder[static_cast<std::size_t>(bus[0])],
-                   s.encoder[static_cast<std::size_t>(bus[1])], s.encoder[static_cast<std::size_t>(bus[2])]};
+                   s.encoder[static_cast<std::size_t>(bus[1])], s.encoder[static_cast<std::size_t>(bus[2])],
+                   static_cast<double>(seq)};
         batch.push_back(f);
         ++periods_;
       },

@@ -22,10 +22,12 @@
 
 namespace guideway::simulators::emulators {
 
-// What the DBB bus reads in one servo period: the bar, then the encoders in bus order (plane axes, normal).
+// What the DBB bus reads in one servo period: the bar, then the encoders in bus order (plane axes, normal),
+// then the period's number as halsampler counts it (the sample number; served on a fifth node,
+// controller_period, so that guidewayd pairs each reading with LinuxCNC's command of the same period).
 struct FollowFrame {
   double t_s = 0.0;  // machine time
-  std::array<double, 4> bus_m{};
+  std::array<double, 5> bus_m{};
 };
 
 // The periods played back at the pace they come, a delay behind the newest. The player's clock runs at
