@@ -277,8 +277,10 @@ channel = "session"
 kind = "dbb"
 session_device = "dbb"
 options = {{ test = "standard", radius_mm = {args.radius_mm}, feed_mm_per_min = {args.feed_mm_per_min} }}
-# the bar's last readings come the virtual machine's playback delay after LinuxCNC's pin falls
-end_after_s = {FOLLOW_DELAY_MS / 1000 + 3:g}
+# the bar's last readings come the virtual machine's playback delay after LinuxCNC's pin falls, longer when
+# LinuxCNC stalled for long (the delay grows to 1.5 times the longest stall); a session that has traced its
+# runs ends at once
+end_after_s = {3 * FOLLOW_DELAY_MS / 1000 + 3:g}
 """
     path = os.path.join(work, "guidewayd.toml")
     with open(path, "w") as f:
