@@ -705,6 +705,7 @@ def check_tables(header, periods, comp_dir, checks, figures):
 
         near = [False] * len(cmds)
         switches = []  # periods from each commanded reversal of the feed moves to LinuxCNC's switch
+        late = []  # (period, new direction, switch) of the switches later than 5 periods
         last = 0
         for k, d in enumerate(direction):
             if d and last and d != last:
@@ -712,6 +713,8 @@ def check_tables(header, periods, comp_dir, checks, figures):
                                if error(i, d) <= TABLE_TOLERANCE_MM), None)
                 if periods[k][1][col["motion_type"]] in FEED_MOTION:
                     switches.append(switch)
+                    if switch is None or switch > 5:
+                        late.append((k, d, switch))
                 for i in range(max(0, k - 20), min(len(cmds), k + max(20, (switch or MAX_SWITCH_PERIODS) + 1))):
                     near[i] = True
             last = d or last
@@ -727,6 +730,22 @@ def check_tables(header, periods, comp_dir, checks, figures):
             (f"{min(on_time)} to {max(on_time)} servo periods after the commanded reversal" if on_time else "never") +
             (f", {len(switches) - len(on_time)} times not within {MAX_SWITCH_PERIODS}"
              if len(on_time) < len(switches) else ""))
+        if late:
+            # Why LinuxCNC switched late is not known (docs/linuxcnc.md): the first late switch period by period,
+            # what it applied against the old and the new column, the joint's commanded step and its offset.
+            k, d, switch = late[0]
+            old_col, new_col = (rev, fwd) if d > 0 else (fwd, rev)
+            say(f"{elapsed()} {axis}.comp: the first late switch ({switch} periods; {len(late)} late of "
+                f"{len(switches)}), from period {periods[k][0]} (applied, old column, new column, commanded step, "
+                f"external offset; nm):")
+            for i in range(max(0, k - 2), min(len(cmds), k + (switch or MAX_SWITCH_PERIODS) + 3),
+                           max(1, (switch or MAX_SWITCH_PERIODS) // 10)):
+                v = periods[i][1]
+                applied = v[col[f"{axis}_motor_mm"]] - cmds[i] - v[col[f"{axis}_motor_offset_mm"]]
+                step = cmds[i] - cmds[i - 1] if i else 0.0
+                say(f"    {i - k:+4d}: {applied * 1e6:9.1f} {interpolate(noms, old_col, cmds[i]) * 1e6:9.1f} "
+                    f"{interpolate(noms, new_col, cmds[i]) * 1e6:9.1f} {step * 1e6:9.1f} "
+                    f"{v[col[f'{axis}_eoffset_mm']] * 1e6:9.1f}")
         figures[f"{axis}_switch_periods"] = [min(on_time), max(on_time)] if on_time else None
         checks.append((f"{axis}.comp applied as written", n > 1000 and worst <= TABLE_TOLERANCE_MM))
         checks.append((f"{axis}.comp: LinuxCNC switches its columns within {MAX_SWITCH_PERIODS} periods",
