@@ -207,6 +207,10 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
                                     "their [[device]] tables, or set refuse_uncalibrated = false)");
   }
   if (const auto m = top.table("mqtt")) c.mqtt = parse_mqtt_table(*m, file_name);
+  if (const auto e = top.table("explain")) {
+    if (e->has("memory_mb")) c.explain_memory_mb = static_cast<std::size_t>(e->get_int("memory_mb", 0, 0, 65536));
+    e->reject_unknown_keys();
+  }
   top.reject_unknown_keys();
   if (c.socket_path.empty()) c.socket_path = default_socket_path();
   // Checked here, not first at bind time, so that --check-config catches it.

@@ -83,6 +83,9 @@ struct DaemonConfig {
   std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
   std::string emulator_machine;  // the virtual machine every emulator runs (absolute; "" = its compiled-in default)
   std::optional<plant::PublisherSettings> mqtt;  // [mqtt]: publish to a plant's broker (docs/plant.md)
+  // [explain] memory_mb: what each session's EXPLAIN may keep in its caches (ExplainOptions::memory_mb, as
+  // `guideway explain --memory-mb`); nullopt: EXPLAIN's default.
+  std::optional<std::size_t> explain_memory_mb;
 
   std::shared_ptr<toml::table> root;  // keeps the parsed document alive for the device readers
 };

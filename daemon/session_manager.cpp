@@ -116,6 +116,7 @@ std::string SessionManager::start(const sessions::SessionRequest& request) {
   sessions::SessionRequest with_instrument = request;
   with_instrument.instrument = r->instrument;
   r->session = kind->create(with_instrument, *devices_[index]);  // throws std::invalid_argument on bad options
+  if (explain_memory_mb_) r->session->set_explain_memory_mb(*explain_memory_mb_);
   {
     std::lock_guard lock(mutex_);
     for (const auto& info : infos_) {

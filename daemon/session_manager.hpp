@@ -55,6 +55,9 @@ class SessionManager : public PipelineStage {
   // The instrument of each device (in the order of the devices) and whether a session on one whose
   // calibration has run out, or states no due date, is refused. Before the first start().
   void set_instruments(std::vector<Instrument> instruments, bool refuse_uncalibrated);
+  // What every session's EXPLAIN may keep in its caches (the configuration's [explain] memory_mb); unset:
+  // EXPLAIN's default. Before the first start.
+  void set_explain_memory_mb(std::size_t mb) { explain_memory_mb_ = mb; }
   // Creates and queues a session; returns its name. Throws std::invalid_argument with the reason.
   // The request's instrument is the device's (set_instruments).
   std::string start(const sessions::SessionRequest& request);
@@ -115,6 +118,7 @@ class SessionManager : public PipelineStage {
   std::vector<drivers::Driver*> devices_;
   std::vector<Instrument> instruments_;  // per device (empty: none stated)
   bool refuse_uncalibrated_ = false;
+  std::optional<std::size_t> explain_memory_mb_;
   std::string state_dir_;
   Outbox& outbox_;
 

@@ -320,7 +320,7 @@ class DbbSession : public Session {
       // beside them (a drift is not read as backlash), a term that contradicts EXPLAIN is not determined.
       try {
         const models::explain::CheckedIdentification checked =
-            models::explain::identify_checked(it->second, identify_options);
+            models::explain::identify_checked(it->second, identify_options, explain_options());
         ids.push_back(checked.id);
         planes[pat.plane] = models::explain::to_json(checked);
         plane_explain = checked.explain_report;
@@ -355,7 +355,7 @@ class DbbSession : public Session {
     if (identified_.empty()) return std::nullopt;
     if (!explained_.is_null()) return explained_;  // run by identify() already, on the same runs
     try {
-      return models::explain::explain_dbb(identified_);
+      return models::explain::explain_dbb(identified_, explain_options());
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }
@@ -612,7 +612,8 @@ class DbbSession : public Session {
   // period each reading was played in, so that anyone can pair it with the bridge's stream.
   void add_commanded_by_period(formats::DbbRun& run, const std::vector<Point>& on,
                                const std::vector<double>& run_periods) {
-    const auto [ia, ib] = plane_axes(run.plane);
+    const std::array<int, 2> axes = plane_axes(run.plane);
+    const int ia = axes[0], ib = axes[1];  // not a structured binding: clang 14 cannot capture one (the lambda below)
     // The stretches of rising period numbers that hold the run's periods; of them, the one that came nearest
     // before the run's last reading.
     const double first_p = *std::min_element(run_periods.begin(), run_periods.end());
@@ -699,7 +700,8 @@ class DbbSession : public Session {
   // (controller_lag_ms: mean, controller_lag_spread_ms: largest less smallest) and how far the encoders stayed
   // from the command (controller_mismatch_um, mean). Nothing when no controller's device streamed over the run.
   void add_commanded_by_time(formats::DbbRun& run, const std::vector<Point>& on) {
-    const auto [ia, ib] = plane_axes(run.plane);
+    const std::array<int, 2> axes = plane_axes(run.plane);
+    const int ia = axes[0], ib = axes[1];  // not a structured binding: clang 14 cannot capture one (the lambda below)
     std::vector<const Point*> kept;  // the run's samples
     for (const Point& p : on)
       if (p.t_s >= run.t_s.front() && p.t_s <= run.t_s.back()) kept.push_back(&p);

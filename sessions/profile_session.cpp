@@ -255,7 +255,7 @@ class ProfileSession : public Session {
     try {
       const models::explain::ProfileRun run =
           models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness"));
+      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness", nullptr, explain_options()));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

@@ -150,7 +150,7 @@ class RunoutSession : public Session {
       return explain_not_analysed(std::string(results::runout_kind.name),
                                   "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
                                   "told from what does not (record several, e.g. revolutions = 20)");
-    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}));
+    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}, explain_options()));
   }
 
  private:

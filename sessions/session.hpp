@@ -19,6 +19,7 @@
 #include "core/instrument.hpp"
 #include "core/sample.hpp"
 #include "drivers/driver.hpp"
+#include "models/explain/explain_result.hpp"
 #include "report/report.hpp"
 
 namespace guideway::sessions {
@@ -41,6 +42,9 @@ struct SessionRequest {
 class Session {
  public:
   virtual ~Session() = default;
+  // What explain() runs EXPLAIN with beyond its defaults: the daemon's [explain] memory_mb (set after create(),
+  // before explain(); docs/configuration.md).
+  void set_explain_memory_mb(std::size_t mb) { explain_options_.memory_mb = mb; }
   virtual void on_samples(std::span<const Sample> samples) = 0;
   // Another device's samples, as they come (pipeline thread): a controller's commanded positions (a
   // linuxcnc-hal device's x_cmd, y_cmd, z_cmd) a DBB session writes beside the bar's reading. Default: none.
@@ -76,6 +80,11 @@ class Session {
     (void)base_name;
     return {};
   }
+ protected:
+  [[nodiscard]] const models::explain::ExplainOptions& explain_options() const { return explain_options_; }
+
+ private:
+  models::explain::ExplainOptions explain_options_;
 };
 
 struct SessionKind {

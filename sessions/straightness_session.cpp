@@ -231,7 +231,7 @@ class StraightnessSession : public Session {
     if (text_.empty()) return std::nullopt;
     const auto passes = models::explain::parse_traverse_passes(text_, "traverse");
     try {
-      return models::explain::to_json(models::explain::explain_traverses(passes));
+      return models::explain::to_json(models::explain::explain_traverses(passes, explain_options()));
     } catch (const std::invalid_argument& e) {  // too few readings in a pass: said, not claimed
       const std::string why = e.what();
       return explain_not_analysed(std::string(results::straightness_kind.name),

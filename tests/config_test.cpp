@@ -89,3 +89,18 @@ TEST(Config, DisabledDevicesAreSkipped) {
   const auto c = parse_config("[[device]]\nname = \"a\"\ndriver = \"x\"\nenabled = false\n", "t.toml");
   EXPECT_TRUE(c.devices.empty());
 }
+
+// [explain] memory_mb: what each session's EXPLAIN may keep in its caches; absent, EXPLAIN's own default. A bad
+// value is refused at its line (guidewayd --check-config prints this).
+TEST(Config, ExplainMemoryBudget) {
+  EXPECT_FALSE(parse_config("[daemon]\n", "t.toml").explain_memory_mb.has_value());
+  EXPECT_EQ(parse_config("[explain]\nmemory_mb = 8\n", "t.toml").explain_memory_mb, 8u);
+  EXPECT_EQ(parse_config("[explain]\nmemory_mb = 0\n", "t.toml").explain_memory_mb, 0u);
+  EXPECT_NE(error_of("[explain]\n\nmemory_mb = -1\n").find("test.toml:3: explain.memory_mb"), std::string::npos)
+      << error_of("[explain]\n\nmemory_mb = -1\n");
+  EXPECT_NE(error_of("[explain]\nmemory_mb = \"16\"\n").find("test.toml:2: explain.memory_mb: expected"),
+            std::string::npos)
+      << error_of("[explain]\nmemory_mb = \"16\"\n");
+  EXPECT_NE(error_of("[explain]\nmemory_mb = 16\nmemory = 4\n").find("test.toml:3: explain.memory: unknown key"),
+            std::string::npos);
+}

@@ -16,6 +16,7 @@
 #include "dbb_bench.hpp"
 #include "driver_counters_support.hpp"
 #include "test_support.hpp"
+#include "sanitizer_build.hpp"
 
 using namespace guideway;
 using namespace std::chrono_literals;
@@ -155,7 +156,7 @@ TEST(DbbDriver, ListenBatchedDeliversEveryCycleAt1kAnd10kHz) {
     const auto n = static_cast<double>(b.samples.size());
     const double reads_per_sample = static_cast<double>(b.driver->bus_reads()) / n;
     const double empty_reads_per_sample = static_cast<double>(b.driver->empty_reads()) / n;
-#if !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)  // a slowed emulator changes the ratio
+#if !defined(GUIDEWAY_SANITIZED_THREAD) && !defined(GUIDEWAY_SANITIZED_ADDRESS)  // a slowed emulator changes the ratio
     if (rate_hz < 5000) {
       EXPECT_LT(empty_reads_per_sample, 0.3);
     }
@@ -175,7 +176,7 @@ TEST(DbbDriverAlone, ListenBatchedAt10kHzReadsAboutOncePerPeriod) {
   const double reads_per_sample =
       static_cast<double>(b.driver->bus_reads()) / static_cast<double>(b.samples.size());
   RecordProperty("reads_per_sample_10k_alone", std::to_string(reads_per_sample));
-#if !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)  // a slowed emulator changes the ratio
+#if !defined(GUIDEWAY_SANITIZED_THREAD) && !defined(GUIDEWAY_SANITIZED_ADDRESS)  // a slowed emulator changes the ratio
   EXPECT_LT(reads_per_sample, 0.6);
 #endif
 }
@@ -341,7 +342,7 @@ TEST(DbbDriver, At5kHzOneWakeUpPerCycleKeepsTheRateAndEverySample) {
   const double span_s = static_cast<double>(b.samples.back().t_mono_ns - b.samples.front().t_mono_ns) * 1e-9;
   const double mean_period_s = span_s / static_cast<double>(b.samples.size() - 1);
   EXPECT_GT(mean_period_s, 0.00019);  // never faster than 5 kHz
-#if !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)  // a slowed emulator answers fewer SYNCs
+#if !defined(GUIDEWAY_SANITIZED_THREAD) && !defined(GUIDEWAY_SANITIZED_ADDRESS)  // a slowed emulator answers fewer SYNCs
   EXPECT_LT(mean_period_s, 0.0009);  // and well above the ~1 kHz that millisecond waits allowed
 #endif
 }

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "models/explain/explain.hpp"
+#include "sanitizer_build.hpp"
 
 using namespace guideway;
 
@@ -21,6 +22,13 @@ namespace {
 
 constexpr double pi = std::numbers::pi;
 constexpr int n = 2000;
+// Under a sanitizer the statistical cases below run a few draws for their code paths and judge no rates:
+// the rates over all the draws are judged in the Release build (a sanitizer sees nothing more in draw 40).
+#if defined(GUIDEWAY_SANITIZED_ADDRESS) || defined(GUIDEWAY_SANITIZED_THREAD)
+constexpr bool judge_rates = false;
+#else
+constexpr bool judge_rates = true;
+#endif
 
 double step_of(int i) { return (i % 500) < 250 ? 0.5 : -0.5; }
 
@@ -297,7 +305,7 @@ TEST(ExplainEngine, HeldOutRechoosesGeneratedVariantsInEachFold) {
   models::explain::ExplainOptions fixed = loose;
   fixed.heldout_reselect = false;
   int taken_fixed = 0, taken_nested = 0;
-  constexpr int trials = 40;
+  constexpr int trials = judge_rates ? 40 : 4;
   int compared = 0, higher = 0;  // draws where the nested held-out figure of the trial is above the fixed one
   for (unsigned seed = 1; seed <= trials; ++seed) {
     const auto p = peak_problem(0.0, seed);
@@ -318,15 +326,17 @@ TEST(ExplainEngine, HeldOutRechoosesGeneratedVariantsInEachFold) {
       higher += ho_nested > ho_fixed;
     }
   }
-  EXPECT_GE(compared, trials * 3 / 4);
-  EXPECT_GE(higher, compared * 9 / 10) << "nested above fixed in " << higher << " of " << compared;
-  EXPECT_GE(taken_fixed, trials * 3 / 4) << "fixed variants: noise taken in " << taken_fixed << " of " << trials;
-  EXPECT_LE(taken_nested, trials / 5) << "nested: noise taken in " << taken_nested << " of " << trials;
+  if (judge_rates) {
+    EXPECT_GE(compared, trials * 3 / 4);
+    EXPECT_GE(higher, compared * 9 / 10) << "nested above fixed in " << higher << " of " << compared;
+    EXPECT_GE(taken_fixed, trials * 3 / 4) << "fixed variants: noise taken in " << taken_fixed << " of " << trials;
+    EXPECT_LE(taken_nested, trials / 5) << "nested: noise taken in " << taken_nested << " of " << trials;
+  }
   // (Measured with these draws: 37 of 40 fixed, 1 of 40 nested; the nested figure above the fixed one in
   // 37 of the 37 draws the held-out test judged. A held-out block can favour a spurious term by chance.)
   // A real sinusoid (amplitude 1 x the noise's sigma) improves the held-out RMS both ways; the nested
   // figure is the less flattering one (measured 0.003-0.04 um above the fixed one).
-  for (unsigned seed = 1; seed <= 5; ++seed) {
+  for (unsigned seed = 1; seed <= (judge_rates ? 5u : 2u); ++seed) {
     const auto p = peak_problem(1.0, seed);
     const auto a = models::explain::explain(p, fixed), b = models::explain::explain(p, loose);
     ASSERT_EQ(a.findings.size(), 1u) << seed;
@@ -416,7 +426,7 @@ TEST(ExplainEngine, HeldOutRechoosesFixedVariantsInEachFold) {
   models::explain::ExplainOptions fixed = loose;
   fixed.heldout_reselect = false;
   int taken_fixed = 0, taken_nested = 0;
-  constexpr int trials = 20;
+  constexpr int trials = judge_rates ? 20 : 2;
   for (unsigned seed = 1; seed <= trials; ++seed) {
     models::explain::Problem p = peak_problem(0.0, seed + 100);
     models::explain::Candidate lines{"cyclic_error", "a listed sinusoid", {}, {}, 1};
@@ -431,8 +441,10 @@ TEST(ExplainEngine, HeldOutRechoosesFixedVariantsInEachFold) {
     taken_fixed += !models::explain::explain(p, fixed).findings.empty();
     taken_nested += !models::explain::explain(p, loose).findings.empty();
   }
-  EXPECT_GE(taken_fixed, trials / 2) << taken_fixed;
-  EXPECT_LE(taken_nested, trials / 5) << taken_nested;
+  if (judge_rates) {
+    EXPECT_GE(taken_fixed, trials / 2) << taken_fixed;
+    EXPECT_LE(taken_nested, trials / 5) << taken_nested;
+  }
 }
 
 // A fold that cannot be fitted is not skipped (the trial and the model so far would be averaged over

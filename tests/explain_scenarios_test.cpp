@@ -12,6 +12,7 @@
 #include "simulators/machine/dbb_runs.hpp"
 #include "simulators/machine/machine.hpp"
 #include "simulators/scenarios/scenarios.hpp"
+#include "sanitizer_build.hpp"
 
 using namespace guideway;
 
@@ -60,7 +61,7 @@ INSTANTIATE_TEST_SUITE_P(All, ExplainScenario, ::testing::ValuesIn(simulators::s
 // (u too small) nor always (u too large). (Full density, seeds 1-5, every scenario: 69 % and 93 % of 240,
 // the table in docs/explain.md.)
 TEST(ExplainScenarios, UncertaintiesCoverTheTruthOverSeeds) {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(GUIDEWAY_SANITIZED_ADDRESS)
   // Statistics: the scenarios of MeetsItsExpectation again over five seeds, the same code with other
   // random numbers; ten times slower under ASan (two minutes of the stage) for no memory-safety
   // coverage the per-scenario cases lack. The Release stage runs it.

@@ -12,6 +12,7 @@
 #include "models/map/map_json.hpp"
 #include "models/map/volumetric.hpp"
 #include "map_test_support.hpp"
+#include "sanitizer_build.hpp"
 
 namespace {
 
@@ -121,7 +122,7 @@ TEST(MapRecovery, SecondMachine) {
 // fall beyond 2 u in at most 7 % of the cases and their squared ratios average near 1; the volumetric accuracy
 // falls within its u about as often as a Gaussian's.
 TEST(MapRecovery, UncertaintiesCoverTheTruthOverDays) {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(GUIDEWAY_SANITIZED_ADDRESS)
   GTEST_SKIP() << "a statistical test over 30 simulated days: run in the Release build, not under ASan";
 #endif
   const sm::Machine m(sm::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-example.toml"));

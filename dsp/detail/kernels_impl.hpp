@@ -75,8 +75,13 @@ void analysis(const double* __restrict w, std::size_t n, const double* __restric
 
 // Interleave even-sample and odd-sample vectors into y[0..7].
 inline void store_pairs(double* y, v4 even, v4 odd) {
+#if defined(__clang__)  // clang spells GCC's vector shuffle with its lane numbers as arguments
+  store(y, __builtin_shufflevector(even, odd, 0, 4, 1, 5));
+  store(y + 4, __builtin_shufflevector(even, odd, 2, 6, 3, 7));
+#else
   store(y, __builtin_shuffle(even, odd, i4{0, 4, 1, 5}));
   store(y + 4, __builtin_shuffle(even, odd, i4{2, 6, 3, 7}));
+#endif
 }
 
 // y[2m+e] = sum_p g[2p+e] c[m+H-1-p].

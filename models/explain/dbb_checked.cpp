@@ -100,9 +100,10 @@ std::atomic<std::size_t> identify_checked_calls{0};
 
 std::size_t identify_checked_count() { return identify_checked_calls.load(std::memory_order_relaxed); }
 
-CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options) {
+CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs, const dbb::IdentifyOptions& options,
+                                       const ExplainOptions& explain) {
   identify_checked_calls.fetch_add(1, std::memory_order_relaxed);
-  ExplainOptions eo;
+  ExplainOptions eo = explain;
   eo.keep_columns = true;
   CheckedIdentification out;
   Report report;

@@ -16,6 +16,7 @@
 
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
+#include "models/explain/explain_result.hpp"
 
 namespace guideway::models::explain {
 
@@ -39,8 +40,9 @@ inline constexpr std::string_view fitted_beside_note = "fitted beside the terms"
 
 // Runs EXPLAIN refuses (shorter than it needs, a gap too wide) are identified by the models alone, with a
 // note that says why; what identify itself refuses throws as identify does.
+// `explain`: EXPLAIN's options (its findings' columns are always kept: keep_columns).
 CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
-                                       const dbb::IdentifyOptions& options = {});
+                                       const dbb::IdentifyOptions& options = {}, const ExplainOptions& explain = {});
 // How many times identify_checked has run in this process (each runs EXPLAIN: seconds of CPU on long runs):
 // what a test counts to show that a session's end identifies once, its report included.
 std::size_t identify_checked_count();

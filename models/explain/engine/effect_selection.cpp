@@ -25,14 +25,16 @@ EffectSelection::EffectSelection(const Problem& problem, const ExplainOptions& o
       banned_(nc_, false),
       verdict_(nc_) {}
 
-void EffectSelection::run(const std::function<bool(const Model& base)>& settled) {
-  bool changed = true;
+// The forward steps run until none takes an effect; another round of them only when the share rule has dropped
+// one since: with nothing dropped the state is the one the last step left, and the same steps would take nothing
+// again (each candidate is taken at most once and dropped at most once, so the rounds are at most nc_ + 1).
+void EffectSelection::run(const Settled& settled) {
+  bool changed = true, ended = false;
+  std::size_t in_a_row = 0;  // effects joined, one after another, that the share rule would drop with every other
   for (std::size_t guard = 0; changed && guard < 4 * nc_ + 4; ++guard) {
-    changed = false;
     while (terms_.size() < o_.max_effects) {
       const std::string accepted = forward_step();
       if (accepted.empty()) break;
-      changed = true;
       // Earlier choices re-decided with the new effect in the model (a deadband sized, a line picked,
       // while this effect was still in the residual), then re-tested.
       for (std::size_t k = 0; k + 1 < terms_.size(); ++k) sel_.rechoose(terms_, k);
@@ -40,10 +42,14 @@ void EffectSelection::run(const std::function<bool(const Model& base)>& settled)
       for (std::size_t i = 0; i + 1 < terms_.size(); ++i) sel_.rechoose_pair(terms_, i, terms_.size() - 1);
       refresh();
       prune(accepted);
+      in_a_row = settled && partial_fits_only(settled, in_a_row + 1 >= 2) ? in_a_row + 1 : 0;
+      ended = in_a_row >= 2;
+      if (ended) break;
     }
+    if (ended) break;
     const bool had_terms = !terms_.empty();
-    changed = drop_partial_fits() || changed;
-    if (settled && had_terms && terms_.empty() && settled(cur_)) break;
+    changed = drop_partial_fits();
+    if (settled && had_terms && terms_.empty() && settled(cur_, true)) break;
   }
   // The findings in the order taken.
   std::sort(terms_.begin(), terms_.end(), [](const Term& a, const Term& b) { return a.taken < b.taken; });
@@ -174,6 +180,33 @@ bool EffectSelection::drop_partial_fits() {
     changed = true;
   }
   return changed;
+}
+
+// The share rule applied now, after an effect joined: when it drops every effect held and the base's residual is
+// structured at places of its own that explain() would set aside, the selection ends there, as it would have once
+// the forward steps ran out (the effects taken beside such a fault are partial fits of it, and what they leave is
+// the fault again, only fitted more ways: its samples grow with n, so more such fits pass the tests, each tried
+// on every fold). Otherwise everything the share rule did is undone and the steps go on.
+bool EffectSelection::partial_fits_only(const Settled& settled, bool end_there) {
+  if (terms_.empty()) return false;
+  std::vector<Term> terms = terms_;
+  Model cur = cur_;
+  HeldOut cur_ho = cur_ho_;
+  const double cur_heldout = cur_heldout_;
+  std::vector<bool> banned = banned_;
+  std::vector<std::optional<Considered>> verdict = verdict_;
+  std::optional<std::vector<Term>> before_share = before_share_;
+  drop_partial_fits();
+  const bool only = terms_.empty() && settled(cur_, false);
+  if (only && end_there) return true;
+  terms_ = std::move(terms);
+  cur_ = std::move(cur);
+  cur_ho_ = std::move(cur_ho);
+  cur_heldout_ = cur_heldout;
+  banned_ = std::move(banned);
+  verdict_ = std::move(verdict);
+  before_share_ = std::move(before_share);
+  return only;
 }
 
 bool EffectSelection::has_term(std::size_t c) const {

@@ -23,9 +23,13 @@ class EffectSelection {
   EffectSelection(const Problem& problem, const ExplainOptions& options, const Selection& sel, Model base,
                   HeldOut base_heldout, double sigma, double visible_floor);
 
-  // `settled`, when given, is asked whenever the share rule has dropped every effect taken: true ends the
-  // selection there (the base's residual is then what the pass leaves).
-  void run(const std::function<bool(const Model& base)>& settled = {});
+  // Whether the pass may end with the base's residual (its places would be set aside): with `probe`, places of
+  // the residual held before the share rule first dropped an effect may stand for the base's own.
+  using Settled = std::function<bool(const Model& base, bool probe)>;
+  // `settled`, when given, is asked whenever the share rule has dropped every effect taken (after the forward
+  // steps, and on trial after each effect joins: partial_fits_only): true ends the selection there (the base's
+  // residual is then what the pass leaves).
+  void run(const Settled& settled = {});
 
   [[nodiscard]] const std::vector<Term>& terms() const { return terms_; }
   // The effects held when the share rule first dropped one (partial fits of a cause outside the library
@@ -44,6 +48,7 @@ class EffectSelection {
   [[nodiscard]] std::vector<Trial> trials() const;
   std::string forward_step();
   bool drop_partial_fits();
+  bool partial_fits_only(const Settled& settled, bool end_there);
 
   const Problem& p_;
   const ExplainOptions& o_;

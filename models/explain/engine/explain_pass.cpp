@@ -190,14 +190,14 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options, const S
   EffectSelection chosen(problem, options, sel, base, base_ho, sigma, visible_floor);
   // The places explain() would set aside after this pass, were it to end with the base's residual: those of the
   // residual's local structure, else the strongest of the probe's (Pass::probe).
-  std::function<bool(const Model&)> settled;
+  EffectSelection::Settled settled;
   if (can_set_aside)
-    settled = [&](const Model& m) {
+    settled = [&](const Model& m, bool with_probe) {
       const Located left = locate(problem, m.residual, options.alpha);
       if (!left.structured || !(left.visible_energy > 0)) return false;
       std::vector<Location> places;
       for (const auto& mm : left.places) places.insert(places.end(), mm.locations.begin(), mm.locations.end());
-      if (places.empty() && chosen.before_share()) {
+      if (places.empty() && with_probe && chosen.before_share()) {
         const Located probe = locate(problem, sel.model(*chosen.before_share()).residual, options.alpha, sigma);
         for (const auto& mm : probe.places) places.insert(places.end(), mm.locations.begin(), mm.locations.end());
         if (!places.empty())
