@@ -178,16 +178,25 @@ void SessionManager::set_triggers(std::vector<Trigger> triggers) {
   for (auto& t : triggers) triggers_.push_back({std::move(t), false, {}});
 }
 
+bool SessionManager::still_running(const std::string& name) const {
+  std::lock_guard lock(mutex_);
+  return std::any_of(infos_.begin(), infos_.end(),
+                     [&](const SessionInfo& i) { return i.name == name && i.state == SessionState::running; });
+}
+
 void SessionManager::triggered(std::size_t index, bool on) {
   TriggerState& t = triggers_[index];
   t.on = on;
   SessionInfo about;
   about.device = devices_[t.trigger.device_index]->name();
   if (on) {
-    if (!t.session.empty()) {  // up again before its session ended: the same session goes on
+    if (!t.session.empty() && still_running(t.session)) {  // up again before its session ended: it goes on
       t.end_at_ns = 0;
       return;
     }
+    // Its last session ended by itself (every pattern traced) while the trigger waited end_after_s: a new one.
+    t.session.clear();
+    t.end_at_ns = 0;
     try {
       t.session = start(t.trigger.request);
       about.name = t.session;

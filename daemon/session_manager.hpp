@@ -96,6 +96,7 @@ class SessionManager : public PipelineStage {
     CalendarDate started_on;                 // UTC: the date its instrument's calibration is judged on
   };
   [[nodiscard]] results::ResultHeader header_of(const Running& r) const;
+  [[nodiscard]] bool still_running(const std::string& name) const;  // not yet finishing or done
   // Throws std::invalid_argument when refuse_uncalibrated refuses a session on this device.
   void check_calibration(std::size_t device_index, const CalendarDate& today) const;
   void finish_loop(const std::stop_token& stop);

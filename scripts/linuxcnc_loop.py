@@ -25,6 +25,7 @@ import argparse
 import contextlib
 import fcntl
 import json
+import math
 import os
 import pwd
 import shutil
@@ -239,6 +240,13 @@ def daemon_config(work, args):
   node_id = {n}
   resolution_nm = 100
 """ for n, a in ((2, "x"), (3, "y"), (4, "z")))
+    # The virtual machine's fifth node: the servo period it plays, a thousandth of a period per count, so that
+    # the session pairs each reading with LinuxCNC's command of the same period (docs/linuxcnc.md).
+    period = """  [[device.encoder]]
+  channel = "controller_period"
+  node_id = 5
+  resolution_nm = 1000000
+"""
     text = f"""# guidewayd of scripts/linuxcnc_loop.py: the ball bar and the X/Y/Z encoders of the virtual machine that
 # LinuxCNC moves (guideway-emulate dbb --follow, started by the loop).
 [daemon]
@@ -254,7 +262,7 @@ sync = "produce"
 sync_rate_hz = 250.0
 configure_nodes = true
 heartbeat_ms = 100
-{bar}{axes}
+{bar}{axes}{period}
 # LinuxCNC itself: its commanded positions and the program's session pin, through guideway-linuxcnc-bridge.
 [[device]]
 name = "linuxcnc"
@@ -269,8 +277,10 @@ channel = "session"
 kind = "dbb"
 session_device = "dbb"
 options = {{ test = "standard", radius_mm = {args.radius_mm}, feed_mm_per_min = {args.feed_mm_per_min} }}
-# the bar's last readings come the virtual machine's playback delay after LinuxCNC's pin falls
-end_after_s = {FOLLOW_DELAY_MS / 1000 + 3:g}
+# the bar's last readings come the virtual machine's playback delay after LinuxCNC's pin falls, longer when
+# LinuxCNC stalled for long (the delay grows to 1.5 times the longest stall); a session that has traced its
+# runs ends at once
+end_after_s = {3 * FOLLOW_DELAY_MS / 1000 + 3:g}
 """
     path = os.path.join(work, "guidewayd.toml")
     with open(path, "w") as f:
@@ -387,7 +397,7 @@ class Daemon:
         self.tools, self.work = tools, work
         self.socket = os.path.join(work, "guideway.sock")
         emulate = [tools["guideway-emulate"], "dbb", "--bus", f"unix:{work}/can-bus.sock", "--nodes", "1", "2", "3",
-                   "4", "--follow", bridge_socket, "--plane", "xy", "--radius-mm", str(args.radius_mm),
+                   "4", "5", "--follow", bridge_socket, "--plane", "xy", "--radius-mm", str(args.radius_mm),
                    "--center-mm", *(str(c) for c in args.center_mm),
                    "--follow-delay-ms", str(FOLLOW_DELAY_MS)]
         if args.machine:
@@ -570,31 +580,65 @@ def check_stream(tag, stream_path, result, checks):
     return header, periods
 
 
-def check_commanded(tag, params, checks):
-    """The runs carry LinuxCNC's commanded position beside the bar's reading (`<a>_cmd_mm`, `<b>_cmd_mm`, and
-    the metadata `controller`, `controller_lag_ms`, `controller_mismatch_um`: how far the encoders stayed from
-    the command the lag earlier)."""
-    runs = derived_runs(params)
+def read_run(path):
+    """A run file: its metadata and its columns (name -> values)."""
+    meta, names, cols = {}, None, {}
+    with open(path) as f:
+        for line in f:
+            if line.startswith("#"):
+                key, _, value = line[1:].partition("=")
+                meta[key.strip()] = value.strip()
+            elif names is None:
+                names = line.strip().split(",")
+                cols = {n: [] for n in names}
+            elif line.strip():
+                for n, v in zip(names, line.strip().split(",")):
+                    cols[n].append(float(v))
+    return meta, cols
+
+
+CMD_TOLERANCE_MM = 1e-6  # the stream's %f: 1 nm
+
+
+def check_commanded(tag, params, header, periods, checks):
+    """The runs carry LinuxCNC's commanded position beside the bar's reading (`<a>_cmd_mm`, `<b>_cmd_mm`,
+    `controller_period`, and the metadata `controller`, `controller_match`, `controller_lag_periods`,
+    `controller_mismatch_um`: how far the encoders stayed from the command the lag earlier), paired by servo
+    period: each row's command is the bridge's stream's of the row's period less the lag, to the nanometre."""
+    cols_of = {c: i for i, c in enumerate(header.get("columns", "").split(","))}
+    by_seq = {seq: values for seq, values in periods}
     carried = []
-    for path in runs:
-        meta, header = {}, ""
-        with open(path) as f:
-            for line in f:
-                if line.startswith("#"):
-                    key, _, value = line[1:].partition("=")
-                    meta[key.strip()] = value.strip()
-                else:
-                    header = line.strip()
-                    break
+    for path in derived_runs(params):
+        meta, cols = read_run(path)
         plane = meta.get("plane", "xy")
         wanted = [f"{plane[0]}_cmd_mm", f"{plane[1]}_cmd_mm"]
-        ok = all(c in header.split(",") for c in wanted) and "controller" in meta
+        ok = all(c in cols for c in wanted + ["controller_period"]) and meta.get("controller_match") == "servo period"
+        worst, n = 0.0, 0
+        if ok:
+            lag = float(meta["controller_lag_periods"])
+            for i, p in enumerate(cols["controller_period"]):
+                q = p - lag
+                j = math.floor(q)
+                lo, hi = by_seq.get(j), by_seq.get(j + 1)
+                if lo is None or hi is None:
+                    continue
+                w = q - j
+                for c in wanted:
+                    k = cols_of[c]
+                    worst = max(worst, abs(cols[c][i] - (lo[k] + w * (hi[k] - lo[k]))))
+                n += 1
+            ok = n > 0.99 * len(cols["controller_period"]) and worst <= CMD_TOLERANCE_MM
         carried.append(ok)
         say(f"{elapsed()} {tag}: {os.path.basename(path)} " + (
-            f"carries {', '.join(wanted)} from {meta.get('controller')}: the encoders followed the command "
-            f"{meta.get('controller_lag_ms')} ms later, {meta.get('controller_mismatch_um')} um from it on average"
-            if ok else f"lacks the controller's commanded position (header {header})"))
-    checks.append((f"{tag}: runs carry LinuxCNC's commanded position", bool(carried) and all(carried)))
+            f"carries {', '.join(wanted)} from {meta.get('controller')}, paired by servo period: {n} rows, each the "
+            f"stream's command {meta.get('controller_lag_periods')} periods before the row's within "
+            f"{worst * 1e6:.2f} nm; the encoders followed it {meta.get('controller_lag_ms')} ms later, "
+            f"{meta.get('controller_mismatch_um')} um from it on average"
+            if ok else f"lacks the controller's commanded position paired by servo period (columns "
+                       f"{','.join(cols)}, match {meta.get('controller_match')}, lag "
+                       f"{meta.get('controller_lag_periods')} periods, {n} rows checked, worst {worst * 1e6:.1f} nm)"))
+    checks.append((f"{tag}: runs carry LinuxCNC's commanded position of the reading's servo period",
+                   bool(carried) and all(carried)))
 
 
 FEED_MOTION = (2, 3)  # motion.motion-type: feed, arc (1 is a rapid)
@@ -661,6 +705,7 @@ def check_tables(header, periods, comp_dir, checks, figures):
 
         near = [False] * len(cmds)
         switches = []  # periods from each commanded reversal of the feed moves to LinuxCNC's switch
+        late = []  # (period, new direction, switch) of the switches later than 5 periods
         last = 0
         for k, d in enumerate(direction):
             if d and last and d != last:
@@ -668,6 +713,8 @@ def check_tables(header, periods, comp_dir, checks, figures):
                                if error(i, d) <= TABLE_TOLERANCE_MM), None)
                 if periods[k][1][col["motion_type"]] in FEED_MOTION:
                     switches.append(switch)
+                    if switch is None or switch > 5:
+                        late.append((k, d, switch))
                 for i in range(max(0, k - 20), min(len(cmds), k + max(20, (switch or MAX_SWITCH_PERIODS) + 1))):
                     near[i] = True
             last = d or last
@@ -683,6 +730,22 @@ def check_tables(header, periods, comp_dir, checks, figures):
             (f"{min(on_time)} to {max(on_time)} servo periods after the commanded reversal" if on_time else "never") +
             (f", {len(switches) - len(on_time)} times not within {MAX_SWITCH_PERIODS}"
              if len(on_time) < len(switches) else ""))
+        if late:
+            # Why LinuxCNC switched late is not known (docs/linuxcnc.md): the first late switch period by period,
+            # what it applied against the old and the new column, the joint's commanded step and its offset.
+            k, d, switch = late[0]
+            old_col, new_col = (rev, fwd) if d > 0 else (fwd, rev)
+            say(f"{elapsed()} {axis}.comp: the first late switch ({switch} periods; {len(late)} late of "
+                f"{len(switches)}), from period {periods[k][0]} (applied, old column, new column, commanded step, "
+                f"external offset; nm):")
+            for i in range(max(0, k - 2), min(len(cmds), k + (switch or MAX_SWITCH_PERIODS) + 3),
+                           max(1, (switch or MAX_SWITCH_PERIODS) // 10)):
+                v = periods[i][1]
+                applied = v[col[f"{axis}_motor_mm"]] - cmds[i] - v[col[f"{axis}_motor_offset_mm"]]
+                step = cmds[i] - cmds[i - 1] if i else 0.0
+                say(f"    {i - k:+4d}: {applied * 1e6:9.1f} {interpolate(noms, old_col, cmds[i]) * 1e6:9.1f} "
+                    f"{interpolate(noms, new_col, cmds[i]) * 1e6:9.1f} {step * 1e6:9.1f} "
+                    f"{v[col[f'{axis}_eoffset_mm']] * 1e6:9.1f}")
         figures[f"{axis}_switch_periods"] = [min(on_time), max(on_time)] if on_time else None
         checks.append((f"{axis}.comp applied as written", n > 1000 and worst <= TABLE_TOLERANCE_MM))
         checks.append((f"{axis}.comp: LinuxCNC switches its columns within {MAX_SWITCH_PERIODS} periods",
@@ -810,8 +873,8 @@ def run_loop(args, tools, user, work):
     checks, switch_figures = [], {}
     try:
         before, stream_before, result_before, _ = measure("before", daemon, work, args, user, share)
-        check_stream("before", stream_before, result_before, checks)
-        check_commanded("before", before, checks)
+        header_before, periods_before = check_stream("before", stream_before, result_before, checks)
+        check_commanded("before", before, header_before, periods_before, checks)
         g_before = largest_g_um(before)
         say(f"{elapsed()} before: G {g_before:.2f} um")
         comp_dir = os.path.join(work, "comp")
@@ -826,7 +889,7 @@ def run_loop(args, tools, user, work):
             if res.returncode == 0 else f"{elapsed()} no external offsets: {res.stderr.strip()}")
         after, stream_after, result_after, _ = measure("after", daemon, work, args, user, share, comp_dir)
         header, periods = check_stream("after", stream_after, result_after, checks)
-        check_commanded("after", after, checks)
+        check_commanded("after", after, header, periods, checks)
         check_tables(header, periods, comp_dir, checks, switch_figures)
         check_offsets(header, periods, comp_dir, checks)
         g_after = largest_g_um(after)

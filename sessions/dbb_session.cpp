@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <sstream>
 
 #include "core/number_format.hpp"
@@ -129,10 +131,20 @@ DbbOptions parse_options(const nlohmann::json& o) {
 }
 
 // One SYNC cycle's reading: the bar and the axes by letter (x, y, z; an axis without an encoder stays 0).
+constexpr double no_period = std::numeric_limits<double>::quiet_NaN();
+
 struct Reading {
   double t_s = 0.0;
   double bar_m = 0.0;
   std::array<double, 3> xyz_m{};
+  double period = no_period;  // the controller's servo period it was read in (a virtual machine says it)
+};
+
+// A controller's commanded position, one servo period.
+struct Commanded {
+  double t_s;  // CLOCK_MONOTONIC
+  std::array<double, 3> xyz_m;
+  double period;  // the servo period's number (NaN: the device does not say)
 };
 
 // A reading in the plane of its circle.
@@ -141,6 +153,7 @@ struct Point {
   double bar_m;
   double a_m;  // first plane axis
   double b_m;  // second plane axis
+  double period;
 };
 
 // The axes' indices (0 = x, 1 = y, 2 = z) of a plane "xy", "xz" or "yz".
@@ -195,6 +208,8 @@ class DbbSession : public Session {
       for (std::size_t k = 0; k < 3; ++k) {
         if (axis_[k] >= 0) p.xyz_m[k] = s.value[static_cast<std::size_t>(axis_[k])];
       }
+      if (period_ >= 0 && s.value_count > static_cast<std::uint32_t>(period_))
+        p.period = s.value[static_cast<std::size_t>(period_)];
       if (t0_ < 0) t0_ = p.t_s;
       p.t_s -= t0_;
       const bool moving = is_moving(p);
@@ -209,25 +224,32 @@ class DbbSession : public Session {
     }
   }
 
-  // A controller's commanded positions (a device with channels x_cmd, y_cmd, z_cmd: LinuxCNC's linuxcnc-hal),
-  // kept to write beside the bar's reading (close_segment).
+  // A controller's commanded positions (a device with channels x_cmd, y_cmd, z_cmd: LinuxCNC's linuxcnc-hal;
+  // with a channel "period", each sample's servo period number), kept to write beside the bar's reading
+  // (close_segment).
   void on_other_samples(const drivers::Driver& device, std::span<const Sample> samples) override {
     if (cmd_device_ == nullptr) {
       std::array<int, 3> ch{-1, -1, -1};
+      int period = -1;
       const auto& channels = device.channels();
-      for (std::size_t i = 0; i < channels.size(); ++i)
+      for (std::size_t i = 0; i < channels.size(); ++i) {
         for (std::size_t k = 0; k < 3; ++k)
           if (channels[i].name == std::string(1, static_cast<char>('x' + k)) + "_cmd") ch[k] = static_cast<int>(i);
+        if (channels[i].name == "period") period = static_cast<int>(i);
+      }
       if (ch[0] < 0 || ch[1] < 0 || ch[2] < 0) return;
       cmd_device_ = &device;
       cmd_channel_ = ch;
+      cmd_period_channel_ = period;
     }
     if (&device != cmd_device_) return;
     for (const Sample& s : samples) {
       if (s.value_count <= static_cast<std::uint32_t>(*std::max_element(cmd_channel_.begin(), cmd_channel_.end())))
         continue;
-      Commanded c{static_cast<double>(s.t_mono_ns) * 1e-9, {}};
+      Commanded c{static_cast<double>(s.t_mono_ns) * 1e-9, {}, no_period};
       for (std::size_t k = 0; k < 3; ++k) c.xyz_m[k] = s.value[static_cast<std::size_t>(cmd_channel_[k])];
+      if (cmd_period_channel_ >= 0 && s.value_count > static_cast<std::uint32_t>(cmd_period_channel_))
+        c.period = s.value[static_cast<std::size_t>(cmd_period_channel_)];
       commanded_.push_back(c);
     }
     // Hours at 1 kHz would grow without end: the oldest half goes (a circle is minutes).
@@ -382,6 +404,10 @@ class DbbSession : public Session {
         bar_ = static_cast<int>(i);
         continue;
       }
+      if (name == "controller_period") {  // a virtual machine's: the servo period it plays (docs/linuxcnc.md)
+        period_ = static_cast<int>(i);
+        continue;
+      }
       axes.push_back(static_cast<int>(i));
       if (name.size() == 1 && name[0] >= 'x' && name[0] <= 'z')
         named[static_cast<std::size_t>(name[0] - 'x')] = static_cast<int>(i);
@@ -450,7 +476,8 @@ class DbbSession : public Session {
     std::vector<Point> pts;
     pts.reserve(seg.size());
     for (const Reading& q : seg) {
-      pts.push_back({q.t_s, q.bar_m, q.xyz_m[static_cast<std::size_t>(ia)], q.xyz_m[static_cast<std::size_t>(ib)]});
+      pts.push_back(
+          {q.t_s, q.bar_m, q.xyz_m[static_cast<std::size_t>(ia)], q.xyz_m[static_cast<std::size_t>(ib)], q.period});
     }
     double ca = 0, cb = 0, r = 0;
     if (!fit_circle(pts, 0, pts.size(), ca, cb, r)) return;
@@ -498,8 +525,10 @@ class DbbSession : public Session {
     run.center_a_m = ca;
     run.center_b_m = cb;
     const double nominal = std::hypot(pat.radius_m, pat.height_m);
+    std::vector<double> run_periods;  // the rows' servo periods (NaN: not said)
     for (std::size_t i = 0; i < on.size(); ++i) {
       if (std::abs(angle[i] - mid) > half) continue;
+      run_periods.push_back(on[i].period);
       run.t_s.push_back(on[i].t_s);
       run.angle_rad.push_back(angle[i]);
       run.dL_m.push_back(on[i].bar_m - nominal);
@@ -522,7 +551,7 @@ class DbbSession : public Session {
       last_note_ = std::string("pattern ") + std::to_string(match + 1) + " rejected: " + e.what();
       return;
     }
-    add_commanded(run, on);
+    add_commanded(run, on, run_periods);
     last_feed_m_per_s_ = run.feed_m_per_s;
     last_overshoot_rad_ = 0.5 * (std::abs(span) - pat.data_arc_rad);
     runs_[match] = std::move(run);
@@ -544,15 +573,136 @@ class DbbSession : public Session {
     return {at(a), at(b)};
   }
 
-  // The controller's commanded position beside each reading of the run (columns <a>_cmd_mm, <b>_cmd_mm), taken
-  // the time earlier at which the encoders follow it best: the drives' lag and the links' latency. That time
-  // drifts where the readings' clock and the controller's differ (a virtual machine playing LinuxCNC's periods
-  // back a second behind, its clock taking up LinuxCNC's 1 % drift: 0.16 s over a 16 s run), so it is tracked
+  // The controller's commanded position beside each reading of the run (columns <a>_cmd_mm, <b>_cmd_mm): the
+  // command the encoders were following, a lag earlier (the drives' following lag, and the links' latency when
+  // matched by time). Where the readings and the commands both say their servo period (a virtual machine
+  // following LinuxCNC: its controller_period channel, linuxcnc-hal's period), they are paired by it: exact
+  // whatever the arrival times did (add_commanded_by_period). Else by time (add_commanded_by_time).
+  void add_commanded(formats::DbbRun& run, const std::vector<Point>& on, const std::vector<double>& run_periods) {
+    if (commanded_.size() < 2 || run.t_s.size() < 2) return;
+    const bool by_period =
+        std::all_of(run_periods.begin(), run_periods.end(), [](double p) { return std::isfinite(p); }) &&
+        std::isfinite(commanded_.back().period);
+    if (by_period) {
+      add_commanded_by_period(run, on, run_periods);
+    } else {
+      add_commanded_by_time(run, on);
+    }
+  }
+
+  // The command of servo period p (fractional: linear between periods) in `stretch`, along the axes a, b;
+  // nothing outside it.
+  static std::optional<std::array<double, 2>> commanded_of_period(std::span<const Commanded> stretch, double p, int a,
+                                                                  int b) {
+    if (stretch.size() < 2 || p < stretch.front().period || p > stretch.back().period) return std::nullopt;
+    auto hi =
+        std::lower_bound(stretch.begin(), stretch.end(), p, [](const Commanded& c, double x) { return c.period < x; });
+    if (hi == stretch.begin()) hi = stretch.begin() + 1;
+    const auto lo = hi - 1;
+    const double w = (p - lo->period) / (hi->period - lo->period);
+    const auto at = [&](int k) {
+      const auto i = static_cast<std::size_t>(k);
+      return lo->xyz_m[i] + w * (hi->xyz_m[i] - lo->xyz_m[i]);
+    };
+    return std::array<double, 2>{at(a), at(b)};
+  }
+
+  // Paired by servo period: the reading played in period p sits beside the command of period p - lag, the lag
+  // (the drives', in periods: one for the run, it does not drift) found where the encoders follow the command
+  // best. The periods come from one LinuxCNC run (a restart numbers its periods from 0 again): of the
+  // stretches of rising numbers holding the run's, the one whose commands came nearest the run's last reading
+  // in time. The run also carries controller_period, the
+  // period each reading was played in, so that anyone can pair it with the bridge's stream.
+  void add_commanded_by_period(formats::DbbRun& run, const std::vector<Point>& on,
+                               const std::vector<double>& run_periods) {
+    const std::array<int, 2> axes = plane_axes(run.plane);
+    const int ia = axes[0], ib = axes[1];  // not a structured binding: clang 14 cannot capture one (the lambda below)
+    // The stretches of rising period numbers that hold the run's periods; of them, the one that came nearest
+    // before the run's last reading.
+    const double first_p = *std::min_element(run_periods.begin(), run_periods.end());
+    const double last_p = *std::max_element(run_periods.begin(), run_periods.end());
+    const double last_t = run.t_s.back() + t0_;
+    std::size_t begin = 0, end = 0;
+    double best_gap = std::numeric_limits<double>::infinity();
+    for (std::size_t b = 0; b < commanded_.size();) {
+      std::size_t e = b + 1;
+      while (e < commanded_.size() && commanded_[e].period > commanded_[e - 1].period) ++e;
+      const std::span<const Commanded> s(commanded_.data() + b, e - b);
+      if (s.front().period <= first_p && s.back().period >= last_p) {
+        const auto at =
+            std::lower_bound(s.begin(), s.end(), last_p, [](const Commanded& c, double x) { return c.period < x; });
+        if (const double gap = std::abs(last_t - at->t_s); gap < best_gap) best_gap = gap, begin = b, end = e;
+      }
+      b = e;
+    }
+    if (end == begin) return;
+    const std::span<const Commanded> stretch(commanded_.data() + begin, end - begin);
+    std::vector<const Point*> kept;
+    for (const Point& p : on)
+      if (p.t_s >= run.t_s.front() && p.t_s <= run.t_s.back() && std::isfinite(p.period)) kept.push_back(&p);
+    if (kept.size() < 20) return;
+    const std::size_t stride = std::max<std::size_t>(1, kept.size() / 400);
+    const auto mismatch = [&](double lag) {
+      double sum = 0;
+      std::size_t n = 0;
+      for (std::size_t i = 0; i < kept.size(); i += stride, ++n) {
+        const auto c = commanded_of_period(stretch, kept[i]->period - lag, ia, ib);
+        if (!c) return std::numeric_limits<double>::infinity();
+        sum += std::hypot(kept[i]->a_m - (*c)[0], kept[i]->b_m - (*c)[1]);
+      }
+      return sum / static_cast<double>(n);
+    };
+    double best = 0, best_m = mismatch(0.0), step = 1.0;
+    for (double lag = step; lag <= max_following_lag_periods; lag += step)
+      if (const double m = mismatch(lag); m < best_m) best = lag, best_m = m;
+    if (!std::isfinite(best_m)) return;  // the commands do not reach back over the run
+    for (int pass = 0; pass < 2; ++pass) {
+      const double centre = best;
+      for (double lag = std::max(0.0, centre - step); lag <= centre + step; lag += step / 25)
+        if (const double m = mismatch(lag); m < best_m) best = lag, best_m = m;
+      step /= 25;
+    }
+    best = std::round(best * 1e3) * 1e-3;  // as controller_lag_periods says it: the columns read back from it
+    std::vector<double> a_mm, b_mm;
+    for (const double p : run_periods) {
+      const auto c = commanded_of_period(stretch, p - best, ia, ib);
+      if (!c) return;
+      a_mm.push_back((*c)[0] * 1e3);
+      b_mm.push_back((*c)[1] * 1e3);
+    }
+    double sum = 0;
+    for (const Point* p : kept) {
+      const auto c = commanded_of_period(stretch, p->period - best, ia, ib);
+      sum += std::hypot(p->a_m - (*c)[0], p->b_m - (*c)[1]);
+    }
+    // The servo period's length: the device stamps the periods of a batch one period apart.
+    std::vector<double> dt;
+    for (std::size_t i = 1; i < stretch.size(); i += std::max<std::size_t>(1, stretch.size() / 1000))
+      if (stretch[i].period - stretch[i - 1].period == 1.0) dt.push_back(stretch[i].t_s - stretch[i - 1].t_s);
+    double period_s = 0;
+    if (!dt.empty()) {
+      std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+      period_s = dt[dt.size() / 2];
+    }
+    run.extra_columns = {{std::string(1, run.plane[0]) + "_cmd_mm", std::move(a_mm)},
+                         {std::string(1, run.plane[1]) + "_cmd_mm", std::move(b_mm)},
+                         {"controller_period", run_periods}};
+    run.metadata["controller"] = cmd_device_->name();
+    run.metadata["controller_match"] = "servo period";
+    run.metadata["controller_lag_periods"] = printf_number("%.3f", best);
+    run.metadata["controller_lag_ms"] = printf_number("%.1f", best * period_s * 1e3);
+    run.metadata["controller_lag_spread_ms"] = "0";
+    run.metadata["controller_mismatch_um"] = printf_number("%.3g", sum / static_cast<double>(kept.size()) * 1e6);
+  }
+
+  // Paired by time: the command taken the time earlier at which the encoders follow it best: the drives' lag
+  // and the links' latency. That time drifts where the readings' clock and the controller's differ (a virtual
+  // machine playing LinuxCNC's periods back a second behind, its clock taking up LinuxCNC's 1 % drift: 0.16 s
+  // over a 16 s run; not its stalls, which only the period numbers pair: 0.15 to 1 mm off), so it is tracked
   // window by window (a second of the run each) and interpolated between them. The metadata states it
   // (controller_lag_ms: mean, controller_lag_spread_ms: largest less smallest) and how far the encoders stayed
   // from the command (controller_mismatch_um, mean). Nothing when no controller's device streamed over the run.
-  void add_commanded(formats::DbbRun& run, const std::vector<Point>& on) {
-    if (commanded_.size() < 2 || run.t_s.size() < 2) return;
+  void add_commanded_by_time(formats::DbbRun& run, const std::vector<Point>& on) {
     const std::array<int, 2> axes = plane_axes(run.plane);
     const int ia = axes[0], ib = axes[1];  // not a structured binding: clang 14 cannot capture one (the lambda below)
     std::vector<const Point*> kept;  // the run's samples
@@ -622,6 +772,7 @@ class DbbSession : public Session {
     run.extra_columns = {{std::string(1, run.plane[0]) + "_cmd_mm", std::move(a_mm)},
                          {std::string(1, run.plane[1]) + "_cmd_mm", std::move(b_mm)}};
     run.metadata["controller"] = cmd_device_->name();
+    run.metadata["controller_match"] = "arrival time";
     run.metadata["controller_lag_ms"] = printf_number("%.1f", lag_sum / n * 1e3);
     run.metadata["controller_lag_spread_ms"] = printf_number("%.1f", (hi - lo) * 1e3);
     run.metadata["controller_mismatch_um"] = printf_number("%.3g", sum / n * 1e6);
@@ -670,18 +821,17 @@ class DbbSession : public Session {
   std::vector<Reading> segment_;
   std::vector<std::optional<formats::DbbRun>> runs_;
   std::string last_note_;
-  struct Commanded {
-    double t_s;                  // CLOCK_MONOTONIC
-    std::array<double, 3> xyz_m;
-  };
   static constexpr std::size_t max_commanded = 4'000'000;  // an hour at 1 kHz
-  static constexpr double max_controller_lag_s = 10.0;  // a virtual machine plays the periods back seconds late
+  static constexpr double max_controller_lag_s = 10.0;     // a virtual machine plays the periods back seconds late
   static constexpr double lag_window_s = 1.0;
   std::vector<Commanded> commanded_;  // pipeline thread
   const drivers::Driver* cmd_device_ = nullptr;
   std::array<int, 3> cmd_channel_{-1, -1, -1};
-  double last_feed_m_per_s_ = 0.0;   // of the last run traced (time_left_s)
-  double last_overshoot_rad_ = 0.0;  // its feed-in, and its feed-out
+  int cmd_period_channel_ = -1;
+  int period_ = -1;                                          // the DBB device's controller_period channel (-1: none)
+  static constexpr double max_following_lag_periods = 1000;  // the drives' lag, in servo periods
+  double last_feed_m_per_s_ = 0.0;                           // of the last run traced (time_left_s)
+  double last_overshoot_rad_ = 0.0;                          // its feed-in, and its feed-out
 };
 
 // A recording made before the test templates (no "test" in its header) ran Lai's patterns by default,

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <sstream>
 #include <string>
 
 #include "formats/dbb_run.hpp"
@@ -488,5 +489,161 @@ TEST(DbbSession, RunsCarryTheControllersCommandBesideTheReading) {
     // The command where the encoders followed it: within 2 um (the lag found to 0.03 ms at 50 mm/s), not the
     // 0.8 mm one lag for the whole run left.
     EXPECT_LT(std::stod(run.metadata.at("controller_mismatch_um")), 2.0) << run.metadata.at("controller_mismatch_um");
+  }
+}
+
+namespace {
+
+class DbbChannelsWithPeriod : public drivers::Driver {  // dbb-can following LinuxCNC: the fifth node's channel
+ public:
+  DbbChannelsWithPeriod()
+      : Driver("dbb", "dbb-can", {{"bar_length", "m"}, {"x", "m"}, {"y", "m"}, {"controller_period", ""}}, 2) {}
+
+ protected:
+  void run(std::stop_token) override {}
+};
+
+class ControllerChannelsWithPeriod : public drivers::Driver {  // linuxcnc-hal's default channels
+ public:
+  ControllerChannelsWithPeriod()
+      : Driver("linuxcnc", "linuxcnc-hal",
+               {{"x_cmd", "m"}, {"y_cmd", "m"}, {"z_cmd", "m"}, {"session", ""}, {"period", ""}}, 2) {}
+
+ protected:
+  void run(std::stop_token) override {}
+};
+
+// The rows of a run file after its header: column name -> values.
+std::map<std::string, std::vector<double>> run_columns(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::string> names;
+  std::map<std::string, std::vector<double>> out;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    if (names.empty()) {
+      names = cells;
+      continue;
+    }
+    for (std::size_t i = 0; i < cells.size() && i < names.size(); ++i) out[names[i]].push_back(std::stod(cells[i]));
+  }
+  return out;
+}
+
+}  // namespace
+
+// The commanded position paired with the bar's reading by servo period (issue 42): the virtual machine that
+// follows LinuxCNC says which period it played at each reading (controller_period), linuxcnc-hal which period
+// each command is (period). LinuxCNC's uspace servo thread stalls on a loaded PC (0.8 s, then 1.7 s here,
+// mid-circle) and the periods reach guidewayd in bursts, stamped at their arrival, while the virtual machine
+// plays them back a steady delay behind at its own pace: the arrival times jump where the readings' do not,
+// which matching by time cannot follow (it left the loop's commands 0.15 to 1 mm off). The drives follow
+// 30 periods late. The columns must hold the command of the reading's period less those 30, to the last
+// digit; the cw circle is a new LinuxCNC run whose period numbers start again from 0.
+TEST(DbbSession, PairsTheControllersCommandByServoPeriodThroughStalls) {
+  const simulators::machine::Machine machine(test_machine());
+  DbbChannelsWithPeriod device;
+  ControllerChannelsWithPeriod controller;
+  auto session = sessions::dbb_session_kind().create({"dbb", "", {{"feed_mm_per_min", 3000}}}, device);
+  constexpr int lag_periods = 30;
+  constexpr double period_s = 1e-3;
+  double wall = 100.0;                                        // the wall clock of LinuxCNC's periods
+  std::array<std::vector<std::array<double, 2>>, 2> command;  // per circle, per period: x, y
+  std::map<std::int64_t, double> played;                      // reading's time (ns) -> the period played
+  for (std::size_t circle = 0; circle < 2; ++circle) {
+    simulators::machine::DbbCircleSpec spec;
+    spec.radius_m = 100e-3;
+    spec.direction = circle == 0 ? DbbDirection::ccw : DbbDirection::cw;
+    spec.feed_m_per_s = 3000.0 / 60e3;
+    spec.sample_rate_hz = 1.0 / period_s;  // one sample per servo period
+    const auto run = machine.dbb_circle(spec);
+    const auto& m = run.samples;
+    // Period j's command is where the encoders are lag_periods later (the test machine follows it exactly).
+    auto& cmd = command[circle];
+    for (std::size_t j = 0; j + lag_periods < m.size(); ++j)
+      cmd.push_back({m[j + lag_periods].encoder[0], m[j + lag_periods].encoder[1]});
+    // LinuxCNC makes period j at wall time `made`, stalling twice; the bridge hands them over 40 at a time,
+    // 3 ms after the last was made; the device stamps the newest at its arrival, the others a period apart.
+    std::vector<Sample> cmds;
+    std::vector<double> made(cmd.size());
+    for (std::size_t j = 0; j < cmd.size(); ++j) {
+      wall += period_s + (j == 3000 ? 0.8 : 0.0) + (j == 9000 ? 1.7 : 0.0);
+      made[j] = wall;
+    }
+    for (std::size_t j = 0; j < cmd.size(); ++j) {
+      const std::size_t last = std::min(cmd.size() - 1, (j / 40) * 40 + 39);
+      Sample c;
+      c.t_mono_ns = static_cast<std::int64_t>((made[last] + 3e-3 - static_cast<double>(last - j) * period_s) * 1e9);
+      c.value_count = 5;
+      c.value = {cmd[j][0], cmd[j][1], 0, 1, static_cast<double>(j)};
+      cmds.push_back(c);
+    }
+    session->on_other_samples(controller, cmds);
+    // The virtual machine plays the periods back 4 s behind the first, at 250 Hz on the bus, its pace 1 % fast
+    // and wavering: each reading falls between two periods (interpolated, as the playback does).
+    std::vector<Sample> bar;
+    const double start = made.front() + 4.0;
+    double p = 0;
+    for (int k = 0; p + 1 < static_cast<double>(m.size()); ++k) {
+      const auto j = static_cast<std::size_t>(p);
+      const double w = p - static_cast<double>(j);
+      Sample s;
+      s.t_mono_ns = static_cast<std::int64_t>((start + k * 4e-3) * 1e9);
+      s.value_count = 4;
+      s.value = {m[j].bar_length_m + w * (m[j + 1].bar_length_m - m[j].bar_length_m),
+                 m[j].encoder[0] + w * (m[j + 1].encoder[0] - m[j].encoder[0]),
+                 m[j].encoder[1] + w * (m[j + 1].encoder[1] - m[j].encoder[1]), p, 0};
+      bar.push_back(s);
+      played[s.t_mono_ns] = p;
+      p += 4.0 * (1.01 + 0.1 * std::sin(k * 0.01));
+    }
+    for (int i = 1; i <= 250; ++i) {  // 1 s standing still
+      Sample s = bar.back();
+      s.t_mono_ns += static_cast<std::int64_t>(i * 4e6);
+      bar.push_back(s);
+    }
+    session->on_samples(bar);
+    wall = static_cast<double>(bar.back().t_mono_ns) * 1e-9 + 5.0;  // LinuxCNC restarts with new tables
+  }
+  ASSERT_TRUE(session->complete()) << session->progress();
+  (void)session->identify();
+  test::TempDir dir;
+  const auto files = session->write_derived(dir.path().string(), "s");
+  ASSERT_EQ(files.size(), 2u);
+  const std::int64_t t0_ns = played.begin()->first;  // the session's time 0: its first reading
+  for (std::size_t k = 0; k < files.size(); ++k) {
+    auto run = formats::read_dbb_run(files[k]);
+    EXPECT_EQ(run.metadata["controller"], "linuxcnc");
+    EXPECT_EQ(run.metadata["controller_match"], "servo period");
+    EXPECT_EQ(run.metadata["controller_lag_periods"], "30.000");
+    EXPECT_NEAR(std::stod(run.metadata["controller_lag_ms"]), 30.0, 0.05);
+    // The encoders are where the command of 30 periods before sent them: nothing between them.
+    EXPECT_LT(std::stod(run.metadata["controller_mismatch_um"]), 0.001) << run.metadata["controller_mismatch_um"];
+    const std::size_t circle = run.direction == DbbDirection::ccw ? 0 : 1;
+    const auto& cmd = command[circle];
+    auto cols = run_columns(files[k]);
+    ASSERT_EQ(cols["x_cmd_mm"].size(), run.t_s.size()) << files[k];
+    ASSERT_EQ(cols["y_cmd_mm"].size(), run.t_s.size());
+    double worst = 0, sum = 0;
+    for (std::size_t i = 0; i < run.t_s.size(); ++i) {
+      // The period played at this reading, as the test played it (the run's own column must say the same).
+      const auto at = played.lower_bound(t0_ns + std::llround(run.t_s[i] * 1e9) - 1000);
+      ASSERT_NE(at, played.end());
+      const double q = at->second - lag_periods;
+      if (cols.count("controller_period")) EXPECT_EQ(cols["controller_period"][i], at->second);
+      const auto j = static_cast<std::size_t>(q);
+      const double w = q - static_cast<double>(j);
+      for (std::size_t a = 0; a < 2; ++a) {
+        const double want_mm = (cmd[j][a] + w * (cmd[j + 1][a] - cmd[j][a])) * 1e3;
+        const double off = std::abs((a == 0 ? cols["x_cmd_mm"] : cols["y_cmd_mm"])[i] - want_mm);
+        worst = std::max(worst, off);
+        sum += off / static_cast<double>(2 * run.t_s.size());
+      }
+    }
+    EXPECT_LT(worst, 1e-9) << files[k] << ": the command of the reading's period less the lag: off by " << sum
+                           << " mm on average, " << worst << " mm at most";
   }
 }

@@ -241,6 +241,46 @@ TEST(FollowPlayback, TakesUpAControllerClockThatRunsSlow) {
   EXPECT_NEAR(30.0 * 0.98 - last, 0.1, 0.02);  // the delay held, in the controller's time
 }
 
+TEST(FollowPlayback, TakesTheDelayBackWhereTheMachineStandsStill) {
+  // LinuxCNC on a loaded PC stalls (0.8 s) mid-move and does not make the periods up: the stall spends 0.8 s
+  // of the 1 s delay for good. The machine then stands still for 3 s (a dwell between the circles): there
+  // the player pauses until the delay is whole again, so that the next move survives a stall as long. With
+  // the pace alone (20 % slower at most, while the machine moves) the delay is not back in time and the
+  // second stall runs the player dry mid-move: the run would be cut.
+  emulators::FollowPlayback p(1.0);
+  std::array<double, 4> out{};
+  double machine_t = 0, last = -1;
+  const std::vector<std::pair<double, double>> stalls = {{3.0, 0.8}, {9.5, 0.8}};  // (wall, seconds)
+  // Standing at the start (LinuxCNC homed, the program not begun) and from 5 s to 8 s of machine time.
+  const auto still = [](double t) { return t < 1.0 || (t >= 5.0 && t < 8.0); };
+  std::size_t next_stall = 0;
+  for (double wall = 0.01; wall < 13.0; wall += 0.01) {
+    if (next_stall < stalls.size() && wall >= stalls[next_stall].first) {
+      wall += stalls[next_stall++].second;  // nothing arrives meanwhile; the player plays on
+      for (double w = wall - 0.8; w < wall; w += 0.004) {
+        ASSERT_TRUE(p.at(w, out));
+        EXPECT_GE(out[0], last);
+        last = out[0];
+      }
+    }
+    std::vector<emulators::FollowFrame> f(10);
+    for (auto& fr : f) {
+      machine_t += 0.001;
+      fr.t_s = machine_t;
+      fr.bus_m = {fr.t_s, 0, 0, 0};
+      fr.still = still(fr.t_s);
+    }
+    p.arrived(wall, f.data(), f.size());
+    for (int q = 1; q <= 2; ++q) {
+      ASSERT_TRUE(p.at(wall + q * 0.004, out));
+      EXPECT_GE(out[0], last);  // never back in time
+      last = out[0];
+    }
+  }
+  EXPECT_EQ(p.underruns(), 0u) << "the second stall ran the player dry";
+  EXPECT_EQ(p.pauses(), 3u);  // at the start (the delay built up), after the first stall, in the second
+}
+
 TEST(MotionStepper, ServoPeriodsGiveWhatSimulateMotionGives) {
   // The machine stepped by 1 ms periods of a commanded path (as LinuxCNC's motor-pos-cmd comes) against the
   // same path simulated at 1 kHz with 0.2 ms steps: the same machine within the steps' difference.

@@ -81,7 +81,7 @@ device = "linuxcnc"
 channel = "{channel}"
 kind = "dbb"
 session_device = "dbb"
-end_after_s = 0.3
+end_after_s = {end_after_s}
 options = {{ feed_mm_per_min = 20000 }}
 """
 
@@ -97,10 +97,10 @@ class SessionTrigger(unittest.TestCase):
     def cli(self, *args):
         return process_support.guideway_cli(GUIDEWAY, os.path.join(self.d, "g.sock"), *args)
 
-    def config(self, channel="session"):
+    def config(self, channel="session", end_after_s=0.3):
         path = os.path.join(self.d, "g.toml")
         with open(path, "w") as f:
-            f.write(CONFIG.format(d=self.d, channel=channel))
+            f.write(CONFIG.format(d=self.d, channel=channel, end_after_s=end_after_s))
         return path
 
     def source(self):
@@ -157,12 +157,58 @@ class SessionTrigger(unittest.TestCase):
         self.assertEqual(len(sessions), 1, sessions)
         self.assertNotEqual(sessions[0]["state"], "running", sessions)
 
+    def test_the_pin_rising_after_its_session_ended_begins_a_new_one(self):
+        """A session that ended by itself (every pattern traced; here: stopped) while the trigger waits
+        end_after_s after the pin fell: the pin's next rise begins a new session (LinuxCNC restarted with the
+        tables and ran the test again before end_after_s had passed), not the old one going on."""
+        go, go2 = os.path.join(self.d, "go"), os.path.join(self.d, "go2")
+        first = [period(k, 0) for k in range(200)] + [period(k, 1) for k in range(200, 500)]
+        first += [period(k, 0) for k in range(500, 700)]
+        second = [period(k, 1) for k in range(700, 1000)] + [period(k, 0) for k in range(1000, 1200)]
+        for name, lines in (("first.txt", first), ("second.txt", second)):
+            with open(os.path.join(self.d, name), "w") as f:
+                f.write("\n".join(lines) + "\n")
+        pace = ("import os,sys,time\n"
+                f"for name, gate in (({os.path.join(self.d, 'first.txt')!r}, {go!r}), "
+                f"({os.path.join(self.d, 'second.txt')!r}, {go2!r})):\n"
+                "    while not os.path.exists(gate): time.sleep(0.02)\n"
+                "    lines = open(name).read().splitlines()\n"
+                "    for i in range(0, len(lines), 10):\n"
+                "        print('\\n'.join(lines[i:i + 10]), flush=True)\n"
+                "        time.sleep(0.01)\n")
+        bridge = subprocess.Popen([BRIDGE, "--socket", os.path.join(self.d, "bridge.sock"), "--source",
+                                   f"python3 -c \"{pace}\""], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                  text=True)
+        self.addCleanup(lambda: bridge.poll() is None and bridge.kill())
+        env = dict(os.environ, XDG_STATE_HOME=os.path.join(self.d, "xdg"))
+        daemon = subprocess.Popen([GUIDEWAYD, "--config", self.config(end_after_s=60)], stdout=subprocess.PIPE,
+                                  stderr=subprocess.STDOUT, text=True, env=env)
+        self.addCleanup(lambda: daemon.poll() is None and daemon.kill())
+        sock = os.path.join(self.d, "g.sock")
+        self.assertTrue(process_support.wait_for(lambda: os.path.exists(sock), 20), "guidewayd did not start")
+        streaming = lambda: all(d["state"] == "streaming" for d in json.loads(self.cli("status", "--json"))["devices"])
+        self.assertTrue(process_support.wait_for(streaming, 20), self.cli("status"))
+        sessions = lambda: json.loads(self.cli("status", "--json"))["sessions"]
+        open(go, "w").close()
+        self.assertTrue(process_support.wait_for(lambda: len(sessions()) == 1, 20), sessions())
+        linuxcnc = lambda: [d for d in json.loads(self.cli("status", "--json"))["devices"] if d["name"] == "linuxcnc"][0]
+        self.assertTrue(process_support.wait_for(lambda: linuxcnc()["driver_counters"]["periods"] == 700, 20),
+                        linuxcnc())
+        self.cli("stop")  # ends as a session that traced its patterns does, 60 s before the trigger would
+        self.assertTrue(process_support.wait_for(lambda: sessions()[0]["state"] not in ("running", "finishing"), 20),
+                        sessions())
+        open(go2, "w").close()
+        self.assertTrue(process_support.wait_for(lambda: len(sessions()) == 2, 20),
+                        f"the pin rose again but no new session began: {sessions()}")
+        self.assertEqual(sessions()[-1]["state"], "running", sessions())
+        self.assertEqual(bridge.wait(timeout=30), 0)
+
     def test_a_trigger_on_a_channel_the_device_lacks_is_refused_at_start(self):
         out = subprocess.run([GUIDEWAYD, "--config", self.config(channel="pin")], capture_output=True, text=True,
                              timeout=30)
         self.assertEqual(out.returncode, 2, out.stderr)
         self.assertRegex(out.stderr, r"g\.toml:\d+: session_trigger\[0\]\.channel: device \"linuxcnc\" has no "
-                                     r"channel \"pin\" \(it has: x_cmd, y_cmd, z_cmd, program_line, session\)")
+                                     r"channel \"pin\" \(it has: x_cmd, y_cmd, z_cmd, session, period\)")
 
 
 if __name__ == "__main__":

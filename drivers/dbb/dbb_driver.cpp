@@ -26,7 +26,8 @@ DbbSettings with_pdo_timeout(DbbSettings s) {
 
 std::vector<drivers::ChannelInfo> channels_of(const DbbSettings& s) {
   std::vector<drivers::ChannelInfo> out;
-  for (const auto& e : s.encoders) out.push_back({e.channel, "m"});
+  // controller_period: a virtual machine's servo period number (docs/linuxcnc.md), not a length.
+  for (const auto& e : s.encoders) out.push_back({e.channel, e.channel == "controller_period" ? "" : "m"});
   return out;
 }
 

@@ -86,7 +86,8 @@ void LinuxcncHalDriver::on_link_up(std::int64_t) {
         Period p{seq, {}};
         p.sample.value_count = static_cast<std::uint32_t>(index_.size());
         for (std::size_t i = 0; i < index_.size(); ++i) {
-          const double x = v[static_cast<std::size_t>(index_[i])];
+          const double x =
+              index_[i] == period_column ? static_cast<double>(seq) : v[static_cast<std::size_t>(index_[i])];
           p.sample.value[i] = config_.columns[i].ends_with("_mm") ? x * 1e-3 : x;
         }
         batch_.push_back(p);
@@ -108,8 +109,8 @@ void LinuxcncHalDriver::on_link_down() {
 bool LinuxcncHalDriver::take_header() {
   std::string refused;
   for (const auto& c : config_.columns) {
-    const int i = reader_->header().column(c);
-    if (i < 0) refused += (refused.empty() ? "" : ", ") + c;
+    const int i = c == "period" ? period_column : reader_->header().column(c);
+    if (i < 0 && i != period_column) refused += (refused.empty() ? "" : ", ") + c;
     index_.push_back(i);
   }
   if (refused.empty()) {

@@ -22,8 +22,10 @@ namespace guideway::drivers::linuxcnc {
 struct LinuxcncHalConfig {
   std::string socket = "/run/guideway-linuxcnc/bridge.sock";
   // The stream's columns published, at most max_sample_values; a name ending in _mm is published in m
-  // (channel without the suffix), any other as it comes.
-  std::vector<std::string> columns = {"x_cmd_mm", "y_cmd_mm", "z_cmd_mm", "program_line", "session"};
+  // (channel without the suffix), any other as it comes. "period" is the period's number (halsampler's
+  // sample number): a virtual machine that carries it lets a DBB session pair each reading with the command
+  // of the same period (sessions/dbb_session.cpp).
+  std::vector<std::string> columns = {"x_cmd_mm", "y_cmd_mm", "z_cmd_mm", "session", "period"};
 };
 
 // The channel name a column gets ("x_cmd_mm" -> "x_cmd") and its unit ("m" or "").
@@ -52,7 +54,8 @@ class LinuxcncHalDriver : public drivers::LoopDriver {
   // The loop thread's:
   int fd_ = -1;
   std::unique_ptr<HalStreamReader> reader_;
-  std::vector<int> index_;  // the published columns' places in the stream
+  std::vector<int> index_;  // the published columns' places in the stream (period_column: the period's number)
+  static constexpr int period_column = -2;
   std::int64_t period_ns_ = 0;
   struct Period {
     std::int64_t seq;

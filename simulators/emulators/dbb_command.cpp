@@ -1,6 +1,6 @@
 // `guideway-emulate dbb`: the DBB bar and the axis encoders (the plane's two, and the normal axis's
-// when a fourth node is given) on a CAN bus (Unix gateway socket,
-// SocketCAN interface, or an inherited fd), following a DBB circle.
+// when a fourth node is given; following LinuxCNC, its servo period's number on a fifth) on a CAN bus (Unix gateway
+// socket, SocketCAN interface, or an inherited fd), following a DBB circle.
 #include <algorithm>
 #include <cmath>
 #include <csignal>
@@ -21,6 +21,8 @@ namespace guideway::simulators::emulators {
 namespace {
 
 constexpr double pi = std::numbers::pi;
+// The controller_period node's "metres" per count: a thousandth of a servo period (docs/linuxcnc.md).
+constexpr double controller_period_resolution = 1e-3;
 
 struct DbbOptions {
   std::string bus = "unix:/tmp/guideway-can.sock";
@@ -243,11 +245,17 @@ int run_dbb(const DbbOptions& o) {
                          plane == machine::Plane::xy   ? "z"
                          : plane == machine::Plane::xz ? "y"
                                                        : "x"};
+  // Following LinuxCNC, a fifth node serves the servo period being played (controller_period): a count is a
+  // thousandth of a period, so a reading played between two periods says where between them it is.
+  const std::size_t most = follower ? 5 : 4;
+  if (nodes.size() > most)
+    throw std::runtime_error("--nodes: at most " + std::to_string(most) + " nodes (bar, three axes" +
+                             (follower ? ", controller_period)" : "; a fifth only with --follow)"));
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     drivers::dbb::EncoderScale e;
-    e.channel = names[i];
+    e.channel = i < 4 ? names[i] : "controller_period";
     e.node_id = static_cast<std::uint8_t>(nodes[i]);
-    e.resolution_m = o.resolution_nm * 1e-9;
+    e.resolution_m = i < 4 ? o.resolution_nm * 1e-9 : controller_period_resolution;
     if (i == 0) e.offset_m = std::round(nominal_length_m * 1e6) * 1e-6;  // the bar's nominal, in um
     settings.encoders.push_back(e);
   }
@@ -304,8 +312,9 @@ void add_dbb(CLI::App& app, int& exit_code) {
   cmd->add_option("--sync-rate-hz", o->sync_rate_hz, "SYNC rate when producing")->capture_default_str();
   cmd->add_option("--nodes", o->nodes,
                   "node IDs of bar, first axis, second axis and (optional) the axis normal to the plane (z for xy; "
-                  "three-plane: the next node when not given)")
-      ->expected(3, 4)
+                  "three-plane: the next node when not given); with --follow a fifth: LinuxCNC's servo period being "
+                  "played (channel controller_period, resolution_nm 1000000: a count is a thousandth of a period)")
+      ->expected(3, 5)
       ->capture_default_str();
   cmd->add_option("--resolution-nm", o->resolution_nm, "encoder resolution (object 0x6005:1)")->capture_default_str();
   cmd->add_option("--heartbeat-ms", o->heartbeat_ms, "the nodes' producer heartbeat time at power-on (0x1017; 0: none)")

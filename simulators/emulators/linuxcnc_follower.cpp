@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "core/mono_clock.hpp"
+#include "core/number_format.hpp"
 #include "drivers/linuxcnc/hal_stream.hpp"
 #include "simulators/emulators/can_serial_machine_sources.hpp"
 
@@ -80,10 +81,28 @@ bool FollowPlayback::at(double wall_s, std::span<double> out) {
     play_s_ = std::max(play_s_, std::max(frames_.front().t_s, newest.t_s - delay_s_));
     playing_ = true;
   } else {
-    // Faster when the buffer is deeper than the delay, slower when shallower: the drift is taken up.
+    const double dt = std::max(0.0, wall_s - last_wall_s_);
     const double depth = newest.t_s - play_s_;
-    const double rate = std::clamp(1.0 + 0.25 * (depth - delay_s_) / delay_s_, 0.8, 1.2);
-    play_s_ += std::max(0.0, wall_s - last_wall_s_) * rate;
+    if (!ended_ && still_at(play_s_)) {
+      // Standing still: pause while the delay is short (a stall spent it), play fast while it is long,
+      // never fast into the motion that follows.
+      if (depth < (pausing_ ? 1.0 : 0.9) * delay_s_) {  // not for the jitter of the arrivals
+        if (!pausing_) ++pauses_;
+        pausing_ = true;
+        paused_s_ += dt;
+      } else {
+        pausing_ = false;
+        const double fast = play_s_ + 4.0 * dt;
+        const bool shed = depth > delay_s_ + 4.0 * dt && still_at(fast);
+        if (shed) skipped_s_ += 3.0 * dt;
+        play_s_ = shed ? fast : play_s_ + dt;
+      }
+    } else {
+      // Faster when the buffer is deeper than the delay, slower when shallower: the drift is taken up.
+      pausing_ = false;
+      const double rate = std::clamp(1.0 + 0.25 * (depth - delay_s_) / delay_s_, 0.8, 1.2);
+      play_s_ += dt * rate;
+    }
   }
   last_wall_s_ = wall_s;
   const auto copy = [&](const FollowFrame& f) {
@@ -111,6 +130,14 @@ bool FollowPlayback::at(double wall_s, std::span<double> out) {
   }
   while (frames_.size() > 2 && frames_[1].t_s < play_s_ - 1.0) frames_.pop_front();
   return true;
+}
+
+bool FollowPlayback::still_at(double t_s) const {
+  // The frames either side of t_s (the one at it, the one before).
+  const auto hi =
+      std::lower_bound(frames_.begin(), frames_.end(), t_s, [](const FollowFrame& f, double t) { return f.t_s < t; });
+  if (hi == frames_.end()) return false;
+  return hi->still && (hi == frames_.begin() || (hi - 1)->still);
 }
 
 LinuxcncFollower::LinuxcncFollower(const machine::Machine& machine, FollowSettings settings)
@@ -142,15 +169,20 @@ DbbSource LinuxcncFollower::source() {
 std::string LinuxcncFollower::status() const {
   std::ostringstream o;
   double delay = 0;
-  std::uint64_t underruns = 0;
+  std::uint64_t underruns = 0, pauses = 0;
+  double paused = 0, skipped = 0;
   {
     std::lock_guard lock(mutex_);
     delay = playback_.delay_s();
     underruns = playback_.underruns();
+    pauses = playback_.pauses();
+    paused = playback_.paused_s();
+    skipped = playback_.skipped_s();
   }
   o << "following LinuxCNC: " << streams_.load() << " streams, " << periods_.load() << " periods, " << lost_.load()
     << " lost, " << bad_lines_.load() << " bad lines, playback " << std::lround(delay * 1e3) << " ms behind, "
-    << underruns << " underruns";
+    << underruns << " underruns, " << pauses << " pauses standing still (" << printf_number("%.1f", paused)
+    << " s) to take the delay back, " << printf_number("%.1f", skipped) << " s of standstill skipped";
   return o.str();
 }
 
@@ -213,6 +245,7 @@ bool LinuxcncFollower::follow_connection(int fd, const std::stop_token& stop) {
   double period_s = 0, t_rel = 0, t0 = 0;
   std::int64_t last_seq = 0;
   machine::Vec3 last_motor{};
+  double standing_s = 0;  // how long the command has not moved
   std::vector<FollowFrame> batch;
   bool refused = false;
   const drivers::linuxcnc::HalStreamReader* reader_ptr = nullptr;
@@ -249,14 +282,17 @@ bool LinuxcncFollower::follow_connection(int fd, const std::stop_token& stop) {
             stepper->step(m, t_rel + q * dt, dt);
           }
           t_rel += span;
+          standing_s = motor == last_motor ? standing_s + span : 0.0;
         }
         last_seq = seq;
         last_motor = motor;
         const machine::MotionSample s = stepper->sample(cmd, t_rel);
         FollowFrame f;
         f.t_s = t0 + t_rel;
+        f.still = standing_s >= settings_.settle_s;
         f.bus_m = {bar.read(s.tool, f.t_s), s.encoder[static_cast<std::size_t>(bus[0])],
-                   s.encoder[static_cast<std::size_t>(bus[1])], s.encoder[static_cast<std::size_t>(bus[2])]};
+                   s.encoder[static_cast<std::size_t>(bus[1])], s.encoder[static_cast<std::size_t>(bus[2])],
+                   static_cast<double>(seq)};
         batch.push_back(f);
         ++periods_;
       },

@@ -22,20 +22,26 @@
 
 namespace guideway::simulators::emulators {
 
-// What the DBB bus reads in one servo period: the bar, then the encoders in bus order (plane axes, normal).
+// What the DBB bus reads in one servo period: the bar, then the encoders in bus order (plane axes, normal),
+// then the period's number as halsampler counts it (the sample number; served on a fifth node,
+// controller_period, so that guidewayd pairs each reading with LinuxCNC's command of the same period).
 struct FollowFrame {
   double t_s = 0.0;  // machine time
-  std::array<double, 4> bus_m{};
+  std::array<double, 5> bus_m{};
+  bool still = false;  // LinuxCNC's command has not moved for FollowSettings::settle_s: the machine stands
 };
 
-// The periods played back at the pace they come, a delay behind the newest. The player's clock runs at
-// wall-clock rate, a little faster or slower (at most 20 %) to hold the delay: LinuxCNC's servo thread
-// without a realtime kernel runs late now and then and does not make the periods up, so its time drifts
-// from the wall clock's (1 % on this project's loaded machine). The delay is 1.5 times the longest wait
-// between two arrivals of the last seconds (halsampler hands the periods over in bursts; a loaded PC
-// stalls the link), at least `min_delay_s`. When the periods stop coming (LinuxCNC stopped, or a stall
-// longer than the delay) the last one holds; a stall counts as an underrun. Not thread safe (the follower
-// locks).
+// The periods played at the pace they come, a delay behind the newest. While the machine moves the
+// player's clock runs at wall-clock rate, a little faster or slower (at most 20 %) to hold the delay:
+// LinuxCNC's servo thread without a realtime kernel runs late now and then and does not make the periods
+// up, so its time drifts from the wall clock's (1 % on this project's loaded machine), and each stall
+// spends that much of the delay for good. Where the machine stands still (frames marked still) the pace
+// changes nothing the instruments read, so the player takes the delay back there at once: it pauses
+// until the delay is whole again, or plays the standstill four times as fast while it is more. The
+// delay is 1.5 times the longest wait between two arrivals of the last seconds (halsampler hands the
+// periods over in bursts; a loaded PC stalls the link), at least `min_delay_s`. When the periods stop
+// coming (LinuxCNC stopped, or stalls longer than the delay while moving) the last one holds; a stall
+// counts as an underrun. Not thread safe (the follower locks).
 class FollowPlayback {
  public:
   explicit FollowPlayback(double min_delay_s = 0.05) : min_delay_s_(min_delay_s), delay_s_(min_delay_s) {}
@@ -46,6 +52,11 @@ class FollowPlayback {
   bool at(double wall_s, std::span<double> out);
   [[nodiscard]] double delay_s() const noexcept { return delay_s_; }
   [[nodiscard]] std::uint64_t underruns() const noexcept { return underruns_; }
+  // Standing still: how often and how long the player paused to take the delay back, and how much it
+  // played fast to shed it (seconds of machine time).
+  [[nodiscard]] std::uint64_t pauses() const noexcept { return pauses_; }
+  [[nodiscard]] double paused_s() const noexcept { return paused_s_; }
+  [[nodiscard]] double skipped_s() const noexcept { return skipped_s_; }
   // LinuxCNC stopped: the last period holds without an underrun.
   void end_of_stream() { ended_ = true; }
   // A new stream (a LinuxCNC restart): its frames' times go on from the last one's; playback starts the
@@ -68,6 +79,10 @@ class FollowPlayback {
   bool ended_ = false;
   bool starved_ = false;
   std::uint64_t underruns_ = 0;
+  bool pausing_ = false;
+  std::uint64_t pauses_ = 0;
+  double paused_s_ = 0.0, skipped_s_ = 0.0;
+  [[nodiscard]] bool still_at(double t_s) const;
 };
 
 struct FollowSettings {
@@ -81,6 +96,8 @@ struct FollowSettings {
   // as the end of a circle.
   double min_delay_s = 0.3;
   int substeps = 5;  // machine steps per servo period
+  // The command standing this long marks the machine still (the servo lag, 30 ms, has settled to e^-16).
+  double settle_s = 0.5;
 };
 
 class LinuxcncFollower {
