@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config git
   lld  # links the ~60 test and tool executables about 3x faster than ld.bfd (CMake uses it when present)
+  clang libclang-rt-dev  # the sanitizer stages' compiler and its ASan/UBSan/TSan runtimes (scripts/test.sh)
   ccache  # a rebuild (another build tree, another worktree, the next CI stage's unchanged files) reuses objects
   libeigen3-dev libmodbus-dev libserialport-dev libspdlog-dev libfmt-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -56,14 +56,23 @@ build_dir() {
   case $1 in main) echo build ;; asan) echo build-asan ;; tsan) echo build-tsan ;; esac
 }
 build_stage() {  # stage
+  # The sanitizer stages compile with clang when it is installed (setup.sh installs it): the same tree's
+  # files take 20-45 % less CPU than with GCC (measured file by file; the test programs at -O0 most), and
+  # a second compiler's warnings and UBSan checks come with it. GUIDEWAY_SANITIZER_CXX=g++ keeps GCC.
+  local cxx=${GUIDEWAY_SANITIZER_CXX:-clang++} cc
+  case $cxx in *clang++*) cc=${cxx/clang++/clang} ;; *g++*) cc=${cxx/g++/gcc} ;; *) cc=cc ;; esac
+  local compilers=()
+  if command -v "$cxx" >/dev/null && command -v "$cc" >/dev/null; then
+    compilers=(-DCMAKE_C_COMPILER="$cc" -DCMAKE_CXX_COMPILER="$cxx")
+  fi
   case $1 in
     main) scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON ;;
     # -g1 (line tables), as CMakeLists.txt's RelWithDebInfo default: sanitizer reports need only file:line.
     # Test programs and the CLI at -O0 (GUIDEWAY_THIN_PROGRAM_FLAGS): half their compile time, and the
     # libraries under test keep -O1.
-    asan) scripts/build.sh build-asan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=address -DGUIDEWAY_BUILD_BENCH=OFF \
+    asan) scripts/build.sh build-asan "${compilers[@]}" -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=address -DGUIDEWAY_BUILD_BENCH=OFF \
             -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0 ;;
-    tsan) scripts/build.sh build-tsan -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=thread -DGUIDEWAY_BUILD_BENCH=OFF \
+    tsan) scripts/build.sh build-tsan "${compilers[@]}" -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=thread -DGUIDEWAY_BUILD_BENCH=OFF \
             -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0 -- guideway_tsan_tests ;;
     *) echo "unknown stage $1" >&2; exit 2 ;;
   esac
