@@ -14,8 +14,14 @@ namespace guideway::dsp::detail::KERNEL_NS {
 using v4 = double __attribute__((vector_size(32), aligned(8), may_alias));
 using i4 = long long __attribute__((vector_size(32)));
 
-inline v4 load(const double* p) { return *reinterpret_cast<const v4*>(p); }
-inline void store(double* p, v4 v) { *reinterpret_cast<v4*>(p) = v; }
+// Through memcpy: an unaligned vector load or store either way (clang does not lower a typedef's alignment
+// below the vector's 32 bytes, so a dereference would be a misaligned access to it; its UBSan says so).
+inline v4 load(const double* p) {
+  v4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store(double* p, v4 v) { std::memcpy(p, &v, sizeof v); }
 inline v4 splat(double x) { return v4{x, x, x, x}; }
 
 constexpr std::size_t kTile = 64;  // analysis outputs per de-interleaved tile
