@@ -375,7 +375,7 @@ void Opts::add(CLI::App& cmd) {
   cmd.add_option("--memory-mb", memory_mb,
                  "what the analysis may keep for reuse (models, held-out fits), MB (default " +
                      std::to_string(models::explain::ExplainOptions{}.memory_mb) +
-                     "); less is slower, the results the same (docs/explain.md \"Cost\")")
+                     "); less is slower, the results the same (docs/explain.md \"Memory\")")
       ->check(CLI::Range(0, 65536));
   cmd.add_option("--folds", folds, "blocked cross-validation folds (default 8)")->check(CLI::Range(2, 50));
   cmd.add_flag("--scenarios", scenarios, "run the scenario suite (virtual machine tool) and print its table");
