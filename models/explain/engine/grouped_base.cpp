@@ -119,6 +119,7 @@ std::size_t GroupedBase::bytes() const {
 }
 
 void zero_rows(const GroupedBase::Ranges& ranges, Eigen::Ref<Eigen::MatrixXd> x) {
+  if (x.cols() == 0) return;  // no column: nothing to zero, and a block of its null data would offset a null pointer
   for (const auto& [a, e] : ranges) x.middleRows(a, e - a).setZero();
 }
 
