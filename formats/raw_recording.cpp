@@ -199,9 +199,10 @@ RawRecording read_raw_recording(const std::string& path) {
   r.samples.reserve(t.rows.size());
   for (const auto& row : t.rows) {
     Sample s;
-    s.t_mono_ns = static_cast<std::int64_t>(t.number(row, t_col));
-    s.seq = static_cast<std::uint64_t>(t.number(row, seq_col));
-    s.flags = static_cast<std::uint32_t>(t.number(row, flags_col));
+    // Within the integer types they are read into (a double beyond one has no defined conversion).
+    s.t_mono_ns = static_cast<std::int64_t>(t.number_in(row, t_col, 0, 9.2e18, "ns, a monotonic clock's time"));
+    s.seq = static_cast<std::uint64_t>(t.number_in(row, seq_col, 0, 1.8e19, "a sequence number"));
+    s.flags = static_cast<std::uint32_t>(t.number_in(row, flags_col, 0, 4294967295.0, "32 flag bits"));
     for (std::size_t c = 0; c < channel_cols.size(); ++c) {
       if (t.cell(row, channel_cols[c]).empty()) break;  // the channels a sample lacks are the last ones
       s.value[c] = channel_value(t, row, channel_cols[c]);
