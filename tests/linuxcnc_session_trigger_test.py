@@ -119,19 +119,24 @@ class SessionTrigger(unittest.TestCase):
                 "    time.sleep(0.01)\n")
         return f"while [ ! -e {go} ]; do sleep 0.02; done; python3 -c \"{pace}\"", go
 
-    def test_the_pin_begins_and_ends_the_session_and_every_period_is_counted(self):
-        source, go = self.source()
+    def start_bridge_and_daemon(self, source, **config):
+        """The bridge serving `source`'s periods and guidewayd reading it, both streaming; (bridge, socket)."""
         bridge = subprocess.Popen([BRIDGE, "--socket", os.path.join(self.d, "bridge.sock"), "--source", source],
                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.addCleanup(lambda: bridge.poll() is None and bridge.kill())
         env = dict(os.environ, XDG_STATE_HOME=os.path.join(self.d, "xdg"))
-        daemon = subprocess.Popen([GUIDEWAYD, "--config", self.config()], stdout=subprocess.PIPE,
+        daemon = subprocess.Popen([GUIDEWAYD, "--config", self.config(**config)], stdout=subprocess.PIPE,
                                   stderr=subprocess.STDOUT, text=True, env=env)
         self.addCleanup(lambda: daemon.poll() is None and daemon.kill())
         sock = os.path.join(self.d, "g.sock")
         self.assertTrue(process_support.wait_for(lambda: os.path.exists(sock), 20), "guidewayd did not start")
         streaming = lambda: all(d["state"] == "streaming" for d in json.loads(self.cli("status", "--json"))["devices"])
         self.assertTrue(process_support.wait_for(streaming, 20), self.cli("status"))
+        return bridge, sock
+
+    def test_the_pin_begins_and_ends_the_session_and_every_period_is_counted(self):
+        source, go = self.source()
+        bridge, sock = self.start_bridge_and_daemon(source)
         events = subprocess.Popen([GUIDEWAY, "--socket", sock, "watch", "--class", "EVENT", "--json"],
                                   stdout=subprocess.PIPE, text=True)
         self.addCleanup(lambda: events.poll() is None and events.kill())
@@ -176,18 +181,7 @@ class SessionTrigger(unittest.TestCase):
                 "    for i in range(0, len(lines), 10):\n"
                 "        print('\\n'.join(lines[i:i + 10]), flush=True)\n"
                 "        time.sleep(0.01)\n")
-        bridge = subprocess.Popen([BRIDGE, "--socket", os.path.join(self.d, "bridge.sock"), "--source",
-                                   f"python3 -c \"{pace}\""], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                  text=True)
-        self.addCleanup(lambda: bridge.poll() is None and bridge.kill())
-        env = dict(os.environ, XDG_STATE_HOME=os.path.join(self.d, "xdg"))
-        daemon = subprocess.Popen([GUIDEWAYD, "--config", self.config(end_after_s=60)], stdout=subprocess.PIPE,
-                                  stderr=subprocess.STDOUT, text=True, env=env)
-        self.addCleanup(lambda: daemon.poll() is None and daemon.kill())
-        sock = os.path.join(self.d, "g.sock")
-        self.assertTrue(process_support.wait_for(lambda: os.path.exists(sock), 20), "guidewayd did not start")
-        streaming = lambda: all(d["state"] == "streaming" for d in json.loads(self.cli("status", "--json"))["devices"])
-        self.assertTrue(process_support.wait_for(streaming, 20), self.cli("status"))
+        bridge, _ = self.start_bridge_and_daemon(f"python3 -c \"{pace}\"", end_after_s=60)
         sessions = lambda: json.loads(self.cli("status", "--json"))["sessions"]
         open(go, "w").close()
         self.assertTrue(process_support.wait_for(lambda: len(sessions()) == 1, 20), sessions())
