@@ -416,13 +416,19 @@ TEST(DbbSession, BadOptionsAreRefusedWithTheirName) {
 
 namespace {
 
-class ControllerChannels : public drivers::Driver {  // a linuxcnc-hal device's commanded positions; never started
+class ChannelLayout : public drivers::Driver {  // a device's channel layout; never started
  public:
-  ControllerChannels() : Driver("linuxcnc", "linuxcnc-hal", {{"x_cmd", "m"}, {"y_cmd", "m"}, {"z_cmd", "m"}}, 2) {}
+  ChannelLayout(std::string name, std::string driver, std::vector<drivers::ChannelInfo> channels)
+      : Driver(std::move(name), std::move(driver), std::move(channels), 2) {}
 
  protected:
   void run(std::stop_token) override {}
 };
+
+// A linuxcnc-hal device's commanded positions.
+ChannelLayout controller_channels() {
+  return ChannelLayout("linuxcnc", "linuxcnc-hal", {{"x_cmd", "m"}, {"y_cmd", "m"}, {"z_cmd", "m"}});
+}
 
 }  // namespace
 
@@ -433,7 +439,7 @@ class ControllerChannels : public drivers::Driver {  // a linuxcnc-hal device's 
 TEST(DbbSession, RunsCarryTheControllersCommandBesideTheReading) {
   const simulators::machine::Machine machine(test_machine());
   DbbChannels device;
-  ControllerChannels controller;
+  ChannelLayout controller = controller_channels();
   auto session = sessions::dbb_session_kind().create({"dbb", "", {{"feed_mm_per_min", 3000}}}, device);
   double t0 = 0;
   for (const DbbDirection dir : {DbbDirection::ccw, DbbDirection::cw}) {
@@ -494,24 +500,16 @@ TEST(DbbSession, RunsCarryTheControllersCommandBesideTheReading) {
 
 namespace {
 
-class DbbChannelsWithPeriod : public drivers::Driver {  // dbb-can following LinuxCNC: the fifth node's channel
- public:
-  DbbChannelsWithPeriod()
-      : Driver("dbb", "dbb-can", {{"bar_length", "m"}, {"x", "m"}, {"y", "m"}, {"controller_period", ""}}, 2) {}
+// dbb-can following LinuxCNC: the fifth node's channel.
+ChannelLayout dbb_channels_with_period() {
+  return ChannelLayout("dbb", "dbb-can", {{"bar_length", "m"}, {"x", "m"}, {"y", "m"}, {"controller_period", ""}});
+}
 
- protected:
-  void run(std::stop_token) override {}
-};
-
-class ControllerChannelsWithPeriod : public drivers::Driver {  // linuxcnc-hal's default channels
- public:
-  ControllerChannelsWithPeriod()
-      : Driver("linuxcnc", "linuxcnc-hal",
-               {{"x_cmd", "m"}, {"y_cmd", "m"}, {"z_cmd", "m"}, {"session", ""}, {"period", ""}}, 2) {}
-
- protected:
-  void run(std::stop_token) override {}
-};
+// linuxcnc-hal's default channels.
+ChannelLayout controller_channels_with_period() {
+  return ChannelLayout("linuxcnc", "linuxcnc-hal",
+                       {{"x_cmd", "m"}, {"y_cmd", "m"}, {"z_cmd", "m"}, {"session", ""}, {"period", ""}});
+}
 
 // The rows of a run file after its header: column name -> values.
 std::map<std::string, std::vector<double>> run_columns(const std::string& path) {
@@ -545,8 +543,8 @@ std::map<std::string, std::vector<double>> run_columns(const std::string& path) 
 // digit; the cw circle is a new LinuxCNC run whose period numbers start again from 0.
 TEST(DbbSession, PairsTheControllersCommandByServoPeriodThroughStalls) {
   const simulators::machine::Machine machine(test_machine());
-  DbbChannelsWithPeriod device;
-  ControllerChannelsWithPeriod controller;
+  ChannelLayout device = dbb_channels_with_period();
+  ChannelLayout controller = controller_channels_with_period();
   auto session = sessions::dbb_session_kind().create({"dbb", "", {{"feed_mm_per_min", 3000}}}, device);
   constexpr int lag_periods = 30;
   constexpr double period_s = 1e-3;
