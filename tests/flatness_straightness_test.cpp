@@ -12,12 +12,22 @@
 #include "models/flatness/straightness.hpp"
 #include "core/csv_table.hpp"
 #include "simulators/machine/machine.hpp"
+#include "sanitizer_build.hpp"
 #include "test_support.hpp"
 
 namespace {
 
 using namespace guideway::models::flatness;
 constexpr double arcsec = rad_per_arcsec;
+
+// Under a sanitizer the coverage cases below run a few trials for their code paths and judge no rates:
+// the rates over all the trials are judged in the Release build (a sanitizer sees nothing more in trial 40;
+// the 1,400 trials were most of this program's 33 s under ASan).
+#if defined(GUIDEWAY_SANITIZED_ADDRESS) || defined(GUIDEWAY_SANITIZED_THREAD)
+constexpr bool judge_rates = false;
+#else
+constexpr bool judge_rates = true;
+#endif
 
 // Truth: a quartic profile over 600 mm, about 1.2 um peak to valley (x in m from the start).
 double truth(double x) {
@@ -261,7 +271,7 @@ TEST(FlatnessStraightness, UncertaintyCoversTheTruthInRepeatedTrials) {
   const double u = opt.instrument.reading_u_rad();
   std::mt19937_64 rng(20261121);
   std::normal_distribution<double> g(0.0, u);
-  const int trials = 1000;
+  const int trials = judge_rates ? 1000 : 10;
   int ep = 0, ls = 0, mz = 0, mid = 0, end = 0, dev = 0;
   std::size_t devs = 0;
   for (int i = 0; i < trials; ++i) {
@@ -284,6 +294,7 @@ TEST(FlatnessStraightness, UncertaintyCoversTheTruthInRepeatedTrials) {
       "coverage within 2u over %d trials: end-point %.3f, least-squares %.3f, minimum zone %.3f, "
       "h(mid) %.3f, h(end) %.3f, end-point deviations %.3f\n",
       trials, rate(ep), rate(ls), rate(mz), rate(mid), rate(end), static_cast<double>(dev) / static_cast<double>(devs));
+  if (!judge_rates) return;
   for (int c : {ep, ls, mz, mid, end}) {
     EXPECT_GE(rate(c), 0.90);
     EXPECT_LE(rate(c), 0.99);
@@ -377,7 +388,7 @@ TEST(FlatnessStraightness, VirtualMachineCoverageInRepeatedTraverses) {
   spec.start_m = 0.005;
   spec.end_m = 0.595;
   spec.step_m = 0.01;
-  const int trials = 400;
+  const int trials = judge_rates ? 400 : 5;
   int ep = 0, mz = 0;
   double bias = 0.0;
   for (int i = 0; i < trials; ++i) {
@@ -392,6 +403,7 @@ TEST(FlatnessStraightness, VirtualMachineCoverageInRepeatedTraverses) {
   std::printf("virtual machine, %d traverses: coverage within 2u end-point %.3f, minimum zone %.3f; mean "
               "end-point error %.2f u (truth %.3f um)\n",
               trials, static_cast<double>(ep) / trials, static_cast<double>(mz) / trials, bias, t.end_point * 1e6);
+  if (!judge_rates) return;
   EXPECT_GE(ep, 0.90 * trials);
   EXPECT_LE(ep, 0.99 * trials);
   EXPECT_GE(mz, 0.90 * trials);

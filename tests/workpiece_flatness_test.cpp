@@ -12,6 +12,7 @@
 #include "models/flatness/workpiece_flatness.hpp"
 #include "simulators/emulators/measurement_files.hpp"
 #include "simulators/machine/machine.hpp"
+#include "sanitizer_build.hpp"
 
 namespace {
 
@@ -20,6 +21,14 @@ using namespace guideway;
 
 const std::string kMachine = GUIDEWAY_SOURCE_DIR "/tests/workpiece_flatness_mu2012_machine.toml";
 constexpr double kTilt = 2.8e-6;  // the machine's spindle lean = the squareness to find
+
+// Under a sanitizer the coverage case runs a few cuts for its code paths and judges no rate: the rate over
+// all the cuts is judged in the Release build (the 200 cuts were most of this program's 15 s under ASan).
+#if defined(GUIDEWAY_SANITIZED_ADDRESS) || defined(GUIDEWAY_SANITIZED_THREAD)
+constexpr bool judge_rates = false;
+#else
+constexpr bool judge_rates = true;
+#endif
 
 // The traverse's angle noise as the machine file has it (0.1 arcsec repeatability).
 StraightnessOptions traverse_u() {
@@ -102,7 +111,7 @@ TEST(WorkpieceFlatness, SquarenessUncertaintyCoversTheTruthInRepeatedCuts) {
   spec.profile_step_m = 0.5e-3;
   WorkpieceFlatnessOptions opt;
   opt.monte_carlo = 60;
-  const int trials = 200;
+  const int trials = judge_rates ? 200 : 4;
   int covered = 0;
   double sum_z = 0, sum_z2 = 0;
   for (int i = 0; i < trials; ++i) {
@@ -119,6 +128,7 @@ TEST(WorkpieceFlatness, SquarenessUncertaintyCoversTheTruthInRepeatedCuts) {
   const double sd = std::sqrt(sum_z2 / trials - mean * mean);
   std::printf("squareness coverage within 2u over %d cuts: %.3f (normalised error mean %.2f, sd %.2f)\n", trials,
               static_cast<double>(covered) / trials, mean, sd);
+  if (!judge_rates) return;
   EXPECT_GE(covered, static_cast<int>(0.91 * trials));
   EXPECT_LE(covered, static_cast<int>(0.99 * trials));
 }
