@@ -173,7 +173,8 @@ Problem dbb_problem(const std::vector<formats::DbbRun>& runs) {
   std::vector<double> reading(g.size());
   for (std::size_t i = 0; i < g.size(); ++i)
     reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
-  Problem p = assemble_problem(runs, geo, machine_time, reading, std::make_shared<const BasePredictions>(base, y));
+  Problem p = assemble_problem(runs, geo, machine_time, reading,
+                               std::make_shared<const BasePredictions>([geo] { return lai_base(*geo); }, y));
   // The yardstick of the contributions, as a ballbar's software ranks errors: the largest circular
   // deviation G of a run (ISO 230-4: the range of the reading about the run's least-squares circle), and
   // a finding's part of it the same range of its fitted term.

@@ -185,13 +185,16 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
   return v;
 }
 
+BasePredictions::BasePredictions(Block base, Eigen::VectorXd y_um)
+    : make_base_([held = std::make_shared<const Block>(std::move(base))] { return *held; }), y_(std::move(y_um)) {}
+
 std::shared_ptr<const Eigen::VectorXd> BasePredictions::of(const std::vector<bool>& use) const {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& [mask, predicted] : recent_)
       if (mask == use) return predicted;
   }
-  auto predicted = std::make_shared<const Eigen::VectorXd>(base_prediction(base_, y_, use));
+  auto predicted = std::make_shared<const Eigen::VectorXd>(base_prediction(make_base_(), y_, use));
   const std::lock_guard<std::mutex> lock(mutex_);
   if (recent_.size() >= kept) recent_.erase(recent_.begin());
   recent_.emplace_back(use, predicted);

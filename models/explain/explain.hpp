@@ -158,16 +158,20 @@ Eigen::VectorXd base_prediction(const Block& base, const Eigen::VectorXd& y_um, 
 // each fold's training rows -- again and again. Thread safe.
 class BasePredictions {
  public:
-  BasePredictions(Block base, Eigen::VectorXd y_um) : base_(std::move(base)), y_(std::move(y_um)) {}
+  BasePredictions(Block base, Eigen::VectorXd y_um);
+  // The base made again each time it is needed (a mask not predicted lately), from what the problem holds anyway
+  // (a DBB problem's Lai base from the samples' geometry): the problem holds its base once, not twice.
+  BasePredictions(std::function<Block()> make_base, Eigen::VectorXd y_um)
+      : make_base_(std::move(make_base)), y_(std::move(y_um)) {}
   // Empty when the fit fails.
   [[nodiscard]] std::shared_ptr<const Eigen::VectorXd> of(const std::vector<bool>& use) const;
   [[nodiscard]] Eigen::Index rows() const { return y_.size(); }
   [[nodiscard]] const Eigen::VectorXd& y() const { return y_; }
-  [[nodiscard]] const Block& base() const { return base_; }
+  [[nodiscard]] Block base() const { return make_base_(); }
 
  private:
   static constexpr std::size_t kept = 10;  // masks: every row and 8 folds, and one more
-  Block base_;
+  std::function<Block()> make_base_;
   Eigen::VectorXd y_;
   mutable std::mutex mutex_;
   mutable std::vector<std::pair<std::vector<bool>, std::shared_ptr<const Eigen::VectorXd>>> recent_;  // latest last
