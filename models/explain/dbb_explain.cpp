@@ -132,6 +132,7 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::sh
     for (std::size_t k = 0; k < runs.size(); ++k) p.runs[k].start_s = start_time_of(runs[k]) - origin_s;
   }
   for (std::size_t k = 0; k < runs.size(); ++k) p.runs[k].source = runs[k].source;
+  p.samples.reserve(g.size());
   for (const auto& q : g) {
     double deg = std::fmod(q.zeta_rad * 180 / pi, 360.0);
     if (deg < 0) deg += 360;
