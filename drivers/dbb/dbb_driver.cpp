@@ -1,3 +1,5 @@
+// "dbb-can" (dbb_driver.hpp): the ballbar's and the axes' CANopen encoders on one CAN bus, read on an I/O loop, one
+// sample per SYNC.
 #include "drivers/dbb/dbb_driver.hpp"
 
 #include <linux/can/error.h>

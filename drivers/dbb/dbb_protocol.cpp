@@ -1,3 +1,4 @@
+// The DBB bus protocol (dbb_protocol.hpp): frames classified, and SYNC cycles assembled from the encoders' TPDOs.
 #include "drivers/dbb/dbb_protocol.hpp"
 
 #include <cmath>
