@@ -319,8 +319,12 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
   // Where every station is read by two passes or more and what they share is not the polynomial (with, at most, a
   // pitch wave and the yaw's part: the shared candidates), the geometry is what the passes share: a term per
   // station, and the candidates are judged on what the passes disagree on (a real surface is not a polynomial).
+  // The engine factors its base per fold: a term per station costs the stations squared times the readings (481
+  // stations, two passes: 5.5 s of CPU), so it is given up to 512 stations; more keep the polynomial, and say so.
+  constexpr std::size_t most_station_terms = 512;
   const SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
-  const bool per_station = shared.judged && shared.chi2 > shared.dof + 3.09 * std::sqrt(2.0 * shared.dof);
+  const bool not_polynomial = shared.judged && shared.chi2 > shared.dof + 3.09 * std::sqrt(2.0 * shared.dof);
+  const bool per_station = not_polynomial && shared.stations <= most_station_terms;
   if (per_station) {
     const auto q = static_cast<Eigen::Index>(shared.stations);
     b.columns = Eigen::MatrixXd::Zero(n, q + static_cast<Eigen::Index>(l.files) - 1);
@@ -344,7 +348,12 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
                             " times the passes' own scatter; a wave the passes share is then geometry, not a finding"
                       : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
                             std::to_string(highest) + ") common to every pass") +
-         (l.files > 1 ? ", an offset per file after the first" : "");
+         (l.files > 1 ? ", an offset per file after the first" : "") +
+         (not_polynomial && !per_station
+              ? "; the passes share more than the polynomial (" + printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
+                    " times their own scatter), but a term per station is given to " +
+                    std::to_string(most_station_terms) + " stations at most (" + std::to_string(shared.stations) + " here)"
+              : std::string());
   return b;
 }
 
