@@ -120,8 +120,11 @@ std::string SessionManager::start(const sessions::SessionRequest& request) {
   if (explain_memory_mb_) r->session->set_explain_memory_mb(*explain_memory_mb_);
   {
     std::lock_guard lock(mutex_);
+    // A session holds its device while it records; one that is identifying (finishing) has its samples
+    // and leaves the device to the next (a program running two tests back to back: the second begins
+    // while the first is identified; the finish thread takes them in turn).
     for (const auto& info : infos_) {
-      if (info.device == devices_[index]->name() && (info.state == SessionState::running || info.state == SessionState::finishing)) {
+      if (info.device == devices_[index]->name() && info.state == SessionState::running) {
         throw std::invalid_argument("device \"" + info.device + "\" is busy with session " + info.name);
       }
     }

@@ -1,3 +1,4 @@
+// The instrument drivers compiled into guidewayd, registered by name (builtin.hpp); plugins add more at run time.
 #include "drivers/builtin.hpp"
 
 #include "drivers/autocollimator/autocollimator_driver.hpp"

@@ -1,3 +1,4 @@
+// The Driver base (driver.hpp): its thread or loop, its state, counters and ring, shared by every driver.
 #include "drivers/driver.hpp"
 
 #include <pthread.h>

@@ -1,3 +1,5 @@
+// One thread's epoll loop serving many devices (io_loop.hpp): fds with handlers, nanosecond timers, hooks once per
+// wake-up.
 #include "drivers/io_loop.hpp"
 
 #include <pthread.h>

@@ -1,3 +1,5 @@
+// The skeleton of every loop-driven driver (loop_driver.hpp): the timer and hooks, the link's states and back-off, the
+// rest policy.
 #include "drivers/loop_driver.hpp"
 
 #include <sys/epoll.h>

@@ -1,3 +1,5 @@
+// Correlation of signals (correlation.hpp): Pearson's coefficient and Mu's comparisons of a measured signal with
+// simulated error components.
 #include "dsp/correlation.hpp"
 
 #include <cmath>

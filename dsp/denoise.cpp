@@ -1,3 +1,5 @@
+// Wavelet denoising (denoise.hpp): the universal threshold from the finest details' MAD, soft or hard, per level or
+// given.
 #include "dsp/denoise.hpp"
 
 #include <algorithm>

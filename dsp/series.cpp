@@ -1,3 +1,5 @@
+// Small statistics of a sampled series (series.hpp), one definition for models, reports and sessions; NaN marks an
+// invalid point.
 #include "dsp/series.hpp"
 
 #include <algorithm>

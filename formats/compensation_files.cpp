@@ -1,3 +1,5 @@
+// Compensation files (compensation_files.hpp): LinuxCNC's per-joint tables, the INI lines that load them, read back and
+// checked.
 #include "formats/compensation_files.hpp"
 
 #include <cmath>

@@ -1,3 +1,5 @@
+// DABAM slope profiles as the database stores them (dabam.hpp): the .dat columns read by the .txt metadata's indices
+// and factors.
 #include "formats/dabam.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// A ballbar test as the G-code a controller runs (dbb_program.hpp): each circle's feed-in, data and feed-out arcs.
 #include "formats/dbb_program.hpp"
 
 #include <algorithm>

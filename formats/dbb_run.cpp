@@ -1,3 +1,4 @@
+// DBB run files (dbb_run.hpp): the CSV with `# key = value` metadata, written and read back with every row validated.
 #include "formats/dbb_run.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The error map as volumetric compensations read it (iso230_tables.hpp): ISO 230-1 named tables, written and read back.
 #include "formats/iso230_tables.hpp"
 
 #include <cmath>

@@ -1,3 +1,5 @@
+// The squareness and the straightness as LinuxCNC external offsets (linuxcnc_offsets.hpp): the lookup tables and their
+// HAL lines.
 #include "formats/linuxcnc_offsets.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// Profile files from disk (profile_files.hpp): our CSV profiles and ISO 5436-2 X3P containers, read into one profile
+// type.
 #include "formats/profile_files.hpp"
 
 #include <algorithm>

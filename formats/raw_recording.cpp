@@ -1,3 +1,5 @@
+// Raw recordings (raw_recording.hpp, guideway/raw/1): the one writer and the one reader of a device's samples as they
+// arrived.
 #include "formats/raw_recording.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// A minimal ZIP reader and writer over bytes in memory (zip_archive.hpp): stored and deflated members, CRC-32 checked.
 #include "formats/zip_archive.hpp"
 
 #include <zlib.h>

@@ -1,3 +1,4 @@
+// HTML building blocks of the report (html.hpp): one self-contained page, tables, figures and notes, escaped.
 #include "report/html.hpp"
 
 #include <algorithm>

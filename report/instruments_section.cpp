@@ -1,3 +1,5 @@
+// The report's instruments section (sections.hpp): each instrument with its serial, certificate and calibration date
+// checked.
 #include <cstdio>
 
 #include "report/html.hpp"

@@ -1,3 +1,4 @@
+// The report (report.hpp): one self-contained HTML page with a section per analysis, printable on A4.
 #include "report/report.hpp"
 
 #include <algorithm>

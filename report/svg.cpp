@@ -1,3 +1,5 @@
+// A small SVG writer for the report's plots (svg.hpp): line, polar, height-map, bar and stacked plots, each one <svg>
+// element.
 #include "report/svg.hpp"
 
 #include "core/printable.hpp"

@@ -1,3 +1,4 @@
+// The protocol's message classes (message_class.hpp): the one place a message's "class" is written and recognised.
 #include "results/message_class.hpp"
 
 #include <array>

@@ -1,3 +1,5 @@
+// The catalogue of reported parameters (parameters.hpp): names with their units, where a result holds them, how they
+// are shown.
 #include "results/parameters.hpp"
 
 #include "core/number_format.hpp"

@@ -1,3 +1,5 @@
+// The header every PARAMS and EXPLAIN carries (result_header.hpp): session, kind, device and where its data is, written
+// and read.
 #include "results/result_header.hpp"
 
 namespace guideway::results {

@@ -1,3 +1,5 @@
+// Each test-session kind as data (session_kinds.hpp): its name, its start options with their ranges, its headline
+// figures.
 #include "results/session_kinds.hpp"
 
 #include <cstdio>

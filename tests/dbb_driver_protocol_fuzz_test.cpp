@@ -169,17 +169,17 @@ TEST(DbbProtocol, PartialCyclesHoldAndMissedSyncsAreInferred) {
 TEST(DbbProtocol, AsSyncProducerLateAnswersReplaceAndNoSyncBecomesTwoSamples) {
   DbbDecoder d(encoders(), true);
   DbbCycle c;
-  EXPECT_FALSE(d.sync_sent(100, c));
+  EXPECT_FALSE(d.sync_sent(100, 100, c));
   EXPECT_FALSE(d.feed(make_position_pdo(1, 10), 110, c).cycle_ready);
   EXPECT_FALSE(d.feed(make_position_pdo(5, 20), 110, c).cycle_ready);
   ASSERT_TRUE(d.feed(make_position_pdo(127, 30), 120, c).cycle_ready) << "in time: published when complete";
   EXPECT_EQ(c.t_sync_ns, 100);
   const double x_100 = c.position_m[1];
   // Node 127 answers SYNC 200 in time on the bus, but it is read after our SYNC 300: still cycle 200's.
-  EXPECT_FALSE(d.sync_sent(200, c));
+  EXPECT_FALSE(d.sync_sent(200, 200, c));
   d.feed(make_position_pdo(1, 11), 210, c);
   d.feed(make_position_pdo(5, 21), 210, c);
-  EXPECT_FALSE(d.sync_sent(300, c)) << "incomplete at the SYNC: held, not yet published";
+  EXPECT_FALSE(d.sync_sent(300, 300, c)) << "incomplete at the SYNC: held, not yet published";
   ASSERT_TRUE(d.feed(make_position_pdo(127, 31), 290, c).cycle_ready);
   EXPECT_EQ(c.t_sync_ns, 200);
   EXPECT_EQ(c.present, 0b111u);
@@ -190,12 +190,12 @@ TEST(DbbProtocol, AsSyncProducerLateAnswersReplaceAndNoSyncBecomesTwoSamples) {
   EXPECT_FALSE(d.feed(make_position_pdo(127, 32), 320, c).cycle_ready);
   EXPECT_FALSE(d.feed(make_position_pdo(127, 40), 330, c).cycle_ready);
   EXPECT_EQ(d.late_pdos(), 1u);
-  ASSERT_TRUE(d.sync_sent(400, c));
+  ASSERT_TRUE(d.sync_sent(400, 400, c));
   EXPECT_EQ(c.t_sync_ns, 300);
   EXPECT_EQ(c.flags, 0u);
   DbbDecoder reference(encoders(), true);  // the value of count 40 alone
   DbbCycle r;
-  reference.sync_sent(0, r);
+  reference.sync_sent(0, 0, r);
   reference.feed(make_position_pdo(1, 0), 1, r);
   reference.feed(make_position_pdo(5, 0), 1, r);
   ASSERT_TRUE(reference.feed(make_position_pdo(127, 40), 1, r).cycle_ready);
@@ -208,9 +208,9 @@ TEST(DbbProtocol, AsSyncProducerLateAnswersReplaceAndNoSyncBecomesTwoSamples) {
   const double x_400 = c.position_m[1];
   EXPECT_NE(x_400, x_100);
   // An answer straddling our SYNC: what came before it is cycle 500's (the rest held), the rest 600's.
-  EXPECT_FALSE(d.sync_sent(500, c));
+  EXPECT_FALSE(d.sync_sent(500, 500, c));
   d.feed(make_position_pdo(1, 14), 510, c);
-  EXPECT_FALSE(d.sync_sent(600, c));
+  EXPECT_FALSE(d.sync_sent(600, 600, c));
   ASSERT_TRUE(d.feed(make_position_pdo(5, 24), 610, c).cycle_ready);
   EXPECT_EQ(c.t_sync_ns, 500);
   EXPECT_EQ(c.present, 0b001u);
@@ -218,17 +218,55 @@ TEST(DbbProtocol, AsSyncProducerLateAnswersReplaceAndNoSyncBecomesTwoSamples) {
   EXPECT_EQ(c.position_m[1], x_400) << "the missing channel holds its last value";
   d.feed(make_position_pdo(127, 34), 615, c);
   EXPECT_FALSE(d.feed(make_position_pdo(1, 15), 620, c).cycle_ready) << "behind: waits for the next SYNC";
-  ASSERT_TRUE(d.sync_sent(700, c));
+  ASSERT_TRUE(d.sync_sent(700, 700, c));
   EXPECT_EQ(c.t_sync_ns, 600);
   EXPECT_EQ(c.present, 0b111u);
   // No answer: no sample. A held cycle is not lost when the connection ends.
-  EXPECT_FALSE(d.sync_sent(800, c));
+  EXPECT_FALSE(d.sync_sent(800, 800, c));
   d.feed(make_position_pdo(1, 16), 810, c);
-  EXPECT_FALSE(d.sync_sent(900, c));
+  EXPECT_FALSE(d.sync_sent(900, 900, c));
   ASSERT_TRUE(d.flush(c));
   EXPECT_EQ(c.t_sync_ns, 800);
   EXPECT_EQ(c.present, 0b001u);
   EXPECT_FALSE(d.flush(c));
+  EXPECT_EQ(d.empty_cycles(), 1u);
+}
+
+// Our SYNC reaches the bus somewhere within its write: an answer to the SYNC before, stamped while this
+// one was being written (a driver held up between its clock read and the write), is the cycle
+// before's, even when that cycle had nothing yet; a cycle nobody answered is still no sample, and the
+// one after it says so.
+TEST(DbbProtocol, AsSyncProducerAnAnswerStampedWhileOurSyncWasWrittenIsTheCycleBefores) {
+  DbbDecoder d(encoders(), true);
+  DbbCycle c;
+  EXPECT_FALSE(d.sync_sent(100, 101, c));
+  d.feed(make_position_pdo(1, 10), 110, c);
+  d.feed(make_position_pdo(5, 20), 110, c);
+  ASSERT_TRUE(d.feed(make_position_pdo(127, 30), 110, c).cycle_ready);
+  EXPECT_FALSE(d.sync_sent(200, 201, c));
+  EXPECT_FALSE(d.sync_sent(300, 310, c)) << "nothing of cycle 200 yet: held, not an empty cycle";
+  d.feed(make_position_pdo(1, 11), 305, c);
+  d.feed(make_position_pdo(5, 21), 305, c);
+  ASSERT_TRUE(d.feed(make_position_pdo(127, 31), 306, c).cycle_ready);
+  EXPECT_EQ(c.t_sync_ns, 200);
+  EXPECT_EQ(c.present, 0b111u);
+  EXPECT_EQ(c.flags, 0u) << "no hole: cycle 200 was answered";
+  // Cycle 300's own answers, after the write: cycle 300 (behind: published at the next SYNC).
+  d.feed(make_position_pdo(1, 12), 320, c);
+  d.feed(make_position_pdo(5, 22), 320, c);
+  EXPECT_FALSE(d.feed(make_position_pdo(127, 32), 320, c).cycle_ready);
+  ASSERT_TRUE(d.sync_sent(400, 401, c));
+  EXPECT_EQ(c.t_sync_ns, 300);
+  EXPECT_EQ(c.present, 0b111u);
+  EXPECT_EQ(d.empty_cycles(), 0u);
+  // Nobody answers SYNC 400 before SYNC 500's write returned: no sample, and cycle 500 follows a hole.
+  EXPECT_FALSE(d.sync_sent(500, 501, c));
+  EXPECT_FALSE(d.feed(make_position_pdo(1, 13), 510, c).cycle_ready);
+  d.feed(make_position_pdo(5, 23), 510, c);
+  d.feed(make_position_pdo(127, 33), 510, c);
+  ASSERT_TRUE(d.sync_sent(600, 601, c));
+  EXPECT_EQ(c.t_sync_ns, 500);
+  EXPECT_EQ(c.flags, static_cast<std::uint32_t>(sample_after_gap));
   EXPECT_EQ(d.empty_cycles(), 1u);
 }
 
@@ -250,7 +288,9 @@ TEST(DbbProtocol, AsSyncProducerRandomAnswersNeverGiveMoreSamplesThanSyncs) {
     t += 1 + static_cast<std::int64_t>(rng() % 50);
     if (rng() % 5 == 0) {
       ++syncs;
-      if (d.sync_sent(t, c)) take(c);
+      const std::int64_t written = t + static_cast<std::int64_t>(rng() % 30);  // the write's own time
+      if (d.sync_sent(t, written, c)) take(c);
+      t = written;
     } else {
       // Stamped up to 100 ns before it is read: possibly before the last SYNC.
       const std::int64_t stamp = t - static_cast<std::int64_t>(rng() % 100);

@@ -12,7 +12,8 @@ ROOT = pathlib.Path(sys.argv.pop(1) if len(sys.argv) > 1 else pathlib.Path(__fil
 HEADER_FOLDERS = ("core", "dsp", "formats", "results", "models", "drivers", "plant", "report", "simulators",
                   "sessions", "fleet", "daemon", "cli")
 # The folders whose .cpp files open with a purpose line; a folder joins when all of its files do.
-SOURCE_FOLDERS = ("core", "plant", "sessions", "fleet", "daemon", "cli")
+SOURCE_FOLDERS = ("core", "dsp", "formats", "results", "drivers", "plant", "report", "simulators", "sessions", "fleet",
+                  "daemon", "cli")
 
 
 def opens_with_comment(line):

@@ -8,6 +8,7 @@
 
 #include <csignal>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <thread>
@@ -25,6 +26,9 @@ using guideway::cli::DaemonClient;
 
 namespace {
 
+// While set, a MeanSession's identification waits (at most 20 s): a session held in `finishing`.
+std::atomic<bool> hold_identification{false};
+
 // Collects N samples (or until stopped) and identifies their mean and count; refuses fewer than 2.
 class MeanSession : public sessions::Session {
  public:
@@ -37,6 +41,7 @@ class MeanSession : public sessions::Session {
   [[nodiscard]] bool complete() const override { return wanted_ != 0 && values_.size() >= wanted_; }
   [[nodiscard]] std::string progress() const override { return std::to_string(values_.size()) + " samples"; }
   nlohmann::json identify() override {
+    test::eventually([] { return !hold_identification.load(); }, std::chrono::seconds(20));
     if (values_.size() < 2) throw std::runtime_error("too few samples (" + std::to_string(values_.size()) + ")");
     double sum = 0;
     for (double v : values_) sum += v;
@@ -175,6 +180,39 @@ TEST(Session, StopEndsAnOpenEndedSessionAndStatusShowsIt) {
   const auto params = Fixture::next(c, "PARAMS");
   EXPECT_EQ(params["session"], name);
   EXPECT_GT(params["n"].get<int>(), 50);
+}
+
+// A LinuxCNC program that runs two tests back to back starts the second while the first is identified:
+// a session that is finishing has its samples and no longer holds its device (it was refused as busy).
+TEST(Session, ASessionBeingIdentifiedLeavesItsDeviceToTheNext) {
+  Fixture f;
+  DaemonClient c(f.socket);
+  c.request({{"class", "watch"}, {"classes", {"PARAMS"}}}, guideway::results::MessageClass::watch);
+  hold_identification = true;
+  const std::string first =
+      c.request({{"class", "start"}, {"kind", "mean"}, {"options", {{"samples", 100}}}},
+                guideway::results::MessageClass::session)["session"];
+  ASSERT_TRUE(test::eventually([&] {
+    auto s = c.request({{"class", "status"}}, guideway::results::MessageClass::status);
+    return s["sessions"].size() == 1 && s["sessions"][0]["state"] == "finishing";
+  }));
+  const auto second = c.request({{"class", "start"}, {"kind", "mean"}}, guideway::results::MessageClass::session);
+  hold_identification = false;
+  ASSERT_EQ(second["class"], "SESSION") << second.dump();
+  EXPECT_NE(second["session"], first);
+  const auto first_params = Fixture::next(c, "PARAMS");
+  EXPECT_EQ(first_params["session"], first);
+  EXPECT_EQ(first_params["n"], 100);
+  EXPECT_TRUE(test::eventually([&] {
+    auto s = c.request({{"class", "status"}}, guideway::results::MessageClass::status);
+    for (const auto& i : s["sessions"])
+      if (i["session"] == second["session"]) return i["state"] == "running" && i["samples"] > 50;
+    return false;
+  })) << "the second session records";
+  c.request({{"class", "stop"}, {"session", second["session"]}}, guideway::results::MessageClass::session);
+  const auto second_params = Fixture::next(c, "PARAMS");
+  EXPECT_EQ(second_params["session"], second["session"]);
+  EXPECT_GT(second_params["n"].get<int>(), 50);
 }
 
 // protocol.md: watch "channels: device or session names". A session's PARAMS and EVENTs reach a client

@@ -1,3 +1,5 @@
+// "autocollimator-serial" (autocollimator_driver.hpp): a TA80-style autocollimator polled or streaming on a serial
+// line.
 #include "drivers/autocollimator/autocollimator_driver.hpp"
 
 #include <algorithm>

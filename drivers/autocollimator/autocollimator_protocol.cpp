@@ -1,3 +1,4 @@
+// The TA80-style autocollimator's ASCII protocol (autocollimator_protocol.hpp): requests built, replies parsed, pure.
 #include "drivers/autocollimator/autocollimator_protocol.hpp"
 
 #include <array>

@@ -1,3 +1,5 @@
+// CAN frame I/O over any fd carrying whole `struct can_frame` records (can_io.hpp): SocketCAN or a SEQPACKET gateway,
+// with kernel times.
 #include "drivers/can/can_io.hpp"
 
 #include <fcntl.h>

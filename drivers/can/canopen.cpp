@@ -1,3 +1,5 @@
+// CANopen (CiA 301) network services as pure frame encoders and decoders (canopen.hpp): NMT, heartbeat, EMCY, expedited
+// SDO.
 #include "drivers/can/canopen.hpp"
 
 #include <cstdio>

@@ -1,3 +1,5 @@
+// "dbb-can" (dbb_driver.hpp): the ballbar's and the axes' CANopen encoders on one CAN bus, read on an I/O loop, one
+// sample per SYNC.
 #include "drivers/dbb/dbb_driver.hpp"
 
 #include <linux/can/error.h>
@@ -499,10 +501,11 @@ bool DbbDriver::send_sync() {
   std::string error;
   // Never wait for the bus: a full transmit queue (nobody acknowledges, or the gateway's peer does
   // not read) costs this SYNC, counted; the silence that follows is a timeout as usual.
-  // The SYNC's time is taken just before it is written: a PDO stamped before then answers an earlier
-  // SYNC. Taken after the write, a thread preempted between the write and the clock read would give
-  // the nodes' answers to this SYNC to the cycle before (which they complete, leaving this one
-  // partial); a late answer stamped during the write itself is still recognised (late_pdos).
+  // The SYNC's time is taken just before it is written, and again when the write returned: the SYNC
+  // reached the bus in between, so an answer stamped before the second may still be the cycle
+  // before's (the decoder gives it there if that cycle lacks it: a node answering the earlier SYNC
+  // while this thread was held up between the clock read and the write); one stamped after it is
+  // this SYNC's, or a late answer to the one before that the next answer replaces (late_pdos).
   const std::int64_t sync_ns = mono_now_ns();
   const auto wrote = can::try_write_can_frame(sock_.fd(), sync, error);
   const std::int64_t now = mono_now_ns();
@@ -520,7 +523,7 @@ bool DbbDriver::send_sync() {
   } else {
     if (last_sync_sent_ns_ != 0 && sync_ns - last_sync_sent_ns_ >= 2 * period_ns) decoder_->mark_gap();
     last_sync_sent_ns_ = sync_ns;
-    if (decoder_->sync_sent(sync_ns, cycle)) publish_cycle(cycle);
+    if (decoder_->sync_sent(sync_ns, now, cycle)) publish_cycle(cycle);
   }
   // The phase is kept, but a late SYNC never brings the next one closer than half a period: the
   // nodes need that time to answer, and a PDO that comes after our next SYNC is a late one.

@@ -1,3 +1,5 @@
+// The CANopen network management of a dbb-can bus (dbb_network.hpp): each node checked, started and watched; pure, no
+// I/O.
 #include "drivers/dbb/dbb_network.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The DBB bus protocol (dbb_protocol.hpp): frames classified, and SYNC cycles assembled from the encoders' TPDOs.
 #include "drivers/dbb/dbb_protocol.hpp"
 
 #include <cmath>
@@ -92,10 +93,7 @@ int DbbDecoder::index_of(std::uint8_t node) const noexcept {
 }
 
 bool DbbDecoder::flush(DbbCycle& cycle) {
-  if (held_open_) {  // then the open cycle has nothing yet (its first PDO closes the held one)
-    emit_held(cycle);
-    return true;
-  }
+  if (held_open_) return emit_held(cycle);  // then the open cycle has nothing yet (its first PDO closes the held one)
   if (!open_ || emitted_ || cur_.present == 0) return false;
   close_cycle(cycle);
   return true;
@@ -137,13 +135,21 @@ void DbbDecoder::close_cycle(DbbCycle& out) {
   emitted_ = true;
 }
 
-void DbbDecoder::emit_held(DbbCycle& out) {
+bool DbbDecoder::emit_held(DbbCycle& out) {
   held_open_ = false;
+  if (held_.present == 0) {
+    // No node answered that SYNC: no sample, and the open cycle (not emitted: its first PDO or SYNC
+    // closes the held one) follows a hole.
+    ++empty_cycles_;
+    cur_.flags |= sample_after_gap;
+    return false;
+  }
   const bool emitted = emitted_;  // close_cycle marks the open cycle; this one is not it
   std::swap(cur_, held_);
   close_cycle(out);
   std::swap(cur_, held_);
   emitted_ = emitted;
+  return true;
 }
 
 std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
@@ -158,33 +164,27 @@ std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
   return unwrapped_[i];
 }
 
-bool DbbDecoder::sync_sent(std::int64_t t_ns, DbbCycle& cycle) {
+bool DbbDecoder::sync_sent(std::int64_t t_ns, std::int64_t written_ns, DbbCycle& cycle) {
   bool ready = false;
-  if (held_open_) {
-    // Nothing stamped before the last SYNC came since: the held cycle is final, the open one is empty
-    // (no sample: the next cycle follows a hole).
-    emit_held(cycle);
-    ready = true;
-    behind_ = true;
-    ++empty_cycles_;
-    gap_ = true;
-  } else if (open_ && !emitted_ && cur_.present == all_mask_) {
+  // Nothing stamped before the last SYNC's write returned came since: the held cycle is final (the
+  // open one, empty, is held in its turn below).
+  if (held_open_) ready = emit_held(cycle);
+  if (open_ && !emitted_ && cur_.present == all_mask_) {
     close_cycle(cycle);
     ready = true;
     behind_ = false;
-  } else if (open_ && !emitted_ && cur_.present != 0) {
+  } else if (open_ && !emitted_) {
+    // Incomplete, or nothing yet: held until a PDO stamped after this SYNC's write shows that nothing
+    // more of it can come. An answer written while our SYNC was still being written was on the bus
+    // before it (the emulator, or a node, had not seen this SYNC yet).
     held_ = cur_;
     held_open_ = true;
-    behind_ = true;
-  } else if (open_ && !emitted_) {
-    // No node answered this SYNC: no sample, a hole in the samples (a longer silence is a timeout).
-    ++empty_cycles_;
-    gap_ = true;  // the next cycle follows it
     behind_ = true;
   } else if (open_) {
     behind_ = false;  // emitted complete before this SYNC: the nodes keep up
   }
   open_cycle(t_ns, 0);
+  written_ns_ = written_ns;
   return ready;
 }
 
@@ -199,16 +199,12 @@ void DbbDecoder::feed_position_as_producer(std::size_t i, std::uint32_t count, s
                                            DbbCycle& cycle) {
   const std::uint32_t bit = 1u << i;
   if (held_open_) {
-    if (t_ns < cur_.t_sync_ns && !(held_.present & bit)) {  // sent before our SYNC, read after it
+    if (t_ns < written_ns_ && !(held_.present & bit)) {  // on the bus before our SYNC, read after it
       store(i, count, held_);
-      if (held_.present == all_mask_) {
-        emit_held(cycle);
-        r.cycle_ready = true;
-      }
+      if (held_.present == all_mask_) r.cycle_ready = emit_held(cycle);
       return;
     }
-    emit_held(cycle);  // stamped after our SYNC: nothing more of the held cycle can come
-    r.cycle_ready = true;
+    r.cycle_ready = emit_held(cycle);  // stamped after our SYNC: nothing more of the held cycle can come
   }
   if (cur_.present & bit) ++late_pdos_;  // we sent every SYNC: the first was a late answer to the one before
   store(i, count, cur_);
@@ -225,8 +221,7 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
   switch (r.info.kind) {
     case FrameInfo::Kind::sync:
       if (held_open_) {
-        emit_held(cycle);
-        r.cycle_ready = true;
+        r.cycle_ready = emit_held(cycle);
         if (open_ && !emitted_ && cur_.present == 0) {  // the cycle after the held one got nothing
           ++empty_cycles_;
           gap_ = true;

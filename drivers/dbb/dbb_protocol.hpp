@@ -78,8 +78,10 @@ struct DbbCycle {
 // late answer to the SYNC before, and the newer value replaces it (late_pdos). Replacing needs the
 // cycle still open: once a cycle was incomplete at its SYNC (the nodes are behind), cycles are emitted
 // at the next SYNC instead of as soon as they are complete, until one is complete in time again. And
-// a PDO stamped before our SYNC can still be read after it: an incomplete cycle stays open past our
-// SYNC until a PDO stamped after that SYNC (or the next SYNC) shows nothing more of it can come.
+// a PDO on the bus before our SYNC can still be read after it: an incomplete (or empty) cycle stays
+// open past our SYNC until a PDO stamped after that SYNC's write returned (or the next SYNC) shows
+// nothing more of it can come. The SYNC reaches the bus somewhere within its write: a node's answer
+// stamped then was sent before the node saw it.
 class DbbDecoder {
  public:
   struct Result {
@@ -91,9 +93,9 @@ class DbbDecoder {
 
   // Feeds one frame seen at t_ns. At most one cycle is emitted per frame.
   Result feed(const can_frame& frame, std::int64_t t_ns, DbbCycle& cycle);
-  // The SYNC this side (a sync_producer) put on the bus at t_ns. Returns whether a cycle was emitted
-  // into `cycle`.
-  bool sync_sent(std::int64_t t_ns, DbbCycle& cycle);
+  // The SYNC this side (a sync_producer) put on the bus: its time t_ns taken just before the write,
+  // written_ns when the write returned. Returns whether a cycle was emitted into `cycle`.
+  bool sync_sent(std::int64_t t_ns, std::int64_t written_ns, DbbCycle& cycle);
   // Emits the open cycle if it has data that was not emitted yet (partial); call before resync()
   // when a connection ends so nothing received is lost.
   bool flush(DbbCycle& cycle);
@@ -116,7 +118,7 @@ class DbbDecoder {
   int index_of(std::uint8_t node) const noexcept;
   void open_cycle(std::int64_t t_ns, std::uint32_t flags);
   void close_cycle(DbbCycle& out);
-  void emit_held(DbbCycle& out);
+  bool emit_held(DbbCycle& out);  // false when nobody answered the held SYNC (no sample)
   void store(std::size_t i, std::uint32_t count, DbbCycle& into);
   void feed_position_as_producer(std::size_t i, std::uint32_t count, std::int64_t t_ns, Result& r, DbbCycle& cycle);
   std::int64_t unwrap(std::size_t i, std::uint32_t count) noexcept;
@@ -131,6 +133,7 @@ class DbbDecoder {
   bool held_open_ = false;  // `held_` is the incomplete cycle before our own SYNC, not yet emitted
   bool behind_ = false;     // producer: a cycle was incomplete at its SYNC; emit at the next SYNC
   DbbCycle held_;
+  std::int64_t written_ns_ = 0;  // producer: when the write of the open cycle's SYNC returned
   std::array<double, max_encoders> last_m_{};
   std::array<bool, max_encoders> have_count_{};
   std::array<std::uint32_t, max_encoders> prev_count_{};

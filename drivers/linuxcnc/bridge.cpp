@@ -1,3 +1,5 @@
+// guideway-linuxcnc-bridge (bridge.hpp): LinuxCNC's servo periods, read from halsampler, served to every client that
+// asks.
 #include "drivers/linuxcnc/bridge.hpp"
 
 #include <fcntl.h>

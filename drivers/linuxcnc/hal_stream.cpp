@@ -1,3 +1,4 @@
+// The LinuxCNC bridge's stream (hal_stream.hpp): one text line per servo period, written and parsed.
 #include "drivers/linuxcnc/hal_stream.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// "linuxcnc-hal" (linuxcnc_driver.hpp): LinuxCNC as a device, every servo period of the bridge's stream one sample.
 #include "drivers/linuxcnc/linuxcnc_driver.hpp"
 
 #include <sys/socket.h>

@@ -1,3 +1,5 @@
+// "micrometer-modbus" (micrometer_driver.hpp): a gauge amplifier over Modbus TCP or RTU, polled or read from its sample
+// buffer.
 #include "drivers/micrometer/micrometer_driver.hpp"
 
 #include <poll.h>

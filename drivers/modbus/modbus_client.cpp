@@ -1,3 +1,5 @@
+// A Modbus master over TCP or RTU through libmodbus (modbus_client.hpp): connect, read one register block, classify
+// every failure.
 #include "drivers/modbus/modbus_client.hpp"
 
 #include <modbus/modbus.h>

@@ -1,3 +1,5 @@
+// Modbus TCP framing for a client that never waits (modbus_tcp.hpp): a register read's request and its answer's parse,
+// pure.
 #include "drivers/modbus/modbus_tcp.hpp"
 
 namespace guideway::drivers::modbus {

@@ -1,3 +1,5 @@
+// A gauge amplifier's register map from configuration (register_map.hpp), and the pure decoder from registers to a
+// reading.
 #include "drivers/modbus/register_map.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// A gauge amplifier's sample buffer read over Modbus (sample_ring.hpp): the ring of registers and its counter, new
+// samples found.
 #include "drivers/modbus/sample_ring.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// The profilometer stream protocol (profile_stream.hpp): checksummed ASCII lines parsed into banners, headers, points
+// and ends.
 #include "drivers/profilometer/profile_stream.hpp"
 
 #include <charconv>

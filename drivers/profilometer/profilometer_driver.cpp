@@ -1,3 +1,5 @@
+// "profilometer-tcp" (profilometer_driver.hpp): a profilometer's stream over TCP, one sample per point, traverses
+// assembled.
 #include "drivers/profilometer/profilometer_driver.hpp"
 
 #include <algorithm>

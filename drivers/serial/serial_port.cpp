@@ -1,3 +1,5 @@
+// One serial-line interface (serial_port.hpp): libserialport for real ports and their discovery, termios for pseudo-
+// terminals.
 #include "drivers/serial/serial_port.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,5 @@
+// One TCP connection attempt on an I/O loop that never blocks it (loop_connector.hpp): resolve off the loop, try each
+// address.
 #include "drivers/tcp/loop_connector.hpp"
 
 #include <sys/epoll.h>

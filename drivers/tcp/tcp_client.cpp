@@ -1,3 +1,5 @@
+// TCP for loop-driven drivers (tcp_client.hpp): non-blocking connects and reads that never wait and carry the kernel's
+// receive time.
 #include "drivers/tcp/tcp_client.hpp"
 
 #include <netdb.h>

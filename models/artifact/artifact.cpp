@@ -1,3 +1,5 @@
+// Six error motions of a linear axis from a 1-D artifact (artifact.hpp; Wei et al. 2019): each placement's readings
+// fitted with their uncertainties.
 #include "models/artifact/artifact.hpp"
 
 #include <array>

@@ -1,3 +1,4 @@
+// The 1-D artifact identification as JSON (artifact_json.hpp): units in the key names, uncertainties as "u_<name>".
 #include "models/artifact/artifact_json.hpp"
 #include "core/units.hpp"
 

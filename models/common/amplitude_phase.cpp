@@ -1,3 +1,4 @@
+// A sine and cosine pair as amplitude and phase (amplitude_phase.hpp), each with its first-order standard uncertainty.
 #include "models/common/amplitude_phase.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// The triangle R of a Householder QR built in one pass over a tall weighted problem (householder_triangle.hpp), chunk
+// by chunk.
 #include "models/common/householder_triangle.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// Weighted linear least squares with an identification's diagnostics (least_squares.hpp): uncertainties, condition,
+// residuals.
 #include "models/common/least_squares.hpp"
 
 #include <algorithm>

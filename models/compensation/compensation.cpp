@@ -1,3 +1,5 @@
+// Compensation from a DBB identification (compensation.hpp): the plane axes' error maps, the squareness, the
+// controller's files.
 #include "models/compensation/compensation.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// What the data arcs of DBB runs hold (arcs.hpp): which terms a partial arc or a gap leaves unseparated, said in words.
 #include "models/dbb/arcs.hpp"
 
 #include <algorithm>

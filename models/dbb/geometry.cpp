@@ -1,3 +1,4 @@
+// The per-sample geometry of a DBB circular test (geometry.hpp) that identification and EXPLAIN both see.
 #include "models/dbb/geometry.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// A DBB identification as JSON (json.hpp): the shape of `guideway identify dbb --json` and of the daemon's PARAMS.
 #include "models/dbb/json.hpp"
 
 #include <cmath>

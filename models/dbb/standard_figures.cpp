@@ -1,3 +1,5 @@
+// The circular test's ISO 230-4 and ASME B5.54 figures (standard_figures.hpp), each with the conditions that make it
+// comparable.
 #include "models/dbb/standard_figures.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// The machine across its test planes (three_planes.hpp): several planes' identifications brought together, axis by
+// axis.
 #include "models/dbb/three_planes.hpp"
 
 #include <algorithm>

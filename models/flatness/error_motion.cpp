@@ -1,3 +1,4 @@
+// Spindle error motion from a run-out record (error_motion.hpp), as ISO 230-7 defines its values.
 #include "models/flatness/error_motion.hpp"
 
 #include <algorithm>

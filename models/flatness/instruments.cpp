@@ -1,3 +1,4 @@
+// The slope-reading instruments (instruments.hpp): each named with its range, resolution and one reading's uncertainty.
 #include "models/flatness/instruments.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The flatness results as JSON (json.hpp): units in the key names, uncertainties as "u_<name>".
 #include "models/flatness/json.hpp"
 
 #include <cmath>

@@ -1,3 +1,5 @@
+// Minimum-zone flatness of points (minimum_zone.hpp): the narrowest pair of parallel planes, solved exactly as a linear
+// programme.
 #include "models/flatness/minimum_zone.hpp"
 
 #include <algorithm>

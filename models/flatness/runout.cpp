@@ -1,3 +1,4 @@
+// The spindle's squareness to the cross carriage from a run-out revolution (runout.hpp; Mu 2012, Eq. 21).
 #include "models/flatness/runout.hpp"
 
 #include <cmath>

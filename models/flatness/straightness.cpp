@@ -1,3 +1,5 @@
+// Straightness from an autocollimator traverse or a slope profile (straightness.hpp): slopes integrated, LS and end-
+// point lines.
 #include "models/flatness/straightness.hpp"
 
 #include <algorithm>

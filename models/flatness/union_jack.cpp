@@ -1,3 +1,5 @@
+// Surface-plate flatness by the Union Jack method (union_jack.hpp; Moody 1955): eight lines of readings made one
+// surface.
 #include "models/flatness/union_jack.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Workpiece flatness analysis (workpiece_flatness.hpp; Mu 2012): which carriage error shows on a faced part.
 #include "models/flatness/workpiece_flatness.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// The workpiece flatness analysis as JSON (workpiece_flatness_json.hpp): units in the key names, uncertainties as
+// "u_<name>".
 #include "models/flatness/workpiece_flatness_json.hpp"
 
 #include <cmath>

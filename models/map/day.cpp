@@ -1,3 +1,4 @@
+// A day's tests as one file (day.hpp, guideway/map-day/1): the machine, the tool offset, the volume, each test's files.
 #include "models/map/day.hpp"
 
 #include <filesystem>

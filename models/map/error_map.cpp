@@ -1,3 +1,5 @@
+// The error map of a three-axis machine (error_map.hpp): ISO 230-1's 21 geometric errors as one model through the
+// chain.
 #include "models/map/error_map.hpp"
 
 #include <algorithm>

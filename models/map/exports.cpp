@@ -1,3 +1,5 @@
+// What a controller loads from an error map (exports.hpp): the ISO 230-1-named tables, the LinuxCNC per-joint
+// tables with their INI lines, the cross-axis straightness and the plain map.
 #include "models/map/exports.hpp"
 
 #include <algorithm>

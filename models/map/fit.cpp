@@ -1,3 +1,4 @@
+// One model of the machine from the day's tests (fit.hpp): every test's readings fitted together through the chain.
 #include "models/map/fit.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// The observation groups of the map's fit (fit_groups.hpp): each test's readings with their derivatives and set-up
+// terms.
 #include "models/map/fit_groups.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The members of the map's JSON files read with their type checked (json_fields.hpp), a wrong one refused by name.
 #include "models/map/json_fields.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// What the map is fitted to (map_inputs.hpp): each day's test result in the terms the map's observation model reads.
 #include "models/map/map_inputs.hpp"
 
 #include <cctype>

@@ -1,3 +1,5 @@
+// The error map as a file (map_json.hpp, guideway/map/1): written by `map fit`, read back by export, compensate and
+// report.
 #include "models/map/map_json.hpp"
 
 #include <cmath>

@@ -1,3 +1,5 @@
+// Volumetric accuracy of an error map (volumetric.hpp): the tool point's error vector over a grid of the working
+// volume.
 #include "models/map/volumetric.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// An emulated TA80-style autocollimator on a pseudo-terminal (autocollimator_emulator.hpp), its readings from a source.
 #include "simulators/emulators/autocollimator_emulator.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,5 @@
+// The fault-injection control channel of the CAN and serial emulator processes (can_serial_control.hpp): one command a
+// line.
 #include "simulators/emulators/can_serial_control.hpp"
 
 #include <poll.h>

@@ -1,3 +1,5 @@
+// The virtual machine tool as the CAN and serial emulators' source (can_serial_machine_sources.hpp): a DBB circle, a
+// traverse.
 #include "simulators/emulators/can_serial_machine_sources.hpp"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// One emulated CANopen encoder node (canopen_node.hpp): boot-up, NMT, heartbeat, SDO and TPDOs on SYNC, as a real one
+// behaves.
 #include "simulators/emulators/canopen_node.hpp"
 
 #include <climits>

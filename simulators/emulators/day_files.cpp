@@ -1,3 +1,5 @@
+// A day's tests of the error map from the virtual machine tool (day_files.hpp): three-plane ballbar, traverses, their
+// files.
 #include "simulators/emulators/day_files.hpp"
 
 #include <cmath>

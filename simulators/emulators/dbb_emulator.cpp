@@ -1,3 +1,5 @@
+// An emulated DBB bus (dbb_emulator.hpp): three CANopen encoder nodes answering or producing SYNC over any can_frame
+// fd.
 #include "simulators/emulators/dbb_emulator.hpp"
 
 #include <linux/can/error.h>

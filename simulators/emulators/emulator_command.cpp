@@ -1,3 +1,4 @@
+// The `guideway-emulate <instrument>` subcommands (emulator_command.hpp), each registered from its instrument's file.
 #include "simulators/emulators/emulator_command.hpp"
 
 namespace guideway::simulators::emulators {

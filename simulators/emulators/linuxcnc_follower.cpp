@@ -1,3 +1,5 @@
+// The virtual machine moved by LinuxCNC (linuxcnc_follower.hpp): every servo period of the bridge's stream played on
+// the machine.
 #include "simulators/emulators/linuxcnc_follower.hpp"
 
 #include <poll.h>

@@ -1,3 +1,5 @@
+// Offline measurement files from the virtual machine tool (measurement_files.hpp), in the formats `guideway identify`
+// reads.
 #include "simulators/emulators/measurement_files.hpp"
 
 #include <charconv>

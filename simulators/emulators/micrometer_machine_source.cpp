@@ -1,3 +1,5 @@
+// The virtual machine tool as the micrometer emulator's source (micrometer_machine_source.hpp): a thrust plate's run-
+// out.
 #include "simulators/emulators/micrometer_machine_source.hpp"
 
 #include <cmath>

@@ -1,3 +1,5 @@
+// An emulated gauge amplifier (modbus_emulator.hpp): a real libmodbus server on TCP or on an RTU pseudo-terminal,
+// faults injected.
 #include "simulators/emulators/modbus_emulator.hpp"
 
 #include <arpa/inet.h>

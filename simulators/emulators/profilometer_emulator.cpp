@@ -1,3 +1,5 @@
+// An emulated PGI 1240-style profilometer (profilometer_emulator.hpp): the profile stream on TCP, paced, faults
+// injected.
 #include "simulators/emulators/profilometer_emulator.hpp"
 
 #include <arpa/inet.h>

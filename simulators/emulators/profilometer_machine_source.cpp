@@ -1,3 +1,5 @@
+// The virtual machine tool as the profilometer's source (profilometer_machine_source.hpp): the faced workpiece along
+// the radius.
 #include "simulators/emulators/profilometer_machine_source.hpp"
 
 namespace guideway::simulators::emulators {

@@ -1,3 +1,5 @@
+// DBB runs from the virtual machine tool (dbb_runs.hpp): each circle's data arc as the run files the identification
+// reads.
 #include "simulators/machine/dbb_runs.hpp"
 
 #include <cmath>

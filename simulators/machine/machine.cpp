@@ -1,3 +1,4 @@
+// The virtual machine tool (machine.hpp): a 3-axis machine with geometric, servo, mechanical, thermal and noise errors.
 #include "simulators/machine/machine.hpp"
 
 #include <algorithm>

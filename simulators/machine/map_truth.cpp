@@ -1,3 +1,5 @@
+// The virtual machine's 21 geometric errors as the error map defines them (map_truth.hpp), to prove a fitted map
+// against.
 #include "simulators/machine/map_truth.hpp"
 
 #include <cmath>

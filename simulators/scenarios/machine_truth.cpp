@@ -1,3 +1,5 @@
+// What a test on the virtual machine can find (machine_truth.hpp): per effect, the parameter it would report and its
+// true value.
 #include "simulators/scenarios/machine_truth.hpp"
 
 #include <algorithm>

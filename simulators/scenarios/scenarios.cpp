@@ -1,3 +1,5 @@
+// The EXPLAIN scenario suite (scenarios.hpp): recordings made in-process by the virtual machine with effects the model
+// leaves out.
 #include "simulators/scenarios/scenarios.hpp"
 
 #include <algorithm>
