@@ -74,16 +74,19 @@ constexpr double lai_si_per_reported[] = {1e-6, 1e-6, 1.0, 1.0, 1.0, 1e3, 1e6, 1
                                           1.0,  1e3,  1e6, 1e3, 1e6, 1.0, 1e3, 1e6};
 constexpr std::size_t lai_geometric = std::size(lai_si_per_reported);
 
-Block lai_base(const std::vector<Geo>& g) {
+// Of the samples `rows` (nullptr: every sample), in that order.
+Block lai_base(const std::vector<Geo>& g, const std::vector<Eigen::Index>* rows = nullptr) {
   Block b;
   const auto names = dbb::lai3_parameter_names();
   b.names.assign(names.begin(), names.begin() + lai_geometric);
-  b.columns.resize(static_cast<Eigen::Index>(g.size()), static_cast<Eigen::Index>(lai_geometric));
-  for (std::size_t i = 0; i < g.size(); ++i) {
-    const auto ch = dbb::lai3_characteristics(g[i].radius_m, g[i].height_m, static_cast<int>(g[i].dir),
-                                              g[i].feed_m_per_s, g[i].zeta_rad);
+  const auto n = static_cast<Eigen::Index>(rows ? rows->size() : g.size());
+  b.columns.resize(n, static_cast<Eigen::Index>(lai_geometric));
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const Geo& p = g[static_cast<std::size_t>(rows ? (*rows)[static_cast<std::size_t>(r)] : r)];
+    const auto ch =
+        dbb::lai3_characteristics(p.radius_m, p.height_m, static_cast<int>(p.dir), p.feed_m_per_s, p.zeta_rad);
     for (std::size_t k = 0; k < lai_geometric; ++k)
-      b.columns(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k)) = ch[k] * lai_si_per_reported[k] * 1e6;
+      b.columns(r, static_cast<Eigen::Index>(k)) = ch[k] * lai_si_per_reported[k] * 1e6;
   }
   return b;
 }
@@ -129,6 +132,7 @@ Problem assemble_problem(const std::vector<formats::DbbRun>& runs, const std::sh
     for (std::size_t k = 0; k < runs.size(); ++k) p.runs[k].start_s = start_time_of(runs[k]) - origin_s;
   }
   for (std::size_t k = 0; k < runs.size(); ++k) p.runs[k].source = runs[k].source;
+  p.samples.reserve(g.size());
   for (const auto& q : g) {
     double deg = std::fmod(q.zeta_rad * 180 / pi, 360.0);
     if (deg < 0) deg += 360;
@@ -173,7 +177,9 @@ Problem dbb_problem(const std::vector<formats::DbbRun>& runs) {
   std::vector<double> reading(g.size());
   for (std::size_t i = 0; i < g.size(); ++i)
     reading[i] = y[static_cast<Eigen::Index>(i)] - fit.residual[static_cast<Eigen::Index>(i)];
-  Problem p = assemble_problem(runs, geo, machine_time, reading, std::make_shared<const BasePredictions>(base, y));
+  Problem p = assemble_problem(runs, geo, machine_time, reading,
+                               std::make_shared<const BasePredictions>(
+                                   [geo](const std::vector<Eigen::Index>* rows) { return lai_base(*geo, rows); }, y));
   // The yardstick of the contributions, as a ballbar's software ranks errors: the largest circular
   // deviation G of a run (ISO 230-4: the range of the reading about the run's least-squares circle), and
   // a finding's part of it the same range of its fitted term.

@@ -185,13 +185,27 @@ Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
   return v;
 }
 
+Eigen::VectorXd BasePredictions::predict(const std::vector<bool>& use) const {
+  if (held_) return base_prediction(*held_, y_, use);
+  // base_prediction's steps, on the same numbers.
+  const auto rows = rows_in_use(use);
+  Eigen::VectorXd fitted;
+  {
+    const Block in_use = make_(&rows);
+    const LsqResult fit = solve_lsq(in_use.columns, y_(rows), Eigen::VectorXd(), in_use.names);
+    if (!fit.ok) return {};
+    fitted = fit.fitted;
+  }
+  return make_(nullptr).columns * fitted;
+}
+
 std::shared_ptr<const Eigen::VectorXd> BasePredictions::of(const std::vector<bool>& use) const {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& [mask, predicted] : recent_)
       if (mask == use) return predicted;
   }
-  auto predicted = std::make_shared<const Eigen::VectorXd>(base_prediction(base_, y_, use));
+  auto predicted = std::make_shared<const Eigen::VectorXd>(predict(use));
   const std::lock_guard<std::mutex> lock(mutex_);
   if (recent_.size() >= kept) recent_.erase(recent_.begin());
   recent_.emplace_back(use, predicted);

@@ -162,16 +162,25 @@ Eigen::VectorXd base_prediction(const Block& base, const Eigen::VectorXd& y_um, 
 // each fold's training rows -- again and again. Thread safe.
 class BasePredictions {
  public:
-  BasePredictions(Block base, Eigen::VectorXd y_um) : base_(std::move(base)), y_(std::move(y_um)) {}
+  // The base's rows `rows` (nullptr: every row), each row the same whichever others are asked for.
+  using BaseRows = std::function<Block(const std::vector<Eigen::Index>* rows)>;
+  BasePredictions(Block base, Eigen::VectorXd y_um)
+      : held_(std::make_shared<const Block>(std::move(base))), y_(std::move(y_um)) {}
+  // The base made again each time it is needed (a mask not predicted lately) from what the problem holds anyway (a
+  // DBB problem's Lai base from the samples' geometry), so that the problem holds its base once, not twice: first
+  // the rows in use, fitted, then every row, predicted; never both at once.
+  BasePredictions(BaseRows make_base, Eigen::VectorXd y_um) : make_(std::move(make_base)), y_(std::move(y_um)) {}
   // Empty when the fit fails.
   [[nodiscard]] std::shared_ptr<const Eigen::VectorXd> of(const std::vector<bool>& use) const;
   [[nodiscard]] Eigen::Index rows() const { return y_.size(); }
   [[nodiscard]] const Eigen::VectorXd& y() const { return y_; }
-  [[nodiscard]] const Block& base() const { return base_; }
+  [[nodiscard]] Block base() const { return held_ ? *held_ : make_(nullptr); }
 
  private:
+  [[nodiscard]] Eigen::VectorXd predict(const std::vector<bool>& use) const;
   static constexpr std::size_t kept = 10;  // masks: every row and 8 folds, and one more
-  Block base_;
+  std::shared_ptr<const Block> held_;
+  BaseRows make_;
   Eigen::VectorXd y_;
   mutable std::mutex mutex_;
   mutable std::vector<std::pair<std::vector<bool>, std::shared_ptr<const Eigen::VectorXd>>> recent_;  // latest last

@@ -90,6 +90,7 @@ bool backlash_dbb_term(const DbbTerms& t, Candidate& c) {
   const std::vector<std::string> names{results::name(results::backlash, t.plane, 0),
                                        results::name(results::backlash, t.plane, 1)};
   auto shapes = std::make_shared<Shapes>();
+  for (auto* v : {&shapes->lambda, &shapes->c, &shapes->s}) v->reserve(t.g.size());
   for (const Geo& p : t.g) {
     shapes->lambda.push_back(p.lambda);
     shapes->c.push_back(p.c);

@@ -169,7 +169,7 @@ bool shows_backlash(const DbbTerms& t) {
   // The base's own backlash columns (the ballbar diagnostics' base has them) are tested with the rest of it as
   // the base; else the ideal step is, with the base's span projected out (Lai's base is rank-deficient for
   // in-plane runs: only its span matters).
-  const Block& fitted = t.base->base();
+  const Block fitted = t.base->base();
   Eigen::MatrixXd base = fitted.columns, step(n, 2);
   std::vector<Eigen::Index> own;
   for (Eigen::Index k = 0; k < base.cols(); ++k)

@@ -120,6 +120,7 @@ std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std
 bool cyclic_error_dbb_term(const DbbTerms& t, Candidate& c) {
   // The commanded positions (the drives' when read from the encoders): at the first delay, 0.
   auto u = std::make_shared<Undelayed>();
+  for (auto* v : {&u->sz, &u->cz, &u->proj_a, &u->proj_b}) v->reserve(t.g.size());
   for (const Geo& g : t.g) {
     double sn = 0, cs = 0;
     dbb::fast_sincos(g.zeta_rad, sn, cs);

@@ -8,8 +8,8 @@ namespace guideway::models::explain::effects {
 namespace {
 
 bool lateral_play_dbb_term(const DbbTerms& t, Candidate& c) {
-  c.variants.push_back(make_variant(
-      t.g, {results::name(results::lateral_play, t.plane, 0), results::name(results::lateral_play, t.plane, 1)},
+  c.variants.push_back(make_lazy_variant(
+      t.geo, {results::name(results::lateral_play, t.plane, 0), results::name(results::lateral_play, t.plane, 1)},
       [](const Geo& p, double* o) {
         o[0] = p.lambda * 0.5 * p.sgn_a * p.s;
         o[1] = p.lambda * 0.5 * p.sgn_b * p.c;

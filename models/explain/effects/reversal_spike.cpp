@@ -13,8 +13,8 @@ namespace {
 bool reversal_spike_dbb_term(const DbbTerms& t, Candidate& c) {
   for (double tau_ms : {2.0, 5.0, 10.0, 20.0, 50.0, 100.0}) {
     const double tau = tau_ms * 1e-3;
-    Variant v = make_variant(
-        t.g, {results::name(results::reversal_spike, t.plane, 0), results::name(results::reversal_spike, t.plane, 1)},
+    Variant v = make_lazy_variant(
+        t.geo, {results::name(results::reversal_spike, t.plane, 0), results::name(results::reversal_spike, t.plane, 1)},
         [tau](const Geo& p, double* o) {
           o[0] = p.lambda * p.c * (-p.sgn_a) * dbb::reversal_spike_decay(p.since_a_s, tau);
           o[1] = p.lambda * p.s * (-p.sgn_b) * dbb::reversal_spike_decay(p.since_b_s, tau);

@@ -8,7 +8,7 @@ namespace guideway::models::explain::effects {
 namespace {
 
 bool servo_mismatch_dbb_term(const DbbTerms& t, Candidate& c) {
-  c.variants.push_back(make_variant(t.g, {results::name(results::servo_mismatch)}, [](const Geo& p, double* o) {
+  c.variants.push_back(make_lazy_variant(t.geo, {results::name(results::servo_mismatch)}, [](const Geo& p, double* o) {
     o[0] = p.lambda * p.dir * p.feed_m_per_s * p.s * p.c * 1e3;  // 1 ms of lag difference; v in m/s -> um
   }));
   return true;

@@ -18,8 +18,8 @@ bool stick_slip_dbb_term(const DbbTerms& t, Candidate& c) {
   for (double f_hz : {5.0, 10.0, 20.0}) {
     for (double tau_ms : {50.0, 200.0}) {
       const double tau = tau_ms * 1e-3;
-      Variant v = make_variant(
-          t.g, {results::name(results::stick_slip, t.plane, 0), results::name(results::stick_slip, t.plane, 1)},
+      Variant v = make_lazy_variant(
+          t.geo, {results::name(results::stick_slip, t.plane, 0), results::name(results::stick_slip, t.plane, 1)},
           [=](const Geo& p, double* o) {
             o[0] = p.lambda * p.c * (-p.sgn_a) * dbb::reversal_spike_decay(p.since_a_s, tau) *
                    std::sin(2 * pi * f_hz * p.since_a_s);

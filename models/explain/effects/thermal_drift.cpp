@@ -35,7 +35,7 @@ bool thermal_drift_dbb_term(const DbbTerms& t, Candidate& c) {
       axes = {1, 2};
     else
       axes = {which};
-    Variant v = make_variant(t.g, drift_names(axes, offsets, t.plane), [=](const Geo& p, double* o) {
+    Variant v = make_lazy_variant(t.geo, drift_names(axes, offsets, t.plane), [=](const Geo& p, double* o) {
       for (std::size_t j = 0; j < axes.size(); ++j) {
         const int a = axes[j];
         const double proj = a == 0 ? 1.0 : p.lambda * (a == 1 ? p.c : p.s);

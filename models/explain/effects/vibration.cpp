@@ -107,6 +107,8 @@ class LineSearch {
     // Only the bins up to half the FFT's size are read: the reflected half is not formed.
     fft_.SetFlag(Eigen::FFT<double>::HalfSpectrum);
     // Each sample's bin and projections: the same for every residual the generator is given.
+    bin_.reserve(t.g.size());
+    for (auto* v : {&weights_[0], &weights_[1], &weights_[2], &step_sin_, &step_cos_}) v->reserve(t.g.size());
     for (std::size_t i = 0, first = 0; i < t.g.size(); ++i) {
       if (t.g[i].run != t.g[first].run) first = i;
       bin_.push_back(static_cast<std::size_t>(std::max(0.0, std::round((t.g[i].t_s - t.g[first].t_s) / dt_))));

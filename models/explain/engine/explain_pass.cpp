@@ -208,6 +208,9 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options, const S
       return !places.empty() && can_set_aside(places);
     };
   chosen.run(settled);
+  // The final fit's design (every row, the base and every term) is a pass's largest transient: the models the
+  // selection kept are dropped first rather than held beside it (bench/README.md "EXPLAIN's footprint").
+  sel.drop_models();
   std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
   add_findings(problem, sel, chosen, y, sigma, visible_floor, options.keep_columns, rep, steps);
   rep.considered = chosen.considered();

@@ -42,6 +42,11 @@ class FoldFits {
   void refold(std::vector<Term>& terms, std::size_t k) const;
 
   [[nodiscard]] std::size_t folds() const { return folds_.size(); }
+  // The fold models kept dropped (made again when asked for: the same numbers).
+  void drop_models() const {
+    fold_models_.clear();
+    fold_model_bytes_ = 0;
+  }
 
  private:
   // Candidate `cand`'s variant chosen on fold f's training rows against the model of the terms (but `skip`)

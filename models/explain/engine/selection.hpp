@@ -37,6 +37,12 @@ class Selection {
   // The model of the base and the terms (but `skip`) on all the data.
   [[nodiscard]] Model model(const std::vector<Term>& terms, std::size_t skip = none) const;
   // Held-out RMS of the base, the terms (but `skip`) and candidate `trial` (FoldFits::heldout).
+  // The models kept, on all the data and in the folds, dropped (made again when asked for: the same numbers); the
+  // held-out figures stay.
+  void drop_models() const {
+    models_.clear();
+    fits_.drop_models();
+  }
   [[nodiscard]] HeldOut heldout(const std::vector<Term>& terms, std::size_t skip, std::size_t trial = none,
                                 const Variant* fixed = nullptr) const;
 

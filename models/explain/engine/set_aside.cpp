@@ -132,6 +132,7 @@ Variant cropped_generated(Variant v, const std::shared_ptr<const std::vector<Eig
 // Nothing of the variants is copied: the reduced problem's read the whole problem's rows when used.
 Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const std::vector<OffsetAfter>& after) {
   Reduced out;
+  out.kept.reserve(static_cast<std::size_t>(std::count(keep.begin(), keep.end(), true)));
   for (std::size_t i = 0; i < keep.size(); ++i)
     if (keep[i]) out.kept.push_back(static_cast<Eigen::Index>(i));
   const auto kept = std::make_shared<const std::vector<Eigen::Index>>(out.kept);
@@ -145,6 +146,7 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
   q.terms_per_run = p.terms_per_run;
   q.deviation_um = p.deviation_um;
   q.deviation_name = p.deviation_name;
+  q.samples.reserve(kept->size());
   for (const Eigen::Index i : *kept) q.samples.push_back(p.samples[static_cast<std::size_t>(i)]);
   if (!p.station_of.empty())
     for (const Eigen::Index i : *kept) q.station_of.push_back(p.station_of[static_cast<std::size_t>(i)]);

@@ -51,12 +51,14 @@ class VariantSetCache {
         for (const auto& v : *t.pool) bytes += static_cast<std::size_t>(v.block.columns.size()) * sizeof(double);
       }
     // Bounds the memory: each model holds an n x rank basis, each entry the generated variants it keeps alive.
-    if (entries_.size() >= 64 || held_ + bytes > budget_) {
-      entries_.clear();
-      held_ = 0;
-    }
+    if (entries_.size() >= 64 || held_ + bytes > budget_) clear();
     held_ += bytes;
     entries_.emplace(key, std::move(e));
+  }
+
+  void clear() {
+    entries_.clear();
+    held_ = 0;
   }
 
  private:
