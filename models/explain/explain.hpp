@@ -103,6 +103,10 @@ struct Problem {
   // runs share no clock): such a term cannot predict a run held out whole, so held-out rows are then
   // blocks of every run, whatever the number of runs.
   bool terms_per_run = false;
+  // Each sample's station (its place on the grid the runs revisit, 0 = the lowest), for a base that is a
+  // function of position (a traverse's geometry). Set: held-out rows are interleaved along the stations,
+  // never a block at a run's end, where a fold would extrapolate the base (docs/explain.md "Held out").
+  std::vector<std::size_t> station_of;
   // The yardstick the findings' contributions are given against (um; NaN = none): for DBB runs the
   // largest circular deviation G of a run, as a ballbar's software ranks errors.
   double deviation_um = std::numeric_limits<double>::quiet_NaN();

@@ -174,10 +174,120 @@ double chord(double x_m, double step_m, const Layout& l, int k) {
   return (std::pow(xi + sigma, k) - std::pow(xi, k)) / sigma;
 }
 
+// What the passes share at each station (their mean) against the polynomial of order `order`, the strongest wave
+// and the yaw's part, in units of the scatter the passes show about each other (each station's readings less a
+// constant per direction and a line in time: a rocking and a drift are not scatter). judged: every station read by
+// two passes or more, in one file, with scatter left to estimate.
+struct SharedGeometry {
+  bool judged = false;
+  std::size_t stations = 0;
+  double chi2 = 0.0, dof = 0.0;
+};
+
+SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
+                               const std::vector<std::size_t>& stations, int order) {
+  SharedGeometry out;
+  if (stations.empty() || l.files != 1) return out;
+  const std::size_t S = *std::max_element(stations.begin(), stations.end()) + 1;
+  out.stations = S;
+  const auto n = y.size();
+  std::vector<double> count(S, 0.0), mean(S, 0.0), dir(S, 0.0), time(S, 0.0), yaw(S, 0.0);
+  std::vector<double> dir_of(static_cast<std::size_t>(n)), t_of(static_cast<std::size_t>(n));
+  Eigen::Index row = 0;
+  for (const TraversePass& p : passes)
+    for (std::size_t i = 0; i < p.x_m.size(); ++i, ++row) {
+      const std::size_t s = stations[static_cast<std::size_t>(row)];
+      dir_of[static_cast<std::size_t>(row)] = p.direction;
+      t_of[static_cast<std::size_t>(row)] = l.timed ? p.t_s[i] : 0.0;
+      count[s] += 1;
+      mean[s] += y[row];
+      dir[s] += p.direction;
+      time[s] += t_of[static_cast<std::size_t>(row)];
+      if (l.yaw) yaw[s] += p.yaw_rad[i] * 1e6;
+    }
+  for (std::size_t s = 0; s < S; ++s) {
+    if (count[s] < 2) return out;
+    mean[s] /= count[s];
+    dir[s] /= count[s];
+    time[s] /= count[s];
+    yaw[s] /= count[s];
+  }
+  // The scatter: each reading about its station's mean, less a constant per direction and a line in time.
+  Eigen::MatrixXd d(n, 2);
+  Eigen::VectorXd r(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const std::size_t s = stations[static_cast<std::size_t>(i)];
+    r[i] = y[i] - mean[s];
+    d(i, 0) = dir_of[static_cast<std::size_t>(i)] - dir[s];
+    d(i, 1) = t_of[static_cast<std::size_t>(i)] - time[s];
+  }
+  const double dof_scatter = static_cast<double>(n) - static_cast<double>(S) - 2.0;
+  if (dof_scatter < 8) return out;
+  const double scatter_rss = (r - d * d.colPivHouseholderQr().solve(r)).squaredNorm();
+  const double sigma2 = std::max(scatter_rss / dof_scatter, 1e-12);
+  // The shared part: station means, weighted by their readings, against the polynomial, the yaw and one wave.
+  const auto S_i = static_cast<Eigen::Index>(S);
+  Eigen::VectorXd w(S_i), m(S_i), x(S_i);
+  for (std::size_t s = 0; s < S; ++s) {
+    const auto k = static_cast<Eigen::Index>(s);
+    w[k] = std::sqrt(count[s]);
+    m[k] = mean[s] * w[k];
+    x[k] = l.x0_m + l.step_m * static_cast<double>(s);
+  }
+  const Eigen::Index q = order + (l.yaw ? 1 : 0);
+  Eigen::MatrixXd a(S_i, q + 2);
+  for (Eigen::Index k = 0; k < S_i; ++k) {
+    for (int j = 1; j <= order; ++j) a(k, j - 1) = chord(x[k], l.step_m, l, j) * w[k];
+    if (l.yaw) a(k, order) = yaw[static_cast<std::size_t>(k)] * w[k];
+  }
+  const double pi = std::acos(-1.0);
+  const auto rss_at = [&](double f) {
+    for (Eigen::Index k = 0; k < S_i; ++k) {
+      a(k, q) = std::sin(2 * pi * f * (x[k] + l.step_m / 2)) * w[k];
+      a(k, q + 1) = std::cos(2 * pi * f * (x[k] + l.step_m / 2)) * w[k];
+    }
+    return (m - a * a.colPivHouseholderQr().solve(m)).squaredNorm();
+  };
+  // The wave: the periodogram's strongest line over the pitch wave's range (1.5 cycles over the span to 2.5 steps
+  // a cycle), of what the polynomial and the yaw leave, then refined between its neighbours.
+  const Eigen::MatrixXd base_part = a.leftCols(q);
+  const Eigen::VectorXd left = m - base_part * base_part.colPivHouseholderQr().solve(m);
+  const double lo = 1.5 / l.span_m, hi = 1.0 / (2.5 * l.step_m), df = 0.25 / l.span_m;
+  double best_f = lo, best_power = -1.0;
+  for (double f = lo; f <= hi; f += df) {
+    double c = 0.0, sn = 0.0;
+    for (Eigen::Index k = 0; k < S_i; ++k) {
+      const double th = 2 * pi * f * (x[k] + l.step_m / 2);
+      c += left[k] * w[k] * std::cos(th);
+      sn += left[k] * w[k] * std::sin(th);
+    }
+    if (c * c + sn * sn > best_power) {
+      best_power = c * c + sn * sn;
+      best_f = f;
+    }
+  }
+  double f_lo = best_f - df, f_hi = best_f + df;
+  const double g = (std::sqrt(5.0) - 1) / 2;
+  double f1 = f_hi - g * (f_hi - f_lo), f2 = f_lo + g * (f_hi - f_lo), r1 = rss_at(f1), r2 = rss_at(f2);
+  for (int it = 0; it < 30; ++it) {
+    if (r1 < r2) {
+      f_hi = f2, f2 = f1, r2 = r1, f1 = f_hi - g * (f_hi - f_lo), r1 = rss_at(f1);
+    } else {
+      f_lo = f1, f1 = f2, r1 = r2, f2 = f_lo + g * (f_hi - f_lo), r2 = rss_at(f2);
+    }
+  }
+  const double shared_rss = std::min({r1, r2, rss_at(best_f)});
+  out.dof = static_cast<double>(S) - static_cast<double>(q) - 3.0;
+  if (out.dof < 8) return out;
+  out.chi2 = shared_rss / sigma2;
+  out.judged = true;
+  return out;
+}
+
 // The identification's polynomial (order by BIC, N ln(RSS/N) + q ln N, up to 8 and fewer than the stations
 // of a pass) through every pass at once, and an offset for each file after the first.
 Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
-                 std::string& note) {
+                 const std::vector<std::size_t>& stations, std::string& note) {
   const auto n = y.size();
   std::size_t fewest = passes.front().x_m.size();
   for (const TraversePass& p : passes) fewest = std::min(fewest, p.x_m.size());
@@ -206,11 +316,44 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
     }
   }
   Block b;
-  b.columns = design(best);
-  for (int k = 1; k <= best; ++k) b.names.push_back("straightness_b" + std::to_string(k) + "_urad");
+  // Where every station is read by two passes or more and what they share is not the polynomial (with, at most, a
+  // pitch wave and the yaw's part: the shared candidates), the geometry is what the passes share: a term per
+  // station, and the candidates are judged on what the passes disagree on (a real surface is not a polynomial).
+  // The engine factors its base per fold: a term per station costs the stations squared times the readings (481
+  // stations, two passes: 5.5 s of CPU), so it is given up to 512 stations; more keep the polynomial, and say so.
+  constexpr std::size_t most_station_terms = 512;
+  const SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
+  const bool not_polynomial = shared.judged && shared.chi2 > shared.dof + 3.09 * std::sqrt(2.0 * shared.dof);
+  const bool per_station = not_polynomial && shared.stations <= most_station_terms;
+  if (per_station) {
+    const auto q = static_cast<Eigen::Index>(shared.stations);
+    b.columns = Eigen::MatrixXd::Zero(n, q + static_cast<Eigen::Index>(l.files) - 1);
+    Eigen::Index row = 0;
+    for (const TraversePass& p : passes)
+      for (std::size_t i = 0; i < p.x_m.size(); ++i, ++row) {
+        b.columns(row, static_cast<Eigen::Index>(stations[static_cast<std::size_t>(row)])) = 1.0;
+        if (p.file > 0) b.columns(row, q + static_cast<Eigen::Index>(p.file) - 1) = 1.0;
+      }
+    for (Eigen::Index k = 0; k < q; ++k) b.names.push_back("station" + std::to_string(k + 1) + "_urad");
+  } else {
+    b.columns = design(best);
+    for (int k = 1; k <= best; ++k) b.names.push_back("straightness_b" + std::to_string(k) + "_urad");
+  }
   for (std::size_t f = 1; f < l.files; ++f) b.names.push_back("file" + std::to_string(f + 1) + ".offset_urad");
-  note = "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." + std::to_string(highest) +
-         ") common to every pass" + (l.files > 1 ? ", an offset per file after the first" : "");
+  note = (per_station ? "base: a term per station (" + std::to_string(shared.stations) +
+                            " stations, each read by two passes or more): the geometry the passes share, which the "
+                            "polynomial of order " + std::to_string(best) + " with a pitch wave" +
+                            (l.yaw ? " and the yaw's part" : "") + " leaves " +
+                            printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
+                            " times the passes' own scatter; a wave the passes share is then geometry, not a finding"
+                      : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
+                            std::to_string(highest) + ") common to every pass") +
+         (l.files > 1 ? ", an offset per file after the first" : "") +
+         (not_polynomial && !per_station
+              ? "; the passes share more than the polynomial (" + printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
+                    " times their own scatter), but a term per station is given to " +
+                    std::to_string(most_station_terms) + " stations at most (" + std::to_string(shared.stations) + " here)"
+              : std::string());
   return b;
 }
 
@@ -238,6 +381,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
       g.push_back({k, pass.x_m[i] + pass.step_m / 2, t, pass.direction, l.yaw ? pass.yaw_rad[i] * 1e6 : 0.0});
       if (!std::isfinite(pass.pitch_rad[i])) throw std::invalid_argument(pass.source + ": a reading is not finite");
       p.samples.push_back({k, std::tan(pass.pitch_rad[i]) * 1e6, pass.x_m[i] * 1e3, t});
+      p.station_of.push_back(static_cast<std::size_t>(std::max(0.0, std::round((pass.x_m[i] - l.x0_m) / l.step_m))));
     }
     p.runs.push_back({"pass" + std::to_string(k + 1) + (pass.direction > 0 ? " (+)" : " (-)"), pass.direction, 0.0,
                       "traverse", pass.source, g[index - pass.x_m.size()].t_s});
@@ -245,7 +389,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
   Eigen::VectorXd y(static_cast<Eigen::Index>(p.samples.size()));
   for (std::size_t i = 0; i < p.samples.size(); ++i) y[static_cast<Eigen::Index>(i)] = p.samples[i].y_um;
   std::string base_note;
-  p.base = base_block(passes, l, y, base_note);
+  p.base = base_block(passes, l, y, p.station_of, base_note);
   const effects::TraverseTerms terms{g, l.both, l.timed, l.yaw, l.span_m, l.step_m};
   p.candidates = effects::traverse_candidates(terms);
   // A term's size across every pass: a rocking is constant along each pass, +r one way and -r the other.

@@ -29,6 +29,15 @@ HeldOutScheme heldout_scheme(const Problem& problem, const ExplainOptions& optio
     h.name = "leave-one-run-out (" + std::to_string(h.folds) + " runs)";
     return h;
   }
+  if (problem.station_of.size() == n) {
+    // Every k-th station of each run, shifted by one from run to run: a station held out in one run is a training
+    // row in the next, and every held-out station has training stations on both sides but at the grid's ends.
+    for (std::size_t i = 0; i < n; ++i)
+      h.fold_of[i] = static_cast<int>((problem.station_of[i] + problem.samples[i].run) % static_cast<std::size_t>(h.folds));
+    h.name = "interleaved " + std::to_string(h.folds) + "-fold cross-validation (every " + std::to_string(h.folds) +
+             "th station of every run, shifted run to run)";
+    return h;
+  }
   for (std::size_t k = 0; k < ranges.size(); ++k) {
     const auto [a, b] = ranges[k];
     const std::size_t len = b - a;

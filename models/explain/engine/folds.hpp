@@ -1,6 +1,6 @@
 #pragma once
-// EXPLAIN's held-out rows (models/explain/engine, docs/explain.md "Held out"): whole runs or contiguous blocks of
-// every run, the rows of each fold, and a term's columns on a fold's training and held-out rows.
+// EXPLAIN's held-out rows (models/explain/engine, docs/explain.md "Held out"): whole runs, interleaved stations or
+// contiguous blocks of every run, the rows of each fold, and a term's columns on a fold's training and held-out rows.
 // Pure functions; thread safe.
 
 #include <cstdint>
@@ -16,8 +16,9 @@
 namespace guideway::models::explain::engine {
 
 // The held-out rows: whole runs when there are at least three, the base is still determined without any
-// one of them and no candidate has terms of one run alone; otherwise contiguous blocks of every run
-// (staggered between runs).
+// one of them and no candidate has terms of one run alone; otherwise, for a problem with stations (a traverse:
+// Problem::station_of), every k-th station of each run, shifted run to run (a fold never extrapolates the base);
+// otherwise contiguous blocks of every run (staggered between runs).
 struct HeldOutScheme {
   std::vector<int> fold_of;
   int folds = 0;

@@ -148,6 +148,8 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
   q.deviation_name = p.deviation_name;
   q.samples.reserve(kept->size());
   for (const Eigen::Index i : *kept) q.samples.push_back(p.samples[static_cast<std::size_t>(i)]);
+  if (!p.station_of.empty())
+    for (const Eigen::Index i : *kept) q.station_of.push_back(p.station_of[static_cast<std::size_t>(i)]);
   q.base.names = p.base.names;
   q.base.columns.resize(static_cast<Eigen::Index>(kept->size()),
                         p.base.columns.cols() + static_cast<Eigen::Index>(after.size()));
