@@ -1,3 +1,4 @@
+// DBB runs identified and checked by EXPLAIN (dbb_checked.hpp): what the CLI and the live DBB session share.
 #include "models/explain/dbb_checked.hpp"
 
 #include <algorithm>

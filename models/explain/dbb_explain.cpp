@@ -1,3 +1,4 @@
+// EXPLAIN for DBB runs (dbb_explain.hpp): Lai's guideway terms as the base, the runs' geometry for the effects.
 #include "models/explain/dbb_explain.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// An EXPLAIN report as JSON and as text (explain_result.hpp): findings, locations, notes and held-out figures.
 #include "models/explain/explain_result.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The locate step (locate.hpp): whether a residual is noise, and where it is structured, band by band (db4).
 #include "models/explain/locate.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// EXPLAIN for faced-workpiece profiles (profile_explain.hpp): Mu's carriage straightness as the base.
 #include "models/explain/profile_explain.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// EXPLAIN for spindle run-out records (runout_explain.hpp): per record an offset and the once-per-revolution term.
 #include "models/explain/runout_explain.hpp"
 
 #include <algorithm>
@@ -245,7 +246,8 @@ Problem runout_problem(const std::vector<RunoutRecord>& records) {
       p.samples.push_back({k, r.runout_m[i] * 1e6, std::fmod(theta, two_pi) * 180.0 / std::numbers::pi, theta / omega});
     }
     p.runs.push_back(
-        {r.source + " (" + printf_number("%g", r.rpm) + " rpm, " + std::to_string(whole) + " rev)", 1, 0.0, "runout"});
+        {r.source + " (" + printf_number("%g", r.rpm) + " rpm, " + std::to_string(whole) + " rev)", 1, 0.0, "runout",
+         "", 0.0});  // no source beside a label that names the file
   }
   // Base: per record an offset and the once-per-revolution term (the face's tilt, the set-up's centring).
   const std::size_t nr = records.size();

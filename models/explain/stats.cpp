@@ -1,3 +1,4 @@
+// Distribution functions and whiteness tests (stats.hpp): F and chi-square tails, runs and portmanteau tests.
 #include "models/explain/stats.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// EXPLAIN for straightness traverses and slope profiles (traverse_explain.hpp): a polynomial or per-station base.
 #include "models/explain/traverse_explain.hpp"
 
 #include <algorithm>

@@ -348,14 +348,6 @@ MinimumZone minimum_zone(const std::vector<double>& x, const std::vector<double>
 
 namespace {
 
-// The stations of a profile in steps from the first (t_k = k on the grid; the measured spacing / step when
-// positions jitter), from p.x_m.
-std::vector<double> steps_of(const StraightnessProfile& p, double s) {
-  std::vector<double> t(p.x_m.size());
-  for (std::size_t k = 0; k < t.size(); ++k) t[k] = (p.x_m[k] - p.x_m[0]) / s;
-  return t;
-}
-
 // End-point line: d_k = h_k - (t_k/t_n) h_n. Brownian bridge (on the grid): var d_k = (s u)^2 k (n-k)/n,
 // var(d_a - d_b) = (s u)^2 m (n-m)/n with m = |a - b|.
 void end_point_line(StraightnessProfile& p, const std::vector<double>& t, std::size_t n, double s, double su) {

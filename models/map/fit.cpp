@@ -25,8 +25,6 @@ using Eigen::Index;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-
 Index ix(std::size_t i) { return static_cast<Index>(i); }
 
 // ---- What the day's tests can see ----

@@ -1,3 +1,5 @@
+// What the effects' DBB terms are built from (dbb_terms.hpp): the runs' per-sample geometry, the drives' lagging
+// motion.
 #include "models/explain/effects/dbb_terms.hpp"
 
 namespace guideway::models::explain::effects {
