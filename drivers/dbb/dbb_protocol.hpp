@@ -133,7 +133,8 @@ class DbbDecoder {
   bool held_open_ = false;  // `held_` is the incomplete cycle before our own SYNC, not yet emitted
   bool behind_ = false;     // producer: a cycle was incomplete at its SYNC; emit at the next SYNC
   DbbCycle held_;
-  std::int64_t written_ns_ = 0;  // producer: when the write of the open cycle's SYNC returned
+  std::int64_t written_ns_ = 0;       // producer: when the write of the open cycle's SYNC returned
+  bool held_empty_at_sync_ = false;  // nothing of the held cycle had come when our next SYNC went out
   std::array<double, max_encoders> last_m_{};
   std::array<bool, max_encoders> have_count_{};
   std::array<std::uint32_t, max_encoders> prev_count_{};
