@@ -268,6 +268,15 @@ TEST(DbbProtocol, AsSyncProducerAnAnswerStampedWhileOurSyncWasWrittenIsTheCycleB
   EXPECT_EQ(c.t_sync_ns, 500);
   EXPECT_EQ(c.flags, static_cast<std::uint32_t>(sample_after_gap));
   EXPECT_EQ(d.empty_cycles(), 1u);
+  // Cycle 600 lacks node 1 (rebooting) at SYNC 700: node 1's answer stamped during SYNC 700's write is
+  // already 700's (the node, woken by the write, ran first), not 600's.
+  d.feed(make_position_pdo(5, 24), 610, c);
+  d.feed(make_position_pdo(127, 34), 610, c);
+  EXPECT_FALSE(d.sync_sent(700, 710, c));
+  ASSERT_TRUE(d.feed(make_position_pdo(1, 15), 705, c).cycle_ready);
+  EXPECT_EQ(c.t_sync_ns, 600);
+  EXPECT_EQ(c.present, 0b110u);
+  EXPECT_TRUE(c.flags & sample_partial);
 }
 
 // Random answers (late, early, missing, repeated) to a producer's SYNCs: never more samples than SYNCs,
