@@ -503,9 +503,9 @@ bool DbbDriver::send_sync() {
   // not read) costs this SYNC, counted; the silence that follows is a timeout as usual.
   // The SYNC's time is taken just before it is written, and again when the write returned: the SYNC
   // reached the bus in between, so an answer stamped before the second may still be the cycle
-  // before's (the decoder gives it there if that cycle lacks it: a node answering the earlier SYNC
-  // while this thread was held up between the clock read and the write); one stamped after it is
-  // this SYNC's, or a late answer to the one before that the next answer replaces (late_pdos).
+  // before's (the decoder gives it there when nothing of that cycle had come: nodes answering the
+  // earlier SYNC while this thread was held up between the clock read and the write); one stamped
+  // after it is this SYNC's, or a late answer to the one before that the next answer replaces (late_pdos).
   const std::int64_t sync_ns = mono_now_ns();
   const auto wrote = can::try_write_can_frame(sock_.fd(), sync, error);
   const std::int64_t now = mono_now_ns();

@@ -174,17 +174,20 @@ bool DbbDecoder::sync_sent(std::int64_t t_ns, std::int64_t written_ns, DbbCycle&
     ready = true;
     behind_ = false;
   } else if (open_ && !emitted_) {
-    // Incomplete, or nothing yet: held until a PDO stamped after this SYNC shows that nothing more of
-    // it can come (after its write returned, when nothing of it had come: see feed_position_as_producer).
+    // Incomplete, or nothing yet: held until a PDO stamped after held_until_ns_ shows that nothing more
+    // of it can come.
     held_ = cur_;
     held_open_ = true;
-    held_empty_at_sync_ = cur_.present == 0;
+    // An empty cycle: the nodes answer late together, and an answer stamped during this SYNC's write is
+    // theirs. A partial one: the node missing did not answer (a reboot, a lost frame), and its answer
+    // stamped during the write may already be to this SYNC (the node's thread, woken by our write, can
+    // run before our clock read after it), so the SYNC's time before the write is the boundary.
+    held_until_ns_ = cur_.present == 0 ? written_ns : t_ns;
     behind_ = true;
   } else if (open_) {
     behind_ = false;  // emitted complete before this SYNC: the nodes keep up
   }
   open_cycle(t_ns, 0);
-  written_ns_ = written_ns;
   return ready;
 }
 
@@ -199,13 +202,7 @@ void DbbDecoder::feed_position_as_producer(std::size_t i, std::uint32_t count, s
                                            DbbCycle& cycle) {
   const std::uint32_t bit = 1u << i;
   if (held_open_) {
-    // On the bus before our SYNC, read after it. Nothing of the held cycle had come at our SYNC: the
-    // nodes answer late together, and an answer stamped during our SYNC's write is theirs. Part of it:
-    // the missing node did not answer (a reboot, a lost frame), and an answer stamped during the write
-    // may already be to this SYNC (the node's thread, woken by our write, can run before our clock read
-    // after it), so the SYNC's time before the write is the boundary.
-    const std::int64_t boundary_ns = held_empty_at_sync_ ? written_ns_ : cur_.t_sync_ns;
-    if (t_ns < boundary_ns && !(held_.present & bit)) {
+    if (t_ns < held_until_ns_ && !(held_.present & bit)) {  // on the bus before our SYNC, read after it
       store(i, count, held_);
       if (held_.present == all_mask_) r.cycle_ready = emit_held(cycle);
       return;

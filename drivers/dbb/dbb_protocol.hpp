@@ -79,9 +79,10 @@ struct DbbCycle {
 // cycle still open: once a cycle was incomplete at its SYNC (the nodes are behind), cycles are emitted
 // at the next SYNC instead of as soon as they are complete, until one is complete in time again. And
 // a PDO on the bus before our SYNC can still be read after it: an incomplete (or empty) cycle stays
-// open past our SYNC until a PDO stamped after that SYNC's write returned (or the next SYNC) shows
-// nothing more of it can come. The SYNC reaches the bus somewhere within its write: a node's answer
-// stamped then was sent before the node saw it.
+// open past our SYNC until a PDO stamped after it (or the next SYNC) shows nothing more of it can come.
+// For an empty cycle "after it" means after its write returned (the SYNC reaches the bus within the
+// write, and nodes late together answer the SYNC before); for a partial one, the SYNC's time before the
+// write (the node missing may answer the new SYNC during the write).
 class DbbDecoder {
  public:
   struct Result {
@@ -133,8 +134,7 @@ class DbbDecoder {
   bool held_open_ = false;  // `held_` is the incomplete cycle before our own SYNC, not yet emitted
   bool behind_ = false;     // producer: a cycle was incomplete at its SYNC; emit at the next SYNC
   DbbCycle held_;
-  std::int64_t written_ns_ = 0;       // producer: when the write of the open cycle's SYNC returned
-  bool held_empty_at_sync_ = false;  // nothing of the held cycle had come when our next SYNC went out
+  std::int64_t held_until_ns_ = 0;  // a PDO stamped before it may still be the held cycle's (sync_sent)
   std::array<double, max_encoders> last_m_{};
   std::array<bool, max_encoders> have_count_{};
   std::array<std::uint32_t, max_encoders> prev_count_{};
