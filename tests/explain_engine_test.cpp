@@ -528,3 +528,20 @@ TEST(ExplainEngine, AVariantMadeOnDemandIsItsBlock) {
     EXPECT_EQ(models::explain::to_json(a).dump(), models::explain::to_json(b).dump()) << size;
   }
 }
+
+// A candidate none of whose variants can be fitted beside the model (its column is the base's own, twice over) is
+// still listed in `considered`, with why: docs/explain.md promises every candidate there.
+TEST(ExplainEngine, ACandidateThatCannotBeFittedIsListedWithWhy) {
+  auto p = make_problem([](int) { return 0.0; }, 8);
+  models::explain::Candidate twin{"thermal_drift", "the base's offset again", {}, {}, 0};
+  twin.variants.resize(1);
+  twin.variants[0].block.names = {"twin_um"};
+  twin.variants[0].block.columns = 2.0 * p.base.columns.leftCols(1);
+  p.candidates.push_back(twin);
+  const auto rep = models::explain::explain(p);
+  EXPECT_TRUE(rep.findings.empty());
+  const auto it = std::find_if(rep.considered.begin(), rep.considered.end(),
+                               [](const auto& c) { return c.effect == "thermal_drift"; });
+  ASSERT_TRUE(it != rep.considered.end()) << models::explain::to_text(rep);
+  EXPECT_EQ(it->verdict, "cannot be fitted: every variant lies in what the base fit");
+}

@@ -159,7 +159,7 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
     for (std::size_t i = 0; i < kept->size(); ++i)
       q.base.columns(static_cast<Eigen::Index>(i), b) =
           stands_off(p, after[k], static_cast<std::size_t>((*kept)[i])) ? 1.0 : 0.0;
-    q.base.names.push_back("offset_after_set_aside_" + std::to_string(k + 1) + "_um");
+    q.base.names.push_back(offset_after_set_aside_prefix + std::to_string(k + 1) + "_um");
   }
   for (const Candidate& c : p.candidates) {
     Candidate& d = q.candidates.emplace_back();

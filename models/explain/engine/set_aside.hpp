@@ -42,6 +42,9 @@ std::size_t set_aside(const Problem& p, const std::vector<Location>& places, std
 // A place's run and the first sample after the stretch set aside about it (or its run's end).
 OffsetAfter offset_after(const Problem& p, const Location& l, const std::vector<bool>& keep);
 
+// The base's name of the reading's offset after a place set aside (without_samples), before its number.
+inline constexpr const char* offset_after_set_aside_prefix = "offset_after_set_aside_";
+
 // A run the structure tests could look at that setting aside would leave too short for them (a traverse's
 // pass of 33 readings): its label, or "" when there is none.
 std::string starved_run(const Problem& p, const std::vector<bool>& keep);
