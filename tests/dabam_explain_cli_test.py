@@ -25,6 +25,8 @@ import tempfile
 
 import numpy as np
 
+from dabam_passes import forward_and_return, read_entry
+
 GUIDEWAY, DABAM = sys.argv[1], sys.argv[2]
 failures = []
 
@@ -69,30 +71,7 @@ rc, out, err = explain("--instrument", "autocollimator", "--range-arcsec", "1000
 check(rc == 0, "dabam-020 with the TA80 and --range-arcsec 1000: explained")
 
 
-def read_entry(name):
-    meta = json.load(open(os.path.join(DABAM, name + ".txt")))
-    a = np.loadtxt(os.path.join(DABAM, name + ".dat"), skiprows=int(meta.get("FILE_HEADER_LINES", 0)), ndmin=2)
-    order = np.argsort(a[:, 0])
-    return a[order, 0] * float(meta["X1_FACTOR"]), a[order, 1] * float(meta["Y1_FACTOR"])
-
-
-def forward_and_return(path, x_m, slope_rad, rocking_rad, seed, settling=0.0):
-    """Two passes over the same stations, the readings +r forward and -r back, the return with fresh noise; with
-    `settling`, the return's first readings settle after the reversal (that many slope RMS, decaying over 3)."""
-    n, step = len(x_m), (x_m[-1] - x_m[0]) / (len(x_m) - 1)
-    back = slope_rad + np.random.RandomState(seed).normal(0.0, 0.1 * np.std(slope_rad), n) - rocking_rad
-    back[::-1] += settling * np.std(slope_rad) * np.exp(-np.arange(n) / 3.0)
-    arcsec = 180 / np.pi * 3600
-    rows = ["# step_mm = %.9g" % (step * 1e3), "x_mm,pitch_arcsec,t_s,pass"]
-    rows += ["%.6f,%.6f,%.1f,1" % ((x_m[0] + i * step) * 1e3, (slope_rad[i] + rocking_rad) * arcsec, 2.0 * i)
-             for i in range(n)]
-    rows += ["%.6f,%.6f,%.1f,2" % ((x_m[0] + i * step) * 1e3, back[i] * arcsec, 2.0 * (2 * n - 1 - i) + 10)
-             for i in range(n - 1, -1, -1)]
-    with open(path, "w") as f:
-        f.write("\n".join(rows) + "\n")
-
-
-x, slope = read_entry("dabam-053")
+x, slope = read_entry(DABAM, "dabam-053")
 rocking_arcsec = 1.5 * np.std(slope) * 180 / np.pi * 3600
 with tempfile.TemporaryDirectory() as tmp:
     for label, r_arcsec in (("rocking", rocking_arcsec), ("alone", 0.0)):

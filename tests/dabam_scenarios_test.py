@@ -27,12 +27,13 @@ import tempfile
 
 import numpy as np
 
+from dabam_passes import ARCSEC, forward_and_return, read_entry
+
 GUIDEWAY, DABAM = sys.argv[1], sys.argv[2]
 QUICK = "--quick" in sys.argv[3:]
 FLATS = ["dabam-009", "dabam-052", "dabam-054"] if QUICK else [
     "dabam-009", "dabam-030", "dabam-031", "dabam-034", "dabam-052", "dabam-053", "dabam-054", "dabam-059",
     "dabam-060", "dabam-061"]
-ARCSEC = 180 / np.pi * 3600
 failures = []
 
 
@@ -40,28 +41,6 @@ def check(cond, what):
     print(("ok   " if cond else "FAIL ") + what)
     if not cond:
         failures.append(what)
-
-
-def read_entry(name):
-    meta = json.load(open(os.path.join(DABAM, name + ".txt")))
-    a = np.loadtxt(os.path.join(DABAM, name + ".dat"), skiprows=int(meta.get("FILE_HEADER_LINES", 0)), ndmin=2)
-    order = np.argsort(a[:, 0])
-    return a[order, 0] * float(meta["X1_FACTOR"]), a[order, 1] * float(meta["Y1_FACTOR"])
-
-
-def two_passes(path, x_m, slope_rad, rocking_rad, seed, settling=0.0):
-    """Forward, then back over the same stations: +r forward, -r back, the return with fresh noise; with `settling`,
-    the return's first readings settle after the reversal (that many slope RMS, decaying over 3 readings)."""
-    n, step = len(x_m), (x_m[-1] - x_m[0]) / (len(x_m) - 1)
-    back = slope_rad + np.random.RandomState(seed).normal(0.0, 0.1 * np.std(slope_rad), n) - rocking_rad
-    back[::-1] += settling * np.std(slope_rad) * np.exp(-np.arange(n) / 3.0)
-    rows = ["# step_mm = %.9g" % (step * 1e3), "x_mm,pitch_arcsec,t_s,pass"]
-    rows += ["%.6f,%.6f,%.1f,1" % ((x_m[0] + i * step) * 1e3, (slope_rad[i] + rocking_rad) * ARCSEC, 2.0 * i)
-             for i in range(n)]
-    rows += ["%.6f,%.6f,%.1f,2" % ((x_m[0] + i * step) * 1e3, back[i] * ARCSEC, 2.0 * (2 * n - 1 - i) + 10)
-             for i in range(n - 1, -1, -1)]
-    with open(path, "w") as f:
-        f.write("\n".join(rows) + "\n")
 
 
 def explain(path):
@@ -80,7 +59,7 @@ alone_clean, beside_clean, rows = 0, 0, []
 def rocking_case(name, x, slope, seed, settling, path):
     """The rocking's size found (NaN: missed), the other findings, and the rocking's verdict when missed."""
     r_arcsec = np.std(slope) * ARCSEC
-    two_passes(path, x, slope, r_arcsec / ARCSEC, seed, settling)
+    forward_and_return(path, x, slope, r_arcsec / ARCSEC, seed, settling)
     rep, err = explain(path)
     check(rep is not None, "%s with a rocking (settling %g) as two passes: explained (%s)" % (name, settling, err))
     found = {f["effect"]: f["parameters"] for f in rep["findings"]} if rep else {}
@@ -93,11 +72,11 @@ def rocking_case(name, x, slope, seed, settling, path):
 
 with tempfile.TemporaryDirectory() as tmp:
     for name in FLATS:
-        x, slope = read_entry(name)
+        x, slope = read_entry(DABAM, name)
         seed = int(name.split("-")[1])
         r_arcsec = np.std(slope) * ARCSEC
         path = os.path.join(tmp, name + ".csv")
-        two_passes(path, x, slope, 0.0, seed)
+        forward_and_return(path, x, slope, 0.0, seed)
         alone, err = explain(path)
         check(alone is not None, "%s alone as two passes: explained (%s)" % (name, err))
         alone_findings = sorted(f["effect"] for f in alone["findings"]) if alone else ["(failed)"]
