@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it: installs what is missing, then
-#   1. a Release build (as packagers build): every test, the long ones (label `slow`) included;
+#   1. a Release build (as packagers build): every test but the long variants (label `slow`);
 #   2. an ASan+UBSan build: every test except `slow` and `peer` (a peer's program run against our files);
 #   3. a TSan build of the threaded code: the tests labelled `tsan` (ring stress, daemon threads).
+# The long variants (statistics over many seeds, the demo and the three-plane session run anew) are the
+# stage `slow`, in the Release build: CI runs it after these (.ci/run).
 # While one stage's tests run, the next stage's build runs beside them at idle priority (SCHED_IDLE: it
 # takes only what the tests leave of the CPUs; most of them wait on sockets and emulated machines), so
 # that its stage starts with its build done or nearly. Each stage's tests are checked against their
 # timeouts (scripts/test_margin.py: over a third of its timeout warns, over half fails the stage).
-# GUIDEWAY_TEST_STAGES="main asan tsan" selects stages; GUIDEWAY_TEST_LABEL=slow adds the long variants
-# to the ASan stage too; GUIDEWAY_TEST_QUICK=1 leaves them out of the Release stage.
+# GUIDEWAY_TEST_STAGES="main asan tsan" selects stages (and `slow`); GUIDEWAY_TEST_LABEL=slow adds the
+# long variants to the Release and ASan stages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
@@ -53,7 +55,7 @@ run_ctest() {  # dir, ctest args...
 
 # Each stage's build: its tree, its options, and the targets it tests (none named: everything).
 build_dir() {
-  case $1 in main) echo build ;; asan) echo build-asan ;; tsan) echo build-tsan ;; esac
+  case $1 in main | slow) echo build ;; asan) echo build-asan ;; tsan) echo build-tsan ;; esac
 }
 build_stage() {  # stage
   # The sanitizer stages compile with clang when it is installed (setup.sh installs it): the same tree's
@@ -66,7 +68,7 @@ build_stage() {  # stage
     compilers=(-DCMAKE_C_COMPILER="$cc" -DCMAKE_CXX_COMPILER="$cxx")
   fi
   case $1 in
-    main) scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON ;;
+    main | slow) scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON ;;
     # -g1 (line tables), as CMakeLists.txt's RelWithDebInfo default: sanitizer reports need only file:line.
     # Test programs and the CLI at -O0 (GUIDEWAY_THIN_PROGRAM_FLAGS): half their compile time, and the
     # libraries under test keep -O1.
@@ -111,10 +113,9 @@ trap '[ -n "$bg_stage" ] && kill -- -"$bg_pid" 2>/dev/null; true' EXIT
 
 # The peers' own programs (LinuxCNC loading our tables: label `peer`) gain nothing from our sanitizers,
 # and the CLI steps they run are sanitized in compensate_cli_test: they run in the Release stage only.
-label_args=()
-if [ "${GUIDEWAY_TEST_QUICK:-0}" = 1 ]; then label_args=(-LE slow); fi
+label_args=(-LE slow)
 asan_label_args=(-LE 'slow|peer')
-if [ "${GUIDEWAY_TEST_LABEL:-}" = "slow" ]; then asan_label_args=(-LE peer); fi
+if [ "${GUIDEWAY_TEST_LABEL:-}" = "slow" ]; then label_args=(); asan_label_args=(-LE peer); fi
 
 read -r -a stage_list <<<"$stages"
 for i in "${!stage_list[@]}"; do
@@ -123,7 +124,8 @@ for i in "${!stage_list[@]}"; do
   t0=$(date +%s)
   case $stage in
     main) echo "== main build (Release): all tests${label_args:+ but 'slow'}" ;;
-    asan) echo "== ASan+UBSan build: all tests but 'slow' and 'peer'" ;;
+    slow) echo "== main build (Release): the tests labelled 'slow'" ;;
+    asan) echo "== ASan+UBSan build: all tests but ${asan_label_args[1]//|/ and }" ;;
     tsan) echo "== TSan build: tests labelled 'tsan'" ;;
     *) echo "unknown stage $stage" >&2; exit 2 ;;
   esac
@@ -136,6 +138,7 @@ for i in "${!stage_list[@]}"; do
   if [ -n "$next" ]; then start_background_build "$next"; fi
   case $stage in
     main) run_ctest build "${label_args[@]}" ;;
+    slow) run_ctest build -L slow ;;
     asan) ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
             run_ctest build-asan "${asan_label_args[@]}" ;;
     tsan) TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1 run_ctest build-tsan -L tsan ;;
