@@ -139,6 +139,7 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
   Problem& q = out.problem;
   q.model = p.model;
   q.domain = p.domain;
+  q.timed = p.timed;
   q.runs = p.runs;
   q.notes = p.notes;
   q.clock_origin_s = p.clock_origin_s;
