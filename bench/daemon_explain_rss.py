@@ -9,8 +9,9 @@ EXPLAIN (`guideway explain --latest --kind dbb`). Prints VmHWM before the sessio
 
     bench/daemon_explain_rss.py BUILD_DIR [--machine config/machine-example.toml] [--memory-mb MB] [--set KEY=VALUE]
 
---set passes a session option to `guideway start dbb` (e.g. feed_mm_per_min=500: circles twice as long, 2 x ~18k
-samples).
+--set passes a session option to `guideway start dbb` (docs/protocol.md). The emulated ballbar traces r = 100 mm at
+1000 mm/min whatever the session asks: with it, a session at another feed (feed_mm_per_min=500 for 2 x ~18k
+samples) ignores every arc until its timeout, so 2 x 18k needs a real or differently started ballbar.
 """
 import argparse
 import json
@@ -40,7 +41,7 @@ def main():
     ap.add_argument("--machine", default=os.path.join(ROOT, "config", "machine-example.toml"))
     ap.add_argument("--memory-mb", type=int, help="[explain] memory_mb of the daemon's config (default: none)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="a session option of `guideway start dbb` (repeatable), e.g. feed_mm_per_min=500")
+                    help="a session option of `guideway start dbb` (repeatable)")
     o = ap.parse_args()
     d = tempfile.mkdtemp(prefix="daemon_explain_rss_")
     env = dict(os.environ, XDG_RUNTIME_DIR=os.path.join(d, "run"), XDG_STATE_HOME=os.path.join(d, "state"))
