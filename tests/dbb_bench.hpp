@@ -138,15 +138,14 @@ struct Bench {
       if (s.value_count != 3) return why = "value_count " + std::to_string(s.value_count), false;
       if (j > 0 && s.t_mono_ns < samples[j - 1].t_mono_ns) return why = "time goes backwards", false;
       if (!sent[i].late && ((s.flags & sample_partial) != 0) == complete) return why = "partial flag wrong", false;
-      // Its time is its cycle's SYNC: ours as the emulator echoed it, before it answered (the cycle's
-      // t_mono_ns); the emulator's was received as it wrote the cycle, before the next one. Both are the
-      // kernel's real-time stamp put on the monotonic clock by an offset read to within a
+      // Its time is its cycle's SYNC as received: the emulator's own, or ours as it echoed it, in the batch
+      // of the answers it computed at the cycle's t_mono_ns, so after that and before the next. That is
+      // the kernel's real-time stamp put on the monotonic clock by an offset read to within a
       // few microseconds (realtime_minus_mono_ns: half its readings' width, at most 5 us when they are
       // tight): a stamp 24 ns after the emulator's clock read came out 24 ns before it.
       constexpr std::int64_t conversion_slack_ns = 10'000;
-      if (driver_produces_sync ? s.t_mono_ns > sent[i].t_mono_ns + conversion_slack_ns
-                               : s.t_mono_ns < sent[i].t_mono_ns - conversion_slack_ns ||
-                                     (i + 1 < sent.size() && s.t_mono_ns > sent[i + 1].t_mono_ns + conversion_slack_ns))
+      if (s.t_mono_ns < sent[i].t_mono_ns - conversion_slack_ns ||
+          (i + 1 < sent.size() && s.t_mono_ns > sent[i + 1].t_mono_ns + conversion_slack_ns))
         return why = "time " + std::to_string(s.t_mono_ns) + " is not this cycle's (sent at " +
                      std::to_string(sent[i].t_mono_ns) +
                      (i + 1 < sent.size() ? ", the next at " + std::to_string(sent[i + 1].t_mono_ns) : std::string()) + ")",

@@ -117,7 +117,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     }
     auto trial_after = after;
     for (const auto& l : places) trial_after.push_back(engine::offset_after(problem, l, trial));
-    Reduced reduced = engine::without_samples(problem, trial, trial_after);
+    Reduced reduced = engine::without_samples(problem, trial, engine::fitted_offsets(problem, trial, trial_after));
     if (options.on_progress)
       options.on_progress("pass " + std::to_string(round + 2) + ", " + std::to_string(aside.size() + places.size()) +
                           " places set aside");
@@ -135,6 +135,9 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     return std::move(first.report);
   }
   engine::release_explained(problem, options, first.report.noise_um, aside, keep, after, *later);
+  std::vector<std::string> left_out;  // the offsets the last pass did not fit, and why
+  (void)engine::fitted_offsets(problem, keep, after, &left_out);
+  later->report.notes.insert(later->report.notes.end(), left_out.begin(), left_out.end());
   return with_places_set_aside(problem, first.report, std::move(later->report), std::move(aside), keep);
 }
 

@@ -211,7 +211,7 @@ bool DbbEmulator::send_faults(int fd, std::vector<can_frame>& batch) {
   return true;
 }
 
-void DbbEmulator::send_cycle(int fd, bool with_sync) {
+void DbbEmulator::send_cycle(int fd, int syncs) {
   const std::int64_t now = mono_now_ns();
   std::string err;
   // Bus-off: the error frame, then nothing until the controller restarts, then its notice.
@@ -224,9 +224,9 @@ void DbbEmulator::send_cycle(int fd, bool with_sync) {
     return;
   }
   if (now < bus_off_until_ns_.load()) return;
-  // A cycle goes out as one batch (like a node's TPDOs right after SYNC): SYNC, injected faults, PDOs.
-  std::vector<can_frame> batch;
-  if (with_sync) batch.push_back(drivers::dbb::make_sync_frame());
+  // A cycle goes out as one batch (like a node's TPDOs right after SYNC): SYNC (ours, or the driver's
+  // echoed: every one read since the last answer), injected faults, PDOs.
+  std::vector<can_frame> batch(static_cast<std::size_t>(syncs), drivers::dbb::make_sync_frame());
   if (!send_faults(fd, batch)) return;
   DbbSentCycle c;
   c.t_s = static_cast<double>(now - t0_ns_) * 1e-9;
@@ -280,9 +280,9 @@ void DbbEmulator::loop() {
     const std::int64_t now = mono_now_ns();
     const bool stalled = now < stall_until_ns_.load();
     if (conn_.valid() && !stalled) {
-      for (int n = burst_.exchange(0); n > 0; --n) send_cycle(conn_.fd(), true);
+      for (int n = burst_.exchange(0); n > 0; --n) send_cycle(conn_.fd(), 1);
       if (settings_.produce_sync && now >= next_sync) {
-        send_cycle(conn_.fd(), true);
+        send_cycle(conn_.fd(), 1);
         next_sync += period_ns;
         if (next_sync < now) next_sync = now + period_ns;
       }
@@ -314,7 +314,7 @@ void DbbEmulator::loop() {
       // answered (when this thread was held up and several are queued, the older ones are past: a
       // real node never answers a backlog).
       std::string err;
-      bool sync_seen = false;
+      int syncs_read = 0;
       bool closed = false;
       const std::int64_t t = mono_now_ns();
       for (;;) {
@@ -327,10 +327,7 @@ void DbbEmulator::loop() {
         if (rr == drivers::can::ReadResult::truncated) continue;
         if (rr != drivers::can::ReadResult::frame) break;
         if (drivers::dbb::classify_frame(f).kind == drivers::dbb::FrameInfo::Kind::sync) {
-          sync_seen = true;
-          // The SYNC back to its producer where the bus put it, before the answers to it (SocketCAN's
-          // CAN_RAW_RECV_OWN_MSGS): what it reads before the echo answered the SYNC before.
-          if (!settings_.produce_sync) node_out.push_back(f);
+          ++syncs_read;
           continue;
         }
         if (t < stall_until_ns_.load()) continue;  // a stalled bus: nothing answers
@@ -341,9 +338,11 @@ void DbbEmulator::loop() {
         close_conn();
         continue;
       }
-      if (sync_seen && !settings_.produce_sync && mono_now_ns() >= stall_until_ns_.load()) {
+      if (syncs_read > 0 && !settings_.produce_sync && mono_now_ns() >= stall_until_ns_.load()) {
         const std::uint64_t before = cycles_.load();
-        send_cycle(conn_.fd(), false);
+        // Each SYNC back to its producer where the bus put it, ahead of the answers and in their batch
+        // (SocketCAN's CAN_RAW_RECV_OWN_MSGS): what it reads before an echo answered the SYNC before.
+        send_cycle(conn_.fd(), syncs_read);
         can_frame next{};
         if (cycles_.load() != before &&
             ::recv(conn_.fd(), &next, sizeof next, MSG_PEEK | MSG_DONTWAIT) == static_cast<ssize_t>(sizeof next) &&

@@ -93,7 +93,7 @@ class DbbEmulator {
  private:
   void loop();
   void wake();
-  void send_cycle(int fd, bool with_sync);
+  void send_cycle(int fd, int syncs);  // syncs: SYNC frames ahead of the answers (ours, or echoes)
   bool send_faults(int fd, std::vector<can_frame>& batch);
   void close_conn();
   // Node faults queued by inject_*, the nodes' own frames (heartbeats, SDO answers): on the loop's thread.

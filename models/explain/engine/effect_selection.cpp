@@ -6,10 +6,27 @@
 #include <utility>
 
 #include "core/number_format.hpp"
+#include "models/explain/engine/set_aside.hpp"
 #include "models/explain/engine/term_tests.hpp"
 #include "models/explain/locate.hpp"
 
 namespace guideway::models::explain::engine {
+
+namespace {
+
+// What a model of `terms` fits, in words: the base (with the reading's offsets after places set aside, when the
+// problem has them) and the effects taken.
+std::string fitted_by(const Problem& p, const std::vector<Term>& terms) {
+  const bool offsets = std::any_of(p.base.names.begin(), p.base.names.end(), [](const std::string& name) {
+    return name.rfind(offset_after_set_aside_prefix, 0) == 0;
+  });
+  std::string out = offsets ? "the base and the reading's offsets after the places set aside" : "the base";
+  for (std::size_t k = 0; k < terms.size(); ++k)
+    out += (k + 1 < terms.size() ? ", " : " and ") + p.candidates[terms[k].cand].effect;
+  return out;
+}
+
+}  // namespace
 
 EffectSelection::EffectSelection(const Problem& problem, const ExplainOptions& options, const Selection& sel,
                                  Model base, HeldOut base_heldout, double sigma, double visible_floor)
@@ -97,8 +114,9 @@ void EffectSelection::prune(const std::string& after) {
   }
 }
 
-// Every candidate not banned tried against the model, Bonferroni over the trials, lowest BIC first.
-std::vector<Trial> EffectSelection::trials() const {
+// Every candidate not banned tried against the model, Bonferroni over the trials, lowest BIC first; `unfittable`
+// gets those no variant of which can be fitted beside the model.
+std::vector<Trial> EffectSelection::trials(std::vector<std::size_t>& unfittable) const {
   std::vector<Trial> out;
   for (std::size_t c = 0; c < nc_; ++c) {
     const Candidate& cand = p_.candidates[c];
@@ -107,7 +125,10 @@ std::vector<Trial> EffectSelection::trials() const {
       o_.on_progress("looking for effect " + std::to_string(terms_.size() + 1) + ": trying " + cand.effect + " (" +
                      std::to_string(c + 1) + " of " + std::to_string(nc_) + ")");
     Trial t = sel_.trial(c, terms_, cur_);
-    if (t.index != none) out.push_back(std::move(t));
+    if (t.index != none)
+      out.push_back(std::move(t));
+    else
+      unfittable.push_back(c);
   }
   for (auto& t : out) {
     t.bonferroni *= static_cast<double>(out.size());
@@ -121,7 +142,15 @@ std::vector<Trial> EffectSelection::trials() const {
 // joins the model; every other trial's verdict is kept. Returns the effect taken ("" = none).
 std::string EffectSelection::forward_step() {
   std::string accepted;
-  for (auto& t : trials()) {
+  std::vector<std::size_t> unfittable;
+  std::vector<Trial> tried = trials(unfittable);
+  // Listed all the same (docs/explain.md: `considered` lists every candidate): its columns add nothing to what the
+  // model fits, so no test can be made of it.
+  for (const std::size_t c : unfittable)
+    if (!has_term(c))
+      verdict_[c] = Considered{p_.candidates[c].effect, 0.0, 1.0,
+                               "cannot be fitted: every variant lies in what " + fitted_by(p_, terms_) + " fit"};
+  for (auto& t : tried) {
     const Candidate& cand = p_.candidates[t.cand];
     Considered con{cand.effect, t.delta_bic, t.p, ""};
     if (!accepted.empty()) {

@@ -45,7 +45,7 @@ class EffectSelection {
   [[nodiscard]] bool has_term(std::size_t c) const;
   void drop(std::size_t k, Considered why);
   void prune(const std::string& after);
-  [[nodiscard]] std::vector<Trial> trials() const;
+  [[nodiscard]] std::vector<Trial> trials(std::vector<std::size_t>& unfittable) const;
   std::string forward_step();
   bool drop_partial_fits();
   bool partial_fits_only(const Settled& settled, bool end_there);

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <memory>
 
+#include "core/number_format.hpp"
 #include "models/common/least_squares.hpp"
+#include "models/explain/engine/subspace.hpp"
 #include "models/explain/locate.hpp"
 #include "models/explain/stats.hpp"
 
@@ -159,7 +161,7 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
     for (std::size_t i = 0; i < kept->size(); ++i)
       q.base.columns(static_cast<Eigen::Index>(i), b) =
           stands_off(p, after[k], static_cast<std::size_t>((*kept)[i])) ? 1.0 : 0.0;
-    q.base.names.push_back("offset_after_set_aside_" + std::to_string(k + 1) + "_um");
+    q.base.names.push_back(offset_after_set_aside_prefix + std::to_string(k + 1) + "_um");
   }
   for (const Candidate& c : p.candidates) {
     Candidate& d = q.candidates.emplace_back();
@@ -231,6 +233,103 @@ OffsetAfter offset_after(const Problem& p, const Location& l, const std::vector<
   std::size_t i = l.end_sample;
   while (i < keep.size() && !keep[i] && p.samples[i].run == run) ++i;
   return {run, i};
+}
+
+namespace {
+
+// What fitted_offsets leaves of a column beyond the base: below this fraction, the offsets take it.
+constexpr double least_left_beyond_offsets = 1.0 / 32;
+
+// `x`'s columns with their part in the span of the orthonormal `q` taken off.
+Eigen::MatrixXd beyond(const Eigen::MatrixXd& q, Eigen::MatrixXd x) {
+  if (q.cols() > 0) x -= q * (q.transpose() * x);
+  return x;
+}
+
+// The basis of the offsets `chosen` of `offsets` (their columns beyond the base).
+Eigen::MatrixXd basis_of(const Eigen::MatrixXd& offsets, const std::vector<bool>& chosen) {
+  std::vector<Eigen::Index> cols;
+  for (std::size_t k = 0; k < chosen.size(); ++k)
+    if (chosen[k]) cols.push_back(static_cast<Eigen::Index>(k));
+  return cols.empty() ? Eigen::MatrixXd(offsets.rows(), 0) : span_basis(offsets(Eigen::all, cols));
+}
+
+// The least fraction of a column of `x` (columns beyond the base) left beyond the span of the orthonormal `q`.
+double least_left(const Eigen::MatrixXd& x, const Eigen::MatrixXd& q) {
+  const Eigen::MatrixXd left = beyond(q, x);
+  double least = 1.0;
+  for (Eigen::Index j = 0; j < x.cols(); ++j)
+    least = std::min(least, left.col(j).squaredNorm() / x.col(j).squaredNorm());
+  return least;
+}
+
+}  // namespace
+
+std::vector<OffsetAfter> fitted_offsets(const Problem& p, const std::vector<bool>& keep,
+                                        const std::vector<OffsetAfter>& after, std::vector<std::string>* notes) {
+  if (after.empty()) return after;
+  const auto n = static_cast<Eigen::Index>(p.samples.size());
+  const std::vector<Eigen::Index> rows = rows_in_use(keep);
+  const auto m = static_cast<Eigen::Index>(rows.size());
+  const Eigen::MatrixXd base_q =
+      p.base.columns.cols() > 0 ? span_basis(p.base.columns(rows, Eigen::all)) : Eigen::MatrixXd(m, 0);
+  Eigen::MatrixXd offsets(m, static_cast<Eigen::Index>(after.size()));
+  for (std::size_t k = 0; k < after.size(); ++k)
+    for (Eigen::Index i = 0; i < m; ++i)
+      offsets(i, static_cast<Eigen::Index>(k)) =
+          stands_off(p, after[k], static_cast<std::size_t>(rows[static_cast<std::size_t>(i)])) ? 1.0 : 0.0;
+  offsets = beyond(base_q, std::move(offsets));
+  const Eigen::MatrixXd all = basis_of(offsets, std::vector<bool>(after.size(), true));
+  // The listed variants all the offsets take (those they do not, no fewer of them can), each by its candidate:
+  // their columns beyond the base.
+  std::vector<std::pair<std::size_t, Eigen::MatrixXd>> taken;
+  for (std::size_t c = 0; c < p.candidates.size(); ++c) {
+    for (const Variant& v : p.candidates[c].variants) {
+      Eigen::MatrixXd scratch;
+      const Eigen::MatrixXd& whole = columns_of(v, n, scratch);
+      if (whole.rows() != n) continue;
+      const Eigen::MatrixXd kept = whole(rows, Eigen::all);
+      Eigen::MatrixXd x = beyond(base_q, kept);
+      // A column the base itself fits is the base's matter, not the offsets'.
+      std::vector<Eigen::Index> free;
+      for (Eigen::Index j = 0; j < x.cols(); ++j)
+        if (x.col(j).squaredNorm() > rank_tolerance * kept.col(j).squaredNorm()) free.push_back(j);
+      if (free.empty()) continue;
+      x = Eigen::MatrixXd(x(Eigen::all, free));
+      if (least_left(x, all) < least_left_beyond_offsets) taken.emplace_back(c, std::move(x));
+    }
+  }
+  // The offsets taken in the order of the samples they start at, each kept when, with those kept before it, it
+  // leaves every column enough: the one that completes a candidate's column is left out.
+  std::vector<bool> chosen(after.size(), taken.empty());
+  std::vector<std::size_t> order(after.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return after[a].second < after[b].second; });
+  for (const std::size_t k : taken.empty() ? std::vector<std::size_t>{} : order) {
+    chosen[k] = true;
+    const Eigen::MatrixXd q = basis_of(offsets, chosen);
+    const auto it = std::find_if(taken.begin(), taken.end(),
+                                 [&](const auto& t) { return least_left(t.second, q) < least_left_beyond_offsets; });
+    if (it == taken.end()) continue;
+    chosen[k] = false;
+    if (!notes) continue;
+    const auto [run, from] = after[k];
+    const std::string unit = p.domain == "angle_deg" ? " deg" : " mm";
+    const std::string where = from < p.samples.size() && p.samples[from].run == run
+                                  ? p.runs[run].label + " from " + printf_number("%.4g", p.samples[from].where) + unit + " on"
+                                  : "the runs after " + p.runs[run].label;
+    std::string note = "the reading's offset after a place set aside (" + where +
+                       ") was not fitted: on the samples kept it is, with the base and the offsets before it, " +
+                       p.candidates[it->first].effect +
+                       "'s own column, and a step there cannot be told from that effect";
+    // Two places whose offsets start at the same sample (one stretch set aside in two rounds) are one note.
+    if (std::find(notes->begin(), notes->end(), note) == notes->end()) notes->push_back(std::move(note));
+  }
+  std::vector<OffsetAfter> out;
+  for (std::size_t k = 0; k < after.size(); ++k)
+    if (chosen[k]) out.push_back(after[k]);
+  return out;
 }
 
 // A run the structure tests could look at that setting aside would leave too short for them (a traverse's
@@ -305,7 +404,8 @@ void repeats_among(std::vector<Mismatch>& remaining, const std::string& domain) 
 void release_explained(const Problem& problem, const ExplainOptions& options, double sigma,
                        std::vector<Location>& aside, std::vector<bool>& keep, std::vector<OffsetAfter>& after,
                        Pass& last) {
-  const std::vector<bool> fault = unexplained_places(problem, last, aside, keep, after, sigma, options.alpha);
+  const std::vector<bool> fault =
+      unexplained_places(problem, last, aside, keep, fitted_offsets(problem, keep, after), sigma, options.alpha);
   const auto faults = static_cast<std::size_t>(std::count(fault.begin(), fault.end(), true));
   if (faults == 0 || faults == aside.size()) return;
   std::vector<Location> places;
@@ -315,7 +415,7 @@ void release_explained(const Problem& problem, const ExplainOptions& options, do
   set_aside(problem, places, trial);
   std::vector<OffsetAfter> trial_after;
   for (const auto& l : places) trial_after.push_back(offset_after(problem, l, trial));
-  const Reduced reduced = without_samples(problem, trial, trial_after);
+  const Reduced reduced = without_samples(problem, trial, fitted_offsets(problem, trial, trial_after));
   if (options.on_progress)
     options.on_progress("pass with " + std::to_string(places.size()) + " of " + std::to_string(aside.size()) +
                         " places set aside (the findings explain the others)");

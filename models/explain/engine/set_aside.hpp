@@ -42,6 +42,19 @@ std::size_t set_aside(const Problem& p, const std::vector<Location>& places, std
 // A place's run and the first sample after the stretch set aside about it (or its run's end).
 OffsetAfter offset_after(const Problem& p, const Location& l, const std::vector<bool>& keep);
 
+// The base's name of the reading's offset after a place set aside (without_samples), before its number.
+inline constexpr const char* offset_after_set_aside_prefix = "offset_after_set_aside_";
+
+// The offsets of `after` that may be fitted: not one that takes a candidate's column. On the samples kept, an offset
+// whose run ends at the place set aside (a traverse's turnaround) is with the base the level of the later runs: a
+// reflector rocking's own column, which no test could then tell from the offset, and the candidate could not be
+// fitted at all. An offset is left out when, with it, less than 1/32 of a listed variant's column beyond the base
+// is left beyond the offsets (a fold could then hold out all that is left); the fewest left out, most taken first.
+// `notes`, when given, gets one line per offset left out: its place and the candidate whose column it takes.
+std::vector<OffsetAfter> fitted_offsets(const Problem& p, const std::vector<bool>& keep,
+                                        const std::vector<OffsetAfter>& after,
+                                        std::vector<std::string>* notes = nullptr);
+
 // A run the structure tests could look at that setting aside would leave too short for them (a traverse's
 // pass of 33 readings): its label, or "" when there is none.
 std::string starved_run(const Problem& p, const std::vector<bool>& keep);

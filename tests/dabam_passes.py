@@ -1,0 +1,32 @@
+"""Real DABAM flats (tests/data/dabam) as a traverse's forward and return passes, for the EXPLAIN tests
+(dabam_explain_cli_test.py, dabam_scenarios_test.py): one way to read an entry and to write its passes."""
+import json
+import os
+
+import numpy as np
+
+ARCSEC = 180 / np.pi * 3600  # arcsec per rad
+
+
+def read_entry(dabam, name):
+    """An entry's stations (m) and slopes (rad), in increasing x, read as its .txt metadata says."""
+    meta = json.load(open(os.path.join(dabam, name + ".txt")))
+    a = np.loadtxt(os.path.join(dabam, name + ".dat"), skiprows=int(meta.get("FILE_HEADER_LINES", 0)), ndmin=2)
+    order = np.argsort(a[:, 0])
+    return a[order, 0] * float(meta["X1_FACTOR"]), a[order, 1] * float(meta["Y1_FACTOR"])
+
+
+def forward_and_return(path, x_m, slope_rad, rocking_rad, seed, settling=0.0):
+    """Two passes over the same stations, 2 s a station: the readings +r forward and -r back, the return with fresh
+    noise of 10 % of the slope RMS; with `settling`, the return's first readings settle after the reversal (that many
+    slope RMS, decaying over 3 readings). Written in the traverse format (docs/formats.md)."""
+    n, step = len(x_m), (x_m[-1] - x_m[0]) / (len(x_m) - 1)
+    back = slope_rad + np.random.RandomState(seed).normal(0.0, 0.1 * np.std(slope_rad), n) - rocking_rad
+    back[::-1] += settling * np.std(slope_rad) * np.exp(-np.arange(n) / 3.0)
+    rows = ["# step_mm = %.9g" % (step * 1e3), "x_mm,pitch_arcsec,t_s,pass"]
+    rows += ["%.6f,%.6f,%.1f,1" % ((x_m[0] + i * step) * 1e3, (slope_rad[i] + rocking_rad) * ARCSEC, 2.0 * i)
+             for i in range(n)]
+    rows += ["%.6f,%.6f,%.1f,2" % ((x_m[0] + i * step) * 1e3, back[i] * ARCSEC, 2.0 * (2 * n - 1 - i) + 10)
+             for i in range(n - 1, -1, -1)]
+    with open(path, "w") as f:
+        f.write("\n".join(rows) + "\n")
