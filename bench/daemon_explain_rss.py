@@ -7,7 +7,11 @@ session (`guideway start dbb --wait`: ccw and cw circles, r = 100 mm, 1000 mm/mi
 EXPLAIN (`guideway explain --latest --kind dbb`). Prints VmHWM before the session, VmHWM when its PARAMS came
 (identification, checked by EXPLAIN), VmHWM after its EXPLAIN, and the samples the EXPLAIN had.
 
-    bench/daemon_explain_rss.py BUILD_DIR [--machine config/machine-example.toml] [--memory-mb MB]
+    bench/daemon_explain_rss.py BUILD_DIR [--machine config/machine-example.toml] [--memory-mb MB] [--set KEY=VALUE]
+
+--set passes a session option to `guideway start dbb` (docs/protocol.md). The emulated ballbar traces r = 100 mm at
+1000 mm/min whatever the session asks: with it, a session at another feed (feed_mm_per_min=500 for 2 x ~18k
+samples) ignores every arc until its timeout, so 2 x 18k needs a real or differently started ballbar.
 """
 import argparse
 import json
@@ -36,6 +40,8 @@ def main():
     ap.add_argument("build")
     ap.add_argument("--machine", default=os.path.join(ROOT, "config", "machine-example.toml"))
     ap.add_argument("--memory-mb", type=int, help="[explain] memory_mb of the daemon's config (default: none)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a session option of `guideway start dbb` (repeatable)")
     o = ap.parse_args()
     d = tempfile.mkdtemp(prefix="daemon_explain_rss_")
     env = dict(os.environ, XDG_RUNTIME_DIR=os.path.join(d, "run"), XDG_STATE_HOME=os.path.join(d, "state"))
@@ -71,8 +77,10 @@ def main():
         time.sleep(3)  # the emulated instruments connect
         before = status_kb(p.pid)
         t0 = time.time()
-        subprocess.run([cli, "start", "dbb", "--wait", "--timeout", "400"], env=env, check=True,
-                       stdout=subprocess.DEVNULL)
+        start = [cli, "start", "dbb", "--wait", "--timeout", "600"]
+        for kv in o.set:
+            start += ["--set", kv]
+        subprocess.run(start, env=env, check=True, stdout=subprocess.DEVNULL)
         at_params = status_kb(p.pid)
         report = None
         for _ in range(600):
@@ -86,7 +94,7 @@ def main():
         cpu = open(f"/proc/{p.pid}/stat").read().split(")")[1].split()
         ticks = os.sysconf("SC_CLK_TCK")
         print(f"guidewayd {daemon[0]}; session {time.time() - t0:.0f} s; memory_mb "
-              f"{o.memory_mb if o.memory_mb is not None else 'default'}")
+              f"{o.memory_mb if o.memory_mb is not None else 'default'}; session options {' '.join(o.set) or 'default'}")
         print(f"VmHWM before the session {before['VmHWM'] / 1024:.1f} MB (VmRSS {before['VmRSS'] / 1024:.1f})")
         print(f"VmHWM at the session's PARAMS {at_params['VmHWM'] / 1024:.1f} MB")
         print(f"VmHWM after its EXPLAIN {after['VmHWM'] / 1024:.1f} MB (VmRSS {after['VmRSS'] / 1024:.1f}); "

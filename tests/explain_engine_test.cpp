@@ -13,6 +13,7 @@
 #include <Eigen/QR>
 #include <nlohmann/json.hpp>
 
+#include "models/explain/engine/set_aside.hpp"
 #include "models/explain/explain.hpp"
 #include "sanitizer_build.hpp"
 
@@ -209,6 +210,20 @@ TEST(ExplainEngine, BumpOutsideTheLibraryIsLocatedNotAttributed) {
   bool located = false;
   for (const auto& [lo, hi] : rep.mismatch[0].ranges) located |= lo <= 127 && 125 <= hi;
   EXPECT_TRUE(located) << rep.mismatch[0].where;
+}
+
+// The problem of the samples a set-aside pass keeps is as untimed as the whole (a traverse read without t_s): the
+// places that pass locates then speak of readings, never of seconds.
+TEST(ExplainEngine, TheSamplesKeptAreAsUntimedAsTheWhole) {
+  models::explain::Problem p = make_problem([](int) { return 0.0; }, 5);
+  std::vector<bool> keep(n, true);
+  std::fill(keep.begin() + 690, keep.begin() + 710, false);
+  for (const bool timed : {false, true}) {
+    p.timed = timed;
+    const auto reduced = models::explain::engine::without_samples(p, keep, {{0, 710}});
+    EXPECT_EQ(reduced.problem.timed, timed);
+    EXPECT_EQ(reduced.problem.samples.size(), static_cast<std::size_t>(n - 20));
+  }
 }
 
 TEST(ExplainEngine, RejectsUnusableProblems) {

@@ -134,6 +134,47 @@ TEST(LsqTriangleTest, KernelsGiveTheSameBits) {
   }
 }
 
+// A design given as blocks of its columns (a problem's base beside a fit's own columns) is solved as the same
+// design copied into one matrix: the same triangle bit for bit, the same estimates, uncertainties and residual
+// (its sums taken block by block: to rounding). Rank deficient too (a column repeated across the blocks).
+TEST(LsqTriangleTest, ColumnBlocksAreTheMatrixTheyMakeUp) {
+  const Eigen::Index shapes[][2] = {{40, 3}, {4099, 7}, {10800, 20}};
+  unsigned seed = 30;
+  for (const auto& s : shapes) {
+    Problem p = random_problem(s[0], s[1], seed++);
+    const Eigen::Index split = s[1] / 2 + 1;
+    if (s[1] > 4) p.a.col(s[1] - 1) = p.a.col(0) * 2.0;  // the second block repeats a direction of the first
+    const Eigen::MatrixXd left = p.a.leftCols(split), right = p.a.rightCols(s[1] - split);
+    const guideway::models::ColumnBlocks blocks{left, right};
+    const Eigen::VectorXd sw = p.w.cwiseSqrt();
+    const Eigen::MatrixXd whole = weighted_triangle(p.a, p.y, sw), parts = weighted_triangle(blocks, p.y, sw);
+    ASSERT_EQ(whole.size(), parts.size());
+    EXPECT_EQ(std::memcmp(whole.data(), parts.data(), sizeof(double) * static_cast<std::size_t>(whole.size())), 0);
+    std::vector<std::string> names;
+    for (Eigen::Index c = 0; c < s[1]; ++c) names.push_back("p" + std::to_string(c));
+    const auto a = guideway::models::solve_lsq(p.a, p.y, p.w, names);
+    const auto b = guideway::models::solve_lsq(blocks, p.y, p.w, names);
+    ASSERT_TRUE(a.ok && b.ok) << a.message << " / " << b.message;
+    EXPECT_EQ(a.unidentifiable, b.unidentifiable);
+    EXPECT_EQ(a.rank, b.rank);
+    for (Eigen::Index c = 0; c < s[1]; ++c) {
+      EXPECT_EQ(a.x[c], b.x[c]) << names[static_cast<std::size_t>(c)];
+      EXPECT_EQ(a.fitted[c], b.fitted[c]) << names[static_cast<std::size_t>(c)];
+      if (std::isnan(a.u[c]))
+        EXPECT_TRUE(std::isnan(b.u[c])) << names[static_cast<std::size_t>(c)];
+      else
+        EXPECT_NEAR(a.u[c], b.u[c], 1e-12 * a.u[c]) << names[static_cast<std::size_t>(c)];
+    }
+    EXPECT_LE((a.residual - b.residual).cwiseAbs().maxCoeff(), 1e-12 * a.residual.cwiseAbs().maxCoeff());
+  }
+  // Blocks of different heights are refused, not read past their end.
+  const Problem p = random_problem(50, 2, 3);
+  const Eigen::MatrixXd shorter = p.a.topRows(49);
+  const auto r = guideway::models::solve_lsq(guideway::models::ColumnBlocks{p.a, shorter}, p.y, p.w,
+                                             {"a", "b", "c", "d"});
+  EXPECT_FALSE(r.ok);
+}
+
 // solve_lsq scans J for NaN and infinity only when the triangle is not finite: a non-finite value
 // anywhere must still be refused, wherever it sits (first or last row, a padded last chunk, a row of
 // zero weight, a column that is otherwise zero, behind a zero first column).

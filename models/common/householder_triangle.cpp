@@ -55,11 +55,17 @@ bool householder_avx2_available() { return avx2_usable(); }
 
 Eigen::MatrixXd weighted_triangle(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
                                   TriangleKernel kernel) {
+  return weighted_triangle(ColumnBlocks{a}, y, sw, kernel);
+}
+
+Eigen::MatrixXd weighted_triangle(const ColumnBlocks& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
+                                  TriangleKernel kernel) {
   if (kernel == TriangleKernel::avx2 && !avx2_usable())
     throw std::invalid_argument("weighted_triangle: the AVX2 kernel is not available on this CPU");
   const bool use_avx2 = kernel == TriangleKernel::avx2 || (kernel == TriangleKernel::automatic && avx2_usable());
-  const Eigen::Index n = a.rows();
-  const Eigen::Index m = a.cols();
+  const Eigen::Index n = y.size();
+  Eigen::Index m = 0;
+  for (const auto& b : a) m += b.cols();
   const Eigen::Index w = m + 1;
   Eigen::MatrixXd r = Eigen::MatrixXd::Zero(w, w);
   const Eigen::Index chunk = std::max<Eigen::Index>(8, chunk_bytes / (Eigen::Index{sizeof(double)} * w)) / 4 * 4;
@@ -69,14 +75,14 @@ Eigen::MatrixXd weighted_triangle(const Eigen::Ref<const Eigen::MatrixXd>& a, co
     const Eigen::Index rows = (used + 3) / 4 * 4;  // zero rows pad the last chunk to a multiple of 4
     double* c = buf.data();
     const double* s = sw.data() + i0;
-    for (Eigen::Index j = 0; j < m; ++j) {
-      const double* src = a.data() + j * a.outerStride() + i0;
-      double* dst = c + j * rows;
-      for (Eigen::Index i = 0; i < used; ++i) dst[i] = src[i] * s[i];
-      for (Eigen::Index i = used; i < rows; ++i) dst[i] = 0.0;
-    }
+    double* dst = c;
+    for (const auto& b : a)
+      for (Eigen::Index j = 0; j < b.cols(); ++j, dst += rows) {
+        const double* src = b.data() + j * b.outerStride() + i0;
+        for (Eigen::Index i = 0; i < used; ++i) dst[i] = src[i] * s[i];
+        for (Eigen::Index i = used; i < rows; ++i) dst[i] = 0.0;
+      }
     const double* yi = y.data() + i0;
-    double* dst = c + m * rows;
     for (Eigen::Index i = 0; i < used; ++i) dst[i] = yi[i] * s[i];
     for (Eigen::Index i = used; i < rows; ++i) dst[i] = 0.0;
     if (use_avx2) {

@@ -4,6 +4,8 @@
 // (a sequential tall-skinny QR), so the chunk being reduced stays in the L1 cache and no weighted
 // copy of the n x m matrix is ever made. Q is never formed. Pure function; thread safe.
 
+#include <vector>
+
 #include <Eigen/Core>
 
 namespace guideway::models {
@@ -16,6 +18,13 @@ namespace guideway::models {
 // the same bits (the sums are formed in one fixed order, without FMA); the choice is for tests.
 enum class TriangleKernel { automatic, portable, avx2 };
 Eigen::MatrixXd weighted_triangle(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
+                                  TriangleKernel kernel = TriangleKernel::automatic);
+
+// A matrix given as blocks of its columns side by side, each where its owner holds it: never copied into one
+// (a design whose base a problem holds beside the few columns made for one fit). Every block has the same rows.
+using ColumnBlocks = std::vector<Eigen::Ref<const Eigen::MatrixXd>>;
+// The same of A = [blocks...]: the same bits as of A copied into one matrix.
+Eigen::MatrixXd weighted_triangle(const ColumnBlocks& a, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
                                   TriangleKernel kernel = TriangleKernel::automatic);
 
 // Whether TriangleKernel::avx2 runs here (x86-64 GCC build and an AVX2 CPU); asking for it elsewhere

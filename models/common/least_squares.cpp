@@ -118,10 +118,10 @@ Separation separate(const Eigen::MatrixXd& r, const LsqOptions& options) {
 
 // The fit on the kept columns: estimates, residual, covariance (of the kept ones, in the parameters'
 // units), u and `identified` of those outside the null space, the names of those inside.
-void fit_kept(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
+void fit_kept(const ColumnBlocks& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& sw,
               const std::vector<std::string>& names, const ScaledTriangle& t, const Separation& s, LsqResult& res) {
-  const Eigen::Index n = jacobian.rows();
-  const Eigen::Index m = jacobian.cols();
+  const Eigen::Index n = y.size();
+  const Eigen::Index m = t.r.cols();
   const Eigen::MatrixXd rk = columns_of(t.r, s.kept);
   const auto k = static_cast<Eigen::Index>(s.kept.size());
   Eigen::HouseholderQR<Eigen::MatrixXd> qr2(rk);
@@ -138,7 +138,12 @@ void fit_kept(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::Ve
   Eigen::VectorXd x_all = Eigen::VectorXd::Zero(m);
   for (Eigen::Index i = 0; i < k; ++i)
     x_all[s.kept[static_cast<std::size_t>(i)]] = xs[i] / t.scale[s.kept[static_cast<std::size_t>(i)]];
-  res.residual = y - jacobian * x_all;
+  res.residual = y;  // y - J x_all, as Eigen forms it (y, then J x_all subtracted), block by block
+  Eigen::Index at = 0;
+  for (const auto& b : jacobian) {
+    res.residual.noalias() -= b * x_all.segment(at, b.cols());
+    at += b.cols();
+  }
   res.fitted = x_all;
   const Eigen::VectorXd wr = sw.cwiseProduct(res.residual);
   res.rank = static_cast<std::size_t>(k);
@@ -195,9 +200,21 @@ void add_combinations(const std::vector<std::string>& names, const ScaledTriangl
 
 LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y,
                     const Eigen::VectorXd& weights, const std::vector<std::string>& names, const LsqOptions& options) {
+  return solve_lsq(ColumnBlocks{jacobian}, y, weights, names, options);
+}
+
+LsqResult solve_lsq(const ColumnBlocks& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
+                    const std::vector<std::string>& names, const LsqOptions& options) {
   LsqResult res;
-  const Eigen::Index n = jacobian.rows();
-  const Eigen::Index m = jacobian.cols();
+  const Eigen::Index n = jacobian.empty() ? y.size() : jacobian.front().rows();
+  Eigen::Index m = 0;
+  for (const auto& b : jacobian) {
+    if (b.rows() != n) {
+      res.message = "least squares: the blocks of the Jacobian have different numbers of rows";
+      return res;
+    }
+    m += b.cols();
+  }
   res.n = static_cast<std::size_t>(n);
   res.message = size_error(n, m, y, weights, names);
   if (!res.message.empty()) return res;
@@ -212,7 +229,8 @@ LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eig
   // A NaN or infinity anywhere in J reaches the diagonal of its column's R (every reflector that
   // touches it spreads it over the column, and its own reflector puts it on the diagonal), and finite
   // data give a finite R: J is scanned only when R says so, not before every fit.
-  if (!raug.allFinite() && !jacobian.allFinite()) return non_finite();
+  if (!raug.allFinite() && std::any_of(jacobian.begin(), jacobian.end(), [](const auto& b) { return !b.allFinite(); }))
+    return non_finite();
   const ScaledTriangle t = scaled_triangle(raug, m);
   const Separation s = separate(t.r, options);
   res.condition_number = s.condition_number;

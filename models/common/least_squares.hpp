@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "models/common/householder_triangle.hpp"
 #include "models/common/lsq_combination.hpp"
 
 namespace guideway::models {
@@ -43,6 +44,10 @@ struct LsqResult {
 // Minimises sum w_i (y_i - J_i x)^2. `weights` may be empty (all 1). `names` labels the columns.
 // `jacobian` may be a block of a larger matrix (a caller's reused buffer): it is not copied.
 LsqResult solve_lsq(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
+                    const std::vector<std::string>& names, const LsqOptions& options = {});
+// The same of J = [blocks...] (householder_triangle.hpp): the same triangle, so the same solution, as of J copied
+// into one matrix, without that n x m copy (the residual's sums taken block by block).
+LsqResult solve_lsq(const ColumnBlocks& jacobian, const Eigen::VectorXd& y, const Eigen::VectorXd& weights,
                     const std::vector<std::string>& names, const LsqOptions& options = {});
 
 }  // namespace guideway::models

@@ -81,7 +81,7 @@ BesideColumns beside_columns(const IdentifyOptions& options, bool diagnostics) {
 void set_deadband(std::vector<Point>& pts, const DriveTrack& track, double b_a, double b_b) {
   for (std::size_t i = 0; i < pts.size(); ++i) {
     Point& p = pts[i];
-    const auto m = lost_motion(track, i, b_a, b_b);
+    const auto m = lost_motion(track, p, i, b_a, b_b);
     p.bl_a = b_a > 0 ? m[0] : -0.5 * p.sgn_a;
     p.bl_b = b_b > 0 ? m[1] : -0.5 * p.sgn_b;
   }

@@ -79,28 +79,38 @@ std::vector<double> drive_delays_s(const std::vector<formats::DbbRun>& runs) {
   return {0.0, 5e-3, 10e-3, 15e-3, 20e-3, 25e-3, 30e-3, 40e-3, 50e-3, 60e-3, 80e-3, 100e-3};
 }
 
+namespace {
+// The angle the drives are at when they follow the command delay_s late.
+double delayed_angle_rad(const SampleGeometry& p, double delay_s) {
+  return p.zeta_rad - p.dir * p.omega_rad_per_s * delay_s;
+}
+}  // namespace
+
 std::array<double, 2> drive_position(const SampleGeometry& p, double delay_s) {
-  const double z = p.zeta_rad - p.dir * p.omega_rad_per_s * delay_s;
+  const double z = delayed_angle_rad(p, delay_s);
   double s = 0, c = 0;
   fast_sincos(z, s, c);
   return {p.center_a_m + p.radius_m * c, p.center_b_m + p.radius_m * s};
 }
 
+double drive_rise_m(const SampleGeometry& p, double delay_s, double phase_rad) {
+  const double z = delayed_angle_rad(p, delay_s);
+  return rise_since_reversal_m(p.radius_m, angle_since_reversal_rad(z, phase_rad, p.dir));
+}
+
+// After its k-th reversal (a at cos z = (-1)^k, b at sin z = (-1)^k) an axis moves back towards the centre, whichever
+// way the circle is traced: so -1 after an even k. Exactly at a reversal that is the direction it is about to take,
+// and its rise is 0: the deadband then holds it on the approach's side.
+double drive_direction(const SampleGeometry& p, double delay_s, double phase_rad) {
+  const double z = delayed_angle_rad(p, delay_s);
+  return std::fmod(std::abs(last_reversal(z, phase_rad, p.dir)), 2.0) == 1.0 ? 1.0 : -1.0;
+}
+
 void add_drive_sample(DriveTrack& t, const SampleGeometry& p) {
-  const double z = p.zeta_rad - p.dir * p.omega_rad_per_s * t.delay_s;
-  const auto rise = [&](double phase) {
-    return rise_since_reversal_m(p.radius_m, angle_since_reversal_rad(z, phase, p.dir));
-  };
-  // After its k-th reversal (a at cos z = (-1)^k, b at sin z = (-1)^k) an axis moves back towards the
-  // centre, whichever way the circle is traced: so -1 after an even k. Exactly at a reversal that is the
-  // direction it is about to take, and its rise is 0: the deadband then holds it on the approach's side.
-  const auto direction = [&](double phase) {
-    return static_cast<std::int8_t>(std::fmod(std::abs(last_reversal(z, phase, p.dir)), 2.0) == 1.0 ? 1 : -1);
-  };
-  t.vel_a.push_back(direction(0.0));
-  t.vel_b.push_back(direction(pi / 2));
-  t.rise_a.push_back(rise(0.0));
-  t.rise_b.push_back(rise(pi / 2));
+  for (const double phase : {0.0, pi / 2}) {
+    const auto packed = static_cast<float>(drive_rise_m(p, t.delay_s, phase));
+    (phase == 0.0 ? t.a : t.b).push_back(std::copysign(packed, static_cast<float>(drive_direction(p, t.delay_s, phase))));
+  }
 }
 
 }  // namespace guideway::models::dbb

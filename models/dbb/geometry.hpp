@@ -6,8 +6,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -79,12 +82,19 @@ inline double deadband_lost_motion(double velocity_sign, double rise_m, double b
 // moves in since its last reversal and how far it has moved from that extreme. Computed once per identification
 // or explanation for every delay searched (the deadband lives on it); their positions (a cyclic error's) are
 // drive_position()'s.
+// Each sample and axis is one float (a track per delay is the largest thing a DBB problem holds: 4 bytes rather
+// than 9): its magnitude the rise r (1 - cos phi) (m), phi the angle past the axis's last reversal; its sign the
+// direction since that reversal (at a reversal, where the rise is 0, the one it is about to take, so the
+// deadband's lag is the approach's: -0 or +0). The float decides where a deadband is taken up; where it could not
+// (a rise within its rounding of the width), lost_motion() makes the rise again exactly (drive_rise_m).
 struct DriveTrack {
   double delay_s = 0;
-  std::vector<std::int8_t> vel_a, vel_b;  // -1 / +1: the direction since the last reversal (at a reversal: the
-                                          // one it is about to take, so the deadband's lag is the approach's)
-  std::vector<double> rise_a, rise_b;     // r (1 - cos phi), phi the angle past the axis's last reversal (m)
+  std::vector<float> a, b;
 };
+// The rise of an axis (phase 0: a, pi/2: b) at sample g when the drives follow delay_s late, exactly (m), and
+// the direction it moves in since that reversal (-1 / +1).
+double drive_rise_m(const SampleGeometry& g, double delay_s, double phase_rad);
+double drive_direction(const SampleGeometry& g, double delay_s, double phase_rad);
 
 // The drives' position (m, machine coordinates, {a, b}) at sample g when they follow the command delay_s late.
 std::array<double, 2> drive_position(const SampleGeometry& g, double delay_s);
@@ -107,18 +117,26 @@ std::vector<DriveTrack> drive_tracks(const std::vector<Geometry>& g, const std::
     DriveTrack& t = out.emplace_back();
     t.delay_s = d;
     // Sized once: a track per delay of every sample is the largest thing a DBB problem holds.
-    for (auto* v : {&t.vel_a, &t.vel_b}) v->reserve(g.size());
-    for (auto* v : {&t.rise_a, &t.rise_b}) v->reserve(g.size());
+    for (auto* v : {&t.a, &t.b}) v->reserve(g.size());
     for (const SampleGeometry& p : g) add_drive_sample(t, p);
   }
   return out;
 }
 
 // Lost motion per unit backlash of a deadband of width b_a / b_b (m) along each axis ({a, b}) at
-// sample i of the track.
-inline std::array<double, 2> lost_motion(const DriveTrack& track, std::size_t i, double b_a, double b_b) {
-  return {deadband_lost_motion(track.vel_a[i], track.rise_a[i], b_a),
-          deadband_lost_motion(track.vel_b[i], track.rise_b[i], b_b)};  // -1 / +1 exactly as doubles
+// sample i of the track, g its geometry: the same as deadband_lost_motion() of the exact rise. A float's rise
+// is within 2^-24 of it: more than 1e-6 past the width, the deadband is taken up whichever it is.
+inline double track_lost_motion(float packed, const SampleGeometry& g, double delay_s, double phase_rad, double width_m) {
+  const double sign = std::signbit(packed) ? -1.0 : 1.0;  // -1 / +1 exactly as doubles
+  const double rise = std::abs(static_cast<double>(packed));
+  if (!(width_m > 0) || (rise >= std::numeric_limits<float>::min() && rise > width_m * (1 + 1e-6)))
+    return deadband_lost_motion(sign, rise, width_m);
+  return deadband_lost_motion(sign, drive_rise_m(g, delay_s, phase_rad), width_m);
+}
+inline std::array<double, 2> lost_motion(const DriveTrack& track, const SampleGeometry& g, std::size_t i, double b_a,
+                                         double b_b) {
+  return {track_lost_motion(track.a[i], g, track.delay_s, 0.0, b_a),
+          track_lost_motion(track.b[i], g, track.delay_s, std::numbers::pi / 2, b_b)};
 }
 
 }  // namespace guideway::models::dbb

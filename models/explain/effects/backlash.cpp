@@ -19,7 +19,8 @@ namespace {
 // not depend on the residual.
 struct Shapes {
   std::vector<double> lambda, c, s;
-  Eigen::MatrixXd step;  // n x 2
+  Eigen::MatrixXd step;                     // n x 2
+  std::shared_ptr<const std::vector<Geo>> geo;  // where a track's rise is made again (dbb::lost_motion)
 };
 
 // The deadband response of widths b (m) on drive track `track` over every sample, made on demand (its lost
@@ -32,7 +33,7 @@ Variant response_variant(const std::shared_ptr<const Shapes>& sh, const std::vec
   v.fill = [sh, tracks, track, b](Eigen::Ref<Eigen::MatrixXd> out) {
     const dbb::DriveTrack& t = (*tracks)[track];
     for (std::size_t i = 0; i < sh->lambda.size(); ++i) {
-      const auto m = dbb::lost_motion(t, i, b[0], b[1]);
+      const auto m = dbb::lost_motion(t, (*sh->geo)[i], i, b[0], b[1]);
       out(static_cast<Eigen::Index>(i), 0) = sh->lambda[i] * m[0] * sh->c[i];
       out(static_cast<Eigen::Index>(i), 1) = sh->lambda[i] * m[1] * sh->s[i];
     }
@@ -65,7 +66,7 @@ std::vector<Variant> backlash_variants(const std::shared_ptr<const Shapes>& sh, 
     Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), 2);
     for (std::size_t k = 0; k < rows.size(); ++k) {
       const auto i = static_cast<std::size_t>(rows[k]);
-      const auto m = dbb::lost_motion(track, i, b[0], b[1]);
+      const auto m = dbb::lost_motion(track, (*sh->geo)[i], i, b[0], b[1]);
       x(static_cast<Eigen::Index>(k), 0) = sh->lambda[i] * m[0] * sh->c[i];
       x(static_cast<Eigen::Index>(k), 1) = sh->lambda[i] * m[1] * sh->s[i];
     }
@@ -100,6 +101,7 @@ bool backlash_dbb_term(const DbbTerms& t, Candidate& c) {
                    o[0] = -p.lambda * 0.5 * p.sgn_a * p.c;
                    o[1] = -p.lambda * 0.5 * p.sgn_b * p.s;
                  }).block.columns;
+  shapes->geo = t.geo;
   const auto tracks = t.tracks;
   c.generate = [shapes = std::shared_ptr<const Shapes>(std::move(shapes)), names, tracks](
                    const Eigen::VectorXd& r, const std::vector<bool>& use) {

@@ -88,7 +88,7 @@ void add_findings(const Problem& problem, const Selection& sel, const EffectSele
   const std::vector<Term>& terms = chosen.terms();
   const std::size_t n = problem.samples.size();
   const auto ranges = run_ranges(problem);
-  const LsqResult final_fit = solve_lsq(sel.design(terms), y, Eigen::VectorXd(), sel.names(terms));
+  const LsqResult final_fit = sel.fit(terms);
   if (!final_fit.ok) throw std::invalid_argument("explain: least squares failed: " + final_fit.message);
   Eigen::Index offset = problem.base.columns.cols();
   for (std::size_t k = 0; k < terms.size(); ++k) {

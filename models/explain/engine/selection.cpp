@@ -38,23 +38,12 @@ Selection::Selection(const Problem& problem, const ExplainOptions& options, cons
       models_(cache_budget_bytes(options) / 4),
       heldouts_(cache_budget_bytes(options) / 4) {}
 
-Eigen::MatrixXd Selection::design(const std::vector<Term>& terms, std::size_t skip) const {
-  Eigen::Index cols = p_.base.columns.cols();
-  for (std::size_t k = 0; k < terms.size(); ++k)
-    if (k != skip) cols += width(variant_of(p_, terms[k]));
-  Eigen::MatrixXd j(static_cast<Eigen::Index>(n_), cols);
-  Eigen::Index at = 0;
-  if (p_.base.columns.cols() > 0) {
-    j.leftCols(p_.base.columns.cols()) = p_.base.columns;
-    at = p_.base.columns.cols();
-  }
-  for (std::size_t k = 0; k < terms.size(); ++k) {
-    if (k == skip) continue;
-    const Variant& v = variant_of(p_, terms[k]);
-    write_columns(v, j.middleCols(at, width(v)));
-    at += width(v);
-  }
-  return j;
+LsqResult Selection::fit(const std::vector<Term>& terms) const {
+  const Eigen::MatrixXd rest = term_columns(terms);
+  ColumnBlocks design;
+  if (p_.base.columns.cols() > 0) design.emplace_back(p_.base.columns);
+  if (rest.cols() > 0) design.emplace_back(rest);
+  return solve_lsq(design, y_, Eigen::VectorXd(), names(terms));
 }
 
 Eigen::MatrixXd Selection::term_columns(const std::vector<Term>& terms, std::size_t skip) const {

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "models/common/least_squares.hpp"
 #include "models/explain/engine/fold_fits.hpp"
 #include "models/explain/engine/folds.hpp"
 #include "models/explain/engine/model_fit.hpp"
@@ -29,10 +30,13 @@ class Selection {
   [[nodiscard]] const ExplainOptions& options() const { return o_; }
   [[nodiscard]] const Eigen::VectorXd& observations() const { return y_; }
 
-  // The columns of the base and the terms (but `skip`), on all rows, and their names.
-  [[nodiscard]] Eigen::MatrixXd design(const std::vector<Term>& terms, std::size_t skip = none) const;
+  // The least-squares fit (solve_lsq) of the base and the terms on all the data: the base's columns read where the
+  // problem holds them, beside the terms' made for it, never copied into one n x p design (the findings' fits
+  // come when a pass is at its largest: bench/README.md "EXPLAIN's footprint").
+  [[nodiscard]] LsqResult fit(const std::vector<Term>& terms) const;
   // The terms' columns alone (but `skip`'s).
   [[nodiscard]] Eigen::MatrixXd term_columns(const std::vector<Term>& terms, std::size_t skip = none) const;
+  // The names of the base's columns and the terms'.
   [[nodiscard]] std::vector<std::string> names(const std::vector<Term>& terms) const;
   // The model of the base and the terms (but `skip`) on all the data.
   [[nodiscard]] Model model(const std::vector<Term>& terms, std::size_t skip = none) const;

@@ -54,24 +54,23 @@ std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const s
     if (term_columns.back()->rows() != n) return out;
     cols += term_columns.back()->cols();
   }
-  Eigen::MatrixXd design(n, cols);
-  Eigen::Index at = 0;
-  design.leftCols(p.base.columns.cols()) = p.base.columns;
-  at += p.base.columns.cols();
-  for (const auto& a : after) {
-    for (Eigen::Index i = 0; i < n; ++i) design(i, at) = stands_off(p, a, static_cast<std::size_t>(i)) ? 1.0 : 0.0;
-    ++at;
-  }
-  for (const Eigen::MatrixXd* c : term_columns) {
-    design.middleCols(at, c->cols()) = *c;
-    at += c->cols();
-  }
-  const Eigen::VectorXd y = observations(p);
-  const auto rows = rows_in_use(keep);
-  const LsqResult fit = solve_lsq(design(rows, Eigen::all), y(rows), Eigen::VectorXd(),
-                                  std::vector<std::string>(static_cast<std::size_t>(cols)));
+  // The fit to the samples kept is the fit to every sample with the others weighted 0: then the base is read where
+  // the problem holds it, and no n x p copy of the design (nor of its kept rows) is made beside it.
+  Eigen::MatrixXd offsets(n, static_cast<Eigen::Index>(after.size()));
+  for (std::size_t k = 0; k < after.size(); ++k)
+    for (Eigen::Index i = 0; i < n; ++i)
+      offsets(i, static_cast<Eigen::Index>(k)) = stands_off(p, after[k], static_cast<std::size_t>(i)) ? 1.0 : 0.0;
+  ColumnBlocks design;
+  if (p.base.columns.cols() > 0) design.emplace_back(p.base.columns);
+  if (offsets.cols() > 0) design.emplace_back(offsets);
+  for (const Eigen::MatrixXd* c : term_columns)
+    if (c->cols() > 0) design.emplace_back(*c);
+  Eigen::VectorXd kept(n);
+  for (Eigen::Index i = 0; i < n; ++i) kept[i] = keep[static_cast<std::size_t>(i)] ? 1.0 : 0.0;
+  const LsqResult fit =
+      solve_lsq(design, observations(p), kept, std::vector<std::string>(static_cast<std::size_t>(cols)));
   if (!fit.ok) return out;
-  const Eigen::VectorXd residual = y - design * fit.fitted;
+  const Eigen::VectorXd& residual = fit.residual;  // on every sample
   const auto ranges = run_ranges(p);
   for (std::size_t k = 0; k < places.size(); ++k) {
     const auto [from, to] = stretch_of(p, ranges, places[k]);
@@ -142,6 +141,7 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
   Problem& q = out.problem;
   q.model = p.model;
   q.domain = p.domain;
+  q.timed = p.timed;
   q.runs = p.runs;
   q.notes = p.notes;
   q.clock_origin_s = p.clock_origin_s;

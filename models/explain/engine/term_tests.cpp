@@ -61,7 +61,7 @@ std::vector<ParamValue> widened(const Selection& sel, const std::vector<Term>& t
     if (e.rank == 0 || !(e.rss - cur.rss < s2)) continue;
     std::vector<Term> alt = terms;
     alt[k].index = v;
-    const LsqResult fit = solve_lsq(sel.design(alt), sel.observations(), Eigen::VectorXd(), sel.names(alt));
+    const LsqResult fit = sel.fit(alt);
     if (!fit.ok) continue;
     Eigen::Index offset = p.base.columns.cols();
     for (std::size_t j = 0; j < k; ++j) offset += width(variant_of(p, terms[j]));
