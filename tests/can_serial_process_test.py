@@ -288,6 +288,9 @@ calibrated_length_u_um = 0.5
         boot = [frame.unpack(ours.recv(64)) for _ in range(3)]
         self.assertEqual(sorted((f[0], f[1], f[2][0]) for f in boot), [(0x704, 1, 0), (0x705, 1, 0), (0x706, 1, 0)])
         ours.send(frame.pack(0x080, 0, bytes(8)))
+        # The bus gives a SYNC back to the one that sent it, before any answer (as SocketCAN's
+        # CAN_RAW_RECV_OWN_MSGS): the cycle's boundary among the PDOs.
+        self.assertEqual(frame.unpack(ours.recv(64))[:2], (0x080, 0), "the SYNC's echo")
         # Its SDO server: the serial number (0x1018:4, expedited upload 0x40 -> 0x43 + 4 bytes) and the
         # resolution in nm (0x6005:1); an object it does not have is aborted with 0x06020000.
         for request, answer in (((0x40, 0x18, 0x10, 0x04), (0x43, 0x18, 0x10, 0x04, 1004)),
@@ -302,6 +305,7 @@ calibrated_length_u_um = 0.5
         previous = None
         for cycle in range(20):
             ours.send(struct.pack("<IB3x8s", 0x080, 0, bytes(8)))
+            self.assertEqual(struct.unpack("<IB3x8s", ours.recv(64))[0], 0x080, "the SYNC's echo first")
             frames = [struct.unpack("<IB3x8s", ours.recv(64)) for _ in range(3)]
             self.assertEqual([f[0] for f in frames], [0x184, 0x185, 0x186])
             self.assertEqual([f[1] for f in frames], [4, 4, 4])

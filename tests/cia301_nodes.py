@@ -15,7 +15,8 @@ object 0x6004, 4 bytes little-endian) when 0x1800:2 is 1..240 (every n-th SYNC);
 expedited uploads (0x40 -> 0x43/0x47/0x4B/0x4F by size) and downloads (0x23/0x27/0x2B/0x2F -> 0x60)
 and aborts (0x80 + code) otherwise: 0x06020000 no object, 0x06090011 no sub-index, 0x06010002 read
 only, 0x06070010 wrong length, 0x05040001 unknown command.
-Prints "listening: PATH". Commands on stdin: reboot NODE (power off 0.2 s, then boot), quit.
+As a bus does for a socket that asks (SocketCAN's CAN_RAW_RECV_OWN_MSGS), a SYNC is given back to
+the one that wrote it, before the nodes' answers. Prints "listening: PATH". Commands on stdin: reboot NODE (power off 0.2 s, then boot), quit.
 """
 import math
 import os
@@ -120,6 +121,8 @@ class Bus:
     def receive(self, frame):
         can_id, dlc, data = FRAME.unpack(frame)
         data = data[:dlc]
+        if can_id == 0x080:
+            self.send(can_id, data)  # the bus gives a SYNC back to its writer, before the answers
         for node in self.nodes:
             if node.off_until:
                 continue

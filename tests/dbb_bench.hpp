@@ -56,15 +56,15 @@ inline simulators::emulators::DbbEmulatorSettings tuned(simulators::emulators::D
 // A driver and the emulator, joined by a socketpair per connection; the driver is served by `loop`
 // (shared with other devices) or by a loop of its own.
 struct Bench {
-  explicit Bench(bool driver_produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
+  explicit Bench(bool produces_sync, double rate_hz = 200.0, std::int64_t timeout_ms = 150,
                  simulators::emulators::DbbSource source = circle_source(),
                  std::int64_t read_period_us = drivers::dbb::default_read_period_us, const TuneDriver& tune_driver = {},
                  const TuneEmulator& tune_emulator = {}, drivers::IoLoop* loop = nullptr)
-      : emu(tuned(emulator_settings(!driver_produces_sync, rate_hz), tune_emulator), std::move(source)),
-        driver_produces_sync(driver_produces_sync),
+      : emu(tuned(emulator_settings(!produces_sync, rate_hz), tune_emulator), std::move(source)),
+        driver_produces_sync(produces_sync),
         sync_period_ns(static_cast<std::int64_t>(1e9 / rate_hz)) {
     drivers::dbb::DbbSettings s;
-    s.produce_sync = driver_produces_sync;
+    s.produce_sync = produces_sync;
     s.sync_rate_hz = rate_hz;
     s.read_period_us = read_period_us;
     s.timeout_ms = timeout_ms;
@@ -138,13 +138,13 @@ struct Bench {
       if (s.value_count != 3) return why = "value_count " + std::to_string(s.value_count), false;
       if (j > 0 && s.t_mono_ns < samples[j - 1].t_mono_ns) return why = "time goes backwards", false;
       if (!sent[i].late && ((s.flags & sample_partial) != 0) == complete) return why = "partial flag wrong", false;
-      // Its time is its cycle's SYNC: ours was stamped before the emulator read it and answered (the
-      // cycle's t_mono_ns); the emulator's was received as it wrote the cycle, before the next one. The
-      // latter is the kernel's real-time stamp put on the monotonic clock by an offset read to within a
+      // Its time is its cycle's SYNC: ours as the emulator echoed it, before it answered (the cycle's
+      // t_mono_ns); the emulator's was received as it wrote the cycle, before the next one. Both are the
+      // kernel's real-time stamp put on the monotonic clock by an offset read to within a
       // few microseconds (realtime_minus_mono_ns: half its readings' width, at most 5 us when they are
       // tight): a stamp 24 ns after the emulator's clock read came out 24 ns before it.
       constexpr std::int64_t conversion_slack_ns = 10'000;
-      if (driver_produces_sync ? s.t_mono_ns > sent[i].t_mono_ns
+      if (driver_produces_sync ? s.t_mono_ns > sent[i].t_mono_ns + conversion_slack_ns
                                : s.t_mono_ns < sent[i].t_mono_ns - conversion_slack_ns ||
                                      (i + 1 < sent.size() && s.t_mono_ns > sent[i + 1].t_mono_ns + conversion_slack_ns))
         return why = "time " + std::to_string(s.t_mono_ns) + " is not this cycle's (sent at " +
@@ -163,6 +163,26 @@ struct Bench {
       }
       return true;
     };
+    // Samples j-3..j+3 beside the cycles sent around their times: what a failure below is about.
+    const auto around = [&](std::size_t j) {
+      std::string out = "\n  samples (t_mono_ns flags values):";
+      const std::size_t a = j > 3 ? j - 3 : 0, b = std::min(samples.size(), j + 4);
+      for (std::size_t k = a; k < b; ++k) {
+        out += "\n   " + std::string(k == j ? "> " : "  ") + std::to_string(k) + ": " +
+               std::to_string(samples[k].t_mono_ns) + " " + std::to_string(samples[k].flags);
+        for (std::size_t c = 0; c < 3; ++c) out += " " + std::to_string(samples[k].value[c]);
+      }
+      if (a >= b) return out;
+      const std::int64_t from = samples[a].t_mono_ns - 2 * sync_period_ns, to = samples[b - 1].t_mono_ns + 2 * sync_period_ns;
+      out += "\n  cycles sent (t_mono_ns mask late truth):";
+      for (std::size_t i = 0; i < sent.size(); ++i) {
+        if (sent[i].t_mono_ns < from || sent[i].t_mono_ns > to) continue;
+        out += "\n     " + std::to_string(i) + ": " + std::to_string(sent[i].t_mono_ns) + " " +
+               std::to_string(sent[i].sent_mask) + (sent[i].late ? " late" : "");
+        for (const double v : sent[i].truth_m) out += " " + std::to_string(v);
+      }
+      return out;
+    };
     std::vector<std::size_t> reach{0};  // sample indices at which cycle i can start
     std::vector<std::vector<std::size_t>> reached;  // reach before each cycle
     for (std::size_t i = 0; i < sent.size(); ++i) {
@@ -180,11 +200,12 @@ struct Bench {
       std::sort(next.begin(), next.end());
       next.erase(std::unique(next.begin(), next.end()), next.end());
       ASSERT_FALSE(next.empty()) << "sent cycle " << i << (sent[i].late ? " (late)" : "")
-                                 << " matches no sample: " << why;
+                                 << " matches no sample: " << why << around(reach.empty() ? 0 : reach.front());
       reach = std::move(next);
     }
     ASSERT_TRUE(std::find(reach.begin(), reach.end(), samples.size()) != reach.end())
-        << "samples left over (" << samples.size() - reach.back() << "): a cycle became more than one sample";
+        << "samples left over (" << samples.size() - reach.back() << "): a cycle became more than one sample"
+        << around(reach.back());
     // One assignment, walked back from the end: a late cycle takes no sample where that explains the rest.
     cycle_of.assign(samples.size(), 0);
     std::size_t j = samples.size();
@@ -200,11 +221,13 @@ struct Bench {
       const std::int64_t dt = samples[k].t_mono_ns - samples[k - 1].t_mono_ns;
       EXPECT_GT(dt, 0) << "sample " << k << ": two cycles, one time";
       // A hole (a SYNC slot missed, not sent or not answered) is flagged on the sample after it.
-      if (dt >= 2 * sync_period_ns)
+      if (dt >= 2 * sync_period_ns) {
         EXPECT_TRUE(samples[k].flags & sample_after_gap)
-            << "a hole of " << dt / 1e6 << " ms before sample " << k << " is not flagged";
+            << "a hole of " << static_cast<double>(dt) / 1e6 << " ms before sample " << k << " is not flagged"
+            << around(k);
+      }
     }
-    for (std::size_t j = 0; j < samples.size(); ++j) EXPECT_EQ(samples[j].seq, j);
+    for (std::size_t k = 0; k < samples.size(); ++k) EXPECT_EQ(samples[k].seq, k);
     const auto partial =
         std::count_if(samples.begin(), samples.end(), [](const Sample& s) { return (s.flags & sample_partial) != 0; });
     EXPECT_GE(static_cast<std::size_t>(partial), partial_expected_at_least);

@@ -279,6 +279,60 @@ TEST(DbbProtocol, AsSyncProducerAnAnswerStampedWhileOurSyncWasWrittenIsTheCycleB
   EXPECT_TRUE(c.flags & sample_partial);
 }
 
+// With our SYNC echoed by the bus, the order decides, not the times. The bench's case under load (an
+// emulator held up twice running): the answer to SYNC 200 stamped after SYNC 300 was written, the answer
+// to 300 after 400 was written. By times, cycle 200 was empty and 300 got 200's values; by the echoes,
+// each cycle has its own, at its echo's time, and a hole of two periods or more is flagged.
+TEST(DbbProtocol, AsSyncProducerTheEchoOfOurSyncOrdersTheAnswers) {
+  DbbDecoder d(encoders(), true, 100);
+  DbbCycle c;
+  const auto answer = [&](std::uint32_t count, std::int64_t t) {
+    d.feed(make_position_pdo(1, count), t, c);
+    d.feed(make_position_pdo(5, count), t, c);
+    return d.feed(make_position_pdo(127, count), t, c).cycle_ready;
+  };
+  EXPECT_FALSE(d.sync_sent(100, 101, c));
+  EXPECT_FALSE(d.feed(make_sync_frame(), 102, c).cycle_ready) << "the first echo: nothing before it";
+  ASSERT_TRUE(answer(10, 110)) << "complete at its last PDO";
+  EXPECT_EQ(c.t_sync_ns, 102);
+  EXPECT_FALSE(d.sync_sent(200, 201, c));
+  EXPECT_FALSE(d.sync_sent(300, 301, c)) << "the echo, not our write, closes cycle 200";
+  EXPECT_FALSE(d.feed(make_sync_frame(), 250, c).cycle_ready);  // SYNC 200, read late by the bus
+  ASSERT_TRUE(answer(20, 305)) << "stamped after SYNC 300's write, yet before its echo: 200's";
+  EXPECT_EQ(c.t_sync_ns, 250);
+  EXPECT_EQ(c.present, 0b111u);
+  EXPECT_EQ(c.position_m[0], count_to_position(encoders()[0], 20));
+  EXPECT_FALSE(d.sync_sent(400, 401, c));
+  EXPECT_FALSE(d.feed(make_sync_frame(), 402, c).cycle_ready);  // SYNC 300's echo (the bus: 300 at 402)
+  EXPECT_FALSE(d.feed(make_sync_frame(), 403, c).cycle_ready) << "SYNC 400: 300 had no answer";
+  EXPECT_EQ(d.empty_cycles(), 1u);
+  ASSERT_TRUE(answer(40, 410));
+  EXPECT_EQ(c.t_sync_ns, 403);
+  EXPECT_EQ(c.flags, static_cast<std::uint32_t>(sample_after_gap)) << "after the empty cycle";
+  EXPECT_EQ(d.late_pdos(), 0u);
+  // A partial cycle goes out at the next echo, its missing node held; an echo 2 periods late is a hole.
+  EXPECT_FALSE(d.sync_sent(500, 501, c));
+  EXPECT_FALSE(d.feed(make_sync_frame(), 502, c).cycle_ready);
+  d.feed(make_position_pdo(1, 50), 510, c);
+  d.feed(make_position_pdo(5, 50), 510, c);
+  EXPECT_FALSE(d.sync_sent(600, 601, c));
+  EXPECT_FALSE(d.sync_sent(700, 701, c));
+  ASSERT_TRUE(d.feed(make_sync_frame(), 702, c).cycle_ready) << "SYNC 600 lost on the bus: the echo of 700";
+  EXPECT_EQ(c.t_sync_ns, 502);
+  EXPECT_EQ(c.present, 0b011u);
+  EXPECT_EQ(c.position_m[2], count_to_position(encoders()[2], 40)) << "held";
+  ASSERT_TRUE(answer(70, 710));
+  EXPECT_EQ(c.t_sync_ns, 702);
+  EXPECT_TRUE(c.flags & sample_after_gap) << "200 ns after the echo before: a hole";
+  // A new connection: by times again until its bus echoes.
+  d.resync();
+  EXPECT_FALSE(d.sync_sent(800, 801, c));
+  EXPECT_FALSE(answer(80, 810)) << "no echo yet: by the times (after a reconnect, published at the next SYNC)";
+  ASSERT_TRUE(d.sync_sent(900, 901, c));
+  EXPECT_EQ(c.t_sync_ns, 800);
+  EXPECT_TRUE(c.flags & sample_after_gap);
+}
+
 // Random answers (late, early, missing, repeated) to a producer's SYNCs: never more samples than SYNCs,
 // times strictly increasing, every sample well formed.
 TEST(DbbProtocol, AsSyncProducerRandomAnswersNeverGiveMoreSamplesThanSyncs) {
@@ -313,6 +367,55 @@ TEST(DbbProtocol, AsSyncProducerRandomAnswersNeverGiveMoreSamplesThanSyncs) {
   EXPECT_LE(samples, syncs);
   EXPECT_GT(samples, syncs / 2);
   EXPECT_GT(d.late_pdos(), 1000u);
+}
+
+// The same with the bus echoing our SYNCs, late, bunched or lost (the nodes saw the SYNC, we did not see
+// its echo): one sample per SYNC on the bus at most, times strictly increasing, every sample well formed,
+// and once echoes come no answer is taken as late.
+TEST(DbbProtocol, AsSyncProducerRandomEchoesNeverGiveMoreSamplesThanSyncs) {
+  std::mt19937 rng(20261129);
+  DbbDecoder d(encoders(), true, 200);
+  std::size_t on_bus = 0, samples = 0, unechoed = 0;
+  std::uint32_t answered = 0;  // nodes that answered the last SYNC on the bus
+  std::uint64_t late_at_first_echo = 0;
+  bool echoed = false;
+  std::int64_t t = 0, last_sample_t = -1;
+  const auto take = [&](const DbbCycle& c) {
+    ++samples;
+    check_cycle(c);
+    ASSERT_GT(c.t_sync_ns, last_sample_t);
+    last_sample_t = c.t_sync_ns;
+  };
+  for (int step = 0; step < 200000; ++step) {
+    DbbCycle c;
+    t += 1 + static_cast<std::int64_t>(rng() % 50);
+    const auto r = rng() % 10;
+    if (r < 2) {
+      ++unechoed;
+      if (d.sync_sent(t, t + static_cast<std::int64_t>(rng() % 30), c)) take(c);
+    } else if (r < 4 && unechoed > 0) {  // the bus takes our oldest SYNC; its echo may be lost
+      --unechoed;
+      ++on_bus;
+      answered = 0;
+      if (rng() % 8 == 0) continue;
+      if (!echoed) late_at_first_echo = d.late_pdos();
+      echoed = true;
+      if (d.feed(make_sync_frame(), t, c).cycle_ready) take(c);
+    } else if (on_bus > 0) {
+      const std::size_t i = rng() % 3;
+      if (answered & (1u << i)) continue;  // a node answers a SYNC once
+      answered |= 1u << i;
+      if (d.feed(make_position_pdo(encoders()[i].node_id, static_cast<std::uint32_t>(rng() % 1000)), t, c).cycle_ready)
+        take(c);
+    }
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  DbbCycle c;
+  if (d.flush(c)) take(c);
+  EXPECT_LE(samples, on_bus);
+  EXPECT_GT(samples, on_bus / 2);
+  EXPECT_GT(d.missed_syncs(), 0u) << "a lost echo is a SYNC missed";
+  EXPECT_EQ(d.late_pdos(), late_at_first_echo);
 }
 
 TEST(DbbProtocol, FuzzRandomAndMutatedFramesKeepTheInvariants) {

@@ -113,7 +113,9 @@ TEST(DbbDriver, SamplesMatchTheVirtualMachinesDbbCircles) {
         if ((cycle.sent_mask & (1u << k)) == 0) continue;
         const bool held = (b.samples[i].flags & sample_partial) != 0 && i > 0 &&
                           std::abs(b.samples[i].value[k] - b.samples[i - 1].value[k]) <= bound[k];
-        if (!held) EXPECT_NEAR(b.samples[i].value[k], truth[k], bound[k]) << "sample " << i << " channel " << k;
+        if (!held) {
+          EXPECT_NEAR(b.samples[i].value[k], truth[k], bound[k]) << "sample " << i << " channel " << k;
+        }
       }
       const double dl = b.samples[i].value[0] - motion->run.nominal_length_m;
       min_dl = std::min(min_dl, dl);
@@ -343,7 +345,13 @@ TEST(DbbDriver, At5kHzOneWakeUpPerCycleKeepsTheRateAndEverySample) {
   const double mean_period_s = span_s / static_cast<double>(b.samples.size() - 1);
   EXPECT_GT(mean_period_s, 0.00019);  // never faster than 5 kHz
 #if !defined(GUIDEWAY_SANITIZED_THREAD) && !defined(GUIDEWAY_SANITIZED_ADDRESS)  // a slowed emulator answers fewer SYNCs
-  EXPECT_LT(mean_period_s, 0.0009);  // and well above the ~1 kHz that millisecond waits allowed
+  // Sub-millisecond waits: most samples one period apart, where millisecond waits allowed one a millisecond.
+  // The median, not the mean: a loaded machine holds the driver up now and then, and a SYNC slot passed
+  // is skipped, not made up (beside three compilers the mean reached 1.24 ms in 22 of 150 runs).
+  std::vector<std::int64_t> gaps_ns;
+  for (std::size_t i = 1; i < b.samples.size(); ++i) gaps_ns.push_back(b.samples[i].t_mono_ns - b.samples[i - 1].t_mono_ns);
+  std::nth_element(gaps_ns.begin(), gaps_ns.begin() + static_cast<std::ptrdiff_t>(gaps_ns.size() / 2), gaps_ns.end());
+  EXPECT_LT(gaps_ns[gaps_ns.size() / 2], 500'000) << "median sample period, ns";
 #endif
 }
 

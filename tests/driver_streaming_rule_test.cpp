@@ -131,7 +131,9 @@ void expect_never_streaming(drivers::Driver& d, Peer peer, std::chrono::millisec
     EXPECT_TRUE(seen.lost || last.state == DeviceState::connecting) << drivers::to_string(last.state);
   }
   EXPECT_FALSE(last.reason.empty());
-  if (peer == Peer::junk) EXPECT_GT(seen.bad_frames, 0u);
+  if (peer == Peer::junk) {
+    EXPECT_GT(seen.bad_frames, 0u);
+  }
 }
 
 drivers::profilometer::ProfilometerConfig profilometer_config(int port) {
@@ -172,7 +174,7 @@ TEST(StreamingRule, ProfilometerThatTurnsToJunkLeavesStreamingWithinItsBound) {
     h.spacing_m = 1e-6;
     if (!send_all(fd, frame_line(format_banner("test")) + frame_line(format_header(h)))) return;
     for (std::uint64_t i = 0; running; ++i) {
-      const std::string line = junk ? std::string("#### junk ####\n") : frame_line(format_point(i, i * 1e-6, 0.0, h));
+      const std::string line = junk ? std::string("#### junk ####\n") : frame_line(format_point(i, static_cast<double>(i) * 1e-6, 0.0, h));
       if (!send_all(fd, line) || !discard_input(fd, 1)) return;
     }
   });

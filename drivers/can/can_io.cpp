@@ -307,6 +307,15 @@ bool enable_rx_drop_count(int fd, std::string& error) {
   return true;
 }
 
+bool enable_own_frames(int fd, std::string& error) {
+  const int on = 1;
+  if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &on, sizeof on) < 0) {
+    error = errno_text("setsockopt(CAN_RAW_RECV_OWN_MSGS)", errno);
+    return false;
+  }
+  return true;
+}
+
 std::uint32_t rx_drop_count(const msghdr& message) noexcept {
   if (message.msg_control == nullptr) return 0;
   for (const cmsghdr* c = CMSG_FIRSTHDR(&message); c != nullptr;

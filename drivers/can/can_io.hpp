@@ -113,6 +113,10 @@ std::int64_t rx_timestamp_ns(const msghdr& message) noexcept;
 // message queued after a drop carries the socket's total drops so far (SocketCAN). AF_UNIX accepts
 // the option and never reports: a full SEQPACKET queue makes the sender wait instead of dropping.
 bool enable_rx_drop_count(int fd, std::string& error);
+// A SocketCAN socket reads the frames it wrote back, in their place on the bus (CAN_RAW_RECV_OWN_MSGS): a
+// SYNC producer's echo orders the PDOs around it. Other sockets refuse it (the emulators' gateway echoes a
+// SYNC by itself).
+bool enable_own_frames(int fd, std::string& error);
 // The socket's total drops carried by a received message (SO_RXQ_OVFL), 0 when it carries none.
 std::uint32_t rx_drop_count(const msghdr& message) noexcept;
 

@@ -392,7 +392,7 @@ void DbbDriver::handle_frame(const can_frame& f, std::int64_t t_ns) {
       network_.on_frame(f, t_ns) == EncoderNetwork::FrameUse::bad) {
     bad_frames_.fetch_add(1, std::memory_order_relaxed);
   }
-  if (res.info.kind == FrameInfo::Kind::sync) {
+  if (res.info.kind == FrameInfo::Kind::sync && !settings_.produce_sync) {  // a producer's echo: its own period
     if (last_sync_ns_ != 0) sync_period_ns_ = t_ns - last_sync_ns_;
     last_sync_ns_ = t_ns;
   }
@@ -450,12 +450,18 @@ void DbbDriver::open() {
   // counted in untimed_frames.
   (void)can::enable_rx_timestamps(sock.fd(), error);
   (void)can::enable_rx_drop_count(sock.fd(), error);  // where unsupported, drops show as partial cycles only
+  // Our SYNC back among the PDOs says which cycle each answers (DbbDecoder); the gateway echoes it unasked,
+  // and without an echo the decoder assigns by the frames' times.
+  if (settings_.produce_sync) (void)can::enable_own_frames(sock.fd(), error);
   sock_ = std::move(sock);
   link_up(sock_.fd());
 }
 
 void DbbDriver::on_link_up(std::int64_t now_ns) {
-  if (!relinked()) decoder_.emplace(settings_.encoders, settings_.produce_sync);
+  if (!relinked()) {
+    decoder_.emplace(settings_.encoders, settings_.produce_sync,
+                     static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)));
+  }
   // Nothing is known of the nodes on a new connection: checked and started again, streaming again
   // from the first complete cycle.
   network_.connected(now_ns);

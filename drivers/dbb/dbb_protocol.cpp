@@ -78,8 +78,8 @@ FrameInfo classify_frame(const can_frame& frame) noexcept {
   return info;
 }
 
-DbbDecoder::DbbDecoder(std::vector<EncoderScale> encoders, bool sync_producer)
-    : encoders_(std::move(encoders)), producer_(sync_producer) {
+DbbDecoder::DbbDecoder(std::vector<EncoderScale> encoders, bool sync_producer, std::int64_t sync_period_ns)
+    : encoders_(std::move(encoders)), producer_(sync_producer), echo_hole_ns_(2 * sync_period_ns) {
   if (encoders_.size() > max_encoders) encoders_.resize(max_encoders);
   all_mask_ = (1u << encoders_.size()) - 1u;
   last_m_.fill(std::numeric_limits<double>::quiet_NaN());
@@ -101,6 +101,8 @@ bool DbbDecoder::flush(DbbCycle& cycle) {
 
 void DbbDecoder::resync(bool reset_counts) {
   open_ = false;
+  echo_ = false;  // a new connection: its bus shows whether it echoes
+  last_echo_ns_ = 0;
   held_open_ = false;
   behind_ = true;  // answers to the SYNCs of the old connection may still come
   emitted_ = false;
@@ -164,7 +166,41 @@ std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
   return unwrapped_[i];
 }
 
+bool DbbDecoder::sync_echoed(std::int64_t t_ns, DbbCycle& cycle) {
+  bool ready = false;
+  if (!echo_) {
+    // The first echo: the bus's order decides from here on, not the frames' times. What the times had
+    // assigned goes out as it stands (a bus that echoes does so from our first SYNC: nothing is open yet).
+    echo_ = true;
+    behind_ = false;
+    if (held_open_) {
+      ready = emit_held(cycle);
+    } else if (open_ && !emitted_ && cur_.present != 0) {
+      close_cycle(cycle);
+      ready = true;
+    }
+    if (open_ && !emitted_ && (cur_.flags & sample_after_gap)) gap_ = true;  // a reconnect's, say: kept
+    open_ = false;
+  }
+  if (open_ && !emitted_) {  // the cycle of our SYNC before: a complete one went out at its last PDO
+    if (cur_.present != 0) {
+      close_cycle(cycle);
+      ready = true;
+    } else {
+      ++empty_cycles_;  // no node answered it: no sample, and the next one follows a hole
+      gap_ = true;
+    }
+  }
+  // Its time is the bus's (SocketCAN stamps the echo when the frame was sent); a SYNC two periods or more
+  // after the one before follows a hole (the bus, or whoever echoes, held it up).
+  const bool hole = echo_hole_ns_ > 0 && last_echo_ns_ != 0 && t_ns - last_echo_ns_ >= echo_hole_ns_;
+  last_echo_ns_ = t_ns;
+  open_cycle(t_ns, hole ? sample_after_gap : 0u);
+  return ready;
+}
+
 bool DbbDecoder::sync_sent(std::int64_t t_ns, std::int64_t written_ns, DbbCycle& cycle) {
+  if (echo_) return false;  // its echo opens its cycle
   bool ready = false;
   // Nothing stamped before the last SYNC's write returned came since: the held cycle is final (the
   // open one, empty, is held in its turn below).
@@ -223,6 +259,10 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
   r.info = classify_frame(frame);
   switch (r.info.kind) {
     case FrameInfo::Kind::sync:
+      if (producer_) {
+        r.cycle_ready = sync_echoed(t_ns, cycle);
+        break;
+      }
       if (held_open_) {
         r.cycle_ready = emit_held(cycle);
         if (open_ && !emitted_ && cur_.present == 0) {  // the cycle after the held one got nothing
@@ -245,7 +285,7 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
       const int idx = index_of(r.info.node);
       if (idx < 0 || !open_) break;  // not ours, or before the first SYNC
       const auto i = static_cast<std::size_t>(idx);
-      if (producer_) {
+      if (producer_ && !echo_) {
         feed_position_as_producer(i, r.info.count, t_ns, r, cycle);
         break;
       }

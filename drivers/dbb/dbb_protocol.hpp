@@ -73,8 +73,8 @@ struct DbbCycle {
 // value (NaN if the node never answered); a cycle in which no node answered emits nothing. A second PDO from a node
 // within one cycle means a SYNC was missed: the open cycle is emitted (partial if incomplete) and a new cycle opens at
 // that PDO's time, flagged sample_after_gap. PDOs before the first SYNC and from unconfigured nodes are ignored.
-// A SYNC producer (sync_producer, SYNCs given by sync_sent) misses no SYNC, and its SYNC is not read
-// from the socket with the PDOs. So a second PDO from a node within one cycle means the first was a
+// A SYNC producer (sync_producer, SYNCs given by sync_sent) misses no SYNC. Where its SYNC is not read
+// back from the socket with the PDOs (no echo, below), a second PDO from a node within one cycle means the first was a
 // late answer to the SYNC before, and the newer value replaces it (late_pdos). Replacing needs the
 // cycle still open: once a cycle was incomplete at its SYNC (the nodes are behind), cycles are emitted
 // at the next SYNC instead of as soon as they are complete, until one is complete in time again. And
@@ -83,6 +83,12 @@ struct DbbCycle {
 // For an empty cycle "after it" means after its write returned (the SYNC reaches the bus within the
 // write, and nodes late together answer the SYNC before); for a partial one, the SYNC's time before the
 // write (the node missing may answer the new SYNC during the write).
+// All of that is a guess from times, wrong when answers come a period late twice running. A bus that
+// gives our own SYNC back in its place among the PDOs (SocketCAN with CAN_RAW_RECV_OWN_MSGS, the
+// emulators' gateway) says exactly: fed as a SYNC frame, the echo closes the cycle before it and opens
+// our SYNC's at the echo's time, and PDOs go to the cycle open when they are read, as a listener's do;
+// an echo two periods (sync_period_ns) or more after the one before flags its cycle sample_after_gap.
+// The first echo switches to that for the connection.
 class DbbDecoder {
  public:
   struct Result {
@@ -90,7 +96,7 @@ class DbbDecoder {
     FrameInfo info;
   };
 
-  explicit DbbDecoder(std::vector<EncoderScale> encoders, bool sync_producer = false);
+  explicit DbbDecoder(std::vector<EncoderScale> encoders, bool sync_producer = false, std::int64_t sync_period_ns = 0);
 
   // Feeds one frame seen at t_ns. At most one cycle is emitted per frame.
   Result feed(const can_frame& frame, std::int64_t t_ns, DbbCycle& cycle);
@@ -123,6 +129,7 @@ class DbbDecoder {
   void store(std::size_t i, std::uint32_t count, DbbCycle& into);
   void feed_position_as_producer(std::size_t i, std::uint32_t count, std::int64_t t_ns, Result& r, DbbCycle& cycle);
   std::int64_t unwrap(std::size_t i, std::uint32_t count) noexcept;
+  bool sync_echoed(std::int64_t t_ns, DbbCycle& cycle);  // our SYNC, back from the bus
 
   std::vector<EncoderScale> encoders_;
   std::uint32_t all_mask_ = 0;
@@ -135,6 +142,9 @@ class DbbDecoder {
   bool behind_ = false;     // producer: a cycle was incomplete at its SYNC; emit at the next SYNC
   DbbCycle held_;
   std::int64_t held_until_ns_ = 0;  // a PDO stamped before it may still be the held cycle's (sync_sent)
+  std::int64_t echo_hole_ns_ = 0;  // producer: echoes this far apart or more follow a hole (0: never said)
+  bool echo_ = false;              // producer: the bus gives our SYNCs back in place (feed), cycles follow them
+  std::int64_t last_echo_ns_ = 0;
   std::array<double, max_encoders> last_m_{};
   std::array<bool, max_encoders> have_count_{};
   std::array<std::uint32_t, max_encoders> prev_count_{};

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 
 #include <Eigen/Dense>
@@ -241,11 +242,10 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
     for (int j = 1; j <= order; ++j) a(k, j - 1) = chord(x[k], l.step_m, l, j) * w[k];
     if (l.yaw) a(k, order) = yaw[static_cast<std::size_t>(k)] * w[k];
   }
-  const double pi = std::acos(-1.0);
   const auto rss_at = [&](double f) {
     for (Eigen::Index k = 0; k < S_i; ++k) {
-      a(k, q) = std::sin(2 * pi * f * (x[k] + l.step_m / 2)) * w[k];
-      a(k, q + 1) = std::cos(2 * pi * f * (x[k] + l.step_m / 2)) * w[k];
+      a(k, q) = std::sin(2 * std::numbers::pi * f * (x[k] + l.step_m / 2)) * w[k];
+      a(k, q + 1) = std::cos(2 * std::numbers::pi * f * (x[k] + l.step_m / 2)) * w[k];
     }
     return (m - a * a.colPivHouseholderQr().solve(m)).squaredNorm();
   };
@@ -258,7 +258,7 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
   for (double f = lo; f <= hi; f += df) {
     double c = 0.0, sn = 0.0;
     for (Eigen::Index k = 0; k < S_i; ++k) {
-      const double th = 2 * pi * f * (x[k] + l.step_m / 2);
+      const double th = 2 * std::numbers::pi * f * (x[k] + l.step_m / 2);
       c += left[k] * w[k] * std::cos(th);
       sn += left[k] * w[k] * std::sin(th);
     }

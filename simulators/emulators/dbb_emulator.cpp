@@ -328,6 +328,9 @@ void DbbEmulator::loop() {
         if (rr != drivers::can::ReadResult::frame) break;
         if (drivers::dbb::classify_frame(f).kind == drivers::dbb::FrameInfo::Kind::sync) {
           sync_seen = true;
+          // The SYNC back to its producer where the bus put it, before the answers to it (SocketCAN's
+          // CAN_RAW_RECV_OWN_MSGS): what it reads before the echo answered the SYNC before.
+          if (!settings_.produce_sync) node_out.push_back(f);
           continue;
         }
         if (t < stall_until_ns_.load()) continue;  // a stalled bus: nothing answers
