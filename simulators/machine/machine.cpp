@@ -155,13 +155,14 @@ std::array<double, 6> axis_error_motions(const AxisErrors& e, int j, double u, d
 
 namespace {
 
-// A controller's table lookup: value(x) interpolated linearly between the ascending positions `at`,
-// the end values outside; `value(i)` gives the table's value at line i.
+// A controller's table lookup: value(i) interpolated linearly between the ascending positions at[0 .. n),
+// the end values outside; `value(i)` gives the table's value at line i. On the tables' arrays: a run looks up
+// every table at every sub-step (simulate_motion).
 template <typename Value>
-double table_lookup(const std::vector<double>& at, double x, const Value& value) {
-  if (x <= at.front()) return value(0);
-  if (x >= at.back()) return value(at.size() - 1);
-  const auto hi = static_cast<std::size_t>(std::upper_bound(at.begin(), at.end(), x) - at.begin());
+double table_lookup(const double* at, std::size_t n, double x, const Value& value) {
+  if (x <= at[0]) return value(0);
+  if (x >= at[n - 1]) return value(n - 1);
+  const auto hi = static_cast<std::size_t>(std::upper_bound(at, at + n, x) - at);
   const std::size_t lo = hi - 1;
   const double f = (x - at[lo]) / (at[hi] - at[lo]);
   return value(lo) + f * (value(hi) - value(lo));
@@ -171,28 +172,36 @@ double table_lookup(const std::vector<double>& at, double x, const Value& value)
 
 double JointCompensation::correction_m(double commanded_m, int direction) const noexcept {
   if (nominal_m.empty() || forward_m.size() != nominal_m.size() || reverse_m.size() != nominal_m.size()) return 0.0;
-  const auto& actual = direction < 0 ? reverse_m : forward_m;
-  return table_lookup(nominal_m, commanded_m, [&](std::size_t i) { return nominal_m[i] - actual[i]; });
+  const double* nominal = nominal_m.data();
+  const double* actual = (direction < 0 ? reverse_m : forward_m).data();
+  return table_lookup(nominal, nominal_m.size(), commanded_m,
+                      [nominal, actual](std::size_t i) { return nominal[i] - actual[i]; });
 }
 
 double CrossCompensation::at(double moving_commanded_m) const noexcept {
   if (nominal_m.empty() || correction_m.size() != nominal_m.size()) return 0.0;
-  return table_lookup(nominal_m, moving_commanded_m, [&](std::size_t i) { return correction_m[i]; });
+  const double* correction = correction_m.data();
+  return table_lookup(nominal_m.data(), nominal_m.size(), moving_commanded_m,
+                      [correction](std::size_t i) { return correction[i]; });
 }
 
+// Called at every sub-step of a run (simulate_motion): on plain arrays, the same operations in the same order.
 Vec3 controller_command(const ControllerCorrection& ctl, const Vec3& commanded, const std::array<int, 3>& direction) {
-  Vec3 c = commanded;
+  double c[3] = {commanded[0], commanded[1], commanded[2]};
   if (ctl.volumetric) {
     const Vec3 v = ctl.volumetric(commanded);
     for (std::size_t j = 0; j < 3; ++j) c[j] += v[j];
   }
-  Vec3 m = c;
+  double m[3] = {c[0], c[1], c[2]};
   m[0] -= ctl.skew.xy * c[1] + ctl.skew.xz * c[2];
   m[1] -= ctl.skew.yz * c[2];
-  for (const auto& x : ctl.cross) m[static_cast<std::size_t>(x.corrected)] += x.at(c[static_cast<std::size_t>(x.moving)]);
+  const CrossCompensation* cross = ctl.cross.data();
+  for (std::size_t k = 0; k < ctl.cross.size(); ++k)
+    m[static_cast<std::size_t>(cross[k].corrected)] += cross[k].at(c[static_cast<std::size_t>(cross[k].moving)]);
+  const JointCompensation* tables = ctl.tables.data();
   for (std::size_t j = 0; j < 3; ++j)
-    if (!ctl.tables[j].empty()) m[j] += ctl.tables[j].correction_m(m[j], direction[j]);
-  return m;
+    if (!tables[j].empty()) m[j] += tables[j].correction_m(m[j], direction[j]);
+  return {m[0], m[1], m[2]};
 }
 
 Machine::Machine(MachineConfig config) : config_(std::move(config)) {}
@@ -221,19 +230,22 @@ void MotionStepper::step(const Vec3& motor_m, double t_rel_s, double dt_s) {
   const MachineConfig& config = machine_->config();
   for (std::size_t j = 0; j < 3; ++j) {
     const auto& e = config.axis[j];
-    const double before = servo_[j];
+    double& servo = servo_[j];
+    double& lash = backlash_[j];
+    const double target = motor_m[j], from = motor_[j];
+    const double before = servo;
     if (e.servo_lag_s > 0) {
       // Exact response of a first-order lag to a ramp input over the step.
       const double tau = e.servo_lag_s;
-      const double m = (motor_m[j] - motor_[j]) / dt_s;
-      servo_[j] = motor_m[j] - tau * m + (servo_[j] - motor_[j] + tau * m) * std::exp(-dt_s / tau);
+      const double m = (target - from) / dt_s;
+      servo = target - tau * m + (servo - from + tau * m) * std::exp(-dt_s / tau);
     } else {
-      servo_[j] = motor_m[j];
+      servo = target;
     }
     const double half = 0.5 * e.backlash_m;
-    if (servo_[j] - backlash_[j] > half) backlash_[j] = servo_[j] - half;
-    if (servo_[j] - backlash_[j] < -half) backlash_[j] = servo_[j] + half;
-    const double moved = servo_[j] - before;
+    if (servo - lash > half) lash = servo - half;
+    if (servo - lash < -half) lash = servo + half;
+    const double moved = servo - before;
     const int sgn = std::abs(moved) > 1e-13 ? sign_of(moved) : 0;
     if (sgn != 0 && sgn != dir_[j]) {
       if (dir_[j] != 0) {
@@ -383,9 +395,17 @@ DbbRun Machine::dbb_circle(const DbbCircleSpec& spec) const {
   const double rate = spec.sample_rate_hz > 0 ? spec.sample_rate_hz : omega * 180.0 / std::numbers::pi * 10.0;
 
   MotionSpec ms;
-  ms.path = [=](double t) {
+  // Called at every sub-step of the run (simulate_motion): in scalars, the same operations as
+  // center + r * (cos(z) e1 + sin(z) e2) coefficient by coefficient.
+  ms.path = [=, centre = a3(center), u = a3(e1), w = a3(e2)](double t) {
     const double z = zeta0 + sgn * omega * t;
-    return a3(center + r * (std::cos(z) * e1 + std::sin(z) * e2));
+    const double cz = std::cos(z), sz = std::sin(z);
+    Vec3 p;
+    for (std::size_t i = 0; i < 3; ++i) {
+      const double along = cz * u[i] + sz * w[i];
+      p[i] = centre[i] + r * along;
+    }
+    return p;
   };
   ms.duration_s = duration;
   ms.sample_rate_hz = rate;
