@@ -82,8 +82,8 @@ void set_contribution(const Problem& problem, const std::vector<std::pair<std::s
 // The findings in the order taken: parameters from the final joint fit; the BIC, p-value and share of each
 // against the final model without it; RMS and held-out RMS after each in turn. `steps` gets the residual
 // after each.
-void add_findings(const Problem& problem, const Selection& sel, const EffectSelection& chosen, const Eigen::VectorXd& y,
-                  double sigma, double visible_floor, bool keep_columns, Report& rep,
+void add_findings(const Problem& problem, const Selection& sel, const EffectSelection& chosen, double sigma,
+                  double visible_floor, bool keep_columns, Report& rep,
                   std::vector<std::pair<std::string, Eigen::VectorXd>>& steps) {
   const std::vector<Term>& terms = chosen.terms();
   const std::size_t n = problem.samples.size();
@@ -212,7 +212,7 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options, const S
   // selection kept are dropped first rather than held beside it (bench/README.md "EXPLAIN's footprint").
   sel.drop_models();
   std::vector<std::pair<std::string, Eigen::VectorXd>> steps{{"base model", sel.model({}).residual}};
-  add_findings(problem, sel, chosen, y, sigma, visible_floor, options.keep_columns, rep, steps);
+  add_findings(problem, sel, chosen, sigma, visible_floor, options.keep_columns, rep, steps);
   rep.considered = chosen.considered();
   const Model& cur = chosen.model();
   rep.final_fit = {std::sqrt(cur.rss / static_cast<double>(n)), cur.bic, chosen.heldout(), cur.rank + cur.searched};
