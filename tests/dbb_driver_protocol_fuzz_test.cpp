@@ -30,6 +30,18 @@ void check_cycle(const DbbCycle& c) {
   }
 }
 
+// Cycles a property test takes from the decoder: each well formed, their times strictly increasing.
+struct TakenCycles {
+  std::size_t count = 0;
+  std::int64_t last_t_ns = -1;
+  void take(const DbbCycle& c) {
+    ++count;
+    check_cycle(c);
+    ASSERT_GT(c.t_sync_ns, last_t_ns);
+    last_t_ns = c.t_sync_ns;
+  }
+};
+
 }  // namespace
 
 TEST(DbbProtocol, ClassifiesTheFramesOfTheProfile) {
@@ -338,34 +350,29 @@ TEST(DbbProtocol, AsSyncProducerTheEchoOfOurSyncOrdersTheAnswers) {
 TEST(DbbProtocol, AsSyncProducerRandomAnswersNeverGiveMoreSamplesThanSyncs) {
   std::mt19937 rng(20261125);
   DbbDecoder d(encoders(), true);
-  std::size_t syncs = 0, samples = 0;
-  std::int64_t t = 0, last_sample_t = -1;
-  const auto take = [&](const DbbCycle& c) {
-    ++samples;
-    check_cycle(c);
-    ASSERT_GT(c.t_sync_ns, last_sample_t);
-    last_sample_t = c.t_sync_ns;
-  };
+  std::size_t syncs = 0;
+  std::int64_t t = 0;
+  TakenCycles taken;
   for (int step = 0; step < 200000; ++step) {
     DbbCycle c;
     t += 1 + static_cast<std::int64_t>(rng() % 50);
     if (rng() % 5 == 0) {
       ++syncs;
       const std::int64_t written = t + static_cast<std::int64_t>(rng() % 30);  // the write's own time
-      if (d.sync_sent(t, written, c)) take(c);
+      if (d.sync_sent(t, written, c)) taken.take(c);
       t = written;
     } else {
       // Stamped up to 100 ns before it is read: possibly before the last SYNC.
       const std::int64_t stamp = t - static_cast<std::int64_t>(rng() % 100);
       const std::uint8_t node = encoders()[rng() % 3].node_id;
-      if (d.feed(make_position_pdo(node, static_cast<std::uint32_t>(rng() % 1000)), stamp, c).cycle_ready) take(c);
+      if (d.feed(make_position_pdo(node, static_cast<std::uint32_t>(rng() % 1000)), stamp, c).cycle_ready) taken.take(c);
     }
     if (::testing::Test::HasFatalFailure()) return;
   }
   DbbCycle c;
-  if (d.flush(c)) take(c);
-  EXPECT_LE(samples, syncs);
-  EXPECT_GT(samples, syncs / 2);
+  if (d.flush(c)) taken.take(c);
+  EXPECT_LE(taken.count, syncs);
+  EXPECT_GT(taken.count, syncs / 2);
   EXPECT_GT(d.late_pdos(), 1000u);
 }
 
@@ -375,24 +382,19 @@ TEST(DbbProtocol, AsSyncProducerRandomAnswersNeverGiveMoreSamplesThanSyncs) {
 TEST(DbbProtocol, AsSyncProducerRandomEchoesNeverGiveMoreSamplesThanSyncs) {
   std::mt19937 rng(20261129);
   DbbDecoder d(encoders(), true, 200);
-  std::size_t on_bus = 0, samples = 0, unechoed = 0;
+  std::size_t on_bus = 0, unechoed = 0;
   std::uint32_t answered = 0;  // nodes that answered the last SYNC on the bus
   std::uint64_t late_at_first_echo = 0;
   bool echoed = false;
-  std::int64_t t = 0, last_sample_t = -1;
-  const auto take = [&](const DbbCycle& c) {
-    ++samples;
-    check_cycle(c);
-    ASSERT_GT(c.t_sync_ns, last_sample_t);
-    last_sample_t = c.t_sync_ns;
-  };
+  std::int64_t t = 0;
+  TakenCycles taken;
   for (int step = 0; step < 200000; ++step) {
     DbbCycle c;
     t += 1 + static_cast<std::int64_t>(rng() % 50);
     const auto r = rng() % 10;
     if (r < 2) {
       ++unechoed;
-      if (d.sync_sent(t, t + static_cast<std::int64_t>(rng() % 30), c)) take(c);
+      if (d.sync_sent(t, t + static_cast<std::int64_t>(rng() % 30), c)) taken.take(c);
     } else if (r < 4 && unechoed > 0) {  // the bus takes our oldest SYNC; its echo may be lost
       --unechoed;
       ++on_bus;
@@ -400,20 +402,20 @@ TEST(DbbProtocol, AsSyncProducerRandomEchoesNeverGiveMoreSamplesThanSyncs) {
       if (rng() % 8 == 0) continue;
       if (!echoed) late_at_first_echo = d.late_pdos();
       echoed = true;
-      if (d.feed(make_sync_frame(), t, c).cycle_ready) take(c);
+      if (d.feed(make_sync_frame(), t, c).cycle_ready) taken.take(c);
     } else if (on_bus > 0) {
       const std::size_t i = rng() % 3;
       if (answered & (1u << i)) continue;  // a node answers a SYNC once
       answered |= 1u << i;
       if (d.feed(make_position_pdo(encoders()[i].node_id, static_cast<std::uint32_t>(rng() % 1000)), t, c).cycle_ready)
-        take(c);
+        taken.take(c);
     }
     if (::testing::Test::HasFatalFailure()) return;
   }
   DbbCycle c;
-  if (d.flush(c)) take(c);
-  EXPECT_LE(samples, on_bus);
-  EXPECT_GT(samples, on_bus / 2);
+  if (d.flush(c)) taken.take(c);
+  EXPECT_LE(taken.count, on_bus);
+  EXPECT_GT(taken.count, on_bus / 2);
   EXPECT_GT(d.missed_syncs(), 0u) << "a lost echo is a SYNC missed";
   EXPECT_EQ(d.late_pdos(), late_at_first_echo);
 }

@@ -276,14 +276,19 @@ ReadResult read_can_frames(int fd, std::span<can_frame> frames, std::span<std::i
   return eof || reset ? ReadResult::closed : ReadResult::timeout;
 }
 
-bool enable_rx_timestamps(int fd, std::string& error) {
+namespace {
+// A socket option that is an int flag, turned on.
+bool switch_on(int fd, int level, int option, const char* name, std::string& error) {
   const int on = 1;
-  if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) < 0) {
-    error = errno_text("setsockopt(SO_TIMESTAMPNS)", errno);
+  if (::setsockopt(fd, level, option, &on, sizeof on) < 0) {
+    error = errno_text((std::string("setsockopt(") + name + ")").c_str(), errno);
     return false;
   }
   return true;
 }
+}  // namespace
+
+bool enable_rx_timestamps(int fd, std::string& error) { return switch_on(fd, SOL_SOCKET, SO_TIMESTAMPNS, "SO_TIMESTAMPNS", error); }
 
 std::int64_t rx_timestamp_ns(const msghdr& message) noexcept {
   if (message.msg_control == nullptr || (message.msg_flags & MSG_CTRUNC)) return no_rx_timestamp;
@@ -298,23 +303,9 @@ std::int64_t rx_timestamp_ns(const msghdr& message) noexcept {
   return no_rx_timestamp;
 }
 
-bool enable_rx_drop_count(int fd, std::string& error) {
-  const int on = 1;
-  if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) {
-    error = errno_text("setsockopt(SO_RXQ_OVFL)", errno);
-    return false;
-  }
-  return true;
-}
+bool enable_rx_drop_count(int fd, std::string& error) { return switch_on(fd, SOL_SOCKET, SO_RXQ_OVFL, "SO_RXQ_OVFL", error); }
 
-bool enable_own_frames(int fd, std::string& error) {
-  const int on = 1;
-  if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &on, sizeof on) < 0) {
-    error = errno_text("setsockopt(CAN_RAW_RECV_OWN_MSGS)", errno);
-    return false;
-  }
-  return true;
-}
+bool enable_own_frames(int fd, std::string& error) { return switch_on(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, "CAN_RAW_RECV_OWN_MSGS", error); }
 
 std::uint32_t rx_drop_count(const msghdr& message) noexcept {
   if (message.msg_control == nullptr) return 0;
