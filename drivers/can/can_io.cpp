@@ -23,6 +23,16 @@ namespace {
 
 std::string errno_text(const char* what, int err) { return std::string(what) + ": " + std::strerror(err); }
 
+// A socket option that is an int flag, turned on.
+bool switch_on(int fd, int level, int option, const char* name, std::string& error) {
+  const int on = 1;
+  if (::setsockopt(fd, level, option, &on, sizeof on) < 0) {
+    error = errno_text((std::string("setsockopt(") + name + ")").c_str(), errno);
+    return false;
+  }
+  return true;
+}
+
 bool fill_unix_address(const std::string& path, sockaddr_un& addr, std::string& error) {
   std::memset(&addr, 0, sizeof addr);
   addr.sun_family = AF_UNIX;
@@ -276,19 +286,9 @@ ReadResult read_can_frames(int fd, std::span<can_frame> frames, std::span<std::i
   return eof || reset ? ReadResult::closed : ReadResult::timeout;
 }
 
-namespace {
-// A socket option that is an int flag, turned on.
-bool switch_on(int fd, int level, int option, const char* name, std::string& error) {
-  const int on = 1;
-  if (::setsockopt(fd, level, option, &on, sizeof on) < 0) {
-    error = errno_text((std::string("setsockopt(") + name + ")").c_str(), errno);
-    return false;
-  }
-  return true;
+bool enable_rx_timestamps(int fd, std::string& error) {
+  return switch_on(fd, SOL_SOCKET, SO_TIMESTAMPNS, "SO_TIMESTAMPNS", error);
 }
-}  // namespace
-
-bool enable_rx_timestamps(int fd, std::string& error) { return switch_on(fd, SOL_SOCKET, SO_TIMESTAMPNS, "SO_TIMESTAMPNS", error); }
 
 std::int64_t rx_timestamp_ns(const msghdr& message) noexcept {
   if (message.msg_control == nullptr || (message.msg_flags & MSG_CTRUNC)) return no_rx_timestamp;
@@ -303,9 +303,13 @@ std::int64_t rx_timestamp_ns(const msghdr& message) noexcept {
   return no_rx_timestamp;
 }
 
-bool enable_rx_drop_count(int fd, std::string& error) { return switch_on(fd, SOL_SOCKET, SO_RXQ_OVFL, "SO_RXQ_OVFL", error); }
+bool enable_rx_drop_count(int fd, std::string& error) {
+  return switch_on(fd, SOL_SOCKET, SO_RXQ_OVFL, "SO_RXQ_OVFL", error);
+}
 
-bool enable_own_frames(int fd, std::string& error) { return switch_on(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, "CAN_RAW_RECV_OWN_MSGS", error); }
+bool enable_own_frames(int fd, std::string& error) {
+  return switch_on(fd, SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, "CAN_RAW_RECV_OWN_MSGS", error);
+}
 
 std::uint32_t rx_drop_count(const msghdr& message) noexcept {
   if (message.msg_control == nullptr) return 0;

@@ -187,11 +187,15 @@ void order_frame_times(std::span<FrameTime> times, std::int64_t& last_ns) noexce
 
 namespace {
 
+std::int64_t sync_period_ns(const DbbSettings& s) {
+  return static_cast<std::int64_t>(std::llround(1e9 / s.sync_rate_hz));
+}
+
 drivers::LoopPolicy policy_of(const DbbSettings& s) {
   drivers::LoopPolicy p;
   p.backoff = Backoff::between(std::chrono::milliseconds(s.reconnect_min_ms), std::chrono::milliseconds(s.reconnect_max_ms));
   p.unreached_is_error = true;  // a bus that was never there is a wrong interface or path
-  const std::int64_t period_ns = s.produce_sync ? static_cast<std::int64_t>(std::llround(1e9 / s.sync_rate_hz)) : 0;
+  const std::int64_t period_ns = s.produce_sync ? sync_period_ns(s) : 0;
   // Short SYNC periods: wake once per cycle, at the SYNC, and read the previous cycle's PDOs then
   // (the sample is published up to one period later, <= 500 us). Longer periods also wake for the
   // PDOs, so a sample never waits a long period. A wake-up costs far more than the system calls.
@@ -459,8 +463,7 @@ void DbbDriver::open() {
 
 void DbbDriver::on_link_up(std::int64_t now_ns) {
   if (!relinked()) {
-    decoder_.emplace(settings_.encoders, settings_.produce_sync,
-                     static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz)));
+    decoder_.emplace(settings_.encoders, settings_.produce_sync, sync_period_ns(settings_));
   }
   // Nothing is known of the nodes on a new connection: checked and started again, streaming again
   // from the first complete cycle.
@@ -502,7 +505,7 @@ bool DbbDriver::send_sync() {
   // Frames already queued were on the bus before this SYNC: consume them first, so a cycle's last PDO
   // waiting in the socket is not cut off by our own next SYNC.
   if (!read_queued(drain_pending_)) return false;
-  const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(1e9 / settings_.sync_rate_hz));
+  const std::int64_t period_ns = sync_period_ns(settings_);
   const can_frame sync = make_sync_frame();
   std::string error;
   // Never wait for the bus: a full transmit queue (nobody acknowledges, or the gateway's peer does

@@ -166,6 +166,18 @@ std::int64_t DbbDecoder::unwrap(std::size_t i, std::uint32_t count) noexcept {
   return unwrapped_[i];
 }
 
+bool DbbDecoder::end_open_cycle(DbbCycle& cycle) {
+  if (!open_ || emitted_) return false;
+  if (cur_.present != 0) {
+    close_cycle(cycle);
+    return true;
+  }
+  // No node answered this SYNC: no sample, a hole in the samples (a longer silence is a timeout).
+  ++empty_cycles_;
+  gap_ = true;  // the next cycle follows it
+  return false;
+}
+
 bool DbbDecoder::sync_echoed(std::int64_t t_ns, DbbCycle& cycle) {
   bool ready = false;
   if (!echo_) {
@@ -182,15 +194,7 @@ bool DbbDecoder::sync_echoed(std::int64_t t_ns, DbbCycle& cycle) {
     if (open_ && !emitted_ && (cur_.flags & sample_after_gap)) gap_ = true;  // a reconnect's, say: kept
     open_ = false;
   }
-  if (open_ && !emitted_) {  // the cycle of our SYNC before: a complete one went out at its last PDO
-    if (cur_.present != 0) {
-      close_cycle(cycle);
-      ready = true;
-    } else {
-      ++empty_cycles_;  // no node answered it: no sample, and the next one follows a hole
-      gap_ = true;
-    }
-  }
+  if (end_open_cycle(cycle)) ready = true;  // our SYNC before's (a complete one went out at its last PDO)
   // Its time is the bus's (SocketCAN stamps the echo when the frame was sent); a SYNC two periods or more
   // after the one before follows a hole (the bus, or whoever echoes, held it up).
   const bool hole = echo_hole_ns_ > 0 && last_echo_ns_ != 0 && t_ns - last_echo_ns_ >= echo_hole_ns_;
@@ -269,15 +273,8 @@ DbbDecoder::Result DbbDecoder::feed(const can_frame& frame, std::int64_t t_ns, D
           ++empty_cycles_;
           gap_ = true;
         }
-      } else if (open_ && !emitted_) {
-        if (cur_.present != 0) {
-          close_cycle(cycle);
-          r.cycle_ready = true;
-        } else {
-          // No node answered this SYNC: no sample, a hole in the samples (a longer silence is a timeout).
-          ++empty_cycles_;
-          gap_ = true;  // the next cycle follows it
-        }
+      } else {
+        r.cycle_ready = end_open_cycle(cycle);
       }
       open_cycle(t_ns, 0);
       break;

@@ -74,8 +74,8 @@ struct DbbCycle {
 // within one cycle means a SYNC was missed: the open cycle is emitted (partial if incomplete) and a new cycle opens at
 // that PDO's time, flagged sample_after_gap. PDOs before the first SYNC and from unconfigured nodes are ignored.
 // A SYNC producer (sync_producer, SYNCs given by sync_sent) misses no SYNC. Where its SYNC is not read
-// back from the socket with the PDOs (no echo, below), a second PDO from a node within one cycle means the first was a
-// late answer to the SYNC before, and the newer value replaces it (late_pdos). Replacing needs the
+// back from the socket with the PDOs (no echo, below), a second PDO from a node within one cycle means
+// the first was a late answer to the SYNC before, and the newer value replaces it (late_pdos). Replacing needs the
 // cycle still open: once a cycle was incomplete at its SYNC (the nodes are behind), cycles are emitted
 // at the next SYNC instead of as soon as they are complete, until one is complete in time again. And
 // a PDO on the bus before our SYNC can still be read after it: an incomplete (or empty) cycle stays
@@ -130,6 +130,7 @@ class DbbDecoder {
   void feed_position_as_producer(std::size_t i, std::uint32_t count, std::int64_t t_ns, Result& r, DbbCycle& cycle);
   std::int64_t unwrap(std::size_t i, std::uint32_t count) noexcept;
   bool sync_echoed(std::int64_t t_ns, DbbCycle& cycle);  // our SYNC, back from the bus
+  bool end_open_cycle(DbbCycle& cycle);                  // at a SYNC: the open cycle emitted (true), or counted empty
 
   std::vector<EncoderScale> encoders_;
   std::uint32_t all_mask_ = 0;
@@ -142,8 +143,8 @@ class DbbDecoder {
   bool behind_ = false;     // producer: a cycle was incomplete at its SYNC; emit at the next SYNC
   DbbCycle held_;
   std::int64_t held_until_ns_ = 0;  // a PDO stamped before it may still be the held cycle's (sync_sent)
-  std::int64_t echo_hole_ns_ = 0;  // producer: echoes this far apart or more follow a hole (0: never said)
-  bool echo_ = false;              // producer: the bus gives our SYNCs back in place (feed), cycles follow them
+  std::int64_t echo_hole_ns_ = 0;   // producer: echoes this far apart or more follow a hole (0: never said)
+  bool echo_ = false;               // producer: the bus gives our SYNCs back in place (feed), cycles follow them
   std::int64_t last_echo_ns_ = 0;
   std::array<double, max_encoders> last_m_{};
   std::array<bool, max_encoders> have_count_{};
