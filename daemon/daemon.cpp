@@ -444,6 +444,7 @@ std::string Daemon::status_line() const {
 }
 
 nlohmann::json Daemon::status_json() {
+  const std::vector<DeviceFlowStats> flow = pipeline_->device_flow();
   nlohmann::json devices = nlohmann::json::array();
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     const drivers::DriverStatus s = devices_[i]->status();
@@ -472,9 +473,9 @@ nlohmann::json Daemon::status_json() {
                             {"restarts", p->restarts()}});
     }
     if (!processing.empty()) d["processing"] = std::move(processing);
-    if (i < last_stats_.devices.size()) {
-      d["consumed"] = last_stats_.devices[i].consumed;
-      d["seq_gaps"] = last_stats_.devices[i].seq_gaps;
+    if (i < flow.size()) {
+      d["consumed"] = flow[i].consumed;
+      d["seq_gaps"] = flow[i].seq_gaps;
     }
     devices.push_back(std::move(d));
   }
@@ -548,7 +549,6 @@ void Daemon::handle_request(ClientId client, const std::string& line) {
 nlohmann::json Daemon::handle_version(ClientId, const Request&) { return version_message(); }
 
 nlohmann::json Daemon::handle_status(ClientId, const Request&) {
-  last_stats_.devices.resize(devices_.size());
   return status_json();
 }
 

@@ -80,6 +80,11 @@ PipelineStats Pipeline::take_stats() {
   return out;
 }
 
+std::vector<DeviceFlowStats> Pipeline::device_flow() const {
+  std::lock_guard lock(stats_mutex_);
+  return stats_.devices;
+}
+
 void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* processed, std::int64_t now_ns) {
   if (publish_period_ns_ < 0 || now_ns - last_publish_ns_[index] < publish_period_ns_) return;
   last_publish_ns_[index] = now_ns;

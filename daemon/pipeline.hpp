@@ -75,6 +75,9 @@ class Pipeline {
   [[nodiscard]] std::uint64_t progress() const noexcept { return progress_.load(std::memory_order_relaxed); }
   // Returns the statistics and restarts the latency window.
   PipelineStats take_stats();
+  // The devices' cumulative flow counts as of now (a STATUS asked between two periods sees them
+  // current, beside the drivers' live counters), leaving the period's figures alone.
+  std::vector<DeviceFlowStats> device_flow() const;
 
   // While samples of drivers on threads of their own flow, the pipeline looks again this long after
   // it took some, so a wake-up carries a batch (bounds the added sample-to-pipeline latency). When a
@@ -98,7 +101,7 @@ class Pipeline {
   std::vector<std::unique_ptr<PipelineStage>> stages_;
   std::vector<ProcessingChain> chains_;  // per device
   std::atomic<std::uint64_t> progress_{0};
-  std::mutex stats_mutex_;
+  mutable std::mutex stats_mutex_;
   PipelineStats stats_;
   double latency_sum_us_ = 0.0;
   std::uint64_t latency_count_ = 0;
