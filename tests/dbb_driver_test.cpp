@@ -647,6 +647,23 @@ TEST(DbbDriver, StartsAgainAfterStop) {
 // Bus-off is an error state that lasts until the controller has restarted (the daemon polls device
 // states every 50 ms: set back by the next cycle, it lasted ~4 ms and no EVENT or log line showed it),
 // and the recovery says how long the bus was off.
+// A controller that restarts while its nodes are still quiet (here muted past the restart): the device
+// is lost for a while, then streams; the state that says it streams again still tells how the bus-off
+// ended, since nobody saw the recovery in between.
+TEST(DbbDriver, TheRecoveryFromBusOffIsToldWhenStreamingResumesAfterAQuietSpell) {
+  Bench b(false, 100.0);
+  ASSERT_TRUE(b.wait_samples(10));
+  b.emu.inject_bus_off(200);
+  for (std::size_t i = 0; i < 3; ++i) b.emu.inject_mute(i, 0.6);
+  ASSERT_TRUE(test::eventually([&] { return b.driver->error_frames() == 1; }));
+  ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::lost; }))
+      << b.driver->status().reason;
+  ASSERT_TRUE(test::eventually([&] { return b.driver->status().state == DeviceState::streaming; }));
+  const auto on = b.driver->status();
+  EXPECT_NE(on.reason.find("recovered from bus-off after"), std::string::npos) << on.reason;
+  b.stop_and_check_all();
+}
+
 TEST(DbbDriver, BusOffLatchesTheErrorStateUntilTheControllerRestarts) {
   Bench b(false, 100.0);
   ASSERT_TRUE(b.wait_samples(10));

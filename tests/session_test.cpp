@@ -67,7 +67,8 @@ struct Fixture {
                     const auto n = r.options.value("samples", 0);
                     if (n < 0) throw std::invalid_argument("samples must be >= 0");
                     return std::make_unique<MeanSession>(static_cast<std::size_t>(n));
-                  }});
+                  },
+                   {}});
     socket = dir.file("s.sock");
     state = state_dir.empty() ? dir.file("state") : state_dir;
     auto config = daemon::parse_config("[daemon]\nsocket = \"" + socket + "\"\nstate_dir = \"" + state +

@@ -284,7 +284,9 @@ void DbbDriver::refresh_state() {
   } else {
     why = note_;
   }
-  if (state != drivers::DeviceState::streaming) note_.clear();
+  // The note tells how the last trouble ended: it goes when streaming that showed it ends, not in a
+  // quiet spell between a recovery and the first cycles (nobody saw the recovery yet).
+  if (state != drivers::DeviceState::streaming && shown_state_ == drivers::DeviceState::streaming) note_.clear();
   if (state == shown_state_ && why == shown_reason_) return;
   shown_state_ = state;
   shown_reason_ = why;
