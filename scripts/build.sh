@@ -7,6 +7,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$(pwd)}
+# The precompiled headers (the CLI's, the tests'): ccache caches a file built with one only with this
+# sloppiness (its manual, "Precompiled headers"), else it compiles every such file anew.
+export CCACHE_SLOPPINESS=${CCACHE_SLOPPINESS:-pch_defines,time_macros,include_file_mtime,include_file_ctime}
 dir=$1
 shift
 opts=()
