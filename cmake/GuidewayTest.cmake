@@ -8,15 +8,47 @@
 find_package(GTest REQUIRED)
 # The tests labelled tsan, so the TSan build compiles only what it runs.
 add_custom_target(guideway_tsan_tests)
-function(guideway_add_test name)
-  cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS;ARGS;GROUPS" ${ARGN})
-  add_executable(${name} ${T_SOURCES})
-  target_link_libraries(${name} PRIVATE ${T_LIBS} GTest::gtest GTest::gtest_main guideway_warnings)
-  target_compile_options(${name} PRIVATE ${GUIDEWAY_THIN_PROGRAM_OPTIONS})
-  target_compile_definitions(${name} PRIVATE
+
+# What every test program compiles with: the test executables and their precompiled header's owner alike,
+# since a reused precompiled header needs the same compile options.
+function(guideway_test_compile_settings target)
+  target_link_libraries(${target} PRIVATE GTest::gtest GTest::gtest_main nlohmann_json::nlohmann_json guideway_warnings)
+  # Clang stamps a precompiled header with its headers' mtimes unless told not to: ccache then declines it.
+  target_compile_options(${target} PRIVATE ${GUIDEWAY_THIN_PROGRAM_OPTIONS}
+    "$<$<CXX_COMPILER_ID:Clang>:SHELL:-Xclang -fno-pch-timestamp>")
+  target_compile_definitions(${target} PRIVATE
     GUIDEWAY_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     GUIDEWAY_BINARY_DIR="${PROJECT_BINARY_DIR}"
     GUIDEWAY_TEST_DATA_DIR="${PROJECT_SOURCE_DIR}/tests/data")
+endfunction()
+
+# GoogleTest, nlohmann::json and the standard headers the tests share, parsed once for all of them, with
+# Clang (the sanitizer stages): there a test file at -O0 is mostly that parsing, and the precompiled
+# header cut the CPU of 16 test files (the heaviest and typical ones, each compiled with and without it in
+# turn) by 27 % under ASan (131 s against 178 s). Not with GCC: in the Release build the same files took
+# 3 % less (230 s against 237 s, within the noise; code generation at -O3 is most of their time) for a
+# 130 MB header and its own compile. Its owner is an executable (a test program with no tests), so that it
+# compiles with the tests' flags (-fPIE, not a library's -fPIC); a test compiled with other options opts
+# out with the target property DISABLE_PRECOMPILE_HEADERS.
+if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+  file(CONFIGURE OUTPUT ${PROJECT_BINARY_DIR}/tests/guideway_test_pch.cpp
+    CONTENT "// The owner of the test programs' shared precompiled header (cmake/GuidewayTest.cmake).\n")
+  add_executable(guideway_test_pch ${PROJECT_BINARY_DIR}/tests/guideway_test_pch.cpp)
+  guideway_test_compile_settings(guideway_test_pch)
+  target_precompile_headers(guideway_test_pch PRIVATE
+    <gtest/gtest.h> <nlohmann/json.hpp>
+    <algorithm> <atomic> <chrono> <cmath> <filesystem> <fstream> <functional> <map> <numbers> <random>
+    <sstream> <string> <thread> <vector>)
+endif()
+
+function(guideway_add_test name)
+  cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS;ARGS;GROUPS" ${ARGN})
+  add_executable(${name} ${T_SOURCES})
+  target_link_libraries(${name} PRIVATE ${T_LIBS})
+  guideway_test_compile_settings(${name})
+  if(TARGET guideway_test_pch)
+    target_precompile_headers(${name} REUSE_FROM guideway_test_pch)
+  endif()
   if(NOT T_LABELS)
     set(T_LABELS unit)
   endif()
