@@ -1,5 +1,6 @@
 // cyclic_error: a lead-screw (or scale) pitch error repeating every lead along an axis.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -18,6 +19,9 @@ namespace guideway::models::explain::effects {
 namespace {
 
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+
+// Samples whose phases are made, then their sines and cosines a vector at a time (dbb::fast_sincos_batch).
+constexpr std::size_t sincos_chunk = 256;
 
 // The leads searched on a DBB circle (mm).
 constexpr double dbb_periods_mm[] = {1.0,  2.0,  2.5,  3.0,  4.0,  5.0,  6.0,  8.0, 10.0,
@@ -50,15 +54,22 @@ Variant dbb_variant(std::shared_ptr<const std::vector<Geo>> geo, std::shared_ptr
     const std::vector<Geo>& gg = *geo;
     const std::vector<double>& proj = axis == 0 ? u->proj_a : u->proj_b;
     double cos_d = 1, sin_d = 0;
-    for (std::size_t i = 0; i < gg.size(); ++i) {
-      if (i == 0 || gg[i].run != gg[i - 1].run) {
-        cos_d = std::cos(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
-        sin_d = std::sin(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
+    std::array<double, sincos_chunk> phase{}, sn{}, cs{};
+    for (std::size_t from = 0; from < gg.size(); from += sincos_chunk) {
+      const std::size_t m = std::min(sincos_chunk, gg.size() - from);
+      for (std::size_t j = 0; j < m; ++j) {
+        const std::size_t i = from + j;
+        if (i == 0 || gg[i].run != gg[i - 1].run) {
+          cos_d = std::cos(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
+          sin_d = std::sin(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
+        }
+        phase[j] = k * delayed_position(gg[i], *u, i, axis, cos_d, sin_d);
       }
-      double sn = 0, cs = 0;
-      dbb::fast_sincos(k * delayed_position(gg[i], *u, i, axis, cos_d, sin_d), sn, cs);
-      out(static_cast<Eigen::Index>(i), 0) = proj[i] * sn;
-      out(static_cast<Eigen::Index>(i), 1) = proj[i] * cs;
+      dbb::fast_sincos_batch(phase.data(), sn.data(), cs.data(), m);
+      for (std::size_t j = 0; j < m; ++j) {
+        out(static_cast<Eigen::Index>(from + j), 0) = proj[from + j] * sn[j];
+        out(static_cast<Eigen::Index>(from + j), 1) = proj[from + j] * cs[j];
+      }
     }
   };
   v.fixed.push_back({results::name(results::cyclic_period, plane, axis), p_mm, nan});
@@ -86,6 +97,7 @@ std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std
   const std::vector<Eigen::Index> rows = rows_in_use(use);
   std::vector<Variant> vs;
   const std::size_t per_axis = std::size(dbb_periods_mm);
+  std::array<double, sincos_chunk> phase{}, sn{}, cs{};
   for (int axis = 0; axis < 2; ++axis) {
     const std::vector<double>& proj = axis == 0 ? u->proj_a : u->proj_b;
     std::vector<std::pair<double, std::size_t>> score;  // (-explained, period's index)
@@ -94,17 +106,23 @@ std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std
       const double kk = 2 * pi / (dbb_periods_mm[k] * 1e-3);
       Eigen::Matrix2d xtx = Eigen::Matrix2d::Zero();
       Eigen::Vector2d xtr = Eigen::Vector2d::Zero();
-      for (const Eigen::Index i : rows) {
-        double sn = 0, cs = 0;
-        const auto j = static_cast<std::size_t>(i);
-        dbb::fast_sincos(kk * delayed_position(gg[j], *u, j, axis, 1.0, 0.0), sn, cs);
-        const double s = proj[static_cast<std::size_t>(i)] * sn, c = proj[static_cast<std::size_t>(i)] * cs;
-        const double ri = r[i];
-        xtx(0, 0) += s * s;
-        xtx(0, 1) += s * c;
-        xtx(1, 1) += c * c;
-        xtr[0] += s * ri;
-        xtr[1] += c * ri;
+      for (std::size_t from = 0; from < rows.size(); from += sincos_chunk) {
+        const std::size_t m = std::min(sincos_chunk, rows.size() - from);
+        for (std::size_t q = 0; q < m; ++q) {
+          const auto j = static_cast<std::size_t>(rows[from + q]);
+          phase[q] = kk * delayed_position(gg[j], *u, j, axis, 1.0, 0.0);
+        }
+        dbb::fast_sincos_batch(phase.data(), sn.data(), cs.data(), m);
+        for (std::size_t q = 0; q < m; ++q) {
+          const Eigen::Index i = rows[from + q];
+          const double s = proj[static_cast<std::size_t>(i)] * sn[q], c = proj[static_cast<std::size_t>(i)] * cs[q];
+          const double ri = r[i];
+          xtx(0, 0) += s * s;
+          xtx(0, 1) += s * c;
+          xtx(1, 1) += c * c;
+          xtr[0] += s * ri;
+          xtr[1] += c * ri;
+        }
       }
       xtx(1, 0) = xtx(0, 1);
       score.emplace_back(-xtr.dot(xtx.ldlt().solve(xtr)), k);
