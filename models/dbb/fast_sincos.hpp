@@ -6,15 +6,14 @@
 // non-finite x it calls libm. Thread safe.
 
 #include <cmath>
+#include <cstddef>
 
 namespace guideway::models::dbb {
 
-inline void fast_sincos(double x, double& s, double& c) {
-  if (!(std::abs(x) <= 1e6)) {
-    s = std::sin(x);
-    c = std::cos(x);
-    return;
-  }
+namespace detail {
+// sin and cos of |x| <= 1e6 (below 2^31 pi/2: the quadrant fits an int), without a branch: a loop of it
+// vectorizes (fast_sincos_batch).
+inline void sincos_in_range(double x, double& s, double& c) {
   // Cody-Waite reduction x = k pi/2 + r, |r| <= pi/4, with pi/2 split in three (fdlibm's pio2_1,
   // pio2_2, pio2_2t): k p1 and k p2 are exact for |k| < 2^20.
   constexpr double two_over_pi = 6.36619772367581382433e-01;
@@ -40,23 +39,37 @@ inline void fast_sincos(double x, double& s, double& c) {
   const double hz = 0.5 * z;
   const double w = 1.0 - hz;
   const double cr = w + (((1.0 - w) - hz) + z * poly);
-  switch (static_cast<long long>(k) & 3) {
-    case 0:
-      s = sr;
-      c = cr;
-      break;
-    case 1:
-      s = cr;
-      c = -sr;
-      break;
-    case 2:
-      s = -sr;
-      c = -cr;
-      break;
-    default:
-      s = -cr;
-      c = sr;
-      break;
+  // Quadrant q = k mod 4: (s, c) = (sr, cr), (cr, -sr), (-sr, -cr), (-cr, sr); selects, not a switch.
+  const int q = static_cast<int>(k);
+  const double a = (q & 1) != 0 ? cr : sr, b = (q & 1) != 0 ? sr : cr;
+  s = (q & 2) != 0 ? -a : a;
+  c = ((q + 1) & 2) != 0 ? -b : b;
+}
+}  // namespace detail
+
+inline void fast_sincos(double x, double& s, double& c) {
+  if (!(std::abs(x) <= 1e6)) {
+    s = std::sin(x);
+    c = std::cos(x);
+    return;
+  }
+  detail::sincos_in_range(x, s, c);
+}
+
+// fast_sincos of x[0..n) into s and c (none of them overlapping), the same bits: when every argument is in range,
+// a vector at a time (about twice as fast in the DBB cyclic-lead and vibration searches), else one by one.
+inline void fast_sincos_batch(const double* __restrict x, double* __restrict s, double* __restrict c, std::size_t n) {
+  std::size_t outside = 0;
+  for (std::size_t i = 0; i < n; ++i) outside += std::abs(x[i]) <= 1e6 ? 0 : 1;
+  if (outside > 0) {
+    for (std::size_t i = 0; i < n; ++i) fast_sincos(x[i], s[i], c[i]);
+    return;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    double si = 0, ci = 0;
+    detail::sincos_in_range(x[i], si, ci);
+    s[i] = si;
+    c[i] = ci;
   }
 }
 

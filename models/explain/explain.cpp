@@ -93,6 +93,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
       explain_once(problem, options, options.max_set_aside > 0 ? settable(problem, options, index, keep) : nullptr);
   std::vector<Location> aside;
   std::vector<OffsetAfter> after;  // per place set aside: its run, the first sample after it
+  engine::FittedOffsets fitted;    // of `after`, on the samples `keep` keeps
   std::optional<Pass> later;
   std::string starved;  // why the places were not set aside (a run would become too short to test)
   // Every place of a residual structured locally; of the probe (Pass::probe) only the strongest a round:
@@ -117,7 +118,9 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     }
     auto trial_after = after;
     for (const auto& l : places) trial_after.push_back(engine::offset_after(problem, l, trial));
-    Reduced reduced = engine::without_samples(problem, trial, engine::fitted_offsets(problem, trial, trial_after));
+    engine::FittedOffsets trial_fitted;
+    trial_fitted.offsets = engine::fitted_offsets(problem, trial, trial_after, &trial_fitted.left_out);
+    Reduced reduced = engine::without_samples(problem, trial, trial_fitted.offsets);
     if (options.on_progress)
       options.on_progress("pass " + std::to_string(round + 2) + ", " + std::to_string(aside.size() + places.size()) +
                           " places set aside");
@@ -125,6 +128,7 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
                              round + 1 < rounds ? settable(problem, options, reduced.kept, trial) : nullptr);
     keep = std::move(trial);
     after = std::move(trial_after);
+    fitted = std::move(trial_fitted);
     index = std::move(reduced.kept);
     for (auto& l : places) l.set_aside = true;
     aside.insert(aside.end(), places.begin(), places.end());
@@ -134,10 +138,9 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
     if (!starved.empty()) first.report.notes.push_back(starved);
     return std::move(first.report);
   }
-  engine::release_explained(problem, options, first.report.noise_um, aside, keep, after, *later);
-  std::vector<std::string> left_out;  // the offsets the last pass did not fit, and why
-  (void)engine::fitted_offsets(problem, keep, after, &left_out);
-  later->report.notes.insert(later->report.notes.end(), left_out.begin(), left_out.end());
+  engine::release_explained(problem, options, first.report.noise_um, aside, keep, after, fitted, *later);
+  // The offsets the last pass did not fit, and why.
+  later->report.notes.insert(later->report.notes.end(), fitted.left_out.begin(), fitted.left_out.end());
   return with_places_set_aside(problem, first.report, std::move(later->report), std::move(aside), keep);
 }
 

@@ -1,5 +1,6 @@
 // cyclic_error: a lead-screw (or scale) pitch error repeating every lead along an axis.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -19,6 +20,9 @@ namespace {
 
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 
+// Samples whose phases are made, then their sines and cosines a vector at a time (dbb::fast_sincos_batch).
+constexpr std::size_t sincos_chunk = 256;
+
 // The leads searched on a DBB circle (mm).
 constexpr double dbb_periods_mm[] = {1.0,  2.0,  2.5,  3.0,  4.0,  5.0,  6.0,  8.0, 10.0,
                                      12.0, 12.5, 15.0, 16.0, 20.0, 25.0, 32.0, 40.0};
@@ -27,6 +31,16 @@ constexpr double dbb_periods_mm[] = {1.0,  2.0,  2.5,  3.0,  4.0,  5.0,  6.0,  8
 // of each axis on the bar.
 struct Undelayed {
   std::vector<double> sz, cz, proj_a, proj_b;
+  // The samples as stretches of one run, centre and radius, so that a variant reads none of them per sample (a
+  // sample's whole geometry is ten times the four arrays above): where each starts, what it reads, whether it
+  // starts a run (a delay's turn is made at each).
+  struct Stretch {
+    std::size_t from = 0;
+    bool new_run = false;
+    double turn = 0;  // dir omega (rad/s)
+    double center_a_m = 0, center_b_m = 0, radius_m = 0;
+  };
+  std::vector<Stretch> stretches;  // then one past the last sample's
 };
 
 // The drives' position along `axis` at sample i when they follow the command late by an angle whose cos and sin
@@ -40,25 +54,39 @@ double delayed_position(const Geo& g, const Undelayed& u, std::size_t i, int axi
 // Along plane axis `axis` with period p_mm, on the drives' positions when they follow the command delay_s late.
 // Made on demand (Variant::fill): a sine and cosine per sample, cheaper to make again than to keep (the generator
 // offers 48 of them in every fold of every held-out test).
-Variant dbb_variant(std::shared_ptr<const std::vector<Geo>> geo, std::shared_ptr<const Undelayed> u,
+Variant dbb_variant(std::shared_ptr<const Undelayed> u,
                     const std::string& plane, int axis, double p_mm, double delay_s, bool delay_searched) {
   const double k = 2 * pi / (p_mm * 1e-3);
   Variant v;
   v.block.names = {results::name(results::cyclic_sin_column, plane, axis),
                    results::name(results::cyclic_cos_column, plane, axis)};
-  v.fill = [geo = std::move(geo), u = std::move(u), axis, k, delay_s](Eigen::Ref<Eigen::MatrixXd> out) {
-    const std::vector<Geo>& gg = *geo;
+  v.fill = [u = std::move(u), axis, k, delay_s](Eigen::Ref<Eigen::MatrixXd> out) {
     const std::vector<double>& proj = axis == 0 ? u->proj_a : u->proj_b;
+    const std::vector<double>&cz = u->cz, &sz = u->sz;
     double cos_d = 1, sin_d = 0;
-    for (std::size_t i = 0; i < gg.size(); ++i) {
-      if (i == 0 || gg[i].run != gg[i - 1].run) {
-        cos_d = std::cos(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
-        sin_d = std::sin(gg[i].dir * gg[i].omega_rad_per_s * delay_s);
+    std::array<double, sincos_chunk> phase{}, sn{}, cs{};
+    for (std::size_t st = 0; st + 1 < u->stretches.size(); ++st) {
+      const Undelayed::Stretch& g = u->stretches[st];
+      if (g.new_run) {
+        cos_d = std::cos(g.turn * delay_s);
+        sin_d = std::sin(g.turn * delay_s);
       }
-      double sn = 0, cs = 0;
-      dbb::fast_sincos(k * delayed_position(gg[i], *u, i, axis, cos_d, sin_d), sn, cs);
-      out(static_cast<Eigen::Index>(i), 0) = proj[i] * sn;
-      out(static_cast<Eigen::Index>(i), 1) = proj[i] * cs;
+      const std::size_t to = u->stretches[st + 1].from;
+      for (std::size_t from = g.from; from < to; from += sincos_chunk) {
+        const std::size_t m = std::min(sincos_chunk, to - from);
+        // delayed_position()'s arithmetic, the stretch's centre and radius read once.
+        if (axis == 0)
+          for (std::size_t j = 0; j < m; ++j)
+            phase[j] = k * (g.center_a_m + g.radius_m * (cz[from + j] * cos_d + sz[from + j] * sin_d));
+        else
+          for (std::size_t j = 0; j < m; ++j)
+            phase[j] = k * (g.center_b_m + g.radius_m * (sz[from + j] * cos_d - cz[from + j] * sin_d));
+        dbb::fast_sincos_batch(phase.data(), sn.data(), cs.data(), m);
+        for (std::size_t j = 0; j < m; ++j) {
+          out(static_cast<Eigen::Index>(from + j), 0) = proj[from + j] * sn[j];
+          out(static_cast<Eigen::Index>(from + j), 1) = proj[from + j] * cs[j];
+        }
+      }
     }
   };
   v.fixed.push_back({results::name(results::cyclic_period, plane, axis), p_mm, nan});
@@ -86,25 +114,35 @@ std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std
   const std::vector<Eigen::Index> rows = rows_in_use(use);
   std::vector<Variant> vs;
   const std::size_t per_axis = std::size(dbb_periods_mm);
+  std::array<double, sincos_chunk> phase{}, sn{}, cs{};
   for (int axis = 0; axis < 2; ++axis) {
     const std::vector<double>& proj = axis == 0 ? u->proj_a : u->proj_b;
+    // The undelayed position of each row in use, the same for every period.
+    std::vector<double> position(rows.size());
+    for (std::size_t q = 0; q < rows.size(); ++q) {
+      const auto j = static_cast<std::size_t>(rows[q]);
+      position[q] = delayed_position(gg[j], *u, j, axis, 1.0, 0.0);
+    }
     std::vector<std::pair<double, std::size_t>> score;  // (-explained, period's index)
     for (std::size_t k = 0; k < per_axis; ++k) {
       // The 2 x 2 normal equations summed over the rows in use, the term's columns made as they are summed.
       const double kk = 2 * pi / (dbb_periods_mm[k] * 1e-3);
       Eigen::Matrix2d xtx = Eigen::Matrix2d::Zero();
       Eigen::Vector2d xtr = Eigen::Vector2d::Zero();
-      for (const Eigen::Index i : rows) {
-        double sn = 0, cs = 0;
-        const auto j = static_cast<std::size_t>(i);
-        dbb::fast_sincos(kk * delayed_position(gg[j], *u, j, axis, 1.0, 0.0), sn, cs);
-        const double s = proj[static_cast<std::size_t>(i)] * sn, c = proj[static_cast<std::size_t>(i)] * cs;
-        const double ri = r[i];
-        xtx(0, 0) += s * s;
-        xtx(0, 1) += s * c;
-        xtx(1, 1) += c * c;
-        xtr[0] += s * ri;
-        xtr[1] += c * ri;
+      for (std::size_t from = 0; from < rows.size(); from += sincos_chunk) {
+        const std::size_t m = std::min(sincos_chunk, rows.size() - from);
+        for (std::size_t q = 0; q < m; ++q) phase[q] = kk * position[from + q];
+        dbb::fast_sincos_batch(phase.data(), sn.data(), cs.data(), m);
+        for (std::size_t q = 0; q < m; ++q) {
+          const Eigen::Index i = rows[from + q];
+          const double s = proj[static_cast<std::size_t>(i)] * sn[q], c = proj[static_cast<std::size_t>(i)] * cs[q];
+          const double ri = r[i];
+          xtx(0, 0) += s * s;
+          xtx(0, 1) += s * c;
+          xtx(1, 1) += c * c;
+          xtr[0] += s * ri;
+          xtr[1] += c * ri;
+        }
       }
       xtx(1, 0) = xtx(0, 1);
       score.emplace_back(-xtr.dot(xtx.ldlt().solve(xtr)), k);
@@ -112,7 +150,7 @@ std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std
     std::sort(score.begin(), score.end());
     for (std::size_t k = 0; k < 2 && k < score.size(); ++k)
       for (const dbb::DriveTrack& track : tracks)
-        vs.push_back(dbb_variant(geo, u, plane, axis, dbb_periods_mm[score[k].second], track.delay_s, true));
+        vs.push_back(dbb_variant(u, plane, axis, dbb_periods_mm[score[k].second], track.delay_s, true));
   }
   return vs;
 }
@@ -129,12 +167,20 @@ bool cyclic_error_dbb_term(const DbbTerms& t, Candidate& c) {
     u->proj_a.push_back(g.lambda * g.c);
     u->proj_b.push_back(g.lambda * g.s);
   }
+  for (std::size_t i = 0; i < t.g.size(); ++i) {
+    const Geo& g = t.g[i];
+    const bool new_run = i == 0 || g.run != t.g[i - 1].run;
+    const Undelayed::Stretch* last = u->stretches.empty() ? nullptr : &u->stretches.back();
+    if (new_run || g.center_a_m != last->center_a_m || g.center_b_m != last->center_b_m || g.radius_m != last->radius_m)
+      u->stretches.push_back({i, new_run, g.dir * g.omega_rad_per_s, g.center_a_m, g.center_b_m, g.radius_m});
+  }
+  u->stretches.push_back({t.g.size(), false, 0, 0, 0, 0});
   const std::shared_ptr<const Undelayed> shared = std::move(u);
   const double first_delay = t.tracks->front().delay_s;
   if (t.tracks->size() == 1) {
     for (int axis = 0; axis < 2; ++axis)
       for (double p_mm : dbb_periods_mm)
-        c.variants.push_back(dbb_variant(t.geo, shared, t.plane, axis, p_mm, first_delay, false));
+        c.variants.push_back(dbb_variant(shared, t.plane, axis, p_mm, first_delay, false));
     return true;
   }
   c.generate = [geo = t.geo, plane = t.plane, tracks = t.tracks, shared](const Eigen::VectorXd& r,

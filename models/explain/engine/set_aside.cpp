@@ -403,9 +403,9 @@ void repeats_among(std::vector<Mismatch>& remaining, const std::string& domain) 
 // finds as much and leaves no new structure; `aside`, `keep`, `after` and `last` are then its.
 void release_explained(const Problem& problem, const ExplainOptions& options, double sigma,
                        std::vector<Location>& aside, std::vector<bool>& keep, std::vector<OffsetAfter>& after,
-                       Pass& last) {
+                       FittedOffsets& fitted, Pass& last) {
   const std::vector<bool> fault =
-      unexplained_places(problem, last, aside, keep, fitted_offsets(problem, keep, after), sigma, options.alpha);
+      unexplained_places(problem, last, aside, keep, fitted.offsets, sigma, options.alpha);
   const auto faults = static_cast<std::size_t>(std::count(fault.begin(), fault.end(), true));
   if (faults == 0 || faults == aside.size()) return;
   std::vector<Location> places;
@@ -415,7 +415,9 @@ void release_explained(const Problem& problem, const ExplainOptions& options, do
   set_aside(problem, places, trial);
   std::vector<OffsetAfter> trial_after;
   for (const auto& l : places) trial_after.push_back(offset_after(problem, l, trial));
-  const Reduced reduced = without_samples(problem, trial, fitted_offsets(problem, trial, trial_after));
+  FittedOffsets trial_fitted;
+  trial_fitted.offsets = fitted_offsets(problem, trial, trial_after, &trial_fitted.left_out);
+  const Reduced reduced = without_samples(problem, trial, trial_fitted.offsets);
   if (options.on_progress)
     options.on_progress("pass with " + std::to_string(places.size()) + " of " + std::to_string(aside.size()) +
                         " places set aside (the findings explain the others)");
@@ -426,6 +428,7 @@ void release_explained(const Problem& problem, const ExplainOptions& options, do
   aside = std::move(places);
   keep = std::move(trial);
   after = std::move(trial_after);
+  fitted = std::move(trial_fitted);
   last = std::move(next);
 }
 

@@ -55,16 +55,24 @@ std::vector<OffsetAfter> fitted_offsets(const Problem& p, const std::vector<bool
                                         const std::vector<OffsetAfter>& after,
                                         std::vector<std::string>* notes = nullptr);
 
+// fitted_offsets of a pass's `after` on its samples kept, and its notes: made once per pass (fitted_offsets makes
+// every listed variant over every sample), read by the pass, release_explained and the report's notes.
+struct FittedOffsets {
+  std::vector<OffsetAfter> offsets;
+  std::vector<std::string> left_out;
+};
+
 // A run the structure tests could look at that setting aside would leave too short for them (a traverse's
 // pass of 33 readings): its label, or "" when there is none.
 std::string starved_run(const Problem& p, const std::vector<bool>& keep);
 
 // One fault is one place: a place set aside with the others whose stretch the last pass's findings explain
 // is given back, and the pass run again with the rest set aside. Kept only when that pass finds as much and
-// leaves no new structure; `aside`, `keep`, `after` and `last` are then its.
+// leaves no new structure; `aside`, `keep`, `after`, `fitted` (the offsets of `after` fitted on `keep`) and `last`
+// are then its.
 void release_explained(const Problem& problem, const ExplainOptions& options, double sigma,
                        std::vector<Location>& aside, std::vector<bool>& keep, std::vector<OffsetAfter>& after,
-                       Pass& last);
+                       FittedOffsets& fitted, Pass& last);
 
 // Places set aside in successive rounds that are one stretch of set-aside samples in a run are one place:
 // merged, in the order the run passed them.
