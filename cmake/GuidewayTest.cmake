@@ -29,24 +29,28 @@ endfunction()
 # 3 % less (230 s against 237 s, within the noise; code generation at -O3 is most of their time) for a
 # 130 MB header and its own compile. Its owner is an executable (a test program with no tests), so that it
 # compiles with the tests' flags (-fPIE, not a library's -fPIC); a test compiled with other options opts
-# out with the target property DISABLE_PRECOMPILE_HEADERS.
-if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
-  file(CONFIGURE OUTPUT ${PROJECT_BINARY_DIR}/tests/guideway_test_pch.cpp
+# out with the target property DISABLE_PRECOMPILE_HEADERS. Made by the first test, in the tests'
+# directory: it then has their directory's options too (guideway_sanitize_as_test_programs).
+function(guideway_add_test_pch)
+  file(CONFIGURE OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/guideway_test_pch.cpp
     CONTENT "// The owner of the test programs' shared precompiled header (cmake/GuidewayTest.cmake).\n")
-  add_executable(guideway_test_pch ${PROJECT_BINARY_DIR}/tests/guideway_test_pch.cpp)
+  add_executable(guideway_test_pch ${CMAKE_CURRENT_BINARY_DIR}/guideway_test_pch.cpp)
   guideway_test_compile_settings(guideway_test_pch)
   target_precompile_headers(guideway_test_pch PRIVATE
     <gtest/gtest.h> <nlohmann/json.hpp>
     <algorithm> <atomic> <chrono> <cmath> <filesystem> <fstream> <functional> <map> <numbers> <random>
     <sstream> <string> <thread> <vector>)
-endif()
+endfunction()
 
 function(guideway_add_test name)
   cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS;ARGS;GROUPS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_LIBS})
   guideway_test_compile_settings(${name})
-  if(TARGET guideway_test_pch)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    if(NOT TARGET guideway_test_pch)
+      guideway_add_test_pch()
+    endif()
     target_precompile_headers(${name} REUSE_FROM guideway_test_pch)
   endif()
   if(NOT T_LABELS)
