@@ -34,7 +34,7 @@ struct SessionRequest {
   nlohmann::json options = nlohmann::json::object();
   // The device's instrument (the daemon's configuration, or a recording's header): a DBB session's
   // uncertainties include its bar's calibrated length.
-  Instrument instrument;
+  Instrument instrument{};
 };
 
 // One running test. on_samples() and complete() are called on the pipeline thread; identify() on
