@@ -631,7 +631,9 @@ TEST(DbbSession, PairsTheControllersCommandByServoPeriodThroughStalls) {
       const auto at = played.lower_bound(t0_ns + std::llround(run.t_s[i] * 1e9) - 1000);
       ASSERT_NE(at, played.end());
       const double q = at->second - lag_periods;
-      if (cols.count("controller_period")) EXPECT_EQ(cols["controller_period"][i], at->second);
+      if (cols.count("controller_period")) {
+        EXPECT_EQ(cols["controller_period"][i], at->second);
+      }
       const auto j = static_cast<std::size_t>(q);
       const double w = q - static_cast<double>(j);
       for (std::size_t a = 0; a < 2; ++a) {
