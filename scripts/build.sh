@@ -18,6 +18,23 @@ while [ $# -gt 0 ]; do
   if [ "$1" = "--" ]; then shift; targets=("$@"); break; fi
   opts+=("$1"); shift
 done
+cached() {  # NAME: its value in the tree's cache, if any
+  [ -f "$dir/CMakeCache.txt" ] || return 0
+  sed -n "s/^$1:[A-Z]*=//p" "$dir/CMakeCache.txt" | head -1
+}
+# A tree configured with another compiler than the one asked for: CMake would delete its cache and
+# configure again without the options given here (a tree asked for ASan came out a plain
+# RelWithDebInfo build, and its "ASan" tests passed): start the tree's configuration anew instead.
+for opt in "${opts[@]}"; do
+  case $opt in
+    -DCMAKE_C_COMPILER=* | -DCMAKE_CXX_COMPILER=*)
+      name=${opt#-D}; name=${name%%=*}; want=${opt#*=}; have=$(cached "$name")
+      if [ -n "$have" ] && [ "$(readlink -f "$(command -v "$have")")" != "$(readlink -f "$(command -v "$want")")" ]; then
+        echo "build: $dir was configured with $name=$have, not $want: configuring it anew"
+        rm -rf "$dir/CMakeCache.txt" "$dir/CMakeFiles"
+      fi ;;
+  esac
+done
 generator=()
 if [ ! -f "$dir/CMakeCache.txt" ] && command -v ninja >/dev/null; then generator=(-G Ninja); fi
 log="$dir.log"
@@ -25,6 +42,18 @@ mkdir -p "$dir"
 if ! cmake -S . -B "$dir" "${generator[@]}" "${opts[@]}" >"$log" 2>&1; then
   cat "$log"; echo "build: cmake configure of $dir failed (log above, also in $log)" >&2; exit 1
 fi
+# Every option given is what the tree now has (a tree that is not what its stage says would test
+# something else under that stage's name).
+for opt in "${opts[@]}"; do
+  case $opt in
+    -D*=*)
+      name=${opt#-D}; name=${name%%=*}; name=${name%%:*}; want=${opt#*=}
+      case $name in CMAKE_C_COMPILER | CMAKE_CXX_COMPILER) continue ;; esac
+      if [ "$(cached "$name")" != "$want" ]; then
+        echo "build: $dir has $name='$(cached "$name")' after configuring, not '$want' (log: $log)" >&2; exit 1
+      fi ;;
+  esac
+done
 jobs=${GUIDEWAY_BUILD_JOBS:-$(nproc)}
 # A line at every tenth of the build (ninja's [N/M], make's [ P%]), and one at least every 30 s between
 # them ("still at it" while no step ends: a long compile or link; the last tenth of a first build is a few
