@@ -23,7 +23,7 @@ Pipeline::Pipeline(std::vector<drivers::Driver*> devices, Outbox& outbox, double
       last_publish_ns_(devices_.size(), 0),
       chains_(devices_.size()),
       batch_(max_batch) {
-  stats_.devices.resize(devices_.size());
+  flow_.resize(devices_.size());
   // Loop-driven drivers are served by this loop and publish in its passes: no doorbell for them.
   for (drivers::Driver* d : devices_) {
     threaded_.push_back(!d->loop_driven());
@@ -71,7 +71,7 @@ PipelineStats Pipeline::take_stats() {
   PipelineStats out = stats_;
   out.latency_mean_us = latency_count_ ? latency_sum_us_ / static_cast<double>(latency_count_) : 0.0;
   // Figures over the period since the last call (protocol.md STATUS `pipeline`); the devices' flow
-  // counts stay cumulative.
+  // counts are device_flow()'s.
   latency_sum_us_ = 0.0;
   latency_count_ = 0;
   stats_.latency_max_us = 0.0;
@@ -82,7 +82,7 @@ PipelineStats Pipeline::take_stats() {
 
 std::vector<DeviceFlowStats> Pipeline::device_flow() const {
   std::lock_guard lock(stats_mutex_);
-  return stats_.devices;
+  return flow_;
 }
 
 void Pipeline::publish_sample(std::size_t index, const Sample& s, const Sample* processed, std::int64_t now_ns) {
@@ -127,7 +127,7 @@ std::size_t Pipeline::drain_once(std::span<Sample> batch, bool& more, bool& from
     const std::span<const Sample> samples(batch.data(), n);
     {
       std::lock_guard lock(stats_mutex_);
-      DeviceFlowStats& d = stats_.devices[i];
+      DeviceFlowStats& d = flow_[i];
       for (const Sample& s : samples) {
         const std::uint64_t expected = d.consumed + d.seq_gaps;  // next sequence number if nothing was lost
         if (s.seq > expected) d.seq_gaps += s.seq - expected;

@@ -49,7 +49,6 @@ struct PipelineStats {
   std::uint64_t samples = 0;
   double latency_mean_us = 0.0;  // sample timestamp to pipeline, over the last status period
   double latency_max_us = 0.0;
-  std::vector<DeviceFlowStats> devices;
 };
 
 class Pipeline {
@@ -73,7 +72,7 @@ class Pipeline {
   void stop();
   // Advances on every pass of the pipeline, idle or not: the watchdog's proof of life.
   [[nodiscard]] std::uint64_t progress() const noexcept { return progress_.load(std::memory_order_relaxed); }
-  // Returns the statistics and restarts the latency window.
+  // Returns the period's statistics and restarts the latency window.
   PipelineStats take_stats();
   // The devices' cumulative flow counts as of now (a STATUS asked between two periods sees them
   // current, beside the drivers' live counters), leaving the period's figures alone.
@@ -103,6 +102,7 @@ class Pipeline {
   std::atomic<std::uint64_t> progress_{0};
   mutable std::mutex stats_mutex_;
   PipelineStats stats_;
+  std::vector<DeviceFlowStats> flow_;  // per device, cumulative (under stats_mutex_)
   double latency_sum_us_ = 0.0;
   std::uint64_t latency_count_ = 0;
   std::vector<Sample> batch_;  // the loop thread's
