@@ -16,6 +16,33 @@ def text(path):
     return (ROOT / path).read_text()
 
 
+# The folders of the code, and all of the tree's own (not its build trees): where a file the table names by its
+# name alone is looked for.
+CODE_FOLDERS = ("core", "dsp", "formats", "results", "models", "drivers", "plant", "report", "simulators", "sessions",
+                "fleet", "daemon", "cli")
+SOURCE_FOLDERS = CODE_FOLDERS + ("config", "docs", "scripts", "tests", "bench", "linuxcnc")
+
+
+def table_rows():
+    """docs/architecture.md's table: {kind of addition: its "files that change" cell}."""
+    section = text("docs/architecture.md").split("## Where a new thing goes", 1)[1].split("\n## ", 1)[0]
+    rows = {}
+    for line in section.splitlines():
+        if line.startswith("| ") and not line.startswith("| new ..."):
+            kind, files = (c.strip() for c in line.strip().strip("|").split("|", 1))
+            rows[kind] = files
+    return rows
+
+
+def expand(pattern):
+    """`sessions/<kind>_session.{hpp,cpp}` -> ["sessions/*_session.hpp", "sessions/*_session.cpp"]."""
+    pattern = re.sub(r"<[^>]+>", "*", pattern)
+    m = re.search(r"\{([^}]*)\}", pattern)
+    if not m:
+        return [pattern]
+    return [p for alt in m.group(1).split(",") for p in expand(pattern[:m.start()] + alt + pattern[m.end():])]
+
+
 class WhereThingsGo(unittest.TestCase):
     def test_every_effect_file_is_one_line_of_the_library_table(self):
         files = sorted(p.stem for p in (ROOT / "models/explain/effects").glob("*.cpp") if p.stem != "dbb_terms")
@@ -123,8 +150,7 @@ class WhereThingsGo(unittest.TestCase):
         names = "|".join(re.findall(r'ClassName\{MessageClass::\w+, "([A-Z]+)"', table))
         self.assertIn("EXPLAIN", names)
         compared = re.compile(rf'(==|!=)\s*"({names})"|"({names})"\s*(==|!=)')
-        for folder in ("core", "dsp", "formats", "models", "drivers", "plant", "report", "simulators", "sessions",
-                       "fleet", "daemon", "cli"):
+        for folder in (f for f in CODE_FOLDERS if f != "results"):
             for source in sorted((ROOT / folder).rglob("*.[ch]pp")):
                 for number, line in enumerate(source.read_text().splitlines(), 1):
                     self.assertIsNone(compared.search(line), f"{source.relative_to(ROOT)}:{number}: a message class "
@@ -176,6 +202,67 @@ class WhereThingsGo(unittest.TestCase):
                 for number, line in enumerate(source.read_text().splitlines(), 1):
                     self.assertIsNone(loop_words.search(line), f"{source.relative_to(ROOT)}:{number}: loop policy "
                                       f"outside the skeleton: {line.strip()}")
+
+    def test_every_file_the_table_names_exists(self):
+        """A path (`report/report.cpp`, `drivers/<name>/`) exists; a `<placeholder>` is at least one of its kind
+        (`report/<kind>_section.cpp`: some report/*_section.cpp); a file named alone (`<name>_command.cpp`,
+        `can.cmake`) exists in some folder of the tree; a linked document is in docs/."""
+        rows = table_rows()
+        self.assertGreaterEqual(len(rows), 9)
+        file_name = re.compile(r"^[\w.<>{},-]+\.(\{[\w,]+\}|cpp|hpp|h|cmake|toml|md|txt|py)$")
+        for kind, cell in rows.items():
+            named = re.findall(r"`([^`\s]+)`", cell)
+            paths = [n for n in named if "/" in n and "*" not in n and not n.startswith("guideway/")]
+            paths += re.findall(r"\b(docs/[\w-]+\.md)\b", cell)
+            self.assertTrue(paths, f"the row '{kind}' names no file")
+            for path in paths:
+                found = [f for p in expand(path) for f in ROOT.glob(p.rstrip("/"))]
+                self.assertTrue([f for f in found if f.is_dir() or not path.endswith("/")],
+                                f"'{kind}': {path} does not exist")
+            for link in re.findall(r"\]\(([\w-]+\.md)", cell):
+                self.assertTrue((ROOT / "docs" / link).exists(), f"'{kind}': docs/{link} does not exist")
+            for name in (n for n in named if "/" not in n and file_name.match(n)):
+                self.assertTrue(any(next((ROOT / f).rglob(p), None) for f in SOURCE_FOLDERS for p in expand(name)),
+                                f"'{kind}': no file {name} in the tree")
+
+    def test_every_emulated_instrument_is_in_one_emulator_group(self):
+        """An instrument's `guideway-emulate` subcommand is built by exactly one emulator group's .cmake
+        (picked up by simulators/emulators/CMakeLists.txt's glob)."""
+        emulators = ROOT / "simulators/emulators"
+        self.assertIn("*.cmake", text("simulators/emulators/CMakeLists.txt"))
+        groups = {p.name: p.read_text() for p in emulators.glob("*.cmake")}
+        commands = [p.name for p in emulators.glob("*_command.cpp") if p.name != "emulator_command.cpp"]
+        self.assertGreaterEqual(len(commands), 4)
+        for command in commands:
+            owners = [g for g, body in groups.items() if re.search(rf"/{re.escape(command)}\b", body)]
+            self.assertEqual(len(owners), 1, f"{command} is built by one emulator group: {owners}")
+
+    def test_every_file_format_is_built_and_documented(self):
+        """formats/ lists its sources in its CMakeLists.txt; every `guideway/<name>/<version>` the code reads or
+        writes, in formats/ or beside its one user, is in docs/formats.md."""
+        cmake = text("formats/CMakeLists.txt")
+        for source in (ROOT / "formats").glob("*.cpp"):
+            self.assertTrue(re.search(rf"\b{re.escape(source.name)}\b", cmake), f"formats/CMakeLists.txt: {source.name}")
+        formats = text("docs/formats.md")
+        ids = set()
+        for folder in CODE_FOLDERS:
+            for source in (ROOT / folder).rglob("*.[ch]pp"):
+                ids.update(re.findall(r"\bguideway/[a-z0-9-]+/\d+\b", source.read_text()))
+        self.assertGreaterEqual(len(ids), 10)
+        for format_id in sorted(ids):
+            self.assertTrue(re.search(rf"(?<![\w-]){re.escape(format_id)}(?!\d)", formats), f"docs/formats.md: {format_id}")
+
+    def test_every_mqtt_topic_is_named_accepted_stored_and_documented(self):
+        enum = re.search(r"enum class TopicLeaf \{([^}]*)\}", text("plant/topics.hpp")).group(1)
+        leaves = [leaf.strip() for leaf in enum.split(",") if leaf.strip()]
+        self.assertGreaterEqual(len(leaves), 5)
+        names = re.search(r"leaf_names = \{([^}]*)\}", text("plant/topics.cpp")).group(1)
+        self.assertEqual(re.findall(r'"(\w+)"', names), leaves, "topics.cpp's leaf_names in the enum's order")
+        mqtt = text("docs/protocol.md").split("\n## MQTT", 1)[1].split("\n## ", 1)[0]
+        for leaf in leaves:
+            for source in ("fleet/payload_check.cpp", "fleet/store.cpp"):
+                self.assertTrue(f"case plant::TopicLeaf::{leaf}:" in text(source), f"{source} handles the topic {leaf}")
+            self.assertTrue(re.search(rf"\| `PREFIX/MACHINE/{leaf}(/KIND)?` \|", mqtt), f"docs/protocol.md MQTT: {leaf}")
 
     def test_every_command_group_has_its_cmake(self):
         for source in (ROOT / "cli").glob("*_commands.cpp"):
