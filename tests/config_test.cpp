@@ -1,3 +1,5 @@
+// guidewayd's configuration (daemon/config.hpp): the embedded default, and every mistake in a file
+// refused with its file, line and key (syntax, types, unknown keys, ranges, a world-writable socket, devices).
 #include <gtest/gtest.h>
 
 #include "core/toml_access.hpp"

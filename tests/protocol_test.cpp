@@ -1,3 +1,5 @@
+// The daemon's JSON Lines protocol (daemon/protocol.hpp): requests parsed, or refused with a reason and
+// their id; watch filters; each message class encoded once under its one wire name.
 #include "daemon/protocol.hpp"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Every file says its job in its first lines: a header after `#pragma once`, a source file in its first
-line (every folder of the tree: issue 43 item 5).
+line (every folder of the tree, its tests and benchmarks too: issue 43 item 5).
 
 Usage: purpose_lines_test.py [ROOT]
 """
@@ -10,8 +10,8 @@ import unittest
 
 ROOT = pathlib.Path(sys.argv.pop(1) if len(sys.argv) > 1 else pathlib.Path(__file__).resolve().parent.parent)
 HEADER_FOLDERS = ("core", "dsp", "formats", "results", "models", "drivers", "plant", "report", "simulators",
-                  "sessions", "fleet", "daemon", "cli")
-# Every folder's .cpp files open with a purpose line too (issue 43 item 5: all 13 folders).
+                  "sessions", "fleet", "daemon", "cli", "tests", "bench")
+# Every folder's .cpp files open with a purpose line too (issue 43 item 5: the 13 of the code, tests/, bench/).
 SOURCE_FOLDERS = HEADER_FOLDERS
 
 

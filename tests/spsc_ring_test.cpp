@@ -1,3 +1,5 @@
+// The SPSC ring on one thread (core/spsc_ring.hpp): order, depth, drops counted when full, bulk
+// transfers split at the wrap (spsc_ring_stress_test runs it across threads).
 #include "core/spsc_ring.hpp"
 
 #include <gtest/gtest.h>
