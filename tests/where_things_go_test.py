@@ -137,9 +137,12 @@ class WhereThingsGo(unittest.TestCase):
         folders = re.search(r"foreach\(dir ([^)]*)\)", cmake).group(1).split()
         builtin = text("drivers/builtin.cpp")
         registered = re.findall(r"&(\w+)::register_\w+_driver", builtin)
+        linked = re.search(r"target_link_libraries\(guideway_builtin_drivers ([^)]*)\)", cmake).group(1).split()
         for name in registered:
             self.assertIn(name, folders, f"drivers/{name} is in drivers/CMakeLists.txt")
-            self.assertTrue((ROOT / "drivers" / name / "CMakeLists.txt").exists())
+            self.assertIn(f"add_library(guideway_{name} ", text(f"drivers/{name}/CMakeLists.txt"))
+            self.assertIn(f"guideway_{name}", linked, f"guideway_builtin_drivers links guideway_{name}")
+        self.assertIn("\n## A built-in loop-driven driver\n", text("docs/plugins.md"), "the contract a driver implements")
         for folder in folders:
             self.assertTrue((ROOT / "drivers" / folder).is_dir(), f"drivers/{folder}")
 
@@ -182,6 +185,11 @@ class WhereThingsGo(unittest.TestCase):
         for name in started:
             self.assertIn(name, instruments, f"config/default.toml: guideway-emulate {name}")
         machine = re.compile(r'#include "simulators/(machine/\w+|emulators/\w*machine_sources?)\.hpp"')
+        # The row's examples of what an instrument adds to the virtual machine: its query and its set-up table.
+        for query in ("runout_sample", "facing_profile"):
+            self.assertRegex(text("simulators/machine/machine.hpp"), rf"\b{query}\(", f"Machine::{query}")
+        self.assertIn('top.table("autocollimator")', text("simulators/machine/machine_config.cpp"))
+        self.assertIn("\n[autocollimator]", text("config/machine-example.toml"))
         for name, source in instruments.items():
             if source.name == "measurement_files_command.cpp":  # files of a day's tests, no transport
                 continue
