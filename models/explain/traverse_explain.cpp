@@ -14,6 +14,7 @@
 #include "formats/dabam.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/traverse_terms.hpp"
+#include "models/explain/locate.hpp"
 #include "models/flatness/instruments.hpp"
 #include "models/flatness/straightness.hpp"
 #include "results/parameters.hpp"
@@ -151,15 +152,30 @@ Layout layout_of(const std::vector<TraversePass>& passes) {
     if (per_file.size() <= p.file) per_file.resize(p.file + 1, 0);
     ++per_file[p.file];
   }
-  // The engine decomposes a run into wavelet bands only from 32 samples (models/explain/locate.cpp), and
-  // needs one such run at least: said here in a traverse's terms.
-  std::size_t longest = 0;
-  for (const TraversePass& p : passes) longest = std::max(longest, p.x_m.size());
-  if (longest < 32)
-    throw std::invalid_argument("explain: the longest pass has " + std::to_string(longest) +
-                                " readings; EXPLAIN's structure tests need a pass of 32 readings or more (over " +
-                                shortest(std::round((hi - lo) * 1e6) / 1e3) + " mm: a step of " +
-                                shortest(std::floor((hi - lo) * 1e3 / 32 * 100) / 100) + " mm or less)");
+  // The engine decomposes a run into wavelet bands only from min_run_samples (models/explain/locate.hpp); the
+  // passes of one file, the reflector going back and forth, are one path, tested together where a pass is shorter
+  // (Problem::path_of_run). One such pass or path at least: said here in a traverse's terms.
+  std::size_t longest = 0, most_in_file = 0;
+  std::vector<std::size_t> in_file(per_file.size(), 0);
+  for (const TraversePass& p : passes) {
+    longest = std::max(longest, p.x_m.size());
+    in_file[p.file] += p.x_m.size();
+  }
+  for (std::size_t f = 0; f < per_file.size(); ++f)
+    if (per_file[f] >= 2) most_in_file = std::max(most_in_file, in_file[f]);
+  if (longest < min_run_samples && most_in_file < min_run_samples) {
+    const std::string need = std::to_string(min_run_samples);
+    throw std::invalid_argument(
+        "explain: the longest pass has " + std::to_string(longest) + " readings" +
+        (most_in_file > 0 ? " and the passes of one file " + std::to_string(most_in_file) + " at most"
+                          : std::string(" and no other pass of its file")) +
+        "; EXPLAIN's structure tests need " + need + " readings or more: a pass of " + need +
+        " (over " + shortest(std::round((hi - lo) * 1e6) / 1e3) + " mm: a step of " +
+        shortest(std::floor((hi - lo) * 1e3 / static_cast<double>(min_run_samples) * 100) / 100) +
+        " mm or less), or passes of one file, forward and return, " + need +
+        " readings or more together (their readings are tested together); `guideway identify straightness` "
+        "evaluates a pass of any length");
+  }
   l.x0_m = lo;
   l.span_m = hi - lo;
   l.step_m = step;
@@ -384,6 +400,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
       p.samples.push_back({k, std::tan(pass.pitch_rad[i]) * 1e6, pass.x_m[i] * 1e3, t});
       p.station_of.push_back(static_cast<std::size_t>(std::max(0.0, std::round((pass.x_m[i] - l.x0_m) / l.step_m))));
     }
+    p.path_of_run.push_back(pass.file);
     p.runs.push_back({"pass" + std::to_string(k + 1) + (pass.direction > 0 ? " (+)" : " (-)"), pass.direction, 0.0,
                       "traverse", pass.source, g[index - pass.x_m.size()].t_s});
   }
