@@ -302,9 +302,14 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
 }
 
 // The identification's polynomial (order by BIC, N ln(RSS/N) + q ln N, up to 8 and fewer than the stations
-// of a pass) through every pass at once, and an offset for each file after the first.
+// of a pass) through every pass at once, and an offset for each file after the first. The order is chosen with
+// the candidates that are not a function of the station fitted beside it -- a drift (the readings' time) where
+// passes have times, a rocking (the direction of travel) where they go both ways: each tilts a pass, and without
+// them the order is chosen against their residual (a drift of 0.25"/min over four passes hides a bow of a few
+// urad), the geometry left underfitted (read as a wave, or as a term per station). They count alike in every
+// order's BIC, and are not part of the base: the engine still judges them as candidates.
 Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
-                 const std::vector<std::size_t>& stations, std::string& note) {
+                 const std::vector<std::size_t>& stations, const std::vector<effects::Tp>& g, std::string& note) {
   const auto n = y.size();
   std::size_t fewest = passes.front().x_m.size();
   for (const TraversePass& p : passes) fewest = std::min(fewest, p.x_m.size());
@@ -320,11 +325,19 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
       }
     return a;
   };
+  const Eigen::Index beside = (l.timed ? 1 : 0) + (l.both ? 1 : 0);
+  Eigen::MatrixXd effects_beside(n, beside);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    Eigen::Index c = 0;
+    if (l.timed) effects_beside(i, c++) = g[static_cast<std::size_t>(i)].t_s / 60.0;
+    if (l.both) effects_beside(i, c++) = g[static_cast<std::size_t>(i)].direction;
+  }
   const double dn = static_cast<double>(n);
   int best = 1;
   double best_bic = std::numeric_limits<double>::infinity();
   for (int order = 1; order <= highest; ++order) {
-    const Eigen::MatrixXd a = design(order);
+    Eigen::MatrixXd a(n, design(order).cols() + beside);
+    a << design(order), effects_beside;
     const double rss = (y - a * a.colPivHouseholderQr().solve(y)).squaredNorm();
     const double bic = dn * std::log(std::max(rss, dn * 1e-12) / dn) + static_cast<double>(a.cols()) * std::log(dn);
     if (bic < best_bic - 1e-9) {
@@ -339,8 +352,20 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
   // The engine factors its base per fold: a term per station costs the stations squared times the readings (481
   // stations, two passes: 5.5 s of CPU), so it is given up to 512 stations; more keep the polynomial, and say so.
   constexpr std::size_t most_station_terms = 512;
-  const SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
-  const bool not_polynomial = shared.judged && shared.chi2 > shared.dof + 3.09 * std::sqrt(2.0 * shared.dof);
+  const auto beyond = [](const SharedGeometry& g) { return g.judged && g.chi2 > g.dof + 3.09 * std::sqrt(2.0 * g.dof); };
+  const int bic_order = best;
+  SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
+  // The BIC's order was chosen against a residual a shared wave is part of (a rack's wave of 2.4 urad hides a bow
+  // of 1 urad from it, as a drift does): before the geometry is called "not a polynomial", the higher orders, each
+  // with the wave and the yaw's part; the lowest that leaves what the passes share within their scatter is the base.
+  if (beyond(shared) && shared.stations <= most_station_terms)
+    for (int order = best + 1; order <= highest; ++order)
+      if (const SharedGeometry higher = shared_geometry(passes, l, y, stations, order); higher.judged && !beyond(higher)) {
+        best = order;
+        shared = higher;
+        break;
+      }
+  const bool not_polynomial = beyond(shared);
   const bool per_station = not_polynomial && shared.stations <= most_station_terms;
   if (per_station) {
     const auto q = static_cast<Eigen::Index>(shared.stations);
@@ -364,7 +389,18 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
                             printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
                             " times the passes' own scatter; a wave the passes share is then geometry, not a finding"
                       : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
-                            std::to_string(highest) + ") common to every pass") +
+                            std::to_string(highest) +
+                            (beside > 0 ? std::string(", chosen with ") +
+                                              (l.timed && l.both ? "a drift and a rocking"
+                                               : l.timed         ? "a drift"
+                                                                 : "a rocking") +
+                                              " fitted beside it"
+                                        : std::string()) +
+                            (best > bic_order ? "; raised from " + std::to_string(bic_order) +
+                                                    ", with which what the passes share was more than a wave" +
+                                                    (l.yaw ? " and the yaw's part" : "") + " beyond it"
+                                              : std::string()) +
+                            ") common to every pass") +
          (l.files > 1 ? ", an offset per file after the first" : "") +
          (not_polynomial && !per_station
               ? "; the passes share more than the polynomial (" + printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
@@ -407,7 +443,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
   Eigen::VectorXd y(static_cast<Eigen::Index>(p.samples.size()));
   for (std::size_t i = 0; i < p.samples.size(); ++i) y[static_cast<Eigen::Index>(i)] = p.samples[i].y_um;
   std::string base_note;
-  p.base = base_block(passes, l, y, p.station_of, base_note);
+  p.base = base_block(passes, l, y, p.station_of, g, base_note);
   const effects::TraverseTerms terms{g, l.both, l.timed, l.yaw, l.span_m, l.step_m};
   p.candidates = effects::traverse_candidates(terms);
   // A term's size across every pass: a rocking is constant along each pass, +r one way and -r the other.
