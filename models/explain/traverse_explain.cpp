@@ -302,14 +302,13 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
 }
 
 // The identification's polynomial (order by BIC, N ln(RSS/N) + q ln N, up to 8 and fewer than the stations
-// of a pass) through every pass at once, and an offset for each file after the first. The order is chosen with
-// the candidates that are not a function of the station fitted beside it -- a drift (the readings' time) where
-// passes have times, a rocking (the direction of travel) where they go both ways: each tilts a pass, and without
-// them the order is chosen against their residual (a drift of 0.25"/min over four passes hides a bow of a few
-// urad), the geometry left underfitted (read as a wave, or as a term per station). They count alike in every
-// order's BIC, and are not part of the base: the engine still judges them as candidates.
+// of a pass) through every pass at once, and an offset for each file after the first. `beside`: the terms of
+// effects found that are not a function of the station (explain_traverses), fitted beside each order: they count
+// alike in every order's BIC and are not part of the base (the engine judges them again as candidates); `found`
+// names them.
 Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
-                 const std::vector<std::size_t>& stations, const std::vector<effects::Tp>& g, std::string& note) {
+                 const std::vector<std::size_t>& stations, const Eigen::MatrixXd& effects_beside,
+                 const std::string& found, std::string& note) {
   const auto n = y.size();
   std::size_t fewest = passes.front().x_m.size();
   for (const TraversePass& p : passes) fewest = std::min(fewest, p.x_m.size());
@@ -325,19 +324,14 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
       }
     return a;
   };
-  const Eigen::Index beside = (l.timed ? 1 : 0) + (l.both ? 1 : 0);
-  Eigen::MatrixXd effects_beside(n, beside);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    Eigen::Index c = 0;
-    if (l.timed) effects_beside(i, c++) = g[static_cast<std::size_t>(i)].t_s / 60.0;
-    if (l.both) effects_beside(i, c++) = g[static_cast<std::size_t>(i)].direction;
-  }
+  const Eigen::Index beside = effects_beside.rows() == n ? effects_beside.cols() : 0;
   const double dn = static_cast<double>(n);
   int best = 1;
   double best_bic = std::numeric_limits<double>::infinity();
   for (int order = 1; order <= highest; ++order) {
     Eigen::MatrixXd a(n, design(order).cols() + beside);
-    a << design(order), effects_beside;
+    a.leftCols(a.cols() - beside) = design(order);
+    if (beside > 0) a.rightCols(beside) = effects_beside;
     const double rss = (y - a * a.colPivHouseholderQr().solve(y)).squaredNorm();
     const double bic = dn * std::log(std::max(rss, dn * 1e-12) / dn) + static_cast<double>(a.cols()) * std::log(dn);
     if (bic < best_bic - 1e-9) {
@@ -390,12 +384,7 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
                             " times the passes' own scatter; a wave the passes share is then geometry, not a finding"
                       : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
                             std::to_string(highest) +
-                            (beside > 0 ? std::string(", chosen with ") +
-                                              (l.timed && l.both ? "a drift and a rocking"
-                                               : l.timed         ? "a drift"
-                                                                 : "a rocking") +
-                                              " fitted beside it"
-                                        : std::string()) +
+                            (beside > 0 ? ", chosen with " + found + " fitted beside it" : std::string()) +
                             (best > bic_order ? "; raised from " + std::to_string(bic_order) +
                                                     ", with which what the passes share was more than a wave" +
                                                     (l.yaw ? " and the yaw's part" : "") + " beyond it"
@@ -412,7 +401,10 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
 
 }  // namespace
 
-Problem traverse_problem(const std::vector<TraversePass>& passes) {
+namespace {
+
+Problem traverse_problem_beside(const std::vector<TraversePass>& passes, const Eigen::MatrixXd& beside,
+                                const std::string& found) {
   const Layout l = layout_of(passes);
   Problem p;
   p.model = "traverse";
@@ -443,7 +435,7 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
   Eigen::VectorXd y(static_cast<Eigen::Index>(p.samples.size()));
   for (std::size_t i = 0; i < p.samples.size(); ++i) y[static_cast<Eigen::Index>(i)] = p.samples[i].y_um;
   std::string base_note;
-  p.base = base_block(passes, l, y, p.station_of, g, base_note);
+  p.base = base_block(passes, l, y, p.station_of, beside, found, base_note);
   const effects::TraverseTerms terms{g, l.both, l.timed, l.yaw, l.span_m, l.step_m};
   p.candidates = effects::traverse_candidates(terms);
   // A term's size across every pass: a rocking is constant along each pass, +r one way and -r the other.
@@ -456,8 +448,74 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
   return p;
 }
 
+// Whether a term's column is a function of the station: the same at every reading of a station (a pitch wave) --
+// not a drift or a rocking, which differ between the passes over it.
+bool function_of_station(const std::vector<double>& column, const std::vector<std::size_t>& station_of) {
+  const std::size_t S = station_of.empty() ? 0 : *std::max_element(station_of.begin(), station_of.end()) + 1;
+  std::vector<double> sum(S, 0.0), count(S, 0.0);
+  double mean = 0.0;
+  for (std::size_t i = 0; i < column.size(); ++i) {
+    sum[station_of[i]] += column[i];
+    count[station_of[i]] += 1;
+    mean += column[i] / static_cast<double>(column.size());
+  }
+  double within = 0.0, total = 0.0;
+  for (std::size_t i = 0; i < column.size(); ++i) {
+    within += std::pow(column[i] - sum[station_of[i]] / count[station_of[i]], 2);
+    total += std::pow(column[i] - mean, 2);
+  }
+  return within <= 1e-12 * total;
+}
+
+}  // namespace
+
+Problem traverse_problem(const std::vector<TraversePass>& passes) { return traverse_problem_beside(passes, {}, ""); }
+
+// The base's order is chosen by the BIC before anything is found, against a residual that holds the effects: a drift
+// or a rocking tilts each pass, and a drift of 0.25"/min over four passes hides a bow of 1 urad from the BIC (order
+// 1, the bow then read as a 400 mm pitch wave, or the passes' shared part as a term per station, a real wave with
+// it). Once such effects are found, the order is chosen again with their terms fitted beside it; where that changes
+// the base, the problem is explained again with it (issue 41 item 6). Effects that are a function of the station (a
+// pitch wave) are not fitted beside: they would take the geometry's place.
 Report explain_traverses(const std::vector<TraversePass>& passes, const ExplainOptions& options) {
-  return explain(traverse_problem(passes), options);
+  const Problem first = traverse_problem(passes);
+  ExplainOptions with_columns = options;
+  with_columns.keep_columns = true;
+  Report report = explain(first, with_columns);
+  std::vector<const std::vector<double>*> columns;
+  std::string found, first_found;
+  for (const Finding& f : report.findings) {
+    first_found += (first_found.empty() ? "" : ", ") + f.effect;
+    bool tilts = false;
+    for (const auto& c : f.columns_um)
+      if (c.size() == first.samples.size() && !function_of_station(c, first.station_of)) {
+        columns.push_back(&c);
+        tilts = true;
+      }
+    if (tilts) found += (found.empty() ? "" : " and ") + f.effect;
+  }
+  const auto without_columns = [&](Report r) {
+    if (!options.keep_columns)
+      for (Finding& f : r.findings) {
+        f.columns_um.clear();
+        f.column_names.clear();
+      }
+    return r;
+  };
+  if (columns.empty()) return without_columns(std::move(report));
+  Eigen::MatrixXd beside(static_cast<Eigen::Index>(first.samples.size()), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t k = 0; k < columns.size(); ++k)
+    beside.col(static_cast<Eigen::Index>(k)) =
+        Eigen::Map<const Eigen::VectorXd>(columns[k]->data(), static_cast<Eigen::Index>(columns[k]->size()));
+  Problem again = traverse_problem_beside(passes, beside, found);
+  if (again.base.names == first.base.names) return without_columns(std::move(report));
+  std::string before;
+  for (const std::string& n : first.notes)
+    if (n.rfind("base: ", 0) == 0) before = n.substr(6);
+  again.notes.push_back("the base was chosen again once " + found +
+                        " was found (it tilts each pass, and the base had been chosen against it): before, " + before +
+                        ", and the findings were " + first_found);
+  return explain(again, options);
 }
 
 }  // namespace guideway::models::explain

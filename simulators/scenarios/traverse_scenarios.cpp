@@ -165,7 +165,7 @@ ScenarioResult traverse_scenario(const std::string& name, const ScenarioOptions&
       auto& last = passes.back().pitch_rad;
       for (std::size_t i = last.size() * 4 / 10; i < last.size(); ++i) last[i] += sc.bump_arcsec * arcsec;
     }
-    s.report = models::explain::explain(models::explain::traverse_problem(passes), o.explain);
+    s.report = models::explain::explain_traverses(passes, o.explain);
     check_expectations(s);
     return s;
   }
