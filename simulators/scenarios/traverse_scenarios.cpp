@@ -69,7 +69,8 @@ const std::vector<TraverseScenario>& traverse_scenarios() {
        {expect("angle_drift", results::angle_drift, 0.15, 0.015), expect("pitch_wave", results::pitch_wave, 0.3, 0.03)},
        4},
       {"traverse_few_stations",
-       "the fewest readings the tests take: 32 a pass (18.75 mm steps), forward and return; the reflector rocks 0.3\"",
+       "the fewest readings a pass is tested on alone: 32 (18.75 mm steps), forward and return; the reflector rocks "
+       "0.3\"",
        [](machine::MachineConfig& m) { m.autocollimator.rocking_rad = 0.3 * arcsec; },
        {expect("reflector_rocking", results::reflector_rocking, 0.3, 0.03)},
        2,
