@@ -10,9 +10,18 @@ find_package(GTest REQUIRED)
 add_custom_target(guideway_tsan_tests)
 
 # What every test program compiles with: the test executables and their precompiled header's owner alike,
-# since a reused precompiled header needs the same compile options.
+# since a reused precompiled header needs the same compile options. In the optimized builds a test program
+# is compiled at -O1: it drives code the libraries hold, and they are built as shipped (-O3 in Release);
+# code generation at -O3 was most of a test file's compile (8 test files, each compiled at -O3 and at -O1
+# in turn, twice: 213 against 152 s of CPU, -29 %). AS_BUILT keeps the build's own level, for the tests
+# whose subject is header code compiled into the test itself (the rings: the tests labelled tsan).
+# Clang's precompiled header takes either (both are "optimized" to it).
 function(guideway_test_compile_settings target)
+  cmake_parse_arguments(S "AS_BUILT" "" "" ${ARGN})
   target_link_libraries(${target} PRIVATE GTest::gtest GTest::gtest_main nlohmann_json::nlohmann_json guideway_warnings)
+  if(NOT S_AS_BUILT)
+    target_compile_options(${target} PRIVATE "$<$<CONFIG:Release,RelWithDebInfo,MinSizeRel>:-O1>")
+  endif()
   # Clang stamps a precompiled header with its headers' mtimes unless told not to: ccache then declines it.
   target_compile_options(${target} PRIVATE ${GUIDEWAY_THIN_PROGRAM_OPTIONS}
     "$<$<CXX_COMPILER_ID:Clang>:SHELL:-Xclang -fno-pch-timestamp>")
@@ -46,7 +55,11 @@ function(guideway_add_test name)
   cmake_parse_arguments(T "" "TIMEOUT" "SOURCES;LIBS;LABELS;ARGS;GROUPS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   target_link_libraries(${name} PRIVATE ${T_LIBS})
-  guideway_test_compile_settings(${name})
+  if("tsan" IN_LIST T_LABELS)
+    guideway_test_compile_settings(${name} AS_BUILT)
+  else()
+    guideway_test_compile_settings(${name})
+  endif()
   if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
     if(NOT TARGET guideway_test_pch)
       guideway_add_test_pch()

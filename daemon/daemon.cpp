@@ -160,6 +160,7 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   for (const auto& d : config_.devices) instruments.push_back(d.instrument);  // create_devices' order
   manager->set_instruments(std::move(instruments), config_.refuse_uncalibrated);
   if (config_.explain_memory_mb) manager->set_explain_memory_mb(*config_.explain_memory_mb);
+  manager->set_report_renderer(options_.session_report);
   manager->set_triggers(session_triggers(config_, devices_, sessions));
   sessions_ = manager.get();
   for (std::size_t i = 0; i < devices_.size(); ++i) {

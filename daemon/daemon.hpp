@@ -33,6 +33,9 @@ namespace guideway::daemon {
 
 struct DaemonOptions {
   bool handle_signals = false;
+  // How finished sessions' reports are rendered (guidewayd: daemon/reports/session_report.hpp); none: each
+  // session's end posts report_failed saying so.
+  SessionReportRenderer session_report;
 };
 
 // Creates a driver for every [[device]] table (not started); throws ConfigError naming the file, line

@@ -18,6 +18,7 @@
 #include "daemon/cpu_placement.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
+#include "daemon/reports/session_report.hpp"
 #include "drivers/builtin.hpp"
 #include "sessions/session_kinds.hpp"
 
@@ -136,7 +137,7 @@ int main(int argc, char** argv) {
     for (const std::string& w : placement.warnings) log->warn("{}", w);
     sessions::SessionRegistry sessions;
     sessions::register_builtin_sessions(sessions);
-    daemon::Daemon d(std::move(config), registry, sessions, log, {.handle_signals = true});
+    daemon::Daemon d(std::move(config), registry, sessions, log, {.handle_signals = true, .session_report = daemon::render_session_report});
     return d.run();
   } catch (const ConfigError& e) {
     log->error("configuration error: {}", e.what());

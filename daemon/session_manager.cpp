@@ -14,7 +14,6 @@
 #include "core/mono_clock.hpp"
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
-#include "report/report.hpp"
 #include "results/result_header.hpp"
 
 namespace guideway::daemon {
@@ -369,17 +368,20 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
                    : "no report: the session's files could not be written (" + r.info.recording_error + ")");
     return;
   }
+  if (!report_renderer_) {
+    post_event(r.info, "report_failed", "no report: this daemon was built without the report renderer");
+    return;
+  }
   try {
-    report::ReportOptions options;
-    options.title = "Guideway " + r.info.kind + " session " + r.info.name;
-    options.subtitle = "device " + r.info.device + ", recording " + r.info.recording;
-    if (!r.instrument.empty()) options.instruments.push_back({r.info.device, r.instrument});
-    options.instruments_checked_on = r.started_on;
-    // What PARAMS published, not identified again from the files.
-    const auto identified = r.session->identified_planes();
-    options.identified.assign(identified.begin(), identified.end());
+    SessionReportRequest request{.inputs = std::move(inputs),
+                                 .title = "Guideway " + r.info.kind + " session " + r.info.name,
+                                 .subtitle = "device " + r.info.device + ", recording " + r.info.recording,
+                                 .device = r.info.device,
+                                 .instrument = r.instrument,
+                                 .checked_on = r.started_on,
+                                 .session = r.session.get()};
     const std::string path = report_path(state_dir_, r.info.name);
-    write_file_atomically(path, report::render_report(inputs, options), sessions::recording_file_mode);
+    write_file_atomically(path, report_renderer_(request), sessions::recording_file_mode);
     outbox_.post(make_message(Event{.event = "report_ready", .device = r.info.device, .session = r.info.name, .file = path}));
   } catch (const std::exception& e) {
     post_event(r.info, "report_failed", e.what());

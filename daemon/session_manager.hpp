@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -46,6 +47,22 @@ struct SessionInfo {
 // Where a finished session's HTML report is kept (the `report` request serves it).
 std::string report_path(const std::string& state_dir, const std::string& session);
 
+// What a finished session's report is made from: its files, its heading, its device's instrument, and the
+// session itself for what it identified (Session::identified_planes: the files are not identified again).
+struct SessionReportRequest {
+  std::vector<std::string> inputs;
+  std::string title;
+  std::string subtitle;
+  std::string device;
+  Instrument instrument;   // empty: none stated
+  CalendarDate checked_on;  // UTC: the date its instrument's calibration is judged on
+  const sessions::Session* session = nullptr;
+};
+// Renders the HTML page of a session's report; throws with the reason. guidewayd gives report/'s
+// (daemon/reports/session_report.hpp): the daemon itself does not link the report and the models it draws
+// with, so that what tests the daemon's threads (the TSan build) compiles none of them.
+using SessionReportRenderer = std::function<std::string(const SessionReportRequest&)>;
+
 class SessionManager : public PipelineStage {
  public:
   SessionManager(const sessions::SessionRegistry& registry, std::vector<drivers::Driver*> devices, std::string state_dir,
@@ -58,6 +75,9 @@ class SessionManager : public PipelineStage {
   // What every session's EXPLAIN may keep in its caches (the configuration's [explain] memory_mb); unset:
   // EXPLAIN's default. Before the first start.
   void set_explain_memory_mb(std::size_t mb) { explain_memory_mb_ = mb; }
+  // How sessions' reports are rendered (none: every session ends with report_failed saying so). Before the
+  // first start.
+  void set_report_renderer(SessionReportRenderer renderer) { report_renderer_ = std::move(renderer); }
   // Creates and queues a session; returns its name. Throws std::invalid_argument with the reason.
   // The request's instrument is the device's (set_instruments).
   std::string start(const sessions::SessionRequest& request);
@@ -103,7 +123,7 @@ class SessionManager : public PipelineStage {
   void finish(std::unique_ptr<Running> r);
   // Posts EXPLAIN (or an explain_failed EVENT); returns the file the explanation was saved to.
   std::optional<std::string> post_explanation(Running& r);
-  // Renders NAME.report.html from the session's files (report/); a failure is an EVENT.
+  // Renders NAME.report.html from the session's files (report_renderer_); a failure is an EVENT.
   void write_session_report(const Running& r, std::vector<std::string> inputs);
   void post_event(const SessionInfo& info, const std::string& event, const std::string& reason);
   // A trigger's channel crossed 0.5 (pipeline thread): its session starts, or is asked to end.
@@ -119,6 +139,7 @@ class SessionManager : public PipelineStage {
   std::vector<Instrument> instruments_;  // per device (empty: none stated)
   bool refuse_uncalibrated_ = false;
   std::optional<std::size_t> explain_memory_mb_;
+  SessionReportRenderer report_renderer_;
   std::string state_dir_;
   Outbox& outbox_;
 

@@ -17,6 +17,7 @@
 #include "models/dbb/json.hpp"
 #include "models/explain/dbb_checked.hpp"
 #include "models/explain/dbb_explain.hpp"
+#include "sessions/explain_options.hpp"
 #include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
@@ -321,7 +322,7 @@ class DbbSession : public Session {
       // beside them (a drift is not read as backlash), a term that contradicts EXPLAIN is not determined.
       try {
         const models::explain::CheckedIdentification checked =
-            models::explain::identify_checked(it->second, identify_options, explain_options());
+            models::explain::identify_checked(it->second, identify_options, explain_options(*this));
         ids.push_back(checked.id);
         planes[pat.plane] = models::explain::to_json(checked);
         plane_explain = checked.explain_report;
@@ -350,15 +351,15 @@ class DbbSession : public Session {
   }
 
   // What PARAMS published: each plane's identification, EXPLAIN's findings fitted beside.
-  [[nodiscard]] std::span<const models::explain::CheckedIdentification> identified_planes() const override {
-    return checked_;
+  [[nodiscard]] const std::vector<models::explain::CheckedIdentification>* identified_planes() const override {
+    return &checked_;
   }
 
   std::optional<nlohmann::json> explain() override {
     if (identified_.empty()) return std::nullopt;
     if (!explained_.is_null()) return explained_;  // run by identify() already, on the same runs
     try {
-      return models::explain::explain_dbb(identified_, explain_options());
+      return models::explain::explain_dbb(identified_, explain_options(*this));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

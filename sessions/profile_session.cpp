@@ -13,6 +13,7 @@
 #include "formats/profile_files.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
+#include "sessions/explain_options.hpp"
 #include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
@@ -256,7 +257,7 @@ class ProfileSession : public Session {
     try {
       const models::explain::ProfileRun run =
           models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness", nullptr, explain_options()));
+      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness", nullptr, explain_options(*this)));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

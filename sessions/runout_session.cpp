@@ -11,6 +11,7 @@
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
 #include "results/parameters.hpp"
+#include "sessions/explain_options.hpp"
 #include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
@@ -151,7 +152,7 @@ class RunoutSession : public Session {
       return explain_not_analysed(std::string(results::runout_kind.name),
                                   "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
                                   "told from what does not (record several, e.g. revolutions = 20)");
-    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}, explain_options()));
+    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}, explain_options(*this)));
   }
 
  private:

@@ -19,8 +19,12 @@
 #include "core/instrument.hpp"
 #include "core/sample.hpp"
 #include "drivers/driver.hpp"
-#include "models/explain/dbb_checked.hpp"
-#include "models/explain/explain_result.hpp"
+
+// A DBB session's identification as PARAMS published it (models/explain/dbb_checked.hpp): named here only, so
+// that what runs sessions (the daemon) needs none of the models it does not call.
+namespace guideway::models::explain {
+struct CheckedIdentification;
+}  // namespace guideway::models::explain
 
 namespace guideway::sessions {
 
@@ -43,8 +47,9 @@ class Session {
  public:
   virtual ~Session() = default;
   // What explain() runs EXPLAIN with beyond its defaults: the daemon's [explain] memory_mb (set after create(),
-  // before explain(); docs/configuration.md).
-  void set_explain_memory_mb(std::size_t mb) { explain_options_.memory_mb = mb; }
+  // before explain(); docs/configuration.md). Unset: EXPLAIN's default (sessions/explain_options.hpp).
+  void set_explain_memory_mb(std::size_t mb) { explain_memory_mb_ = mb; }
+  [[nodiscard]] std::optional<std::size_t> explain_memory_mb() const { return explain_memory_mb_; }
   virtual void on_samples(std::span<const Sample> samples) = 0;
   // Another device's samples, as they come (pipeline thread): a controller's commanded positions (a
   // linuxcnc-hal device's x_cmd, y_cmd, z_cmd) a DBB session writes beside the bar's reading. Default: none.
@@ -71,8 +76,10 @@ class Session {
   // After identify(), on the worker thread: the identification per plane as PARAMS published it (a DBB
   // session: Lai's model and the diagnostics with EXPLAIN's findings fitted beside), for whoever builds the
   // session's report, so it does not identify the run files a second time. Default: none; the report reads
-  // the files. Valid while the session lives.
-  [[nodiscard]] virtual std::span<const models::explain::CheckedIdentification> identified_planes() const { return {}; }
+  // the files (nullptr). Valid while the session lives.
+  [[nodiscard]] virtual const std::vector<models::explain::CheckedIdentification>* identified_planes() const {
+    return nullptr;
+  }
   // Metadata for the recording header (options, geometry), written as "# key = value".
   [[nodiscard]] virtual std::map<std::string, std::string> metadata() const { return {}; }
   // Derived files (e.g. DBB run files) written next to the raw recording at the end; returns paths.
@@ -81,11 +88,8 @@ class Session {
     (void)base_name;
     return {};
   }
- protected:
-  [[nodiscard]] const models::explain::ExplainOptions& explain_options() const { return explain_options_; }
-
  private:
-  models::explain::ExplainOptions explain_options_;
+  std::optional<std::size_t> explain_memory_mb_;
 };
 
 struct SessionKind {

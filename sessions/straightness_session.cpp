@@ -10,6 +10,7 @@
 #include "models/flatness/angles.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/straightness.hpp"
+#include "sessions/explain_options.hpp"
 #include "sessions/session_support.hpp"
 
 namespace guideway::sessions {
@@ -232,7 +233,7 @@ class StraightnessSession : public Session {
     if (text_.empty()) return std::nullopt;
     const auto passes = models::explain::parse_traverse_passes(text_, "traverse");
     try {
-      return models::explain::to_json(models::explain::explain_traverses(passes, explain_options()));
+      return models::explain::to_json(models::explain::explain_traverses(passes, explain_options(*this)));
     } catch (const std::invalid_argument& e) {  // too few readings in a pass: said, not claimed
       const std::string why = e.what();
       return explain_not_analysed(std::string(results::straightness_kind.name),

@@ -227,8 +227,9 @@ TEST(DbbSession, ADriftBesideTheBacklashIsFittedBesideAsOfflineAndNotReadAsBackl
   // The session's report (as the daemon writes it) shows exactly what PARAMS published, from the session's
   // own identification: the run files are not identified a second time.
   report::ReportOptions options;
-  const auto identified = session->identified_planes();
-  options.identified.assign(identified.begin(), identified.end());
+  const auto* identified = session->identified_planes();
+  ASSERT_NE(identified, nullptr);
+  options.identified = *identified;
   const std::string html = report::render_report(files, options);
   EXPECT_EQ(models::explain::identify_checked_count(), identified_before + 1);
   EXPECT_NE(html.find("data-identified-by=\"session\""), std::string::npos);

@@ -14,6 +14,7 @@
 #include <coroutine>
 #include <cstring>
 #include <exception>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -72,11 +73,19 @@ struct MicrometerDriver::RingCursor {
   modbus::StampSequencer stamps;   // published timestamps only increase, by >= half a period a sample
   bool gap = false;                // the next published sample follows lost ones
   int resets_in_row = 0;           // counter reads in a row that looked like an amplifier restart
+  // After three of them, when the counter's steps first looked plausible again: one such step proves
+  // nothing on a loaded machine (a late answer to the poll before stretches the time a step may span).
+  std::optional<std::int64_t> plausible_since_ns;
   bool rate_flagged = false;       // the measured rate is off sample_rate_hz by more than the tolerance
   bool overrun_counted = false;    // this poll already counted its ring overrun
 };
 
 namespace {
+// How long a counter flagged as too fast must step plausibly before the error clears. A run of steps
+// that only looked plausible because answers came late cannot last this long: the polls' round trips
+// follow one another, so their latencies cannot add up to several times the run (a counter 2.1x fast
+// or more would need that).
+constexpr std::int64_t counter_plausible_again_ns = 500'000'000;
 // How far the amplifier's measured rate may be off sample_rate_hz before the state says so.
 constexpr double rate_tolerance = 0.005;
 }  // namespace
@@ -313,9 +322,24 @@ bool MicrometerDriver::take_counter(const Exchange& x, std::int64_t t_query) {
   const auto step = cursor.counter.update(counter, elapsed_s, rate);
   cursor.last_query_ns = t_query;
   const std::uint64_t count = cursor.counter.count();
+  const auto say_counter_too_fast = [&] {
+    std::string why = "the sample counter runs faster than sample_rate_hz = ";
+    append_shortest(why, rate);
+    set_state(drivers::DeviceState::error, why + " (or the amplifier keeps restarting): check [device.buffer]");
+  };
   if (step == modbus::CounterTracker::Step::advanced && cursor.resets_in_row > 0) {
-    if (cursor.resets_in_row >= 3) set_state(drivers::DeviceState::streaming);
-    cursor.resets_in_row = 0;
+    if (cursor.resets_in_row < 3) {
+      cursor.resets_in_row = 0;
+    } else if (!cursor.plausible_since_ns) {
+      cursor.plausible_since_ns = t_answer;
+      say_counter_too_fast();  // again: a reconnect sets the state to streaming
+    } else if (t_answer - *cursor.plausible_since_ns >= counter_plausible_again_ns) {
+      set_state(drivers::DeviceState::streaming);
+      cursor.resets_in_row = 0;
+      cursor.plausible_since_ns.reset();
+    } else {
+      say_counter_too_fast();
+    }
   }
   if (step != modbus::CounterTracker::Step::advanced) {
     // Start at the newest sample (first read), or after a restart of the amplifier: what it took
@@ -323,14 +347,11 @@ bool MicrometerDriver::take_counter(const Exchange& x, std::int64_t t_query) {
     if (step == modbus::CounterTracker::Step::reset) {
       counter_resets_.fetch_add(1, std::memory_order_relaxed);
       cursor.gap = true;
+      cursor.plausible_since_ns.reset();
       // A restart now and then is an amplifier; one at every poll is a counter running faster
       // than the configured rate, and nothing would ever be published: say so, again after every
       // further one (a reconnect sets the state to streaming; the count survives it).
-      if (++cursor.resets_in_row >= 3) {
-        std::string why = "the sample counter runs faster than sample_rate_hz = ";
-        append_shortest(why, rate);
-        set_state(drivers::DeviceState::error, why + " (or the amplifier keeps restarting): check [device.buffer]");
-      }
+      if (++cursor.resets_in_row >= 3) say_counter_too_fast();
     }
     cursor.next = count;
     // A counter that went backwards is an amplifier that restarted (from 0): what its ring took

@@ -107,6 +107,10 @@ struct Problem {
   // function of position (a traverse's geometry). Set: held-out rows are interleaved along the stations,
   // never a block at a run's end, where a fold would extrapolate the base (docs/explain.md "Held out").
   std::vector<std::size_t> station_of;
+  // Runs that continue one path, one id per run (a traverse's passes of one file: the reflector goes back and forth
+  // along the same stations); empty: every run stands alone. A path with a run shorter than min_run_samples
+  // (locate.hpp) has its runs tested together, joined in the order taken (docs/explain.md "Short passes").
+  std::vector<std::size_t> path_of_run;
   // The yardstick the findings' contributions are given against (um; NaN = none): for DBB runs the
   // largest circular deviation G of a run, as a ballbar's software ranks errors.
   double deviation_um = std::numeric_limits<double>::quiet_NaN();

@@ -30,6 +30,21 @@ std::vector<double> slice(const Eigen::VectorXd& r, std::pair<std::size_t, std::
   return {r.data() + range.first, r.data() + range.second};
 }
 
+std::vector<std::pair<std::size_t, std::size_t>> ranges_of(const std::vector<TestedStretch>& stretches) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  for (const TestedStretch& s : stretches) out.emplace_back(s.first, s.last);
+  return out;
+}
+
+// Whether each run is within a stretch the tests decompose (min_run_samples or more).
+std::vector<bool> tested_runs(const std::vector<TestedStretch>& stretches, std::size_t runs) {
+  std::vector<bool> out(runs, false);
+  for (const TestedStretch& s : stretches)
+    if (s.last - s.first >= min_run_samples)
+      for (std::size_t r = s.first_run; r <= s.last_run && r < runs; ++r) out[r] = true;
+  return out;
+}
+
 // Median spacing of `where` within runs (domain units per sample).
 double spacing(const Problem& p) {
   std::vector<double> d;
@@ -97,6 +112,36 @@ std::vector<std::pair<std::size_t, std::size_t>> run_ranges(const Problem& probl
   return out;
 }
 
+std::vector<TestedStretch> tested_stretches(const Problem& problem) {
+  const auto ranges = run_ranges(problem);
+  const bool paths = problem.path_of_run.size() == ranges.size();
+  const auto size = [&](std::size_t k) { return ranges[k].second - ranges[k].first; };
+  std::vector<TestedStretch> out;
+  for (std::size_t r = 0; r < ranges.size();) {
+    // The runs of r's path that follow it sample after sample (a run left with no samples is passed over).
+    std::size_t e = r + 1;
+    std::optional<std::size_t> first, end;
+    if (size(r) > 0) first = ranges[r].first, end = ranges[r].second;
+    while (paths && e < ranges.size() && problem.path_of_run[e] == problem.path_of_run[r] &&
+           (size(e) == 0 || !end || ranges[e].first == *end)) {
+      if (size(e) > 0) {
+        if (!first) first = ranges[e].first;
+        end = ranges[e].second;
+      }
+      ++e;
+    }
+    bool short_run = false;
+    for (std::size_t k = r; k < e; ++k) short_run = short_run || (size(k) > 0 && size(k) < min_run_samples);
+    if (short_run && e - r > 1 && first) {
+      out.push_back({*first, *end, r, e - 1});
+    } else {
+      for (std::size_t k = r; k < e; ++k) out.push_back({ranges[k].first, ranges[k].second, k, k});
+    }
+    r = e;
+  }
+  return out;
+}
+
 namespace {
 
 // The flagged bands of x (hard-thresholded details, approximation as is), back in the signal domain.
@@ -125,7 +170,7 @@ double visible_energy(const Problem& problem, const Eigen::VectorXd& residual_um
                       const std::vector<int>& flagged) {
   if (flagged.empty() || !(sigma_um > 0)) return 0.0;
   double e = 0;
-  for (const auto& range : run_ranges(problem)) {
+  for (const auto& range : ranges_of(tested_stretches(problem))) {
     const auto x = slice(residual_um, range);
     if (x.size() < min_run_samples) continue;
     for (double v : band_signal(x, sigma_um, flagged)) e += v * v;
@@ -436,8 +481,8 @@ std::optional<Correlation> same_place_correlation(const Problem& problem, const 
 
 // Direction and feed: runs of one geometry compared at the same place.
 void compare_runs(const Problem& problem, const Eigen::VectorXd& residual_um,
-                  const std::vector<std::pair<std::size_t, std::size_t>>& ranges, const std::string& band,
-                  std::vector<Mismatch>& places) {
+                  const std::vector<std::pair<std::size_t, std::size_t>>& ranges, const std::vector<bool>& tested,
+                  const std::string& band, std::vector<Mismatch>& places) {
   for (std::size_t i = 0; i < problem.runs.size(); ++i) {
     for (std::size_t j = i + 1; j < problem.runs.size(); ++j) {
       const auto& ri = problem.runs[i];
@@ -446,8 +491,7 @@ void compare_runs(const Problem& problem, const Eigen::VectorXd& residual_um,
       const bool dir_pair = ri.direction != rj.direction && ri.feed_mm_per_min == rj.feed_mm_per_min;
       const bool feed_pair = ri.direction == rj.direction && ri.feed_mm_per_min != rj.feed_mm_per_min;
       if (!dir_pair && !feed_pair) continue;
-      if (ranges[i].second - ranges[i].first < min_run_samples || ranges[j].second - ranges[j].first < min_run_samples)
-        continue;
+      if (!tested[i] || !tested[j]) continue;
       const auto c = same_place_correlation(problem, residual_um, ranges[i], ranges[j]);
       if (!c || std::abs(c->z) < 4) continue;
       const std::string pair = ri.label + " vs " + rj.label;
@@ -479,13 +523,13 @@ void compare_runs(const Problem& problem, const Eigen::VectorXd& residual_um,
 
 // Time: the strongest trend of the residual within a run, when it is clear (z > 5).
 void time_trend(const Problem& problem, const Eigen::VectorXd& residual_um,
-                const std::vector<std::pair<std::size_t, std::size_t>>& ranges, double sigma, const std::string& band,
-                std::vector<Mismatch>& places) {
+                const std::vector<std::pair<std::size_t, std::size_t>>& ranges, const std::vector<bool>& tested,
+                double sigma, const std::string& band, std::vector<Mismatch>& places) {
   double best_z = 0, best_slope = 0;
   std::string best_run;
   for (std::size_t k = 0; k < ranges.size(); ++k) {
     const auto [a, b] = ranges[k];
-    if (b - a < min_run_samples) continue;
+    if (!tested[k] || b - a < 3) continue;
     double tm = 0;
     for (std::size_t q = a; q < b; ++q) tm += problem.samples[q].t_s;
     tm /= static_cast<double>(b - a);
@@ -521,10 +565,15 @@ void time_trend(const Problem& problem, const Eigen::VectorXd& residual_um,
 Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, double alpha, double sigma_um) {
   Located out;
   const auto ranges = run_ranges(problem);
+  const auto stretches = tested_stretches(problem);
+  const auto tested_ranges = ranges_of(stretches);
+  const std::vector<bool> tested = tested_runs(stretches, ranges.size());
   out.smooth.assign(problem.samples.size(), 0.0);
-  // Bands of every run; the noise from the pooled finest details.
-  const RunBands rb = decompose_runs(residual_um, ranges);
-  if (rb.finest.empty()) throw std::invalid_argument("explain: every run is shorter than 32 samples");
+  // Bands of every run (a short run's path joined); the noise from the pooled finest details.
+  const RunBands rb = decompose_runs(residual_um, tested_ranges);
+  if (rb.finest.empty())
+    throw std::invalid_argument("explain: every run is shorter than " + std::to_string(min_run_samples) +
+                                " samples, and no runs of one path are that many together");
   const double sigma = sigma_um > 0 ? sigma_um : dsp::mad_sigma(rb.finest);
   out.sigma_um = sigma;
   if (!(sigma > 0)) return out;  // an exact fit: nothing to locate
@@ -532,11 +581,11 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
   const std::string unit = unit_of(problem);
   BandTest bands = test_bands(rb, sigma, alpha, step, unit);
   out.flagged = std::move(bands.flagged);
-  const Whiteness w = whiteness(residual_um, ranges);
+  const Whiteness w = whiteness(residual_um, tested_ranges);
   out.structured = bands.p < alpha / 3 || w.p_runs < alpha / 3 || w.p_lb < alpha / 3;
 
   // The places: the flagged bands (hard-thresholded) where they reach half their largest magnitude.
-  const double peak = smooth_flagged_bands(residual_um, ranges, sigma, out);
+  const double peak = smooth_flagged_bands(residual_um, tested_ranges, sigma, out);
   if (!out.structured) return out;
   std::vector<std::pair<double, double>> place_ranges;
   const std::string where = where_structured(problem, out.smooth, peak, step, bands.merge_gap, unit, place_ranges);
@@ -550,8 +599,8 @@ Located locate(const Problem& problem, const Eigen::VectorXd& residual_um, doubl
   std::vector<Location> locations;
   if (!place_ranges.empty()) locations = run_locations(problem, out.smooth, peak, std::max(2 * step, bands.merge_gap));
   out.places.push_back({problem.domain, where, band, evidence, place_ranges, std::move(locations)});
-  compare_runs(problem, residual_um, ranges, band, out.places);
-  time_trend(problem, residual_um, ranges, sigma, band, out.places);
+  compare_runs(problem, residual_um, ranges, tested, band, out.places);
+  time_trend(problem, residual_um, ranges, tested, sigma, band, out.places);
   return out;
 }
 

@@ -36,4 +36,13 @@ double visible_energy(const Problem& problem, const Eigen::VectorXd& residual_um
 // [first, last) sample index of each run.
 std::vector<std::pair<std::size_t, std::size_t>> run_ranges(const Problem& problem);
 
+// What the structure tests decompose, each a [first, last) sample range: every run alone, except the runs of a path
+// (Problem::path_of_run) one of which is shorter than min_run_samples: those joined, in the order taken, one range.
+// A range shorter than min_run_samples is not tested.
+struct TestedStretch {
+  std::size_t first = 0, last = 0;
+  std::size_t first_run = 0, last_run = 0;  // the runs it holds, [first_run, last_run]
+};
+std::vector<TestedStretch> tested_stretches(const Problem& problem);
+
 }  // namespace guideway::models::explain

@@ -14,6 +14,7 @@
 #include "formats/dabam.hpp"
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/traverse_terms.hpp"
+#include "models/explain/locate.hpp"
 #include "models/flatness/instruments.hpp"
 #include "models/flatness/straightness.hpp"
 #include "results/parameters.hpp"
@@ -151,15 +152,30 @@ Layout layout_of(const std::vector<TraversePass>& passes) {
     if (per_file.size() <= p.file) per_file.resize(p.file + 1, 0);
     ++per_file[p.file];
   }
-  // The engine decomposes a run into wavelet bands only from 32 samples (models/explain/locate.cpp), and
-  // needs one such run at least: said here in a traverse's terms.
-  std::size_t longest = 0;
-  for (const TraversePass& p : passes) longest = std::max(longest, p.x_m.size());
-  if (longest < 32)
-    throw std::invalid_argument("explain: the longest pass has " + std::to_string(longest) +
-                                " readings; EXPLAIN's structure tests need a pass of 32 readings or more (over " +
-                                shortest(std::round((hi - lo) * 1e6) / 1e3) + " mm: a step of " +
-                                shortest(std::floor((hi - lo) * 1e3 / 32 * 100) / 100) + " mm or less)");
+  // The engine decomposes a run into wavelet bands only from min_run_samples (models/explain/locate.hpp); the
+  // passes of one file, the reflector going back and forth, are one path, tested together where a pass is shorter
+  // (Problem::path_of_run). One such pass or path at least: said here in a traverse's terms.
+  std::size_t longest = 0, most_in_file = 0;
+  std::vector<std::size_t> in_file(per_file.size(), 0);
+  for (const TraversePass& p : passes) {
+    longest = std::max(longest, p.x_m.size());
+    in_file[p.file] += p.x_m.size();
+  }
+  for (std::size_t f = 0; f < per_file.size(); ++f)
+    if (per_file[f] >= 2) most_in_file = std::max(most_in_file, in_file[f]);
+  if (longest < min_run_samples && most_in_file < min_run_samples) {
+    const std::string need = std::to_string(min_run_samples);
+    throw std::invalid_argument(
+        "explain: the longest pass has " + std::to_string(longest) + " readings" +
+        (most_in_file > 0 ? " and the passes of one file " + std::to_string(most_in_file) + " at most"
+                          : std::string(" and no other pass of its file")) +
+        "; EXPLAIN's structure tests need " + need + " readings or more: a pass of " + need +
+        " (over " + shortest(std::round((hi - lo) * 1e6) / 1e3) + " mm: a step of " +
+        shortest(std::floor((hi - lo) * 1e3 / static_cast<double>(min_run_samples) * 100) / 100) +
+        " mm or less), or passes of one file, forward and return, " + need +
+        " readings or more together (their readings are tested together); `guideway identify straightness` "
+        "evaluates a pass of any length");
+  }
   l.x0_m = lo;
   l.span_m = hi - lo;
   l.step_m = step;
@@ -286,9 +302,13 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
 }
 
 // The identification's polynomial (order by BIC, N ln(RSS/N) + q ln N, up to 8 and fewer than the stations
-// of a pass) through every pass at once, and an offset for each file after the first.
+// of a pass) through every pass at once, and an offset for each file after the first. `beside`: the terms of
+// effects found that are not a function of the station (explain_traverses), fitted beside each order: they count
+// alike in every order's BIC and are not part of the base (the engine judges them again as candidates); `found`
+// names them.
 Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
-                 const std::vector<std::size_t>& stations, std::string& note) {
+                 const std::vector<std::size_t>& stations, const Eigen::MatrixXd& effects_beside,
+                 const std::string& found, std::string& note) {
   const auto n = y.size();
   std::size_t fewest = passes.front().x_m.size();
   for (const TraversePass& p : passes) fewest = std::min(fewest, p.x_m.size());
@@ -304,11 +324,14 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
       }
     return a;
   };
+  const Eigen::Index beside = effects_beside.rows() == n ? effects_beside.cols() : 0;
   const double dn = static_cast<double>(n);
   int best = 1;
   double best_bic = std::numeric_limits<double>::infinity();
   for (int order = 1; order <= highest; ++order) {
-    const Eigen::MatrixXd a = design(order);
+    Eigen::MatrixXd a(n, design(order).cols() + beside);
+    a.leftCols(a.cols() - beside) = design(order);
+    if (beside > 0) a.rightCols(beside) = effects_beside;
     const double rss = (y - a * a.colPivHouseholderQr().solve(y)).squaredNorm();
     const double bic = dn * std::log(std::max(rss, dn * 1e-12) / dn) + static_cast<double>(a.cols()) * std::log(dn);
     if (bic < best_bic - 1e-9) {
@@ -323,8 +346,20 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
   // The engine factors its base per fold: a term per station costs the stations squared times the readings (481
   // stations, two passes: 5.5 s of CPU), so it is given up to 512 stations; more keep the polynomial, and say so.
   constexpr std::size_t most_station_terms = 512;
-  const SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
-  const bool not_polynomial = shared.judged && shared.chi2 > shared.dof + 3.09 * std::sqrt(2.0 * shared.dof);
+  const auto beyond = [](const SharedGeometry& g) { return g.judged && g.chi2 > g.dof + 3.09 * std::sqrt(2.0 * g.dof); };
+  const int bic_order = best;
+  SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
+  // The BIC's order was chosen against a residual a shared wave is part of (a rack's wave of 2.4 urad hides a bow
+  // of 1 urad from it, as a drift does): before the geometry is called "not a polynomial", the higher orders, each
+  // with the wave and the yaw's part; the lowest that leaves what the passes share within their scatter is the base.
+  if (beyond(shared) && shared.stations <= most_station_terms)
+    for (int order = best + 1; order <= highest; ++order)
+      if (const SharedGeometry higher = shared_geometry(passes, l, y, stations, order); higher.judged && !beyond(higher)) {
+        best = order;
+        shared = higher;
+        break;
+      }
+  const bool not_polynomial = beyond(shared);
   const bool per_station = not_polynomial && shared.stations <= most_station_terms;
   if (per_station) {
     const auto q = static_cast<Eigen::Index>(shared.stations);
@@ -348,7 +383,13 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
                             printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
                             " times the passes' own scatter; a wave the passes share is then geometry, not a finding"
                       : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
-                            std::to_string(highest) + ") common to every pass") +
+                            std::to_string(highest) +
+                            (beside > 0 ? ", chosen with " + found + " fitted beside it" : std::string()) +
+                            (best > bic_order ? "; raised from " + std::to_string(bic_order) +
+                                                    ", with which what the passes share was more than a wave" +
+                                                    (l.yaw ? " and the yaw's part" : "") + " beyond it"
+                                              : std::string()) +
+                            ") common to every pass") +
          (l.files > 1 ? ", an offset per file after the first" : "") +
          (not_polynomial && !per_station
               ? "; the passes share more than the polynomial (" + printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
@@ -360,7 +401,10 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
 
 }  // namespace
 
-Problem traverse_problem(const std::vector<TraversePass>& passes) {
+namespace {
+
+Problem traverse_problem_beside(const std::vector<TraversePass>& passes, const Eigen::MatrixXd& beside,
+                                const std::string& found) {
   const Layout l = layout_of(passes);
   Problem p;
   p.model = "traverse";
@@ -384,13 +428,14 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
       p.samples.push_back({k, std::tan(pass.pitch_rad[i]) * 1e6, pass.x_m[i] * 1e3, t});
       p.station_of.push_back(static_cast<std::size_t>(std::max(0.0, std::round((pass.x_m[i] - l.x0_m) / l.step_m))));
     }
+    p.path_of_run.push_back(pass.file);
     p.runs.push_back({"pass" + std::to_string(k + 1) + (pass.direction > 0 ? " (+)" : " (-)"), pass.direction, 0.0,
                       "traverse", pass.source, g[index - pass.x_m.size()].t_s});
   }
   Eigen::VectorXd y(static_cast<Eigen::Index>(p.samples.size()));
   for (std::size_t i = 0; i < p.samples.size(); ++i) y[static_cast<Eigen::Index>(i)] = p.samples[i].y_um;
   std::string base_note;
-  p.base = base_block(passes, l, y, p.station_of, base_note);
+  p.base = base_block(passes, l, y, p.station_of, beside, found, base_note);
   const effects::TraverseTerms terms{g, l.both, l.timed, l.yaw, l.span_m, l.step_m};
   p.candidates = effects::traverse_candidates(terms);
   // A term's size across every pass: a rocking is constant along each pass, +r one way and -r the other.
@@ -403,8 +448,74 @@ Problem traverse_problem(const std::vector<TraversePass>& passes) {
   return p;
 }
 
+// Whether a term's column is a function of the station: the same at every reading of a station (a pitch wave) --
+// not a drift or a rocking, which differ between the passes over it.
+bool function_of_station(const std::vector<double>& column, const std::vector<std::size_t>& station_of) {
+  const std::size_t S = station_of.empty() ? 0 : *std::max_element(station_of.begin(), station_of.end()) + 1;
+  std::vector<double> sum(S, 0.0), count(S, 0.0);
+  double mean = 0.0;
+  for (std::size_t i = 0; i < column.size(); ++i) {
+    sum[station_of[i]] += column[i];
+    count[station_of[i]] += 1;
+    mean += column[i] / static_cast<double>(column.size());
+  }
+  double within = 0.0, total = 0.0;
+  for (std::size_t i = 0; i < column.size(); ++i) {
+    within += std::pow(column[i] - sum[station_of[i]] / count[station_of[i]], 2);
+    total += std::pow(column[i] - mean, 2);
+  }
+  return within <= 1e-12 * total;
+}
+
+}  // namespace
+
+Problem traverse_problem(const std::vector<TraversePass>& passes) { return traverse_problem_beside(passes, {}, ""); }
+
+// The base's order is chosen by the BIC before anything is found, against a residual that holds the effects: a drift
+// or a rocking tilts each pass, and a drift of 0.25"/min over four passes hides a bow of 1 urad from the BIC (order
+// 1, the bow then read as a 400 mm pitch wave, or the passes' shared part as a term per station, a real wave with
+// it). Once such effects are found, the order is chosen again with their terms fitted beside it; where that changes
+// the base, the problem is explained again with it (issue 41 item 6). Effects that are a function of the station (a
+// pitch wave) are not fitted beside: they would take the geometry's place.
 Report explain_traverses(const std::vector<TraversePass>& passes, const ExplainOptions& options) {
-  return explain(traverse_problem(passes), options);
+  const Problem first = traverse_problem(passes);
+  ExplainOptions with_columns = options;
+  with_columns.keep_columns = true;
+  Report report = explain(first, with_columns);
+  std::vector<const std::vector<double>*> columns;
+  std::string found, first_found;
+  for (const Finding& f : report.findings) {
+    first_found += (first_found.empty() ? "" : ", ") + f.effect;
+    bool tilts = false;
+    for (const auto& c : f.columns_um)
+      if (c.size() == first.samples.size() && !function_of_station(c, first.station_of)) {
+        columns.push_back(&c);
+        tilts = true;
+      }
+    if (tilts) found += (found.empty() ? "" : " and ") + f.effect;
+  }
+  const auto without_columns = [&](Report r) {
+    if (!options.keep_columns)
+      for (Finding& f : r.findings) {
+        f.columns_um.clear();
+        f.column_names.clear();
+      }
+    return r;
+  };
+  if (columns.empty()) return without_columns(std::move(report));
+  Eigen::MatrixXd beside(static_cast<Eigen::Index>(first.samples.size()), static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t k = 0; k < columns.size(); ++k)
+    beside.col(static_cast<Eigen::Index>(k)) =
+        Eigen::Map<const Eigen::VectorXd>(columns[k]->data(), static_cast<Eigen::Index>(columns[k]->size()));
+  Problem again = traverse_problem_beside(passes, beside, found);
+  if (again.base.names == first.base.names) return without_columns(std::move(report));
+  std::string before;
+  for (const std::string& n : first.notes)
+    if (n.rfind("base: ", 0) == 0) before = n.substr(6);
+  again.notes.push_back("the base was chosen again once " + found +
+                        " was found (it tilts each pass, and the base had been chosen against it): before, " + before +
+                        ", and the findings were " + first_found);
+  return explain(again, options);
 }
 
 }  // namespace guideway::models::explain

@@ -69,7 +69,8 @@ const std::vector<TraverseScenario>& traverse_scenarios() {
        {expect("angle_drift", results::angle_drift, 0.15, 0.015), expect("pitch_wave", results::pitch_wave, 0.3, 0.03)},
        4},
       {"traverse_few_stations",
-       "the fewest readings the tests take: 32 a pass (18.75 mm steps), forward and return; the reflector rocks 0.3\"",
+       "the fewest readings a pass is tested on alone: 32 (18.75 mm steps), forward and return; the reflector rocks "
+       "0.3\"",
        [](machine::MachineConfig& m) { m.autocollimator.rocking_rad = 0.3 * arcsec; },
        {expect("reflector_rocking", results::reflector_rocking, 0.3, 0.03)},
        2,
@@ -165,7 +166,7 @@ ScenarioResult traverse_scenario(const std::string& name, const ScenarioOptions&
       auto& last = passes.back().pitch_rad;
       for (std::size_t i = last.size() * 4 / 10; i < last.size(); ++i) last[i] += sc.bump_arcsec * arcsec;
     }
-    s.report = models::explain::explain(models::explain::traverse_problem(passes), o.explain);
+    s.report = models::explain::explain_traverses(passes, o.explain);
     check_expectations(s);
     return s;
   }

@@ -150,6 +150,7 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
   q.deviation_name = p.deviation_name;
   q.samples.reserve(kept->size());
   for (const Eigen::Index i : *kept) q.samples.push_back(p.samples[static_cast<std::size_t>(i)]);
+  q.path_of_run = p.path_of_run;
   if (!p.station_of.empty())
     for (const Eigen::Index i : *kept) q.station_of.push_back(p.station_of[static_cast<std::size_t>(i)]);
   q.base.names = p.base.names;
@@ -335,12 +336,12 @@ std::vector<OffsetAfter> fitted_offsets(const Problem& p, const std::vector<bool
 // A run the structure tests could look at that setting aside would leave too short for them (a traverse's
 // pass of 33 readings): its label, or "" when there is none.
 std::string starved_run(const Problem& p, const std::vector<bool>& keep) {
-  const auto ranges = run_ranges(p);
-  for (std::size_t r = 0; r < ranges.size(); ++r) {
-    const auto [a, b] = ranges[r];
-    const auto kept = static_cast<std::size_t>(
-        std::count(keep.begin() + static_cast<std::ptrdiff_t>(a), keep.begin() + static_cast<std::ptrdiff_t>(b), true));
-    if (b - a >= min_run_samples && kept < min_run_samples) return p.runs[r].label;
+  for (const TestedStretch& s : tested_stretches(p)) {
+    const auto kept = static_cast<std::size_t>(std::count(keep.begin() + static_cast<std::ptrdiff_t>(s.first),
+                                                          keep.begin() + static_cast<std::ptrdiff_t>(s.last), true));
+    if (s.last - s.first >= min_run_samples && kept < min_run_samples)
+      return s.first_run == s.last_run ? p.runs[s.first_run].label
+                                       : p.runs[s.first_run].label + " to " + p.runs[s.last_run].label + " together";
   }
   return "";
 }

@@ -63,7 +63,8 @@ struct FittedOffsets {
 };
 
 // A run the structure tests could look at that setting aside would leave too short for them (a traverse's
-// pass of 33 readings): its label, or "" when there is none.
+// pass of 33 readings; short passes tested together, locate.hpp tested_stretches: those passes): its label, or ""
+// when there is none.
 std::string starved_run(const Problem& p, const std::vector<bool>& keep);
 
 // One fault is one place: a place set aside with the others whose stretch the last pass's findings explain
