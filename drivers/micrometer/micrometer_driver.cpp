@@ -330,15 +330,15 @@ bool MicrometerDriver::take_counter(const Exchange& x, std::int64_t t_query) {
   if (step == modbus::CounterTracker::Step::advanced && cursor.resets_in_row > 0) {
     if (cursor.resets_in_row < 3) {
       cursor.resets_in_row = 0;
-    } else if (!cursor.plausible_since_ns) {
-      cursor.plausible_since_ns = t_answer;
-      say_counter_too_fast();  // again: a reconnect sets the state to streaming
-    } else if (t_answer - *cursor.plausible_since_ns >= counter_plausible_again_ns) {
-      set_state(drivers::DeviceState::streaming);
-      cursor.resets_in_row = 0;
-      cursor.plausible_since_ns.reset();
     } else {
-      say_counter_too_fast();
+      if (!cursor.plausible_since_ns) cursor.plausible_since_ns = t_answer;
+      if (t_answer - *cursor.plausible_since_ns >= counter_plausible_again_ns) {
+        set_state(drivers::DeviceState::streaming);
+        cursor.resets_in_row = 0;
+        cursor.plausible_since_ns.reset();
+      } else {
+        say_counter_too_fast();  // again: a reconnect sets the state to streaming
+      }
     }
   }
   if (step != modbus::CounterTracker::Step::advanced) {
