@@ -52,7 +52,7 @@ struct Harness {
     const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(transport +
                            "poll_hz = 100\nresponse_timeout_ms = 400\nlost_after_failures = 3\n"
-                           "backoff_initial_ms = 50\nbackoff_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
+                           "reconnect_min_ms = 50\nreconnect_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
     driver = std::make_unique<drivers::micrometer::MicrometerDriver>(
@@ -248,7 +248,7 @@ INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerTransport, ::testing::Values(false, t
                          [](const auto& p) { return p.param ? std::string("Rtu") : std::string("Tcp"); });
 
 TEST(MicrometerDriver, ReportsLostWhenNothingListensAndBacksOff) {
-  auto table = parse_toml("transport = \"tcp\"\nport = 1\nbackoff_initial_ms = 20\nbackoff_max_ms = 40\n", "t.toml");
+  auto table = parse_toml("transport = \"tcp\"\nport = 1\nreconnect_min_ms = 20\nreconnect_max_ms = 40\n", "t.toml");
   TableReader reader(table, "t.toml", "device[0]");
   drivers::micrometer::MicrometerDriver d("mic", drivers::micrometer::parse_micrometer_config(reader), 16);
   d.start();
@@ -299,7 +299,7 @@ struct BufferedHarness {
     emulator = std::make_unique<MicrometerEmulator>(o);
     const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(
-        transport + extra_keys + "backoff_initial_ms = 50\nbackoff_max_ms = 200\n[buffer]\n" +
+        transport + extra_keys + "reconnect_min_ms = 50\nreconnect_max_ms = 200\n[buffer]\n" +
             "counter_address = 100\nring_address = 200\nsample_rate_hz = " + std::to_string(configured_rate_hz) +
             "\nring_samples = " + std::to_string(ring_samples) + "\n",
         "test.toml");
@@ -624,6 +624,59 @@ TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
             std::string::npos);
   EXPECT_NE(error("port = 1502\n" + buffer + "ring_size = 4\n").find("mic.toml:7: device[0].buffer.ring_size"),
             std::string::npos);
+}
+
+// One set of reconnect keys for every loop-driven driver, read by the skeleton (drivers::read_reconnect):
+// the micrometer's and profilometer's old names still work, each said as a deprecation; a table that
+// gives a key under both names, or a ceiling below the first wait, is refused naming file, line and key.
+TEST(MicrometerDriver, ReconnectKeysAreTheSkeletonsAndTheOldNamesAreDeprecated) {
+  const auto parse = [](const std::string& keys) {
+    auto table = parse_toml("port = 1502\n" + keys, "mic.toml");
+    TableReader reader(table, "mic.toml", "device[0]");
+    auto c = drivers::micrometer::parse_micrometer_config(reader);
+    reader.reject_unknown_keys();
+    return c;
+  };
+  const auto error = [&](const std::string& keys) {
+    try {
+      parse(keys);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const auto defaults = parse("");
+  EXPECT_DOUBLE_EQ(defaults.reconnect.backoff.min_s, 0.1);
+  EXPECT_DOUBLE_EQ(defaults.reconnect.backoff.max_s, 5.0);
+  EXPECT_TRUE(defaults.reconnect.deprecated.empty());
+  const auto now = parse("reconnect_min_ms = 20\nreconnect_max_ms = 40\n");
+  EXPECT_DOUBLE_EQ(now.reconnect.backoff.min_s, 0.02);
+  EXPECT_DOUBLE_EQ(now.reconnect.backoff.max_s, 0.04);
+  EXPECT_TRUE(now.reconnect.deprecated.empty());
+  const auto old = parse("backoff_initial_ms = 20\nbackoff_max_ms = 40\n");
+  EXPECT_DOUBLE_EQ(old.reconnect.backoff.min_s, 0.02);
+  EXPECT_DOUBLE_EQ(old.reconnect.backoff.max_s, 0.04);
+  ASSERT_EQ(old.reconnect.deprecated.size(), 2u);
+  EXPECT_NE(old.reconnect.deprecated[0].find("device[0].backoff_initial_ms is deprecated: write reconnect_min_ms"),
+            std::string::npos)
+      << old.reconnect.deprecated[0];
+  EXPECT_NE(old.reconnect.deprecated[1].find("backoff_max_ms is deprecated: write reconnect_max_ms"), std::string::npos);
+  // The skeleton posts each as a warning event, which the daemon logs.
+  drivers::micrometer::MicrometerDriver driver("mic", old, 16);
+  const auto events = driver.take_events();
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].event, "deprecated_key");
+  EXPECT_TRUE(events[0].warning);
+  EXPECT_EQ(events[0].reason, old.reconnect.deprecated[0]);
+  EXPECT_NE(error("reconnect_min_ms = 20\nbackoff_initial_ms = 30\n")
+                .find("mic.toml:3: device[0].backoff_initial_ms: backoff_initial_ms is the old name of reconnect_min_ms"),
+            std::string::npos)
+      << error("reconnect_min_ms = 20\nbackoff_initial_ms = 30\n");
+  EXPECT_NE(error("reconnect_min_ms = 20\nreconnect_max_ms = 10\n")
+                .find("mic.toml:3: device[0].reconnect_max_ms: must not be less than reconnect_min_ms (20 ms)"),
+            std::string::npos)
+      << error("reconnect_min_ms = 20\nreconnect_max_ms = 10\n");
+  EXPECT_NE(error("reconnect_min_ms = 0\n").find("device[0].reconnect_min_ms"), std::string::npos);
 }
 
 // An answer that comes after the driver gave up on it (700 ms, timeout 400 ms) is never taken for the

@@ -54,9 +54,7 @@ MicrometerConfig parse_micrometer_config(const TableReader& t) {
     c.poll_hz = t.get_double("poll_hz", 50.0, 0.01, 10000.0);
   }
   c.lost_after_failures = static_cast<int>(t.get_int("lost_after_failures", 3, 1, 1000));
-  c.backoff_initial = std::chrono::milliseconds(t.get_int("backoff_initial_ms", 100, 1, 600000));
-  c.backoff_max = std::chrono::milliseconds(t.get_int("backoff_max_ms", 5000, 1, 3600000));
-  if (c.backoff_max < c.backoff_initial) t.fail("backoff_max_ms", "must not be less than backoff_initial_ms");
+  c.reconnect = drivers::read_reconnect(t, std::chrono::milliseconds(100), std::chrono::milliseconds(5000));
   return c;
 }
 
@@ -130,7 +128,7 @@ std::chrono::nanoseconds poll_period_of(const MicrometerConfig& c) {
 
 drivers::LoopPolicy policy_of(const MicrometerConfig& c) {
   drivers::LoopPolicy p;
-  p.backoff = Backoff::between(c.backoff_initial, c.backoff_max);
+  p.reconnect = c.reconnect;
   p.schedule = drivers::ReadSchedule::per_arrival;  // a poll that may share the others' passes rests (send_request)
   // Lost after lost_after_failures polls without an answer.
   p.sample_bound_ns =

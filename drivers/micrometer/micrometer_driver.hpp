@@ -35,8 +35,7 @@ struct MicrometerConfig {
   std::optional<modbus::SampleRingMap> buffer;            // set: buffered mode
   double poll_period_ms = default_buffer_poll_period_ms;  // buffered mode
   int lost_after_failures = 3;                            // consecutive failed polls before the link is declared lost
-  std::chrono::milliseconds backoff_initial{100};
-  std::chrono::milliseconds backoff_max{5000};
+  drivers::Reconnect reconnect{Backoff{0.1, 5.0}, {}};  // reconnect_min_ms 100, reconnect_max_ms 5000
 };
 
 // Reads every key the driver accepts (throws ConfigError naming file:line:key).
