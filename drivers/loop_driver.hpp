@@ -128,8 +128,6 @@ class LoopDriver : public Driver {
   [[nodiscard]] bool relinked() const noexcept { return relinked_; }
   [[nodiscard]] IoLoop& loop() noexcept { return *io_; }
   [[nodiscard]] const LoopPolicy& policy() const noexcept { return policy_; }
-  // The back-off of a driver that also runs on a thread of its own (run()).
-  [[nodiscard]] Backoff& backoff() noexcept { return backoff_; }
   void set_schedule(ReadSchedule schedule) noexcept { schedule_ = schedule; }
   [[nodiscard]] ReadSchedule schedule() const noexcept { return schedule_; }
   // Starts a rest now (the rest schedule): e.g. after sending a request whose answer can wait for

@@ -13,6 +13,7 @@
 #include <mutex>
 #include <thread>
 
+#include "core/mono_clock.hpp"
 #include "core/sample.hpp"
 #include "driver_counters_support.hpp"
 #include "drivers/micrometer/micrometer_driver.hpp"
@@ -739,6 +740,63 @@ TEST(MicrometerRtu, AServerIgnoringTheProbeIsReadOnWithoutIt) {
   EXPECT_EQ(st.state, drivers::DeviceState::streaming);
   EXPECT_GE(st.counters.timeouts, 3u) << "the first stall and its silent probe, then the second stall alone";
   h.expect_matches_served();
+}
+
+// Over RTU libmodbus blocks for each read: a whole response timeout (here 1 s) when the amplifier does
+// not answer, again for the probe after it. The driver is on the skeleton all the same, on the loop it
+// shares with the other devices, and only the line's thread takes that wait (drivers/modbus/rtu_line.hpp):
+// another device's timer on the loop, every 5 ms, is never held up by the line.
+TEST(MicrometerRtu, AStalledReadNeverHoldsUpTheSharedLoop) {
+  MicrometerEmulator::Options o;
+  o.source = simulators::emulators::runout_source(120.0);
+  MicrometerEmulator emulator(o);
+  auto table = parse_toml(start_transport(emulator, true) +
+                              "poll_hz = 50\nresponse_timeout_ms = 1000\nlost_after_failures = 3\n"
+                              "[registers]\nvalue_type = \"int32\"\n",
+                          "test.toml");
+  TableReader reader(table, "test.toml", "device[0]");
+  drivers::micrometer::MicrometerDriver driver("mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 14);
+  EXPECT_TRUE(driver.loop_driven());
+  drivers::IoLoop loop;
+  loop.start("test-io");
+  std::int64_t due_ns = 0, worst_late_ns = 0;  // the loop thread's
+  int fired = 0;
+  drivers::IoLoop::Id timer = 0;
+  loop.call([&] {
+    timer = loop.add_timer([&] {
+      worst_late_ns = std::max(worst_late_ns, mono_now_ns() - due_ns);
+      ++fired;
+      due_ns = mono_now_ns() + 5'000'000;
+      loop.arm(timer, due_ns);
+    });
+    due_ns = mono_now_ns() + 5'000'000;
+    loop.arm(timer, due_ns);
+  });
+  driver.start(&loop);
+  std::size_t samples = 0;
+  const auto samples_reach = [&](std::size_t n) {
+    return test::eventually([&] {
+      Sample s;
+      while (driver.ring().try_pop(s)) ++samples;
+      return samples >= n;
+    });
+  };
+  ASSERT_TRUE(samples_reach(10));
+  emulator.inject(ModbusFault::stall, 1);
+  ASSERT_TRUE(test::eventually([&] { return driver.status().counters.timeouts >= 1; }, 10s));
+  ASSERT_TRUE(samples_reach(samples + 10));
+  driver.stop();
+  int fired_total = 0;
+  std::int64_t worst = 0;
+  loop.call([&] {
+    loop.remove_timer(timer);
+    fired_total = fired;
+    worst = worst_late_ns;
+  });
+  loop.stop();
+  emulator.stop();
+  EXPECT_LT(worst, 300'000'000) << "the loop waited for the line (a read timed out after 1 s meanwhile)";
+  EXPECT_GT(fired_total, 100);
 }
 
 namespace {
