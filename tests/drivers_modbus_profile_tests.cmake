@@ -1,9 +1,10 @@
 # Micrometer (Modbus TCP/RTU) and profilometer (TCP stream, profile files): parsers, drivers, emulators.
 guideway_add_test(modbus_register_map_test SOURCES modbus_register_map_test.cpp LIBS guideway_modbus)
 guideway_add_test(modbus_sample_ring_test SOURCES modbus_sample_ring_test.cpp LIBS guideway_modbus)
+# In the TSan stage too: over RTU the driver hands each read to the line's own thread (drivers/modbus/rtu_line).
 guideway_add_test(micrometer_modbus_test SOURCES micrometer_modbus_test.cpp
   LIBS guideway_micrometer guideway_micrometer_emulator ARGS --gtest_filter=-MicrometerBufferedAlone.*
-  LABELS integration TIMEOUT 180)
+  LABELS integration tsan TIMEOUT 180)
 # How evenly and how promptly buffered samples are stamped depends on how quickly answers come back
 # (through a pty for RTU, delayed by up to a second on a loaded machine): run alone.
 add_test(NAME micrometer_modbus_timing_test COMMAND micrometer_modbus_test --gtest_filter=MicrometerBufferedAlone.*)
