@@ -440,6 +440,17 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
   } catch (const report::ReportError& e) {
     EXPECT_NE(std::string(e.what()).find("explain.json: residuals: step '+ "), std::string::npos) << e.what();
   }
+  // A field of another type than the protocol gives it (results::explanation_from_json): an error naming both.
+  j["findings"][0]["p_value"] = "small";
+  std::ofstream(path) << j.dump();
+  try {
+    (void)report::render_report({path});
+    ADD_FAILURE() << "no error";
+  } catch (const report::ReportError& e) {
+    EXPECT_NE(std::string(e.what()).find("explain.json: not an explanation: findings[0]: \"p_value\" is string"),
+              std::string::npos)
+        << e.what();
+  }
   // An EXPLAIN that says why nothing was analysed (a daemon session without an explanation model).
   std::ofstream(path)
       << R"({"model":"straightness traverse","not_analysed":"too few stations","findings":[],"unexplained":true})";
