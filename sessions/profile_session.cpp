@@ -11,6 +11,7 @@
 #include "dsp/series.hpp"
 #include "dsp/wavelet.hpp"
 #include "formats/profile_files.hpp"
+#include "models/explain/explanation.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
 #include "sessions/explain_options.hpp"
@@ -249,15 +250,16 @@ class ProfileSession : public Session {
   // `guideway explain --model straightness` of the profile file's text, as offline on the derived file: base =
   // offset + cubic in x; the candidates (feed marks, spindle axial run-out, thermal drift, tool wear, ...) need
   // the time of each point and the feed per revolution, so feed and spindle speed must be given.
-  std::optional<nlohmann::json> explain() override {
+  std::optional<results::Explanation> explain() override {
     if (!(o_.feed_mm_per_min > 0) || !(o_.spindle_rpm > 0))
-      return explain_not_analysed("straightness",
-                                  "the session was started without feed_mm_per_min and spindle_rpm, "
-                                  "which place each point in time and give the feed per revolution");
+      return results::not_analysed("straightness",
+                                   "the session was started without feed_mm_per_min and spindle_rpm, "
+                                   "which place each point in time and give the feed per revolution");
     try {
       const models::explain::ProfileRun run =
           models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness", nullptr, explain_options(*this)));
+      return models::explain::explanation_of(
+          models::explain::explain_profiles({run}, "straightness", nullptr, explain_options(*this)));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

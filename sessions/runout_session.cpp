@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
+#include "models/explain/explanation.hpp"
 #include "models/explain/runout_explain.hpp"
 #include "models/flatness/error_motion.hpp"
 #include "models/flatness/json.hpp"
@@ -145,14 +146,15 @@ class RunoutSession : public Session {
 
   // `guideway explain --model runout` of the derived file's text, as offline: what the once-per-revolution
   // base leaves, named from the spindle's library (docs/explain.md, "Run-out").
-  std::optional<nlohmann::json> explain() override {
+  std::optional<results::Explanation> explain() override {
     if (text_.empty()) return std::nullopt;
     const auto rev = models::flatness::parse_runout_revolution(text_, "revolution");
     if (models::flatness::whole_revolutions(rev.angle_rad) < 2)
-      return explain_not_analysed(std::string(results::runout_kind.name),
-                                  "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
-                                  "told from what does not (record several, e.g. revolutions = 20)");
-    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}, explain_options(*this)));
+      return results::not_analysed(std::string(results::runout_kind.name),
+                                   "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
+                                   "told from what does not (record several, e.g. revolutions = 20)");
+    return models::explain::explanation_of(
+        models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}, explain_options(*this)));
   }
 
  private:
