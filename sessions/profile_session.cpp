@@ -14,6 +14,7 @@
 #include "models/explain/explanation.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
+#include "results/parameters.hpp"
 #include "sessions/explain_options.hpp"
 #include "sessions/session_support.hpp"
 
@@ -90,10 +91,12 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
   const double n1 = static_cast<double>(coeffs.back().size());
   nlohmann::json j;
   j["model"] = "profile/straightness+wavelet";
-  j["profile"] = {
-      {"straightness_lsq_um", {{"value", dsp::peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
+  // The headline figures named by their catalogue entries (results/parameters.hpp), where the fleet reads them.
+  j[std::string(results::profile_straightness.group)] = {
+      {results::name(results::profile_straightness),
+       {{"value", dsp::peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
       {"straightness_min_zone_um", {{"value", min_zone_um}, {"u", std::sqrt(2.0) * sigma_um}}},
-      {"form_straightness_um", {{"value", form_um}, {"u", std::sqrt(2.0) * sigma_um * level_scale}}},
+      {results::name(results::form_straightness), {{"value", form_um}, {"u", std::sqrt(2.0) * sigma_um * level_scale}}},
       {"noise_um", {{"value", sigma_um}, {"u", sigma_um * std::sqrt(1.36 / n1)}}},  // MAD: var ~ 1.36 s^2 / n
   };
   // Per band: the rms of its signal-domain component, the part white noise of level sigma explains

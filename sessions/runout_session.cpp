@@ -104,15 +104,16 @@ class RunoutSession : public Session {
     nlohmann::json result = models::flatness::runout_json(rev);
     nlohmann::json j;
     j["model"] = result["model"];
+    // The headline figures named by their catalogue entries (results/parameters.hpp), where the fleet reads them.
     nlohmann::json g;
-    g["runout_um"] = {{"value", r.runout_m * 1e6}, {"u", r.u_runout_m * 1e6}};
+    g[results::name(results::runout)] = {{"value", r.runout_m * 1e6}, {"u", r.u_runout_m * 1e6}};
     g["once_per_rev_amplitude_um"] = {{"value", r.amplitude_m * 1e6}, {"u", r.u_amplitude_m * 1e6}};
-    g["squareness_urad"] = {{"value", r.deflection_rad * 1e6}, {"u", r.u_deflection_rad * 1e6}};
+    g[results::name(results::runout_squareness)] = {{"value", r.deflection_rad * 1e6}, {"u", r.u_deflection_rad * 1e6}};
     if (r.squareness_amplitude_m) {
       g["squareness_amplitude_um"] = {{"value", *r.squareness_amplitude_m * 1e6},
                                       {"u", *r.u_squareness_amplitude_m * 1e6}};
     }
-    j["squareness"] = g;
+    j[std::string(results::runout_squareness.group)] = g;
     j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
     if (result.contains("error_motion")) {
       // ISO 230-7 values: peaks-to-valleys of the record as measured (no uncertainty of their own).
