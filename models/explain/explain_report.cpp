@@ -109,8 +109,6 @@ results::Explanation explanation_of(const Report& r) {
   return e;
 }
 
-nlohmann::json to_json(const Report& r) { return results::to_json(explanation_of(r)); }
-
 std::string to_text(const Report& r) {
   std::ostringstream o;
   const auto g = [](double v, const char* f = "%.4g") { return printf_number(f, v); };
