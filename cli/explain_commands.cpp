@@ -28,9 +28,11 @@
 #include "models/dbb/three_planes.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "models/explain/effects.hpp"
+#include "models/explain/explanation.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/explain/runout_explain.hpp"
 #include "models/explain/traverse_explain.hpp"
+#include "results/explanation.hpp"
 #include "results/parameters.hpp"
 #include "results/session_kinds.hpp"
 #include "simulators/machine/machine.hpp"
@@ -126,9 +128,15 @@ nlohmann::json scenario_json(const simulators::scenarios::ScenarioResult& r) {
                       {"value", num(c.value)},
                       {"u", num(c.u)},
                       {"within", c.within}});
-  return {{"name", r.name},   {"model", r.model},     {"concealment", r.concealment},
-          {"checks", checks}, {"extra", r.extra},     {"expect_unexplained", r.expect_unexplained},
-          {"pass", r.pass},   {"failure", r.failure}, {"report", models::explain::to_json(r.report)}};
+  return {{"name", r.name},
+          {"model", r.model},
+          {"concealment", r.concealment},
+          {"checks", checks},
+          {"extra", r.extra},
+          {"expect_unexplained", r.expect_unexplained},
+          {"pass", r.pass},
+          {"failure", r.failure},
+          {"report", results::to_json(models::explain::explanation_of(r.report))}};
 }
 
 int run_scenarios(const Opts& o) {
@@ -222,7 +230,7 @@ nlohmann::json diagnostics_against_machine(const nlohmann::json& diagnostics,
 
 // The findings (and the ballbar diagnostics of `params`, PARAMS' shape: DBB only) beside what the machine file holds
 // (simulators/scenarios/machine_truth.hpp).
-nlohmann::json against_machine(const nlohmann::json& report, const nlohmann::json& params,
+nlohmann::json against_machine(const results::Explanation& explanation, const nlohmann::json& params,
                                const simulators::scenarios::MachineTruth& truth, const std::string& file) {
   nlohmann::json j = {
       {"machine_file", file},
@@ -235,39 +243,39 @@ nlohmann::json against_machine(const nlohmann::json& report, const nlohmann::jso
       {"note", truth.note}};
   // A finding holds an item's parameter (of one record, or the first of several: _run1), at its order
   // per revolution when the item has one (a run-out line: the order found within a quarter of an order).
-  const auto holds = [](const nlohmann::json& f,
-                        const simulators::scenarios::TruthItem& item) -> const nlohmann::json* {
-    const auto& p = f.at("parameters");
+  const auto holds = [](const results::ExplainFinding& f,
+                        const simulators::scenarios::TruthItem& item) -> const results::ExplainEstimate* {
+    const auto& p = f.parameters;
     if (item.order != 0) {
-      const std::string order = results::name(results::runout_order);
-      if (!p.contains(order) || std::abs(p.at(order).at("value").get<double>() - item.order) > 0.25) return nullptr;
+      const auto order = p.find(results::name(results::runout_order));
+      if (order == p.end() || !(std::abs(order->second.value - item.order) <= 0.25)) return nullptr;
     }
     for (const std::string& name : {item.parameter, results::run_suffixed(item.parameter, 1)})
-      if (p.contains(name)) return &p.at(name);
+      if (const auto it = p.find(name); it != p.end()) return &it->second;
     return nullptr;
   };
-  const auto found = [&](const simulators::scenarios::TruthItem& item) -> const nlohmann::json* {
-    for (const auto& f : report.at("findings"))
+  const auto found = [&](const simulators::scenarios::TruthItem& item) -> const results::ExplainEstimate* {
+    for (const auto& f : explanation.findings)
       if (const auto* p = holds(f, item)) return p;
     return nullptr;
   };
+  const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   for (const auto& item : truth.findable) {
     nlohmann::json e = {
         {"effect", item.effect}, {"parameter", item.parameter}, {"machine", item.value}, {"note", item.note}};
     if (const auto* p = found(item)) {
-      e["found"] = p->at("value");
-      e["u"] = p->at("u");
+      e["found"] = num(p->value);
+      e["u"] = num(p->u);
     } else {
       e["found"] = nullptr;
     }
     j["findable"].push_back(e);
   }
-  for (const auto& f : report.at("findings")) {
-    const std::string effect = f.at("effect");
+  for (const auto& f : explanation.findings) {
     const bool known = std::any_of(
         truth.findable.begin(), truth.findable.end(),
-        [&](const simulators::scenarios::TruthItem& i) { return i.effect == effect && holds(f, i) != nullptr; });
-    if (!known) j["not_in_machine"].push_back(effect);
+        [&](const simulators::scenarios::TruthItem& i) { return i.effect == f.effect && holds(f, i) != nullptr; });
+    if (!known) j["not_in_machine"].push_back(f.effect);
   }
   for (const auto& u : truth.unobservable) j["unobservable"].push_back({{"what", u.what}, {"why", u.why}});
   return j;
@@ -449,6 +457,7 @@ void explain_latest(const Opts& o, CliContext& ctx) {
     }
   }
   throw_if_error_reply(r, o.json);
+  const results::Explanation explanation = results::explanation_from_json(r);
   nlohmann::json comparison;
   if (!o.machine.empty()) {
     const std::string kind = r.value("kind", "");
@@ -459,7 +468,7 @@ void explain_latest(const Opts& o, CliContext& ctx) {
     throw_if_error_reply(params, o.json);
     const auto machine = simulators::machine::load_machine_config(o.machine);
     comparison = against_machine(
-        r, params,
+        explanation, params,
         kind == results::runout_kind.name ? simulators::scenarios::runout_truth(machine, {session_truth_record(params)})
         : kind == results::straightness_kind.name
             ? simulators::scenarios::traverse_truth(machine)
@@ -472,7 +481,7 @@ void explain_latest(const Opts& o, CliContext& ctx) {
   } else {
     std::cout << "session " << r.value("session", "?") << " (" << r.value("kind", "?") << " on "
               << r.value("device", "?") << ")\n";
-    print_explanation(r);
+    print_explanation(explanation);
     if (!comparison.is_null()) print_against_machine(comparison);
   }
 }
@@ -517,7 +526,7 @@ models::explain::Report explain_dbb_runs(const Opts& o, const models::explain::E
   std::vector<formats::DbbRun> plane_runs = models::dbb::runs_by_plane(runs).front();
   const nlohmann::json params = models::dbb::to_json(models::dbb::identify(plane_runs));
   machine_comparison =
-      against_machine(models::explain::to_json(report), params,
+      against_machine(models::explain::explanation_of(report), params,
                       simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o.machine),
                                                        plane_runs.front().plane, truth_runs, encoders),
                       o.machine);
@@ -540,7 +549,7 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
     models::explain::Report report = models::explain::explain_runout(records, eo);
     if (!o.machine.empty())
       machine_comparison = against_machine(
-          models::explain::to_json(report), nlohmann::json::object(),
+          models::explain::explanation_of(report), nlohmann::json::object(),
           simulators::scenarios::runout_truth(simulators::machine::load_machine_config(o.machine), truth_records),
           o.machine);
     return report;
@@ -550,7 +559,7 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
         models::explain::read_traverse_files(o.files, [&](const std::string& f) { return o.instrument.of(f); }), eo);
     if (!o.machine.empty())
       machine_comparison = against_machine(
-          models::explain::to_json(report), nlohmann::json::object(),
+          models::explain::explanation_of(report), nlohmann::json::object(),
           simulators::scenarios::traverse_truth(simulators::machine::load_machine_config(o.machine)), o.machine);
     return report;
   }
@@ -589,7 +598,7 @@ void run_explain(const Opts& o, CliContext& ctx) {
         "--latest)");
   progress.doing("");
   if (o.json) {
-    nlohmann::json j = models::explain::to_json(report);
+    nlohmann::json j = results::to_json(models::explain::explanation_of(report));
     if (!machine_comparison.is_null()) j["against_machine"] = machine_comparison;
     std::cout << j.dump() << "\n";
   } else {

@@ -368,55 +368,44 @@ void print_params(const nlohmann::json& p) {
   print_instrument(p, std::cout);
 }
 
-void print_explanation(const nlohmann::json& e) {
-  // Every lookup by value with a default: a missing key never reaches const operator[] (undefined
-  // behaviour), and loops run over named locals, not over items() of a temporary.
-  const auto rms = [&e](const char* group) {
-    return format_number(number_or(e.value(group, nlohmann::json::object()), "heldout_rms_um", NAN), 3);
-  };
-  if (e.contains("not_analysed") && e["not_analysed"].is_string()) {
-    std::cout << "explanation (" << e.value("model", "?")
-              << " model): not analysed: " << e["not_analysed"].get<std::string>() << "\n";
+void print_explanation(const results::Explanation& e) {
+  const std::string model = e.model.empty() ? "?" : e.model;
+  if (!e.not_analysed.empty()) {
+    std::cout << "explanation (" << model << " model): not analysed: " << e.not_analysed << "\n";
     return;
   }
-  std::cout << "explanation (" << e.value("model", "?") << " model): held-out rms " << rms("baseline") << " \u00b5m -> "
-            << rms("final") << " \u00b5m\n";
-  const std::string plane = e.value("plane", std::string("xy"));
-  const nlohmann::json findings = e.value("findings", nlohmann::json::array());
-  for (const auto& f : findings) {
-    std::cout << "  " << results::in_words(f.value("effect", "?")) << ":";
-    const nlohmann::json parameters = f.value("parameters", nlohmann::json::object());
+  std::cout << "explanation (" << model << " model): held-out rms " << format_number(e.baseline.heldout_rms_um, 3)
+            << " \u00b5m -> " << format_number(e.final_fit.heldout_rms_um, 3) << " \u00b5m\n";
+  for (const auto& f : e.findings) {
+    std::cout << "  " << results::in_words(f.effect) << ":";
     std::string sep = " ";
-    for (const auto& [name, v] : parameters.items()) {
-      if (!v.value("value", nlohmann::json()).is_number()) continue;
-      const results::Shown s = results::shown(name, number_or(v, "value", NAN), number_or(v, "u", NAN), plane);
+    for (const auto& [name, v] : f.parameters) {
+      if (std::isnan(v.value)) continue;
+      const results::Shown s = results::shown(name, v.value, v.u);
       std::cout << sep << s.label << " " << s.value << (s.unit.empty() ? "" : " " + s.unit);
       sep = ", ";
     }
-    std::cout << "\n    " << f.value("why", "") << "\n";
+    std::cout << "\n    " << f.why << "\n";
   }
   // Largest first, against the yardstick (a DBB run's circular deviation G).
   std::vector<std::pair<double, std::string>> ranked;
-  for (const auto& f : findings) {
-    const double c = number_or(f, "contribution_um", NAN), pc = number_or(f, "percent_of_deviation", NAN);
-    if (!std::isfinite(c)) continue;
-    std::string line = results::in_words(f.value("effect", "?")) + " " + format_number(c, 3) + " \u00b5m";
-    if (std::isfinite(pc)) line += " (" + format_number(pc, 2) + " %)";
-    ranked.emplace_back(c, line);
+  for (const auto& f : e.findings) {
+    if (!std::isfinite(f.contribution_um)) continue;
+    std::string line = results::in_words(f.effect) + " " + format_number(f.contribution_um, 3) + " \u00b5m";
+    if (std::isfinite(f.percent_of_deviation)) line += " (" + format_number(f.percent_of_deviation, 2) + " %)";
+    ranked.emplace_back(f.contribution_um, line);
   }
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   if (!ranked.empty()) {
-    const nlohmann::json dev = e.value("deviation", nlohmann::json::object());
     std::cout << "  largest first";
-    if (dev.is_object() && dev.contains("value_um"))
-      std::cout << " (of " << dev.value("name", std::string("the deviation")) << " "
-                << format_number(number_or(dev, "value_um", NAN), 3) << " \u00b5m)";
+    if (e.deviation)
+      std::cout << " (of " << (e.deviation->name.empty() ? "the deviation" : e.deviation->name) << " "
+                << format_number(e.deviation->value_um, 3) << " \u00b5m)";
     std::cout << ":";
     for (std::size_t k = 0; k < ranked.size(); ++k) std::cout << (k ? "; " : " ") << ranked[k].second;
     std::cout << "\n";
   }
-  if (e.value("unexplained", false))
-    std::cout << "  a structured residual is left that no effect of the library explains\n";
+  if (e.unexplained) std::cout << "  a structured residual is left that no effect of the library explains\n";
 }
 
 void throw_if_error_reply(const nlohmann::json& reply, bool json) {
@@ -517,18 +506,22 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units, Chann
     }
     if (m.contains("recording_error")) out << "  [recording error: " << m.value("recording_error", "") << "]";
   } else if (known == results::MessageClass::explain) {
-    out << " " << m.value("session", "?") << " (" << m.value("model", "?") << ")";
-    if (m.contains("not_analysed")) {
-      out << " not analysed: " << m.value("not_analysed", "");
-    } else {
-      const auto rms = [&m](const char* group) {
-        return number(m.value(group, nlohmann::json::object()).value("heldout_rms_um", nlohmann::json("?")));
-      };
-      out << " held-out rms " << rms("baseline") << " um -> " << rms("final") << " um; findings:";
-      const nlohmann::json findings = m.value("findings", nlohmann::json::array());
-      if (findings.empty()) out << " none";
-      for (const auto& f : findings) out << " " << f.value("effect", "?");
-      if (m.value("unexplained", false)) out << "; a structured residual is left";
+    out << " " << m.value("session", "?");
+    try {
+      const results::Explanation e = results::explanation_from_json(m);
+      out << " (" << (e.model.empty() ? "?" : e.model) << ")";
+      if (!e.not_analysed.empty()) {
+        out << " not analysed: " << e.not_analysed;
+      } else {
+        const auto rms = [](double v) { return std::isfinite(v) ? number(v) : std::string("?"); };
+        out << " held-out rms " << rms(e.baseline.heldout_rms_um) << " um -> " << rms(e.final_fit.heldout_rms_um)
+            << " um; findings:";
+        if (e.findings.empty()) out << " none";
+        for (const auto& f : e.findings) out << " " << f.effect;
+        if (e.unexplained) out << "; a structured residual is left";
+      }
+    } catch (const results::ExplanationFormatError& error) {
+      out << " (not an explanation: " << error.what() << ")";
     }
   } else if (known == results::MessageClass::event) {
     out << " " << m.value("device", "") << " " << m.value("event", "?");

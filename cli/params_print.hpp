@@ -11,6 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "results/explanation.hpp"
+
 namespace guideway::cli {
 
 // The session line, then print_result(), then the files involved.
@@ -32,7 +34,7 @@ std::string aligned_rows(const std::vector<std::vector<std::string>>& rows, cons
                          std::string_view indent = "  ");
 // An EXPLAIN message in a few lines: held-out RMS before and after, each finding with its physics,
 // whether a structured residual is left (`guideway explain` offline prints the full report).
-void print_explanation(const nlohmann::json& e);
+void print_explanation(const results::Explanation& e);
 
 // A daemon reply that is an ERROR: with `json` (the command's --json) it is printed to standard output
 // unchanged, like every other daemon message, then thrown as "daemon: MESSAGE" (stderr, exit 1).

@@ -62,7 +62,7 @@ bool replay_one(const std::string& path, const sessions::SessionRegistry& regist
   }
   std::cout << "replayed " << path << ": " << r.samples << " samples" << incomplete_note(r) << "\n";
   print_params(r.params);
-  if (!r.explain.is_null()) print_explanation(r.explain);
+  if (r.explanation) print_explanation(*r.explanation);
   if (!r.explain_failure.empty()) std::cout << "explanation failed: " << r.explain_failure << "\n";
   return true;
 }

@@ -23,6 +23,7 @@
 #include "core/runtime_paths.hpp"
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
+#include "results/explanation.hpp"
 #include "results/result_header.hpp"
 
 namespace guideway::daemon {
@@ -251,9 +252,13 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
       } else if (m.cls == results::MessageClass::explain) {
         const nlohmann::json& j = m.body;
         std::erase_if(latest_explain_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
-        log_->info("session {}: {} finding(s){}", j.value("session", "?"),
-                   j.value("findings", nlohmann::json::array()).size(),
-                   j.value("unexplained", false) ? ", a structured residual is left unexplained" : "");
+        try {  // the session manager's own results::to_json: read back as the type
+          const results::Explanation e = results::explanation_from_json(j);
+          log_->info("session {}: {} finding(s){}", j.value("session", "?"), e.findings.size(),
+                     e.unexplained ? ", a structured residual is left unexplained" : "");
+        } catch (const results::ExplanationFormatError& e) {
+          log_->warn("session {}: its EXPLAIN does not read back: {}", j.value("session", "?"), e.what());
+        }
         latest_explain_.push_back(j);
       } else if (m.cls == results::MessageClass::event) {
         const nlohmann::json& j = m.body;

@@ -14,6 +14,7 @@
 #include "core/mono_clock.hpp"
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
+#include "results/explanation.hpp"
 #include "results/result_header.hpp"
 
 namespace guideway::daemon {
@@ -336,10 +337,11 @@ void SessionManager::post_event(const SessionInfo& info, const std::string& even
 std::optional<std::string> SessionManager::post_explanation(Running& r) {
   const SessionInfo& info = r.info;
   try {
-    std::optional<nlohmann::json> report = r.session->explain();
-    if (!report) return std::nullopt;
-    Message message = make_message(results::MessageClass::explain,
-                                   results::with_header(std::move(*report), header_of(r)), info.device, info.name);
+    const std::optional<results::Explanation> explained = r.session->explain();
+    if (!explained) return std::nullopt;
+    Message message =
+        make_message(results::MessageClass::explain, results::with_header(results::to_json(*explained), header_of(r)),
+                     info.device, info.name);
     const nlohmann::json& explanation = message.body;
     outbox_.post(message);
     // Kept beside the recording for the session's report (guideway report reads it too). The

@@ -70,7 +70,7 @@ std::string machine_link(const MachineStatus& m) {
 std::vector<std::vector<std::string>> explain_rows(const MachineStatus& m) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& e : m.explains) {
-    std::string found = to_text(e.summary);
+    std::string found = found_text(e.summary);
     if (!e.summary.not_analysed.empty()) found += ": " + e.summary.not_analysed;
     rows.push_back({report::html_escape(e.kind), utc_minutes_html(e.produced_utc), report::html_escape(found)});
   }

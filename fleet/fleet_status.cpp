@@ -125,7 +125,7 @@ nlohmann::json status_json(const std::vector<MachineStatus>& fleet) {
       for (const auto& f : k.figures) r["figures"].push_back(to_json(f));
     }
     for (const auto& e : m.explains) {
-      auto r = to_json(e.summary);
+      auto r = results::found_json(e.summary);
       r["produced_utc"] = e.produced_utc;
       o["explain"][e.kind] = std::move(r);
     }
@@ -136,7 +136,7 @@ nlohmann::json status_json(const std::vector<MachineStatus>& fleet) {
 
 std::string explains_text(const MachineStatus& m) {
   std::string found;
-  for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + to_text(e.summary);
+  for (const auto& e : m.explains) found += (found.empty() ? "" : "; ") + e.kind + ": " + found_text(e.summary);
   return found;
 }
 

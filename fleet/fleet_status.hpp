@@ -25,7 +25,7 @@ struct KindStatus {
 struct ExplainStatus {
   std::string kind;
   std::string produced_utc;
-  ExplainSummary summary;
+  results::Explanation summary;  // its residual curves are not kept
 };
 
 struct MachineStatus {

@@ -93,45 +93,24 @@ std::string figure_problem(std::string_view kind, const nlohmann::json& params) 
   return {};
 }
 
-ExplainSummary explain_summary(const nlohmann::json& explain) {
-  ExplainSummary s;
-  if (const auto it = explain.find("findings"); it != explain.end() && it->is_array()) {
-    for (const auto& f : *it) {
-      if (!f.is_object()) continue;
-      Finding finding;
-      // Typed reads that never throw: a row stored before ingest checked types must not stop a reader.
-      const auto effect = f.find("effect");
-      finding.effect = effect != f.end() && effect->is_string() ? effect->get<std::string>() : "?";
-      const auto c = f.find("contribution_um");
-      finding.contribution_um = c != f.end() && c->is_number() ? c->get<double>() : std::nan("");
-      s.findings.push_back(std::move(finding));
-    }
-  }
-  const auto u = explain.find("unexplained");
-  s.unexplained = u != explain.end() && u->is_boolean() && u->get<bool>();
-  const auto n = explain.find("not_analysed");
-  if (n != explain.end() && n->is_string()) s.not_analysed = n->get<std::string>();
-  return s;
-}
-
-std::string to_text(const ExplainSummary& s) {
-  if (!s.not_analysed.empty()) return "not analysed";
+std::string found_text(const results::Explanation& e) {
+  if (!e.not_analysed.empty()) return "not analysed";
   // Largest first, as EXPLAIN's own text lists them ("what to fix first"); in the order found for equal sizes.
-  std::vector<const Finding*> ranked;
-  for (const auto& f : s.findings) ranked.push_back(&f);
-  std::stable_sort(ranked.begin(), ranked.end(), [](const Finding* a, const Finding* b) {
-    return (std::isfinite(a->contribution_um) ? a->contribution_um : -1.0) >
-           (std::isfinite(b->contribution_um) ? b->contribution_um : -1.0);
-  });
+  std::vector<const results::ExplainFinding*> ranked;
+  for (const auto& f : e.findings) ranked.push_back(&f);
+  std::stable_sort(ranked.begin(), ranked.end(),
+                   [](const results::ExplainFinding* a, const results::ExplainFinding* b) {
+                     return (std::isfinite(a->contribution_um) ? a->contribution_um : -1.0) >
+                            (std::isfinite(b->contribution_um) ? b->contribution_um : -1.0);
+                   });
   std::string out;
-  for (const Finding* fp : ranked) {
-    const Finding& f = *fp;
+  for (const results::ExplainFinding* f : ranked) {
     if (!out.empty()) out += ", ";
-    out += results::in_words(f.effect);
-    if (std::isfinite(f.contribution_um)) out += " " + significant_digits(f.contribution_um, 3) + " µm";
+    out += results::in_words(f->effect);
+    if (std::isfinite(f->contribution_um)) out += " " + significant_digits(f->contribution_um, 3) + " µm";
   }
   if (out.empty()) out = "nothing found";
-  if (s.unexplained) out += out == "nothing found" ? "; unexplained" : "; rest unexplained";
+  if (e.unexplained) out += out == "nothing found" ? "; unexplained" : "; rest unexplained";
   return out;
 }
 

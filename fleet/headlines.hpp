@@ -1,7 +1,7 @@
 #pragma once
 // The headline figures of a result: the few numbers of a PARAMS object that say how a machine is
 // (circular deviation, squareness, backlash, straightness, ...), as the catalogue of parameters lists them
-// per session kind (results/parameters.hpp), and what an EXPLAIN object found. Pure; thread safe.
+// per session kind (results/parameters.hpp), and what an explanation found, in a line. Pure; thread safe.
 
 #include <optional>
 #include <string>
@@ -9,6 +9,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "results/explanation.hpp"
 
 namespace guideway::fleet {
 
@@ -27,18 +29,9 @@ struct Headline {
 // not a finite number. The fleet refuses such a result at ingest (fleet/payload_check.hpp).
 [[nodiscard]] std::string figure_problem(std::string_view kind, const nlohmann::json& params);
 
-struct Finding {
-  std::string effect;
-  double contribution_um = 0.0;
-};
-struct ExplainSummary {
-  std::vector<Finding> findings;  // in the order EXPLAIN selected them
-  bool unexplained = false;
-  std::string not_analysed;  // why it was not analysed, when it was not
-};
-[[nodiscard]] ExplainSummary explain_summary(const nlohmann::json& explain);
-// Largest first, in words: "backlash 1.99 µm, vibration 0.025 µm", "nothing found", "unexplained", "not analysed".
-[[nodiscard]] std::string to_text(const ExplainSummary& s);
+// What an explanation found, largest first, in words: "backlash 1.99 µm, vibration 0.025 µm", "nothing found",
+// "unexplained", "not analysed".
+[[nodiscard]] std::string found_text(const results::Explanation& e);
 
 // Whether a figure moved between two results: |latest − previous| > k·sqrt(u_latest² + u_previous²)
 // with k = 2 (moved_coverage_factor). A figure without u in either result is never flagged.

@@ -44,7 +44,8 @@ std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
       e.instrument = header.instrument;
       e.instrument_checked_on = header.instrument_checked_on;
       if (r.message_class == results::to_string(results::MessageClass::explain)) {
-        e.explain = explain_summary(j);
+        e.explain = results::explanation_from_json(j);
+        e.explain->residuals.reset();  // what it found is read, not its curves: a history holds many
       } else {
         auto& before = previous[r.kind];
         auto figures = headlines(r.kind, j);
@@ -79,14 +80,6 @@ nlohmann::json to_json(const FigureChange& f) {
   return j;
 }
 
-nlohmann::json to_json(const ExplainSummary& s) {
-  nlohmann::json j = {{"findings", nlohmann::json::array()}, {"unexplained", s.unexplained}};
-  for (const auto& f : s.findings)
-    j["findings"].push_back({{"effect", f.effect}, {"contribution_um", f.contribution_um}});
-  if (!s.not_analysed.empty()) j["not_analysed"] = s.not_analysed;
-  return j;
-}
-
 nlohmann::json history_json(std::string_view machine, const std::vector<HistoryEntry>& entries) {
   nlohmann::json j = {{"machine", machine}, {"moved_rule", moved_rule_text}, {"results", nlohmann::json::array()}};
   for (const auto& e : entries) {
@@ -99,7 +92,7 @@ nlohmann::json history_json(std::string_view machine, const std::vector<HistoryE
     if (!e.instrument.empty())
       r["instrument"] = results::instrument_json(e.device, e.instrument, e.instrument_checked_on.value_or(utc_today()));
     if (e.explain) {
-      r["explain"] = to_json(*e.explain);
+      r["explain"] = results::found_json(*e.explain);
     } else {
       r["figures"] = nlohmann::json::array();
       for (const auto& f : e.figures) r["figures"].push_back(to_json(f));
@@ -117,7 +110,7 @@ std::string history_text(std::string_view machine, const std::vector<HistoryEntr
            (e.session.empty() ? "-" : printable(e.session)) + "\n";
     if (!e.readable) out += "    (its payload could not be read: skipped)\n";
     if (!e.instrument.empty()) out += "    instrument: " + instrument_line(e) + "\n";
-    if (e.explain) out += "    found: " + printable(to_text(*e.explain)) + "\n";
+    if (e.explain) out += "    found: " + printable(found_text(*e.explain)) + "\n";
     for (const auto& f : e.figures) {
       const std::string value = with_uncertainty(f.latest.value, f.latest.u.value_or(std::nan("")), 5);
       out += "    " + f.latest.label + ": " + value + " " + f.latest.unit + (f.moved ? "  *" : "") + "\n";

@@ -13,6 +13,7 @@
 #include "core/instrument.hpp"
 #include "fleet/headlines.hpp"
 #include "fleet/store.hpp"
+#include "results/explanation.hpp"
 
 namespace guideway::fleet {
 
@@ -29,7 +30,7 @@ struct HistoryEntry {
   std::string received_utc;
   std::string session;
   std::vector<FigureChange> figures;      // PARAMS
-  std::optional<ExplainSummary> explain;  // EXPLAIN
+  std::optional<results::Explanation> explain;  // EXPLAIN: what it found (its residual curves are not kept)
   bool readable = true;                   // false: its payload could not be read (no figures, no findings)
   // The instrument its header names (results/result_header.hpp; empty: none) and the date its
   // calibration was judged on then.
@@ -46,7 +47,6 @@ struct HistoryEntry {
 [[nodiscard]] int kind_rank(std::string_view kind);
 
 [[nodiscard]] nlohmann::json to_json(const FigureChange& f);
-[[nodiscard]] nlohmann::json to_json(const ExplainSummary& s);
 [[nodiscard]] nlohmann::json history_json(std::string_view machine, const std::vector<HistoryEntry>& entries);
 // One line per result: time, kind, session, its instrument (serial, calibration due; "EXPIRED at the
 // session" when it had run out), then each figure "label value ± u unit" (moved: '*').

@@ -1,10 +1,8 @@
 // What the fleet refuses at ingest (payload_check.hpp): payloads too large, too deep, or of the wrong shape.
 #include "fleet/payload_check.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include "fleet/headlines.hpp"
+#include "results/explanation.hpp"
 
 namespace guideway::fleet {
 
@@ -21,7 +19,6 @@ std::string field_problem(const json& j, const char* key, const char* expected, 
 }
 
 bool is_text(const json& v) { return v.is_string(); }
-bool is_finite_number(const json& v) { return v.is_number() && std::isfinite(v.get<double>()); }
 
 // The first problem of several checks, in order.
 std::string first_of(std::initializer_list<std::string> problems) {
@@ -38,21 +35,14 @@ std::string status_problem(const json& j) {
                    field_problem(j, "release", "a text", is_text), field_problem(j, "reason", "a text", is_text)});
 }
 
+// What explanation_from_json refuses: a finding without its effect, a field of the wrong type.
 std::string explain_problem(const json& j) {
-  if (const auto it = j.find("findings"); it != j.end()) {
-    if (!it->is_array()) return "\"findings\" is " + std::string(it->type_name()) + ", expected an array";
-    for (std::size_t i = 0; i < it->size(); ++i) {
-      const json& f = (*it)[i];
-      const std::string at = "findings[" + std::to_string(i) + "]";
-      if (!f.is_object()) return at + " is " + std::string(f.type_name()) + ", expected an object";
-      const auto effect = f.find("effect");
-      if (effect == f.end() || !effect->is_string()) return at + " needs \"effect\" as a text";
-      if (std::string p = field_problem(f, "contribution_um", "a finite number", is_finite_number); !p.empty())
-        return at + ": " + p;
-    }
+  try {
+    (void)results::explanation_from_json(j);
+  } catch (const results::ExplanationFormatError& e) {
+    return e.what();
   }
-  return first_of({field_problem(j, "unexplained", "true or false", [](const json& v) { return v.is_boolean(); }),
-                   field_problem(j, "not_analysed", "a text", is_text)});
+  return {};
 }
 
 std::string params_problem(std::string_view kind, const json& j) {

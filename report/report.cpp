@@ -14,6 +14,7 @@
 #include "formats/raw_recording.hpp"
 #include "report/html.hpp"
 #include "report/sections.hpp"
+#include "results/explanation.hpp"
 #include "results/session_kinds.hpp"
 
 namespace guideway::report {
@@ -85,7 +86,7 @@ InputKind detect_input(const std::string& path) {
     } catch (const CsvError& e) {
       throw ReportError(e.what());
     }
-    if (j.is_object() && (j.contains("findings") || j.contains("baseline"))) return InputKind::explain;
+    if (results::is_explanation(j)) return InputKind::explain;
     if (j.is_object() && j.value("format", "") == "guideway/map/1") return InputKind::map;
     throw ReportError(path +
                       ": a JSON input must be an explanation (guideway explain --json: \"baseline\", "

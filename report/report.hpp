@@ -41,8 +41,8 @@ enum class InputKind { dbb_run, straightness, union_jack, runout, profile, expla
 
 [[nodiscard]] std::string_view kind_name(InputKind kind);  // "dbb", "straightness", ...
 
-// What a path holds: a directory with Config.txt is a Union Jack set; a .json file with "findings" or
-// "baseline" an explanation; a CSV by its `format` metadata, else by its columns. Throws ReportError
+// What a path holds: a directory with Config.txt is a Union Jack set; a .json file an explanation
+// (results::is_explanation) or an error map; a CSV by its `format` metadata, else by its columns. Throws ReportError
 // "PATH: ..." naming what was expected when the input is none of these.
 [[nodiscard]] InputKind detect_input(const std::string& path);
 

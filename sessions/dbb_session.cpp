@@ -317,7 +317,7 @@ class DbbSession : public Session {
     for (const Pattern& pat : options_.patterns) {
       const auto it = by_plane.find(pat.plane);
       if (it == by_plane.end() || planes.contains(pat.plane)) continue;
-      nlohmann::json plane_explain;  // EXPLAIN's report of this plane's runs, for explain()
+      std::optional<results::Explanation> plane_explain;  // EXPLAIN's of this plane's runs, for explain()
       // As `guideway identify dbb` on the run files: what EXPLAIN finds beside the models' terms is fitted
       // beside them (a drift is not read as backlash), a term that contradicts EXPLAIN is not determined.
       try {
@@ -325,7 +325,7 @@ class DbbSession : public Session {
             models::explain::identify_checked(it->second, identify_options, explain_options(*this));
         ids.push_back(checked.id);
         planes[pat.plane] = models::explain::to_json(checked);
-        plane_explain = checked.explain_report;
+        plane_explain = checked.explanation;
         checked_.push_back(checked);
       } catch (const std::exception& e) {
         if (by_plane.size() == 1) throw;
@@ -355,9 +355,9 @@ class DbbSession : public Session {
     return &checked_;
   }
 
-  std::optional<nlohmann::json> explain() override {
+  std::optional<results::Explanation> explain() override {
     if (identified_.empty()) return std::nullopt;
-    if (!explained_.is_null()) return explained_;  // run by identify() already, on the same runs
+    if (explained_) return explained_;  // run by identify() already, on the same runs
     try {
       return models::explain::explain_dbb(identified_, explain_options(*this));
     } catch (const std::invalid_argument& e) {
@@ -809,7 +809,7 @@ class DbbSession : public Session {
   DbbOptions options_;
   double bar_length_u_um_ = 0.0;             // the bar's calibrated length's u (0: not stated)
   std::vector<formats::DbbRun> identified_;  // what identify() fitted (the first plane's), for explain()
-  nlohmann::json explained_;                 // EXPLAIN's report of identified_ as identify() ran it (null: none)
+  std::optional<results::Explanation> explained_;                // EXPLAIN's of identified_, as identify() ran it
   std::vector<models::explain::CheckedIdentification> checked_;  // each plane's, as identify() published it
   int bar_ = -1;
   std::array<int, 3> axis_{-1, -1, -1};  // channel of x, y, z (-1: none)

@@ -11,8 +11,10 @@
 #include "dsp/series.hpp"
 #include "dsp/wavelet.hpp"
 #include "formats/profile_files.hpp"
+#include "models/explain/explanation.hpp"
 #include "models/explain/profile_explain.hpp"
 #include "models/flatness/straightness.hpp"
+#include "results/parameters.hpp"
 #include "sessions/explain_options.hpp"
 #include "sessions/session_support.hpp"
 
@@ -89,10 +91,12 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
   const double n1 = static_cast<double>(coeffs.back().size());
   nlohmann::json j;
   j["model"] = "profile/straightness+wavelet";
-  j["profile"] = {
-      {"straightness_lsq_um", {{"value", dsp::peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
+  // The headline figures named by their catalogue entries (results/parameters.hpp), where the fleet reads them.
+  j[std::string(results::profile_straightness.group)] = {
+      {results::name(results::profile_straightness),
+       {{"value", dsp::peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
       {"straightness_min_zone_um", {{"value", min_zone_um}, {"u", std::sqrt(2.0) * sigma_um}}},
-      {"form_straightness_um", {{"value", form_um}, {"u", std::sqrt(2.0) * sigma_um * level_scale}}},
+      {results::name(results::form_straightness), {{"value", form_um}, {"u", std::sqrt(2.0) * sigma_um * level_scale}}},
       {"noise_um", {{"value", sigma_um}, {"u", sigma_um * std::sqrt(1.36 / n1)}}},  // MAD: var ~ 1.36 s^2 / n
   };
   // Per band: the rms of its signal-domain component, the part white noise of level sigma explains
@@ -249,15 +253,16 @@ class ProfileSession : public Session {
   // `guideway explain --model straightness` of the profile file's text, as offline on the derived file: base =
   // offset + cubic in x; the candidates (feed marks, spindle axial run-out, thermal drift, tool wear, ...) need
   // the time of each point and the feed per revolution, so feed and spindle speed must be given.
-  std::optional<nlohmann::json> explain() override {
+  std::optional<results::Explanation> explain() override {
     if (!(o_.feed_mm_per_min > 0) || !(o_.spindle_rpm > 0))
-      return explain_not_analysed("straightness",
-                                  "the session was started without feed_mm_per_min and spindle_rpm, "
-                                  "which place each point in time and give the feed per revolution");
+      return results::not_analysed("straightness",
+                                   "the session was started without feed_mm_per_min and spindle_rpm, "
+                                   "which place each point in time and give the feed per revolution");
     try {
       const models::explain::ProfileRun run =
           models::explain::profile_run(formats::parse_profile_csv(text_, "profile"), "profile");
-      return models::explain::to_json(models::explain::explain_profiles({run}, "straightness", nullptr, explain_options(*this)));
+      return models::explain::explanation_of(
+          models::explain::explain_profiles({run}, "straightness", nullptr, explain_options(*this)));
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

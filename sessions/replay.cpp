@@ -90,10 +90,11 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   result.params =
       results::with_class(results::MessageClass::params, results::with_header(std::move(result.params), header));
   try {
-    if (auto report = session->explain()) {
+    if (auto explanation = session->explain()) {
       header.samples.reset();  // an EXPLAIN names its session, not what it was fed
-      result.explain =
-          results::with_class(results::MessageClass::explain, results::with_header(std::move(*report), header));
+      result.explain = results::with_class(results::MessageClass::explain,
+                                           results::with_header(results::to_json(*explanation), header));
+      result.explanation = std::move(explanation);
     }
   } catch (const std::exception& e) {
     result.explain_failure = e.what();

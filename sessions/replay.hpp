@@ -5,10 +5,12 @@
 // reproducible and regression-testable offline.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "results/explanation.hpp"
 #include "sessions/session.hpp"
 
 namespace guideway::sessions {
@@ -18,6 +20,7 @@ struct ReplayResult {
   // `replayed_from`); empty when identification failed.
   nlohmann::json params;
   nlohmann::json explain;       // the EXPLAIN message, null when the kind has none or it failed
+  std::optional<results::Explanation> explanation;  // what the EXPLAIN message holds, for its readers
   std::string explain_failure;  // why the explanation failed (the live explain_failed reason)
   std::string failure;          // why identification failed (the live session's session_failed reason)
   std::size_t samples = 0;      // samples replayed

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/number_format.hpp"
+#include "models/explain/explanation.hpp"
 #include "models/explain/runout_explain.hpp"
 #include "models/flatness/error_motion.hpp"
 #include "models/flatness/json.hpp"
@@ -103,15 +104,16 @@ class RunoutSession : public Session {
     nlohmann::json result = models::flatness::runout_json(rev);
     nlohmann::json j;
     j["model"] = result["model"];
+    // The headline figures named by their catalogue entries (results/parameters.hpp), where the fleet reads them.
     nlohmann::json g;
-    g["runout_um"] = {{"value", r.runout_m * 1e6}, {"u", r.u_runout_m * 1e6}};
+    g[results::name(results::runout)] = {{"value", r.runout_m * 1e6}, {"u", r.u_runout_m * 1e6}};
     g["once_per_rev_amplitude_um"] = {{"value", r.amplitude_m * 1e6}, {"u", r.u_amplitude_m * 1e6}};
-    g["squareness_urad"] = {{"value", r.deflection_rad * 1e6}, {"u", r.u_deflection_rad * 1e6}};
+    g[results::name(results::runout_squareness)] = {{"value", r.deflection_rad * 1e6}, {"u", r.u_deflection_rad * 1e6}};
     if (r.squareness_amplitude_m) {
       g["squareness_amplitude_um"] = {{"value", *r.squareness_amplitude_m * 1e6},
                                       {"u", *r.u_squareness_amplitude_m * 1e6}};
     }
-    j["squareness"] = g;
+    j[std::string(results::runout_squareness.group)] = g;
     j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
     if (result.contains("error_motion")) {
       // ISO 230-7 values: peaks-to-valleys of the record as measured (no uncertainty of their own).
@@ -145,14 +147,15 @@ class RunoutSession : public Session {
 
   // `guideway explain --model runout` of the derived file's text, as offline: what the once-per-revolution
   // base leaves, named from the spindle's library (docs/explain.md, "Run-out").
-  std::optional<nlohmann::json> explain() override {
+  std::optional<results::Explanation> explain() override {
     if (text_.empty()) return std::nullopt;
     const auto rev = models::flatness::parse_runout_revolution(text_, "revolution");
     if (models::flatness::whole_revolutions(rev.angle_rad) < 2)
-      return explain_not_analysed(std::string(results::runout_kind.name),
-                                  "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
-                                  "told from what does not (record several, e.g. revolutions = 20)");
-    return models::explain::to_json(models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}, explain_options(*this)));
+      return results::not_analysed(std::string(results::runout_kind.name),
+                                   "fewer than 2 whole revolutions recorded: what repeats every revolution cannot be "
+                                   "told from what does not (record several, e.g. revolutions = 20)");
+    return models::explain::explanation_of(
+        models::explain::explain_runout({models::explain::runout_record(rev, o_.rpm)}, explain_options(*this)));
   }
 
  private:

@@ -19,6 +19,7 @@
 #include "core/instrument.hpp"
 #include "core/sample.hpp"
 #include "drivers/driver.hpp"
+#include "results/explanation.hpp"
 
 // A DBB session's identification as PARAMS published it (models/explain/dbb_checked.hpp): named here only, so
 // that what runs sessions (the daemon) needs none of the models it does not call.
@@ -71,8 +72,9 @@ class Session {
   virtual nlohmann::json identify() = 0;
   // After a successful identify(), on the worker thread: where the recording and the identified model
   // still differ and which left-out physics explains it (models/explain; the body of the EXPLAIN
-  // message), or nullopt for a kind without an explanation model. Throws std::runtime_error.
-  virtual std::optional<nlohmann::json> explain() { return std::nullopt; }
+  // message, results/explanation.hpp), or nullopt for a kind without an explanation model. Throws
+  // std::runtime_error.
+  virtual std::optional<results::Explanation> explain() { return std::nullopt; }
   // After identify(), on the worker thread: the identification per plane as PARAMS published it (a DBB
   // session: Lai's model and the diagnostics with EXPLAIN's findings fitted beside), for whoever builds the
   // session's report, so it does not identify the run files a second time. Default: none; the report reads

@@ -120,9 +120,4 @@ std::vector<std::string> write_derived_text(const std::string& dir, const std::s
   return {path};
 }
 
-nlohmann::json explain_not_analysed(const std::string& model, const std::string& reason) {
-  return {{"model", model}, {"not_analysed", reason}, {"findings", nlohmann::json::array()}, {"unexplained", true},
-          {"notes", nlohmann::json::array({"not analysed: " + reason})}};
-}
-
 }  // namespace guideway::sessions

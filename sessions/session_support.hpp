@@ -34,8 +34,4 @@ std::string string_option(const nlohmann::json& options, const results::SessionO
 std::vector<std::string> write_derived_text(const std::string& dir, const std::string& base_name,
                                             const std::string& suffix, const std::string& text);
 
-// The EXPLAIN body of a session whose data cannot be explained meaningfully (docs/protocol.md "EXPLAIN"):
-// no analysis was run, so nothing is found and nothing is claimed explained; `not_analysed` says why.
-nlohmann::json explain_not_analysed(const std::string& model, const std::string& reason);
-
 }  // namespace guideway::sessions

@@ -6,6 +6,7 @@
 
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
+#include "models/explain/explanation.hpp"
 #include "models/explain/traverse_explain.hpp"
 #include "models/flatness/angles.hpp"
 #include "models/flatness/json.hpp"
@@ -229,15 +230,15 @@ class StraightnessSession : public Session {
 
   // `guideway explain --model traverse` of the derived file's text, as offline: what the straightness
   // polynomial common to the passes leaves, named from the traverse library (docs/explain.md, "Traverses").
-  std::optional<nlohmann::json> explain() override {
+  std::optional<results::Explanation> explain() override {
     if (text_.empty()) return std::nullopt;
     const auto passes = models::explain::parse_traverse_passes(text_, "traverse");
     try {
-      return models::explain::to_json(models::explain::explain_traverses(passes, explain_options(*this)));
+      return models::explain::explanation_of(models::explain::explain_traverses(passes, explain_options(*this)));
     } catch (const std::invalid_argument& e) {  // too few readings in a pass: said, not claimed
       const std::string why = e.what();
-      return explain_not_analysed(std::string(results::straightness_kind.name),
-                                  why.starts_with("explain: ") ? why.substr(9) : why);
+      return results::not_analysed(std::string(results::straightness_kind.name),
+                                   why.starts_with("explain: ") ? why.substr(9) : why);
     }
   }
 

@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "drivers/profilometer/profile_stream.hpp"
+#include "models/explain/explanation.hpp"
 #include "models/explain/traverse_explain.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/runout.hpp"
@@ -216,27 +217,27 @@ TEST(StraightnessSession, ForwardAndReturnExplainTheExampleMachinesRockingAndDri
 
   const auto e = session->explain();
   ASSERT_TRUE(e);
-  std::map<std::string, nlohmann::json> found;
-  for (const auto& f : (*e)["findings"]) found[f["effect"].get<std::string>()] = f["parameters"];
-  ASSERT_EQ(found.size(), 2u) << e->dump(1);
+  std::map<std::string, std::map<std::string, results::ExplainEstimate>> found;
+  for (const auto& f : e->findings) found[f.effect] = f.parameters;
+  ASSERT_EQ(found.size(), 2u) << results::to_json(*e).dump(1);
   for (const auto& [effect, name, truth] : {std::tuple{"reflector_rocking", "reflector_rocking_arcsec", 0.2},
                                             std::tuple{"angle_drift", "angle_drift_arcsec_per_min", 0.1}}) {
-    ASSERT_TRUE(found.count(effect)) << e->dump(1);
+    ASSERT_TRUE(found.count(effect)) << results::to_json(*e).dump(1);
     const auto& v = found[effect].at(name);
-    EXPECT_LT(std::abs(v["value"].get<double>() - truth), 4 * v["u"].get<double>()) << v;
-    std::cerr << effect << ": " << v << ", the file's " << truth << "\n";
+    EXPECT_LT(std::abs(v.value - truth), 4 * v.u) << v.value << " +/- " << v.u;
+    std::cerr << effect << ": " << v.value << " +/- " << v.u << ", the file's " << truth << "\n";
   }
-  EXPECT_FALSE((*e)["unexplained"].get<bool>());
+  EXPECT_FALSE(e->unexplained);
 
   // The derived file has each reading's time and pass: explained offline, the same findings.
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "s");
   ASSERT_EQ(files.size(), 1u);
-  const auto offline =
-      models::explain::to_json(models::explain::explain_traverses(models::explain::read_traverse_passes(files[0])));
-  ASSERT_EQ(offline["findings"].size(), (*e)["findings"].size());
-  for (std::size_t i = 0; i < offline["findings"].size(); ++i)
-    EXPECT_EQ(offline["findings"][i]["parameters"], (*e)["findings"][i]["parameters"]);
+  const results::Explanation offline = models::explain::explanation_of(
+      models::explain::explain_traverses(models::explain::read_traverse_passes(files[0])));
+  ASSERT_EQ(offline.findings.size(), e->findings.size());
+  for (std::size_t i = 0; i < offline.findings.size(); ++i)  // every u of a traverse's effects is finite
+    EXPECT_EQ(offline.findings[i].parameters, e->findings[i].parameters);
 }
 
 TEST(StraightnessSession, TooFewStationsFailWithTheReason) {
@@ -306,7 +307,7 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   EXPECT_EQ(p["revolution"]["revolutions"], 1);
   const auto e = session->explain();
   ASSERT_TRUE(e);
-  EXPECT_NE((*e)["not_analysed"].get<std::string>().find("fewer than 2 whole revolutions"), std::string::npos) << *e;
+  EXPECT_NE(e->not_analysed.find("fewer than 2 whole revolutions"), std::string::npos) << e->not_analysed;
 }
 
 // The defaults: 20 revolutions at 60 rpm of the example machine's spindle, read at 50 Hz: the ISO 230-7
@@ -338,11 +339,11 @@ TEST(RunoutSession, TwentyRevolutionsGiveTheErrorMotionAndTheirExplanation) {
   const auto e = session->explain();
   ASSERT_TRUE(e);
   std::multiset<std::string> effects;
-  for (const auto& f : (*e)["findings"]) effects.insert(f["effect"].get<std::string>());
+  for (const auto& f : e->findings) effects.insert(f.effect);
   EXPECT_EQ(effects, (std::multiset<std::string>{"asynchronous_line", "synchronous_harmonic", "synchronous_harmonic",
                                                  "thermal_drift"}))
-      << e->dump();
-  EXPECT_FALSE((*e)["unexplained"].get<bool>()) << e->dump();
+      << results::to_json(*e).dump();
+  EXPECT_FALSE(e->unexplained) << results::to_json(*e).dump();
 }
 
 TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {

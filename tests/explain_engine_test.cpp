@@ -15,6 +15,7 @@
 
 #include "models/explain/engine/set_aside.hpp"
 #include "models/explain/explain.hpp"
+#include "models/explain/explanation.hpp"
 #include "sanitizer_build.hpp"
 
 using namespace guideway;
@@ -91,7 +92,7 @@ TEST(ExplainEngine, FindsTheStepWithItsSizeAndImprovesHeldOut) {
   // no yardstick in this problem, so no percentage.
   EXPECT_NEAR(rep.findings[0].contribution_um, std::abs(par.value), 1e-12);
   EXPECT_TRUE(std::isnan(rep.findings[0].contribution_percent));
-  const auto j = models::explain::to_json(rep);
+  const auto j = results::to_json(models::explain::explanation_of(rep));
   for (const char* key : {"model", "baseline", "mismatch", "findings", "final", "unexplained"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_TRUE(j["findings"][0]["parameters"]["step_um"].contains("u"));
@@ -524,7 +525,8 @@ TEST(ExplainEngine, ACacheWithoutRoomGivesTheSameReport) {
   none.memory_mb = 0;
   const auto a = models::explain::explain(p, opt), b = models::explain::explain(p, none);
   ASSERT_EQ(a.findings.size(), 3u) << models::explain::to_text(a);
-  EXPECT_EQ(models::explain::to_json(a).dump(), models::explain::to_json(b).dump());
+  EXPECT_EQ(results::to_json(models::explain::explanation_of(a)).dump(),
+            results::to_json(models::explain::explanation_of(b)).dump());
 }
 
 // A variant made on demand (Variant::fill: its columns written where the engine uses them, none held) is the
@@ -540,7 +542,9 @@ TEST(ExplainEngine, AVariantMadeOnDemandIsItsBlock) {
       }
     const auto a = models::explain::explain(eager), b = models::explain::explain(lazy);
     EXPECT_EQ(a.findings.size(), size > 0 ? 1u : 0u) << size;
-    EXPECT_EQ(models::explain::to_json(a).dump(), models::explain::to_json(b).dump()) << size;
+    EXPECT_EQ(results::to_json(models::explain::explanation_of(a)).dump(),
+              results::to_json(models::explain::explanation_of(b)).dump())
+        << size;
   }
 }
 

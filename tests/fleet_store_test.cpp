@@ -329,24 +329,24 @@ TEST(FleetHeadlines, DbbDiagnosticsComeFirstAndNameThePlaneAxes) {
 }
 
 TEST(FleetHeadlines, ExplainFindings) {
-  const auto s = explain_summary(golden_json("dbb.explain.json"));
+  const auto s = guideway::results::explanation_from_json(golden_json("dbb.explain.json"));
   ASSERT_EQ(s.findings.size(), 2u);
   EXPECT_EQ(s.findings[0].effect, "backlash");
   EXPECT_DOUBLE_EQ(s.findings[0].contribution_um, 1.9898527045693912);
   EXPECT_EQ(s.findings[1].effect, "vibration");
   EXPECT_FALSE(s.unexplained);
-  EXPECT_EQ(to_text(s), "backlash 1.99 µm, vibration 0.0246 µm");
+  EXPECT_EQ(found_text(s), "backlash 1.99 µm, vibration 0.0246 µm");
   // The run-out's: the example spindle's four error motions, in words and largest first in the text.
-  const auto r = explain_summary(golden_json("runout.explain.json"));
+  const auto r = guideway::results::explanation_from_json(golden_json("runout.explain.json"));
   EXPECT_FALSE(r.unexplained);
   ASSERT_EQ(r.findings.size(), 4u);
-  EXPECT_EQ(to_text(r),  // EXPLAIN selected the drift last; the text ranks it by its size
+  EXPECT_EQ(found_text(r),  // EXPLAIN selected the drift last; the text ranks it by its size
             "synchronous harmonic 0.239 \u00b5m, asynchronous line 0.16 \u00b5m, thermal drift 0.1 \u00b5m, "
             "synchronous harmonic 0.0975 \u00b5m");
-  const auto t = explain_summary(golden_json("straightness.explain.json"));
+  const auto t = guideway::results::explanation_from_json(golden_json("straightness.explain.json"));
   EXPECT_TRUE(t.unexplained);
   EXPECT_TRUE(t.findings.empty());
-  EXPECT_EQ(to_text(t), "not analysed");
+  EXPECT_EQ(found_text(t), "not analysed");
 }
 
 TEST(FleetHeadlines, MovedBeyondTwiceTheCombinedUncertainty) {
@@ -495,7 +495,8 @@ TEST(FleetIngest, RowsStoredBeforeIngestCheckedAreSkippedNeverFatal) {
   const auto h = history_of(s.results("m"));
   ASSERT_EQ(h.size(), 4u);
   EXPECT_TRUE(h[0].readable);
-  EXPECT_EQ(std::count_if(h.begin(), h.end(), [](const HistoryEntry& e) { return !e.readable; }), 1);  // "not json"
+  // "not json", and the finding whose effect is a number: not an explanation (results::explanation_from_json).
+  EXPECT_EQ(std::count_if(h.begin(), h.end(), [](const HistoryEntry& e) { return !e.readable; }), 2);
   EXPECT_NE(history_text("m", h).find("could not be read: skipped"), std::string::npos);
 }
 

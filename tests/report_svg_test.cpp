@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "formats/dbb_run.hpp"
+#include "models/explain/explanation.hpp"
 #include "report/html.hpp"
 #include "report/report.hpp"
 #include "report/svg.hpp"
@@ -411,7 +412,7 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
     moved = std::max(moved, std::abs(rep.curve_steps[1].residual_um[0][i] - rep.curve_steps[0].residual_um[0][i]));
   EXPECT_GT(moved, 0.2);  // um: the 0.5 um backlash steps
 
-  nlohmann::json j = models::explain::to_json(rep);
+  nlohmann::json j = results::to_json(models::explain::explanation_of(rep));
   const auto& r = j.at("residuals");
   ASSERT_EQ(r.at("steps").size(), rep.findings.size() + 1);
   EXPECT_EQ(r.at("runs").size(), rep.curve_runs.size());
@@ -439,6 +440,17 @@ TEST(Report, ExplanationDrawsTheResidualAfterEachFinding) {
     ADD_FAILURE() << "no error";
   } catch (const report::ReportError& e) {
     EXPECT_NE(std::string(e.what()).find("explain.json: residuals: step '+ "), std::string::npos) << e.what();
+  }
+  // A field of another type than the protocol gives it (results::explanation_from_json): an error naming both.
+  j["findings"][0]["p_value"] = "small";
+  std::ofstream(path) << j.dump();
+  try {
+    (void)report::render_report({path});
+    ADD_FAILURE() << "no error";
+  } catch (const report::ReportError& e) {
+    EXPECT_NE(std::string(e.what()).find("explain.json: not an explanation: findings[0]: \"p_value\" is string"),
+              std::string::npos)
+        << e.what();
   }
   // An EXPLAIN that says why nothing was analysed (a daemon session without an explanation model).
   std::ofstream(path)

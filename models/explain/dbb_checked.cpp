@@ -131,7 +131,7 @@ CheckedIdentification identify_checked(const std::vector<formats::DbbRun>& runs,
     o.beside.push_back({f.effect, f.column_names, f.columns_um, !listed_in(held_by_diagnostics, f.effect)});
   }
   identify_beside(runs, o, out);
-  out.explain_report = to_json(report);
+  out.explanation = explanation_of(report);
   return out;
 }
 

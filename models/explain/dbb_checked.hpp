@@ -8,6 +8,7 @@
 // Pure functions; thread safe.
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -16,7 +17,7 @@
 
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
-#include "models/explain/explain_result.hpp"
+#include "models/explain/explanation.hpp"
 
 namespace guideway::models::explain {
 
@@ -30,9 +31,9 @@ struct CheckedIdentification {
   // tables by what they can correct.
   std::vector<double> beside_um;
   std::vector<dbb::BesideTerm> beside_terms;  // what was fitted beside, as identify took it
-  // EXPLAIN's report on the runs as `guideway explain --model dbb --json` gives it (null when EXPLAIN could
-  // not run, or for identify_checked_like): a session publishes it without running EXPLAIN again.
-  nlohmann::json explain_report;
+  // EXPLAIN's explanation of the runs as `guideway explain --model dbb --json` gives it (none when EXPLAIN
+  // could not run, or for identify_checked_like): a session publishes it without running EXPLAIN again.
+  std::optional<results::Explanation> explanation;
 };
 
 // The note of CheckedIdentification::notes that lists what was fitted beside starts with this.

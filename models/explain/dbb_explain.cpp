@@ -234,8 +234,8 @@ Report explain_dbb_difference(const formats::DbbRun& simulated, const formats::D
   return explain(dbb_compare_problem(simulated, measured), options);
 }
 
-nlohmann::json explain_dbb(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options) {
-  return to_json(explain_dbb_report(runs, options));
+results::Explanation explain_dbb(const std::vector<formats::DbbRun>& runs, const ExplainOptions& options) {
+  return explanation_of(explain_dbb_report(runs, options));
 }
 
 }  // namespace guideway::models::explain

@@ -1,5 +1,6 @@
-// An EXPLAIN report as JSON and as text (explain_result.hpp): findings, locations, notes and held-out figures.
-#include "models/explain/explain_result.hpp"
+// An EXPLAIN report as the results' explanation (explanation.hpp; its JSON is results/explanation.cpp's) and as
+// text (explain_result.hpp): findings, locations, notes and held-out figures.
+#include "models/explain/explanation.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -47,95 +48,65 @@ std::string location_text(const Location& l, const std::string& domain) {
 
 }  // namespace
 
-nlohmann::json to_json(const Report& r) {
-  using nlohmann::json;
-  const auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
-  const auto stats = [&](const FitStats& f) {
-    return json{{"rms_um", num(f.rms_um)},
-                {"bic", num(f.bic)},
-                {"heldout_rms_um", num(f.heldout_rms_um)},
-                {"parameters", f.parameters}};
-  };
+results::Explanation explanation_of(const Report& r) {
+  const auto pair = [](std::pair<double, double> p) { return std::pair{rounded4(p.first), rounded4(p.second)}; };
   const auto places = [&](const std::vector<Mismatch>& v) {
-    json a = json::array();
+    std::vector<results::ExplainPlace> out;
     for (const auto& m : v) {
-      json ranges = json::array();
-      for (const auto& [lo, hi] : m.ranges) ranges.push_back({lo, hi});
-      json place{
-          {"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}};
-      if (!m.locations.empty()) {
-        json locs = json::array();
-        const auto pair = [&](std::pair<double, double> p) {
-          return json::array({num(rounded4(p.first)), num(rounded4(p.second))});
-        };
-        for (const auto& l : m.locations) {
-          locs.push_back({{"run", l.run},
-                          {"source", l.source},
-                          {"where", pair(l.where)},
-                          {"t_machine_s", pair(l.t_machine_s)},
-                          {"peak_um", num(rounded4(l.peak_um))},
-                          {"once", l.repeats_in.empty()},
-                          {"repeats_in", l.repeats_in},
-                          {"set_aside", l.set_aside}});
-          // Without times, the readings' order from the run's first (0), never seconds.
-          locs.back()[l.timed ? "t_from_run_start_s" : "readings_from_run_start"] = pair(l.t_from_run_start_s);
-        }
-        place["locations"] = locs;
-      }
-      a.push_back(std::move(place));
+      results::ExplainPlace place{m.domain, m.where, m.band, m.evidence, m.ranges, {}};
+      for (const auto& l : m.locations)
+        place.locations.push_back({l.run, l.source, pair(l.where), pair(l.t_from_run_start_s), l.timed,
+                                   pair(l.t_machine_s), rounded4(l.peak_um), l.repeats_in, l.set_aside});
+      out.push_back(std::move(place));
     }
-    return a;
+    return out;
   };
-  json j;
-  j["model"] = r.model;
-  j["n"] = r.n;
-  if (r.set_aside > 0) j["set_aside_samples"] = r.set_aside;
-  j["noise_um"] = num(r.noise_um);
-  j["heldout_scheme"] = r.heldout_scheme;
-  j["baseline"] = stats(r.baseline);
-  j["mismatch"] = places(r.mismatch);
-  json f = json::array();
+  const auto fit = [](const FitStats& f) {
+    return results::ExplainFit{f.rms_um, f.bic, f.heldout_rms_um, f.parameters};
+  };
+  results::Explanation e;
+  e.model = r.model;
+  e.n = r.n;
+  e.set_aside_samples = r.set_aside;
+  e.noise_um = r.noise_um;
+  e.heldout_scheme = r.heldout_scheme;
+  e.baseline = fit(r.baseline);
+  e.mismatch = places(r.mismatch);
   for (const auto& fd : r.findings) {
-    json p = json::object();
-    for (const auto& q : fd.parameters) p[q.name] = {{"value", num(q.value)}, {"u", num(q.u)}};
-    f.push_back({{"effect", fd.effect},
-                 {"parameters", p},
-                 {"delta_bic", num(fd.delta_bic)},
-                 {"p_value", num(fd.p_value)},
-                 {"rms_um_after", num(fd.rms_um_after)},
-                 {"heldout_rms_um_after", num(fd.heldout_rms_um_after)},
-                 {"structure_removed", num(fd.share)},
-                 {"contribution_um", num(fd.contribution_um)},
-                 {"percent_of_deviation", num(fd.contribution_percent)},
-                 {"why", fd.why}});
+    results::ExplainFinding f;
+    f.effect = fd.effect;
+    // One value per name, the last given (as a JSON object keeps it).
+    for (const auto& q : fd.parameters) f.parameters.insert_or_assign(q.name, results::ExplainEstimate{q.value, q.u});
+    f.delta_bic = fd.delta_bic;
+    f.p_value = fd.p_value;
+    f.rms_um_after = fd.rms_um_after;
+    f.heldout_rms_um_after = fd.heldout_rms_um_after;
+    f.structure_removed = fd.share;
+    f.contribution_um = fd.contribution_um;
+    f.percent_of_deviation = fd.contribution_percent;
+    f.why = fd.why;
+    e.findings.push_back(std::move(f));
   }
-  j["findings"] = f;
-  j["final"] = stats(r.final_fit);
-  j["unexplained"] = r.unexplained;
-  if (std::isfinite(r.deviation_um)) j["deviation"] = {{"name", r.deviation_name}, {"value_um", r.deviation_um}};
-  j["remaining"] = places(r.remaining);
-  json c = json::array();
-  for (const auto& k : r.considered)
-    c.push_back(
-        {{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
-  j["considered"] = c;
-  j["notes"] = r.notes;
+  e.final_fit = fit(r.final_fit);
+  e.unexplained = r.unexplained;
+  if (std::isfinite(r.deviation_um)) e.deviation = results::ExplainDeviation{r.deviation_name, r.deviation_um};
+  e.remaining = places(r.remaining);
+  for (const auto& k : r.considered) e.considered.push_back({k.effect, k.delta_bic, k.p_value, k.verdict});
+  e.notes = r.notes;
   if (!r.curve_x.empty()) {
-    const auto round_all = [](const std::vector<double>& v) {
-      json a = json::array();
-      for (double e : v) a.push_back(rounded4(e));
-      return a;
+    const auto round_all = [](std::vector<double> v) {
+      for (double& x : v) x = rounded4(x);
+      return v;
     };
-    json steps = json::array();
+    results::ExplainResiduals curves{r.curve_domain, round_all(r.curve_x), r.curve_runs, {}};
     for (const auto& st : r.curve_steps) {
-      json runs = json::array();
-      for (const auto& v : st.residual_um) runs.push_back(round_all(v));
-      steps.push_back({{"label", st.label}, {"residual_um", runs}});
+      results::ExplainResidualStep step{st.label, {}};
+      for (const auto& v : st.residual_um) step.residual_um.push_back(round_all(v));
+      curves.steps.push_back(std::move(step));
     }
-    j["residuals"] = {
-        {"domain", r.curve_domain}, {"x", round_all(r.curve_x)}, {"runs", r.curve_runs}, {"steps", steps}};
+    e.residuals = std::move(curves);
   }
-  return j;
+  return e;
 }
 
 std::string to_text(const Report& r) {

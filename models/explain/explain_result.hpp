@@ -1,8 +1,8 @@
 #pragma once
 // What an explanation reports (models/explain, docs/explain.md): the baseline and final fits, where the
 // residual is structured, the findings with their parameters, the candidates considered, the residual
-// curves; and the report as JSON (the EXPLAIN message's body) and as text. Without Eigen or the JSON
-// library's definitions, for the sessions, the CLI and the scenario suite that only read reports.
+// curves; and the report as text (as the EXPLAIN message's body: explanation.hpp). Without Eigen, for the
+// sessions, the CLI and the scenario suite that only read reports.
 
 #include <cstddef>
 #include <functional>
@@ -10,8 +10,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <nlohmann/json_fwd.hpp>
 
 namespace guideway::models::explain {
 
@@ -133,9 +131,6 @@ struct Report {
   std::vector<ResidualStep> curve_steps;
 };
 
-// The JSON shape ({"model", "baseline", "mismatch", "findings", "final", "unexplained"}) plus
-// "n", "noise_um", "heldout_scheme", "considered", "remaining", "notes".
-nlohmann::json to_json(const Report& report);
 // A readable explanation for a metrologist.
 std::string to_text(const Report& report);
 

@@ -162,14 +162,15 @@ nlohmann::json to_json(const RunoutResult& r) {
   j["twice_per_rev_amplitude_um"] = r.second_harmonic_m * um;
   j["residual_rms_um"] = r.residual_rms_m * um;
   j["condition_number"] = r.condition_number;
-  j["runout_um"] = r.runout_m * um;
-  j["u_runout_um"] = r.u_runout_m * um;
+  // The headline figures' names from the catalogue (results/parameters.hpp), their u's "u_" before them.
+  j[results::name(results::runout)] = r.runout_m * um;
+  j["u_" + results::name(results::runout)] = r.u_runout_m * um;
   j["parallelism_um"] = r.parallelism_m * um;
   j["plate_diameter_mm"] = r.plate_diameter_m * 1e3;
   j["deflection_urad"] = r.deflection_rad * urad;
   j["u_deflection_urad"] = r.u_deflection_rad * urad;
-  j["squareness_urad"] = r.deflection_rad * urad;
-  j["u_squareness_urad"] = r.u_deflection_rad * urad;
+  j[results::name(results::runout_squareness)] = r.deflection_rad * urad;
+  j["u_" + results::name(results::runout_squareness)] = r.u_deflection_rad * urad;
   if (r.travel_m) {
     j["travel_mm"] = *r.travel_m * 1e3;
     j["squareness_amplitude_um"] = *r.squareness_amplitude_m * um;

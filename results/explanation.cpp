@@ -1,0 +1,368 @@
+// An explanation's JSON (explanation.hpp), written and read: the one place EXPLAIN's keys are spelled.
+#include "results/explanation.hpp"
+
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+namespace guideway::results {
+
+namespace {
+
+using nlohmann::json;
+
+// ---- writing ---------------------------------------------------------------------------------------------
+
+json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json pair_json(const std::pair<double, double>& p) { return json::array({num(p.first), num(p.second)}); }
+
+json numbers_json(const std::vector<double>& v) {
+  json a = json::array();
+  for (const double e : v) a.push_back(num(e));
+  return a;
+}
+
+json fit_json(const ExplainFit& f) {
+  return {{"rms_um", num(f.rms_um)},
+          {"bic", num(f.bic)},
+          {"heldout_rms_um", num(f.heldout_rms_um)},
+          {"parameters", f.parameters}};
+}
+
+json location_json(const ExplainLocation& l) {
+  json j = {{"run", l.run},
+            {"source", l.source},
+            {"where", pair_json(l.where)},
+            {"t_machine_s", pair_json(l.t_machine_s)},
+            {"peak_um", num(l.peak_um)},
+            {"once", l.repeats_in.empty()},
+            {"repeats_in", l.repeats_in},
+            {"set_aside", l.set_aside}};
+  // Without times, the readings' order from the run's first (0), never seconds.
+  j[l.timed ? "t_from_run_start_s" : "readings_from_run_start"] = pair_json(l.from_run_start);
+  return j;
+}
+
+json places_json(const std::vector<ExplainPlace>& places) {
+  json a = json::array();
+  for (const auto& m : places) {
+    json ranges = json::array();
+    for (const auto& r : m.ranges) ranges.push_back(pair_json(r));
+    json place{
+        {"domain", m.domain}, {"where", m.where}, {"band", m.band}, {"evidence", m.evidence}, {"ranges", ranges}};
+    if (!m.locations.empty()) {
+      json locations = json::array();
+      for (const auto& l : m.locations) locations.push_back(location_json(l));
+      place["locations"] = std::move(locations);
+    }
+    a.push_back(std::move(place));
+  }
+  return a;
+}
+
+json finding_json(const ExplainFinding& f) {
+  json parameters = json::object();
+  for (const auto& [name, e] : f.parameters) parameters[name] = {{"value", num(e.value)}, {"u", num(e.u)}};
+  return {{"effect", f.effect},
+          {"parameters", std::move(parameters)},
+          {"delta_bic", num(f.delta_bic)},
+          {"p_value", num(f.p_value)},
+          {"rms_um_after", num(f.rms_um_after)},
+          {"heldout_rms_um_after", num(f.heldout_rms_um_after)},
+          {"structure_removed", num(f.structure_removed)},
+          {"contribution_um", num(f.contribution_um)},
+          {"percent_of_deviation", num(f.percent_of_deviation)},
+          {"why", f.why}};
+}
+
+json findings_json(const std::vector<ExplainFinding>& findings) {
+  json a = json::array();
+  for (const auto& f : findings) a.push_back(finding_json(f));
+  return a;
+}
+
+json residuals_json(const ExplainResiduals& r) {
+  json steps = json::array();
+  for (const auto& st : r.steps) {
+    json runs = json::array();
+    for (const auto& curve : st.residual_um) runs.push_back(numbers_json(curve));
+    steps.push_back({{"label", st.label}, {"residual_um", std::move(runs)}});
+  }
+  return {{"domain", r.domain}, {"x", numbers_json(r.x)}, {"runs", r.runs}, {"steps", std::move(steps)}};
+}
+
+// ---- reading: every key optional, every present one of its type ------------------------------------------
+
+[[noreturn]] void fail(const std::string& where, const std::string& what) {
+  throw ExplanationFormatError(where.empty() ? what : where + ": " + what);
+}
+
+std::string at(const std::string& where, const char* key) { return where.empty() ? key : where + "." + key; }
+std::string at(const std::string& where, std::size_t i) { return where + "[" + std::to_string(i) + "]"; }
+
+// The object at `where`, or a failure naming it.
+const json& object_at(const json& j, const std::string& where) {
+  if (!j.is_object()) fail("", where + " is " + j.type_name() + ", expected an object");
+  return j;
+}
+
+// `o[key]` when present (nullptr when absent); of a type `accepts` takes, else a failure naming the key.
+template <typename Accepts>
+const json* field(const json& o, const std::string& where, const char* key, const char* expected, Accepts accepts) {
+  const auto it = o.find(key);
+  if (it == o.end()) return nullptr;
+  if (!accepts(*it)) fail(where, "\"" + std::string(key) + "\" is " + it->type_name() + ", expected " + expected);
+  return &*it;
+}
+
+bool is_number_or_null(const json& v) { return v.is_number() || v.is_null(); }
+double number_of(const json& v) { return v.is_null() ? explain_nan : v.get<double>(); }
+bool is_count(const json& v) { return v.is_number_unsigned() || (v.is_number_integer() && v.get<long long>() >= 0); }
+
+void read(const json& o, const std::string& where, const char* key, double& out) {
+  if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
+}
+void read(const json& o, const std::string& where, const char* key, std::string& out) {
+  if (const json* v = field(o, where, key, "a text", [](const json& e) { return e.is_string(); }))
+    out = v->get<std::string>();
+}
+void read(const json& o, const std::string& where, const char* key, bool& out) {
+  if (const json* v = field(o, where, key, "true or false", [](const json& e) { return e.is_boolean(); }))
+    out = v->get<bool>();
+}
+void read(const json& o, const std::string& where, const char* key, std::size_t& out) {
+  if (const json* v = field(o, where, key, "a whole number, 0 or more", is_count)) out = v->get<std::size_t>();
+}
+
+// The array at `o[key]` (nullptr when absent).
+const json* array_field(const json& o, const std::string& where, const char* key) {
+  return field(o, where, key, "an array", [](const json& e) { return e.is_array(); });
+}
+
+void read(const json& o, const std::string& where, const char* key, std::pair<double, double>& out) {
+  const json* a = array_field(o, where, key);
+  if (a == nullptr) return;
+  if (a->size() != 2 || !is_number_or_null((*a)[0]) || !is_number_or_null((*a)[1]))
+    fail(where, "\"" + std::string(key) + "\" must be two numbers (or nulls)");
+  out = {number_of((*a)[0]), number_of((*a)[1])};
+}
+
+std::vector<double> numbers_at(const json& a, const std::string& where) {
+  if (!a.is_array()) fail("", where + " is " + a.type_name() + ", expected an array");
+  std::vector<double> out;
+  out.reserve(a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (!is_number_or_null(a[i])) fail("", at(where, i) + " is " + a[i].type_name() + ", expected a number or null");
+    out.push_back(number_of(a[i]));
+  }
+  return out;
+}
+
+void read(const json& o, const std::string& where, const char* key, std::vector<double>& out) {
+  if (const json* a = array_field(o, where, key)) out = numbers_at(*a, at(where, key));
+}
+
+void read(const json& o, const std::string& where, const char* key, std::vector<std::string>& out) {
+  const json* a = array_field(o, where, key);
+  if (a == nullptr) return;
+  out.clear();
+  for (std::size_t i = 0; i < a->size(); ++i) {
+    if (!(*a)[i].is_string()) fail("", at(at(where, key), i) + " is " + (*a)[i].type_name() + ", expected a text");
+    out.push_back((*a)[i].get<std::string>());
+  }
+}
+
+// Each element of the array at `o[key]`, an object, read by `read_one(element, its place)`.
+template <typename T, typename ReadOne>
+void read_objects(const json& o, const std::string& where, const char* key, std::vector<T>& out, ReadOne read_one) {
+  const json* a = array_field(o, where, key);
+  if (a == nullptr) return;
+  out.clear();
+  for (std::size_t i = 0; i < a->size(); ++i) {
+    const std::string place = at(at(where, key), i);
+    out.push_back(read_one(object_at((*a)[i], place), place));
+  }
+}
+
+ExplainFit fit_from(const json& o, const std::string& where, const char* key) {
+  ExplainFit f;
+  const json* v = field(o, where, key, "an object", [](const json& e) { return e.is_object(); });
+  if (v == nullptr) return f;
+  const std::string w = at(where, key);
+  read(*v, w, "rms_um", f.rms_um);
+  read(*v, w, "bic", f.bic);
+  read(*v, w, "heldout_rms_um", f.heldout_rms_um);
+  read(*v, w, "parameters", f.parameters);
+  return f;
+}
+
+ExplainLocation location_from(const json& o, const std::string& w) {
+  ExplainLocation l;
+  read(o, w, "run", l.run);
+  read(o, w, "source", l.source);
+  read(o, w, "where", l.where);
+  read(o, w, "t_machine_s", l.t_machine_s);
+  read(o, w, "peak_um", l.peak_um);
+  read(o, w, "repeats_in", l.repeats_in);
+  read(o, w, "set_aside", l.set_aside);
+  l.timed = !o.contains("readings_from_run_start");
+  read(o, w, l.timed ? "t_from_run_start_s" : "readings_from_run_start", l.from_run_start);
+  return l;
+}
+
+ExplainPlace place_from(const json& o, const std::string& w) {
+  ExplainPlace m;
+  read(o, w, "domain", m.domain);
+  read(o, w, "where", m.where);
+  read(o, w, "band", m.band);
+  read(o, w, "evidence", m.evidence);
+  if (const json* a = array_field(o, w, "ranges")) {
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const std::vector<double> r = numbers_at((*a)[i], at(at(w, "ranges"), i));
+      if (r.size() != 2) fail("", at(at(w, "ranges"), i) + " must be two numbers (or nulls)");
+      m.ranges.emplace_back(r[0], r[1]);
+    }
+  }
+  read_objects(o, w, "locations", m.locations, location_from);
+  return m;
+}
+
+ExplainFinding finding_from(const json& o, const std::string& w) {
+  ExplainFinding f;
+  const auto effect = o.find("effect");
+  if (effect == o.end() || !effect->is_string()) fail("", w + " needs \"effect\" as a text");
+  f.effect = effect->get<std::string>();
+  if (const json* p = field(o, w, "parameters", "an object", [](const json& e) { return e.is_object(); })) {
+    for (const auto& [name, v] : p->items()) {
+      const std::string pw = at(w, "parameters") + "." + name;
+      ExplainEstimate e;
+      read(object_at(v, pw), pw, "value", e.value);
+      read(v, pw, "u", e.u);
+      f.parameters.emplace(name, e);
+    }
+  }
+  read(o, w, "delta_bic", f.delta_bic);
+  read(o, w, "p_value", f.p_value);
+  read(o, w, "rms_um_after", f.rms_um_after);
+  read(o, w, "heldout_rms_um_after", f.heldout_rms_um_after);
+  read(o, w, "structure_removed", f.structure_removed);
+  read(o, w, "contribution_um", f.contribution_um);
+  read(o, w, "percent_of_deviation", f.percent_of_deviation);
+  read(o, w, "why", f.why);
+  return f;
+}
+
+ExplainConsidered considered_from(const json& o, const std::string& w) {
+  ExplainConsidered c;
+  read(o, w, "effect", c.effect);
+  read(o, w, "delta_bic", c.delta_bic);
+  read(o, w, "p_value", c.p_value);
+  read(o, w, "verdict", c.verdict);
+  return c;
+}
+
+ExplainResidualStep step_from(const json& o, const std::string& w) {
+  ExplainResidualStep s;
+  read(o, w, "label", s.label);
+  if (const json* a = array_field(o, w, "residual_um"))
+    for (std::size_t i = 0; i < a->size(); ++i)
+      s.residual_um.push_back(numbers_at((*a)[i], at(at(w, "residual_um"), i)));
+  return s;
+}
+
+ExplainResiduals residuals_from(const json& o, const std::string& w) {
+  ExplainResiduals r;
+  read(o, w, "domain", r.domain);
+  read(o, w, "x", r.x);
+  read(o, w, "runs", r.runs);
+  read_objects(o, w, "steps", r.steps, step_from);
+  return r;
+}
+
+}  // namespace
+
+Explanation not_analysed(std::string model, const std::string& reason) {
+  Explanation e;
+  e.model = std::move(model);
+  e.not_analysed = reason;
+  e.unexplained = true;
+  e.notes = {"not analysed: " + reason};
+  return e;
+}
+
+json to_json(const Explanation& e) {
+  if (!e.not_analysed.empty())
+    return {{"model", e.model},
+            {"not_analysed", e.not_analysed},
+            {"findings", findings_json(e.findings)},
+            {"unexplained", e.unexplained},
+            {"notes", e.notes}};
+  json j;
+  j["model"] = e.model;
+  j["n"] = e.n;
+  if (e.set_aside_samples > 0) j["set_aside_samples"] = e.set_aside_samples;
+  j["noise_um"] = num(e.noise_um);
+  j["heldout_scheme"] = e.heldout_scheme;
+  j["baseline"] = fit_json(e.baseline);
+  j["mismatch"] = places_json(e.mismatch);
+  j["findings"] = findings_json(e.findings);
+  j["final"] = fit_json(e.final_fit);
+  j["unexplained"] = e.unexplained;
+  if (e.deviation) j["deviation"] = {{"name", e.deviation->name}, {"value_um", num(e.deviation->value_um)}};
+  j["remaining"] = places_json(e.remaining);
+  json considered = json::array();
+  for (const auto& k : e.considered)
+    considered.push_back(
+        {{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
+  j["considered"] = std::move(considered);
+  j["notes"] = e.notes;
+  if (e.residuals) j["residuals"] = residuals_json(*e.residuals);
+  return j;
+}
+
+Explanation explanation_from_json(const json& j) {
+  if (!j.is_object()) fail("", std::string("an explanation is a JSON object, not ") + j.type_name());
+  Explanation e;
+  const std::string w;  // the top level
+  read(j, w, "model", e.model);
+  read(j, w, "not_analysed", e.not_analysed);
+  read(j, w, "n", e.n);
+  read(j, w, "set_aside_samples", e.set_aside_samples);
+  read(j, w, "noise_um", e.noise_um);
+  read(j, w, "heldout_scheme", e.heldout_scheme);
+  e.baseline = fit_from(j, w, "baseline");
+  read_objects(j, w, "mismatch", e.mismatch, place_from);
+  read_objects(j, w, "findings", e.findings, finding_from);
+  e.final_fit = fit_from(j, w, "final");
+  read(j, w, "unexplained", e.unexplained);
+  if (const json* d = field(j, w, "deviation", "an object", [](const json& v) { return v.is_object(); })) {
+    e.deviation.emplace();
+    read(*d, "deviation", "name", e.deviation->name);
+    read(*d, "deviation", "value_um", e.deviation->value_um);
+  }
+  read_objects(j, w, "remaining", e.remaining, place_from);
+  read_objects(j, w, "considered", e.considered, considered_from);
+  read(j, w, "notes", e.notes);
+  if (const json* r = field(j, w, "residuals", "an object", [](const json& v) { return v.is_object(); }))
+    e.residuals = residuals_from(*r, "residuals");
+  return e;
+}
+
+bool is_explanation(const json& j) {
+  if (!j.is_object()) return false;
+  const auto findings = j.find("findings");
+  if (findings == j.end() || !findings->is_array()) return false;
+  const auto reason = j.find("not_analysed");
+  return j.contains("baseline") || (reason != j.end() && reason->is_string());
+}
+
+json found_json(const Explanation& e) {
+  json j = {{"findings", json::array()}, {"unexplained", e.unexplained}};
+  for (const auto& f : e.findings)
+    j["findings"].push_back({{"effect", f.effect}, {"contribution_um", num(f.contribution_um)}});
+  if (!e.not_analysed.empty()) j["not_analysed"] = e.not_analysed;
+  return j;
+}
+
+}  // namespace guideway::results
