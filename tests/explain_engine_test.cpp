@@ -620,3 +620,14 @@ TEST(ExplainEngine, AnOffsetAfterAPlaceSetAsideNeverTakesACandidatesColumn) {
   ASSERT_EQ(none.considered.size(), 1u) << models::explain::to_text(none);
   EXPECT_EQ(none.considered[0].effect, "reflector_rocking");
 }
+
+// Issue 41 item 4: every candidate is in `considered` with its verdict, also one the problem offers no form of.
+TEST(ExplainEngine, ACandidateWithNoFormIsListedWithWhy) {
+  auto p = make_problem([](int) { return 0.0; }, 8);
+  p.candidates.push_back({"thermal_drift", "no form of it here", {}, {}, 0});
+  const auto rep = models::explain::explain(p);
+  const auto it = std::find_if(rep.considered.begin(), rep.considered.end(),
+                               [](const auto& c) { return c.effect == "thermal_drift"; });
+  ASSERT_TRUE(it != rep.considered.end()) << models::explain::to_text(rep);
+  EXPECT_EQ(it->verdict, "cannot be fitted: the problem offers no form of it");
+}
