@@ -204,6 +204,44 @@ struct SharedGeometry {
   double chi2 = 0.0, dof = 0.0;
 };
 
+// The passes' scatter (variance per reading) from r, each reading less its station's mean, less the columns d (a
+// constant per direction and a line in time), robustly: the median absolute scatter (as a normal's, 1.4826 MAD,
+// scaled by the readings per dof), the columns fitted again without the readings beyond 4 of it, which are then
+// `apart`. A transient in a few readings (the return settling after the reversal, a knock) is not the passes'
+// scatter, nor the geometry they share: counted in a sum of squares, and tilting the line in time, it made the
+// scatter 6 times what it is and hid a real surface's shared part (dabam-053: the polynomial kept, the rocking
+// refused by the share rule).
+struct Scatter {
+  double sigma2 = 0.0;
+  std::vector<bool> apart;  // per reading
+};
+Scatter robust_scatter(const Eigen::VectorXd& r, const Eigen::MatrixXd& d, double dof) {
+  const auto robust_sigma = [](const Eigen::VectorXd& e) {
+    std::vector<double> magnitude(e.data(), e.data() + e.size());
+    for (double& v : magnitude) v = std::abs(v);
+    std::nth_element(magnitude.begin(), magnitude.begin() + static_cast<std::ptrdiff_t>(magnitude.size() / 2),
+                     magnitude.end());
+    return 1.4826 * magnitude[magnitude.size() / 2];
+  };
+  Eigen::VectorXd e = r - d * d.colPivHouseholderQr().solve(r);
+  const double first = robust_sigma(e);
+  std::vector<Eigen::Index> inside;
+  for (Eigen::Index i = 0; i < r.size(); ++i)
+    if (std::abs(e[i]) <= 4 * first) inside.push_back(i);
+  if (2 * static_cast<Eigen::Index>(inside.size()) > r.size()) {
+    const Eigen::MatrixXd di = d(inside, Eigen::all);
+    const Eigen::VectorXd ri = r(inside);
+    e = r - d * di.colPivHouseholderQr().solve(ri);
+  }
+  Scatter out;
+  const double sigma = robust_sigma(e);
+  out.sigma2 = std::max(sigma * sigma * static_cast<double>(r.size()) / dof, 1e-12);
+  out.apart.resize(static_cast<std::size_t>(r.size()));
+  for (Eigen::Index i = 0; i < r.size(); ++i)
+    out.apart[static_cast<std::size_t>(i)] = sigma > 0 && std::abs(e[i]) > 4 * sigma;
+  return out;
+}
+
 // The strongest line of the periodogram of v (the station means' leftovers, weighted, at the stations x) over the
 // frequencies lo, lo + df, .. hi. Where the span is S steps those are the bins (6 + i) / (4 span) of a DFT of 4 S
 // points (the stations sit on the grid x0 + s step): one FFT, the same sums in another order, used where the
@@ -283,14 +321,18 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
   }
   const double dof_scatter = static_cast<double>(n) - static_cast<double>(S) - 2.0;
   if (dof_scatter < 8) return out;
-  const double scatter_rss = (r - d * d.colPivHouseholderQr().solve(r)).squaredNorm();
-  const double sigma2 = std::max(scatter_rss / dof_scatter, 1e-12);
-  // The shared part: station means, weighted by their readings, against the polynomial, the yaw and one wave.
+  const Scatter scatter = robust_scatter(r, d, dof_scatter);
+  const double sigma2 = scatter.sigma2;
+  // The shared part: station means, weighted by their readings, against the polynomial, the yaw and one wave; not
+  // at a station where a reading stands apart from the others (a transient of one pass is not shared geometry).
+  std::vector<bool> judged(S, true);
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (scatter.apart[static_cast<std::size_t>(i)]) judged[stations[static_cast<std::size_t>(i)]] = false;
   const auto S_i = static_cast<Eigen::Index>(S);
   Eigen::VectorXd w(S_i), m(S_i), x(S_i);
   for (std::size_t s = 0; s < S; ++s) {
     const auto k = static_cast<Eigen::Index>(s);
-    w[k] = std::sqrt(count[s]);
+    w[k] = judged[s] ? std::sqrt(count[s]) : 0.0;
     m[k] = mean[s] * w[k];
     x[k] = l.x0_m + l.step_m * static_cast<double>(s);
   }
@@ -324,7 +366,7 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
     }
   }
   const double shared_rss = std::min({r1, r2, rss_at(best_f)});
-  out.dof = static_cast<double>(S) - static_cast<double>(q) - 3.0;
+  out.dof = static_cast<double>(std::count(judged.begin(), judged.end(), true)) - static_cast<double>(q) - 3.0;
   if (out.dof < 8) return out;
   out.chi2 = shared_rss / sigma2;
   out.judged = true;
