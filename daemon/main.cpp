@@ -118,12 +118,17 @@ int main(int argc, char** argv) {
         }
       } remove_scratch{scratch};
       config.socket_path = std::string(scratch) + "/guideway.sock";
+      std::vector<std::string> device_warnings;  // what a device says of its own table (an old key name)
       {
         const auto emulators = daemon::launch_emulators(config);
         const auto devices = daemon::create_devices(config, registry);
         (void)daemon::processing_steps(config, devices);
+        for (const auto& d : devices)
+          for (const auto& e : d->take_events())
+            if (e.warning) device_warnings.push_back("device " + d->name() + ": " + e.reason);
       }
       std::cout << config.source << ": OK (" << config.devices.size() << " device(s))\n";
+      for (const std::string& w : device_warnings) std::cout << "warning: " << w << "\n";
       // Not errors: the instruments still measure (unless refuse_uncalibrated refuses their sessions).
       for (const std::string& w : daemon::calibration_warnings(config, utc_today()))
         std::cout << "warning: " << w << "\n";

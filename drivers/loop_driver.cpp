@@ -14,12 +14,37 @@
 
 namespace guideway::drivers {
 
+Reconnect read_reconnect(const TableReader& t, std::chrono::milliseconds default_min,
+                         std::chrono::milliseconds default_max) {
+  Reconnect r;
+  // One key, under its name or its old one (never both); `used` gets the name the table gave.
+  const auto read = [&](const std::string& key, const std::string& old, std::int64_t fallback, std::int64_t max,
+                        std::string& used) {
+    used = key;
+    if (!t.has(old)) return t.get_int(key, fallback, 1, max);
+    if (t.has(key)) t.fail(old, old + " is the old name of " + key + ": give " + key + " only");
+    r.deprecated.push_back(t.path() + "." + old + " is deprecated: write " + key + " (the same meaning) in " +
+                           t.file());
+    used = old;
+    return t.get_int(old, fallback, 1, max);
+  };
+  std::string min_key, max_key;
+  const std::int64_t min_ms = read("reconnect_min_ms", "backoff_initial_ms", default_min.count(), 600000, min_key);
+  const std::int64_t max_ms = read("reconnect_max_ms", "backoff_max_ms", default_max.count(), 3600000, max_key);
+  if (max_ms < min_ms)
+    t.fail(max_key, "must not be less than " + min_key + " (" + std::to_string(min_ms) + " ms): the waits double from " +
+                        min_key + " up to it");
+  r.backoff = Backoff::between(std::chrono::milliseconds(min_ms), std::chrono::milliseconds(max_ms));
+  return r;
+}
+
 LoopDriver::LoopDriver(std::string name, std::string driver, std::vector<ChannelInfo> channels,
                        std::size_t ring_capacity, LoopPolicy policy)
     : Driver(std::move(name), std::move(driver), std::move(channels), ring_capacity),
-      policy_(policy),
-      backoff_(policy.backoff) {
+      policy_(std::move(policy)),
+      backoff_(policy_.reconnect.backoff) {
   set_sample_bound(std::chrono::nanoseconds(policy_.sample_bound_ns));
+  for (const std::string& why : policy_.reconnect.deprecated) post_event({"deprecated_key", why, true});
 }
 
 void LoopDriver::on_silence(std::int64_t now_ns) {
@@ -30,7 +55,7 @@ void LoopDriver::on_silence(std::int64_t now_ns) {
 
 void LoopDriver::attach(IoLoop& loop) {
   io_ = &loop;
-  backoff_ = policy_.backoff;
+  backoff_ = policy_.reconnect.backoff;
   backoff_.reset();
   ever_up_ = false;
   timer_ = loop.add_timer([this] { on_timer(); });

@@ -8,6 +8,7 @@
 // hook by hook, is in docs/plugins.md ("A built-in loop-driven driver").
 // Thread safety: as drivers::Driver. Everything below runs on the loop's thread, attach() to detach().
 
+#include <chrono>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -39,8 +40,25 @@ enum class ReadSchedule {
   paced,
 };
 
+// How a loop-driven driver retries its link, as its [[device]] table says (read_reconnect).
+struct Reconnect {
+  Backoff backoff{0.1, 5.0};  // between failed opens; back to its first wait after a link that gave samples
+  // The table's keys that carry an old name, each said in words: the skeleton posts every one as a
+  // `deprecated_key` event (a warning; the daemon logs it) when the device is made.
+  std::vector<std::string> deprecated;
+};
+
+// The link's back-off keys of a [[device]] table, the same for every loop-driven driver
+// (docs/configuration.md, "[[device]]"): `reconnect_min_ms`, the first wait after a failed open or a
+// lost link, doubling up to `reconnect_max_ms`; the driver's defaults when they are left out. The
+// names of older configurations, `backoff_initial_ms` and `backoff_max_ms`, are read in their place,
+// each with a line in `deprecated`. Throws ConfigError naming file, line and key for a key given
+// under both names, a value out of range, or a ceiling below the first wait.
+Reconnect read_reconnect(const TableReader& table, std::chrono::milliseconds default_min,
+                         std::chrono::milliseconds default_max);
+
 struct LoopPolicy {
-  Backoff backoff{0.1, 5.0};       // between failed opens; back to its first wait after a link that gave samples
+  Reconnect reconnect;              // the back-off between failed opens (and the old key names to warn of)
   bool unreached_is_error = false;  // an open that fails before the device was ever reached: `error` (else `lost`)
   ReadSchedule schedule = ReadSchedule::rest;  // at every link up (the driver may change it: set_schedule)
   std::int64_t read_period_ns = default_read_period_us * 1000;  // the rest; 0: the rest schedule reads per arrival
@@ -110,8 +128,6 @@ class LoopDriver : public Driver {
   [[nodiscard]] bool relinked() const noexcept { return relinked_; }
   [[nodiscard]] IoLoop& loop() noexcept { return *io_; }
   [[nodiscard]] const LoopPolicy& policy() const noexcept { return policy_; }
-  // The back-off of a driver that also runs on a thread of its own (run()).
-  [[nodiscard]] Backoff& backoff() noexcept { return backoff_; }
   void set_schedule(ReadSchedule schedule) noexcept { schedule_ = schedule; }
   [[nodiscard]] ReadSchedule schedule() const noexcept { return schedule_; }
   // Starts a rest now (the rest schedule): e.g. after sending a request whose answer can wait for

@@ -1,15 +1,18 @@
 #!/usr/bin/env python3
-"""Lists the longest C++ functions and lambdas of the tree, or fails when one is over a bound.
+"""Lists the longest C++ functions, lambdas or classes of the tree, or fails when one (or a file) is over a bound.
 
 Usage:
-  scripts/function_lengths.py [--top N] [--lambdas] [DIR ...]        the N longest (default 20)
-  scripts/function_lengths.py --max-lines N [--max-lambda-lines M] DIR ...
-                                                  exits 1 naming each function (lambda) longer
+  scripts/function_lengths.py [--top N] [--lambdas | --classes] [DIR ...]   the N longest (default 20)
+  scripts/function_lengths.py [--max-lines N] [--max-lambda-lines M] [--max-class-lines C]
+                              [--max-file-lines F] DIR ...
+                                                  exits 1 naming each function (lambda, class, file) longer
 A length is the lines from the function's name to its closing brace. A lambda is measured on its own
-and also counts in the function around it. Comments and string literals are read as blanks, so a
-brace in them does not count. No compiler needed: a small scanner of braces and parentheses, good
-for this code base's style (docs/architecture.md "Where a new thing goes": the bound on cli/,
-models/ and report/).
+and also counts in the function around it. A class (struct, union) is its definition, from `class` to
+its closing brace, plus its members defined outside it (`Name::member` in the class's own file, or in
+the folder of the header that defines it): what a reader must take in to know it. Comments and string
+literals are read as blanks, so a brace in them does not count. No compiler needed: a small scanner of
+braces and parentheses, good for this code base's style (docs/architecture.md "Where a new thing goes":
+the bounds on cli/, models/ and report/).
 """
 import argparse
 import pathlib
@@ -18,6 +21,8 @@ import sys
 
 SOURCE_SUFFIXES = (".cpp", ".hpp", ".h", ".inc")
 SCOPE_KEYWORDS = re.compile(r"^(template\s*<.*>\s*)?(namespace|class|struct|union|enum|extern)\b", re.S)
+# A class head once its template parameters are gone: its keyword and its (qualified) name.
+CLASS_HEAD = re.compile(r"(class|struct|union)\s+(?:alignas\s*\([^)]*\)\s*)?(?:\[\[[^\]]*\]\]\s*)?([A-Za-z_][\w:]*)")
 IDENT = re.compile(r"[A-Za-z_~][A-Za-z_0-9]*(?:::[A-Za-z_~][A-Za-z_0-9]*)*$")
 
 
@@ -146,8 +151,15 @@ def scan(path, text):
                 paren = header.find("(")
                 top = re.sub(r"\([^()]*\)", "()", header)
                 if SCOPE_KEYWORDS.match(header):
-                    m = re.search(r"\b(?:class|struct|union|namespace)\s+([\w:]+)", header)
-                    walk(i + 1, close, (qualifier + "::" + m.group(1)) if m and "namespace" not in header else qualifier)
+                    decl = re.sub(r"^template\s*<.*?>\s*(?=(?:class|struct|union)\b)", "", header, flags=re.S)
+                    m = CLASS_HEAD.match(decl)
+                    if m:
+                        qualified = (qualifier + "::" + m.group(2)).lstrip(":")
+                        names = [x.start() for x in re.finditer(r"\b" + re.escape(m.group(2)) + r"\b", code[stmt:i])]
+                        heads = [x.start() for x in re.finditer(r"\b(?:class|struct|union)\b", code[stmt:i])
+                                 if not names or x.start() < names[-1]]
+                        found.append(("class", qualified, line_of[stmt + (heads[-1] if heads else 0)], line_of[close]))
+                    walk(i + 1, close, (qualifier + "::" + m.group(2)) if m else qualifier)
                     stmt = close + 1
                     i = close + 1
                     continue
@@ -186,14 +198,41 @@ def scan(path, text):
     return found
 
 
-def measure(roots):
-    rows = []
+def source_files(roots):
     for root in roots:
         base = pathlib.Path(root)
-        files = [base] if base.is_file() else sorted(p for p in base.rglob("*") if p.suffix in SOURCE_SUFFIXES)
-        for path in files:
-            for kind, name, first, last in scan(path, path.read_text(errors="replace")):
+        yield from [base] if base.is_file() else sorted(p for p in base.rglob("*") if p.suffix in SOURCE_SUFFIXES)
+
+
+def measure(roots):
+    """(lines, kind, name, where) of every function, lambda and class (a class with its members defined
+    outside it), and (lines, "file", path, path) of every file."""
+    rows, found = [], []
+    for path in source_files(roots):
+        text = path.read_text(errors="replace")
+        rows.append((text.count("\n") + (0 if text.endswith("\n") or not text else 1), "file", str(path), str(path)))
+        for kind, name, first, last in scan(path, text):
+            found.append((path, kind, name, first, last))
+            if kind != "class":
                 rows.append((last - first + 1, kind, name, f"{path}:{first}"))
+    # A class defined in a source file is that file's (an anonymous namespace's); one in a header, its folder's.
+    classes = {}
+    for path, kind, name, first, last in found:
+        if kind == "class":
+            key = (path, name) if path.suffix == ".cpp" else (path.parent, name)
+            if key not in classes:
+                classes[key] = {"lines": 0, "where": f"{path}:{first}", "spans": []}
+            classes[key]["lines"] += last - first + 1
+            classes[key]["spans"].append((path, first, last))
+    for path, kind, name, first, last in found:
+        if kind != "function" or "::" not in name:
+            continue
+        owner = name.rsplit("::", 1)[0]
+        c = classes.get((path, owner)) or classes.get((path.parent, owner))
+        if c and not any(p == path and a <= first <= b for p, a, b in c["spans"]):
+            c["lines"] += last - first + 1
+    for (_, name), c in classes.items():
+        rows.append((c["lines"], "class", name, c["where"]))
     return rows
 
 
@@ -202,17 +241,26 @@ def main():
     ap.add_argument("dirs", nargs="*", default=["."])
     ap.add_argument("--top", type=int, default=20)
     ap.add_argument("--lambdas", action="store_true", help="list lambdas too")
+    ap.add_argument("--classes", action="store_true", help="list classes (with their members defined outside)")
     ap.add_argument("--max-lines", type=int, help="fail on a function longer than this")
     ap.add_argument("--max-lambda-lines", type=int, help="fail on a lambda longer than this")
+    ap.add_argument("--max-class-lines", type=int, help="fail on a class longer than this")
+    ap.add_argument("--max-file-lines", type=int, help="fail on a file longer than this")
     args = ap.parse_args()
     rows = measure(args.dirs)
-    if args.max_lines is not None or args.max_lambda_lines is not None:
-        over = [r for r in rows if (r[1] == "function" and args.max_lines is not None and r[0] > args.max_lines) or
-                (r[1] == "lambda" and args.max_lambda_lines is not None and r[0] > args.max_lambda_lines)]
+    bounds = {"function": args.max_lines, "lambda": args.max_lambda_lines, "class": args.max_class_lines,
+              "file": args.max_file_lines}
+    if any(b is not None for b in bounds.values()):
+        over = [r for r in rows if bounds[r[1]] is not None and r[0] > bounds[r[1]]]
         for n, kind, name, where in sorted(over, reverse=True):
-            print(f"{where}: {kind} {name} is {n} lines")
+            print(f"{where}: file is {n} lines" if kind == "file" else f"{where}: {kind} {name} is {n} lines")
         return 1 if over else 0
-    shown = sorted((r for r in rows if args.lambdas or r[1] == "function"), reverse=True)[:args.top]
+    if args.classes:
+        for n, kind, name, where in sorted((r for r in rows if r[1] == "class"), reverse=True)[:args.top]:
+            print(f"{n:5d}  {kind:8s}  {name}  {where}")
+        return 0
+    shown = sorted((r for r in rows if (args.lambdas and r[1] == "lambda") or r[1] == "function"),
+                   reverse=True)[:args.top]
     for n, kind, name, where in shown:
         print(f"{n:5d}  {kind:8s}  {name}  {where}")
     functions = sorted(r[0] for r in rows if r[1] == "function")

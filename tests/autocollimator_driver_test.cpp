@@ -51,8 +51,7 @@ struct Bench {
     s.reply_timeout_ms = 100;
     s.lost_after_timeouts = 2;
     s.require_checksum = checksum;
-    s.reconnect_min_ms = 10;
-    s.reconnect_max_ms = 100;
+    s.reconnect.backoff = Backoff::between(std::chrono::milliseconds(10), std::chrono::milliseconds(100));
     s.x_channel = "yaw";
     s.y_channel = "pitch";
     driver = std::make_unique<drivers::autocollimator::AutocollimatorDriver>("ac", 1 << 14, s);
@@ -311,8 +310,7 @@ TEST(AutocollimatorDriver, CreatedFromConfigThroughTheRegistry) {
 TEST(AutocollimatorDriver, AMissingPortIsAnErrorStateWithTheReasonAndRetries) {
   drivers::autocollimator::AutocollimatorSettings s;
   s.serial.port = "/nonexistent/tty-guideway";
-  s.reconnect_min_ms = 5;
-  s.reconnect_max_ms = 20;
+  s.reconnect.backoff = Backoff::between(std::chrono::milliseconds(5), std::chrono::milliseconds(20));
   drivers::autocollimator::AutocollimatorDriver d("ac", 64, s);
   d.start();
   ASSERT_TRUE(test::eventually([&] { return d.status().state == DeviceState::error; }));

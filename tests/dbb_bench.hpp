@@ -68,8 +68,7 @@ struct Bench {
     s.sync_rate_hz = rate_hz;
     s.read_period_us = read_period_us;
     s.timeout_ms = timeout_ms;
-    s.reconnect_min_ms = 10;
-    s.reconnect_max_ms = 100;
+    s.reconnect.backoff = Backoff::between(std::chrono::milliseconds(10), std::chrono::milliseconds(100));
     s.encoders = three_encoders();
     if (tune_driver) tune_driver(s);
     emu.start();

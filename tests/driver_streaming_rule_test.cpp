@@ -141,8 +141,7 @@ drivers::profilometer::ProfilometerConfig profilometer_config(int port) {
   c.port = port;
   c.connect_timeout = 200ms;
   c.stall_timeout = 300ms;
-  c.backoff_initial = 10ms;
-  c.backoff_max = 50ms;
+  c.reconnect.backoff = Backoff::between(10ms, 50ms);
   return c;
 }
 
@@ -207,8 +206,7 @@ TEST(StreamingRule, MicrometerOverTcpJunkOrSilentPeerIsNeverStreaming) {
     c.endpoint.response_timeout = 50ms;
     c.poll_hz = 50.0;
     c.lost_after_failures = 2;
-    c.backoff_initial = 10ms;
-    c.backoff_max = 50ms;
+    c.reconnect.backoff = Backoff::between(10ms, 50ms);
     drivers::micrometer::MicrometerDriver d("mic", c, 256);
     d.start();
     expect_never_streaming(d, peer, 700ms);
@@ -256,8 +254,7 @@ TEST(StreamingRule, AutocollimatorJunkOrSilentPeerIsNeverStreaming) {
     s.poll_period_ms = 20;
     s.reply_timeout_ms = 50;
     s.lost_after_timeouts = 2;
-    s.reconnect_min_ms = 10;
-    s.reconnect_max_ms = 50;
+    s.reconnect.backoff = Backoff::between(std::chrono::milliseconds(10), std::chrono::milliseconds(50));
     drivers::autocollimator::AutocollimatorDriver d("ac", 256, s);
     d.start();
     expect_never_streaming(d, peer, 700ms);
@@ -276,8 +273,7 @@ TEST(StreamingRule, MicrometerOverRtuJunkOrSilentPeerIsNeverStreaming) {
     c.endpoint.response_timeout = 50ms;
     c.poll_hz = 50.0;
     c.lost_after_failures = 2;
-    c.backoff_initial = 10ms;
-    c.backoff_max = 50ms;
+    c.reconnect.backoff = Backoff::between(10ms, 50ms);
     drivers::micrometer::MicrometerDriver d("mic", c, 256);
     d.start();
     expect_never_streaming(d, peer, 700ms);
@@ -294,8 +290,7 @@ TEST(StreamingRule, DbbJunkOrSilentBusIsNeverStreaming) {
     s.produce_sync = true;
     s.sync_rate_hz = 200.0;
     s.timeout_ms = 100;
-    s.reconnect_min_ms = 10;
-    s.reconnect_max_ms = 50;
+    s.reconnect.backoff = Backoff::between(std::chrono::milliseconds(10), std::chrono::milliseconds(50));
     s.network.sdo_checks = false;  // the nodes are started (NMT), never heard from
     s.encoders = {{"bar_length", 1, 1e-7, +1, 0, 0.1}, {"x", 2, 1e-7, +1, 0, 0.0}};
     s.nodes.resize(2);

@@ -425,8 +425,7 @@ TEST(SharedIoLoop, FourDriversOnOneThreadEachSurvivesItsFaultsWhileTheOthersFlow
   as.stream_period_ms = 5;
   as.reply_timeout_ms = 100;
   as.lost_after_timeouts = 2;
-  as.reconnect_min_ms = 10;
-  as.reconnect_max_ms = 100;
+  as.reconnect.backoff = Backoff::between(std::chrono::milliseconds(10), std::chrono::milliseconds(100));
   drivers::autocollimator::AutocollimatorDriver ac("ac", 1 << 14, as);
 
   simulators::emulators::MicrometerEmulator::Options mo;
@@ -435,8 +434,8 @@ TEST(SharedIoLoop, FourDriversOnOneThreadEachSurvivesItsFaultsWhileTheOthersFlow
   ASSERT_GT(mic_port, 0) << error;
   auto mic = from_toml<drivers::micrometer::MicrometerDriver>(
       "transport = \"tcp\"\nhost = \"127.0.0.1\"\nport = " + std::to_string(mic_port) +
-          "\npoll_hz = 200\nresponse_timeout_ms = 100\nlost_after_failures = 3\nbackoff_initial_ms = 20\n"
-          "backoff_max_ms = 100\n[registers]\nvalue_type = \"int32\"\n",
+          "\npoll_hz = 200\nresponse_timeout_ms = 100\nlost_after_failures = 3\nreconnect_min_ms = 20\n"
+          "reconnect_max_ms = 100\n[registers]\nvalue_type = \"int32\"\n",
       drivers::micrometer::parse_micrometer_config, 1 << 14);
 
   simulators::emulators::ProfilometerEmulator::Options po;
@@ -448,7 +447,7 @@ TEST(SharedIoLoop, FourDriversOnOneThreadEachSurvivesItsFaultsWhileTheOthersFlow
   ASSERT_GT(prof_port, 0) << error;
   auto prof = from_toml<drivers::profilometer::ProfilometerDriver>(
       "host = \"127.0.0.1\"\nport = " + std::to_string(prof_port) +
-          "\nstall_timeout_ms = 200\nbackoff_initial_ms = 20\nbackoff_max_ms = 100\n",
+          "\nstall_timeout_ms = 200\nreconnect_min_ms = 20\nreconnect_max_ms = 100\n",
       drivers::profilometer::parse_profilometer_config, 1 << 16);
 
   ac.start(&loop);

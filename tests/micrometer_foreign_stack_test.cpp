@@ -155,7 +155,7 @@ struct Device {
 
 const std::string polled_keys =
     "poll_hz = 200\nresponse_timeout_ms = 200\nlost_after_failures = 3\n"
-    "backoff_initial_ms = 50\nbackoff_max_ms = 200\n";
+    "reconnect_min_ms = 50\nreconnect_max_ms = 200\n";
 
 // The three polled maps of pymodbus_amplifier.py, as [device.registers] tables.
 struct PolledMap {
@@ -239,11 +239,11 @@ void check_ring_sequence(const std::vector<Sample>& samples, std::uint64_t start
 }
 
 const std::string input_ring =
-    "poll_period_ms = 20\nresponse_timeout_ms = 200\nlost_after_failures = 3\nbackoff_initial_ms = 50\n"
+    "poll_period_ms = 20\nresponse_timeout_ms = 200\nlost_after_failures = 3\nreconnect_min_ms = 50\n"
     "[buffer]\nfunction = \"input\"\ncounter_address = 100\ncounter_word_order = \"big\"\nring_address = 200\n"
     "ring_samples = 512\nsample_rate_hz = 1000\nvalue_type = \"int32\"\nword_order = \"big\"\nstatus = true\n";
 const std::string holding_ring =
-    "poll_period_ms = 20\nresponse_timeout_ms = 200\nlost_after_failures = 3\nbackoff_initial_ms = 50\n"
+    "poll_period_ms = 20\nresponse_timeout_ms = 200\nlost_after_failures = 3\nreconnect_min_ms = 50\n"
     "[buffer]\nfunction = \"holding\"\ncounter_address = 300\ncounter_word_order = \"little\"\nring_address = 400\n"
     "ring_samples = 512\nsample_rate_hz = 1000\nvalue_type = \"int32\"\nword_order = \"little\"\nstatus = false\n";
 

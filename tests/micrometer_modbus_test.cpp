@@ -13,6 +13,7 @@
 #include <mutex>
 #include <thread>
 
+#include "core/mono_clock.hpp"
 #include "core/sample.hpp"
 #include "driver_counters_support.hpp"
 #include "drivers/micrometer/micrometer_driver.hpp"
@@ -52,7 +53,7 @@ struct Harness {
     const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(transport +
                            "poll_hz = 100\nresponse_timeout_ms = 400\nlost_after_failures = 3\n"
-                           "backoff_initial_ms = 50\nbackoff_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
+                           "reconnect_min_ms = 50\nreconnect_max_ms = 400\n[registers]\nvalue_type = \"int32\"\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
     driver = std::make_unique<drivers::micrometer::MicrometerDriver>(
@@ -248,7 +249,7 @@ INSTANTIATE_TEST_SUITE_P(Modbus, MicrometerTransport, ::testing::Values(false, t
                          [](const auto& p) { return p.param ? std::string("Rtu") : std::string("Tcp"); });
 
 TEST(MicrometerDriver, ReportsLostWhenNothingListensAndBacksOff) {
-  auto table = parse_toml("transport = \"tcp\"\nport = 1\nbackoff_initial_ms = 20\nbackoff_max_ms = 40\n", "t.toml");
+  auto table = parse_toml("transport = \"tcp\"\nport = 1\nreconnect_min_ms = 20\nreconnect_max_ms = 40\n", "t.toml");
   TableReader reader(table, "t.toml", "device[0]");
   drivers::micrometer::MicrometerDriver d("mic", drivers::micrometer::parse_micrometer_config(reader), 16);
   d.start();
@@ -299,7 +300,7 @@ struct BufferedHarness {
     emulator = std::make_unique<MicrometerEmulator>(o);
     const std::string transport = start_transport(*emulator, rtu);
     table = parse_toml(
-        transport + extra_keys + "backoff_initial_ms = 50\nbackoff_max_ms = 200\n[buffer]\n" +
+        transport + extra_keys + "reconnect_min_ms = 50\nreconnect_max_ms = 200\n[buffer]\n" +
             "counter_address = 100\nring_address = 200\nsample_rate_hz = " + std::to_string(configured_rate_hz) +
             "\nring_samples = " + std::to_string(ring_samples) + "\n",
         "test.toml");
@@ -626,6 +627,59 @@ TEST(MicrometerDriver, BufferedConfigErrorsNameFileLineAndKey) {
             std::string::npos);
 }
 
+// One set of reconnect keys for every loop-driven driver, read by the skeleton (drivers::read_reconnect):
+// the micrometer's and profilometer's old names still work, each said as a deprecation; a table that
+// gives a key under both names, or a ceiling below the first wait, is refused naming file, line and key.
+TEST(MicrometerDriver, ReconnectKeysAreTheSkeletonsAndTheOldNamesAreDeprecated) {
+  const auto parse = [](const std::string& keys) {
+    auto table = parse_toml("port = 1502\n" + keys, "mic.toml");
+    TableReader reader(table, "mic.toml", "device[0]");
+    auto c = drivers::micrometer::parse_micrometer_config(reader);
+    reader.reject_unknown_keys();
+    return c;
+  };
+  const auto error = [&](const std::string& keys) {
+    try {
+      parse(keys);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const auto defaults = parse("");
+  EXPECT_DOUBLE_EQ(defaults.reconnect.backoff.min_s, 0.1);
+  EXPECT_DOUBLE_EQ(defaults.reconnect.backoff.max_s, 5.0);
+  EXPECT_TRUE(defaults.reconnect.deprecated.empty());
+  const auto now = parse("reconnect_min_ms = 20\nreconnect_max_ms = 40\n");
+  EXPECT_DOUBLE_EQ(now.reconnect.backoff.min_s, 0.02);
+  EXPECT_DOUBLE_EQ(now.reconnect.backoff.max_s, 0.04);
+  EXPECT_TRUE(now.reconnect.deprecated.empty());
+  const auto old = parse("backoff_initial_ms = 20\nbackoff_max_ms = 40\n");
+  EXPECT_DOUBLE_EQ(old.reconnect.backoff.min_s, 0.02);
+  EXPECT_DOUBLE_EQ(old.reconnect.backoff.max_s, 0.04);
+  ASSERT_EQ(old.reconnect.deprecated.size(), 2u);
+  EXPECT_NE(old.reconnect.deprecated[0].find("device[0].backoff_initial_ms is deprecated: write reconnect_min_ms"),
+            std::string::npos)
+      << old.reconnect.deprecated[0];
+  EXPECT_NE(old.reconnect.deprecated[1].find("backoff_max_ms is deprecated: write reconnect_max_ms"), std::string::npos);
+  // The skeleton posts each as a warning event, which the daemon logs.
+  drivers::micrometer::MicrometerDriver driver("mic", old, 16);
+  const auto events = driver.take_events();
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].event, "deprecated_key");
+  EXPECT_TRUE(events[0].warning);
+  EXPECT_EQ(events[0].reason, old.reconnect.deprecated[0]);
+  EXPECT_NE(error("reconnect_min_ms = 20\nbackoff_initial_ms = 30\n")
+                .find("mic.toml:3: device[0].backoff_initial_ms: backoff_initial_ms is the old name of reconnect_min_ms"),
+            std::string::npos)
+      << error("reconnect_min_ms = 20\nbackoff_initial_ms = 30\n");
+  EXPECT_NE(error("reconnect_min_ms = 20\nreconnect_max_ms = 10\n")
+                .find("mic.toml:3: device[0].reconnect_max_ms: must not be less than reconnect_min_ms (20 ms)"),
+            std::string::npos)
+      << error("reconnect_min_ms = 20\nreconnect_max_ms = 10\n");
+  EXPECT_NE(error("reconnect_min_ms = 0\n").find("device[0].reconnect_min_ms"), std::string::npos);
+}
+
 // An answer that comes after the driver gave up on it (700 ms, timeout 400 ms) is never taken for the
 // next request's: RTU has no transaction id, so the driver first brings the line back in step; TCP's
 // transaction id does it. Every published reading is one the emulator answered in time, in order.
@@ -686,6 +740,63 @@ TEST(MicrometerRtu, AServerIgnoringTheProbeIsReadOnWithoutIt) {
   EXPECT_EQ(st.state, drivers::DeviceState::streaming);
   EXPECT_GE(st.counters.timeouts, 3u) << "the first stall and its silent probe, then the second stall alone";
   h.expect_matches_served();
+}
+
+// Over RTU libmodbus blocks for each read: a whole response timeout (here 1 s) when the amplifier does
+// not answer, again for the probe after it. The driver is on the skeleton all the same, on the loop it
+// shares with the other devices, and only the line's thread takes that wait (drivers/modbus/rtu_line.hpp):
+// another device's timer on the loop, every 5 ms, is never held up by the line.
+TEST(MicrometerRtu, AStalledReadNeverHoldsUpTheSharedLoop) {
+  MicrometerEmulator::Options o;
+  o.source = simulators::emulators::runout_source(120.0);
+  MicrometerEmulator emulator(o);
+  auto table = parse_toml(start_transport(emulator, true) +
+                              "poll_hz = 50\nresponse_timeout_ms = 1000\nlost_after_failures = 3\n"
+                              "[registers]\nvalue_type = \"int32\"\n",
+                          "test.toml");
+  TableReader reader(table, "test.toml", "device[0]");
+  drivers::micrometer::MicrometerDriver driver("mic", drivers::micrometer::parse_micrometer_config(reader), 1 << 14);
+  EXPECT_TRUE(driver.loop_driven());
+  drivers::IoLoop loop;
+  loop.start("test-io");
+  std::int64_t due_ns = 0, worst_late_ns = 0;  // the loop thread's
+  int fired = 0;
+  drivers::IoLoop::Id timer = 0;
+  loop.call([&] {
+    timer = loop.add_timer([&] {
+      worst_late_ns = std::max(worst_late_ns, mono_now_ns() - due_ns);
+      ++fired;
+      due_ns = mono_now_ns() + 5'000'000;
+      loop.arm(timer, due_ns);
+    });
+    due_ns = mono_now_ns() + 5'000'000;
+    loop.arm(timer, due_ns);
+  });
+  driver.start(&loop);
+  std::size_t samples = 0;
+  const auto samples_reach = [&](std::size_t n) {
+    return test::eventually([&] {
+      Sample s;
+      while (driver.ring().try_pop(s)) ++samples;
+      return samples >= n;
+    });
+  };
+  ASSERT_TRUE(samples_reach(10));
+  emulator.inject(ModbusFault::stall, 1);
+  ASSERT_TRUE(test::eventually([&] { return driver.status().counters.timeouts >= 1; }, 10s));
+  ASSERT_TRUE(samples_reach(samples + 10));
+  driver.stop();
+  int fired_total = 0;
+  std::int64_t worst = 0;
+  loop.call([&] {
+    loop.remove_timer(timer);
+    fired_total = fired;
+    worst = worst_late_ns;
+  });
+  loop.stop();
+  emulator.stop();
+  EXPECT_LT(worst, 300'000'000) << "the loop waited for the line (a read timed out after 1 s meanwhile)";
+  EXPECT_GT(fired_total, 100);
 }
 
 namespace {

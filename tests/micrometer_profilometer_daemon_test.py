@@ -96,8 +96,8 @@ transport = "rtu"
 device = "{self.rtu.address}"
 poll_hz = 50
 response_timeout_ms = 300
-backoff_initial_ms = 50
-backoff_max_ms = 400
+reconnect_min_ms = 50
+reconnect_max_ms = 400
 [[device]]
 name = "mic-tcp"
 driver = "micrometer-modbus"
@@ -106,8 +106,8 @@ host = "{host}"
 port = {port}
 poll_hz = 50
 response_timeout_ms = 300
-backoff_initial_ms = 50
-backoff_max_ms = 400
+reconnect_min_ms = 50
+reconnect_max_ms = 400
 [device.registers]
 value_type = "int32"
 [[device]]
@@ -116,8 +116,8 @@ driver = "profilometer-tcp"
 host = "{phost}"
 port = {pport}
 stall_timeout_ms = 1000
-backoff_initial_ms = 50
-backoff_max_ms = 400
+reconnect_min_ms = 50
+reconnect_max_ms = 400
 """)
 
     def streaming_with(self, name, samples):

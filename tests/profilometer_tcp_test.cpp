@@ -32,7 +32,7 @@ struct Harness {
     const int port = emulator->start("127.0.0.1", 0, error);
     if (port < 0) throw std::runtime_error(error);
     table = parse_toml("host = \"127.0.0.1\"\nport = " + std::to_string(port) +
-                           "\nstall_timeout_ms = 1500\nbackoff_initial_ms = 50\nbackoff_max_ms = 400\n",
+                           "\nstall_timeout_ms = 1500\nreconnect_min_ms = 50\nreconnect_max_ms = 400\n",
                        "test.toml");
     TableReader reader(table, "test.toml", "device[0]");
     driver = std::make_unique<drivers::profilometer::ProfilometerDriver>(

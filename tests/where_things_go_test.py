@@ -197,12 +197,15 @@ class WhereThingsGo(unittest.TestCase):
             self.assertIn(name, started, f"config/default.toml starts guideway-emulate {name}")
 
     def test_every_built_in_driver_is_its_protocol_on_the_skeleton(self):
-        """The loop's timer and hooks, the link's back-off and the rest schedule are the skeleton's
-        (drivers/loop_driver.hpp): an instrument's folder touches none of them."""
+        """The loop's timer and hooks, the link's back-off (and its keys) and the rest schedule are the
+        skeleton's (drivers/loop_driver.hpp): an instrument's folder touches none of them, and runs no
+        thread of its own with a connect loop."""
         registered = re.findall(r"&(\w+)::register_\w+_driver", text("drivers/builtin.cpp"))
         self.assertTrue(registered)
         loop_words = re.compile(r"add_timer|add_wake_hook|add_settle_hook|remove_hook|->arm\(|\.arm\(|->watch\(|"
-                                r"->modify\(|LoopConnector|default_read_period_us \*")
+                                r"->modify\(|LoopConnector|default_read_period_us \*|"
+                                r"backoff\(\)|take_ns\(|take_s\(|sleep_for\(|std::stop_token|void run\(|"
+                                r'"reconnect_m(in|ax)_ms"|"backoff_(initial|max)_ms"')
         for name in registered:
             header = text(f"drivers/{name}/{name}_driver.hpp")
             self.assertTrue("public drivers::LoopDriver" in header, f"drivers/{name}: not on the skeleton")

@@ -33,8 +33,7 @@ AutocollimatorSettings parse_autocollimator_settings(const TableReader& t) {
   s.lost_after_timeouts = static_cast<int>(t.get_int("lost_after_timeouts", 3, 1, 1000));
   s.require_checksum = t.get_bool("require_checksum", false);
   s.range_arcsec = t.get_double("range_arcsec", 1000.0, 1.0, max_reported_arcsec);
-  s.reconnect_min_ms = t.get_int("reconnect_min_ms", 50, 1, 600000);
-  s.reconnect_max_ms = t.get_int("reconnect_max_ms", 5000, s.reconnect_min_ms, 3600000);
+  s.reconnect = drivers::read_reconnect(t, std::chrono::milliseconds(50), std::chrono::milliseconds(5000));
   s.x_channel = t.get_string("x_channel", "angle_x");
   s.y_channel = t.get_string("y_channel", "angle_y");
   if (s.x_channel == s.y_channel) t.fail("y_channel", "x_channel and y_channel must differ");
@@ -65,7 +64,7 @@ namespace {
 
 drivers::LoopPolicy policy_of(const AutocollimatorSettings& s) {
   drivers::LoopPolicy p;
-  p.backoff = Backoff::between(std::chrono::milliseconds(s.reconnect_min_ms), std::chrono::milliseconds(s.reconnect_max_ms));
+  p.reconnect = s.reconnect;
   p.unreached_is_error = true;  // a port that was never there is a wrong path
   // Stream mode with lines less than two read periods apart rests between reads; otherwise (polls,
   // slow streams) a rest would only delay the line.

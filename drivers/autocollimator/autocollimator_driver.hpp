@@ -26,8 +26,7 @@ struct AutocollimatorSettings {
   int lost_after_timeouts = 3;          // consecutive timeouts before the state becomes "lost"
   bool require_checksum = false;
   double range_arcsec = 1000.0;  // readings beyond are flagged out of range
-  std::int64_t reconnect_min_ms = 50;
-  std::int64_t reconnect_max_ms = 5000;
+  drivers::Reconnect reconnect{Backoff{0.05, 5.0}, {}};  // reconnect_min_ms 50, reconnect_max_ms 5000
   std::string x_channel = "angle_x";
   std::string y_channel = "angle_y";
   // Stream mode with lines less than two read periods apart: rest this long between reads while

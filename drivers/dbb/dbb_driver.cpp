@@ -94,8 +94,7 @@ DbbSettings parse_dbb_settings(const TableReader& t) {
   if (s.read_period_us * 1000 >= s.timeout_ms * 1'000'000) {
     t.fail("read_period_us", "must be shorter than timeout_ms (" + std::to_string(s.timeout_ms) + " ms)");
   }
-  s.reconnect_min_ms = t.get_int("reconnect_min_ms", 50, 1, 600000);
-  s.reconnect_max_ms = t.get_int("reconnect_max_ms", 5000, s.reconnect_min_ms, 3600000);
+  s.reconnect = drivers::read_reconnect(t, std::chrono::milliseconds(50), std::chrono::milliseconds(5000));
   NetworkSettings& n = s.network;
   n.manage_nmt = t.get_choice("nmt", "start", {"start", "listen"}) == "start";
   n.sdo_checks = t.get_bool("sdo_checks", n.manage_nmt);
@@ -193,7 +192,7 @@ std::int64_t sync_period_ns(const DbbSettings& s) {
 
 drivers::LoopPolicy policy_of(const DbbSettings& s) {
   drivers::LoopPolicy p;
-  p.backoff = Backoff::between(std::chrono::milliseconds(s.reconnect_min_ms), std::chrono::milliseconds(s.reconnect_max_ms));
+  p.reconnect = s.reconnect;
   p.unreached_is_error = true;  // a bus that was never there is a wrong interface or path
   const std::int64_t period_ns = s.produce_sync ? sync_period_ns(s) : 0;
   // Short SYNC periods: wake once per cycle, at the SYNC, and read the previous cycle's PDOs then

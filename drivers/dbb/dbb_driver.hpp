@@ -31,8 +31,8 @@ struct DbbSettings {
   // times); 0: wake for every frame arrival. See docs/protocols.md for the default.
   std::int64_t read_period_us = default_read_period_us;
   std::int64_t timeout_ms = 500;       // silence after which the device is "lost" (one timeout counted per period)
-  std::int64_t reconnect_min_ms = 50;  // backoff doubles from min to max between failed connects
-  std::int64_t reconnect_max_ms = 5000;
+  // The back-off between failed connects (reconnect_min_ms 50, reconnect_max_ms 5000).
+  drivers::Reconnect reconnect{Backoff{0.05, 5.0}, {}};
   std::vector<EncoderScale> encoders;
   // CANopen network management (dbb_network.hpp): NMT, SDO checks, heartbeat consumer. Its
   // pdo_timeout_ms is always timeout_ms (the driver sets it).

@@ -49,7 +49,7 @@ namespace {
 
 LoopPolicy linuxcnc_policy() {
   LoopPolicy p;
-  p.backoff = Backoff{0.2, 5.0};  // LinuxCNC (re)started: the bridge is back within its first waits
+  p.reconnect.backoff = Backoff{0.2, 5.0};  // LinuxCNC (re)started: the bridge is back within its first waits
   p.schedule = ReadSchedule::per_arrival;
   p.read_period_ns = 0;
   return p;

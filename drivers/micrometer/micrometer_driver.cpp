@@ -54,9 +54,7 @@ MicrometerConfig parse_micrometer_config(const TableReader& t) {
     c.poll_hz = t.get_double("poll_hz", 50.0, 0.01, 10000.0);
   }
   c.lost_after_failures = static_cast<int>(t.get_int("lost_after_failures", 3, 1, 1000));
-  c.backoff_initial = std::chrono::milliseconds(t.get_int("backoff_initial_ms", 100, 1, 600000));
-  c.backoff_max = std::chrono::milliseconds(t.get_int("backoff_max_ms", 5000, 1, 3600000));
-  if (c.backoff_max < c.backoff_initial) t.fail("backoff_max_ms", "must not be less than backoff_initial_ms");
+  c.reconnect = drivers::read_reconnect(t, std::chrono::milliseconds(100), std::chrono::milliseconds(5000));
   return c;
 }
 
@@ -130,7 +128,7 @@ std::chrono::nanoseconds poll_period_of(const MicrometerConfig& c) {
 
 drivers::LoopPolicy policy_of(const MicrometerConfig& c) {
   drivers::LoopPolicy p;
-  p.backoff = Backoff::between(c.backoff_initial, c.backoff_max);
+  p.reconnect = c.reconnect;
   p.schedule = drivers::ReadSchedule::per_arrival;  // a poll that may share the others' passes rests (send_request)
   // Lost after lost_after_failures polls without an answer.
   p.sample_bound_ns =
@@ -174,62 +172,6 @@ void MicrometerDriver::new_link(bool relinked) {
 }
 
 MicrometerDriver::PollTask MicrometerDriver::make_poll() { return config_.buffer ? buffered_poll() : polled_poll(); }
-
-void MicrometerDriver::run(std::stop_token stop) {
-  modbus::ModbusClient client(config_.endpoint);
-  stale_seen_ = 0;  // a new client counts from 0
-  Backoff& wait = backoff();  // the skeleton's policy, on this thread
-  wait.reset();
-  ever_connected_ = false;
-  gap_ = false;
-  cursor_ = std::make_unique<RingCursor>(config_.buffer ? config_.buffer->sample_rate_hz : 1.0);
-  const auto period = poll_period();
-  while (!stop.stop_requested()) {
-    set_state(drivers::DeviceState::connecting);
-    std::string error;
-    if (!client.connect(error)) {
-      set_state(drivers::DeviceState::lost, error);
-      if (!sleep_for(stop, std::chrono::nanoseconds(wait.take_ns()))) break;
-      continue;
-    }
-    if (ever_connected_) reconnects_.fetch_add(1, std::memory_order_relaxed);
-    mark_link_up();
-    set_state(drivers::DeviceState::streaming);
-    new_link(ever_connected_);
-    ever_connected_ = true;
-    const std::uint64_t published_at_up = published_samples();
-    auto next = std::chrono::steady_clock::now();
-    while (!stop.stop_requested()) {
-      client.flush();  // stray or late answers must not be taken for this poll's
-      PollTask poll = make_poll();
-      poll.resume();
-      while (!poll.done()) {
-        for (std::size_t i = 0; i < asked_; ++i) {
-          Exchange& x = xs_[i];
-          const modbus::ReadStatus before = i > 0 ? xs_[i - 1].result.status : modbus::ReadStatus::ok;
-          if (before != modbus::ReadStatus::ok && before != modbus::ReadStatus::exception) {
-            x.result = xs_[i - 1].result;  // the line failed: the rest would fail the same way, one timeout each
-            continue;
-          }
-          x.result = client.read(x.function, x.address, x.count, x.block);
-          count_stale(client);
-          x.t_answer_ns = mono_now_ns();
-        }
-        poll.resume();
-      }
-      if (end_link_) break;
-      next += period;
-      const auto now = std::chrono::steady_clock::now();
-      if (next < now) next = now;  // late (a timeout ate the period): poll again at once, no catch-up burst
-      if (!sleep_for(stop, next - now)) break;
-    }
-    client.close();
-    if (stop.stop_requested()) break;
-    set_state(drivers::DeviceState::lost, last_failure_);
-    if (published_samples() > published_at_up) wait.reset();  // after a link that gave samples: soon
-    if (!sleep_for(stop, std::chrono::nanoseconds(wait.take_ns()))) break;
-  }
-}
 
 MicrometerDriver::PollTask MicrometerDriver::polled_poll() {
   const std::uint16_t start = config_.map.block_start();
@@ -277,11 +219,10 @@ void MicrometerDriver::failed(const modbus::ReadResult& r) {
   }
 }
 
-void MicrometerDriver::count_stale(const modbus::ModbusClient& client) noexcept {
-  const std::uint64_t n = client.stale_answers();
-  if (n == stale_seen_) return;
-  count_stale_frames(n - stale_seen_);
-  stale_seen_ = n;
+void MicrometerDriver::count_stale(std::uint64_t total) noexcept {
+  if (total == stale_seen_) return;
+  count_stale_frames(total - stale_seen_);
+  stale_seen_ = total;
 }
 
 void MicrometerDriver::count_stale_frames(std::uint64_t n) noexcept {
@@ -392,7 +333,7 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
   // counter says so): a poll is one round trip, not one per read, and its samples wait in the socket
   // for one pass of the loop, not three.
   std::vector<modbus::RingRead> ahead;
-  if (loop_driven() && !one_at_a_time_ && cursor.counter.started()) {
+  if (!rtu() && !one_at_a_time_ && cursor.counter.started()) {
     const double since_s = static_cast<double>(t_query - cursor.last_query_ns) * 1e-9;
     const auto taken = static_cast<std::uint64_t>(std::max(0.0, rate * since_s * 1.02) + 2.0);
     ahead = modbus::plan_ring_reads(ring, cursor.next, cursor.counter.count() + taken);
@@ -477,9 +418,19 @@ MicrometerDriver::PollTask MicrometerDriver::buffered_poll() {
   if (!end_link_ && ok) failures_ = 0;
 }
 
-// ---- Modbus TCP on the I/O loop.
+// ---- The I/O loop: Modbus TCP on the socket, RTU through the line's thread.
 
 void MicrometerDriver::open() {
+  if (rtu()) {
+    if (!rtu_) rtu_ = std::make_unique<modbus::RtuLine>(config_.endpoint);
+    std::string error;
+    if (rtu_->open(error)) {
+      link_up(rtu_->fd());
+    } else {
+      link_failed(error);
+    }
+    return;
+  }
   // libmodbus waits a response timeout for the connection too.
   connect_tcp(config_.endpoint.host, config_.endpoint.port, config_.endpoint.describe(),
               config_.endpoint.response_timeout);
@@ -498,7 +449,14 @@ void MicrometerDriver::on_link_up(std::int64_t now_ns) {
 
 void MicrometerDriver::on_stop() {
   // The one wait on the loop's thread: when a device stops, for its answers, each within
-  // response_timeout_ms.
+  // response_timeout_ms (over RTU, as long as the line takes to answer the reads under way).
+  if (rtu()) {
+    while (poll_ && link_is_up() && ask_ == Ask::awaiting) {
+      rtu_->wait();
+      (void)read_some(false);
+    }
+    return;
+  }
   while (poll_ && link_is_up() && ask_ == Ask::awaiting) {
     const std::int64_t left = deadline_ns_ - mono_now_ns();
     if (left <= 0) break;
@@ -511,6 +469,7 @@ void MicrometerDriver::on_stop() {
 }
 
 void MicrometerDriver::on_link_down() {
+  if (rtu_) rtu_->close();  // after the reads under way: they write into xs_
   poll_.reset();
   rx_.clear();
   ask_ = Ask::idle;
@@ -544,6 +503,16 @@ std::size_t MicrometerDriver::read_socket(std::string& ended) {
 
 drivers::ReadOutcome MicrometerDriver::read_some(bool) {
   drivers::ReadOutcome out;
+  if (rtu()) {
+    if (!rtu_->answered()) return out;
+    out.taken = asked_;
+    count_stale(rtu_->stale_answers());
+    if (ask_ == Ask::awaiting) {
+      answered_ = asked_;
+      all_answered();  // may end the link (a poll that gives it up)
+    }
+    return out;
+  }
   std::string ended;
   out.taken = read_socket(ended);
   if (!ended.empty()) {
@@ -622,12 +591,16 @@ void MicrometerDriver::start_poll() {
   early_ns_ = 0;
   set_service_slack(0);
   // Stray or late answers must not be taken for this poll's.
-  rx_.clear();
-  std::string ended;
-  (void)read_socket(ended);
-  if (!ended.empty()) {
-    end_link("disconnected: " + ended);
-    return;
+  if (rtu()) {
+    flush_next_ = true;  // by the line, before its first read
+  } else {
+    rx_.clear();
+    std::string ended;
+    (void)read_socket(ended);
+    if (!ended.empty()) {
+      end_link("disconnected: " + ended);
+      return;
+    }
   }
   poll_ = std::make_unique<PollTask>(make_poll());
   continue_poll();
@@ -643,6 +616,19 @@ void MicrometerDriver::continue_poll() {
 }
 
 void MicrometerDriver::send_request() {
+  if (rtu()) {
+    answered_ = 0;
+    sent_ns_ = mono_now_ns();
+    ask_ = Ask::awaiting;
+    deadline_ns_ = drivers::IoLoop::never;  // the line times out each read itself
+    rtu_->ask(std::span<Exchange>(xs_.data(), asked_), std::exchange(flush_next_, false));
+    if (busy_) {
+      rest_from(sent_ns_);
+    } else {
+      set_schedule(drivers::ReadSchedule::per_arrival);
+    }
+    return;
+  }
   // Every request of the ask in one write.
   std::array<std::uint8_t, (1 + max_reads_ahead) * modbus::tcp_request_bytes> requests{};
   for (std::size_t i = 0; i < asked_; ++i) {

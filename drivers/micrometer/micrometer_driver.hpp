@@ -8,19 +8,23 @@
 // part (as far as the amplifier will have got, from its rate) go out in one write, so a poll is one
 // round trip; an amplifier that answers only the first of such pipelined requests is read one
 // request at a time from then on. Register maps, transport and rates come from the
-// [[device]] table (docs/protocols.md). A poll is written once, as a coroutine that asks for each
-// register read and is resumed with its answer: over TCP the I/O loop does the reads (on the driver
-// skeleton, drivers/loop_driver.hpp: a non-blocking Modbus TCP client, modbus_tcp.hpp); over RTU a
-// thread of its own does them with libmodbus (a blocking library on a serial line). Either way
-// `streaming` while samples arrive within lost_after_failures polls. Thread safety as drivers::Driver.
+// [[device]] table (docs/protocols.md). The driver is its protocol on the skeleton
+// (drivers/loop_driver.hpp), over either transport: a poll is written once, as a coroutine that asks
+// for each register read and is resumed with its answer. Over TCP the I/O loop does the reads (a
+// non-blocking Modbus TCP client, modbus_tcp.hpp); over RTU the line's own thread does them with
+// libmodbus, which blocks for a serial round trip, and answers through an eventfd the loop watches
+// (modbus/rtu_line.hpp): the loop never waits for the line. Either way `streaming` while samples
+// arrive within lost_after_failures polls. Thread safety as drivers::Driver.
 
 #include <chrono>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "drivers/loop_driver.hpp"
 #include "drivers/modbus/modbus_client.hpp"
 #include "drivers/modbus/register_map.hpp"
+#include "drivers/modbus/rtu_line.hpp"
 #include "drivers/modbus/sample_ring.hpp"
 
 namespace guideway::drivers::micrometer {
@@ -35,8 +39,7 @@ struct MicrometerConfig {
   std::optional<modbus::SampleRingMap> buffer;            // set: buffered mode
   double poll_period_ms = default_buffer_poll_period_ms;  // buffered mode
   int lost_after_failures = 3;                            // consecutive failed polls before the link is declared lost
-  std::chrono::milliseconds backoff_initial{100};
-  std::chrono::milliseconds backoff_max{5000};
+  drivers::Reconnect reconnect{Backoff{0.1, 5.0}, {}};  // reconnect_min_ms 100, reconnect_max_ms 5000
 };
 
 // Reads every key the driver accepts (throws ConfigError naming file:line:key).
@@ -67,21 +70,15 @@ class MicrometerDriver : public drivers::LoopDriver {
             {"stale_answers", stale_answers_.load(std::memory_order_relaxed)}};
   }
 
-  [[nodiscard]] bool loop_driven() const noexcept override {
-    return config_.endpoint.kind == modbus::ModbusEndpoint::Kind::tcp;
-  }
-
  protected:
-  void run(std::stop_token stop) override;  // RTU
-  // TCP, on the skeleton:
+  // Connects to the TCP server without blocking, or opens the serial line (which does not block).
   void open() override;
   void on_link_up(std::int64_t now_ns) override;
   // Reads the answers (and drives the poll on with them); late or stray ones while idle are dropped.
   drivers::ReadOutcome read_some(bool at_others_pass) override;
-  // Starts a poll when it is due, fails an ask that timed out.
+  // Starts a poll when it is due, fails an ask that timed out (TCP; the RTU line times out its reads).
   std::int64_t service(std::int64_t now_ns) override;
-  // A poll under way is finished first, as the threaded driver finishes it: what the amplifier answered
-  // is published.
+  // A poll under way is finished first: what the amplifier answered is published.
   void on_stop() override;
   void on_link_down() override;
 
@@ -89,14 +86,7 @@ class MicrometerDriver : public drivers::LoopDriver {
   struct RingCursor;
   class PollTask;
   // One register read a poll asks for, and its answer (put there by whoever does the I/O).
-  struct Exchange {
-    modbus::RegisterFunction function = modbus::RegisterFunction::input;
-    std::uint16_t address = 0;
-    std::uint16_t count = 0;
-    modbus::ReadResult result;
-    std::vector<std::uint16_t> block = std::vector<std::uint16_t>(125);
-    std::int64_t t_answer_ns = 0;  // when the answer arrived (CLOCK_MONOTONIC)
-  };
+  using Exchange = modbus::RegisterRead;
   struct ReadAwaiter;
   ReadAwaiter ask(modbus::RegisterFunction function, std::uint16_t address, std::uint16_t count) noexcept;
   // The first n exchanges of xs_ (filled by the poll) asked at once; resumed when all are answered
@@ -116,14 +106,16 @@ class MicrometerDriver : public drivers::LoopDriver {
   std::string count_failure(const modbus::ReadResult& r);
   void failed(const modbus::ReadResult& r);  // a poll's failed request: counted, the poll ends
   void lose(std::uint64_t n) noexcept;
-  // Takes the late answers the client discarded since the last call into the counters.
-  void count_stale(const modbus::ModbusClient& client) noexcept;
+  // Takes the late answers the RTU line discarded since the last call (`total` so far) into the counters.
+  void count_stale(std::uint64_t total) noexcept;
   void count_stale_frames(std::uint64_t n) noexcept;
   // A new connection: the poll state starts afresh (the ring cursor is kept across reconnects).
   void new_link(bool relinked);
   [[nodiscard]] std::chrono::nanoseconds poll_period() const noexcept;
 
-  // TCP on the I/O loop (the loop thread's).
+  [[nodiscard]] bool rtu() const noexcept { return config_.endpoint.kind == modbus::ModbusEndpoint::Kind::rtu; }
+
+  // On the I/O loop (the loop thread's).
   enum class Ask { idle, awaiting };
   void start_poll();
   // Runs the poll until it asks for an answer that is not there yet, or ends.
@@ -144,22 +136,20 @@ class MicrometerDriver : public drivers::LoopDriver {
   std::atomic<std::uint64_t> lost_samples_{0};
   std::atomic<std::uint64_t> counter_resets_{0};
   std::atomic<std::uint64_t> stale_answers_{0};  // late answers discarded before a read (also bad frames)
-  std::uint64_t stale_seen_ = 0;                 // the RTU client's count already taken
-  // The poll's state (the driver thread's over RTU, the loop thread's over TCP): the exchanges of
-  // the current ask (asked_ of them; a single ask uses xs_[0]).
+  std::uint64_t stale_seen_ = 0;                 // the RTU line's count already taken
+  // The poll's state (the loop thread's): the exchanges of the current ask (asked_ of them; a single
+  // ask uses xs_[0]). Over RTU the line's thread writes their answers while the ask awaits them.
   std::vector<Exchange> xs_ = std::vector<Exchange>(1 + max_reads_ahead);
   std::size_t asked_ = 1;
   std::unique_ptr<RingCursor> cursor_;  // buffered mode
   std::vector<modbus::Reading> readings_;
-  bool ever_connected_ = false;  // RTU
   bool gap_ = false;  // polled mode: the next sample follows a reconnect or a failed poll
   int failures_ = 0;
   bool link_gone_ = false;
   bool end_link_ = false;
   std::string last_failure_;
-  // TCP on the loop.
   Ask ask_ = Ask::idle;
-  std::int64_t deadline_ns_ = 0;  // awaiting: the timeout
+  std::int64_t deadline_ns_ = 0;  // awaiting: the timeout (TCP; never over RTU)
   std::int64_t next_poll_ns_ = 0;
   std::int64_t early_ns_ = 0;  // idle: how early the next poll may start (at another device's pass)
   std::int64_t sent_ns_ = 0;
@@ -172,6 +162,10 @@ class MicrometerDriver : public drivers::LoopDriver {
   std::unique_ptr<PollTask> poll_;
   std::uint64_t poll_pass_ = 0;  // the loop's pass when the last poll began
   bool busy_ = false;            // this poll reads its answers at passes that come anyway
+  // RTU: the serial line, kept across links (a line reopened is the same bus); the next ask first
+  // discards what the line holds (the first of a poll).
+  std::unique_ptr<modbus::RtuLine> rtu_;
+  bool flush_next_ = false;
 };
 
 void register_micrometer_driver(drivers::DriverRegistry& registry);

@@ -17,9 +17,7 @@ ProfilometerConfig parse_profilometer_config(const TableReader& t) {
   c.port = static_cast<int>(t.require_int("port", 1, 65535));
   c.connect_timeout = std::chrono::milliseconds(t.get_int("connect_timeout_ms", 1000, 1, 600000));
   c.stall_timeout = std::chrono::milliseconds(t.get_int("stall_timeout_ms", 2000, 10, 3600000));
-  c.backoff_initial = std::chrono::milliseconds(t.get_int("backoff_initial_ms", 100, 1, 600000));
-  c.backoff_max = std::chrono::milliseconds(t.get_int("backoff_max_ms", 5000, 1, 3600000));
-  if (c.backoff_max < c.backoff_initial) t.fail("backoff_max_ms", "must not be less than backoff_initial_ms");
+  c.reconnect = drivers::read_reconnect(t, std::chrono::milliseconds(100), std::chrono::milliseconds(5000));
   c.read_period_us = t.get_int("read_period_us", drivers::default_read_period_us, 0, 100'000);
   if (c.read_period_us * 1000 >= c.stall_timeout.count() * 1'000'000)
     t.fail("read_period_us",
@@ -31,7 +29,7 @@ namespace {
 
 drivers::LoopPolicy policy_of(const ProfilometerConfig& c) {
   drivers::LoopPolicy p;
-  p.backoff = Backoff::between(c.backoff_initial, c.backoff_max);
+  p.reconnect = c.reconnect;
   p.schedule = c.read_period_us > 0 ? drivers::ReadSchedule::rest : drivers::ReadSchedule::per_arrival;
   p.read_period_ns = c.read_period_us * 1000;
   p.silence_ns = std::chrono::nanoseconds(c.stall_timeout).count();  // the link is lost

@@ -22,8 +22,7 @@ struct ProfilometerConfig {
   int port = 4001;
   std::chrono::milliseconds connect_timeout{1000};
   std::chrono::milliseconds stall_timeout{2000};  // silence longer than this: the link is lost
-  std::chrono::milliseconds backoff_initial{100};
-  std::chrono::milliseconds backoff_max{5000};
+  drivers::Reconnect reconnect{Backoff{0.1, 5.0}, {}};  // reconnect_min_ms 100, reconnect_max_ms 5000
   // Rest between reads while points stream (0: a wake-up per arrival); what arrives meanwhile is read
   // at once and stamped with the kernel's receive time of the newest segment read.
   std::int64_t read_period_us = drivers::default_read_period_us;

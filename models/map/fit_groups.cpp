@@ -27,8 +27,6 @@ Vector3d v3(const Vec3& a) { return {a[0], a[1], a[2]}; }
 constexpr double sigma_floor_m = 1e-10;
 constexpr double sigma_floor_rad = 1e-10;
 
-std::string upper(int axis) { return std::string(1, "XYZ"[axis]); }
-
 // ---- The artifact on one axis ----
 
 // Its targets' positions (the other axes where the artifact lay).
@@ -59,7 +57,7 @@ class ArtifactDisplacements : public Group {
     kind = GroupKind::artifact_displacement;
     stated_sigma = true;
     axis = t.axis;
-    test = "artifact " + upper(axis);
+    test = "artifact " + axis_upper(axis);
     name = test + " displacements";
     unit = "um";
     unit_per_si = 1e6;
@@ -120,7 +118,7 @@ class ArtifactAngles : public Group {
     stated_sigma = true;
     in_fit = !roll_again;
     axis = t.axis;
-    test = "artifact " + upper(axis);
+    test = "artifact " + axis_upper(axis);
     name = test + (roll_again ? " roll, second placement" : " angles");
     unit = "arcsec";
     unit_per_si = 1.0 / rad_per_arcsec;
@@ -186,7 +184,7 @@ class Traverse : public Group {
   Traverse(const TraverseTest& t, const ErrorMap& map) {
     kind = GroupKind::traverse;
     axis = t.axis;
-    test = "traverse " + upper(axis);
+    test = "traverse " + axis_upper(axis);
     name = test;
     unit = "arcsec";
     unit_per_si = 1.0 / rad_per_arcsec;
@@ -442,5 +440,7 @@ LocalModel local_model(const Group& group) {
   }
   return m;
 }
+
+std::string axis_upper(int axis) { return std::string(1, "XYZ"[axis]); }
 
 }  // namespace guideway::models::map::detail

@@ -18,6 +18,9 @@
 
 namespace guideway::models::map::detail {
 
+// "X", "Y", "Z": an axis as the groups and the map's notes name it.
+std::string axis_upper(int axis);
+
 enum class GroupKind { artifact_displacement, artifact_angles, artifact_roll_again, traverse, ballbar };
 
 class Group {

@@ -1,19 +1,17 @@
-// Compensation from a DBB identification (compensation.hpp): the plane axes' error maps, the squareness, the
-// controller's files.
+// The compensation's error map of a DBB identification (compensation.hpp: error_map and what it checks): the
+// terms checked and used, the plane axes' errors on the table's grid.
 #include "models/compensation/compensation.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
-#include <span>
-#include <sstream>
-#include <string_view>
+#include <string>
+#include <vector>
 
 #include "core/number_format.hpp"
-#include "core/printable.hpp"
 #include "formats/compensation_files.hpp"
-#include "models/dbb/geometry.hpp"
+#include "models/compensation/compensation_common.hpp"
 #include "models/explain/dbb_explain.hpp"
 #include "results/parameters.hpp"
 
@@ -21,43 +19,12 @@ namespace guideway::models::compensation {
 
 namespace {
 
-constexpr double pi = std::numbers::pi;
-// A term is applied when it exceeds k standard uncertainties (k = 2, the usual expanded uncertainty):
-// a correction smaller than that is mostly noise (an amplitude such as the cyclic error's is positive
-// even when there is none, about 1.25 u on average).
-constexpr double significance_k = 2.0;
+using detail::find;
+using detail::significance_k;
 
-// The item named `name` (an estimate, a term), nullptr for none.
-template <class Named>
-const Named* find(const std::vector<Named>& items, const std::string& name) {
-  for (const auto& e : items)
-    if (e.name == name) return &e;
-  return nullptr;
-}
+constexpr double pi = std::numbers::pi;
 
 const dbb::Estimate* find(const dbb::Identification& id, const std::string& name) { return find(id.diagnostics, name); }
-
-// Lai's parameters that feed the map: Lai's parameter, the map term (of plane axis `axis`, -1 for a term of
-// the plane) and the factor from Lai's unit to the term's (r = the radius the straightness is normalised to).
-struct LaiTerm {
-  const results::Parameter* lai;
-  const results::Parameter* term;
-  int axis;
-  int radius_power;  // the factor is scale * (r in mm)^radius_power
-  double scale;
-};
-constexpr LaiTerm lai_terms[] = {
-    {&results::lai_S_x, &results::scale, 0, 0, 1e6},
-    {&results::lai_S_y, &results::scale, 1, 0, 1e6},
-    {&results::lai_backlash_x, &results::backlash, 0, 0, 1.0},
-    {&results::lai_backlash_y, &results::backlash, 1, 0, 1.0},
-    {&results::lai_a1, &results::squareness, -1, 0, 1e6},
-    {&results::lai_a2, &results::straightness_bow, 0, 2, 1e3},  // a2 (1/mm) r^2 (mm^2) = mm
-    {&results::lai_b2, &results::straightness_bow, 1, 2, 1e3},
-    {&results::lai_a3, &results::straightness_cubic, 0, 3, 1e3},
-    {&results::lai_b3, &results::straightness_cubic, 1, 3, 1e3},
-    {&results::lai_servo_mismatch, &results::servo_mismatch, -1, 0, 1.0},
-};
 
 // The table steps offered by default (mm): a round spacing a user can read.
 constexpr double default_steps_mm[] = {0.1, 0.2, 0.25, 0.5, 1, 2, 2.5, 5, 10, 20, 25, 50, 100};
@@ -96,11 +63,6 @@ std::optional<dbb::Estimate> cubic_difference(const dbb::Identification& id) {
   return std::nullopt;
 }
 
-std::string estimate_text(const Term& t) {
-  if (!t.determined) return t.name + " not determined";
-  return t.name + " = " + printf_number("%.4g", t.value) + " +/- " + printf_number("%.2g", t.u);
-}
-
 }  // namespace
 
 double AxisTerms::cyclic_m(double position_m) const {
@@ -117,67 +79,6 @@ double AxisTerms::straightness_m(double position_m) const {
   const double d = position_m - center_m, q = d / radius_m;
   return bow_m * q * q + cubic_per_m2 * d * d * d;
 }
-
-std::string lai3_term_of(const std::string& lai_name, const std::string& plane) {
-  for (const auto& t : lai_terms)
-    if (lai_name == t.lai->name) return results::name(*t.term, plane, t.axis);
-  return "";
-}
-
-std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radius_m, std::vector<std::string>& notes) {
-  std::vector<dbb::Estimate> out;
-  std::string missing;
-  for (const auto& t : lai_terms) {
-    const auto* e = find(id.lai3, std::string(t.lai->name));
-    if (!e || !e->fitted) {
-      missing += (missing.empty() ? "" : ", ") + std::string(t.lai->name);
-      continue;
-    }
-    const double f = t.scale * std::pow(radius_m * 1e3, t.radius_power);
-    const double v = t.lai == &results::lai_S_x || t.lai == &results::lai_S_y ? e->value - 1.0 : e->value;
-    out.push_back({results::name(*t.term, id.plane, t.axis), v * f, e->u * f, true});
-  }
-  if (!missing.empty()) {
-    std::string combos;
-    for (const auto& c : id.fit.combinations) combos += (combos.empty() ? "" : ", ") + c.expression;
-    notes.push_back("Lai's model could not separate " + missing + " with these runs, so the map has no such term" +
-                    (combos.empty() ? std::string() : " (they determine only " + combos + ")") +
-                    "; a pattern with h > 0 at another radius separates them (docs/conventions.md)");
-  }
-  // Both scales off by the same large amount is a radius change common to both axes (the position
-  // loops' lag at the runs' feed, a bar calibration error), not the axes' own scales: the table takes
-  // only their difference, as the identification's note for the diagnostics says.
-  dbb::Estimate* sa = nullptr;
-  dbb::Estimate* sb = nullptr;
-  for (auto& e : out) {
-    if (e.name == results::name(results::scale, id.plane, 0)) sa = &e;
-    if (e.name == results::name(results::scale, id.plane, 1)) sb = &e;
-  }
-  if (sa && sb) {
-    const double common = 0.5 * (sa->value + sb->value), mismatch = sa->value - sb->value;
-    if (std::abs(common) > 50 && std::abs(common) > 3 * std::abs(mismatch)) {
-      notes.push_back("both scales read about " + printf_number("%.0f", common) +
-                      " ppm: a radius change common to both axes (a position loop's lag shrinks a circle by r "
-                      "(omega tau)^2 / 2 at high feed; a bar calibration error), not the axes' own scales; the "
-                      "tables hold only their difference (" +
-                      printf_number("%.1f", mismatch) +
-                      " ppm, split about zero): measure at a low feed for the scales themselves");
-      sa->value -= common;
-      sb->value -= common;
-    }
-  }
-  std::string other;
-  for (const auto& e : id.lai3)
-    if (e.fitted && lai3_term_of(e.name, id.plane).empty() && !e.name.starts_with("e_x") &&
-        !e.name.starts_with("e_y") && e.name != results::lai_mismatch_phase_angle.name)
-      other += (other.empty() ? "" : ", ") + e.name;
-  if (!other.empty())
-    notes.push_back("not in the map: Lai's out-of-plane terms (" + other +
-                    ": straightness along the plane normal, roll), which no table of the plane axes can hold");
-  return out;
-}
-
-int joint_of(const std::string& axis) { return axis == "x" ? 0 : (axis == "y" ? 1 : 2); }
 
 std::optional<std::array<double, 2>> runs_center_m(const std::vector<formats::DbbRun>& runs) {
   std::optional<std::array<double, 2>> c;
@@ -462,14 +363,7 @@ bool spike_from_backlash_step(const ErrorMap& map, const dbb::Estimate& before, 
   return false;
 }
 
-std::string left_out_in_words(const Term& t, const ErrorMap& m) {
-  const auto* explain = t.contradiction.starts_with("contradicts EXPLAIN") ? find(m.cross_check, t.name) : nullptr;
-  if (!t.determined || !explain) return left_out_because(t);
-  const results::Shown theirs = results::shown(t.name, explain->value, explain->u, m.plane);
-  const double z = std::abs(t.value - explain->value) / std::hypot(t.u, explain->u);
-  return "NOT WRITTEN: EXPLAIN finds " + theirs.value + (theirs.unit.empty() ? "" : " " + theirs.unit) +
-         " on the same runs (" + printf_number("%.0f", z) + " combined u apart)";
-}
+
 
 std::string left_out_because(const Term& t) {
   if (!t.determined) return "not determined by these runs";
@@ -481,202 +375,6 @@ std::string left_out_because(const Term& t) {
 SquarenessAdvice squareness_advice(double squareness_rad) {
   // actual a = a + q b: to land on the nominal a, command a - q b, i.e. -q * 100 mm per +100 mm of b.
   return {squareness_rad * 1e6, -squareness_rad * 0.1 * 1e6};
-}
-
-namespace {
-
-std::vector<std::string> header_lines(const ErrorMap& m, const std::string& source) {
-  std::vector<std::string> h;
-  h.push_back("written by guideway compensate from " + source + "; error model: " + m.model +
-              (m.model == "lai3" ? " (Lai's third-order model, its terms named as the diagnostics')"
-                                 : " (the ballbar diagnostics)"));
-  const auto& t0 = m.terms_of[0];
-  h.push_back("measured circle: centre (" + printf_number("%.3f", t0.center_m * 1e3) + ", " +
-              printf_number("%.3f", m.terms_of[1].center_m * 1e3) + ") mm in the " + m.plane + " plane, radius " +
-              printf_number("%.3f", t0.radius_m * 1e3) +
-              " mm; valid only over that range, in that plane and at that height");
-  h.push_back("positions are relative to the axis' position at the circle centre (a DBB sees no constant offset)");
-  std::string applied, left_out, undetermined, contradicted;
-  for (const auto& t : m.terms) {
-    if (t.use == Use::not_geometric) continue;
-    const auto add = [&](std::string& list, const std::string& text) { list += (list.empty() ? "" : ", ") + text; };
-    if (t.applied())
-      add(applied, estimate_text(t));
-    else if (!t.determined)
-      add(undetermined, t.name);
-    else if (!t.contradiction.empty())
-      add(contradicted, estimate_text(t) + " (" + t.contradiction + ")");
-    else
-      add(left_out, estimate_text(t));
-  }
-  h.push_back("identified (value +/- standard uncertainty): " + (applied.empty() ? std::string("none") : applied));
-  h.push_back("left out, not larger than twice their standard uncertainty (k = 2): " +
-              (left_out.empty() ? std::string("none") : left_out));
-  if (!undetermined.empty())
-    h.push_back("left out, not determined by these runs (size or uncertainty beyond their circular deviation G): " +
-                undetermined);
-  if (!contradicted.empty()) h.push_back("left out, contradicting EXPLAIN on the same runs: " + contradicted);
-  std::string other;
-  for (const auto& t : m.terms)
-    if (t.use == Use::not_geometric) other += (other.empty() ? "" : ", ") + estimate_text(t);
-  if (!other.empty()) h.push_back("servo and friction effects, in no table: " + other);
-  for (const auto& n : m.notes) h.push_back(n);
-  return h;
-}
-
-std::string letters_upper(const std::string& s) {
-  std::string o = s;
-  for (auto& c : o) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return o;
-}
-
-}  // namespace
-
-std::vector<std::string> compensation_file_names() {
-  std::vector<std::string> names{"x.comp", "y.comp", "z.comp", "linuxcnc.ini", "errors.csv", "straightness.csv"};
-  for (std::size_t k = 0, n = names.size(); k < n; ++k) names.push_back(names[k] + std::string(do_not_load_suffix));
-  return names;
-}
-
-std::vector<OutputFile> compensation_files(const ErrorMap& m, const std::string& source) {
-  return compensation_files(std::vector<ErrorMap>{m}, source);
-}
-
-namespace {
-
-// Each axis' map once, from the first plane that sees it, with its plane's terms.
-std::vector<std::pair<const ErrorMap*, std::size_t>> axes_once(const std::vector<ErrorMap>& planes) {
-  std::vector<std::pair<const ErrorMap*, std::size_t>> out;
-  for (const auto& m : planes)
-    for (std::size_t k = 0; k < m.axes.size(); ++k)
-      if (std::none_of(out.begin(), out.end(),
-                       [&](const auto& a) { return a.first->axes[a.second].axis == m.axes[k].axis; }))
-        out.emplace_back(&m, k);
-  return out;
-}
-
-// The squareness of each plane as errors.csv's metadata (one plane: squareness_significant, as before).
-void squareness_meta(const std::vector<ErrorMap>& planes, std::vector<std::pair<std::string, std::string>>& meta) {
-  for (const auto& m : planes) {
-    if (!m.squareness_known) continue;
-    const std::string a = m.axes[0].axis, b = m.axes[1].axis;
-    const auto adv = squareness_advice(m.squareness_rad);
-    meta.emplace_back("squareness_" + a + b + "_urad", printf_number("%.3f", m.squareness_rad * 1e6));
-    meta.emplace_back("squareness_" + a + b + "_u_urad", printf_number("%.3f", m.squareness_u_rad * 1e6));
-    meta.emplace_back(
-        planes.size() == 1 ? std::string("squareness_significant") : "squareness_" + a + b + "_significant",
-        m.squareness_significant ? "true" : "false");
-    meta.emplace_back("squareness_correction_" + a + "_um_per_100mm_" + b,
-                      printf_number("%.3f", adv.correction_um_per_100mm));
-  }
-}
-
-}  // namespace
-
-std::vector<OutputFile> compensation_files(const std::vector<ErrorMap>& planes, const std::string& source) {
-  if (planes.empty()) throw CompensationError("no plane to write compensation files of");
-  std::vector<OutputFile> out;
-  std::vector<std::string> head;
-  std::string plane_names, table_names;
-  for (const auto& m : planes) {
-    plane_names += (plane_names.empty() ? "" : ",") + m.plane;
-    for (const auto& l : header_lines(m, source))
-      if (std::find(head.begin(), head.end(), l) == head.end()) head.push_back(l);
-  }
-  const auto axes = axes_once(planes);
-  std::vector<formats::IniJoint> joints;
-  for (const auto& [mp, k] : axes) {
-    const ErrorMap& m = *mp;
-    const AxisMap& am = m.axes[k];
-    std::vector<formats::CompTriplet> table;
-    for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
-      table.push_back({am.nominal_m[i] * 1e3, (am.nominal_m[i] + am.table_forward_m[i]) * 1e3,
-                       (am.nominal_m[i] + am.table_reverse_m[i]) * 1e3});
-    std::vector<std::string> c;
-    c.push_back("LinuxCNC compensation table of joint " + std::to_string(joint_of(am.axis)) + " (axis " +
-                letters_upper(am.axis) + "), COMP_FILE_TYPE = 0: nominal, actual moving +, actual moving - (mm)");
-    c.push_back(
-        "these comments follow the table because LinuxCNC stops reading at the first line that is not three numbers");
-    c.insert(c.end(), head.begin(), head.end());
-    c.push_back("in this table: scale, backlash and cyclic error of " + letters_upper(am.axis) +
-                " (those applied above); straightness: straightness.csv (cross-axis), squareness: axis skew; both "
-                "also in errors.csv");
-    const auto& at = m.terms_of[k];
-    if (at.cyclic_amplitude_m != 0.0) {
-      if (at.cyclic_table_gain > 0)
-        c.push_back("the cyclic part is multiplied by " + printf_number("%.4f", at.cyclic_table_gain) +
-                    " = 1 / sinc^2(step / period): LinuxCNC's linear interpolation between lines " +
-                    printf_number("%.3g", m.step_m * 1e3) + " mm apart attenuates a " +
-                    printf_number("%.3g", at.cyclic_period_m * 1e3) +
-                    " mm period by the inverse (errors.csv holds the error itself)");
-      else
-        c.push_back(
-            "the cyclic error is NOT in this table: its period is shorter than two table steps (use a smaller "
-            "circle or a finer --step-mm)");
-    }
-    out.push_back({am.axis + ".comp", formats::format_linuxcnc_comp(table, c)});
-    joints.push_back({joint_of(am.axis), am.axis, am.axis + ".comp"});
-    table_names += (table_names.empty() ? "" : " / ") + am.axis + ".comp";
-  }
-  std::vector<std::string> ic{"Guideway compensation: lines for the [JOINT_n] sections of the machine's INI file",
-                              "copy " + table_names +
-                                  " next to the INI file (COMP_FILE is read relative to it), "
-                                  "then restart LinuxCNC",
-                              "joint numbers assume trivial kinematics (X = 0, Y = 1, Z = 2): check your [KINS]"};
-  for (const auto& l : head) ic.push_back(l);
-  out.push_back({"linuxcnc.ini", formats::format_linuxcnc_ini(joints, ic)});
-
-  std::vector<formats::ErrorMapRow> rows;
-  for (const auto& [mp, k] : axes) {
-    const AxisMap& am = mp->axes[k];
-    for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
-      rows.push_back({am.axis, am.nominal_m[i] * 1e3, am.forward_m[i] * 1e6, am.reverse_m[i] * 1e6, am.across,
-                      am.straightness_m[i] * 1e6});
-  }
-  std::vector<std::pair<std::string, std::string>> meta;
-  meta.emplace_back("source", source);
-  meta.emplace_back("plane", plane_names);
-  meta.emplace_back("model", planes.front().model);
-  squareness_meta(planes, meta);
-  std::vector<std::string> ec = head;
-  ec.push_back("forward_um / reverse_um: positioning error (actual - nominal) of the axis moving in + / -");
-  ec.push_back("straightness_um: displacement of the axis along straightness_axis (ends relative to the centre)");
-  for (const auto& m : planes) {
-    const std::string a = m.axes[0].axis, b = m.axes[1].axis;
-    ec.push_back("squareness (sign): actual " + a + " = " + a + " + q " + b + ", i.e. " + letters_upper(b) +
-                 " leans towards +" + a + " for q > 0; um/m = urad");
-  }
-  if (planes.size() > 1)
-    ec.push_back(
-        "each axis once, from the first plane that sees it (its straightness along that plane's other axis; "
-        "the other plane's in straightness.csv)");
-  out.push_back({"errors.csv", formats::format_error_map_csv(rows, meta, ec)});
-
-  // The cross-axis correction undoes the straightness: the other axis is commanded back by as much.
-  std::vector<formats::CrossCorrectionRow> cross;
-  for (const auto& m : planes)
-    for (const auto& am : m.axes)
-      if (am.straightness_applied)
-        for (std::size_t i = 0; i < am.nominal_m.size(); ++i)
-          cross.push_back({am.axis, am.nominal_m[i] * 1e3, am.across, -am.straightness_m[i] * 1e3});
-  if (!cross.empty()) {
-    std::vector<std::string> sc = head;
-    sc.push_back(
-        "correction_mm: added to the command of corrected_axis, interpolated linearly in moving_axis' "
-        "commanded position (minus the straightness of moving_axis along corrected_axis; ends relative "
-        "to the centre)");
-    sc.push_back(
-        "load it as a cross-axis / straightness compensation table (docs/compensation.md); a per-joint "
-        "table cannot hold it");
-    for (const auto& m : planes)
-      for (const auto& am : m.axes)
-        if (!am.straightness_applied)
-          sc.push_back("no rows for " + am.axis + (planes.size() > 1 ? " along " + am.across : std::string()) +
-                       ": its straightness is not larger than twice its uncertainty");
-    out.push_back({"straightness.csv",
-                   formats::format_straightness_csv(cross, {{"source", source}, {"plane", plane_names}}, sc)});
-  }
-  return out;
 }
 
 std::vector<RefusedFigure> use_machine_figures(std::vector<ErrorMap>& planes, const dbb::PlanesSummary& summary) {
@@ -713,79 +411,6 @@ std::vector<RefusedFigure> use_machine_figures(std::vector<ErrorMap>& planes, co
     }
   }
   return refused;
-}
-
-namespace {
-
-// Why the squareness is not entered as skew.
-std::string squareness_left_out(const ErrorMap& m) {
-  const auto* t = find(m.terms, results::name(results::squareness));
-  const std::string why = t ? left_out_because(*t) : "";
-  return why.empty() || why == "left out (not larger than 2 u)" ? "not significant" : why;
-}
-
-}  // namespace
-
-std::string to_text(const ErrorMap& m) {
-  std::ostringstream o;
-  o << "compensation from "
-    << (m.model == "lai3" ? "Lai's third-order model (lai3; terms named as the diagnostics')"
-                          : "the ballbar diagnostics")
-    << " (" << m.plane << " plane, table step " << printf_number("%.3g", m.step_m * 1e3) << " mm)\n";
-  // Each term by its label, its value rounded to u in the unit it is shown in, and where it went.
-  std::vector<std::array<std::string, 4>> rows{{"term", "value \u00b1 u", "", "use"}};
-  for (const auto& t : m.terms) {
-    std::string use = left_out_in_words(t, m);
-    if (!use.empty())
-      ;
-    else if (t.use == Use::table)
-      use = t.name.find("_" + m.axes[0].axis + "_") != std::string::npos ? m.axes[0].axis + ".comp"
-                                                                         : m.axes[1].axis + ".comp";
-    else
-      use = (t.use == Use::map_only ? "errors.csv only: " : (t.use == Use::cross_table ? "" : "no table: ")) + t.why;
-    results::Shown shown = results::shown(t.name, t.value, t.u, m.plane);
-    if (!t.determined) {  // no number for what the runs do not determine (use says why)
-      shown.value = "not determined";
-      shown.unit.clear();
-    }
-    rows.push_back({shown.label, shown.value, shown.unit, use});
-  }
-  std::size_t label_w = 0, value_w = 0, unit_w = 0;
-  for (const auto& r : rows) {
-    label_w = std::max(label_w, display_width(r[0]));
-    value_w = std::max(value_w, display_width(r[1]));
-    unit_w = std::max(unit_w, display_width(r[2]));
-  }
-  for (const auto& r : rows)
-    o << "  " << r[0] << std::string(label_w - display_width(r[0]) + 2, ' ')
-      << std::string(value_w - display_width(r[1]), ' ') << r[1] << "  " << r[2]
-      << std::string(unit_w - display_width(r[2]) + 2, ' ') << r[3] << "\n";
-  for (const auto& am : m.axes)
-    o << "  " << am.axis << ".comp: " << am.nominal_m.size() << " lines, "
-      << printf_number("%.3f", am.nominal_m.front() * 1e3) << " .. " << printf_number("%.3f", am.nominal_m.back() * 1e3)
-      << " mm\n";
-  // The notes, but what was fitted beside in words and rounded to u (the files keep the names).
-  for (const auto& n : m.notes)
-    if (m.beside.empty() || !n.starts_with(explain::fitted_beside_note)) o << "note: " << n << "\n";
-  if (!m.beside.empty()) {
-    o << "note: " << explain::fitted_beside_note << " (what EXPLAIN found on the same runs; in no table):";
-    for (std::size_t k = 0; k < m.beside.size(); ++k) {
-      const auto& e = m.beside[k];
-      const results::Shown s = results::shown(e.name, e.value, e.u, m.plane);
-      o << (k ? ", " : " ") << s.label << " " << s.value << (s.unit.empty() ? "" : " " + s.unit);
-    }
-    o << "\n";
-  }
-  if (m.squareness_known) {
-    const auto adv = squareness_advice(m.squareness_rad);
-    const std::string a = m.axes[0].axis, b = m.axes[1].axis;
-    o << "squareness " << a << b << ": " << with_uncertainty(adv.um_per_m, m.squareness_u_rad * 1e6)
-      << " \u00b5m/m; correction " << printf_number("%+.3f", adv.correction_um_per_100mm) << " \u00b5m of "
-      << letters_upper(a) << " per +100 mm of " << letters_upper(b)
-      << (m.squareness_significant ? "" : " (" + squareness_left_out(m) + ": leave it)")
-      << ". A per-joint table cannot hold it: set your controller's axis-skew correction, or change the kinematics\n";
-  }
-  return o.str();
 }
 
 bool determined(const std::string& name, double value, double u, double g_um, double radius_m, double feed_m_per_s) {
