@@ -23,7 +23,7 @@ function(guideway_test_compile_settings target)
     target_compile_options(${target} PRIVATE "$<$<CONFIG:Release,RelWithDebInfo,MinSizeRel>:-O1>")
   endif()
   # Clang stamps a precompiled header with its headers' mtimes unless told not to: ccache then declines it.
-  target_compile_options(${target} PRIVATE ${GUIDEWAY_THIN_PROGRAM_OPTIONS}
+  target_compile_options(${target} PRIVATE ${GUIDEWAY_THIN_CODE_OPTIONS}
     "$<$<CXX_COMPILER_ID:Clang>:SHELL:-Xclang -fno-pch-timestamp>")
   target_compile_definitions(${target} PRIVATE
     GUIDEWAY_SOURCE_DIR="${PROJECT_SOURCE_DIR}"

@@ -70,12 +70,12 @@ build_stage() {  # stage
   case $1 in
     main | slow) scripts/build.sh build -DCMAKE_BUILD_TYPE=Release -DGUIDEWAY_BUILD_TESTS=ON -DGUIDEWAY_BUILD_BENCH=ON ;;
     # -g1 (line tables), as CMakeLists.txt's RelWithDebInfo default: sanitizer reports need only file:line.
-    # Test programs and the CLI at -O0 (GUIDEWAY_THIN_PROGRAM_FLAGS): half their compile time, and the
-    # libraries under test keep -O1.
+    # The thin code at -O0 (GUIDEWAY_THIN_CODE_FLAGS: test programs, mains, the CLI and the wiring
+    # libraries; CMakeLists.txt): half their compile time; the numeric libraries under test keep -O1.
     asan) scripts/build.sh build-asan "${compilers[@]}" -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=address -DGUIDEWAY_BUILD_BENCH=OFF \
-            -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0 ;;
+            -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_CODE_FLAGS=-O0 ;;
     tsan) scripts/build.sh build-tsan "${compilers[@]}" -DCMAKE_BUILD_TYPE=Debug -DGUIDEWAY_SANITIZE=thread -DGUIDEWAY_BUILD_BENCH=OFF \
-            -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_PROGRAM_FLAGS=-O0 -- guideway_tsan_tests ;;
+            -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DGUIDEWAY_THIN_CODE_FLAGS=-O0 -- guideway_tsan_tests ;;
     *) echo "unknown stage $1" >&2; exit 2 ;;
   esac
 }
