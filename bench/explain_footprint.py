@@ -9,7 +9,8 @@ results of the two compared (bench/README.md "EXPLAIN's footprint").
 CPU is the child's user + system time, peak RSS its ru_maxrss (getrusage of the process, as /usr/bin/time
 reports it). The inputs are written once into --dir (default a temporary directory) by explain_footprint_cases
 (the DBB and run-out cases, traced by the virtual machine tool) and from tests/data/dabam/dabam-072.dat (the traverse:
-a real 9,230-reading slope profile read forward, then back with fresh noise). Each row of the output gives the
+a real 9,230-reading slope profile read forward, then back with fresh noise; and the same with a reflector rocking
+of 1x its slope RMS; the traverse cases alone need no --cases-tool). Each row of the output gives the
 medians over the rounds and after / before; the load average is printed per case. Every case's --json output of
 the two binaries is compared: "results" says whether every number agrees to 1e-9 relative (and every text
 exactly), else the first differences.
@@ -30,11 +31,11 @@ ROOT = os.path.dirname(HERE)
 ARCSEC_PER_RAD = 180 / math.pi * 3600
 
 
-def write_traverse(path, dabam=os.path.join(ROOT, "tests", "data", "dabam", "dabam-072.dat")):
+def write_traverse(path, rocking=0.0, dabam=os.path.join(ROOT, "tests", "data", "dabam", "dabam-072.dat")):
     """Two passes of DABAM entry 72 (ESRF, 9,230 slopes at 0.105 mm) as a traverse file: forward as measured,
     then the return over the same stations with 10 % of the profile's slope RMS of fresh noise; 2 s a
-    station, 10 s between the passes. Positions on the exact grid of its mean step (the file's jitter is
-    below 1e-6 of a step)."""
+    station, 10 s between the passes; with `rocking`, a reflector rocking of that many slope RMS (+ forward,
+    - back). Positions on the exact grid of its mean step (the file's jitter is below 1e-6 of a step)."""
     meta = json.load(open(dabam[:-4] + ".txt"))
     rows = [line.split() for line in open(dabam).read().splitlines()[meta["FILE_HEADER_LINES"]:] if line.strip()]
     x = [float(r[0]) * meta["X1_FACTOR"] for r in rows]
@@ -49,11 +50,11 @@ def write_traverse(path, dabam=os.path.join(ROOT, "tests", "data", "dabam", "dab
         f.write("x_mm,pitch_arcsec,t_s,pass\n")
         t = 0.0
         for k in range(n):
-            f.write(f"{k * step * 1e3:.17g},{slope[k] * ARCSEC_PER_RAD:.17g},{t:.17g},1\n")
+            f.write(f"{k * step * 1e3:.17g},{(slope[k] + rocking * rms) * ARCSEC_PER_RAD:.17g},{t:.17g},1\n")
             t += 2.0
         t += 8.0
         for k in reversed(range(n)):
-            s = slope[k] + rng.gauss(0.0, 0.1 * rms)
+            s = slope[k] + rng.gauss(0.0, 0.1 * rms) - rocking * rms
             f.write(f"{k * step * 1e3:.17g},{s * ARCSEC_PER_RAD:.17g},{t:.17g},2\n")
             t += 2.0
     return n
@@ -61,7 +62,8 @@ def write_traverse(path, dabam=os.path.join(ROOT, "tests", "data", "dabam", "dab
 
 def cases(d):
     """(name, what, arguments of guideway) for each case, the inputs under d."""
-    runs = lambda c: sorted(os.path.join(d, c, f) for f in os.listdir(os.path.join(d, c)))
+    runs = lambda c: sorted(os.path.join(d, c, f) for f in os.listdir(os.path.join(d, c))) \
+        if os.path.isdir(os.path.join(d, c)) else []
     out = [
         ("dbb_four", "`explain --model dbb`, four effects, 2 runs (2 x 15,717)",
          ["explain", "--model", "dbb", *runs("dbb_four")]),
@@ -72,6 +74,8 @@ def cases(d):
         ("runout", "run-out, three effects (7,200)", ["explain", "--model", "runout", *runs("runout_three")]),
         ("traverse", "a real 9,230-reading profile as two passes (18,460)",
          ["explain", "--model", "traverse", os.path.join(d, "traverse", "dabam072_two_passes.csv")]),
+        ("traverse_rocking", "the same with a reflector rocking of 1x its slope RMS (18,460)",
+         ["explain", "--model", "traverse", os.path.join(d, "traverse", "dabam072_two_passes_rocking.csv")]),
     ]
     for n in (3600, 7200, 36000):
         out.append((f"slip_{n}", f"backlash beside a ball slip (2 x {n:,})",
@@ -117,19 +121,23 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("before")
     ap.add_argument("after")
-    ap.add_argument("--cases-tool", required=True, help="explain_footprint_cases of a build")
+    ap.add_argument("--cases-tool", help="explain_footprint_cases of a build (for every case but the traverses)")
     ap.add_argument("--dir", help="where the inputs are (written when missing)")
     ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--only", action="append", help="these cases only (repeatable)")
     o = ap.parse_args()
     d = o.dir or tempfile.mkdtemp(prefix="explain_footprint_")
-    if not os.path.isdir(os.path.join(d, "dbb_four")):
+    traverses_only = o.only and all(name.startswith("traverse") for name in o.only)
+    if not os.path.isdir(os.path.join(d, "dbb_four")) and not traverses_only:
+        if not o.cases_tool:
+            ap.error("--cases-tool is needed for the DBB and run-out cases")
         subprocess.run([o.cases_tool, d, os.path.join(ROOT, "config", "machine-example.toml")], check=True,
                        stdout=subprocess.DEVNULL)
-    traverse = os.path.join(d, "traverse", "dabam072_two_passes.csv")
-    if not os.path.exists(traverse):
-        os.makedirs(os.path.dirname(traverse), exist_ok=True)
-        write_traverse(traverse)
+    for name, rocking in (("dabam072_two_passes.csv", 0.0), ("dabam072_two_passes_rocking.csv", 1.0)):
+        traverse = os.path.join(d, "traverse", name)
+        if not os.path.exists(traverse):
+            os.makedirs(os.path.dirname(traverse), exist_ok=True)
+            write_traverse(traverse, rocking)
     print(f"inputs in {d}; before {o.before}; after {o.after}; {o.rounds} round(s), the order swapped each case")
     print()
     print("| case | before: CPU | after: CPU | after / before | before: peak RSS | after: peak RSS | after / before "

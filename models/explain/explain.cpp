@@ -176,6 +176,68 @@ Eigen::VectorXd base_prediction(const Block& base, const Eigen::VectorXd& y_um, 
   return base.columns * fit.fitted;
 }
 
+void absorb_station_means(const std::vector<std::size_t>& station_of, const std::vector<bool>* keep,
+                          Eigen::Ref<Eigen::MatrixXd> x) {
+  const auto n = x.rows();
+  if (x.cols() == 0 || n == 0) return;
+  if (static_cast<std::size_t>(n) != station_of.size() || (keep && keep->size() != station_of.size()))
+    throw std::invalid_argument("explain: a station per row is needed to absorb the stations' means");
+  const std::size_t stations = *std::max_element(station_of.begin(), station_of.end()) + 1;
+  std::vector<double> count(stations, 0.0), sum(stations);
+  for (std::size_t i = 0; i < station_of.size(); ++i)
+    if (!keep || (*keep)[i]) count[station_of[i]] += 1;
+  for (Eigen::Index c = 0; c < x.cols(); ++c) {
+    auto col = x.col(c);
+    const double before = col.squaredNorm();
+    std::fill(sum.begin(), sum.end(), 0.0);
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!keep || (*keep)[static_cast<std::size_t>(i)]) sum[station_of[static_cast<std::size_t>(i)]] += col[i];
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const std::size_t s = station_of[static_cast<std::size_t>(i)];
+      col[i] = count[s] > 0 ? col[i] - sum[s] / count[s] : 0.0;
+    }
+    if (!(col.squaredNorm() > 1e-18 * before)) col.setZero();
+  }
+}
+
+namespace {
+
+void absorb_variant(Variant& v, const std::shared_ptr<const std::vector<std::size_t>>& stations) {
+  if (v.fill) {
+    v.fill = [fill = std::move(v.fill), stations](Eigen::Ref<Eigen::MatrixXd> out) {
+      fill(out);
+      absorb_station_means(*stations, nullptr, out);
+    };
+  } else {
+    absorb_station_means(*stations, nullptr, v.block.columns);
+  }
+}
+
+}  // namespace
+
+void absorb_station_means(Problem& problem) {
+  const std::size_t n = problem.samples.size();
+  if (problem.station_of.size() != n)
+    throw std::invalid_argument("explain: a station per sample is needed to absorb the stations' means");
+  const auto stations = std::make_shared<const std::vector<std::size_t>>(problem.station_of);
+  Eigen::MatrixXd y(static_cast<Eigen::Index>(n), 1);
+  for (std::size_t i = 0; i < n; ++i) y(static_cast<Eigen::Index>(i), 0) = problem.samples[i].y_um;
+  absorb_station_means(*stations, nullptr, y);
+  for (std::size_t i = 0; i < n; ++i) problem.samples[i].y_um = y(static_cast<Eigen::Index>(i), 0);
+  if (problem.base.columns.cols() > 0) absorb_station_means(*stations, nullptr, problem.base.columns);
+  for (Candidate& c : problem.candidates) {
+    for (Variant& v : c.variants) absorb_variant(v, stations);
+    if (c.generate)
+      c.generate = [generate = std::move(c.generate), stations](const Eigen::VectorXd& residual_um,
+                                                                const std::vector<bool>& use) {
+        std::vector<Variant> vs = generate(residual_um, use);
+        for (Variant& v : vs) absorb_variant(v, stations);
+        return vs;
+      };
+  }
+  problem.station_means_absorbed = true;
+}
+
 Variant sensor_nonlinearity_variant(const std::vector<double>& reading_um) {
   double mean = 0;
   for (double v : reading_um) mean += v;

@@ -107,6 +107,14 @@ struct Problem {
   // function of position (a traverse's geometry). Set: held-out rows are interleaved along the stations,
   // never a block at a run's end, where a fold would extrapolate the base (docs/explain.md "Held out").
   std::vector<std::size_t> station_of;
+  // Set with station_of: the base holds a term per station, fitted out of the data rather than given as columns
+  // (a traverse's geometry where its passes revisit the stations: thousands of columns, which the engine would factor
+  // per fold). The samples' y and every candidate's columns are given less their station's mean, which is that fit
+  // (Frisch-Waugh-Lovell: the same coefficients, residual and RSS as with the columns); the models count a rank per
+  // station, the held-out folds hold whole stations (a station's readings are all held out or all kept: what is
+  // predicted is how they disagree), and after a place is set aside the samples kept are absorbed again
+  // (absorb_station_means(Problem&) sets it).
+  bool station_means_absorbed = false;
   // Runs that continue one path, one id per run (a traverse's passes of one file: the reflector goes back and forth
   // along the same stations); empty: every run stands alone. A path with a run shorter than min_run_samples
   // (locate.hpp) has its runs tested together, joined in the order taken (docs/explain.md "Short passes").
@@ -201,6 +209,14 @@ std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<boo
 // The same from predictions shared with the problem's other generators.
 std::function<std::vector<Variant>(const Eigen::VectorXd&, const std::vector<bool>&)> sensor_nonlinearity_generator(
     std::shared_ptr<const BasePredictions> base, std::vector<double> offset_um);
+// Each column of x less its station's mean over the rows `keep` keeps (nullptr: every row), on every row; a station
+// with no row kept is zeroed (its term fits it whole). A column left at rounding of what it was (a function of the
+// station, to 1e-9 relative) is zeroed: nothing of it is beyond the stations' terms.
+void absorb_station_means(const std::vector<std::size_t>& station_of, const std::vector<bool>* keep,
+                          Eigen::Ref<Eigen::MatrixXd> x);
+// A problem's term per station fitted out (Problem::station_means_absorbed): its samples' y, its base's columns and
+// every candidate's columns (listed, made on demand or generated) less their station's mean over its samples.
+void absorb_station_means(Problem& problem);
 Report explain(const Problem& problem, const ExplainOptions& options = {});
 
 }  // namespace guideway::models::explain

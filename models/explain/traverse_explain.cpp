@@ -3,11 +3,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
 
 #include <Eigen/Dense>
+#include <unsupported/Eigen/FFT>
 
 #include "core/csv_table.hpp"
 #include "core/number_format.hpp"
@@ -202,6 +204,84 @@ struct SharedGeometry {
   double chi2 = 0.0, dof = 0.0;
 };
 
+// The passes' scatter (variance per reading) from r, each reading less its station's mean, less the columns d (a
+// constant per direction and a line in time), robustly: the median absolute scatter (as a normal's, 1.4826 MAD,
+// scaled by the readings per dof), the columns fitted again without the readings beyond 4 of it, which are then
+// `apart`. A transient in a few readings (the return settling after the reversal, a knock) is not the passes'
+// scatter, nor the geometry they share: counted in a sum of squares, and tilting the line in time, it made the
+// scatter 6 times what it is and hid a real surface's shared part (dabam-053: the polynomial kept, the rocking
+// refused by the share rule).
+struct Scatter {
+  double sigma2 = 0.0;
+  std::vector<bool> apart;  // per reading
+};
+Scatter robust_scatter(const Eigen::VectorXd& r, const Eigen::MatrixXd& d, double dof) {
+  const auto robust_sigma = [](const Eigen::VectorXd& e) {
+    std::vector<double> magnitude(e.data(), e.data() + e.size());
+    for (double& v : magnitude) v = std::abs(v);
+    std::nth_element(magnitude.begin(), magnitude.begin() + static_cast<std::ptrdiff_t>(magnitude.size() / 2),
+                     magnitude.end());
+    return 1.4826 * magnitude[magnitude.size() / 2];
+  };
+  Eigen::VectorXd e = r - d * d.colPivHouseholderQr().solve(r);
+  const double first = robust_sigma(e);
+  std::vector<Eigen::Index> inside;
+  for (Eigen::Index i = 0; i < r.size(); ++i)
+    if (std::abs(e[i]) <= 4 * first) inside.push_back(i);
+  if (2 * static_cast<Eigen::Index>(inside.size()) > r.size()) {
+    const Eigen::MatrixXd di = d(inside, Eigen::all);
+    const Eigen::VectorXd ri = r(inside);
+    e = r - d * di.colPivHouseholderQr().solve(ri);
+  }
+  Scatter out;
+  const double sigma = robust_sigma(e);
+  out.sigma2 = std::max(sigma * sigma * static_cast<double>(r.size()) / dof, 1e-12);
+  out.apart.resize(static_cast<std::size_t>(r.size()));
+  for (Eigen::Index i = 0; i < r.size(); ++i)
+    out.apart[static_cast<std::size_t>(i)] = sigma > 0 && std::abs(e[i]) > 4 * sigma;
+  return out;
+}
+
+// The strongest line of the periodogram of v (the station means' leftovers, weighted, at the stations x) over the
+// frequencies lo, lo + df, .. hi. Where the span is S steps those are the bins (6 + i) / (4 span) of a DFT of 4 S
+// points (the stations sit on the grid x0 + s step): one FFT, the same sums in another order, used where the
+// frequencies are within 1e-3 of a bin (a real profile's positions written to 1 nm); else the direct sum, the
+// stations times the frequencies (9,230 stations: 2 s of CPU a call).
+double strongest_line(const Eigen::VectorXd& v, const Eigen::VectorXd& x, const Layout& l, double lo, double hi,
+                      double df) {
+  const auto stations = static_cast<std::size_t>(v.size());
+  std::vector<std::complex<double>> spectrum;
+  const double bins = (hi - lo) / df + 6;  // the highest frequency's bin
+  if (bins * std::abs(static_cast<double>(stations) * l.step_m / l.span_m - 1.0) <= 1e-3) {
+    std::vector<double> padded(4 * stations, 0.0);
+    for (std::size_t k = 0; k < stations; ++k) padded[k] = v[static_cast<Eigen::Index>(k)];
+    Eigen::FFT<double> fft;
+    fft.SetFlag(Eigen::FFT<double>::HalfSpectrum);
+    fft.fwd(spectrum, padded);
+  }
+  double best_f = lo, best_power = -1.0;
+  std::size_t bin = 6;
+  for (double f = lo; f <= hi; f += df, ++bin) {
+    double power = 0.0;
+    if (bin < spectrum.size()) {
+      power = std::norm(spectrum[bin]);
+    } else {
+      double c = 0.0, sn = 0.0;
+      for (Eigen::Index k = 0; k < v.size(); ++k) {
+        const double th = 2 * std::numbers::pi * f * (x[k] + l.step_m / 2);
+        c += v[k] * std::cos(th);
+        sn += v[k] * std::sin(th);
+      }
+      power = c * c + sn * sn;
+    }
+    if (power > best_power) {
+      best_power = power;
+      best_f = f;
+    }
+  }
+  return best_f;
+}
+
 SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
                                const std::vector<std::size_t>& stations, int order) {
   SharedGeometry out;
@@ -241,14 +321,18 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
   }
   const double dof_scatter = static_cast<double>(n) - static_cast<double>(S) - 2.0;
   if (dof_scatter < 8) return out;
-  const double scatter_rss = (r - d * d.colPivHouseholderQr().solve(r)).squaredNorm();
-  const double sigma2 = std::max(scatter_rss / dof_scatter, 1e-12);
-  // The shared part: station means, weighted by their readings, against the polynomial, the yaw and one wave.
+  const Scatter scatter = robust_scatter(r, d, dof_scatter);
+  const double sigma2 = scatter.sigma2;
+  // The shared part: station means, weighted by their readings, against the polynomial, the yaw and one wave; not
+  // at a station where a reading stands apart from the others (a transient of one pass is not shared geometry).
+  std::vector<bool> judged(S, true);
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (scatter.apart[static_cast<std::size_t>(i)]) judged[stations[static_cast<std::size_t>(i)]] = false;
   const auto S_i = static_cast<Eigen::Index>(S);
   Eigen::VectorXd w(S_i), m(S_i), x(S_i);
   for (std::size_t s = 0; s < S; ++s) {
     const auto k = static_cast<Eigen::Index>(s);
-    w[k] = std::sqrt(count[s]);
+    w[k] = judged[s] ? std::sqrt(count[s]) : 0.0;
     m[k] = mean[s] * w[k];
     x[k] = l.x0_m + l.step_m * static_cast<double>(s);
   }
@@ -270,19 +354,7 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
   const Eigen::MatrixXd base_part = a.leftCols(q);
   const Eigen::VectorXd left = m - base_part * base_part.colPivHouseholderQr().solve(m);
   const double lo = 1.5 / l.span_m, hi = 1.0 / (2.5 * l.step_m), df = 0.25 / l.span_m;
-  double best_f = lo, best_power = -1.0;
-  for (double f = lo; f <= hi; f += df) {
-    double c = 0.0, sn = 0.0;
-    for (Eigen::Index k = 0; k < S_i; ++k) {
-      const double th = 2 * std::numbers::pi * f * (x[k] + l.step_m / 2);
-      c += left[k] * w[k] * std::cos(th);
-      sn += left[k] * w[k] * std::sin(th);
-    }
-    if (c * c + sn * sn > best_power) {
-      best_power = c * c + sn * sn;
-      best_f = f;
-    }
-  }
+  const double best_f = strongest_line(left.cwiseProduct(w), x, l, lo, hi, df);
   double f_lo = best_f - df, f_hi = best_f + df;
   const double g = (std::sqrt(5.0) - 1) / 2;
   double f1 = f_hi - g * (f_hi - f_lo), f2 = f_lo + g * (f_hi - f_lo), r1 = rss_at(f1), r2 = rss_at(f2);
@@ -294,7 +366,7 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
     }
   }
   const double shared_rss = std::min({r1, r2, rss_at(best_f)});
-  out.dof = static_cast<double>(S) - static_cast<double>(q) - 3.0;
+  out.dof = static_cast<double>(std::count(judged.begin(), judged.end(), true)) - static_cast<double>(q) - 3.0;
   if (out.dof < 8) return out;
   out.chi2 = shared_rss / sigma2;
   out.judged = true;
@@ -308,7 +380,7 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
 // names them.
 Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
                  const std::vector<std::size_t>& stations, const Eigen::MatrixXd& effects_beside,
-                 const std::string& found, std::string& note) {
+                 const std::string& found, std::string& note, bool& per_station) {
   const auto n = y.size();
   std::size_t fewest = passes.front().x_m.size();
   for (const TraversePass& p : passes) fewest = std::min(fewest, p.x_m.size());
@@ -343,59 +415,46 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
   // Where every station is read by two passes or more and what they share is not the polynomial (with, at most, a
   // pitch wave and the yaw's part: the shared candidates), the geometry is what the passes share: a term per
   // station, and the candidates are judged on what the passes disagree on (a real surface is not a polynomial).
-  // The engine factors its base per fold: a term per station costs the stations squared times the readings (481
-  // stations, two passes: 5.5 s of CPU), so it is given up to 512 stations; more keep the polynomial, and say so.
-  constexpr std::size_t most_station_terms = 512;
+  // The terms are fitted out of the readings, not given as columns (Problem::station_means_absorbed): as columns the
+  // engine factored them per fold, the stations squared times the readings (481 stations as two passes: 5.5 s of
+  // CPU; 9,230 could not be held), fitted out they cost a pass over the readings.
   const auto beyond = [](const SharedGeometry& g) { return g.judged && g.chi2 > g.dof + 3.09 * std::sqrt(2.0 * g.dof); };
   const int bic_order = best;
   SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
   // The BIC's order was chosen against a residual a shared wave is part of (a rack's wave of 2.4 urad hides a bow
   // of 1 urad from it, as a drift does): before the geometry is called "not a polynomial", the higher orders, each
   // with the wave and the yaw's part; the lowest that leaves what the passes share within their scatter is the base.
-  if (beyond(shared) && shared.stations <= most_station_terms)
+  if (beyond(shared))
     for (int order = best + 1; order <= highest; ++order)
       if (const SharedGeometry higher = shared_geometry(passes, l, y, stations, order); higher.judged && !beyond(higher)) {
         best = order;
         shared = higher;
         break;
       }
-  const bool not_polynomial = beyond(shared);
-  const bool per_station = not_polynomial && shared.stations <= most_station_terms;
+  per_station = beyond(shared);
   if (per_station) {
-    const auto q = static_cast<Eigen::Index>(shared.stations);
-    b.columns = Eigen::MatrixXd::Zero(n, q + static_cast<Eigen::Index>(l.files) - 1);
-    Eigen::Index row = 0;
-    for (const TraversePass& p : passes)
-      for (std::size_t i = 0; i < p.x_m.size(); ++i, ++row) {
-        b.columns(row, static_cast<Eigen::Index>(stations[static_cast<std::size_t>(row)])) = 1.0;
-        if (p.file > 0) b.columns(row, q + static_cast<Eigen::Index>(p.file) - 1) = 1.0;
-      }
-    for (Eigen::Index k = 0; k < q; ++k) b.names.push_back("station" + std::to_string(k + 1) + "_urad");
+    b.columns = Eigen::MatrixXd(n, 0);
   } else {
     b.columns = design(best);
     for (int k = 1; k <= best; ++k) b.names.push_back("straightness_b" + std::to_string(k) + "_urad");
+    for (std::size_t f = 1; f < l.files; ++f) b.names.push_back("file" + std::to_string(f + 1) + ".offset_urad");
   }
-  for (std::size_t f = 1; f < l.files; ++f) b.names.push_back("file" + std::to_string(f + 1) + ".offset_urad");
-  note = (per_station ? "base: a term per station (" + std::to_string(shared.stations) +
-                            " stations, each read by two passes or more): the geometry the passes share, which the "
-                            "polynomial of order " + std::to_string(best) + " with a pitch wave" +
-                            (l.yaw ? " and the yaw's part" : "") + " leaves " +
-                            printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
-                            " times the passes' own scatter; a wave the passes share is then geometry, not a finding"
-                      : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
-                            std::to_string(highest) +
-                            (beside > 0 ? ", chosen with " + found + " fitted beside it" : std::string()) +
-                            (best > bic_order ? "; raised from " + std::to_string(bic_order) +
-                                                    ", with which what the passes share was more than a wave" +
-                                                    (l.yaw ? " and the yaw's part" : "") + " beyond it"
-                                              : std::string()) +
-                            ") common to every pass") +
-         (l.files > 1 ? ", an offset per file after the first" : "") +
-         (not_polynomial && !per_station
-              ? "; the passes share more than the polynomial (" + printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
-                    " times their own scatter), but a term per station is given to " +
-                    std::to_string(most_station_terms) + " stations at most (" + std::to_string(shared.stations) + " here)"
-              : std::string());
+  note = per_station ? "base: a term per station (" + std::to_string(shared.stations) +
+                           " stations, each read by two passes or more): the geometry the passes share, which the "
+                           "polynomial of order " + std::to_string(best) + " with a pitch wave" +
+                           (l.yaw ? " and the yaw's part" : "") + " leaves " +
+                           printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
+                           " times the passes' own scatter; fitted out of the readings (each less its station's "
+                           "mean), the held-out folds holding whole stations; a wave the passes share is then "
+                           "geometry, not a finding"
+                     : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
+                           std::to_string(highest) +
+                           (beside > 0 ? ", chosen with " + found + " fitted beside it" : std::string()) +
+                           (best > bic_order ? "; raised from " + std::to_string(bic_order) +
+                                                   ", with which what the passes share was more than a wave" +
+                                                   (l.yaw ? " and the yaw's part" : "") + " beyond it"
+                                             : std::string()) +
+                           ") common to every pass" + (l.files > 1 ? ", an offset per file after the first" : "");
   return b;
 }
 
@@ -435,9 +494,11 @@ Problem traverse_problem_beside(const std::vector<TraversePass>& passes, const E
   Eigen::VectorXd y(static_cast<Eigen::Index>(p.samples.size()));
   for (std::size_t i = 0; i < p.samples.size(); ++i) y[static_cast<Eigen::Index>(i)] = p.samples[i].y_um;
   std::string base_note;
-  p.base = base_block(passes, l, y, p.station_of, beside, found, base_note);
+  bool per_station = false;
+  p.base = base_block(passes, l, y, p.station_of, beside, found, base_note, per_station);
   const effects::TraverseTerms terms{g, l.both, l.timed, l.yaw, l.span_m, l.step_m};
   p.candidates = effects::traverse_candidates(terms);
+  if (per_station) absorb_station_means(p);
   // A term's size across every pass: a rocking is constant along each pass, +r one way and -r the other.
   p.contribution_of = [](const Eigen::VectorXd& term) { return term.maxCoeff() - term.minCoeff(); };
   p.notes.push_back("what is explained: the pitch readings as slopes, in urad (= um/m); the report's um are urad");

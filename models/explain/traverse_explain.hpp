@@ -5,7 +5,9 @@
 // they integrate to are a random walk, which the tests could not judge). Base: the straightness polynomial
 // the identification fits (Mu 2012 Eq. 10 through the chord slopes of Eq. 12, order by BIC on all passes
 // together, models/flatness/straightness.hpp), common to every pass -- the geometry forward and return
-// share -- plus an offset per file after the first (each set-up zeroes the instrument anew).
+// share -- plus an offset per file after the first (each set-up zeroes the instrument anew); where the passes
+// revisit the stations and share more than that polynomial, a term per station, fitted out of the readings
+// (Problem::station_means_absorbed), whatever the number of stations.
 // Candidates: every effect of the library with a traverse term (models/explain/effects/): angle_drift
 // (the instrument's or the air's zero drifting in time: forward and return disagree by a trend in
 // time), reflector_rocking (an angle that flips sign with the direction of travel), pitch_wave (a pitch

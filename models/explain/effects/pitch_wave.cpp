@@ -44,20 +44,24 @@ std::vector<double> direct_periodogram(const std::vector<Tp>& g, const WaveGrid&
 
 // The same periodogram by one FFT where the readings sit on the stations' grid x0 + m s (a traverse's do: its
 // feet are one step apart) and the grid's frequencies are bins of a DFT of length M = 4 span / s (lo = 6 / (M s),
-// step = 1 / (M s)): the residual summed per station, zero-padded to M. Exact, not an approximation: the same
-// sum in another order (rounding apart: ~1e-12 of the power). Linear in the readings but for the FFT's
-// M log M; the direct sum's cost grows with the readings times the stations.
+// step = 1 / (M s)): the residual summed per station, zero-padded to M. Exact where the positions are (the same
+// sum in another order, rounding apart: ~1e-12 of the power); positions written to a few digits, or a real
+// profile's 9,230 readings against its median step (0.1 nm off its mean: 1.1e-3 of a step at the far end), are
+// within 1e-2 of a step of their station, and the frequencies within 1e-2 of a bin, which moves a line's phase by
+// 0.025 rad at most and its power by ~3e-4. Linear in the readings but for the FFT's M log M; the direct sum's cost
+// grows with the readings times the stations (9,230 readings: 5 s of CPU over a pass of EXPLAIN).
 class StationSpectrum {
  public:
   StationSpectrum(const std::vector<Tp>& g, const WaveGrid& grid, double span_m, double step_m) {
     if (g.empty() || !(step_m > 0)) return;
     const double m_exact = 4.0 * span_m / step_m;
     const auto m = static_cast<std::size_t>(std::llround(m_exact));
-    // The grid's frequencies must be the DFT's bins to within 1e-10 of a bin over the whole span, and every
-    // reading on a station to within 1e-9 of a step: then the two sums agree to rounding.
-    if (m < 8 || std::abs(m_exact - static_cast<double>(m)) > 1e-10 * m_exact) return;
-    if (std::abs(grid.lo * static_cast<double>(m) * step_m - 6.0) > 1e-9 ||
-        std::abs(grid.step * static_cast<double>(m) * step_m - 1.0) > 1e-10 || 6 + grid.size > m / 2)
+    // The grid's frequencies the DFT's bins to within 1e-2 of a bin at both its ends, every reading on a station to
+    // within 1e-2 of a step.
+    if (m < 8 || 6 + grid.size > m / 2) return;
+    const auto bin_of = [&](std::size_t k) { return grid.at(k) * static_cast<double>(m) * step_m; };
+    if (std::abs(bin_of(0) - 6.0) > 1e-2 ||
+        std::abs(bin_of(grid.size - 1) - 6.0 - static_cast<double>(grid.size - 1)) > 1e-2)
       return;
     double x0 = g.front().x_m;
     for (const Tp& p : g) x0 = std::min(x0, p.x_m);
@@ -65,7 +69,7 @@ class StationSpectrum {
     for (const Tp& p : g) {
       const double k = (p.x_m - x0) / step_m;
       const double kr = std::round(k);
-      if (std::abs(k - kr) > 1e-9 || kr >= static_cast<double>(m)) {
+      if (std::abs(k - kr) > 1e-2 || kr >= static_cast<double>(m)) {
         station_.clear();
         return;
       }

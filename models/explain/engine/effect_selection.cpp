@@ -120,7 +120,11 @@ std::vector<Trial> EffectSelection::trials(std::vector<std::size_t>& unfittable)
   std::vector<Trial> out;
   for (std::size_t c = 0; c < nc_; ++c) {
     const Candidate& cand = p_.candidates[c];
-    if (banned_[c] || (cand.variants.empty() && !cand.generate)) continue;
+    if (banned_[c]) continue;
+    if (cand.variants.empty() && !cand.generate) {  // nothing to try: listed all the same, with why
+      unfittable.push_back(c);
+      continue;
+    }
     if (o_.on_progress)
       o_.on_progress("looking for effect " + std::to_string(terms_.size() + 1) + ": trying " + cand.effect + " (" +
                      std::to_string(c + 1) + " of " + std::to_string(nc_) + ")");
@@ -149,7 +153,9 @@ std::string EffectSelection::forward_step() {
   for (const std::size_t c : unfittable)
     if (!has_term(c))
       verdict_[c] = Considered{p_.candidates[c].effect, 0.0, 1.0,
-                               "cannot be fitted: every variant lies in what " + fitted_by(p_, terms_) + " fit"};
+                               p_.candidates[c].variants.empty() && !p_.candidates[c].generate
+                                   ? std::string("cannot be fitted: the problem offers no form of it")
+                                   : "cannot be fitted: every variant lies in what " + fitted_by(p_, terms_) + " fit"};
   for (auto& t : tried) {
     const Candidate& cand = p_.candidates[t.cand];
     Considered con{cand.effect, t.delta_bic, t.p, ""};

@@ -12,6 +12,15 @@ HeldOutScheme heldout_scheme(const Problem& problem, const ExplainOptions& optio
                              const std::vector<std::pair<std::size_t, std::size_t>>& ranges) {
   const std::size_t n = problem.samples.size();
   HeldOutScheme h{std::vector<int>(n, 0), static_cast<int>(std::max<std::size_t>(options.folds, 2)), {}};
+  if (problem.station_means_absorbed && problem.station_of.size() == n) {
+    // Whole stations: a station's mean is fitted out of its readings (Problem::station_means_absorbed), so a fold
+    // keeps or holds out all of them, and what is predicted is how the held-out station's readings disagree.
+    for (std::size_t i = 0; i < n; ++i)
+      h.fold_of[i] = static_cast<int>(problem.station_of[i] % static_cast<std::size_t>(h.folds));
+    h.name = "interleaved " + std::to_string(h.folds) + "-fold cross-validation (every " + std::to_string(h.folds) +
+             "th station, all its readings: their disagreement predicted)";
+    return h;
+  }
   bool loro = false;
   if (problem.runs.size() >= 3 && !problem.terms_per_run && problem.base.columns.cols() > 0) {
     const std::size_t full_rank = static_cast<std::size_t>(span_basis(problem.base.columns).cols());
@@ -48,6 +57,13 @@ HeldOutScheme heldout_scheme(const Problem& problem, const ExplainOptions& optio
   }
   h.name = "blocked " + std::to_string(h.folds) + "-fold cross-validation (contiguous blocks of every run)";
   return h;
+}
+
+std::size_t absorbed_rank(const Problem& problem) {
+  if (!problem.station_means_absorbed || problem.station_of.empty()) return 0;
+  std::vector<std::size_t> stations = problem.station_of;
+  std::sort(stations.begin(), stations.end());
+  return static_cast<std::size_t>(std::unique(stations.begin(), stations.end()) - stations.begin());
 }
 
 std::vector<FoldRows> fold_rows(const std::vector<int>& fold_of, int folds) {

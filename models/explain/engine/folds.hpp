@@ -15,10 +15,11 @@
 
 namespace guideway::models::explain::engine {
 
-// The held-out rows: whole runs when there are at least three, the base is still determined without any
-// one of them and no candidate has terms of one run alone; otherwise, for a problem with stations (a traverse:
-// Problem::station_of), every k-th station of each run, shifted run to run (a fold never extrapolates the base);
-// otherwise contiguous blocks of every run (staggered between runs).
+// The held-out rows: every k-th station whole where the stations' means are fitted out of the data
+// (Problem::station_means_absorbed); else whole runs when there are at least three, the base is still determined
+// without any one of them and no candidate has terms of one run alone; otherwise, for a problem with stations (a
+// traverse: Problem::station_of), every k-th station of each run, shifted run to run (a fold never extrapolates the
+// base); otherwise contiguous blocks of every run (staggered between runs).
 struct HeldOutScheme {
   std::vector<int> fold_of;
   int folds = 0;
@@ -26,6 +27,10 @@ struct HeldOutScheme {
 };
 HeldOutScheme heldout_scheme(const Problem& problem, const ExplainOptions& options,
                              const std::vector<std::pair<std::size_t, std::size_t>>& ranges);
+
+// The terms a problem's base holds beyond its columns: one per station where the stations' means are fitted out
+// of the data (Problem::station_means_absorbed), counted in every model's rank.
+std::size_t absorbed_rank(const Problem& problem);
 
 // The rows of each fold.
 struct FoldRows {

@@ -9,8 +9,9 @@
 
 namespace guideway::models::explain::engine {
 
-GroupedBase::GroupedBase(const Eigen::MatrixXd& base, const std::vector<int>& group_of, std::size_t groups)
-    : r_(groups), ranges_(groups), spans_(groups + 1) {
+GroupedBase::GroupedBase(const Eigen::MatrixXd& base, const std::vector<int>& group_of, std::size_t groups,
+                         std::size_t absorbed)
+    : r_(groups), ranges_(groups), absorbed_(absorbed), spans_(groups + 1) {
   // Every row has a group; a problem without a base may give its base no rows.
   const auto n = static_cast<Eigen::Index>(group_of.size());
   std::vector<double> norms;

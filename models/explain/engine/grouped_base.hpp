@@ -23,7 +23,10 @@ class GroupedBase {
 
   // The base's columns (n x p, p may be 0; columns zero on every row are left out) and each row's group
   // (0 .. groups - 1).
-  GroupedBase(const Eigen::MatrixXd& base, const std::vector<int>& group_of, std::size_t groups);
+  // `absorbed`: terms of the base fitted out of the data rather than given as columns (absorbed_rank, folds.hpp),
+  // counted in every model's rank.
+  GroupedBase(const Eigen::MatrixXd& base, const std::vector<int>& group_of, std::size_t groups,
+              std::size_t absorbed = 0);
 
   // The base on the rows of every group but `skip` (all: every row).
   struct Span {
@@ -44,6 +47,7 @@ class GroupedBase {
   [[nodiscard]] Eigen::Index cols() const { return q_.cols(); }
   [[nodiscard]] const std::vector<Eigen::Index>& columns() const { return columns_; }
   [[nodiscard]] std::size_t groups() const { return ranges_.size(); }
+  [[nodiscard]] std::size_t absorbed() const { return absorbed_; }
   [[nodiscard]] const Ranges& ranges(std::size_t group) const { return ranges_[group]; }
 
   // The groups' products Q_g^T x_g of the set's members, stacked ((members p) x w); x has every row.
@@ -60,6 +64,7 @@ class GroupedBase {
   std::vector<Eigen::Index> columns_;  // the base's columns factored
   Eigen::VectorXd global_scale_;       // 1 / each factored column's norm over every row
   std::vector<Ranges> ranges_;
+  std::size_t absorbed_ = 0;
   mutable std::vector<std::unique_ptr<Span>> spans_;  // per skipped group, the last for every row
 };
 

@@ -116,7 +116,7 @@ Model model_of(const GroupedBase& base, std::size_t skip, Eigen::MatrixXd terms,
   if (skip != GroupedBase::all) zero_rows(base.ranges(skip), m.residual);
   subtract(m, project(m, m.residual), m.residual);
   m.rss = m.residual.squaredNorm();
-  m.rank = static_cast<std::size_t>(s.v.cols() + m.qt.cols());
+  m.rank = static_cast<std::size_t>(s.v.cols() + m.qt.cols()) + base.absorbed();
   m.bic = bic_of(m.rss, static_cast<double>(m.rank + searched), static_cast<double>(s.rows));
   return m;
 }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <utility>
 
@@ -32,7 +33,7 @@ Selection::Selection(const Problem& problem, const ExplainOptions& options, cons
       o_(options),
       y_(y),
       n_(static_cast<std::size_t>(y.size())),
-      base_(problem.base.columns, scheme.fold_of, static_cast<std::size_t>(scheme.folds)),
+      base_(problem.base.columns, scheme.fold_of, static_cast<std::size_t>(scheme.folds), absorbed_rank(problem)),
       fits_(problem, options, y, base_, fold_rows(scheme.fold_of, scheme.folds), choose_buffer_,
             cache_budget_bytes(options) / 2),
       models_(cache_budget_bytes(options) / 4),
@@ -43,7 +44,26 @@ LsqResult Selection::fit(const std::vector<Term>& terms) const {
   ColumnBlocks design;
   if (p_.base.columns.cols() > 0) design.emplace_back(p_.base.columns);
   if (rest.cols() > 0) design.emplace_back(rest);
-  return solve_lsq(design, y_, Eigen::VectorXd(), names(terms));
+  if (design.empty()) {  // no column (a base fitted out of the data, no term): nothing fitted, the data left
+    LsqResult none;
+    none.ok = true;
+    none.n = n_;
+    none.residual = y_;
+    none.rms = std::sqrt(y_.squaredNorm() / static_cast<double>(n_));
+    none.s2 = y_.squaredNorm() / static_cast<double>(n_);
+    none.condition_number = 1.0;
+    return none;
+  }
+  LsqResult fit = solve_lsq(design, y_, Eigen::VectorXd(), names(terms));
+  // The stations' terms fitted out of the data (Problem::station_means_absorbed) took their degrees of freedom too.
+  if (const auto absorbed = static_cast<double>(base_.absorbed()); fit.ok && absorbed > 0) {
+    const double dof = static_cast<double>(fit.n) - static_cast<double>(fit.rank);
+    const double widen = dof > absorbed ? dof / (dof - absorbed) : std::numeric_limits<double>::infinity();
+    fit.s2 *= widen;
+    fit.covariance *= widen;
+    fit.u *= std::sqrt(widen);
+  }
+  return fit;
 }
 
 Eigen::MatrixXd Selection::term_columns(const std::vector<Term>& terms, std::size_t skip) const {

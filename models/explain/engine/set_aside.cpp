@@ -60,15 +60,34 @@ std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const s
   for (std::size_t k = 0; k < after.size(); ++k)
     for (Eigen::Index i = 0; i < n; ++i)
       offsets(i, static_cast<Eigen::Index>(k)) = stands_off(p, after[k], static_cast<std::size_t>(i)) ? 1.0 : 0.0;
+  Eigen::VectorXd y = observations(p);
+  // Where the stations' means are fitted out of the data, the fit to the samples kept has them of those samples: each
+  // column (and y) less its station's mean over the rows kept, on every row, so that a place set aside is predicted
+  // from its station's readings kept, as a term per station would predict it.
+  std::vector<Eigen::MatrixXd> absorbed;
+  if (p.station_means_absorbed) {
+    absorbed.reserve(term_columns.size() + 1);
+    if (p.base.columns.cols() > 0) absorbed.push_back(p.base.columns);
+    for (const Eigen::MatrixXd* c : term_columns) absorbed.push_back(*c);
+    for (Eigen::MatrixXd& c : absorbed) absorb_station_means(p.station_of, &keep, c);
+    absorb_station_means(p.station_of, &keep, offsets);
+    Eigen::Map<Eigen::MatrixXd> ym(y.data(), n, 1);
+    absorb_station_means(p.station_of, &keep, ym);
+  }
   ColumnBlocks design;
-  if (p.base.columns.cols() > 0) design.emplace_back(p.base.columns);
-  if (offsets.cols() > 0) design.emplace_back(offsets);
-  for (const Eigen::MatrixXd* c : term_columns)
-    if (c->cols() > 0) design.emplace_back(*c);
+  if (p.station_means_absorbed) {
+    for (const Eigen::MatrixXd& c : absorbed)
+      if (c.cols() > 0) design.emplace_back(c);
+    if (offsets.cols() > 0) design.emplace_back(offsets);
+  } else {
+    if (p.base.columns.cols() > 0) design.emplace_back(p.base.columns);
+    if (offsets.cols() > 0) design.emplace_back(offsets);
+    for (const Eigen::MatrixXd* c : term_columns)
+      if (c->cols() > 0) design.emplace_back(*c);
+  }
   Eigen::VectorXd kept(n);
   for (Eigen::Index i = 0; i < n; ++i) kept[i] = keep[static_cast<std::size_t>(i)] ? 1.0 : 0.0;
-  const LsqResult fit =
-      solve_lsq(design, observations(p), kept, std::vector<std::string>(static_cast<std::size_t>(cols)));
+  const LsqResult fit = solve_lsq(design, y, kept, std::vector<std::string>(static_cast<std::size_t>(cols)));
   if (!fit.ok) return out;
   const Eigen::VectorXd& residual = fit.residual;  // on every sample
   const auto ranges = run_ranges(p);
@@ -199,6 +218,9 @@ Reduced without_samples(const Problem& p, const std::vector<bool>& keep, const s
       return of(whole);
     };
   }
+  // The stations' means again, of the samples kept: less the whole's means, each less its kept rows' mean, is each
+  // less the kept rows' own mean (a station's constant is a constant).
+  if (p.station_means_absorbed) absorb_station_means(q);
   return out;
 }
 
@@ -272,14 +294,23 @@ std::vector<OffsetAfter> fitted_offsets(const Problem& p, const std::vector<bool
   const auto n = static_cast<Eigen::Index>(p.samples.size());
   const std::vector<Eigen::Index> rows = rows_in_use(keep);
   const auto m = static_cast<Eigen::Index>(rows.size());
+  // Where the stations' means are fitted out of the data, every column is taken as the kept rows' fit sees it: less
+  // its station's mean over them (an offset from the turnaround on is then, like a rocking, half a step each way).
+  std::vector<std::size_t> kept_stations;
+  if (p.station_means_absorbed)
+    for (const Eigen::Index i : rows) kept_stations.push_back(p.station_of[static_cast<std::size_t>(i)]);
+  const auto absorbed = [&](Eigen::MatrixXd x) {
+    if (!kept_stations.empty()) absorb_station_means(kept_stations, nullptr, x);
+    return x;
+  };
   const Eigen::MatrixXd base_q =
-      p.base.columns.cols() > 0 ? span_basis(p.base.columns(rows, Eigen::all)) : Eigen::MatrixXd(m, 0);
+      p.base.columns.cols() > 0 ? span_basis(absorbed(p.base.columns(rows, Eigen::all))) : Eigen::MatrixXd(m, 0);
   Eigen::MatrixXd offsets(m, static_cast<Eigen::Index>(after.size()));
   for (std::size_t k = 0; k < after.size(); ++k)
     for (Eigen::Index i = 0; i < m; ++i)
       offsets(i, static_cast<Eigen::Index>(k)) =
           stands_off(p, after[k], static_cast<std::size_t>(rows[static_cast<std::size_t>(i)])) ? 1.0 : 0.0;
-  offsets = beyond(base_q, std::move(offsets));
+  offsets = beyond(base_q, absorbed(std::move(offsets)));
   const Eigen::MatrixXd all = basis_of(offsets, std::vector<bool>(after.size(), true));
   // The listed variants all the offsets take (those they do not, no fewer of them can), each by its candidate:
   // their columns beyond the base.
@@ -289,7 +320,7 @@ std::vector<OffsetAfter> fitted_offsets(const Problem& p, const std::vector<bool
       Eigen::MatrixXd scratch;
       const Eigen::MatrixXd& whole = columns_of(v, n, scratch);
       if (whole.rows() != n) continue;
-      const Eigen::MatrixXd kept = whole(rows, Eigen::all);
+      const Eigen::MatrixXd kept = absorbed(whole(rows, Eigen::all));
       Eigen::MatrixXd x = beyond(base_q, kept);
       // A column the base itself fits is the base's matter, not the offsets'.
       std::vector<Eigen::Index> free;

@@ -62,9 +62,13 @@ Eigen::VectorXd min_norm_solution(const Eigen::MatrixXd& r, Eigen::Index p) {
 // depend on which column round-off pivots out. False when the fit fails.
 // jt is scaled and decomposed in place.
 bool predict(Eigen::MatrixXd jt, const Eigen::VectorXd& yt, const Eigen::MatrixXd& jh, Eigen::VectorXd& out) {
+  const Eigen::Index p = jt.cols();
+  if (p == 0) {  // nothing to fit (a base whose every column is zero): nothing predicted
+    out = Eigen::VectorXd::Zero(jh.rows());
+    return true;
+  }
   const Eigen::VectorXd scale = scale_columns(jt);
   Eigen::VectorXd b;
-  const Eigen::Index p = jt.cols();
   if (jt.rows() >= 2 * p) {
     b = min_norm_solution(tall_r(jt, &yt), p);  // a tall design reduced first (tall_r)
   } else {
