@@ -76,6 +76,11 @@ void Driver::set_warnings(std::vector<std::string> warnings) {
   warnings_ = std::move(warnings);
 }
 
+void Driver::set_config_warnings(std::vector<std::string> warnings) {
+  std::lock_guard lock(state_mutex_);
+  config_warnings_ = std::move(warnings);
+}
+
 DriverStatus Driver::status() const {
   DriverStatus s;
   s.name = name_;
@@ -85,6 +90,7 @@ DriverStatus Driver::status() const {
     s.state = state_;
     s.reason = reason_;
     s.warnings = warnings_;
+    s.warnings.insert(s.warnings.end(), config_warnings_.begin(), config_warnings_.end());
   }
   apply_sample_bound(s);
   s.counters.samples = samples_.load(std::memory_order_relaxed);

@@ -138,6 +138,9 @@ class Driver {
   void set_state(DeviceState state, std::string reason = {});
   // Replaces the device's standing warnings (status().warnings); any thread, a mutex held for a swap.
   void set_warnings(std::vector<std::string> warnings);
+  // What the device's configuration says for as long as the device runs (a key by its old name), listed in
+  // status().warnings after set_warnings()'s, which do not replace them.
+  void set_config_warnings(std::vector<std::string> warnings);
   // Queues an event for take_events(); never blocks for long (a mutex held for a push).
   void post_event(DeviceEvent event);
   // Assigns the sequence number and pushes; a full ring counts an overrun (the sample is dropped).
@@ -189,6 +192,7 @@ class Driver {
   DeviceState state_ = DeviceState::stopped;
   std::string reason_;
   std::vector<std::string> warnings_;  // under state_mutex_
+  std::vector<std::string> config_warnings_;  // under state_mutex_
   std::vector<DeviceEvent> events_;   // under state_mutex_
   std::uint64_t events_dropped_ = 0;  // under state_mutex_
   std::jthread thread_;

@@ -45,6 +45,7 @@ LoopDriver::LoopDriver(std::string name, std::string driver, std::vector<Channel
       backoff_(policy_.reconnect.backoff) {
   set_sample_bound(std::chrono::nanoseconds(policy_.sample_bound_ns));
   for (const std::string& why : policy_.reconnect.deprecated) post_event({"deprecated_key", why, true});
+  set_config_warnings(policy_.reconnect.deprecated);  // and in STATUS while it runs (the event is heard once)
 }
 
 void LoopDriver::on_silence(std::int64_t now_ns) {

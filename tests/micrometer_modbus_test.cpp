@@ -671,6 +671,8 @@ TEST(MicrometerDriver, ReconnectKeysAreTheSkeletonsAndTheOldNamesAreDeprecated) 
   EXPECT_EQ(events[0].event, "deprecated_key");
   EXPECT_TRUE(events[0].warning);
   EXPECT_EQ(events[0].reason, old.reconnect.deprecated[0]);
+  // And STATUS lists them among the device's warnings for as long as it runs.
+  EXPECT_EQ(driver.status().warnings, old.reconnect.deprecated);
   EXPECT_NE(error("reconnect_min_ms = 20\nbackoff_initial_ms = 30\n")
                 .find("mic.toml:3: device[0].backoff_initial_ms: backoff_initial_ms is the old name of reconnect_min_ms"),
             std::string::npos)
