@@ -386,10 +386,17 @@ std::vector<OffsetAfter> fitted_offsets(const Problem& p, const std::vector<bool
   std::vector<bool> chosen(after.size(), taken.empty());
   std::vector<std::size_t> order(after.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    const bool level_a = after[a].second == later_runs, level_b = after[b].second == later_runs;
-    return level_a != level_b ? level_b : columns[a].second < columns[b].second;
-  });
+  // A level right after the first step of its run: where the pieces the steps cut the runs into would leave a
+  // candidate too little (a drift's ramp), a later place's step is left out rather than the runs' level.
+  std::vector<double> key(after.size());
+  for (std::size_t k = 0; k < after.size(); ++k) {
+    key[k] = static_cast<double>(columns[k].second);
+    if (after[k].second != later_runs) continue;
+    for (std::size_t j = 0; j < after.size(); ++j)
+      if (after[j].second != later_runs && after[j].first == after[k].first)
+        key[k] = std::min(key[k], static_cast<double>(columns[j].second) + 0.5);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
   for (const std::size_t k : taken.empty() ? std::vector<std::size_t>{} : order) {
     chosen[k] = true;
     const Eigen::MatrixXd q = basis_of(offsets, chosen);
