@@ -280,7 +280,7 @@ TEST(ExplainScenarios, OneFaultBesideAnEffectIsOnePlace) {
   simulators::scenarios::ScenarioOptions o;
   o.seed = 4;
   const auto r = simulators::scenarios::run_scenario("dbb_slip_beside_backlash", o);
-  ASSERT_TRUE(r.pass) << r.failure;
+  ASSERT_TRUE(r.pass) << r.failure << "\n" << models::explain::to_text(r.report);
   std::vector<models::explain::Location> aside;
   for (const auto& m : r.report.remaining)
     for (const auto& l : m.locations)
@@ -293,4 +293,79 @@ TEST(ExplainScenarios, OneFaultBesideAnEffectIsOnePlace) {
   ASSERT_EQ(r.report.findings.size(), 1u);
   for (const auto& p : r.report.findings[0].parameters)
     if (p.name == "backlash_x_um") EXPECT_LT(std::abs(p.value - 0.8), 3 * p.u) << p.value << " +/- " << p.u;
+}
+
+// Issue 41 item 10, the first case: a ball that slips once in its cup 14.4 s into the first run and is seated again
+// before the second (the step stays for the rest of its run only). The place is set aside, and nothing is found in the
+// rest: the reading stands off after the place in its run and, apart, in the runs after it. With one offset over both,
+// the second run's level was left to a ccw/cw effect: lateral play X -0.93 / Y +0.94 um on a machine with none.
+TEST(ExplainScenarios, ASlipSeatedAgainBeforeTheNextRunIsSetAsideWithNothingFoundBesideIt) {
+  std::vector<bool> densities{true};
+#if !defined(GUIDEWAY_SANITIZED_ADDRESS)
+  densities.push_back(false);  // and the full density (its table row over seeds 1-5: explain_scenarios_full)
+#endif
+  for (const bool quick : densities) {
+    simulators::scenarios::ScenarioOptions o;
+    o.quick = quick;
+    const auto r = simulators::scenarios::run_scenario("dbb_slip_reseated", o);
+    EXPECT_TRUE(r.pass) << "quick " << quick << ": " << r.failure << "\n" << models::explain::to_text(r.report);
+    EXPECT_TRUE(r.report.findings.empty()) << models::explain::to_text(r.report);
+    EXPECT_GT(r.report.set_aside, 0u);
+  }
+}
+
+// Issue 41 item 10, the second case: the ball slip beside 0.8 um X backlash at issue 45's density (2 x 18,859
+// samples, 52 a degree) reported a lateral play and a vibration beside the backlash, neither of which the machine has.
+TEST(ExplainScenarios, ASlipBesideBacklashAtTheBenchDensityFindsTheBacklashAlone) {
+#if defined(GUIDEWAY_SANITIZED_ADDRESS)
+  // 2 x 18,859 samples: 2 s of CPU in Release, minutes under ASan for code the scenarios above run at 3 a degree.
+  GTEST_SKIP() << "the bench's density: run in the Release build, not under ASan";
+#endif
+  simulators::scenarios::ScenarioOptions o;
+  o.samples_per_deg = 18859.0 / 360.0;
+  const auto r = simulators::scenarios::run_scenario("dbb_slip_beside_backlash", o);
+  EXPECT_TRUE(r.pass) << r.failure << "\n" << models::explain::to_text(r.report);
+  EXPECT_TRUE(r.extra.empty()) << models::explain::to_text(r.report);
+}
+
+// Issue 41 item 10, the third case, as near as the virtual machine traces it offline: the standard test (ccw, then cw,
+// 1000 mm/min, r 100 mm) read as a live session reads it (encoder angles, 250 samples a second, 0.1 um bar noise) on a
+// machine with backlash, a servo mismatch and a lead-screw error (config/machine-several-effects.toml without its
+// vibration and drift). The three are found with their sizes, and no stick-slip: live, one was reported at 0.12 um,
+// 10 Hz and 50 ms, its decay at its grid's edge. A stick-slip is now taken only where a step past such an edge fits
+// worse (Variant::beyond).
+TEST(ExplainScenarios, TheLiveStandardTestOfThreeEffectsFindsThemAndNoStickSlip) {
+#if defined(GUIDEWAY_SANITIZED_ADDRESS)
+  GTEST_SKIP() << "2 x 11,800 samples: run in the Release build, not under ASan";
+#endif
+  auto cfg = simulators::machine::load_machine_config(GUIDEWAY_SOURCE_DIR "/config/machine-several-effects.toml");
+  cfg.axis[0].vibration_amplitude_m = 0;
+  cfg.axis[0].drift_m_per_s = 0;
+  const simulators::machine::Machine m(cfg);
+  std::vector<guideway::formats::DbbRun> runs;
+  double t0 = 0;
+  for (int k = 0; k < 2; ++k) {
+    simulators::machine::DbbCircleSpec spec;
+    spec.direction = k == 0 ? guideway::formats::DbbDirection::ccw : guideway::formats::DbbDirection::cw;
+    spec.sample_rate_hz = 250.0;
+    spec.t0_s = t0;
+    spec.seed = 41 + static_cast<std::uint64_t>(k);
+    runs.push_back(simulators::machine::simulate_dbb_run(m, spec, "run" + std::to_string(k + 1),
+                                                         simulators::machine::AngleSource::encoders));
+    const double omega = spec.feed_m_per_s / spec.radius_m;
+    t0 += (2 * std::numbers::pi + 2 * spec.overshoot_rad) / omega + 1.0;
+  }
+  const models::explain::Report r = models::explain::explain_dbb_report(runs);
+  std::map<std::string, double> found;
+  for (const auto& f : r.findings) {
+    EXPECT_NE(f.effect, "stick_slip") << models::explain::to_text(r);
+    for (const auto& p : f.parameters) found[p.name] = p.value;
+  }
+  ASSERT_TRUE(found.contains("backlash_x_um") && found.contains("servo_mismatch_ms") &&
+              found.contains("cyclic_error_y_um"))
+      << models::explain::to_text(r);
+  EXPECT_NEAR(found["backlash_x_um"], 1.0, 0.1);
+  EXPECT_NEAR(found["backlash_y_um"], 0.6, 0.1);
+  EXPECT_NEAR(found["servo_mismatch_ms"], -0.03, 0.006);
+  EXPECT_NEAR(found["cyclic_error_y_um"], 0.4, 0.04);
 }

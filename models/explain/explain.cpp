@@ -42,7 +42,8 @@ Report with_places_set_aside(const Problem& problem, const Report& first, Report
   m.band = "-";
   m.evidence =
       "no effect of the library explains it: set aside, the findings are fitted to the rest, with the reading free "
-      "to stand off by a constant after each place (a nuisance for a step, not a finding)";
+      "to stand off by a constant after each place in its run and, apart, in the runs after it (a nuisance for a "
+      "step, not a finding)";
   for (const auto& l : aside) {
     m.where += (m.where.empty() ? "" : ", ") + l.run + " " + printf_number("%.4g", l.where.first) + ".." +
                printf_number("%.4g", l.where.second) + (problem.domain == "angle_deg" ? " deg" : " mm");
@@ -109,7 +110,15 @@ Report explain(const Problem& problem, const ExplainOptions& options) {
         return std::abs(a.peak_um) < std::abs(b.peak_um);
       })};
     std::vector<bool> trial = keep;
-    const std::size_t count = engine::set_aside(problem, places, trial);
+    std::size_t count = engine::set_aside(problem, places, trial);
+    // Places too wide to set aside (a step that stays for the rest of a run, seated again before the next, reads as
+    // a plateau over the rest of the run) may stand out narrower in the probe's residual: its strongest place, as
+    // where the residual is structured throughout (issue 41 item 10).
+    if (static_cast<double>(count) > options.max_set_aside * static_cast<double>(n) && !from_probe) {
+      places = engine::strongest_probe_place(cur, index);
+      trial = keep;
+      count = places.empty() ? n : engine::set_aside(problem, places, trial);
+    }
     if (static_cast<double>(count) > options.max_set_aside * static_cast<double>(n)) break;
     if (const std::string run = engine::starved_run(problem, trial); !run.empty()) {
       starved = "the places no effect explains were not set aside: " + run + " would keep fewer than " +
@@ -203,6 +212,7 @@ void absorb_station_means(const std::vector<std::size_t>& station_of, const std:
 namespace {
 
 void absorb_variant(Variant& v, const std::shared_ptr<const std::vector<std::size_t>>& stations) {
+  for (Variant& b : v.beyond) absorb_variant(b, stations);
   if (v.fill) {
     v.fill = [fill = std::move(v.fill), stations](Eigen::Ref<Eigen::MatrixXd> out) {
       fill(out);

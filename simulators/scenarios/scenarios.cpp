@@ -81,6 +81,12 @@ struct DbbScenario {
     int run = -1;
     double after_s = 0, um = 0, hz = 0, decay_s = 0;
   } knock;
+  // The ball slips in its cup during run `run`, `after_s` from its first sample, and is seated again before the
+  // next run: the reading steps by um for the rest of that run only (machine::DbbErrors' slip stays for good).
+  struct Reseated {
+    int run = -1;
+    double after_s = 0, um = 0;
+  } reseated;
   // A dropout: run `run` loses its samples for duration_s from where its angle reaches from_deg (the
   // recording's gap, not the machine's: the samples are simply not there).
   struct Dropout {
@@ -126,6 +132,9 @@ std::vector<formats::DbbRun> dbb_runs(const machine::MachineConfig& cfg, const D
       for (std::size_t i = 0; i < run.t_s.size(); ++i)
         if (const double dt = run.t_s[i] - sc.knock.after_s; dt >= 0)
           run.dL_m[i] += sc.knock.um * um * std::sin(2 * pi * sc.knock.hz * dt) * std::exp(-dt / sc.knock.decay_s);
+    if (sc.reseated.run == static_cast<int>(k))
+      for (std::size_t i = 0; i < run.t_s.size(); ++i)
+        if (run.t_s[i] >= sc.reseated.after_s) run.dL_m[i] += sc.reseated.um * um;
     if (sc.dropout.run == static_cast<int>(k)) {
       const double from_rad = sc.dropout.from_deg * pi / 180;
       std::size_t i = 0;
@@ -481,6 +490,45 @@ const std::vector<DbbScenario>& dbb_scenarios() {
                             },
                             {expect("backlash", results::backlash, along_x, 0.8, 0.1),
                              expect("vibration", results::vibration, along_y, 0.4, 0.05)}));
+    // Issue 41 item 10: a ball that slips once in its cup mid-run, 14.4 s into the first run (137.5 deg), and is
+    // seated again before the second (the step stays for the rest of its run only); alone, beside one effect and two.
+    // The place is set aside and the effects found in the rest, with the reading free to stand off after the place
+    // and, apart, in the runs after it: the step alone left the second run's level to a ccw/cw effect (lateral play
+    // X -0.93 / Y +0.94 um on a machine with none). Beside a backlash and a vibration it is not in the suite yet:
+    // docs/explain.md "Limits".
+    const auto reseated = [](std::string name, std::string concealment, std::function<void(MachineConfig&)> effects,
+                             std::vector<Expectation> expected) {
+      DbbScenario f = sc(std::move(name), std::move(concealment), std::move(effects), std::move(expected));
+      constexpr double after_s = 14.4;
+      const double omega = f.runs.front().feed_mm_per_min / 60000.0 / (f.runs.front().radius_mm * 1e-3);
+      f.expect_unexplained = true;
+      f.where_deg = {after_s * omega * 180 / pi};
+      f.where_set_aside = true;
+      f.where_run = "run1 (ccw)";
+      f.where_time_s = after_s;
+      f.reseated = {0, after_s, 1.0};
+      return f;
+    };
+    v.push_back(reseated("dbb_slip_reseated",
+                         "the ball slips 1 um 14.4 s into the first run (137.5 deg) and is seated again before the "
+                         "second: a step for the rest of its run only, outside the library",
+                         [](MachineConfig&) {}, {}));
+    // A lateral play is mostly a ccw/cw level (its X and Y apart by their 4th harmonic once the runs' levels are
+    // free): beside the slip its u is some 4.6 times that of dbb_lateral_play, hence 2 um and 0.45 um.
+    v.push_back(reseated("dbb_slip_reseated_beside_lateral",
+                         "the same slip, seated again before the second run, beside 2 um lateral play of Y: the play "
+                         "is a ccw/cw level as well as a shape, the slip one run's level",
+                         [](MachineConfig& m) { lateral(m, 1, 2.0); },
+                         {expect("lateral_play", results::lateral_play, along_y, 2.0, 0.45)}));
+    v.push_back(reseated("dbb_slip_reseated_beside_two",
+                         "the same slip, seated again before the second run, beside 0.8 um X backlash and 2 um "
+                         "lateral play of Y",
+                         [](MachineConfig& m) {
+                           backlash(m, 0, 0.8);
+                           lateral(m, 1, 2.0);
+                         },
+                         {expect("backlash", results::backlash, along_x, 0.8, 0.1),
+                          expect("lateral_play", results::lateral_play, along_y, 2.0, 0.45)}));
     {
       // A knock during the second run (cw from 0 deg; times from its first sample, as the run file counts
       // them): 4 um ringing at 20 Hz, decaying in 150 ms, 15 s into the run (at 216.8 deg).

@@ -142,8 +142,9 @@ std::vector<Trial> EffectSelection::trials(std::vector<std::size_t>& unfittable)
   return out;
 }
 
-// One forward step: the best trial that passes the F-test, lowers the BIC and improves the held-out RMS
-// joins the model; every other trial's verdict is kept. Returns the effect taken ("" = none).
+// One forward step: the best trial that passes the F-test, lowers the BIC, has its searched values inside its grid
+// (past_grid_edge) and improves the held-out RMS joins the model; every other trial's verdict is kept. Returns the
+// effect taken ("" = none).
 std::string EffectSelection::forward_step() {
   std::string accepted;
   std::vector<std::size_t> unfittable;
@@ -165,6 +166,9 @@ std::string EffectSelection::forward_step() {
       con.verdict = "not significant (p=" + printf_number("%.2g", t.p) + ")";
     } else if (!(t.delta_bic < 0)) {
       con.verdict = "does not lower the BIC";
+    } else if (std::string edge = past_grid_edge(sel_, cur_, listed(cand, t.pool)[t.index], t.ext.rss);
+               !edge.empty()) {
+      con.verdict = std::move(edge);
     } else if (!std::isfinite(cur_heldout_)) {  // no figure to beat: the trial's is not computed
       con.verdict = "held-out RMS of the model so far not computable (" + cur_ho_.failure + ")";
     } else {

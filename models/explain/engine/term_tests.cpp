@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "core/number_format.hpp"
 #include "models/common/least_squares.hpp"
@@ -21,6 +22,26 @@ DropTest significance(const Selection& sel, const std::vector<Term>& terms, std:
   return d;
 }
 
+std::string past_grid_edge(const Selection& sel, const Model& without, const Variant& v, double rss) {
+  const auto n = static_cast<Eigen::Index>(sel.observations().size());
+  for (const Variant& b : v.beyond) {
+    Eigen::MatrixXd x(n, width(b));
+    write_columns(b, x);
+    const Extension e = extend(without, std::move(x));
+    // Better beyond rounding: the joint fits of `v` and of `b` come by different routes (choose(), extend()).
+    if (e.rank == 0 || !(e.rss < rss * (1 - 1e-9))) continue;
+    std::string at, past;
+    for (std::size_t i = 0; i < v.fixed.size() && i < b.fixed.size(); ++i)
+      if (v.fixed[i].value != b.fixed[i].value) {
+        at = v.fixed[i].name + " = " + printf_number("%.4g", v.fixed[i].value);
+        past = printf_number("%.4g", b.fixed[i].value);
+      }
+    return "its searched " + at + " is at its grid's edge and " + past +
+           ", past it, fits better: the optimum lies outside the grid";
+  }
+  return "";
+}
+
 DropTest drop_test(const Selection& sel, const std::vector<Term>& terms, std::size_t k, const Model& cur,
                    double cur_heldout) {
   DropTest d = significance(sel, terms, k, cur);
@@ -30,6 +51,11 @@ DropTest drop_test(const Selection& sel, const std::vector<Term>& terms, std::si
   }
   if (!(d.delta_bic < 0)) {
     d.why = "does not lower the BIC with the others in the model";
+    return d;
+  }
+  if (std::string edge = past_grid_edge(sel, sel.model(terms, k), variant_of(sel.problem(), terms[k]), cur.rss);
+      !edge.empty()) {
+    d.why = std::move(edge);
     return d;
   }
   d.heldout_without = sel.heldout(terms, k).rms;

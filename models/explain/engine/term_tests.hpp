@@ -5,6 +5,7 @@
 // plausible. Not thread safe (the selection's caches).
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "models/explain/engine/model_fit.hpp"
@@ -17,7 +18,13 @@ namespace guideway::models::explain::engine {
 // Term k against the model without it: the F-test (Bonferroni as when it was taken) and the BIC.
 DropTest significance(const Selection& sel, const std::vector<Term>& terms, std::size_t k, const Model& cur);
 
-// Does term k still earn its place with the others in the model (`cur`, held-out cur_heldout)?
+// Why variant v, fitted beside the model `without` to a joint RSS `rss`, is not taken for a searched value at an end
+// of its grid: a variant a step past that end (Variant::beyond) fits better beside the same model, so the optimum
+// lies outside the grid. "" when none does (or v has none).
+std::string past_grid_edge(const Selection& sel, const Model& without, const Variant& v, double rss);
+
+// Does term k still earn its place with the others in the model (`cur`, held-out cur_heldout)? Not where its
+// variant, chosen again, is at its grid's edge with the optimum past it (past_grid_edge).
 DropTest drop_test(const Selection& sel, const std::vector<Term>& terms, std::size_t k, const Model& cur,
                    double cur_heldout);
 
