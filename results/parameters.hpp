@@ -41,10 +41,9 @@ struct Parameter {
   std::string_view group;    // the PARAMS object it is in ("diagnostics", "lai3", ...); "" = EXPLAIN or the map only
   std::string_view meaning;  // what it is, one line
   int headline = 0;          // its place among its kind's headline figures (fleet, docs/plant.md); 0 = not one
-  std::string_view also_in = {};   // the group to read when `group` lacks it (a DBB backlash: Lai's)
-  std::string_view value_at = {};  // JSON pointer of its value when that is not /group/name/value
-  std::string_view u_at = {};      // ... and of its standard uncertainty (with value_at)
-  ShownAs shown_as = {};           // how people read it, when not in the name's unit
+  std::string_view also_in = {};      // the group to read when `group` lacks it (a DBB backlash: Lai's)
+  std::string_view figure_name = {};  // the name of its figure in `group` when not `name` (a headline named apart)
+  ShownAs shown_as = {};              // how people read it, when not in the name's unit
 };
 
 // ---- DBB: the ballbar diagnostics (models/dbb identify; docs/conventions.md) ----------------------------
@@ -130,18 +129,15 @@ inline constexpr ShownAs shown_ppm_off_one{"ppm", 1e6, 1.0};
 inline constexpr Parameter lai_e_x{"e_x_um", "fixed ball offset {A}", "dbb", "lai3", "fixed ball offset along a"};
 inline constexpr Parameter lai_e_y{"e_y_um", "fixed ball offset {B}", "dbb", "lai3", "fixed ball offset along b"};
 inline constexpr Parameter lai_S_x{
-    "S_x", "scale {A} (S_x - 1)", "dbb", "lai3", "scale factor of axis a (1 = exact)", 0, {}, {},
-    {},    shown_ppm_off_one};
+    "S_x", "scale {A} (S_x - 1)", "dbb", "lai3", "scale factor of axis a (1 = exact)", 0, {}, {},    shown_ppm_off_one};
 inline constexpr Parameter lai_S_y{
-    "S_y", "scale {B} (S_y - 1)", "dbb", "lai3", "scale factor of axis b (1 = exact)", 0, {}, {},
-    {},    shown_ppm_off_one};
+    "S_y", "scale {B} (S_y - 1)", "dbb", "lai3", "scale factor of axis b (1 = exact)", 0, {}, {},    shown_ppm_off_one};
 inline constexpr Parameter lai_a1{"a1_rad",
                                   "{A} straightness along {B}, linear: squareness (a1)",
                                   "dbb",
                                   "lai3",
                                   "X straightness in b, linear: the squareness",
                                   0,
-                                  {},
                                   {},
                                   {},
                                   shown_urad};
@@ -153,7 +149,6 @@ inline constexpr Parameter lai_a2{"a2_per_mm",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m2};
 inline constexpr Parameter lai_a3{"a3_per_mm2",
                                   "{A} straightness along {B}, cubic (a3)",
@@ -161,7 +156,6 @@ inline constexpr Parameter lai_a3{"a3_per_mm2",
                                   "lai3",
                                   "X straightness in b, cubic",
                                   0,
-                                  {},
                                   {},
                                   {},
                                   shown_um_per_m3};
@@ -173,7 +167,6 @@ inline constexpr Parameter lai_b2{"b2_per_mm",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m2};
 inline constexpr Parameter lai_b3{"b3_per_mm2",
                                   "{B} straightness along {A}, cubic (b3)",
@@ -181,7 +174,6 @@ inline constexpr Parameter lai_b3{"b3_per_mm2",
                                   "lai3",
                                   "Y straightness in a, cubic",
                                   0,
-                                  {},
                                   {},
                                   {},
                                   shown_um_per_m3};
@@ -193,19 +185,16 @@ inline constexpr Parameter lai_c0_plus_d1{"c0_plus_d1_rad",
                                           0,
                                           {},
                                           {},
-                                          {},
                                           shown_urad};
-inline constexpr Parameter lai_c1{"c1_per_mm", "{B} roll, linear (c1)", "dbb", "lai3", "Y roll, linear", 0, {}, {},
-                                  {},          shown_urad_per_m};
+inline constexpr Parameter lai_c1{"c1_per_mm", "{B} roll, linear (c1)", "dbb", "lai3", "Y roll, linear", 0, {}, {},          shown_urad_per_m};
 inline constexpr Parameter lai_c2{
-    "c2_per_mm2", "{B} roll, quadratic (c2)", "dbb", "lai3", "Y roll, quadratic", 0, {}, {}, {}, shown_urad_per_m2};
+    "c2_per_mm2", "{B} roll, quadratic (c2)", "dbb", "lai3", "Y roll, quadratic", 0, {}, {}, shown_urad_per_m2};
 inline constexpr Parameter lai_d2{"d2_per_mm",
                                   "{A} straightness along {N}, quadratic (d2)",
                                   "dbb",
                                   "lai3",
                                   "X straightness in n, quadratic",
                                   0,
-                                  {},
                                   {},
                                   {},
                                   shown_um_per_m2};
@@ -217,10 +206,9 @@ inline constexpr Parameter lai_d3{"d3_per_mm2",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m3};
 inline constexpr Parameter lai_e1{
-    "e1_rad",  "{B} straightness along {N}, linear (e1)", "dbb", "lai3", "Y straightness in n, linear", 0, {}, {}, {},
+    "e1_rad",  "{B} straightness along {N}, linear (e1)", "dbb", "lai3", "Y straightness in n, linear", 0, {}, {},
     shown_urad};
 inline constexpr Parameter lai_e2{"e2_per_mm",
                                   "{B} straightness along {N}, quadratic (e2)",
@@ -230,7 +218,6 @@ inline constexpr Parameter lai_e2{"e2_per_mm",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m2};
 inline constexpr Parameter lai_e3{"e3_per_mm2",
                                   "{B} straightness along {N}, cubic (e3)",
@@ -238,7 +225,6 @@ inline constexpr Parameter lai_e3{"e3_per_mm2",
                                   "lai3",
                                   "Y straightness in n, cubic",
                                   0,
-                                  {},
                                   {},
                                   {},
                                   shown_um_per_m3};
@@ -252,7 +238,6 @@ inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg",
                                                     "lai3",
                                                     "Lai's phase angle of the servo mismatch at the first run's speed",
                                                     0,
-                                                    {},
                                                     {},
                                                     {},
                                                     {"\u00b5rad", 1e6 * std::numbers::pi / 180}};
@@ -317,7 +302,6 @@ inline constexpr Parameter cyclic_sin_column{"cyclic_sin_{axis}",
                                              0,
                                              {},
                                              {},
-                                             {},
                                              shown_um};
 inline constexpr Parameter cyclic_cos_column{"cyclic_cos_{axis}",
                                              "cyclic error {axis} (cosine)",
@@ -325,7 +309,6 @@ inline constexpr Parameter cyclic_cos_column{"cyclic_cos_{axis}",
                                              "",
                                              "fit column: the cyclic error's cosine part",
                                              0,
-                                             {},
                                              {},
                                              {},
                                              shown_um};
@@ -347,7 +330,6 @@ inline constexpr Parameter vibration_sin{"vibration_sin",
                                          0,
                                          {},
                                          {},
-                                         {},
                                          shown_um};
 inline constexpr Parameter vibration_cos{"vibration_cos",
                                          "vibration (cosine)",
@@ -355,7 +337,6 @@ inline constexpr Parameter vibration_cos{"vibration_cos",
                                          "",
                                          "fit column: the vibration's cosine part (_runK: one run's)",
                                          0,
-                                         {},
                                          {},
                                          {},
                                          shown_um};
@@ -497,22 +478,20 @@ inline constexpr Parameter horizontal_straightness{
     "horizontal_straightness_um",
     "straightness h",
     "straightness",
-    "result",
+    "straightness",
     "least-squares straightness of the traverse in the horizontal plane (from the yaw)",
     1,
     {},
-    "/result/horizontal/least_squares/straightness_um",
-    "/result/horizontal/least_squares/u_straightness_um"};
+    "horizontal_least_squares_um"};
 inline constexpr Parameter vertical_straightness{
     "vertical_straightness_um",
     "straightness v",
     "straightness",
-    "result",
+    "straightness",
     "least-squares straightness of the traverse in the vertical plane (from the pitch)",
     2,
     {},
-    "/result/vertical/least_squares/straightness_um",
-    "/result/vertical/least_squares/u_straightness_um"};
+    "vertical_least_squares_um"};
 inline constexpr Parameter profile_straightness{"straightness_lsq_um",
                                                 "profile straightness",
                                                 "profile",

@@ -46,8 +46,9 @@ TEST(Results, EachGroupNamesAParameterOnce) {
     EXPECT_TRUE(seen.insert({std::string(p->group), std::string(p->name)}).second || p->group.empty());
     EXPECT_FALSE(p->label.empty());
     EXPECT_FALSE(p->meaning.empty());
-    if (!p->value_at.empty()) {
-      EXPECT_FALSE(p->u_at.empty());
+    if (!p->figure_name.empty()) {
+      EXPECT_NE(p->headline, 0) << "a figure named apart is a headline's";
+      EXPECT_EQ(results::find_parameter(p->figure_name, p->group), nullptr) << "its figure is no other entry's";
     }
   }
 }
