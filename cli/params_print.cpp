@@ -151,16 +151,13 @@ void print_standards(const nlohmann::json& st) {
 // JSON's alphabetical one.
 std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, std::string_view plane,
                                                  std::string_view group, bool iso, bool without_u = false) {
-  const auto catalogue = results::catalogue();
-  std::vector<std::pair<std::size_t, std::vector<std::string>>> ranked;
+  std::vector<std::pair<double, std::vector<std::string>>> ranked;
   for (const auto& [name, v] : items.items()) {
     if (name.starts_with("circular_") != iso) continue;
     // A line's sine and cosine parts are shown as its amplitude and phase (beside them in the JSON).
     if (const auto line = results::line_of_part(name); line && items.contains(line->amplitude)) continue;
     if (!iso && !without_u && !v.contains("u")) continue;  // a searched or assumed value: searched_values()
-    const results::Parameter* p = results::find_parameter(name, group);
-    const auto at = static_cast<std::size_t>(std::find(catalogue.begin(), catalogue.end(), p) - catalogue.begin());
-    ranked.emplace_back(at, shown_row(name, v, plane, group));
+    ranked.emplace_back(results::shown_order(name, group), shown_row(name, v, plane, group));
   }
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<std::vector<std::string>> rows;
@@ -202,7 +199,7 @@ void print_ranking(const nlohmann::json& p, std::string_view plane, double g_um)
   std::cout << "what to fix first (each error's part of the circular deviation"
             << (std::isfinite(g_um) ? " G = " + format_number(g_um, 3) + " \u00b5m" : std::string(" G")) << ", from "
             << (model == "lai3" ? "Lai's model" : "the " + model) << "):\n";
-  const std::string group = model == "lai3" ? std::string(results::rank_backlash_a.group) : model;
+  const std::string group = model == "lai3" ? std::string(results::ranking_group) : model;
   std::vector<std::vector<std::string>> rows;
   std::string small;
   for (const auto& c : ranking) {
@@ -304,19 +301,18 @@ void print_planes_summary(const nlohmann::json& s) {
       // squareness_xz_urad: the plane is in the name
       const std::string bare = results::split_unit(name).first;
       const std::string plane = bare.substr(bare.size() - 2);
-      rows.push_back(shown_row(name, v, plane, results::plane_squareness.group));
+      rows.push_back(shown_row(name, v, plane, results::planes_group));
     }
   }
   for (const char* group : {"backlash", "scale"}) {
     const nlohmann::json items = s.value(group, nlohmann::json::object());
     for (const auto& [name, v] : items.items()) {
-      std::vector<std::string> row = shown_row(name, v, "xy", results::axis_backlash.group);
+      std::vector<std::string> row = shown_row(name, v, "xy", results::planes_group);
       std::string from;
       for (const auto& f : v.value("from", nlohmann::json::array()))
         from +=
             (from.empty() ? "" : ", ") + f.value("plane", std::string("?")) + " " +
-            results::shown(name, number_or(f, "value", NAN), number_or(f, "u", NAN), "xy", results::axis_backlash.group)
-                .value;
+            results::shown(name, number_or(f, "value", NAN), number_or(f, "u", NAN), "xy", results::planes_group).value;
       row.push_back("from " + from + (v.value("consistent", true) ? "" : ": the planes DISAGREE"));
       rows.push_back(std::move(row));
     }

@@ -13,16 +13,18 @@ namespace guideway::fleet {
 
 namespace {
 
-// Where the catalogue says a figure is: in its group under its name (or its figure_name), else in the group it
-// is also reported in (a DBB backlash: Lai's).
+// Where the catalogue says a figure is: in its group under its name (or its figure_name), else in the groups it is
+// also reported in, under its name there (a DBB backlash: Lai's, his x and y the plane's axes).
 using Found = std::pair<std::string_view, const results::Figure*>;  // the group, and the figure in it
-std::vector<Found> figures_of(const results::Parameter& p, const std::string& name, const results::Params& params) {
-  const std::string in_group = p.figure_name.empty() ? name : std::string(p.figure_name);
+std::vector<Found> figures_of(const results::Parameter& p, const std::string& plane, int axis,
+                              const results::Params& params) {
   std::vector<Found> out;
-  for (const std::string_view group : {p.group, p.also_in}) {
-    if (group.empty()) continue;
-    if (const results::Figure* f = params.find(group, in_group)) out.emplace_back(group, f);
-  }
+  const auto look = [&](std::string_view group, const std::string& name) {
+    if (const results::Figure* f = params.find(group, name)) out.emplace_back(group, f);
+  };
+  if (!p.group.empty())
+    look(p.group, p.figure_name.empty() ? results::name(p, plane, axis) : std::string(p.figure_name));
+  for (const results::Place& place : p.places) look(place.group, results::name_in(p, place.group, plane, axis));
   return out;
 }
 
@@ -31,7 +33,7 @@ std::optional<double> finite(double v) { return std::isfinite(v) ? std::optional
 std::optional<Headline> figure(const results::Parameter& p, const std::string& plane, int axis,
                                const results::Params& params) {
   const std::string name = results::name(p, plane, axis);
-  for (const auto& [group, f] : figures_of(p, name, params)) {
+  for (const auto& [group, f] : figures_of(p, plane, axis, params)) {
     if (std::isfinite(f->value))
       return Headline{name, results::label(p, plane, axis), results::unit(p), f->value,
                       f->u ? finite(*f->u) : std::nullopt};
@@ -68,7 +70,7 @@ std::string figure_problem(std::string_view kind, const results::Params& params)
   const std::string plane = plane_of(params);
   for (const results::Parameter* p : results::headline_parameters(kind)) {
     for (const int axis : axes_of(*p)) {
-      for (const auto& [group, f] : figures_of(*p, results::name(*p, plane, axis), params)) {
+      for (const auto& [group, f] : figures_of(*p, plane, axis, params)) {
         for (const auto& [what, v] : {std::pair{"value", f->value}, std::pair{"u", f->u.value_or(0.0)}})
           if (!std::isfinite(v))
             return "the figure " + std::string(group) + "." + f->name + " has " + what + " " +
