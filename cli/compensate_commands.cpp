@@ -22,6 +22,7 @@
 #include "models/dbb/identify.hpp"
 #include "models/dbb/three_planes.hpp"
 #include "results/parameters.hpp"
+#include "results/result_header.hpp"
 #include "results/session_kinds.hpp"
 #include "simulators/machine/dbb_runs.hpp"
 
@@ -52,13 +53,11 @@ std::vector<std::string> latest_session_runs(const std::string& socket, std::str
       c.request(results::request(results::RequestClass::params, {{"kind", results::dbb_kind.name}}),
                 results::MessageClass::params);
   throw_if_error(r);
-  session = r.value("session", std::string("latest session"));
+  const results::ResultHeader header = results::read_header(r);
+  session = header.session.empty() ? "latest session" : header.session;
   std::vector<std::string> out;
-  if (r.contains("derived"))
-    for (const auto& p : r.at("derived")) {
-      const std::string path = p.get<std::string>();
-      if (fs::path(path).extension() == ".csv") out.push_back(path);
-    }
+  for (const std::string& path : header.derived)
+    if (fs::path(path).extension() == ".csv") out.push_back(path);
   if (out.empty())
     throw std::runtime_error("compensate: the daemon's latest DBB session (" + session +
                              ") left no run files (was it recorded?); give the run files instead");

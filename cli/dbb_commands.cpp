@@ -50,17 +50,17 @@ struct IdentifyArgs {
 // terms, so that it is not read as one of them; a term that still contradicts EXPLAIN is "not determined".
 struct PlaneResult {
   models::dbb::Identification id;
-  nlohmann::json json;
+  results::Params params;
 };
 PlaneResult identify_plane(const std::vector<formats::DbbRun>& runs, const models::dbb::IdentifyOptions& opt,
                            bool with_explain) {
   if (!with_explain) {
     PlaneResult out{models::dbb::identify(runs, opt), {}};
-    out.json = models::dbb::to_json(out.id);
+    out.params = models::dbb::to_params(out.id);
     return out;
   }
   const models::explain::CheckedIdentification checked = models::explain::identify_checked(runs, opt);
-  return {checked.id, models::explain::to_json(checked)};
+  return {checked.id, models::explain::to_params(checked)};
 }
 
 void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
@@ -72,7 +72,7 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   opt.lai_shared_center = !a.per_run_center;
   opt.bar_length_u_um = a.bar_length_u_um;
   std::vector<models::dbb::Identification> ids;
-  std::vector<nlohmann::json> plane_json;
+  std::vector<results::Params> plane_params;
   {
     Progress progress("identify", a.quiet || a.json);
     for (const auto& plane : models::dbb::runs_by_plane(std::move(runs))) {
@@ -81,17 +81,17 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
                                         : "Lai's model, the ballbar diagnostics and EXPLAIN beside them"));
       PlaneResult r = identify_plane(plane, opt, !a.without_explain);
       ids.push_back(std::move(r.id));
-      plane_json.push_back(std::move(r.json));
+      plane_params.push_back(std::move(r.params));
     }
   }
   if (ids.size() == 1) {
-    const nlohmann::json& j = plane_json.front();
+    const results::Params& p = plane_params.front();
     if (a.json) {
-      std::cout << j.dump() << "\n";
+      std::cout << results::to_json(p).dump() << "\n";
     } else {
       std::cout << "DBB identification (" << ids.front().model << "), " << ids.front().runs.size() << " run(s), "
                 << ids.front().plane << " plane\n";
-      print_result(j);
+      print_result(p);
     }
     return;
   }
@@ -99,7 +99,7 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
   const nlohmann::json summary = models::dbb::to_json(models::dbb::summarize_planes(ids));
   if (a.json) {
     nlohmann::json j = {{"planes", nlohmann::json::object()}, {"summary", summary}};
-    for (std::size_t k = 0; k < ids.size(); ++k) j["planes"][ids[k].plane] = plane_json[k];
+    for (std::size_t k = 0; k < ids.size(); ++k) j["planes"][ids[k].plane] = results::to_json(plane_params[k]);
     std::cout << j.dump() << "\n";
     return;
   }
@@ -107,7 +107,7 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
     const auto& id = ids[k];
     std::cout << "== " << id.plane << " plane: DBB identification (" << id.model << "), " << id.runs.size()
               << " run(s)\n";
-    print_result(plane_json[k]);
+    print_result(plane_params[k]);
     std::cout << "\n";
   }
   print_planes_summary(summary);

@@ -210,18 +210,19 @@ int run_scenarios(const Opts& o) {
 
 // Lai's base beside the ballbar diagnostics (PARAMS' "diagnostics"; a centre offset is run 1's when each
 // run has its own): every geometric term the test fits, whatever EXPLAIN finds.
-nlohmann::json diagnostics_against_machine(const nlohmann::json& diagnostics,
+nlohmann::json diagnostics_against_machine(const results::Params& params,
                                            const simulators::scenarios::MachineTruth& truth) {
+  const auto figure = [&](const std::string& name) { return params.find(results::diagnostics_group, name); };
+  const auto number = [](double v) { return std::isnan(v) ? nlohmann::json() : nlohmann::json(v); };
   nlohmann::json out = nlohmann::json::array();
   for (const auto& item : truth.diagnostics) {
     std::string name = item.parameter;
-    if (!diagnostics.contains(name) && diagnostics.contains(results::run_prefixed(1, name)))
-      name = results::run_prefixed(1, name);
+    if (!figure(name) && figure(results::run_prefixed(1, name))) name = results::run_prefixed(1, name);
     nlohmann::json e = {
         {"term", item.effect}, {"parameter", name}, {"machine", item.value}, {"note", item.note}, {"found", nullptr}};
-    if (diagnostics.contains(name)) {
-      e["found"] = diagnostics.at(name).at("value");
-      e["u"] = diagnostics.at(name).value("u", nlohmann::json());
+    if (const results::Figure* f = figure(name)) {
+      e["found"] = number(f->value);
+      e["u"] = f->u ? number(*f->u) : nlohmann::json();
     }
     out.push_back(std::move(e));
   }
@@ -230,17 +231,16 @@ nlohmann::json diagnostics_against_machine(const nlohmann::json& diagnostics,
 
 // The findings (and the ballbar diagnostics of `params`, PARAMS' shape: DBB only) beside what the machine file holds
 // (simulators/scenarios/machine_truth.hpp).
-nlohmann::json against_machine(const results::Explanation& explanation, const nlohmann::json& params,
+nlohmann::json against_machine(const results::Explanation& explanation, const results::Params& params,
                                const simulators::scenarios::MachineTruth& truth, const std::string& file) {
-  nlohmann::json j = {
-      {"machine_file", file},
-      {"plane", params.value("plane", "xy")},
-      {"diagnostics", diagnostics_against_machine(params.value("diagnostics", nlohmann::json::object()), truth)},
-      {"centre_offset_sign", truth.centre_offset_sign},
-      {"findable", nlohmann::json::array()},
-      {"unobservable", nlohmann::json::array()},
-      {"not_in_machine", nlohmann::json::array()},
-      {"note", truth.note}};
+  nlohmann::json j = {{"machine_file", file},
+                      {"plane", params.plane.empty() ? "xy" : params.plane},
+                      {"diagnostics", diagnostics_against_machine(params, truth)},
+                      {"centre_offset_sign", truth.centre_offset_sign},
+                      {"findable", nlohmann::json::array()},
+                      {"unobservable", nlohmann::json::array()},
+                      {"not_in_machine", nlohmann::json::array()},
+                      {"note", truth.note}};
   // A finding holds an item's parameter (of one record, or the first of several: _run1), at its order
   // per revolution when the item has one (a run-out line: the order found within a quarter of an order).
   const auto holds = [](const results::ExplainFinding& f,
@@ -404,11 +404,11 @@ void Opts::add(CLI::App& cmd) {
       ->check(CLI::ExistingFile);
 }
 
-// The runs of the daemon's latest DBB session, as the truth of a machine file needs them (from its PARAMS;
+// The runs of the daemon's latest DBB session, as the truth of a machine file needs them (from its PARAMS' record;
 // a live session's angles are its encoders').
-std::vector<simulators::scenarios::TruthRun> session_truth_runs(const nlohmann::json& params) {
+std::vector<simulators::scenarios::TruthRun> session_truth_runs(const results::Params& params) {
   std::vector<simulators::scenarios::TruthRun> runs;
-  for (const auto& run : params.at("runs")) {
+  for (const auto& run : params.record.at("runs")) {
     simulators::scenarios::TruthRun t;
     t.radius_m = run.at("radius_mm").get<double>() * 1e-3;
     t.height_m = run.at("height_mm").get<double>() * 1e-3;
@@ -422,8 +422,8 @@ std::vector<simulators::scenarios::TruthRun> session_truth_runs(const nlohmann::
 }
 
 // The record of the daemon's latest run-out session (its PARAMS' revolution).
-simulators::scenarios::TruthRecord session_truth_record(const nlohmann::json& params) {
-  const auto& rev = params.at("revolution");
+simulators::scenarios::TruthRecord session_truth_record(const results::Params& params) {
+  const auto& rev = params.record.at("revolution");
   const double rpm = rev.at("rpm").get<double>();
   const double revolutions = rev.value("revolutions", rev.at("covered_deg").get<double>() / 360.0);
   return {rpm, revolutions, rev.at("samples").get<double>() / std::max(revolutions, 1.0)};
@@ -463,16 +463,18 @@ void explain_latest(const Opts& o, CliContext& ctx) {
     const std::string kind = r.value("kind", "");
     if (kind != results::dbb_kind.name && kind != results::runout_kind.name && kind != results::straightness_kind.name)
       throw std::runtime_error("explain: --machine compares DBB, run-out and straightness sessions only, not " + kind);
-    const nlohmann::json params =
+    const nlohmann::json reply =
         c.request(results::request(results::RequestClass::params, {{"kind", kind}}), results::MessageClass::params);
-    throw_if_error_reply(params, o.json);
+    throw_if_error_reply(reply, o.json);
+    const results::Params params = results::params_from_json(reply);
     const auto machine = simulators::machine::load_machine_config(o.machine);
     comparison = against_machine(
         explanation, params,
         kind == results::runout_kind.name ? simulators::scenarios::runout_truth(machine, {session_truth_record(params)})
         : kind == results::straightness_kind.name
             ? simulators::scenarios::traverse_truth(machine)
-            : simulators::scenarios::dbb_truth(machine, params.value("plane", "xy"), session_truth_runs(params), true),
+            : simulators::scenarios::dbb_truth(machine, params.plane.empty() ? "xy" : params.plane,
+                                               session_truth_runs(params), true),
         o.machine);
   }
   if (o.json) {
@@ -524,7 +526,7 @@ models::explain::Report explain_dbb_runs(const Opts& o, const models::explain::E
   }
   // The ballbar diagnostics as `guideway identify dbb` gives them, of the first file's plane.
   std::vector<formats::DbbRun> plane_runs = models::dbb::runs_by_plane(runs).front();
-  const nlohmann::json params = models::dbb::to_json(models::dbb::identify(plane_runs));
+  const results::Params params = models::dbb::to_params(models::dbb::identify(plane_runs));
   machine_comparison =
       against_machine(models::explain::explanation_of(report), params,
                       simulators::scenarios::dbb_truth(simulators::machine::load_machine_config(o.machine),
@@ -549,7 +551,7 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
     models::explain::Report report = models::explain::explain_runout(records, eo);
     if (!o.machine.empty())
       machine_comparison = against_machine(
-          models::explain::explanation_of(report), nlohmann::json::object(),
+          models::explain::explanation_of(report), results::Params{},
           simulators::scenarios::runout_truth(simulators::machine::load_machine_config(o.machine), truth_records),
           o.machine);
     return report;
@@ -559,7 +561,7 @@ models::explain::Report explain_files(const Opts& o, const models::explain::Expl
         models::explain::read_traverse_files(o.files, [&](const std::string& f) { return o.instrument.of(f); }), eo);
     if (!o.machine.empty())
       machine_comparison = against_machine(
-          models::explain::explanation_of(report), nlohmann::json::object(),
+          models::explain::explanation_of(report), results::Params{},
           simulators::scenarios::traverse_truth(simulators::machine::load_machine_config(o.machine)), o.machine);
     return report;
   }

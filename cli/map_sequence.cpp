@@ -18,6 +18,7 @@
 #include "models/map/map_json.hpp"
 #include "models/map/volumetric.hpp"
 #include "results/message_class.hpp"
+#include "results/result_header.hpp"
 #include "results/session_kinds.hpp"
 
 namespace guideway::cli {
@@ -108,10 +109,10 @@ std::string latest_session(DaemonClient& c, const Step& s) {
   if (!s.axis.empty()) req["axis"] = s.axis;
   const nlohmann::json r = c.request(results::request(results::RequestClass::params, req), results::MessageClass::params);
   if (results::has_class(r, results::MessageClass::error)) return {};
+  const results::ResultHeader header = results::read_header(r);
   if (s.kind == results::dbb_kind.name) {
     std::set<std::string> planes;
-    for (const auto& p : r.value("derived", nlohmann::json::array())) {
-      const std::string f = p.get<std::string>();
+    for (const std::string& f : header.derived) {
       if (fs::path(f).extension() != ".csv") continue;
       try {
         planes.insert(formats::read_dbb_run(f).plane);
@@ -121,7 +122,7 @@ std::string latest_session(DaemonClient& c, const Step& s) {
     }
     if (planes.size() < 3) return {};
   }
-  return r.value("session", "");
+  return header.session;
 }
 
 void print_plan(const std::vector<Step>& steps, const SequenceArgs& a) {

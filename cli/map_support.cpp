@@ -14,6 +14,7 @@
 #include "models/map/map_json.hpp"
 #include "report/report.hpp"
 #include "results/message_class.hpp"
+#include "results/result_header.hpp"
 #include "results/session_kinds.hpp"
 
 namespace guideway::cli {
@@ -53,9 +54,7 @@ void add_latest_inputs(mm::MapInputs& in, const std::string& socket, std::ostrea
       notes << "map: " << kind << (axis.empty() ? "" : " " + axis) << ": " << r.value("message", "no session") << "\n";
       return {};
     }
-    std::vector<std::string> files;
-    for (const auto& p : r.value("derived", nlohmann::json::array())) files.push_back(p.get<std::string>());
-    return files;
+    return results::read_header(r).derived;
   };
   for (const auto& f : latest(std::string(results::dbb_kind.name), ""))
     if (fs::path(f).extension() == ".csv") in.ballbar_runs.push_back(formats::read_dbb_run(f));

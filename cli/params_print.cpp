@@ -8,6 +8,8 @@
 #include "core/units.hpp"
 #include "results/message_class.hpp"
 #include "results/parameters.hpp"
+#include "results/params.hpp"
+#include "results/result_header.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -29,14 +31,6 @@ double number_or(const nlohmann::json& j, const char* key, double fallback) {
   return v.is_number() ? v.get<double>() : fallback;
 }
 
-// A group of {"name": {"value", "u"}} objects (not the fit summaries, the runs or the wavelet bands).
-bool is_parameter_group(const nlohmann::json& items) {
-  if (!items.is_object() || items.empty()) return false;
-  for (const auto& [name, v] : items.items())
-    if (!v.is_object() || !v.contains("value")) return false;
-  return true;
-}
-
 std::vector<std::string> shown_row(const std::string& name, const nlohmann::json& v, std::string_view plane,
                                    std::string_view group) {
   const results::Shown s = results::shown(name, number_or(v, "value", NAN), number_or(v, "u", NAN), plane, group);
@@ -44,10 +38,16 @@ std::vector<std::string> shown_row(const std::string& name, const nlohmann::json
   return {s.label, s.value, s.unit};
 }
 
+std::vector<std::string> shown_row(const results::Figure& f, std::string_view plane, std::string_view group) {
+  const results::Shown s = results::shown(f.name, f.value, f.u.value_or(NAN), plane, group);
+  if (!f.not_determined.empty()) return {s.label, "not determined", ""};  // why: in the notes
+  return {s.label, s.value, s.unit};
+}
+
 // Whether the group holds a line shown as its amplitude and phase (results::line_of_part).
-bool holds_a_line(const nlohmann::json& items) {
-  for (const auto& [name, v] : items.items())
-    if (const auto line = results::line_of_part(name); line && name == line->sine && items.contains(line->amplitude))
+bool holds_a_line(const results::FigureGroup& items) {
+  for (const results::Figure& f : items.figures)
+    if (const auto line = results::line_of_part(f.name); line && f.name == line->sine && items.find(line->amplitude))
       return true;
   return false;
 }
@@ -149,18 +149,15 @@ void print_standards(const nlohmann::json& st) {
 
 // A group's rows in the catalogue's order (Lai's offsets, scales, straightness, backlash ...), not the
 // JSON's alphabetical one.
-std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, std::string_view plane,
-                                                 std::string_view group, bool iso, bool without_u = false) {
-  const auto catalogue = results::catalogue();
-  std::vector<std::pair<std::size_t, std::vector<std::string>>> ranked;
-  for (const auto& [name, v] : items.items()) {
-    if (name.starts_with("circular_") != iso) continue;
+std::vector<std::vector<std::string>> group_rows(const results::FigureGroup& items, std::string_view plane, bool iso,
+                                                 bool without_u = false) {
+  std::vector<std::pair<double, std::vector<std::string>>> ranked;
+  for (const results::Figure& f : items.figures) {
+    if (f.name.starts_with("circular_") != iso) continue;
     // A line's sine and cosine parts are shown as its amplitude and phase (beside them in the JSON).
-    if (const auto line = results::line_of_part(name); line && items.contains(line->amplitude)) continue;
-    if (!iso && !without_u && !v.contains("u")) continue;  // a searched or assumed value: searched_values()
-    const results::Parameter* p = results::find_parameter(name, group);
-    const auto at = static_cast<std::size_t>(std::find(catalogue.begin(), catalogue.end(), p) - catalogue.begin());
-    ranked.emplace_back(at, shown_row(name, v, plane, group));
+    if (const auto line = results::line_of_part(f.name); line && items.find(line->amplitude)) continue;
+    if (!iso && !without_u && !f.u) continue;  // a searched or assumed value: searched_values()
+    ranked.emplace_back(results::shown_order(f.name, items.name), shown_row(f, plane, items.name));
   }
   std::stable_sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<std::vector<std::string>> rows;
@@ -170,11 +167,11 @@ std::vector<std::vector<std::string>> group_rows(const nlohmann::json& items, st
 
 // The values a fit held at what a search chose or a default (a spike's decay and delay, a cyclic error
 // not found): one line, apart from the fitted ones, since they have no uncertainty to show.
-std::string searched_values(const nlohmann::json& items, std::string_view plane, std::string_view group) {
+std::string searched_values(const results::FigureGroup& items, std::string_view plane) {
   std::string out;
-  for (const auto& [name, v] : items.items()) {
-    if (name.starts_with("circular_") || v.contains("u")) continue;
-    const auto row = shown_row(name, v, plane, group);
+  for (const results::Figure& f : items.figures) {
+    if (f.name.starts_with("circular_") || f.u) continue;
+    const auto row = shown_row(f, plane, items.name);
     out += (out.empty() ? "" : ", ") + row[0] + " " + row[1] + (row[2].empty() ? "" : " " + row[2]);
   }
   return out;
@@ -195,6 +192,7 @@ void print_fit(const nlohmann::json& fit) {
 }
 
 // "What to fix first": each error's part of G, largest first, in words; the ones under 1 % of G in a line.
+// `p`: the identification's record (results::Params::record).
 void print_ranking(const nlohmann::json& p, std::string_view plane, double g_um) {
   const nlohmann::json ranking = p.value("ranking", nlohmann::json::array());
   if (ranking.empty()) return;
@@ -202,7 +200,7 @@ void print_ranking(const nlohmann::json& p, std::string_view plane, double g_um)
   std::cout << "what to fix first (each error's part of the circular deviation"
             << (std::isfinite(g_um) ? " G = " + format_number(g_um, 3) + " \u00b5m" : std::string(" G")) << ", from "
             << (model == "lai3" ? "Lai's model" : "the " + model) << "):\n";
-  const std::string group = model == "lai3" ? std::string(results::rank_backlash_a.group) : model;
+  const std::string group = model == "lai3" ? std::string(results::ranking_group) : model;
   std::vector<std::vector<std::string>> rows;
   std::string small;
   for (const auto& c : ranking) {
@@ -220,28 +218,32 @@ void print_ranking(const nlohmann::json& p, std::string_view plane, double g_um)
   if (!small.empty()) std::cout << "  under 1 % of G each: " << small << "\n";
 }
 
-void print_dbb(const nlohmann::json& p, std::string_view plane) {
-  if (p.contains("runs") && p["runs"].is_array() && !p["runs"].empty()) print_runs(p["runs"]);
-  const nlohmann::json diagnostics = p.value("diagnostics", nlohmann::json::object());
-  const std::string diag_group(results::backlash.group), lai_group(results::lai_S_x.group);
-  const auto iso = group_rows(diagnostics, plane, diag_group, true);
+void print_dbb(const results::Params& p, std::string_view plane) {
+  const nlohmann::json& record = p.record;
+  if (record.contains("runs") && record["runs"].is_array() && !record["runs"].empty()) print_runs(record["runs"]);
+  const results::FigureGroup none_in_diagnostics{std::string(results::diagnostics_group), {}};
+  const results::FigureGroup none_in_lai3{std::string(results::lai3_group), {}};
+  const results::FigureGroup* found = p.group(results::diagnostics_group);
+  const results::FigureGroup& diagnostics = found ? *found : none_in_diagnostics;
+  const auto iso = group_rows(diagnostics, plane, true);
   if (!iso.empty())
     std::cout << "ISO 230-4 circular test (the largest of the runs):\n" << aligned_rows(iso, {false, true});
-  const auto diag = group_rows(diagnostics, plane, diag_group, false);
+  const auto diag = group_rows(diagnostics, plane, false);
   if (!diag.empty()) {
     std::cout << "ballbar diagnostics (value \u00b1 standard uncertainty):\n" << aligned_rows(diag, {false, true});
-    if (const std::string held = searched_values(diagnostics, plane, diag_group); !held.empty())
+    if (const std::string held = searched_values(diagnostics, plane); !held.empty())
       std::cout << "  held at a searched or assumed value (no u): " << held << "\n";
-    print_fit(p.value("diagnostics_fit", nlohmann::json::object()));
+    print_fit(record.value("diagnostics_fit", nlohmann::json::object()));
   }
-  const auto lai = group_rows(p.value("lai3", nlohmann::json::object()), plane, lai_group, false);
+  const results::FigureGroup* lai3 = p.group(results::lai3_group);
+  const auto lai = group_rows(lai3 ? *lai3 : none_in_lai3, plane, false);
   if (!lai.empty()) {
     std::cout << "Lai's third-order model (value \u00b1 standard uncertainty):\n" << aligned_rows(lai, {false, true});
-    print_fit(p.value("fit", nlohmann::json::object()));
+    print_fit(record.value("fit", nlohmann::json::object()));
   }
-  print_standards(p.value("standards", nlohmann::json::object()));
-  const nlohmann::json g = diagnostics.value(results::name(results::circular_deviation), nlohmann::json::object());
-  print_ranking(p, plane, number_or(g, "value", NAN));
+  print_standards(record.value("standards", nlohmann::json::object()));
+  const results::Figure* g = diagnostics.find(results::name(results::circular_deviation));
+  print_ranking(record, plane, g ? g->value : NAN);
 }
 
 }  // namespace
@@ -271,20 +273,26 @@ std::string aligned_rows(const std::vector<std::vector<std::string>>& rows, cons
   return out;
 }
 
-void print_result(const nlohmann::json& p) {
-  const std::string plane = p.value("plane", std::string("xy"));
-  const bool dbb = p.contains("lai3") || p.contains("ranking");
+void print_result(const results::Params& p) {
+  const std::string plane = p.plane.empty() ? "xy" : p.plane;
+  const bool dbb = p.group(results::lai3_group) != nullptr || p.record.contains("ranking");
   if (dbb) print_dbb(p, plane);
-  for (const auto& [group, items] : p.items()) {
-    if ((dbb && (group == "diagnostics" || group == "lai3")) || !is_parameter_group(items)) continue;
+  // The groups by name, as the JSON orders them.
+  std::vector<const results::FigureGroup*> groups;
+  for (const results::FigureGroup& g : p.groups) groups.push_back(&g);
+  std::stable_sort(groups.begin(), groups.end(), [](const auto* a, const auto* b) { return a->name < b->name; });
+  for (const results::FigureGroup* g : groups) {
+    if ((dbb && (g->name == results::diagnostics_group || g->name == results::lai3_group)) || g->figures.empty())
+      continue;
     // Every value, those with no uncertainty of their own too (ISO 230-7's peaks-to-valleys as measured).
-    std::cout << group_title(group) << ":\n"
-              << aligned_rows(group_rows(items, plane, group, false, true), {false, true});
-    if (holds_a_line(items)) std::cout << "  " << results::line_phase_reference << "\n";
+    std::cout << group_title(g->name) << ":\n" << aligned_rows(group_rows(*g, plane, false, true), {false, true});
+    if (holds_a_line(*g)) std::cout << "  " << results::line_phase_reference << "\n";
   }
-  for (const auto& n : p.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
-  if (p.contains("wavelet") && p["wavelet"].contains("bands")) {  // the profile session's summary
-    const auto& w = p["wavelet"];
+  const nlohmann::json& record = p.record;
+  for (const auto& n : record.value("notes", nlohmann::json::array()))
+    std::cout << "note: " << n.get<std::string>() << "\n";
+  if (record.contains("wavelet") && record["wavelet"].contains("bands")) {  // the profile session's summary
+    const auto& w = record["wavelet"];
     std::cout << "wavelet " << w.value("wavelet", "?") << ", " << w.value("level", 0) << " levels (dominant detail "
               << w.value("dominant_detail", "?") << "):";
     for (const auto& b : w["bands"])
@@ -304,19 +312,18 @@ void print_planes_summary(const nlohmann::json& s) {
       // squareness_xz_urad: the plane is in the name
       const std::string bare = results::split_unit(name).first;
       const std::string plane = bare.substr(bare.size() - 2);
-      rows.push_back(shown_row(name, v, plane, results::plane_squareness.group));
+      rows.push_back(shown_row(name, v, plane, results::planes_group));
     }
   }
   for (const char* group : {"backlash", "scale"}) {
     const nlohmann::json items = s.value(group, nlohmann::json::object());
     for (const auto& [name, v] : items.items()) {
-      std::vector<std::string> row = shown_row(name, v, "xy", results::axis_backlash.group);
+      std::vector<std::string> row = shown_row(name, v, "xy", results::planes_group);
       std::string from;
       for (const auto& f : v.value("from", nlohmann::json::array()))
         from +=
             (from.empty() ? "" : ", ") + f.value("plane", std::string("?")) + " " +
-            results::shown(name, number_or(f, "value", NAN), number_or(f, "u", NAN), "xy", results::axis_backlash.group)
-                .value;
+            results::shown(name, number_or(f, "value", NAN), number_or(f, "u", NAN), "xy", results::planes_group).value;
       row.push_back("from " + from + (v.value("consistent", true) ? "" : ": the planes DISAGREE"));
       rows.push_back(std::move(row));
     }
@@ -340,13 +347,16 @@ void print_planes_summary(const nlohmann::json& s) {
   for (const auto& n : s.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
 }
 
-void print_params(const nlohmann::json& p) {
-  std::cout << "session " << p.value("session", "?") << " (" << p.value("kind", "?") << " on " << p.value("device", "?")
-            << "), model " << p.value("model", "?") << "\n";
+void print_params(const nlohmann::json& message) {
+  const results::ResultHeader h = results::read_header(message);
+  const results::Params p = results::params_from_json(message);
+  const auto known = [](const std::string& text) { return text.empty() ? std::string("?") : text; };
+  std::cout << "session " << known(h.session) << " (" << known(h.kind) << " on " << known(h.device) << "), model "
+            << known(p.model) << "\n";
   // Several planes (the three-plane test): the first plane's result is the PARAMS' own, then each other
   // plane's, then the machine across them.
-  const nlohmann::json planes = p.value("planes", nlohmann::json::object());
-  const std::string first = p.value("plane", std::string("xy"));
+  const nlohmann::json planes = p.record.value("planes", nlohmann::json::object());
+  const std::string first = p.plane.empty() ? "xy" : p.plane;
   if (!planes.empty()) std::cout << "plane " << first << ":\n";
   print_result(p);
   for (const auto& [name, id] : planes.items()) {
@@ -356,16 +366,14 @@ void print_params(const nlohmann::json& p) {
       std::cout << "  not identified: " << id.value("error", std::string()) << "\n";
       continue;
     }
-    print_result(id);
+    print_result(results::params_from_json(id));
   }
-  if (p.contains("summary")) print_planes_summary(p["summary"]);
-  if (p.contains("incomplete")) std::cout << "incomplete: " << p["incomplete"].get<std::string>() << "\n";
-  if (p.contains("recording")) std::cout << "recording: " << p["recording"].get<std::string>() << "\n";
-  if (p.contains("recording_error"))
-    std::cout << "recording error: " << p["recording_error"].get<std::string>() << "\n";
-  for (const auto& f : p.value("derived", nlohmann::json::array()))
-    std::cout << "derived: " << f.get<std::string>() << "\n";
-  print_instrument(p, std::cout);
+  if (p.record.contains("summary")) print_planes_summary(p.record["summary"]);
+  if (!p.incomplete.empty()) std::cout << "incomplete: " << p.incomplete << "\n";
+  if (!h.recording.empty()) std::cout << "recording: " << h.recording << "\n";
+  if (!h.recording_error.empty()) std::cout << "recording error: " << h.recording_error << "\n";
+  for (const auto& f : h.derived) std::cout << "derived: " << f << "\n";
+  print_instrument(message, std::cout);
 }
 
 void print_explanation(const results::Explanation& e) {
@@ -492,17 +500,23 @@ std::string watch_line(const nlohmann::json& m, const ChannelUnits& units, Chann
       if (s.contains("recording_error")) out << " [recording error: " << s.value("recording_error", "") << "]";
     }
   } else if (known == results::MessageClass::params) {
-    out << " " << m.value("session", "?") << " (" << m.value("model", "?") << ")";
-    for (const auto& [group, items] : m.items()) {
-      if (!items.is_object() || items.empty()) continue;
-      for (const auto& [name, v] : items.items()) {
-        if (!v.is_object() || !v.contains("value")) continue;
-        out << "  " << name << "=";
-        if (v["value"].is_number() && v.contains("u") && v["u"].is_number())
-          out << with_uncertainty(v["value"].get<double>(), v["u"].get<double>());
-        else
-          out << number(v["value"]);
-      }
+    out << " " << m.value("session", "?");
+    try {
+      const results::Params p = results::params_from_json(m);
+      out << " (" << (p.model.empty() ? "?" : p.model) << ")";
+      for (const results::FigureGroup& g : p.groups)
+        for (const results::Figure& f : g.figures) {
+          // null (NaN here) as the message says it; a value with its u rounded to it
+          out << "  " << f.name << "=";
+          if (std::isnan(f.value))
+            out << "null";
+          else if (f.u && !std::isnan(*f.u))
+            out << with_uncertainty(f.value, *f.u);
+          else
+            out << number(f.value);
+        }
+    } catch (const results::ParamsFormatError& error) {
+      out << " (not a PARAMS: " << error.what() << ")";
     }
     if (m.contains("recording_error")) out << "  [recording error: " << m.value("recording_error", "") << "]";
   } else if (known == results::MessageClass::explain) {

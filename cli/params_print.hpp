@@ -12,16 +12,17 @@
 #include <nlohmann/json.hpp>
 
 #include "results/explanation.hpp"
+#include "results/params.hpp"
 
 namespace guideway::cli {
 
-// The session line, then print_result(), then the files involved.
-void print_params(const nlohmann::json& p);
-// Every group of {"name":{"value":..,"u":..}} as an aligned table of label, value ± u and unit; for a
-// DBB identification (`guideway identify dbb --json`'s shape) the runs, the ISO 230-4 figures, the fits
-// in a line each, and "what to fix first" with the errors under 1 % of G folded into one line; the
-// wavelet summary of a profile session.
-void print_result(const nlohmann::json& p);
+// A PARAMS message: the session line (its header), then print_result() of its PARAMS (results::params_from_json;
+// a malformed one throws results::ParamsFormatError), then the files involved.
+void print_params(const nlohmann::json& message);
+// Every figure group as an aligned table of label, value ± u and unit; for a DBB identification (`guideway identify
+// dbb`'s) the runs, the ISO 230-4 figures, the fits in a line each, and "what to fix first" with the errors under
+// 1 % of G folded into one line (from its record); the wavelet summary of a profile session.
+void print_result(const results::Params& p);
 
 // The summary of several planes' DBB identifications (models/dbb/json.hpp to_json(PlanesSummary)): squareness
 // and scale mismatch per plane, backlash and scale per axis with the planes they come from and whether they

@@ -15,6 +15,7 @@
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
 #include "results/explanation.hpp"
+#include "results/params.hpp"
 #include "results/result_header.hpp"
 
 namespace guideway::daemon {
@@ -396,7 +397,7 @@ std::string report_path(const std::string& state_dir, const std::string& session
 
 void SessionManager::finish(std::unique_ptr<Running> r) {
   SessionInfo& info = r->info;
-  nlohmann::json params;
+  results::Params params;
   std::string failure;
   try {
     params = r->session->identify();
@@ -435,7 +436,7 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     header.recording = info.recording;
     header.recording_error = info.recording_error;
     header.derived = derived;
-    outbox_.post(make_message(results::MessageClass::params, results::with_header(std::move(params), header),
+    outbox_.post(make_message(results::MessageClass::params, results::with_header(results::to_json(params), header),
                               info.device, info.name));
     if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
     write_session_report(*r, derived);

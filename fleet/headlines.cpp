@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "core/number_format.hpp"
 #include "results/parameters.hpp"
@@ -12,48 +13,40 @@ namespace guideway::fleet {
 
 namespace {
 
-std::optional<double> number_at(const nlohmann::json& j, const std::string& pointer) {
-  if (pointer.empty()) return std::nullopt;
-  const nlohmann::json::json_pointer p(pointer);
-  if (!j.contains(p)) return std::nullopt;
-  const auto& v = j.at(p);
-  if (!v.is_number()) return std::nullopt;
-  const double d = v.get<double>();
-  return std::isfinite(d) ? std::optional<double>(d) : std::nullopt;
-}
-
-// Where the catalogue says a figure's value and u are: its own pointers, else an estimate object
-// {"value": v, "u": u} in its group (models/dbb/json.cpp, the sessions' figure groups), else in the group
-// it is also reported in.
-std::vector<std::pair<std::string, std::string>> figure_pointers(const results::Parameter& p, const std::string& name) {
-  if (!p.value_at.empty()) return {{std::string(p.value_at), std::string(p.u_at)}};
-  std::vector<std::pair<std::string, std::string>> out;
-  for (const std::string_view group : {p.group, p.also_in}) {
-    if (group.empty()) continue;
-    const std::string at = "/" + std::string(group) + "/" + name;
-    out.emplace_back(at + "/value", at + "/u");
-  }
+// Where the catalogue says a figure is: in its group under its name (or its figure_name), else in the groups it is
+// also reported in, under its name there (a DBB backlash: Lai's, his x and y the plane's axes).
+using Found = std::pair<std::string_view, const results::Figure*>;  // the group, and the figure in it
+std::vector<Found> figures_of(const results::Parameter& p, const std::string& plane, int axis,
+                              const results::Params& params) {
+  std::vector<Found> out;
+  const auto look = [&](std::string_view group, const std::string& name) {
+    if (const results::Figure* f = params.find(group, name)) out.emplace_back(group, f);
+  };
+  if (!p.group.empty())
+    look(p.group, p.figure_name.empty() ? results::name(p, plane, axis) : std::string(p.figure_name));
+  for (const results::Place& place : p.places) look(place.group, results::name_in(p, place.group, plane, axis));
   return out;
 }
 
+std::optional<double> finite(double v) { return std::isfinite(v) ? std::optional<double>(v) : std::nullopt; }
+
 std::optional<Headline> figure(const results::Parameter& p, const std::string& plane, int axis,
-                               const nlohmann::json& params) {
+                               const results::Params& params) {
   const std::string name = results::name(p, plane, axis);
-  for (const auto& [value_at, u_at] : figure_pointers(p, name)) {
-    if (const auto v = number_at(params, value_at))
-      return Headline{name, results::label(p, plane, axis), results::unit(p), *v, number_at(params, u_at)};
+  for (const auto& [group, f] : figures_of(p, plane, axis, params)) {
+    if (std::isfinite(f->value))
+      return Headline{name, results::label(p, plane, axis), results::unit(p), f->value,
+                      f->u ? finite(*f->u) : std::nullopt};
   }
   return std::nullopt;
 }
 
 // The DBB figures are named after the plane's axes ("xy": x and y; "zx": z and x); "xy" when the
-// object names no plane (or one that is not two axis letters: such a result is refused at ingest).
-std::string plane_of(const nlohmann::json& params) {
-  if (const auto it = params.find("plane"); it != params.end() && it->is_string()) {
-    const auto& plane = it->get_ref<const std::string&>();
-    const auto axis = [](char c) { return c == 'x' || c == 'y' || c == 'z'; };
-    if (plane.size() == 2 && axis(plane[0]) && axis(plane[1]) && plane[0] != plane[1]) return plane;
-  }
+// result names no plane (or one that is not two axis letters: such a result is refused at ingest).
+std::string plane_of(const results::Params& params) {
+  const std::string& plane = params.plane;
+  const auto axis = [](char c) { return c == 'x' || c == 'y' || c == 'z'; };
+  if (plane.size() == 2 && axis(plane[0]) && axis(plane[1]) && plane[0] != plane[1]) return plane;
   return "xy";
 }
 
@@ -63,7 +56,7 @@ std::vector<int> axes_of(const results::Parameter& p) {
 
 }  // namespace
 
-std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params) {
+std::vector<Headline> headlines(std::string_view kind, const results::Params& params) {
   const std::string plane = plane_of(params);
   std::vector<Headline> out;
   for (const results::Parameter* p : results::headline_parameters(kind)) {
@@ -73,20 +66,15 @@ std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& par
   return out;
 }
 
-std::string figure_problem(std::string_view kind, const nlohmann::json& params) {
+std::string figure_problem(std::string_view kind, const results::Params& params) {
   const std::string plane = plane_of(params);
   for (const results::Parameter* p : results::headline_parameters(kind)) {
     for (const int axis : axes_of(*p)) {
-      for (const auto& [value_at, u_at] : figure_pointers(*p, results::name(*p, plane, axis))) {
-        for (const auto& pointer : {value_at, u_at}) {
-          if (pointer.empty()) continue;
-          const nlohmann::json::json_pointer jp(pointer);
-          if (!params.contains(jp)) continue;
-          const auto& v = params.at(jp);
-          if (!v.is_number() || !std::isfinite(v.get<double>()))
-            return "the figure at " + pointer + " is " + (v.is_number() ? "not finite" : std::string(v.type_name())) +
-                   ", expected a finite number";
-        }
+      for (const auto& [group, f] : figures_of(*p, plane, axis, params)) {
+        for (const auto& [what, v] : {std::pair{"value", f->value}, std::pair{"u", f->u.value_or(0.0)}})
+          if (!std::isfinite(v))
+            return "the figure " + std::string(group) + "." + f->name + " has " + what + " " +
+                   (std::isnan(v) ? "null" : "infinite") + ", expected a finite number";
       }
     }
   }

@@ -1,5 +1,5 @@
 #pragma once
-// The headline figures of a result: the few numbers of a PARAMS object that say how a machine is
+// The headline figures of a result: the few numbers of a PARAMS (results/params.hpp) that say how a machine is
 // (circular deviation, squareness, backlash, straightness, ...), as the catalogue of parameters lists them
 // per session kind (results/parameters.hpp), and what an explanation found, in a line. Pure; thread safe.
 
@@ -8,9 +8,8 @@
 #include <string_view>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "results/explanation.hpp"
+#include "results/params.hpp"
 
 namespace guideway::fleet {
 
@@ -22,12 +21,12 @@ struct Headline {
   std::optional<double> u;  // standard uncertainty, when the result gives one
 };
 
-// The figures of a PARAMS object of session kind `kind` that it holds, in the kind's order of headline
-// figures (results::headline_parameters; docs/plant.md lists them); none for a kind without any.
-[[nodiscard]] std::vector<Headline> headlines(std::string_view kind, const nlohmann::json& params);
-// Why the figures of a PARAMS object cannot be read ("" when they can): a figure that is present but
+// The figures of a PARAMS of session kind `kind` that it holds, in the kind's order of headline figures
+// (results::headline_parameters; docs/plant.md lists them); none for a kind without any.
+[[nodiscard]] std::vector<Headline> headlines(std::string_view kind, const results::Params& params);
+// Why the headline figures of a PARAMS cannot be read ("" when they can): a figure that is present but
 // not a finite number. The fleet refuses such a result at ingest (fleet/payload_check.hpp).
-[[nodiscard]] std::string figure_problem(std::string_view kind, const nlohmann::json& params);
+[[nodiscard]] std::string figure_problem(std::string_view kind, const results::Params& params);
 
 // What an explanation found, largest first, in words: "backlash 1.99 µm, vibration 0.025 µm", "nothing found",
 // "unexplained", "not analysed".

@@ -8,6 +8,7 @@
 #include "core/printable.hpp"
 #include "report/html.hpp"
 #include "results/message_class.hpp"
+#include "results/params.hpp"
 #include "results/result_header.hpp"
 #include "results/session_kinds.hpp"
 
@@ -48,7 +49,7 @@ std::vector<HistoryEntry> history_of(const std::vector<ResultRow>& rows) {
         e.explain->residuals.reset();  // what it found is read, not its curves: a history holds many
       } else {
         auto& before = previous[r.kind];
-        auto figures = headlines(r.kind, j);
+        auto figures = headlines(r.kind, results::params_from_json(j));
         for (auto& h : figures) {
           FigureChange c{h, std::nullopt, false};
           for (const auto& p : before)

@@ -3,6 +3,7 @@
 
 #include "fleet/headlines.hpp"
 #include "results/explanation.hpp"
+#include "results/params.hpp"
 
 namespace guideway::fleet {
 
@@ -45,11 +46,19 @@ std::string explain_problem(const json& j) {
   return {};
 }
 
+// What params_from_json refuses (a figure whose value is not a number, a plane that is not a text), a plane
+// that is not two axis letters, a headline figure that is not finite.
 std::string params_problem(std::string_view kind, const json& j) {
-  if (const auto it = j.find("plane"); it != j.end() && !(it->is_string() && is_plane(it->get<std::string>())))
-    return "\"plane\" is " + it->dump().substr(0, 40) +
+  results::Params params;
+  try {
+    params = results::params_from_json(j);
+  } catch (const results::ParamsFormatError& e) {
+    return e.what();
+  }
+  if (j.contains("plane") && !is_plane(params.plane))
+    return "\"plane\" is " + json(params.plane).dump().substr(0, 40) +
            ", expected two of the axis letters x, y, z (\"xy\", \"zx\", ...)";
-  return figure_problem(kind, j);
+  return figure_problem(kind, params);
 }
 
 }  // namespace

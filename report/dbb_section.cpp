@@ -130,7 +130,7 @@ struct Ranked {
 Ranked ranked(const models::dbb::Identification& id) {
   Ranked out;
   const std::string_view group =
-      id.ranking_model == "lai3" ? results::rank_backlash_a.group : std::string_view(id.ranking_model);
+      id.ranking_model == "lai3" ? results::ranking_group : std::string_view(id.ranking_model);
   for (const auto& c : id.ranking) {
     const std::string label = results::label_of(c.name, id.plane, group);
     if (std::isfinite(c.percent) && c.percent < negligible_percent)
@@ -375,7 +375,7 @@ void planes_summary(std::ostringstream& body, const models::dbb::PlanesSummary& 
           {"quantity", "value \u00b1 standard uncertainty", "unit", "from the planes"},
           {}};
   t.text_columns = {2, 3};
-  const std::string group(results::plane_squareness.group);
+  const std::string group(results::planes_group);
   for (const auto* list : {&s.squareness, &s.scale_mismatch})
     for (const auto& e : *list) {
       const std::string bare = results::split_unit(e.name).first;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <vector>
 
@@ -58,26 +59,14 @@ constexpr const Parameter* all[] = {
     &lai_e1,
     &lai_e2,
     &lai_e3,
-    &lai_backlash_x,
-    &lai_backlash_y,
-    &lai_servo_mismatch,
     &lai_mismatch_phase_angle,
     // the ranking of Lai's terms
-    &rank_scale_mismatch,
-    &rank_backlash_a,
-    &rank_backlash_b,
-    &rank_servo_mismatch,
     &rank_straightness_ab,
     &rank_straightness_ba,
     &rank_straightness_an,
     &rank_straightness_bn,
     &rank_roll_b,
     &rank_roll_b_straightness_an,
-    // across the test planes
-    &plane_squareness,
-    &plane_scale_mismatch,
-    &axis_backlash,
-    &axis_scale,
     // compensation
     &straightness_cubic,
     &straightness_cubic_difference,
@@ -218,9 +207,10 @@ std::string filled(std::string_view pattern, std::string_view plane, std::string
 }
 
 // Whether `name` is `pattern` with its placeholders filled: {axis} a word of letters, {a} and {b} one
-// letter, {run} a number. `filled_by`, when given, receives what {axis} and {run} stood for.
+// letter, {lai} x or y, {run} a number. `filled_by`, when given, receives what {axis}, {lai} and {run} stood for.
 struct Placeholders {
   std::string axis;
+  std::string lai;
   int run = 0;
 };
 bool matches(std::string_view pattern, std::string_view name, Placeholders* filled_by = nullptr) {
@@ -229,11 +219,16 @@ bool matches(std::string_view pattern, std::string_view name, Placeholders* fill
     const auto close = pattern.find('}');
     const std::string_view key = pattern.substr(1, close - 1);
     const std::string_view rest = pattern.substr(close + 1);
-    const auto fits = [&](char c) { return key == "run" ? (c >= '0' && c <= '9') : (c >= 'a' && c <= 'z'); };
-    const std::size_t most = key == "a" || key == "b" ? 1 : name.size();
+    const auto fits = [&](char c) {
+      if (key == "run") return c >= '0' && c <= '9';
+      if (key == "lai") return c == 'x' || c == 'y';
+      return c >= 'a' && c <= 'z';
+    };
+    const std::size_t most = key == "a" || key == "b" || key == "lai" ? 1 : name.size();
     for (std::size_t n = 1; n <= most && n <= name.size() && fits(name[n - 1]); ++n)
       if (matches(rest, name.substr(n), filled_by)) {
         if (filled_by && key == "axis") filled_by->axis = std::string(name.substr(0, n));
+        if (filled_by && key == "lai") filled_by->lai = std::string(name.substr(0, n));
         if (filled_by && key == "run") filled_by->run = std::stoi(std::string(name.substr(0, n)));
         return true;
       }
@@ -262,18 +257,28 @@ std::string_view without_run(std::string_view name, int* run = nullptr) {
   return name;
 }
 
-// The entry `name` is an instance of, the one of `group` first; `filled_by` receives what its
-// placeholders stood for.
-const Parameter* find_in(std::string_view name, std::string_view group, Placeholders* filled_by) {
-  const Parameter* first = nullptr;
+// The entry `name` is an instance of, by its own name or a place's, the one named so in `group` first; the place
+// (nullptr: its own name) and what its placeholders stood for.
+struct Found {
+  const Parameter* p = nullptr;
+  const Place* place = nullptr;
+  Placeholders by;
+};
+Found find_in(std::string_view name, std::string_view group) {
+  Found first;
+  std::string_view first_group;
   for (const Parameter* p : all) {
-    Placeholders here;
-    if (!matches(p->name, name, &here)) continue;
-    if (!first || (!group.empty() && p->group == group && first->group != group)) {
-      first = p;
-      if (filled_by) *filled_by = here;
+    for (std::size_t k = 0; k <= p->places.size(); ++k) {
+      const Place* place = k == 0 ? nullptr : &p->places[k - 1];
+      const std::string_view in = place ? place->group : p->group;
+      Placeholders here;
+      if (!matches(place ? place->name : p->name, name, &here)) continue;
+      if (!first.p || (!group.empty() && in == group && first_group != group)) {
+        first = {p, place, std::move(here)};
+        first_group = in;
+      }
+      if (group.empty() || first_group == group) return first;
     }
-    if (group.empty() || first->group == group) break;
   }
   return first;
 }
@@ -305,8 +310,17 @@ std::optional<LineNames> line_of_part(std::string_view part_name) {
 
 const Parameter* find_parameter(std::string_view name, std::string_view group) {
   for (const std::string_view n : {name, without_run(name)})
-    if (const Parameter* p = find_in(n, group, nullptr)) return p;
+    if (const Parameter* p = find_in(n, group).p) return p;
   return nullptr;
+}
+
+double shown_order(std::string_view name, std::string_view group) {
+  Found f = find_in(name, group);
+  if (!f.p) f = find_in(without_run(name), group);
+  if (!f.p) return static_cast<double>(std::size(all));
+  if (f.place && !f.place->shown_after.empty() && f.place->shown_after != name)
+    return shown_order(f.place->shown_after, group) + 0.5;
+  return static_cast<double>(std::find(std::begin(all), std::end(all), f.p) - std::begin(all));
 }
 
 std::string axis_letter(std::string_view plane, int axis) {
@@ -319,6 +333,17 @@ std::string name(const Parameter& p, std::string_view plane, int axis) {
 }
 
 std::string name_along(const Parameter& p, std::string_view along, int run) { return filled(p.name, "xy", along, run); }
+
+std::string name_in(const Parameter& p, std::string_view group, std::string_view plane, int axis) {
+  if (group == p.group) return name(p, plane, axis);
+  for (const Place& place : p.places) {
+    if (place.group != group) continue;
+    std::string out = filled(place.name, plane, axis < 0 ? std::string() : axis_letter(plane, axis), 0);
+    if (axis >= 0) replace_all(out, "{lai}", axis == 0 ? "x" : "y");
+    return out;
+  }
+  return {};
+}
 
 // A label names an axis as machine tools do, by its capital ("backlash Z"); "bar" stays a word.
 std::string axis_in_label(const std::string& along) { return along.size() == 1 ? upper(along) : along; }
@@ -351,15 +376,17 @@ std::string in_words(std::string_view id) {
 std::string label_of(std::string_view name, std::string_view plane, std::string_view group) {
   int run = 0;
   const std::string_view bare = without_run(name, &run);
-  Placeholders by;
-  const Parameter* p = find_in(name, group, &by);
-  if (p)
+  Found f = find_in(name, group);
+  if (f.p)
     run = 0;  // its {run} is in the name itself
   else if (bare != name)
-    p = find_in(bare, group, &by);
+    f = find_in(bare, group);
   std::string out;
-  if (p) {
-    out = filled(p->label, plane, axis_in_label(by.axis), by.run);
+  if (f.p) {
+    // Lai's x and y are the plane's first and second axes: the label names which axes they are.
+    const std::string along = f.by.lai.empty() ? f.by.axis : axis_letter(plane, f.by.lai == "x" ? 0 : 1);
+    const std::string_view text = f.place && !f.place->label.empty() ? f.place->label : f.p->label;
+    out = filled(text, plane, axis_in_label(along), f.by.run);
   } else {
     out = in_words(split_unit(std::string(bare)).first);
   }

@@ -34,6 +34,25 @@ struct ShownAs {
   double offset = 0.0;
 };
 
+// The groups of a DBB identification's PARAMS its quantities are reported in (Parameter::group, Place::group).
+inline constexpr std::string_view diagnostics_group = "diagnostics";  // the ballbar diagnostics
+inline constexpr std::string_view lai3_group = "lai3";                // Lai's third-order model
+inline constexpr std::string_view ranking_group = "ranking";          // the errors "what to fix first" ranks from Lai's
+inline constexpr std::string_view planes_group = "planes";            // the machine across its test planes ("summary")
+
+// A group a quantity is reported in besides its entry's own, and what it is called there: one entry per physical
+// quantity, with the places it appears as attributes (a DBB backlash is the diagnostics' backlash_z_um, Lai's
+// backlash_x_um, "what to fix first"'s backlash_x and the machine's backlash_z_um across its planes).
+// Its name there has the placeholders of Parameter::name, and {lai}: Lai's x or y for the plane's first or
+// second axis, whatever the plane.
+struct Place {
+  std::string_view group;
+  std::string_view name;
+  std::string_view label = {};        // for people there; "" = the entry's
+  std::string_view meaning = {};      // what it is there; "" = the entry's
+  std::string_view shown_after = {};  // in its group's rows for people: after this name; "" = in catalogue order
+};
+
 struct Parameter {
   std::string_view name;     // as reported, unit last: "backlash_{axis}_um"
   std::string_view label;    // for people, with the same placeholders: "backlash {axis}"
@@ -41,10 +60,9 @@ struct Parameter {
   std::string_view group;    // the PARAMS object it is in ("diagnostics", "lai3", ...); "" = EXPLAIN or the map only
   std::string_view meaning;  // what it is, one line
   int headline = 0;          // its place among its kind's headline figures (fleet, docs/plant.md); 0 = not one
-  std::string_view also_in = {};   // the group to read when `group` lacks it (a DBB backlash: Lai's)
-  std::string_view value_at = {};  // JSON pointer of its value when that is not /group/name/value
-  std::string_view u_at = {};      // ... and of its standard uncertainty (with value_at)
-  ShownAs shown_as = {};           // how people read it, when not in the name's unit
+  std::span<const Place> places = {};  // where else it is reported, in the order a reader looks for it there
+  std::string_view figure_name = {};   // the name of its figure in `group` when not `name` (a headline named apart)
+  ShownAs shown_as = {};               // how people read it, when not in the name's unit
 };
 
 // ---- DBB: the ballbar diagnostics (models/dbb identify; docs/conventions.md) ----------------------------
@@ -83,22 +101,55 @@ inline constexpr Parameter asme_bidirectional_circularity{
     "range of both directions together about their common least-squares circle"};
 inline constexpr Parameter center_offset{"center_offset_{axis}_um", "centre offset {axis}", "dbb", "diagnostics",
                                          "offset of the bar's fixed ball from the circle centre (per run: run{run}.)"};
+// Lai's model and "what to fix first" say x and y for the plane's axes (Lai's a and b); the machine across its
+// planes (models/dbb/three_planes) names the plane or the machine axis. Lai's backlash and servo mismatch are
+// listed among Lai's terms after the last straightness coefficient, e3.
+inline constexpr Place squareness_places[] = {
+    {planes_group, "squareness_{a}{b}_urad", "squareness {A}{B}",
+     "out-of-squareness of the plane's axes (its second leans towards its first)"}};
 inline constexpr Parameter squareness{"squareness_urad",
                                       "squareness",
                                       "dbb",
-                                      "diagnostics",
+                                      diagnostics_group,
                                       "out-of-squareness of the plane's axes (the second leans towards the first)",
-                                      2};
+                                      2,
+                                      squareness_places};
+inline constexpr Place backlash_places[] = {
+    {lai3_group, "backlash_{lai}_um", {}, "Lai's backlash of the plane's axis a or b", "e3_per_mm2"},
+    {ranking_group, "backlash_{lai}", {}, "Lai's backlash of the plane's axis a or b"},
+    {planes_group, "backlash_{axis}_um", {}, "the axis' backlash from every plane that sees it (their weighted mean)"}};
 inline constexpr Parameter backlash{
-    "backlash_{axis}_um", "backlash {axis}", "dbb", "diagnostics", "lost motion of the axis at a reversal", 3, "lai3"};
+    "backlash_{axis}_um", "backlash {axis}", "dbb", diagnostics_group, "lost motion of the axis at a reversal", 3,
+    backlash_places};
+inline constexpr Place scale_places[] = {{planes_group,
+                                          "scale_{axis}_ppm",
+                                          {},
+                                          "the axis' scale error from every plane that sees it (their weighted mean)"}};
 inline constexpr Parameter scale{
-    "scale_{axis}_ppm", "scale {axis}", "dbb", "diagnostics", "length scale error of the axis", 4};
-inline constexpr Parameter scale_mismatch{"scale_mismatch_ppm", "scale mismatch", "dbb", "diagnostics",
-                                          "difference of the plane axes' scales (first minus second)"};
+    "scale_{axis}_ppm", "scale {axis}", "dbb", diagnostics_group, "length scale error of the axis", 4, scale_places};
+inline constexpr Place scale_mismatch_places[] = {
+    {ranking_group, "scale_mismatch", {}, "Lai's S_x and S_y: their difference (what they share is the radius)"},
+    {planes_group, "scale_mismatch_{a}{b}_ppm", "scale mismatch {A}{B}",
+     "difference of the plane's axes' scales (first minus second)"}};
+inline constexpr Parameter scale_mismatch{"scale_mismatch_ppm",
+                                          "scale mismatch",
+                                          "dbb",
+                                          diagnostics_group,
+                                          "difference of the plane axes' scales (first minus second)",
+                                          0,
+                                          scale_mismatch_places};
 inline constexpr Parameter lateral_play{"lateral_play_{axis}_um", "lateral play {axis}", "dbb", "diagnostics",
                                         "sideways shift of the carriage when its direction of travel changes"};
-inline constexpr Parameter servo_mismatch{"servo_mismatch_ms", "servo mismatch", "dbb", "diagnostics",
-                                          "lag of the first axis' position loop behind the second's"};
+inline constexpr Place servo_mismatch_places[] = {
+    {lai3_group, "servo_mismatch_ms", {}, "Lai's servo lag difference of axis a behind b", "e3_per_mm2"},
+    {ranking_group, "servo_mismatch", {}, "Lai's servo lag difference"}};
+inline constexpr Parameter servo_mismatch{"servo_mismatch_ms",
+                                          "servo mismatch",
+                                          "dbb",
+                                          diagnostics_group,
+                                          "lag of the first axis' position loop behind the second's",
+                                          0,
+                                          servo_mismatch_places};
 inline constexpr Parameter straightness_bow{"straightness_{axis}_um", "straightness {axis}", "dbb", "diagnostics",
                                             "bow of the axis across the plane at the circle's radius"};
 inline constexpr Parameter reversal_spike{"reversal_spike_{axis}_um", "reversal spike {axis}", "dbb", "diagnostics",
@@ -130,18 +181,15 @@ inline constexpr ShownAs shown_ppm_off_one{"ppm", 1e6, 1.0};
 inline constexpr Parameter lai_e_x{"e_x_um", "fixed ball offset {A}", "dbb", "lai3", "fixed ball offset along a"};
 inline constexpr Parameter lai_e_y{"e_y_um", "fixed ball offset {B}", "dbb", "lai3", "fixed ball offset along b"};
 inline constexpr Parameter lai_S_x{
-    "S_x", "scale {A} (S_x - 1)", "dbb", "lai3", "scale factor of axis a (1 = exact)", 0, {}, {},
-    {},    shown_ppm_off_one};
+    "S_x", "scale {A} (S_x - 1)", "dbb", "lai3", "scale factor of axis a (1 = exact)", 0, {}, {}, shown_ppm_off_one};
 inline constexpr Parameter lai_S_y{
-    "S_y", "scale {B} (S_y - 1)", "dbb", "lai3", "scale factor of axis b (1 = exact)", 0, {}, {},
-    {},    shown_ppm_off_one};
+    "S_y", "scale {B} (S_y - 1)", "dbb", "lai3", "scale factor of axis b (1 = exact)", 0, {}, {}, shown_ppm_off_one};
 inline constexpr Parameter lai_a1{"a1_rad",
                                   "{A} straightness along {B}, linear: squareness (a1)",
                                   "dbb",
                                   "lai3",
                                   "X straightness in b, linear: the squareness",
                                   0,
-                                  {},
                                   {},
                                   {},
                                   shown_urad};
@@ -153,18 +201,10 @@ inline constexpr Parameter lai_a2{"a2_per_mm",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m2};
-inline constexpr Parameter lai_a3{"a3_per_mm2",
-                                  "{A} straightness along {B}, cubic (a3)",
-                                  "dbb",
-                                  "lai3",
-                                  "X straightness in b, cubic",
-                                  0,
-                                  {},
-                                  {},
-                                  {},
-                                  shown_um_per_m3};
+inline constexpr Parameter lai_a3{
+    "a3_per_mm2",   "{A} straightness along {B}, cubic (a3)", "dbb", "lai3", "X straightness in b, cubic", 0, {}, {},
+    shown_um_per_m3};
 inline constexpr Parameter lai_b2{"b2_per_mm",
                                   "{B} straightness along {A}, quadratic (b2)",
                                   "dbb",
@@ -173,18 +213,10 @@ inline constexpr Parameter lai_b2{"b2_per_mm",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m2};
-inline constexpr Parameter lai_b3{"b3_per_mm2",
-                                  "{B} straightness along {A}, cubic (b3)",
-                                  "dbb",
-                                  "lai3",
-                                  "Y straightness in a, cubic",
-                                  0,
-                                  {},
-                                  {},
-                                  {},
-                                  shown_um_per_m3};
+inline constexpr Parameter lai_b3{
+    "b3_per_mm2",   "{B} straightness along {A}, cubic (b3)", "dbb", "lai3", "Y straightness in a, cubic", 0, {}, {},
+    shown_um_per_m3};
 inline constexpr Parameter lai_c0_plus_d1{"c0_plus_d1_rad",
                                           "{B} roll + {A} straightness along {N}, linear (c0 + d1)",
                                           "dbb",
@@ -193,12 +225,11 @@ inline constexpr Parameter lai_c0_plus_d1{"c0_plus_d1_rad",
                                           0,
                                           {},
                                           {},
-                                          {},
                                           shown_urad};
-inline constexpr Parameter lai_c1{"c1_per_mm", "{B} roll, linear (c1)", "dbb", "lai3", "Y roll, linear", 0, {}, {},
+inline constexpr Parameter lai_c1{"c1_per_mm", "{B} roll, linear (c1)", "dbb", "lai3", "Y roll, linear", 0, {},
                                   {},          shown_urad_per_m};
-inline constexpr Parameter lai_c2{
-    "c2_per_mm2", "{B} roll, quadratic (c2)", "dbb", "lai3", "Y roll, quadratic", 0, {}, {}, {}, shown_urad_per_m2};
+inline constexpr Parameter lai_c2{"c2_per_mm2", "{B} roll, quadratic (c2)", "dbb", "lai3", "Y roll, quadratic", 0, {},
+                                  {},           shown_urad_per_m2};
 inline constexpr Parameter lai_d2{"d2_per_mm",
                                   "{A} straightness along {N}, quadratic (d2)",
                                   "dbb",
@@ -207,20 +238,12 @@ inline constexpr Parameter lai_d2{"d2_per_mm",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m2};
-inline constexpr Parameter lai_d3{"d3_per_mm2",
-                                  "{A} straightness along {N}, cubic (d3)",
-                                  "dbb",
-                                  "lai3",
-                                  "X straightness in n, cubic",
-                                  0,
-                                  {},
-                                  {},
-                                  {},
-                                  shown_um_per_m3};
+inline constexpr Parameter lai_d3{
+    "d3_per_mm2",   "{A} straightness along {N}, cubic (d3)", "dbb", "lai3", "X straightness in n, cubic", 0, {}, {},
+    shown_um_per_m3};
 inline constexpr Parameter lai_e1{
-    "e1_rad",  "{B} straightness along {N}, linear (e1)", "dbb", "lai3", "Y straightness in n, linear", 0, {}, {}, {},
+    "e1_rad",  "{B} straightness along {N}, linear (e1)", "dbb", "lai3", "Y straightness in n, linear", 0, {}, {},
     shown_urad};
 inline constexpr Parameter lai_e2{"e2_per_mm",
                                   "{B} straightness along {N}, quadratic (e2)",
@@ -230,22 +253,11 @@ inline constexpr Parameter lai_e2{"e2_per_mm",
                                   0,
                                   {},
                                   {},
-                                  {},
                                   shown_um_per_m2};
-inline constexpr Parameter lai_e3{"e3_per_mm2",
-                                  "{B} straightness along {N}, cubic (e3)",
-                                  "dbb",
-                                  "lai3",
-                                  "Y straightness in n, cubic",
-                                  0,
-                                  {},
-                                  {},
-                                  {},
-                                  shown_um_per_m3};
-inline constexpr Parameter lai_backlash_x{"backlash_x_um", "backlash {A}", "dbb", "lai3", "backlash of axis a"};
-inline constexpr Parameter lai_backlash_y{"backlash_y_um", "backlash {B}", "dbb", "lai3", "backlash of axis b"};
-inline constexpr Parameter lai_servo_mismatch{"servo_mismatch_ms", "servo mismatch", "dbb", "lai3",
-                                              "servo lag difference of axis a behind b"};
+inline constexpr Parameter lai_e3{
+    "e3_per_mm2",   "{B} straightness along {N}, cubic (e3)", "dbb", "lai3", "Y straightness in n, cubic", 0, {}, {},
+    shown_um_per_m3};
+// Lai's backlash and servo mismatch: backlash's and servo_mismatch's places in lai3 (above).
 inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg",
                                                     "servo mismatch phase angle",
                                                     "dbb",
@@ -254,17 +266,11 @@ inline constexpr Parameter lai_mismatch_phase_angle{"mismatch_phase_angle_deg",
                                                     0,
                                                     {},
                                                     {},
-                                                    {},
                                                     {"\u00b5rad", 1e6 * std::numbers::pi / 180}};
 
 // ---- DBB: the errors "what to fix first" ranks from Lai's model (its terms grouped by the error they
-// describe; the diagnostics' ranking names the diagnostics above) -------------------------------------------
-inline constexpr Parameter rank_scale_mismatch{"scale_mismatch", "scale mismatch", "dbb", "ranking",
-                                               "S_x and S_y: their difference (what they share is the radius)"};
-inline constexpr Parameter rank_backlash_a{"backlash_x", "backlash {A}", "dbb", "ranking", "Lai's backlash of axis a"};
-inline constexpr Parameter rank_backlash_b{"backlash_y", "backlash {B}", "dbb", "ranking", "Lai's backlash of axis b"};
-inline constexpr Parameter rank_servo_mismatch{"servo_mismatch", "servo mismatch", "dbb", "ranking",
-                                               "Lai's servo lag difference"};
+// describe; the diagnostics' ranking names the diagnostics above). The scale mismatch, the backlash and the
+// servo mismatch are their entries' places in "ranking" (above) ----------------------------------------------
 inline constexpr Parameter rank_straightness_ab{"x_straightness_in_y", "{A} straightness along {B}", "dbb", "ranking",
                                                 "a1, a2, a3: the squareness with the straightness of axis a in b"};
 inline constexpr Parameter rank_straightness_ba{"y_straightness_in_x", "{B} straightness along {A}", "dbb", "ranking",
@@ -278,16 +284,8 @@ inline constexpr Parameter rank_roll_b_straightness_an{"y_roll_and_x_straightnes
                                                        "{B} roll and {A} straightness along {N}", "dbb", "ranking",
                                                        "c0 + d1, which no set of patterns separates"};
 
-// ---- DBB: the machine across its test planes (models/dbb/three_planes: several planes' identifications) ------
-inline constexpr Parameter plane_squareness{
-    "squareness_{a}{b}_urad", "squareness {A}{B}", "dbb", "planes",
-    "out-of-squareness of the plane's axes (its second leans towards its first)"};
-inline constexpr Parameter plane_scale_mismatch{"scale_mismatch_{a}{b}_ppm", "scale mismatch {A}{B}", "dbb", "planes",
-                                                "difference of the plane's axes' scales (first minus second)"};
-inline constexpr Parameter axis_backlash{"backlash_{axis}_um", "backlash {axis}", "dbb", "planes",
-                                         "the axis' backlash from every plane that sees it (their weighted mean)"};
-inline constexpr Parameter axis_scale{"scale_{axis}_ppm", "scale {axis}", "dbb", "planes",
-                                      "the axis' scale error from every plane that sees it (their weighted mean)"};
+// ---- DBB: the machine across its test planes (models/dbb/three_planes): the squareness, scale mismatch, backlash
+// and scale entries' places in "planes" (above) ---------------------------------------------------------------
 
 // ---- DBB: terms of the compensation map only (models/compensation) ------------------------------------------
 inline constexpr Parameter straightness_cubic{"straightness_cubic_{axis}_um", "cubic straightness {axis}", "dbb", "",
@@ -317,7 +315,6 @@ inline constexpr Parameter cyclic_sin_column{"cyclic_sin_{axis}",
                                              0,
                                              {},
                                              {},
-                                             {},
                                              shown_um};
 inline constexpr Parameter cyclic_cos_column{"cyclic_cos_{axis}",
                                              "cyclic error {axis} (cosine)",
@@ -325,7 +322,6 @@ inline constexpr Parameter cyclic_cos_column{"cyclic_cos_{axis}",
                                              "",
                                              "fit column: the cyclic error's cosine part",
                                              0,
-                                             {},
                                              {},
                                              {},
                                              shown_um};
@@ -347,7 +343,6 @@ inline constexpr Parameter vibration_sin{"vibration_sin",
                                          0,
                                          {},
                                          {},
-                                         {},
                                          shown_um};
 inline constexpr Parameter vibration_cos{"vibration_cos",
                                          "vibration (cosine)",
@@ -355,7 +350,6 @@ inline constexpr Parameter vibration_cos{"vibration_cos",
                                          "",
                                          "fit column: the vibration's cosine part (_runK: one run's)",
                                          0,
-                                         {},
                                          {},
                                          {},
                                          shown_um};
@@ -497,22 +491,20 @@ inline constexpr Parameter horizontal_straightness{
     "horizontal_straightness_um",
     "straightness h",
     "straightness",
-    "result",
+    "straightness",
     "least-squares straightness of the traverse in the horizontal plane (from the yaw)",
     1,
     {},
-    "/result/horizontal/least_squares/straightness_um",
-    "/result/horizontal/least_squares/u_straightness_um"};
+    "horizontal_least_squares_um"};
 inline constexpr Parameter vertical_straightness{
     "vertical_straightness_um",
     "straightness v",
     "straightness",
-    "result",
+    "straightness",
     "least-squares straightness of the traverse in the vertical plane (from the pitch)",
     2,
     {},
-    "/result/vertical/least_squares/straightness_um",
-    "/result/vertical/least_squares/u_straightness_um"};
+    "vertical_least_squares_um"};
 inline constexpr Parameter profile_straightness{"straightness_lsq_um",
                                                 "profile straightness",
                                                 "profile",
@@ -529,8 +521,9 @@ inline constexpr Parameter form_straightness{"form_straightness_um",
 // Every entry above, in this file's order.
 std::span<const Parameter* const> catalogue();
 // The entry a reported name is an instance of ("backlash_z_um", "run2.center_offset_x_um",
-// "vibration_phase_bar_deg_run1"), the first in catalogue order; nullptr for a name not in the catalogue.
-// With a group: its entry first (Lai's "backlash_x_um" is its own, not the diagnostics').
+// "vibration_phase_bar_deg_run1"), by its own name or one of its places', the first in catalogue order; nullptr
+// for a name not in the catalogue. With a group: the entry named so in that group first (Lai's "backlash_x_um" is
+// backlash's place in lai3, the plane's first axis, not the diagnostics' backlash of the x axis).
 const Parameter* find_parameter(std::string_view name, std::string_view group = {});
 
 // The plane's axis `axis` (0 or 1) as it is written in names: "xz", 1 -> "z" (a plane not of two
@@ -540,6 +533,12 @@ std::string axis_letter(std::string_view plane, int axis);
 std::string name(const Parameter& p, std::string_view plane = "xy", int axis = -1);
 // ... {axis} by `along` ("bar", "x"), {run} by `run` (from 1; 0: none).
 std::string name_along(const Parameter& p, std::string_view along, int run = 0);
+// Its name in `group`: its own in its group, else its place's there ({lai}: x or y for the plane's axis 0 or 1);
+// "" when it is not reported in that group.
+std::string name_in(const Parameter& p, std::string_view group, std::string_view plane = "xy", int axis = -1);
+// Where a reported name comes among its group's rows for people: its entry's position in the catalogue, or where
+// its place says (Place::shown_after); catalogue().size() for a name not in it.
+double shown_order(std::string_view name, std::string_view group);
 std::string label(const Parameter& p, std::string_view plane = "xy", int axis = -1);
 // Whether the name holds {axis}: one figure per plane axis.
 [[nodiscard]] bool per_axis(const Parameter& p);

@@ -86,4 +86,12 @@ ResultHeader read_header(const nlohmann::json& m) {
   return h;
 }
 
+bool is_header_key(std::string_view key) {
+  static constexpr std::string_view keys[] = {"class",     "session", "kind",          "device",     "samples",
+                                              "recording", "derived", "replayed_from", "instrument", "recording_error"};
+  for (const std::string_view k : keys)
+    if (k == key) return true;
+  return false;
+}
+
 }  // namespace guideway::results

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -38,5 +39,7 @@ nlohmann::json with_header(nlohmann::json body, const ResultHeader& header);
 nlohmann::json instrument_json(const std::string& device, const Instrument& instrument, const CalendarDate& checked_on);
 // The header fields of a PARAMS or EXPLAIN message; absent or mistyped ones are empty.
 ResultHeader read_header(const nlohmann::json& message);
+// Whether `key` is one of a message's header fields (with_header's, and with_class's "class"): not its body's.
+[[nodiscard]] bool is_header_key(std::string_view key);
 
 }  // namespace guideway::results

@@ -292,7 +292,7 @@ class DbbSession : public Session {
     return left_s;
   }
 
-  nlohmann::json identify() override {
+  results::Params identify() override {
     if (!segment_.empty()) close_segment();  // a stop in the middle of a circle keeps what is complete
     // Identified from exactly what the run files hold, so `guideway identify dbb` on them agrees.
     std::map<std::string, std::vector<formats::DbbRun>> by_plane;
@@ -309,22 +309,26 @@ class DbbSession : public Session {
     models::dbb::IdentifyOptions identify_options;
     identify_options.bar_length_u_um = bar_length_u_um_;
     // One identification per plane: the first plane of the test (xy of the three-plane test) is the
-    // PARAMS' body as for a one-plane test; every plane's is under "planes".
+    // PARAMS' body as for a one-plane test; every plane's is in its record under "planes".
     nlohmann::json planes = nlohmann::json::object();
     std::vector<models::dbb::Identification> ids;
     checked_.clear();
-    nlohmann::json j;
+    std::optional<results::Params> first;
     for (const Pattern& pat : options_.patterns) {
       const auto it = by_plane.find(pat.plane);
       if (it == by_plane.end() || planes.contains(pat.plane)) continue;
       std::optional<results::Explanation> plane_explain;  // EXPLAIN's of this plane's runs, for explain()
+      bool is_first = false;                              // the first plane identified: the PARAMS' body
       // As `guideway identify dbb` on the run files: what EXPLAIN finds beside the models' terms is fitted
       // beside them (a drift is not read as backlash), a term that contradicts EXPLAIN is not determined.
       try {
         const models::explain::CheckedIdentification checked =
             models::explain::identify_checked(it->second, identify_options, explain_options(*this));
         ids.push_back(checked.id);
-        planes[pat.plane] = models::explain::to_json(checked);
+        results::Params plane_params = models::explain::to_params(checked);
+        planes[pat.plane] = results::to_json(plane_params);
+        is_first = !first;
+        if (is_first) first = std::move(plane_params);
         plane_explain = checked.explanation;
         checked_.push_back(checked);
       } catch (const std::exception& e) {
@@ -332,22 +336,22 @@ class DbbSession : public Session {
         planes[pat.plane] = {{"error", e.what()}};
         continue;
       }
-      if (j.is_null()) {
-        j = planes[pat.plane];
+      if (is_first) {
         identified_ = it->second;
         explained_ = plane_explain;
       }
     }
-    if (j.is_null()) throw std::runtime_error("no plane could be identified: " + planes.dump());
+    if (!first) throw std::runtime_error("no plane could be identified: " + planes.dump());
+    results::Params p = std::move(*first);
     if (planes.size() > 1) {
-      j["planes"] = planes;
-      if (ids.size() > 1) j["summary"] = models::dbb::to_json(models::dbb::summarize_planes(ids));
+      p.record["planes"] = planes;
+      if (ids.size() > 1) p.record["summary"] = models::dbb::to_json(models::dbb::summarize_planes(ids));
     }
-    j["test"] = options_.test;
+    p.test = options_.test;
     if (traced < runs_.size()) {
-      j["incomplete"] = std::to_string(traced) + " of " + std::to_string(runs_.size()) + " patterns traced";
+      p.incomplete = std::to_string(traced) + " of " + std::to_string(runs_.size()) + " patterns traced";
     }
-    return j;
+    return p;
   }
 
   // What PARAMS published: each plane's identification, EXPLAIN's findings fitted beside.

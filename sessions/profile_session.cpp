@@ -46,7 +46,7 @@ std::vector<double> line_deviations(const std::vector<double>& x, const std::vec
 
 }  // namespace
 
-nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEvaluationOptions& options) {
+results::Params evaluate_profile(const formats::Profile& profile, const ProfileEvaluationOptions& options) {
   const std::size_t n = profile.x_m.size();
   const dsp::Wavelet wavelet(options.wavelet);
   const dsp::Mode mode = dsp::parse_mode(options.mode);
@@ -89,16 +89,18 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
   // are selected, so the peak-to-valley values are biased upwards by the noise (not corrected here).
   const double level_scale = std::pow(2.0, -0.5 * options.level);
   const double n1 = static_cast<double>(coeffs.back().size());
-  nlohmann::json j;
-  j["model"] = "profile/straightness+wavelet";
+  results::Params p;
+  p.model = "profile/straightness+wavelet";
   // The headline figures named by their catalogue entries (results/parameters.hpp), where the fleet reads them.
-  j[std::string(results::profile_straightness.group)] = {
-      {results::name(results::profile_straightness),
-       {{"value", dsp::peak_to_valley(dev)}, {"u", std::sqrt(2.0) * sigma_um}}},
-      {"straightness_min_zone_um", {{"value", min_zone_um}, {"u", std::sqrt(2.0) * sigma_um}}},
-      {results::name(results::form_straightness), {{"value", form_um}, {"u", std::sqrt(2.0) * sigma_um * level_scale}}},
-      {"noise_um", {{"value", sigma_um}, {"u", sigma_um * std::sqrt(1.36 / n1)}}},  // MAD: var ~ 1.36 s^2 / n
+  const std::string_view group = results::profile_straightness.group;
+  results::FigureGroup& g = p.group_named(group);
+  const auto add = [&](std::string name, double value, double u) {
+    g.figures.push_back(results::figure(std::move(name), value, u, group));
   };
+  add(results::name(results::profile_straightness), dsp::peak_to_valley(dev), std::sqrt(2.0) * sigma_um);
+  add("straightness_min_zone_um", min_zone_um, std::sqrt(2.0) * sigma_um);
+  add(results::name(results::form_straightness), form_um, std::sqrt(2.0) * sigma_um * level_scale);
+  add("noise_um", sigma_um, sigma_um * std::sqrt(1.36 / n1));  // MAD: var ~ 1.36 s^2 / n
   // Per band: the rms of its signal-domain component, the part white noise of level sigma explains
   // (an orthogonal transform spreads the noise energy over the coefficients: n_b sigma^2 in band b),
   // and the rest, the band's signal. The dominant detail band is the one with the most signal.
@@ -130,14 +132,14 @@ nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEv
     }
     bands.push_back(band);
   }
-  j["wavelet"] = {{"wavelet", options.wavelet},
-                  {"mode", options.mode},
-                  {"level", options.level},
-                  {"bands", bands},
-                  {"dominant_detail", bands[dominant]["band"]}};
-  j["points"] = {
+  p.record["wavelet"] = {{"wavelet", options.wavelet},
+                         {"mode", options.mode},
+                         {"level", options.level},
+                         {"bands", bands},
+                         {"dominant_detail", bands[dominant]["band"]}};
+  p.record["points"] = {
       {"count", n}, {"invalid", invalid}, {"spacing_um", *spacing * 1e6}, {"length_mm", x_mm.back() - x_mm.front()}};
-  return j;
+  return p;
 }
 
 namespace {
@@ -219,7 +221,7 @@ class ProfileSession : public Session {
     return p.str();
   }
 
-  nlohmann::json identify() override {
+  results::Params identify() override {
     if (!done_) {
       throw std::runtime_error(collecting_ ? "stopped before the end of profile " + shortest(profile_id_) + " (" +
                                                  std::to_string(x_m_.size()) + " points)"
@@ -234,9 +236,9 @@ class ProfileSession : public Session {
     text_ = formats::format_profile_csv(p);
     const formats::Profile read = formats::parse_profile_csv(text_, "profile");
     try {
-      nlohmann::json j = evaluate_profile(read, o_.eval);
-      j["profile_id"] = static_cast<std::uint64_t>(profile_id_);
-      return j;
+      results::Params params = evaluate_profile(read, o_.eval);
+      params.record["profile_id"] = static_cast<std::uint64_t>(profile_id_);
+      return params;
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

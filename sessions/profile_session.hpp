@@ -9,10 +9,9 @@
 
 #include <string>
 
-#include <nlohmann/json.hpp>
-
-#include "sessions/session.hpp"
 #include "formats/profile_files.hpp"
+#include "results/params.hpp"
+#include "sessions/session.hpp"
 
 namespace guideway::sessions {
 
@@ -24,7 +23,7 @@ struct ProfileEvaluationOptions {
 
 // The PARAMS body of a profile (pure; throws std::invalid_argument when the profile cannot be
 // evaluated: fewer than 2^level points, unequal spacing, too many invalid points).
-nlohmann::json evaluate_profile(const formats::Profile& profile, const ProfileEvaluationOptions& options = {});
+results::Params evaluate_profile(const formats::Profile& profile, const ProfileEvaluationOptions& options = {});
 
 SessionKind profile_session_kind();
 

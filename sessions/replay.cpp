@@ -71,7 +71,7 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   }
 
   try {
-    result.params = session->identify();
+    result.parameters = session->identify();
   } catch (const std::exception& e) {
     result.failure = e.what();
     return result;
@@ -87,8 +87,8 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   if (const auto started =
           parse_utc_iso(recording.metadata.count("started_utc") ? recording.metadata.at("started_utc") : ""))
     header.instrument_checked_on = utc_date(*started);
-  result.params =
-      results::with_class(results::MessageClass::params, results::with_header(std::move(result.params), header));
+  result.params = results::with_class(results::MessageClass::params,
+                                      results::with_header(results::to_json(*result.parameters), header));
   try {
     if (auto explanation = session->explain()) {
       header.samples.reset();  // an EXPLAIN names its session, not what it was fed

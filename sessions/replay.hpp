@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "results/explanation.hpp"
+#include "results/params.hpp"
 #include "sessions/session.hpp"
 
 namespace guideway::sessions {
@@ -19,6 +20,7 @@ struct ReplayResult {
   // The PARAMS message (identified parameters, plus class, session, kind, device, samples and
   // `replayed_from`); empty when identification failed.
   nlohmann::json params;
+  std::optional<results::Params> parameters;  // what the PARAMS message holds, for its readers
   nlohmann::json explain;       // the EXPLAIN message, null when the kind has none or it failed
   std::optional<results::Explanation> explanation;  // what the EXPLAIN message holds, for its readers
   std::string explain_failure;  // why the explanation failed (the live explain_failed reason)

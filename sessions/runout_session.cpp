@@ -96,39 +96,40 @@ class RunoutSession : public Session {
     return std::max(0.0, duration_s_ - turned_s);
   }
 
-  nlohmann::json identify() override {
+  results::Params identify() override {
     if (angle_deg_.empty()) throw std::runtime_error("no valid micrometer reading was received");
     text_ = revolution_text();
     const models::flatness::RunoutRevolution rev = models::flatness::parse_runout_revolution(text_, "revolution");
     const models::flatness::RunoutResult r = models::flatness::identify_runout(rev);
     nlohmann::json result = models::flatness::runout_json(rev);
-    nlohmann::json j;
-    j["model"] = result["model"];
+    results::Params p;
+    p.model = result["model"].get<std::string>();
     // The headline figures named by their catalogue entries (results/parameters.hpp), where the fleet reads them.
-    nlohmann::json g;
-    g[results::name(results::runout)] = {{"value", r.runout_m * 1e6}, {"u", r.u_runout_m * 1e6}};
-    g["once_per_rev_amplitude_um"] = {{"value", r.amplitude_m * 1e6}, {"u", r.u_amplitude_m * 1e6}};
-    g[results::name(results::runout_squareness)] = {{"value", r.deflection_rad * 1e6}, {"u", r.u_deflection_rad * 1e6}};
-    if (r.squareness_amplitude_m) {
-      g["squareness_amplitude_um"] = {{"value", *r.squareness_amplitude_m * 1e6},
-                                      {"u", *r.u_squareness_amplitude_m * 1e6}};
-    }
-    j[std::string(results::runout_squareness.group)] = g;
-    j["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
+    const std::string_view group = results::runout_squareness.group;
+    results::FigureGroup& g = p.group_named(group);
+    const auto add = [&](std::string name, double value, double u) {
+      g.figures.push_back(results::figure(std::move(name), value, u, group));
+    };
+    add(results::name(results::runout), r.runout_m * 1e6, r.u_runout_m * 1e6);
+    add("once_per_rev_amplitude_um", r.amplitude_m * 1e6, r.u_amplitude_m * 1e6);
+    add(results::name(results::runout_squareness), r.deflection_rad * 1e6, r.u_deflection_rad * 1e6);
+    if (r.squareness_amplitude_m)
+      add("squareness_amplitude_um", *r.squareness_amplitude_m * 1e6, *r.u_squareness_amplitude_m * 1e6);
+    p.record["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
     if (result.contains("error_motion")) {
       // ISO 230-7 values: peaks-to-valleys of the record as measured (no uncertainty of their own).
-      nlohmann::json em;
-      for (const results::Parameter* p : {&results::total_error_motion, &results::synchronous_error_motion,
+      const std::string_view em_group = results::total_error_motion.group;
+      results::FigureGroup& em = p.group_named(em_group);
+      for (const results::Parameter* e : {&results::total_error_motion, &results::synchronous_error_motion,
                                           &results::asynchronous_error_motion, &results::fundamental_error_motion}) {
-        const std::string name = results::name(*p);
-        em[name] = {{"value", result["error_motion"][name]}};
+        const std::string name = results::name(*e);
+        em.figures.push_back(results::figure(name, result["error_motion"][name].get<double>(), std::nullopt, em_group));
       }
-      j["error_motion"] = em;
-      j["revolution"]["revolutions"] = result["error_motion"]["revolutions"];
+      p.record["revolution"]["revolutions"] = result["error_motion"]["revolutions"];
     }
-    if (!done_) j["incomplete"] = shortest(angle_deg_.back()) + " of " + shortest(o_.revolutions * 360.0) + " deg";
-    j["result"] = result;
-    return j;
+    if (!done_) p.incomplete = shortest(angle_deg_.back()) + " of " + shortest(o_.revolutions * 360.0) + " deg";
+    p.record["result"] = result;
+    return p;
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {

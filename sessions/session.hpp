@@ -20,6 +20,7 @@
 #include "core/sample.hpp"
 #include "drivers/driver.hpp"
 #include "results/explanation.hpp"
+#include "results/params.hpp"
 
 // A DBB session's identification as PARAMS published it (models/explain/dbb_checked.hpp): named here only, so
 // that what runs sessions (the daemon) needs none of the models it does not call.
@@ -67,9 +68,10 @@ class Session {
   // its feed, a run-out's revolutions at its speed, a traverse's stations at the pace measured so far);
   // nullopt while it cannot say (waiting for an operator, a traverse of open length).
   [[nodiscard]] virtual std::optional<double> time_left_s() const { return std::nullopt; }
-  // Identified parameters: the body of the PARAMS message (model, parameters with "value" and "u",
-  // fit quality). Throws std::runtime_error with the reason when identification is impossible.
-  virtual nlohmann::json identify() = 0;
+  // Identified parameters: the body of the PARAMS message (results/params.hpp: its model, its figures with
+  // their uncertainties by catalogue group, the model's record of the fit). Throws std::runtime_error with
+  // the reason when identification is impossible.
+  virtual results::Params identify() = 0;
   // After a successful identify(), on the worker thread: where the recording and the identified model
   // still differ and which left-out physics explains it (models/explain; the body of the EXPLAIN
   // message, results/explanation.hpp), or nullopt for a kind without an explanation model. Throws

@@ -11,6 +11,7 @@
 #include "models/flatness/angles.hpp"
 #include "models/flatness/json.hpp"
 #include "models/flatness/straightness.hpp"
+#include "results/parameters.hpp"
 #include "sessions/explain_options.hpp"
 #include "sessions/session_support.hpp"
 
@@ -166,7 +167,7 @@ class StraightnessSession : public Session {
            static_cast<double>(o_.stations * o_.passes - n);
   }
 
-  nlohmann::json identify() override {
+  results::Params identify() override {
     if (!done_) close_dwell();  // stopped: the stations measured so far
     if (pitch_rad_.size() < 2) {
       throw std::runtime_error(
@@ -186,33 +187,32 @@ class StraightnessSession : public Session {
     const models::flatness::StraightnessResult r = models::flatness::identify_straightness(tr, o_.model);
     nlohmann::json result = models::flatness::to_json(r);
     result.erase("source");
-    nlohmann::json group;
-    auto add = [&](const std::string& plane, const models::flatness::StraightnessProfile& p) {
+    results::Params p;
+    p.axis = std::string(1, "xyz"[o_.axis]);  // the daemon keeps the newest PARAMS per kind and axis
+    p.model = result["model"].get<std::string>();
+    const std::string_view group = results::horizontal_straightness.group;
+    results::FigureGroup& g = p.group_named(group);
+    auto add = [&](const std::string& plane, const models::flatness::StraightnessProfile& profile) {
       for (const auto& [name, line] :
-           {std::pair{"end_point", &p.end_point}, std::pair{"least_squares", &p.least_squares},
-            std::pair{"minimum_zone", &p.minimum_zone}}) {
-        group[plane + "_" + name + "_um"] = {{"value", line->straightness_m * 1e6},
-                                             {"u", line->u_straightness_m * 1e6}};
+           {std::pair{"end_point", &profile.end_point}, std::pair{"least_squares", &profile.least_squares},
+            std::pair{"minimum_zone", &profile.minimum_zone}}) {
+        g.figures.push_back(results::figure(plane + "_" + name + "_um", line->straightness_m * 1e6,
+                                            line->u_straightness_m * 1e6, group));
       }
     };
     add("vertical", r.vertical);
     if (r.horizontal) add("horizontal", *r.horizontal);
-    nlohmann::json j;
-    j["axis"] = std::string(1, "xyz"[o_.axis]);  // the daemon keeps the newest PARAMS per kind and axis
-    j["model"] = result["model"];
-    j["straightness"] = group;
-    j["traverse"] = {{"stations", r.readings},
-                     {"passes", o_.passes},
-                     {"step_mm", r.step_m * 1e3},
-                     {"start_mm", o_.start_m * 1e3},
-                     {"axis", std::string(1, "xyz"[o_.axis])}};
+    p.record["traverse"] = {{"stations", r.readings},
+                            {"passes", o_.passes},
+                            {"step_mm", r.step_m * 1e3},
+                            {"start_mm", o_.start_m * 1e3},
+                            {"axis", p.axis}};
     if (!done_) {  // stopped before the count or the return
-      j["incomplete"] = "stopped after " + std::to_string(pitch_rad_.size()) +
-                        (o_.stations > 0 ? " of " + std::to_string(o_.stations * o_.passes) : std::string()) +
-                        " stations";
+      p.incomplete = "stopped after " + std::to_string(pitch_rad_.size()) +
+                     (o_.stations > 0 ? " of " + std::to_string(o_.stations * o_.passes) : std::string()) + " stations";
     }
-    j["result"] = result;
-    return j;
+    p.record["result"] = result;
+    return p;
   }
 
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {

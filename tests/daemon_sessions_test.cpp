@@ -104,7 +104,7 @@ TEST(StraightnessSession, WaitsForTheReturnThenIdentifiesTheTraverse) {
   EXPECT_FALSE(session->complete());
   feed_traverse(*session, st, t);
   ASSERT_TRUE(session->complete()) << session->progress();
-  const nlohmann::json p = session->identify();
+  const nlohmann::json p = results::to_json(session->identify());
 
   // Reference: the model on the machine's own angles (slope = -rotation about +y; yaw = +rotation about z).
   models::flatness::AngleTraverse tr;
@@ -147,7 +147,7 @@ TEST(StraightnessSession, AnOutageOfTheLinkDropsTheTraverseAndTheNextIsTaken) {
   EXPECT_NE(session->progress().find("waiting for the next traverse"), std::string::npos) << session->progress();
   feed_traverse(*session, st, t);
   ASSERT_TRUE(session->complete()) << session->progress();
-  EXPECT_EQ(session->identify()["traverse"]["stations"], 13);
+  EXPECT_EQ(results::to_json(session->identify())["traverse"]["stations"], 13);
 }
 
 TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStations) {
@@ -165,7 +165,7 @@ TEST(StraightnessSession, EqualAnglesOnConsecutiveStationsAreStillSeparateStatio
   EXPECT_NEAR(*session->time_left_s(), 2 * 1.3, 0.15);
   feed_traverse(*session, st, t, 0.8, 0.5, 1.5, 3);
   ASSERT_TRUE(session->complete());
-  const auto p = session->identify();
+  const auto p = results::to_json(session->identify());
   EXPECT_EQ(p["traverse"]["stations"], 5);
   EXPECT_NEAR(value(p["straightness"], "vertical_end_point_um"), 0.0, 1e-9);
 }
@@ -181,7 +181,7 @@ TEST(StraightnessSession, ReadingsThatJumpWithoutABeamBreakStartANewStation) {
     for (int i = 0; i < 10; ++i, t += 0.05) out.push_back(sample(t, {0.0, pitch * a}));
   }
   session->on_samples(out);
-  const auto p = session->identify();  // stopped: the stations so far
+  const auto p = results::to_json(session->identify());  // stopped: the stations so far
   EXPECT_EQ(p["traverse"]["stations"], 3);
   EXPECT_EQ(p["incomplete"], "stopped after 3 stations");
   const auto& stations = p["result"]["vertical"]["stations"];
@@ -211,7 +211,7 @@ TEST(StraightnessSession, ForwardAndReturnExplainTheExampleMachinesRockingAndDri
   double t = 0;
   feed_traverse(*session, st, t, dwell_s, move_s);
   ASSERT_TRUE(session->complete()) << session->progress();
-  const auto p = session->identify();
+  const auto p = results::to_json(session->identify());
   EXPECT_EQ(p["traverse"]["stations"], 33);  // the first pass
   EXPECT_EQ(p["traverse"]["passes"], 2);
 
@@ -281,7 +281,7 @@ TEST(RunoutSession, OneRevolutionGivesTheRunoutAndTheSquareness) {
   EXPECT_NE(session->progress().find("of 360 deg"), std::string::npos) << session->progress();
   session->on_samples(std::span(out).subspan(150));
   ASSERT_TRUE(session->complete());
-  const auto p = session->identify();
+  const auto p = results::to_json(session->identify());
   EXPECT_EQ(p["revolution"]["samples"], 301);  // one turn and the reading that closes it: no more of the second
   // Truth: the spindle's lean relative to the plate across the 100 mm plate, peak to peak; Eq. 21
   // adds p back and gives the lean itself.
@@ -324,7 +324,7 @@ TEST(RunoutSession, TwentyRevolutionsGiveTheErrorMotionAndTheirExplanation) {
   for (const auto& r : machine.runout_revolution(spec)) out.push_back(sample(50.0 + r.t_s, {r.displacement_m}));
   session->on_samples(out);
   ASSERT_TRUE(session->complete());
-  const auto p = session->identify();
+  const auto p = results::to_json(session->identify());
   EXPECT_EQ(p["revolution"]["revolutions"], 20);
   EXPECT_EQ(p["revolution"]["samples"], 1001);  // 20 turns and the reading that closes the last
   const auto& em = p["error_motion"];
@@ -376,7 +376,7 @@ TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
   emit(3, 0);
   session->on_samples(out);
   ASSERT_TRUE(session->complete());
-  const auto p = session->identify();
+  const auto p = results::to_json(session->identify());
   EXPECT_EQ(p["profile_id"], 2);
   EXPECT_EQ(p["points"]["count"], points.size());
   // 20 um feed marks at 1 um spacing: periods of 16-32 points are Haar band d4.
@@ -393,7 +393,7 @@ TEST(ProfileSession, TakesOneWholeProfileAndFindsTheFeedMarks) {
   test::TempDir dir;
   const auto files = session->write_derived(dir.path().string(), "p");
   ASSERT_EQ(files.size(), 1u);
-  nlohmann::json offline = sessions::evaluate_profile(formats::read_profile_csv(files[0]));
+  nlohmann::json offline = results::to_json(sessions::evaluate_profile(formats::read_profile_csv(files[0])));
   offline["profile_id"] = p["profile_id"];
   EXPECT_EQ(offline, p);
 }

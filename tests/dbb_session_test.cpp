@@ -133,7 +133,7 @@ TEST(DbbSession, FindsLaisThreePatternsAndIdentifiesTheMachine) {
   feed_circle(*session, machine, 95e-3, 31.225e-3, guideway::formats::DbbDirection::ccw, t);
   feed_circle(*session, machine, 100e-3, 0.0, guideway::formats::DbbDirection::ccw, t);
   ASSERT_TRUE(session->complete()) << session->progress();
-  const nlohmann::json p = session->identify();
+  const nlohmann::json p = results::to_json(session->identify());
   // Lai's model covers the three patterns (the fixed ball at (-3, 2) um from the circle's centre, the
   // scales); the in-plane diagnostics model none of them but the one h = 0 run, which goes one way:
   // none are fitted, a note says why, and the errors are ranked from Lai's terms.
@@ -170,7 +170,7 @@ TEST(DbbSession, StopAfterOnePatternIdentifiesWhatWasTraced) {
   double t = 0;
   feed_circle(*session, machine, 100e-3, 0.0, guideway::formats::DbbDirection::ccw, t);
   EXPECT_FALSE(session->complete());
-  const nlohmann::json p = session->identify();
+  const nlohmann::json p = results::to_json(session->identify());
   EXPECT_EQ(p["incomplete"], "1 of 2 patterns traced");
   EXPECT_NEAR(value_of(p["diagnostics"], "center_offset_x_um"), 3.0, 0.3);  // one run: no run prefix
 }
@@ -184,7 +184,7 @@ TEST(DbbSession, TheStandardTestIsTheDefaultAndGivesTheDiagnostics) {
   EXPECT_NE(session->progress().find("1/2 patterns"), std::string::npos) << session->progress();
   feed_circle(*session, machine, 100e-3, 0.0, DbbDirection::cw, t);
   ASSERT_TRUE(session->complete()) << session->progress();
-  const nlohmann::json p = session->identify();
+  const nlohmann::json p = results::to_json(session->identify());
   EXPECT_EQ(p["test"], "standard");
   // The in-plane pair gives the ballbar diagnostics: squareness 15 urad, scale mismatch 20 - (-10) ppm.
   EXPECT_NEAR(value_of(p["diagnostics"], "squareness_urad"), 15.0, 1.0) << p["diagnostics"].dump();
@@ -208,7 +208,7 @@ TEST(DbbSession, ADriftBesideTheBacklashIsFittedBesideAsOfflineAndNotReadAsBackl
   feed_circle(*session, machine, Circle{.direction = DbbDirection::cw, .feed_mm_per_min = 1000}, t);
   ASSERT_TRUE(session->complete()) << session->progress();
   const std::size_t identified_before = models::explain::identify_checked_count();
-  const nlohmann::json p = session->identify();
+  const nlohmann::json p = results::to_json(session->identify());
   EXPECT_EQ(models::explain::identify_checked_count(), identified_before + 1);
   ASSERT_TRUE(p.contains("beside")) << p.dump();
   EXPECT_TRUE(p["beside"].contains("drift_x_um_per_min")) << p["beside"].dump();
@@ -314,7 +314,7 @@ TEST(DbbSession, FindsTheVerticalPlanesFromTheEncodersThatMoved) {
   feed_circle(*session, machine, Circle{.direction = DbbDirection::cw, .plane = Plane::xz}, t, true);
   feed_circle(*session, machine, Circle{.plane = Plane::yz}, t, true);
   ASSERT_TRUE(session->complete()) << session->progress();
-  const nlohmann::json p = session->identify();
+  const nlohmann::json p = results::to_json(session->identify());
   ASSERT_TRUE(p.contains("planes")) << p.dump();
   EXPECT_EQ(p["plane"], "xz");
   EXPECT_EQ(p["planes"]["yz"]["plane"], "yz");
@@ -354,7 +354,7 @@ TEST(DbbSession, TheThreePlaneTestRecoversWhatOnlyTheVerticalPlanesSee) {
     }
   }
   ASSERT_TRUE(session->complete()) << session->progress();
-  const nlohmann::json p = session->identify();
+  const nlohmann::json p = results::to_json(session->identify());
   EXPECT_EQ(p["test"], "three-plane");
   EXPECT_EQ(p["plane"], "xy");
   for (const char* plane : {"xy", "xz", "yz"}) ASSERT_FALSE(p["planes"][plane].contains("error")) << p["planes"].dump();

@@ -28,6 +28,7 @@
 #include "test_support.hpp"
 
 using namespace guideway::fleet;
+using guideway::results::params_from_json;
 
 namespace {
 
@@ -280,7 +281,7 @@ TEST(FleetStore, DefaultPathFollowsSystemdThenXdg) {
 }
 
 TEST(FleetHeadlines, FromTheGoldenResults) {
-  const auto dbb = headlines("dbb", golden_json("dbb.params.json"));
+  const auto dbb = headlines("dbb", params_from_json(golden_json("dbb.params.json")));
   ASSERT_EQ(dbb.size(), 3u);  // G, and backlash from lai3: the golden run gives no ballbar diagnostics
   EXPECT_EQ(dbb[0].name, "circular_deviation_um");
   EXPECT_DOUBLE_EQ(dbb[0].value, 17.417894088049465);
@@ -292,25 +293,25 @@ TEST(FleetHeadlines, FromTheGoldenResults) {
   EXPECT_DOUBLE_EQ(find(dbb, "backlash_y_um").value, dbb_lai["backlash_y_um"]["value"].get<double>());
   EXPECT_NEAR(find(dbb, "backlash_x_um").value, 1.0, 0.01);  // the emulated machine's 1 um
 
-  const auto runout = headlines("runout", golden_json("runout.params.json"));
+  const auto runout = headlines("runout", params_from_json(golden_json("runout.params.json")));
   const auto squareness = golden_json("runout.params.json")["squareness"];
   EXPECT_DOUBLE_EQ(find(runout, "squareness_urad").value, squareness["squareness_urad"]["value"].get<double>());
   EXPECT_DOUBLE_EQ(*find(runout, "squareness_urad").u, squareness["squareness_urad"]["u"].get<double>());
   EXPECT_DOUBLE_EQ(find(runout, "runout_um").value, squareness["runout_um"]["value"].get<double>());
   EXPECT_NEAR(find(runout, "runout_um").value, 0.3, 0.01);  // the emulated spindle's 0.3 um
 
-  const auto st = headlines("straightness", golden_json("straightness.params.json"));
+  const auto st = headlines("straightness", params_from_json(golden_json("straightness.params.json")));
   ASSERT_EQ(st.size(), 2u);
   EXPECT_DOUBLE_EQ(find(st, "horizontal_straightness_um").value, 0.02703768606187836);
   EXPECT_DOUBLE_EQ(*find(st, "horizontal_straightness_um").u, 0.2312513228037677);
   EXPECT_DOUBLE_EQ(find(st, "vertical_straightness_um").value, 0.07891808072092471);
   EXPECT_DOUBLE_EQ(*find(st, "vertical_straightness_um").u, 0.19924894888793224);
 
-  const auto pr = headlines("profile", golden_json("profile.params.json"));
+  const auto pr = headlines("profile", params_from_json(golden_json("profile.params.json")));
   EXPECT_DOUBLE_EQ(find(pr, "straightness_lsq_um").value, 0.2055772949384913);
   EXPECT_DOUBLE_EQ(*find(pr, "straightness_lsq_um").u, 0.0290585618977036);
   EXPECT_DOUBLE_EQ(find(pr, "form_straightness_um").value, 0.05332820189032894);
-  EXPECT_TRUE(headlines("flatness", golden_json("profile.params.json")).empty());
+  EXPECT_TRUE(headlines("flatness", params_from_json(golden_json("profile.params.json"))).empty());
 }
 
 TEST(FleetHeadlines, DbbDiagnosticsComeFirstAndNameThePlaneAxes) {
@@ -320,7 +321,7 @@ TEST(FleetHeadlines, DbbDiagnosticsComeFirstAndNameThePlaneAxes) {
   p["diagnostics"]["backlash_z_um"] = {{"value", 3.25}, {"u", 0.05}};
   p["diagnostics"]["scale_x_ppm"] = {{"value", -8.0}, {"u", 0.3}};
   p["lai3"]["backlash_z_um"] = p["lai3"]["backlash_x_um"];
-  const auto h = headlines("dbb", p);
+  const auto h = headlines("dbb", params_from_json(p));
   EXPECT_DOUBLE_EQ(find(h, "squareness_urad").value, 12.5);
   EXPECT_DOUBLE_EQ(find(h, "backlash_z_um").value, 3.25);  // diagnostics before lai3
   EXPECT_EQ(find(h, "backlash_z_um").label, "backlash Z");

@@ -46,10 +46,47 @@ TEST(Results, EachGroupNamesAParameterOnce) {
     EXPECT_TRUE(seen.insert({std::string(p->group), std::string(p->name)}).second || p->group.empty());
     EXPECT_FALSE(p->label.empty());
     EXPECT_FALSE(p->meaning.empty());
-    if (!p->value_at.empty()) {
-      EXPECT_FALSE(p->u_at.empty());
+    for (const results::Place& place : p->places) {
+      EXPECT_TRUE(seen.insert({std::string(place.group), std::string(place.name)}).second) << place.name;
+      EXPECT_NE(place.group, p->group) << "a place is another group than its entry's";
+    }
+    if (!p->figure_name.empty()) {
+      EXPECT_NE(p->headline, 0) << "a figure named apart is a headline's";
+      EXPECT_EQ(results::find_parameter(p->figure_name, p->group), nullptr) << "its figure is no other entry's";
     }
   }
+}
+
+// One entry per physical quantity, with the places it is reported in as attributes: the DBB backlash is the
+// diagnostics', Lai's (his x and y: the plane's axes), "what to fix first"'s and the machine's across its planes.
+TEST(Results, OneEntryPerQuantityNamedInEachPlaceItIsReportedIn) {
+  EXPECT_EQ(results::name_in(results::backlash, results::diagnostics_group, "zx", 0), "backlash_z_um");
+  EXPECT_EQ(results::name_in(results::backlash, results::lai3_group, "zx", 0), "backlash_x_um");
+  EXPECT_EQ(results::name_in(results::backlash, results::ranking_group, "zx", 1), "backlash_y");
+  EXPECT_EQ(results::name_in(results::backlash, results::planes_group, "zx", 0), "backlash_z_um");
+  EXPECT_EQ(results::name_in(results::backlash, "standards"), "");
+  EXPECT_EQ(results::name_in(results::squareness, results::planes_group, "yz"), "squareness_yz_urad");
+  EXPECT_EQ(results::name_in(results::scale_mismatch, results::ranking_group), "scale_mismatch");
+  EXPECT_EQ(results::name_in(results::servo_mismatch, results::lai3_group), "servo_mismatch_ms");
+  EXPECT_EQ(results::find_parameter("backlash_x_um", results::lai3_group), &results::backlash);
+  EXPECT_EQ(results::find_parameter("backlash_y", results::ranking_group), &results::backlash);
+  EXPECT_EQ(results::find_parameter("backlash_y"), &results::backlash);
+  EXPECT_EQ(results::find_parameter("servo_mismatch_ms", results::lai3_group), &results::servo_mismatch);
+  EXPECT_EQ(results::find_parameter("scale_mismatch_xz_ppm"), &results::scale_mismatch);
+  EXPECT_EQ(results::find_parameter("squareness_yz_urad", results::planes_group), &results::squareness);
+  EXPECT_EQ(results::find_parameter("scale_z_ppm", results::planes_group), &results::scale);
+  EXPECT_EQ(results::label_of("squareness_yz_urad", "yz", results::planes_group), "squareness YZ");
+  EXPECT_EQ(results::label_of("scale_mismatch_xz_ppm", "xz", results::planes_group), "scale mismatch XZ");
+  EXPECT_EQ(results::label_of("scale_mismatch", "xy", results::ranking_group), "scale mismatch");
+  EXPECT_EQ(results::label_of("backlash_x", "zx", results::ranking_group), "backlash Z");
+  // People read Lai's backlash and servo mismatch after his last straightness coefficient, e3.
+  const auto at = [](const char* name) { return results::shown_order(name, results::lai3_group); };
+  EXPECT_LT(at("e3_per_mm2"), at("backlash_x_um"));
+  EXPECT_EQ(at("backlash_x_um"), at("backlash_y_um"));
+  EXPECT_EQ(at("backlash_y_um"), at("servo_mismatch_ms"));
+  EXPECT_LT(at("servo_mismatch_ms"), at("mismatch_phase_angle_deg"));
+  EXPECT_LT(at("S_x"), at("e3_per_mm2"));
+  EXPECT_EQ(at("no_such_um"), static_cast<double>(results::catalogue().size()));
 }
 
 TEST(Results, UnitsComeFromTheNamesEnd) {

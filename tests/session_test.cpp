@@ -40,16 +40,18 @@ class MeanSession : public sessions::Session {
   }
   [[nodiscard]] bool complete() const override { return wanted_ != 0 && values_.size() >= wanted_; }
   [[nodiscard]] std::string progress() const override { return std::to_string(values_.size()) + " samples"; }
-  nlohmann::json identify() override {
+  results::Params identify() override {
     test::eventually([] { return !hold_identification.load(); }, std::chrono::seconds(20));
     if (values_.size() < 2) throw std::runtime_error("too few samples (" + std::to_string(values_.size()) + ")");
     double sum = 0;
     for (double v : values_) sum += v;
-    return {{"model", "mean"},
-            {"parameters", {{"mean", {{"value", sum / static_cast<double>(values_.size())}}}}},
-            {"first", values_.front()},
-            {"last", values_.back()},
-            {"n", values_.size()}};
+    results::Params p;
+    p.model = "mean";
+    p.groups.push_back(
+        {"parameters",
+         {results::figure("mean", sum / static_cast<double>(values_.size()), std::nullopt, "parameters")}});
+    p.record = {{"first", values_.front()}, {"last", values_.back()}, {"n", values_.size()}};
+    return p;
   }
   [[nodiscard]] std::map<std::string, std::string> metadata() const override {
     return {{"wanted", std::to_string(wanted_)}};

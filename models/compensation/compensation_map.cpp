@@ -114,7 +114,8 @@ void require_both_directions(const std::vector<formats::DbbRun>& runs) {
 std::string map_model(const dbb::Identification& id) {
   if (find(id, results::name(results::scale, id.plane, 0)) && find(id, results::name(results::backlash, id.plane, 0)))
     return "diagnostics";
-  if (!find(id.lai3, results::name(results::lai_S_x)) && !find(id.lai3, results::name(results::lai_backlash_x))) {
+  if (!find(id.lai3, results::name(results::lai_S_x)) &&
+      !find(id.lai3, results::name_in(results::backlash, results::lai3_group, "xy", 0))) {
     std::string why =
         "the runs gave neither ballbar diagnostics nor Lai's scale and backlash, which the "
         "compensation is built from";

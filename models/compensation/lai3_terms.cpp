@@ -26,21 +26,24 @@ struct LaiTerm {
 constexpr LaiTerm lai_terms[] = {
     {&results::lai_S_x, &results::scale, 0, 0, 1e6},
     {&results::lai_S_y, &results::scale, 1, 0, 1e6},
-    {&results::lai_backlash_x, &results::backlash, 0, 0, 1.0},
-    {&results::lai_backlash_y, &results::backlash, 1, 0, 1.0},
+    {&results::backlash, &results::backlash, 0, 0, 1.0},  // Lai's backlash of axis a, b: backlash's place in lai3
+    {&results::backlash, &results::backlash, 1, 0, 1.0},
     {&results::lai_a1, &results::squareness, -1, 0, 1e6},
     {&results::lai_a2, &results::straightness_bow, 0, 2, 1e3},  // a2 (1/mm) r^2 (mm^2) = mm
     {&results::lai_b2, &results::straightness_bow, 1, 2, 1e3},
     {&results::lai_a3, &results::straightness_cubic, 0, 3, 1e3},
     {&results::lai_b3, &results::straightness_cubic, 1, 3, 1e3},
-    {&results::lai_servo_mismatch, &results::servo_mismatch, -1, 0, 1.0},
+    {&results::servo_mismatch, &results::servo_mismatch, -1, 0, 1.0},
 };
+
+// The name Lai's model reports the term by (its x and y are the plane's axes a and b, the term's `axis`).
+std::string lai_name_of(const LaiTerm& t) { return results::name_in(*t.lai, results::lai3_group, "xy", t.axis); }
 
 }  // namespace
 
 std::string lai3_term_of(const std::string& lai_name, const std::string& plane) {
   for (const auto& t : lai_terms)
-    if (lai_name == t.lai->name) return results::name(*t.term, plane, t.axis);
+    if (lai_name_of(t) == lai_name) return results::name(*t.term, plane, t.axis);
   return "";
 }
 
@@ -48,9 +51,9 @@ std::vector<dbb::Estimate> lai3_terms(const dbb::Identification& id, double radi
   std::vector<dbb::Estimate> out;
   std::string missing;
   for (const auto& t : lai_terms) {
-    const auto* e = find(id.lai3, std::string(t.lai->name));
+    const auto* e = find(id.lai3, lai_name_of(t));
     if (!e || !e->fitted) {
-      missing += (missing.empty() ? "" : ", ") + std::string(t.lai->name);
+      missing += (missing.empty() ? "" : ", ") + lai_name_of(t);
       continue;
     }
     const double f = t.scale * std::pow(radius_m * 1e3, t.radius_power);

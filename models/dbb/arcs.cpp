@@ -183,7 +183,8 @@ std::string why_unidentifiable(const std::string& name, const std::vector<format
   const bool cw = std::any_of(runs.begin(), runs.end(),
                               [](const formats::DbbRun& r) { return r.direction == formats::DbbDirection::cw; });
   if ((name == results::name(results::squareness) || name == results::name(results::servo_mismatch) ||
-       name == std::string(results::lai_a1.name) || name == std::string(results::lai_servo_mismatch.name)) &&
+       name == std::string(results::lai_a1.name) ||
+       name == results::name_in(results::servo_mismatch, results::lai3_group)) &&
       !(ccw && cw))
     return "squareness and servo mismatch have the same signature (sin zeta cos zeta) in one direction: a run each "
            "way tells them apart";

@@ -2,6 +2,8 @@
 #include "models/dbb/json.hpp"
 
 #include <cmath>
+#include <optional>
+#include <string_view>
 
 #include "results/parameters.hpp"
 
@@ -13,6 +15,15 @@ nlohmann::json value_json(const Estimate& e) {
   nlohmann::json j = {{"value", e.value}};
   if (e.fitted && std::isfinite(e.u)) j["u"] = e.u;
   return j;
+}
+
+// The estimates as PARAMS' figures: u left out where the fit did not determine one.
+results::FigureGroup figures(std::string_view group, const std::vector<Estimate>& list) {
+  results::FigureGroup g{std::string(group), {}};
+  for (const auto& e : list)
+    g.figures.push_back(results::figure(
+        e.name, e.value, e.fitted && std::isfinite(e.u) ? std::optional<double>(e.u) : std::nullopt, group));
+  return g;
 }
 
 nlohmann::json fit_json(const FitSummary& f) {
@@ -130,10 +141,15 @@ nlohmann::json to_json(const PlanesSummary& s) {
   return j;
 }
 
-nlohmann::json to_json(const Identification& id) {
-  nlohmann::json j;
-  j["model"] = id.model;
-  j["plane"] = id.plane;
+results::Params to_params(const Identification& id) {
+  results::Params p;
+  p.model = id.model;
+  p.plane = id.plane;
+  p.groups.push_back(figures(results::backlash.group, id.diagnostics));
+  p.groups.push_back(figures(results::lai_S_x.group, id.lai3));
+  if (!id.beside.empty())  // only when terms were fitted beside (compensation's identification)
+    p.groups.push_back(figures("beside", id.beside));
+  nlohmann::json& j = p.record;
   j["runs"] = nlohmann::json::array();
   for (const auto& r : id.runs) {
     j["runs"].push_back({{"source", r.source},
@@ -147,14 +163,6 @@ nlohmann::json to_json(const Identification& id) {
     if (r.data_arc_deg < 359.0) j["runs"].back()["data_arc_deg"] = r.data_arc_deg;  // a partial arc
     if (r.gaps > 0) j["runs"].back()["gaps"] = r.gaps;
   }
-  j["diagnostics"] = nlohmann::json::object();
-  for (const auto& e : id.diagnostics) j["diagnostics"][e.name] = value_json(e);
-  j["lai3"] = nlohmann::json::object();
-  for (const auto& e : id.lai3) j["lai3"][e.name] = value_json(e);
-  if (!id.beside.empty()) {  // only when terms were fitted beside (compensation's identification)
-    j["beside"] = nlohmann::json::object();
-    for (const auto& e : id.beside) j["beside"][e.name] = value_json(e);
-  }
   j["ranking"] = nlohmann::json::array();
   for (const auto& c : id.ranking)
     j["ranking"].push_back(
@@ -166,7 +174,9 @@ nlohmann::json to_json(const Identification& id) {
   j["fit"] = fit_json(id.fit);
   j["diagnostics_fit"] = fit_json(id.diagnostics_fit);
   j["standards"] = standards_json(id.standards);
-  return j;
+  return p;
 }
+
+nlohmann::json to_json(const Identification& id) { return results::to_json(to_params(id)); }
 
 }  // namespace guideway::models::dbb

@@ -9,10 +9,15 @@
 
 #include "models/dbb/identify.hpp"
 #include "models/dbb/three_planes.hpp"
+#include "results/params.hpp"
 
 namespace guideway::models::dbb {
 
-nlohmann::json to_json(const Identification& id);
+// The identification as PARAMS' body (results/params.hpp): the diagnostics, Lai's terms and the terms fitted
+// beside as figure groups ("diagnostics", "lai3", "beside"); the runs, the ranking, the fits, the standards'
+// figures and the notes as its record.
+results::Params to_params(const Identification& id);
+nlohmann::json to_json(const Identification& id);  // results::to_json(to_params(id))
 // The summary of several planes: {"planes", "squareness": {name: {value, u}}, "scale_mismatch", "backlash" and
 // "scale": {name: {axis, value, u, consistent, from: [{plane, value, u}], note}}, "ranking": [{plane, name,
 // contribution_um, percent_of_circular_deviation}], "circular_deviation_um", "notes"}.

@@ -14,20 +14,20 @@ namespace {
 struct LaiColumn {
   const results::Parameter* parameter;
   double si_per_reported;  // SI value of one reported unit
+  int axis = -1;           // Lai's axis a (0) or b (1) of a quantity reported per axis (the backlash)
+  // The name Lai's model reports it by (results/parameters.hpp: its own, or its entry's place in lai3).
+  [[nodiscard]] std::string name() const { return results::name_in(*parameter, results::lai3_group, "xy", axis); }
 };
 
 // Order matters: lai3_characteristics returns the basis in this order.
 constexpr LaiColumn lai_columns[] = {
-    {&results::lai_e_x, 1e-6},        {&results::lai_e_y, 1e-6},
-    {&results::lai_S_x, 1.0},         {&results::lai_S_y, 1.0},
-    {&results::lai_a1, 1.0},          {&results::lai_a2, 1e3},
-    {&results::lai_a3, 1e6},          {&results::lai_b2, 1e3},
-    {&results::lai_b3, 1e6},          {&results::lai_c0_plus_d1, 1.0},
-    {&results::lai_c1, 1e3},          {&results::lai_c2, 1e6},
-    {&results::lai_d2, 1e3},          {&results::lai_d3, 1e6},
-    {&results::lai_e1, 1.0},          {&results::lai_e2, 1e3},
-    {&results::lai_e3, 1e6},          {&results::lai_backlash_x, 1e-6},
-    {&results::lai_backlash_y, 1e-6}, {&results::lai_servo_mismatch, 1e-3},
+    {&results::lai_e_x, 1e-6},       {&results::lai_e_y, 1e-6},        {&results::lai_S_x, 1.0},
+    {&results::lai_S_y, 1.0},        {&results::lai_a1, 1.0},          {&results::lai_a2, 1e3},
+    {&results::lai_a3, 1e6},         {&results::lai_b2, 1e3},          {&results::lai_b3, 1e6},
+    {&results::lai_c0_plus_d1, 1.0}, {&results::lai_c1, 1e3},          {&results::lai_c2, 1e6},
+    {&results::lai_d2, 1e3},         {&results::lai_d3, 1e6},          {&results::lai_e1, 1.0},
+    {&results::lai_e2, 1e3},         {&results::lai_e3, 1e6},          {&results::backlash, 1e-6, 0},
+    {&results::backlash, 1e-6, 1},   {&results::servo_mismatch, 1e-3},
 };
 constexpr std::size_t lai_count = std::size(lai_columns);
 
@@ -58,11 +58,16 @@ void lai_basis(const Point& p, double* out) {
 // The error a Lai parameter describes, for the ranking: the two scales together (what they share is a
 // radius, which the circle absorbs), the straightness coefficients by axis and direction.
 std::string lai_error_group(const std::string& name) {
-  const auto group = [](const results::Parameter& p) { return std::string(p.name); };
-  if (name == results::lai_S_x.name || name == results::lai_S_y.name) return group(results::rank_scale_mismatch);
-  if (name == results::lai_backlash_x.name) return group(results::rank_backlash_a);
-  if (name == results::lai_backlash_y.name) return group(results::rank_backlash_b);
-  if (name == results::lai_servo_mismatch.name) return group(results::rank_servo_mismatch);
+  const auto group = [](const results::Parameter& p, int axis = -1) {
+    return results::name_in(p, results::ranking_group, "xy", axis);
+  };
+  const auto lai = [](const results::Parameter& p, int axis = -1) {
+    return results::name_in(p, results::lai3_group, "xy", axis);
+  };
+  if (name == results::lai_S_x.name || name == results::lai_S_y.name) return group(results::scale_mismatch);
+  if (name == lai(results::backlash, 0)) return group(results::backlash, 0);
+  if (name == lai(results::backlash, 1)) return group(results::backlash, 1);
+  if (name == lai(results::servo_mismatch)) return group(results::servo_mismatch);
   if (name == results::lai_c0_plus_d1.name) return group(results::rank_roll_b_straightness_an);
   switch (name.front()) {
     case 'a':
@@ -104,7 +109,7 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
       names.push_back(results::run_prefixed(static_cast<int>(k + 1), results::name(results::lai_e_x)));
       names.push_back(results::run_prefixed(static_cast<int>(k + 1), results::name(results::lai_e_y)));
     }
-    for (std::size_t c = 2; c < lai_count; ++c) names.emplace_back(lai_columns[c].parameter->name);
+    for (std::size_t c = 2; c < lai_count; ++c) names.push_back(lai_columns[c].name());
   }
   // The terms fitted beside Lai's, after them.
   const BesideColumns beside = beside_columns(options, false);
@@ -190,7 +195,7 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     std::string name = names[c];
     double value = res.x[ci], u = res.u[ci];
     if (name == results::lai_S_x.name || name == results::lai_S_y.name) value += 1.0;
-    if (name == results::lai_servo_mismatch.name) {
+    if (name == results::name_in(results::servo_mismatch, results::lai3_group)) {
       // Lai's "mismatch phase angle": omega * delta tau, for the first run's angular velocity.
       out.lai3.push_back(est(results::name(results::lai_mismatch_phase_angle), value * 1e-3 * omega0 * 180 / pi,
                              u * 1e-3 * omega0 * 180 / pi));
@@ -213,7 +218,7 @@ using fitting::set_step_backlash;
 
 std::vector<std::string> lai3_parameter_names() {
   std::vector<std::string> n;
-  for (const auto& c : lai_columns) n.emplace_back(c.parameter->name);
+  for (const auto& c : lai_columns) n.push_back(c.name());
   return n;
 }
 

@@ -23,13 +23,13 @@ const Estimate* find(const std::vector<Estimate>& list, const std::string& name)
   return nullptr;
 }
 
-// A plane's figure of its axis `axis` (0, 1): the diagnostics' when they hold it, else Lai's (its x and y
-// are the plane's axes), converted by `from_lai` into the diagnostics' unit.
+// A plane's figure of its axis `axis` (0, 1): the diagnostics' when they hold it, else Lai's `lai_a` or `lai_b`
+// (its x and y are the plane's axes), converted by `from_lai` into the diagnostics' unit.
 template <class FromLai>
-const Estimate* axis_estimate(const Identification& id, const results::Parameter& diag, const results::Parameter& lai_a,
-                              const results::Parameter& lai_b, int axis, Estimate& scratch, const FromLai& from_lai) {
+const Estimate* axis_estimate(const Identification& id, const results::Parameter& diag, const std::string& lai_a,
+                              const std::string& lai_b, int axis, Estimate& scratch, const FromLai& from_lai) {
   if (const Estimate* e = find(id.diagnostics, results::name(diag, id.plane, axis))) return e;
-  const Estimate* l = find(id.lai3, std::string(axis == 0 ? lai_a.name : lai_b.name));
+  const Estimate* l = find(id.lai3, axis == 0 ? lai_a : lai_b);
   if (!l) return nullptr;
   scratch = {results::name(diag, id.plane, axis), from_lai(l->value), std::abs(from_lai(l->u) - from_lai(0.0)), true};
   return &scratch;
@@ -108,38 +108,45 @@ PlanesSummary summarize_planes(const std::vector<Identification>& ids) {
       out.notes.push_back(std::string("no ") + p + " plane: its squareness and scale mismatch are not known");
   // Per plane: squareness and scale mismatch.
   for (const auto& id : ids) {
+    const std::string square_name = results::name_in(results::squareness, results::planes_group, id.plane);
     if (const Estimate* q = find(id.diagnostics, results::name(results::squareness))) {
-      out.squareness.push_back({results::name(results::plane_squareness, id.plane), q->value, q->u, true});
+      out.squareness.push_back({square_name, q->value, q->u, true});
     } else if (const Estimate* a1 = find(id.lai3, std::string(results::lai_a1.name))) {
-      out.squareness.push_back(
-          {results::name(results::plane_squareness, id.plane), a1->value * 1e6, a1->u * 1e6, true});
+      out.squareness.push_back({square_name, a1->value * 1e6, a1->u * 1e6, true});
     } else {
       out.notes.push_back("the " + id.plane + " plane's runs do not give its squareness");
     }
     if (const Estimate* m = find(id.diagnostics, results::name(results::scale_mismatch)))
-      out.scale_mismatch.push_back({results::name(results::plane_scale_mismatch, id.plane), m->value, m->u, true});
+      out.scale_mismatch.push_back(
+          {results::name_in(results::scale_mismatch, results::planes_group, id.plane), m->value, m->u, true});
     else
       out.notes.push_back("the " + id.plane + " plane's runs do not give its scale mismatch");
   }
-  // Per axis: backlash and scale from every plane that has the axis.
+  // Per axis: backlash and scale from every plane that has the axis (Lai's: his x and y, the plane's two axes).
+  const std::string lai_backlash[] = {results::name_in(results::backlash, results::lai3_group, "xy", 0),
+                                      results::name_in(results::backlash, results::lai3_group, "xy", 1)};
+  const std::string lai_scale[] = {std::string(results::lai_S_x.name), std::string(results::lai_S_y.name)};
   for (const std::string axis : {"x", "y", "z"}) {
+    const std::string first_of = axis + (axis == "x" ? "y" : "x");  // a plane whose first axis it is
     std::vector<PlaneFigure> backlash, scale;
     for (const auto& id : ids) {
       const int k =
           results::axis_letter(id.plane, 0) == axis ? 0 : (results::axis_letter(id.plane, 1) == axis ? 1 : -1);
       if (k < 0) continue;
       Estimate scratch;
-      if (const Estimate* b = axis_estimate(id, results::backlash, results::lai_backlash_x, results::lai_backlash_y, k,
-                                            scratch, [](double v) { return v; }))
+      if (const Estimate* b = axis_estimate(id, results::backlash, lai_backlash[0], lai_backlash[1], k, scratch,
+                                            [](double v) { return v; }))
         backlash.push_back({id.plane, b->value, b->u});
-      if (const Estimate* s = axis_estimate(id, results::scale, results::lai_S_x, results::lai_S_y, k, scratch,
+      if (const Estimate* s = axis_estimate(id, results::scale, lai_scale[0], lai_scale[1], k, scratch,
                                             [](double v) { return (v - 1.0) * 1e6; }))
         scale.push_back({id.plane, s->value, s->u});
     }
     if (!backlash.empty())
-      out.backlash.push_back(combine(results::name_along(results::axis_backlash, axis), axis, std::move(backlash)));
+      out.backlash.push_back(
+          combine(results::name_in(results::backlash, results::planes_group, first_of, 0), axis, std::move(backlash)));
     if (!scale.empty())
-      out.scale.push_back(combine(results::name_along(results::axis_scale, axis), axis, std::move(scale)));
+      out.scale.push_back(
+          combine(results::name_in(results::scale, results::planes_group, first_of, 0), axis, std::move(scale)));
   }
   for (const auto* list : {&out.backlash, &out.scale})
     for (const auto& f : *list)

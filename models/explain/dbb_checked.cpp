@@ -147,21 +147,23 @@ CheckedIdentification identify_checked_like(const std::vector<formats::DbbRun>& 
   return out;
 }
 
-nlohmann::json to_json(const CheckedIdentification& checked) {
-  nlohmann::json j = dbb::to_json(checked.id);
+results::Params to_params(const CheckedIdentification& checked) {
+  results::Params p = dbb::to_params(checked.id);
+  nlohmann::json& notes = p.record["notes"];
   std::string beside;
   for (const auto& e : checked.beside) beside += (beside.empty() ? "" : ", ") + results::in_words(e);
-  const auto mark = [&](const std::vector<dbb::Estimate>& terms, const char* group) {
+  const auto mark = [&](const std::vector<dbb::Estimate>& terms, std::string_view group) {
     for (const auto& e : terms) {
       const std::string why = contradiction(e, checked.explain);
       if (why.empty()) continue;
-      j[group][e.name]["not_determined"] = why;
+      for (results::Figure& f : p.group_named(group).figures)
+        if (f.name == e.name) f.not_determined = why;
       const dbb::Estimate* other = find(checked.explain, e.name);
       const results::Shown mine = results::shown(e.name, e.value, e.u, checked.id.plane, group);
       const results::Shown theirs = results::shown(e.name, other->value, other->u, checked.id.plane, group);
-      j["notes"].push_back(mine.label + " is not determined: " + mine.value + " " + mine.unit +
-                           ", where EXPLAIN finds " + theirs.value + " " + theirs.unit + " on the same runs" +
-                           (beside.empty() ? std::string() : ", with " + beside + " fitted beside"));
+      notes.push_back(mine.label + " is not determined: " + mine.value + " " + mine.unit + ", where EXPLAIN finds " +
+                      theirs.value + " " + theirs.unit + " on the same runs" +
+                      (beside.empty() ? std::string() : ", with " + beside + " fitted beside"));
     }
   };
   mark(checked.id.diagnostics, "diagnostics");
@@ -169,14 +171,16 @@ nlohmann::json to_json(const CheckedIdentification& checked) {
   for (const auto& n : checked.notes) {
     // The values fitted beside are in their own group, in words: the note says only what they are.
     if (n.starts_with(fitted_beside_note))
-      j["notes"].push_back(
+      notes.push_back(
           "what EXPLAIN found on the same runs and the models do not hold is fitted beside "
           "their terms (above), so that it is not read as one of them: " +
           beside);
     else
-      j["notes"].push_back(n);
+      notes.push_back(n);
   }
-  return j;
+  return p;
 }
+
+nlohmann::json to_json(const CheckedIdentification& checked) { return results::to_json(to_params(checked)); }
 
 }  // namespace guideway::models::explain

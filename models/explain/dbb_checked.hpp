@@ -18,6 +18,7 @@
 #include "formats/dbb_run.hpp"
 #include "models/dbb/identify.hpp"
 #include "models/explain/explanation.hpp"
+#include "results/params.hpp"
 
 namespace guideway::models::explain {
 
@@ -59,9 +60,11 @@ CheckedIdentification identify_checked_like(const std::vector<formats::DbbRun>& 
 // how far apart they are; "" when it does not (no such estimate, or either has no u).
 std::string contradiction(const dbb::Estimate& term, const std::vector<dbb::Estimate>& others);
 
-// The identification's JSON (models/dbb to_json) with a term that contradicts EXPLAIN marked
-// `not_determined` (why, with both values) and the notes in words: what `identify dbb --json` prints and
-// the DBB session's PARAMS carry (docs/protocol.md).
+// The identification as PARAMS' body (models/dbb to_params) with a term that contradicts EXPLAIN marked
+// `not_determined` (why, with both values) and the notes in words: what the DBB session's PARAMS carry
+// (docs/protocol.md).
+results::Params to_params(const CheckedIdentification& checked);
+// Its JSON, results::to_json(to_params(checked)): what `identify dbb --json` prints.
 nlohmann::json to_json(const CheckedIdentification& checked);
 
 }  // namespace guideway::models::explain

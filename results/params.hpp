@@ -1,0 +1,82 @@
+#pragma once
+// PARAMS as every layer above the models reads it: the body of a PARAMS message (docs/protocol.md "PARAMS"),
+// what a session's identify() returns, the daemon and `guideway replay` publish and the fleet stores. Its
+// figures, every {"value": v, "u": u} a result reports, are typed: each under its reported name with its
+// catalogue entry (parameters.hpp), in the group the message holds it in ("diagnostics", "lai3", "squareness",
+// "error_motion", "straightness", "profile", ...), so a reader asks for a quantity, not for a key path. Its JSON
+// is written by to_json and read by params_from_json only. A figure's value the JSON gives as null (not
+// computed, not finite) is NaN here. Pure; thread safe.
+//
+// `record` is the model's own record of how it fitted, key by key as the model writes it: a DBB test's runs,
+// fits, standards' figures, ranking and notes (and, of a test of several planes, each plane's PARAMS and the
+// machine across them), a traverse's stations and polynomial ("result", "traverse"), a run-out's revolution,
+// a profile's points and wavelet bands. No reader above the sessions reads it but the CLI's printer and --json.
+
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "results/parameters.hpp"
+
+namespace guideway::results {
+
+inline constexpr double params_nan = std::numeric_limits<double>::quiet_NaN();
+
+// One reported value: {"value": v, "u": u} (u left out where there is none; "not_determined": why, where an
+// identified term contradicts EXPLAIN's value of it: models/explain/dbb_checked.hpp).
+struct Figure {
+  std::string name;                  // as reported: "backlash_x_um", "run2.center_offset_x_um"
+  double value = params_nan;         // NaN: null in the JSON
+  std::optional<double> u;           // standard uncertainty; absent: none given (NaN: null in the JSON)
+  std::string not_determined;        // why the term is not determined ("": it is)
+  const Parameter* entry = nullptr;  // its catalogue entry (find_parameter with the group); nullptr: not in it
+};
+
+// A group of figures, {"name": {"value": ...}, ...}: its name is a catalogue group (Parameter::group).
+struct FigureGroup {
+  std::string name;
+  std::vector<Figure> figures;
+  [[nodiscard]] const Figure* find(std::string_view figure_name) const;
+};
+
+struct Params {
+  std::string model;       // "dbb/lai3+diagnostics", "squareness/runout", ...
+  std::string plane;       // a DBB identification's plane ("xy", "zx"); "" for the other kinds
+  std::string axis;        // a traverse's machine axis ("x"); ""
+  std::string test;        // a DBB session's test ("standard", "three-plane"); ""
+  std::string incomplete;  // what a session stopped early lacks ("3 of 4 patterns traced"); "": complete
+  std::vector<FigureGroup> groups;
+  nlohmann::json record = nlohmann::json::object();  // the model's record (above), an object
+
+  [[nodiscard]] const FigureGroup* group(std::string_view name) const;
+  // The figure `name` of group `group`; nullptr when either is absent.
+  [[nodiscard]] const Figure* find(std::string_view group, std::string_view name) const;
+  // The group `name`, added (empty) when absent.
+  FigureGroup& group_named(std::string_view name);
+};
+
+// The figure `name` of group `group` with its catalogue entry (find_parameter(name, group)).
+Figure figure(std::string name, double value, std::optional<double> u, std::string_view group);
+
+// The PARAMS message's body without its header (result_header.hpp).
+nlohmann::json to_json(const Params& params);
+
+// What params_from_json refuses: names the field and what it is ("diagnostics.backlash_x_um: \"value\" is string,
+// expected a number or null").
+class ParamsFormatError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+// The PARAMS a JSON object holds (a PARAMS message: its header is left out). A key whose value is an object of
+// figures (each an object of "value", and "u" or "not_determined" only) is a group; "model", "plane", "axis",
+// "test" and "incomplete" must be texts; every other key is the record's. A figure whose value or u is not a
+// number (or null), or a non-object, throws ParamsFormatError: what comes from a broker or a file goes through
+// here, a bad payload is an error, never undefined behaviour.
+Params params_from_json(const nlohmann::json& j);
+
+}  // namespace guideway::results
