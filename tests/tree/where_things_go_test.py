@@ -248,6 +248,28 @@ class WhereThingsGo(unittest.TestCase):
             owners = [g for g, body in groups.items() if re.search(rf"/{re.escape(command)}\b", body)]
             self.assertEqual(len(owners), 1, f"{command} is built by one emulator group: {owners}")
 
+    def test_every_test_folder_is_a_folder_of_the_tree_and_in_the_build(self):
+        """A test lives in the folder of the tree it tests (tests/<folder>/, tests/models/<model>/), which its
+        parent's CMakeLists.txt adds; besides them only what the folders share (tests/support, tests/data,
+        tests/golden) and the checks of the tree as a whole (tests/tree): no test lies loose in tests/."""
+        shared = {"support", "data", "golden"}
+        for parent, tree in (("tests", ROOT), ("tests/models", ROOT / "models")):
+            added = re.search(r"foreach\(dir ([^)]*)\)", text(f"{parent}/CMakeLists.txt")).group(1).split()
+            folders = sorted(p.name for p in (ROOT / parent).iterdir()
+                             if p.is_dir() and not p.name.startswith(("_", ".")))
+            self.assertGreaterEqual(len(folders), 7, parent)
+            for folder in folders:
+                if parent == "tests" and folder in shared:
+                    self.assertNotIn(folder, added, f"{parent}/{folder} holds no tests of its own")
+                    continue
+                self.assertIn(folder, added, f"{parent}/CMakeLists.txt adds {parent}/{folder}")
+                self.assertTrue((ROOT / parent / folder / "CMakeLists.txt").exists(),
+                                f"{parent}/{folder}/CMakeLists.txt")
+                self.assertTrue(folder == "tree" or (tree / folder).is_dir(),
+                                f"{parent}/{folder} is no folder of the tree")
+        loose = sorted(p.name for p in (ROOT / "tests").iterdir() if p.is_file() and p.name != "CMakeLists.txt")
+        self.assertEqual(loose, [], "tests/ holds folders only")
+
     def test_every_file_format_is_built_and_documented(self):
         """formats/ lists its sources in its CMakeLists.txt; every `guideway/<name>/<version>` the code reads or
         writes, in formats/ or beside its one user, is in docs/formats.md."""
