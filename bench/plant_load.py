@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plant load benchmark (bench/README.md, "Plant: MQTT publishers into one broker and one fleet").
 
-Phase 1, the plant: a real mosquitto on a free loopback port (tests/mqtt_broker.py), one
+Phase 1, the plant: a real mosquitto on a free loopback port (tests/support/mqtt_broker.py), one
 `guideway fleet serve` into a fresh SQLite database, and bench/plant_publishers: N publishers speaking
 the daemon's exact publisher code (plant::Publisher), machines bench-00.., each M messages (a
 session's PARAMS, EXPLAIN and report_ready EVENT after another, the golden results of the four kinds)
@@ -34,9 +34,9 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests"))
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "support"))
 import daemon_load as dl  # noqa: E402  (bench/: the daemon, its config, STATUS deltas, /proc CPU)
-import mqtt_broker  # noqa: E402  (tests/: mosquitto on a free port, mosquitto_sub)
+import mqtt_broker  # noqa: E402  (tests/support: mosquitto on a free port, mosquitto_sub)
 from process_support import wait_for  # noqa: E402
 
 PROBE = "plant-load-probe"  # the machine whose EVENT says the fleet is subscribed

@@ -25,7 +25,7 @@ function(guideway_export_library_headers)
     get_target_property(source_dir ${target} SOURCE_DIR)
     file(RELATIVE_PATH folder ${PROJECT_SOURCE_DIR} ${source_dir})
     # The build's own interface targets (warnings, sanitizers) live at the top; tests include their
-    # helpers beside them.
+    # helpers beside them and from tests/support (guideway_test_support).
     if(folder STREQUAL "" OR folder MATCHES "^(tests|bench)(/|$)")
       continue()
     endif()

@@ -1,4 +1,4 @@
-# The Debian package of Guideway (CPack DEB; scripts/package.sh builds it, tests/package_test.py checks it,
+# The Debian package of Guideway (CPack DEB; scripts/package.sh builds it, tests/packaging/package_test.py checks it,
 # docs/linuxcnc.md "Installing"): the programs, their man pages, the systemd units with their sysusers.d and
 # tmpfiles.d files, the default configuration (a conffile), the LinuxCNC files and the loop demo, the virtual
 # machine files, the documentation. Any build tree packages (CPack installs it with the prefix /usr into a

@@ -18,7 +18,8 @@ add_custom_target(guideway_tsan_tests)
 # Clang's precompiled header takes either (both are "optimized" to it).
 function(guideway_test_compile_settings target)
   cmake_parse_arguments(S "AS_BUILT" "" "" ${ARGN})
-  target_link_libraries(${target} PRIVATE GTest::gtest GTest::gtest_main nlohmann_json::nlohmann_json guideway_warnings)
+  target_link_libraries(${target} PRIVATE GTest::gtest GTest::gtest_main nlohmann_json::nlohmann_json guideway_warnings
+    guideway_test_support)
   if(NOT S_AS_BUILT)
     target_compile_options(${target} PRIVATE "$<$<CONFIG:Release,RelWithDebInfo,MinSizeRel>:-O1>")
   endif()
@@ -38,8 +39,8 @@ endfunction()
 # 3 % less (230 s against 237 s, within the noise; code generation at -O3 is most of their time) for a
 # 130 MB header and its own compile. Its owner is an executable (a test program with no tests), so that it
 # compiles with the tests' flags (-fPIE, not a library's -fPIC); a test compiled with other options opts
-# out with the target property DISABLE_PRECOMPILE_HEADERS. Made by the first test, in the tests'
-# directory: it then has their directory's options too (guideway_sanitize_as_test_programs).
+# out with the target property DISABLE_PRECOMPILE_HEADERS. Made by the first test, in its folder of tests/:
+# it then has the options every folder of tests/ inherits too (guideway_sanitize_as_test_programs).
 function(guideway_add_test_pch)
   file(CONFIGURE OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/guideway_test_pch.cpp
     CONTENT "// The owner of the test programs' shared precompiled header (cmake/GuidewayTest.cmake).\n")

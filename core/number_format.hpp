@@ -52,8 +52,8 @@ inline void append_shortest(std::string& out, double v) {
 // digits (to the nearest), the value to the same decimal place. Where that place is more than 6
 // decimals after the point, or the larger of |value| and u is 1e6 or more, both share a power of ten
 // (unless it is 10^0): value "2.211", u "0.013", exponent -7 for (2.211 ± 0.013)e-7. Without a positive finite u the
-// value has `significant` digits (format_number) and u is empty. tests/number_rounding_test.py holds this rule against
-// an independent implementation (Python's decimal).
+// value has `significant` digits (format_number) and u is empty. tests/core/number_rounding_test.py holds this rule
+// against an independent implementation (Python's decimal).
 struct Rounded {
   std::string value;
   std::string u;

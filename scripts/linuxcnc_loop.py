@@ -81,7 +81,7 @@ def lingering_linuxcnc():
 
 @contextlib.contextmanager
 def machine_lock():
-    """One LinuxCNC per machine: shared with tests/linuxcnc_comp_test.py."""
+    """One LinuxCNC per machine: shared with tests/linuxcnc/linuxcnc_comp_test.py."""
     path = os.path.join(tempfile.gettempdir(), "guideway-linuxcnc-test.lock")
     try:
         fd = os.open(path, os.O_RDONLY)

@@ -19,8 +19,8 @@ packages=(
   python3-pymodbus python3-serial-asyncio mbpoll  # Modbus stacks written elsewhere, for the micrometer's tests
   linux-perf  # bench/daemon_load.py --syscalls, bench/controller_load.py (a daemon's threads on the measured CPU)
   rt-tests  # cyclictest: bench/controller_load.py measures a real-time loop beside guidewayd
-  linuxcnc-uspace  # the controller Guideway's compensation tables are for: tests/linuxcnc_comp_test.py runs it headless
-  lintian fakeroot dpkg-dev  # the Debian package (scripts/package.sh) built and checked by tests/package_test.py
+  linuxcnc-uspace  # the controller Guideway's compensation tables are for: tests/linuxcnc/linuxcnc_comp_test.py runs it headless
+  lintian fakeroot dpkg-dev  # the Debian package (scripts/package.sh) built and checked by tests/packaging/package_test.py
   chromium  # headless: the report tests and docs/reports.md screenshots
   systemd
 )

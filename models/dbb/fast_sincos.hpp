@@ -2,7 +2,7 @@
 // sin and cos of one argument together, inline and without libm's call and rounding-mode overhead,
 // for searches that evaluate ~1e5 of them only to compare sums (the DBB cyclic-lead search).
 // Accuracy: within 2 ulp of libm, absolute error <= 4e-16 (checked against std::sin/std::cos by
-// tests/dbb_fast_sincos_test.cpp). Beyond |x| = 1e6, where the reduction would lose bits, and for
+// tests/models/dbb/dbb_fast_sincos_test.cpp). Beyond |x| = 1e6, where the reduction would lose bits, and for
 // non-finite x it calls libm. Thread safe.
 
 #include <cmath>

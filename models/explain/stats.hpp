@@ -1,7 +1,7 @@
 #pragma once
 // Distribution functions and whiteness tests used to decide whether a residual is noise: F and
 // chi-square survival functions (regularised incomplete beta and gamma functions), the Wald-Wolfowitz
-// runs test and the Ljung-Box portmanteau test. Checked against scipy (tests/explain_stats_test.py).
+// runs test and the Ljung-Box portmanteau test. Checked against scipy (tests/models/explain/explain_stats_test.cpp).
 // Pure functions; thread safe; throw std::invalid_argument on meaningless arguments.
 
 #include <cstddef>

@@ -1,9 +1,9 @@
 """The example inputs of the report's tests and documentation, made by the project's own tools: DBB runs
 (`guideway simulate dbb`, CCW and CW on config/machine-example.toml), Mu's workpiece experiment
-(`guideway-emulate workpiece` on tests/workpiece_flatness_mu2012_machine.toml: faced profiles at 2 and
-8 mm/min, the X carriage's autocollimator traverse, a run-out revolution), Moody's 1955 surface plate (real
+(`guideway-emulate workpiece` on tests/models/flatness/workpiece_flatness_mu2012_machine.toml: faced profiles
+at 2 and 8 mm/min, the X carriage's autocollimator traverse, a run-out revolution), Moody's 1955 surface plate (real
 data) and an explanation (`guideway explain` when the build has it, else the shape example
-tests/report_explain_example.json, which has no residual curves).
+tests/report/report_explain_example.json, which has no residual curves).
 """
 import json
 import os
@@ -20,7 +20,8 @@ def _run(*args):
 def make_inputs(guideway, emulate, src, moody, out):
     """Writes the inputs into out; returns ({analysis kind: [paths]}, a note on the explanation's origin)."""
     os.makedirs(out, exist_ok=True)
-    written = _run(emulate, "workpiece", "--machine", os.path.join(src, "tests", "workpiece_flatness_mu2012_machine.toml"),
+    workpiece_machine = os.path.join(src, "tests", "models", "flatness", "workpiece_flatness_mu2012_machine.toml")
+    written = _run(emulate, "workpiece", "--machine", workpiece_machine,
                    "--profile-step-mm", "0.1", "--out-dir", out).stdout.split()
     profiles = sorted(p for p in written if os.path.basename(p).startswith("profile"))
     traverse = [p for p in written if os.path.basename(p).startswith("straightness")]
@@ -40,12 +41,12 @@ def make_inputs(guideway, emulate, src, moody, out):
         note = "guideway explain --model dbb dbb_ccw.csv dbb_cw.csv --json"
     else:
         # The shape example has no residual curves: they come only from a real explanation.
-        with open(os.path.join(src, "tests", "report_explain_example.json")) as f:
+        with open(os.path.join(src, "tests", "report", "report_explain_example.json")) as f:
             j = json.load(f)
         j.pop("residuals", None)
         with open(explain, "w") as f:
             json.dump(j, f)
-        note = ("tests/report_explain_example.json (guideway explain unavailable: %s), without residual curves"
+        note = ("tests/report/report_explain_example.json (guideway explain unavailable: %s), without residual curves"
                 % ((r.stderr.strip().splitlines() or ["no output"])[-1]))
     # The error map of a simulated day on the example machine (docs/map.md).
     day = os.path.join(out, "day")
