@@ -168,9 +168,11 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
   for (std::size_t k = 0, i = 0; k < runs.size(); i += runs[k].angle_rad.size(), ++k)
     g_max = std::max(g_max, circular_deviation(pts.data() + i, runs[k].angle_rad.size()));
   std::vector<std::string> groups;
+  std::vector<std::string> group_of(m);  // each column's, named once: not in the loop over the points
   for (std::size_t c = n_center; c < m; ++c) {
-    const std::string grp = lai_error_group(names[c]);
-    if (res.identified[c] && std::find(groups.begin(), groups.end(), grp) == groups.end()) groups.push_back(grp);
+    group_of[c] = lai_error_group(names[c]);
+    if (res.identified[c] && std::find(groups.begin(), groups.end(), group_of[c]) == groups.end())
+      groups.push_back(group_of[c]);
   }
   double basis[lai_count];
   for (const auto& grp : groups) {
@@ -178,7 +180,7 @@ LaiFit fit_lai(const std::vector<formats::DbbRun>& runs, std::vector<Point>& pts
     for (std::size_t i = 0; i < pts.size(); ++i) {
       lai_basis(pts[i], basis);
       for (std::size_t c = n_center; c < m; ++c)
-        if (res.identified[c] && lai_error_group(names[c]) == grp) {
+        if (res.identified[c] && group_of[c] == grp) {
           const std::size_t col = c - n_center + 2;
           curve[i] += basis[col] * lai_columns[col].si_per_reported * 1e6 * res.fitted[static_cast<Eigen::Index>(c)];
         }
