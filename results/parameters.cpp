@@ -308,15 +308,22 @@ std::optional<LineNames> line_of_part(std::string_view part_name) {
   return std::nullopt;
 }
 
+namespace {
+
+// find_in, and without a run's prefix where the name as given is no entry's.
+Found find_in_any_run(std::string_view name, std::string_view group) {
+  Found f = find_in(name, group);
+  return f.p ? f : find_in(without_run(name), group);
+}
+
+}  // namespace
+
 const Parameter* find_parameter(std::string_view name, std::string_view group) {
-  for (const std::string_view n : {name, without_run(name)})
-    if (const Parameter* p = find_in(n, group).p) return p;
-  return nullptr;
+  return find_in_any_run(name, group).p;
 }
 
 double shown_order(std::string_view name, std::string_view group) {
-  Found f = find_in(name, group);
-  if (!f.p) f = find_in(without_run(name), group);
+  const Found f = find_in_any_run(name, group);
   if (!f.p) return static_cast<double>(std::size(all));
   if (f.place && !f.place->shown_after.empty() && f.place->shown_after != name)
     return shown_order(f.place->shown_after, group) + 0.5;

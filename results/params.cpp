@@ -57,13 +57,15 @@ FigureGroup group_from(const std::string& name, const json& v) {
   return g;
 }
 
-// The typed texts, by their keys.
+// The typed texts and their keys, written and read from this one list.
+constexpr std::pair<const char*, std::string Params::*> text_fields[] = {
+    {"model", &Params::model}, {"plane", &Params::plane},           {"axis", &Params::axis},
+    {"test", &Params::test},   {"incomplete", &Params::incomplete},
+};
+
 std::string* text_field(Params& p, std::string_view key) {
-  if (key == "model") return &p.model;
-  if (key == "plane") return &p.plane;
-  if (key == "axis") return &p.axis;
-  if (key == "test") return &p.test;
-  if (key == "incomplete") return &p.incomplete;
+  for (const auto& [name, member] : text_fields)
+    if (key == name) return &(p.*member);
   return nullptr;
 }
 
@@ -99,11 +101,8 @@ Figure figure(std::string name, double value, std::optional<double> u, std::stri
 
 json to_json(const Params& p) {
   json j = p.record.is_object() ? p.record : json::object();
-  const Params& c = p;
-  for (const auto& [key, text] :
-       {std::pair{"model", &c.model}, std::pair{"plane", &c.plane}, std::pair{"axis", &c.axis},
-        std::pair{"test", &c.test}, std::pair{"incomplete", &c.incomplete}})
-    if (!text->empty()) j[key] = *text;
+  for (const auto& [key, member] : text_fields)
+    if (!(p.*member).empty()) j[key] = p.*member;
   for (const FigureGroup& g : p.groups) {
     json o = json::object();
     for (const Figure& f : g.figures) o[f.name] = figure_json(f);

@@ -22,12 +22,20 @@ DropTest significance(const Selection& sel, const std::vector<Term>& terms, std:
   return d;
 }
 
+namespace {
+
+// `without` with variant v's columns beside it.
+Extension extended_by(const Selection& sel, const Model& without, const Variant& v) {
+  Eigen::MatrixXd x(static_cast<Eigen::Index>(sel.observations().size()), width(v));
+  write_columns(v, x);
+  return extend(without, std::move(x));
+}
+
+}  // namespace
+
 std::string past_grid_edge(const Selection& sel, const Model& without, const Variant& v, double rss) {
-  const auto n = static_cast<Eigen::Index>(sel.observations().size());
   for (const Variant& b : v.beyond) {
-    Eigen::MatrixXd x(n, width(b));
-    write_columns(b, x);
-    const Extension e = extend(without, std::move(x));
+    const Extension e = extended_by(sel, without, b);
     // Better beyond rounding: the joint fits of `v` and of `b` come by different routes (choose(), extend()).
     if (e.rank == 0 || !(e.rss < rss * (1 - 1e-9))) continue;
     std::string at, past;
@@ -81,9 +89,7 @@ std::vector<ParamValue> widened(const Selection& sel, const std::vector<Term>& t
   std::vector<double> spread(out.size(), 0.0);
   for (std::size_t v = 0; v < variants.size(); ++v) {
     if (v == t.index || !ok[v]) continue;
-    Eigen::MatrixXd x(static_cast<Eigen::Index>(sel.observations().size()), width(variants[v]));
-    write_columns(variants[v], x);
-    const Extension e = extend(without, std::move(x));
+    const Extension e = extended_by(sel, without, variants[v]);
     if (e.rank == 0 || !(e.rss - cur.rss < s2)) continue;
     std::vector<Term> alt = terms;
     alt[k].index = v;
