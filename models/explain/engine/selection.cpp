@@ -45,14 +45,14 @@ LsqResult Selection::fit(const std::vector<Term>& terms) const {
   if (p_.base.columns.cols() > 0) design.emplace_back(p_.base.columns);
   if (rest.cols() > 0) design.emplace_back(rest);
   if (design.empty()) {  // no column (a base fitted out of the data, no term): nothing fitted, the data left
-    LsqResult none;
-    none.ok = true;
-    none.n = n_;
-    none.residual = y_;
-    none.rms = std::sqrt(y_.squaredNorm() / static_cast<double>(n_));
-    none.s2 = y_.squaredNorm() / static_cast<double>(n_);
-    none.condition_number = 1.0;
-    return none;
+    LsqResult data_left;
+    data_left.ok = true;
+    data_left.n = n_;
+    data_left.residual = y_;
+    data_left.rms = std::sqrt(y_.squaredNorm() / static_cast<double>(n_));
+    data_left.s2 = y_.squaredNorm() / static_cast<double>(n_);
+    data_left.condition_number = 1.0;
+    return data_left;
   }
   LsqResult fit = solve_lsq(design, y_, Eigen::VectorXd(), names(terms));
   // The stations' terms fitted out of the data (Problem::station_means_absorbed) took their degrees of freedom too.
