@@ -93,7 +93,11 @@ void LoopDriver::connect_tcp(const std::string& host, int port, std::string labe
         [this](const std::string& error) { link_failed(error); });
     connector_attached_ = true;
   }
-  set_state(DeviceState::connecting);
+  // A state always says why: a status read while a new link opens after a loss would otherwise show a bare
+  // `connecting` and hide the loss (the junk peer of driver_streaming_rule_test, caught in that instant).
+  std::string doing = "connecting to " + label;
+  if (!last_end_.empty()) doing += " (the last link: " + last_end_ + ")";
+  set_state(DeviceState::connecting, std::move(doing));
   link_ = Link::opening;
   connector_.start(host, port, std::move(label), timeout);
 }
@@ -102,6 +106,7 @@ void LoopDriver::link_up(int fd) { up(fd, false); }
 
 void LoopDriver::link_failed(const std::string& why) {
   link_ = Link::waiting;
+  last_end_ = why;
   set_state(ever_up_ || !policy_.unreached_is_error ? DeviceState::lost : DeviceState::error, why);
   wait_backoff();
 }
@@ -147,6 +152,7 @@ void LoopDriver::end_link(const std::string& why) {
   // After a link that gave samples the next attempt comes soon; a peer that takes the connection and
   // gives nothing (junk, silence, a close) is tried less and less often.
   if (published_samples() > published_at_up_) backoff_.reset();
+  last_end_ = why;
   set_state(DeviceState::lost, why);
   wait_backoff();
 }

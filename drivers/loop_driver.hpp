@@ -176,6 +176,7 @@ class LoopDriver : public Driver {
   bool owns_fd_ = false;
   bool ever_up_ = false;
   bool relinked_ = false;
+  std::string last_end_;  // why the last link ended or failed: said while the next one opens
   std::uint64_t published_at_up_ = 0;
   std::int64_t reconnect_at_ns_ = 0;
   ReadSchedule schedule_ = ReadSchedule::rest;

@@ -5,6 +5,7 @@
 // the reason once the bound passed. And a profilometer whose peer turns to junk after a stream of
 // points leaves `streaming` within its bound (it said `streaming` forever).
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <pty.h>
 #include <sys/socket.h>
@@ -212,6 +213,50 @@ TEST(StreamingRule, MicrometerOverTcpJunkOrSilentPeerIsNeverStreaming) {
     expect_never_streaming(d, peer, 700ms);
     d.stop();
   }
+}
+
+// A device opening its link again after a loss says where it connects and why the last link ended: a
+// status read in that instant once showed a bare `connecting` (this file's junk peer, 1 run in ~30).
+// The peer: a listener whose accept queue is full (backlog 0, one connection queued, never accepted),
+// where the kernel drops further SYNs, so each attempt stays `connecting` until its timeout.
+TEST(StreamingRule, AReconnectingDeviceSaysWhereItConnectsAndWhyTheLastLinkEnded) {
+  int port = 0;
+  const int listener = test::listen_on_loopback(port);
+  ASSERT_EQ(::listen(listener, 0), 0);
+  const int queued = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  ASSERT_EQ(::connect(queued, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  drivers::micrometer::MicrometerConfig c;
+  c.endpoint.kind = drivers::modbus::ModbusEndpoint::Kind::tcp;
+  c.endpoint.port = port;
+  c.endpoint.response_timeout = 150ms;
+  c.reconnect.backoff = Backoff::between(10ms, 50ms);
+  drivers::micrometer::MicrometerDriver d("mic", c, 256);
+  const std::string where = "connecting to " + c.endpoint.describe();
+  d.start();
+  std::string first, again;
+  ASSERT_TRUE(test::eventually(
+      [&] {
+        const drivers::DriverStatus s = d.status();
+        if (s.state == DeviceState::connecting && s.reason.rfind(where, 0) == 0) {
+          if (s.reason.find("(the last link: ") == std::string::npos) {
+            if (first.empty()) first = s.reason;
+          } else {
+            again = s.reason;
+          }
+        }
+        return !again.empty();
+      },
+      5s))
+      << drivers::to_string(d.status().state) << ": " << d.status().reason;
+  EXPECT_EQ(first, where) << "the first attempt, before any link ended";
+  EXPECT_NE(again.find(std::to_string(port)), std::string::npos) << again;
+  d.stop();
+  ::close(queued);
+  ::close(listener);
 }
 
 // A pseudo-terminal whose far end sends junk lines every 2 ms, or nothing, and drops what it is sent.
