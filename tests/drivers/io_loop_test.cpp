@@ -423,7 +423,7 @@ TEST(SharedIoLoop, FourDriversOnOneThreadEachSurvivesItsFaultsWhileTheOthersFlow
   as.serial.baud_rate = 115200;
   as.stream = true;
   as.stream_period_ms = 5;
-  as.reply_timeout_ms = 100;
+  as.reply_timeout_ms = 250;
   as.lost_after_timeouts = 2;
   as.reconnect.backoff = Backoff::between(std::chrono::milliseconds(10), std::chrono::milliseconds(100));
   drivers::autocollimator::AutocollimatorDriver ac("ac", 1 << 14, as);
@@ -434,7 +434,7 @@ TEST(SharedIoLoop, FourDriversOnOneThreadEachSurvivesItsFaultsWhileTheOthersFlow
   ASSERT_GT(mic_port, 0) << error;
   auto mic = from_toml<drivers::micrometer::MicrometerDriver>(
       "transport = \"tcp\"\nhost = \"127.0.0.1\"\nport = " + std::to_string(mic_port) +
-          "\npoll_hz = 200\nresponse_timeout_ms = 100\nlost_after_failures = 3\nreconnect_min_ms = 20\n"
+          "\npoll_hz = 200\nresponse_timeout_ms = 250\nlost_after_failures = 3\nreconnect_min_ms = 20\n"
           "reconnect_max_ms = 100\n[registers]\nvalue_type = \"int32\"\n",
       drivers::micrometer::parse_micrometer_config, 1 << 14);
 
@@ -522,13 +522,16 @@ TEST(SharedIoLoop, FourDriversOnOneThreadEachSurvivesItsFaultsWhileTheOthersFlow
     }
     for (std::size_t k = 0; k < taken[i].samples.size(); ++k) ASSERT_EQ(taken[i].samples[k].seq, k) << "lost a sample";
   }
-  // The DBB never paused while the others stalled, reconnected and backed off: its samples (1 kHz)
-  // are at most a few periods apart throughout.
+  // The DBB never paused while the others stalled, reconnected and backed off: its samples (1 kHz) are
+  // never as far apart as a wait for another device would hold the loop (a reply's or a response's
+  // timeout, 250 ms here; the stalls 300-400 ms). The bound leaves room for a loaded machine's
+  // scheduling of the emulator and the loop (95 ms seen at a load of 9 on 2 cores; timeouts of 100 ms
+  // and a 50 ms bound could not tell the two apart).
   std::int64_t widest = 0;
   for (std::size_t k = 1; k < taken[0].samples.size(); ++k)
     widest = std::max(widest, taken[0].samples[k].t_mono_ns - taken[0].samples[k - 1].t_mono_ns);
   RecordProperty("dbb_widest_gap_us", std::to_string(widest / 1000));
-  EXPECT_LT(widest, 50'000'000) << "ns between two DBB samples";
+  EXPECT_LT(widest, 150'000'000) << "ns between two DBB samples";
   prof->stop();
   mic->stop();
   ac.stop();
