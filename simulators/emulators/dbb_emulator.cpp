@@ -229,11 +229,25 @@ void DbbEmulator::send_cycle(int fd, int syncs) {
   std::vector<can_frame> batch(static_cast<std::size_t>(syncs), drivers::dbb::make_sync_frame());
   if (!send_faults(fd, batch)) return;
   DbbSentCycle c;
-  c.t_s = static_cast<double>(now - t0_ns_) * 1e-9;
-  c.t_mono_ns = now;
   c.truth_m.assign(settings_.encoders.size(), 0.0);
   c.counts.assign(settings_.encoders.size(), 0);
-  source_(c.t_s, c.truth_m);
+  // The machine at the time the bus will stamp: a node latches its position at the SYNC and sends within
+  // microseconds, and the driver times a cycle by the kernel's stamp of this batch's write. Preempted while
+  // the machine was evaluated (a loaded machine, a sanitizer), the values would be milliseconds older than
+  // their stamp, an error of the bar's rate of change times the delay that no real bus makes: evaluated
+  // again at the new time, at most twice more. Not once the batch went out with truncated records (its
+  // SYNC already stamped): its time is the cycle's start.
+  constexpr std::int64_t relatch_after_ns = 300'000;
+  const bool stamped = batch.empty();
+  std::int64_t latched_ns = stamped ? now : mono_now_ns();
+  for (int evaluations = 1;; ++evaluations) {
+    c.t_s = static_cast<double>(latched_ns - t0_ns_) * 1e-9;
+    source_(c.t_s, c.truth_m);
+    const std::int64_t after_ns = mono_now_ns();
+    if (stamped || after_ns - latched_ns < relatch_after_ns || evaluations == 3) break;
+    latched_ns = after_ns;
+  }
+  c.t_mono_ns = latched_ns;
   {
     std::lock_guard lock(drop_mutex_);
     for (std::size_t i = 0; i < settings_.encoders.size(); ++i) {

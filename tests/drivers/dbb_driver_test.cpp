@@ -203,6 +203,9 @@ TEST(DbbDriver, ListenBatchedSamplesCarryTheSyncsKernelReceiveTime) {
   std::sort(sorted.begin(), sorted.end());
   const std::int64_t median = sorted[sorted.size() / 2];
   const std::int64_t p90 = sorted[sorted.size() * 9 / 10];
+  RecordProperty("stamp_minus_latch_median_us", std::to_string(median / 1000));
+  RecordProperty("stamp_minus_latch_p99_us", std::to_string(sorted[sorted.size() * 99 / 100] / 1000));
+  RecordProperty("stamp_minus_latch_max_us", std::to_string(sorted.back() / 1000));
   // The emulator takes its time just before the write; the kernel stamps at the write.
   EXPECT_GE(sorted.front(), -50'000) << "a sample time before the SYNC was sent";
   EXPECT_LT(median, 200'000) << "median sample time - SYNC send time, ns";
