@@ -1,5 +1,5 @@
 #pragma once
-// Reading a result's JSON field by field (results/explanation.cpp): every key optional
+// Reading a result's JSON field by field (results/explanation.cpp, results/dbb_record.cpp): every key optional
 // (absent: the default stays), every present one of its type, else a FieldError naming where it is
 // ("findings[2]: \"p_value\" is string, expected a number or null"), which each reader rethrows as its own
 // error (ExplanationFormatError, ParamsFormatError). Never another exception on any JSON. Internal to results/.
