@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_nodes.hpp"
 #include "results/params.hpp"
 #include "results/result_header.hpp"
 
@@ -233,20 +234,6 @@ TEST(Params, AMalformedDbbRecordIsRefusedNamingTheField) {
   EXPECT_EQ(refusal(R"({"wavelet":{"level":-5}})"), "wavelet: \"level\" is number, expected a whole number, 0 or more");
 }
 
-namespace {
-
-// Every node's pointer in `j`, the root's ("") included.
-void pointers(const nlohmann::json& j, const nlohmann::json::json_pointer& at,
-              std::vector<nlohmann::json::json_pointer>& out) {
-  out.push_back(at);
-  if (j.is_object())
-    for (const auto& [k, v] : j.items()) pointers(v, at / k, out);
-  if (j.is_array())
-    for (std::size_t i = 0; i < j.size(); ++i) pointers(j[i], at / i, out);
-}
-
-}  // namespace
-
 // Any node of a real PARAMS replaced by a value of any type: read, or refused with the reason; never another
 // exception (nlohmann's type_error, out_of_range) and never a crash.
 TEST(Params, AnyFieldOfAnyTypeIsReadOrRefusedWithTheReason) {
@@ -258,7 +245,7 @@ TEST(Params, AnyFieldOfAnyTypeIsReadOrRefusedWithTheReason) {
   std::vector<std::vector<json::json_pointer>> nodes;
   for (const char* kind : {"dbb", "runout", "profile", "straightness"}) {
     messages.push_back(golden(std::string(kind) + ".params.json"));
-    pointers(messages.back(), json::json_pointer(), nodes.emplace_back());
+    nodes.push_back(test::node_pointers(messages.back()));
   }
   int refused = 0, read = 0;
   for (int i = 0; i < 2000; ++i) {
