@@ -96,9 +96,9 @@ void run_identify(const IdentifyArgs& a, CliContext& /*ctx*/) {
     return;
   }
   // Several planes: each plane's identification, then the machine across them.
-  const nlohmann::json summary = models::dbb::to_json(models::dbb::summarize_planes(ids));
+  const results::DbbPlanesSummary summary = models::dbb::planes_record(models::dbb::summarize_planes(ids));
   if (a.json) {
-    nlohmann::json j = {{"planes", nlohmann::json::object()}, {"summary", summary}};
+    nlohmann::json j = {{"planes", nlohmann::json::object()}, {"summary", results::to_json(summary)}};
     for (std::size_t k = 0; k < ids.size(); ++k) j["planes"][ids[k].plane] = results::to_json(plane_params[k]);
     std::cout << j.dump() << "\n";
     return;

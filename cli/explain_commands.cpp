@@ -34,6 +34,7 @@
 #include "models/explain/traverse_explain.hpp"
 #include "results/explanation.hpp"
 #include "results/parameters.hpp"
+#include "results/result_header.hpp"
 #include "results/session_kinds.hpp"
 #include "simulators/machine/machine.hpp"
 #include "simulators/scenarios/machine_truth.hpp"
@@ -407,15 +408,16 @@ void Opts::add(CLI::App& cmd) {
 // The runs of the daemon's latest DBB session, as the truth of a machine file needs them (from its PARAMS' record;
 // a live session's angles are its encoders').
 std::vector<simulators::scenarios::TruthRun> session_truth_runs(const results::Params& params) {
+  if (!params.dbb) throw std::runtime_error("explain: the daemon's latest DBB PARAMS holds no record of its runs");
   std::vector<simulators::scenarios::TruthRun> runs;
-  for (const auto& run : params.record.at("runs")) {
+  for (const results::DbbRunSummary& run : params.dbb->runs) {
     simulators::scenarios::TruthRun t;
-    t.radius_m = run.at("radius_mm").get<double>() * 1e-3;
-    t.height_m = run.at("height_mm").get<double>() * 1e-3;
-    t.direction = run.at("direction") == "cw" ? -1 : 1;
-    t.feed_m_per_s = run.at("feed_mm_per_min").get<double>() / 60000.0;
+    t.radius_m = run.radius_mm * 1e-3;
+    t.height_m = run.height_mm * 1e-3;
+    t.direction = run.direction == "cw" ? -1 : 1;
+    t.feed_m_per_s = run.feed_mm_per_min / 60000.0;
     const double seconds = t.feed_m_per_s > 0 ? 2 * std::numbers::pi * t.radius_m / t.feed_m_per_s : 0.0;
-    t.sample_rate_hz = seconds > 0 ? run.at("n").get<double>() / seconds : 0.0;
+    t.sample_rate_hz = seconds > 0 ? static_cast<double>(run.n) / seconds : 0.0;
     runs.push_back(t);
   }
   return runs;
@@ -423,10 +425,10 @@ std::vector<simulators::scenarios::TruthRun> session_truth_runs(const results::P
 
 // The record of the daemon's latest run-out session (its PARAMS' revolution).
 simulators::scenarios::TruthRecord session_truth_record(const results::Params& params) {
-  const auto& rev = params.record.at("revolution");
-  const double rpm = rev.at("rpm").get<double>();
-  const double revolutions = rev.value("revolutions", rev.at("covered_deg").get<double>() / 360.0);
-  return {rpm, revolutions, rev.at("samples").get<double>() / std::max(revolutions, 1.0)};
+  if (!params.revolution) throw std::runtime_error("explain: the daemon's latest run-out PARAMS holds no revolution");
+  const results::RunoutRevolution& rev = *params.revolution;
+  const double revolutions = rev.revolutions ? static_cast<double>(*rev.revolutions) : rev.covered_deg / 360.0;
+  return {rev.rpm, revolutions, static_cast<double>(rev.samples) / std::max(revolutions, 1.0)};
 }
 
 // The records of run-out files, as the truth of a machine file needs them.
@@ -458,9 +460,10 @@ void explain_latest(const Opts& o, CliContext& ctx) {
   }
   throw_if_error_reply(r, o.json);
   const results::Explanation explanation = results::explanation_from_json(r);
+  const results::ResultHeader header = results::read_header(r);
   nlohmann::json comparison;
   if (!o.machine.empty()) {
-    const std::string kind = r.value("kind", "");
+    const std::string& kind = header.kind;
     if (kind != results::dbb_kind.name && kind != results::runout_kind.name && kind != results::straightness_kind.name)
       throw std::runtime_error("explain: --machine compares DBB, run-out and straightness sessions only, not " + kind);
     const nlohmann::json reply =
@@ -481,8 +484,7 @@ void explain_latest(const Opts& o, CliContext& ctx) {
     if (!comparison.is_null()) r["against_machine"] = comparison;
     std::cout << r.dump() << "\n";
   } else {
-    std::cout << "session " << r.value("session", "?") << " (" << r.value("kind", "?") << " on "
-              << r.value("device", "?") << ")\n";
+    std::cout << session_line(header) << "\n";
     print_explanation(explanation);
     if (!comparison.is_null()) print_against_machine(comparison);
   }

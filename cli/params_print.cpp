@@ -26,15 +26,9 @@ namespace {
 // Below this part of G an error is listed in one line with the others as small ("what to fix first").
 constexpr double negligible_percent = 1.0;
 
-double number_or(const nlohmann::json& j, const char* key, double fallback) {
-  const nlohmann::json v = j.value(key, nlohmann::json());
-  return v.is_number() ? v.get<double>() : fallback;
-}
-
-std::vector<std::string> shown_row(const std::string& name, const nlohmann::json& v, std::string_view plane,
+std::vector<std::string> shown_row(const std::string& name, const results::DbbEstimate& e, std::string_view plane,
                                    std::string_view group) {
-  const results::Shown s = results::shown(name, number_or(v, "value", NAN), number_or(v, "u", NAN), plane, group);
-  if (v.contains("not_determined")) return {s.label, "not determined", ""};  // why: in the notes
+  const results::Shown s = results::shown(name, e.value, e.u.value_or(NAN), plane, group);
   return {s.label, s.value, s.unit};
 }
 
@@ -67,83 +61,80 @@ std::string symbol(const std::string& name) {
   return s;
 }
 
-std::string joined(const nlohmann::json& names, const char* sep = ", ") {
+std::string joined(const std::vector<std::string>& names) {
   std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : sep) + symbol(n.get<std::string>());
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + symbol(n);
   return out;
 }
 
+// A text as stated, "?" where the result leaves it empty.
+std::string stated(const std::string& text) { return text.empty() ? std::string("?") : text; }
+
 // " over a 220 deg arc, 1 gap": a run's data arc when not the full circle, and its dropouts.
-std::string arc_and_gaps(const nlohmann::json& r) {
+std::string arc_and_gaps(const results::DbbRunSummary& r) {
   std::string out;
-  const double arc = number_or(r, "data_arc_deg", 360.0);
+  const double arc = r.data_arc_deg.value_or(360.0);
   if (arc < 359.0) out += " over a " + format_fixed(arc, 0) + " deg arc";
-  const int gaps = r.value("gaps", 0);
-  if (gaps > 0) out += (out.empty() ? ", " : "; ") + std::to_string(gaps) + (gaps == 1 ? " gap" : " gaps");
+  if (r.gaps > 0) out += (out.empty() ? ", " : "; ") + std::to_string(r.gaps) + (r.gaps == 1 ? " gap" : " gaps");
   return out;
 }
 
 // One line per run: its set-up and G.
-void print_runs(const nlohmann::json& runs) {
+void print_runs(const std::vector<results::DbbRunSummary>& runs) {
   std::vector<std::vector<std::string>> rows;
   int k = 0;
   for (const auto& r : runs)
-    rows.push_back(
-        {"run " + std::to_string(++k), "r " + significant_digits(number_or(r, "radius_mm", NAN), 6) + " mm",
-         "h " + significant_digits(number_or(r, "height_mm", NAN), 6) + " mm", r.value("direction", "?"),
-         format_fixed(number_or(r, "feed_mm_per_min", NAN), 0) + " mm/min",
-         "G " + format_number(number_or(r, "circular_deviation_um", NAN), 3) + " \u00b5m" + arc_and_gaps(r)});
+    rows.push_back({"run " + std::to_string(++k), "r " + significant_digits(r.radius_mm, 6) + " mm",
+                    "h " + significant_digits(r.height_mm, 6) + " mm", stated(r.direction),
+                    format_fixed(r.feed_mm_per_min, 0) + " mm/min",
+                    "G " + format_number(r.circular_deviation_um, 3) + " \u00b5m" + arc_and_gaps(r)});
   std::cout << "runs:\n" << aligned_rows(rows, {});
 }
 
 // A run's test conditions in words, "not recorded" where the run's metadata does not say.
-std::string conditions_text(const nlohmann::json& c) {
-  const auto optional = [&](const char* key, const char* unit) {
-    const nlohmann::json v = c.value(key, nlohmann::json("not recorded"));
-    return v.is_number() ? significant_digits(v.get<double>(), 4) + unit : std::string("not recorded");
+std::string conditions_text(const results::DbbTestConditions& c) {
+  const auto optional = [](const std::optional<double>& v, const char* unit) {
+    return v ? significant_digits(*v, 4) + unit : std::string("not recorded");
   };
-  const double arc = number_or(c, "data_arc_deg", 360.0);
-  const int gaps = c.value("gaps", 0);
-  return "r " + significant_digits(number_or(c, "radius_mm", NAN), 6) + " mm, h " +
-         significant_digits(number_or(c, "height_mm", NAN), 6) + " mm, " +
-         format_fixed(number_or(c, "feed_mm_per_min", NAN), 0) + " mm/min, " + c.value("direction", "?") + ", " +
-         (c.value("partial_arc", false) ? format_fixed(arc, 0) + " deg arc" : std::string("full circle")) + ", " +
-         std::to_string(c.value("samples", 0)) + " samples every " +
-         significant_digits(number_or(c, "spacing_deg", NAN), 4) + " deg, " +
-         (gaps == 0 ? std::string("no gap") : std::to_string(gaps) + (gaps == 1 ? " gap" : " gaps")) + "; feed-in " +
-         optional("feed_in_deg", " deg") + ", feed-out " + optional("feed_out_deg", " deg") + "; temperature " +
-         optional("temperature_c", " \u00b0C");
+  return "r " + significant_digits(c.radius_mm, 6) + " mm, h " + significant_digits(c.height_mm, 6) + " mm, " +
+         format_fixed(c.feed_mm_per_min, 0) + " mm/min, " + stated(c.direction) + ", " +
+         (c.partial_arc ? format_fixed(c.data_arc_deg, 0) + " deg arc" : std::string("full circle")) + ", " +
+         std::to_string(c.samples) + " samples every " + significant_digits(c.spacing_deg, 4) + " deg, " +
+         (c.gaps == 0 ? std::string("no gap") : std::to_string(c.gaps) + (c.gaps == 1 ? " gap" : " gaps")) +
+         "; feed-in " + optional(c.feed_in_deg, " deg") + ", feed-out " + optional(c.feed_out_deg, " deg") +
+         "; temperature " + optional(c.temperature_c, " \u00b0C");
 }
 
-// "ISO 230-4 circular deviation G 5.34 µm" for each of `names` the entry holds.
-std::string figures_text(const nlohmann::json& entry, std::initializer_list<const results::Parameter*> names) {
+// "ISO 230-4 circular deviation G 5.34 µm" for each figure, by its catalogue entry.
+std::string figures_text(std::initializer_list<std::pair<const results::Parameter*, double>> figures) {
   std::string out;
-  for (const results::Parameter* p : names) {
-    const std::string n = results::name(*p);
-    if (!entry.contains(n)) continue;
-    const results::Shown s = results::shown(n, number_or(entry[n], "value", NAN), NAN);
+  for (const auto& [entry, value] : figures) {
+    const results::Shown s = results::shown(results::name(*entry), value, NAN);
     out += (out.empty() ? "" : "; ") + s.label + " " + s.value + " " + s.unit;
   }
   return out;
 }
 
 // The standards' figures (docs/standards.md): per run, then per CCW/CW pair, each with what it is over.
-void print_standards(const nlohmann::json& st) {
-  if (!st.is_object() || st.value("runs", nlohmann::json::array()).empty()) return;
+void print_standards(const results::DbbStandards& st) {
+  if (st.runs.empty()) return;
   namespace r = results;
   std::cout << "the standards' figures (docs/standards.md; a partial arc's are over its arc only):\n";
-  for (const auto& run : st["runs"]) {
-    std::cout << "  run " << run.value("run", 0) << ", over " << run.value("over", std::string("?")) << ": "
-              << figures_text(run, {&r::iso_circular_deviation, &r::iso_radial_deviation_max,
-                                    &r::iso_radial_deviation_min, &r::asme_circularity})
-              << "\n    test conditions: " << conditions_text(run.value("conditions", nlohmann::json::object()))
-              << "\n";
+  for (const auto& run : st.runs) {
+    std::cout << "  run " << run.run << ", over " << stated(run.over) << ": "
+              << figures_text({{&r::iso_circular_deviation, run.iso_circular_deviation_um},
+                               {&r::iso_radial_deviation_max, run.iso_radial_deviation_max_um},
+                               {&r::iso_radial_deviation_min, run.iso_radial_deviation_min_um},
+                               {&r::asme_circularity, run.asme_circularity_um}})
+              << "\n    test conditions: " << conditions_text(run.conditions) << "\n";
   }
-  for (const auto& pair : st.value("pairs", nlohmann::json::array()))
-    std::cout << "  runs " << pair.value("ccw_run", 0) << " (ccw) and " << pair.value("cw_run", 0) << " (cw), over "
-              << pair.value("over", std::string("?")) << ": "
-              << figures_text(pair, {&r::iso_circular_hysteresis, &r::iso_bidirectional_deviation, &r::asme_hysteresis,
-                                     &r::asme_bidirectional_circularity})
+  for (const auto& pair : st.pairs)
+    std::cout << "  runs " << pair.ccw_run << " (ccw) and " << pair.cw_run << " (cw), over " << stated(pair.over)
+              << ": "
+              << figures_text({{&r::iso_circular_hysteresis, pair.iso_circular_hysteresis_um},
+                               {&r::iso_bidirectional_deviation, pair.iso_bidirectional_deviation_um},
+                               {&r::asme_hysteresis, pair.asme_hysteresis_um},
+                               {&r::asme_bidirectional_circularity, pair.asme_bidirectional_circularity_um}})
               << "\n";
 }
 
@@ -179,34 +170,28 @@ std::string searched_values(const results::FigureGroup& items, std::string_view 
 
 // A fit in one line: how well it fits, and what the runs cannot separate (the condition number and the
 // solver's message stay in --json).
-void print_fit(const nlohmann::json& fit) {
-  if (!fit.is_object() || fit.value("n", 0) == 0) return;
-  std::cout << "  fit to the " << fit.value("n", 0) << " points: " << format_number(number_or(fit, "rms_um", NAN), 2)
-            << " \u00b5m rms\n";
-  const nlohmann::json refused = fit.value("unidentifiable", nlohmann::json::array());
-  if (!refused.empty())
-    std::cout << "  not separable by these runs (not reported): " << joined(refused)
-              << (fit.contains("combinations") ? "; --json gives the combinations they determine" : "") << "\n";
-  for (const auto& why : fit.value("why", nlohmann::json::array()))
-    std::cout << "    " << why.get<std::string>() << "\n";
+void print_fit(const results::DbbFit& fit) {
+  if (fit.n == 0) return;
+  std::cout << "  fit to the " << fit.n << " points: " << format_number(fit.rms_um, 2) << " \u00b5m rms\n";
+  if (!fit.unidentifiable.empty())
+    std::cout << "  not separable by these runs (not reported): " << joined(fit.unidentifiable)
+              << (fit.combinations.empty() ? "" : "; --json gives the combinations they determine") << "\n";
+  for (const std::string& why : fit.why) std::cout << "    " << why << "\n";
 }
 
 // "What to fix first": each error's part of G, largest first, in words; the ones under 1 % of G in a line.
-// `p`: the identification's record (results::Params::record).
-void print_ranking(const nlohmann::json& p, std::string_view plane, double g_um) {
-  const nlohmann::json ranking = p.value("ranking", nlohmann::json::array());
-  if (ranking.empty()) return;
-  const std::string model = p.value("ranking_model", std::string("?"));
+void print_ranking(const results::DbbRecord& record, std::string_view plane, double g_um) {
+  if (record.ranking.empty()) return;
+  const std::string model = stated(record.ranking_model);
   std::cout << "what to fix first (each error's part of the circular deviation"
             << (std::isfinite(g_um) ? " G = " + format_number(g_um, 3) + " \u00b5m" : std::string(" G")) << ", from "
             << (model == "lai3" ? "Lai's model" : "the " + model) << "):\n";
   const std::string group = model == "lai3" ? std::string(results::ranking_group) : model;
   std::vector<std::vector<std::string>> rows;
   std::string small;
-  for (const auto& c : ranking) {
-    const std::string label = results::label_of(c.value("name", std::string("?")), plane, group);
-    const double um = number_or(c, "contribution_um", NAN),
-                 percent = number_or(c, "percent_of_circular_deviation", NAN);
+  for (const auto& c : record.ranking) {
+    const std::string label = results::label_of(stated(c.name), plane, group);
+    const double um = c.contribution_um, percent = c.percent_of_circular_deviation;
     if (std::isfinite(percent) && percent < negligible_percent) {
       small += (small.empty() ? "" : ", ") + label + " " + format_number(um, 2) + " \u00b5m";
       continue;
@@ -219,8 +204,9 @@ void print_ranking(const nlohmann::json& p, std::string_view plane, double g_um)
 }
 
 void print_dbb(const results::Params& p, std::string_view plane) {
-  const nlohmann::json& record = p.record;
-  if (record.contains("runs") && record["runs"].is_array() && !record["runs"].empty()) print_runs(record["runs"]);
+  const results::DbbRecord none;
+  const results::DbbRecord& record = p.dbb ? *p.dbb : none;
+  if (!record.runs.empty()) print_runs(record.runs);
   const results::FigureGroup none_in_diagnostics{std::string(results::diagnostics_group), {}};
   const results::FigureGroup none_in_lai3{std::string(results::lai3_group), {}};
   const results::FigureGroup* found = p.group(results::diagnostics_group);
@@ -233,15 +219,15 @@ void print_dbb(const results::Params& p, std::string_view plane) {
     std::cout << "ballbar diagnostics (value \u00b1 standard uncertainty):\n" << aligned_rows(diag, {false, true});
     if (const std::string held = searched_values(diagnostics, plane); !held.empty())
       std::cout << "  held at a searched or assumed value (no u): " << held << "\n";
-    print_fit(record.value("diagnostics_fit", nlohmann::json::object()));
+    print_fit(record.diagnostics_fit);
   }
   const results::FigureGroup* lai3 = p.group(results::lai3_group);
   const auto lai = group_rows(lai3 ? *lai3 : none_in_lai3, plane, false);
   if (!lai.empty()) {
     std::cout << "Lai's third-order model (value \u00b1 standard uncertainty):\n" << aligned_rows(lai, {false, true});
-    print_fit(record.value("fit", nlohmann::json::object()));
+    print_fit(record.fit);
   }
-  print_standards(record.value("standards", nlohmann::json::object()));
+  print_standards(record.standards);
   const results::Figure* g = diagnostics.find(results::name(results::circular_deviation));
   print_ranking(record, plane, g ? g->value : NAN);
 }
@@ -275,7 +261,7 @@ std::string aligned_rows(const std::vector<std::vector<std::string>>& rows, cons
 
 void print_result(const results::Params& p) {
   const std::string plane = p.plane.empty() ? "xy" : p.plane;
-  const bool dbb = p.group(results::lai3_group) != nullptr || p.record.contains("ranking");
+  const bool dbb = p.group(results::lai3_group) != nullptr || p.dbb;
   if (dbb) print_dbb(p, plane);
   // The groups by name, as the JSON orders them.
   std::vector<const results::FigureGroup*> groups;
@@ -288,87 +274,80 @@ void print_result(const results::Params& p) {
     std::cout << group_title(g->name) << ":\n" << aligned_rows(group_rows(*g, plane, false, true), {false, true});
     if (holds_a_line(*g)) std::cout << "  " << results::line_phase_reference << "\n";
   }
-  const nlohmann::json& record = p.record;
-  for (const auto& n : record.value("notes", nlohmann::json::array()))
-    std::cout << "note: " << n.get<std::string>() << "\n";
-  if (record.contains("wavelet") && record["wavelet"].contains("bands")) {  // the profile session's summary
-    const auto& w = record["wavelet"];
-    std::cout << "wavelet " << w.value("wavelet", "?") << ", " << w.value("level", 0) << " levels (dominant detail "
-              << w.value("dominant_detail", "?") << "):";
-    for (const auto& b : w["bands"])
-      std::cout << " " << b.value("band", "?") << " "
-                << format_number(b.contains("rms_um") ? number_or(b, "rms_um", NAN) : number_or(b, "form_um", NAN), 3)
+  if (p.dbb)
+    for (const std::string& n : p.dbb->notes) std::cout << "note: " << n << "\n";
+  if (p.wavelet) {  // the profile session's summary
+    const results::WaveletSummary& w = *p.wavelet;
+    std::cout << "wavelet " << stated(w.wavelet) << ", " << w.level << " levels (dominant detail "
+              << stated(w.dominant_detail) << "):";
+    for (const results::WaveletBand& b : w.bands)
+      std::cout << " " << stated(b.band) << " " << format_number(b.rms_um ? *b.rms_um : b.form_um.value_or(NAN), 3)
                 << " \u00b5m";
     std::cout << "\n";
   }
 }
 
-void print_planes_summary(const nlohmann::json& s) {
-  std::cout << "the machine across its planes (" << joined(s.value("planes", nlohmann::json::array())) << "):\n";
+void print_planes_summary(const results::DbbPlanesSummary& s) {
+  std::cout << "the machine across its planes (" << joined(s.planes) << "):\n";
   std::vector<std::vector<std::string>> rows;
-  for (const char* group : {"squareness", "scale_mismatch"}) {
-    const nlohmann::json items = s.value(group, nlohmann::json::object());
-    for (const auto& [name, v] : items.items()) {
+  for (const auto* items : {&s.squareness, &s.scale_mismatch})
+    for (const auto& [name, v] : *items) {
       // squareness_xz_urad: the plane is in the name
       const std::string bare = results::split_unit(name).first;
       const std::string plane = bare.substr(bare.size() - 2);
       rows.push_back(shown_row(name, v, plane, results::planes_group));
     }
-  }
-  for (const char* group : {"backlash", "scale"}) {
-    const nlohmann::json items = s.value(group, nlohmann::json::object());
-    for (const auto& [name, v] : items.items()) {
-      std::vector<std::string> row = shown_row(name, v, "xy", results::planes_group);
+  for (const auto* items : {&s.backlash, &s.scale})
+    for (const auto& [name, v] : *items) {
+      std::vector<std::string> row = shown_row(name, v.estimate, "xy", results::planes_group);
       std::string from;
-      for (const auto& f : v.value("from", nlohmann::json::array()))
-        from +=
-            (from.empty() ? "" : ", ") + f.value("plane", std::string("?")) + " " +
-            results::shown(name, number_or(f, "value", NAN), number_or(f, "u", NAN), "xy", results::planes_group).value;
-      row.push_back("from " + from + (v.value("consistent", true) ? "" : ": the planes DISAGREE"));
+      for (const auto& [plane, f] : v.from)
+        from += (from.empty() ? "" : ", ") + stated(plane) + " " +
+                results::shown(name, f.value, f.u.value_or(NAN), "xy", results::planes_group).value;
+      row.push_back("from " + from + (v.consistent ? "" : ": the planes DISAGREE"));
       rows.push_back(std::move(row));
     }
-  }
   std::cout << aligned_rows(rows, {false, true});
-  const nlohmann::json ranking = s.value("ranking", nlohmann::json::array());
-  if (!ranking.empty()) {
+  if (!s.ranking.empty()) {
     std::cout << "what to fix first across the machine (each error's part of the largest G, "
-              << format_number(number_or(s, "circular_deviation_um", NAN), 3) << " \u00b5m):\n";
+              << format_number(s.circular_deviation_um, 3) << " \u00b5m):\n";
     std::vector<std::vector<std::string>> r;
-    for (const auto& c : ranking) {
-      const double percent = number_or(c, "percent_of_circular_deviation", NAN);
+    for (const auto& c : s.ranking) {
+      const double percent = c.percent_of_circular_deviation;
       if (std::isfinite(percent) && percent < negligible_percent) continue;
-      const std::string plane = c.value("plane", std::string("xy"));
-      r.push_back({plane, results::label_of(c.value("name", std::string("?")), plane, results::backlash.group),
-                   format_number(number_or(c, "contribution_um", NAN), 3) + " \u00b5m",
+      const std::string plane = c.plane.empty() ? "xy" : c.plane;
+      r.push_back({plane, results::label_of(stated(c.name), plane, results::backlash.group),
+                   format_number(c.contribution_um, 3) + " \u00b5m",
                    std::isfinite(percent) ? format_number(percent, 2) + " %" : std::string("\u2013")});
     }
     std::cout << aligned_rows(r, {false, false, true, true});
   }
-  for (const auto& n : s.value("notes", nlohmann::json::array())) std::cout << "note: " << n.get<std::string>() << "\n";
+  for (const std::string& n : s.notes) std::cout << "note: " << n << "\n";
+}
+
+std::string session_line(const results::ResultHeader& h) {
+  return "session " + stated(h.session) + " (" + stated(h.kind) + " on " + stated(h.device) + ")";
 }
 
 void print_params(const nlohmann::json& message) {
   const results::ResultHeader h = results::read_header(message);
   const results::Params p = results::params_from_json(message);
-  const auto known = [](const std::string& text) { return text.empty() ? std::string("?") : text; };
-  std::cout << "session " << known(h.session) << " (" << known(h.kind) << " on " << known(h.device) << "), model "
-            << known(p.model) << "\n";
+  std::cout << session_line(h) << ", model " << stated(p.model) << "\n";
   // Several planes (the three-plane test): the first plane's result is the PARAMS' own, then each other
   // plane's, then the machine across them.
-  const nlohmann::json planes = p.record.value("planes", nlohmann::json::object());
   const std::string first = p.plane.empty() ? "xy" : p.plane;
-  if (!planes.empty()) std::cout << "plane " << first << ":\n";
+  if (!p.planes.empty()) std::cout << "plane " << first << ":\n";
   print_result(p);
-  for (const auto& [name, id] : planes.items()) {
+  for (const auto& [name, plane] : p.planes) {
     if (name == first) continue;
     std::cout << "plane " << name << ":\n";
-    if (id.contains("error")) {
-      std::cout << "  not identified: " << id.value("error", std::string()) << "\n";
+    if (!plane.params) {
+      std::cout << "  not identified: " << plane.error << "\n";
       continue;
     }
-    print_result(results::params_from_json(id));
+    print_result(*plane.params);
   }
-  if (p.record.contains("summary")) print_planes_summary(p.record["summary"]);
+  if (p.dbb && p.dbb->summary) print_planes_summary(*p.dbb->summary);
   if (!p.incomplete.empty()) std::cout << "incomplete: " << p.incomplete << "\n";
   if (!h.recording.empty()) std::cout << "recording: " << h.recording << "\n";
   if (!h.recording_error.empty()) std::cout << "recording error: " << h.recording_error << "\n";

@@ -13,9 +13,12 @@
 
 #include "results/explanation.hpp"
 #include "results/params.hpp"
+#include "results/result_header.hpp"
 
 namespace guideway::cli {
 
+// "session NAME (KIND on DEVICE)": the line a result opens with, from its header ("?" for what it leaves out).
+std::string session_line(const results::ResultHeader& header);
 // A PARAMS message: the session line (its header), then print_result() of its PARAMS (results::params_from_json;
 // a malformed one throws results::ParamsFormatError), then the files involved.
 void print_params(const nlohmann::json& message);
@@ -24,10 +27,10 @@ void print_params(const nlohmann::json& message);
 // 1 % of G folded into one line (from its record); the wavelet summary of a profile session.
 void print_result(const results::Params& p);
 
-// The summary of several planes' DBB identifications (models/dbb/json.hpp to_json(PlanesSummary)): squareness
+// The summary of several planes' DBB identifications (results::DbbPlanesSummary, models/dbb planes_record): squareness
 // and scale mismatch per plane, backlash and scale per axis with the planes they come from and whether they
 // agree, "what to fix first" across the machine, the notes.
-void print_planes_summary(const nlohmann::json& summary);
+void print_planes_summary(const results::DbbPlanesSummary& summary);
 
 // Rows of cells as aligned columns (widths as a terminal shows UTF-8), each line after `indent`;
 // `right[k]`: column k aligns right (numbers). A row's last cell may run long.

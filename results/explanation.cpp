@@ -5,6 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "results/json_fields.hpp"
+
 namespace guideway::results {
 
 namespace {
@@ -92,98 +94,9 @@ json residuals_json(const ExplainResiduals& r) {
   return {{"domain", r.domain}, {"x", numbers_json(r.x)}, {"runs", r.runs}, {"steps", std::move(steps)}};
 }
 
-// ---- reading: every key optional, every present one of its type ------------------------------------------
+// ---- reading: every key optional, every present one of its type (json_fields.hpp) --------------------------
 
-[[noreturn]] void fail(const std::string& where, const std::string& what) {
-  throw ExplanationFormatError(where.empty() ? what : where + ": " + what);
-}
-
-std::string at(const std::string& where, const char* key) { return where.empty() ? key : where + "." + key; }
-std::string at(const std::string& where, std::size_t i) { return where + "[" + std::to_string(i) + "]"; }
-
-// The object at `where`, or a failure naming it.
-const json& object_at(const json& j, const std::string& where) {
-  if (!j.is_object()) fail("", where + " is " + j.type_name() + ", expected an object");
-  return j;
-}
-
-// `o[key]` when present (nullptr when absent); of a type `accepts` takes, else a failure naming the key.
-template <typename Accepts>
-const json* field(const json& o, const std::string& where, const char* key, const char* expected, Accepts accepts) {
-  const auto it = o.find(key);
-  if (it == o.end()) return nullptr;
-  if (!accepts(*it)) fail(where, "\"" + std::string(key) + "\" is " + it->type_name() + ", expected " + expected);
-  return &*it;
-}
-
-bool is_number_or_null(const json& v) { return v.is_number() || v.is_null(); }
-double number_of(const json& v) { return v.is_null() ? explain_nan : v.get<double>(); }
-bool is_count(const json& v) { return v.is_number_unsigned() || (v.is_number_integer() && v.get<long long>() >= 0); }
-
-void read(const json& o, const std::string& where, const char* key, double& out) {
-  if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
-}
-void read(const json& o, const std::string& where, const char* key, std::string& out) {
-  if (const json* v = field(o, where, key, "a text", [](const json& e) { return e.is_string(); }))
-    out = v->get<std::string>();
-}
-void read(const json& o, const std::string& where, const char* key, bool& out) {
-  if (const json* v = field(o, where, key, "true or false", [](const json& e) { return e.is_boolean(); }))
-    out = v->get<bool>();
-}
-void read(const json& o, const std::string& where, const char* key, std::size_t& out) {
-  if (const json* v = field(o, where, key, "a whole number, 0 or more", is_count)) out = v->get<std::size_t>();
-}
-
-// The array at `o[key]` (nullptr when absent).
-const json* array_field(const json& o, const std::string& where, const char* key) {
-  return field(o, where, key, "an array", [](const json& e) { return e.is_array(); });
-}
-
-void read(const json& o, const std::string& where, const char* key, std::pair<double, double>& out) {
-  const json* a = array_field(o, where, key);
-  if (a == nullptr) return;
-  if (a->size() != 2 || !is_number_or_null((*a)[0]) || !is_number_or_null((*a)[1]))
-    fail(where, "\"" + std::string(key) + "\" must be two numbers (or nulls)");
-  out = {number_of((*a)[0]), number_of((*a)[1])};
-}
-
-std::vector<double> numbers_at(const json& a, const std::string& where) {
-  if (!a.is_array()) fail("", where + " is " + a.type_name() + ", expected an array");
-  std::vector<double> out;
-  out.reserve(a.size());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    if (!is_number_or_null(a[i])) fail("", at(where, i) + " is " + a[i].type_name() + ", expected a number or null");
-    out.push_back(number_of(a[i]));
-  }
-  return out;
-}
-
-void read(const json& o, const std::string& where, const char* key, std::vector<double>& out) {
-  if (const json* a = array_field(o, where, key)) out = numbers_at(*a, at(where, key));
-}
-
-void read(const json& o, const std::string& where, const char* key, std::vector<std::string>& out) {
-  const json* a = array_field(o, where, key);
-  if (a == nullptr) return;
-  out.clear();
-  for (std::size_t i = 0; i < a->size(); ++i) {
-    if (!(*a)[i].is_string()) fail("", at(at(where, key), i) + " is " + (*a)[i].type_name() + ", expected a text");
-    out.push_back((*a)[i].get<std::string>());
-  }
-}
-
-// Each element of the array at `o[key]`, an object, read by `read_one(element, its place)`.
-template <typename T, typename ReadOne>
-void read_objects(const json& o, const std::string& where, const char* key, std::vector<T>& out, ReadOne read_one) {
-  const json* a = array_field(o, where, key);
-  if (a == nullptr) return;
-  out.clear();
-  for (std::size_t i = 0; i < a->size(); ++i) {
-    const std::string place = at(at(where, key), i);
-    out.push_back(read_one(object_at((*a)[i], place), place));
-  }
-}
+using namespace json_fields;
 
 ExplainFit fit_from(const json& o, const std::string& where, const char* key) {
   ExplainFit f;
@@ -321,7 +234,9 @@ json to_json(const Explanation& e) {
   return j;
 }
 
-Explanation explanation_from_json(const json& j) {
+namespace {
+
+Explanation read_explanation(const json& j) {
   if (!j.is_object()) fail("", std::string("an explanation is a JSON object, not ") + j.type_name());
   Explanation e;
   const std::string w;  // the top level
@@ -347,6 +262,16 @@ Explanation explanation_from_json(const json& j) {
   if (const json* r = field(j, w, "residuals", "an object", [](const json& v) { return v.is_object(); }))
     e.residuals = residuals_from(*r, "residuals");
   return e;
+}
+
+}  // namespace
+
+Explanation explanation_from_json(const json& j) {
+  try {
+    return read_explanation(j);
+  } catch (const json_fields::FieldError& e) {
+    throw ExplanationFormatError(e.what());
+  }
 }
 
 bool is_explanation(const json& j) {

@@ -69,6 +69,30 @@ std::string* text_field(Params& p, std::string_view key) {
   return nullptr;
 }
 
+// PARAMS' "planes" (planes_json). A plane's PARAMS holds no planes of its own: what comes from a broker does not
+// nest without end.
+std::map<std::string, PlaneParams> planes_from(const json& v) {
+  if (!v.is_object()) fail(std::string("\"planes\" is ") + v.type_name() + ", expected an object");
+  std::map<std::string, PlaneParams> out;
+  for (const auto& [plane, entry] : v.items()) {
+    const std::string where = "planes." + plane;
+    if (!entry.is_object()) fail(where + " is " + entry.type_name() + ", expected an object");
+    if (const auto error = entry.find("error"); error != entry.end()) {
+      if (!error->is_string()) fail(where + ": \"error\" is " + error->type_name() + ", expected a text");
+      out[plane].error = error->get<std::string>();
+    } else if (entry.contains("planes")) {
+      fail(where + ": a plane's PARAMS holds no planes of its own");
+    } else {
+      try {
+        out[plane].params = std::make_shared<const Params>(params_from_json(entry));
+      } catch (const ParamsFormatError& e) {
+        fail(where + ": " + e.what());
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 const Figure* FigureGroup::find(std::string_view figure_name) const {
@@ -101,6 +125,13 @@ Figure figure(std::string name, double value, std::optional<double> u, std::stri
 
 json to_json(const Params& p) {
   json j = p.record.is_object() ? p.record : json::object();
+  if (p.dbb) {
+    json dbb = to_json(*p.dbb);
+    for (auto it = dbb.begin(); it != dbb.end(); ++it) j[it.key()] = std::move(it.value());
+  }
+  if (p.revolution) j[std::string(revolution_key)] = to_json(*p.revolution);
+  if (p.wavelet) j[std::string(wavelet_key)] = to_json(*p.wavelet);
+  if (!p.planes.empty()) j["planes"] = planes_json(p.planes);
   for (const auto& [key, member] : text_fields)
     if (!(p.*member).empty()) j[key] = p.*member;
   for (const FigureGroup& g : p.groups) {
@@ -111,20 +142,37 @@ json to_json(const Params& p) {
   return j;
 }
 
+json planes_json(const std::map<std::string, PlaneParams>& planes) {
+  json j = json::object();
+  for (const auto& [plane, entry] : planes)
+    j[plane] = entry.params ? to_json(*entry.params) : json{{"error", entry.error}};
+  return j;
+}
+
 Params params_from_json(const json& j) {
   if (!j.is_object()) fail(std::string("a PARAMS is an object, not ") + j.type_name());
   Params p;
+  json dbb = json::object();
   for (const auto& [key, v] : j.items()) {
     if (is_header_key(key)) continue;
     if (std::string* text = text_field(p, key)) {
       if (!v.is_string()) fail("\"" + key + "\" is " + v.type_name() + ", expected a text");
       *text = v.get<std::string>();
+    } else if (is_dbb_record_key(key)) {
+      dbb[key] = v;
+    } else if (key == revolution_key) {
+      p.revolution = revolution_from_json(v);
+    } else if (key == wavelet_key) {
+      p.wavelet = wavelet_from_json(v);
+    } else if (key == "planes") {
+      p.planes = planes_from(v);
     } else if (is_figure_group(v)) {
       p.groups.push_back(group_from(key, v));
     } else {
       p.record[key] = v;
     }
   }
+  if (!dbb.empty()) p.dbb = dbb_record_from_json(dbb);
   return p;
 }
 

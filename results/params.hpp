@@ -7,12 +7,16 @@
 // is written by to_json and read by params_from_json only. A figure's value the JSON gives as null (not
 // computed, not finite) is NaN here. Pure; thread safe.
 //
-// `record` is the model's own record of how it fitted, key by key as the model writes it: a DBB test's runs,
-// fits, standards' figures, ranking and notes (and, of a test of several planes, each plane's PARAMS and the
-// machine across them), a traverse's stations and polynomial ("result", "traverse"), a run-out's revolution,
-// a profile's points and wavelet bands. No reader above the sessions reads it but the CLI's printer and --json.
+// The model's own record of how it fitted, typed where a reader reads it: `dbb`, a DBB identification's
+// (dbb_record.hpp: its runs, fits, standards' figures, ranking and notes, and of a test of several planes the
+// machine across them), `revolution`, a run-out's, and `wavelet`, a profile's bands (kind_records.hpp), and of
+// a test of several planes each plane's PARAMS (`planes`). `record` is the rest, key by key as the model writes
+// it: a traverse's stations and polynomial ("result", "traverse"), a run-out's model result, a profile's points.
+// No reader above the sessions reads them but the CLI's printer, `explain --machine` and --json.
 
 #include <limits>
+#include <map>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -21,6 +25,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "results/dbb_record.hpp"
+#include "results/kind_records.hpp"
 #include "results/parameters.hpp"
 
 namespace guideway::results {
@@ -44,6 +50,14 @@ struct FigureGroup {
   [[nodiscard]] const Figure* find(std::string_view figure_name) const;
 };
 
+struct Params;
+
+// One plane's identification in a test of several planes (PARAMS' "planes"): its PARAMS, or why it has none.
+struct PlaneParams {
+  std::shared_ptr<const Params> params;  // nullptr: not identified
+  std::string error;                     // why not ("": it was)
+};
+
 struct Params {
   std::string model;       // "dbb/lai3+diagnostics", "squareness/runout", ...
   std::string plane;       // a DBB identification's plane ("xy", "zx"); "" for the other kinds
@@ -51,7 +65,11 @@ struct Params {
   std::string test;        // a DBB session's test ("standard", "three-plane"); ""
   std::string incomplete;  // what a session stopped early lacks ("3 of 4 patterns traced"); "": complete
   std::vector<FigureGroup> groups;
-  nlohmann::json record = nlohmann::json::object();  // the model's record (above), an object
+  std::optional<DbbRecord> dbb;                      // a DBB identification's record (above)
+  std::optional<RunoutRevolution> revolution;        // a run-out's
+  std::optional<WaveletSummary> wavelet;             // a profile's
+  std::map<std::string, PlaneParams> planes;         // a test of several planes: each plane's (the first's is this)
+  nlohmann::json record = nlohmann::json::object();  // the rest of the model's record (above), an object
 
   [[nodiscard]] const FigureGroup* group(std::string_view name) const;
   // The figure `name` of group `group`; nullptr when either is absent.
@@ -65,6 +83,8 @@ Figure figure(std::string name, double value, std::optional<double> u, std::stri
 
 // The PARAMS message's body without its header (result_header.hpp).
 nlohmann::json to_json(const Params& params);
+// PARAMS' "planes": each plane's PARAMS, or {"error": why} for a plane not identified.
+nlohmann::json planes_json(const std::map<std::string, PlaneParams>& planes);
 
 // What params_from_json refuses: names the field and what it is ("diagnostics.backlash_x_um: \"value\" is string,
 // expected a number or null").
@@ -74,9 +94,12 @@ class ParamsFormatError : public std::runtime_error {
 };
 // The PARAMS a JSON object holds (a PARAMS message: its header is left out). A key whose value is an object of
 // figures (each an object of "value", and "u" or "not_determined" only) is a group; "model", "plane", "axis",
-// "test" and "incomplete" must be texts; every other key is the record's. A figure whose value or u is not a
-// number (or null), or a non-object, throws ParamsFormatError: what comes from a broker or a file goes through
-// here, a bad payload is an error, never undefined behaviour.
+// "test" and "incomplete" must be texts; a DBB record's keys (is_dbb_record_key) are read into `dbb`
+// (dbb_record_from_json), "revolution" and "wavelet" into theirs, "planes" (each an object: "error", or a
+// plane's PARAMS, itself without planes) into `planes`; every other key is the record's. A figure
+// whose value or u is not a number (or null), a record's key of the wrong type, or a non-object, throws
+// ParamsFormatError: what comes from a broker or a file goes through here, a bad payload is an error, never
+// undefined behaviour.
 Params params_from_json(const nlohmann::json& j);
 
 }  // namespace guideway::results

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <span>
@@ -309,8 +310,8 @@ class DbbSession : public Session {
     models::dbb::IdentifyOptions identify_options;
     identify_options.bar_length_u_um = bar_length_u_um_;
     // One identification per plane: the first plane of the test (xy of the three-plane test) is the
-    // PARAMS' body as for a one-plane test; every plane's is in its record under "planes".
-    nlohmann::json planes = nlohmann::json::object();
+    // PARAMS' body as for a one-plane test; every plane's is in its "planes".
+    std::map<std::string, results::PlaneParams> planes;
     std::vector<models::dbb::Identification> ids;
     checked_.clear();
     std::optional<results::Params> first;
@@ -326,14 +327,14 @@ class DbbSession : public Session {
             models::explain::identify_checked(it->second, identify_options, explain_options(*this));
         ids.push_back(checked.id);
         results::Params plane_params = models::explain::to_params(checked);
-        planes[pat.plane] = results::to_json(plane_params);
+        planes[pat.plane].params = std::make_shared<const results::Params>(plane_params);
         is_first = !first;
         if (is_first) first = std::move(plane_params);
         plane_explain = checked.explanation;
         checked_.push_back(checked);
       } catch (const std::exception& e) {
         if (by_plane.size() == 1) throw;
-        planes[pat.plane] = {{"error", e.what()}};
+        planes[pat.plane].error = e.what();
         continue;
       }
       if (is_first) {
@@ -341,11 +342,11 @@ class DbbSession : public Session {
         explained_ = plane_explain;
       }
     }
-    if (!first) throw std::runtime_error("no plane could be identified: " + planes.dump());
+    if (!first) throw std::runtime_error("no plane could be identified: " + results::planes_json(planes).dump());
     results::Params p = std::move(*first);
     if (planes.size() > 1) {
-      p.record["planes"] = planes;
-      if (ids.size() > 1) p.record["summary"] = models::dbb::to_json(models::dbb::summarize_planes(ids));
+      p.planes = std::move(planes);
+      if (ids.size() > 1) p.dbb.value().summary = models::dbb::planes_record(models::dbb::summarize_planes(ids));
     }
     p.test = options_.test;
     if (traced < runs_.size()) {

@@ -104,39 +104,39 @@ results::Params evaluate_profile(const formats::Profile& profile, const ProfileE
   // Per band: the rms of its signal-domain component, the part white noise of level sigma explains
   // (an orthogonal transform spreads the noise energy over the coefficients: n_b sigma^2 in band b),
   // and the rest, the band's signal. The dominant detail band is the one with the most signal.
-  nlohmann::json bands = nlohmann::json::array();
+  results::WaveletSummary& wavelet_summary = p.wavelet.emplace();
+  wavelet_summary.wavelet = options.wavelet;
+  wavelet_summary.mode = options.mode;
+  wavelet_summary.level = static_cast<std::size_t>(options.level);
   const double dx_mm = *spacing * 1e3;
   std::size_t dominant = 1;
   double best = -1;
   for (std::size_t b = 0; b < components.size(); ++b) {
     // Band b: the approximation A_J, then details D_J .. D_1 (PyWavelets' order).
     const int lev = b == 0 ? options.level : options.level + 1 - static_cast<int>(b);
-    nlohmann::json band = {{"band", b == 0 ? "a" + std::to_string(lev) : "d" + std::to_string(lev)},
-                           {"coefficients", coeffs[b].size()}};
+    results::WaveletBand band;
+    band.band = b == 0 ? "a" + std::to_string(lev) : "d" + std::to_string(lev);
+    band.coefficients = coeffs[b].size();
     if (b == 0) {
-      band["form_um"] = form_um;
-      band["wavelength_min_mm"] = dx_mm * std::pow(2.0, lev + 1);
+      band.form_um = form_um;
+      band.wavelength_min_mm = dx_mm * std::pow(2.0, lev + 1);
     } else {
       const double r = dsp::rms(components[b]);
       const double noise = sigma_um * std::sqrt(static_cast<double>(coeffs[b].size()) / static_cast<double>(n));
       const double signal = std::sqrt(std::max(0.0, r * r - noise * noise));
-      band["rms_um"] = r;
-      band["noise_rms_um"] = noise;
-      band["signal_rms_um"] = signal;
-      band["wavelength_min_mm"] = dx_mm * std::pow(2.0, lev);
-      band["wavelength_max_mm"] = dx_mm * std::pow(2.0, lev + 1);
+      band.rms_um = r;
+      band.noise_rms_um = noise;
+      band.signal_rms_um = signal;
+      band.wavelength_min_mm = dx_mm * std::pow(2.0, lev);
+      band.wavelength_max_mm = dx_mm * std::pow(2.0, lev + 1);
       if (signal > best) {
         best = signal;
         dominant = b;
       }
     }
-    bands.push_back(band);
+    wavelet_summary.bands.push_back(std::move(band));
   }
-  p.record["wavelet"] = {{"wavelet", options.wavelet},
-                         {"mode", options.mode},
-                         {"level", options.level},
-                         {"bands", bands},
-                         {"dominant_detail", bands[dominant]["band"]}};
+  wavelet_summary.dominant_detail = wavelet_summary.bands[dominant].band;  // level >= 1: band 1 is a detail
   p.record["points"] = {
       {"count", n}, {"invalid", invalid}, {"spacing_um", *spacing * 1e6}, {"length_mm", x_mm.back() - x_mm.front()}};
   return p;

@@ -115,7 +115,10 @@ class RunoutSession : public Session {
     add(results::name(results::runout_squareness), r.deflection_rad * 1e6, r.u_deflection_rad * 1e6);
     if (r.squareness_amplitude_m)
       add("squareness_amplitude_um", *r.squareness_amplitude_m * 1e6, *r.u_squareness_amplitude_m * 1e6);
-    p.record["revolution"] = {{"samples", r.samples}, {"rpm", o_.rpm}, {"covered_deg", angle_deg_.back()}};
+    results::RunoutRevolution& revolution = p.revolution.emplace();
+    revolution.samples = r.samples;
+    revolution.rpm = o_.rpm;
+    revolution.covered_deg = angle_deg_.back();
     if (result.contains("error_motion")) {
       // ISO 230-7 values: peaks-to-valleys of the record as measured (no uncertainty of their own).
       const std::string_view em_group = results::total_error_motion.group;
@@ -125,7 +128,7 @@ class RunoutSession : public Session {
         const std::string name = results::name(*e);
         em.figures.push_back(results::figure(name, result["error_motion"][name].get<double>(), std::nullopt, em_group));
       }
-      p.record["revolution"]["revolutions"] = result["error_motion"]["revolutions"];
+      revolution.revolutions = result["error_motion"]["revolutions"].get<std::size_t>();
     }
     if (!done_) p.incomplete = shortest(angle_deg_.back()) + " of " + shortest(o_.revolutions * 360.0) + " deg";
     p.record["result"] = result;

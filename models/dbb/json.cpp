@@ -2,7 +2,9 @@
 #include "models/dbb/json.hpp"
 
 #include <cmath>
+#include <map>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "results/parameters.hpp"
@@ -11,135 +13,83 @@ namespace guideway::models::dbb {
 
 namespace {
 
-nlohmann::json value_json(const Estimate& e) {
-  nlohmann::json j = {{"value", e.value}};
-  if (e.fitted && std::isfinite(e.u)) j["u"] = e.u;
-  return j;
+// A value with its u where there is one (finite, and for an estimate fitted): unknown or non-fitted
+// uncertainties are left out, never null.
+results::DbbEstimate estimate(double value, double u, bool fitted = true) {
+  return {value, fitted && std::isfinite(u) ? std::optional<double>(u) : std::nullopt};
 }
 
-// The estimates as PARAMS' figures: u left out where the fit did not determine one.
+// The estimates as PARAMS' figures.
 results::FigureGroup figures(std::string_view group, const std::vector<Estimate>& list) {
   results::FigureGroup g{std::string(group), {}};
   for (const auto& e : list)
-    g.figures.push_back(results::figure(
-        e.name, e.value, e.fitted && std::isfinite(e.u) ? std::optional<double>(e.u) : std::nullopt, group));
+    g.figures.push_back(results::figure(e.name, e.value, estimate(e.value, e.u, e.fitted).u, group));
   return g;
 }
 
-nlohmann::json fit_json(const FitSummary& f) {
-  nlohmann::json j = {{"rms_um", f.rms_um}, {"n", f.n}, {"unidentifiable", f.unidentifiable}};
-  if (std::isfinite(f.condition_number))
-    j["condition_number"] = f.condition_number;
-  else
-    j["condition_number"] = "inf";
-  if (!f.combinations.empty()) {
-    auto& c = j["combinations"] = nlohmann::json::array();
-    for (const auto& k : f.combinations) c.push_back({{"expression", k.expression}, {"value", k.value}, {"u", k.u}});
-  }
-  if (!f.message.empty()) j["message"] = f.message;
-  if (!f.why.empty()) j["why"] = f.why;
-  return j;
+results::DbbFit fit_record(const FitSummary& f) {
+  results::DbbFit out{f.rms_um, f.n, f.condition_number, f.unidentifiable, {}, f.message, f.why};
+  for (const auto& k : f.combinations) out.combinations.push_back({k.expression, k.value, k.u});
+  return out;
 }
 
-nlohmann::json u_json(double value, double u) {
-  nlohmann::json j = {{"value", value}};
-  if (std::isfinite(u)) j["u"] = u;
-  return j;
-}
-
-nlohmann::json axis_figures_json(const std::vector<AxisFigure>& list) {
-  nlohmann::json j = nlohmann::json::object();
+std::map<std::string, results::DbbAxisFigure> axis_figures(const std::vector<AxisFigure>& list) {
+  std::map<std::string, results::DbbAxisFigure> out;
   for (const auto& f : list) {
-    nlohmann::json e = u_json(f.value, f.u);
-    e["axis"] = f.axis;
-    e["consistent"] = f.consistent;
-    e["from"] = nlohmann::json::array();
-    for (const auto& p : f.from) {
-      nlohmann::json q = u_json(p.value, p.u);
-      q["plane"] = p.plane;
-      e["from"].push_back(q);
-    }
-    if (!f.note.empty()) e["note"] = f.note;
-    j[f.name] = e;
+    results::DbbAxisFigure& a = out[f.name];
+    a = {f.axis, estimate(f.value, f.u), f.consistent, {}, f.note};
+    for (const auto& p : f.from) a.from.emplace_back(p.plane, estimate(p.value, p.u));
   }
-  return j;
+  return out;
 }
 
-nlohmann::json or_not_recorded(const std::optional<double>& v) {
-  return v ? nlohmann::json(*v) : nlohmann::json("not recorded");
+results::DbbTestConditions conditions_record(const TestConditions& c) {
+  return {c.radius_mm,   c.height_mm, c.feed_mm_per_min, c.direction,   c.data_arc_deg, c.partial_arc,
+          c.samples,     c.spacing_deg, c.gaps,          c.feed_in_deg, c.feed_out_deg, c.temperature_c};
 }
 
-nlohmann::json conditions_json(const TestConditions& c) {
-  return {{"radius_mm", c.radius_mm},
-          {"height_mm", c.height_mm},
-          {"feed_mm_per_min", c.feed_mm_per_min},
-          {"direction", c.direction},
-          {"data_arc_deg", c.data_arc_deg},
-          {"partial_arc", c.partial_arc},
-          {"samples", c.samples},
-          {"spacing_deg", c.spacing_deg},
-          {"gaps", c.gaps},
-          {"feed_in_deg", or_not_recorded(c.feed_in_deg)},
-          {"feed_out_deg", or_not_recorded(c.feed_out_deg)},
-          {"temperature_c", or_not_recorded(c.temperature_c)}};
-}
-
-// The figures under their catalogue names (results/parameters.hpp), each {"value": v}; "over" says what
-// they are over: "the full circle" or "the 220 deg arc" (a partial arc's figures are over its arc only).
-nlohmann::json standards_json(const StandardFigures& s) {
-  namespace r = results;
+// "over" says what the figures are over: "the full circle" or "the 220 deg arc" (a partial arc's figures are
+// over its arc only).
+results::DbbStandards standards_record(const StandardFigures& s) {
   const auto over = [](double arc_deg, bool partial) {
     return partial ? "the " + std::to_string(std::lround(arc_deg)) + " deg arc" : std::string("the full circle");
   };
-  nlohmann::json j = {{"runs", nlohmann::json::array()}, {"pairs", nlohmann::json::array()}};
+  results::DbbStandards out;
   for (std::size_t k = 0; k < s.runs.size(); ++k) {
     const RunFigures& f = s.runs[k];
-    j["runs"].push_back({{"run", k + 1},
-                         {"source", f.source},
-                         {"over", over(f.conditions.data_arc_deg, f.conditions.partial_arc)},
-                         {"conditions", conditions_json(f.conditions)},
-                         {r::name(r::iso_circular_deviation), {{"value", f.iso_circular_deviation_um}}},
-                         {r::name(r::iso_radial_deviation_max), {{"value", f.iso_radial_deviation_max_um}}},
-                         {r::name(r::iso_radial_deviation_min), {{"value", f.iso_radial_deviation_min_um}}},
-                         {r::name(r::asme_circularity), {{"value", f.asme_circularity_um}}}});
+    out.runs.push_back({k + 1, f.source, over(f.conditions.data_arc_deg, f.conditions.partial_arc),
+                        conditions_record(f.conditions), f.iso_circular_deviation_um, f.iso_radial_deviation_max_um,
+                        f.iso_radial_deviation_min_um, f.asme_circularity_um});
   }
   for (const PairFigures& p : s.pairs) {
     const bool partial = s.runs[p.ccw].conditions.partial_arc || s.runs[p.cw].conditions.partial_arc;
-    j["pairs"].push_back(
-        {{"ccw_run", p.ccw + 1},
-         {"cw_run", p.cw + 1},
-         {"common_arc_deg", p.common_arc_deg},
-         {"over", over(p.common_arc_deg, partial)},
-         {r::name(r::iso_circular_hysteresis), {{"value", p.iso_circular_hysteresis_um}}},
-         {r::name(r::iso_bidirectional_deviation), {{"value", p.iso_bidirectional_deviation_um}}},
-         {r::name(r::asme_hysteresis), {{"value", p.asme_hysteresis_um}}},
-         {r::name(r::asme_bidirectional_circularity), {{"value", p.asme_bidirectional_circularity_um}}}});
+    out.pairs.push_back({p.ccw + 1, p.cw + 1, p.common_arc_deg, over(p.common_arc_deg, partial),
+                         p.iso_circular_hysteresis_um, p.iso_bidirectional_deviation_um, p.asme_hysteresis_um,
+                         p.asme_bidirectional_circularity_um});
   }
-  return j;
+  return out;
 }
+
+// NaN where the part of G is not a number (no G): null in the JSON.
+double finite_or_nan(double v) { return std::isfinite(v) ? v : results::record_nan; }
 
 }  // namespace
 
-nlohmann::json to_json(const PlanesSummary& s) {
-  nlohmann::json j;
-  j["planes"] = s.planes;
-  j["squareness"] = nlohmann::json::object();
-  for (const auto& e : s.squareness) j["squareness"][e.name] = value_json(e);
-  j["scale_mismatch"] = nlohmann::json::object();
-  for (const auto& e : s.scale_mismatch) j["scale_mismatch"][e.name] = value_json(e);
-  j["backlash"] = axis_figures_json(s.backlash);
-  j["scale"] = axis_figures_json(s.scale);
-  j["ranking"] = nlohmann::json::array();
+results::DbbPlanesSummary planes_record(const PlanesSummary& s) {
+  results::DbbPlanesSummary out;
+  out.planes = s.planes;
+  for (const auto& e : s.squareness) out.squareness[e.name] = estimate(e.value, e.u, e.fitted);
+  for (const auto& e : s.scale_mismatch) out.scale_mismatch[e.name] = estimate(e.value, e.u, e.fitted);
+  out.backlash = axis_figures(s.backlash);
+  out.scale = axis_figures(s.scale);
   for (const auto& c : s.ranking)
-    j["ranking"].push_back(
-        {{"plane", c.plane},
-         {"name", c.name},
-         {"contribution_um", c.contribution_um},
-         {"percent_of_circular_deviation", std::isfinite(c.percent) ? nlohmann::json(c.percent) : nlohmann::json()}});
-  j["circular_deviation_um"] = s.circular_deviation_um;
-  j["notes"] = s.notes;
-  return j;
+    out.ranking.push_back({c.plane, c.name, c.contribution_um, finite_or_nan(c.percent)});
+  out.circular_deviation_um = s.circular_deviation_um;
+  out.notes = s.notes;
+  return out;
 }
+
+nlohmann::json to_json(const PlanesSummary& s) { return results::to_json(planes_record(s)); }
 
 results::Params to_params(const Identification& id) {
   results::Params p;
@@ -149,31 +99,18 @@ results::Params to_params(const Identification& id) {
   p.groups.push_back(figures(results::lai_S_x.group, id.lai3));
   if (!id.beside.empty())  // only when terms were fitted beside (compensation's identification)
     p.groups.push_back(figures("beside", id.beside));
-  nlohmann::json& j = p.record;
-  j["runs"] = nlohmann::json::array();
-  for (const auto& r : id.runs) {
-    j["runs"].push_back({{"source", r.source},
-                         {"radius_mm", r.radius_mm},
-                         {"height_mm", r.height_mm},
-                         {"direction", r.direction},
-                         {"feed_mm_per_min", r.feed_mm_per_min},
-                         {"n", r.n},
-                         {"circular_deviation_um", r.circular_deviation_um},
-                         {"residual_rms_um", r.residual_rms_um}});
-    if (r.data_arc_deg < 359.0) j["runs"].back()["data_arc_deg"] = r.data_arc_deg;  // a partial arc
-    if (r.gaps > 0) j["runs"].back()["gaps"] = r.gaps;
-  }
-  j["ranking"] = nlohmann::json::array();
-  for (const auto& c : id.ranking)
-    j["ranking"].push_back(
-        {{"name", c.name},
-         {"contribution_um", c.contribution_um},
-         {"percent_of_circular_deviation", std::isfinite(c.percent) ? nlohmann::json(c.percent) : nlohmann::json()}});
-  j["ranking_model"] = id.ranking_model;
-  j["notes"] = id.notes;
-  j["fit"] = fit_json(id.fit);
-  j["diagnostics_fit"] = fit_json(id.diagnostics_fit);
-  j["standards"] = standards_json(id.standards);
+  results::DbbRecord& r = p.dbb.emplace();
+  for (const auto& run : id.runs)
+    r.runs.push_back({run.source, run.radius_mm, run.height_mm, run.direction, run.feed_mm_per_min, run.n,
+                      run.circular_deviation_um, run.residual_rms_um,
+                      run.data_arc_deg < 359.0 ? std::optional<double>(run.data_arc_deg) : std::nullopt,  // partial
+                      run.gaps});
+  for (const auto& c : id.ranking) r.ranking.push_back({{}, c.name, c.contribution_um, finite_or_nan(c.percent)});
+  r.ranking_model = id.ranking_model;
+  r.notes = id.notes;
+  r.fit = fit_record(id.fit);
+  r.diagnostics_fit = fit_record(id.diagnostics_fit);
+  r.standards = standards_record(id.standards);
   return p;
 }
 

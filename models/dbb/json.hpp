@@ -15,12 +15,12 @@ namespace guideway::models::dbb {
 
 // The identification as PARAMS' body (results/params.hpp): the diagnostics, Lai's terms and the terms fitted
 // beside as figure groups ("diagnostics", "lai3", "beside"); the runs, the ranking, the fits, the standards'
-// figures and the notes as its record.
+// figures and the notes as its DBB record (results/dbb_record.hpp).
 results::Params to_params(const Identification& id);
 nlohmann::json to_json(const Identification& id);  // results::to_json(to_params(id))
-// The summary of several planes: {"planes", "squareness": {name: {value, u}}, "scale_mismatch", "backlash" and
-// "scale": {name: {axis, value, u, consistent, from: [{plane, value, u}], note}}, "ranking": [{plane, name,
-// contribution_um, percent_of_circular_deviation}], "circular_deviation_um", "notes"}.
+// The summary of several planes as the DBB record's "summary" (results::DbbPlanesSummary), and its JSON
+// (results::to_json(planes_record(s))).
+results::DbbPlanesSummary planes_record(const PlanesSummary& s);
 nlohmann::json to_json(const PlanesSummary& s);
 
 }  // namespace guideway::models::dbb

@@ -149,7 +149,7 @@ CheckedIdentification identify_checked_like(const std::vector<formats::DbbRun>& 
 
 results::Params to_params(const CheckedIdentification& checked) {
   results::Params p = dbb::to_params(checked.id);
-  nlohmann::json& notes = p.record["notes"];
+  std::vector<std::string>& notes = p.dbb->notes;  // dbb::to_params gives every identification its record
   std::string beside;
   for (const auto& e : checked.beside) beside += (beside.empty() ? "" : ", ") + results::in_words(e);
   const auto mark = [&](const std::vector<dbb::Estimate>& terms, std::string_view group) {

@@ -3,8 +3,11 @@
 #include "models/flatness/workpiece_flatness_json.hpp"
 
 #include <cmath>
+#include <string>
+#include <string_view>
 
 #include "models/flatness/json.hpp"
+#include "results/parameters.hpp"
 
 namespace guideway::models::flatness {
 
@@ -12,6 +15,12 @@ namespace {
 
 constexpr double um = 1e6;
 constexpr double urad = 1e6;
+
+// The squareness of the spindle to the X axis is one quantity however it is measured (a faced profile's slope
+// here, Eq. 21's run-out on a thrust plate in runout_check): named by its one catalogue entry, its u "u_" before.
+std::string squareness_key(std::string_view prefix = {}) {
+  return std::string(prefix) + results::name(results::runout_squareness);
+}
 
 nlohmann::json profile_json(const ProfileFlatness& p) {
   nlohmann::json j;
@@ -32,8 +41,8 @@ nlohmann::json profile_json(const ProfileFlatness& p) {
   j["correlation"] = c;
   j["dominant"] = p.dominant;
   j["impact_factor"] = p.impact_factor;
-  j["squareness_urad"] = p.squareness_rad * urad;
-  j["u_squareness_urad"] = p.u_squareness_rad * urad;
+  j[squareness_key()] = p.squareness_rad * urad;
+  j[squareness_key("u_")] = p.u_squareness_rad * urad;
   j["u_fit_urad"] = p.u_fit_rad * urad;
   j["u_straightness_urad"] = p.u_straightness_rad * urad;
   j["residual_rms_um"] = p.residual_rms_m * um;
@@ -70,8 +79,8 @@ nlohmann::json to_json(const WorkpieceFlatnessResult& r) {
   j["profiles"] = ps;
   j["dominant"] = r.dominant;
   j["impact_factor"] = r.impact_factor;
-  j["squareness_urad"] = r.squareness_rad * urad;
-  j["u_squareness_urad"] = r.u_squareness_rad * urad;
+  j[squareness_key()] = r.squareness_rad * urad;
+  j[squareness_key("u_")] = r.u_squareness_rad * urad;
   j["travel_mm"] = r.travel_m * 1e3;
   j["squareness_amplitude_um"] = r.squareness_amplitude_m * um;
   j["u_squareness_amplitude_um"] = r.u_squareness_amplitude_m * um;
@@ -79,10 +88,10 @@ nlohmann::json to_json(const WorkpieceFlatnessResult& r) {
     const auto& c = *r.runout_check;
     nlohmann::json k;
     k["runout"] = to_json(c.runout);
-    k["eq21_squareness_urad"] = c.runout.deflection_rad * urad;
-    k["u_eq21_squareness_urad"] = c.runout.u_deflection_rad * urad;
-    k["profile_squareness_urad"] = c.profile_squareness_rad * urad;
-    k["u_profile_squareness_urad"] = c.u_profile_squareness_rad * urad;
+    k[squareness_key("eq21_")] = c.runout.deflection_rad * urad;
+    k[squareness_key("u_eq21_")] = c.runout.u_deflection_rad * urad;
+    k[squareness_key("profile_")] = c.profile_squareness_rad * urad;
+    k[squareness_key("u_profile_")] = c.u_profile_squareness_rad * urad;
     k["difference_urad"] = c.difference_rad * urad;
     k["u_difference_urad"] = c.u_difference_rad * urad;
     k["eq21_amplitude_um"] = c.runout.deflection_rad * r.travel_m * um;

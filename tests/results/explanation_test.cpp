@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_nodes.hpp"
 #include "results/explanation.hpp"
 
 using namespace guideway;
@@ -130,15 +131,6 @@ json golden(const std::string& name) {
   std::ostringstream s;
   s << in.rdbuf();
   return json::parse(s.str());
-}
-
-// Every node's pointer in `j`, the root's ("") included.
-void pointers(const json& j, const json::json_pointer& at, std::vector<json::json_pointer>& out) {
-  out.push_back(at);
-  if (j.is_object())
-    for (const auto& [k, v] : j.items()) pointers(v, at / k, out);
-  if (j.is_array())
-    for (std::size_t i = 0; i < j.size(); ++i) pointers(j[i], at / i, out);
 }
 
 }  // namespace
@@ -293,8 +285,7 @@ TEST(Explanation, AnyFieldOfAnyTypeIsReadOrRefusedWithTheReason) {
   int refused = 0, read = 0;
   for (int i = 0; i < 1500; ++i) {
     json j = results::to_json(g.explanation(true));
-    std::vector<json::json_pointer> all;
-    pointers(j, json::json_pointer(), all);
+    const std::vector<json::json_pointer> all = test::node_pointers(j);
     for (int k = 1 + pick(2); k > 0; --k) {
       try {
         j[all[static_cast<std::size_t>(pick(static_cast<int>(all.size())))]] = any_value();

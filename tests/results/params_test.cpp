@@ -1,14 +1,20 @@
 // PARAMS as a type (results/params.hpp): the golden PARAMS of every session kind read and written again byte
-// for byte, their figures named by their catalogue entries, and what params_from_json refuses, naming the field.
+// for byte, their figures named by their catalogue entries, a DBB identification's record typed
+// (results/dbb_record.hpp), and what params_from_json refuses, naming the field.
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <limits>
+#include <optional>
+#include <random>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_nodes.hpp"
 #include "results/params.hpp"
 #include "results/result_header.hpp"
 
@@ -64,8 +70,8 @@ TEST(Params, FiguresAreTypedAndNamedByTheirCatalogueEntries) {
   ASSERT_NE(g, nullptr);
   EXPECT_EQ(g->entry, &results::circular_deviation);
   EXPECT_FALSE(g->u);  // a range as measured: no uncertainty of its own
-  EXPECT_TRUE(dbb.record.contains("runs"));
-  EXPECT_TRUE(dbb.record.contains("standards"));
+  EXPECT_TRUE(dbb.dbb);  // the DBB record, typed: DbbRecordIsTyped
+  EXPECT_FALSE(dbb.record.contains("runs"));
   EXPECT_FALSE(dbb.record.contains("lai3"));
   EXPECT_FALSE(dbb.record.contains("session"));  // the header is not the body's
 
@@ -76,7 +82,26 @@ TEST(Params, FiguresAreTypedAndNamedByTheirCatalogueEntries) {
   EXPECT_EQ(runout.find("error_motion", "total_error_motion_um")->entry, &results::total_error_motion);
   EXPECT_FALSE(runout.find("error_motion", "total_error_motion_um")->u);
   EXPECT_EQ(runout.group("revolution"), nullptr);  // the model's record, not figures
-  EXPECT_EQ(runout.record["revolution"]["revolutions"], 20);
+  ASSERT_TRUE(runout.revolution);
+  EXPECT_EQ(runout.revolution->revolutions, std::optional<std::size_t>(20));
+  EXPECT_EQ(runout.revolution->samples, 1001u);
+  EXPECT_DOUBLE_EQ(runout.revolution->rpm, 60.0);
+  EXPECT_DOUBLE_EQ(runout.revolution->covered_deg, 7201.11159648);
+  EXPECT_TRUE(runout.record.contains("result"));  // the model's result: JSON still
+
+  const results::Params profile = results::params_from_json(golden("profile.params.json"));
+  ASSERT_TRUE(profile.wavelet);
+  EXPECT_EQ(profile.wavelet->wavelet, "db1");
+  EXPECT_EQ(profile.wavelet->level, 5u);
+  EXPECT_EQ(profile.wavelet->dominant_detail, "d4");
+  ASSERT_EQ(profile.wavelet->bands.size(), 6u);
+  EXPECT_EQ(profile.wavelet->bands[0].band, "a5");
+  EXPECT_EQ(profile.wavelet->bands[0].coefficients, 313u);
+  ASSERT_TRUE(profile.wavelet->bands[0].form_um);
+  EXPECT_FALSE(profile.wavelet->bands[0].rms_um);  // the approximation: its form, no rms
+  ASSERT_TRUE(profile.wavelet->bands[2].rms_um);
+  EXPECT_DOUBLE_EQ(*profile.wavelet->bands[2].rms_um, 0.014145123333187619);
+  EXPECT_FALSE(profile.wavelet->bands[2].form_um);
 
   const results::Params traverse = results::params_from_json(golden("straightness.params.json"));
   EXPECT_EQ(traverse.axis, "x");
@@ -96,10 +121,11 @@ TEST(Params, NullIsNaNAndWrittenBackAsNull) {
   EXPECT_TRUE(std::isnan(*p.find("g", "a_um")->u));
   EXPECT_EQ(results::to_json(p).dump(), R"({"g":{"a_um":{"u":null,"value":null}},"model":"m"})");
   // An object whose members carry more than a figure's keys is the model's record, kept as it is.
-  const std::string summary = R"({"summary":{"backlash":{"axis":"x","value":1.0}}})";
-  const results::Params s = results::params_from_json(nlohmann::json::parse(summary));
+  const std::string result = R"({"result":{"backlash":{"axis":"x","value":1.0}}})";
+  const results::Params s = results::params_from_json(nlohmann::json::parse(result));
   EXPECT_TRUE(s.groups.empty());
-  EXPECT_EQ(results::to_json(s).dump(), summary);
+  EXPECT_FALSE(s.dbb);
+  EXPECT_EQ(results::to_json(s).dump(), result);
 }
 
 TEST(Params, AMalformedPayloadIsRefusedNamingTheField) {
@@ -112,4 +138,136 @@ TEST(Params, AMalformedPayloadIsRefusedNamingTheField) {
   EXPECT_EQ(refusal(R"({"plane":5})"), "\"plane\" is number, expected a text");
   EXPECT_EQ(refusal("[1,2]"), "a PARAMS is an object, not array");
   EXPECT_EQ(refusal(R"({"plane":"~x","diagnostics":{}})"), "");  // a text: whether it is a plane is the reader's
+}
+
+TEST(Params, DbbRecordIsTyped) {
+  const results::Params p = results::params_from_json(golden("dbb.params.json"));
+  ASSERT_TRUE(p.dbb);
+  const results::DbbRecord& r = *p.dbb;
+  ASSERT_EQ(r.runs.size(), 3u);
+  EXPECT_EQ(r.runs[0].source, "pattern 1");
+  EXPECT_EQ(r.runs[0].direction, "cw");
+  EXPECT_DOUBLE_EQ(r.runs[0].radius_mm, 95.0);
+  EXPECT_DOUBLE_EQ(r.runs[0].height_mm, 31.225);
+  EXPECT_EQ(r.runs[0].n, 1791u);
+  EXPECT_FALSE(r.runs[0].data_arc_deg);  // the full circle
+  EXPECT_EQ(r.runs[0].gaps, 0u);
+  EXPECT_EQ(r.ranking_model, "lai3");
+  ASSERT_EQ(r.ranking.size(), 8u);
+  EXPECT_EQ(r.ranking[0].name, "y_straightness_in_z");
+  EXPECT_DOUBLE_EQ(r.ranking[0].percent_of_circular_deviation, 17.066363247279355);
+  EXPECT_EQ(r.notes.size(), 2u);
+  EXPECT_EQ(r.fit.n, 5464u);
+  EXPECT_EQ(r.fit.unidentifiable.size(), 7u);
+  ASSERT_EQ(r.fit.combinations.size(), 5u);
+  EXPECT_EQ(r.fit.combinations[0].expression, "a1_rad + 320.256*c1_per_mm");
+  EXPECT_DOUBLE_EQ(r.fit.condition_number, 7099960627053876.0);
+  EXPECT_EQ(r.diagnostics_fit.n, 0u);  // no h = 0 pair: not fitted
+  ASSERT_EQ(r.standards.runs.size(), 3u);
+  ASSERT_EQ(r.standards.pairs.size(), 1u);
+  EXPECT_EQ(r.standards.pairs[0].ccw_run, 2u);
+  EXPECT_EQ(r.standards.pairs[0].cw_run, 1u);
+  EXPECT_DOUBLE_EQ(r.standards.runs[0].iso_radial_deviation_max_um, -18.85656100785464);  // by its catalogue name
+  const results::DbbTestConditions& c = r.standards.runs[2].conditions;
+  EXPECT_EQ(c.samples, 1885u);
+  ASSERT_TRUE(c.feed_in_deg);
+  EXPECT_DOUBLE_EQ(*c.feed_in_deg, 44.261946);
+  EXPECT_FALSE(c.temperature_c);  // "not recorded"
+  EXPECT_FALSE(r.summary);
+}
+
+// What the golden file does not hold: a partial arc with gaps, a part of G that is null, an infinite condition
+// number, and the machine across several planes: each written again byte for byte.
+TEST(Params, DbbRecordOfSeveralPlanesIsWrittenAgainByteForByte) {
+  nlohmann::json message = golden("dbb.params.json");
+  message["runs"][0]["data_arc_deg"] = 220.0;
+  message["runs"][0]["gaps"] = 2;
+  message["ranking"][1]["percent_of_circular_deviation"] = nullptr;
+  message["diagnostics_fit"]["condition_number"] = "inf";
+  message["diagnostics_fit"]["why"] = {"a1_rad: the arc holds no reversal of x"};
+  message["summary"] = nlohmann::json::parse(R"({
+    "backlash": {"backlash_z_um": {"axis": "z", "consistent": false, "from": [{"plane": "xz", "u": 0.1, "value": 2.0},
+                 {"plane": "yz", "value": 2.5}], "note": "the planes disagree", "u": 0.2, "value": 2.2}},
+    "circular_deviation_um": 5.5, "notes": ["yz: no h = 0 pair"], "planes": ["xy", "xz", "yz"],
+    "ranking": [{"contribution_um": 1.5, "name": "backlash_z_um", "percent_of_circular_deviation": null,
+                 "plane": "xz"}],
+    "scale": {}, "scale_mismatch": {"scale_mismatch_xy_ppm": {"value": 3.0}},
+    "squareness": {"squareness_xz_urad": {"u": 0.5, "value": 20.0}}})");
+  message["planes"] = {{"xy", body_of(golden("dbb.params.json"))}, {"yz", {{"error", "no complete circle"}}}};
+  const results::Params p = results::params_from_json(message);
+  ASSERT_EQ(p.planes.size(), 2u);
+  ASSERT_TRUE(p.planes.at("xy").params);
+  EXPECT_EQ(p.planes.at("xy").params->dbb->runs.size(), 3u);
+  EXPECT_FALSE(p.planes.at("yz").params);
+  EXPECT_EQ(p.planes.at("yz").error, "no complete circle");
+  ASSERT_TRUE(p.dbb && p.dbb->summary);
+  EXPECT_EQ(p.dbb->runs[0].data_arc_deg, 220.0);
+  EXPECT_TRUE(std::isnan(p.dbb->ranking[1].percent_of_circular_deviation));
+  EXPECT_EQ(p.dbb->diagnostics_fit.condition_number, std::numeric_limits<double>::infinity());
+  const results::DbbAxisFigure& z = p.dbb->summary->backlash.at("backlash_z_um");
+  EXPECT_FALSE(z.consistent);
+  ASSERT_EQ(z.from.size(), 2u);
+  EXPECT_EQ(z.from[1].first, "yz");
+  EXPECT_FALSE(z.from[1].second.u);
+  EXPECT_EQ(results::to_json(p).dump(), body_of(message).dump());
+}
+
+TEST(Params, AMalformedDbbRecordIsRefusedNamingTheField) {
+  EXPECT_EQ(refusal(R"({"runs":[{"radius_mm":"95 mm"}]})"),
+            "runs[0]: \"radius_mm\" is string, expected a number or null");
+  EXPECT_EQ(refusal(R"({"runs":[{"n":-3}]})"), "runs[0]: \"n\" is number, expected a whole number, 0 or more");
+  EXPECT_EQ(refusal(R"({"ranking":{}})"), "\"ranking\" is object, expected an array");
+  EXPECT_EQ(refusal(R"({"fit":{"condition_number":"large"}})"),
+            "fit: \"condition_number\" is string, expected a number or \"inf\"");
+  EXPECT_EQ(refusal(R"({"standards":{"runs":[{"conditions":{"temperature_c":"warm"}}]}})"),
+            "standards.runs[0].conditions: \"temperature_c\" is string, expected a number or \"not recorded\"");
+  EXPECT_EQ(refusal(R"({"summary":{"backlash":{"backlash_z_um":[]}}})"),
+            "summary.backlash.backlash_z_um is array, expected an object");
+  EXPECT_EQ(refusal(R"({"planes":[]})"), "\"planes\" is array, expected an object");
+  EXPECT_EQ(refusal(R"({"planes":{"xz":{"error":5}}})"), "planes.xz: \"error\" is number, expected a text");
+  EXPECT_EQ(refusal(R"({"planes":{"xz":{"runs":{}}}})"), "planes.xz: \"runs\" is object, expected an array");
+  EXPECT_EQ(refusal(R"({"planes":{"xz":{"planes":{}}}})"), "planes.xz: a plane's PARAMS holds no planes of its own");
+  EXPECT_EQ(refusal(R"({"revolution":{"rpm":"60"}})"), "revolution: \"rpm\" is string, expected a number or null");
+  EXPECT_EQ(refusal(R"({"revolution":[]})"), "revolution is array, expected an object");
+  EXPECT_EQ(refusal(R"({"wavelet":{"bands":[{"band":"d1","rms_um":"1"}]}})"),
+            "wavelet.bands[0]: \"rms_um\" is string, expected a number or null");
+  EXPECT_EQ(refusal(R"({"wavelet":{"level":-5}})"), "wavelet: \"level\" is number, expected a whole number, 0 or more");
+}
+
+// Any node of a real PARAMS replaced by a value of any type: read, or refused with the reason; never another
+// exception (nlohmann's type_error, out_of_range) and never a crash.
+TEST(Params, AnyFieldOfAnyTypeIsReadOrRefusedWithTheReason) {
+  using nlohmann::json;
+  std::mt19937_64 rng(43);
+  const auto pick = [&](int n) { return std::uniform_int_distribution<int>(0, n - 1)(rng); };
+  const json values[] = {nullptr, true, -4, 2.5, "t", json::array({1, "a", nullptr}), json{{"value", 1}}};
+  std::vector<json> messages;
+  std::vector<std::vector<json::json_pointer>> nodes;
+  for (const char* kind : {"dbb", "runout", "profile", "straightness"}) {
+    messages.push_back(golden(std::string(kind) + ".params.json"));
+    nodes.push_back(test::node_pointers(messages.back()));
+  }
+  int refused = 0, read = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const std::size_t m = static_cast<std::size_t>(pick(static_cast<int>(messages.size())));
+    json j = messages[m];
+    const std::vector<json::json_pointer>& all = nodes[m];
+    for (int k = 1 + pick(2); k > 0; --k) {
+      try {
+        j[all[static_cast<std::size_t>(pick(static_cast<int>(all.size())))]] = values[pick(7)];
+      } catch (const json::exception&) {  // a node inside one the first change replaced
+      }
+    }
+    try {
+      (void)results::to_json(results::params_from_json(j));
+      ++read;
+    } catch (const results::ParamsFormatError& e) {
+      EXPECT_GT(std::string(e.what()).size(), 10u);
+      ++refused;
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "not a ParamsFormatError: " << e.what() << " on " << j.dump();
+    }
+  }
+  EXPECT_GT(refused, 100);
+  EXPECT_GT(read, 100);
 }
