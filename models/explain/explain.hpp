@@ -69,12 +69,12 @@ struct Variant {
   // Set by the engine, not by a front end: when it has set samples aside (docs/explain.md step 5), the block over
   // every sample of the problem given to explain() (the block then holds the samples kept only). Empty otherwise.
   std::function<Eigen::MatrixXd()> all_samples;
-  // Where a searched value is an end of its grid that the physics goes past (a stick-slip's 50 ms decay: a shorter
-  // one is as physical): the variants a grid step past that end, its other values the same, not searched. The
-  // variant is taken only where each of them fits worse beside the model, so that a value reported is inside what
-  // was tried; where one fits better the optimum lies outside the grid, and a finding there is suspect by
-  // construction (issue 41 item 10: a stick-slip "found" at its grid's edge on a machine without one). Empty: every
-  // searched value inside its grid, or at a bound of the physics (no delay below 0).
+  // Where a searched value is an end of its grid that the physics goes past (a stick-slip's 50 ms decay): the variants
+  // a grid step past that end, its other values the same, not searched (a generator's made as its grid's are, from the
+  // same residual). The variant is taken only where each of them fits worse beside the model, so that a value reported
+  // is inside what was tried; where one fits better the optimum lies outside the grid, and a finding there is suspect
+  // by construction (issue 41 item 10: a stick-slip "found" at its grid's edge on a machine without one). Empty:
+  // every searched value inside its grid, or at a bound of the physics (no delay below 0) or of what data resolve.
   std::vector<Variant> beyond;
 };
 // A variant's number of columns; its columns written into `out` (one row per sample, width(v) columns); and

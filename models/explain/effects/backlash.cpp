@@ -1,6 +1,7 @@
 // backlash: lost motion in the drives at each reversal.
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <memory>
 
@@ -21,13 +22,17 @@ struct Shapes {
   std::vector<double> lambda, c, s;
   Eigen::MatrixXd step;                     // n x 2
   std::shared_ptr<const std::vector<Geo>> geo;  // where a track's rise is made again (dbb::lost_motion)
+  // The track a delay step past the grid's last (delay_past_grid_s), one, for Variant::beyond; null where no delay
+  // is searched. Made once: one more delay's track, the generator's other tracks are the problem's.
+  std::shared_ptr<const std::vector<dbb::DriveTrack>> past;
 };
 
 // The deadband response of widths b (m) on drive track `track` over every sample, made on demand (its lost
-// motion per sample is cheaper to make again than to keep: the generator offers one per delay in every fold).
+// motion per sample is cheaper to make again than to keep: the generator offers one per delay in every fold); its
+// delay reported as searched where `delay_searched`.
 Variant response_variant(const std::shared_ptr<const Shapes>& sh, const std::vector<std::string>& names,
                          const std::shared_ptr<const std::vector<dbb::DriveTrack>>& tracks, std::size_t track,
-                         std::array<double, 2> b) {
+                         std::array<double, 2> b, bool delay_searched) {
   Variant v;
   v.block.names = names;
   v.fill = [sh, tracks, track, b](Eigen::Ref<Eigen::MatrixXd> out) {
@@ -38,7 +43,7 @@ Variant response_variant(const std::shared_ptr<const Shapes>& sh, const std::vec
       out(static_cast<Eigen::Index>(i), 1) = sh->lambda[i] * m[1] * sh->s[i];
     }
   };
-  if (tracks->size() > 1) {
+  if (delay_searched) {
     v.fixed.push_back({results::name(results::backlash_delay), (*tracks)[track].delay_s * 1e3,
                        std::numeric_limits<double>::quiet_NaN()});
     v.searched = 1;
@@ -47,7 +52,10 @@ Variant response_variant(const std::shared_ptr<const Shapes>& sh, const std::vec
 }
 
 // The step and deadband variants from the current residual `r` (rows `use`): the ideal step, then for each
-// drive delay the deadband response at the width the step suggests, refined once by a fit of the response.
+// drive delay the deadband response at the width the step suggests, refined once by a fit of the response. The grid's
+// last delay carries the response a step past it, made the same way (Variant::beyond), where every row is in use: the
+// edge is judged on all the data (the forward step, drop-one), never in a held-out fold. Its first, 0, is no edge
+// (delay_past_grid_s).
 std::vector<Variant> backlash_variants(const std::shared_ptr<const Shapes>& sh, const std::vector<std::string>& names,
                                        const std::shared_ptr<const std::vector<dbb::DriveTrack>>& tracks,
                                        const Eigen::VectorXd& r, const std::vector<bool>& use) {
@@ -73,12 +81,20 @@ std::vector<Variant> backlash_variants(const std::shared_ptr<const Shapes>& sh, 
     return x;
   };
   const auto step = sizes(sh->step(rows, Eigen::all));
+  // The width the step suggests, then once more from a fit of the response at that width: the first response is
+  // needed on the rows in use only.
+  const auto refined = [&](const dbb::DriveTrack& track) {
+    const auto b = sizes(response_on_rows(step, track));
+    return b[0] > 0 || b[1] > 0 ? b : step;
+  };
   if (step[0] > 0 || step[1] > 0) {
+    const bool searched = tracks->size() > 1;
+    const bool every_row = rows.size() == use.size();
     for (std::size_t k = 0; k < tracks->size(); ++k) {
-      // The width the step suggests, then once more from a fit of the response at that width: the first
-      // response is needed on the rows in use only.
-      const auto refined = sizes(response_on_rows(step, (*tracks)[k]));
-      vs.push_back(response_variant(sh, names, tracks, k, refined[0] > 0 || refined[1] > 0 ? refined : step));
+      Variant v = response_variant(sh, names, tracks, k, refined((*tracks)[k]), searched);
+      if (searched && k + 1 == tracks->size() && sh->past && every_row)
+        v.beyond.push_back(response_variant(sh, names, sh->past, 0, refined(sh->past->front()), true));
+      vs.push_back(std::move(v));
     }
   }
   return vs;
@@ -102,6 +118,8 @@ bool backlash_dbb_term(const DbbTerms& t, Candidate& c) {
                    o[1] = -p.lambda * 0.5 * p.sgn_b * p.s;
                  }).block.columns;
   shapes->geo = t.geo;
+  if (const double past_s = delay_past_grid_s(*t.tracks); std::isfinite(past_s))
+    shapes->past = effects::drive_tracks(t.g, std::vector<double>{past_s});
   const auto tracks = t.tracks;
   c.generate = [shapes = std::shared_ptr<const Shapes>(std::move(shapes)), names, tracks](
                    const Eigen::VectorXd& r, const std::vector<bool>& use) {

@@ -17,6 +17,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <utility>
 
 #include <Eigen/LU>
 #include <Eigen/QR>
@@ -30,6 +31,9 @@ namespace guideway::models::explain::effects {
 namespace {
 
 constexpr double lags_ms[] = {10.0, 20.0, 30.0, 50.0, 80.0};
+// A step past each end of the lags (Variant::beyond): a stiffer position loop (5 ms; at no lag the drive would take the
+// table's step exactly at the reversal, and no dip is left: 0 is no step past) or a slower one (120 ms) is as physical.
+constexpr double lag_below_ms = 5.0, lag_above_ms = 120.0;
 constexpr double before_lags = 4.0, after_lags = 8.0;  // the transient's extent about the commanded reversal
 constexpr int steps_per_lag = 100;
 
@@ -132,29 +136,57 @@ Variant variant_at(const StepShapes& sh, double tau, std::array<double, 2> b_m) 
   return v;
 }
 
-// For each lag of the grid: the transient at a 1 um width, the widths fitted to the residual's rows in use,
-// then the transient at those widths, and again until they settle (the deadband makes the shape depend on
-// them; at most four refits).
-std::vector<Variant> compensation_step_variants(const StepShapes& sh, const Eigen::VectorXd& r,
+// At lag tau_ms: the transient at a 1 um width, the widths fitted to the residual `rr` on its rows `rows`, then the
+// transient at those widths, and again until they settle (the deadband makes the shape depend on them; at most four
+// refits).
+Variant settled_variant(const StepShapes& sh, double tau_ms, const std::vector<Eigen::Index>& rows,
+                        const Eigen::VectorXd& rr) {
+  // Rounded to 1 nm so that folds with almost the same widths share their transients' shape.
+  const auto width = [](double um) { return um > 0.001 ? std::round(um * 1e3) * 1e-9 : 1e-6; };
+  const double tau = tau_ms * 1e-3;
+  std::array<double, 2> b_m{1e-6, 1e-6};
+  Variant v = variant_at(sh, tau, b_m);
+  for (int pass = 0; pass < 4; ++pass) {
+    const Eigen::MatrixXd x = v.block.columns(rows, Eigen::all);
+    const Eigen::Vector2d b = x.colPivHouseholderQr().solve(rr);
+    const std::array<double, 2> next{width(b[0]), width(b[1])};
+    if (next == b_m) break;
+    b_m = next;
+    v = variant_at(sh, tau, b_m);
+  }
+  return v;
+}
+
+// The residual and its mask a generator was given, kept for what it makes later.
+using MadeFrom = std::pair<Eigen::VectorXd, std::vector<bool>>;
+
+// The variant at lag tau_ms a step past the grid's end, settled on the residual as the grid's are, but made only where
+// it is tried (Variant::fill): the edge is judged once per forward step, the grid's variants are made in every fold.
+// It keeps the residual and its mask (9 bytes a sample) rather than settling two more lags in every call.
+Variant past_variant(std::shared_ptr<const StepShapes> sh, double tau_ms, std::shared_ptr<const MadeFrom> made) {
+  Variant v;
+  v.block.names = sh->names;
+  v.fixed.push_back({results::name(results::compensation_step_lag), tau_ms, std::numeric_limits<double>::quiet_NaN()});
+  v.searched = 1;
+  v.fill = [sh = std::move(sh), tau_ms, made = std::move(made)](Eigen::Ref<Eigen::MatrixXd> out) {
+    const std::vector<Eigen::Index> rows = rows_in_use(made->second);
+    const Eigen::VectorXd rr = made->first(rows);
+    out = settled_variant(*sh, tau_ms, rows, rr).block.columns;
+  };
+  return v;
+}
+
+// For each lag of the grid its settled variant; those at the grid's two ends carry the variant a step past it.
+std::vector<Variant> compensation_step_variants(const std::shared_ptr<const StepShapes>& sh, const Eigen::VectorXd& r,
                                                 const std::vector<bool>& use) {
   std::vector<Variant> out;
   const std::vector<Eigen::Index> rows = rows_in_use(use);
   const Eigen::VectorXd rr = r(rows);
-  // Rounded to 1 nm so that folds with almost the same widths share their transients' shape.
-  const auto width = [](double um) { return um > 0.001 ? std::round(um * 1e3) * 1e-9 : 1e-6; };
+  const auto made = std::make_shared<const MadeFrom>(r, use);
   for (const double tau_ms : lags_ms) {
-    const double tau = tau_ms * 1e-3;
-    // The shape depends on the width it is fitted at: refitted at the width found until it settles.
-    std::array<double, 2> b_m{1e-6, 1e-6};
-    Variant v = variant_at(sh, tau, b_m);
-    for (int pass = 0; pass < 4; ++pass) {
-      const Eigen::MatrixXd x = v.block.columns(rows, Eigen::all);
-      const Eigen::Vector2d b = x.colPivHouseholderQr().solve(rr);
-      const std::array<double, 2> next{width(b[0]), width(b[1])};
-      if (next == b_m) break;
-      b_m = next;
-      v = variant_at(sh, tau, b_m);
-    }
+    Variant v = settled_variant(*sh, tau_ms, rows, rr);
+    if (tau_ms == lags_ms[0]) v.beyond.push_back(past_variant(sh, lag_below_ms, made));
+    if (tau_ms == lags_ms[std::size(lags_ms) - 1]) v.beyond.push_back(past_variant(sh, lag_above_ms, made));
     out.push_back(std::move(v));
   }
   return out;
@@ -225,7 +257,7 @@ bool compensation_step_dbb_term(const DbbTerms& t, Candidate& c) {
                results::name(results::compensation_step, t.plane, 1)};
   c.generate = [sh = std::shared_ptr<const StepShapes>(std::move(sh))](const Eigen::VectorXd& r,
                                                                        const std::vector<bool>& use) {
-    return compensation_step_variants(*sh, r, use);
+    return compensation_step_variants(sh, r, use);
   };
   c.search_size = std::size(lags_ms);
   return true;

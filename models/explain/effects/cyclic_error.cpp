@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -23,9 +24,14 @@ constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 // Samples whose phases are made, then their sines and cosines a vector at a time (dbb::fast_sincos_batch).
 constexpr std::size_t sincos_chunk = 256;
 
-// The leads searched on a DBB circle (mm).
+// The leads searched on a DBB circle (mm), and a step past each end (Variant::beyond): a scale's or an encoder's
+// error repeats at a shorter period than any screw's lead, and a screw's lead may be longer than 40 mm.
 constexpr double dbb_periods_mm[] = {1.0,  2.0,  2.5,  3.0,  4.0,  5.0,  6.0,  8.0, 10.0,
                                      12.0, 12.5, 15.0, 16.0, 20.0, 25.0, 32.0, 40.0};
+constexpr double dbb_period_below_mm = 0.5, dbb_period_above_mm = 50.0;
+// On a profile (mm): 1-10 searched, 0.5 and 12 a step past.
+constexpr double profile_periods_mm[] = {1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0};
+constexpr double profile_period_below_mm = 0.5, profile_period_above_mm = 12.0;
 
 // What the period search and the variants read, per sample: sin and cos of the commanded angle, and the projection
 // of each axis on the bar.
@@ -104,6 +110,21 @@ Variant dbb_variant(std::shared_ptr<const Undelayed> u,
   return v;
 }
 
+// dbb_variant with the variants a step past the grids' ends where (p_mm, delay_s) is at one (Variant::beyond): past
+// either end of the leads, and past the delays' longest (past_delay_s; NaN: no delay searched). The delays' shortest,
+// 0, is no edge (delay_past_grid_s).
+Variant dbb_variant_in_grid(const std::shared_ptr<const Undelayed>& u, const std::string& plane, int axis, double p_mm,
+                            double delay_s, bool delay_searched, double last_delay_s, double past_delay_s) {
+  Variant v = dbb_variant(u, plane, axis, p_mm, delay_s, delay_searched);
+  if (p_mm == dbb_periods_mm[0])
+    v.beyond.push_back(dbb_variant(u, plane, axis, dbb_period_below_mm, delay_s, delay_searched));
+  if (p_mm == dbb_periods_mm[std::size(dbb_periods_mm) - 1])
+    v.beyond.push_back(dbb_variant(u, plane, axis, dbb_period_above_mm, delay_s, delay_searched));
+  if (delay_searched && delay_s == last_delay_s && std::isfinite(past_delay_s))
+    v.beyond.push_back(dbb_variant(u, plane, axis, p_mm, past_delay_s, true));
+  return v;
+}
+
 // Periods and delays: the two periods per axis whose undelayed terms explain most of the residual, each
 // then tried at every delay.
 std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std::vector<Geo>>& geo,
@@ -150,7 +171,8 @@ std::vector<Variant> best_periods_at_every_delay(const std::shared_ptr<const std
     std::sort(score.begin(), score.end());
     for (std::size_t k = 0; k < 2 && k < score.size(); ++k)
       for (const dbb::DriveTrack& track : tracks)
-        vs.push_back(dbb_variant(u, plane, axis, dbb_periods_mm[score[k].second], track.delay_s, true));
+        vs.push_back(dbb_variant_in_grid(u, plane, axis, dbb_periods_mm[score[k].second], track.delay_s, true,
+                                         tracks.back().delay_s, delay_past_grid_s(tracks)));
   }
   return vs;
 }
@@ -180,7 +202,7 @@ bool cyclic_error_dbb_term(const DbbTerms& t, Candidate& c) {
   if (t.tracks->size() == 1) {
     for (int axis = 0; axis < 2; ++axis)
       for (double p_mm : dbb_periods_mm)
-        c.variants.push_back(dbb_variant(shared, t.plane, axis, p_mm, first_delay, false));
+        c.variants.push_back(dbb_variant_in_grid(shared, t.plane, axis, p_mm, first_delay, false, first_delay, nan));
     return true;
   }
   c.generate = [geo = t.geo, plane = t.plane, tracks = t.tracks, shared](const Eigen::VectorXd& r,
@@ -191,20 +213,29 @@ bool cyclic_error_dbb_term(const DbbTerms& t, Candidate& c) {
   return true;
 }
 
+// Along x with period p_mm.
+Variant profile_variant(const ProfileTerms& t, double p_mm) {
+  Variant v =
+      make_variant(t.g, {results::name(results::profile_cyclic_sin), results::name(results::profile_cyclic_cos)},
+                   [p_mm](const Pt& p, double* o) {
+                     o[0] = std::sin(2 * pi * p.x_mm / p_mm);
+                     o[1] = std::cos(2 * pi * p.x_mm / p_mm);
+                   });
+  v.fixed.push_back({results::name(results::cyclic_period, "xy", 0), p_mm, nan});
+  v.searched = 1;
+  v.report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
+    return amp_phase(results::name(results::cyclic_error, "xy", 0), results::name(results::cyclic_phase, "xy", 0), x,
+                     cov);
+  };
+  return v;
+}
+
 bool cyclic_error_profile_term(const ProfileTerms& t, Candidate& c) {
-  for (double p_mm : {1.0, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0}) {
-    Variant v =
-        make_variant(t.g, {results::name(results::profile_cyclic_sin), results::name(results::profile_cyclic_cos)},
-                     [p_mm](const Pt& p, double* o) {
-                       o[0] = std::sin(2 * pi * p.x_mm / p_mm);
-                       o[1] = std::cos(2 * pi * p.x_mm / p_mm);
-                     });
-    v.fixed.push_back({results::name(results::cyclic_period, "xy", 0), p_mm, nan});
-    v.searched = 1;
-    v.report = [](const Eigen::VectorXd& x, const Eigen::MatrixXd& cov) {
-      return amp_phase(results::name(results::cyclic_error, "xy", 0), results::name(results::cyclic_phase, "xy", 0), x,
-                       cov);
-    };
+  for (const double p_mm : profile_periods_mm) {
+    Variant v = profile_variant(t, p_mm);
+    if (p_mm == profile_periods_mm[0]) v.beyond.push_back(profile_variant(t, profile_period_below_mm));
+    if (p_mm == profile_periods_mm[std::size(profile_periods_mm) - 1])
+      v.beyond.push_back(profile_variant(t, profile_period_above_mm));
     c.variants.push_back(std::move(v));
   }
   return true;

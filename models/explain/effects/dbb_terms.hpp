@@ -24,6 +24,10 @@ struct Geo : dbb::SampleGeometry {
 // dbb::drive_delays_s, shared by the generators of the terms that live on them.
 std::shared_ptr<const std::vector<dbb::DriveTrack>> drive_tracks(const std::vector<Geo>& g,
                                                                  const std::vector<double>& delays);
+// The drive delay a step past the grid's longest (Variant::beyond), the grid's last step again (100 ms: 120 ms): a
+// slower position loop is as physical. NaN where no delay is searched (one track: the encoders' angles). The grid's
+// shortest, 0, is a bound of the physics (the drives do not lead their command), not an edge: nothing is tried below.
+double delay_past_grid_s(const std::vector<dbb::DriveTrack>& tracks);
 
 struct DbbTerms {
   const std::vector<Geo>& g;

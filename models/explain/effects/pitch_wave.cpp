@@ -132,7 +132,8 @@ bool pitch_wave_traverse_term(const TraverseTerms& t, Candidate& c) {
   c.search_size = grid.size;
   auto g = std::make_shared<const std::vector<Tp>>(t.g);
   auto spectrum = std::make_shared<const StationSpectrum>(t.g, grid, t.span_m, t.step_m);
-  c.generate = [g, grid, spectrum](const Eigen::VectorXd& residual, const std::vector<bool>& use) {
+  const double nyquist = 1.0 / (2.0 * t.step_m);
+  c.generate = [g, grid, spectrum, nyquist](const Eigen::VectorXd& residual, const std::vector<bool>& use) {
     const std::vector<double> power =
         spectrum->usable() ? spectrum->periodogram(grid, residual, use) : direct_periodogram(*g, grid, residual, use);
     const auto best = static_cast<std::size_t>(std::max_element(power.begin(), power.end()) - power.begin());
@@ -143,8 +144,14 @@ bool pitch_wave_traverse_term(const TraverseTerms& t, Candidate& c) {
       const double den = a - 2 * b + d;
       if (den < 0) f += grid.step * std::clamp(0.5 * (a - d) / den, -0.5, 0.5);
     }
+    // The strongest line at an end of the band carries the wave a grid step past it (Variant::beyond): a longer wave
+    // than 1.5 cycles over the stations is as physical (the base's polynomial takes much of it, and the step past is
+    // judged beside the base), a shorter one than 2.5 stations a cycle too while the stations still resolve it (below
+    // their Nyquist, 2 stations a cycle); past that the end is a bound of what the data resolve, not an edge.
     std::vector<Variant> out;
     out.push_back(wave_variant(g, f));
+    if (best == 0) out.back().beyond.push_back(wave_variant(g, f - grid.step));
+    if (best + 1 == grid.size && f + grid.step < nyquist) out.back().beyond.push_back(wave_variant(g, f + grid.step));
     return out;
   };
   return true;
