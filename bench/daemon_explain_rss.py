@@ -9,9 +9,9 @@ EXPLAIN (`guideway explain --latest --kind dbb`). Prints VmHWM before the sessio
 
     bench/daemon_explain_rss.py BUILD_DIR [--machine config/machine-example.toml] [--memory-mb MB] [--set KEY=VALUE]
 
---set passes a session option to `guideway start dbb` (docs/protocol.md). The emulated ballbar traces r = 100 mm at
-1000 mm/min whatever the session asks: with it, a session at another feed (feed_mm_per_min=500 for 2 x ~18k
-samples) ignores every arc until its timeout, so 2 x 18k needs a real or differently started ballbar.
+--set passes a session option to `guideway start dbb` (docs/protocol.md). The emulated ballbar follows the
+session's feed and radius (guidewayd tells it when the session starts, docs/configuration.md `[[emulator]]`):
+`--set feed_mm_per_min=500` gives 2 x ~18k samples.
 """
 import argparse
 import json

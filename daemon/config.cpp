@@ -295,7 +295,12 @@ std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& con
             if (value.get().find("{runtime_dir}") != std::string::npos) value = expand(value.get());
           }
         });
-        substitute_emulator_endpoints(*t, raw, config.source, "device[" + std::to_string(i) + "]");
+        std::vector<std::string> serving =
+            substitute_emulator_endpoints(*t, raw, config.source, "device[" + std::to_string(i) + "]");
+        if (const auto* name = t->get_as<std::string>("name")) {
+          for (auto& d : config.devices)
+            if (d.name == name->get()) d.emulators = serving;
+        }
       }
       ++i;
     }

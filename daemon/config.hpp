@@ -51,6 +51,7 @@ struct DaemonConfig {
     std::size_t ring_capacity;
     std::shared_ptr<TableReader> table;  // the [[device]] table, for the driver factory
     Instrument instrument;               // its serial and calibration (daemon/instrument_config.hpp)
+    std::vector<std::string> emulators;  // the [[emulator]]s its table refers to (launch_emulators)
   };
   std::vector<Device> devices;
   // [[processing]]: online wavelet denoising of one channel of a device (daemon/channel_denoiser.hpp).

@@ -636,11 +636,27 @@ nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   log_->info("session {} started", name);
   nlohmann::json reply = {{"session", name}, {"state", to_string(SessionState::running)}};
   for (const SessionInfo& info : sessions_->snapshot()) {
+    if (info.name == name) tell_emulated_machine(info.device, sr);
     if (info.name != name || info.warnings.empty()) continue;
     for (const auto& w : info.warnings) log_->warn("session {}: {}", name, w);
     reply["warnings"] = info.warnings;
   }
   return results::with_class(results::MessageClass::session, std::move(reply));
+}
+
+void Daemon::tell_emulated_machine(const std::string& device, const sessions::SessionRequest& request) {
+  for (const auto& d : config_.devices) {
+    if (d.name != device) continue;
+    for (const auto& e : emulators_) {
+      if (std::find(d.emulators.begin(), d.emulators.end(), e->name()) == d.emulators.end()) continue;
+      const std::string command = emulated_machine_command(e->spec().instrument, request.kind, request.options);
+      if (command.empty()) continue;
+      if (e->command(command))
+        log_->info("emulator {}: {} (the session's)", e->name(), command);
+      else
+        log_->warn("emulator {}: could not send \"{}\": it runs its own program", e->name(), command);
+    }
+  }
 }
 
 nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {

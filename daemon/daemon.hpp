@@ -72,6 +72,9 @@ class Daemon {
   // Emulator children that exited: reaped, logged, an EVENT, restarted with back-off.
   void check_emulators(std::int64_t now_ns);
   [[nodiscard]] nlohmann::json emulators_json() const;
+  // A session began on `device`: the emulators serving it are told what it asks of the machine
+  // (emulated_machine_command: the DBB emulator's circles at the session's feed).
+  void tell_emulated_machine(const std::string& device, const sessions::SessionRequest& request);
   [[nodiscard]] nlohmann::json mqtt_json() const;
   // One request class each (the table in daemon.cpp dispatches them and lists them); an exception is
   // the ERROR's reason.
