@@ -162,6 +162,10 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   manager->set_instruments(std::move(instruments), config_.refuse_uncalibrated);
   if (config_.explain_memory_mb) manager->set_explain_memory_mb(*config_.explain_memory_mb);
   manager->set_report_renderer(options_.session_report);
+  if (config_.session_analysis == "process") {
+    manager->set_analysis_executable(config_.analysis_executable.empty() ? options_.analysis_executable
+                                                                         : config_.analysis_executable);
+  }
   manager->set_triggers(session_triggers(config_, devices_, sessions));
   sessions_ = manager.get();
   for (std::size_t i = 0; i < devices_.size(); ++i) {

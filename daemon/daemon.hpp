@@ -36,6 +36,9 @@ struct DaemonOptions {
   // How finished sessions' reports are rendered (guidewayd: daemon/reports/session_report.hpp); none: each
   // session's end posts report_failed saying so.
   SessionReportRenderer session_report;
+  // The program that analyses a finished session in a process of its own ([daemon] session_analysis =
+  // "process"; guidewayd: itself). None, and no [daemon] analysis_executable: every session in the daemon.
+  std::string analysis_executable;
 };
 
 // Creates a driver for every [[device]] table (not started); throws ConfigError naming the file, line
