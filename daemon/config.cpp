@@ -142,6 +142,8 @@ DaemonConfig from_table(toml::table table, const std::string& file_name) {
     if (d->has("nice")) c.nice = static_cast<int>(d->get_int("nice", 0, -20, 19));
     c.refuse_uncalibrated = d->get_bool("refuse_uncalibrated", false);
     c.emulator_executable = d->get_string("emulator_executable", "");
+    c.session_analysis = d->get_choice("session_analysis", c.session_analysis, {"process", "daemon"});
+    c.analysis_executable = d->get_string("analysis_executable", "");
     if (const std::string m = d->get_string("emulator_machine", ""); !m.empty()) {
       const std::filesystem::path path = config_relative_path(file_name, m);
       std::error_code ec;
@@ -295,7 +297,12 @@ std::vector<std::unique_ptr<EmulatorProcess>> launch_emulators(DaemonConfig& con
             if (value.get().find("{runtime_dir}") != std::string::npos) value = expand(value.get());
           }
         });
-        substitute_emulator_endpoints(*t, raw, config.source, "device[" + std::to_string(i) + "]");
+        std::vector<std::string> serving =
+            substitute_emulator_endpoints(*t, raw, config.source, "device[" + std::to_string(i) + "]");
+        if (const auto* name = t->get_as<std::string>("name")) {
+          for (auto& d : config.devices)
+            if (d.name == name->get()) d.emulators = serving;
+        }
       }
       ++i;
     }

@@ -51,6 +51,7 @@ struct DaemonConfig {
     std::size_t ring_capacity;
     std::shared_ptr<TableReader> table;  // the [[device]] table, for the driver factory
     Instrument instrument;               // its serial and calibration (daemon/instrument_config.hpp)
+    std::vector<std::string> emulators;  // the [[emulator]]s its table refers to (launch_emulators)
   };
   std::vector<Device> devices;
   // [[processing]]: online wavelet denoising of one channel of a device (daemon/channel_denoiser.hpp).
@@ -81,6 +82,11 @@ struct DaemonConfig {
   std::vector<SessionTrigger> session_triggers;
   std::vector<EmulatorSpec> emulators;  // [[emulator]]: started before the devices
   std::string emulator_executable;      // default: guideway-emulate beside guidewayd, else PATH
+  // Where a finished session identified from its derived files (a DBB session's runs) is analysed: "process",
+  // a child `analysis_executable --analyse-session` (daemon/session_analysis.hpp; default: guidewayd itself,
+  // DaemonOptions::analysis_executable), or "daemon", in the daemon's own worker thread.
+  std::string session_analysis = "process";
+  std::string analysis_executable;
   std::string emulator_machine;  // the virtual machine every emulator runs (absolute; "" = its compiled-in default)
   std::optional<plant::PublisherSettings> mqtt;  // [mqtt]: publish to a plant's broker (docs/plant.md)
   // [explain] memory_mb: what each session's EXPLAIN may keep in its caches (ExplainOptions::memory_mb, as

@@ -162,6 +162,10 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
   manager->set_instruments(std::move(instruments), config_.refuse_uncalibrated);
   if (config_.explain_memory_mb) manager->set_explain_memory_mb(*config_.explain_memory_mb);
   manager->set_report_renderer(options_.session_report);
+  if (config_.session_analysis == "process") {
+    manager->set_analysis_executable(config_.analysis_executable.empty() ? options_.analysis_executable
+                                                                         : config_.analysis_executable);
+  }
   manager->set_triggers(session_triggers(config_, devices_, sessions));
   sessions_ = manager.get();
   for (std::size_t i = 0; i < devices_.size(); ++i) {
@@ -636,11 +640,27 @@ nlohmann::json Daemon::handle_start(ClientId, const Request& req) {
   log_->info("session {} started", name);
   nlohmann::json reply = {{"session", name}, {"state", to_string(SessionState::running)}};
   for (const SessionInfo& info : sessions_->snapshot()) {
+    if (info.name == name) tell_emulated_machine(info.device, sr);
     if (info.name != name || info.warnings.empty()) continue;
     for (const auto& w : info.warnings) log_->warn("session {}: {}", name, w);
     reply["warnings"] = info.warnings;
   }
   return results::with_class(results::MessageClass::session, std::move(reply));
+}
+
+void Daemon::tell_emulated_machine(const std::string& device, const sessions::SessionRequest& request) {
+  for (const auto& d : config_.devices) {
+    if (d.name != device) continue;
+    for (const auto& e : emulators_) {
+      if (std::find(d.emulators.begin(), d.emulators.end(), e->name()) == d.emulators.end()) continue;
+      const std::string command = emulated_machine_command(e->spec().instrument, request.kind, request.options);
+      if (command.empty()) continue;
+      if (e->command(command))
+        log_->info("emulator {}: {} (the session's)", e->name(), command);
+      else
+        log_->warn("emulator {}: could not send \"{}\": it runs its own program", e->name(), command);
+    }
+  }
 }
 
 nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {

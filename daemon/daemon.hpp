@@ -36,6 +36,9 @@ struct DaemonOptions {
   // How finished sessions' reports are rendered (guidewayd: daemon/reports/session_report.hpp); none: each
   // session's end posts report_failed saying so.
   SessionReportRenderer session_report;
+  // The program that analyses a finished session in a process of its own ([daemon] session_analysis =
+  // "process"; guidewayd: itself). None, and no [daemon] analysis_executable: every session in the daemon.
+  std::string analysis_executable;
 };
 
 // Creates a driver for every [[device]] table (not started); throws ConfigError naming the file, line
@@ -72,6 +75,9 @@ class Daemon {
   // Emulator children that exited: reaped, logged, an EVENT, restarted with back-off.
   void check_emulators(std::int64_t now_ns);
   [[nodiscard]] nlohmann::json emulators_json() const;
+  // A session began on `device`: the emulators serving it are told what it asks of the machine
+  // (emulated_machine_command: the DBB emulator's circles at the session's feed).
+  void tell_emulated_machine(const std::string& device, const sessions::SessionRequest& request);
   [[nodiscard]] nlohmann::json mqtt_json() const;
   // One request class each (the table in daemon.cpp dispatches them and lists them); an exception is
   // the ERROR's reason.

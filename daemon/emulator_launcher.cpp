@@ -5,18 +5,22 @@
 #include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <sstream>
 #include <optional>
 #include <variant>
 #include <stdexcept>
 
 #include "core/mono_clock.hpp"
 #include "core/toml_access.hpp"
+#include "results/session_kinds.hpp"
 
 namespace guideway::daemon {
 
@@ -44,6 +48,15 @@ EmulatorProcess::EmulatorProcess(const std::string& executable, const EmulatorSp
     : name_(spec.name), executable_(executable), spec_(spec) {
   int out[2];
   if (pipe2(out, O_CLOEXEC) != 0) throw std::runtime_error("pipe: " + std::string(std::strerror(errno)));
+  // Its standard input: a socket, so that a write to an emulator that died fails (MSG_NOSIGNAL) instead of
+  // raising SIGPIPE in whoever holds a launcher.
+  int in[2];
+  if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, in) != 0) {
+    const int err = errno;
+    close(out[0]);
+    close(out[1]);
+    throw std::runtime_error("socketpair: " + std::string(std::strerror(err)));
+  }
   std::vector<std::string> argv_s = {executable, spec.instrument};
   argv_s.insert(argv_s.end(), spec.args.begin(), spec.args.end());
   std::vector<char*> argv;
@@ -51,15 +64,19 @@ EmulatorProcess::EmulatorProcess(const std::string& executable, const EmulatorSp
   argv.push_back(nullptr);
   const pid_t parent = getpid();
   pid_ = fork();
-  if (pid_ < 0) throw std::runtime_error("fork: " + std::string(std::strerror(errno)));
+  if (pid_ < 0) {
+    const int err = errno;
+    for (const int fd : {out[0], out[1], in[0], in[1]}) close(fd);
+    throw std::runtime_error("fork: " + std::string(std::strerror(err)));
+  }
   if (pid_ == 0) {
     prctl(PR_SET_PDEATHSIG, SIGTERM);
     if (getppid() != parent) _exit(1);  // the daemon died before prctl took effect
     sigset_t none;
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, nullptr);  // the daemon blocks SIGTERM for its signalfd
-    // Emulators take fault commands on stdin; launched ones get none (not the daemon's terminal).
-    if (const int null_fd = open("/dev/null", O_RDONLY | O_CLOEXEC); null_fd >= 0) dup2(null_fd, STDIN_FILENO);
+    // Emulators take commands on stdin: launched ones the daemon's (command()), not its terminal's.
+    dup2(in[1], STDIN_FILENO);
     dup2(out[1], STDOUT_FILENO);
     dup2(out[1], STDERR_FILENO);
     execvp(argv[0], argv.data());
@@ -68,7 +85,9 @@ EmulatorProcess::EmulatorProcess(const std::string& executable, const EmulatorSp
     _exit(127);
   }
   close(out[1]);
+  close(in[1]);
   stdout_fd_ = out[0];
+  stdin_fd_ = in[0];
   std::string output;
   const std::int64_t deadline = mono_now_ns() + timeout.count() * 1'000'000;
   for (;;) {
@@ -92,6 +111,8 @@ EmulatorProcess::EmulatorProcess(const std::string& executable, const EmulatorSp
     kill(pid_, SIGTERM);
     waitpid(pid_, nullptr, 0);
     pid_ = -1;
+    close(stdout_fd_);
+    close(stdin_fd_);
     throw std::runtime_error("emulator " + spec.name + " (" + executable + " " + spec.instrument + ") " +
                              (r == 0 || left_ms <= 0 ? "printed no endpoint within the timeout" : "exited") +
                              (output.empty() ? "" : "; it said: " + output));
@@ -116,6 +137,31 @@ EmulatorProcess::~EmulatorProcess() {
     }
   }
   if (stdout_fd_ >= 0) close(stdout_fd_);
+  if (stdin_fd_ >= 0) close(stdin_fd_);
+}
+
+bool EmulatorProcess::command(const std::string& line) {
+  if (pid_ <= 0 || stdin_fd_ < 0) return false;
+  const std::string text = line + "\n";
+  const ssize_t n = ::send(stdin_fd_, text.data(), text.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  return n == static_cast<ssize_t>(text.size());
+}
+
+std::string emulated_machine_command(const std::string& instrument, const std::string& session_kind,
+                                     const nlohmann::json& options) {
+  if (instrument != "dbb" || session_kind != results::dbb_kind.name || !options.is_object()) return "";
+  const auto number = [&](const results::SessionOption& o) -> std::optional<double> {
+    const auto it = options.find(std::string(o.name));
+    if (it == options.end()) return std::nullopt;
+    if (!it->is_number()) return std::nullopt;
+    return it->get<double>();
+  };
+  const double feed_mm_min = number(results::dbb_feed_mm_per_min).value_or(results::dbb_feed_mm_per_min.fallback);
+  if (!(feed_mm_min > 0)) return "";  // 0: the session takes any feed
+  std::ostringstream out;
+  out << "circle " << feed_mm_min;
+  if (const auto r = number(results::dbb_radius_mm); r && *r > 0) out << " " << *r;
+  return out.str();
 }
 
 std::string EmulatorProcess::reap() {
@@ -180,8 +226,10 @@ std::variant<std::string, std::int64_t> endpoint_field(const std::string& endpoi
 
 }  // namespace
 
-void substitute_emulator_endpoints(toml::table& table, const std::vector<const EmulatorProcess*>& emulators,
-                                   const std::string& file, const std::string& key_prefix) {
+std::vector<std::string> substitute_emulator_endpoints(toml::table& table,
+                                                       const std::vector<const EmulatorProcess*>& emulators,
+                                                       const std::string& file, const std::string& key_prefix) {
+  std::vector<std::string> referred;
   // Returns the replacement for a string value "emulator:NAME[:FIELD]", or nothing.
   auto replacement = [&](const std::string& v) -> std::optional<std::variant<std::string, std::int64_t>> {
     if (v.rfind("emulator:", 0) != 0) return std::nullopt;
@@ -190,7 +238,9 @@ void substitute_emulator_endpoints(toml::table& table, const std::vector<const E
     const std::string name = ref.substr(0, colon);
     const std::string field = colon == std::string::npos ? "" : ref.substr(colon + 1);
     for (const auto* e : emulators) {
-      if (e->name() == name) return endpoint_field(e->endpoint(), field, v);
+      if (e->name() != name) continue;
+      if (std::find(referred.begin(), referred.end(), name) == referred.end()) referred.push_back(name);
+      return endpoint_field(e->endpoint(), field, v);
     }
     std::string known;
     for (const auto* e : emulators) known += (known.empty() ? "" : ", ") + e->name();
@@ -227,6 +277,7 @@ void substitute_emulator_endpoints(toml::table& table, const std::vector<const E
     for (const auto& [k, v] : integers) t.insert_or_assign(k, v);
   };
   visit_table(visit_table, table, key_prefix);
+  return referred;
 }
 
 }  // namespace guideway::daemon

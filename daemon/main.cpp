@@ -19,6 +19,7 @@
 #include "daemon/daemon.hpp"
 #include "daemon/logging.hpp"
 #include "daemon/reports/session_report.hpp"
+#include "daemon/session_analysis.hpp"
 #include "drivers/builtin.hpp"
 #include "sessions/session_kinds.hpp"
 
@@ -48,7 +49,17 @@ int main(int argc, char** argv) {
   app.add_flag("--print-default-config", print_default, "print the embedded default configuration and exit");
   app.add_flag("--list-drivers", list_drivers, "list the available drivers (built-in and plugins) and exit");
   app.add_flag("-V,--version", show_version, "print the version and exit");
+  bool analyse_session = false;
+  app.add_flag("--analyse-session", analyse_session,
+               "(what guidewayd starts itself) analyse one finished session: requests on stdin, answers on stdout "
+               "(daemon/session_analysis.hpp)");
   CLI11_PARSE(app, argc, argv);
+
+  if (analyse_session) {
+    sessions::SessionRegistry sessions;
+    sessions::register_builtin_sessions(sessions);
+    return daemon::run_session_analysis(std::cin, std::cout, sessions, daemon::render_session_report);
+  }
 
   if (show_version) {
     std::cout << "guidewayd " << GUIDEWAY_VERSION << "\n";
@@ -142,7 +153,13 @@ int main(int argc, char** argv) {
     for (const std::string& w : placement.warnings) log->warn("{}", w);
     sessions::SessionRegistry sessions;
     sessions::register_builtin_sessions(sessions);
-    daemon::Daemon d(std::move(config), registry, sessions, log, {.handle_signals = true, .session_report = daemon::render_session_report});
+    // A finished session's analysis in a process of its own: this very program (config's session_analysis).
+    std::error_code ec;
+    std::string self = std::filesystem::read_symlink("/proc/self/exe", ec).string();
+    if (ec || self.empty()) self = "/proc/self/exe";
+    daemon::Daemon d(std::move(config), registry, sessions, log,
+                     {.handle_signals = true, .session_report = daemon::render_session_report,
+                      .analysis_executable = self});
     return d.run();
   } catch (const ConfigError& e) {
     log->error("configuration error: {}", e.what());

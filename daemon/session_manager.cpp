@@ -13,6 +13,7 @@
 #include "core/atomic_file.hpp"
 #include "core/mono_clock.hpp"
 #include "core/utc_time.hpp"
+#include "daemon/session_analysis.hpp"
 #include "formats/raw_recording.hpp"
 #include "results/explanation.hpp"
 #include "results/params.hpp"
@@ -118,6 +119,7 @@ std::string SessionManager::start(const sessions::SessionRequest& request) {
   sessions::SessionRequest with_instrument = request;
   with_instrument.instrument = r->instrument;
   r->session = kind->create(with_instrument, *devices_[index]);  // throws std::invalid_argument on bad options
+  r->options = request.options;
   if (explain_memory_mb_) r->session->set_explain_memory_mb(*explain_memory_mb_);
   {
     std::lock_guard lock(mutex_);
@@ -335,10 +337,10 @@ void SessionManager::post_event(const SessionInfo& info, const std::string& even
   outbox_.post(make_message(Event{.event = event, .device = info.device, .session = info.name, .reason = reason}));
 }
 
-std::optional<std::string> SessionManager::post_explanation(Running& r) {
+std::optional<std::string> SessionManager::post_explanation(Running& r, SessionAnalysis& analysis) {
   const SessionInfo& info = r.info;
   try {
-    const std::optional<results::Explanation> explained = r.session->explain();
+    const std::optional<results::Explanation> explained = analysis.explain();
     if (!explained) return std::nullopt;
     Message message =
         make_message(results::MessageClass::explain, results::with_header(results::to_json(*explained), header_of(r)),
@@ -361,7 +363,8 @@ std::optional<std::string> SessionManager::post_explanation(Running& r) {
   }
 }
 
-void SessionManager::write_session_report(const Running& r, std::vector<std::string> inputs) {
+void SessionManager::write_session_report(const Running& r, std::vector<std::string> inputs,
+                                          SessionAnalysis& analysis) {
   // Every session ends with exactly one of report_ready and report_failed: a client waiting for one
   // must not hang.
   if (inputs.empty()) {
@@ -369,10 +372,6 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
                r.info.recording_error.empty()
                    ? "no report: the session wrote no files to report on"
                    : "no report: the session's files could not be written (" + r.info.recording_error + ")");
-    return;
-  }
-  if (!report_renderer_) {
-    post_event(r.info, "report_failed", "no report: this daemon was built without the report renderer");
     return;
   }
   try {
@@ -384,7 +383,7 @@ void SessionManager::write_session_report(const Running& r, std::vector<std::str
                                  .checked_on = r.started_on,
                                  .session = r.session.get()};
     const std::string path = report_path(state_dir_, r.info.name);
-    write_file_atomically(path, report_renderer_(request), sessions::recording_file_mode);
+    analysis.write_report(request, path);
     outbox_.post(make_message(Event{.event = "report_ready", .device = r.info.device, .session = r.info.name, .file = path}));
   } catch (const std::exception& e) {
     post_event(r.info, "report_failed", e.what());
@@ -395,16 +394,54 @@ std::string report_path(const std::string& state_dir, const std::string& session
   return state_dir + "/" + session + ".report.html";
 }
 
+std::vector<std::string> SessionManager::write_derived(Running& r, std::string& error) {
+  try {
+    std::vector<std::string> derived = r.session->write_derived(state_dir_, r.info.name);
+    for (const auto& path : derived) ::chmod(path.c_str(), sessions::recording_file_mode);
+    return derived;
+  } catch (const std::exception& e) {
+    error = e.what();
+    return {};
+  }
+}
+
 void SessionManager::finish(std::unique_ptr<Running> r) {
   SessionInfo& info = r->info;
   results::Params params;
   std::string failure;
-  try {
-    params = r->session->identify();
-  } catch (const std::exception& e) {
-    failure = e.what();
-  }
+  // A session identified from its derived files (the DBB run files) is analysed in a process of its own:
+  // its files are written first, for it to read.
   std::vector<std::string> derived;
+  std::string derived_error;
+  bool derived_written = false;
+  std::unique_ptr<SessionAnalysis> analysis;
+  if (!analysis_executable_.empty() && r->recorder && r->session->identifies_from_derived()) {
+    derived = write_derived(*r, derived_error);
+    derived_written = true;
+    if (!derived.empty()) {
+      const drivers::Driver& device = *devices_[r->device_index];
+      AnalysisSubject subject{.request = {info.kind, info.device, r->options, r->instrument},
+                              .device = device.name(),
+                              .driver = device.driver(),
+                              .channels = device.channels(),
+                              .explain_memory_mb = explain_memory_mb_,
+                              .derived = derived};
+      try {
+        analysis = analysis_in_process(analysis_executable_, subject);
+      } catch (const std::exception& e) {
+        failure = e.what();
+      }
+    }
+  }
+  // Else (and for a session that traced nothing to write: it fails at once) in the daemon.
+  if (!analysis && failure.empty()) analysis = analysis_in_daemon(*r->session, report_renderer_);
+  if (analysis) {
+    try {
+      params = analysis->identify();
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+  }
   if (r->recorder) {
     std::map<std::string, std::string> trailer;
     if (!failure.empty()) trailer["identification_error"] = failure;
@@ -420,14 +457,11 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     } else {
       info.recording_error.clear();
     }
-    try {
-      const std::string base = info.name;
-      derived = r->session->write_derived(state_dir_, base);
-      for (const auto& path : derived) ::chmod(path.c_str(), sessions::recording_file_mode);
-    } catch (const std::exception& e) {
-      // Both are kept: the raw recording's error is the one that loses data.
-      report_recording_error(*r, info.recording_error.empty() ? e.what() : info.recording_error + "; " + e.what());
-    }
+    if (!derived_written) derived = write_derived(*r, derived_error);
+    // Both are kept: the raw recording's error is the one that loses data.
+    if (!derived_error.empty())
+      report_recording_error(*r, info.recording_error.empty() ? derived_error
+                                                              : info.recording_error + "; " + derived_error);
   }
   info.state = failure.empty() ? SessionState::done : SessionState::failed;
   if (failure.empty()) {
@@ -438,9 +472,10 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     header.derived = derived;
     outbox_.post(make_message(results::MessageClass::params, results::with_header(results::to_json(params), header),
                               info.device, info.name));
-    if (const auto explanation = post_explanation(*r)) derived.push_back(*explanation);
-    write_session_report(*r, derived);
+    if (const auto explanation = post_explanation(*r, *analysis)) derived.push_back(*explanation);
+    write_session_report(*r, derived, *analysis);
   }
+  analysis.reset();  // a child's input ends: it exits and is reaped
   {
     std::lock_guard lock(mutex_);
     for (auto& i : infos_) {

@@ -26,6 +26,8 @@
 
 namespace guideway::daemon {
 
+class SessionAnalysis;  // session_analysis.hpp
+
 // A session's life: running until stopped or its end condition, finishing while its files are written,
 // then done or failed (with the reason in `progress`).
 enum class SessionState { running, finishing, done, failed };
@@ -78,6 +80,10 @@ class SessionManager : public PipelineStage {
   // How sessions' reports are rendered (none: every session ends with report_failed saying so). Before the
   // first start.
   void set_report_renderer(SessionReportRenderer renderer) { report_renderer_ = std::move(renderer); }
+  // The program whose `--analyse-session` identifies, explains and reports a session identified from its
+  // derived files (Session::identifies_from_derived) in a process of its own (session_analysis.hpp): guidewayd
+  // gives itself. "" (the default): every session is analysed in the daemon. Before the first start.
+  void set_analysis_executable(std::string executable) { analysis_executable_ = std::move(executable); }
   // Creates and queues a session; returns its name. Throws std::invalid_argument with the reason.
   // The request's instrument is the device's (set_instruments).
   std::string start(const sessions::SessionRequest& request);
@@ -114,6 +120,7 @@ class SessionManager : public PipelineStage {
     std::string reported_error;              // the last recording_failed reason posted
     Instrument instrument;                   // its device's
     CalendarDate started_on;                 // UTC: the date its instrument's calibration is judged on
+    nlohmann::json options;                  // of its request, for an analysis process to create it again
   };
   [[nodiscard]] results::ResultHeader header_of(const Running& r) const;
   [[nodiscard]] bool still_running(const std::string& name) const;  // not yet finishing or done
@@ -122,9 +129,11 @@ class SessionManager : public PipelineStage {
   void finish_loop(const std::stop_token& stop);
   void finish(std::unique_ptr<Running> r);
   // Posts EXPLAIN (or an explain_failed EVENT); returns the file the explanation was saved to.
-  std::optional<std::string> post_explanation(Running& r);
-  // Renders NAME.report.html from the session's files (report_renderer_); a failure is an EVENT.
-  void write_session_report(const Running& r, std::vector<std::string> inputs);
+  std::optional<std::string> post_explanation(Running& r, SessionAnalysis& analysis);
+  // Renders NAME.report.html from the session's files; a failure is an EVENT.
+  void write_session_report(const Running& r, std::vector<std::string> inputs, SessionAnalysis& analysis);
+  // The session's derived files (Session::write_derived), made 0640; a disk error is left in `error`.
+  std::vector<std::string> write_derived(Running& r, std::string& error);
   void post_event(const SessionInfo& info, const std::string& event, const std::string& reason);
   // A trigger's channel crossed 0.5 (pipeline thread): its session starts, or is asked to end.
   void triggered(std::size_t index, bool on);
@@ -140,6 +149,7 @@ class SessionManager : public PipelineStage {
   bool refuse_uncalibrated_ = false;
   std::optional<std::size_t> explain_memory_mb_;
   SessionReportRenderer report_renderer_;
+  std::string analysis_executable_;
   std::string state_dir_;
   Outbox& outbox_;
 

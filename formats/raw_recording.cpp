@@ -90,6 +90,10 @@ Instrument read_instrument(const std::map<std::string, std::string>& m, const st
 
 }  // namespace
 
+Instrument instrument_from_metadata(const std::map<std::string, std::string>& metadata, const std::string& where) {
+  return read_instrument(metadata, where);
+}
+
 std::map<std::string, std::string> instrument_metadata(const Instrument& in) {
   std::map<std::string, std::string> m;
   if (!in.serial.empty()) m[key_serial] = in.serial;

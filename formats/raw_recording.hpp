@@ -44,6 +44,10 @@ struct RawRecordingHeader {
 // `instrument_calibrated_length_mm`, `instrument_calibrated_length_u_um`): only the parts stated. The
 // recorder writes them with the session's keys (RawRecordingHeader::metadata).
 [[nodiscard]] std::map<std::string, std::string> instrument_metadata(const Instrument& instrument);
+// The instrument of such keys (the inverse: other keys are ignored). Throws std::runtime_error naming `where`
+// and the key of an instrument_* value that is not a date or number.
+[[nodiscard]] Instrument instrument_from_metadata(const std::map<std::string, std::string>& metadata,
+                                                  const std::string& where);
 
 // The trailer, appended when the session ends.
 struct RawRecordingTrailer {

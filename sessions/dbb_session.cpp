@@ -300,7 +300,10 @@ class DbbSession : public Session {
     std::size_t traced = 0;
     for (const auto& r : runs_) {
       if (!r) continue;
-      by_plane[r->plane].push_back(formats::parse_dbb_run(formats::format_dbb_run(*r), r->source));
+      // Runs read from their files (read_derived) are what the files hold already: read once more from their
+      // text they could differ in a last digit (degrees to radians and back).
+      by_plane[r->plane].push_back(runs_from_files_ ? *r
+                                                    : formats::parse_dbb_run(formats::format_dbb_run(*r), r->source));
       ++traced;
     }
     if (traced == 0) {
@@ -387,6 +390,7 @@ class DbbSession : public Session {
   }
 
   std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
+    if (!segment_.empty()) close_segment();  // written before identify(): a stop mid-circle keeps what is complete
     std::vector<std::string> out;
     for (std::size_t i = 0; i < runs_.size(); ++i) {
       if (!runs_[i]) continue;
@@ -395,6 +399,29 @@ class DbbSession : public Session {
       out.push_back(path);
     }
     return out;
+  }
+
+  // identify() takes the runs as their files hold them (parse of their format), so the files are all it needs.
+  [[nodiscard]] bool identifies_from_derived() const override { return true; }
+
+  void read_derived(const std::vector<std::string>& paths) override {
+    for (const std::string& path : paths) {
+      // BASE.runK.csv is pattern K's (write_derived).
+      const auto dot = path.rfind(".run");
+      std::size_t k = 0;
+      const bool named = dot != std::string::npos && path.size() > dot + 8 && path.ends_with(".csv") &&
+                         std::all_of(path.begin() + static_cast<std::ptrdiff_t>(dot + 4), path.end() - 4,
+                                     [](char c) { return c >= '0' && c <= '9'; });
+      if (named) k = std::stoul(path.substr(dot + 4, path.size() - 4 - dot - 4));
+      if (!named || k == 0 || k > runs_.size()) {
+        throw std::runtime_error(path + ": not a run file of this test's " + std::to_string(runs_.size()) +
+                                 " patterns (BASE.runK.csv, K = 1.." + std::to_string(runs_.size()) + ")");
+      }
+      formats::DbbRun run = formats::read_dbb_run(path);
+      run.source = "pattern " + std::to_string(k);  // as close_segment() names it
+      runs_[k - 1] = std::move(run);
+    }
+    runs_from_files_ = true;
   }
 
  private:
@@ -826,6 +853,7 @@ class DbbSession : public Session {
   int still_ = 0;
   std::vector<Reading> segment_;
   std::vector<std::optional<formats::DbbRun>> runs_;
+  bool runs_from_files_ = false;  // runs_ were read back from the session's run files (read_derived)
   std::string last_note_;
   static constexpr std::size_t max_commanded = 4'000'000;  // an hour at 1 kHz
   static constexpr double max_controller_lag_s = 10.0;     // a virtual machine plays the periods back seconds late

@@ -14,16 +14,6 @@ namespace guideway::sessions {
 
 namespace {
 
-// The device of a recording: its name, driver and channels, never started.
-class RecordedDevice : public drivers::Driver {
- public:
-  RecordedDevice(std::string name, std::string driver, std::vector<drivers::ChannelInfo> channels)
-      : Driver(std::move(name), std::move(driver), std::move(channels), 2) {}
-
- protected:
-  void run(std::stop_token) override {}
-};
-
 nlohmann::json json_meta(const formats::RawRecording& r, const std::string& key, nlohmann::json fallback) {
   const auto it = r.metadata.find(key);
   if (it == r.metadata.end()) return fallback;

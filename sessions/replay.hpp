@@ -6,7 +6,10 @@
 
 #include <cstdint>
 #include <optional>
+#include <stop_token>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -15,6 +18,17 @@
 #include "sessions/session.hpp"
 
 namespace guideway::sessions {
+
+// The device of a recording (or of a session identified in a process of its own, daemon/session_analysis.hpp):
+// its name, driver and channels, what a session is created with; never started.
+class RecordedDevice : public drivers::Driver {
+ public:
+  RecordedDevice(std::string name, std::string driver, std::vector<drivers::ChannelInfo> channels)
+      : Driver(std::move(name), std::move(driver), std::move(channels), 2) {}
+
+ protected:
+  void run(std::stop_token) override {}
+};
 
 struct ReplayResult {
   // The PARAMS message (identified parameters, plus class, session, kind, device, samples and

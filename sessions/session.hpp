@@ -92,6 +92,16 @@ class Session {
     (void)base_name;
     return {};
   }
+  // True when identify(), explain() and identified_planes() need nothing but what write_derived() wrote: a
+  // session created with the same request that read_derived() them gives the same results. The daemon then
+  // runs them in a process of its own (daemon/session_analysis.hpp), whose peak memory is not the daemon's.
+  [[nodiscard]] virtual bool identifies_from_derived() const { return false; }
+  // Reads back what write_derived() wrote (after create(), instead of samples). Throws std::runtime_error
+  // naming the file.
+  virtual void read_derived(const std::vector<std::string>& paths) {
+    (void)paths;
+    throw std::runtime_error("this session kind is not identified from its derived files");
+  }
  private:
   std::optional<std::size_t> explain_memory_mb_;
 };

@@ -82,9 +82,19 @@ void DbbProgram::at(double t_s, std::span<double> out) const {
   }
 }
 
-std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine,
-                                                   std::vector<machine::DbbCircleSpec> specs, double pause_s,
-                                                   double t0_s) {
+std::size_t DbbProgram::circle_at(double t_s, double& start_s) const {
+  start_s = 0;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const auto& s = runs[k].samples;
+    const double span = (s.empty() ? 0.0 : s.back().t_s - s.front().t_s) + pause_s;
+    if (t_s < start_s + span || k + 1 == runs.size()) return k;
+    start_s += span;
+  }
+  return 0;
+}
+
+std::shared_ptr<DbbProgram> make_dbb_program(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
+                                             double pause_s, double t0_s) {
   auto p = std::make_shared<DbbProgram>();
   p->pause_s = pause_s;
   double t0 = t0_s;
@@ -100,42 +110,82 @@ std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machi
   return p;
 }
 
-DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
-                             double pause_s) {
-  struct Player {
-    Player(const machine::Machine& m, std::vector<machine::DbbCircleSpec> s, double pause)
-        : machine(m), specs(std::move(s)), pause_s(pause) {}
-    machine::Machine machine;
-    std::vector<machine::DbbCircleSpec> specs;
-    double pause_s = 0;
-    double duration_s = 0;
-    std::mutex mutex;
-    long long pass = -1;
-    std::shared_ptr<const DbbProgram> current;
-  };
-  auto player = std::make_shared<Player>(machine, std::move(specs), pause_s);
-  player->current = make_dbb_program(player->machine, player->specs, pause_s);
-  player->pass = 0;
-  player->duration_s = player->current->duration_s;
-  return [player](double t_s, std::span<double> out) {
-    std::shared_ptr<const DbbProgram> program;
-    const double d = player->duration_s > 0 ? player->duration_s : 1.0;
-    const auto pass = static_cast<long long>(std::floor(std::max(t_s, 0.0) / d));
-    {
-      std::lock_guard lock(player->mutex);
-      if (pass != player->pass) {
-        std::vector<machine::DbbCircleSpec> pass_specs = player->specs;
-        const std::uint64_t base = player->machine.config().noise.seed;
-        for (std::size_t k = 0; k < pass_specs.size(); ++k)
-          pass_specs[k].seed =
-              (pass_specs[k].seed != 0 ? pass_specs[k].seed : base) + static_cast<std::uint64_t>(pass) * 7919u + k;
-        player->current = make_dbb_program(player->machine, pass_specs, player->pause_s, static_cast<double>(pass) * d);
-        player->pass = pass;
+DbbProgramPlayer::DbbProgramPlayer(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
+                                   double pause_s)
+    : machine_(machine),
+      specs_(std::move(specs)),
+      bus_plane_(specs_.empty() ? machine::Plane::xy : specs_.front().plane),
+      pause_s_(pause_s) {
+  make_pass(0);
+  duration_s_ = current_->duration_s;
+}
+
+void DbbProgramPlayer::make_pass(long long pass) {
+  std::vector<machine::DbbCircleSpec> pass_specs = specs_;
+  const std::uint64_t base = machine_.config().noise.seed;
+  for (std::size_t k = 0; k < pass_specs.size(); ++k)
+    pass_specs[k].seed =
+        (pass_specs[k].seed != 0 ? pass_specs[k].seed : base) + static_cast<std::uint64_t>(pass) * 7919u + k;
+  const double d = duration_s_ > 0 ? duration_s_ : 1.0;
+  auto program = make_dbb_program(machine_, pass_specs, pause_s_, origin_s_ + static_cast<double>(pass - first_pass_) * d);
+  program->plane = bus_plane_;
+  current_ = std::move(program);
+  pass_ = pass;
+}
+
+void DbbProgramPlayer::retarget(double feed_m_per_s, double radius_m) {
+  std::lock_guard lock(mutex_);
+  const bool same = std::all_of(specs_.begin(), specs_.end(), [&](const machine::DbbCircleSpec& s) {
+    return s.feed_m_per_s == feed_m_per_s && (radius_m <= 0 || s.radius_m == radius_m);
+  });
+  if (same) {
+    pending_.reset();  // an earlier request not yet played is replaced by "as now"
+    return;
+  }
+  pending_ = Retarget{feed_m_per_s, radius_m};
+}
+
+void DbbProgramPlayer::at(double t_s, std::span<double> out) {
+  std::shared_ptr<const DbbProgram> program;
+  double local_s = 0;
+  {
+    std::lock_guard lock(mutex_);
+    const double t = std::max(t_s, origin_s_);  // time runs forward: before the last retarget's start, hold it
+    const double d = duration_s_ > 0 ? duration_s_ : 1.0;
+    const auto pass = first_pass_ + static_cast<long long>(std::floor((t - origin_s_) / d));
+    if (pass != pass_) make_pass(pass);
+    local_s = t - (origin_s_ + static_cast<double>(pass - first_pass_) * d);
+    if (pending_) {
+      double start_s = 0;
+      const std::size_t circle = current_->circle_at(local_s, start_s);
+      if (!pending_->seen) {
+        pending_->seen = true;
+        pending_->pass = pass;
+        pending_->circle = circle;
+      } else if (pass != pending_->pass || circle != pending_->circle) {
+        // The circle traced when the retarget came has ended, with its pause: the program goes on from this
+        // circle, where that one ended, at the new feed (and radius).
+        std::rotate(specs_.begin(), specs_.begin() + static_cast<std::ptrdiff_t>(circle), specs_.end());
+        for (machine::DbbCircleSpec& s : specs_) {
+          s.feed_m_per_s = pending_->feed_m_per_s;
+          if (pending_->radius_m > 0) s.radius_m = pending_->radius_m;
+        }
+        origin_s_ += static_cast<double>(pass - first_pass_) * d + start_s;
+        first_pass_ = pass + 1;  // a pass of its own: noise seeded apart from every pass before
+        pending_.reset();
+        duration_s_ = 0;
+        make_pass(first_pass_);
+        duration_s_ = current_->duration_s;
+        local_s = t - origin_s_;
       }
-      program = player->current;
     }
-    program->at(std::max(t_s, 0.0) - static_cast<double>(pass) * d, out);
-  };
+    program = current_;
+  }
+  program->at(local_s, out);
+}
+
+DbbSource DbbProgramPlayer::source(std::shared_ptr<DbbProgramPlayer> player) {
+  return [player = std::move(player)](double t_s, std::span<double> out) { player->at(t_s, out); };
 }
 
 DbbSource dbb_motion_source(std::shared_ptr<const DbbMotion> motion) {

@@ -5,7 +5,10 @@
 // it ends. Thread safe (the sources only read an immutable run).
 
 #include <array>
+#include <cstddef>
 #include <memory>
+#include <mutex>
+#include <optional>
 
 #include "simulators/emulators/autocollimator_emulator.hpp"
 #include "simulators/emulators/dbb_emulator.hpp"
@@ -40,14 +43,50 @@ struct DbbProgram {
   double pause_s = 1.0;
   double duration_s = 0.0;  // of one pass through the program, pauses included
   void at(double t_s, std::span<double> out_m) const;
+  // The circle whose motion or pause holds pass time t_s (the last one past the end), and where it starts.
+  [[nodiscard]] std::size_t circle_at(double t_s, double& start_s) const;
 };
-std::shared_ptr<const DbbProgram> make_dbb_program(const machine::Machine& machine,
-                                                   std::vector<machine::DbbCircleSpec> specs, double pause_s,
-                                                   double t0_s = 0.0);
+std::shared_ptr<DbbProgram> make_dbb_program(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
+                                             double pause_s, double t0_s = 0.0);
+
 // The program played in emulator time = machine time: pass k is simulated (when the time reaches it) at
-// machine time k x the pass's duration, its noise seeded with k. Thread safe.
-DbbSource dbb_program_source(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs,
-                             double pause_s);
+// machine time k x the pass's duration, its noise seeded with k. retarget() is the operator's CNC program run
+// at another feed (the session's, told by guidewayd: docs/architecture.md "Emulators"): the circle traced
+// when it is called ends as it began, and from the next circle on (after its pause, where the last one ended)
+// every circle is traced at the new feed, and radius when one is given, the program going on in its order from
+// that circle. Thread safe.
+class DbbProgramPlayer {
+ public:
+  DbbProgramPlayer(const machine::Machine& machine, std::vector<machine::DbbCircleSpec> specs, double pause_s);
+  // The bus's values (bar length, the plane's two axes, the normal axis) at emulator time t_s.
+  void at(double t_s, std::span<double> out_m);
+  // radius_m <= 0: each circle keeps its radius. The same feed and radius as now: nothing changes.
+  void retarget(double feed_m_per_s, double radius_m = 0.0);
+  // A DbbSource that plays this player (shares it).
+  [[nodiscard]] static DbbSource source(std::shared_ptr<DbbProgramPlayer> player);
+
+ private:
+  void make_pass(long long pass);  // under mutex_
+
+  struct Retarget {
+    double feed_m_per_s = 0;
+    double radius_m = 0;
+    bool seen = false;  // the circle traced when it was asked for is known (pass, circle)
+    long long pass = 0;
+    std::size_t circle = 0;
+  };
+  machine::Machine machine_;
+  std::mutex mutex_;
+  std::vector<machine::DbbCircleSpec> specs_;  // in the order played from origin_s_
+  machine::Plane bus_plane_;                   // the first circle's as started: the bus's order stays
+  double pause_s_ = 0;
+  double origin_s_ = 0;       // emulator time where pass first_pass_ starts (0; a retarget's circle boundary)
+  long long first_pass_ = 0;  // the first pass with specs_
+  double duration_s_ = 0;     // of one pass of specs_
+  long long pass_ = -1;
+  std::shared_ptr<const DbbProgram> current_;
+  std::optional<Retarget> pending_;
+};
 
 // The traverse: the station's angles hold while the carriage dwells there; t wraps around. Between
 // stations the reflector is lifted and set down one step on (`move_s`, no reflection), and after the

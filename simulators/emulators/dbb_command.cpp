@@ -142,7 +142,7 @@ bool handle_fault(DbbEmulator& emu, const std::vector<std::string>& w, std::stri
         "SECONDS"
         " | sdo-abort ENCODER CODE|off | identity ENCODER SERIAL [VENDOR PRODUCT REVISION] | emcy ENCODER CODE "
         "[REGISTER]"
-        " | nodes | status | quit";
+        " | nodes | status | circle FEED_MM_MIN [RADIUS_MM] | quit";
     return false;
   }
   return true;
@@ -190,6 +190,26 @@ std::vector<machine::DbbCircleSpec> program_specs(const std::string& program, co
   return specs;
 }
 
+// `circle FEED_MM_MIN [RADIUS_MM]`: the program's circles from the next one on at this feed (and radius), as an
+// operator runs the CNC program at the session's feed; guidewayd sends it when a session starts
+// (daemon/emulator_launcher.hpp). Following LinuxCNC, the controller's program sets the circle.
+bool retarget_circles(DbbProgramPlayer* player, const std::vector<std::string>& w, std::string& msg) {
+  double feed_mm_min = 0, radius_mm = 0;
+  if (!player) {
+    msg = "following LinuxCNC: its program sets the circle";
+    return false;
+  }
+  if (w.size() < 2 || w.size() > 3 || !word_to_double(w, 1, feed_mm_min) || !(feed_mm_min > 0) ||
+      !(feed_mm_min < 1e6) || (w.size() == 3 && (!word_to_double(w, 2, radius_mm) || !(radius_mm > 0) ||
+                                                  !(radius_mm < 1e4)))) {
+    msg = "usage: circle FEED_MM_MIN [RADIUS_MM] (positive numbers)";
+    return false;
+  }
+  player->retarget(feed_mm_min / 60e3, radius_mm * 1e-3);
+  msg = "from the next circle on: " + w[1] + " mm/min" + (w.size() == 3 ? ", r = " + w[2] + " mm" : "");
+  return true;
+}
+
 int run_dbb(const DbbOptions& o) {
   block_stop_signals();
   std::signal(SIGPIPE, SIG_IGN);  // a reader of our stdout that went away must not kill the emulator
@@ -222,6 +242,7 @@ int run_dbb(const DbbOptions& o) {
   }
   // Following LinuxCNC the machine moves as the controller commands; else it runs the program's circles.
   std::unique_ptr<LinuxcncFollower> follower;
+  std::shared_ptr<DbbProgramPlayer> player;  // the program's circles (not when following LinuxCNC)
   DbbSource circle;
   double nominal_length_m = 0;
   if (!o.follow.empty()) {
@@ -237,7 +258,8 @@ int run_dbb(const DbbOptions& o) {
     nominal_length_m = std::hypot(spec.radius_m, spec.height_m);
   } else {
     nominal_length_m = make_dbb_program(machine, specs, o.pause_s)->runs.front().nominal_length_m;
-    circle = dbb_program_source(machine, specs, o.pause_s);
+    player = std::make_shared<DbbProgramPlayer>(machine, specs, o.pause_s);
+    circle = DbbProgramPlayer::source(player);
   }
   // The bus order: bar, the (first circle's) plane axes, the normal axis (served when a fourth node is given).
   const machine::Plane plane = specs.front().plane;
@@ -288,6 +310,7 @@ int run_dbb(const DbbOptions& o) {
           m = follower->status();
           return true;
         }
+        if (w[0] == "circle") return retarget_circles(player.get(), w, m);
         return handle_fault(emu, w, m);
       },
       o.duration_s);

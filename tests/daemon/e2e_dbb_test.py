@@ -441,5 +441,46 @@ class SeveralEffectsLive(DaemonCase):
         self.assertIn("not observable in this test", text)
 
 
+class TheEmulatedMachineFollowsTheSession(DaemonCase):
+    """The emulated DBB runs the standard test at 6000 mm/min; a session asking for 3000 mm/min gets its circles
+    at 3000 (guidewayd tells the emulator `circle 3000` when the session starts: the operator's CNC program run at
+    the session's feed). Before, the emulator kept its 6000 and the session ignored every arc until its timeout."""
+
+    def setUp(self):
+        self.config_dir = tempfile.TemporaryDirectory(prefix="gwf-")
+        self.addCleanup(self.config_dir.cleanup)
+        config = os.path.join(self.config_dir.name, "follow.toml")
+        text = SEVERAL_EFFECTS_CONFIG.format(machine=os.path.join(SOURCE, "config", "machine-example.toml"))
+        faster = text.replace('"--program", "lai", "--feed-mm-min", "5000"',
+                              '"--program", "standard", "--feed-mm-min", "6000"')
+        self.assertNotEqual(faster, text)
+        with open(config, "w") as f:
+            f.write(faster)
+        self.start_daemon("--config", config)
+
+    def test_the_circles_come_at_the_sessions_feed(self):
+        deadline = time.monotonic() + 20
+        while json.loads(self.cli("status", "--json"))["devices"][0]["state"] != "streaming":
+            self.assertLess(time.monotonic(), deadline, "the DBB emulator does not stream")
+            time.sleep(0.2)
+        # At most one circle at 6000 (~8 s) and its pause, then two at 3000 (~16 s each).
+        out = self.cli("start", "dbb", "--set", "feed_mm_per_min=3000", "--wait", "--json", "--timeout", "150",
+                       timeout=200)
+        params = json.loads(out.splitlines()[-1])
+        self.assertEqual(params["class"], "PARAMS", out)
+        runs = [p for p in params["derived"] if re.search(r"\.run[0-9]+\.csv$", p)]
+        self.assertEqual(len(runs), 2, params["derived"])
+        for path in runs:
+            with open(path) as f:
+                text = f.read()
+            feed = float(re.search(r"^# feed_mm_per_min = ([0-9.eE+-]+)$", text, re.M).group(1))
+            self.assertLess(abs(feed / 3000 - 1), 0.02, path)
+            rows = [l for l in text.splitlines() if l and not l.startswith("#")][1:]
+            # 360 deg at r = 100 mm and 3000 mm/min: 12.6 s, at 250 Hz ~3,140 rows (at 6000: ~1,570).
+            self.assertGreater(len(rows), 2800, path)
+        self.log.seek(0)
+        self.assertIn("emulator can: circle 3000", self.log.read())
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)

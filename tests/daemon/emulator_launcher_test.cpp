@@ -6,8 +6,12 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
 
 #include "daemon/config.hpp"
 #include "test_support.hpp"
@@ -79,4 +83,53 @@ TEST(EmulatorLauncher, AnUnknownEmulatorNameIsAConfigError) {
     EXPECT_EQ(e.line(), 4u) << "the reference's own line, not its table's";
     EXPECT_EQ(e.key(), "device[0].address");
   }
+}
+
+TEST(EmulatorLauncher, TheDaemonTellsAnEmulatorWhatASessionAsksOnItsStandardInput) {
+  test::TempDir dir;
+  const std::string heard = dir.file("heard");
+  // Serves, then writes the first line it is told where the test can read it.
+  const std::string exe = write_script(
+      dir, "emu", "echo \"endpoint: unix:/nowhere\"\nread line\necho \"$line\" > " + heard + ".part\nmv " + heard +
+                      ".part " + heard + "\nexec sleep 30\n");
+  auto config = daemon::parse_config("[daemon]\nemulator_executable = \"" + exe +
+                                         "\"\n[[emulator]]\nname = \"can\"\ninstrument = \"dbb\"\n[[emulator]]\nname = "
+                                         "\"other\"\ninstrument = \"micrometer\"\n[[device]]\nname = \"bar\"\ndriver = "
+                                         "\"x\"\nbus = \"emulator:can\"\nagain = \"emulator:can:path\"\n",
+                                     "t.toml");
+  auto emulators = daemon::launch_emulators(config);
+  ASSERT_EQ(emulators.size(), 2u);
+  // The device's table named one of the two: that one serves it.
+  EXPECT_EQ(config.devices[0].emulators, std::vector<std::string>{"can"});
+  ASSERT_TRUE(emulators[0]->command("circle 500"));
+  std::string line;
+  for (int i = 0; i < 500 && line.empty(); ++i) {
+    std::ifstream(heard) >> line;
+    if (line.empty()) usleep(10'000);
+  }
+  EXPECT_EQ(line, "circle");  // the first word of what it was told
+  std::ifstream in(heard);
+  std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(all, "circle 500\n");
+  // One that is gone is told nothing, and whoever tells it is not killed by SIGPIPE.
+  const pid_t pid = emulators[1]->pid();
+  kill(pid, SIGKILL);
+  std::string how;
+  for (int i = 0; i < 500 && how.empty(); ++i) {
+    how = emulators[1]->reap();
+    if (how.empty()) usleep(10'000);
+  }
+  EXPECT_EQ(how, "killed by signal 9");
+  EXPECT_FALSE(emulators[1]->command("circle 500"));
+}
+
+TEST(EmulatedMachineCommand, ADbbSessionsFeedAndGivenRadiusGoToTheDbbEmulator) {
+  using daemon::emulated_machine_command;
+  EXPECT_EQ(emulated_machine_command("dbb", "dbb", nlohmann::json::object()), "circle 1000");  // the default feed
+  EXPECT_EQ(emulated_machine_command("dbb", "dbb", {{"feed_mm_per_min", 500}}), "circle 500");
+  EXPECT_EQ(emulated_machine_command("dbb", "dbb", {{"feed_mm_per_min", 2500.5}, {"radius_mm", 150}}),
+            "circle 2500.5 150");
+  EXPECT_EQ(emulated_machine_command("dbb", "dbb", {{"feed_mm_per_min", 0}}), "");  // any feed: nothing to follow
+  EXPECT_EQ(emulated_machine_command("micrometer", "dbb", {{"feed_mm_per_min", 500}}), "");
+  EXPECT_EQ(emulated_machine_command("dbb", "runout", nlohmann::json::object()), "");
 }

@@ -6,16 +6,23 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 
+#include <unistd.h>
+
 #include <csignal>
 
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <iterator>
 #include <thread>
 
 #include "cli/daemon_client.hpp"
 #include "core/mono_clock.hpp"
 #include "daemon/daemon.hpp"
+#include "daemon/session_analysis.hpp"
 #include "formats/raw_recording.hpp"
 #include "sessions/recorder.hpp"
 #include "counting_driver.hpp"
@@ -57,24 +64,76 @@ class MeanSession : public sessions::Session {
     return {{"wanted", std::to_string(wanted_)}};
   }
 
- private:
+ protected:
   std::size_t wanted_;
   std::vector<double> values_;
 };
 
+// A MeanSession identified from its derived file (its values, one a line), as a DBB session is from its run
+// files: with [daemon] session_analysis = "process" the daemon identifies it in a process of its own. Its
+// PARAMS say which process identified it (record "pid").
+class DerivedMeanSession : public MeanSession {
+ public:
+  using MeanSession::MeanSession;
+  results::Params identify() override {
+    results::Params p = MeanSession::identify();
+    p.record["pid"] = static_cast<long>(getpid());
+    return p;
+  }
+  std::vector<std::string> write_derived(const std::string& dir, const std::string& base_name) override {
+    const std::string path = dir + "/" + base_name + ".values.txt";
+    std::ofstream out(path);
+    out.precision(17);
+    for (const double v : values_) out << v << "\n";
+    return {path};
+  }
+  [[nodiscard]] bool identifies_from_derived() const override { return true; }
+  void read_derived(const std::vector<std::string>& paths) override {
+    for (const auto& path : paths) {
+      std::ifstream in(path);
+      for (double v = 0; in >> v;) values_.push_back(v);
+    }
+  }
+};
+
+void add_test_kinds(sessions::SessionRegistry& kinds) {
+  kinds.add({"mean", "test mean", {"counting"}, [](const sessions::SessionRequest& r, const drivers::Driver&) {
+               const auto n = r.options.value("samples", 0);
+               if (n < 0) throw std::invalid_argument("samples must be >= 0");
+               return std::make_unique<MeanSession>(static_cast<std::size_t>(n));
+             },
+             {}});
+  kinds.add({"dmean", "test mean from its derived file", {"counting"},
+             [](const sessions::SessionRequest& r, const drivers::Driver&) -> std::unique_ptr<sessions::Session> {
+               return std::make_unique<DerivedMeanSession>(static_cast<std::size_t>(r.options.value("samples", 0)));
+             },
+             {}});
+}
+
+// This test's own program is the analysis process of the daemons it runs with session_analysis = "process":
+// `session_test --analyse-session` answers as guidewayd's would, with the kinds above, before gtest sees the
+// flag.
+const bool is_analysis_process = [] {
+  std::ifstream in("/proc/self/cmdline");
+  const std::string args((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (args.find(std::string("\0--analyse-session", 18)) == std::string::npos) return false;
+  sessions::SessionRegistry kinds;
+  add_test_kinds(kinds);
+  std::exit(daemon::run_session_analysis(std::cin, std::cout, kinds, {}));
+}();
+
+std::string self_executable() { return std::filesystem::read_symlink("/proc/self/exe").string(); }
+
 struct Fixture {
-  explicit Fixture(const std::string& state_dir = "") {
+  // daemon_keys: more lines of its [daemon] table.
+  explicit Fixture(const std::string& state_dir = "", const std::string& daemon_keys = "") {
     registry.add("counting", "test", [](const drivers::DeviceConfig& c) { return std::make_unique<test::CountingDriver>(c); });
-    sessions.add({"mean", "test mean", {"counting"}, [](const sessions::SessionRequest& r, const drivers::Driver&) {
-                    const auto n = r.options.value("samples", 0);
-                    if (n < 0) throw std::invalid_argument("samples must be >= 0");
-                    return std::make_unique<MeanSession>(static_cast<std::size_t>(n));
-                  },
-                   {}});
+    add_test_kinds(sessions);
     socket = dir.file("s.sock");
     state = state_dir.empty() ? dir.file("state") : state_dir;
     auto config = daemon::parse_config("[daemon]\nsocket = \"" + socket + "\"\nstate_dir = \"" + state +
-                                           "\"\nstatus_period_s = 0.1\n[[device]]\nname = \"c\"\ndriver = \"counting\"\n",
+                                           "\"\nstatus_period_s = 0.1\n" + daemon_keys +
+                                           "[[device]]\nname = \"c\"\ndriver = \"counting\"\n",
                                        "t.toml");
     auto log = std::make_shared<spdlog::logger>("t", std::make_shared<spdlog::sinks::null_sink_mt>());
     d = std::make_unique<daemon::Daemon>(std::move(config), registry, sessions, log);
@@ -250,7 +309,7 @@ TEST(Session, BadRequestsGetErrorsAndTheDaemonGoesOn) {
       std::string::npos);
   EXPECT_NE(c.request({{"class", "start"}, {"kind", "nope"}}, guideway::results::MessageClass::session)["message"]
                 .get<std::string>()
-                .find("unknown session kind \"nope\" (known: mean)"),
+                .find("unknown session kind \"nope\" (known: mean, dmean)"),
             std::string::npos);
   EXPECT_NE(c.request({{"class", "start"}, {"kind", "mean"}, {"device", "zz"}},
                       guideway::results::MessageClass::session)["message"]
@@ -403,4 +462,80 @@ TEST(RawRecorder, SamplesTheRingDroppedAreCountedOnceInTheTrailer) {
   EXPECT_EQ(back.samples.size(), 4u);
   EXPECT_EQ(back.samples_lost, 6u) << "the trailer counts each dropped sample once";
   EXPECT_FALSE(back.complete) << "a recording that lost samples is not whole";
+}
+
+// A session identified from its derived files is identified, explained and reported in a process of its own
+// ([daemon] session_analysis = "process"): the PARAMS are those the daemon would publish, made in another
+// process; with session_analysis = "daemon", in the daemon's.
+TEST(SessionAnalysis, ASessionIdentifiedFromItsFilesIsIdentifiedInAProcessOfItsOwn) {
+  for (const bool in_process : {true, false}) {
+    SCOPED_TRACE(in_process ? "process" : "daemon");
+    Fixture f("", in_process ? "analysis_executable = \"" + self_executable() + "\"\n"
+                             : "session_analysis = \"daemon\"\nanalysis_executable = \"" + self_executable() + "\"\n");
+    DaemonClient c(f.socket);
+    c.request({{"class", "watch"}, {"classes", {"PARAMS", "EVENT"}}}, guideway::results::MessageClass::watch);
+    c.request({{"class", "start"}, {"kind", "dmean"}, {"options", {{"samples", 300}}}},
+              guideway::results::MessageClass::session);
+    const auto params = Fixture::next(c, "PARAMS");
+    ASSERT_FALSE(params.is_null());
+    EXPECT_EQ(params["n"], 300);
+    const double first = params["first"], last = params["last"];
+    EXPECT_DOUBLE_EQ(last - first, 299.0);
+    EXPECT_DOUBLE_EQ(params["parameters"]["mean"]["value"].get<double>(), (first + last) / 2);
+    ASSERT_TRUE(params.contains("pid")) << params.dump();
+    if (in_process)
+      EXPECT_NE(params["pid"].get<long>(), static_cast<long>(getpid()));
+    else
+      EXPECT_EQ(params["pid"].get<long>(), static_cast<long>(getpid()));
+    // Its derived file is published with it; the report fails as without a renderer, saying why.
+    ASSERT_EQ(params["derived"].size(), 1u) << params.dump();
+    const auto report = Fixture::next(c, "EVENT");
+    EXPECT_EQ(report.value("event", ""), "report_failed") << report.dump();
+    EXPECT_NE(report.value("reason", "").find("without the report renderer"), std::string::npos) << report.dump();
+  }
+}
+
+// An analysis process that crashes, exits or answers what is not JSON fails its session with a reason that says
+// so; the daemon goes on (the next session starts, and fails the same way).
+TEST(SessionAnalysis, AnAnalysisProcessThatFailsIsASessionErrorAndTheDaemonGoesOn) {
+  const struct {
+    const char* script;
+    const char* reason;
+  } cases[] = {{"kill -SEGV $$\n", "killed by signal 11"},
+               {"exit 3\n", "exit status 3"},
+               {"echo 'no JSON'\nexec sleep 1\n", "answered what is not a JSON object: \"no JSON\""}};
+  for (const auto& k : cases) {
+    SCOPED_TRACE(k.script);
+    test::TempDir scripts;
+    const std::string exe = scripts.file("analyse");
+    std::ofstream(exe) << "#!/bin/sh\n" << k.script;
+    ::chmod(exe.c_str(), 0755);
+    Fixture f("", "analysis_executable = \"" + exe + "\"\n");
+    DaemonClient c(f.socket);
+    c.request({{"class", "watch"}, {"classes", {"EVENT"}}}, guideway::results::MessageClass::watch);
+    for (int session = 0; session < 2; ++session) {
+      const auto started = c.request({{"class", "start"}, {"kind", "dmean"}, {"options", {{"samples", 50}}}},
+                                     guideway::results::MessageClass::session);
+      ASSERT_EQ(started["class"], "SESSION") << started.dump();
+      nlohmann::json failed;
+      for (int i = 0; i < 4 && failed.is_null(); ++i) {
+        const auto ev = Fixture::next(c, "EVENT");
+        ASSERT_FALSE(ev.is_null());
+        if (ev["event"] == "session_failed") failed = ev;
+      }
+      ASSERT_FALSE(failed.is_null());
+      EXPECT_EQ(failed["session"], started["session"]);
+      const std::string reason = failed["reason"];
+      EXPECT_NE(reason.find("the session's analysis process (" + exe + " --analyse-session, pid "), std::string::npos)
+          << reason;
+      EXPECT_NE(reason.find(k.reason), std::string::npos) << reason;
+      // STATUS shows it failed.
+      EXPECT_TRUE(test::eventually([&] {
+        auto s = c.request({{"class", "status"}}, guideway::results::MessageClass::status);
+        for (const auto& x : s["sessions"])
+          if (x["session"] == started["session"]) return x["state"] == "failed";
+        return false;
+      }));
+    }
+  }
 }

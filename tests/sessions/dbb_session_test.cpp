@@ -261,6 +261,48 @@ TEST(DbbSession, ADriftBesideTheBacklashIsFittedBesideAsOfflineAndNotReadAsBackl
 
 // The time left `start --wait` shows: the circles still to trace at the test's feed, each with the feed-in
 // and feed-out of the last one traced, less what the circle being traced has run.
+// The daemon analyses a DBB session in a process of its own (daemon/session_analysis.hpp): the session's run
+// files are written first, and a session created with the same request that reads them back identifies,
+// explains and keeps its planes' identification exactly as the session that traced them; what crosses between
+// the two processes (PARAMS, EXPLAIN as JSON) reads back as it was.
+TEST(DbbSession, ASessionMadeAgainFromItsRunFilesIdentifiesAndExplainsTheSame) {
+  simulators::machine::MachineConfig m = test_machine();
+  m.axis[0].backlash_m = 1e-6;
+  m.axis[0].drift_m_per_s = 1e-6 / 60;  // 1 um/min: EXPLAIN finds it
+  const simulators::machine::Machine machine(m);
+  DbbChannels device;
+  const sessions::SessionRequest request{"dbb", "", {{"feed_mm_per_min", 1000}}};
+  auto live = sessions::dbb_session_kind().create(request, device);
+  double t = 0;
+  feed_circle(*live, machine, Circle{.feed_mm_per_min = 1000}, t);
+  feed_circle(*live, machine, Circle{.direction = DbbDirection::cw, .feed_mm_per_min = 1000}, t);
+  ASSERT_TRUE(live->identifies_from_derived());
+  const test::TempDir dir;
+  const std::vector<std::string> files = live->write_derived(dir.path().string(), "s");  // before identify()
+  ASSERT_EQ(files.size(), 2u);
+  const nlohmann::json p = results::to_json(live->identify());
+  const auto e = live->explain();
+  ASSERT_TRUE(e.has_value());
+  EXPECT_FALSE(e->findings.empty());
+
+  auto again = sessions::dbb_session_kind().create(request, device);
+  again->read_derived(files);
+  EXPECT_EQ(results::to_json(again->identify()).dump(), p.dump());
+  const auto e2 = again->explain();
+  ASSERT_TRUE(e2.has_value());
+  EXPECT_EQ(results::to_json(*e2).dump(), results::to_json(*e).dump());
+  ASSERT_NE(again->identified_planes(), nullptr);
+  ASSERT_EQ(again->identified_planes()->size(), 1u);
+  EXPECT_EQ(models::explain::to_json(again->identified_planes()->front()).dump(),
+            models::explain::to_json(live->identified_planes()->front()).dump());
+  EXPECT_EQ(results::to_json(results::params_from_json(p)).dump(), p.dump());
+  EXPECT_EQ(results::to_json(results::explanation_from_json(results::to_json(*e))).dump(), results::to_json(*e).dump());
+  // Only the run files of its patterns are read.
+  auto other = sessions::dbb_session_kind().create(request, device);
+  EXPECT_THROW(other->read_derived({dir.file("s.run3.csv")}), std::runtime_error);
+  EXPECT_THROW(other->read_derived({dir.file("s.csv")}), std::runtime_error);
+}
+
 TEST(DbbSession, TheTimeLeftIsTheCirclesStillToTraceAtTheTestsFeed) {
   const simulators::machine::Machine machine(test_machine());
   DbbChannels device;
