@@ -266,19 +266,6 @@ DbbStandardPair standard_pair_from(const json& o, const std::string& w) {
   return p;
 }
 
-// Each member of the object at `o[key]`, an object, read by `read_one(member, its place)` into `out[its name]`.
-template <typename T, typename ReadOne>
-void read_named(const json& o, const std::string& where, const char* key, std::map<std::string, T>& out,
-                ReadOne read_one) {
-  const json* v = object_field(o, where, key);
-  if (v == nullptr) return;
-  out.clear();
-  for (const auto& [member, value] : v->items()) {
-    const std::string place = at(where, key) + "." + member;
-    out.emplace(member, read_one(object_at(value, place), place));
-  }
-}
-
 DbbAxisFigure axis_figure_from(const json& o, const std::string& w) {
   DbbAxisFigure f;
   f.estimate = estimate_from(o, w);

@@ -146,15 +146,12 @@ ExplainFinding finding_from(const json& o, const std::string& w) {
   const auto effect = o.find("effect");
   if (effect == o.end() || !effect->is_string()) fail("", w + " needs \"effect\" as a text");
   f.effect = effect->get<std::string>();
-  if (const json* p = field(o, w, "parameters", "an object", [](const json& e) { return e.is_object(); })) {
-    for (const auto& [name, v] : p->items()) {
-      const std::string pw = at(w, "parameters") + "." + name;
-      ExplainEstimate e;
-      read(object_at(v, pw), pw, "value", e.value);
-      read(v, pw, "u", e.u);
-      f.parameters.emplace(name, e);
-    }
-  }
+  read_named(o, w, "parameters", f.parameters, [](const json& v, const std::string& place) {
+    ExplainEstimate e;
+    read(v, place, "value", e.value);
+    read(v, place, "u", e.u);
+    return e;
+  });
   read(o, w, "delta_bic", f.delta_bic);
   read(o, w, "p_value", f.p_value);
   read(o, w, "rms_um_after", f.rms_um_after);

@@ -65,4 +65,16 @@ void read_objects(const json& o, const std::string& where, const char* key, std:
   }
 }
 
+// Each member of the object at `o[key]`, an object, read by `read_one(member, its place)` into `out[its name]`.
+template <typename Map, typename ReadOne>
+void read_named(const json& o, const std::string& where, const char* key, Map& out, ReadOne read_one) {
+  const json* v = object_field(o, where, key);
+  if (v == nullptr) return;
+  out.clear();
+  for (const auto& [member, value] : v->items()) {
+    const std::string place = at(where, key) + "." + member;
+    out.emplace(member, read_one(object_at(value, place), place));
+  }
+}
+
 }  // namespace guideway::results::json_fields
