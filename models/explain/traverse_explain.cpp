@@ -17,6 +17,7 @@
 #include "models/explain/effects/effect.hpp"
 #include "models/explain/effects/traverse_terms.hpp"
 #include "models/explain/locate.hpp"
+#include "models/explain/shared_wave.hpp"
 #include "models/flatness/instruments.hpp"
 #include "models/flatness/straightness.hpp"
 #include "results/parameters.hpp"
@@ -446,7 +447,7 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
                            printf_number("%.1f", std::sqrt(shared.chi2 / shared.dof)) +
                            " times the passes' own scatter; fitted out of the readings (each less its station's "
                            "mean), the held-out folds holding whole stations; a wave the passes share is then "
-                           "geometry, not a finding"
+                           "geometry, judged against the geometry's own spectrum"
                      : "base: the straightness polynomial of order " + std::to_string(best) + " (BIC, 1.." +
                            std::to_string(highest) +
                            (beside > 0 ? ", chosen with " + found + " fitted beside it" : std::string()) +
@@ -528,6 +529,100 @@ bool function_of_station(const std::vector<double>& column, const std::vector<st
   return within <= 1e-12 * total;
 }
 
+// Where the base is a term per station, a pitch wave the passes share is geometry: the engine's tests, of what the
+// passes disagree on, hold nothing of it. It is judged against the geometry (shared_wave.hpp): a line of the station
+// means standing above their own spectrum is a finding, appended with its size and u, its BIC and p those of that
+// test (its columns kept when asked); else pitch_wave's verdict in `considered` says what the line stood at.
+void judge_shared_wave(const std::vector<TraversePass>& passes, const Problem& problem, const ExplainOptions& options,
+                       Report& report) {
+  const auto candidate = std::find_if(problem.candidates.begin(), problem.candidates.end(),
+                                      [](const Candidate& c) { return c.effect == "pitch_wave"; });
+  const bool taken = std::any_of(report.findings.begin(), report.findings.end(),
+                                 [](const Finding& held) { return held.effect == "pitch_wave"; });
+  if (!problem.station_means_absorbed || candidate == problem.candidates.end() || taken) return;
+  const Layout l = layout_of(passes);
+  const std::size_t stations = *std::max_element(problem.station_of.begin(), problem.station_of.end()) + 1;
+  std::vector<double> mean(stations, 0.0), count(stations, 0.0);
+  std::size_t row = 0;
+  for (const TraversePass& p : passes)
+    for (const double pitch : p.pitch_rad) {
+      const std::size_t s = problem.station_of[row++];
+      mean[s] += std::tan(pitch) * 1e6;
+      count[s] += 1;
+    }
+  for (std::size_t s = 0; s < stations; ++s) {
+    if (count[s] == 0) return;
+    mean[s] /= count[s];
+  }
+  const SharedWave w = shared_wave(mean, l.x0_m, l.step_m, options.alpha);
+  if (!w.judged) return;
+  const std::string line = "at " + printf_number("%.4g", w.period_m * 1e3) + " mm, stands " +
+                           printf_number("%.1f", w.ratio) + " times above the geometry's own spectrum there and " +
+                           printf_number("%.1f", w.local_ratio) + " times above its neighbours (a line needs more "
+                           "than " + printf_number("%.1f", w.needed) + " in both: alpha " +
+                           printf_number("%g", options.alpha) + " over the " + std::to_string(w.lines) +
+                           " lines searched)";
+  // What the traverse resolves of the straightness: the station means' scatter (the final fit's, per reading, over
+  // the readings a station has) integrated over the stations. A line whose height A P / 2 pi is below it moves the
+  // straightness by less than the passes can tell: a real scan's own short period (dabam-073: 0.002" every 0.46 mm,
+  // 0.8 pm, against 0.13 nm) is no finding for the machine.
+  const double n = static_cast<double>(problem.station_of.size()), per_station = n / static_cast<double>(stations);
+  const double resolved_um = report.final_fit.rms_um * std::sqrt(n / std::max(n - static_cast<double>(stations), 1.0) /
+                                                                 per_station) *
+                             l.step_m * std::sqrt(static_cast<double>(stations));
+  const double height_um = std::hypot(w.sin_arcsec, w.cos_arcsec) * effects::urad_per_arcsec * w.period_m /
+                           (2 * std::numbers::pi);
+  const auto considered = std::find_if(report.considered.begin(), report.considered.end(),
+                                       [](const Considered& c) { return c.effect == "pitch_wave"; });
+  if (!w.found || height_um <= resolved_um) {
+    if (considered != report.considered.end())
+      considered->verdict =
+          "a wave the passes share is in the base's term per station; the geometry's strongest line, " + line +
+          (w.found ? ", but its height, " + printf_number("%.3g", height_um * 1e3) + " nm, is below the " +
+                         printf_number("%.3g", resolved_um * 1e3) + " nm of straightness the passes resolve"
+                   : std::string());
+    return;
+  }
+  if (considered != report.considered.end()) report.considered.erase(considered);
+  Finding f;
+  f.effect = "pitch_wave";
+  f.why = candidate->why;
+  Eigen::VectorXd coef(2);
+  coef << w.sin_arcsec, w.cos_arcsec;
+  Eigen::MatrixXd cov(2, 2);
+  cov << w.var_sin, w.cov_sin_cos, w.cov_sin_cos, w.var_cos;
+  f.parameters = amp_phase(results::name(results::pitch_wave), results::name(results::pitch_wave_phase), coef, cov);
+  f.parameters.push_back({results::name(results::pitch_wave_period), w.period_m * 1e3,
+                          std::numeric_limits<double>::quiet_NaN()});
+  // Its chi2 against the spectrum is twice the ratio; 2 coefficients and the searched period.
+  f.delta_bic = -2 * w.ratio + 3 * std::log(static_cast<double>(stations));
+  f.p_value = std::min(1.0, static_cast<double>(w.lines) * std::exp(-w.ratio));
+  f.rms_um_after = report.final_fit.rms_um;  // the base held it: the readings' fit is the same
+  f.heldout_rms_um_after = report.final_fit.heldout_rms_um;
+  f.share = std::numeric_limits<double>::quiet_NaN();
+  f.contribution_um = 2 * std::hypot(w.sin_arcsec, w.cos_arcsec) * effects::urad_per_arcsec;
+  if (options.keep_columns) {
+    f.column_names = {results::name(results::pitch_wave_sin), results::name(results::pitch_wave_cos)};
+    f.columns_um.assign(2, {});
+    for (const TraversePass& p : passes)
+      for (const double x : p.x_m) {
+        const double th = 2 * std::numbers::pi * (x + p.step_m / 2) / w.period_m;
+        f.columns_um[0].push_back(std::sin(th) * effects::urad_per_arcsec);
+        f.columns_um[1].push_back(std::cos(th) * effects::urad_per_arcsec);
+      }
+  }
+  report.findings.push_back(std::move(f));
+  if (!report.curve_steps.empty()) {  // a step per finding: the same residual, the base having held the wave
+    ResidualStep step = report.curve_steps.back();
+    step.label = "+ pitch_wave";
+    report.curve_steps.push_back(std::move(step));
+  }
+  report.notes.push_back("pitch_wave: the geometry the passes share, which the base's term per station holds, has a "
+                         "line that, " + line + "; its size and u are a sine's fitted to the station means beside a "
+                         "constant and a line, that spectrum as their noise, and its BIC and p are that test's (the "
+                         "passes' disagreement, which the F-test and the held-out RMS judge, holds nothing of it)");
+}
+
 }  // namespace
 
 Problem traverse_problem(const std::vector<TraversePass>& passes) { return traverse_problem_beside(passes, {}, ""); }
@@ -563,20 +658,24 @@ Report explain_traverses(const std::vector<TraversePass>& passes, const ExplainO
       }
     return r;
   };
-  if (columns.empty()) return without_columns(std::move(report));
+  const auto with_wave = [&](const Problem& problem, Report r) {
+    judge_shared_wave(passes, problem, options, r);
+    return r;
+  };
+  if (columns.empty()) return with_wave(first, without_columns(std::move(report)));
   Eigen::MatrixXd beside(static_cast<Eigen::Index>(first.samples.size()), static_cast<Eigen::Index>(columns.size()));
   for (std::size_t k = 0; k < columns.size(); ++k)
     beside.col(static_cast<Eigen::Index>(k)) =
         Eigen::Map<const Eigen::VectorXd>(columns[k]->data(), static_cast<Eigen::Index>(columns[k]->size()));
   Problem again = traverse_problem_beside(passes, beside, found);
-  if (again.base.names == first.base.names) return without_columns(std::move(report));
+  if (again.base.names == first.base.names) return with_wave(first, without_columns(std::move(report)));
   std::string before;
   for (const std::string& n : first.notes)
     if (n.rfind("base: ", 0) == 0) before = n.substr(6);
   again.notes.push_back("the base was chosen again once " + found +
                         " was found (it tilts each pass, and the base had been chosen against it): before, " + before +
                         ", and the findings were " + first_found);
-  return explain(again, options);
+  return with_wave(again, explain(again, options));
 }
 
 }  // namespace guideway::models::explain

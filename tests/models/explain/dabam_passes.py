@@ -16,13 +16,22 @@ def read_entry(dabam, name):
     return a[order, 0] * float(meta["X1_FACTOR"]), a[order, 1] * float(meta["Y1_FACTOR"])
 
 
-def forward_and_return(path, x_m, slope_rad, rocking_rad, seed, settling=0.0):
+def pitch_wave(x_m, amplitude_rad, cycles=8, phase_rad=0.7):
+    """A pitch wave of `cycles` over the stations' span (the passes' length, a station a step), at each station's
+    mid-point: amplitude sin(2 pi cycles (x - x0 + step / 2) / span + phase)."""
+    n = len(x_m)
+    return amplitude_rad * np.sin(2 * np.pi * cycles * (np.arange(n) + 0.5) / n + phase_rad)
+
+
+def forward_and_return(path, x_m, slope_rad, rocking_rad, seed, settling=0.0, shared_rad=0.0):
     """Two passes over the same stations, 2 s a station: the readings +r forward and -r back, the return with fresh
     noise of 10 % of the slope RMS; with `settling`, the return's first readings settle after the reversal (that many
-    slope RMS, decaying over 3 readings). Written in the traverse format (docs/formats.md)."""
-    n, step = len(x_m), (x_m[-1] - x_m[0]) / (len(x_m) - 1)
-    back = slope_rad + np.random.RandomState(seed).normal(0.0, 0.1 * np.std(slope_rad), n) - rocking_rad
-    back[::-1] += settling * np.std(slope_rad) * np.exp(-np.arange(n) / 3.0)
+    slope RMS, decaying over 3 readings); `shared_rad` (a value or one a station) read by both passes, as the
+    geometry is (a machine's pitch wave). Written in the traverse format (docs/formats.md)."""
+    n, step, rms = len(x_m), (x_m[-1] - x_m[0]) / (len(x_m) - 1), np.std(slope_rad)
+    back = slope_rad + np.random.RandomState(seed).normal(0.0, 0.1 * rms, n) - rocking_rad + shared_rad
+    slope_rad = slope_rad + shared_rad
+    back[::-1] += settling * rms * np.exp(-np.arange(n) / 3.0)
     rows = ["# step_mm = %.9g" % (step * 1e3), "x_mm,pitch_arcsec,t_s,pass"]
     rows += ["%.6f,%.6f,%.1f,1" % ((x_m[0] + i * step) * 1e3, (slope_rad[i] + rocking_rad) * ARCSEC, 2.0 * i)
              for i in range(n)]
