@@ -93,7 +93,7 @@ SharedWave shared_wave(const std::vector<double>& mean_urad, double x0_m, double
   SharedWave out;
   const auto stations = static_cast<Eigen::Index>(mean_urad.size());
   const auto first = static_cast<std::size_t>(shared_wave_first_cycles);
-  const auto last = static_cast<std::size_t>(std::floor(static_cast<double>(stations) / 2.5));
+  const auto last = static_cast<std::size_t>(std::floor(static_cast<double>(stations) / effects::pitch_wave_shortest_stations));
   if (!(step_m > 0) || last < first || last - first + 1 < shared_wave_min_lines) return out;
   // The geometry less a constant and a line in x: a set-up's tilt and a flat's curvature, whose leakage is no line.
   const Eigen::Map<const Eigen::VectorXd> m(mean_urad.data(), stations);

@@ -126,7 +126,7 @@ bool pitch_wave_traverse_term(const TraverseTerms& t, Candidate& c) {
   WaveGrid grid;
   grid.lo = 1.5 / t.span_m;
   grid.step = 0.25 / t.span_m;
-  const double hi = 1.0 / (2.5 * t.step_m);
+  const double hi = 1.0 / (pitch_wave_shortest_stations * t.step_m);
   if (hi <= grid.lo) return false;
   grid.size = static_cast<std::size_t>(std::floor((hi - grid.lo) / grid.step)) + 1;
   c.search_size = grid.size;

@@ -10,6 +10,8 @@
 namespace guideway::models::explain::effects {
 
 inline constexpr double urad_per_arcsec = 4.84813681109536;  // what is explained is in urad (um/m)
+// A pitch wave's shortest period, in station pitches: below the stations' Nyquist (2) with room to resolve it.
+inline constexpr double pitch_wave_shortest_stations = 2.5;
 
 struct Tp {
   std::size_t run;
