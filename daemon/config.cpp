@@ -16,6 +16,7 @@
 
 #include "core/runtime_paths.hpp"
 #include "drivers/driver.hpp"
+#include "drivers/ring_capacity.hpp"
 #include "dsp/wavelet.hpp"
 
 namespace guideway::daemon {
@@ -64,8 +65,11 @@ mode_t parse_mode(const TableReader& t) {
   return static_cast<mode_t>(v);
 }
 
-std::size_t ring_capacity(const TableReader& t, std::size_t fallback) {
-  const auto v = static_cast<std::size_t>(t.get_int("ring_capacity", static_cast<std::int64_t>(fallback), 2, 1 << 26));
+// A table's ring_capacity, else `fallback` (nullopt: the ring-size rule's, drivers/ring_capacity.hpp).
+std::optional<std::size_t> ring_capacity(const TableReader& t, std::optional<std::size_t> fallback) {
+  if (!t.has("ring_capacity")) return fallback;
+  const auto v = static_cast<std::size_t>(
+      t.get_int("ring_capacity", 0, 2, static_cast<std::int64_t>(drivers::max_ring_capacity)));
   if (!std::has_single_bit(v)) t.fail("ring_capacity", "must be a power of two");
   return v;
 }

@@ -31,7 +31,9 @@ struct DaemonConfig {
   std::string log_level = "info";
   double status_period_s = 1.0;
   double sample_publish_hz = 10.0;  // rate of decimated SAMPLE messages per device
-  std::size_t ring_capacity = 65536;
+  // [daemon] ring_capacity: every device's ring that gives none of its own; nullopt: each device's by the rule
+  // (drivers/ring_capacity.hpp).
+  std::optional<std::size_t> ring_capacity;
   std::size_t max_clients = 256;
   std::size_t reserved_clients = 8;  // of max_clients, kept for root and the daemon's own user/group
   double idle_timeout_s = 30.0;      // a connection with no complete request by then is closed; 0 = never
@@ -48,7 +50,7 @@ struct DaemonConfig {
   struct Device {
     std::string name;
     std::string driver;
-    std::size_t ring_capacity;
+    std::optional<std::size_t> ring_capacity;  // its own, else [daemon]'s; nullopt: the rule's
     std::shared_ptr<TableReader> table;  // the [[device]] table, for the driver factory
     Instrument instrument;               // its serial and calibration (daemon/instrument_config.hpp)
     std::vector<std::string> emulators;  // the [[emulator]]s its table refers to (launch_emulators)

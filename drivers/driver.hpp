@@ -14,6 +14,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <stop_token>
 #include <string>
 #include <string_view>
@@ -117,6 +118,7 @@ class Driver {
   [[nodiscard]] const std::string& driver() const noexcept { return driver_; }
   [[nodiscard]] const std::vector<ChannelInfo>& channels() const noexcept { return channels_; }
   SpscRing<Sample>& ring() noexcept { return ring_; }
+  [[nodiscard]] std::size_t ring_capacity() const noexcept { return ring_.capacity(); }
   // The consumer's bell, rung after every publish (nullptr: none). The bell must outlive the
   // driver's publishing: stop the driver before destroying it (clearing it is not enough: a publish
   // in flight may already hold the pointer).
@@ -205,8 +207,12 @@ class Driver {
 struct DeviceConfig {
   std::string name;
   std::string driver;
-  std::size_t ring_capacity;
+  // The ring the configuration gives (the device's ring_capacity, else [daemon]'s); nullopt: the rule's.
+  std::optional<std::size_t> ring_capacity;
   const TableReader& table;
+  // The device's ring for its full rate (drivers/ring_capacity.hpp): the rule's, or the configuration's when
+  // it gives one no smaller (a smaller one is a ConfigError naming the key, the rate and the least).
+  [[nodiscard]] std::size_t ring_for(double full_rate_hz) const;
 };
 
 using DriverFactory = std::function<std::unique_ptr<Driver>(const DeviceConfig&)>;

@@ -8,6 +8,7 @@
 
 #include "drivers/driver.hpp"
 #include "drivers/plugin_abi.h"
+#include "drivers/ring_capacity.hpp"
 
 namespace guideway::drivers {
 
@@ -44,7 +45,7 @@ std::vector<ChannelInfo> channels_of(const guideway_driver& table) {
 class PluginDriver final : public Driver {
  public:
   PluginDriver(const guideway_driver& table, const DeviceConfig& config)
-      : Driver(config.name, table.name, channels_of(table), config.ring_capacity),
+      : Driver(config.name, table.name, channels_of(table), config.ring_capacity.value_or(unknown_rate_ring_capacity)),
         table_(table),
         own_counters_(std::make_unique<std::atomic<std::uint64_t>[]>(table.counter_count)) {
     host_ = {this, &on_config_error, &on_push_sample, &on_set_state, &on_count, &on_stop_requested, &on_sleep_ns};

@@ -256,8 +256,11 @@ void register_autocollimator_driver(drivers::DriverRegistry& registry) {
   registry.add("autocollimator-serial",
                "TA80-style two-axis autocollimator, ASCII over a serial line (libserialport; termios for ptys)",
                [](const drivers::DeviceConfig& c) {
-                 return std::make_unique<AutocollimatorDriver>(c.name, c.ring_capacity,
-                                                               parse_autocollimator_settings(c.table));
+                 AutocollimatorSettings s = parse_autocollimator_settings(c.table);
+                 // One reading per request (poll) or per output period (stream).
+                 const std::size_t ring = c.ring_for(1e3 / static_cast<double>(s.stream ? s.stream_period_ms
+                                                                                           : s.poll_period_ms));
+                 return std::make_unique<AutocollimatorDriver>(c.name, ring, std::move(s));
                });
 }
 

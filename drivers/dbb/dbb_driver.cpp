@@ -547,7 +547,10 @@ void register_dbb_driver(drivers::DriverRegistry& registry) {
                "double ball bar + axis encoders on CAN (CANopen CiA 301/406 nodes: NMT, SDO checks, TPDOs on SYNC; "
                "SocketCAN or unix: gateway)",
                [](const drivers::DeviceConfig& c) {
-                 return std::make_unique<DbbDriver>(c.name, c.ring_capacity, parse_dbb_settings(c.table));
+                 DbbSettings s = parse_dbb_settings(c.table);
+                 // One sample per SYNC: the producer's rate, or the controller's as configured (listen).
+                 const std::size_t ring = c.ring_for(s.sync_rate_hz);
+                 return std::make_unique<DbbDriver>(c.name, ring, std::move(s));
                });
 }
 

@@ -188,7 +188,10 @@ void register_linuxcnc_driver(DriverRegistry& registry) {
                  cfg.columns = c.table.get_strings("columns", cfg.columns);
                  if (cfg.columns.empty() || cfg.columns.size() > max_sample_values)
                    c.table.fail("columns", "give 1 to " + std::to_string(max_sample_values) + " of the stream's columns");
-                 return std::make_unique<LinuxcncHalDriver>(c.name, cfg, c.ring_capacity);
+                 // A sample per servo period: LinuxCNC's servo thread runs at 1 kHz unless its configuration
+                 // says otherwise, and the stream tells its period only once connected (faster: ring_capacity).
+                 constexpr double servo_rate_hz = 1000.0;
+                 return std::make_unique<LinuxcncHalDriver>(c.name, cfg, c.ring_for(servo_rate_hz));
                });
 }
 

@@ -698,7 +698,10 @@ void MicrometerDriver::finish_poll() {
 void register_micrometer_driver(drivers::DriverRegistry& registry) {
   registry.add("micrometer-modbus", "inductance micrometer (gauge amplifier) over Modbus TCP or RTU, libmodbus",
                [](const drivers::DeviceConfig& c) -> std::unique_ptr<drivers::Driver> {
-                 return std::make_unique<MicrometerDriver>(c.name, parse_micrometer_config(c.table), c.ring_capacity);
+                 MicrometerConfig m = parse_micrometer_config(c.table);
+                 // Buffered: the amplifier's own sampling rate; polled: one sample per poll.
+                 const std::size_t ring = c.ring_for(m.buffer ? m.buffer->sample_rate_hz : m.poll_hz);
+                 return std::make_unique<MicrometerDriver>(c.name, std::move(m), ring);
                });
 }
 

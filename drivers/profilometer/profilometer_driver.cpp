@@ -19,6 +19,7 @@ ProfilometerConfig parse_profilometer_config(const TableReader& t) {
   c.stall_timeout = std::chrono::milliseconds(t.get_int("stall_timeout_ms", 2000, 10, 3600000));
   c.reconnect = drivers::read_reconnect(t, std::chrono::milliseconds(100), std::chrono::milliseconds(5000));
   c.read_period_us = t.get_int("read_period_us", drivers::default_read_period_us, 0, 100'000);
+  c.points_per_s = t.get_double("points_per_s", c.points_per_s, 1.0, 1e6);
   if (c.read_period_us * 1000 >= c.stall_timeout.count() * 1'000'000)
     t.fail("read_period_us",
            "must be shorter than stall_timeout_ms (" + std::to_string(c.stall_timeout.count()) + " ms)");
@@ -144,8 +145,9 @@ drivers::ReadOutcome ProfilometerDriver::read_some(bool) {
 void register_profilometer_driver(drivers::DriverRegistry& registry) {
   registry.add("profilometer-tcp", "profilometer (PGI 1240-style) profile stream over TCP",
                [](const drivers::DeviceConfig& c) -> std::unique_ptr<drivers::Driver> {
-                 return std::make_unique<ProfilometerDriver>(c.name, parse_profilometer_config(c.table),
-                                                             c.ring_capacity);
+                 ProfilometerConfig p = parse_profilometer_config(c.table);
+                 const std::size_t ring = c.ring_for(p.points_per_s);
+                 return std::make_unique<ProfilometerDriver>(c.name, std::move(p), ring);
                });
 }
 

@@ -26,6 +26,8 @@ struct ProfilometerConfig {
   // Rest between reads while points stream (0: a wake-up per arrival); what arrives meanwhile is read
   // at once and stamped with the kernel's receive time of the newest segment read.
   std::int64_t read_period_us = drivers::default_read_period_us;
+  // The most points a second the instrument streams (the stream does not say): what its ring is sized for.
+  double points_per_s = 5000.0;
 };
 
 ProfilometerConfig parse_profilometer_config(const TableReader& table);

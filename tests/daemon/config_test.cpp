@@ -70,6 +70,21 @@ TEST(Config, OutOfRangeAndBadChoiceAreExplained) {
   EXPECT_NE(error_of("[daemon]\nsocket_mode = \"rw\"\n").find("octal"), std::string::npos);
 }
 
+// A device's ring_capacity, else [daemon]'s, else none: the driver sizes the ring by its full rate
+// (drivers/ring_capacity.hpp; tests/drivers/ring_capacity_test.cpp, tests/daemon/daemon_test.cpp).
+TEST(Config, ADevicesRingIsItsOwnCapacityElseDaemonsElseTheRules) {
+  const auto rule = parse_config("[[device]]\nname = \"a\"\ndriver = \"x\"\n", "t.toml");
+  EXPECT_FALSE(rule.ring_capacity.has_value());
+  EXPECT_FALSE(rule.devices.at(0).ring_capacity.has_value());
+  const auto c = parse_config("[daemon]\nring_capacity = 4096\n[[device]]\nname = \"a\"\ndriver = \"x\"\n"
+                              "[[device]]\nname = \"b\"\ndriver = \"x\"\nring_capacity = 131072\n",
+                              "t.toml");
+  EXPECT_EQ(c.devices.at(0).ring_capacity.value_or(0), 4096u);
+  EXPECT_EQ(c.devices.at(1).ring_capacity.value_or(0), 131072u);
+  const std::string e = error_of("[[device]]\nname = \"a\"\ndriver = \"x\"\nring_capacity = 3000\n");
+  EXPECT_NE(e.find("test.toml:4: device[0].ring_capacity: must be a power of two"), std::string::npos) << e;
+}
+
 // A world-writable socket lets any local user start and stop sessions: refused with file:line, not
 // accepted silently.
 TEST(Config, WorldWritableSocketModeIsRefused) {

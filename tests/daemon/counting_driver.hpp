@@ -1,7 +1,8 @@
 #pragma once
 // A real driver thread with no transport: it publishes `rate_hz` samples per second (config key,
-// default 2000) whose one value is its own count, so pipeline, sessions and recordings can be
-// checked exactly; with `nan_every = N` every Nth value is NaN flagged "no signal" (a lost beam).
+// default 2000, its full rate: its ring is the rule's for it) whose one value is its own count, so
+// pipeline, sessions and recordings can be checked exactly; with `nan_every = N` every Nth value is NaN
+// flagged "no signal" (a lost beam).
 
 #include <chrono>
 #include <limits>
@@ -15,8 +16,8 @@ namespace guideway::test {
 class CountingDriver : public drivers::Driver {
  public:
   explicit CountingDriver(const drivers::DeviceConfig& c)
-      : Driver(c.name, c.driver, {{"count", "1"}}, c.ring_capacity),
-        rate_hz_(c.table.get_double("rate_hz", 2000.0, 1.0, 1e7)),
+      : Driver(c.name, c.driver, {{"count", "1"}}, c.ring_for(rate_of(c.table))),
+        rate_hz_(rate_of(c.table)),
         nan_every_(c.table.get_int("nan_every", 0, 0, 1 << 20)) {}
   ~CountingDriver() override { stop(); }
 
@@ -43,6 +44,7 @@ class CountingDriver : public drivers::Driver {
   }
 
  private:
+  static double rate_of(const TableReader& table) { return table.get_double("rate_hz", 2000.0, 1.0, 1e7); }
   double rate_hz_;
   std::int64_t nan_every_;
 };

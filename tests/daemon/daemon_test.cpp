@@ -15,11 +15,13 @@
 
 #include <algorithm>
 #include <cstring>
+#include <map>
 #include <thread>
 
 #include "cli/daemon_client.hpp"
 #include "core/mono_clock.hpp"
 #include "counting_driver.hpp"
+#include "drivers/builtin.hpp"
 #include "test_support.hpp"
 
 using namespace guideway;
@@ -28,10 +30,13 @@ using guideway::cli::DaemonClient;
 namespace {
 
 struct RunningDaemon {
-  explicit RunningDaemon(const std::string& extra_toml = "", spdlog::sink_ptr sink = nullptr) {
+  // `builtin_drivers`: the instruments' drivers too (as guidewayd has them), beside "counting".
+  explicit RunningDaemon(const std::string& extra_toml = "", spdlog::sink_ptr sink = nullptr,
+                         bool builtin_drivers = false) {
     registry.add("counting", "test source", [](const drivers::DeviceConfig& c) {
       return std::make_unique<test::CountingDriver>(c);
     });
+    if (builtin_drivers) drivers::register_builtin_drivers(registry);
     socket = dir.file("d.sock");
     auto config = daemon::parse_config("[daemon]\nsocket = \"" + socket +
                                            "\"\nstatus_period_s = 0.1\nclient_queue_bytes = 65536\n" + extra_toml,
@@ -320,6 +325,29 @@ TEST(Daemon, ReservedPlacesKeepTheOperatorIn) {
 // protocol.md: STATUS `pipeline` gives figures over the last status period (0.1 s here). At 2000
 // samples/s a period takes about 200; counted since the start they grew without bound (the CLI printed
 // "241993 samples in the last period" 47 s after start).
+// Each device's ring holds 8 s of its own full rate, a power of two, at least 1,024 (drivers/ring_capacity.hpp),
+// unless its table gives a larger one: what STATUS shows, the sizes written out.
+TEST(Daemon, StatusShowsEachDevicesRingSizedToItsFullRate) {
+  RunningDaemon rd(
+      "[[device]]\nname = \"dbb\"\ndriver = \"dbb-can\"\nbus = \"unix:/nonexistent/can.sock\"\nsync_rate_hz = 1000.0\n"
+      "[[device.encoder]]\nchannel = \"bar_length\"\nnode_id = 1\nresolution_nm = 100\noffset_mm = 100\n"
+      "[[device.encoder]]\nchannel = \"x\"\nnode_id = 2\nresolution_nm = 100\n"
+      "[[device.encoder]]\nchannel = \"y\"\nnode_id = 3\nresolution_nm = 100\n"
+      "[[device]]\nname = \"gauge\"\ndriver = \"micrometer-modbus\"\nhost = \"127.0.0.1\"\nport = 1\n"
+      "[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 3000.0\n"
+      "[[device]]\nname = \"slow\"\ndriver = \"counting\"\nrate_hz = 10.0\nring_capacity = 4096\n",
+      nullptr, true);
+  DaemonClient c(rd.socket);
+  const auto s = c.request({{"class", "status"}}, guideway::results::MessageClass::status);
+  std::map<std::string, std::size_t> capacity;
+  for (const auto& d : s["devices"]) capacity[d["name"].get<std::string>()] = d["ring"]["capacity"].get<std::size_t>();
+  EXPECT_EQ(capacity, (std::map<std::string, std::size_t>{
+                          {"dbb", 8192},       // SYNC at 1 kHz: 8,000
+                          {"gauge", 1024},     // polled at 50 Hz: 400, the least
+                          {"counter", 32768},  // 3 kHz: 24,000
+                          {"slow", 4096}}));   // its own, larger than the rule's 1,024
+}
+
 TEST(Daemon, StatusPipelineCountsTheLastPeriodOnly) {
   RunningDaemon rd("[[device]]\nname = \"counter\"\ndriver = \"counting\"\nrate_hz = 2000.0\n");
   DaemonClient c(rd.socket);

@@ -444,7 +444,7 @@ TEST(RawRecorder, SamplesTheRingDroppedAreCountedOnceInTheTrailer) {
   test::TempDir dir;
   const toml::table empty;
   const TableReader table(empty, "test.toml", "device");
-  const test::CountingDriver device({.name = "c", .driver = "counting", .ring_capacity = 16, .table = table});
+  const test::CountingDriver device({.name = "c", .driver = "counting", .ring_capacity = {}, .table = table});
   // A ring of 4 and a writer that sleeps: 10 samples pushed at once, 6 of them cannot be kept.
   sessions::RawRecorder recorder(dir.path().string(), "lost", device, {{"kind", "test"}},
                                  {.flush_period = std::chrono::seconds(1), .ring_capacity = 4});

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "core/toml_access.hpp"
 #include "drivers/builtin.hpp"
@@ -26,7 +27,7 @@ drivers::DriverRegistry registry_with_plugins() {
 
 // One example-ramp device from the keys of its [[device]] table; `keys` starts on line 3.
 struct RampDevice {
-  explicit RampDevice(const std::string& keys, std::size_t ring_capacity = 64)
+  explicit RampDevice(const std::string& keys, std::optional<std::size_t> ring_capacity = 64)
       : root(parse_toml("[[device]]\nname = \"r\"\ndriver = \"example-ramp\"\n" + keys, "plugin.toml")),
         top(root, "plugin.toml", ""),
         table(top.tables("device").at(0)),
@@ -142,6 +143,12 @@ TEST(DriverPlugin, AFullRingCountsOverrunsAndStopEndsAPluginThatNeverFinishes) {
   EXPECT_EQ(status.counters.overruns, status.counters.samples - 4);
   EXPECT_GE(status.counters.samples, 30u);
   EXPECT_EQ(status.counters.frames, status.counters.samples);
+}
+
+TEST(DriverPlugin, APluginsRingHolds65536SamplesUnlessItsTableGivesItsSize) {
+  // The ABI does not say a plugin's rate, which sizes a built-in driver's ring (drivers/ring_capacity.hpp).
+  EXPECT_EQ(RampDevice("count = 3\n", std::nullopt).driver->ring_capacity(), 65536u);
+  EXPECT_EQ(RampDevice("count = 3\n", 256).driver->ring_capacity(), 256u);
 }
 
 TEST(DriverPlugin, ConfigurationErrorsNameFileLineAndKey) {

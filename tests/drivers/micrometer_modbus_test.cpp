@@ -264,14 +264,14 @@ TEST(MicrometerDriver, RegistryCreatesItFromADeviceTable) {
   drivers::micrometer::register_micrometer_driver(registry);
   auto table = parse_toml("transport = \"rtu\"\ndevice = \"/dev/null\"\nbaud = 9600\nparity = \"N\"\n", "t.toml");
   TableReader reader(table, "t.toml", "device[0]");
-  auto d = registry.create({"mic", "micrometer-modbus", 64, reader});
+  auto d = registry.create({"mic", "micrometer-modbus", {}, reader});
   ASSERT_NE(d, nullptr);
   reader.reject_unknown_keys();
   ASSERT_EQ(d->channels().size(), 1u);
   EXPECT_EQ(d->channels()[0].unit, "m");
   auto bad = parse_toml("transport = \"rtu\"\n", "t.toml");
   TableReader bad_reader(bad, "t.toml", "device[0]");
-  EXPECT_THROW(registry.create({"mic", "micrometer-modbus", 64, bad_reader}), ConfigError);  // no device
+  EXPECT_THROW(registry.create({"mic", "micrometer-modbus", {}, bad_reader}), ConfigError);  // no device
 }
 
 // ---- Buffered mode: the amplifier's sample ring, read over real libmodbus TCP and RTU ----

@@ -259,10 +259,10 @@ TEST(ProfilometerTcp, RegistryCreatesItAndRejectsBadConfig) {
   drivers::profilometer::register_profilometer_driver(registry);
   auto table = parse_toml("host = \"localhost\"\nport = 4001\n", "t.toml");
   TableReader reader(table, "t.toml", "device[0]");
-  auto d = registry.create({"prof", "profilometer-tcp", 64, reader});
+  auto d = registry.create({"prof", "profilometer-tcp", {}, reader});
   ASSERT_NE(d, nullptr);
   EXPECT_EQ(d->channels().size(), 4u);
   auto bad = parse_toml("host = \"localhost\"\n", "t.toml");
   TableReader bad_reader(bad, "t.toml", "device[0]");
-  EXPECT_THROW(registry.create({"prof", "profilometer-tcp", 64, bad_reader}), ConfigError);  // port required
+  EXPECT_THROW(registry.create({"prof", "profilometer-tcp", {}, bad_reader}), ConfigError);  // port required
 }
