@@ -1,9 +1,12 @@
 // A result's JSON read field by field (json_fields.hpp): the one set of readers the results' types use.
 #include "results/json_fields.hpp"
 
+#include <cmath>
 #include <limits>
 
 namespace guideway::results::json_fields {
+
+json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 void fail(const std::string& where, const std::string& what) {
   throw FieldError(where.empty() ? what : where + ": " + what);

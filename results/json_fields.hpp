@@ -1,8 +1,9 @@
 #pragma once
-// Reading a result's JSON field by field (results/explanation.cpp, results/dbb_record.cpp): every key optional
-// (absent: the default stays), every present one of its type, else a FieldError naming where it is
-// ("findings[2]: \"p_value\" is string, expected a number or null"), which each reader rethrows as its own
-// error (ExplanationFormatError, ParamsFormatError). Never another exception on any JSON. Internal to results/.
+// Reading a result's JSON field by field (results/explanation.cpp, results/dbb_record.cpp, results/kind_records.cpp):
+// every key optional (absent: the default stays), every present one of its type, else a FieldError naming where it
+// is ("findings[2]: \"p_value\" is string, expected a number or null"), which each reader rethrows as its own
+// error (rethrown_as: ExplanationFormatError, ParamsFormatError). Never another exception on any JSON. And the
+// one way those writers write a number that may not be finite (finite_or_null). Internal to results/.
 
 #include <cstddef>
 #include <stdexcept>
@@ -20,6 +21,19 @@ class FieldError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// `read_it()`, a FieldError it throws rethrown as the reader's own error `Error` (ParamsFormatError, ...).
+template <typename Error, typename Read>
+auto rethrown_as(Read read_it) {
+  try {
+    return read_it();
+  } catch (const FieldError& e) {
+    throw Error(e.what());
+  }
+}
+
+// `v`, or null when it is not finite (NaN: not computed; an infinite condition number: none).
+json finite_or_null(double v);
 
 // Throws FieldError "where: what" ("what" alone at the top level, where is "").
 [[noreturn]] void fail(const std::string& where, const std::string& what);

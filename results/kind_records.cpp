@@ -42,16 +42,6 @@ WaveletBand band_from(const json& o, const std::string& w) {
   return b;
 }
 
-// Its readers' failures as PARAMS' own.
-template <typename Read>
-auto as_params_error(Read read_it) {
-  try {
-    return read_it();
-  } catch (const FieldError& e) {
-    throw ParamsFormatError(e.what());
-  }
-}
-
 }  // namespace
 
 json to_json(const RunoutRevolution& r) {
@@ -71,7 +61,7 @@ json to_json(const WaveletSummary& s) {
 }
 
 RunoutRevolution revolution_from_json(const json& j) {
-  return as_params_error([&] {
+  return rethrown_as<ParamsFormatError>([&] {
     const std::string w(revolution_key);
     RunoutRevolution r;
     read(object_at(j, w), w, "samples", r.samples);
@@ -83,7 +73,7 @@ RunoutRevolution revolution_from_json(const json& j) {
 }
 
 WaveletSummary wavelet_from_json(const json& j) {
-  return as_params_error([&] {
+  return rethrown_as<ParamsFormatError>([&] {
     const std::string w(wavelet_key);
     WaveletSummary s;
     read(object_at(j, w), w, "wavelet", s.wavelet);
