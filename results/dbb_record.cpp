@@ -149,12 +149,6 @@ json estimates_json(const std::map<std::string, DbbEstimate>& estimates) {
 
 // ---- reading: every key optional, every present one of its type (json_fields.hpp) --------------------------
 
-using json_fields::read;  // beside the reader of an optional number below
-
-void read(const json& o, const std::string& where, const char* key, std::optional<double>& out) {
-  if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
-}
-
 // A number, or "not recorded" (nullopt).
 void read_recorded(const json& o, const std::string& where, const char* key, std::optional<double>& out) {
   const json* v = field(o, where, key, "a number or \"not recorded\"",

@@ -43,6 +43,9 @@ const json* object_field(const json& o, const std::string& where, const char* ke
 void read(const json& o, const std::string& where, const char* key, double& out) {
   if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
 }
+void read(const json& o, const std::string& where, const char* key, std::optional<double>& out) {
+  if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
+}
 void read(const json& o, const std::string& where, const char* key, std::string& out) {
   if (const json* v = field(o, where, key, "a text", [](const json& e) { return e.is_string(); }))
     out = v->get<std::string>();

@@ -6,6 +6,7 @@
 // one way those writers write a number that may not be finite (finite_or_null). Internal to results/.
 
 #include <cstddef>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -57,12 +58,30 @@ const json* array_field(const json& o, const std::string& where, const char* key
 const json* object_field(const json& o, const std::string& where, const char* key);
 
 void read(const json& o, const std::string& where, const char* key, double& out);  // null: NaN
+void read(const json& o, const std::string& where, const char* key, std::optional<double>& out);  // absent: none
 void read(const json& o, const std::string& where, const char* key, std::string& out);
 void read(const json& o, const std::string& where, const char* key, bool& out);
 void read(const json& o, const std::string& where, const char* key, std::size_t& out);
 void read(const json& o, const std::string& where, const char* key, std::pair<double, double>& out);
 void read(const json& o, const std::string& where, const char* key, std::vector<double>& out);
 void read(const json& o, const std::string& where, const char* key, std::vector<std::string>& out);
+
+// A struct's number under its key: the one list that the struct's writer and its reader both go through.
+template <typename T>
+struct NumberField {
+  const char* key;
+  double T::*member;
+};
+
+template <typename T, std::size_t N>
+void write_numbers(json& j, const T& t, const NumberField<T> (&fields)[N]) {
+  for (const NumberField<T>& f : fields) j[f.key] = t.*f.member;
+}
+
+template <typename T, std::size_t N>
+void read_numbers(const json& o, const std::string& where, T& t, const NumberField<T> (&fields)[N]) {
+  for (const NumberField<T>& f : fields) read(o, where, f.key, t.*f.member);
+}
 
 // The numbers (or nulls: NaN) of the array `a` at `where`.
 std::vector<double> numbers_at(const json& a, const std::string& where);

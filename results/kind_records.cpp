@@ -37,8 +37,7 @@ WaveletBand band_from(const json& o, const std::string& w) {
   WaveletBand b;
   read(o, w, "band", b.band);
   read(o, w, "coefficients", b.coefficients);
-  for (const BandValue& v : band_values)
-    if (o.contains(v.key)) read(o, w, v.key, (b.*v.value).emplace());
+  for (const BandValue& v : band_values) read(o, w, v.key, b.*v.value);
   return b;
 }
 
