@@ -209,21 +209,61 @@ int run_scenarios(const Opts& o) {
   return failed ? 1 : 0;
 }
 
+// One quantity the machine file holds beside what the explanation (or the ballbar diagnostics) found of it.
+struct HeldAndFound {
+  std::string what;             // the effect (a finding's) or the diagnostics' term
+  std::string parameter;        // as reported ("backlash_x_um", "e_x_run1_um")
+  double machine = 0.0;         // the machine file's, in the parameter's unit
+  std::string note;             // e.g. "period 4 mm"
+  std::optional<double> found;  // none: not found (not reported); null in the JSON
+  std::optional<double> u;      // its uncertainty (NaN: none; null in the JSON); none: no "u" key
+};
+
+// What `explain --machine` prints and adds to --json as "against_machine": the findings (and of a DBB test the
+// ballbar diagnostics) beside what the machine file holds (simulators/scenarios/machine_truth.hpp).
+struct MachineComparison {
+  std::string machine_file;
+  std::string plane;  // "xy", ...: the diagnostics' names are the plane's
+  std::vector<HeldAndFound> findable;
+  std::vector<HeldAndFound> diagnostics;  // Lai's base as the ballbar diagnostics report it (DBB only)
+  std::string centre_offset_sign;
+  std::vector<std::string> not_in_machine;  // effects found that the machine file does not hold
+  std::vector<simulators::scenarios::Unobservable> unobservable;
+  std::string note;
+};
+
+nlohmann::json held_and_found_json(const HeldAndFound& e, const char* what_key) {
+  nlohmann::json j = {{what_key, e.what}, {"parameter", e.parameter}, {"machine", e.machine}, {"note", e.note}};
+  j["found"] = e.found ? nlohmann::json(*e.found) : nlohmann::json();
+  if (e.u) j["u"] = std::isnan(*e.u) ? nlohmann::json() : nlohmann::json(*e.u);
+  return j;
+}
+
+nlohmann::json to_json(const MachineComparison& c) {
+  nlohmann::json findable = nlohmann::json::array(), diagnostics = nlohmann::json::array(),
+                 unobservable = nlohmann::json::array();
+  for (const auto& e : c.findable) findable.push_back(held_and_found_json(e, "effect"));
+  for (const auto& e : c.diagnostics) diagnostics.push_back(held_and_found_json(e, "term"));
+  for (const auto& u : c.unobservable) unobservable.push_back({{"what", u.what}, {"why", u.why}});
+  return {{"machine_file", c.machine_file},        {"plane", c.plane},
+          {"diagnostics", std::move(diagnostics)}, {"centre_offset_sign", c.centre_offset_sign},
+          {"findable", std::move(findable)},       {"unobservable", std::move(unobservable)},
+          {"not_in_machine", c.not_in_machine},    {"note", c.note}};
+}
+
 // Lai's base beside the ballbar diagnostics (PARAMS' "diagnostics"; a centre offset is run 1's when each
 // run has its own): every geometric term the test fits, whatever EXPLAIN finds.
-nlohmann::json diagnostics_against_machine(const results::Params& params,
-                                           const simulators::scenarios::MachineTruth& truth) {
+std::vector<HeldAndFound> diagnostics_against_machine(const results::Params& params,
+                                                      const simulators::scenarios::MachineTruth& truth) {
   const auto figure = [&](const std::string& name) { return params.find(results::diagnostics_group, name); };
-  const auto number = [](double v) { return std::isnan(v) ? nlohmann::json() : nlohmann::json(v); };
-  nlohmann::json out = nlohmann::json::array();
+  std::vector<HeldAndFound> out;
   for (const auto& item : truth.diagnostics) {
     std::string name = item.parameter;
     if (!figure(name) && figure(results::run_prefixed(1, name))) name = results::run_prefixed(1, name);
-    nlohmann::json e = {
-        {"term", item.effect}, {"parameter", name}, {"machine", item.value}, {"note", item.note}, {"found", nullptr}};
+    HeldAndFound e{item.effect, name, item.value, item.note, std::nullopt, std::nullopt};
     if (const results::Figure* f = figure(name)) {
-      e["found"] = number(f->value);
-      e["u"] = f->u ? number(*f->u) : nlohmann::json();
+      if (!std::isnan(f->value)) e.found = f->value;
+      e.u = f->u ? *f->u : NAN;
     }
     out.push_back(std::move(e));
   }
@@ -232,16 +272,16 @@ nlohmann::json diagnostics_against_machine(const results::Params& params,
 
 // The findings (and the ballbar diagnostics of `params`, PARAMS' shape: DBB only) beside what the machine file holds
 // (simulators/scenarios/machine_truth.hpp).
-nlohmann::json against_machine(const results::Explanation& explanation, const results::Params& params,
-                               const simulators::scenarios::MachineTruth& truth, const std::string& file) {
-  nlohmann::json j = {{"machine_file", file},
-                      {"plane", params.plane.empty() ? "xy" : params.plane},
-                      {"diagnostics", diagnostics_against_machine(params, truth)},
-                      {"centre_offset_sign", truth.centre_offset_sign},
-                      {"findable", nlohmann::json::array()},
-                      {"unobservable", nlohmann::json::array()},
-                      {"not_in_machine", nlohmann::json::array()},
-                      {"note", truth.note}};
+MachineComparison against_machine(const results::Explanation& explanation, const results::Params& params,
+                                  const simulators::scenarios::MachineTruth& truth, const std::string& file) {
+  MachineComparison c{file,
+                      params.plane.empty() ? "xy" : params.plane,
+                      {},
+                      diagnostics_against_machine(params, truth),
+                      truth.centre_offset_sign,
+                      {},
+                      truth.unobservable,
+                      truth.note};
   // A finding holds an item's parameter (of one record, or the first of several: _run1), at its order
   // per revolution when the item has one (a run-out line: the order found within a quarter of an order).
   const auto holds = [](const results::ExplainFinding& f,
@@ -260,81 +300,70 @@ nlohmann::json against_machine(const results::Explanation& explanation, const re
       if (const auto* p = holds(f, item)) return p;
     return nullptr;
   };
-  const auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   for (const auto& item : truth.findable) {
-    nlohmann::json e = {
-        {"effect", item.effect}, {"parameter", item.parameter}, {"machine", item.value}, {"note", item.note}};
+    HeldAndFound e{item.effect, item.parameter, item.value, item.note, std::nullopt, std::nullopt};
     if (const auto* p = found(item)) {
-      e["found"] = num(p->value);
-      e["u"] = num(p->u);
-    } else {
-      e["found"] = nullptr;
+      if (std::isfinite(p->value)) e.found = p->value;
+      e.u = std::isfinite(p->u) ? p->u : NAN;
     }
-    j["findable"].push_back(e);
+    c.findable.push_back(std::move(e));
   }
   for (const auto& f : explanation.findings) {
     const bool known = std::any_of(
         truth.findable.begin(), truth.findable.end(),
         [&](const simulators::scenarios::TruthItem& i) { return i.effect == f.effect && holds(f, i) != nullptr; });
-    if (!known) j["not_in_machine"].push_back(f.effect);
+    if (!known) c.not_in_machine.push_back(f.effect);
   }
-  for (const auto& u : truth.unobservable) j["unobservable"].push_back({{"what", u.what}, {"why", u.why}});
-  return j;
+  return c;
+}
+
+// One row of the comparison: the quantity, found (or `missing`), and the machine file's value to `digits`
+// significant digits.
+std::vector<std::string> held_and_found_row(const HeldAndFound& e, const results::ShownUnit& unit,
+                                            const results::Shown& found, const char* missing, int digits) {
+  const std::string held = significant_digits((e.machine - unit.offset) * unit.factor, digits);
+  return {e.what, found.label, e.found ? "found " + found.value + " " + found.unit : std::string(missing),
+          "machine file " + held + " " + found.unit + (e.note.empty() ? "" : "  (" + e.note + ")")};
 }
 
 // The rows of diagnostics_against_machine, then the sign of the centre offset in one sentence.
-void print_diagnostics_against_machine(const nlohmann::json& c) {
-  const nlohmann::json& items = c.at("diagnostics");
-  if (items.empty()) return;  // no run at h = 0: nothing of the kind is fitted
+void print_diagnostics_against_machine(const MachineComparison& c) {
+  if (c.diagnostics.empty()) return;  // no run at h = 0: nothing of the kind is fitted
   std::cout << "Lai's base, as the ballbar diagnostics report it (fitted whatever EXPLAIN finds):\n";
-  if (std::all_of(items.begin(), items.end(), [](const nlohmann::json& e) { return e.at("found").is_null(); })) {
+  if (std::none_of(c.diagnostics.begin(), c.diagnostics.end(),
+                   [](const HeldAndFound& e) { return e.found.has_value(); })) {
     std::cout << "  not fitted to these runs (they need an h = 0 ccw/cw pair; PARAMS' notes say why)\n";
     return;
   }
-  const std::string plane = c.at("plane").get<std::string>();
   std::vector<std::vector<std::string>> rows;
-  for (const auto& e : items) {
-    const std::string name = e.at("parameter").get<std::string>();
-    const double u = e.contains("u") && e.at("u").is_number() ? e.at("u").get<double>() : NAN;
-    const results::ShownUnit unit = results::shown_unit(name, "diagnostics");
+  for (const auto& e : c.diagnostics) {
+    const results::ShownUnit unit = results::shown_unit(e.parameter, "diagnostics");
     const results::Shown found =
-        results::shown(name, e.at("found").is_null() ? NAN : e.at("found").get<double>(), u, plane, "diagnostics");
-    const std::string held = significant_digits((e.at("machine").get<double>() - unit.offset) * unit.factor, 4);
-    const std::string note = e.at("note").get<std::string>();
-    rows.push_back({e.at("term").get<std::string>(), found.label,
-                    e.at("found").is_null() ? std::string("not reported") : "found " + found.value + " " + found.unit,
-                    "machine file " + held + " " + found.unit + (note.empty() ? "" : "  (" + note + ")")});
+        results::shown(e.parameter, e.found.value_or(NAN), e.u.value_or(NAN), c.plane, "diagnostics");
+    rows.push_back(held_and_found_row(e, unit, found, "not reported", 4));
   }
-  std::cout << aligned_rows(rows, {}) << "  (" << c.at("centre_offset_sign").get<std::string>() << ")\n";
+  std::cout << aligned_rows(rows, {}) << "  (" << c.centre_offset_sign << ")\n";
 }
 
-void print_against_machine(const nlohmann::json& c) {
+void print_against_machine(const MachineComparison& c) {
   std::cout
-      << "\nwhat the machine file holds (" << c.at("machine_file").get<std::string>()
+      << "\nwhat the machine file holds (" << c.machine_file
       << "; our own virtual machine tool, which the emulators and guideway simulate run: its errors are known):\n";
-  if (c.at("findable").empty()) std::cout << "  nothing the explanation's library names\n";
+  if (c.findable.empty()) std::cout << "  nothing the explanation's library names\n";
   std::vector<std::vector<std::string>> rows;
-  for (const auto& e : c.at("findable")) {
-    const std::string name = e.at("parameter").get<std::string>();
-    const double u = e.contains("u") && e.at("u").is_number() ? e.at("u").get<double>() : NAN;  // none: not found
-    const results::ShownUnit unit = results::shown_unit(name);
-    const results::Shown found = results::shown(name, e.at("found").is_null() ? NAN : e.at("found").get<double>(), u);
-    const std::string held = significant_digits((e.at("machine").get<double>() - unit.offset) * unit.factor, 6);
-    const std::string note = e.at("note").get<std::string>();
-    rows.push_back({e.at("effect").get<std::string>(), found.label,
-                    e.at("found").is_null() ? std::string("not found") : "found " + found.value + " " + found.unit,
-                    "machine file " + held + " " + found.unit + (note.empty() ? "" : "  (" + note + ")")});
+  for (const auto& e : c.findable) {
+    const results::ShownUnit unit = results::shown_unit(e.parameter);
+    const results::Shown found = results::shown(e.parameter, e.found.value_or(NAN), e.u.value_or(NAN));
+    rows.push_back(held_and_found_row(e, unit, found, "not found", 6));
   }
   std::cout << aligned_rows(rows, {});
   print_diagnostics_against_machine(c);
-  for (const auto& n : c.at("not_in_machine"))
-    std::cout << "  found but not in the machine file: " << n.get<std::string>() << "\n";
-  if (!c.at("unobservable").empty()) {
+  for (const auto& n : c.not_in_machine) std::cout << "  found but not in the machine file: " << n << "\n";
+  if (!c.unobservable.empty()) {
     std::cout << "not observable in this test:\n";
-    for (const auto& u : c.at("unobservable"))
-      std::cout << "  - " << u.at("what").get<std::string>() << ": " << u.at("why").get<std::string>() << "\n";
+    for (const auto& u : c.unobservable) std::cout << "  - " << u.what << ": " << u.why << "\n";
   }
-  std::cout << "note: " << c.at("note").get<std::string>() << "\n";
+  std::cout << "note: " << c.note << "\n";
 }
 
 void print_effects(bool json) {
@@ -461,7 +490,7 @@ void explain_latest(const Opts& o, CliContext& ctx) {
   throw_if_error_reply(r, o.json);
   const results::Explanation explanation = results::explanation_from_json(r);
   const results::ResultHeader header = results::read_header(r);
-  nlohmann::json comparison;
+  std::optional<MachineComparison> comparison;
   if (!o.machine.empty()) {
     const std::string& kind = header.kind;
     if (kind != results::dbb_kind.name && kind != results::runout_kind.name && kind != results::straightness_kind.name)
@@ -481,12 +510,12 @@ void explain_latest(const Opts& o, CliContext& ctx) {
         o.machine);
   }
   if (o.json) {
-    if (!comparison.is_null()) r["against_machine"] = comparison;
+    if (comparison) r["against_machine"] = to_json(*comparison);
     std::cout << r.dump() << "\n";
   } else {
     std::cout << session_line(header) << "\n";
     print_explanation(explanation);
-    if (!comparison.is_null()) print_against_machine(comparison);
+    if (comparison) print_against_machine(*comparison);
   }
 }
 
@@ -512,7 +541,7 @@ models::explain::Report explain_difference(const Opts& o, const models::explain:
 
 // --model dbb FILES: the runs explained, and with --machine the findings beside the machine file.
 models::explain::Report explain_dbb_runs(const Opts& o, const models::explain::ExplainOptions& eo,
-                                         nlohmann::json& machine_comparison) {
+                                         std::optional<MachineComparison>& machine_comparison) {
   std::vector<formats::DbbRun> runs;
   for (const auto& f : o.files) runs.push_back(formats::read_dbb_run(f));
   models::explain::Report report = models::explain::explain_dbb_report(runs, eo);
@@ -539,7 +568,7 @@ models::explain::Report explain_dbb_runs(const Opts& o, const models::explain::E
 
 // --model MODEL FILES: the base refitted to the files and what it leaves explained.
 models::explain::Report explain_files(const Opts& o, const models::explain::ExplainOptions& eo,
-                                      nlohmann::json& machine_comparison) {
+                                      std::optional<MachineComparison>& machine_comparison) {
   if (o.model.empty()) throw std::runtime_error("explain: give --model MODEL FILES..., or --simulated and --measured");
   if (o.files.empty()) throw std::runtime_error("explain: --model " + o.model + " needs at least one file");
   if (o.model == "dbb") return explain_dbb_runs(o, eo, machine_comparison);
@@ -592,22 +621,22 @@ void run_explain(const Opts& o, CliContext& ctx) {
   Progress progress("explain", o.quiet || o.json);
   progress.doing("reading the files and fitting the base model");
   eo.on_progress = [&progress](const std::string& doing) { progress.doing(doing); };
-  nlohmann::json machine_comparison;
+  std::optional<MachineComparison> machine_comparison;
   const models::explain::Report report = !o.simulated.empty() || !o.measured.empty()
                                              ? explain_difference(o, eo)
                                              : explain_files(o, eo, machine_comparison);
-  if (!o.machine.empty() && machine_comparison.is_null())
+  if (!o.machine.empty() && !machine_comparison)
     throw std::runtime_error(
         "explain: --machine compares DBB runs, run-out records and traverses only (--model dbb|runout|traverse or "
         "--latest)");
   progress.doing("");
   if (o.json) {
     nlohmann::json j = results::to_json(models::explain::explanation_of(report));
-    if (!machine_comparison.is_null()) j["against_machine"] = machine_comparison;
+    if (machine_comparison) j["against_machine"] = to_json(*machine_comparison);
     std::cout << j.dump() << "\n";
   } else {
     std::cout << models::explain::to_text(report);
-    if (!machine_comparison.is_null()) print_against_machine(machine_comparison);
+    if (machine_comparison) print_against_machine(*machine_comparison);
   }
 }
 

@@ -8,6 +8,7 @@
 #include "cli/commands.hpp"
 #include "cli/params_print.hpp"
 #include "results/message_class.hpp"
+#include "results/result_header.hpp"
 #include "sessions/replay.hpp"
 #include "sessions/session_kinds.hpp"
 
@@ -26,6 +27,19 @@ std::string incomplete_note(const sessions::ReplayResult& r) {
     return " (recording marked aborted: the daemon stopped mid-session, or the live identification failed)";
   }
   return " (incomplete recording: the session was interrupted)";
+}
+
+// The PARAMS and EXPLAIN messages of a replay, written from its types as the daemon writes the live session's.
+nlohmann::json params_message(const sessions::ReplayResult& r) {
+  return results::with_class(results::MessageClass::params,
+                             results::with_header(results::to_json(*r.parameters), r.header));
+}
+
+nlohmann::json explain_message(const sessions::ReplayResult& r) {
+  results::ResultHeader header = r.header;
+  header.samples.reset();  // an EXPLAIN names its session, not what it was fed
+  return results::with_class(results::MessageClass::explain,
+                             results::with_header(results::to_json(*r.explanation), header));
 }
 
 struct ReplayArgs {
@@ -56,12 +70,12 @@ bool replay_one(const std::string& path, const sessions::SessionRegistry& regist
     return false;
   }
   if (json) {
-    std::cout << r.params.dump() << "\n";
-    if (!r.explain.is_null()) std::cout << r.explain.dump() << "\n";
+    std::cout << params_message(r).dump() << "\n";
+    if (r.explanation) std::cout << explain_message(r).dump() << "\n";
     return true;
   }
   std::cout << "replayed " << path << ": " << r.samples << " samples" << incomplete_note(r) << "\n";
-  print_params(r.params);
+  print_params(params_message(r));
   if (r.explanation) print_explanation(*r.explanation);
   if (!r.explain_failure.empty()) std::cout << "explanation failed: " << r.explain_failure << "\n";
   return true;

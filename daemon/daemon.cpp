@@ -246,24 +246,20 @@ Daemon::Daemon(DaemonConfig config, drivers::DriverRegistry& registry, const ses
     const SocketServer::Batch batch(*server_);  // one write per client for the whole outbox batch
     for (Message& m : outbox_.take()) {
       if (m.cls == results::MessageClass::params) {
-        const nlohmann::json& j = m.body;
         // The newest per kind, and per axis for a kind whose sessions name one (a traverse of each carriage).
-        std::erase_if(latest_params_, [&](const nlohmann::json& p) {
-          return p["kind"] == j["kind"] && p.value("axis", "") == j.value("axis", "");
-        });
-        latest_params_.push_back(j);
-        log_->info("session {}: parameters identified", j.value("session", "?"));
+        std::erase_if(latest_params_, [&](const LatestResult& p) { return p.kind == m.kind && p.axis == m.axis; });
+        latest_params_.push_back({m.kind, m.axis, m.session, m.body});
+        log_->info("session {}: parameters identified", m.session);
       } else if (m.cls == results::MessageClass::explain) {
-        const nlohmann::json& j = m.body;
-        std::erase_if(latest_explain_, [&](const nlohmann::json& p) { return p["kind"] == j["kind"]; });
+        std::erase_if(latest_explain_, [&](const LatestResult& p) { return p.kind == m.kind; });
         try {  // the session manager's own results::to_json: read back as the type
-          const results::Explanation e = results::explanation_from_json(j);
-          log_->info("session {}: {} finding(s){}", j.value("session", "?"), e.findings.size(),
+          const results::Explanation e = results::explanation_from_json(m.body);
+          log_->info("session {}: {} finding(s){}", m.session, e.findings.size(),
                      e.unexplained ? ", a structured residual is left unexplained" : "");
         } catch (const results::ExplanationFormatError& e) {
-          log_->warn("session {}: its EXPLAIN does not read back: {}", j.value("session", "?"), e.what());
+          log_->warn("session {}: its EXPLAIN does not read back: {}", m.session, e.what());
         }
-        latest_explain_.push_back(j);
+        latest_explain_.push_back({m.kind, m.axis, m.session, m.body});
       } else if (m.cls == results::MessageClass::event) {
         const nlohmann::json& j = m.body;
         if (j.contains("session")) {
@@ -567,11 +563,11 @@ nlohmann::json Daemon::handle_watch(ClientId client, const Request& req) {
 }
 
 nlohmann::json Daemon::handle_params(ClientId, const Request& req) {
-  return latest_of(latest_params_, req, "parameters identified");
+  return latest_of(latest_params_, req, "parameters identified").message;
 }
 
 nlohmann::json Daemon::handle_explain(ClientId, const Request& req) {
-  return latest_of(latest_explain_, req, "explanation");
+  return latest_of(latest_explain_, req, "explanation").message;
 }
 
 void Daemon::broadcast(const Message& message) {
@@ -579,7 +575,7 @@ void Daemon::broadcast(const Message& message) {
     if (message.cls == results::MessageClass::params || message.cls == results::MessageClass::explain) {
       mqtt_->publish(
           message.cls == results::MessageClass::params ? plant::TopicLeaf::params : plant::TopicLeaf::explain,
-          message.body.value("kind", "unknown"), message.line);
+          message.kind.empty() ? "unknown" : message.kind, message.line);
     } else if (message.cls == results::MessageClass::event) {
       // The order of eviction (docs/plant.md): a session's news is a result, a device's inner events go first.
       const plant::JournalShare share = !message.session.empty() ? plant::JournalShare::results
@@ -669,14 +665,14 @@ nlohmann::json Daemon::handle_stop(ClientId, const Request& req) {
                              {{"sessions", names}, {"state", to_string(SessionState::finishing)}});
 }
 
-nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
-                                 const std::string& what) const {
+const Daemon::LatestResult& Daemon::latest_of(const std::vector<LatestResult>& latest, const Request& req,
+                                              const std::string& what) const {
   const std::string kind = string_field(req.body, "kind");
   const std::string session = string_field(req.body, "session");
   const std::string axis = string_field(req.body, "axis");
-  const auto matches = [&](const nlohmann::json& j) {
-    return (kind.empty() || j["kind"] == kind) && (session.empty() || j["session"] == session) &&
-           (axis.empty() || j.value("axis", "") == axis);
+  const auto matches = [&](const LatestResult& r) {
+    return (kind.empty() || r.kind == kind) && (session.empty() || r.session == session) &&
+           (axis.empty() || r.axis == axis);
   };
   // The newest session asked for says why there is none, or that it is on its way: it runs, it is being
   // finished (its PARAMS out, its EXPLAIN still computed: an older session's would be the wrong one), or it
@@ -687,7 +683,7 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
   });
   const std::string none = "no " + what + " yet" + (kind.empty() ? std::string() : " for " + kind);
   if (newest != infos.rend() && newest->state == SessionState::finishing &&
-      std::none_of(latest.begin(), latest.end(), [&](const nlohmann::json& j) { return j["session"] == newest->name; }))
+      std::none_of(latest.begin(), latest.end(), [&](const LatestResult& r) { return r.session == newest->name; }))
     throw NotYet(none + ": session " + newest->name + " has ended and is being finished (identified, explained, "
                      "reported); ask again in moments",
                  newest->name);
@@ -711,8 +707,8 @@ nlohmann::json Daemon::latest_of(const std::vector<nlohmann::json>& latest, cons
 }
 
 nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
-  const nlohmann::json params = latest_of(latest_params_, req, "session finished");
-  const std::string session = params.value("session", "");
+  const LatestResult& params = latest_of(latest_params_, req, "session finished");
+  const std::string session = params.session;
   const std::string path = report_path(config_.state_dir, session);
   std::ifstream in(path, std::ios::binary);
   if (!in) {
@@ -727,7 +723,7 @@ nlohmann::json Daemon::handle_report(ClientId, const Request& req) {
   html << in.rdbuf();
   return results::with_class(
       results::MessageClass::report,
-      {{"session", session}, {"kind", params.value("kind", "")}, {"file", path}, {"html", html.str()}});
+      {{"session", session}, {"kind", params.kind}, {"file", path}, {"html", html.str()}});
 }
 
 nlohmann::json Daemon::handle_recordings(ClientId, const Request&) {

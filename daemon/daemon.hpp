@@ -96,8 +96,15 @@ class Daemon {
     NotYet(const std::string& what, std::string pending) : std::invalid_argument(what), session(std::move(pending)) {}
     std::string session;
   };
-  nlohmann::json latest_of(const std::vector<nlohmann::json>& latest, const Request& req,
-                           const std::string& what) const;
+  // The newest PARAMS or EXPLAIN of a session kind (and axis), as published (answered byte for byte).
+  struct LatestResult {
+    std::string kind;
+    std::string axis;  // a traverse's PARAMS: its machine axis
+    std::string session;
+    nlohmann::json message;
+  };
+  const LatestResult& latest_of(const std::vector<LatestResult>& latest, const Request& req,
+                                const std::string& what) const;
   nlohmann::json sessions_json() const;
   // A STATUS device's "instrument" (as configured, judged today) and "warnings" (calibration run out,
   // the driver's own: a serial that is not the configured one).
@@ -134,9 +141,9 @@ class Daemon {
   EventLoop loop_;
   Outbox outbox_;
   std::unique_ptr<Pipeline> pipeline_;
-  SessionManager* sessions_ = nullptr;          // owned by pipeline_ (a stage)
-  std::vector<nlohmann::json> latest_params_;   // newest PARAMS per session kind (and axis, when it names one)
-  std::vector<nlohmann::json> latest_explain_;  // newest EXPLAIN per session kind
+  SessionManager* sessions_ = nullptr;        // owned by pipeline_ (a stage)
+  std::vector<LatestResult> latest_params_;   // newest PARAMS per session kind (and axis, when it names one)
+  std::vector<LatestResult> latest_explain_;  // newest EXPLAIN per session kind
   std::unique_ptr<SocketServer> server_;
   std::unique_ptr<plant::Publisher> mqtt_;  // [mqtt]: PARAMS, EXPLAIN, EVENTs and the device table to the broker
   SystemdNotifier notifier_;

@@ -17,9 +17,13 @@ struct Message {
   results::MessageClass cls = results::MessageClass::event;
   std::string channel;  // the device it is about ("" = none)
   std::string session;  // the session it is about ("" = none): its watchers by name get it too
-  nlohmann::json body;  // the object, kept for PARAMS, EXPLAIN and EVENT (the daemon reads them); else null
+  nlohmann::json body;  // the object, kept for PARAMS, EXPLAIN and EVENT (the daemon answers and reads them); else null
   std::string line;     // the encoded object, no newline
   bool device_news = false;  // an EVENT of what happened inside a device, not a change of state (Event)
+  // A PARAMS or EXPLAIN: its session's kind and (a traverse's PARAMS) its axis, what the daemon keeps the newest
+  // result by (set where the message is made, from the session and its types).
+  std::string kind{};
+  std::string axis{};
 };
 
 Message make_message(results::MessageClass cls, nlohmann::json body, std::string channel = {},

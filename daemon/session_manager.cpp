@@ -345,6 +345,7 @@ std::optional<std::string> SessionManager::post_explanation(Running& r, SessionA
     Message message =
         make_message(results::MessageClass::explain, results::with_header(results::to_json(*explained), header_of(r)),
                      info.device, info.name);
+    message.kind = info.kind;
     const nlohmann::json& explanation = message.body;
     outbox_.post(message);
     // Kept beside the recording for the session's report (guideway report reads it too). The
@@ -470,8 +471,11 @@ void SessionManager::finish(std::unique_ptr<Running> r) {
     header.recording = info.recording;
     header.recording_error = info.recording_error;
     header.derived = derived;
-    outbox_.post(make_message(results::MessageClass::params, results::with_header(results::to_json(params), header),
-                              info.device, info.name));
+    Message message = make_message(results::MessageClass::params,
+                                   results::with_header(results::to_json(params), header), info.device, info.name);
+    message.kind = info.kind;
+    message.axis = params.axis;
+    outbox_.post(std::move(message));
     if (const auto explanation = post_explanation(*r, *analysis)) derived.push_back(*explanation);
     write_session_report(*r, derived, *analysis);
   }

@@ -43,8 +43,6 @@ constexpr const char* not_recorded = "not recorded";
 
 // ---- writing ---------------------------------------------------------------------------------------------
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
 json estimate_json(const DbbEstimate& e) {
   json j = {{"value", e.value}};
   if (e.u) j["u"] = *e.u;
@@ -70,7 +68,7 @@ json contributions_json(const std::vector<DbbContribution>& list, bool with_plan
   for (const DbbContribution& c : list) {
     json j = {{"name", c.name},
               {"contribution_um", c.contribution_um},
-              {"percent_of_circular_deviation", num(c.percent_of_circular_deviation)}};
+              {"percent_of_circular_deviation", finite_or_null(c.percent_of_circular_deviation)}};
     if (with_plane) j["plane"] = c.plane;
     a.push_back(std::move(j));
   }
@@ -150,12 +148,6 @@ json estimates_json(const std::map<std::string, DbbEstimate>& estimates) {
 }
 
 // ---- reading: every key optional, every present one of its type (json_fields.hpp) --------------------------
-
-using json_fields::read;  // beside the reader of an optional number below
-
-void read(const json& o, const std::string& where, const char* key, std::optional<double>& out) {
-  if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
-}
 
 // A number, or "not recorded" (nullopt).
 void read_recorded(const json& o, const std::string& where, const char* key, std::optional<double>& out) {
@@ -347,11 +339,7 @@ json to_json(const DbbRecord& r) {
 }
 
 DbbRecord dbb_record_from_json(const json& j) {
-  try {
-    return read_record(j);
-  } catch (const FieldError& e) {
-    throw ParamsFormatError(e.what());
-  }
+  return rethrown_as<ParamsFormatError>([&] { return read_record(j); });
 }
 
 }  // namespace guideway::results

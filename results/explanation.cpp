@@ -1,8 +1,6 @@
 // An explanation's JSON (explanation.hpp), written and read: the one place EXPLAIN's keys are spelled.
 #include "results/explanation.hpp"
 
-#include <cmath>
-
 #include <nlohmann/json.hpp>
 
 #include "results/json_fields.hpp"
@@ -15,20 +13,22 @@ using nlohmann::json;
 
 // ---- writing ---------------------------------------------------------------------------------------------
 
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+using json_fields::finite_or_null;
 
-json pair_json(const std::pair<double, double>& p) { return json::array({num(p.first), num(p.second)}); }
+json pair_json(const std::pair<double, double>& p) {
+  return json::array({finite_or_null(p.first), finite_or_null(p.second)});
+}
 
 json numbers_json(const std::vector<double>& v) {
   json a = json::array();
-  for (const double e : v) a.push_back(num(e));
+  for (const double e : v) a.push_back(finite_or_null(e));
   return a;
 }
 
 json fit_json(const ExplainFit& f) {
-  return {{"rms_um", num(f.rms_um)},
-          {"bic", num(f.bic)},
-          {"heldout_rms_um", num(f.heldout_rms_um)},
+  return {{"rms_um", finite_or_null(f.rms_um)},
+          {"bic", finite_or_null(f.bic)},
+          {"heldout_rms_um", finite_or_null(f.heldout_rms_um)},
           {"parameters", f.parameters}};
 }
 
@@ -37,7 +37,7 @@ json location_json(const ExplainLocation& l) {
             {"source", l.source},
             {"where", pair_json(l.where)},
             {"t_machine_s", pair_json(l.t_machine_s)},
-            {"peak_um", num(l.peak_um)},
+            {"peak_um", finite_or_null(l.peak_um)},
             {"once", l.repeats_in.empty()},
             {"repeats_in", l.repeats_in},
             {"set_aside", l.set_aside}};
@@ -65,16 +65,17 @@ json places_json(const std::vector<ExplainPlace>& places) {
 
 json finding_json(const ExplainFinding& f) {
   json parameters = json::object();
-  for (const auto& [name, e] : f.parameters) parameters[name] = {{"value", num(e.value)}, {"u", num(e.u)}};
+  for (const auto& [name, e] : f.parameters)
+    parameters[name] = {{"value", finite_or_null(e.value)}, {"u", finite_or_null(e.u)}};
   return {{"effect", f.effect},
           {"parameters", std::move(parameters)},
-          {"delta_bic", num(f.delta_bic)},
-          {"p_value", num(f.p_value)},
-          {"rms_um_after", num(f.rms_um_after)},
-          {"heldout_rms_um_after", num(f.heldout_rms_um_after)},
-          {"structure_removed", num(f.structure_removed)},
-          {"contribution_um", num(f.contribution_um)},
-          {"percent_of_deviation", num(f.percent_of_deviation)},
+          {"delta_bic", finite_or_null(f.delta_bic)},
+          {"p_value", finite_or_null(f.p_value)},
+          {"rms_um_after", finite_or_null(f.rms_um_after)},
+          {"heldout_rms_um_after", finite_or_null(f.heldout_rms_um_after)},
+          {"structure_removed", finite_or_null(f.structure_removed)},
+          {"contribution_um", finite_or_null(f.contribution_um)},
+          {"percent_of_deviation", finite_or_null(f.percent_of_deviation)},
           {"why", f.why}};
 }
 
@@ -212,19 +213,21 @@ json to_json(const Explanation& e) {
   j["model"] = e.model;
   j["n"] = e.n;
   if (e.set_aside_samples > 0) j["set_aside_samples"] = e.set_aside_samples;
-  j["noise_um"] = num(e.noise_um);
+  j["noise_um"] = finite_or_null(e.noise_um);
   j["heldout_scheme"] = e.heldout_scheme;
   j["baseline"] = fit_json(e.baseline);
   j["mismatch"] = places_json(e.mismatch);
   j["findings"] = findings_json(e.findings);
   j["final"] = fit_json(e.final_fit);
   j["unexplained"] = e.unexplained;
-  if (e.deviation) j["deviation"] = {{"name", e.deviation->name}, {"value_um", num(e.deviation->value_um)}};
+  if (e.deviation) j["deviation"] = {{"name", e.deviation->name}, {"value_um", finite_or_null(e.deviation->value_um)}};
   j["remaining"] = places_json(e.remaining);
   json considered = json::array();
   for (const auto& k : e.considered)
-    considered.push_back(
-        {{"effect", k.effect}, {"delta_bic", num(k.delta_bic)}, {"p_value", num(k.p_value)}, {"verdict", k.verdict}});
+    considered.push_back({{"effect", k.effect},
+                          {"delta_bic", finite_or_null(k.delta_bic)},
+                          {"p_value", finite_or_null(k.p_value)},
+                          {"verdict", k.verdict}});
   j["considered"] = std::move(considered);
   j["notes"] = e.notes;
   if (e.residuals) j["residuals"] = residuals_json(*e.residuals);
@@ -264,11 +267,7 @@ Explanation read_explanation(const json& j) {
 }  // namespace
 
 Explanation explanation_from_json(const json& j) {
-  try {
-    return read_explanation(j);
-  } catch (const json_fields::FieldError& e) {
-    throw ExplanationFormatError(e.what());
-  }
+  return json_fields::rethrown_as<ExplanationFormatError>([&] { return read_explanation(j); });
 }
 
 bool is_explanation(const json& j) {
@@ -282,7 +281,7 @@ bool is_explanation(const json& j) {
 json found_json(const Explanation& e) {
   json j = {{"findings", json::array()}, {"unexplained", e.unexplained}};
   for (const auto& f : e.findings)
-    j["findings"].push_back({{"effect", f.effect}, {"contribution_um", num(f.contribution_um)}});
+    j["findings"].push_back({{"effect", f.effect}, {"contribution_um", finite_or_null(f.contribution_um)}});
   if (!e.not_analysed.empty()) j["not_analysed"] = e.not_analysed;
   return j;
 }

@@ -1,9 +1,12 @@
 // A result's JSON read field by field (json_fields.hpp): the one set of readers the results' types use.
 #include "results/json_fields.hpp"
 
+#include <cmath>
 #include <limits>
 
 namespace guideway::results::json_fields {
+
+json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 void fail(const std::string& where, const std::string& what) {
   throw FieldError(where.empty() ? what : where + ": " + what);
@@ -38,6 +41,9 @@ const json* object_field(const json& o, const std::string& where, const char* ke
 }
 
 void read(const json& o, const std::string& where, const char* key, double& out) {
+  if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
+}
+void read(const json& o, const std::string& where, const char* key, std::optional<double>& out) {
   if (const json* v = field(o, where, key, "a number or null", is_number_or_null)) out = number_of(*v);
 }
 void read(const json& o, const std::string& where, const char* key, std::string& out) {

@@ -130,7 +130,12 @@ json to_json(const Params& p) {
     for (auto it = dbb.begin(); it != dbb.end(); ++it) j[it.key()] = std::move(it.value());
   }
   if (p.revolution) j[std::string(revolution_key)] = to_json(*p.revolution);
+  if (p.runout_result) j[std::string(result_key)] = to_json(*p.runout_result);
+  if (p.traverse) j[std::string(traverse_key)] = to_json(*p.traverse);
+  if (p.traverse_result) j[std::string(result_key)] = to_json(*p.traverse_result);
   if (p.wavelet) j[std::string(wavelet_key)] = to_json(*p.wavelet);
+  if (p.points) j[std::string(points_key)] = to_json(*p.points);
+  if (p.profile_id) j[std::string(profile_id_key)] = profile_id_json(*p.profile_id);
   if (!p.planes.empty()) j["planes"] = planes_json(p.planes);
   for (const auto& [key, member] : text_fields)
     if (!(p.*member).empty()) j[key] = p.*member;
@@ -162,8 +167,18 @@ Params params_from_json(const json& j) {
       dbb[key] = v;
     } else if (key == revolution_key) {
       p.revolution = revolution_from_json(v);
+    } else if (key == result_key && result_model(v) == runout_model) {
+      p.runout_result = runout_result_from_json(v);
+    } else if (key == result_key && result_model(v) == traverse_model) {
+      p.traverse_result = traverse_result_from_json(v);
+    } else if (key == traverse_key) {
+      p.traverse = traverse_setup_from_json(v);
     } else if (key == wavelet_key) {
       p.wavelet = wavelet_from_json(v);
+    } else if (key == points_key) {
+      p.points = points_from_json(v);
+    } else if (key == profile_id_key) {
+      p.profile_id = profile_id_from_json(v);
     } else if (key == "planes") {
       p.planes = planes_from(v);
     } else if (is_figure_group(v)) {

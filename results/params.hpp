@@ -7,12 +7,12 @@
 // is written by to_json and read by params_from_json only. A figure's value the JSON gives as null (not
 // computed, not finite) is NaN here. Pure; thread safe.
 //
-// The model's own record of how it fitted, typed where a reader reads it: `dbb`, a DBB identification's
-// (dbb_record.hpp: its runs, fits, standards' figures, ranking and notes, and of a test of several planes the
-// machine across them), `revolution`, a run-out's, and `wavelet`, a profile's bands (kind_records.hpp), and of
-// a test of several planes each plane's PARAMS (`planes`). `record` is the rest, key by key as the model writes
-// it: a traverse's stations and polynomial ("result", "traverse"), a run-out's model result, a profile's points.
-// No reader above the sessions reads them but the CLI's printer, `explain --machine` and --json.
+// The model's own record of how it fitted, typed: `dbb`, a DBB identification's (dbb_record.hpp: its runs, fits,
+// standards' figures, ranking and notes, and of a test of several planes the machine across them), a run-out's
+// revolution and model result, a profile's wavelet bands, points and number (kind_records.hpp), a traverse's set-up
+// and model result (traverse_record.hpp), and of a test of several planes each plane's PARAMS (`planes`). What
+// none of them holds stays in `record`, key by key as it came: a session kind results/ does not type (a test's), a
+// newer release's keys from a broker or a file. No session kind of this release writes one.
 
 #include <limits>
 #include <map>
@@ -28,6 +28,7 @@
 #include "results/dbb_record.hpp"
 #include "results/kind_records.hpp"
 #include "results/parameters.hpp"
+#include "results/traverse_record.hpp"
 
 namespace guideway::results {
 
@@ -65,11 +66,16 @@ struct Params {
   std::string test;        // a DBB session's test ("standard", "three-plane"); ""
   std::string incomplete;  // what a session stopped early lacks ("3 of 4 patterns traced"); "": complete
   std::vector<FigureGroup> groups;
-  std::optional<DbbRecord> dbb;                      // a DBB identification's record (above)
-  std::optional<RunoutRevolution> revolution;        // a run-out's
-  std::optional<WaveletSummary> wavelet;             // a profile's
-  std::map<std::string, PlaneParams> planes;         // a test of several planes: each plane's (the first's is this)
-  nlohmann::json record = nlohmann::json::object();  // the rest of the model's record (above), an object
+  std::optional<DbbRecord> dbb;                        // a DBB identification's record (above)
+  std::optional<RunoutRevolution> revolution;          // a run-out's
+  std::optional<RunoutModelResult> runout_result;      // a run-out's model result ("result")
+  std::optional<TraverseSetup> traverse;               // a traverse's set-up
+  std::optional<TraverseModelResult> traverse_result;  // a traverse's model result ("result")
+  std::optional<WaveletSummary> wavelet;               // a profile's
+  std::optional<ProfilePoints> points;                 // a profile's
+  std::optional<ProfileId> profile_id;                 // a profile session's
+  std::map<std::string, PlaneParams> planes;           // a test of several planes: each plane's (the first's is this)
+  nlohmann::json record = nlohmann::json::object();    // what none of the above holds (above), an object
 
   [[nodiscard]] const FigureGroup* group(std::string_view name) const;
   // The figure `name` of group `group`; nullptr when either is absent.
@@ -95,8 +101,9 @@ class ParamsFormatError : public std::runtime_error {
 // The PARAMS a JSON object holds (a PARAMS message: its header is left out). A key whose value is an object of
 // figures (each an object of "value", and "u" or "not_determined" only) is a group; "model", "plane", "axis",
 // "test" and "incomplete" must be texts; a DBB record's keys (is_dbb_record_key) are read into `dbb`
-// (dbb_record_from_json), "revolution" and "wavelet" into theirs, "planes" (each an object: "error", or a
-// plane's PARAMS, itself without planes) into `planes`; every other key is the record's. A figure
+// (dbb_record_from_json), "revolution", "traverse", "wavelet", "points" and "profile_id" into theirs, "result" into
+// the run-out's or the traverse's model result by the model it names (result_model), "planes" (each an object:
+// "error", or a plane's PARAMS, itself without planes) into `planes`; every other key is the record's. A figure
 // whose value or u is not a number (or null), a record's key of the wrong type, or a non-object, throws
 // ParamsFormatError: what comes from a broker or a file goes through here, a bad payload is an error, never
 // undefined behaviour.

@@ -137,8 +137,7 @@ results::Params evaluate_profile(const formats::Profile& profile, const ProfileE
     wavelet_summary.bands.push_back(std::move(band));
   }
   wavelet_summary.dominant_detail = wavelet_summary.bands[dominant].band;  // level >= 1: band 1 is a detail
-  p.record["points"] = {
-      {"count", n}, {"invalid", invalid}, {"spacing_um", *spacing * 1e6}, {"length_mm", x_mm.back() - x_mm.front()}};
+  p.points = results::ProfilePoints{n, invalid, *spacing * 1e6, x_mm.back() - x_mm.front()};
   return p;
 }
 
@@ -237,7 +236,7 @@ class ProfileSession : public Session {
     const formats::Profile read = formats::parse_profile_csv(text_, "profile");
     try {
       results::Params params = evaluate_profile(read, o_.eval);
-      params.record["profile_id"] = static_cast<std::uint64_t>(profile_id_);
+      params.profile_id = static_cast<std::uint64_t>(profile_id_);
       return params;
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());

@@ -7,8 +7,6 @@
 
 #include "core/utc_time.hpp"
 #include "formats/raw_recording.hpp"
-#include "results/message_class.hpp"
-#include "results/result_header.hpp"
 
 namespace guideway::sessions {
 
@@ -66,7 +64,7 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
     result.failure = e.what();
     return result;
   }
-  results::ResultHeader header;
+  results::ResultHeader& header = result.header;
   header.session = recording.required("session");
   header.kind = kind_name;
   header.device = device.name();
@@ -77,15 +75,8 @@ ReplayResult replay_recording(const std::string& path, const SessionRegistry& re
   if (const auto started =
           parse_utc_iso(recording.metadata.count("started_utc") ? recording.metadata.at("started_utc") : ""))
     header.instrument_checked_on = utc_date(*started);
-  result.params = results::with_class(results::MessageClass::params,
-                                      results::with_header(results::to_json(*result.parameters), header));
   try {
-    if (auto explanation = session->explain()) {
-      header.samples.reset();  // an EXPLAIN names its session, not what it was fed
-      result.explain = results::with_class(results::MessageClass::explain,
-                                           results::with_header(results::to_json(*explanation), header));
-      result.explanation = std::move(explanation);
-    }
+    result.explanation = session->explain();
   } catch (const std::exception& e) {
     result.explain_failure = e.what();
   }

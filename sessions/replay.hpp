@@ -1,8 +1,8 @@
 #pragma once
 // Replay of a session's raw recording (guideway/raw/1, docs/formats.md): the samples go through the
 // session kind that made the recording exactly as the daemon fed them live (the same SessionKind and
-// identification code, the raw samples), so the result is the PARAMS the live session published. Like gpsd's gpsfake, it makes every live result
-// reproducible and regression-testable offline.
+// identification code, the raw samples), so the result is the PARAMS the live session published. Like gpsd's gpsfake,
+// it makes every live result reproducible and regression-testable offline.
 
 #include <cstdint>
 #include <optional>
@@ -11,10 +11,9 @@
 #include <utility>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "results/explanation.hpp"
 #include "results/params.hpp"
+#include "results/result_header.hpp"
 #include "sessions/session.hpp"
 
 namespace guideway::sessions {
@@ -30,19 +29,20 @@ class RecordedDevice : public drivers::Driver {
   void run(std::stop_token) override {}
 };
 
+// What the live session published, as types: whoever sends it on writes the messages (results::to_json,
+// with_header, with_class), as the daemon does.
 struct ReplayResult {
-  // The PARAMS message (identified parameters, plus class, session, kind, device, samples and
-  // `replayed_from`); empty when identification failed.
-  nlohmann::json params;
-  std::optional<results::Params> parameters;  // what the PARAMS message holds, for its readers
-  nlohmann::json explain;       // the EXPLAIN message, null when the kind has none or it failed
-  std::optional<results::Explanation> explanation;  // what the EXPLAIN message holds, for its readers
-  std::string explain_failure;  // why the explanation failed (the live explain_failed reason)
-  std::string failure;          // why identification failed (the live session's session_failed reason)
-  std::size_t samples = 0;      // samples replayed
-  bool complete = true;         // false: a .part, no `# end =` trailer, `end = aborted`, or samples lost
-  std::string end_marker;       // the trailer's `end` (complete, aborted), "" when there is none
-  std::uint64_t samples_lost = 0;  // the trailer's `samples_lost`: rows the recorder could not write
+  // The PARAMS' header: session, kind, device, samples, `replayed_from`, the instrument judged on the day the
+  // session started. An EXPLAIN's is the same without `samples` (it names its session, not what it was fed).
+  results::ResultHeader header;
+  std::optional<results::Params> parameters;        // the identified parameters; none when identification failed
+  std::optional<results::Explanation> explanation;  // none when the kind has no explanation or it failed
+  std::string explain_failure;                      // why the explanation failed (the live explain_failed reason)
+  std::string failure;                   // why identification failed (the live session's session_failed reason)
+  std::size_t samples = 0;               // samples replayed
+  bool complete = true;                  // false: a .part, no `# end =` trailer, `end = aborted`, or samples lost
+  std::string end_marker;                // the trailer's `end` (complete, aborted), "" when there is none
+  std::uint64_t samples_lost = 0;        // the trailer's `samples_lost`: rows the recorder could not write
   std::size_t dropped_partial_line = 0;  // 1 when a last line without its newline was ignored (a kill)
   std::string note;  // why the result may differ from the live one (a recording of an older release)
 };

@@ -101,9 +101,9 @@ class RunoutSession : public Session {
     text_ = revolution_text();
     const models::flatness::RunoutRevolution rev = models::flatness::parse_runout_revolution(text_, "revolution");
     const models::flatness::RunoutResult r = models::flatness::identify_runout(rev);
-    nlohmann::json result = models::flatness::runout_json(rev);
+    results::RunoutModelResult result = models::flatness::runout_model_result(rev);
     results::Params p;
-    p.model = result["model"].get<std::string>();
+    p.model = result.model;
     // The headline figures named by their catalogue entries (results/parameters.hpp), where the fleet reads them.
     const std::string_view group = results::runout_squareness.group;
     results::FigureGroup& g = p.group_named(group);
@@ -119,19 +119,19 @@ class RunoutSession : public Session {
     revolution.samples = r.samples;
     revolution.rpm = o_.rpm;
     revolution.covered_deg = angle_deg_.back();
-    if (result.contains("error_motion")) {
+    if (const auto& motion = result.error_motion) {
       // ISO 230-7 values: peaks-to-valleys of the record as measured (no uncertainty of their own).
       const std::string_view em_group = results::total_error_motion.group;
       results::FigureGroup& em = p.group_named(em_group);
-      for (const results::Parameter* e : {&results::total_error_motion, &results::synchronous_error_motion,
-                                          &results::asynchronous_error_motion, &results::fundamental_error_motion}) {
-        const std::string name = results::name(*e);
-        em.figures.push_back(results::figure(name, result["error_motion"][name].get<double>(), std::nullopt, em_group));
-      }
-      revolution.revolutions = result["error_motion"]["revolutions"].get<std::size_t>();
+      for (const auto& [entry, value] : {std::pair{&results::total_error_motion, motion->total_um},
+                                         std::pair{&results::synchronous_error_motion, motion->synchronous_um},
+                                         std::pair{&results::asynchronous_error_motion, motion->asynchronous_um},
+                                         std::pair{&results::fundamental_error_motion, motion->fundamental_um}})
+        em.figures.push_back(results::figure(results::name(*entry), value, std::nullopt, em_group));
+      revolution.revolutions = motion->revolutions;
     }
     if (!done_) p.incomplete = shortest(angle_deg_.back()) + " of " + shortest(o_.revolutions * 360.0) + " deg";
-    p.record["result"] = result;
+    p.runout_result = std::move(result);
     return p;
   }
 

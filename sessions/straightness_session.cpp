@@ -185,11 +185,11 @@ class StraightnessSession : public Session {
     const models::flatness::AngleTraverse tr =
         models::flatness::parse_angle_traverse(text_, "traverse", o_.model.instrument);
     const models::flatness::StraightnessResult r = models::flatness::identify_straightness(tr, o_.model);
-    nlohmann::json result = models::flatness::to_json(r);
-    result.erase("source");
+    results::TraverseModelResult result = models::flatness::traverse_model_result(r);
+    result.source.reset();  // the session's file is its derived file, named in the header
     results::Params p;
     p.axis = std::string(1, "xyz"[o_.axis]);  // the daemon keeps the newest PARAMS per kind and axis
-    p.model = result["model"].get<std::string>();
+    p.model = result.model;
     const std::string_view group = results::horizontal_straightness.group;
     results::FigureGroup& g = p.group_named(group);
     auto add = [&](const std::string& plane, const models::flatness::StraightnessProfile& profile) {
@@ -202,16 +202,12 @@ class StraightnessSession : public Session {
     };
     add("vertical", r.vertical);
     if (r.horizontal) add("horizontal", *r.horizontal);
-    p.record["traverse"] = {{"stations", r.readings},
-                            {"passes", o_.passes},
-                            {"step_mm", r.step_m * 1e3},
-                            {"start_mm", o_.start_m * 1e3},
-                            {"axis", p.axis}};
+    p.traverse = results::TraverseSetup{r.readings, o_.passes, r.step_m * 1e3, o_.start_m * 1e3, p.axis};
     if (!done_) {  // stopped before the count or the return
       p.incomplete = "stopped after " + std::to_string(pitch_rad_.size()) +
                      (o_.stations > 0 ? " of " + std::to_string(o_.stations * o_.passes) : std::string()) + " stations";
     }
-    p.record["result"] = result;
+    p.traverse_result = std::move(result);
     return p;
   }
 

@@ -16,65 +16,60 @@ constexpr double um = 1e6;
 constexpr double urad = 1e6;
 constexpr double tens_of_microinch_per_m = 1.0 / (0.0254 * 1e-5);
 
-nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
-
-nlohmann::json line_json(const ReferenceLine& r) {
-  return {{"straightness_um", r.straightness_m * um},
-          {"u_straightness_um", r.u_straightness_m * um},
-          {"u_first_order_um", r.u_first_order_m * um},
-          {"selection_bias_um", r.selection_bias_m * um},
-          {"u_straightness_data_um", finite_or_null(r.u_straightness_data_m * um)},
-          {"slope_urad", r.slope * urad},
-          {"max_station", r.max_index},
-          {"min_station", r.min_index}};
+results::StraightnessLine line_record(const ReferenceLine& r) {
+  results::StraightnessLine l;
+  l.straightness_um = r.straightness_m * um;
+  l.u_straightness_um = r.u_straightness_m * um;
+  l.u_first_order_um = r.u_first_order_m * um;
+  l.selection_bias_um = r.selection_bias_m * um;
+  l.u_straightness_data_um = r.u_straightness_data_m * um;
+  l.slope_urad = r.slope * urad;
+  l.max_station = r.max_index;
+  l.min_station = r.min_index;
+  return l;
 }
 
-nlohmann::json profile_json(const StraightnessProfile& p) {
-  nlohmann::json j;
-  j["plane"] = p.plane;
-  j["u_angle_arcsec"] = p.u_angle_rad / rad_per_arcsec;
-  j["u_angle_data_arcsec"] = finite_or_null(p.u_angle_data_rad / rad_per_arcsec);
-  j["u_disagreement"] = p.u_disagreement.empty() ? nlohmann::json(nullptr) : nlohmann::json(p.u_disagreement);
-  j["tilt_arcsec"] = p.tilt_rad / rad_per_arcsec;
-  j["span_arcsec"] = p.span_rad / rad_per_arcsec;
-  j["u_end_height_um"] = p.u_height_m.back() * um;
-  j["end_point"] = line_json(p.end_point);
-  j["least_squares"] = line_json(p.least_squares);
-  j["minimum_zone"] = line_json(p.minimum_zone);
+results::StraightnessPolynomial polynomial_record(const StraightnessProfile& p) {
   const auto& f = p.polynomial;
-  nlohmann::json poly;
-  poly["criterion"] = "BIC on the chord-slope fit";
-  poly["order"] = f.order;
-  poly["at_cap"] = f.order == static_cast<int>(f.bic.size()) && f.order > 1;
-  poly["x_origin_mm"] = p.x_m.front() * 1e3;
+  results::StraightnessPolynomial poly;
+  poly.criterion = "BIC on the chord-slope fit";
+  poly.order = static_cast<std::size_t>(f.order);
+  poly.at_cap = f.order == static_cast<int>(f.bic.size()) && f.order > 1;
+  poly.x_origin_mm = p.x_m.front() * 1e3;
   // Eq. 10 in Mu's units: height in mm, x in mm (b_k mm^(1-k)), and in SI.
-  nlohmann::json b_mm = nlohmann::json::array(), u_b_mm = nlohmann::json::array();
   for (std::size_t k = 0; k < f.b.size(); ++k) {
     const double scale = 1e3 / std::pow(1e3, static_cast<double>(k));
-    b_mm.push_back(f.b[k] * scale);
-    u_b_mm.push_back(f.u_b[k] * scale);
+    poly.b_mm.push_back(f.b[k] * scale);
+    poly.u_b_mm.push_back(f.u_b[k] * scale);
   }
-  poly["b_mm"] = b_mm;
-  poly["u_b_mm"] = u_b_mm;
-  poly["bic"] = f.bic;
-  poly["residual_rms_um"] = f.residual_rms_m * um;
-  poly["residual_max_um"] = f.residual_max_m * um;
-  poly["angle_residual_rms_arcsec"] = f.angle_residual_rms_rad / rad_per_arcsec;
-  poly["condition_number"] = f.condition_number;
-  j["polynomial"] = poly;
-  nlohmann::json st = nlohmann::json::array();
+  poly.bic = f.bic;
+  poly.residual_rms_um = f.residual_rms_m * um;
+  poly.residual_max_um = f.residual_max_m * um;
+  poly.angle_residual_rms_arcsec = f.angle_residual_rms_rad / rad_per_arcsec;
+  poly.condition_number = f.condition_number;
+  return poly;
+}
+
+results::StraightnessPlane plane_record(const StraightnessProfile& p) {
+  results::StraightnessPlane out;
+  out.plane = p.plane;
+  out.u_angle_arcsec = p.u_angle_rad / rad_per_arcsec;
+  out.u_angle_data_arcsec = p.u_angle_data_rad / rad_per_arcsec;
+  out.u_disagreement = p.u_disagreement;
+  out.tilt_arcsec = p.tilt_rad / rad_per_arcsec;
+  out.span_arcsec = p.span_rad / rad_per_arcsec;
+  out.u_end_height_um = p.u_height_m.back() * um;
+  out.end_point = line_record(p.end_point);
+  out.least_squares = line_record(p.least_squares);
+  out.minimum_zone = line_record(p.minimum_zone);
+  out.polynomial = polynomial_record(p);
+  const auto& f = p.polynomial;
   for (std::size_t k = 0; k < p.x_m.size(); ++k) {
-    st.push_back({{"x_mm", p.x_m[k] * 1e3},
-                  {"height_um", p.height_m[k] * um},
-                  {"u_height_um", p.u_height_m[k] * um},
-                  {"end_point_um", p.end_point.deviation_m[k] * um},
-                  {"u_end_point_um", p.end_point.u_deviation_m[k] * um},
-                  {"least_squares_um", p.least_squares.deviation_m[k] * um},
-                  {"u_least_squares_um", p.least_squares.u_deviation_m[k] * um},
-                  {"fit_residual_um", f.residual_m[k] * um}});
+    out.stations.push_back({p.x_m[k] * 1e3, p.height_m[k] * um, p.u_height_m[k] * um, p.end_point.deviation_m[k] * um,
+                            p.end_point.u_deviation_m[k] * um, p.least_squares.deviation_m[k] * um,
+                            p.least_squares.u_deviation_m[k] * um, f.residual_m[k] * um});
   }
-  j["stations"] = st;
-  return j;
+  return out;
 }
 
 nlohmann::json stations_json(const std::vector<UnionJackStation>& st, double s, bool inch,
@@ -95,21 +90,23 @@ nlohmann::json stations_json(const std::vector<UnionJackStation>& st, double s, 
 
 }  // namespace
 
-nlohmann::json to_json(const StraightnessResult& r) {
-  nlohmann::json j;
-  j["model"] = "straightness/autocollimator";
-  j["source"] = r.source;
-  j["step_mm"] = r.step_m * 1e3;
-  j["readings"] = r.readings;
-  j["instrument"] = {{"name", r.instrument.name},
-                     {"range_arcsec", r.instrument.range_rad / rad_per_arcsec},
-                     {"u_arcsec", r.instrument.reading_u_rad() / rad_per_arcsec}};
-  j["jitter_percent"] = 100 * r.jitter;
-  j["jitter_tolerance_percent"] = 100 * station_jitter_tolerance;
-  j["vertical"] = profile_json(r.vertical);
-  if (r.horizontal) j["horizontal"] = profile_json(*r.horizontal);
-  return j;
+results::TraverseModelResult traverse_model_result(const StraightnessResult& r) {
+  results::TraverseModelResult out;
+  out.model = std::string(results::traverse_model);
+  out.source = r.source;
+  out.step_mm = r.step_m * 1e3;
+  out.readings = r.readings;
+  out.instrument = r.instrument.name;
+  out.instrument_range_arcsec = r.instrument.range_rad / rad_per_arcsec;
+  out.instrument_u_arcsec = r.instrument.reading_u_rad() / rad_per_arcsec;
+  out.jitter_percent = 100 * r.jitter;
+  out.jitter_tolerance_percent = 100 * station_jitter_tolerance;
+  out.vertical = plane_record(r.vertical);
+  if (r.horizontal) out.horizontal = plane_record(*r.horizontal);
+  return out;
 }
+
+nlohmann::json to_json(const StraightnessResult& r) { return results::to_json(traverse_model_result(r)); }
 
 nlohmann::json to_json(const UnionJackResult& r, bool inch) {
   nlohmann::json j;
@@ -150,55 +147,60 @@ nlohmann::json to_json(const UnionJackResult& r, bool inch) {
   return j;
 }
 
-nlohmann::json to_json(const RunoutResult& r) {
-  nlohmann::json j;
-  j["model"] = "squareness/runout";
-  j["samples"] = r.samples;
-  j["once_per_rev"] = {{"amplitude_um", r.amplitude_m * um},
-                       {"u_amplitude_um", r.u_amplitude_m * um},
-                       {"phase_deg", r.phase_rad * 180.0 / std::numbers::pi},
-                       {"u_phase_deg", r.u_phase_rad * 180.0 / std::numbers::pi}};
-  j["offset_um"] = r.offset_m * um;
-  j["twice_per_rev_amplitude_um"] = r.second_harmonic_m * um;
-  j["residual_rms_um"] = r.residual_rms_m * um;
-  j["condition_number"] = r.condition_number;
-  // The headline figures' names from the catalogue (results/parameters.hpp), their u's "u_" before them.
-  j[results::name(results::runout)] = r.runout_m * um;
-  j["u_" + results::name(results::runout)] = r.u_runout_m * um;
-  j["parallelism_um"] = r.parallelism_m * um;
-  j["plate_diameter_mm"] = r.plate_diameter_m * 1e3;
-  j["deflection_urad"] = r.deflection_rad * urad;
-  j["u_deflection_urad"] = r.u_deflection_rad * urad;
-  j[results::name(results::runout_squareness)] = r.deflection_rad * urad;
-  j["u_" + results::name(results::runout_squareness)] = r.u_deflection_rad * urad;
+results::RunoutModelResult runout_model_result(const RunoutResult& r) {
+  results::RunoutModelResult out;
+  out.model = std::string(results::runout_model);
+  out.samples = r.samples;
+  out.amplitude_um = r.amplitude_m * um;
+  out.u_amplitude_um = r.u_amplitude_m * um;
+  out.phase_deg = r.phase_rad * 180.0 / std::numbers::pi;
+  out.u_phase_deg = r.u_phase_rad * 180.0 / std::numbers::pi;
+  out.offset_um = r.offset_m * um;
+  out.twice_per_rev_amplitude_um = r.second_harmonic_m * um;
+  out.residual_rms_um = r.residual_rms_m * um;
+  out.condition_number = r.condition_number;
+  out.runout_um = r.runout_m * um;
+  out.u_runout_um = r.u_runout_m * um;
+  out.parallelism_um = r.parallelism_m * um;
+  out.plate_diameter_mm = r.plate_diameter_m * 1e3;
+  out.deflection_urad = r.deflection_rad * urad;
+  out.u_deflection_urad = r.u_deflection_rad * urad;
+  out.squareness_urad = out.deflection_urad;  // Eq. 21's deflection is the spindle's squareness
+  out.u_squareness_urad = out.u_deflection_urad;
   if (r.travel_m) {
-    j["travel_mm"] = *r.travel_m * 1e3;
-    j["squareness_amplitude_um"] = *r.squareness_amplitude_m * um;
-    j["u_squareness_amplitude_um"] = *r.u_squareness_amplitude_m * um;
+    out.travel_mm = *r.travel_m * 1e3;
+    out.squareness_amplitude_um = *r.squareness_amplitude_m * um;
+    out.u_squareness_amplitude_um = *r.u_squareness_amplitude_m * um;
   }
-  return j;
+  return out;
 }
 
-nlohmann::json to_json(const ErrorMotionResult& r) {
-  nlohmann::json j;
-  j["model"] = "error_motion/iso230-7";
-  j["revolutions"] = r.revolutions;
-  j["samples"] = r.samples;
-  j["points_per_rev"] = r.points_per_rev;
-  j[results::name(results::total_error_motion)] = r.total_m * um;
-  j[results::name(results::synchronous_error_motion)] = r.synchronous_m * um;
-  j[results::name(results::asynchronous_error_motion)] = r.asynchronous_m * um;
-  j[results::name(results::fundamental_error_motion)] = r.fundamental_m * um;
-  j["fundamental_phase_deg"] = r.fundamental_phase_rad * 180.0 / std::numbers::pi;
-  return j;
+nlohmann::json to_json(const RunoutResult& r) { return results::to_json(runout_model_result(r)); }
+
+results::ErrorMotionRecord error_motion_record(const ErrorMotionResult& r) {
+  results::ErrorMotionRecord out;
+  out.model = std::string(results::error_motion_model);
+  out.revolutions = r.revolutions;
+  out.samples = r.samples;
+  out.points_per_rev = r.points_per_rev;
+  out.total_um = r.total_m * um;
+  out.synchronous_um = r.synchronous_m * um;
+  out.asynchronous_um = r.asynchronous_m * um;
+  out.fundamental_um = r.fundamental_m * um;
+  out.fundamental_phase_deg = r.fundamental_phase_rad * 180.0 / std::numbers::pi;
+  return out;
 }
 
-nlohmann::json runout_json(const RunoutRevolution& rev) {
-  nlohmann::json j = to_json(identify_runout(rev));
+nlohmann::json to_json(const ErrorMotionResult& r) { return results::to_json(error_motion_record(r)); }
+
+results::RunoutModelResult runout_model_result(const RunoutRevolution& rev) {
+  results::RunoutModelResult out = runout_model_result(identify_runout(rev));
   if (whole_revolutions(rev.angle_rad) >= 1)
-    j["error_motion"] = to_json(error_motion(rev.angle_rad, rev.runout_m, rev.source));
-  return j;
+    out.error_motion = error_motion_record(error_motion(rev.angle_rad, rev.runout_m, rev.source));
+  return out;
 }
+
+nlohmann::json runout_json(const RunoutRevolution& rev) { return results::to_json(runout_model_result(rev)); }
 
 nlohmann::json reversal_json(const RunoutRevolution& first, const RunoutRevolution& turned) {
   if (!turned.artifact_turned_rad)

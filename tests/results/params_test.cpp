@@ -1,7 +1,8 @@
 // PARAMS as a type (results/params.hpp): the golden PARAMS of every session kind read and written again byte
-// for byte, their figures named by their catalogue entries, a DBB identification's record typed
-// (results/dbb_record.hpp), and what params_from_json refuses, naming the field.
+// for byte, their figures named by their catalogue entries, every kind's record typed (results/dbb_record.hpp,
+// kind_records.hpp, traverse_record.hpp), and what params_from_json refuses, naming the field.
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -87,7 +88,8 @@ TEST(Params, FiguresAreTypedAndNamedByTheirCatalogueEntries) {
   EXPECT_EQ(runout.revolution->samples, 1001u);
   EXPECT_DOUBLE_EQ(runout.revolution->rpm, 60.0);
   EXPECT_DOUBLE_EQ(runout.revolution->covered_deg, 7201.11159648);
-  EXPECT_TRUE(runout.record.contains("result"));  // the model's result: JSON still
+  EXPECT_TRUE(runout.runout_result);  // the model's result, typed: TheRecordsOfEveryKindAreTyped
+  EXPECT_TRUE(runout.record.empty());
 
   const results::Params profile = results::params_from_json(golden("profile.params.json"));
   ASSERT_TRUE(profile.wavelet);
@@ -109,7 +111,61 @@ TEST(Params, FiguresAreTypedAndNamedByTheirCatalogueEntries) {
       traverse.find(results::horizontal_straightness.group, results::horizontal_straightness.figure_name);
   ASSERT_NE(h, nullptr);
   EXPECT_DOUBLE_EQ(h->value, 0.02703768606187836);
-  EXPECT_TRUE(traverse.record.contains("result"));
+  EXPECT_TRUE(traverse.traverse_result);
+  EXPECT_TRUE(traverse.record.empty());
+}
+
+// A run-out's, a traverse's and a profile's records besides their figures: read into their types (the one
+// "result" key into the run-out's or the traverse's by the model it names), nothing left as JSON.
+TEST(Params, TheRecordsOfEveryKindAreTyped) {
+  const results::Params runout = results::params_from_json(golden("runout.params.json"));
+  ASSERT_TRUE(runout.runout_result);
+  EXPECT_FALSE(runout.traverse_result);
+  const results::RunoutModelResult& r = *runout.runout_result;
+  EXPECT_EQ(r.model, "squareness/runout");
+  EXPECT_EQ(r.samples, 1001u);
+  EXPECT_DOUBLE_EQ(r.runout_um, 0.29994005019810255);     // by its catalogue name, runout_um
+  EXPECT_DOUBLE_EQ(r.amplitude_um, 0.14997002509905127);  // of "once_per_rev"
+  EXPECT_DOUBLE_EQ(r.squareness_urad, r.deflection_urad);
+  ASSERT_TRUE(r.travel_mm);
+  EXPECT_DOUBLE_EQ(*r.travel_mm, 600.0);
+  ASSERT_TRUE(r.error_motion);
+  EXPECT_EQ(r.error_motion->revolutions, 20u);
+  EXPECT_EQ(r.error_motion->points_per_rev, 50u);
+  EXPECT_DOUBLE_EQ(r.error_motion->total_um, 0.554052488214334);
+
+  const results::Params traverse = results::params_from_json(golden("straightness.params.json"));
+  ASSERT_TRUE(traverse.traverse && traverse.traverse_result);
+  EXPECT_FALSE(traverse.runout_result);
+  EXPECT_EQ(traverse.traverse->stations, 13u);
+  EXPECT_EQ(traverse.traverse->passes, 1u);
+  EXPECT_EQ(traverse.traverse->axis, "x");
+  const results::TraverseModelResult& t = *traverse.traverse_result;
+  EXPECT_FALSE(t.source);  // a session's names no file
+  EXPECT_EQ(t.instrument, "autocollimator");
+  EXPECT_DOUBLE_EQ(t.instrument_range_arcsec, 600.0);
+  ASSERT_TRUE(t.horizontal);
+  EXPECT_DOUBLE_EQ(t.horizontal->least_squares.straightness_um, 0.02703768606187836);  // the figure's value
+  EXPECT_TRUE(std::isnan(t.vertical.least_squares.u_straightness_data_um));            // null: the scatter is not known
+  EXPECT_EQ(t.vertical.least_squares.max_station, 7u);
+  EXPECT_EQ(t.vertical.u_disagreement, "");  // null
+  EXPECT_EQ(t.vertical.polynomial.order, 6u);
+  EXPECT_FALSE(t.vertical.polynomial.at_cap);
+  ASSERT_EQ(t.vertical.stations.size(), 14u);  // the readings and the last foot
+  EXPECT_DOUBLE_EQ(t.vertical.stations[3].height_um, 29.995422850064323);
+
+  const results::Params profile = results::params_from_json(golden("profile.params.json"));
+  ASSERT_TRUE(profile.points);
+  EXPECT_EQ(profile.points->count, 10001u);
+  EXPECT_DOUBLE_EQ(profile.points->length_mm, 10.0);
+  ASSERT_TRUE(profile.profile_id);
+  EXPECT_EQ(*profile.profile_id, results::ProfileId(29.0));  // an older release's "29.0", written back as such
+  EXPECT_EQ(results::profile_id_json(std::uint64_t{29}).dump(), "29");
+
+  // A "result" naming another model is no record this release types: kept as it came.
+  const results::Params other = results::params_from_json(nlohmann::json::parse(R"({"result":{"model":"m","x":1}})"));
+  EXPECT_FALSE(other.runout_result || other.traverse_result);
+  EXPECT_EQ(other.record.dump(), R"({"result":{"model":"m","x":1}})");
 }
 
 TEST(Params, NullIsNaNAndWrittenBackAsNull) {
@@ -232,6 +288,18 @@ TEST(Params, AMalformedDbbRecordIsRefusedNamingTheField) {
   EXPECT_EQ(refusal(R"({"wavelet":{"bands":[{"band":"d1","rms_um":"1"}]}})"),
             "wavelet.bands[0]: \"rms_um\" is string, expected a number or null");
   EXPECT_EQ(refusal(R"({"wavelet":{"level":-5}})"), "wavelet: \"level\" is number, expected a whole number, 0 or more");
+  EXPECT_EQ(refusal(R"({"result":{"model":"squareness/runout","once_per_rev":{"phase_deg":"east"}}})"),
+            "result.once_per_rev: \"phase_deg\" is string, expected a number or null");
+  EXPECT_EQ(refusal(R"({"result":{"model":"squareness/runout","error_motion":[]}})"),
+            "result: \"error_motion\" is array, expected an object");
+  EXPECT_EQ(refusal(R"({"result":{"model":"straightness/autocollimator","vertical":{"polynomial":{"order":1.5}}}})"),
+            "result.vertical.polynomial: \"order\" is number, expected a whole number, 0 or more");
+  EXPECT_EQ(refusal(R"({"result":{"model":"straightness/autocollimator","horizontal":{"u_disagreement":3}}})"),
+            "result.horizontal: \"u_disagreement\" is number, expected a text or null");
+  EXPECT_EQ(refusal(R"({"traverse":{"axis":1}})"), "traverse: \"axis\" is number, expected a text");
+  EXPECT_EQ(refusal(R"({"points":{"count":"many"}})"),
+            "points: \"count\" is string, expected a whole number, 0 or more");
+  EXPECT_EQ(refusal(R"({"profile_id":"29"})"), "\"profile_id\" is string, expected a number");
 }
 
 // Any node of a real PARAMS replaced by a value of any type: read, or refused with the reason; never another
