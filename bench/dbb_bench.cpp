@@ -59,7 +59,7 @@ void identify_loop(benchmark::State& state) {
 void BM_DbbIdentifyThreePatterns(benchmark::State& state) { identify_loop(state); }
 BENCHMARK(BM_DbbIdentifyThreePatterns)->Unit(benchmark::kMillisecond)->Repetitions(9)->ReportAggregatesOnly(true);
 
-// As guidewayd and guideway run it (core/memory_policy.hpp). Registered last: the policy is
+// As guideway and guidewayd --analyse-session run it (core/memory_policy.hpp). Registered last: the policy is
 // process-wide and stays set for whatever runs after it.
 void BM_DbbIdentifyThreePatternsKeepFreedMemory(benchmark::State& state) {
   keep_freed_memory();

@@ -1,5 +1,6 @@
 #pragma once
-// The allocator policy of the programs that identify models (guidewayd, guideway, the benchmarks).
+// The allocator policies: of the programs that identify models (guideway, guidewayd --analyse-session, the
+// benchmarks), and of guidewayd itself.
 
 #include <malloc.h>
 
@@ -13,6 +14,17 @@ namespace guideway {
 inline void keep_freed_memory() noexcept {
   (void)::mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);
   (void)::mallopt(M_TRIM_THRESHOLD, 256 * 1024 * 1024);
+}
+
+// guidewayd runs for months beside a CNC, and what it allocates beyond its start is a session's: its readings,
+// its run files' text, its recorder's ring, a few MB each. What a session frees goes back to the kernel, so the
+// daemon rests where it started and its peak is its own session's (bench/README.md, "The daemon across a
+// session's EXPLAIN"). glibc's default thresholds (128 KiB), held fixed: by default glibc raises them to the
+// largest block freed so far and keeps in the heap what then falls below. Its DBB sessions are analysed in a
+// child that keeps freed memory (daemon/session_analysis.hpp); an analysis in the daemon pays the page faults.
+inline void return_freed_memory() noexcept {
+  (void)::mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  (void)::mallopt(M_TRIM_THRESHOLD, 128 * 1024);
 }
 
 }  // namespace guideway

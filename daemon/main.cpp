@@ -26,7 +26,6 @@
 using namespace guideway;
 
 int main(int argc, char** argv) {
-  keep_freed_memory();
   CLI::App app{"guidewayd: real-time metrology acquisition daemon for machine tools"};
   std::string config_path;
   std::string socket_override;
@@ -56,11 +55,13 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   if (analyse_session) {
+    keep_freed_memory();
     sessions::SessionRegistry sessions;
     sessions::register_builtin_sessions(sessions);
     return daemon::run_session_analysis(std::cin, std::cout, sessions, daemon::render_session_report);
   }
 
+  return_freed_memory();
   if (show_version) {
     std::cout << "guidewayd " << GUIDEWAY_VERSION << "\n";
     return 0;

@@ -5,8 +5,9 @@
 // process of its own: `guidewayd --analyse-session`, started with posix_spawn, which creates the session from
 // the same request, reads the files back and answers each step as one JSON line. Its working set (tens of MB
 // for 2 x 18k samples, bench/README.md) is then the child's: the daemon's RSS stays at rest, and glibc's kept
-// free memory (core/memory_policy.hpp) goes with the child. A child that crashes, exits or answers what is not
-// JSON fails the step it was asked with a reason naming it; the daemon goes on.
+// free memory (core/memory_policy.hpp: the child keeps it, the daemon does not) goes with the child. A child
+// that crashes, exits or answers what is not JSON fails the step it was asked with a reason naming it; the
+// daemon goes on.
 //
 // Protocol (stdin/stdout of the child, one JSON object per line each way, in this order):
 //   {"step":"identify", "kind", "options", "device", "driver", "channels":[{"name","unit"}],

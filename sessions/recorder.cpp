@@ -24,7 +24,7 @@ RawRecorder::RawRecorder(const std::string& dir, const std::string& name, const 
       final_path_(formats::raw_recording_path(dir, name)),
       channel_count_(device.channels().size()),
       options_(options),
-      ring_(options.ring_capacity),
+      ring_(options.ring_capacity.value_or(device.ring_capacity())),
       batch_(1024) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <stop_token>
 #include <string>
@@ -30,7 +31,10 @@ inline constexpr unsigned recording_file_mode = 0640;
 
 struct RecorderOptions {
   std::chrono::milliseconds flush_period{50};
-  std::size_t ring_capacity = 1 << 16;
+  // nullopt: as many samples as the device's own ring (8 s of its full rate, drivers/ring_capacity.hpp). The
+  // writer empties it every flush_period; one held up longer than the ring lasts (a busy machine, a write()
+  // the kernel holds back for a slow disk) loses samples, counted (samples_lost, the trailer).
+  std::optional<std::size_t> ring_capacity;
   std::size_t max_pending_bytes = 64u << 20;  // memory kept while the disk refuses writes
 };
 

@@ -464,6 +464,29 @@ TEST(RawRecorder, SamplesTheRingDroppedAreCountedOnceInTheTrailer) {
   EXPECT_FALSE(back.complete) << "a recording that lost samples is not whole";
 }
 
+// A recorder's ring is as large as its device's (8 s of the device's full rate, drivers/ring_capacity.hpp), not a
+// fixed 65,536 samples held for every session: one sample more than that, pushed at once before the writer wakes,
+// is lost and counted.
+TEST(RawRecorder, ItsRingIsAsLargeAsItsDevicesRing) {
+  test::TempDir dir;
+  const toml::table empty;
+  const TableReader table(empty, "test.toml", "device");
+  const test::CountingDriver device({.name = "c", .driver = "counting", .ring_capacity = {}, .table = table});
+  ASSERT_EQ(device.ring_capacity(), 16384u) << "2 kHz: 8 s is 16,000 samples, the next power of two";
+  sessions::RawRecorder recorder(dir.path().string(), "sized", device, {{"kind", "test"}},
+                                 {.flush_period = std::chrono::seconds(3)});
+  std::vector<Sample> samples(device.ring_capacity() + 1);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    samples[i].seq = i;
+    samples[i].value_count = 1;
+    samples[i].value[0] = static_cast<double>(i);
+  }
+  recorder.push(samples);
+  recorder.close(true);
+  EXPECT_EQ(recorder.stats().samples_written, device.ring_capacity());
+  EXPECT_EQ(recorder.stats().samples_lost, 1u);
+}
+
 // A session identified from its derived files is identified, explained and reported in a process of its own
 // ([daemon] session_analysis = "process"): the PARAMS are those the daemon would publish, made in another
 // process; with session_analysis = "daemon", in the daemon's.
