@@ -231,7 +231,7 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options, const S
       Eigen::MatrixXd scratch;
       all = v.all_samples ? v.all_samples() : columns_of(v, static_cast<Eigen::Index>(n), scratch);
     }
-    pass.terms.push_back({t.cand, t.index, t.pool != nullptr, std::move(all)});
+    pass.terms.push_back({t.cand, t.index, t.pool != nullptr, std::move(all), v.searched});
   }
   if (pass.report.unexplained && chosen.before_share()) {
     const Located probe = locate(problem, sel.model(*chosen.before_share()).residual, options.alpha, sigma);

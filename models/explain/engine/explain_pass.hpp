@@ -24,6 +24,7 @@ struct TermColumns {
   std::size_t cand = 0, index = 0;
   bool generated = false;
   Eigen::MatrixXd all_samples;
+  std::size_t searched = 0;  // its variant's nonlinear parameters searched (counted in the BIC)
 };
 
 struct Pass {

@@ -1,0 +1,41 @@
+#pragma once
+// A step in one run's level (a ball that slips in its cup and stays slipped for the rest of the run): the rival a
+// first pass's findings are judged against (docs/explain.md step 5, issue 41 item 10). The library has no effect
+// for it, so when the first pass ends with nothing structured left, effects that only took the run's level and the
+// step (a thermal drift, a servo lag, a lateral play beside a reseated slip) would keep their shares. Pure
+// functions; thread safe.
+
+#include <cstddef>
+#include <optional>
+
+#include <Eigen/Core>
+
+#include "models/explain/engine/explain_pass.hpp"
+#include "models/explain/explain.hpp"
+
+namespace guideway::models::explain::engine {
+
+// The strongest step within a run's level that the base leaves in the residual (the base and every run's own level
+// fitted with it: a step near a run's start is otherwise one run's level against another's; 1/32 of each run at
+// either end not searched): its place, the samples where a step
+// fits within the chi-square(1) quantile at alpha of the best (a likelihood-ratio interval of where it is), its
+// peak the step's size. None when the best step's chi-square against sigma_um^2 is not significant at alpha,
+// Bonferroni over the samples searched, or the problem's stations' means are fitted out (a step is then not one
+// column).
+struct LevelStep {
+  Location place;
+  std::size_t run = 0, at = 0;  // the run, and its first sample after the best step
+};
+std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, double alpha);
+
+// Whether explaining the problem again with the step could beat the first pass by the BIC (with ln n for the step's
+// sample searched), judged without a search: the base with the step's nuisance columns (`base_with_step`, one row per
+// sample), beside each subset of the first pass's own findings refitted (their variants as chosen, their searched
+// values counted), against the first pass's final BIC. No generator runs. False when none of those models could win:
+// the step then only stands for what the findings already explain (a square wave's level, a drift's slope). Where
+// the first pass took more than step_check_max_terms findings, true (the subsets are not all tried). The rival pass may
+// still take effects the first did not; this asks only whether the step could replace the first pass's own.
+inline constexpr std::size_t step_check_max_terms = 8;
+bool step_could_win(const Problem& problem, const Eigen::MatrixXd& base_with_step, const Pass& first);
+
+}  // namespace guideway::models::explain::engine
