@@ -112,6 +112,23 @@ std::vector<std::pair<std::size_t, std::size_t>> run_ranges(const Problem& probl
   return out;
 }
 
+Location location_of(const Problem& problem, std::size_t first, std::size_t end, double peak_um) {
+  const Sample& s0 = problem.samples[first];
+  const Sample& s1 = problem.samples[end - 1];
+  const RunInfo& ri = problem.runs[s0.run];
+  Location loc;
+  loc.run = ri.label;
+  loc.source = ri.source;
+  loc.where = {wrap_where(problem, s0.where), wrap_where(problem, s1.where)};
+  loc.t_from_run_start_s = {s0.t_s - ri.start_s, s1.t_s - ri.start_s};
+  loc.timed = problem.timed;
+  loc.t_machine_s = {problem.clock_origin_s + s0.t_s, problem.clock_origin_s + s1.t_s};
+  loc.peak_um = peak_um;
+  loc.first_sample = first;
+  loc.end_sample = end;
+  return loc;
+}
+
 std::vector<TestedStretch> tested_stretches(const Problem& problem) {
   const auto ranges = run_ranges(problem);
   const bool paths = problem.path_of_run.size() == ranges.size();
@@ -421,19 +438,7 @@ std::vector<Location> run_locations(const Problem& problem, const std::vector<do
         break;
       }
     }
-    Location loc;
-    const RunInfo& ri = problem.runs[run];
-    loc.run = ri.label;
-    loc.source = ri.source;
-    loc.where = {wrap_where(problem, problem.samples[i].where), wrap_where(problem, problem.samples[last].where)};
-    loc.t_from_run_start_s = {problem.samples[i].t_s - ri.start_s, problem.samples[last].t_s - ri.start_s};
-    loc.timed = problem.timed;
-    loc.t_machine_s = {problem.clock_origin_s + problem.samples[i].t_s,
-                       problem.clock_origin_s + problem.samples[last].t_s};
-    loc.peak_um = top;
-    loc.first_sample = i;
-    loc.end_sample = last + 1;
-    out.push_back(std::move(loc));
+    out.push_back(location_of(problem, i, last + 1, top));
     i = last + 1;
   }
   // Same place: the ranges overlap, or come within `gap` (a run in the other direction passes it the other way).

@@ -36,6 +36,9 @@ double visible_energy(const Problem& problem, const Eigen::VectorXd& residual_um
 // [first, last) sample index of each run.
 std::vector<std::pair<std::size_t, std::size_t>> run_ranges(const Problem& problem);
 
+// The place of samples [first, end) of one run, as a Location reports it (angles wrapped to 0-360 degrees).
+Location location_of(const Problem& problem, std::size_t first, std::size_t end, double peak_um);
+
 // What the structure tests decompose, each a [first, last) sample range: every run alone, except the runs of a path
 // (Problem::path_of_run) one of which is shorter than min_run_samples: those joined, in the order taken, one range.
 // A range shorter than min_run_samples is not tested.

@@ -74,30 +74,6 @@ RunSteps steps_in_run(const Problem& p, const Eigen::VectorXd& y, std::size_t ru
   return out;
 }
 
-double wrapped(const Problem& p, double where) {
-  if (p.domain != "angle_deg") return where;
-  const double a = std::fmod(where, 360.0);
-  return a < 0 ? a + 360.0 : a;
-}
-
-// The place [first, end) of a run, as locate() reports one.
-Location place_of(const Problem& p, std::size_t run, std::size_t first, std::size_t end, double peak_um) {
-  const RunInfo& ri = p.runs[run];
-  const Sample& s0 = p.samples[first];
-  const Sample& s1 = p.samples[end - 1];
-  Location l;
-  l.run = ri.label;
-  l.source = ri.source;
-  l.where = {wrapped(p, s0.where), wrapped(p, s1.where)};
-  l.t_from_run_start_s = {s0.t_s - ri.start_s, s1.t_s - ri.start_s};
-  l.timed = p.timed;
-  l.t_machine_s = {p.clock_origin_s + s0.t_s, p.clock_origin_s + s1.t_s};
-  l.peak_um = peak_um;
-  l.first_sample = first;
-  l.end_sample = end;
-  return l;
-}
-
 }  // namespace
 
 std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, double alpha) {
@@ -130,7 +106,7 @@ std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, dou
       hi = std::max(hi, j);
     }
   // From the last sample before the earliest step to the first after the latest.
-  return LevelStep{place_of(problem, best->run, best->first + lo - 1, best->first + hi + 1, best->size_um[at]),
+  return LevelStep{location_of(problem, best->first + lo - 1, best->first + hi + 1, best->size_um[at]),
                    best->run, best->first + at};
 }
 
