@@ -26,12 +26,13 @@ builds its passes. The scenarios of a flat:
     named yaw_coupling within 20 %, nothing beside it; and beside the wave above, the coupling found and nothing false
     (the wave counted, not required: see docs/explain.md "Limits");
   - chip: a chip caught under a foot 40 % into the return pass, tilting its later readings by 1x the slope RMS
-    (ExplainIsoTraverse.AChipUnderAFootIsUnexplainedNotAFinding's): no finding, unexplained or set aside.
+    (ExplainIsoTraverse.AChipUnderAFootIsUnexplainedNotAFinding's): no finding, unexplained or set aside; at 5x its
+    findings are printed, not judged (a drift is found beside it on two flats: docs/explain.md "Limits").
 The drift and the yaw coupling are judged where their expected t exceeds 5 (issue 41's done-when): expected_t, from
 the design; it is 13-555 on every flat, so each must be found on every one.
 Judged over the twelve flats as issue 41 asks: the rocking in both and the wave on 90 % of them or more, no finding
 alone on every flat, no other finding beside a rocking or the wave on any. The tables are printed in
-docs/explain.md's form ("Real flats as forward and return passes"). The whole set costs ~5 s of CPU in Release (the
+docs/explain.md's form ("Real flats as forward and return passes"). The whole set costs ~6 s of CPU in Release (the
 term per station fitted out of the readings: 0.1-0.5 s for the long scans; as columns 441-481 stations took 5 s a run
 and the long scans could not have it); under a sanitizer (--quick) three small flats run, each judged alone, for the
 code paths: 052 with the yaw coupling (a term per station from the first: the coupling's wave in the geometry, once
@@ -152,10 +153,10 @@ def yaw_case(name, x, slope, seed, path, wave=False):
                   ([("pitch_wave", "pitch_wave_arcsec", rms * ARCSEC)] if wave else [])) + (t,)
 
 
-def chip_case(name, x, slope, seed, path):
-    """A chip caught under a foot 40 % into the return pass, tilting its later readings by 1x the slope RMS: no
+def chip_case(name, x, slope, seed, path, size=1.0):
+    """A chip caught under a foot 40 % into the return pass, tilting its later readings by `size` x the slope RMS: no
     effect of the library is that, so no finding, and the readings unexplained or the place set aside."""
-    forward_and_return(path, x, slope, 0.0, seed, chip=(0.4, np.std(slope)))
+    forward_and_return(path, x, slope, 0.0, seed, chip=(0.4, size * np.std(slope)))
     rep, err = explain(path)
     check(rep is not None, "%s with a chip under a foot as two passes: explained (%s)" % (name, err))
     findings = sorted(f["effect"] for f in rep["findings"]) if rep else ["(failed)"]
@@ -200,13 +201,16 @@ with tempfile.TemporaryDirectory() as tmp:
                 ("" if label == "yaw+wave" else " | %.0f" % t)
             check(t > 5 and later_ok[label][-1], "%s (%s): found %s (expected t %.1f; others: %s; %s)"
                   % (name, label, found, t, others, why))
-        if "chip" in LATER.get(name, ("chip",)):
-            findings, unexplained, set_aside = chip_case(name, x, slope, seed, path)
-            later_ok["chip"].append(findings == [] and (unexplained or set_aside > 0))
-            cells["chip"] = (", ".join(findings) or "none") + (", unexplained" if unexplained else "") + \
+        for size in (1.0,) if QUICK else (1.0, 5.0):  # 5x is reported, not judged: docs/explain.md "Limits"
+            if "chip" not in LATER.get(name, ("chip",)):
+                break
+            findings, unexplained, set_aside = chip_case(name, x, slope, seed, path, size)
+            cells["chip", size] = (", ".join(findings) or "none") + (", unexplained" if unexplained else "") + \
                 (", %d readings set aside" % set_aside if set_aside else "")
-            check(later_ok["chip"][-1], "%s (chip under a foot): no finding, unexplained or set aside (findings: %s; "
-                  "unexplained %s; set aside %d)" % (name, findings, unexplained, set_aside))
+            if size == 1.0:
+                later_ok["chip"].append(findings == [] and (unexplained or set_aside > 0))
+                check(later_ok["chip"][-1], "%s (chip under a foot): no finding, unexplained or set aside (findings: "
+                      "%s; unexplained %s; set aside %d)" % (name, findings, unexplained, set_aside))
         later_rows.append((name, len(x), r_arcsec, cells))
 
 print("| flat | readings a pass | 1x slope RMS | rocking found | rocking found, settling after the reversal | "
@@ -222,12 +226,13 @@ print("rocking found (size within 20 %%): %d of %d; with a settling after the re
 print()
 print("| flat | 1x slope RMS | drift of 1x over the passes (\"/min) | found (+/- u) | expected t | "
       "yaw coupling found (%.3f %%, +/- u) | expected t | beside a pitch wave of 1x (8 cycles): coupling, wave found | "
-      "chip under a foot, 1x |" % (100 * SIN_R))
-print("|---|---|---|---|---|---|---|---|---|")
+      "chip under a foot, 1x | 5x (not judged) |" % (100 * SIN_R))
+print("|---|---|---|---|---|---|---|---|---|---|")
 for name, n, r, cells in later_rows:
-    print("| %s | %.4f\" | %.4g | %s | %s | %s | %s |" % (name, r, r / (2.0 * (2 * n - 1) + 10) * 60,
-                                                    cells.get("drift", "- | -"), cells.get("yaw", "- | -"),
-                                                    cells.get("yaw+wave", "-"), cells.get("chip", "-")))
+    print("| %s | %.4f\" | %.4g | %s | %s | %s | %s | %s |" % (name, r, r / (2.0 * (2 * n - 1) + 10) * 60,
+                                                         cells.get("drift", "- | -"), cells.get("yaw", "- | -"),
+                                                         cells.get("yaw+wave", "-"), cells.get(("chip", 1.0), "-"),
+                                                         cells.get(("chip", 5.0), "-")))
 print(("the drift found (within 20 %%, nothing beside it): %d of %d; the yaw coupling: %d of %d; beside a pitch wave, "
        "the coupling (nothing false beside): %d of %d; the chip, no finding and unexplained or set aside: %d of %d"
        % tuple(v for k in later_ok for v in (sum(later_ok[k]), len(later_ok[k])))) +
