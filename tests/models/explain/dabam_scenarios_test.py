@@ -74,7 +74,7 @@ def explain(path):
 SCENARIOS = (("rocking", 0.0), ("turnaround", 5.0))
 found_in = {k: 0 for k in ("rocking", "turnaround", "wave")}
 alone_clean, beside_clean, rows = 0, 0, []
-# The drift, the yaw coupling and the chip: every flat in the full run; under a sanitizer, one a small flat.
+# The drift, the yaw coupling and the chip: every flat in the full run; under a sanitizer (--quick), those named.
 LATER = {"dabam-052": ("yaw",), "dabam-053": ("yaw",), "dabam-054": ("chip",)} if QUICK else {}
 later_ok = {k: [] for k in ("drift", "yaw", "yaw+wave", "chip")}
 later_rows, wave_beside = [], 0
@@ -139,8 +139,9 @@ def yaw_case(name, x, slope, seed, path, wave=False):
     tenth of its amplitude more or less at each stop (its repeatability: fresh each pass); the pitch reads sin 3 deg
     of it, the wave's share 1x the slope RMS. The wave in the pitch is geometry to the term per station; the stops'
     disagreement tells the coupling. Found, named yaw_coupling, within 20 %, nothing beside it. With `wave`, beside
-    wave_case's pitch wave (8 cycles), which is found too, within 20 %: the yaw's shape taken from the geometry
-    (traverse_explain.cpp judge_shared_wave) leaves a wave of another period."""
+    wave_case's pitch wave (8 cycles): the coupling found and nothing false; the wave counted (the yaw's shape taken
+    from the geometry, traverse_explain.cpp judge_shared_wave, leaves a wave of another period, but not always the
+    candidate: docs/explain.md "Limits")."""
     n, rms = len(x), np.std(slope)
     amplitude, rs = rms / SIN_R, np.random.RandomState(seed + 1000)
     shape = pitch_wave(x, amplitude, cycles=5, phase_rad=0.3)
