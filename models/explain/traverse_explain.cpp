@@ -197,8 +197,9 @@ double chord(double x_m, double step_m, const Layout& l, int k) {
 
 // What the passes share at each station (their mean) against the polynomial of order `order`, the strongest wave
 // and the yaw's part, in units of the scatter the passes show about each other (each station's readings less a
-// constant per direction and a line in time: a rocking and a drift are not scatter). judged: every station read by
-// two passes or more, in one file, with scatter left to estimate.
+// constant per direction and a line in time: a rocking and a drift are not scatter; and, once a yaw coupling is found
+// (`coupled`), the yaw's part). judged: every station read by two passes or more, in one file, with scatter left to
+// estimate.
 struct SharedGeometry {
   bool judged = false;
   std::size_t stations = 0;
@@ -206,12 +207,12 @@ struct SharedGeometry {
 };
 
 // The passes' scatter (variance per reading) from r, each reading less its station's mean, less the columns d (a
-// constant per direction and a line in time), robustly: the median absolute scatter (as a normal's, 1.4826 MAD,
-// scaled by the readings per dof), the columns fitted again without the readings beyond 4 of it, which are then
-// `apart`. A transient in a few readings (the return settling after the reversal, a knock) is not the passes'
-// scatter, nor the geometry they share: counted in a sum of squares, and tilting the line in time, it made the
-// scatter 6 times what it is and hid a real surface's shared part (dabam-053: the polynomial kept, the rocking
-// refused by the share rule).
+// constant per direction, a line in time and, once a yaw coupling is found, the yaw), robustly: the median absolute
+// scatter (as a normal's, 1.4826 MAD, scaled by the readings per dof), the columns fitted again without the readings
+// beyond 4 of it, which are then `apart`. A transient in a few readings (the return settling after the reversal, a
+// knock) is not the passes' scatter, nor the geometry they share: counted in a sum of squares, and tilting the line in
+// time, it made the scatter 6 times what it is and hid a real surface's shared part (dabam-053: the polynomial kept,
+// the rocking refused by the share rule).
 struct Scatter {
   double sigma2 = 0.0;
   std::vector<bool> apart;  // per reading
@@ -284,14 +285,15 @@ double strongest_line(const Eigen::VectorXd& v, const Eigen::VectorXd& x, const 
 }
 
 SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
-                               const std::vector<std::size_t>& stations, int order) {
+                               const std::vector<std::size_t>& stations, int order, bool coupled) {
   SharedGeometry out;
   if (stations.empty() || l.files != 1) return out;
   const std::size_t S = *std::max_element(stations.begin(), stations.end()) + 1;
   out.stations = S;
   const auto n = y.size();
   std::vector<double> count(S, 0.0), mean(S, 0.0), dir(S, 0.0), time(S, 0.0), yaw(S, 0.0);
-  std::vector<double> dir_of(static_cast<std::size_t>(n)), t_of(static_cast<std::size_t>(n));
+  std::vector<double> dir_of(static_cast<std::size_t>(n)), t_of(static_cast<std::size_t>(n)),
+      yaw_of(static_cast<std::size_t>(n), 0.0);
   Eigen::Index row = 0;
   for (const TraversePass& p : passes)
     for (std::size_t i = 0; i < p.x_m.size(); ++i, ++row) {
@@ -302,7 +304,8 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
       mean[s] += y[row];
       dir[s] += p.direction;
       time[s] += t_of[static_cast<std::size_t>(row)];
-      if (l.yaw) yaw[s] += p.yaw_rad[i] * 1e6;
+      if (l.yaw) yaw_of[static_cast<std::size_t>(row)] = p.yaw_rad[i] * 1e6;
+      yaw[s] += yaw_of[static_cast<std::size_t>(row)];
     }
   for (std::size_t s = 0; s < S; ++s) {
     if (count[s] < 2) return out;
@@ -311,16 +314,24 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
     time[s] /= count[s];
     yaw[s] /= count[s];
   }
-  // The scatter: each reading about its station's mean, less a constant per direction and a line in time.
-  Eigen::MatrixXd d(n, 2);
+  // The scatter: each reading about its station's mean, less a constant per direction, a line in time and, once a
+  // yaw coupling is found, the yaw's part. A yaw the passes take differently at a station (its repeatability) couples
+  // that difference into the pitch: counted as scatter, it hid a real surface's shared part (dabam-031 and 053 with a
+  // yaw coupling of sin 3 deg: the polynomial kept, the surface's leftovers read as a pitch wave beside the coupling).
+  // Before the coupling is found the yaw's disagreement is not taken out: fitted to a yaw that couples nothing, the
+  // column moved the robust scatter enough to turn a synthetic traverse's base (traverse_few_stations, seed 3).
+  const bool yaw_out = l.yaw && coupled;
+  const Eigen::Index columns = yaw_out ? 3 : 2;
+  Eigen::MatrixXd d(n, columns);
   Eigen::VectorXd r(n);
   for (Eigen::Index i = 0; i < n; ++i) {
     const std::size_t s = stations[static_cast<std::size_t>(i)];
     r[i] = y[i] - mean[s];
     d(i, 0) = dir_of[static_cast<std::size_t>(i)] - dir[s];
     d(i, 1) = t_of[static_cast<std::size_t>(i)] - time[s];
+    if (yaw_out) d(i, 2) = yaw_of[static_cast<std::size_t>(i)] - yaw[s];
   }
-  const double dof_scatter = static_cast<double>(n) - static_cast<double>(S) - 2.0;
+  const double dof_scatter = static_cast<double>(n) - static_cast<double>(S) - static_cast<double>(columns);
   if (dof_scatter < 8) return out;
   const Scatter scatter = robust_scatter(r, d, dof_scatter);
   const double sigma2 = scatter.sigma2;
@@ -378,10 +389,10 @@ SharedGeometry shared_geometry(const std::vector<TraversePass>& passes, const La
 // of a pass) through every pass at once, and an offset for each file after the first. `beside`: the terms of
 // effects found that are not a function of the station (explain_traverses), fitted beside each order: they count
 // alike in every order's BIC and are not part of the base (the engine judges them again as candidates); `found`
-// names them.
+// names them; `coupled`: a yaw coupling is among them (shared_geometry).
 Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const Eigen::VectorXd& y,
                  const std::vector<std::size_t>& stations, const Eigen::MatrixXd& effects_beside,
-                 const std::string& found, std::string& note, bool& per_station) {
+                 const std::string& found, bool coupled, std::string& note, bool& per_station) {
   const auto n = y.size();
   std::size_t fewest = passes.front().x_m.size();
   for (const TraversePass& p : passes) fewest = std::min(fewest, p.x_m.size());
@@ -421,13 +432,14 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
   // CPU; 9,230 could not be held), fitted out they cost a pass over the readings.
   const auto beyond = [](const SharedGeometry& g) { return g.judged && g.chi2 > g.dof + 3.09 * std::sqrt(2.0 * g.dof); };
   const int bic_order = best;
-  SharedGeometry shared = shared_geometry(passes, l, y, stations, best);
+  SharedGeometry shared = shared_geometry(passes, l, y, stations, best, coupled);
   // The BIC's order was chosen against a residual a shared wave is part of (a rack's wave of 2.4 urad hides a bow
   // of 1 urad from it, as a drift does): before the geometry is called "not a polynomial", the higher orders, each
   // with the wave and the yaw's part; the lowest that leaves what the passes share within their scatter is the base.
   if (beyond(shared))
     for (int order = best + 1; order <= highest; ++order)
-      if (const SharedGeometry higher = shared_geometry(passes, l, y, stations, order); higher.judged && !beyond(higher)) {
+      if (const SharedGeometry higher = shared_geometry(passes, l, y, stations, order, coupled);
+          higher.judged && !beyond(higher)) {
         best = order;
         shared = higher;
         break;
@@ -464,7 +476,7 @@ Block base_block(const std::vector<TraversePass>& passes, const Layout& l, const
 namespace {
 
 Problem traverse_problem_beside(const std::vector<TraversePass>& passes, const Eigen::MatrixXd& beside,
-                                const std::string& found) {
+                                const std::string& found, bool coupled) {
   const Layout l = layout_of(passes);
   Problem p;
   p.model = "traverse";
@@ -496,7 +508,7 @@ Problem traverse_problem_beside(const std::vector<TraversePass>& passes, const E
   for (std::size_t i = 0; i < p.samples.size(); ++i) y[static_cast<Eigen::Index>(i)] = p.samples[i].y_um;
   std::string base_note;
   bool per_station = false;
-  p.base = base_block(passes, l, y, p.station_of, beside, found, base_note, per_station);
+  p.base = base_block(passes, l, y, p.station_of, beside, found, coupled, base_note, per_station);
   const effects::TraverseTerms terms{g, l.both, l.timed, l.yaw, l.span_m, l.step_m};
   p.candidates = effects::traverse_candidates(terms);
   if (per_station) absorb_station_means(p);
@@ -529,30 +541,49 @@ bool function_of_station(const std::vector<double>& column, const std::vector<st
   return within <= 1e-12 * total;
 }
 
+bool found_in(const Report& report, const std::string& effect) {
+  return std::any_of(report.findings.begin(), report.findings.end(),
+                     [&](const Finding& held) { return held.effect == effect; });
+}
+
 // Where the base is a term per station, a pitch wave the passes share is geometry: the engine's tests, of what the
 // passes disagree on, hold nothing of it. It is judged against the geometry (shared_wave.hpp): a line of the station
 // means standing above their own spectrum is a finding, appended with its size and u, its BIC and p those of that
-// test (its columns kept when asked); else pitch_wave's verdict in `considered` says what the line stood at.
+// test (its columns kept when asked); else pitch_wave's verdict in `considered` says what the line stood at. A yaw
+// coupling found puts the yaw's shape in the pitch, in the geometry too (the yaw the passes share): the station means'
+// part along the yaw's station means (fitted with a constant and a line) is taken out first. A carriage's yaw wave
+// read through the head's roll was reported as a pitch wave beside the coupling; with the coupling's own estimate
+// taken out instead (from what the passes disagree on, known to its u), its error, 2.7 u on dabam-034, left a wave
+// of the yaw's shape standing above the spectrum. What lies along that shape cannot be told from the coupling.
 void judge_shared_wave(const std::vector<TraversePass>& passes, const Problem& problem, const ExplainOptions& options,
                        Report& report) {
   const auto candidate = std::find_if(problem.candidates.begin(), problem.candidates.end(),
                                       [](const Candidate& c) { return c.effect == "pitch_wave"; });
-  const bool taken = std::any_of(report.findings.begin(), report.findings.end(),
-                                 [](const Finding& held) { return held.effect == "pitch_wave"; });
-  if (!problem.station_means_absorbed || candidate == problem.candidates.end() || taken) return;
+  if (!problem.station_means_absorbed || candidate == problem.candidates.end() || found_in(report, "pitch_wave"))
+    return;
   const Layout l = layout_of(passes);
+  const bool coupled = found_in(report, "yaw_coupling");
   const std::size_t stations = *std::max_element(problem.station_of.begin(), problem.station_of.end()) + 1;
-  std::vector<double> mean(stations, 0.0), count(stations, 0.0);
+  std::vector<double> mean(stations, 0.0), yaw(stations, 0.0), count(stations, 0.0);
   std::size_t row = 0;
   for (const TraversePass& p : passes)
-    for (const double pitch : p.pitch_rad) {
+    for (std::size_t i = 0; i < p.pitch_rad.size(); ++i) {
       const std::size_t s = problem.station_of[row++];
-      mean[s] += std::tan(pitch) * 1e6;
+      mean[s] += std::tan(p.pitch_rad[i]) * 1e6;
+      if (coupled) yaw[s] += p.yaw_rad[i] * 1e6;
       count[s] += 1;
     }
   for (std::size_t s = 0; s < stations; ++s) {
     if (count[s] == 0) return;
     mean[s] /= count[s];
+    yaw[s] /= count[s];
+  }
+  if (coupled) {
+    const auto S = static_cast<Eigen::Index>(stations);
+    Eigen::MatrixXd a(S, 3);
+    for (Eigen::Index s = 0; s < S; ++s) a.row(s) << 1.0, static_cast<double>(s), yaw[static_cast<std::size_t>(s)];
+    Eigen::Map<Eigen::VectorXd> m(mean.data(), S);
+    m -= a.col(2) * a.colPivHouseholderQr().solve(m)[2];
   }
   const SharedWave w = shared_wave(mean, l.x0_m, l.step_m, options.alpha);
   if (!w.judged) return;
@@ -625,7 +656,9 @@ void judge_shared_wave(const std::vector<TraversePass>& passes, const Problem& p
 
 }  // namespace
 
-Problem traverse_problem(const std::vector<TraversePass>& passes) { return traverse_problem_beside(passes, {}, ""); }
+Problem traverse_problem(const std::vector<TraversePass>& passes) {
+  return traverse_problem_beside(passes, {}, "", false);
+}
 
 // The base's order is chosen by the BIC before anything is found, against a residual that holds the effects: a drift
 // or a rocking tilts each pass, and a drift of 0.25"/min over four passes hides a bow of 1 urad from the BIC (order
@@ -667,7 +700,7 @@ Report explain_traverses(const std::vector<TraversePass>& passes, const ExplainO
   for (std::size_t k = 0; k < columns.size(); ++k)
     beside.col(static_cast<Eigen::Index>(k)) =
         Eigen::Map<const Eigen::VectorXd>(columns[k]->data(), static_cast<Eigen::Index>(columns[k]->size()));
-  Problem again = traverse_problem_beside(passes, beside, found);
+  Problem again = traverse_problem_beside(passes, beside, found, found_in(report, "yaw_coupling"));
   if (again.base.names == first.base.names) return with_wave(first, without_columns(std::move(report)));
   std::string before;
   for (const std::string& n : first.notes)
