@@ -1,5 +1,6 @@
 // What this machine charges for the two things a low-latency acquisition daemon cannot avoid, with
-// nothing of Guideway in the loop: waking a thread on a timer, and taking a CAN frame off a socket.
+// nothing of Guideway in the loop: waking a thread on a timer, and taking a CAN frame off a socket;
+// and each instrument's bare read on its own transport (its reader floor).
 // Item 6 of issue #8 asks for four instruments at 10 kHz in under 5 % of a core with a p99 below
 // 1 ms; these figures are the floor any design pays on this kernel (bench/README.md, "The floor").
 //
@@ -7,14 +8,18 @@
 // work on its behalf), reported as manual time: wall time would count the sleeps.
 #include <benchmark/benchmark.h>
 
+#include <fcntl.h>
 #include <linux/can.h>
 #include <linux/futex.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <poll.h>
-#include <fcntl.h>
 #include <sys/epoll.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/syscall.h>
 #include <sys/timerfd.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <array>
@@ -24,7 +29,15 @@
 #include <ctime>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <thread>
+#include <vector>
+
+#include "drivers/autocollimator/autocollimator_protocol.hpp"
+#include "drivers/modbus/modbus_tcp.hpp"
+#include "drivers/modbus/sample_ring.hpp"
+#include "drivers/profilometer/profile_stream.hpp"
+#include "drivers/tcp/tcp_client.hpp"
 
 namespace {
 
@@ -213,32 +226,16 @@ BENCHMARK(BM_CanFrameDrain<Drain::recvmmsg_timestamped>)->Name("CanFrameDrain/re
 BENCHMARK(BM_CanFrameDrain<Drain::recvmmsg>)->Name("CanFrameDrain/recvmmsg")->Arg(36)->UseManualTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CanFrameDrain<Drain::recv_each>)->Name("CanFrameDrain/recv_each")->Arg(36)->UseManualTime()->Unit(benchmark::kMicrosecond);
 
-// ---- The least a DBB reader can cost: one thread that wakes every 900 us (p99 just under 1 ms) and
-// takes everything queued, while another thread sends 10 k cycles/s of 4 frames (the emulator's
-// traffic at 10 kHz). Nothing is parsed, stamped into samples or handed on. --------------------
-void BM_DbbReaderFloor(benchmark::State& state) {
-  const std::int64_t period_ns = state.range(0) * 1000;
-  const bool timestamps = state.range(1) != 0;
-  constexpr std::int64_t frames_per_s = 40'000;
-  FramePair pair(timestamps);
-  std::atomic<bool> stop{false};
-  std::jthread feeder([&] {
-    const std::int64_t t0 = mono_ns();
-    std::int64_t sent = 0;
-    std::int64_t next = t0;
-    can_frame f{};
-    f.can_dlc = 8;
-    while (!stop.load(std::memory_order_relaxed)) {
-      next += 100'000;  // a cycle every 100 us, its frames sent together as the emulator does
-      const timespec t = to_timespec(next);
-      ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr);
-      const std::int64_t due = (mono_ns() - t0) * frames_per_s / 1'000'000'000;
-      for (; sent < due; ++sent) (void)::send(pair.tx, &f, sizeof f, MSG_DONTWAIT);
-    }
-  });
-  BatchReader reader;
-  std::int64_t frames = 0;
+// ---- A reader's floor: one thread that wakes every `period_ns` (an absolute deadline, as a rest of
+// the daemon's keeps its phase), reads what its transport holds with `read` (returning the items
+// taken) and does nothing else. Its CPU (the kernel's work on its behalf included) and its wake-ups
+// (voluntary context switches, as controller_load.py counts them for guidewayd) per second of wall time.
+template <class Read>
+void run_reader_floor(benchmark::State& state, std::int64_t period_ns, Read&& read) {
+  std::int64_t items = 0;
   std::int64_t cpu_total = 0;
+  rusage ru0{};
+  ::getrusage(RUSAGE_THREAD, &ru0);
   std::int64_t next = mono_ns();
   const std::int64_t wall0 = next;
   for (auto _ : state) {
@@ -246,19 +243,324 @@ void BM_DbbReaderFloor(benchmark::State& state) {
     next += period_ns;
     const timespec t = to_timespec(next);
     ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr);
-    frames += reader.drain(pair.rx);
+    items += read();
     const std::int64_t cpu = thread_cpu_ns() - cpu0;
     cpu_total += cpu;
     state.SetIterationTime(static_cast<double>(cpu) * 1e-9);
   }
-  stop = true;
+  rusage ru1{};
+  ::getrusage(RUSAGE_THREAD, &ru1);
   const double wall_s = static_cast<double>(mono_ns() - wall0) * 1e-9;
-  benchmark::DoNotOptimize(reader.stamp_sum);
-  state.SetItemsProcessed(frames);
-  state.counters["frames_per_s"] = static_cast<double>(frames) / wall_s;
+  state.SetItemsProcessed(items);
+  state.counters["items_per_s"] = static_cast<double>(items) / wall_s;
   state.counters["core_pct"] = static_cast<double>(cpu_total) * 1e-9 / wall_s * 100.0;
+  state.counters["wakes_per_s"] = static_cast<double>(ru1.ru_nvcsw - ru0.ru_nvcsw) / wall_s;
+}
+
+// A feeder thread standing in for an instrument: runs `step(now_ns)` every `period_ns` until destroyed.
+class Feeder {
+ public:
+  template <class Step>
+  Feeder(std::int64_t period_ns, Step step)
+      : thread_([this, period_ns, step = std::move(step)]() mutable {
+          std::int64_t next = mono_ns();
+          while (!stop_.load(std::memory_order_relaxed)) {
+            next += period_ns;
+            const timespec t = to_timespec(next);
+            ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr);
+            step(mono_ns());
+          }
+        }) {}
+  ~Feeder() { stop_ = true; }  // before the thread is joined (members are destroyed in reverse)
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::jthread thread_;
+};
+
+// ---- The least a DBB reader can cost: one thread that wakes every 900 us (p99 just under 1 ms) and
+// takes everything queued, while another thread sends 10 k cycles/s of 4 frames (the emulator's
+// traffic at 10 kHz). Nothing is parsed, stamped into samples or handed on. --------------------
+void BM_DbbReaderFloor(benchmark::State& state) {
+  const bool timestamps = state.range(1) != 0;
+  constexpr std::int64_t frames_per_s = 40'000;
+  FramePair pair(timestamps);
+  std::int64_t sent = 0;
+  const std::int64_t t0 = mono_ns();
+  can_frame f{};
+  f.can_dlc = 8;
+  // A cycle every 100 us, its frames sent together as the emulator does.
+  const Feeder feeder(100'000, [&, t0](std::int64_t now) {
+    const std::int64_t due = (now - t0) * frames_per_s / 1'000'000'000;
+    for (; sent < due; ++sent) (void)::send(pair.tx, &f, sizeof f, MSG_DONTWAIT);
+  });
+  BatchReader reader;
+  run_reader_floor(state, state.range(0) * 1000, [&] { return reader.drain(pair.rx); });
+  benchmark::DoNotOptimize(reader.stamp_sum);
+  state.counters["frames_per_s"] = state.counters["items_per_s"];
 }
 BENCHMARK(BM_DbbReaderFloor)->Name("DbbReaderFloor")->ArgNames({"period_us", "timestamps"})->Args({900, 1})->Args({900, 0})->Iterations(3000)->UseManualTime()->Unit(benchmark::kMicrosecond);
+
+// ---- The other three instruments' floors (issue 45: "a floor for that instrument, the same reader
+// with nothing behind it"): each instrument's read on its own transport, with the driver's own
+// decoding, at the read period guidewayd uses, and nothing after it (no ring, no pipeline). The
+// traffic is what bench/daemon_load.py runs at full rate, made by a feeder thread of this process.
+
+// A connected TCP pair on the loopback: the instrument's end (blocking) and the reader's (non-blocking,
+// TCP_NODELAY and the kernel's receive time with every read, as the drivers' sockets).
+struct TcpPair {
+  int instrument = -1;
+  int reader = -1;
+  TcpPair() {
+    const int listener = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    if (listener < 0 || ::bind(listener, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 || ::listen(listener, 1) != 0 ||
+        ::getsockname(listener, reinterpret_cast<sockaddr*>(&a), &len) != 0)
+      throw std::runtime_error("listen on the loopback");
+    reader = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (::connect(reader, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) throw std::runtime_error("connect");
+    instrument = ::accept4(listener, nullptr, nullptr, SOCK_CLOEXEC);
+    ::close(listener);
+    if (instrument < 0) throw std::runtime_error("accept");
+    const int on = 1;
+    (void)::setsockopt(instrument, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
+    guideway::drivers::tcp::set_stream_options(reader);
+    (void)::fcntl(reader, F_SETFL, ::fcntl(reader, F_GETFL) | O_NONBLOCK);
+  }
+  ~TcpPair() {
+    ::shutdown(reader, SHUT_RDWR);  // ends a feeder blocked in recv
+    ::close(reader);
+    ::close(instrument);
+  }
+  TcpPair(const TcpPair&) = delete;
+  TcpPair& operator=(const TcpPair&) = delete;
+};
+
+bool send_all(int fd, std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+    if (n <= 0) return false;
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+  return true;
+}
+
+// The autocollimator: a TA80-style reply line every stream period (1 ms: stream_period_ms = 1, the
+// fastest the driver accepts) on a pseudo-terminal in raw mode, as the emulator's --link; the reader
+// takes what the line holds every read_period_us (700) and parses each reply (parse_reply).
+void BM_AutocollimatorReaderFloor(benchmark::State& state) {
+  namespace ac = guideway::drivers::autocollimator;
+  const int master = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (master < 0 || ::grantpt(master) != 0 || ::unlockpt(master) != 0) {
+    state.SkipWithError("no pseudo-terminal");
+    return;
+  }
+  (void)::fcntl(master, F_SETFL, ::fcntl(master, F_GETFL) | O_NONBLOCK);  // a full line never blocks the feeder
+  const int line = ::open(::ptsname(master), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  termios tio{};
+  if (line < 0 || ::tcgetattr(line, &tio) != 0) {
+    state.SkipWithError("cannot open the pseudo-terminal's line");
+    ::close(master);
+    return;
+  }
+  ::cfmakeraw(&tio);
+  (void)::tcsetattr(line, TCSANOW, &tio);
+  (void)::tcgetattr(master, &tio);
+  ::cfmakeraw(&tio);
+  (void)::tcsetattr(master, TCSANOW, &tio);
+  {
+    ac::Reading r;
+    r.x_arcsec = 12.34;
+    r.y_arcsec = -56.78;
+    const std::string reply = ac::format_reply(r, 1000.0, false) + "\r";
+    const Feeder feeder(state.range(1) * 1000, [&](std::int64_t) { (void)!::write(master, reply.data(), reply.size()); });
+    std::array<char, 4096> buf{};
+    std::string pending;
+    double sum = 0.0;
+    run_reader_floor(state, state.range(0) * 1000, [&] {
+      std::int64_t lines = 0;
+      for (;;) {
+        const ssize_t n = ::read(line, buf.data(), buf.size());
+        if (n <= 0) break;
+        pending.append(buf.data(), static_cast<std::size_t>(n));
+      }
+      std::size_t from = 0;
+      for (std::size_t end; (end = pending.find('\r', from)) != std::string::npos; from = end + 1) {
+        ac::Reading reading;
+        if (ac::parse_reply(std::string_view(pending).substr(from, end - from), false, reading) == ac::ParseError::none) {
+          sum += reading.x_arcsec;
+          ++lines;
+        }
+      }
+      pending.erase(0, from);
+      return lines;
+    });
+    benchmark::DoNotOptimize(sum);
+  }
+  ::close(line);
+  ::close(master);
+}
+BENCHMARK(BM_AutocollimatorReaderFloor)->Name("AutocollimatorReaderFloor")->ArgNames({"period_us", "line_us"})->Args({700, 1000})->Iterations(3000)->UseManualTime()->Unit(benchmark::kMicrosecond);
+
+// The micrometer in buffered mode over Modbus TCP: every poll_period_ms (5, the driver's default) one
+// write of the counter read and the ring reads of the samples taken since the last poll (planned as
+// the driver plans them, plan_ring_reads), then the wait for their answers (parse_tcp_answer) and the
+// decoding of counter and samples. The amplifier (a feeder thread) samples at 10 kHz into a ring of
+// 16384 slots, as bench/daemon_load.py's emulator, and answers each request as it comes.
+void BM_MicrometerReaderFloor(benchmark::State& state) {
+  namespace mb = guideway::drivers::modbus;
+  mb::SampleRingMap ring;
+  ring.ring_samples = 16384;
+  ring.sample_rate_hz = 10000.0;
+  if (const std::string why = ring.validate(); !why.empty()) {
+    state.SkipWithError(why.c_str());
+    return;
+  }
+  TcpPair pair;
+  const std::int64_t t0 = mono_ns();
+  const auto taken_by = [&](std::int64_t now) {
+    return static_cast<std::uint64_t>(static_cast<double>(now - t0) * 1e-9 * ring.sample_rate_hz);
+  };
+  std::jthread amplifier([&] {
+    std::vector<std::uint8_t> in;
+    std::array<std::uint8_t, 512> buf{};
+    for (;;) {
+      const ssize_t n = ::recv(pair.instrument, buf.data(), buf.size(), 0);
+      if (n <= 0) return;
+      in.insert(in.end(), buf.begin(), buf.begin() + n);
+      std::string out;
+      while (in.size() >= mb::tcp_request_bytes) {
+        const std::uint16_t address = static_cast<std::uint16_t>(in[8] << 8 | in[9]);
+        const std::uint16_t count = static_cast<std::uint16_t>(in[10] << 8 | in[11]);
+        std::vector<std::uint16_t> regs(count, 0);
+        if (address == ring.counter_address && count == 2) {
+          const auto c = mb::encode_counter(ring, static_cast<std::uint32_t>(taken_by(mono_ns())));
+          regs = {c[0], c[1]};
+        }
+        const std::size_t pdu = 2 + 2 * std::size_t{count};
+        const std::uint8_t head[] = {in[0], in[1], 0, 0, static_cast<std::uint8_t>((pdu + 1) >> 8),
+                                     static_cast<std::uint8_t>(pdu + 1), in[6], in[7], static_cast<std::uint8_t>(2 * count)};
+        out.append(reinterpret_cast<const char*>(head), sizeof head);
+        for (const std::uint16_t r : regs) {
+          out += static_cast<char>(r >> 8);
+          out += static_cast<char>(r & 0xFF);
+        }
+        in.erase(in.begin(), in.begin() + mb::tcp_request_bytes);
+      }
+      if (!send_all(pair.instrument, out)) return;
+    }
+  });
+  std::uint16_t transaction = 0;
+  std::uint64_t next = 0;        // the next sample to fetch
+  std::uint64_t counter = 0;     // as the last poll read it
+  std::int64_t last_poll = t0;
+  std::vector<std::uint8_t> rx;
+  std::vector<mb::Reading> readings(ring.samples_per_request());
+  std::array<std::uint16_t, 125> block{};
+  double sum = 0.0;
+  run_reader_floor(state, state.range(0) * 1000, [&] {
+    const std::int64_t now = mono_ns();
+    // The counter read and, in the same write, the ring's new part as far as the amplifier will have got.
+    const auto ahead = static_cast<std::uint64_t>(static_cast<double>(now - last_poll) * 1e-9 * ring.sample_rate_hz * 1.02) + 2;
+    last_poll = now;
+    std::vector<mb::RingRead> reads = mb::plan_ring_reads(ring, next, counter + ahead);
+    std::string requests;
+    const auto ask = [&](std::uint16_t address, std::uint16_t count) {
+      const auto r = mb::tcp_read_request(++transaction, 1, ring.function, address, count);
+      requests.append(reinterpret_cast<const char*>(r.data()), r.size());
+    };
+    ask(ring.counter_address, 2);
+    for (const mb::RingRead& r : reads) ask(r.address, r.count);
+    if (!send_all(pair.reader, requests)) return std::int64_t{0};
+    // Their answers, in the order asked.
+    std::int64_t samples = 0;
+    rx.clear();
+    auto first = static_cast<std::uint16_t>(transaction - reads.size());
+    for (std::size_t answered = 0; answered <= reads.size();) {
+      const std::uint16_t count = answered == 0 ? 2 : reads[answered - 1].count;
+      const mb::TcpAnswer a = mb::parse_tcp_answer(rx, static_cast<std::uint16_t>(first + answered), 1, ring.function,
+                                                   count, block);
+      if (a.kind == mb::TcpAnswer::Kind::incomplete) {
+        pollfd p{pair.reader, POLLIN, 0};
+        (void)::poll(&p, 1, 1000);
+        std::array<char, 2048> buf{};
+        const guideway::drivers::tcp::ReadResult r = guideway::drivers::tcp::read_some(pair.reader, buf.data(), buf.size());
+        if (r.status == guideway::drivers::tcp::ReadStatus::data) rx.insert(rx.end(), buf.begin(), buf.begin() + r.bytes);
+        else if (r.status != guideway::drivers::tcp::ReadStatus::would_block) return samples;
+        continue;
+      }
+      if (a.kind != mb::TcpAnswer::Kind::registers) return samples;
+      rx.erase(rx.begin(), rx.begin() + static_cast<std::ptrdiff_t>(a.length));
+      if (answered == 0) {
+        counter = mb::decode_counter(ring, block[0], block[1]);
+      } else {
+        const mb::RingRead& r = reads[answered - 1];
+        if (mb::decode_ring_block(ring, r, std::span<const std::uint16_t>(block.data(), r.count), readings)) {
+          for (std::size_t i = 0; i < r.samples && r.first + i < counter; ++i) sum += readings[i].value_m;
+          samples += static_cast<std::int64_t>(std::min<std::uint64_t>(r.samples, counter > r.first ? counter - r.first : 0));
+        }
+      }
+      ++answered;
+    }
+    next = std::max(next, counter);
+    return samples;
+  });
+  benchmark::DoNotOptimize(sum);
+  ::shutdown(pair.reader, SHUT_RDWR);
+}
+BENCHMARK(BM_MicrometerReaderFloor)->Name("MicrometerReaderFloor")->ArgNames({"period_us"})->Args({5000})->Iterations(600)->UseManualTime()->Unit(benchmark::kMicrosecond);
+
+// The profilometer: point lines at 10 k points/s over TCP, sent as the emulator sends them (its
+// points gathered until the next one is 2 ms ahead, then written at once); the reader takes what the
+// socket holds every read_period_us (700) with the driver's read (tcp::read_some, the receive time)
+// and assembles it (ProfileAssembler: lines, checksums, points).
+void BM_ProfilometerReaderFloor(benchmark::State& state) {
+  namespace pr = guideway::drivers::profilometer;
+  TcpPair pair;
+  pr::ProfileHeader h;
+  h.id = 1;
+  h.points = 1'000'000'000;
+  h.length_m = 1.0;
+  h.spacing_m = 1e-6;
+  constexpr double points_per_s = 10'000.0;
+  const std::int64_t burst_ns = state.range(1) * 1000;
+  std::uint64_t sent = 0;
+  const std::int64_t t0 = mono_ns();
+  bool started = false;
+  const Feeder feeder(burst_ns, [&](std::int64_t now) {
+    std::string out = started ? std::string() : pr::format_banner("floor") + pr::format_header(h);
+    started = true;
+    const auto due = static_cast<std::uint64_t>(static_cast<double>(now - t0 + burst_ns) * 1e-9 * points_per_s);
+    for (; sent < due; ++sent) out += pr::format_point(sent, static_cast<double>(sent) * 1e-6, 1e-7, h);
+    (void)send_all(pair.instrument, out);
+  });
+  pr::ProfileAssembler assembler;
+  std::vector<pr::StreamEvent> events;
+  std::array<char, 16384> buf{};
+  double sum = 0.0;
+  run_reader_floor(state, state.range(0) * 1000, [&] {
+    std::int64_t points = 0;
+    for (;;) {
+      const guideway::drivers::tcp::ReadResult r = guideway::drivers::tcp::read_some(pair.reader, buf.data(), buf.size());
+      if (r.status != guideway::drivers::tcp::ReadStatus::data) break;
+      assembler.feed(std::string_view(buf.data(), r.bytes), r.rx_realtime_ns, events);
+      for (const pr::StreamEvent& e : events) {
+        if (e.type == pr::StreamEvent::Type::point) {
+          sum += e.z_m;
+          ++points;
+        }
+      }
+      events.clear();
+      if (r.bytes < buf.size()) break;
+    }
+    return points;
+  });
+  benchmark::DoNotOptimize(sum);
+}
+BENCHMARK(BM_ProfilometerReaderFloor)->Name("ProfilometerReaderFloor")->ArgNames({"period_us", "burst_us"})->Args({700, 2000})->Iterations(3000)->UseManualTime()->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
