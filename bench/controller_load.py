@@ -13,7 +13,8 @@ comes from AFTER_BUILD/bench/platform_floor_bench. In order:
      40 k frames/s off the socket and doing nothing else), CPU % of a core and wake-ups/s; beside it each
      other instrument's floor, its bare read on its own transport with the driver's decoding at the read
      period guidewayd uses (AutocollimatorReaderFloor, MicrometerReaderFloor, ProfilometerReaderFloor),
-     and the sum of the four; the daemon's CPU is given as a ratio to the DBB floor and to the sum, its
+     the sum of the four, and all four read by one thread waking at the DBB's period (AllFourReaderFloor);
+     the daemon's CPU is given as a ratio to the DBB floor, to the sum and to the all-four floor, its
      wake-ups against a budget: the DBB floor's plus one per period of each device that needs wake-ups
      of its own (--wake-periods, ms: by default the micrometer's poll_period_ms, 5, and the profilometer
      emulator's segment period, 2, each read as it comes; the autocollimator's lines, 1 ms apart, are
@@ -50,9 +51,11 @@ import daemon_load as dl  # noqa: E402
 DEVICES = ("dbb", "autocollimator", "micrometer", "profilometer")
 
 
-# platform_floor_bench's floors: the DBB's (the platform floor of issue 45) and each other instrument's.
+# platform_floor_bench's floors: the DBB's (the platform floor of issue 45), each other instrument's,
+# and all four read by one thread at the DBB's period ("all_four").
 FLOORS = {"dbb": "DbbReaderFloor/period_us:900/timestamps:1", "autocollimator": "AutocollimatorReaderFloor",
-          "micrometer": "MicrometerReaderFloor", "profilometer": "ProfilometerReaderFloor"}
+          "micrometer": "MicrometerReaderFloor", "profilometer": "ProfilometerReaderFloor",
+          "all_four": "AllFourReaderFloor"}
 
 
 def floors(build, repetitions):
@@ -76,7 +79,8 @@ def median(xs):
 
 def floor_figures(res):
     """Medians over both floor phases: DBB floor %, each instrument's floor %, their sum, the DBB floor's
-    wake-ups/s and the wake-up budget (that plus 1000 / period_ms per entry of the wake periods)."""
+    wake-ups/s and the wake-up budget (that plus 1000 / period_ms per entry of the wake periods); the
+    all-four floor."""
     runs = {}
     for key in ("floors", "floors_after"):
         for name, rs in res.get(key, {}).items():
@@ -86,10 +90,12 @@ def floor_figures(res):
                        res.get("floor_pct_after", [])]
     pct = {name: median([r["core_pct"] for r in rs]) for name, rs in runs.items()}
     wakes = {name: median([r["wakes_per_s"] for r in rs]) for name, rs in runs.items()}
-    total = sum(pct.values()) if len(pct) == len(FLOORS) and None not in pct.values() else None
+    each = [pct.get(name) for name in DEVICES]
+    total = sum(each) if None not in each else None
     periods = res.get("wake_periods_ms", {})
     budget = wakes.get("dbb") + sum(1000.0 / ms for ms in periods.values()) if wakes.get("dbb") else None
-    return {"pct": pct, "wakes": wakes, "sum_pct": total, "budget": budget, "periods_ms": periods}
+    return {"pct": pct, "wakes": wakes, "sum_pct": total, "all_four_pct": pct.get("all_four"), "budget": budget,
+            "periods_ms": periods}
 
 
 def daemon_round(build):
@@ -365,14 +371,15 @@ def report(res):
             rs = res.get("floors", {}).get(name, []) + res.get("floors_after", {}).get(name, [])
             print(f"| {name} ({FLOORS[name].split('/')[0]}) | {', '.join(fmt(r['core_pct'], 2) for r in rs)} | "
                   f"{fmt(ff['pct'].get(name), 2)} | {fmt(ff['wakes'].get(name))} |")
-        print(f"| sum of the four | | {fmt(ff['sum_pct'], 2)} | |")
+            if name == DEVICES[-1]:
+                print(f"| sum of the four | | {fmt(ff['sum_pct'], 2)} | |")
         periods = ", ".join(f"{k} every {v:g} ms" for k, v in ff["periods_ms"].items()) or "none"
         print(f"\nWake-up budget: the DBB floor's {fmt(ff['wakes'].get('dbb'))}/s plus one per extra device period "
               f"({periods}) = {fmt(ff['budget'])}/s\n")
     if res.get("rounds"):
         print("| round | build | samples/s | CPU % | x floor | wake-ups/s | p99 us (all) | p99 us dbb / ac / mic / prof |"
-              " losses | load | x sum of floors | wake-ups / budget |")
-        print("|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|")
+              " losses | load | x sum of floors | x all-four floor | wake-ups / budget |")
+        print("|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|")
         for i, row in enumerate(res["rounds"]):
             for b, r in row.items():
                 by = r["p99_us_by_device"]
@@ -380,6 +387,7 @@ def report(res):
                       f"{fmt(r['cpu_pct'] / fl if fl else None, 2)} | {r['wakeups_per_s']:.0f} | {fmt(r['p99_us'])} | "
                       + " / ".join(fmt(by.get(k)) for k in DEVICES) + f" | {sum(r['losses'].values())} | "
                       f"{r['loadavg_1min']:.1f} | {fmt(r['cpu_pct'] / ff['sum_pct'] if ff['sum_pct'] else None, 2)} | "
+                      f"{fmt(r['cpu_pct'] / ff['all_four_pct'] if ff['all_four_pct'] else None, 2)} | "
                       f"{fmt(r['wakeups_per_s'] / ff['budget'] if ff['budget'] else None, 2)} |")
         print()
         print("| build | threads: CPU % (wake-ups/s), last round |")
