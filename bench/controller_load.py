@@ -122,15 +122,21 @@ def alone(build, name):
             "cpu_pct_per_khz": r["cpu_pct"] / (rate / 1000.0) if rate else float("nan")}
 
 
+def start_both(builds, publish_hz, ds, conns):
+    """Both daemons at full rate, into ds and conns (build: daemon, connection) once each streams."""
+    for b, path in builds.items():
+        ds[b] = dl.Daemon(path, dl.step_rates(10000), publish_hz=publish_hz, client_queue_bytes=4 << 20)
+    for b, d in ds.items():
+        conns[b] = dl.Conn(d.socket)
+        d.wait_streaming(conns[b])
+
+
 def side_by_side(builds, windows):
     """Both daemons at full rate at once: per window, each one's gw-io and process CPU % and samples/s."""
     ds, conns, tids = {}, {}, {}
     try:
-        for b, path in builds.items():
-            ds[b] = dl.Daemon(path, dl.step_rates(10000), publish_hz=10, client_queue_bytes=4 << 20)
+        start_both(builds, 10, ds, conns)
         for b, d in ds.items():
-            conns[b] = dl.Conn(d.socket)
-            d.wait_streaming(conns[b])
             task = f"/proc/{d.proc.pid}/task"
             tids[b] = next(t for t in os.listdir(task) if open(f"{task}/{t}/comm").read().strip() == "gw-io")
         time.sleep(ARGS.warmup_s)
@@ -160,11 +166,7 @@ def side_by_side_latency(builds, seconds):
     `seconds` under the same load (the before/after comparison of latency that holds on a loaded machine)."""
     ds, conns, lat = {}, {}, {b: {k: [] for k in DEVICES} for b in builds}
     try:
-        for b, path in builds.items():
-            ds[b] = dl.Daemon(path, dl.step_rates(10000), publish_hz=100000, client_queue_bytes=4 << 20)
-        for b, d in ds.items():
-            conns[b] = dl.Conn(d.socket)
-            d.wait_streaming(conns[b])
+        start_both(builds, 100000, ds, conns)
         sel = selectors.DefaultSelector()
         for b, c in conns.items():
             c.send({"class": "watch", "classes": ["SAMPLE"]})
