@@ -4,12 +4,21 @@ instruments' full rates against the platform floor, before and after, in one run
 one CPU with and without the daemon on the other. Standard library only (plus perf and cyclictest).
 
   python3 bench/controller_load.py AFTER_BUILD BEFORE_BUILD [--rounds 2] [--step-s 6] [--cyclictest-s 15]
-      [--cyclictest-rounds 2] [--skip floor,daemons,alone,cyclictest] [--json out.json]
+      [--cyclictest-rounds 2] [--skip floor,daemons,alone,cyclictest] [--wake-periods micrometer=5,profilometer=2]
+      [--json out.json]
 
 AFTER_BUILD and BEFORE_BUILD each hold daemon/guidewayd and the emulators (guideway_runtime); the floor
 comes from AFTER_BUILD/bench/platform_floor_bench. In order:
   1. the floor: platform_floor_bench's DbbReaderFloor (one thread waking every 900 us, taking the DBB's
-     40 k frames/s off the socket and doing nothing else), CPU % of a core;
+     40 k frames/s off the socket and doing nothing else), CPU % of a core and wake-ups/s; beside it each
+     other instrument's floor, its bare read on its own transport with the driver's decoding at the read
+     period guidewayd uses (AutocollimatorReaderFloor, MicrometerReaderFloor, ProfilometerReaderFloor),
+     the sum of the four, and all four read by one thread waking at the DBB's period (AllFourReaderFloor);
+     the daemon's CPU is given as a ratio to the DBB floor, to the sum and to the all-four floor, its
+     wake-ups against a budget: the DBB floor's plus one per period of each device that needs wake-ups
+     of its own (--wake-periods, ms: by default the micrometer's poll_period_ms, 5, and the profilometer
+     emulator's segment period, 2, each read as it comes; the autocollimator's lines, 1 ms apart, are
+     read at the DBB's passes);
   2. `rounds` rounds of the two daemons, alternately first, each as bench/daemon_load.py measures a step
      (--rates 10000 --dbb-sync listen --micrometer buffered): CPU at sample_publish_hz 10, wake-ups/s
      (voluntary context switches of every thread, /proc), p99 sample-to-publish latency publishing
@@ -17,6 +26,8 @@ comes from AFTER_BUILD/bench/platform_floor_bench. In order:
   3. each instrument alone at its full rate in a daemon of each build: CPU per 1 k samples/s;
   3b. with --side-by-side N: both daemons at once, under the same load, gw-io's and the process's CPU
      over N windows of --step-s (on a machine others load, the one comparison of the builds that holds);
+     then both at once publishing every batch, one client reading both for N x --step-s: each device's
+     median and p99 sample-to-publish latency, before and after;
   4. cyclictest (SCHED_FIFO 95, 200 us interval) pinned to the last CPU: alone, beside the "after"
      daemon kept off that CPU (the kernel's isolated list stood in for by $GUIDEWAY_CPU_ISOLATED_FILE),
      beside it spread over every CPU, and beside the "before" daemon, `--cyclictest-rounds` times in
@@ -27,6 +38,7 @@ comes from AFTER_BUILD/bench/platform_floor_bench. In order:
 import argparse
 import json
 import os
+import selectors
 import shutil
 import subprocess
 import sys
@@ -39,14 +51,51 @@ import daemon_load as dl  # noqa: E402
 DEVICES = ("dbb", "autocollimator", "micrometer", "profilometer")
 
 
-def floor(build, repetitions):
-    """platform_floor_bench's DbbReaderFloor at 900 us with timestamps: core % per run."""
+# platform_floor_bench's floors: the DBB's (the platform floor of issue 45), each other instrument's,
+# and all four read by one thread at the DBB's period ("all_four").
+FLOORS = {"dbb": "DbbReaderFloor/period_us:900/timestamps:1", "autocollimator": "AutocollimatorReaderFloor",
+          "micrometer": "MicrometerReaderFloor", "profilometer": "ProfilometerReaderFloor",
+          "all_four": "AllFourReaderFloor"}
+
+
+def floors(build, repetitions):
+    """Every floor of FLOORS, `repetitions` runs each: {device: [{"core_pct", "wakes_per_s"}, ...]}."""
     exe = f"{build}/bench/platform_floor_bench"
-    out = subprocess.run([exe, "--benchmark_filter=DbbReaderFloor/period_us:900/timestamps:1",
+    out = subprocess.run([exe, "--benchmark_filter=^(" + "|".join(FLOORS.values()) + ")/",
                           f"--benchmark_repetitions={repetitions}", "--benchmark_format=json"],
                          capture_output=True, text=True, check=True).stdout
     runs = [b for b in json.loads(out)["benchmarks"] if b.get("run_type") == "iteration"]
-    return [round(b["core_pct"], 2) for b in runs]
+    res = {}
+    for name, prefix in FLOORS.items():
+        res[name] = [{"core_pct": round(b["core_pct"], 2), "wakes_per_s": round(b.get("wakes_per_s", float("nan")))}
+                     for b in runs if b["name"].startswith(prefix + "/")]
+    return res
+
+
+def median(xs):
+    xs = sorted(x for x in xs if x == x)
+    return xs[len(xs) // 2] if xs else None
+
+
+def floor_figures(res):
+    """Medians over both floor phases: DBB floor %, each instrument's floor %, their sum, the DBB floor's
+    wake-ups/s and the wake-up budget (that plus 1000 / period_ms per entry of the wake periods); the
+    all-four floor."""
+    runs = {}
+    for key in ("floors", "floors_after"):
+        for name, rs in res.get(key, {}).items():
+            runs.setdefault(name, []).extend(rs)
+    if not runs and (res.get("floor_pct") or res.get("floor_pct_after")):  # a --json of before the instrument floors
+        runs["dbb"] = [{"core_pct": x, "wakes_per_s": float("nan")} for x in res.get("floor_pct", []) +
+                       res.get("floor_pct_after", [])]
+    pct = {name: median([r["core_pct"] for r in rs]) for name, rs in runs.items()}
+    wakes = {name: median([r["wakes_per_s"] for r in rs]) for name, rs in runs.items()}
+    each = [pct.get(name) for name in DEVICES]
+    total = sum(each) if None not in each else None
+    periods = res.get("wake_periods_ms", {})
+    budget = wakes.get("dbb") + sum(1000.0 / ms for ms in periods.values()) if wakes.get("dbb") else None
+    return {"pct": pct, "wakes": wakes, "sum_pct": total, "all_four_pct": pct.get("all_four"), "budget": budget,
+            "periods_ms": periods}
 
 
 def daemon_round(build):
@@ -73,15 +122,21 @@ def alone(build, name):
             "cpu_pct_per_khz": r["cpu_pct"] / (rate / 1000.0) if rate else float("nan")}
 
 
+def start_both(builds, publish_hz, ds, conns):
+    """Both daemons at full rate, into ds and conns (build: daemon, connection) once each streams."""
+    for b, path in builds.items():
+        ds[b] = dl.Daemon(path, dl.step_rates(10000), publish_hz=publish_hz, client_queue_bytes=4 << 20)
+    for b, d in ds.items():
+        conns[b] = dl.Conn(d.socket)
+        d.wait_streaming(conns[b])
+
+
 def side_by_side(builds, windows):
     """Both daemons at full rate at once: per window, each one's gw-io and process CPU % and samples/s."""
     ds, conns, tids = {}, {}, {}
     try:
-        for b, path in builds.items():
-            ds[b] = dl.Daemon(path, dl.step_rates(10000), publish_hz=10, client_queue_bytes=4 << 20)
+        start_both(builds, 10, ds, conns)
         for b, d in ds.items():
-            conns[b] = dl.Conn(d.socket)
-            d.wait_streaming(conns[b])
             task = f"/proc/{d.proc.pid}/task"
             tids[b] = next(t for t in os.listdir(task) if open(f"{task}/{t}/comm").read().strip() == "gw-io")
         time.sleep(ARGS.warmup_s)
@@ -100,6 +155,42 @@ def side_by_side(builds, windows):
                           "samples_per_s": rate}
             out.append(row)
         return out
+    finally:
+        for d in ds.values():
+            d.stop()
+
+
+def side_by_side_latency(builds, seconds):
+    """Both daemons at full rate at once, each publishing the newest sample of every batch, one client
+    reading both: per build and device, the median and p99 sample-to-publish latency (us) over the same
+    `seconds` under the same load (the before/after comparison of latency that holds on a loaded machine)."""
+    ds, conns, lat = {}, {}, {b: {k: [] for k in DEVICES} for b in builds}
+    try:
+        start_both(builds, 100000, ds, conns)
+        sel = selectors.DefaultSelector()
+        for b, c in conns.items():
+            c.send({"class": "watch", "classes": ["SAMPLE"]})
+            sel.register(c.sock, selectors.EVENT_READ, b)
+        start = time.monotonic() + ARGS.warmup_s
+        end = start + seconds
+        while time.monotonic() < end:
+            for key, _ in sel.select(0.05):
+                c = conns[key.data]
+                data = c.sock.recv(1 << 20)
+                now = dl.mono_ns()
+                if not data:
+                    raise ConnectionError(f"{key.data} daemon closed the connection")
+                c.buf += data
+                *full, c.buf = c.buf.split(b"\n")
+                if time.monotonic() < start:
+                    continue
+                for line in full:
+                    t, dev = dl.T_RE.search(line), dl.DEV_RE.search(line)
+                    if line.startswith(b'{"class":"SAMPLE"') and t and dev:
+                        lat[key.data][dev.group(1).decode()].append((now - int(t.group(1))) / 1000.0)
+        return {"seconds": seconds, "loadavg_1min": dl.loadavg()[0],
+                **{b: {k: {"n": len(v), "median": dl.pct(v, 0.5), "p99": dl.pct(v, 0.99)} for k, v in by.items()}
+                   for b, by in lat.items()}}
     finally:
         for d in ds.values():
             d.stop()
@@ -200,16 +291,21 @@ def main():
     ap.add_argument("--side-by-side", type=int, default=0, metavar="N",
                     help="also run both daemons at once for N windows of --step-s (0: not)")
     ap.add_argument("--skip", default="", help="phases to leave out: floor,daemons,alone,cyclictest")
+    ap.add_argument("--wake-periods", default="micrometer=5,profilometer=2",
+                    help="devices with wake-ups of their own for the wake-up budget, name=period_ms,... "
+                         "(default: the micrometer's poll_period_ms and the profilometer emulator's segment period; '' for none)")
     ap.add_argument("--json", help="write the raw results here")
     ARGS = ap.parse_args()
     dl.DBB_SYNC = "listen"
     dl.MICROMETER["mode"] = "buffered"
     skip = set(ARGS.skip.split(",")) - {""}
     builds = {"before": ARGS.before, "after": ARGS.after}
-    res = {"machine": dl.machine(), "load_before": dl.loadavg(), "builds": builds}
+    res = {"machine": dl.machine(), "load_before": dl.loadavg(), "builds": builds,
+           "wake_periods_ms": {k: float(v) for k, v in (p.split("=") for p in ARGS.wake_periods.split(",") if p)}}
     if "floor" not in skip:
-        print("floor ...", file=sys.stderr, flush=True)
-        res["floor_pct"] = floor(ARGS.after, ARGS.floor_repetitions)
+        print("floors ...", file=sys.stderr, flush=True)
+        res["floors"] = floors(ARGS.after, ARGS.floor_repetitions)
+        res["floor_pct"] = [r["core_pct"] for r in res["floors"]["dbb"]]
     if "daemons" not in skip:
         res["rounds"] = []
         for r in range(ARGS.rounds):
@@ -219,8 +315,9 @@ def main():
                 print(f"round {r + 1}: {b} ...", file=sys.stderr, flush=True)
                 row[b] = daemon_round(builds[b])
             res["rounds"].append(row)
-        if "floor" not in skip:  # the floor again after the daemons: the machine may have changed meanwhile
-            res["floor_pct_after"] = floor(ARGS.after, ARGS.floor_repetitions)
+        if "floor" not in skip:  # the floors again after the daemons: the machine may have changed meanwhile
+            res["floors_after"] = floors(ARGS.after, ARGS.floor_repetitions)
+            res["floor_pct_after"] = [r["core_pct"] for r in res["floors_after"]["dbb"]]
     if "alone" not in skip:
         res["alone"] = {}
         for name in DEVICES:
@@ -230,6 +327,8 @@ def main():
     if ARGS.side_by_side > 0:
         print(f"side by side, {ARGS.side_by_side} windows ...", file=sys.stderr, flush=True)
         res["side_by_side"] = side_by_side(builds, ARGS.side_by_side)
+        print("side by side, latency ...", file=sys.stderr, flush=True)
+        res["side_by_side_latency"] = side_by_side_latency(builds, ARGS.side_by_side * ARGS.step_s)
     if "cyclictest" not in skip:
         cpu = sorted(os.sched_getaffinity(0))[-1]
         s = ARGS.cyclictest_s
@@ -263,20 +362,35 @@ def report(res):
           f"load average before {res['load_before']}, after {res['load_after']}\n")
     floors = res.get("floor_pct", []) + res.get("floor_pct_after", [])
     fl = sorted(floors)[len(floors) // 2] if floors else None
+    ff = floor_figures(res)
     if floors:
         print(f"Floor (DbbReaderFloor, 900 us, timestamps): {', '.join(fmt(x, 2) for x in floors)} % of a core; "
               f"median {fmt(fl, 2)} %\n")
+    if ff["pct"]:
+        print("| floor (median of every run, both phases) | runs: CPU % of a core | median CPU % | wake-ups/s |")
+        print("|---|---|---:|---:|")
+        for name in FLOORS:
+            rs = res.get("floors", {}).get(name, []) + res.get("floors_after", {}).get(name, [])
+            print(f"| {name} ({FLOORS[name].split('/')[0]}) | {', '.join(fmt(r['core_pct'], 2) for r in rs)} | "
+                  f"{fmt(ff['pct'].get(name), 2)} | {fmt(ff['wakes'].get(name))} |")
+            if name == DEVICES[-1]:
+                print(f"| sum of the four | | {fmt(ff['sum_pct'], 2)} | |")
+        periods = ", ".join(f"{k} every {v:g} ms" for k, v in ff["periods_ms"].items()) or "none"
+        print(f"\nWake-up budget: the DBB floor's {fmt(ff['wakes'].get('dbb'))}/s plus one per extra device period "
+              f"({periods}) = {fmt(ff['budget'])}/s\n")
     if res.get("rounds"):
         print("| round | build | samples/s | CPU % | x floor | wake-ups/s | p99 us (all) | p99 us dbb / ac / mic / prof |"
-              " losses | load |")
-        print("|---|---|---:|---:|---:|---:|---:|---|---:|---:|")
+              " losses | load | x sum of floors | x all-four floor | wake-ups / budget |")
+        print("|---|---|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|")
         for i, row in enumerate(res["rounds"]):
             for b, r in row.items():
                 by = r["p99_us_by_device"]
                 print(f"| {i + 1} | {b} | {r['samples_per_s']:.0f} | {r['cpu_pct']:.1f} | "
                       f"{fmt(r['cpu_pct'] / fl if fl else None, 2)} | {r['wakeups_per_s']:.0f} | {fmt(r['p99_us'])} | "
                       + " / ".join(fmt(by.get(k)) for k in DEVICES) + f" | {sum(r['losses'].values())} | "
-                      f"{r['loadavg_1min']:.1f} |")
+                      f"{r['loadavg_1min']:.1f} | {fmt(r['cpu_pct'] / ff['sum_pct'] if ff['sum_pct'] else None, 2)} | "
+                      f"{fmt(r['cpu_pct'] / ff['all_four_pct'] if ff['all_four_pct'] else None, 2)} | "
+                      f"{fmt(r['wakeups_per_s'] / ff['budget'] if ff['budget'] else None, 2)} |")
         print()
         print("| build | threads: CPU % (wake-ups/s), last round |")
         print("|---|---|")
@@ -310,6 +424,17 @@ def report(res):
         print(f"\nafter / before, side by side: gw-io {tot['after']['gw_io_pct'] / tot['before']['gw_io_pct']:.3f}, "
               f"process {tot['after']['cpu_pct'] / tot['before']['cpu_pct']:.3f}, "
               f"process per sample {per_sample['after'] / per_sample['before']:.3f}\n")
+    if res.get("side_by_side_latency"):
+        sl = res["side_by_side_latency"]
+        print(f"Latency side by side (both daemons at once, publishing every batch, {sl['seconds']:g} s, "
+              f"load {sl['loadavg_1min']:.1f}):\n")
+        print("| device | samples published before / after | median us before / after | p99 us before / after |")
+        print("|---|---:|---:|---:|")
+        for k in DEVICES:
+            b, a = sl["before"][k], sl["after"][k]
+            print(f"| {k} | {b['n']} / {a['n']} | {fmt(b['median'])} / {fmt(a['median'])} | "
+                  f"{fmt(b['p99'])} / {fmt(a['p99'])} |")
+        print()
     if res.get("cyclictest"):
         print(f"cyclictest on CPU {res['cyclictest_cpu']} (SCHED_FIFO 95, 200 us); ratios against the idle run of the "
               "same round:\n")

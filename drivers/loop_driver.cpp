@@ -157,11 +157,6 @@ void LoopDriver::end_link(const std::string& why) {
   wait_backoff();
 }
 
-void LoopDriver::rest_from(std::int64_t now_ns) noexcept {
-  schedule_ = ReadSchedule::rest;
-  read_at_ns_ = now_ns + policy_.read_period_ns;
-}
-
 void LoopDriver::on_ready(std::uint32_t events) {
   if (link_ != Link::up) return;
   served_pass_ = io_->passes();

@@ -130,9 +130,6 @@ class LoopDriver : public Driver {
   [[nodiscard]] const LoopPolicy& policy() const noexcept { return policy_; }
   void set_schedule(ReadSchedule schedule) noexcept { schedule_ = schedule; }
   [[nodiscard]] ReadSchedule schedule() const noexcept { return schedule_; }
-  // Starts a rest now (the rest schedule): e.g. after sending a request whose answer can wait for
-  // the other devices' passes.
-  void rest_from(std::int64_t now_ns) noexcept;
   // The paced schedule: reads now; false when the link ended. `more` as read_some's.
   bool read_queued(bool& more);
   void want_write(bool on) noexcept { write_wanted_ = on; }

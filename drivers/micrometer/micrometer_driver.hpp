@@ -161,7 +161,7 @@ class MicrometerDriver : public drivers::LoopDriver {
   std::vector<std::uint8_t> rx_;
   std::unique_ptr<PollTask> poll_;
   std::uint64_t poll_pass_ = 0;  // the loop's pass when the last poll began
-  bool busy_ = false;            // this poll reads its answers at passes that come anyway
+  bool busy_ = false;            // other devices keep the loop passing by: no readiness interest between polls
   // RTU: the serial line, kept across links (a line reopened is the same bus); the next ask first
   // discards what the line holds (the first of a poll).
   std::unique_ptr<modbus::RtuLine> rtu_;

@@ -105,6 +105,7 @@ void ProfilometerDriver::on_link_down() {
 
 drivers::ReadOutcome ProfilometerDriver::read_some(bool) {
   drivers::ReadOutcome out;
+  const std::int64_t newest_before = last_t_ns_;
   for (;;) {
     if (out.taken >= max_read_bytes) {  // a flooding instrument: the other devices first, then on
       out.more = true;
@@ -139,7 +140,12 @@ drivers::ReadOutcome ProfilometerDriver::read_some(bool) {
     if (r.bytes < buffer_.size()) break;  // the socket is empty (or nearly: the next pass takes the rest)
   }
   last_read_ns_ = mono_now_ns();
+  if (out.taken > 0) arrival_gap_ns_ = last_t_ns_ - newest_before;
   return out;
+}
+
+bool ProfilometerDriver::rest_after(const drivers::ReadOutcome&) const {
+  return arrival_gap_ns_ < 2 * policy().read_period_ns;
 }
 
 void register_profilometer_driver(drivers::DriverRegistry& registry) {
