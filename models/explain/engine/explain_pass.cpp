@@ -221,21 +221,23 @@ Pass explain_once(const Problem& problem, const ExplainOptions& options, const S
   add_curves(rep, problem, steps, options.curve_points);
   const Located fin = locate(problem, cur.residual, options.alpha);
   settle_verdict(fin, rep);
-  Pass pass{std::move(rep), {}, {}};
-  for (const Term& t : chosen.terms()) {
-    // A generated term's columns over every sample of the problem given to explain() (a listed one's are that
-    // problem's own: not copied).
+  Pass pass{std::move(rep), {}, {}, {}};
+  // A generated term's columns over every sample of the problem given to explain() (a listed one's are that
+  // problem's own: not copied).
+  const auto term_columns = [&](const Term& t) {
     const Variant& v = variant_of(problem, t);
     Eigen::MatrixXd all;
     if (t.pool) {
       Eigen::MatrixXd scratch;
       all = v.all_samples ? v.all_samples() : columns_of(v, static_cast<Eigen::Index>(n), scratch);
     }
-    pass.terms.push_back({t.cand, t.index, t.pool != nullptr, std::move(all), v.searched});
-  }
+    return TermColumns{t.cand, t.index, t.pool != nullptr, std::move(all), v.searched};
+  };
+  for (const Term& t : chosen.terms()) pass.terms.push_back(term_columns(t));
   if (pass.report.unexplained && chosen.before_share()) {
     const Located probe = locate(problem, sel.model(*chosen.before_share()).residual, options.alpha, sigma);
     for (const auto& m : probe.places) pass.probe.insert(pass.probe.end(), m.locations.begin(), m.locations.end());
+    for (const Term& t : *chosen.before_share()) pass.probe_terms.push_back(term_columns(t));
   }
   return pass;
 }

@@ -33,6 +33,9 @@ struct Pass {
   // place (empty: none dropped, or structured throughout).
   std::vector<Location> probe;
   std::vector<TermColumns> terms;  // the findings' terms, in the order taken
+  // The terms of the effects held before the share rule dropped any, where the pass ends `unexplained` (the probe's):
+  // partial fits of a fault beside real effects (engine/level_step.hpp winning_step looks for a step beside them).
+  std::vector<TermColumns> probe_terms;
 };
 
 // Where a pass's residual is structured at places no effect explains, whether explain() would set them aside (the

@@ -29,21 +29,16 @@ double chi2_1_quantile(double alpha) {
   return (lo + hi) / 2;
 }
 
-// Per sample i of a run [a, b) searched, the sum of squares a step over [i, b) takes from the residual beyond the
-// base and the later runs' level, and the step's size.
-struct RunSteps {
-  std::size_t run = 0, first = 0;  // the run, and the sample of stat[0]
-  std::vector<double> stat, size_um;
+// What a step is sought beside, as an orthonormal basis q, and the residual r beyond it.
+struct Beyond {
+  Eigen::MatrixXd q;
+  Eigen::VectorXd r;
 };
 
-RunSteps steps_in_run(const Problem& p, const Eigen::VectorXd& y, std::size_t run, std::size_t a, std::size_t b) {
+// The base and every run's own level: a step within the run, not one run's level against another's (that alone is a
+// ccw/cw effect's, a lateral play's).
+Beyond beyond_levels(const Problem& p, const Eigen::VectorXd& y) {
   const auto n = y.size();
-  RunSteps out;
-  out.run = run;
-  const std::size_t len = b - a, margin = std::max<std::size_t>(1, len / 32);
-  if (len < min_run_samples || len <= 2 * margin) return out;
-  // The base and every run's own level: a step within the run, not one run's level against another's (that alone is
-  // a ccw/cw effect's, a lateral play's).
   const auto ranges = run_ranges(p);
   const Eigen::Index p0 = p.base.columns.cols();
   Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, p0 + static_cast<Eigen::Index>(ranges.size()));
@@ -53,8 +48,26 @@ RunSteps steps_in_run(const Problem& p, const Eigen::VectorXd& y, std::size_t ru
         .segment(static_cast<Eigen::Index>(ranges[k].first),
                  static_cast<Eigen::Index>(ranges[k].second - ranges[k].first))
         .setOnes();
-  const Eigen::MatrixXd q = x.cols() > 0 ? span_basis(x) : Eigen::MatrixXd(n, 0);
-  const Eigen::VectorXd r = q.cols() > 0 ? Eigen::VectorXd(y - q * (q.transpose() * y)) : y;
+  Beyond out;
+  out.q = x.cols() > 0 ? span_basis(x) : Eigen::MatrixXd(n, 0);
+  out.r = out.q.cols() > 0 ? Eigen::VectorXd(y - out.q * (out.q.transpose() * y)) : y;
+  return out;
+}
+
+// Per sample i of a run [a, b) searched, the sum of squares a step over [i, b) takes from the residual `beyond` leaves,
+// and the step's size.
+struct RunSteps {
+  std::size_t run = 0, first = 0;  // the run, and the sample of stat[0]
+  std::vector<double> stat, size_um;
+};
+
+RunSteps steps_in_run(const Beyond& beyond, std::size_t run, std::size_t a, std::size_t b) {
+  RunSteps out;
+  out.run = run;
+  const std::size_t len = b - a, margin = std::max<std::size_t>(1, len / 32);
+  if (len < min_run_samples || len <= 2 * margin) return out;
+  const Eigen::MatrixXd& q = beyond.q;
+  const Eigen::VectorXd& r = beyond.r;
   // Suffix sums from the run's end: the step's column s = 1 on [i, b); beyond q it is s - q q's, whose norm^2 is
   // (b - i) - |q's|^2, and its product with r (already beyond q) is the sum of r over [i, b).
   out.first = a + margin;
@@ -74,16 +87,19 @@ RunSteps steps_in_run(const Problem& p, const Eigen::VectorXd& y, std::size_t ru
   return out;
 }
 
-}  // namespace
+// The strongest step beside `beyond` (level_step), with the residual's sum of squares and the parameters of the model
+// with it.
+struct Strongest {
+  LevelStep step;
+  double rss = 0, parameters = 0;
+};
 
-std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, double alpha) {
-  if (!(sigma_um > 0) || problem.station_means_absorbed) return std::nullopt;
-  const Eigen::VectorXd y = observations(problem);
+std::optional<Strongest> strongest_step(const Problem& problem, const Beyond& beyond, double sigma_um, double alpha) {
   const auto ranges = run_ranges(problem);
   std::vector<RunSteps> runs;
   std::size_t searched = 0;
   for (std::size_t k = 0; k < ranges.size(); ++k) {
-    runs.push_back(steps_in_run(problem, y, k, ranges[k].first, ranges[k].second));
+    runs.push_back(steps_in_run(beyond, k, ranges[k].first, ranges[k].second));
     searched += runs.back().stat.size();
   }
   const RunSteps* best = nullptr;
@@ -106,8 +122,115 @@ std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, dou
       hi = std::max(hi, j);
     }
   // From the last sample before the earliest step to the first after the latest.
-  return LevelStep{location_of(problem, best->first + lo - 1, best->first + hi + 1, best->size_um[at]),
-                   best->run, best->first + at};
+  return Strongest{LevelStep{location_of(problem, best->first + lo - 1, best->first + hi + 1, best->size_um[at]),
+                             best->run, best->first + at},
+                   beyond.r.squaredNorm() - best->stat[at], static_cast<double>(beyond.q.cols()) + 1};
+}
+
+// The columns of `terms` over every sample of the problem (a listed term's its variant's, made in `scratch` where made
+// on demand); empty where one has another number of rows.
+std::vector<const Eigen::MatrixXd*> columns_of_terms(const Problem& problem, const std::vector<TermColumns>& terms,
+                                                     Eigen::Index n, std::vector<Eigen::MatrixXd>& scratch) {
+  scratch.resize(terms.size());
+  std::vector<const Eigen::MatrixXd*> columns;
+  for (std::size_t j = 0; j < terms.size(); ++j) {
+    const TermColumns& t = terms[j];
+    columns.push_back(t.generated ? &t.all_samples
+                                  : &columns_of(problem.candidates[t.cand].variants[t.index], n, scratch[j]));
+    if (columns.back()->rows() != n) return {};
+  }
+  return columns;
+}
+
+// Beside the base, the columns of the terms `subset` picks (bit j: terms[j]), the searched values they count.
+Eigen::MatrixXd subset_columns(const std::vector<const Eigen::MatrixXd*>& columns, const std::vector<TermColumns>& terms,
+                               std::size_t subset, Eigen::Index n, std::size_t& searched) {
+  Eigen::Index width = 0;
+  searched = 0;
+  for (std::size_t j = 0; j < columns.size(); ++j)
+    if (subset >> j & 1U) {
+      width += columns[j]->cols();
+      searched += terms[j].searched;
+    }
+  Eigen::MatrixXd x(n, width);
+  Eigen::Index at = 0;
+  for (std::size_t j = 0; j < columns.size(); ++j)
+    if (subset >> j & 1U) {
+      x.middleCols(at, columns[j]->cols()) = *columns[j];
+      at += columns[j]->cols();
+    }
+  return x;
+}
+
+}  // namespace
+
+std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, double alpha) {
+  if (!(sigma_um > 0) || problem.station_means_absorbed) return std::nullopt;
+  const Eigen::VectorXd y = observations(problem);
+  std::optional<Strongest> s = strongest_step(problem, beyond_levels(problem, y), sigma_um, alpha);
+  if (!s) return std::nullopt;
+  return std::move(s->step);
+}
+
+std::optional<WinningStep> winning_step(const Problem& problem, double sigma_um, double alpha,
+                                        const std::vector<TermColumns>& terms, double bic) {
+  const std::size_t k = terms.size();
+  if (!(sigma_um > 0) || problem.station_means_absorbed || k > step_check_max_terms) return std::nullopt;
+  const Eigen::VectorXd y = observations(problem);
+  const Eigen::Index n = y.size();
+  std::vector<Eigen::MatrixXd> scratch;
+  const std::vector<const Eigen::MatrixXd*> columns = columns_of_terms(problem, terms, n, scratch);
+  if (columns.size() != k) return std::nullopt;
+  // Beside the base and the levels once; each term's columns scaled to unit norm and taken beyond them once, a
+  // subset's basis beyond them made of its own (the threshold a joint pivoted QR would apply: unit_span_basis).
+  const Beyond levels = beyond_levels(problem, y);
+  std::vector<Eigen::Index> first_column;
+  Eigen::Index width = 0;
+  for (const Eigen::MatrixXd* c : columns) {
+    first_column.push_back(width);
+    width += c->cols();
+  }
+  Eigen::MatrixXd all(n, width);
+  for (std::size_t j = 0; j < k; ++j) all.middleCols(first_column[j], columns[j]->cols()) = *columns[j];
+  scale_columns(all);
+  if (levels.q.cols() > 0) all -= levels.q * (levels.q.transpose() * all);
+  const double ln_n = std::log(static_cast<double>(n));
+  double best = bic - ln_n;
+  std::optional<Strongest> found;
+  Beyond found_beside;
+  for (std::size_t subset = 0; subset < (std::size_t{1} << k); ++subset) {
+    std::vector<Eigen::Index> picked;
+    std::size_t searched = 0;
+    for (std::size_t j = 0; j < k; ++j)
+      if (subset >> j & 1U) {
+        for (Eigen::Index c = 0; c < columns[j]->cols(); ++c) picked.push_back(first_column[j] + c);
+        searched += terms[j].searched;
+      }
+    Beyond beside = levels;
+    if (!picked.empty()) {
+      const Eigen::MatrixXd qs = unit_span_basis(all(Eigen::all, picked));
+      beside.q.conservativeResize(Eigen::NoChange, levels.q.cols() + qs.cols());
+      beside.q.rightCols(qs.cols()) = qs;
+      beside.r -= qs * (qs.transpose() * levels.r);
+    }
+    std::optional<Strongest> s = strongest_step(problem, beside, sigma_um, alpha);
+    if (!s) continue;
+    const double b = bic_of(s->rss, s->parameters + static_cast<double>(searched), static_cast<double>(n));
+    if (b < best) {
+      best = b;
+      found = std::move(s);
+      found_beside = std::move(beside);
+    }
+  }
+  if (!found) return std::nullopt;
+  // The residual of that model: the step's column beyond the basis, at its size, taken from the residual beyond it.
+  const LevelStep& step = found->step;
+  Eigen::VectorXd column = Eigen::VectorXd::Zero(n);
+  const std::size_t end = run_ranges(problem)[step.run].second;
+  column.segment(static_cast<Eigen::Index>(step.at), static_cast<Eigen::Index>(end - step.at)).setOnes();
+  const Eigen::MatrixXd& q = found_beside.q;
+  if (q.cols() > 0) column -= q * (q.transpose() * column);
+  return WinningStep{step, found_beside.r - step.place.peak_um * column};
 }
 
 bool step_could_win(const Problem& problem, const Eigen::MatrixXd& base_with_step, const Pass& first) {
@@ -116,31 +239,16 @@ bool step_could_win(const Problem& problem, const Eigen::MatrixXd& base_with_ste
   const Eigen::VectorXd y = observations(problem);
   const Eigen::Index n = y.size();
   if (base_with_step.rows() != n) return true;
-  std::vector<Eigen::MatrixXd> scratch(k);
-  std::vector<const Eigen::MatrixXd*> columns;
-  for (std::size_t j = 0; j < k; ++j) {
-    const TermColumns& t = first.terms[j];
-    columns.push_back(t.generated ? &t.all_samples
-                                  : &columns_of(problem.candidates[t.cand].variants[t.index], n, scratch[j]));
-    if (columns.back()->rows() != n) return true;
-  }
+  std::vector<Eigen::MatrixXd> scratch;
+  const std::vector<const Eigen::MatrixXd*> columns = columns_of_terms(problem, first.terms, n, scratch);
+  if (columns.size() != k) return true;
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t subset = 0; subset < (std::size_t{1} << k); ++subset) {
-    Eigen::Index width = base_with_step.cols();
     std::size_t searched = 0;
-    for (std::size_t j = 0; j < k; ++j)
-      if (subset >> j & 1U) {
-        width += columns[j]->cols();
-        searched += first.terms[j].searched;
-      }
-    Eigen::MatrixXd x(n, width);
+    const Eigen::MatrixXd terms = subset_columns(columns, first.terms, subset, n, searched);
+    Eigen::MatrixXd x(n, base_with_step.cols() + terms.cols());
     x.leftCols(base_with_step.cols()) = base_with_step;
-    Eigen::Index at = base_with_step.cols();
-    for (std::size_t j = 0; j < k; ++j)
-      if (subset >> j & 1U) {
-        x.middleCols(at, columns[j]->cols()) = *columns[j];
-        at += columns[j]->cols();
-      }
+    x.rightCols(terms.cols()) = terms;
     const Eigen::MatrixXd q = span_basis(std::move(x));
     const double rss = q.cols() > 0 ? (y - q * (q.transpose() * y)).squaredNorm() : y.squaredNorm();
     best = std::min(best,

@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -37,5 +38,20 @@ std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, dou
 // still take effects the first did not; this asks only whether the step could replace the first pass's own.
 inline constexpr std::size_t step_check_max_terms = 8;
 bool step_could_win(const Problem& problem, const Eigen::MatrixXd& base_with_step, const Pass& first);
+
+// The step in a run's level, sought beside the base, every run's level and each subset of `terms` (a first pass's
+// findings, or the effects it held before its share rule dropped one: Pass::probe_terms), that fits best by the BIC
+// (the step's sample counted as one value searched, the terms' searched values counted), when that comes below `bic`
+// by more than ln n; each subset's step significant as level_step's. Beside the base alone the strongest step may be
+// one a real effect makes (a backlash's reversal, a step in each run's level that the base does not fit), standing
+// above a slip's beside it; beside the backlash the slip's stands out. None where there are more than
+// step_check_max_terms terms. With the residual of that model (the base, the levels, the subset and the step), which
+// says whether the step and those terms leave anything structured.
+struct WinningStep {
+  LevelStep step;
+  Eigen::VectorXd residual_um;
+};
+std::optional<WinningStep> winning_step(const Problem& problem, double sigma_um, double alpha,
+                                        const std::vector<TermColumns>& terms, double bic);
 
 }  // namespace guideway::models::explain::engine

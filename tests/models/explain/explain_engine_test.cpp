@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -13,6 +14,8 @@
 #include <Eigen/QR>
 #include <nlohmann/json.hpp>
 
+#include "models/explain/engine/explain_pass.hpp"
+#include "models/explain/engine/level_step.hpp"
 #include "models/explain/engine/set_aside.hpp"
 #include "models/explain/explain.hpp"
 #include "models/explain/explanation.hpp"
@@ -820,4 +823,52 @@ TEST(ExplainEngine, AFindingAtItsGridsEdgeIsTakenOnlyWhereAStepPastItFitsWorse) 
   ASSERT_EQ(past.considered.size(), 1u) << models::explain::to_text(past);
   EXPECT_NE(past.considered[0].verdict.find("spike_decay_samples = 40 is at its grid's edge and 80"), std::string::npos)
       << past.considered[0].verdict;
+}
+
+namespace {
+
+// What step 5's rival of a first pass is judged on (explain.cpp step_to_set_aside): the first pass over the problem
+// (nothing set aside), the strongest step in a run's level it leaves, and whether the base with that step's offsets
+// beside a subset of the first pass's findings could beat the pass by the BIC.
+struct StepJudged {
+  models::explain::engine::Pass first;
+  std::optional<models::explain::engine::LevelStep> step;
+  bool could_win = false;
+};
+StepJudged judge_step(const models::explain::Problem& p) {
+  namespace engine = models::explain::engine;
+  models::explain::ExplainOptions o;
+  o.curve_points = 0;
+  StepJudged out{engine::explain_once(p, o), std::nullopt, false};
+  out.step = engine::level_step(p, out.first.report.noise_um, o.alpha);
+  if (!out.step) return out;
+  const std::vector<bool> all(p.samples.size(), true);
+  const auto after = engine::fitted_offsets(p, all, {{out.step->run, out.step->at}});
+  out.could_win =
+      engine::step_could_win(p, engine::without_samples(p, all, after).problem.base.columns, out.first);
+  return out;
+}
+
+}  // namespace
+
+// Issue 41 item 10: whether a step in a run's level could replace a first pass's findings (step_could_win), judged
+// without a search. A level that steps by 1 um at sample 1300 and stays, beside the 0.3 um square wave: whatever the
+// first pass took, the base with the step's offset beside its findings fits far better, so the step could win. The
+// square wave alone: the strongest step the base leaves is one of its edges, which stands only for what the square
+// wave the first pass found explains: it cannot win, and no second pass would be run.
+TEST(ExplainEngine, AStepInARunsLevelCouldWinOnlyWhereTheFindingsDoNotExplainIt) {
+  const auto stays = judge_step(make_problem([](int i) { return 0.3 * step_of(i) + (i >= 1300 ? 1.0 : 0.0); }, 4));
+  ASSERT_TRUE(stays.step.has_value());
+  // Beside the base alone (its harmonic takes part of the step, the square wave is left in) near the planted one.
+  EXPECT_NEAR(static_cast<double>(stays.step->at), 1300.0, 25.0);
+  EXPECT_GT(stays.step->place.peak_um, 0.5);
+  EXPECT_TRUE(stays.could_win) << models::explain::to_text(stays.first.report);
+
+  const auto square = judge_step(make_problem([](int i) { return 0.6 * step_of(i); }, 4));
+  ASSERT_EQ(square.first.report.findings.size(), 1u) << models::explain::to_text(square.first.report);
+  EXPECT_EQ(square.first.report.findings[0].effect, "backlash");
+  ASSERT_TRUE(square.step.has_value());  // an edge of the square wave: (at % 250) near 0
+  const std::size_t edge = square.step->at % 250;
+  EXPECT_TRUE(edge < 5 || edge > 245) << square.step->at;
+  EXPECT_FALSE(square.could_win);
 }
