@@ -101,10 +101,10 @@ std::vector<Location> step_to_set_aside(const Problem& problem, const ExplainOpt
   const auto rival_wins = [&](const engine::LevelStep& step, bool screen) {
     const std::vector<OffsetAfter> after =
         engine::fitted_offsets(problem, all, std::vector<OffsetAfter>{OffsetAfter{step.run, step.at}});
-    const engine::Reduced with_step = engine::without_samples(problem, all, after);
     // The whole pass only where the step could replace the first pass's own findings (a search costs every generator
-    // a call per fold again).
-    if (screen && !engine::step_could_win(problem, with_step.problem.base.columns, first)) return false;
+    // a call per fold again, and the problem with the step is a copy of it).
+    if (screen && !engine::step_could_win(problem, after, first)) return false;
+    const engine::Reduced with_step = engine::without_samples(problem, all, after);
     const Pass rival = explain_once(with_step.problem, quiet);
     if (unexplained && rival.report.unexplained) return false;
     const double searched = std::log(static_cast<double>(problem.samples.size()));

@@ -142,26 +142,6 @@ std::vector<const Eigen::MatrixXd*> columns_of_terms(const Problem& problem, con
   return columns;
 }
 
-// Beside the base, the columns of the terms `subset` picks (bit j: terms[j]), the searched values they count.
-Eigen::MatrixXd subset_columns(const std::vector<const Eigen::MatrixXd*>& columns, const std::vector<TermColumns>& terms,
-                               std::size_t subset, Eigen::Index n, std::size_t& searched) {
-  Eigen::Index width = 0;
-  searched = 0;
-  for (std::size_t j = 0; j < columns.size(); ++j)
-    if (subset >> j & 1U) {
-      width += columns[j]->cols();
-      searched += terms[j].searched;
-    }
-  Eigen::MatrixXd x(n, width);
-  Eigen::Index at = 0;
-  for (std::size_t j = 0; j < columns.size(); ++j)
-    if (subset >> j & 1U) {
-      x.middleCols(at, columns[j]->cols()) = *columns[j];
-      at += columns[j]->cols();
-    }
-  return x;
-}
-
 }  // namespace
 
 std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, double alpha) {
@@ -233,26 +213,47 @@ std::optional<WinningStep> winning_step(const Problem& problem, double sigma_um,
   return WinningStep{step, found_beside.r - step.place.peak_um * column};
 }
 
-bool step_could_win(const Problem& problem, const Eigen::MatrixXd& base_with_step, const Pass& first) {
+bool step_could_win(const Problem& problem, const std::vector<OffsetAfter>& offsets, const Pass& first) {
   const std::size_t k = first.terms.size();
   if (k > step_check_max_terms) return true;
   const Eigen::VectorXd y = observations(problem);
   const Eigen::Index n = y.size();
-  if (base_with_step.rows() != n) return true;
   std::vector<Eigen::MatrixXd> scratch;
   const std::vector<const Eigen::MatrixXd*> columns = columns_of_terms(problem, first.terms, n, scratch);
   if (columns.size() != k) return true;
+  const Eigen::Index p0 = problem.base.columns.cols(), m = static_cast<Eigen::Index>(offsets.size());
+  Eigen::Index w = p0 + m;
+  std::vector<Eigen::Index> first_column;  // of each term, in [base offsets terms y]
+  for (const Eigen::MatrixXd* c : columns) {
+    first_column.push_back(w);
+    w += c->cols();
+  }
+  // One pass over the samples for every subset: the factor of [base offsets terms y], its chunks made as they are
+  // read (the offsets are indicator columns; no n-row copy of the design is made).
+  const Eigen::MatrixXd r = tall_r_rows(n, w + 1, [&](Eigen::Index from, Eigen::Ref<Eigen::MatrixXd> part) {
+    const Eigen::Index rows = part.rows();
+    if (p0 > 0) part.leftCols(p0) = problem.base.columns.middleRows(from, rows);
+    for (Eigen::Index c = 0; c < m; ++c)
+      for (Eigen::Index i = 0; i < rows; ++i)
+        part(i, p0 + c) =
+            stands_off(problem, offsets[static_cast<std::size_t>(c)], static_cast<std::size_t>(from + i)) ? 1.0 : 0.0;
+    for (std::size_t j = 0; j < k; ++j)
+      part.middleCols(first_column[j], columns[j]->cols()) = columns[j]->middleRows(from, rows);
+    part.col(w) = y.segment(from, rows);
+  });
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t subset = 0; subset < (std::size_t{1} << k); ++subset) {
+    std::vector<Eigen::Index> chosen;
+    for (Eigen::Index c = 0; c < p0 + m; ++c) chosen.push_back(c);
     std::size_t searched = 0;
-    const Eigen::MatrixXd terms = subset_columns(columns, first.terms, subset, n, searched);
-    Eigen::MatrixXd x(n, base_with_step.cols() + terms.cols());
-    x.leftCols(base_with_step.cols()) = base_with_step;
-    x.rightCols(terms.cols()) = terms;
-    const Eigen::MatrixXd q = span_basis(std::move(x));
-    const double rss = q.cols() > 0 ? (y - q * (q.transpose() * y)).squaredNorm() : y.squaredNorm();
-    best = std::min(best,
-                    bic_of(rss, static_cast<double>(q.cols()) + static_cast<double>(searched), static_cast<double>(n)));
+    for (std::size_t j = 0; j < k; ++j)
+      if (subset >> j & 1U) {
+        for (Eigen::Index c = 0; c < columns[j]->cols(); ++c) chosen.push_back(first_column[j] + c);
+        searched += first.terms[j].searched;
+      }
+    const ColumnsFit fit = fit_of_columns(r, chosen);
+    best = std::min(best, bic_of(fit.rss, static_cast<double>(fit.rank) + static_cast<double>(searched),
+                                 static_cast<double>(n)));
   }
   return best + std::log(static_cast<double>(n)) < first.report.final_fit.bic;
 }

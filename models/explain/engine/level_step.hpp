@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "models/explain/engine/explain_pass.hpp"
+#include "models/explain/engine/set_aside.hpp"
 #include "models/explain/explain.hpp"
 
 namespace guideway::models::explain::engine {
@@ -30,14 +31,14 @@ struct LevelStep {
 std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, double alpha);
 
 // Whether explaining the problem again with the step could beat the first pass by the BIC (with ln n for the step's
-// sample searched), judged without a search: the base with the step's nuisance columns (`base_with_step`, one row per
-// sample), beside each subset of the first pass's own findings refitted (their variants as chosen, their searched
+// sample searched), judged without a search: the base with the step's nuisance columns (`offsets`, fitted_offsets' of
+// the step; no copy of the problem is made), beside each subset of the first pass's own findings refitted (their variants as chosen, their searched
 // values counted), against the first pass's final BIC. No generator runs. False when none of those models could win:
 // the step then only stands for what the findings already explain (a square wave's level, a drift's slope). Where
 // the first pass took more than step_check_max_terms findings, true (the subsets are not all tried). The rival pass may
 // still take effects the first did not; this asks only whether the step could replace the first pass's own.
 inline constexpr std::size_t step_check_max_terms = 8;
-bool step_could_win(const Problem& problem, const Eigen::MatrixXd& base_with_step, const Pass& first);
+bool step_could_win(const Problem& problem, const std::vector<OffsetAfter>& offsets, const Pass& first);
 
 // The step in a run's level, sought beside the base, every run's level and each subset of `terms` (a first pass's
 // findings, or the effects it held before its share rule dropped one: Pass::probe_terms), that fits best by the BIC

@@ -13,15 +13,12 @@
 
 namespace guideway::models::explain::engine {
 
-namespace {
-
-// A nuisance column of the base (OffsetAfter): from a place's first sample after it on, in its run and every later
-// one, or (with later_runs) in the runs after it alone, the reading may stand off by a constant (a step, such as a
-// ball slipping in its socket, leaves the data after it offset from the data before it, whatever is set aside).
 bool stands_off(const Problem& p, OffsetAfter after, std::size_t sample) {
   const std::size_t r = p.samples[sample].run;
   return r > after.first || (after.second != later_runs && r == after.first && sample >= after.second);
 }
+
+namespace {
 
 // The samples [from, to) a place sets aside: the place and a margin on either side (its own length, at most
 // 1/32 of its run: the tails of a step or a ring-down beyond half its peak).

@@ -24,6 +24,10 @@ namespace guideway::models::explain::engine {
 // with none).
 using OffsetAfter = std::pair<std::size_t, std::size_t>;
 inline constexpr std::size_t later_runs = static_cast<std::size_t>(-1);
+// Whether the sample is in a nuisance column's reach: from a place's first sample after it on, in its run and every
+// later one, or (with later_runs) in the runs after it alone, the reading may stand off by a constant (a step, such
+// as a ball slipping in its socket, leaves the data after it offset from the data before it, whatever is set aside).
+bool stands_off(const Problem& p, OffsetAfter after, std::size_t sample);
 
 // The problem without the samples `keep` leaves out: the base's and every listed variant's rows dropped,
 // each generator given the whole residual (zero on the rows left out) with those rows out of use, its

@@ -13,8 +13,7 @@ namespace guideway::models::explain::engine {
 // stacked (a tall-skinny QR). One pass over the matrix: Householder QR of a whole n x p matrix of fewer than 32
 // columns is one unblocked panel, p rank-one updates each streaming the whole matrix from memory (a tenth of
 // explain()'s CPU at 18,000 samples per run). The column of y gives Q^T y with the same reflectors.
-Eigen::MatrixXd tall_r(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd* y) {
-  const Eigen::Index n = a.rows(), w = a.cols() + (y ? 1 : 0);
+Eigen::MatrixXd tall_r_rows(Eigen::Index n, Eigen::Index w, const RowFiller& fill) {
   const Eigen::Index chunk = std::max<Eigen::Index>(2 * w, (Eigen::Index{1} << 17) / std::max<Eigen::Index>(w, 1));
   const auto factor = [w](Eigen::MatrixXd& m) {  // m's rows replaced by its R (at most w rows)
     if (m.rows() <= w) return;
@@ -26,8 +25,7 @@ Eigen::MatrixXd tall_r(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::
   for (Eigen::Index from = 0; from < n; from += chunk) {
     const Eigen::Index rows = std::min(chunk, n - from);
     part.resize(rows, w);
-    part.leftCols(a.cols()) = a.middleRows(from, rows);
-    if (y) part.col(w - 1) = y->segment(from, rows);
+    fill(from, part);
     factor(part);
     stacked.conservativeResize(stacked.rows() + part.rows(), w);
     stacked.bottomRows(part.rows()) = part;
@@ -35,6 +33,14 @@ Eigen::MatrixXd tall_r(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::
   factor(stacked);
   if (stacked.rows() < w) stacked.conservativeResizeLike(Eigen::MatrixXd::Zero(w, w));
   return stacked;
+}
+
+Eigen::MatrixXd tall_r(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd* y) {
+  const Eigen::Index w = a.cols() + (y ? 1 : 0);
+  return tall_r_rows(a.rows(), w, [&](Eigen::Index from, Eigen::Ref<Eigen::MatrixXd> part) {
+    part.leftCols(a.cols()) = a.middleRows(from, part.rows());
+    if (y) part.col(w - 1) = y->segment(from, part.rows());
+  });
 }
 
 // Each column scaled to unit norm (a zero column kept); the scales applied.
@@ -130,6 +136,21 @@ Eigen::Index rank_above(const Qr& qr, double tolerance) {
 }
 
 }  // namespace
+
+ColumnsFit fit_of_columns(const Eigen::MatrixXd& r, const std::vector<Eigen::Index>& columns) {
+  const Eigen::Index y = r.cols() - 1;
+  Eigen::MatrixXd s(r.rows(), static_cast<Eigen::Index>(columns.size()));
+  for (Eigen::Index c = 0; c < s.cols(); ++c) s.col(c) = r.col(columns[static_cast<std::size_t>(c)]);
+  scale_columns(s);  // R's column norms are the design's (R^T R = S^T S)
+  ColumnsFit out;
+  out.rss = r.col(y).squaredNorm();
+  if (s.cols() == 0) return out;
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(s);
+  out.rank = rank_above(qr, rank_tolerance);
+  const Eigen::VectorXd z = qr.householderQ().transpose() * r.col(y);
+  out.rss = z.tail(z.size() - out.rank).squaredNorm();
+  return out;
+}
 
 // A tall matrix is first reduced by a blocked unpivoted QR (S = Q0 R0: the pivoted QR of R0 pivots as S's, column
 // norms being kept by Q0), and the basis formed as S_P R1^-1 with one Cholesky-QR pass to restore the

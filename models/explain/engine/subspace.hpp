@@ -4,6 +4,9 @@
 // (span_basis), and a held-out prediction from a fit to the training rows (predict, predict_beside). Columns
 // are scaled to unit norm first: a design mixes units. Pure functions; thread safe.
 
+#include <functional>
+#include <vector>
+
 #include <Eigen/Core>
 
 namespace guideway::models::explain::engine {
@@ -15,6 +18,20 @@ inline constexpr double rank_tolerance = 1e-9;
 // The triangular factor of a tall matrix [a y] (y optional: a vector or none), R with R^T R = [a y]^T [a y],
 // p + (y ? 1 : 0) rows.
 Eigen::MatrixXd tall_r(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::VectorXd* y = nullptr);
+// The same of an n x w matrix never held whole: `fill(from, part)` writes its rows [from, from + part.rows()) (a
+// chunk that fits in a core's cache), for a design whose columns are made as they are read.
+using RowFiller = std::function<void(Eigen::Index from, Eigen::Ref<Eigen::MatrixXd> part)>;
+Eigen::MatrixXd tall_r_rows(Eigen::Index n, Eigen::Index w, const RowFiller& fill);
+
+// y's least-squares fit on some of a design's columns, from the triangular factor r of [design y] (tall_r, y its
+// last column): the residual sum of squares and the rank, the columns scaled to unit norm and the rank decided as
+// span_basis decides it (R's columns have the design's norms and products). A subset of a few columns costs a QR of
+// r's rows, not a pass over the samples.
+struct ColumnsFit {
+  double rss = 0;
+  Eigen::Index rank = 0;
+};
+ColumnsFit fit_of_columns(const Eigen::MatrixXd& r, const std::vector<Eigen::Index>& columns);
 
 // Each column scaled to unit norm (a zero column kept); the scales applied.
 Eigen::VectorXd scale_columns(Eigen::Ref<Eigen::MatrixXd> m);

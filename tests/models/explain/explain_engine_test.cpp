@@ -844,8 +844,7 @@ StepJudged judge_step(const models::explain::Problem& p) {
   if (!out.step) return out;
   const std::vector<bool> all(p.samples.size(), true);
   const auto after = engine::fitted_offsets(p, all, {{out.step->run, out.step->at}});
-  out.could_win =
-      engine::step_could_win(p, engine::without_samples(p, all, after).problem.base.columns, out.first);
+  out.could_win = engine::step_could_win(p, after, out.first);
   return out;
 }
 
