@@ -49,7 +49,7 @@ Beyond beyond_levels(const Problem& p, const Eigen::VectorXd& y) {
                  static_cast<Eigen::Index>(ranges[k].second - ranges[k].first))
         .setOnes();
   Beyond out;
-  out.q = x.cols() > 0 ? span_basis(x) : Eigen::MatrixXd(n, 0);
+  out.q = x.cols() > 0 ? span_basis(std::move(x)) : Eigen::MatrixXd(n, 0);
   out.r = out.q.cols() > 0 ? Eigen::VectorXd(y - out.q * (out.q.transpose() * y)) : y;
   return out;
 }
@@ -174,43 +174,57 @@ std::optional<WinningStep> winning_step(const Problem& problem, double sigma_um,
   for (std::size_t j = 0; j < k; ++j) all.middleCols(first_column[j], columns[j]->cols()) = *columns[j];
   scale_columns(all);
   if (levels.q.cols() > 0) all -= levels.q * (levels.q.transpose() * all);
-  const double ln_n = std::log(static_cast<double>(n));
-  double best = bic - ln_n;
-  std::optional<Strongest> found;
-  Beyond found_beside;
-  for (std::size_t subset = 0; subset < (std::size_t{1} << k); ++subset) {
+  // A subset's basis: the levels' and its own; made one subset at a time (an n-row copy each), the best made again.
+  const auto beside_of = [&](std::size_t subset, std::size_t& searched) {
     std::vector<Eigen::Index> picked;
-    std::size_t searched = 0;
+    searched = 0;
     for (std::size_t j = 0; j < k; ++j)
       if (subset >> j & 1U) {
         for (Eigen::Index c = 0; c < columns[j]->cols(); ++c) picked.push_back(first_column[j] + c);
         searched += terms[j].searched;
       }
-    Beyond beside = levels;
-    if (!picked.empty()) {
-      const Eigen::MatrixXd qs = unit_span_basis(all(Eigen::all, picked));
-      beside.q.conservativeResize(Eigen::NoChange, levels.q.cols() + qs.cols());
-      beside.q.rightCols(qs.cols()) = qs;
-      beside.r -= qs * (qs.transpose() * levels.r);
+    Beyond beside;
+    const Eigen::MatrixXd qs = unit_span_basis(all(Eigen::all, picked));
+    beside.q.resize(n, levels.q.cols() + qs.cols());
+    beside.q.leftCols(levels.q.cols()) = levels.q;
+    beside.q.rightCols(qs.cols()) = qs;
+    beside.r = levels.r;
+    beside.r -= qs * (qs.transpose() * levels.r);
+    return beside;
+  };
+  const double ln_n = std::log(static_cast<double>(n));
+  double best = bic - ln_n;
+  std::optional<Strongest> found;
+  std::size_t found_subset = 0;
+  for (std::size_t subset = 0; subset < (std::size_t{1} << k); ++subset) {
+    std::size_t searched = 0;
+    std::optional<Strongest> s;
+    if (subset == 0) {
+      s = strongest_step(problem, levels, sigma_um, alpha);
+    } else {
+      const Beyond beside = beside_of(subset, searched);
+      s = strongest_step(problem, beside, sigma_um, alpha);
     }
-    std::optional<Strongest> s = strongest_step(problem, beside, sigma_um, alpha);
     if (!s) continue;
     const double b = bic_of(s->rss, s->parameters + static_cast<double>(searched), static_cast<double>(n));
     if (b < best) {
       best = b;
       found = std::move(s);
-      found_beside = std::move(beside);
+      found_subset = subset;
     }
   }
   if (!found) return std::nullopt;
+  std::size_t searched = 0;
+  const Beyond found_beside = found_subset == 0 ? Beyond{} : beside_of(found_subset, searched);
+  const Beyond& beside = found_subset == 0 ? levels : found_beside;
   // The residual of that model: the step's column beyond the basis, at its size, taken from the residual beyond it.
   const LevelStep& step = found->step;
   Eigen::VectorXd column = Eigen::VectorXd::Zero(n);
   const std::size_t end = run_ranges(problem)[step.run].second;
   column.segment(static_cast<Eigen::Index>(step.at), static_cast<Eigen::Index>(end - step.at)).setOnes();
-  const Eigen::MatrixXd& q = found_beside.q;
+  const Eigen::MatrixXd& q = beside.q;
   if (q.cols() > 0) column -= q * (q.transpose() * column);
-  return WinningStep{step, found_beside.r - step.place.peak_um * column};
+  return WinningStep{step, beside.r - step.place.peak_um * column};
 }
 
 bool step_could_win(const Problem& problem, const std::vector<OffsetAfter>& offsets, const Pass& first) {
