@@ -145,6 +145,19 @@ void settle_verdict(const Located& fin, Report& rep) {
 
 }  // namespace
 
+std::vector<const Eigen::MatrixXd*> columns_of_terms(const Problem& problem, const std::vector<TermColumns>& terms,
+                                                     Eigen::Index n, std::vector<Eigen::MatrixXd>& scratch) {
+  scratch.resize(terms.size());
+  std::vector<const Eigen::MatrixXd*> columns;
+  for (std::size_t j = 0; j < terms.size(); ++j) {
+    const TermColumns& t = terms[j];
+    columns.push_back(t.generated ? &t.all_samples
+                                  : &columns_of(problem.candidates[t.cand].variants[t.index], n, scratch[j]));
+    if (columns.back()->rows() != n) return {};
+  }
+  return columns;
+}
+
 Eigen::VectorXd observations(const Problem& problem) {
   const std::size_t n = problem.samples.size();
   if (n < 32) throw std::invalid_argument("explain: too few samples (" + std::to_string(n) + ", need 32)");

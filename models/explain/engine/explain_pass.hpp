@@ -27,6 +27,11 @@ struct TermColumns {
   std::size_t searched = 0;  // its variant's nonlinear parameters searched (counted in the BIC)
 };
 
+// The columns of `terms` over every sample of the problem (a generated term's its own, a listed term's its variant's,
+// made in `scratch` where made on demand); empty where one has another number of rows than n.
+std::vector<const Eigen::MatrixXd*> columns_of_terms(const Problem& problem, const std::vector<TermColumns>& terms,
+                                                     Eigen::Index n, std::vector<Eigen::MatrixXd>& scratch);
+
 struct Pass {
   Report report;
   // Where the residual of the effects held before the share rule dropped any is structured, place by

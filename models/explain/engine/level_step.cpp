@@ -127,21 +127,6 @@ std::optional<Strongest> strongest_step(const Problem& problem, const Beyond& be
                    beyond.r.squaredNorm() - best->stat[at], static_cast<double>(beyond.q.cols()) + 1};
 }
 
-// The columns of `terms` over every sample of the problem (a listed term's its variant's, made in `scratch` where made
-// on demand); empty where one has another number of rows.
-std::vector<const Eigen::MatrixXd*> columns_of_terms(const Problem& problem, const std::vector<TermColumns>& terms,
-                                                     Eigen::Index n, std::vector<Eigen::MatrixXd>& scratch) {
-  scratch.resize(terms.size());
-  std::vector<const Eigen::MatrixXd*> columns;
-  for (std::size_t j = 0; j < terms.size(); ++j) {
-    const TermColumns& t = terms[j];
-    columns.push_back(t.generated ? &t.all_samples
-                                  : &columns_of(problem.candidates[t.cand].variants[t.index], n, scratch[j]));
-    if (columns.back()->rows() != n) return {};
-  }
-  return columns;
-}
-
 }  // namespace
 
 std::optional<LevelStep> level_step(const Problem& problem, double sigma_um, double alpha) {

@@ -42,15 +42,10 @@ std::vector<bool> unexplained_places(const Problem& p, const Pass& pass, const s
   const auto n = static_cast<Eigen::Index>(p.samples.size());
   if (!(sigma > 0) || places.size() < 2) return out;
   Eigen::Index cols = p.base.columns.cols() + static_cast<Eigen::Index>(after.size());
-  std::vector<Eigen::MatrixXd> scratch(pass.terms.size());
-  std::vector<const Eigen::MatrixXd*> term_columns;
-  for (std::size_t k = 0; k < pass.terms.size(); ++k) {
-    const TermColumns& t = pass.terms[k];
-    term_columns.push_back(t.generated ? &t.all_samples
-                                       : &columns_of(p.candidates[t.cand].variants[t.index], n, scratch[k]));
-    if (term_columns.back()->rows() != n) return out;
-    cols += term_columns.back()->cols();
-  }
+  std::vector<Eigen::MatrixXd> scratch;
+  const std::vector<const Eigen::MatrixXd*> term_columns = columns_of_terms(p, pass.terms, n, scratch);
+  if (term_columns.size() != pass.terms.size()) return out;
+  for (const Eigen::MatrixXd* c : term_columns) cols += c->cols();
   // The fit to the samples kept is the fit to every sample with the others weighted 0: then the base is read where
   // the problem holds it, and no n x p copy of the design (nor of its kept rows) is made beside it.
   Eigen::MatrixXd offsets(n, static_cast<Eigen::Index>(after.size()));
